@@ -1,0 +1,22 @@
+#pragma once
+/// Thrown when a filter or model description is invalid: names the offending field in the
+/// vocabulary of the configs ("modes[1].process_noise"), so that a config loader can point at
+/// the key.
+
+#include <stdexcept>
+#include <string>
+
+namespace imm {
+
+class InvalidParameter : public std::invalid_argument {
+ public:
+  InvalidParameter(std::string field, const std::string& message)
+      : std::invalid_argument(field + ": " + message), field_(std::move(field)) {}
+
+  [[nodiscard]] const std::string& field() const { return field_; }
+
+ private:
+  std::string field_;
+};
+
+}  // namespace imm

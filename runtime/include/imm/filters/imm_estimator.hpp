@@ -1,0 +1,214 @@
+#pragma once
+/// Interacting multiple model estimator (Blom & Bar-Shalom; seed 000 eq. 4–11) over modes that
+/// may have different state dimensions.
+///
+/// One step, with Π = [p_ij] the mode transition matrix and μ the mode probabilities:
+///   1. predicted mode probabilities c_j = Σ_i p_ij μ_i, mixing weights μ_ij = p_ij μ_i / c_j (6);
+///   2. mixed initial conditions x̂₀ⱼ = Σ_i μ_ij x̂_i, P₀ⱼ = Σ_i μ_ij (P_i + (x̂_i − x̂₀ⱼ)(·)ᵀ) (4–5),
+///      formed in the NX-dimensional mixing space where lower-dimensional modes are zero-padded;
+///   3. each mode predicts from its mixed condition and updates with z (7 / 19);
+///   4. μ_j ∝ Λ_j c_j (8–9), computed as log μ_j = log Λ_j + log c_j − log Σ exp(·): far-off modes
+///      have likelihoods that underflow in linear space, never in log space;
+///   5. combined estimate x̂ = Σ μ_j x̂_j, P = Σ μ_j (P_j + (x̂_j − x̂)(·)ᵀ) (10–11).
+///
+/// Failure handling: a NaN/Inf measurement, a singular innovation covariance or a non-finite
+/// result in any mode returns that status and leaves every mode, μ and the combined estimate as
+/// they were. Nothing is allocated per step: mode-indexed arrays have a fixed maximum size
+/// (kMaxModes) and modes are allocation-free by contract.
+
+#include <array>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "imm/filters/gaussian_state.hpp"
+#include "imm/filters/imm_mode.hpp"
+#include "imm/filters/step_status.hpp"
+#include "imm/math/linear_algebra.hpp"
+#include "imm/math/log_sum_exp.hpp"
+
+namespace imm {
+
+namespace detail {
+/// Validates a row-stochastic transition matrix and a probability vector for `modes` modes.
+void validate_mode_probabilities(const Eigen::MatrixXd& transition,
+                                 const Eigen::VectorXd& initial_probabilities, int modes);
+}  // namespace detail
+
+template <int NX, int NZ>
+class ImmEstimator {
+ public:
+  using Mode = ImmMode<NX, NZ>;
+  static constexpr int kDim = NX;
+  static constexpr int kMeasurementDim = NZ;
+
+  /// `transition(i, j)` is the probability of switching from mode i to mode j (rows sum to 1);
+  /// `initial_probabilities` sum to 1. Throws std::invalid_argument naming the offending entry.
+  ImmEstimator(std::vector<std::unique_ptr<Mode>> modes, const Eigen::MatrixXd& transition,
+               const Eigen::VectorXd& initial_probabilities)
+      : modes_(std::move(modes)) {
+    const int n = static_cast<int>(modes_.size());
+    if (n < 1 || n > kMaxModes) {
+      throw std::invalid_argument("an IMM needs 1 to " + std::to_string(kMaxModes) +
+                                  " modes, got " + std::to_string(n));
+    }
+    for (const auto& mode : modes_) {
+      if (!mode) throw std::invalid_argument("IMM mode is null");
+    }
+    detail::validate_mode_probabilities(transition, initial_probabilities, n);
+    log_transition_.resize(n, n);
+    initial_log_probabilities_.resize(n);
+    for (int i = 0; i < n; ++i) {
+      initial_log_probabilities_(i) = safe_log(initial_probabilities(i));
+      for (int j = 0; j < n; ++j) log_transition_(i, j) = safe_log(transition(i, j));
+    }
+    log_probabilities_ = initial_log_probabilities_;
+    log_predicted_.resize(n);
+    log_posterior_.resize(n);
+    scratch_.resize(n);
+  }
+
+  ImmEstimator(ImmEstimator&&) noexcept = default;
+  ImmEstimator& operator=(ImmEstimator&&) noexcept = default;
+
+  /// Starts a track: every mode takes `state` (its own components of it) and the mode
+  /// probabilities return to their initial values.
+  void initialize(const GaussianState<NX>& state) {
+    for (auto& mode : modes_) mode->reset(state);
+    log_probabilities_ = initial_log_probabilities_;
+    combine();
+    initialized_ = true;
+  }
+
+  /// One IMM cycle with measurement z. On any status other than kOk nothing changes.
+  StepStatus step(const Vector<NZ>& z) {
+    require_initialized();
+    if (!z.allFinite()) return StepStatus::kInvalidMeasurement;
+    predict_mode_probabilities();
+    mix_and_propose([&](Mode& mode, const GaussianState<NX>& mixed) {
+      return mode.propose(mixed, z);
+    });
+    return finish_cycle();
+  }
+
+  /// One IMM cycle without a measurement (a missed or rejected plot): the modes predict and the
+  /// mode probabilities only follow the Markov chain.
+  StepStatus predict_only() {
+    require_initialized();
+    predict_mode_probabilities();
+    mix_and_propose([](Mode& mode, const GaussianState<NX>& mixed) {
+      return mode.propose_prediction(mixed);
+    });
+    return finish_cycle();
+  }
+
+  [[nodiscard]] bool initialized() const { return initialized_; }
+  [[nodiscard]] const GaussianState<NX>& estimate() const { return combined_; }
+  [[nodiscard]] int mode_count() const { return static_cast<int>(modes_.size()); }
+  [[nodiscard]] const Mode& mode(int j) const { return *modes_[static_cast<std::size_t>(j)]; }
+
+  /// Mode probabilities μ_j (linear space; may contain exact zeros after underflow).
+  [[nodiscard]] ModeVector mode_probabilities() const {
+    ModeVector mu(mode_count());
+    for (int j = 0; j < mode_count(); ++j) mu(j) = std::exp(log_probabilities_(j));
+    return mu;
+  }
+
+  /// log μ_j, exact where linear probabilities underflow.
+  [[nodiscard]] const ModeVector& log_mode_probabilities() const { return log_probabilities_; }
+
+ private:
+  void require_initialized() const {
+    if (!initialized_) throw std::logic_error("ImmEstimator used before initialize()");
+  }
+
+  // log c_j = log Σ_i p_ij μ_i (eq. 8's inner sum).
+  void predict_mode_probabilities() {
+    const int n = mode_count();
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) scratch_(i) = log_transition_(i, j) + log_probabilities_(i);
+      log_predicted_(j) = log_sum_exp(scratch_);
+    }
+  }
+
+  // Mixing (eq. 4–6) and the modes' predict/update. Stops at the first failing mode.
+  template <class Propose>
+  void mix_and_propose(Propose&& propose) {
+    const int n = mode_count();
+    for (int i = 0; i < n; ++i) modes_[static_cast<std::size_t>(i)]->embedded_estimate(means_[i], covariances_[i]);
+    status_ = StepStatus::kOk;
+    for (int j = 0; j < n; ++j) {
+      if (log_predicted_(j) == -std::numeric_limits<double>::infinity()) {
+        // Mode j is unreachable under Π and μ: its weights are undefined; it keeps its own
+        // estimate as the initial condition and its probability stays zero.
+        mixed_.mean = means_[j];
+        mixed_.covariance = covariances_[j];
+      } else {
+        for (int i = 0; i < n; ++i) {
+          scratch_(i) = std::exp(log_transition_(i, j) + log_probabilities_(i) - log_predicted_(j));
+        }
+        moment_match(scratch_, mixed_);
+      }
+      const ModeStep result = propose(*modes_[static_cast<std::size_t>(j)], mixed_);
+      if (result.status != StepStatus::kOk) {
+        status_ = result.status;
+        return;
+      }
+      log_posterior_(j) = result.log_likelihood + log_predicted_(j);
+    }
+  }
+
+  StepStatus finish_cycle() {
+    if (status_ != StepStatus::kOk) return status_;
+    const double log_normalizer = log_sum_exp(log_posterior_);
+    if (!std::isfinite(log_normalizer)) return StepStatus::kProbabilityUnderflow;
+    for (auto& mode : modes_) mode->commit();
+    log_probabilities_ = log_posterior_.array() - log_normalizer;
+    combine();
+    return StepStatus::kOk;
+  }
+
+  // Combination (eq. 10–11) with the current μ.
+  void combine() {
+    const int n = mode_count();
+    for (int j = 0; j < n; ++j) {
+      modes_[static_cast<std::size_t>(j)]->embedded_estimate(means_[j], covariances_[j]);
+      scratch_(j) = std::exp(log_probabilities_(j));
+    }
+    moment_match(scratch_, combined_);
+  }
+
+  // Σ w_i N(means_i, covariances_i) collapsed to one Gaussian (weights sum to 1).
+  void moment_match(const ModeVector& weights, GaussianState<NX>& out) const {
+    const int n = mode_count();
+    out.mean.setZero();
+    for (int i = 0; i < n; ++i) out.mean += weights(i) * means_[i];
+    out.covariance.setZero();
+    for (int i = 0; i < n; ++i) {
+      if (weights(i) == 0.0) continue;
+      const Vector<NX> d = means_[i] - out.mean;
+      out.covariance += weights(i) * (covariances_[i] + d * d.transpose());
+    }
+    out.covariance = symmetrized(out.covariance);
+  }
+
+  std::vector<std::unique_ptr<Mode>> modes_;
+  ModeMatrix log_transition_;
+  ModeVector initial_log_probabilities_;
+  ModeVector log_probabilities_;
+  ModeVector log_predicted_;
+  ModeVector log_posterior_;
+  ModeVector scratch_;
+  std::array<Vector<NX>, kMaxModes> means_{};
+  std::array<SquareMatrix<NX>, kMaxModes> covariances_{};
+  GaussianState<NX> mixed_;
+  GaussianState<NX> combined_;
+  StepStatus status_ = StepStatus::kOk;
+  bool initialized_ = false;
+};
+
+}  // namespace imm

@@ -1,0 +1,61 @@
+#pragma once
+/// The plain IMM mode: a Kalman filter with a fixed linear motion model and a measurement model
+/// (linear or, through its Jacobian, extended).
+
+#include <string>
+#include <string_view>
+#include <utility>
+
+#include "imm/filters/imm_mode.hpp"
+#include "imm/filters/kalman_filter.hpp"
+#include "imm/filters/state_embedding.hpp"
+#include "imm/models/motion_model.hpp"
+
+namespace imm {
+
+template <int NX, int N, class MeasurementModel>
+class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
+ public:
+  static constexpr int kDim = N;
+  static constexpr int kMeasurementDim = MeasurementModel::kDim;
+
+  KalmanMode(std::string name, const LinearMotionModel<N>& motion,
+             const MeasurementModel& measurement, const StateEmbedding<N, NX>& embedding)
+      : name_(std::move(name)), motion_(motion), measurement_(measurement),
+        embedding_(embedding) {}
+
+  [[nodiscard]] std::string_view name() const override { return name_; }
+
+  void embedded_estimate(Vector<NX>& mean, SquareMatrix<NX>& covariance) const override {
+    embedding_.embed(estimate_, mean, covariance);
+  }
+
+  void reset(const GaussianState<NX>& state) override { estimate_ = embedding_.project(state); }
+
+  ModeStep propose(const GaussianState<NX>& mixed,
+                   const Vector<kMeasurementDim>& z) override {
+    pending_ = predict(embedding_.project(mixed), motion_.transition, motion_.process_noise);
+    const auto report = update(pending_, z, measurement_);
+    return {report.status, report.log_likelihood};
+  }
+
+  ModeStep propose_prediction(const GaussianState<NX>& mixed) override {
+    pending_ = predict(embedding_.project(mixed), motion_.transition, motion_.process_noise);
+    return {pending_.all_finite() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
+  }
+
+  void commit() override { estimate_ = pending_; }
+
+  [[nodiscard]] const GaussianState<N>& estimate() const { return estimate_; }
+  [[nodiscard]] const LinearMotionModel<N>& motion() const { return motion_; }
+
+ private:
+  std::string name_;
+  LinearMotionModel<N> motion_;
+  MeasurementModel measurement_;
+  StateEmbedding<N, NX> embedding_;
+  GaussianState<N> estimate_;
+  GaussianState<N> pending_;
+};
+
+}  // namespace imm

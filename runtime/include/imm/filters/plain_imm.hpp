@@ -1,0 +1,88 @@
+#pragma once
+/// A plain IMM described by parameters: 2-D motion models with fixed process noise per mode, a
+/// Cartesian or polar measurement, a transition matrix, initial mode probabilities and a track
+/// initialization. This is the filter `imm-track` runs from a TOML file or a "plain_imm" model
+/// file, and the reference IMM of the benchmarks and evaluations.
+///
+/// State layout (mixing space): [x, vx, y, vy] when every mode is CV, otherwise
+/// [x, vx, ax, y, vy, ay]; CV modes are then embedded zero-padded (state_embedding.hpp).
+
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "imm/filters/imm_estimator.hpp"
+#include "imm/models/motion_model.hpp"
+
+namespace imm {
+
+enum class MotionKind { kConstantVelocity, kConstantAcceleration, kSinger };
+enum class MeasurementKind { kCartesian, kPolar };
+enum class InitializationMethod { kExplicit, kTwoPoint };
+
+[[nodiscard]] std::string_view to_string(MotionKind kind);       ///< "cv", "ca", "singer"
+[[nodiscard]] std::string_view to_string(NoiseForm form);        ///< "piecewise", "continuous"
+[[nodiscard]] std::string_view to_string(MeasurementKind kind);  ///< "cartesian", "polar"
+[[nodiscard]] std::string_view to_string(InitializationMethod method);  ///< "explicit", "two_point"
+/// Inverse of to_string; throw InvalidParameter naming `field` for unknown names.
+[[nodiscard]] MotionKind motion_kind_from(std::string_view name, const std::string& field);
+[[nodiscard]] NoiseForm noise_form_from(std::string_view name, const std::string& field);
+[[nodiscard]] MeasurementKind measurement_kind_from(std::string_view name, const std::string& field);
+[[nodiscard]] InitializationMethod initialization_method_from(std::string_view name,
+                                                              const std::string& field);
+
+struct ModeSpec {
+  std::string name;
+  MotionKind motion = MotionKind::kConstantVelocity;
+  /// CV/CA: q of the noise form (variance per period for piecewise-constant noise, PSD for
+  /// continuous). Unused by Singer.
+  double process_noise = 0.0;
+  NoiseForm noise_form = NoiseForm::kPiecewiseConstant;
+  double singer_tau = 20.0;    ///< Singer: maneuver time constant τ, s
+  double singer_sigma = 0.0;   ///< Singer: acceleration standard deviation σ_a
+};
+
+struct MeasurementSpec {
+  MeasurementKind kind = MeasurementKind::kCartesian;
+  /// R: Cartesian [x, y] or polar [range, azimuth (rad)].
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
+};
+
+struct InitializationSpec {
+  /// kTwoPoint: position from the second valid plot, velocity from the difference of the first
+  /// two; kExplicit: `state`/`covariance` are the estimate one period before the first plot.
+  InitializationMethod method = InitializationMethod::kTwoPoint;
+  Eigen::VectorXd state;        ///< explicit: mixing-space mean
+  Eigen::MatrixXd covariance;   ///< explicit: mixing-space covariance
+  double acceleration_variance = 0.0;  ///< two-point, 6-state: variance of ax and ay
+};
+
+struct PlainImmSpec {
+  double sample_period = 1.0;
+  std::vector<ModeSpec> modes;
+  Eigen::MatrixXd transition;             ///< transition(i, j) = P(mode j at k | mode i at k−1)
+  Eigen::VectorXd initial_probabilities;
+  MeasurementSpec measurement;
+  InitializationSpec initialization;
+
+  /// 4 when every mode is CV, else 6.
+  [[nodiscard]] int mixing_dimension() const;
+  /// Throws InvalidParameter naming the first offending field.
+  void validate() const;
+};
+
+/// Builds the IMM of a validated spec in its mixing space NX (4 or 6; must equal
+/// spec.mixing_dimension()).
+template <int NX>
+[[nodiscard]] ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec);
+
+extern template ImmEstimator<4, 2> build_plain_imm<4>(const PlainImmSpec&);
+extern template ImmEstimator<6, 2> build_plain_imm<6>(const PlainImmSpec&);
+
+/// The IMM of a spec, whichever its mixing dimension.
+using PlainImm = std::variant<ImmEstimator<4, 2>, ImmEstimator<6, 2>>;
+[[nodiscard]] PlainImm build_plain_imm(const PlainImmSpec& spec);
+
+}  // namespace imm

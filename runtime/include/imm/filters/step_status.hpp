@@ -1,0 +1,36 @@
+#pragma once
+/// Outcome of one filter step. A step that does not return kOk has left the filter untouched
+/// (the second of the three error tiers: numerical trouble is a value, not an exception).
+
+#include <string_view>
+
+namespace imm {
+
+enum class StepStatus {
+  kOk,
+  kInvalidMeasurement,     ///< the measurement holds NaN or ±Inf
+  kSingularInnovation,     ///< S = H P Hᵀ + R is not positive definite
+  kUndefinedMeasurement,   ///< h(x) or its Jacobian is undefined at the prediction (range 0)
+  kNonFiniteResult,        ///< the update would produce NaN or ±Inf
+  kProbabilityUnderflow,   ///< every mode's likelihood is zero even in log space
+};
+
+[[nodiscard]] constexpr std::string_view to_string(StepStatus status) {
+  switch (status) {
+    case StepStatus::kOk:
+      return "ok";
+    case StepStatus::kInvalidMeasurement:
+      return "invalid measurement (NaN or Inf)";
+    case StepStatus::kSingularInnovation:
+      return "innovation covariance not positive definite";
+    case StepStatus::kUndefinedMeasurement:
+      return "measurement function undefined at the prediction";
+    case StepStatus::kNonFiniteResult:
+      return "update produced a non-finite estimate";
+    case StepStatus::kProbabilityUnderflow:
+      return "every mode likelihood is zero";
+  }
+  return "unknown";
+}
+
+}  // namespace imm

@@ -1,0 +1,117 @@
+#pragma once
+/// The checked HDF5 container behind model files and data-set files.
+///
+/// On disk a container is an HDF5 file with a 512-byte user block in front. The user block holds
+/// a small text header: the container version, the format name ("immtrain-model",
+/// "immtrain-dataset"), the payload length and its CRC-32, and a CRC-32 of the header itself.
+/// The reader verifies all of it before the HDF5 library parses a single byte, so a truncated
+/// file or a flipped bit anywhere is reported as such instead of reaching the HDF5 parser.
+/// Inside, every dataset is chunked with the Fletcher-32 filter, so the data keep their own
+/// checksum even when the HDF5 payload is extracted (h5dump and h5py read the file unchanged).
+///
+/// Writes are atomic: the writer builds the file under a temporary name in the destination folder
+/// and renames it over the final name only in commit(), after flushing to disk. A writer destroyed
+/// without commit() (an exception, a kill between stages) removes its temporary file.
+///
+/// No HDF5 type appears in this header.
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "imm/io/file_error.hpp"
+
+namespace imm::io {
+
+/// A scalar attribute: integer, real or text.
+using Attribute = std::variant<std::int64_t, double, std::string>;
+
+/// An N-dimensional array of doubles in row-major order.
+struct Array {
+  std::vector<std::size_t> shape;
+  std::vector<double> values;
+
+  [[nodiscard]] static Array from_matrix(const Eigen::MatrixXd& matrix);
+  [[nodiscard]] static Array from_vector(const Eigen::VectorXd& vector);
+  [[nodiscard]] std::size_t rank() const { return shape.size(); }
+  [[nodiscard]] std::size_t element_count() const;
+};
+
+enum class ObjectKind { kMissing, kGroup, kDataset };
+
+class ContainerWriter {
+ public:
+  /// Starts a container of the given format that will appear at `path` on commit().
+  /// Throws FileError when the folder does not exist or is not writable.
+  ContainerWriter(const std::filesystem::path& path, std::string_view format);
+  ~ContainerWriter();
+  ContainerWriter(const ContainerWriter&) = delete;
+  ContainerWriter& operator=(const ContainerWriter&) = delete;
+
+  /// Writes a dataset (intermediate groups are created). Non-finite values are refused.
+  void write(std::string_view dataset, const Array& array);
+  void write(std::string_view dataset, const Eigen::MatrixXd& matrix);
+
+  /// Creates a group (and its parents) if it does not exist yet.
+  void create_group(std::string_view group);
+
+  /// Sets a scalar attribute on a group or dataset ("/" is the root).
+  void set_attribute(std::string_view object, std::string_view name, const Attribute& value);
+
+  /// Closes, checksums, flushes and renames the file to its final name.
+  void commit();
+
+  [[nodiscard]] const std::filesystem::path& path() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+class ContainerReader {
+ public:
+  /// Opens and verifies a container. Throws FileError (naming the file) when the file is missing,
+  /// truncated, corrupt, not an immtrain container, or of another format than `expected_format`.
+  ContainerReader(const std::filesystem::path& path, std::string_view expected_format);
+  ~ContainerReader();
+  ContainerReader(const ContainerReader&) = delete;
+  ContainerReader& operator=(const ContainerReader&) = delete;
+
+  [[nodiscard]] const std::filesystem::path& path() const;
+  [[nodiscard]] ObjectKind kind(std::string_view object) const;
+  /// Names of a group's members, sorted.
+  [[nodiscard]] std::vector<std::string> children(std::string_view group) const;
+  [[nodiscard]] std::vector<std::size_t> shape(std::string_view dataset) const;
+  /// Reads a floating-point dataset. Throws FileError naming the dataset on a checksum mismatch,
+  /// a non-float type or a missing dataset.
+  [[nodiscard]] Array read(std::string_view dataset) const;
+  [[nodiscard]] std::optional<Attribute> attribute(std::string_view object,
+                                                   std::string_view name) const;
+  [[nodiscard]] std::vector<std::string> attribute_names(std::string_view object) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Size of the user block an HDF5 file needs to become a container.
+inline constexpr std::size_t kContainerHeaderBytes = 512;
+
+/// Turns a closed HDF5 file that was created with a kContainerHeaderBytes user block into a
+/// container of `format` by writing the checksummed header, and flushes it to disk. ContainerWriter
+/// does this in commit(); it is public for tools that build the HDF5 part with other means (and
+/// for fault drills that need a correctly sealed file with hostile content).
+void seal_container(const std::filesystem::path& path, std::string_view format);
+
+/// CRC-32 (IEEE 802.3, as zlib) of a byte range, continuing from `crc` (0 to start).
+[[nodiscard]] std::uint32_t crc32(const void* data, std::size_t size, std::uint32_t crc = 0);
+
+}  // namespace imm::io

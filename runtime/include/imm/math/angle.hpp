@@ -1,0 +1,29 @@
+#pragma once
+/// Angle helpers for polar measurements.
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace imm {
+
+/// Wraps an angle into (−π, π]. Finite input only; NaN and ±Inf come back as NaN.
+[[nodiscard]] inline double wrap_angle(double angle) {
+  if (!std::isfinite(angle)) return std::numeric_limits<double>::quiet_NaN();
+  double wrapped = std::remainder(angle, 2.0 * std::numbers::pi);  // exact, in [−π, π]
+  if (wrapped <= -std::numbers::pi) wrapped += 2.0 * std::numbers::pi;
+  return wrapped;
+}
+
+/// Azimuth of the point (x, y) measured clockwise from the y axis (north): atan2(x, y).
+[[nodiscard]] inline double azimuth_of(double x, double y) { return std::atan2(x, y); }
+
+[[nodiscard]] constexpr double degrees_to_radians(double degrees) {
+  return degrees * std::numbers::pi / 180.0;
+}
+
+[[nodiscard]] constexpr double radians_to_degrees(double radians) {
+  return radians * 180.0 / std::numbers::pi;
+}
+
+}  // namespace imm

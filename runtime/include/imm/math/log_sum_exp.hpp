@@ -1,0 +1,37 @@
+#pragma once
+/// Log-space arithmetic for model probabilities (seed 000 eq. 8): likelihoods of far-off modes
+/// underflow in linear space long before they matter, so the IMM keeps log μ and normalizes with
+/// log-sum-exp.
+
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Core>
+
+namespace imm {
+
+/// log Σ exp(v_i), stable for any finite or −∞ entries. Returns −∞ when every entry is −∞ (or the
+/// vector is empty) and NaN when an entry is NaN or +∞.
+template <class Derived>
+[[nodiscard]] double log_sum_exp(const Eigen::DenseBase<Derived>& values) {
+  constexpr double kMinusInf = -std::numeric_limits<double>::infinity();
+  double max_value = kMinusInf;
+  for (Eigen::Index i = 0; i < values.size(); ++i) {
+    const double v = values(i);
+    if (std::isnan(v) || v == std::numeric_limits<double>::infinity()) {
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+    if (v > max_value) max_value = v;
+  }
+  if (max_value == kMinusInf) return kMinusInf;
+  double sum = 0.0;
+  for (Eigen::Index i = 0; i < values.size(); ++i) sum += std::exp(values(i) - max_value);
+  return max_value + std::log(sum);
+}
+
+/// log(x) with log(0) = −∞ (no floating-point exception flags beyond what std::log raises).
+[[nodiscard]] inline double safe_log(double x) {
+  return x > 0.0 ? std::log(x) : -std::numeric_limits<double>::infinity();
+}
+
+}  // namespace imm

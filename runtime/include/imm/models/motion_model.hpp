@@ -1,0 +1,65 @@
+#pragma once
+/// A linear-Gaussian motion model x(k+1) = F x(k) + w(k), w ~ N(0, Q), discretized once for a
+/// fixed sample period. Models know nothing of filters: the filters are handed F and Q, and the
+/// data-set generators draw w from the same Q to simulate truth.
+///
+/// State layout: one block per axis, [p, v] (CV) or [p, v, a] (CA, Singer); in 2-D
+/// [x, vx, y, vy] or [x, vx, ax, y, vy, ay] (seed 004 eq. 14).
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "imm/math/linear_algebra.hpp"
+
+namespace imm {
+
+template <int N>
+struct LinearMotionModel {
+  static constexpr int kDim = N;
+  SquareMatrix<N> transition = SquareMatrix<N>::Identity();      ///< F
+  SquareMatrix<N> process_noise = SquareMatrix<N>::Zero();       ///< Q
+};
+
+/// How the process noise of a kinematic (CV, CA) model is discretized.
+enum class NoiseForm {
+  /// Piecewise-constant white noise: the highest derivative receives a new independent value
+  /// every period, Q = q G Gᵀ with q the variance of that value (seed 000 eq. 1, seed 001,
+  /// seed 004 eq. 17). The seeds' form and the default.
+  kPiecewiseConstant,
+  /// Exact discretization of continuous white noise of power spectral density q.
+  kContinuous,
+};
+
+/// Places `block` D times on the diagonal: the per-axis model becomes a D-axis model.
+template <int D, int K>
+[[nodiscard]] SquareMatrix<D * K> block_diagonal(const SquareMatrix<K>& block) {
+  SquareMatrix<D * K> result = SquareMatrix<D * K>::Zero();
+  for (int axis = 0; axis < D; ++axis) result.template block<K, K>(axis * K, axis * K) = block;
+  return result;
+}
+
+/// Stacks a per-axis input gain g (K×1) into the D-axis gain (DK×D), one column per axis.
+template <int D, int K>
+[[nodiscard]] Matrix<D * K, D> block_input_gain(const Vector<K>& gain) {
+  Matrix<D * K, D> result = Matrix<D * K, D>::Zero();
+  for (int axis = 0; axis < D; ++axis) result.template block<K, 1>(axis * K, axis) = gain;
+  return result;
+}
+
+namespace detail {
+inline void require_positive(double value, const char* field) {
+  if (!(value > 0.0) || !std::isfinite(value)) {
+    throw std::invalid_argument(std::string(field) + " must be positive and finite, got " +
+                                std::to_string(value));
+  }
+}
+inline void require_non_negative(double value, const char* field) {
+  if (!(value >= 0.0) || !std::isfinite(value)) {
+    throw std::invalid_argument(std::string(field) + " must be non-negative and finite, got " +
+                                std::to_string(value));
+  }
+}
+}  // namespace detail
+
+}  // namespace imm

@@ -1,0 +1,63 @@
+#pragma once
+/// Cartesian position measurement z = H x + v, v ~ N(0, R), H selecting the position components
+/// of the state (seed 000 eq. 2 per axis; [x, y] in 2-D).
+
+#include <array>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/Cholesky>
+
+#include "imm/math/linear_algebra.hpp"
+
+namespace imm {
+
+namespace detail {
+/// Throws unless R is finite, symmetric and positive definite.
+template <int M>
+void require_measurement_covariance(const SquareMatrix<M>& R, const char* field) {
+  if (!R.allFinite()) throw std::invalid_argument(std::string(field) + " has non-finite entries");
+  if (!R.isApprox(R.transpose(), 1e-12)) {
+    throw std::invalid_argument(std::string(field) + " is not symmetric");
+  }
+  if (Eigen::LLT<SquareMatrix<M>>(R).info() != Eigen::Success) {
+    throw std::invalid_argument(std::string(field) + " is not positive definite");
+  }
+}
+}  // namespace detail
+
+template <int N, int M>
+class PositionMeasurement {
+ public:
+  static constexpr int kDim = M;
+
+  /// `position_indices[i]` is the state component measured by z_i.
+  PositionMeasurement(const std::array<int, M>& position_indices, const SquareMatrix<M>& R)
+      : R_(R) {
+    detail::require_measurement_covariance(R, "measurement covariance R");
+    H_.setZero();
+    for (int i = 0; i < M; ++i) {
+      const int index = position_indices[static_cast<std::size_t>(i)];
+      if (index < 0 || index >= N) {
+        throw std::invalid_argument("position index " + std::to_string(index) +
+                                    " outside a state of dimension " + std::to_string(N));
+      }
+      H_(i, index) = 1.0;
+    }
+  }
+
+  [[nodiscard]] Vector<M> predict(const Vector<N>& x) const { return H_ * x; }
+  [[nodiscard]] const Matrix<M, N>& jacobian(const Vector<N>& /*x*/) const { return H_; }
+  [[nodiscard]] Vector<M> residual(const Vector<M>& z, const Vector<M>& predicted) const {
+    return z - predicted;
+  }
+  [[nodiscard]] const SquareMatrix<M>& covariance() const { return R_; }
+  [[nodiscard]] bool defined_at(const Vector<N>& /*x*/) const { return true; }
+  [[nodiscard]] const Matrix<M, N>& matrix() const { return H_; }
+
+ private:
+  Matrix<M, N> H_;
+  SquareMatrix<M> R_;
+};
+
+}  // namespace imm

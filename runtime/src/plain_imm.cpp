@@ -1,0 +1,213 @@
+#include "imm/filters/plain_imm.hpp"
+
+#include <cmath>
+#include <memory>
+
+#include <Eigen/Cholesky>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/filters/kalman_mode.hpp"
+#include "imm/models/constant_acceleration.hpp"
+#include "imm/models/constant_velocity.hpp"
+#include "imm/models/polar_measurement.hpp"
+#include "imm/models/position_measurement.hpp"
+#include "imm/models/singer.hpp"
+
+namespace imm {
+namespace {
+
+std::string mode_field(std::size_t index, const char* key) {
+  return "modes[" + std::to_string(index) + "]." + key;
+}
+
+void require(bool condition, const std::string& field, const std::string& message) {
+  if (!condition) throw InvalidParameter(field, message);
+}
+
+// The mixing-space indices of [x, vx, (ax), y, vy, (ay)] for a mode of dimension N.
+template <int N, int NX>
+StateEmbedding<N, NX> embedding_for() {
+  if constexpr (N == NX) {
+    return StateEmbedding<N, NX>();
+  } else {
+    static_assert(N == 4 && NX == 6, "only CV modes are embedded in the 6-state space");
+    return StateEmbedding<N, NX>(std::array<int, 4>{0, 1, 3, 4});
+  }
+}
+
+template <int NX, int N>
+std::unique_ptr<ImmMode<NX, 2>> make_mode(const ModeSpec& mode, const LinearMotionModel<N>& motion,
+                                          const MeasurementSpec& measurement) {
+  constexpr int kY = N / 2;  // index of y: 2 in [x, vx, y, vy], 3 in [x, vx, ax, y, vy, ay]
+  const auto embedding = embedding_for<N, NX>();
+  if (measurement.kind == MeasurementKind::kCartesian) {
+    using Model = PositionMeasurement<N, 2>;
+    return std::make_unique<KalmanMode<NX, N, Model>>(
+        mode.name, motion, Model({0, kY}, measurement.covariance), embedding);
+  }
+  using Model = PolarMeasurement<N>;
+  return std::make_unique<KalmanMode<NX, N, Model>>(
+      mode.name, motion, Model(0, kY, measurement.covariance), embedding);
+}
+
+}  // namespace
+
+std::string_view to_string(MotionKind kind) {
+  switch (kind) {
+    case MotionKind::kConstantVelocity:
+      return "cv";
+    case MotionKind::kConstantAcceleration:
+      return "ca";
+    case MotionKind::kSinger:
+      return "singer";
+  }
+  return "?";
+}
+
+std::string_view to_string(NoiseForm form) {
+  return form == NoiseForm::kPiecewiseConstant ? "piecewise" : "continuous";
+}
+
+std::string_view to_string(MeasurementKind kind) {
+  return kind == MeasurementKind::kCartesian ? "cartesian" : "polar";
+}
+
+std::string_view to_string(InitializationMethod method) {
+  return method == InitializationMethod::kExplicit ? "explicit" : "two_point";
+}
+
+MotionKind motion_kind_from(std::string_view name, const std::string& field) {
+  for (auto kind : {MotionKind::kConstantVelocity, MotionKind::kConstantAcceleration,
+                    MotionKind::kSinger}) {
+    if (name == to_string(kind)) return kind;
+  }
+  throw InvalidParameter(field, "unknown motion model '" + std::string(name) +
+                                    "' (expected cv, ca or singer)");
+}
+
+NoiseForm noise_form_from(std::string_view name, const std::string& field) {
+  for (auto form : {NoiseForm::kPiecewiseConstant, NoiseForm::kContinuous}) {
+    if (name == to_string(form)) return form;
+  }
+  throw InvalidParameter(field, "unknown noise form '" + std::string(name) +
+                                    "' (expected piecewise or continuous)");
+}
+
+MeasurementKind measurement_kind_from(std::string_view name, const std::string& field) {
+  for (auto kind : {MeasurementKind::kCartesian, MeasurementKind::kPolar}) {
+    if (name == to_string(kind)) return kind;
+  }
+  throw InvalidParameter(field, "unknown measurement '" + std::string(name) +
+                                    "' (expected cartesian or polar)");
+}
+
+InitializationMethod initialization_method_from(std::string_view name, const std::string& field) {
+  for (auto method : {InitializationMethod::kExplicit, InitializationMethod::kTwoPoint}) {
+    if (name == to_string(method)) return method;
+  }
+  throw InvalidParameter(field, "unknown initialization '" + std::string(name) +
+                                    "' (expected explicit or two_point)");
+}
+
+int PlainImmSpec::mixing_dimension() const {
+  for (const auto& mode : modes) {
+    if (mode.motion != MotionKind::kConstantVelocity) return 6;
+  }
+  return 4;
+}
+
+void PlainImmSpec::validate() const {
+  require(std::isfinite(sample_period) && sample_period > 0.0, "sample_period",
+          "must be positive and finite");
+  require(!modes.empty() && static_cast<int>(modes.size()) <= kMaxModes, "modes",
+          "need 1 to " + std::to_string(kMaxModes) + " modes");
+  for (std::size_t i = 0; i < modes.size(); ++i) {
+    const ModeSpec& mode = modes[i];
+    require(!mode.name.empty(), mode_field(i, "name"), "must not be empty");
+    for (std::size_t j = 0; j < i; ++j) {
+      require(modes[j].name != mode.name, mode_field(i, "name"), "'" + mode.name + "' is repeated");
+    }
+    if (mode.motion == MotionKind::kSinger) {
+      require(std::isfinite(mode.singer_tau) && mode.singer_tau > 0.0, mode_field(i, "tau"),
+              "must be positive and finite");
+      require(std::isfinite(mode.singer_sigma) && mode.singer_sigma >= 0.0,
+              mode_field(i, "sigma_a"), "must be non-negative and finite");
+    } else {
+      require(std::isfinite(mode.process_noise) && mode.process_noise >= 0.0,
+              mode_field(i, "process_noise"), "must be non-negative and finite");
+    }
+  }
+  const auto n = static_cast<Eigen::Index>(modes.size());
+  try {
+    detail::validate_mode_probabilities(transition, initial_probabilities, static_cast<int>(n));
+  } catch (const std::invalid_argument& error) {
+    const std::string text = error.what();
+    throw InvalidParameter(text.rfind("initial_probabilities", 0) == 0 ? "initial_probabilities"
+                                                                      : "transition",
+                           text);
+  }
+  const Eigen::Matrix2d& R = measurement.covariance;
+  require(R.allFinite() && R.isApprox(R.transpose(), 1e-12) &&
+              Eigen::LLT<Eigen::Matrix2d>(R).info() == Eigen::Success,
+          "measurement.covariance", "must be finite, symmetric and positive definite");
+  if (initialization.method == InitializationMethod::kExplicit) {
+    const int nx = mixing_dimension();
+    require(initialization.state.size() == nx && initialization.state.allFinite(),
+            "initialization.state", "must hold " + std::to_string(nx) + " finite values");
+    const Eigen::MatrixXd& P = initialization.covariance;
+    require(P.rows() == nx && P.cols() == nx && P.allFinite() &&
+                P.isApprox(P.transpose(), 1e-12) &&
+                Eigen::LLT<Eigen::MatrixXd>(P).info() == Eigen::Success,
+            "initialization.covariance",
+            "must be a finite, symmetric, positive definite " + std::to_string(nx) + "x" +
+                std::to_string(nx) + " matrix");
+  } else {
+    require(std::isfinite(initialization.acceleration_variance) &&
+                initialization.acceleration_variance >= 0.0,
+            "initialization.acceleration_variance", "must be non-negative and finite");
+  }
+}
+
+template <int NX>
+ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec) {
+  spec.validate();
+  if (spec.mixing_dimension() != NX) {
+    throw InvalidParameter("modes", "spec needs a " + std::to_string(spec.mixing_dimension()) +
+                                        "-state mixing space, not " + std::to_string(NX));
+  }
+  const double T = spec.sample_period;
+  std::vector<std::unique_ptr<ImmMode<NX, 2>>> modes;
+  for (const ModeSpec& mode : spec.modes) {
+    switch (mode.motion) {
+      case MotionKind::kConstantVelocity:
+        modes.push_back(make_mode<NX, 4>(
+            mode, constant_velocity<2>(T, mode.process_noise, mode.noise_form), spec.measurement));
+        break;
+      case MotionKind::kConstantAcceleration:
+        if constexpr (NX == 6) {
+          modes.push_back(make_mode<NX, 6>(
+              mode, constant_acceleration<2>(T, mode.process_noise, mode.noise_form),
+              spec.measurement));
+        }
+        break;
+      case MotionKind::kSinger:
+        if constexpr (NX == 6) {
+          modes.push_back(make_mode<NX, 6>(mode, singer<2>(T, mode.singer_tau, mode.singer_sigma),
+                                           spec.measurement));
+        }
+        break;
+    }
+  }
+  return ImmEstimator<NX, 2>(std::move(modes), spec.transition, spec.initial_probabilities);
+}
+
+template ImmEstimator<4, 2> build_plain_imm<4>(const PlainImmSpec&);
+template ImmEstimator<6, 2> build_plain_imm<6>(const PlainImmSpec&);
+
+PlainImm build_plain_imm(const PlainImmSpec& spec) {
+  spec.validate();
+  if (spec.mixing_dimension() == 4) return PlainImm(std::in_place_index<0>, build_plain_imm<4>(spec));
+  return PlainImm(std::in_place_index<1>, build_plain_imm<6>(spec));
+}
+
+}  // namespace imm
