@@ -479,6 +479,7 @@ void ContainerWriter::commit() {
 
 struct ContainerReader::Impl {
   std::filesystem::path path;
+  std::string format;
   Handle file;
   std::uint64_t file_bytes = 0;
 
@@ -527,7 +528,8 @@ ContainerReader::ContainerReader(const std::filesystem::path& path,
     throw FileError(file, "", "corrupt: payload checksum mismatch (stored " +
                                   hex32(header.payload_crc) + ", computed " + hex32(crc) + ")");
   }
-  if (header.format != expected_format) {
+  impl_->format = header.format;
+  if (!expected_format.empty() && header.format != expected_format) {
     throw FileError(file, "", "holds a '" + header.format + "' container, expected '" +
                                   std::string(expected_format) + "'");
   }
@@ -543,6 +545,8 @@ ContainerReader::~ContainerReader() {
 }
 
 const std::filesystem::path& ContainerReader::path() const { return impl_->path; }
+
+const std::string& ContainerReader::format() const { return impl_->format; }
 
 ObjectKind ContainerReader::kind(std::string_view object) const {
   const ErrorSilencer silencer;

@@ -79,13 +79,16 @@ class ContainerWriter {
 class ContainerReader {
  public:
   /// Opens and verifies a container. Throws FileError (naming the file) when the file is missing,
-  /// truncated, corrupt, not an immtrain container, or of another format than `expected_format`.
+  /// truncated, corrupt, not an immtrain container, or of another format than `expected_format`
+  /// (an empty `expected_format` accepts any).
   ContainerReader(const std::filesystem::path& path, std::string_view expected_format);
   ~ContainerReader();
   ContainerReader(const ContainerReader&) = delete;
   ContainerReader& operator=(const ContainerReader&) = delete;
 
   [[nodiscard]] const std::filesystem::path& path() const;
+  /// The format named in the header ("immtrain-model", "immtrain-dataset").
+  [[nodiscard]] const std::string& format() const;
   [[nodiscard]] ObjectKind kind(std::string_view object) const;
   /// Names of a group's members, sorted.
   [[nodiscard]] std::vector<std::string> children(std::string_view group) const;

@@ -28,6 +28,7 @@
 
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"
+#include "imm/io/schema_reader.hpp"
 
 namespace imm::io {
 
@@ -44,14 +45,6 @@ struct Provenance {
   std::string dataset_digest;   ///< SHA-256 of the training data ("" when there is none)
   std::map<std::string, double> training_metrics;
   std::map<std::string, double> validation_metrics;
-};
-
-/// Rule a numeric field must satisfy on read.
-enum class ValueRule {
-  kFinite,       ///< any finite value
-  kPositive,     ///< > 0 (σ, sample periods, variances that must not vanish)
-  kNonNegative,  ///< ≥ 0 (rule weights w, process-noise variances)
-  kProbability,  ///< in [0, 1]
 };
 
 /// The current time as ISO 8601 UTC, e.g. "2026-11-22T00:18:36Z".
@@ -79,35 +72,17 @@ class ModelFileWriter {
   ContainerWriter container_;
 };
 
-class ModelFileReader {
+/// Reads a model file: a SchemaReader that has also checked the format, the schema version and the
+/// kind, and holds the provenance.
+class ModelFileReader : public SchemaReader {
  public:
   /// Opens and validates a model file; `expected_kind` empty accepts any kind.
   explicit ModelFileReader(const std::filesystem::path& path, std::string_view expected_kind = {});
 
   [[nodiscard]] const Provenance& provenance() const { return provenance_; }
   [[nodiscard]] int schema_version() const { return schema_version_; }
-  [[nodiscard]] const ContainerReader& container() const { return container_; }
-  [[nodiscard]] std::string file() const { return container_.path().string(); }
-
-  /// A rows×cols matrix (−1: any extent). A 1-D dataset reads as a column.
-  [[nodiscard]] Eigen::MatrixXd matrix(std::string_view dataset, int rows, int cols,
-                                       ValueRule rule = ValueRule::kFinite) const;
-  /// A 1-D dataset of `size` entries (−1: any).
-  [[nodiscard]] Eigen::VectorXd vector(std::string_view dataset, int size,
-                                       ValueRule rule = ValueRule::kFinite) const;
-  [[nodiscard]] double real(std::string_view object, std::string_view name,
-                            ValueRule rule = ValueRule::kFinite) const;
-  [[nodiscard]] std::int64_t integer(std::string_view object, std::string_view name,
-                                     std::int64_t min, std::int64_t max) const;
-  [[nodiscard]] std::string text(std::string_view object, std::string_view name) const;
-  /// The names of a group's members, sorted; throws when the group is missing.
-  [[nodiscard]] std::vector<std::string> members(std::string_view group) const;
-
-  /// Throws FileError for `field` of this file.
-  [[noreturn]] void fail(std::string_view field, const std::string& message) const;
 
  private:
-  ContainerReader container_;
   Provenance provenance_;
   int schema_version_ = 0;
 };

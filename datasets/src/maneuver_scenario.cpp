@@ -1,0 +1,133 @@
+#include "imm/datasets/maneuver_scenario.hpp"
+
+#include <bit>
+#include <cmath>
+#include <numbers>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/datasets/random.hpp"
+#include "imm/datasets/sha256.hpp"
+#include "imm/math/angle.hpp"
+#include "imm/models/constant_velocity.hpp"
+#include "imm/models/polar_measurement.hpp"
+
+namespace imm::datasets {
+namespace {
+
+void require(bool condition, const std::string& field, const std::string& message) {
+  if (!condition) throw InvalidParameter(field, message);
+}
+
+void hash_matrix(Sha256& hash, const Eigen::MatrixXd& matrix) {
+  static_assert(std::endian::native == std::endian::little, "digest assumes little-endian");
+  const std::int64_t shape[2] = {matrix.rows(), matrix.cols()};
+  hash.update(shape, sizeof shape);
+  // Row-major, as stored in the data-set file.
+  for (Eigen::Index i = 0; i < matrix.rows(); ++i) {
+    for (Eigen::Index j = 0; j < matrix.cols(); ++j) {
+      const double value = matrix(i, j);
+      hash.update(&value, sizeof value);
+    }
+  }
+}
+
+}  // namespace
+
+void ManeuverScenario::validate() const {
+  require(!name.empty(), "name", "must not be empty");
+  require(std::isfinite(sample_period) && sample_period > 0.0, "sample_period",
+          "must be positive and finite");
+  require(steps >= 2 && steps <= 10'000'000, "steps", "must be in [2, 10⁷]");
+  require(runs >= 1 && runs <= 1'000'000, "runs", "must be in [1, 10⁶]");
+  require(initial_position.allFinite(), "initial_position", "must be finite");
+  require(initial_velocity.allFinite(), "initial_velocity", "must be finite");
+  require(std::isfinite(process_noise_sigma) && process_noise_sigma >= 0.0, "process_noise_sigma",
+          "must be non-negative and finite");
+  require(measurement.sigma.allFinite() && (measurement.sigma.array() > 0.0).all(),
+          "measurement.sigma", "must be positive and finite");
+  for (std::size_t i = 0; i < maneuvers.size(); ++i) {
+    const ManeuverSegment& m = maneuvers[i];
+    const std::string field = "maneuvers[" + std::to_string(i) + "]";
+    require(m.start >= 0 && m.start < m.end && m.end <= steps, field + ".end",
+            "segment [start, end) must satisfy 0 ≤ start < end ≤ steps");
+    require(m.acceleration.allFinite(), field + ".acceleration", "must be finite");
+  }
+}
+
+Eigen::MatrixXd ManeuverScenario::acceleration_input() const {
+  Eigen::MatrixXd u = Eigen::MatrixXd::Zero(steps, 2);
+  for (const ManeuverSegment& m : maneuvers) {
+    for (int k = m.start; k < m.end; ++k) u.row(k) += m.acceleration.transpose();
+  }
+  return u;
+}
+
+ManeuverScenario seed000_scenario() {
+  ManeuverScenario s;
+  s.name = "seed000";
+  s.sample_period = 1.0;
+  s.steps = 160;
+  s.runs = 100;
+  s.seed = 1;
+  const double c = std::cos(std::numbers::pi / 4.0);
+  s.initial_position = 22.4 * Eigen::Vector2d(c, c);
+  s.initial_velocity = 0.015 * Eigen::Vector2d(c, c);
+  s.process_noise_sigma = 0.001;
+  s.measurement.kind = MeasurementKind::kCartesian;
+  s.measurement.sigma = Eigen::Vector2d(0.5, 0.5);
+  s.maneuvers = {{40, 60, Eigen::Vector2d(0.01, 0.0)},
+                 {80, 90, Eigen::Vector2d(0.0, 0.06)},
+                 {120, 140, Eigen::Vector2d(-0.03, 0.0)}};
+  return s;
+}
+
+ScenarioData simulate(const ManeuverScenario& scenario) {
+  scenario.validate();
+  const double T = scenario.sample_period;
+  const auto motion = constant_velocity<2>(T, 0.0);
+  const Matrix<4, 2> G = cv_input_gain<2>(T);
+  const Eigen::Matrix2d R = scenario.measurement.covariance();
+  const PolarMeasurement<4> polar(0, 2, R);
+
+  ScenarioData data;
+  data.time = Eigen::VectorXd::LinSpaced(scenario.steps, 0.0, T * (scenario.steps - 1));
+  data.acceleration_input = scenario.acceleration_input();
+  data.truth.reserve(static_cast<std::size_t>(scenario.runs));
+  data.measurements.reserve(static_cast<std::size_t>(scenario.runs));
+  for (int run = 0; run < scenario.runs; ++run) {
+    Rng rng(derive_seed(scenario.seed, static_cast<std::uint64_t>(run)));
+    Eigen::MatrixXd truth(scenario.steps, 4);
+    Eigen::MatrixXd z(scenario.steps, 2);
+    Vector<4> x(scenario.initial_position(0), scenario.initial_velocity(0),
+                scenario.initial_position(1), scenario.initial_velocity(1));
+    for (int k = 0; k < scenario.steps; ++k) {
+      truth.row(k) = x.transpose();
+      if (scenario.measurement.kind == MeasurementKind::kCartesian) {
+        z(k, 0) = x(0) + scenario.measurement.sigma(0) * rng.normal();
+        z(k, 1) = x(2) + scenario.measurement.sigma(1) * rng.normal();
+      } else {
+        const Vector<2> clean = polar.predict(x);
+        z(k, 0) = clean(0) + scenario.measurement.sigma(0) * rng.normal();
+        z(k, 1) = wrap_angle(clean(1) + scenario.measurement.sigma(1) * rng.normal());
+      }
+      const Vector<2> w(scenario.process_noise_sigma * rng.normal(),
+                        scenario.process_noise_sigma * rng.normal());
+      const Vector<2> u = data.acceleration_input.row(k).transpose();
+      x = motion.transition * x + G * (u + w);
+    }
+    data.truth.push_back(std::move(truth));
+    data.measurements.push_back(std::move(z));
+  }
+  return data;
+}
+
+std::string digest(const ScenarioData& data) {
+  Sha256 hash;
+  hash_matrix(hash, data.time);
+  hash_matrix(hash, data.acceleration_input);
+  for (const auto& truth : data.truth) hash_matrix(hash, truth);
+  for (const auto& z : data.measurements) hash_matrix(hash, z);
+  return hash.hex_digest();
+}
+
+}  // namespace imm::datasets

@@ -1,0 +1,59 @@
+#pragma once
+/// Validated access to a container's content: every getter checks presence, type, shape and a value
+/// rule, and throws a FileError naming the file and the field. Model files and data-set files read
+/// through it.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "imm/io/container_file.hpp"
+#include "imm/io/file_error.hpp"
+
+namespace imm::io {
+
+/// Rule a numeric field must satisfy on read.
+enum class ValueRule {
+  kFinite,       ///< any finite value
+  kPositive,     ///< > 0 (σ, sample periods, variances that must not vanish)
+  kNonNegative,  ///< ≥ 0 (rule weights w, process-noise variances)
+  kProbability,  ///< in [0, 1]
+};
+
+class SchemaReader {
+ public:
+  /// Opens and verifies a container of `format` (see ContainerReader).
+  SchemaReader(const std::filesystem::path& path, std::string_view format);
+
+  [[nodiscard]] const ContainerReader& container() const { return container_; }
+  [[nodiscard]] std::string file() const { return container_.path().string(); }
+
+  /// An N-d array whose shape matches `shape` (−1: any extent) and whose values obey `rule`.
+  [[nodiscard]] Array array(std::string_view dataset, const std::vector<long>& shape,
+                            ValueRule rule = ValueRule::kFinite) const;
+  /// A rows×cols matrix (−1: any extent). A 1-D dataset reads as a column.
+  [[nodiscard]] Eigen::MatrixXd matrix(std::string_view dataset, int rows, int cols,
+                                       ValueRule rule = ValueRule::kFinite) const;
+  /// A 1-D dataset of `size` entries (−1: any).
+  [[nodiscard]] Eigen::VectorXd vector(std::string_view dataset, int size,
+                                       ValueRule rule = ValueRule::kFinite) const;
+  [[nodiscard]] double real(std::string_view object, std::string_view name,
+                            ValueRule rule = ValueRule::kFinite) const;
+  [[nodiscard]] std::int64_t integer(std::string_view object, std::string_view name,
+                                     std::int64_t min, std::int64_t max) const;
+  [[nodiscard]] std::string text(std::string_view object, std::string_view name) const;
+  /// The names of a group's members, sorted; throws when the group is missing.
+  [[nodiscard]] std::vector<std::string> members(std::string_view group) const;
+
+  /// Throws FileError for `field` of this file.
+  [[noreturn]] void fail(std::string_view field, const std::string& message) const;
+
+ private:
+  ContainerReader container_;
+};
+
+}  // namespace imm::io

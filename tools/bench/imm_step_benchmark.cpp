@@ -1,0 +1,108 @@
+// Speed of one filter step (Google Benchmark). Not a test: run `make bench` or
+//   build/bin/imm-bench --benchmark_min_time=1
+//
+// BM_PlainImmStep is the reference figure: the 2-D CV IMM of configs/track/cv3_imm.toml
+// (three modes, state [x, vx, y, vy]) fed the seed-000 plots.
+
+#include <benchmark/benchmark.h>
+
+#include <memory>
+
+#include "imm/datasets/maneuver_scenario.hpp"
+#include "imm/filters/imm_estimator.hpp"
+#include "imm/filters/kalman_mode.hpp"
+#include "imm/filters/plain_imm.hpp"
+#include "imm/io/plain_imm_file.hpp"
+#include "imm/models/constant_velocity.hpp"
+#include "imm/models/polar_measurement.hpp"
+#include "imm/models/position_measurement.hpp"
+#include "imm/models/singer.hpp"
+#include "imm/support/plain_imm_config.hpp"
+
+namespace {
+
+const Eigen::MatrixXd& seed000_plots() {
+  static const Eigen::MatrixXd plots = [] {
+    auto scenario = imm::datasets::seed000_scenario();
+    scenario.runs = 1;
+    return imm::datasets::simulate(scenario).measurements.front();
+  }();
+  return plots;
+}
+
+imm::GaussianState<4> start_state(const Eigen::MatrixXd& plots) {
+  imm::GaussianState<4> state;
+  state.mean << plots(0, 0), 0.0, plots(0, 1), 0.0;
+  state.covariance = Eigen::Vector4d(0.25, 0.5, 0.25, 0.5).asDiagonal();
+  return state;
+}
+
+void BM_PlainImmStep(benchmark::State& state) {
+  const auto spec = imm::support::load_plain_imm_config(IMM_SOURCE_DIR "/configs/track/cv3_imm.toml");
+  auto imm = imm::build_plain_imm<4>(spec);
+  const Eigen::MatrixXd& plots = seed000_plots();
+  imm.initialize(start_state(plots));
+  Eigen::Index k = 1;
+  for (auto _ : state) {
+    const imm::Vector<2> z = plots.row(k).transpose();
+    benchmark::DoNotOptimize(imm.step(z));
+    benchmark::DoNotOptimize(imm.estimate().mean.data());
+    if (++k == plots.rows()) {
+      k = 1;
+      imm.initialize(start_state(plots));
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_PlainImmStep);
+
+void BM_KalmanStepCv2d(benchmark::State& state) {
+  const auto motion = imm::constant_velocity<2>(1.0, 1e-4);
+  const imm::PositionMeasurement<4, 2> measurement({0, 2}, 0.25 * imm::SquareMatrix<2>::Identity());
+  const Eigen::MatrixXd& plots = seed000_plots();
+  imm::GaussianState<4> filter = start_state(plots);
+  Eigen::Index k = 1;
+  for (auto _ : state) {
+    filter = imm::predict(filter, motion.transition, motion.process_noise);
+    const imm::Vector<2> z = plots.row(k).transpose();
+    benchmark::DoNotOptimize(imm::update(filter, z, measurement));
+    if (++k == plots.rows()) k = 1;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_KalmanStepCv2d);
+
+// CV (4 states, zero-padded) + Singer (6 states) on polar plots: the seed-004 layout.
+void BM_CvSingerPolarImmStep(benchmark::State& state) {
+  imm::SquareMatrix<2> R;
+  R << 50.0 * 50.0, 0.0, 0.0, std::pow(0.5 * 3.141592653589793 / 180.0, 2);
+  std::vector<std::unique_ptr<imm::ImmMode<6, 2>>> modes;
+  modes.push_back(std::make_unique<imm::KalmanMode<6, 4, imm::PolarMeasurement<4>>>(
+      "cv", imm::constant_velocity<2>(2.0, 2.0), imm::PolarMeasurement<4>(0, 2, R),
+      imm::StateEmbedding<4, 6>(std::array<int, 4>{0, 1, 3, 4})));
+  modes.push_back(std::make_unique<imm::KalmanMode<6, 6, imm::PolarMeasurement<6>>>(
+      "singer", imm::singer<2>(2.0, 20.0, 5.0), imm::PolarMeasurement<6>(0, 3, R),
+      imm::StateEmbedding<6, 6>()));
+  Eigen::Matrix2d pi;
+  pi << 0.95, 0.05, 0.05, 0.95;
+  imm::ImmEstimator<6, 2> imm(std::move(modes), pi, Eigen::Vector2d(0.5, 0.5));
+  imm::GaussianState<6> start;
+  start.mean << 99000.0, -100.0, 0.0, 99000.0, -100.0, 0.0;
+  start.covariance = Eigen::Matrix<double, 6, 1>(2500, 100, 1, 2500, 100, 1).asDiagonal();
+  imm.initialize(start);
+  int k = 1;
+  for (auto _ : state) {
+    const double x = 99000.0 - 200.0 * k, y = 99000.0 - 200.0 * k;
+    benchmark::DoNotOptimize(imm.step(imm::Vector<2>(std::hypot(x, y), std::atan2(x, y))));
+    if (++k == 250) {
+      k = 1;
+      imm.initialize(start);
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_CvSingerPolarImmStep);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,38 @@
+#pragma once
+/// The normalized errors of seed 000 §4, accumulated over Monte Carlo runs:
+///   P_e(k) = √(Σ_s ‖p − p̂‖²) / √(Σ_s ‖p − z‖²),  V_e(k) = √(Σ_s ‖v − v̂‖²) / √(Σ_s ‖v − v̄‖²),
+/// with v̄(k) = (z(k) − z(k−1))/T the "measured velocity", and ζ_p, ζ_v their means over the
+/// scans. Values below 1 mean the filter beats the raw measurements. RMSEs come with them.
+
+#include <Eigen/Core>
+
+namespace imm::evaluation {
+
+class NormalizedErrors {
+ public:
+  explicit NormalizedErrors(int steps);
+
+  /// Adds one run's scan k.
+  void add(int k, const Eigen::Vector2d& true_position, const Eigen::Vector2d& estimated_position,
+           const Eigen::Vector2d& measured_position, const Eigen::Vector2d& true_velocity,
+           const Eigen::Vector2d& estimated_velocity, const Eigen::Vector2d& measured_velocity);
+
+  /// P_e(k) and V_e(k); NaN at scans without samples.
+  [[nodiscard]] Eigen::VectorXd position() const;
+  [[nodiscard]] Eigen::VectorXd velocity() const;
+  /// Means over the scans with samples (seed 000's ζ_p, ζ_v).
+  [[nodiscard]] double zeta_p() const;
+  [[nodiscard]] double zeta_v() const;
+  /// Root mean square errors over every sample.
+  [[nodiscard]] double position_rmse() const;
+  [[nodiscard]] double velocity_rmse() const;
+
+ private:
+  Eigen::VectorXd position_error_;        // Σ_s ‖p − p̂‖² per scan
+  Eigen::VectorXd position_measurement_;  // Σ_s ‖p − z‖²
+  Eigen::VectorXd velocity_error_;
+  Eigen::VectorXd velocity_measurement_;
+  Eigen::VectorXi samples_;
+};
+
+}  // namespace imm::evaluation

@@ -1,0 +1,47 @@
+#pragma once
+/// `imm-eval plain-imm`: the reference plain IMM (a "plain_imm" model file, by default the
+/// three-level CV IMM of configs/track/cv3_imm.toml) on the seed-000 Monte Carlo experiment,
+/// against each of its modes run alone as a single Kalman filter, on identical noise. Metrics are
+/// seed 000's normalized errors ζ_p, ζ_v (see normalized_errors.hpp) and RMSEs.
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace imm::evaluation {
+
+struct PlainImmExperimentOptions {
+  std::filesystem::path model;                ///< plain_imm model file
+  std::optional<std::filesystem::path> data;  ///< a data-set file; else seed 000 is simulated
+  int runs = 100;
+  std::uint64_t seed = 1;
+};
+
+struct FilterOutcome {
+  std::string name;
+  int modes = 0;
+  double zeta_p = 0.0, zeta_v = 0.0;
+  double position_rmse = 0.0, velocity_rmse = 0.0;
+  Eigen::VectorXd position_error, velocity_error;  ///< P_e(k), V_e(k)
+  Eigen::MatrixXd mean_mode_probabilities;         ///< steps × modes, averaged over runs
+  std::vector<std::string> mode_names;
+  long rejected_steps = 0;                         ///< plots the filter could not use
+};
+
+struct PlainImmExperimentResult {
+  std::string scenario;
+  int runs = 0;
+  int steps = 0;
+  std::uint64_t seed = 0;
+  std::string dataset_digest;
+  std::vector<FilterOutcome> filters;  ///< the IMM first, then its modes alone
+};
+
+[[nodiscard]] PlainImmExperimentResult run_plain_imm_experiment(
+    const PlainImmExperimentOptions& options);
+
+}  // namespace imm::evaluation

@@ -1,0 +1,37 @@
+#pragma once
+/// Report pieces shared by the experiments: Markdown tables on stdout, CSV time series, and PNG
+/// line plots through gnuplot.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace imm::evaluation {
+
+/// A Markdown table: header and rows of cells.
+[[nodiscard]] std::string markdown_table(const std::vector<std::string>& header,
+                                         const std::vector<std::vector<std::string>>& rows);
+
+/// Fixed-precision cell text ("0.6089").
+[[nodiscard]] std::string cell(double value, int decimals = 4);
+
+/// Writes a CSV: a column "k" (0 … rows − 1) then one column per name. NaN cells are empty.
+void write_series_csv(const std::filesystem::path& path, const std::vector<std::string>& names,
+                      const Eigen::MatrixXd& columns);
+
+struct PlotSpec {
+  std::filesystem::path png;
+  std::string title;
+  std::string x_label = "scan k";
+  std::string y_label;
+  std::filesystem::path csv;           ///< written by write_series_csv
+  std::vector<std::string> series;     ///< column names of the CSV to draw
+};
+
+/// Draws the series with gnuplot (pngcairo or png terminal). Returns false, leaving no PNG,
+/// when gnuplot is missing or fails; the caller reports it.
+bool plot_series(const PlotSpec& spec);
+
+}  // namespace imm::evaluation

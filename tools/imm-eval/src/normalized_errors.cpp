@@ -1,0 +1,77 @@
+#include "imm/evaluation/normalized_errors.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace imm::evaluation {
+namespace {
+
+double mean_over_defined(const Eigen::VectorXd& values) {
+  double sum = 0.0;
+  int count = 0;
+  for (Eigen::Index k = 0; k < values.size(); ++k) {
+    if (std::isfinite(values(k))) {
+      sum += values(k);
+      ++count;
+    }
+  }
+  return count > 0 ? sum / count : std::numeric_limits<double>::quiet_NaN();
+}
+
+Eigen::VectorXd ratio(const Eigen::VectorXd& error, const Eigen::VectorXd& reference,
+                      const Eigen::VectorXi& samples) {
+  Eigen::VectorXd result(error.size());
+  for (Eigen::Index k = 0; k < error.size(); ++k) {
+    result(k) = (samples(k) > 0 && reference(k) > 0.0)
+                    ? std::sqrt(error(k)) / std::sqrt(reference(k))
+                    : std::numeric_limits<double>::quiet_NaN();
+  }
+  return result;
+}
+
+}  // namespace
+
+NormalizedErrors::NormalizedErrors(int steps)
+    : position_error_(Eigen::VectorXd::Zero(steps)),
+      position_measurement_(Eigen::VectorXd::Zero(steps)),
+      velocity_error_(Eigen::VectorXd::Zero(steps)),
+      velocity_measurement_(Eigen::VectorXd::Zero(steps)),
+      samples_(Eigen::VectorXi::Zero(steps)) {
+  if (steps < 1) throw std::invalid_argument("NormalizedErrors needs at least one scan");
+}
+
+void NormalizedErrors::add(int k, const Eigen::Vector2d& true_position,
+                           const Eigen::Vector2d& estimated_position,
+                           const Eigen::Vector2d& measured_position,
+                           const Eigen::Vector2d& true_velocity,
+                           const Eigen::Vector2d& estimated_velocity,
+                           const Eigen::Vector2d& measured_velocity) {
+  if (k < 0 || k >= samples_.size()) throw std::out_of_range("scan outside the evaluation");
+  position_error_(k) += (true_position - estimated_position).squaredNorm();
+  position_measurement_(k) += (true_position - measured_position).squaredNorm();
+  velocity_error_(k) += (true_velocity - estimated_velocity).squaredNorm();
+  velocity_measurement_(k) += (true_velocity - measured_velocity).squaredNorm();
+  ++samples_(k);
+}
+
+Eigen::VectorXd NormalizedErrors::position() const {
+  return ratio(position_error_, position_measurement_, samples_);
+}
+
+Eigen::VectorXd NormalizedErrors::velocity() const {
+  return ratio(velocity_error_, velocity_measurement_, samples_);
+}
+
+double NormalizedErrors::zeta_p() const { return mean_over_defined(position()); }
+double NormalizedErrors::zeta_v() const { return mean_over_defined(velocity()); }
+
+double NormalizedErrors::position_rmse() const {
+  return std::sqrt(position_error_.sum() / std::max(1, samples_.sum()));
+}
+
+double NormalizedErrors::velocity_rmse() const {
+  return std::sqrt(velocity_error_.sum() / std::max(1, samples_.sum()));
+}
+
+}  // namespace imm::evaluation

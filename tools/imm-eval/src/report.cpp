@@ -1,0 +1,108 @@
+#include "imm/evaluation/report.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "imm/trainer/nightly.hpp"
+
+namespace imm::evaluation {
+
+namespace {
+// Display width of UTF-8 text: code points, not bytes ("ζ_p" is three columns wide).
+std::size_t display_width(const std::string& text) {
+  std::size_t width = 0;
+  for (unsigned char c : text) width += (c & 0xC0U) != 0x80U ? 1 : 0;
+  return width;
+}
+}  // namespace
+
+std::string markdown_table(const std::vector<std::string>& header,
+                           const std::vector<std::vector<std::string>>& rows) {
+  std::vector<std::size_t> width(header.size());
+  for (std::size_t j = 0; j < header.size(); ++j) width[j] = display_width(header[j]);
+  for (const auto& row : rows) {
+    for (std::size_t j = 0; j < row.size() && j < width.size(); ++j) {
+      width[j] = std::max(width[j], display_width(row[j]));
+    }
+  }
+  auto line = [&](const std::vector<std::string>& cells) {
+    std::string text = "|";
+    for (std::size_t j = 0; j < width.size(); ++j) {
+      const std::string& c = j < cells.size() ? cells[j] : std::string();
+      text += " " + c + std::string(width[j] - std::min(width[j], display_width(c)), ' ') + " |";
+    }
+    return text + "\n";
+  };
+  std::string table = line(header);
+  std::string rule = "|";
+  for (std::size_t w : width) rule += std::string(w + 2, '-') + "|";
+  table += rule + "\n";
+  for (const auto& row : rows) table += line(row);
+  return table;
+}
+
+std::string cell(double value, int decimals) {
+  if (!std::isfinite(value)) return "–";
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
+  return buffer;
+}
+
+void write_series_csv(const std::filesystem::path& path, const std::vector<std::string>& names,
+                      const Eigen::MatrixXd& columns) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path.string() + ": cannot write");
+  out << "k";
+  for (const auto& name : names) out << ',' << name;
+  out << '\n';
+  char buffer[32];
+  for (Eigen::Index k = 0; k < columns.rows(); ++k) {
+    out << k;
+    for (Eigen::Index j = 0; j < columns.cols(); ++j) {
+      out << ',';
+      if (std::isfinite(columns(k, j))) {
+        std::snprintf(buffer, sizeof buffer, "%.8g", columns(k, j));
+        out << buffer;
+      }
+    }
+    out << '\n';
+  }
+}
+
+bool plot_series(const PlotSpec& spec) {
+  const auto script_path = spec.png.parent_path() / (spec.png.stem().string() + ".gp");
+  {
+    std::ofstream script(script_path);
+    script << "set terminal pngcairo size 900,500 noenhanced\n"
+           << "set output '" << spec.png.string() << "'\n"
+           << "set datafile separator ','\n"
+           << "set datafile missing ''\n"
+           << "set key outside right\n"
+           << "set grid\n"
+           << "set title '" << spec.title << "'\n"
+           << "set xlabel '" << spec.x_label << "'\n"
+           << "set ylabel '" << spec.y_label << "'\n"
+           << "plot ";
+    for (std::size_t i = 0; i < spec.series.size(); ++i) {
+      script << (i == 0 ? "" : ", ") << "'" << spec.csv.string() << "' using 'k':'"
+             << spec.series[i] << "' with lines lw 2 title '" << spec.series[i] << "'";
+    }
+    script << "\n";
+  }
+  int status = 1;
+  try {
+    status = trainer::run_process("gnuplot", {script_path.string()});
+  } catch (const std::exception&) {
+    status = 127;
+  }
+  if (status != 0) {
+    std::error_code ignored;
+    std::filesystem::remove(spec.png, ignored);
+    return false;
+  }
+  return true;
+}
+
+}  // namespace imm::evaluation

@@ -1,0 +1,242 @@
+// imm-inspect: prints what a model (or data-set) file holds — kind, schema version, provenance and
+// every parameter as readable tables, or as JSON with --json. Known model kinds are also fully
+// validated by their runtime reader, so a file imm-inspect accepts is a file the runtime loads.
+//
+//   imm-inspect models/cv3_imm.h5 [--json] [--full] [--config]
+//
+// Exit codes: 0 readable and valid, 1 usage, 2 corrupt, foreign or invalid file (one line on
+// stderr naming the file and the field).
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "imm/datasets/dataset_file.hpp"
+#include "imm/io/container_file.hpp"
+#include "imm/io/model_file.hpp"
+#include "imm/io/plain_imm_file.hpp"
+
+namespace {
+
+using imm::io::Array;
+using imm::io::Attribute;
+using imm::io::ContainerReader;
+using imm::io::ObjectKind;
+using nlohmann::json;
+
+constexpr int kExitBadFile = 2;
+constexpr std::size_t kRowsShown = 12;
+
+// Runtime validators of the model kinds this build knows; each throws FileError when the file
+// would not load.
+const std::map<std::string, std::function<void(const std::string&)>>& validators() {
+  static const std::map<std::string, std::function<void(const std::string&)>> table = {
+      {std::string(imm::io::kPlainImmKind),
+       [](const std::string& path) { (void)imm::io::read_plain_imm(path); }},
+  };
+  return table;
+}
+
+std::string number(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6g", value);
+  return buffer;
+}
+
+std::string attribute_text(const Attribute& value) {
+  if (const auto* i = std::get_if<std::int64_t>(&value)) return std::to_string(*i);
+  if (const auto* d = std::get_if<double>(&value)) return number(*d);
+  return std::get<std::string>(value);
+}
+
+json attribute_json(const Attribute& value) {
+  if (const auto* i = std::get_if<std::int64_t>(&value)) return *i;
+  if (const auto* d = std::get_if<double>(&value)) return *d;
+  return std::get<std::string>(value);
+}
+
+std::vector<std::string> split_columns(const std::string& text) {
+  std::vector<std::string> columns;
+  std::stringstream stream(text);
+  std::string column;
+  while (std::getline(stream, column, ',')) columns.push_back(column);
+  return columns;
+}
+
+std::string join_path(const std::string& group, const std::string& name) {
+  return group == "/" ? "/" + name : group + "/" + name;
+}
+
+// Rank 1 prints as one column, rank 2 as rows × columns.
+void print_table(std::ostream& out, const Array& array, std::vector<std::string> columns,
+                 bool full) {
+  const std::size_t rows = array.shape[0];
+  const std::size_t cols = array.rank() == 1 ? 1 : array.shape[1];
+  if (array.rank() == 1 && columns.empty()) columns = {"value"};
+  const std::size_t width = 12;
+  out << "    " << std::string(6, ' ');
+  for (std::size_t j = 0; j < cols; ++j) {
+    std::string header = j < columns.size() ? columns[j] : "[" + std::to_string(j) + "]";
+    out << std::string(width > header.size() ? width - header.size() : 1, ' ') << header;
+  }
+  out << '\n';
+  const std::size_t shown = full ? rows : std::min(rows, kRowsShown);
+  for (std::size_t i = 0; i < shown; ++i) {
+    const std::string label = std::to_string(i);
+    out << "    " << std::string(6 - std::min<std::size_t>(6, label.size()), ' ') << label;
+    for (std::size_t j = 0; j < cols; ++j) {
+      const std::string cell = number(array.values[i * cols + j]);
+      out << std::string(width > cell.size() ? width - cell.size() : 1, ' ') << cell;
+    }
+    out << '\n';
+  }
+  if (shown < rows) out << "    … " << rows - shown << " more rows (--full shows all)\n";
+}
+
+struct Inspector {
+  const ContainerReader& file;
+  bool full = false;
+
+  void text(std::ostream& out, const std::string& group) const {
+    for (const std::string& name : file.children(group)) {
+      const std::string path = join_path(group, name);
+      const ObjectKind kind = file.kind(path);
+      std::string attributes;
+      std::vector<std::string> columns;
+      for (const std::string& attribute : file.attribute_names(path)) {
+        const Attribute value = *file.attribute(path, attribute);
+        if (attribute == "columns") {
+          columns = split_columns(std::get<std::string>(value));
+        } else {
+          attributes += "  " + attribute + "=" + attribute_text(value);
+        }
+      }
+      if (kind == ObjectKind::kGroup) {
+        out << path << attributes << '\n';
+        text(out, path);
+        continue;
+      }
+      const Array array = file.read(path);
+      std::string shape;
+      for (std::size_t extent : array.shape) shape += (shape.empty() ? "" : "x") + std::to_string(extent);
+      out << path << "  [" << shape << "]" << attributes << '\n';
+      if (array.rank() <= 2 && !array.values.empty()) {
+        print_table(out, array, columns, full);
+      } else if (!array.values.empty()) {
+        double lo = array.values[0], hi = array.values[0], sum = 0.0;
+        for (double v : array.values) lo = std::min(lo, v), hi = std::max(hi, v), sum += v;
+        out << "    min " << number(lo) << ", max " << number(hi) << ", mean "
+            << number(sum / static_cast<double>(array.values.size())) << '\n';
+      }
+    }
+  }
+
+  void to_json(json& objects, const std::string& group) const {
+    for (const std::string& name : file.children(group)) {
+      const std::string path = join_path(group, name);
+      json object;
+      json attributes = json::object();
+      for (const std::string& attribute : file.attribute_names(path)) {
+        attributes[attribute] = attribute_json(*file.attribute(path, attribute));
+      }
+      object["attributes"] = attributes;
+      if (file.kind(path) == ObjectKind::kGroup) {
+        object["type"] = "group";
+        objects[path] = object;
+        to_json(objects, path);
+        continue;
+      }
+      const Array array = file.read(path);
+      object["type"] = "dataset";
+      object["shape"] = array.shape;
+      object["values"] = array.values;  // row-major
+      objects[path] = object;
+    }
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Print what an immtrain model or data-set file holds."};
+  std::string path;
+  bool as_json = false, full = false, show_config = false;
+  app.add_option("file", path, "model or data-set file")->required();
+  app.add_flag("--json", as_json, "machine-readable output");
+  app.add_flag("--full", full, "print every row of every table");
+  app.add_flag("--config", show_config, "print the full config text the file was made from");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    const ContainerReader file(path, "");
+    std::string kind;
+    std::int64_t schema_version = 0;
+    if (file.format() == imm::io::kModelFormat) {
+      const imm::io::ModelFileReader model(path);  // validates format, version and provenance
+      kind = model.provenance().model_kind;
+      schema_version = model.schema_version();
+      if (const auto it = validators().find(kind); it != validators().end()) it->second(path);
+    } else if (file.format() == imm::datasets::kDatasetFormat) {
+      (void)imm::datasets::read_scenario_dataset(path);  // validates, recomputes the digest
+      kind = std::get<std::string>(*file.attribute("/", "dataset_kind"));
+      schema_version = std::get<std::int64_t>(*file.attribute("/", "schema_version"));
+    } else {
+      throw imm::io::FileError(path, "", "unknown container format '" + file.format() + "'");
+    }
+    const bool validated = file.format() != imm::io::kModelFormat || validators().count(kind) > 0;
+
+    const Inspector inspector{file, full};
+    if (as_json) {
+      json document;
+      document["file"] = path;
+      document["format"] = file.format();
+      document["schema_version"] = schema_version;
+      document["kind"] = kind;
+      document["validated"] = validated;
+      json root = json::object();
+      for (const std::string& attribute : file.attribute_names("/")) {
+        root[attribute] = attribute_json(*file.attribute("/", attribute));
+      }
+      document["attributes"] = root;
+      json objects = json::object();
+      inspector.to_json(objects, "/");
+      document["objects"] = objects;
+      std::cout << document.dump(2) << '\n';
+      return 0;
+    }
+
+    std::cout << "file             " << path << '\n'
+              << "format           " << file.format() << " (schema " << schema_version << ")\n"
+              << "kind             " << kind
+              << (validated ? "" : "  (not validated: unknown to this build)") << '\n';
+    std::string config;
+    for (const std::string& attribute : file.attribute_names("/")) {
+      if (attribute == "format" || attribute == "schema_version" || attribute == "model_kind" ||
+          attribute == "dataset_kind") {
+        continue;
+      }
+      const Attribute value = *file.attribute("/", attribute);
+      if (attribute == "config_toml") {
+        config = std::get<std::string>(value);
+        const auto lines = std::count(config.begin(), config.end(), '\n');
+        std::cout << "config_toml      " << (config.empty() ? "(none)" : std::to_string(lines) + " lines" + (show_config ? "" : " (--config prints it)")) << '\n';
+        continue;
+      }
+      std::string text = attribute_text(value);
+      if (text.empty()) text = "-";
+      std::cout << attribute << std::string(attribute.size() < 17 ? 17 - attribute.size() : 1, ' ')
+                << text << '\n';
+    }
+    if (show_config && !config.empty()) std::cout << "\n--- config ---\n" << config << "--- end ---\n";
+    std::cout << '\n';
+    inspector.text(std::cout, "/");
+  } catch (const std::exception& error) {
+    std::cerr << "imm-inspect: " << error.what() << '\n';
+    return kExitBadFile;
+  }
+  return 0;
+}

@@ -1,0 +1,30 @@
+#pragma once
+/// What every trainer stamps into its outputs: provenance for model files and the
+/// `<model>.metrics.json` written beside them.
+
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "imm/io/model_file.hpp"
+
+namespace imm::trainer {
+
+/// Provenance with this build's version and the current time filled in.
+[[nodiscard]] io::Provenance make_provenance(std::string model_kind, std::string config_toml,
+                                             std::int64_t seed, std::string dataset_digest);
+
+/// `<folder>/<stem>.metrics.json` for a model file path.
+[[nodiscard]] std::filesystem::path metrics_path(const std::filesystem::path& model_path);
+
+/// Writes JSON atomically (temporary file in the same folder, then rename).
+void write_json_atomically(const std::filesystem::path& path, const nlohmann::json& document);
+
+/// Creates the parent folder of `path` if needed.
+void ensure_parent_folder(const std::filesystem::path& path);
+
+/// Reads a whole text file; throws std::runtime_error naming the file.
+[[nodiscard]] std::string read_text_file(const std::filesystem::path& path);
+
+}  // namespace imm::trainer

@@ -1,0 +1,56 @@
+#include "imm/trainer/provenance.hpp"
+
+#include <unistd.h>
+
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "imm/build_info.hpp"
+
+namespace imm::trainer {
+
+io::Provenance make_provenance(std::string model_kind, std::string config_toml, std::int64_t seed,
+                               std::string dataset_digest) {
+  io::Provenance provenance;
+  provenance.model_kind = std::move(model_kind);
+  provenance.created_utc = io::utc_now();
+  provenance.trainer_version = kBuildVersion;
+  provenance.seed = seed;
+  provenance.config_toml = std::move(config_toml);
+  provenance.dataset_digest = std::move(dataset_digest);
+  return provenance;
+}
+
+std::filesystem::path metrics_path(const std::filesystem::path& model_path) {
+  return model_path.parent_path() / (model_path.stem().string() + ".metrics.json");
+}
+
+void ensure_parent_folder(const std::filesystem::path& path) {
+  const auto folder = path.parent_path();
+  if (!folder.empty()) std::filesystem::create_directories(folder);
+}
+
+void write_json_atomically(const std::filesystem::path& path, const nlohmann::json& document) {
+  ensure_parent_folder(path);
+  std::string temp_name = ".";
+  temp_name.append(path.filename().string()).append(".tmp-").append(std::to_string(::getpid()));
+  const auto temp = path.parent_path() / temp_name;
+  {
+    std::ofstream out(temp, std::ios::trunc);
+    out << document.dump(2) << '\n';
+    out.flush();
+    if (!out) throw std::runtime_error(temp.string() + ": cannot write");
+  }
+  std::filesystem::rename(temp, path);
+}
+
+std::string read_text_file(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path.string() + ": cannot open");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+}  // namespace imm::trainer
