@@ -9,6 +9,12 @@
 ///   3. each mode predicts from its mixed condition and updates with z (7 / 19);
 ///   4. μ_j ∝ Λ_j c_j (8–9), computed as log μ_j = log Λ_j + log c_j − log Σ exp(·): far-off modes
 ///      have likelihoods that underflow in linear space, never in log space;
+///
+/// Underflow: μ is stored as log μ. Steps 1–2 work on μ scaled by its largest entry
+/// (μ̃_i = exp(log μ_i − max log μ) ∈ (0, 1]), which is exact and costs one exponential per mode
+/// instead of one per (i, j) pair; entries below 1e-308 of the largest vanish there, as they would
+/// in any floating-point sum. Where a c̃_j underflows to zero (possible only with zero
+/// transition entries) log c_j falls back to the exact log-sum-exp.
 ///   5. combined estimate x̂ = Σ μ_j x̂_j, P = Σ μ_j (P_j + (x̂_j − x̂)(·)ᵀ) (10–11).
 ///
 /// Failure handling: a NaN/Inf measurement, a singular innovation covariance or a non-finite
@@ -18,6 +24,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -60,6 +67,7 @@ class ImmEstimator {
       if (!mode) throw std::invalid_argument("IMM mode is null");
     }
     detail::validate_mode_probabilities(transition, initial_probabilities, n);
+    transition_ = transition;
     log_transition_.resize(n, n);
     initial_log_probabilities_.resize(n);
     for (int i = 0; i < n; ++i) {
@@ -68,7 +76,9 @@ class ImmEstimator {
     }
     log_probabilities_ = initial_log_probabilities_;
     log_predicted_.resize(n);
+    predicted_scaled_.resize(n);
     log_posterior_.resize(n);
+    scaled_.resize(n);
     scratch_.resize(n);
   }
 
@@ -109,7 +119,7 @@ class ImmEstimator {
   [[nodiscard]] bool initialized() const { return initialized_; }
   [[nodiscard]] const GaussianState<NX>& estimate() const { return combined_; }
   [[nodiscard]] int mode_count() const { return static_cast<int>(modes_.size()); }
-  [[nodiscard]] const Mode& mode(int j) const { return *modes_[static_cast<std::size_t>(j)]; }
+  [[nodiscard]] const Mode& mode(int j) const { return *modes_[index(j)]; }
 
   /// Mode probabilities μ_j (linear space; may contain exact zeros after underflow).
   [[nodiscard]] ModeVector mode_probabilities() const {
@@ -126,12 +136,21 @@ class ImmEstimator {
     if (!initialized_) throw std::logic_error("ImmEstimator used before initialize()");
   }
 
-  // log c_j = log Σ_i p_ij μ_i (eq. 8's inner sum).
+  // log c_j = log Σ_i p_ij μ_i (eq. 8's inner sum), through the scaled μ̃ (see the class comment).
   void predict_mode_probabilities() {
     const int n = mode_count();
+    const double shift = log_probabilities_.maxCoeff();
+    for (int i = 0; i < n; ++i) scaled_(i) = std::exp(log_probabilities_(i) - shift);
     for (int j = 0; j < n; ++j) {
-      for (int i = 0; i < n; ++i) scratch_(i) = log_transition_(i, j) + log_probabilities_(i);
-      log_predicted_(j) = log_sum_exp(scratch_);
+      double c = 0.0;
+      for (int i = 0; i < n; ++i) c += transition_(i, j) * scaled_(i);
+      predicted_scaled_(j) = c;
+      if (c > 0.0) {
+        log_predicted_(j) = std::log(c) + shift;
+      } else {
+        for (int i = 0; i < n; ++i) scratch_(i) = log_transition_(i, j) + log_probabilities_(i);
+        log_predicted_(j) = log_sum_exp(scratch_);
+      }
     }
   }
 
@@ -139,21 +158,28 @@ class ImmEstimator {
   template <class Propose>
   void mix_and_propose(Propose&& propose) {
     const int n = mode_count();
-    for (int i = 0; i < n; ++i) modes_[static_cast<std::size_t>(i)]->embedded_estimate(means_[i], covariances_[i]);
+    // means_/covariances_ hold every mode's current estimate (see combine()).
     status_ = StepStatus::kOk;
     for (int j = 0; j < n; ++j) {
       if (log_predicted_(j) == -std::numeric_limits<double>::infinity()) {
         // Mode j is unreachable under Π and μ: its weights are undefined; it keeps its own
         // estimate as the initial condition and its probability stays zero.
-        mixed_.mean = means_[j];
-        mixed_.covariance = covariances_[j];
+        mixed_.mean = means_[index(j)];
+        mixed_.covariance = covariances_[index(j)];
       } else {
-        for (int i = 0; i < n; ++i) {
-          scratch_(i) = std::exp(log_transition_(i, j) + log_probabilities_(i) - log_predicted_(j));
+        if (predicted_scaled_(j) > 0.0) {
+          for (int i = 0; i < n; ++i) {
+            scratch_(i) = transition_(i, j) * scaled_(i) / predicted_scaled_(j);
+          }
+        } else {
+          for (int i = 0; i < n; ++i) {
+            scratch_(i) =
+                std::exp(log_transition_(i, j) + log_probabilities_(i) - log_predicted_(j));
+          }
         }
         moment_match(scratch_, mixed_);
       }
-      const ModeStep result = propose(*modes_[static_cast<std::size_t>(j)], mixed_);
+      const ModeStep result = propose(mode_at(j), mixed_);
       if (result.status != StepStatus::kOk) {
         status_ = result.status;
         return;
@@ -162,48 +188,68 @@ class ImmEstimator {
     }
   }
 
+  // Normalizes the posterior in log space, commits the modes and combines.
   StepStatus finish_cycle() {
     if (status_ != StepStatus::kOk) return status_;
-    const double log_normalizer = log_sum_exp(log_posterior_);
-    if (!std::isfinite(log_normalizer)) return StepStatus::kProbabilityUnderflow;
+    const int n = mode_count();
+    const double shift = log_posterior_.maxCoeff();
+    if (!std::isfinite(shift)) return StepStatus::kProbabilityUnderflow;
+    double sum = 0.0;
+    for (int j = 0; j < n; ++j) {
+      scaled_(j) = std::exp(log_posterior_(j) - shift);
+      sum += scaled_(j);
+    }
+    const double log_normalizer = shift + std::log(sum);
     for (auto& mode : modes_) mode->commit();
     log_probabilities_ = log_posterior_.array() - log_normalizer;
-    combine();
+    scaled_ /= sum;
+    combine(scaled_);
     return StepStatus::kOk;
   }
 
-  // Combination (eq. 10–11) with the current μ.
-  void combine() {
+  // Combination (eq. 10–11) with mode probabilities `mu` (linear, summing to 1). Refreshes
+  // means_/covariances_ with the modes' current estimates, which the next mixing reuses: they
+  // change only in initialize() and finish_cycle(), both of which end here.
+  void combine(const ModeVector& mu) {
     const int n = mode_count();
-    for (int j = 0; j < n; ++j) {
-      modes_[static_cast<std::size_t>(j)]->embedded_estimate(means_[j], covariances_[j]);
-      scratch_(j) = std::exp(log_probabilities_(j));
-    }
-    moment_match(scratch_, combined_);
+    for (int j = 0; j < n; ++j) mode_at(j).embedded_estimate(means_[index(j)], covariances_[index(j)]);
+    moment_match(mu, combined_);
   }
 
-  // Σ w_i N(means_i, covariances_i) collapsed to one Gaussian (weights sum to 1).
+  void combine() {
+    const int n = mode_count();
+    for (int j = 0; j < n; ++j) scaled_(j) = std::exp(log_probabilities_(j));
+    combine(scaled_);
+  }
+
+  // Σ w_i N(means_i, covariances_i) collapsed to one Gaussian (weights sum to 1). The result is
+  // exactly symmetric when the inputs are: entries (a, b) and (b, a) see the same operations.
   void moment_match(const ModeVector& weights, GaussianState<NX>& out) const {
     const int n = mode_count();
     out.mean.setZero();
-    for (int i = 0; i < n; ++i) out.mean += weights(i) * means_[i];
+    for (int i = 0; i < n; ++i) out.mean += weights(i) * means_[index(i)];
     out.covariance.setZero();
     for (int i = 0; i < n; ++i) {
       if (weights(i) == 0.0) continue;
-      const Vector<NX> d = means_[i] - out.mean;
-      out.covariance += weights(i) * (covariances_[i] + d * d.transpose());
+      const Vector<NX> d = means_[index(i)] - out.mean;
+      out.covariance += weights(i) * (covariances_[index(i)] + d * d.transpose());
     }
-    out.covariance = symmetrized(out.covariance);
   }
 
+  static std::size_t index(int i) { return static_cast<std::size_t>(i); }
+  Mode& mode_at(int i) { return *modes_[index(i)]; }
+
   std::vector<std::unique_ptr<Mode>> modes_;
+  ModeMatrix transition_;
   ModeMatrix log_transition_;
   ModeVector initial_log_probabilities_;
   ModeVector log_probabilities_;
   ModeVector log_predicted_;
+  ModeVector predicted_scaled_;  // c̃_j = c_j / max μ
   ModeVector log_posterior_;
+  ModeVector scaled_;  // μ̃ (prediction) or posterior weights (combination)
   ModeVector scratch_;
-  std::array<Vector<NX>, kMaxModes> means_{};
+  std::array<Vector<NX>, kMaxModes> means_{};             // embedded current mode estimates
   std::array<SquareMatrix<NX>, kMaxModes> covariances_{};
   GaussianState<NX> mixed_;
   GaussianState<NX> combined_;

@@ -12,6 +12,7 @@
 #include <numbers>
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 
 #include "imm/filters/gaussian_state.hpp"
 #include "imm/filters/step_status.hpp"
@@ -38,7 +39,7 @@ template <int N>
   predicted.mean.noalias() = F * state.mean;
   predicted.covariance.noalias() = F * state.covariance * F.transpose();
   predicted.covariance += Q;
-  predicted.covariance = symmetrized(predicted.covariance);
+  symmetrize(predicted.covariance);
   return predicted;
 }
 
@@ -59,40 +60,86 @@ UpdateReport<M> update_with_innovation(GaussianState<N>& state, const Vector<M>&
                                        const Matrix<M, N>& H, const SquareMatrix<M>& R) {
   UpdateReport<M> report;
   report.innovation = innovation;
-  const Matrix<N, M> PHt = state.covariance * H.transpose();
-  report.innovation_covariance = symmetrized(H * PHt + R);
-
-  const Eigen::LLT<SquareMatrix<M>> llt(report.innovation_covariance);
-  if (llt.info() != Eigen::Success || !report.innovation_covariance.allFinite()) {
+  Matrix<N, M> PHt;
+  PHt.noalias() = state.covariance * H.transpose();
+  report.innovation_covariance.noalias() = H * PHt;
+  report.innovation_covariance += R;
+  symmetrize(report.innovation_covariance);
+  const SquareMatrix<M>& S = report.innovation_covariance;
+  if (!S.allFinite()) {
     report.status = StepStatus::kSingularInnovation;
     return report;
   }
-  const SquareMatrix<M> L = llt.matrixL();
+
+  // Positive definiteness and log|S|: closed forms for the common M ≤ 2 (Sylvester's criterion),
+  // a Cholesky factorization otherwise.
   double log_det = 0.0;
-  for (int i = 0; i < M; ++i) {
-    if (!(L(i, i) > 0.0)) {
+  if constexpr (M == 1) {
+    if (!(S(0, 0) > 0.0)) {
       report.status = StepStatus::kSingularInnovation;
       return report;
     }
-    log_det += 2.0 * std::log(L(i, i));
+    log_det = std::log(S(0, 0));
+  } else if constexpr (M == 2) {
+    const double det = S(0, 0) * S(1, 1) - S(0, 1) * S(1, 0);
+    // The relative guard rejects S whose determinant is lost in cancellation.
+    if (!(S(0, 0) > 0.0) || !(det > 1e-14 * S(0, 0) * S(1, 1))) {
+      report.status = StepStatus::kSingularInnovation;
+      return report;
+    }
+    log_det = std::log(det);
+  } else {
+    const Eigen::LLT<SquareMatrix<M>> llt(S);
+    if (llt.info() != Eigen::Success) {
+      report.status = StepStatus::kSingularInnovation;
+      return report;
+    }
+    const SquareMatrix<M> L = llt.matrixL();
+    for (int i = 0; i < M; ++i) {
+      if (!(L(i, i) > 0.0)) {
+        report.status = StepStatus::kSingularInnovation;
+        return report;
+      }
+      log_det += 2.0 * std::log(L(i, i));
+    }
   }
 
-  // K = P Hᵀ S⁻¹, solved rather than inverted.
-  const Matrix<N, M> K = llt.solve(PHt.transpose()).transpose();
-  const SquareMatrix<N> I_KH = SquareMatrix<N>::Identity() - K * H;
+  // K = P Hᵀ S⁻¹. S is positive definite (checked above); for the small measurement dimensions of
+  // tracking (M ≤ 4) Eigen inverts fixed-size matrices in closed form, which is as accurate as the
+  // triangular solves here and several times faster.
+  SquareMatrix<M> S_inverse;
+  if constexpr (M <= 4) {
+    S_inverse = S.inverse();
+  } else {
+    S_inverse = S.llt().solve(SquareMatrix<M>::Identity());
+  }
+  symmetrize(S_inverse);
+  Matrix<N, M> K;
+  K.noalias() = PHt * S_inverse;
+
+  // Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ, evaluated without forming I − KH:
+  // C = (I − KH) P = P − K (P Hᵀ)ᵀ, then C (I − KH)ᵀ = C − (C Hᵀ) Kᵀ.
+  SquareMatrix<N> C = state.covariance;
+  C.noalias() -= K * PHt.transpose();
+  Matrix<N, M> CHt;
+  CHt.noalias() = C * H.transpose();
+  Matrix<N, M> KR;
+  KR.noalias() = K * R;
   GaussianState<N> updated;
-  updated.mean = state.mean + K * innovation;
-  updated.covariance.noalias() = I_KH * state.covariance * I_KH.transpose();
-  updated.covariance.noalias() += K * R * K.transpose();
-  updated.covariance = symmetrized(updated.covariance);
+  updated.mean = state.mean;
+  updated.mean.noalias() += K * innovation;
+  updated.covariance = C;
+  updated.covariance.noalias() -= CHt * K.transpose();
+  updated.covariance.noalias() += KR * K.transpose();
+  symmetrize(updated.covariance);
   if (!updated.all_finite()) {
     report.status = StepStatus::kNonFiniteResult;
     return report;
   }
 
-  const double mahalanobis = innovation.dot(llt.solve(innovation));
-  report.log_likelihood =
-      -0.5 * (mahalanobis + log_det + M * std::log(2.0 * std::numbers::pi));
+  const double mahalanobis = innovation.dot(S_inverse * innovation);
+  constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
+  report.log_likelihood = -0.5 * (mahalanobis + log_det + M * kLogTwoPi);
   state = updated;
   return report;
 }

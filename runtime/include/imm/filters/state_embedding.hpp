@@ -18,7 +18,7 @@ class StateEmbedding {
 
  public:
   /// Identity embedding (N == NX).
-  StateEmbedding() {
+  StateEmbedding() : identity_(true) {
     static_assert(N == NX, "a lower-dimensional mode needs explicit indices");
     for (int i = 0; i < N; ++i) indices_[static_cast<std::size_t>(i)] = i;
   }
@@ -34,10 +34,19 @@ class StateEmbedding {
       }
       used[static_cast<std::size_t>(index)] = true;
     }
+    identity_ = N == NX;
+    for (int i = 0; i < N; ++i) identity_ = identity_ && index(i) == i;
   }
 
   /// Mode → mixing space, zero-padded.
   void embed(const GaussianState<N>& state, Vector<NX>& mean, SquareMatrix<NX>& covariance) const {
+    if constexpr (N == NX) {
+      if (identity_) {
+        mean = state.mean;
+        covariance = state.covariance;
+        return;
+      }
+    }
     mean.setZero();
     covariance.setZero();
     for (int i = 0; i < N; ++i) {
@@ -49,6 +58,9 @@ class StateEmbedding {
 
   /// Mixing space → mode: the mode's own components and their covariance block.
   [[nodiscard]] GaussianState<N> project(const GaussianState<NX>& state) const {
+    if constexpr (N == NX) {
+      if (identity_) return state;
+    }
     GaussianState<N> projected;
     for (int i = 0; i < N; ++i) {
       const int a = index(i);
@@ -62,6 +74,7 @@ class StateEmbedding {
 
  private:
   std::array<int, N> indices_{};
+  bool identity_ = false;
 };
 
 }  // namespace imm

@@ -23,6 +23,20 @@ using ModeVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMa
 using ModeMatrix =
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxModes, kMaxModes>;
 
+/// Replaces A by (A + Aᵀ)/2 in place: removes the rounding asymmetry of covariance products.
+/// Plain loops over the strict upper triangle — cheaper for small fixed sizes than an Eigen
+/// expression with a transposed operand.
+template <int N>
+void symmetrize(SquareMatrix<N>& a) {
+  for (int i = 0; i < N; ++i) {
+    for (int j = i + 1; j < N; ++j) {
+      const double mean = 0.5 * (a(i, j) + a(j, i));
+      a(i, j) = mean;
+      a(j, i) = mean;
+    }
+  }
+}
+
 /// Returns (A + Aᵀ)/2: removes the rounding asymmetry of covariance products.
 template <class Derived>
 [[nodiscard]] typename Derived::PlainObject symmetrized(const Eigen::MatrixBase<Derived>& a) {

@@ -1,0 +1,197 @@
+#include "imm/support/config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <sstream>
+
+#include "imm/datasets/maneuver_scenario.hpp"
+#include "imm/support/measurement_csv.hpp"
+#include "imm/support/plain_imm_config.hpp"
+#include "imm/support/scenario_config.hpp"
+
+namespace imm::support {
+namespace {
+
+constexpr const char* kCv2 = R"(
+sample_period = 1.0
+initial_probabilities = [0.5, 0.5]
+transition = [[0.9, 0.1], [0.1, 0.9]]
+[measurement]
+kind = "cartesian"
+sigma = [0.5, 0.5]
+[[modes]]
+name = "slow"
+motion = "cv"
+process_noise = 1e-6
+[[modes]]
+name = "fast"
+motion = "cv"
+process_noise = 1e-2
+)";
+
+PlainImmSpec parse_plain(const std::string& text) {
+  const auto document = ConfigDocument::parse(text, "filter.toml");
+  return document->load_checked([&] { return plain_imm_from(document->root()); });
+}
+
+// The error a config raises: "file|key|message-fragment".
+std::pair<std::string, std::string> error_of(const std::string& text) {
+  try {
+    (void)parse_plain(text);
+  } catch (const ConfigError& error) {
+    EXPECT_EQ(error.file(), "filter.toml");
+    return {error.key(), error.what()};
+  }
+  return {"", "no error"};
+}
+
+TEST(PlainImmConfig, ParsesAValidFile) {
+  const PlainImmSpec spec = parse_plain(kCv2);
+  ASSERT_EQ(spec.modes.size(), 2u);
+  EXPECT_EQ(spec.modes[1].name, "fast");
+  EXPECT_EQ(spec.modes[1].process_noise, 1e-2);
+  EXPECT_EQ(spec.measurement.covariance, Eigen::Matrix2d(0.25 * Eigen::Matrix2d::Identity()));
+  EXPECT_EQ(spec.initialization.method, InitializationMethod::kTwoPoint);
+}
+
+TEST(PlainImmConfig, UnknownKeyIsNamed) {
+  auto [key, what] = error_of("process_nosie = 3\n" + std::string(kCv2));
+  EXPECT_EQ(key, "process_nosie");
+  EXPECT_NE(what.find("unknown key"), std::string::npos);
+  std::tie(key, what) = error_of(std::string(kCv2) + "colour = \"red\"\n");  // inside [[modes]][1]
+  EXPECT_EQ(key, "modes[1].colour");
+}
+
+TEST(PlainImmConfig, WrongTypeIsNamed) {
+  std::string text = kCv2;
+  text.replace(text.find("sample_period = 1.0"), 19, "sample_period = \"1\"");
+  const auto [key, what] = error_of(text);
+  EXPECT_EQ(key, "sample_period");
+  EXPECT_NE(what.find("expected a number, found a string"), std::string::npos) << what;
+}
+
+TEST(PlainImmConfig, OutOfRangeValueIsNamed) {
+  std::string text = kCv2;
+  text.replace(text.find("process_noise = 1e-2"), 20, "process_noise = -1.0");
+  auto [key, what] = error_of(text);
+  EXPECT_EQ(key, "modes[1].process_noise");
+  EXPECT_NE(what.find("non-negative"), std::string::npos) << what;
+
+  text = kCv2;
+  text.replace(text.find("[[0.9, 0.1], [0.1, 0.9]]"), 24, "[[0.9, 0.2], [0.1, 0.9]]");
+  std::tie(key, what) = error_of(text);
+  EXPECT_EQ(key, "transition");
+  EXPECT_NE(what.find("row 0 sums to"), std::string::npos) << what;
+
+  text = kCv2;
+  text.replace(text.find("motion = \"cv\""), 13, "motion = \"jerk\"");
+  std::tie(key, what) = error_of(text);
+  EXPECT_EQ(key, "modes[0].motion");
+}
+
+TEST(PlainImmConfig, ShapeErrorsAreNamed) {
+  std::string text = kCv2;
+  text.replace(text.find("initial_probabilities = [0.5, 0.5]"), 34, "initial_probabilities = [1.0]");
+  EXPECT_EQ(error_of(text).first, "initial_probabilities");
+  text = kCv2;
+  text.replace(text.find("sigma = [0.5, 0.5]"), 18, "sigma = [0.5, 0.5]\ncovariance = [[1,0],[0,1]]");
+  EXPECT_EQ(error_of(text).first, "measurement.covariance");
+}
+
+TEST(PlainImmConfig, SyntaxErrorGivesLineAndColumn) {
+  const auto [key, what] = error_of("sample_period = = 1\n");
+  EXPECT_EQ(key, "");
+  EXPECT_NE(what.find("line 1"), std::string::npos) << what;
+}
+
+TEST(PlainImmConfig, ShippedBenchmarkFilterIsTheIssuesFilter) {
+  const PlainImmSpec spec = load_plain_imm_config("configs/track/cv3_imm.toml");
+  ASSERT_EQ(spec.modes.size(), 3u);
+  EXPECT_EQ(spec.sample_period, 1.0);
+  EXPECT_EQ(spec.modes[0].process_noise, 1e-6);
+  EXPECT_EQ(spec.modes[1].process_noise, 1e-4);
+  EXPECT_EQ(spec.modes[2].process_noise, 1e-2);
+  for (const auto& mode : spec.modes) {
+    EXPECT_EQ(mode.motion, MotionKind::kConstantVelocity);
+    EXPECT_EQ(mode.noise_form, NoiseForm::kPiecewiseConstant);
+  }
+  EXPECT_EQ(spec.measurement.covariance, Eigen::Matrix2d(0.25 * Eigen::Matrix2d::Identity()));
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) EXPECT_EQ(spec.transition(i, j), i == j ? 0.97 : 0.015);
+  }
+  EXPECT_EQ(spec.initial_probabilities, Eigen::Vector3d(0.6, 0.2, 0.2));
+}
+
+TEST(ScenarioConfig, ShippedSeed000ConfigEqualsTheBuiltInScenario) {
+  const auto defaults = datasets::seed000_scenario();
+  const auto loaded = load_scenario_config("configs/data/seed000.toml", datasets::ManeuverScenario{});
+  EXPECT_EQ(loaded.name, defaults.name);
+  EXPECT_EQ(loaded.steps, defaults.steps);
+  EXPECT_EQ(loaded.runs, defaults.runs);
+  EXPECT_EQ(loaded.seed, defaults.seed);
+  EXPECT_TRUE(loaded.initial_position.isApprox(defaults.initial_position, 1e-12));
+  EXPECT_TRUE(loaded.initial_velocity.isApprox(defaults.initial_velocity, 1e-10));
+  EXPECT_EQ(loaded.process_noise_sigma, defaults.process_noise_sigma);
+  EXPECT_EQ(loaded.measurement.sigma, defaults.measurement.sigma);
+  ASSERT_EQ(loaded.maneuvers.size(), defaults.maneuvers.size());
+  for (std::size_t i = 0; i < loaded.maneuvers.size(); ++i) {
+    EXPECT_EQ(loaded.maneuvers[i].start, defaults.maneuvers[i].start);
+    EXPECT_EQ(loaded.maneuvers[i].end, defaults.maneuvers[i].end);
+    EXPECT_EQ(loaded.maneuvers[i].acceleration, defaults.maneuvers[i].acceleration);
+  }
+}
+
+TEST(ScenarioConfig, InvalidSegmentIsNamed) {
+  const auto document = ConfigDocument::parse(
+      "steps = 50\n[[maneuvers]]\nstart = 40\nend = 60\nacceleration = [0.1, 0]\n", "s.toml");
+  try {
+    (void)document->load_checked(
+        [&] { return scenario_from(document->root(), datasets::ManeuverScenario{}); });
+    FAIL();
+  } catch (const ConfigError& error) {
+    EXPECT_EQ(error.key(), "maneuvers[0].end");
+  }
+}
+
+TEST(MeasurementCsv, ReportsBadRowsWithTheirLineNumbers) {
+  std::istringstream in(
+      "# plots\n"
+      "k,zx,zy\n"
+      "0,1.0,2.0\n"
+      "1,nan,2.0\n"
+      "2,1.5\n"
+      "\n"
+      "3,1.5,\n"
+      "x,1,2\n"
+      "4,1e3,-2.5e-1\n"
+      "5,abc,1\n");
+  const MeasurementCsv csv = read_measurement_csv(in, "plots.csv");
+  EXPECT_EQ(csv.kind, MeasurementKind::kCartesian);
+  ASSERT_EQ(csv.rows.size(), 7u);
+  EXPECT_TRUE(csv.rows[0].problem.empty());
+  EXPECT_EQ(csv.rows[0].line, 3u);
+  EXPECT_EQ(csv.rows[1].line, 4u);
+  EXPECT_EQ(csv.rows[1].problem, "zx is nan");
+  EXPECT_EQ(*csv.rows[1].scan, 1);
+  EXPECT_EQ(csv.rows[2].problem, "expected 3 fields, found 2");
+  EXPECT_EQ(csv.rows[3].line, 7u);
+  EXPECT_EQ(csv.rows[3].problem, "missing zy");
+  EXPECT_FALSE(csv.rows[4].scan.has_value());
+  EXPECT_EQ(csv.rows[5].z, Eigen::Vector2d(1000.0, -0.25));
+  EXPECT_EQ(csv.rows[6].problem, "zx 'abc' is not a number");
+  for (const auto& row : csv.rows) {
+    if (!row.problem.empty()) {
+      EXPECT_FALSE(row.z.allFinite());
+    }
+  }
+}
+
+TEST(MeasurementCsv, PolarHeaderAndMissingHeader) {
+  std::istringstream polar("k,range,azimuth\n0,100,0.5\n");
+  EXPECT_EQ(read_measurement_csv(polar, "p.csv").kind, MeasurementKind::kPolar);
+  std::istringstream headerless("0,1,2\n");
+  EXPECT_THROW((void)read_measurement_csv(headerless, "h.csv"), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace imm::support

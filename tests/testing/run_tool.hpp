@@ -1,0 +1,75 @@
+#pragma once
+/// Runs one of the project's executables (from $IMM_BIN_DIR, set by ctest) and captures its exit
+/// code, standard output and standard error — for end-to-end tests of the command-line tools.
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+extern char** environ;
+
+namespace imm::testing {
+
+struct ToolResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+inline std::filesystem::path tool_path(const std::string& name) {
+  const char* dir = std::getenv("IMM_BIN_DIR");
+  return std::filesystem::path(dir != nullptr ? dir : "build/bin") / name;
+}
+
+inline std::string slurp(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+/// Runs `tool` with `arguments` in `working_directory`.
+inline ToolResult run_tool(const std::string& tool, const std::vector<std::string>& arguments,
+                           const std::filesystem::path& working_directory) {
+  const auto out_file = working_directory / ".tool-stdout";
+  const auto err_file = working_directory / ".tool-stderr";
+  std::vector<std::string> storage{tool_path(tool).string()};
+  storage.insert(storage.end(), arguments.begin(), arguments.end());
+  std::vector<char*> argv;
+  for (auto& a : storage) argv.push_back(a.data());
+  argv.push_back(nullptr);
+
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, 2, err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 29))
+  posix_spawn_file_actions_addchdir_np(&actions, working_directory.c_str());
+#endif
+  pid_t pid = 0;
+  ToolResult result;
+  if (posix_spawn(&pid, storage[0].c_str(), &actions, nullptr, argv.data(), environ) == 0) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  posix_spawn_file_actions_destroy(&actions);
+  result.out = slurp(out_file);
+  result.err = slurp(err_file);
+  std::filesystem::remove(out_file);
+  std::filesystem::remove(err_file);
+  return result;
+}
+
+/// The repository root (ctest runs the tests there).
+inline std::filesystem::path source_root() { return std::filesystem::current_path(); }
+
+}  // namespace imm::testing

@@ -1,0 +1,205 @@
+// End-to-end tests of the command-line tools, run as separate processes like a user would.
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "testing/run_tool.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm {
+namespace {
+
+using testing::run_tool;
+using testing::TempDir;
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) lines.push_back(line);
+  return lines;
+}
+
+std::vector<std::string> fields_of(const std::string& line) {
+  std::vector<std::string> fields;
+  std::stringstream in(line);
+  std::string field;
+  while (std::getline(in, field, ',')) fields.push_back(field);
+  return fields;
+}
+
+class Tools : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    root_ = testing::source_root();
+    const auto result =
+        run_tool("imm-data", {"seed000", "--runs", "2", "--out", (dir_ / "d.h5").string(), "--csv",
+                              (dir_ / "plots.csv").string()},
+                 root_);
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+  }
+
+  std::filesystem::path config(const std::string& relative) const { return root_ / relative; }
+
+  TempDir dir_;
+  std::filesystem::path root_;
+};
+
+TEST_F(Tools, ImmDataIsReproducibleForASeed) {
+  const auto again = run_tool("imm-data", {"seed000", "--runs", "2", "--out", (dir_ / "e.h5").string()}, root_);
+  const auto other = run_tool("imm-data", {"seed000", "--runs", "2", "--seed", "9", "--out",
+                                           (dir_ / "f.h5").string()},
+                              root_);
+  ASSERT_EQ(again.exit_code, 0);
+  const auto inspect_d = run_tool("imm-inspect", {(dir_ / "d.h5").string(), "--json"}, root_);
+  const auto inspect_e = run_tool("imm-inspect", {(dir_ / "e.h5").string(), "--json"}, root_);
+  const auto inspect_f = run_tool("imm-inspect", {(dir_ / "f.h5").string(), "--json"}, root_);
+  const auto digest = [](const testing::ToolResult& r) {
+    return nlohmann::json::parse(r.out)["attributes"]["digest"].get<std::string>();
+  };
+  EXPECT_EQ(digest(inspect_d), digest(inspect_e));
+  EXPECT_NE(digest(inspect_d), digest(inspect_f));
+}
+
+TEST_F(Tools, ImmTrackReportsBadRowsAndKeepsTheFilterIntact) {
+  // Corrupt scans 50 and 51 of a clean run.
+  const auto clean_lines = lines_of(testing::slurp(dir_ / "plots.csv"));
+  std::ofstream dirty(dir_ / "dirty.csv");
+  std::size_t corrupted_line = 0;
+  for (std::size_t i = 0; i < clean_lines.size(); ++i) {
+    if (clean_lines[i].rfind("50,", 0) == 0) {
+      dirty << "50,nan,1.0\n";
+      corrupted_line = i + 1;
+    } else if (clean_lines[i].rfind("51,", 0) == 0) {
+      dirty << "51,2.0\n";
+    } else {
+      dirty << clean_lines[i] << '\n';
+    }
+  }
+  dirty.close();
+  const std::string filter = config("configs/track/cv3_imm.toml").string();
+  const auto clean = run_tool("imm-track", {"--filter", filter, "--measurements", (dir_ / "plots.csv").string()}, root_);
+  const auto bad = run_tool("imm-track", {"--filter", filter, "--measurements", (dir_ / "dirty.csv").string()}, root_);
+  ASSERT_EQ(clean.exit_code, 0) << clean.err;
+  ASSERT_EQ(bad.exit_code, 0) << bad.err;
+  EXPECT_NE(bad.err.find("dirty.csv:" + std::to_string(corrupted_line) + ": zx is nan"),
+            std::string::npos)
+      << bad.err;
+  EXPECT_NE(bad.err.find("dirty.csv:" + std::to_string(corrupted_line + 1) + ": expected 3 fields"),
+            std::string::npos)
+      << bad.err;
+
+  const auto clean_rows = lines_of(clean.out);
+  const auto bad_rows = lines_of(bad.out);
+  ASSERT_EQ(clean_rows.size(), 161u);  // header + 160 scans
+  ASSERT_EQ(bad_rows.size(), 161u);    // both bad rows name their scan: reported as rejected
+  for (std::size_t i = 0; i <= 50; ++i) EXPECT_EQ(clean_rows[i], bad_rows[i]) << "row " << i;
+  const auto before = fields_of(bad_rows[50]);  // scan 49
+  for (std::size_t i : {51u, 52u}) {
+    const auto rejected = fields_of(bad_rows[i]);
+    EXPECT_EQ(rejected[0], std::to_string(i - 1));
+    EXPECT_EQ(rejected[1], "rejected");
+    EXPECT_EQ(std::vector<std::string>(rejected.begin() + 2, rejected.end()),
+              std::vector<std::string>(before.begin() + 2, before.end()));
+  }
+  // Scan 52 predicts through 50 and 51 and then tracks on.
+  const auto resumed = fields_of(bad_rows[53]);
+  EXPECT_EQ(resumed[0], "52");
+  EXPECT_EQ(resumed[1], "updated");
+  EXPECT_NEAR(std::stod(resumed[2]), std::stod(fields_of(clean_rows[53])[2]), 1.0);
+}
+
+TEST_F(Tools, ImmTrackGivesTheSameTrackFromTheModelFileAsFromTheConfig) {
+  const auto model = dir_ / "cv3.h5";
+  const auto freeze = run_tool("imm-train", {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out", model.string()}, root_);
+  ASSERT_EQ(freeze.exit_code, 0) << freeze.err;
+  const auto from_config = run_tool("imm-track", {"--filter", config("configs/track/cv3_imm.toml").string(), "--measurements", (dir_ / "plots.csv").string()}, root_);
+  const auto from_model = run_tool("imm-track", {"--filter", model.string(), "--measurements", (dir_ / "plots.csv").string()}, root_);
+  ASSERT_EQ(from_model.exit_code, 0) << from_model.err;
+  EXPECT_EQ(from_config.out, from_model.out);
+}
+
+TEST_F(Tools, ImmTrackRefusesMismatchedMeasurements) {
+  testing::write_text(dir_ / "polar.csv", "k,range,azimuth\n0,100,0.1\n");
+  const auto result = run_tool("imm-track", {"--filter", config("configs/track/cv3_imm.toml").string(), "--measurements", (dir_ / "polar.csv").string()}, root_);
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("polar"), std::string::npos) << result.err;
+}
+
+TEST_F(Tools, ImmInspectPrintsTablesAndJson) {
+  const auto model = dir_ / "cv3.h5";
+  ASSERT_EQ(run_tool("imm-train", {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out", model.string()}, root_).exit_code, 0);
+  const auto text = run_tool("imm-inspect", {model.string()}, root_);
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("kind             plain_imm"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("/imm/transition  [3x3]"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("trainer_version"), std::string::npos);
+  const auto json = run_tool("imm-inspect", {model.string(), "--json"}, root_);
+  ASSERT_EQ(json.exit_code, 0);
+  const auto document = nlohmann::json::parse(json.out);
+  EXPECT_EQ(document["kind"], "plain_imm");
+  EXPECT_EQ(document["schema_version"], 1);
+  EXPECT_EQ(document["objects"]["/imm/transition"]["shape"], nlohmann::json::array({3, 3}));
+}
+
+TEST_F(Tools, ImmInspectRefusesBadFilesWithOneLineAndExitCodeTwo) {
+  const auto model = dir_ / "cv3.h5";
+  ASSERT_EQ(run_tool("imm-train", {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out", model.string()}, root_).exit_code, 0);
+  auto bytes = testing::read_bytes(model);
+  auto flipped = bytes;
+  flipped[bytes.size() / 2] = static_cast<char>(flipped[bytes.size() / 2] ^ 0x10);
+  testing::write_bytes(dir_ / "flipped.h5", flipped);
+  testing::write_bytes(dir_ / "truncated.h5", std::vector<char>(bytes.begin(), bytes.begin() + 700));
+  testing::write_text(dir_ / "foreign.h5", "just some text that is long enough to not be a model\n");
+  for (const char* name : {"flipped.h5", "truncated.h5", "foreign.h5", "missing.h5"}) {
+    const auto result = run_tool("imm-inspect", {(dir_ / name).string()}, root_);
+    EXPECT_EQ(result.exit_code, 2) << name;
+    EXPECT_EQ(lines_of(result.err).size(), 1u) << name << ":\n" << result.err;
+    EXPECT_NE(result.err.find(name), std::string::npos) << result.err;
+  }
+}
+
+TEST_F(Tools, ImmTrainFreezeNamesTheBadKey) {
+  testing::write_text(dir_ / "bad.toml", testing::slurp(config("configs/track/cv3_imm.toml")) +
+                                             "\n[[modes]]\nname = \"x\"\nmotion = \"cv\"\nprocess_noise = -5\n");
+  const auto result = run_tool("imm-train", {"freeze", "--config", (dir_ / "bad.toml").string(), "--out", (dir_ / "m.h5").string()}, root_);
+  EXPECT_EQ(result.exit_code, 2);
+  // Four modes but a 3x3 transition: the first invalid key is reported.
+  EXPECT_NE(result.err.find("bad.toml: key 'transition'"), std::string::npos) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "m.h5"));
+}
+
+TEST_F(Tools, NightlyPipelineStopsWithNonZeroExitOnAFailingStage) {
+  testing::write_text(dir_ / "nightly.toml",
+                      "[[models]]\nname = \"broken\"\ncommand = \"freeze\"\nconfig = \"" +
+                          (dir_ / "missing.toml").string() + "\"\nout = \"" + (dir_ / "m.h5").string() +
+                          "\"\n[[evaluations]]\nexperiment = \"plain-imm\"\nmodels = \"" +
+                          dir_.path().string() + "\"\nout = \"" + (dir_ / "r").string() + "\"\n");
+  const auto result = run_tool("imm-train", {"all", "--config", (dir_ / "nightly.toml").string()}, root_);
+  EXPECT_EQ(result.exit_code, 3) << result.err;
+  EXPECT_NE(result.err.find("FAILED"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("stopped after 1 of 2 stages"), std::string::npos) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "r"));
+}
+
+TEST_F(Tools, PlainImmEvaluationWritesMetricsAndBeatsEachModeAlone) {
+  const auto model = dir_ / "models" / "cv3_imm.h5";
+  ASSERT_EQ(run_tool("imm-train", {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out", model.string()}, root_).exit_code, 0);
+  const auto out = dir_ / "report";
+  const auto result = run_tool("imm-eval", {"plain-imm", "--models", (dir_ / "models").string(), "--runs", "30", "--out", out.string()}, root_);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+  ASSERT_EQ(metrics["rows"].size(), 4u);
+  const double imm_zeta_p = metrics["rows"][0]["zeta_p"];
+  for (std::size_t i = 1; i < 4; ++i) {
+    EXPECT_LT(imm_zeta_p, metrics["rows"][i]["zeta_p"].get<double>()) << metrics["rows"][i]["filter"];
+  }
+  EXPECT_TRUE(std::filesystem::exists(out / "normalized_position_error.csv"));
+  EXPECT_TRUE(std::filesystem::exists(out / "mode_probabilities.csv"));
+}
+
+}  // namespace
+}  // namespace imm

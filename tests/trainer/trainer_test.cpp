@@ -1,0 +1,86 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "imm/io/plain_imm_file.hpp"
+#include "imm/support/config.hpp"
+#include "imm/trainer/freeze.hpp"
+#include "imm/trainer/nightly.hpp"
+#include "imm/trainer/provenance.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm::trainer {
+namespace {
+
+TEST(Freeze, WritesALoadableModelWithProvenanceAndMetrics) {
+  const testing::TempDir dir;
+  const auto out = dir / "sub" / "cv3.h5";
+  const FreezeSummary summary = freeze_plain_imm({"configs/track/cv3_imm.toml", out});
+  EXPECT_EQ(summary.modes, 3);
+  EXPECT_EQ(summary.state_dimension, 4);
+  const io::ModelFileReader reader(out, io::kPlainImmKind);
+  EXPECT_EQ(reader.provenance().config_toml, read_text_file("configs/track/cv3_imm.toml"));
+  EXPECT_FALSE(reader.provenance().trainer_version.empty());
+  EXPECT_EQ(io::read_plain_imm(reader).modes[2].process_noise, 1e-2);
+  const std::string metrics = testing::slurp_text(metrics_path(out));
+  EXPECT_NE(metrics.find("\"modes\": 3"), std::string::npos) << metrics;
+}
+
+TEST(Freeze, BadConfigLeavesNoModelBehind) {
+  const testing::TempDir dir;
+  testing::write_text(dir / "bad.toml", "sample_period = 1.0\n");
+  EXPECT_THROW((void)freeze_plain_imm({dir / "bad.toml", dir / "m.h5"}), support::ConfigError);
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.h5"));
+}
+
+TEST(Nightly, PlanListsStagesInPipelineOrder) {
+  const NightlyPlan plan = load_nightly_plan("configs/nightly.toml");
+  ASSERT_GE(plan.stages.size(), 4u);
+  std::vector<std::string> kinds;
+  for (const auto& stage : plan.stages) kinds.push_back(stage.kind);
+  EXPECT_TRUE(std::is_sorted(kinds.begin(), kinds.end(), [](const auto& a, const auto& b) {
+    auto rank = [](const std::string& k) {
+      return k == "data" ? 0 : k == "model" ? 1 : k == "track" ? 2 : 3;
+    };
+    return rank(a) < rank(b);
+  }));
+  EXPECT_EQ(plan.stages.front().executable, "imm-data");
+}
+
+TEST(Nightly, UnknownKeyInThePlanIsAnError) {
+  const testing::TempDir dir;
+  testing::write_text(dir / "n.toml",
+                      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\nout = \"o\"\n"
+                      "threads = 2\n");
+  try {
+    (void)load_nightly_plan(dir / "n.toml");
+    FAIL();
+  } catch (const support::ConfigError& error) {
+    EXPECT_EQ(error.key(), "models[0].threads");
+  }
+}
+
+TEST(Nightly, StopsAtTheFirstFailingStage) {
+  NightlyPlan plan;
+  for (const char* name : {"a", "b", "c"}) plan.stages.push_back({"model", name, "x", {}, {}});
+  std::vector<std::string> ran;
+  const auto results = run_nightly(plan, [&](const NightlyStage& stage) {
+    ran.push_back(stage.name);
+    return stage.name == "b" ? 7 : 0;
+  });
+  EXPECT_EQ(ran, (std::vector<std::string>{"a", "b"}));
+  ASSERT_EQ(results.size(), 2u);
+  EXPECT_EQ(results.back().exit_code, 7);
+  EXPECT_GE(results.front().wall_seconds, 0.0);
+}
+
+TEST(Nightly, ProcessExitCodesAndSignalsAreReported) {
+  EXPECT_EQ(run_process("/bin/sh", {"-c", "exit 0"}), 0);
+  EXPECT_EQ(run_process("/bin/sh", {"-c", "exit 5"}), 5);
+  EXPECT_EQ(run_process("/bin/sh", {"-c", "kill -9 $$"}), 128 + 9);
+  EXPECT_EQ(run_process("sh", {"-c", "exit 3"}), 3);  // looked up in PATH
+  EXPECT_THROW((void)run_process("/no/such/tool", {}), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace imm::trainer
