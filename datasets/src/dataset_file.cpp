@@ -27,9 +27,10 @@ std::vector<Eigen::MatrixXd> unstack_runs(const io::Array& array) {
   const std::size_t runs = array.shape[0], steps = array.shape[1], columns = array.shape[2];
   std::vector<Eigen::MatrixXd> result;
   for (std::size_t r = 0; r < runs; ++r) {
-    result.emplace_back(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-        array.values.data() + r * steps * columns, static_cast<Eigen::Index>(steps),
-        static_cast<Eigen::Index>(columns)));
+    result.emplace_back(
+        Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+            array.values.data() + r * steps * columns, static_cast<Eigen::Index>(steps),
+            static_cast<Eigen::Index>(columns)));
   }
   return result;
 }
@@ -41,7 +42,7 @@ std::string write_scenario_dataset(const std::filesystem::path& path,
                                    const std::string& config_toml,
                                    const std::string& generator_version) {
   scenario.validate();
-  const std::string data_digest = digest(data);
+  std::string data_digest = digest(data);
   io::ContainerWriter writer(path, kDatasetFormat);
   writer.set_attribute("/", "format", std::string(kDatasetFormat));
   writer.set_attribute("/", "schema_version", std::int64_t{kDatasetSchemaVersion});
@@ -59,10 +60,10 @@ std::string write_scenario_dataset(const std::filesystem::path& path,
   writer.write("/truth", stack_runs(data.truth));
   writer.set_attribute("/truth", "columns", std::string("x,vx,y,vy"));
   writer.write("/measurements", stack_runs(data.measurements));
-  writer.set_attribute("/measurements", "columns",
-                       std::string(scenario.measurement.kind == MeasurementKind::kCartesian
-                                       ? "zx,zy"
-                                       : "range,azimuth"));
+  writer.set_attribute(
+      "/measurements", "columns",
+      std::string(scenario.measurement.kind == MeasurementKind::kCartesian ? "zx,zy"
+                                                                           : "range,azimuth"));
 
   writer.set_attribute("/parameters", "sample_period", scenario.sample_period);
   writer.set_attribute("/parameters", "steps", std::int64_t{scenario.steps});
@@ -73,13 +74,14 @@ std::string write_scenario_dataset(const std::filesystem::path& path,
   writer.set_attribute("/parameters", "measurement_sigma_0", scenario.measurement.sigma(0));
   writer.set_attribute("/parameters", "measurement_sigma_1", scenario.measurement.sigma(1));
   writer.write("/parameters/initial_state",
-               io::Array::from_vector(Eigen::Vector4d(
-                   scenario.initial_position(0), scenario.initial_velocity(0),
-                   scenario.initial_position(1), scenario.initial_velocity(1))));
+               io::Array::from_vector(
+                   Eigen::Vector4d(scenario.initial_position(0), scenario.initial_velocity(0),
+                                   scenario.initial_position(1), scenario.initial_velocity(1))));
   Eigen::MatrixXd maneuvers(static_cast<Eigen::Index>(scenario.maneuvers.size()), 4);
   for (std::size_t i = 0; i < scenario.maneuvers.size(); ++i) {
     const ManeuverSegment& m = scenario.maneuvers[i];
-    maneuvers.row(static_cast<Eigen::Index>(i)) << m.start, m.end, m.acceleration(0), m.acceleration(1);
+    maneuvers.row(static_cast<Eigen::Index>(i)) << m.start, m.end, m.acceleration(0),
+        m.acceleration(1);
   }
   writer.write("/parameters/maneuvers", maneuvers);
   writer.set_attribute("/parameters/maneuvers", "columns", std::string("start,end,ax,ay"));
@@ -113,14 +115,14 @@ ScenarioDataset read_scenario_dataset(const std::filesystem::path& path) {
   s.process_noise_sigma =
       reader.real("/parameters", "process_noise_sigma", io::ValueRule::kNonNegative);
   try {
-    s.measurement.kind = measurement_kind_from(reader.text("/parameters", "measurement_kind"),
-                                               "measurement_kind");
+    s.measurement.kind =
+        measurement_kind_from(reader.text("/parameters", "measurement_kind"), "measurement_kind");
   } catch (const InvalidParameter& error) {
     reader.fail("/parameters@measurement_kind", error.what());
   }
-  s.measurement.sigma = Eigen::Vector2d(
-      reader.real("/parameters", "measurement_sigma_0", io::ValueRule::kPositive),
-      reader.real("/parameters", "measurement_sigma_1", io::ValueRule::kPositive));
+  s.measurement.sigma =
+      Eigen::Vector2d(reader.real("/parameters", "measurement_sigma_0", io::ValueRule::kPositive),
+                      reader.real("/parameters", "measurement_sigma_1", io::ValueRule::kPositive));
   const Eigen::VectorXd initial = reader.vector("/parameters/initial_state", 4);
   s.initial_position = Eigen::Vector2d(initial(0), initial(2));
   s.initial_velocity = Eigen::Vector2d(initial(1), initial(3));

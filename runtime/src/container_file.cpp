@@ -150,7 +150,8 @@ bool file_crc32(int fd, std::uint64_t offset, std::uint64_t length, std::uint32_
   std::vector<char> buffer(1 << 16);
   crc = 0;
   while (length > 0) {
-    const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(length, buffer.size()));
+    const std::size_t want =
+        static_cast<std::size_t>(std::min<std::uint64_t>(length, buffer.size()));
     const ssize_t got = ::pread(fd, buffer.data(), want, static_cast<off_t>(offset));
     if (got <= 0) return false;
     crc = crc32(buffer.data(), static_cast<std::size_t>(got), crc);
@@ -249,9 +250,9 @@ void write_attribute(hid_t object, const std::string& name, const Attribute& val
     memory_type = file_type.get();
     data = text.data();
   }
-  Handle attribute(H5Acreate2(object, name.c_str(), file_type.get(), space.get(), H5P_DEFAULT,
-                              H5P_DEFAULT),
-                   H5Aclose);
+  Handle attribute(
+      H5Acreate2(object, name.c_str(), file_type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
+      H5Aclose);
   if (!attribute.valid() || H5Awrite(attribute.get(), memory_type, data) < 0) {
     throw FileError(file, field, "cannot write attribute: " + hdf5_cause());
   }
@@ -319,7 +320,8 @@ void seal_container(const std::filesystem::path& path, std::string_view format) 
   std::copy(text.begin(), text.end(), block.begin());
   const std::string crc = hex32(header_block_crc(block, digits));
   std::copy(crc.begin(), crc.end(), block.begin() + static_cast<std::ptrdiff_t>(digits));
-  if (::pwrite(descriptor.fd, block.data(), block.size(), 0) != static_cast<ssize_t>(block.size()) ||
+  if (::pwrite(descriptor.fd, block.data(), block.size(), 0) !=
+          static_cast<ssize_t>(block.size()) ||
       ::fsync(descriptor.fd) != 0) {
     throw FileError(file, "", "cannot write header: " + errno_text());
   }
@@ -358,12 +360,12 @@ ContainerWriter::ContainerWriter(const std::filesystem::path& path, std::string_
   H5Pset_userblock(create_list.get(), kHeaderSize);
   Handle access_list(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   H5Pset_libver_bounds(access_list.get(), H5F_LIBVER_V18, H5F_LIBVER_LATEST);
-  impl_->file = Handle(H5Fcreate(impl_->temp_path.c_str(), H5F_ACC_EXCL, create_list.get(),
-                                 access_list.get()),
-                       H5Fclose);
+  impl_->file = Handle(
+      H5Fcreate(impl_->temp_path.c_str(), H5F_ACC_EXCL, create_list.get(), access_list.get()),
+      H5Fclose);
   if (!impl_->file.valid()) {
-    throw FileError(path.string(), "", "cannot create '" + impl_->temp_path.string() + "': " +
-                                           hdf5_cause());
+    throw FileError(path.string(), "",
+                    "cannot create '" + impl_->temp_path.string() + "': " + hdf5_cause());
   }
 }
 
@@ -384,10 +386,11 @@ void ContainerWriter::create_group(std::string_view group) {
   if (link_exists(impl_->file.get(), name)) return;
   Handle link_list(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
   H5Pset_create_intermediate_group(link_list.get(), 1);
-  Handle created(H5Gcreate2(impl_->file.get(), name.c_str(), link_list.get(), H5P_DEFAULT,
-                            H5P_DEFAULT),
-                 H5Gclose);
-  if (!created.valid()) throw FileError(impl_->name(), name, "cannot create group: " + hdf5_cause());
+  Handle created(
+      H5Gcreate2(impl_->file.get(), name.c_str(), link_list.get(), H5P_DEFAULT, H5P_DEFAULT),
+      H5Gclose);
+  if (!created.valid())
+    throw FileError(impl_->name(), name, "cannot create group: " + hdf5_cause());
 }
 
 void ContainerWriter::write(std::string_view dataset, const Eigen::MatrixXd& matrix) {
@@ -402,14 +405,14 @@ void ContainerWriter::write(std::string_view dataset, const Array& array) {
     throw FileError(file, name, "rank must be 1 to " + std::to_string(kMaxRank));
   }
   if (array.element_count() != array.values.size()) {
-    throw FileError(file, name, "shape holds " + std::to_string(array.element_count()) +
-                                    " elements but " + std::to_string(array.values.size()) +
-                                    " values were given");
+    throw FileError(file, name,
+                    "shape holds " + std::to_string(array.element_count()) + " elements but " +
+                        std::to_string(array.values.size()) + " values were given");
   }
   for (std::size_t i = 0; i < array.values.size(); ++i) {
     if (!std::isfinite(array.values[i])) {
-      throw FileError(file, name, "refusing to write non-finite value at flat index " +
-                                      std::to_string(i));
+      throw FileError(file, name,
+                      "refusing to write non-finite value at flat index " + std::to_string(i));
     }
   }
   const int rank = static_cast<int>(array.shape.size());
@@ -437,9 +440,8 @@ void ContainerWriter::write(std::string_view dataset, const Array& array) {
                          link_list.get(), create_list.get(), H5P_DEFAULT),
               H5Dclose);
   if (!data.valid()) throw FileError(file, name, "cannot create dataset: " + hdf5_cause());
-  if (!array.values.empty() &&
-      H5Dwrite(data.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT,
-               array.values.data()) < 0) {
+  if (!array.values.empty() && H5Dwrite(data.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL,
+                                        H5P_DEFAULT, array.values.data()) < 0) {
     throw FileError(file, name, "cannot write dataset: " + hdf5_cause());
   }
 }
@@ -503,35 +505,40 @@ ContainerReader::ContainerReader(const std::filesystem::path& path,
   std::array<char, kHeaderSize> block{};
   if (impl_->file_bytes < kHeaderSize ||
       ::pread(descriptor.fd, block.data(), block.size(), 0) != static_cast<ssize_t>(block.size())) {
-    throw FileError(file, "", "truncated or not an immtrain container (" +
-                                  std::to_string(impl_->file_bytes) + " bytes)");
+    throw FileError(
+        file, "",
+        "truncated or not an immtrain container (" + std::to_string(impl_->file_bytes) + " bytes)");
   }
   Header header;
   if (const std::string problem = parse_header(block, header); !problem.empty()) {
     throw FileError(file, "", problem);
   }
   if (header.version > kContainerVersion || header.version < 1) {
-    throw FileError(file, "", "container version " + std::to_string(header.version) +
-                                  " is not supported by this reader (version " +
-                                  std::to_string(kContainerVersion) + ")");
+    throw FileError(file, "",
+                    "container version " + std::to_string(header.version) +
+                        " is not supported by this reader (version " +
+                        std::to_string(kContainerVersion) + ")");
   }
   if (header.payload_bytes != impl_->file_bytes - kHeaderSize) {
-    throw FileError(file, "", "truncated or extended: header says " +
-                                  std::to_string(header.payload_bytes + kHeaderSize) +
-                                  " bytes, file has " + std::to_string(impl_->file_bytes));
+    throw FileError(file, "",
+                    "truncated or extended: header says " +
+                        std::to_string(header.payload_bytes + kHeaderSize) + " bytes, file has " +
+                        std::to_string(impl_->file_bytes));
   }
   std::uint32_t crc = 0;
   if (!file_crc32(descriptor.fd, kHeaderSize, header.payload_bytes, crc)) {
     throw FileError(file, "", "cannot read: " + errno_text());
   }
   if (crc != header.payload_crc) {
-    throw FileError(file, "", "corrupt: payload checksum mismatch (stored " +
-                                  hex32(header.payload_crc) + ", computed " + hex32(crc) + ")");
+    throw FileError(file, "",
+                    "corrupt: payload checksum mismatch (stored " + hex32(header.payload_crc) +
+                        ", computed " + hex32(crc) + ")");
   }
   impl_->format = header.format;
   if (!expected_format.empty() && header.format != expected_format) {
-    throw FileError(file, "", "holds a '" + header.format + "' container, expected '" +
-                                  std::string(expected_format) + "'");
+    throw FileError(file, "",
+                    "holds a '" + header.format + "' container, expected '" +
+                        std::string(expected_format) + "'");
   }
   impl_->file = Handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!impl_->file.valid()) throw FileError(file, "", "cannot open as HDF5: " + hdf5_cause());
@@ -628,8 +635,8 @@ Array ContainerReader::read(std::string_view dataset) const {
     throw FileError(file, path, "expected floating-point data");
   }
   array.values.resize(array.element_count());
-  if (!array.values.empty() && H5Dread(data.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL,
-                                       H5P_DEFAULT, array.values.data()) < 0) {
+  if (!array.values.empty() && H5Dread(data.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT,
+                                       array.values.data()) < 0) {
     throw FileError(file, path, "cannot read data: " + hdf5_cause());
   }
   return array;
@@ -643,7 +650,8 @@ std::optional<Attribute> ContainerReader::attribute(std::string_view object,
   const std::string file = impl_->name();
   if (kind(path) == ObjectKind::kMissing) return std::nullopt;
   const std::string attribute_name(name);
-  if (H5Aexists_by_name(impl_->file.get(), path.c_str(), attribute_name.c_str(), H5P_DEFAULT) <= 0) {
+  if (H5Aexists_by_name(impl_->file.get(), path.c_str(), attribute_name.c_str(), H5P_DEFAULT) <=
+      0) {
     H5Eclear2(H5E_DEFAULT);
     return std::nullopt;
   }

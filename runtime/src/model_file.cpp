@@ -76,10 +76,9 @@ ModelFileReader::ModelFileReader(const std::filesystem::path& path, std::string_
   }
   const std::int64_t stated = std::get<std::int64_t>(*version);
   if (stated > kModelSchemaVersion) {
-    fail("/@schema_version", "schema version " + std::to_string(stated) +
-                                 " is newer than this reader supports (" +
-                                 std::to_string(kModelSchemaVersion) +
-                                 "); update immtrain to load it");
+    fail("/@schema_version",
+         "schema version " + std::to_string(stated) + " is newer than this reader supports (" +
+             std::to_string(kModelSchemaVersion) + "); update immtrain to load it");
   }
   if (stated < 1) fail("/@schema_version", "invalid schema version " + std::to_string(stated));
   schema_version_ = static_cast<int>(stated);
@@ -95,8 +94,9 @@ ModelFileReader::ModelFileReader(const std::filesystem::path& path, std::string_
   provenance_.config_toml = text("/", "config_toml");
   provenance_.dataset_digest = text("/", "dataset_digest");
   for (const auto& name : container().attribute_names("/")) {
-    for (auto [prefix, metrics] : {std::pair{std::string_view("training."), &provenance_.training_metrics},
-                                   std::pair{std::string_view("validation."), &provenance_.validation_metrics}}) {
+    for (auto [prefix, metrics] :
+         {std::pair{std::string_view("training."), &provenance_.training_metrics},
+          std::pair{std::string_view("validation."), &provenance_.validation_metrics}}) {
       if (name.starts_with(prefix)) {
         (*metrics)[name.substr(prefix.size())] = real("/", name);
       }

@@ -1,9 +1,8 @@
 #include "imm/filters/plain_imm.hpp"
 
+#include <Eigen/Cholesky>
 #include <cmath>
 #include <memory>
-
-#include <Eigen/Cholesky>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/filters/kalman_mode.hpp"
@@ -77,36 +76,36 @@ std::string_view to_string(InitializationMethod method) {
 }
 
 MotionKind motion_kind_from(std::string_view name, const std::string& field) {
-  for (auto kind : {MotionKind::kConstantVelocity, MotionKind::kConstantAcceleration,
-                    MotionKind::kSinger}) {
+  for (auto kind :
+       {MotionKind::kConstantVelocity, MotionKind::kConstantAcceleration, MotionKind::kSinger}) {
     if (name == to_string(kind)) return kind;
   }
-  throw InvalidParameter(field, "unknown motion model '" + std::string(name) +
-                                    "' (expected cv, ca or singer)");
+  throw InvalidParameter(
+      field, "unknown motion model '" + std::string(name) + "' (expected cv, ca or singer)");
 }
 
 NoiseForm noise_form_from(std::string_view name, const std::string& field) {
   for (auto form : {NoiseForm::kPiecewiseConstant, NoiseForm::kContinuous}) {
     if (name == to_string(form)) return form;
   }
-  throw InvalidParameter(field, "unknown noise form '" + std::string(name) +
-                                    "' (expected piecewise or continuous)");
+  throw InvalidParameter(
+      field, "unknown noise form '" + std::string(name) + "' (expected piecewise or continuous)");
 }
 
 MeasurementKind measurement_kind_from(std::string_view name, const std::string& field) {
   for (auto kind : {MeasurementKind::kCartesian, MeasurementKind::kPolar}) {
     if (name == to_string(kind)) return kind;
   }
-  throw InvalidParameter(field, "unknown measurement '" + std::string(name) +
-                                    "' (expected cartesian or polar)");
+  throw InvalidParameter(
+      field, "unknown measurement '" + std::string(name) + "' (expected cartesian or polar)");
 }
 
 InitializationMethod initialization_method_from(std::string_view name, const std::string& field) {
   for (auto method : {InitializationMethod::kExplicit, InitializationMethod::kTwoPoint}) {
     if (name == to_string(method)) return method;
   }
-  throw InvalidParameter(field, "unknown initialization '" + std::string(name) +
-                                    "' (expected explicit or two_point)");
+  throw InvalidParameter(
+      field, "unknown initialization '" + std::string(name) + "' (expected explicit or two_point)");
 }
 
 int PlainImmSpec::mixing_dimension() const {
@@ -142,9 +141,8 @@ void PlainImmSpec::validate() const {
     detail::validate_mode_probabilities(transition, initial_probabilities, static_cast<int>(n));
   } catch (const std::invalid_argument& error) {
     const std::string text = error.what();
-    throw InvalidParameter(text.rfind("initial_probabilities", 0) == 0 ? "initial_probabilities"
-                                                                      : "transition",
-                           text);
+    throw InvalidParameter(
+        text.rfind("initial_probabilities", 0) == 0 ? "initial_probabilities" : "transition", text);
   }
   const Eigen::Matrix2d& R = measurement.covariance;
   require(R.allFinite() && R.isApprox(R.transpose(), 1e-12) &&
@@ -155,8 +153,7 @@ void PlainImmSpec::validate() const {
     require(initialization.state.size() == nx && initialization.state.allFinite(),
             "initialization.state", "must hold " + std::to_string(nx) + " finite values");
     const Eigen::MatrixXd& P = initialization.covariance;
-    require(P.rows() == nx && P.cols() == nx && P.allFinite() &&
-                P.isApprox(P.transpose(), 1e-12) &&
+    require(P.rows() == nx && P.cols() == nx && P.allFinite() && P.isApprox(P.transpose(), 1e-12) &&
                 Eigen::LLT<Eigen::MatrixXd>(P).info() == Eigen::Success,
             "initialization.covariance",
             "must be a finite, symmetric, positive definite " + std::to_string(nx) + "x" +
@@ -178,24 +175,15 @@ ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec) {
   const double T = spec.sample_period;
   std::vector<std::unique_ptr<ImmMode<NX, 2>>> modes;
   for (const ModeSpec& mode : spec.modes) {
-    switch (mode.motion) {
-      case MotionKind::kConstantVelocity:
-        modes.push_back(make_mode<NX, 4>(
-            mode, constant_velocity<2>(T, mode.process_noise, mode.noise_form), spec.measurement));
-        break;
-      case MotionKind::kConstantAcceleration:
-        if constexpr (NX == 6) {
-          modes.push_back(make_mode<NX, 6>(
-              mode, constant_acceleration<2>(T, mode.process_noise, mode.noise_form),
-              spec.measurement));
-        }
-        break;
-      case MotionKind::kSinger:
-        if constexpr (NX == 6) {
-          modes.push_back(make_mode<NX, 6>(mode, singer<2>(T, mode.singer_tau, mode.singer_sigma),
-                                           spec.measurement));
-        }
-        break;
+    if (mode.motion == MotionKind::kConstantVelocity) {
+      modes.push_back(make_mode<NX, 4>(
+          mode, constant_velocity<2>(T, mode.process_noise, mode.noise_form), spec.measurement));
+    } else if constexpr (NX == 6) {  // CA and Singer need the 6-state space (checked above)
+      const LinearMotionModel<6> motion =
+          mode.motion == MotionKind::kSinger
+              ? singer<2>(T, mode.singer_tau, mode.singer_sigma)
+              : constant_acceleration<2>(T, mode.process_noise, mode.noise_form);
+      modes.push_back(make_mode<NX, 6>(mode, motion, spec.measurement));
     }
   }
   return ImmEstimator<NX, 2>(std::move(modes), spec.transition, spec.initial_probabilities);
@@ -206,7 +194,8 @@ template ImmEstimator<6, 2> build_plain_imm<6>(const PlainImmSpec&);
 
 PlainImm build_plain_imm(const PlainImmSpec& spec) {
   spec.validate();
-  if (spec.mixing_dimension() == 4) return PlainImm(std::in_place_index<0>, build_plain_imm<4>(spec));
+  if (spec.mixing_dimension() == 4)
+    return PlainImm(std::in_place_index<0>, build_plain_imm<4>(spec));
   return PlainImm(std::in_place_index<1>, build_plain_imm<6>(spec));
 }
 

@@ -113,7 +113,8 @@ Eigen::MatrixXd SchemaReader::matrix(std::string_view dataset, int rows, int col
 Eigen::VectorXd SchemaReader::vector(std::string_view dataset, int size, ValueRule rule) const {
   const std::string field = field_path(dataset);
   if (container_.kind(dataset) == ObjectKind::kDataset && container_.shape(dataset).size() != 1) {
-    fail(field, "expected a vector, found rank " + std::to_string(container_.shape(dataset).size()));
+    fail(field,
+         "expected a vector, found rank " + std::to_string(container_.shape(dataset).size()));
   }
   return matrix(dataset, size, 1, rule);
 }
@@ -138,8 +139,8 @@ double SchemaReader::real(std::string_view object, std::string_view name, ValueR
   return number;
 }
 
-std::int64_t SchemaReader::integer(std::string_view object, std::string_view name,
-                                      std::int64_t min, std::int64_t max) const {
+std::int64_t SchemaReader::integer(std::string_view object, std::string_view name, std::int64_t min,
+                                   std::int64_t max) const {
   const std::string field = field_path(object, name);
   const auto value = container_.attribute(object, name);
   if (!value) fail(field, "missing attribute");

@@ -43,11 +43,13 @@ struct Brackets {
 Brackets singer_brackets(double x) {
   Brackets b{};
   if (x < kSeriesThreshold) {
-    b.b11 = series(x, 5, [](int n, double f, double fm1) { return -exp2(n, f) - 4.0 * x_exp1(n, fm1); });
+    b.b11 = series(x, 5,
+                   [](int n, double f, double fm1) { return -exp2(n, f) - 4.0 * x_exp1(n, fm1); });
     b.b12 = series(x, 4, [](int n, double f, double fm1) {
       return exp2(n, f) - 2.0 * exp1(n, f) + 2.0 * x_exp1(n, fm1);
     });
-    b.b13 = series(x, 3, [](int n, double f, double fm1) { return -exp2(n, f) - 2.0 * x_exp1(n, fm1); });
+    b.b13 = series(x, 3,
+                   [](int n, double f, double fm1) { return -exp2(n, f) - 2.0 * x_exp1(n, fm1); });
     b.b22 = series(x, 3, [](int n, double f, double) { return 4.0 * exp1(n, f) - exp2(n, f); });
     b.b23 = series(x, 2, [](int n, double f, double) { return exp2(n, f) - 2.0 * exp1(n, f); });
     b.b33 = series(x, 1, [](int n, double f, double) { return -exp2(n, f); });
@@ -70,9 +72,9 @@ SquareMatrix<3> singer_axis_transition(double T, double tau) {
   const double alpha = 1.0 / tau;
   const double x = alpha * T;
   // (x − 1 + e^{−x}) = Σ_{n≥2} (−x)ⁿ/n!, summed directly for small x.
-  const double f13_bracket =
-      x < kSeriesThreshold ? series(x, 2, [](int n, double f, double) { return exp1(n, f); })
-                           : x - 1.0 + std::exp(-x);
+  const double f13_bracket = x < kSeriesThreshold
+                                 ? series(x, 2, [](int n, double f, double) { return exp1(n, f); })
+                                 : x - 1.0 + std::exp(-x);
   SquareMatrix<3> F;
   F << 1.0, T, f13_bracket * tau * tau,  //
       0.0, 1.0, -std::expm1(-x) * tau,   //

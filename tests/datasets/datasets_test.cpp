@@ -23,7 +23,8 @@ TEST(Sha256, MatchesFipsTestVectors) {
   Sha256 million;
   const std::string block(1000, 'a');
   for (int i = 0; i < 1000; ++i) million.update(block);
-  EXPECT_EQ(million.hex_digest(), "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
+  EXPECT_EQ(million.hex_digest(),
+            "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
 }
 
 TEST(Rng, EngineIsTheStandardMersenneTwister) {

@@ -80,10 +80,14 @@ TEST(ContainerFile, AnExistingFileIsReplacedOnlyAtCommit) {
   {
     ContainerWriter second(path, "test-format");
     second.set_attribute("/", "generation", std::int64_t{2});
-    EXPECT_EQ(std::get<std::int64_t>(*ContainerReader(path, "test-format").attribute("/", "generation")), 1);
+    EXPECT_EQ(
+        std::get<std::int64_t>(*ContainerReader(path, "test-format").attribute("/", "generation")),
+        1);
     second.commit();
   }
-  EXPECT_EQ(std::get<std::int64_t>(*ContainerReader(path, "test-format").attribute("/", "generation")), 2);
+  EXPECT_EQ(
+      std::get<std::int64_t>(*ContainerReader(path, "test-format").attribute("/", "generation")),
+      2);
 }
 
 TEST(ContainerFile, WriterRefusesNonFiniteValuesAndBadShapes) {
@@ -133,7 +137,9 @@ TEST(ContainerFile, TruncatedFilesAreRefused) {
   for (std::size_t keep : {std::size_t{0}, std::size_t{10}, std::size_t{511}, std::size_t{512},
                            std::size_t{1000}, bytes.size() / 2, bytes.size() - 1}) {
     const auto truncated = dir / ("truncated-" + std::to_string(keep) + ".h5");
-    testing::write_bytes(truncated, std::vector<char>(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(keep)));
+    testing::write_bytes(
+        truncated,
+        std::vector<char>(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(keep)));
     EXPECT_NE(open_error(truncated), "") << "kept " << keep << " bytes";
   }
 }
@@ -172,7 +178,8 @@ TEST(ContainerFile, ForeignFilesAreNamedAsSuch) {
 TEST(ContainerFile, AnotherFormatIsRefused) {
   const testing::TempDir dir;
   const auto path = make_valid_container(dir);
-  EXPECT_NE(open_error(path, "immtrain-model").find("expected 'immtrain-model'"), std::string::npos);
+  EXPECT_NE(open_error(path, "immtrain-model").find("expected 'immtrain-model'"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -80,8 +80,8 @@ TEST_P(CovarianceStability, ImmCovarianceStaysSymmetricPositiveDefinite) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ExtremeRatios, CovarianceStability,
-                         ::testing::Values(NoiseRatio{1e-12, 1e4},   // almost deterministic motion
-                                           NoiseRatio{1e6, 1e-8},    // almost perfect sensor
+                         ::testing::Values(NoiseRatio{1e-12, 1e4},    // almost deterministic motion
+                                           NoiseRatio{1e6, 1e-8},     // almost perfect sensor
                                            NoiseRatio{1e-6, 0.25}));  // seed 000's quiet mode
 
 }  // namespace

@@ -81,12 +81,12 @@ TEST(ImmEstimator, MatchesTextbookImplementationWithMixedDimensions) {
   const std::array<int, 4> cv_indices{0, 1, 3, 4};
 
   std::vector<std::unique_ptr<ImmMode<6, 2>>> modes;
-  modes.push_back(std::make_unique<KalmanMode<6, 4, Cartesian4>>(
-      "cv", cv, Cartesian4({0, 2}, R), StateEmbedding<4, 6>(cv_indices)));
+  modes.push_back(std::make_unique<KalmanMode<6, 4, Cartesian4>>("cv", cv, Cartesian4({0, 2}, R),
+                                                                 StateEmbedding<4, 6>(cv_indices)));
   modes.push_back(std::make_unique<KalmanMode<6, 6, Cartesian6>>("ca", ca, Cartesian6({0, 3}, R),
                                                                  StateEmbedding<6, 6>()));
-  modes.push_back(std::make_unique<KalmanMode<6, 6, Cartesian6>>("singer", sg, Cartesian6({0, 3}, R),
-                                                                 StateEmbedding<6, 6>()));
+  modes.push_back(std::make_unique<KalmanMode<6, 6, Cartesian6>>(
+      "singer", sg, Cartesian6({0, 3}, R), StateEmbedding<6, 6>()));
   Eigen::Matrix3d pi;
   pi << 0.95, 0.03, 0.02, 0.05, 0.9, 0.05, 0.1, 0.1, 0.8;
   const Eigen::Vector3d mu0(0.6, 0.3, 0.1);
@@ -283,25 +283,20 @@ TEST(ImmEstimator, RejectsInvalidConstruction) {
   };
   Eigen::Matrix2d bad_row;
   bad_row << 0.9, 0.2, 0.1, 0.9;
-  EXPECT_THROW(Imm(make_modes(2), bad_row, Eigen::Vector2d(0.5, 0.5)),
-               std::invalid_argument);
+  EXPECT_THROW(Imm(make_modes(2), bad_row, Eigen::Vector2d(0.5, 0.5)), std::invalid_argument);
   Eigen::Matrix2d negative;
   negative << 1.1, -0.1, 0.1, 0.9;
-  EXPECT_THROW(Imm(make_modes(2), negative, Eigen::Vector2d(0.5, 0.5)),
+  EXPECT_THROW(Imm(make_modes(2), negative, Eigen::Vector2d(0.5, 0.5)), std::invalid_argument);
+  EXPECT_THROW(Imm(make_modes(2), uniform_transition(3, 0.9), Eigen::Vector2d(0.5, 0.5)),
                std::invalid_argument);
-  EXPECT_THROW(Imm(make_modes(2), uniform_transition(3, 0.9),
-                                  Eigen::Vector2d(0.5, 0.5)),
-               std::invalid_argument);
-  EXPECT_THROW(Imm(make_modes(2), uniform_transition(2, 0.9),
-                                  Eigen::Vector2d(0.6, 0.6)),
+  EXPECT_THROW(Imm(make_modes(2), uniform_transition(2, 0.9), Eigen::Vector2d(0.6, 0.6)),
                std::invalid_argument);
   EXPECT_THROW(Imm(make_modes(0), Eigen::MatrixXd(0, 0), Eigen::VectorXd(0)),
                std::invalid_argument);
   EXPECT_THROW(Imm(make_modes(kMaxModes + 1), uniform_transition(kMaxModes + 1, 0.5),
-                                  Eigen::VectorXd::Constant(kMaxModes + 1, 1.0 / (kMaxModes + 1))),
+                   Eigen::VectorXd::Constant(kMaxModes + 1, 1.0 / (kMaxModes + 1))),
                std::invalid_argument);
-  Imm uninitialized(make_modes(2), uniform_transition(2, 0.9),
-                                   Eigen::Vector2d(0.5, 0.5));
+  Imm uninitialized(make_modes(2), uniform_transition(2, 0.9), Eigen::Vector2d(0.5, 0.5));
   EXPECT_THROW((void)uninitialized.step(Vector<2>(0.0, 0.0)), std::logic_error);
 }
 

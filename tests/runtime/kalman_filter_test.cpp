@@ -34,8 +34,8 @@ TEST(KalmanFilter, ScalarStepMatchesHandComputation) {
   EXPECT_DOUBLE_EQ(report.innovation_covariance(0, 0), 3.0);
   EXPECT_DOUBLE_EQ(predicted.mean(0), 2.0);
   EXPECT_DOUBLE_EQ(predicted.covariance(0, 0), 2.0 / 3.0);
-  EXPECT_NEAR(report.log_likelihood, -0.5 * (3.0 + std::log(3.0) + std::log(2.0 * std::numbers::pi)),
-              1e-15);
+  EXPECT_NEAR(report.log_likelihood,
+              -0.5 * (3.0 + std::log(3.0) + std::log(2.0 * std::numbers::pi)), 1e-15);
 }
 
 TEST(KalmanFilter, PredictWithInputAddsGainTimesInput) {
@@ -88,8 +88,8 @@ TEST(KalmanFilter, NanMeasurementIsRejectedAndStateUntouched) {
   state.covariance << 2.0, 0.5, 0.5, 1.0;
   const GaussianState<2> before = state;
   const PositionMeasurement<2, 1> measurement({0}, SquareMatrix<1>::Constant(1.0));
-  for (double bad : {std::numeric_limits<double>::quiet_NaN(),
-                     std::numeric_limits<double>::infinity()}) {
+  for (double bad :
+       {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
     const auto report = update(state, Vector<1>::Constant(bad), measurement);
     EXPECT_EQ(report.status, StepStatus::kInvalidMeasurement);
     EXPECT_EQ(state.mean, before.mean);

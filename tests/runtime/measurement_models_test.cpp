@@ -26,10 +26,10 @@ TEST(Angle, WrapIntoHalfOpenInterval) {
 }
 
 TEST(Angle, AzimuthIsMeasuredClockwiseFromY) {
-  EXPECT_DOUBLE_EQ(azimuth_of(0.0, 1.0), 0.0);         // north
-  EXPECT_DOUBLE_EQ(azimuth_of(1.0, 0.0), kPi / 2.0);   // east
-  EXPECT_DOUBLE_EQ(azimuth_of(-1.0, 0.0), -kPi / 2.0); // west
-  EXPECT_DOUBLE_EQ(azimuth_of(1.0, 1.0), kPi / 4.0);   // north-east: 45°
+  EXPECT_DOUBLE_EQ(azimuth_of(0.0, 1.0), 0.0);          // north
+  EXPECT_DOUBLE_EQ(azimuth_of(1.0, 0.0), kPi / 2.0);    // east
+  EXPECT_DOUBLE_EQ(azimuth_of(-1.0, 0.0), -kPi / 2.0);  // west
+  EXPECT_DOUBLE_EQ(azimuth_of(1.0, 1.0), kPi / 4.0);    // north-east: 45°
 }
 
 TEST(PolarMeasurement, PredictsRangeAndAzimuth) {

@@ -99,7 +99,8 @@ TEST(ModelFile, FilterFromFileEqualsFilterFromSpec) {
   a.initialize(start);
   b.initialize(start);
   for (int k = 1; k <= 50; ++k) {
-    const Vector<2> z(std::hypot(1e4 - 100.0 * k, 2e4 + 40.0 * k), std::atan2(1e4 - 100.0 * k, 2e4 + 40.0 * k));
+    const Vector<2> z(std::hypot(1e4 - 100.0 * k, 2e4 + 40.0 * k),
+                      std::atan2(1e4 - 100.0 * k, 2e4 + 40.0 * k));
     ASSERT_EQ(a.step(z), StepStatus::kOk);
     ASSERT_EQ(b.step(z), StepStatus::kOk);
     ASSERT_EQ(a.estimate().mean, b.estimate().mean);
@@ -119,7 +120,8 @@ void replace_dataset(hid_t file, const char* name, const std::vector<hsize_t>& d
                      const std::vector<double>& values) {
   H5Ldelete(file, name, H5P_DEFAULT);
   const hid_t space = H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr);
-  const hid_t data = H5Dcreate2(file, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t data =
+      H5Dcreate2(file, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   H5Dwrite(data, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data());
   H5Dclose(data);
   H5Sclose(space);
@@ -159,7 +161,8 @@ TEST_P(HostileModelFile, IsRefusedWithFileAndField) {
   } catch (const FileError& error) {
     EXPECT_EQ(error.file(), path.string());
     EXPECT_EQ(error.field(), drill.expected_field) << error.what();
-    EXPECT_NE(std::string(error.what()).find(drill.expected_text), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find(drill.expected_text), std::string::npos)
+        << error.what();
   }
 }
 
@@ -171,25 +174,36 @@ INSTANTIATE_TEST_SUITE_P(
         Drill{"missing dataset", [](hid_t f) { H5Ldelete(f, "/imm/transition", H5P_DEFAULT); },
               "/imm/transition", "missing dataset"},
         Drill{"wrong shape",
-              [](hid_t f) { replace_dataset(f, "/imm/transition", {2, 3}, {0.5, 0.5, 0, 0.5, 0.5, 0}); },
+              [](hid_t f) {
+                replace_dataset(f, "/imm/transition", {2, 3}, {0.5, 0.5, 0, 0.5, 0.5, 0});
+              },
               "/imm/transition", "expected shape 3x3, found 2x3"},
         Drill{"NaN transition",
               [](hid_t f) {
-                replace_dataset(f, "/imm/transition", {3, 3}, {0.9, 0.05, 0.05, kNan, 0.8, 0.1, 0.02, 0.08, 0.9});
+                replace_dataset(f, "/imm/transition", {3, 3},
+                                {0.9, 0.05, 0.05, kNan, 0.8, 0.1, 0.02, 0.08, 0.9});
               },
               "/imm/transition", "entry (1, 0) = nan is not a probability"},
         Drill{"rows not stochastic",
               [](hid_t f) {
-                replace_dataset(f, "/imm/transition", {3, 3}, {0.9, 0.05, 0.05, 0.5, 0.8, 0.1, 0.02, 0.08, 0.9});
+                replace_dataset(f, "/imm/transition", {3, 3},
+                                {0.9, 0.05, 0.05, 0.5, 0.8, 0.1, 0.02, 0.08, 0.9});
               },
               "/imm/transition", "row 1 sums to"},
         Drill{"NaN covariance",
-              [](hid_t f) { replace_dataset(f, "/measurement/covariance", {2, 2}, {1.0, 0.0, 0.0, kNan}); },
+              [](hid_t f) {
+                replace_dataset(f, "/measurement/covariance", {2, 2}, {1.0, 0.0, 0.0, kNan});
+              },
               "/measurement/covariance", "is not finite"},
-        Drill{"rank 3", [](hid_t f) { replace_dataset(f, "/imm/initial_probabilities", {1, 1, 3}, {0.5, 0.25, 0.25}); },
+        Drill{"rank 3",
+              [](hid_t f) {
+                replace_dataset(f, "/imm/initial_probabilities", {1, 1, 3}, {0.5, 0.25, 0.25});
+              },
               "/imm/initial_probabilities", "expected a vector"},
         Drill{"negative noise",
-              [](hid_t f) { replace_attribute(f, "/imm/modes/mode1", "process_noise", H5T_NATIVE_DOUBLE, -1.0); },
+              [](hid_t f) {
+                replace_attribute(f, "/imm/modes/mode1", "process_noise", H5T_NATIVE_DOUBLE, -1.0);
+              },
               "/imm/modes/mode1@process_noise", "not non-negative"},
         Drill{"infinite sigma",
               [](hid_t f) {
@@ -198,10 +212,14 @@ INSTANTIATE_TEST_SUITE_P(
               },
               "/imm/modes/mode2@sigma_a", "not non-negative"},
         Drill{"mode count too large",
-              [](hid_t f) { replace_attribute(f, "/imm", "mode_count", H5T_NATIVE_INT64, std::int64_t{1000}); },
+              [](hid_t f) {
+                replace_attribute(f, "/imm", "mode_count", H5T_NATIVE_INT64, std::int64_t{1000});
+              },
               "/imm@mode_count", "outside [1, 16]"},
         Drill{"newer schema",
-              [](hid_t f) { replace_attribute(f, "/", "schema_version", H5T_NATIVE_INT64, std::int64_t{2}); },
+              [](hid_t f) {
+                replace_attribute(f, "/", "schema_version", H5T_NATIVE_INT64, std::int64_t{2});
+              },
               "/@schema_version", "newer than this reader supports"},
         Drill{"wrong kind",
               [](hid_t f) {
@@ -211,7 +229,8 @@ INSTANTIATE_TEST_SUITE_P(
                 const hid_t root = H5Oopen(f, "/", H5P_DEFAULT);
                 H5Adelete(root, "model_kind");
                 const hid_t space = H5Screate(H5S_SCALAR);
-                const hid_t attribute = H5Acreate2(root, "model_kind", type, space, H5P_DEFAULT, H5P_DEFAULT);
+                const hid_t attribute =
+                    H5Acreate2(root, "model_kind", type, space, H5P_DEFAULT, H5P_DEFAULT);
                 H5Awrite(attribute, type, text);
                 H5Aclose(attribute);
                 H5Sclose(space);
@@ -220,7 +239,9 @@ INSTANTIATE_TEST_SUITE_P(
               },
               "/@model_kind", "expected 'plain_imm'"},
         Drill{"number where text belongs",
-              [](hid_t f) { replace_attribute(f, "/imm/modes/mode0", "motion", H5T_NATIVE_DOUBLE, 1.0); },
+              [](hid_t f) {
+                replace_attribute(f, "/imm/modes/mode0", "motion", H5T_NATIVE_DOUBLE, 1.0);
+              },
               "/imm/modes/mode0@motion", "expected text"}),
     [](const ::testing::TestParamInfo<Drill>& param_info) {
       std::string name = param_info.param.name;

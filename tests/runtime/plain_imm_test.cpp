@@ -77,8 +77,8 @@ TEST(PlainImmSpec, MixingDimensionFollowsTheModes) {
 }
 
 TEST(PlainImmSpec, NamesRoundTrip) {
-  for (auto kind : {MotionKind::kConstantVelocity, MotionKind::kConstantAcceleration,
-                    MotionKind::kSinger}) {
+  for (auto kind :
+       {MotionKind::kConstantVelocity, MotionKind::kConstantAcceleration, MotionKind::kSinger}) {
     EXPECT_EQ(motion_kind_from(to_string(kind), "f"), kind);
   }
   EXPECT_THROW((void)motion_kind_from("turn", "modes[0].motion"), InvalidParameter);

@@ -91,10 +91,12 @@ TEST(PlainImmConfig, OutOfRangeValueIsNamed) {
 
 TEST(PlainImmConfig, ShapeErrorsAreNamed) {
   std::string text = kCv2;
-  text.replace(text.find("initial_probabilities = [0.5, 0.5]"), 34, "initial_probabilities = [1.0]");
+  text.replace(text.find("initial_probabilities = [0.5, 0.5]"), 34,
+               "initial_probabilities = [1.0]");
   EXPECT_EQ(error_of(text).first, "initial_probabilities");
   text = kCv2;
-  text.replace(text.find("sigma = [0.5, 0.5]"), 18, "sigma = [0.5, 0.5]\ncovariance = [[1,0],[0,1]]");
+  text.replace(text.find("sigma = [0.5, 0.5]"), 18,
+               "sigma = [0.5, 0.5]\ncovariance = [[1,0],[0,1]]");
   EXPECT_EQ(error_of(text).first, "measurement.covariance");
 }
 
@@ -124,7 +126,8 @@ TEST(PlainImmConfig, ShippedBenchmarkFilterIsTheIssuesFilter) {
 
 TEST(ScenarioConfig, ShippedSeed000ConfigEqualsTheBuiltInScenario) {
   const auto defaults = datasets::seed000_scenario();
-  const auto loaded = load_scenario_config("configs/data/seed000.toml", datasets::ManeuverScenario{});
+  const auto loaded =
+      load_scenario_config("configs/data/seed000.toml", datasets::ManeuverScenario{});
   EXPECT_EQ(loaded.name, defaults.name);
   EXPECT_EQ(loaded.steps, defaults.steps);
   EXPECT_EQ(loaded.runs, defaults.runs);

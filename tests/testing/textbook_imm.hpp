@@ -78,7 +78,8 @@ class TextbookImm {
 
   [[nodiscard]] Eigen::VectorXd mean() const {
     Eigen::VectorXd x = Eigen::VectorXd::Zero(modes_[0].E.rows());
-    for (std::size_t j = 0; j < modes_.size(); ++j) x += mu_(static_cast<Eigen::Index>(j)) * (modes_[j].E * modes_[j].x);
+    for (std::size_t j = 0; j < modes_.size(); ++j)
+      x += mu_(static_cast<Eigen::Index>(j)) * (modes_[j].E * modes_[j].x);
     return x;
   }
 

@@ -16,8 +16,10 @@ TEST(NormalizedErrors, HandComputedExample) {
   const Eigen::Vector2d zero = Eigen::Vector2d::Zero();
   errors.add(1, zero, Eigen::Vector2d(3, 4), Eigen::Vector2d(6, 8), zero, Eigen::Vector2d(1, 0),
              Eigen::Vector2d(2, 0));
-  errors.add(1, zero, zero, Eigen::Vector2d(0, 10), zero, Eigen::Vector2d(0, 1), Eigen::Vector2d(0, 2));
-  errors.add(2, zero, Eigen::Vector2d(1, 0), Eigen::Vector2d(2, 0), zero, zero, Eigen::Vector2d(1, 1));
+  errors.add(1, zero, zero, Eigen::Vector2d(0, 10), zero, Eigen::Vector2d(0, 1),
+             Eigen::Vector2d(0, 2));
+  errors.add(2, zero, Eigen::Vector2d(1, 0), Eigen::Vector2d(2, 0), zero, zero,
+             Eigen::Vector2d(1, 1));
   const Eigen::VectorXd pe = errors.position();
   EXPECT_TRUE(std::isnan(pe(0)));  // no samples at scan 0
   EXPECT_NEAR(pe(1), 5.0 / std::sqrt(200.0), 1e-15);

@@ -35,10 +35,10 @@ class Tools : public ::testing::Test {
  protected:
   void SetUp() override {
     root_ = testing::source_root();
-    const auto result =
-        run_tool("imm-data", {"seed000", "--runs", "2", "--out", (dir_ / "d.h5").string(), "--csv",
-                              (dir_ / "plots.csv").string()},
-                 root_);
+    const auto result = run_tool("imm-data",
+                                 {"seed000", "--runs", "2", "--out", (dir_ / "d.h5").string(),
+                                  "--csv", (dir_ / "plots.csv").string()},
+                                 root_);
     ASSERT_EQ(result.exit_code, 0) << result.err;
   }
 
@@ -49,10 +49,11 @@ class Tools : public ::testing::Test {
 };
 
 TEST_F(Tools, ImmDataIsReproducibleForASeed) {
-  const auto again = run_tool("imm-data", {"seed000", "--runs", "2", "--out", (dir_ / "e.h5").string()}, root_);
-  const auto other = run_tool("imm-data", {"seed000", "--runs", "2", "--seed", "9", "--out",
-                                           (dir_ / "f.h5").string()},
-                              root_);
+  const auto again =
+      run_tool("imm-data", {"seed000", "--runs", "2", "--out", (dir_ / "e.h5").string()}, root_);
+  const auto other =
+      run_tool("imm-data",
+               {"seed000", "--runs", "2", "--seed", "9", "--out", (dir_ / "f.h5").string()}, root_);
   ASSERT_EQ(again.exit_code, 0);
   const auto inspect_d = run_tool("imm-inspect", {(dir_ / "d.h5").string(), "--json"}, root_);
   const auto inspect_e = run_tool("imm-inspect", {(dir_ / "e.h5").string(), "--json"}, root_);
@@ -81,8 +82,10 @@ TEST_F(Tools, ImmTrackReportsBadRowsAndKeepsTheFilterIntact) {
   }
   dirty.close();
   const std::string filter = config("configs/track/cv3_imm.toml").string();
-  const auto clean = run_tool("imm-track", {"--filter", filter, "--measurements", (dir_ / "plots.csv").string()}, root_);
-  const auto bad = run_tool("imm-track", {"--filter", filter, "--measurements", (dir_ / "dirty.csv").string()}, root_);
+  const auto clean = run_tool(
+      "imm-track", {"--filter", filter, "--measurements", (dir_ / "plots.csv").string()}, root_);
+  const auto bad = run_tool(
+      "imm-track", {"--filter", filter, "--measurements", (dir_ / "dirty.csv").string()}, root_);
   ASSERT_EQ(clean.exit_code, 0) << clean.err;
   ASSERT_EQ(bad.exit_code, 0) << bad.err;
   EXPECT_NE(bad.err.find("dirty.csv:" + std::to_string(corrupted_line) + ": zx is nan"),
@@ -114,24 +117,40 @@ TEST_F(Tools, ImmTrackReportsBadRowsAndKeepsTheFilterIntact) {
 
 TEST_F(Tools, ImmTrackGivesTheSameTrackFromTheModelFileAsFromTheConfig) {
   const auto model = dir_ / "cv3.h5";
-  const auto freeze = run_tool("imm-train", {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out", model.string()}, root_);
+  const auto freeze = run_tool("imm-train",
+                               {"freeze", "--config", config("configs/track/cv3_imm.toml").string(),
+                                "--out", model.string()},
+                               root_);
   ASSERT_EQ(freeze.exit_code, 0) << freeze.err;
-  const auto from_config = run_tool("imm-track", {"--filter", config("configs/track/cv3_imm.toml").string(), "--measurements", (dir_ / "plots.csv").string()}, root_);
-  const auto from_model = run_tool("imm-track", {"--filter", model.string(), "--measurements", (dir_ / "plots.csv").string()}, root_);
+  const auto from_config = run_tool("imm-track",
+                                    {"--filter", config("configs/track/cv3_imm.toml").string(),
+                                     "--measurements", (dir_ / "plots.csv").string()},
+                                    root_);
+  const auto from_model = run_tool(
+      "imm-track", {"--filter", model.string(), "--measurements", (dir_ / "plots.csv").string()},
+      root_);
   ASSERT_EQ(from_model.exit_code, 0) << from_model.err;
   EXPECT_EQ(from_config.out, from_model.out);
 }
 
 TEST_F(Tools, ImmTrackRefusesMismatchedMeasurements) {
   testing::write_text(dir_ / "polar.csv", "k,range,azimuth\n0,100,0.1\n");
-  const auto result = run_tool("imm-track", {"--filter", config("configs/track/cv3_imm.toml").string(), "--measurements", (dir_ / "polar.csv").string()}, root_);
+  const auto result = run_tool("imm-track",
+                               {"--filter", config("configs/track/cv3_imm.toml").string(),
+                                "--measurements", (dir_ / "polar.csv").string()},
+                               root_);
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("polar"), std::string::npos) << result.err;
 }
 
 TEST_F(Tools, ImmInspectPrintsTablesAndJson) {
   const auto model = dir_ / "cv3.h5";
-  ASSERT_EQ(run_tool("imm-train", {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out", model.string()}, root_).exit_code, 0);
+  ASSERT_EQ(run_tool("imm-train",
+                     {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out",
+                      model.string()},
+                     root_)
+                .exit_code,
+            0);
   const auto text = run_tool("imm-inspect", {model.string()}, root_);
   ASSERT_EQ(text.exit_code, 0) << text.err;
   EXPECT_NE(text.out.find("kind             plain_imm"), std::string::npos) << text.out;
@@ -147,13 +166,20 @@ TEST_F(Tools, ImmInspectPrintsTablesAndJson) {
 
 TEST_F(Tools, ImmInspectRefusesBadFilesWithOneLineAndExitCodeTwo) {
   const auto model = dir_ / "cv3.h5";
-  ASSERT_EQ(run_tool("imm-train", {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out", model.string()}, root_).exit_code, 0);
+  ASSERT_EQ(run_tool("imm-train",
+                     {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out",
+                      model.string()},
+                     root_)
+                .exit_code,
+            0);
   auto bytes = testing::read_bytes(model);
   auto flipped = bytes;
   flipped[bytes.size() / 2] = static_cast<char>(flipped[bytes.size() / 2] ^ 0x10);
   testing::write_bytes(dir_ / "flipped.h5", flipped);
-  testing::write_bytes(dir_ / "truncated.h5", std::vector<char>(bytes.begin(), bytes.begin() + 700));
-  testing::write_text(dir_ / "foreign.h5", "just some text that is long enough to not be a model\n");
+  testing::write_bytes(dir_ / "truncated.h5",
+                       std::vector<char>(bytes.begin(), bytes.begin() + 700));
+  testing::write_text(dir_ / "foreign.h5",
+                      "just some text that is long enough to not be a model\n");
   for (const char* name : {"flipped.h5", "truncated.h5", "foreign.h5", "missing.h5"}) {
     const auto result = run_tool("imm-inspect", {(dir_ / name).string()}, root_);
     EXPECT_EQ(result.exit_code, 2) << name;
@@ -163,9 +189,13 @@ TEST_F(Tools, ImmInspectRefusesBadFilesWithOneLineAndExitCodeTwo) {
 }
 
 TEST_F(Tools, ImmTrainFreezeNamesTheBadKey) {
-  testing::write_text(dir_ / "bad.toml", testing::slurp(config("configs/track/cv3_imm.toml")) +
-                                             "\n[[modes]]\nname = \"x\"\nmotion = \"cv\"\nprocess_noise = -5\n");
-  const auto result = run_tool("imm-train", {"freeze", "--config", (dir_ / "bad.toml").string(), "--out", (dir_ / "m.h5").string()}, root_);
+  testing::write_text(dir_ / "bad.toml",
+                      testing::slurp(config("configs/track/cv3_imm.toml")) +
+                          "\n[[modes]]\nname = \"x\"\nmotion = \"cv\"\nprocess_noise = -5\n");
+  const auto result = run_tool(
+      "imm-train",
+      {"freeze", "--config", (dir_ / "bad.toml").string(), "--out", (dir_ / "m.h5").string()},
+      root_);
   EXPECT_EQ(result.exit_code, 2);
   // Four modes but a 3x3 transition: the first invalid key is reported.
   EXPECT_NE(result.err.find("bad.toml: key 'transition'"), std::string::npos) << result.err;
@@ -175,10 +205,12 @@ TEST_F(Tools, ImmTrainFreezeNamesTheBadKey) {
 TEST_F(Tools, NightlyPipelineStopsWithNonZeroExitOnAFailingStage) {
   testing::write_text(dir_ / "nightly.toml",
                       "[[models]]\nname = \"broken\"\ncommand = \"freeze\"\nconfig = \"" +
-                          (dir_ / "missing.toml").string() + "\"\nout = \"" + (dir_ / "m.h5").string() +
+                          (dir_ / "missing.toml").string() + "\"\nout = \"" +
+                          (dir_ / "m.h5").string() +
                           "\"\n[[evaluations]]\nexperiment = \"plain-imm\"\nmodels = \"" +
                           dir_.path().string() + "\"\nout = \"" + (dir_ / "r").string() + "\"\n");
-  const auto result = run_tool("imm-train", {"all", "--config", (dir_ / "nightly.toml").string()}, root_);
+  const auto result =
+      run_tool("imm-train", {"all", "--config", (dir_ / "nightly.toml").string()}, root_);
   EXPECT_EQ(result.exit_code, 3) << result.err;
   EXPECT_NE(result.err.find("FAILED"), std::string::npos) << result.err;
   EXPECT_NE(result.err.find("stopped after 1 of 2 stages"), std::string::npos) << result.err;
@@ -187,15 +219,24 @@ TEST_F(Tools, NightlyPipelineStopsWithNonZeroExitOnAFailingStage) {
 
 TEST_F(Tools, PlainImmEvaluationWritesMetricsAndBeatsEachModeAlone) {
   const auto model = dir_ / "models" / "cv3_imm.h5";
-  ASSERT_EQ(run_tool("imm-train", {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out", model.string()}, root_).exit_code, 0);
+  ASSERT_EQ(run_tool("imm-train",
+                     {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out",
+                      model.string()},
+                     root_)
+                .exit_code,
+            0);
   const auto out = dir_ / "report";
-  const auto result = run_tool("imm-eval", {"plain-imm", "--models", (dir_ / "models").string(), "--runs", "30", "--out", out.string()}, root_);
+  const auto result = run_tool(
+      "imm-eval",
+      {"plain-imm", "--models", (dir_ / "models").string(), "--runs", "30", "--out", out.string()},
+      root_);
   ASSERT_EQ(result.exit_code, 0) << result.err;
   const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
   ASSERT_EQ(metrics["rows"].size(), 4u);
   const double imm_zeta_p = metrics["rows"][0]["zeta_p"];
   for (std::size_t i = 1; i < 4; ++i) {
-    EXPECT_LT(imm_zeta_p, metrics["rows"][i]["zeta_p"].get<double>()) << metrics["rows"][i]["filter"];
+    EXPECT_LT(imm_zeta_p, metrics["rows"][i]["zeta_p"].get<double>())
+        << metrics["rows"][i]["filter"];
   }
   EXPECT_TRUE(std::filesystem::exists(out / "normalized_position_error.csv"));
   EXPECT_TRUE(std::filesystem::exists(out / "mode_probabilities.csv"));

@@ -49,9 +49,10 @@ TEST(Nightly, PlanListsStagesInPipelineOrder) {
 
 TEST(Nightly, UnknownKeyInThePlanIsAnError) {
   const testing::TempDir dir;
-  testing::write_text(dir / "n.toml",
-                      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\nout = \"o\"\n"
-                      "threads = 2\n");
+  testing::write_text(
+      dir / "n.toml",
+      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\nout = \"o\"\n"
+      "threads = 2\n");
   try {
     (void)load_nightly_plan(dir / "n.toml");
     FAIL();

@@ -38,7 +38,8 @@ imm::GaussianState<4> start_state(const Eigen::MatrixXd& plots) {
 }
 
 void BM_PlainImmStep(benchmark::State& state) {
-  const auto spec = imm::support::load_plain_imm_config(IMM_SOURCE_DIR "/configs/track/cv3_imm.toml");
+  const auto spec =
+      imm::support::load_plain_imm_config(IMM_SOURCE_DIR "/configs/track/cv3_imm.toml");
   auto imm = imm::build_plain_imm<4>(spec);
   const Eigen::MatrixXd& plots = seed000_plots();
   imm.initialize(start_state(plots));

@@ -53,8 +53,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"seed000", "maneuver"}));
   app.add_option("--out", out_path, "data-set file to write (HDF5)")->required();
   app.add_option("--config", config_path, "scenario TOML (overrides the scenario's defaults)");
-  app.add_option("--runs", runs, "Monte Carlo runs (overrides the config)")->check(CLI::PositiveNumber);
-  app.add_option("--seed", seed, "random seed (overrides the config)")->check(CLI::NonNegativeNumber);
+  app.add_option("--runs", runs, "Monte Carlo runs (overrides the config)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--seed", seed, "random seed (overrides the config)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--csv", csv_path, "also write one run's measurements as CSV for imm-track");
   app.add_option("--csv-run", csv_run, "which run --csv writes")->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
@@ -77,7 +79,8 @@ int main(int argc, char** argv) {
     const imm::datasets::ScenarioData data = imm::datasets::simulate(scenario);
     const std::string digest = imm::datasets::write_scenario_dataset(
         out_path, scenario, data, config_text, imm::kBuildVersion);
-    if (!csv_path.empty()) write_csv(csv_path, scenario, data.measurements[static_cast<std::size_t>(csv_run)]);
+    if (!csv_path.empty())
+      write_csv(csv_path, scenario, data.measurements[static_cast<std::size_t>(csv_run)]);
     std::cout << "imm-data: " << scenario.name << ", " << scenario.runs << " runs x "
               << scenario.steps << " scans, seed " << scenario.seed << " -> " << out_path
               << " (sha256 " << digest.substr(0, 16) << ")\n";

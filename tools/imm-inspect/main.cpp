@@ -122,7 +122,8 @@ struct Inspector {
       }
       const Array array = file.read(path);
       std::string shape;
-      for (std::size_t extent : array.shape) shape += (shape.empty() ? "" : "x") + std::to_string(extent);
+      for (std::size_t extent : array.shape)
+        shape += (shape.empty() ? "" : "x") + std::to_string(extent);
       out << path << "  [" << shape << "]" << attributes << '\n';
       if (array.rank() <= 2 && !array.values.empty()) {
         print_table(out, array, columns, full);
@@ -223,7 +224,11 @@ int main(int argc, char** argv) {
       if (attribute == "config_toml") {
         config = std::get<std::string>(value);
         const auto lines = std::count(config.begin(), config.end(), '\n');
-        std::cout << "config_toml      " << (config.empty() ? "(none)" : std::to_string(lines) + " lines" + (show_config ? "" : " (--config prints it)")) << '\n';
+        std::cout << "config_toml      "
+                  << (config.empty() ? "(none)"
+                                     : std::to_string(lines) + " lines" +
+                                           (show_config ? "" : " (--config prints it)"))
+                  << '\n';
         continue;
       }
       std::string text = attribute_text(value);
@@ -231,7 +236,8 @@ int main(int argc, char** argv) {
       std::cout << attribute << std::string(attribute.size() < 17 ? 17 - attribute.size() : 1, ' ')
                 << text << '\n';
     }
-    if (show_config && !config.empty()) std::cout << "\n--- config ---\n" << config << "--- end ---\n";
+    if (show_config && !config.empty())
+      std::cout << "\n--- config ---\n" << config << "--- end ---\n";
     std::cout << '\n';
     inspector.text(std::cout, "/");
   } catch (const std::exception& error) {

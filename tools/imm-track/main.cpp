@@ -53,7 +53,8 @@ int main(int argc, char** argv) {
   CLI::App app{"Run a plain IMM (TOML config or plain_imm model file) over a measurement CSV."};
   std::string filter_path, measurements_path, out_path;
   std::int64_t max_gap = imm::PlainImmTracker::kDefaultMaxGap;
-  app.add_option("--filter", filter_path, "filter: TOML config or plain_imm model file")->required();
+  app.add_option("--filter", filter_path, "filter: TOML config or plain_imm model file")
+      ->required();
   app.add_option("--measurements", measurements_path, "CSV with k,zx,zy or k,range,azimuth")
       ->required();
   app.add_option("--out", out_path, "output CSV (default: standard output)");

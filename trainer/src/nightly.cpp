@@ -17,8 +17,8 @@ namespace imm::trainer {
 namespace {
 
 void add_folder_of(NightlyStage& stage, const std::string& path, bool path_is_folder = false) {
-  std::filesystem::path folder = path_is_folder ? std::filesystem::path(path)
-                                                : std::filesystem::path(path).parent_path();
+  std::filesystem::path folder =
+      path_is_folder ? std::filesystem::path(path) : std::filesystem::path(path).parent_path();
   if (!folder.empty()) stage.output_folders.push_back(folder);
 }
 
@@ -43,7 +43,8 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     const std::string out = entry.text("out");
     stage.arguments = {stage.name, "--out", out};
     add_folder_of(stage, out);
-    if (entry.has("config")) stage.arguments.insert(stage.arguments.end(), {"--config", entry.text("config")});
+    if (entry.has("config"))
+      stage.arguments.insert(stage.arguments.end(), {"--config", entry.text("config")});
     if (entry.has("csv")) {
       const std::string csv = entry.text("csv");
       stage.arguments.insert(stage.arguments.end(), {"--csv", csv});
@@ -65,8 +66,9 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
   for (const auto& entry : root.tables("tracks")) {
     const std::string out = entry.text("out");
     NightlyStage stage{"track", out, "imm-track", {}, {}};
-    stage.arguments = {"--filter", entry.text("filter"), "--measurements",
-                       entry.text("measurements"), "--out", out};
+    stage.arguments = {"--filter",       entry.text("filter"),
+                       "--measurements", entry.text("measurements"),
+                       "--out",          out};
     add_folder_of(stage, out);
     plan.stages.push_back(std::move(stage));
   }
@@ -112,11 +114,13 @@ std::vector<StageResult> run_nightly(const NightlyPlan& plan,
   return results;
 }
 
-int run_process(const std::filesystem::path& executable, const std::vector<std::string>& arguments) {
+int run_process(const std::filesystem::path& executable,
+                const std::vector<std::string>& arguments) {
   std::vector<std::string> storage;
   storage.push_back(executable.string());
   storage.insert(storage.end(), arguments.begin(), arguments.end());
   std::vector<char*> argv;
+  argv.reserve(storage.size() + 1);
   for (auto& argument : storage) argv.push_back(argument.data());
   argv.push_back(nullptr);
   pid_t pid = 0;

@@ -67,18 +67,17 @@ int report_plain_imm(const imm::evaluation::PlainImmExperimentResult& result,
   imm::evaluation::write_series_csv(out / "mode_probabilities.csv", imm_filter.mode_names,
                                     imm_filter.mean_mode_probabilities);
 
-  bool plotted = imm::evaluation::plot_series({out / "normalized_position_error.png",
-                                               "Normalized position error P_e(k) (seed 000 Fig. 4-1)",
-                                               "scan k", "P_e", out / "normalized_position_error.csv",
-                                               pe_names});
+  bool plotted = imm::evaluation::plot_series(
+      {out / "normalized_position_error.png",
+       "Normalized position error P_e(k) (seed 000 Fig. 4-1)", "scan k", "P_e",
+       out / "normalized_position_error.csv", pe_names});
   plotted &= imm::evaluation::plot_series({out / "normalized_velocity_error.png",
                                            "Normalized velocity error V_e(k) (seed 000 Fig. 4-2)",
                                            "scan k", "V_e", out / "normalized_velocity_error.csv",
                                            ve_names});
-  plotted &= imm::evaluation::plot_series({out / "mode_probabilities.png",
-                                           "Mean mode probabilities of " + imm_filter.name, "scan k",
-                                           "probability", out / "mode_probabilities.csv",
-                                           imm_filter.mode_names});
+  plotted &= imm::evaluation::plot_series(
+      {out / "mode_probabilities.png", "Mean mode probabilities of " + imm_filter.name, "scan k",
+       "probability", out / "mode_probabilities.csv", imm_filter.mode_names});
   std::cout << "\nwrote " << (out / "metrics.json").string() << ", CSV series"
             << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
             << " in " << out.string() << '\n';

@@ -37,10 +37,9 @@ FilterOutcome evaluate(const std::string& name, const PlainImmSpec& spec,
                        const datasets::ManeuverScenario& scenario,
                        const datasets::ScenarioData& data) {
   if (spec.measurement.kind != scenario.measurement.kind) {
-    throw std::runtime_error("filter '" + name + "' expects " +
-                             std::string(to_string(spec.measurement.kind)) +
-                             " measurements, the data set holds " +
-                             std::string(to_string(scenario.measurement.kind)));
+    throw std::runtime_error(
+        "filter '" + name + "' expects " + std::string(to_string(spec.measurement.kind)) +
+        " measurements, the data set holds " + std::string(to_string(scenario.measurement.kind)));
   }
   const int steps = scenario.steps;
   const double T = scenario.sample_period;
@@ -66,16 +65,19 @@ FilterOutcome evaluate(const std::string& name, const PlainImmSpec& spec,
       tracker.state(mean, variance);
       const Eigen::Vector2d measured = z.row(k).transpose();
       const Eigen::Vector2d measured_velocity = (z.row(k) - z.row(k - 1)).transpose() / T;
-      errors.add(k, Eigen::Vector2d(truth(k, 0), truth(k, 2)), Eigen::Vector2d(mean(0), mean(y_index)),
-                 measured, Eigen::Vector2d(truth(k, 1), truth(k, 3)),
+      errors.add(k, Eigen::Vector2d(truth(k, 0), truth(k, 2)),
+                 Eigen::Vector2d(mean(0), mean(y_index)), measured,
+                 Eigen::Vector2d(truth(k, 1), truth(k, 3)),
                  Eigen::Vector2d(mean(1), mean(y_index + 1)), measured_velocity);
       outcome.mean_mode_probabilities.row(k) += tracker.mode_probabilities().transpose();
       ++probability_samples(k);
     }
   }
   for (int k = 0; k < steps; ++k) {
-    if (probability_samples(k) > 0) outcome.mean_mode_probabilities.row(k) /= probability_samples(k);
-    else outcome.mean_mode_probabilities.row(k).setConstant(std::numeric_limits<double>::quiet_NaN());
+    if (probability_samples(k) > 0)
+      outcome.mean_mode_probabilities.row(k) /= probability_samples(k);
+    else
+      outcome.mean_mode_probabilities.row(k).setConstant(std::numeric_limits<double>::quiet_NaN());
   }
   outcome.position_error = errors.position();
   outcome.velocity_error = errors.velocity();

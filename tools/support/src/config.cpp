@@ -1,9 +1,10 @@
 #include "imm/support/config.hpp"
 
+#include <toml++/toml.h>
+
 #include <cmath>
 #include <fstream>
 #include <sstream>
-#include <toml++/toml.h>
 
 #include "imm/core/invalid_parameter.hpp"
 
@@ -163,7 +164,7 @@ std::string ConfigTable::text(std::string_view key) const {
 }
 
 std::string ConfigTable::text_or(std::string_view key, std::string fallback) const {
-  return has(key) ? text(key) : fallback;
+  return has(key) ? text(key) : std::move(fallback);
 }
 
 bool ConfigTable::boolean_or(std::string_view key, bool fallback) const {
@@ -179,8 +180,8 @@ Eigen::VectorXd ConfigTable::reals(std::string_view key, long size) const {
   const auto* array = n.as_array();
   if (array == nullptr) fail(key, "expected an array of numbers, found " + type_name(n));
   if (size >= 0 && static_cast<long>(array->size()) != size) {
-    fail(key, "expected " + std::to_string(size) + " numbers, found " +
-                  std::to_string(array->size()));
+    fail(key,
+         "expected " + std::to_string(size) + " numbers, found " + std::to_string(array->size()));
   }
   Eigen::VectorXd values(static_cast<Eigen::Index>(array->size()));
   for (std::size_t i = 0; i < array->size(); ++i) {
@@ -219,8 +220,8 @@ Eigen::MatrixXd ConfigTable::matrix(std::string_view key, long rows, long cols) 
     for (long j = 0; j < width; ++j) {
       const auto value = number_of(row->at(static_cast<std::size_t>(j)));
       if (!value || !std::isfinite(*value)) {
-        fail(key, "entry (" + std::to_string(i) + ", " + std::to_string(j) +
-                      ") is not a finite number");
+        fail(key,
+             "entry (" + std::to_string(i) + ", " + std::to_string(j) + ") is not a finite number");
       }
       values(i, j) = *value;
     }

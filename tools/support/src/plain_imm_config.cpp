@@ -48,9 +48,9 @@ PlainImmSpec plain_imm_from(const ConfigTable& table) {
   if (has_covariance == measurement->has("sigma")) {
     measurement->fail("covariance", "give exactly one of covariance or sigma");
   }
-  spec.measurement.covariance = has_covariance
-                                    ? Eigen::Matrix2d(measurement->matrix("covariance", 2, 2))
-                                    : Eigen::Matrix2d(measurement->reals("sigma", 2).cwiseAbs2().asDiagonal());
+  spec.measurement.covariance =
+      has_covariance ? Eigen::Matrix2d(measurement->matrix("covariance", 2, 2))
+                     : Eigen::Matrix2d(measurement->reals("sigma", 2).cwiseAbs2().asDiagonal());
 
   if (const auto init = table.table("initialization")) {
     spec.initialization.method = parse_name(*init, "method", initialization_method_from);

@@ -23,7 +23,8 @@ datasets::ManeuverScenario scenario_from(const ConfigTable& table,
       try {
         s.measurement.kind = measurement_kind_from(kind, measurement->path("kind"));
       } catch (const InvalidParameter&) {
-        measurement->fail("kind", "unknown measurement '" + kind + "' (expected cartesian or polar)");
+        measurement->fail("kind",
+                          "unknown measurement '" + kind + "' (expected cartesian or polar)");
       }
     }
     if (measurement->has("sigma")) s.measurement.sigma = measurement->reals("sigma", 2);

@@ -8,11 +8,10 @@
 /// measured. A segment [start, end) applies its acceleration to the transitions k → k + 1 for
 /// start ≤ k < end, so "scans 40–60" of seed 000 is 20 periods of acceleration.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "imm/filters/plain_imm.hpp"
 
@@ -33,13 +32,13 @@ struct MeasurementNoise {
 
 struct ManeuverScenario {
   std::string name = "maneuver";
-  double sample_period = 1.0;              ///< T, s
-  int steps = 100;                         ///< scans per run
-  int runs = 1;                            ///< Monte Carlo runs
-  std::uint64_t seed = 1;                  ///< run r uses derive_seed(seed, r)
+  double sample_period = 1.0;  ///< T, s
+  int steps = 100;             ///< scans per run
+  int runs = 1;                ///< Monte Carlo runs
+  std::uint64_t seed = 1;      ///< run r uses derive_seed(seed, r)
   Eigen::Vector2d initial_position = Eigen::Vector2d::Zero();
   Eigen::Vector2d initial_velocity = Eigen::Vector2d::Zero();
-  double process_noise_sigma = 0.0;        ///< σ_w of the white acceleration per axis
+  double process_noise_sigma = 0.0;  ///< σ_w of the white acceleration per axis
   MeasurementNoise measurement;
   std::vector<ManeuverSegment> maneuvers;
 

@@ -22,6 +22,7 @@
 /// they were. Nothing is allocated per step: mode-indexed arrays have a fixed maximum size
 /// (kMaxModes) and modes are allocation-free by contract.
 
+#include <Eigen/Core>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -29,8 +30,6 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "imm/filters/gaussian_state.hpp"
 #include "imm/filters/imm_mode.hpp"
@@ -99,9 +98,8 @@ class ImmEstimator {
     require_initialized();
     if (!z.allFinite()) return StepStatus::kInvalidMeasurement;
     predict_mode_probabilities();
-    mix_and_propose([&](Mode& mode, const GaussianState<NX>& mixed) {
-      return mode.propose(mixed, z);
-    });
+    mix_and_propose(
+        [&](Mode& mode, const GaussianState<NX>& mixed) { return mode.propose(mixed, z); });
     return finish_cycle();
   }
 
@@ -110,9 +108,8 @@ class ImmEstimator {
   StepStatus predict_only() {
     require_initialized();
     predict_mode_probabilities();
-    mix_and_propose([](Mode& mode, const GaussianState<NX>& mixed) {
-      return mode.propose_prediction(mixed);
-    });
+    mix_and_propose(
+        [](Mode& mode, const GaussianState<NX>& mixed) { return mode.propose_prediction(mixed); });
     return finish_cycle();
   }
 
@@ -199,7 +196,8 @@ class ImmEstimator {
       scaled_(j) = std::exp(log_posterior_(j) - shift);
       sum += scaled_(j);
     }
-    const double log_normalizer = shift + std::log(sum);
+    // sum ≥ 1: the largest entry contributes exp(0).
+    const double log_normalizer = shift + std::log(sum);  // cppcheck-suppress invalidFunctionArg
     for (auto& mode : modes_) mode->commit();
     log_probabilities_ = log_posterior_.array() - log_normalizer;
     scaled_ /= sum;
@@ -212,7 +210,8 @@ class ImmEstimator {
   // change only in initialize() and finish_cycle(), both of which end here.
   void combine(const ModeVector& mu) {
     const int n = mode_count();
-    for (int j = 0; j < n; ++j) mode_at(j).embedded_estimate(means_[index(j)], covariances_[index(j)]);
+    for (int j = 0; j < n; ++j)
+      mode_at(j).embedded_estimate(means_[index(j)], covariances_[index(j)]);
     moment_match(mu, combined_);
   }
 
@@ -249,7 +248,7 @@ class ImmEstimator {
   ModeVector log_posterior_;
   ModeVector scaled_;  // μ̃ (prediction) or posterior weights (combination)
   ModeVector scratch_;
-  std::array<Vector<NX>, kMaxModes> means_{};             // embedded current mode estimates
+  std::array<Vector<NX>, kMaxModes> means_{};  // embedded current mode estimates
   std::array<SquareMatrix<NX>, kMaxModes> covariances_{};
   GaussianState<NX> mixed_;
   GaussianState<NX> combined_;

@@ -8,11 +8,10 @@
 /// P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ, which stays symmetric positive semi-definite for any gain
 /// and therefore survives extreme noise ratios where P − K S Kᵀ loses definiteness.
 
-#include <cmath>
-#include <numbers>
-
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <cmath>
+#include <numbers>
 
 #include "imm/filters/gaussian_state.hpp"
 #include "imm/filters/step_status.hpp"
@@ -24,7 +23,7 @@ namespace imm {
 template <int M>
 struct UpdateReport {
   StepStatus status = StepStatus::kOk;
-  Vector<M> innovation = Vector<M>::Zero();                ///< ν = z − h(x̂⁻), wrapped if angular
+  Vector<M> innovation = Vector<M>::Zero();  ///< ν = z − h(x̂⁻), wrapped if angular
   SquareMatrix<M> innovation_covariance = SquareMatrix<M>::Zero();  ///< S = H P⁻ Hᵀ + R
   double log_likelihood = 0.0;  ///< log N(ν; 0, S), seed 000 eq. (9) in log space
 
@@ -177,7 +176,7 @@ UpdateReport<Model::kDim> update(GaussianState<N>& state, const Vector<Model::kD
     return report;
   }
   const Vector<M> innovation = model.residual(z, model.predict(state.mean));
-  const Matrix<M, N> H = model.jacobian(state.mean);
+  const Matrix<M, N>& H = model.jacobian(state.mean);  // a reference or an extended temporary
   return update_with_innovation(state, innovation, H, model.covariance());
 }
 

@@ -17,12 +17,11 @@ template <int NX, int N, class MeasurementModel>
 class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
  public:
   static constexpr int kDim = N;
-  static constexpr int kMeasurementDim = MeasurementModel::kDim;
+  using ImmMode<NX, MeasurementModel::kDim>::kMeasurementDim;
 
   KalmanMode(std::string name, const LinearMotionModel<N>& motion,
              const MeasurementModel& measurement, const StateEmbedding<N, NX>& embedding)
-      : name_(std::move(name)), motion_(motion), measurement_(measurement),
-        embedding_(embedding) {}
+      : name_(std::move(name)), motion_(motion), measurement_(measurement), embedding_(embedding) {}
 
   [[nodiscard]] std::string_view name() const override { return name_; }
 
@@ -32,8 +31,7 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
 
   void reset(const GaussianState<NX>& state) override { estimate_ = embedding_.project(state); }
 
-  ModeStep propose(const GaussianState<NX>& mixed,
-                   const Vector<kMeasurementDim>& z) override {
+  ModeStep propose(const GaussianState<NX>& mixed, const Vector<kMeasurementDim>& z) override {
     pending_ = predict(embedding_.project(mixed), motion_.transition, motion_.process_noise);
     const auto report = update(pending_, z, measurement_);
     return {report.status, report.log_likelihood};

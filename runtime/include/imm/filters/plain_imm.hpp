@@ -7,11 +7,10 @@
 /// State layout (mixing space): [x, vx, y, vy] when every mode is CV, otherwise
 /// [x, vx, ax, y, vy, ay]; CV modes are then embedded zero-padded (state_embedding.hpp).
 
+#include <Eigen/Core>
 #include <string>
 #include <variant>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/models/motion_model.hpp"
@@ -29,7 +28,8 @@ enum class InitializationMethod { kExplicit, kTwoPoint };
 /// Inverse of to_string; throw InvalidParameter naming `field` for unknown names.
 [[nodiscard]] MotionKind motion_kind_from(std::string_view name, const std::string& field);
 [[nodiscard]] NoiseForm noise_form_from(std::string_view name, const std::string& field);
-[[nodiscard]] MeasurementKind measurement_kind_from(std::string_view name, const std::string& field);
+[[nodiscard]] MeasurementKind measurement_kind_from(std::string_view name,
+                                                    const std::string& field);
 [[nodiscard]] InitializationMethod initialization_method_from(std::string_view name,
                                                               const std::string& field);
 
@@ -40,8 +40,8 @@ struct ModeSpec {
   /// continuous). Unused by Singer.
   double process_noise = 0.0;
   NoiseForm noise_form = NoiseForm::kPiecewiseConstant;
-  double singer_tau = 20.0;    ///< Singer: maneuver time constant τ, s
-  double singer_sigma = 0.0;   ///< Singer: acceleration standard deviation σ_a
+  double singer_tau = 20.0;   ///< Singer: maneuver time constant τ, s
+  double singer_sigma = 0.0;  ///< Singer: acceleration standard deviation σ_a
 };
 
 struct MeasurementSpec {
@@ -54,15 +54,15 @@ struct InitializationSpec {
   /// kTwoPoint: position from the second valid plot, velocity from the difference of the first
   /// two; kExplicit: `state`/`covariance` are the estimate one period before the first plot.
   InitializationMethod method = InitializationMethod::kTwoPoint;
-  Eigen::VectorXd state;        ///< explicit: mixing-space mean
-  Eigen::MatrixXd covariance;   ///< explicit: mixing-space covariance
+  Eigen::VectorXd state;               ///< explicit: mixing-space mean
+  Eigen::MatrixXd covariance;          ///< explicit: mixing-space covariance
   double acceleration_variance = 0.0;  ///< two-point, 6-state: variance of ax and ay
 };
 
 struct PlainImmSpec {
   double sample_period = 1.0;
   std::vector<ModeSpec> modes;
-  Eigen::MatrixXd transition;             ///< transition(i, j) = P(mode j at k | mode i at k−1)
+  Eigen::MatrixXd transition;  ///< transition(i, j) = P(mode j at k | mode i at k−1)
   Eigen::VectorXd initial_probabilities;
   MeasurementSpec measurement;
   InitializationSpec initialization;

@@ -4,11 +4,10 @@
 /// plots without touching the filter. What `imm-track` runs, and what a tracking application
 /// wants around an ImmEstimator.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <optional>
 #include <string_view>
-
-#include <Eigen/Core>
 
 #include "imm/filters/plain_imm.hpp"
 

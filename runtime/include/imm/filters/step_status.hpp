@@ -8,11 +8,11 @@ namespace imm {
 
 enum class StepStatus {
   kOk,
-  kInvalidMeasurement,     ///< the measurement holds NaN or ±Inf
-  kSingularInnovation,     ///< S = H P Hᵀ + R is not positive definite
-  kUndefinedMeasurement,   ///< h(x) or its Jacobian is undefined at the prediction (range 0)
-  kNonFiniteResult,        ///< the update would produce NaN or ±Inf
-  kProbabilityUnderflow,   ///< every mode's likelihood is zero even in log space
+  kInvalidMeasurement,    ///< the measurement holds NaN or ±Inf
+  kSingularInnovation,    ///< S = H P Hᵀ + R is not positive definite
+  kUndefinedMeasurement,  ///< h(x) or its Jacobian is undefined at the prediction (range 0)
+  kNonFiniteResult,       ///< the update would produce NaN or ±Inf
+  kProbabilityUnderflow,  ///< every mode's likelihood is zero even in log space
 };
 
 [[nodiscard]] constexpr std::string_view to_string(StepStatus status) {

@@ -15,6 +15,7 @@
 ///
 /// No HDF5 type appears in this header.
 
+#include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -24,8 +25,6 @@
 #include <string_view>
 #include <variant>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "imm/io/file_error.hpp"
 

@@ -17,14 +17,13 @@
 /// σ > 0, w ≥ 0 and probabilities where the schema says so). Older schema versions stay
 /// readable: kind readers branch on schema_version().
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
 #include <map>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"

@@ -3,13 +3,12 @@
 /// rule, and throws a FileError naming the file and the field. Model files and data-set files read
 /// through it.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"

@@ -33,8 +33,7 @@ namespace imm {
 /// D-axis CA model, state [p₁, v₁, a₁, p₂, v₂, a₂, …].
 template <int D>
 [[nodiscard]] LinearMotionModel<3 * D> constant_acceleration(
-    double sample_period, double process_noise,
-    NoiseForm form = NoiseForm::kPiecewiseConstant) {
+    double sample_period, double process_noise, NoiseForm form = NoiseForm::kPiecewiseConstant) {
   detail::require_positive(sample_period, "sample_period");
   detail::require_non_negative(process_noise, "process_noise");
   LinearMotionModel<3 * D> model;

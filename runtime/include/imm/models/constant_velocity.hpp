@@ -35,8 +35,7 @@ namespace imm {
 /// D-axis CV model, state [p₁, v₁, p₂, v₂, …].
 template <int D>
 [[nodiscard]] LinearMotionModel<2 * D> constant_velocity(
-    double sample_period, double process_noise,
-    NoiseForm form = NoiseForm::kPiecewiseConstant) {
+    double sample_period, double process_noise, NoiseForm form = NoiseForm::kPiecewiseConstant) {
   detail::require_positive(sample_period, "sample_period");
   detail::require_non_negative(process_noise, "process_noise");
   LinearMotionModel<2 * D> model;

@@ -17,8 +17,8 @@ namespace imm {
 template <int N>
 struct LinearMotionModel {
   static constexpr int kDim = N;
-  SquareMatrix<N> transition = SquareMatrix<N>::Identity();      ///< F
-  SquareMatrix<N> process_noise = SquareMatrix<N>::Zero();       ///< Q
+  SquareMatrix<N> transition = SquareMatrix<N>::Identity();  ///< F
+  SquareMatrix<N> process_noise = SquareMatrix<N>::Zero();   ///< Q
 };
 
 /// How the process noise of a kinematic (CV, CA) model is discretized.
@@ -34,7 +34,7 @@ enum class NoiseForm {
 /// Places `block` D times on the diagonal: the per-axis model becomes a D-axis model.
 template <int D, int K>
 [[nodiscard]] SquareMatrix<D * K> block_diagonal(const SquareMatrix<K>& block) {
-  SquareMatrix<D * K> result = SquareMatrix<D * K>::Zero();
+  SquareMatrix<D* K> result = SquareMatrix<D * K>::Zero();
   for (int axis = 0; axis < D; ++axis) result.template block<K, K>(axis * K, axis * K) = block;
   return result;
 }

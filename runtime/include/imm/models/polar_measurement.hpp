@@ -25,8 +25,8 @@ class PolarMeasurement {
       : x_index_(x_index), y_index_(y_index), R_(R) {
     detail::require_measurement_covariance(R, "measurement covariance R");
     if (x_index < 0 || x_index >= N || y_index < 0 || y_index >= N || x_index == y_index) {
-      throw std::invalid_argument("polar measurement position indices (" +
-                                  std::to_string(x_index) + ", " + std::to_string(y_index) +
+      throw std::invalid_argument("polar measurement position indices (" + std::to_string(x_index) +
+                                  ", " + std::to_string(y_index) +
                                   ") invalid for a state of dimension " + std::to_string(N));
     }
   }
@@ -72,7 +72,8 @@ struct CartesianPlot {
   SquareMatrix<2> covariance;
 };
 
-[[nodiscard]] inline CartesianPlot polar_to_cartesian(const Vector<2>& z, const SquareMatrix<2>& R) {
+[[nodiscard]] inline CartesianPlot polar_to_cartesian(const Vector<2>& z,
+                                                      const SquareMatrix<2>& R) {
   const double r = z(0), theta = z(1);
   const double s = std::sin(theta), c = std::cos(theta);
   Matrix<2, 2> J;

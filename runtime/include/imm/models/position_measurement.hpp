@@ -2,11 +2,10 @@
 /// Cartesian position measurement z = H x + v, v ~ N(0, R), H selecting the position components
 /// of the state (seed 000 eq. 2 per axis; [x, y] in 2-D).
 
+#include <Eigen/Cholesky>
 #include <array>
 #include <stdexcept>
 #include <string>
-
-#include <Eigen/Cholesky>
 
 #include "imm/math/linear_algebra.hpp"
 

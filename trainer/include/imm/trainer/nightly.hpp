@@ -49,8 +49,8 @@ std::vector<StageResult> run_nightly(const NightlyPlan& plan,
                                      const std::function<int(const NightlyStage&)>& run,
                                      const NightlyObserver& observer = {});
 
-/// Runs `executable` (a path, or a bare name looked up in PATH) with `arguments`, inheriting stdout/stderr; returns its exit code,
-/// or 128 + signal when it was killed.
+/// Runs `executable` (a path, or a bare name looked up in PATH) with `arguments`, inheriting
+/// stdout/stderr; returns its exit code, or 128 + signal when it was killed.
 int run_process(const std::filesystem::path& executable, const std::vector<std::string>& arguments);
 
 /// The folder of the running executable (where the sibling tools are).

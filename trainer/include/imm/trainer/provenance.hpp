@@ -3,9 +3,8 @@
 /// `<model>.metrics.json` written beside them.
 
 #include <filesystem>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "imm/io/model_file.hpp"
 

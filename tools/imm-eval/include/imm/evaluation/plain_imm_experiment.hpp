@@ -4,13 +4,12 @@
 /// against each of its modes run alone as a single Kalman filter, on identical noise. Metrics are
 /// seed 000's normalized errors ζ_p, ζ_v (see normalized_errors.hpp) and RMSEs.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace imm::evaluation {
 
@@ -29,7 +28,7 @@ struct FilterOutcome {
   Eigen::VectorXd position_error, velocity_error;  ///< P_e(k), V_e(k)
   Eigen::MatrixXd mean_mode_probabilities;         ///< steps × modes, averaged over runs
   std::vector<std::string> mode_names;
-  long rejected_steps = 0;                         ///< plots the filter could not use
+  long rejected_steps = 0;  ///< plots the filter could not use
 };
 
 struct PlainImmExperimentResult {

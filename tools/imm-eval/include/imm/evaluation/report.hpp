@@ -2,11 +2,10 @@
 /// Report pieces shared by the experiments: Markdown tables on stdout, CSV time series, and PNG
 /// line plots through gnuplot.
 
+#include <Eigen/Core>
 #include <filesystem>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace imm::evaluation {
 
@@ -26,8 +25,8 @@ struct PlotSpec {
   std::string title;
   std::string x_label = "scan k";
   std::string y_label;
-  std::filesystem::path csv;           ///< written by write_series_csv
-  std::vector<std::string> series;     ///< column names of the CSV to draw
+  std::filesystem::path csv;        ///< written by write_series_csv
+  std::vector<std::string> series;  ///< column names of the CSV to draw
 };
 
 /// Draws the series with gnuplot (pngcairo or png terminal). Returns false, leaving no PNG,

@@ -4,6 +4,7 @@
 /// config is an error, not a silently ignored setting. Type errors name the key; range errors
 /// come from the specs' validate() (InvalidParameter) and are re-thrown with the file and key.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -14,8 +15,6 @@
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace imm::support {
 
@@ -62,7 +61,8 @@ class ConfigTable {
 
  private:
   friend class ConfigDocument;
-  ConfigTable(const void* table, std::string prefix, std::shared_ptr<const ConfigDocument> document);
+  ConfigTable(const void* table, std::string prefix,
+              std::shared_ptr<const ConfigDocument> document);
   [[nodiscard]] const void* node(std::string_view key) const;
 
   const void* table_;  // const toml::table*, owned by the document

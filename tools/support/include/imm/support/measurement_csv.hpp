@@ -4,23 +4,22 @@
 /// and blank lines are skipped. A row that cannot be used is not dropped silently: it comes back
 /// with its line number and a problem text, and with its scan index when that was readable.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <istream>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
-
 #include "imm/filters/plain_imm.hpp"
 
 namespace imm::support {
 
 struct MeasurementRow {
-  std::size_t line = 0;                ///< 1-based line number in the file
-  std::optional<std::int64_t> scan;    ///< the k column, when readable
+  std::size_t line = 0;              ///< 1-based line number in the file
+  std::optional<std::int64_t> scan;  ///< the k column, when readable
   Eigen::Vector2d z = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
-  std::string problem;                 ///< empty for a good row
+  std::string problem;  ///< empty for a good row
 };
 
 struct MeasurementCsv {
