@@ -36,11 +36,20 @@ inline std::string slurp(const std::filesystem::path& path) {
   return buffer.str();
 }
 
+/// A fresh file name under the temp folder (tests run in parallel: no shared names).
+inline std::filesystem::path unique_temp_file(const char* stem) {
+  std::string pattern =
+      (std::filesystem::temp_directory_path() / (std::string(stem) + "-XXXXXX")).string();
+  const int fd = ::mkstemp(pattern.data());
+  if (fd >= 0) ::close(fd);
+  return pattern;
+}
+
 /// Runs `tool` with `arguments` in `working_directory`.
 inline ToolResult run_tool(const std::string& tool, const std::vector<std::string>& arguments,
                            const std::filesystem::path& working_directory) {
-  const auto out_file = working_directory / ".tool-stdout";
-  const auto err_file = working_directory / ".tool-stderr";
+  const auto out_file = unique_temp_file("immtrain-tool-stdout");
+  const auto err_file = unique_temp_file("immtrain-tool-stderr");
   std::vector<std::string> storage{tool_path(tool).string()};
   storage.insert(storage.end(), arguments.begin(), arguments.end());
   std::vector<char*> argv;
