@@ -1,6 +1,7 @@
 #include "imm/filters/plain_imm.hpp"
 
 #include <Eigen/Cholesky>
+#include <array>
 #include <cmath>
 #include <memory>
 
@@ -75,37 +76,39 @@ std::string_view to_string(InitializationMethod method) {
   return method == InitializationMethod::kExplicit ? "explicit" : "two_point";
 }
 
-MotionKind motion_kind_from(std::string_view name, const std::string& field) {
-  for (auto kind :
-       {MotionKind::kConstantVelocity, MotionKind::kConstantAcceleration, MotionKind::kSinger}) {
-    if (name == to_string(kind)) return kind;
+// The enum value whose to_string() is `name`; otherwise InvalidParameter listing the choices.
+template <class Enum, std::size_t Count>
+Enum enum_from(std::string_view name, const std::string& field, const char* what,
+               const std::array<Enum, Count>& values) {
+  std::string expected;
+  for (std::size_t i = 0; i < Count; ++i) {
+    if (name == to_string(values[i])) return values[i];
+    expected +=
+        (i == 0 ? "" : (i + 1 == Count ? " or " : ", ")) + std::string(to_string(values[i]));
   }
-  throw InvalidParameter(
-      field, "unknown motion model '" + std::string(name) + "' (expected cv, ca or singer)");
+  throw InvalidParameter(field, "unknown " + std::string(what) + " '" + std::string(name) +
+                                    "' (expected " + expected + ")");
+}
+
+MotionKind motion_kind_from(std::string_view name, const std::string& field) {
+  return enum_from(name, field, "motion model",
+                   std::array{MotionKind::kConstantVelocity, MotionKind::kConstantAcceleration,
+                              MotionKind::kSinger});
 }
 
 NoiseForm noise_form_from(std::string_view name, const std::string& field) {
-  for (auto form : {NoiseForm::kPiecewiseConstant, NoiseForm::kContinuous}) {
-    if (name == to_string(form)) return form;
-  }
-  throw InvalidParameter(
-      field, "unknown noise form '" + std::string(name) + "' (expected piecewise or continuous)");
+  return enum_from(name, field, "noise form",
+                   std::array{NoiseForm::kPiecewiseConstant, NoiseForm::kContinuous});
 }
 
 MeasurementKind measurement_kind_from(std::string_view name, const std::string& field) {
-  for (auto kind : {MeasurementKind::kCartesian, MeasurementKind::kPolar}) {
-    if (name == to_string(kind)) return kind;
-  }
-  throw InvalidParameter(
-      field, "unknown measurement '" + std::string(name) + "' (expected cartesian or polar)");
+  return enum_from(name, field, "measurement",
+                   std::array{MeasurementKind::kCartesian, MeasurementKind::kPolar});
 }
 
 InitializationMethod initialization_method_from(std::string_view name, const std::string& field) {
-  for (auto method : {InitializationMethod::kExplicit, InitializationMethod::kTwoPoint}) {
-    if (name == to_string(method)) return method;
-  }
-  throw InvalidParameter(
-      field, "unknown initialization '" + std::string(name) + "' (expected explicit or two_point)");
+  return enum_from(name, field, "initialization",
+                   std::array{InitializationMethod::kExplicit, InitializationMethod::kTwoPoint});
 }
 
 int PlainImmSpec::mixing_dimension() const {

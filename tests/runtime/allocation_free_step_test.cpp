@@ -19,6 +19,7 @@
 #include "imm/models/polar_measurement.hpp"
 #include "imm/models/position_measurement.hpp"
 #include "imm/models/singer.hpp"
+#include "testing/specs.hpp"
 
 namespace {
 std::atomic<long> g_allocations{0};
@@ -72,14 +73,7 @@ TEST(AllocationFreeStep, KalmanPredictAndUpdate) {
 }
 
 TEST(AllocationFreeStep, PlainCvImmStep) {
-  PlainImmSpec spec;
-  spec.modes = {{"quiet", MotionKind::kConstantVelocity, 1e-6},
-                {"moderate", MotionKind::kConstantVelocity, 1e-4},
-                {"agile", MotionKind::kConstantVelocity, 1e-2}};
-  spec.transition = Eigen::Matrix3d::Constant(0.015);
-  spec.transition.diagonal().setConstant(0.97);
-  spec.initial_probabilities = Eigen::Vector3d(0.6, 0.2, 0.2);
-  spec.measurement.covariance = 0.25 * Eigen::Matrix2d::Identity();
+  const PlainImmSpec spec = testing::cv3_spec();
   auto imm = build_plain_imm<4>(spec);
   imm.initialize(GaussianState<4>{});
   const long before = allocations();

@@ -9,22 +9,12 @@
 #include "imm/filters/plain_imm_tracker.hpp"
 #include "imm/models/constant_velocity.hpp"
 #include "testing/matrix_checks.hpp"
+#include "testing/specs.hpp"
 
 namespace imm {
 namespace {
 
-PlainImmSpec cv3_spec() {
-  PlainImmSpec spec;
-  spec.sample_period = 1.0;
-  spec.modes = {{"quiet", MotionKind::kConstantVelocity, 1e-6},
-                {"moderate", MotionKind::kConstantVelocity, 1e-4},
-                {"agile", MotionKind::kConstantVelocity, 1e-2}};
-  spec.transition = Eigen::Matrix3d::Constant(0.015);
-  spec.transition.diagonal().setConstant(0.97);
-  spec.initial_probabilities = Eigen::Vector3d(0.6, 0.2, 0.2);
-  spec.measurement.covariance = 0.25 * Eigen::Matrix2d::Identity();
-  return spec;
-}
+using testing::cv3_spec;
 
 std::string invalid_field(const PlainImmSpec& spec) {
   try {

@@ -44,6 +44,16 @@ class Tools : public ::testing::Test {
 
   std::filesystem::path config(const std::string& relative) const { return root_ / relative; }
 
+  /// Freezes configs/track/cv3_imm.toml into `model` and checks that it worked.
+  void freeze_cv3(const std::filesystem::path& model) const {
+    const auto result =
+        run_tool("imm-train",
+                 {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out",
+                  model.string()},
+                 root_);
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+  }
+
   TempDir dir_;
   std::filesystem::path root_;
 };
@@ -117,11 +127,7 @@ TEST_F(Tools, ImmTrackReportsBadRowsAndKeepsTheFilterIntact) {
 
 TEST_F(Tools, ImmTrackGivesTheSameTrackFromTheModelFileAsFromTheConfig) {
   const auto model = dir_ / "cv3.h5";
-  const auto freeze = run_tool("imm-train",
-                               {"freeze", "--config", config("configs/track/cv3_imm.toml").string(),
-                                "--out", model.string()},
-                               root_);
-  ASSERT_EQ(freeze.exit_code, 0) << freeze.err;
+  freeze_cv3(model);
   const auto from_config = run_tool("imm-track",
                                     {"--filter", config("configs/track/cv3_imm.toml").string(),
                                      "--measurements", (dir_ / "plots.csv").string()},
@@ -145,12 +151,7 @@ TEST_F(Tools, ImmTrackRefusesMismatchedMeasurements) {
 
 TEST_F(Tools, ImmInspectPrintsTablesAndJson) {
   const auto model = dir_ / "cv3.h5";
-  ASSERT_EQ(run_tool("imm-train",
-                     {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out",
-                      model.string()},
-                     root_)
-                .exit_code,
-            0);
+  freeze_cv3(model);
   const auto text = run_tool("imm-inspect", {model.string()}, root_);
   ASSERT_EQ(text.exit_code, 0) << text.err;
   EXPECT_NE(text.out.find("kind             plain_imm"), std::string::npos) << text.out;
@@ -166,12 +167,7 @@ TEST_F(Tools, ImmInspectPrintsTablesAndJson) {
 
 TEST_F(Tools, ImmInspectRefusesBadFilesWithOneLineAndExitCodeTwo) {
   const auto model = dir_ / "cv3.h5";
-  ASSERT_EQ(run_tool("imm-train",
-                     {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out",
-                      model.string()},
-                     root_)
-                .exit_code,
-            0);
+  freeze_cv3(model);
   auto bytes = testing::read_bytes(model);
   auto flipped = bytes;
   flipped[bytes.size() / 2] = static_cast<char>(flipped[bytes.size() / 2] ^ 0x10);
@@ -219,12 +215,7 @@ TEST_F(Tools, NightlyPipelineStopsWithNonZeroExitOnAFailingStage) {
 
 TEST_F(Tools, PlainImmEvaluationWritesMetricsAndBeatsEachModeAlone) {
   const auto model = dir_ / "models" / "cv3_imm.h5";
-  ASSERT_EQ(run_tool("imm-train",
-                     {"freeze", "--config", config("configs/track/cv3_imm.toml").string(), "--out",
-                      model.string()},
-                     root_)
-                .exit_code,
-            0);
+  freeze_cv3(model);
   const auto out = dir_ / "report";
   const auto result = run_tool(
       "imm-eval",

@@ -36,10 +36,8 @@ template <int D>
     double sample_period, double process_noise, NoiseForm form = NoiseForm::kPiecewiseConstant) {
   detail::require_positive(sample_period, "sample_period");
   detail::require_non_negative(process_noise, "process_noise");
-  LinearMotionModel<3 * D> model;
-  model.transition = block_diagonal<D>(ca_axis_transition(sample_period));
-  model.process_noise = block_diagonal<D>(ca_axis_noise(sample_period, process_noise, form));
-  return model;
+  return per_axis_model<D>(ca_axis_transition(sample_period),
+                           ca_axis_noise(sample_period, process_noise, form));
 }
 
 }  // namespace imm

@@ -38,10 +38,8 @@ template <int D>
     double sample_period, double process_noise, NoiseForm form = NoiseForm::kPiecewiseConstant) {
   detail::require_positive(sample_period, "sample_period");
   detail::require_non_negative(process_noise, "process_noise");
-  LinearMotionModel<2 * D> model;
-  model.transition = block_diagonal<D>(cv_axis_transition(sample_period));
-  model.process_noise = block_diagonal<D>(cv_axis_noise(sample_period, process_noise, form));
-  return model;
+  return per_axis_model<D>(cv_axis_transition(sample_period),
+                           cv_axis_noise(sample_period, process_noise, form));
 }
 
 /// D-axis input gain of the CV model (one column per axis).

@@ -47,6 +47,16 @@ template <int D, int K>
   return result;
 }
 
+/// The D-axis model whose every axis has transition `axis_F` and noise `axis_Q`.
+template <int D, int K>
+[[nodiscard]] LinearMotionModel<D * K> per_axis_model(const SquareMatrix<K>& axis_F,
+                                                      const SquareMatrix<K>& axis_Q) {
+  LinearMotionModel<D * K> model;
+  model.transition = block_diagonal<D>(axis_F);
+  model.process_noise = block_diagonal<D>(axis_Q);
+  return model;
+}
+
 namespace detail {
 inline void require_positive(double value, const char* field) {
   if (!(value > 0.0) || !std::isfinite(value)) {

@@ -30,10 +30,8 @@ template <int D>
   detail::require_positive(sample_period, "sample_period");
   detail::require_positive(tau, "tau");
   detail::require_non_negative(sigma_a, "sigma_a");
-  LinearMotionModel<3 * D> model;
-  model.transition = block_diagonal<D>(singer_axis_transition(sample_period, tau));
-  model.process_noise = block_diagonal<D>(singer_axis_noise(sample_period, tau, sigma_a));
-  return model;
+  return per_axis_model<D>(singer_axis_transition(sample_period, tau),
+                           singer_axis_noise(sample_period, tau, sigma_a));
 }
 
 }  // namespace imm
