@@ -65,10 +65,10 @@ TEST(ManeuverScenario, NoiseFreeTruthFollowsTheKinematics) {
   const Eigen::MatrixXd& truth = data.truth.front();
   // By hand: x(k) for k ≥ 20 = x0 + v0 t + a·τ·(t − 10T − τ/2), τ = 10T = 5 s of acceleration.
   const double T = 0.5, tau = 5.0;
-  for (int k : {0, 10, 15, 20, 29}) {
-    const double t = k * T;
+  for (Eigen::Index k : {0, 10, 15, 20, 29}) {
+    const double t = static_cast<double>(k) * T;
     const double accel_time = std::clamp(t - 10 * T, 0.0, tau);
-    for (int axis = 0; axis < 2; ++axis) {
+    for (Eigen::Index axis = 0; axis < 2; ++axis) {
       const double a = s.maneuvers[0].acceleration(axis);
       const double expected_v = s.initial_velocity(axis) + a * accel_time;
       const double expected_p = s.initial_position(axis) + s.initial_velocity(axis) * t +

@@ -111,7 +111,7 @@ TEST(ContainerFile, WriterNamesAMissingFolder) {
 }
 
 std::filesystem::path make_valid_container(const testing::TempDir& dir) {
-  const auto path = dir / "valid.h5";
+  auto path = dir / "valid.h5";
   ContainerWriter writer(path, "test-format");
   writer.write("/data/values", Eigen::MatrixXd::Constant(20, 10, 3.25));
   writer.set_attribute("/", "note", std::string("a container for corruption drills"));

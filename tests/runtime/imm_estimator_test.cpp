@@ -46,6 +46,7 @@ TEST(ImmEstimator, IdenticalModesEqualASingleKalmanFilter) {
   const auto motion = constant_velocity<2>(1.0, 1e-4);
   const Cartesian4 measurement({0, 2}, measurement_covariance());
   std::vector<std::unique_ptr<ImmMode<4, 2>>> modes;
+  modes.reserve(3);
   for (int j = 0; j < 3; ++j) {
     modes.push_back(std::make_unique<KalmanMode<4, 4, Cartesian4>>(
         "m" + std::to_string(j), motion, measurement, StateEmbedding<4, 4>()));
@@ -137,7 +138,9 @@ TEST(ImmEstimator, MatchesTextbookImplementationForCvLevels) {
   const double T = 1.0;
   const SquareMatrix<2> R = 0.25 * SquareMatrix<2>::Identity();
   std::vector<std::unique_ptr<ImmMode<4, 2>>> modes;
+  modes.reserve(3);
   std::vector<testing::TextbookMode> reference_modes;
+  reference_modes.reserve(3);
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(2, 4);
   H(0, 0) = H(1, 2) = 1.0;
   const GaussianState<4> initial = initial_cv_state();
@@ -174,6 +177,7 @@ TEST(ImmEstimator, ModeProbabilitiesSurviveLikelihoodUnderflow) {
   std::vector<std::unique_ptr<ImmMode<4, 2>>> modes;
   std::vector<LinearMotionModel<4>> motions = {constant_velocity<2>(1.0, 1e-6),
                                                constant_velocity<2>(1.0, 1.0)};
+  modes.reserve(motions.size());
   for (const auto& motion : motions) {
     modes.push_back(std::make_unique<KalmanMode<4, 4, Cartesian4>>(
         "m", motion, Cartesian4({0, 2}, R), StateEmbedding<4, 4>()));
@@ -274,6 +278,7 @@ TEST(ImmEstimator, RejectsInvalidConstruction) {
   using Imm = ImmEstimator<4, 2>;
   auto make_modes = [](int n) {
     std::vector<std::unique_ptr<ImmMode<4, 2>>> modes;
+    modes.reserve(static_cast<std::size_t>(n));
     for (int j = 0; j < n; ++j) {
       modes.push_back(std::make_unique<KalmanMode<4, 4, Cartesian4>>(
           "m", constant_velocity<2>(1.0, 0.1), Cartesian4({0, 2}, SquareMatrix<2>::Identity()),

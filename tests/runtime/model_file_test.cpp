@@ -43,7 +43,7 @@ Provenance example_provenance() {
 }
 
 std::filesystem::path write_example(const testing::TempDir& dir, const std::string& name = "m.h5") {
-  const auto path = dir / name;
+  auto path = dir / name;
   ModelFileWriter writer(path, example_provenance());
   write_plain_imm(writer, example_spec());
   writer.commit();
@@ -166,7 +166,7 @@ TEST_P(HostileModelFile, IsRefusedWithFileAndField) {
   }
 }
 
-const double kNan = std::numeric_limits<double>::quiet_NaN();
+constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
 
 INSTANTIATE_TEST_SUITE_P(
     Drills, HostileModelFile,
