@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "imm/core/invalid_parameter.hpp"
-#include "imm/filters/plain_imm_tracker.hpp"
+#include "imm/filters/tracker.hpp"
 #include "imm/models/constant_velocity.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/specs.hpp"

@@ -14,7 +14,7 @@
 #include <iostream>
 #include <memory>
 
-#include "imm/filters/plain_imm_tracker.hpp"
+#include "imm/filters/tracker.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/support/measurement_csv.hpp"

@@ -2,7 +2,7 @@
 
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/evaluation/normalized_errors.hpp"
-#include "imm/filters/plain_imm_tracker.hpp"
+#include "imm/filters/tracker.hpp"
 #include "imm/io/plain_imm_file.hpp"
 
 namespace imm::evaluation {

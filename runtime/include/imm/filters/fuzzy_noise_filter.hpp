@@ -1,0 +1,133 @@
+#pragma once
+/// The fuzzy-noise Kalman filter of seed 000 §3.2 for one axis, state [p, v], H = [1 0]:
+///   x̂⁻ = F x̂₀                                           (19-1)
+///   r(k) = z(k) − H x̂⁻,  Δr(k) = r(k) − r(k−1)           (19-3, 19-4)
+///   q(k) = table(r, Δr)                                   (19-5)
+///   P⁻ = F P₀ Fᵀ + G q(k) Gᵀ                              (19-6)
+///   then the Kalman update with innovation r(k)           (19-7 … 19-10, Joseph form here)
+/// The same step serves the runtime's IMM mode and the trainer's fitness (train what you deploy).
+/// r(k−1) is the filter's own previous residual; a new track starts with r(−1) = 0.
+
+#include <string>
+#include <utility>
+
+#include "imm/filters/imm_mode.hpp"
+#include "imm/filters/kalman_filter.hpp"
+#include "imm/models/constant_velocity.hpp"
+#include "imm/models/fuzzy_rule_table.hpp"
+
+namespace imm {
+
+class FuzzyNoiseFilter {
+ public:
+  struct Step {
+    StepStatus status = StepStatus::kOk;
+    double residual = 0.0;       ///< r(k)
+    double process_noise = 0.0;  ///< q(k)
+    double log_likelihood = 0.0;
+  };
+
+  FuzzyNoiseFilter(FuzzyRuleTable table, double sample_period, double measurement_variance)
+      : table_(std::move(table)),
+        F_(cv_axis_transition(sample_period)),
+        G_(cv_axis_input_gain(sample_period)),
+        R_(SquareMatrix<1>::Constant(measurement_variance)) {
+    detail::require_positive(sample_period, "sample_period");
+    detail::require_positive(measurement_variance, "measurement_variance");
+    GGt_ = G_ * G_.transpose();
+    H_ << 1.0, 0.0;
+  }
+
+  /// Predicts `state` one period and updates it with z; on failure `state` is unchanged.
+  Step step(GaussianState<2>& state, double previous_residual, double z) const {
+    Step result;
+    if (!std::isfinite(z)) {
+      result.status = StepStatus::kInvalidMeasurement;
+      return result;
+    }
+    GaussianState<2> predicted;
+    predicted.mean.noalias() = F_ * state.mean;
+    result.residual = z - predicted.mean(0);
+    result.process_noise = table_.process_noise(result.residual, result.residual - previous_residual);
+    predicted.covariance.noalias() = F_ * state.covariance * F_.transpose();
+    predicted.covariance += result.process_noise * GGt_;
+    symmetrize(predicted.covariance);
+    const auto report = update_with_innovation(predicted, Vector<1>(result.residual), H_, R_);
+    result.status = report.status;
+    result.log_likelihood = report.log_likelihood;
+    if (report.ok()) state = predicted;
+    return result;
+  }
+
+  /// Prediction without a measurement, with the table's mean w as q.
+  [[nodiscard]] GaussianState<2> predict_only(const GaussianState<2>& state) const {
+    return predict(state, F_, SquareMatrix<2>(table_.mean_w() * GGt_));
+  }
+
+  [[nodiscard]] const FuzzyRuleTable& table() const { return table_; }
+
+ private:
+  FuzzyRuleTable table_;
+  SquareMatrix<2> F_;
+  Vector<2> G_;
+  SquareMatrix<2> GGt_;
+  Matrix<1, 2> H_;
+  SquareMatrix<1> R_;
+};
+
+/// The fuzzy-noise KF as an IMM mode (seed 000's sub-model m_j, eq. 18–19).
+class FuzzyNoiseMode final : public ImmMode<2, 1> {
+ public:
+  FuzzyNoiseMode(std::string name, FuzzyNoiseFilter filter)
+      : name_(std::move(name)), filter_(std::move(filter)) {}
+
+  [[nodiscard]] std::string_view name() const override { return name_; }
+
+  void embedded_estimate(Vector<2>& mean, SquareMatrix<2>& covariance) const override {
+    mean = estimate_.mean;
+    covariance = estimate_.covariance;
+  }
+
+  void reset(const GaussianState<2>& state) override {
+    estimate_ = state;
+    residual_ = 0.0;
+    process_noise_ = filter_.table().mean_w();
+  }
+
+  ModeStep propose(const GaussianState<2>& mixed, const Vector<1>& z) override {
+    pending_ = mixed;
+    const FuzzyNoiseFilter::Step step = filter_.step(pending_, residual_, z(0));
+    pending_residual_ = step.residual;
+    pending_process_noise_ = step.process_noise;
+    return {step.status, step.log_likelihood};
+  }
+
+  ModeStep propose_prediction(const GaussianState<2>& mixed) override {
+    pending_ = filter_.predict_only(mixed);
+    pending_residual_ = residual_;
+    pending_process_noise_ = filter_.table().mean_w();
+    return {pending_.all_finite() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
+  }
+
+  void commit() override {
+    estimate_ = pending_;
+    residual_ = pending_residual_;
+    process_noise_ = pending_process_noise_;
+  }
+
+  /// q(k) of the last committed step: how much the table adapts.
+  [[nodiscard]] double process_noise() const { return process_noise_; }
+  [[nodiscard]] const FuzzyNoiseFilter& filter() const { return filter_; }
+
+ private:
+  std::string name_;
+  FuzzyNoiseFilter filter_;
+  GaussianState<2> estimate_;
+  GaussianState<2> pending_;
+  double residual_ = 0.0;
+  double pending_residual_ = 0.0;
+  double process_noise_ = 0.0;
+  double pending_process_noise_ = 0.0;
+};
+
+}  // namespace imm

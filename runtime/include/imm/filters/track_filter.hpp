@@ -1,0 +1,37 @@
+#pragma once
+/// A 2-D filter as a track sees it (tracker.hpp): a plain IMM, two per-axis IMMs, an adaptive IMM.
+/// State layout: one block per axis, [x, vx, y, vy] or [x, vx, ax, y, vy, ay].
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "imm/filters/step_status.hpp"
+#include "imm/math/linear_algebra.hpp"
+
+namespace imm {
+
+class TrackFilter {
+ public:
+  TrackFilter() = default;
+  TrackFilter(const TrackFilter&) = delete;
+  TrackFilter& operator=(const TrackFilter&) = delete;
+  virtual ~TrackFilter() = default;
+
+  [[nodiscard]] virtual int state_dimension() const = 0;
+  [[nodiscard]] virtual int mode_count() const = 0;
+  [[nodiscard]] virtual std::string mode_name(int j) const = 0;
+
+  /// Starts the filter from a Gaussian in its layout (state_dimension() entries).
+  virtual void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) = 0;
+  /// One cycle with plot z; any status other than kOk means z was not used.
+  virtual StepStatus step(const Eigen::Vector2d& z) = 0;
+  /// One cycle without a plot.
+  virtual StepStatus predict_only() = 0;
+
+  /// Combined mean and covariance diagonal.
+  virtual void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const = 0;
+  [[nodiscard]] virtual ModeVector mode_probabilities() const = 0;
+};
+
+}  // namespace imm

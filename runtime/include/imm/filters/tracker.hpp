@@ -1,0 +1,97 @@
+#pragma once
+/// A single track over a stream of scan-indexed 2-D plots, around any TrackFilter: starts the track
+/// (two-point or explicit), predicts through scans without a usable plot, and rejects bad plots
+/// without touching the filter. What `imm-track` and the evaluations run, and what a tracking
+/// application wants around a filter.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string_view>
+
+#include <Eigen/Core>
+
+#include "imm/filters/plain_imm.hpp"
+#include "imm/filters/track_filter.hpp"
+
+namespace imm {
+
+enum class TrackEvent {
+  kWaiting,      ///< first plot of a two-point initialization stored; no estimate yet
+  kInitialized,  ///< the track was started at this scan
+  kUpdated,      ///< a filter cycle with this plot (after predicting through any skipped scans)
+  kRejected,     ///< the plot was not used (scans skipped before it may have been predicted)
+};
+
+[[nodiscard]] std::string_view to_string(TrackEvent event);
+
+struct TrackStepResult {
+  TrackEvent event = TrackEvent::kWaiting;
+  StepStatus status = StepStatus::kOk;  ///< why a plot was rejected (kOk otherwise)
+  std::int64_t predicted_scans = 0;     ///< scans predicted through without a plot
+  std::string_view reason;              ///< human-readable reason for a rejection
+};
+
+struct TrackOptions {
+  double sample_period = 1.0;
+  MeasurementKind measurement_kind = MeasurementKind::kCartesian;
+  Eigen::Matrix2d measurement_covariance = Eigen::Matrix2d::Identity();
+  InitializationSpec initialization;
+  /// Gaps longer than this many scans end the track; the next plot starts a new one.
+  std::int64_t max_gap = 50;
+};
+
+class Tracker {
+ public:
+  static constexpr std::int64_t kDefaultMaxGap = 50;
+
+  /// Throws InvalidParameter for invalid options.
+  Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options);
+
+  /// Feeds the plot of `scan`. Scans must increase; skipped scans are predicted through. A plot
+  /// with NaN/Inf or a repeated or decreasing scan is rejected and leaves the track unchanged; a
+  /// plot the filter cannot use (singular S) is rejected after the skipped scans were predicted.
+  TrackStepResult process(std::int64_t scan, const Eigen::Vector2d& z);
+
+  [[nodiscard]] bool initialized() const { return initialized_; }
+  [[nodiscard]] int state_dimension() const { return filter_->state_dimension(); }
+  [[nodiscard]] int mode_count() const { return filter_->mode_count(); }
+  [[nodiscard]] const TrackFilter& filter() const { return *filter_; }
+  [[nodiscard]] TrackFilter& filter() { return *filter_; }
+  [[nodiscard]] std::optional<std::int64_t> last_scan() const { return last_scan_; }
+
+  /// Combined mean and covariance diagonal, state_dimension() entries each (initialized only).
+  void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const;
+  [[nodiscard]] ModeVector mode_probabilities() const { return filter_->mode_probabilities(); }
+
+ private:
+  struct Plot {
+    std::int64_t scan = 0;
+    Eigen::Vector2d position = Eigen::Vector2d::Zero();
+    Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
+  };
+
+  [[nodiscard]] Plot cartesian_plot(std::int64_t scan, const Eigen::Vector2d& z) const;
+  void start_track(const Plot& first, const Plot& second);
+  TrackStepResult reject(StepStatus status, std::string_view reason) const;
+
+  std::unique_ptr<TrackFilter> filter_;
+  TrackOptions options_;
+  std::optional<Plot> first_plot_;
+  std::optional<std::int64_t> last_scan_;
+  bool initialized_ = false;
+};
+
+/// A plain IMM as a TrackFilter, and the track options its spec implies.
+[[nodiscard]] std::unique_ptr<TrackFilter> make_plain_imm_filter(const PlainImmSpec& spec);
+[[nodiscard]] TrackOptions track_options(const PlainImmSpec& spec,
+                                         std::int64_t max_gap = Tracker::kDefaultMaxGap);
+
+/// The track of a plain IMM spec.
+class PlainImmTracker : public Tracker {
+ public:
+  explicit PlainImmTracker(const PlainImmSpec& spec, std::int64_t max_gap = kDefaultMaxGap)
+      : Tracker(make_plain_imm_filter(spec), track_options(spec, max_gap)) {}
+};
+
+}  // namespace imm
