@@ -17,6 +17,7 @@
 
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/io/container_file.hpp"
+#include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 
@@ -37,6 +38,8 @@ const std::map<std::string, std::function<void(const std::string&)>>& validators
   static const std::map<std::string, std::function<void(const std::string&)>> table = {
       {std::string(imm::io::kPlainImmKind),
        [](const std::string& path) { (void)imm::io::read_plain_imm(path); }},
+      {std::string(imm::io::kGaFuzzyImmKind),
+       [](const std::string& path) { (void)imm::io::read_ga_fuzzy_imm(path); }},
   };
   return table;
 }

@@ -1,0 +1,55 @@
+#pragma once
+/// The adaptive IMM baseline of seed 000 §2.2 (Munir & Atherton; SPEC §4.2), one axis:
+/// an acceleration estimate â from the two-stage (bias) estimator (acceleration_estimator.hpp),
+/// and sub-models that are constant-velocity KFs driven by the inputs â(k−1), â(k−1) ± ε_i
+/// (eq. 3, 7-1). AIMM3: ε = {0.04}; AIMM5: ε = {0.02, 0.04} km/s².
+
+#include <memory>
+#include <vector>
+
+#include "imm/filters/acceleration_estimator.hpp"
+#include "imm/filters/axis_filter.hpp"
+#include "imm/filters/input_kalman_mode.hpp"
+
+namespace imm {
+
+struct AimmSpec {
+  AxisImmSettings settings;
+  std::vector<double> intervals = {0.04};  ///< ε_i > 0; the modes are â, â ± ε_1, â ± ε_2, …
+  double process_noise_sigma = 0.001;      ///< sub-models' and bias-free filter's σ_w
+  double bias_noise_sigma = 0.01;          ///< the bias filter's σ_b
+  double acceleration_variance = 1e-4;     ///< initial variance of â
+
+  /// Throws InvalidParameter naming the field.
+  void validate() const;
+  [[nodiscard]] int mode_count() const { return 1 + 2 * static_cast<int>(intervals.size()); }
+};
+
+class AimmAxisFilter final : public AxisFilter {
+ public:
+  explicit AimmAxisFilter(const AimmSpec& spec);
+
+  void initialize(const GaussianState<2>& state) override;
+  StepStatus step(double z) override;
+  StepStatus predict_only() override;
+  [[nodiscard]] const GaussianState<2>& estimate() const override { return imm_.estimate(); }
+  [[nodiscard]] ModeVector mode_probabilities() const override { return imm_.mode_probabilities(); }
+  [[nodiscard]] int mode_count() const override { return imm_.mode_count(); }
+  [[nodiscard]] std::string mode_name(int j) const override;
+  /// The current acceleration estimate â(k).
+  [[nodiscard]] double acceleration() const { return estimator_.acceleration(); }
+
+ private:
+  void set_inputs();
+
+  AimmSpec spec_;
+  std::vector<double> offsets_;         // 0, +ε₁, −ε₁, …
+  std::vector<InputKalmanMode*> modes_;  // owned by imm_
+  ImmEstimator<2, 1> imm_;
+  AccelerationEstimator estimator_;
+};
+
+/// The 2-D adaptive IMM (AIMM per axis).
+[[nodiscard]] std::unique_ptr<TwoAxisFilter> make_aimm_filter(const AimmSpec& spec);
+
+}  // namespace imm

@@ -1,0 +1,92 @@
+#pragma once
+/// Per-axis filtering, as seed 000 tracks: each Cartesian axis has its own filter (state [p, v],
+/// scalar measurement), and TwoAxisFilter puts two of them behind the 2-D TrackFilter interface
+/// (state [x, vx, y, vy]; mode probabilities x modes first, then y modes).
+
+#include <memory>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "imm/filters/gaussian_state.hpp"
+#include "imm/filters/imm_estimator.hpp"
+#include "imm/filters/track_filter.hpp"
+
+namespace imm {
+
+/// Settings shared by seed 000's per-axis IMMs (eq. 20–21 and the sensor).
+struct AxisImmSettings {
+  double sample_period = 1.0;              ///< T, s
+  double measurement_sigma = 0.5;          ///< σ_z per axis (km in seed 000)
+  double transition_stay = 0.97;           ///< p_jj of eq. (20); the rest spread evenly
+  double initial_first_probability = 0.6;  ///< μ₁(0) of eq. (21); the rest spread evenly
+
+  /// Throws InvalidParameter naming the field.
+  void validate() const;
+  /// Eq. (20) for n modes (n = 1: [[1]]).
+  [[nodiscard]] Eigen::MatrixXd transition(int n) const;
+  /// Eq. (21) for n modes (n = 1: [1]).
+  [[nodiscard]] Eigen::VectorXd initial_probabilities(int n) const;
+};
+
+class AxisFilter {
+ public:
+  AxisFilter() = default;
+  AxisFilter(const AxisFilter&) = delete;
+  AxisFilter& operator=(const AxisFilter&) = delete;
+  virtual ~AxisFilter() = default;
+
+  virtual void initialize(const GaussianState<2>& state) = 0;
+  /// One cycle with the axis measurement z; any status other than kOk leaves the filter as it was.
+  virtual StepStatus step(double z) = 0;
+  virtual StepStatus predict_only() = 0;
+  [[nodiscard]] virtual const GaussianState<2>& estimate() const = 0;
+  [[nodiscard]] virtual ModeVector mode_probabilities() const = 0;
+  [[nodiscard]] virtual int mode_count() const = 0;
+  [[nodiscard]] virtual std::string mode_name(int j) const = 0;
+};
+
+/// An IMM over per-axis modes.
+class ImmAxisFilter final : public AxisFilter {
+ public:
+  explicit ImmAxisFilter(ImmEstimator<2, 1> imm) : imm_(std::move(imm)) {}
+
+  void initialize(const GaussianState<2>& state) override { imm_.initialize(state); }
+  StepStatus step(double z) override { return imm_.step(Vector<1>(z)); }
+  StepStatus predict_only() override { return imm_.predict_only(); }
+  [[nodiscard]] const GaussianState<2>& estimate() const override { return imm_.estimate(); }
+  [[nodiscard]] ModeVector mode_probabilities() const override { return imm_.mode_probabilities(); }
+  [[nodiscard]] int mode_count() const override { return imm_.mode_count(); }
+  [[nodiscard]] std::string mode_name(int j) const override {
+    return std::string(imm_.mode(j).name());
+  }
+  [[nodiscard]] const ImmEstimator<2, 1>& imm() const { return imm_; }
+
+ private:
+  ImmEstimator<2, 1> imm_;
+};
+
+/// Two axis filters as one 2-D filter. A plot is validated before either axis moves; a numerical
+/// failure of the y axis after x succeeded (impossible for finite estimates with R > 0) is
+/// reported, with x already advanced.
+class TwoAxisFilter final : public TrackFilter {
+ public:
+  TwoAxisFilter(std::unique_ptr<AxisFilter> x, std::unique_ptr<AxisFilter> y);
+
+  [[nodiscard]] int state_dimension() const override { return 4; }
+  [[nodiscard]] int mode_count() const override { return x_->mode_count() + y_->mode_count(); }
+  [[nodiscard]] std::string mode_name(int j) const override;
+  void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override;
+  StepStatus step(const Eigen::Vector2d& z) override;
+  StepStatus predict_only() override;
+  void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override;
+  [[nodiscard]] ModeVector mode_probabilities() const override;
+
+  [[nodiscard]] const AxisFilter& axis(int i) const { return i == 0 ? *x_ : *y_; }
+
+ private:
+  std::unique_ptr<AxisFilter> x_;
+  std::unique_ptr<AxisFilter> y_;
+};
+
+}  // namespace imm

@@ -1,0 +1,39 @@
+#pragma once
+/// The GA-fuzzy IMM of seed 000 §3.2 (SPEC §4.1): per axis an IMM whose modes are fuzzy-noise KFs
+/// (fuzzy_noise_filter.hpp), one learned rule table per maneuver level; transition and initial
+/// probabilities by eq. (20)–(21); the two axes behind one 2-D filter.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "imm/filters/axis_filter.hpp"
+#include "imm/filters/tracker.hpp"
+#include "imm/models/fuzzy_rule_table.hpp"
+
+namespace imm {
+
+struct FuzzyLevel {
+  std::string name;             ///< e.g. "u0.01"
+  double maneuver_level = 0.0;  ///< the acceleration input u the table was trained for
+  FuzzyRuleTable table;
+};
+
+struct GaFuzzyImmSpec {
+  AxisImmSettings settings;
+  std::vector<FuzzyLevel> levels;  ///< one IMM mode per level, 1 to 8
+
+  /// Throws InvalidParameter naming the field.
+  void validate() const;
+};
+
+/// The per-axis IMM (modes in level order).
+[[nodiscard]] ImmEstimator<2, 1> build_ga_fuzzy_axis_imm(const GaFuzzyImmSpec& spec);
+
+/// The 2-D filter: the per-axis IMM on x and on y.
+[[nodiscard]] std::unique_ptr<TwoAxisFilter> make_ga_fuzzy_imm_filter(const GaFuzzyImmSpec& spec);
+
+/// Track options for a per-axis spec: Cartesian plots, two-point initialization.
+[[nodiscard]] TrackOptions axis_track_options(const AxisImmSettings& settings);
+
+}  // namespace imm

@@ -1,0 +1,34 @@
+#pragma once
+/// Model files of kind "ga_fuzzy_imm": the fuzzy rule tables of a GA-fuzzy IMM (seed 000).
+///
+///   /ga_fuzzy_imm              @sample_period > 0, @measurement_sigma > 0, @transition_stay,
+///                              @initial_first_probability, @level_count (1–8)
+///   /ga_fuzzy_imm/level<i>     @name, @maneuver_level ≥ 0 (km/s² in seed 000), and any per-level
+///                              training metrics as reals (@fitness, @error, …)
+///   /ga_fuzzy_imm/level<i>/rules   n × 5 (n = 1–50), columns c1, sigma1, c2, sigma2, w
+///                              (residuals in measurement units, w in (unit/s²)²; σ > 0, w ≥ 0)
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/io/model_file.hpp"
+
+namespace imm::io {
+
+inline constexpr std::string_view kGaFuzzyImmKind = "ga_fuzzy_imm";
+
+/// Writes the spec; `level_metrics[i]` (optional) are stored on level i's group.
+void write_ga_fuzzy_imm(ModelFileWriter& writer, const GaFuzzyImmSpec& spec,
+                        const std::vector<std::map<std::string, double>>& level_metrics = {});
+
+[[nodiscard]] GaFuzzyImmSpec read_ga_fuzzy_imm(const ModelFileReader& reader);
+[[nodiscard]] GaFuzzyImmSpec read_ga_fuzzy_imm(const std::filesystem::path& path);
+
+/// The rule table as an n × 5 matrix (c1, σ1, c2, σ2, w) and back (validated).
+[[nodiscard]] Eigen::MatrixXd rules_matrix(const FuzzyRuleTable& table);
+[[nodiscard]] FuzzyRuleTable table_from_matrix(const Eigen::MatrixXd& rules);
+
+}  // namespace imm::io

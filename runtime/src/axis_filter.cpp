@@ -1,0 +1,84 @@
+#include "imm/filters/axis_filter.hpp"
+
+#include <cmath>
+
+#include "imm/core/invalid_parameter.hpp"
+
+namespace imm {
+
+void AxisImmSettings::validate() const {
+  if (!(sample_period > 0.0) || !std::isfinite(sample_period)) {
+    throw InvalidParameter("sample_period", "must be positive and finite");
+  }
+  if (!(measurement_sigma > 0.0) || !std::isfinite(measurement_sigma)) {
+    throw InvalidParameter("measurement_sigma", "must be positive and finite");
+  }
+  if (!(transition_stay > 0.0 && transition_stay <= 1.0)) {
+    throw InvalidParameter("transition_stay", "must be in (0, 1]");
+  }
+  if (!(initial_first_probability >= 0.0 && initial_first_probability <= 1.0)) {
+    throw InvalidParameter("initial_first_probability", "must be in [0, 1]");
+  }
+}
+
+Eigen::MatrixXd AxisImmSettings::transition(int n) const {
+  if (n == 1) return Eigen::MatrixXd::Ones(1, 1);
+  Eigen::MatrixXd pi = Eigen::MatrixXd::Constant(n, n, (1.0 - transition_stay) / (n - 1));
+  pi.diagonal().setConstant(transition_stay);
+  return pi;
+}
+
+Eigen::VectorXd AxisImmSettings::initial_probabilities(int n) const {
+  if (n == 1) return Eigen::VectorXd::Ones(1);
+  Eigen::VectorXd mu = Eigen::VectorXd::Constant(n, (1.0 - initial_first_probability) / (n - 1));
+  mu(0) = initial_first_probability;
+  return mu;
+}
+
+TwoAxisFilter::TwoAxisFilter(std::unique_ptr<AxisFilter> x, std::unique_ptr<AxisFilter> y)
+    : x_(std::move(x)), y_(std::move(y)) {
+  if (!x_ || !y_) throw InvalidParameter("axis", "both axis filters are required");
+}
+
+std::string TwoAxisFilter::mode_name(int j) const {
+  return j < x_->mode_count() ? "x." + x_->mode_name(j) : "y." + y_->mode_name(j - x_->mode_count());
+}
+
+void TwoAxisFilter::initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
+  for (int axis = 0; axis < 2; ++axis) {
+    GaussianState<2> state;
+    state.mean = mean.segment<2>(2 * axis);
+    state.covariance = covariance.block<2, 2>(2 * axis, 2 * axis);
+    (axis == 0 ? x_ : y_)->initialize(state);
+  }
+}
+
+StepStatus TwoAxisFilter::step(const Eigen::Vector2d& z) {
+  if (!z.allFinite()) return StepStatus::kInvalidMeasurement;
+  const StepStatus status = x_->step(z(0));
+  if (status != StepStatus::kOk) return status;
+  return y_->step(z(1));
+}
+
+StepStatus TwoAxisFilter::predict_only() {
+  const StepStatus status = x_->predict_only();
+  if (status != StepStatus::kOk) return status;
+  return y_->predict_only();
+}
+
+void TwoAxisFilter::state(Eigen::Ref<Eigen::VectorXd> mean,
+                          Eigen::Ref<Eigen::VectorXd> variance) const {
+  mean.segment<2>(0) = x_->estimate().mean;
+  mean.segment<2>(2) = y_->estimate().mean;
+  variance.segment<2>(0) = x_->estimate().covariance.diagonal();
+  variance.segment<2>(2) = y_->estimate().covariance.diagonal();
+}
+
+ModeVector TwoAxisFilter::mode_probabilities() const {
+  const ModeVector x = x_->mode_probabilities(), y = y_->mode_probabilities();
+  ModeVector mu(x.size() + y.size());
+  mu << x, y;
+  return mu;
+}
+
+}  // namespace imm

@@ -1,0 +1,89 @@
+#include "imm/io/ga_fuzzy_imm_file.hpp"
+
+#include "imm/core/invalid_parameter.hpp"
+
+namespace imm::io {
+namespace {
+constexpr const char* kRoot = "/ga_fuzzy_imm";
+std::string level_group(std::size_t i) { return std::string(kRoot) + "/level" + std::to_string(i); }
+const std::vector<std::string> kColumns = {"c1", "sigma1", "c2", "sigma2", "w"};
+}  // namespace
+
+Eigen::MatrixXd rules_matrix(const FuzzyRuleTable& table) {
+  Eigen::MatrixXd m(static_cast<Eigen::Index>(table.size()), 5);
+  for (std::size_t l = 0; l < table.size(); ++l) {
+    const FuzzyRule& r = table.rules()[l];
+    m.row(static_cast<Eigen::Index>(l)) << r.c1, r.sigma1, r.c2, r.sigma2, r.w;
+  }
+  return m;
+}
+
+FuzzyRuleTable table_from_matrix(const Eigen::MatrixXd& rules) {
+  if (rules.cols() != 5) throw std::invalid_argument("a rule table has 5 columns");
+  std::vector<FuzzyRule> list;
+  list.reserve(static_cast<std::size_t>(rules.rows()));
+  for (Eigen::Index l = 0; l < rules.rows(); ++l) {
+    list.push_back({rules(l, 0), rules(l, 1), rules(l, 2), rules(l, 3), rules(l, 4)});
+  }
+  return FuzzyRuleTable(std::move(list));
+}
+
+void write_ga_fuzzy_imm(ModelFileWriter& writer, const GaFuzzyImmSpec& spec,
+                        const std::vector<std::map<std::string, double>>& level_metrics) {
+  spec.validate();
+  const AxisImmSettings& s = spec.settings;
+  writer.set_attribute(kRoot, "sample_period", s.sample_period);
+  writer.set_attribute(kRoot, "measurement_sigma", s.measurement_sigma);
+  writer.set_attribute(kRoot, "transition_stay", s.transition_stay);
+  writer.set_attribute(kRoot, "initial_first_probability", s.initial_first_probability);
+  writer.set_attribute(kRoot, "level_count", static_cast<std::int64_t>(spec.levels.size()));
+  for (std::size_t i = 0; i < spec.levels.size(); ++i) {
+    const FuzzyLevel& level = spec.levels[i];
+    const std::string group = level_group(i);
+    writer.set_attribute(group, "name", level.name);
+    writer.set_attribute(group, "maneuver_level", level.maneuver_level);
+    if (i < level_metrics.size()) {
+      for (const auto& [name, value] : level_metrics[i]) writer.set_attribute(group, name, value);
+    }
+    writer.write_matrix(group + "/rules", rules_matrix(level.table), kColumns);
+  }
+}
+
+GaFuzzyImmSpec read_ga_fuzzy_imm(const ModelFileReader& reader) {
+  GaFuzzyImmSpec spec;
+  AxisImmSettings& s = spec.settings;
+  s.sample_period = reader.real(kRoot, "sample_period", ValueRule::kPositive);
+  s.measurement_sigma = reader.real(kRoot, "measurement_sigma", ValueRule::kPositive);
+  s.transition_stay = reader.real(kRoot, "transition_stay", ValueRule::kProbability);
+  s.initial_first_probability =
+      reader.real(kRoot, "initial_first_probability", ValueRule::kProbability);
+  const auto n = reader.integer(kRoot, "level_count", 1, 8);
+  for (std::int64_t i = 0; i < n; ++i) {
+    const std::string group = level_group(static_cast<std::size_t>(i));
+    FuzzyLevel level;
+    level.name = reader.text(group, "name");
+    level.maneuver_level = reader.real(group, "maneuver_level", ValueRule::kNonNegative);
+    const Eigen::MatrixXd rules = reader.matrix(group + "/rules", -1, 5);
+    if (rules.rows() < 1 || rules.rows() > static_cast<Eigen::Index>(FuzzyRuleTable::kMaxRules)) {
+      reader.fail(group + "/rules", "needs 1 to 50 rules, found " + std::to_string(rules.rows()));
+    }
+    try {
+      level.table = table_from_matrix(rules);
+    } catch (const std::invalid_argument& error) {
+      reader.fail(group + "/rules", error.what());
+    }
+    spec.levels.push_back(std::move(level));
+  }
+  try {
+    spec.validate();
+  } catch (const InvalidParameter& error) {
+    reader.fail(std::string(kRoot) + "@" + error.field(), error.what());
+  }
+  return spec;
+}
+
+GaFuzzyImmSpec read_ga_fuzzy_imm(const std::filesystem::path& path) {
+  return read_ga_fuzzy_imm(ModelFileReader(path, kGaFuzzyImmKind));
+}
+
+}  // namespace imm::io
