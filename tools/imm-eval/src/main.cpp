@@ -3,13 +3,17 @@
 //
 //   imm-eval plain-imm --models models/ [--runs 100] [--seed 1] [--out reports/plain-imm/]
 //                      [--model cv3_imm] [--data data/seed000.h5]
+//   imm-eval ga-imm --models models/ [--runs 100] [--seed 1] [--out reports/ga-imm/]
+//                   [--config configs/ga_fuzzy_imm.toml]
 //
-// Exit codes: 0 success, 1 usage, 2 invalid model or data file.
+// Exit codes: 0 success, 1 usage, 2 invalid model, config or data file, 5 a quality gate failed
+// (the report is written either way).
 
 #include <CLI/CLI.hpp>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "imm/evaluation/ga_imm_experiment.hpp"
 #include "imm/evaluation/plain_imm_experiment.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/trainer/provenance.hpp"
@@ -17,7 +21,126 @@
 namespace {
 
 constexpr int kExitBadInput = 2;
+constexpr int kExitGateFailed = 5;
 using imm::evaluation::cell;
+
+// P_e(k), V_e(k) of every filter as CSV and PNG (seed 000 Fig. 4); returns whether plots worked.
+bool write_error_series(const std::vector<imm::evaluation::FilterOutcome>& filters, int steps,
+                        const std::filesystem::path& out) {
+  std::vector<std::string> names;
+  Eigen::MatrixXd pe(steps, static_cast<Eigen::Index>(filters.size()));
+  Eigen::MatrixXd ve(steps, static_cast<Eigen::Index>(filters.size()));
+  for (std::size_t i = 0; i < filters.size(); ++i) {
+    names.push_back(filters[i].name);
+    pe.col(static_cast<Eigen::Index>(i)) = filters[i].position_error;
+    ve.col(static_cast<Eigen::Index>(i)) = filters[i].velocity_error;
+  }
+  imm::evaluation::write_series_csv(out / "normalized_position_error.csv", names, pe);
+  imm::evaluation::write_series_csv(out / "normalized_velocity_error.csv", names, ve);
+  bool plotted = imm::evaluation::plot_series({out / "normalized_position_error.png",
+                                               "Normalized position error P_e(k) (seed 000 Fig. 4-1)",
+                                               "scan k", "P_e", out / "normalized_position_error.csv",
+                                               names});
+  plotted &= imm::evaluation::plot_series({out / "normalized_velocity_error.png",
+                                           "Normalized velocity error V_e(k) (seed 000 Fig. 4-2)",
+                                           "scan k", "V_e", out / "normalized_velocity_error.csv",
+                                           names});
+  return plotted;
+}
+
+bool write_mode_probabilities(const imm::evaluation::FilterOutcome& filter,
+                              const std::filesystem::path& out, const std::string& stem) {
+  const auto csv = out / (stem + ".csv");
+  imm::evaluation::write_series_csv(csv, filter.mode_names, filter.mean_mode_probabilities);
+  return imm::evaluation::plot_series({out / (stem + ".png"),
+                                       "Mean mode probabilities of " + filter.name, "scan k",
+                                       "probability", csv, filter.mode_names});
+}
+
+int report_ga_imm(const imm::evaluation::GaImmExperimentResult& result,
+                  const std::filesystem::path& out) {
+  const auto& paper = imm::evaluation::seed000_table3();
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& f : result.filters) {
+    const auto printed = paper.find(f.name);
+    rows.push_back({f.name, std::to_string(f.modes / 2), cell(f.zeta_p), cell(f.zeta_v),
+                    printed != paper.end() ? cell(printed->second.first) : "–",
+                    printed != paper.end() ? cell(printed->second.second) : "–",
+                    cell(result.training_scores.at(f.name))});
+  }
+  std::cout << "ga-imm: seed-000 scenario, " << result.runs << " runs x " << result.steps
+            << " scans, seed " << result.seed << "\n\nTable 3 (ours beside the paper's):\n\n"
+            << imm::evaluation::markdown_table({"configuration", "sub-models", "ζ_p", "ζ_v",
+                                                "paper ζ_p", "paper ζ_v", "train ζ_p+ζ_v"},
+                                               rows)
+            << "\nTuned on the training trajectories:\n";
+  for (const auto& [name, text] : result.tuned) std::cout << "  " << name << ": " << text << '\n';
+  std::vector<std::vector<std::string>> spread_rows;
+  for (const auto& s : result.spreads) {
+    spread_rows.push_back({s.filter, s.mode, cell(s.p01 * 1e6, 3), cell(s.p50 * 1e6, 3),
+                           cell(s.p99 * 1e6, 3)});
+  }
+  std::cout << "\nq_j(k) over scans, runs and axes, 10⁻⁶ (km/s²)²:\n\n"
+            << imm::evaluation::markdown_table({"filter", "sub-model", "p1", "p50", "p99"},
+                                               spread_rows);
+
+  // Gates (issue targets).
+  auto find = [&](const std::string& name) -> const imm::evaluation::FilterOutcome& {
+    for (const auto& f : result.filters) {
+      if (f.name == name) return f;
+    }
+    throw std::logic_error("missing filter " + name);
+  };
+  const auto& ours = find("GA-IMM");
+  std::vector<std::string> failures;
+  for (const char* baseline : {"AIMM3", "AIMM5", "AIMM-tuned"}) {
+    const auto& b = find(baseline);
+    if (!(ours.zeta_p < b.zeta_p && ours.zeta_v < b.zeta_v)) {
+      failures.push_back(std::string("GA-IMM does not beat ") + baseline + " in both ζ_p and ζ_v");
+    }
+  }
+  const auto& published = find("GA-IMM-paper");
+  if (ours.zeta_p > published.zeta_p + 0.005 || ours.zeta_v > published.zeta_v + 0.005) {
+    failures.push_back("GA-IMM is more than 0.005 above GA-IMM-paper");
+  }
+  const auto& imm_tuned = find("IMM-tuned");
+  const bool beats_imm_tuned = ours.zeta_p < imm_tuned.zeta_p && ours.zeta_v < imm_tuned.zeta_v;
+  std::cout << "\nGates: " << (failures.empty() ? "passed" : "FAILED") << '\n';
+  for (const auto& failure : failures) std::cout << "  - " << failure << '\n';
+  std::cout << "Stretch (GA-IMM beats IMM-tuned in both): " << (beats_imm_tuned ? "yes" : "no")
+            << '\n';
+
+  std::filesystem::create_directories(out);
+  nlohmann::json metrics;
+  for (const auto& f : result.filters) metrics[f.name] = {{"zeta_p", f.zeta_p}, {"zeta_v", f.zeta_v}};
+  imm::trainer::write_json_atomically(out / "metrics.json", metrics);
+  nlohmann::json details;
+  details["runs"] = result.runs;
+  details["seed"] = result.seed;
+  details["dataset_digest"] = result.dataset_digest;
+  details["tuned"] = result.tuned;
+  details["training_scores"] = result.training_scores;
+  details["gates_passed"] = failures.empty();
+  details["gate_failures"] = failures;
+  details["beats_imm_tuned"] = beats_imm_tuned;
+  for (const auto& f : result.filters) {
+    details["filters"][f.name] = {{"zeta_p", f.zeta_p}, {"zeta_v", f.zeta_v},
+                                  {"position_rmse", f.position_rmse},
+                                  {"velocity_rmse", f.velocity_rmse},
+                                  {"rejected_steps", f.rejected_steps}};
+  }
+  for (const auto& s : result.spreads) {
+    details["process_noise_spread"][s.filter][s.mode] = {{"p01", s.p01}, {"p50", s.p50}, {"p99", s.p99}};
+  }
+  imm::trainer::write_json_atomically(out / "details.json", details);
+  bool plotted = write_error_series(result.filters, result.steps, out);
+  plotted &= write_mode_probabilities(ours, out, "mode_probabilities_ga_imm");
+  plotted &= write_mode_probabilities(published, out, "mode_probabilities_ga_imm_paper");
+  std::cout << "\nwrote metrics.json, details.json, CSV series"
+            << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
+            << " in " << out.string() << '\n';
+  return failures.empty() ? 0 : kExitGateFailed;
+}
 
 int report_plain_imm(const imm::evaluation::PlainImmExperimentResult& result,
                      const std::filesystem::path& out) {
@@ -52,32 +175,8 @@ int report_plain_imm(const imm::evaluation::PlainImmExperimentResult& result,
   }
   imm::trainer::write_json_atomically(out / "metrics.json", metrics);
 
-  std::vector<std::string> pe_names, ve_names;
-  Eigen::MatrixXd pe(result.steps, static_cast<Eigen::Index>(result.filters.size()));
-  Eigen::MatrixXd ve(result.steps, static_cast<Eigen::Index>(result.filters.size()));
-  for (std::size_t i = 0; i < result.filters.size(); ++i) {
-    pe_names.push_back(result.filters[i].name);
-    pe.col(static_cast<Eigen::Index>(i)) = result.filters[i].position_error;
-    ve.col(static_cast<Eigen::Index>(i)) = result.filters[i].velocity_error;
-  }
-  ve_names = pe_names;
-  imm::evaluation::write_series_csv(out / "normalized_position_error.csv", pe_names, pe);
-  imm::evaluation::write_series_csv(out / "normalized_velocity_error.csv", ve_names, ve);
-  const auto& imm_filter = result.filters.front();
-  imm::evaluation::write_series_csv(out / "mode_probabilities.csv", imm_filter.mode_names,
-                                    imm_filter.mean_mode_probabilities);
-
-  bool plotted = imm::evaluation::plot_series(
-      {out / "normalized_position_error.png",
-       "Normalized position error P_e(k) (seed 000 Fig. 4-1)", "scan k", "P_e",
-       out / "normalized_position_error.csv", pe_names});
-  plotted &= imm::evaluation::plot_series({out / "normalized_velocity_error.png",
-                                           "Normalized velocity error V_e(k) (seed 000 Fig. 4-2)",
-                                           "scan k", "V_e", out / "normalized_velocity_error.csv",
-                                           ve_names});
-  plotted &= imm::evaluation::plot_series(
-      {out / "mode_probabilities.png", "Mean mode probabilities of " + imm_filter.name, "scan k",
-       "probability", out / "mode_probabilities.csv", imm_filter.mode_names});
+  bool plotted = write_error_series(result.filters, result.steps, out);
+  plotted &= write_mode_probabilities(result.filters.front(), out, "mode_probabilities");
   std::cout << "\nwrote " << (out / "metrics.json").string() << ", CSV series"
             << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
             << " in " << out.string() << '\n';
@@ -104,8 +203,26 @@ int main(int argc, char** argv) {
   plain_command->add_option("--data", data_path, "evaluate a stored data-set file instead");
   plain_command->add_option("--out", out, "report folder");
 
+  imm::evaluation::GaImmExperimentOptions ga;
+  std::filesystem::path ga_models = "models";
+  std::filesystem::path ga_out = "reports/ga-imm";
+  ga.training_config = "configs/ga_fuzzy_imm.toml";
+  auto* ga_command = app.add_subcommand(
+      "ga-imm", "seed 000 Table 3: GA-fuzzy IMM vs AIMM3/5, tuned AIMM, tuned IMM, the paper's tables");
+  ga_command->add_option("--models", ga_models,
+                         "folder with ga_fuzzy_imm.h5 and reference/ga_fuzzy_imm_paper.h5");
+  ga_command->add_option("--config", ga.training_config, "GA config (training trajectories, filter)");
+  ga_command->add_option("--runs", ga.runs, "Monte Carlo runs")->check(CLI::PositiveNumber);
+  ga_command->add_option("--seed", ga.seed, "noise seed");
+  ga_command->add_option("--out", ga_out, "report folder");
+
   CLI11_PARSE(app, argc, argv);
   try {
+    if (*ga_command) {
+      ga.model = ga_models / "ga_fuzzy_imm.h5";
+      ga.paper_model = ga_models / "reference" / "ga_fuzzy_imm_paper.h5";
+      return report_ga_imm(imm::evaluation::run_ga_imm_experiment(ga), ga_out);
+    }
     if (*plain_command) {
       plain.model = models_dir / (model_name + ".h5");
       if (!data_path.empty()) plain.data = data_path;

@@ -5,6 +5,8 @@
 /// seed 000's normalized errors ζ_p, ζ_v (see normalized_errors.hpp) and RMSEs.
 
 #include <Eigen/Core>
+
+#include "imm/evaluation/monte_carlo.hpp"
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -18,17 +20,6 @@ struct PlainImmExperimentOptions {
   std::optional<std::filesystem::path> data;  ///< a data-set file; else seed 000 is simulated
   int runs = 100;
   std::uint64_t seed = 1;
-};
-
-struct FilterOutcome {
-  std::string name;
-  int modes = 0;
-  double zeta_p = 0.0, zeta_v = 0.0;
-  double position_rmse = 0.0, velocity_rmse = 0.0;
-  Eigen::VectorXd position_error, velocity_error;  ///< P_e(k), V_e(k)
-  Eigen::MatrixXd mean_mode_probabilities;         ///< steps × modes, averaged over runs
-  std::vector<std::string> mode_names;
-  long rejected_steps = 0;  ///< plots the filter could not use
 };
 
 struct PlainImmExperimentResult {

@@ -1,0 +1,80 @@
+#pragma once
+/// The optimization problem of seed 000 §3.1: find a fuzzy rule table (parameters and number of
+/// rules) for one maneuver level. pagmo-style, the problem only knows genomes, bounds and fitness;
+/// the genetic algorithm (genetic_algorithm.hpp) knows nothing of fuzzy tables.
+///
+/// Genetic coding (seed 000 Fig. 2): per rule slot l < max_rules a real parameter string
+/// (c1, σ1, c2, σ2, √w) and one bit of the binary rule-count string (slot active or not). The
+/// consequent is coded as the standard deviation √w, whose range eq. (15) gives:
+/// 0.5 (a_M + √q) ≤ √w ≤ a_M + √q. Centers span the observed ranges of r and Δr, spreads a
+/// configured range.
+///
+/// Fitness (eq. 16): λ/(error + 1) + (1 − λ)/(rules + 1), with error (eq. 17)
+/// √(ē_p² + ē_v²) from the single fuzzy-noise KF (the runtime's FuzzyNoiseFilter, the very step
+/// the IMM runs) over the training trajectories. Eq. (17) prints sums over the trajectories; we
+/// use the means per scan (ē_p = Σ|p − p̂| / N, likewise ē_v), which leaves the optimum unchanged
+/// but keeps "error + 1" on the scale λ was chosen for (errors ~ 0.1–1 km), independent of how
+/// many trajectories the config asks for.
+
+#include <cstdint>
+#include <vector>
+
+#include "imm/models/fuzzy_rule_table.hpp"
+#include "imm/trainer/ga/training_set.hpp"
+
+namespace imm::trainer::ga {
+
+inline constexpr int kGenesPerRule = 5;  // c1, σ1, c2, σ2, √w
+
+struct Genome {
+  std::vector<double> genes;          ///< max_rules × 5, slot-major
+  std::vector<std::uint8_t> active;   ///< max_rules bits
+  [[nodiscard]] int rule_count() const;
+};
+
+struct Evaluation {
+  double fitness = 0.0;
+  double error = 0.0;           ///< eq. (17), per-scan means
+  double position_error = 0.0;  ///< ē_p
+  double velocity_error = 0.0;  ///< ē_v
+  int rules = 0;
+};
+
+struct ProblemOptions {
+  double lambda = 0.95;
+  int max_rules = 50;
+  double sigma_min = 0.05, sigma_max = 5.0;  ///< membership spreads, measurement units
+  double maneuver_level = 0.01;              ///< a_M
+  double process_noise_sigma = 0.001;        ///< √q of eq. (15)
+  double consequent_low = 0.5;               ///< √w bounds as multiples of a_M + √q (eq. 15)
+  double consequent_high = 1.0;
+};
+
+class FuzzyTableProblem {
+ public:
+  /// Computes the observed ranges of r and Δr on `training` with a constant-q KF at the upper
+  /// end of eq. (15).
+  FuzzyTableProblem(TrainingSet training, ProblemOptions options);
+
+  [[nodiscard]] Evaluation evaluate(const Genome& genome) const;
+  /// Error and fitness of a decoded table on any set (validation).
+  [[nodiscard]] Evaluation evaluate_table(const FuzzyRuleTable& table, const TrainingSet& set) const;
+  [[nodiscard]] FuzzyRuleTable decode(const Genome& genome) const;
+
+  [[nodiscard]] int max_rules() const { return options_.max_rules; }
+  [[nodiscard]] int gene_count() const { return options_.max_rules * kGenesPerRule; }
+  [[nodiscard]] const std::vector<double>& lower() const { return lower_; }
+  [[nodiscard]] const std::vector<double>& upper() const { return upper_; }
+  [[nodiscard]] const TrainingSet& training() const { return training_; }
+  [[nodiscard]] const ProblemOptions& options() const { return options_; }
+  /// Observed ranges [r_min, r_max], [Δr_min, Δr_max].
+  [[nodiscard]] std::array<double, 4> residual_ranges() const { return ranges_; }
+
+ private:
+  TrainingSet training_;
+  ProblemOptions options_;
+  std::array<double, 4> ranges_{};
+  std::vector<double> lower_, upper_;
+};
+
+}  // namespace imm::trainer::ga

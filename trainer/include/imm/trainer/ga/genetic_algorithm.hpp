@@ -1,0 +1,79 @@
+#pragma once
+/// The genetic algorithm of seed 000 §3.1 (Table 1: population 500, 100 generations, crossover
+/// 0.9, mutation 0.01), for the mixed real/binary genome of fuzzy_table_problem.hpp.
+///
+/// Operators, and why:
+/// - Selection: k-tournament (default k = 2). It needs only the order of fitness values, so the
+///   selection pressure does not depend on how eq. (16) scales fitness, and it is cheap.
+/// - Crossover (rate p_c): slot-uniform — each rule slot (its five reals and its bit) comes whole
+///   from one parent or the other. A rule is a building block: mixing the center of one rule
+///   with the spread of another destroys what both parents learned, whereas exchanging whole
+///   rules recombines working rules and lets the rule count vary through the bits.
+/// - Mutation (rate p_m per gene): a real gene moves by a Gaussian step of a fixed fraction of its
+///   range and is reflected into its bounds (every gene stays in range, no mass piles up on the
+///   bounds); a bit flips. A genome that lost every rule gets one random slot back, so the rule
+///   count stays in 1 … max_rules.
+/// - Elitism: the best individuals pass unchanged, so the best fitness never decreases.
+///
+/// Determinism: every random draw is made serially from a stream seeded by (seed, generation);
+/// only the fitness evaluations, which draw nothing, run in parallel (OpenMP). The result is
+/// bit-identical for a seed whatever the thread count, and a run resumed from the population of
+/// generation g continues exactly as the uninterrupted run.
+
+#include <cstdint>
+#include <vector>
+
+#include "imm/datasets/random.hpp"
+#include "imm/trainer/ga/fuzzy_table_problem.hpp"
+
+namespace imm::trainer::ga {
+
+struct GaOptions {
+  int population = 500;
+  int generations = 100;
+  double crossover_rate = 0.9;
+  double mutation_rate = 0.01;
+  int elite = 2;
+  int tournament_size = 2;
+  double initial_rule_probability = 0.5;  ///< P(slot active) in the initial population
+  double mutation_scale = 0.1;            ///< Gaussian step, fraction of the gene's range
+};
+
+struct Population {
+  int generation = 0;  ///< generations completed (0: the evaluated initial population)
+  std::vector<Genome> genomes;
+  std::vector<Evaluation> evaluations;
+
+  [[nodiscard]] std::size_t best_index() const;  ///< highest fitness, lowest index on ties
+  [[nodiscard]] double mean_fitness() const;
+};
+
+class GeneticAlgorithm {
+ public:
+  /// Throws std::invalid_argument for inconsistent options.
+  GeneticAlgorithm(const FuzzyTableProblem& problem, GaOptions options, std::uint64_t seed);
+
+  /// The random, evaluated initial population (generation 0).
+  [[nodiscard]] Population initialize() const;
+  /// Replaces `population` by the next generation, evaluated.
+  void evolve(Population& population) const;
+
+  // The operators, public for tests.
+  [[nodiscard]] Genome random_genome(datasets::Rng& rng) const;
+  [[nodiscard]] Genome crossover(const Genome& a, const Genome& b, datasets::Rng& rng) const;
+  void mutate(Genome& genome, datasets::Rng& rng) const;
+  [[nodiscard]] std::size_t tournament(const Population& population, datasets::Rng& rng) const;
+  /// Evaluates every genome (in parallel when OpenMP has more than one thread).
+  void evaluate(Population& population) const;
+
+  [[nodiscard]] const GaOptions& options() const { return options_; }
+
+ private:
+  void repair(Genome& genome, datasets::Rng& rng) const;
+
+  const FuzzyTableProblem& problem_;
+  GaOptions options_;
+  std::uint64_t seed_;
+};
+
+}  // namespace imm::trainer::ga

@@ -1,0 +1,118 @@
+#include "imm/trainer/ga/fuzzy_table_problem.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "imm/filters/fuzzy_noise_filter.hpp"
+
+namespace imm::trainer::ga {
+namespace {
+
+// Two-point start from scans 0 and 1 (as the tracker does).
+GaussianState<2> two_point(const AxisTrajectory& t, double T, double r) {
+  GaussianState<2> state;
+  state.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
+  state.covariance << r, r / T, r / T, 2.0 * r / (T * T);
+  return state;
+}
+
+}  // namespace
+
+int Genome::rule_count() const {
+  int count = 0;
+  for (std::uint8_t bit : active) count += bit != 0 ? 1 : 0;
+  return count;
+}
+
+FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, ProblemOptions options)
+    : training_(std::move(training)), options_(options) {
+  if (options_.max_rules < 1 || options_.max_rules > static_cast<int>(FuzzyRuleTable::kMaxRules)) {
+    throw std::invalid_argument("max_rules must be in [1, 50]");
+  }
+  for (const auto& t : training_.trajectories) {
+    if (t.measurement.size() < 3) throw std::invalid_argument("training trajectories need 3 scans");
+  }
+  const double s = options_.maneuver_level + options_.process_noise_sigma;
+  // Observed residual ranges under a constant q = s² (one rule at the top of eq. 15).
+  const FuzzyNoiseFilter reference(FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, s * s}}),
+                                   training_.sample_period, training_.measurement_variance);
+  double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min;
+  double dr_min = r_min, dr_max = -r_min;
+  for (const auto& t : training_.trajectories) {
+    GaussianState<2> state = two_point(t, training_.sample_period, training_.measurement_variance);
+    double previous = 0.0;
+    for (Eigen::Index k = 2; k < t.measurement.size(); ++k) {
+      const auto step = reference.step(state, previous, t.measurement(k));
+      if (k > 2) {
+        dr_min = std::min(dr_min, step.residual - previous);
+        dr_max = std::max(dr_max, step.residual - previous);
+      }
+      r_min = std::min(r_min, step.residual);
+      r_max = std::max(r_max, step.residual);
+      previous = step.residual;
+    }
+  }
+  ranges_ = {r_min, r_max, dr_min, dr_max};
+  lower_.resize(static_cast<std::size_t>(gene_count()));
+  upper_.resize(lower_.size());
+  for (int l = 0; l < options_.max_rules; ++l) {
+    const auto base = static_cast<std::size_t>(l * kGenesPerRule);
+    lower_[base + 0] = r_min, upper_[base + 0] = r_max;
+    lower_[base + 1] = options_.sigma_min, upper_[base + 1] = options_.sigma_max;
+    lower_[base + 2] = dr_min, upper_[base + 2] = dr_max;
+    lower_[base + 3] = options_.sigma_min, upper_[base + 3] = options_.sigma_max;
+    lower_[base + 4] = options_.consequent_low * s, upper_[base + 4] = options_.consequent_high * s;
+  }
+}
+
+FuzzyRuleTable FuzzyTableProblem::decode(const Genome& genome) const {
+  std::vector<FuzzyRule> rules;
+  for (int l = 0; l < options_.max_rules; ++l) {
+    if (genome.active[static_cast<std::size_t>(l)] == 0) continue;
+    const double* g = genome.genes.data() + static_cast<std::ptrdiff_t>(l) * kGenesPerRule;
+    rules.push_back({g[0], g[1], g[2], g[3], g[4] * g[4]});
+  }
+  return FuzzyRuleTable(std::move(rules));
+}
+
+Evaluation FuzzyTableProblem::evaluate_table(const FuzzyRuleTable& table,
+                                             const TrainingSet& set) const {
+  const FuzzyNoiseFilter filter(table, set.sample_period, set.measurement_variance);
+  double position_sum = 0.0, velocity_sum = 0.0;
+  long count = 0;
+  bool failed = false;
+  for (const auto& t : set.trajectories) {
+    GaussianState<2> state = two_point(t, set.sample_period, set.measurement_variance);
+    double previous = 0.0;
+    for (Eigen::Index k = 2; k < t.measurement.size(); ++k) {
+      const auto step = filter.step(state, previous, t.measurement(k));
+      if (step.status != StepStatus::kOk) {
+        failed = true;
+        break;
+      }
+      previous = step.residual;
+      position_sum += std::abs(t.position(k) - state.mean(0));
+      velocity_sum += std::abs(t.velocity(k) - state.mean(1));
+      ++count;
+    }
+  }
+  Evaluation e;
+  e.rules = static_cast<int>(table.size());
+  if (failed || count == 0) {
+    e.error = std::numeric_limits<double>::infinity();
+    e.fitness = 0.0;
+    return e;
+  }
+  e.position_error = position_sum / static_cast<double>(count);
+  e.velocity_error = velocity_sum / static_cast<double>(count);
+  e.error = std::hypot(e.position_error, e.velocity_error);
+  e.fitness = options_.lambda / (e.error + 1.0) + (1.0 - options_.lambda) / (e.rules + 1.0);
+  return e;
+}
+
+Evaluation FuzzyTableProblem::evaluate(const Genome& genome) const {
+  return evaluate_table(decode(genome), training_);
+}
+
+}  // namespace imm::trainer::ga

@@ -1,0 +1,163 @@
+#include "imm/trainer/ga/ga_config.hpp"
+
+#include <cmath>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/datasets/random.hpp"
+#include "imm/support/config.hpp"
+
+namespace imm::trainer::ga {
+namespace {
+
+void require(bool condition, const std::string& key, const std::string& message) {
+  if (!condition) throw InvalidParameter(key, message);
+}
+
+bool finite_positive(double x) { return std::isfinite(x) && x > 0.0; }
+
+GaTrainingConfig config_from(const support::ConfigTable& root) {
+  GaTrainingConfig c;
+  const std::int64_t seed = root.integer_or("seed", 1);
+  if (seed < 0) root.fail("seed", "must be non-negative");
+  c.seed = static_cast<std::uint64_t>(seed);
+  if (const auto f = root.table("filter")) {
+    c.filter.sample_period = f->real_or("sample_period", c.filter.sample_period);
+    c.filter.measurement_sigma = f->real_or("measurement_sigma", c.filter.measurement_sigma);
+    c.filter.transition_stay = f->real_or("transition_stay", c.filter.transition_stay);
+    c.filter.initial_first_probability =
+        f->real_or("initial_first_probability", c.filter.initial_first_probability);
+  }
+  if (const auto t = root.table("training")) {
+    TrainingOptions& o = c.training;
+    if (t->has("levels")) {
+      const Eigen::VectorXd levels = t->reals("levels");
+      o.levels.assign(levels.data(), levels.data() + levels.size());
+    }
+    o.process_noise_sigma = t->real_or("process_noise_sigma", o.process_noise_sigma);
+    if (t->has("profile")) {
+      const std::string profile = t->text("profile");
+      if (profile == "maneuver") {
+        o.profile = TrainingProfile::kManeuver;
+      } else if (profile == "mixed") {
+        o.profile = TrainingProfile::kMixed;
+      } else {
+        t->fail("profile", "unknown profile '" + profile + "' (expected maneuver or mixed)");
+      }
+    }
+    o.trajectories = static_cast<int>(t->integer_or("trajectories", o.trajectories));
+    o.validation_trajectories =
+        static_cast<int>(t->integer_or("validation_trajectories", o.validation_trajectories));
+    o.steps = static_cast<int>(t->integer_or("steps", o.steps));
+    if (t->has("segment_length")) {
+      const Eigen::VectorXd range = t->reals("segment_length", 2);
+      o.min_segment = static_cast<int>(range(0));
+      o.max_segment = static_cast<int>(range(1));
+    }
+    o.initial_speed = t->real_or("initial_speed", o.initial_speed);
+  }
+  if (const auto f = root.table("fuzzy")) {
+    c.fuzzy.max_rules = static_cast<int>(f->integer_or("max_rules", c.fuzzy.max_rules));
+    if (f->has("sigma_range")) {
+      const Eigen::VectorXd range = f->reals("sigma_range", 2);
+      c.fuzzy.sigma_min = range(0);
+      c.fuzzy.sigma_max = range(1);
+    }
+    if (f->has("consequent_range")) {
+      const Eigen::VectorXd range = f->reals("consequent_range", 2);
+      c.fuzzy.consequent_low = range(0);
+      c.fuzzy.consequent_high = range(1);
+    }
+  }
+  if (const auto g = root.table("ga")) {
+    GaOptions& o = c.ga;
+    o.population = static_cast<int>(g->integer_or("population", o.population));
+    o.generations = static_cast<int>(g->integer_or("generations", o.generations));
+    o.crossover_rate = g->real_or("crossover_rate", o.crossover_rate);
+    o.mutation_rate = g->real_or("mutation_rate", o.mutation_rate);
+    c.fuzzy.lambda = g->real_or("lambda", c.fuzzy.lambda);
+    o.elite = static_cast<int>(g->integer_or("elite", o.elite));
+    o.tournament_size = static_cast<int>(g->integer_or("tournament_size", o.tournament_size));
+    o.initial_rule_probability = g->real_or("initial_rule_probability", o.initial_rule_probability);
+    o.mutation_scale = g->real_or("mutation_scale", o.mutation_scale);
+  }
+  if (const auto m = root.table("memetic")) {
+    c.memetic.enabled = m->boolean_or("enabled", c.memetic.enabled);
+    c.memetic.max_evaluations =
+        static_cast<int>(m->integer_or("max_evaluations", c.memetic.max_evaluations));
+  }
+  if (const auto gate = root.table("gate")) {
+    c.max_validation_error = gate->real_or("max_validation_error", c.max_validation_error);
+  }
+  c.validate();
+  return c;
+}
+
+}  // namespace
+
+void GaTrainingConfig::validate() const {
+  try {
+    filter.validate();
+  } catch (const InvalidParameter& error) {
+    const std::string what = error.what();
+    throw InvalidParameter("filter." + error.field(), what.substr(error.field().size() + 2));
+  }
+  const TrainingOptions& t = training;
+  require(!t.levels.empty() && t.levels.size() <= 8, "training.levels", "need 1 to 8 levels");
+  for (double u : t.levels) require(std::isfinite(u) && u >= 0.0, "training.levels", "must be ≥ 0");
+  require(std::isfinite(t.process_noise_sigma) && t.process_noise_sigma >= 0.0,
+          "training.process_noise_sigma", "must be non-negative");
+  require(t.trajectories >= 1 && t.trajectories <= 10000, "training.trajectories", "must be in [1, 10000]");
+  require(t.validation_trajectories >= 1 && t.validation_trajectories <= 10000,
+          "training.validation_trajectories", "must be in [1, 10000]");
+  require(t.steps >= 10 && t.steps <= 100000, "training.steps", "must be in [10, 100000]");
+  require(t.min_segment >= 1 && t.max_segment >= t.min_segment, "training.segment_length",
+          "must be [min, max] with 1 ≤ min ≤ max");
+  require(std::isfinite(t.initial_speed), "training.initial_speed", "must be finite");
+  require(fuzzy.max_rules >= 1 && fuzzy.max_rules <= 50, "fuzzy.max_rules", "must be in [1, 50]");
+  require(finite_positive(fuzzy.sigma_min) && fuzzy.sigma_max > fuzzy.sigma_min &&
+              std::isfinite(fuzzy.sigma_max),
+          "fuzzy.sigma_range", "must be [min, max] with 0 < min < max");
+  require(std::isfinite(fuzzy.consequent_low) && fuzzy.consequent_low >= 0.0 &&
+              fuzzy.consequent_high > fuzzy.consequent_low && std::isfinite(fuzzy.consequent_high),
+          "fuzzy.consequent_range", "must be [low, high] with 0 ≤ low < high");
+  require(fuzzy.lambda >= 0.0 && fuzzy.lambda <= 1.0, "ga.lambda", "must be in [0, 1]");
+  require(ga.population >= 2 && ga.population <= 100000, "ga.population", "must be in [2, 100000]");
+  require(ga.generations >= 0 && ga.generations <= 100000, "ga.generations", "must be in [0, 100000]");
+  require(ga.crossover_rate >= 0.0 && ga.crossover_rate <= 1.0, "ga.crossover_rate", "must be in [0, 1]");
+  require(ga.mutation_rate >= 0.0 && ga.mutation_rate <= 1.0, "ga.mutation_rate", "must be in [0, 1]");
+  require(ga.elite >= 0 && ga.elite < ga.population, "ga.elite", "must be in [0, population)");
+  require(ga.tournament_size >= 1 && ga.tournament_size <= ga.population, "ga.tournament_size",
+          "must be in [1, population]");
+  require(ga.initial_rule_probability > 0.0 && ga.initial_rule_probability <= 1.0,
+          "ga.initial_rule_probability", "must be in (0, 1]");
+  require(finite_positive(ga.mutation_scale) && ga.mutation_scale <= 1.0, "ga.mutation_scale",
+          "must be in (0, 1]");
+  require(memetic.max_evaluations >= 0, "memetic.max_evaluations", "must be non-negative");
+  require(finite_positive(max_validation_error), "gate.max_validation_error", "must be positive");
+}
+
+TrainingSetOptions GaTrainingConfig::training_set_options(std::size_t level, bool validation) const {
+  TrainingSetOptions o;
+  o.sample_period = filter.sample_period;
+  o.measurement_sigma = filter.measurement_sigma;
+  o.process_noise_sigma = training.process_noise_sigma;
+  o.maneuver_level = training.levels[level];
+  o.profile = training.profile;
+  o.trajectories = validation ? training.validation_trajectories : training.trajectories;
+  o.steps = training.steps;
+  o.min_segment = training.min_segment;
+  o.max_segment = training.max_segment;
+  o.initial_speed = training.initial_speed;
+  o.seed = datasets::derive_seed(seed, (validation ? 2000 : 1000) + level);
+  return o;
+}
+
+GaTrainingConfig load_ga_config(const std::filesystem::path& path) {
+  const auto document = support::ConfigDocument::load(path);
+  GaTrainingConfig config = document->load_checked([&] { return config_from(document->root()); });
+  config.text = document->text();
+  config.name = path.string();
+  return config;
+}
+
+}  // namespace imm::trainer::ga

@@ -1,0 +1,80 @@
+#include "imm/trainer/import_rules.hpp"
+
+#include <charconv>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "imm/datasets/sha256.hpp"
+#include "imm/io/ga_fuzzy_imm_file.hpp"
+#include "imm/trainer/ga/ga_config.hpp"
+#include "imm/trainer/ga/ga_trainer.hpp"
+#include "imm/trainer/provenance.hpp"
+
+namespace imm::trainer {
+
+GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSettings& settings) {
+  std::ifstream in(csv);
+  if (!in) throw std::runtime_error(csv.string() + ": cannot open");
+  std::vector<double> level_order;
+  std::map<double, std::vector<FuzzyRule>> rules;
+  std::string line;
+  std::size_t number = 0;
+  bool header = false;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    const std::string where = csv.string() + ":" + std::to_string(number) + ": ";
+    if (!header) {
+      if (line.rfind("level,c1,sigma1,c2,sigma2,w", 0) != 0) {
+        throw std::runtime_error(where + "expected the header level,c1,sigma1,c2,sigma2,w");
+      }
+      header = true;
+      continue;
+    }
+    std::stringstream fields(line);
+    std::string field;
+    std::vector<double> values;
+    while (std::getline(fields, field, ',')) {
+      char* end = nullptr;
+      const double value = std::strtod(field.c_str(), &end);
+      if (end == field.c_str() || !std::isfinite(value)) {
+        throw std::runtime_error(where + "'" + field + "' is not a finite number");
+      }
+      values.push_back(value);
+    }
+    if (values.size() != 6) throw std::runtime_error(where + "expected 6 fields");
+    if (rules.find(values[0]) == rules.end()) level_order.push_back(values[0]);
+    rules[values[0]].push_back({values[1], values[2], values[3], values[4], values[5]});
+  }
+  if (!header) throw std::runtime_error(csv.string() + ": no header line");
+  GaFuzzyImmSpec spec;
+  spec.settings = settings;
+  for (double level : level_order) {
+    try {
+      spec.levels.push_back({ga::level_name(level), level, FuzzyRuleTable(rules[level])});
+    } catch (const std::invalid_argument& error) {
+      throw std::runtime_error(csv.string() + ": level " + ga::level_name(level) + ": " + error.what());
+    }
+  }
+  spec.validate();
+  return spec;
+}
+
+GaFuzzyImmSpec import_rules(const ImportRulesOptions& options) {
+  const ga::GaTrainingConfig config = ga::load_ga_config(options.config);
+  GaFuzzyImmSpec spec = read_rules_csv(options.csv, config.filter);
+  const std::string csv_text = read_text_file(options.csv);
+  ensure_parent_folder(options.out);
+  io::ModelFileWriter writer(
+      options.out, make_provenance(std::string(io::kGaFuzzyImmKind),
+                                   "# filter settings: " + options.config.string() + "\n" +
+                                       config.text + "\n# rules: " + options.csv.string() + "\n" +
+                                       csv_text,
+                                   0, datasets::sha256_hex(csv_text)));
+  io::write_ga_fuzzy_imm(writer, spec);
+  writer.commit();
+  return spec;
+}
+
+}  // namespace imm::trainer
