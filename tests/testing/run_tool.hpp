@@ -80,6 +80,23 @@ inline ToolResult run_tool(const std::string& tool, const std::vector<std::strin
   return result;
 }
 
+/// Starts `tool` without waiting (output discarded); returns its pid, or -1.
+inline pid_t spawn_tool(const std::string& tool, const std::vector<std::string>& arguments) {
+  std::vector<std::string> storage{tool_path(tool).string()};
+  storage.insert(storage.end(), arguments.begin(), arguments.end());
+  std::vector<char*> argv;
+  for (auto& a : storage) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+  pid_t pid = -1;
+  if (posix_spawn(&pid, storage[0].c_str(), &actions, nullptr, argv.data(), environ) != 0) pid = -1;
+  posix_spawn_file_actions_destroy(&actions);
+  return pid;
+}
+
 /// The repository root (ctest runs the tests there).
 inline std::filesystem::path source_root() { return std::filesystem::current_path(); }
 

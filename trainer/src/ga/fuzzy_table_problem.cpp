@@ -25,8 +25,16 @@ int Genome::rule_count() const {
   return count;
 }
 
-FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, ProblemOptions options)
-    : training_(std::move(training)), options_(options) {
+std::string_view to_string(FitnessKind kind) {
+  return kind == FitnessKind::kSingleFilter ? "single" : "imm";
+}
+
+FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, ProblemOptions options,
+                                     ImmContext context)
+    : training_(std::move(training)), options_(options), context_(std::move(context)) {
+  if (options_.fitness == FitnessKind::kImm && context_.slot >= context_.levels.size()) {
+    throw std::invalid_argument("IMM fitness needs the levels and the candidate's slot");
+  }
   if (options_.max_rules < 1 || options_.max_rules > static_cast<int>(FuzzyRuleTable::kMaxRules)) {
     throw std::invalid_argument("max_rules must be in [1, 50]");
   }
@@ -76,29 +84,10 @@ FuzzyRuleTable FuzzyTableProblem::decode(const Genome& genome) const {
   return FuzzyRuleTable(std::move(rules));
 }
 
-Evaluation FuzzyTableProblem::evaluate_table(const FuzzyRuleTable& table,
-                                             const TrainingSet& set) const {
-  const FuzzyNoiseFilter filter(table, set.sample_period, set.measurement_variance);
-  double position_sum = 0.0, velocity_sum = 0.0;
-  long count = 0;
-  bool failed = false;
-  for (const auto& t : set.trajectories) {
-    GaussianState<2> state = two_point(t, set.sample_period, set.measurement_variance);
-    double previous = 0.0;
-    for (Eigen::Index k = 2; k < t.measurement.size(); ++k) {
-      const auto step = filter.step(state, previous, t.measurement(k));
-      if (step.status != StepStatus::kOk) {
-        failed = true;
-        break;
-      }
-      previous = step.residual;
-      position_sum += std::abs(t.position(k) - state.mean(0));
-      velocity_sum += std::abs(t.velocity(k) - state.mean(1));
-      ++count;
-    }
-  }
+Evaluation FuzzyTableProblem::score(double position_sum, double velocity_sum, long count,
+                                    bool failed, int rules) const {
   Evaluation e;
-  e.rules = static_cast<int>(table.size());
+  e.rules = rules;
   if (failed || count == 0) {
     e.error = std::numeric_limits<double>::infinity();
     e.fitness = 0.0;
@@ -109,6 +98,44 @@ Evaluation FuzzyTableProblem::evaluate_table(const FuzzyRuleTable& table,
   e.error = std::hypot(e.position_error, e.velocity_error);
   e.fitness = options_.lambda / (e.error + 1.0) + (1.0 - options_.lambda) / (e.rules + 1.0);
   return e;
+}
+
+Evaluation FuzzyTableProblem::evaluate_table(const FuzzyRuleTable& table,
+                                             const TrainingSet& set) const {
+  double position_sum = 0.0, velocity_sum = 0.0;
+  long count = 0;
+  bool failed = false;
+  if (options_.fitness == FitnessKind::kSingleFilter) {
+    const FuzzyNoiseFilter filter(table, set.sample_period, set.measurement_variance);
+    for (const auto& t : set.trajectories) {
+      GaussianState<2> state = two_point(t, set.sample_period, set.measurement_variance);
+      double previous = 0.0;
+      for (Eigen::Index k = 2; k < t.measurement.size() && !failed; ++k) {
+        const auto step = filter.step(state, previous, t.measurement(k));
+        failed = step.status != StepStatus::kOk;
+        previous = step.residual;
+        position_sum += std::abs(t.position(k) - state.mean(0));
+        velocity_sum += std::abs(t.velocity(k) - state.mean(1));
+        ++count;
+      }
+    }
+  } else {
+    GaFuzzyImmSpec spec;
+    spec.settings = context_.settings;
+    spec.levels = context_.levels;
+    spec.levels[context_.slot].table = table;
+    ImmEstimator<2, 1> imm = build_ga_fuzzy_axis_imm(spec);
+    for (const auto& t : set.trajectories) {
+      imm.initialize(two_point(t, set.sample_period, set.measurement_variance));
+      for (Eigen::Index k = 2; k < t.measurement.size() && !failed; ++k) {
+        failed = imm.step(Vector<1>(t.measurement(k))) != StepStatus::kOk;
+        position_sum += std::abs(t.position(k) - imm.estimate().mean(0));
+        velocity_sum += std::abs(t.velocity(k) - imm.estimate().mean(1));
+        ++count;
+      }
+    }
+  }
+  return score(position_sum, velocity_sum, count, failed, static_cast<int>(table.size()));
 }
 
 Evaluation FuzzyTableProblem::evaluate(const Genome& genome) const {

@@ -44,6 +44,16 @@ GaTrainingConfig config_from(const support::ConfigTable& root) {
         t->fail("profile", "unknown profile '" + profile + "' (expected maneuver or mixed)");
       }
     }
+    if (t->has("fitness")) {
+      const std::string fitness = t->text("fitness");
+      if (fitness == "single") {
+        c.fuzzy.fitness = FitnessKind::kSingleFilter;
+      } else if (fitness == "imm") {
+        c.fuzzy.fitness = FitnessKind::kImm;
+      } else {
+        t->fail("fitness", "unknown fitness '" + fitness + "' (expected single or imm)");
+      }
+    }
     o.trajectories = static_cast<int>(t->integer_or("trajectories", o.trajectories));
     o.validation_trajectories =
         static_cast<int>(t->integer_or("validation_trajectories", o.validation_trajectories));

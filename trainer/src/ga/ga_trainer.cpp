@@ -220,6 +220,7 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
   metrics["config"] = config.name;
   metrics["seed"] = config.seed;
   metrics["profile"] = std::string(to_string(config.training.profile));
+  metrics["fitness"] = std::string(to_string(config.fuzzy.fitness));
   metrics["wall_seconds"] = result.wall_seconds;
   for (const LevelResult& r : result.levels) {
     nlohmann::json level;
@@ -280,10 +281,39 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
     first_level = resumed->level;
   }
 
+  // The IMM fitness scores every table on every level's trajectories: the IMM sees all regimes.
+  const bool imm_fitness = config.fuzzy.fitness == FitnessKind::kImm;
+  auto union_of = [&](bool validation) {
+    TrainingSet all = make_training_set(config.training_set_options(0, validation));
+    for (std::size_t level = 1; level < config.training.levels.size(); ++level) {
+      TrainingSet more = make_training_set(config.training_set_options(level, validation));
+      all.trajectories.insert(all.trajectories.end(), more.trajectories.begin(), more.trajectories.end());
+    }
+    return all;
+  };
+  const TrainingSet all_training = imm_fitness ? union_of(false) : TrainingSet{};
+  const TrainingSet all_validation = imm_fitness ? union_of(true) : TrainingSet{};
+
   for (std::size_t level = first_level; level < config.training.levels.size(); ++level) {
-    const TrainingSet training = make_training_set(config.training_set_options(level, false));
-    const TrainingSet validation = make_training_set(config.training_set_options(level, true));
-    const FuzzyTableProblem problem(training, problem_options(config, level));
+    const TrainingSet training =
+        imm_fitness ? all_training : make_training_set(config.training_set_options(level, false));
+    const TrainingSet validation =
+        imm_fitness ? all_validation : make_training_set(config.training_set_options(level, true));
+    ImmContext context;
+    if (imm_fitness) {
+      // Levels trained so far keep their tables; the others stand in with the constant q of the
+      // top of eq. (15), where the single-filter GA ends anyway.
+      context.settings = config.filter;
+      context.slot = level;
+      for (std::size_t j = 0; j < config.training.levels.size(); ++j) {
+        const double s = config.training.levels[j] + config.training.process_noise_sigma;
+        FuzzyLevel stand_in{level_name(config.training.levels[j]), config.training.levels[j],
+                            FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, s * s}})};
+        if (j < result.levels.size()) stand_in.table = result.levels[j].table;
+        context.levels.push_back(std::move(stand_in));
+      }
+    }
+    const FuzzyTableProblem problem(training, problem_options(config, level), context);
     const GeneticAlgorithm algorithm(problem, config.ga, datasets::derive_seed(config.seed, level));
 
     Checkpoint state;

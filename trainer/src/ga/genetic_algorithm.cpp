@@ -20,7 +20,7 @@ double Population::mean_fitness() const {
   return evaluations.empty() ? 0.0 : sum / static_cast<double>(evaluations.size());
 }
 
-GeneticAlgorithm::GeneticAlgorithm(const FuzzyTableProblem& problem, GaOptions options,
+GeneticAlgorithm::GeneticAlgorithm(const GenomeProblem& problem, GaOptions options,
                                    std::uint64_t seed)
     : problem_(problem), options_(options), seed_(seed) {
   if (options_.population < 2) throw std::invalid_argument("population must be at least 2");
@@ -29,6 +29,11 @@ GeneticAlgorithm::GeneticAlgorithm(const FuzzyTableProblem& problem, GaOptions o
     throw std::invalid_argument("elite must be in [0, population)");
   }
   if (options_.tournament_size < 1) throw std::invalid_argument("tournament_size must be ≥ 1");
+  if (problem_.max_rules() < 1 ||
+      problem_.lower().size() != static_cast<std::size_t>(problem_.max_rules()) * kGenesPerRule ||
+      problem_.upper().size() != problem_.lower().size()) {
+    throw std::invalid_argument("problem bounds do not match its rule slots");
+  }
 }
 
 Genome GeneticAlgorithm::random_genome(datasets::Rng& rng) const {

@@ -9,16 +9,24 @@
 /// 0.5 (a_M + √q) ≤ √w ≤ a_M + √q. Centers span the observed ranges of r and Δr, spreads a
 /// configured range.
 ///
-/// Fitness (eq. 16): λ/(error + 1) + (1 − λ)/(rules + 1), with error (eq. 17)
-/// √(ē_p² + ē_v²) from the single fuzzy-noise KF (the runtime's FuzzyNoiseFilter, the very step
-/// the IMM runs) over the training trajectories. Eq. (17) prints sums over the trajectories; we
+/// Fitness (eq. 16): λ/(error + 1) + (1 − λ)/(rules + 1), with error (eq. 17) √(ē_p² + ē_v²) of
+/// position and velocity estimates over the training trajectories, taken from one of:
+/// - kSingleFilter (the seed's literal fitness): the single fuzzy-noise KF with the candidate
+///   table (the runtime's FuzzyNoiseFilter, the very step the IMM runs);
+/// - kImm: the per-axis GA-fuzzy IMM the table will serve (the runtime's build_ga_fuzzy_axis_imm),
+///   with the candidate in its slot beside the other levels' tables. The single-filter fitness
+///   rewards whatever one filter needs alone — for a filter that must also follow maneuvers, a
+///   large constant q — whereas the IMM needs each table to be good at its own regime and to lose
+///   the likelihood contest elsewhere. This fitness measures that directly. Eq. (17) prints sums over the trajectories; we
 /// use the means per scan (ē_p = Σ|p − p̂| / N, likewise ē_v), which leaves the optimum unchanged
 /// but keeps "error + 1" on the scale λ was chosen for (errors ~ 0.1–1 km), independent of how
 /// many trajectories the config asks for.
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
+#include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/models/fuzzy_rule_table.hpp"
 #include "imm/trainer/ga/training_set.hpp"
 
@@ -40,7 +48,24 @@ struct Evaluation {
   int rules = 0;
 };
 
+/// What the genetic algorithm needs of a problem (pagmo style): gene bounds, the number of rule
+/// slots, and a thread-safe evaluation of a genome.
+class GenomeProblem {
+ public:
+  virtual ~GenomeProblem() = default;
+  [[nodiscard]] virtual int max_rules() const = 0;
+  [[nodiscard]] virtual const std::vector<double>& lower() const = 0;
+  [[nodiscard]] virtual const std::vector<double>& upper() const = 0;
+  /// Must be a pure function of the genome (called concurrently).
+  [[nodiscard]] virtual Evaluation evaluate(const Genome& genome) const = 0;
+};
+
+enum class FitnessKind { kSingleFilter, kImm };
+
+[[nodiscard]] std::string_view to_string(FitnessKind kind);
+
 struct ProblemOptions {
+  FitnessKind fitness = FitnessKind::kImm;
   double lambda = 0.95;
   int max_rules = 50;
   double sigma_min = 0.05, sigma_max = 5.0;  ///< membership spreads, measurement units
@@ -50,29 +75,40 @@ struct ProblemOptions {
   double consequent_high = 1.0;
 };
 
-class FuzzyTableProblem {
+/// The IMM around a candidate table (kImm): every level's table, the candidate's slot, settings.
+struct ImmContext {
+  AxisImmSettings settings;
+  std::vector<FuzzyLevel> levels;  ///< the slot's entry is replaced by the candidate
+  std::size_t slot = 0;
+};
+
+class FuzzyTableProblem final : public GenomeProblem {
  public:
   /// Computes the observed ranges of r and Δr on `training` with a constant-q KF at the upper
   /// end of eq. (15).
-  FuzzyTableProblem(TrainingSet training, ProblemOptions options);
+  FuzzyTableProblem(TrainingSet training, ProblemOptions options, ImmContext context = {});
 
-  [[nodiscard]] Evaluation evaluate(const Genome& genome) const;
+  [[nodiscard]] Evaluation evaluate(const Genome& genome) const override;
   /// Error and fitness of a decoded table on any set (validation).
   [[nodiscard]] Evaluation evaluate_table(const FuzzyRuleTable& table, const TrainingSet& set) const;
   [[nodiscard]] FuzzyRuleTable decode(const Genome& genome) const;
 
-  [[nodiscard]] int max_rules() const { return options_.max_rules; }
+  [[nodiscard]] int max_rules() const override { return options_.max_rules; }
   [[nodiscard]] int gene_count() const { return options_.max_rules * kGenesPerRule; }
-  [[nodiscard]] const std::vector<double>& lower() const { return lower_; }
-  [[nodiscard]] const std::vector<double>& upper() const { return upper_; }
+  [[nodiscard]] const std::vector<double>& lower() const override { return lower_; }
+  [[nodiscard]] const std::vector<double>& upper() const override { return upper_; }
   [[nodiscard]] const TrainingSet& training() const { return training_; }
   [[nodiscard]] const ProblemOptions& options() const { return options_; }
   /// Observed ranges [r_min, r_max], [Δr_min, Δr_max].
   [[nodiscard]] std::array<double, 4> residual_ranges() const { return ranges_; }
 
  private:
+  [[nodiscard]] Evaluation score(double position_sum, double velocity_sum, long count, bool failed,
+                                 int rules) const;
+
   TrainingSet training_;
   ProblemOptions options_;
+  ImmContext context_;
   std::array<double, 4> ranges_{};
   std::vector<double> lower_, upper_;
 };

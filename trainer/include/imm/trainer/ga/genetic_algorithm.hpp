@@ -51,7 +51,7 @@ struct Population {
 class GeneticAlgorithm {
  public:
   /// Throws std::invalid_argument for inconsistent options.
-  GeneticAlgorithm(const FuzzyTableProblem& problem, GaOptions options, std::uint64_t seed);
+  GeneticAlgorithm(const GenomeProblem& problem, GaOptions options, std::uint64_t seed);
 
   /// The random, evaluated initial population (generation 0).
   [[nodiscard]] Population initialize() const;
@@ -71,7 +71,7 @@ class GeneticAlgorithm {
  private:
   void repair(Genome& genome, datasets::Rng& rng) const;
 
-  const FuzzyTableProblem& problem_;
+  const GenomeProblem& problem_;
   GaOptions options_;
   std::uint64_t seed_;
 };

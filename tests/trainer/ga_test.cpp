@@ -1,0 +1,272 @@
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+
+#include "imm/io/ga_fuzzy_imm_file.hpp"
+#include "imm/support/config.hpp"
+#include "imm/trainer/ga/ga_config.hpp"
+#include "imm/trainer/ga/ga_trainer.hpp"
+#include "imm/trainer/ga/genetic_algorithm.hpp"
+#include "imm/trainer/ga/memetic.hpp"
+#include "imm/trainer/import_rules.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm::trainer::ga {
+namespace {
+
+TrainingSet small_training_set(TrainingProfile profile = TrainingProfile::kMixed) {
+  TrainingSetOptions options;
+  options.trajectories = 3;
+  options.steps = 60;
+  options.profile = profile;
+  options.maneuver_level = 0.01;
+  return make_training_set(options);
+}
+
+ProblemOptions single_filter_options() {
+  ProblemOptions options;
+  options.fitness = FitnessKind::kSingleFilter;
+  options.maneuver_level = 0.01;
+  return options;
+}
+
+TEST(GeneticOperators, KeepEveryGeneInBoundsAndTheRuleCountInRange) {
+  const FuzzyTableProblem problem(small_training_set(), single_filter_options());
+  GaOptions options;
+  options.population = 10;
+  options.mutation_rate = 0.5;  // far above the default, to stress the bounds
+  options.mutation_scale = 1.0;
+  const GeneticAlgorithm algorithm(problem, options, 3);
+  datasets::Rng rng(11);
+  Genome a = algorithm.random_genome(rng), b = algorithm.random_genome(rng);
+  for (int i = 0; i < 2000; ++i) {
+    Genome child = algorithm.crossover(a, b, rng);
+    algorithm.mutate(child, rng);
+    for (std::size_t g = 0; g < child.genes.size(); ++g) {
+      ASSERT_GE(child.genes[g], problem.lower()[g]);
+      ASSERT_LE(child.genes[g], problem.upper()[g]);
+    }
+    ASSERT_GE(child.rule_count(), 1);
+    ASSERT_LE(child.rule_count(), problem.max_rules());
+    (i % 2 == 0 ? a : b) = std::move(child);
+  }
+}
+
+// Eq. (15): the consequent gene is √w within [0.5, 1] (a_M + √q); centers within the observed
+// residual ranges.
+TEST(FuzzyTableProblem, BoundsFollowEquation15AndTheObservedResiduals) {
+  const FuzzyTableProblem problem(small_training_set(), single_filter_options());
+  const double s = 0.01 + 0.001;
+  EXPECT_DOUBLE_EQ(problem.lower()[4], 0.5 * s);
+  EXPECT_DOUBLE_EQ(problem.upper()[4], s);
+  const auto ranges = problem.residual_ranges();
+  EXPECT_LT(ranges[0], 0.0);
+  EXPECT_GT(ranges[1], 0.0);
+  EXPECT_DOUBLE_EQ(problem.lower()[0], ranges[0]);
+  EXPECT_DOUBLE_EQ(problem.upper()[2], ranges[3]);
+  Genome genome;
+  genome.genes.assign(problem.lower().size(), 0.5);
+  genome.active.assign(50, 0);
+  genome.active[7] = 1;
+  genome.genes[7 * 5 + 4] = 0.01;
+  const FuzzyRuleTable table = problem.decode(genome);
+  ASSERT_EQ(table.size(), 1u);
+  EXPECT_DOUBLE_EQ(table.rules()[0].w, 1e-4);  // w = gene²
+}
+
+// A toy problem with a known optimum: every gene at 0.3 and every slot active.
+class ToyProblem final : public GenomeProblem {
+ public:
+  ToyProblem() : lower_(20, 0.0), upper_(20, 1.0) {}
+  [[nodiscard]] int max_rules() const override { return 4; }
+  [[nodiscard]] const std::vector<double>& lower() const override { return lower_; }
+  [[nodiscard]] const std::vector<double>& upper() const override { return upper_; }
+  [[nodiscard]] Evaluation evaluate(const Genome& genome) const override {
+    double distance = 0.0;
+    for (double g : genome.genes) distance += (g - 0.3) * (g - 0.3);
+    Evaluation e;
+    e.rules = genome.rule_count();
+    e.error = distance;
+    e.fitness = 1.0 / (1.0 + distance) + 0.1 * e.rules;
+    return e;
+  }
+
+ private:
+  std::vector<double> lower_, upper_;
+};
+
+TEST(GeneticAlgorithm, SelectionPressureFindsTheKnownOptimum) {
+  const ToyProblem problem;
+  GaOptions options;
+  options.population = 80;
+  options.generations = 150;
+  options.mutation_rate = 0.05;
+  options.mutation_scale = 0.05;
+  const GeneticAlgorithm algorithm(problem, options, 5);
+  Population population = algorithm.initialize();
+  const double initial_best = population.evaluations[population.best_index()].fitness;
+  for (int g = 0; g < options.generations; ++g) {
+    const double before = population.evaluations[population.best_index()].fitness;
+    algorithm.evolve(population);
+    ASSERT_GE(population.evaluations[population.best_index()].fitness, before);  // elitism
+  }
+  const Evaluation& best = population.evaluations[population.best_index()];
+  EXPECT_GT(best.fitness, initial_best);
+  EXPECT_EQ(best.rules, 4);
+  EXPECT_LT(best.error, 0.01);  // every gene within ~0.02 of 0.3
+}
+
+std::vector<Genome> evolve_with_threads(int threads) {
+  omp_set_num_threads(threads);
+  const FuzzyTableProblem problem(small_training_set(), single_filter_options());
+  GaOptions options;
+  options.population = 40;
+  const GeneticAlgorithm algorithm(problem, options, 99);
+  Population population = algorithm.initialize();
+  for (int g = 0; g < 4; ++g) algorithm.evolve(population);
+  return population.genomes;
+}
+
+TEST(GeneticAlgorithm, ResultIsIdenticalForAnyThreadCount) {
+  const auto one = evolve_with_threads(1);
+  const auto two = evolve_with_threads(2);
+  const auto four = evolve_with_threads(4);
+  ASSERT_EQ(one.size(), two.size());
+  for (std::size_t i = 0; i < one.size(); ++i) {
+    EXPECT_EQ(one[i].genes, two[i].genes) << i;
+    EXPECT_EQ(one[i].active, two[i].active) << i;
+    EXPECT_EQ(one[i].genes, four[i].genes) << i;
+  }
+  omp_set_num_threads(omp_get_num_procs());
+}
+
+TEST(Memetic, NeverReturnsAWorseGenome) {
+  const FuzzyTableProblem problem(small_training_set(), single_filter_options());
+  GaOptions options;
+  options.population = 4;
+  const GeneticAlgorithm algorithm(problem, options, 1);
+  datasets::Rng rng(4);
+  const Genome genome = algorithm.random_genome(rng);
+  MemeticOptions memetic;
+  memetic.max_evaluations = 60;
+  const MemeticResult result = polish(problem, genome, memetic);
+  EXPECT_GE(result.after.fitness, result.before.fitness);
+  EXPECT_GT(result.evaluations, 0);
+  EXPECT_EQ(result.genome.active, genome.active);  // the rule set is fixed
+}
+
+// A quick config; `ga_extra` goes into [ga], `tail` after every table.
+GaTrainingConfig small_config(const std::string& ga_extra = "", const std::string& tail = "") {
+  const std::string text =
+      "seed = 7\n[training]\nlevels = [0.001, 0.05]\ntrajectories = 2\nvalidation_trajectories = "
+      "2\n"
+      "steps = 50\n[ga]\npopulation = 16\ngenerations = 6\n" +
+      ga_extra + "[memetic]\nmax_evaluations = 20\n" + tail;
+  const testing::TempDir dir;
+  testing::write_text(dir / "small.toml", text);
+  return load_ga_config(dir / "small.toml");
+}
+
+TEST(GaTrainer, ResumeAfterAStopGivesTheUninterruptedModel) {
+  const testing::TempDir dir;
+  const GaTrainingConfig config = small_config();
+  const GaTrainingResult full = train_ga(config, {dir / "full.h5", false});
+  ASSERT_TRUE(full.gate_passed);
+
+  int checkpoints = 0;
+  GaObserver stop_early;
+  stop_early.should_stop = [&] { return ++checkpoints == 10; };  // mid second level
+  const GaTrainingResult stopped = train_ga(config, {dir / "resumed.h5", false}, stop_early);
+  EXPECT_TRUE(stopped.stopped);
+  EXPECT_FALSE(std::filesystem::exists(dir / "resumed.h5"));
+  EXPECT_TRUE(std::filesystem::exists(checkpoint_path(dir / "resumed.h5")));
+  int resumed_at = -1;
+  GaObserver watch;
+  watch.on_resume = [&](std::size_t level, int generation) {
+    resumed_at = static_cast<int>(level) * 100 + generation;
+  };
+  const GaTrainingResult resumed = train_ga(config, {dir / "resumed.h5", true}, watch);
+  EXPECT_EQ(resumed_at, 100 + 2);  // level 1, generation 2 (7 checkpoints in level 0)
+  ASSERT_TRUE(resumed.gate_passed);
+  EXPECT_FALSE(std::filesystem::exists(checkpoint_path(dir / "resumed.h5")));
+
+  const auto a = io::read_ga_fuzzy_imm(dir / "full.h5");
+  const auto b = io::read_ga_fuzzy_imm(dir / "resumed.h5");
+  ASSERT_EQ(a.levels.size(), b.levels.size());
+  for (std::size_t i = 0; i < a.levels.size(); ++i) {
+    EXPECT_EQ(io::rules_matrix(a.levels[i].table), io::rules_matrix(b.levels[i].table));
+  }
+}
+
+TEST(GaTrainer, CheckpointOfAnotherSeedIsRefused) {
+  const testing::TempDir dir;
+  GaTrainingConfig config = small_config();
+  GaObserver stop;
+  stop.should_stop = [] { return true; };
+  (void)train_ga(config, {dir / "m.h5", false}, stop);
+  config.seed = 8;
+  EXPECT_THROW((void)train_ga(config, {dir / "m.h5", true}), io::FileError);
+}
+
+std::string config_error_key(const std::string& ga_extra, const std::string& tail = "") {
+  try {
+    (void)small_config(ga_extra, tail);
+  } catch (const support::ConfigError& error) {
+    return error.key();
+  }
+  return "";
+}
+
+TEST(GaConfig, InvalidValuesAreNamed) {
+  EXPECT_EQ(config_error_key("lambda = 1.5\n"), "ga.lambda");
+  EXPECT_EQ(config_error_key("", "[fuzzy]\nsigma_range = [-1.0, 2.0]\n"), "fuzzy.sigma_range");
+  EXPECT_EQ(config_error_key("crossover = 0.9\n"), "ga.crossover");  // unknown key (in [ga])
+  EXPECT_EQ(config_error_key("mutation_rate = \"high\"\n"), "ga.mutation_rate");
+  const testing::TempDir dir;
+  testing::write_text(dir / "p.toml", "[ga]\npopulation = 1\n");
+  try {
+    (void)load_ga_config(dir / "p.toml");
+    FAIL();
+  } catch (const support::ConfigError& error) {
+    EXPECT_EQ(error.key(), "ga.population");
+    EXPECT_EQ(error.file(), (dir / "p.toml").string());
+  }
+}
+
+TEST(ShippedConfig, IsTheSeedsTable1) {
+  const GaTrainingConfig config = load_ga_config("configs/ga_fuzzy_imm.toml");
+  EXPECT_EQ(config.ga.population, 500);
+  EXPECT_EQ(config.ga.generations, 100);
+  EXPECT_EQ(config.fuzzy.max_rules, 50);
+  EXPECT_DOUBLE_EQ(config.ga.crossover_rate, 0.9);
+  EXPECT_DOUBLE_EQ(config.ga.mutation_rate, 0.01);
+  EXPECT_DOUBLE_EQ(config.fuzzy.lambda, 0.95);
+  EXPECT_EQ(config.training.levels, (std::vector<double>{0.001, 0.01, 0.1}));
+}
+
+TEST(ImportRules, ReadsThePublishedTables) {
+  const auto spec =
+      read_rules_csv("configs/reference/ga_fuzzy_imm_paper_rules.csv", AxisImmSettings{});
+  ASSERT_EQ(spec.levels.size(), 3u);
+  EXPECT_EQ(spec.levels[0].table.size(), 9u);  // Table 2.1
+  EXPECT_EQ(spec.levels[1].table.size(), 8u);  // Table 2.2
+  EXPECT_EQ(spec.levels[2].table.size(), 8u);  // Table 2.3
+  EXPECT_DOUBLE_EQ(spec.levels[0].table.rules()[0].w, 0.215e-5);
+  EXPECT_DOUBLE_EQ(spec.levels[2].table.rules()[1].sigma2, 0.039);
+  EXPECT_EQ(spec.levels[1].name, "u0.01");
+  const testing::TempDir dir;
+  testing::write_text(dir / "bad.csv",
+                      "level,c1,sigma1,c2,sigma2,w\n0.01,0,1,0,1,1e-4\n0.01,0,-1,0,1,1e-4\n");
+  EXPECT_THROW((void)read_rules_csv(dir / "bad.csv", AxisImmSettings{}), std::runtime_error);
+  testing::write_text(dir / "nan.csv", "level,c1,sigma1,c2,sigma2,w\n0.01,0,1,nan,1,1e-4\n");
+  try {
+    (void)read_rules_csv(dir / "nan.csv", AxisImmSettings{});
+    FAIL();
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("nan.csv:2"), std::string::npos) << error.what();
+  }
+}
+
+}  // namespace
+}  // namespace imm::trainer::ga
