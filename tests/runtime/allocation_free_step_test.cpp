@@ -14,6 +14,8 @@
 
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/kalman_mode.hpp"
+#include "imm/filters/aimm.hpp"
+#include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/plain_imm.hpp"
 #include "imm/models/constant_velocity.hpp"
 #include "imm/models/polar_measurement.hpp"
@@ -108,6 +110,29 @@ TEST(AllocationFreeStep, MixedDimensionPolarImmStep) {
     (void)imm.step(Vector<2>(std::hypot(x, y), std::atan2(x, y)));
   }
   EXPECT_EQ(allocations(), before);
+}
+
+// The seed-000 filters: GA-fuzzy IMM and AIMM, two axes each.
+TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
+  GaFuzzyImmSpec fuzzy;
+  fuzzy.levels = {{"u0.001", 0.001, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 4e-6}, {1.0, 0.5, 0.5, 2.0, 2e-6}})},
+                  {"u0.01", 0.01, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1.2e-4}})},
+                  {"u0.1", 0.1, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1e-2}})}};
+  AimmSpec aimm;
+  aimm.intervals = {0.02, 0.04};
+  std::vector<std::unique_ptr<TrackFilter>> filters;
+  filters.push_back(make_ga_fuzzy_imm_filter(fuzzy));
+  filters.push_back(make_aimm_filter(aimm));
+  for (auto& filter : filters) {
+    filter->initialize(Eigen::Vector4d(0.0, 0.1, 0.0, -0.1),
+                       Eigen::Vector4d(0.25, 0.5, 0.25, 0.5).asDiagonal().toDenseMatrix());
+    const long before = allocations();
+    for (int k = 1; k <= 5000; ++k) {
+      (void)filter->step(Eigen::Vector2d(0.1 * k + 0.3 * std::sin(k), -0.1 * k));
+      if (k % 50 == 0) (void)filter->predict_only();
+    }
+    EXPECT_EQ(allocations(), before);
+  }
 }
 
 }  // namespace

@@ -9,7 +9,10 @@
 #include <memory>
 
 #include "imm/datasets/maneuver_scenario.hpp"
+#include "imm/filters/aimm.hpp"
+#include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/imm_estimator.hpp"
+#include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/filters/kalman_mode.hpp"
 #include "imm/filters/plain_imm.hpp"
 #include "imm/io/plain_imm_file.hpp"
@@ -20,6 +23,8 @@
 #include "imm/support/plain_imm_config.hpp"
 
 namespace {
+
+using imm::TrackFilter;
 
 const Eigen::MatrixXd& seed000_plots() {
   static const Eigen::MatrixXd plots = [] {
@@ -103,6 +108,50 @@ void BM_CvSingerPolarImmStep(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_CvSingerPolarImmStep);
+
+// One 2-D step of a per-axis filter pair (x and y), fed the seed-000 plots.
+void run_two_axis(benchmark::State& state, TrackFilter& filter) {
+  const Eigen::MatrixXd& plots = seed000_plots();
+  auto restart = [&] {
+    filter.initialize(Eigen::Vector4d(plots(0, 0), 0.0, plots(0, 1), 0.0),
+                      Eigen::Vector4d(0.25, 0.5, 0.25, 0.5).asDiagonal().toDenseMatrix());
+  };
+  restart();
+  Eigen::Index k = 1;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(filter.step(plots.row(k).transpose()));
+    if (++k == plots.rows()) {
+      k = 1;
+      restart();
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+
+// The GA-fuzzy IMM with the shipped tables (models/ga_fuzzy_imm.h5).
+void BM_GaFuzzyImmStep(benchmark::State& state) {
+  const auto spec = imm::io::read_ga_fuzzy_imm(IMM_SOURCE_DIR "/models/ga_fuzzy_imm.h5");
+  auto filter = imm::make_ga_fuzzy_imm_filter(spec);
+  run_two_axis(state, *filter);
+}
+BENCHMARK(BM_GaFuzzyImmStep);
+
+// The same filter with seed 000's published tables (9, 8 and 8 rules).
+void BM_GaFuzzyImmPaperTablesStep(benchmark::State& state) {
+  const auto spec =
+      imm::io::read_ga_fuzzy_imm(IMM_SOURCE_DIR "/models/reference/ga_fuzzy_imm_paper.h5");
+  auto filter = imm::make_ga_fuzzy_imm_filter(spec);
+  run_two_axis(state, *filter);
+}
+BENCHMARK(BM_GaFuzzyImmPaperTablesStep);
+
+void BM_Aimm5Step(benchmark::State& state) {
+  imm::AimmSpec spec;
+  spec.intervals = {0.02, 0.04};
+  auto filter = imm::make_aimm_filter(spec);
+  run_two_axis(state, *filter);
+}
+BENCHMARK(BM_Aimm5Step);
 
 }  // namespace
 
