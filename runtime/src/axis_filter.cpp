@@ -41,7 +41,8 @@ TwoAxisFilter::TwoAxisFilter(std::unique_ptr<AxisFilter> x, std::unique_ptr<Axis
 }
 
 std::string TwoAxisFilter::mode_name(int j) const {
-  return j < x_->mode_count() ? "x." + x_->mode_name(j) : "y." + y_->mode_name(j - x_->mode_count());
+  return j < x_->mode_count() ? "x." + x_->mode_name(j)
+                              : "y." + y_->mode_name(j - x_->mode_count());
 }
 
 void TwoAxisFilter::initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {

@@ -33,8 +33,8 @@ ImmEstimator<2, 1> build_ga_fuzzy_axis_imm(const GaFuzzyImmSpec& spec) {
   modes.reserve(spec.levels.size());
   for (const FuzzyLevel& level : spec.levels) {
     modes.push_back(std::make_unique<FuzzyNoiseMode>(
-        level.name, FuzzyNoiseFilter(level.table, s.sample_period,
-                                     s.measurement_sigma * s.measurement_sigma)));
+        level.name,
+        FuzzyNoiseFilter(level.table, s.sample_period, s.measurement_sigma * s.measurement_sigma)));
   }
   const int n = static_cast<int>(modes.size());
   return {std::move(modes), s.transition(n), s.initial_probabilities(n)};
@@ -170,7 +170,8 @@ ImmEstimator<2, 1> build_axis_cv_imm(const AxisCvImmSpec& spec) {
   spec.validate();
   const AxisImmSettings& s = spec.settings;
   using Measurement = PositionMeasurement<2, 1>;
-  const Measurement measurement({0}, SquareMatrix<1>::Constant(s.measurement_sigma * s.measurement_sigma));
+  const Measurement measurement(
+      {0}, SquareMatrix<1>::Constant(s.measurement_sigma * s.measurement_sigma));
   std::vector<std::unique_ptr<ImmMode<2, 1>>> modes;
   modes.reserve(spec.process_noise.size());
   for (double q : spec.process_noise) {

@@ -40,7 +40,8 @@ class PlainImmFilter final : public TrackFilter {
     return std::visit([](auto& imm) { return imm.predict_only(); }, imm_);
   }
 
-  void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override {
+  void state(Eigen::Ref<Eigen::VectorXd> mean,
+             Eigen::Ref<Eigen::VectorXd> variance) const override {
     std::visit(
         [&](const auto& imm) {
           mean = imm.estimate().mean;
@@ -97,7 +98,8 @@ Tracker::Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options)
   }
   const int n = filter_->state_dimension();
   if (options_.initialization.method == InitializationMethod::kExplicit &&
-      (options_.initialization.state.size() != n || options_.initialization.covariance.rows() != n ||
+      (options_.initialization.state.size() != n ||
+       options_.initialization.covariance.rows() != n ||
        options_.initialization.covariance.cols() != n)) {
     throw InvalidParameter("initialization.state",
                            "must match the filter's " + std::to_string(n) + " states");
@@ -155,7 +157,8 @@ TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
   if (last_scan_ && scan <= *last_scan_) {
     return reject(StepStatus::kInvalidMeasurement, "scan index does not increase");
   }
-  if (!z.allFinite()) return reject(StepStatus::kInvalidMeasurement, "measurement is NaN or infinite");
+  if (!z.allFinite())
+    return reject(StepStatus::kInvalidMeasurement, "measurement is NaN or infinite");
 
   if (initialized_ && scan - *last_scan_ > options_.max_gap) {
     initialized_ = false;  // track lost: start again from this plot
@@ -175,7 +178,8 @@ TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
     }
     const Plot plot = cartesian_plot(scan, z);
     if (!plot.position.allFinite()) {
-      return reject(StepStatus::kInvalidMeasurement, "measurement is not convertible to a position");
+      return reject(StepStatus::kInvalidMeasurement,
+                    "measurement is not convertible to a position");
     }
     if (!first_plot_ || scan - first_plot_->scan > options_.max_gap) {
       first_plot_ = plot;

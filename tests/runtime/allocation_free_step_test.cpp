@@ -12,10 +12,10 @@
 #include <memory>
 #include <new>
 
-#include "imm/filters/imm_estimator.hpp"
-#include "imm/filters/kalman_mode.hpp"
 #include "imm/filters/aimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/filters/imm_estimator.hpp"
+#include "imm/filters/kalman_mode.hpp"
 #include "imm/filters/plain_imm.hpp"
 #include "imm/models/constant_velocity.hpp"
 #include "imm/models/polar_measurement.hpp"
@@ -115,9 +115,10 @@ TEST(AllocationFreeStep, MixedDimensionPolarImmStep) {
 // The seed-000 filters: GA-fuzzy IMM and AIMM, two axes each.
 TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
   GaFuzzyImmSpec fuzzy;
-  fuzzy.levels = {{"u0.001", 0.001, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 4e-6}, {1.0, 0.5, 0.5, 2.0, 2e-6}})},
-                  {"u0.01", 0.01, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1.2e-4}})},
-                  {"u0.1", 0.1, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1e-2}})}};
+  fuzzy.levels = {
+      {"u0.001", 0.001, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 4e-6}, {1.0, 0.5, 0.5, 2.0, 2e-6}})},
+      {"u0.01", 0.01, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1.2e-4}})},
+      {"u0.1", 0.1, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1e-2}})}};
   AimmSpec aimm;
   aimm.intervals = {0.02, 0.04};
   std::vector<std::unique_ptr<TrackFilter>> filters;

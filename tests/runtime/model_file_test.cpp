@@ -6,6 +6,7 @@
 #include <cmath>
 #include <functional>
 
+#include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/temp_dir.hpp"
@@ -250,6 +251,46 @@ INSTANTIATE_TEST_SUITE_P(
       }
       return name;
     });
+
+// A ga_fuzzy_imm file whose rule table has σ ≤ 0 or w < 0, behind a valid checksum.
+TEST(GaFuzzyImmModelFile, HostileRuleTablesAreRefusedNamingTheField) {
+  const testing::TempDir dir;
+  const auto path = dir / "fuzzy.h5";
+  GaFuzzyImmSpec spec;
+  spec.levels = {
+      {"u0.01", 0.01, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1e-4}, {0.5, 0.3, 0.1, 2.0, 2e-4}})}};
+  {
+    Provenance provenance;
+    provenance.model_kind = std::string(kGaFuzzyImmKind);
+    ModelFileWriter writer(path, provenance);
+    write_ga_fuzzy_imm(writer, spec);
+    writer.commit();
+  }
+  const auto bytes = testing::read_bytes(path);
+  const std::vector<std::pair<std::vector<double>, std::string>> drills = {
+      {{0.0, 1.0, 0.0, 1.0, 1e-4, 0.5, -0.3, 0.1, 2.0, 2e-4},
+       "rule 1: sigma1 and sigma2 must be positive"},
+      {{0.0, 1.0, 0.0, 1.0, -1e-4, 0.5, 0.3, 0.1, 2.0, 2e-4}, "rule 0: w must be non-negative"},
+      {{0.0, 1.0, 0.0, 1.0, 1e-4, 0.5, 0.3, kNan, 2.0, 2e-4}, "is not finite"}};
+  for (const auto& [values, message] : drills) {
+    testing::write_bytes(path, bytes);
+    edit_and_reseal(path, [&](hid_t f) {
+      replace_dataset(f, "/ga_fuzzy_imm/level0/rules", {2, 5}, values);
+    });
+    try {
+      (void)read_ga_fuzzy_imm(path);
+      FAIL() << message;
+    } catch (const FileError& error) {
+      EXPECT_EQ(error.field(), "/ga_fuzzy_imm/level0/rules") << error.what();
+      EXPECT_NE(std::string(error.what()).find(message), std::string::npos) << error.what();
+    }
+  }
+  testing::write_bytes(path, bytes);
+  edit_and_reseal(path, [&](hid_t f) {
+    replace_dataset(f, "/ga_fuzzy_imm/level0/rules", {51, 5}, std::vector<double>(255, 1.0));
+  });
+  EXPECT_THROW((void)read_ga_fuzzy_imm(path), FileError);
+}
 
 TEST(ModelFile, FlippedDataByteIsCaughtBeforeUse) {
   const testing::TempDir dir;

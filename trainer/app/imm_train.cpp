@@ -2,7 +2,8 @@
 //
 //   imm-train ga --config configs/ga_fuzzy_imm.toml [--out F] [--seed N] [--threads N] [--resume]
 //   imm-train import-rules --csv configs/reference/ga_fuzzy_imm_paper_rules.csv
-//                          --config configs/ga_fuzzy_imm.toml --out models/reference/ga_fuzzy_imm_paper.h5
+//                          --config configs/ga_fuzzy_imm.toml --out
+//                          models/reference/ga_fuzzy_imm_paper.h5
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
 //   imm-train all --config configs/nightly.toml
 //
@@ -10,10 +11,9 @@
 // 1 usage, 2 invalid config or input, 3 a nightly stage failed, 4 the quality gate failed (no
 // model written).
 
+#include <omp.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
-
-#include <omp.h>
 
 #include <CLI/CLI.hpp>
 #include <iostream>
@@ -24,8 +24,8 @@
 #include "imm/trainer/freeze.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/import_rules.hpp"
-#include "imm/trainer/provenance.hpp"
 #include "imm/trainer/nightly.hpp"
+#include "imm/trainer/provenance.hpp"
 
 namespace {
 
@@ -49,35 +49,38 @@ int run_ga(const GaCommand& command) {
   const std::size_t levels = config.training.levels.size();
   const int generations = config.ga.generations;
   spdlog::info("ga: {} levels, population {}, {} generations, profile {}, seed {}, {} threads",
-               levels, config.ga.population, generations,
-               ga::to_string(config.training.profile), config.seed, omp_get_max_threads());
+               levels, config.ga.population, generations, ga::to_string(config.training.profile),
+               config.seed, omp_get_max_threads());
 
   ga::GaObserver observer;
   observer.on_resume = [&](std::size_t level, int generation) {
-    spdlog::info("resuming level {} at generation {} from {}", ga::level_name(config.training.levels[level]),
-                 generation, ga::checkpoint_path(command.out).string());
+    spdlog::info("resuming level {} at generation {} from {}",
+                 ga::level_name(config.training.levels[level]), generation,
+                 ga::checkpoint_path(command.out).string());
   };
   observer.on_generation = [&](std::size_t level, const ga::GenerationLog& log, double seconds) {
     if (log.generation % 10 != 0 && log.generation != generations) return;
     const double per_generation = log.generation > 0 ? seconds / log.generation : 0.0;
     const double eta = per_generation * ((generations - log.generation) +
                                          static_cast<double>(levels - level - 1) * generations);
-    spdlog::info("level {} [{}/{}] generation {:3}/{}: best fitness {:.5f} (error {:.4f}, {} rules), "
-                 "mean {:.5f}, ETA {:.0f} s",
-                 ga::level_name(config.training.levels[level]), level + 1, levels, log.generation,
-                 generations, log.best_fitness, log.best_error, log.best_rules, log.mean_fitness, eta);
+    spdlog::info(
+        "level {} [{}/{}] generation {:3}/{}: best fitness {:.5f} (error {:.4f}, {} rules), "
+        "mean {:.5f}, ETA {:.0f} s",
+        ga::level_name(config.training.levels[level]), level + 1, levels, log.generation,
+        generations, log.best_fitness, log.best_error, log.best_rules, log.mean_fitness, eta);
   };
   observer.on_level_done = [&](std::size_t, const ga::LevelResult& r) {
-    spdlog::info("level {} done in {:.1f} s: fitness {:.5f} -> {:.5f} after memetic ({} evaluations), "
-                 "{} rules, training error {:.4f}, validation error {:.4f}",
-                 ga::level_name(r.maneuver_level), r.wall_seconds, r.before_memetic.fitness,
-                 r.training.fitness, r.memetic_evaluations, r.training.rules, r.training.error,
-                 r.validation.error);
+    spdlog::info(
+        "level {} done in {:.1f} s: fitness {:.5f} -> {:.5f} after memetic ({} evaluations), "
+        "{} rules, training error {:.4f}, validation error {:.4f}",
+        ga::level_name(r.maneuver_level), r.wall_seconds, r.before_memetic.fitness,
+        r.training.fitness, r.memetic_evaluations, r.training.rules, r.training.error,
+        r.validation.error);
   };
-  const ga::GaTrainingResult result =
-      ga::train_ga(config, {command.out, command.resume}, observer);
+  const ga::GaTrainingResult result = ga::train_ga(config, {command.out, command.resume}, observer);
   if (!result.gate_passed) {
-    spdlog::error("quality gate failed: {}; {} not written", result.gate_message, command.out.string());
+    spdlog::error("quality gate failed: {}; {} not written", result.gate_message,
+                  command.out.string());
     return kExitGateFailed;
   }
   spdlog::info("wrote {} and {} ({:.1f} s)", command.out.string(),
@@ -147,18 +150,21 @@ int main(int argc, char** argv) {
   freeze_command->add_option("--out", freeze.out, "model file to write")->required();
 
   GaCommand ga_command;
-  auto* ga_subcommand = app.add_subcommand("ga", "learn the fuzzy rule tables of the GA-fuzzy IMM (seed 000)");
+  auto* ga_subcommand =
+      app.add_subcommand("ga", "learn the fuzzy rule tables of the GA-fuzzy IMM (seed 000)");
   ga_subcommand->add_option("--config", ga_command.config, "GA config TOML");
   ga_subcommand->add_option("--out", ga_command.out, "model file to write");
   ga_subcommand->add_option("--seed", ga_command.seed, "override the config's seed");
   ga_subcommand->add_option("--threads", ga_command.threads, "OpenMP threads (default: all cores)")
       ->check(CLI::PositiveNumber);
-  ga_subcommand->add_flag("--resume", ga_command.resume, "continue from the checkpoint beside --out");
+  ga_subcommand->add_flag("--resume", ga_command.resume,
+                          "continue from the checkpoint beside --out");
 
   imm::trainer::ImportRulesOptions import_options;
   auto* import_command = app.add_subcommand(
       "import-rules", "write published fuzzy rule tables (CSV) as a ga_fuzzy_imm model file");
-  import_command->add_option("--csv", import_options.csv, "rules: level,c1,sigma1,c2,sigma2,w")->required();
+  import_command->add_option("--csv", import_options.csv, "rules: level,c1,sigma1,c2,sigma2,w")
+      ->required();
   import_command->add_option("--config", import_options.config, "GA config whose [filter] applies")
       ->required();
   import_command->add_option("--out", import_options.out, "model file to write")->required();

@@ -23,7 +23,8 @@ GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSet
   bool header = false;
   while (std::getline(in, line)) {
     ++number;
-    if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos)
+      continue;
     const std::string where = csv.string() + ":" + std::to_string(number) + ": ";
     if (!header) {
       if (line.rfind("level,c1,sigma1,c2,sigma2,w", 0) != 0) {
@@ -54,7 +55,8 @@ GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSet
     try {
       spec.levels.push_back({ga::level_name(level), level, FuzzyRuleTable(rules[level])});
     } catch (const std::invalid_argument& error) {
-      throw std::runtime_error(csv.string() + ": level " + ga::level_name(level) + ": " + error.what());
+      throw std::runtime_error(csv.string() + ": level " + ga::level_name(level) + ": " +
+                               error.what());
     }
   }
   spec.validate();
@@ -67,11 +69,11 @@ GaFuzzyImmSpec import_rules(const ImportRulesOptions& options) {
   const std::string csv_text = read_text_file(options.csv);
   ensure_parent_folder(options.out);
   io::ModelFileWriter writer(
-      options.out, make_provenance(std::string(io::kGaFuzzyImmKind),
-                                   "# filter settings: " + options.config.string() + "\n" +
-                                       config.text + "\n# rules: " + options.csv.string() + "\n" +
-                                       csv_text,
-                                   0, datasets::sha256_hex(csv_text)));
+      options.out,
+      make_provenance(std::string(io::kGaFuzzyImmKind),
+                      "# filter settings: " + options.config.string() + "\n" + config.text +
+                          "\n# rules: " + options.csv.string() + "\n" + csv_text,
+                      0, datasets::sha256_hex(csv_text)));
   io::write_ga_fuzzy_imm(writer, spec);
   writer.commit();
   return spec;

@@ -109,9 +109,9 @@ Tuned<AimmSpec> tune_aimm(const AimmSpec& base, const std::vector<trainer::ga::T
       for (double e : log_epsilon) spec.intervals.push_back(std::pow(10.0, e));
       return axis_score([&] { return std::make_unique<AimmAxisFilter>(spec); }, sets);
     };
-    const SearchResult result = grid_then_subplex(score, std::vector<double>(n, -3.0),
-                                                  std::vector<double>(n, std::log10(0.3)),
-                                                  n == 1 ? 16 : 10, 60, true);
+    const SearchResult result =
+        grid_then_subplex(score, std::vector<double>(n, -3.0),
+                          std::vector<double>(n, std::log10(0.3)), n == 1 ? 16 : 10, 60, true);
     best.evaluations += result.evaluations;
     if (result.value < best.score) {
       best.score = result.value;
@@ -130,7 +130,8 @@ Tuned<AxisCvImmSpec> tune_axis_cv_imm(const AxisCvImmSpec& base,
     AxisCvImmSpec spec = base;
     spec.process_noise.clear();
     for (double e : log_q) spec.process_noise.push_back(std::pow(10.0, e));
-    return axis_score([&] { return std::make_unique<ImmAxisFilter>(build_axis_cv_imm(spec)); }, sets);
+    return axis_score([&] { return std::make_unique<ImmAxisFilter>(build_axis_cv_imm(spec)); },
+                      sets);
   };
   const SearchResult result = grid_then_subplex(score, std::vector<double>(levels, -10.0),
                                                 std::vector<double>(levels, -1.0), 8, 150, true);

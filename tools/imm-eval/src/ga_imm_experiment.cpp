@@ -42,8 +42,9 @@ GaImmExperimentResult run_ga_imm_experiment(const GaImmExperimentOptions& option
   scenario.seed = options.seed;
   if (std::abs(config.filter.sample_period - scenario.sample_period) > 1e-12 ||
       std::abs(config.filter.measurement_sigma - scenario.measurement.sigma(0)) > 1e-12) {
-    throw std::runtime_error(options.training_config.string() +
-                             ": [filter] does not match the seed-000 scenario (T = 1 s, σ = 0.5 km)");
+    throw std::runtime_error(
+        options.training_config.string() +
+        ": [filter] does not match the seed-000 scenario (T = 1 s, σ = 0.5 km)");
   }
   const datasets::ScenarioData data = datasets::simulate(scenario);
 
@@ -75,23 +76,28 @@ GaImmExperimentResult run_ga_imm_experiment(const GaImmExperimentOptions& option
   auto fuzzy_axis = [](const GaFuzzyImmSpec& spec) -> AxisFilterFactory {
     return [&spec] { return std::make_unique<ImmAxisFilter>(build_ga_fuzzy_axis_imm(spec)); };
   };
-  result.training_scores["AIMM3"] = axis_score([&] { return std::make_unique<AimmAxisFilter>(aimm3); }, training);
-  result.training_scores["AIMM5"] = axis_score([&] { return std::make_unique<AimmAxisFilter>(aimm5); }, training);
+  result.training_scores["AIMM3"] =
+      axis_score([&] { return std::make_unique<AimmAxisFilter>(aimm3); }, training);
+  result.training_scores["AIMM5"] =
+      axis_score([&] { return std::make_unique<AimmAxisFilter>(aimm5); }, training);
   result.training_scores["AIMM-tuned"] = aimm_tuned.score;
   result.training_scores["IMM-tuned"] = imm_tuned.score;
   result.training_scores["GA-IMM-paper"] = axis_score(fuzzy_axis(paper), training);
   result.training_scores["GA-IMM"] = axis_score(fuzzy_axis(learned), training);
 
   const TrackOptions track = axis_track_options(config.filter);
-  result.filters.push_back(run_monte_carlo("AIMM3", [&] { return make_aimm_filter(aimm3); }, track, scenario, data));
-  result.filters.push_back(run_monte_carlo("AIMM5", [&] { return make_aimm_filter(aimm5); }, track, scenario, data));
+  result.filters.push_back(run_monte_carlo(
+      "AIMM3", [&] { return make_aimm_filter(aimm3); }, track, scenario, data));
+  result.filters.push_back(run_monte_carlo(
+      "AIMM5", [&] { return make_aimm_filter(aimm5); }, track, scenario, data));
   result.filters.push_back(run_monte_carlo(
       "AIMM-tuned", [&] { return make_aimm_filter(aimm_tuned.spec); }, track, scenario, data));
   result.filters.push_back(run_monte_carlo(
       "IMM-tuned", [&] { return make_axis_cv_imm_filter(imm_tuned.spec); }, track, scenario, data));
 
-  for (const auto& [name, spec] : {std::pair<std::string, const GaFuzzyImmSpec*>{"GA-IMM-paper", &paper},
-                                   std::pair<std::string, const GaFuzzyImmSpec*>{"GA-IMM", &learned}}) {
+  for (const auto& [name, spec] :
+       {std::pair<std::string, const GaFuzzyImmSpec*>{"GA-IMM-paper", &paper},
+        std::pair<std::string, const GaFuzzyImmSpec*>{"GA-IMM", &learned}}) {
     std::vector<std::vector<double>> q(spec->levels.size());
     const StepObserver observe_q = [&](std::size_t, int, const TrackFilter& filter) {
       const auto& two_axis = static_cast<const TwoAxisFilter&>(filter);

@@ -37,14 +37,14 @@ bool write_error_series(const std::vector<imm::evaluation::FilterOutcome>& filte
   }
   imm::evaluation::write_series_csv(out / "normalized_position_error.csv", names, pe);
   imm::evaluation::write_series_csv(out / "normalized_velocity_error.csv", names, ve);
-  bool plotted = imm::evaluation::plot_series({out / "normalized_position_error.png",
-                                               "Normalized position error P_e(k) (seed 000 Fig. 4-1)",
-                                               "scan k", "P_e", out / "normalized_position_error.csv",
-                                               names});
-  plotted &= imm::evaluation::plot_series({out / "normalized_velocity_error.png",
-                                           "Normalized velocity error V_e(k) (seed 000 Fig. 4-2)",
-                                           "scan k", "V_e", out / "normalized_velocity_error.csv",
-                                           names});
+  bool plotted =
+      imm::evaluation::plot_series({out / "normalized_position_error.png",
+                                    "Normalized position error P_e(k) (seed 000 Fig. 4-1)",
+                                    "scan k", "P_e", out / "normalized_position_error.csv", names});
+  plotted &=
+      imm::evaluation::plot_series({out / "normalized_velocity_error.png",
+                                    "Normalized velocity error V_e(k) (seed 000 Fig. 4-2)",
+                                    "scan k", "V_e", out / "normalized_velocity_error.csv", names});
   return plotted;
 }
 
@@ -77,8 +77,8 @@ int report_ga_imm(const imm::evaluation::GaImmExperimentResult& result,
   for (const auto& [name, text] : result.tuned) std::cout << "  " << name << ": " << text << '\n';
   std::vector<std::vector<std::string>> spread_rows;
   for (const auto& s : result.spreads) {
-    spread_rows.push_back({s.filter, s.mode, cell(s.p01 * 1e6, 3), cell(s.p50 * 1e6, 3),
-                           cell(s.p99 * 1e6, 3)});
+    spread_rows.push_back(
+        {s.filter, s.mode, cell(s.p01 * 1e6, 3), cell(s.p50 * 1e6, 3), cell(s.p99 * 1e6, 3)});
   }
   std::cout << "\nq_j(k) over scans, runs and axes, 10⁻⁶ (km/s²)²:\n\n"
             << imm::evaluation::markdown_table({"filter", "sub-model", "p1", "p50", "p99"},
@@ -112,7 +112,8 @@ int report_ga_imm(const imm::evaluation::GaImmExperimentResult& result,
 
   std::filesystem::create_directories(out);
   nlohmann::json metrics;
-  for (const auto& f : result.filters) metrics[f.name] = {{"zeta_p", f.zeta_p}, {"zeta_v", f.zeta_v}};
+  for (const auto& f : result.filters)
+    metrics[f.name] = {{"zeta_p", f.zeta_p}, {"zeta_v", f.zeta_v}};
   imm::trainer::write_json_atomically(out / "metrics.json", metrics);
   nlohmann::json details;
   details["runs"] = result.runs;
@@ -124,13 +125,15 @@ int report_ga_imm(const imm::evaluation::GaImmExperimentResult& result,
   details["gate_failures"] = failures;
   details["beats_imm_tuned"] = beats_imm_tuned;
   for (const auto& f : result.filters) {
-    details["filters"][f.name] = {{"zeta_p", f.zeta_p}, {"zeta_v", f.zeta_v},
+    details["filters"][f.name] = {{"zeta_p", f.zeta_p},
+                                  {"zeta_v", f.zeta_v},
                                   {"position_rmse", f.position_rmse},
                                   {"velocity_rmse", f.velocity_rmse},
                                   {"rejected_steps", f.rejected_steps}};
   }
   for (const auto& s : result.spreads) {
-    details["process_noise_spread"][s.filter][s.mode] = {{"p01", s.p01}, {"p50", s.p50}, {"p99", s.p99}};
+    details["process_noise_spread"][s.filter][s.mode] = {
+        {"p01", s.p01}, {"p50", s.p50}, {"p99", s.p99}};
   }
   imm::trainer::write_json_atomically(out / "details.json", details);
   bool plotted = write_error_series(result.filters, result.steps, out);
@@ -208,10 +211,12 @@ int main(int argc, char** argv) {
   std::filesystem::path ga_out = "reports/ga-imm";
   ga.training_config = "configs/ga_fuzzy_imm.toml";
   auto* ga_command = app.add_subcommand(
-      "ga-imm", "seed 000 Table 3: GA-fuzzy IMM vs AIMM3/5, tuned AIMM, tuned IMM, the paper's tables");
+      "ga-imm",
+      "seed 000 Table 3: GA-fuzzy IMM vs AIMM3/5, tuned AIMM, tuned IMM, the paper's tables");
   ga_command->add_option("--models", ga_models,
                          "folder with ga_fuzzy_imm.h5 and reference/ga_fuzzy_imm_paper.h5");
-  ga_command->add_option("--config", ga.training_config, "GA config (training trajectories, filter)");
+  ga_command->add_option("--config", ga.training_config,
+                         "GA config (training trajectories, filter)");
   ga_command->add_option("--runs", ga.runs, "Monte Carlo runs")->check(CLI::PositiveNumber);
   ga_command->add_option("--seed", ga.seed, "noise seed");
   ga_command->add_option("--out", ga_out, "report folder");

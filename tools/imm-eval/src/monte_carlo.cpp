@@ -31,7 +31,8 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
     Tracker tracker(make_filter(), options);
     if (run == 0) {
       outcome.modes = tracker.mode_count();
-      for (int j = 0; j < outcome.modes; ++j) outcome.mode_names.push_back(tracker.filter().mode_name(j));
+      for (int j = 0; j < outcome.modes; ++j)
+        outcome.mode_names.push_back(tracker.filter().mode_name(j));
       outcome.mean_mode_probabilities = Eigen::MatrixXd::Zero(steps, outcome.modes);
     }
     const int n = tracker.state_dimension();

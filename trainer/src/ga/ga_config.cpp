@@ -116,7 +116,8 @@ void GaTrainingConfig::validate() const {
   for (double u : t.levels) require(std::isfinite(u) && u >= 0.0, "training.levels", "must be ≥ 0");
   require(std::isfinite(t.process_noise_sigma) && t.process_noise_sigma >= 0.0,
           "training.process_noise_sigma", "must be non-negative");
-  require(t.trajectories >= 1 && t.trajectories <= 10000, "training.trajectories", "must be in [1, 10000]");
+  require(t.trajectories >= 1 && t.trajectories <= 10000, "training.trajectories",
+          "must be in [1, 10000]");
   require(t.validation_trajectories >= 1 && t.validation_trajectories <= 10000,
           "training.validation_trajectories", "must be in [1, 10000]");
   require(t.steps >= 10 && t.steps <= 100000, "training.steps", "must be in [10, 100000]");
@@ -132,9 +133,12 @@ void GaTrainingConfig::validate() const {
           "fuzzy.consequent_range", "must be [low, high] with 0 ≤ low < high");
   require(fuzzy.lambda >= 0.0 && fuzzy.lambda <= 1.0, "ga.lambda", "must be in [0, 1]");
   require(ga.population >= 2 && ga.population <= 100000, "ga.population", "must be in [2, 100000]");
-  require(ga.generations >= 0 && ga.generations <= 100000, "ga.generations", "must be in [0, 100000]");
-  require(ga.crossover_rate >= 0.0 && ga.crossover_rate <= 1.0, "ga.crossover_rate", "must be in [0, 1]");
-  require(ga.mutation_rate >= 0.0 && ga.mutation_rate <= 1.0, "ga.mutation_rate", "must be in [0, 1]");
+  require(ga.generations >= 0 && ga.generations <= 100000, "ga.generations",
+          "must be in [0, 100000]");
+  require(ga.crossover_rate >= 0.0 && ga.crossover_rate <= 1.0, "ga.crossover_rate",
+          "must be in [0, 1]");
+  require(ga.mutation_rate >= 0.0 && ga.mutation_rate <= 1.0, "ga.mutation_rate",
+          "must be in [0, 1]");
   require(ga.elite >= 0 && ga.elite < ga.population, "ga.elite", "must be in [0, population)");
   require(ga.tournament_size >= 1 && ga.tournament_size <= ga.population, "ga.tournament_size",
           "must be in [1, population]");
@@ -146,7 +150,8 @@ void GaTrainingConfig::validate() const {
   require(finite_positive(max_validation_error), "gate.max_validation_error", "must be positive");
 }
 
-TrainingSetOptions GaTrainingConfig::training_set_options(std::size_t level, bool validation) const {
+TrainingSetOptions GaTrainingConfig::training_set_options(std::size_t level,
+                                                          bool validation) const {
   TrainingSetOptions o;
   o.sample_period = filter.sample_period;
   o.measurement_sigma = filter.measurement_sigma;

@@ -61,7 +61,8 @@ Eigen::MatrixXd history_rows(const std::vector<GenerationLog>& history) {
 std::vector<GenerationLog> history_from(const Eigen::MatrixXd& m) {
   std::vector<GenerationLog> history;
   for (Eigen::Index i = 0; i < m.rows(); ++i) {
-    history.push_back({static_cast<int>(m(i, 0)), m(i, 1), m(i, 2), m(i, 3), static_cast<int>(m(i, 4))});
+    history.push_back(
+        {static_cast<int>(m(i, 0)), m(i, 1), m(i, 2), m(i, 3), static_cast<int>(m(i, 4))});
   }
   return history;
 }
@@ -86,9 +87,11 @@ void write_checkpoint(const std::filesystem::path& path, const GaTrainingConfig&
   io::ContainerWriter writer(path, kCheckpointFormat);
   writer.set_attribute("/", "run_digest", run_digest(config));
   writer.set_attribute("/", "level", static_cast<std::int64_t>(checkpoint.level));
-  writer.set_attribute("/", "generation", static_cast<std::int64_t>(checkpoint.population.generation));
+  writer.set_attribute("/", "generation",
+                       static_cast<std::int64_t>(checkpoint.population.generation));
   writer.set_attribute("/", "level_seconds", checkpoint.level_seconds);
-  writer.set_attribute("/", "finished_levels", static_cast<std::int64_t>(checkpoint.finished.size()));
+  writer.set_attribute("/", "finished_levels",
+                       static_cast<std::int64_t>(checkpoint.finished.size()));
   for (std::size_t i = 0; i < checkpoint.finished.size(); ++i) {
     const LevelResult& r = checkpoint.finished[i];
     const std::string group = "/finished/level" + std::to_string(i);
@@ -96,7 +99,8 @@ void write_checkpoint(const std::filesystem::path& path, const GaTrainingConfig&
     writer.write(group + "/evaluations",
                  evaluation_rows({r.training, r.validation, r.before_memetic}));
     writer.write(group + "/history", history_rows(r.history));
-    writer.write(group + "/ranges", io::Array{{4}, {r.residual_ranges.begin(), r.residual_ranges.end()}});
+    writer.write(group + "/ranges",
+                 io::Array{{4}, {r.residual_ranges.begin(), r.residual_ranges.end()}});
     writer.set_attribute(group, "maneuver_level", r.maneuver_level);
     writer.set_attribute(group, "memetic_evaluations", std::int64_t{r.memetic_evaluations});
     writer.set_attribute(group, "generations", std::int64_t{r.generations});
@@ -110,8 +114,10 @@ void write_checkpoint(const std::filesystem::path& path, const GaTrainingConfig&
   Eigen::MatrixXd gene_matrix(n, genes), active_matrix(n, slots);
   for (Eigen::Index i = 0; i < n; ++i) {
     const Genome& g = p.genomes[static_cast<std::size_t>(i)];
-    for (Eigen::Index j = 0; j < genes; ++j) gene_matrix(i, j) = g.genes[static_cast<std::size_t>(j)];
-    for (Eigen::Index j = 0; j < slots; ++j) active_matrix(i, j) = g.active[static_cast<std::size_t>(j)];
+    for (Eigen::Index j = 0; j < genes; ++j)
+      gene_matrix(i, j) = g.genes[static_cast<std::size_t>(j)];
+    for (Eigen::Index j = 0; j < slots; ++j)
+      active_matrix(i, j) = g.active[static_cast<std::size_t>(j)];
   }
   writer.write("/population/genes", gene_matrix);
   writer.write("/population/active", active_matrix);
@@ -143,7 +149,8 @@ std::optional<Checkpoint> read_checkpoint(const std::filesystem::path& path,
     const Eigen::VectorXd ranges = reader.vector(group + "/ranges", 4);
     for (int k = 0; k < 4; ++k) r.residual_ranges[static_cast<std::size_t>(k)] = ranges(k);
     r.maneuver_level = reader.real(group, "maneuver_level", io::ValueRule::kNonNegative);
-    r.memetic_evaluations = static_cast<int>(reader.integer(group, "memetic_evaluations", 0, INT32_MAX));
+    r.memetic_evaluations =
+        static_cast<int>(reader.integer(group, "memetic_evaluations", 0, INT32_MAX));
     r.generations = static_cast<int>(reader.integer(group, "generations", 0, INT32_MAX));
     r.wall_seconds = reader.real(group, "wall_seconds", io::ValueRule::kNonNegative);
     r.training_digest = reader.text(group, "training_digest");
@@ -151,17 +158,20 @@ std::optional<Checkpoint> read_checkpoint(const std::filesystem::path& path,
   }
   c.level = static_cast<std::size_t>(reader.integer("/", "level", 0, levels));
   c.level_seconds = reader.real("/", "level_seconds", io::ValueRule::kNonNegative);
-  c.population.generation = static_cast<int>(reader.integer("/", "generation", 0, config.ga.generations));
+  c.population.generation =
+      static_cast<int>(reader.integer("/", "generation", 0, config.ga.generations));
   const Eigen::MatrixXd genes = reader.matrix("/population/genes", config.ga.population,
                                               config.fuzzy.max_rules * kGenesPerRule);
-  const Eigen::MatrixXd active = reader.matrix("/population/active", config.ga.population,
-                                               config.fuzzy.max_rules);
-  const Eigen::MatrixXd evaluations = reader.matrix("/population/evaluations", config.ga.population, 5);
+  const Eigen::MatrixXd active =
+      reader.matrix("/population/active", config.ga.population, config.fuzzy.max_rules);
+  const Eigen::MatrixXd evaluations =
+      reader.matrix("/population/evaluations", config.ga.population, 5);
   for (Eigen::Index i = 0; i < genes.rows(); ++i) {
     Genome g;
     g.genes.assign(genes.row(i).data(), genes.row(i).data() + 0);
     g.genes.resize(static_cast<std::size_t>(genes.cols()));
-    for (Eigen::Index j = 0; j < genes.cols(); ++j) g.genes[static_cast<std::size_t>(j)] = genes(i, j);
+    for (Eigen::Index j = 0; j < genes.cols(); ++j)
+      g.genes[static_cast<std::size_t>(j)] = genes(i, j);
     g.active.resize(static_cast<std::size_t>(active.cols()));
     for (Eigen::Index j = 0; j < active.cols(); ++j) {
       g.active[static_cast<std::size_t>(j)] = active(i, j) != 0.0 ? 1 : 0;
@@ -194,9 +204,9 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
                    const GaTrainingResult& result) {
   datasets::Sha256 digest;
   for (const auto& level : result.levels) digest.update(level.training_digest);
-  io::Provenance provenance = make_provenance(std::string(io::kGaFuzzyImmKind), config.text,
-                                              static_cast<std::int64_t>(config.seed),
-                                              digest.hex_digest());
+  io::Provenance provenance =
+      make_provenance(std::string(io::kGaFuzzyImmKind), config.text,
+                      static_cast<std::int64_t>(config.seed), digest.hex_digest());
   std::vector<std::map<std::string, double>> level_metrics;
   for (std::size_t i = 0; i < result.levels.size(); ++i) {
     const LevelResult& r = result.levels[i];
@@ -236,7 +246,8 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
     for (const GenerationLog& h : r.history) {
       history.push_back({h.generation, h.best_fitness, h.mean_fitness, h.best_error, h.best_rules});
     }
-    level["history_columns"] = {"generation", "best_fitness", "mean_fitness", "best_error", "best_rules"};
+    level["history_columns"] = {"generation", "best_fitness", "mean_fitness", "best_error",
+                                "best_rules"};
     level["history"] = history;
     metrics["levels"].push_back(level);
   }
@@ -287,7 +298,8 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
     TrainingSet all = make_training_set(config.training_set_options(0, validation));
     for (std::size_t level = 1; level < config.training.levels.size(); ++level) {
       TrainingSet more = make_training_set(config.training_set_options(level, validation));
-      all.trajectories.insert(all.trajectories.end(), more.trajectories.begin(), more.trajectories.end());
+      all.trajectories.insert(all.trajectories.end(), more.trajectories.begin(),
+                              more.trajectories.end());
     }
     return all;
   };
@@ -336,7 +348,8 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
       write_checkpoint(checkpoint_file, config, state);
       return observer.should_stop && observer.should_stop();
     };
-    if (observer.on_generation) observer.on_generation(level, state.history.back(), earlier_seconds);
+    if (observer.on_generation)
+      observer.on_generation(level, state.history.back(), earlier_seconds);
     if (checkpoint()) {
       result.stopped = true;
       return result;
@@ -345,7 +358,8 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
       algorithm.evolve(state.population);
       state.history.push_back(log_of(state.population));
       if (observer.on_generation) {
-        observer.on_generation(level, state.history.back(), earlier_seconds + seconds_since(level_start));
+        observer.on_generation(level, state.history.back(),
+                               earlier_seconds + seconds_since(level_start));
       }
       if (checkpoint()) {
         result.stopped = true;

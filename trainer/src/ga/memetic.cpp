@@ -16,7 +16,8 @@ MemeticResult polish(const FuzzyTableProblem& problem, const Genome& genome,
   std::vector<std::size_t> index;
   for (std::size_t slot = 0; slot < genome.active.size(); ++slot) {
     if (genome.active[slot] == 0) continue;
-    for (int g = 0; g < kGenesPerRule; ++g) index.push_back(slot * kGenesPerRule + static_cast<std::size_t>(g));
+    for (int g = 0; g < kGenesPerRule; ++g)
+      index.push_back(slot * kGenesPerRule + static_cast<std::size_t>(g));
   }
   std::vector<double> x(index.size()), lower(index.size()), upper(index.size());
   for (std::size_t i = 0; i < index.size(); ++i) {

@@ -13,7 +13,8 @@ std::string_view to_string(TrainingProfile profile) {
 std::string TrainingSet::digest() const {
   datasets::Sha256 hash;
   for (const auto& t : trajectories) {
-    for (const Eigen::VectorXd* v : {&t.position, &t.velocity, &t.acceleration_input, &t.measurement}) {
+    for (const Eigen::VectorXd* v :
+         {&t.position, &t.velocity, &t.acceleration_input, &t.measurement}) {
       hash.update(v->data(), static_cast<std::size_t>(v->size()) * sizeof(double));
     }
   }

@@ -18,8 +18,7 @@ class AccelerationEstimator {
  public:
   AccelerationEstimator(double sample_period, double state_noise_sigma, double bias_noise_sigma,
                         double measurement_variance)
-      : F_(ca_axis_transition(sample_period)),
-        R_(SquareMatrix<1>::Constant(measurement_variance)) {
+      : F_(ca_axis_transition(sample_period)), R_(SquareMatrix<1>::Constant(measurement_variance)) {
     detail::require_positive(sample_period, "sample_period");
     detail::require_non_negative(state_noise_sigma, "state_noise_sigma");
     detail::require_non_negative(bias_noise_sigma, "bias_noise_sigma");

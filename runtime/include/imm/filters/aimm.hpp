@@ -43,7 +43,7 @@ class AimmAxisFilter final : public AxisFilter {
   void set_inputs();
 
   AimmSpec spec_;
-  std::vector<double> offsets_;         // 0, +ε₁, −ε₁, …
+  std::vector<double> offsets_;          // 0, +ε₁, −ε₁, …
   std::vector<InputKalmanMode*> modes_;  // owned by imm_
   ImmEstimator<2, 1> imm_;
   AccelerationEstimator estimator_;

@@ -3,10 +3,9 @@
 /// scalar measurement), and TwoAxisFilter puts two of them behind the 2-D TrackFilter interface
 /// (state [x, vx, y, vy]; mode probabilities x modes first, then y modes).
 
+#include <Eigen/Core>
 #include <memory>
 #include <string>
-
-#include <Eigen/Core>
 
 #include "imm/filters/gaussian_state.hpp"
 #include "imm/filters/imm_estimator.hpp"

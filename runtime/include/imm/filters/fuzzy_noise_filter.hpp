@@ -48,7 +48,8 @@ class FuzzyNoiseFilter {
     GaussianState<2> predicted;
     predicted.mean.noalias() = F_ * state.mean;
     result.residual = z - predicted.mean(0);
-    result.process_noise = table_.process_noise(result.residual, result.residual - previous_residual);
+    result.process_noise =
+        table_.process_noise(result.residual, result.residual - previous_residual);
     predicted.covariance.noalias() = F_ * state.covariance * F_.transpose();
     predicted.covariance += result.process_noise * GGt_;
     symmetrize(predicted.covariance);

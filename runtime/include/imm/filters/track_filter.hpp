@@ -2,9 +2,8 @@
 /// A 2-D filter as a track sees it (tracker.hpp): a plain IMM, two per-axis IMMs, an adaptive IMM.
 /// State layout: one block per axis, [x, vx, y, vy] or [x, vx, ax, y, vy, ay].
 
-#include <string>
-
 #include <Eigen/Core>
+#include <string>
 
 #include "imm/filters/step_status.hpp"
 #include "imm/math/linear_algebra.hpp"
@@ -30,7 +29,8 @@ class TrackFilter {
   virtual StepStatus predict_only() = 0;
 
   /// Combined mean and covariance diagonal.
-  virtual void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const = 0;
+  virtual void state(Eigen::Ref<Eigen::VectorXd> mean,
+                     Eigen::Ref<Eigen::VectorXd> variance) const = 0;
   [[nodiscard]] virtual ModeVector mode_probabilities() const = 0;
 };
 

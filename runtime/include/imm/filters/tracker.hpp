@@ -4,12 +4,11 @@
 /// without touching the filter. What `imm-track` and the evaluations run, and what a tracking
 /// application wants around a filter.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <memory>
 #include <optional>
 #include <string_view>
-
-#include <Eigen/Core>
 
 #include "imm/filters/plain_imm.hpp"
 #include "imm/filters/track_filter.hpp"

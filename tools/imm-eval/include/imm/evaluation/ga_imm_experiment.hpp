@@ -32,9 +32,10 @@ struct GaImmExperimentResult {
   int runs = 0, steps = 0;
   std::uint64_t seed = 0;
   std::string dataset_digest;
-  std::vector<FilterOutcome> filters;  ///< AIMM3, AIMM5, AIMM-tuned, IMM-tuned, GA-IMM-paper, GA-IMM
+  std::vector<FilterOutcome>
+      filters;  ///< AIMM3, AIMM5, AIMM-tuned, IMM-tuned, GA-IMM-paper, GA-IMM
   std::vector<ProcessNoiseSpread> spreads;
-  std::map<std::string, std::string> tuned;  ///< tuned parameters, for the report
+  std::map<std::string, std::string> tuned;       ///< tuned parameters, for the report
   std::map<std::string, double> training_scores;  ///< ζ_p + ζ_v on the training trajectories
 };
 

@@ -5,13 +5,13 @@
 /// seed 000's normalized errors ζ_p, ζ_v (see normalized_errors.hpp) and RMSEs.
 
 #include <Eigen/Core>
-
-#include "imm/evaluation/monte_carlo.hpp"
 #include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "imm/evaluation/monte_carlo.hpp"
 
 namespace imm::evaluation {
 

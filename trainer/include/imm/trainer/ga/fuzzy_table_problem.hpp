@@ -17,7 +17,8 @@
 ///   with the candidate in its slot beside the other levels' tables. The single-filter fitness
 ///   rewards whatever one filter needs alone — for a filter that must also follow maneuvers, a
 ///   large constant q — whereas the IMM needs each table to be good at its own regime and to lose
-///   the likelihood contest elsewhere. This fitness measures that directly. Eq. (17) prints sums over the trajectories; we
+///   the likelihood contest elsewhere. This fitness measures that directly. Eq. (17) prints sums
+///   over the trajectories; we
 /// use the means per scan (ē_p = Σ|p − p̂| / N, likewise ē_v), which leaves the optimum unchanged
 /// but keeps "error + 1" on the scale λ was chosen for (errors ~ 0.1–1 km), independent of how
 /// many trajectories the config asks for.
@@ -35,8 +36,8 @@ namespace imm::trainer::ga {
 inline constexpr int kGenesPerRule = 5;  // c1, σ1, c2, σ2, √w
 
 struct Genome {
-  std::vector<double> genes;          ///< max_rules × 5, slot-major
-  std::vector<std::uint8_t> active;   ///< max_rules bits
+  std::vector<double> genes;         ///< max_rules × 5, slot-major
+  std::vector<std::uint8_t> active;  ///< max_rules bits
   [[nodiscard]] int rule_count() const;
 };
 
@@ -90,7 +91,8 @@ class FuzzyTableProblem final : public GenomeProblem {
 
   [[nodiscard]] Evaluation evaluate(const Genome& genome) const override;
   /// Error and fitness of a decoded table on any set (validation).
-  [[nodiscard]] Evaluation evaluate_table(const FuzzyRuleTable& table, const TrainingSet& set) const;
+  [[nodiscard]] Evaluation evaluate_table(const FuzzyRuleTable& table,
+                                          const TrainingSet& set) const;
   [[nodiscard]] FuzzyRuleTable decode(const Genome& genome) const;
 
   [[nodiscard]] int max_rules() const override { return options_.max_rules; }

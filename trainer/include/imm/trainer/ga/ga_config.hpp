@@ -19,10 +19,10 @@ struct TrainingOptions {
   std::vector<double> levels = {0.001, 0.01, 0.1};  ///< maneuver levels u_i = a_M (km/s²)
   double process_noise_sigma = 0.001;               ///< √q: truth's σ_w and eq. (15)
   TrainingProfile profile = TrainingProfile::kMixed;
-  int trajectories = 12;             ///< training trajectories per level
-  int validation_trajectories = 6;   ///< held out, per level
+  int trajectories = 12;            ///< training trajectories per level
+  int validation_trajectories = 6;  ///< held out, per level
   int steps = 160;
-  int min_segment = 10;              ///< mixed profile: segment lengths, scans
+  int min_segment = 10;  ///< mixed profile: segment lengths, scans
   int max_segment = 40;
   double initial_speed = 0.015;
 };

@@ -29,9 +29,9 @@ struct GenerationLog {
 struct LevelResult {
   double maneuver_level = 0.0;
   FuzzyRuleTable table;
-  Evaluation training;            ///< of the final table
-  Evaluation validation;          ///< on the held-out trajectories
-  Evaluation before_memetic;      ///< the GA's best, before polishing
+  Evaluation training;        ///< of the final table
+  Evaluation validation;      ///< on the held-out trajectories
+  Evaluation before_memetic;  ///< the GA's best, before polishing
   int memetic_evaluations = 0;
   int generations = 0;
   double wall_seconds = 0.0;
@@ -56,7 +56,7 @@ struct GaObserver {
 
 struct GaTrainingResult {
   std::vector<LevelResult> levels;
-  bool stopped = false;      ///< should_stop() ended the run early; nothing was written
+  bool stopped = false;  ///< should_stop() ended the run early; nothing was written
   bool gate_passed = false;
   std::string gate_message;
   double wall_seconds = 0.0;

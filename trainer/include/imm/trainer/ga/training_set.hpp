@@ -8,11 +8,10 @@
 /// - kMixed: constant-velocity and ±u maneuver segments alternate, segment lengths uniform in a
 ///   configured range, so that a table sees both what it must ignore and what it must follow.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace imm::trainer::ga {
 
