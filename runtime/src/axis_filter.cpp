@@ -46,7 +46,7 @@ std::string TwoAxisFilter::mode_name(int j) const {
 }
 
 void TwoAxisFilter::initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
-  for (int axis = 0; axis < 2; ++axis) {
+  for (Eigen::Index axis = 0; axis < 2; ++axis) {
     GaussianState<2> state;
     state.mean = mean.segment<2>(2 * axis);
     state.covariance = covariance.block<2, 2>(2 * axis, 2 * axis);

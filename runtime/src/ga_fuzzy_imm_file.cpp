@@ -6,7 +6,10 @@ namespace imm::io {
 namespace {
 constexpr const char* kRoot = "/ga_fuzzy_imm";
 std::string level_group(std::size_t i) { return std::string(kRoot) + "/level" + std::to_string(i); }
-const std::vector<std::string> kColumns = {"c1", "sigma1", "c2", "sigma2", "w"};
+const std::vector<std::string>& rule_columns() {
+  static const std::vector<std::string> columns = {"c1", "sigma1", "c2", "sigma2", "w"};
+  return columns;
+}
 }  // namespace
 
 Eigen::MatrixXd rules_matrix(const FuzzyRuleTable& table) {
@@ -45,7 +48,7 @@ void write_ga_fuzzy_imm(ModelFileWriter& writer, const GaFuzzyImmSpec& spec,
     if (i < level_metrics.size()) {
       for (const auto& [name, value] : level_metrics[i]) writer.set_attribute(group, name, value);
     }
-    writer.write_matrix(group + "/rules", rules_matrix(level.table), kColumns);
+    writer.write_matrix(group + "/rules", rules_matrix(level.table), rule_columns());
   }
 }
 

@@ -219,7 +219,10 @@ TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
   return result;
 }
 
-void Tracker::state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const {
+// Eigen::Ref is a writable view and is passed by value by design.
+void Tracker::state(
+    Eigen::Ref<Eigen::VectorXd> mean,              // NOLINT(performance-unnecessary-value-param)
+    Eigen::Ref<Eigen::VectorXd> variance) const {  // NOLINT(performance-unnecessary-value-param)
   if (!initialized_) throw std::logic_error("Tracker::state before initialization");
   filter_->state(mean, variance);
 }

@@ -40,7 +40,8 @@ GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSet
       char* end = nullptr;
       const double value = std::strtod(field.c_str(), &end);
       if (end == field.c_str() || !std::isfinite(value)) {
-        throw std::runtime_error(where + "'" + field + "' is not a finite number");
+        throw std::runtime_error(
+            std::string(where).append("'").append(field).append("' is not a finite number"));
       }
       values.push_back(value);
     }

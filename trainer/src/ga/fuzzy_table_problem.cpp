@@ -29,7 +29,7 @@ std::string_view to_string(FitnessKind kind) {
   return kind == FitnessKind::kSingleFilter ? "single" : "imm";
 }
 
-FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, ProblemOptions options,
+FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, const ProblemOptions& options,
                                      ImmContext context)
     : training_(std::move(training)), options_(options), context_(std::move(context)) {
   if (options_.fitness == FitnessKind::kImm && context_.slot >= context_.levels.size()) {
@@ -65,7 +65,7 @@ FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, ProblemOptions option
   lower_.resize(static_cast<std::size_t>(gene_count()));
   upper_.resize(lower_.size());
   for (int l = 0; l < options_.max_rules; ++l) {
-    const auto base = static_cast<std::size_t>(l * kGenesPerRule);
+    const auto base = static_cast<std::size_t>(l) * kGenesPerRule;
     lower_[base + 0] = r_min, upper_[base + 0] = r_max;
     lower_[base + 1] = options_.sigma_min, upper_[base + 1] = options_.sigma_max;
     lower_[base + 2] = dr_min, upper_[base + 2] = dr_max;

@@ -20,7 +20,7 @@ double Population::mean_fitness() const {
   return evaluations.empty() ? 0.0 : sum / static_cast<double>(evaluations.size());
 }
 
-GeneticAlgorithm::GeneticAlgorithm(const GenomeProblem& problem, GaOptions options,
+GeneticAlgorithm::GeneticAlgorithm(const GenomeProblem& problem, const GaOptions& options,
                                    std::uint64_t seed)
     : problem_(problem), options_(options), seed_(seed) {
   if (options_.population < 2) throw std::invalid_argument("population must be at least 2");
@@ -93,9 +93,11 @@ std::size_t GeneticAlgorithm::tournament(const Population& population, datasets:
   std::size_t best = rng.below(n);
   for (int i = 1; i < options_.tournament_size; ++i) {
     const std::size_t challenger = rng.below(n);
-    if (population.evaluations[challenger].fitness > population.evaluations[best].fitness ||
-        (population.evaluations[challenger].fitness == population.evaluations[best].fitness &&
-         challenger < best)) {
+    const double challenger_fitness = population.evaluations[challenger].fitness;
+    const double best_fitness = population.evaluations[best].fitness;
+    // Ties go to the lower index, so the choice never depends on the draw order of equals.
+    if (challenger_fitness > best_fitness ||
+        (challenger_fitness == best_fitness && challenger < best)) {
       best = challenger;
     }
   }

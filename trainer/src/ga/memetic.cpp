@@ -27,9 +27,9 @@ MemeticResult polish(const FuzzyTableProblem& problem, const Genome& genome,
   }
 
   struct Context {
-    const FuzzyTableProblem* problem;
+    const FuzzyTableProblem* problem = nullptr;
     Genome candidate;
-    const std::vector<std::size_t>* index;
+    const std::vector<std::size_t>* index = nullptr;
     int evaluations = 0;
   } context{&problem, genome, &index, 0};
 

@@ -49,7 +49,8 @@ TrainingSet make_training_set(const TrainingSetOptions& options) {
     } else {
       int k = 0;
       bool maneuvering = rng.uniform() < 0.5;
-      const auto span = static_cast<std::uint64_t>(options.max_segment - options.min_segment + 1);
+      const std::uint64_t span = static_cast<std::uint64_t>(options.max_segment) -
+                                 static_cast<std::uint64_t>(options.min_segment) + 1;
       while (k < n) {
         const int length = options.min_segment + static_cast<int>(rng.below(span));
         const double u =

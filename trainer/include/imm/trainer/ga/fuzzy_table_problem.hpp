@@ -87,7 +87,7 @@ class FuzzyTableProblem final : public GenomeProblem {
  public:
   /// Computes the observed ranges of r and Δr on `training` with a constant-q KF at the upper
   /// end of eq. (15).
-  FuzzyTableProblem(TrainingSet training, ProblemOptions options, ImmContext context = {});
+  FuzzyTableProblem(TrainingSet training, const ProblemOptions& options, ImmContext context = {});
 
   [[nodiscard]] Evaluation evaluate(const Genome& genome) const override;
   /// Error and fitness of a decoded table on any set (validation).

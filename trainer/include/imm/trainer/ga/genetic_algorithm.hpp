@@ -51,7 +51,7 @@ struct Population {
 class GeneticAlgorithm {
  public:
   /// Throws std::invalid_argument for inconsistent options.
-  GeneticAlgorithm(const GenomeProblem& problem, GaOptions options, std::uint64_t seed);
+  GeneticAlgorithm(const GenomeProblem& problem, const GaOptions& options, std::uint64_t seed);
 
   /// The random, evaluated initial population (generation 0).
   [[nodiscard]] Population initialize() const;
