@@ -70,12 +70,15 @@ int run_ga(const GaCommand& command) {
         generations, log.best_fitness, log.best_error, log.best_rules, log.mean_fitness, eta);
   };
   observer.on_level_done = [&](std::size_t, const ga::LevelResult& r) {
-    spdlog::info(
-        "level {} done in {:.1f} s: fitness {:.5f} -> {:.5f} after memetic ({} evaluations), "
-        "{} rules, training error {:.4f}, validation error {:.4f}",
-        ga::level_name(r.maneuver_level), r.wall_seconds, r.before_memetic.fitness,
-        r.training.fitness, r.memetic_evaluations, r.training.rules, r.training.error,
-        r.validation.error);
+    const std::string memetic =
+        r.memetic_evaluations > 0
+            ? fmt::format("fitness {:.5f} -> {:.5f} after memetic ({} evaluations)",
+                          r.before_memetic.fitness, r.training.fitness, r.memetic_evaluations)
+            : fmt::format("fitness {:.5f}", r.training.fitness);
+    spdlog::info("level {} done in {:.1f} s: {}, {} rules, training error {:.4f}, validation "
+                 "error {:.4f}",
+                 ga::level_name(r.maneuver_level), r.wall_seconds, memetic, r.training.rules,
+                 r.training.error, r.validation.error);
   };
   const ga::GaTrainingResult result = ga::train_ga(config, {command.out, command.resume}, observer);
   if (!result.gate_passed) {
