@@ -45,17 +45,17 @@ inline std::filesystem::path unique_temp_file(const char* stem) {
   return pattern;
 }
 
-/// Runs `tool` with `arguments` in `working_directory`.
-inline ToolResult run_tool(const std::string& tool, const std::vector<std::string>& arguments,
-                           const std::filesystem::path& working_directory) {
-  const auto out_file = unique_temp_file("immtrain-tool-stdout");
-  const auto err_file = unique_temp_file("immtrain-tool-stderr");
+/// Starts `tool` with stdout and stderr going to the given files (in `working_directory` when
+/// given); returns its pid, or -1.
+inline pid_t start_tool(const std::string& tool, const std::vector<std::string>& arguments,
+                        const std::string& out_file, const std::string& err_file,
+                        const std::filesystem::path& working_directory = {}) {
   std::vector<std::string> storage{tool_path(tool).string()};
   storage.insert(storage.end(), arguments.begin(), arguments.end());
   std::vector<char*> argv;
+  argv.reserve(storage.size() + 1);
   for (auto& a : storage) argv.push_back(a.data());
   argv.push_back(nullptr);
-
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 1, out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
@@ -63,16 +63,28 @@ inline ToolResult run_tool(const std::string& tool, const std::vector<std::strin
   posix_spawn_file_actions_addopen(&actions, 2, err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
                                    0644);
 #if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 29))
-  posix_spawn_file_actions_addchdir_np(&actions, working_directory.c_str());
+  if (!working_directory.empty()) {
+    posix_spawn_file_actions_addchdir_np(&actions, working_directory.c_str());
+  }
 #endif
-  pid_t pid = 0;
+  pid_t pid = -1;
+  if (posix_spawn(&pid, storage[0].c_str(), &actions, nullptr, argv.data(), environ) != 0) pid = -1;
+  posix_spawn_file_actions_destroy(&actions);
+  return pid;
+}
+
+/// Runs `tool` with `arguments` in `working_directory` and waits for it.
+inline ToolResult run_tool(const std::string& tool, const std::vector<std::string>& arguments,
+                           const std::filesystem::path& working_directory) {
+  const auto out_file = unique_temp_file("immtrain-tool-stdout");
+  const auto err_file = unique_temp_file("immtrain-tool-stderr");
   ToolResult result;
-  if (posix_spawn(&pid, storage[0].c_str(), &actions, nullptr, argv.data(), environ) == 0) {
+  const pid_t pid = start_tool(tool, arguments, out_file, err_file, working_directory);
+  if (pid > 0) {
     int status = 0;
     waitpid(pid, &status, 0);
     result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   }
-  posix_spawn_file_actions_destroy(&actions);
   result.out = slurp(out_file);
   result.err = slurp(err_file);
   std::filesystem::remove(out_file);
@@ -82,19 +94,7 @@ inline ToolResult run_tool(const std::string& tool, const std::vector<std::strin
 
 /// Starts `tool` without waiting (output discarded); returns its pid, or -1.
 inline pid_t spawn_tool(const std::string& tool, const std::vector<std::string>& arguments) {
-  std::vector<std::string> storage{tool_path(tool).string()};
-  storage.insert(storage.end(), arguments.begin(), arguments.end());
-  std::vector<char*> argv;
-  for (auto& a : storage) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
-  pid_t pid = -1;
-  if (posix_spawn(&pid, storage[0].c_str(), &actions, nullptr, argv.data(), environ) != 0) pid = -1;
-  posix_spawn_file_actions_destroy(&actions);
-  return pid;
+  return start_tool(tool, arguments, "/dev/null", "/dev/null");
 }
 
 /// The repository root (ctest runs the tests there).

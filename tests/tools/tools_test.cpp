@@ -274,6 +274,27 @@ TEST_F(Tools, GaTrainingResumedAfterAKillEqualsAnUninterruptedRun) {
   EXPECT_EQ(tables(dir_ / "a.h5"), tables(model));
 }
 
+TEST_F(Tools, GaImmEvaluationReportsTable3ForEveryFilter) {
+  const auto out = dir_ / "ga-imm";
+  const auto result = run_tool(
+      "imm-eval",
+      {"ga-imm", "--models", config("models").string(), "--config",
+       config("configs/ga_fuzzy_imm.toml").string(), "--runs", "10", "--out", out.string()},
+      root_);
+  ASSERT_TRUE(result.exit_code == 0 || result.exit_code == 5) << result.err;
+  EXPECT_NE(result.out.find("| GA-IMM-paper "), std::string::npos) << result.out;
+  const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+  for (const char* name : {"AIMM3", "AIMM5", "AIMM-tuned", "IMM-tuned", "GA-IMM-paper", "GA-IMM"}) {
+    ASSERT_TRUE(metrics.contains(name)) << name;
+    EXPECT_GT(metrics[name]["zeta_p"].get<double>(), 0.0);
+    EXPECT_GT(metrics[name]["zeta_v"].get<double>(), 0.0);
+  }
+  const auto details = nlohmann::json::parse(testing::slurp(out / "details.json"));
+  EXPECT_TRUE(details["process_noise_spread"]["GA-IMM"].contains("u0.1"));
+  EXPECT_TRUE(std::filesystem::exists(out / "normalized_position_error.csv"));
+  EXPECT_TRUE(std::filesystem::exists(out / "mode_probabilities_ga_imm.csv"));
+}
+
 TEST_F(Tools, ImmInspectShowsRuleTablesLikeTable2) {
   const auto model = dir_ / "paper.h5";
   const auto result = run_tool(
