@@ -66,6 +66,7 @@ class FuzzyNoiseFilter {
   }
 
   [[nodiscard]] const FuzzyRuleTable& table() const { return table_; }
+  [[nodiscard]] const SquareMatrix<2>& transition() const { return F_; }
 
  private:
   FuzzyRuleTable table_;
@@ -108,6 +109,10 @@ class FuzzyNoiseMode final : public ImmMode<2, 1> {
     pending_residual_ = residual_;
     pending_process_noise_ = filter_.table().mean_w();
     return {pending_.all_finite() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
+  }
+
+  void predicted_mean(const GaussianState<2>& mixed, Vector<2>& mean) const override {
+    mean = filter_.transition() * mixed.mean;
   }
 
   void commit() override {

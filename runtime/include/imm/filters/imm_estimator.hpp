@@ -113,6 +113,33 @@ class ImmEstimator {
     return finish_cycle();
   }
 
+  /// One IMM cycle in which the measurement is chosen after the prediction: `choose` receives the
+  /// predicted mode probabilities c_j = Σ_i p_ij μ_i (linear), every mode's predicted mean in
+  /// mixing space and z, and returns the measurement to update with (seed 004's weighted IMM
+  /// fuses the plot azimuth with the predicted one). On any status other than kOk nothing
+  /// changes.
+  template <class Choose>
+  StepStatus step_with(const Vector<NZ>& z, Choose&& choose) {
+    require_initialized();
+    if (!z.allFinite()) return StepStatus::kInvalidMeasurement;
+    predict_mode_probabilities();
+    const int n = mode_count();
+    ModeVector predicted(n);
+    for (int j = 0; j < n; ++j) {
+      predicted(j) = std::exp(log_predicted_(j));
+      mix(j, mixed_states_[index(j)]);
+      mode_at(j).predicted_mean(mixed_states_[index(j)], predicted_means_[index(j)]);
+    }
+    const Vector<NZ> chosen = choose(static_cast<const ModeVector&>(predicted),
+                                     static_cast<const std::array<Vector<NX>, kMaxModes>&>(predicted_means_), z);
+    if (!chosen.allFinite()) return StepStatus::kInvalidMeasurement;
+    status_ = StepStatus::kOk;
+    for (int j = 0; j < n; ++j) {
+      if (!record(j, mode_at(j).propose(mixed_states_[index(j)], chosen))) break;
+    }
+    return finish_cycle();
+  }
+
   [[nodiscard]] bool initialized() const { return initialized_; }
   [[nodiscard]] const GaussianState<NX>& estimate() const { return combined_; }
   [[nodiscard]] int mode_count() const { return static_cast<int>(modes_.size()); }
@@ -151,38 +178,47 @@ class ImmEstimator {
     }
   }
 
-  // Mixing (eq. 4–6) and the modes' predict/update. Stops at the first failing mode.
-  template <class Propose>
-  void mix_and_propose(Propose&& propose) {
+  // The mixed initial condition of mode j (eq. 4–6).
+  [[gnu::always_inline]] inline void mix(int j, GaussianState<NX>& mixed) {
     const int n = mode_count();
     // means_/covariances_ hold every mode's current estimate (see combine()).
-    status_ = StepStatus::kOk;
-    for (int j = 0; j < n; ++j) {
-      if (log_predicted_(j) == -std::numeric_limits<double>::infinity()) {
-        // Mode j is unreachable under Π and μ: its weights are undefined; it keeps its own
-        // estimate as the initial condition and its probability stays zero.
-        mixed_.mean = means_[index(j)];
-        mixed_.covariance = covariances_[index(j)];
-      } else {
-        if (predicted_scaled_(j) > 0.0) {
-          for (int i = 0; i < n; ++i) {
-            scratch_(i) = transition_(i, j) * scaled_(i) / predicted_scaled_(j);
-          }
-        } else {
-          for (int i = 0; i < n; ++i) {
-            scratch_(i) =
-                std::exp(log_transition_(i, j) + log_probabilities_(i) - log_predicted_(j));
-          }
-        }
-        moment_match(scratch_, mixed_);
-      }
-      const ModeStep result = propose(mode_at(j), mixed_);
-      if (result.status != StepStatus::kOk) {
-        status_ = result.status;
-        return;
-      }
-      log_posterior_(j) = result.log_likelihood + log_predicted_(j);
+    if (log_predicted_(j) == -std::numeric_limits<double>::infinity()) {
+      // Mode j is unreachable under Π and μ: its weights are undefined; it keeps its own
+      // estimate as the initial condition and its probability stays zero.
+      mixed.mean = means_[index(j)];
+      mixed.covariance = covariances_[index(j)];
+      return;
     }
+    if (predicted_scaled_(j) > 0.0) {
+      for (int i = 0; i < n; ++i) {
+        scratch_(i) = transition_(i, j) * scaled_(i) / predicted_scaled_(j);
+      }
+    } else {
+      for (int i = 0; i < n; ++i) {
+        scratch_(i) = std::exp(log_transition_(i, j) + log_probabilities_(i) - log_predicted_(j));
+      }
+    }
+    moment_match(scratch_, mixed);
+  }
+
+  // Mixing and the modes' predict/update. Stops at the first failing mode.
+  template <class Propose>
+  void mix_and_propose(Propose&& propose) {
+    status_ = StepStatus::kOk;
+    for (int j = 0; j < mode_count(); ++j) {
+      mix(j, mixed_);
+      if (!record(j, propose(mode_at(j), mixed_))) return;
+    }
+  }
+
+  // Stores mode j's result; false (and status_ set) when it failed.
+  bool record(int j, const ModeStep& result) {
+    if (result.status != StepStatus::kOk) {
+      status_ = result.status;
+      return false;
+    }
+    log_posterior_(j) = result.log_likelihood + log_predicted_(j);
+    return true;
   }
 
   // Normalizes the posterior in log space, commits the modes and combines.
@@ -251,6 +287,8 @@ class ImmEstimator {
   std::array<Vector<NX>, kMaxModes> means_{};  // embedded current mode estimates
   std::array<SquareMatrix<NX>, kMaxModes> covariances_{};
   GaussianState<NX> mixed_;
+  std::array<GaussianState<NX>, kMaxModes> mixed_states_{};  // step_with() only
+  std::array<Vector<NX>, kMaxModes> predicted_means_{};
   GaussianState<NX> combined_;
   StepStatus status_ = StepStatus::kOk;
   bool initialized_ = false;

@@ -48,6 +48,10 @@ class ImmMode {
   /// Predicts from the mixed initial condition without a measurement.
   virtual ModeStep propose_prediction(const GaussianState<NX>& mixed) = 0;
 
+  /// The mean the mode would predict from the mixed initial condition, in mixing-space
+  /// coordinates (zero-padded); nothing of the mode changes.
+  virtual void predicted_mean(const GaussianState<NX>& mixed, Vector<NX>& mean) const = 0;
+
   /// Makes the pending estimate of the last successful propose*() current.
   virtual void commit() = 0;
 };

@@ -45,6 +45,10 @@ class InputKalmanMode final : public ImmMode<2, 1> {
     return {pending_.all_finite() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
   }
 
+  void predicted_mean(const GaussianState<2>& mixed, Vector<2>& mean) const override {
+    mean = motion_.transition * mixed.mean + G_ * input_;
+  }
+
   void commit() override { estimate_ = pending_; }
 
  private:

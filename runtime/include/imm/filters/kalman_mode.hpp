@@ -42,6 +42,13 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
     return {pending_.all_finite() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
   }
 
+  void predicted_mean(const GaussianState<NX>& mixed, Vector<NX>& mean) const override {
+    GaussianState<N> predicted = embedding_.project(mixed);
+    predicted.mean = motion_.transition * predicted.mean;
+    SquareMatrix<NX> unused;
+    embedding_.embed(predicted, mean, unused);
+  }
+
   void commit() override { estimate_ = pending_; }
 
   [[nodiscard]] const GaussianState<N>& estimate() const { return estimate_; }
