@@ -85,6 +85,13 @@ std::string write_scenario_dataset(const std::filesystem::path& path,
   }
   writer.write("/parameters/maneuvers", maneuvers);
   writer.set_attribute("/parameters/maneuvers", "columns", std::string("start,end,ax,ay"));
+  Eigen::MatrixXd turns(static_cast<Eigen::Index>(scenario.turns.size()), 3);
+  for (std::size_t i = 0; i < scenario.turns.size(); ++i) {
+    const TurnSegment& t = scenario.turns[i];
+    turns.row(static_cast<Eigen::Index>(i)) << t.start, t.end, t.omega;
+  }
+  writer.write("/parameters/turns", turns);
+  writer.set_attribute("/parameters/turns", "columns", std::string("start,end,omega"));
   writer.commit();
   return data_digest;
 }
@@ -130,6 +137,12 @@ ScenarioDataset read_scenario_dataset(const std::filesystem::path& path) {
   for (Eigen::Index i = 0; i < maneuvers.rows(); ++i) {
     s.maneuvers.push_back({static_cast<int>(maneuvers(i, 0)), static_cast<int>(maneuvers(i, 1)),
                            Eigen::Vector2d(maneuvers(i, 2), maneuvers(i, 3))});
+  }
+  if (reader.container().kind("/parameters/turns") == io::ObjectKind::kDataset) {
+    const Eigen::MatrixXd turns = reader.matrix("/parameters/turns", -1, 3);
+    for (Eigen::Index i = 0; i < turns.rows(); ++i) {
+      s.turns.push_back({static_cast<int>(turns(i, 0)), static_cast<int>(turns(i, 1)), turns(i, 2)});
+    }
   }
   try {
     s.validate();

@@ -45,6 +45,13 @@ void ManeuverScenario::validate() const {
           "must be non-negative and finite");
   require(measurement.sigma.allFinite() && (measurement.sigma.array() > 0.0).all(),
           "measurement.sigma", "must be positive and finite");
+  for (std::size_t i = 0; i < turns.size(); ++i) {
+    const TurnSegment& t = turns[i];
+    const std::string field = "turns[" + std::to_string(i) + "]";
+    require(t.start >= 0 && t.start < t.end && t.end <= steps, field + ".end",
+            "segment [start, end) must satisfy 0 ≤ start < end ≤ steps");
+    require(std::isfinite(t.omega), field + ".omega", "must be finite");
+  }
   for (std::size_t i = 0; i < maneuvers.size(); ++i) {
     const ManeuverSegment& m = maneuvers[i];
     const std::string field = "maneuvers[" + std::to_string(i) + "]";
@@ -81,6 +88,28 @@ ManeuverScenario seed000_scenario() {
   return s;
 }
 
+ManeuverScenario seed004_scenario(int number) {
+  if (number != 1 && number != 2) throw InvalidParameter("scenario", "seed 004 has scenarios 1 and 2");
+  ManeuverScenario s;
+  s.name = number == 1 ? "seed004-1" : "seed004-2";
+  s.sample_period = 2.0;
+  s.steps = 250;
+  s.runs = 100;
+  s.seed = 1;
+  const double c = std::cos(std::numbers::pi / 4.0);
+  s.initial_position = 140e3 * Eigen::Vector2d(c, c);
+  s.initial_velocity = Eigen::Vector2d(-100.0, -100.0);
+  s.process_noise_sigma = 0.0;
+  s.measurement.kind = MeasurementKind::kPolar;
+  s.measurement.sigma = Eigen::Vector2d(50.0, 0.5 * std::numbers::pi / 180.0);
+  if (number == 2) {
+    const double omega = 3.82 * std::numbers::pi / 180.0;
+    // 200–223 s and 276–300 s at T = 2 s: transitions 100–111 and 138–149.
+    s.turns = {{100, 112, omega}, {138, 150, omega}};
+  }
+  return s;
+}
+
 ScenarioData simulate(const ManeuverScenario& scenario) {
   scenario.validate();
   const double T = scenario.sample_period;
@@ -113,7 +142,22 @@ ScenarioData simulate(const ManeuverScenario& scenario) {
       const Vector<2> w(scenario.process_noise_sigma * rng.normal(),
                         scenario.process_noise_sigma * rng.normal());
       const Vector<2> u = data.acceleration_input.row(k).transpose();
-      x = motion.transition * x + G * (u + w);
+      double omega = 0.0;
+      for (const TurnSegment& turn : scenario.turns) {
+        if (k >= turn.start && k < turn.end) omega += turn.omega;
+      }
+      if (omega != 0.0) {
+        // Exact coordinated turn: the velocity rotates by ωT, the position follows the arc.
+        const double s = std::sin(omega * T), c = std::cos(omega * T);
+        const double vx = x(1), vy = x(3);
+        x(0) += (s * vx - (1.0 - c) * vy) / omega;
+        x(2) += ((1.0 - c) * vx + s * vy) / omega;
+        x(1) = c * vx - s * vy;
+        x(3) = s * vx + c * vy;
+        x += G * (u + w);
+      } else {
+        x = motion.transition * x + G * (u + w);
+      }
     }
     data.truth.push_back(std::move(truth));
     data.measurements.push_back(std::move(z));

@@ -48,9 +48,9 @@ int main(int argc, char** argv) {
   std::string scenario_name, out_path, config_path, csv_path;
   int runs = -1, csv_run = 0;
   std::int64_t seed = -1;
-  app.add_option("scenario", scenario_name, "seed000 | maneuver")
+  app.add_option("scenario", scenario_name, "seed000 | seed004-1 | seed004-2 | maneuver")
       ->required()
-      ->check(CLI::IsMember({"seed000", "maneuver"}));
+      ->check(CLI::IsMember({"seed000", "seed004-1", "seed004-2", "maneuver"}));
   app.add_option("--out", out_path, "data-set file to write (HDF5)")->required();
   app.add_option("--config", config_path, "scenario TOML (overrides the scenario's defaults)");
   app.add_option("--runs", runs, "Monte Carlo runs (overrides the config)")
@@ -62,9 +62,10 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   try {
-    imm::datasets::ManeuverScenario scenario = scenario_name == "seed000"
-                                                   ? imm::datasets::seed000_scenario()
-                                                   : imm::datasets::ManeuverScenario{};
+    imm::datasets::ManeuverScenario scenario = imm::datasets::ManeuverScenario{};
+    if (scenario_name == "seed000") scenario = imm::datasets::seed000_scenario();
+    if (scenario_name == "seed004-1") scenario = imm::datasets::seed004_scenario(1);
+    if (scenario_name == "seed004-2") scenario = imm::datasets::seed004_scenario(2);
     std::string config_text;
     if (!config_path.empty()) {
       scenario = imm::support::load_scenario_config(config_path, scenario);

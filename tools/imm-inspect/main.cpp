@@ -20,6 +20,7 @@
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
+#include "imm/io/wimm_file.hpp"
 
 namespace {
 
@@ -40,6 +41,8 @@ const std::map<std::string, std::function<void(const std::string&)>>& validators
        [](const std::string& path) { (void)imm::io::read_plain_imm(path); }},
       {std::string(imm::io::kGaFuzzyImmKind),
        [](const std::string& path) { (void)imm::io::read_ga_fuzzy_imm(path); }},
+      {std::string(imm::io::kWimmKind),
+       [](const std::string& path) { (void)imm::io::read_wimm(path); }},
   };
   return table;
 }

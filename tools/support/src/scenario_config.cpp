@@ -1,5 +1,7 @@
 #include "imm/support/scenario_config.hpp"
 
+#include <numbers>
+
 #include "imm/core/invalid_parameter.hpp"
 
 namespace imm::support {
@@ -37,6 +39,16 @@ datasets::ManeuverScenario scenario_from(const ConfigTable& table,
       segment.end = static_cast<int>(m.integer("end"));
       segment.acceleration = m.reals("acceleration", 2);
       s.maneuvers.push_back(segment);
+    }
+  }
+  if (table.has("turns")) {
+    s.turns.clear();
+    for (const ConfigTable& t : table.tables("turns")) {
+      datasets::TurnSegment turn;
+      turn.start = static_cast<int>(t.integer("start"));
+      turn.end = static_cast<int>(t.integer("end"));
+      turn.omega = t.real("omega_deg") * std::numbers::pi / 180.0;
+      s.turns.push_back(turn);
     }
   }
   s.validate();

@@ -23,6 +23,14 @@ struct ManeuverSegment {
   Eigen::Vector2d acceleration = Eigen::Vector2d::Zero();
 };
 
+/// A coordinated turn: the velocity rotates at a constant rate ω (rad/s, positive
+/// counter-clockwise) over the transitions start ≤ k < end, speed unchanged (exact kinematics).
+struct TurnSegment {
+  int start = 0;
+  int end = 0;
+  double omega = 0.0;
+};
+
 struct MeasurementNoise {
   MeasurementKind kind = MeasurementKind::kCartesian;
   Eigen::Vector2d sigma = Eigen::Vector2d::Ones();  ///< cartesian [σx, σy]; polar [σr, σθ (rad)]
@@ -41,6 +49,7 @@ struct ManeuverScenario {
   double process_noise_sigma = 0.0;  ///< σ_w of the white acceleration per axis
   MeasurementNoise measurement;
   std::vector<ManeuverSegment> maneuvers;
+  std::vector<TurnSegment> turns;
 
   /// Throws InvalidParameter naming the offending field.
   void validate() const;
@@ -53,6 +62,11 @@ struct ManeuverScenario {
 /// accelerations x 0.01 km/s² at scans 40–60, y 0.06 at 80–90, x −0.03 at 120–140, 160 scans,
 /// 100 runs. Units km and s.
 [[nodiscard]] ManeuverScenario seed000_scenario();
+
+/// Seed 004's scenarios (SPEC §7): from 140 km at azimuth 45° with V = (−100, −100) m/s, T = 2 s,
+/// 250 scans, polar plots σ_R = 50 m, σ_θ = 0.5°, 100 runs, no process noise (units m, s, rad).
+/// Scenario 2 adds coordinated turns of ω = 3.82°/s over 200–223 s and 276–300 s (Table 1).
+[[nodiscard]] ManeuverScenario seed004_scenario(int number);
 
 /// One simulated Monte Carlo set.
 struct ScenarioData {

@@ -18,6 +18,12 @@ namespace imm {
 /// Azimuth of the point (x, y) measured clockwise from the y axis (north): atan2(x, y).
 [[nodiscard]] inline double azimuth_of(double x, double y) { return std::atan2(x, y); }
 
+/// α θ_a + (1 − α) θ_b on the circle: θ_b + α·wrap(θ_a − θ_b), wrapped (seed 004 eq. 8). Across the
+/// ±π seam (a target due south) this stays near ±π where the linear formula would give ≈ 0.
+[[nodiscard]] inline double blend_angles(double theta_a, double theta_b, double alpha) {
+  return wrap_angle(theta_b + alpha * wrap_angle(theta_a - theta_b));
+}
+
 [[nodiscard]] constexpr double degrees_to_radians(double degrees) {
   return degrees * std::numbers::pi / 180.0;
 }

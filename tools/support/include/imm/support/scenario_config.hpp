@@ -5,6 +5,7 @@
 ///   initial_position = [x, y];  initial_velocity = [vx, vy];  process_noise_sigma = σ_w
 ///   [measurement]  kind = "cartesian" | "polar";  sigma = [σ₁, σ₂]   (polar: [σ_r, σ_θ rad])
 ///   [[maneuvers]]  start = 40;  end = 60;  acceleration = [ax, ay]
+///   [[turns]]      start = 100;  end = 112;  omega_deg = 3.82   (coordinated turn, °/s)
 /// Keys left out take the values of `defaults`.
 
 #include <filesystem>

@@ -1,0 +1,89 @@
+#pragma once
+/// The weighted IMM of seed 004 §3.2 (SPEC §4.6), and the normal IMM it is compared with.
+///
+/// Modes: CV (4 states, Q = q₁ Γ Γᵀ per axis) and Singer (6 states, exact discretization), mixed in
+/// the 6-state space [x, vx, ax, y, vy, ay]; polar plots (range, azimuth atan2(x, y)).
+/// Each cycle, before the update:
+///   μ̄ = Πᵀ μ (the seed's eq. 6–7, read as μ̄_CV = π₁₁ μ_CV + π₂₁ μ_Singer);
+///   θ̄ = circular mean of the modes' predicted azimuths weighted by μ̄ (eq. 9–11);
+///   if μ̄_CV > threshold: the plot azimuth becomes θ̄ + α (θ_plot − θ̄) on the circle (eq. 8).
+/// The fused plot is then used as FusionVariant says (see fused_polar_measurement.hpp): kNone is
+/// the normal IMM, kSeed the seed's (R unchanged), kCorrelated the fused plot with its correlation
+/// to the prediction modelled, which makes the update exactly the normal IMM's.
+/// Measurement update: EKF with a wrapped azimuth innovation (default; exact Jacobian, no
+/// conversion bias, and the seed's fusion acts on the azimuth it measures) or converted
+/// measurements (the plot as a Cartesian position with linearized covariance; kept as an option
+/// for comparison — at 140 km the conversion is strongly non-Gaussian across the beam).
+
+#include <memory>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "imm/filters/imm_estimator.hpp"
+#include "imm/filters/track_filter.hpp"
+#include "imm/filters/tracker.hpp"
+#include "imm/models/fused_polar_measurement.hpp"
+
+namespace imm {
+
+enum class FusionVariant { kNone, kSeed, kCorrelated };
+enum class MeasurementUpdate { kExtended, kConverted };
+
+[[nodiscard]] std::string_view to_string(FusionVariant variant);    ///< none | seed | correlated
+[[nodiscard]] std::string_view to_string(MeasurementUpdate update);  ///< extended | converted
+[[nodiscard]] FusionVariant fusion_variant_from(std::string_view name, const std::string& field);
+[[nodiscard]] MeasurementUpdate measurement_update_from(std::string_view name,
+                                                        const std::string& field);
+
+struct WimmSpec {
+  double sample_period = 2.0;       ///< T, s
+  double cv_process_noise = 2.0;    ///< q₁, (m/s²)²
+  double singer_tau = 20.0;         ///< τ, s
+  double singer_sigma = 5.0;        ///< σ_a, m/s²
+  double range_sigma = 50.0;        ///< σ_R, m
+  double azimuth_sigma = 0.5 * 3.14159265358979323846 / 180.0;  ///< σ_θ, rad
+  Eigen::Matrix2d transition = (Eigen::Matrix2d() << 0.95, 0.05, 0.05, 0.95).finished();
+  Eigen::Vector2d initial_probabilities = Eigen::Vector2d(0.5, 0.5);  ///< CV, Singer
+  double threshold = 0.7;           ///< fuse when μ̄_CV exceeds it
+  double alpha = 0.5;               ///< weight of the plot azimuth
+  FusionVariant fusion = FusionVariant::kSeed;
+  MeasurementUpdate update = MeasurementUpdate::kExtended;
+  double acceleration_variance = 25.0;  ///< initial variance of ax, ay (m/s²)²
+
+  /// Throws InvalidParameter naming the field.
+  void validate() const;
+  [[nodiscard]] Eigen::Matrix2d measurement_covariance() const;
+  /// Polar plots, two-point initialization.
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = Tracker::kDefaultMaxGap) const;
+};
+
+class WeightedImmFilter final : public TrackFilter {
+ public:
+  explicit WeightedImmFilter(const WimmSpec& spec);
+
+  [[nodiscard]] int state_dimension() const override { return 6; }
+  [[nodiscard]] int mode_count() const override { return 2; }
+  [[nodiscard]] std::string mode_name(int j) const override { return j == 0 ? "cv" : "singer"; }
+  void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override;
+  StepStatus step(const Eigen::Vector2d& z) override;
+  StepStatus predict_only() override;
+  void state(Eigen::Ref<Eigen::VectorXd> mean,
+             Eigen::Ref<Eigen::VectorXd> variance) const override;
+  [[nodiscard]] ModeVector mode_probabilities() const override {
+    return imm_.mode_probabilities();
+  }
+
+  /// The combined estimate (6 states) and whether the last cycle fused the azimuth.
+  [[nodiscard]] const GaussianState<6>& estimate() const { return imm_.estimate(); }
+  [[nodiscard]] bool fused() const { return fused_; }
+  [[nodiscard]] const WimmSpec& spec() const { return spec_; }
+
+ private:
+  WimmSpec spec_;
+  std::shared_ptr<AzimuthFusion> fusion_;
+  ImmEstimator<6, 2> imm_;
+  bool fused_ = false;
+};
+
+}  // namespace imm

@@ -1,0 +1,23 @@
+#pragma once
+/// Model files of kind "wimm": the parameters of a weighted IMM (seed 004).
+///
+///   /wimm   @sample_period, @cv_process_noise, @singer_tau, @singer_sigma, @range_sigma,
+///           @azimuth_sigma (rad), @threshold, @alpha (0, 1], @fusion (none|seed|correlated),
+///           @update (extended|converted), @acceleration_variance
+///   /wimm/transition             2×2 (CV, Singer), rows sum to 1
+///   /wimm/initial_probabilities  2
+
+#include <filesystem>
+
+#include "imm/filters/weighted_imm.hpp"
+#include "imm/io/model_file.hpp"
+
+namespace imm::io {
+
+inline constexpr std::string_view kWimmKind = "wimm";
+
+void write_wimm(ModelFileWriter& writer, const WimmSpec& spec);
+[[nodiscard]] WimmSpec read_wimm(const ModelFileReader& reader);
+[[nodiscard]] WimmSpec read_wimm(const std::filesystem::path& path);
+
+}  // namespace imm::io
