@@ -52,8 +52,8 @@ FusionVariant fusion_variant_from(std::string_view name, const std::string& fiel
   for (auto v : {FusionVariant::kNone, FusionVariant::kSeed, FusionVariant::kCorrelated}) {
     if (name == to_string(v)) return v;
   }
-  throw InvalidParameter(field, "unknown fusion '" + std::string(name) +
-                                    "' (expected none, seed or correlated)");
+  throw InvalidParameter(
+      field, "unknown fusion '" + std::string(name) + "' (expected none, seed or correlated)");
 }
 
 MeasurementUpdate measurement_update_from(std::string_view name, const std::string& field) {
@@ -118,35 +118,38 @@ void WeightedImmFilter::initialize(const Eigen::VectorXd& mean, const Eigen::Mat
 
 StepStatus WeightedImmFilter::step(const Eigen::Vector2d& z) {
   bool fused = false;
-  const AzimuthUse plain = spec_.update == MeasurementUpdate::kConverted ? AzimuthUse::kConverted
-                                                                         : AzimuthUse::kPlot;
-  const StepStatus status = imm_.step_with(
-      z, [&](const ModeVector& predicted, const std::array<Vector<6>, kMaxModes>& means,
-             const Vector<2>& plot) -> Vector<2> {
-        Vector<2> chosen = plot;
-        fusion_->use = plain;
-        if (spec_.fusion != FusionVariant::kNone && predicted(0) > spec_.threshold) {
-          // θ̄: the μ̄-weighted circular mean of the modes' predicted azimuths (eq. 9–11).
-          double s = 0.0, c = 0.0;
-          for (int j = 0; j < 2; ++j) {
-            const double theta = azimuth_of(means[static_cast<std::size_t>(j)](0),
-                                            means[static_cast<std::size_t>(j)](3));
-            s += predicted(j) * std::sin(theta);
-            c += predicted(j) * std::cos(theta);
-          }
-          const double theta_bar = std::atan2(s, c);
-          chosen(1) = blend_angles(plot(1), theta_bar, spec_.alpha);
-          fusion_->alpha = spec_.alpha;
-          fusion_->predicted_azimuth = theta_bar;
-          if (spec_.fusion == FusionVariant::kCorrelated) fusion_->use = AzimuthUse::kCorrelated;
-          fused = true;
-        }
-        if (fusion_->use == AzimuthUse::kConverted) {
-          fusion_->converted_covariance =
-              polar_to_cartesian(chosen, spec_.measurement_covariance()).covariance;
-        }
-        return chosen;
-      });
+  const AzimuthUse plain =
+      spec_.update == MeasurementUpdate::kConverted ? AzimuthUse::kConverted : AzimuthUse::kPlot;
+  const StepStatus status =
+      imm_.step_with(z,
+                     [&](const ModeVector& predicted, const std::array<Vector<6>, kMaxModes>& means,
+                         const Vector<2>& plot) -> Vector<2> {
+                       Vector<2> chosen = plot;
+                       fusion_->use = plain;
+                       if (spec_.fusion != FusionVariant::kNone && predicted(0) > spec_.threshold) {
+                         // θ̄: the μ̄-weighted circular mean of the modes' predicted azimuths (eq.
+                         // 9–11).
+                         double s = 0.0, c = 0.0;
+                         for (int j = 0; j < 2; ++j) {
+                           const double theta = azimuth_of(means[static_cast<std::size_t>(j)](0),
+                                                           means[static_cast<std::size_t>(j)](3));
+                           s += predicted(j) * std::sin(theta);
+                           c += predicted(j) * std::cos(theta);
+                         }
+                         const double theta_bar = std::atan2(s, c);
+                         chosen(1) = blend_angles(plot(1), theta_bar, spec_.alpha);
+                         fusion_->alpha = spec_.alpha;
+                         fusion_->predicted_azimuth = theta_bar;
+                         if (spec_.fusion == FusionVariant::kCorrelated)
+                           fusion_->use = AzimuthUse::kCorrelated;
+                         fused = true;
+                       }
+                       if (fusion_->use == AzimuthUse::kConverted) {
+                         fusion_->converted_covariance =
+                             polar_to_cartesian(chosen, spec_.measurement_covariance()).covariance;
+                       }
+                       return chosen;
+                     });
   if (status == StepStatus::kOk) fused_ = fused;
   return status;
 }
@@ -154,7 +157,7 @@ StepStatus WeightedImmFilter::step(const Eigen::Vector2d& z) {
 StepStatus WeightedImmFilter::predict_only() { return imm_.predict_only(); }
 
 void WeightedImmFilter::state(
-    Eigen::Ref<Eigen::VectorXd> mean,  // NOLINT(performance-unnecessary-value-param)
+    Eigen::Ref<Eigen::VectorXd> mean,              // NOLINT(performance-unnecessary-value-param)
     Eigen::Ref<Eigen::VectorXd> variance) const {  // NOLINT(performance-unnecessary-value-param)
   mean = imm_.estimate().mean;
   variance = imm_.estimate().covariance.diagonal();

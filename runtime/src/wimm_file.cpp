@@ -34,7 +34,8 @@ WimmSpec read_wimm(const ModelFileReader& reader) {
   spec.azimuth_sigma = reader.real(kGroup, "azimuth_sigma", ValueRule::kPositive);
   spec.threshold = reader.real(kGroup, "threshold");
   spec.alpha = reader.real(kGroup, "alpha", ValueRule::kProbability);
-  spec.acceleration_variance = reader.real(kGroup, "acceleration_variance", ValueRule::kNonNegative);
+  spec.acceleration_variance =
+      reader.real(kGroup, "acceleration_variance", ValueRule::kNonNegative);
   try {
     spec.fusion = fusion_variant_from(reader.text(kGroup, "fusion"), "fusion");
     spec.update = measurement_update_from(reader.text(kGroup, "update"), "update");
@@ -42,18 +43,22 @@ WimmSpec read_wimm(const ModelFileReader& reader) {
     reader.fail(std::string(kGroup) + "@" + error.field(), error.what());
   }
   spec.transition = reader.matrix("/wimm/transition", 2, 2, ValueRule::kProbability);
-  spec.initial_probabilities = reader.vector("/wimm/initial_probabilities", 2, ValueRule::kProbability);
+  spec.initial_probabilities =
+      reader.vector("/wimm/initial_probabilities", 2, ValueRule::kProbability);
   try {
     spec.validate();
   } catch (const InvalidParameter& error) {
-    const std::string field = error.field() == "transition" || error.field() == "initial_probabilities"
-                                  ? "/wimm/" + error.field()
-                                  : std::string(kGroup) + "@" + error.field();
+    const std::string field =
+        error.field() == "transition" || error.field() == "initial_probabilities"
+            ? "/wimm/" + error.field()
+            : std::string(kGroup) + "@" + error.field();
     reader.fail(field, error.what());
   }
   return spec;
 }
 
-WimmSpec read_wimm(const std::filesystem::path& path) { return read_wimm(ModelFileReader(path, kWimmKind)); }
+WimmSpec read_wimm(const std::filesystem::path& path) {
+  return read_wimm(ModelFileReader(path, kWimmKind));
+}
 
 }  // namespace imm::io

@@ -17,6 +17,7 @@
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/kalman_mode.hpp"
 #include "imm/filters/plain_imm.hpp"
+#include "imm/filters/weighted_imm.hpp"
 #include "imm/models/constant_velocity.hpp"
 #include "imm/models/polar_measurement.hpp"
 #include "imm/models/position_measurement.hpp"
@@ -112,7 +113,7 @@ TEST(AllocationFreeStep, MixedDimensionPolarImmStep) {
   EXPECT_EQ(allocations(), before);
 }
 
-// The seed-000 filters: GA-fuzzy IMM and AIMM, two axes each.
+// The seed-000 filters (GA-fuzzy IMM and AIMM, two axes each) and seed 004's weighted IMM.
 TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
   GaFuzzyImmSpec fuzzy;
   fuzzy.levels = {
@@ -124,12 +125,21 @@ TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
   std::vector<std::unique_ptr<TrackFilter>> filters;
   filters.push_back(make_ga_fuzzy_imm_filter(fuzzy));
   filters.push_back(make_aimm_filter(aimm));
+  for (auto fusion : {FusionVariant::kSeed, FusionVariant::kCorrelated}) {
+    WimmSpec wimm;
+    wimm.fusion = fusion;
+    wimm.range_sigma = 0.05;  // km-scale plots of this loop
+    wimm.azimuth_sigma = 0.01;
+    filters.push_back(std::make_unique<WeightedImmFilter>(wimm));
+  }
   for (auto& filter : filters) {
-    filter->initialize(Eigen::Vector4d(0.0, 0.1, 0.0, -0.1),
-                       Eigen::Vector4d(0.25, 0.5, 0.25, 0.5).asDiagonal().toDenseMatrix());
+    const int n = filter->state_dimension();
+    const Eigen::VectorXd mean = Eigen::VectorXd::Constant(n, 10.0);
+    const Eigen::MatrixXd covariance = Eigen::MatrixXd::Identity(n, n);
+    filter->initialize(mean, covariance);
     const long before = allocations();
     for (int k = 1; k <= 5000; ++k) {
-      (void)filter->step(Eigen::Vector2d(0.1 * k + 0.3 * std::sin(k), -0.1 * k));
+      (void)filter->step(Eigen::Vector2d(10.0 + 0.1 * k + 0.3 * std::sin(k), 3.0 + 0.01 * k));
       if (k % 50 == 0) (void)filter->predict_only();
     }
     EXPECT_EQ(allocations(), before);

@@ -91,7 +91,8 @@ TEST(WeightedImm, CorrelatedFusionEqualsTheNormalImm) {
     const auto b = track(with_fusion(FusionVariant::kCorrelated), data, &fused);
     EXPECT_GT(std::count(fused.begin(), fused.end(), true), 150);
     for (std::size_t k = 0; k < a.size(); ++k) {
-      ASSERT_TRUE(testing::matrices_near(b[k], a[k], 1e-8)) << "scenario " << number << " scan " << k;
+      ASSERT_TRUE(testing::matrices_near(b[k], a[k], 1e-8))
+          << "scenario " << number << " scan " << k;
     }
   }
 }

@@ -295,6 +295,46 @@ TEST_F(Tools, GaImmEvaluationReportsTable3ForEveryFilter) {
   EXPECT_TRUE(std::filesystem::exists(out / "mode_probabilities_ga_imm.csv"));
 }
 
+TEST_F(Tools, WimmTrainingAndEvaluationEndToEnd) {
+  std::string config = testing::slurp(this->config("configs/wimm.toml"));
+  config.replace(config.find("trajectories = 24"), 17, "trajectories = 3");
+  config.replace(config.find("max_evaluations = 150"), 21, "max_evaluations = 40");
+  testing::write_text(dir_ / "wimm.toml", config);
+  const auto models = dir_ / "models";
+  const auto trained = run_tool(
+      "imm-train",
+      {"wimm", "--config", (dir_ / "wimm.toml").string(), "--out", (models / "wimm.h5").string()},
+      root_);
+  ASSERT_EQ(trained.exit_code, 0) << trained.err;
+  EXPECT_NE(trained.err.find("threshold"), std::string::npos) << trained.err;
+  const auto inspected = run_tool("imm-inspect", {(models / "wimm.h5").string()}, root_);
+  ASSERT_EQ(inspected.exit_code, 0) << inspected.err;
+  EXPECT_NE(inspected.out.find("kind             wimm"), std::string::npos);
+
+  const auto out = dir_ / "report";
+  const auto evaluated =
+      run_tool("imm-eval",
+               {"wimm", "--models", models.string(), "--config", (dir_ / "wimm.toml").string(),
+                "--runs", "5", "--out", out.string()},
+               root_);
+  ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 5) << evaluated.err;
+  EXPECT_NE(evaluated.out.find("cannot come from plots"), std::string::npos);
+  const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+  for (const char* scenario : {"scenario1", "scenario2"}) {
+    for (const char* filter : {"nIMM", "wIMM", "nIMM-tuned"}) {
+      ASSERT_TRUE(metrics[scenario].contains(filter)) << scenario << " " << filter;
+      for (const char* key :
+           {"az_rmse", "az_rmse_settled", "pos_rmse", "pos_rmse_settled", "nees"}) {
+        EXPECT_GT(metrics[scenario][filter][key].get<double>(), 0.0) << key;
+      }
+    }
+    // The correlated fusion is the normal IMM, also through the whole evaluation.
+    EXPECT_NEAR(metrics[scenario]["wIMM-correlated"]["az_rmse"].get<double>(),
+                metrics[scenario]["nIMM"]["az_rmse"].get<double>(), 1e-9);
+  }
+  EXPECT_TRUE(std::filesystem::exists(out / "scenario2_azimuth_rmse.csv"));
+}
+
 TEST_F(Tools, ImmInspectShowsRuleTablesLikeTable2) {
   const auto model = dir_ / "paper.h5";
   const auto result = run_tool(

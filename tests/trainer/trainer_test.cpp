@@ -7,6 +7,7 @@
 #include "imm/trainer/freeze.hpp"
 #include "imm/trainer/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/wimm/wimm_trainer.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::trainer {
@@ -81,6 +82,41 @@ TEST(Nightly, ProcessExitCodesAndSignalsAreReported) {
   EXPECT_EQ(run_process("/bin/sh", {"-c", "kill -9 $$"}), 128 + 9);
   EXPECT_EQ(run_process("sh", {"-c", "exit 3"}), 3);  // looked up in PATH
   EXPECT_THROW((void)run_process("/no/such/tool", {}), std::runtime_error);
+}
+
+std::string wimm_config_error(const std::string& text) {
+  const testing::TempDir dir;
+  testing::write_text(dir / "w.toml", text);
+  try {
+    (void)wimm::load_wimm_config(dir / "w.toml");
+  } catch (const support::ConfigError& error) {
+    return error.key();
+  }
+  return "";
+}
+
+TEST(WimmConfig, InvalidValuesAreNamed) {
+  EXPECT_EQ(wimm_config_error("[tuning]\nalpha_range = [0.0, 1.0]\n"), "tuning.alpha_range");
+  EXPECT_EQ(wimm_config_error("[filter]\nfusion = \"strong\"\n"), "filter.fusion");
+  EXPECT_EQ(wimm_config_error("[filter]\nalpha = 1.5\n"), "filter.alpha");
+  EXPECT_EQ(wimm_config_error("[training]\ntrajectory = 3\n"), "training.trajectory");
+  EXPECT_EQ(wimm_config_error(""), "");
+  const auto shipped = wimm::load_wimm_config("configs/wimm.toml");
+  EXPECT_EQ(shipped.filter.threshold, 0.7);
+  EXPECT_EQ(shipped.filter.alpha, 0.5);
+  EXPECT_EQ(shipped.filter.sample_period, 2.0);
+}
+
+// The training scenarios are not seed 004's: random geometry, seeded and reproducible.
+TEST(WimmTraining, ScenariosAreSeededAndVaried) {
+  auto config = wimm::load_wimm_config("configs/wimm.toml");
+  config.training.trajectories = 5;
+  const auto a = wimm::make_training_scenarios(config);
+  const auto b = wimm::make_training_scenarios(config);
+  ASSERT_EQ(a.data.truth.size(), 5u);
+  EXPECT_EQ(a.data.measurements[3], b.data.measurements[3]);
+  EXPECT_NE(a.data.truth[0].row(0), a.data.truth[1].row(0));
+  EXPECT_GT(std::hypot(a.data.truth[2](0, 0), a.data.truth[2](0, 2)), 79e3);
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/kalman_mode.hpp"
 #include "imm/filters/plain_imm.hpp"
+#include "imm/filters/weighted_imm.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/models/constant_velocity.hpp"
@@ -144,6 +145,41 @@ void BM_GaFuzzyImmPaperTablesStep(benchmark::State& state) {
   run_two_axis(state, *filter);
 }
 BENCHMARK(BM_GaFuzzyImmPaperTablesStep);
+
+// Seed 004's filters on the scenario-1 plots: one step of the normal and of the weighted IMM.
+void run_polar(benchmark::State& state, imm::FusionVariant fusion) {
+  static const Eigen::MatrixXd plots = [] {
+    auto scenario = imm::datasets::seed004_scenario(1);
+    scenario.runs = 1;
+    return imm::datasets::simulate(scenario).measurements.front();
+  }();
+  imm::WimmSpec spec;
+  spec.fusion = fusion;
+  imm::WeightedImmFilter filter(spec);
+  auto restart = [&] {
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(6);
+    mean << 99000.0, -100.0, 0.0, 99000.0, -100.0, 0.0;
+    Eigen::VectorXd variance(6);
+    variance << 2500.0, 100.0, 25.0, 2500.0, 100.0, 25.0;
+    filter.initialize(mean, variance.asDiagonal().toDenseMatrix());
+  };
+  restart();
+  Eigen::Index k = 1;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(filter.step(plots.row(k).transpose()));
+    if (++k == plots.rows()) {
+      k = 1;
+      restart();
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+
+void BM_NormalImmPolarStep(benchmark::State& state) { run_polar(state, imm::FusionVariant::kNone); }
+BENCHMARK(BM_NormalImmPolarStep);
+
+void BM_WeightedImmStep(benchmark::State& state) { run_polar(state, imm::FusionVariant::kSeed); }
+BENCHMARK(BM_WeightedImmStep);
 
 void BM_Aimm5Step(benchmark::State& state) {
   imm::AimmSpec spec;

@@ -4,6 +4,7 @@
 //   imm-train import-rules --csv configs/reference/ga_fuzzy_imm_paper_rules.csv
 //                          --config configs/ga_fuzzy_imm.toml --out
 //                          models/reference/ga_fuzzy_imm_paper.h5
+//   imm-train wimm --config configs/wimm.toml [--out models/wimm.h5] [--seed N]
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
 //   imm-train all --config configs/nightly.toml
 //
@@ -26,6 +27,7 @@
 #include "imm/trainer/import_rules.hpp"
 #include "imm/trainer/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/wimm/wimm_trainer.hpp"
 
 namespace {
 
@@ -75,10 +77,11 @@ int run_ga(const GaCommand& command) {
             ? fmt::format("fitness {:.5f} -> {:.5f} after memetic ({} evaluations)",
                           r.before_memetic.fitness, r.training.fitness, r.memetic_evaluations)
             : fmt::format("fitness {:.5f}", r.training.fitness);
-    spdlog::info("level {} done in {:.1f} s: {}, {} rules, training error {:.4f}, validation "
-                 "error {:.4f}",
-                 ga::level_name(r.maneuver_level), r.wall_seconds, memetic, r.training.rules,
-                 r.training.error, r.validation.error);
+    spdlog::info(
+        "level {} done in {:.1f} s: {}, {} rules, training error {:.4f}, validation "
+        "error {:.4f}",
+        ga::level_name(r.maneuver_level), r.wall_seconds, memetic, r.training.rules,
+        r.training.error, r.validation.error);
   };
   const ga::GaTrainingResult result = ga::train_ga(config, {command.out, command.resume}, observer);
   if (!result.gate_passed) {
@@ -172,6 +175,16 @@ int main(int argc, char** argv) {
       ->required();
   import_command->add_option("--out", import_options.out, "model file to write")->required();
 
+  std::filesystem::path wimm_config = "configs/wimm.toml";
+  std::filesystem::path wimm_out = "models/wimm.h5";
+  std::optional<std::uint64_t> wimm_seed;
+  auto* wimm_command = app.add_subcommand(
+      "wimm",
+      "tune the weighted IMM's fusion threshold and weight (seed 004) on training scenarios");
+  wimm_command->add_option("--config", wimm_config, "wIMM config TOML");
+  wimm_command->add_option("--out", wimm_out, "model file to write");
+  wimm_command->add_option("--seed", wimm_seed, "override the config's seed");
+
   std::filesystem::path nightly_config;
   auto* all_command = app.add_subcommand("all", "run every stage of the nightly plan");
   all_command->add_option("--config", nightly_config, "nightly plan TOML")->required();
@@ -180,6 +193,21 @@ int main(int argc, char** argv) {
   try {
     if (*ga_subcommand) return run_ga(ga_command);
     if (*freeze_command) return run_freeze(freeze);
+    if (*wimm_command) {
+      auto config = imm::trainer::wimm::load_wimm_config(wimm_config);
+      if (wimm_seed) config.seed = *wimm_seed;
+      spdlog::info("wimm: tuning threshold and alpha on {} training scenarios ({} scans, seed {})",
+                   config.training.trajectories, config.training.steps, config.seed);
+      const auto result = imm::trainer::wimm::train_wimm(config, wimm_out);
+      spdlog::info(
+          "threshold {:.4f}, alpha {:.4f}: settled azimuth RMSE x{:.4f}, position RMSE "
+          "x{:.4f} of the normal IMM on the training scenarios ({} evaluations, {:.1f} s); "
+          "wrote {}",
+          result.tuned.spec.threshold, result.tuned.spec.alpha, result.tuned.azimuth_ratio,
+          result.tuned.position_ratio, result.tuned.evaluations, result.wall_seconds,
+          wimm_out.string());
+      return 0;
+    }
     if (*import_command) {
       const auto spec = imm::trainer::import_rules(import_options);
       std::size_t rules = 0;

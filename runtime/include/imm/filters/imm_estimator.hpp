@@ -130,8 +130,9 @@ class ImmEstimator {
       mix(j, mixed_states_[index(j)]);
       mode_at(j).predicted_mean(mixed_states_[index(j)], predicted_means_[index(j)]);
     }
-    const Vector<NZ> chosen = choose(static_cast<const ModeVector&>(predicted),
-                                     static_cast<const std::array<Vector<NX>, kMaxModes>&>(predicted_means_), z);
+    const Vector<NZ> chosen =
+        choose(static_cast<const ModeVector&>(predicted),
+               static_cast<const std::array<Vector<NX>, kMaxModes>&>(predicted_means_), z);
     if (!chosen.allFinite()) return StepStatus::kInvalidMeasurement;
     status_ = StepStatus::kOk;
     for (int j = 0; j < n; ++j) {

@@ -15,10 +15,9 @@
 /// measurements (the plot as a Cartesian position with linearized covariance; kept as an option
 /// for comparison — at 140 km the conversion is strongly non-Gaussian across the beam).
 
+#include <Eigen/Core>
 #include <memory>
 #include <string>
-
-#include <Eigen/Core>
 
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/track_filter.hpp"
@@ -30,23 +29,23 @@ namespace imm {
 enum class FusionVariant { kNone, kSeed, kCorrelated };
 enum class MeasurementUpdate { kExtended, kConverted };
 
-[[nodiscard]] std::string_view to_string(FusionVariant variant);    ///< none | seed | correlated
+[[nodiscard]] std::string_view to_string(FusionVariant variant);     ///< none | seed | correlated
 [[nodiscard]] std::string_view to_string(MeasurementUpdate update);  ///< extended | converted
 [[nodiscard]] FusionVariant fusion_variant_from(std::string_view name, const std::string& field);
 [[nodiscard]] MeasurementUpdate measurement_update_from(std::string_view name,
                                                         const std::string& field);
 
 struct WimmSpec {
-  double sample_period = 2.0;       ///< T, s
-  double cv_process_noise = 2.0;    ///< q₁, (m/s²)²
-  double singer_tau = 20.0;         ///< τ, s
-  double singer_sigma = 5.0;        ///< σ_a, m/s²
-  double range_sigma = 50.0;        ///< σ_R, m
+  double sample_period = 2.0;                                   ///< T, s
+  double cv_process_noise = 2.0;                                ///< q₁, (m/s²)²
+  double singer_tau = 20.0;                                     ///< τ, s
+  double singer_sigma = 5.0;                                    ///< σ_a, m/s²
+  double range_sigma = 50.0;                                    ///< σ_R, m
   double azimuth_sigma = 0.5 * 3.14159265358979323846 / 180.0;  ///< σ_θ, rad
   Eigen::Matrix2d transition = (Eigen::Matrix2d() << 0.95, 0.05, 0.05, 0.95).finished();
   Eigen::Vector2d initial_probabilities = Eigen::Vector2d(0.5, 0.5);  ///< CV, Singer
-  double threshold = 0.7;           ///< fuse when μ̄_CV exceeds it
-  double alpha = 0.5;               ///< weight of the plot azimuth
+  double threshold = 0.7;  ///< fuse when μ̄_CV exceeds it
+  double alpha = 0.5;      ///< weight of the plot azimuth
   FusionVariant fusion = FusionVariant::kSeed;
   MeasurementUpdate update = MeasurementUpdate::kExtended;
   double acceleration_variance = 25.0;  ///< initial variance of ax, ay (m/s²)²
@@ -68,11 +67,8 @@ class WeightedImmFilter final : public TrackFilter {
   void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override;
   StepStatus step(const Eigen::Vector2d& z) override;
   StepStatus predict_only() override;
-  void state(Eigen::Ref<Eigen::VectorXd> mean,
-             Eigen::Ref<Eigen::VectorXd> variance) const override;
-  [[nodiscard]] ModeVector mode_probabilities() const override {
-    return imm_.mode_probabilities();
-  }
+  void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override;
+  [[nodiscard]] ModeVector mode_probabilities() const override { return imm_.mode_probabilities(); }
 
   /// The combined estimate (6 states) and whether the last cycle fused the azimuth.
   [[nodiscard]] const GaussianState<6>& estimate() const { return imm_.estimate(); }

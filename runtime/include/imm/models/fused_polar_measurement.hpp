@@ -29,8 +29,8 @@ enum class AzimuthUse { kPlot, kSeed, kCorrelated, kConverted };
 /// The fusion of the current cycle.
 struct AzimuthFusion {
   AzimuthUse use = AzimuthUse::kPlot;
-  double alpha = 1.0;               ///< weight of the plot azimuth (kSeed, kCorrelated)
-  double predicted_azimuth = 0.0;   ///< θ̄ (kCorrelated)
+  double alpha = 1.0;              ///< weight of the plot azimuth (kSeed, kCorrelated)
+  double predicted_azimuth = 0.0;  ///< θ̄ (kCorrelated)
   SquareMatrix<2> converted_covariance = SquareMatrix<2>::Identity();  ///< kConverted
 };
 
@@ -41,7 +41,10 @@ class FusedPolarMeasurement {
 
   FusedPolarMeasurement(int x_index, int y_index, const SquareMatrix<2>& R,
                         std::shared_ptr<const AzimuthFusion> fusion)
-      : polar_(x_index, y_index, R), x_index_(x_index), y_index_(y_index), R_(R),
+      : polar_(x_index, y_index, R),
+        x_index_(x_index),
+        y_index_(y_index),
+        R_(R),
         fusion_(std::move(fusion)) {}
 
   [[nodiscard]] Vector<2> predict(const Vector<N>& x) const {

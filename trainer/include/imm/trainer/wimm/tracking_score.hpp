@@ -1,0 +1,34 @@
+#pragma once
+/// Scores of a weighted/normal IMM over polar Monte Carlo data (seed 004 §4): azimuth error of the
+/// combined estimate (radians, wrapped), position error and the NEES of the 4-D position–velocity
+/// state, as RMSE over runs per scan and their averages over all scans with an estimate and over
+/// the settled scans 41–250 (the seed's first 40 scans are its settling phase). Used by the trainer
+/// (tuning objective, on training data) and by imm-eval (Table 2, on the evaluation scenarios).
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "imm/datasets/maneuver_scenario.hpp"
+#include "imm/filters/weighted_imm.hpp"
+
+namespace imm::trainer::wimm {
+
+inline constexpr int kFirstSettledScan = 40;  ///< 0-based: scans 41–250 of the seed
+
+struct TrackingScore {
+  Eigen::VectorXd azimuth_rmse;                 ///< per scan (NaN before the first estimate)
+  Eigen::VectorXd position_rmse;                ///< per scan, m
+  Eigen::VectorXd mean_nees;                    ///< per scan, averaged over runs
+  Eigen::VectorXd fused_fraction;               ///< per scan, share of runs that fused the azimuth
+  Eigen::MatrixXd mean_mode_probabilities;      ///< steps × 2 (CV, Singer)
+  double azimuth = 0.0, azimuth_settled = 0.0;  ///< averages of azimuth_rmse
+  double position = 0.0, position_settled = 0.0;  ///< averages of position_rmse
+  double nees_settled = 0.0;                      ///< average NEES, settled scans
+};
+
+/// Runs `spec` over every run of `data` (scenario's plots must be polar).
+[[nodiscard]] TrackingScore score_tracking(const WimmSpec& spec,
+                                           const datasets::ManeuverScenario& scenario,
+                                           const datasets::ScenarioData& data);
+
+}  // namespace imm::trainer::wimm

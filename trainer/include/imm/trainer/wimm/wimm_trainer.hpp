@@ -1,0 +1,82 @@
+#pragma once
+/// `imm-train wimm --config configs/wimm.toml`: tunes the weighted IMM's fusion threshold and
+/// weight α with NLopt on training scenarios — random geometries, speeds and coordinated turns,
+/// never seed 004's evaluation scenarios — and writes a "wimm" model file.
+///
+/// Objective (lower is better), shared with the nIMM-tuned baseline so that both are judged alike:
+///   J = az / az_nIMM + penalty · max(0, pos / pos_nIMM − 1),
+/// az and pos the settled (scans 41–250) azimuth and position RMSE averaged over the training
+/// scenarios, relative to the seed's normal IMM on the same plots: azimuth accuracy may not be
+/// bought with position accuracy.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include "imm/filters/weighted_imm.hpp"
+#include "imm/trainer/wimm/tracking_score.hpp"
+
+namespace imm::trainer::wimm {
+
+struct WimmTrainingOptions {
+  int trajectories = 24;
+  int steps = 250;
+  double min_range = 80e3, max_range = 160e3;   ///< m
+  double min_speed = 100.0, max_speed = 250.0;  ///< m/s
+  double max_heading_offset_deg = 45.0;         ///< heading off the radial, inbound
+  int max_turns = 2;
+  double min_turn_rate_deg = 1.0, max_turn_rate_deg = 4.0;  ///< °/s
+  int min_turn_scans = 8, max_turn_scans = 20;
+};
+
+struct WimmTrainingConfig {
+  std::uint64_t seed = 1;
+  WimmSpec filter;  ///< the seed's nIMM parameters and the fusion variant
+  WimmTrainingOptions training;
+  double min_threshold = 0.0, max_threshold = 1.0;
+  double min_alpha = 0.05, max_alpha = 1.0;
+  int max_evaluations = 150;
+  double position_penalty = 10.0;
+
+  std::string text, name;
+
+  void validate() const;  ///< InvalidParameter naming the key
+};
+
+[[nodiscard]] WimmTrainingConfig load_wimm_config(const std::filesystem::path& path);
+
+/// The training scenarios packed as runs of one descriptor (polar plots, T, steps).
+struct TrainingScenarios {
+  datasets::ManeuverScenario scenario;
+  datasets::ScenarioData data;
+};
+[[nodiscard]] TrainingScenarios make_training_scenarios(const WimmTrainingConfig& config);
+
+struct Tuned {
+  WimmSpec spec;
+  double objective = 0.0;
+  double azimuth_ratio = 0.0, position_ratio = 0.0;  ///< settled, against the nIMM
+  int evaluations = 0;
+};
+
+/// J of a spec against the reference (normal IMM) score on the same scenarios.
+[[nodiscard]] double objective(const TrackingScore& score, const TrackingScore& reference,
+                               double position_penalty);
+
+/// Threshold and α of the weighted IMM.
+[[nodiscard]] Tuned tune_weighted_imm(const WimmTrainingConfig& config,
+                                      const TrainingScenarios& data);
+/// q₁ and the CV → CV transition probability of the normal IMM (nIMM-tuned).
+[[nodiscard]] Tuned tune_normal_imm(const WimmTrainingConfig& config,
+                                    const TrainingScenarios& data);
+
+struct WimmTrainingResult {
+  Tuned tuned;
+  double wall_seconds = 0.0;
+  std::string digest;
+};
+
+/// Tunes and writes the model and `<model>.metrics.json`.
+WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::filesystem::path& out);
+
+}  // namespace imm::trainer::wimm
