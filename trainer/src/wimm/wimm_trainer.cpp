@@ -223,8 +223,9 @@ TrainingScenarios make_training_scenarios(const WimmTrainingConfig& config) {
     s.initial_velocity = speed * Eigen::Vector2d(std::sin(heading), std::cos(heading));
     const auto turns = static_cast<int>(rng.below(static_cast<std::uint64_t>(o.max_turns) + 1));
     for (int i = 0; i < turns; ++i) {
-      const int duration = o.min_turn_scans + static_cast<int>(rng.below(static_cast<std::uint64_t>(
-                                                  o.max_turn_scans - o.min_turn_scans + 1)));
+      const std::uint64_t span = static_cast<std::uint64_t>(o.max_turn_scans) -
+                                 static_cast<std::uint64_t>(o.min_turn_scans) + 1;
+      const int duration = o.min_turn_scans + static_cast<int>(rng.below(span));
       const int start = static_cast<int>(rng.below(static_cast<std::uint64_t>(o.steps - duration)));
       const double rate = rng.uniform(o.min_turn_rate_deg, o.max_turn_rate_deg) * kDegree;
       s.turns.push_back({start, start + duration, rng.uniform() < 0.5 ? -rate : rate});
