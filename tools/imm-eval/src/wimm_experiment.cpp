@@ -21,6 +21,7 @@ WimmExperimentResult run_wimm_experiment(const WimmExperimentOptions& options) {
   seed_fusion.alpha = 0.5;
   WimmSpec correlated = seed_fusion;
   correlated.fusion = FusionVariant::kCorrelated;
+  correlated.update = MeasurementUpdate::kExtended;  // the derivation is for the polar update
   const trainer::wimm::Tuned tuned_normal =
       trainer::wimm::tune_normal_imm(config, trainer::wimm::make_training_scenarios(config));
 
