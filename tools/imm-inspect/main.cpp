@@ -19,6 +19,7 @@
 #include "imm/io/container_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/io/wimm_file.hpp"
 
@@ -41,6 +42,8 @@ const std::map<std::string, std::function<void(const std::string&)>>& validators
        [](const std::string& path) { (void)imm::io::read_plain_imm(path); }},
       {std::string(imm::io::kGaFuzzyImmKind),
        [](const std::string& path) { (void)imm::io::read_ga_fuzzy_imm(path); }},
+      {std::string(imm::io::kMlpInputEstimatorKind),
+       [](const std::string& path) { (void)imm::io::read_mlp_input_estimator(path); }},
       {std::string(imm::io::kWimmKind),
        [](const std::string& path) { (void)imm::io::read_wimm(path); }},
   };

@@ -2,7 +2,6 @@
 
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/sha256.hpp"
-#include "imm/models/constant_velocity.hpp"
 
 namespace imm::trainer::ga {
 
@@ -28,24 +27,19 @@ long TrainingSet::total_steps() const {
 }
 
 TrainingSet make_training_set(const TrainingSetOptions& options) {
-  const double T = options.sample_period;
-  const auto motion = constant_velocity<1>(T, 0.0);
-  const Vector<2> G = cv_axis_input_gain(T);
   TrainingSet set;
-  set.sample_period = T;
+  set.sample_period = options.sample_period;
   set.measurement_variance = options.measurement_sigma * options.measurement_sigma;
+  const datasets::AxisNoise noise{options.sample_period, options.process_noise_sigma,
+                                  options.measurement_sigma};
   for (int t = 0; t < options.trajectories; ++t) {
     datasets::Rng rng(datasets::derive_seed(options.seed, static_cast<std::uint64_t>(t)));
-    AxisTrajectory trajectory;
     const int n = options.steps;
-    trajectory.position.resize(n);
-    trajectory.velocity.resize(n);
-    trajectory.acceleration_input.resize(n);
-    trajectory.measurement.resize(n);
+    Eigen::VectorXd input = Eigen::VectorXd::Zero(n);
     // The input profile.
     if (options.profile == TrainingProfile::kManeuver) {
       const double sign = rng.uniform() < 0.5 ? -1.0 : 1.0;
-      trajectory.acceleration_input.setConstant(sign * options.maneuver_level);
+      input.setConstant(sign * options.maneuver_level);
     } else {
       int k = 0;
       bool maneuvering = rng.uniform() < 0.5;
@@ -55,20 +49,13 @@ TrainingSet make_training_set(const TrainingSetOptions& options) {
         const int length = options.min_segment + static_cast<int>(rng.below(span));
         const double u =
             maneuvering ? (rng.uniform() < 0.5 ? -1.0 : 1.0) * options.maneuver_level : 0.0;
-        for (int i = k; i < std::min(n, k + length); ++i) trajectory.acceleration_input(i) = u;
+        for (int i = k; i < std::min(n, k + length); ++i) input(i) = u;
         k += length;
         maneuvering = !maneuvering;
       }
     }
-    Vector<2> x(0.0, (rng.uniform() < 0.5 ? -1.0 : 1.0) * options.initial_speed);
-    for (int k = 0; k < n; ++k) {
-      trajectory.position(k) = x(0);
-      trajectory.velocity(k) = x(1);
-      trajectory.measurement(k) = x(0) + options.measurement_sigma * rng.normal();
-      const double w = options.process_noise_sigma * rng.normal();
-      x = motion.transition * x + G * (trajectory.acceleration_input(k) + w);
-    }
-    set.trajectories.push_back(std::move(trajectory));
+    const double speed = (rng.uniform() < 0.5 ? -1.0 : 1.0) * options.initial_speed;
+    set.trajectories.push_back(datasets::simulate_axis(0.0, speed, input, noise, rng));
   }
   return set;
 }

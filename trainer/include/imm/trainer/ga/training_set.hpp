@@ -9,6 +9,8 @@
 ///   configured range, so that a table sees both what it must ignore and what it must follow.
 
 #include <Eigen/Core>
+
+#include "imm/datasets/axis_trajectory.hpp"
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -33,10 +35,7 @@ struct TrainingSetOptions {
   std::uint64_t seed = 1;
 };
 
-/// One trajectory: truth and measurements per scan.
-struct AxisTrajectory {
-  Eigen::VectorXd position, velocity, acceleration_input, measurement;
-};
+using datasets::AxisTrajectory;
 
 struct TrainingSet {
   std::vector<AxisTrajectory> trajectories;

@@ -1,0 +1,34 @@
+#pragma once
+/// One-axis trajectories (per-axis filters: seed 000's tables, seed 001's input estimator), simulated
+/// with the runtime's CV model, x(k+1) = F x(k) + G (u(k) + w(k)), z(k) = p(k) + v(k).
+
+#include <cstdint>
+
+#include <Eigen/Core>
+
+namespace imm::datasets {
+
+struct AxisTrajectory {
+  Eigen::VectorXd position, velocity, acceleration_input, measurement;
+};
+
+struct AxisNoise {
+  double sample_period = 1.0;
+  double process_noise_sigma = 0.0;  ///< σ of the white acceleration w
+  double measurement_sigma = 1.0;    ///< σ of v
+};
+
+class Rng;
+
+/// Truth from (p₀, v₀) under the input u (one entry per scan); per scan the measurement noise is
+/// drawn from `rng`, then the process noise.
+[[nodiscard]] AxisTrajectory simulate_axis(double initial_position, double initial_velocity,
+                                           const Eigen::VectorXd& acceleration_input,
+                                           const AxisNoise& noise, Rng& rng);
+
+/// The same with a fresh stream seeded by `seed`.
+[[nodiscard]] AxisTrajectory simulate_axis(double initial_position, double initial_velocity,
+                                           const Eigen::VectorXd& acceleration_input,
+                                           const AxisNoise& noise, std::uint64_t seed);
+
+}  // namespace imm::datasets

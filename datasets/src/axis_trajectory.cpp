@@ -1,0 +1,38 @@
+#include "imm/datasets/axis_trajectory.hpp"
+
+#include "imm/datasets/random.hpp"
+#include "imm/models/constant_velocity.hpp"
+
+namespace imm::datasets {
+
+AxisTrajectory simulate_axis(double initial_position, double initial_velocity,
+                             const Eigen::VectorXd& acceleration_input, const AxisNoise& noise,
+                             std::uint64_t seed) {
+  Rng rng(seed);
+  return simulate_axis(initial_position, initial_velocity, acceleration_input, noise, rng);
+}
+
+AxisTrajectory simulate_axis(double initial_position, double initial_velocity,
+                             const Eigen::VectorXd& acceleration_input, const AxisNoise& noise,
+                             Rng& rng) {
+  const double T = noise.sample_period;
+  const auto motion = constant_velocity<1>(T, 0.0);
+  const Vector<2> G = cv_axis_input_gain(T);
+  const Eigen::Index n = acceleration_input.size();
+  AxisTrajectory t;
+  t.position.resize(n);
+  t.velocity.resize(n);
+  t.measurement.resize(n);
+  t.acceleration_input = acceleration_input;
+  Vector<2> x(initial_position, initial_velocity);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    t.position(k) = x(0);
+    t.velocity(k) = x(1);
+    t.measurement(k) = x(0) + noise.measurement_sigma * rng.normal();
+    const double w = noise.process_noise_sigma * rng.normal();
+    x = motion.transition * x + G * (acceleration_input(k) + w);
+  }
+  return t;
+}
+
+}  // namespace imm::datasets

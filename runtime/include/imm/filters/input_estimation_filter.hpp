@@ -1,0 +1,108 @@
+#pragma once
+/// The neural input-estimation filter of seed 001 (SPEC §4.3), one axis:
+///   a constant-velocity KF (eq. 3–9) yields the normalized innovation ino(k) = ν²(k)/S(k) (11);
+///   sum(k) = 0.1 Σ_{i=0..9} ino(k−i) (13), diff(k) = ino(k) − ino(k−10) (14);
+///   the MLP maps the standardized (sum, diff) to û(k); the trained no-maneuver bias is subtracted
+///   and the result clipped at 0 (the seed assumes positive maneuvers);
+///   the primary KF predicts with F x̂ + G û(k−1) (10) and updates with z(k).
+/// Before ten innovations exist, the missing ino values are taken as 1, their expectation without a
+/// maneuver (ν²/S is χ²₁), so the first features look like straight flight rather than a jump.
+/// The model carries the CV-KF settings (T, q, R) its features assume; a filter configured
+/// differently is refused (the network's inputs would mean something else).
+
+#include <array>
+#include <string>
+
+#include "imm/filters/kalman_filter.hpp"
+#include "imm/models/constant_velocity.hpp"
+#include "imm/models/mlp.hpp"
+
+namespace imm {
+
+/// sum and diff of eq. (13)–(14) over a ring of the last 11 normalized innovations.
+class InnovationFeatures {
+ public:
+  static constexpr int kWindow = 10;
+  static constexpr double kPad = 1.0;  ///< E[ν²/S] without a maneuver
+
+  InnovationFeatures() { reset(); }
+  void reset() {
+    ring_.fill(kPad);
+    head_ = 0;
+  }
+  /// Adds ino(k) and returns (sum(k), diff(k)).
+  Eigen::Vector2d push(double ino) {
+    head_ = (head_ + 1) % ring_.size();
+    ring_[head_] = ino;
+    double sum = 0.0;
+    for (int i = 0; i < kWindow; ++i) sum += at(i);
+    return {0.1 * sum, at(0) - at(kWindow)};
+  }
+  /// ino(k − lag), 0 ≤ lag ≤ 10.
+  [[nodiscard]] double at(int lag) const {
+    return ring_[(head_ + ring_.size() - static_cast<std::size_t>(lag)) % ring_.size()];
+  }
+
+ private:
+  std::array<double, kWindow + 1> ring_{};
+  std::size_t head_ = 0;
+};
+
+/// The CV-KF settings the features assume.
+struct CvKfSettings {
+  double sample_period = 1.0;          ///< T, s
+  double process_noise = 1.0;          ///< q, Q = q [[T⁴/4, T³/2], [T³/2, T²]]
+  double measurement_variance = 2500;  ///< R, m²
+
+  [[nodiscard]] bool operator==(const CvKfSettings&) const = default;
+};
+
+/// What the filter needs of a trained model.
+struct InputEstimatorModel {
+  Mlp network;
+  Eigen::Vector2d input_mean = Eigen::Vector2d::Zero();  ///< feature standardization
+  Eigen::Vector2d input_scale = Eigen::Vector2d::Ones();
+  double output_bias = 0.0;  ///< mean output without a maneuver (training time), subtracted
+  CvKfSettings settings;
+};
+
+class InputEstimationFilter {
+ public:
+  /// Throws InvalidParameter when `settings` differ from the model's or the network does not take
+  /// two inputs.
+  InputEstimationFilter(InputEstimatorModel model, const CvKfSettings& settings);
+
+  /// Starts both KFs from the same [p, v] estimate.
+  void initialize(const GaussianState<2>& state);
+  /// One scan; on a status other than kOk nothing changes.
+  StepStatus step(double z);
+
+  [[nodiscard]] const GaussianState<2>& estimate() const { return primary_; }      ///< corrected
+  [[nodiscard]] const GaussianState<2>& cv_estimate() const { return cv_; }         ///< plain CV KF
+  [[nodiscard]] double acceleration() const { return acceleration_; }               ///< û(k)
+  [[nodiscard]] double raw_network_output() const { return raw_output_; }
+  [[nodiscard]] double normalized_innovation() const { return ino_; }
+  [[nodiscard]] const InputEstimatorModel& model() const { return model_; }
+
+  /// The features of one normalized innovation, standardized as the network expects (training).
+  [[nodiscard]] static Eigen::Vector2d standardize(const InputEstimatorModel& model,
+                                                   const Eigen::Vector2d& features) {
+    return (features - model.input_mean).cwiseQuotient(model.input_scale);
+  }
+
+ private:
+  InputEstimatorModel model_;
+  LinearMotionModel<2> motion_;
+  Matrix<2, 1> G_;
+  Matrix<1, 2> H_;
+  SquareMatrix<1> R_;
+  InnovationFeatures features_;
+  GaussianState<2> cv_;
+  GaussianState<2> primary_;
+  Eigen::VectorXd input_ = Eigen::VectorXd::Zero(2);
+  double acceleration_ = 0.0;  // û(k), used by the next prediction
+  double raw_output_ = 0.0;
+  double ino_ = 0.0;
+};
+
+}  // namespace imm

@@ -1,0 +1,28 @@
+#pragma once
+/// Model files of kind "mlp_input_estimator" (seed 001).
+///
+///   /mlp                 @layer_count, @output_scale > 0, @output_bias (trained no-maneuver mean)
+///   /mlp/layer<i>        @activation (sigmoid|linear); /weights (out × in), /bias (out)
+///   /features            @definition (text), /input_mean (2), /input_scale (2, > 0)
+///   /cv_kf               @sample_period > 0, @process_noise ≥ 0, @measurement_variance > 0
+///   /training/loss       epochs × 3 (epoch, training MSE, validation MSE), optional
+
+#include <filesystem>
+
+#include "imm/filters/input_estimation_filter.hpp"
+#include "imm/io/model_file.hpp"
+
+namespace imm::io {
+
+inline constexpr std::string_view kMlpInputEstimatorKind = "mlp_input_estimator";
+inline constexpr std::string_view kFeatureDefinition =
+    "ino(k) = nu(k)^2 / S(k) of the CV KF; sum(k) = 0.1 * sum_{i=0..9} ino(k-i); "
+    "diff(k) = ino(k) - ino(k-10); missing ino before the 10th scan = 1; "
+    "network input = (feature - input_mean) / input_scale";
+
+void write_mlp_input_estimator(ModelFileWriter& writer, const InputEstimatorModel& model,
+                               const Eigen::MatrixXd& loss_curves = {});
+[[nodiscard]] InputEstimatorModel read_mlp_input_estimator(const ModelFileReader& reader);
+[[nodiscard]] InputEstimatorModel read_mlp_input_estimator(const std::filesystem::path& path);
+
+}  // namespace imm::io
