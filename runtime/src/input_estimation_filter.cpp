@@ -6,11 +6,38 @@
 
 namespace imm {
 
+InnovationFeatureExtractor::InnovationFeatureExtractor(const CvKfSettings& settings)
+    : motion_(constant_velocity<1>(settings.sample_period, settings.process_noise)),
+      R_(SquareMatrix<1>::Constant(settings.measurement_variance)) {
+  detail::require_positive(settings.measurement_variance, "measurement_variance");
+  H_ << 1.0, 0.0;
+}
+
+void InnovationFeatureExtractor::initialize(const GaussianState<2>& state) {
+  cv_ = state;
+  features_.reset();
+  ino_ = 0.0;
+  innovation_ = 0.0;
+}
+
+StepStatus InnovationFeatureExtractor::step(double z, Eigen::Vector2d& features) {
+  if (!std::isfinite(z)) return StepStatus::kInvalidMeasurement;
+  GaussianState<2> cv = predict(cv_, motion_.transition, motion_.process_noise);
+  const auto report = update(cv, Vector<1>(z), H_, R_);
+  if (!report.ok()) return report.status;
+  innovation_ = report.innovation(0);
+  ino_ = innovation_ * innovation_ / report.innovation_covariance(0, 0);
+  features = features_.push(ino_);
+  cv_ = cv;
+  return StepStatus::kOk;
+}
+
 InputEstimationFilter::InputEstimationFilter(InputEstimatorModel model, const CvKfSettings& settings)
     : model_(std::move(model)),
       motion_(constant_velocity<1>(settings.sample_period, settings.process_noise)),
       G_(cv_axis_input_gain(settings.sample_period)),
-      R_(SquareMatrix<1>::Constant(settings.measurement_variance)) {
+      R_(SquareMatrix<1>::Constant(settings.measurement_variance)),
+      features_(settings) {
   if (!(settings == model_.settings)) {
     throw InvalidParameter(
         "cv_kf", "the model's features assume T = " + std::to_string(model_.settings.sample_period) +
@@ -30,33 +57,28 @@ InputEstimationFilter::InputEstimationFilter(InputEstimatorModel model, const Cv
 }
 
 void InputEstimationFilter::initialize(const GaussianState<2>& state) {
-  cv_ = state;
+  features_.initialize(state);
   primary_ = state;
-  features_.reset();
   acceleration_ = 0.0;
   raw_output_ = 0.0;
-  ino_ = 0.0;
+  innovation_ = 0.0;
 }
 
 StepStatus InputEstimationFilter::step(double z) {
   if (!std::isfinite(z)) return StepStatus::kInvalidMeasurement;
-  // The plain CV KF and its normalized innovation (eq. 4–9, 11).
-  GaussianState<2> cv = predict(cv_, motion_.transition, motion_.process_noise);
-  const auto cv_report = update(cv, Vector<1>(z), H_, R_);
-  if (!cv_report.ok()) return cv_report.status;
   // The primary KF with the input estimated at k − 1 (eq. 10).
   GaussianState<2> primary =
       predict(primary_, motion_.transition, motion_.process_noise, G_, Vector<1>(acceleration_));
   const auto primary_report = update(primary, Vector<1>(z), H_, R_);
   if (!primary_report.ok()) return primary_report.status;
-
-  const double innovation = cv_report.innovation(0);
-  ino_ = innovation * innovation / cv_report.innovation_covariance(0, 0);
-  const Eigen::Vector2d features = features_.push(ino_);
+  // The plain CV KF and its features (eq. 4–9, 11–14), then û(k).
+  Eigen::Vector2d features;
+  const StepStatus status = features_.step(z, features);
+  if (status != StepStatus::kOk) return status;
   input_ = standardize(model_, features);
   raw_output_ = model_.network.forward(input_);
   acceleration_ = std::max(0.0, raw_output_ - model_.output_bias);
-  cv_ = cv;
+  innovation_ = primary_report.innovation(0);
   primary_ = primary;
   return StepStatus::kOk;
 }

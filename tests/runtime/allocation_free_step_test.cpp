@@ -13,6 +13,7 @@
 #include <new>
 
 #include "imm/filters/aimm.hpp"
+#include "imm/filters/input_estimation_filter.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/kalman_mode.hpp"
@@ -144,6 +145,23 @@ TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
     }
     EXPECT_EQ(allocations(), before);
   }
+}
+
+TEST(AllocationFreeStep, InputEstimationFilterStep) {
+  InputEstimatorModel model;
+  MlpLayer hidden{Eigen::MatrixXd::Constant(10, 2, 0.1), Eigen::VectorXd::Constant(10, 0.1),
+                  Activation::kSigmoid};
+  MlpLayer output{Eigen::MatrixXd::Constant(1, 10, 0.2), Eigen::VectorXd::Constant(1, -1.0),
+                  Activation::kSigmoid};
+  model.network = Mlp({hidden, output}, 12.0);
+  InputEstimationFilter filter(model, model.settings);
+  GaussianState<2> start;
+  start.mean << 0.0, 100.0;
+  start.covariance << 2500.0, 2500.0, 2500.0, 5000.0;
+  filter.initialize(start);
+  const long before = allocations();
+  for (int k = 1; k <= 5000; ++k) (void)filter.step(100.0 * k + 20.0 * std::sin(k));
+  EXPECT_EQ(allocations(), before);
 }
 
 }  // namespace

@@ -12,6 +12,8 @@
 #include "imm/filters/aimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/imm_estimator.hpp"
+#include "imm/filters/input_estimation_filter.hpp"
+#include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/filters/kalman_mode.hpp"
 #include "imm/filters/plain_imm.hpp"
 #include "imm/filters/weighted_imm.hpp"
@@ -180,6 +182,40 @@ BENCHMARK(BM_NormalImmPolarStep);
 
 void BM_WeightedImmStep(benchmark::State& state) { run_polar(state, imm::FusionVariant::kSeed); }
 BENCHMARK(BM_WeightedImmStep);
+
+// Seed 001: the shipped network's forward pass, and one step of the input-estimation filter.
+void BM_MlpForward(benchmark::State& state) {
+  const auto model = imm::io::read_mlp_input_estimator(IMM_SOURCE_DIR "/models/mlp_input_estimator.h5");
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(2);
+  double a = 0.0;
+  for (auto _ : state) {
+    x(0) = a;
+    benchmark::DoNotOptimize(model.network.forward(x));
+    a = a > 3.0 ? -3.0 : a + 0.01;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_MlpForward);
+
+void BM_InputEstimationFilterStep(benchmark::State& state) {
+  const auto model = imm::io::read_mlp_input_estimator(IMM_SOURCE_DIR "/models/mlp_input_estimator.h5");
+  imm::InputEstimationFilter filter(model, model.settings);
+  imm::GaussianState<2> start;
+  start.mean << 0.0, 100.0;
+  start.covariance << 2500.0, 2500.0, 2500.0, 5000.0;
+  filter.initialize(start);
+  int k = 0;
+  for (auto _ : state) {
+    ++k;
+    benchmark::DoNotOptimize(filter.step(100.0 * k + 30.0 * std::sin(k)));
+    if (k == 300) {
+      k = 0;
+      filter.initialize(start);
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_InputEstimationFilterStep);
 
 void BM_Aimm5Step(benchmark::State& state) {
   imm::AimmSpec spec;

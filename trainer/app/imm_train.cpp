@@ -4,6 +4,7 @@
 //   imm-train import-rules --csv configs/reference/ga_fuzzy_imm_paper_rules.csv
 //                          --config configs/ga_fuzzy_imm.toml --out
 //                          models/reference/ga_fuzzy_imm_paper.h5
+//   imm-train mlp --config configs/mlp_input_estimator.toml [--out models/mlp_input_estimator.h5] [--seed N]
 //   imm-train wimm --config configs/wimm.toml [--out models/wimm.h5] [--seed N]
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
 //   imm-train all --config configs/nightly.toml
@@ -25,7 +26,9 @@
 #include "imm/trainer/freeze.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/import_rules.hpp"
+#include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/nightly.hpp"
+#include "imm/datasets/random.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
 
@@ -175,6 +178,15 @@ int main(int argc, char** argv) {
       ->required();
   import_command->add_option("--out", import_options.out, "model file to write")->required();
 
+  std::filesystem::path mlp_config = "configs/mlp_input_estimator.toml";
+  std::filesystem::path mlp_out = "models/mlp_input_estimator.h5";
+  std::optional<std::uint64_t> mlp_seed;
+  auto* mlp_command = app.add_subcommand(
+      "mlp", "train the neural input estimator (seed 001) by back-propagation");
+  mlp_command->add_option("--config", mlp_config, "MLP config TOML");
+  mlp_command->add_option("--out", mlp_out, "model file to write");
+  mlp_command->add_option("--seed", mlp_seed, "override the config's seed");
+
   std::filesystem::path wimm_config = "configs/wimm.toml";
   std::filesystem::path wimm_out = "models/wimm.h5";
   std::optional<std::uint64_t> wimm_seed;
@@ -193,6 +205,37 @@ int main(int argc, char** argv) {
   try {
     if (*ga_subcommand) return run_ga(ga_command);
     if (*freeze_command) return run_freeze(freeze);
+    if (*mlp_command) {
+      auto config = imm::trainer::mlp::load_mlp_config(mlp_config);
+      if (mlp_seed) {
+        config.seed = *mlp_seed;
+        config.training.seed = imm::datasets::derive_seed(config.seed, 3);
+      }
+      int epochs = 0;
+      for (const auto& phase : config.training.phases) epochs += phase.epochs;
+      spdlog::info("mlp: {} training and {} validation profiles, {} epochs, seed {}",
+                   config.training_profiles.size(), config.validation_profiles.size(), epochs,
+                   config.seed);
+      const auto result = imm::trainer::mlp::train_mlp(config, mlp_out);
+      const std::size_t step = std::max<std::size_t>(1, result.loss.size() / 8);
+      for (std::size_t i = 0; i < result.loss.size(); i += step) {
+        const auto& p = result.loss[i];
+        spdlog::info("epoch {:5}/{}: training MSE {:.4f}, validation MSE {:.4f} (m/s²)²", p.epoch,
+                     epochs, p.training, p.validation);
+      }
+      spdlog::info("trained in {:.2f} s (back-propagation {:.2f} s): RMSE {:.3f} / {:.3f} m/s² "
+                   "(training / validation); no-maneuver output {:.3f} m/s² before, {:.3f} after "
+                   "removing the trained bias",
+                   result.wall_seconds, result.training_seconds, result.training_rmse,
+                   result.validation_rmse, result.bias_before, result.bias_after);
+      if (!result.gate_passed) {
+        spdlog::error("quality gate failed: validation RMSE {:.3f} m/s² exceeds {:.3f}; {} not written",
+                      result.validation_rmse, config.max_validation_rmse, mlp_out.string());
+        return kExitGateFailed;
+      }
+      spdlog::info("wrote {}", mlp_out.string());
+      return 0;
+    }
     if (*wimm_command) {
       auto config = imm::trainer::wimm::load_wimm_config(wimm_config);
       if (wimm_seed) config.seed = *wimm_seed;

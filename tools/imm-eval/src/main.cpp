@@ -3,6 +3,8 @@
 //
 //   imm-eval plain-imm --models models/ [--runs 100] [--seed 1] [--out reports/plain-imm/]
 //                      [--model cv3_imm] [--data data/seed000.h5]
+//   imm-eval input-estimator --models models/ [--runs 100] [--seed 1]
+//                            [--out reports/input-estimator/]
 //   imm-eval wimm --models models/ [--runs 100] [--seed 1] [--out reports/wimm/]
 //                 [--config configs/wimm.toml]
 //   imm-eval ga-imm --models models/ [--runs 100] [--seed 1] [--out reports/ga-imm/]
@@ -16,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "imm/evaluation/ga_imm_experiment.hpp"
+#include "imm/evaluation/input_estimator_experiment.hpp"
 #include "imm/evaluation/plain_imm_experiment.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/evaluation/wimm_experiment.hpp"
@@ -58,6 +61,88 @@ bool write_mode_probabilities(const imm::evaluation::FilterOutcome& filter,
   return imm::evaluation::plot_series({out / (stem + ".png"),
                                        "Mean mode probabilities of " + filter.name, "scan k",
                                        "probability", csv, filter.mode_names});
+}
+
+std::string scientific(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.3g", value);
+  return buffer;
+}
+
+int report_input_estimator(const std::vector<imm::evaluation::InputEstimatorRow>& rows,
+                           const std::filesystem::path& out) {
+  std::filesystem::create_directories(out);
+  nlohmann::json metrics;
+  int wins = 0, cells = 0, at_or_below_paper = 0;
+  std::vector<std::string> losses;
+  for (int experiment : {1, 2}) {
+    std::vector<std::vector<std::string>> table;
+    for (const auto& row : rows) {
+      if (row.experiment != experiment) continue;
+      const double ours[3][2] = {{row.cv.innovation_mse, row.corrected.innovation_mse},
+                                 {row.cv.position_mse, row.corrected.position_mse},
+                                 {row.cv.velocity_mse, row.corrected.velocity_mse}};
+      const double paper[3][2] = {{row.paper_cv.innovation_mse, row.paper_corrected.innovation_mse},
+                                  {row.paper_cv.position_mse, row.paper_corrected.position_mse},
+                                  {row.paper_cv.velocity_mse, row.paper_corrected.velocity_mse}};
+      const char* quantity[3] = {"innovation", "position", "velocity"};
+      std::vector<std::string> cells_text = {row.name};
+      for (int q = 0; q < 3; ++q) {
+        ++cells;
+        if (ours[q][1] < ours[q][0]) {
+          ++wins;
+        } else {
+          losses.push_back(row.name + " " + quantity[q]);
+        }
+        const double ratio = ours[q][1] / ours[q][0], paper_ratio = paper[q][1] / paper[q][0];
+        if (ratio <= paper_ratio) ++at_or_below_paper;
+        cells_text.push_back(scientific(ours[q][0]) + " (" + scientific(paper[q][0]) + ")");
+        cells_text.push_back(scientific(ours[q][1]) + " (" + scientific(paper[q][1]) + ")");
+        cells_text.push_back(cell(ratio, 3) + " (" + cell(paper_ratio, 3) + ")");
+      }
+      cells_text.push_back(scientific(row.true_input.position_mse));
+      table.push_back(cells_text);
+      metrics["rows"].push_back(
+          {{"experiment", row.experiment},
+           {"name", row.name},
+           {"cv_kf",
+            {{"innovation_mse", row.cv.innovation_mse}, {"position_mse", row.cv.position_mse}, {"velocity_mse", row.cv.velocity_mse}}},
+           {"corrected_kf",
+            {{"innovation_mse", row.corrected.innovation_mse}, {"position_mse", row.corrected.position_mse}, {"velocity_mse", row.corrected.velocity_mse}}},
+           {"true_input_kf",
+            {{"innovation_mse", row.true_input.innovation_mse}, {"position_mse", row.true_input.position_mse}, {"velocity_mse", row.true_input.velocity_mse}}}});
+    }
+    std::cout << "\nTable " << experiment << " (MSE; the paper's in parentheses; ratio = corrected / CV):\n\n"
+              << imm::evaluation::markdown_table(
+                     {"maneuvers", "innov CV", "innov corrected", "ratio", "pos CV", "pos corrected",
+                      "ratio", "vel CV", "vel corrected", "ratio", "pos, true input (floor)"},
+                     table);
+  }
+  std::cout << "\nThe corrected KF beats the CV KF in " << wins << " of " << cells
+            << " cells (the paper: 22 of 24); its ratio is at or below the paper's in "
+            << at_or_below_paper << " of " << cells << ".\n";
+  for (const auto& loss : losses) std::cout << "  not better: " << loss << '\n';
+  imm::trainer::write_json_atomically(out / "metrics.json", metrics);
+
+  // Fig. 4 and 5: true vs estimated acceleration, position error over time.
+  for (const auto& [index, figure] : {std::pair<std::size_t, const char*>{0, "4"}, {4, "5"}}) {
+    const auto& row = rows[index];
+    const std::string stem = std::string("fig") + figure;
+    Eigen::MatrixXd acceleration(row.true_acceleration.size(), 2);
+    acceleration << row.true_acceleration, row.mean_estimate;
+    imm::evaluation::write_series_csv(out / (stem + "_acceleration.csv"), {"true", "estimated"}, acceleration);
+    Eigen::MatrixXd position(row.true_acceleration.size(), 2);
+    position << row.cv_position_rmse, row.corrected_position_rmse;
+    imm::evaluation::write_series_csv(out / (stem + "_position_rmse.csv"), {"cv_kf", "corrected_kf"}, position);
+    imm::evaluation::plot_series({out / (stem + "_acceleration.png"),
+                                  row.name + ": true and estimated acceleration (mean of runs, seed 001 Fig. " + figure + ")",
+                                  "time (s)", "m/s²", out / (stem + "_acceleration.csv"), {"true", "estimated"}});
+    imm::evaluation::plot_series({out / (stem + "_position_rmse.png"),
+                                  row.name + ": position RMSE (seed 001 Fig. " + figure + ")", "time (s)",
+                                  "m", out / (stem + "_position_rmse.csv"), {"cv_kf", "corrected_kf"}});
+  }
+  std::cout << "\nwrote metrics.json, CSV series and PNG plots in " << out.string() << '\n';
+  return losses.empty() ? 0 : kExitGateFailed;
 }
 
 int report_wimm(const imm::evaluation::WimmExperimentResult& result,
@@ -329,6 +414,16 @@ int main(int argc, char** argv) {
   ga_command->add_option("--seed", ga.seed, "noise seed");
   ga_command->add_option("--out", ga_out, "report folder");
 
+  imm::evaluation::InputEstimatorOptions input;
+  std::filesystem::path input_models = "models";
+  std::filesystem::path input_out = "reports/input-estimator";
+  auto* input_command = app.add_subcommand(
+      "input-estimator", "seed 001 Tables 1-2: neural input estimator vs the constant-velocity KF");
+  input_command->add_option("--models", input_models, "folder with mlp_input_estimator.h5");
+  input_command->add_option("--runs", input.runs, "Monte Carlo runs")->check(CLI::PositiveNumber);
+  input_command->add_option("--seed", input.seed, "noise seed");
+  input_command->add_option("--out", input_out, "report folder");
+
   imm::evaluation::WimmExperimentOptions wimm;
   std::filesystem::path wimm_models = "models";
   std::filesystem::path wimm_out = "reports/wimm";
@@ -344,6 +439,10 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   try {
+    if (*input_command) {
+      input.model = input_models / "mlp_input_estimator.h5";
+      return report_input_estimator(imm::evaluation::run_input_estimator_experiment(input), input_out);
+    }
     if (*wimm_command) {
       wimm.model = wimm_models / "wimm.h5";
       return report_wimm(imm::evaluation::run_wimm_experiment(wimm), wimm_out);

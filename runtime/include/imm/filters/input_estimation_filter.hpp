@@ -57,6 +57,30 @@ struct CvKfSettings {
   [[nodiscard]] bool operator==(const CvKfSettings&) const = default;
 };
 
+/// The constant-velocity KF and the features of its normalized innovations: what the network
+/// sees. The trainer computes its training inputs with this very class.
+class InnovationFeatureExtractor {
+ public:
+  explicit InnovationFeatureExtractor(const CvKfSettings& settings);
+
+  void initialize(const GaussianState<2>& state);
+  /// One scan of the CV KF; returns kOk and sets `features` = (sum, diff), or leaves all as it was.
+  StepStatus step(double z, Eigen::Vector2d& features);
+
+  [[nodiscard]] const GaussianState<2>& estimate() const { return cv_; }
+  [[nodiscard]] double normalized_innovation() const { return ino_; }
+  [[nodiscard]] double innovation() const { return innovation_; }
+
+ private:
+  LinearMotionModel<2> motion_;
+  Matrix<1, 2> H_;
+  SquareMatrix<1> R_;
+  InnovationFeatures features_;
+  GaussianState<2> cv_;
+  double ino_ = 0.0;
+  double innovation_ = 0.0;
+};
+
 /// What the filter needs of a trained model.
 struct InputEstimatorModel {
   Mlp network;
@@ -77,11 +101,12 @@ class InputEstimationFilter {
   /// One scan; on a status other than kOk nothing changes.
   StepStatus step(double z);
 
-  [[nodiscard]] const GaussianState<2>& estimate() const { return primary_; }      ///< corrected
-  [[nodiscard]] const GaussianState<2>& cv_estimate() const { return cv_; }         ///< plain CV KF
-  [[nodiscard]] double acceleration() const { return acceleration_; }               ///< û(k)
+  [[nodiscard]] const GaussianState<2>& estimate() const { return primary_; }  ///< corrected
+  [[nodiscard]] const GaussianState<2>& cv_estimate() const { return features_.estimate(); }
+  [[nodiscard]] double acceleration() const { return acceleration_; }  ///< û(k)
   [[nodiscard]] double raw_network_output() const { return raw_output_; }
-  [[nodiscard]] double normalized_innovation() const { return ino_; }
+  [[nodiscard]] double cv_innovation() const { return features_.innovation(); }
+  [[nodiscard]] double innovation() const { return innovation_; }  ///< primary KF's ν(k)
   [[nodiscard]] const InputEstimatorModel& model() const { return model_; }
 
   /// The features of one normalized innovation, standardized as the network expects (training).
@@ -96,13 +121,12 @@ class InputEstimationFilter {
   Matrix<2, 1> G_;
   Matrix<1, 2> H_;
   SquareMatrix<1> R_;
-  InnovationFeatures features_;
-  GaussianState<2> cv_;
+  InnovationFeatureExtractor features_;
   GaussianState<2> primary_;
   Eigen::VectorXd input_ = Eigen::VectorXd::Zero(2);
   double acceleration_ = 0.0;  // û(k), used by the next prediction
   double raw_output_ = 0.0;
-  double ino_ = 0.0;
+  double innovation_ = 0.0;
 };
 
 }  // namespace imm

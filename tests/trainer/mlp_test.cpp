@@ -1,0 +1,135 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "imm/datasets/random.hpp"
+#include "imm/support/config.hpp"
+#include "imm/trainer/mlp/mlp_trainer.hpp"
+#include "imm/trainer/mlp/network_training.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm::trainer::mlp {
+namespace {
+
+Samples random_samples(int n, std::uint64_t seed) {
+  datasets::Rng rng(seed);
+  Samples s;
+  s.inputs.resize(n, 2);
+  s.targets.resize(n);
+  for (int i = 0; i < n; ++i) {
+    s.inputs(i, 0) = rng.uniform(-2.0, 2.0);
+    s.inputs(i, 1) = rng.uniform(-2.0, 2.0);
+    s.targets(i) = rng.uniform(0.0, 10.0);
+  }
+  return s;
+}
+
+// ∂E/∂θ by central differences of E = mean ½ (a_L − t/scale)² = MSE / (2 scale²).
+TEST(Backpropagation, GradientsMatchFiniteDifferences) {
+  for (Activation output : {Activation::kSigmoid, Activation::kLinear}) {
+    Network network({2, 10, 10, 1}, output, 12.0, 0.5, 3);
+    const Samples samples = random_samples(25, 4);
+    std::vector<Eigen::MatrixXd> gw;
+    std::vector<Eigen::VectorXd> gb;
+    network.gradients(samples, gw, gb);
+    auto loss = [&] { return network.mse(samples) / (2.0 * 144.0); };
+    const double h = 1e-6;
+    for (std::size_t l = 0; l < network.layers().size(); ++l) {
+      auto& w = network.layers()[l].weights;
+      for (Eigen::Index r = 0; r < w.rows(); ++r) {
+        for (Eigen::Index c = 0; c < w.cols(); ++c) {
+          const double keep = w(r, c);
+          w(r, c) = keep + h;
+          const double plus = loss();
+          w(r, c) = keep - h;
+          const double minus = loss();
+          w(r, c) = keep;
+          EXPECT_NEAR(gw[l](r, c), (plus - minus) / (2.0 * h), 1e-7) << "layer " << l;
+        }
+      }
+      auto& b = network.layers()[l].bias;
+      for (Eigen::Index r = 0; r < b.size(); ++r) {
+        const double keep = b(r);
+        b(r) = keep + h;
+        const double plus = loss();
+        b(r) = keep - h;
+        const double minus = loss();
+        b(r) = keep;
+        EXPECT_NEAR(gb[l](r), (plus - minus) / (2.0 * h), 1e-7) << "bias layer " << l;
+      }
+    }
+  }
+}
+
+// XOR-like: target 1 where the inputs' signs differ. A 2-10-10-1 sigmoid net fits it.
+TEST(Backpropagation, LearnsXorLikeTarget) {
+  Samples samples;
+  samples.inputs.resize(4, 2);
+  samples.inputs << -1, -1, -1, 1, 1, -1, 1, 1;
+  samples.targets = Eigen::Vector4d(0.1, 0.9, 0.9, 0.1);
+  Network network({2, 10, 10, 1}, Activation::kSigmoid, 1.0, 0.5, 11);
+  TrainingOptions options;
+  options.phases = {{4000, 0.5, 0.5}};
+  const auto curve = train(network, samples, samples, options);
+  EXPECT_LT(curve.back().training, 1e-3);
+  for (int i = 0; i < 4; ++i) {
+    const double x[2] = {samples.inputs(i, 0), samples.inputs(i, 1)};
+    EXPECT_NEAR(network.predict(x), samples.targets(i), 0.05);
+  }
+}
+
+// A smooth target, y = 5 + 3 sin(x₁) x₂ on [−2, 2]², to a known loss, per-sample and batch Adam.
+TEST(Backpropagation, LearnsASmoothTarget) {
+  Samples samples = random_samples(400, 8);
+  for (Eigen::Index i = 0; i < samples.inputs.rows(); ++i) {
+    samples.targets(i) = 5.0 + 1.5 * std::sin(samples.inputs(i, 0)) * samples.inputs(i, 1);
+  }
+  for (UpdateMode mode : {UpdateMode::kPerSample, UpdateMode::kBatch}) {
+    Network network({2, 10, 10, 1}, Activation::kSigmoid, 12.0, 0.5, 5);
+    TrainingOptions options;
+    options.mode = mode;
+    options.optimizer = mode == UpdateMode::kBatch ? Optimizer::kAdam : Optimizer::kGradientDescent;
+    options.phases = {{mode == UpdateMode::kBatch ? 3000 : 600, mode == UpdateMode::kBatch ? 0.01 : 0.1,
+                       mode == UpdateMode::kBatch ? 0.01 : 0.1}};
+    const double before = network.mse(samples);
+    const auto curve = train(network, samples, samples, options);
+    EXPECT_LT(curve.back().training, 0.05) << "mode " << static_cast<int>(mode) << ", from " << before;
+  }
+}
+
+TEST(Backpropagation, TrainingIsDeterministicForASeed) {
+  const Samples samples = random_samples(50, 2);
+  TrainingOptions options;
+  options.phases = {{20, 0.1, 0.1}};
+  Network a({2, 10, 10, 1}, Activation::kSigmoid, 12.0, 0.5, 9);
+  Network b({2, 10, 10, 1}, Activation::kSigmoid, 12.0, 0.5, 9);
+  (void)train(a, samples, samples, options);
+  (void)train(b, samples, samples, options);
+  EXPECT_EQ(a.layers()[1].weights, b.layers()[1].weights);
+  // The trainer's forward pass is the runtime's.
+  const Mlp mlp = a.to_mlp();
+  const double x[2] = {0.3, -1.2};
+  EXPECT_DOUBLE_EQ(mlp.forward(Eigen::Vector2d(x[0], x[1])), a.predict(x));
+}
+
+TEST(MlpConfig, ShippedConfigIsTheSeedsSchedule) {
+  const auto config = load_mlp_config("configs/mlp_input_estimator.toml");
+  ASSERT_EQ(config.training.phases.size(), 2u);
+  EXPECT_EQ(config.training.phases[0].epochs, 3000);
+  EXPECT_DOUBLE_EQ(config.training.phases[0].hidden_rate, 0.1);
+  EXPECT_DOUBLE_EQ(config.training.phases[1].hidden_rate, 0.05);
+  EXPECT_DOUBLE_EQ(config.training.phases[1].output_rate, 0.01);
+  EXPECT_EQ(config.hidden, (std::vector<int>{10, 10}));
+  EXPECT_DOUBLE_EQ(config.cv_kf.measurement_variance, 2500.0);
+  const testing::TempDir dir;
+  testing::write_text(dir / "bad.toml", "[network]\noutput = \"tanh\"\n");
+  try {
+    (void)load_mlp_config(dir / "bad.toml");
+    FAIL();
+  } catch (const support::ConfigError& error) {
+    EXPECT_EQ(error.key(), "network.output");
+  }
+}
+
+}  // namespace
+}  // namespace imm::trainer::mlp

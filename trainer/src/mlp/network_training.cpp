@@ -1,0 +1,219 @@
+#include "imm/trainer/mlp/network_training.hpp"
+
+#include <numeric>
+#include <stdexcept>
+
+#include "imm/datasets/random.hpp"
+
+namespace imm::trainer::mlp {
+
+Network::Network(const std::vector<int>& sizes, Activation output, double output_scale,
+                 double init_range, std::uint64_t seed)
+    : output_scale_(output_scale) {
+  if (sizes.size() < 2) throw std::invalid_argument("a network needs inputs and an output");
+  datasets::Rng rng(seed);
+  for (std::size_t i = 1; i < sizes.size(); ++i) {
+    MlpLayer layer;
+    layer.weights.resize(sizes[i], sizes[i - 1]);
+    layer.bias.resize(sizes[i]);
+    for (Eigen::Index r = 0; r < layer.weights.rows(); ++r) {
+      for (Eigen::Index c = 0; c < layer.weights.cols(); ++c) {
+        layer.weights(r, c) = rng.uniform(-init_range, init_range);
+      }
+      layer.bias(r) = rng.uniform(-init_range, init_range);
+    }
+    layer.activation = i + 1 == sizes.size() ? output : Activation::kSigmoid;
+    layers_.push_back(std::move(layer));
+  }
+  (void)to_mlp();  // validates the shapes
+  for (const auto& layer : layers_) {
+    activations_.emplace_back(static_cast<std::size_t>(layer.weights.rows()));
+    deltas_.emplace_back(static_cast<std::size_t>(layer.weights.rows()));
+  }
+}
+
+Network::Network(const Mlp& mlp) : layers_(mlp.layers()), output_scale_(mlp.output_scale()) {
+  for (const auto& layer : layers_) {
+    activations_.emplace_back(static_cast<std::size_t>(layer.weights.rows()));
+    deltas_.emplace_back(static_cast<std::size_t>(layer.weights.rows()));
+  }
+}
+
+void Network::forward(const double* input) const {
+  const double* x = input;
+  for (std::size_t l = 0; l < layers_.size(); ++l) {
+    const MlpLayer& layer = layers_[l];
+    const Eigen::Index rows = layer.weights.rows(), cols = layer.weights.cols();
+    std::vector<double>& a = activations_[l];
+    const double* w = layer.weights.data();  // column-major
+    for (Eigen::Index r = 0; r < rows; ++r) a[static_cast<std::size_t>(r)] = layer.bias(r);
+    for (Eigen::Index c = 0; c < cols; ++c) {
+      const double xc = x[c];
+      const double* column = w + c * rows;
+      for (Eigen::Index r = 0; r < rows; ++r) a[static_cast<std::size_t>(r)] += column[r] * xc;
+    }
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      a[static_cast<std::size_t>(r)] = activate(layer.activation, a[static_cast<std::size_t>(r)]);
+    }
+    x = a.data();
+  }
+}
+
+double Network::predict(const double* input) const {
+  forward(input);
+  return output_scale_ * activations_.back()[0];
+}
+
+double Network::mse(const Samples& samples) const {
+  double sum = 0.0;
+  std::vector<double> row(static_cast<std::size_t>(samples.inputs.cols()));
+  for (Eigen::Index i = 0; i < samples.inputs.rows(); ++i) {
+    for (Eigen::Index c = 0; c < samples.inputs.cols(); ++c) row[static_cast<std::size_t>(c)] = samples.inputs(i, c);
+    const double error = predict(row.data()) - samples.targets(i);
+    sum += error * error;
+  }
+  return samples.inputs.rows() > 0 ? sum / static_cast<double>(samples.inputs.rows()) : 0.0;
+}
+
+void Network::gradients(const Samples& samples, std::vector<Eigen::MatrixXd>& weights,
+                        std::vector<Eigen::VectorXd>& biases) const {
+  weights.clear();
+  biases.clear();
+  for (const auto& layer : layers_) {
+    weights.push_back(Eigen::MatrixXd::Zero(layer.weights.rows(), layer.weights.cols()));
+    biases.push_back(Eigen::VectorXd::Zero(layer.bias.size()));
+  }
+  const auto n = static_cast<double>(samples.inputs.rows());
+  std::vector<double> row(static_cast<std::size_t>(samples.inputs.cols()));
+  for (Eigen::Index i = 0; i < samples.inputs.rows(); ++i) {
+    for (Eigen::Index c = 0; c < samples.inputs.cols(); ++c) row[static_cast<std::size_t>(c)] = samples.inputs(i, c);
+    forward(row.data());
+    // Output delta of ½(a_L − t/scale)².
+    const std::size_t last = layers_.size() - 1;
+    deltas_[last][0] = (activations_[last][0] - samples.targets(i) / output_scale_) *
+                       activation_derivative(layers_[last].activation, activations_[last][0]);
+    for (std::size_t l = last + 1; l-- > 0;) {
+      const MlpLayer& layer = layers_[l];
+      const double* x = l == 0 ? row.data() : activations_[l - 1].data();
+      for (Eigen::Index r = 0; r < layer.weights.rows(); ++r) {
+        const double d = deltas_[l][static_cast<std::size_t>(r)] / n;
+        biases[l](r) += d;
+        for (Eigen::Index c = 0; c < layer.weights.cols(); ++c) weights[l](r, c) += d * x[c];
+      }
+      if (l == 0) break;
+      for (Eigen::Index c = 0; c < layer.weights.cols(); ++c) {
+        double sum = 0.0;
+        for (Eigen::Index r = 0; r < layer.weights.rows(); ++r) {
+          sum += layer.weights(r, c) * deltas_[l][static_cast<std::size_t>(r)];
+        }
+        deltas_[l - 1][static_cast<std::size_t>(c)] =
+            sum * activation_derivative(layers_[l - 1].activation, activations_[l - 1][static_cast<std::size_t>(c)]);
+      }
+    }
+  }
+}
+
+void Network::update_on_sample(const double* input, double target, double hidden_rate,
+                               double output_rate) {
+  forward(input);
+  const std::size_t last = layers_.size() - 1;
+  deltas_[last][0] = (activations_[last][0] - target / output_scale_) *
+                     activation_derivative(layers_[last].activation, activations_[last][0]);
+  for (std::size_t l = last + 1; l-- > 0;) {
+    MlpLayer& layer = layers_[l];
+    const Eigen::Index rows = layer.weights.rows(), cols = layer.weights.cols();
+    const double* x = l == 0 ? input : activations_[l - 1].data();
+    // The deltas of the layer below use the weights before this update.
+    if (l > 0) {
+      for (Eigen::Index c = 0; c < cols; ++c) {
+        double sum = 0.0;
+        for (Eigen::Index r = 0; r < rows; ++r) sum += layer.weights(r, c) * deltas_[l][static_cast<std::size_t>(r)];
+        deltas_[l - 1][static_cast<std::size_t>(c)] =
+            sum * activation_derivative(layers_[l - 1].activation, activations_[l - 1][static_cast<std::size_t>(c)]);
+      }
+    }
+    const double rate = l == last ? output_rate : hidden_rate;
+    double* w = layer.weights.data();
+    for (Eigen::Index c = 0; c < cols; ++c) {
+      const double xc = rate * x[c];
+      double* column = w + c * rows;
+      for (Eigen::Index r = 0; r < rows; ++r) column[r] -= deltas_[l][static_cast<std::size_t>(r)] * xc;
+    }
+    for (Eigen::Index r = 0; r < rows; ++r) layer.bias(r) -= rate * deltas_[l][static_cast<std::size_t>(r)];
+  }
+}
+
+std::vector<LossPoint> train(Network& network, const Samples& training, const Samples& validation,
+                             const TrainingOptions& options) {
+  std::vector<LossPoint> curve;
+  curve.push_back({0, network.mse(training), network.mse(validation)});
+  const auto n = static_cast<std::size_t>(training.inputs.rows());
+  const auto columns = static_cast<std::size_t>(training.inputs.cols());
+  // Row-major copy for fast per-sample access.
+  std::vector<double> rows(n * columns);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t c = 0; c < columns; ++c) {
+      rows[i * columns + c] = training.inputs(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(c));
+    }
+  }
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  datasets::Rng rng(options.seed);
+  std::vector<Eigen::MatrixXd> grad_w, moment_w, second_w;
+  std::vector<Eigen::VectorXd> grad_b, moment_b, second_b;
+  int epoch = 0;
+  long adam_step = 0;
+  for (const Phase& phase : options.phases) {
+    for (int e = 0; e < phase.epochs; ++e) {
+      ++epoch;
+      if (options.mode == UpdateMode::kPerSample) {
+        for (std::size_t i = n; i > 1; --i) std::swap(order[i - 1], order[rng.below(i)]);  // Fisher–Yates
+        for (std::size_t i : order) {
+          network.update_on_sample(rows.data() + i * columns, training.targets(static_cast<Eigen::Index>(i)),
+                                   phase.hidden_rate, phase.output_rate);
+        }
+      } else {
+        network.gradients(training, grad_w, grad_b);
+        auto& layers = network.layers();
+        if (options.optimizer == Optimizer::kAdam) {
+          constexpr double kBeta1 = 0.9, kBeta2 = 0.999, kEpsilon = 1e-8;
+          if (moment_w.empty()) {
+            for (std::size_t l = 0; l < layers.size(); ++l) {
+              moment_w.push_back(Eigen::MatrixXd::Zero(grad_w[l].rows(), grad_w[l].cols()));
+              second_w.push_back(moment_w.back());
+              moment_b.push_back(Eigen::VectorXd::Zero(grad_b[l].size()));
+              second_b.push_back(moment_b.back());
+            }
+          }
+          ++adam_step;
+          const double c1 = 1.0 - std::pow(kBeta1, static_cast<double>(adam_step));
+          const double c2 = 1.0 - std::pow(kBeta2, static_cast<double>(adam_step));
+          for (std::size_t l = 0; l < layers.size(); ++l) {
+            const double rate = l + 1 == layers.size() ? phase.output_rate : phase.hidden_rate;
+            moment_w[l] = kBeta1 * moment_w[l] + (1.0 - kBeta1) * grad_w[l];
+            second_w[l] = kBeta2 * second_w[l] + (1.0 - kBeta2) * grad_w[l].cwiseAbs2();
+            moment_b[l] = kBeta1 * moment_b[l] + (1.0 - kBeta1) * grad_b[l];
+            second_b[l] = kBeta2 * second_b[l] + (1.0 - kBeta2) * grad_b[l].cwiseAbs2();
+            layers[l].weights.array() -= rate * (moment_w[l].array() / c1) /
+                                         ((second_w[l].array() / c2).sqrt() + kEpsilon);
+            layers[l].bias.array() -= rate * (moment_b[l].array() / c1) /
+                                      ((second_b[l].array() / c2).sqrt() + kEpsilon);
+          }
+        } else {
+          for (std::size_t l = 0; l < layers.size(); ++l) {
+            const double rate = l + 1 == layers.size() ? phase.output_rate : phase.hidden_rate;
+            layers[l].weights -= rate * grad_w[l];
+            layers[l].bias -= rate * grad_b[l];
+          }
+        }
+      }
+      if (epoch % options.loss_every == 0) {
+        curve.push_back({epoch, network.mse(training), network.mse(validation)});
+      }
+    }
+  }
+  if (curve.back().epoch != epoch) curve.push_back({epoch, network.mse(training), network.mse(validation)});
+  return curve;
+}
+
+}  // namespace imm::trainer::mlp
