@@ -141,7 +141,8 @@ ScenarioDataset read_scenario_dataset(const std::filesystem::path& path) {
   if (reader.container().kind("/parameters/turns") == io::ObjectKind::kDataset) {
     const Eigen::MatrixXd turns = reader.matrix("/parameters/turns", -1, 3);
     for (Eigen::Index i = 0; i < turns.rows(); ++i) {
-      s.turns.push_back({static_cast<int>(turns(i, 0)), static_cast<int>(turns(i, 1)), turns(i, 2)});
+      s.turns.push_back(
+          {static_cast<int>(turns(i, 0)), static_cast<int>(turns(i, 1)), turns(i, 2)});
     }
   }
   try {

@@ -89,7 +89,8 @@ ManeuverScenario seed000_scenario() {
 }
 
 ManeuverScenario seed004_scenario(int number) {
-  if (number != 1 && number != 2) throw InvalidParameter("scenario", "seed 004 has scenarios 1 and 2");
+  if (number != 1 && number != 2)
+    throw InvalidParameter("scenario", "seed 004 has scenarios 1 and 2");
   ManeuverScenario s;
   s.name = number == 1 ? "seed004-1" : "seed004-2";
   s.sample_period = 2.0;

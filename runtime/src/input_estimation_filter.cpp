@@ -32,7 +32,8 @@ StepStatus InnovationFeatureExtractor::step(double z, Eigen::Vector2d& features)
   return StepStatus::kOk;
 }
 
-InputEstimationFilter::InputEstimationFilter(InputEstimatorModel model, const CvKfSettings& settings)
+InputEstimationFilter::InputEstimationFilter(InputEstimatorModel model,
+                                             const CvKfSettings& settings)
     : model_(std::move(model)),
       motion_(constant_velocity<1>(settings.sample_period, settings.process_noise)),
       G_(cv_axis_input_gain(settings.sample_period)),
@@ -40,12 +41,13 @@ InputEstimationFilter::InputEstimationFilter(InputEstimatorModel model, const Cv
       features_(settings) {
   if (!(settings == model_.settings)) {
     throw InvalidParameter(
-        "cv_kf", "the model's features assume T = " + std::to_string(model_.settings.sample_period) +
-                     " s, q = " + std::to_string(model_.settings.process_noise) +
-                     ", R = " + std::to_string(model_.settings.measurement_variance) +
-                     "; the filter has T = " + std::to_string(settings.sample_period) +
-                     " s, q = " + std::to_string(settings.process_noise) +
-                     ", R = " + std::to_string(settings.measurement_variance));
+        "cv_kf",
+        "the model's features assume T = " + std::to_string(model_.settings.sample_period) +
+            " s, q = " + std::to_string(model_.settings.process_noise) +
+            ", R = " + std::to_string(model_.settings.measurement_variance) +
+            "; the filter has T = " + std::to_string(settings.sample_period) +
+            " s, q = " + std::to_string(settings.process_noise) +
+            ", R = " + std::to_string(settings.measurement_variance));
   }
   if (model_.network.input_count() != 2) {
     throw InvalidParameter("network", "the input estimator's network takes (sum, diff)");

@@ -12,7 +12,8 @@ void write_mlp_input_estimator(ModelFileWriter& writer, const InputEstimatorMode
   writer.set_attribute("/mlp", "output_scale", model.network.output_scale());
   writer.set_attribute("/mlp", "output_bias", model.output_bias);
   for (std::size_t i = 0; i < layers.size(); ++i) {
-    writer.set_attribute(layer_group(i), "activation", std::string(to_string(layers[i].activation)));
+    writer.set_attribute(layer_group(i), "activation",
+                         std::string(to_string(layers[i].activation)));
     writer.write_matrix(layer_group(i) + "/weights", layers[i].weights);
     writer.write_vector(layer_group(i) + "/bias", layers[i].bias);
   }
@@ -48,7 +49,8 @@ InputEstimatorModel read_mlp_input_estimator(const ModelFileReader& reader) {
     layers.push_back(std::move(layer));
   }
   try {
-    model.network = Mlp(std::move(layers), reader.real("/mlp", "output_scale", ValueRule::kPositive));
+    model.network =
+        Mlp(std::move(layers), reader.real("/mlp", "output_scale", ValueRule::kPositive));
   } catch (const std::invalid_argument& error) {
     reader.fail("/mlp", error.what());
   }

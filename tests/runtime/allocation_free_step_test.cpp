@@ -13,9 +13,9 @@
 #include <new>
 
 #include "imm/filters/aimm.hpp"
-#include "imm/filters/input_estimation_filter.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/imm_estimator.hpp"
+#include "imm/filters/input_estimation_filter.hpp"
 #include "imm/filters/kalman_mode.hpp"
 #include "imm/filters/plain_imm.hpp"
 #include "imm/filters/weighted_imm.hpp"

@@ -59,7 +59,8 @@ TEST(InputEstimationFilter, WithZeroInputThePrimaryKfIsTheCvKf) {
     ASSERT_EQ(filter.step(truth.measurement(k)), StepStatus::kOk);
     EXPECT_EQ(filter.acceleration(), 0.0);
     ASSERT_TRUE(testing::matrices_near(filter.estimate().mean, filter.cv_estimate().mean, 1e-12));
-    ASSERT_TRUE(testing::matrices_near(filter.estimate().covariance, filter.cv_estimate().covariance, 1e-12));
+    ASSERT_TRUE(testing::matrices_near(filter.estimate().covariance,
+                                       filter.cv_estimate().covariance, 1e-12));
   }
 }
 
@@ -108,8 +109,8 @@ TEST(InputEstimationFilter, NanPlotLeavesTheFilterUnchanged) {
 TEST(MlpInputEstimatorFile, RoundTripGivesTheSameOutputs) {
   const testing::TempDir dir;
   InputEstimatorModel model = zero_model();
-  MlpLayer hidden{Eigen::MatrixXd{{0.3, -0.2}, {0.7, 0.1}, {-0.4, 0.9}}, Eigen::Vector3d(0.1, -0.3, 0.2),
-                  Activation::kSigmoid};
+  MlpLayer hidden{Eigen::MatrixXd{{0.3, -0.2}, {0.7, 0.1}, {-0.4, 0.9}},
+                  Eigen::Vector3d(0.1, -0.3, 0.2), Activation::kSigmoid};
   MlpLayer output{Eigen::MatrixXd{{0.5, -1.0, 0.8}}, Eigen::VectorXd::Constant(1, 0.05),
                   Activation::kSigmoid};
   model.network = Mlp({hidden, output}, 12.0);

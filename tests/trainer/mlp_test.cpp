@@ -89,11 +89,13 @@ TEST(Backpropagation, LearnsASmoothTarget) {
     TrainingOptions options;
     options.mode = mode;
     options.optimizer = mode == UpdateMode::kBatch ? Optimizer::kAdam : Optimizer::kGradientDescent;
-    options.phases = {{mode == UpdateMode::kBatch ? 3000 : 600, mode == UpdateMode::kBatch ? 0.01 : 0.1,
+    options.phases = {{mode == UpdateMode::kBatch ? 3000 : 600,
+                       mode == UpdateMode::kBatch ? 0.01 : 0.1,
                        mode == UpdateMode::kBatch ? 0.01 : 0.1}};
     const double before = network.mse(samples);
     const auto curve = train(network, samples, samples, options);
-    EXPECT_LT(curve.back().training, 0.05) << "mode " << static_cast<int>(mode) << ", from " << before;
+    EXPECT_LT(curve.back().training, 0.05)
+        << "mode " << static_cast<int>(mode) << ", from " << before;
   }
 }
 

@@ -13,11 +13,11 @@
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/input_estimation_filter.hpp"
-#include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/filters/kalman_mode.hpp"
 #include "imm/filters/plain_imm.hpp"
 #include "imm/filters/weighted_imm.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
+#include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/models/constant_velocity.hpp"
 #include "imm/models/polar_measurement.hpp"
@@ -185,7 +185,8 @@ BENCHMARK(BM_WeightedImmStep);
 
 // Seed 001: the shipped network's forward pass, and one step of the input-estimation filter.
 void BM_MlpForward(benchmark::State& state) {
-  const auto model = imm::io::read_mlp_input_estimator(IMM_SOURCE_DIR "/models/mlp_input_estimator.h5");
+  const auto model =
+      imm::io::read_mlp_input_estimator(IMM_SOURCE_DIR "/models/mlp_input_estimator.h5");
   Eigen::VectorXd x = Eigen::VectorXd::Zero(2);
   double a = 0.0;
   for (auto _ : state) {
@@ -198,7 +199,8 @@ void BM_MlpForward(benchmark::State& state) {
 BENCHMARK(BM_MlpForward);
 
 void BM_InputEstimationFilterStep(benchmark::State& state) {
-  const auto model = imm::io::read_mlp_input_estimator(IMM_SOURCE_DIR "/models/mlp_input_estimator.h5");
+  const auto model =
+      imm::io::read_mlp_input_estimator(IMM_SOURCE_DIR "/models/mlp_input_estimator.h5");
   imm::InputEstimationFilter filter(model, model.settings);
   imm::GaussianState<2> start;
   start.mean << 0.0, 100.0;

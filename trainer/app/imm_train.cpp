@@ -4,8 +4,8 @@
 //   imm-train import-rules --csv configs/reference/ga_fuzzy_imm_paper_rules.csv
 //                          --config configs/ga_fuzzy_imm.toml --out
 //                          models/reference/ga_fuzzy_imm_paper.h5
-//   imm-train mlp --config configs/mlp_input_estimator.toml [--out models/mlp_input_estimator.h5] [--seed N]
-//   imm-train wimm --config configs/wimm.toml [--out models/wimm.h5] [--seed N]
+//   imm-train mlp --config configs/mlp_input_estimator.toml [--out models/mlp_input_estimator.h5]
+//   [--seed N] imm-train wimm --config configs/wimm.toml [--out models/wimm.h5] [--seed N]
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
 //   imm-train all --config configs/nightly.toml
 //
@@ -21,6 +21,7 @@
 #include <iostream>
 #include <optional>
 
+#include "imm/datasets/random.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/freeze.hpp"
@@ -28,7 +29,6 @@
 #include "imm/trainer/import_rules.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/nightly.hpp"
-#include "imm/datasets/random.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
 
@@ -181,8 +181,8 @@ int main(int argc, char** argv) {
   std::filesystem::path mlp_config = "configs/mlp_input_estimator.toml";
   std::filesystem::path mlp_out = "models/mlp_input_estimator.h5";
   std::optional<std::uint64_t> mlp_seed;
-  auto* mlp_command = app.add_subcommand(
-      "mlp", "train the neural input estimator (seed 001) by back-propagation");
+  auto* mlp_command =
+      app.add_subcommand("mlp", "train the neural input estimator (seed 001) by back-propagation");
   mlp_command->add_option("--config", mlp_config, "MLP config TOML");
   mlp_command->add_option("--out", mlp_out, "model file to write");
   mlp_command->add_option("--seed", mlp_seed, "override the config's seed");
@@ -223,14 +223,16 @@ int main(int argc, char** argv) {
         spdlog::info("epoch {:5}/{}: training MSE {:.4f}, validation MSE {:.4f} (m/s²)²", p.epoch,
                      epochs, p.training, p.validation);
       }
-      spdlog::info("trained in {:.2f} s (back-propagation {:.2f} s): RMSE {:.3f} / {:.3f} m/s² "
-                   "(training / validation); no-maneuver output {:.3f} m/s² before, {:.3f} after "
-                   "removing the trained bias",
-                   result.wall_seconds, result.training_seconds, result.training_rmse,
-                   result.validation_rmse, result.bias_before, result.bias_after);
+      spdlog::info(
+          "trained in {:.2f} s (back-propagation {:.2f} s): RMSE {:.3f} / {:.3f} m/s² "
+          "(training / validation); no-maneuver output {:.3f} m/s² before, {:.3f} after "
+          "removing the trained bias",
+          result.wall_seconds, result.training_seconds, result.training_rmse,
+          result.validation_rmse, result.bias_before, result.bias_after);
       if (!result.gate_passed) {
-        spdlog::error("quality gate failed: validation RMSE {:.3f} m/s² exceeds {:.3f}; {} not written",
-                      result.validation_rmse, config.max_validation_rmse, mlp_out.string());
+        spdlog::error(
+            "quality gate failed: validation RMSE {:.3f} m/s² exceeds {:.3f}; {} not written",
+            result.validation_rmse, config.max_validation_rmse, mlp_out.string());
         return kExitGateFailed;
       }
       spdlog::info("wrote {}", mlp_out.string());

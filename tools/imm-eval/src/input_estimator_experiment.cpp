@@ -59,7 +59,8 @@ struct Accumulator {
 
 }  // namespace
 
-std::vector<InputEstimatorRow> run_input_estimator_experiment(const InputEstimatorOptions& options) {
+std::vector<InputEstimatorRow> run_input_estimator_experiment(
+    const InputEstimatorOptions& options) {
   const InputEstimatorModel model = io::read_mlp_input_estimator(options.model);
   const CvKfSettings& settings = model.settings;
   const double T = settings.sample_period;
@@ -93,7 +94,8 @@ std::vector<InputEstimatorRow> run_input_estimator_experiment(const InputEstimat
     for (int run = 0; run < options.runs; ++run) {
       const auto truth = datasets::simulate_axis(
           0.0, 100.0, u, noise,
-          datasets::derive_seed(options.seed, row_index * 100000 + static_cast<std::uint64_t>(run)));
+          datasets::derive_seed(options.seed,
+                                row_index * 100000 + static_cast<std::uint64_t>(run)));
       InputEstimationFilter filter(model, settings);
       GaussianState<2> start;
       start.mean << truth.measurement(1), (truth.measurement(1) - truth.measurement(0)) / T;
@@ -106,8 +108,10 @@ std::vector<InputEstimatorRow> run_input_estimator_experiment(const InputEstimat
         const auto known_report = update(known, Vector<1>(truth.measurement(k)), H, R_matrix);
         const auto& c = filter.cv_estimate();
         const auto& p = filter.estimate();
-        cv.add(filter.cv_innovation(), truth.position(k) - c.mean(0), truth.velocity(k) - c.mean(1));
-        corrected.add(filter.innovation(), truth.position(k) - p.mean(0), truth.velocity(k) - p.mean(1));
+        cv.add(filter.cv_innovation(), truth.position(k) - c.mean(0),
+               truth.velocity(k) - c.mean(1));
+        corrected.add(filter.innovation(), truth.position(k) - p.mean(0),
+                      truth.velocity(k) - p.mean(1));
         floor.add(known_report.innovation(0), truth.position(k) - known.mean(0),
                   truth.velocity(k) - known.mean(1));
         row.mean_estimate(k) += filter.acceleration() / options.runs;

@@ -60,7 +60,8 @@ MlpTrainingConfig config_from(const support::ConfigTable& root) {
       } else if (output == "linear") {
         c.output = Activation::kLinear;
       } else {
-        n->fail("output", "unknown output unit '" + output + "' (expected scaled_sigmoid or linear)");
+        n->fail("output",
+                "unknown output unit '" + output + "' (expected scaled_sigmoid or linear)");
       }
     }
     c.output_scale = n->real_or("output_scale", c.output_scale);
@@ -90,8 +91,8 @@ MlpTrainingConfig config_from(const support::ConfigTable& root) {
     if (t->has("phases")) {
       c.training.phases.clear();
       for (const auto& p : t->tables("phases")) {
-        c.training.phases.push_back({static_cast<int>(p.integer("epochs")), p.real("hidden_rate"),
-                                     p.real("output_rate")});
+        c.training.phases.push_back(
+            {static_cast<int>(p.integer("epochs")), p.real("hidden_rate"), p.real("output_rate")});
       }
     }
     c.training.loss_every = static_cast<int>(t->integer_or("loss_every", c.training.loss_every));
@@ -119,7 +120,8 @@ Eigen::VectorXd input_of(const std::vector<ManeuverPulse>& pulses, int steps, do
 double mean_output(const InputEstimatorModel& model, const Samples& features, bool corrected) {
   double sum = 0.0;
   for (Eigen::Index i = 0; i < features.inputs.rows(); ++i) {
-    const Eigen::Vector2d x = InputEstimationFilter::standardize(model, features.inputs.row(i).transpose());
+    const Eigen::Vector2d x =
+        InputEstimationFilter::standardize(model, features.inputs.row(i).transpose());
     const double raw = model.network.forward(x);
     sum += corrected ? std::max(0.0, raw - model.output_bias) : raw;
   }
@@ -140,7 +142,8 @@ void MlpTrainingConfig::validate() const {
           "must cover at least 20 scans");
   require(realizations >= 1 && realizations <= 1000, "data.realizations", "must be in [1, 1000]");
   require(!training_profiles.empty(), "data.training", "at least one [[data.training]] profile");
-  require(!validation_profiles.empty(), "data.validation", "at least one [[data.validation]] profile");
+  require(!validation_profiles.empty(), "data.validation",
+          "at least one [[data.validation]] profile");
   for (const auto* set : {&training_profiles, &validation_profiles}) {
     for (const auto& profile : *set) {
       for (const auto& p : profile) {
@@ -150,17 +153,18 @@ void MlpTrainingConfig::validate() const {
       }
     }
   }
-  require(quiet_duration >= 20.0 * cv_kf.sample_period, "data.quiet_duration", "must cover 20 scans");
+  require(quiet_duration >= 20.0 * cv_kf.sample_period, "data.quiet_duration",
+          "must cover 20 scans");
   require(!hidden.empty() && hidden.size() <= 4, "network.hidden", "1 to 4 hidden layers");
   for (int h : hidden) require(h >= 1 && h <= 256, "network.hidden", "layer sizes in [1, 256]");
-  require(output_scale > 0.0 && std::isfinite(output_scale), "network.output_scale", "must be positive");
+  require(output_scale > 0.0 && std::isfinite(output_scale), "network.output_scale",
+          "must be positive");
   require(init_range > 0.0 && init_range <= 10.0, "network.init_range", "must be in (0, 10]");
   require(!training.phases.empty(), "training.phases", "at least one phase");
   for (const auto& phase : training.phases) {
-    require(phase.epochs >= 0 && phase.epochs <= 1000000, "training.phases",
-            "epochs in [0, 10⁶]");
-    require(phase.hidden_rate > 0.0 && phase.output_rate > 0.0 && std::isfinite(phase.hidden_rate) &&
-                std::isfinite(phase.output_rate),
+    require(phase.epochs >= 0 && phase.epochs <= 1000000, "training.phases", "epochs in [0, 10⁶]");
+    require(phase.hidden_rate > 0.0 && phase.output_rate > 0.0 &&
+                std::isfinite(phase.hidden_rate) && std::isfinite(phase.output_rate),
             "training.phases", "learning rates must be positive");
   }
   require(training.loss_every >= 1, "training.loss_every", "must be positive");
@@ -190,8 +194,10 @@ FeatureSet make_features(const MlpTrainingConfig& config,
     for (int r = 0; r < config.realizations; ++r, ++trajectory) {
       const auto truth = datasets::simulate_axis(
           0.0, config.initial_speed, u, noise,
-          datasets::derive_seed(config.seed, stream * 1000 + static_cast<std::uint64_t>(trajectory)));
-      hash.update(truth.measurement.data(), static_cast<std::size_t>(truth.measurement.size()) * sizeof(double));
+          datasets::derive_seed(config.seed,
+                                stream * 1000 + static_cast<std::uint64_t>(trajectory)));
+      hash.update(truth.measurement.data(),
+                  static_cast<std::size_t>(truth.measurement.size()) * sizeof(double));
       InnovationFeatureExtractor extractor(config.cv_kf);
       const double R = config.cv_kf.measurement_variance;
       GaussianState<2> start;
@@ -226,7 +232,7 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
   const FeatureSet validation = make_features(config, config.validation_profiles, 2);
   MlpTrainingConfig quiet_config = config;
   quiet_config.duration = config.quiet_duration;
-  const FeatureSet quiet = make_features(quiet_config, {{}}, 3);      // sets the bias
+  const FeatureSet quiet = make_features(quiet_config, {{}}, 3);        // sets the bias
   const FeatureSet quiet_check = make_features(quiet_config, {{}}, 4);  // reports it
 
   // Standardization from the training features.
@@ -235,14 +241,16 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
   const Eigen::MatrixXd& x = training.samples.inputs;
   model.input_mean = x.colwise().mean().transpose();
   model.input_scale =
-      ((x.rowwise() - model.input_mean.transpose()).cwiseAbs2().colwise().mean().cwiseSqrt()).transpose();
+      ((x.rowwise() - model.input_mean.transpose()).cwiseAbs2().colwise().mean().cwiseSqrt())
+          .transpose();
   for (int i = 0; i < 2; ++i) {
     if (!(model.input_scale(i) > 0.0)) model.input_scale(i) = 1.0;
   }
   auto standardized = [&](const Samples& raw) {
     Samples s = raw;
     for (Eigen::Index i = 0; i < s.inputs.rows(); ++i) {
-      s.inputs.row(i) = InputEstimationFilter::standardize(model, raw.inputs.row(i).transpose()).transpose();
+      s.inputs.row(i) =
+          InputEstimationFilter::standardize(model, raw.inputs.row(i).transpose()).transpose();
     }
     return s;
   };
@@ -268,13 +276,14 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
   digest.update(training.digest);
   digest.update(validation.digest);
   result.digest = digest.hex_digest();
-  result.gate_passed = std::isfinite(result.validation_rmse) &&
-                       result.validation_rmse <= config.max_validation_rmse;
+  result.gate_passed =
+      std::isfinite(result.validation_rmse) && result.validation_rmse <= config.max_validation_rmse;
   result.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   if (!result.gate_passed) return result;
 
-  io::Provenance provenance = make_provenance(std::string(io::kMlpInputEstimatorKind), config.text,
-                                              static_cast<std::int64_t>(config.seed), result.digest);
+  io::Provenance provenance =
+      make_provenance(std::string(io::kMlpInputEstimatorKind), config.text,
+                      static_cast<std::int64_t>(config.seed), result.digest);
   provenance.training_metrics["rmse"] = result.training_rmse;
   provenance.validation_metrics["rmse"] = result.validation_rmse;
   provenance.training_metrics["bias_before"] = result.bias_before;

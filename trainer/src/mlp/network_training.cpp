@@ -68,7 +68,8 @@ double Network::mse(const Samples& samples) const {
   double sum = 0.0;
   std::vector<double> row(static_cast<std::size_t>(samples.inputs.cols()));
   for (Eigen::Index i = 0; i < samples.inputs.rows(); ++i) {
-    for (Eigen::Index c = 0; c < samples.inputs.cols(); ++c) row[static_cast<std::size_t>(c)] = samples.inputs(i, c);
+    for (Eigen::Index c = 0; c < samples.inputs.cols(); ++c)
+      row[static_cast<std::size_t>(c)] = samples.inputs(i, c);
     const double error = predict(row.data()) - samples.targets(i);
     sum += error * error;
   }
@@ -86,7 +87,8 @@ void Network::gradients(const Samples& samples, std::vector<Eigen::MatrixXd>& we
   const auto n = static_cast<double>(samples.inputs.rows());
   std::vector<double> row(static_cast<std::size_t>(samples.inputs.cols()));
   for (Eigen::Index i = 0; i < samples.inputs.rows(); ++i) {
-    for (Eigen::Index c = 0; c < samples.inputs.cols(); ++c) row[static_cast<std::size_t>(c)] = samples.inputs(i, c);
+    for (Eigen::Index c = 0; c < samples.inputs.cols(); ++c)
+      row[static_cast<std::size_t>(c)] = samples.inputs(i, c);
     forward(row.data());
     // Output delta of ½(a_L − t/scale)².
     const std::size_t last = layers_.size() - 1;
@@ -107,7 +109,8 @@ void Network::gradients(const Samples& samples, std::vector<Eigen::MatrixXd>& we
           sum += layer.weights(r, c) * deltas_[l][static_cast<std::size_t>(r)];
         }
         deltas_[l - 1][static_cast<std::size_t>(c)] =
-            sum * activation_derivative(layers_[l - 1].activation, activations_[l - 1][static_cast<std::size_t>(c)]);
+            sum * activation_derivative(layers_[l - 1].activation,
+                                        activations_[l - 1][static_cast<std::size_t>(c)]);
       }
     }
   }
@@ -127,9 +130,11 @@ void Network::update_on_sample(const double* input, double target, double hidden
     if (l > 0) {
       for (Eigen::Index c = 0; c < cols; ++c) {
         double sum = 0.0;
-        for (Eigen::Index r = 0; r < rows; ++r) sum += layer.weights(r, c) * deltas_[l][static_cast<std::size_t>(r)];
+        for (Eigen::Index r = 0; r < rows; ++r)
+          sum += layer.weights(r, c) * deltas_[l][static_cast<std::size_t>(r)];
         deltas_[l - 1][static_cast<std::size_t>(c)] =
-            sum * activation_derivative(layers_[l - 1].activation, activations_[l - 1][static_cast<std::size_t>(c)]);
+            sum * activation_derivative(layers_[l - 1].activation,
+                                        activations_[l - 1][static_cast<std::size_t>(c)]);
       }
     }
     const double rate = l == last ? output_rate : hidden_rate;
@@ -137,9 +142,11 @@ void Network::update_on_sample(const double* input, double target, double hidden
     for (Eigen::Index c = 0; c < cols; ++c) {
       const double xc = rate * x[c];
       double* column = w + c * rows;
-      for (Eigen::Index r = 0; r < rows; ++r) column[r] -= deltas_[l][static_cast<std::size_t>(r)] * xc;
+      for (Eigen::Index r = 0; r < rows; ++r)
+        column[r] -= deltas_[l][static_cast<std::size_t>(r)] * xc;
     }
-    for (Eigen::Index r = 0; r < rows; ++r) layer.bias(r) -= rate * deltas_[l][static_cast<std::size_t>(r)];
+    for (Eigen::Index r = 0; r < rows; ++r)
+      layer.bias(r) -= rate * deltas_[l][static_cast<std::size_t>(r)];
   }
 }
 
@@ -153,7 +160,8 @@ std::vector<LossPoint> train(Network& network, const Samples& training, const Sa
   std::vector<double> rows(n * columns);
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t c = 0; c < columns; ++c) {
-      rows[i * columns + c] = training.inputs(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(c));
+      rows[i * columns + c] =
+          training.inputs(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(c));
     }
   }
   std::vector<std::size_t> order(n);
@@ -167,9 +175,11 @@ std::vector<LossPoint> train(Network& network, const Samples& training, const Sa
     for (int e = 0; e < phase.epochs; ++e) {
       ++epoch;
       if (options.mode == UpdateMode::kPerSample) {
-        for (std::size_t i = n; i > 1; --i) std::swap(order[i - 1], order[rng.below(i)]);  // Fisher–Yates
+        for (std::size_t i = n; i > 1; --i)
+          std::swap(order[i - 1], order[rng.below(i)]);  // Fisher–Yates
         for (std::size_t i : order) {
-          network.update_on_sample(rows.data() + i * columns, training.targets(static_cast<Eigen::Index>(i)),
+          network.update_on_sample(rows.data() + i * columns,
+                                   training.targets(static_cast<Eigen::Index>(i)),
                                    phase.hidden_rate, phase.output_rate);
         }
       } else {
@@ -194,10 +204,10 @@ std::vector<LossPoint> train(Network& network, const Samples& training, const Sa
             second_w[l] = kBeta2 * second_w[l] + (1.0 - kBeta2) * grad_w[l].cwiseAbs2();
             moment_b[l] = kBeta1 * moment_b[l] + (1.0 - kBeta1) * grad_b[l];
             second_b[l] = kBeta2 * second_b[l] + (1.0 - kBeta2) * grad_b[l].cwiseAbs2();
-            layers[l].weights.array() -= rate * (moment_w[l].array() / c1) /
-                                         ((second_w[l].array() / c2).sqrt() + kEpsilon);
-            layers[l].bias.array() -= rate * (moment_b[l].array() / c1) /
-                                      ((second_b[l].array() / c2).sqrt() + kEpsilon);
+            layers[l].weights.array() -=
+                rate * (moment_w[l].array() / c1) / ((second_w[l].array() / c2).sqrt() + kEpsilon);
+            layers[l].bias.array() -=
+                rate * (moment_b[l].array() / c1) / ((second_b[l].array() / c2).sqrt() + kEpsilon);
           }
         } else {
           for (std::size_t l = 0; l < layers.size(); ++l) {
@@ -212,7 +222,8 @@ std::vector<LossPoint> train(Network& network, const Samples& training, const Sa
       }
     }
   }
-  if (curve.back().epoch != epoch) curve.push_back({epoch, network.mse(training), network.mse(validation)});
+  if (curve.back().epoch != epoch)
+    curve.push_back({epoch, network.mse(training), network.mse(validation)});
   return curve;
 }
 

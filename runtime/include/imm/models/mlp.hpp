@@ -5,12 +5,11 @@
 /// allocating (buffers sized at construction; not thread-safe). The trainer back-propagates through
 /// these same layers (trainer/…/mlp/backpropagation.hpp).
 
+#include <Eigen/Core>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace imm {
 

@@ -6,12 +6,11 @@
 /// primary KF fed the true acceleration. MSE of the innovation, the position and the velocity over
 /// every scan after the two-point start and every run.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace imm::evaluation {
 
@@ -30,7 +29,7 @@ struct InputEstimatorRow {
   std::string name;  ///< "5 m/s2 30 s"
   KfErrors cv, corrected, true_input;
   KfErrors paper_cv, paper_corrected;
-  Eigen::VectorXd true_acceleration, mean_estimate;  ///< per scan (mean over runs)
+  Eigen::VectorXd true_acceleration, mean_estimate;           ///< per scan (mean over runs)
   Eigen::VectorXd cv_position_rmse, corrected_position_rmse;  ///< per scan
 };
 

@@ -1,7 +1,7 @@
 #pragma once
-/// `imm-train mlp --config configs/mlp_input_estimator.toml`: the neural input estimator of seed 001.
-/// Training data: one-axis trajectories from the configured acceleration profiles (the seed's §4.1:
-/// initial speed 100 m/s, 500 s, accelerations in 0–10 m/s² with different durations), noisy
+/// `imm-train mlp --config configs/mlp_input_estimator.toml`: the neural input estimator of seed
+/// 001. Training data: one-axis trajectories from the configured acceleration profiles (the seed's
+/// §4.1: initial speed 100 m/s, 500 s, accelerations in 0–10 m/s² with different durations), noisy
 /// measurements, and the features of the runtime's own InnovationFeatureExtractor; target = the
 /// true acceleration. Inputs are standardized with the training features' mean and standard
 /// deviation (stored in the model).
@@ -23,8 +23,8 @@
 namespace imm::trainer::mlp {
 
 struct ManeuverPulse {
-  double start = 0.0;     ///< s
-  double duration = 0.0;  ///< s
+  double start = 0.0;         ///< s
+  double duration = 0.0;      ///< s
   double acceleration = 0.0;  ///< m/s²
 };
 
@@ -53,7 +53,7 @@ struct MlpTrainingConfig {
 
 /// One trajectory's samples: standardized later.
 struct FeatureSet {
-  Samples samples;        ///< raw features (sum, diff) and true accelerations
+  Samples samples;  ///< raw features (sum, diff) and true accelerations
   std::string digest;
 };
 

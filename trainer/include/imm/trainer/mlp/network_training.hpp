@@ -9,13 +9,12 @@
 /// Output unit, and why: a sigmoid scaled to [0, scale] (default 12 m/s², above the 10 m/s² of the
 /// training maneuvers). Its output is bounded and non-negative like the seed's maneuvers, and its
 /// gradient stays O(1) in the normalized units, so the seed's rate 0.1 trains stably. A linear unit
-/// on raw m/s² multiplies the output delta by the target's scale and at 0.1 diverges or collapses to
-/// a constant; it remains available ("linear", trained on the same normalized target).
-
-#include <cstdint>
-#include <vector>
+/// on raw m/s² multiplies the output delta by the target's scale and at 0.1 diverges or collapses
+/// to a constant; it remains available ("linear", trained on the same normalized target).
 
 #include <Eigen/Core>
+#include <cstdint>
+#include <vector>
 
 #include "imm/models/mlp.hpp"
 
@@ -39,7 +38,7 @@ struct TrainingOptions {
   std::vector<Phase> phases = {{3000, 0.1, 0.1}, {3000, 0.05, 0.01}};
   UpdateMode mode = UpdateMode::kPerSample;
   Optimizer optimizer = Optimizer::kGradientDescent;
-  int loss_every = 50;  ///< epochs between loss-curve points
+  int loss_every = 50;     ///< epochs between loss-curve points
   std::uint64_t seed = 1;  ///< sample order (per-sample mode)
 };
 
