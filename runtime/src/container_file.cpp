@@ -434,6 +434,11 @@ void ContainerWriter::write(std::string_view dataset, const Array& array) {
     H5Pset_chunk(create_list.get(), rank, chunk.data());
     H5Pset_fletcher32(create_list.get());
   }
+  // A later write of the same dataset replaces the earlier one, as set_attribute does.
+  if (link_exists(impl_->file.get(), name) &&
+      H5Ldelete(impl_->file.get(), name.c_str(), H5P_DEFAULT) < 0) {
+    throw FileError(file, name, "cannot replace dataset: " + hdf5_cause());
+  }
   Handle link_list(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
   H5Pset_create_intermediate_group(link_list.get(), 1);
   Handle data(H5Dcreate2(impl_->file.get(), name.c_str(), H5T_IEEE_F64LE, space.get(),

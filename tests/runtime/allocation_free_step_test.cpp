@@ -13,6 +13,7 @@
 #include <new>
 
 #include "imm/filters/aimm.hpp"
+#include "imm/filters/fcm_imm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/input_estimation_filter.hpp"
@@ -114,7 +115,8 @@ TEST(AllocationFreeStep, MixedDimensionPolarImmStep) {
   EXPECT_EQ(allocations(), before);
 }
 
-// The seed-000 filters (GA-fuzzy IMM and AIMM, two axes each) and seed 004's weighted IMM.
+// The seed-000 filters (GA-fuzzy IMM and AIMM, two axes each), seed 003's FCM-IMM and seed 004's
+// weighted IMM.
 TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
   GaFuzzyImmSpec fuzzy;
   fuzzy.levels = {
@@ -126,6 +128,13 @@ TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
   std::vector<std::unique_ptr<TrackFilter>> filters;
   filters.push_back(make_ga_fuzzy_imm_filter(fuzzy));
   filters.push_back(make_aimm_filter(aimm));
+  for (auto scale : {MembershipScale::kSeed, MembershipScale::kInnovation}) {
+    FcmImmSpec fcm;  // seed 003's FCM-IMM, with both membership scales
+    fcm.scale = scale;
+    fcm.measurement_sigma = 0.3;
+    fcm.clustering.fuzzifier = 2.5;
+    filters.push_back(make_fcm_imm_filter(fcm));
+  }
   for (auto fusion : {FusionVariant::kSeed, FusionVariant::kCorrelated}) {
     WimmSpec wimm;
     wimm.fusion = fusion;

@@ -143,6 +143,46 @@ UpdateReport<M> update_with_innovation(GaussianState<N>& state, const Vector<M>&
   return report;
 }
 
+/// Measurement update with a given (not necessarily optimal) gain K:
+///   x⁺ = x⁻ + K ν,  P⁺ = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ,
+/// the Joseph form, which is the exact error covariance of this update for any gain (not only
+/// the Kalman gain) and stays positive semi-definite. The log-likelihood is that of ν under the
+/// nominal S = H P⁻ Hᵀ + R. On any status other than kOk `state` is left as it was.
+template <int N, int M>
+UpdateReport<M> update_with_gain(GaussianState<N>& state, const Vector<M>& innovation,
+                                 const Matrix<M, N>& H, const SquareMatrix<M>& R,
+                                 const Matrix<N, M>& K) {
+  UpdateReport<M> report;
+  report.innovation = innovation;
+  report.innovation_covariance.noalias() = H * state.covariance * H.transpose();
+  report.innovation_covariance += R;
+  symmetrize(report.innovation_covariance);
+  const Eigen::LLT<SquareMatrix<M>> llt(report.innovation_covariance);
+  if (!report.innovation_covariance.allFinite() || llt.info() != Eigen::Success || !K.allFinite()) {
+    report.status = StepStatus::kSingularInnovation;
+    return report;
+  }
+  SquareMatrix<N> A = SquareMatrix<N>::Identity();
+  A.noalias() -= K * H;
+  GaussianState<N> updated;
+  updated.mean = state.mean;
+  updated.mean.noalias() += K * innovation;
+  updated.covariance.noalias() = A * state.covariance * A.transpose();
+  updated.covariance.noalias() += K * R * K.transpose();
+  symmetrize(updated.covariance);
+  if (!updated.all_finite()) {
+    report.status = StepStatus::kNonFiniteResult;
+    return report;
+  }
+  const Vector<M> whitened = llt.matrixL().solve(innovation);
+  double log_det = 0.0;
+  for (int i = 0; i < M; ++i) log_det += 2.0 * std::log(llt.matrixL()(i, i));
+  constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
+  report.log_likelihood = -0.5 * (whitened.squaredNorm() + log_det + M * kLogTwoPi);
+  state = updated;
+  return report;
+}
+
 /// Linear Kalman measurement update, z = H x + v, v ~ N(0, R) (seed 000 eq. 7-3–7-7).
 template <int N, int M>
 UpdateReport<M> update(GaussianState<N>& state, const Vector<M>& z, const Matrix<M, N>& H,

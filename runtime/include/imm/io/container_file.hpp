@@ -55,7 +55,8 @@ class ContainerWriter {
   ContainerWriter(const ContainerWriter&) = delete;
   ContainerWriter& operator=(const ContainerWriter&) = delete;
 
-  /// Writes a dataset (intermediate groups are created). Non-finite values are refused.
+  /// Writes a dataset (intermediate groups are created; an existing one is replaced).
+  /// Non-finite values are refused.
   void write(std::string_view dataset, const Array& array);
   void write(std::string_view dataset, const Eigen::MatrixXd& matrix);
 

@@ -1,0 +1,78 @@
+#include "imm/io/fcm_imm_file.hpp"
+
+#include "imm/core/invalid_parameter.hpp"
+
+namespace imm::io {
+namespace {
+constexpr const char* kGroup = "/fcm_imm";
+}
+
+void write_fcm_imm(ModelFileWriter& writer, const FcmImmSpec& spec) {
+  spec.validate();
+  if (spec.mean_memberships.size() == 0) {
+    throw InvalidParameter("mean_memberships", "a model file needs the mean memberships");
+  }
+  writer.set_attribute(kGroup, "sample_period", spec.sample_period);
+  writer.set_attribute(kGroup, "measurement_sigma", spec.measurement_sigma);
+  writer.set_attribute(kGroup, "window", static_cast<std::int64_t>(spec.window));
+  writer.set_attribute(kGroup, "fuzzifier", spec.clustering.fuzzifier);
+  writer.set_attribute(kGroup, "tolerance", spec.clustering.tolerance);
+  writer.set_attribute(kGroup, "max_iterations",
+                       static_cast<std::int64_t>(spec.clustering.max_iterations));
+  writer.set_attribute(kGroup, "membership_scale", std::string(to_string(spec.scale)));
+  writer.set_attribute(kGroup, "separation", spec.separation);
+  writer.set_attribute(kGroup, "compensation_gain", spec.compensation_gain);
+  writer.set_attribute(kGroup, "compensate_lowest",
+                       static_cast<std::int64_t>(spec.compensate_lowest ? 1 : 0));
+  const Eigen::Map<const Eigen::VectorXd> q(spec.process_noise.data(),
+                                            static_cast<Eigen::Index>(spec.process_noise.size()));
+  writer.write_vector("/fcm_imm/process_noise", q);
+  writer.write_matrix("/fcm_imm/transition", spec.transition);
+  writer.write_vector("/fcm_imm/initial_probabilities", spec.initial_probabilities);
+  writer.write_matrix("/fcm_imm/mean_memberships", spec.mean_memberships,
+                      {"deceleration", "noise", "acceleration"});
+}
+
+FcmImmSpec read_fcm_imm(const ModelFileReader& reader) {
+  FcmImmSpec spec;
+  spec.sample_period = reader.real(kGroup, "sample_period", ValueRule::kPositive);
+  spec.measurement_sigma = reader.real(kGroup, "measurement_sigma", ValueRule::kPositive);
+  spec.window =
+      static_cast<int>(reader.integer(kGroup, "window", 3, SlidingFuzzyCMeans::kMaxWindow));
+  spec.clustering.fuzzifier = reader.real(kGroup, "fuzzifier", ValueRule::kPositive);
+  spec.clustering.tolerance = reader.real(kGroup, "tolerance", ValueRule::kPositive);
+  spec.clustering.max_iterations =
+      static_cast<int>(reader.integer(kGroup, "max_iterations", 1, 100000));
+  spec.separation = reader.real(kGroup, "separation", ValueRule::kNonNegative);
+  spec.compensation_gain = reader.real(kGroup, "compensation_gain", ValueRule::kProbability);
+  spec.compensate_lowest = reader.integer(kGroup, "compensate_lowest", 0, 1) == 1;
+  try {
+    spec.scale = membership_scale_from(reader.text(kGroup, "membership_scale"), "membership_scale");
+  } catch (const InvalidParameter& error) {
+    reader.fail(std::string(kGroup) + "@" + error.field(), error.what());
+  }
+  const Eigen::VectorXd q = reader.vector("/fcm_imm/process_noise", -1, ValueRule::kNonNegative);
+  if (q.size() < 1 || q.size() > 8) reader.fail("/fcm_imm/process_noise", "need 1 to 8 modes");
+  spec.process_noise.assign(q.data(), q.data() + q.size());
+  const int n = static_cast<int>(q.size());
+  spec.transition = reader.matrix("/fcm_imm/transition", n, n, ValueRule::kProbability);
+  spec.initial_probabilities =
+      reader.vector("/fcm_imm/initial_probabilities", n, ValueRule::kProbability);
+  spec.mean_memberships =
+      reader.matrix("/fcm_imm/mean_memberships", n, kFcmClusters, ValueRule::kProbability);
+  try {
+    spec.validate();
+  } catch (const InvalidParameter& error) {
+    const std::string& f = error.field();
+    const bool dataset = f == "transition" || f == "initial_probabilities" ||
+                         f == "mean_memberships" || f.rfind("process_noise", 0) == 0;
+    reader.fail(dataset ? "/fcm_imm/" + f : std::string(kGroup) + "@" + f, error.what());
+  }
+  return spec;
+}
+
+FcmImmSpec read_fcm_imm(const std::filesystem::path& path) {
+  return read_fcm_imm(ModelFileReader(path, kFcmImmKind));
+}
+
+}  // namespace imm::io
