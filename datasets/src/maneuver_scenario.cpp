@@ -88,6 +88,46 @@ ManeuverScenario seed000_scenario() {
   return s;
 }
 
+std::vector<ManeuverSegment> zigzag_maneuvers(int start, int quarter,
+                                              const std::vector<double>& magnitudes,
+                                              const Eigen::Vector2d& lateral) {
+  if (quarter < 1) throw InvalidParameter("quarter", "must be at least one transition");
+  std::vector<ManeuverSegment> segments;
+  int k = start;
+  for (std::size_t i = 0; i < magnitudes.size(); ++i) {
+    const double sign = i % 2 == 0 ? 1.0 : -1.0;
+    const Eigen::Vector2d a = sign * magnitudes[i] * lateral;
+    segments.push_back({k, k + quarter, a});
+    segments.push_back({k + quarter, k + 3 * quarter, -a});
+    segments.push_back({k + 3 * quarter, k + 4 * quarter, a});
+    k += 4 * quarter;
+  }
+  return segments;
+}
+
+ManeuverScenario seed003_scenario(double acceleration_scale) {
+  if (!(acceleration_scale > 0.0) || !std::isfinite(acceleration_scale)) {
+    throw InvalidParameter("acceleration_scale", "must be positive and finite");
+  }
+  ManeuverScenario s;
+  s.name = "seed003";
+  s.sample_period = 1.0;
+  s.steps = 400;
+  s.runs = 100;
+  s.seed = 1;
+  s.initial_position = Eigen::Vector2d(300e3, 200e3);
+  const Eigen::Vector2d heading = -s.initial_position.normalized();
+  s.initial_velocity = 450.0 * heading;
+  s.process_noise_sigma = 0.5;
+  s.measurement.kind = MeasurementKind::kCartesian;
+  s.measurement.sigma = Eigen::Vector2d(100.0, 100.0);
+  const Eigen::Vector2d lateral(-heading.y(), heading.x());
+  std::vector<double> magnitudes = {30.0, 40.0, 50.0, 60.0};
+  for (double& a : magnitudes) a *= acceleration_scale;
+  s.maneuvers = zigzag_maneuvers(136, 8, magnitudes, lateral);
+  return s;
+}
+
 ManeuverScenario seed004_scenario(int number) {
   if (number != 1 && number != 2)
     throw InvalidParameter("scenario", "seed 004 has scenarios 1 and 2");

@@ -123,6 +123,7 @@ void FcmCompensatedMode::reset(const GaussianState<2>& state) {
   clustering_.reset();
   memberships_ = ClusterVector(0.0, 1.0, 0.0);
   compensation_ = 0.0;
+  error_ = 0.0;
 }
 
 ModeStep FcmCompensatedMode::propose(const GaussianState<2>& mixed, const Vector<1>& z) {
@@ -131,6 +132,7 @@ ModeStep FcmCompensatedMode::propose(const GaussianState<2>& mixed, const Vector
   const double S = pending_.covariance(0, 0) + R_(0, 0);
   if (!(S > 0.0) || !std::isfinite(S)) return {StepStatus::kSingularInnovation, 0.0};
   const double error = z(0) - pending_.mean(0);  // e(k), eq. (13)
+  pending_error_ = error;
 
   pending_clustered_ = !constant_;
   if (constant_) {
@@ -156,6 +158,7 @@ ModeStep FcmCompensatedMode::propose_prediction(const GaussianState<2>& mixed) {
   pending_clustered_ = false;
   pending_memberships_ = memberships_;
   pending_compensation_ = 0.0;
+  pending_error_ = 0.0;
   return {pending_.all_finite() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
 }
 
@@ -163,6 +166,7 @@ void FcmCompensatedMode::commit() {
   estimate_ = pending_;
   memberships_ = pending_memberships_;
   compensation_ = pending_compensation_;
+  error_ = pending_error_;
   if (pending_clustered_) clustering_.commit();
   pending_clustered_ = false;
 }

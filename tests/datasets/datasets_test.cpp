@@ -80,6 +80,42 @@ TEST(ManeuverScenario, NoiseFreeTruthFollowsTheKinematics) {
   }
 }
 
+TEST(ManeuverScenario, Seed003ZigzagIsPerpendicularAndReturnsToThePath) {
+  datasets::ManeuverScenario s = datasets::seed003_scenario();
+  s.process_noise_sigma = 0.0;
+  s.runs = 1;
+  const datasets::ScenarioData data = datasets::simulate(s);
+  const Eigen::MatrixXd& x = data.truth.front();
+  const Eigen::Vector2d heading = -Eigen::Vector2d(300e3, 200e3).normalized();
+  const Eigen::Vector2d lateral(-heading.y(), heading.x());
+  auto position = [&](int k) { return Eigen::Vector2d(x(k, 0), x(k, 2)); };
+  auto velocity = [&](int k) { return Eigen::Vector2d(x(k, 1), x(k, 3)); };
+  // Straight at 450 m/s toward the observer until scan 136, and again from scan 264 on, back on
+  // the original line (every zigzag period returns the lateral velocity and offset to zero).
+  for (int k : {0, 136, 264, 399}) {
+    EXPECT_NEAR((velocity(k) - 450.0 * heading).norm(), 0.0, 1e-6) << k;
+    EXPECT_NEAR((position(k) - (Eigen::Vector2d(300e3, 200e3) + 450.0 * k * heading)).norm(), 0.0,
+                1e-5)
+        << k;
+  }
+  // The accelerations are perpendicular to the path and 30 … 60 m/s²; the first swing peaks at
+  // a·quarter² = 30·64 m off the line at scan 152.
+  for (int k = 0; k < s.steps; ++k) {
+    const Eigen::Vector2d a(data.acceleration_input(k, 0), data.acceleration_input(k, 1));
+    EXPECT_NEAR(a.dot(heading), 0.0, 1e-9);
+    const bool inside = k >= 136 && k < 264;
+    EXPECT_EQ(a.norm() > 0.0, inside) << k;
+    if (inside) {
+      EXPECT_TRUE(a.norm() > 29.9 && a.norm() < 60.1) << k;
+    }
+  }
+  EXPECT_NEAR(
+      (position(152) - (Eigen::Vector2d(300e3, 200e3) + 450.0 * 152 * heading)).dot(lateral),
+      30.0 * 64.0, 1e-6);
+  // --accel-scale 10: the seed's literal values.
+  EXPECT_NEAR(datasets::seed003_scenario(10.0).maneuvers.back().acceleration.norm(), 600.0, 1e-9);
+}
+
 TEST(ManeuverScenario, RunsAreReproducibleAndIndependentOfTheRunCount) {
   ManeuverScenario s = seed000_scenario();
   s.runs = 5;

@@ -335,6 +335,62 @@ TEST_F(Tools, WimmTrainingAndEvaluationEndToEnd) {
   EXPECT_TRUE(std::filesystem::exists(out / "scenario2_azimuth_rmse.csv"));
 }
 
+TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
+  std::string config = testing::slurp(this->config("configs/fcm_imm.toml"));
+  auto replace = [&](const std::string& from, const std::string& to) {
+    ASSERT_NE(config.find(from), std::string::npos) << from;
+    config.replace(config.find(from), from.size(), to);
+  };
+  replace("trajectories = 16", "trajectories = 3");
+  replace("validation = 8", "validation = 2");
+  replace("windows = [8, 16, 32]", "windows = [8]");
+  replace("max_evaluations = 150", "max_evaluations = 10");
+  testing::write_text(dir_ / "fcm.toml", config);
+  const auto models = dir_ / "models";
+  const auto trained = run_tool("imm-train",
+                                {"fcm", "--config", (dir_ / "fcm.toml").string(), "--out",
+                                 (models / "fcm_imm.h5").string(), "--seed", "4"},
+                                root_);
+  ASSERT_EQ(trained.exit_code, 0) << trained.err;
+  EXPECT_NE(trained.err.find("fitted: window 8"), std::string::npos) << trained.err;
+  const auto inspected = run_tool("imm-inspect", {(models / "fcm_imm.h5").string()}, root_);
+  ASSERT_EQ(inspected.exit_code, 0) << inspected.err;
+  EXPECT_NE(inspected.out.find("kind             fcm_imm"), std::string::npos);
+  EXPECT_NE(inspected.out.find("mean_memberships"), std::string::npos) << inspected.out;
+
+  const auto out = dir_ / "report";
+  const auto evaluated =
+      run_tool("imm-eval",
+               {"fcm-imm", "--models", models.string(), "--config", (dir_ / "fcm.toml").string(),
+                "--runs", "4", "--out", out.string()},
+               root_);
+  ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 5) << evaluated.err;
+  EXPECT_NE(evaluated.out.find("FCM-IMM-const"), std::string::npos);
+  const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+  ASSERT_EQ(metrics.size(), 5u);
+  for (const char* filter : {"KF", "AIMM", "IMM-tuned", "FCM-IMM", "FCM-IMM-const"}) {
+    ASSERT_TRUE(metrics.contains(filter)) << filter;
+    for (const char* key : {"pos_rmse", "vel_rmse", "pos_rmse_maneuver", "vel_rmse_maneuver"}) {
+      const double value = metrics[filter][key].get<double>();
+      EXPECT_GT(value, 0.0) << filter << " " << key;
+      EXPECT_LT(value, 1000.0) << filter << " " << key;  // m, m/s: nothing diverged
+    }
+  }
+  EXPECT_TRUE(std::filesystem::exists(out / "position_rmse.csv"));
+  EXPECT_TRUE(std::filesystem::exists(out / "error_clusters_run0.csv"));
+
+  // A model that is not an fcm_imm file is refused with exit code 2.
+  std::filesystem::create_directories(dir_ / "wrong");
+  std::filesystem::copy_file(this->config("models/wimm.h5"), dir_ / "wrong" / "fcm_imm.h5");
+  const auto wrong = run_tool(
+      "imm-eval",
+      {"fcm-imm", "--models", (dir_ / "wrong").string(), "--config", (dir_ / "fcm.toml").string(),
+       "--runs", "2", "--out", (dir_ / "wrong-report").string()},
+      root_);
+  EXPECT_EQ(wrong.exit_code, 2);
+  EXPECT_NE(wrong.err.find("fcm_imm"), std::string::npos) << wrong.err;
+}
+
 TEST_F(Tools, ImmInspectShowsRuleTablesLikeTable2) {
   const auto model = dir_ / "paper.h5";
   const auto result = run_tool(

@@ -48,15 +48,19 @@ int main(int argc, char** argv) {
   std::string scenario_name, out_path, config_path, csv_path;
   int runs = -1, csv_run = 0;
   std::int64_t seed = -1;
-  app.add_option("scenario", scenario_name, "seed000 | seed004-1 | seed004-2 | maneuver")
+  app.add_option("scenario", scenario_name, "seed000 | seed003 | seed004-1 | seed004-2 | maneuver")
       ->required()
-      ->check(CLI::IsMember({"seed000", "seed004-1", "seed004-2", "maneuver"}));
+      ->check(CLI::IsMember({"seed000", "seed003", "seed004-1", "seed004-2", "maneuver"}));
   app.add_option("--out", out_path, "data-set file to write (HDF5)")->required();
   app.add_option("--config", config_path, "scenario TOML (overrides the scenario's defaults)");
   app.add_option("--runs", runs, "Monte Carlo runs (overrides the config)")
       ->check(CLI::PositiveNumber);
   app.add_option("--seed", seed, "random seed (overrides the config)")
       ->check(CLI::NonNegativeNumber);
+  double accel_scale = 1.0;
+  app.add_option("--accel-scale", accel_scale,
+                 "seed003: multiply the accelerations (10: the seed's literal 0.3-0.6 km/s^2)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--csv", csv_path, "also write one run's measurements as CSV for imm-track");
   app.add_option("--csv-run", csv_run, "which run --csv writes")->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
@@ -64,6 +68,7 @@ int main(int argc, char** argv) {
   try {
     imm::datasets::ManeuverScenario scenario = imm::datasets::ManeuverScenario{};
     if (scenario_name == "seed000") scenario = imm::datasets::seed000_scenario();
+    if (scenario_name == "seed003") scenario = imm::datasets::seed003_scenario(accel_scale);
     if (scenario_name == "seed004-1") scenario = imm::datasets::seed004_scenario(1);
     if (scenario_name == "seed004-2") scenario = imm::datasets::seed004_scenario(2);
     std::string config_text;

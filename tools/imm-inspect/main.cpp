@@ -17,9 +17,10 @@
 
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/io/container_file.hpp"
+#include "imm/io/fcm_imm_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
-#include "imm/io/model_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
+#include "imm/io/model_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/io/wimm_file.hpp"
 
@@ -46,6 +47,8 @@ const std::map<std::string, std::function<void(const std::string&)>>& validators
        [](const std::string& path) { (void)imm::io::read_mlp_input_estimator(path); }},
       {std::string(imm::io::kWimmKind),
        [](const std::string& path) { (void)imm::io::read_wimm(path); }},
+      {std::string(imm::io::kFcmImmKind),
+       [](const std::string& path) { (void)imm::io::read_fcm_imm(path); }},
   };
   return table;
 }

@@ -5,7 +5,9 @@
 //                          --config configs/ga_fuzzy_imm.toml --out
 //                          models/reference/ga_fuzzy_imm_paper.h5
 //   imm-train mlp --config configs/mlp_input_estimator.toml [--out models/mlp_input_estimator.h5]
-//   [--seed N] imm-train wimm --config configs/wimm.toml [--out models/wimm.h5] [--seed N]
+//                 [--seed N]
+//   imm-train wimm --config configs/wimm.toml [--out models/wimm.h5] [--seed N]
+//   imm-train fcm --config configs/fcm_imm.toml [--out models/fcm_imm.h5] [--seed N]
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
 //   imm-train all --config configs/nightly.toml
 //
@@ -14,6 +16,7 @@
 // model written).
 
 #include <omp.h>
+#include <spdlog/fmt/ranges.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -24,6 +27,7 @@
 #include "imm/datasets/random.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/support/config.hpp"
+#include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/freeze.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/import_rules.hpp"
@@ -197,6 +201,15 @@ int main(int argc, char** argv) {
   wimm_command->add_option("--out", wimm_out, "model file to write");
   wimm_command->add_option("--seed", wimm_seed, "override the config's seed");
 
+  std::filesystem::path fcm_config = "configs/fcm_imm.toml";
+  std::filesystem::path fcm_out = "models/fcm_imm.h5";
+  std::optional<std::uint64_t> fcm_seed;
+  auto* fcm_command = app.add_subcommand(
+      "fcm", "fit the FCM-IMM's parameters (seed 003) on training trajectories with NLopt");
+  fcm_command->add_option("--config", fcm_config, "FCM-IMM config TOML");
+  fcm_command->add_option("--out", fcm_out, "model file to write");
+  fcm_command->add_option("--seed", fcm_seed, "override the config's seed");
+
   std::filesystem::path nightly_config;
   auto* all_command = app.add_subcommand("all", "run every stage of the nightly plan");
   all_command->add_option("--config", nightly_config, "nightly plan TOML")->required();
@@ -251,6 +264,34 @@ int main(int argc, char** argv) {
           result.tuned.spec.threshold, result.tuned.spec.alpha, result.tuned.azimuth_ratio,
           result.tuned.position_ratio, result.tuned.evaluations, result.wall_seconds,
           wimm_out.string());
+      return 0;
+    }
+    if (*fcm_command) {
+      auto config = imm::trainer::fcm::load_fcm_config(fcm_config);
+      if (fcm_seed) config.seed = *fcm_seed;
+      spdlog::info(
+          "fcm: fitting on {} training trajectories ({} held out, {} scans, seed {}), windows {}",
+          config.training.trajectories, config.training.validation, config.training.steps,
+          config.seed, fmt::join(config.tuning.windows, ", "));
+      const auto result = imm::trainer::fcm::train_fcm(config, fcm_out);
+      const auto& s = result.spec;
+      spdlog::info(
+          "fitted: window {}, lambda {:.3f}, m {:.2f}, kappa {:.2f}, stay {:.4f}, q = {:.4g} "
+          "(m/s^2)^2; J = {:.4f} training, {:.4f} validation (lambda = 0 IMM {:.4f}, KF {:.4f}); "
+          "{} evaluations, {:.1f} s",
+          s.window, s.compensation_gain, s.clustering.fuzzifier, s.separation, s.transition(0, 0),
+          fmt::join(s.process_noise, ", "), result.training.objective, result.validation.objective,
+          result.imm_validation.objective, result.kf_validation.objective, result.evaluations,
+          result.wall_seconds);
+      if (!result.gate_passed) {
+        spdlog::error(
+            "quality gate failed: validation J {:.4f} exceeds {:.3f} x the tuned KF's "
+            "{:.4f}; {} not written",
+            result.validation.objective, config.max_validation_ratio,
+            result.kf_validation.objective, fcm_out.string());
+        return kExitGateFailed;
+      }
+      spdlog::info("wrote {}", fcm_out.string());
       return 0;
     }
     if (*import_command) {

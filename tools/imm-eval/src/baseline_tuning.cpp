@@ -2,70 +2,16 @@
 
 #include <cmath>
 #include <limits>
-#include <nlopt.hpp>
 
 #include "imm/evaluation/normalized_errors.hpp"
+#include "imm/trainer/bounded_search.hpp"
 
 namespace imm::evaluation {
 namespace {
 
-// Minimizes f over the box [lower, upper] (log10 coordinates): the grid's best point, polished.
-struct SearchResult {
-  std::vector<double> x;
-  double value = std::numeric_limits<double>::infinity();
-  int evaluations = 0;
-};
-
-SearchResult grid_then_subplex(const std::function<double(const std::vector<double>&)>& f,
-                               const std::vector<double>& lower, const std::vector<double>& upper,
-                               int grid_points, int polish_evaluations, bool ordered) {
-  const std::size_t n = lower.size();
-  SearchResult best;
-  std::vector<int> index(n, 0);
-  while (true) {
-    std::vector<double> x(n);
-    bool keep = true;
-    for (std::size_t d = 0; d < n; ++d) {
-      x[d] = lower[d] + (upper[d] - lower[d]) * index[d] / (grid_points - 1);
-      if (ordered && d > 0 && index[d] < index[d - 1]) keep = false;  // q₁ ≤ q₂ ≤ … only
-    }
-    if (keep) {
-      const double value = f(x);
-      ++best.evaluations;
-      if (value < best.value) best.value = value, best.x = x;
-    }
-    std::size_t d = 0;
-    while (d < n && ++index[d] == grid_points) index[d++] = 0;
-    if (d == n) break;
-  }
-  struct Context {
-    const std::function<double(const std::vector<double>&)>* f;
-    int evaluations = 0;
-  } context{&f, 0};
-  nlopt::opt optimizer(nlopt::LN_SBPLX, static_cast<unsigned>(n));
-  optimizer.set_lower_bounds(lower);
-  optimizer.set_upper_bounds(upper);
-  optimizer.set_maxeval(polish_evaluations);
-  optimizer.set_xtol_abs(1e-3);
-  optimizer.set_min_objective(
-      [](const std::vector<double>& x, std::vector<double>&, void* data) {
-        auto& c = *static_cast<Context*>(data);
-        ++c.evaluations;
-        return (*c.f)(x);
-      },
-      &context);
-  std::vector<double> x = best.x;
-  double value = best.value;
-  try {
-    optimizer.optimize(x, value);
-  } catch (const std::exception&) {
-    // keep the best point reached
-  }
-  best.evaluations += context.evaluations;
-  const double polished = f(x);
-  if (polished < best.value) best.value = polished, best.x = x;
-  return best;
-}
+using trainer::grid_then_subplex;
+using trainer::SearchOptions;
+using trainer::SearchResult;
 
 }  // namespace
 
@@ -109,9 +55,12 @@ Tuned<AimmSpec> tune_aimm(const AimmSpec& base, const std::vector<trainer::ga::T
       for (double e : log_epsilon) spec.intervals.push_back(std::pow(10.0, e));
       return axis_score([&] { return std::make_unique<AimmAxisFilter>(spec); }, sets);
     };
-    const SearchResult result =
-        grid_then_subplex(score, std::vector<double>(n, -3.0),
-                          std::vector<double>(n, std::log10(0.3)), n == 1 ? 16 : 10, 60, true);
+    const SearchResult result = grid_then_subplex(score, std::vector<double>(n, -3.0),
+                                                  std::vector<double>(n, std::log10(0.3)),
+                                                  {.grid_points = n == 1 ? 16 : 10,
+                                                   .polish_evaluations = 60,
+                                                   .ordered = true,
+                                                   .xtol_abs = 1e-3});
     best.evaluations += result.evaluations;
     if (result.value < best.score) {
       best.score = result.value;
@@ -133,8 +82,9 @@ Tuned<AxisCvImmSpec> tune_axis_cv_imm(const AxisCvImmSpec& base,
     return axis_score([&] { return std::make_unique<ImmAxisFilter>(build_axis_cv_imm(spec)); },
                       sets);
   };
-  const SearchResult result = grid_then_subplex(score, std::vector<double>(levels, -10.0),
-                                                std::vector<double>(levels, -1.0), 8, 150, true);
+  const SearchResult result = grid_then_subplex(
+      score, std::vector<double>(levels, -10.0), std::vector<double>(levels, -1.0),
+      {.grid_points = 8, .polish_evaluations = 150, .ordered = true, .xtol_abs = 1e-3});
   Tuned<AxisCvImmSpec> tuned;
   tuned.spec = base;
   tuned.spec.process_noise.clear();

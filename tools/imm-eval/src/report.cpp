@@ -85,9 +85,11 @@ bool plot_series(const PlotSpec& spec) {
            << "set xlabel '" << spec.x_label << "'\n"
            << "set ylabel '" << spec.y_label << "'\n"
            << "plot ";
+    const std::string style = spec.style == "lines" ? "lines lw 2" : spec.style + " ps 0.6";
     for (std::size_t i = 0; i < spec.series.size(); ++i) {
-      script << (i == 0 ? "" : ", ") << "'" << spec.csv.string() << "' using 'k':'"
-             << spec.series[i] << "' with lines lw 2 title '" << spec.series[i] << "'";
+      const std::string x = i < spec.x_series.size() ? spec.x_series[i] : "k";
+      script << (i == 0 ? "" : ", ") << "'" << spec.csv.string() << "' using '" << x << "':'"
+             << spec.series[i] << "' with " << style << " title '" << spec.series[i] << "'";
     }
     script << "\n";
   }

@@ -3,13 +3,13 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
-#include <nlopt.hpp>
 #include <numbers>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "imm/support/config.hpp"
+#include "imm/trainer/bounded_search.hpp"
 #include "imm/trainer/provenance.hpp"
 
 namespace imm::trainer::wimm {
@@ -82,54 +82,6 @@ WimmTrainingConfig config_from(const support::ConfigTable& root) {
   return c;
 }
 
-// A bounded 2-D search: a coarse grid, then Subplex from its best point.
-struct Search {
-  std::vector<double> x;
-  double value = std::numeric_limits<double>::infinity();
-  int evaluations = 0;
-};
-
-Search minimize(const std::function<double(const std::vector<double>&)>& f,
-                const std::vector<double>& lower, const std::vector<double>& upper, int grid,
-                int polish) {
-  Search best;
-  for (int i = 0; i < grid; ++i) {
-    for (int j = 0; j < grid; ++j) {
-      const std::vector<double> x = {lower[0] + (upper[0] - lower[0]) * i / (grid - 1),
-                                     lower[1] + (upper[1] - lower[1]) * j / (grid - 1)};
-      const double value = f(x);
-      ++best.evaluations;
-      if (value < best.value) best.value = value, best.x = x;
-    }
-  }
-  struct Context {
-    const std::function<double(const std::vector<double>&)>* f = nullptr;
-    int evaluations = 0;
-  } context{&f, 0};
-  nlopt::opt optimizer(nlopt::LN_SBPLX, 2);
-  optimizer.set_lower_bounds(lower);
-  optimizer.set_upper_bounds(upper);
-  optimizer.set_maxeval(polish);
-  optimizer.set_xtol_rel(1e-3);
-  optimizer.set_min_objective(
-      [](const std::vector<double>& x, std::vector<double>&, void* data) {
-        auto& c = *static_cast<Context*>(data);
-        ++c.evaluations;
-        return (*c.f)(x);
-      },
-      &context);
-  std::vector<double> x = best.x;
-  double value = best.value;
-  try {
-    optimizer.optimize(x, value);
-  } catch (const std::exception&) {
-  }
-  best.evaluations += context.evaluations;
-  const double polished = f(x);
-  if (polished < best.value) best.value = polished, best.x = x;
-  return best;
-}
-
 Tuned tune(const WimmTrainingConfig& config, const TrainingScenarios& data,
            const std::function<WimmSpec(const std::vector<double>&)>& make,
            const std::vector<double>& lower, const std::vector<double>& upper) {
@@ -141,8 +93,11 @@ Tuned tune(const WimmTrainingConfig& config, const TrainingScenarios& data,
                      config.position_penalty);
   };
   const int grid = 6;
-  const Search search =
-      minimize(f, lower, upper, grid, std::max(0, config.max_evaluations - grid * grid));
+  const SearchResult search =
+      grid_then_subplex(f, lower, upper,
+                        {.grid_points = grid,
+                         .polish_evaluations = std::max(0, config.max_evaluations - grid * grid),
+                         .xtol_rel = 1e-3});
   Tuned tuned;
   tuned.spec = make(search.x);
   tuned.objective = search.value;

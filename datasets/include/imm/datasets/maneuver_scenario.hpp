@@ -63,6 +63,28 @@ struct ManeuverScenario {
 /// 100 runs. Units km and s.
 [[nodiscard]] ManeuverScenario seed000_scenario();
 
+/// A zigzag of lateral accelerations along the unit vector `lateral`: period i applies
+/// s_i a_i for `quarter` transitions, −s_i a_i for 2·quarter and s_i a_i for `quarter` again
+/// (s_i = +1, −1, +1, … alternating, a_i = magnitudes[i]), so that after every period the lateral
+/// velocity and offset are back to zero and the path has swung a_i quarter² to one side, then to
+/// the other. The segments start at transition `start`.
+[[nodiscard]] std::vector<ManeuverSegment> zigzag_maneuvers(int start, int quarter,
+                                                            const std::vector<double>& magnitudes,
+                                                            const Eigen::Vector2d& lateral);
+
+/// Seed 003's experiment (SPEC §7), in metres and seconds: from 300 km east / 200 km north toward
+/// the observer at 450 m/s, T = 1 s, 400 scans, σ_z = 100 m per axis, process noise σ_w =
+/// 0.5 m/s² (ours: the seed says only "simple process noise"); straight for the first third, a
+/// zigzag perpendicular to the path over transitions 136–263 (four periods of 32 s, |a| = 30, 40,
+/// 50, 60 m/s² — the seed's 0.3–0.6 km/s² scaled by 1/10, SPEC §7), straight again; 100 runs.
+/// `acceleration_scale` multiplies the accelerations (10: the seed's literal values).
+[[nodiscard]] ManeuverScenario seed003_scenario(double acceleration_scale = 1.0);
+
+/// The scans of seed 003's manoeuvre segment, [first, last): the transitions 136–263 show in the
+/// states of scans 137–264.
+inline constexpr int kSeed003ManeuverFirstScan = 137;
+inline constexpr int kSeed003ManeuverEndScan = 265;
+
 /// Seed 004's scenarios (SPEC §7): from 140 km at azimuth 45° with V = (−100, −100) m/s, T = 2 s,
 /// 250 scans, polar plots σ_R = 50 m, σ_θ = 0.5°, 100 runs, no process noise (units m, s, rad).
 /// Scenario 2 adds coordinated turns of ω = 3.82°/s over 200–223 s and 276–300 s (Table 1).

@@ -117,6 +117,8 @@ class FcmCompensatedMode final : public ImmMode<2, 1> {
 
   /// Memberships [dec, noise, acc] of the last committed error ([0, 1, 0] before any).
   [[nodiscard]] const ClusterVector& memberships() const { return memberships_; }
+  /// The error e(k) = z − H F x̂₀ of the last committed step (eq. 13).
+  [[nodiscard]] double error() const { return error_; }
   /// c = λ (1 − u_noise) of the last committed step (0 for an uncompensated mode).
   [[nodiscard]] double compensation() const { return compensation_; }
   [[nodiscard]] const GaussianState<2>& estimate() const { return estimate_; }
@@ -140,6 +142,7 @@ class FcmCompensatedMode final : public ImmMode<2, 1> {
   ClusterVector memberships_ = ClusterVector(0.0, 1.0, 0.0);
   ClusterVector pending_memberships_ = ClusterVector(0.0, 1.0, 0.0);
   double compensation_ = 0.0, pending_compensation_ = 0.0;
+  double error_ = 0.0, pending_error_ = 0.0;
   bool pending_clustered_ = false;
 };
 

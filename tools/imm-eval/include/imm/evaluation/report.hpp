@@ -27,6 +27,9 @@ struct PlotSpec {
   std::string y_label;
   std::filesystem::path csv;        ///< written by write_series_csv
   std::vector<std::string> series;  ///< column names of the CSV to draw
+  /// x column per series (empty: every series against "k"), for x–y plots such as trajectories.
+  std::vector<std::string> x_series = {};
+  std::string style = "lines";  ///< gnuplot style: lines | points | dots
 };
 
 /// Draws the series with gnuplot (pngcairo or png terminal). Returns false, leaving no PNG,

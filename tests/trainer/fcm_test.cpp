@@ -1,0 +1,142 @@
+// imm-train fcm: config validation, thread-count independence of the scoring, the λ = 0 member
+// of the family equal to the constant-q IMM, and a small end-to-end fit.
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "imm/io/fcm_imm_file.hpp"
+#include "imm/support/config.hpp"
+#include "imm/trainer/fcm/fcm_trainer.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm::trainer {
+namespace {
+
+std::string fcm_config_error(const std::string& text) {
+  const testing::TempDir dir;
+  testing::write_text(dir / "f.toml", text);
+  try {
+    (void)fcm::load_fcm_config(dir / "f.toml");
+  } catch (const support::ConfigError& error) {
+    return error.key();
+  }
+  return "";
+}
+
+TEST(FcmConfig, InvalidValuesAreNamed) {
+  EXPECT_EQ(fcm_config_error(""), "");
+  EXPECT_EQ(fcm_config_error("[tuning]\ncompensation_gain = [0.0, 1.5]\n"),
+            "tuning.compensation_gain");
+  EXPECT_EQ(fcm_config_error("[filter]\nmembership_scale = \"loose\"\n"),
+            "filter.membership_scale");
+  EXPECT_EQ(fcm_config_error("[filter]\nfuzzifier = 1.0\n"), "filter.fuzzifier");
+  EXPECT_EQ(fcm_config_error("[filter]\nmodes = 2\nprocess_noise = [1.0, 2.0, 3.0]\n"),
+            "filter.process_noise");
+  EXPECT_EQ(fcm_config_error("[filter]\nwindow = 500\n"), "filter.window");
+  EXPECT_EQ(fcm_config_error("[tuning]\nwindows = [8, 2]\n"), "tuning.windows");
+  EXPECT_EQ(fcm_config_error("[training]\nperiods = [1, 40]\n"), "training.periods");
+  EXPECT_EQ(fcm_config_error("[training]\ntrajectory = 3\n"), "training.trajectory");
+  EXPECT_EQ(fcm_config_error("[gate]\nmax_validation_ratio = \"low\"\n"),
+            "gate.max_validation_ratio");
+  const auto shipped = fcm::load_fcm_config("configs/fcm_imm.toml");
+  EXPECT_EQ(shipped.filter.measurement_sigma, 100.0);
+  EXPECT_EQ(shipped.filter.mode_count(), 3);
+  EXPECT_EQ(shipped.filter.scale, MembershipScale::kInnovation);
+}
+
+fcm::FcmTrainingConfig small_config() {
+  auto config = fcm::load_fcm_config("configs/fcm_imm.toml");
+  config.training.trajectories = 4;
+  config.training.validation = 2;
+  config.training.steps = 150;
+  config.training.max_periods = 2;
+  config.tuning.windows = {8};
+  config.tuning.max_evaluations = 12;
+  return config;
+}
+
+TEST(FcmTraining, TrajectoriesAreSeededDisjointAndVaried) {
+  const auto config = small_config();
+  const auto a = fcm::make_trajectories(config, false);
+  const auto b = fcm::make_trajectories(config, false);
+  const auto v = fcm::make_trajectories(config, true);
+  ASSERT_EQ(a.data.truth.size(), 4u);
+  ASSERT_EQ(v.data.truth.size(), 2u);
+  EXPECT_EQ(a.data.measurements[2], b.data.measurements[2]);
+  EXPECT_NE(a.data.truth[0].row(0), a.data.truth[1].row(0));
+  EXPECT_NE(a.data.truth[0].row(0), v.data.truth[0].row(0));
+  const double range = std::hypot(a.data.truth[1](0, 0), a.data.truth[1](0, 2));
+  EXPECT_GE(range, 250e3);
+  EXPECT_LE(range, 400e3);
+}
+
+TEST(FcmTraining, ScoreIsIndependentOfTheThreadCount) {
+  const auto config = small_config();
+  const auto data = fcm::make_trajectories(config, false);
+  FcmImmSpec spec = config.filter;
+  spec.compensation_gain = 0.3;
+  auto make = [&] { return make_fcm_imm_filter(spec); };
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const auto one = fcm::score_filter(make, data, 100.0);
+  omp_set_num_threads(2);
+  const auto two = fcm::score_filter(make, data, 100.0);
+  omp_set_num_threads(threads);
+  EXPECT_EQ(one.objective, two.objective);
+  EXPECT_EQ(one.position_rmse, two.position_rmse);
+  EXPECT_GT(one.position_rmse, 0.0);
+}
+
+TEST(FcmTraining, LambdaZeroIsTheConstantNoiseImm) {
+  const auto config = small_config();
+  const auto data = fcm::make_trajectories(config, false);
+  AxisCvImmSpec imm;
+  imm.settings.sample_period = 1.0;
+  imm.settings.measurement_sigma = 100.0;
+  imm.settings.transition_stay = 0.93;
+  imm.settings.initial_first_probability = config.initial_first_probability;
+  imm.process_noise = {0.5, 80.0, 3000.0};
+  const FcmImmSpec spec = fcm::fcm_spec_from(config, imm);
+  EXPECT_EQ(spec.compensation_gain, 0.0);
+  const auto a = fcm::score_filter([&] { return make_axis_cv_imm_filter(imm); }, data, 100.0);
+  const auto b = fcm::score_filter([&] { return make_fcm_imm_filter(spec); }, data, 100.0);
+  EXPECT_NEAR(a.objective, b.objective, 1e-9 * a.objective);
+}
+
+TEST(FcmTraining, FitWritesAModelNoWorseThanItsStartAndIsReproducible) {
+  const testing::TempDir dir;
+  const auto config = small_config();
+  const auto first = fcm::train_fcm(config, dir / "a.h5");
+  const auto second = fcm::train_fcm(config, dir / "b.h5");
+  ASSERT_TRUE(first.gate_passed);
+  EXPECT_LE(first.training.objective, first.imm_training.objective + 1e-12);
+  EXPECT_EQ(first.spec.process_noise, second.spec.process_noise);
+  EXPECT_EQ(first.spec.compensation_gain, second.spec.compensation_gain);
+  EXPECT_EQ(first.validation.objective, second.validation.objective);
+  const FcmImmSpec back = io::read_fcm_imm(dir / "a.h5");
+  EXPECT_EQ(back.process_noise, first.spec.process_noise);
+  EXPECT_EQ(back.window, 8);
+  ASSERT_EQ(back.mean_memberships.rows(), 3);
+  EXPECT_NEAR(back.mean_memberships.row(2).sum(), 1.0, 1e-12);
+  const auto metrics = nlohmann::json::parse(testing::slurp_text(dir / "a.metrics.json"));
+  EXPECT_TRUE(metrics["gate"]["passed"].get<bool>());
+  EXPECT_GT(metrics["validation"]["pos_rmse"].get<double>(), 0.0);
+  EXPECT_EQ(metrics["windows"].size(), 1u);
+}
+
+TEST(FcmTraining, FailedGateWritesNoModel) {
+  const testing::TempDir dir;
+  auto config = small_config();
+  config.max_validation_ratio = 0.01;
+  const auto result = fcm::train_fcm(config, dir / "f.h5");
+  EXPECT_FALSE(result.gate_passed);
+  EXPECT_FALSE(std::filesystem::exists(dir / "f.h5"));
+  const auto metrics = nlohmann::json::parse(testing::slurp_text(dir / "f.metrics.json"));
+  EXPECT_FALSE(metrics["gate"]["passed"].get<bool>());
+}
+
+}  // namespace
+}  // namespace imm::trainer
