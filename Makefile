@@ -30,6 +30,7 @@ test: build
 
 bench: build
 	$(BUILD_DIR)/bin/imm-bench --benchmark_min_time=1
+	$(BUILD_DIR)/bin/imm-train-bench
 
 format:
 	git ls-files '*.cpp' '*.hpp' | xargs clang-format -i

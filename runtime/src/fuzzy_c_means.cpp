@@ -178,7 +178,8 @@ ClusterVector SlidingFuzzyCMeans::propose(double x) {
               [&](int a, int b) { return result.centers(a) < result.centers(b); });
   }
   ClusterVector u;
-  const double* last = &memberships_[static_cast<std::size_t>(kFcmClusters * (n - 1))];
+  const double* last =
+      &memberships_[static_cast<std::size_t>(kFcmClusters) * static_cast<std::size_t>(n - 1)];
   for (int i = 0; i < kFcmClusters; ++i) {
     pending_centers_(i) = result.centers(order[static_cast<std::size_t>(i)]);
     u(i) = last[order[static_cast<std::size_t>(i)]];

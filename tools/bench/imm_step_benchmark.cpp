@@ -10,12 +10,15 @@
 
 #include "imm/datasets/maneuver_scenario.hpp"
 #include "imm/filters/aimm.hpp"
+#include "imm/filters/axis_cv_imm.hpp"
+#include "imm/filters/fcm_imm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/input_estimation_filter.hpp"
 #include "imm/filters/kalman_mode.hpp"
 #include "imm/filters/plain_imm.hpp"
 #include "imm/filters/weighted_imm.hpp"
+#include "imm/io/fcm_imm_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
@@ -112,12 +115,24 @@ void BM_CvSingerPolarImmStep(benchmark::State& state) {
 }
 BENCHMARK(BM_CvSingerPolarImmStep);
 
-// One 2-D step of a per-axis filter pair (x and y), fed the seed-000 plots.
-void run_two_axis(benchmark::State& state, TrackFilter& filter) {
-  const Eigen::MatrixXd& plots = seed000_plots();
+const Eigen::MatrixXd& seed003_plots() {
+  static const Eigen::MatrixXd plots = [] {
+    auto scenario = imm::datasets::seed003_scenario();
+    scenario.runs = 1;
+    return imm::datasets::simulate(scenario).measurements.front();
+  }();
+  return plots;
+}
+
+// One 2-D step of a per-axis filter pair (x and y), fed the seed-000 plots (σ_z² = 0.25 km²) or
+// others with their own measurement variance.
+void run_two_axis(benchmark::State& state, TrackFilter& filter,
+                  const Eigen::MatrixXd& plots = seed000_plots(), double variance = 0.25) {
   auto restart = [&] {
     filter.initialize(Eigen::Vector4d(plots(0, 0), 0.0, plots(0, 1), 0.0),
-                      Eigen::Vector4d(0.25, 0.5, 0.25, 0.5).asDiagonal().toDenseMatrix());
+                      Eigen::Vector4d(variance, 2 * variance, variance, 2 * variance)
+                          .asDiagonal()
+                          .toDenseMatrix());
   };
   restart();
   Eigen::Index k = 1;
@@ -226,6 +241,31 @@ void BM_Aimm5Step(benchmark::State& state) {
   run_two_axis(state, *filter);
 }
 BENCHMARK(BM_Aimm5Step);
+
+// Seed 003's FCM-IMM with the shipped fit (models/fcm_imm.h5), fed the seed-003 plots; the
+// clustering of a sliding window per mode and axis dominates.
+void BM_FcmImmStep(benchmark::State& state) {
+  auto spec = imm::io::read_fcm_imm(IMM_SOURCE_DIR "/models/fcm_imm.h5");
+  if (state.range(0) == 1) spec.constant_memberships = true;
+  if (state.range(0) == 2) spec.scale = imm::MembershipScale::kSeed;
+  auto filter = imm::make_fcm_imm_filter(spec);
+  run_two_axis(state, *filter, seed003_plots(), 1e4);
+  state.SetLabel(state.range(0) == 0   ? "fitted"
+                 : state.range(0) == 1 ? "constant memberships"
+                                       : "seed (scale-free) memberships");
+}
+BENCHMARK(BM_FcmImmStep)->Arg(0)->Arg(1)->Arg(2);
+
+// The constant-q IMM with the same noise levels, for comparison.
+void BM_CvImm3Seed003Step(benchmark::State& state) {
+  const auto fitted = imm::io::read_fcm_imm(IMM_SOURCE_DIR "/models/fcm_imm.h5");
+  imm::AxisCvImmSpec spec;
+  spec.settings.measurement_sigma = 100.0;
+  spec.process_noise = fitted.process_noise;
+  auto filter = imm::make_axis_cv_imm_filter(spec);
+  run_two_axis(state, *filter, seed003_plots(), 1e4);
+}
+BENCHMARK(BM_CvImm3Seed003Step);
 
 }  // namespace
 

@@ -5,6 +5,7 @@
 #include <benchmark/benchmark.h>
 
 #include "imm/datasets/random.hpp"
+#include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
 
@@ -38,6 +39,22 @@ void BM_BackpropagationEpoch(benchmark::State& state) {
   state.counters["samples"] = static_cast<double>(samples.inputs.rows());
 }
 BENCHMARK(BM_BackpropagationEpoch);
+
+// One objective evaluation of the FCM fit: the shipped fit's FCM-IMM over the training
+// trajectories of configs/fcm_imm.toml (16 × 300 scans, both axes), at the default thread count.
+void BM_FcmObjectiveEvaluation(benchmark::State& state) {
+  const auto config = imm::trainer::fcm::load_fcm_config(IMM_SOURCE_DIR "/configs/fcm_imm.toml");
+  const auto data = imm::trainer::fcm::make_trajectories(config, false);
+  auto spec = config.filter;
+  spec.compensation_gain = 0.06;
+  spec.clustering.fuzzifier = 4.0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(imm::trainer::fcm::score_filter(
+        [&] { return imm::make_fcm_imm_filter(spec); }, data, config.filter.measurement_sigma));
+  }
+  state.counters["trajectories"] = static_cast<double>(data.data.truth.size());
+}
+BENCHMARK(BM_FcmObjectiveEvaluation)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

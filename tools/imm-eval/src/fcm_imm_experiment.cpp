@@ -40,7 +40,7 @@ FcmFilterOutcome run_filter(const std::string& name, const trainer::fcm::FilterF
     is_fcm = fx != nullptr && fy != nullptr;
     Eigen::VectorXd mean(4);
     Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(4, 4);
-    for (int axis = 0; axis < 2; ++axis) {
+    for (Eigen::Index axis = 0; axis < 2; ++axis) {
       mean.segment<2>(2 * axis) << z(1, axis), (z(1, axis) - z(0, axis)) / T;
       covariance.block<2, 2>(2 * axis, 2 * axis) << r, r / T, r / T, 2.0 * r / (T * T);
     }

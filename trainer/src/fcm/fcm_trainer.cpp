@@ -49,8 +49,9 @@ FcmTrainingConfig config_from(const support::ConfigTable& root) {
     } else {
       s.process_noise.clear();
       for (std::int64_t j = 0; j < modes; ++j) {
-        s.process_noise.push_back(std::pow(10.0, 4.0 * static_cast<double>(j) /
-                                                     std::max<std::int64_t>(1, modes - 1)));
+        s.process_noise.push_back(
+            std::pow(10.0, 4.0 * static_cast<double>(j) /
+                               static_cast<double>(std::max<std::int64_t>(1, modes - 1))));
       }
     }
     const double stay = f->real_or("stay", 0.95);
@@ -196,9 +197,9 @@ void FcmTrainingConfig::validate() const {
           "must be [min, max] within (0, 1]");
   require(g.min_gain >= 0.0 && g.max_gain <= 1.0 && g.min_gain <= g.max_gain,
           "tuning.compensation_gain", "must be [min, max] within [0, 1]");
-  require(g.min_fuzzifier > 1.0 && g.max_fuzzifier >= g.min_fuzzifier &&
-              std::isfinite(g.max_fuzzifier),
-          "tuning.fuzzifier", "must be [min, max] with 1 < min ≤ max");
+  require(
+      g.min_fuzzifier > 1.0 && g.max_fuzzifier >= g.min_fuzzifier && std::isfinite(g.max_fuzzifier),
+      "tuning.fuzzifier", "must be [min, max] with 1 < min ≤ max");
   require(g.min_separation >= 0.0 && g.max_separation >= g.min_separation &&
               std::isfinite(g.max_separation),
           "tuning.separation", "must be [min, max] with 0 ≤ min ≤ max");
@@ -247,20 +248,20 @@ TrackingData make_trajectories(const FcmTrainingConfig& config, bool validation)
     s.initial_velocity = rng.uniform(o.min_speed, o.max_speed) * direction;
     if (rng.uniform() < o.maneuver_probability) {
       const int quarter =
-          o.min_quarter +
-          static_cast<int>(rng.below(static_cast<std::uint64_t>(o.max_quarter - o.min_quarter + 1)));
+          o.min_quarter + static_cast<int>(rng.below(
+                              static_cast<std::uint64_t>(o.max_quarter - o.min_quarter) + 1));
       const int periods =
-          o.min_periods +
-          static_cast<int>(rng.below(static_cast<std::uint64_t>(o.max_periods - o.min_periods + 1)));
+          o.min_periods + static_cast<int>(rng.below(
+                              static_cast<std::uint64_t>(o.max_periods - o.min_periods) + 1));
       std::vector<double> magnitudes;
+      magnitudes.reserve(static_cast<std::size_t>(periods));
       for (int i = 0; i < periods; ++i) {
         magnitudes.push_back(rng.uniform(o.min_acceleration, o.max_acceleration));
       }
       const int length = 4 * quarter * periods;
-      const int start =
-          kFirstScoredScan + 8 +
-          static_cast<int>(rng.below(static_cast<std::uint64_t>(
-              std::max(1, o.steps - length - kFirstScoredScan - 8))));
+      const int start = kFirstScoredScan + 8 +
+                        static_cast<int>(rng.below(static_cast<std::uint64_t>(
+                            std::max(1, o.steps - length - kFirstScoredScan - 8))));
       const Eigen::Vector2d lateral =
           (rng.uniform() < 0.5 ? 1.0 : -1.0) * Eigen::Vector2d(-direction.y(), direction.x());
       s.maneuvers = datasets::zigzag_maneuvers(start, quarter, magnitudes, lateral);
@@ -290,7 +291,7 @@ TrackingScore score_filter(const FilterFactory& make, const TrackingData& data,
     std::unique_ptr<TwoAxisFilter> filter = make();
     Eigen::VectorXd mean(4);
     Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(4, 4);
-    for (int axis = 0; axis < 2; ++axis) {
+    for (Eigen::Index axis = 0; axis < 2; ++axis) {
       const GaussianState<2> s = two_point(z(0, axis), z(1, axis), T, r);
       mean.segment<2>(2 * axis) = s.mean;
       covariance.block<2, 2>(2 * axis, 2 * axis) = s.covariance;
@@ -382,6 +383,7 @@ Tuned<AxisCvImmSpec> tune_cv_imm(const FcmTrainingConfig& config, const Tracking
   const SearchResult grid = grid_then_subplex(
       [&](const std::vector<double>& log_q) {
         std::vector<double> q;
+        q.reserve(log_q.size());
         for (double e : log_q) q.push_back(std::pow(10.0, e));
         const AxisCvImmSpec spec = cv_imm_spec(config, q, stay);
         return score_filter([&] { return make_axis_cv_imm_filter(spec); }, data, sigma).objective;
@@ -409,8 +411,7 @@ Tuned<AxisCvImmSpec> tune_cv_imm(const FcmTrainingConfig& config, const Tracking
       x0, lower, upper, 40 * (n + 1), 1e-3);
   Tuned<AxisCvImmSpec> tuned;
   tuned.spec = make(polished.x);
-  tuned.score =
-      score_filter([&] { return make_axis_cv_imm_filter(tuned.spec); }, data, sigma);
+  tuned.score = score_filter([&] { return make_axis_cv_imm_filter(tuned.spec); }, data, sigma);
   tuned.evaluations = grid.evaluations + polished.evaluations + 1;
   return tuned;
 }
@@ -490,9 +491,10 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
   result.imm_training = imm.score;
   result.imm_validation =
       score_filter([&] { return make_axis_cv_imm_filter(imm.spec); }, validation, sigma);
-  spdlog::info("fcm: constant-q IMM (lambda = 0): J = {:.4f} training, {:.4f} validation ({} "
-               "evaluations)",
-               imm.score.objective, result.imm_validation.objective, imm.evaluations);
+  spdlog::info(
+      "fcm: constant-q IMM (lambda = 0): J = {:.4f} training, {:.4f} validation ({} "
+      "evaluations)",
+      imm.score.objective, result.imm_validation.objective, imm.evaluations);
 
   // x = [log q₁, Δ₂ …, stay, λ, m, κ].
   std::vector<double> lower = {g.min_log_q}, upper = {g.max_log_q};
@@ -515,11 +517,11 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
     x0.push_back(std::log10(base.process_noise[static_cast<std::size_t>(j)]) -
                  std::log10(base.process_noise[static_cast<std::size_t>(j - 1)]));
   }
-  x0.insert(x0.end(), {imm.spec.settings.transition_stay,
-                       std::clamp(config.filter.compensation_gain, g.min_gain, g.max_gain),
-                       std::clamp(config.filter.clustering.fuzzifier, g.min_fuzzifier,
-                                  g.max_fuzzifier),
-                       std::clamp(config.filter.separation, g.min_separation, g.max_separation)});
+  x0.insert(x0.end(),
+            {imm.spec.settings.transition_stay,
+             std::clamp(config.filter.compensation_gain, g.min_gain, g.max_gain),
+             std::clamp(config.filter.clustering.fuzzifier, g.min_fuzzifier, g.max_fuzzifier),
+             std::clamp(config.filter.separation, g.min_separation, g.max_separation)});
   for (std::size_t d = 0; d < x0.size(); ++d) x0[d] = std::clamp(x0[d], lower[d], upper[d]);
 
   FcmImmSpec best = base;  // λ = 0: the window does not matter; the first candidate is recorded
@@ -530,8 +532,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
     const SearchResult search = subplex(
         [&](const std::vector<double>& x) {
           const FcmImmSpec spec = make(x, window);
-          return score_filter([&] { return make_fcm_imm_filter(spec); }, training, sigma)
-              .objective;
+          return score_filter([&] { return make_fcm_imm_filter(spec); }, training, sigma).objective;
         },
         x0, lower, upper, g.max_evaluations, 1e-3);
     result.evaluations += search.evaluations;
@@ -552,8 +553,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
   }
   result.spec = best;
   result.spec.mean_memberships = mean_memberships(best, training);
-  result.training =
-      score_filter([&] { return make_fcm_imm_filter(result.spec); }, training, sigma);
+  result.training = score_filter([&] { return make_fcm_imm_filter(result.spec); }, training, sigma);
   result.validation =
       score_filter([&] { return make_fcm_imm_filter(result.spec); }, validation, sigma);
   const Tuned<AxisCvImmSpec> kf = tune_kf(config, training);
@@ -572,9 +572,8 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
   metrics["config"] = config.name;
   metrics["seed"] = config.seed;
   auto score_json = [](const TrackingScore& s) {
-    return nlohmann::json{{"objective", s.objective},
-                          {"pos_rmse", s.position_rmse},
-                          {"vel_rmse", s.velocity_rmse}};
+    return nlohmann::json{
+        {"objective", s.objective}, {"pos_rmse", s.position_rmse}, {"vel_rmse", s.velocity_rmse}};
   };
   metrics["training"] = score_json(result.training);
   metrics["validation"] = score_json(result.validation);
@@ -591,6 +590,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
                            {"membership_scale", std::string(to_string(s.scale))},
                            {"compensate_lowest", s.compensate_lowest}};
   std::vector<std::vector<double>> rows;
+  rows.reserve(static_cast<std::size_t>(s.mode_count()));
   for (int j = 0; j < s.mode_count(); ++j) {
     rows.push_back({s.mean_memberships(j, 0), s.mean_memberships(j, 1), s.mean_memberships(j, 2)});
   }

@@ -100,7 +100,7 @@ class SlidingFuzzyCMeans {
   bool has_centers_ = false;
 
   std::array<double, kMaxWindow> work_{};  // the proposed window, contiguous
-  std::array<double, kFcmClusters * kMaxWindow> memberships_{};
+  std::array<double, static_cast<std::size_t>(kFcmClusters) * kMaxWindow> memberships_{};
   double pending_x_ = 0.0;
   ClusterVector pending_centers_ = ClusterVector::Zero();
   bool pending_clustered_ = false;
