@@ -18,19 +18,6 @@ void require(bool condition, const std::string& field, const std::string& messag
   if (!condition) throw InvalidParameter(field, message);
 }
 
-void hash_matrix(Sha256& hash, const Eigen::MatrixXd& matrix) {
-  static_assert(std::endian::native == std::endian::little, "digest assumes little-endian");
-  const std::int64_t shape[2] = {matrix.rows(), matrix.cols()};
-  hash.update(shape, sizeof shape);
-  // Row-major, as stored in the data-set file.
-  for (Eigen::Index i = 0; i < matrix.rows(); ++i) {
-    for (Eigen::Index j = 0; j < matrix.cols(); ++j) {
-      const double value = matrix(i, j);
-      hash.update(&value, sizeof value);
-    }
-  }
-}
-
 }  // namespace
 
 void ManeuverScenario::validate() const {

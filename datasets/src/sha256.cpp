@@ -1,5 +1,7 @@
 #include "imm/datasets/sha256.hpp"
 
+#include <bit>
+
 #include <cstring>
 
 namespace imm::datasets {
@@ -92,6 +94,19 @@ std::string sha256_hex(std::string_view text) {
   Sha256 hash;
   hash.update(text);
   return hash.hex_digest();
+}
+
+void hash_matrix(Sha256& hash, const Eigen::MatrixXd& matrix) {
+  static_assert(std::endian::native == std::endian::little, "digest assumes little-endian");
+  const std::int64_t shape[2] = {matrix.rows(), matrix.cols()};
+  hash.update(shape, sizeof shape);
+  // Row-major, as stored in the data-set file.
+  for (Eigen::Index i = 0; i < matrix.rows(); ++i) {
+    for (Eigen::Index j = 0; j < matrix.cols(); ++j) {
+      const double value = matrix(i, j);
+      hash.update(&value, sizeof value);
+    }
+  }
 }
 
 }  // namespace imm::datasets

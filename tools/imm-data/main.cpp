@@ -3,6 +3,8 @@
 //   imm-data seed000 --out data/seed000.h5 [--config configs/data/seed000.toml]
 //                    [--runs N] [--seed N] [--csv data/seed000_run0.csv] [--csv-run R]
 //   imm-data maneuver --config my_scenario.toml --out data/my.h5
+//   imm-data range-sensor --out data/range_sensor.h5 [--config configs/tsk_range_sensor.toml]
+//   imm-data cut-in --out data/cut_in.h5 [--r-sigma 0.5] [--runs N] [--config …]
 //
 // Exit codes: 0 success, 1 usage, 2 invalid config or unwritable output.
 
@@ -14,7 +16,9 @@
 
 #include "imm/build_info.hpp"
 #include "imm/datasets/dataset_file.hpp"
+#include "imm/datasets/range_sensor_file.hpp"
 #include "imm/support/scenario_config.hpp"
+#include "imm/trainer/tsk/tsk_trainer.hpp"
 
 namespace {
 
@@ -48,9 +52,10 @@ int main(int argc, char** argv) {
   std::string scenario_name, out_path, config_path, csv_path;
   int runs = -1, csv_run = 0;
   std::int64_t seed = -1;
-  app.add_option("scenario", scenario_name, "seed000 | seed003 | seed004-1 | seed004-2 | maneuver")
+  app.add_option("scenario", scenario_name, "seed000 | seed003 | seed004-1 | seed004-2 | maneuver | range-sensor | cut-in")
       ->required()
-      ->check(CLI::IsMember({"seed000", "seed003", "seed004-1", "seed004-2", "maneuver"}));
+      ->check(CLI::IsMember({"seed000", "seed003", "seed004-1", "seed004-2", "maneuver",
+                             "range-sensor", "cut-in"}));
   app.add_option("--out", out_path, "data-set file to write (HDF5)")->required();
   app.add_option("--config", config_path, "scenario TOML (overrides the scenario's defaults)");
   app.add_option("--runs", runs, "Monte Carlo runs (overrides the config)")
@@ -61,11 +66,43 @@ int main(int argc, char** argv) {
   app.add_option("--accel-scale", accel_scale,
                  "seed003: multiply the accelerations (10: the seed's literal 0.3-0.6 km/s^2)")
       ->check(CLI::PositiveNumber);
+  double r_sigma = 0.5;
+  app.add_option("--r-sigma", r_sigma, "cut-in: the plots' noise σ per axis, m (R = σ² I)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--csv", csv_path, "also write one run's measurements as CSV for imm-track");
   app.add_option("--csv-run", csv_run, "which run --csv writes")->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
 
   try {
+    if (scenario_name == "range-sensor" || scenario_name == "cut-in") {
+      // Seed 002: the sensor and the scenario come from a TSK config ([data], [scenario]).
+      const std::string config_file =
+          config_path.empty() ? std::string("configs/tsk_range_sensor.toml") : config_path;
+      auto config = imm::trainer::tsk::load_tsk_config(config_file);
+      if (seed >= 0) {
+        config.data.seed = static_cast<std::uint64_t>(seed);
+        config.scenario.seed = static_cast<std::uint64_t>(seed);
+      }
+      std::string digest;
+      if (scenario_name == "range-sensor") {
+        const auto data = imm::datasets::simulate_range_sensor(config.data);
+        digest = imm::datasets::write_range_sensor_dataset(out_path, config.data, data,
+                                                           config.text, imm::kBuildVersion);
+        std::cout << "imm-data: range sensor, " << config.data.samples << " samples (L = "
+                  << config.data.distortion.softness << " m)";
+      } else {
+        auto scenario = config.scenario;
+        scenario.measurement_covariance = r_sigma * r_sigma * Eigen::Matrix2d::Identity();
+        if (runs > 0) scenario.runs = runs;
+        const auto data = imm::datasets::simulate_cut_in(scenario);
+        digest = imm::datasets::write_cut_in_dataset(out_path, scenario, data, config.text,
+                                                     imm::kBuildVersion);
+        std::cout << "imm-data: cut-in, " << scenario.runs << " runs x " << scenario.steps
+                  << " scans, R = " << r_sigma << "^2 I";
+      }
+      std::cout << " -> " << out_path << " (sha256 " << digest.substr(0, 16) << ")\n";
+      return 0;
+    }
     imm::datasets::ManeuverScenario scenario = imm::datasets::ManeuverScenario{};
     if (scenario_name == "seed000") scenario = imm::datasets::seed000_scenario();
     if (scenario_name == "seed003") scenario = imm::datasets::seed003_scenario(accel_scale);

@@ -18,6 +18,7 @@
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/io/fcm_imm_file.hpp"
+#include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/model_file.hpp"
@@ -49,6 +50,8 @@ const std::map<std::string, std::function<void(const std::string&)>>& validators
        [](const std::string& path) { (void)imm::io::read_wimm(path); }},
       {std::string(imm::io::kFcmImmKind),
        [](const std::string& path) { (void)imm::io::read_fcm_imm(path); }},
+      {std::string(imm::io::kTskSensorKind),
+       [](const std::string& path) { (void)imm::io::read_tsk_sensor(path); }},
   };
   return table;
 }

@@ -8,6 +8,8 @@
 //                 [--seed N]
 //   imm-train wimm --config configs/wimm.toml [--out models/wimm.h5] [--seed N]
 //   imm-train fcm --config configs/fcm_imm.toml [--out models/fcm_imm.h5] [--seed N]
+//   imm-train tsk --config configs/tsk_range_sensor.toml [--out models/tsk_range_sensor.h5]
+//                 [--seed N]
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
 //   imm-train all --config configs/nightly.toml
 //
@@ -28,6 +30,7 @@
 #include "imm/io/file_error.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
+#include "imm/trainer/tsk/tsk_trainer.hpp"
 #include "imm/trainer/freeze.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/import_rules.hpp"
@@ -210,6 +213,15 @@ int main(int argc, char** argv) {
   fcm_command->add_option("--out", fcm_out, "model file to write");
   fcm_command->add_option("--seed", fcm_seed, "override the config's seed");
 
+  std::filesystem::path tsk_config = "configs/tsk_range_sensor.toml";
+  std::filesystem::path tsk_out = "models/tsk_range_sensor.h5";
+  std::optional<std::uint64_t> tsk_seed;
+  auto* tsk_command = app.add_subcommand(
+      "tsk", "fit the probabilistic TSK model of a range sensor (seed 002): FCRM, then Ceres");
+  tsk_command->add_option("--config", tsk_config, "TSK sensor config TOML");
+  tsk_command->add_option("--out", tsk_out, "model file to write");
+  tsk_command->add_option("--seed", tsk_seed, "override the config's seed");
+
   std::filesystem::path nightly_config;
   auto* all_command = app.add_subcommand("all", "run every stage of the nightly plan");
   all_command->add_option("--config", nightly_config, "nightly plan TOML")->required();
@@ -264,6 +276,25 @@ int main(int argc, char** argv) {
           result.tuned.spec.threshold, result.tuned.spec.alpha, result.tuned.azimuth_ratio,
           result.tuned.position_ratio, result.tuned.evaluations, result.wall_seconds,
           wimm_out.string());
+      return 0;
+    }
+    if (*tsk_command) {
+      auto config = imm::trainer::tsk::load_tsk_config(tsk_config);
+      if (tsk_seed) {
+        config.seed = *tsk_seed;
+        config.data.seed = imm::datasets::derive_seed(config.seed, 1);
+      }
+      spdlog::info("tsk: {} samples ({:.0f} % held out), {} rules per output, t-norm {}, seed {}",
+                   config.data.samples, 100.0 * config.validation_fraction, config.fcrm.clusters,
+                   imm::to_string(config.t_norm), config.seed);
+      const auto result = imm::trainer::tsk::train_tsk(config, tsk_out);
+      spdlog::info("fitted in {:.2f} s", result.wall_seconds);
+      if (!result.gate_passed) {
+        spdlog::error("quality gate failed: a validation RMSE exceeds {:.3f} m; {} not written",
+                      config.max_validation_rmse, tsk_out.string());
+        return kExitGateFailed;
+      }
+      spdlog::info("wrote {}", tsk_out.string());
       return 0;
     }
     if (*fcm_command) {

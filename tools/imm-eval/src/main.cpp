@@ -7,6 +7,8 @@
 //                            [--out reports/input-estimator/]
 //   imm-eval wimm --models models/ [--runs 100] [--seed 1] [--out reports/wimm/]
 //                 [--config configs/wimm.toml]
+//   imm-eval fimm --models models/ [--sensor default|hard] [--runs 100] [--seed 1]
+//                 [--out reports/fimm/] [--config configs/tsk_range_sensor.toml]
 //   imm-eval fcm-imm --models models/ [--runs 100] [--seed 1] [--out reports/fcm-imm/]
 //                    [--config configs/fcm_imm.toml] [--accel-scale 1]
 //   imm-eval ga-imm --models models/ [--runs 100] [--seed 1] [--out reports/ga-imm/]
@@ -20,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "imm/evaluation/fcm_imm_experiment.hpp"
+#include "imm/evaluation/fimm_experiment.hpp"
 #include "imm/evaluation/ga_imm_experiment.hpp"
 #include "imm/evaluation/input_estimator_experiment.hpp"
 #include "imm/evaluation/plain_imm_experiment.hpp"
@@ -551,6 +554,96 @@ int report_fcm_imm(const imm::evaluation::FcmImmExperimentResult& result,
   return failures.empty() ? 0 : kExitGateFailed;
 }
 
+int report_fimm(const imm::evaluation::FimmExperimentResult& result, bool hard,
+                const std::filesystem::path& out) {
+  std::filesystem::create_directories(out);
+  std::cout << "fimm: seed 002 cut-in, " << (hard ? "hard" : "default") << " sensor (L = "
+            << result.softness << " m), " << result.runs << " runs per row, seed " << result.seed
+            << "\n  FIMM: " << result.fimm_settings << "\n";
+  std::vector<std::vector<std::string>> rows;
+  nlohmann::json metrics, details;
+  metrics["rows"] = nlohmann::json::array();
+  std::vector<std::string> failures;
+  for (std::size_t i = 0; i < result.rows.size(); ++i) {
+    const auto& row = result.rows[i];
+    const double R = row.r_sigma * row.r_sigma;
+    const bool paper = i < 4;
+    std::vector<std::string> cells = {cell(R, 2), cell(row.imm.mse, 4), cell(row.fimm.mse, 4),
+                                      cell(row.fimm_iekf.mse, 4)};
+    if (!hard) {
+      cells.push_back(paper ? cell(imm::evaluation::kSeed002Table1[i][0], 4) : "–");
+      cells.push_back(paper ? cell(imm::evaluation::kSeed002Table1[i][1], 4) : "–");
+    }
+    cells.push_back(cell(row.imm.nees, 2));
+    cells.push_back(cell(row.fimm.nees, 2));
+    cells.push_back(cell(row.fimm_iekf.nees, 2));
+    rows.push_back(cells);
+    nlohmann::json m = {{"R", R}, {"imm_mse", row.imm.mse}, {"fimm_mse", row.fimm.mse}};
+    if (hard) m["fimm_iekf_mse"] = row.fimm_iekf.mse;
+    metrics["rows"].push_back(m);
+    details["rows"].push_back({{"R", R},
+                               {"imm_nees", row.imm.nees},
+                               {"fimm_nees", row.fimm.nees},
+                               {"fimm_iekf_nees", row.fimm_iekf.nees},
+                               {"fimm_iekf_mse", row.fimm_iekf.mse},
+                               {"fimm_outside_box", row.fimm.outside_box},
+                               {"failed_steps", row.imm.failed_steps + row.fimm.failed_steps +
+                                                    row.fimm_iekf.failed_steps}});
+    const double best = hard ? std::min(row.fimm.mse, row.fimm_iekf.mse) : row.fimm.mse;
+    if (!(best < row.imm.mse)) {
+      failures.push_back("R = " + cell(R, 2) + ": " + (hard ? "the best FIMM" : "FIMM") + " MSE " +
+                         cell(best, 4) + " is not below the IMM's " + cell(row.imm.mse, 4));
+    }
+  }
+  std::vector<std::string> header = {"R", "IMM", "FIMM (EKF)", "FIMM (IEKF)"};
+  if (!hard) header.insert(header.end(), {"paper IMM", "paper FIMM"});
+  header.insert(header.end(), {"NEES IMM", "NEES FIMM", "NEES IEKF"});
+  std::cout << "\nTable 1: position MSE (m², ξ and η errors squared and summed, scans 2–199, over "
+               "runs); position NEES (2 when consistent):\n\n"
+            << imm::evaluation::markdown_table(header, rows);
+  details["runs"] = result.runs;
+  details["seed"] = result.seed;
+  details["softness"] = result.softness;
+  details["fimm"] = result.fimm_settings;
+  imm::trainer::write_json_atomically(out / "metrics.json", metrics);
+  imm::trainer::write_json_atomically(out / "details.json", details);
+
+  bool plotted = true;
+  for (const auto& row : result.rows) {
+    const std::string stem = "path_R" + cell(row.r_sigma, 1);
+    Eigen::MatrixXd path(result.steps, 8);
+    path << result.truth.col(0), result.truth.col(3), row.first_measurements, row.imm.first_run,
+        row.fimm.first_run;
+    imm::evaluation::write_series_csv(
+        out / (stem + ".csv"),
+        {"truth_xi", "truth", "plots_xi", "plots", "IMM_xi", "IMM", "FIMM_xi", "FIMM"}, path);
+    plotted &= imm::evaluation::plot_series(
+        {out / (stem + ".png"),
+         "Cut-in, R = " + cell(row.r_sigma, 1) + "^2 I, run 0 (seed 002 Fig. 6-8)", "xi (m)",
+         "eta (m)", out / (stem + ".csv"), {"plots", "truth", "IMM", "FIMM"},
+         {"plots_xi", "truth_xi", "IMM_xi", "FIMM_xi"}, "points"});
+  }
+  imm::evaluation::write_series_csv(
+      out / "sensor_model.csv", {"eta", "true_eta_m", "model_z2", "true_xi_m_lane", "model_z1_lane"},
+      result.sensor_curve);
+  imm::evaluation::write_series_csv(out / "sensor_samples.csv", {"eta", "z2"},
+                                    result.sensor_samples);
+  plotted &= imm::evaluation::plot_series(
+      {out / "sensor_model.png", "Sensor: distorted range along the road, truth vs TSK model",
+       "eta (m)", "m", out / "sensor_model.csv",
+       {"true_eta_m", "model_z2", "true_xi_m_lane", "model_z1_lane"},
+       {"eta", "eta", "eta", "eta"}});
+  plotted &= imm::evaluation::plot_series({out / "sensor_samples.png",
+                                           "Sensor data: measured z2 against the true eta",
+                                           "eta (m)", "z2 (m)", out / "sensor_samples.csv",
+                                           {"z2"}, {"eta"}, "dots"});
+  std::cout << "\nwrote metrics.json, details.json, CSV series"
+            << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
+            << " in " << out.string() << '\n';
+  for (const auto& failure : failures) std::cerr << "imm-eval: gate failed: " << failure << '\n';
+  return failures.empty() ? 0 : kExitGateFailed;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -628,8 +721,32 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   fcm_command->add_option("--out", fcm_out, "report folder");
 
+  imm::evaluation::FimmExperimentOptions fimm;
+  std::filesystem::path fimm_models = "models";
+  std::filesystem::path fimm_out;
+  std::string fimm_sensor = "default";
+  auto* fimm_command = app.add_subcommand(
+      "fimm", "seed 002 Table 1: FIMM (TSK sensor model, EKF and IEKF) vs the IMM");
+  fimm_command->add_option("--models", fimm_models,
+                           "folder with tsk_range_sensor.h5 (and tsk_range_sensor_hard.h5)");
+  fimm_command->add_option("--sensor", fimm_sensor, "default | hard")
+      ->check(CLI::IsMember({"default", "hard"}));
+  fimm_command->add_option("--config", fimm.config,
+                           "TSK config (default: configs/tsk_range_sensor[_hard].toml)");
+  fimm_command->add_option("--runs", fimm.runs, "Monte Carlo runs")->check(CLI::PositiveNumber);
+  fimm_command->add_option("--seed", fimm.seed, "noise seed");
+  fimm_command->add_option("--out", fimm_out, "report folder (default: reports/fimm[-hard]/)");
+
   CLI11_PARSE(app, argc, argv);
   try {
+    if (*fimm_command) {
+      const bool hard = fimm_sensor == "hard";
+      const std::string stem = hard ? "tsk_range_sensor_hard" : "tsk_range_sensor";
+      fimm.model = fimm_models / (stem + ".h5");
+      if (fimm.config.empty()) fimm.config = "configs/" + stem + ".toml";
+      if (fimm_out.empty()) fimm_out = hard ? "reports/fimm-hard" : "reports/fimm";
+      return report_fimm(imm::evaluation::run_fimm_experiment(fimm), hard, fimm_out);
+    }
     if (*fcm_command) {
       fcm.model = fcm_models / "fcm_imm.h5";
       return report_fcm_imm(imm::evaluation::run_fcm_imm_experiment(fcm), fcm_out);

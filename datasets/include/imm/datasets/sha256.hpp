@@ -1,6 +1,7 @@
 #pragma once
 /// SHA-256 (FIPS 180-4), for the dataset digests recorded in model files.
 
+#include <Eigen/Core>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -27,5 +28,8 @@ class Sha256 {
 };
 
 [[nodiscard]] std::string sha256_hex(std::string_view text);
+
+/// Feeds a matrix: its shape (two int64), then its values row-major as little-endian doubles.
+void hash_matrix(Sha256& hash, const Eigen::MatrixXd& matrix);
 
 }  // namespace imm::datasets

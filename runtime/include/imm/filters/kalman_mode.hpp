@@ -19,9 +19,15 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
   static constexpr int kDim = N;
   using ImmMode<NX, MeasurementModel::kDim>::kMeasurementDim;
 
+  /// `iterations` > 1: the iterated EKF update (kalman_filter.hpp) for nonlinear measurements.
   KalmanMode(std::string name, const LinearMotionModel<N>& motion,
-             const MeasurementModel& measurement, const StateEmbedding<N, NX>& embedding)
-      : name_(std::move(name)), motion_(motion), measurement_(measurement), embedding_(embedding) {}
+             const MeasurementModel& measurement, const StateEmbedding<N, NX>& embedding,
+             int iterations = 1)
+      : name_(std::move(name)),
+        motion_(motion),
+        measurement_(measurement),
+        embedding_(embedding),
+        iterations_(iterations) {}
 
   [[nodiscard]] std::string_view name() const override { return name_; }
 
@@ -33,7 +39,8 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
 
   ModeStep propose(const GaussianState<NX>& mixed, const Vector<kMeasurementDim>& z) override {
     pending_ = predict(embedding_.project(mixed), motion_.transition, motion_.process_noise);
-    const auto report = update(pending_, z, measurement_);
+    const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
+                                        : update(pending_, z, measurement_);
     return {report.status, report.log_likelihood};
   }
 
@@ -53,12 +60,14 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
 
   [[nodiscard]] const GaussianState<N>& estimate() const { return estimate_; }
   [[nodiscard]] const LinearMotionModel<N>& motion() const { return motion_; }
+  [[nodiscard]] const MeasurementModel& measurement() const { return measurement_; }
 
  private:
   std::string name_;
   LinearMotionModel<N> motion_;
   MeasurementModel measurement_;
   StateEmbedding<N, NX> embedding_;
+  int iterations_ = 1;
   GaussianState<N> estimate_;
   GaussianState<N> pending_;
 };

@@ -1,0 +1,27 @@
+#pragma once
+/// Model files of kind "tsk_sensor": a probabilistic TSK model of a range sensor (seed 002).
+///
+///   /tsk            @t_norm (min|product), @inputs = "xi,eta", @outputs = "z1,z2"
+///   /tsk/input_box  2 × 2: row 0 the lower, row 1 the upper bound of (ξ, η) seen in training
+///   /tsk/output<i>/rules   c × 7 (i = 1, 2): center_xi, width_xi, center_eta, width_eta,
+///                          a0, a_xi, a_eta;  @sigma ≥ 0 on /tsk/output<i>
+/// The training data's digest is the root attribute dataset_digest.
+
+#include <filesystem>
+
+#include "imm/io/model_file.hpp"
+#include "imm/models/tsk_model.hpp"
+
+namespace imm::io {
+
+inline constexpr std::string_view kTskSensorKind = "tsk_sensor";
+
+void write_tsk_sensor(ModelFileWriter& writer, const TskModel& model);
+[[nodiscard]] TskModel read_tsk_sensor(const ModelFileReader& reader);
+[[nodiscard]] TskModel read_tsk_sensor(const std::filesystem::path& path);
+
+/// A rule set as the c × 7 matrix of the file, and back.
+[[nodiscard]] Eigen::MatrixXd rules_matrix(const std::vector<TskRule>& rules);
+[[nodiscard]] std::vector<TskRule> rules_from_matrix(const Eigen::MatrixXd& matrix);
+
+}  // namespace imm::io

@@ -1,0 +1,68 @@
+#pragma once
+/// A learned range sensor as an EKF measurement model: z = h(ξ, η) + v, h the TSK model
+/// (tsk_model.hpp) of the position components, v ~ N(0, R + diag(σ₁², σ₂²)) — the sensor's noise
+/// plus the model's own (seed 002 eq. 3, 7). The Jacobian is non-zero only in the two position
+/// columns (the seed's ∇h after eq. 10, here for any state layout).
+
+#include <Eigen/LU>
+#include <array>
+#include <memory>
+#include <stdexcept>
+#include <utility>
+
+#include "imm/math/linear_algebra.hpp"
+#include "imm/models/tsk_model.hpp"
+
+namespace imm {
+
+template <int N>
+class TskSensorMeasurement {
+ public:
+  static constexpr int kDim = 2;
+
+  /// `position_indices` = state indices of ξ and η; R the sensor's noise covariance.
+  TskSensorMeasurement(std::shared_ptr<const TskModel> model,
+                       const std::array<int, 2>& position_indices, const SquareMatrix<2>& R)
+      : model_(std::move(model)), indices_(position_indices) {
+    if (!model_) throw std::invalid_argument("TSK sensor measurement: no model");
+    for (int index : indices_) {
+      if (index < 0 || index >= N) throw std::invalid_argument("position index outside the state");
+    }
+    if (!R.allFinite() || !(R(0, 0) > 0.0) || !(R.determinant() > 0.0)) {
+      throw std::invalid_argument("measurement covariance R must be positive definite");
+    }
+    covariance_ = R + model_->noise_covariance();
+  }
+
+  [[nodiscard]] Vector<2> predict(const Vector<N>& x) const {
+    return model_->evaluate(position(x)).value;
+  }
+  [[nodiscard]] Matrix<2, N> jacobian(const Vector<N>& x) const {
+    const TskEvaluation e = model_->evaluate(position(x));
+    Matrix<2, N> H = Matrix<2, N>::Zero();
+    H.col(indices_[0]) = e.jacobian.col(0);
+    H.col(indices_[1]) = e.jacobian.col(1);
+    return H;
+  }
+  [[nodiscard]] Vector<2> residual(const Vector<2>& z, const Vector<2>& predicted) const {
+    return z - predicted;
+  }
+  [[nodiscard]] const SquareMatrix<2>& covariance() const { return covariance_; }
+  [[nodiscard]] bool defined_at(const Vector<N>& x) const { return x.allFinite(); }
+  /// Whether the prediction at x lies outside the sensor model's trained box.
+  [[nodiscard]] bool clamped_at(const Vector<N>& x) const {
+    return model_->evaluate(position(x)).clamped;
+  }
+  [[nodiscard]] const TskModel& model() const { return *model_; }
+
+ private:
+  [[nodiscard]] Eigen::Vector2d position(const Vector<N>& x) const {
+    return {x(indices_[0]), x(indices_[1])};
+  }
+
+  std::shared_ptr<const TskModel> model_;
+  std::array<int, 2> indices_;
+  SquareMatrix<2> covariance_;
+};
+
+}  // namespace imm

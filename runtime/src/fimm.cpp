@@ -1,0 +1,107 @@
+#include "imm/filters/fimm.hpp"
+
+#include <cmath>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/filters/kalman_mode.hpp"
+#include "imm/models/constant_acceleration.hpp"
+#include "imm/models/position_measurement.hpp"
+#include "imm/models/tsk_sensor_measurement.hpp"
+
+namespace imm {
+namespace {
+
+constexpr std::array<int, 2> kPositions = {0, 3};  // ξ, η in [ξ, ξ̇, ξ̈, η, η̇, η̈]
+constexpr const char* kModeNames[2] = {"cruise", "lane change"};
+
+}  // namespace
+
+void FimmSpec::validate() const {
+  if (!(sample_period > 0.0) || !std::isfinite(sample_period)) {
+    throw InvalidParameter("sample_period", "must be positive and finite");
+  }
+  if (!(cruise_sigma > 0.0) || !std::isfinite(cruise_sigma)) {
+    throw InvalidParameter("cruise_sigma", "must be positive and finite");
+  }
+  if (!(lane_change_ratio >= 1.0) || !std::isfinite(lane_change_ratio)) {
+    throw InvalidParameter("lane_change_ratio", "must be ≥ 1 and finite");
+  }
+  if (!(noise_scale > 0.0) || !std::isfinite(noise_scale)) {
+    throw InvalidParameter("noise_scale", "must be positive and finite");
+  }
+  try {
+    detail::validate_mode_probabilities(transition, initial_probabilities, 2);
+  } catch (const std::invalid_argument& error) {
+    throw InvalidParameter("transition", error.what());
+  }
+  const Eigen::Matrix2d& R = measurement_covariance;
+  if (!R.allFinite() || !(R(0, 0) > 0.0) || !(R.determinant() > 0.0) ||
+      std::abs(R(0, 1) - R(1, 0)) > 1e-12 * R.norm()) {
+    throw InvalidParameter("measurement_covariance", "must be symmetric positive definite");
+  }
+  if (iterations < 1 || iterations > 100) {
+    throw InvalidParameter("iterations", "must be in [1, 100]");
+  }
+}
+
+double FimmSpec::process_noise(int mode) const {
+  const double sigma = noise_scale * cruise_sigma * (mode == 0 ? 1.0 : lane_change_ratio);
+  return sigma * sigma;
+}
+
+FimmFilter::FimmFilter(const FimmSpec& spec, std::shared_ptr<const TskModel> sensor)
+    : sensor_(std::move(sensor)) {
+  spec.validate();
+  std::vector<std::unique_ptr<ImmMode<6, 2>>> modes;
+  for (int j = 0; j < 2; ++j) {
+    const auto motion = constant_acceleration<2>(spec.sample_period, spec.process_noise(j));
+    if (sensor_) {
+      modes.push_back(std::make_unique<KalmanMode<6, 6, TskSensorMeasurement<6>>>(
+          kModeNames[j], motion,
+          TskSensorMeasurement<6>(sensor_, kPositions, spec.measurement_covariance),
+          StateEmbedding<6, 6>(), spec.iterations));
+    } else {
+      modes.push_back(std::make_unique<KalmanMode<6, 6, PositionMeasurement<6, 2>>>(
+          kModeNames[j], motion, PositionMeasurement<6, 2>(kPositions, spec.measurement_covariance),
+          StateEmbedding<6, 6>()));
+    }
+  }
+  imm_ = std::make_unique<ImmEstimator<6, 2>>(std::move(modes), spec.transition,
+                                              spec.initial_probabilities);
+}
+
+FimmFilter::~FimmFilter() = default;
+
+std::string FimmFilter::mode_name(int j) const { return kModeNames[j == 0 ? 0 : 1]; }
+
+void FimmFilter::initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
+  if (mean.size() != 6 || covariance.rows() != 6 || covariance.cols() != 6) {
+    throw InvalidParameter("initial_state", "the FIMM state has 6 components");
+  }
+  GaussianState<6> state;
+  state.mean = mean;
+  state.covariance = covariance;
+  imm_->initialize(state);
+}
+
+StepStatus FimmFilter::step(const Eigen::Vector2d& z) { return imm_->step(z); }
+
+StepStatus FimmFilter::predict_only() { return imm_->predict_only(); }
+
+void FimmFilter::state(Eigen::Ref<Eigen::VectorXd> mean,
+                       Eigen::Ref<Eigen::VectorXd> variance) const {
+  mean = imm_->estimate().mean;
+  variance = imm_->estimate().covariance.diagonal();
+}
+
+ModeVector FimmFilter::mode_probabilities() const { return imm_->mode_probabilities(); }
+
+const GaussianState<6>& FimmFilter::estimate() const { return imm_->estimate(); }
+
+bool FimmFilter::outside_sensor_box() const {
+  if (!sensor_) return false;
+  const auto& x = imm_->estimate().mean;
+  return sensor_->evaluate(Eigen::Vector2d(x(0), x(3))).clamped;
+}
+
+}  // namespace imm

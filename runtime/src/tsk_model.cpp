@@ -1,0 +1,127 @@
+#include "imm/models/tsk_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "imm/core/invalid_parameter.hpp"
+
+namespace imm {
+
+std::string_view to_string(TNorm t_norm) { return t_norm == TNorm::kMin ? "min" : "product"; }
+
+TNorm t_norm_from(std::string_view name, const std::string& field) {
+  if (name == "min") return TNorm::kMin;
+  if (name == "product") return TNorm::kProduct;
+  throw InvalidParameter(field, "must be \"min\" or \"product\", got \"" + std::string(name) + "\"");
+}
+
+TskModel::TskModel(std::array<TskOutput, 2> outputs, TNorm t_norm,
+                   const Eigen::Vector2d& input_lower, const Eigen::Vector2d& input_upper,
+                   OutsideBox outside)
+    : outputs_(std::move(outputs)),
+      t_norm_(t_norm),
+      outside_(outside),
+      lower_(input_lower),
+      upper_(input_upper) {
+  if (!lower_.allFinite()) throw InvalidParameter("input_lower", "must be finite");
+  if (!upper_.allFinite()) throw InvalidParameter("input_upper", "must be finite");
+  if (!(lower_.array() < upper_.array()).all()) {
+    throw InvalidParameter("input_upper", "must exceed input_lower in every input");
+  }
+  for (std::size_t i = 0; i < outputs_.size(); ++i) {
+    const std::string field = "outputs[" + std::to_string(i) + "]";
+    const TskOutput& out = outputs_[i];
+    if (out.rules.empty() || out.rules.size() > kMaxRules) {
+      throw InvalidParameter(field + ".rules",
+                             "need 1 to " + std::to_string(kMaxRules) + " rules");
+    }
+    if (!(out.sigma >= 0.0) || !std::isfinite(out.sigma)) {
+      throw InvalidParameter(field + ".sigma", "must be ≥ 0 and finite");
+    }
+    for (std::size_t r = 0; r < out.rules.size(); ++r) {
+      const TskRule& rule = out.rules[r];
+      const std::string rf = field + ".rules[" + std::to_string(r) + "]";
+      if (!rule.center.allFinite()) throw InvalidParameter(rf + ".center", "must be finite");
+      if (!rule.width.allFinite() || !(rule.width.array() > 0.0).all()) {
+        throw InvalidParameter(rf + ".width", "must be positive and finite");
+      }
+      if (!rule.consequent.allFinite()) {
+        throw InvalidParameter(rf + ".consequent", "must be finite");
+      }
+    }
+  }
+}
+
+double TskModel::output(const std::vector<TskRule>& rules, TNorm t_norm,
+                        const Eigen::Vector2d& input, Eigen::Vector2d* gradient) {
+  // log wʳ and ∂ log wʳ / ∂input, then weights scaled by the largest.
+  const std::size_t n = std::min<std::size_t>(rules.size(), kMaxRules);
+  std::array<double, kMaxRules> log_w{};
+  std::array<Eigen::Vector2d, kMaxRules> d_log_w{};
+  double largest = -std::numeric_limits<double>::infinity();
+  for (std::size_t r = 0; r < n; ++r) {
+    const TskRule& rule = rules[r];
+    const Eigen::Array2d u = (input - rule.center).array() / rule.width.array();
+    const Eigen::Array2d log_a = -0.5 * u * u;
+    const Eigen::Array2d d_log_a = -u / rule.width.array();
+    if (t_norm == TNorm::kProduct) {
+      log_w[r] = log_a.sum();
+      d_log_w[r] = d_log_a.matrix();
+    } else {
+      const int s = log_a(1) < log_a(0) ? 1 : 0;  // the minimum; the first at a tie
+      log_w[r] = log_a(s);
+      d_log_w[r].setZero();
+      d_log_w[r](s) = d_log_a(s);
+    }
+    largest = std::max(largest, log_w[r]);
+  }
+  double sum_w = 0.0, sum_wz = 0.0;
+  std::array<double, kMaxRules> w{}, z{};
+  for (std::size_t r = 0; r < n; ++r) {
+    w[r] = std::exp(log_w[r] - largest);
+    const Eigen::Vector3d& a = rules[r].consequent;
+    z[r] = a(0) + a(1) * input(0) + a(2) * input(1);
+    sum_w += w[r];
+    sum_wz += w[r] * z[r];
+  }
+  const double h = sum_wz / sum_w;  // sum_w ≥ 1: the largest weight is exp(0)
+  if (gradient) {
+    Eigen::Vector2d g = Eigen::Vector2d::Zero();
+    for (std::size_t r = 0; r < n; ++r) {
+      g += w[r] * (d_log_w[r] * (z[r] - h) + rules[r].consequent.tail<2>());
+    }
+    *gradient = g / sum_w;
+  }
+  return h;
+}
+
+TskEvaluation TskModel::evaluate(const Eigen::Vector2d& input) const {
+  TskEvaluation result;
+  const Eigen::Vector2d x = input.cwiseMax(lower_).cwiseMin(upper_);
+  const Eigen::Array2d inside =
+      (input.array() >= lower_.array() && input.array() <= upper_.array()).cast<double>();
+  result.clamped = (inside < 1.0).any();
+  for (int i = 0; i < 2; ++i) {
+    Eigen::Vector2d gradient;
+    result.value(i) = output(outputs_[static_cast<std::size_t>(i)].rules, t_norm_, x, &gradient);
+    result.jacobian.row(i) = gradient.transpose();
+  }
+  if (result.clamped) {
+    if (outside_ == OutsideBox::kLinear) {
+      result.value += result.jacobian * (input - x);
+    } else {
+      result.jacobian.array().rowwise() *= inside.transpose();
+    }
+  }
+  return result;
+}
+
+Eigen::Matrix2d TskModel::noise_covariance() const {
+  return Eigen::Vector2d(outputs_[0].sigma * outputs_[0].sigma,
+                         outputs_[1].sigma * outputs_[1].sigma)
+      .asDiagonal();
+}
+
+}  // namespace imm

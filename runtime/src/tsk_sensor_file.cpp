@@ -1,0 +1,90 @@
+#include "imm/io/tsk_sensor_file.hpp"
+
+#include "imm/core/invalid_parameter.hpp"
+
+namespace imm::io {
+namespace {
+
+constexpr const char* kGroup = "/tsk";
+const std::vector<std::string> kRuleColumns = {"center_xi", "width_xi", "center_eta", "width_eta",
+                                               "a0",        "a_xi",     "a_eta"};
+
+std::string output_group(int i) { return "/tsk/output" + std::to_string(i + 1); }
+
+}  // namespace
+
+Eigen::MatrixXd rules_matrix(const std::vector<TskRule>& rules) {
+  Eigen::MatrixXd m(static_cast<Eigen::Index>(rules.size()), 7);
+  for (std::size_t r = 0; r < rules.size(); ++r) {
+    const TskRule& rule = rules[r];
+    m.row(static_cast<Eigen::Index>(r)) << rule.center(0), rule.width(0), rule.center(1),
+        rule.width(1), rule.consequent(0), rule.consequent(1), rule.consequent(2);
+  }
+  return m;
+}
+
+std::vector<TskRule> rules_from_matrix(const Eigen::MatrixXd& matrix) {
+  std::vector<TskRule> rules(static_cast<std::size_t>(matrix.rows()));
+  for (Eigen::Index r = 0; r < matrix.rows(); ++r) {
+    TskRule& rule = rules[static_cast<std::size_t>(r)];
+    rule.center << matrix(r, 0), matrix(r, 2);
+    rule.width << matrix(r, 1), matrix(r, 3);
+    rule.consequent << matrix(r, 4), matrix(r, 5), matrix(r, 6);
+  }
+  return rules;
+}
+
+void write_tsk_sensor(ModelFileWriter& writer, const TskModel& model) {
+  writer.set_attribute(kGroup, "t_norm", std::string(to_string(model.t_norm())));
+  writer.set_attribute(kGroup, "inputs", std::string("xi,eta"));
+  writer.set_attribute(kGroup, "outputs", std::string("z1,z2"));
+  Eigen::Matrix2d box;
+  box.row(0) = model.input_lower().transpose();
+  box.row(1) = model.input_upper().transpose();
+  writer.write_matrix("/tsk/input_box", box, {"xi", "eta"});
+  for (int i = 0; i < 2; ++i) {
+    const TskOutput& out = model.outputs()[static_cast<std::size_t>(i)];
+    writer.write_matrix(output_group(i) + "/rules", rules_matrix(out.rules), kRuleColumns);
+    writer.set_attribute(output_group(i), "sigma", out.sigma);
+  }
+}
+
+TskModel read_tsk_sensor(const ModelFileReader& reader) {
+  TNorm t_norm = TNorm::kMin;
+  try {
+    t_norm = t_norm_from(reader.text(kGroup, "t_norm"), "t_norm");
+  } catch (const InvalidParameter& error) {
+    reader.fail(std::string(kGroup) + "@t_norm", error.what());
+  }
+  const Eigen::MatrixXd box = reader.matrix("/tsk/input_box", 2, 2);
+  std::array<TskOutput, 2> outputs;
+  for (int i = 0; i < 2; ++i) {
+    const Eigen::MatrixXd rules = reader.matrix(output_group(i) + "/rules", -1, 7);
+    if (rules.rows() < 1 || rules.rows() > TskModel::kMaxRules) {
+      reader.fail(output_group(i) + "/rules",
+                  "need 1 to " + std::to_string(TskModel::kMaxRules) + " rules");
+    }
+    for (Eigen::Index r = 0; r < rules.rows(); ++r) {
+      if (!(rules(r, 1) > 0.0) || !(rules(r, 3) > 0.0)) {
+        reader.fail(output_group(i) + "/rules",
+                    "row " + std::to_string(r) + ": premise widths must be positive");
+      }
+    }
+    outputs[static_cast<std::size_t>(i)].rules = rules_from_matrix(rules);
+    outputs[static_cast<std::size_t>(i)].sigma =
+        reader.real(output_group(i), "sigma", ValueRule::kNonNegative);
+  }
+  try {
+    return TskModel(std::move(outputs), t_norm, box.row(0).transpose(), box.row(1).transpose());
+  } catch (const InvalidParameter& error) {
+    const std::string& f = error.field();
+    reader.fail(f.rfind("input", 0) == 0 ? std::string("/tsk/input_box") : "/tsk/" + f,
+                error.what());
+  }
+}
+
+TskModel read_tsk_sensor(const std::filesystem::path& path) {
+  return read_tsk_sensor(ModelFileReader(path, kTskSensorKind));
+}
+
+}  // namespace imm::io

@@ -1,0 +1,369 @@
+#include "imm/trainer/tsk/tsk_fit.hpp"
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "imm/datasets/random.hpp"
+
+namespace imm::trainer::tsk {
+namespace {
+
+constexpr int kParametersPerRule = 7;
+
+Eigen::MatrixXd design(const Eigen::MatrixXd& inputs) {
+  Eigen::MatrixXd X(inputs.rows(), 3);
+  X.col(0).setOnes();
+  X.rightCols(2) = inputs;
+  return X;
+}
+
+double weight_power(double u, double m) { return m == 2.0 ? u * u : std::pow(u, m); }
+
+// Rules ↔ the parameter vector θ of the fine tuning.
+std::vector<double> pack(const std::vector<TskRule>& rules) {
+  std::vector<double> theta;
+  theta.reserve(rules.size() * kParametersPerRule);
+  for (const TskRule& r : rules) {
+    theta.insert(theta.end(), {r.center(0), std::log(r.width(0)), r.center(1),
+                               std::log(r.width(1)), r.consequent(0), r.consequent(1),
+                               r.consequent(2)});
+  }
+  return theta;
+}
+
+void unpack(const double* theta, std::vector<TskRule>& rules) {
+  for (std::size_t r = 0; r < rules.size(); ++r) {
+    const double* t = theta + r * kParametersPerRule;
+    rules[r].center << t[0], t[2];
+    rules[r].width << std::exp(t[1]), std::exp(t[3]);
+    rules[r].consequent << t[4], t[5], t[6];
+  }
+}
+
+// All residuals z_q − ẑ(x_q) and their Jacobian as one Ceres cost function.
+class TskResiduals final : public ceres::CostFunction {
+ public:
+  TskResiduals(std::size_t rules, TNorm t_norm, const Eigen::MatrixXd& inputs,
+               const Eigen::VectorXd& targets)
+      : rules_(rules), t_norm_(t_norm), inputs_(inputs), targets_(targets) {
+    set_num_residuals(static_cast<int>(targets.size()));
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(rules * kParametersPerRule));
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    std::vector<TskRule> rules(rules_);
+    unpack(parameters[0], rules);
+    const std::size_t p = rules_ * kParametersPerRule;
+    std::vector<double> gradient(p);
+    for (Eigen::Index q = 0; q < targets_.size(); ++q) {
+      const Eigen::Vector2d x = inputs_.row(q).transpose();
+      const bool want = jacobians != nullptr && jacobians[0] != nullptr;
+      const double h =
+          output_and_parameter_gradient(rules, t_norm_, x, want ? gradient.data() : nullptr);
+      if (!std::isfinite(h)) return false;
+      residuals[q] = targets_(q) - h;
+      if (want) {
+        double* row = jacobians[0] + static_cast<std::size_t>(q) * p;
+        for (std::size_t i = 0; i < p; ++i) row[i] = -gradient[i];
+      }
+    }
+    return true;
+  }
+
+ private:
+  std::size_t rules_;
+  TNorm t_norm_;
+  const Eigen::MatrixXd& inputs_;
+  const Eigen::VectorXd& targets_;
+};
+
+}  // namespace
+
+namespace {
+
+// The memberships of one sample from its c distances, into u (c entries). Allocation-free.
+void memberships_into(const double* distances, Eigen::Index c, double fuzzifier, double* u) {
+  Eigen::Index zeros = 0;
+  double smallest = std::numeric_limits<double>::infinity();
+  for (Eigen::Index r = 0; r < c; ++r) {
+    zeros += distances[r] == 0.0 ? 1 : 0;
+    smallest = std::min(smallest, distances[r]);
+  }
+  if (zeros > 0) {  // I_q ≠ ∅: the hyperplanes through the sample share it
+    for (Eigen::Index r = 0; r < c; ++r) {
+      u[r] = distances[r] == 0.0 ? 1.0 / static_cast<double>(zeros) : 0.0;
+    }
+    return;
+  }
+  // μʳ = 1 / Σ_s (dʳ/dˢ)^{2/(m−1)}, as w_r / Σ w with w_r = (d_min/d_r)^{2/(m−1)} ∈ (0, 1].
+  const double exponent = 2.0 / (fuzzifier - 1.0);
+  double sum = 0.0;
+  for (Eigen::Index r = 0; r < c; ++r) {
+    const double ratio = smallest / distances[r];
+    u[r] = fuzzifier == 2.0 ? ratio * ratio : std::pow(ratio, exponent);
+    sum += u[r];
+  }
+  for (Eigen::Index r = 0; r < c; ++r) u[r] /= sum;
+}
+
+}  // namespace
+
+Eigen::VectorXd fcrm_memberships(const Eigen::VectorXd& distances, double fuzzifier) {
+  Eigen::VectorXd u(distances.size());
+  memberships_into(distances.data(), distances.size(), fuzzifier, u.data());
+  return u;
+}
+
+FcrmResult fcrm_from(const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targets,
+                     const Eigen::MatrixXd& initial, const FcrmSettings& settings) {
+  const Eigen::Index n = inputs.rows(), c = initial.cols();
+  const Eigen::MatrixXd X = design(inputs);
+  const double m = settings.fuzzifier;
+  FcrmResult result;
+  result.memberships = initial;
+  result.hyperplanes.resize(c, 3);
+  Eigen::MatrixXd distances(n, c);
+  for (int iteration = 1; iteration <= settings.max_iterations; ++iteration) {
+    // Step 4: Pʳ by weighted least squares with weights (μʳ)^m.
+    for (Eigen::Index r = 0; r < c; ++r) {
+      Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d b = Eigen::Vector3d::Zero();
+      for (Eigen::Index q = 0; q < n; ++q) {
+        const double w = weight_power(result.memberships(q, r), m);
+        const Eigen::Vector3d x(1.0, inputs(q, 0), inputs(q, 1));
+        A.noalias() += w * x * x.transpose();
+        b.noalias() += (w * targets(q)) * x;
+      }
+      A.diagonal().array() += 1e-12 * (1.0 + A.diagonal().array().abs());  // keeps A definite
+      result.hyperplanes.row(r) = A.ldlt().solve(b).transpose();
+    }
+    // Step 2: distances and memberships; step 3: convergence.
+    distances = ((X * result.hyperplanes.transpose()).colwise() - targets).cwiseAbs();
+    double change = 0.0;
+    Eigen::VectorXd d(c), u(c);
+    for (Eigen::Index q = 0; q < n; ++q) {
+      d = distances.row(q).transpose();
+      memberships_into(d.data(), c, m, u.data());
+      for (Eigen::Index r = 0; r < c; ++r) {
+        change = std::max(change, std::abs(u(r) - result.memberships(q, r)));
+        result.memberships(q, r) = u(r);
+      }
+    }
+    result.iterations = iteration;
+    if (change <= settings.tolerance) {
+      result.converged = true;
+      break;
+    }
+  }
+  result.objective = 0.0;
+  for (Eigen::Index q = 0; q < n; ++q) {
+    for (Eigen::Index r = 0; r < c; ++r) {
+      result.objective +=
+          weight_power(result.memberships(q, r), m) * distances(q, r) * distances(q, r);
+    }
+  }
+  return result;
+}
+
+FcrmResult fcrm(const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targets,
+                const FcrmSettings& settings, std::uint64_t seed) {
+  if (inputs.rows() != targets.size() || inputs.cols() != 2 || inputs.rows() < 3) {
+    throw std::invalid_argument("fcrm: need N × 2 inputs and N targets, N ≥ 3");
+  }
+  if (settings.clusters < 1 || !(settings.fuzzifier > 1.0) || settings.restarts < 1) {
+    throw std::invalid_argument("fcrm: clusters ≥ 1, fuzzifier > 1, restarts ≥ 1");
+  }
+  // Restarts run in parallel; each depends only on (seed, start) and the lowest objective wins
+  // (the earliest start on a tie), so the result does not depend on the thread count.
+  std::vector<FcrmResult> results(static_cast<std::size_t>(settings.restarts));
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int start = 0; start < settings.restarts; ++start) {
+    // A start: each cluster's hyperplane fitted to the N/c samples nearest (in the input box
+    // scaled to unit size) to a random sample — local planes, so that a piecewise-linear target
+    // is split along its pieces — and the memberships of step 2 from those planes.
+    datasets::Rng rng(datasets::derive_seed(seed, static_cast<std::uint64_t>(start)));
+    const Eigen::Index n = inputs.rows();
+    const Eigen::RowVector2d lo = inputs.colwise().minCoeff();
+    const Eigen::RowVector2d span =
+        (inputs.colwise().maxCoeff() - lo).cwiseMax(Eigen::RowVector2d::Constant(1e-12));
+    const Eigen::MatrixXd scaled = (inputs.rowwise() - lo).array().rowwise() / span.array();
+    const Eigen::MatrixXd X = design(inputs);
+    const Eigen::Index local = std::max<Eigen::Index>(3, n / settings.clusters);
+    Eigen::MatrixXd planes(settings.clusters, 3);
+    std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
+    for (int r = 0; r < settings.clusters; ++r) {
+      const auto pick = static_cast<Eigen::Index>(rng.below(static_cast<std::uint64_t>(n)));
+      const Eigen::VectorXd d2 = (scaled.rowwise() - scaled.row(pick)).rowwise().squaredNorm();
+      for (Eigen::Index q = 0; q < n; ++q) order[static_cast<std::size_t>(q)] = q;
+      std::nth_element(order.begin(), order.begin() + local - 1, order.end(),
+                       [&](Eigen::Index a, Eigen::Index b) { return d2(a) < d2(b); });
+      Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d b = Eigen::Vector3d::Zero();
+      for (Eigen::Index i = 0; i < local; ++i) {
+        const Eigen::Index q = order[static_cast<std::size_t>(i)];
+        A += X.row(q).transpose() * X.row(q);
+        b += X.row(q).transpose() * targets(q);
+      }
+      A.diagonal().array() += 1e-12 * (1.0 + A.diagonal().array().abs());
+      planes.row(r) = A.ldlt().solve(b).transpose();
+    }
+    const Eigen::MatrixXd distances =
+        ((X * planes.transpose()).colwise() - targets).cwiseAbs();
+    Eigen::MatrixXd initial(n, settings.clusters);
+    for (Eigen::Index q = 0; q < n; ++q) {
+      initial.row(q) = fcrm_memberships(distances.row(q).transpose(), settings.fuzzifier).transpose();
+    }
+    results[static_cast<std::size_t>(start)] = fcrm_from(inputs, targets, initial, settings);
+  }
+  FcrmResult best = std::move(results.front());
+  for (std::size_t i = 1; i < results.size(); ++i) {
+    if (results[i].objective < best.objective) best = std::move(results[i]);
+  }
+  best.restarts = settings.restarts;
+  return best;
+}
+
+std::vector<TskRule> rules_from_clusters(const Eigen::MatrixXd& inputs, const FcrmResult& clusters,
+                                         double fuzzifier) {
+  const Eigen::Index c = clusters.hyperplanes.rows();
+  const Eigen::Vector2d range = inputs.colwise().maxCoeff() - inputs.colwise().minCoeff();
+  std::vector<TskRule> rules(static_cast<std::size_t>(c));
+  for (Eigen::Index r = 0; r < c; ++r) {
+    Eigen::VectorXd w(inputs.rows());
+    for (Eigen::Index q = 0; q < inputs.rows(); ++q) {
+      w(q) = weight_power(clusters.memberships(q, r), fuzzifier);
+    }
+    const double total = std::max(w.sum(), 1e-300);
+    const Eigen::Vector2d mean = (inputs.transpose() * w) / total;
+    const Eigen::Vector2d variance =
+        ((inputs.rowwise() - mean.transpose()).array().square().colwise() * w.array())
+            .colwise()
+            .sum()
+            .transpose() /
+        total;
+    TskRule& rule = rules[static_cast<std::size_t>(r)];
+    rule.center = mean;
+    rule.width = variance.cwiseSqrt().cwiseMax(1e-3 * range);
+    rule.consequent = clusters.hyperplanes.row(r).transpose();
+  }
+  return rules;
+}
+
+Eigen::VectorXd predict(const std::vector<TskRule>& rules, TNorm t_norm,
+                        const Eigen::MatrixXd& inputs) {
+  Eigen::VectorXd out(inputs.rows());
+  for (Eigen::Index q = 0; q < inputs.rows(); ++q) {
+    out(q) = TskModel::output(rules, t_norm, inputs.row(q).transpose());
+  }
+  return out;
+}
+
+double rmse(const std::vector<TskRule>& rules, TNorm t_norm, const Eigen::MatrixXd& inputs,
+            const Eigen::VectorXd& targets) {
+  return std::sqrt((predict(rules, t_norm, inputs) - targets).squaredNorm() /
+                   static_cast<double>(std::max<Eigen::Index>(1, targets.size())));
+}
+
+double output_and_parameter_gradient(const std::vector<TskRule>& rules, TNorm t_norm,
+                                     const Eigen::Vector2d& input, double* gradient) {
+  const std::size_t n = rules.size();
+  std::vector<double> log_w(n), w(n), z(n);
+  std::vector<Eigen::Matrix<double, 4, 1>> d_log_w(n);  // ∂ log w / ∂(m_ξ, log s_ξ, m_η, log s_η)
+  double largest = -std::numeric_limits<double>::infinity();
+  for (std::size_t r = 0; r < n; ++r) {
+    const TskRule& rule = rules[r];
+    const Eigen::Array2d d = input - rule.center;
+    const Eigen::Array2d s2 = rule.width.array().square();
+    const Eigen::Array2d log_a = -0.5 * d.square() / s2;
+    // ∂ log A/∂m = d/s², ∂ log A/∂ log s = d²/s².
+    Eigen::Matrix<double, 4, 1> g;
+    g << d(0) / s2(0), d(0) * d(0) / s2(0), d(1) / s2(1), d(1) * d(1) / s2(1);
+    if (t_norm == TNorm::kProduct) {
+      log_w[r] = log_a.sum();
+      d_log_w[r] = g;
+    } else {
+      const int s = log_a(1) < log_a(0) ? 1 : 0;
+      log_w[r] = log_a(s);
+      d_log_w[r].setZero();
+      d_log_w[r].segment<2>(2 * s) = g.segment<2>(2 * s);
+    }
+    largest = std::max(largest, log_w[r]);
+  }
+  double sum_w = 0.0, sum_wz = 0.0;
+  for (std::size_t r = 0; r < n; ++r) {
+    w[r] = std::exp(log_w[r] - largest);
+    const Eigen::Vector3d& a = rules[r].consequent;
+    z[r] = a(0) + a(1) * input(0) + a(2) * input(1);
+    sum_w += w[r];
+    sum_wz += w[r] * z[r];
+  }
+  const double h = sum_wz / sum_w;
+  if (gradient) {
+    for (std::size_t r = 0; r < n; ++r) {
+      double* g = gradient + r * kParametersPerRule;
+      const double share = w[r] / sum_w;
+      const double premise = share * (z[r] - h);  // ∂h/∂ log wʳ
+      for (int i = 0; i < 4; ++i) g[i] = premise * d_log_w[r](i);
+      g[4] = share;
+      g[5] = share * input(0);
+      g[6] = share * input(1);
+    }
+  }
+  return h;
+}
+
+FineTuningReport fine_tune(std::vector<TskRule>& rules, TNorm t_norm,
+                           const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targets,
+                           const FineTuning& settings) {
+  std::vector<double> theta = pack(rules);
+  ceres::Problem problem;
+  problem.AddResidualBlock(new TskResiduals(rules.size(), t_norm, inputs, targets), nullptr,
+                           theta.data());
+  // Bounds that keep the premises meaningful: centers within one box width of the data, widths
+  // between 10⁻³ and 10 box widths (a wider set is flat: that input no longer matters to the
+  // rule, and 10 box widths already says so).
+  const Eigen::Vector2d lo = inputs.colwise().minCoeff(), hi = inputs.colwise().maxCoeff();
+  const Eigen::Vector2d span = (hi - lo).cwiseMax(Eigen::Vector2d::Constant(1e-9));
+  for (std::size_t r = 0; r < rules.size(); ++r) {
+    for (int d = 0; d < 2; ++d) {
+      const int center = static_cast<int>(r) * kParametersPerRule + 2 * d;
+      theta[static_cast<std::size_t>(center)] =
+          std::clamp(theta[static_cast<std::size_t>(center)], lo(d) - span(d), hi(d) + span(d));
+      theta[static_cast<std::size_t>(center + 1)] =
+          std::clamp(theta[static_cast<std::size_t>(center + 1)], std::log(1e-3 * span(d)),
+                     std::log(10.0 * span(d)));
+      problem.SetParameterLowerBound(theta.data(), center, lo(d) - span(d));
+      problem.SetParameterUpperBound(theta.data(), center, hi(d) + span(d));
+      problem.SetParameterLowerBound(theta.data(), center + 1, std::log(1e-3 * span(d)));
+      problem.SetParameterUpperBound(theta.data(), center + 1, std::log(10.0 * span(d)));
+    }
+  }
+  ceres::Solver::Options options;
+  options.minimizer_type = ceres::TRUST_REGION;
+  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // 7c unknowns: a tiny normal matrix
+  options.max_num_iterations = settings.max_iterations;
+  options.function_tolerance = 1e-10;
+  options.parameter_tolerance = 1e-10;
+  options.num_threads = 1;  // deterministic
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  FineTuningReport report;
+  report.iterations = static_cast<int>(summary.iterations.size());
+  report.initial_cost = summary.initial_cost;
+  report.final_cost = summary.final_cost;
+  report.converged = summary.termination_type == ceres::CONVERGENCE;
+  if (summary.final_cost <= summary.initial_cost && std::isfinite(summary.final_cost)) {
+    unpack(theta.data(), rules);
+  }
+  return report;
+}
+
+}  // namespace imm::trainer::tsk

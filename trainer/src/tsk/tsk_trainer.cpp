@@ -1,0 +1,265 @@
+#include "imm/trainer/tsk/tsk_trainer.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <numeric>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/datasets/random.hpp"
+#include "imm/datasets/range_sensor_file.hpp"
+#include "imm/io/tsk_sensor_file.hpp"
+#include "imm/support/config.hpp"
+#include "imm/trainer/provenance.hpp"
+
+namespace imm::trainer::tsk {
+namespace {
+
+void require(bool condition, const std::string& key, const std::string& message) {
+  if (!condition) throw InvalidParameter(key, message);
+}
+
+// Rethrows a component's InvalidParameter under the config section `prefix`.
+template <class F>
+void validate_as(const std::string& prefix, F&& f) {
+  try {
+    f();
+  } catch (const InvalidParameter& error) {
+    const std::string what = error.what();
+    throw InvalidParameter(prefix + error.field(), what.substr(error.field().size() + 2));
+  }
+}
+
+TskTrainingConfig config_from(const support::ConfigTable& root) {
+  TskTrainingConfig c;
+  const std::int64_t seed = root.integer_or("seed", 1);
+  if (seed < 0) root.fail("seed", "must be non-negative");
+  c.seed = static_cast<std::uint64_t>(seed);
+  c.data.seed = datasets::derive_seed(c.seed, 1);
+  if (const auto d = root.table("data")) {
+    auto& data = c.data;
+    data.samples = static_cast<int>(d->integer_or("samples", data.samples));
+    data.distortion.knee = d->real_or("knee", data.distortion.knee);
+    data.distortion.softness = d->real_or("softness", data.distortion.softness);
+    data.noise_sigma = d->real_or("noise_sigma", data.noise_sigma);
+    if (d->has("xi")) {
+      const Eigen::VectorXd r = d->reals("xi", 2);
+      data.lower(0) = r(0), data.upper(0) = r(1);
+    }
+    if (d->has("eta")) {
+      const Eigen::VectorXd r = d->reals("eta", 2);
+      data.lower(1) = r(0), data.upper(1) = r(1);
+    }
+    c.validation_fraction = d->real_or("validation_fraction", c.validation_fraction);
+  }
+  if (const auto f = root.table("fit")) {
+    c.fcrm.clusters = static_cast<int>(f->integer_or("rules", c.fcrm.clusters));
+    c.fcrm.fuzzifier = f->real_or("fuzzifier", c.fcrm.fuzzifier);
+    c.fcrm.tolerance = f->real_or("tolerance", c.fcrm.tolerance);
+    c.fcrm.max_iterations = static_cast<int>(f->integer_or("max_iterations", c.fcrm.max_iterations));
+    c.fcrm.restarts = static_cast<int>(f->integer_or("restarts", c.fcrm.restarts));
+    if (f->has("t_norm")) c.t_norm = t_norm_from(f->text("t_norm"), f->path("t_norm"));
+    c.fine_tuning.max_iterations =
+        static_cast<int>(f->integer_or("fine_tuning_iterations", c.fine_tuning.max_iterations));
+  }
+  if (const auto g = root.table("gate")) {
+    c.max_validation_rmse = g->real_or("max_validation_rmse", c.max_validation_rmse);
+  }
+  if (const auto f = root.table("fimm")) {
+    FimmSpec& s = c.fimm;
+    s.sample_period = f->real_or("sample_period", s.sample_period);
+    s.cruise_sigma = f->real_or("cruise_sigma", s.cruise_sigma);
+    s.lane_change_ratio = f->real_or("lane_change_ratio", s.lane_change_ratio);
+    s.noise_scale = f->real_or("noise_scale", s.noise_scale);
+    if (f->has("transition")) s.transition = f->matrix("transition", 2, 2);
+    if (f->has("initial_probabilities")) {
+      s.initial_probabilities = f->reals("initial_probabilities", 2);
+    }
+    c.iekf_iterations = static_cast<int>(f->integer_or("iekf_iterations", c.iekf_iterations));
+  }
+  if (const auto s = root.table("scenario")) {
+    auto& sc = c.scenario;
+    sc.host_speed = s->real_or("host_speed", sc.host_speed);
+    sc.target_speed = s->real_or("target_speed", sc.target_speed);
+    sc.lane_offset = s->real_or("lane_offset", sc.lane_offset);
+    sc.initial_gap = s->real_or("initial_gap", sc.initial_gap);
+    if (s->has("cut_in")) {
+      const Eigen::VectorXd r = s->reals("cut_in", 2);
+      sc.cut_in_start = r(0), sc.cut_in_end = r(1);
+    }
+    if (s->has("return")) {
+      const Eigen::VectorXd r = s->reals("return", 2);
+      sc.return_start = r(0), sc.return_end = r(1);
+    }
+    sc.steps = static_cast<int>(s->integer_or("steps", sc.steps));
+  }
+  c.scenario.sample_period = c.fimm.sample_period;
+  c.scenario.distortion = c.data.distortion;
+  c.validate();
+  return c;
+}
+
+// "z1", "z2" (appended, not "z" + …: GCC 12 warns falsely on that form, bug 105329).
+std::string output_key(int i) {
+  std::string key = "z";
+  key += std::to_string(i + 1);
+  return key;
+}
+
+}  // namespace
+
+void TskTrainingConfig::validate() const {
+  validate_as("data.", [&] { data.validate(); });
+  require(validation_fraction > 0.0 && validation_fraction < 1.0, "data.validation_fraction",
+          "must be in (0, 1)");
+  require(fcrm.clusters >= 1 && fcrm.clusters <= TskModel::kMaxRules, "fit.rules",
+          "must be in [1, " + std::to_string(TskModel::kMaxRules) + "]");
+  require(fcrm.fuzzifier > 1.0 && std::isfinite(fcrm.fuzzifier), "fit.fuzzifier",
+          "must be greater than 1");
+  require(fcrm.tolerance > 0.0 && std::isfinite(fcrm.tolerance), "fit.tolerance",
+          "must be positive");
+  require(fcrm.max_iterations >= 1 && fcrm.max_iterations <= 100000, "fit.max_iterations",
+          "must be in [1, 100000]");
+  require(fcrm.restarts >= 1 && fcrm.restarts <= 1000, "fit.restarts", "must be in [1, 1000]");
+  require(fine_tuning.max_iterations >= 0 && fine_tuning.max_iterations <= 100000,
+          "fit.fine_tuning_iterations", "must be in [0, 100000]");
+  require(max_validation_rmse > 0.0 && std::isfinite(max_validation_rmse),
+          "gate.max_validation_rmse", "must be positive");
+  validate_as("fimm.", [&] { fimm.validate(); });
+  require(iekf_iterations >= 2 && iekf_iterations <= 100, "fimm.iekf_iterations",
+          "must be in [2, 100]");
+  validate_as("scenario.", [&] { scenario.validate(); });
+}
+
+TskTrainingConfig load_tsk_config(const std::filesystem::path& path) {
+  const auto document = support::ConfigDocument::load(path);
+  TskTrainingConfig config = document->load_checked([&] { return config_from(document->root()); });
+  config.text = document->text();
+  config.name = path.string();
+  return config;
+}
+
+SplitData split(const datasets::RangeSensorData& data, double validation_fraction,
+                std::uint64_t seed) {
+  const Eigen::Index n = data.positions.rows();
+  std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
+  std::iota(order.begin(), order.end(), Eigen::Index{0});
+  datasets::Rng rng(datasets::derive_seed(seed, 7));
+  for (Eigen::Index i = n - 1; i > 0; --i) {  // Fisher–Yates with our own generator
+    const auto j = static_cast<Eigen::Index>(rng.below(static_cast<std::uint64_t>(i) + 1));
+    std::swap(order[static_cast<std::size_t>(i)], order[static_cast<std::size_t>(j)]);
+  }
+  const auto validation = std::max<Eigen::Index>(
+      1, static_cast<Eigen::Index>(std::llround(validation_fraction * static_cast<double>(n))));
+  const Eigen::Index training = n - validation;
+  SplitData out;
+  out.training_inputs.resize(training, 2);
+  out.training_outputs.resize(training, 2);
+  out.validation_inputs.resize(validation, 2);
+  out.validation_outputs.resize(validation, 2);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Eigen::Index q = order[static_cast<std::size_t>(i)];
+    if (i < training) {
+      out.training_inputs.row(i) = data.positions.row(q);
+      out.training_outputs.row(i) = data.outputs.row(q);
+    } else {
+      out.validation_inputs.row(i - training) = data.positions.row(q);
+      out.validation_outputs.row(i - training) = data.outputs.row(q);
+    }
+  }
+  return out;
+}
+
+TskTrainingResult train_tsk(const TskTrainingConfig& config, const std::filesystem::path& out) {
+  const auto start = std::chrono::steady_clock::now();
+  const datasets::RangeSensorData data = datasets::simulate_range_sensor(config.data);
+  const SplitData parts = split(data, config.validation_fraction, config.seed);
+  TskTrainingResult result;
+  result.training_samples = static_cast<int>(parts.training_inputs.rows());
+  result.validation_samples = static_cast<int>(parts.validation_inputs.rows());
+  result.digest = datasets::digest(data);
+
+  std::array<TskOutput, 2> outputs;
+  for (int i = 0; i < 2; ++i) {
+    const Eigen::VectorXd z = parts.training_outputs.col(i);
+    const Eigen::VectorXd z_validation = parts.validation_outputs.col(i);
+    const FcrmResult clusters = fcrm(parts.training_inputs, z, config.fcrm,
+                                     datasets::derive_seed(config.seed, 100 + i));
+    std::vector<TskRule> rules =
+        rules_from_clusters(parts.training_inputs, clusters, config.fcrm.fuzzifier);
+    OutputReport& report = result.outputs[i];
+    report.fcrm_objective = clusters.objective;
+    report.fcrm_iterations = clusters.iterations;
+    report.fcrm_training_rmse = rmse(rules, config.t_norm, parts.training_inputs, z);
+    report.fcrm_validation_rmse = rmse(rules, config.t_norm, parts.validation_inputs, z_validation);
+    report.fine_tuning = fine_tune(rules, config.t_norm, parts.training_inputs, z,
+                                   config.fine_tuning);
+    report.training_rmse = rmse(rules, config.t_norm, parts.training_inputs, z);
+    report.validation_rmse = rmse(rules, config.t_norm, parts.validation_inputs, z_validation);
+    report.sigma = report.training_rmse;  // eq. (7)
+    spdlog::info(
+        "tsk: output z{}: FCRM {} restarts, objective {:.4g}, RMSE {:.4f} / {:.4f} m (training / "
+        "validation); fine tuning {} iterations: RMSE {:.4f} / {:.4f} m, sigma {:.4f}",
+        i + 1, clusters.restarts, clusters.objective, report.fcrm_training_rmse,
+        report.fcrm_validation_rmse, report.fine_tuning.iterations, report.training_rmse,
+        report.validation_rmse, report.sigma);
+    outputs[static_cast<std::size_t>(i)].rules = std::move(rules);
+    outputs[static_cast<std::size_t>(i)].sigma = report.sigma;
+  }
+  result.model = TskModel(std::move(outputs), config.t_norm,
+                          parts.training_inputs.colwise().minCoeff().transpose(),
+                          parts.training_inputs.colwise().maxCoeff().transpose());
+  result.gate_passed = true;
+  for (const OutputReport& r : result.outputs) {
+    result.gate_passed = result.gate_passed && r.validation_rmse <= config.max_validation_rmse &&
+                         std::isfinite(r.validation_rmse);
+  }
+  result.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  nlohmann::json metrics;
+  metrics["model_kind"] = io::kTskSensorKind;
+  metrics["model"] = out.string();
+  metrics["config"] = config.name;
+  metrics["seed"] = config.seed;
+  metrics["samples"] = {{"training", result.training_samples},
+                        {"validation", result.validation_samples}};
+  metrics["t_norm"] = std::string(to_string(config.t_norm));
+  metrics["rules"] = config.fcrm.clusters;
+  for (int i = 0; i < 2; ++i) {
+    const OutputReport& r = result.outputs[i];
+    metrics["outputs"][output_key(i)] = {
+        {"fcrm_training_rmse", r.fcrm_training_rmse},
+        {"fcrm_validation_rmse", r.fcrm_validation_rmse},
+        {"training_rmse", r.training_rmse},
+        {"validation_rmse", r.validation_rmse},
+        {"sigma", r.sigma},
+        {"fcrm_objective", r.fcrm_objective},
+        {"fcrm_iterations", r.fcrm_iterations},
+        {"fine_tuning_iterations", r.fine_tuning.iterations}};
+  }
+  metrics["wall_seconds"] = result.wall_seconds;
+  metrics["gate"] = {{"max_validation_rmse", config.max_validation_rmse},
+                     {"passed", result.gate_passed}};
+  ensure_parent_folder(out);
+  write_json_atomically(metrics_path(out), metrics);
+  if (!result.gate_passed) return result;
+
+  io::Provenance provenance =
+      make_provenance(std::string(io::kTskSensorKind), config.text,
+                      static_cast<std::int64_t>(config.seed), result.digest);
+  for (int i = 0; i < 2; ++i) {
+    const std::string key = output_key(i);
+    provenance.training_metrics[key + "_rmse"] = result.outputs[i].training_rmse;
+    provenance.training_metrics[key + "_fcrm_rmse"] = result.outputs[i].fcrm_training_rmse;
+    provenance.validation_metrics[key + "_rmse"] = result.outputs[i].validation_rmse;
+    provenance.validation_metrics[key + "_fcrm_rmse"] = result.outputs[i].fcrm_validation_rmse;
+  }
+  io::ModelFileWriter writer(out, provenance);
+  io::write_tsk_sensor(writer, result.model);
+  writer.commit();
+  return result;
+}
+
+}  // namespace imm::trainer::tsk
