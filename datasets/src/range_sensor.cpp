@@ -1,8 +1,8 @@
 #include "imm/datasets/range_sensor.hpp"
 
-#include <cmath>
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <cmath>
 #include <numbers>
 
 #include "imm/core/invalid_parameter.hpp"
@@ -43,8 +43,8 @@ Eigen::Vector2d RangeDistortion::apply(const Eigen::Vector2d& position) const {
 void RangeSensorDataConfig::validate() const {
   distortion.validate();
   require(samples >= 10 && samples <= 10000000, "samples", "must be in [10, 10⁷]");
-  require(lower.allFinite() && upper.allFinite() && (lower.array() < upper.array()).all(),
-          "box", "lower must be below upper in ξ and η");
+  require(lower.allFinite() && upper.allFinite() && (lower.array() < upper.array()).all(), "box",
+          "lower must be below upper in ξ and η");
   require(lower(1) > 0.0, "box", "η must stay positive (ahead of the sensor)");
   require(std::isfinite(noise_sigma) && noise_sigma >= 0.0, "noise_sigma", "must be ≥ 0");
 }
@@ -71,6 +71,8 @@ void CutInScenario::validate() const {
   require(std::isfinite(sample_period) && sample_period > 0.0, "sample_period", "must be > 0");
   require(steps >= 2 && steps <= 10000000, "steps", "must be in [2, 10⁷]");
   require(std::isfinite(host_speed) && std::isfinite(target_speed), "speed", "must be finite");
+  require(std::isfinite(lane_offset), "lane_offset", "must be finite");
+  require(std::isfinite(initial_gap), "initial_gap", "must be finite");
   require(cut_in_start < cut_in_end && cut_in_end <= return_start && return_start < return_end,
           "cut_in", "needs cut_in_start < cut_in_end ≤ return_start < return_end");
   const Eigen::Matrix2d& R = measurement_covariance;
@@ -89,8 +91,8 @@ CutInData simulate_cut_in(const CutInScenario& s) {
     const Eigen::Vector3d lateral =
         t < s.return_start ? half_cosine(t, s.cut_in_start, s.cut_in_end, s.lane_offset, 0.0)
                            : half_cosine(t, s.return_start, s.return_end, 0.0, s.lane_offset);
-    data.truth.row(k) << lateral(0), lateral(1), lateral(2),
-        s.initial_gap + relative_speed * t, relative_speed, 0.0;
+    data.truth.row(k) << lateral(0), lateral(1), lateral(2), s.initial_gap + relative_speed * t,
+        relative_speed, 0.0;
   }
   const Eigen::LLT<Eigen::Matrix2d> llt(s.measurement_covariance);
   const Eigen::Matrix2d L = llt.matrixL();

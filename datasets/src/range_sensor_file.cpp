@@ -1,6 +1,8 @@
 #include "imm/datasets/range_sensor_file.hpp"
 
 #include <cmath>
+#include <cstdint>
+#include <string>
 
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/datasets/sha256.hpp"
@@ -22,6 +24,19 @@ void write_root(io::ContainerWriter& writer, std::string_view kind, std::uint64_
   writer.set_attribute("/", "generator_version", generator_version);
   writer.set_attribute("/", "config_toml", config_toml);
   writer.set_attribute("/", "digest", data_digest);
+}
+
+// Checks a data set's schema version and kind.
+void check_dataset(const io::SchemaReader& reader, std::string_view kind) {
+  const std::int64_t version = reader.integer("/", "schema_version", 1, INT64_MAX);
+  if (version > kDatasetSchemaVersion) {
+    reader.fail("/@schema_version", "schema version " + std::to_string(version) +
+                                        " is newer than this reader supports (" +
+                                        std::to_string(kDatasetSchemaVersion) + ")");
+  }
+  if (reader.text("/", "dataset_kind") != kind) {
+    reader.fail("/@dataset_kind", "expected \"" + std::string(kind) + "\"");
+  }
 }
 
 }  // namespace
@@ -67,9 +82,7 @@ std::string write_range_sensor_dataset(const std::filesystem::path& path,
 
 RangeSensorDataset read_range_sensor_dataset(const std::filesystem::path& path) {
   const io::SchemaReader reader(path, kDatasetFormat);
-  if (reader.text("/", "dataset_kind") != "range_sensor") {
-    reader.fail("/@dataset_kind", "expected \"range_sensor\"");
-  }
+  check_dataset(reader, "range_sensor");
   RangeSensorDataset out;
   out.data.positions = reader.matrix("/positions", -1, 2);
   out.data.outputs = reader.matrix("/outputs", static_cast<int>(out.data.positions.rows()), 2);
@@ -107,11 +120,42 @@ std::string write_cut_in_dataset(const std::filesystem::path& path, const CutInS
   writer.set_attribute("/parameters", "runs", std::int64_t{scenario.runs});
   writer.set_attribute("/parameters", "knee", scenario.distortion.knee);
   writer.set_attribute("/parameters", "softness", scenario.distortion.softness);
-  writer.set_attribute("/parameters", "r_sigma_xi", std::sqrt(scenario.measurement_covariance(0, 0)));
+  writer.set_attribute("/parameters", "r_sigma_xi",
+                       std::sqrt(scenario.measurement_covariance(0, 0)));
   writer.set_attribute("/parameters", "r_sigma_eta",
                        std::sqrt(scenario.measurement_covariance(1, 1)));
   writer.commit();
   return data_digest;
+}
+
+CutInDataset read_cut_in_dataset(const std::filesystem::path& path) {
+  const io::SchemaReader reader(path, kDatasetFormat);
+  check_dataset(reader, "cut_in");
+  CutInDataset out;
+  const auto steps = reader.integer("/parameters", "steps", 2, 10'000'000);
+  const auto runs = reader.integer("/parameters", "runs", 1, 1'000'000);
+  out.sample_period = reader.real("/parameters", "sample_period", io::ValueRule::kPositive);
+  out.distortion.knee = reader.real("/parameters", "knee", io::ValueRule::kPositive);
+  out.distortion.softness = reader.real("/parameters", "softness", io::ValueRule::kPositive);
+  out.r_sigma =
+      Eigen::Vector2d(reader.real("/parameters", "r_sigma_xi", io::ValueRule::kPositive),
+                      reader.real("/parameters", "r_sigma_eta", io::ValueRule::kPositive));
+  out.data.truth = reader.matrix("/truth", static_cast<int>(steps), 6);
+  const io::Array z = reader.array("/measurements", {runs, steps, 2});
+  for (std::int64_t run = 0; run < runs; ++run) {
+    Eigen::MatrixXd m(steps, 2);
+    for (std::int64_t k = 0; k < steps; ++k) {
+      const auto at = static_cast<std::size_t>((run * steps + k) * 2);
+      m(k, 0) = z.values[at];
+      m(k, 1) = z.values[at + 1];
+    }
+    out.data.measurements.push_back(std::move(m));
+  }
+  out.digest = reader.text("/", "digest");
+  if (digest(out.data) != out.digest) {
+    reader.fail("/@digest", "does not match the data (the file was altered)");
+  }
+  return out;
 }
 
 }  // namespace imm::datasets

@@ -1,7 +1,6 @@
 #include "imm/datasets/sha256.hpp"
 
 #include <bit>
-
 #include <cstring>
 
 namespace imm::datasets {

@@ -14,7 +14,8 @@ std::string_view to_string(TNorm t_norm) { return t_norm == TNorm::kMin ? "min" 
 TNorm t_norm_from(std::string_view name, const std::string& field) {
   if (name == "min") return TNorm::kMin;
   if (name == "product") return TNorm::kProduct;
-  throw InvalidParameter(field, "must be \"min\" or \"product\", got \"" + std::string(name) + "\"");
+  throw InvalidParameter(field,
+                         "must be \"min\" or \"product\", got \"" + std::string(name) + "\"");
 }
 
 TskModel::TskModel(std::array<TskOutput, 2> outputs, TNorm t_norm,
@@ -34,8 +35,7 @@ TskModel::TskModel(std::array<TskOutput, 2> outputs, TNorm t_norm,
     const std::string field = "outputs[" + std::to_string(i) + "]";
     const TskOutput& out = outputs_[i];
     if (out.rules.empty() || out.rules.size() > kMaxRules) {
-      throw InvalidParameter(field + ".rules",
-                             "need 1 to " + std::to_string(kMaxRules) + " rules");
+      throw InvalidParameter(field + ".rules", "need 1 to " + std::to_string(kMaxRules) + " rules");
     }
     if (!(out.sigma >= 0.0) || !std::isfinite(out.sigma)) {
       throw InvalidParameter(field + ".sigma", "must be ≥ 0 and finite");

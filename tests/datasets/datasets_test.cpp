@@ -7,6 +7,8 @@
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/datasets/maneuver_scenario.hpp"
 #include "imm/datasets/random.hpp"
+#include "imm/datasets/range_sensor.hpp"
+#include "imm/datasets/range_sensor_file.hpp"
 #include "imm/datasets/sha256.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"
@@ -198,6 +200,185 @@ TEST(DatasetFile, IsNotAModelFileAndViceVersa) {
   io::ContainerWriter other(dir / "m.h5", "immtrain-model");
   other.commit();
   EXPECT_THROW((void)read_scenario_dataset(dir / "m.h5"), io::FileError);
+}
+
+// --- Seed 002: the range sensor and the cut-in ------------------------------------------------
+
+TEST(RangeDistortion, CompressesTheRangeBeyondTheKnee) {
+  const RangeDistortion d;  // knee 40, L 30
+  EXPECT_EQ(d.apply(Eigen::Vector2d(1.5, 25.0)), Eigen::Vector2d(1.5, 25.0));
+  EXPECT_EQ(d.apply(Eigen::Vector2d(-2.0, 40.0)), Eigen::Vector2d(-2.0, 40.0));
+  const Eigen::Vector2d far = d.apply(Eigen::Vector2d(2.0, 70.0));
+  EXPECT_NEAR(far(1), 40.0 + 30.0 * std::tanh(1.0), 1e-12);
+  EXPECT_NEAR(far(0), 2.0 * far(1) / 70.0, 1e-12);  // ξ by the same ratio
+  // The hard sensor: slope sech²(2) ≈ 0.0707 at 60 m, saturating at knee + L.
+  RangeDistortion hard;
+  hard.softness = 10.0;
+  const double h = 1e-5;
+  const double slope = (hard.apply(Eigen::Vector2d(0.0, 60.0 + h))(1) -
+                        hard.apply(Eigen::Vector2d(0.0, 60.0 - h))(1)) /
+                       (2.0 * h);
+  EXPECT_NEAR(slope, 1.0 / std::pow(std::cosh(2.0), 2), 1e-8);
+  EXPECT_LT(hard.apply(Eigen::Vector2d(0.0, 1e4))(1), 50.0 + 1e-9);
+  // Continuous with slope 1 at the knee.
+  EXPECT_NEAR(d.apply(Eigen::Vector2d(0.0, 40.0 + 1e-7))(1), 40.0 + 1e-7, 1e-12);
+}
+
+TEST(RangeSensorData, SamplesTheBoxWithTheConfiguredNoise) {
+  RangeSensorDataConfig config;
+  config.samples = 4000;
+  config.seed = 5;
+  const RangeSensorData data = simulate_range_sensor(config);
+  ASSERT_EQ(data.positions.rows(), 4000);
+  EXPECT_GE(data.positions.col(0).minCoeff(), -6.0);
+  EXPECT_LE(data.positions.col(0).maxCoeff(), 6.0);
+  EXPECT_GE(data.positions.col(1).minCoeff(), 1.0);
+  EXPECT_LE(data.positions.col(1).maxCoeff(), 100.0);
+  Eigen::MatrixXd noise(4000, 2);
+  for (Eigen::Index q = 0; q < 4000; ++q) {
+    noise.row(q) = data.outputs.row(q) -
+                   config.distortion.apply(data.positions.row(q).transpose()).transpose();
+  }
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_NEAR(noise.col(i).mean(), 0.0, 4.0 * 0.05 / std::sqrt(4000.0));
+    EXPECT_NEAR(std::sqrt(noise.col(i).squaredNorm() / 4000.0), 0.05, 0.003);
+  }
+  EXPECT_EQ(simulate_range_sensor(config).outputs, data.outputs);
+  config.seed = 6;
+  EXPECT_NE(simulate_range_sensor(config).outputs, data.outputs);
+}
+
+TEST(CutIn, TruthFollowsTheSeedsManeuver) {
+  CutInScenario s;
+  s.runs = 1;
+  const CutInData data = simulate_cut_in(s);
+  ASSERT_EQ(data.truth.rows(), 200);
+  auto row = [&](double t) {
+    return data.truth.row(static_cast<Eigen::Index>(std::lround(t / 0.1)));
+  };
+  EXPECT_DOUBLE_EQ(row(0.0)(0), 3.5);  // beside the host, lane 1
+  EXPECT_DOUBLE_EQ(row(0.0)(3), 0.0);
+  EXPECT_NEAR(row(4.0)(0), 0.0, 1e-12);  // in front of the host after the cut-in
+  EXPECT_NEAR(row(10.0)(0), 0.0, 1e-12);
+  EXPECT_NEAR(row(19.9)(0), 3.5, 1e-12);  // back in lane 1
+  EXPECT_NEAR(row(2.5)(0), 1.75, 1e-12);  // half-way through the half-cosine
+  for (Eigen::Index k = 0; k < 200; ++k) {
+    EXPECT_NEAR(data.truth(k, 3), 3.0 * 0.1 * static_cast<double>(k), 1e-12);  // 33 − 30 m/s
+    EXPECT_EQ(data.truth(k, 4), 3.0);
+  }
+  // Velocity and acceleration are the derivatives of the position (central differences; the
+  // acceleration jumps at the ends of each move, t = 1, 4, 14, 18 s).
+  for (Eigen::Index k = 1; k + 1 < 200; ++k) {
+    if (k == 10 || k == 40 || k == 140 || k == 180) continue;
+    const double v = (data.truth(k + 1, 0) - data.truth(k - 1, 0)) / 0.2;
+    const double a = (data.truth(k + 1, 1) - data.truth(k - 1, 1)) / 0.2;
+    EXPECT_NEAR(data.truth(k, 1), v, 0.02) << k;
+    EXPECT_NEAR(data.truth(k, 2), a, 0.05) << k;
+  }
+  // Peak lateral speed of a half-cosine over 3 s: π·3.5/(2·3).
+  EXPECT_NEAR(data.truth.col(1).cwiseAbs().maxCoeff(), M_PI * 3.5 / 6.0, 1e-3);
+}
+
+TEST(CutIn, PlotsAreTheDistortedPositionPlusNoiseOfCovarianceR) {
+  CutInScenario s;
+  s.runs = 300;
+  s.measurement_covariance << 0.25, 0.1, 0.1, 1.0;
+  const CutInData data = simulate_cut_in(s);
+  Eigen::Matrix2d sum = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  const Eigen::Index k = 150;
+  const Eigen::Vector2d clean =
+      s.distortion.apply(Eigen::Vector2d(data.truth(k, 0), data.truth(k, 3)));
+  for (const auto& z : data.measurements) {
+    const Eigen::Vector2d e = z.row(k).transpose() - clean;
+    mean += e / 300.0;
+    sum += e * e.transpose() / 300.0;
+  }
+  EXPECT_NEAR(mean(0), 0.0, 0.15);
+  EXPECT_NEAR(mean(1), 0.0, 0.25);
+  EXPECT_NEAR(sum(0, 0), 0.25, 0.07);
+  EXPECT_NEAR(sum(1, 1), 1.0, 0.25);
+  EXPECT_NEAR(sum(0, 1), 0.1, 0.07);
+  // Run r depends only on (seed, r).
+  s.runs = 3;
+  EXPECT_EQ(simulate_cut_in(s).measurements[2], data.measurements[2]);
+}
+
+TEST(CutIn, ValidationNamesTheField) {
+  CutInScenario s;
+  s.return_start = 2.0;
+  try {
+    s.validate();
+    ADD_FAILURE() << "accepted";
+  } catch (const InvalidParameter& error) {
+    EXPECT_EQ(error.field(), "cut_in");
+  }
+  s = CutInScenario{};
+  s.distortion.softness = 0.0;
+  EXPECT_THROW(s.validate(), InvalidParameter);
+}
+
+TEST(RangeSensorFile, RoundTripAndAlteredDataAreDetected) {
+  const testing::TempDir dir;
+  RangeSensorDataConfig config;
+  config.samples = 300;
+  config.distortion.softness = 12.0;
+  const RangeSensorData data = simulate_range_sensor(config);
+  const std::string written =
+      write_range_sensor_dataset(dir / "r.h5", config, data, "seed = 1\n", "v1");
+  const RangeSensorDataset back = read_range_sensor_dataset(dir / "r.h5");
+  EXPECT_EQ(back.digest, written);
+  EXPECT_EQ(back.digest, digest(data));
+  EXPECT_EQ(back.data.positions, data.positions);
+  EXPECT_EQ(back.data.outputs, data.outputs);
+  EXPECT_EQ(back.distortion.softness, 12.0);
+  EXPECT_EQ(back.noise_sigma, 0.05);
+
+  // A file whose arrays no longer match its digest (sealed with a valid checksum, so only the
+  // digest can tell).
+  RangeSensorData altered = data;
+  altered.outputs(17, 1) += 0.001;
+  EXPECT_NE(digest(altered), written);
+  {
+    io::ContainerWriter writer(dir / "altered.h5", kDatasetFormat);
+    writer.set_attribute("/", "format", std::string(kDatasetFormat));
+    writer.set_attribute("/", "schema_version", std::int64_t{kDatasetSchemaVersion});
+    writer.set_attribute("/", "dataset_kind", std::string("range_sensor"));
+    writer.set_attribute("/", "digest", written);
+    writer.write("/positions", altered.positions);
+    writer.write("/outputs", altered.outputs);
+    writer.set_attribute("/parameters", "knee", 40.0);
+    writer.set_attribute("/parameters", "softness", 12.0);
+    writer.set_attribute("/parameters", "noise_sigma", 0.05);
+    writer.commit();
+  }
+  try {
+    (void)read_range_sensor_dataset(dir / "altered.h5");
+    ADD_FAILURE() << "accepted";
+  } catch (const io::FileError& error) {
+    EXPECT_EQ(error.field(), "/@digest") << error.what();
+  }
+  // The cut-in data set: runs × steps × 2 plots and the truth, back as written.
+  CutInScenario scenario;
+  scenario.runs = 3;
+  scenario.steps = 50;
+  scenario.measurement_covariance = Eigen::Vector2d(0.25, 1.0).asDiagonal();
+  const CutInData cut_in = simulate_cut_in(scenario);
+  const std::string cut_in_digest = write_cut_in_dataset(dir / "c.h5", scenario, cut_in, "", "v1");
+  const CutInDataset cut_in_back = read_cut_in_dataset(dir / "c.h5");
+  EXPECT_EQ(cut_in_back.digest, cut_in_digest);
+  EXPECT_EQ(cut_in_back.data.truth, cut_in.truth);
+  ASSERT_EQ(cut_in_back.data.measurements.size(), 3u);
+  for (std::size_t r = 0; r < 3; ++r) {
+    EXPECT_EQ(cut_in_back.data.measurements[r], cut_in.measurements[r]);
+  }
+  EXPECT_EQ(cut_in_back.r_sigma, Eigen::Vector2d(0.5, 1.0));
+  EXPECT_THROW((void)read_cut_in_dataset(dir / "r.h5"), io::FileError);
+  // A scenario data set is not a range-sensor data set.
+  ManeuverScenario m = seed000_scenario();
+  m.runs = 1;
+  write_scenario_dataset(dir / "m.h5", m, simulate(m), "", "v1");
+  EXPECT_THROW((void)read_range_sensor_dataset(dir / "m.h5"), io::FileError);
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 
 #include "imm/filters/aimm.hpp"
 #include "imm/filters/fcm_imm.hpp"
+#include "imm/filters/fimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/input_estimation_filter.hpp"
@@ -171,6 +172,40 @@ TEST(AllocationFreeStep, InputEstimationFilterStep) {
   const long before = allocations();
   for (int k = 1; k <= 5000; ++k) (void)filter.step(100.0 * k + 20.0 * std::sin(k));
   EXPECT_EQ(allocations(), before);
+}
+
+TEST(AllocationFreeStep, FimmStepThroughTheTskSensor) {
+  // Seed 002's FIMM with a three-rule TSK sensor, as EKF and as iterated EKF, also across the
+  // trained box's edge (the outside-box continuation).
+  std::array<TskOutput, 2> outputs;
+  for (int i = 0; i < 2; ++i) {
+    for (int r = 0; r < 3; ++r) {
+      TskRule rule;
+      rule.center << -2.0 + 2.0 * r, 15.0 + 30.0 * r;
+      rule.width << 3.0, 15.0;
+      rule.consequent << 0.1 * r, i == 0 ? 0.9 : 0.01, i == 0 ? 0.002 : 0.9 - 0.2 * r;
+      outputs[static_cast<std::size_t>(i)].rules.push_back(rule);
+    }
+    outputs[static_cast<std::size_t>(i)].sigma = 0.05;
+  }
+  const auto sensor = std::make_shared<const TskModel>(
+      outputs, TNorm::kMin, Eigen::Vector2d(-6.0, 1.0), Eigen::Vector2d(6.0, 100.0));
+  for (int iterations : {1, 5}) {
+    FimmSpec spec;
+    spec.iterations = iterations;
+    FimmFilter filter(spec, sensor);
+    Eigen::VectorXd start = Eigen::VectorXd::Zero(6);
+    start(0) = 3.5;
+    start(4) = 3.0;
+    filter.initialize(start, Eigen::MatrixXd::Identity(6, 6));
+    const long before = allocations();
+    for (int k = 1; k <= 5000; ++k) {
+      const double eta = 0.03 * k;  // 0 … 150 m: leaves the box at both ends
+      (void)filter.step(Eigen::Vector2d(3.5 * std::cos(0.01 * k), 40.0 * std::tanh(eta / 40.0)));
+      if (k % 50 == 0) (void)filter.predict_only();
+    }
+    EXPECT_EQ(allocations(), before) << iterations;
+  }
 }
 
 }  // namespace

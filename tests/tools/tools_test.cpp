@@ -391,6 +391,111 @@ TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
   EXPECT_NE(wrong.err.find("fcm_imm"), std::string::npos) << wrong.err;
 }
 
+TEST_F(Tools, TskTrainingAndFimmEvaluationEndToEnd) {
+  const auto models = dir_ / "models";
+  for (const std::string stem : {"tsk_range_sensor", "tsk_range_sensor_hard"}) {
+    std::string config = testing::slurp(this->config("configs/" + stem + ".toml"));
+    auto replace = [&](const std::string& from, const std::string& to) {
+      ASSERT_NE(config.find(from), std::string::npos) << from;
+      config.replace(config.find(from), from.size(), to);
+    };
+    replace("samples = 8000", "samples = 1500");
+    replace("restarts = 10", "restarts = 3");
+    testing::write_text(dir_ / (stem + ".toml"), config);
+    const auto trained = run_tool("imm-train",
+                                  {"tsk", "--config", (dir_ / (stem + ".toml")).string(), "--out",
+                                   (models / (stem + ".h5")).string(), "--seed", "3"},
+                                  root_);
+    ASSERT_EQ(trained.exit_code, 0) << trained.err;
+    EXPECT_NE(trained.err.find("fine tuning"), std::string::npos) << trained.err;
+    const auto metrics = nlohmann::json::parse(testing::slurp(models / (stem + ".metrics.json")));
+    for (const char* z : {"z1", "z2"}) {
+      EXPECT_LT(metrics["outputs"][z]["validation_rmse"].get<double>(),
+                metrics["outputs"][z]["fcrm_validation_rmse"].get<double>())
+          << stem << " " << z;
+    }
+  }
+  const auto inspected =
+      run_tool("imm-inspect", {(models / "tsk_range_sensor.h5").string()}, root_);
+  ASSERT_EQ(inspected.exit_code, 0) << inspected.err;
+  EXPECT_NE(inspected.out.find("kind             tsk_sensor"), std::string::npos) << inspected.out;
+  EXPECT_NE(inspected.out.find("/tsk/output2/rules"), std::string::npos) << inspected.out;
+  EXPECT_NE(inspected.out.find("center_eta"), std::string::npos) << inspected.out;
+
+  for (const std::string sensor : {"default", "hard"}) {
+    const bool hard = sensor == "hard";
+    const auto out = dir_ / ("report-" + sensor);
+    const auto evaluated =
+        run_tool("imm-eval",
+                 {"fimm", "--models", models.string(), "--sensor", sensor, "--config",
+                  (dir_ / (hard ? "tsk_range_sensor_hard.toml" : "tsk_range_sensor.toml")).string(),
+                  "--runs", "3", "--out", out.string()},
+                 root_);
+    ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 5) << evaluated.err;
+    EXPECT_NE(evaluated.out.find("Table 1"), std::string::npos) << evaluated.out;
+    const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+    ASSERT_EQ(metrics["rows"].size(), 4u);
+    const double expected_r[4] = {0.01, 0.25, 1.0, 4.0};
+    for (std::size_t i = 0; i < 4; ++i) {
+      const auto& row = metrics["rows"][i];
+      EXPECT_DOUBLE_EQ(row["R"].get<double>(), expected_r[i]);
+      for (const char* key : {"imm_mse", "fimm_mse"}) {
+        EXPECT_GT(row[key].get<double>(), 0.0) << sensor << " " << key;
+        EXPECT_LT(row[key].get<double>(), 100.0) << sensor << " " << key;  // nothing diverged
+      }
+      EXPECT_EQ(row.contains("fimm_iekf_mse"), hard) << sensor;
+    }
+    for (const char* file : {"path_R0.1.png", "path_R2.0.csv", "sensor_model.png",
+                             "mse_by_scan.csv", "sensor_samples.png", "details.json"}) {
+      EXPECT_TRUE(std::filesystem::exists(out / file)) << sensor << " " << file;
+    }
+  }
+
+  // A model of another kind in its place is refused with exit code 2.
+  std::filesystem::create_directories(dir_ / "wrong");
+  std::filesystem::copy_file(this->config("models/wimm.h5"),
+                             dir_ / "wrong" / "tsk_range_sensor.h5");
+  const auto wrong = run_tool("imm-eval",
+                              {"fimm", "--models", (dir_ / "wrong").string(), "--config",
+                               (dir_ / "tsk_range_sensor.toml").string(), "--runs", "2", "--out",
+                               (dir_ / "wrong-report").string()},
+                              root_);
+  EXPECT_EQ(wrong.exit_code, 2);
+  EXPECT_NE(wrong.err.find("tsk_sensor"), std::string::npos) << wrong.err;
+}
+
+TEST_F(Tools, ImmDataWritesTheRangeSensorAndCutInDataSets) {
+  const auto sensor =
+      run_tool("imm-data", {"range-sensor", "--out", (dir_ / "r.h5").string()}, root_);
+  ASSERT_EQ(sensor.exit_code, 0) << sensor.err;
+  const auto again =
+      run_tool("imm-data", {"range-sensor", "--out", (dir_ / "r2.h5").string()}, root_);
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  const auto a = run_tool("imm-inspect", {(dir_ / "r.h5").string(), "--json"}, root_);
+  const auto b = run_tool("imm-inspect", {(dir_ / "r2.h5").string(), "--json"}, root_);
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  const auto ja = nlohmann::json::parse(a.out);
+  EXPECT_EQ(ja["kind"], "range_sensor");
+  EXPECT_TRUE(ja["validated"].get<bool>());
+  // Same config and seed, same digest.
+  auto digest_of = [](const std::string& text) {
+    const auto at = text.find("\"digest\"");
+    return at == std::string::npos ? std::string() : text.substr(at, 80);
+  };
+  EXPECT_FALSE(digest_of(a.out).empty()) << a.out;
+  EXPECT_EQ(digest_of(a.out), digest_of(b.out));
+
+  const auto cut_in = run_tool(
+      "imm-data", {"cut-in", "--r-sigma", "0.5", "--runs", "4", "--out", (dir_ / "c.h5").string()},
+      root_);
+  ASSERT_EQ(cut_in.exit_code, 0) << cut_in.err;
+  EXPECT_NE(cut_in.out.find("4 runs"), std::string::npos) << cut_in.out;
+  const auto bad = run_tool(
+      "imm-data", {"cut-in", "--r-sigma", "-1", "--out", (dir_ / "bad.h5").string()}, root_);
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "bad.h5"));
+}
+
 TEST_F(Tools, ImmInspectShowsRuleTablesLikeTable2) {
   const auto model = dir_ / "paper.h5";
   const auto result = run_tool(

@@ -9,9 +9,11 @@
 #include <memory>
 
 #include "imm/datasets/maneuver_scenario.hpp"
+#include "imm/datasets/range_sensor.hpp"
 #include "imm/filters/aimm.hpp"
 #include "imm/filters/axis_cv_imm.hpp"
 #include "imm/filters/fcm_imm.hpp"
+#include "imm/filters/fimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/input_estimation_filter.hpp"
@@ -22,6 +24,7 @@
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
+#include "imm/io/tsk_sensor_file.hpp"
 #include "imm/models/constant_velocity.hpp"
 #include "imm/models/polar_measurement.hpp"
 #include "imm/models/position_measurement.hpp"
@@ -266,6 +269,69 @@ void BM_CvImm3Seed003Step(benchmark::State& state) {
   run_two_axis(state, *filter, seed003_plots(), 1e4);
 }
 BENCHMARK(BM_CvImm3Seed003Step);
+
+// Seed 002: the shipped TSK sensor model (models/tsk_range_sensor[_hard].h5), h and its 2 × 2
+// Jacobian for both outputs, at positions along the cut-in (some outside the trained box).
+const char* tsk_model_path(bool hard) {
+  return hard ? IMM_SOURCE_DIR "/models/tsk_range_sensor_hard.h5"
+              : IMM_SOURCE_DIR "/models/tsk_range_sensor.h5";
+}
+
+imm::datasets::CutInScenario cut_in(bool hard) {
+  imm::datasets::CutInScenario scenario;
+  scenario.runs = 1;
+  scenario.measurement_covariance = 0.25 * Eigen::Matrix2d::Identity();
+  if (hard) scenario.distortion.softness = 10.0;
+  return scenario;
+}
+
+void BM_TskEvaluate(benchmark::State& state) {
+  const bool hard = state.range(0) == 1;
+  const imm::TskModel model = imm::io::read_tsk_sensor(tsk_model_path(hard));
+  const Eigen::MatrixXd truth = imm::datasets::simulate_cut_in(cut_in(hard)).truth;
+  Eigen::Index k = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(model.evaluate(Eigen::Vector2d(truth(k, 0), truth(k, 3))));
+    k = (k + 1) % truth.rows();
+  }
+  state.SetLabel(std::string(hard ? "hard" : "default") + " sensor, 3 rules per output, " +
+                 std::string(imm::to_string(model.t_norm())));
+}
+BENCHMARK(BM_TskEvaluate)->Arg(0)->Arg(1);
+
+// One FIMM step on the cut-in plots (R = 0.5² I): range(0) = linearizations per update
+// (0: the baseline IMM, h = identity; 1: EKF; 5: IEKF), range(1) = 1 for the hard sensor.
+void BM_FimmStep(benchmark::State& state) {
+  const int iterations = static_cast<int>(state.range(0));
+  const bool hard = state.range(1) == 1;
+  const auto scenario = cut_in(hard);
+  const auto data = imm::datasets::simulate_cut_in(scenario);
+  std::shared_ptr<const imm::TskModel> sensor;
+  if (iterations > 0) {
+    sensor = std::make_shared<const imm::TskModel>(imm::io::read_tsk_sensor(tsk_model_path(hard)));
+  }
+  imm::FimmSpec spec;
+  spec.measurement_covariance = scenario.measurement_covariance;
+  spec.iterations = std::max(1, iterations);
+  imm::FimmFilter filter(spec, sensor);
+  const Eigen::MatrixXd& plots = data.measurements.front();
+  const Eigen::VectorXd start = data.truth.row(0).transpose();
+  const Eigen::MatrixXd covariance = Eigen::VectorXd::Constant(6, 1.0).asDiagonal();
+  filter.initialize(start, covariance);
+  Eigen::Index k = 1;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(filter.step(plots.row(k).transpose()));
+    if (++k == plots.rows()) {  // a new track every 200 scans
+      filter.initialize(start, covariance);
+      k = 1;
+    }
+  }
+  state.SetLabel(std::string(iterations == 0   ? "IMM (h = identity)"
+                             : iterations == 1 ? "FIMM, EKF"
+                                               : "FIMM, IEKF ≤ 5") +
+                 (hard ? ", hard sensor" : ""));
+}
+BENCHMARK(BM_FimmStep)->Args({0, 0})->Args({1, 0})->Args({5, 0})->Args({1, 1})->Args({5, 1});
 
 }  // namespace
 

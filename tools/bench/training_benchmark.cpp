@@ -1,5 +1,6 @@
 // Training speed (Google Benchmark): one back-propagation epoch of the input estimator's 2-10-10-1
-// network on the default training features (per-sample, the seed's classic update).
+// network on the default training features (per-sample, the seed's classic update), one FCM-fit
+// objective evaluation, and a whole TSK sensor fit.
 //   build/bin/imm-train-bench --benchmark_min_time=1
 
 #include <benchmark/benchmark.h>
@@ -8,6 +9,7 @@
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
+#include "imm/trainer/tsk/tsk_trainer.hpp"
 
 namespace {
 
@@ -55,6 +57,31 @@ void BM_FcmObjectiveEvaluation(benchmark::State& state) {
   state.counters["trajectories"] = static_cast<double>(data.data.truth.size());
 }
 BENCHMARK(BM_FcmObjectiveEvaluation)->Unit(benchmark::kMillisecond);
+
+// The whole TSK fit of one config (both outputs: FCRM with its restarts, premises, Levenberg–
+// Marquardt fine tuning, σ) on its 8000 samples, without the file writing; range(0) = 1 for the
+// hard sensor. At the default thread count (the restarts run in parallel).
+void BM_TskFit(benchmark::State& state) {
+  namespace tsk = imm::trainer::tsk;
+  const auto config = tsk::load_tsk_config(
+      state.range(0) == 1 ? IMM_SOURCE_DIR "/configs/tsk_range_sensor_hard.toml"
+                          : IMM_SOURCE_DIR "/configs/tsk_range_sensor.toml");
+  const auto data = imm::datasets::simulate_range_sensor(config.data);
+  const auto parts = tsk::split(data, config.validation_fraction, config.seed);
+  for (auto _ : state) {
+    for (int i = 0; i < 2; ++i) {
+      const Eigen::VectorXd z = parts.training_outputs.col(i);
+      const auto clusters = tsk::fcrm(parts.training_inputs, z, config.fcrm,
+                                      imm::datasets::derive_seed(config.seed, 100 + i));
+      auto rules = tsk::rules_from_clusters(parts.training_inputs, clusters, config.fcrm.fuzzifier);
+      benchmark::DoNotOptimize(
+          tsk::fine_tune(rules, config.t_norm, parts.training_inputs, z, config.fine_tuning));
+    }
+  }
+  state.counters["samples"] = static_cast<double>(parts.training_inputs.rows());
+  state.SetLabel(state.range(0) == 1 ? "hard sensor" : "default sensor");
+}
+BENCHMARK(BM_TskFit)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

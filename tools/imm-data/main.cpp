@@ -52,10 +52,11 @@ int main(int argc, char** argv) {
   std::string scenario_name, out_path, config_path, csv_path;
   int runs = -1, csv_run = 0;
   std::int64_t seed = -1;
-  app.add_option("scenario", scenario_name, "seed000 | seed003 | seed004-1 | seed004-2 | maneuver | range-sensor | cut-in")
+  app.add_option("scenario", scenario_name,
+                 "seed000 | seed003 | seed004-1 | seed004-2 | maneuver | range-sensor | cut-in")
       ->required()
-      ->check(CLI::IsMember({"seed000", "seed003", "seed004-1", "seed004-2", "maneuver",
-                             "range-sensor", "cut-in"}));
+      ->check(CLI::IsMember(
+          {"seed000", "seed003", "seed004-1", "seed004-2", "maneuver", "range-sensor", "cut-in"}));
   app.add_option("--out", out_path, "data-set file to write (HDF5)")->required();
   app.add_option("--config", config_path, "scenario TOML (overrides the scenario's defaults)");
   app.add_option("--runs", runs, "Monte Carlo runs (overrides the config)")
@@ -86,10 +87,10 @@ int main(int argc, char** argv) {
       std::string digest;
       if (scenario_name == "range-sensor") {
         const auto data = imm::datasets::simulate_range_sensor(config.data);
-        digest = imm::datasets::write_range_sensor_dataset(out_path, config.data, data,
-                                                           config.text, imm::kBuildVersion);
-        std::cout << "imm-data: range sensor, " << config.data.samples << " samples (L = "
-                  << config.data.distortion.softness << " m)";
+        digest = imm::datasets::write_range_sensor_dataset(out_path, config.data, data, config.text,
+                                                           imm::kBuildVersion);
+        std::cout << "imm-data: range sensor, " << config.data.samples
+                  << " samples (L = " << config.data.distortion.softness << " m)";
       } else {
         auto scenario = config.scenario;
         scenario.measurement_covariance = r_sigma * r_sigma * Eigen::Matrix2d::Identity();

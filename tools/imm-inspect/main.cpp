@@ -16,13 +16,14 @@
 #include <sstream>
 
 #include "imm/datasets/dataset_file.hpp"
+#include "imm/datasets/range_sensor_file.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/io/fcm_imm_file.hpp"
-#include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
+#include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
 
 namespace {
@@ -197,8 +198,18 @@ int main(int argc, char** argv) {
       schema_version = model.schema_version();
       if (const auto it = validators().find(kind); it != validators().end()) it->second(path);
     } else if (file.format() == imm::datasets::kDatasetFormat) {
-      (void)imm::datasets::read_scenario_dataset(path);  // validates, recomputes the digest
-      kind = std::get<std::string>(*file.attribute("/", "dataset_kind"));
+      const auto stored_kind = file.attribute("/", "dataset_kind");
+      kind = stored_kind && std::holds_alternative<std::string>(*stored_kind)
+                 ? std::get<std::string>(*stored_kind)
+                 : std::string();
+      // Each reader validates its kind and recomputes the digest.
+      if (kind == "range_sensor") {
+        (void)imm::datasets::read_range_sensor_dataset(path);
+      } else if (kind == "cut_in") {
+        (void)imm::datasets::read_cut_in_dataset(path);
+      } else {
+        (void)imm::datasets::read_scenario_dataset(path);
+      }
       schema_version = std::get<std::int64_t>(*file.attribute("/", "schema_version"));
     } else {
       throw imm::io::FileError(path, "", "unknown container format '" + file.format() + "'");

@@ -30,13 +30,13 @@
 #include "imm/io/file_error.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
-#include "imm/trainer/tsk/tsk_trainer.hpp"
 #include "imm/trainer/freeze.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/import_rules.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/tsk/tsk_trainer.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
 
 namespace {

@@ -557,9 +557,10 @@ int report_fcm_imm(const imm::evaluation::FcmImmExperimentResult& result,
 int report_fimm(const imm::evaluation::FimmExperimentResult& result, bool hard,
                 const std::filesystem::path& out) {
   std::filesystem::create_directories(out);
-  std::cout << "fimm: seed 002 cut-in, " << (hard ? "hard" : "default") << " sensor (L = "
-            << result.softness << " m), " << result.runs << " runs per row, seed " << result.seed
-            << "\n  FIMM: " << result.fimm_settings << "\n";
+  std::cout << "fimm: seed 002 cut-in, " << (hard ? "hard" : "default")
+            << " sensor (L = " << result.softness << " m), " << result.runs
+            << " runs per row, seed " << result.seed << "\n  FIMM: " << result.fimm_settings
+            << "\n";
   std::vector<std::vector<std::string>> rows;
   nlohmann::json metrics, details;
   metrics["rows"] = nlohmann::json::array();
@@ -587,6 +588,15 @@ int report_fimm(const imm::evaluation::FimmExperimentResult& result, bool hard,
                                {"fimm_iekf_nees", row.fimm_iekf.nees},
                                {"fimm_iekf_mse", row.fimm_iekf.mse},
                                {"fimm_outside_box", row.fimm.outside_box},
+                               {"flat_scans", result.flat_scans},
+                               {"mse_flat",
+                                {{"imm", row.imm.mse_flat},
+                                 {"fimm", row.fimm.mse_flat},
+                                 {"fimm_iekf", row.fimm_iekf.mse_flat}}},
+                               {"mse_steep",
+                                {{"imm", row.imm.mse_steep},
+                                 {"fimm", row.fimm.mse_steep},
+                                 {"fimm_iekf", row.fimm_iekf.mse_steep}}},
                                {"failed_steps", row.imm.failed_steps + row.fimm.failed_steps +
                                                     row.fimm_iekf.failed_steps}});
     const double best = hard ? std::min(row.fimm.mse, row.fimm_iekf.mse) : row.fimm.mse;
@@ -601,6 +611,23 @@ int report_fimm(const imm::evaluation::FimmExperimentResult& result, bool hard,
   std::cout << "\nTable 1: position MSE (m², ξ and η errors squared and summed, scans 2–199, over "
                "runs); position NEES (2 when consistent):\n\n"
             << imm::evaluation::markdown_table(header, rows);
+  if (result.flat_scans > 0) {
+    // Where the sensor is flat in range: the split that shows where the EKF loses to the IEKF.
+    std::vector<std::vector<std::string>> split;
+    for (const auto& row : result.rows) {
+      split.push_back({cell(row.r_sigma * row.r_sigma, 2), cell(row.imm.mse_flat, 4),
+                       cell(row.fimm.mse_flat, 4), cell(row.fimm_iekf.mse_flat, 4),
+                       cell(row.imm.mse_steep, 4), cell(row.fimm.mse_steep, 4),
+                       cell(row.fimm_iekf.mse_steep, 4)});
+    }
+    std::cout << "\nPosition MSE where the true sensor is flat in range (dη_m/dη < "
+              << imm::evaluation::kFlatSlope << ": " << result.flat_scans
+              << " of the scored scans) and elsewhere:\n\n"
+              << imm::evaluation::markdown_table(
+                     {"R", "IMM flat", "FIMM flat", "IEKF flat", "IMM elsewhere", "FIMM elsewhere",
+                      "IEKF elsewhere"},
+                     split);
+  }
   details["runs"] = result.runs;
   details["seed"] = result.seed;
   details["softness"] = result.softness;
@@ -619,24 +646,59 @@ int report_fimm(const imm::evaluation::FimmExperimentResult& result, bool hard,
         {"truth_xi", "truth", "plots_xi", "plots", "IMM_xi", "IMM", "FIMM_xi", "FIMM"}, path);
     plotted &= imm::evaluation::plot_series(
         {out / (stem + ".png"),
-         "Cut-in, R = " + cell(row.r_sigma, 1) + "^2 I, run 0 (seed 002 Fig. 6-8)", "xi (m)",
-         "eta (m)", out / (stem + ".csv"), {"plots", "truth", "IMM", "FIMM"},
-         {"plots_xi", "truth_xi", "IMM_xi", "FIMM_xi"}, "points"});
+         "Cut-in, R = " + cell(row.r_sigma, 1) + "^2 I, run 0 (seed 002 Fig. 6-8)",
+         "xi (m)",
+         "eta (m)",
+         out / (stem + ".csv"),
+         {"plots", "truth", "IMM", "FIMM"},
+         {"plots_xi", "truth_xi", "IMM_xi", "FIMM_xi"},
+         "points"});
+  }
+  // Position MSE per scan (over runs), every row and filter, with the true range slope.
+  Eigen::MatrixXd by_scan(result.steps, 1 + 3 * static_cast<Eigen::Index>(result.rows.size()));
+  std::vector<std::string> by_scan_names = {"range_slope"};
+  by_scan.col(0) = result.range_slope;
+  for (std::size_t i = 0; i < result.rows.size(); ++i) {
+    const auto& row = result.rows[i];
+    const std::string R = "R" + cell(row.r_sigma, 1);
+    const auto c = static_cast<Eigen::Index>(1 + 3 * i);
+    by_scan.col(c) = row.imm.scan_mse;
+    by_scan.col(c + 1) = row.fimm.scan_mse;
+    by_scan.col(c + 2) = row.fimm_iekf.scan_mse;
+    by_scan_names.insert(by_scan_names.end(), {"IMM_" + R, "FIMM_" + R, "IEKF_" + R});
+  }
+  imm::evaluation::write_series_csv(out / "mse_by_scan.csv", by_scan_names, by_scan);
+  if (!result.rows.empty()) {
+    const std::string R = "R" + cell(result.rows.back().r_sigma, 1);
+    plotted &= imm::evaluation::plot_series(
+        {out / "mse_by_scan.png",
+         "Position MSE per scan, R = " + cell(result.rows.back().r_sigma, 1) + "^2 I",
+         "scan k",
+         "m^2",
+         out / "mse_by_scan.csv",
+         {"IMM_" + R, "FIMM_" + R, "IEKF_" + R}});
   }
   imm::evaluation::write_series_csv(
-      out / "sensor_model.csv", {"eta", "true_eta_m", "model_z2", "true_xi_m_lane", "model_z1_lane"},
-      result.sensor_curve);
+      out / "sensor_model.csv",
+      {"eta", "true_eta_m", "model_z2", "true_xi_m_lane", "model_z1_lane"}, result.sensor_curve);
   imm::evaluation::write_series_csv(out / "sensor_samples.csv", {"eta", "z2"},
                                     result.sensor_samples);
-  plotted &= imm::evaluation::plot_series(
-      {out / "sensor_model.png", "Sensor: distorted range along the road, truth vs TSK model",
-       "eta (m)", "m", out / "sensor_model.csv",
-       {"true_eta_m", "model_z2", "true_xi_m_lane", "model_z1_lane"},
-       {"eta", "eta", "eta", "eta"}});
+  plotted &=
+      imm::evaluation::plot_series({out / "sensor_model.png",
+                                    "Sensor: distorted range along the road, truth vs TSK model",
+                                    "eta (m)",
+                                    "m",
+                                    out / "sensor_model.csv",
+                                    {"true_eta_m", "model_z2", "true_xi_m_lane", "model_z1_lane"},
+                                    {"eta", "eta", "eta", "eta"}});
   plotted &= imm::evaluation::plot_series({out / "sensor_samples.png",
                                            "Sensor data: measured z2 against the true eta",
-                                           "eta (m)", "z2 (m)", out / "sensor_samples.csv",
-                                           {"z2"}, {"eta"}, "dots"});
+                                           "eta (m)",
+                                           "z2 (m)",
+                                           out / "sensor_samples.csv",
+                                           {"z2"},
+                                           {"eta"},
+                                           "dots"});
   std::cout << "\nwrote metrics.json, details.json, CSV series"
             << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
             << " in " << out.string() << '\n';

@@ -85,7 +85,9 @@ bool plot_series(const PlotSpec& spec) {
            << "set xlabel '" << spec.x_label << "'\n"
            << "set ylabel '" << spec.y_label << "'\n"
            << "plot ";
-    const std::string style = spec.style == "lines" ? "lines lw 2" : spec.style + " ps 0.6";
+    const std::string style = spec.style == "lines"  ? "lines lw 2"
+                              : spec.style == "dots" ? std::string("dots")
+                                                     : spec.style + " ps 0.6";
     for (std::size_t i = 0; i < spec.series.size(); ++i) {
       const std::string x = i < spec.x_series.size() ? spec.x_series[i] : "k";
       script << (i == 0 ? "" : ", ") << "'" << spec.csv.string() << "' using '" << x << "':'"

@@ -4,9 +4,11 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "imm/datasets/random.hpp"
 
@@ -29,9 +31,8 @@ std::vector<double> pack(const std::vector<TskRule>& rules) {
   std::vector<double> theta;
   theta.reserve(rules.size() * kParametersPerRule);
   for (const TskRule& r : rules) {
-    theta.insert(theta.end(), {r.center(0), std::log(r.width(0)), r.center(1),
-                               std::log(r.width(1)), r.consequent(0), r.consequent(1),
-                               r.consequent(2)});
+    theta.insert(theta.end(), {r.center(0), std::log(r.width(0)), r.center(1), std::log(r.width(1)),
+                               r.consequent(0), r.consequent(1), r.consequent(2)});
   }
   return theta;
 }
@@ -83,10 +84,6 @@ class TskResiduals final : public ceres::CostFunction {
   const Eigen::VectorXd& targets_;
 };
 
-}  // namespace
-
-namespace {
-
 // The memberships of one sample from its c distances, into u (c entries). Allocation-free.
 void memberships_into(const double* distances, Eigen::Index c, double fuzzifier, double* u) {
   Eigen::Index zeros = 0;
@@ -128,33 +125,41 @@ FcrmResult fcrm_from(const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targe
   FcrmResult result;
   result.memberships = initial;
   result.hyperplanes.resize(c, 3);
-  Eigen::MatrixXd distances(n, c);
+  Eigen::MatrixXd distances(n, c), weighted(n, 3);
+  Eigen::ArrayXXd next(n, c);
   for (int iteration = 1; iteration <= settings.max_iterations; ++iteration) {
-    // Step 4: Pʳ by weighted least squares with weights (μʳ)^m.
+    // Step 4: Pʳ by weighted least squares with weights (μʳ)^m: (Xᵀ W X) Pʳ = Xᵀ W z.
     for (Eigen::Index r = 0; r < c; ++r) {
-      Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d b = Eigen::Vector3d::Zero();
-      for (Eigen::Index q = 0; q < n; ++q) {
-        const double w = weight_power(result.memberships(q, r), m);
-        const Eigen::Vector3d x(1.0, inputs(q, 0), inputs(q, 1));
-        A.noalias() += w * x * x.transpose();
-        b.noalias() += (w * targets(q)) * x;
-      }
+      const Eigen::ArrayXd w = m == 2.0 ? result.memberships.col(r).array().square().eval()
+                                        : result.memberships.col(r).array().pow(m).eval();
+      weighted = X.array().colwise() * w;
+      Eigen::Matrix3d A = weighted.transpose() * X;
+      const Eigen::Vector3d b = weighted.transpose() * targets;
       A.diagonal().array() += 1e-12 * (1.0 + A.diagonal().array().abs());  // keeps A definite
       result.hyperplanes.row(r) = A.ldlt().solve(b).transpose();
     }
     // Step 2: distances and memberships; step 3: convergence.
     distances = ((X * result.hyperplanes.transpose()).colwise() - targets).cwiseAbs();
-    double change = 0.0;
-    Eigen::VectorXd d(c), u(c);
-    for (Eigen::Index q = 0; q < n; ++q) {
-      d = distances.row(q).transpose();
-      memberships_into(d.data(), c, m, u.data());
-      for (Eigen::Index r = 0; r < c; ++r) {
-        change = std::max(change, std::abs(u(r) - result.memberships(q, r)));
-        result.memberships(q, r) = u(r);
+    // memberships_into for all samples at once (column-wise), then the I_q rows one by one.
+    const Eigen::ArrayXd smallest = distances.rowwise().minCoeff();
+    for (Eigen::Index r = 0; r < c; ++r) {
+      const Eigen::ArrayXd ratio = smallest / distances.col(r).array();
+      if (m == 2.0) {
+        next.col(r) = ratio.square();
+      } else {
+        next.col(r) = ratio.pow(2.0 / (m - 1.0));
       }
     }
+    next.colwise() /= next.rowwise().sum();
+    for (Eigen::Index q = 0; q < n; ++q) {
+      if (smallest(q) == 0.0) {
+        Eigen::VectorXd d = distances.row(q).transpose(), u(c);
+        memberships_into(d.data(), c, m, u.data());
+        next.row(q) = u.transpose().array();
+      }
+    }
+    const double change = (next.matrix() - result.memberships).cwiseAbs().maxCoeff();
+    result.memberships = next.matrix();
     result.iterations = iteration;
     if (change <= settings.tolerance) {
       result.converged = true;
@@ -213,11 +218,11 @@ FcrmResult fcrm(const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targets,
       A.diagonal().array() += 1e-12 * (1.0 + A.diagonal().array().abs());
       planes.row(r) = A.ldlt().solve(b).transpose();
     }
-    const Eigen::MatrixXd distances =
-        ((X * planes.transpose()).colwise() - targets).cwiseAbs();
+    const Eigen::MatrixXd distances = ((X * planes.transpose()).colwise() - targets).cwiseAbs();
     Eigen::MatrixXd initial(n, settings.clusters);
     for (Eigen::Index q = 0; q < n; ++q) {
-      initial.row(q) = fcrm_memberships(distances.row(q).transpose(), settings.fuzzifier).transpose();
+      initial.row(q) =
+          fcrm_memberships(distances.row(q).transpose(), settings.fuzzifier).transpose();
     }
     results[static_cast<std::size_t>(start)] = fcrm_from(inputs, targets, initial, settings);
   }
@@ -273,8 +278,14 @@ double rmse(const std::vector<TskRule>& rules, TNorm t_norm, const Eigen::Matrix
 double output_and_parameter_gradient(const std::vector<TskRule>& rules, TNorm t_norm,
                                      const Eigen::Vector2d& input, double* gradient) {
   const std::size_t n = rules.size();
-  std::vector<double> log_w(n), w(n), z(n);
-  std::vector<Eigen::Matrix<double, 4, 1>> d_log_w(n);  // ∂ log w / ∂(m_ξ, log s_ξ, m_η, log s_η)
+  if (n == 0 || n > TskModel::kMaxRules) {
+    throw std::invalid_argument("TSK output: need 1 to " + std::to_string(TskModel::kMaxRules) +
+                                " rules");
+  }
+  constexpr std::size_t kMax = TskModel::kMaxRules;
+  std::array<double, kMax> log_w{}, w{}, z{};
+  std::array<Eigen::Matrix<double, 4, 1>, kMax>
+      d_log_w{};  // ∂ log w / ∂(m_ξ, log s_ξ, m_η, log s_η)
   double largest = -std::numeric_limits<double>::infinity();
   for (std::size_t r = 0; r < n; ++r) {
     const TskRule& rule = rules[r];
@@ -318,9 +329,8 @@ double output_and_parameter_gradient(const std::vector<TskRule>& rules, TNorm t_
   return h;
 }
 
-FineTuningReport fine_tune(std::vector<TskRule>& rules, TNorm t_norm,
-                           const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targets,
-                           const FineTuning& settings) {
+FineTuningReport fine_tune(std::vector<TskRule>& rules, TNorm t_norm, const Eigen::MatrixXd& inputs,
+                           const Eigen::VectorXd& targets, const FineTuning& settings) {
   std::vector<double> theta = pack(rules);
   ceres::Problem problem;
   problem.AddResidualBlock(new TskResiduals(rules.size(), t_norm, inputs, targets), nullptr,

@@ -57,7 +57,8 @@ TskTrainingConfig config_from(const support::ConfigTable& root) {
     c.fcrm.clusters = static_cast<int>(f->integer_or("rules", c.fcrm.clusters));
     c.fcrm.fuzzifier = f->real_or("fuzzifier", c.fcrm.fuzzifier);
     c.fcrm.tolerance = f->real_or("tolerance", c.fcrm.tolerance);
-    c.fcrm.max_iterations = static_cast<int>(f->integer_or("max_iterations", c.fcrm.max_iterations));
+    c.fcrm.max_iterations =
+        static_cast<int>(f->integer_or("max_iterations", c.fcrm.max_iterations));
     c.fcrm.restarts = static_cast<int>(f->integer_or("restarts", c.fcrm.restarts));
     if (f->has("t_norm")) c.t_norm = t_norm_from(f->text("t_norm"), f->path("t_norm"));
     c.fine_tuning.max_iterations =
@@ -110,6 +111,20 @@ std::string output_key(int i) {
 }  // namespace
 
 void TskTrainingConfig::validate() const {
+  // The checks whose component field is not a config key first, under the key.
+  require(
+      std::isfinite(data.lower(0)) && std::isfinite(data.upper(0)) && data.lower(0) < data.upper(0),
+      "data.xi", "must be [lower, upper] with lower < upper");
+  require(std::isfinite(data.lower(1)) && std::isfinite(data.upper(1)) && data.lower(1) > 0.0 &&
+              data.lower(1) < data.upper(1),
+          "data.eta", "must be [lower, upper] with 0 < lower < upper (ahead of the sensor)");
+  require(std::isfinite(scenario.host_speed), "scenario.host_speed", "must be finite");
+  require(std::isfinite(scenario.target_speed), "scenario.target_speed", "must be finite");
+  require(scenario.cut_in_start < scenario.cut_in_end, "scenario.cut_in",
+          "must be [start, end] with start < end");
+  require(
+      scenario.cut_in_end <= scenario.return_start && scenario.return_start < scenario.return_end,
+      "scenario.return", "must be [start, end] with cut_in end ≤ start < end");
   validate_as("data.", [&] { data.validate(); });
   require(validation_fraction > 0.0 && validation_fraction < 1.0, "data.validation_fraction",
           "must be in (0, 1)");
@@ -184,8 +199,8 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const std::filesyst
   for (int i = 0; i < 2; ++i) {
     const Eigen::VectorXd z = parts.training_outputs.col(i);
     const Eigen::VectorXd z_validation = parts.validation_outputs.col(i);
-    const FcrmResult clusters = fcrm(parts.training_inputs, z, config.fcrm,
-                                     datasets::derive_seed(config.seed, 100 + i));
+    const FcrmResult clusters =
+        fcrm(parts.training_inputs, z, config.fcrm, datasets::derive_seed(config.seed, 100 + i));
     std::vector<TskRule> rules =
         rules_from_clusters(parts.training_inputs, clusters, config.fcrm.fuzzifier);
     OutputReport& report = result.outputs[i];
@@ -193,8 +208,8 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const std::filesyst
     report.fcrm_iterations = clusters.iterations;
     report.fcrm_training_rmse = rmse(rules, config.t_norm, parts.training_inputs, z);
     report.fcrm_validation_rmse = rmse(rules, config.t_norm, parts.validation_inputs, z_validation);
-    report.fine_tuning = fine_tune(rules, config.t_norm, parts.training_inputs, z,
-                                   config.fine_tuning);
+    report.fine_tuning =
+        fine_tune(rules, config.t_norm, parts.training_inputs, z, config.fine_tuning);
     report.training_rmse = rmse(rules, config.t_norm, parts.training_inputs, z);
     report.validation_rmse = rmse(rules, config.t_norm, parts.validation_inputs, z_validation);
     report.sigma = report.training_rmse;  // eq. (7)
@@ -229,15 +244,14 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const std::filesyst
   metrics["rules"] = config.fcrm.clusters;
   for (int i = 0; i < 2; ++i) {
     const OutputReport& r = result.outputs[i];
-    metrics["outputs"][output_key(i)] = {
-        {"fcrm_training_rmse", r.fcrm_training_rmse},
-        {"fcrm_validation_rmse", r.fcrm_validation_rmse},
-        {"training_rmse", r.training_rmse},
-        {"validation_rmse", r.validation_rmse},
-        {"sigma", r.sigma},
-        {"fcrm_objective", r.fcrm_objective},
-        {"fcrm_iterations", r.fcrm_iterations},
-        {"fine_tuning_iterations", r.fine_tuning.iterations}};
+    metrics["outputs"][output_key(i)] = {{"fcrm_training_rmse", r.fcrm_training_rmse},
+                                         {"fcrm_validation_rmse", r.fcrm_validation_rmse},
+                                         {"training_rmse", r.training_rmse},
+                                         {"validation_rmse", r.validation_rmse},
+                                         {"sigma", r.sigma},
+                                         {"fcrm_objective", r.fcrm_objective},
+                                         {"fcrm_iterations", r.fcrm_iterations},
+                                         {"fine_tuning_iterations", r.fine_tuning.iterations}};
   }
   metrics["wall_seconds"] = result.wall_seconds;
   metrics["gate"] = {{"max_validation_rmse", config.max_validation_rmse},

@@ -27,7 +27,7 @@ struct RangeDistortion {
 struct RangeSensorDataConfig {
   RangeDistortion distortion;
   int samples = 8000;
-  Eigen::Vector2d lower = Eigen::Vector2d(-6.0, 1.0);    ///< ξ, η box of the obstacles, m
+  Eigen::Vector2d lower = Eigen::Vector2d(-6.0, 1.0);  ///< ξ, η box of the obstacles, m
   Eigen::Vector2d upper = Eigen::Vector2d(6.0, 100.0);
   double noise_sigma = 0.05;  ///< sensor noise per output while collecting the data, m
   std::uint64_t seed = 1;
@@ -45,11 +45,12 @@ struct RangeSensorData {
 /// The cut-in of seed 002 §4: the host drives at 30 m/s in lane 2, the target at 33 m/s starts
 /// beside it in lane 1 (ξ = lane_offset, η = initial_gap), cuts in front of the host over
 /// cut_in_start … cut_in_end and returns to lane 1 over return_start … return_end; lateral moves
-/// follow a half-cosine (smooth position, velocity and acceleration). Relative coordinates in the
+/// follow a half-cosine (continuous position and velocity; the acceleration
+/// jumps by ±(π/τ)² · lane_offset / 2 at each move's ends). Relative coordinates in the
 /// host frame, state [ξ, ξ̇, ξ̈, η, η̇, η̈]; plots are the distorted sensor output plus N(0, R).
 struct CutInScenario {
-  double sample_period = 0.1;  ///< T, s
-  int steps = 200;             ///< 20 s
+  double sample_period = 0.1;                     ///< T, s
+  int steps = 200;                                ///< 20 s
   double host_speed = 30.0, target_speed = 33.0;  ///< m/s
   double lane_offset = 3.5;                       ///< m
   double initial_gap = 0.0;                       ///< η at t = 0, m (the seed: "same position")

@@ -41,4 +41,14 @@ std::string write_cut_in_dataset(const std::filesystem::path& path, const CutInS
                                  const CutInData& data, const std::string& config_toml,
                                  const std::string& generator_version);
 
+struct CutInDataset {
+  CutInData data;
+  double sample_period = 0.0;
+  RangeDistortion distortion;
+  Eigen::Vector2d r_sigma = Eigen::Vector2d::Zero();  ///< √R₁₁, √R₂₂
+  std::string digest;
+};
+/// Reads and validates (shapes, finite values, the digest); FileError names the field.
+[[nodiscard]] CutInDataset read_cut_in_dataset(const std::filesystem::path& path);
+
 }  // namespace imm::datasets

@@ -24,10 +24,10 @@
 namespace imm {
 
 struct FimmSpec {
-  double sample_period = 0.1;     ///< T, s
-  double cruise_sigma = 9.81e-4;  ///< the seed's √q₁ (eq. 11)
+  double sample_period = 0.1;      ///< T, s
+  double cruise_sigma = 9.81e-4;   ///< the seed's √q₁ (eq. 11)
   double lane_change_ratio = 5.0;  ///< √q₂ / √q₁
-  double noise_scale = 100.0;     ///< multiplies √q₁ and √q₂ (see above)
+  double noise_scale = 100.0;      ///< multiplies √q₁ and √q₂ (see above)
   Eigen::Matrix2d transition = (Eigen::Matrix2d() << 0.97, 0.03, 0.03, 0.97).finished();
   Eigen::Vector2d initial_probabilities = Eigen::Vector2d(0.9, 0.1);
   Eigen::Matrix2d measurement_covariance = Eigen::Matrix2d::Identity();  ///< the sensor's R

@@ -251,8 +251,7 @@ UpdateReport<Model::kDim> iterated_update(GaussianState<N>& state, const Vector<
       return report;
     }
     const Matrix<M, N> H = model.jacobian(point);
-    const Vector<M> innovation =
-        model.residual(z, model.predict(point)) - H * (prior.mean - point);
+    const Vector<M> innovation = model.residual(z, model.predict(point)) - H * (prior.mean - point);
     candidate = prior;
     report = update_with_innovation(candidate, innovation, H, model.covariance());
     if (!report.ok()) return report;

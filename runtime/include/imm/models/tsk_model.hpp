@@ -43,8 +43,8 @@ enum class OutsideBox { kLinear, kHold };
 [[nodiscard]] TNorm t_norm_from(std::string_view name, const std::string& field);
 
 struct TskRule {
-  Eigen::Vector2d center = Eigen::Vector2d::Zero();  ///< premise centers m (ξ, η)
-  Eigen::Vector2d width = Eigen::Vector2d::Ones();   ///< premise widths s > 0
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();      ///< premise centers m (ξ, η)
+  Eigen::Vector2d width = Eigen::Vector2d::Ones();       ///< premise widths s > 0
   Eigen::Vector3d consequent = Eigen::Vector3d::Zero();  ///< a₀, a_ξ, a_η
 };
 
@@ -56,7 +56,7 @@ struct TskOutput {
 struct TskEvaluation {
   Eigen::Vector2d value = Eigen::Vector2d::Zero();     ///< (h₁, h₂)
   Eigen::Matrix2d jacobian = Eigen::Matrix2d::Zero();  ///< ∂h_i/∂(ξ, η)
-  bool clamped = false;  ///< the input lay outside the trained box
+  bool clamped = false;                                ///< the input lay outside the trained box
 };
 
 class TskModel {

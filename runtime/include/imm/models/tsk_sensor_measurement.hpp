@@ -34,11 +34,9 @@ class TskSensorMeasurement {
     covariance_ = R + model_->noise_covariance();
   }
 
-  [[nodiscard]] Vector<2> predict(const Vector<N>& x) const {
-    return model_->evaluate(position(x)).value;
-  }
+  [[nodiscard]] Vector<2> predict(const Vector<N>& x) const { return evaluate(x).value; }
   [[nodiscard]] Matrix<2, N> jacobian(const Vector<N>& x) const {
-    const TskEvaluation e = model_->evaluate(position(x));
+    const TskEvaluation& e = evaluate(x);
     Matrix<2, N> H = Matrix<2, N>::Zero();
     H.col(indices_[0]) = e.jacobian.col(0);
     H.col(indices_[1]) = e.jacobian.col(1);
@@ -50,19 +48,32 @@ class TskSensorMeasurement {
   [[nodiscard]] const SquareMatrix<2>& covariance() const { return covariance_; }
   [[nodiscard]] bool defined_at(const Vector<N>& x) const { return x.allFinite(); }
   /// Whether the prediction at x lies outside the sensor model's trained box.
-  [[nodiscard]] bool clamped_at(const Vector<N>& x) const {
-    return model_->evaluate(position(x)).clamped;
-  }
+  [[nodiscard]] bool clamped_at(const Vector<N>& x) const { return evaluate(x).clamped; }
   [[nodiscard]] const TskModel& model() const { return *model_; }
 
  private:
   [[nodiscard]] Eigen::Vector2d position(const Vector<N>& x) const {
     return {x(indices_[0]), x(indices_[1])};
   }
+  // An update asks for h and H at the same point one after the other: h and ∇h come from one
+  // TSK evaluation, kept for the last position asked (a per-filter cache; a filter is not shared
+  // between threads while it steps).
+  [[nodiscard]] const TskEvaluation& evaluate(const Vector<N>& x) const {
+    const Eigen::Vector2d p = position(x);
+    if (!cached_ || p != cached_at_) {
+      last_ = model_->evaluate(p);
+      cached_at_ = p;
+      cached_ = true;
+    }
+    return last_;
+  }
 
   std::shared_ptr<const TskModel> model_;
   std::array<int, 2> indices_;
   SquareMatrix<2> covariance_;
+  mutable Eigen::Vector2d cached_at_ = Eigen::Vector2d::Zero();
+  mutable TskEvaluation last_;
+  mutable bool cached_ = false;
 };
 
 }  // namespace imm

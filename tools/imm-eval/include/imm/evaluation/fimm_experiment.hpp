@@ -22,12 +22,20 @@ struct FimmExperimentOptions {
 };
 
 struct FimmFilterScore {
-  double mse = 0.0;   ///< position MSE, m²
-  double nees = 0.0;  ///< mean position NEES
+  double mse = 0.0;           ///< position MSE, m²
+  double nees = 0.0;          ///< mean position NEES
   Eigen::MatrixXd first_run;  ///< steps × 2: run 0's (ξ̂, η̂)
   long failed_steps = 0;
   double outside_box = 0.0;  ///< share of steps with the estimate outside the sensor box
+  Eigen::VectorXd scan_mse;  ///< steps: position MSE over runs per scan (NaN before scoring)
+  /// MSE over the scans where the true sensor is flat in range (dη_m/dη < kFlatSlope) and over
+  /// the others (NaN when there are none).
+  double mse_flat = 0.0, mse_steep = 0.0;
 };
+
+/// Below this range slope dη_m/dη the sensor counts as flat (the measured range changes by less
+/// than half the true change).
+inline constexpr double kFlatSlope = 0.5;
 
 struct FimmRow {
   double r_sigma = 0.0;
@@ -40,7 +48,9 @@ struct FimmExperimentResult {
   std::uint64_t seed = 0;
   double softness = 0.0;  ///< the true sensor's L
   std::string fimm_settings;
-  Eigen::MatrixXd truth;  ///< steps × 6
+  Eigen::MatrixXd truth;        ///< steps × 6
+  Eigen::VectorXd range_slope;  ///< steps: dη_m/dη of the true sensor at the true position
+  int flat_scans = 0;           ///< scored scans with range_slope < kFlatSlope
   std::vector<FimmRow> rows;
   /// The sensor model against the data along the road (ξ = 0 and ξ = lane offset): η, the true
   /// distorted range, the model's z₂, and z₁ at the lane offset (true, model).

@@ -32,11 +32,11 @@ struct FcmTrainingOptions {
   int trajectories = 16;  ///< training trajectories
   int validation = 8;     ///< held-out trajectories
   int steps = 300;
-  double min_range = 250e3, max_range = 400e3;  ///< m
-  double min_speed = 300.0, max_speed = 600.0;  ///< m/s
-  double max_heading_offset_deg = 30.0;         ///< inbound, off the radial
+  double min_range = 250e3, max_range = 400e3;              ///< m
+  double min_speed = 300.0, max_speed = 600.0;              ///< m/s
+  double max_heading_offset_deg = 30.0;                     ///< inbound, off the radial
   double min_acceleration = 30.0, max_acceleration = 60.0;  ///< |a| per zigzag period, m/s²
-  int min_quarter = 5, max_quarter = 12;  ///< zigzag quarter period, transitions
+  int min_quarter = 5, max_quarter = 12;                    ///< zigzag quarter period, transitions
   int min_periods = 1, max_periods = 4;
   double maneuver_probability = 0.85;  ///< share of trajectories with a zigzag
   double process_noise_sigma = 0.5;    ///< m/s²

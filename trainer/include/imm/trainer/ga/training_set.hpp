@@ -9,11 +9,11 @@
 ///   configured range, so that a table sees both what it must ignore and what it must follow.
 
 #include <Eigen/Core>
-
-#include "imm/datasets/axis_trajectory.hpp"
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "imm/datasets/axis_trajectory.hpp"
 
 namespace imm::trainer::ga {
 

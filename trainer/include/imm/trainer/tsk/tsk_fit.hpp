@@ -83,8 +83,7 @@ struct FineTuningReport {
 };
 
 /// Levenberg–Marquardt on Σ (z − ẑ)² / 2 over all parameters, in place.
-FineTuningReport fine_tune(std::vector<TskRule>& rules, TNorm t_norm,
-                           const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targets,
-                           const FineTuning& settings);
+FineTuningReport fine_tune(std::vector<TskRule>& rules, TNorm t_norm, const Eigen::MatrixXd& inputs,
+                           const Eigen::VectorXd& targets, const FineTuning& settings);
 
 }  // namespace imm::trainer::tsk

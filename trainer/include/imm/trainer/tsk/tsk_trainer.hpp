@@ -28,9 +28,9 @@ struct TskTrainingConfig {
   FineTuning fine_tuning;
   double max_validation_rmse = 0.5;  ///< gate, per output (m)
 
-  FimmSpec fimm;                      ///< for imm-eval fimm (R is set per table row)
-  int iekf_iterations = 5;            ///< the FIMM (IEKF) variant
-  datasets::CutInScenario scenario;   ///< distortion = data.distortion
+  FimmSpec fimm;                     ///< for imm-eval fimm (R is set per table row)
+  int iekf_iterations = 5;           ///< the FIMM (IEKF) variant
+  datasets::CutInScenario scenario;  ///< distortion = data.distortion
 
   std::string text, name;
 
