@@ -60,7 +60,7 @@ std::string write_range_sensor_dataset(const std::filesystem::path& path,
                                        const RangeSensorData& data, const std::string& config_toml,
                                        const std::string& generator_version) {
   config.validate();
-  const std::string data_digest = digest(data);
+  std::string data_digest = digest(data);
   io::ContainerWriter writer(path, kDatasetFormat);
   write_root(writer, "range_sensor", config.seed, config_toml, generator_version, data_digest);
   writer.write("/positions", data.positions);
@@ -100,7 +100,7 @@ std::string write_cut_in_dataset(const std::filesystem::path& path, const CutInS
                                  const CutInData& data, const std::string& config_toml,
                                  const std::string& generator_version) {
   scenario.validate();
-  const std::string data_digest = digest(data);
+  std::string data_digest = digest(data);
   io::ContainerWriter writer(path, kDatasetFormat);
   write_root(writer, "cut_in", scenario.seed, config_toml, generator_version, data_digest);
   writer.write("/truth", data.truth);

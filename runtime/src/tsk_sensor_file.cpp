@@ -6,8 +6,11 @@ namespace imm::io {
 namespace {
 
 constexpr const char* kGroup = "/tsk";
-const std::vector<std::string> kRuleColumns = {"center_xi", "width_xi", "center_eta", "width_eta",
-                                               "a0",        "a_xi",     "a_eta"};
+const std::vector<std::string>& rule_columns() {
+  static const std::vector<std::string> columns = {
+      "center_xi", "width_xi", "center_eta", "width_eta", "a0", "a_xi", "a_eta"};
+  return columns;
+}
 
 std::string output_group(int i) { return "/tsk/output" + std::to_string(i + 1); }
 
@@ -44,7 +47,7 @@ void write_tsk_sensor(ModelFileWriter& writer, const TskModel& model) {
   writer.write_matrix("/tsk/input_box", box, {"xi", "eta"});
   for (int i = 0; i < 2; ++i) {
     const TskOutput& out = model.outputs()[static_cast<std::size_t>(i)];
-    writer.write_matrix(output_group(i) + "/rules", rules_matrix(out.rules), kRuleColumns);
+    writer.write_matrix(output_group(i) + "/rules", rules_matrix(out.rules), rule_columns());
     writer.set_attribute(output_group(i), "sigma", out.sigma);
   }
 }

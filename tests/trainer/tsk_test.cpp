@@ -52,8 +52,11 @@ struct PlaneData {
 
 // Samples drawn from three known hyperplanes over the same input box, each sample from a random
 // one of them (FCRM separates by the residual, not by the input).
-const Eigen::Matrix3d kPlanes =
-    (Eigen::Matrix3d() << 1.0, 2.0, -1.0, -3.0, 0.5, 0.5, 5.0, -1.0, 0.2).finished();
+const Eigen::Matrix3d& planes() {
+  static const Eigen::Matrix3d known =
+      (Eigen::Matrix3d() << 1.0, 2.0, -1.0, -3.0, 0.5, 0.5, 5.0, -1.0, 0.2).finished();
+  return known;
+}
 
 PlaneData plane_data(int n, double noise, std::uint64_t seed) {
   datasets::Rng rng(seed);
@@ -63,8 +66,8 @@ PlaneData plane_data(int n, double noise, std::uint64_t seed) {
   for (int q = 0; q < n; ++q) {
     const int r = static_cast<int>(rng.below(3));
     d.inputs.row(q) << rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0);
-    d.targets(q) = kPlanes(r, 0) + kPlanes(r, 1) * d.inputs(q, 0) + kPlanes(r, 2) * d.inputs(q, 1) +
-                   rng.normal(0.0, noise);
+    d.targets(q) = planes()(r, 0) + planes()(r, 1) * d.inputs(q, 0) +
+                   planes()(r, 2) * d.inputs(q, 1) + rng.normal(0.0, noise);
     d.label.push_back(r);
   }
   return d;
@@ -83,7 +86,7 @@ TEST(Fcrm, RecoversThreeKnownHyperplanes) {
   std::vector<int> match(3, -1);
   for (int r = 0; r < 3; ++r) {
     for (int s = 0; s < 3; ++s) {
-      if ((result.hyperplanes.row(s) - kPlanes.row(r)).cwiseAbs().maxCoeff() < 0.02) match[r] = s;
+      if ((result.hyperplanes.row(s) - planes().row(r)).cwiseAbs().maxCoeff() < 0.02) match[r] = s;
     }
     ASSERT_GE(match[r], 0) << "plane " << r << " not recovered:\n" << result.hyperplanes;
   }

@@ -302,7 +302,8 @@ double output_and_parameter_gradient(const std::vector<TskRule>& rules, TNorm t_
       const int s = log_a(1) < log_a(0) ? 1 : 0;
       log_w[r] = log_a(s);
       d_log_w[r].setZero();
-      d_log_w[r].segment<2>(2 * s) = g.segment<2>(2 * s);
+      const Eigen::Index at = Eigen::Index{2} * s;
+      d_log_w[r].segment<2>(at) = g.segment<2>(at);
     }
     largest = std::max(largest, log_w[r]);
   }
@@ -343,11 +344,9 @@ FineTuningReport fine_tune(std::vector<TskRule>& rules, TNorm t_norm, const Eige
   for (std::size_t r = 0; r < rules.size(); ++r) {
     for (int d = 0; d < 2; ++d) {
       const int center = static_cast<int>(r) * kParametersPerRule + 2 * d;
-      theta[static_cast<std::size_t>(center)] =
-          std::clamp(theta[static_cast<std::size_t>(center)], lo(d) - span(d), hi(d) + span(d));
-      theta[static_cast<std::size_t>(center + 1)] =
-          std::clamp(theta[static_cast<std::size_t>(center + 1)], std::log(1e-3 * span(d)),
-                     std::log(10.0 * span(d)));
+      const auto at = static_cast<std::size_t>(center);
+      theta[at] = std::clamp(theta[at], lo(d) - span(d), hi(d) + span(d));
+      theta[at + 1] = std::clamp(theta[at + 1], std::log(1e-3 * span(d)), std::log(10.0 * span(d)));
       problem.SetParameterLowerBound(theta.data(), center, lo(d) - span(d));
       problem.SetParameterUpperBound(theta.data(), center, hi(d) + span(d));
       problem.SetParameterLowerBound(theta.data(), center + 1, std::log(1e-3 * span(d)));

@@ -250,7 +250,7 @@ UpdateReport<Model::kDim> iterated_update(GaussianState<N>& state, const Vector<
       report.status = StepStatus::kUndefinedMeasurement;
       return report;
     }
-    const Matrix<M, N> H = model.jacobian(point);
+    const Matrix<M, N>& H = model.jacobian(point);  // a reference or an extended temporary
     const Vector<M> innovation = model.residual(z, model.predict(point)) - H * (prior.mean - point);
     candidate = prior;
     report = update_with_innovation(candidate, innovation, H, model.covariance());
