@@ -464,6 +464,54 @@ TEST_F(Tools, TskTrainingAndFimmEvaluationEndToEnd) {
   EXPECT_NE(wrong.err.find("tsk_sensor"), std::string::npos) << wrong.err;
 }
 
+TEST_F(Tools, TskTrainingFromStoredSamples) {
+  std::string config = testing::slurp(this->config("configs/tsk_range_sensor.toml"));
+  config.replace(config.find("samples = 8000"), 14, "samples = 1200");
+  config.replace(config.find("restarts = 10"), 13, "restarts = 2");
+  testing::write_text(dir_ / "tsk.toml", config);
+  const auto data = run_tool(
+      "imm-data",
+      {"range-sensor", "--config", (dir_ / "tsk.toml").string(), "--out", (dir_ / "r.h5").string()},
+      root_);
+  ASSERT_EQ(data.exit_code, 0) << data.err;
+  const auto trained = run_tool("imm-train",
+                                {"tsk", "--config", (dir_ / "tsk.toml").string(), "--data",
+                                 (dir_ / "r.h5").string(), "--out", (dir_ / "m.h5").string()},
+                                root_);
+  ASSERT_EQ(trained.exit_code, 0) << trained.err;
+  EXPECT_NE(trained.err.find("1200 samples from"), std::string::npos) << trained.err;
+  // The model records the digest of the data set it was fitted on.
+  const auto model = nlohmann::json::parse(
+      run_tool("imm-inspect", {(dir_ / "m.h5").string(), "--json"}, root_).out);
+  const auto stored = nlohmann::json::parse(
+      run_tool("imm-inspect", {(dir_ / "r.h5").string(), "--json"}, root_).out);
+  EXPECT_EQ(model["attributes"]["dataset_digest"], stored["attributes"]["digest"]);
+
+  // A CSV of a (here: synthetic, linear) sensor; a bad row is named by its line.
+  std::string csv = "# xi, eta true; z1, z2 measured\nxi,eta,z1,z2\n";
+  for (int q = 0; q < 200; ++q) {
+    const double xi = -5.0 + 0.05 * q, eta = 1.0 + 0.47 * ((q * 37) % 200);
+    csv += std::to_string(xi) + "," + std::to_string(eta) + "," + std::to_string(0.9 * xi) + "," +
+           std::to_string(0.8 * eta) + "\n";
+  }
+  testing::write_text(dir_ / "s.csv", csv);
+  const auto from_csv = run_tool("imm-train",
+                                 {"tsk", "--config", (dir_ / "tsk.toml").string(), "--data",
+                                  (dir_ / "s.csv").string(), "--out", (dir_ / "c.h5").string()},
+                                 root_);
+  ASSERT_EQ(from_csv.exit_code, 0) << from_csv.err;
+  const auto metrics = nlohmann::json::parse(testing::slurp(dir_ / "c.metrics.json"));
+  EXPECT_LT(metrics["outputs"]["z2"]["validation_rmse"].get<double>(), 0.01);  // a plane: exact
+  testing::write_text(dir_ / "bad.csv", "xi,eta,z1,z2\n1,2,3,4\n1,nan,3,4\n");
+  const auto bad = run_tool("imm-train",
+                            {"tsk", "--config", (dir_ / "tsk.toml").string(), "--data",
+                             (dir_ / "bad.csv").string(), "--out", (dir_ / "b.h5").string()},
+                            root_);
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("bad.csv:3"), std::string::npos) << bad.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "b.h5"));
+}
+
 TEST_F(Tools, ImmDataWritesTheRangeSensorAndCutInDataSets) {
   const auto sensor =
       run_tool("imm-data", {"range-sensor", "--out", (dir_ / "r.h5").string()}, root_);

@@ -9,7 +9,7 @@
 //   imm-train wimm --config configs/wimm.toml [--out models/wimm.h5] [--seed N]
 //   imm-train fcm --config configs/fcm_imm.toml [--out models/fcm_imm.h5] [--seed N]
 //   imm-train tsk --config configs/tsk_range_sensor.toml [--out models/tsk_range_sensor.h5]
-//                 [--seed N]
+//                 [--seed N] [--data samples.h5|samples.csv]
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
 //   imm-train all --config configs/nightly.toml
 //
@@ -221,6 +221,11 @@ int main(int argc, char** argv) {
   tsk_command->add_option("--config", tsk_config, "TSK sensor config TOML");
   tsk_command->add_option("--out", tsk_out, "model file to write");
   tsk_command->add_option("--seed", tsk_seed, "override the config's seed");
+  std::filesystem::path tsk_data;
+  tsk_command->add_option("--data", tsk_data,
+                          "fit stored samples instead of the config's simulated sensor: a "
+                          "range-sensor data set (.h5, imm-data range-sensor) or a CSV "
+                          "xi,eta,z1,z2");
 
   std::filesystem::path nightly_config;
   auto* all_command = app.add_subcommand("all", "run every stage of the nightly plan");
@@ -284,10 +289,18 @@ int main(int argc, char** argv) {
         config.seed = *tsk_seed;
         config.data.seed = imm::datasets::derive_seed(config.seed, 1);
       }
-      spdlog::info("tsk: {} samples ({:.0f} % held out), {} rules per output, t-norm {}, seed {}",
-                   config.data.samples, 100.0 * config.validation_fraction, config.fcrm.clusters,
-                   imm::to_string(config.t_norm), config.seed);
-      const auto result = imm::trainer::tsk::train_tsk(config, tsk_out);
+      imm::trainer::tsk::SensorSamples samples;
+      if (tsk_data.empty()) {
+        samples.data = imm::datasets::simulate_range_sensor(config.data);
+        samples.source = "simulated ([data] of the config)";
+      } else {
+        samples = imm::trainer::tsk::load_sensor_samples(tsk_data);
+      }
+      spdlog::info(
+          "tsk: {} samples from {} ({:.0f} % held out), {} rules per output, t-norm {}, seed {}",
+          samples.data.positions.rows(), samples.source, 100.0 * config.validation_fraction,
+          config.fcrm.clusters, imm::to_string(config.t_norm), config.seed);
+      const auto result = imm::trainer::tsk::train_tsk(config, samples, tsk_out);
       spdlog::info("fitted in {:.2f} s", result.wall_seconds);
       if (!result.gate_passed) {
         spdlog::error("quality gate failed: a validation RMSE exceeds {:.3f} m; {} not written",

@@ -2,13 +2,18 @@
 
 #include <spdlog/spdlog.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <numeric>
+#include <sstream>
+#include <vector>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
+#include "imm/io/file_error.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/provenance.hpp"
@@ -186,9 +191,87 @@ SplitData split(const datasets::RangeSensorData& data, double validation_fractio
   return out;
 }
 
+SensorSamples load_sensor_samples(const std::filesystem::path& path) {
+  SensorSamples samples;
+  samples.source = path.string();
+  if (path.extension() != ".csv") {
+    datasets::RangeSensorDataset stored = datasets::read_range_sensor_dataset(path);
+    samples.data = std::move(stored.data);
+    return samples;
+  }
+  std::ifstream in(path);
+  if (!in) throw io::FileError(path.string(), "", "cannot open");
+  const std::string name = path.string();
+  std::string line;
+  int number = 0;
+  auto fail = [&](const std::string& message) -> void {
+    throw io::FileError(name + ":" + std::to_string(number), "", message);
+  };
+  std::vector<std::array<double, 4>> rows;
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line.front() == '#') continue;
+    std::vector<std::string> fields;
+    std::stringstream fields_in(line);
+    std::string field;
+    while (std::getline(fields_in, field, ',')) fields.push_back(field);
+    if (rows.empty() && !fields.empty() && fields.front() == "xi") {
+      if (fields != std::vector<std::string>{"xi", "eta", "z1", "z2"}) {
+        fail("header must be xi,eta,z1,z2");
+      }
+      continue;
+    }
+    if (fields.size() != 4)
+      fail("expected 4 fields (xi,eta,z1,z2), found " + std::to_string(fields.size()));
+    std::array<double, 4> row{};
+    for (std::size_t i = 0; i < 4; ++i) {
+      std::size_t used = 0;
+      try {
+        row[i] = std::stod(fields[i], &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || used != fields[i].size() || !std::isfinite(row[i])) {
+        fail("field " + std::to_string(i + 1) + " ('" + fields[i] + "') is not a finite number");
+      }
+    }
+    rows.push_back(row);
+  }
+  if (rows.size() < 10) {
+    throw io::FileError(name, "", "need at least 10 samples, found " + std::to_string(rows.size()));
+  }
+  samples.data.positions.resize(static_cast<Eigen::Index>(rows.size()), 2);
+  samples.data.outputs.resize(static_cast<Eigen::Index>(rows.size()), 2);
+  for (std::size_t q = 0; q < rows.size(); ++q) {
+    const auto i = static_cast<Eigen::Index>(q);
+    samples.data.positions.row(i) << rows[q][0], rows[q][1];
+    samples.data.outputs.row(i) << rows[q][2], rows[q][3];
+  }
+  return samples;
+}
+
 TskTrainingResult train_tsk(const TskTrainingConfig& config, const std::filesystem::path& out) {
+  SensorSamples simulated;
+  simulated.data = datasets::simulate_range_sensor(config.data);
+  simulated.source = "simulated ([data] of the config)";
+  return train_tsk(config, simulated, out);
+}
+
+TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples& samples,
+                            const std::filesystem::path& out) {
   const auto start = std::chrono::steady_clock::now();
-  const datasets::RangeSensorData data = datasets::simulate_range_sensor(config.data);
+  const datasets::RangeSensorData& data = samples.data;
+  const Eigen::Index n = data.positions.rows();
+  if (n < 10 || data.positions.cols() != 2 || data.outputs.rows() != n ||
+      data.outputs.cols() != 2 || !data.positions.allFinite() || !data.outputs.allFinite()) {
+    throw io::FileError(samples.source, "", "need at least 10 finite samples (xi, eta, z1, z2)");
+  }
+  if (!((data.positions.colwise().maxCoeff() - data.positions.colwise().minCoeff()).array() > 0.0)
+           .all()) {
+    throw io::FileError(samples.source, "",
+                        "the positions do not span a box (xi and eta must vary)");
+  }
   const SplitData parts = split(data, config.validation_fraction, config.seed);
   TskTrainingResult result;
   result.training_samples = static_cast<int>(parts.training_inputs.rows());
@@ -237,6 +320,7 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const std::filesyst
   metrics["model_kind"] = io::kTskSensorKind;
   metrics["model"] = out.string();
   metrics["config"] = config.name;
+  metrics["data"] = samples.source;
   metrics["seed"] = config.seed;
   metrics["samples"] = {{"training", result.training_samples},
                         {"validation", result.validation_samples}};

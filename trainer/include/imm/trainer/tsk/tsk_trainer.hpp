@@ -5,6 +5,7 @@
 /// split, fits each output (tsk_fit.hpp: FCRM with restarts, premises from the clusters, Ceres
 /// fine tuning, σ by eq. 7), reports the validation RMSE after FCRM and after fine tuning, and
 /// writes a "tsk_sensor" model with the input box it was trained on and the data's digest.
+/// `--data` fits stored samples instead (a range-sensor data set or a CSV of a real sensor).
 ///
 /// The config also carries what the evaluation needs and the trainer does not: the FIMM settings
 /// ([fimm]) and the cut-in scenario ([scenario]); they are validated here all the same.
@@ -65,7 +66,23 @@ struct SplitData {
 [[nodiscard]] SplitData split(const datasets::RangeSensorData& data, double validation_fraction,
                               std::uint64_t seed);
 
-/// Fits both outputs; writes the model (gate passed) and `<model>.metrics.json` (always).
+/// Sensor samples to fit on, and where they came from (for the metrics).
+struct SensorSamples {
+  datasets::RangeSensorData data;
+  std::string source;
+};
+
+/// Stored samples: a "range_sensor" data set (.h5, digest checked) or a CSV with the header
+/// xi,eta,z1,z2 (true position, sensor output; '#' lines are comments). FileError names the
+/// file and, for a CSV, the line.
+[[nodiscard]] SensorSamples load_sensor_samples(const std::filesystem::path& path);
+
+/// Fits both outputs on the config's simulated sensor data ([data]); writes the model (gate
+/// passed) and `<model>.metrics.json` (always).
 TskTrainingResult train_tsk(const TskTrainingConfig& config, const std::filesystem::path& out);
+/// The same on given samples (the config's [data] then only describes the simulated sensor the
+/// evaluation uses). The model's input box is the samples' extent.
+TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples& samples,
+                            const std::filesystem::path& out);
 
 }  // namespace imm::trainer::tsk
