@@ -78,6 +78,12 @@ void FimmFilter::initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& 
   if (mean.size() != 6 || covariance.rows() != 6 || covariance.cols() != 6) {
     throw InvalidParameter("initial_state", "the FIMM state has 6 components");
   }
+  if (!mean.allFinite()) throw InvalidParameter("initial_state", "must be finite");
+  if (!covariance.allFinite() || !covariance.isApprox(covariance.transpose(), 1e-12) ||
+      (covariance.diagonal().array() < 0.0).any()) {
+    throw InvalidParameter("initial_covariance",
+                           "must be finite and symmetric with a non-negative diagonal");
+  }
   GaussianState<6> state;
   state.mean = mean;
   state.covariance = covariance;

@@ -387,6 +387,30 @@ TEST(Fimm, InvalidSpecsAreRefusedByName) {
   refused([](FimmSpec& s) { s.sample_period = std::nan(""); }, "sample_period");
 }
 
+TEST(Fimm, InvalidInitialStatesAreRefusedByName) {
+  FimmFilter fimm(FimmSpec{}, nullptr);
+  auto field_of = [&](const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
+    try {
+      fimm.initialize(mean, covariance);
+    } catch (const InvalidParameter& error) {
+      return error.field();
+    }
+    return std::string();
+  };
+  const Eigen::VectorXd good = Eigen::VectorXd::Zero(6);
+  EXPECT_EQ(field_of(good, start_covariance()), "");
+  EXPECT_EQ(field_of(Eigen::VectorXd::Zero(4), start_covariance()), "initial_state");
+  Eigen::VectorXd nan_mean = good;
+  nan_mean(3) = std::nan("");
+  EXPECT_EQ(field_of(nan_mean, start_covariance()), "initial_state");
+  Eigen::MatrixXd skew = start_covariance();
+  skew(0, 1) = 0.5;
+  EXPECT_EQ(field_of(good, skew), "initial_covariance");
+  Eigen::MatrixXd negative = start_covariance();
+  negative(2, 2) = -1.0;
+  EXPECT_EQ(field_of(good, negative), "initial_covariance");
+}
+
 TEST(Fimm, ABadPlotLeavesTheFilterUnchanged) {
   FimmSpec spec;
   FimmFilter fimm(spec, std::make_shared<const TskModel>(sensor_like_model(TNorm::kMin)));
