@@ -8,6 +8,12 @@
 #include "imm/core/invalid_parameter.hpp"
 
 namespace imm {
+namespace {
+
+constexpr double kCenterReach = 10.0;  // centers within this many box widths of the box
+constexpr double kWidthRange = 1e-6;   // widths within [kWidthRange, 1/kWidthRange] box widths
+
+}  // namespace
 
 std::string_view to_string(TNorm t_norm) { return t_norm == TNorm::kMin ? "min" : "product"; }
 
@@ -31,6 +37,9 @@ TskModel::TskModel(std::array<TskOutput, 2> outputs, TNorm t_norm,
   if (!(lower_.array() < upper_.array()).all()) {
     throw InvalidParameter("input_upper", "must exceed input_lower in every input");
   }
+  // Centers and widths in proportion to the box keep every log-weight finite for inputs in the
+  // box (|x − m|/s ≤ 11 · 10⁶), so evaluation cannot produce 0/0 or ∞ − ∞.
+  const Eigen::Array2d span = (upper_ - lower_).array();
   for (std::size_t i = 0; i < outputs_.size(); ++i) {
     const std::string field = "outputs[" + std::to_string(i) + "]";
     const TskOutput& out = outputs_[i];
@@ -43,12 +52,34 @@ TskModel::TskModel(std::array<TskOutput, 2> outputs, TNorm t_norm,
     for (std::size_t r = 0; r < out.rules.size(); ++r) {
       const TskRule& rule = out.rules[r];
       const std::string rf = field + ".rules[" + std::to_string(r) + "]";
-      if (!rule.center.allFinite()) throw InvalidParameter(rf + ".center", "must be finite");
-      if (!rule.width.allFinite() || !(rule.width.array() > 0.0).all()) {
-        throw InvalidParameter(rf + ".width", "must be positive and finite");
+      if (!rule.center.allFinite() ||
+          !(rule.center.array() >= lower_.array() - kCenterReach * span).all() ||
+          !(rule.center.array() <= upper_.array() + kCenterReach * span).all()) {
+        throw InvalidParameter(rf + ".center",
+                               "must be finite and within 10 box widths of the "
+                               "input box");
+      }
+      if (!rule.width.allFinite() || !(rule.width.array() >= kWidthRange * span).all() ||
+          !(rule.width.array() <= span / kWidthRange).all()) {
+        throw InvalidParameter(rf + ".width",
+                               "must be within 10⁻⁶ … 10⁶ box widths (positive and finite)");
       }
       if (!rule.consequent.allFinite()) {
         throw InvalidParameter(rf + ".consequent", "must be finite");
+      }
+    }
+  }
+  // The consequents are hyperplanes: finite at the box's corners means finite in the box.
+  for (std::size_t i = 0; i < outputs_.size(); ++i) {
+    for (int corner = 0; corner < 5; ++corner) {
+      const Eigen::Vector2d x = corner == 4 ? Eigen::Vector2d(0.5 * (lower_ + upper_))
+                                            : Eigen::Vector2d((corner & 1) ? upper_(0) : lower_(0),
+                                                              (corner & 2) ? upper_(1) : lower_(1));
+      Eigen::Vector2d gradient;
+      const double h = output(outputs_[i].rules, t_norm_, x, &gradient);
+      if (!std::isfinite(h) || !gradient.allFinite()) {
+        throw InvalidParameter("outputs[" + std::to_string(i) + "].rules",
+                               "evaluate to a non-finite value in the input box");
       }
     }
   }

@@ -80,9 +80,14 @@ TskModel read_tsk_sensor(const ModelFileReader& reader) {
   try {
     return TskModel(std::move(outputs), t_norm, box.row(0).transpose(), box.row(1).transpose());
   } catch (const InvalidParameter& error) {
+    // The model's field ("outputs[1].rules[2].width", "input_upper") as the file's.
     const std::string& f = error.field();
-    reader.fail(f.rfind("input", 0) == 0 ? std::string("/tsk/input_box") : "/tsk/" + f,
-                error.what());
+    std::string field = "/tsk/input_box";
+    if (f.rfind("outputs[", 0) == 0 && f.size() > 9) {
+      const int i = f[8] - '0';
+      field = output_group(i) + (f.find(".sigma") != std::string::npos ? "@sigma" : "/rules");
+    }
+    reader.fail(field, error.what());
   }
 }
 

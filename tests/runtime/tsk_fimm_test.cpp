@@ -54,8 +54,8 @@ TskModel sensor_like_model(TNorm t_norm, OutsideBox outside = OutsideBox::kLinea
 /// An exact identity sensor: one rule per output, z₁ = ξ, z₂ = η, σ = 0, a box nothing leaves.
 std::shared_ptr<const TskModel> identity_sensor() {
   std::array<TskOutput, 2> outputs;
-  outputs[0].rules = {rule(0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0)};
-  outputs[1].rules = {rule(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0)};
+  outputs[0].rules = {rule(0.0, 1e3, 0.0, 1e3, 0.0, 1.0, 0.0)};
+  outputs[1].rules = {rule(0.0, 1e3, 0.0, 1e3, 0.0, 0.0, 1.0)};
   return std::make_shared<const TskModel>(outputs, TNorm::kMin, Eigen::Vector2d::Constant(-1e6),
                                           Eigen::Vector2d::Constant(1e6));
 }
@@ -231,6 +231,28 @@ TEST(TskModel, InvalidRulesAreRefusedByName) {
       },
       "outputs[1].rules");
   refused([&] { (void)TskModel(sensor_like_outputs(), TNorm::kMin, hi, lo); }, "input_upper");
+  // Degenerate but finite values that would make the evaluation overflow or divide 0 by 0.
+  refused(
+      [&] {
+        auto o = sensor_like_outputs();
+        o[0].rules[0].width(0) = 1e-300;
+        (void)TskModel(o, TNorm::kMin, lo, hi);
+      },
+      "outputs[0].rules[0].width");
+  refused(
+      [&] {
+        auto o = sensor_like_outputs();
+        o[1].rules[1].center(1) = 1e300;
+        (void)TskModel(o, TNorm::kMin, lo, hi);
+      },
+      "outputs[1].rules[1].center");
+  refused(
+      [&] {
+        auto o = sensor_like_outputs();
+        o[1].rules[0].consequent(2) = 1e307;
+        (void)TskModel(o, TNorm::kProduct, lo, hi);
+      },
+      "outputs[1].rules");
   refused([&] { (void)t_norm_from("max", "t_norm"); }, "t_norm");
 }
 
@@ -496,6 +518,22 @@ TEST(TskSensorFile, HostileValuesAreRefusedByName) {
       "too_many",
       [](auto& w) {
         Eigen::MatrixXd rules = Eigen::MatrixXd::Ones(TskModel::kMaxRules + 1, 7);
+        w.write_matrix("/tsk/output1/rules", rules);
+      },
+      "/tsk/output1/rules");
+  refused(
+      "tiny_width",
+      [&](auto& w) {
+        Eigen::MatrixXd rules = io::rules_matrix(model.outputs()[1].rules);
+        rules(2, 1) = 1e-300;
+        w.write_matrix("/tsk/output2/rules", rules);
+      },
+      "/tsk/output2/rules");
+  refused(
+      "huge_consequent",
+      [&](auto& w) {
+        Eigen::MatrixXd rules = io::rules_matrix(model.outputs()[0].rules);
+        rules(0, 5) = 1e308;  // a_xi: overflows at the box corners
         w.write_matrix("/tsk/output1/rules", rules);
       },
       "/tsk/output1/rules");

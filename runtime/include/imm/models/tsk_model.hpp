@@ -65,6 +65,9 @@ class TskModel {
 
   TskModel() = default;
   /// Throws InvalidParameter naming the field ("outputs[1].rules[0].width", "input_lower", …).
+  /// Besides finiteness it requires centers within 10 box widths of the input box and widths
+  /// within 10⁻⁶ … 10⁶ box widths, and finite values at the box's corners: then h and ∇h are
+  /// finite everywhere in the box (a hostile file cannot make the filter divide 0 by 0).
   TskModel(std::array<TskOutput, 2> outputs, TNorm t_norm, const Eigen::Vector2d& input_lower,
            const Eigen::Vector2d& input_upper, OutsideBox outside = OutsideBox::kLinear);
 
