@@ -681,8 +681,15 @@ int report_fimm(const imm::evaluation::FimmExperimentResult& result, bool hard,
   imm::evaluation::write_series_csv(
       out / "sensor_model.csv",
       {"eta", "true_eta_m", "model_z2", "true_xi_m_lane", "model_z1_lane"}, result.sensor_curve);
-  imm::evaluation::write_series_csv(out / "sensor_samples.csv", {"eta", "z2"},
-                                    result.sensor_samples);
+  // The data with the fitted model's z₂ along the road over it.
+  const Eigen::Index shown = std::max(result.sensor_samples.rows(), result.sensor_curve.rows());
+  Eigen::MatrixXd samples =
+      Eigen::MatrixXd::Constant(shown, 4, std::numeric_limits<double>::quiet_NaN());
+  samples.topLeftCorner(result.sensor_samples.rows(), 2) = result.sensor_samples;
+  samples.block(0, 2, result.sensor_curve.rows(), 1) = result.sensor_curve.col(0);
+  samples.block(0, 3, result.sensor_curve.rows(), 1) = result.sensor_curve.col(2);
+  imm::evaluation::write_series_csv(out / "sensor_samples.csv",
+                                    {"eta", "z2", "model_eta", "model_z2_road"}, samples);
   plotted &=
       imm::evaluation::plot_series({out / "sensor_model.png",
                                     "Sensor: distorted range along the road, truth vs TSK model",
@@ -691,14 +698,16 @@ int report_fimm(const imm::evaluation::FimmExperimentResult& result, bool hard,
                                     out / "sensor_model.csv",
                                     {"true_eta_m", "model_z2", "true_xi_m_lane", "model_z1_lane"},
                                     {"eta", "eta", "eta", "eta"}});
-  plotted &= imm::evaluation::plot_series({out / "sensor_samples.png",
-                                           "Sensor data: measured z2 against the true eta",
-                                           "eta (m)",
-                                           "z2 (m)",
-                                           out / "sensor_samples.csv",
-                                           {"z2"},
-                                           {"eta"},
-                                           "dots"});
+  plotted &=
+      imm::evaluation::plot_series({out / "sensor_samples.png",
+                                    "Sensor data (measured z2 against the true eta) and the model",
+                                    "eta (m)",
+                                    "z2 (m)",
+                                    out / "sensor_samples.csv",
+                                    {"z2", "model_z2_road"},
+                                    {"eta", "model_eta"},
+                                    "dots",
+                                    {"dots", "lines"}});
   std::cout << "\nwrote metrics.json, details.json, CSV series"
             << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
             << " in " << out.string() << '\n';

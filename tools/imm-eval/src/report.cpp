@@ -85,13 +85,17 @@ bool plot_series(const PlotSpec& spec) {
            << "set xlabel '" << spec.x_label << "'\n"
            << "set ylabel '" << spec.y_label << "'\n"
            << "plot ";
-    const std::string style = spec.style == "lines"  ? "lines lw 2"
-                              : spec.style == "dots" ? std::string("dots")
-                                                     : spec.style + " ps 0.6";
+    auto gnuplot_style = [](const std::string& style) {
+      return style == "lines"  ? std::string("lines lw 2")
+             : style == "dots" ? std::string("dots")
+                               : style + " ps 0.6";
+    };
     for (std::size_t i = 0; i < spec.series.size(); ++i) {
       const std::string x = i < spec.x_series.size() ? spec.x_series[i] : "k";
+      const std::string& style = i < spec.styles.size() ? spec.styles[i] : spec.style;
       script << (i == 0 ? "" : ", ") << "'" << spec.csv.string() << "' using '" << x << "':'"
-             << spec.series[i] << "' with " << style << " title '" << spec.series[i] << "'";
+             << spec.series[i] << "' with " << gnuplot_style(style) << " title '" << spec.series[i]
+             << "'";
     }
     script << "\n";
   }

@@ -29,7 +29,8 @@ struct PlotSpec {
   std::vector<std::string> series;  ///< column names of the CSV to draw
   /// x column per series (empty: every series against "k"), for x–y plots such as trajectories.
   std::vector<std::string> x_series = {};
-  std::string style = "lines";  ///< gnuplot style: lines | points | dots
+  std::string style = "lines";           ///< gnuplot style: lines | points | dots
+  std::vector<std::string> styles = {};  ///< per series (empty or shorter: `style`)
 };
 
 /// Draws the series with gnuplot (pngcairo or png terminal). Returns false, leaving no PNG,
