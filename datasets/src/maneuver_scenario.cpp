@@ -12,14 +12,6 @@
 #include "imm/models/polar_measurement.hpp"
 
 namespace imm::datasets {
-namespace {
-
-void require(bool condition, const std::string& field, const std::string& message) {
-  if (!condition) throw InvalidParameter(field, message);
-}
-
-}  // namespace
-
 void ManeuverScenario::validate() const {
   require(!name.empty(), "name", "must not be empty");
   require(std::isfinite(sample_period) && sample_period > 0.0, "sample_period",

@@ -11,10 +11,6 @@
 namespace imm::datasets {
 namespace {
 
-void require(bool condition, const char* field, const char* message) {
-  if (!condition) throw InvalidParameter(field, message);
-}
-
 // Half-cosine move from a to b over [t0, t1]: position, velocity, acceleration at t.
 Eigen::Vector3d half_cosine(double t, double t0, double t1, double a, double b) {
   if (t <= t0) return {a, 0.0, 0.0};

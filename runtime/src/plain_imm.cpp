@@ -20,10 +20,6 @@ std::string mode_field(std::size_t index, const char* key) {
   return "modes[" + std::to_string(index) + "]." + key;
 }
 
-void require(bool condition, const std::string& field, const std::string& message) {
-  if (!condition) throw InvalidParameter(field, message);
-}
-
 // The mixing-space indices of [x, vx, (ax), y, vy, (ay)] for a mode of dimension N.
 template <int N, int NX>
 StateEmbedding<N, NX> embedding_for() {

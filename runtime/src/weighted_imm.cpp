@@ -11,10 +11,6 @@
 namespace imm {
 namespace {
 
-void require(bool condition, const std::string& field, const std::string& message) {
-  if (!condition) throw InvalidParameter(field, message);
-}
-
 ImmEstimator<6, 2> build_imm(const WimmSpec& spec,
                              const std::shared_ptr<const AzimuthFusion>& fusion) {
   spec.validate();

@@ -21,10 +21,6 @@ namespace {
 constexpr double kDegree = std::numbers::pi / 180.0;
 constexpr int kFirstScoredScan = 2;
 
-void require(bool condition, const std::string& key, const std::string& message) {
-  if (!condition) throw InvalidParameter(key, message);
-}
-
 std::pair<double, double> range(const support::ConfigTable& t, std::string_view key,
                                 std::pair<double, double> fallback) {
   if (!t.has(key)) return fallback;

@@ -9,10 +9,6 @@
 namespace imm::trainer::ga {
 namespace {
 
-void require(bool condition, const std::string& key, const std::string& message) {
-  if (!condition) throw InvalidParameter(key, message);
-}
-
 bool finite_positive(double x) { return std::isfinite(x) && x > 0.0; }
 
 GaTrainingConfig config_from(const support::ConfigTable& root) {

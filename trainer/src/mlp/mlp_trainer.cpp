@@ -14,10 +14,6 @@
 namespace imm::trainer::mlp {
 namespace {
 
-void require(bool condition, const std::string& key, const std::string& message) {
-  if (!condition) throw InvalidParameter(key, message);
-}
-
 std::vector<ManeuverPulse> profile_from(const support::ConfigTable& table) {
   std::vector<ManeuverPulse> pulses;
   const Eigen::MatrixXd m = table.matrix("maneuvers", -1, 3);

@@ -21,10 +21,6 @@
 namespace imm::trainer::tsk {
 namespace {
 
-void require(bool condition, const std::string& key, const std::string& message) {
-  if (!condition) throw InvalidParameter(key, message);
-}
-
 // Rethrows a component's InvalidParameter under the config section `prefix`.
 template <class F>
 void validate_as(const std::string& prefix, F&& f) {

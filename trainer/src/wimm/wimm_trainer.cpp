@@ -17,10 +17,6 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
-void require(bool condition, const std::string& key, const std::string& message) {
-  if (!condition) throw InvalidParameter(key, message);
-}
-
 WimmTrainingConfig config_from(const support::ConfigTable& root) {
   WimmTrainingConfig c;
   const std::int64_t seed = root.integer_or("seed", 1);

@@ -19,4 +19,9 @@ class InvalidParameter : public std::invalid_argument {
   std::string field_;
 };
 
+/// Throws InvalidParameter(field, message) unless `condition` holds.
+inline void require(bool condition, const std::string& field, const std::string& message) {
+  if (!condition) throw InvalidParameter(field, message);
+}
+
 }  // namespace imm
