@@ -85,47 +85,57 @@ TskModel::TskModel(std::array<TskOutput, 2> outputs, TNorm t_norm,
   }
 }
 
-double TskModel::output(const std::vector<TskRule>& rules, TNorm t_norm,
-                        const Eigen::Vector2d& input, Eigen::Vector2d* gradient) {
-  // log wʳ and ∂ log wʳ / ∂input, then weights scaled by the largest.
-  const std::size_t n = std::min<std::size_t>(rules.size(), kMaxRules);
+TskFiring TskModel::fire(const std::vector<TskRule>& rules, TNorm t_norm,
+                         const Eigen::Vector2d& input) {
+  // log wʳ first, then the weights scaled by the largest (which becomes exp(0) = 1, so Σ w ≥ 1).
+  TskFiring f;
+  f.rules = std::min<std::size_t>(rules.size(), kMaxRules);
   std::array<double, kMaxRules> log_w{};
-  std::array<Eigen::Vector2d, kMaxRules> d_log_w{};
   double largest = -std::numeric_limits<double>::infinity();
-  for (std::size_t r = 0; r < n; ++r) {
+  for (std::size_t r = 0; r < f.rules; ++r) {
     const TskRule& rule = rules[r];
     const Eigen::Array2d u = (input - rule.center).array() / rule.width.array();
     const Eigen::Array2d log_a = -0.5 * u * u;
-    const Eigen::Array2d d_log_a = -u / rule.width.array();
     if (t_norm == TNorm::kProduct) {
       log_w[r] = log_a.sum();
-      d_log_w[r] = d_log_a.matrix();
+      f.active[r] = Eigen::Array2d::Ones();
     } else {
       const int s = log_a(1) < log_a(0) ? 1 : 0;  // the minimum; the first at a tie
       log_w[r] = log_a(s);
-      d_log_w[r].setZero();
-      d_log_w[r](s) = d_log_a(s);
+      f.active[r] = Eigen::Array2d::Zero();
+      f.active[r](s) = 1.0;
     }
     largest = std::max(largest, log_w[r]);
   }
   double sum_w = 0.0, sum_wz = 0.0;
-  std::array<double, kMaxRules> w{}, z{};
-  for (std::size_t r = 0; r < n; ++r) {
-    w[r] = std::exp(log_w[r] - largest);
+  for (std::size_t r = 0; r < f.rules; ++r) {
+    f.share[r] = std::exp(log_w[r] - largest);
     const Eigen::Vector3d& a = rules[r].consequent;
-    z[r] = a(0) + a(1) * input(0) + a(2) * input(1);
-    sum_w += w[r];
-    sum_wz += w[r] * z[r];
+    f.rule_output[r] = a(0) + a(1) * input(0) + a(2) * input(1);
+    sum_w += f.share[r];
+    sum_wz += f.share[r] * f.rule_output[r];
   }
-  const double h = sum_wz / sum_w;  // sum_w ≥ 1: the largest weight is exp(0)
+  for (std::size_t r = 0; r < f.rules; ++r) f.share[r] /= sum_w;
+  f.value = sum_wz / sum_w;
+  return f;
+}
+
+double TskModel::output(const std::vector<TskRule>& rules, TNorm t_norm,
+                        const Eigen::Vector2d& input, Eigen::Vector2d* gradient) {
+  const TskFiring f = fire(rules, t_norm, input);
   if (gradient) {
+    // ∂h/∂x = Σ shareʳ [∂ log wʳ/∂x (zʳ − h) + a_xʳ], ∂ log A/∂x = −(x − m)/s².
     Eigen::Vector2d g = Eigen::Vector2d::Zero();
-    for (std::size_t r = 0; r < n; ++r) {
-      g += w[r] * (d_log_w[r] * (z[r] - h) + rules[r].consequent.tail<2>());
+    for (std::size_t r = 0; r < f.rules; ++r) {
+      const TskRule& rule = rules[r];
+      const Eigen::Array2d u = (input - rule.center).array() / rule.width.array();
+      const Eigen::Array2d d_log_w = f.active[r] * (-u / rule.width.array());
+      g += f.share[r] *
+           (d_log_w.matrix() * (f.rule_output[r] - f.value) + rule.consequent.tail<2>());
     }
-    *gradient = g / sum_w;
+    *gradient = g;
   }
-  return h;
+  return f.value;
 }
 
 TskEvaluation TskModel::evaluate(const Eigen::Vector2d& input) const {

@@ -277,57 +277,29 @@ double rmse(const std::vector<TskRule>& rules, TNorm t_norm, const Eigen::Matrix
 
 double output_and_parameter_gradient(const std::vector<TskRule>& rules, TNorm t_norm,
                                      const Eigen::Vector2d& input, double* gradient) {
-  const std::size_t n = rules.size();
-  if (n == 0 || n > TskModel::kMaxRules) {
+  if (rules.empty() || rules.size() > TskModel::kMaxRules) {
     throw std::invalid_argument("TSK output: need 1 to " + std::to_string(TskModel::kMaxRules) +
                                 " rules");
   }
-  constexpr std::size_t kMax = TskModel::kMaxRules;
-  std::array<double, kMax> log_w{}, w{}, z{};
-  std::array<Eigen::Matrix<double, 4, 1>, kMax>
-      d_log_w{};  // ∂ log w / ∂(m_ξ, log s_ξ, m_η, log s_η)
-  double largest = -std::numeric_limits<double>::infinity();
-  for (std::size_t r = 0; r < n; ++r) {
-    const TskRule& rule = rules[r];
-    const Eigen::Array2d d = input - rule.center;
-    const Eigen::Array2d s2 = rule.width.array().square();
-    const Eigen::Array2d log_a = -0.5 * d.square() / s2;
-    // ∂ log A/∂m = d/s², ∂ log A/∂ log s = d²/s².
-    Eigen::Matrix<double, 4, 1> g;
-    g << d(0) / s2(0), d(0) * d(0) / s2(0), d(1) / s2(1), d(1) * d(1) / s2(1);
-    if (t_norm == TNorm::kProduct) {
-      log_w[r] = log_a.sum();
-      d_log_w[r] = g;
-    } else {
-      const int s = log_a(1) < log_a(0) ? 1 : 0;
-      log_w[r] = log_a(s);
-      d_log_w[r].setZero();
-      const Eigen::Index at = Eigen::Index{2} * s;
-      d_log_w[r].segment<2>(at) = g.segment<2>(at);
-    }
-    largest = std::max(largest, log_w[r]);
-  }
-  double sum_w = 0.0, sum_wz = 0.0;
-  for (std::size_t r = 0; r < n; ++r) {
-    w[r] = std::exp(log_w[r] - largest);
-    const Eigen::Vector3d& a = rules[r].consequent;
-    z[r] = a(0) + a(1) * input(0) + a(2) * input(1);
-    sum_w += w[r];
-    sum_wz += w[r] * z[r];
-  }
-  const double h = sum_wz / sum_w;
+  const TskFiring f = TskModel::fire(rules, t_norm, input);
   if (gradient) {
-    for (std::size_t r = 0; r < n; ++r) {
+    for (std::size_t r = 0; r < f.rules; ++r) {
+      const TskRule& rule = rules[r];
       double* g = gradient + r * kParametersPerRule;
-      const double share = w[r] / sum_w;
-      const double premise = share * (z[r] - h);  // ∂h/∂ log wʳ
-      for (int i = 0; i < 4; ++i) g[i] = premise * d_log_w[r](i);
-      g[4] = share;
-      g[5] = share * input(0);
-      g[6] = share * input(1);
+      const double premise = f.share[r] * (f.rule_output[r] - f.value);  // ∂h/∂ log wʳ
+      for (int s = 0; s < 2; ++s) {
+        // ∂ log A/∂m = d/s², ∂ log A/∂ log s = d²/s², for the inputs wʳ depends on.
+        const double d = input(s) - rule.center(s);
+        const double s2 = rule.width(s) * rule.width(s);
+        g[2 * s] = premise * f.active[r](s) * d / s2;
+        g[2 * s + 1] = premise * f.active[r](s) * d * d / s2;
+      }
+      g[4] = f.share[r];
+      g[5] = f.share[r] * input(0);
+      g[6] = f.share[r] * input(1);
     }
   }
-  return h;
+  return f.value;
 }
 
 FineTuningReport fine_tune(std::vector<TskRule>& rules, TNorm t_norm, const Eigen::MatrixXd& inputs,

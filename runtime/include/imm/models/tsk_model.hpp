@@ -59,9 +59,21 @@ struct TskEvaluation {
   bool clamped = false;                                ///< the input lay outside the trained box
 };
 
+inline constexpr int kTskMaxRules = 32;
+
+/// One output's rules fired at an input: what h, its input gradient (here) and the trainer's
+/// parameter gradient are all built from.
+struct TskFiring {
+  std::size_t rules = 0;                              ///< rules used (≤ kTskMaxRules)
+  std::array<double, kTskMaxRules> share{};           ///< wʳ / Σ w
+  std::array<double, kTskMaxRules> rule_output{};     ///< zʳ = a₀ʳ + a_ξʳ ξ + a_ηʳ η
+  std::array<Eigen::Array2d, kTskMaxRules> active{};  ///< 1 for the inputs wʳ depends on
+  double value = 0.0;                                 ///< h = Σ shareʳ zʳ
+};
+
 class TskModel {
  public:
-  static constexpr int kMaxRules = 32;
+  static constexpr int kMaxRules = kTskMaxRules;
 
   TskModel() = default;
   /// Throws InvalidParameter naming the field ("outputs[1].rules[0].width", "input_lower", …).
@@ -74,8 +86,12 @@ class TskModel {
   /// h(ξ, η) and its Jacobian; outside the trained box by the OutsideBox policy. Allocation-free.
   [[nodiscard]] TskEvaluation evaluate(const Eigen::Vector2d& input) const;
 
+  /// The firing of a rule set at an (unclamped) input. Allocation-free.
+  [[nodiscard]] static TskFiring fire(const std::vector<TskRule>& rules, TNorm t_norm,
+                                      const Eigen::Vector2d& input);
+
   /// One output of a rule set at an (unclamped) input, with ∂/∂input when `gradient` is given —
-  /// the building block, also used by the trainer on its own candidate rules.
+  /// also used by the trainer on its own candidate rules.
   [[nodiscard]] static double output(const std::vector<TskRule>& rules, TNorm t_norm,
                                      const Eigen::Vector2d& input,
                                      Eigen::Vector2d* gradient = nullptr);
