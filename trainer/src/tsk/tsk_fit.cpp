@@ -287,12 +287,13 @@ double output_and_parameter_gradient(const std::vector<TskRule>& rules, TNorm t_
       const TskRule& rule = rules[r];
       double* g = gradient + r * kParametersPerRule;
       const double premise = f.share[r] * (f.rule_output[r] - f.value);  // ∂h/∂ log wʳ
-      for (int s = 0; s < 2; ++s) {
+      for (std::size_t s = 0; s < 2; ++s) {
         // ∂ log A/∂m = d/s², ∂ log A/∂ log s = d²/s², for the inputs wʳ depends on.
-        const double d = input(s) - rule.center(s);
-        const double s2 = rule.width(s) * rule.width(s);
-        g[2 * s] = premise * f.active[r](s) * d / s2;
-        g[2 * s + 1] = premise * f.active[r](s) * d * d / s2;
+        const auto i = static_cast<Eigen::Index>(s);
+        const double d = input(i) - rule.center(i);
+        const double s2 = rule.width(i) * rule.width(i);
+        g[2 * s] = premise * f.active[r](i) * d / s2;
+        g[2 * s + 1] = premise * f.active[r](i) * d * d / s2;
       }
       g[4] = f.share[r];
       g[5] = f.share[r] * input(0);
