@@ -9,6 +9,33 @@ namespace {
 
 constexpr std::string_view kDatasetKind = "maneuver_scenario";
 
+}  // namespace
+
+void write_dataset_root(io::ContainerWriter& writer, std::string_view kind, std::uint64_t seed,
+                        const std::string& config_toml, const std::string& generator_version,
+                        const std::string& digest) {
+  writer.set_attribute("/", "format", std::string(kDatasetFormat));
+  writer.set_attribute("/", "schema_version", std::int64_t{kDatasetSchemaVersion});
+  writer.set_attribute("/", "dataset_kind", std::string(kind));
+  writer.set_attribute("/", "seed", static_cast<std::int64_t>(seed));
+  writer.set_attribute("/", "created_utc", io::utc_now());
+  writer.set_attribute("/", "generator_version", generator_version);
+  writer.set_attribute("/", "config_toml", config_toml);
+  writer.set_attribute("/", "digest", digest);
+}
+
+void check_dataset_header(const io::SchemaReader& reader, std::string_view kind) {
+  const std::int64_t version = reader.integer("/", "schema_version", 1, INT64_MAX);
+  if (version > kDatasetSchemaVersion) {
+    reader.fail("/@schema_version", "schema version " + std::to_string(version) +
+                                        " is newer than this reader supports (" +
+                                        std::to_string(kDatasetSchemaVersion) + ")");
+  }
+  if (reader.text("/", "dataset_kind") != kind) {
+    reader.fail("/@dataset_kind", "expected '" + std::string(kind) + "'");
+  }
+}
+
 io::Array stack_runs(const std::vector<Eigen::MatrixXd>& runs) {
   io::Array array;
   const auto steps = static_cast<std::size_t>(runs.front().rows());
@@ -35,8 +62,6 @@ std::vector<Eigen::MatrixXd> unstack_runs(const io::Array& array) {
   return result;
 }
 
-}  // namespace
-
 std::string write_scenario_dataset(const std::filesystem::path& path,
                                    const ManeuverScenario& scenario, const ScenarioData& data,
                                    const std::string& config_toml,
@@ -44,15 +69,9 @@ std::string write_scenario_dataset(const std::filesystem::path& path,
   scenario.validate();
   std::string data_digest = digest(data);
   io::ContainerWriter writer(path, kDatasetFormat);
-  writer.set_attribute("/", "format", std::string(kDatasetFormat));
-  writer.set_attribute("/", "schema_version", std::int64_t{kDatasetSchemaVersion});
-  writer.set_attribute("/", "dataset_kind", std::string(kDatasetKind));
+  write_dataset_root(writer, kDatasetKind, scenario.seed, config_toml, generator_version,
+                     data_digest);
   writer.set_attribute("/", "scenario", scenario.name);
-  writer.set_attribute("/", "seed", static_cast<std::int64_t>(scenario.seed));
-  writer.set_attribute("/", "created_utc", io::utc_now());
-  writer.set_attribute("/", "generator_version", generator_version);
-  writer.set_attribute("/", "config_toml", config_toml);
-  writer.set_attribute("/", "digest", data_digest);
 
   writer.write("/time", io::Array::from_vector(data.time));
   writer.write("/acceleration_input", data.acceleration_input);
@@ -98,15 +117,7 @@ std::string write_scenario_dataset(const std::filesystem::path& path,
 
 ScenarioDataset read_scenario_dataset(const std::filesystem::path& path) {
   const io::SchemaReader reader(path, kDatasetFormat);
-  const std::int64_t version = reader.integer("/", "schema_version", 1, INT64_MAX);
-  if (version > kDatasetSchemaVersion) {
-    reader.fail("/@schema_version", "schema version " + std::to_string(version) +
-                                        " is newer than this reader supports (" +
-                                        std::to_string(kDatasetSchemaVersion) + ")");
-  }
-  if (reader.text("/", "dataset_kind") != kDatasetKind) {
-    reader.fail("/@dataset_kind", "expected '" + std::string(kDatasetKind) + "'");
-  }
+  check_dataset_header(reader, kDatasetKind);
   ScenarioDataset result;
   ManeuverScenario& s = result.scenario;
   s.name = reader.text("/", "scenario");

@@ -7,39 +7,9 @@
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/datasets/sha256.hpp"
 #include "imm/io/container_file.hpp"
-#include "imm/io/model_file.hpp"
 #include "imm/io/schema_reader.hpp"
 
 namespace imm::datasets {
-namespace {
-
-void write_root(io::ContainerWriter& writer, std::string_view kind, std::uint64_t seed,
-                const std::string& config_toml, const std::string& generator_version,
-                const std::string& data_digest) {
-  writer.set_attribute("/", "format", std::string(kDatasetFormat));
-  writer.set_attribute("/", "schema_version", std::int64_t{kDatasetSchemaVersion});
-  writer.set_attribute("/", "dataset_kind", std::string(kind));
-  writer.set_attribute("/", "seed", static_cast<std::int64_t>(seed));
-  writer.set_attribute("/", "created_utc", io::utc_now());
-  writer.set_attribute("/", "generator_version", generator_version);
-  writer.set_attribute("/", "config_toml", config_toml);
-  writer.set_attribute("/", "digest", data_digest);
-}
-
-// Checks a data set's schema version and kind.
-void check_dataset(const io::SchemaReader& reader, std::string_view kind) {
-  const std::int64_t version = reader.integer("/", "schema_version", 1, INT64_MAX);
-  if (version > kDatasetSchemaVersion) {
-    reader.fail("/@schema_version", "schema version " + std::to_string(version) +
-                                        " is newer than this reader supports (" +
-                                        std::to_string(kDatasetSchemaVersion) + ")");
-  }
-  if (reader.text("/", "dataset_kind") != kind) {
-    reader.fail("/@dataset_kind", "expected \"" + std::string(kind) + "\"");
-  }
-}
-
-}  // namespace
 
 std::string digest(const RangeSensorData& data) {
   Sha256 hash;
@@ -62,7 +32,8 @@ std::string write_range_sensor_dataset(const std::filesystem::path& path,
   config.validate();
   std::string data_digest = digest(data);
   io::ContainerWriter writer(path, kDatasetFormat);
-  write_root(writer, "range_sensor", config.seed, config_toml, generator_version, data_digest);
+  write_dataset_root(writer, "range_sensor", config.seed, config_toml, generator_version,
+                     data_digest);
   writer.write("/positions", data.positions);
   writer.set_attribute("/positions", "columns", std::string("xi,eta"));
   writer.write("/outputs", data.outputs);
@@ -82,7 +53,7 @@ std::string write_range_sensor_dataset(const std::filesystem::path& path,
 
 RangeSensorDataset read_range_sensor_dataset(const std::filesystem::path& path) {
   const io::SchemaReader reader(path, kDatasetFormat);
-  check_dataset(reader, "range_sensor");
+  check_dataset_header(reader, "range_sensor");
   RangeSensorDataset out;
   out.data.positions = reader.matrix("/positions", -1, 2);
   out.data.outputs = reader.matrix("/outputs", static_cast<int>(out.data.positions.rows()), 2);
@@ -102,18 +73,10 @@ std::string write_cut_in_dataset(const std::filesystem::path& path, const CutInS
   scenario.validate();
   std::string data_digest = digest(data);
   io::ContainerWriter writer(path, kDatasetFormat);
-  write_root(writer, "cut_in", scenario.seed, config_toml, generator_version, data_digest);
+  write_dataset_root(writer, "cut_in", scenario.seed, config_toml, generator_version, data_digest);
   writer.write("/truth", data.truth);
   writer.set_attribute("/truth", "columns", std::string("xi,vxi,axi,eta,veta,aeta"));
-  io::Array z;
-  z.shape = {data.measurements.size(), static_cast<std::size_t>(scenario.steps), 2};
-  for (const auto& run : data.measurements) {
-    for (Eigen::Index k = 0; k < run.rows(); ++k) {
-      z.values.push_back(run(k, 0));
-      z.values.push_back(run(k, 1));
-    }
-  }
-  writer.write("/measurements", z);
+  writer.write("/measurements", stack_runs(data.measurements));
   writer.set_attribute("/measurements", "columns", std::string("z1,z2"));
   writer.set_attribute("/parameters", "sample_period", scenario.sample_period);
   writer.set_attribute("/parameters", "steps", std::int64_t{scenario.steps});
@@ -130,7 +93,7 @@ std::string write_cut_in_dataset(const std::filesystem::path& path, const CutInS
 
 CutInDataset read_cut_in_dataset(const std::filesystem::path& path) {
   const io::SchemaReader reader(path, kDatasetFormat);
-  check_dataset(reader, "cut_in");
+  check_dataset_header(reader, "cut_in");
   CutInDataset out;
   const auto steps = reader.integer("/parameters", "steps", 2, 10'000'000);
   const auto runs = reader.integer("/parameters", "runs", 1, 1'000'000);
@@ -141,16 +104,7 @@ CutInDataset read_cut_in_dataset(const std::filesystem::path& path) {
       Eigen::Vector2d(reader.real("/parameters", "r_sigma_xi", io::ValueRule::kPositive),
                       reader.real("/parameters", "r_sigma_eta", io::ValueRule::kPositive));
   out.data.truth = reader.matrix("/truth", static_cast<int>(steps), 6);
-  const io::Array z = reader.array("/measurements", {runs, steps, 2});
-  for (std::int64_t run = 0; run < runs; ++run) {
-    Eigen::MatrixXd m(steps, 2);
-    for (std::int64_t k = 0; k < steps; ++k) {
-      const auto at = static_cast<std::size_t>((run * steps + k) * 2);
-      m(k, 0) = z.values[at];
-      m(k, 1) = z.values[at + 1];
-    }
-    out.data.measurements.push_back(std::move(m));
-  }
+  out.data.measurements = unstack_runs(reader.array("/measurements", {runs, steps, 2}));
   out.digest = reader.text("/", "digest");
   if (digest(out.data) != out.digest) {
     reader.fail("/@digest", "does not match the data (the file was altered)");

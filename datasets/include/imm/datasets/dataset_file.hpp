@@ -14,11 +14,15 @@
 ///   /parameters/maneuvers      n × 4 (start, end, ax, ay)
 /// The reader recomputes the digest and refuses a file whose data do not match it.
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "imm/datasets/maneuver_scenario.hpp"
+#include "imm/io/container_file.hpp"
+#include "imm/io/schema_reader.hpp"
 
 namespace imm::datasets {
 
@@ -42,5 +46,19 @@ std::string write_scenario_dataset(const std::filesystem::path& path,
 
 /// Reads and validates; throws imm::io::FileError naming the file and the field.
 [[nodiscard]] ScenarioDataset read_scenario_dataset(const std::filesystem::path& path);
+
+// --- Building blocks of every data-set kind (range_sensor_file.hpp uses them too) -----------
+
+/// The root attributes @format, @schema_version, @dataset_kind, @seed, @created_utc,
+/// @generator_version, @config_toml and @digest.
+void write_dataset_root(io::ContainerWriter& writer, std::string_view kind, std::uint64_t seed,
+                        const std::string& config_toml, const std::string& generator_version,
+                        const std::string& digest);
+/// Refuses a newer schema version or another kind (FileError naming /@schema_version or
+/// /@dataset_kind).
+void check_dataset_header(const io::SchemaReader& reader, std::string_view kind);
+/// Equal-shaped runs (rows × columns each) as one runs × rows × columns array, and back.
+[[nodiscard]] io::Array stack_runs(const std::vector<Eigen::MatrixXd>& runs);
+[[nodiscard]] std::vector<Eigen::MatrixXd> unstack_runs(const io::Array& array);
 
 }  // namespace imm::datasets
