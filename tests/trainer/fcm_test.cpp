@@ -10,20 +10,15 @@
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
+#include "testing/config_error.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::trainer {
 namespace {
 
 std::string fcm_config_error(const std::string& text) {
-  const testing::TempDir dir;
-  testing::write_text(dir / "f.toml", text);
-  try {
-    (void)fcm::load_fcm_config(dir / "f.toml");
-  } catch (const support::ConfigError& error) {
-    return error.key();
-  }
-  return "";
+  return testing::config_error_key(text,
+                                   [](const auto& path) { return fcm::load_fcm_config(path); });
 }
 
 TEST(FcmConfig, InvalidValuesAreNamed) {

@@ -8,6 +8,7 @@
 #include "imm/trainer/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
+#include "testing/config_error.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::trainer {
@@ -85,14 +86,8 @@ TEST(Nightly, ProcessExitCodesAndSignalsAreReported) {
 }
 
 std::string wimm_config_error(const std::string& text) {
-  const testing::TempDir dir;
-  testing::write_text(dir / "w.toml", text);
-  try {
-    (void)wimm::load_wimm_config(dir / "w.toml");
-  } catch (const support::ConfigError& error) {
-    return error.key();
-  }
-  return "";
+  return testing::config_error_key(text,
+                                   [](const auto& path) { return wimm::load_wimm_config(path); });
 }
 
 TEST(WimmConfig, InvalidValuesAreNamed) {

@@ -14,6 +14,7 @@
 #include "imm/support/config.hpp"
 #include "imm/trainer/tsk/tsk_fit.hpp"
 #include "imm/trainer/tsk/tsk_trainer.hpp"
+#include "testing/config_error.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::trainer::tsk {
@@ -234,14 +235,7 @@ TEST(FineTuning, AnExactModelStaysExact) {
 // --- Config and the trainer ------------------------------------------------------------------
 
 std::string config_error(const std::string& text) {
-  const testing::TempDir dir;
-  testing::write_text(dir / "t.toml", text);
-  try {
-    (void)load_tsk_config(dir / "t.toml");
-  } catch (const support::ConfigError& error) {
-    return error.key();
-  }
-  return "";
+  return testing::config_error_key(text, [](const auto& path) { return load_tsk_config(path); });
 }
 
 TEST(TskConfig, InvalidValuesAreNamed) {
