@@ -14,6 +14,7 @@
 #include "imm/support/config.hpp"
 #include "imm/trainer/bounded_search.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/training_config.hpp"
 
 namespace imm::trainer::fcm {
 namespace {
@@ -206,11 +207,7 @@ void FcmTrainingConfig::validate() const {
 }
 
 FcmTrainingConfig load_fcm_config(const std::filesystem::path& path) {
-  const auto document = support::ConfigDocument::load(path);
-  FcmTrainingConfig config = document->load_checked([&] { return config_from(document->root()); });
-  config.text = document->text();
-  config.name = path.string();
-  return config;
+  return load_training_config<FcmTrainingConfig>(path, config_from);
 }
 
 TrackingData make_trajectories(const FcmTrainingConfig& config, bool validation) {

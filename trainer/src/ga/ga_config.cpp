@@ -5,6 +5,7 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/support/config.hpp"
+#include "imm/trainer/training_config.hpp"
 
 namespace imm::trainer::ga {
 namespace {
@@ -164,11 +165,7 @@ TrainingSetOptions GaTrainingConfig::training_set_options(std::size_t level,
 }
 
 GaTrainingConfig load_ga_config(const std::filesystem::path& path) {
-  const auto document = support::ConfigDocument::load(path);
-  GaTrainingConfig config = document->load_checked([&] { return config_from(document->root()); });
-  config.text = document->text();
-  config.name = path.string();
-  return config;
+  return load_training_config<GaTrainingConfig>(path, config_from);
 }
 
 }  // namespace imm::trainer::ga

@@ -10,6 +10,7 @@
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/training_config.hpp"
 
 namespace imm::trainer::mlp {
 namespace {
@@ -168,11 +169,7 @@ void MlpTrainingConfig::validate() const {
 }
 
 MlpTrainingConfig load_mlp_config(const std::filesystem::path& path) {
-  const auto document = support::ConfigDocument::load(path);
-  MlpTrainingConfig config = document->load_checked([&] { return config_from(document->root()); });
-  config.text = document->text();
-  config.name = path.string();
-  return config;
+  return load_training_config<MlpTrainingConfig>(path, config_from);
 }
 
 FeatureSet make_features(const MlpTrainingConfig& config,

@@ -17,6 +17,7 @@
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/training_config.hpp"
 
 namespace imm::trainer::tsk {
 namespace {
@@ -149,11 +150,7 @@ void TskTrainingConfig::validate() const {
 }
 
 TskTrainingConfig load_tsk_config(const std::filesystem::path& path) {
-  const auto document = support::ConfigDocument::load(path);
-  TskTrainingConfig config = document->load_checked([&] { return config_from(document->root()); });
-  config.text = document->text();
-  config.name = path.string();
-  return config;
+  return load_training_config<TskTrainingConfig>(path, config_from);
 }
 
 SplitData split(const datasets::RangeSensorData& data, double validation_fraction,

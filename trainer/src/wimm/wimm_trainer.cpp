@@ -11,6 +11,7 @@
 #include "imm/support/config.hpp"
 #include "imm/trainer/bounded_search.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/training_config.hpp"
 
 namespace imm::trainer::wimm {
 namespace {
@@ -140,11 +141,7 @@ void WimmTrainingConfig::validate() const {
 }
 
 WimmTrainingConfig load_wimm_config(const std::filesystem::path& path) {
-  const auto document = support::ConfigDocument::load(path);
-  WimmTrainingConfig config = document->load_checked([&] { return config_from(document->root()); });
-  config.text = document->text();
-  config.name = path.string();
-  return config;
+  return load_training_config<WimmTrainingConfig>(path, config_from);
 }
 
 TrainingScenarios make_training_scenarios(const WimmTrainingConfig& config) {
