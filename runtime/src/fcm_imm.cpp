@@ -68,8 +68,7 @@ void FcmImmSpec::validate() const {
   try {
     clustering.validate();
   } catch (const InvalidParameter& error) {
-    const std::string what = error.what();
-    throw InvalidParameter("clustering." + error.field(), what.substr(error.field().size() + 2));
+    throw error.within("clustering.");
   }
   if (window < 3 || window > SlidingFuzzyCMeans::kMaxWindow) {
     throw InvalidParameter(

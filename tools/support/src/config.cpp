@@ -105,9 +105,7 @@ void ConfigDocument::rethrow_invalid(const std::string& prefix) const {
   try {
     throw;
   } catch (const InvalidParameter& error) {
-    const std::string what = error.what();
-    const std::string message = what.substr(std::min(what.size(), error.field().size() + 2));
-    throw ConfigError(name_, prefix + error.field(), message);
+    throw ConfigError(name_, prefix + error.field(), error.message());
   } catch (const std::invalid_argument& error) {
     throw ConfigError(name_, prefix.empty() ? "" : prefix.substr(0, prefix.size() - 1),
                       error.what());

@@ -12,7 +12,7 @@ auto parse_name(const ConfigTable& table, std::string_view key, Parse&& parse) {
   try {
     return parse(name, table.path(key));
   } catch (const InvalidParameter& error) {
-    table.fail(key, std::string(error.what()).substr(error.field().size() + 2));
+    table.fail(key, error.message());
   }
 }
 

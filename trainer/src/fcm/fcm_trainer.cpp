@@ -154,8 +154,7 @@ void FcmTrainingConfig::validate() const {
     if (key.rfind("clustering.", 0) == 0) key = key.substr(std::string("clustering.").size());
     if (key.rfind("process_noise", 0) == 0) key = "process_noise";
     if (key == "transition") key = "stay";
-    const std::string what = error.what();
-    throw InvalidParameter("filter." + key, what.substr(error.field().size() + 2));
+    throw InvalidParameter("filter." + key, error.message());
   }
   const FcmTrainingOptions& o = training;
   require(o.trajectories >= 1 && o.trajectories <= 10000, "training.trajectories",

@@ -105,8 +105,7 @@ void GaTrainingConfig::validate() const {
   try {
     filter.validate();
   } catch (const InvalidParameter& error) {
-    const std::string what = error.what();
-    throw InvalidParameter("filter." + error.field(), what.substr(error.field().size() + 2));
+    throw error.within("filter.");
   }
   const TrainingOptions& t = training;
   require(!t.levels.empty() && t.levels.size() <= 8, "training.levels", "need 1 to 8 levels");

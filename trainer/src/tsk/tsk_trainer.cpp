@@ -28,8 +28,7 @@ void validate_as(const std::string& prefix, F&& f) {
   try {
     f();
   } catch (const InvalidParameter& error) {
-    const std::string what = error.what();
-    throw InvalidParameter(prefix + error.field(), what.substr(error.field().size() + 2));
+    throw error.within(prefix);
   }
 }
 

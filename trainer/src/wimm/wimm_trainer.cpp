@@ -111,8 +111,7 @@ void WimmTrainingConfig::validate() const {
   try {
     filter.validate();
   } catch (const InvalidParameter& error) {
-    const std::string what = error.what();
-    throw InvalidParameter("filter." + error.field(), what.substr(error.field().size() + 2));
+    throw error.within("filter.");
   }
   const WimmTrainingOptions& o = training;
   require(o.trajectories >= 1 && o.trajectories <= 10000, "training.trajectories",

@@ -10,13 +10,22 @@ namespace imm {
 
 class InvalidParameter : public std::invalid_argument {
  public:
-  InvalidParameter(std::string field, const std::string& message)
-      : std::invalid_argument(field + ": " + message), field_(std::move(field)) {}
+  InvalidParameter(std::string field, std::string message)
+      : std::invalid_argument(field + ": " + message),
+        field_(std::move(field)),
+        message_(std::move(message)) {}
 
   [[nodiscard]] const std::string& field() const { return field_; }
+  /// what() without the leading "field: ".
+  [[nodiscard]] const std::string& message() const { return message_; }
+  /// The same error for the field as seen from an enclosing description ("filter." + field).
+  [[nodiscard]] InvalidParameter within(const std::string& prefix) const {
+    return {prefix + field_, message_};
+  }
 
  private:
   std::string field_;
+  std::string message_;
 };
 
 /// Throws InvalidParameter(field, message) unless `condition` holds.
