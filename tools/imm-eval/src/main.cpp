@@ -182,6 +182,19 @@ int report_input_estimator(const std::vector<imm::evaluation::InputEstimatorRow>
   return losses.empty() ? 0 : kExitGateFailed;
 }
 
+// The closing lines of a report with details.json: where it went, the gate failures on stderr
+// (unless the report printed them already), and the exit code.
+int finish_report(const std::filesystem::path& out, bool plotted,
+                  const std::vector<std::string>& failures, bool failures_printed = false) {
+  std::cout << "\nwrote metrics.json, details.json, CSV series"
+            << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
+            << " in " << out.string() << '\n';
+  if (!failures_printed) {
+    for (const auto& failure : failures) std::cerr << "imm-eval: gate failed: " << failure << '\n';
+  }
+  return failures.empty() ? 0 : kExitGateFailed;
+}
+
 int report_wimm(const imm::evaluation::WimmExperimentResult& result,
                 const std::filesystem::path& out) {
   // Seed 004 Table 2: nIMM 0.0249 / 0.0277 rad, wIMM 0.0216 (86.75 %) / 0.0267 (96.39 %).
@@ -369,10 +382,7 @@ int report_ga_imm(const imm::evaluation::GaImmExperimentResult& result,
   bool plotted = write_error_series(result.filters, result.steps, out);
   plotted &= write_mode_probabilities(ours, out, "mode_probabilities_ga_imm");
   plotted &= write_mode_probabilities(published, out, "mode_probabilities_ga_imm_paper");
-  std::cout << "\nwrote metrics.json, details.json, CSV series"
-            << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
-            << " in " << out.string() << '\n';
-  return failures.empty() ? 0 : kExitGateFailed;
+  return finish_report(out, plotted, failures, /*failures_printed=*/true);
 }
 
 int report_plain_imm(const imm::evaluation::PlainImmExperimentResult& result,
@@ -547,11 +557,7 @@ int report_fcm_imm(const imm::evaluation::FcmImmExperimentResult& result,
                                            "fraction",
                                            out / "maneuver_fraction.csv",
                                            {"FCM-IMM", "FCM-IMM-const"}});
-  std::cout << "\nwrote metrics.json, details.json, CSV series"
-            << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
-            << " in " << out.string() << '\n';
-  for (const auto& failure : failures) std::cerr << "imm-eval: gate failed: " << failure << '\n';
-  return failures.empty() ? 0 : kExitGateFailed;
+  return finish_report(out, plotted, failures);
 }
 
 int report_fimm(const imm::evaluation::FimmExperimentResult& result, bool hard,
@@ -708,11 +714,7 @@ int report_fimm(const imm::evaluation::FimmExperimentResult& result, bool hard,
                                     {"eta", "model_eta"},
                                     "dots",
                                     {"dots", "lines"}});
-  std::cout << "\nwrote metrics.json, details.json, CSV series"
-            << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
-            << " in " << out.string() << '\n';
-  for (const auto& failure : failures) std::cerr << "imm-eval: gate failed: " << failure << '\n';
-  return failures.empty() ? 0 : kExitGateFailed;
+  return finish_report(out, plotted, failures);
 }
 
 }  // namespace
