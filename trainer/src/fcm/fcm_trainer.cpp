@@ -258,13 +258,7 @@ TrackingData make_trajectories(const FcmTrainingConfig& config, bool validation)
           (rng.uniform() < 0.5 ? 1.0 : -1.0) * Eigen::Vector2d(-direction.y(), direction.x());
       s.maneuvers = datasets::zigzag_maneuvers(start, quarter, magnitudes, lateral);
     }
-    const datasets::ScenarioData one = datasets::simulate(s);
-    if (t == 0) {
-      result.data.time = one.time;
-      result.data.acceleration_input = one.acceleration_input;
-    }
-    result.data.truth.push_back(one.truth.front());
-    result.data.measurements.push_back(one.measurements.front());
+    result.data.append_first_run(datasets::simulate(s));
   }
   return result;
 }

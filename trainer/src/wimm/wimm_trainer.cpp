@@ -177,13 +177,7 @@ TrainingScenarios make_training_scenarios(const WimmTrainingConfig& config) {
       const double rate = rng.uniform(o.min_turn_rate_deg, o.max_turn_rate_deg) * kDegree;
       s.turns.push_back({start, start + duration, rng.uniform() < 0.5 ? -rate : rate});
     }
-    const datasets::ScenarioData one = datasets::simulate(s);
-    if (t == 0) {
-      result.data.time = one.time;
-      result.data.acceleration_input = one.acceleration_input;
-    }
-    result.data.truth.push_back(one.truth.front());
-    result.data.measurements.push_back(one.measurements.front());
+    result.data.append_first_run(datasets::simulate(s));
   }
   return result;
 }

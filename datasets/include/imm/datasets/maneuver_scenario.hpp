@@ -96,6 +96,17 @@ struct ScenarioData {
   Eigen::MatrixXd acceleration_input;         ///< steps × 2, u(k)
   std::vector<Eigen::MatrixXd> truth;         ///< per run, steps × 4: x, vx, y, vy
   std::vector<Eigen::MatrixXd> measurements;  ///< per run, steps × 2: zx, zy or range, azimuth
+
+  /// Appends the first run of `other` (a set of differently drawn scenarios of equal length);
+  /// time and acceleration_input are taken from the first run appended.
+  void append_first_run(const ScenarioData& other) {
+    if (truth.empty()) {
+      time = other.time;
+      acceleration_input = other.acceleration_input;
+    }
+    truth.push_back(other.truth.front());
+    measurements.push_back(other.measurements.front());
+  }
 };
 
 /// Simulates every run; run r depends only on (scenario, r).
