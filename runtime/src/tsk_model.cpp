@@ -95,6 +95,7 @@ TskFiring TskModel::fire(const std::vector<TskRule>& rules, TNorm t_norm,
   for (std::size_t r = 0; r < f.rules; ++r) {
     const TskRule& rule = rules[r];
     const Eigen::Array2d u = (input - rule.center).array() / rule.width.array();
+    f.scaled[r] = u;
     const Eigen::Array2d log_a = -0.5 * u * u;
     if (t_norm == TNorm::kProduct) {
       log_w[r] = log_a.sum();
@@ -124,12 +125,11 @@ double TskModel::output(const std::vector<TskRule>& rules, TNorm t_norm,
                         const Eigen::Vector2d& input, Eigen::Vector2d* gradient) {
   const TskFiring f = fire(rules, t_norm, input);
   if (gradient) {
-    // ∂h/∂x = Σ shareʳ [∂ log wʳ/∂x (zʳ − h) + a_xʳ], ∂ log A/∂x = −(x − m)/s².
+    // ∂h/∂x = Σ shareʳ [∂ log wʳ/∂x (zʳ − h) + a_xʳ], ∂ log A/∂x = −u/s, u = (x − m)/s.
     Eigen::Vector2d g = Eigen::Vector2d::Zero();
     for (std::size_t r = 0; r < f.rules; ++r) {
       const TskRule& rule = rules[r];
-      const Eigen::Array2d u = (input - rule.center).array() / rule.width.array();
-      const Eigen::Array2d d_log_w = f.active[r] * (-u / rule.width.array());
+      const Eigen::Array2d d_log_w = f.active[r] * (-f.scaled[r] / rule.width.array());
       g += f.share[r] *
            (d_log_w.matrix() * (f.rule_output[r] - f.value) + rule.consequent.tail<2>());
     }

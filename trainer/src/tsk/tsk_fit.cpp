@@ -288,12 +288,11 @@ double output_and_parameter_gradient(const std::vector<TskRule>& rules, TNorm t_
       double* g = gradient + r * kParametersPerRule;
       const double premise = f.share[r] * (f.rule_output[r] - f.value);  // ∂h/∂ log wʳ
       for (std::size_t s = 0; s < 2; ++s) {
-        // ∂ log A/∂m = d/s², ∂ log A/∂ log s = d²/s², for the inputs wʳ depends on.
+        // ∂ log A/∂m = u/s, ∂ log A/∂ log s = u², u = (x − m)/s, for the inputs wʳ depends on.
         const auto i = static_cast<Eigen::Index>(s);
-        const double d = input(i) - rule.center(i);
-        const double s2 = rule.width(i) * rule.width(i);
-        g[2 * s] = premise * f.active[r](i) * d / s2;
-        g[2 * s + 1] = premise * f.active[r](i) * d * d / s2;
+        const double u = f.scaled[r](i);
+        g[2 * s] = premise * f.active[r](i) * u / rule.width(i);
+        g[2 * s + 1] = premise * f.active[r](i) * u * u;
       }
       g[4] = f.share[r];
       g[5] = f.share[r] * input(0);

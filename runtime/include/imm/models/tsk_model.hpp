@@ -62,13 +62,16 @@ struct TskEvaluation {
 inline constexpr int kTskMaxRules = 32;
 
 /// One output's rules fired at an input: what h, its input gradient (here) and the trainer's
-/// parameter gradient are all built from.
+/// parameter gradient are all built from. Entries beyond `rules` are not set (an evaluation fills
+/// only what it uses: zeroing the unused slots cost a quarter of an evaluation).
+// NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): deliberately, see above.
 struct TskFiring {
-  std::size_t rules = 0;                              ///< rules used (≤ kTskMaxRules)
-  std::array<double, kTskMaxRules> share{};           ///< wʳ / Σ w
-  std::array<double, kTskMaxRules> rule_output{};     ///< zʳ = a₀ʳ + a_ξʳ ξ + a_ηʳ η
-  std::array<Eigen::Array2d, kTskMaxRules> active{};  ///< 1 for the inputs wʳ depends on
-  double value = 0.0;                                 ///< h = Σ shareʳ zʳ
+  std::size_t rules = 0;                            ///< rules used (≤ kTskMaxRules)
+  std::array<double, kTskMaxRules> share;           ///< wʳ / Σ w
+  std::array<double, kTskMaxRules> rule_output;     ///< zʳ = a₀ʳ + a_ξʳ ξ + a_ηʳ η
+  std::array<Eigen::Array2d, kTskMaxRules> scaled;  ///< (x − mʳ) / sʳ per input
+  std::array<Eigen::Array2d, kTskMaxRules> active;  ///< 1 for the inputs wʳ depends on, else 0
+  double value = 0.0;                               ///< h = Σ shareʳ zʳ
 };
 
 class TskModel {
