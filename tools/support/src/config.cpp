@@ -154,6 +154,13 @@ std::int64_t ConfigTable::integer_or(std::string_view key, std::int64_t fallback
   return has(key) ? integer(key) : fallback;
 }
 
+std::uint64_t ConfigTable::seed_or(std::string_view key, std::uint64_t fallback) const {
+  if (!has(key)) return fallback;
+  const std::int64_t seed = integer(key);
+  if (seed < 0) fail(key, "must be non-negative");
+  return static_cast<std::uint64_t>(seed);
+}
+
 std::string ConfigTable::text(std::string_view key) const {
   const auto& n = *static_cast<const toml::node*>(node(key));
   const auto* value = n.as_string();

@@ -31,9 +31,7 @@ std::pair<double, double> range(const support::ConfigTable& t, std::string_view 
 
 FcmTrainingConfig config_from(const support::ConfigTable& root) {
   FcmTrainingConfig c;
-  const std::int64_t seed = root.integer_or("seed", 1);
-  if (seed < 0) root.fail("seed", "must be non-negative");
-  c.seed = static_cast<std::uint64_t>(seed);
+  c.seed = root.seed_or("seed", 1);
   if (const auto f = root.table("filter")) {
     FcmImmSpec& s = c.filter;
     s.sample_period = f->real_or("sample_period", s.sample_period);

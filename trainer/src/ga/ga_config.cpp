@@ -14,9 +14,7 @@ bool finite_positive(double x) { return std::isfinite(x) && x > 0.0; }
 
 GaTrainingConfig config_from(const support::ConfigTable& root) {
   GaTrainingConfig c;
-  const std::int64_t seed = root.integer_or("seed", 1);
-  if (seed < 0) root.fail("seed", "must be non-negative");
-  c.seed = static_cast<std::uint64_t>(seed);
+  c.seed = root.seed_or("seed", 1);
   if (const auto f = root.table("filter")) {
     c.filter.sample_period = f->real_or("sample_period", c.filter.sample_period);
     c.filter.measurement_sigma = f->real_or("measurement_sigma", c.filter.measurement_sigma);

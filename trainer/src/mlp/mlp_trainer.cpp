@@ -24,9 +24,7 @@ std::vector<ManeuverPulse> profile_from(const support::ConfigTable& table) {
 
 MlpTrainingConfig config_from(const support::ConfigTable& root) {
   MlpTrainingConfig c;
-  const std::int64_t seed = root.integer_or("seed", 1);
-  if (seed < 0) root.fail("seed", "must be non-negative");
-  c.seed = static_cast<std::uint64_t>(seed);
+  c.seed = root.seed_or("seed", 1);
   if (const auto kf = root.table("cv_kf")) {
     c.cv_kf.sample_period = kf->real_or("sample_period", c.cv_kf.sample_period);
     c.cv_kf.process_noise = kf->real_or("process_noise", c.cv_kf.process_noise);

@@ -34,9 +34,7 @@ void validate_as(const std::string& prefix, F&& f) {
 
 TskTrainingConfig config_from(const support::ConfigTable& root) {
   TskTrainingConfig c;
-  const std::int64_t seed = root.integer_or("seed", 1);
-  if (seed < 0) root.fail("seed", "must be non-negative");
-  c.seed = static_cast<std::uint64_t>(seed);
+  c.seed = root.seed_or("seed", 1);
   c.data.seed = datasets::derive_seed(c.seed, 1);
   if (const auto d = root.table("data")) {
     auto& data = c.data;

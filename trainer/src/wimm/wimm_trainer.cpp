@@ -20,9 +20,7 @@ constexpr double kDegree = std::numbers::pi / 180.0;
 
 WimmTrainingConfig config_from(const support::ConfigTable& root) {
   WimmTrainingConfig c;
-  const std::int64_t seed = root.integer_or("seed", 1);
-  if (seed < 0) root.fail("seed", "must be non-negative");
-  c.seed = static_cast<std::uint64_t>(seed);
+  c.seed = root.seed_or("seed", 1);
   if (const auto f = root.table("filter")) {
     WimmSpec& s = c.filter;
     s.sample_period = f->real_or("sample_period", s.sample_period);

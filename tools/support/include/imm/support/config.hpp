@@ -41,6 +41,8 @@ class ConfigTable {
   [[nodiscard]] double real_or(std::string_view key, double fallback) const;
   [[nodiscard]] std::int64_t integer(std::string_view key) const;
   [[nodiscard]] std::int64_t integer_or(std::string_view key, std::int64_t fallback) const;
+  /// A random seed: a non-negative integer.
+  [[nodiscard]] std::uint64_t seed_or(std::string_view key, std::uint64_t fallback) const;
   [[nodiscard]] std::string text(std::string_view key) const;
   [[nodiscard]] std::string text_or(std::string_view key, std::string fallback) const;
   [[nodiscard]] bool boolean_or(std::string_view key, bool fallback) const;
