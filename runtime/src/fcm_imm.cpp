@@ -170,34 +170,36 @@ void FcmCompensatedMode::commit() {
   pending_clustered_ = false;
 }
 
-ImmEstimator<2, 1> build_fcm_axis_imm(const FcmImmSpec& spec,
-                                      std::vector<FcmCompensatedMode*>* modes) {
+ImmEstimator<2, 1> build_fcm_axis_imm(const FcmImmSpec& spec) {
   spec.validate();
   std::vector<std::unique_ptr<ImmMode<2, 1>>> owned;
+  owned.reserve(static_cast<std::size_t>(spec.mode_count()));
   for (int j = 0; j < spec.mode_count(); ++j) {
-    auto mode = std::make_unique<FcmCompensatedMode>(spec, j);
-    if (modes) modes->push_back(mode.get());
-    owned.push_back(std::move(mode));
+    owned.push_back(std::make_unique<FcmCompensatedMode>(spec, j));
   }
   return {std::move(owned), spec.transition, spec.initial_probabilities};
 }
 
 FcmImmAxisFilter::FcmImmAxisFilter(const FcmImmSpec& spec)
-    : imm_(build_fcm_axis_imm(spec, &modes_)) {}
+    : ImmAxisFilter(build_fcm_axis_imm(spec)) {
+  for (int j = 0; j < imm().mode_count(); ++j) {
+    modes_.push_back(&static_cast<const FcmCompensatedMode&>(imm().mode(j)));
+  }
+}
 
 double FcmImmAxisFilter::maneuver_fraction() const {
-  const ModeVector mu = imm_.mode_probabilities();
+  const ModeVector mu = mode_probabilities();
   double fraction = 0.0;
-  for (int j = 0; j < imm_.mode_count(); ++j) {
+  for (int j = 0; j < mode_count(); ++j) {
     fraction += mu(j) * (1.0 - modes_[static_cast<std::size_t>(j)]->memberships()(1));
   }
   return fraction;
 }
 
 double FcmImmAxisFilter::compensation() const {
-  const ModeVector mu = imm_.mode_probabilities();
+  const ModeVector mu = mode_probabilities();
   double c = 0.0;
-  for (int j = 0; j < imm_.mode_count(); ++j) {
+  for (int j = 0; j < mode_count(); ++j) {
     c += mu(j) * modes_[static_cast<std::size_t>(j)]->compensation();
   }
   return c;

@@ -45,8 +45,8 @@ class AxisFilter {
   [[nodiscard]] virtual std::string mode_name(int j) const = 0;
 };
 
-/// An IMM over per-axis modes.
-class ImmAxisFilter final : public AxisFilter {
+/// An IMM over per-axis modes (filters with per-mode extras derive from it).
+class ImmAxisFilter : public AxisFilter {
  public:
   explicit ImmAxisFilter(ImmEstimator<2, 1> imm) : imm_(std::move(imm)) {}
 

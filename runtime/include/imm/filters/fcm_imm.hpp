@@ -147,19 +147,9 @@ class FcmCompensatedMode final : public ImmMode<2, 1> {
 };
 
 /// The per-axis FCM-IMM.
-class FcmImmAxisFilter final : public AxisFilter {
+class FcmImmAxisFilter final : public ImmAxisFilter {
  public:
   explicit FcmImmAxisFilter(const FcmImmSpec& spec);
-
-  void initialize(const GaussianState<2>& state) override { imm_.initialize(state); }
-  StepStatus step(double z) override { return imm_.step(Vector<1>(z)); }
-  StepStatus predict_only() override { return imm_.predict_only(); }
-  [[nodiscard]] const GaussianState<2>& estimate() const override { return imm_.estimate(); }
-  [[nodiscard]] ModeVector mode_probabilities() const override { return imm_.mode_probabilities(); }
-  [[nodiscard]] int mode_count() const override { return imm_.mode_count(); }
-  [[nodiscard]] std::string mode_name(int j) const override {
-    return std::string(imm_.mode(j).name());
-  }
 
   [[nodiscard]] const FcmCompensatedMode& mode(int j) const {
     return *modes_[static_cast<std::size_t>(j)];
@@ -170,12 +160,10 @@ class FcmImmAxisFilter final : public AxisFilter {
   [[nodiscard]] double compensation() const;
 
  private:
-  std::vector<FcmCompensatedMode*> modes_;  // owned by imm_
-  ImmEstimator<2, 1> imm_;
+  std::vector<const FcmCompensatedMode*> modes_;  // the IMM's modes, owned by it
 };
 
-[[nodiscard]] ImmEstimator<2, 1> build_fcm_axis_imm(const FcmImmSpec& spec,
-                                                    std::vector<FcmCompensatedMode*>* modes);
+[[nodiscard]] ImmEstimator<2, 1> build_fcm_axis_imm(const FcmImmSpec& spec);
 
 /// The 2-D FCM-IMM (an FcmImmAxisFilter per axis).
 [[nodiscard]] std::unique_ptr<TwoAxisFilter> make_fcm_imm_filter(const FcmImmSpec& spec);
