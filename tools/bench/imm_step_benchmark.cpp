@@ -127,26 +127,29 @@ const Eigen::MatrixXd& seed003_plots() {
   return plots;
 }
 
-// One 2-D step of a per-axis filter pair (x and y), fed the seed-000 plots (σ_z² = 0.25 km²) or
-// others with their own measurement variance.
-void run_two_axis(benchmark::State& state, TrackFilter& filter,
-                  const Eigen::MatrixXd& plots = seed000_plots(), double variance = 0.25) {
-  auto restart = [&] {
-    filter.initialize(Eigen::Vector4d(plots(0, 0), 0.0, plots(0, 1), 0.0),
-                      Eigen::Vector4d(variance, 2 * variance, variance, 2 * variance)
-                          .asDiagonal()
-                          .toDenseMatrix());
-  };
-  restart();
+// One step per iteration of `filter` through `plots` from row 1 on, starting a new track at
+// (mean, covariance) after the last row.
+void step_through(benchmark::State& state, TrackFilter& filter, const Eigen::MatrixXd& plots,
+                  const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
+  filter.initialize(mean, covariance);
   Eigen::Index k = 1;
   for (auto _ : state) {
     benchmark::DoNotOptimize(filter.step(plots.row(k).transpose()));
     if (++k == plots.rows()) {
       k = 1;
-      restart();
+      filter.initialize(mean, covariance);
     }
   }
   state.SetItemsProcessed(state.iterations());
+}
+
+// One 2-D step of a per-axis filter pair (x and y), fed the seed-000 plots (σ_z² = 0.25 km²) or
+// others with their own measurement variance.
+void run_two_axis(benchmark::State& state, TrackFilter& filter,
+                  const Eigen::MatrixXd& plots = seed000_plots(), double variance = 0.25) {
+  step_through(
+      state, filter, plots, Eigen::Vector4d(plots(0, 0), 0.0, plots(0, 1), 0.0),
+      Eigen::Vector4d(variance, 2 * variance, variance, 2 * variance).asDiagonal().toDenseMatrix());
 }
 
 // The GA-fuzzy IMM with the shipped tables (models/ga_fuzzy_imm.h5).
@@ -176,23 +179,10 @@ void run_polar(benchmark::State& state, imm::FusionVariant fusion) {
   imm::WimmSpec spec;
   spec.fusion = fusion;
   imm::WeightedImmFilter filter(spec);
-  auto restart = [&] {
-    Eigen::VectorXd mean = Eigen::VectorXd::Zero(6);
-    mean << 99000.0, -100.0, 0.0, 99000.0, -100.0, 0.0;
-    Eigen::VectorXd variance(6);
-    variance << 2500.0, 100.0, 25.0, 2500.0, 100.0, 25.0;
-    filter.initialize(mean, variance.asDiagonal().toDenseMatrix());
-  };
-  restart();
-  Eigen::Index k = 1;
-  for (auto _ : state) {
-    benchmark::DoNotOptimize(filter.step(plots.row(k).transpose()));
-    if (++k == plots.rows()) {
-      k = 1;
-      restart();
-    }
-  }
-  state.SetItemsProcessed(state.iterations());
+  Eigen::VectorXd mean(6), variance(6);
+  mean << 99000.0, -100.0, 0.0, 99000.0, -100.0, 0.0;
+  variance << 2500.0, 100.0, 25.0, 2500.0, 100.0, 25.0;
+  step_through(state, filter, plots, mean, variance.asDiagonal().toDenseMatrix());
 }
 
 void BM_NormalImmPolarStep(benchmark::State& state) { run_polar(state, imm::FusionVariant::kNone); }
@@ -314,18 +304,8 @@ void BM_FimmStep(benchmark::State& state) {
   spec.measurement_covariance = scenario.measurement_covariance;
   spec.iterations = std::max(1, iterations);
   imm::FimmFilter filter(spec, sensor);
-  const Eigen::MatrixXd& plots = data.measurements.front();
-  const Eigen::VectorXd start = data.truth.row(0).transpose();
-  const Eigen::MatrixXd covariance = Eigen::VectorXd::Constant(6, 1.0).asDiagonal();
-  filter.initialize(start, covariance);
-  Eigen::Index k = 1;
-  for (auto _ : state) {
-    benchmark::DoNotOptimize(filter.step(plots.row(k).transpose()));
-    if (++k == plots.rows()) {  // a new track every 200 scans
-      filter.initialize(start, covariance);
-      k = 1;
-    }
-  }
+  step_through(state, filter, data.measurements.front(), data.truth.row(0).transpose(),
+               Eigen::MatrixXd::Identity(6, 6));
   state.SetLabel(std::string(iterations == 0   ? "IMM (h = identity)"
                              : iterations == 1 ? "FIMM, EKF"
                                                : "FIMM, IEKF ≤ 5") +
