@@ -47,9 +47,6 @@ class TskSensorMeasurement {
   }
   [[nodiscard]] const SquareMatrix<2>& covariance() const { return covariance_; }
   [[nodiscard]] bool defined_at(const Vector<N>& x) const { return x.allFinite(); }
-  /// Whether the prediction at x lies outside the sensor model's trained box.
-  [[nodiscard]] bool clamped_at(const Vector<N>& x) const { return evaluate(x).clamped; }
-  [[nodiscard]] const TskModel& model() const { return *model_; }
 
  private:
   [[nodiscard]] Eigen::Vector2d position(const Vector<N>& x) const {
