@@ -289,13 +289,8 @@ int main(int argc, char** argv) {
         config.seed = *tsk_seed;
         config.data.seed = imm::datasets::derive_seed(config.seed, 1);
       }
-      imm::trainer::tsk::SensorSamples samples;
-      if (tsk_data.empty()) {
-        samples.data = imm::datasets::simulate_range_sensor(config.data);
-        samples.source = "simulated ([data] of the config)";
-      } else {
-        samples = imm::trainer::tsk::load_sensor_samples(tsk_data);
-      }
+      const auto samples = tsk_data.empty() ? imm::trainer::tsk::simulated_samples(config)
+                                            : imm::trainer::tsk::load_sensor_samples(tsk_data);
       spdlog::info(
           "tsk: {} samples from {} ({:.0f} % held out), {} rules per output, t-norm {}, seed {}",
           samples.data.positions.rows(), samples.source, 100.0 * config.validation_fraction,

@@ -241,11 +241,12 @@ SensorSamples load_sensor_samples(const std::filesystem::path& path) {
   return samples;
 }
 
+SensorSamples simulated_samples(const TskTrainingConfig& config) {
+  return {datasets::simulate_range_sensor(config.data), "simulated ([data] of the config)"};
+}
+
 TskTrainingResult train_tsk(const TskTrainingConfig& config, const std::filesystem::path& out) {
-  SensorSamples simulated;
-  simulated.data = datasets::simulate_range_sensor(config.data);
-  simulated.source = "simulated ([data] of the config)";
-  return train_tsk(config, simulated, out);
+  return train_tsk(config, simulated_samples(config), out);
 }
 
 TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples& samples,

@@ -76,6 +76,8 @@ struct SensorSamples {
 /// xi,eta,z1,z2 (true position, sensor output; '#' lines are comments). FileError names the
 /// file and, for a CSV, the line.
 [[nodiscard]] SensorSamples load_sensor_samples(const std::filesystem::path& path);
+/// The config's simulated sensor data ([data]).
+[[nodiscard]] SensorSamples simulated_samples(const TskTrainingConfig& config);
 
 /// Fits both outputs on the config's simulated sensor data ([data]); writes the model (gate
 /// passed) and `<model>.metrics.json` (always).
