@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <sstream>
 #include <system_error>
 
@@ -32,6 +33,13 @@ constexpr int kContainerVersion = 1;
 constexpr std::string_view kMagic = "IMMTRAIN CONTAINER ";
 constexpr std::string_view kHdf5Signature = "\x89HDF\r\n\x1a\n";
 constexpr std::size_t kMaxRank = 8;
+// Structural bounds of a container (the reader refuses a file beyond them before reading data):
+// the shipped models hold a few dozen objects; data sets stack their runs into a few datasets.
+constexpr std::size_t kMaxObjects = 10000;
+constexpr std::size_t kMaxDepth = 16;
+constexpr std::size_t kMaxLinksPerGroup = 4096;
+constexpr std::size_t kMaxNameBytes = 256;
+constexpr std::size_t kMaxAttributesPerObject = 256;
 
 std::array<std::uint32_t, 256> make_crc_table() {
   std::array<std::uint32_t, 256> table{};
@@ -489,9 +497,122 @@ struct ContainerReader::Impl {
   std::string format;
   Handle file;
   std::uint64_t file_bytes = 0;
+  /// Every object of the file by its path, with a group's members sorted: built once at open by
+  /// index_objects(), which refuses anything but a tree of groups and datasets joined by hard
+  /// links. Later lookups never traverse the file's links again.
+  struct Entry {
+    ObjectKind kind = ObjectKind::kMissing;
+    std::vector<std::string> children;
+  };
+  std::map<std::string, Entry, std::less<>> objects;
 
   [[nodiscard]] std::string name() const { return path.string(); }
+  [[nodiscard]] const Entry* find(const std::string& object) const {
+    const auto it = objects.find(object);
+    return it == objects.end() ? nullptr : &it->second;
+  }
+  void index_objects();
 };
+
+/// Walks the file from the root, breadth-first, and builds `objects`. A hostile file could hold
+/// a hard link back to an ancestor (a cycle a naive walk never leaves), a soft or external link
+/// (to another object or another file), a second link to one object, a named datatype, or
+/// millions of links; each is refused here, naming the link, so that every later walk is over a
+/// finite tree.
+void ContainerReader::Impl::index_objects() {
+  const std::string file_name = name();
+  H5O_info_t info{};
+  if (H5Oget_info_by_name2(file.get(), "/", &info, H5O_INFO_BASIC | H5O_INFO_NUM_ATTRS,
+                           H5P_DEFAULT) < 0) {
+    throw FileError(file_name, "/", "cannot read the root group: " + hdf5_cause());
+  }
+  std::map<haddr_t, std::string> visited{{info.addr, "/"}};
+  auto check_attributes = [&](const H5O_info_t& object, const std::string& object_path) {
+    if (object.num_attrs > kMaxAttributesPerObject) {
+      throw FileError(file_name, object_path,
+                      std::to_string(object.num_attrs) + " attributes exceed the limit of " +
+                          std::to_string(kMaxAttributesPerObject));
+    }
+  };
+  check_attributes(info, "/");
+  objects["/"].kind = ObjectKind::kGroup;
+  std::vector<std::pair<std::string, std::size_t>> queue{{"/", 0}};
+  for (std::size_t next = 0; next < queue.size(); ++next) {
+    const auto [group_path, depth] = queue[next];
+    Handle group(H5Gopen2(file.get(), group_path.c_str(), H5P_DEFAULT), H5Gclose);
+    H5G_info_t group_info{};
+    if (!group.valid() || H5Gget_info(group.get(), &group_info) < 0) {
+      throw FileError(file_name, group_path, "cannot list group: " + hdf5_cause());
+    }
+    if (group_info.nlinks > kMaxLinksPerGroup) {
+      throw FileError(file_name, group_path,
+                      std::to_string(group_info.nlinks) + " members exceed the limit of " +
+                          std::to_string(kMaxLinksPerGroup));
+    }
+    std::vector<std::string> children;
+    for (hsize_t i = 0; i < group_info.nlinks; ++i) {
+      const ssize_t length = H5Lget_name_by_idx(group.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i,
+                                                nullptr, 0, H5P_DEFAULT);
+      if (length <= 0 || static_cast<std::size_t>(length) > kMaxNameBytes) {
+        throw FileError(file_name, group_path,
+                        "member " + std::to_string(i) + " has no usable name (" +
+                            (length < 0 ? hdf5_cause() : std::to_string(length) + " bytes") + ")");
+      }
+      std::string child(static_cast<std::size_t>(length) + 1, '\0');
+      H5Lget_name_by_idx(group.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, child.data(),
+                         child.size(), H5P_DEFAULT);
+      child.resize(static_cast<std::size_t>(length));
+      const std::string child_path = group_path == "/" ? "/" + child : group_path + "/" + child;
+      if (child.find('\0') != std::string::npos || child == "." || child == "..") {
+        throw FileError(file_name, child_path, "invalid member name");
+      }
+      H5L_info_t link{};
+      if (H5Lget_info_by_idx(group.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, &link, H5P_DEFAULT) <
+          0) {
+        throw FileError(file_name, child_path, "cannot read link: " + hdf5_cause());
+      }
+      if (link.type != H5L_TYPE_HARD) {
+        throw FileError(file_name, child_path,
+                        link.type == H5L_TYPE_SOFT ? "a soft link (only hard links are allowed)"
+                        : link.type == H5L_TYPE_EXTERNAL ? "an external link to another file"
+                                                         : "a user-defined link");
+      }
+      H5O_info_t child_info{};
+      if (H5Oget_info_by_idx2(group.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, &child_info,
+                              H5O_INFO_BASIC | H5O_INFO_NUM_ATTRS, H5P_DEFAULT) < 0) {
+        throw FileError(file_name, child_path, "cannot read object header: " + hdf5_cause());
+      }
+      if (const auto seen = visited.find(child_info.addr); seen != visited.end()) {
+        throw FileError(file_name, child_path,
+                        "links to '" + seen->second +
+                            "' again (a link cycle or a shared object; a container is a tree)");
+      }
+      visited.emplace(child_info.addr, child_path);
+      if (objects.size() >= kMaxObjects) {
+        throw FileError(file_name, child_path,
+                        "more than " + std::to_string(kMaxObjects) + " objects in the file");
+      }
+      check_attributes(child_info, child_path);
+      Entry& entry = objects[child_path];
+      if (child_info.type == H5O_TYPE_GROUP) {
+        if (depth + 1 > kMaxDepth) {
+          throw FileError(file_name, child_path,
+                          "nested deeper than " + std::to_string(kMaxDepth) + " groups");
+        }
+        entry.kind = ObjectKind::kGroup;
+        queue.emplace_back(child_path, depth + 1);
+      } else if (child_info.type == H5O_TYPE_DATASET) {
+        entry.kind = ObjectKind::kDataset;
+      } else {
+        throw FileError(file_name, child_path,
+                        "unexpected object type (only groups and datasets are allowed)");
+      }
+      children.push_back(std::move(child));
+    }
+    std::sort(children.begin(), children.end());
+    objects[group_path].children = std::move(children);
+  }
+}
 
 ContainerReader::ContainerReader(const std::filesystem::path& path,
                                  std::string_view expected_format)
@@ -545,8 +666,13 @@ ContainerReader::ContainerReader(const std::filesystem::path& path,
                     "holds a '" + header.format + "' container, expected '" +
                         std::string(expected_format) + "'");
   }
-  impl_->file = Handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  // A strong close degree: closing the file closes whatever a failed HDF5 call left open in it,
+  // so a refused file leaves no handle behind.
+  Handle access_list(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5Pset_fclose_degree(access_list.get(), H5F_CLOSE_STRONG);
+  impl_->file = Handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, access_list.get()), H5Fclose);
   if (!impl_->file.valid()) throw FileError(file, "", "cannot open as HDF5: " + hdf5_cause());
+  impl_->index_objects();
 }
 
 ContainerReader::~ContainerReader() {
@@ -561,49 +687,24 @@ const std::filesystem::path& ContainerReader::path() const { return impl_->path;
 const std::string& ContainerReader::format() const { return impl_->format; }
 
 ObjectKind ContainerReader::kind(std::string_view object) const {
-  const ErrorSilencer silencer;
-  const std::string path = normalized(object);
-  if (!link_exists(impl_->file.get(), path)) {
-    H5Eclear2(H5E_DEFAULT);
-    return ObjectKind::kMissing;
-  }
-  Handle handle = open_object(impl_->file.get(), path);
-  if (!handle.valid()) {
-    H5Eclear2(H5E_DEFAULT);
-    return ObjectKind::kMissing;
-  }
-  switch (H5Iget_type(handle.get())) {
-    case H5I_GROUP:
-      return ObjectKind::kGroup;
-    case H5I_DATASET:
-      return ObjectKind::kDataset;
-    default:
-      return ObjectKind::kMissing;
-  }
+  const Impl::Entry* entry = impl_->find(normalized(object));
+  return entry == nullptr ? ObjectKind::kMissing : entry->kind;
 }
 
 std::vector<std::string> ContainerReader::children(std::string_view group) const {
-  const ErrorSilencer silencer;
   const std::string path = normalized(group);
-  if (kind(path) != ObjectKind::kGroup) throw FileError(impl_->name(), path, "missing group");
-  Handle handle(H5Gopen2(impl_->file.get(), path.c_str(), H5P_DEFAULT), H5Gclose);
-  H5G_info_t info{};
-  if (!handle.valid() || H5Gget_info(handle.get(), &info) < 0) {
-    throw FileError(impl_->name(), path, "cannot list group: " + hdf5_cause());
+  const Impl::Entry* entry = impl_->find(path);
+  if (entry == nullptr || entry->kind != ObjectKind::kGroup) {
+    throw FileError(impl_->name(), path, "missing group");
   }
-  std::vector<std::string> names;
-  for (hsize_t i = 0; i < info.nlinks; ++i) {
-    const ssize_t length = H5Lget_name_by_idx(handle.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i,
-                                              nullptr, 0, H5P_DEFAULT);
-    if (length < 0) throw FileError(impl_->name(), path, "cannot list group: " + hdf5_cause());
-    std::string name(static_cast<std::size_t>(length) + 1, '\0');
-    H5Lget_name_by_idx(handle.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, name.data(), name.size(),
-                       H5P_DEFAULT);
-    name.resize(static_cast<std::size_t>(length));
-    names.push_back(std::move(name));
-  }
-  std::sort(names.begin(), names.end());
-  return names;
+  return entry->children;
+}
+
+std::vector<std::string> ContainerReader::objects() const {
+  std::vector<std::string> paths;
+  paths.reserve(impl_->objects.size());
+  for (const auto& [path, entry] : impl_->objects) paths.push_back(path);
+  return paths;
 }
 
 std::vector<std::size_t> ContainerReader::shape(std::string_view dataset) const {
@@ -655,6 +756,7 @@ std::optional<Attribute> ContainerReader::attribute(std::string_view object,
   const std::string file = impl_->name();
   if (kind(path) == ObjectKind::kMissing) return std::nullopt;
   const std::string attribute_name(name);
+  if (attribute_name.empty() || attribute_name.size() > kMaxNameBytes) return std::nullopt;
   if (H5Aexists_by_name(impl_->file.get(), path.c_str(), attribute_name.c_str(), H5P_DEFAULT) <=
       0) {
     H5Eclear2(H5E_DEFAULT);
@@ -717,8 +819,9 @@ std::optional<Attribute> ContainerReader::attribute(std::string_view object,
 std::vector<std::string> ContainerReader::attribute_names(std::string_view object) const {
   const ErrorSilencer silencer;
   const std::string path = normalized(object);
+  if (kind(path) == ObjectKind::kMissing) throw FileError(impl_->name(), path, "missing object");
   Handle handle = open_object(impl_->file.get(), path);
-  if (!handle.valid()) throw FileError(impl_->name(), path, "missing object");
+  if (!handle.valid()) throw FileError(impl_->name(), path, "cannot open: " + hdf5_cause());
   std::vector<std::string> names;
   hsize_t index = 0;
   H5Aiterate2(

@@ -8,6 +8,7 @@
 
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
+#include "testing/hdf5_edit.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -108,36 +109,12 @@ TEST(ModelFile, FilterFromFileEqualsFilterFromSpec) {
   }
 }
 
-// Hostile content behind a valid checksum: edit the HDF5 part directly, then reseal.
-void edit_and_reseal(const std::filesystem::path& path, const std::function<void(hid_t)>& edit) {
-  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
-  ASSERT_GE(file, 0);
-  edit(file);
-  ASSERT_GE(H5Fclose(file), 0);
-  seal_container(path, kModelFormat);
-}
-
-void replace_dataset(hid_t file, const char* name, const std::vector<hsize_t>& dims,
-                     const std::vector<double>& values) {
-  H5Ldelete(file, name, H5P_DEFAULT);
-  const hid_t space = H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr);
-  const hid_t data =
-      H5Dcreate2(file, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  H5Dwrite(data, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data());
-  H5Dclose(data);
-  H5Sclose(space);
-}
+using testing::edit_and_reseal;
+using testing::replace_dataset;
 
 template <class T>
 void replace_attribute(hid_t file, const char* object, const char* name, hid_t type, T value) {
-  const hid_t handle = H5Oopen(file, object, H5P_DEFAULT);
-  H5Adelete(handle, name);
-  const hid_t space = H5Screate(H5S_SCALAR);
-  const hid_t attribute = H5Acreate2(handle, name, type, space, H5P_DEFAULT, H5P_DEFAULT);
-  H5Awrite(attribute, type, &value);
-  H5Aclose(attribute);
-  H5Sclose(space);
-  H5Oclose(handle);
+  testing::set_attribute(file, object, name, type, &value);
 }
 
 struct Drill {
@@ -223,21 +200,7 @@ INSTANTIATE_TEST_SUITE_P(
               },
               "/@schema_version", "newer than this reader supports"},
         Drill{"wrong kind",
-              [](hid_t f) {
-                const hid_t type = H5Tcopy(H5T_C_S1);
-                H5Tset_size(type, 4);
-                const char text[4] = {'w', 'i', 'm', 'm'};
-                const hid_t root = H5Oopen(f, "/", H5P_DEFAULT);
-                H5Adelete(root, "model_kind");
-                const hid_t space = H5Screate(H5S_SCALAR);
-                const hid_t attribute =
-                    H5Acreate2(root, "model_kind", type, space, H5P_DEFAULT, H5P_DEFAULT);
-                H5Awrite(attribute, type, text);
-                H5Aclose(attribute);
-                H5Sclose(space);
-                H5Oclose(root);
-                H5Tclose(type);
-              },
+              [](hid_t f) { testing::set_text_attribute(f, "/", "model_kind", "wimm"); },
               "/@model_kind", "expected 'plain_imm'"},
         Drill{"number where text belongs",
               [](hid_t f) {

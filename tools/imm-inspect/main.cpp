@@ -269,6 +269,9 @@ int main(int argc, char** argv) {
   } catch (const std::exception& error) {
     std::cerr << "imm-inspect: " << error.what() << '\n';
     return kExitBadFile;
+  } catch (...) {
+    std::cerr << "imm-inspect: unexpected error\n";
+    return kExitBadFile;
   }
   return 0;
 }

@@ -80,7 +80,10 @@ class ContainerReader {
  public:
   /// Opens and verifies a container. Throws FileError (naming the file) when the file is missing,
   /// truncated, corrupt, not an immtrain container, or of another format than `expected_format`
-  /// (an empty `expected_format` accepts any).
+  /// (an empty `expected_format` accepts any). The HDF5 part must be a tree of groups and datasets
+  /// joined by hard links, within fixed bounds (objects, depth, members per group, attributes per
+  /// object): a link cycle, a soft or external link, a second link to one object or a named
+  /// datatype is refused here, naming the link, so no later walk can loop or leave the file.
   ContainerReader(const std::filesystem::path& path, std::string_view expected_format);
   ~ContainerReader();
   ContainerReader(const ContainerReader&) = delete;
@@ -92,6 +95,8 @@ class ContainerReader {
   [[nodiscard]] ObjectKind kind(std::string_view object) const;
   /// Names of a group's members, sorted.
   [[nodiscard]] std::vector<std::string> children(std::string_view group) const;
+  /// Paths of every object in the file ("/" first), sorted.
+  [[nodiscard]] std::vector<std::string> objects() const;
   [[nodiscard]] std::vector<std::size_t> shape(std::string_view dataset) const;
   /// Reads a floating-point dataset. Throws FileError naming the dataset on a checksum mismatch,
   /// a non-float type or a missing dataset.
