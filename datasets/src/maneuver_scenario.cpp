@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/sha256.hpp"
 #include "imm/math/angle.hpp"
@@ -14,29 +15,32 @@
 namespace imm::datasets {
 void ManeuverScenario::validate() const {
   require(!name.empty(), "name", "must not be empty");
-  require(std::isfinite(sample_period) && sample_period > 0.0, "sample_period",
-          "must be positive and finite");
+  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
   require(steps >= 2 && steps <= 10'000'000, "steps", "must be in [2, 10⁷]");
   require(runs >= 1 && runs <= 1'000'000, "runs", "must be in [1, 10⁶]");
-  require(initial_position.allFinite(), "initial_position", "must be finite");
-  require(initial_velocity.allFinite(), "initial_velocity", "must be finite");
-  require(std::isfinite(process_noise_sigma) && process_noise_sigma >= 0.0, "process_noise_sigma",
-          "must be non-negative and finite");
-  require(measurement.sigma.allFinite() && (measurement.sigma.array() > 0.0).all(),
-          "measurement.sigma", "must be positive and finite");
+  for (Eigen::Index i = 0; i < 2; ++i) {
+    limits::require_magnitude(initial_position(i), limits::kDistance, "initial_position");
+    limits::require_magnitude(initial_velocity(i), limits::kSpeed, "initial_velocity");
+    limits::require_in(measurement.sigma(i), limits::kSigma, "measurement.sigma");
+  }
+  limits::require_in(process_noise_sigma, limits::kAcceleration, "process_noise_sigma");
   for (std::size_t i = 0; i < turns.size(); ++i) {
     const TurnSegment& t = turns[i];
     const std::string field = "turns[" + std::to_string(i) + "]";
-    require(t.start >= 0 && t.start < t.end && t.end <= steps, field + ".end",
+    require(t.start >= 0, field + ".start", "must be ≥ 0");
+    require(t.start < t.end && t.end <= steps, field + ".end",
             "segment [start, end) must satisfy 0 ≤ start < end ≤ steps");
-    require(std::isfinite(t.omega), field + ".omega", "must be finite");
+    limits::require_magnitude(t.omega, limits::kTurnRate, field + ".omega");
   }
   for (std::size_t i = 0; i < maneuvers.size(); ++i) {
     const ManeuverSegment& m = maneuvers[i];
     const std::string field = "maneuvers[" + std::to_string(i) + "]";
-    require(m.start >= 0 && m.start < m.end && m.end <= steps, field + ".end",
+    require(m.start >= 0, field + ".start", "must be ≥ 0");
+    require(m.start < m.end && m.end <= steps, field + ".end",
             "segment [start, end) must satisfy 0 ≤ start < end ≤ steps");
-    require(m.acceleration.allFinite(), field + ".acceleration", "must be finite");
+    for (Eigen::Index a = 0; a < 2; ++a) {
+      limits::require_magnitude(m.acceleration(a), limits::kAcceleration, field + ".acceleration");
+    }
   }
 }
 

@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
 
 namespace imm::datasets {
@@ -25,8 +26,10 @@ Eigen::Vector3d half_cosine(double t, double t0, double t1, double a, double b) 
 }  // namespace
 
 void RangeDistortion::validate() const {
-  require(std::isfinite(knee) && knee > 0.0, "knee", "must be positive and finite");
-  require(std::isfinite(softness) && softness > 0.0, "softness", "must be positive and finite");
+  require(knee > 0.0, "knee", "must be positive");
+  limits::require_in(knee, limits::kDistance, "knee");
+  require(softness > 0.0, "softness", "must be positive");
+  limits::require_in(softness, limits::kDistance, "softness");
 }
 
 Eigen::Vector2d RangeDistortion::apply(const Eigen::Vector2d& position) const {
@@ -39,10 +42,12 @@ Eigen::Vector2d RangeDistortion::apply(const Eigen::Vector2d& position) const {
 void RangeSensorDataConfig::validate() const {
   distortion.validate();
   require(samples >= 10 && samples <= 10000000, "samples", "must be in [10, 10⁷]");
-  require(lower.allFinite() && upper.allFinite() && (lower.array() < upper.array()).all(), "box",
-          "lower must be below upper in ξ and η");
+  require(lower.allFinite() && upper.allFinite() && (lower.array() < upper.array()).all() &&
+              lower.cwiseAbs().maxCoeff() <= limits::kDistance.max &&
+              upper.cwiseAbs().maxCoeff() <= limits::kDistance.max,
+          "box", "lower must be below upper in ξ and η, within ±10⁹");
   require(lower(1) > 0.0, "box", "η must stay positive (ahead of the sensor)");
-  require(std::isfinite(noise_sigma) && noise_sigma >= 0.0, "noise_sigma", "must be ≥ 0");
+  limits::require_in(noise_sigma, limits::kNoiseSigma, "noise_sigma");
 }
 
 RangeSensorData simulate_range_sensor(const RangeSensorDataConfig& config) {
@@ -64,16 +69,22 @@ RangeSensorData simulate_range_sensor(const RangeSensorDataConfig& config) {
 
 void CutInScenario::validate() const {
   distortion.validate();
-  require(std::isfinite(sample_period) && sample_period > 0.0, "sample_period", "must be > 0");
+  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
   require(steps >= 2 && steps <= 10000000, "steps", "must be in [2, 10⁷]");
-  require(std::isfinite(host_speed) && std::isfinite(target_speed), "speed", "must be finite");
-  require(std::isfinite(lane_offset), "lane_offset", "must be finite");
-  require(std::isfinite(initial_gap), "initial_gap", "must be finite");
+  limits::require_magnitude(host_speed, limits::kSpeed, "host_speed");
+  limits::require_magnitude(target_speed, limits::kSpeed, "target_speed");
+  limits::require_magnitude(lane_offset, limits::kDistance, "lane_offset");
+  limits::require_magnitude(initial_gap, limits::kDistance, "initial_gap");
+  limits::require_in(cut_in_start, limits::kDuration, "cut_in");
+  limits::require_in(cut_in_end, limits::kDuration, "cut_in");
+  limits::require_in(return_start, limits::kDuration, "return");
+  limits::require_in(return_end, limits::kDuration, "return");
   require(cut_in_start < cut_in_end && cut_in_end <= return_start && return_start < return_end,
           "cut_in", "needs cut_in_start < cut_in_end ≤ return_start < return_end");
   const Eigen::Matrix2d& R = measurement_covariance;
-  require(R.allFinite() && R(0, 0) > 0.0 && R.determinant() > 0.0, "measurement_covariance",
-          "must be positive definite");
+  require(R.allFinite() && R(0, 0) > 0.0 && R.determinant() > 0.0 &&
+              R.cwiseAbs().maxCoeff() <= limits::kVariance.max,
+          "measurement_covariance", "must be positive definite, entries within 10¹⁸");
   require(runs >= 1, "runs", "must be positive");
 }
 

@@ -3,16 +3,13 @@
 #include <cmath>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 
 namespace imm {
 
 void AxisImmSettings::validate() const {
-  if (!(sample_period > 0.0) || !std::isfinite(sample_period)) {
-    throw InvalidParameter("sample_period", "must be positive and finite");
-  }
-  if (!(measurement_sigma > 0.0) || !std::isfinite(measurement_sigma)) {
-    throw InvalidParameter("measurement_sigma", "must be positive and finite");
-  }
+  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_in(measurement_sigma, limits::kSigma, "measurement_sigma");
   if (!(transition_stay > 0.0 && transition_stay <= 1.0)) {
     throw InvalidParameter("transition_stay", "must be in (0, 1]");
   }

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/models/constant_velocity.hpp"
 
 namespace imm {
@@ -38,18 +39,14 @@ Eigen::MatrixXd FcmImmSpec::switching_transition(int n, double stay) {
 }
 
 void FcmImmSpec::validate() const {
-  if (!(sample_period > 0.0) || !std::isfinite(sample_period)) {
-    throw InvalidParameter("sample_period", "must be positive and finite");
-  }
-  if (!(measurement_sigma > 0.0) || !std::isfinite(measurement_sigma)) {
-    throw InvalidParameter("measurement_sigma", "must be positive and finite");
-  }
+  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_in(measurement_sigma, limits::kSigma, "measurement_sigma");
   const int n = mode_count();
   if (n < 1 || n > 8) throw InvalidParameter("process_noise", "need 1 to 8 modes");
   for (int j = 0; j < n; ++j) {
     const double q = process_noise[static_cast<std::size_t>(j)];
     const std::string field = "process_noise[" + std::to_string(j) + "]";
-    if (!(q >= 0.0) || !std::isfinite(q)) throw InvalidParameter(field, "must be ≥ 0 and finite");
+    limits::require_in(q, limits::kVariance, field);
     if (j > 0 && q < process_noise[static_cast<std::size_t>(j - 1)]) {
       throw InvalidParameter(field, "noise levels must be ascending");
     }
@@ -60,11 +57,7 @@ void FcmImmSpec::validate() const {
   if (initial_probabilities.size() != n) {
     throw InvalidParameter("initial_probabilities", "must have " + std::to_string(n) + " entries");
   }
-  try {
-    detail::validate_mode_probabilities(transition, initial_probabilities, n);
-  } catch (const std::invalid_argument& error) {
-    throw InvalidParameter("transition", error.what());
-  }
+  detail::validate_mode_probabilities(transition, initial_probabilities, n);
   try {
     clustering.validate();
   } catch (const InvalidParameter& error) {
@@ -74,9 +67,7 @@ void FcmImmSpec::validate() const {
     throw InvalidParameter(
         "window", "must be in [3, " + std::to_string(SlidingFuzzyCMeans::kMaxWindow) + "]");
   }
-  if (!(separation >= 0.0) || !std::isfinite(separation)) {
-    throw InvalidParameter("separation", "must be ≥ 0 and finite");
-  }
+  limits::require_in(separation, limits::kFactor, "separation");
   if (!(compensation_gain >= 0.0 && compensation_gain <= 1.0)) {
     throw InvalidParameter("compensation_gain", "must be in [0, 1]");
   }

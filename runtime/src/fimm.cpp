@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/filters/kalman_mode.hpp"
 #include "imm/models/constant_acceleration.hpp"
 #include "imm/models/position_measurement.hpp"
@@ -17,25 +18,16 @@ constexpr const char* kModeNames[2] = {"cruise", "lane change"};
 }  // namespace
 
 void FimmSpec::validate() const {
-  if (!(sample_period > 0.0) || !std::isfinite(sample_period)) {
-    throw InvalidParameter("sample_period", "must be positive and finite");
-  }
-  if (!(cruise_sigma > 0.0) || !std::isfinite(cruise_sigma)) {
-    throw InvalidParameter("cruise_sigma", "must be positive and finite");
-  }
-  if (!(lane_change_ratio >= 1.0) || !std::isfinite(lane_change_ratio)) {
-    throw InvalidParameter("lane_change_ratio", "must be ≥ 1 and finite");
-  }
-  if (!(noise_scale > 0.0) || !std::isfinite(noise_scale)) {
-    throw InvalidParameter("noise_scale", "must be positive and finite");
-  }
-  try {
-    detail::validate_mode_probabilities(transition, initial_probabilities, 2);
-  } catch (const std::invalid_argument& error) {
-    throw InvalidParameter("transition", error.what());
-  }
+  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_in(cruise_sigma, limits::kSigma, "cruise_sigma");
+  limits::require_in(lane_change_ratio, {1.0, limits::kFactor.max, ""}, "lane_change_ratio");
+  limits::require_in(noise_scale, {1e-9, limits::kFactor.max, ""}, "noise_scale");
+  limits::require_in(noise_scale * cruise_sigma * lane_change_ratio, limits::kSigma,
+                     "cruise_sigma × noise_scale × lane_change_ratio");
+  detail::validate_mode_probabilities(transition, initial_probabilities, 2);
   const Eigen::Matrix2d& R = measurement_covariance;
   if (!R.allFinite() || !(R(0, 0) > 0.0) || !(R.determinant() > 0.0) ||
+      !(R.diagonal().maxCoeff() <= limits::kVariance.max) ||
       std::abs(R(0, 1) - R(1, 0)) > 1e-12 * R.norm()) {
     throw InvalidParameter("measurement_covariance", "must be symmetric positive definite");
   }

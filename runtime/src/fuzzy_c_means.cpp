@@ -52,12 +52,12 @@ void memberships_into(double x, const ClusterVector& centers, double fuzzifier, 
 }  // namespace
 
 void FuzzyCMeansSettings::validate() const {
-  if (!(fuzzifier > 1.0) || !std::isfinite(fuzzifier)) {
-    throw InvalidParameter("fuzzifier", "must be greater than 1 and finite");
-  }
-  if (!(tolerance > 0.0) || !std::isfinite(tolerance)) {
-    throw InvalidParameter("tolerance", "must be positive and finite");
-  }
+  // The memberships' exponent 2/(m − 1) overflows as m → 1; beyond m = 100 every membership is
+  // 1/c to rounding.
+  require(std::isfinite(fuzzifier) && fuzzifier >= 1.01 && fuzzifier <= 100.0, "fuzzifier",
+          "must be in [1.01, 100]");
+  require(std::isfinite(tolerance) && tolerance >= 1e-15 && tolerance <= 1.0, "tolerance",
+          "must be in [1e-15, 1]");
   if (max_iterations < 1 || max_iterations > 100000) {
     throw InvalidParameter("max_iterations", "must be in [1, 100000]");
   }

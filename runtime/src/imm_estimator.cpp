@@ -3,6 +3,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "imm/core/invalid_parameter.hpp"
+
 namespace imm::detail {
 
 namespace {
@@ -19,41 +21,44 @@ std::string entry(const char* name, int i, int j = -1) {
 void validate_mode_probabilities(const Eigen::MatrixXd& transition,
                                  const Eigen::VectorXd& initial_probabilities, int modes) {
   if (transition.rows() != modes || transition.cols() != modes) {
-    throw std::invalid_argument("transition must be " + std::to_string(modes) + "x" +
-                                std::to_string(modes) + " for " + std::to_string(modes) +
-                                " modes, got " + std::to_string(transition.rows()) + "x" +
-                                std::to_string(transition.cols()));
+    throw InvalidParameter("transition", "must be " + std::to_string(modes) + "x" +
+                                             std::to_string(modes) + " for " +
+                                             std::to_string(modes) + " modes, got " +
+                                             std::to_string(transition.rows()) + "x" +
+                                             std::to_string(transition.cols()));
   }
   if (initial_probabilities.size() != modes) {
-    throw std::invalid_argument("initial_probabilities must have " + std::to_string(modes) +
-                                " entries, got " + std::to_string(initial_probabilities.size()));
+    throw InvalidParameter("initial_probabilities",
+                           "must have " + std::to_string(modes) + " entries, got " +
+                               std::to_string(initial_probabilities.size()));
   }
   for (int i = 0; i < modes; ++i) {
     double row_sum = 0.0;
     for (int j = 0; j < modes; ++j) {
       const double p = transition(i, j);
       if (!std::isfinite(p) || p < 0.0 || p > 1.0) {
-        throw std::invalid_argument(entry("transition", i, j) + " = " + std::to_string(p) +
-                                    " is not a probability");
+        throw InvalidParameter("transition", entry("transition", i, j) + " = " + std::to_string(p) +
+                                                 " is not a probability");
       }
       row_sum += p;
     }
     if (std::abs(row_sum - 1.0) > kSumTolerance) {
-      throw std::invalid_argument("transition row " + std::to_string(i) + " sums to " +
-                                  std::to_string(row_sum) + ", not 1");
+      throw InvalidParameter("transition", "row " + std::to_string(i) + " sums to " +
+                                               std::to_string(row_sum) + ", not 1");
     }
   }
   double sum = 0.0;
   for (int i = 0; i < modes; ++i) {
     const double p = initial_probabilities(i);
     if (!std::isfinite(p) || p < 0.0 || p > 1.0) {
-      throw std::invalid_argument(entry("initial_probabilities", i) + " = " + std::to_string(p) +
-                                  " is not a probability");
+      throw InvalidParameter(
+          "initial_probabilities",
+          entry("initial_probabilities", i) + " = " + std::to_string(p) + " is not a probability");
     }
     sum += p;
   }
   if (std::abs(sum - 1.0) > kSumTolerance) {
-    throw std::invalid_argument("initial_probabilities sum to " + std::to_string(sum) + ", not 1");
+    throw InvalidParameter("initial_probabilities", "sum to " + std::to_string(sum) + ", not 1");
   }
 }
 

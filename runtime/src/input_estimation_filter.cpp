@@ -3,13 +3,21 @@
 #include <algorithm>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 
 namespace imm {
+
+void CvKfSettings::validate() const {
+  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_in(process_noise, limits::kVariance, "process_noise");
+  limits::require_in(measurement_variance, {1e-18, limits::kVariance.max, ""},
+                     "measurement_variance");
+}
 
 InnovationFeatureExtractor::InnovationFeatureExtractor(const CvKfSettings& settings)
     : motion_(constant_velocity<1>(settings.sample_period, settings.process_noise)),
       R_(SquareMatrix<1>::Constant(settings.measurement_variance)) {
-  detail::require_positive(settings.measurement_variance, "measurement_variance");
+  settings.validate();
   H_ << 1.0, 0.0;
 }
 
@@ -51,9 +59,6 @@ InputEstimationFilter::InputEstimationFilter(InputEstimatorModel model,
   }
   if (model_.network.input_count() != 2) {
     throw InvalidParameter("network", "the input estimator's network takes (sum, diff)");
-  }
-  if (!(settings.measurement_variance > 0.0)) {
-    throw InvalidParameter("cv_kf.measurement_variance", "must be positive");
   }
   H_ << 1.0, 0.0;
 }

@@ -1,5 +1,10 @@
 #include "imm/io/mlp_input_estimator_file.hpp"
 
+#include <cmath>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
+
 namespace imm::io {
 namespace {
 std::string layer_group(std::size_t i) { return "/mlp/layer" + std::to_string(i); }
@@ -62,6 +67,19 @@ InputEstimatorModel read_mlp_input_estimator(const ModelFileReader& reader) {
   model.settings.process_noise = reader.real("/cv_kf", "process_noise", ValueRule::kNonNegative);
   model.settings.measurement_variance =
       reader.real("/cv_kf", "measurement_variance", ValueRule::kPositive);
+  try {
+    model.settings.validate();
+  } catch (const InvalidParameter& error) {
+    reader.fail("/cv_kf@" + error.field(), error.message());
+  }
+  // The network's output is an acceleration: scale and bias within the physical range.
+  if (!limits::contains(limits::kAcceleration, model.network.output_scale())) {
+    reader.fail("/mlp@output_scale", "must be in " + limits::describe(limits::kAcceleration));
+  }
+  if (!limits::contains(limits::kAcceleration, std::abs(model.output_bias))) {
+    reader.fail("/mlp@output_bias",
+                "magnitude must be in " + limits::describe(limits::kAcceleration));
+  }
   return model;
 }
 

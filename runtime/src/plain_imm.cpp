@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/filters/kalman_mode.hpp"
 #include "imm/models/constant_acceleration.hpp"
 #include "imm/models/constant_velocity.hpp"
@@ -115,8 +116,7 @@ int PlainImmSpec::mixing_dimension() const {
 }
 
 void PlainImmSpec::validate() const {
-  require(std::isfinite(sample_period) && sample_period > 0.0, "sample_period",
-          "must be positive and finite");
+  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
   require(!modes.empty() && static_cast<int>(modes.size()) <= kMaxModes, "modes",
           "need 1 to " + std::to_string(kMaxModes) + " modes");
   for (std::size_t i = 0; i < modes.size(); ++i) {
@@ -126,25 +126,17 @@ void PlainImmSpec::validate() const {
       require(modes[j].name != mode.name, mode_field(i, "name"), "'" + mode.name + "' is repeated");
     }
     if (mode.motion == MotionKind::kSinger) {
-      require(std::isfinite(mode.singer_tau) && mode.singer_tau > 0.0, mode_field(i, "tau"),
-              "must be positive and finite");
-      require(std::isfinite(mode.singer_sigma) && mode.singer_sigma >= 0.0,
-              mode_field(i, "sigma_a"), "must be non-negative and finite");
+      limits::require_in(mode.singer_tau, limits::kTimeConstant, mode_field(i, "tau"));
+      limits::require_in(mode.singer_sigma, limits::kAcceleration, mode_field(i, "sigma_a"));
     } else {
-      require(std::isfinite(mode.process_noise) && mode.process_noise >= 0.0,
-              mode_field(i, "process_noise"), "must be non-negative and finite");
+      limits::require_in(mode.process_noise, limits::kVariance, mode_field(i, "process_noise"));
     }
   }
   const auto n = static_cast<Eigen::Index>(modes.size());
-  try {
-    detail::validate_mode_probabilities(transition, initial_probabilities, static_cast<int>(n));
-  } catch (const std::invalid_argument& error) {
-    const std::string text = error.what();
-    throw InvalidParameter(
-        text.rfind("initial_probabilities", 0) == 0 ? "initial_probabilities" : "transition", text);
-  }
+  detail::validate_mode_probabilities(transition, initial_probabilities, static_cast<int>(n));
   const Eigen::Matrix2d& R = measurement.covariance;
-  require(R.allFinite() && R.isApprox(R.transpose(), 1e-12) &&
+  require(R.allFinite() && R.cwiseAbs().maxCoeff() <= limits::kVariance.max &&
+              R.isApprox(R.transpose(), 1e-12) &&
               Eigen::LLT<Eigen::Matrix2d>(R).info() == Eigen::Success,
           "measurement.covariance", "must be finite, symmetric and positive definite");
   if (initialization.method == InitializationMethod::kExplicit) {
@@ -158,9 +150,8 @@ void PlainImmSpec::validate() const {
             "must be a finite, symmetric, positive definite " + std::to_string(nx) + "x" +
                 std::to_string(nx) + " matrix");
   } else {
-    require(std::isfinite(initialization.acceleration_variance) &&
-                initialization.acceleration_variance >= 0.0,
-            "initialization.acceleration_variance", "must be non-negative and finite");
+    limits::require_in(initialization.acceleration_variance, limits::kVariance,
+                       "initialization.acceleration_variance");
   }
 }
 

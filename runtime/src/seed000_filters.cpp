@@ -2,6 +2,7 @@
 #include <cmath>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/filters/aimm.hpp"
 #include "imm/filters/axis_cv_imm.hpp"
 #include "imm/filters/fuzzy_noise_filter.hpp"
@@ -19,9 +20,7 @@ void GaFuzzyImmSpec::validate() const {
   for (std::size_t i = 0; i < levels.size(); ++i) {
     const std::string field = "levels[" + std::to_string(i) + "]";
     if (levels[i].name.empty()) throw InvalidParameter(field + ".name", "must not be empty");
-    if (!(levels[i].maneuver_level >= 0.0) || !std::isfinite(levels[i].maneuver_level)) {
-      throw InvalidParameter(field + ".maneuver_level", "must be non-negative and finite");
-    }
+    limits::require_in(levels[i].maneuver_level, limits::kAcceleration, field + ".maneuver_level");
     if (levels[i].table.size() == 0) throw InvalidParameter(field + ".rules", "table is empty");
   }
 }
@@ -65,19 +64,12 @@ void AimmSpec::validate() const {
     throw InvalidParameter("intervals", "need 1 to 7 acceleration intervals");
   }
   for (std::size_t i = 0; i < intervals.size(); ++i) {
-    if (!(intervals[i] > 0.0) || !std::isfinite(intervals[i])) {
-      throw InvalidParameter("intervals[" + std::to_string(i) + "]", "must be positive and finite");
-    }
+    require(intervals[i] > 0.0, "intervals[" + std::to_string(i) + "]", "must be positive");
+    limits::require_in(intervals[i], limits::kAcceleration, "intervals[" + std::to_string(i) + "]");
   }
-  if (!(process_noise_sigma >= 0.0) || !std::isfinite(process_noise_sigma)) {
-    throw InvalidParameter("process_noise_sigma", "must be non-negative and finite");
-  }
-  if (!(bias_noise_sigma >= 0.0) || !std::isfinite(bias_noise_sigma)) {
-    throw InvalidParameter("bias_noise_sigma", "must be non-negative and finite");
-  }
-  if (!(acceleration_variance >= 0.0) || !std::isfinite(acceleration_variance)) {
-    throw InvalidParameter("acceleration_variance", "must be non-negative and finite");
-  }
+  limits::require_in(process_noise_sigma, limits::kAcceleration, "process_noise_sigma");
+  limits::require_in(bias_noise_sigma, limits::kAcceleration, "bias_noise_sigma");
+  limits::require_in(acceleration_variance, limits::kVariance, "acceleration_variance");
 }
 
 namespace {
@@ -159,10 +151,8 @@ void AxisCvImmSpec::validate() const {
     throw InvalidParameter("process_noise", "need 1 to 8 levels");
   }
   for (std::size_t i = 0; i < process_noise.size(); ++i) {
-    if (!(process_noise[i] >= 0.0) || !std::isfinite(process_noise[i])) {
-      throw InvalidParameter("process_noise[" + std::to_string(i) + "]",
-                             "must be non-negative and finite");
-    }
+    limits::require_in(process_noise[i], limits::kVariance,
+                       "process_noise[" + std::to_string(i) + "]");
   }
 }
 

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/models/polar_measurement.hpp"
 
 namespace imm {
@@ -93,9 +94,7 @@ Tracker::Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options)
     : filter_(std::move(filter)), options_(std::move(options)) {
   if (!filter_) throw InvalidParameter("filter", "must not be null");
   if (options_.max_gap < 1) throw InvalidParameter("max_gap", "must be at least 1");
-  if (!(options_.sample_period > 0.0)) {
-    throw InvalidParameter("sample_period", "must be positive");
-  }
+  limits::require_in(options_.sample_period, limits::kSamplePeriod, "sample_period");
   const int n = filter_->state_dimension();
   if (options_.initialization.method == InitializationMethod::kExplicit &&
       (options_.initialization.state.size() != n ||

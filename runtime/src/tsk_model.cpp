@@ -6,6 +6,7 @@
 #include <string>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 
 namespace imm {
 namespace {
@@ -46,9 +47,7 @@ TskModel::TskModel(std::array<TskOutput, 2> outputs, TNorm t_norm,
     if (out.rules.empty() || out.rules.size() > kMaxRules) {
       throw InvalidParameter(field + ".rules", "need 1 to " + std::to_string(kMaxRules) + " rules");
     }
-    if (!(out.sigma >= 0.0) || !std::isfinite(out.sigma)) {
-      throw InvalidParameter(field + ".sigma", "must be ≥ 0 and finite");
-    }
+    limits::require_in(out.sigma, limits::kNoiseSigma, field + ".sigma");
     for (std::size_t r = 0; r < out.rules.size(); ++r) {
       const TskRule& rule = out.rules[r];
       const std::string rf = field + ".rules[" + std::to_string(r) + "]";

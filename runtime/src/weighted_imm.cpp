@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/filters/kalman_mode.hpp"
 #include "imm/models/constant_velocity.hpp"
 #include "imm/models/singer.hpp"
@@ -61,28 +62,19 @@ MeasurementUpdate measurement_update_from(std::string_view name, const std::stri
 }
 
 void WimmSpec::validate() const {
-  auto positive = [](double x) { return std::isfinite(x) && x > 0.0; };
-  require(positive(sample_period), "sample_period", "must be positive and finite");
-  require(std::isfinite(cv_process_noise) && cv_process_noise >= 0.0, "cv_process_noise",
-          "must be non-negative and finite");
-  require(positive(singer_tau), "singer_tau", "must be positive and finite");
-  require(std::isfinite(singer_sigma) && singer_sigma >= 0.0, "singer_sigma",
-          "must be non-negative and finite");
-  require(positive(range_sigma), "range_sigma", "must be positive and finite");
-  require(positive(azimuth_sigma), "azimuth_sigma", "must be positive and finite");
-  try {
-    detail::validate_mode_probabilities(transition, initial_probabilities, 2);
-  } catch (const std::invalid_argument& error) {
-    const std::string text = error.what();
-    throw InvalidParameter(
-        text.rfind("initial_probabilities", 0) == 0 ? "initial_probabilities" : "transition", text);
-  }
-  require(std::isfinite(threshold), "threshold", "must be finite");
+  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_in(cv_process_noise, limits::kVariance, "cv_process_noise");
+  limits::require_in(singer_tau, limits::kTimeConstant, "singer_tau");
+  limits::require_in(singer_sigma, limits::kAcceleration, "singer_sigma");
+  limits::require_in(range_sigma, limits::kSigma, "range_sigma");
+  limits::require_in(azimuth_sigma, {1e-9, 3.2, "rad"}, "azimuth_sigma");
+  detail::validate_mode_probabilities(transition, initial_probabilities, 2);
+  // Compared with a predicted probability: 0 fuses on every scan, 1 on none.
+  require(threshold >= 0.0 && threshold <= 1.0, "threshold", "must be in [0, 1]");
   require(alpha > 0.0 && alpha <= 1.0, "alpha", "must be in (0, 1]");
   require(!(fusion == FusionVariant::kCorrelated && update == MeasurementUpdate::kConverted),
           "fusion", "the correlated fusion needs the extended (polar) update");
-  require(std::isfinite(acceleration_variance) && acceleration_variance >= 0.0,
-          "acceleration_variance", "must be non-negative and finite");
+  limits::require_in(acceleration_variance, limits::kVariance, "acceleration_variance");
 }
 
 Eigen::Matrix2d WimmSpec::measurement_covariance() const {

@@ -58,10 +58,11 @@ WimmSpec with_fusion(FusionVariant fusion) {
   return spec;
 }
 
-TEST(WeightedImm, ThresholdAboveOneIsExactlyTheNormalImm) {
+// μ̄_CV never exceeds 1: the threshold 1 never fuses.
+TEST(WeightedImm, ThresholdOneIsExactlyTheNormalImm) {
   const auto data = scenario_run(2);
   WimmSpec never = with_fusion(FusionVariant::kSeed);
-  never.threshold = 1.5;
+  never.threshold = 1.0;
   const auto a = track(with_fusion(FusionVariant::kNone), data);
   const auto b = track(never, data);
   ASSERT_EQ(a.size(), b.size());

@@ -75,7 +75,7 @@ TEST(PlainImmConfig, OutOfRangeValueIsNamed) {
   text.replace(text.find("process_noise = 1e-2"), 20, "process_noise = -1.0");
   auto [key, what] = error_of(text);
   EXPECT_EQ(key, "modes[1].process_noise");
-  EXPECT_NE(what.find("non-negative"), std::string::npos) << what;
+  EXPECT_NE(what.find("must be in [0, 1e+18]"), std::string::npos) << what;
 
   text = kCv2;
   text.replace(text.find("[[0.9, 0.1], [0.1, 0.9]]"), 24, "[[0.9, 0.2], [0.1, 0.9]]");

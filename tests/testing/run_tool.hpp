@@ -7,11 +7,14 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 extern char** environ;
@@ -73,17 +76,39 @@ inline pid_t start_tool(const std::string& tool, const std::vector<std::string>&
   return pid;
 }
 
-/// Runs `tool` with `arguments` in `working_directory` and waits for it.
+/// Exit code run_tool reports for a tool it killed at its time limit.
+inline constexpr int kTimedOut = -2;
+
+/// Runs `tool` with `arguments` in `working_directory` and waits for it; with a positive
+/// `timeout_seconds` the tool is killed at that limit and the exit code is kTimedOut. A tool
+/// killed by a signal reports 128 + the signal number.
 inline ToolResult run_tool(const std::string& tool, const std::vector<std::string>& arguments,
-                           const std::filesystem::path& working_directory) {
+                           const std::filesystem::path& working_directory,
+                           double timeout_seconds = 0.0) {
   const auto out_file = unique_temp_file("immtrain-tool-stdout");
   const auto err_file = unique_temp_file("immtrain-tool-stderr");
   ToolResult result;
   const pid_t pid = start_tool(tool, arguments, out_file, err_file, working_directory);
   if (pid > 0) {
     int status = 0;
-    waitpid(pid, &status, 0);
-    result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    if (timeout_seconds > 0.0) {
+      const auto deadline =
+          std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_seconds);
+      while (waitpid(pid, &status, WNOHANG) == 0) {
+        if (std::chrono::steady_clock::now() > deadline) {
+          kill(pid, SIGKILL);
+          waitpid(pid, &status, 0);
+          status = -1;
+          break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      }
+    } else {
+      waitpid(pid, &status, 0);
+    }
+    result.exit_code = status == -1        ? kTimedOut
+                       : WIFEXITED(status) ? WEXITSTATUS(status)
+                                           : 128 + WTERMSIG(status);
   }
   result.out = slurp(out_file);
   result.err = slurp(err_file);

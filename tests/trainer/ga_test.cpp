@@ -199,6 +199,16 @@ TEST(GaTrainer, ResumeAfterAStopGivesTheUninterruptedModel) {
   }
 }
 
+// A finished run leaves no checkpoint behind, whether or not its gate passed.
+TEST(GaTrainer, FailedGateLeavesNeitherModelNorCheckpoint) {
+  const testing::TempDir dir;
+  const GaTrainingConfig config = small_config("", "[gate]\nmax_validation_error = 1e-9\n");
+  const GaTrainingResult result = train_ga(config, {dir / "m.h5", false});
+  EXPECT_FALSE(result.gate_passed);
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.h5"));
+  EXPECT_FALSE(std::filesystem::exists(checkpoint_path(dir / "m.h5")));
+}
+
 TEST(GaTrainer, CheckpointOfAnotherSeedIsRefused) {
   const testing::TempDir dir;
   GaTrainingConfig config = small_config();
@@ -232,6 +242,17 @@ TEST(GaConfig, InvalidValuesAreNamed) {
     EXPECT_EQ(error.key(), "ga.population");
     EXPECT_EQ(error.file(), (dir / "p.toml").string());
   }
+}
+
+// Finite but absurd values that used to abort a training run deep inside a parallel region
+// (the consequent variances or the residual ranges overflow) are refused at load, naming the key.
+TEST(GaConfig, AbsurdFiniteValuesAreRefusedAtLoad) {
+  EXPECT_EQ(config_error_key("", "[fuzzy]\nconsequent_range = [0.5, 1e308]\n"),
+            "fuzzy.consequent_range");
+  EXPECT_EQ(config_error_key("", "[filter]\nsample_period = 1e-320\n"), "filter.sample_period");
+  EXPECT_EQ(config_error_key("", "[filter]\nmeasurement_sigma = 1e308\n"),
+            "filter.measurement_sigma");
+  EXPECT_EQ(config_error_key("", "[fuzzy]\nsigma_range = [0.05, 1e308]\n"), "fuzzy.sigma_range");
 }
 
 TEST(ShippedConfig, IsTheSeedsTable1) {

@@ -131,6 +131,9 @@ int main(int argc, char** argv) {
   } catch (const std::exception& error) {
     std::cerr << "imm-data: " << error.what() << '\n';
     return kExitBadInput;
+  } catch (...) {
+    std::cerr << "imm-data: unexpected error\n";
+    return kExitBadInput;
   }
   return 0;
 }

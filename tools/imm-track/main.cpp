@@ -78,6 +78,9 @@ int main(int argc, char** argv) {
   } catch (const std::exception& error) {
     std::cerr << "imm-track: " << error.what() << '\n';
     return kExitBadInput;
+  } catch (...) {
+    std::cerr << "imm-track: unexpected error\n";
+    return kExitBadInput;
   }
 
   std::ofstream file_out;

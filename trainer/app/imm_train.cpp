@@ -351,6 +351,9 @@ int main(int argc, char** argv) {
   } catch (const std::exception& error) {
     spdlog::error("{}", error.what());
     return kExitBadInput;
+  } catch (...) {
+    spdlog::error("unexpected error");
+    return kExitBadInput;
   }
   return 1;
 }

@@ -846,6 +846,9 @@ int main(int argc, char** argv) {
   } catch (const std::exception& error) {
     std::cerr << "imm-eval: " << error.what() << '\n';
     return kExitBadInput;
+  } catch (...) {
+    std::cerr << "imm-eval: unexpected error\n";
+    return kExitBadInput;
   }
   return 1;
 }

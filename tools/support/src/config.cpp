@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "imm/core/invalid_parameter.hpp"
@@ -152,6 +153,18 @@ std::int64_t ConfigTable::integer(std::string_view key) const {
 
 std::int64_t ConfigTable::integer_or(std::string_view key, std::int64_t fallback) const {
   return has(key) ? integer(key) : fallback;
+}
+
+int ConfigTable::count(std::string_view key) const {
+  const std::int64_t value = integer(key);
+  if (value < std::numeric_limits<int>::min() || value > std::numeric_limits<int>::max()) {
+    fail(key, "integer " + std::to_string(value) + " is out of range");
+  }
+  return static_cast<int>(value);
+}
+
+int ConfigTable::count_or(std::string_view key, int fallback) const {
+  return has(key) ? count(key) : fallback;
 }
 
 std::uint64_t ConfigTable::seed_or(std::string_view key, std::uint64_t fallback) const {

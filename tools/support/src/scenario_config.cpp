@@ -11,8 +11,8 @@ datasets::ManeuverScenario scenario_from(const ConfigTable& table,
   datasets::ManeuverScenario s = defaults;
   s.name = table.text_or("name", s.name);
   s.sample_period = table.real_or("sample_period", s.sample_period);
-  s.steps = static_cast<int>(table.integer_or("steps", s.steps));
-  s.runs = static_cast<int>(table.integer_or("runs", s.runs));
+  s.steps = table.count_or("steps", s.steps);
+  s.runs = table.count_or("runs", s.runs);
   const std::int64_t seed = table.integer_or("seed", static_cast<std::int64_t>(s.seed));
   if (seed < 0) table.fail("seed", "must be non-negative");
   s.seed = static_cast<std::uint64_t>(seed);
@@ -35,8 +35,8 @@ datasets::ManeuverScenario scenario_from(const ConfigTable& table,
     s.maneuvers.clear();
     for (const ConfigTable& m : table.tables("maneuvers")) {
       datasets::ManeuverSegment segment;
-      segment.start = static_cast<int>(m.integer("start"));
-      segment.end = static_cast<int>(m.integer("end"));
+      segment.start = m.count("start");
+      segment.end = m.count("end");
       segment.acceleration = m.reals("acceleration", 2);
       s.maneuvers.push_back(segment);
     }
@@ -45,8 +45,8 @@ datasets::ManeuverScenario scenario_from(const ConfigTable& table,
     s.turns.clear();
     for (const ConfigTable& t : table.tables("turns")) {
       datasets::TurnSegment turn;
-      turn.start = static_cast<int>(t.integer("start"));
-      turn.end = static_cast<int>(t.integer("end"));
+      turn.start = t.count("start");
+      turn.end = t.count("end");
       turn.omega = t.real("omega_deg") * std::numbers::pi / 180.0;
       s.turns.push_back(turn);
     }

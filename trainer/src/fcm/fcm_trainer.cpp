@@ -9,10 +9,12 @@
 #include <numbers>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/bounded_search.hpp"
+#include "imm/trainer/parallel_for.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/training_config.hpp"
 
@@ -64,19 +66,18 @@ FcmTrainingConfig config_from(const support::ConfigTable& root) {
       s.scale = membership_scale_from(f->text("membership_scale"), f->path("membership_scale"));
     }
     s.compensate_lowest = f->boolean_or("compensate_lowest", s.compensate_lowest);
-    s.window = static_cast<int>(f->integer_or("window", s.window));
+    s.window = f->count_or("window", s.window);
     s.clustering.fuzzifier = f->real_or("fuzzifier", s.clustering.fuzzifier);
     s.clustering.tolerance = f->real_or("tolerance", s.clustering.tolerance);
-    s.clustering.max_iterations =
-        static_cast<int>(f->integer_or("max_iterations", s.clustering.max_iterations));
+    s.clustering.max_iterations = f->count_or("max_iterations", s.clustering.max_iterations);
     s.separation = f->real_or("separation", s.separation);
     s.compensation_gain = f->real_or("compensation_gain", s.compensation_gain);
   }
   if (const auto t = root.table("training")) {
     FcmTrainingOptions& o = c.training;
-    o.trajectories = static_cast<int>(t->integer_or("trajectories", o.trajectories));
-    o.validation = static_cast<int>(t->integer_or("validation", o.validation));
-    o.steps = static_cast<int>(t->integer_or("steps", o.steps));
+    o.trajectories = t->count_or("trajectories", o.trajectories);
+    o.validation = t->count_or("validation", o.validation);
+    o.steps = t->count_or("steps", o.steps);
     auto [r0, r1] = range(*t, "range_km", {o.min_range / 1e3, o.max_range / 1e3});
     o.min_range = r0 * 1e3, o.max_range = r1 * 1e3;
     std::tie(o.min_speed, o.max_speed) = range(*t, "speed", {o.min_speed, o.max_speed});
@@ -107,7 +108,7 @@ FcmTrainingConfig config_from(const support::ConfigTable& root) {
         range(*u, "fuzzifier", {g.min_fuzzifier, g.max_fuzzifier});
     std::tie(g.min_separation, g.max_separation) =
         range(*u, "separation", {g.min_separation, g.max_separation});
-    g.max_evaluations = static_cast<int>(u->integer_or("max_evaluations", g.max_evaluations));
+    g.max_evaluations = u->count_or("max_evaluations", g.max_evaluations);
   }
   if (const auto g = root.table("gate")) {
     c.max_validation_ratio = g->real_or("max_validation_ratio", c.max_validation_ratio);
@@ -152,6 +153,7 @@ void FcmTrainingConfig::validate() const {
     if (key.rfind("clustering.", 0) == 0) key = key.substr(std::string("clustering.").size());
     if (key.rfind("process_noise", 0) == 0) key = "process_noise";
     if (key == "transition") key = "stay";
+    if (key == "initial_probabilities") key = "initial_first_probability";
     throw InvalidParameter("filter." + key, error.message());
   }
   const FcmTrainingOptions& o = training;
@@ -160,15 +162,15 @@ void FcmTrainingConfig::validate() const {
   require(o.validation >= 1 && o.validation <= 10000, "training.validation",
           "must be in [1, 10000]");
   require(o.steps >= 20 && o.steps <= 100000, "training.steps", "must be in [20, 100000]");
-  require(o.min_range > 0.0 && o.max_range >= o.min_range, "training.range_km",
-          "must be 0 < min ≤ max");
-  require(o.min_speed > 0.0 && o.max_speed >= o.min_speed, "training.speed",
-          "must be 0 < min ≤ max");
+  require(o.min_range > 0.0 && o.max_range >= o.min_range && o.max_range <= limits::kDistance.max,
+          "training.range_km", "must be 0 < min ≤ max ≤ 10⁶ km");
+  require(o.min_speed > 0.0 && o.max_speed >= o.min_speed && o.max_speed <= limits::kSpeed.max,
+          "training.speed", "must be 0 < min ≤ max ≤ 10⁶ m/s");
   require(o.max_heading_offset_deg >= 0.0 && o.max_heading_offset_deg <= 180.0,
           "training.max_heading_offset_deg", "must be in [0, 180]");
   require(o.min_acceleration >= 0.0 && o.max_acceleration >= o.min_acceleration &&
-              std::isfinite(o.max_acceleration),
-          "training.acceleration", "must be 0 ≤ min ≤ max");
+              o.max_acceleration <= limits::kAcceleration.max,
+          "training.acceleration", "must be 0 ≤ min ≤ max ≤ 10⁶ m/s²");
   require(o.min_quarter >= 1 && o.max_quarter >= o.min_quarter, "training.quarter",
           "must be 1 ≤ min ≤ max");
   require(o.min_periods >= 1 && o.max_periods >= o.min_periods, "training.periods",
@@ -177,26 +179,25 @@ void FcmTrainingConfig::validate() const {
           "the longest zigzag must fit in the steps");
   require(o.maneuver_probability >= 0.0 && o.maneuver_probability <= 1.0,
           "training.maneuver_probability", "must be in [0, 1]");
-  require(o.process_noise_sigma >= 0.0 && std::isfinite(o.process_noise_sigma),
-          "training.process_noise_sigma", "must be ≥ 0 and finite");
+  limits::require_in(o.process_noise_sigma, limits::kAcceleration, "training.process_noise_sigma");
   const FcmTuning& g = tuning;
   require(!g.windows.empty() && g.windows.size() <= 16, "tuning.windows", "need 1 to 16 windows");
   for (int w : g.windows) {
     require(w >= 3 && w <= SlidingFuzzyCMeans::kMaxWindow, "tuning.windows",
             "every window must be in [3, " + std::to_string(SlidingFuzzyCMeans::kMaxWindow) + "]");
   }
-  require(std::isfinite(g.min_log_q) && std::isfinite(g.max_log_q) && g.min_log_q < g.max_log_q,
-          "tuning.log10_q", "must be [min, max], min < max");
+  // q = 10^x must stay a variance in range (imm/core/physical_limits.hpp).
+  require(g.min_log_q >= -30.0 && g.max_log_q <= 18.0 && g.min_log_q < g.max_log_q,
+          "tuning.log10_q", "must be [min, max] within [-30, 18], min < max");
   require(g.min_stay > 0.0 && g.max_stay <= 1.0 && g.min_stay < g.max_stay, "tuning.stay",
           "must be [min, max] within (0, 1]");
   require(g.min_gain >= 0.0 && g.max_gain <= 1.0 && g.min_gain <= g.max_gain,
           "tuning.compensation_gain", "must be [min, max] within [0, 1]");
-  require(
-      g.min_fuzzifier > 1.0 && g.max_fuzzifier >= g.min_fuzzifier && std::isfinite(g.max_fuzzifier),
-      "tuning.fuzzifier", "must be [min, max] with 1 < min ≤ max");
+  require(g.min_fuzzifier >= 1.01 && g.max_fuzzifier >= g.min_fuzzifier && g.max_fuzzifier <= 100.0,
+          "tuning.fuzzifier", "must be [min, max] with 1.01 ≤ min ≤ max ≤ 100");
   require(g.min_separation >= 0.0 && g.max_separation >= g.min_separation &&
-              std::isfinite(g.max_separation),
-          "tuning.separation", "must be [min, max] with 0 ≤ min ≤ max");
+              g.max_separation <= limits::kFactor.max,
+          "tuning.separation", "must be [min, max] with 0 ≤ min ≤ max ≤ 10⁶");
   require(g.max_evaluations >= 0 && g.max_evaluations <= 100000, "tuning.max_evaluations",
           "must be in [0, 100000]");
   require(max_validation_ratio > 0.0 && std::isfinite(max_validation_ratio),
@@ -267,8 +268,7 @@ TrackingScore score_filter(const FilterFactory& make, const TrackingData& data,
   const double r = measurement_sigma * measurement_sigma;
   const int runs = static_cast<int>(data.data.truth.size());
   std::vector<RunErrors> errors(static_cast<std::size_t>(runs));
-#pragma omp parallel for schedule(dynamic, 1)
-  for (int run = 0; run < runs; ++run) {
+  parallel_for(runs, 1, [&](long run) {
     RunErrors& e = errors[static_cast<std::size_t>(run)];
     const Eigen::MatrixXd& x = data.data.truth[static_cast<std::size_t>(run)];
     const Eigen::MatrixXd& z = data.data.measurements[static_cast<std::size_t>(run)];
@@ -294,7 +294,7 @@ TrackingScore score_filter(const FilterFactory& make, const TrackingData& data,
       e.velocity += dvx * dvx + dvy * dvy;
       ++e.scans;
     }
-  }
+  });
   // Summed in run order: the same result for any thread count.
   double position = 0.0, velocity = 0.0;
   long scans = 0;

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/training_config.hpp"
@@ -49,10 +50,9 @@ GaTrainingConfig config_from(const support::ConfigTable& root) {
         t->fail("fitness", "unknown fitness '" + fitness + "' (expected single or imm)");
       }
     }
-    o.trajectories = static_cast<int>(t->integer_or("trajectories", o.trajectories));
-    o.validation_trajectories =
-        static_cast<int>(t->integer_or("validation_trajectories", o.validation_trajectories));
-    o.steps = static_cast<int>(t->integer_or("steps", o.steps));
+    o.trajectories = t->count_or("trajectories", o.trajectories);
+    o.validation_trajectories = t->count_or("validation_trajectories", o.validation_trajectories);
+    o.steps = t->count_or("steps", o.steps);
     if (t->has("segment_length")) {
       const Eigen::VectorXd range = t->reals("segment_length", 2);
       o.min_segment = static_cast<int>(range(0));
@@ -61,7 +61,7 @@ GaTrainingConfig config_from(const support::ConfigTable& root) {
     o.initial_speed = t->real_or("initial_speed", o.initial_speed);
   }
   if (const auto f = root.table("fuzzy")) {
-    c.fuzzy.max_rules = static_cast<int>(f->integer_or("max_rules", c.fuzzy.max_rules));
+    c.fuzzy.max_rules = f->count_or("max_rules", c.fuzzy.max_rules);
     if (f->has("sigma_range")) {
       const Eigen::VectorXd range = f->reals("sigma_range", 2);
       c.fuzzy.sigma_min = range(0);
@@ -75,20 +75,19 @@ GaTrainingConfig config_from(const support::ConfigTable& root) {
   }
   if (const auto g = root.table("ga")) {
     GaOptions& o = c.ga;
-    o.population = static_cast<int>(g->integer_or("population", o.population));
-    o.generations = static_cast<int>(g->integer_or("generations", o.generations));
+    o.population = g->count_or("population", o.population);
+    o.generations = g->count_or("generations", o.generations);
     o.crossover_rate = g->real_or("crossover_rate", o.crossover_rate);
     o.mutation_rate = g->real_or("mutation_rate", o.mutation_rate);
     c.fuzzy.lambda = g->real_or("lambda", c.fuzzy.lambda);
-    o.elite = static_cast<int>(g->integer_or("elite", o.elite));
-    o.tournament_size = static_cast<int>(g->integer_or("tournament_size", o.tournament_size));
+    o.elite = g->count_or("elite", o.elite);
+    o.tournament_size = g->count_or("tournament_size", o.tournament_size);
     o.initial_rule_probability = g->real_or("initial_rule_probability", o.initial_rule_probability);
     o.mutation_scale = g->real_or("mutation_scale", o.mutation_scale);
   }
   if (const auto m = root.table("memetic")) {
     c.memetic.enabled = m->boolean_or("enabled", c.memetic.enabled);
-    c.memetic.max_evaluations =
-        static_cast<int>(m->integer_or("max_evaluations", c.memetic.max_evaluations));
+    c.memetic.max_evaluations = m->count_or("max_evaluations", c.memetic.max_evaluations);
   }
   if (const auto gate = root.table("gate")) {
     c.max_validation_error = gate->real_or("max_validation_error", c.max_validation_error);
@@ -107,9 +106,8 @@ void GaTrainingConfig::validate() const {
   }
   const TrainingOptions& t = training;
   require(!t.levels.empty() && t.levels.size() <= 8, "training.levels", "need 1 to 8 levels");
-  for (double u : t.levels) require(std::isfinite(u) && u >= 0.0, "training.levels", "must be ≥ 0");
-  require(std::isfinite(t.process_noise_sigma) && t.process_noise_sigma >= 0.0,
-          "training.process_noise_sigma", "must be non-negative");
+  for (double u : t.levels) limits::require_in(u, limits::kAcceleration, "training.levels");
+  limits::require_in(t.process_noise_sigma, limits::kAcceleration, "training.process_noise_sigma");
   require(t.trajectories >= 1 && t.trajectories <= 10000, "training.trajectories",
           "must be in [1, 10000]");
   require(t.validation_trajectories >= 1 && t.validation_trajectories <= 10000,
@@ -117,14 +115,16 @@ void GaTrainingConfig::validate() const {
   require(t.steps >= 10 && t.steps <= 100000, "training.steps", "must be in [10, 100000]");
   require(t.min_segment >= 1 && t.max_segment >= t.min_segment, "training.segment_length",
           "must be [min, max] with 1 ≤ min ≤ max");
-  require(std::isfinite(t.initial_speed), "training.initial_speed", "must be finite");
+  limits::require_magnitude(t.initial_speed, limits::kSpeed, "training.initial_speed");
   require(fuzzy.max_rules >= 1 && fuzzy.max_rules <= 50, "fuzzy.max_rules", "must be in [1, 50]");
-  require(finite_positive(fuzzy.sigma_min) && fuzzy.sigma_max > fuzzy.sigma_min &&
-              std::isfinite(fuzzy.sigma_max),
-          "fuzzy.sigma_range", "must be [min, max] with 0 < min < max");
+  limits::require_in(fuzzy.sigma_min, limits::kSigma, "fuzzy.sigma_range");
+  limits::require_in(fuzzy.sigma_max, limits::kSigma, "fuzzy.sigma_range");
+  require(fuzzy.sigma_max > fuzzy.sigma_min, "fuzzy.sigma_range",
+          "must be [min, max] with 0 < min < max");
+  // √w in units of a_M + √q (eq. 15): a table's variances then stay within (1000 a_M)².
   require(std::isfinite(fuzzy.consequent_low) && fuzzy.consequent_low >= 0.0 &&
-              fuzzy.consequent_high > fuzzy.consequent_low && std::isfinite(fuzzy.consequent_high),
-          "fuzzy.consequent_range", "must be [low, high] with 0 ≤ low < high");
+              fuzzy.consequent_high > fuzzy.consequent_low && fuzzy.consequent_high <= 1000.0,
+          "fuzzy.consequent_range", "must be [low, high] with 0 ≤ low < high ≤ 1000");
   require(fuzzy.lambda >= 0.0 && fuzzy.lambda <= 1.0, "ga.lambda", "must be in [0, 1]");
   require(ga.population >= 2 && ga.population <= 100000, "ga.population", "must be in [2, 100000]");
   require(ga.generations >= 0 && ga.generations <= 100000, "ga.generations",
@@ -142,6 +142,7 @@ void GaTrainingConfig::validate() const {
           "must be in (0, 1]");
   require(memetic.max_evaluations >= 0, "memetic.max_evaluations", "must be non-negative");
   require(finite_positive(max_validation_error), "gate.max_validation_error", "must be positive");
+  require(memetic.max_evaluations <= 1000000, "memetic.max_evaluations", "must be at most 10⁶");
 }
 
 TrainingSetOptions GaTrainingConfig::training_set_options(std::size_t level,

@@ -396,11 +396,11 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
                             std::to_string(config.max_validation_error);
     }
   }
-  if (result.gate_passed) {
-    write_outputs(config, options, result);
-    std::error_code ignored;
-    std::filesystem::remove(checkpoint_file, ignored);
-  }
+  if (result.gate_passed) write_outputs(config, options, result);
+  // The run is complete either way: a resume would only repeat the verdict. (A run that stops
+  // early — killed, stopped, or an error — keeps its checkpoint for --resume.)
+  std::error_code ignored;
+  std::filesystem::remove(checkpoint_file, ignored);
   return result;
 }
 

@@ -4,6 +4,8 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "imm/trainer/parallel_for.hpp"
+
 namespace imm::trainer::ga {
 
 std::size_t Population::best_index() const {
@@ -108,11 +110,10 @@ void GeneticAlgorithm::evaluate(Population& population) const {
   const auto n = static_cast<long>(population.genomes.size());
   population.evaluations.resize(population.genomes.size());
   // Each evaluation is a pure function of its genome: any schedule gives the same results.
-#pragma omp parallel for schedule(dynamic, 4)
-  for (long i = 0; i < n; ++i) {
+  parallel_for(n, 4, [&](long i) {
     population.evaluations[static_cast<std::size_t>(i)] =
         problem_.evaluate(population.genomes[static_cast<std::size_t>(i)]);
-  }
+  });
 }
 
 Population GeneticAlgorithm::initialize() const {

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/datasets/axis_trajectory.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/sha256.hpp"
@@ -30,14 +31,16 @@ MlpTrainingConfig config_from(const support::ConfigTable& root) {
     c.cv_kf.process_noise = kf->real_or("process_noise", c.cv_kf.process_noise);
     if (kf->has("measurement_sigma")) {
       const double sigma = kf->real("measurement_sigma");
-      if (!(sigma > 0.0)) kf->fail("measurement_sigma", "must be positive");
+      if (!limits::contains(limits::kSigma, sigma)) {
+        kf->fail("measurement_sigma", "must be in " + limits::describe(limits::kSigma));
+      }
       c.cv_kf.measurement_variance = sigma * sigma;
     }
   }
   if (const auto d = root.table("data")) {
     c.initial_speed = d->real_or("initial_speed", c.initial_speed);
     c.duration = d->real_or("duration", c.duration);
-    c.realizations = static_cast<int>(d->integer_or("realizations", c.realizations));
+    c.realizations = d->count_or("realizations", c.realizations);
     c.quiet_duration = d->real_or("quiet_duration", c.quiet_duration);
     for (const auto& p : d->tables("training")) c.training_profiles.push_back(profile_from(p));
     for (const auto& p : d->tables("validation")) c.validation_profiles.push_back(profile_from(p));
@@ -87,10 +90,10 @@ MlpTrainingConfig config_from(const support::ConfigTable& root) {
       c.training.phases.clear();
       for (const auto& p : t->tables("phases")) {
         c.training.phases.push_back(
-            {static_cast<int>(p.integer("epochs")), p.real("hidden_rate"), p.real("output_rate")});
+            {p.count("epochs"), p.real("hidden_rate"), p.real("output_rate")});
       }
     }
-    c.training.loss_every = static_cast<int>(t->integer_or("loss_every", c.training.loss_every));
+    c.training.loss_every = t->count_or("loss_every", c.training.loss_every);
   }
   if (const auto g = root.table("gate")) {
     c.max_validation_rmse = g->real_or("max_validation_rmse", c.max_validation_rmse);
@@ -126,44 +129,60 @@ double mean_output(const InputEstimatorModel& model, const Samples& features, bo
 }  // namespace
 
 void MlpTrainingConfig::validate() const {
-  require(cv_kf.sample_period > 0.0 && std::isfinite(cv_kf.sample_period), "cv_kf.sample_period",
-          "must be positive");
-  require(cv_kf.process_noise >= 0.0 && std::isfinite(cv_kf.process_noise), "cv_kf.process_noise",
-          "must be non-negative");
-  require(cv_kf.measurement_variance > 0.0 && std::isfinite(cv_kf.measurement_variance),
-          "cv_kf.measurement_sigma", "must be positive");
-  require(std::isfinite(initial_speed), "data.initial_speed", "must be finite");
-  require(duration >= 20.0 * cv_kf.sample_period && duration <= 1e6, "data.duration",
-          "must cover at least 20 scans");
+  try {
+    cv_kf.validate();
+  } catch (const InvalidParameter& error) {
+    throw(error.field() == "measurement_variance"
+              ? InvalidParameter("measurement_sigma",
+                                 "must be in " + limits::describe(limits::kSigma))
+              : error)
+        .within("cv_kf.");
+  }
+  limits::require_magnitude(initial_speed, limits::kSpeed, "data.initial_speed");
+  // Every trajectory is simulated scan by scan: at most kMaxScans of them.
+  constexpr double kMaxScans = 1e6;
+  const double T = cv_kf.sample_period;
+  require(duration >= 20.0 * T && duration <= kMaxScans * T, "data.duration",
+          "must cover 20 to 10⁶ scans of cv_kf.sample_period");
+  require(quiet_duration >= 20.0 * T && quiet_duration <= kMaxScans * T, "data.quiet_duration",
+          "must cover 20 to 10⁶ scans of cv_kf.sample_period");
   require(realizations >= 1 && realizations <= 1000, "data.realizations", "must be in [1, 1000]");
   require(!training_profiles.empty(), "data.training", "at least one [[data.training]] profile");
   require(!validation_profiles.empty(), "data.validation",
           "at least one [[data.validation]] profile");
   for (const auto* set : {&training_profiles, &validation_profiles}) {
-    for (const auto& profile : *set) {
-      for (const auto& p : profile) {
-        require(std::isfinite(p.start) && p.duration > 0.0 && std::isfinite(p.acceleration),
-                set == &training_profiles ? "data.training" : "data.validation",
-                "maneuvers are [start s, duration s > 0, acceleration]");
+    for (std::size_t i = 0; i < set->size(); ++i) {
+      const std::string key =
+          std::string(set == &training_profiles ? "data.training" : "data.validation") + "[" +
+          std::to_string(i) + "].maneuvers";
+      for (const auto& p : (*set)[i]) {
+        require(limits::contains(limits::kDuration, p.start) && p.duration > 0.0 &&
+                    p.duration <= limits::kDuration.max &&
+                    limits::contains(limits::kAcceleration, std::abs(p.acceleration)),
+                key,
+                "rows are [start s ≥ 0, duration s > 0, acceleration], within " +
+                    limits::describe(limits::kDuration) + " and |a| ≤ " +
+                    limits::describe(limits::kAcceleration));
       }
     }
   }
-  require(quiet_duration >= 20.0 * cv_kf.sample_period, "data.quiet_duration",
-          "must cover 20 scans");
   require(!hidden.empty() && hidden.size() <= 4, "network.hidden", "1 to 4 hidden layers");
   for (int h : hidden) require(h >= 1 && h <= 256, "network.hidden", "layer sizes in [1, 256]");
-  require(output_scale > 0.0 && std::isfinite(output_scale), "network.output_scale",
-          "must be positive");
+  limits::require_in(output_scale, {1e-9, limits::kAcceleration.max, ""}, "network.output_scale");
   require(init_range > 0.0 && init_range <= 10.0, "network.init_range", "must be in (0, 10]");
   require(!training.phases.empty(), "training.phases", "at least one phase");
-  for (const auto& phase : training.phases) {
-    require(phase.epochs >= 0 && phase.epochs <= 1000000, "training.phases", "epochs in [0, 10⁶]");
-    require(phase.hidden_rate > 0.0 && phase.output_rate > 0.0 &&
-                std::isfinite(phase.hidden_rate) && std::isfinite(phase.output_rate),
-            "training.phases", "learning rates must be positive");
+  for (std::size_t i = 0; i < training.phases.size(); ++i) {
+    const auto& phase = training.phases[i];
+    const std::string key = "training.phases[" + std::to_string(i) + "].";
+    require(phase.epochs >= 0 && phase.epochs <= 1000000, key + "epochs", "must be in [0, 10⁶]");
+    require(phase.hidden_rate > 0.0 && phase.hidden_rate <= 100.0, key + "hidden_rate",
+            "must be in (0, 100]");
+    require(phase.output_rate > 0.0 && phase.output_rate <= 100.0, key + "output_rate",
+            "must be in (0, 100]");
   }
   require(training.loss_every >= 1, "training.loss_every", "must be positive");
-  require(max_validation_rmse > 0.0, "gate.max_validation_rmse", "must be positive");
+  require(max_validation_rmse > 0.0 && std::isfinite(max_validation_rmse),
+          "gate.max_validation_rmse", "must be positive");
 }
 
 MlpTrainingConfig load_mlp_config(const std::filesystem::path& path) {

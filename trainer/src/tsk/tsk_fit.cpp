@@ -11,6 +11,7 @@
 #include <string>
 
 #include "imm/datasets/random.hpp"
+#include "imm/trainer/parallel_for.hpp"
 
 namespace imm::trainer::tsk {
 namespace {
@@ -187,8 +188,7 @@ FcrmResult fcrm(const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targets,
   // Restarts run in parallel; each depends only on (seed, start) and the lowest objective wins
   // (the earliest start on a tie), so the result does not depend on the thread count.
   std::vector<FcrmResult> results(static_cast<std::size_t>(settings.restarts));
-#pragma omp parallel for schedule(dynamic, 1)
-  for (int start = 0; start < settings.restarts; ++start) {
+  parallel_for(settings.restarts, 1, [&](long start) {
     // A start: each cluster's hyperplane fitted to the N/c samples nearest (in the input box
     // scaled to unit size) to a random sample — local planes, so that a piecewise-linear target
     // is split along its pieces — and the memberships of step 2 from those planes.
@@ -225,7 +225,7 @@ FcrmResult fcrm(const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targets,
           fcrm_memberships(distances.row(q).transpose(), settings.fuzzifier).transpose();
     }
     results[static_cast<std::size_t>(start)] = fcrm_from(inputs, targets, initial, settings);
-  }
+  });
   FcrmResult best = std::move(results.front());
   for (std::size_t i = 1; i < results.size(); ++i) {
     if (results[i].objective < best.objective) best = std::move(results[i]);

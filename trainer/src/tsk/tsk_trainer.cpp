@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
 #include "imm/io/file_error.hpp"
@@ -38,7 +39,7 @@ TskTrainingConfig config_from(const support::ConfigTable& root) {
   c.data.seed = datasets::derive_seed(c.seed, 1);
   if (const auto d = root.table("data")) {
     auto& data = c.data;
-    data.samples = static_cast<int>(d->integer_or("samples", data.samples));
+    data.samples = d->count_or("samples", data.samples);
     data.distortion.knee = d->real_or("knee", data.distortion.knee);
     data.distortion.softness = d->real_or("softness", data.distortion.softness);
     data.noise_sigma = d->real_or("noise_sigma", data.noise_sigma);
@@ -53,15 +54,14 @@ TskTrainingConfig config_from(const support::ConfigTable& root) {
     c.validation_fraction = d->real_or("validation_fraction", c.validation_fraction);
   }
   if (const auto f = root.table("fit")) {
-    c.fcrm.clusters = static_cast<int>(f->integer_or("rules", c.fcrm.clusters));
+    c.fcrm.clusters = f->count_or("rules", c.fcrm.clusters);
     c.fcrm.fuzzifier = f->real_or("fuzzifier", c.fcrm.fuzzifier);
     c.fcrm.tolerance = f->real_or("tolerance", c.fcrm.tolerance);
-    c.fcrm.max_iterations =
-        static_cast<int>(f->integer_or("max_iterations", c.fcrm.max_iterations));
-    c.fcrm.restarts = static_cast<int>(f->integer_or("restarts", c.fcrm.restarts));
+    c.fcrm.max_iterations = f->count_or("max_iterations", c.fcrm.max_iterations);
+    c.fcrm.restarts = f->count_or("restarts", c.fcrm.restarts);
     if (f->has("t_norm")) c.t_norm = t_norm_from(f->text("t_norm"), f->path("t_norm"));
     c.fine_tuning.max_iterations =
-        static_cast<int>(f->integer_or("fine_tuning_iterations", c.fine_tuning.max_iterations));
+        f->count_or("fine_tuning_iterations", c.fine_tuning.max_iterations);
   }
   if (const auto g = root.table("gate")) {
     c.max_validation_rmse = g->real_or("max_validation_rmse", c.max_validation_rmse);
@@ -76,7 +76,7 @@ TskTrainingConfig config_from(const support::ConfigTable& root) {
     if (f->has("initial_probabilities")) {
       s.initial_probabilities = f->reals("initial_probabilities", 2);
     }
-    c.iekf_iterations = static_cast<int>(f->integer_or("iekf_iterations", c.iekf_iterations));
+    c.iekf_iterations = f->count_or("iekf_iterations", c.iekf_iterations);
   }
   if (const auto s = root.table("scenario")) {
     auto& sc = c.scenario;
@@ -92,7 +92,7 @@ TskTrainingConfig config_from(const support::ConfigTable& root) {
       const Eigen::VectorXd r = s->reals("return", 2);
       sc.return_start = r(0), sc.return_end = r(1);
     }
-    sc.steps = static_cast<int>(s->integer_or("steps", sc.steps));
+    sc.steps = s->count_or("steps", sc.steps);
   }
   c.scenario.sample_period = c.fimm.sample_period;
   c.scenario.distortion = c.data.distortion;
@@ -111,28 +111,31 @@ std::string output_key(int i) {
 
 void TskTrainingConfig::validate() const {
   // The checks whose component field is not a config key first, under the key.
-  require(
-      std::isfinite(data.lower(0)) && std::isfinite(data.upper(0)) && data.lower(0) < data.upper(0),
-      "data.xi", "must be [lower, upper] with lower < upper");
-  require(std::isfinite(data.lower(1)) && std::isfinite(data.upper(1)) && data.lower(1) > 0.0 &&
+  auto in_box = [](double v) { return limits::contains(limits::kDistance, std::abs(v)); };
+  require(in_box(data.lower(0)) && in_box(data.upper(0)) && data.lower(0) < data.upper(0),
+          "data.xi", "must be [lower, upper] with lower < upper, within ±10⁹");
+  require(in_box(data.lower(1)) && in_box(data.upper(1)) && data.lower(1) > 0.0 &&
               data.lower(1) < data.upper(1),
-          "data.eta", "must be [lower, upper] with 0 < lower < upper (ahead of the sensor)");
-  require(std::isfinite(scenario.host_speed), "scenario.host_speed", "must be finite");
-  require(std::isfinite(scenario.target_speed), "scenario.target_speed", "must be finite");
-  require(scenario.cut_in_start < scenario.cut_in_end, "scenario.cut_in",
-          "must be [start, end] with start < end");
-  require(
-      scenario.cut_in_end <= scenario.return_start && scenario.return_start < scenario.return_end,
-      "scenario.return", "must be [start, end] with cut_in end ≤ start < end");
+          "data.eta", "must be [lower, upper] with 0 < lower < upper ≤ 10⁹ (ahead of the sensor)");
+  limits::require_magnitude(scenario.host_speed, limits::kSpeed, "scenario.host_speed");
+  limits::require_magnitude(scenario.target_speed, limits::kSpeed, "scenario.target_speed");
+  require(limits::contains(limits::kDuration, scenario.cut_in_start) &&
+              limits::contains(limits::kDuration, scenario.cut_in_end) &&
+              scenario.cut_in_start < scenario.cut_in_end,
+          "scenario.cut_in", "must be [start, end] with 0 ≤ start < end ≤ 10⁷ s");
+  require(limits::contains(limits::kDuration, scenario.return_end) &&
+              scenario.cut_in_end <= scenario.return_start &&
+              scenario.return_start < scenario.return_end,
+          "scenario.return", "must be [start, end] with cut_in end ≤ start < end ≤ 10⁷ s");
   validate_as("data.", [&] { data.validate(); });
   require(validation_fraction > 0.0 && validation_fraction < 1.0, "data.validation_fraction",
           "must be in (0, 1)");
   require(fcrm.clusters >= 1 && fcrm.clusters <= TskModel::kMaxRules, "fit.rules",
           "must be in [1, " + std::to_string(TskModel::kMaxRules) + "]");
-  require(fcrm.fuzzifier > 1.0 && std::isfinite(fcrm.fuzzifier), "fit.fuzzifier",
-          "must be greater than 1");
-  require(fcrm.tolerance > 0.0 && std::isfinite(fcrm.tolerance), "fit.tolerance",
-          "must be positive");
+  require(fcrm.fuzzifier >= 1.01 && fcrm.fuzzifier <= 100.0, "fit.fuzzifier",
+          "must be in [1.01, 100]");
+  require(fcrm.tolerance >= 1e-15 && fcrm.tolerance <= 1.0, "fit.tolerance",
+          "must be in [1e-15, 1]");
   require(fcrm.max_iterations >= 1 && fcrm.max_iterations <= 100000, "fit.max_iterations",
           "must be in [1, 100000]");
   require(fcrm.restarts >= 1 && fcrm.restarts <= 1000, "fit.restarts", "must be in [1, 1000]");

@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "imm/support/config.hpp"
@@ -28,7 +29,13 @@ WimmTrainingConfig config_from(const support::ConfigTable& root) {
     s.singer_tau = f->real_or("singer_tau", s.singer_tau);
     s.singer_sigma = f->real_or("singer_sigma", s.singer_sigma);
     s.range_sigma = f->real_or("range_sigma", s.range_sigma);
-    if (f->has("azimuth_sigma_deg")) s.azimuth_sigma = f->real("azimuth_sigma_deg") * kDegree;
+    if (f->has("azimuth_sigma_deg")) {
+      const double degrees = f->real("azimuth_sigma_deg");
+      if (!(degrees >= 1e-6 && degrees <= 180.0)) {
+        f->fail("azimuth_sigma_deg", "must be in [1e-06, 180]");
+      }
+      s.azimuth_sigma = degrees * kDegree;
+    }
     if (f->has("transition")) s.transition = f->matrix("transition", 2, 2);
     if (f->has("initial_probabilities"))
       s.initial_probabilities = f->reals("initial_probabilities", 2);
@@ -40,8 +47,8 @@ WimmTrainingConfig config_from(const support::ConfigTable& root) {
   }
   if (const auto t = root.table("training")) {
     WimmTrainingOptions& o = c.training;
-    o.trajectories = static_cast<int>(t->integer_or("trajectories", o.trajectories));
-    o.steps = static_cast<int>(t->integer_or("steps", o.steps));
+    o.trajectories = t->count_or("trajectories", o.trajectories);
+    o.steps = t->count_or("steps", o.steps);
     if (t->has("range_km")) {
       const Eigen::VectorXd r = t->reals("range_km", 2);
       o.min_range = r(0) * 1e3, o.max_range = r(1) * 1e3;
@@ -51,7 +58,7 @@ WimmTrainingConfig config_from(const support::ConfigTable& root) {
       o.min_speed = v(0), o.max_speed = v(1);
     }
     o.max_heading_offset_deg = t->real_or("max_heading_offset_deg", o.max_heading_offset_deg);
-    o.max_turns = static_cast<int>(t->integer_or("max_turns", o.max_turns));
+    o.max_turns = t->count_or("max_turns", o.max_turns);
     if (t->has("turn_rate_deg")) {
       const Eigen::VectorXd w = t->reals("turn_rate_deg", 2);
       o.min_turn_rate_deg = w(0), o.max_turn_rate_deg = w(1);
@@ -70,7 +77,7 @@ WimmTrainingConfig config_from(const support::ConfigTable& root) {
       const Eigen::VectorXd r = u->reals("alpha_range", 2);
       c.min_alpha = r(0), c.max_alpha = r(1);
     }
-    c.max_evaluations = static_cast<int>(u->integer_or("max_evaluations", c.max_evaluations));
+    c.max_evaluations = u->count_or("max_evaluations", c.max_evaluations);
     c.position_penalty = u->real_or("position_penalty", c.position_penalty);
   }
   c.validate();
@@ -115,26 +122,26 @@ void WimmTrainingConfig::validate() const {
   require(o.trajectories >= 1 && o.trajectories <= 10000, "training.trajectories",
           "must be in [1, 10000]");
   require(o.steps > kFirstSettledScan && o.steps <= 100000, "training.steps", "must exceed 40");
-  require(o.min_range > 0.0 && o.max_range >= o.min_range, "training.range_km",
-          "must be 0 < min ≤ max");
-  require(o.min_speed > 0.0 && o.max_speed >= o.min_speed, "training.speed",
-          "must be 0 < min ≤ max");
+  require(o.min_range > 0.0 && o.max_range >= o.min_range && o.max_range <= limits::kDistance.max,
+          "training.range_km", "must be 0 < min ≤ max ≤ 10⁶ km");
+  require(o.min_speed > 0.0 && o.max_speed >= o.min_speed && o.max_speed <= limits::kSpeed.max,
+          "training.speed", "must be 0 < min ≤ max ≤ 10⁶ m/s");
   require(o.max_heading_offset_deg >= 0.0 && o.max_heading_offset_deg <= 180.0,
           "training.max_heading_offset_deg", "must be in [0, 180]");
   require(o.max_turns >= 0 && o.max_turns <= 10, "training.max_turns", "must be in [0, 10]");
-  require(o.min_turn_rate_deg > 0.0 && o.max_turn_rate_deg >= o.min_turn_rate_deg,
-          "training.turn_rate_deg", "must be 0 < min ≤ max");
+  require(o.min_turn_rate_deg > 0.0 && o.max_turn_rate_deg >= o.min_turn_rate_deg &&
+              o.max_turn_rate_deg <= limits::kTurnRate.max,
+          "training.turn_rate_deg", "must be 0 < min ≤ max ≤ 1000");
   require(
       o.min_turn_scans >= 1 && o.max_turn_scans >= o.min_turn_scans && o.max_turn_scans < o.steps,
       "training.turn_scans", "must be 1 ≤ min ≤ max < steps");
-  require(
-      min_threshold < max_threshold && std::isfinite(min_threshold) && std::isfinite(max_threshold),
-      "tuning.threshold_range", "must be [min, max], min < max");
+  require(min_threshold < max_threshold && min_threshold >= 0.0 && max_threshold <= 1.0,
+          "tuning.threshold_range", "must be [min, max] within [0, 1], min < max");
   require(min_alpha > 0.0 && max_alpha <= 1.0 && min_alpha < max_alpha, "tuning.alpha_range",
           "must be [min, max] within (0, 1]");
-  require(max_evaluations >= 1, "tuning.max_evaluations", "must be positive");
-  require(std::isfinite(position_penalty) && position_penalty >= 0.0, "tuning.position_penalty",
-          "must be non-negative");
+  require(max_evaluations >= 1 && max_evaluations <= 1000000, "tuning.max_evaluations",
+          "must be in [1, 10⁶]");
+  limits::require_in(position_penalty, limits::kFactor, "tuning.position_penalty");
 }
 
 WimmTrainingConfig load_wimm_config(const std::filesystem::path& path) {

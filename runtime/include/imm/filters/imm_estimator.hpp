@@ -40,7 +40,8 @@
 namespace imm {
 
 namespace detail {
-/// Validates a row-stochastic transition matrix and a probability vector for `modes` modes.
+/// Validates a row-stochastic transition matrix and a probability vector for `modes` modes;
+/// throws InvalidParameter naming "transition" or "initial_probabilities".
 void validate_mode_probabilities(const Eigen::MatrixXd& transition,
                                  const Eigen::VectorXd& initial_probabilities, int modes);
 }  // namespace detail

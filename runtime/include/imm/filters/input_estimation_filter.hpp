@@ -55,6 +55,8 @@ struct CvKfSettings {
   double measurement_variance = 2500;  ///< R, m²
 
   [[nodiscard]] bool operator==(const CvKfSettings&) const = default;
+  /// InvalidParameter naming the field outside its physical range (imm/core/physical_limits.hpp).
+  void validate() const;
 };
 
 /// The constant-velocity KF and the features of its normalized innovations: what the network

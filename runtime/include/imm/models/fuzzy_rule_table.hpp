@@ -19,6 +19,8 @@
 #include <string>
 #include <vector>
 
+#include "imm/core/physical_limits.hpp"
+
 namespace imm {
 
 struct FuzzyRule {
@@ -63,15 +65,20 @@ class FuzzyRuleTable {
     for (std::size_t l = 0; l < rules_.size(); ++l) {
       const FuzzyRule& rule = rules_[l];
       const std::string name = "rule " + std::to_string(l);
-      if (!std::isfinite(rule.c1) || !std::isfinite(rule.c2)) {
-        throw std::invalid_argument(name + ": centers must be finite");
+      // Residuals are distances, the consequents w process-noise variances.
+      if (!limits::contains(limits::kDistance, std::abs(rule.c1)) ||
+          !limits::contains(limits::kDistance, std::abs(rule.c2))) {
+        throw std::invalid_argument(name + ": centers must be finite with magnitude in " +
+                                    limits::describe(limits::kDistance));
       }
-      if (!(rule.sigma1 > 0.0) || !(rule.sigma2 > 0.0) || !std::isfinite(rule.sigma1) ||
-          !std::isfinite(rule.sigma2)) {
-        throw std::invalid_argument(name + ": sigma1 and sigma2 must be positive and finite");
+      if (!limits::contains(limits::kSigma, rule.sigma1) ||
+          !limits::contains(limits::kSigma, rule.sigma2)) {
+        throw std::invalid_argument(name + ": sigma1 and sigma2 must be positive, in " +
+                                    limits::describe(limits::kSigma));
       }
-      if (!(rule.w >= 0.0) || !std::isfinite(rule.w)) {
-        throw std::invalid_argument(name + ": w must be non-negative and finite");
+      if (!limits::contains(limits::kVariance, rule.w)) {
+        throw std::invalid_argument(name + ": w must be non-negative and finite, in " +
+                                    limits::describe(limits::kVariance));
       }
       sum += rule.w;
     }

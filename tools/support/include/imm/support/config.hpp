@@ -41,6 +41,10 @@ class ConfigTable {
   [[nodiscard]] double real_or(std::string_view key, double fallback) const;
   [[nodiscard]] std::int64_t integer(std::string_view key) const;
   [[nodiscard]] std::int64_t integer_or(std::string_view key, std::int64_t fallback) const;
+  /// An integer within the range of int (counts, sizes, scan indices): a larger one is an error
+  /// naming the key, never a wrapped value.
+  [[nodiscard]] int count(std::string_view key) const;
+  [[nodiscard]] int count_or(std::string_view key, int fallback) const;
   /// A random seed: a non-negative integer.
   [[nodiscard]] std::uint64_t seed_or(std::string_view key, std::uint64_t fallback) const;
   [[nodiscard]] std::string text(std::string_view key) const;

@@ -1,0 +1,72 @@
+#pragma once
+/// The ranges every physical quantity must lie in — in a filter spec, a model file, a trainer
+/// config or a scenario — and the check that names the offending field.
+///
+/// "Finite" is not enough: a sample period of 1e-320 s or a σ of 1e308 is finite, but T⁴, 1/T or
+/// σ² overflow or underflow deep inside a filter or a trainer, where the error no longer says
+/// which key to fix. The bounds below are wide enough for every sensor and target in either unit
+/// system the configs use (m or km, s) and narrow enough that products of in-range values — a
+/// variance q T⁴, a position v t over a whole track, σ² of a sum of outputs — stay far inside the
+/// double range.
+
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <string_view>
+
+#include "imm/core/invalid_parameter.hpp"
+
+namespace imm::limits {
+
+/// A closed interval [min, max] with its unit (for the error message).
+struct Interval {
+  double min;
+  double max;
+  std::string_view unit;
+};
+
+/// Sample periods, time constants, durations: a microsecond to ten hours.
+inline constexpr Interval kSamplePeriod{1e-6, 36000.0, "s"};
+inline constexpr Interval kTimeConstant{1e-6, 1e7, "s"};
+inline constexpr Interval kDuration{0.0, 1e7, "s"};
+/// Standard deviations of measurements, sensors and truth noise (m, km, rad): strictly positive
+/// where they divide (σ² must not underflow to 0) ...
+inline constexpr Interval kSigma{1e-9, 1e9, ""};
+/// ... and non-negative where zero is meaningful (noise-free truth).
+inline constexpr Interval kNoiseSigma{0.0, 1e9, ""};
+/// Variances and process-noise intensities (q, σ², in the config's squared units).
+inline constexpr Interval kVariance{0.0, 1e18, ""};
+/// Positions, ranges and distances (m or km).
+inline constexpr Interval kDistance{0.0, 1e9, ""};
+/// Speeds (m/s or km/s) and accelerations (m/s² or km/s²), as magnitudes.
+inline constexpr Interval kSpeed{0.0, 1e6, ""};
+inline constexpr Interval kAcceleration{0.0, 1e6, ""};
+/// Turn rates, rad/s or deg/s.
+inline constexpr Interval kTurnRate{0.0, 1e3, ""};
+/// Dimensionless positive factors and ratios (scales, separations, fuzzifiers).
+inline constexpr Interval kFactor{0.0, 1e6, ""};
+
+/// "[1e-06, 36000] s"
+[[nodiscard]] inline std::string describe(const Interval& interval) {
+  std::ostringstream text;
+  text << '[' << interval.min << ", " << interval.max << ']';
+  if (!interval.unit.empty()) text << ' ' << interval.unit;
+  return text.str();
+}
+
+[[nodiscard]] inline bool contains(const Interval& interval, double value) {
+  return std::isfinite(value) && value >= interval.min && value <= interval.max;
+}
+
+/// Throws InvalidParameter(field, "must be in [min, max] unit") unless `value` lies in `interval`.
+inline void require_in(double value, const Interval& interval, const std::string& field) {
+  require(contains(interval, value), field, "must be in " + describe(interval));
+}
+
+/// The same for |value| (signed positions, velocities, accelerations).
+inline void require_magnitude(double value, const Interval& interval, const std::string& field) {
+  require(std::isfinite(value) && std::abs(value) <= interval.max, field,
+          "must be in " + describe({-interval.max, interval.max, interval.unit}));
+}
+
+}  // namespace imm::limits
