@@ -1,6 +1,7 @@
 #include "imm/datasets/axis_trajectory.hpp"
 
 #include "imm/datasets/random.hpp"
+#include "imm/datasets/track.hpp"
 #include "imm/models/constant_velocity.hpp"
 
 namespace imm::datasets {
@@ -33,6 +34,22 @@ AxisTrajectory simulate_axis(double initial_position, double initial_velocity,
     x = motion.transition * x + G * (acceleration_input(k) + w);
   }
   return t;
+}
+
+std::vector<AxisTrajectory> axis_trajectories(const TrackSet& set) {
+  std::vector<AxisTrajectory> result;
+  result.reserve(2 * set.tracks.size());
+  for (const Track& track : set.tracks) {
+    for (Eigen::Index axis = 0; axis < 2; ++axis) {
+      AxisTrajectory t;
+      t.position = track.truth.col(3 * axis);
+      t.velocity = track.truth.col(3 * axis + 1);
+      t.acceleration_input = track.truth.col(3 * axis + 2);
+      t.measurement = track.plots.col(axis);
+      result.push_back(std::move(t));
+    }
+  }
+  return result;
 }
 
 }  // namespace imm::datasets

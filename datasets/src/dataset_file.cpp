@@ -1,13 +1,12 @@
 #include "imm/datasets/dataset_file.hpp"
 
-#include "imm/core/invalid_parameter.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/io/schema_reader.hpp"
 
 namespace imm::datasets {
 namespace {
 
-constexpr std::string_view kDatasetKind = "maneuver_scenario";
+constexpr std::string_view kDatasetKind = "tracks";
 
 }  // namespace
 
@@ -26,6 +25,11 @@ void write_dataset_root(io::ContainerWriter& writer, std::string_view kind, std:
 
 void check_dataset_header(const io::SchemaReader& reader, std::string_view kind) {
   const std::int64_t version = reader.integer("/", "schema_version", 1, INT64_MAX);
+  if (version < kDatasetSchemaVersion) {
+    reader.fail("/@schema_version", "schema version " + std::to_string(version) +
+                                        " data sets (scenario-based) are not read any more; "
+                                        "regenerate the file with imm-data");
+  }
   if (version > kDatasetSchemaVersion) {
     reader.fail("/@schema_version", "schema version " + std::to_string(version) +
                                         " is newer than this reader supports (" +
@@ -62,114 +66,88 @@ std::vector<Eigen::MatrixXd> unstack_runs(const io::Array& array) {
   return result;
 }
 
-std::string write_scenario_dataset(const std::filesystem::path& path,
-                                   const ManeuverScenario& scenario, const ScenarioData& data,
-                                   const std::string& config_toml,
-                                   const std::string& generator_version) {
-  scenario.validate();
-  std::string data_digest = digest(data);
+std::string write_track_set(const std::filesystem::path& path, const Regime& regime,
+                            const TrackSet& set, const std::string& generator_version) {
+  if (set.tracks.empty()) throw io::FileError(path.string(), "/truth", "no tracks to write");
+  std::string data_digest = set.digest();
   io::ContainerWriter writer(path, kDatasetFormat);
-  write_dataset_root(writer, kDatasetKind, scenario.seed, config_toml, generator_version,
-                     data_digest);
-  writer.set_attribute("/", "scenario", scenario.name);
-
-  writer.write("/time", io::Array::from_vector(data.time));
-  writer.write("/acceleration_input", data.acceleration_input);
-  writer.set_attribute("/acceleration_input", "columns", std::string("ax,ay"));
-  writer.write("/truth", stack_runs(data.truth));
-  writer.set_attribute("/truth", "columns", std::string("x,vx,y,vy"));
-  writer.write("/measurements", stack_runs(data.measurements));
-  writer.set_attribute(
-      "/measurements", "columns",
-      std::string(scenario.measurement.kind == MeasurementKind::kCartesian ? "zx,zy"
-                                                                           : "range,azimuth"));
-
-  writer.set_attribute("/parameters", "sample_period", scenario.sample_period);
-  writer.set_attribute("/parameters", "steps", std::int64_t{scenario.steps});
-  writer.set_attribute("/parameters", "runs", std::int64_t{scenario.runs});
-  writer.set_attribute("/parameters", "process_noise_sigma", scenario.process_noise_sigma);
-  writer.set_attribute("/parameters", "measurement_kind",
-                       std::string(to_string(scenario.measurement.kind)));
-  writer.set_attribute("/parameters", "measurement_sigma_0", scenario.measurement.sigma(0));
-  writer.set_attribute("/parameters", "measurement_sigma_1", scenario.measurement.sigma(1));
-  writer.write("/parameters/initial_state",
-               io::Array::from_vector(
-                   Eigen::Vector4d(scenario.initial_position(0), scenario.initial_velocity(0),
-                                   scenario.initial_position(1), scenario.initial_velocity(1))));
-  Eigen::MatrixXd maneuvers(static_cast<Eigen::Index>(scenario.maneuvers.size()), 4);
-  for (std::size_t i = 0; i < scenario.maneuvers.size(); ++i) {
-    const ManeuverSegment& m = scenario.maneuvers[i];
-    maneuvers.row(static_cast<Eigen::Index>(i)) << m.start, m.end, m.acceleration(0),
-        m.acceleration(1);
+  write_dataset_root(writer, kDatasetKind, set.seed, regime.text, generator_version, data_digest);
+  std::vector<Eigen::MatrixXd> truth, plots;
+  Eigen::MatrixXd cases(static_cast<Eigen::Index>(set.tracks.size()), 4);
+  std::vector<Eigen::MatrixXd> maneuvering;
+  for (std::size_t i = 0; i < set.tracks.size(); ++i) {
+    const Track& t = set.tracks[i];
+    truth.push_back(t.truth);
+    plots.push_back(t.plots);
+    cases.row(static_cast<Eigen::Index>(i)) << t.case_index, t.noise.sigma(0), t.noise.sigma(1),
+        t.noise.correlation;
+    Eigen::MatrixXd flags(static_cast<Eigen::Index>(t.maneuvering.size()), 1);
+    for (std::size_t k = 0; k < t.maneuvering.size(); ++k) {
+      flags(static_cast<Eigen::Index>(k), 0) = t.maneuvering[k] ? 1.0 : 0.0;
+    }
+    maneuvering.push_back(std::move(flags));
   }
-  writer.write("/parameters/maneuvers", maneuvers);
-  writer.set_attribute("/parameters/maneuvers", "columns", std::string("start,end,ax,ay"));
-  Eigen::MatrixXd turns(static_cast<Eigen::Index>(scenario.turns.size()), 3);
-  for (std::size_t i = 0; i < scenario.turns.size(); ++i) {
-    const TurnSegment& t = scenario.turns[i];
-    turns.row(static_cast<Eigen::Index>(i)) << t.start, t.end, t.omega;
-  }
-  writer.write("/parameters/turns", turns);
-  writer.set_attribute("/parameters/turns", "columns", std::string("start,end,omega"));
+  writer.write("/truth", stack_runs(truth));
+  writer.set_attribute("/truth", "columns", std::string("x,vx,ax,y,vy,ay"));
+  writer.write("/plots", stack_runs(plots));
+  writer.set_attribute("/plots", "columns",
+                       std::string(regime.sensor.kind == SensorKind::kPolar       ? "range,azimuth"
+                                   : regime.sensor.kind == SensorKind::kCartesian ? "zx,zy"
+                                                                                  : "z1,z2"));
+  writer.write("/maneuvering", stack_runs(maneuvering));
+  writer.write("/cases", cases);
+  writer.set_attribute("/cases", "columns", std::string("case,sigma1,sigma2,correlation"));
+  writer.set_attribute("/parameters", "regime", regime.name);
+  writer.set_attribute("/parameters", "regime_digest", regime.digest);
+  writer.set_attribute("/parameters", "split", std::string(to_string(set.split)));
+  writer.set_attribute("/parameters", "sample_period", set.sample_period);
+  writer.set_attribute("/parameters", "scans", std::int64_t{set.scans});
+  writer.set_attribute("/parameters", "tracks", static_cast<std::int64_t>(set.tracks.size()));
+  writer.set_attribute("/parameters", "units", std::string(to_string(regime.units)));
+  writer.set_attribute("/parameters", "sensor", std::string(to_string(regime.sensor.kind)));
   writer.commit();
   return data_digest;
 }
 
-ScenarioDataset read_scenario_dataset(const std::filesystem::path& path) {
+TrackSetFile read_track_set(const std::filesystem::path& path) {
   const io::SchemaReader reader(path, kDatasetFormat);
   check_dataset_header(reader, kDatasetKind);
-  ScenarioDataset result;
-  ManeuverScenario& s = result.scenario;
-  s.name = reader.text("/", "scenario");
-  s.seed = static_cast<std::uint64_t>(reader.integer("/", "seed", 0, INT64_MAX));
+  TrackSetFile result;
+  TrackSet& set = result.set;
+  set.seed = static_cast<std::uint64_t>(reader.integer("/", "seed", 0, INT64_MAX));
   result.created_utc = reader.text("/", "created_utc");
   result.generator_version = reader.text("/", "generator_version");
-  result.config_toml = reader.text("/", "config_toml");
+  result.regime_text = reader.text("/", "config_toml");
   result.digest = reader.text("/", "digest");
-
-  s.sample_period = reader.real("/parameters", "sample_period", io::ValueRule::kPositive);
-  s.steps = static_cast<int>(reader.integer("/parameters", "steps", 2, 10'000'000));
-  s.runs = static_cast<int>(reader.integer("/parameters", "runs", 1, 1'000'000));
-  s.process_noise_sigma =
-      reader.real("/parameters", "process_noise_sigma", io::ValueRule::kNonNegative);
-  try {
-    s.measurement.kind =
-        measurement_kind_from(reader.text("/parameters", "measurement_kind"), "measurement_kind");
-  } catch (const InvalidParameter& error) {
-    reader.fail("/parameters@measurement_kind", error.what());
+  set.regime = reader.text("/parameters", "regime");
+  result.regime_digest = reader.text("/parameters", "regime_digest");
+  const std::string split = reader.text("/parameters", "split");
+  bool known = false;
+  for (Split s : {Split::kTraining, Split::kValidation, Split::kTest}) {
+    if (split == to_string(s)) set.split = s, known = true;
   }
-  s.measurement.sigma =
-      Eigen::Vector2d(reader.real("/parameters", "measurement_sigma_0", io::ValueRule::kPositive),
-                      reader.real("/parameters", "measurement_sigma_1", io::ValueRule::kPositive));
-  const Eigen::VectorXd initial = reader.vector("/parameters/initial_state", 4);
-  s.initial_position = Eigen::Vector2d(initial(0), initial(2));
-  s.initial_velocity = Eigen::Vector2d(initial(1), initial(3));
-  const Eigen::MatrixXd maneuvers = reader.matrix("/parameters/maneuvers", -1, 4);
-  for (Eigen::Index i = 0; i < maneuvers.rows(); ++i) {
-    s.maneuvers.push_back({static_cast<int>(maneuvers(i, 0)), static_cast<int>(maneuvers(i, 1)),
-                           Eigen::Vector2d(maneuvers(i, 2), maneuvers(i, 3))});
-  }
-  if (reader.container().kind("/parameters/turns") == io::ObjectKind::kDataset) {
-    const Eigen::MatrixXd turns = reader.matrix("/parameters/turns", -1, 3);
-    for (Eigen::Index i = 0; i < turns.rows(); ++i) {
-      s.turns.push_back(
-          {static_cast<int>(turns(i, 0)), static_cast<int>(turns(i, 1)), turns(i, 2)});
+  if (!known) reader.fail("/parameters@split", "unknown split '" + split + "'");
+  set.sample_period = reader.real("/parameters", "sample_period", io::ValueRule::kPositive);
+  set.scans = static_cast<int>(reader.integer("/parameters", "scans", 3, 1'000'000));
+  const long tracks = reader.integer("/parameters", "tracks", 1, 1'000'000);
+  const long scans = set.scans;
+  const auto truth = unstack_runs(reader.array("/truth", {tracks, scans, 6}));
+  const auto plots = unstack_runs(reader.array("/plots", {tracks, scans, 2}));
+  const auto flags = unstack_runs(reader.array("/maneuvering", {tracks, scans, 1}));
+  const Eigen::MatrixXd cases = reader.matrix("/cases", static_cast<int>(tracks), 4);
+  for (long i = 0; i < tracks; ++i) {
+    Track t;
+    t.truth = truth[static_cast<std::size_t>(i)];
+    t.plots = plots[static_cast<std::size_t>(i)];
+    for (Eigen::Index k = 0; k < scans; ++k) {
+      t.maneuvering.push_back(flags[static_cast<std::size_t>(i)](k, 0) != 0.0);
     }
+    t.case_index = static_cast<int>(cases(i, 0));
+    t.noise.sigma = Eigen::Vector2d(cases(i, 1), cases(i, 2));
+    t.noise.correlation = cases(i, 3);
+    set.tracks.push_back(std::move(t));
   }
-  try {
-    s.validate();
-  } catch (const InvalidParameter& error) {
-    reader.fail("/parameters", error.what());
-  }
-
-  const long steps = s.steps, runs = s.runs;
-  result.data.time = reader.vector("/time", s.steps);
-  result.data.acceleration_input = reader.matrix("/acceleration_input", s.steps, 2);
-  result.data.truth = unstack_runs(reader.array("/truth", {runs, steps, 4}));
-  result.data.measurements = unstack_runs(reader.array("/measurements", {runs, steps, 2}));
-  if (digest(result.data) != result.digest) {
-    reader.fail("/@digest", "does not match the stored data");
-  }
+  if (set.digest() != result.digest) reader.fail("/@digest", "does not match the stored data");
   return result;
 }
 

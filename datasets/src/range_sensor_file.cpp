@@ -1,12 +1,17 @@
 #include "imm/datasets/range_sensor_file.hpp"
 
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <fstream>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/datasets/sha256.hpp"
 #include "imm/io/container_file.hpp"
+#include "imm/io/file_error.hpp"
 #include "imm/io/schema_reader.hpp"
 
 namespace imm::datasets {
@@ -18,33 +23,22 @@ std::string digest(const RangeSensorData& data) {
   return hash.hex_digest();
 }
 
-std::string digest(const CutInData& data) {
-  Sha256 hash;
-  hash_matrix(hash, data.truth);
-  for (const auto& z : data.measurements) hash_matrix(hash, z);
-  return hash.hex_digest();
-}
-
-std::string write_range_sensor_dataset(const std::filesystem::path& path,
-                                       const RangeSensorDataConfig& config,
-                                       const RangeSensorData& data, const std::string& config_toml,
+std::string write_range_sensor_dataset(const std::filesystem::path& path, const Regime& regime,
+                                       const RangeSensorData& data, std::uint64_t seed,
                                        const std::string& generator_version) {
-  config.validate();
   std::string data_digest = digest(data);
   io::ContainerWriter writer(path, kDatasetFormat);
-  write_dataset_root(writer, "range_sensor", config.seed, config_toml, generator_version,
-                     data_digest);
+  write_dataset_root(writer, "range_sensor", seed, regime.text, generator_version, data_digest);
   writer.write("/positions", data.positions);
   writer.set_attribute("/positions", "columns", std::string("xi,eta"));
   writer.write("/outputs", data.outputs);
   writer.set_attribute("/outputs", "columns", std::string("z1,z2"));
-  writer.set_attribute("/parameters", "knee", config.distortion.knee);
-  writer.set_attribute("/parameters", "softness", config.distortion.softness);
-  writer.set_attribute("/parameters", "noise_sigma", config.noise_sigma);
-  writer.set_attribute("/parameters", "samples", std::int64_t{config.samples});
+  writer.set_attribute("/parameters", "regime", regime.name);
+  writer.set_attribute("/parameters", "regime_digest", regime.digest);
+  writer.set_attribute("/parameters", "noise_sigma", regime.sensor.calibration.noise_sigma);
   Eigen::Matrix2d box;
-  box.row(0) = config.lower.transpose();
-  box.row(1) = config.upper.transpose();
+  box.row(0) = regime.sensor.calibration.lower.transpose();
+  box.row(1) = regime.sensor.calibration.upper.transpose();
   writer.write("/parameters/box", box);
   writer.set_attribute("/parameters/box", "columns", std::string("xi,eta"));
   writer.commit();
@@ -57,9 +51,8 @@ RangeSensorDataset read_range_sensor_dataset(const std::filesystem::path& path) 
   RangeSensorDataset out;
   out.data.positions = reader.matrix("/positions", -1, 2);
   out.data.outputs = reader.matrix("/outputs", static_cast<int>(out.data.positions.rows()), 2);
-  out.distortion.knee = reader.real("/parameters", "knee", io::ValueRule::kPositive);
-  out.distortion.softness = reader.real("/parameters", "softness", io::ValueRule::kPositive);
-  out.noise_sigma = reader.real("/parameters", "noise_sigma", io::ValueRule::kNonNegative);
+  out.regime = reader.text("/parameters", "regime");
+  out.regime_digest = reader.text("/parameters", "regime_digest");
   out.digest = reader.text("/", "digest");
   if (digest(out.data) != out.digest) {
     reader.fail("/@digest", "does not match the data (the file was altered)");
@@ -67,49 +60,59 @@ RangeSensorDataset read_range_sensor_dataset(const std::filesystem::path& path) 
   return out;
 }
 
-std::string write_cut_in_dataset(const std::filesystem::path& path, const CutInScenario& scenario,
-                                 const CutInData& data, const std::string& config_toml,
-                                 const std::string& generator_version) {
-  scenario.validate();
-  std::string data_digest = digest(data);
-  io::ContainerWriter writer(path, kDatasetFormat);
-  write_dataset_root(writer, "cut_in", scenario.seed, config_toml, generator_version, data_digest);
-  writer.write("/truth", data.truth);
-  writer.set_attribute("/truth", "columns", std::string("xi,vxi,axi,eta,veta,aeta"));
-  writer.write("/measurements", stack_runs(data.measurements));
-  writer.set_attribute("/measurements", "columns", std::string("z1,z2"));
-  writer.set_attribute("/parameters", "sample_period", scenario.sample_period);
-  writer.set_attribute("/parameters", "steps", std::int64_t{scenario.steps});
-  writer.set_attribute("/parameters", "runs", std::int64_t{scenario.runs});
-  writer.set_attribute("/parameters", "knee", scenario.distortion.knee);
-  writer.set_attribute("/parameters", "softness", scenario.distortion.softness);
-  writer.set_attribute("/parameters", "r_sigma_xi",
-                       std::sqrt(scenario.measurement_covariance(0, 0)));
-  writer.set_attribute("/parameters", "r_sigma_eta",
-                       std::sqrt(scenario.measurement_covariance(1, 1)));
-  writer.commit();
-  return data_digest;
-}
-
-CutInDataset read_cut_in_dataset(const std::filesystem::path& path) {
-  const io::SchemaReader reader(path, kDatasetFormat);
-  check_dataset_header(reader, "cut_in");
-  CutInDataset out;
-  const auto steps = reader.integer("/parameters", "steps", 2, 10'000'000);
-  const auto runs = reader.integer("/parameters", "runs", 1, 1'000'000);
-  out.sample_period = reader.real("/parameters", "sample_period", io::ValueRule::kPositive);
-  out.distortion.knee = reader.real("/parameters", "knee", io::ValueRule::kPositive);
-  out.distortion.softness = reader.real("/parameters", "softness", io::ValueRule::kPositive);
-  out.r_sigma =
-      Eigen::Vector2d(reader.real("/parameters", "r_sigma_xi", io::ValueRule::kPositive),
-                      reader.real("/parameters", "r_sigma_eta", io::ValueRule::kPositive));
-  out.data.truth = reader.matrix("/truth", static_cast<int>(steps), 6);
-  out.data.measurements = unstack_runs(reader.array("/measurements", {runs, steps, 2}));
-  out.digest = reader.text("/", "digest");
-  if (digest(out.data) != out.digest) {
-    reader.fail("/@digest", "does not match the data (the file was altered)");
+RangeSensorData read_sensor_samples(const std::filesystem::path& path) {
+  if (path.extension() != ".csv") return read_range_sensor_dataset(path).data;
+  RangeSensorData samples;
+  std::ifstream in(path);
+  if (!in) throw io::FileError(path.string(), "", "cannot open");
+  const std::string name = path.string();
+  std::string line;
+  int number = 0;
+  auto fail = [&](const std::string& message) -> void {
+    throw io::FileError(name + ":" + std::to_string(number), "", message);
+  };
+  std::vector<std::array<double, 4>> rows;
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line.front() == '#') continue;
+    std::vector<std::string> fields;
+    std::stringstream fields_in(line);
+    std::string field;
+    while (std::getline(fields_in, field, ',')) fields.push_back(field);
+    if (rows.empty() && !fields.empty() && fields.front() == "xi") {
+      if (fields != std::vector<std::string>{"xi", "eta", "z1", "z2"}) {
+        fail("header must be xi,eta,z1,z2");
+      }
+      continue;
+    }
+    if (fields.size() != 4)
+      fail("expected 4 fields (xi,eta,z1,z2), found " + std::to_string(fields.size()));
+    std::array<double, 4> row{};
+    for (std::size_t i = 0; i < 4; ++i) {
+      std::size_t used = 0;
+      try {
+        row[i] = std::stod(fields[i], &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || used != fields[i].size() || !std::isfinite(row[i])) {
+        fail("field " + std::to_string(i + 1) + " ('" + fields[i] + "') is not a finite number");
+      }
+    }
+    rows.push_back(row);
   }
-  return out;
+  if (rows.size() < 10) {
+    throw io::FileError(name, "", "need at least 10 samples, found " + std::to_string(rows.size()));
+  }
+  samples.positions.resize(static_cast<Eigen::Index>(rows.size()), 2);
+  samples.outputs.resize(static_cast<Eigen::Index>(rows.size()), 2);
+  for (std::size_t q = 0; q < rows.size(); ++q) {
+    const auto i = static_cast<Eigen::Index>(q);
+    samples.positions.row(i) << rows[q][0], rows[q][1];
+    samples.outputs.row(i) << rows[q][2], rows[q][3];
+  }
+  return samples;
 }
 
 }  // namespace imm::datasets

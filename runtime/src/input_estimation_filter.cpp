@@ -21,9 +21,24 @@ InnovationFeatureExtractor::InnovationFeatureExtractor(const CvKfSettings& setti
   H_ << 1.0, 0.0;
 }
 
+std::string_view to_string(InputSign sign) {
+  return sign == InputSign::kPositive ? "positive" : "innovation";
+}
+
+InputSign input_sign_from(std::string_view name, const std::string& field) {
+  for (InputSign sign : {InputSign::kPositive, InputSign::kInnovation}) {
+    if (name == to_string(sign)) return sign;
+  }
+  throw InvalidParameter(
+      field, "unknown sign '" + std::string(name) + "' (expected positive or innovation)");
+}
+
 void InnovationFeatureExtractor::initialize(const GaussianState<2>& state) {
   cv_ = state;
   features_.reset();
+  innovations_.fill(0.0);
+  innovation_head_ = 0;
+  innovation_sum_ = 0.0;
   ino_ = 0.0;
   innovation_ = 0.0;
 }
@@ -36,6 +51,10 @@ StepStatus InnovationFeatureExtractor::step(double z, Eigen::Vector2d& features)
   innovation_ = report.innovation(0);
   ino_ = innovation_ * innovation_ / report.innovation_covariance(0, 0);
   features = features_.push(ino_);
+  innovation_head_ = (innovation_head_ + 1) % innovations_.size();
+  innovations_[innovation_head_] = innovation_;
+  innovation_sum_ = 0.0;
+  for (double nu : innovations_) innovation_sum_ += nu;
   cv_ = cv;
   return StepStatus::kOk;
 }
@@ -84,7 +103,10 @@ StepStatus InputEstimationFilter::step(double z) {
   if (status != StepStatus::kOk) return status;
   input_ = standardize(model_, features);
   raw_output_ = model_.network.forward(input_);
-  acceleration_ = std::max(0.0, raw_output_ - model_.output_bias);
+  const double magnitude = std::max(0.0, raw_output_ - model_.output_bias);
+  acceleration_ = model_.sign == InputSign::kInnovation && features_.innovation_sum() < 0.0
+                      ? -magnitude
+                      : magnitude;
   innovation_ = primary_report.innovation(0);
   primary_ = primary;
   return StepStatus::kOk;

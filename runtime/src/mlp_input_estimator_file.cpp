@@ -16,6 +16,7 @@ void write_mlp_input_estimator(ModelFileWriter& writer, const InputEstimatorMode
   writer.set_attribute("/mlp", "layer_count", static_cast<std::int64_t>(layers.size()));
   writer.set_attribute("/mlp", "output_scale", model.network.output_scale());
   writer.set_attribute("/mlp", "output_bias", model.output_bias);
+  writer.set_attribute("/mlp", "sign", std::string(to_string(model.sign)));
   for (std::size_t i = 0; i < layers.size(); ++i) {
     writer.set_attribute(layer_group(i), "activation",
                          std::string(to_string(layers[i].activation)));
@@ -60,6 +61,14 @@ InputEstimatorModel read_mlp_input_estimator(const ModelFileReader& reader) {
     reader.fail("/mlp", error.what());
   }
   model.output_bias = reader.real("/mlp", "output_bias");
+  // Files written before two-sided regimes carry no sign: the seed's positive one.
+  if (reader.container().attribute("/mlp", "sign")) {
+    try {
+      model.sign = input_sign_from(reader.text("/mlp", "sign"), "sign");
+    } catch (const InvalidParameter& error) {
+      reader.fail("/mlp@sign", error.message());
+    }
+  }
   if (model.network.input_count() != 2) reader.fail("/mlp/layer0/weights", "expected 2 inputs");
   model.input_mean = reader.vector("/features/input_mean", 2);
   model.input_scale = reader.vector("/features/input_scale", 2, ValueRule::kPositive);

@@ -56,6 +56,11 @@ void ModelFileWriter::commit() {
   container_.set_attribute("/", "seed", provenance_.seed);
   container_.set_attribute("/", "config_toml", provenance_.config_toml);
   container_.set_attribute("/", "dataset_digest", provenance_.dataset_digest);
+  if (!provenance_.regime_name.empty()) {
+    container_.set_attribute("/", "regime_name", provenance_.regime_name);
+    container_.set_attribute("/", "regime_toml", provenance_.regime_toml);
+    container_.set_attribute("/", "regime_digest", provenance_.regime_digest);
+  }
   for (const auto& [name, value] : provenance_.training_metrics) {
     container_.set_attribute("/", "training." + name, value);
   }
@@ -93,6 +98,11 @@ ModelFileReader::ModelFileReader(const std::filesystem::path& path, std::string_
   provenance_.seed = integer("/", "seed", 0, INT64_MAX);
   provenance_.config_toml = text("/", "config_toml");
   provenance_.dataset_digest = text("/", "dataset_digest");
+  if (container().attribute("/", "regime_name")) {
+    provenance_.regime_name = text("/", "regime_name");
+    provenance_.regime_toml = text("/", "regime_toml");
+    provenance_.regime_digest = text("/", "regime_digest");
+  }
   for (const auto& name : container().attribute_names("/")) {
     for (auto [prefix, metrics] :
          {std::pair{std::string_view("training."), &provenance_.training_metrics},

@@ -9,8 +9,8 @@
 #include <iostream>
 
 #include "imm/datasets/dataset_file.hpp"
-#include "imm/datasets/maneuver_scenario.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
+#include "imm/datasets/track.hpp"
 #include "testing/hostile_hdf5.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -55,40 +55,38 @@ TEST_P(HostileDatasetFile, EveryMutationIsRefusedOrReads) {
             << " refused\n";
 }
 
-ManeuverScenario small_scenario() {
-  ManeuverScenario s = seed000_scenario();
-  s.runs = 2;
-  s.steps = 20;
-  s.maneuvers.clear();
-  return s;
+Regime small_regime(SensorKind kind) {
+  Regime r;
+  r.name = "small";
+  r.scans = 20;
+  r.sensor.kind = kind;
+  r.sensor.calibration.samples = 20;
+  r.start.fixed = true;
+  r.start.position = Eigen::Vector2d(10.0, 30.0);
+  r.start.velocity = Eigen::Vector2d(1.0, 0.0);
+  r.cases.push_back({"only", std::nullopt, std::nullopt, {}});
+  r.text = "name = \"small\"\n";
+  return r;
 }
 
 INSTANTIATE_TEST_SUITE_P(
     Kinds, HostileDatasetFile,
-    ::testing::Values(
-        DatasetKind{"scenario",
-                    [](const std::filesystem::path& p) {
-                      const ManeuverScenario s = small_scenario();
-                      write_scenario_dataset(p, s, simulate(s), "seed = 1\n", "v1");
-                    },
-                    [](const std::filesystem::path& p) { (void)read_scenario_dataset(p); }},
-        DatasetKind{"range_sensor",
-                    [](const std::filesystem::path& p) {
-                      RangeSensorDataConfig config;
-                      config.samples = 20;
-                      write_range_sensor_dataset(p, config, simulate_range_sensor(config),
-                                                 "seed = 1\n", "v1");
-                    },
-                    [](const std::filesystem::path& p) { (void)read_range_sensor_dataset(p); }},
-        DatasetKind{"cut_in",
-                    [](const std::filesystem::path& p) {
-                      CutInScenario scenario;
-                      scenario.runs = 2;
-                      scenario.steps = 20;
-                      write_cut_in_dataset(p, scenario, simulate_cut_in(scenario), "", "v1");
-                    },
-                    [](const std::filesystem::path& p) { (void)read_cut_in_dataset(p); }}),
-    [](const ::testing::TestParamInfo<DatasetKind>& info) { return info.param.name; });
+    ::testing::Values(DatasetKind{"tracks",
+                                  [](const std::filesystem::path& p) {
+                                    const Regime r = small_regime(SensorKind::kCartesian);
+                                    write_track_set(p, r, draw_split(r, Split::kTest, 1, 2), "v1");
+                                  },
+                                  [](const std::filesystem::path& p) { (void)read_track_set(p); }},
+                      DatasetKind{"range_sensor",
+                                  [](const std::filesystem::path& p) {
+                                    const Regime r = small_regime(SensorKind::kRangeSensor);
+                                    write_range_sensor_dataset(p, r, draw_calibration(r.sensor, 1),
+                                                               1, "v1");
+                                  },
+                                  [](const std::filesystem::path& p) {
+                                    (void)read_range_sensor_dataset(p);
+                                  }}),
+    [](const ::testing::TestParamInfo<DatasetKind>& param) { return param.param.name; });
 
 }  // namespace
 }  // namespace imm::datasets

@@ -18,6 +18,7 @@
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/models/tsk_model.hpp"
 #include "imm/models/tsk_sensor_measurement.hpp"
+#include "testing/regimes.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm {
@@ -351,25 +352,20 @@ TEST(IteratedEkf, BadMeasurementLeavesTheStateUnchanged) {
 
 // --- FIMM -----------------------------------------------------------------------------------
 
-Eigen::VectorXd cut_in_start(const datasets::CutInData& data) {
-  return data.truth.row(0).transpose();
-}
+Eigen::VectorXd cut_in_start(const datasets::Track& data) { return data.truth.row(0).transpose(); }
 Eigen::MatrixXd start_covariance() { return Vector<6>(1.0, 1.0, 1.0, 4.0, 4.0, 1.0).asDiagonal(); }
 
 TEST(Fimm, WithAnIdentitySensorItIsThePlainImm) {
-  datasets::CutInScenario scenario;
-  scenario.runs = 2;
-  scenario.measurement_covariance = 0.25 * Eigen::Matrix2d::Identity();
-  const datasets::CutInData data = datasets::simulate_cut_in(scenario);
+  const datasets::Track data = testing::test_track(testing::cut_in_regime(0.5), 1, 1);
   for (int iterations : {1, 4}) {
     FimmSpec spec;
-    spec.measurement_covariance = scenario.measurement_covariance;
+    spec.measurement_covariance = 0.25 * Eigen::Matrix2d::Identity();
     spec.iterations = iterations;
     FimmFilter fimm(spec, identity_sensor());
     FimmFilter imm(spec, nullptr);
     fimm.initialize(cut_in_start(data), start_covariance());
     imm.initialize(cut_in_start(data), start_covariance());
-    const Eigen::MatrixXd& z = data.measurements[1];
+    const Eigen::MatrixXd& z = data.plots;
     for (Eigen::Index k = 1; k < z.rows(); ++k) {
       ASSERT_EQ(fimm.step(z.row(k).transpose()), StepStatus::kOk);
       ASSERT_EQ(imm.step(z.row(k).transpose()), StepStatus::kOk);

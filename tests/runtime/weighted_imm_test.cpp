@@ -6,9 +6,9 @@
 #include <numbers>
 
 #include "imm/core/invalid_parameter.hpp"
-#include "imm/datasets/maneuver_scenario.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "testing/matrix_checks.hpp"
+#include "testing/regimes.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm {
@@ -27,12 +27,12 @@ TEST(BlendAngles, StaysOnTheRightSideOfTheSouthSeam) {
 }
 
 // Runs a filter over one run of a scenario through the tracker; returns the 6-state estimates.
-std::vector<Vector<6>> track(const WimmSpec& spec, const datasets::ScenarioData& data,
+std::vector<Vector<6>> track(const WimmSpec& spec, const datasets::Track& data,
                              std::vector<bool>* fused = nullptr) {
   Tracker tracker(std::make_unique<WeightedImmFilter>(spec), spec.track_options());
   std::vector<Vector<6>> estimates;
   Eigen::VectorXd mean(6), variance(6);
-  const Eigen::MatrixXd& z = data.measurements.front();
+  const Eigen::MatrixXd& z = data.plots;
   for (Eigen::Index k = 0; k < z.rows(); ++k) {
     (void)tracker.process(k, z.row(k).transpose());
     if (!tracker.initialized()) continue;
@@ -45,11 +45,8 @@ std::vector<Vector<6>> track(const WimmSpec& spec, const datasets::ScenarioData&
   return estimates;
 }
 
-datasets::ScenarioData scenario_run(int number, std::uint64_t seed = 3) {
-  datasets::ManeuverScenario s = datasets::seed004_scenario(number);
-  s.runs = 1;
-  s.seed = seed;
-  return datasets::simulate(s);
+datasets::Track scenario_run(int number, std::uint64_t seed = 3) {
+  return testing::test_track(testing::seed004_regime(number), seed);
 }
 
 WimmSpec with_fusion(FusionVariant fusion) {
@@ -111,23 +108,19 @@ TEST(WeightedImm, SeedFusionActsOnConstantVelocity) {
 
 // A target crossing the negative y axis (azimuth through ±π): the fused azimuth must follow it.
 TEST(WeightedImm, FusionAcrossTheSouthSeamTracksTheTarget) {
-  datasets::ManeuverScenario s;
-  s.sample_period = 2.0;
-  s.steps = 200;
-  s.initial_position = Eigen::Vector2d(20e3, -50e3);
-  s.initial_velocity = Eigen::Vector2d(-200.0, 0.0);
-  s.measurement.kind = MeasurementKind::kPolar;
-  s.measurement.sigma = Eigen::Vector2d(50.0, 0.5 * kPi / 180.0);
-  const datasets::ScenarioData data = datasets::simulate(s);
+  datasets::Regime s = testing::scripted_regime(2.0, 200, {20e3, -50e3}, {-200.0, 0.0});
+  s.sensor.kind = datasets::SensorKind::kPolar;
+  s.sensor.noise.sigma = Eigen::Vector2d(50.0, 0.5 * kPi / 180.0);
+  const datasets::Track data = testing::test_track(s, 1);
   std::vector<bool> fused;
   const auto estimates = track(with_fusion(FusionVariant::kSeed), data, &fused);
   EXPECT_TRUE(fused[45] && fused[50] && fused[55]);  // fusing while the target crosses (scan ~50)
-  const Eigen::MatrixXd& truth = data.truth.front();
+  const Eigen::MatrixXd& truth = data.truth;
   double worst = 0.0;
   for (std::size_t i = 20; i < estimates.size(); ++i) {
     const auto k = static_cast<Eigen::Index>(i + 1);  // first estimate at scan 1
     const double error = wrap_angle(azimuth_of(estimates[i](0), estimates[i](3)) -
-                                    azimuth_of(truth(k, 0), truth(k, 2)));
+                                    azimuth_of(truth(k, 0), truth(k, 3)));
     worst = std::max(worst, std::abs(error));
   }
   EXPECT_LT(worst, 0.05);  // a few σ_θ; a seam error would be ~π

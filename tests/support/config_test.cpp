@@ -4,10 +4,8 @@
 
 #include <sstream>
 
-#include "imm/datasets/maneuver_scenario.hpp"
 #include "imm/support/measurement_csv.hpp"
 #include "imm/support/plain_imm_config.hpp"
-#include "imm/support/scenario_config.hpp"
 
 namespace imm::support {
 namespace {
@@ -122,38 +120,6 @@ TEST(PlainImmConfig, ShippedBenchmarkFilterIsTheIssuesFilter) {
     for (int j = 0; j < 3; ++j) EXPECT_EQ(spec.transition(i, j), i == j ? 0.97 : 0.015);
   }
   EXPECT_EQ(spec.initial_probabilities, Eigen::Vector3d(0.6, 0.2, 0.2));
-}
-
-TEST(ScenarioConfig, ShippedSeed000ConfigEqualsTheBuiltInScenario) {
-  const auto defaults = datasets::seed000_scenario();
-  const auto loaded =
-      load_scenario_config("configs/data/seed000.toml", datasets::ManeuverScenario{});
-  EXPECT_EQ(loaded.name, defaults.name);
-  EXPECT_EQ(loaded.steps, defaults.steps);
-  EXPECT_EQ(loaded.runs, defaults.runs);
-  EXPECT_EQ(loaded.seed, defaults.seed);
-  EXPECT_TRUE(loaded.initial_position.isApprox(defaults.initial_position, 1e-12));
-  EXPECT_TRUE(loaded.initial_velocity.isApprox(defaults.initial_velocity, 1e-10));
-  EXPECT_EQ(loaded.process_noise_sigma, defaults.process_noise_sigma);
-  EXPECT_EQ(loaded.measurement.sigma, defaults.measurement.sigma);
-  ASSERT_EQ(loaded.maneuvers.size(), defaults.maneuvers.size());
-  for (std::size_t i = 0; i < loaded.maneuvers.size(); ++i) {
-    EXPECT_EQ(loaded.maneuvers[i].start, defaults.maneuvers[i].start);
-    EXPECT_EQ(loaded.maneuvers[i].end, defaults.maneuvers[i].end);
-    EXPECT_EQ(loaded.maneuvers[i].acceleration, defaults.maneuvers[i].acceleration);
-  }
-}
-
-TEST(ScenarioConfig, InvalidSegmentIsNamed) {
-  const auto document = ConfigDocument::parse(
-      "steps = 50\n[[maneuvers]]\nstart = 40\nend = 60\nacceleration = [0.1, 0]\n", "s.toml");
-  try {
-    (void)document->load_checked(
-        [&] { return scenario_from(document->root(), datasets::ManeuverScenario{}); });
-    FAIL();
-  } catch (const ConfigError& error) {
-    EXPECT_EQ(error.key(), "maneuvers[0].end");
-  }
 }
 
 TEST(MeasurementCsv, ReportsBadRowsWithTheirLineNumbers) {

@@ -27,8 +27,12 @@ struct DrillTarget {
   std::string config;                                 ///< shipped config, relative to the root
   std::vector<std::pair<std::string, double>> quick;  ///< key path (dotted) → value
   std::string tool;
-  /// The tool's arguments; "{config}" and "{dir}" are replaced.
+  /// The tool's arguments; "{config}", "{dir}", "{plots}" and "{regime}" are replaced.
   std::vector<std::string> arguments;
+  /// A regime preset the tool gets as {regime}, shrunk by `regime_quick` (not drilled here: the
+  /// regime files are drilled as targets of their own).
+  std::string regime = "";
+  std::vector<std::pair<std::string, double>> regime_quick = {};
 };
 
 void PrintTo(const DrillTarget& target, std::ostream* out) { *out << target.name; }
@@ -122,9 +126,16 @@ TEST_P(ConfigDrill, EveryNumericKeyAtEveryAbsurdValueIsRefusedNamingTheKeyOrRuns
   const auto plots = dir / "plots.csv";
   const auto data = testing::run_tool(
       "imm-data",
-      {"seed000", "--runs", "1", "--out", (dir / "plots.h5").string(), "--csv", plots.string()},
+      {"tracks", "--regime", "configs/regimes/paper/ga_imm_table3.toml", "--count", "1", "--out",
+       (dir / "plots.h5").string(), "--csv", plots.string()},
       root);
   ASSERT_EQ(data.exit_code, 0) << data.err;
+  const auto regime_path = dir / "regime.toml";
+  if (!target.regime.empty()) {
+    toml::table regime = toml::parse_file((root / target.regime).string());
+    for (const auto& [key, value] : target.regime_quick) set_path(regime, key, value);
+    testing::write_text(regime_path, render(regime));
+  }
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const std::vector<double> values = {
       0.0, -1.0, 1e-320, 1e308, std::numeric_limits<double>::quiet_NaN(), kInf};
@@ -158,10 +169,11 @@ TEST_P(ConfigDrill, EveryNumericKeyAtEveryAbsurdValueIsRefusedNamingTheKeyOrRuns
       testing::write_text(config_path, rendered);
       std::vector<std::string> arguments;
       for (const std::string& argument : target.arguments) {
-        arguments.push_back(
+        arguments.push_back(replace_all(
             replace_all(replace_all(replace_all(argument, "{config}", config_path.string()),
                                     "{dir}", dir.path().string()),
-                        "{plots}", plots.string()));
+                        "{plots}", plots.string()),
+            "{regime}", regime_path.string()));
       }
       const auto result = testing::run_tool(target.tool, arguments, root, 60.0);
       ++runs;
@@ -194,13 +206,12 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(
         DrillTarget{"ga",
                     "configs/ga_fuzzy_imm.toml",
-                    {{"ga.population", 8},
-                     {"ga.generations", 2},
-                     {"training.trajectories", 2},
-                     {"training.validation_trajectories", 1},
-                     {"training.steps", 40}},
+                    {{"ga.population", 8}, {"ga.generations", 2}},
                     "imm-train",
-                    {"ga", "--config", "{config}", "--out", "{dir}/m.h5", "--threads", "1"}},
+                    {"ga", "--config", "{config}", "--regime", "{regime}", "--out", "{dir}/m.h5",
+                     "--threads", "1"},
+                    "configs/regimes/paper/ga_imm_training.toml",
+                    {{"scans", 40}, {"splits.training", 1}, {"splits.validation", 1}}},
         DrillTarget{"import_rules",
                     "configs/ga_fuzzy_imm.toml",
                     {},
@@ -209,83 +220,84 @@ INSTANTIATE_TEST_SUITE_P(
                      "configs/reference/ga_fuzzy_imm_paper_rules.csv", "--out", "{dir}/m.h5"}},
         DrillTarget{"mlp",
                     "configs/mlp_input_estimator.toml",
-                    {{"data.duration", 200.0},
-                     {"data.quiet_duration", 100.0},
-                     {"training.phases[0].epochs", 3},
-                     {"training.phases[1].epochs", 3}},
+                    {{"training.phases[0].epochs", 3}, {"training.phases[1].epochs", 3}},
                     "imm-train",
-                    {"mlp", "--config", "{config}", "--out", "{dir}/m.h5"}},
-        DrillTarget{
-            "wimm",
-            "configs/wimm.toml",
-            {{"training.trajectories", 2}, {"training.steps", 60}, {"tuning.max_evaluations", 4}},
-            "imm-train",
-            {"wimm", "--config", "{config}", "--out", "{dir}/m.h5"}},
+                    {"mlp", "--config", "{config}", "--regime", "{regime}", "--out", "{dir}/m.h5"},
+                    "configs/regimes/paper/input_estimator_training.toml",
+                    {{"scans", 150}}},
+        DrillTarget{"wimm",
+                    "configs/wimm.toml",
+                    {{"tuning.max_evaluations", 4}},
+                    "imm-train",
+                    {"wimm", "--config", "{config}", "--regime", "{regime}", "--out", "{dir}/m.h5"},
+                    "configs/regimes/paper/wimm_training.toml",
+                    {{"scans", 60}, {"splits.training", 2}}},
         DrillTarget{"fcm",
                     "configs/fcm_imm.toml",
-                    {{"training.trajectories", 2},
-                     {"training.validation", 1},
-                     {"tuning.max_evaluations", 4}},
+                    {{"tuning.max_evaluations", 4}},
                     "imm-train",
-                    {"fcm", "--config", "{config}", "--out", "{dir}/m.h5"}},
-        DrillTarget{"tsk",
-                    "configs/tsk_range_sensor.toml",
-                    {{"data.samples", 300},
-                     {"fit.restarts", 2},
-                     {"fit.max_iterations", 30},
-                     {"fit.fine_tuning_iterations", 10}},
-                    "imm-train",
-                    {"tsk", "--config", "{config}", "--out", "{dir}/m.h5"}},
+                    {"fcm", "--config", "{config}", "--regime", "{regime}", "--out", "{dir}/m.h5"},
+                    "configs/regimes/paper/fcm_imm_training.toml",
+                    {{"scans", 100}, {"splits.training", 2}, {"splits.validation", 1}}},
+        DrillTarget{
+            "tsk",
+            "configs/tsk_range_sensor.toml",
+            {{"fit.restarts", 2}, {"fit.max_iterations", 30}, {"fit.fine_tuning_iterations", 10}},
+            "imm-train",
+            {"tsk", "--config", "{config}", "--regime", "{regime}", "--out", "{dir}/m.h5"},
+            "configs/regimes/paper/fimm_table1.toml",
+            {{"sensor.calibration.samples", 300}}},
         DrillTarget{"freeze",
                     "configs/track/cv3_imm.toml",
                     {},
                     "imm-train",
                     {"freeze", "--config", "{config}", "--out", "{dir}/m.h5"}},
-        DrillTarget{"seed000_data",
-                    "configs/data/seed000.toml",
-                    {{"runs", 2}},
-                    "imm-data",
-                    {"seed000", "--config", "{config}", "--out", "{dir}/d.h5"}},
-        DrillTarget{"range_sensor_data",
-                    "configs/tsk_range_sensor.toml",
-                    {{"data.samples", 300}},
-                    "imm-data",
-                    {"range-sensor", "--config", "{config}", "--out", "{dir}/d.h5"}},
-        DrillTarget{"cut_in_data",
-                    "configs/tsk_range_sensor.toml",
+        // The regime files: every number of every kind of regime (random and scripted, each
+        // sensor), drawn from by imm-data.
+        DrillTarget{"regime_random_cartesian",
+                    "configs/regimes/paper/fcm_imm_training.toml",
                     {},
                     "imm-data",
-                    {"cut-in", "--config", "{config}", "--runs", "2", "--out", "{dir}/d.h5"}},
+                    {"tracks", "--regime", "{config}", "--count", "2", "--out", "{dir}/d.h5"}},
+        DrillTarget{"regime_random_polar",
+                    "configs/regimes/paper/wimm_training.toml",
+                    {},
+                    "imm-data",
+                    {"tracks", "--regime", "{config}", "--count", "2", "--out", "{dir}/d.h5"}},
+        DrillTarget{"regime_scripted",
+                    "configs/regimes/paper/input_estimator_tables.toml",
+                    {},
+                    "imm-data",
+                    {"tracks", "--regime", "{config}", "--count", "2", "--out", "{dir}/d.h5"}},
+        DrillTarget{"regime_range_sensor",
+                    "configs/regimes/paper/fimm_table1.toml",
+                    {{"sensor.calibration.samples", 300}},
+                    "imm-data",
+                    {"sensor", "--regime", "{config}", "--out", "{dir}/d.h5"}},
         DrillTarget{"ga_imm_evaluation",
-                    "configs/ga_fuzzy_imm.toml",
+                    "configs/regimes/paper/ga_imm_table3.toml",
                     {},
                     "imm-eval",
-                    {"ga-imm", "--config", "{config}", "--models", "models", "--runs", "2", "--out",
+                    {"ga-imm", "--regime", "{config}", "--models", "models", "--runs", "2", "--out",
                      "{dir}/report"}},
         DrillTarget{"wimm_evaluation",
-                    "configs/wimm.toml",
+                    "configs/regimes/paper/wimm_table2.toml",
                     {},
                     "imm-eval",
-                    {"wimm", "--config", "{config}", "--models", "models", "--runs", "2", "--out",
+                    {"wimm", "--regime", "{config}", "--models", "models", "--runs", "2", "--out",
                      "{dir}/report"}},
-        DrillTarget{"fcm_imm_evaluation",
-                    "configs/fcm_imm.toml",
-                    {{"training.trajectories", 2}, {"tuning.max_evaluations", 4}},
-                    "imm-eval",
-                    {"fcm-imm", "--config", "{config}", "--models", "models", "--runs", "2",
-                     "--out", "{dir}/report"}},
         DrillTarget{"fimm_evaluation",
                     "configs/tsk_range_sensor.toml",
                     {},
                     "imm-eval",
-                    {"fimm", "--config", "{config}", "--models", "models", "--runs", "2", "--out",
+                    {"fimm", "--config", "{config}", "--models", "models", "--runs", "4", "--out",
                      "{dir}/report"}},
         DrillTarget{"track",
                     "configs/track/cv3_imm.toml",
                     {},
                     "imm-track",
                     {"--filter", "{config}", "--measurements", "{plots}", "--out", "{dir}/t.csv"}}),
-    [](const ::testing::TestParamInfo<DrillTarget>& info) { return info.param.name; });
+    [](const ::testing::TestParamInfo<DrillTarget>& param) { return param.param.name; });
 
 }  // namespace
 }  // namespace imm

@@ -64,7 +64,7 @@ INSTANTIATE_TEST_SUITE_P(
                     H5Lcreate_external("/etc/hostname", "/", f, "/ext", H5P_DEFAULT, H5P_DEFAULT);
                   },
                   "/ext"}),
-    [](const ::testing::TestParamInfo<LinkDrill>& info) { return info.param.name; });
+    [](const ::testing::TestParamInfo<LinkDrill>& param) { return param.param.name; });
 
 }  // namespace
 }  // namespace imm

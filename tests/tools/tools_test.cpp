@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "testing/regime_files.hpp"
 #include "testing/run_tool.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -17,6 +18,9 @@ namespace {
 
 using testing::run_tool;
 using testing::TempDir;
+
+// Seed 000's scenario as a regime preset.
+constexpr const char* kTable3 = "configs/regimes/paper/ga_imm_table3.toml";
 
 std::vector<std::string> lines_of(const std::string& text) {
   std::vector<std::string> lines;
@@ -39,8 +43,8 @@ class Tools : public ::testing::Test {
   void SetUp() override {
     root_ = testing::source_root();
     const auto result = run_tool("imm-data",
-                                 {"seed000", "--runs", "2", "--out", (dir_ / "d.h5").string(),
-                                  "--csv", (dir_ / "plots.csv").string()},
+                                 {"tracks", "--regime", kTable3, "--count", "2", "--out",
+                                  (dir_ / "d.h5").string(), "--csv", (dir_ / "plots.csv").string()},
                                  root_);
     ASSERT_EQ(result.exit_code, 0) << result.err;
   }
@@ -62,11 +66,13 @@ class Tools : public ::testing::Test {
 };
 
 TEST_F(Tools, ImmDataIsReproducibleForASeed) {
-  const auto again =
-      run_tool("imm-data", {"seed000", "--runs", "2", "--out", (dir_ / "e.h5").string()}, root_);
-  const auto other =
-      run_tool("imm-data",
-               {"seed000", "--runs", "2", "--seed", "9", "--out", (dir_ / "f.h5").string()}, root_);
+  const auto again = run_tool(
+      "imm-data",
+      {"tracks", "--regime", kTable3, "--count", "2", "--out", (dir_ / "e.h5").string()}, root_);
+  const auto other = run_tool("imm-data",
+                              {"tracks", "--regime", kTable3, "--count", "2", "--seed", "9",
+                               "--out", (dir_ / "f.h5").string()},
+                              root_);
   ASSERT_EQ(again.exit_code, 0);
   const auto inspect_d = run_tool("imm-inspect", {(dir_ / "d.h5").string(), "--json"}, root_);
   const auto inspect_e = run_tool("imm-inspect", {(dir_ / "e.h5").string(), "--json"}, root_);
@@ -240,9 +246,9 @@ TEST_F(Tools, PlainImmEvaluationWritesMetricsAndBeatsEachModeAlone) {
 // uninterrupted run.
 TEST_F(Tools, GaTrainingResumedAfterAKillEqualsAnUninterruptedRun) {
   testing::write_text(dir_ / "ga.toml",
-                      "seed = 3\n[training]\nlevels = [0.01, 0.05]\ntrajectories = 3\n"
-                      "validation_trajectories = 2\nsteps = 80\n[ga]\npopulation = 120\n"
-                      "generations = 40\n[memetic]\nmax_evaluations = 30\n");
+                      testing::regime_line(testing::write_ga_regime(dir_, 80, 2, 1)) +
+                          "seed = 3\n[training]\nlevels = [0.01, 0.05]\n[ga]\npopulation = 120\n"
+                          "generations = 40\n[memetic]\nmax_evaluations = 30\n");
   const std::string config = (dir_ / "ga.toml").string();
   const auto reference =
       run_tool("imm-train", {"ga", "--config", config, "--out", (dir_ / "a.h5").string()}, root_);
@@ -276,11 +282,10 @@ TEST_F(Tools, GaTrainingResumedAfterAKillEqualsAnUninterruptedRun) {
 
 TEST_F(Tools, GaImmEvaluationReportsTable3ForEveryFilter) {
   const auto out = dir_ / "ga-imm";
-  const auto result = run_tool(
-      "imm-eval",
-      {"ga-imm", "--models", config("models").string(), "--config",
-       config("configs/ga_fuzzy_imm.toml").string(), "--runs", "10", "--out", out.string()},
-      root_);
+  const auto result = run_tool("imm-eval",
+                               {"ga-imm", "--models", config("models").string(), "--regime",
+                                kTable3, "--runs", "10", "--out", out.string()},
+                               root_);
   ASSERT_TRUE(result.exit_code == 0 || result.exit_code == 5) << result.err;
   EXPECT_NE(result.out.find("| GA-IMM-paper "), std::string::npos) << result.out;
   const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
@@ -295,32 +300,38 @@ TEST_F(Tools, GaImmEvaluationReportsTable3ForEveryFilter) {
   EXPECT_TRUE(std::filesystem::exists(out / "mode_probabilities_ga_imm.csv"));
 }
 
+// A regime generated in the test (the training regime with 3 tracks): trains, records the regime,
+// and evaluates on the paper's two scenarios with every baseline.
 TEST_F(Tools, WimmTrainingAndEvaluationEndToEnd) {
+  const auto regime =
+      testing::write_preset_variant(dir_, "wimm_training", {{"training = 24", "training = 3"}});
   std::string config = testing::slurp(this->config("configs/wimm.toml"));
-  config.replace(config.find("trajectories = 24"), 17, "trajectories = 3");
   config.replace(config.find("max_evaluations = 150"), 21, "max_evaluations = 40");
   testing::write_text(dir_ / "wimm.toml", config);
   const auto models = dir_ / "models";
-  const auto trained = run_tool(
-      "imm-train",
-      {"wimm", "--config", (dir_ / "wimm.toml").string(), "--out", (models / "wimm.h5").string()},
-      root_);
+  const auto trained = run_tool("imm-train",
+                                {"wimm", "--config", (dir_ / "wimm.toml").string(), "--regime",
+                                 regime.string(), "--out", (models / "wimm.h5").string()},
+                                root_);
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
   EXPECT_NE(trained.err.find("threshold"), std::string::npos) << trained.err;
   const auto inspected = run_tool("imm-inspect", {(models / "wimm.h5").string()}, root_);
   ASSERT_EQ(inspected.exit_code, 0) << inspected.err;
   EXPECT_NE(inspected.out.find("kind             wimm"), std::string::npos);
+  EXPECT_NE(inspected.out.find("regime_name      wimm_training"), std::string::npos)
+      << inspected.out;
 
   const auto out = dir_ / "report";
   const auto evaluated =
       run_tool("imm-eval",
-               {"wimm", "--models", models.string(), "--config", (dir_ / "wimm.toml").string(),
-                "--runs", "5", "--out", out.string()},
+               {"wimm", "--models", models.string(), "--regime",
+                "configs/regimes/paper/wimm_table2.toml", "--runs", "6", "--out", out.string()},
                root_);
   ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 5) << evaluated.err;
   EXPECT_NE(evaluated.out.find("cannot come from plots"), std::string::npos);
+  EXPECT_NE(evaluated.out.find("off its training maneuvers"), std::string::npos);
   const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
-  for (const char* scenario : {"scenario1", "scenario2"}) {
+  for (const char* scenario : {"scenario 1", "scenario 2"}) {
     for (const char* filter : {"nIMM", "wIMM", "nIMM-tuned"}) {
       ASSERT_TRUE(metrics[scenario].contains(filter)) << scenario << " " << filter;
       for (const char* key :
@@ -332,7 +343,17 @@ TEST_F(Tools, WimmTrainingAndEvaluationEndToEnd) {
     EXPECT_NEAR(metrics[scenario]["wIMM-correlated"]["az_rmse"].get<double>(),
                 metrics[scenario]["nIMM"]["az_rmse"].get<double>(), 1e-9);
   }
-  EXPECT_TRUE(std::filesystem::exists(out / "scenario2_azimuth_rmse.csv"));
+  EXPECT_TRUE(std::filesystem::exists(out / "case1_azimuth_rmse.csv"));
+
+  // A regime with another sample period is refused, naming the field.
+  const auto slow = testing::write_preset_variant(dir_, "wimm_table2",
+                                                  {{"sample_period = 2.0", "sample_period = 4.0"}});
+  const auto refused = run_tool("imm-eval",
+                                {"wimm", "--models", models.string(), "--regime", slow.string(),
+                                 "--runs", "2", "--out", (dir_ / "refused").string()},
+                                root_);
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("sample_period"), std::string::npos) << refused.err;
 }
 
 TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
@@ -341,16 +362,19 @@ TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
     ASSERT_NE(config.find(from), std::string::npos) << from;
     config.replace(config.find(from), from.size(), to);
   };
-  replace("trajectories = 16", "trajectories = 3");
-  replace("validation = 8", "validation = 2");
   replace("windows = [8, 16, 32]", "windows = [8]");
   replace("max_evaluations = 150", "max_evaluations = 10");
   testing::write_text(dir_ / "fcm.toml", config);
   const auto models = dir_ / "models";
-  const auto trained = run_tool("imm-train",
-                                {"fcm", "--config", (dir_ / "fcm.toml").string(), "--out",
-                                 (models / "fcm_imm.h5").string(), "--seed", "4"},
-                                root_);
+  const auto trained =
+      run_tool("imm-train",
+               {"fcm", "--config", (dir_ / "fcm.toml").string(), "--regime",
+                testing::write_preset_variant(
+                    dir_, "fcm_imm_training",
+                    {{"training = 16", "training = 3"}, {"validation = 8", "validation = 2"}})
+                    .string(),
+                "--out", (models / "fcm_imm.h5").string(), "--seed", "4"},
+               root_);
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
   EXPECT_NE(trained.err.find("fitted: window 8"), std::string::npos) << trained.err;
   const auto inspected = run_tool("imm-inspect", {(models / "fcm_imm.h5").string()}, root_);
@@ -359,11 +383,9 @@ TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
   EXPECT_NE(inspected.out.find("mean_memberships"), std::string::npos) << inspected.out;
 
   const auto out = dir_ / "report";
-  const auto evaluated =
-      run_tool("imm-eval",
-               {"fcm-imm", "--models", models.string(), "--config", (dir_ / "fcm.toml").string(),
-                "--runs", "4", "--out", out.string()},
-               root_);
+  const auto evaluated = run_tool(
+      "imm-eval", {"fcm-imm", "--models", models.string(), "--runs", "4", "--out", out.string()},
+      root_);
   ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 5) << evaluated.err;
   EXPECT_NE(evaluated.out.find("FCM-IMM-const"), std::string::npos);
   const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
@@ -377,16 +399,15 @@ TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
     }
   }
   EXPECT_TRUE(std::filesystem::exists(out / "position_rmse.csv"));
-  EXPECT_TRUE(std::filesystem::exists(out / "error_clusters_run0.csv"));
+  EXPECT_NE(evaluated.out.find("the model's own"), std::string::npos) << evaluated.out;
 
   // A model that is not an fcm_imm file is refused with exit code 2.
   std::filesystem::create_directories(dir_ / "wrong");
   std::filesystem::copy_file(this->config("models/wimm.h5"), dir_ / "wrong" / "fcm_imm.h5");
-  const auto wrong = run_tool(
-      "imm-eval",
-      {"fcm-imm", "--models", (dir_ / "wrong").string(), "--config", (dir_ / "fcm.toml").string(),
-       "--runs", "2", "--out", (dir_ / "wrong-report").string()},
-      root_);
+  const auto wrong = run_tool("imm-eval",
+                              {"fcm-imm", "--models", (dir_ / "wrong").string(), "--runs", "2",
+                               "--out", (dir_ / "wrong-report").string()},
+                              root_);
   EXPECT_EQ(wrong.exit_code, 2);
   EXPECT_NE(wrong.err.find("fcm_imm"), std::string::npos) << wrong.err;
 }
@@ -394,18 +415,17 @@ TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
 TEST_F(Tools, TskTrainingAndFimmEvaluationEndToEnd) {
   const auto models = dir_ / "models";
   for (const std::string stem : {"tsk_range_sensor", "tsk_range_sensor_hard"}) {
+    const bool hard = stem == "tsk_range_sensor_hard";
+    const auto regime = testing::write_preset_variant(
+        dir_, hard ? "fimm_table1_hard" : "fimm_table1", {{"samples = 8000", "samples = 1500"}});
     std::string config = testing::slurp(this->config("configs/" + stem + ".toml"));
-    auto replace = [&](const std::string& from, const std::string& to) {
-      ASSERT_NE(config.find(from), std::string::npos) << from;
-      config.replace(config.find(from), from.size(), to);
-    };
-    replace("samples = 8000", "samples = 1500");
-    replace("restarts = 10", "restarts = 3");
+    config.replace(config.find("restarts = 10"), 13, "restarts = 3");
     testing::write_text(dir_ / (stem + ".toml"), config);
-    const auto trained = run_tool("imm-train",
-                                  {"tsk", "--config", (dir_ / (stem + ".toml")).string(), "--out",
-                                   (models / (stem + ".h5")).string(), "--seed", "3"},
-                                  root_);
+    const auto trained =
+        run_tool("imm-train",
+                 {"tsk", "--config", (dir_ / (stem + ".toml")).string(), "--regime",
+                  regime.string(), "--out", (models / (stem + ".h5")).string(), "--seed", "3"},
+                 root_);
     ASSERT_EQ(trained.exit_code, 0) << trained.err;
     EXPECT_NE(trained.err.find("fine tuning"), std::string::npos) << trained.err;
     const auto metrics = nlohmann::json::parse(testing::slurp(models / (stem + ".metrics.json")));
@@ -424,15 +444,15 @@ TEST_F(Tools, TskTrainingAndFimmEvaluationEndToEnd) {
 
   for (const std::string sensor : {"default", "hard"}) {
     const bool hard = sensor == "hard";
+    const std::string stem = hard ? "tsk_range_sensor_hard" : "tsk_range_sensor";
     const auto out = dir_ / ("report-" + sensor);
     const auto evaluated =
         run_tool("imm-eval",
-                 {"fimm", "--models", models.string(), "--sensor", sensor, "--config",
-                  (dir_ / (hard ? "tsk_range_sensor_hard.toml" : "tsk_range_sensor.toml")).string(),
-                  "--runs", "3", "--out", out.string()},
+                 {"fimm", "--models", models.string(), "--model", stem, "--config",
+                  (dir_ / (stem + ".toml")).string(), "--runs", "8", "--out", out.string()},
                  root_);
     ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 5) << evaluated.err;
-    EXPECT_NE(evaluated.out.find("Table 1"), std::string::npos) << evaluated.out;
+    EXPECT_NE(evaluated.out.find("clamped"), std::string::npos) << evaluated.out;
     const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
     ASSERT_EQ(metrics["rows"].size(), 4u);
     const double expected_r[4] = {0.01, 0.25, 1.0, 4.0};
@@ -443,13 +463,23 @@ TEST_F(Tools, TskTrainingAndFimmEvaluationEndToEnd) {
         EXPECT_GT(row[key].get<double>(), 0.0) << sensor << " " << key;
         EXPECT_LT(row[key].get<double>(), 100.0) << sensor << " " << key;  // nothing diverged
       }
-      EXPECT_EQ(row.contains("fimm_iekf_mse"), hard) << sensor;
+      EXPECT_TRUE(row.contains("fimm_clamped_share")) << sensor;
     }
-    for (const char* file : {"path_R0.1.png", "path_R2.0.csv", "sensor_model.png",
-                             "mse_by_scan.csv", "sensor_samples.png", "details.json"}) {
+    for (const char* file : {"case0_path.csv", "case3_path.csv", "sensor_model.csv",
+                             "mse_by_scan.csv", "details.json"}) {
       EXPECT_TRUE(std::filesystem::exists(out / file)) << sensor << " " << file;
     }
   }
+
+  // A model fitted to one sensor is refused on a regime with another, naming the field.
+  const auto refused = run_tool("imm-eval",
+                                {"fimm", "--models", models.string(), "--regime",
+                                 "configs/regimes/paper/fimm_table1_hard.toml", "--config",
+                                 (dir_ / "tsk_range_sensor.toml").string(), "--runs", "4", "--out",
+                                 (dir_ / "refused").string()},
+                                root_);
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("sensor.knee/softness"), std::string::npos) << refused.err;
 
   // A model of another kind in its place is refused with exit code 2.
   std::filesystem::create_directories(dir_ / "wrong");
@@ -464,18 +494,32 @@ TEST_F(Tools, TskTrainingAndFimmEvaluationEndToEnd) {
   EXPECT_NE(wrong.err.find("tsk_sensor"), std::string::npos) << wrong.err;
 }
 
+// Samples of a sensor (a data set here, a CSV below) become the regime's sensor: the TSK model is
+// fitted to them, and `--data` accepts only the samples its regime names.
 TEST_F(Tools, TskTrainingFromStoredSamples) {
-  std::string config = testing::slurp(this->config("configs/tsk_range_sensor.toml"));
-  config.replace(config.find("samples = 8000"), 14, "samples = 1200");
-  config.replace(config.find("restarts = 10"), 13, "restarts = 2");
-  testing::write_text(dir_ / "tsk.toml", config);
+  const auto drawn = dir_ / "drawn.toml";
+  std::filesystem::rename(
+      testing::write_preset_variant(dir_, "fimm_table1", {{"samples = 8000", "samples = 1200"}}),
+      drawn);
   const auto data = run_tool(
-      "imm-data",
-      {"range-sensor", "--config", (dir_ / "tsk.toml").string(), "--out", (dir_ / "r.h5").string()},
-      root_);
+      "imm-data", {"sensor", "--regime", drawn.string(), "--out", (dir_ / "r.h5").string()}, root_);
   ASSERT_EQ(data.exit_code, 0) << data.err;
+  std::string config = testing::slurp(this->config("configs/tsk_range_sensor.toml"));
+  config.replace(config.find("restarts = 10"), 13, "restarts = 2");
+  auto regime_of_samples = [&](const std::filesystem::path& samples, const std::string& name) {
+    const auto path = testing::write_preset_variant(
+        dir_, "fimm_table1",
+        {{"knee = 40.0\nsoftness = 30.0", "samples = \"" + samples.string() + "\""},
+         {"name = \"fimm_table1\"", "name = \"" + name + "\""}});
+    const auto renamed = dir_ / (name + ".toml");
+    std::filesystem::rename(path, renamed);
+    testing::write_text(dir_ / (name + "_tsk.toml"), "regime = \"" + renamed.string() + "\"\n" +
+                                                         config.substr(config.find("seed = 1")));
+    return dir_ / (name + "_tsk.toml");
+  };
+  const auto sampled = regime_of_samples(dir_ / "r.h5", "sampled");
   const auto trained = run_tool("imm-train",
-                                {"tsk", "--config", (dir_ / "tsk.toml").string(), "--data",
+                                {"tsk", "--config", sampled.string(), "--data",
                                  (dir_ / "r.h5").string(), "--out", (dir_ / "m.h5").string()},
                                 root_);
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
@@ -486,6 +530,15 @@ TEST_F(Tools, TskTrainingFromStoredSamples) {
   const auto stored = nlohmann::json::parse(
       run_tool("imm-inspect", {(dir_ / "r.h5").string(), "--json"}, root_).out);
   EXPECT_EQ(model["attributes"]["dataset_digest"], stored["attributes"]["digest"]);
+  // Samples the regime does not name are refused under the config's `regime` key.
+  testing::write_text(dir_ / "drawn_tsk.toml", "regime = \"" + drawn.string() + "\"\n" +
+                                                   config.substr(config.find("seed = 1")));
+  const auto other = run_tool("imm-train",
+                              {"tsk", "--config", (dir_ / "drawn_tsk.toml").string(), "--data",
+                               (dir_ / "r.h5").string(), "--out", (dir_ / "o.h5").string()},
+                              root_);
+  EXPECT_EQ(other.exit_code, 2) << other.err;
+  EXPECT_NE(other.err.find("regime"), std::string::npos) << other.err;
 
   // A CSV of a (here: synthetic, linear) sensor; a bad row is named by its line.
   std::string csv = "# xi, eta true; z1, z2 measured\nxi,eta,z1,z2\n";
@@ -495,52 +548,56 @@ TEST_F(Tools, TskTrainingFromStoredSamples) {
            std::to_string(0.8 * eta) + "\n";
   }
   testing::write_text(dir_ / "s.csv", csv);
-  const auto from_csv = run_tool("imm-train",
-                                 {"tsk", "--config", (dir_ / "tsk.toml").string(), "--data",
-                                  (dir_ / "s.csv").string(), "--out", (dir_ / "c.h5").string()},
-                                 root_);
+  const auto from_csv =
+      run_tool("imm-train",
+               {"tsk", "--config", regime_of_samples(dir_ / "s.csv", "csv").string(), "--out",
+                (dir_ / "c.h5").string()},
+               root_);
   ASSERT_EQ(from_csv.exit_code, 0) << from_csv.err;
   const auto metrics = nlohmann::json::parse(testing::slurp(dir_ / "c.metrics.json"));
   EXPECT_LT(metrics["outputs"]["z2"]["validation_rmse"].get<double>(), 0.01);  // a plane: exact
   testing::write_text(dir_ / "bad.csv", "xi,eta,z1,z2\n1,2,3,4\n1,nan,3,4\n");
   const auto bad = run_tool("imm-train",
-                            {"tsk", "--config", (dir_ / "tsk.toml").string(), "--data",
-                             (dir_ / "bad.csv").string(), "--out", (dir_ / "b.h5").string()},
+                            {"tsk", "--config", regime_of_samples(dir_ / "bad.csv", "bad").string(),
+                             "--out", (dir_ / "b.h5").string()},
                             root_);
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("bad.csv:3"), std::string::npos) << bad.err;
   EXPECT_FALSE(std::filesystem::exists(dir_ / "b.h5"));
 }
 
-TEST_F(Tools, ImmDataWritesTheRangeSensorAndCutInDataSets) {
-  const auto sensor =
-      run_tool("imm-data", {"range-sensor", "--out", (dir_ / "r.h5").string()}, root_);
+TEST_F(Tools, ImmDataWritesSensorSamplesAndTrackSplits) {
+  const std::string regime = "configs/regimes/paper/fimm_table1.toml";
+  const auto sensor = run_tool(
+      "imm-data", {"sensor", "--regime", regime, "--out", (dir_ / "r.h5").string()}, root_);
   ASSERT_EQ(sensor.exit_code, 0) << sensor.err;
-  const auto again =
-      run_tool("imm-data", {"range-sensor", "--out", (dir_ / "r2.h5").string()}, root_);
+  const auto again = run_tool(
+      "imm-data", {"sensor", "--regime", regime, "--out", (dir_ / "r2.h5").string()}, root_);
   ASSERT_EQ(again.exit_code, 0) << again.err;
-  const auto a = run_tool("imm-inspect", {(dir_ / "r.h5").string(), "--json"}, root_);
-  const auto b = run_tool("imm-inspect", {(dir_ / "r2.h5").string(), "--json"}, root_);
-  ASSERT_EQ(a.exit_code, 0) << a.err;
-  const auto ja = nlohmann::json::parse(a.out);
-  EXPECT_EQ(ja["kind"], "range_sensor");
-  EXPECT_TRUE(ja["validated"].get<bool>());
-  // Same config and seed, same digest.
-  auto digest_of = [](const std::string& text) {
-    const auto at = text.find("\"digest\"");
-    return at == std::string::npos ? std::string() : text.substr(at, 80);
-  };
-  EXPECT_FALSE(digest_of(a.out).empty()) << a.out;
-  EXPECT_EQ(digest_of(a.out), digest_of(b.out));
+  const auto a = nlohmann::json::parse(
+      run_tool("imm-inspect", {(dir_ / "r.h5").string(), "--json"}, root_).out);
+  const auto b = nlohmann::json::parse(
+      run_tool("imm-inspect", {(dir_ / "r2.h5").string(), "--json"}, root_).out);
+  EXPECT_EQ(a["kind"], "range_sensor");
+  EXPECT_TRUE(a["validated"].get<bool>());
+  EXPECT_EQ(a["attributes"]["digest"], b["attributes"]["digest"]);  // same regime and seed
 
   const auto cut_in = run_tool(
-      "imm-data", {"cut-in", "--r-sigma", "0.5", "--runs", "4", "--out", (dir_ / "c.h5").string()},
+      "imm-data", {"tracks", "--regime", regime, "--count", "4", "--out", (dir_ / "c.h5").string()},
       root_);
   ASSERT_EQ(cut_in.exit_code, 0) << cut_in.err;
-  EXPECT_NE(cut_in.out.find("4 runs"), std::string::npos) << cut_in.out;
+  EXPECT_NE(cut_in.out.find("4 tracks"), std::string::npos) << cut_in.out;
+  const auto training = run_tool(
+      "imm-data",
+      {"tracks", "--regime", regime, "--split", "training", "--out", (dir_ / "t.h5").string()},
+      root_);
+  ASSERT_EQ(training.exit_code, 0) << training.err;
+  EXPECT_NE(training.out.find("training split, 8 tracks"), std::string::npos) << training.out;
+  // A regime without a range sensor has no sensor samples.
   const auto bad = run_tool(
-      "imm-data", {"cut-in", "--r-sigma", "-1", "--out", (dir_ / "bad.h5").string()}, root_);
-  EXPECT_NE(bad.exit_code, 0);
+      "imm-data", {"sensor", "--regime", kTable3, "--out", (dir_ / "bad.h5").string()}, root_);
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("sensor.kind"), std::string::npos) << bad.err;
   EXPECT_FALSE(std::filesystem::exists(dir_ / "bad.h5"));
 }
 

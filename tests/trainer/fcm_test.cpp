@@ -7,18 +7,21 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "imm/datasets/track.hpp"
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "testing/config_error.hpp"
+#include "testing/regime_files.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::trainer {
 namespace {
 
 std::string fcm_config_error(const std::string& text) {
-  return testing::config_error_key(text,
-                                   [](const auto& path) { return fcm::load_fcm_config(path); });
+  return testing::config_error_key(
+      "regime = \"configs/regimes/paper/fcm_imm_training.toml\"\n" + text,
+      [](const auto& path) { return fcm::load_fcm_config(path); });
 }
 
 TEST(FcmConfig, InvalidValuesAreNamed) {
@@ -32,8 +35,7 @@ TEST(FcmConfig, InvalidValuesAreNamed) {
             "filter.process_noise");
   EXPECT_EQ(fcm_config_error("[filter]\nwindow = 500\n"), "filter.window");
   EXPECT_EQ(fcm_config_error("[tuning]\nwindows = [8, 2]\n"), "tuning.windows");
-  EXPECT_EQ(fcm_config_error("[training]\nperiods = [1, 40]\n"), "training.periods");
-  EXPECT_EQ(fcm_config_error("[training]\ntrajectory = 3\n"), "training.trajectory");
+  EXPECT_EQ(fcm_config_error("[training]\nperiods = [1, 4]\n"), "training");  // now the regime's
   EXPECT_EQ(fcm_config_error("[gate]\nmax_validation_ratio = \"low\"\n"),
             "gate.max_validation_ratio");
   const auto shipped = fcm::load_fcm_config("configs/fcm_imm.toml");
@@ -43,11 +45,14 @@ TEST(FcmConfig, InvalidValuesAreNamed) {
 }
 
 fcm::FcmTrainingConfig small_config() {
-  auto config = fcm::load_fcm_config("configs/fcm_imm.toml");
-  config.training.trajectories = 4;
-  config.training.validation = 2;
-  config.training.steps = 150;
-  config.training.max_periods = 2;
+  const testing::TempDir dir;
+  auto config =
+      fcm::load_fcm_config("configs/fcm_imm.toml",
+                           testing::write_preset_variant(dir, "fcm_imm_training",
+                                                         {{"scans = 300", "scans = 150"},
+                                                          {"periods = [1, 4]", "periods = [1, 2]"},
+                                                          {"training = 16", "training = 4"},
+                                                          {"validation = 8", "validation = 2"}}));
   config.tuning.windows = {8};
   config.tuning.max_evaluations = 12;
   return config;
@@ -55,22 +60,22 @@ fcm::FcmTrainingConfig small_config() {
 
 TEST(FcmTraining, TrajectoriesAreSeededDisjointAndVaried) {
   const auto config = small_config();
-  const auto a = fcm::make_trajectories(config, false);
-  const auto b = fcm::make_trajectories(config, false);
-  const auto v = fcm::make_trajectories(config, true);
-  ASSERT_EQ(a.data.truth.size(), 4u);
-  ASSERT_EQ(v.data.truth.size(), 2u);
-  EXPECT_EQ(a.data.measurements[2], b.data.measurements[2]);
-  EXPECT_NE(a.data.truth[0].row(0), a.data.truth[1].row(0));
-  EXPECT_NE(a.data.truth[0].row(0), v.data.truth[0].row(0));
-  const double range = std::hypot(a.data.truth[1](0, 0), a.data.truth[1](0, 2));
+  const auto a = datasets::draw_split(config.regime, datasets::Split::kTraining, 0);
+  const auto b = datasets::draw_split(config.regime, datasets::Split::kTraining, 0);
+  const auto v = datasets::draw_split(config.regime, datasets::Split::kValidation, 0);
+  ASSERT_EQ(a.tracks.size(), 4u);
+  ASSERT_EQ(v.tracks.size(), 2u);
+  EXPECT_EQ(a.tracks[2].plots, b.tracks[2].plots);
+  EXPECT_NE(a.tracks[0].truth.row(0), a.tracks[1].truth.row(0));
+  EXPECT_NE(a.tracks[0].truth.row(0), v.tracks[0].truth.row(0));
+  const double range = std::hypot(a.tracks[1].truth(0, 0), a.tracks[1].truth(0, 3));
   EXPECT_GE(range, 250e3);
   EXPECT_LE(range, 400e3);
 }
 
 TEST(FcmTraining, ScoreIsIndependentOfTheThreadCount) {
   const auto config = small_config();
-  const auto data = fcm::make_trajectories(config, false);
+  const auto data = datasets::draw_split(config.regime, datasets::Split::kTraining, 0);
   FcmImmSpec spec = config.filter;
   spec.compensation_gain = 0.3;
   auto make = [&] { return make_fcm_imm_filter(spec); };
@@ -87,7 +92,7 @@ TEST(FcmTraining, ScoreIsIndependentOfTheThreadCount) {
 
 TEST(FcmTraining, LambdaZeroIsTheConstantNoiseImm) {
   const auto config = small_config();
-  const auto data = fcm::make_trajectories(config, false);
+  const auto data = datasets::draw_split(config.regime, datasets::Split::kTraining, 0);
   AxisCvImmSpec imm;
   imm.settings.sample_period = 1.0;
   imm.settings.measurement_sigma = 100.0;

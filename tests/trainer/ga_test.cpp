@@ -2,26 +2,26 @@
 #include <omp.h>
 
 #include <cmath>
+#include <tuple>
 
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/support/config.hpp"
+#include "imm/support/regime_config.hpp"
 #include "imm/trainer/ga/ga_config.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
 #include "imm/trainer/ga/memetic.hpp"
 #include "imm/trainer/import_rules.hpp"
+#include "testing/regime_files.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::trainer::ga {
 namespace {
 
-TrainingSet small_training_set(TrainingProfile profile = TrainingProfile::kMixed) {
-  TrainingSetOptions options;
-  options.trajectories = 3;
-  options.steps = 60;
-  options.profile = profile;
-  options.maneuver_level = 0.01;
-  return make_training_set(options);
+TrainingSet small_training_set() {
+  const testing::TempDir dir;
+  const auto regime = support::load_regime(testing::write_ga_regime(dir, 60, 2, 1)).regime;
+  return make_training_set(regime, datasets::Split::kTraining);
 }
 
 ProblemOptions single_filter_options() {
@@ -158,12 +158,11 @@ TEST(Memetic, NeverReturnsAWorseGenome) {
 
 // A quick config; `ga_extra` goes into [ga], `tail` after every table.
 GaTrainingConfig small_config(const std::string& ga_extra = "", const std::string& tail = "") {
-  const std::string text =
-      "seed = 7\n[training]\nlevels = [0.001, 0.05]\ntrajectories = 2\nvalidation_trajectories = "
-      "2\n"
-      "steps = 50\n[ga]\npopulation = 16\ngenerations = 6\n" +
-      ga_extra + "[memetic]\nmax_evaluations = 20\n" + tail;
   const testing::TempDir dir;
+  const std::string text = testing::regime_line(testing::write_ga_regime(dir)) +
+                           "seed = 7\n[training]\nlevels = [0.001, 0.05]\n"
+                           "[ga]\npopulation = 16\ngenerations = 6\n" +
+                           ga_extra + "[memetic]\nmax_evaluations = 20\n" + tail;
   testing::write_text(dir / "small.toml", text);
   return load_ga_config(dir / "small.toml");
 }
@@ -234,7 +233,8 @@ TEST(GaConfig, InvalidValuesAreNamed) {
   EXPECT_EQ(config_error_key("crossover = 0.9\n"), "ga.crossover");  // unknown key (in [ga])
   EXPECT_EQ(config_error_key("mutation_rate = \"high\"\n"), "ga.mutation_rate");
   const testing::TempDir dir;
-  testing::write_text(dir / "p.toml", "[ga]\npopulation = 1\n");
+  testing::write_text(dir / "p.toml", testing::regime_line(testing::write_ga_regime(dir)) +
+                                          "[ga]\npopulation = 1\n");
   try {
     (void)load_ga_config(dir / "p.toml");
     FAIL();
@@ -249,9 +249,20 @@ TEST(GaConfig, InvalidValuesAreNamed) {
 TEST(GaConfig, AbsurdFiniteValuesAreRefusedAtLoad) {
   EXPECT_EQ(config_error_key("", "[fuzzy]\nconsequent_range = [0.5, 1e308]\n"),
             "fuzzy.consequent_range");
-  EXPECT_EQ(config_error_key("", "[filter]\nsample_period = 1e-320\n"), "filter.sample_period");
-  EXPECT_EQ(config_error_key("", "[filter]\nmeasurement_sigma = 1e308\n"),
-            "filter.measurement_sigma");
+  // T and σ are the regime's now: its loader refuses them by their own keys.
+  const testing::TempDir dir;
+  for (const auto& [from, to, key] :
+       {std::tuple<std::string, std::string, std::string>{
+            "sample_period = 1.0", "sample_period = 1e-320", "sample_period"},
+        {"sigma = [0.5, 0.5]", "sigma = [1e308, 1e308]", "sensor.sigma"}}) {
+    try {
+      (void)support::load_regime(
+          testing::write_preset_variant(dir, "ga_imm_training", {{from, to}}));
+      ADD_FAILURE() << key;
+    } catch (const support::ConfigError& error) {
+      EXPECT_EQ(error.key(), key);
+    }
+  }
   EXPECT_EQ(config_error_key("", "[fuzzy]\nsigma_range = [0.05, 1e308]\n"), "fuzzy.sigma_range");
 }
 
@@ -263,12 +274,15 @@ TEST(ShippedConfig, IsTheSeedsTable1) {
   EXPECT_DOUBLE_EQ(config.ga.crossover_rate, 0.9);
   EXPECT_DOUBLE_EQ(config.ga.mutation_rate, 0.01);
   EXPECT_DOUBLE_EQ(config.fuzzy.lambda, 0.95);
-  EXPECT_EQ(config.training.levels, (std::vector<double>{0.001, 0.01, 0.1}));
+  ASSERT_EQ(config.levels.size(), 3u);  // "auto": the seed's levels from the training regime
+  EXPECT_NEAR(config.levels[0], 0.001, 1e-12);
+  EXPECT_NEAR(config.levels[1], 0.01, 1e-12);
+  EXPECT_NEAR(config.levels[2], 0.1, 1e-12);
 }
 
 TEST(ImportRules, ReadsThePublishedTables) {
   const auto spec =
-      read_rules_csv("configs/reference/ga_fuzzy_imm_paper_rules.csv", AxisImmSettings{});
+      read_rules_csv("configs/reference/ga_fuzzy_imm_paper_rules.csv", AxisImmSettings{}, "km");
   ASSERT_EQ(spec.levels.size(), 3u);
   EXPECT_EQ(spec.levels[0].table.size(), 9u);  // Table 2.1
   EXPECT_EQ(spec.levels[1].table.size(), 8u);  // Table 2.2
@@ -279,10 +293,10 @@ TEST(ImportRules, ReadsThePublishedTables) {
   const testing::TempDir dir;
   testing::write_text(dir / "bad.csv",
                       "level,c1,sigma1,c2,sigma2,w\n0.01,0,1,0,1,1e-4\n0.01,0,-1,0,1,1e-4\n");
-  EXPECT_THROW((void)read_rules_csv(dir / "bad.csv", AxisImmSettings{}), std::runtime_error);
+  EXPECT_THROW((void)read_rules_csv(dir / "bad.csv", AxisImmSettings{}, "km"), std::runtime_error);
   testing::write_text(dir / "nan.csv", "level,c1,sigma1,c2,sigma2,w\n0.01,0,1,nan,1,1e-4\n");
   try {
-    (void)read_rules_csv(dir / "nan.csv", AxisImmSettings{});
+    (void)read_rules_csv(dir / "nan.csv", AxisImmSettings{}, "km");
     FAIL();
   } catch (const std::runtime_error& error) {
     EXPECT_NE(std::string(error.what()).find("nan.csv:2"), std::string::npos) << error.what();

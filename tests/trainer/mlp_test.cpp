@@ -124,7 +124,9 @@ TEST(MlpConfig, ShippedConfigIsTheSeedsSchedule) {
   EXPECT_EQ(config.hidden, (std::vector<int>{10, 10}));
   EXPECT_DOUBLE_EQ(config.cv_kf.measurement_variance, 2500.0);
   const testing::TempDir dir;
-  testing::write_text(dir / "bad.toml", "[network]\noutput = \"tanh\"\n");
+  testing::write_text(dir / "bad.toml",
+                      "regime = \"configs/regimes/paper/input_estimator_training.toml\"\n"
+                      "[network]\noutput = \"tanh\"\n");
   try {
     (void)load_mlp_config(dir / "bad.toml");
     FAIL();

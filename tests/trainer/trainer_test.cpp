@@ -2,6 +2,7 @@
 
 #include <fstream>
 
+#include "imm/datasets/track.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/freeze.hpp"
@@ -86,7 +87,7 @@ TEST(Nightly, ProcessExitCodesAndSignalsAreReported) {
 }
 
 std::string wimm_config_error(const std::string& text) {
-  return testing::config_error_key(text,
+  return testing::config_error_key("regime = \"configs/regimes/paper/wimm_training.toml\"\n" + text,
                                    [](const auto& path) { return wimm::load_wimm_config(path); });
 }
 
@@ -94,7 +95,7 @@ TEST(WimmConfig, InvalidValuesAreNamed) {
   EXPECT_EQ(wimm_config_error("[tuning]\nalpha_range = [0.0, 1.0]\n"), "tuning.alpha_range");
   EXPECT_EQ(wimm_config_error("[filter]\nfusion = \"strong\"\n"), "filter.fusion");
   EXPECT_EQ(wimm_config_error("[filter]\nalpha = 1.5\n"), "filter.alpha");
-  EXPECT_EQ(wimm_config_error("[training]\ntrajectory = 3\n"), "training.trajectory");
+  EXPECT_EQ(wimm_config_error("[training]\ntrajectories = 3\n"), "training");  // now the regime's
   EXPECT_EQ(wimm_config_error(""), "");
   const auto shipped = wimm::load_wimm_config("configs/wimm.toml");
   EXPECT_EQ(shipped.filter.threshold, 0.7);
@@ -102,16 +103,19 @@ TEST(WimmConfig, InvalidValuesAreNamed) {
   EXPECT_EQ(shipped.filter.sample_period, 2.0);
 }
 
-// The training scenarios are not seed 004's: random geometry, seeded and reproducible.
-TEST(WimmTraining, ScenariosAreSeededAndVaried) {
-  auto config = wimm::load_wimm_config("configs/wimm.toml");
-  config.training.trajectories = 5;
-  const auto a = wimm::make_training_scenarios(config);
-  const auto b = wimm::make_training_scenarios(config);
-  ASSERT_EQ(a.data.truth.size(), 5u);
-  EXPECT_EQ(a.data.measurements[3], b.data.measurements[3]);
-  EXPECT_NE(a.data.truth[0].row(0), a.data.truth[1].row(0));
-  EXPECT_GT(std::hypot(a.data.truth[2](0, 0), a.data.truth[2](0, 2)), 79e3);
+// The training tracks are not seed 004's: the random geometry of the training regime, seeded and
+// reproducible, with T and the sensor taken into the filter.
+TEST(WimmTraining, TracksComeFromTheConfigsRegime) {
+  const auto config = wimm::load_wimm_config("configs/wimm.toml");
+  EXPECT_EQ(config.regime.name, "wimm_training");
+  EXPECT_EQ(config.filter.sample_period, config.regime.sample_period);
+  EXPECT_EQ(config.filter.range_sigma, config.regime.sensor.noise.sigma(0));
+  const auto a = datasets::draw_split(config.regime, datasets::Split::kTraining, 0, 5);
+  const auto b = datasets::draw_split(config.regime, datasets::Split::kTraining, 0, 5);
+  ASSERT_EQ(a.tracks.size(), 5u);
+  EXPECT_EQ(a.tracks[3].plots, b.tracks[3].plots);
+  EXPECT_NE(a.tracks[0].truth.row(0), a.tracks[1].truth.row(0));
+  EXPECT_GT(std::hypot(a.tracks[2].truth(0, 0), a.tracks[2].truth(0, 3)), 79e3);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "imm/datasets/random.hpp"
+#include "imm/datasets/track.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/tsk/tsk_fit.hpp"
@@ -195,10 +196,10 @@ TEST(FineTuning, ParameterGradientMatchesCentralDifferences) {
 }
 
 TEST(FineTuning, LowersTheHeldOutErrorBelowFcrmAlone) {
-  datasets::RangeSensorDataConfig data_config;
-  data_config.samples = 1500;
-  data_config.seed = 12;
-  const datasets::RangeSensorData data = datasets::simulate_range_sensor(data_config);
+  datasets::Sensor sensor;
+  sensor.kind = datasets::SensorKind::kRangeSensor;
+  sensor.calibration.samples = 1500;
+  const datasets::RangeSensorData data = datasets::draw_calibration(sensor, 12);
   const SplitData parts = split(data, 0.25, 3);
   EXPECT_EQ(parts.validation_inputs.rows(), 375);
   FcrmSettings settings;
@@ -235,7 +236,8 @@ TEST(FineTuning, AnExactModelStaysExact) {
 // --- Config and the trainer ------------------------------------------------------------------
 
 std::string config_error(const std::string& text) {
-  return testing::config_error_key(text, [](const auto& path) { return load_tsk_config(path); });
+  return testing::config_error_key("regime = \"configs/regimes/paper/fimm_table1.toml\"\n" + text,
+                                   [](const auto& path) { return load_tsk_config(path); });
 }
 
 TEST(TskConfig, InvalidValuesAreNamed) {
@@ -244,31 +246,31 @@ TEST(TskConfig, InvalidValuesAreNamed) {
   EXPECT_EQ(config_error("[fit]\nrules = 0\n"), "fit.rules");
   EXPECT_EQ(config_error("[fit]\nfuzzifier = 1.0\n"), "fit.fuzzifier");
   EXPECT_EQ(config_error("[fit]\nrestarts = 0\n"), "fit.restarts");
-  EXPECT_EQ(config_error("[fit]\nrule = 3\n"), "fit.rule");  // unknown key
-  EXPECT_EQ(config_error("[data]\nsoftness = -1.0\n"), "data.softness");
-  EXPECT_EQ(config_error("[data]\nsamples = 5\n"), "data.samples");
-  EXPECT_EQ(config_error("[data]\neta = [-1.0, 100.0]\n"), "data.eta");
-  EXPECT_EQ(config_error("[data]\nxi = [6.0, -6.0]\n"), "data.xi");
-  EXPECT_EQ(config_error("[data]\nvalidation_fraction = 1.0\n"), "data.validation_fraction");
+  EXPECT_EQ(config_error("[fit]\nrule = 3\n"), "fit.rule");     // unknown key
+  EXPECT_EQ(config_error("[data]\nsoftness = 1.0\n"), "data");  // the sensor is the regime's
+  EXPECT_EQ(config_error("[fit]\nvalidation_fraction = 1.0\n"), "fit.validation_fraction");
   EXPECT_EQ(config_error("[gate]\nmax_validation_rmse = 0.0\n"), "gate.max_validation_rmse");
   EXPECT_EQ(config_error("[fimm]\nnoise_scale = 0.0\n"), "fimm.noise_scale");
   EXPECT_EQ(config_error("[fimm]\niekf_iterations = 1\n"), "fimm.iekf_iterations");
   EXPECT_EQ(config_error("[fimm]\ntransition = [[0.9, 0.2], [0.1, 0.9]]\n"), "fimm.transition");
-  EXPECT_EQ(config_error("[scenario]\ncut_in = [4.0, 1.0]\n"), "scenario.cut_in");
-  EXPECT_EQ(config_error("[scenario]\nreturn = [3.0, 18.0]\n"), "scenario.return");
-  EXPECT_EQ(config_error("[scenario]\nsteps = 1\n"), "scenario.steps");
+  EXPECT_EQ(config_error("[fimm]\nsample_period = 0.2\n"), "fimm.sample_period");  // regime's
+  // A regime without a range sensor is refused under the config's `regime` key.
+  EXPECT_EQ(testing::config_error_key("regime = \"configs/regimes/paper/wimm_training.toml\"\n",
+                                      [](const auto& path) { return load_tsk_config(path); }),
+            "regime");
   const TskTrainingConfig shipped = load_tsk_config("configs/tsk_range_sensor.toml");
-  EXPECT_EQ(shipped.data.samples, 8000);
+  EXPECT_EQ(shipped.regime.sensor.calibration.samples, 8000);
+  EXPECT_EQ(shipped.fimm.sample_period, shipped.regime.sample_period);
   EXPECT_EQ(shipped.fcrm.clusters, 3);
   EXPECT_EQ(shipped.t_norm, TNorm::kMin);
   const TskTrainingConfig hard = load_tsk_config("configs/tsk_range_sensor_hard.toml");
-  EXPECT_EQ(hard.data.distortion.softness, 10.0);
+  EXPECT_EQ(hard.regime.sensor.distortion.softness, 10.0);
 }
 
 TEST(TskTraining, SmallRunWritesAModelThatReproducesTheSensor) {
   const testing::TempDir dir;
   TskTrainingConfig config = load_tsk_config("configs/tsk_range_sensor.toml");
-  config.data.samples = 1200;
+  config.regime.sensor.calibration.samples = 1200;
   config.fcrm.restarts = 3;
   const auto out = dir / "models" / "tsk.h5";
   const TskTrainingResult result = train_tsk(config, out);
@@ -288,7 +290,7 @@ TEST(TskTraining, SmallRunWritesAModelThatReproducesTheSensor) {
   double worst = 0.0;
   for (int k = 0; k < 200; ++k) {
     const Eigen::Vector2d p(rng.uniform(-5.0, 5.0), rng.uniform(5.0, 95.0));
-    const Eigen::Vector2d truth = config.data.distortion.apply(p);
+    const Eigen::Vector2d truth = config.regime.sensor.response(p);
     worst = std::max(worst, (model.evaluate(p).value - truth).cwiseAbs().maxCoeff());
   }
   EXPECT_LT(worst, 1.0);

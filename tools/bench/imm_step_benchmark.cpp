@@ -8,8 +8,7 @@
 
 #include <memory>
 
-#include "imm/datasets/maneuver_scenario.hpp"
-#include "imm/datasets/range_sensor.hpp"
+#include "imm/datasets/track.hpp"
 #include "imm/filters/aimm.hpp"
 #include "imm/filters/axis_cv_imm.hpp"
 #include "imm/filters/fcm_imm.hpp"
@@ -30,17 +29,22 @@
 #include "imm/models/position_measurement.hpp"
 #include "imm/models/singer.hpp"
 #include "imm/support/plain_imm_config.hpp"
+#include "imm/support/regime_config.hpp"
 
 namespace {
 
 using imm::TrackFilter;
 
+// Test track `index` (seed 1) of a paper preset (configs/regimes/paper/NAME.toml); a scripted
+// regime's track i follows its case i mod cases.
+imm::datasets::Track preset_track(const std::string& name, int index = 0) {
+  const auto file = imm::support::load_regime(
+      std::string(IMM_SOURCE_DIR "/configs/regimes/paper/") + name + ".toml");
+  return imm::datasets::draw_track(file.regime, imm::datasets::Split::kTest, index, 1);
+}
+
 const Eigen::MatrixXd& seed000_plots() {
-  static const Eigen::MatrixXd plots = [] {
-    auto scenario = imm::datasets::seed000_scenario();
-    scenario.runs = 1;
-    return imm::datasets::simulate(scenario).measurements.front();
-  }();
+  static const Eigen::MatrixXd plots = preset_track("ga_imm_table3").plots;
   return plots;
 }
 
@@ -119,11 +123,7 @@ void BM_CvSingerPolarImmStep(benchmark::State& state) {
 BENCHMARK(BM_CvSingerPolarImmStep);
 
 const Eigen::MatrixXd& seed003_plots() {
-  static const Eigen::MatrixXd plots = [] {
-    auto scenario = imm::datasets::seed003_scenario();
-    scenario.runs = 1;
-    return imm::datasets::simulate(scenario).measurements.front();
-  }();
+  static const Eigen::MatrixXd plots = preset_track("fcm_imm_seed003").plots;
   return plots;
 }
 
@@ -171,11 +171,7 @@ BENCHMARK(BM_GaFuzzyImmPaperTablesStep);
 
 // Seed 004's filters on the scenario-1 plots: one step of the normal and of the weighted IMM.
 void run_polar(benchmark::State& state, imm::FusionVariant fusion) {
-  static const Eigen::MatrixXd plots = [] {
-    auto scenario = imm::datasets::seed004_scenario(1);
-    scenario.runs = 1;
-    return imm::datasets::simulate(scenario).measurements.front();
-  }();
+  static const Eigen::MatrixXd plots = preset_track("wimm_table2", 0).plots;
   imm::WimmSpec spec;
   spec.fusion = fusion;
   imm::WeightedImmFilter filter(spec);
@@ -267,18 +263,15 @@ const char* tsk_model_path(bool hard) {
               : IMM_SOURCE_DIR "/models/tsk_range_sensor.h5";
 }
 
-imm::datasets::CutInScenario cut_in(bool hard) {
-  imm::datasets::CutInScenario scenario;
-  scenario.runs = 1;
-  scenario.measurement_covariance = 0.25 * Eigen::Matrix2d::Identity();
-  if (hard) scenario.distortion.softness = 10.0;
-  return scenario;
+// The cut-in of seed 002 with R = 0.5² I (the presets' case 1).
+imm::datasets::Track cut_in(bool hard) {
+  return preset_track(hard ? "fimm_table1_hard" : "fimm_table1", 1);
 }
 
 void BM_TskEvaluate(benchmark::State& state) {
   const bool hard = state.range(0) == 1;
   const imm::TskModel model = imm::io::read_tsk_sensor(tsk_model_path(hard));
-  const Eigen::MatrixXd truth = imm::datasets::simulate_cut_in(cut_in(hard)).truth;
+  const Eigen::MatrixXd truth = cut_in(hard).truth;
   Eigen::Index k = 0;
   for (auto _ : state) {
     benchmark::DoNotOptimize(model.evaluate(Eigen::Vector2d(truth(k, 0), truth(k, 3))));
@@ -294,17 +287,16 @@ BENCHMARK(BM_TskEvaluate)->Arg(0)->Arg(1);
 void BM_FimmStep(benchmark::State& state) {
   const int iterations = static_cast<int>(state.range(0));
   const bool hard = state.range(1) == 1;
-  const auto scenario = cut_in(hard);
-  const auto data = imm::datasets::simulate_cut_in(scenario);
+  const imm::datasets::Track track = cut_in(hard);
   std::shared_ptr<const imm::TskModel> sensor;
   if (iterations > 0) {
     sensor = std::make_shared<const imm::TskModel>(imm::io::read_tsk_sensor(tsk_model_path(hard)));
   }
   imm::FimmSpec spec;
-  spec.measurement_covariance = scenario.measurement_covariance;
+  spec.measurement_covariance = track.noise.covariance();
   spec.iterations = std::max(1, iterations);
   imm::FimmFilter filter(spec, sensor);
-  step_through(state, filter, data.measurements.front(), data.truth.row(0).transpose(),
+  step_through(state, filter, track.plots, track.truth.row(0).transpose(),
                Eigen::MatrixXd::Identity(6, 6));
   state.SetLabel(std::string(iterations == 0   ? "IMM (h = identity)"
                              : iterations == 1 ? "FIMM, EKF"

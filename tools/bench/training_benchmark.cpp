@@ -6,6 +6,7 @@
 #include <benchmark/benchmark.h>
 
 #include "imm/datasets/random.hpp"
+#include "imm/datasets/track.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
@@ -13,10 +14,16 @@
 
 namespace {
 
+std::filesystem::path preset(const char* name) {
+  return std::filesystem::path(IMM_SOURCE_DIR "/configs/regimes/paper") /
+         (std::string(name) + ".toml");
+}
+
 void BM_BackpropagationEpoch(benchmark::State& state) {
-  const auto config =
-      imm::trainer::mlp::load_mlp_config(IMM_SOURCE_DIR "/configs/mlp_input_estimator.toml");
-  const auto features = imm::trainer::mlp::make_features(config, config.training_profiles, 1);
+  const auto config = imm::trainer::mlp::load_mlp_config(
+      IMM_SOURCE_DIR "/configs/mlp_input_estimator.toml", preset("input_estimator_training"));
+  const auto features = imm::trainer::mlp::make_features(
+      config, imm::datasets::draw_split(config.regime, imm::datasets::Split::kTraining, 0));
   imm::trainer::mlp::Samples samples = features.samples;
   // Standardize as the trainer does.
   const Eigen::RowVector2d mean = samples.inputs.colwise().mean();
@@ -43,10 +50,12 @@ void BM_BackpropagationEpoch(benchmark::State& state) {
 BENCHMARK(BM_BackpropagationEpoch);
 
 // One objective evaluation of the FCM fit: the shipped fit's FCM-IMM over the training
-// trajectories of configs/fcm_imm.toml (16 × 300 scans, both axes), at the default thread count.
+// split of configs/regimes/paper/fcm_imm_training.toml (16 × 300 scans, both axes), at the default
+// thread count.
 void BM_FcmObjectiveEvaluation(benchmark::State& state) {
-  const auto config = imm::trainer::fcm::load_fcm_config(IMM_SOURCE_DIR "/configs/fcm_imm.toml");
-  const auto data = imm::trainer::fcm::make_trajectories(config, false);
+  const auto config = imm::trainer::fcm::load_fcm_config(IMM_SOURCE_DIR "/configs/fcm_imm.toml",
+                                                         preset("fcm_imm_training"));
+  const auto data = imm::datasets::draw_split(config.regime, imm::datasets::Split::kTraining, 0);
   auto spec = config.filter;
   spec.compensation_gain = 0.06;
   spec.clustering.fuzzifier = 4.0;
@@ -54,7 +63,7 @@ void BM_FcmObjectiveEvaluation(benchmark::State& state) {
     benchmark::DoNotOptimize(imm::trainer::fcm::score_filter(
         [&] { return imm::make_fcm_imm_filter(spec); }, data, config.filter.measurement_sigma));
   }
-  state.counters["trajectories"] = static_cast<double>(data.data.truth.size());
+  state.counters["trajectories"] = static_cast<double>(data.tracks.size());
 }
 BENCHMARK(BM_FcmObjectiveEvaluation)->Unit(benchmark::kMillisecond);
 
@@ -65,8 +74,9 @@ void BM_TskFit(benchmark::State& state) {
   namespace tsk = imm::trainer::tsk;
   const auto config = tsk::load_tsk_config(
       state.range(0) == 1 ? IMM_SOURCE_DIR "/configs/tsk_range_sensor_hard.toml"
-                          : IMM_SOURCE_DIR "/configs/tsk_range_sensor.toml");
-  const auto data = imm::datasets::simulate_range_sensor(config.data);
+                          : IMM_SOURCE_DIR "/configs/tsk_range_sensor.toml",
+      preset(state.range(0) == 1 ? "fimm_table1_hard" : "fimm_table1"));
+  const auto data = tsk::calibration_samples(config).data;
   const auto parts = tsk::split(data, config.validation_fraction, config.seed);
   for (auto _ : state) {
     for (int i = 0; i < 2; ++i) {

@@ -2,7 +2,7 @@
 // every parameter as readable tables, or as JSON with --json. Known model kinds are also fully
 // validated by their runtime reader, so a file imm-inspect accepts is a file the runtime loads.
 //
-//   imm-inspect models/cv3_imm.h5 [--json] [--full] [--config]
+//   imm-inspect models/cv3_imm.h5 [--json] [--full] [--config] [--regime]
 //
 // Exit codes: 0 readable and valid, 1 usage, 2 corrupt, foreign or invalid file (one line on
 // stderr naming the file and the field).
@@ -186,6 +186,9 @@ int main(int argc, char** argv) {
   app.add_flag("--json", as_json, "machine-readable output");
   app.add_flag("--full", full, "print every row of every table");
   app.add_flag("--config", show_config, "print the full config text the file was made from");
+  bool show_regime = false;
+  app.add_flag("--regime", show_regime,
+               "print the full text of the regime a model was trained for");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -205,10 +208,8 @@ int main(int argc, char** argv) {
       // Each reader validates its kind and recomputes the digest.
       if (kind == "range_sensor") {
         (void)imm::datasets::read_range_sensor_dataset(path);
-      } else if (kind == "cut_in") {
-        (void)imm::datasets::read_cut_in_dataset(path);
       } else {
-        (void)imm::datasets::read_scenario_dataset(path);
+        (void)imm::datasets::read_track_set(path);
       }
       schema_version = std::get<std::int64_t>(*file.attribute("/", "schema_version"));
     } else {
@@ -240,7 +241,7 @@ int main(int argc, char** argv) {
               << "format           " << file.format() << " (schema " << schema_version << ")\n"
               << "kind             " << kind
               << (validated ? "" : "  (not validated: unknown to this build)") << '\n';
-    std::string config;
+    std::string config, regime;
     for (const std::string& attribute : file.attribute_names("/")) {
       if (attribute == "format" || attribute == "schema_version" || attribute == "model_kind" ||
           attribute == "dataset_kind") {
@@ -257,6 +258,13 @@ int main(int argc, char** argv) {
                   << '\n';
         continue;
       }
+      if (attribute == "regime_toml") {
+        regime = std::get<std::string>(value);
+        const auto lines = std::count(regime.begin(), regime.end(), '\n');
+        std::cout << "regime_toml      " << std::to_string(lines) << " lines"
+                  << (show_regime ? "" : " (--regime prints it)") << '\n';
+        continue;
+      }
       std::string text = attribute_text(value);
       if (text.empty()) text = "-";
       std::cout << attribute << std::string(attribute.size() < 17 ? 17 - attribute.size() : 1, ' ')
@@ -264,6 +272,8 @@ int main(int argc, char** argv) {
     }
     if (show_config && !config.empty())
       std::cout << "\n--- config ---\n" << config << "--- end ---\n";
+    if (show_regime && !regime.empty())
+      std::cout << "\n--- regime ---\n" << regime << "--- end ---\n";
     std::cout << '\n';
     inspector.text(std::cout, "/");
   } catch (const std::exception& error) {

@@ -1,15 +1,19 @@
 // imm-train: trains (or freezes) models into model files and runs the nightly pipeline.
 //
-//   imm-train ga --config configs/ga_fuzzy_imm.toml [--out F] [--seed N] [--threads N] [--resume]
+//   imm-train ga --config configs/ga_fuzzy_imm.toml [--regime R] [--out F] [--seed N]
+//                [--threads N] [--resume]
 //   imm-train import-rules --csv configs/reference/ga_fuzzy_imm_paper_rules.csv
-//                          --config configs/ga_fuzzy_imm.toml --out
+//                          --config configs/ga_fuzzy_imm.toml [--regime R] --out
 //                          models/reference/ga_fuzzy_imm_paper.h5
-//   imm-train mlp --config configs/mlp_input_estimator.toml [--out models/mlp_input_estimator.h5]
-//                 [--seed N]
-//   imm-train wimm --config configs/wimm.toml [--out models/wimm.h5] [--seed N]
-//   imm-train fcm --config configs/fcm_imm.toml [--out models/fcm_imm.h5] [--seed N]
-//   imm-train tsk --config configs/tsk_range_sensor.toml [--out models/tsk_range_sensor.h5]
-//                 [--seed N] [--data samples.h5|samples.csv]
+//   imm-train mlp --config configs/mlp_input_estimator.toml [--regime R]
+//                 [--out models/mlp_input_estimator.h5] [--seed N]
+//   imm-train wimm --config configs/wimm.toml [--regime R] [--out models/wimm.h5] [--seed N]
+//   imm-train fcm --config configs/fcm_imm.toml [--regime R] [--out models/fcm_imm.h5] [--seed N]
+//   imm-train tsk --config configs/tsk_range_sensor.toml [--regime R]
+//                 [--out models/tsk_range_sensor.h5] [--seed N] [--data samples.h5|samples.csv]
+//
+// Every training config names its regime (configs/regimes/…); --regime trains the same config
+// for another regime.
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
 //   imm-train all --config configs/nightly.toml
 //
@@ -48,27 +52,45 @@ constexpr int kExitGateFailed = 4;
 struct GaCommand {
   std::filesystem::path config = "configs/ga_fuzzy_imm.toml";
   std::filesystem::path out = "models/ga_fuzzy_imm.h5";
+  std::optional<std::filesystem::path> regime;
   std::optional<std::uint64_t> seed;
   int threads = 0;
   bool resume = false;
 };
 
+/// The --config, --regime, --out and --seed of a training subcommand.
+struct TrainCommand {
+  std::filesystem::path config, out;
+  std::optional<std::filesystem::path> regime;
+  std::optional<std::uint64_t> seed;
+};
+
+CLI::App* add_train_command(CLI::App& app, const std::string& name, const std::string& about,
+                            TrainCommand& command) {
+  auto* sub = app.add_subcommand(name, about);
+  sub->add_option("--config", command.config, "training config TOML");
+  sub->add_option("--regime", command.regime, "regime TOML to train for (replaces the config's)");
+  sub->add_option("--out", command.out, "model file to write");
+  sub->add_option("--seed", command.seed, "override the config's seed");
+  return sub;
+}
+
 int run_ga(const GaCommand& command) {
   namespace ga = imm::trainer::ga;
-  ga::GaTrainingConfig config = ga::load_ga_config(command.config);
+  ga::GaTrainingConfig config = ga::load_ga_config(command.config, command.regime);
   if (command.seed) config.seed = *command.seed;
   if (command.threads > 0) omp_set_num_threads(command.threads);
-  const std::size_t levels = config.training.levels.size();
+  const std::size_t levels = config.levels.size();
   const int generations = config.ga.generations;
-  spdlog::info("ga: {} levels, population {}, {} generations, profile {}, seed {}, {} threads",
-               levels, config.ga.population, generations, ga::to_string(config.training.profile),
-               config.seed, omp_get_max_threads());
+  spdlog::info("ga: regime {}, levels [{}] {}, population {}, {} generations, seed {}, {} threads",
+               config.regime.name, fmt::join(config.levels, ", "),
+               imm::datasets::to_string(config.regime.units) == "km" ? "km/s²" : "m/s²",
+               config.ga.population, generations, config.seed, omp_get_max_threads());
 
   ga::GaObserver observer;
   observer.on_resume = [&](std::size_t level, int generation) {
-    spdlog::info("resuming level {} at generation {} from {}",
-                 ga::level_name(config.training.levels[level]), generation,
-                 ga::checkpoint_path(command.out).string());
+    spdlog::info("resuming level {} at generation {} from {}", ga::level_name(config.levels[level]),
+                 generation, ga::checkpoint_path(command.out).string());
   };
   observer.on_generation = [&](std::size_t level, const ga::GenerationLog& log, double seconds) {
     if (log.generation % 10 != 0 && log.generation != generations) return;
@@ -78,8 +100,8 @@ int run_ga(const GaCommand& command) {
     spdlog::info(
         "level {} [{}/{}] generation {:3}/{}: best fitness {:.5f} (error {:.4f}, {} rules), "
         "mean {:.5f}, ETA {:.0f} s",
-        ga::level_name(config.training.levels[level]), level + 1, levels, log.generation,
-        generations, log.best_fitness, log.best_error, log.best_rules, log.mean_fitness, eta);
+        ga::level_name(config.levels[level]), level + 1, levels, log.generation, generations,
+        log.best_fitness, log.best_error, log.best_rules, log.mean_fitness, eta);
   };
   observer.on_level_done = [&](std::size_t, const ga::LevelResult& r) {
     const std::string memetic =
@@ -169,6 +191,8 @@ int main(int argc, char** argv) {
   auto* ga_subcommand =
       app.add_subcommand("ga", "learn the fuzzy rule tables of the GA-fuzzy IMM (seed 000)");
   ga_subcommand->add_option("--config", ga_command.config, "GA config TOML");
+  ga_subcommand->add_option("--regime", ga_command.regime,
+                            "regime TOML to train for (replaces the config's)");
   ga_subcommand->add_option("--out", ga_command.out, "model file to write");
   ga_subcommand->add_option("--seed", ga_command.seed, "override the config's seed");
   ga_subcommand->add_option("--threads", ga_command.threads, "OpenMP threads (default: all cores)")
@@ -183,49 +207,30 @@ int main(int argc, char** argv) {
       ->required();
   import_command->add_option("--config", import_options.config, "GA config whose [filter] applies")
       ->required();
+  import_command->add_option("--regime", import_options.regime,
+                             "regime TOML (replaces the config's)");
   import_command->add_option("--out", import_options.out, "model file to write")->required();
 
-  std::filesystem::path mlp_config = "configs/mlp_input_estimator.toml";
-  std::filesystem::path mlp_out = "models/mlp_input_estimator.h5";
-  std::optional<std::uint64_t> mlp_seed;
-  auto* mlp_command =
-      app.add_subcommand("mlp", "train the neural input estimator (seed 001) by back-propagation");
-  mlp_command->add_option("--config", mlp_config, "MLP config TOML");
-  mlp_command->add_option("--out", mlp_out, "model file to write");
-  mlp_command->add_option("--seed", mlp_seed, "override the config's seed");
-
-  std::filesystem::path wimm_config = "configs/wimm.toml";
-  std::filesystem::path wimm_out = "models/wimm.h5";
-  std::optional<std::uint64_t> wimm_seed;
-  auto* wimm_command = app.add_subcommand(
-      "wimm",
-      "tune the weighted IMM's fusion threshold and weight (seed 004) on training scenarios");
-  wimm_command->add_option("--config", wimm_config, "wIMM config TOML");
-  wimm_command->add_option("--out", wimm_out, "model file to write");
-  wimm_command->add_option("--seed", wimm_seed, "override the config's seed");
-
-  std::filesystem::path fcm_config = "configs/fcm_imm.toml";
-  std::filesystem::path fcm_out = "models/fcm_imm.h5";
-  std::optional<std::uint64_t> fcm_seed;
-  auto* fcm_command = app.add_subcommand(
-      "fcm", "fit the FCM-IMM's parameters (seed 003) on training trajectories with NLopt");
-  fcm_command->add_option("--config", fcm_config, "FCM-IMM config TOML");
-  fcm_command->add_option("--out", fcm_out, "model file to write");
-  fcm_command->add_option("--seed", fcm_seed, "override the config's seed");
-
-  std::filesystem::path tsk_config = "configs/tsk_range_sensor.toml";
-  std::filesystem::path tsk_out = "models/tsk_range_sensor.h5";
-  std::optional<std::uint64_t> tsk_seed;
-  auto* tsk_command = app.add_subcommand(
-      "tsk", "fit the probabilistic TSK model of a range sensor (seed 002): FCRM, then Ceres");
-  tsk_command->add_option("--config", tsk_config, "TSK sensor config TOML");
-  tsk_command->add_option("--out", tsk_out, "model file to write");
-  tsk_command->add_option("--seed", tsk_seed, "override the config's seed");
+  TrainCommand mlp{"configs/mlp_input_estimator.toml", "models/mlp_input_estimator.h5", {}, {}};
+  auto* mlp_command = add_train_command(
+      app, "mlp", "train the neural input estimator (seed 001) by back-propagation", mlp);
+  TrainCommand wimm{"configs/wimm.toml", "models/wimm.h5", {}, {}};
+  auto* wimm_command = add_train_command(
+      app, "wimm",
+      "tune the weighted IMM's fusion threshold and weight (seed 004) on the regime's training "
+      "split",
+      wimm);
+  TrainCommand fcm{"configs/fcm_imm.toml", "models/fcm_imm.h5", {}, {}};
+  auto* fcm_command = add_train_command(
+      app, "fcm", "fit the FCM-IMM's parameters (seed 003) on the regime's training split", fcm);
+  TrainCommand tsk{"configs/tsk_range_sensor.toml", "models/tsk_range_sensor.h5", {}, {}};
+  auto* tsk_command = add_train_command(
+      app, "tsk", "fit the probabilistic TSK model of a range sensor (seed 002): FCRM, then Ceres",
+      tsk);
   std::filesystem::path tsk_data;
   tsk_command->add_option("--data", tsk_data,
-                          "fit stored samples instead of the config's simulated sensor: a "
-                          "range-sensor data set (.h5, imm-data range-sensor) or a CSV "
-                          "xi,eta,z1,z2");
+                          "fit these samples (a range-sensor data set .h5 or a CSV "
+                          "xi,eta,z1,z2); they must be the sensor samples the regime names");
 
   std::filesystem::path nightly_config;
   auto* all_command = app.add_subcommand("all", "run every stage of the nightly plan");
@@ -236,17 +241,17 @@ int main(int argc, char** argv) {
     if (*ga_subcommand) return run_ga(ga_command);
     if (*freeze_command) return run_freeze(freeze);
     if (*mlp_command) {
-      auto config = imm::trainer::mlp::load_mlp_config(mlp_config);
-      if (mlp_seed) {
-        config.seed = *mlp_seed;
+      auto config = imm::trainer::mlp::load_mlp_config(mlp.config, mlp.regime);
+      if (mlp.seed) {
+        config.seed = *mlp.seed;
         config.training.seed = imm::datasets::derive_seed(config.seed, 3);
       }
       int epochs = 0;
       for (const auto& phase : config.training.phases) epochs += phase.epochs;
-      spdlog::info("mlp: {} training and {} validation profiles, {} epochs, seed {}",
-                   config.training_profiles.size(), config.validation_profiles.size(), epochs,
-                   config.seed);
-      const auto result = imm::trainer::mlp::train_mlp(config, mlp_out);
+      spdlog::info("mlp: regime {}, {} training and {} validation tracks, {} epochs, seed {}",
+                   config.regime.name, config.regime.splits.training,
+                   config.regime.splits.validation, epochs, config.seed);
+      const auto result = imm::trainer::mlp::train_mlp(config, mlp.out);
       const std::size_t step = std::max<std::size_t>(1, result.loss.size() / 8);
       for (std::size_t i = 0; i < result.loss.size(); i += step) {
         const auto& p = result.loss[i];
@@ -262,57 +267,56 @@ int main(int argc, char** argv) {
       if (!result.gate_passed) {
         spdlog::error(
             "quality gate failed: validation RMSE {:.3f} m/s² exceeds {:.3f}; {} not written",
-            result.validation_rmse, config.max_validation_rmse, mlp_out.string());
+            result.validation_rmse, config.max_validation_rmse, mlp.out.string());
         return kExitGateFailed;
       }
-      spdlog::info("wrote {}", mlp_out.string());
+      spdlog::info("wrote {}", mlp.out.string());
       return 0;
     }
     if (*wimm_command) {
-      auto config = imm::trainer::wimm::load_wimm_config(wimm_config);
-      if (wimm_seed) config.seed = *wimm_seed;
-      spdlog::info("wimm: tuning threshold and alpha on {} training scenarios ({} scans, seed {})",
-                   config.training.trajectories, config.training.steps, config.seed);
-      const auto result = imm::trainer::wimm::train_wimm(config, wimm_out);
+      auto config = imm::trainer::wimm::load_wimm_config(wimm.config, wimm.regime);
+      if (wimm.seed) config.seed = *wimm.seed;
+      spdlog::info("wimm: tuning threshold and alpha on regime {}: {} training tracks of {} scans",
+                   config.regime.name, config.regime.splits.training, config.regime.scans);
+      const auto result = imm::trainer::wimm::train_wimm(config, wimm.out);
       spdlog::info(
           "threshold {:.4f}, alpha {:.4f}: settled azimuth RMSE x{:.4f}, position RMSE "
           "x{:.4f} of the normal IMM on the training scenarios ({} evaluations, {:.1f} s); "
           "wrote {}",
           result.tuned.spec.threshold, result.tuned.spec.alpha, result.tuned.azimuth_ratio,
           result.tuned.position_ratio, result.tuned.evaluations, result.wall_seconds,
-          wimm_out.string());
+          wimm.out.string());
       return 0;
     }
     if (*tsk_command) {
-      auto config = imm::trainer::tsk::load_tsk_config(tsk_config);
-      if (tsk_seed) {
-        config.seed = *tsk_seed;
-        config.data.seed = imm::datasets::derive_seed(config.seed, 1);
-      }
-      const auto samples = tsk_data.empty() ? imm::trainer::tsk::simulated_samples(config)
-                                            : imm::trainer::tsk::load_sensor_samples(tsk_data);
+      auto config = imm::trainer::tsk::load_tsk_config(tsk.config, tsk.regime);
+      if (tsk.seed) config.seed = *tsk.seed;
+      const auto samples = tsk_data.empty()
+                               ? imm::trainer::tsk::calibration_samples(config)
+                               : imm::trainer::tsk::load_sensor_samples(tsk_data, config);
       spdlog::info(
           "tsk: {} samples from {} ({:.0f} % held out), {} rules per output, t-norm {}, seed {}",
           samples.data.positions.rows(), samples.source, 100.0 * config.validation_fraction,
           config.fcrm.clusters, imm::to_string(config.t_norm), config.seed);
-      const auto result = imm::trainer::tsk::train_tsk(config, samples, tsk_out);
+      const auto result = imm::trainer::tsk::train_tsk(config, samples, tsk.out);
       spdlog::info("fitted in {:.2f} s", result.wall_seconds);
       if (!result.gate_passed) {
         spdlog::error("quality gate failed: a validation RMSE exceeds {:.3f} m; {} not written",
-                      config.max_validation_rmse, tsk_out.string());
+                      config.max_validation_rmse, tsk.out.string());
         return kExitGateFailed;
       }
-      spdlog::info("wrote {}", tsk_out.string());
+      spdlog::info("wrote {}", tsk.out.string());
       return 0;
     }
     if (*fcm_command) {
-      auto config = imm::trainer::fcm::load_fcm_config(fcm_config);
-      if (fcm_seed) config.seed = *fcm_seed;
+      auto config = imm::trainer::fcm::load_fcm_config(fcm.config, fcm.regime);
+      if (fcm.seed) config.seed = *fcm.seed;
       spdlog::info(
-          "fcm: fitting on {} training trajectories ({} held out, {} scans, seed {}), windows {}",
-          config.training.trajectories, config.training.validation, config.training.steps,
-          config.seed, fmt::join(config.tuning.windows, ", "));
-      const auto result = imm::trainer::fcm::train_fcm(config, fcm_out);
+          "fcm: regime {}: fitting on {} training tracks ({} held out, {} scans, seed {}), "
+          "windows {}",
+          config.regime.name, config.regime.splits.training, config.regime.splits.validation,
+          config.regime.scans, config.seed, fmt::join(config.tuning.windows, ", "));
+      const auto result = imm::trainer::fcm::train_fcm(config, fcm.out);
       const auto& s = result.spec;
       spdlog::info(
           "fitted: window {}, lambda {:.3f}, m {:.2f}, kappa {:.2f}, stay {:.4f}, q = {:.4g} "
@@ -327,10 +331,10 @@ int main(int argc, char** argv) {
             "quality gate failed: validation J {:.4f} exceeds {:.3f} x the tuned KF's "
             "{:.4f}; {} not written",
             result.validation.objective, config.max_validation_ratio,
-            result.kf_validation.objective, fcm_out.string());
+            result.kf_validation.objective, fcm.out.string());
         return kExitGateFailed;
       }
-      spdlog::info("wrote {}", fcm_out.string());
+      spdlog::info("wrote {}", fcm.out.string());
       return 0;
     }
     if (*import_command) {

@@ -1,9 +1,11 @@
 #include "imm/trainer/freeze.hpp"
 
 #include <chrono>
+#include <cmath>
 
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/support/plain_imm_config.hpp"
+#include "imm/support/regime_config.hpp"
 #include "imm/trainer/provenance.hpp"
 
 namespace imm::trainer {
@@ -11,9 +13,34 @@ namespace imm::trainer {
 FreezeSummary freeze_plain_imm(const FreezeOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   const PlainImmSpec spec = support::load_plain_imm_config(options.config);
+  io::Provenance provenance =
+      make_provenance(std::string(io::kPlainImmKind), read_text_file(options.config), 0, "");
+  if (options.regime) {
+    const datasets::Regime regime = support::load_regime(*options.regime).regime;
+    const std::string file = options.config.string();
+    if (std::abs(spec.sample_period - regime.sample_period) > 1e-12 * regime.sample_period) {
+      throw support::ConfigError(file, "sample_period",
+                                 "differs from regime '" + regime.name + "' (" +
+                                     std::to_string(regime.sample_period) + " s)");
+    }
+    const bool polar = regime.sensor.kind == datasets::SensorKind::kPolar;
+    if (regime.sensor.kind == datasets::SensorKind::kRangeSensor ||
+        (spec.measurement.kind == MeasurementKind::kPolar) != polar) {
+      throw support::ConfigError(file, "measurement.kind",
+                                 "does not fit regime '" + regime.name + "' (a " +
+                                     std::string(datasets::to_string(regime.sensor.kind)) +
+                                     " sensor)");
+    }
+    for (int c = 0; c < regime.case_count(); ++c) {
+      if (!spec.measurement.covariance.isApprox(regime.noise_of(c).covariance(), 1e-9)) {
+        throw support::ConfigError(file, "measurement.covariance",
+                                   "differs from the plot noise of regime '" + regime.name + "'");
+      }
+    }
+    set_regime(provenance, regime);
+  }
   ensure_parent_folder(options.out);
-  io::ModelFileWriter writer(options.out, make_provenance(std::string(io::kPlainImmKind),
-                                                          read_text_file(options.config), 0, ""));
+  io::ModelFileWriter writer(options.out, provenance);
   io::write_plain_imm(writer, spec);
   writer.commit();
 

@@ -1,6 +1,7 @@
 #include "imm/trainer/import_rules.hpp"
 
 #include <charconv>
+#include <cmath>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -13,7 +14,8 @@
 
 namespace imm::trainer {
 
-GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSettings& settings) {
+GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSettings& settings,
+                              const std::string& units) {
   std::ifstream in(csv);
   if (!in) throw std::runtime_error(csv.string() + ": cannot open");
   std::vector<double> level_order;
@@ -21,11 +23,24 @@ GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSet
   std::string line;
   std::size_t number = 0;
   bool header = false;
+  std::map<std::string, std::string> stated;  // the "#@ key = value" lines
   while (std::getline(in, line)) {
     ++number;
+    const std::string where = csv.string() + ":" + std::to_string(number) + ": ";
+    if (line.rfind("#@", 0) == 0) {
+      const auto equals = line.find('=');
+      if (equals == std::string::npos)
+        throw std::runtime_error(where + "expected '#@ key = value'");
+      auto trim = [](std::string text) {
+        const auto first = text.find_first_not_of(" \t\r");
+        const auto last = text.find_last_not_of(" \t\r");
+        return first == std::string::npos ? std::string() : text.substr(first, last - first + 1);
+      };
+      stated[trim(line.substr(2, equals - 2))] = trim(line.substr(equals + 1));
+      continue;
+    }
     if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos)
       continue;
-    const std::string where = csv.string() + ":" + std::to_string(number) + ": ";
     if (!header) {
       if (line.rfind("level,c1,sigma1,c2,sigma2,w", 0) != 0) {
         throw std::runtime_error(where + "expected the header level,c1,sigma1,c2,sigma2,w");
@@ -50,6 +65,29 @@ GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSet
     rules[values[0]].push_back({values[1], values[2], values[3], values[4], values[5]});
   }
   if (!header) throw std::runtime_error(csv.string() + ": no header line");
+  // What the tables were learned for against the regime they are imported for.
+  auto number_of = [&](const std::string& key) -> double {
+    const auto it = stated.find(key);
+    if (it == stated.end()) {
+      throw std::runtime_error(csv.string() + ": no '#@ " + key + " = …' line: the tables must " +
+                               "state what they were learned for");
+    }
+    return std::strtod(it->second.c_str(), nullptr);
+  };
+  if (const auto it = stated.find("units"); it == stated.end() || it->second != units) {
+    throw std::runtime_error(csv.string() + ": the tables are in " +
+                             (it == stated.end() ? std::string("unstated units") : it->second) +
+                             ", the regime (units) in " + units);
+  }
+  for (const auto& [key, value] :
+       {std::pair<std::string, double>{"sample_period", settings.sample_period},
+        {"measurement_sigma", settings.measurement_sigma}}) {
+    const double published = number_of(key);
+    if (std::abs(published - value) > 1e-9 * std::max(1.0, std::abs(value))) {
+      throw std::runtime_error(csv.string() + ": the tables were learned for " + key + " = " +
+                               stated[key] + ", the regime has " + std::to_string(value));
+    }
+  }
   GaFuzzyImmSpec spec;
   spec.settings = settings;
   for (double level : level_order) {
@@ -65,8 +103,9 @@ GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSet
 }
 
 GaFuzzyImmSpec import_rules(const ImportRulesOptions& options) {
-  const ga::GaTrainingConfig config = ga::load_ga_config(options.config);
-  GaFuzzyImmSpec spec = read_rules_csv(options.csv, config.filter);
+  const ga::GaTrainingConfig config = ga::load_ga_config(options.config, options.regime);
+  GaFuzzyImmSpec spec = read_rules_csv(options.csv, config.filter,
+                                       std::string(datasets::to_string(config.regime.units)));
   const std::string csv_text = read_text_file(options.csv);
   ensure_parent_folder(options.out);
   io::ModelFileWriter writer(
@@ -74,7 +113,7 @@ GaFuzzyImmSpec import_rules(const ImportRulesOptions& options) {
       make_provenance(std::string(io::kGaFuzzyImmKind),
                       "# filter settings: " + options.config.string() + "\n" + config.text +
                           "\n# rules: " + options.csv.string() + "\n" + csv_text,
-                      0, datasets::sha256_hex(csv_text)));
+                      0, datasets::sha256_hex(csv_text), config.regime));
   io::write_ga_fuzzy_imm(writer, spec);
   writer.commit();
   return spec;

@@ -30,6 +30,14 @@ void add_optional(const support::ConfigTable& table, std::string_view key, const
   }
 }
 
+void add_optional_text(const support::ConfigTable& table, std::string_view key, const char* flag,
+                       NightlyStage& stage) {
+  if (table.has(key)) {
+    stage.arguments.emplace_back(flag);
+    stage.arguments.push_back(table.text(key));
+  }
+}
+
 void add_passthrough(const support::ConfigTable& table, NightlyStage& stage) {
   if (table.has("arguments")) {
     for (auto& argument : table.texts("arguments")) stage.arguments.push_back(std::move(argument));
@@ -39,18 +47,17 @@ void add_passthrough(const support::ConfigTable& table, NightlyStage& stage) {
 NightlyPlan plan_from(const support::ConfigTable& root) {
   NightlyPlan plan;
   for (const auto& entry : root.tables("data")) {
-    NightlyStage stage{"data", entry.text("scenario"), "imm-data", {}, {}};
     const std::string out = entry.text("out");
-    stage.arguments = {stage.name, "--out", out};
+    NightlyStage stage{"data", entry.text("name"), "imm-data", {}, {}};
+    stage.arguments = {entry.text("command"), "--regime", entry.text("regime"), "--out", out};
     add_folder_of(stage, out);
-    if (entry.has("config"))
-      stage.arguments.insert(stage.arguments.end(), {"--config", entry.text("config")});
+    add_optional_text(entry, "split", "--split", stage);
     if (entry.has("csv")) {
       const std::string csv = entry.text("csv");
       stage.arguments.insert(stage.arguments.end(), {"--csv", csv});
       add_folder_of(stage, csv);
     }
-    add_optional(entry, "runs", "--runs", stage);
+    add_optional(entry, "count", "--count", stage);
     add_optional(entry, "seed", "--seed", stage);
     plan.stages.push_back(std::move(stage));
   }
@@ -59,6 +66,7 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     const std::string out = entry.text("out");
     stage.arguments = {entry.text("command"), "--config", entry.text("config"), "--out", out};
     add_folder_of(stage, out);
+    add_optional_text(entry, "regime", "--regime", stage);
     add_optional(entry, "seed", "--seed", stage);
     add_passthrough(entry, stage);
     plan.stages.push_back(std::move(stage));
@@ -77,6 +85,8 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     const std::string out = entry.text("out");
     stage.arguments = {stage.name, "--models", entry.text("models"), "--out", out};
     add_folder_of(stage, out, true);
+    add_optional_text(entry, "model", "--model", stage);
+    add_optional_text(entry, "regime", "--regime", stage);
     add_optional(entry, "runs", "--runs", stage);
     add_optional(entry, "seed", "--seed", stage);
     add_passthrough(entry, stage);

@@ -22,6 +22,20 @@ io::Provenance make_provenance(std::string model_kind, std::string config_toml, 
   return provenance;
 }
 
+io::Provenance make_provenance(std::string model_kind, std::string config_toml, std::int64_t seed,
+                               std::string dataset_digest, const datasets::Regime& regime) {
+  io::Provenance provenance = make_provenance(std::move(model_kind), std::move(config_toml), seed,
+                                              std::move(dataset_digest));
+  set_regime(provenance, regime);
+  return provenance;
+}
+
+void set_regime(io::Provenance& provenance, const datasets::Regime& regime) {
+  provenance.regime_name = regime.name;
+  provenance.regime_toml = regime.text;
+  provenance.regime_digest = regime.digest;
+}
+
 std::filesystem::path metrics_path(const std::filesystem::path& model_path) {
   return model_path.parent_path() / (model_path.stem().string() + ".metrics.json");
 }

@@ -45,7 +45,7 @@ double axis_score(const AxisFilterFactory& make_filter,
 }
 
 Tuned<AimmSpec> tune_aimm(const AimmSpec& base, const std::vector<trainer::ga::TrainingSet>& sets,
-                          int max_intervals) {
+                          double a, int max_intervals) {
   Tuned<AimmSpec> best;
   best.score = std::numeric_limits<double>::infinity();
   for (int n = 1; n <= max_intervals; ++n) {
@@ -55,12 +55,13 @@ Tuned<AimmSpec> tune_aimm(const AimmSpec& base, const std::vector<trainer::ga::T
       for (double e : log_epsilon) spec.intervals.push_back(std::pow(10.0, e));
       return axis_score([&] { return std::make_unique<AimmAxisFilter>(spec); }, sets);
     };
-    const SearchResult result = grid_then_subplex(score, std::vector<double>(n, -3.0),
-                                                  std::vector<double>(n, std::log10(0.3)),
-                                                  {.grid_points = n == 1 ? 16 : 10,
-                                                   .polish_evaluations = 60,
-                                                   .ordered = true,
-                                                   .xtol_abs = 1e-3});
+    const SearchResult result =
+        grid_then_subplex(score, std::vector<double>(n, std::log10(0.01 * a)),
+                          std::vector<double>(n, std::log10(3.0 * a)),
+                          {.grid_points = n == 1 ? 16 : 10,
+                           .polish_evaluations = 60,
+                           .ordered = true,
+                           .xtol_abs = 1e-3});
     best.evaluations += result.evaluations;
     if (result.value < best.score) {
       best.score = result.value;
@@ -73,7 +74,7 @@ Tuned<AimmSpec> tune_aimm(const AimmSpec& base, const std::vector<trainer::ga::T
 }
 
 Tuned<AxisCvImmSpec> tune_axis_cv_imm(const AxisCvImmSpec& base,
-                                      const std::vector<trainer::ga::TrainingSet>& sets,
+                                      const std::vector<trainer::ga::TrainingSet>& sets, double a,
                                       int levels) {
   auto score = [&](const std::vector<double>& log_q) {
     AxisCvImmSpec spec = base;
@@ -83,7 +84,8 @@ Tuned<AxisCvImmSpec> tune_axis_cv_imm(const AxisCvImmSpec& base,
                       sets);
   };
   const SearchResult result = grid_then_subplex(
-      score, std::vector<double>(levels, -10.0), std::vector<double>(levels, -1.0),
+      score, std::vector<double>(levels, std::log10(1e-8 * a * a)),
+      std::vector<double>(levels, std::log10(10.0 * a * a)),
       {.grid_points = 8, .polish_evaluations = 150, .ordered = true, .xtol_abs = 1e-3});
   Tuned<AxisCvImmSpec> tuned;
   tuned.spec = base;

@@ -1,17 +1,31 @@
-#include "imm/evaluation/fimm_experiment.hpp"
+// `imm-eval fimm`: seed 002's experiment (Table 1, Fig. 6–8) on any regime with a range sensor.
+// Per case of the regime (seed 002: the vehicle cut-in for R = 0.1², 0.5², 1², 2² I), on identical
+// plots: the baseline IMM (h = identity), the FIMM (EKF through the learned TSK sensor model) and
+// the FIMM with the iterated EKF update. Position MSE over tracks and scans (ξ and η errors squared
+// and summed) with the FIMM − IMM difference and its 95 % paired-bootstrap interval, the position
+// NEES of each filter (2 when consistent), and the share of FIMM steps that evaluated the sensor
+// model outside the box it was fitted on (clamped there).
+//
+// The regime's sensor is the true one: a distortion, or the sensor a set of samples came from, so
+// a model fitted with `imm-train tsk --data` is evaluated on its own sensor. A model fitted to
+// another sensor is refused (check_model). The FIMM's own settings ([fimm]) come from the TSK
+// config (--config); its T is the regime's.
+//
+// Gates, per case: the FIMM (EKF; --gate-on best: the better of EKF and IEKF) below the IMM beyond
+// the uncertainty, and at most 5 % of its steps clamped.
 
 #include <Eigen/LU>
-#include <algorithm>
-#include <cmath>
-#include <functional>
-#include <limits>
-#include <memory>
+#include <iostream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "imm/datasets/random.hpp"
-#include "imm/datasets/range_sensor.hpp"
+#include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/report.hpp"
+#include "imm/evaluation/uncertainty.hpp"
 #include "imm/filters/fimm.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
+#include "imm/trainer/provenance.hpp"
 #include "imm/trainer/tsk/tsk_trainer.hpp"
 
 namespace imm::evaluation {
@@ -19,19 +33,52 @@ namespace {
 
 constexpr int kFirstScoredScan = 2;
 constexpr double kAccelerationVariance = 4.0;  // (m/s²)², the start's ξ̈, η̈ uncertainty
+constexpr double kMaxClampedShare = 0.05;
+/// Below this range slope dη_m/dη the sensor counts as flat (the measured range changes by less
+/// than half the true change).
+constexpr double kFlatSlope = 0.5;
 
-// One filter over every run of a row; `make` builds a fresh filter per run.
-FimmFilterScore score(const std::function<std::unique_ptr<FimmFilter>()>& make,
-                      const datasets::CutInData& data, const Eigen::VectorXd& range_slope, double T,
-                      double r) {
-  FimmFilterScore out;
-  const Eigen::Index steps = data.truth.rows();
+struct FimmOptions {
+  CommonOptions common;
+  std::filesystem::path config = "configs/tsk_range_sensor.toml";
+  std::string gate_on = "ekf";
+};
+
+struct Score {
+  double mse = 0.0, nees = 0.0;
+  double mse_flat = 0.0, mse_steep = 0.0;  ///< where the true sensor is flat in range, elsewhere
+  double clamped = 0.0;                    ///< share of steps outside the model's box
+  long failed_steps = 0;
+  Eigen::MatrixXd per_track;  ///< tracks × 2: Σ squared position error, samples
+  Eigen::MatrixXd first_run;  ///< scans × 2: track 0's (ξ̂, η̂)
+  Eigen::VectorXd scan_mse;   ///< per scan, over tracks
+
+  [[nodiscard]] Statistic statistic() const {
+    const Eigen::VectorXd sum = per_track.col(0), count = per_track.col(1);
+    return [sum, count](const Eigen::VectorXd& w) { return w.dot(sum) / w.dot(count); };
+  }
+};
+
+// dη_m/dη of the true sensor at a position (central differences).
+double range_slope(const datasets::Sensor& sensor, const Eigen::Vector2d& p) {
+  const double h = 1e-4 * std::max(1.0, std::abs(p(1)));
+  return (sensor.response({p(0), p(1) + h})(1) - sensor.response({p(0), p(1) - h})(1)) / (2.0 * h);
+}
+
+Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
+            const datasets::TrackSet& data, const datasets::Sensor& sensor, double r) {
+  Score out;
+  const Eigen::Index steps = data.scans;
+  const double T = data.sample_period;
+  const auto runs = static_cast<Eigen::Index>(data.tracks.size());
+  out.per_track = Eigen::MatrixXd::Zero(runs, 2);
   Eigen::VectorXd scan_sum = Eigen::VectorXd::Zero(steps), scan_count = scan_sum;
   out.first_run = Eigen::MatrixXd::Constant(steps, 2, std::numeric_limits<double>::quiet_NaN());
-  double squared = 0.0, nees = 0.0;
+  double nees = 0.0, flat[2] = {}, steep[2] = {};
   long samples = 0, outside = 0;
-  for (std::size_t run = 0; run < data.measurements.size(); ++run) {
-    const Eigen::MatrixXd& z = data.measurements[run];
+  for (Eigen::Index run = 0; run < runs; ++run) {
+    const datasets::Track& track = data.tracks[static_cast<std::size_t>(run)];
+    const Eigen::MatrixXd& z = track.plots;
     std::unique_ptr<FimmFilter> filter = make();
     Eigen::VectorXd mean = Eigen::VectorXd::Zero(6);
     Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(6, 6);
@@ -49,109 +96,217 @@ FimmFilterScore score(const std::function<std::unique_ptr<FimmFilter>()>& make,
         continue;
       }
       const GaussianState<6>& x = filter->estimate();
-      const Eigen::Vector2d error(x.mean(0) - data.truth(k, 0), x.mean(3) - data.truth(k, 3));
+      const Eigen::Vector2d truth = datasets::position_at(track, k);
+      const Eigen::Vector2d error(x.mean(0) - truth(0), x.mean(3) - truth(1));
       Eigen::Matrix2d P;
       P << x.covariance(0, 0), x.covariance(0, 3), x.covariance(3, 0), x.covariance(3, 3);
-      squared += error.squaredNorm();
-      scan_sum(k) += error.squaredNorm();
+      const double e2 = error.squaredNorm();
+      out.per_track.row(run) += Eigen::RowVector2d(e2, 1.0);
+      scan_sum(k) += e2;
       scan_count(k) += 1.0;
+      double* bucket = range_slope(sensor, truth) < kFlatSlope ? flat : steep;
+      bucket[0] += e2;
+      bucket[1] += 1.0;
       nees += error.dot(P.inverse() * error);
       outside += filter->outside_sensor_box() ? 1 : 0;
       ++samples;
       if (run == 0) out.first_run.row(k) << x.mean(0), x.mean(3);
     }
   }
-  out.mse = squared / static_cast<double>(samples);
-  out.scan_mse = Eigen::VectorXd::Constant(steps, std::numeric_limits<double>::quiet_NaN());
-  double flat_sum = 0.0, flat_count = 0.0, steep_sum = 0.0, steep_count = 0.0;
-  for (Eigen::Index k = kFirstScoredScan; k < steps; ++k) {
-    if (scan_count(k) == 0.0) continue;
-    out.scan_mse(k) = scan_sum(k) / scan_count(k);
-    const bool flat = range_slope(k) < kFlatSlope;
-    (flat ? flat_sum : steep_sum) += scan_sum(k);
-    (flat ? flat_count : steep_count) += scan_count(k);
-  }
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  out.mse_flat = flat_count > 0.0 ? flat_sum / flat_count : nan;
-  out.mse_steep = steep_count > 0.0 ? steep_sum / steep_count : nan;
-  out.nees = nees / static_cast<double>(samples);
-  out.outside_box = static_cast<double>(outside) / static_cast<double>(samples);
+  const double n = std::max<double>(1.0, static_cast<double>(samples));
+  out.mse = out.per_track.col(0).sum() / n;
+  out.nees = nees / n;
+  out.clamped = static_cast<double>(outside) / n;
+  out.mse_flat = flat[1] > 0.0 ? flat[0] / flat[1] : nan;
+  out.mse_steep = steep[1] > 0.0 ? steep[0] / steep[1] : nan;
+  out.scan_mse = (scan_sum.array() / scan_count.array()).matrix();
+  for (Eigen::Index k = 0; k < steps; ++k) {
+    if (scan_count(k) == 0.0) out.scan_mse(k) = nan;
+  }
   return out;
+}
+
+int run(const FimmOptions& options) {
+  const std::filesystem::path model_path = options.common.model_path();
+  const io::ModelFileReader reader(model_path, io::kTskSensorKind);
+  const auto sensor_model = std::make_shared<const TskModel>(io::read_tsk_sensor(model_path));
+  const EvaluationRegimes regimes =
+      evaluation_regimes(options.common, reader.provenance(), model_path);
+  const datasets::Regime& regime = regimes.evaluated.regime;
+  check_model(
+      {regime.sample_period, datasets::SensorKind::kRangeSensor, std::nullopt, std::nullopt},
+      regimes, model_path);
+  const trainer::tsk::TskTrainingConfig config =
+      trainer::tsk::load_tsk_config(options.config, options.common.regime);
+  FimmSpec base = config.fimm;
+  base.sample_period = regime.sample_period;
+  std::ostringstream settings;
+  settings << "noise scale " << base.noise_scale << " (√q₁ = " << std::sqrt(base.process_noise(0))
+           << ", √q₂ = " << std::sqrt(base.process_noise(1)) << " per step), IEKF "
+           << config.iekf_iterations << " iterations";
+
+  const datasets::TrackSet data = test_tracks(regime, options.common);
+  const int steps = data.scans;
+  std::cout << "fimm: " << regimes.describe() << "\n  test split: " << data.tracks.size()
+            << " tracks x " << steps << " scans, seed " << options.common.seed
+            << "\n  FIMM: " << settings.str() << "\n";
+  const std::filesystem::path& out = options.common.out;
+  std::filesystem::create_directories(out);
+  nlohmann::json metrics, details;
+  metrics["rows"] = nlohmann::json::array();
+  std::vector<std::string> failures;
+  std::vector<std::vector<std::string>> rows, split;
+  bool plotted = true;
+  Eigen::MatrixXd by_scan(steps, 0);
+  std::vector<std::string> by_scan_names;
+  for (int c = 0; c < regime.case_count(); ++c) {
+    datasets::TrackSet part = data;
+    part.tracks.clear();
+    for (const auto& track : data.tracks) {
+      if (track.case_index == c) part.tracks.push_back(track);
+    }
+    if (part.tracks.empty()) continue;
+    const std::string name = regime.scripted() ? regime.case_name(c) : "all tracks";
+    const datasets::SensorNoise& noise = regime.noise_of(c);
+    FimmSpec spec = base;
+    spec.measurement_covariance = noise.covariance();
+    FimmSpec iterated = spec;
+    iterated.iterations = config.iekf_iterations;
+    const double r = noise.sigma(0) * noise.sigma(0);
+    const Score imm =
+        score([&] { return std::make_unique<FimmFilter>(spec, nullptr); }, part, regime.sensor, r);
+    const Score fimm = score([&] { return std::make_unique<FimmFilter>(spec, sensor_model); }, part,
+                             regime.sensor, r);
+    const Score iekf = score([&] { return std::make_unique<FimmFilter>(iterated, sensor_model); },
+                             part, regime.sensor, r);
+    const int runs = static_cast<int>(part.tracks.size());
+    const Difference d_fimm = paired_difference(runs, fimm.statistic(), imm.statistic());
+    const Difference d_iekf = paired_difference(runs, iekf.statistic(), imm.statistic());
+    const auto* paper_imm = regimes.evaluated.find("IMM", name, "position_mse");
+    const auto* paper_fimm = regimes.evaluated.find("FIMM (EKF)", name, "position_mse");
+    rows.push_back({name, cell(imm.mse, 4), cell(fimm.mse, 4), cell(iekf.mse, 4), d_fimm.text(3),
+                    d_iekf.text(3), paper_imm ? cell(paper_imm->value, 4) : "–",
+                    paper_fimm ? cell(paper_fimm->value, 4) : "–", cell(imm.nees, 2),
+                    cell(fimm.nees, 2), cell(iekf.nees, 2), cell(100.0 * fimm.clamped, 1) + " %"});
+    split.push_back({name, cell(imm.mse_flat, 4), cell(fimm.mse_flat, 4), cell(iekf.mse_flat, 4),
+                     cell(imm.mse_steep, 4), cell(fimm.mse_steep, 4), cell(iekf.mse_steep, 4)});
+    metrics["rows"].push_back({{"case", name},
+                               {"R", noise.covariance()(0, 0)},
+                               {"imm_mse", imm.mse},
+                               {"fimm_mse", fimm.mse},
+                               {"fimm_iekf_mse", iekf.mse},
+                               {"fimm_minus_imm", {d_fimm.estimate, d_fimm.lower, d_fimm.upper}},
+                               {"iekf_minus_imm", {d_iekf.estimate, d_iekf.lower, d_iekf.upper}},
+                               {"fimm_clamped_share", fimm.clamped}});
+    details["rows"].push_back(
+        {{"case", name},
+         {"imm_nees", imm.nees},
+         {"fimm_nees", fimm.nees},
+         {"fimm_iekf_nees", iekf.nees},
+         {"fimm_clamped_share", fimm.clamped},
+         {"fimm_iekf_clamped_share", iekf.clamped},
+         {"mse_flat",
+          {{"imm", imm.mse_flat}, {"fimm", fimm.mse_flat}, {"fimm_iekf", iekf.mse_flat}}},
+         {"mse_steep",
+          {{"imm", imm.mse_steep}, {"fimm", fimm.mse_steep}, {"fimm_iekf", iekf.mse_steep}}},
+         {"failed_steps", imm.failed_steps + fimm.failed_steps + iekf.failed_steps}});
+    const bool best = options.gate_on == "best";
+    const Difference& gated = best && iekf.mse < fimm.mse ? d_iekf : d_fimm;
+    if (!gated.below()) {
+      failures.push_back(name + ": " + (best ? "the better FIMM" : "the FIMM (EKF)") +
+                         " is not below the IMM beyond the uncertainty (" + gated.text(3) + " m²)");
+    }
+    if (fimm.clamped > kMaxClampedShare) {
+      failures.push_back(name + ": " + cell(100.0 * fimm.clamped, 1) +
+                         " % of the FIMM's steps evaluate the sensor model outside its box "
+                         "(at most " +
+                         cell(100.0 * kMaxClampedShare, 0) + " %)");
+    }
+    // Run 0's path, and the MSE per scan.
+    const std::string stem = "case" + std::to_string(c);
+    const datasets::Track& first = part.tracks.front();
+    Eigen::MatrixXd path(steps, 8);
+    path << first.truth.col(0), first.truth.col(3), first.plots, imm.first_run, fimm.first_run;
+    write_series_csv(out / (stem + "_path.csv"),
+                     {"truth_xi", "truth", "plots_xi", "plots", "IMM_xi", "IMM", "FIMM_xi", "FIMM"},
+                     path);
+    plotted &= plot_series({out / (stem + "_path.png"),
+                            name + ", track 0 (seed 002 Fig. 6-8)",
+                            "xi (m)",
+                            "eta (m)",
+                            out / (stem + "_path.csv"),
+                            {"plots", "truth", "IMM", "FIMM"},
+                            {"plots_xi", "truth_xi", "IMM_xi", "FIMM_xi"},
+                            "points"});
+    by_scan.conservativeResize(steps, by_scan.cols() + 3);
+    by_scan.rightCols(3) << imm.scan_mse, fimm.scan_mse, iekf.scan_mse;
+    by_scan_names.insert(by_scan_names.end(), {"IMM_" + stem, "FIMM_" + stem, "IEKF_" + stem});
+  }
+  std::cout << "\nPosition MSE (m², ξ and η errors squared and summed, scans 3 on, over tracks), "
+               "the FIMM − IMM difference [95 %], the paper's, position NEES (2 when consistent) "
+               "and the share of FIMM steps clamped to the model's box:\n\n"
+            << markdown_table({"case", "IMM", "FIMM (EKF)", "FIMM (IEKF)", "EKF − IMM [95 %]",
+                               "IEKF − IMM [95 %]", "paper IMM", "paper FIMM", "NEES IMM",
+                               "NEES FIMM", "NEES IEKF", "clamped"},
+                              rows)
+            << "\nPosition MSE where the true sensor is flat in range (dη_m/dη < " << kFlatSlope
+            << ") and elsewhere:\n\n"
+            << markdown_table({"case", "IMM flat", "FIMM flat", "IEKF flat", "IMM elsewhere",
+                               "FIMM elsewhere", "IEKF elsewhere"},
+                              split);
+  std::cout << "\nGates (" << (options.gate_on == "best" ? "the better FIMM" : "the FIMM (EKF)")
+            << " below the IMM beyond the uncertainty; at most " << 100.0 * kMaxClampedShare
+            << " % clamped): " << (failures.empty() ? "passed" : "FAILED") << '\n';
+  for (const auto& failure : failures) std::cout << "  - " << failure << '\n';
+  details["runs"] = data.tracks.size();
+  details["seed"] = options.common.seed;
+  details["regime"] = {{"name", regime.name},
+                       {"model_regime", regimes.trained.regime.name},
+                       {"off_training", regimes.off_training()}};
+  details["fimm"] = settings.str();
+  trainer::write_json_atomically(out / "metrics.json", metrics);
+  trainer::write_json_atomically(out / "details.json", details);
+  write_series_csv(out / "mse_by_scan.csv", by_scan_names, by_scan);
+
+  // The fitted sensor against the true one along the road (ξ = 0) and at the start's lateral
+  // offset, over the model's box; and a sample of the calibration data.
+  const int points = 200;
+  const Eigen::Vector2d lower = sensor_model->input_lower(), upper = sensor_model->input_upper();
+  const double lane = data.tracks.front().truth(0, 0);
+  Eigen::MatrixXd curve(points, 5);
+  for (int i = 0; i < points; ++i) {
+    const double eta = lower(1) + (upper(1) - lower(1)) * i / (points - 1.0);
+    const Eigen::Vector2d on_road = regime.sensor.response({0.0, eta});
+    const Eigen::Vector2d in_lane = regime.sensor.response({lane, eta});
+    curve.row(i) << eta, on_road(1), sensor_model->evaluate({0.0, eta}).value(1), in_lane(0),
+        sensor_model->evaluate({lane, eta}).value(0);
+  }
+  write_series_csv(out / "sensor_model.csv",
+                   {"eta", "true_eta_m", "model_z2", "true_xi_m_lane", "model_z1_lane"}, curve);
+  plotted &= plot_series({out / "sensor_model.png",
+                          "Sensor: distorted range along the road, truth vs TSK model",
+                          "eta (m)",
+                          "m",
+                          out / "sensor_model.csv",
+                          {"true_eta_m", "model_z2", "true_xi_m_lane", "model_z1_lane"},
+                          {"eta", "eta", "eta", "eta"}});
+  return finish_report(out, plotted, failures, /*failures_printed=*/true);
 }
 
 }  // namespace
 
-FimmExperimentResult run_fimm_experiment(const FimmExperimentOptions& options) {
-  const trainer::tsk::TskTrainingConfig config = trainer::tsk::load_tsk_config(options.config);
-  const auto sensor = std::make_shared<const TskModel>(io::read_tsk_sensor(options.model));
-  FimmExperimentResult result;
-  result.runs = options.runs;
-  result.seed = options.seed;
-  result.softness = config.data.distortion.softness;
-  std::ostringstream text;
-  text << "noise scale " << config.fimm.noise_scale
-       << " (√q₁ = " << std::sqrt(config.fimm.process_noise(0))
-       << ", √q₂ = " << std::sqrt(config.fimm.process_noise(1)) << " m/s² per step), IEKF "
-       << config.iekf_iterations << " iterations";
-  result.fimm_settings = text.str();
-
-  for (std::size_t row = 0; row < options.r_sigmas.size(); ++row) {
-    const double sigma = options.r_sigmas[row];
-    datasets::CutInScenario scenario = config.scenario;
-    scenario.measurement_covariance = sigma * sigma * Eigen::Matrix2d::Identity();
-    scenario.runs = options.runs;
-    scenario.seed = datasets::derive_seed(options.seed, 200 + row);
-    const datasets::CutInData data = datasets::simulate_cut_in(scenario);
-    if (row == 0) {
-      result.truth = data.truth;
-      result.steps = static_cast<int>(data.truth.rows());
-      // dη_m/dη of the true sensor along the true path (central differences).
-      result.range_slope.resize(result.steps);
-      for (int k = 0; k < result.steps; ++k) {
-        const Eigen::Vector2d p(data.truth(k, 0), data.truth(k, 3));
-        const double h = 1e-4 * std::max(1.0, std::abs(p(1)));
-        const Eigen::Vector2d up(p(0), p(1) + h), down(p(0), p(1) - h);
-        result.range_slope(k) =
-            (scenario.distortion.apply(up)(1) - scenario.distortion.apply(down)(1)) / (2.0 * h);
-        if (k >= kFirstScoredScan && result.range_slope(k) < kFlatSlope) ++result.flat_scans;
-      }
-    }
-    FimmSpec spec = config.fimm;
-    spec.measurement_covariance = scenario.measurement_covariance;
-    FimmSpec iterated = spec;
-    iterated.iterations = config.iekf_iterations;
-    const double T = spec.sample_period, r = sigma * sigma;
-    FimmRow out;
-    out.r_sigma = sigma;
-    out.imm = score([&] { return std::make_unique<FimmFilter>(spec, nullptr); }, data,
-                    result.range_slope, T, r);
-    out.fimm = score([&] { return std::make_unique<FimmFilter>(spec, sensor); }, data,
-                     result.range_slope, T, r);
-    out.fimm_iekf = score([&] { return std::make_unique<FimmFilter>(iterated, sensor); }, data,
-                          result.range_slope, T, r);
-    out.first_measurements = data.measurements.front();
-    result.rows.push_back(std::move(out));
-  }
-
-  // The fitted sensor against the truth along the road, and a sample of the data.
-  const int points = 200;
-  result.sensor_curve.resize(points, 5);
-  const double lane = config.scenario.lane_offset;
-  for (int i = 0; i < points; ++i) {
-    const double eta =
-        config.data.lower(1) + (config.data.upper(1) - config.data.lower(1)) * i / (points - 1.0);
-    const Eigen::Vector2d on_road = config.data.distortion.apply({0.0, eta});
-    const Eigen::Vector2d in_lane = config.data.distortion.apply({lane, eta});
-    result.sensor_curve.row(i) << eta, on_road(1), sensor->evaluate({0.0, eta}).value(1),
-        in_lane(0), sensor->evaluate({lane, eta}).value(0);
-  }
-  datasets::RangeSensorData data = datasets::simulate_range_sensor(config.data);
-  const Eigen::Index shown = std::min<Eigen::Index>(2000, data.positions.rows());
-  result.sensor_samples.resize(shown, 2);
-  for (Eigen::Index q = 0; q < shown; ++q) {
-    result.sensor_samples.row(q) << data.positions(q, 1), data.outputs(q, 1);
-  }
-  return result;
+void add_fimm_command(CLI::App& app, ExitCode& exit_code) {
+  auto options = std::make_shared<FimmOptions>();
+  auto* command = app.add_subcommand(
+      "fimm", "seed 002 Table 1: FIMM (TSK sensor model, EKF and IEKF) vs the IMM");
+  add_common_options(*command, options->common, "tsk_range_sensor", "reports/fimm");
+  command->add_option("--config", options->config, "TSK config: the FIMM's settings ([fimm])");
+  command
+      ->add_option("--gate-on", options->gate_on,
+                   "ekf: gate the FIMM (EKF); best: the better of EKF and IEKF")
+      ->check(CLI::IsMember({"ekf", "best"}));
+  command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
 }
 
 }  // namespace imm::evaluation

@@ -1,133 +1,239 @@
-#include "imm/evaluation/input_estimator_experiment.hpp"
+// `imm-eval input-estimator`: seed 001's experiments (Tables 1 and 2) on any regime with
+// Cartesian plots. The estimator is one axis: every axis of every test track is one run. On the
+// same plots: the constant-velocity KF, the corrected KF (the network's acceleration fed to the
+// primary KF, eq. 10) and, as a floor, the primary KF fed the true acceleration. Per case of the
+// regime: the MSE of the innovation, the position and the velocity over every scan after the
+// two-point start, the corrected − CV difference with its 95 % paired-bootstrap interval, and the
+// paper's figures where the regime file records them.
+//
+// Gate: the corrected KF beats the CV KF beyond the uncertainty in at least 90 % of the cells.
+
+#include <iostream>
+#include <nlohmann/json.hpp>
 
 #include "imm/datasets/axis_trajectory.hpp"
-#include "imm/datasets/random.hpp"
+#include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/report.hpp"
+#include "imm/evaluation/uncertainty.hpp"
 #include "imm/filters/input_estimation_filter.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
+#include "imm/trainer/provenance.hpp"
 
 namespace imm::evaluation {
 namespace {
 
-constexpr int kSteps = 300;
-constexpr double kFirstStart = 100.0;
-constexpr double kGap = 70.0;
+constexpr double kRequiredShare = 0.9;
+constexpr const char* kQuantity[3] = {"innovation", "position", "velocity"};
 
-struct RowSpec {
-  int experiment;
-  double a1, d1, a2, d2;  // a2 = 0: single maneuver
-  KfErrors paper_cv, paper_corrected;
+struct CaseResult {
+  std::string name;
+  Eigen::MatrixXd cv, corrected, floor;  // runs × 3 (innovation, position, velocity MSE)
+  Eigen::VectorXd true_acceleration, mean_estimate;           // per scan (run 0; mean of runs)
+  Eigen::VectorXd cv_position_rmse, corrected_position_rmse;  // per scan
 };
 
-// Seed 001 Tables 1 and 2: (innovation, position, velocity) MSE, CV KF and corrected KF.
-const std::vector<RowSpec>& rows() {
-  static const std::vector<RowSpec> table = {
-      {1, 5, 30, 0, 0, {8.16e3, 4.18e3, 204.3}, {5.23e3, 1.91e3, 89.9}},
-      {1, 5, 15, 0, 0, {5.12e3, 2.01e3, 91.8}, {5.35e3, 1.93e3, 102.0}},
-      {1, 10, 30, 0, 0, {2.50e4, 1.54e4, 835.2}, {1.51e4, 8.56e3, 461.9}},
-      {1, 10, 15, 0, 0, {1.18e4, 6.44e3, 360.8}, {9.28e3, 4.61e3, 267.9}},
-      {2, 4, 30, 8, 30, {2.21e4, 1.23e4, 731.4}, {1.35e4, 6.96e3, 422.4}},
-      {2, 4, 30, 8, 15, {1.32e4, 6.75e3, 420.1}, {8.29e3, 3.53e3, 246.1}},
-      {2, 4, 15, 8, 30, {1.96e4, 1.07e4, 647.5}, {1.37e4, 7.14e3, 446.7}},
-      {2, 4, 15, 8, 15, {1.07e4, 5.14e3, 336.2}, {8.54e3, 3.69e3, 269.6}}};
-  return table;
-}
-
-std::string name_of(const RowSpec& r) {
-  char buffer[128];
-  if (r.a2 == 0.0) {
-    std::snprintf(buffer, sizeof buffer, "%g m/s2 %g s", r.a1, r.d1);
-  } else {
-    std::snprintf(buffer, sizeof buffer, "%g m/s2 %g s + %g m/s2 %g s", r.a1, r.d1, r.a2, r.d2);
-  }
-  return buffer;
-}
-
-struct Accumulator {
-  double innovation = 0.0, position = 0.0, velocity = 0.0;
-  long count = 0;
-  void add(double nu, double dp, double dv) {
-    innovation += nu * nu;
-    position += dp * dp;
-    velocity += dv * dv;
-    ++count;
-  }
-  [[nodiscard]] KfErrors errors() const {
-    const double n = count > 0 ? static_cast<double>(count) : 1.0;
-    return {innovation / n, position / n, velocity / n};
-  }
-};
-
-}  // namespace
-
-std::vector<InputEstimatorRow> run_input_estimator_experiment(
-    const InputEstimatorOptions& options) {
-  const InputEstimatorModel model = io::read_mlp_input_estimator(options.model);
+int run(const CommonOptions& options) {
+  const std::filesystem::path model_path = options.model_path();
+  const io::ModelFileReader reader(model_path, io::kMlpInputEstimatorKind);
+  const InputEstimatorModel model = io::read_mlp_input_estimator(model_path);
+  const EvaluationRegimes regimes = evaluation_regimes(options, reader.provenance(), model_path);
   const CvKfSettings& settings = model.settings;
+  check_model({settings.sample_period, datasets::SensorKind::kCartesian,
+               std::sqrt(settings.measurement_variance), std::nullopt},
+              regimes, model_path);
+  const datasets::Regime& regime = regimes.evaluated.regime;
+  const datasets::TrackSet data = test_tracks(regime, options);
+
   const double T = settings.sample_period;
   const double R = settings.measurement_variance;
   const auto motion = constant_velocity<1>(T, settings.process_noise);
   const Matrix<2, 1> G = cv_axis_input_gain(T);
   Matrix<1, 2> H;
   H << 1.0, 0.0;
-  const datasets::AxisNoise noise{T, 0.0, std::sqrt(R)};
   const SquareMatrix<1> R_matrix = SquareMatrix<1>::Constant(R);
+  const int steps = data.scans;
 
-  std::vector<InputEstimatorRow> result;
-  std::uint64_t row_index = 0;
-  for (const RowSpec& spec : rows()) {
-    InputEstimatorRow row;
-    row.experiment = spec.experiment;
-    row.name = name_of(spec);
-    row.paper_cv = spec.paper_cv;
-    row.paper_corrected = spec.paper_corrected;
-    Eigen::VectorXd u = Eigen::VectorXd::Zero(kSteps);
-    for (int k = 0; k < kSteps; ++k) {
-      const double t = k * T;
-      if (t >= kFirstStart && t < kFirstStart + spec.d1) u(k) = spec.a1;
-      const double second = kFirstStart + spec.d1 + kGap;
-      if (spec.a2 != 0.0 && t >= second && t < second + spec.d2) u(k) = spec.a2;
-    }
-    row.true_acceleration = u;
-    row.mean_estimate = Eigen::VectorXd::Zero(kSteps);
-    Eigen::VectorXd cv_sq = Eigen::VectorXd::Zero(kSteps), corrected_sq = cv_sq;
-    Accumulator cv, corrected, floor;
-    for (int run = 0; run < options.runs; ++run) {
-      const auto truth = datasets::simulate_axis(
-          0.0, 100.0, u, noise,
-          datasets::derive_seed(options.seed,
-                                row_index * 100000 + static_cast<std::uint64_t>(run)));
+  std::vector<CaseResult> cases(static_cast<std::size_t>(regime.case_count()));
+  std::vector<std::vector<Eigen::RowVector3d>> cv_runs(cases.size()), corrected_runs(cases.size()),
+      floor_runs(cases.size());
+  std::vector<int> case_runs(cases.size(), 0);
+  for (std::size_t c = 0; c < cases.size(); ++c) {
+    cases[c].name = regime.scripted() ? regime.case_name(static_cast<int>(c)) : "all tracks";
+    cases[c].mean_estimate = Eigen::VectorXd::Zero(steps);
+    cases[c].cv_position_rmse = Eigen::VectorXd::Zero(steps);
+    cases[c].corrected_position_rmse = Eigen::VectorXd::Zero(steps);
+  }
+  for (const datasets::Track& track : data.tracks) {
+    const auto c = static_cast<std::size_t>(track.case_index);
+    CaseResult& out = cases[c];
+    datasets::TrackSet one;
+    one.tracks = {track};
+    for (const datasets::AxisTrajectory& t : datasets::axis_trajectories(one)) {
+      if (case_runs[c] == 0) out.true_acceleration = t.acceleration_input;
+      ++case_runs[c];
       InputEstimationFilter filter(model, settings);
       GaussianState<2> start;
-      start.mean << truth.measurement(1), (truth.measurement(1) - truth.measurement(0)) / T;
+      start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
       start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
       filter.initialize(start);
       GaussianState<2> known = start;  // the primary KF fed the true acceleration
-      for (int k = 2; k < kSteps; ++k) {
-        if (filter.step(truth.measurement(k)) != StepStatus::kOk) continue;
-        known = predict(known, motion.transition, motion.process_noise, G, Vector<1>(u(k - 1)));
-        const auto known_report = update(known, Vector<1>(truth.measurement(k)), H, R_matrix);
-        const auto& c = filter.cv_estimate();
+      Eigen::RowVector3d cv = Eigen::RowVector3d::Zero(), corrected = cv, floor = cv;
+      int samples = 0;
+      for (int k = 2; k < steps; ++k) {
+        if (filter.step(t.measurement(k)) != StepStatus::kOk) continue;
+        known = predict(known, motion.transition, motion.process_noise, G,
+                        Vector<1>(t.acceleration_input(k - 1)));
+        const auto known_report = update(known, Vector<1>(t.measurement(k)), H, R_matrix);
+        const auto& e = filter.cv_estimate();
         const auto& p = filter.estimate();
-        cv.add(filter.cv_innovation(), truth.position(k) - c.mean(0),
-               truth.velocity(k) - c.mean(1));
-        corrected.add(filter.innovation(), truth.position(k) - p.mean(0),
-                      truth.velocity(k) - p.mean(1));
-        floor.add(known_report.innovation(0), truth.position(k) - known.mean(0),
-                  truth.velocity(k) - known.mean(1));
-        row.mean_estimate(k) += filter.acceleration() / options.runs;
-        cv_sq(k) += std::pow(truth.position(k) - c.mean(0), 2) / options.runs;
-        corrected_sq(k) += std::pow(truth.position(k) - p.mean(0), 2) / options.runs;
+        auto add = [](Eigen::RowVector3d& sum, double nu, double dp, double dv) {
+          sum += Eigen::RowVector3d(nu * nu, dp * dp, dv * dv);
+        };
+        add(cv, filter.cv_innovation(), t.position(k) - e.mean(0), t.velocity(k) - e.mean(1));
+        add(corrected, filter.innovation(), t.position(k) - p.mean(0), t.velocity(k) - p.mean(1));
+        add(floor, known_report.innovation(0), t.position(k) - known.mean(0),
+            t.velocity(k) - known.mean(1));
+        ++samples;
+        out.mean_estimate(k) += filter.acceleration();
+        out.cv_position_rmse(k) += std::pow(t.position(k) - e.mean(0), 2);
+        out.corrected_position_rmse(k) += std::pow(t.position(k) - p.mean(0), 2);
       }
+      const double n = std::max(1, samples);
+      cv_runs[c].push_back(cv / n);
+      corrected_runs[c].push_back(corrected / n);
+      floor_runs[c].push_back(floor / n);
     }
-    row.cv = cv.errors();
-    row.corrected = corrected.errors();
-    row.true_input = floor.errors();
-    row.cv_position_rmse = cv_sq.cwiseSqrt();
-    row.corrected_position_rmse = corrected_sq.cwiseSqrt();
-    result.push_back(std::move(row));
-    ++row_index;
   }
-  return result;
+  auto stack = [](const std::vector<Eigen::RowVector3d>& rows) {
+    Eigen::MatrixXd m(static_cast<Eigen::Index>(rows.size()), 3);
+    for (std::size_t i = 0; i < rows.size(); ++i) m.row(static_cast<Eigen::Index>(i)) = rows[i];
+    return m;
+  };
+  for (std::size_t c = 0; c < cases.size(); ++c) {
+    cases[c].cv = stack(cv_runs[c]);
+    cases[c].corrected = stack(corrected_runs[c]);
+    cases[c].floor = stack(floor_runs[c]);
+    const double n = std::max(1, case_runs[c]);
+    cases[c].mean_estimate /= n;
+    cases[c].cv_position_rmse = (cases[c].cv_position_rmse / n).cwiseSqrt();
+    cases[c].corrected_position_rmse = (cases[c].corrected_position_rmse / n).cwiseSqrt();
+  }
+
+  // The table: per case and quantity, CV, corrected, the difference and the paper's.
+  nlohmann::json metrics;
+  int wins = 0, cells = 0;
+  std::vector<std::string> losses;
+  std::vector<std::vector<std::string>> table;
+  for (const CaseResult& r : cases) {
+    if (r.cv.rows() == 0) continue;
+    std::vector<std::string> row = {r.name};
+    nlohmann::json m = {{"name", r.name}, {"runs", r.cv.rows()}};
+    for (int q = 0; q < 3; ++q) {
+      const Eigen::VectorXd cv = r.cv.col(q), corrected = r.corrected.col(q);
+      const Difference d =
+          paired_difference(static_cast<int>(cv.size()), mean_of(corrected), mean_of(cv));
+      ++cells;
+      if (d.below()) {
+        ++wins;
+      } else {
+        losses.push_back(r.name + " " + kQuantity[q] + ": corrected − CV " + d.text(1));
+      }
+      const std::string metric = std::string(kQuantity[q]) + "_mse";
+      const auto* paper_cv = regimes.evaluated.find("CV KF", r.name, metric);
+      const auto* paper_corrected = regimes.evaluated.find("corrected KF", r.name, metric);
+      auto with_paper = [](double ours, const support::PublishedFigure* paper) {
+        return scientific(ours) + (paper ? " (" + scientific(paper->value) + ")" : "");
+      };
+      row.push_back(with_paper(cv.mean(), paper_cv));
+      row.push_back(with_paper(corrected.mean(), paper_corrected));
+      row.push_back(cell(corrected.mean() / cv.mean(), 3) +
+                    (paper_cv && paper_corrected
+                         ? " (" + cell(paper_corrected->value / paper_cv->value, 3) + ")"
+                         : ""));
+      row.push_back(d.below() ? "yes" : d.above() ? "no (worse)" : "tie");
+      m["cv_kf"][metric] = cv.mean();
+      m["corrected_kf"][metric] = corrected.mean();
+      m["true_input_kf"][metric] = r.floor.col(q).mean();
+      m["corrected_minus_cv"][metric] = {d.estimate, d.lower, d.upper};
+    }
+    row.push_back(scientific(r.floor.col(1).mean()));
+    table.push_back(row);
+    metrics["rows"].push_back(m);
+  }
+  std::cout << "input-estimator: " << regimes.describe() << "\n  test split: " << data.tracks.size()
+            << " tracks x " << steps << " scans (both axes: " << 2 * data.tracks.size()
+            << " runs), seed " << options.seed
+            << "\n\nMSE (the paper's in parentheses); ratio = corrected / CV; 'beats' = the 95 % "
+               "paired-bootstrap interval of corrected − CV lies below 0:\n\n"
+            << markdown_table({"case", "innov CV", "innov corrected", "ratio", "beats", "pos CV",
+                               "pos corrected", "ratio", "beats", "vel CV", "vel corrected",
+                               "ratio", "beats", "pos, true input (floor)"},
+                              table);
+  const bool passed = cells > 0 && wins >= kRequiredShare * cells;
+  std::cout << "\nThe corrected KF beats the CV KF beyond the uncertainty in " << wins << " of "
+            << cells << " cells (gate: at least " << 100.0 * kRequiredShare
+            << " %; the paper: 22 of 24): " << (passed ? "passed" : "FAILED") << "\n";
+  for (const auto& loss : losses) std::cout << "  not better: " << loss << '\n';
+
+  const std::filesystem::path& out = options.out;
+  std::filesystem::create_directories(out);
+  metrics["regime"] = {{"name", regime.name},
+                       {"model_regime", regimes.trained.regime.name},
+                       {"off_training", regimes.off_training()}};
+  metrics["wins"] = wins;
+  metrics["cells"] = cells;
+  trainer::write_json_atomically(out / "metrics.json", metrics);
+
+  // Fig. 4 and 5 of the seed: true vs estimated acceleration and the position RMSE over time, for
+  // the first case and the middle one.
+  std::vector<std::size_t> shown = {0};
+  if (cases.size() > 1) shown.push_back(cases.size() / 2);
+  for (std::size_t index : shown) {
+    const CaseResult& r = cases[index];
+    if (r.true_acceleration.size() == 0) continue;
+    const std::string stem = "case" + std::to_string(index);
+    Eigen::MatrixXd acceleration(steps, 2);
+    acceleration << r.true_acceleration, r.mean_estimate;
+    write_series_csv(out / (stem + "_acceleration.csv"), {"true", "estimated"}, acceleration);
+    Eigen::MatrixXd position(steps, 2);
+    position << r.cv_position_rmse, r.corrected_position_rmse;
+    write_series_csv(out / (stem + "_position_rmse.csv"), {"cv_kf", "corrected_kf"}, position);
+    plot_series({out / (stem + "_acceleration.png"),
+                 r.name + ": true and mean estimated acceleration (seed 001 Fig. 4-5)",
+                 "time (s)",
+                 "acceleration",
+                 out / (stem + "_acceleration.csv"),
+                 {"true", "estimated"}});
+    plot_series({out / (stem + "_position_rmse.png"),
+                 r.name + ": position RMSE (seed 001 Fig. 4-5)",
+                 "time (s)",
+                 "position",
+                 out / (stem + "_position_rmse.csv"),
+                 {"cv_kf", "corrected_kf"}});
+  }
+  // The training curve stored in the model.
+  if (reader.container().kind("/training/loss") == io::ObjectKind::kDataset) {
+    const Eigen::MatrixXd loss = reader.matrix("/training/loss", -1, 3);
+    write_series_csv(out / "training_loss.csv", {"epoch", "training_mse", "validation_mse"}, loss);
+    plot_series({out / "training_loss.png",
+                 "Training curve of the input estimator (MSE)",
+                 "loss point (every loss_every epochs)",
+                 "MSE",
+                 out / "training_loss.csv",
+                 {"training_mse", "validation_mse"}});
+  }
+  std::cout << "\nwrote metrics.json, CSV series and PNG plots in " << out.string() << '\n';
+  return passed ? 0 : kExitGateFailed;
+}
+
+}  // namespace
+
+void add_input_estimator_command(CLI::App& app, ExitCode& exit_code) {
+  auto options = std::make_shared<CommonOptions>();
+  auto* command = app.add_subcommand(
+      "input-estimator", "seed 001 Tables 1-2: neural input estimator vs the constant-velocity KF");
+  add_common_options(*command, *options, "mlp_input_estimator", "reports/input-estimator");
+  command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
 }
 
 }  // namespace imm::evaluation

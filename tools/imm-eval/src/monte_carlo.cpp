@@ -3,31 +3,63 @@
 #include <limits>
 #include <stdexcept>
 
-#include "imm/evaluation/normalized_errors.hpp"
-
 namespace imm::evaluation {
+namespace {
+
+// Mean over the scans with samples of √(Σ_runs w e²) / √(Σ_runs w m²) (seed 000's ζ).
+double zeta(const Eigen::MatrixXd& error, const Eigen::MatrixXd& plot,
+            const Eigen::MatrixXd& counted, const Eigen::VectorXd& w) {
+  const Eigen::RowVectorXd e = w.transpose() * error, m = w.transpose() * plot,
+                           n = w.transpose() * counted;
+  double sum = 0.0;
+  int scans = 0;
+  for (Eigen::Index k = 0; k < e.size(); ++k) {
+    if (n(k) > 0.0 && m(k) > 0.0) {
+      sum += std::sqrt(e(k) / m(k));
+      ++scans;
+    }
+  }
+  return scans > 0 ? sum / scans : std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace
+
+Statistic FilterOutcome::zeta_p_statistic() const {
+  return [this](const Eigen::VectorXd& w) {
+    return zeta(run_position, run_position_plot, run_counted, w);
+  };
+}
+
+Statistic FilterOutcome::zeta_v_statistic() const {
+  return [this](const Eigen::VectorXd& w) {
+    return zeta(run_velocity, run_velocity_plot, run_counted, w);
+  };
+}
 
 FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make_filter,
-                              const TrackOptions& options,
-                              const datasets::ManeuverScenario& scenario,
-                              const datasets::ScenarioData& data, const StepObserver& observer) {
-  if (scenario.measurement.kind != MeasurementKind::kCartesian ||
-      options.measurement_kind != MeasurementKind::kCartesian) {
+                              const TrackOptions& options, const datasets::TrackSet& data,
+                              const StepObserver& observer) {
+  if (options.measurement_kind != MeasurementKind::kCartesian) {
     throw std::runtime_error("filter '" + name + "': the evaluation scores Cartesian plots");
   }
-  if (std::abs(scenario.sample_period - options.sample_period) > 1e-12) {
-    throw std::runtime_error("filter '" + name + "': sample period differs from the data's");
+  if (std::abs(data.sample_period - options.sample_period) > 1e-12 * data.sample_period) {
+    throw std::runtime_error("filter '" + name + "': sample period differs from the tracks'");
   }
-  const int steps = scenario.steps;
-  const double T = scenario.sample_period;
-  NormalizedErrors errors(steps);
+  const int steps = data.scans;
+  const double T = data.sample_period;
+  const auto runs = static_cast<Eigen::Index>(data.tracks.size());
   FilterOutcome outcome;
   outcome.name = name;
+  outcome.run_position = Eigen::MatrixXd::Zero(runs, steps);
+  outcome.run_position_plot = outcome.run_position;
+  outcome.run_velocity = outcome.run_position;
+  outcome.run_velocity_plot = outcome.run_position;
+  outcome.run_counted = outcome.run_position;
   Eigen::VectorXi probability_samples = Eigen::VectorXi::Zero(steps);
 
-  for (std::size_t run = 0; run < data.truth.size(); ++run) {
-    const Eigen::MatrixXd& truth = data.truth[run];
-    const Eigen::MatrixXd& z = data.measurements[run];
+  for (Eigen::Index run = 0; run < runs; ++run) {
+    const datasets::Track& track = data.tracks[static_cast<std::size_t>(run)];
+    const Eigen::MatrixXd& z = track.plots;
     Tracker tracker(make_filter(), options);
     if (run == 0) {
       outcome.modes = tracker.mode_count();
@@ -43,28 +75,45 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
       if (result.event == TrackEvent::kRejected) ++outcome.rejected_steps;
       if (!tracker.initialized() || k == 0) continue;
       tracker.state(mean, variance);
+      const Eigen::Vector2d p = datasets::position_at(track, k),
+                            v = datasets::velocity_at(track, k);
+      const Eigen::Vector2d plot = z.row(k).transpose();
       const Eigen::Vector2d measured_velocity = (z.row(k) - z.row(k - 1)).transpose() / T;
-      errors.add(k, Eigen::Vector2d(truth(k, 0), truth(k, 2)), Eigen::Vector2d(mean(0), mean(y)),
-                 z.row(k).transpose(), Eigen::Vector2d(truth(k, 1), truth(k, 3)),
-                 Eigen::Vector2d(mean(1), mean(y + 1)), measured_velocity);
+      outcome.run_position(run, k) = (p - Eigen::Vector2d(mean(0), mean(y))).squaredNorm();
+      outcome.run_position_plot(run, k) = (p - plot).squaredNorm();
+      outcome.run_velocity(run, k) = (v - Eigen::Vector2d(mean(1), mean(y + 1))).squaredNorm();
+      outcome.run_velocity_plot(run, k) = (v - measured_velocity).squaredNorm();
+      outcome.run_counted(run, k) = 1.0;
       outcome.mean_mode_probabilities.row(k) += tracker.mode_probabilities().transpose();
       ++probability_samples(k);
-      if (observer) observer(run, k, tracker.filter());
+      if (observer) observer(static_cast<std::size_t>(run), k, tracker.filter());
     }
   }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
   for (int k = 0; k < steps; ++k) {
     if (probability_samples(k) > 0) {
       outcome.mean_mode_probabilities.row(k) /= probability_samples(k);
     } else {
-      outcome.mean_mode_probabilities.row(k).setConstant(std::numeric_limits<double>::quiet_NaN());
+      outcome.mean_mode_probabilities.row(k).setConstant(nan);
     }
   }
-  outcome.position_error = errors.position();
-  outcome.velocity_error = errors.velocity();
-  outcome.zeta_p = errors.zeta_p();
-  outcome.zeta_v = errors.zeta_v();
-  outcome.position_rmse = errors.position_rmse();
-  outcome.velocity_rmse = errors.velocity_rmse();
+  const Eigen::RowVectorXd pe = outcome.run_position.colwise().sum(),
+                           pm = outcome.run_position_plot.colwise().sum(),
+                           ve = outcome.run_velocity.colwise().sum(),
+                           vm = outcome.run_velocity_plot.colwise().sum(),
+                           count = outcome.run_counted.colwise().sum();
+  outcome.position_error.resize(steps);
+  outcome.velocity_error.resize(steps);
+  for (int k = 0; k < steps; ++k) {
+    outcome.position_error(k) = count(k) > 0 && pm(k) > 0 ? std::sqrt(pe(k) / pm(k)) : nan;
+    outcome.velocity_error(k) = count(k) > 0 && vm(k) > 0 ? std::sqrt(ve(k) / vm(k)) : nan;
+  }
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(runs);
+  outcome.zeta_p = outcome.zeta_p_statistic()(ones);
+  outcome.zeta_v = outcome.zeta_v_statistic()(ones);
+  const double samples = std::max(1.0, count.sum());
+  outcome.position_rmse = std::sqrt(pe.sum() / samples);
+  outcome.velocity_rmse = std::sqrt(ve.sum() / samples);
   return outcome;
 }
 

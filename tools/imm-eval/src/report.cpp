@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "imm/evaluation/monte_carlo.hpp"
 #include "imm/trainer/nightly.hpp"
 
 namespace imm::evaluation {
@@ -111,6 +112,41 @@ bool plot_series(const PlotSpec& spec) {
     return false;
   }
   return true;
+}
+
+std::string scientific(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.3g", value);
+  return buffer;
+}
+
+bool write_error_series(const std::vector<FilterOutcome>& filters, int steps,
+                        const std::filesystem::path& out) {
+  std::vector<std::string> names;
+  Eigen::MatrixXd pe(steps, static_cast<Eigen::Index>(filters.size()));
+  Eigen::MatrixXd ve(steps, static_cast<Eigen::Index>(filters.size()));
+  for (std::size_t i = 0; i < filters.size(); ++i) {
+    names.push_back(filters[i].name);
+    pe.col(static_cast<Eigen::Index>(i)) = filters[i].position_error;
+    ve.col(static_cast<Eigen::Index>(i)) = filters[i].velocity_error;
+  }
+  write_series_csv(out / "normalized_position_error.csv", names, pe);
+  write_series_csv(out / "normalized_velocity_error.csv", names, ve);
+  bool plotted = plot_series({out / "normalized_position_error.png",
+                              "Normalized position error P_e(k) (seed 000 Fig. 4-1)", "scan k",
+                              "P_e", out / "normalized_position_error.csv", names});
+  plotted &= plot_series({out / "normalized_velocity_error.png",
+                          "Normalized velocity error V_e(k) (seed 000 Fig. 4-2)", "scan k", "V_e",
+                          out / "normalized_velocity_error.csv", names});
+  return plotted;
+}
+
+bool write_mode_probabilities(const FilterOutcome& filter, const std::filesystem::path& out,
+                              const std::string& stem) {
+  const auto csv = out / (stem + ".csv");
+  write_series_csv(csv, filter.mode_names, filter.mean_mode_probabilities);
+  return plot_series({out / (stem + ".png"), "Mean mode probabilities of " + filter.name, "scan k",
+                      "probability", csv, filter.mode_names});
 }
 
 }  // namespace imm::evaluation

@@ -125,6 +125,29 @@ void ConfigTable::fail(std::string_view key, const std::string& message) const {
 
 bool ConfigTable::has(std::string_view key) const { return as_table(table_).contains(key); }
 
+bool ConfigTable::is_array(std::string_view key) const {
+  const toml::node* n = as_table(table_).get(key);
+  return n != nullptr && n->is_array();
+}
+
+bool ConfigTable::is_auto(std::string_view key) const {
+  const toml::node* n = as_table(table_).get(key);
+  if (n == nullptr) return true;
+  if (const auto* text = n->as_string()) {
+    document_->mark(path(key));
+    if (text->get() != "auto")
+      fail(key, "expected \"auto\" or a value, found '" + text->get() + "'");
+    return true;
+  }
+  return false;
+}
+
+std::vector<std::string> ConfigTable::keys() const {
+  std::vector<std::string> names;
+  for (const auto& [key, node] : as_table(table_)) names.emplace_back(key.str());
+  return names;
+}
+
 const void* ConfigTable::node(std::string_view key) const {
   const toml::node* n = as_table(table_).get(key);
   if (n == nullptr) fail(key, "missing");

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <numbers>
+#include <utility>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
@@ -16,12 +17,12 @@
 #include "imm/trainer/bounded_search.hpp"
 #include "imm/trainer/parallel_for.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
 
 namespace imm::trainer::fcm {
 namespace {
 
-constexpr double kDegree = std::numbers::pi / 180.0;
 constexpr int kFirstScoredScan = 2;
 
 std::pair<double, double> range(const support::ConfigTable& t, std::string_view key,
@@ -31,37 +32,33 @@ std::pair<double, double> range(const support::ConfigTable& t, std::string_view 
   return {r(0), r(1)};
 }
 
-FcmTrainingConfig config_from(const support::ConfigTable& root) {
+FcmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
   FcmTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
+  c.regime = std::move(regime);
+  const double a = acceleration_scale(c.regime);
+  FcmImmSpec& s = c.filter;
+  s.sample_period = c.regime.sample_period;
+  s.measurement_sigma = c.regime.sensor.noise.sigma(0);
+  int modes = 3;
+  double stay = 0.95;
+  s.process_noise.clear();
   if (const auto f = root.table("filter")) {
-    FcmImmSpec& s = c.filter;
-    s.sample_period = f->real_or("sample_period", s.sample_period);
-    s.measurement_sigma = f->real_or("measurement_sigma", s.measurement_sigma);
-    const std::int64_t modes = f->integer_or("modes", 3);
+    modes = f->count_or("modes", modes);
     if (modes < 1 || modes > 8) f->fail("modes", "must be in [1, 8]");
-    if (f->has("process_noise")) {
+    if (f->is_array("process_noise")) {
       const Eigen::VectorXd q = f->reals("process_noise", modes);
       s.process_noise.assign(q.data(), q.data() + q.size());
-    } else {
-      s.process_noise.clear();
-      for (std::int64_t j = 0; j < modes; ++j) {
-        s.process_noise.push_back(
-            std::pow(10.0, 4.0 * static_cast<double>(j) /
-                               static_cast<double>(std::max<std::int64_t>(1, modes - 1))));
-      }
+    } else if (f->has("process_noise") && f->text("process_noise") != "auto") {
+      f->fail("process_noise", "expected \"auto\" or a list of variances");
     }
-    const double stay = f->real_or("stay", 0.95);
+    stay = f->real_or("stay", stay);
     if (!(stay > 0.0 && stay <= 1.0)) f->fail("stay", "must be in (0, 1]");
-    s.transition = FcmImmSpec::switching_transition(static_cast<int>(modes), stay);
     c.initial_first_probability =
         f->real_or("initial_first_probability", c.initial_first_probability);
     if (!(c.initial_first_probability >= 0.0 && c.initial_first_probability <= 1.0)) {
       f->fail("initial_first_probability", "must be in [0, 1]");
     }
-    AxisImmSettings settings;
-    settings.initial_first_probability = c.initial_first_probability;
-    s.initial_probabilities = settings.initial_probabilities(static_cast<int>(modes));
     if (f->has("membership_scale")) {
       s.scale = membership_scale_from(f->text("membership_scale"), f->path("membership_scale"));
     }
@@ -73,24 +70,19 @@ FcmTrainingConfig config_from(const support::ConfigTable& root) {
     s.separation = f->real_or("separation", s.separation);
     s.compensation_gain = f->real_or("compensation_gain", s.compensation_gain);
   }
-  if (const auto t = root.table("training")) {
-    FcmTrainingOptions& o = c.training;
-    o.trajectories = t->count_or("trajectories", o.trajectories);
-    o.validation = t->count_or("validation", o.validation);
-    o.steps = t->count_or("steps", o.steps);
-    auto [r0, r1] = range(*t, "range_km", {o.min_range / 1e3, o.max_range / 1e3});
-    o.min_range = r0 * 1e3, o.max_range = r1 * 1e3;
-    std::tie(o.min_speed, o.max_speed) = range(*t, "speed", {o.min_speed, o.max_speed});
-    o.max_heading_offset_deg = t->real_or("max_heading_offset_deg", o.max_heading_offset_deg);
-    std::tie(o.min_acceleration, o.max_acceleration) =
-        range(*t, "acceleration", {o.min_acceleration, o.max_acceleration});
-    auto [q0, q1] = range(*t, "quarter", {o.min_quarter, o.max_quarter});
-    o.min_quarter = static_cast<int>(q0), o.max_quarter = static_cast<int>(q1);
-    auto [p0, p1] = range(*t, "periods", {o.min_periods, o.max_periods});
-    o.min_periods = static_cast<int>(p0), o.max_periods = static_cast<int>(p1);
-    o.maneuver_probability = t->real_or("maneuver_probability", o.maneuver_probability);
-    o.process_noise_sigma = t->real_or("process_noise_sigma", o.process_noise_sigma);
+  if (s.process_noise.empty()) {
+    // Starting values log-spaced from 10⁻⁴ a² to 0.7 a² (the fit starts from the tuned IMM).
+    for (int j = 0; j < modes; ++j) {
+      const double f = modes == 1 ? 1.0 : static_cast<double>(j) / (modes - 1);
+      s.process_noise.push_back(a * a * std::pow(10.0, -4.0 + f * (4.0 + std::log10(0.7))));
+    }
   }
+  s.transition = FcmImmSpec::switching_transition(modes, stay);
+  AxisImmSettings settings;
+  settings.initial_first_probability = c.initial_first_probability;
+  s.initial_probabilities = settings.initial_probabilities(modes);
+  c.tuning.min_log_q = std::log10(1e-7 * a * a);
+  c.tuning.max_log_q = std::log10(9.0 * a * a);
   if (const auto u = root.table("tuning")) {
     FcmTuning& g = c.tuning;
     if (u->has("windows")) {
@@ -101,7 +93,12 @@ FcmTrainingConfig config_from(const support::ConfigTable& root) {
         g.windows.push_back(static_cast<int>(v));
       }
     }
-    std::tie(g.min_log_q, g.max_log_q) = range(*u, "log10_q", {g.min_log_q, g.max_log_q});
+    if (u->is_array("log10_q")) {
+      std::tie(g.min_log_q, g.max_log_q) = range(*u, "log10_q", {g.min_log_q, g.max_log_q});
+      g.automatic_log_q = false;
+    } else if (u->has("log10_q") && u->text("log10_q") != "auto") {
+      u->fail("log10_q", "expected \"auto\" or [min, max]");
+    }
     std::tie(g.min_stay, g.max_stay) = range(*u, "stay", {g.min_stay, g.max_stay});
     std::tie(g.min_gain, g.max_gain) = range(*u, "compensation_gain", {g.min_gain, g.max_gain});
     std::tie(g.min_fuzzifier, g.max_fuzzifier) =
@@ -145,6 +142,7 @@ std::vector<double> noise_levels(const std::vector<double>& x, int n, double max
 }  // namespace
 
 void FcmTrainingConfig::validate() const {
+  require_per_axis_sensor(regime, "the FCM-IMM");
   try {
     filter.validate();
   } catch (const InvalidParameter& error) {
@@ -156,30 +154,6 @@ void FcmTrainingConfig::validate() const {
     if (key == "initial_probabilities") key = "initial_first_probability";
     throw InvalidParameter("filter." + key, error.message());
   }
-  const FcmTrainingOptions& o = training;
-  require(o.trajectories >= 1 && o.trajectories <= 10000, "training.trajectories",
-          "must be in [1, 10000]");
-  require(o.validation >= 1 && o.validation <= 10000, "training.validation",
-          "must be in [1, 10000]");
-  require(o.steps >= 20 && o.steps <= 100000, "training.steps", "must be in [20, 100000]");
-  require(o.min_range > 0.0 && o.max_range >= o.min_range && o.max_range <= limits::kDistance.max,
-          "training.range_km", "must be 0 < min ≤ max ≤ 10⁶ km");
-  require(o.min_speed > 0.0 && o.max_speed >= o.min_speed && o.max_speed <= limits::kSpeed.max,
-          "training.speed", "must be 0 < min ≤ max ≤ 10⁶ m/s");
-  require(o.max_heading_offset_deg >= 0.0 && o.max_heading_offset_deg <= 180.0,
-          "training.max_heading_offset_deg", "must be in [0, 180]");
-  require(o.min_acceleration >= 0.0 && o.max_acceleration >= o.min_acceleration &&
-              o.max_acceleration <= limits::kAcceleration.max,
-          "training.acceleration", "must be 0 ≤ min ≤ max ≤ 10⁶ m/s²");
-  require(o.min_quarter >= 1 && o.max_quarter >= o.min_quarter, "training.quarter",
-          "must be 1 ≤ min ≤ max");
-  require(o.min_periods >= 1 && o.max_periods >= o.min_periods, "training.periods",
-          "must be 1 ≤ min ≤ max");
-  require(4 * o.max_quarter * o.max_periods < o.steps, "training.periods",
-          "the longest zigzag must fit in the steps");
-  require(o.maneuver_probability >= 0.0 && o.maneuver_probability <= 1.0,
-          "training.maneuver_probability", "must be in [0, 1]");
-  limits::require_in(o.process_noise_sigma, limits::kAcceleration, "training.process_noise_sigma");
   const FcmTuning& g = tuning;
   require(!g.windows.empty() && g.windows.size() <= 16, "tuning.windows", "need 1 to 16 windows");
   for (int w : g.windows) {
@@ -204,74 +178,21 @@ void FcmTrainingConfig::validate() const {
           "gate.max_validation_ratio", "must be positive");
 }
 
-FcmTrainingConfig load_fcm_config(const std::filesystem::path& path) {
-  return load_training_config<FcmTrainingConfig>(path, config_from);
-}
-
-TrackingData make_trajectories(const FcmTrainingConfig& config, bool validation) {
-  const FcmTrainingOptions& o = config.training;
-  const int count = validation ? o.validation : o.trajectories;
-  // Disjoint random streams for training (10000 + t) and validation (20000 + t); the evaluation
-  // scenario uses its own seed and a fixed geometry.
-  const std::uint64_t base = validation ? 20000 : 10000;
-  TrackingData result;
-  datasets::ManeuverScenario& descriptor = result.scenario;
-  descriptor.name = validation ? "fcm-validation" : "fcm-training";
-  descriptor.sample_period = config.filter.sample_period;
-  descriptor.steps = o.steps;
-  descriptor.runs = count;
-  descriptor.seed = config.seed;
-  descriptor.process_noise_sigma = o.process_noise_sigma;
-  descriptor.measurement.kind = MeasurementKind::kCartesian;
-  descriptor.measurement.sigma = Eigen::Vector2d::Constant(config.filter.measurement_sigma);
-  for (int t = 0; t < count; ++t) {
-    datasets::Rng rng(datasets::derive_seed(config.seed, base + static_cast<std::uint64_t>(t)));
-    datasets::ManeuverScenario s = descriptor;
-    s.runs = 1;
-    s.seed = datasets::derive_seed(config.seed, base + 5000 + static_cast<std::uint64_t>(t));
-    const double distance = rng.uniform(o.min_range, o.max_range);
-    const double bearing = rng.uniform(0.0, 2.0 * std::numbers::pi);
-    s.initial_position = distance * Eigen::Vector2d(std::sin(bearing), std::cos(bearing));
-    const double heading =
-        bearing + std::numbers::pi +
-        rng.uniform(-o.max_heading_offset_deg, o.max_heading_offset_deg) * kDegree;
-    const Eigen::Vector2d direction(std::sin(heading), std::cos(heading));
-    s.initial_velocity = rng.uniform(o.min_speed, o.max_speed) * direction;
-    if (rng.uniform() < o.maneuver_probability) {
-      const int quarter =
-          o.min_quarter + static_cast<int>(rng.below(
-                              static_cast<std::uint64_t>(o.max_quarter - o.min_quarter) + 1));
-      const int periods =
-          o.min_periods + static_cast<int>(rng.below(
-                              static_cast<std::uint64_t>(o.max_periods - o.min_periods) + 1));
-      std::vector<double> magnitudes;
-      magnitudes.reserve(static_cast<std::size_t>(periods));
-      for (int i = 0; i < periods; ++i) {
-        magnitudes.push_back(rng.uniform(o.min_acceleration, o.max_acceleration));
-      }
-      const int length = 4 * quarter * periods;
-      const int start = kFirstScoredScan + 8 +
-                        static_cast<int>(rng.below(static_cast<std::uint64_t>(
-                            std::max(1, o.steps - length - kFirstScoredScan - 8))));
-      const Eigen::Vector2d lateral =
-          (rng.uniform() < 0.5 ? 1.0 : -1.0) * Eigen::Vector2d(-direction.y(), direction.x());
-      s.maneuvers = datasets::zigzag_maneuvers(start, quarter, magnitudes, lateral);
-    }
-    result.data.append_first_run(datasets::simulate(s));
-  }
-  return result;
+FcmTrainingConfig load_fcm_config(const std::filesystem::path& path,
+                                  const std::optional<std::filesystem::path>& regime) {
+  return load_training_config<FcmTrainingConfig>(path, config_from, regime);
 }
 
 TrackingScore score_filter(const FilterFactory& make, const TrackingData& data,
                            double measurement_sigma) {
-  const double T = data.scenario.sample_period;
+  const double T = data.sample_period;
   const double r = measurement_sigma * measurement_sigma;
-  const int runs = static_cast<int>(data.data.truth.size());
+  const int runs = static_cast<int>(data.tracks.size());
   std::vector<RunErrors> errors(static_cast<std::size_t>(runs));
   parallel_for(runs, 1, [&](long run) {
     RunErrors& e = errors[static_cast<std::size_t>(run)];
-    const Eigen::MatrixXd& x = data.data.truth[static_cast<std::size_t>(run)];
-    const Eigen::MatrixXd& z = data.data.measurements[static_cast<std::size_t>(run)];
+    const Eigen::MatrixXd& x = data.tracks[static_cast<std::size_t>(run)].truth;
+    const Eigen::MatrixXd& z = data.tracks[static_cast<std::size_t>(run)].plots;
     std::unique_ptr<TwoAxisFilter> filter = make();
     Eigen::VectorXd mean(4);
     Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(4, 4);
@@ -288,8 +209,8 @@ TrackingScore score_filter(const FilterFactory& make, const TrackingData& data,
         break;
       }
       filter->state(estimate, variance);
-      const double dx = estimate(0) - x(k, 0), dy = estimate(2) - x(k, 2);
-      const double dvx = estimate(1) - x(k, 1), dvy = estimate(3) - x(k, 3);
+      const double dx = estimate(0) - x(k, 0), dy = estimate(2) - x(k, 3);
+      const double dvx = estimate(1) - x(k, 1), dvy = estimate(3) - x(k, 4);
       e.position += dx * dx + dy * dy;
       e.velocity += dvx * dvx + dvy * dvy;
       ++e.scans;
@@ -402,14 +323,17 @@ Tuned<AxisCvImmSpec> tune_cv_imm(const FcmTrainingConfig& config, const Tracking
 
 Tuned<AimmSpec> tune_aimm(const FcmTrainingConfig& config, const TrackingData& data) {
   const double sigma = config.filter.measurement_sigma;
-  // x = log10 [ε, σ_w, σ_b] in m/s².
+  // x = log10 [ε, σ_w, σ_b] relative to the regime's acceleration scale a: ε ∈ [a/60, 5.3 a],
+  // σ_w, σ_b ∈ [a/600, 1.7 a] (for the seed-003 training regime, a = 60 m/s²: 1–316 and
+  // 0.1–100 m/s²).
+  const double log_a = std::log10(acceleration_scale(config.regime) / 60.0);
   auto make = [&](const std::vector<double>& x) {
     AimmSpec spec;
     spec.settings = axis_settings(config, 0.97);
-    spec.intervals = {std::pow(10.0, x[0])};
-    spec.process_noise_sigma = std::pow(10.0, x[1]);
-    spec.bias_noise_sigma = std::pow(10.0, x[2]);
-    spec.acceleration_variance = 100.0;
+    spec.intervals = {std::pow(10.0, x[0] + log_a)};
+    spec.process_noise_sigma = std::pow(10.0, x[1] + log_a);
+    spec.bias_noise_sigma = std::pow(10.0, x[2] + log_a);
+    spec.acceleration_variance = std::pow(10.0, 2.0 * (1.0 + log_a));
     return spec;
   };
   const SearchResult search = grid_then_subplex(
@@ -442,7 +366,8 @@ Eigen::MatrixXd mean_memberships(const FcmImmSpec& spec, const TrackingData& dat
   const double r = spec.measurement_sigma * spec.measurement_sigma;
   Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(n, kFcmClusters);
   long samples = 0;
-  for (const Eigen::MatrixXd& z : data.data.measurements) {
+  for (const datasets::Track& track : data.tracks) {
+    const Eigen::MatrixXd& z = track.plots;
     for (int axis = 0; axis < 2; ++axis) {
       FcmImmAxisFilter filter(spec);
       filter.initialize(two_point(z(0, axis), z(1, axis), T, r));
@@ -461,8 +386,10 @@ Eigen::MatrixXd mean_memberships(const FcmImmSpec& spec, const TrackingData& dat
 
 FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesystem::path& out) {
   const auto start = std::chrono::steady_clock::now();
-  const TrackingData training = make_trajectories(config, false);
-  const TrackingData validation = make_trajectories(config, true);
+  const TrackingData training =
+      datasets::draw_split(config.regime, datasets::Split::kTraining, config.regime.splits.seed);
+  const TrackingData validation =
+      datasets::draw_split(config.regime, datasets::Split::kValidation, config.regime.splits.seed);
   const double sigma = config.filter.measurement_sigma;
   const FcmTuning& g = config.tuning;
   const int n = config.filter.mode_count();
@@ -546,7 +473,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
       score_filter([&] { return make_axis_cv_imm_filter(kf.spec); }, validation, sigma);
   result.gate_passed =
       result.validation.objective <= config.max_validation_ratio * result.kf_validation.objective;
-  result.digest = datasets::digest(training.data);
+  result.digest = training.digest();
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -586,8 +513,9 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
   }
   metrics["windows"] = windows;
   metrics["evaluations"] = result.evaluations;
-  metrics["training_trajectories"] = config.training.trajectories;
-  metrics["validation_trajectories"] = config.training.validation;
+  metrics["regime"] = config.regime.name;
+  metrics["training_tracks"] = training.tracks.size();
+  metrics["validation_tracks"] = validation.tracks.size();
   metrics["threads"] = omp_get_max_threads();
   metrics["wall_seconds"] = result.wall_seconds;
   metrics["gate"] = {{"max_validation_ratio", config.max_validation_ratio},
@@ -598,7 +526,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
 
   io::Provenance provenance =
       make_provenance(std::string(io::kFcmImmKind), config.text,
-                      static_cast<std::int64_t>(config.seed), result.digest);
+                      static_cast<std::int64_t>(config.seed), result.digest, config.regime);
   provenance.training_metrics["objective"] = result.training.objective;
   provenance.training_metrics["pos_rmse"] = result.training.position_rmse;
   provenance.training_metrics["vel_rmse"] = result.training.velocity_rmse;

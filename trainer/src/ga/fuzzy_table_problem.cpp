@@ -67,9 +67,11 @@ FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, const ProblemOptions&
   for (int l = 0; l < options_.max_rules; ++l) {
     const auto base = static_cast<std::size_t>(l) * kGenesPerRule;
     lower_[base + 0] = r_min, upper_[base + 0] = r_max;
-    lower_[base + 1] = options_.sigma_min, upper_[base + 1] = options_.sigma_max;
+    const double sigma_min = options_.sigma_min * options_.error_scale;
+    const double sigma_max = options_.sigma_max * options_.error_scale;
+    lower_[base + 1] = sigma_min, upper_[base + 1] = sigma_max;
     lower_[base + 2] = dr_min, upper_[base + 2] = dr_max;
-    lower_[base + 3] = options_.sigma_min, upper_[base + 3] = options_.sigma_max;
+    lower_[base + 3] = sigma_min, upper_[base + 3] = sigma_max;
     lower_[base + 4] = options_.consequent_low * s, upper_[base + 4] = options_.consequent_high * s;
   }
 }
@@ -95,7 +97,7 @@ Evaluation FuzzyTableProblem::score(double position_sum, double velocity_sum, lo
   }
   e.position_error = position_sum / static_cast<double>(count);
   e.velocity_error = velocity_sum / static_cast<double>(count);
-  e.error = std::hypot(e.position_error, e.velocity_error);
+  e.error = std::hypot(e.position_error, e.velocity_error) / options_.error_scale;
   e.fitness = options_.lambda / (e.error + 1.0) + (1.0 - options_.lambda) / (e.rules + 1.0);
   return e;
 }

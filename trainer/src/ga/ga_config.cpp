@@ -1,11 +1,13 @@
 #include "imm/trainer/ga/ga_config.hpp"
 
 #include <cmath>
+#include <utility>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/support/config.hpp"
+#include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
 
 namespace imm::trainer::ga {
@@ -13,32 +15,27 @@ namespace {
 
 bool finite_positive(double x) { return std::isfinite(x) && x > 0.0; }
 
-GaTrainingConfig config_from(const support::ConfigTable& root) {
+GaTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
   GaTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
+  c.regime = std::move(regime);
+  c.filter.sample_period = c.regime.sample_period;
+  c.filter.measurement_sigma = c.regime.sensor.noise.sigma(0);
   if (const auto f = root.table("filter")) {
-    c.filter.sample_period = f->real_or("sample_period", c.filter.sample_period);
-    c.filter.measurement_sigma = f->real_or("measurement_sigma", c.filter.measurement_sigma);
     c.filter.transition_stay = f->real_or("transition_stay", c.filter.transition_stay);
     c.filter.initial_first_probability =
         f->real_or("initial_first_probability", c.filter.initial_first_probability);
   }
+  int level_count = 3;
+  bool automatic = true;
   if (const auto t = root.table("training")) {
-    TrainingOptions& o = c.training;
-    if (t->has("levels")) {
+    level_count = t->count_or("level_count", level_count);
+    if (t->is_array("levels")) {
       const Eigen::VectorXd levels = t->reals("levels");
-      o.levels.assign(levels.data(), levels.data() + levels.size());
-    }
-    o.process_noise_sigma = t->real_or("process_noise_sigma", o.process_noise_sigma);
-    if (t->has("profile")) {
-      const std::string profile = t->text("profile");
-      if (profile == "maneuver") {
-        o.profile = TrainingProfile::kManeuver;
-      } else if (profile == "mixed") {
-        o.profile = TrainingProfile::kMixed;
-      } else {
-        t->fail("profile", "unknown profile '" + profile + "' (expected maneuver or mixed)");
-      }
+      c.levels.assign(levels.data(), levels.data() + levels.size());
+      automatic = false;
+    } else if (t->has("levels") && t->text("levels") != "auto") {
+      t->fail("levels", "expected \"auto\" or a list of accelerations");
     }
     if (t->has("fitness")) {
       const std::string fitness = t->text("fitness");
@@ -50,16 +47,9 @@ GaTrainingConfig config_from(const support::ConfigTable& root) {
         t->fail("fitness", "unknown fitness '" + fitness + "' (expected single or imm)");
       }
     }
-    o.trajectories = t->count_or("trajectories", o.trajectories);
-    o.validation_trajectories = t->count_or("validation_trajectories", o.validation_trajectories);
-    o.steps = t->count_or("steps", o.steps);
-    if (t->has("segment_length")) {
-      const Eigen::VectorXd range = t->reals("segment_length", 2);
-      o.min_segment = static_cast<int>(range(0));
-      o.max_segment = static_cast<int>(range(1));
-    }
-    o.initial_speed = t->real_or("initial_speed", o.initial_speed);
   }
+  require(level_count >= 1 && level_count <= 8, "training.level_count", "must be in [1, 8]");
+  if (automatic) c.levels = automatic_levels(c.regime, level_count);
   if (const auto f = root.table("fuzzy")) {
     c.fuzzy.max_rules = f->count_or("max_rules", c.fuzzy.max_rules);
     if (f->has("sigma_range")) {
@@ -98,29 +88,39 @@ GaTrainingConfig config_from(const support::ConfigTable& root) {
 
 }  // namespace
 
+std::vector<double> automatic_levels(const datasets::Regime& regime, int count) {
+  const double high = regime.max_acceleration();
+  const double low = std::max(regime.min_acceleration(), 1e-3 * high);
+  require(high > 0.0, "training.levels",
+          "regime '" + regime.name + "' commands no acceleration: give the levels");
+  std::vector<double> levels;
+  for (int i = 0; i < count; ++i) {
+    const double f = count == 1 ? 1.0 : static_cast<double>(i) / (count - 1);
+    levels.push_back(low * std::pow(high / low, f));
+  }
+  return levels;
+}
+
+ProblemOptions GaTrainingConfig::problem_options(std::size_t level) const {
+  ProblemOptions o = fuzzy;
+  o.maneuver_level = levels[level];
+  o.process_noise_sigma = regime.process_noise_sigma;
+  o.error_scale = filter.measurement_sigma;
+  return o;
+}
+
 void GaTrainingConfig::validate() const {
+  require_per_axis_sensor(regime, "the GA-fuzzy IMM");
   try {
     filter.validate();
   } catch (const InvalidParameter& error) {
     throw error.within("filter.");
   }
-  const TrainingOptions& t = training;
-  require(!t.levels.empty() && t.levels.size() <= 8, "training.levels", "need 1 to 8 levels");
-  for (double u : t.levels) limits::require_in(u, limits::kAcceleration, "training.levels");
-  limits::require_in(t.process_noise_sigma, limits::kAcceleration, "training.process_noise_sigma");
-  require(t.trajectories >= 1 && t.trajectories <= 10000, "training.trajectories",
-          "must be in [1, 10000]");
-  require(t.validation_trajectories >= 1 && t.validation_trajectories <= 10000,
-          "training.validation_trajectories", "must be in [1, 10000]");
-  require(t.steps >= 10 && t.steps <= 100000, "training.steps", "must be in [10, 100000]");
-  require(t.min_segment >= 1 && t.max_segment >= t.min_segment, "training.segment_length",
-          "must be [min, max] with 1 ≤ min ≤ max");
-  limits::require_magnitude(t.initial_speed, limits::kSpeed, "training.initial_speed");
+  require(!levels.empty() && levels.size() <= 8, "training.levels", "need 1 to 8 levels");
+  for (double u : levels) limits::require_in(u, limits::kAcceleration, "training.levels");
   require(fuzzy.max_rules >= 1 && fuzzy.max_rules <= 50, "fuzzy.max_rules", "must be in [1, 50]");
-  limits::require_in(fuzzy.sigma_min, limits::kSigma, "fuzzy.sigma_range");
-  limits::require_in(fuzzy.sigma_max, limits::kSigma, "fuzzy.sigma_range");
-  require(fuzzy.sigma_max > fuzzy.sigma_min, "fuzzy.sigma_range",
-          "must be [min, max] with 0 < min < max");
+  require(fuzzy.sigma_min > 0.0 && fuzzy.sigma_max > fuzzy.sigma_min && fuzzy.sigma_max <= 1e6,
+          "fuzzy.sigma_range", "must be [min, max] with 0 < min < max ≤ 10⁶ (× the plot σ)");
   // √w in units of a_M + √q (eq. 15): a table's variances then stay within (1000 a_M)².
   require(std::isfinite(fuzzy.consequent_low) && fuzzy.consequent_low >= 0.0 &&
               fuzzy.consequent_high > fuzzy.consequent_low && fuzzy.consequent_high <= 1000.0,
@@ -145,25 +145,9 @@ void GaTrainingConfig::validate() const {
   require(memetic.max_evaluations <= 1000000, "memetic.max_evaluations", "must be at most 10⁶");
 }
 
-TrainingSetOptions GaTrainingConfig::training_set_options(std::size_t level,
-                                                          bool validation) const {
-  TrainingSetOptions o;
-  o.sample_period = filter.sample_period;
-  o.measurement_sigma = filter.measurement_sigma;
-  o.process_noise_sigma = training.process_noise_sigma;
-  o.maneuver_level = training.levels[level];
-  o.profile = training.profile;
-  o.trajectories = validation ? training.validation_trajectories : training.trajectories;
-  o.steps = training.steps;
-  o.min_segment = training.min_segment;
-  o.max_segment = training.max_segment;
-  o.initial_speed = training.initial_speed;
-  o.seed = datasets::derive_seed(seed, (validation ? 2000 : 1000) + level);
-  return o;
-}
-
-GaTrainingConfig load_ga_config(const std::filesystem::path& path) {
-  return load_training_config<GaTrainingConfig>(path, config_from);
+GaTrainingConfig load_ga_config(const std::filesystem::path& path,
+                                const std::optional<std::filesystem::path>& regime) {
+  return load_training_config<GaTrainingConfig>(path, config_from, regime);
 }
 
 }  // namespace imm::trainer::ga

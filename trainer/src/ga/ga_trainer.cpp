@@ -20,10 +20,11 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// Identifies what a checkpoint was made for: config text and seed.
+// Identifies what a checkpoint was made for: config text, regime and seed.
 std::string run_digest(const GaTrainingConfig& config) {
   datasets::Sha256 hash;
   hash.update(config.text);
+  hash.update(config.regime.digest);
   hash.update(&config.seed, sizeof config.seed);
   return hash.hex_digest();
 }
@@ -135,7 +136,7 @@ std::optional<Checkpoint> read_checkpoint(const std::filesystem::path& path,
                 "checkpoint of another config or seed; delete it or run without --resume");
   }
   Checkpoint c;
-  const auto levels = static_cast<std::int64_t>(config.training.levels.size());
+  const auto levels = static_cast<std::int64_t>(config.levels.size());
   const auto finished = reader.integer("/", "finished_levels", 0, levels);
   for (std::int64_t i = 0; i < finished; ++i) {
     const std::string group = "/finished/level" + std::to_string(i);
@@ -185,13 +186,6 @@ std::optional<Checkpoint> read_checkpoint(const std::filesystem::path& path,
 
 // --- Training --------------------------------------------------------------------------------
 
-ProblemOptions problem_options(const GaTrainingConfig& config, std::size_t level) {
-  ProblemOptions o = config.fuzzy;
-  o.maneuver_level = config.training.levels[level];
-  o.process_noise_sigma = config.training.process_noise_sigma;
-  return o;
-}
-
 nlohmann::json evaluation_json(const Evaluation& e) {
   return {{"fitness", e.fitness},
           {"error", e.error},
@@ -206,7 +200,7 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
   for (const auto& level : result.levels) digest.update(level.training_digest);
   io::Provenance provenance =
       make_provenance(std::string(io::kGaFuzzyImmKind), config.text,
-                      static_cast<std::int64_t>(config.seed), digest.hex_digest());
+                      static_cast<std::int64_t>(config.seed), digest.hex_digest(), config.regime);
   std::vector<std::map<std::string, double>> level_metrics;
   for (std::size_t i = 0; i < result.levels.size(); ++i) {
     const LevelResult& r = result.levels[i];
@@ -229,7 +223,7 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
   metrics["model"] = options.out.string();
   metrics["config"] = config.name;
   metrics["seed"] = config.seed;
-  metrics["profile"] = std::string(to_string(config.training.profile));
+  metrics["regime"] = config.regime.name;
   metrics["fitness"] = std::string(to_string(config.fuzzy.fitness));
   metrics["wall_seconds"] = result.wall_seconds;
   for (const LevelResult& r : result.levels) {
@@ -292,40 +286,29 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
     first_level = resumed->level;
   }
 
-  // The IMM fitness scores every table on every level's trajectories: the IMM sees all regimes.
+  // Every level's table learns on the regime's training split (the IMM fitness scores each in its
+  // slot of the IMM that sees every maneuver the regime has; the single-filter fitness gives each
+  // level its own consequent range of eq. 15 on the same data).
+  const TrainingSet training = make_training_set(config.regime, datasets::Split::kTraining);
+  const TrainingSet validation = make_training_set(config.regime, datasets::Split::kValidation);
   const bool imm_fitness = config.fuzzy.fitness == FitnessKind::kImm;
-  auto union_of = [&](bool validation) {
-    TrainingSet all = make_training_set(config.training_set_options(0, validation));
-    for (std::size_t level = 1; level < config.training.levels.size(); ++level) {
-      TrainingSet more = make_training_set(config.training_set_options(level, validation));
-      all.trajectories.insert(all.trajectories.end(), more.trajectories.begin(),
-                              more.trajectories.end());
-    }
-    return all;
-  };
-  const TrainingSet all_training = imm_fitness ? union_of(false) : TrainingSet{};
-  const TrainingSet all_validation = imm_fitness ? union_of(true) : TrainingSet{};
 
-  for (std::size_t level = first_level; level < config.training.levels.size(); ++level) {
-    const TrainingSet training =
-        imm_fitness ? all_training : make_training_set(config.training_set_options(level, false));
-    const TrainingSet validation =
-        imm_fitness ? all_validation : make_training_set(config.training_set_options(level, true));
+  for (std::size_t level = first_level; level < config.levels.size(); ++level) {
     ImmContext context;
     if (imm_fitness) {
       // Levels trained so far keep their tables; the others stand in with the constant q of the
       // top of eq. (15), where the single-filter GA ends anyway.
       context.settings = config.filter;
       context.slot = level;
-      for (std::size_t j = 0; j < config.training.levels.size(); ++j) {
-        const double s = config.training.levels[j] + config.training.process_noise_sigma;
-        FuzzyLevel stand_in{level_name(config.training.levels[j]), config.training.levels[j],
+      for (std::size_t j = 0; j < config.levels.size(); ++j) {
+        const double s = config.levels[j] + config.regime.process_noise_sigma;
+        FuzzyLevel stand_in{level_name(config.levels[j]), config.levels[j],
                             FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, s * s}})};
         if (j < result.levels.size()) stand_in.table = result.levels[j].table;
         context.levels.push_back(std::move(stand_in));
       }
     }
-    const FuzzyTableProblem problem(training, problem_options(config, level), context);
+    const FuzzyTableProblem problem(training, config.problem_options(level), context);
     const GeneticAlgorithm algorithm(problem, config.ga, datasets::derive_seed(config.seed, level));
 
     Checkpoint state;
@@ -370,7 +353,7 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
     const Genome& best = state.population.genomes[state.population.best_index()];
     const MemeticResult polished = polish(problem, best, config.memetic);
     LevelResult r;
-    r.maneuver_level = config.training.levels[level];
+    r.maneuver_level = config.levels[level];
     r.table = problem.decode(polished.genome);
     r.training = polished.after;
     r.before_memetic = polished.before;

@@ -8,42 +8,28 @@
 #include "imm/datasets/axis_trajectory.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/sha256.hpp"
+#include "imm/datasets/track.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
 
 namespace imm::trainer::mlp {
 namespace {
 
-std::vector<ManeuverPulse> profile_from(const support::ConfigTable& table) {
-  std::vector<ManeuverPulse> pulses;
-  const Eigen::MatrixXd m = table.matrix("maneuvers", -1, 3);
-  for (Eigen::Index i = 0; i < m.rows(); ++i) pulses.push_back({m(i, 0), m(i, 1), m(i, 2)});
-  return pulses;
-}
-
-MlpTrainingConfig config_from(const support::ConfigTable& root) {
+MlpTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
   MlpTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
+  c.regime = std::move(regime);
+  const double a = acceleration_scale(c.regime);
+  c.cv_kf.sample_period = c.regime.sample_period;
+  c.cv_kf.measurement_variance = c.regime.sensor.noise.sigma(0) * c.regime.sensor.noise.sigma(0);
+  c.cv_kf.process_noise = 0.01 * a * a;
+  c.output_scale = 1.2 * a;
+  double gate = 0.3;
   if (const auto kf = root.table("cv_kf")) {
-    c.cv_kf.sample_period = kf->real_or("sample_period", c.cv_kf.sample_period);
-    c.cv_kf.process_noise = kf->real_or("process_noise", c.cv_kf.process_noise);
-    if (kf->has("measurement_sigma")) {
-      const double sigma = kf->real("measurement_sigma");
-      if (!limits::contains(limits::kSigma, sigma)) {
-        kf->fail("measurement_sigma", "must be in " + limits::describe(limits::kSigma));
-      }
-      c.cv_kf.measurement_variance = sigma * sigma;
-    }
-  }
-  if (const auto d = root.table("data")) {
-    c.initial_speed = d->real_or("initial_speed", c.initial_speed);
-    c.duration = d->real_or("duration", c.duration);
-    c.realizations = d->count_or("realizations", c.realizations);
-    c.quiet_duration = d->real_or("quiet_duration", c.quiet_duration);
-    for (const auto& p : d->tables("training")) c.training_profiles.push_back(profile_from(p));
-    for (const auto& p : d->tables("validation")) c.validation_profiles.push_back(profile_from(p));
+    if (!kf->is_auto("process_noise")) c.cv_kf.process_noise = kf->real("process_noise");
   }
   if (const auto n = root.table("network")) {
     if (n->has("hidden")) {
@@ -62,8 +48,15 @@ MlpTrainingConfig config_from(const support::ConfigTable& root) {
                 "unknown output unit '" + output + "' (expected scaled_sigmoid or linear)");
       }
     }
-    c.output_scale = n->real_or("output_scale", c.output_scale);
+    if (!n->is_auto("output_scale")) c.output_scale = n->real("output_scale");
     c.init_range = n->real_or("init_range", c.init_range);
+    if (n->has("sign")) {
+      try {
+        c.sign = input_sign_from(n->text("sign"), n->path("sign"));
+      } catch (const InvalidParameter& error) {
+        n->fail("sign", error.message());
+      }
+    }
   }
   if (const auto t = root.table("training")) {
     if (t->has("mode")) {
@@ -95,24 +88,15 @@ MlpTrainingConfig config_from(const support::ConfigTable& root) {
     }
     c.training.loss_every = t->count_or("loss_every", c.training.loss_every);
   }
-  if (const auto g = root.table("gate")) {
-    c.max_validation_rmse = g->real_or("max_validation_rmse", c.max_validation_rmse);
+  if (const auto g = root.table("gate")) gate = g->real_or("max_validation_rmse", gate);
+  if (!(gate > 0.0) || !std::isfinite(gate)) {
+    root.fail("gate.max_validation_rmse",
+              "must be positive (a multiple of the largest acceleration)");
   }
+  c.max_validation_rmse = gate * a;
   c.training.seed = datasets::derive_seed(c.seed, 3);
   c.validate();
   return c;
-}
-
-// The input u(k) of a profile on scans 0 … n−1 (a pulse covers start ≤ kT < start + duration).
-Eigen::VectorXd input_of(const std::vector<ManeuverPulse>& pulses, int steps, double T) {
-  Eigen::VectorXd u = Eigen::VectorXd::Zero(steps);
-  for (const auto& p : pulses) {
-    for (int k = 0; k < steps; ++k) {
-      const double t = k * T;
-      if (t >= p.start && t < p.start + p.duration) u(k) += p.acceleration;
-    }
-  }
-  return u;
 }
 
 double mean_output(const InputEstimatorModel& model, const Samples& features, bool corrected) {
@@ -129,42 +113,11 @@ double mean_output(const InputEstimatorModel& model, const Samples& features, bo
 }  // namespace
 
 void MlpTrainingConfig::validate() const {
+  require_per_axis_sensor(regime, "the input estimator");
   try {
     cv_kf.validate();
   } catch (const InvalidParameter& error) {
-    throw(error.field() == "measurement_variance"
-              ? InvalidParameter("measurement_sigma",
-                                 "must be in " + limits::describe(limits::kSigma))
-              : error)
-        .within("cv_kf.");
-  }
-  limits::require_magnitude(initial_speed, limits::kSpeed, "data.initial_speed");
-  // Every trajectory is simulated scan by scan: at most kMaxScans of them.
-  constexpr double kMaxScans = 1e6;
-  const double T = cv_kf.sample_period;
-  require(duration >= 20.0 * T && duration <= kMaxScans * T, "data.duration",
-          "must cover 20 to 10⁶ scans of cv_kf.sample_period");
-  require(quiet_duration >= 20.0 * T && quiet_duration <= kMaxScans * T, "data.quiet_duration",
-          "must cover 20 to 10⁶ scans of cv_kf.sample_period");
-  require(realizations >= 1 && realizations <= 1000, "data.realizations", "must be in [1, 1000]");
-  require(!training_profiles.empty(), "data.training", "at least one [[data.training]] profile");
-  require(!validation_profiles.empty(), "data.validation",
-          "at least one [[data.validation]] profile");
-  for (const auto* set : {&training_profiles, &validation_profiles}) {
-    for (std::size_t i = 0; i < set->size(); ++i) {
-      const std::string key =
-          std::string(set == &training_profiles ? "data.training" : "data.validation") + "[" +
-          std::to_string(i) + "].maneuvers";
-      for (const auto& p : (*set)[i]) {
-        require(limits::contains(limits::kDuration, p.start) && p.duration > 0.0 &&
-                    p.duration <= limits::kDuration.max &&
-                    limits::contains(limits::kAcceleration, std::abs(p.acceleration)),
-                key,
-                "rows are [start s ≥ 0, duration s > 0, acceleration], within " +
-                    limits::describe(limits::kDuration) + " and |a| ≤ " +
-                    limits::describe(limits::kAcceleration));
-      }
-    }
+    throw error.within("cv_kf.");
   }
   require(!hidden.empty() && hidden.size() <= 4, "network.hidden", "1 to 4 hidden layers");
   for (int h : hidden) require(h >= 1 && h <= 256, "network.hidden", "layer sizes in [1, 256]");
@@ -185,41 +138,28 @@ void MlpTrainingConfig::validate() const {
           "gate.max_validation_rmse", "must be positive");
 }
 
-MlpTrainingConfig load_mlp_config(const std::filesystem::path& path) {
-  return load_training_config<MlpTrainingConfig>(path, config_from);
+MlpTrainingConfig load_mlp_config(const std::filesystem::path& path,
+                                  const std::optional<std::filesystem::path>& regime) {
+  return load_training_config<MlpTrainingConfig>(path, config_from, regime);
 }
 
-FeatureSet make_features(const MlpTrainingConfig& config,
-                         const std::vector<std::vector<ManeuverPulse>>& profiles,
-                         std::uint64_t stream) {
+FeatureSet make_features(const MlpTrainingConfig& config, const datasets::TrackSet& tracks) {
   const double T = config.cv_kf.sample_period;
-  const int steps = static_cast<int>(config.duration / T);
-  const datasets::AxisNoise noise{T, 0.0, std::sqrt(config.cv_kf.measurement_variance)};
+  const double R = config.cv_kf.measurement_variance;
   std::vector<Eigen::Vector2d> inputs;
   std::vector<double> targets;
-  datasets::Sha256 hash;
-  int trajectory = 0;
-  for (const auto& profile : profiles) {
-    const Eigen::VectorXd u = input_of(profile, steps, T);
-    for (int r = 0; r < config.realizations; ++r, ++trajectory) {
-      const auto truth = datasets::simulate_axis(
-          0.0, config.initial_speed, u, noise,
-          datasets::derive_seed(config.seed,
-                                stream * 1000 + static_cast<std::uint64_t>(trajectory)));
-      hash.update(truth.measurement.data(),
-                  static_cast<std::size_t>(truth.measurement.size()) * sizeof(double));
-      InnovationFeatureExtractor extractor(config.cv_kf);
-      const double R = config.cv_kf.measurement_variance;
-      GaussianState<2> start;
-      start.mean << truth.measurement(1), (truth.measurement(1) - truth.measurement(0)) / T;
-      start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
-      extractor.initialize(start);
-      for (int k = 2; k < steps; ++k) {
-        Eigen::Vector2d features;
-        if (extractor.step(truth.measurement(k), features) != StepStatus::kOk) continue;
-        inputs.push_back(features);
-        targets.push_back(u(k));  // the acceleration acting from scan k on
-      }
+  for (const datasets::AxisTrajectory& truth : datasets::axis_trajectories(tracks)) {
+    InnovationFeatureExtractor extractor(config.cv_kf);
+    GaussianState<2> start;
+    start.mean << truth.measurement(1), (truth.measurement(1) - truth.measurement(0)) / T;
+    start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
+    extractor.initialize(start);
+    for (Eigen::Index k = 2; k < truth.measurement.size(); ++k) {
+      Eigen::Vector2d features;
+      if (extractor.step(truth.measurement(k), features) != StepStatus::kOk) continue;
+      inputs.push_back(features);
+      // The magnitude of the acceleration acting from scan k on (the sign is the filter's).
+      targets.push_back(std::abs(truth.acceleration_input(k)));
     }
   }
   FeatureSet set;
@@ -229,25 +169,49 @@ FeatureSet make_features(const MlpTrainingConfig& config,
     set.samples.inputs.row(static_cast<Eigen::Index>(i)) = inputs[i].transpose();
     set.samples.targets(static_cast<Eigen::Index>(i)) = targets[i];
   }
-  set.digest = hash.hex_digest();
+  set.digest = tracks.digest();
   return set;
 }
+
+namespace {
+
+/// The regime without maneuvers: its start (the first case's for a scripted one), its sensor.
+datasets::Regime quiet_regime(const datasets::Regime& regime) {
+  datasets::Regime quiet = regime;
+  if (regime.scripted() && regime.cases.front().start) quiet.start = *regime.cases.front().start;
+  quiet.cases.clear();
+  datasets::MenuEntry cruise;
+  cruise.probability = 1.0;
+  cruise.duration = {regime.sample_period * regime.scans, regime.sample_period * regime.scans};
+  quiet.menu = {cruise};
+  return quiet;
+}
+
+}  // namespace
 
 MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesystem::path& out) {
   config.validate();
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   MlpTrainingResult result;
-  const FeatureSet training = make_features(config, config.training_profiles, 1);
-  const FeatureSet validation = make_features(config, config.validation_profiles, 2);
-  MlpTrainingConfig quiet_config = config;
-  quiet_config.duration = config.quiet_duration;
-  const FeatureSet quiet = make_features(quiet_config, {{}}, 3);        // sets the bias
-  const FeatureSet quiet_check = make_features(quiet_config, {{}}, 4);  // reports it
+  const datasets::Regime& regime = config.regime;
+  const std::uint64_t seed = regime.splits.seed;
+  const FeatureSet training =
+      make_features(config, datasets::draw_split(regime, datasets::Split::kTraining, seed));
+  const FeatureSet validation =
+      make_features(config, datasets::draw_split(regime, datasets::Split::kValidation, seed));
+  const datasets::Regime quiet_tracks = quiet_regime(regime);
+  const FeatureSet quiet =  // sets the bias
+      make_features(config,
+                    datasets::draw_split(quiet_tracks, datasets::Split::kTraining, seed, 1));
+  const FeatureSet quiet_check =  // reports it
+      make_features(config,
+                    datasets::draw_split(quiet_tracks, datasets::Split::kValidation, seed, 1));
 
   // Standardization from the training features.
   InputEstimatorModel& model = result.model;
   model.settings = config.cv_kf;
+  model.sign = config.sign;
   const Eigen::MatrixXd& x = training.samples.inputs;
   model.input_mean = x.colwise().mean().transpose();
   model.input_scale =
@@ -293,7 +257,7 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
 
   io::Provenance provenance =
       make_provenance(std::string(io::kMlpInputEstimatorKind), config.text,
-                      static_cast<std::int64_t>(config.seed), result.digest);
+                      static_cast<std::int64_t>(config.seed), result.digest, config.regime);
   provenance.training_metrics["rmse"] = result.training_rmse;
   provenance.validation_metrics["rmse"] = result.validation_rmse;
   provenance.training_metrics["bias_before"] = result.bias_before;
@@ -313,6 +277,7 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
   metrics["model"] = out.string();
   metrics["config"] = config.name;
   metrics["seed"] = config.seed;
+  metrics["regime"] = config.regime.name;
   metrics["training_samples"] = train_set.inputs.rows();
   metrics["validation_samples"] = validation_set.inputs.rows();
   metrics["training_rmse"] = result.training_rmse;

@@ -14,10 +14,12 @@
 #include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
+#include "imm/datasets/track.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
 
 namespace imm::trainer::tsk {
@@ -33,26 +35,11 @@ void validate_as(const std::string& prefix, F&& f) {
   }
 }
 
-TskTrainingConfig config_from(const support::ConfigTable& root) {
+TskTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
   TskTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
-  c.data.seed = datasets::derive_seed(c.seed, 1);
-  if (const auto d = root.table("data")) {
-    auto& data = c.data;
-    data.samples = d->count_or("samples", data.samples);
-    data.distortion.knee = d->real_or("knee", data.distortion.knee);
-    data.distortion.softness = d->real_or("softness", data.distortion.softness);
-    data.noise_sigma = d->real_or("noise_sigma", data.noise_sigma);
-    if (d->has("xi")) {
-      const Eigen::VectorXd r = d->reals("xi", 2);
-      data.lower(0) = r(0), data.upper(0) = r(1);
-    }
-    if (d->has("eta")) {
-      const Eigen::VectorXd r = d->reals("eta", 2);
-      data.lower(1) = r(0), data.upper(1) = r(1);
-    }
-    c.validation_fraction = d->real_or("validation_fraction", c.validation_fraction);
-  }
+  c.regime = std::move(regime);
+  require_sensor(c.regime, datasets::SensorKind::kRangeSensor, "a TSK sensor model");
   if (const auto f = root.table("fit")) {
     c.fcrm.clusters = f->count_or("rules", c.fcrm.clusters);
     c.fcrm.fuzzifier = f->real_or("fuzzifier", c.fcrm.fuzzifier);
@@ -62,13 +49,14 @@ TskTrainingConfig config_from(const support::ConfigTable& root) {
     if (f->has("t_norm")) c.t_norm = t_norm_from(f->text("t_norm"), f->path("t_norm"));
     c.fine_tuning.max_iterations =
         f->count_or("fine_tuning_iterations", c.fine_tuning.max_iterations);
+    c.validation_fraction = f->real_or("validation_fraction", c.validation_fraction);
   }
   if (const auto g = root.table("gate")) {
     c.max_validation_rmse = g->real_or("max_validation_rmse", c.max_validation_rmse);
   }
+  FimmSpec& s = c.fimm;
+  s.sample_period = c.regime.sample_period;
   if (const auto f = root.table("fimm")) {
-    FimmSpec& s = c.fimm;
-    s.sample_period = f->real_or("sample_period", s.sample_period);
     s.cruise_sigma = f->real_or("cruise_sigma", s.cruise_sigma);
     s.lane_change_ratio = f->real_or("lane_change_ratio", s.lane_change_ratio);
     s.noise_scale = f->real_or("noise_scale", s.noise_scale);
@@ -78,24 +66,6 @@ TskTrainingConfig config_from(const support::ConfigTable& root) {
     }
     c.iekf_iterations = f->count_or("iekf_iterations", c.iekf_iterations);
   }
-  if (const auto s = root.table("scenario")) {
-    auto& sc = c.scenario;
-    sc.host_speed = s->real_or("host_speed", sc.host_speed);
-    sc.target_speed = s->real_or("target_speed", sc.target_speed);
-    sc.lane_offset = s->real_or("lane_offset", sc.lane_offset);
-    sc.initial_gap = s->real_or("initial_gap", sc.initial_gap);
-    if (s->has("cut_in")) {
-      const Eigen::VectorXd r = s->reals("cut_in", 2);
-      sc.cut_in_start = r(0), sc.cut_in_end = r(1);
-    }
-    if (s->has("return")) {
-      const Eigen::VectorXd r = s->reals("return", 2);
-      sc.return_start = r(0), sc.return_end = r(1);
-    }
-    sc.steps = s->count_or("steps", sc.steps);
-  }
-  c.scenario.sample_period = c.fimm.sample_period;
-  c.scenario.distortion = c.data.distortion;
   c.validate();
   return c;
 }
@@ -110,25 +80,7 @@ std::string output_key(int i) {
 }  // namespace
 
 void TskTrainingConfig::validate() const {
-  // The checks whose component field is not a config key first, under the key.
-  auto in_box = [](double v) { return limits::contains(limits::kDistance, std::abs(v)); };
-  require(in_box(data.lower(0)) && in_box(data.upper(0)) && data.lower(0) < data.upper(0),
-          "data.xi", "must be [lower, upper] with lower < upper, within ±10⁹");
-  require(in_box(data.lower(1)) && in_box(data.upper(1)) && data.lower(1) > 0.0 &&
-              data.lower(1) < data.upper(1),
-          "data.eta", "must be [lower, upper] with 0 < lower < upper ≤ 10⁹ (ahead of the sensor)");
-  limits::require_magnitude(scenario.host_speed, limits::kSpeed, "scenario.host_speed");
-  limits::require_magnitude(scenario.target_speed, limits::kSpeed, "scenario.target_speed");
-  require(limits::contains(limits::kDuration, scenario.cut_in_start) &&
-              limits::contains(limits::kDuration, scenario.cut_in_end) &&
-              scenario.cut_in_start < scenario.cut_in_end,
-          "scenario.cut_in", "must be [start, end] with 0 ≤ start < end ≤ 10⁷ s");
-  require(limits::contains(limits::kDuration, scenario.return_end) &&
-              scenario.cut_in_end <= scenario.return_start &&
-              scenario.return_start < scenario.return_end,
-          "scenario.return", "must be [start, end] with cut_in end ≤ start < end ≤ 10⁷ s");
-  validate_as("data.", [&] { data.validate(); });
-  require(validation_fraction > 0.0 && validation_fraction < 1.0, "data.validation_fraction",
+  require(validation_fraction > 0.0 && validation_fraction < 1.0, "fit.validation_fraction",
           "must be in (0, 1)");
   require(fcrm.clusters >= 1 && fcrm.clusters <= TskModel::kMaxRules, "fit.rules",
           "must be in [1, " + std::to_string(TskModel::kMaxRules) + "]");
@@ -146,11 +98,11 @@ void TskTrainingConfig::validate() const {
   validate_as("fimm.", [&] { fimm.validate(); });
   require(iekf_iterations >= 2 && iekf_iterations <= 100, "fimm.iekf_iterations",
           "must be in [2, 100]");
-  validate_as("scenario.", [&] { scenario.validate(); });
 }
 
-TskTrainingConfig load_tsk_config(const std::filesystem::path& path) {
-  return load_training_config<TskTrainingConfig>(path, config_from);
+TskTrainingConfig load_tsk_config(const std::filesystem::path& path,
+                                  const std::optional<std::filesystem::path>& regime) {
+  return load_training_config<TskTrainingConfig>(path, config_from, regime);
 }
 
 SplitData split(const datasets::RangeSensorData& data, double validation_fraction,
@@ -184,72 +136,31 @@ SplitData split(const datasets::RangeSensorData& data, double validation_fractio
   return out;
 }
 
-SensorSamples load_sensor_samples(const std::filesystem::path& path) {
-  SensorSamples samples;
-  samples.source = path.string();
-  if (path.extension() != ".csv") {
-    datasets::RangeSensorDataset stored = datasets::read_range_sensor_dataset(path);
-    samples.data = std::move(stored.data);
-    return samples;
-  }
-  std::ifstream in(path);
-  if (!in) throw io::FileError(path.string(), "", "cannot open");
-  const std::string name = path.string();
-  std::string line;
-  int number = 0;
-  auto fail = [&](const std::string& message) -> void {
-    throw io::FileError(name + ":" + std::to_string(number), "", message);
-  };
-  std::vector<std::array<double, 4>> rows;
-  while (std::getline(in, line)) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line.front() == '#') continue;
-    std::vector<std::string> fields;
-    std::stringstream fields_in(line);
-    std::string field;
-    while (std::getline(fields_in, field, ',')) fields.push_back(field);
-    if (rows.empty() && !fields.empty() && fields.front() == "xi") {
-      if (fields != std::vector<std::string>{"xi", "eta", "z1", "z2"}) {
-        fail("header must be xi,eta,z1,z2");
-      }
-      continue;
-    }
-    if (fields.size() != 4)
-      fail("expected 4 fields (xi,eta,z1,z2), found " + std::to_string(fields.size()));
-    std::array<double, 4> row{};
-    for (std::size_t i = 0; i < 4; ++i) {
-      std::size_t used = 0;
-      try {
-        row[i] = std::stod(fields[i], &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used == 0 || used != fields[i].size() || !std::isfinite(row[i])) {
-        fail("field " + std::to_string(i + 1) + " ('" + fields[i] + "') is not a finite number");
-      }
-    }
-    rows.push_back(row);
-  }
-  if (rows.size() < 10) {
-    throw io::FileError(name, "", "need at least 10 samples, found " + std::to_string(rows.size()));
-  }
-  samples.data.positions.resize(static_cast<Eigen::Index>(rows.size()), 2);
-  samples.data.outputs.resize(static_cast<Eigen::Index>(rows.size()), 2);
-  for (std::size_t q = 0; q < rows.size(); ++q) {
-    const auto i = static_cast<Eigen::Index>(q);
-    samples.data.positions.row(i) << rows[q][0], rows[q][1];
-    samples.data.outputs.row(i) << rows[q][2], rows[q][3];
+SensorSamples load_sensor_samples(const std::filesystem::path& path,
+                                  const TskTrainingConfig& config) {
+  SensorSamples samples{datasets::read_sensor_samples(path), path.string()};
+  const datasets::Sensor& sensor = config.regime.sensor;
+  if (!sensor.sampled || datasets::digest(samples.data) != sensor.samples_digest) {
+    throw InvalidParameter(
+        "regime",
+        "the samples of " + path.string() + " are not the sensor of regime '" + config.regime.name +
+            "': name them in the regime ([sensor] kind = \"range_sensor\", samples = \"" +
+            path.string() + "\") so that the model is evaluated on the sensor it was fitted to");
   }
   return samples;
 }
 
-SensorSamples simulated_samples(const TskTrainingConfig& config) {
-  return {datasets::simulate_range_sensor(config.data), "simulated ([data] of the config)"};
+SensorSamples calibration_samples(const TskTrainingConfig& config) {
+  const datasets::Sensor& sensor = config.regime.sensor;
+  if (sensor.sampled) {
+    return {datasets::read_sensor_samples(sensor.samples_file), sensor.samples_file};
+  }
+  return {datasets::draw_calibration(sensor, datasets::derive_seed(config.seed, 1)),
+          "drawn from the sensor of regime " + config.regime.name};
 }
 
 TskTrainingResult train_tsk(const TskTrainingConfig& config, const std::filesystem::path& out) {
-  return train_tsk(config, simulated_samples(config), out);
+  return train_tsk(config, calibration_samples(config), out);
 }
 
 TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples& samples,
@@ -314,6 +225,7 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples
   metrics["model_kind"] = io::kTskSensorKind;
   metrics["model"] = out.string();
   metrics["config"] = config.name;
+  metrics["regime"] = {{"name", config.regime.name}, {"digest", config.regime.digest}};
   metrics["data"] = samples.source;
   metrics["seed"] = config.seed;
   metrics["samples"] = {{"training", result.training_samples},
@@ -340,7 +252,7 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples
 
   io::Provenance provenance =
       make_provenance(std::string(io::kTskSensorKind), config.text,
-                      static_cast<std::int64_t>(config.seed), result.digest);
+                      static_cast<std::int64_t>(config.seed), result.digest, config.regime);
   for (int i = 0; i < 2; ++i) {
     const std::string key = output_key(i);
     provenance.training_metrics[key + "_rmse"] = result.outputs[i].training_rmse;

@@ -1,6 +1,7 @@
 #include "imm/trainer/wimm/tracking_score.hpp"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -24,31 +25,43 @@ double mean_over(const Eigen::VectorXd& values, Eigen::Index first) {
 
 }  // namespace
 
-TrackingScore score_tracking(const WimmSpec& spec, const datasets::ManeuverScenario& scenario,
-                             const datasets::ScenarioData& data) {
-  if (scenario.measurement.kind != MeasurementKind::kPolar) {
-    throw std::invalid_argument("the weighted IMM is scored on polar plots");
+int first_settled_scan(int scans) { return std::min(kFirstSettledScan, scans / 5); }
+
+TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& data,
+                             const Eigen::Vector2d& sensor_position) {
+  if (std::abs(spec.sample_period - data.sample_period) > 1e-12 * data.sample_period) {
+    throw std::invalid_argument("the filter's sample period differs from the tracks'");
   }
-  const int steps = scenario.steps;
+  const int steps = data.scans;
+  const int settled = first_settled_scan(steps);
+  TrackingScore score;
+  score.track_azimuth_settled =
+      Eigen::VectorXd::Zero(static_cast<Eigen::Index>(data.tracks.size()));
+  score.track_position_settled = score.track_azimuth_settled;
   Eigen::VectorXd azimuth_sq = Eigen::VectorXd::Zero(steps), position_sq = azimuth_sq;
   Eigen::VectorXd nees = azimuth_sq, fused = azimuth_sq;
   Eigen::VectorXi count = Eigen::VectorXi::Zero(steps);
   Eigen::MatrixXd mu = Eigen::MatrixXd::Zero(steps, 2);
   const std::array<int, 4> pv = {0, 1, 3, 4};  // x, vx, y, vy in the 6-state layout
-  for (std::size_t run = 0; run < data.truth.size(); ++run) {
+  for (std::size_t t = 0; t < data.tracks.size(); ++t) {
+    const datasets::Track& track = data.tracks[t];
+    const auto i = static_cast<Eigen::Index>(t);
+    int settled_count = 0;
     auto owned = std::make_unique<WeightedImmFilter>(spec);
     const WeightedImmFilter& filter = *owned;
     Tracker tracker(std::move(owned), spec.track_options());
-    const Eigen::MatrixXd& truth = data.truth[run];
-    const Eigen::MatrixXd& z = data.measurements[run];
+    const Eigen::MatrixXd& truth = track.truth;
+    const Eigen::MatrixXd& z = track.plots;
     for (int k = 0; k < steps; ++k) {
       (void)tracker.process(k, z.row(k).transpose());
       if (!tracker.initialized()) continue;
       const GaussianState<6>& estimate = filter.estimate();
-      const double dx = estimate.mean(0) - truth(k, 0), dy = estimate.mean(3) - truth(k, 2);
-      const double da = wrap_angle(azimuth_of(estimate.mean(0), estimate.mean(3)) -
-                                   azimuth_of(truth(k, 0), truth(k, 2)));
-      Eigen::Vector4d error(dx, estimate.mean(1) - truth(k, 1), dy, estimate.mean(4) - truth(k, 3));
+      // The filter works around the sensor; the truth is in the regime's frame.
+      const double x = truth(k, 0) - sensor_position(0), y = truth(k, 3) - sensor_position(1);
+      const double dx = estimate.mean(0) - x, dy = estimate.mean(3) - y;
+      const double da =
+          wrap_angle(azimuth_of(estimate.mean(0), estimate.mean(3)) - azimuth_of(x, y));
+      Eigen::Vector4d error(dx, estimate.mean(1) - truth(k, 1), dy, estimate.mean(4) - truth(k, 4));
       Eigen::Matrix4d P;
       for (int a = 0; a < 4; ++a) {
         for (int b = 0; b < 4; ++b) P(a, b) = estimate.covariance(pv[a], pv[b]);
@@ -60,9 +73,17 @@ TrackingScore score_tracking(const WimmSpec& spec, const datasets::ManeuverScena
       fused(k) += filter.fused() ? 1.0 : 0.0;
       mu.row(k) += filter.mode_probabilities().head<2>().transpose();
       ++count(k);
+      if (k >= settled) {
+        score.track_azimuth_settled(i) += da * da;
+        score.track_position_settled(i) += dx * dx + dy * dy;
+        ++settled_count;
+      }
+    }
+    if (settled_count > 0) {
+      score.track_azimuth_settled(i) /= settled_count;
+      score.track_position_settled(i) /= settled_count;
     }
   }
-  TrackingScore score;
   score.azimuth_rmse.resize(steps);
   score.position_rmse.resize(steps);
   score.mean_nees.resize(steps);
@@ -82,10 +103,10 @@ TrackingScore score_tracking(const WimmSpec& spec, const datasets::ManeuverScena
     }
   }
   score.azimuth = mean_over(score.azimuth_rmse, 0);
-  score.azimuth_settled = mean_over(score.azimuth_rmse, kFirstSettledScan);
+  score.azimuth_settled = mean_over(score.azimuth_rmse, settled);
   score.position = mean_over(score.position_rmse, 0);
-  score.position_settled = mean_over(score.position_rmse, kFirstSettledScan);
-  score.nees_settled = mean_over(score.mean_nees, kFirstSettledScan);
+  score.position_settled = mean_over(score.position_rmse, settled);
+  score.nees_settled = mean_over(score.mean_nees, settled);
   return score;
 }
 

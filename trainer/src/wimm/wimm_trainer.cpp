@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <numbers>
+#include <utility>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
@@ -12,30 +13,24 @@
 #include "imm/support/config.hpp"
 #include "imm/trainer/bounded_search.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
 
 namespace imm::trainer::wimm {
 namespace {
 
-constexpr double kDegree = std::numbers::pi / 180.0;
-
-WimmTrainingConfig config_from(const support::ConfigTable& root) {
+WimmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
   WimmTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
+  c.regime = std::move(regime);
+  WimmSpec& s = c.filter;
+  s.sample_period = c.regime.sample_period;
+  s.range_sigma = c.regime.sensor.noise.sigma(0);
+  s.azimuth_sigma = c.regime.sensor.noise.sigma(1);
   if (const auto f = root.table("filter")) {
-    WimmSpec& s = c.filter;
-    s.sample_period = f->real_or("sample_period", s.sample_period);
     s.cv_process_noise = f->real_or("cv_process_noise", s.cv_process_noise);
     s.singer_tau = f->real_or("singer_tau", s.singer_tau);
     s.singer_sigma = f->real_or("singer_sigma", s.singer_sigma);
-    s.range_sigma = f->real_or("range_sigma", s.range_sigma);
-    if (f->has("azimuth_sigma_deg")) {
-      const double degrees = f->real("azimuth_sigma_deg");
-      if (!(degrees >= 1e-6 && degrees <= 180.0)) {
-        f->fail("azimuth_sigma_deg", "must be in [1e-06, 180]");
-      }
-      s.azimuth_sigma = degrees * kDegree;
-    }
     if (f->has("transition")) s.transition = f->matrix("transition", 2, 2);
     if (f->has("initial_probabilities"))
       s.initial_probabilities = f->reals("initial_probabilities", 2);
@@ -44,29 +39,6 @@ WimmTrainingConfig config_from(const support::ConfigTable& root) {
     if (f->has("fusion")) s.fusion = fusion_variant_from(f->text("fusion"), f->path("fusion"));
     if (f->has("update")) s.update = measurement_update_from(f->text("update"), f->path("update"));
     s.acceleration_variance = f->real_or("acceleration_variance", s.acceleration_variance);
-  }
-  if (const auto t = root.table("training")) {
-    WimmTrainingOptions& o = c.training;
-    o.trajectories = t->count_or("trajectories", o.trajectories);
-    o.steps = t->count_or("steps", o.steps);
-    if (t->has("range_km")) {
-      const Eigen::VectorXd r = t->reals("range_km", 2);
-      o.min_range = r(0) * 1e3, o.max_range = r(1) * 1e3;
-    }
-    if (t->has("speed")) {
-      const Eigen::VectorXd v = t->reals("speed", 2);
-      o.min_speed = v(0), o.max_speed = v(1);
-    }
-    o.max_heading_offset_deg = t->real_or("max_heading_offset_deg", o.max_heading_offset_deg);
-    o.max_turns = t->count_or("max_turns", o.max_turns);
-    if (t->has("turn_rate_deg")) {
-      const Eigen::VectorXd w = t->reals("turn_rate_deg", 2);
-      o.min_turn_rate_deg = w(0), o.max_turn_rate_deg = w(1);
-    }
-    if (t->has("turn_scans")) {
-      const Eigen::VectorXd d = t->reals("turn_scans", 2);
-      o.min_turn_scans = static_cast<int>(d(0)), o.max_turn_scans = static_cast<int>(d(1));
-    }
   }
   if (const auto u = root.table("tuning")) {
     if (u->has("threshold_range")) {
@@ -89,10 +61,10 @@ Tuned tune(const WimmTrainingConfig& config, const TrainingScenarios& data,
            const std::vector<double>& lower, const std::vector<double>& upper) {
   WimmSpec reference_spec = config.filter;
   reference_spec.fusion = FusionVariant::kNone;
-  const TrackingScore reference = score_tracking(reference_spec, data.scenario, data.data);
+  const Eigen::Vector2d& sensor = config.regime.sensor.position;
+  const TrackingScore reference = score_tracking(reference_spec, data, sensor);
   auto f = [&](const std::vector<double>& x) {
-    return objective(score_tracking(make(x), data.scenario, data.data), reference,
-                     config.position_penalty);
+    return objective(score_tracking(make(x), data, sensor), reference, config.position_penalty);
   };
   const int grid = 6;
   const SearchResult search =
@@ -104,7 +76,7 @@ Tuned tune(const WimmTrainingConfig& config, const TrainingScenarios& data,
   tuned.spec = make(search.x);
   tuned.objective = search.value;
   tuned.evaluations = search.evaluations + 1;
-  const TrackingScore score = score_tracking(tuned.spec, data.scenario, data.data);
+  const TrackingScore score = score_tracking(tuned.spec, data, sensor);
   tuned.azimuth_ratio = score.azimuth_settled / reference.azimuth_settled;
   tuned.position_ratio = score.position_settled / reference.position_settled;
   return tuned;
@@ -113,28 +85,19 @@ Tuned tune(const WimmTrainingConfig& config, const TrainingScenarios& data,
 }  // namespace
 
 void WimmTrainingConfig::validate() const {
+  require_sensor(regime, datasets::SensorKind::kPolar, "the weighted IMM");
+  for (int c = 0; c < regime.case_count(); ++c) {
+    require(regime.noise_of(c) == regime.sensor.noise, "regime",
+            "the weighted IMM is built for one plot noise; regime '" + regime.name +
+                "' varies it from case to case");
+  }
   try {
     filter.validate();
   } catch (const InvalidParameter& error) {
     throw error.within("filter.");
   }
-  const WimmTrainingOptions& o = training;
-  require(o.trajectories >= 1 && o.trajectories <= 10000, "training.trajectories",
-          "must be in [1, 10000]");
-  require(o.steps > kFirstSettledScan && o.steps <= 100000, "training.steps", "must exceed 40");
-  require(o.min_range > 0.0 && o.max_range >= o.min_range && o.max_range <= limits::kDistance.max,
-          "training.range_km", "must be 0 < min ≤ max ≤ 10⁶ km");
-  require(o.min_speed > 0.0 && o.max_speed >= o.min_speed && o.max_speed <= limits::kSpeed.max,
-          "training.speed", "must be 0 < min ≤ max ≤ 10⁶ m/s");
-  require(o.max_heading_offset_deg >= 0.0 && o.max_heading_offset_deg <= 180.0,
-          "training.max_heading_offset_deg", "must be in [0, 180]");
-  require(o.max_turns >= 0 && o.max_turns <= 10, "training.max_turns", "must be in [0, 10]");
-  require(o.min_turn_rate_deg > 0.0 && o.max_turn_rate_deg >= o.min_turn_rate_deg &&
-              o.max_turn_rate_deg <= limits::kTurnRate.max,
-          "training.turn_rate_deg", "must be 0 < min ≤ max ≤ 1000");
-  require(
-      o.min_turn_scans >= 1 && o.max_turn_scans >= o.min_turn_scans && o.max_turn_scans < o.steps,
-      "training.turn_scans", "must be 1 ≤ min ≤ max < steps");
+  require(regime.scans > first_settled_scan(regime.scans) + 1, "regime",
+          "regime '" + regime.name + "' is too short to settle");
   require(min_threshold < max_threshold && min_threshold >= 0.0 && max_threshold <= 1.0,
           "tuning.threshold_range", "must be [min, max] within [0, 1], min < max");
   require(min_alpha > 0.0 && max_alpha <= 1.0 && min_alpha < max_alpha, "tuning.alpha_range",
@@ -144,47 +107,9 @@ void WimmTrainingConfig::validate() const {
   limits::require_in(position_penalty, limits::kFactor, "tuning.position_penalty");
 }
 
-WimmTrainingConfig load_wimm_config(const std::filesystem::path& path) {
-  return load_training_config<WimmTrainingConfig>(path, config_from);
-}
-
-TrainingScenarios make_training_scenarios(const WimmTrainingConfig& config) {
-  const WimmTrainingOptions& o = config.training;
-  TrainingScenarios result;
-  datasets::ManeuverScenario& descriptor = result.scenario;
-  descriptor.name = "wimm-training";
-  descriptor.sample_period = config.filter.sample_period;
-  descriptor.steps = o.steps;
-  descriptor.runs = o.trajectories;
-  descriptor.seed = config.seed;
-  descriptor.measurement.kind = MeasurementKind::kPolar;
-  descriptor.measurement.sigma =
-      Eigen::Vector2d(config.filter.range_sigma, config.filter.azimuth_sigma);
-  for (int t = 0; t < o.trajectories; ++t) {
-    datasets::Rng rng(datasets::derive_seed(config.seed, 5000 + static_cast<std::uint64_t>(t)));
-    datasets::ManeuverScenario s = descriptor;
-    s.runs = 1;
-    s.seed = datasets::derive_seed(config.seed, 7000 + static_cast<std::uint64_t>(t));
-    const double range = rng.uniform(o.min_range, o.max_range);
-    const double bearing = rng.uniform(0.0, 2.0 * std::numbers::pi);  // azimuth from north
-    s.initial_position = range * Eigen::Vector2d(std::sin(bearing), std::cos(bearing));
-    const double heading =
-        bearing + std::numbers::pi +
-        rng.uniform(-o.max_heading_offset_deg, o.max_heading_offset_deg) * kDegree;
-    const double speed = rng.uniform(o.min_speed, o.max_speed);
-    s.initial_velocity = speed * Eigen::Vector2d(std::sin(heading), std::cos(heading));
-    const auto turns = static_cast<int>(rng.below(static_cast<std::uint64_t>(o.max_turns) + 1));
-    for (int i = 0; i < turns; ++i) {
-      const std::uint64_t span = static_cast<std::uint64_t>(o.max_turn_scans) -
-                                 static_cast<std::uint64_t>(o.min_turn_scans) + 1;
-      const int duration = o.min_turn_scans + static_cast<int>(rng.below(span));
-      const int start = static_cast<int>(rng.below(static_cast<std::uint64_t>(o.steps - duration)));
-      const double rate = rng.uniform(o.min_turn_rate_deg, o.max_turn_rate_deg) * kDegree;
-      s.turns.push_back({start, start + duration, rng.uniform() < 0.5 ? -rate : rate});
-    }
-    result.data.append_first_run(datasets::simulate(s));
-  }
-  return result;
+WimmTrainingConfig load_wimm_config(const std::filesystem::path& path,
+                                    const std::optional<std::filesystem::path>& regime) {
+  return load_training_config<WimmTrainingConfig>(path, config_from, regime);
 }
 
 double objective(const TrackingScore& score, const TrackingScore& reference,
@@ -223,16 +148,17 @@ Tuned tune_normal_imm(const WimmTrainingConfig& config, const TrainingScenarios&
 
 WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::filesystem::path& out) {
   const auto start = std::chrono::steady_clock::now();
-  const TrainingScenarios data = make_training_scenarios(config);
+  const TrainingScenarios data =
+      datasets::draw_split(config.regime, datasets::Split::kTraining, config.regime.splits.seed);
   WimmTrainingResult result;
   result.tuned = tune_weighted_imm(config, data);
-  result.digest = datasets::digest(data.data);
+  result.digest = data.digest();
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   io::Provenance provenance =
       make_provenance(std::string(io::kWimmKind), config.text,
-                      static_cast<std::int64_t>(config.seed), result.digest);
+                      static_cast<std::int64_t>(config.seed), result.digest, config.regime);
   provenance.training_metrics["objective"] = result.tuned.objective;
   provenance.training_metrics["azimuth_ratio"] = result.tuned.azimuth_ratio;
   provenance.training_metrics["position_ratio"] = result.tuned.position_ratio;
@@ -252,7 +178,8 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
   metrics["azimuth_ratio_settled"] = result.tuned.azimuth_ratio;
   metrics["position_ratio_settled"] = result.tuned.position_ratio;
   metrics["evaluations"] = result.tuned.evaluations;
-  metrics["training_trajectories"] = config.training.trajectories;
+  metrics["regime"] = config.regime.name;
+  metrics["training_tracks"] = data.tracks.size();
   metrics["wall_seconds"] = result.wall_seconds;
   write_json_atomically(metrics_path(out), metrics);
   return result;

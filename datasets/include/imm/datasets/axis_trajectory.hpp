@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <vector>
 
 namespace imm::datasets {
 
@@ -29,5 +30,11 @@ class Rng;
 [[nodiscard]] AxisTrajectory simulate_axis(double initial_position, double initial_velocity,
                                            const Eigen::VectorXd& acceleration_input,
                                            const AxisNoise& noise, std::uint64_t seed);
+
+struct TrackSet;
+
+/// The one-axis trajectories of a set of 2-D tracks: x, then y, of every track in order (the
+/// per-axis filters' view of a regime; acceleration_input is the truth's commanded acceleration).
+[[nodiscard]] std::vector<AxisTrajectory> axis_trajectories(const TrackSet& set);
 
 }  // namespace imm::datasets

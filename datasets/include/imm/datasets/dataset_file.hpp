@@ -1,18 +1,18 @@
 #pragma once
-/// Data-set files: a simulated Monte Carlo set with everything needed to reproduce and audit it.
+/// Data-set files: a split of a regime's tracks with everything needed to reproduce and audit it.
 ///
 /// A checked container (imm/io/container_file.hpp) of format "immtrain-dataset":
-///   /@format, @schema_version (1), @dataset_kind ("maneuver_scenario"), @scenario, @seed,
-///   @created_utc, @generator_version, @config_toml, @digest (SHA-256, see digest())
-///   /time                  steps
-///   /acceleration_input    steps × 2 (ax, ay)
-///   /truth                 runs × steps × 4 (x, vx, y, vy)
-///   /measurements          runs × steps × 2 (zx, zy or range, azimuth)
-///   /parameters            @sample_period, @steps, @runs, @process_noise_sigma,
-///                          @measurement_kind, @measurement_sigma_0, @measurement_sigma_1
-///   /parameters/initial_state  4 (x, vx, y, vy)
-///   /parameters/maneuvers      n × 4 (start, end, ax, ay)
-/// The reader recomputes the digest and refuses a file whose data do not match it.
+///   /@format, @schema_version (2), @dataset_kind ("tracks"), @seed (the split's seed),
+///   @created_utc, @generator_version, @config_toml (the regime's text), @digest (SHA-256 of every
+///   truth and plot matrix, TrackSet::digest())
+///   /truth         tracks × scans × 6 (x, vx, ax, y, vy, ay)
+///   /plots         tracks × scans × 2 (zx, zy | range, azimuth | z1, z2)
+///   /maneuvering   tracks × scans × 1 (1 where a maneuver acts)
+///   /cases         tracks × 4 (case index, the plot noise σ₁, σ₂ and correlation)
+///   /parameters    @regime, @regime_digest, @split, @sample_period, @scans, @tracks, @units,
+///                  @sensor
+/// The reader recomputes the digest and refuses a file whose data do not match it. Schema 1 (the
+/// scenario files before regimes) is refused with a message to regenerate.
 
 #include <cstdint>
 #include <filesystem>
@@ -20,32 +20,29 @@
 #include <string_view>
 #include <vector>
 
-#include "imm/datasets/maneuver_scenario.hpp"
+#include "imm/datasets/track.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/io/schema_reader.hpp"
 
 namespace imm::datasets {
 
 inline constexpr std::string_view kDatasetFormat = "immtrain-dataset";
-inline constexpr int kDatasetSchemaVersion = 1;
+inline constexpr int kDatasetSchemaVersion = 2;
 
-struct ScenarioDataset {
-  ManeuverScenario scenario;
-  ScenarioData data;
+struct TrackSetFile {
+  TrackSet set;
+  std::string regime_text, regime_digest;
   std::string digest;
-  std::string config_toml;
   std::string created_utc;
   std::string generator_version;
 };
 
 /// Writes atomically (temp + rename). Returns the digest written.
-std::string write_scenario_dataset(const std::filesystem::path& path,
-                                   const ManeuverScenario& scenario, const ScenarioData& data,
-                                   const std::string& config_toml,
-                                   const std::string& generator_version);
+std::string write_track_set(const std::filesystem::path& path, const Regime& regime,
+                            const TrackSet& set, const std::string& generator_version);
 
 /// Reads and validates; throws imm::io::FileError naming the file and the field.
-[[nodiscard]] ScenarioDataset read_scenario_dataset(const std::filesystem::path& path);
+[[nodiscard]] TrackSetFile read_track_set(const std::filesystem::path& path);
 
 // --- Building blocks of every data-set kind (range_sensor_file.hpp uses them too) -----------
 

@@ -2,8 +2,10 @@
 /// The neural input-estimation filter of seed 001 (SPEC §4.3), one axis:
 ///   a constant-velocity KF (eq. 3–9) yields the normalized innovation ino(k) = ν²(k)/S(k) (11);
 ///   sum(k) = 0.1 Σ_{i=0..9} ino(k−i) (13), diff(k) = ino(k) − ino(k−10) (14);
-///   the MLP maps the standardized (sum, diff) to û(k); the trained no-maneuver bias is subtracted
-///   and the result clipped at 0 (the seed assumes positive maneuvers);
+///   the MLP maps the standardized (sum, diff) to |û(k)|; the trained no-maneuver bias is
+///   subtracted and the result clipped at 0; the sign is the seed's (always positive: its maneuvers
+///   are) or, for regimes that accelerate both ways, that of the CV KF's last ten innovations' sum
+///   (ν²/S has lost it; a maneuver shows as innovations of one sign);
 ///   the primary KF predicts with F x̂ + G û(k−1) (10) and updates with z(k).
 /// Before ten innovations exist, the missing ino values are taken as 1, their expectation without a
 /// maneuver (ν²/S is χ²₁), so the first features look like straight flight rather than a jump.
@@ -12,6 +14,7 @@
 
 #include <array>
 #include <string>
+#include <string_view>
 
 #include "imm/filters/kalman_filter.hpp"
 #include "imm/models/constant_velocity.hpp"
@@ -72,16 +75,30 @@ class InnovationFeatureExtractor {
   [[nodiscard]] const GaussianState<2>& estimate() const { return cv_; }
   [[nodiscard]] double normalized_innovation() const { return ino_; }
   [[nodiscard]] double innovation() const { return innovation_; }
+  /// Σ ν over the last ten scans (the sign of a maneuver).
+  [[nodiscard]] double innovation_sum() const { return innovation_sum_; }
 
  private:
   LinearMotionModel<2> motion_;
   Matrix<1, 2> H_;
   SquareMatrix<1> R_;
   InnovationFeatures features_;
+  std::array<double, InnovationFeatures::kWindow> innovations_{};  ///< ring of the last ν
+  std::size_t innovation_head_ = 0;
+  double innovation_sum_ = 0.0;
   GaussianState<2> cv_;
   double ino_ = 0.0;
   double innovation_ = 0.0;
 };
+
+/// The sign the filter gives the network's magnitude.
+enum class InputSign {
+  kPositive,    ///< the seed's: every maneuver accelerates in +x
+  kInnovation,  ///< the sign of the CV KF's last ten innovations' sum
+};
+[[nodiscard]] std::string_view to_string(InputSign sign);
+/// "positive" | "innovation"; InvalidParameter naming `field` otherwise.
+[[nodiscard]] InputSign input_sign_from(std::string_view name, const std::string& field);
 
 /// What the filter needs of a trained model.
 struct InputEstimatorModel {
@@ -89,6 +106,7 @@ struct InputEstimatorModel {
   Eigen::Vector2d input_mean = Eigen::Vector2d::Zero();  ///< feature standardization
   Eigen::Vector2d input_scale = Eigen::Vector2d::Ones();
   double output_bias = 0.0;  ///< mean output without a maneuver (training time), subtracted
+  InputSign sign = InputSign::kPositive;
   CvKfSettings settings;
 };
 

@@ -1,7 +1,8 @@
 #pragma once
 /// Model files of kind "mlp_input_estimator" (seed 001).
 ///
-///   /mlp                 @layer_count, @output_scale > 0, @output_bias (trained no-maneuver mean)
+///   /mlp                 @layer_count, @output_scale > 0, @output_bias (trained no-maneuver mean),
+///                        @sign (positive|innovation; absent: positive)
 ///   /mlp/layer<i>        @activation (sigmoid|linear); /weights (out × in), /bias (out)
 ///   /features            @definition (text), /input_mean (2), /input_scale (2, > 0)
 ///   /cv_kf               @sample_period > 0, @process_noise ≥ 0, @measurement_variance > 0

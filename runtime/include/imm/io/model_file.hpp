@@ -6,6 +6,8 @@
 /// attributes are:
 ///   format = "immtrain-model", schema_version (integer, this reader: 1), model_kind,
 ///   created_utc, trainer_version, seed, config_toml, dataset_digest,
+///   regime_name, regime_toml, regime_digest (the regime the model was trained for: what it is
+///   the frozen answer to; absent in files written before regimes),
 ///   training.<metric> and validation.<metric> (reals).
 /// Kind-specific content lives in groups named by meaning (e.g. /imm/transition); a matrix
 /// dataset may carry a "columns" attribute naming its columns (comma-separated), which
@@ -42,6 +44,9 @@ struct Provenance {
   std::int64_t seed = 0;        ///< the training seed (0 for deterministic exports)
   std::string config_toml;      ///< the full config text the model was trained from
   std::string dataset_digest;   ///< SHA-256 of the training data ("" when there is none)
+  std::string regime_name;      ///< the regime trained for ("" when none is recorded)
+  std::string regime_toml;      ///< its full text
+  std::string regime_digest;    ///< SHA-256 of the regime (imm/datasets/regime.hpp)
   std::map<std::string, double> training_metrics;
   std::map<std::string, double> validation_metrics;
 };

@@ -5,10 +5,11 @@
 /// first failure.
 ///
 /// configs/nightly.toml:
-///   [[data]]         scenario, out, [config], [csv], [runs], [seed]
-///   [[models]]       name, command (an imm-train subcommand), config, out, [seed], [arguments]
+///   [[data]]         name, command (tracks | sensor), regime, out, [split], [csv], [count], [seed]
+///   [[models]]       name, command (an imm-train subcommand), config, out, [regime], [seed],
+///                    [arguments]
 ///   [[tracks]]       filter, measurements, out
-///   [[evaluations]]  experiment, models, out, [runs], [seed], [arguments]
+///   [[evaluations]]  experiment, models, out, [model], [regime], [runs], [seed], [arguments]
 
 #include <filesystem>
 #include <functional>

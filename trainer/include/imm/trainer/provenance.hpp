@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "imm/datasets/regime.hpp"
 #include "imm/io/model_file.hpp"
 
 namespace imm::trainer {
@@ -13,6 +14,12 @@ namespace imm::trainer {
 /// Provenance with this build's version and the current time filled in.
 [[nodiscard]] io::Provenance make_provenance(std::string model_kind, std::string config_toml,
                                              std::int64_t seed, std::string dataset_digest);
+/// The same with the regime trained for (name, text, digest).
+[[nodiscard]] io::Provenance make_provenance(std::string model_kind, std::string config_toml,
+                                             std::int64_t seed, std::string dataset_digest,
+                                             const datasets::Regime& regime);
+/// Records the regime in a provenance.
+void set_regime(io::Provenance& provenance, const datasets::Regime& regime);
 
 /// `<folder>/<stem>.metrics.json` for a model file path.
 [[nodiscard]] std::filesystem::path metrics_path(const std::filesystem::path& model_path);

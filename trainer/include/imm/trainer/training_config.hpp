@@ -1,18 +1,34 @@
 #pragma once
-/// Loading a trainer's TOML config: `from(root)` builds it; the document refuses unknown keys and
-/// turns a spec's InvalidParameter into a ConfigError naming the key; the config keeps its text
-/// and file name (`text`, `name`) for the model's provenance.
+/// Loading a trainer's TOML config: `from(root, regime)` builds it; the document refuses unknown
+/// keys and turns a spec's InvalidParameter into a ConfigError naming the key; the config keeps its
+/// text and file name (`text`, `name`) for the model's provenance.
+///
+/// Every trainer config names the regime it trains for (`regime = "configs/regimes/…toml"`, a path
+/// relative to the working directory); `regime_override` (the command line's `--regime`) replaces
+/// it. The regime is loaded before the rest of the config, which may derive defaults from it.
 
 #include <filesystem>
+#include <optional>
 
 #include "imm/support/config.hpp"
+#include "imm/support/regime_config.hpp"
 
 namespace imm::trainer {
 
+/// The regime a config names (or the override), loaded. ConfigError on the `regime` key when it
+/// is missing; a bad regime file raises its own ConfigError (naming that file and its key).
+[[nodiscard]] support::RegimeFile regime_of(const support::ConfigTable& root,
+                                            const std::optional<std::filesystem::path>& override);
+
 template <class Config, class From>
-[[nodiscard]] Config load_training_config(const std::filesystem::path& path, From&& from) {
+[[nodiscard]] Config load_training_config(
+    const std::filesystem::path& path, From&& from,
+    const std::optional<std::filesystem::path>& regime_override = std::nullopt) {
   const auto document = support::ConfigDocument::load(path);
-  Config config = document->load_checked([&] { return from(document->root()); });
+  Config config = document->load_checked([&] {
+    support::RegimeFile regime = regime_of(document->root(), regime_override);
+    return from(document->root(), std::move(regime.regime));
+  });
   config.text = document->text();
   config.name = path.string();
   return config;

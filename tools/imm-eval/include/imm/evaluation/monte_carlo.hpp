@@ -1,6 +1,7 @@
 #pragma once
-/// The Monte Carlo loop every experiment shares: a fresh track per run, the same plots for every
-/// filter, seed 000's normalized errors and the mean mode probabilities per scan.
+/// The Monte Carlo loop of the Cartesian experiments: a fresh filter per test track, the same plots
+/// for every filter, seed 000's normalized errors and the mean mode probabilities per scan. Each
+/// run's squared errors are kept, so that a comparison's uncertainty can be bootstrapped over runs.
 
 #include <Eigen/Core>
 #include <functional>
@@ -8,7 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "imm/datasets/maneuver_scenario.hpp"
+#include "imm/datasets/track.hpp"
+#include "imm/evaluation/uncertainty.hpp"
 #include "imm/filters/tracker.hpp"
 
 namespace imm::evaluation {
@@ -22,18 +24,24 @@ struct FilterOutcome {
   Eigen::MatrixXd mean_mode_probabilities;         ///< steps × modes, averaged over runs
   std::vector<std::string> mode_names;
   long rejected_steps = 0;  ///< plots the filter could not use
+  /// runs × scans: ‖p − p̂‖², ‖p − z‖², ‖v − v̂‖², ‖v − v̄‖² (0 where a run has no estimate), and
+  /// 1 where it has one.
+  Eigen::MatrixXd run_position, run_position_plot, run_velocity, run_velocity_plot, run_counted;
+
+  /// ζ_p and ζ_v with the runs weighted (all ones: the figures above), for the bootstrap.
+  [[nodiscard]] Statistic zeta_p_statistic() const;
+  [[nodiscard]] Statistic zeta_v_statistic() const;
 };
 
 using FilterFactory = std::function<std::unique_ptr<TrackFilter>()>;
 /// Called after every scan with an estimate (run, scan, the filter).
 using StepObserver = std::function<void(std::size_t run, int scan, const TrackFilter& filter)>;
 
-/// Runs `make_filter()` over every run of `data` (Cartesian plots) and scores it.
+/// Runs `make_filter()` over every track of `data` (Cartesian plots) and scores it.
 [[nodiscard]] FilterOutcome run_monte_carlo(const std::string& name,
                                             const FilterFactory& make_filter,
                                             const TrackOptions& options,
-                                            const datasets::ManeuverScenario& scenario,
-                                            const datasets::ScenarioData& data,
+                                            const datasets::TrackSet& data,
                                             const StepObserver& observer = {});
 
 }  // namespace imm::evaluation

@@ -37,4 +37,15 @@ struct PlotSpec {
 /// when gnuplot is missing or fails; the caller reports it.
 bool plot_series(const PlotSpec& spec);
 
+/// "%.3g" text ("8.16e+03").
+[[nodiscard]] std::string scientific(double value);
+
+struct FilterOutcome;
+/// P_e(k), V_e(k) of every filter as CSV and PNG (seed 000 Fig. 4); returns whether plots worked.
+bool write_error_series(const std::vector<FilterOutcome>& filters, int steps,
+                        const std::filesystem::path& out);
+/// A filter's mean mode probabilities per scan as `stem`.csv and .png.
+bool write_mode_probabilities(const FilterOutcome& filter, const std::filesystem::path& out,
+                              const std::string& stem);
+
 }  // namespace imm::evaluation

@@ -36,6 +36,13 @@ class ConfigDocument;
 class ConfigTable {
  public:
   [[nodiscard]] bool has(std::string_view key) const;
+  /// Whether the key holds an array.
+  [[nodiscard]] bool is_array(std::string_view key) const;
+  /// Whether a key that may hold "auto" asks for the default: true when it is absent or "auto";
+  /// any other string is an error naming the key (a number or array is read by the caller).
+  [[nodiscard]] bool is_auto(std::string_view key) const;
+  /// The table's keys, sorted.
+  [[nodiscard]] std::vector<std::string> keys() const;
 
   [[nodiscard]] double real(std::string_view key) const;
   [[nodiscard]] double real_or(std::string_view key, double fallback) const;

@@ -1,11 +1,9 @@
 #pragma once
 /// `imm-train fcm --config configs/fcm_imm.toml`: fits the FCM-IMM's free parameters (seed 003;
 /// SPEC §6 fcm) — the sub-filters' noise levels q_j, the transition probability, the window
-/// length, the fuzzifier m, the separation κ and the compensation gain λ — with NLopt on random
-/// seed-003-like training trajectories (straight flight and lateral zigzags of random geometry,
-/// speed, period and magnitude; never the evaluation scenario), checks them on a held-out
-/// validation set, measures the mean memberships for the constant-membership ablation and writes
-/// an "fcm_imm" model file.
+/// length, the fuzzifier m, the separation κ and the compensation gain λ — with NLopt on the
+/// regime's training split, checks them on its validation split, measures the mean memberships
+/// for the constant-membership ablation and writes an "fcm_imm" model file.
 ///
 /// Objective (lower is better), shared with the baselines tuned for the evaluation so that all
 /// are judged alike: J = (pos RMSE + T · vel RMSE) / σ_z over every scan from the third on,
@@ -13,38 +11,30 @@
 /// probability), then, for each window length of the config, Subplex over all continuous
 /// parameters from that point; the best window wins. λ = 0 is inside the search box, so the fit
 /// cannot end worse than the IMM it starts from on the training set.
+///
+/// The search boxes scale with the regime: log10 q by default spans 10⁻⁷ a² … 9 a², a the regime's
+/// largest commanded acceleration (imm/trainer/regime_checks.hpp), so one config serves any
+/// regime and unit.
 
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
-#include "imm/datasets/maneuver_scenario.hpp"
+#include "imm/datasets/track.hpp"
 #include "imm/filters/aimm.hpp"
 #include "imm/filters/axis_cv_imm.hpp"
 #include "imm/filters/fcm_imm.hpp"
 
 namespace imm::trainer::fcm {
 
-struct FcmTrainingOptions {
-  int trajectories = 16;  ///< training trajectories
-  int validation = 8;     ///< held-out trajectories
-  int steps = 300;
-  double min_range = 250e3, max_range = 400e3;              ///< m
-  double min_speed = 300.0, max_speed = 600.0;              ///< m/s
-  double max_heading_offset_deg = 30.0;                     ///< inbound, off the radial
-  double min_acceleration = 30.0, max_acceleration = 60.0;  ///< |a| per zigzag period, m/s²
-  int min_quarter = 5, max_quarter = 12;                    ///< zigzag quarter period, transitions
-  int min_periods = 1, max_periods = 4;
-  double maneuver_probability = 0.85;  ///< share of trajectories with a zigzag
-  double process_noise_sigma = 0.5;    ///< m/s²
-};
-
 struct FcmTuning {
   std::vector<int> windows = {8, 16, 32};
-  double min_log_q = -2.0, max_log_q = 4.5;  ///< log10 q, (m/s²)²
+  bool automatic_log_q = true;               ///< log10 q over the regime's scale (see above)
+  double min_log_q = -2.0, max_log_q = 4.5;  ///< log10 q, (unit/s²)²
   double min_stay = 0.8, max_stay = 0.995;
   double min_gain = 0.0, max_gain = 1.0;
   double min_fuzzifier = 1.2, max_fuzzifier = 4.0;
@@ -54,11 +44,12 @@ struct FcmTuning {
 
 struct FcmTrainingConfig {
   std::uint64_t seed = 1;
-  /// Fixed parts (T, σ_z, the number of modes, the membership scale, compensate_lowest, the FCM
-  /// tolerance and iteration cap) and the starting values of the fitted ones.
+  datasets::Regime regime;
+  /// Fixed parts (T and σ_z: the regime's; the number of modes, the membership scale,
+  /// compensate_lowest, the FCM tolerance and iteration cap) and the starting values of the fitted
+  /// ones.
   FcmImmSpec filter;
   double initial_first_probability = 0.6;  ///< μ₁(0); the rest spread evenly
-  FcmTrainingOptions training;
   FcmTuning tuning;
   double max_validation_ratio = 1.0;  ///< gate: J_val(FCM-IMM) ≤ ratio · J_val(KF-tuned)
 
@@ -67,16 +58,12 @@ struct FcmTrainingConfig {
   void validate() const;  ///< InvalidParameter naming the key
 };
 
-[[nodiscard]] FcmTrainingConfig load_fcm_config(const std::filesystem::path& path);
+[[nodiscard]] FcmTrainingConfig load_fcm_config(
+    const std::filesystem::path& path,
+    const std::optional<std::filesystem::path>& regime = std::nullopt);
 
-/// Trajectories packed as the runs of one descriptor (Cartesian plots, T, steps).
-struct TrackingData {
-  datasets::ManeuverScenario scenario;
-  datasets::ScenarioData data;
-};
-
-/// The training (validation = false) or the held-out trajectories of a config.
-[[nodiscard]] TrackingData make_trajectories(const FcmTrainingConfig& config, bool validation);
+/// Tracks to score on: a split of a regime.
+using TrackingData = datasets::TrackSet;
 
 struct TrackingScore {
   double position_rmse = 0.0, velocity_rmse = 0.0;
@@ -85,8 +72,8 @@ struct TrackingScore {
 
 using FilterFactory = std::function<std::unique_ptr<TwoAxisFilter>()>;
 
-/// Runs `make()` over every run of `data` (two-point start at scans 0, 1) and scores scans 2 … on.
-/// Trajectories run in parallel; the result does not depend on the thread count.
+/// Runs `make()` over every track of `data` (two-point start at scans 0, 1) and scores scans 2 …
+/// on. Tracks run in parallel; the result does not depend on the thread count.
 [[nodiscard]] TrackingScore score_filter(const FilterFactory& make, const TrackingData& data,
                                          double measurement_sigma);
 

@@ -9,8 +9,8 @@
 /// 0.5 (a_M + √q) ≤ √w ≤ a_M + √q. Centers span the observed ranges of r and Δr, spreads a
 /// configured range.
 ///
-/// Fitness (eq. 16): λ/(error + 1) + (1 − λ)/(rules + 1), with error (eq. 17) √(ē_p² + ē_v²) of
-/// position and velocity estimates over the training trajectories, taken from one of:
+/// Fitness (eq. 16): λ/(error + 1) + (1 − λ)/(rules + 1), with error (eq. 17) √(ē_p² + ē_v²) / σ_z
+/// of position and velocity estimates over the training trajectories, taken from one of:
 /// - kSingleFilter (the seed's literal fitness): the single fuzzy-noise KF with the candidate
 ///   table (the runtime's FuzzyNoiseFilter, the very step the IMM runs);
 /// - kImm: the per-axis GA-fuzzy IMM the table will serve (the runtime's build_ga_fuzzy_axis_imm),
@@ -20,8 +20,10 @@
 ///   the likelihood contest elsewhere. This fitness measures that directly. Eq. (17) prints sums
 ///   over the trajectories; we
 /// use the means per scan (ē_p = Σ|p − p̂| / N, likewise ē_v), which leaves the optimum unchanged
-/// but keeps "error + 1" on the scale λ was chosen for (errors ~ 0.1–1 km), independent of how
-/// many trajectories the config asks for.
+/// but keeps "error + 1" on the scale λ was chosen for, independent of how many trajectories the
+/// config asks for. The seed's errors are in km against σ_z = 0.5 km (0.1–1 km); we divide by
+/// σ_z, so that λ weighs the same in any unit and for any sensor (ours: the seed's λ then weighs
+/// the error twice as much as on its own scale).
 
 #include <array>
 #include <cstdint>
@@ -69,7 +71,8 @@ struct ProblemOptions {
   FitnessKind fitness = FitnessKind::kImm;
   double lambda = 0.95;
   int max_rules = 50;
-  double sigma_min = 0.05, sigma_max = 5.0;  ///< membership spreads, measurement units
+  double sigma_min = 0.1, sigma_max = 10.0;  ///< membership spreads, × error_scale
+  double error_scale = 0.5;                  ///< σ_z: the unit of the error and the spreads
   double maneuver_level = 0.01;              ///< a_M
   double process_noise_sigma = 0.001;        ///< √q of eq. (15)
   double consequent_low = 0.5;               ///< √w bounds as multiples of a_M + √q (eq. 15)

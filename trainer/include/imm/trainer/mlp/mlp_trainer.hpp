@@ -1,55 +1,52 @@
 #pragma once
 /// `imm-train mlp --config configs/mlp_input_estimator.toml`: the neural input estimator of seed
-/// 001. Training data: one-axis trajectories from the configured acceleration profiles (the seed's
-/// §4.1: initial speed 100 m/s, 500 s, accelerations in 0–10 m/s² with different durations), noisy
-/// measurements, and the features of the runtime's own InnovationFeatureExtractor; target = the
-/// true acceleration. Inputs are standardized with the training features' mean and standard
-/// deviation (stored in the model).
+/// 001. Training data: the one-axis trajectories of the regime's training split (every 2-D track
+/// gives its x and its y axis), noisy plots, and the features of the runtime's own
+/// InnovationFeatureExtractor; target = the magnitude of the axis's true acceleration (the filter
+/// takes the sign from the innovations, InputSign::kInnovation, or the seed's always-positive
+/// one). Inputs are standardized with the training features' mean and standard deviation (stored
+/// in the model).
 ///
 /// The no-maneuver bias: the first scans of every maneuver look like straight flight, so a
 /// squared-error fit averages their targets into the quiet region and outputs a positive value
 /// without a maneuver. It is measured at training time — the network's mean output on a
-/// maneuver-free trajectory — stored as output_bias, and subtracted (then clipped at 0) by the
-/// runtime. Nothing is chosen on evaluation data.
+/// maneuver-free track of the regime (its start and sensor, no maneuvers) — stored as output_bias,
+/// and subtracted (then clipped at 0) by the runtime. Nothing is chosen on evaluation data.
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "imm/datasets/track.hpp"
 #include "imm/filters/input_estimation_filter.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
 
 namespace imm::trainer::mlp {
 
-struct ManeuverPulse {
-  double start = 0.0;         ///< s
-  double duration = 0.0;      ///< s
-  double acceleration = 0.0;  ///< m/s²
-};
-
 struct MlpTrainingConfig {
   std::uint64_t seed = 1;
+  datasets::Regime regime;
+  /// The CV KF of the features: T and R are the regime's; q by default (0.1 a)², a the regime's
+  /// largest commanded acceleration (the seed's q = 1 (m/s²)² for its 10 m/s²).
   CvKfSettings cv_kf{1.0, 1.0, 2500.0};
-  double initial_speed = 100.0;
-  double duration = 500.0;  ///< s per trajectory
-  int realizations = 1;     ///< noise draws per profile
-  std::vector<std::vector<ManeuverPulse>> training_profiles;
-  std::vector<std::vector<ManeuverPulse>> validation_profiles;
-  double quiet_duration = 500.0;  ///< the maneuver-free trajectory of the bias
   std::vector<int> hidden = {10, 10};
   Activation output = Activation::kSigmoid;
-  double output_scale = 12.0;
+  double output_scale = 12.0;  ///< by default 1.2 a
   double init_range = 0.5;
+  InputSign sign = InputSign::kInnovation;
   TrainingOptions training;
-  double max_validation_rmse = 3.0;  ///< quality gate, m/s²
+  double max_validation_rmse = 3.0;  ///< quality gate (config: × a), regime units
 
   std::string text, name;
 
   void validate() const;  ///< InvalidParameter naming the key
 };
 
-[[nodiscard]] MlpTrainingConfig load_mlp_config(const std::filesystem::path& path);
+[[nodiscard]] MlpTrainingConfig load_mlp_config(
+    const std::filesystem::path& path,
+    const std::optional<std::filesystem::path>& regime = std::nullopt);
 
 /// One trajectory's samples: standardized later.
 struct FeatureSet {
@@ -57,11 +54,10 @@ struct FeatureSet {
   std::string digest;
 };
 
-/// Features and targets of the given profiles (each `realizations` times), via the runtime's
-/// feature extractor.
+/// Features and targets of a set of tracks (both axes of each), via the runtime's feature
+/// extractor.
 [[nodiscard]] FeatureSet make_features(const MlpTrainingConfig& config,
-                                       const std::vector<std::vector<ManeuverPulse>>& profiles,
-                                       std::uint64_t stream);
+                                       const datasets::TrackSet& tracks);
 
 struct MlpTrainingResult {
   InputEstimatorModel model;

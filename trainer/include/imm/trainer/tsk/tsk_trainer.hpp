@@ -1,20 +1,23 @@
 #pragma once
 /// `imm-train tsk --config configs/tsk_range_sensor.toml`: the probabilistic TSK model of a
-/// distorted range sensor (seed 002 §2.2, §3.3). Generates the sensor data set of the config
-/// ([data]: 8000 obstacle positions and their distorted, noisy outputs), holds out a validation
-/// split, fits each output (tsk_fit.hpp: FCRM with restarts, premises from the clusters, Ceres
-/// fine tuning, σ by eq. 7), reports the validation RMSE after FCRM and after fine tuning, and
-/// writes a "tsk_sensor" model with the input box it was trained on and the data's digest.
-/// `--data` fits stored samples instead (a range-sensor data set or a CSV of a real sensor).
+/// distorted range sensor (seed 002 §2.2, §3.3). The sensor is the regime's range sensor: its
+/// calibration data are drawn from it ([sensor.calibration]: 8000 obstacle positions and their
+/// distorted, noisy outputs), or — for a sensor known through samples — are those samples. A
+/// validation split is held out, each output fitted (tsk_fit.hpp: FCRM with restarts, premises
+/// from the clusters, Ceres fine tuning, σ by eq. 7), the validation RMSE reported after FCRM and
+/// after fine tuning, and a "tsk_sensor" model written with the input box it was trained on, the
+/// data's digest and the regime.
 ///
 /// The config also carries what the evaluation needs and the trainer does not: the FIMM settings
-/// ([fimm]) and the cut-in scenario ([scenario]); they are validated here all the same.
+/// ([fimm]; T is the regime's); they are validated here all the same.
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "imm/datasets/range_sensor.hpp"
+#include "imm/datasets/regime.hpp"
 #include "imm/filters/fimm.hpp"
 #include "imm/trainer/tsk/tsk_fit.hpp"
 
@@ -22,23 +25,24 @@ namespace imm::trainer::tsk {
 
 struct TskTrainingConfig {
   std::uint64_t seed = 1;
-  datasets::RangeSensorDataConfig data;
+  datasets::Regime regime;  ///< its sensor is a range sensor
   double validation_fraction = 0.2;
   FcrmSettings fcrm;
   TNorm t_norm = TNorm::kMin;
   FineTuning fine_tuning;
   double max_validation_rmse = 0.5;  ///< gate, per output (m)
 
-  FimmSpec fimm;                     ///< for imm-eval fimm (R is set per table row)
-  int iekf_iterations = 5;           ///< the FIMM (IEKF) variant
-  datasets::CutInScenario scenario;  ///< distortion = data.distortion
+  FimmSpec fimm;            ///< for imm-eval fimm (T from the regime, R per case)
+  int iekf_iterations = 5;  ///< the FIMM (IEKF) variant
 
   std::string text, name;
 
   void validate() const;  ///< InvalidParameter naming the key
 };
 
-[[nodiscard]] TskTrainingConfig load_tsk_config(const std::filesystem::path& path);
+[[nodiscard]] TskTrainingConfig load_tsk_config(
+    const std::filesystem::path& path,
+    const std::optional<std::filesystem::path>& regime = std::nullopt);
 
 struct OutputReport {
   double fcrm_training_rmse = 0.0, fcrm_validation_rmse = 0.0;
@@ -74,16 +78,18 @@ struct SensorSamples {
 
 /// Stored samples: a "range_sensor" data set (.h5, digest checked) or a CSV with the header
 /// xi,eta,z1,z2 (true position, sensor output; '#' lines are comments). FileError names the
-/// file and, for a CSV, the line.
-[[nodiscard]] SensorSamples load_sensor_samples(const std::filesystem::path& path);
-/// The config's simulated sensor data ([data]).
-[[nodiscard]] SensorSamples simulated_samples(const TskTrainingConfig& config);
+/// file and, for a CSV, the line. They must be the samples of the config's regime (a sensor known
+/// through samples with the same digest): the evaluation then runs the sensor the model was
+/// fitted to. InvalidParameter ("regime") otherwise.
+[[nodiscard]] SensorSamples load_sensor_samples(const std::filesystem::path& path,
+                                                const TskTrainingConfig& config);
+/// The regime's calibration data: drawn from its sensor, or its sensor's samples.
+[[nodiscard]] SensorSamples calibration_samples(const TskTrainingConfig& config);
 
-/// Fits both outputs on the config's simulated sensor data ([data]); writes the model (gate
-/// passed) and `<model>.metrics.json` (always).
+/// Fits both outputs on the regime's calibration data; writes the model (gate passed) and
+/// `<model>.metrics.json` (always).
 TskTrainingResult train_tsk(const TskTrainingConfig& config, const std::filesystem::path& out);
-/// The same on given samples (the config's [data] then only describes the simulated sensor the
-/// evaluation uses). The model's input box is the samples' extent.
+/// The same on given samples. The model's input box is the samples' extent.
 TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples& samples,
                             const std::filesystem::path& out);
 

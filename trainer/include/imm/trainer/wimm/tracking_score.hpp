@@ -3,17 +3,19 @@
 /// combined estimate (radians, wrapped), position error and the NEES of the 4-D position–velocity
 /// state, as RMSE over runs per scan and their averages over all scans with an estimate and over
 /// the settled scans 41–250 (the seed's first 40 scans are its settling phase). Used by the trainer
-/// (tuning objective, on training data) and by imm-eval (Table 2, on the evaluation scenarios).
+/// (tuning objective, on the regime's training split) and by imm-eval (on its test split).
 
 #include <Eigen/Core>
 #include <vector>
 
-#include "imm/datasets/maneuver_scenario.hpp"
+#include "imm/datasets/track.hpp"
 #include "imm/filters/weighted_imm.hpp"
 
 namespace imm::trainer::wimm {
 
 inline constexpr int kFirstSettledScan = 40;  ///< 0-based: scans 41–250 of the seed
+/// The first settled scan of a track of `scans`: the seed's 40, or a fifth of a shorter track.
+[[nodiscard]] int first_settled_scan(int scans);
 
 struct TrackingScore {
   Eigen::VectorXd azimuth_rmse;                 ///< per scan (NaN before the first estimate)
@@ -24,11 +26,13 @@ struct TrackingScore {
   double azimuth = 0.0, azimuth_settled = 0.0;  ///< averages of azimuth_rmse
   double position = 0.0, position_settled = 0.0;  ///< averages of position_rmse
   double nees_settled = 0.0;                      ///< average NEES, settled scans
+  /// Per track: mean squared azimuth error (rad²) and position error (m²) over its settled scans —
+  /// the Monte Carlo samples a comparison's uncertainty is computed from.
+  Eigen::VectorXd track_azimuth_settled, track_position_settled;
 };
 
-/// Runs `spec` over every run of `data` (scenario's plots must be polar).
-[[nodiscard]] TrackingScore score_tracking(const WimmSpec& spec,
-                                           const datasets::ManeuverScenario& scenario,
-                                           const datasets::ScenarioData& data);
+/// Runs `spec` over every track of `data` (polar plots of a sensor at `sensor_position`).
+[[nodiscard]] TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& data,
+                                           const Eigen::Vector2d& sensor_position);
 
 }  // namespace imm::trainer::wimm

@@ -1,16 +1,18 @@
 #pragma once
 /// `imm-train wimm --config configs/wimm.toml`: tunes the weighted IMM's fusion threshold and
-/// weight α with NLopt on training scenarios — random geometries, speeds and coordinated turns,
-/// never seed 004's evaluation scenarios — and writes a "wimm" model file.
+/// weight α with NLopt on the regime's training split (a polar sensor; for the paper the random
+/// geometries, speeds and coordinated turns of configs/regimes/paper/wimm_training.toml, never
+/// seed 004's evaluation scenarios) and writes a "wimm" model file.
 ///
 /// Objective (lower is better), shared with the nIMM-tuned baseline so that both are judged alike:
 ///   J = az / az_nIMM + penalty · max(0, pos / pos_nIMM − 1),
-/// az and pos the settled (scans 41–250) azimuth and position RMSE averaged over the training
-/// scenarios, relative to the seed's normal IMM on the same plots: azimuth accuracy may not be
-/// bought with position accuracy.
+/// az and pos the settled (first_settled_scan on) azimuth and position RMSE averaged over the
+/// training scenarios, relative to the seed's normal IMM on the same plots: azimuth accuracy may
+/// not be bought with position accuracy.
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "imm/filters/weighted_imm.hpp"
@@ -18,21 +20,11 @@
 
 namespace imm::trainer::wimm {
 
-struct WimmTrainingOptions {
-  int trajectories = 24;
-  int steps = 250;
-  double min_range = 80e3, max_range = 160e3;   ///< m
-  double min_speed = 100.0, max_speed = 250.0;  ///< m/s
-  double max_heading_offset_deg = 45.0;         ///< heading off the radial, inbound
-  int max_turns = 2;
-  double min_turn_rate_deg = 1.0, max_turn_rate_deg = 4.0;  ///< °/s
-  int min_turn_scans = 8, max_turn_scans = 20;
-};
-
 struct WimmTrainingConfig {
   std::uint64_t seed = 1;
-  WimmSpec filter;  ///< the seed's nIMM parameters and the fusion variant
-  WimmTrainingOptions training;
+  datasets::Regime regime;
+  /// The seed's nIMM parameters and the fusion variant; T, σ_r and σ_θ are the regime's.
+  WimmSpec filter;
   double min_threshold = 0.0, max_threshold = 1.0;
   double min_alpha = 0.05, max_alpha = 1.0;
   int max_evaluations = 150;
@@ -43,14 +35,12 @@ struct WimmTrainingConfig {
   void validate() const;  ///< InvalidParameter naming the key
 };
 
-[[nodiscard]] WimmTrainingConfig load_wimm_config(const std::filesystem::path& path);
+[[nodiscard]] WimmTrainingConfig load_wimm_config(
+    const std::filesystem::path& path,
+    const std::optional<std::filesystem::path>& regime = std::nullopt);
 
-/// The training scenarios packed as runs of one descriptor (polar plots, T, steps).
-struct TrainingScenarios {
-  datasets::ManeuverScenario scenario;
-  datasets::ScenarioData data;
-};
-[[nodiscard]] TrainingScenarios make_training_scenarios(const WimmTrainingConfig& config);
+/// Tracks to tune on: a split of the regime.
+using TrainingScenarios = datasets::TrackSet;
 
 struct Tuned {
   WimmSpec spec;

@@ -1,0 +1,103 @@
+#pragma once
+/// What every `imm-eval` experiment shares: the command line (--models, --model, --regime, --runs,
+/// --seed, --out), the regime it evaluates on and the checks that a model may run on it, and the
+/// tracks it draws.
+///
+/// The regime is --regime, or the one recorded in the model file. A model is refused on a regime
+/// that differs in something the model is built for — the sample period, the unit, the sensor and
+/// its noise — with a message naming the field; a model evaluated on a regime other than the one
+/// it was trained for (other maneuvers, another start) runs, and the report says so. The test
+/// split is drawn from --seed; the baselines are tuned on the training split of the model's own
+/// regime — the tracks the learned model saw — never on the test tracks.
+///
+/// Each experiment is one file: its run, its report and its command (add_*_command below).
+
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "imm/datasets/track.hpp"
+#include "imm/io/model_file.hpp"
+#include "imm/support/regime_config.hpp"
+
+namespace imm::evaluation {
+
+inline constexpr int kExitBadInput = 2;
+inline constexpr int kExitGateFailed = 5;
+
+struct CommonOptions {
+  std::filesystem::path models = "models";
+  std::string model;  ///< a file in --models (".h5" optional) or a path
+  std::optional<std::filesystem::path> regime;
+  std::optional<int> runs;  ///< test tracks (default: the regime's test split)
+  std::uint64_t seed = 1;
+  std::filesystem::path out;
+
+  /// The model file: `model` if it names an existing path, else models/model(.h5).
+  [[nodiscard]] std::filesystem::path model_path() const;
+};
+
+/// Adds the shared options to a subcommand; `model` and `out` are the defaults.
+void add_common_options(CLI::App& command, CommonOptions& options, const std::string& model,
+                        const std::filesystem::path& out);
+
+/// The regimes of one evaluation.
+struct EvaluationRegimes {
+  support::RegimeFile evaluated;  ///< where the test tracks come from
+  support::RegimeFile trained;    ///< the model's own (its training split tunes the baselines)
+  /// The evaluated regime is not the one the model was trained for.
+  [[nodiscard]] bool off_training() const {
+    return evaluated.regime.digest != trained.regime.digest;
+  }
+  /// One line for the report: which regime, and whether it is the model's own.
+  [[nodiscard]] std::string describe() const;
+};
+
+/// --regime (or the model's), and the model's own regime. std::runtime_error when the model
+/// records none.
+[[nodiscard]] EvaluationRegimes evaluation_regimes(const CommonOptions& options,
+                                                   const io::Provenance& model,
+                                                   const std::filesystem::path& path);
+
+/// Another model on an already chosen regime (a second model of the same experiment).
+[[nodiscard]] EvaluationRegimes evaluation_regimes(const support::RegimeFile& evaluated,
+                                                   const io::Provenance& model,
+                                                   const std::filesystem::path& path);
+
+/// What a model is built for, checked against the evaluated regime: the sample period, the unit,
+/// the sensor kind, and the plot σ when given (per axis; the model's R). Throws
+/// std::runtime_error "model M: sample_period 2 s differs from regime R's 1 s" naming the field.
+struct ModelRequirements {
+  double sample_period = 0.0;
+  std::optional<datasets::SensorKind> sensor;
+  std::optional<double> plot_sigma;  ///< Cartesian: σ per axis; polar: σ_r (with azimuth_sigma)
+  std::optional<double> azimuth_sigma;
+};
+void check_model(const ModelRequirements& model, const EvaluationRegimes& regimes,
+                 const std::filesystem::path& path);
+
+/// The test tracks (--runs of them, or the regime's test split) of --seed.
+[[nodiscard]] datasets::TrackSet test_tracks(const datasets::Regime& regime,
+                                             const CommonOptions& options);
+
+/// The closing lines of a report: where it went, the gate failures on stderr (unless printed
+/// already), and the exit code.
+int finish_report(const std::filesystem::path& out, bool plotted,
+                  const std::vector<std::string>& failures, bool failures_printed = false);
+
+/// Runs an experiment's body, turning exceptions into a message and kExitBadInput.
+int guarded(const std::function<int()>& body);
+
+// --- The experiments -----------------------------------------------------------------------
+using ExitCode = int;
+void add_plain_imm_command(CLI::App& app, ExitCode& exit_code);
+void add_ga_imm_command(CLI::App& app, ExitCode& exit_code);
+void add_input_estimator_command(CLI::App& app, ExitCode& exit_code);
+void add_wimm_command(CLI::App& app, ExitCode& exit_code);
+void add_fcm_imm_command(CLI::App& app, ExitCode& exit_code);
+void add_fimm_command(CLI::App& app, ExitCode& exit_code);
+
+}  // namespace imm::evaluation

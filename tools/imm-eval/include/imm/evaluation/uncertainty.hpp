@@ -1,0 +1,39 @@
+#pragma once
+/// The Monte Carlo uncertainty of a comparison: a paired bootstrap over the runs (tracks). Both
+/// filters ran on the same tracks, so the tracks are resampled together and the difference of the
+/// two statistics is recomputed on each resample; its 2.5 and 97.5 percentiles bound it. "A beats
+/// B" means the whole interval of a − b lies on the better side of zero.
+///
+/// A statistic is a function of per-run weights w (how often each run is drawn; all ones for the
+/// estimate itself), so that ratios of sums (seed 000's ζ) are resampled as what they are.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <string>
+
+namespace imm::evaluation {
+
+using Statistic = std::function<double(const Eigen::VectorXd& weights)>;
+
+struct Difference {
+  double estimate = 0.0;            ///< a − b on the runs themselves
+  double lower = 0.0, upper = 0.0;  ///< 95 % paired-bootstrap interval
+  /// a is lower (better, for an error) than b beyond the uncertainty.
+  [[nodiscard]] bool below() const { return upper < 0.0; }
+  [[nodiscard]] bool above() const { return lower > 0.0; }
+  /// "−0.0123 [−0.0150, −0.0097]".
+  [[nodiscard]] std::string text(int decimals = 4) const;
+};
+
+/// Paired bootstrap of a − b over `runs` runs (draws resamples, seeded: deterministic).
+[[nodiscard]] Difference paired_difference(int runs, const Statistic& a, const Statistic& b,
+                                           std::uint64_t seed = 7, int draws = 1000);
+
+/// The weighted mean of per-run values (the statistic of a per-run mean metric).
+[[nodiscard]] Statistic mean_of(const Eigen::VectorXd& per_run);
+
+/// The standard error of the mean of per-run values.
+[[nodiscard]] double standard_error(const Eigen::VectorXd& per_run);
+
+}  // namespace imm::evaluation

@@ -1,0 +1,164 @@
+#include "imm/evaluation/experiment.hpp"
+
+#include <cmath>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+
+namespace imm::evaluation {
+namespace {
+
+std::string number(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
+
+std::string sensor_name(datasets::SensorKind kind) {
+  return std::string(datasets::to_string(kind));
+}
+
+bool close(double a, double b) { return std::abs(a - b) <= 1e-9 * std::max(std::abs(a), 1.0); }
+
+}  // namespace
+
+std::filesystem::path CommonOptions::model_path() const {
+  const std::filesystem::path named(model);
+  if (named.has_parent_path() && std::filesystem::exists(named)) return named;
+  if (named.extension() == ".h5") return models / named;
+  return models / (model + ".h5");
+}
+
+void add_common_options(CLI::App& command, CommonOptions& options, const std::string& model,
+                        const std::filesystem::path& out) {
+  options.model = model;
+  options.out = out;
+  command.add_option("--models", options.models, "folder of model files");
+  command.add_option("--model", options.model,
+                     "model file: a name in --models (default " + model + ") or a path");
+  command.add_option("--regime", options.regime,
+                     "regime TOML to evaluate on (default: the one recorded in the model)");
+  command.add_option("--runs", options.runs, "test tracks (default: the regime's test split)")
+      ->check(CLI::PositiveNumber);
+  command.add_option("--seed", options.seed, "seed of the test tracks");
+  command.add_option("--out", options.out, "report folder");
+}
+
+std::string EvaluationRegimes::describe() const {
+  std::string text = "regime " + evaluated.regime.name;
+  if (!evaluated.regime.file.empty()) text += " (" + evaluated.regime.file + ")";
+  if (off_training()) {
+    text += "; the model was trained for regime " + trained.regime.name +
+            ": evaluated off its training maneuvers";
+  } else {
+    text += ", the model's own";
+  }
+  return text;
+}
+
+namespace {
+
+support::RegimeFile recorded_regime(const io::Provenance& model,
+                                    const std::filesystem::path& path) {
+  if (model.regime_toml.empty()) {
+    throw std::runtime_error(path.string() +
+                             ": the model records no regime (written before regimes); retrain it");
+  }
+  return support::parse_regime(model.regime_toml,
+                               path.string() + ": /@regime_toml (" + model.regime_name + ")");
+}
+
+}  // namespace
+
+EvaluationRegimes evaluation_regimes(const CommonOptions& options, const io::Provenance& model,
+                                     const std::filesystem::path& path) {
+  EvaluationRegimes regimes;
+  regimes.trained = recorded_regime(model, path);
+  regimes.evaluated = options.regime ? support::load_regime(*options.regime) : regimes.trained;
+  return regimes;
+}
+
+EvaluationRegimes evaluation_regimes(const support::RegimeFile& evaluated,
+                                     const io::Provenance& model,
+                                     const std::filesystem::path& path) {
+  return {evaluated, recorded_regime(model, path)};
+}
+
+void check_model(const ModelRequirements& model, const EvaluationRegimes& regimes,
+                 const std::filesystem::path& path) {
+  const datasets::Regime& r = regimes.evaluated.regime;
+  const datasets::Regime& own = regimes.trained.regime;
+  const std::string where = "model " + path.string() + " on regime " + r.name + ": ";
+  if (!close(model.sample_period, r.sample_period)) {
+    throw std::runtime_error(
+        where + "sample_period: the model is built for T = " + number(model.sample_period) +
+        " s, the regime's plots come every " + number(r.sample_period) + " s");
+  }
+  if (own.units != r.units) {
+    throw std::runtime_error(where + "units: the model works in " +
+                             std::string(datasets::to_string(own.units)) + ", the regime in " +
+                             std::string(datasets::to_string(r.units)));
+  }
+  if (model.sensor && *model.sensor != r.sensor.kind) {
+    throw std::runtime_error(where + "sensor.kind: the model needs a " +
+                             sensor_name(*model.sensor) + " sensor, the regime has a " +
+                             sensor_name(r.sensor.kind) + " one");
+  }
+  if (r.sensor.kind == datasets::SensorKind::kRangeSensor &&
+      own.sensor.samples_digest != r.sensor.samples_digest) {
+    throw std::runtime_error(where +
+                             "sensor.samples: the model was fitted to another sensor's "
+                             "samples");
+  }
+  if (r.sensor.kind == datasets::SensorKind::kRangeSensor && !own.sensor.sampled &&
+      !(own.sensor.distortion.knee == r.sensor.distortion.knee &&
+        own.sensor.distortion.softness == r.sensor.distortion.softness)) {
+    throw std::runtime_error(where + "sensor.knee/softness: the model was fitted to another " +
+                             "distortion (knee " + number(own.sensor.distortion.knee) +
+                             " m, softness " + number(own.sensor.distortion.softness) + " m)");
+  }
+  for (int c = 0; c < r.case_count(); ++c) {
+    const datasets::SensorNoise& noise = r.noise_of(c);
+    if (model.plot_sigma && !(close(noise.sigma(0), *model.plot_sigma) &&
+                              (model.azimuth_sigma || close(noise.sigma(1), *model.plot_sigma)) &&
+                              noise.correlation == 0.0)) {
+      throw std::runtime_error(where + "sensor.sigma: the model is built for σ = " +
+                               number(*model.plot_sigma) + " per axis, uncorrelated; the regime" +
+                               (r.scripted() ? "'s case '" + r.case_name(c) + "'" : "") + " has [" +
+                               number(noise.sigma(0)) + ", " + number(noise.sigma(1)) + "]");
+    }
+    if (model.azimuth_sigma && !close(noise.sigma(1), *model.azimuth_sigma)) {
+      throw std::runtime_error(where + "sensor.azimuth_sigma_deg: the model is built for another " +
+                               "azimuth σ");
+    }
+  }
+}
+
+datasets::TrackSet test_tracks(const datasets::Regime& regime, const CommonOptions& options) {
+  return datasets::draw_split(regime, datasets::Split::kTest, options.seed,
+                              options.runs ? *options.runs : -1);
+}
+
+int finish_report(const std::filesystem::path& out, bool plotted,
+                  const std::vector<std::string>& failures, bool failures_printed) {
+  std::cout << "\nwrote metrics.json, details.json, CSV series"
+            << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
+            << " in " << out.string() << '\n';
+  if (!failures_printed) {
+    for (const auto& failure : failures) std::cerr << "imm-eval: gate failed: " << failure << '\n';
+  }
+  return failures.empty() ? 0 : kExitGateFailed;
+}
+
+int guarded(const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const std::exception& error) {
+    std::cerr << "imm-eval: " << error.what() << '\n';
+  } catch (...) {
+    std::cerr << "imm-eval: unexpected error\n";
+  }
+  return kExitBadInput;
+}
+
+}  // namespace imm::evaluation

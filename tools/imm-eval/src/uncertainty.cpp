@@ -1,0 +1,67 @@
+#include "imm/evaluation/uncertainty.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <vector>
+
+#include "imm/datasets/random.hpp"
+
+namespace imm::evaluation {
+
+std::string Difference::text(int decimals) const {
+  char buffer[96];
+  std::snprintf(buffer, sizeof buffer, "%+.*f [%+.*f, %+.*f]", decimals, estimate, decimals, lower,
+                decimals, upper);
+  return buffer;
+}
+
+Difference paired_difference(int runs, const Statistic& a, const Statistic& b, std::uint64_t seed,
+                             int draws) {
+  if (runs < 1) throw std::invalid_argument("paired_difference: no runs");
+  Difference d;
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(runs);
+  d.estimate = a(ones) - b(ones);
+  if (runs < 2) {
+    d.lower = d.upper = d.estimate;
+    return d;
+  }
+  datasets::Rng rng(seed);
+  std::vector<double> differences;
+  differences.reserve(static_cast<std::size_t>(draws));
+  Eigen::VectorXd weights(runs);
+  for (int draw = 0; draw < draws; ++draw) {
+    weights.setZero();
+    for (int i = 0; i < runs; ++i) weights(static_cast<Eigen::Index>(rng.below(runs))) += 1.0;
+    const double value = a(weights) - b(weights);
+    if (std::isfinite(value)) differences.push_back(value);
+  }
+  if (differences.empty()) {
+    d.lower = d.upper = d.estimate;
+    return d;
+  }
+  std::sort(differences.begin(), differences.end());
+  auto at = [&](double p) {
+    const auto k =
+        static_cast<std::size_t>(std::clamp(p * static_cast<double>(differences.size() - 1) + 0.5,
+                                            0.0, static_cast<double>(differences.size() - 1)));
+    return differences[k];
+  };
+  d.lower = at(0.025);
+  d.upper = at(0.975);
+  return d;
+}
+
+Statistic mean_of(const Eigen::VectorXd& per_run) {
+  return [per_run](const Eigen::VectorXd& w) { return w.dot(per_run) / w.sum(); };
+}
+
+double standard_error(const Eigen::VectorXd& per_run) {
+  const auto n = static_cast<double>(per_run.size());
+  if (n < 2) return 0.0;
+  const double mean = per_run.mean();
+  return std::sqrt((per_run.array() - mean).square().sum() / (n - 1.0) / n);
+}
+
+}  // namespace imm::evaluation

@@ -1,0 +1,321 @@
+#include "imm/support/regime_config.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/datasets/range_sensor_file.hpp"
+#include "imm/datasets/sampled_sensor.hpp"
+#include "imm/datasets/sha256.hpp"
+
+namespace imm::support {
+namespace {
+
+using datasets::Direction;
+using datasets::Interval;
+using datasets::SegmentKind;
+using datasets::SensorKind;
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+/// A named choice of a fixed set, or a ConfigError listing them.
+template <class Enum, std::size_t N>
+Enum choice(const ConfigTable& table, std::string_view key, const std::array<Enum, N>& options) {
+  const std::string text = table.text(key);
+  std::string expected;
+  for (Enum option : options) {
+    if (text == datasets::to_string(option)) return option;
+    expected += (expected.empty() ? "" : ", ") + std::string(datasets::to_string(option));
+  }
+  table.fail(key, "unknown value '" + text + "' (expected " + expected + ")");
+}
+
+/// A number (fixed) or [min, max], times `scale`; `<key>_scale = "log"` makes it log-uniform.
+Interval interval(const ConfigTable& table, const std::string& key, double scale = 1.0) {
+  Interval result;
+  if (table.is_array(key)) {
+    const Eigen::VectorXd range = table.reals(key, 2);
+    result.min = range(0) * scale;
+    result.max = range(1) * scale;
+  } else {
+    result.min = result.max = table.real(key) * scale;
+  }
+  const std::string scale_key = key + "_scale";
+  if (table.has(scale_key)) {
+    const std::string kind = table.text(scale_key);
+    if (kind != "log" && kind != "linear") {
+      table.fail(scale_key, "unknown scale '" + kind + "' (expected linear or log)");
+    }
+    result.log = kind == "log";
+  }
+  return result;
+}
+
+Interval interval_or(const ConfigTable& table, const std::string& key, Interval fallback,
+                     double scale = 1.0) {
+  return table.has(key) ? interval(table, key, scale) : fallback;
+}
+
+datasets::Start start_from(const ConfigTable& table) {
+  datasets::Start start;
+  start.fixed = table.has("position") || table.has("velocity");
+  if (start.fixed) {
+    start.position = table.reals("position", 2);
+    start.velocity = table.reals("velocity", 2);
+    for (const char* key :
+         {"range", "bearing_deg", "speed", "heading", "heading_deg", "heading_offset_deg"}) {
+      if (table.has(key)) table.fail(key, "a fixed start (position, velocity) takes no intervals");
+    }
+    return start;
+  }
+  start.range = interval(table, "range");
+  start.bearing = interval_or(table, "bearing_deg", {0.0, 2.0 * std::numbers::pi}, kDegree);
+  start.speed = interval(table, "speed");
+  const std::string heading = table.text_or("heading", "absolute");
+  if (heading == "inbound") {
+    start.inbound = true;
+    start.heading = interval_or(table, "heading_offset_deg", {0.0, 0.0}, kDegree);
+  } else if (heading == "absolute") {
+    start.heading = interval_or(table, "heading_deg", {0.0, 2.0 * std::numbers::pi}, kDegree);
+  } else {
+    table.fail("heading", "unknown heading '" + heading + "' (expected inbound or absolute)");
+  }
+  return start;
+}
+
+/// The plot-noise keys of [sensor] (or a case's override, when any is present).
+std::optional<datasets::SensorNoise> noise_from(const ConfigTable& table, SensorKind kind,
+                                                const datasets::SensorNoise& fallback) {
+  datasets::SensorNoise noise = fallback;
+  bool any = false;
+  if (kind == SensorKind::kPolar) {
+    if (table.has("range_sigma")) noise.sigma(0) = table.real("range_sigma"), any = true;
+    if (table.has("azimuth_sigma_deg")) {
+      noise.sigma(1) = table.real("azimuth_sigma_deg") * kDegree;
+      any = true;
+    }
+  } else {
+    if (table.has("sigma")) noise.sigma = table.reals("sigma", 2), any = true;
+    if (table.has("correlation")) noise.correlation = table.real("correlation"), any = true;
+  }
+  if (!any) return std::nullopt;
+  return noise;
+}
+
+datasets::Sensor sensor_from(const ConfigTable& table) {
+  datasets::Sensor sensor;
+  sensor.kind =
+      choice(table, "kind",
+             std::array{SensorKind::kCartesian, SensorKind::kPolar, SensorKind::kRangeSensor});
+  const auto noise = noise_from(table, sensor.kind, sensor.noise);
+  if (!noise) {
+    table.fail(sensor.kind == SensorKind::kPolar ? "range_sigma" : "sigma",
+               "the sensor's plot noise is missing");
+  }
+  sensor.noise = *noise;
+  if (sensor.kind == SensorKind::kPolar) {
+    if (table.has("position")) sensor.position = table.reals("position", 2);
+    return sensor;
+  }
+  if (sensor.kind != SensorKind::kRangeSensor) return sensor;
+  if (table.has("samples")) {
+    sensor.samples_file = table.text("samples");
+    for (const char* key : {"knee", "softness"}) {
+      if (table.has(key)) table.fail(key, "a sampled sensor takes no distortion parameters");
+    }
+    datasets::RangeSensorData data;
+    try {
+      data = datasets::read_sensor_samples(sensor.samples_file);
+      sensor.sampled =
+          std::make_shared<const datasets::SampledSensor>(data.positions, data.outputs);
+    } catch (const std::exception& error) {
+      table.fail("samples", error.what());
+    }
+    sensor.samples_digest = datasets::digest(data);
+    sensor.calibration.lower = sensor.sampled->lower();
+    sensor.calibration.upper = sensor.sampled->upper();
+  } else {
+    sensor.distortion.knee = table.real("knee");
+    sensor.distortion.softness = table.real("softness");
+  }
+  if (const auto calibration = table.table("calibration")) {
+    datasets::SensorCalibration& c = sensor.calibration;
+    c.samples = calibration->count_or("samples", c.samples);
+    if (calibration->has("box")) {
+      const Eigen::MatrixXd box = calibration->matrix("box", 2, 2);
+      c.lower = box.row(0).transpose();
+      c.upper = box.row(1).transpose();
+    }
+    c.noise_sigma = calibration->real_or("noise_sigma", c.noise_sigma);
+  }
+  return sensor;
+}
+
+datasets::MenuEntry menu_entry_from(const ConfigTable& table) {
+  datasets::MenuEntry e;
+  e.kind = choice(table, "kind",
+                  std::array{SegmentKind::kConstantVelocity, SegmentKind::kConstantAcceleration,
+                             SegmentKind::kTurn, SegmentKind::kZigzag, SegmentKind::kLaneChange});
+  e.probability = table.real("probability");
+  if (e.kind != SegmentKind::kZigzag) e.duration = interval(table, "duration");
+  switch (e.kind) {
+    case SegmentKind::kConstantAcceleration:
+      e.magnitude = interval(table, "magnitude");
+      e.direction = choice(
+          table, "direction",
+          std::array{Direction::kAlong, Direction::kLateral, Direction::kAny, Direction::kAxis});
+      break;
+    case SegmentKind::kTurn:
+      e.rate = interval(table, "rate_deg", kDegree);
+      break;
+    case SegmentKind::kZigzag: {
+      e.magnitude = interval(table, "magnitude");
+      e.quarter = interval(table, "quarter");
+      const Eigen::VectorXd periods = table.reals("periods", 2);
+      if (periods(0) != std::floor(periods(0)) || periods(1) != std::floor(periods(1)) ||
+          !(periods(0) >= 1.0 && periods(1) >= periods(0) && periods(1) <= 1000.0)) {
+        table.fail("periods", "must be whole numbers [min, max] with 1 ≤ min ≤ max ≤ 1000");
+      }
+      e.min_periods = static_cast<int>(periods(0));
+      e.max_periods = static_cast<int>(periods(1));
+      break;
+    }
+    case SegmentKind::kLaneChange:
+      e.magnitude = interval(table, "offset");
+      break;
+    case SegmentKind::kConstantVelocity:
+      break;
+  }
+  return e;
+}
+
+datasets::ScriptedSegment segment_from(const ConfigTable& table) {
+  datasets::ScriptedSegment s;
+  s.kind = choice(
+      table, "kind",
+      std::array{SegmentKind::kConstantAcceleration, SegmentKind::kTurn, SegmentKind::kZigzag,
+                 SegmentKind::kLaneChange, SegmentKind::kConstantVelocity});
+  s.start = table.real("start");
+  if (s.kind == SegmentKind::kZigzag) {
+    s.quarter = table.real("quarter");
+    const Eigen::VectorXd amplitudes = table.reals("amplitudes");
+    s.amplitudes.assign(amplitudes.data(), amplitudes.data() + amplitudes.size());
+    return s;
+  }
+  s.end = table.real("end");
+  switch (s.kind) {
+    case SegmentKind::kConstantAcceleration:
+      s.acceleration = table.reals("acceleration", 2);
+      break;
+    case SegmentKind::kTurn:
+      s.rate = table.real("rate_deg") * kDegree;
+      break;
+    case SegmentKind::kLaneChange:
+      s.offset = table.real("offset");
+      break;
+    default:
+      break;
+  }
+  return s;
+}
+
+RegimeFile regime_from(const ConfigTable& root, const std::string& text) {
+  RegimeFile file;
+  datasets::Regime& r = file.regime;
+  r.name = root.text("name");
+  const std::string units = root.text("units");
+  if (units == "m") {
+    r.units = datasets::Units::kMetres;
+  } else if (units == "km") {
+    r.units = datasets::Units::kKilometres;
+  } else {
+    root.fail("units", "unknown units '" + units + "' (expected m or km)");
+  }
+  r.sample_period = root.real("sample_period");
+  r.scans = root.count("scans");
+  r.process_noise_sigma = root.real_or("process_noise_sigma", 0.0);
+  const auto sensor = root.table("sensor");
+  if (!sensor) root.fail("sensor", "missing");
+  r.sensor = sensor_from(*sensor);
+  if (const auto start = root.table("start")) {
+    r.start = start_from(*start);
+  } else if (!root.has("cases")) {
+    root.fail("start", "missing");
+  } else {
+    r.start.fixed = true;  // every case brings its own start
+  }
+  for (const ConfigTable& entry : root.tables("maneuvers"))
+    r.menu.push_back(menu_entry_from(entry));
+  for (const ConfigTable& table : root.tables("cases")) {
+    datasets::ScriptedCase c;
+    c.name = table.text("name");
+    if (const auto start = table.table("start")) c.start = start_from(*start);
+    c.noise = noise_from(table, r.sensor.kind, r.sensor.noise);
+    for (const ConfigTable& segment : table.tables("segments")) {
+      c.segments.push_back(segment_from(segment));
+    }
+    r.cases.push_back(std::move(c));
+  }
+  if (!root.has("start")) {
+    for (std::size_t i = 0; i < r.cases.size(); ++i) {
+      if (!r.cases[i].start) {
+        root.fail("cases[" + std::to_string(i) + "].start",
+                  "without a regime-wide [start] every case needs its own");
+      }
+    }
+  }
+  if (const auto splits = root.table("splits")) {
+    r.splits.training = splits->count_or("training", r.splits.training);
+    r.splits.validation = splits->count_or("validation", r.splits.validation);
+    r.splits.test = splits->count_or("test", r.splits.test);
+    r.splits.seed = splits->seed_or("seed", r.splits.seed);
+  }
+  for (const ConfigTable& table : root.tables("published")) {
+    PublishedFigure figure;
+    figure.source = table.text("source");
+    figure.filter = table.text("filter");
+    figure.case_name = table.text_or("case", "");
+    for (const std::string& key : table.keys()) {
+      if (key == "source" || key == "filter" || key == "case") continue;
+      figure.metric = key;
+      figure.value = table.real(key);
+      file.published.push_back(figure);
+    }
+  }
+  r.text = text;
+  datasets::Sha256 hash;
+  hash.update(text);
+  hash.update(r.sensor.samples_digest);
+  r.digest = hash.hex_digest();
+  r.validate();
+  return file;
+}
+
+}  // namespace
+
+const PublishedFigure* RegimeFile::find(const std::string& filter, const std::string& case_name,
+                                        const std::string& metric) const {
+  for (const PublishedFigure& figure : published) {
+    if (figure.filter == filter && figure.case_name == case_name && figure.metric == metric) {
+      return &figure;
+    }
+  }
+  return nullptr;
+}
+
+RegimeFile parse_regime(const std::string& text, const std::string& name) {
+  const auto document = ConfigDocument::parse(text, name);
+  RegimeFile file = document->load_checked([&] { return regime_from(document->root(), text); });
+  file.regime.file = name;
+  return file;
+}
+
+RegimeFile load_regime(const std::filesystem::path& path) {
+  const auto document = ConfigDocument::load(path);
+  RegimeFile file =
+      document->load_checked([&] { return regime_from(document->root(), document->text()); });
+  file.regime.file = path.string();
+  return file;
+}
+
+}  // namespace imm::support

@@ -1,0 +1,23 @@
+#pragma once
+/// What a kind of model needs of a regime, checked when its config loads (InvalidParameter naming
+/// the config's `regime` key, so the user sees which regime and why).
+
+#include <string>
+
+#include "imm/datasets/regime.hpp"
+
+namespace imm::trainer {
+
+/// The per-axis filters (GA-fuzzy IMM, input estimator, FCM-IMM): Cartesian plots with one σ on
+/// both axes, uncorrelated, the same in every case. `kind` names the filter in the message.
+void require_per_axis_sensor(const datasets::Regime& regime, const std::string& kind);
+
+/// A sensor of the given kind (the weighted IMM: polar; the FIMM: a range sensor).
+void require_sensor(const datasets::Regime& regime, datasets::SensorKind sensor,
+                    const std::string& kind);
+
+/// An acceleration scale of the regime for the defaults and search boxes that depend on it: its
+/// largest commanded acceleration, else ten times its truth noise, else one unit.
+[[nodiscard]] double acceleration_scale(const datasets::Regime& regime);
+
+}  // namespace imm::trainer

@@ -1,0 +1,37 @@
+#include "imm/trainer/regime_checks.hpp"
+
+#include <algorithm>
+
+#include "imm/core/invalid_parameter.hpp"
+
+namespace imm::trainer {
+
+void require_per_axis_sensor(const datasets::Regime& regime, const std::string& kind) {
+  require_sensor(regime, datasets::SensorKind::kCartesian, kind);
+  for (int c = 0; c < regime.case_count(); ++c) {
+    const auto& noise = regime.noise_of(c);
+    require(noise.sigma(0) == noise.sigma(1) && noise.correlation == 0.0, "regime",
+            kind + " needs one plot σ on both axes and no correlation (regime '" + regime.name +
+                "', sensor.sigma)");
+    require(noise.sigma == regime.sensor.noise.sigma, "regime",
+            kind + " is built for one plot σ; regime '" + regime.name +
+                "' varies it from case to case");
+  }
+}
+
+void require_sensor(const datasets::Regime& regime, datasets::SensorKind sensor,
+                    const std::string& kind) {
+  require(regime.sensor.kind == sensor, "regime",
+          kind + " needs a " + std::string(datasets::to_string(sensor)) + " sensor; regime '" +
+              regime.name + "' has a " + std::string(datasets::to_string(regime.sensor.kind)) +
+              " one (sensor.kind)");
+}
+
+double acceleration_scale(const datasets::Regime& regime) {
+  const double a = regime.max_acceleration();
+  if (a > 0.0) return a;
+  if (regime.process_noise_sigma > 0.0) return 10.0 * regime.process_noise_sigma;
+  return 1.0;
+}
+
+}  // namespace imm::trainer
