@@ -186,7 +186,13 @@ TEST_P(ConfigDrill, EveryNumericKeyAtEveryAbsurdValueIsRefusedNamingTheKeyOrRuns
       } else if (result.exit_code == 2) {
         ++refused;
         const bool one_line = std::count(result.err.begin(), result.err.end(), '\n') == 1;
-        const bool names_key = result.err.find("key '" + leaf.key) != std::string::npos;
+        // The key itself, or the table or array that holds it when the rule spans its members
+        // (a regime's maneuver probabilities must sum to 1: "key 'maneuvers'").
+        bool names_key = result.err.find("key '" + leaf.key) != std::string::npos;
+        for (std::size_t cut = leaf.key.find_first_of(".["); !names_key && cut != std::string::npos;
+             cut = leaf.key.find_first_of(".[", cut + 1)) {
+          names_key = result.err.find("key '" + leaf.key.substr(0, cut) + "'") != std::string::npos;
+        }
         const bool names_file = result.err.find(config_path.string()) != std::string::npos;
         if (!one_line || !names_key || !names_file) {
           failures.push_back(what + ": refused without naming the key on one line: " + result.err);
