@@ -619,5 +619,73 @@ TEST_F(Tools, ImmInspectShowsRuleTablesLikeTable2) {
       << text.out;
 }
 
+// A regime no code has seen, written here: the GA's training regime with its accelerations
+// multiplied by 3 at T = 2 s, and the input estimator's at T = 2 s. Each trains, records the
+// regime, and is evaluated on it beside its baselines, with no change anywhere else.
+TEST_F(Tools, GaAndInputEstimatorTrainAndEvaluateOnARegimeWrittenInTheTest) {
+  const auto ga_regime =
+      testing::write_preset_variant(dir_, "ga_imm_training",
+                                    {{"name = \"ga_imm_training\"", "name = \"ga_times_three\""},
+                                     {"sample_period = 1.0", "sample_period = 2.0"},
+                                     {"scans = 160", "scans = 60"},
+                                     {"magnitude = [0.001, 0.1]", "magnitude = [0.003, 0.3]"},
+                                     {"training = 9", "training = 2"},
+                                     {"validation = 6", "validation = 1"},
+                                     {"test = 100", "test = 6"}});
+  std::string ga = testing::slurp(config("configs/ga_fuzzy_imm.toml"));
+  ga.replace(ga.find("population = 500"), 16, "population = 20");
+  ga.replace(ga.find("generations = 100"), 17, "generations = 3");
+  testing::write_text(dir_ / "ga.toml", ga);
+  const auto models = dir_ / "models";
+  const auto trained = run_tool("imm-train",
+                                {"ga", "--config", (dir_ / "ga.toml").string(), "--regime",
+                                 ga_regime.string(), "--out", (models / "ga.h5").string()},
+                                root_);
+  ASSERT_EQ(trained.exit_code, 0) << trained.err;
+  EXPECT_NE(trained.err.find("levels [0.003, 0.03, 0.3]"), std::string::npos) << trained.err;
+  const auto ga_report = run_tool("imm-eval",
+                                  {"ga-imm", "--models", models.string(), "--model", "ga", "--out",
+                                   (dir_ / "ga-report").string()},
+                                  root_);
+  ASSERT_TRUE(ga_report.exit_code == 0 || ga_report.exit_code == 5) << ga_report.err;
+  EXPECT_NE(ga_report.out.find("regime ga_times_three"), std::string::npos) << ga_report.out;
+  EXPECT_NE(ga_report.out.find("the model's own"), std::string::npos) << ga_report.out;
+  for (const char* filter : {"| AIMM3 ", "| AIMM-tuned ", "| IMM-tuned ", "| GA-IMM "}) {
+    EXPECT_NE(ga_report.out.find(filter), std::string::npos) << filter;
+  }
+  // The paper's tables are built for T = 1 s: left out, with the reason.
+  EXPECT_NE(ga_report.out.find("GA-IMM-paper left out"), std::string::npos) << ga_report.out;
+  // The T = 2 s model on the T = 1 s paper scenario is refused, naming the field.
+  const auto refused = run_tool("imm-eval",
+                                {"ga-imm", "--models", models.string(), "--model", "ga", "--regime",
+                                 kTable3, "--out", (dir_ / "refused").string()},
+                                root_);
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("sample_period"), std::string::npos) << refused.err;
+
+  const auto mlp_regime = testing::write_preset_variant(
+      dir_, "input_estimator_training",
+      {{"sample_period = 1.0", "sample_period = 2.0"}, {"test = 100", "test = 4"}});
+  std::string mlp = testing::slurp(config("configs/mlp_input_estimator.toml"));
+  for (std::size_t at = mlp.find("epochs = 3000"); at != std::string::npos;
+       at = mlp.find("epochs = 3000")) {
+    mlp.replace(at, 13, "epochs = 200");
+  }
+  mlp.replace(mlp.find("max_validation_rmse = 0.3"), 25, "max_validation_rmse = 5.0");
+  testing::write_text(dir_ / "mlp.toml", mlp);
+  const auto mlp_trained = run_tool("imm-train",
+                                    {"mlp", "--config", (dir_ / "mlp.toml").string(), "--regime",
+                                     mlp_regime.string(), "--out", (models / "mlp.h5").string()},
+                                    root_);
+  ASSERT_EQ(mlp_trained.exit_code, 0) << mlp_trained.err;
+  const auto mlp_report = run_tool("imm-eval",
+                                   {"input-estimator", "--models", models.string(), "--model",
+                                    "mlp", "--out", (dir_ / "mlp-report").string()},
+                                   root_);
+  ASSERT_TRUE(mlp_report.exit_code == 0 || mlp_report.exit_code == 5) << mlp_report.err;
+  EXPECT_NE(mlp_report.out.find("the model's own"), std::string::npos) << mlp_report.out;
+  EXPECT_NE(mlp_report.out.find("| all tracks "), std::string::npos) << mlp_report.out;
+}
+
 }  // namespace
 }  // namespace imm
