@@ -194,14 +194,13 @@ int run(const CommonOptions& options) {
   const datasets::TrackSet data = test_tracks(regime, options);
   const int runs = static_cast<int>(data.tracks.size());
   std::vector<Outcome> filters;
-  for (const auto& [name, make] : std::vector<std::pair<std::string, trainer::fcm::FilterFactory>>{
-           {"KF", [&] { return make_axis_cv_imm_filter(kf.spec); }},
-           {"AIMM", [&] { return make_aimm_filter(aimm.spec); }},
-           {"IMM-tuned", [&] { return make_axis_cv_imm_filter(imm.spec); }},
-           {"FCM-IMM", [&] { return make_fcm_imm_filter(fitted); }},
-           {"FCM-IMM-const", [&] { return make_fcm_imm_filter(constant); }}}) {
-    filters.push_back(run_filter(name, make, data, sigma));
-  }
+  const std::vector<std::pair<std::string, trainer::fcm::FilterFactory>> makers = {
+      {"KF", [&] { return make_axis_cv_imm_filter(kf.spec); }},
+      {"AIMM", [&] { return make_aimm_filter(aimm.spec); }},
+      {"IMM-tuned", [&] { return make_axis_cv_imm_filter(imm.spec); }},
+      {"FCM-IMM", [&] { return make_fcm_imm_filter(fitted); }},
+      {"FCM-IMM-const", [&] { return make_fcm_imm_filter(constant); }}};
+  for (const auto& [name, make] : makers) filters.push_back(run_filter(name, make, data, sigma));
   const Outcome& fcm = find(filters, "FCM-IMM");
 
   std::cout << "fcm-imm: " << regimes.describe() << "\n  test split: " << runs << " tracks x "
