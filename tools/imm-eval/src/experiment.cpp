@@ -139,6 +139,29 @@ datasets::TrackSet test_tracks(const datasets::Regime& regime, const CommonOptio
                               options.runs ? *options.runs : -1);
 }
 
+std::string case_label(const datasets::Regime& regime, int case_index) {
+  return regime.scripted() ? regime.case_name(case_index) : "all tracks";
+}
+
+std::vector<CaseTracks> tracks_by_case(const datasets::Regime& regime,
+                                       const datasets::TrackSet& data) {
+  std::vector<CaseTracks> cases(static_cast<std::size_t>(regime.case_count()));
+  for (std::size_t c = 0; c < cases.size(); ++c) {
+    cases[c].index = static_cast<int>(c);
+    cases[c].name = case_label(regime, static_cast<int>(c));
+    cases[c].tracks.regime = data.regime;
+    cases[c].tracks.split = data.split;
+    cases[c].tracks.seed = data.seed;
+    cases[c].tracks.sample_period = data.sample_period;
+    cases[c].tracks.scans = data.scans;
+  }
+  for (const datasets::Track& track : data.tracks) {
+    cases[static_cast<std::size_t>(track.case_index)].tracks.tracks.push_back(track);
+  }
+  std::erase_if(cases, [](const CaseTracks& c) { return c.tracks.tracks.empty(); });
+  return cases;
+}
+
 int finish_report(const std::filesystem::path& out, bool plotted,
                   const std::vector<std::string>& failures, bool failures_printed) {
   std::cout << "\nwrote metrics.json, details.json, CSV series"

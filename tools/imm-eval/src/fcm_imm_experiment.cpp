@@ -20,7 +20,6 @@
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/provenance.hpp"
-#include "imm/trainer/regime_checks.hpp"
 
 namespace imm::evaluation {
 namespace {
@@ -153,9 +152,7 @@ int run(const CommonOptions& options) {
   tuning.regime = regimes.trained.regime;
   tuning.filter = fitted;
   tuning.initial_first_probability = fitted.initial_probabilities(0);
-  const double a = trainer::acceleration_scale(tuning.regime);
-  tuning.tuning.min_log_q = std::log10(1e-7 * a * a);
-  tuning.tuning.max_log_q = std::log10(9.0 * a * a);
+  tuning.tuning.set_automatic_log_q(tuning.regime);
   const datasets::TrackSet training =
       datasets::draw_split(tuning.regime, datasets::Split::kTraining, 0);
   const auto kf = trainer::fcm::tune_kf(tuning, training);

@@ -160,15 +160,10 @@ int run(const FimmOptions& options) {
   bool plotted = true;
   Eigen::MatrixXd by_scan(steps, 0);
   std::vector<std::string> by_scan_names;
-  for (int c = 0; c < regime.case_count(); ++c) {
-    datasets::TrackSet part = data;
-    part.tracks.clear();
-    for (const auto& track : data.tracks) {
-      if (track.case_index == c) part.tracks.push_back(track);
-    }
-    if (part.tracks.empty()) continue;
-    const std::string name = regime.scripted() ? regime.case_name(c) : "all tracks";
-    const datasets::SensorNoise& noise = regime.noise_of(c);
+  for (const CaseTracks& one_case : tracks_by_case(regime, data)) {
+    const datasets::TrackSet& part = one_case.tracks;
+    const std::string& name = one_case.name;
+    const datasets::SensorNoise& noise = regime.noise_of(one_case.index);
     FimmSpec spec = base;
     spec.measurement_covariance = noise.covariance();
     FimmSpec iterated = spec;
@@ -224,7 +219,7 @@ int run(const FimmOptions& options) {
                          cell(100.0 * kMaxClampedShare, 0) + " %)");
     }
     // Run 0's path, and the MSE per scan.
-    const std::string stem = "case" + std::to_string(c);
+    const std::string stem = "case" + std::to_string(one_case.index);
     const datasets::Track& first = part.tracks.front();
     Eigen::MatrixXd path(steps, 8);
     path << first.truth.col(0), first.truth.col(3), first.plots, imm.first_run, fimm.first_run;

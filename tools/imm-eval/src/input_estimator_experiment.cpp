@@ -58,51 +58,50 @@ int run(const CommonOptions& options) {
       floor_runs(cases.size());
   std::vector<int> case_runs(cases.size(), 0);
   for (std::size_t c = 0; c < cases.size(); ++c) {
-    cases[c].name = regime.scripted() ? regime.case_name(static_cast<int>(c)) : "all tracks";
+    cases[c].name = case_label(regime, static_cast<int>(c));
     cases[c].mean_estimate = Eigen::VectorXd::Zero(steps);
     cases[c].cv_position_rmse = Eigen::VectorXd::Zero(steps);
     cases[c].corrected_position_rmse = Eigen::VectorXd::Zero(steps);
   }
-  for (const datasets::Track& track : data.tracks) {
-    const auto c = static_cast<std::size_t>(track.case_index);
+  // axis_trajectories gives each track's x then its y axis.
+  const std::vector<datasets::AxisTrajectory> axes = datasets::axis_trajectories(data);
+  for (std::size_t run = 0; run < axes.size(); ++run) {
+    const datasets::AxisTrajectory& t = axes[run];
+    const auto c = static_cast<std::size_t>(data.tracks[run / 2].case_index);
     CaseResult& out = cases[c];
-    datasets::TrackSet one;
-    one.tracks = {track};
-    for (const datasets::AxisTrajectory& t : datasets::axis_trajectories(one)) {
-      if (case_runs[c] == 0) out.true_acceleration = t.acceleration_input;
-      ++case_runs[c];
-      InputEstimationFilter filter(model, settings);
-      GaussianState<2> start;
-      start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
-      start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
-      filter.initialize(start);
-      GaussianState<2> known = start;  // the primary KF fed the true acceleration
-      Eigen::RowVector3d cv = Eigen::RowVector3d::Zero(), corrected = cv, floor = cv;
-      int samples = 0;
-      for (int k = 2; k < steps; ++k) {
-        if (filter.step(t.measurement(k)) != StepStatus::kOk) continue;
-        known = predict(known, motion.transition, motion.process_noise, G,
-                        Vector<1>(t.acceleration_input(k - 1)));
-        const auto known_report = update(known, Vector<1>(t.measurement(k)), H, R_matrix);
-        const auto& e = filter.cv_estimate();
-        const auto& p = filter.estimate();
-        auto add = [](Eigen::RowVector3d& sum, double nu, double dp, double dv) {
-          sum += Eigen::RowVector3d(nu * nu, dp * dp, dv * dv);
-        };
-        add(cv, filter.cv_innovation(), t.position(k) - e.mean(0), t.velocity(k) - e.mean(1));
-        add(corrected, filter.innovation(), t.position(k) - p.mean(0), t.velocity(k) - p.mean(1));
-        add(floor, known_report.innovation(0), t.position(k) - known.mean(0),
-            t.velocity(k) - known.mean(1));
-        ++samples;
-        out.mean_estimate(k) += filter.acceleration();
-        out.cv_position_rmse(k) += std::pow(t.position(k) - e.mean(0), 2);
-        out.corrected_position_rmse(k) += std::pow(t.position(k) - p.mean(0), 2);
-      }
-      const double n = std::max(1, samples);
-      cv_runs[c].push_back(cv / n);
-      corrected_runs[c].push_back(corrected / n);
-      floor_runs[c].push_back(floor / n);
+    if (case_runs[c] == 0) out.true_acceleration = t.acceleration_input;
+    ++case_runs[c];
+    InputEstimationFilter filter(model, settings);
+    GaussianState<2> start;
+    start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
+    start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
+    filter.initialize(start);
+    GaussianState<2> known = start;  // the primary KF fed the true acceleration
+    Eigen::RowVector3d cv = Eigen::RowVector3d::Zero(), corrected = cv, floor = cv;
+    int samples = 0;
+    for (int k = 2; k < steps; ++k) {
+      if (filter.step(t.measurement(k)) != StepStatus::kOk) continue;
+      known = predict(known, motion.transition, motion.process_noise, G,
+                      Vector<1>(t.acceleration_input(k - 1)));
+      const auto known_report = update(known, Vector<1>(t.measurement(k)), H, R_matrix);
+      const auto& e = filter.cv_estimate();
+      const auto& p = filter.estimate();
+      auto add = [](Eigen::RowVector3d& sum, double nu, double dp, double dv) {
+        sum += Eigen::RowVector3d(nu * nu, dp * dp, dv * dv);
+      };
+      add(cv, filter.cv_innovation(), t.position(k) - e.mean(0), t.velocity(k) - e.mean(1));
+      add(corrected, filter.innovation(), t.position(k) - p.mean(0), t.velocity(k) - p.mean(1));
+      add(floor, known_report.innovation(0), t.position(k) - known.mean(0),
+          t.velocity(k) - known.mean(1));
+      ++samples;
+      out.mean_estimate(k) += filter.acceleration();
+      out.cv_position_rmse(k) += std::pow(t.position(k) - e.mean(0), 2);
+      out.corrected_position_rmse(k) += std::pow(t.position(k) - p.mean(0), 2);
     }
+    const double n = std::max(1, samples);
+    cv_runs[c].push_back(cv / n);
+    corrected_runs[c].push_back(corrected / n);
+    floor_runs[c].push_back(floor / n);
   }
   auto stack = [](const std::vector<Eigen::RowVector3d>& rows) {
     Eigen::MatrixXd m(static_cast<Eigen::Index>(rows.size()), 3);

@@ -82,14 +82,9 @@ int run(const CommonOptions& options) {
   std::vector<std::string> failures;
   bool plotted = true;
   const int settled = trainer::wimm::first_settled_scan(data.scans);
-  for (int c = 0; c < regime.case_count(); ++c) {
-    datasets::TrackSet part = data;
-    part.tracks.clear();
-    for (const auto& track : data.tracks) {
-      if (track.case_index == c) part.tracks.push_back(track);
-    }
-    if (part.tracks.empty()) continue;
-    const std::string case_name = regime.scripted() ? regime.case_name(c) : "all tracks";
+  for (const CaseTracks& one_case : tracks_by_case(regime, data)) {
+    const datasets::TrackSet& part = one_case.tracks;
+    const std::string& case_name = one_case.name;
     std::vector<Row> rows;
     for (const auto& [name, spec] :
          std::vector<std::pair<std::string, WimmSpec>>{{"nIMM", normal},
@@ -158,7 +153,7 @@ int run(const CommonOptions& options) {
       names.push_back(rows[r].filter);
       az.col(static_cast<Eigen::Index>(r)) = rows[r].score.azimuth_rmse;
     }
-    const std::string stem = "case" + std::to_string(c);
+    const std::string stem = "case" + std::to_string(one_case.index);
     write_series_csv(out / (stem + "_azimuth_rmse.csv"), names, az);
     Eigen::MatrixXd mu(w.azimuth_rmse.size(), 4);
     mu << n.mean_mode_probabilities, w.mean_mode_probabilities;

@@ -81,8 +81,7 @@ FcmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
   AxisImmSettings settings;
   settings.initial_first_probability = c.initial_first_probability;
   s.initial_probabilities = settings.initial_probabilities(modes);
-  c.tuning.min_log_q = std::log10(1e-7 * a * a);
-  c.tuning.max_log_q = std::log10(9.0 * a * a);
+  c.tuning.set_automatic_log_q(c.regime);
   if (const auto u = root.table("tuning")) {
     FcmTuning& g = c.tuning;
     if (u->has("windows")) {
@@ -95,7 +94,6 @@ FcmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
     }
     if (u->is_array("log10_q")) {
       std::tie(g.min_log_q, g.max_log_q) = range(*u, "log10_q", {g.min_log_q, g.max_log_q});
-      g.automatic_log_q = false;
     } else if (u->has("log10_q") && u->text("log10_q") != "auto") {
       u->fail("log10_q", "expected \"auto\" or [min, max]");
     }
@@ -140,6 +138,12 @@ std::vector<double> noise_levels(const std::vector<double>& x, int n, double max
 }
 
 }  // namespace
+
+void FcmTuning::set_automatic_log_q(const datasets::Regime& regime) {
+  const double a = acceleration_scale(regime);
+  min_log_q = std::log10(1e-7 * a * a);
+  max_log_q = std::log10(9.0 * a * a);
+}
 
 void FcmTrainingConfig::validate() const {
   require_per_axis_sensor(regime, "the FCM-IMM");

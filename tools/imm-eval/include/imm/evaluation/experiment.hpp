@@ -83,6 +83,19 @@ void check_model(const ModelRequirements& model, const EvaluationRegimes& regime
 [[nodiscard]] datasets::TrackSet test_tracks(const datasets::Regime& regime,
                                              const CommonOptions& options);
 
+/// A case's name in a report: the scripted case's, or "all tracks" for a random regime.
+[[nodiscard]] std::string case_label(const datasets::Regime& regime, int case_index);
+
+/// The tracks of one case of the regime.
+struct CaseTracks {
+  int index = 0;
+  std::string name;  ///< case_label
+  datasets::TrackSet tracks;
+};
+/// `data` split by case, in case order; a case without tracks (fewer runs than cases) is left out.
+[[nodiscard]] std::vector<CaseTracks> tracks_by_case(const datasets::Regime& regime,
+                                                     const datasets::TrackSet& data);
+
 /// The closing lines of a report: where it went, the gate failures on stderr (unless printed
 /// already), and the exit code.
 int finish_report(const std::filesystem::path& out, bool plotted,

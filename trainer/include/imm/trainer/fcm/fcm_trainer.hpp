@@ -33,13 +33,16 @@ namespace imm::trainer::fcm {
 
 struct FcmTuning {
   std::vector<int> windows = {8, 16, 32};
-  bool automatic_log_q = true;               ///< log10 q over the regime's scale (see above)
   double min_log_q = -2.0, max_log_q = 4.5;  ///< log10 q, (unit/s²)²
   double min_stay = 0.8, max_stay = 0.995;
   double min_gain = 0.0, max_gain = 1.0;
   double min_fuzzifier = 1.2, max_fuzzifier = 4.0;
   double min_separation = 0.5, max_separation = 6.0;
   int max_evaluations = 150;  ///< Subplex budget per window
+
+  /// The automatic log10 q box of a regime (`log10_q = "auto"`): [log10(1e-7 a²), log10(9 a²)],
+  /// a the regime's acceleration scale (regime_checks.hpp).
+  void set_automatic_log_q(const datasets::Regime& regime);
 };
 
 struct FcmTrainingConfig {
