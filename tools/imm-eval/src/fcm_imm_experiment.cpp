@@ -128,13 +128,6 @@ std::string describe(const std::vector<double>& values) {
   return text.str();
 }
 
-const Outcome& find(const std::vector<Outcome>& filters, const std::string& name) {
-  for (const auto& f : filters) {
-    if (f.name == name) return f;
-  }
-  throw std::logic_error("missing filter " + name);
-}
-
 int run(const CommonOptions& options) {
   const std::filesystem::path model_path = options.model_path();
   const io::ModelFileReader reader(model_path, io::kFcmImmKind);
@@ -198,7 +191,7 @@ int run(const CommonOptions& options) {
       {"FCM-IMM", [&] { return make_fcm_imm_filter(fitted); }},
       {"FCM-IMM-const", [&] { return make_fcm_imm_filter(constant); }}};
   for (const auto& [name, make] : makers) filters.push_back(run_filter(name, make, data, sigma));
-  const Outcome& fcm = find(filters, "FCM-IMM");
+  const Outcome& fcm = find_filter(filters, "FCM-IMM");
 
   std::cout << "fcm-imm: " << regimes.describe() << "\n  test split: " << runs << " tracks x "
             << data.scans << " scans, seed " << options.seed
@@ -272,7 +265,7 @@ int run(const CommonOptions& options) {
     pos.col(static_cast<Eigen::Index>(i)) = filters[i].position_rmse;
     vel.col(static_cast<Eigen::Index>(i)) = filters[i].velocity_rmse;
   }
-  fraction << fcm.fraction, find(filters, "FCM-IMM-const").fraction;
+  fraction << fcm.fraction, find_filter(filters, "FCM-IMM-const").fraction;
   write_series_csv(out / "position_rmse.csv", names, pos);
   write_series_csv(out / "velocity_rmse.csv", names, vel);
   write_series_csv(out / "maneuver_fraction.csv", {"FCM-IMM", "FCM-IMM-const"}, fraction);
@@ -280,8 +273,8 @@ int run(const CommonOptions& options) {
   const double unit = regime.units == datasets::Units::kMetres ? 1e3 : 1.0;
   Eigen::MatrixXd path(steps, 8);
   path << first.truth.col(0) / unit, first.truth.col(3) / unit, first.plots.col(0) / unit,
-      first.plots.col(1) / unit, find(filters, "KF").first_run.col(0) / unit,
-      find(filters, "KF").first_run.col(2) / unit, fcm.first_run.col(0) / unit,
+      first.plots.col(1) / unit, find_filter(filters, "KF").first_run.col(0) / unit,
+      find_filter(filters, "KF").first_run.col(2) / unit, fcm.first_run.col(0) / unit,
       fcm.first_run.col(2) / unit;
   write_series_csv(out / "trajectory_run0.csv",
                    {"truth_x", "truth", "plots_x", "plots", "KF_x", "KF", "FCM-IMM_x", "FCM-IMM"},

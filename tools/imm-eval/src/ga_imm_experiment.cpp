@@ -51,13 +51,6 @@ std::string list(const std::vector<double>& values) {
   return out.str();
 }
 
-const FilterOutcome& find(const std::vector<FilterOutcome>& filters, const std::string& name) {
-  for (const auto& f : filters) {
-    if (f.name == name) return f;
-  }
-  throw std::logic_error("missing filter " + name);
-}
-
 int run(const GaImmOptions& options) {
   const std::filesystem::path model_path = options.common.model_path();
   const io::ModelFileReader reader(model_path, io::kGaFuzzyImmKind);
@@ -167,7 +160,7 @@ int run(const GaImmOptions& options) {
   }
 
   // Table, with ours − each filter and its uncertainty.
-  const FilterOutcome& ours = find(filters, "GA-IMM");
+  const FilterOutcome& ours = find_filter(filters, "GA-IMM");
   std::map<std::string, std::pair<Difference, Difference>> versus;
   for (const auto& f : filters) {
     if (f.name == ours.name) continue;
@@ -270,7 +263,7 @@ int run(const GaImmOptions& options) {
   bool plotted = write_error_series(filters, data.scans, out);
   plotted &= write_mode_probabilities(ours, out, "mode_probabilities_ga_imm");
   if (paper) {
-    plotted &= write_mode_probabilities(find(filters, "GA-IMM-paper"), out,
+    plotted &= write_mode_probabilities(find_filter(filters, "GA-IMM-paper"), out,
                                         "mode_probabilities_ga_imm_paper");
   }
   return finish_report(out, plotted, failures, /*failures_printed=*/true);

@@ -17,7 +17,9 @@
 #include <filesystem>
 #include <functional>
 #include <optional>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "imm/datasets/track.hpp"
 #include "imm/io/model_file.hpp"
@@ -82,6 +84,16 @@ void check_model(const ModelRequirements& model, const EvaluationRegimes& regime
 /// The test tracks (--runs of them, or the regime's test split) of --seed.
 [[nodiscard]] datasets::TrackSet test_tracks(const datasets::Regime& regime,
                                              const CommonOptions& options);
+
+/// The filter named `name` among an experiment's results (anything with a `name`).
+template <class Outcome>
+[[nodiscard]] const Outcome& find_filter(const std::vector<Outcome>& filters,
+                                         const std::string& name) {
+  for (const Outcome& f : filters) {
+    if (f.name == name) return f;
+  }
+  throw std::logic_error("missing filter " + name);
+}
 
 /// A case's name in a report: the scripted case's, or "all tracks" for a random regime.
 [[nodiscard]] std::string case_label(const datasets::Regime& regime, int case_index);
