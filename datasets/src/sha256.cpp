@@ -2,6 +2,8 @@
 
 #include <bit>
 #include <cstring>
+#include <fstream>
+#include <stdexcept>
 
 namespace imm::datasets {
 namespace {
@@ -92,6 +94,19 @@ std::string Sha256::hex_digest() {
 std::string sha256_hex(std::string_view text) {
   Sha256 hash;
   hash.update(text);
+  return hash.hex_digest();
+}
+
+std::string file_sha256_hex(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path.string() + ": cannot open to hash");
+  Sha256 hash;
+  std::array<char, 1 << 16> block{};
+  while (in) {
+    in.read(block.data(), block.size());
+    hash.update(block.data(), static_cast<std::size_t>(in.gcount()));
+  }
+  if (in.bad()) throw std::runtime_error(path.string() + ": read error while hashing");
   return hash.hex_digest();
 }
 

@@ -207,21 +207,6 @@ TEST_F(Tools, ImmTrainFreezeNamesTheBadKey) {
   EXPECT_FALSE(std::filesystem::exists(dir_ / "m.h5"));
 }
 
-TEST_F(Tools, NightlyPipelineStopsWithNonZeroExitOnAFailingStage) {
-  testing::write_text(dir_ / "nightly.toml",
-                      "[[models]]\nname = \"broken\"\ncommand = \"freeze\"\nconfig = \"" +
-                          (dir_ / "missing.toml").string() + "\"\nout = \"" +
-                          (dir_ / "m.h5").string() +
-                          "\"\n[[evaluations]]\nexperiment = \"plain-imm\"\nmodels = \"" +
-                          dir_.path().string() + "\"\nout = \"" + (dir_ / "r").string() + "\"\n");
-  const auto result =
-      run_tool("imm-train", {"all", "--config", (dir_ / "nightly.toml").string()}, root_);
-  EXPECT_EQ(result.exit_code, 3) << result.err;
-  EXPECT_NE(result.err.find("FAILED"), std::string::npos) << result.err;
-  EXPECT_NE(result.err.find("stopped after 1 of 2 stages"), std::string::npos) << result.err;
-  EXPECT_FALSE(std::filesystem::exists(dir_ / "r"));
-}
-
 TEST_F(Tools, PlainImmEvaluationWritesMetricsAndBeatsEachModeAlone) {
   const auto model = dir_ / "models" / "cv3_imm.h5";
   freeze_cv3(model);

@@ -2,12 +2,14 @@
 
 #include <fstream>
 
+#include "imm/datasets/sha256.hpp"
 #include "imm/datasets/track.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/freeze.hpp"
 #include "imm/trainer/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/registry.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
 #include "testing/config_error.hpp"
 #include "testing/temp_dir.hpp"
@@ -18,7 +20,7 @@ namespace {
 TEST(Freeze, WritesALoadableModelWithProvenanceAndMetrics) {
   const testing::TempDir dir;
   const auto out = dir / "sub" / "cv3.h5";
-  const FreezeSummary summary = freeze_plain_imm({"configs/track/cv3_imm.toml", out});
+  const FreezeSummary summary = freeze_plain_imm({"configs/track/cv3_imm.toml", out, {}});
   EXPECT_EQ(summary.modes, 3);
   EXPECT_EQ(summary.state_dimension, 4);
   const io::ModelFileReader reader(out, io::kPlainImmKind);
@@ -32,7 +34,7 @@ TEST(Freeze, WritesALoadableModelWithProvenanceAndMetrics) {
 TEST(Freeze, BadConfigLeavesNoModelBehind) {
   const testing::TempDir dir;
   testing::write_text(dir / "bad.toml", "sample_period = 1.0\n");
-  EXPECT_THROW((void)freeze_plain_imm({dir / "bad.toml", dir / "m.h5"}), support::ConfigError);
+  EXPECT_THROW((void)freeze_plain_imm({dir / "bad.toml", dir / "m.h5", {}}), support::ConfigError);
   EXPECT_FALSE(std::filesystem::exists(dir / "m.h5"));
 }
 
@@ -54,7 +56,7 @@ TEST(Nightly, UnknownKeyInThePlanIsAnError) {
   const testing::TempDir dir;
   testing::write_text(
       dir / "n.toml",
-      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\nout = \"o\"\n"
+      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\nout = \"models/o\"\n"
       "threads = 2\n");
   try {
     (void)load_nightly_plan(dir / "n.toml");
@@ -64,18 +66,42 @@ TEST(Nightly, UnknownKeyInThePlanIsAnError) {
   }
 }
 
-TEST(Nightly, StopsAtTheFirstFailingStage) {
-  NightlyPlan plan;
-  for (const char* name : {"a", "b", "c"}) plan.stages.push_back({"model", name, "x", {}, {}});
-  std::vector<std::string> ran;
-  const auto results = run_nightly(plan, [&](const NightlyStage& stage) {
-    ran.push_back(stage.name);
-    return stage.name == "b" ? 7 : 0;
-  });
-  EXPECT_EQ(ran, (std::vector<std::string>{"a", "b"}));
-  ASSERT_EQ(results.size(), 2u);
-  EXPECT_EQ(results.back().exit_code, 7);
-  EXPECT_GE(results.front().wall_seconds, 0.0);
+TEST(Nightly, AnEvaluationMustNameAModelStage) {
+  const testing::TempDir dir;
+  testing::write_text(dir / "n.toml",
+                      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\n"
+                      "out = \"models/a.h5\"\n[[evaluations]]\nexperiment = \"plain-imm\"\n"
+                      "model = \"b\"\nout = \"r/\"\n");
+  try {
+    (void)load_nightly_plan(dir / "n.toml");
+    FAIL();
+  } catch (const support::ConfigError& error) {
+    EXPECT_EQ(error.key(), "evaluations[0].model");
+  }
+}
+
+TEST(Nightly, AModelMustBeWrittenInsideTheRegistry) {
+  const testing::TempDir dir;
+  testing::write_text(dir / "n.toml",
+                      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\n"
+                      "out = \"elsewhere/a.h5\"\n");
+  try {
+    (void)load_nightly_plan(dir / "n.toml");
+    FAIL();
+  } catch (const support::ConfigError& error) {
+    EXPECT_EQ(error.key(), "models[0].out");
+  }
+}
+
+TEST(Nightly, EvaluationsFollowTheirModel) {
+  const NightlyPlan plan = load_nightly_plan("configs/nightly.toml");
+  for (const auto& stage : plan.stages) {
+    if (stage.kind != "model") continue;
+    for (const NightlyStage* e : plan.evaluations_of(stage.name)) {
+      ASSERT_TRUE(e->model_argument.has_value());
+      EXPECT_EQ(e->arguments[*e->model_argument], stage.out.string());
+    }
+  }
 }
 
 TEST(Nightly, ProcessExitCodesAndSignalsAreReported) {
@@ -116,6 +142,66 @@ TEST(WimmTraining, TracksComeFromTheConfigsRegime) {
   EXPECT_EQ(a.tracks[3].plots, b.tracks[3].plots);
   EXPECT_NE(a.tracks[0].truth.row(0), a.tracks[1].truth.row(0));
   EXPECT_GT(std::hypot(a.tracks[2].truth(0, 0), a.tracks[2].truth(0, 3)), 79e3);
+}
+
+}  // namespace
+}  // namespace imm::trainer
+
+namespace imm::trainer {
+namespace {
+
+std::string bytes_of(const std::filesystem::path& path) { return testing::slurp_text(path); }
+
+// A process killed between the manifest's rename (the commit point) and the shipped file's
+// rename leaves the new manifest beside the old file; the next registry operation (every nightly
+// starts with repair()) makes the file the manifest's, byte for byte, from the archive.
+TEST(Registry, RepairMakesTheShippedFilesTheManifests) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  const auto first = dir / "first.h5", second = dir / "second.h5";
+  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", first, {}});
+  testing::write_text(dir / "cv3.toml", "# another text, the same filter\n" +
+                                            read_text_file("configs/track/cv3_imm.toml"));
+  (void)freeze_plain_imm({dir / "cv3.toml", second, {}});
+  ASSERT_NE(bytes_of(first), bytes_of(second));
+  std::filesystem::create_directories(models);
+  {
+    Registry registry(models);
+    RegistryEntry entry = describe_model(first, dir.path(), "cv3");
+    entry.file = "cv3.h5";
+    registry.promote(entry, first);
+    entry = describe_model(second, dir.path(), "cv3");
+    entry.file = "cv3.h5";
+    registry.promote(entry, second);
+    EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(second));
+    ASSERT_EQ(registry.find("cv3")->history.size(), 1u);
+  }
+  // The crash: the manifest names the second model, the old bytes are still shipped.
+  std::filesystem::copy_file(first, models / "cv3.h5",
+                             std::filesystem::copy_options::overwrite_existing);
+  Registry registry(models);
+  EXPECT_EQ(registry.repair(), std::vector<std::string>{"cv3.h5"});
+  EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(second));
+  EXPECT_TRUE(registry.repair().empty());
+  // Rollback restores the first byte for byte, and the manifest says so after a reload.
+  (void)registry.rollback("cv3");
+  EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(first));
+  EXPECT_EQ(Registry(models).find("cv3")->sha256, datasets::file_sha256_hex(first));
+}
+
+TEST(Registry, AHostileManifestIsRefusedNamingTheField) {
+  const testing::TempDir dir;
+  testing::write_text(dir / "manifest.json",
+                      R"({"manifest_version": 1, "models": [{"name": "a", "kind": "plain_imm",
+                      "regime": {"name": "", "digest": ""}, "file": "../../etc/passwd",
+                      "sha256": "x", "schema_version": 1, "trainer_version": "v",
+                      "config_digest": "", "trained_utc": ""}]})");
+  try {
+    Registry registry(dir.path());
+    FAIL();
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("models[0]: file"), std::string::npos) << error.what();
+  }
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <fstream>
 #include <functional>
 #include <iostream>
 #include <map>
@@ -176,13 +177,62 @@ struct Inspector {
   }
 };
 
+// models/manifest.json (imm/trainer/registry.hpp) as tables: what is shipped, and its metrics.
+int print_manifest(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) {
+    std::cerr << "imm-inspect: " << path << ": cannot open\n";
+    return 2;
+  }
+  json manifest;
+  try {
+    manifest = json::parse(in);
+    std::cout << "| name | kind | regime | file | sha256 | schema | trainer | trained | promoted | "
+                 "earlier |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const json& e : manifest.at("models")) {
+      const std::string promoted = e.value("promoted_utc", "");
+      std::cout << "| " << e.at("name").get<std::string>() << " | "
+                << e.at("kind").get<std::string>() << " | "
+                << e.at("regime").at("name").get<std::string>() << " | "
+                << e.at("file").get<std::string>() << " | "
+                << e.at("sha256").get<std::string>().substr(0, 12) << " | "
+                << e.at("schema_version").get<int>() << " | "
+                << e.at("trainer_version").get<std::string>() << " | "
+                << e.at("trained_utc").get<std::string>() << " | "
+                << (promoted.empty() ? "–" : promoted) << " | "
+                << (e.contains("history") ? e.at("history").size() : 0) << " |\n";
+    }
+    std::cout << "\n| name | metric | value [95 %] | vs the model it replaced [95 %] "
+                 "|\n|---|---|---|---|\n";
+    for (const json& e : manifest.at("models")) {
+      if (!e.contains("metrics")) continue;
+      for (const auto& [metric, value] : e.at("metrics").items()) {
+        std::cout << "| " << e.at("name").get<std::string>() << " | " << metric << " | "
+                  << value.value("value", 0.0);
+        if (value.contains("interval") && value.at("interval").size() == 2) {
+          std::cout << " [" << value.at("interval")[0].get<double>() << ", "
+                    << value.at("interval")[1].get<double>() << "]";
+        }
+        std::cout << " | " << value.value("versus_previous", std::string("–")) << " |\n";
+      }
+    }
+  } catch (const json::exception& error) {
+    std::cerr << "imm-inspect: " << path << ": not a model manifest (" << error.what() << ")\n";
+    return 2;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"Print what an immtrain model or data-set file holds."};
   std::string path;
   bool as_json = false, full = false, show_config = false;
-  app.add_option("file", path, "model or data-set file")->required();
+  app.add_option("file", path, "model or data-set file (with --manifest: models/manifest.json)")
+      ->required();
+  bool show_manifest = false;
+  app.add_flag("--manifest", show_manifest, "print a model registry's manifest as tables");
   app.add_flag("--json", as_json, "machine-readable output");
   app.add_flag("--full", full, "print every row of every table");
   app.add_flag("--config", show_config, "print the full config text the file was made from");
@@ -190,6 +240,7 @@ int main(int argc, char** argv) {
   app.add_flag("--regime", show_regime,
                "print the full text of the regime a model was trained for");
   CLI11_PARSE(app, argc, argv);
+  if (show_manifest) return print_manifest(path);
 
   try {
     const ContainerReader file(path, "");

@@ -15,11 +15,13 @@
 // Every training config names its regime (configs/regimes/…); --regime trains the same config
 // for another regime.
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
-//   imm-train all --config configs/nightly.toml
+//   imm-train all --config configs/nightly.toml [--force] [--night NAME] [--reports DIR]
+//   imm-train rollback KIND [REGIME] [--registry models]
 //
-// Progress goes to stderr (spdlog). Exit codes: 0 model written (or every stage passed),
-// 1 usage, 2 invalid config or input, 3 a nightly stage failed, 4 the quality gate failed (no
-// model written).
+// Progress goes to stderr (spdlog). Exit codes: 0 model written (or every nightly candidate
+// promoted or unchanged), 1 usage, 2 invalid config or input, 3 a nightly stage failed, 4 the
+// quality gate failed (no model written), 6 a nightly candidate was held back by the regression
+// gate (worse than the shipped model).
 
 #include <omp.h>
 #include <spdlog/fmt/ranges.h>
@@ -40,6 +42,7 @@
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/registry.hpp"
 #include "imm/trainer/tsk/tsk_trainer.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
 
@@ -134,42 +137,72 @@ int run_freeze(const imm::trainer::FreezeOptions& options) {
   return 0;
 }
 
-int run_all(const std::filesystem::path& config) {
-  const auto plan = imm::trainer::load_nightly_plan(config);
-  const auto tools = imm::trainer::executable_folder();
-  spdlog::info("nightly plan {}: {} stages, tools from {}", config.string(), plan.stages.size(),
-               tools.string());
-  imm::trainer::NightlyObserver observer;
-  observer.on_start = [](const imm::trainer::NightlyStage& stage, std::size_t index,
-                         std::size_t count) {
-    std::string command = stage.executable;
-    for (const auto& argument : stage.arguments) command += " " + argument;
-    spdlog::info("[{}/{}] {} '{}': {}", index + 1, count, stage.kind, stage.name, command);
-  };
-  observer.on_finish = [](const imm::trainer::StageResult& result) {
-    if (result.exit_code == 0) {
-      spdlog::info("      {} '{}' done in {:.2f} s", result.stage->kind, result.stage->name,
-                   result.wall_seconds);
+struct NightlyCommand {
+  std::filesystem::path config;
+  bool force = false;
+  std::string night;
+  std::filesystem::path reports = "reports/nightly";
+};
+
+int run_all(const NightlyCommand& command) {
+  const auto plan = imm::trainer::load_nightly_plan(command.config);
+  imm::trainer::NightlyOptions options;
+  options.tools = imm::trainer::executable_folder();
+  options.force = command.force;
+  options.night = command.night;
+  options.reports = command.reports;
+  spdlog::info("nightly plan {}: {} stages, tools from {}, registry {}{}", command.config.string(),
+               plan.stages.size(), options.tools.string(), plan.registry.string(),
+               command.force ? " (--force: nothing cached)" : "");
+  options.on_finish = [](const imm::trainer::StageOutcome& o) {
+    const std::string line =
+        fmt::format("{} '{}': {} ({}){}{}", o.kind, o.name, o.status,
+                    o.cached ? "cached, ran " + o.night : fmt::format("{:.1f} s", o.wall_seconds),
+                    o.message.empty() ? "" : " — ", o.message);
+    if (o.failed) {
+      spdlog::error("{}", line);
+    } else if (o.held_back) {
+      spdlog::warn("{}", line);
     } else {
-      spdlog::error("      {} '{}' FAILED (exit code {}) after {:.2f} s", result.stage->kind,
-                    result.stage->name, result.exit_code, result.wall_seconds);
+      spdlog::info("{}", line);
     }
   };
-  const auto results = imm::trainer::run_nightly(
-      plan,
-      [&](const imm::trainer::NightlyStage& stage) {
-        return imm::trainer::run_process(tools / stage.executable, stage.arguments);
-      },
-      observer);
-  double total = 0.0;
-  for (const auto& result : results) total += result.wall_seconds;
-  const bool failed = results.empty() || results.back().exit_code != 0;
-  if (failed) {
-    spdlog::error("nightly pipeline stopped after {} of {} stages ({:.1f} s)", results.size(),
-                  plan.stages.size(), total);
-    return kExitStageFailed;
+  const auto result = imm::trainer::run_nightly(plan, options);
+  std::size_t failed = 0, held = 0, cached = 0;
+  for (const auto& o : result.stages) failed += o.failed, held += o.held_back, cached += o.cached;
+  const std::string summary =
+      fmt::format("nightly: {} stages in {:.1f} s, {} failed, {} held back, {} cached; report {}",
+                  result.stages.size(), result.wall_seconds, failed, held, cached,
+                  (result.report_folder / "index.html").string());
+  if (result.exit_code == 0) {
+    spdlog::info("{}", summary);
+  } else {
+    spdlog::error("{} (exit {})", summary, result.exit_code);
   }
-  spdlog::info("nightly pipeline passed: {} stages in {:.1f} s", results.size(), total);
+  return result.exit_code;
+}
+
+int run_rollback(const std::string& kind, const std::string& regime,
+                 const std::filesystem::path& registry_folder) {
+  imm::trainer::Registry registry(registry_folder);
+  const auto found = registry.find(kind, regime);
+  if (found.empty()) {
+    spdlog::error("rollback: no shipped {} model for regime '{}' in {}", kind, regime,
+                  registry.manifest_path().string());
+    return kExitBadInput;
+  }
+  if (found.size() > 1) {
+    std::string names;
+    for (const auto* e : found) names += " " + e->name;
+    spdlog::error("rollback: {} models of kind {} for regime '{}':{}", found.size(), kind, regime,
+                  names);
+    return kExitBadInput;
+  }
+  const std::string name = found.front()->name;
+  const std::string replaced = found.front()->sha256;
+  const auto restored = registry.rollback(name);
+  spdlog::info("rolled back {}: {} ({}) replaces {}", name, restored.file,
+               restored.sha256.substr(0, 12), replaced.substr(0, 12));
   return 0;
 }
 
@@ -232,9 +265,23 @@ int main(int argc, char** argv) {
                           "fit these samples (a range-sensor data set .h5 or a CSV "
                           "xi,eta,z1,z2); they must be the sensor samples the regime names");
 
-  std::filesystem::path nightly_config;
-  auto* all_command = app.add_subcommand("all", "run every stage of the nightly plan");
-  all_command->add_option("--config", nightly_config, "nightly plan TOML")->required();
+  NightlyCommand nightly;
+  auto* all_command = app.add_subcommand(
+      "all", "the nightly: train candidates, evaluate, promote what passes, write the report");
+  all_command->add_option("--config", nightly.config, "nightly plan TOML")->required();
+  all_command->add_flag("--force", nightly.force, "rerun every stage (ignore the stage cache)");
+  all_command->add_option("--night", nightly.night, "report folder name (default: UTC date)");
+  all_command->add_option("--reports", nightly.reports, "where the nightly reports go");
+
+  std::string rollback_kind, rollback_regime;
+  std::filesystem::path rollback_registry = "models";
+  auto* rollback_command = app.add_subcommand(
+      "rollback", "restore the model a promotion replaced: imm-train rollback KIND [REGIME]");
+  rollback_command->add_option("kind", rollback_kind, "model kind or nightly command (ga, …)")
+      ->required();
+  rollback_command->add_option("regime", rollback_regime,
+                               "regime name (omitted: a model trained for no regime)");
+  rollback_command->add_option("--registry", rollback_registry, "registry folder (models)");
 
   CLI11_PARSE(app, argc, argv);
   try {
@@ -345,7 +392,8 @@ int main(int argc, char** argv) {
                    import_options.csv.string(), import_options.out.string());
       return 0;
     }
-    if (*all_command) return run_all(nightly_config);
+    if (*all_command) return run_all(nightly);
+    if (*rollback_command) return run_rollback(rollback_kind, rollback_regime, rollback_registry);
   } catch (const imm::support::ConfigError& error) {
     spdlog::error("{}", error.what());
     return kExitBadInput;

@@ -38,6 +38,16 @@ void polish(const SearchObjective& f, std::vector<double> x, const std::vector<d
   if (xtol_abs > 0.0) optimizer.set_xtol_abs(xtol_abs);
   if (xtol_rel > 0.0) optimizer.set_xtol_rel(xtol_rel);
   optimizer.set_min_objective(call, &context);
+  // NLopt's default first step shrinks to the room left before the nearer bound; at a bound it
+  // becomes ~1e-16 and Subplex stops at once "converged" (xtol). Such a coordinate steps a
+  // quarter of its range instead.
+  std::vector<double> step(x.size());
+  optimizer.get_initial_step(x, step);
+  for (std::size_t d = 0; d < x.size(); ++d) {
+    const double range = upper[d] - lower[d];
+    if (range > 0.0 && std::abs(step[d]) < 1e-9 * range) step[d] = 0.25 * range;
+  }
+  optimizer.set_initial_step(step);
   double value = 0.0;
   try {
     (void)optimizer.optimize(x, value);

@@ -37,7 +37,8 @@ void add_common_options(CLI::App& command, CommonOptions& options, const std::st
   command.add_option("--model", options.model,
                      "model file: a name in --models (default " + model + ") or a path");
   command.add_option("--regime", options.regime,
-                     "regime TOML to evaluate on (default: the one recorded in the model)");
+                     "regime TOML to evaluate on, or a model file whose recorded regime to use "
+                     "(default: the one recorded in the model)");
   command.add_option("--runs", options.runs, "test tracks (default: the regime's test split)")
       ->check(CLI::PositiveNumber);
   command.add_option("--seed", options.seed, "seed of the test tracks");
@@ -70,11 +71,19 @@ support::RegimeFile recorded_regime(const io::Provenance& model,
 
 }  // namespace
 
+support::RegimeFile load_regime_option(const std::filesystem::path& path) {
+  if (path.extension() == ".h5") {
+    const io::ModelFileReader reader(path);
+    return recorded_regime(reader.provenance(), path);
+  }
+  return support::load_regime(path);
+}
+
 EvaluationRegimes evaluation_regimes(const CommonOptions& options, const io::Provenance& model,
                                      const std::filesystem::path& path) {
   EvaluationRegimes regimes;
   regimes.trained = recorded_regime(model, path);
-  regimes.evaluated = options.regime ? support::load_regime(*options.regime) : regimes.trained;
+  regimes.evaluated = options.regime ? load_regime_option(*options.regime) : regimes.trained;
   return regimes;
 }
 

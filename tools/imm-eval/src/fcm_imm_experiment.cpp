@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/evaluation/uncertainty.hpp"
 #include "imm/io/fcm_imm_file.hpp"
@@ -42,10 +43,10 @@ struct Outcome {
   Eigen::MatrixXd first_run;  // steps × 4 estimates of track 0 (x, vx, y, vy)
   long failed_steps = 0;
 
-  [[nodiscard]] Statistic statistic(int figure) const {
-    const Eigen::VectorXd sum = per_track.col(2 * figure), count = per_track.col(2 * figure + 1);
-    return [sum, count](const Eigen::VectorXd& w) { return std::sqrt(w.dot(sum) / w.dot(count)); };
+  [[nodiscard]] HeadlineMetric headline(int figure) const {
+    return rms_metric(kFigures[figure], per_track.col(2 * figure), per_track.col(2 * figure + 1));
   }
+  [[nodiscard]] Statistic statistic(int figure) const { return headline(figure).statistic(); }
 };
 
 Outcome run_filter(const std::string& name, const trainer::fcm::FilterFactory& make,
@@ -254,6 +255,8 @@ int run(const CommonOptions& options) {
   details["gate_failures"] = failures;
   trainer::write_json_atomically(out / "metrics.json", metrics);
   trainer::write_json_atomically(out / "details.json", details);
+  write_headline(out, {"fcm-imm", model_path, regime.name, regime.digest, options.seed, runs},
+                 {fcm.headline(0), fcm.headline(1), fcm.headline(2), fcm.headline(3)});
 
   // Series and plots (seed Fig. 5, 7, 8).
   const int steps = data.scans;

@@ -21,6 +21,7 @@
 
 #include "imm/datasets/random.hpp"
 #include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/evaluation/uncertainty.hpp"
 #include "imm/filters/fimm.hpp"
@@ -53,10 +54,10 @@ struct Score {
   Eigen::MatrixXd first_run;  ///< scans × 2: track 0's (ξ̂, η̂)
   Eigen::VectorXd scan_mse;   ///< per scan, over tracks
 
-  [[nodiscard]] Statistic statistic() const {
-    const Eigen::VectorXd sum = per_track.col(0), count = per_track.col(1);
-    return [sum, count](const Eigen::VectorXd& w) { return w.dot(sum) / w.dot(count); };
+  [[nodiscard]] HeadlineMetric headline(std::string name) const {
+    return ratio_metric(std::move(name), per_track.col(0), per_track.col(1));
   }
+  [[nodiscard]] Statistic statistic() const { return headline("mse").statistic(); }
 };
 
 // dη_m/dη of the true sensor at a position (central differences).
@@ -137,8 +138,10 @@ int run(const FimmOptions& options) {
   check_model(
       {regime.sample_period, datasets::SensorKind::kRangeSensor, std::nullopt, std::nullopt},
       regimes, model_path);
-  const trainer::tsk::TskTrainingConfig config =
-      trainer::tsk::load_tsk_config(options.config, options.common.regime);
+  const trainer::tsk::TskTrainingConfig config = trainer::tsk::load_tsk_config(
+      options.config, options.common.regime && options.common.regime->extension() != ".h5"
+                          ? options.common.regime
+                          : std::nullopt);
   FimmSpec base = config.fimm;
   base.sample_period = regime.sample_period;
   std::ostringstream settings;
@@ -159,6 +162,9 @@ int run(const FimmOptions& options) {
   std::vector<std::vector<std::string>> rows, split;
   bool plotted = true;
   Eigen::MatrixXd by_scan(steps, 0);
+  std::vector<HeadlineMetric> headline;  // FIMM (EKF) and (IEKF) MSE per case
+  Eigen::Index offset = 0;
+  const auto all_runs = static_cast<Eigen::Index>(data.tracks.size());
   std::vector<std::string> by_scan_names;
   for (const CaseTracks& one_case : tracks_by_case(regime, data)) {
     const datasets::TrackSet& part = one_case.tracks;
@@ -176,6 +182,9 @@ int run(const FimmOptions& options) {
     const Score iekf = score([&] { return std::make_unique<FimmFilter>(iterated, sensor_model); },
                              part, regime.sensor, r);
     const int runs = static_cast<int>(part.tracks.size());
+    headline.push_back(in_case(fimm.headline("fimm_mse " + name), offset, all_runs));
+    headline.push_back(in_case(iekf.headline("fimm_iekf_mse " + name), offset, all_runs));
+    offset += runs;
     const Difference d_fimm = paired_difference(runs, fimm.statistic(), imm.statistic());
     const Difference d_iekf = paired_difference(runs, iekf.statistic(), imm.statistic());
     const auto* paper_imm = regimes.evaluated.find("IMM", name, "position_mse");
@@ -262,6 +271,10 @@ int run(const FimmOptions& options) {
   details["fimm"] = settings.str();
   trainer::write_json_atomically(out / "metrics.json", metrics);
   trainer::write_json_atomically(out / "details.json", details);
+  write_headline(out,
+                 {"fimm", model_path, regime.name, regime.digest, options.common.seed,
+                  static_cast<int>(all_runs)},
+                 headline);
   write_series_csv(out / "mse_by_scan.csv", by_scan_names, by_scan);
 
   // The fitted sensor against the true one along the road (ξ = 0) and at the start's lateral

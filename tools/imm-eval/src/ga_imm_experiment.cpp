@@ -17,6 +17,7 @@
 
 #include "imm/evaluation/baseline_tuning.hpp"
 #include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/filters/fuzzy_noise_filter.hpp"
@@ -230,6 +231,8 @@ int run(const GaImmOptions& options) {
   nlohmann::json metrics;
   for (const auto& f : filters) metrics[f.name] = {{"zeta_p", f.zeta_p}, {"zeta_v", f.zeta_v}};
   trainer::write_json_atomically(out / "metrics.json", metrics);
+  write_headline(out, {"ga-imm", model_path, regime.name, regime.digest, options.common.seed, runs},
+                 ours.zeta_headline());
   nlohmann::json details;
   details["regime"] = {{"name", regime.name},
                        {"digest", regime.digest},

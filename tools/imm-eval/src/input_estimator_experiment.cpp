@@ -13,6 +13,7 @@
 
 #include "imm/datasets/axis_trajectory.hpp"
 #include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/evaluation/uncertainty.hpp"
 #include "imm/filters/input_estimation_filter.hpp"
@@ -31,6 +32,24 @@ struct CaseResult {
   Eigen::VectorXd true_acceleration, mean_estimate;           // per scan (run 0; mean of runs)
   Eigen::VectorXd cv_position_rmse, corrected_position_rmse;  // per scan
 };
+
+// The corrected KF's position and velocity MSE per case, over all runs in case order (a run of
+// another case weighs nothing in a case's figure).
+std::vector<HeadlineMetric> corrected_headline(const std::vector<CaseResult>& cases) {
+  Eigen::Index runs = 0;
+  for (const CaseResult& r : cases) runs += r.corrected.rows();
+  std::vector<HeadlineMetric> headline;
+  Eigen::Index offset = 0;
+  for (const CaseResult& r : cases) {
+    for (int q : {1, 2}) {
+      headline.push_back(
+          in_case(mean_metric(std::string(kQuantity[q]) + "_mse " + r.name, r.corrected.col(q)),
+                  offset, runs));
+    }
+    offset += r.corrected.rows();
+  }
+  return headline;
+}
 
 int run(const CommonOptions& options) {
   const std::filesystem::path model_path = options.model_path();
@@ -182,6 +201,10 @@ int run(const CommonOptions& options) {
   metrics["wins"] = wins;
   metrics["cells"] = cells;
   trainer::write_json_atomically(out / "metrics.json", metrics);
+  write_headline(out,
+                 {"input-estimator", model_path, regime.name, regime.digest, options.seed,
+                  static_cast<int>(axes.size())},
+                 corrected_headline(cases));
 
   // Fig. 4 and 5 of the seed: true vs estimated acceleration and the position RMSE over time, for
   // the first case and the middle one.

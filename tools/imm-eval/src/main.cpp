@@ -9,12 +9,19 @@
 // tools/imm-eval/src/; `imm-eval <experiment> --help` lists its own options). Without --regime the
 // model is evaluated on the regime recorded in it.
 //
+// Every experiment also writes headline.json: its headline metrics with their per-run terms.
+//   imm-eval regression --candidate DIR --shipped DIR [--out DIR]
+// compares two such evaluations on the same runs (the nightly's regression gate).
+//
 // Exit codes: 0 success, 1 usage, 2 invalid model, regime or data file (or a model that does not
-// fit the regime), 5 a quality gate failed (the report is written either way).
+// fit the regime, or two headline files of different runs), 5 a quality gate failed (the report
+// is written either way), 6 (regression) the candidate is worse than the shipped model beyond
+// the Monte Carlo uncertainty.
 
 #include <CLI/CLI.hpp>
 
 #include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/headline.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"Monte Carlo evaluation of immtrain filters against their baselines."};
@@ -26,6 +33,7 @@ int main(int argc, char** argv) {
   imm::evaluation::add_wimm_command(app, exit_code);
   imm::evaluation::add_fcm_imm_command(app, exit_code);
   imm::evaluation::add_fimm_command(app, exit_code);
+  imm::evaluation::add_regression_command(app, exit_code);
   CLI11_PARSE(app, argc, argv);
   return exit_code;
 }

@@ -4,36 +4,16 @@
 #include <stdexcept>
 
 namespace imm::evaluation {
-namespace {
 
-// Mean over the scans with samples of √(Σ_runs w e²) / √(Σ_runs w m²) (seed 000's ζ).
-double zeta(const Eigen::MatrixXd& error, const Eigen::MatrixXd& plot,
-            const Eigen::MatrixXd& counted, const Eigen::VectorXd& w) {
-  const Eigen::RowVectorXd e = w.transpose() * error, m = w.transpose() * plot,
-                           n = w.transpose() * counted;
-  double sum = 0.0;
-  int scans = 0;
-  for (Eigen::Index k = 0; k < e.size(); ++k) {
-    if (n(k) > 0.0 && m(k) > 0.0) {
-      sum += std::sqrt(e(k) / m(k));
-      ++scans;
-    }
-  }
-  return scans > 0 ? sum / scans : std::numeric_limits<double>::quiet_NaN();
-}
+// seed 000's ζ with the runs weighted: HeadlineMetric::Form::kScanZeta.
+Statistic FilterOutcome::zeta_p_statistic() const { return zeta_headline()[0].statistic(); }
 
-}  // namespace
+Statistic FilterOutcome::zeta_v_statistic() const { return zeta_headline()[1].statistic(); }
 
-Statistic FilterOutcome::zeta_p_statistic() const {
-  return [this](const Eigen::VectorXd& w) {
-    return zeta(run_position, run_position_plot, run_counted, w);
-  };
-}
-
-Statistic FilterOutcome::zeta_v_statistic() const {
-  return [this](const Eigen::VectorXd& w) {
-    return zeta(run_velocity, run_velocity_plot, run_counted, w);
-  };
+std::vector<HeadlineMetric> FilterOutcome::zeta_headline() const {
+  return {
+      {"zeta_p", HeadlineMetric::Form::kScanZeta, run_position, run_position_plot, run_counted},
+      {"zeta_v", HeadlineMetric::Form::kScanZeta, run_velocity, run_velocity_plot, run_counted}};
 }
 
 FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make_filter,

@@ -10,6 +10,7 @@
 
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/filters/tracker.hpp"
@@ -60,7 +61,7 @@ int run(const PlainImmOptions& options) {
     source =
         options.data + " (regime " + data.regime + ", sha256 " + stored.digest.substr(0, 16) + ")";
   } else {
-    const support::RegimeFile regime = support::load_regime(
+    const support::RegimeFile regime = load_regime_option(
         options.common.regime.value_or("configs/regimes/paper/ga_imm_table3.toml"));
     data = test_tracks(regime.regime, options.common);
     source =
@@ -117,6 +118,8 @@ int run(const PlainImmOptions& options) {
                                {"rejected_steps", f.rejected_steps}});
   }
   trainer::write_json_atomically(out / "metrics.json", metrics);
+  write_headline(out, {"plain-imm", model, data.regime, data.digest(), data.seed, runs},
+                 filters.front().zeta_headline());
   bool plotted = write_error_series(filters, data.scans, out);
   plotted &= write_mode_probabilities(filters.front(), out, "mode_probabilities");
   std::cout << "\nwrote " << (out / "metrics.json").string() << ", CSV series"

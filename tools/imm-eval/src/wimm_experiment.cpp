@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/evaluation/uncertainty.hpp"
 #include "imm/io/wimm_file.hpp"
@@ -33,6 +34,30 @@ struct Row {
 // √(weighted mean of per-track mean squares): the settled RMS error as a bootstrap statistic.
 Statistic rms_of(const Eigen::VectorXd& per_track) {
   return [per_track](const Eigen::VectorXd& w) { return std::sqrt(w.dot(per_track) / w.sum()); };
+}
+
+// The wIMM's per-track settled mean squares of one case.
+struct CaseHeadline {
+  std::string name;
+  Eigen::VectorXd azimuth, position;
+};
+
+// Settled azimuth and position RMS per case, over all tracks in case order (a track of another
+// case weighs nothing in a case's figure).
+std::vector<HeadlineMetric> wimm_headline(const std::vector<CaseHeadline>& cases) {
+  Eigen::Index runs = 0;
+  for (const CaseHeadline& c : cases) runs += c.azimuth.size();
+  std::vector<HeadlineMetric> headline;
+  Eigen::Index offset = 0;
+  for (const CaseHeadline& c : cases) {
+    const Eigen::VectorXd ones = Eigen::VectorXd::Ones(c.azimuth.size());
+    headline.push_back(
+        in_case(rms_metric("az_rmse_settled " + c.name, c.azimuth, ones), offset, runs));
+    headline.push_back(
+        in_case(rms_metric("pos_rmse_settled " + c.name, c.position, ones), offset, runs));
+    offset += c.azimuth.size();
+  }
+  return headline;
 }
 
 int run(const CommonOptions& options) {
@@ -82,6 +107,7 @@ int run(const CommonOptions& options) {
   std::vector<std::string> failures;
   bool plotted = true;
   const int settled = trainer::wimm::first_settled_scan(data.scans);
+  std::vector<CaseHeadline> headline_cases;
   for (const CaseTracks& one_case : tracks_by_case(regime, data)) {
     const datasets::TrackSet& part = one_case.tracks;
     const std::string& case_name = one_case.name;
@@ -130,6 +156,7 @@ int run(const CommonOptions& options) {
                      {"filter", "az (rad)", "az settled", "ratio settled", "− nIMM settled [95 %]",
                       "paper az", "paper ratio", "pos", "pos settled", "NEES settled", "fused"},
                      table);
+    headline_cases.push_back({case_name, w.track_azimuth_settled, w.track_position_settled});
     const Difference azimuth =
         paired_difference(runs, rms_of(w.track_azimuth_settled), rms_of(n.track_azimuth_settled));
     const Difference position =
@@ -183,6 +210,10 @@ int run(const CommonOptions& options) {
             << (failures.empty() ? "passed" : "FAILED") << '\n';
   for (const auto& failure : failures) std::cout << "  - " << failure << '\n';
   trainer::write_json_atomically(out / "metrics.json", metrics);
+  write_headline(out,
+                 {"wimm", model_path, regime.name, regime.digest, options.seed,
+                  static_cast<int>(data.tracks.size())},
+                 wimm_headline(headline_cases));
   details["parameters"] = parameters;
   details["regime"] = {{"name", regime.name},
                        {"model_regime", regimes.trained.regime.name},

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <string_view>
 
@@ -28,6 +29,8 @@ class Sha256 {
 };
 
 [[nodiscard]] std::string sha256_hex(std::string_view text);
+/// The digest of a whole file's bytes; throws std::runtime_error naming the file.
+[[nodiscard]] std::string file_sha256_hex(const std::filesystem::path& path);
 
 /// Feeds a matrix: its shape (two int64), then its values row-major as little-endian doubles.
 void hash_matrix(Sha256& hash, const Eigen::MatrixXd& matrix);

@@ -1,60 +1,110 @@
 #pragma once
 /// The nightly pipeline of `imm-train all --config configs/nightly.toml`: data sets, then models,
-/// then tracking runs, then evaluations, each as its own process (a crash or a failed quality gate
-/// in one stage is an exit code, never a half-finished pipeline that looks green), stopping at the
-/// first failure.
+/// then tracking runs; every stage a process of its own (a crash or a failed gate is an exit
+/// code, never a half-finished pipeline that looks green).
+///
+/// A model stage trains a *candidate* into the registry's staging folder (never over the shipped
+/// file), evaluates it with every evaluation that names it, evaluates the shipped model of the
+/// same name on the same test tracks, and promotes the candidate (imm/trainer/registry.hpp) only
+/// when its own quality gates pass and it is not worse than the shipped one beyond the Monte
+/// Carlo uncertainty on the experiment's headline metrics (`imm-eval regression`). A failing
+/// stage does not stop the stages after it. A stage whose inputs (tool binaries, arguments, the
+/// bytes of every file it reads: config, regime, data, models) are unchanged since its last run is
+/// skipped and reported as cached, with the outcome it had; `--force` reruns everything.
 ///
 /// configs/nightly.toml:
+///   registry = "models"   (optional: the folder of shipped models and models/manifest.json)
 ///   [[data]]         name, command (tracks | sensor), regime, out, [split], [csv], [count], [seed]
 ///   [[models]]       name, command (an imm-train subcommand), config, out, [regime], [seed],
 ///                    [arguments]
 ///   [[tracks]]       filter, measurements, out
-///   [[evaluations]]  experiment, models, out, [model], [regime], [runs], [seed], [arguments]
+///   [[evaluations]]  experiment, model (a [[models]] name), out, [models], [regime], [runs],
+///                    [seed], [arguments]
+///
+/// Exit codes of the run: 0 everything promoted or unchanged, 3 a stage failed, 6 no stage failed
+/// but a candidate was held back by the regression gate.
 
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace imm::trainer {
 
+inline constexpr int kNightlyStageFailed = 3;
+inline constexpr int kNightlyHeldBack = 6;
+
 struct NightlyStage {
   std::string kind;        ///< "data", "model", "track", "evaluation"
-  std::string name;        ///< for the log
+  std::string name;        ///< for the log and the report
   std::string executable;  ///< imm-data, imm-train, imm-track, imm-eval
   std::vector<std::string> arguments;
   std::vector<std::filesystem::path> output_folders;  ///< created before the stage runs
+  std::filesystem::path out;  ///< the model file (model), the report folder (evaluation), …
+  std::string model;          ///< evaluation: the [[models]] stage it evaluates
+  bool has_regime = false;    ///< evaluation: --regime given
+  /// The `--out` / `--model` value's index in `arguments` (replaced for candidates).
+  std::optional<std::size_t> out_argument, model_argument;
 };
 
 struct NightlyPlan {
+  std::filesystem::path registry = "models";
   std::vector<NightlyStage> stages;
+  /// The evaluations of a model stage.
+  [[nodiscard]] std::vector<const NightlyStage*> evaluations_of(const std::string& model) const;
 };
 
-/// Reads and checks configs/nightly.toml (unknown keys and wrong types are ConfigErrors).
+/// Reads and checks configs/nightly.toml (unknown keys, wrong types, an evaluation naming no
+/// [[models]] stage, a model outside the registry folder are ConfigErrors).
 [[nodiscard]] NightlyPlan load_nightly_plan(const std::filesystem::path& path);
 
-struct StageResult {
-  const NightlyStage* stage = nullptr;
-  int exit_code = 0;
-  double wall_seconds = 0.0;
-};
-
-struct NightlyObserver {
-  std::function<void(const NightlyStage&, std::size_t index, std::size_t count)> on_start;
-  std::function<void(const StageResult&)> on_finish;
-};
-
-/// Runs stages in order with `run` (returns an exit code) until one fails. Returns the results of
-/// the stages that ran.
-std::vector<StageResult> run_nightly(const NightlyPlan& plan,
-                                     const std::function<int(const NightlyStage&)>& run,
-                                     const NightlyObserver& observer = {});
-
-/// Runs `executable` (a path, or a bare name looked up in PATH) with `arguments`, inheriting
-/// stdout/stderr; returns its exit code, or 128 + signal when it was killed.
-int run_process(const std::filesystem::path& executable, const std::vector<std::string>& arguments);
+/// Runs `executable` (a path, or a bare name looked up in PATH) with `arguments`; returns its exit
+/// code, or 128 + signal when it was killed. With `log`, stdout and stderr go to `log`.out and
+/// `log`.err instead of the terminal.
+int run_process(const std::filesystem::path& executable, const std::vector<std::string>& arguments,
+                const std::optional<std::filesystem::path>& log = std::nullopt);
 
 /// The folder of the running executable (where the sibling tools are).
 [[nodiscard]] std::filesystem::path executable_folder();
+
+/// What happened to one stage in a night.
+struct StageOutcome {
+  std::string kind, name;
+  std::string status;  ///< ok, cached, failed, promoted, held back, first, blocked
+  bool failed = false, held_back = false, cached = false;
+  int exit_code = 0;
+  double wall_seconds = 0.0;
+  std::string message;               ///< why it failed or was held back, or what it did
+  std::string command;               ///< to reproduce it
+  std::filesystem::path log;         ///< stdout/stderr stem, if it ran this night
+  std::filesystem::path report;      ///< evaluation: its report folder
+  std::filesystem::path regression;  ///< model: the regression.json of its evaluations
+  std::string night;                 ///< cached: the night it last ran (UTC date)
+};
+
+struct NightlyOptions {
+  std::filesystem::path tools;  ///< folder of the imm-* executables
+  std::filesystem::path reports = "reports/nightly";
+  std::string night;  ///< the report folder's name (default: today's UTC date)
+  bool force = false;
+  /// Called as each stage finishes (the log).
+  std::function<void(const StageOutcome&)> on_finish;
+};
+
+struct NightlyResult {
+  std::vector<StageOutcome> stages;
+  int exit_code = 0;
+  double wall_seconds = 0.0;
+  std::filesystem::path report_folder;
+};
+
+/// Runs the whole plan, promotes what passes, writes the morning report (index.md, index.html,
+/// `latest`), and returns the outcomes and the exit code.
+NightlyResult run_nightly(const NightlyPlan& plan, const NightlyOptions& options);
+
+/// Writes `folder`/index.md and index.html for a night (plots of the evaluations embedded).
+void write_morning_report(const std::filesystem::path& folder, const NightlyPlan& plan,
+                          const NightlyResult& result);
 
 }  // namespace imm::trainer

@@ -46,6 +46,10 @@ struct CommonOptions {
 void add_common_options(CLI::App& command, CommonOptions& options, const std::string& model,
                         const std::filesystem::path& out);
 
+/// A --regime value: a regime TOML, or a model file (.h5) whose recorded regime is meant (so a
+/// candidate and the shipped model are evaluated on the same tracks).
+[[nodiscard]] support::RegimeFile load_regime_option(const std::filesystem::path& path);
+
 /// The regimes of one evaluation.
 struct EvaluationRegimes {
   support::RegimeFile evaluated;  ///< where the test tracks come from

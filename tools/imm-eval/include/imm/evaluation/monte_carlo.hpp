@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "imm/datasets/track.hpp"
+#include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/uncertainty.hpp"
 #include "imm/filters/tracker.hpp"
 
@@ -31,6 +32,8 @@ struct FilterOutcome {
   /// ζ_p and ζ_v with the runs weighted (all ones: the figures above), for the bootstrap.
   [[nodiscard]] Statistic zeta_p_statistic() const;
   [[nodiscard]] Statistic zeta_v_statistic() const;
+  /// ζ_p and ζ_v as headline metrics (their per-run, per-scan terms).
+  [[nodiscard]] std::vector<HeadlineMetric> zeta_headline() const;
 };
 
 using FilterFactory = std::function<std::unique_ptr<TrackFilter>()>;

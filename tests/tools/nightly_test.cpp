@@ -1,0 +1,224 @@
+// The nightly as a product, driven through `imm-train all` with small plans on a temporary
+// registry: promotion, the regression gate (a worse candidate is held back and the shipped model
+// stays byte for byte), the stage cache, rollback, a failing stage that does not stop the others,
+// and the morning report.
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+
+#include "testing/run_tool.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::run_tool;
+using testing::slurp;
+
+std::string sha256_of(const fs::path& file) {
+  const auto result = run_tool("/usr/bin/sha256sum", {file.string()}, {});
+  return result.out.substr(0, 64);
+}
+
+// The plain IMM of configs/track/cv3_imm.toml with its three noise levels scaled by `scale`.
+void write_cv3(const fs::path& path, double scale, const std::string& comment = "") {
+  std::string text = slurp("configs/track/cv3_imm.toml");
+  for (const char* level : {"1e-6", "1e-4", "1e-2"}) {
+    const std::string from = std::string("process_noise = ") + level;
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos);
+    text.replace(at, from.size(), "process_noise = " + std::to_string(std::stod(level) * scale));
+  }
+  std::ofstream(path) << comment << text;
+}
+
+struct Plan {
+  fs::path dir, registry, plan, reports;
+};
+
+Plan write_plan(const testing::TempDir& dir, const std::string& extra_models = "") {
+  Plan p{dir.path(), dir / "models", dir / "nightly.toml", dir / "nightly"};
+  std::ofstream(p.plan) << "registry = \"" << p.registry.string() << "\"\n"
+                        << extra_models
+                        << "[[models]]\nname = \"cv3\"\ncommand = \"freeze\"\nconfig = \""
+                        << (dir / "cv3.toml").string() << "\"\n"
+                        << "out = \"" << (p.registry / "cv3.h5").string() << "\"\n\n"
+                        << "[[evaluations]]\nexperiment = \"plain-imm\"\nmodel = \"cv3\"\nout = \""
+                        << (dir / "reports" / "cv3").string()
+                        << "\"\nregime = \"configs/regimes/paper/ga_imm_table3.toml\"\nruns = 40\n";
+  return p;
+}
+
+testing::ToolResult nightly(const Plan& p, std::vector<std::string> extra = {}) {
+  std::vector<std::string> arguments = {"all", "--config", p.plan.string(), "--reports",
+                                        p.reports.string()};
+  arguments.insert(arguments.end(), extra.begin(), extra.end());
+  return run_tool("imm-train", arguments, {}, 300);
+}
+
+nlohmann::json manifest(const Plan& p) {
+  return nlohmann::json::parse(slurp(p.registry / "manifest.json"));
+}
+
+TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
+  const testing::TempDir dir;
+  write_cv3(dir / "cv3.toml", 1.0);
+  const Plan p = write_plan(dir);
+
+  // 1. The first candidate enters the manifest.
+  auto run = nightly(p);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const fs::path shipped = p.registry / "cv3.h5";
+  const std::string first = sha256_of(shipped);
+  auto m = manifest(p);
+  ASSERT_EQ(m["models"].size(), 1u);
+  EXPECT_EQ(m["models"][0]["sha256"], first);
+  EXPECT_EQ(m["models"][0]["kind"], "plain_imm");
+  EXPECT_EQ(m["models"][0]["regime"]["name"], "");  // a frozen plain IMM is trained for none
+  EXPECT_TRUE(m["models"][0]["metrics"].contains("plain-imm cv3: zeta_p"));
+  EXPECT_FALSE(fs::exists(p.registry / ".registry" / "staging" / "cv3.h5"));
+
+  // 2. Nothing changed: every stage is cached, nothing is retrained.
+  run = nightly(p);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("cached"), std::string::npos) << run.err;
+  EXPECT_EQ(sha256_of(shipped), first);
+
+  // 3. A candidate with 100× the noise levels: passes its own evaluation, but its ζ is worse than
+  //    the shipped model's on the same tracks — held back (exit 6), the shipped file untouched.
+  write_cv3(dir / "cv3.toml", 100.0);
+  run = nightly(p);
+  EXPECT_EQ(run.exit_code, 6) << run.err;
+  EXPECT_EQ(sha256_of(shipped), first);
+  EXPECT_EQ(manifest(p)["models"][0]["sha256"], first);
+  const std::string report = slurp(p.reports / "latest" / "index.md");
+  EXPECT_NE(report.find("held back"), std::string::npos) << report;
+  EXPECT_NE(report.find("zeta_p"), std::string::npos) << report;
+  EXPECT_NE(report.find("imm-train freeze"), std::string::npos) << report;  // how to reproduce
+  EXPECT_EQ(nightly(p).exit_code, 6);  // cached, still held back
+
+  // 4. An equally good candidate (another config text) is promoted; rollback restores the first
+  //    model byte for byte.
+  write_cv3(dir / "cv3.toml", 1.0, "# the same filter\n");
+  run = nightly(p);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string second = sha256_of(shipped);
+  EXPECT_NE(second, first);
+  m = manifest(p);
+  EXPECT_EQ(m["models"][0]["sha256"], second);
+  ASSERT_EQ(m["models"][0]["history"].size(), 1u);
+  EXPECT_EQ(m["models"][0]["history"][0]["sha256"], first);
+
+  const auto rollback =
+      run_tool("imm-train", {"rollback", "plain_imm", "--registry", p.registry.string()}, {});
+  ASSERT_EQ(rollback.exit_code, 0) << rollback.err;
+  EXPECT_EQ(sha256_of(shipped), first);
+  EXPECT_EQ(manifest(p)["models"][0]["sha256"], first);
+  const auto again =
+      run_tool("imm-train", {"rollback", "plain_imm", "--registry", p.registry.string()}, {});
+  EXPECT_EQ(again.exit_code, 2);
+  EXPECT_NE(again.err.find("no earlier model"), std::string::npos) << again.err;
+
+  // The manifest prints as a table.
+  const auto table =
+      run_tool("imm-inspect", {"--manifest", (p.registry / "manifest.json").string()}, {});
+  EXPECT_EQ(table.exit_code, 0) << table.err;
+  EXPECT_NE(table.out.find("| cv3 | plain_imm |  | cv3.h5 |"), std::string::npos) << table.out;
+}
+
+TEST(NightlyProduct, AFailingStageDoesNotStopTheOthers) {
+  const testing::TempDir dir;
+  write_cv3(dir / "cv3.toml", 1.0);
+  const Plan p = write_plan(dir,
+                            "[[models]]\nname = \"broken\"\ncommand = \"freeze\"\n"
+                            "config = \"" +
+                                (dir / "missing.toml").string() + "\"\nout = \"" +
+                                (dir / "models" / "broken.h5").string() + "\"\n\n");
+  const auto run = nightly(p);
+  EXPECT_EQ(run.exit_code, 3) << run.err;
+  EXPECT_TRUE(fs::exists(p.registry / "cv3.h5"));  // the stage after the failure ran
+  EXPECT_FALSE(fs::exists(p.registry / "broken.h5"));
+  const std::string report = slurp(p.reports / "latest" / "index.md");
+  EXPECT_NE(report.find("model broken — failed"), std::string::npos) << report;
+  EXPECT_NE(report.find("missing.toml"), std::string::npos) << report;
+  const std::string html = slurp(p.reports / "latest" / "index.html");
+  EXPECT_NE(html.find("<table id=\"stages\">"), std::string::npos);
+  EXPECT_EQ(html.find("src=\"reports"), std::string::npos);  // nothing linked: self-contained
+  bool plots = false;
+  for (const auto& f : fs::directory_iterator(dir / "reports" / "cv3")) {
+    plots |= f.path().extension() == ".png";
+  }
+  if (plots) {
+    EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
+  }
+}
+
+TEST(NightlyProduct, TheReportRendersInAHeadlessBrowser) {
+  std::string browser;
+  for (const char* candidate : {"/usr/bin/chromium", "/usr/bin/chromium-browser"}) {
+    if (fs::exists(candidate)) browser = candidate;
+  }
+  if (browser.empty()) GTEST_SKIP() << "no headless browser (Debian's chromium) on this machine";
+  const testing::TempDir dir;
+  write_cv3(dir / "cv3.toml", 1.0);
+  const Plan p = write_plan(dir);
+  ASSERT_EQ(nightly(p).exit_code, 0);
+  const auto dom = run_tool(browser,
+                            {"--headless", "--no-sandbox", "--disable-gpu", "--dump-dom",
+                             "file://" + (p.reports / "latest" / "index.html").string()},
+                            {}, 120);
+  ASSERT_EQ(dom.exit_code, 0) << dom.err;
+  EXPECT_NE(dom.out.find("id=\"stages\""), std::string::npos);
+  EXPECT_NE(dom.out.find("promoted"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace imm
+
+namespace imm {
+namespace {
+
+// kill -9 at random points of nightlies that promote: the manifest is always whole (the old or the
+// new), and the next nightly leaves the shipped file equal to the manifest's SHA-256 with no
+// temporary file behind.
+TEST(NightlyProduct, KillNineDuringPromotionLeavesTheOldOrTheNewState) {
+  const testing::TempDir dir;
+  write_cv3(dir / "cv3.toml", 1.0);
+  const Plan p = write_plan(dir);
+  ASSERT_EQ(nightly(p).exit_code, 0);
+  std::uint64_t state = 12345;
+  for (int round = 0; round < 6; ++round) {
+    // Each round a new config text, so that every run trains, evaluates and promotes.
+    write_cv3(dir / "cv3.toml", 1.0, "# round " + std::to_string(round) + "\n");
+    const std::string out = (dir / "out.txt").string(), err = (dir / "err.txt").string();
+    const pid_t pid = testing::start_tool(
+        "imm-train", {"all", "--config", p.plan.string(), "--reports", p.reports.string()}, out,
+        err);
+    ASSERT_GT(pid, 0);
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    const auto delay_us = static_cast<useconds_t>((state >> 33) % 1500000);  // 0 … 1.5 s
+    ::usleep(delay_us);
+    ::kill(pid, SIGKILL);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    if (fs::exists(p.registry / "manifest.json")) {
+      EXPECT_NO_THROW((void)manifest(p)) << "round " << round;
+    }
+    const auto rerun = nightly(p);
+    ASSERT_TRUE(rerun.exit_code == 0) << "round " << round << ": " << rerun.err;
+    const auto m = manifest(p);
+    EXPECT_EQ(m["models"][0]["sha256"], sha256_of(p.registry / "cv3.h5")) << "round " << round;
+    for (const auto& f : fs::recursive_directory_iterator(p.registry)) {
+      EXPECT_EQ(f.path().filename().string().find(".tmp-"), std::string::npos)
+          << f.path() << " left behind in round " << round;
+    }
+    EXPECT_FALSE(fs::exists(p.registry / ".registry" / "staging" / "cv3.h5"));
+  }
+}
+
+}  // namespace
+}  // namespace imm

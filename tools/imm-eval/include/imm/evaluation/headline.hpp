@@ -1,0 +1,91 @@
+#pragma once
+/// An experiment's headline metrics, kept with their per-run terms so that two evaluations on the
+/// same test tracks (the same regime, seed and runs: the same noise) compare with the paired
+/// bootstrap — the nightly's regression gate of a candidate model against the shipped one
+/// (`imm-eval regression`). Every headline metric is an error: lower is better.
+///
+/// Each experiment writes `headline.json` beside its metrics.json:
+///   {"experiment", "model", "model_sha256", "regime", "regime_digest", "seed", "runs",
+///    "metrics": [{"name", "form", "value", "interval", "numerator", "denominator", ["counted"]}]}
+/// with the per-run terms as arrays (runs) or arrays of arrays (runs × scans, for ζ).
+
+#include <CLI/CLI.hpp>
+#include <Eigen/Core>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "imm/evaluation/uncertainty.hpp"
+
+namespace imm::evaluation {
+
+struct HeadlineMetric {
+  enum class Form {
+    kRatio,      ///< Σ w·numerator / Σ w·denominator (a mean square, a mean)
+    kRootRatio,  ///< its square root (an RMSE)
+    kScanZeta,  ///< seed 000's ζ: mean over scans of √(Σ w·e² / Σ w·m²), runs × scans terms
+  };
+  std::string name;
+  Form form = Form::kRatio;
+  Eigen::MatrixXd numerator, denominator;  ///< runs × 1, or runs × scans (ζ)
+  Eigen::MatrixXd counted;                 ///< ζ: runs × scans, 1 where the scan has a sample
+
+  [[nodiscard]] Eigen::Index runs() const { return numerator.rows(); }
+  [[nodiscard]] double value() const;  ///< the statistic on the runs themselves
+  [[nodiscard]] Statistic statistic() const;
+};
+
+/// A mean over runs of per-run values.
+[[nodiscard]] HeadlineMetric mean_metric(std::string name, const Eigen::VectorXd& per_run);
+/// √(Σ sums / Σ counts) over runs (an RMSE from per-run sums of squares and sample counts).
+[[nodiscard]] HeadlineMetric rms_metric(std::string name, const Eigen::VectorXd& sums,
+                                        const Eigen::VectorXd& counts);
+/// Σ sums / Σ counts over runs (a mean square).
+[[nodiscard]] HeadlineMetric ratio_metric(std::string name, const Eigen::VectorXd& sums,
+                                          const Eigen::VectorXd& counts);
+
+/// A (ratio or RMS) metric of one case's runs placed among all `runs` runs at `offset` (cases in
+/// order): the other cases' runs weigh nothing in it, so per-case figures pair run by run too.
+[[nodiscard]] HeadlineMetric in_case(HeadlineMetric metric, Eigen::Index offset, Eigen::Index runs);
+
+/// What the evaluated runs were: two headline files compare only when these agree.
+struct HeadlineRuns {
+  std::string experiment;
+  std::filesystem::path model;
+  std::string regime, regime_digest;
+  std::uint64_t seed = 0;
+  int runs = 0;
+};
+
+/// Writes `out`/headline.json atomically (the model's SHA-256 is computed here).
+void write_headline(const std::filesystem::path& out, const HeadlineRuns& runs,
+                    const std::vector<HeadlineMetric>& metrics);
+
+/// A headline file read back. Throws std::runtime_error naming the file and the field.
+struct HeadlineFile {
+  HeadlineRuns runs;
+  std::string model_sha256;
+  std::vector<HeadlineMetric> metrics;
+};
+[[nodiscard]] HeadlineFile read_headline(const std::filesystem::path& path);
+
+/// One metric of a candidate against the shipped model on the same runs.
+struct Regression {
+  std::string metric;
+  double candidate = 0.0, shipped = 0.0;
+  Difference difference;  ///< candidate − shipped with its 95 % paired-bootstrap interval
+  [[nodiscard]] bool worse() const { return difference.above(); }
+};
+
+/// Compares every headline metric of `candidate` with the same-named one of `shipped`. Throws
+/// std::runtime_error when they were not evaluated on the same runs (experiment, regime digest,
+/// seed, number of runs) or a metric is missing.
+[[nodiscard]] std::vector<Regression> compare_headlines(const HeadlineFile& candidate,
+                                                        const HeadlineFile& shipped);
+
+/// `imm-eval regression --candidate DIR|FILE --shipped DIR|FILE [--out DIR]`.
+using ExitCode = int;
+void add_regression_command(CLI::App& app, ExitCode& exit_code);
+
+}  // namespace imm::evaluation

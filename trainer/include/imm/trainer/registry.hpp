@@ -1,0 +1,88 @@
+#pragma once
+/// The model registry: what is shipped in models/, and the models it replaced.
+///
+/// `models/manifest.json` lists every shipped model (name, kind, regime name and digest, file,
+/// SHA-256, schema version, trainer version, config digest, training date, the nightly inputs it
+/// was trained from, and its test metrics with their uncertainty) and, per model, the entries it
+/// replaced. The runtime needs none of it. Local state lives in `models/.registry/`: `archive/`
+/// keeps every model file ever shipped by its SHA-256 (so a rollback restores it byte for byte)
+/// and `staging/` the nightly's candidates.
+///
+/// Promotion is one atomic step: the candidate is archived, then the new manifest replaces the
+/// old one with one rename, then the shipped file is written from the archive (temporary file +
+/// rename). The manifest is the truth: `repair()` rewrites any shipped file whose bytes differ
+/// from the manifest's SHA-256 from the archive, so a process killed between the two renames
+/// leaves the old or the new manifest and, after repair, exactly its files.
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace imm::trainer {
+
+struct RegistryEntry {
+  std::string name;  ///< the nightly stage's name, e.g. "ga_fuzzy_imm_agile_air"
+  std::string kind;  ///< model_kind of the file
+  std::string regime_name, regime_digest;
+  std::string file;  ///< relative to the models folder
+  std::string sha256;
+  int schema_version = 0;
+  std::string trainer_version;
+  std::string config_digest;  ///< SHA-256 of the recorded config text
+  std::string trained_utc;
+  std::string inputs_digest;  ///< the nightly stage's inputs (empty: not from a nightly)
+  std::string promoted_utc;
+  nlohmann::json metrics = nlohmann::json::object();  ///< headline metrics with intervals
+  std::vector<RegistryEntry> history;                 ///< replaced entries, newest first
+};
+
+/// The registry entry of a model file (kind, regime, digests, dates from its provenance).
+[[nodiscard]] RegistryEntry describe_model(const std::filesystem::path& file,
+                                           const std::filesystem::path& models_folder,
+                                           const std::string& name);
+
+class Registry {
+ public:
+  /// Opens the registry of `models_folder` (no manifest yet: empty).
+  explicit Registry(std::filesystem::path models_folder);
+
+  [[nodiscard]] const std::filesystem::path& folder() const { return folder_; }
+  [[nodiscard]] std::filesystem::path manifest_path() const { return folder_ / "manifest.json"; }
+  [[nodiscard]] std::filesystem::path staging_folder() const;
+  [[nodiscard]] std::filesystem::path archive_path(const std::string& sha256) const;
+
+  [[nodiscard]] const std::vector<RegistryEntry>& entries() const { return entries_; }
+  [[nodiscard]] const RegistryEntry* find(const std::string& name) const;
+  /// The entries of a kind (model_kind or nightly command) and regime name.
+  [[nodiscard]] std::vector<const RegistryEntry*> find(const std::string& kind,
+                                                       const std::string& regime) const;
+
+  /// Makes every shipped file match the manifest (restoring from the archive); returns the files
+  /// it rewrote. Throws std::runtime_error when a needed archived file is missing.
+  std::vector<std::string> repair();
+
+  /// Ships `candidate` (a model file) as `entry.name` at `entry.file`, with its metrics file
+  /// (optional) beside it; the entry it replaces goes to the history. Atomic as described above.
+  void promote(RegistryEntry entry, const std::filesystem::path& candidate,
+               const std::optional<std::filesystem::path>& metrics_file = std::nullopt);
+
+  /// Restores the entry before the current one of `name`; returns the restored entry. Throws
+  /// std::runtime_error when there is none.
+  RegistryEntry rollback(const std::string& name);
+
+  /// Records an existing shipped file without promotion (a manifest started from models/).
+  void adopt(const RegistryEntry& entry);
+
+ private:
+  void load();
+  void save() const;
+  void archive(const std::filesystem::path& file, const std::string& sha256) const;
+  void materialize(const RegistryEntry& entry) const;
+
+  std::filesystem::path folder_;
+  std::vector<RegistryEntry> entries_;
+};
+
+}  // namespace imm::trainer

@@ -1,0 +1,235 @@
+// The morning report of a nightly run: reports/nightly/<night>/index.md and a self-contained
+// index.html (plots embedded), and the `latest` link beside them.
+
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "imm/trainer/nightly.hpp"
+#include "imm/trainer/provenance.hpp"
+
+namespace imm::trainer {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string base64(const std::string& bytes) {
+  static constexpr char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  std::size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const auto n = (static_cast<unsigned char>(bytes[i]) << 16) |
+                   (static_cast<unsigned char>(bytes[i + 1]) << 8) |
+                   static_cast<unsigned char>(bytes[i + 2]);
+    out += {kAlphabet[(n >> 18) & 63], kAlphabet[(n >> 12) & 63], kAlphabet[(n >> 6) & 63],
+            kAlphabet[n & 63]};
+  }
+  if (i + 1 == bytes.size()) {
+    const auto n = static_cast<unsigned char>(bytes[i]) << 16;
+    out += {kAlphabet[(n >> 18) & 63], kAlphabet[(n >> 12) & 63], '=', '='};
+  } else if (i + 2 == bytes.size()) {
+    const auto n = (static_cast<unsigned char>(bytes[i]) << 16) |
+                   (static_cast<unsigned char>(bytes[i + 1]) << 8);
+    out += {kAlphabet[(n >> 18) & 63], kAlphabet[(n >> 12) & 63], kAlphabet[(n >> 6) & 63], '='};
+  }
+  return out;
+}
+
+std::string html_escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string read_or_empty(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+std::string exit_meaning(int code) {
+  return code == 0   ? "everything promoted or unchanged"
+         : code == 3 ? "a stage failed"
+         : code == 6 ? "a candidate was held back by the regression gate"
+                     : "unexpected";
+}
+
+std::string seconds_text(const StageOutcome& o) {
+  if (o.cached) return "cached (" + o.night + ")";
+  std::ostringstream text;
+  text.precision(1);
+  text << std::fixed << o.wall_seconds;
+  return text.str();
+}
+
+std::string cell_text(std::string text) {
+  for (char& c : text) {
+    if (c == '\n' || c == '|') c = ' ';
+  }
+  return text;
+}
+
+std::vector<fs::path> plots_in(const fs::path& folder) {
+  std::vector<fs::path> plots;
+  std::error_code error;
+  if (!fs::is_directory(folder, error)) return plots;
+  for (const auto& f : fs::directory_iterator(folder)) {
+    if (f.path().extension() == ".png") plots.push_back(f.path());
+  }
+  std::sort(plots.begin(), plots.end());
+  return plots;
+}
+
+}  // namespace
+
+void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
+                          const NightlyResult& result) {
+  (void)plan;
+  fs::create_directories(folder);
+  const std::string night = folder.filename().string();
+  std::size_t failed = 0, held = 0, cached = 0;
+  for (const auto& o : result.stages) failed += o.failed, held += o.held_back, cached += o.cached;
+
+  std::ostringstream md, html;
+  md << "# Nightly " << night << "\n\nExit code **" << result.exit_code << "** ("
+     << exit_meaning(result.exit_code) << "); " << result.stages.size() << " stages in "
+     << static_cast<int>(result.wall_seconds) << " s: " << failed << " failed, " << held
+     << " held back, " << cached << " cached.\n\n## Stages\n\n"
+     << "| kind | stage | status | wall s | note |\n|---|---|---|---|---|\n";
+  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>Nightly "
+       << night << "</title><style>body{font-family:sans-serif;max-width:1200px;margin:2em auto}"
+       << "table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 6px;"
+       << "vertical-align:top}pre{background:#f6f6f6;padding:8px;overflow-x:auto;font-size:12px}"
+       << ".failed{color:#b00020;font-weight:bold}.held{color:#b06000;font-weight:bold}"
+       << "img{max-width:560px;margin:4px}</style></head><body>\n<h1>Nightly " << night
+       << "</h1>\n<p id=\"summary\">Exit code <b>" << result.exit_code << "</b> ("
+       << exit_meaning(result.exit_code) << "); " << result.stages.size() << " stages in "
+       << static_cast<int>(result.wall_seconds) << " s: " << failed << " failed, " << held
+       << " held back, " << cached << " cached.</p>\n<h2>Stages</h2>\n<table id=\"stages\">"
+       << "<tr><th>kind</th><th>stage</th><th>status</th><th>wall s</th><th>note</th></tr>\n";
+  for (const auto& o : result.stages) {
+    md << "| " << o.kind << " | " << o.name << " | " << o.status << " | " << seconds_text(o)
+       << " | " << cell_text(o.message) << " |\n";
+    const char* css = o.failed ? " class=\"failed\"" : o.held_back ? " class=\"held\"" : "";
+    html << "<tr><td>" << o.kind << "</td><td>" << html_escape(o.name) << "</td><td" << css << ">"
+         << html_escape(o.status) << "</td><td>" << seconds_text(o) << "</td><td>"
+         << html_escape(o.message) << "</td></tr>\n";
+  }
+  html << "</table>\n";
+
+  // Every failure and hold-back with its reason and the command that reproduces it.
+  md << "\n## Failures and hold-backs\n\n";
+  html << "<h2>Failures and hold-backs</h2>\n";
+  bool any = false;
+  for (const auto& o : result.stages) {
+    if (!o.failed && !o.held_back) continue;
+    any = true;
+    md << "### " << o.kind << " " << o.name << " — " << o.status << "\n\n```\n"
+       << o.message << "\n```\n\nReproduce: `" << o.command << "`";
+    if (!o.log.empty()) md << " (logs: `" << o.log.string() << ".out`, `.err`)";
+    md << "\n\n";
+    html << "<h3>" << o.kind << " " << html_escape(o.name) << " — " << html_escape(o.status)
+         << "</h3>\n<pre>" << html_escape(o.message) << "</pre>\n<p>Reproduce: <code>"
+         << html_escape(o.command) << "</code></p>\n";
+  }
+  if (!any) {
+    md << "None.\n";
+    html << "<p>None.</p>\n";
+  }
+
+  // Per model: the decision, the comparison with the shipped model, and every evaluation's
+  // tables and plots.
+  md << "\n## Models and evaluations\n";
+  html << "<h2>Models and evaluations</h2>\n";
+  for (const auto& o : result.stages) {
+    if (o.kind == "model") {
+      md << "\n### " << o.name << " — " << o.status << "\n\n";
+      html << "<h3 id=\"model-" << html_escape(o.name) << "\">" << html_escape(o.name) << " — "
+           << html_escape(o.status) << "</h3>\n";
+      if (!o.message.empty()) {
+        md << o.message << "\n\n";
+        html << "<p>" << html_escape(o.message) << "</p>\n";
+      }
+      continue;
+    }
+    if (o.kind != "evaluation") continue;
+    const std::string tables = read_or_empty(o.report / "report.md");
+    const std::string regression = read_or_empty(o.report / "regression.json").empty()
+                                       ? std::string()
+                                       : read_or_empty(o.report / "regression.json");
+    md << "#### " << o.name << " (`" << o.report.string() << "`, " << o.status << ")\n\n"
+       << tables << "\n";
+    html << "<h4>" << html_escape(o.name) << " (" << html_escape(o.report.string()) << ", "
+         << html_escape(o.status) << ")</h4>\n<pre>" << html_escape(tables) << "</pre>\n";
+    if (!regression.empty()) {
+      const auto document = nlohmann::json::parse(regression, nullptr, false);
+      if (!document.is_discarded() && document.contains("metrics")) {
+        md << "Against the shipped model (" << document.value("shipped_sha256", "").substr(0, 12)
+           << ") on the same tracks:\n\n| metric | candidate | shipped | difference [95 %] | "
+           << "verdict |\n|---|---|---|---|---|\n";
+        html << "<p>Against the shipped model on the same tracks:</p><table><tr><th>metric</th>"
+             << "<th>candidate</th><th>shipped</th><th>difference [95 %]</th><th>verdict</th>"
+             << "</tr>\n";
+        for (const auto& m : document.at("metrics")) {
+          std::ostringstream diff;
+          diff.precision(4);
+          diff << m.value("difference", 0.0) << " [" << m.value("lower", 0.0) << ", "
+               << m.value("upper", 0.0) << "]";
+          md << "| " << m.value("name", "") << " | " << m.value("candidate", 0.0) << " | "
+             << m.value("shipped", 0.0) << " | " << diff.str() << " | " << m.value("verdict", "")
+             << " |\n";
+          html << "<tr><td>" << html_escape(m.value("name", "")) << "</td><td>"
+               << m.value("candidate", 0.0) << "</td><td>" << m.value("shipped", 0.0) << "</td><td>"
+               << diff.str() << "</td><td>" << m.value("verdict", "") << "</td></tr>\n";
+        }
+        md << "\n";
+        html << "</table>\n";
+      }
+    }
+    for (const auto& plot : plots_in(o.report)) {
+      md << "![" << plot.filename().string() << "](" << fs::absolute(plot).string() << ")\n";
+      html << "<img alt=\"" << html_escape(plot.filename().string())
+           << "\" src=\"data:image/png;base64," << base64(read_or_empty(plot)) << "\">\n";
+    }
+  }
+  html << "</body></html>\n";
+
+  auto write = [&](const fs::path& path, const std::string& text) {
+    std::string temp_name = ".";
+    temp_name.append(path.filename().string()).append(".tmp");
+    const fs::path temp = path.parent_path() / temp_name;
+    std::ofstream(temp, std::ios::trunc) << text;
+    fs::rename(temp, path);
+  };
+  write(folder / "index.md", md.str());
+  write(folder / "index.html", html.str());
+  // `latest` → this night.
+  const fs::path latest = folder.parent_path() / "latest";
+  const fs::path temp_link = folder.parent_path() / ".latest.tmp";
+  std::error_code ignored;
+  fs::remove(temp_link, ignored);
+  fs::create_directory_symlink(folder.filename(), temp_link);
+  fs::rename(temp_link, latest);
+}
+
+}  // namespace imm::trainer
