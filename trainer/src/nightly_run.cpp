@@ -105,12 +105,18 @@ class Digests {
 // Everything a stage reads: its tool, its arguments, and the bytes of every file they name (a
 // folder: its model files; a trainer config: the regime it names).
 // A model file that a stage of the plan produces stands for that stage's inputs in another
-// stage's digest (its bytes change with every retraining: the training date is in them).
-using ProducedBy = std::function<std::optional<std::string>(const fs::path&)>;
+// stage's digest (its bytes change with every retraining: the training date is in them), and
+// counts whether or not it exists yet, so that the first night a new model appears does not
+// change the digests of the stages before it.
+using PlanOutputs = std::map<std::string, std::string>;  // normalized file → stage digest
+
+std::string normal_path(const fs::path& path) {
+  return fs::absolute(path).lexically_normal().string();
+}
 
 std::string inputs_digest(const NightlyStage& stage, const fs::path& tool, Digests& digests,
                           const std::vector<std::string>& extra = {},
-                          const ProducedBy& produced_by = {}) {
+                          const PlanOutputs& plan_outputs = {}) {
   datasets::Sha256 hash;
   hash.update(stage.kind + '\n' + digests.of_file(tool) + '\n');
   auto add_file = [&](const fs::path& path) {
@@ -134,26 +140,24 @@ std::string inputs_digest(const NightlyStage& stage, const fs::path& tool, Diges
           add_file(*regime);
       }
     } else if (fs::is_directory(a, error) && stage.kind == "evaluation") {
-      std::vector<fs::path> files;
+      const std::string folder = normal_path(a);
+      const std::string evaluated =
+          stage.model_argument ? normal_path(stage.arguments[*stage.model_argument]) : "";
+      std::map<std::string, std::string> files;  // path relative to the folder → digest
+      for (const auto& [file, digest] : plan_outputs) {
+        const fs::path relative = fs::path(file).lexically_relative(folder);
+        if (!relative.empty() && *relative.begin() != ".." && file != evaluated) {
+          files[relative.generic_string()] = "stage " + digest;
+        }
+      }
       for (const auto& f : fs::recursive_directory_iterator(a)) {
-        const auto relative = f.path().lexically_relative(a).string();
-        const bool evaluated =
-            stage.model_argument &&
-            fs::equivalent(f.path(), stage.arguments[*stage.model_argument], error);
+        const auto relative = f.path().lexically_relative(a).generic_string();
         if (f.is_regular_file() && f.path().extension() == ".h5" && relative[0] != '.' &&
-            !evaluated) {
-          files.push_back(f.path());
+            normal_path(f.path()) != evaluated && !files.contains(relative)) {
+          files[relative] = digests.of_file(f.path());
         }
       }
-      std::sort(files.begin(), files.end());
-      for (const auto& f : files) {
-        const auto stage_digest = produced_by ? produced_by(f) : std::nullopt;
-        if (stage_digest) {
-          hash.update(f.string() + "=stage " + *stage_digest + '\n');
-        } else {
-          add_file(f);
-        }
-      }
+      for (const auto& [relative, digest] : files) hash.update(relative + '=' + digest + '\n');
     }
   }
   for (const auto& e : extra) hash.update(e + '\n');
@@ -379,8 +383,9 @@ class Night {
     const std::string key = "model:" + stage.name;
     const auto evaluations = plan_.evaluations_of(stage.name);
     std::vector<std::string> evaluation_texts;
+    evaluation_texts.reserve(evaluations.size());
     for (const NightlyStage* e : evaluations) {
-      evaluation_texts.push_back(inputs_digest(*e, tool(*e), digests_, {}, produced_by()));
+      evaluation_texts.push_back(inputs_digest(*e, tool(*e), digests_, {}, plan_outputs()));
     }
     const std::string inputs = inputs_digest(stage, tool(stage), digests_, evaluation_texts);
     if (registry_.find(stage.name) == nullptr && fs::is_regular_file(stage.out)) {
@@ -422,7 +427,7 @@ class Night {
     model.log = log_stem("model_" + stage.name);
     model.exit_code = spawn(tool(stage), arguments, model.log, model.wall_seconds);
     std::vector<StageOutcome> evaluation_outcomes;
-    auto conclude = [&](StageOutcome m) {
+    auto conclude = [&](const StageOutcome& m) {
       cache_.store(key, inputs, m, {stage.out}, digests_);
       finish(m);
       for (auto& e : evaluation_outcomes) {
@@ -545,16 +550,12 @@ class Night {
   }
 
   // The plan's model stages by output file, as their own inputs digest (without evaluations).
-  ProducedBy produced_by() {
-    return [this](const fs::path& file) -> std::optional<std::string> {
-      std::error_code error;
-      for (const NightlyStage& s : plan_.stages) {
-        if (s.kind == "model" && fs::exists(s.out, error) && fs::equivalent(s.out, file, error)) {
-          return inputs_digest(s, tool(s), digests_);
-        }
-      }
-      return std::nullopt;
-    };
+  PlanOutputs plan_outputs() {
+    PlanOutputs outputs;
+    for (const NightlyStage& s : plan_.stages) {
+      if (s.kind == "model") outputs[normal_path(s.out)] = inputs_digest(s, tool(s), digests_);
+    }
+    return outputs;
   }
 
   static std::string join(const std::vector<std::string>& parts) {

@@ -189,7 +189,9 @@ HeadlineFile read_headline(const std::filesystem::path& given) {
       } else if (form == "scan_zeta") {
         m.form = HeadlineMetric::Form::kScanZeta;
       } else {
-        throw std::runtime_error(where + ".form: unknown form '" + form + "'");
+        std::string message = where;
+        message.append(".form: unknown form '").append(form).append("'");
+        throw std::runtime_error(message);
       }
       m.numerator = matrix_from(entry.at("numerator"), where + ".numerator");
       m.denominator = matrix_from(entry.at("denominator"), where + ".denominator");
