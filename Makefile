@@ -6,8 +6,12 @@ BUILD_DIR  ?= build
 BUILD_TYPE ?= Release
 JOBS       ?= $(shell nproc)
 NIGHTLY    ?= configs/nightly.toml
+# The sanitizer and fuzzing build: Clang when present (libFuzzer), else GCC with the replay driver.
+SANITIZE_DIR ?= build-sanitize
+SANITIZERS   ?= address,undefined
+SECONDS      ?= 60
 
-.PHONY: all deps configure build train test bench format clean
+.PHONY: all deps configure build train test bench format clean sanitize-build test-sanitize fuzz
 
 all: build
 
@@ -28,6 +32,29 @@ train: build
 test: build
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j $(JOBS)
 
+# ASan + UBSan (+ LeakSanitizer) build of the whole suite, fuzz targets included.
+sanitize-build: deps
+	@if command -v clang++ >/dev/null; then compilers="-DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DIMM_FUZZERS=ON"; \
+	 else compilers="-DIMM_FUZZERS=OFF"; fi; \
+	 cmake -S . -B $(SANITIZE_DIR) -DCMAKE_BUILD_TYPE=Sanitize -DIMM_SANITIZERS=$(SANITIZERS) \
+	   -DIMM_BUILD_BENCHMARKS=OFF $$compilers > $(SANITIZE_DIR).configure.log 2>&1 \
+	   || { cat $(SANITIZE_DIR).configure.log; exit 1; }
+	cmake --build $(SANITIZE_DIR) -j $(JOBS)
+
+# Every test but the three config drills of the evaluations (ConfigDrill/*_evaluation): each runs
+# a whole evaluation with baseline tuning for every numeric key at six values, minutes apiece under
+# the sanitizers; the evaluations themselves run sanitized in the tools tests.
+SANITIZE_EXCLUDE ?= ConfigDrill.*_evaluation
+test-sanitize: sanitize-build
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+	UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp:print_suppressions=0 \
+	  ctest --test-dir $(SANITIZE_DIR) --output-on-failure -j $(JOBS) -E '$(SANITIZE_EXCLUDE)'
+
+# Runs every fuzz target for SECONDS seconds (make fuzz SECONDS=600 for a longer campaign).
+fuzz: sanitize-build
+	scripts/fuzz.sh $(SANITIZE_DIR) $(SECONDS)
+
 bench: build
 	$(BUILD_DIR)/bin/imm-bench --benchmark_min_time=1
 	$(BUILD_DIR)/bin/imm-train-bench
@@ -36,4 +63,4 @@ format:
 	git ls-files '*.cpp' '*.hpp' | xargs clang-format -i
 
 clean:
-	rm -rf $(BUILD_DIR) $(BUILD_DIR).configure.log
+	rm -rf $(BUILD_DIR) $(BUILD_DIR).configure.log $(SANITIZE_DIR) $(SANITIZE_DIR).configure.log

@@ -10,6 +10,7 @@ packages=(
   libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
+  clang libclang-rt-dev   # make test-sanitize / make fuzz: ASan, UBSan, libFuzzer
 )
 
 missing=()

@@ -52,7 +52,7 @@ void TwoAxisFilter::initialize(const Eigen::VectorXd& mean, const Eigen::MatrixX
 }
 
 StepStatus TwoAxisFilter::step(const Eigen::Vector2d& z) {
-  if (!z.allFinite()) return StepStatus::kInvalidMeasurement;
+  if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
   const StepStatus status = x_->step(z(0));
   if (status != StepStatus::kOk) return status;
   return y_->step(z(1));

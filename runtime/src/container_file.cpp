@@ -10,6 +10,9 @@
 #include <atomic>
 #include <cerrno>
 #include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <sstream>
@@ -339,13 +342,44 @@ void seal_container(const std::filesystem::path& path, std::string_view format) 
 
 struct ContainerWriter::Impl {
   std::filesystem::path final_path;
-  std::filesystem::path temp_path;
+  std::filesystem::path temp_path;  ///< ".<name>.tmp-<pid>-<n>" beside the target
+  bool temp_exists = false;
   std::string format;
   Handle file;
   bool committed = false;
 
   [[nodiscard]] std::string name() const { return final_path.string(); }
 };
+
+namespace {
+
+/// Removes what writers killed while writing left in `folder` (SIGKILL runs no destructor): hidden
+/// temporaries ".<name>.tmp-<pid>" or ".<name>.tmp-<pid>-<n>" — the pattern of this writer and of
+/// the trainer's atomic JSON writes — whose process no longer exists.
+void remove_stale_temporaries(const std::filesystem::path& folder) {
+  std::error_code error;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, error)) {
+    const std::string name = entry.path().filename().string();
+    const auto marker = name.rfind(".tmp-");
+    if (name.empty() || name.front() != '.' || marker == std::string::npos || marker == 0) continue;
+    const char* digits = name.c_str() + marker + 5;
+    char* end = nullptr;
+    const long pid = std::strtol(digits, &end, 10);
+    if (end == digits || pid <= 0) continue;
+    if (*end == '-') {
+      const char* counter = end + 1;
+      std::strtol(counter, &end, 10);
+      if (end == counter) continue;
+    }
+    if (*end != '\0') continue;
+    if (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
+      std::error_code ignored;
+      std::filesystem::remove(entry.path(), ignored);
+    }
+  }
+}
+
+}  // namespace
 
 ContainerWriter::ContainerWriter(const std::filesystem::path& path, std::string_view format)
     : impl_(std::make_unique<Impl>()) {
@@ -361,8 +395,14 @@ ContainerWriter::ContainerWriter(const std::filesystem::path& path, std::string_
   if (!std::filesystem::is_directory(folder)) {
     throw FileError(path.string(), "", "folder '" + folder.string() + "' does not exist");
   }
+  remove_stale_temporaries(folder);
   impl_->temp_path = folder / ("." + path.filename().string() + ".tmp-" +
                                std::to_string(::getpid()) + "-" + std::to_string(counter++));
+  // HDF5 needs a path to create its file (it resolves the name, so an unnamed O_TMPFILE behind
+  // /proc/self/fd cannot serve), hence a hidden named file in the destination folder. A process
+  // killed while it exists (SIGKILL runs no destructor) leaves it; the next writer in the same
+  // folder removes it (remove_stale_temporaries above).
+  impl_->temp_exists = true;
 
   Handle create_list(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
   H5Pset_userblock(create_list.get(), kHeaderSize);
@@ -372,6 +412,10 @@ ContainerWriter::ContainerWriter(const std::filesystem::path& path, std::string_
       H5Fcreate(impl_->temp_path.c_str(), H5F_ACC_EXCL, create_list.get(), access_list.get()),
       H5Fclose);
   if (!impl_->file.valid()) {
+    if (impl_->temp_exists) {
+      std::error_code ignored;
+      std::filesystem::remove(impl_->temp_path, ignored);
+    }
     throw FileError(path.string(), "",
                     "cannot create '" + impl_->temp_path.string() + "': " + hdf5_cause());
   }
@@ -381,8 +425,10 @@ ContainerWriter::~ContainerWriter() {
   if (impl_ && !impl_->committed) {
     const ErrorSilencer silencer;
     impl_->file.reset();
-    std::error_code ignored;
-    std::filesystem::remove(impl_->temp_path, ignored);
+    if (impl_->temp_exists) {
+      std::error_code ignored;
+      std::filesystem::remove(impl_->temp_path, ignored);
+    }
   }
 }
 
@@ -483,6 +529,7 @@ void ContainerWriter::commit() {
   std::error_code error;
   std::filesystem::rename(impl_->temp_path, impl_->final_path, error);
   if (error) throw FileError(file, "", "cannot rename temporary file: " + error.message());
+  impl_->temp_exists = false;
   impl_->committed = true;
   std::filesystem::path folder = impl_->final_path.parent_path();
   if (folder.empty()) folder = ".";
@@ -728,17 +775,48 @@ Array ContainerReader::read(std::string_view dataset) const {
   const std::string file = impl_->name();
   Array array;
   array.shape = shape(path);
-  // A hostile header could declare a huge extent; no stored dataset can hold more elements
-  // than the file has bytes.
-  long double declared = 1.0L;
+  // The allocation bound: a dataset may not declare more bytes of doubles than the whole file
+  // holds. Containers store their data uncompressed, so a genuine dataset always fits; a hostile
+  // header declaring a huge extent (or a sparse chunked dataset read as fill values) is refused
+  // before anything is allocated.
+  long double declared = sizeof(double);
   for (std::size_t extent : array.shape) declared *= static_cast<long double>(extent);
   if (declared > static_cast<long double>(impl_->file_bytes)) {
-    throw FileError(file, path, "declares more elements than the file can hold");
+    char bytes[32];
+    std::snprintf(bytes, sizeof bytes, "%.4Lg", declared);
+    throw FileError(file, path,
+                    std::string("declares ") + bytes + " bytes of data, more than the file's " +
+                        std::to_string(impl_->file_bytes));
   }
   Handle data(H5Dopen2(impl_->file.get(), path.c_str(), H5P_DEFAULT), H5Dclose);
   Handle type(H5Dget_type(data.get()), H5Tclose);
   if (!type.valid() || H5Tget_class(type.get()) != H5T_FLOAT) {
     throw FileError(file, path, "expected floating-point data");
+  }
+  // HDF5 sizes its conversion and chunk buffers from the stored type and the chunk shape, not from
+  // the extent: an IEEE single or double only, and chunks no larger than the file.
+  const std::size_t type_bytes = H5Tget_size(type.get());
+  if (type_bytes != 4 && type_bytes != 8) {
+    throw FileError(file, path,
+                    "floating-point data of " + std::to_string(type_bytes) +
+                        " bytes per value (expected 4 or 8)");
+  }
+  Handle create_list(H5Dget_create_plist(data.get()), H5Pclose);
+  if (create_list.valid() && H5Pget_layout(create_list.get()) == H5D_CHUNKED) {
+    std::array<hsize_t, kMaxRank> chunk{};
+    const int chunk_rank =
+        H5Pget_chunk(create_list.get(), static_cast<int>(kMaxRank), chunk.data());
+    long double chunk_bytes = static_cast<long double>(type_bytes);
+    for (int d = 0; d < chunk_rank; ++d) chunk_bytes *= static_cast<long double>(chunk[d]);
+    if (chunk_rank < 1 || chunk_rank > static_cast<int>(kMaxRank) ||
+        chunk_bytes > static_cast<long double>(impl_->file_bytes)) {
+      throw FileError(file, path, "declares chunks larger than the file");
+    }
+  }
+  // The stored size (for chunks: the sum the chunk index records, which HDF5 allocates per chunk
+  // before it checks the data) cannot exceed the file either.
+  if (H5Dget_storage_size(data.get()) > impl_->file_bytes) {
+    throw FileError(file, path, "declares more stored bytes than the file holds");
   }
   array.values.resize(array.element_count());
   if (!array.values.empty() && H5Dread(data.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT,

@@ -117,7 +117,7 @@ void FcmCompensatedMode::reset(const GaussianState<2>& state) {
 }
 
 ModeStep FcmCompensatedMode::propose(const GaussianState<2>& mixed, const Vector<1>& z) {
-  if (!z.allFinite()) return {StepStatus::kInvalidMeasurement, 0.0};
+  if (!limits::usable_measurement(z)) return {StepStatus::kInvalidMeasurement, 0.0};
   pending_ = predict(mixed, F_, Q_);
   const double S = pending_.covariance(0, 0) + R_(0, 0);
   if (!(S > 0.0) || !std::isfinite(S)) return {StepStatus::kSingularInnovation, 0.0};

@@ -44,7 +44,7 @@ void InnovationFeatureExtractor::initialize(const GaussianState<2>& state) {
 }
 
 StepStatus InnovationFeatureExtractor::step(double z, Eigen::Vector2d& features) {
-  if (!std::isfinite(z)) return StepStatus::kInvalidMeasurement;
+  if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
   GaussianState<2> cv = predict(cv_, motion_.transition, motion_.process_noise);
   const auto report = update(cv, Vector<1>(z), H_, R_);
   if (!report.ok()) return report.status;
@@ -91,7 +91,7 @@ void InputEstimationFilter::initialize(const GaussianState<2>& state) {
 }
 
 StepStatus InputEstimationFilter::step(double z) {
-  if (!std::isfinite(z)) return StepStatus::kInvalidMeasurement;
+  if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
   // The primary KF with the input estimated at k − 1 (eq. 10).
   GaussianState<2> primary =
       predict(primary_, motion_.transition, motion_.process_noise, G_, Vector<1>(acceleration_));

@@ -44,10 +44,12 @@ Array SchemaReader::array(std::string_view dataset, const std::vector<long>& sha
                           ValueRule rule) const {
   const std::string field = field_path(dataset);
   if (container_.kind(dataset) != ObjectKind::kDataset) fail(field, "missing dataset");
-  Array values = container_.read(dataset);
-  bool matches = values.shape.size() == shape.size();
+  // The declared shape is checked against the schema before a single value is read, so a file
+  // cannot make the reader allocate for a dataset of the wrong shape.
+  const std::vector<std::size_t> declared = container_.shape(dataset);
+  bool matches = declared.size() == shape.size();
   for (std::size_t d = 0; matches && d < shape.size(); ++d) {
-    matches = shape[d] < 0 || values.shape[d] == static_cast<std::size_t>(shape[d]);
+    matches = shape[d] < 0 || declared[d] == static_cast<std::size_t>(shape[d]);
   }
   if (!matches) {
     auto text = [](const auto& extents) {
@@ -58,8 +60,9 @@ Array SchemaReader::array(std::string_view dataset, const std::vector<long>& sha
       }
       return out;
     };
-    fail(field, "expected shape " + text(shape) + ", found " + text(values.shape));
+    fail(field, "expected shape " + text(shape) + ", found " + text(declared));
   }
+  Array values = container_.read(dataset);
   for (std::size_t i = 0; i < values.values.size(); ++i) {
     if (!satisfies(values.values[i], rule)) {
       std::ostringstream message;

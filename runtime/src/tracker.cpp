@@ -156,8 +156,10 @@ TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
   if (last_scan_ && scan <= *last_scan_) {
     return reject(StepStatus::kInvalidMeasurement, "scan index does not increase");
   }
-  if (!z.allFinite())
-    return reject(StepStatus::kInvalidMeasurement, "measurement is NaN or infinite");
+  if (!limits::usable_measurement(z)) {
+    return reject(StepStatus::kInvalidMeasurement,
+                  "measurement is NaN, infinite or beyond the physical range (|z| > 1e9)");
+  }
 
   if (initialized_ && scan - *last_scan_ > options_.max_gap) {
     initialized_ = false;  // track lost: start again from this plot

@@ -6,8 +6,15 @@ execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "cmake --install failed")
 endif()
+# A runtime built with sanitizers (IMM_SANITIZERS) needs a consumer linked with the same ones: the
+# sanitizer runtime must come first in the executable, as it would in a user's sanitized build.
+set(consumer_flags "")
+if(SANITIZERS)
+  set(consumer_flags -DCMAKE_CXX_FLAGS=-fsanitize=${SANITIZERS} -DCMAKE_EXE_LINKER_FLAGS=-fsanitize=${SANITIZERS})
+endif()
 execute_process(COMMAND ${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/package/consumer -B ${WORK_DIR}/build
                         -G ${GENERATOR} -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix -DCMAKE_BUILD_TYPE=Release
+                        ${consumer_flags}
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "consumer configure failed:\n${out}\n${err}")

@@ -49,8 +49,11 @@ void read_model(const std::filesystem::path& path) {
 
 std::vector<std::filesystem::path> shipped_models() {
   std::vector<std::filesystem::path> models;
-  for (const auto& entry : std::filesystem::recursive_directory_iterator("models")) {
-    if (entry.path().extension() == ".h5") models.push_back(entry.path());
+  // The shipped models (models/, models/reference/), not the registry's archive.
+  for (const char* folder : {"models", "models/reference"}) {
+    for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+      if (entry.path().extension() == ".h5") models.push_back(entry.path());
+    }
   }
   std::sort(models.begin(), models.end());
   return models;

@@ -235,7 +235,9 @@ TEST(GaFuzzyImmModelFile, HostileRuleTablesAreRefusedNamingTheField) {
        "rule 1: sigma1 and sigma2 must be positive"},
       {{0.0, 1.0, 0.0, 1.0, -1e-4, 0.5, 0.3, 0.1, 2.0, 2e-4}, "rule 0: w must be non-negative"},
       {{0.0, 1.0, 0.0, 1.0, 1e-4, 0.5, 0.3, kNan, 2.0, 2e-4}, "is not finite"}};
-  for (const auto& [values, message] : drills) {
+  for (const auto& drill : drills) {
+    const std::vector<double>& values = drill.first;
+    const std::string& message = drill.second;
     testing::write_bytes(path, bytes);
     edit_and_reseal(path, [&](hid_t f) {
       replace_dataset(f, "/ga_fuzzy_imm/level0/rules", {2, 5}, values);

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "imm/support/measurement_csv.hpp"
 #include "imm/support/plain_imm_config.hpp"
@@ -102,6 +105,31 @@ TEST(PlainImmConfig, SyntaxErrorGivesLineAndColumn) {
   const auto [key, what] = error_of("sample_period = = 1\n");
   EXPECT_EQ(key, "");
   EXPECT_NE(what.find("line 1"), std::string::npos) << what;
+}
+
+// What TOML forbids and toml++ does not survive (found by config_fuzzer: an assertion on a NUL in a
+// key and on a table header without a key, an unreachable branch on non-ASCII text after a value)
+// is refused before parsing, with its line and column; UTF-8 in comments and strings, and nested
+// array lines starting with '[', still parse.
+TEST(ConfigText, WhatTomlForbidsIsRefusedWithItsPosition) {
+  const std::vector<std::pair<std::string, std::string>> refused = {
+      {std::string("a = 1\nb\0 = 2\n", 13), "line 2, column 2: control character 0x00"},
+      {"a = 1\nb = 2\xCF\x83\n", "line 2, column 6: non-ASCII character"},
+      {"[\n", "line 1, column 1: a table header must start with a key"},
+      {"a = 1\n  [[ =]]\n", "line 2, column 3: a table header must start with a key"}};
+  for (const auto& [text, message] : refused) {
+    try {
+      (void)ConfigDocument::parse(text, "c.toml");
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const ConfigError& error) {
+      EXPECT_NE(std::string(error.what()).find(message), std::string::npos) << error.what();
+    }
+  }
+  const auto document = ConfigDocument::parse(
+      "# σ in a comment\nname = \"σ ≈ 0.5 km\"\nm = [\n  [1, 2],\n  [ 3, 4],\n]\n[t]\nx = 'é'\n",
+      "ok.toml");
+  EXPECT_EQ(document->root().text("name"), "σ ≈ 0.5 km");
+  EXPECT_EQ(document->root().matrix("m", 2, 2)(1, 0), 3.0);
 }
 
 TEST(PlainImmConfig, ShippedBenchmarkFilterIsTheIssuesFilter) {

@@ -221,8 +221,10 @@ TEST(PaperPresets, Seed000ScenarioTrackForTrack) {
 }
 
 TEST(PaperPresets, Seed003ScenarioTrackForTrack) {
-  for (const auto& [file, scale] : {std::pair<std::string, double>{"fcm_imm_seed003.toml", 1.0},
-                                    {"fcm_imm_seed003_literal.toml", 10.0}}) {
+  for (const auto& preset : {std::pair<std::string, double>{"fcm_imm_seed003.toml", 1.0},
+                             {"fcm_imm_seed003_literal.toml", 10.0}}) {
+    const std::string& file = preset.first;
+    const double scale = preset.second;  // a named copy: the lambda below captures it
     const Regime r = load_regime("configs/regimes/paper/" + file).regime;
     Reference s;
     s.scans = 400;

@@ -140,7 +140,11 @@ inline std::vector<Mutation> mutations_of(const Layout& layout) {
                         true});
     }
   }
-  for (const auto& [object, name] : layout.attributes) {
+  for (const auto& attribute : layout.attributes) {
+    // Named copies: lambdas capture them (a structured binding is not capturable before C++20's
+    // P1091, which Clang 14 lacks).
+    const std::string object = attribute.first;
+    const std::string name = attribute.second;
     const std::string where = object + "@" + name;
     drills.push_back({"number for " + where, [object, name](hid_t f) {
                         const double value = 0.5;

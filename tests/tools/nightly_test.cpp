@@ -191,7 +191,7 @@ TEST(NightlyProduct, KillNineDuringPromotionLeavesTheOldOrTheNewState) {
   const Plan p = write_plan(dir);
   ASSERT_EQ(nightly(p).exit_code, 0);
   std::uint64_t state = 12345;
-  for (int round = 0; round < 6; ++round) {
+  for (int round = 0; round < 20; ++round) {
     // Each round a new config text, so that every run trains, evaluates and promotes.
     write_cv3(dir / "cv3.toml", 1.0, "# round " + std::to_string(round) + "\n");
     const std::string out = (dir / "out.txt").string(), err = (dir / "err.txt").string();

@@ -43,13 +43,13 @@
 #include "imm/trainer/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/registry.hpp"
+#include "imm/trainer/temporaries_guard.hpp"
 #include "imm/trainer/tsk/tsk_trainer.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
 
 namespace {
 
 constexpr int kExitBadInput = 2;
-constexpr int kExitStageFailed = 3;
 constexpr int kExitGateFailed = 4;
 
 struct GaCommand {
@@ -284,6 +284,21 @@ int main(int argc, char** argv) {
   rollback_command->add_option("--registry", rollback_registry, "registry folder (models)");
 
   CLI11_PARSE(app, argc, argv);
+  // A training killed with SIGKILL while writing leaves a hidden temporary beside its output: a
+  // guard process removes it (see temporaries_guard.hpp).
+  const std::vector<std::pair<CLI::App*, std::filesystem::path>> outputs{
+      {ga_subcommand, ga_command.out},
+      {freeze_command, freeze.out},
+      {mlp_command, mlp.out},
+      {wimm_command, wimm.out},
+      {fcm_command, fcm.out},
+      {tsk_command, tsk.out},
+      {import_command, import_options.out}};
+  for (const auto& [command, out] : outputs) {
+    if (*command) {
+      imm::trainer::guard_temporaries({out.parent_path().empty() ? "." : out.parent_path()});
+    }
+  }
   try {
     if (*ga_subcommand) return run_ga(ga_command);
     if (*freeze_command) return run_freeze(freeze);

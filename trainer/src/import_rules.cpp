@@ -98,7 +98,11 @@ GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSet
                                error.what());
     }
   }
-  spec.validate();
+  try {
+    spec.validate();
+  } catch (const std::invalid_argument& error) {
+    throw std::runtime_error(csv.string() + ": " + error.what());
+  }
   return spec;
 }
 

@@ -2,7 +2,9 @@
 
 #include <toml++/toml.h>
 
+#include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -11,6 +13,107 @@
 
 namespace imm::support {
 namespace {
+
+/// The largest config file read: configs are a few KiB; a larger file is not one.
+constexpr std::size_t kMaxConfigBytes = std::size_t{4} << 20U;
+
+/// What TOML forbids and toml++ does not survive, found before toml++ sees the text: a raw control
+/// character other than tab, LF and CR anywhere (toml++ asserts on a NUL inside a key), and a
+/// non-ASCII character outside strings and comments (never valid there; toml++'s Unicode
+/// whitespace test reaches an unreachable branch for many such code points), and a table header
+/// whose first character cannot start a key ("[", "[ =", "[[#": toml++ asserts). Strings and
+/// comments keep any UTF-8. Returns "line L, column C: …" or "".
+std::string lexical_problem(const std::string& text) {
+  enum class State { kCode, kComment, kBasic, kLiteral, kMultiBasic, kMultiLiteral };
+  State state = State::kCode;
+  std::size_t line = 1, column = 1;
+  int depth = 0;           // open [ and { of values (a table header's [ is closed on its line)
+  bool line_start = true;  // nothing but blanks yet on this line
+  auto key_start = [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '-' || c == '"' ||
+           c == '\'' || c == ']';
+  };
+  auto at = [&](const std::string& what) {
+    return "line " + std::to_string(line) + ", column " + std::to_string(column) + ": " + what;
+  };
+  auto starts = [&](std::size_t i, const char* token) { return text.compare(i, 3, token) == 0; };
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    const auto byte = static_cast<unsigned char>(c);
+    if ((byte < 0x20 && c != '\t' && c != '\n' && c != '\r') || byte == 0x7F) {
+      char code[8];
+      std::snprintf(code, sizeof code, "0x%02X", byte);
+      return at(std::string("control character ") + code + " (not allowed in TOML)");
+    }
+    switch (state) {
+      case State::kCode:
+        if (byte >= 0x80) return at("non-ASCII character outside a string or a comment");
+        if (c == '[' && depth == 0 && line_start) {
+          std::size_t k = i + 1;
+          if (k < text.size() && text[k] == '[') ++k;
+          while (k < text.size() && (text[k] == ' ' || text[k] == '\t')) ++k;
+          if (k >= text.size() || !key_start(text[k])) {
+            return at("a table header must start with a key");
+          }
+        }
+        if (c == '[' || c == '{') {
+          ++depth;
+        } else if ((c == ']' || c == '}') && depth > 0) {
+          --depth;
+        }
+        if (c != ' ' && c != '\t' && c != '\n' && c != '\r') line_start = false;
+        if (c == '#') {
+          state = State::kComment;
+        } else if (starts(i, "\"\"\"")) {
+          state = State::kMultiBasic;
+          i += 2;
+        } else if (starts(i, "'''")) {
+          state = State::kMultiLiteral;
+          i += 2;
+        } else if (c == '"') {
+          state = State::kBasic;
+        } else if (c == '\'') {
+          state = State::kLiteral;
+        }
+        break;
+      case State::kComment:
+        if (c == '\n') state = State::kCode;
+        break;
+      case State::kBasic:
+        if (c == '\\') {
+          ++i;  // the escaped character (a control character there is still caught above)
+        } else if (c == '"' || c == '\n') {
+          state = State::kCode;
+        }
+        break;
+      case State::kLiteral:
+        if (c == '\'' || c == '\n') state = State::kCode;
+        break;
+      case State::kMultiBasic:
+        if (c == '\\') {
+          ++i;
+        } else if (starts(i, "\"\"\"")) {
+          state = State::kCode;
+          i += 2;
+        }
+        break;
+      case State::kMultiLiteral:
+        if (starts(i, "'''")) {
+          state = State::kCode;
+          i += 2;
+        }
+        break;
+    }
+    if (i < text.size() && text[i] == '\n') {
+      ++line;
+      column = 1;
+      line_start = true;
+    } else {
+      ++column;
+    }
+  }
+  return {};
+}
 
 const toml::table& as_table(const void* table) { return *static_cast<const toml::table*>(table); }
 
@@ -56,13 +159,32 @@ std::shared_ptr<ConfigDocument> ConfigDocument::parse(std::string text, std::str
   std::shared_ptr<ConfigDocument> document(new ConfigDocument());
   document->text_ = std::move(text);
   document->name_ = std::move(name);
+  if (document->text_.size() > kMaxConfigBytes) {
+    throw ConfigError(document->name_, "",
+                      "larger than " + std::to_string(kMaxConfigBytes >> 20U) + " MiB");
+  }
+  if (const std::string problem = lexical_problem(document->text_); !problem.empty()) {
+    throw ConfigError(document->name_, "", problem);
+  }
   try {
     document->parsed_ = std::make_unique<Parsed>(
         Parsed{toml::parse(document->text_, std::string_view(document->name_))});
   } catch (const toml::parse_error& error) {
     std::ostringstream message;
     message << "line " << error.source().begin.line << ", column " << error.source().begin.column
-            << ": " << error.description();
+            << ": ";
+    // One line: toml++ quotes the offending character, which may be a line break.
+    for (const char c : error.description()) {
+      if (c == '\n') {
+        message << "\\n";
+      } else if (c == '\r') {
+        message << "\\r";
+      } else if (c == '\t') {
+        message << "\\t";
+      } else {
+        message << c;
+      }
+    }
     throw ConfigError(document->name_, "", message.str());
   }
   return document;
@@ -72,6 +194,11 @@ std::shared_ptr<ConfigDocument> ConfigDocument::load(const std::filesystem::path
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error)) {
     throw ConfigError(path.string(), "", "no such config file");
+  }
+  if (const auto bytes = std::filesystem::file_size(path, error);
+      !error && bytes > kMaxConfigBytes) {
+    throw ConfigError(path.string(), "",
+                      "larger than " + std::to_string(kMaxConfigBytes >> 20U) + " MiB");
   }
   std::ifstream in(path);
   std::stringstream buffer;

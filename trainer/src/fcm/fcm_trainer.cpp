@@ -88,7 +88,11 @@ FcmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
       const Eigen::VectorXd w = u->reals("windows");
       g.windows.clear();
       for (double v : w) {
-        if (v != std::floor(v)) u->fail("windows", "must be integers");
+        // Checked before the conversion: a double outside int's range does not convert (the
+        // spec's validate() then checks the window range).
+        if (v != std::floor(v) || std::abs(v) > 1e6) {
+          u->fail("windows", "must be integers in [-1e6, 1e6]");
+        }
         g.windows.push_back(static_cast<int>(v));
       }
     }

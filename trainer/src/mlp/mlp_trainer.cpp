@@ -35,7 +35,13 @@ MlpTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
     if (n->has("hidden")) {
       const Eigen::VectorXd h = n->reals("hidden");
       c.hidden.clear();
-      for (Eigen::Index i = 0; i < h.size(); ++i) c.hidden.push_back(static_cast<int>(h(i)));
+      for (Eigen::Index i = 0; i < h.size(); ++i) {
+        // Checked before the conversion: a double outside int's range does not convert.
+        if (!(h(i) >= 1.0 && h(i) <= 4096.0) || h(i) != std::floor(h(i))) {
+          n->fail("hidden", "entry " + std::to_string(i) + " must be a whole number in [1, 4096]");
+        }
+        c.hidden.push_back(static_cast<int>(h(i)));
+      }
     }
     if (n->has("output")) {
       const std::string output = n->text("output");

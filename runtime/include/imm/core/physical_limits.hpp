@@ -9,6 +9,7 @@
 /// variance q T⁴, a position v t over a whole track, σ² of a sum of outputs — stay far inside the
 /// double range.
 
+#include <Eigen/Core>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -45,6 +46,21 @@ inline constexpr Interval kAcceleration{0.0, 1e6, ""};
 inline constexpr Interval kTurnRate{0.0, 1e3, ""};
 /// Dimensionless positive factors and ratios (scales, separations, fuzzifiers).
 inline constexpr Interval kFactor{0.0, 1e6, ""};
+
+/// The largest magnitude of a measurement component a filter accepts (positions and ranges in m
+/// or km, azimuths in rad, sensor outputs): a plot beyond it is a broken sensor or a corrupt file,
+/// not a target, and its square would overflow deep inside an update (ν² / S, d dᵀ in the mixing),
+/// leaving a non-finite or indefinite estimate instead of an error.
+inline constexpr double kMaxMeasurement = kDistance.max;
+
+/// Whether a measurement component is usable: finite and within ±kMaxMeasurement (false for NaN).
+[[nodiscard]] inline bool usable_measurement(double value) {
+  return std::abs(value) <= kMaxMeasurement;
+}
+template <class Derived>
+[[nodiscard]] bool usable_measurement(const Eigen::DenseBase<Derived>& z) {
+  return (z.derived().array().abs() <= kMaxMeasurement).all();
+}
 
 /// "[1e-06, 36000] s"
 [[nodiscard]] inline std::string describe(const Interval& interval) {

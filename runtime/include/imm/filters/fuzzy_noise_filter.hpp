@@ -11,6 +11,7 @@
 #include <string>
 #include <utility>
 
+#include "imm/core/physical_limits.hpp"
 #include "imm/filters/imm_mode.hpp"
 #include "imm/filters/kalman_filter.hpp"
 #include "imm/models/constant_velocity.hpp"
@@ -41,7 +42,7 @@ class FuzzyNoiseFilter {
   /// Predicts `state` one period and updates it with z; on failure `state` is unchanged.
   Step step(GaussianState<2>& state, double previous_residual, double z) const {
     Step result;
-    if (!std::isfinite(z)) {
+    if (!limits::usable_measurement(z)) {
       result.status = StepStatus::kInvalidMeasurement;
       return result;
     }

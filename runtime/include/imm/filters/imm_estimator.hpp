@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include "imm/core/physical_limits.hpp"
 #include "imm/filters/gaussian_state.hpp"
 #include "imm/filters/imm_mode.hpp"
 #include "imm/filters/step_status.hpp"
@@ -97,7 +98,7 @@ class ImmEstimator {
   /// One IMM cycle with measurement z. On any status other than kOk nothing changes.
   StepStatus step(const Vector<NZ>& z) {
     require_initialized();
-    if (!z.allFinite()) return StepStatus::kInvalidMeasurement;
+    if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
     predict_mode_probabilities();
     mix_and_propose(
         [&](Mode& mode, const GaussianState<NX>& mixed) { return mode.propose(mixed, z); });
@@ -122,7 +123,7 @@ class ImmEstimator {
   template <class Choose>
   StepStatus step_with(const Vector<NZ>& z, Choose&& choose) {
     require_initialized();
-    if (!z.allFinite()) return StepStatus::kInvalidMeasurement;
+    if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
     predict_mode_probabilities();
     const int n = mode_count();
     ModeVector predicted(n);
@@ -134,7 +135,7 @@ class ImmEstimator {
     const Vector<NZ> chosen =
         choose(static_cast<const ModeVector&>(predicted),
                static_cast<const std::array<Vector<NX>, kMaxModes>&>(predicted_means_), z);
-    if (!chosen.allFinite()) return StepStatus::kInvalidMeasurement;
+    if (!limits::usable_measurement(chosen)) return StepStatus::kInvalidMeasurement;
     status_ = StepStatus::kOk;
     for (int j = 0; j < n; ++j) {
       if (!record(j, mode_at(j).propose(mixed_states_[index(j)], chosen))) break;
@@ -234,10 +235,12 @@ class ImmEstimator {
       scaled_(j) = std::exp(log_posterior_(j) - shift);
       sum += scaled_(j);
     }
-    // sum ≥ 1: the largest entry contributes exp(0).
-    const double log_normalizer = shift + std::log(sum);  // cppcheck-suppress invalidFunctionArg
+    // sum ≥ 1: the largest entry contributes exp(0). log μ_j = (ℓ_j − shift) − log sum, in that
+    // order: with log-likelihoods far from zero (a plot many σ away gives ℓ ≈ −1e30) the sum
+    // shift + log sum rounds to shift, and ℓ_j − (shift + log sum) would give two modes log μ = 0.
+    const double log_sum = std::log(sum);  // cppcheck-suppress invalidFunctionArg
     for (auto& mode : modes_) mode->commit();
-    log_probabilities_ = log_posterior_.array() - log_normalizer;
+    log_probabilities_ = (log_posterior_.array() - shift) - log_sum;
     scaled_ /= sum;
     combine(scaled_);
     return StepStatus::kOk;

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "imm/core/physical_limits.hpp"
 #include "imm/filters/gaussian_state.hpp"
 #include "imm/filters/step_status.hpp"
 #include "imm/math/linear_algebra.hpp"
@@ -187,7 +188,7 @@ UpdateReport<M> update_with_gain(GaussianState<N>& state, const Vector<M>& innov
 template <int N, int M>
 UpdateReport<M> update(GaussianState<N>& state, const Vector<M>& z, const Matrix<M, N>& H,
                        const SquareMatrix<M>& R) {
-  if (!z.allFinite()) {
+  if (!limits::usable_measurement(z)) {
     UpdateReport<M> report;
     report.status = StepStatus::kInvalidMeasurement;
     return report;
@@ -205,7 +206,7 @@ template <int N, class Model>
 UpdateReport<Model::kDim> update(GaussianState<N>& state, const Vector<Model::kDim>& z,
                                  const Model& model) {
   constexpr int M = Model::kDim;
-  if (!z.allFinite()) {
+  if (!limits::usable_measurement(z)) {
     UpdateReport<M> report;
     report.status = StepStatus::kInvalidMeasurement;
     return report;
@@ -234,7 +235,7 @@ UpdateReport<Model::kDim> iterated_update(GaussianState<N>& state, const Vector<
                                           double tolerance = 1e-6) {
   if (iterations <= 1) return update(state, z, model);
   constexpr int M = Model::kDim;
-  if (!z.allFinite()) {
+  if (!limits::usable_measurement(z)) {
     UpdateReport<M> report;
     report.status = StepStatus::kInvalidMeasurement;
     return report;

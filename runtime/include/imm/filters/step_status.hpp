@@ -8,7 +8,7 @@ namespace imm {
 
 enum class StepStatus {
   kOk,
-  kInvalidMeasurement,    ///< the measurement holds NaN or ±Inf
+  kInvalidMeasurement,    ///< the measurement holds NaN, ±Inf or a value beyond ±1e9
   kSingularInnovation,    ///< S = H P Hᵀ + R is not positive definite
   kUndefinedMeasurement,  ///< h(x) or its Jacobian is undefined at the prediction (range 0)
   kNonFiniteResult,       ///< the update would produce NaN or ±Inf
@@ -20,7 +20,7 @@ enum class StepStatus {
     case StepStatus::kOk:
       return "ok";
     case StepStatus::kInvalidMeasurement:
-      return "invalid measurement (NaN or Inf)";
+      return "invalid measurement (NaN, Inf or |z| > 1e9)";
     case StepStatus::kSingularInnovation:
       return "innovation covariance not positive definite";
     case StepStatus::kUndefinedMeasurement:

@@ -1,0 +1,71 @@
+// Fuzz target: the CSV readers — imm-track's measurements, imm-train import-rules' rule tables
+// (against the GA paper config's filter settings) and imm-train tsk --data's sensor samples — on
+// the same text.
+//
+// Findings: a crash, a hang, a sanitizer report, an exception that is not a std::runtime_error
+// naming the problem, an unusable message, or a value accepted that the reader's contract refuses
+// (a row reported good with a non-finite value, a rule table or sample set with one).
+
+#include <cstdint>
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <string_view>
+
+#include "fuzz/fuzz_support.hpp"
+#include "imm/datasets/range_sensor_file.hpp"
+#include "imm/support/measurement_csv.hpp"
+#include "imm/trainer/ga/ga_config.hpp"
+#include "imm/trainer/import_rules.hpp"
+
+namespace {
+
+template <class Read>
+void read_expecting_runtime_errors(std::string_view reader, Read&& read) {
+  try {
+    read();
+  } catch (const std::runtime_error& error) {
+    imm::fuzz::expect_usable_message(error.what(), reader);
+  } catch (const std::exception& error) {
+    imm::fuzz::finding(std::string(reader) + ": unexpected exception: " + error.what());
+  }
+}
+
+const imm::trainer::ga::GaTrainingConfig& ga_config() {
+  static const auto config = imm::trainer::ga::load_ga_config(
+      std::filesystem::path(IMM_SOURCE_DIR) / "configs/ga_fuzzy_imm.toml",
+      std::filesystem::path(IMM_SOURCE_DIR) / "configs/regimes/paper/ga_imm_training.toml");
+  return config;
+}
+
+}  // namespace
+
+// NOLINTNEXTLINE(readability-identifier-naming): the entry point libFuzzer calls
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace imm;
+  static const fuzz::ScratchFile file("input.csv");
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  file.write(text);
+  read_expecting_runtime_errors("measurement csv", [&] {
+    std::istringstream in(text);
+    const support::MeasurementCsv csv = support::read_measurement_csv(in, "fuzz.csv");
+    for (const support::MeasurementRow& row : csv.rows) {
+      if (row.problem.empty() && (!row.z.allFinite() || !row.scan)) {
+        fuzz::finding("measurement csv: line " + std::to_string(row.line) +
+                      " reported good with a missing or non-finite value");
+      }
+      if (!row.problem.empty()) fuzz::expect_usable_message(row.problem, "measurement csv row");
+    }
+  });
+  read_expecting_runtime_errors("rules csv", [&] {
+    const GaFuzzyImmSpec spec = trainer::read_rules_csv(file.path(), ga_config().filter, "km");
+    spec.validate();
+  });
+  read_expecting_runtime_errors("sensor samples csv", [&] {
+    const datasets::RangeSensorData samples = datasets::read_sensor_samples(file.path());
+    if (!samples.positions.allFinite() || !samples.outputs.allFinite()) {
+      fuzz::finding("sensor samples read with non-finite values");
+    }
+  });
+  return 0;
+}
