@@ -16,6 +16,7 @@
 
 #include "imm/core/physical_limits.hpp"
 #include "testing/kind_filters.hpp"
+#include "testing/shipped_models.hpp"
 
 namespace imm {
 namespace {
@@ -23,17 +24,7 @@ namespace {
 constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::vector<std::filesystem::path> shipped_models() {
-  std::vector<std::filesystem::path> models;
-  // The shipped models (models/, models/reference/), not the registry's archive.
-  for (const char* folder : {"models", "models/reference"}) {
-    for (const auto& entry : std::filesystem::directory_iterator(folder)) {
-      if (entry.path().extension() == ".h5") models.push_back(entry.path());
-    }
-  }
-  std::sort(models.begin(), models.end());
-  return models;
-}
+using testing::shipped_models;
 
 /// One coordinate of a hostile plot: mostly the plausible value, otherwise one of the values a
 /// broken sensor or a corrupt file sends.

@@ -21,6 +21,7 @@
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "testing/hostile_hdf5.hpp"
+#include "testing/shipped_models.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::io {
@@ -47,17 +48,7 @@ void read_model(const std::filesystem::path& path) {
   }
 }
 
-std::vector<std::filesystem::path> shipped_models() {
-  std::vector<std::filesystem::path> models;
-  // The shipped models (models/, models/reference/), not the registry's archive.
-  for (const char* folder : {"models", "models/reference"}) {
-    for (const auto& entry : std::filesystem::directory_iterator(folder)) {
-      if (entry.path().extension() == ".h5") models.push_back(entry.path());
-    }
-  }
-  std::sort(models.begin(), models.end());
-  return models;
-}
+using testing::shipped_models;
 
 using testing::Layout;
 using testing::layout_of;
