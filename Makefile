@@ -55,9 +55,9 @@ test-sanitize: sanitize-build
 fuzz: sanitize-build
 	scripts/fuzz.sh $(SANITIZE_DIR) $(SECONDS)
 
+# Medians of 5 repetitions into reports/bench/latest.json, slowdowns > 10 % flagged.
 bench: build
-	$(BUILD_DIR)/bin/imm-bench --benchmark_min_time=1
-	$(BUILD_DIR)/bin/imm-train-bench
+	scripts/bench.sh $(BUILD_DIR)
 
 format:
 	git ls-files '*.cpp' '*.hpp' | xargs clang-format -i

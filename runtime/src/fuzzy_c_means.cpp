@@ -7,6 +7,14 @@
 
 #include "imm/core/invalid_parameter.hpp"
 
+// Run-time choice of AVX2 for the membership loop (GCC on x86-64 Linux). Only "avx2": it does not
+// enable FMA contraction, so every instruction set computes the same bits.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define IMM_FCM_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define IMM_FCM_CLONES
+#endif
+
 namespace imm {
 namespace {
 
@@ -69,19 +77,64 @@ ClusterVector fcm_memberships(double x, const ClusterVector& centers, double fuz
   return u;
 }
 
-FcmResult fuzzy_c_means(std::span<const double> data, const ClusterVector& centers,
-                        const ClusterVector& lower, const ClusterVector& upper,
-                        const FuzzyCMeansSettings& settings, std::span<double> memberships) {
-  const std::size_t n = data.size();
-  if (memberships.size() < kFcmClusters * n) {
-    throw std::invalid_argument("fuzzy_c_means: membership storage smaller than 3 × data");
+namespace {
+
+// New memberships of every point for centers v (m = 2), the old ones replaced; returns max |ΔU|.
+// The same operations as memberships_into, written without branches so that the compiler
+// vectorizes the loop; a point on a center (0/0 below) is redone by memberships_into.
+IMM_FCM_CLONES
+double update_memberships_m2(const double* __restrict data, std::size_t n, double v0, double v1,
+                             double v2, double* __restrict memberships) {
+  double change = 0.0;
+  int on_center = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double a = (data[k] - v0) * (data[k] - v0);
+    const double b = (data[k] - v1) * (data[k] - v1);
+    const double c = (data[k] - v2) * (data[k] - v2);
+    double smallest = a < b ? a : b;
+    smallest = c < smallest ? c : smallest;
+    const double ra = smallest / a, rb = smallest / b, rc = smallest / c;
+    const double sum = (ra + rb) + rc;
+    const bool usable = sum == sum;  // false (0/0) for a point on a center
+    const double ua = ra / sum, ub = rb / sum, uc = rc / sum;
+    double* row = memberships + kFcmClusters * k;
+    const double da = std::abs(ua - row[0]), db = std::abs(ub - row[1]), dc = std::abs(uc - row[2]);
+    double d = da > db ? da : db;
+    d = dc > d ? dc : d;
+    d = usable ? d : 0.0;
+    change = d > change ? d : change;
+    on_center += usable ? 0 : 1;
+    row[0] = usable ? ua : row[0];
+    row[1] = usable ? ub : row[1];
+    row[2] = usable ? uc : row[2];
   }
+  if (on_center == 0) return change;
+  // The points on a center, by the exact rule (their rows still hold the old memberships).
+  const ClusterVector centers(v0, v1, v2);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double a = (data[k] - v0) * (data[k] - v0);
+    const double b = (data[k] - v1) * (data[k] - v1);
+    const double c = (data[k] - v2) * (data[k] - v2);
+    if (a != 0.0 && b != 0.0 && c != 0.0) continue;
+    double* row = memberships + kFcmClusters * k;
+    double updated[kFcmClusters];
+    memberships_into(data[k], centers, 2.0, updated);
+    for (int i = 0; i < kFcmClusters; ++i) {
+      change = std::max(change, std::abs(updated[i] - row[i]));
+      row[i] = updated[i];
+    }
+  }
+  return change;
+}
+
+// Eq. (8)–(10) from the current memberships until max |ΔU| ≤ tolerance.
+FcmResult iterate(std::span<const double> data, ClusterVector centers, const ClusterVector& lower,
+                  const ClusterVector& upper, const FuzzyCMeansSettings& settings,
+                  std::span<double> memberships) {
+  const std::size_t n = data.size();
   const double m = settings.fuzzifier;
   FcmResult result;
-  result.centers = clamp(centers, lower, upper);
-  for (std::size_t k = 0; k < n; ++k) {
-    memberships_into(data[k], result.centers, m, &memberships[kFcmClusters * k]);
-  }
+  result.centers = centers;
   for (int iteration = 1; iteration <= settings.max_iterations; ++iteration) {
     // Eq. (8): v_i = Σ u_ik^m x_k / Σ u_ik^m, clamped to the bounds.
     ClusterVector numerator = ClusterVector::Zero(), denominator = ClusterVector::Zero();
@@ -99,13 +152,20 @@ FcmResult fuzzy_c_means(std::span<const double> data, const ClusterVector& cente
     result.centers = clamp(result.centers, lower, upper);
     // Eq. (9)–(10): new memberships and max |ΔU|.
     double change = 0.0;
-    for (std::size_t k = 0; k < n; ++k) {
-      double* row = &memberships[kFcmClusters * k];
-      double updated[kFcmClusters];
-      memberships_into(data[k], result.centers, m, updated);
-      for (int i = 0; i < kFcmClusters; ++i) {
-        change = std::max(change, std::abs(updated[i] - row[i]));
-        row[i] = updated[i];
+    if (m == 2.0) {
+      change = update_memberships_m2(data.data(), n, result.centers(0), result.centers(1),
+                                     result.centers(2), memberships.data());
+    }
+    if (m != 2.0) {
+      change = 0.0;
+      for (std::size_t k = 0; k < n; ++k) {
+        double* row = &memberships[kFcmClusters * k];
+        double updated[kFcmClusters];
+        memberships_into(data[k], result.centers, m, updated);
+        for (int i = 0; i < kFcmClusters; ++i) {
+          change = std::max(change, std::abs(updated[i] - row[i]));
+          row[i] = updated[i];
+        }
       }
     }
     result.iterations = iteration;
@@ -116,6 +176,49 @@ FcmResult fuzzy_c_means(std::span<const double> data, const ClusterVector& cente
     }
   }
   return result;
+}
+
+void require_storage(std::size_t data, std::span<double> memberships) {
+  if (memberships.size() < kFcmClusters * data) {
+    throw std::invalid_argument("fuzzy_c_means: membership storage smaller than 3 × data");
+  }
+}
+
+}  // namespace
+
+FcmResult fuzzy_c_means(std::span<const double> data, const ClusterVector& centers,
+                        const ClusterVector& lower, const ClusterVector& upper,
+                        const FuzzyCMeansSettings& settings, std::span<double> memberships) {
+  require_storage(data.size(), memberships);
+  const ClusterVector start = clamp(centers, lower, upper);
+  for (std::size_t k = 0; k < data.size(); ++k) {
+    memberships_into(data[k], start, settings.fuzzifier, &memberships[kFcmClusters * k]);
+  }
+  return iterate(data, start, lower, upper, settings, memberships);
+}
+
+FcmResult fuzzy_c_means_from_memberships(std::span<const double> data,
+                                         std::span<double> memberships,
+                                         const FuzzyCMeansSettings& settings) {
+  require_storage(data.size(), memberships);
+  settings.validate();
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  return iterate(data, ClusterVector::Zero(), ClusterVector::Constant(-kInf),
+                 ClusterVector::Constant(kInf), settings, memberships);
+}
+
+double fcm_objective(std::span<const double> data, const ClusterVector& centers,
+                     std::span<const double> memberships, double fuzzifier) {
+  double objective = 0.0;
+  for (std::size_t k = 0; k < data.size(); ++k) {
+    for (int i = 0; i < kFcmClusters; ++i) {
+      const double d = data[k] - centers(i);
+      objective +=
+          weight_power(memberships[kFcmClusters * k + static_cast<std::size_t>(i)], fuzzifier) * d *
+          d;
+    }
+  }
+  return objective;
 }
 
 SlidingFuzzyCMeans::SlidingFuzzyCMeans(int window, const FuzzyCMeansSettings& settings,

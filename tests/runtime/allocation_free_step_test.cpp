@@ -20,6 +20,7 @@
 #include "imm/filters/input_estimation_filter.hpp"
 #include "imm/filters/kalman_mode.hpp"
 #include "imm/filters/plain_imm.hpp"
+#include "imm/filters/track_bank.hpp"
 #include "imm/filters/weighted_imm.hpp"
 #include "imm/models/constant_velocity.hpp"
 #include "imm/models/polar_measurement.hpp"
@@ -89,6 +90,26 @@ TEST(AllocationFreeStep, PlainCvImmStep) {
     (void)imm.mode_probabilities();
   }
   (void)imm.step(Vector<2>(std::nan(""), 0.0));
+  EXPECT_EQ(allocations(), before);
+}
+
+// The multi-track API: 1000 tracks (several blocks and a partial one), bad plots included.
+TEST(AllocationFreeStep, TrackBankStep) {
+  const std::size_t tracks = 1000;
+  TrackBank bank(testing::cv3_spec(), tracks);
+  for (std::size_t t = 0; t < tracks; ++t) bank.initialize(t, GaussianState<4>{});
+  std::vector<Eigen::Vector2d> plots(tracks);
+  std::vector<StepStatus> status(tracks);
+  const long before = allocations();
+  for (int k = 0; k < 200; ++k) {
+    for (std::size_t t = 0; t < tracks; ++t)
+      plots[t] = Eigen::Vector2d(0.01 * k + static_cast<double>(t), -0.02 * k);
+    plots[7] = Eigen::Vector2d(std::nan(""), 0.0);
+    bank.step(plots, status);
+    (void)bank.mode_probabilities(3);
+  }
+  EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
+  EXPECT_EQ(status[8], StepStatus::kOk);
   EXPECT_EQ(allocations(), before);
 }
 

@@ -104,6 +104,25 @@ TEST(Nightly, EvaluationsFollowTheirModel) {
   }
 }
 
+// The morning report shows the last `make bench` medians and flags the ones > 10 % slower.
+TEST(Nightly, MorningReportShowsBenchmarksAndFlagsSlowdowns) {
+  testing::TempDir dir;
+  const auto bench = dir.path() / "reports" / "bench";
+  std::filesystem::create_directories(bench);
+  std::ofstream(bench / "latest.json") << R"({"generated": "2026-11-23T01:00:00Z",
+    "previous_run": "2026-11-22T01:00:00Z", "benchmarks": [
+    {"name": "BM_W1_PlainImmStep", "median": 560.0, "unit": "ns", "previous": 500.0,
+     "change": 0.12, "slower": true},
+    {"name": "BM_W3_FuzzyCMeans1d", "median": 0.57, "unit": "ms", "previous": 0.58,
+     "change": -0.017, "slower": false}]})";
+  const auto night = dir.path() / "reports" / "nightly" / "2026-11-23";
+  write_morning_report(night, NightlyPlan{}, NightlyResult{});
+  std::ifstream in(night / "index.md");
+  const std::string md((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(md.find("| BM_W1_PlainImmStep | 560 ns | 500 ns | +12 % ⚠ |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| BM_W3_FuzzyCMeans1d | 0.57 ms | 0.58 ms | -2 % |"), std::string::npos) << md;
+}
+
 TEST(Nightly, ProcessExitCodesAndSignalsAreReported) {
   EXPECT_EQ(run_process("/bin/sh", {"-c", "exit 0"}), 0);
   EXPECT_EQ(run_process("/bin/sh", {"-c", "exit 5"}), 5);

@@ -11,6 +11,7 @@
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
 #include "imm/trainer/tsk/tsk_trainer.hpp"
+#include "workloads.hpp"
 
 namespace {
 
@@ -92,6 +93,48 @@ void BM_TskFit(benchmark::State& state) {
   state.SetLabel(state.range(0) == 1 ? "hard sensor" : "default sensor");
 }
 BENCHMARK(BM_TskFit)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// --- The reference workloads of ../shared/bench (tools/workloads) --------------------------------
+
+// W2a: 6000 full-batch epochs of the 2-10-10-1 network from the given weights; the final MSE is
+// deterministic and checked against the README figure.
+void BM_W2a_FullBatch(benchmark::State& state) {
+  const auto input = imm::workloads::load_w2(imm::workloads::input_folder());
+  double mse = 0.0;
+  for (auto _ : state) mse = imm::workloads::run_w2a(input, 6000);
+  if (std::abs(mse - imm::workloads::kW2aFinalMse) > 1e-9) {
+    state.SkipWithError("W2a: final MSE differs from the README figure by more than 1e-9");
+  }
+  state.counters["final_mse"] = mse;
+}
+BENCHMARK(BM_W2a_FullBatch)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+// W2b: 100 epochs of one-sample steps in fixed order.
+void BM_W2b_PerSample(benchmark::State& state) {
+  const auto input = imm::workloads::load_w2(imm::workloads::input_folder());
+  double mse = 0.0;
+  for (auto _ : state) mse = imm::workloads::run_w2b(input, 100);
+  if (std::abs(mse - imm::workloads::kW2bFinalMse) > 1e-9) {
+    state.SkipWithError("W2b: final MSE differs from the README figure by more than 1e-9");
+  }
+  state.counters["final_mse"] = mse;
+}
+BENCHMARK(BM_W2b_PerSample)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+
+// W4: one generation of the GA engine (selection, crossover, mutation, evaluation) on the
+// sum-of-squares toy, population 500 × 250 genes, one thread.
+void BM_W4_GaGeneration(benchmark::State& state) {
+  const imm::workloads::SumOfSquares problem;
+  const imm::trainer::ga::GeneticAlgorithm ga(problem, imm::workloads::w4_options(), 7);
+  imm::trainer::ga::Population population = ga.initialize();
+  const double initial = population.evaluations[population.best_index()].fitness;
+  for (auto _ : state) ga.evolve(population);
+  const double best = population.evaluations[population.best_index()].fitness;
+  if (!(best > initial)) state.SkipWithError("W4: the best fitness did not improve");
+  state.counters["best_sum_of_squares"] = -best;
+  state.counters["generation"] = population.generation;
+}
+BENCHMARK(BM_W4_GaGeneration)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -1,8 +1,10 @@
 // The morning report of a nightly run: reports/nightly/<night>/index.md and a self-contained
 // index.html (plots embedded), and the `latest` link beside them.
 
+#include <cmath>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "imm/trainer/nightly.hpp"
@@ -98,6 +100,45 @@ std::vector<fs::path> plots_in(const fs::path& folder) {
   }
   std::sort(plots.begin(), plots.end());
   return plots;
+}
+
+// The medians of the last `make bench` (reports/bench/latest.json), with their change against the
+// run before and the ones more than 10 % slower flagged.
+void write_benchmarks(const fs::path& latest, std::ostringstream& md, std::ostringstream& html) {
+  if (!fs::exists(latest)) return;
+  nlohmann::json doc;
+  try {
+    std::ifstream in(latest);
+    doc = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    md << "\n## Benchmarks\n\n" << latest.string() << " is unreadable: " << e.what() << "\n";
+    html << "<h2>Benchmarks</h2><p>" << html_escape(latest.string()) << " is unreadable.</p>\n";
+    return;
+  }
+  const std::string when = doc.value("generated", "?"), before = doc.value("previous_run", "");
+  md << "\n## Benchmarks\n\n`make bench` of " << when
+     << (before.empty() ? std::string() : ", against " + before)
+     << " (medians; ⚠ more than 10 % slower):\n\n| benchmark | median | before | change |\n"
+        "|---|---|---|---|\n";
+  html << "<h2>Benchmarks</h2>\n<p><code>make bench</code> of " << html_escape(when)
+       << (before.empty() ? std::string() : ", against " + html_escape(before))
+       << " (medians; ⚠ more than 10 % slower)</p>\n<table id=\"benchmarks\"><tr><th>benchmark"
+          "</th><th>median</th><th>before</th><th>change</th></tr>\n";
+  for (const auto& row : doc.value("benchmarks", nlohmann::json::array())) {
+    std::ostringstream median, previous, change;
+    median << row.value("median", 0.0) << " " << row.value("unit", "");
+    if (row.contains("previous")) {
+      previous << row.value("previous", 0.0) << " " << row.value("unit", "");
+      change << std::showpos << std::lround(100.0 * row.value("change", 0.0)) << " %"
+             << (row.value("slower", false) ? " ⚠" : "");
+    }
+    const std::string name = row.value("name", "?");
+    md << "| " << cell_text(name) << " | " << median.str() << " | " << previous.str() << " | "
+       << change.str() << " |\n";
+    html << "<tr><td>" << html_escape(name) << "</td><td>" << median.str() << "</td><td>"
+         << previous.str() << "</td><td>" << html_escape(change.str()) << "</td></tr>\n";
+  }
+  html << "</table>\n";
 }
 
 }  // namespace
@@ -212,6 +253,7 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
            << "\" src=\"data:image/png;base64," << base64(read_or_empty(plot)) << "\">\n";
     }
   }
+  write_benchmarks(folder.parent_path().parent_path() / "bench" / "latest.json", md, html);
   html << "</body></html>\n";
 
   auto write = [&](const fs::path& path, const std::string& text) {

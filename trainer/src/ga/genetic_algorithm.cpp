@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <numeric>
 #include <stdexcept>
+#include <utility>
 
 #include "imm/trainer/parallel_for.hpp"
 
@@ -57,7 +58,15 @@ void GeneticAlgorithm::repair(Genome& genome, datasets::Rng& rng) const {
 }
 
 Genome GeneticAlgorithm::crossover(const Genome& a, const Genome& b, datasets::Rng& rng) const {
-  Genome child = a;
+  Genome child;
+  crossover_into(a, b, child, rng);
+  return child;
+}
+
+void GeneticAlgorithm::crossover_into(const Genome& a, const Genome& b, Genome& child,
+                                      datasets::Rng& rng) const {
+  child.genes = a.genes;  // same size after the first generation: no allocation
+  child.active = a.active;
   for (std::size_t slot = 0; slot < a.active.size(); ++slot) {
     if (rng.uniform() < 0.5) {
       const std::size_t base = slot * kGenesPerRule;
@@ -67,7 +76,6 @@ Genome GeneticAlgorithm::crossover(const Genome& a, const Genome& b, datasets::R
     }
   }
   repair(child, rng);
-  return child;
 }
 
 void GeneticAlgorithm::mutate(Genome& genome, datasets::Rng& rng) const {
@@ -107,12 +115,16 @@ std::size_t GeneticAlgorithm::tournament(const Population& population, datasets:
 }
 
 void GeneticAlgorithm::evaluate(Population& population) const {
-  const auto n = static_cast<long>(population.genomes.size());
   population.evaluations.resize(population.genomes.size());
+  evaluate_range(population, 0);
+}
+
+void GeneticAlgorithm::evaluate_range(Population& population, std::size_t first) const {
+  const auto n = static_cast<long>(population.genomes.size() - first);
   // Each evaluation is a pure function of its genome: any schedule gives the same results.
   parallel_for(n, 4, [&](long i) {
-    population.evaluations[static_cast<std::size_t>(i)] =
-        problem_.evaluate(population.genomes[static_cast<std::size_t>(i)]);
+    const std::size_t index = first + static_cast<std::size_t>(i);
+    population.evaluations[index] = problem_.evaluate(population.genomes[index]);
   });
 }
 
@@ -130,36 +142,45 @@ void GeneticAlgorithm::evolve(Population& population) const {
   const int next_generation = population.generation + 1;
   datasets::Rng rng(datasets::derive_seed(seed_, static_cast<std::uint64_t>(next_generation)));
   const std::size_t n = population.genomes.size();
+  const auto elite = static_cast<std::size_t>(options_.elite);
 
-  std::vector<std::size_t> order(n);
-  std::iota(order.begin(), order.end(), std::size_t{0});
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return population.evaluations[a].fitness > population.evaluations[b].fitness;
-  });
-
-  Population next;
+  // The next generation is built in the spare population, whose genomes keep their storage from
+  // the generation before: after the first call nothing is allocated here.
+  Population& next = spare_;
   next.generation = next_generation;
-  next.genomes.reserve(n);
-  std::vector<Evaluation> elite_evaluations;
-  for (int e = 0; e < options_.elite; ++e) {
-    next.genomes.push_back(population.genomes[order[static_cast<std::size_t>(e)]]);
-    elite_evaluations.push_back(population.evaluations[order[static_cast<std::size_t>(e)]]);
+  next.genomes.resize(n);
+  next.evaluations.resize(n);
+  // Elites: the `elite` fittest, ties to the lower index (the first entries of a stable sort by
+  // descending fitness), found by selection.
+  elite_.clear();
+  for (std::size_t e = 0; e < elite; ++e) {
+    std::size_t best = n;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (std::find(elite_.begin(), elite_.end(), i) != elite_.end()) continue;
+      if (best == n || population.evaluations[i].fitness > population.evaluations[best].fitness) {
+        best = i;
+      }
+    }
+    elite_.push_back(best);
+    next.genomes[e].genes = population.genomes[best].genes;
+    next.genomes[e].active = population.genomes[best].active;
+    next.evaluations[e] = population.evaluations[best];
   }
-  while (next.genomes.size() < n) {
+  for (std::size_t i = elite; i < n; ++i) {
     const Genome& a = population.genomes[tournament(population, rng)];
     const Genome& b = population.genomes[tournament(population, rng)];
-    Genome child = rng.uniform() < options_.crossover_rate ? crossover(a, b, rng) : a;
+    Genome& child = next.genomes[i];
+    if (rng.uniform() < options_.crossover_rate) {
+      crossover_into(a, b, child, rng);
+    } else {
+      child.genes = a.genes;
+      child.active = a.active;
+    }
     mutate(child, rng);
-    next.genomes.push_back(std::move(child));
   }
   // Elites keep their evaluations; the offspring are evaluated.
-  Population offspring;
-  offspring.genomes.assign(next.genomes.begin() + options_.elite, next.genomes.end());
-  evaluate(offspring);
-  next.evaluations = std::move(elite_evaluations);
-  next.evaluations.insert(next.evaluations.end(), offspring.evaluations.begin(),
-                          offspring.evaluations.end());
-  population = std::move(next);
+  evaluate_range(next, elite);
+  std::swap(population, next);
 }
 
 }  // namespace imm::trainer::ga

@@ -78,40 +78,52 @@ double Network::mse(const Samples& samples) const {
 
 void Network::gradients(const Samples& samples, std::vector<Eigen::MatrixXd>& weights,
                         std::vector<Eigen::VectorXd>& biases) const {
-  weights.clear();
-  biases.clear();
-  for (const auto& layer : layers_) {
-    weights.push_back(Eigen::MatrixXd::Zero(layer.weights.rows(), layer.weights.cols()));
-    biases.push_back(Eigen::VectorXd::Zero(layer.bias.size()));
+  // The whole batch at once: every layer's activations as an n × units matrix, so the work is
+  // a handful of matrix products (Eigen's GEMM) and element-wise sigmoids (Eigen's vectorized
+  // exp) instead of a loop over samples. Workspace persists between calls: no allocation after
+  // the first epoch.
+  const std::size_t layers = layers_.size();
+  const Eigen::Index n = samples.inputs.rows();
+  weights.resize(layers);
+  biases.resize(layers);
+  batch_activations_.resize(layers);
+  batch_deltas_.resize(layers);
+  const Eigen::MatrixXd* x = &samples.inputs;
+  for (std::size_t l = 0; l < layers; ++l) {
+    const MlpLayer& layer = layers_[l];
+    Eigen::MatrixXd& a = batch_activations_[l];
+    a.resize(n, layer.weights.rows());
+    a.noalias() = *x * layer.weights.transpose();
+    a.rowwise() += layer.bias.transpose();
+    if (layer.activation == Activation::kSigmoid) {
+      a = (1.0 + (-a.array()).exp()).inverse().matrix();
+    }
+    x = &a;
   }
-  const auto n = static_cast<double>(samples.inputs.rows());
-  std::vector<double> row(static_cast<std::size_t>(samples.inputs.cols()));
-  for (Eigen::Index i = 0; i < samples.inputs.rows(); ++i) {
-    for (Eigen::Index c = 0; c < samples.inputs.cols(); ++c)
-      row[static_cast<std::size_t>(c)] = samples.inputs(i, c);
-    forward(row.data());
-    // Output delta of ½(a_L − t/scale)².
-    const std::size_t last = layers_.size() - 1;
-    deltas_[last][0] = (activations_[last][0] - samples.targets(i) / output_scale_) *
-                       activation_derivative(layers_[last].activation, activations_[last][0]);
-    for (std::size_t l = last + 1; l-- > 0;) {
-      const MlpLayer& layer = layers_[l];
-      const double* x = l == 0 ? row.data() : activations_[l - 1].data();
-      for (Eigen::Index r = 0; r < layer.weights.rows(); ++r) {
-        const double d = deltas_[l][static_cast<std::size_t>(r)] / n;
-        biases[l](r) += d;
-        for (Eigen::Index c = 0; c < layer.weights.cols(); ++c) weights[l](r, c) += d * x[c];
-      }
-      if (l == 0) break;
-      for (Eigen::Index c = 0; c < layer.weights.cols(); ++c) {
-        double sum = 0.0;
-        for (Eigen::Index r = 0; r < layer.weights.rows(); ++r) {
-          sum += layer.weights(r, c) * deltas_[l][static_cast<std::size_t>(r)];
-        }
-        deltas_[l - 1][static_cast<std::size_t>(c)] =
-            sum * activation_derivative(layers_[l - 1].activation,
-                                        activations_[l - 1][static_cast<std::size_t>(c)]);
-      }
+  // Output delta of mean ½(a_L − t/scale)², the 1/n folded in here.
+  const std::size_t last = layers - 1;
+  const double inverse_n = n > 0 ? 1.0 / static_cast<double>(n) : 0.0;
+  {
+    const Eigen::MatrixXd& a = batch_activations_[last];
+    Eigen::MatrixXd& d = batch_deltas_[last];
+    d.resize(n, a.cols());
+    d.col(0) = (a.col(0) - samples.targets / output_scale_) * inverse_n;
+    if (layers_[last].activation == Activation::kSigmoid) {
+      d.array() *= a.array() * (1.0 - a.array());
+    }
+  }
+  for (std::size_t l = last + 1; l-- > 0;) {
+    const Eigen::MatrixXd& below = l == 0 ? samples.inputs : batch_activations_[l - 1];
+    const Eigen::MatrixXd& d = batch_deltas_[l];
+    weights[l].resize(layers_[l].weights.rows(), layers_[l].weights.cols());
+    weights[l].noalias() = d.transpose() * below;
+    biases[l] = d.colwise().sum().transpose();
+    if (l == 0) break;
+    Eigen::MatrixXd& d_below = batch_deltas_[l - 1];
+    d_below.resize(n, layers_[l].weights.cols());
+    d_below.noalias() = d * layers_[l].weights;
+    if (layers_[l - 1].activation == Activation::kSigmoid) {
+      d_below.array() *= below.array() * (1.0 - below.array());
     }
   }
 }

@@ -59,6 +59,16 @@ FcmResult fuzzy_c_means(std::span<const double> data, const ClusterVector& cente
                         const ClusterVector& lower, const ClusterVector& upper,
                         const FuzzyCMeansSettings& settings, std::span<double> memberships);
 
+/// Clusters `data` from given memberships (row k: the memberships of data[k]) with free centers:
+/// the first step computes the centers from them (eq. 8). `memberships` holds the final ones.
+FcmResult fuzzy_c_means_from_memberships(std::span<const double> data,
+                                         std::span<double> memberships,
+                                         const FuzzyCMeansSettings& settings);
+
+/// The FCM objective J = Σ_k Σ_i u_ik^m (x_k − v_i)².
+[[nodiscard]] double fcm_objective(std::span<const double> data, const ClusterVector& centers,
+                                   std::span<const double> memberships, double fuzzifier);
+
 /// Online FCM over a sliding window of the most recent points, warm-started from the previous
 /// centers. Follows the IMM's propose/commit contract: propose(x) clusters the committed window
 /// with x appended (the oldest point dropping out of a full window) and returns x's memberships

@@ -15,6 +15,9 @@
 ///   count stays in 1 … max_rules.
 /// - Elitism: the best individuals pass unchanged, so the best fitness never decreases.
 ///
+/// Memory: evolve() builds the next generation in a spare population whose genomes keep their
+/// storage, so after the first generation a generation allocates nothing.
+///
 /// Determinism: every random draw is made serially from a stream seeded by (seed, generation);
 /// only the fitness evaluations, which draw nothing, run in parallel (OpenMP). The result is
 /// bit-identical for a seed whatever the thread count, and a run resumed from the population of
@@ -61,6 +64,8 @@ class GeneticAlgorithm {
   // The operators, public for tests.
   [[nodiscard]] Genome random_genome(datasets::Rng& rng) const;
   [[nodiscard]] Genome crossover(const Genome& a, const Genome& b, datasets::Rng& rng) const;
+  /// crossover() into existing storage (the same draws).
+  void crossover_into(const Genome& a, const Genome& b, Genome& child, datasets::Rng& rng) const;
   void mutate(Genome& genome, datasets::Rng& rng) const;
   [[nodiscard]] std::size_t tournament(const Population& population, datasets::Rng& rng) const;
   /// Evaluates every genome (in parallel when OpenMP has more than one thread).
@@ -70,10 +75,15 @@ class GeneticAlgorithm {
 
  private:
   void repair(Genome& genome, datasets::Rng& rng) const;
+  void evaluate_range(Population& population, std::size_t first) const;
 
   const GenomeProblem& problem_;
   GaOptions options_;
   std::uint64_t seed_;
+  // evolve()'s workspace: the population the next generation is built in (swapped with the
+  // caller's), and the elite indices. One GeneticAlgorithm evolves one population at a time.
+  mutable Population spare_;
+  mutable std::vector<std::size_t> elite_;
 };
 
 }  // namespace imm::trainer::ga

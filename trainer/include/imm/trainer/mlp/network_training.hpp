@@ -54,7 +54,8 @@ class Network {
   [[nodiscard]] double predict(const double* input) const;
   /// Mean squared error in the target's unit.
   [[nodiscard]] double mse(const Samples& samples) const;
-  /// ∂E/∂(W, b) of the batch loss E = mean ½ (a_L − t/scale)².
+  /// ∂E/∂(W, b) of the batch loss E = mean ½ (a_L − t/scale)², by matrix products over the
+  /// whole batch (not thread-safe: the network keeps the batch workspace).
   void gradients(const Samples& samples, std::vector<Eigen::MatrixXd>& weights,
                  std::vector<Eigen::VectorXd>& biases) const;
   /// One back-propagation update on one sample (per-layer learning rates).
@@ -71,6 +72,8 @@ class Network {
   double output_scale_ = 1.0;
   mutable std::vector<std::vector<double>> activations_;
   mutable std::vector<std::vector<double>> deltas_;
+  mutable std::vector<Eigen::MatrixXd> batch_activations_;  // gradients(): n × units per layer
+  mutable std::vector<Eigen::MatrixXd> batch_deltas_;
 };
 
 struct LossPoint {
