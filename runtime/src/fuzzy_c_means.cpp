@@ -128,9 +128,9 @@ double update_memberships_m2(const double* __restrict data, std::size_t n, doubl
 }
 
 // Eq. (8)–(10) from the current memberships until max |ΔU| ≤ tolerance.
-FcmResult iterate(std::span<const double> data, ClusterVector centers, const ClusterVector& lower,
-                  const ClusterVector& upper, const FuzzyCMeansSettings& settings,
-                  std::span<double> memberships) {
+FcmResult iterate(std::span<const double> data, const ClusterVector& centers,
+                  const ClusterVector& lower, const ClusterVector& upper,
+                  const FuzzyCMeansSettings& settings, std::span<double> memberships) {
   const std::size_t n = data.size();
   const double m = settings.fuzzifier;
   FcmResult result;

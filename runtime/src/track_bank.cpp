@@ -25,7 +25,7 @@ namespace imm {
 namespace {
 
 constexpr int kN = TrackBank::kDim;
-constexpr int kB = TrackBank::kBlock;
+constexpr std::ptrdiff_t kB = TrackBank::kBlock;
 constexpr int kTriangle = 10;
 constexpr int kEntries = kN + kTriangle;
 // Index of P(a, b) in the stored upper triangle (row by row).
@@ -122,7 +122,7 @@ void step_tracks(const Block& b) {
         double sum = 0.0;
         for (int i = 0; i < n; ++i)
           sum += std::exp(b.log_transition[i * n + j] + st(i, kLogMu)[l] - largest);
-        log_c = largest + std::log(sum);
+        log_c = largest + std::log(sum);  // sum ≥ 1  // cppcheck-suppress invalidFunctionArg
       }
       sc(layout.log_predicted + j)[l] = log_c;
       for (int i = 0; i < n; ++i) {
@@ -169,7 +169,7 @@ void step_tracks(const Block& b) {
   const double T = b.period;
   for (int j = 0; j < n; ++j) {
     double* __restrict x = sc(layout.mixed + j * kEntries);
-    const double* q = b.noise + j * kTriangle;
+    const double* q = b.noise + static_cast<std::ptrdiff_t>(j) * kTriangle;
     for (int l = 0; l < lanes; ++l) {
       double p[kN][kN];
 #pragma GCC unroll 4
@@ -385,8 +385,9 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
   log_transition_.resize(n * n);
   for (int i = 0; i < modes_; ++i) {
     for (int j = 0; j < modes_; ++j) {
-      transition_[static_cast<std::size_t>(i * modes_ + j)] = spec.transition(i, j);
-      log_transition_[static_cast<std::size_t>(i * modes_ + j)] = safe_log(spec.transition(i, j));
+      const std::size_t at = static_cast<std::size_t>(i) * n + static_cast<std::size_t>(j);
+      transition_[at] = spec.transition(i, j);
+      log_transition_[at] = safe_log(spec.transition(i, j));
     }
     initial_log_mu_.push_back(safe_log(spec.initial_probabilities(i)));
   }
@@ -400,7 +401,7 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
   r11_ = spec.measurement.covariance(1, 1);
   state_.assign(static_cast<std::size_t>((modes_ * kModeSlots + kEntries) * stride_), 0.0);
   initialized_.assign(capacity, 0);
-  scratch_.assign(static_cast<std::size_t>(ScratchLayout(modes_).total * kBlock), 0.0);
+  scratch_.assign(static_cast<std::size_t>(ScratchLayout(modes_).total) * kBlock, 0.0);
 }
 
 std::size_t TrackBank::checked(std::size_t track) const {

@@ -34,10 +34,9 @@ std::vector<std::string> split(const std::string& line) {
 
 std::filesystem::path input_folder() {
   const char* configured = std::getenv("IMM_BENCH_INPUTS");
-  const std::filesystem::path folder =
-      configured != nullptr
-          ? std::filesystem::path(configured)
-          : std::filesystem::path(IMM_SOURCE_DIR) / "tools" / "workloads" / "inputs";
+  std::filesystem::path folder = configured != nullptr ? std::filesystem::path(configured)
+                                                       : std::filesystem::path(IMM_SOURCE_DIR) /
+                                                             "tools" / "workloads" / "inputs";
   if (!std::filesystem::exists(folder / "w1_measurements.csv")) {
     throw std::runtime_error("no workload inputs in " + folder.string() +
                              " (set IMM_BENCH_INPUTS to the folder of w1_measurements.csv)");
