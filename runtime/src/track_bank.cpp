@@ -61,12 +61,13 @@ struct Block {
 
 // Scratch layout, in slots of kB values.
 struct ScratchLayout {
-  int weights, log_predicted, mixed, updated, determinant, mahalanobis, s00, threshold, finite, zx,
-      zy, posterior, new_log_mu, new_scaled_mu, ok, total;
+  int weights, log_predicted, predicted, mixed, updated, determinant, mahalanobis, s00, threshold,
+      finite, zx, zy, posterior, new_log_mu, new_scaled_mu, ok, total;
   explicit ScratchLayout(int n)
       : weights(0),
         log_predicted(n * n),
-        mixed(log_predicted + n),
+        predicted(log_predicted + n),
+        mixed(predicted + n),
         updated(mixed + n * kEntries),
         determinant(updated + n * kEntries),
         mahalanobis(determinant + n),
@@ -93,8 +94,26 @@ void step_tracks(const Block& b) {
   auto combined = [&](int entry) { return b.state + (n * kModeSlots + entry) * b.stride; };
   auto sc = [&](int slot) { return b.scratch + slot * kB; };
 
-  // A (scalar): usable plots; predicted mode probabilities c_j and mixing weights μ_ij (eq. 6),
-  // through μ̃ = μ / max μ as ImmEstimator does.
+  // A (vector): predicted mode probabilities c̃_j = Σ_i p_ij μ̃_i with μ̃ = μ / max μ (as
+  // ImmEstimator does) and mixing weights μ_ij = p_ij μ̃_i / c̃_j (eq. 6).
+  for (int j = 0; j < n; ++j) {
+    double* __restrict c = sc(layout.predicted + j);
+    std::fill_n(c, lanes, 0.0);
+    for (int i = 0; i < n; ++i) {
+      const double p = b.transition[i * n + j];
+      const double* __restrict mu = st(i, kScaledMu);
+      for (int l = 0; l < lanes; ++l) c[l] += p * mu[l];
+    }
+    for (int i = 0; i < n; ++i) {
+      const double p = b.transition[i * n + j];
+      const double* __restrict mu = st(i, kScaledMu);
+      double* __restrict w = sc(layout.weights + j * n + i);
+      for (int l = 0; l < lanes; ++l) w[l] = p * mu[l] / c[l];  // NaN where c̃_j = 0: fixed below
+    }
+  }
+
+  // A' (scalar): usable plots; log c_j; where c̃_j underflowed (zero transition entries) the exact
+  // log-sum-exp and weights from it.
   for (int l = 0; l < lanes; ++l) {
     const double zx = b.plots[l].x(), zy = b.plots[l].y();
     const bool usable = limits::usable_measurement(zx) && limits::usable_measurement(zy);
@@ -104,16 +123,12 @@ void step_tracks(const Block& b) {
     double shift = -std::numeric_limits<double>::infinity();
     for (int i = 0; i < n; ++i) shift = std::max(shift, st(i, kLogMu)[l]);
     for (int j = 0; j < n; ++j) {
-      double c = 0.0;
-      for (int i = 0; i < n; ++i) c += b.transition[i * n + j] * st(i, kScaledMu)[l];
-      double* w = sc(layout.weights + j * n);
+      const double c = sc(layout.predicted + j)[l];
       if (c > 0.0) {
         sc(layout.log_predicted + j)[l] = std::log(c) + shift;
-        for (int i = 0; i < n; ++i)
-          w[i * kB + l] = b.transition[i * n + j] * st(i, kScaledMu)[l] / c;
         continue;
       }
-      // c̃_j underflowed (zero transition entries): the exact log-sum-exp.
+      double* w = sc(layout.weights + j * n);
       double largest = -std::numeric_limits<double>::infinity();
       for (int i = 0; i < n; ++i)
         largest = std::max(largest, b.log_transition[i * n + j] + st(i, kLogMu)[l]);

@@ -37,7 +37,8 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
 
   void reset(const GaussianState<NX>& state) override { estimate_ = embedding_.project(state); }
 
-  ModeStep propose(const GaussianState<NX>& mixed, const Vector<kMeasurementDim>& z) override {
+  [[gnu::flatten]] ModeStep propose(const GaussianState<NX>& mixed,
+                                    const Vector<kMeasurementDim>& z) override {
     pending_ = predict(embedding_.project(mixed), motion_.transition, motion_.process_noise);
     const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
                                         : update(pending_, z, measurement_);
