@@ -28,6 +28,10 @@ constexpr int kN = TrackBank::kDim;
 constexpr std::ptrdiff_t kB = TrackBank::kBlock;
 constexpr int kTriangle = 10;
 constexpr int kEntries = kN + kTriangle;
+// State slots per mode: mean, covariance upper triangle, log μ, μ̃ = μ / max μ; the combined
+// estimate (mean, triangle) follows the modes.
+constexpr int kMean = 0, kCov = kN, kLogMu = kEntries, kScaledMu = kEntries + 1,
+              kModeSlots = kEntries + 2;
 // Index of P(a, b) in the stored upper triangle (row by row).
 constexpr int sym(int a, int b) {
   return a <= b ? a * kN - a * (a + 1) / 2 + b : b * kN - b * (b + 1) / 2 + a;
@@ -83,7 +87,35 @@ struct ScratchLayout {
         total(ok + 1) {}
 };
 
-constexpr int kModeSlots = 16, kLogMu = 14, kScaledMu = 15;
+// Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian per lane (eq. 4–5 and 10–11): component i's
+// weights at weights + i·kB, its entries at mode(i, e); the result into out (kEntries slots).
+template <class Mode>
+[[gnu::always_inline]] inline void moment_match(int components, int lanes, const double* weights,
+                                                Mode&& mode, double* out) {
+  for (int e = 0; e < kEntries; ++e) std::fill_n(out + e * kB, lanes, 0.0);
+  for (int i = 0; i < components; ++i) {
+    const double* __restrict w = weights + i * kB;
+    for (int a = 0; a < kN; ++a) {
+      const double* __restrict mean = mode(i, a);
+      double* __restrict sum = out + a * kB;
+      for (int l = 0; l < lanes; ++l) sum[l] += w[l] * mean[l];
+    }
+  }
+  for (int i = 0; i < components; ++i) {
+    const double* __restrict w = weights + i * kB;
+    for (int a = 0; a < kN; ++a) {
+      for (int c = a; c < kN; ++c) {
+        const double* __restrict ma = mode(i, a);
+        const double* __restrict mc = mode(i, c);
+        const double* __restrict xa = out + a * kB;
+        const double* __restrict xc = out + c * kB;
+        const double* __restrict p = mode(i, kN + sym(a, c));
+        double* __restrict sum = out + (kN + sym(a, c)) * kB;
+        for (int l = 0; l < lanes; ++l) sum[l] += w[l] * (p[l] + (ma[l] - xa[l]) * (mc[l] - xc[l]));
+      }
+    }
+  }
+}
 
 IMM_BANK_CLONES
 void step_tracks(const Block& b) {
@@ -137,7 +169,8 @@ void step_tracks(const Block& b) {
         double sum = 0.0;
         for (int i = 0; i < n; ++i)
           sum += std::exp(b.log_transition[i * n + j] + st(i, kLogMu)[l] - largest);
-        log_c = largest + std::log(sum);  // sum ≥ 1  // cppcheck-suppress invalidFunctionArg
+        // sum ≥ 1: the largest term is exp(0).
+        log_c = largest + std::log(sum);  // cppcheck-suppress invalidFunctionArg
       }
       sc(layout.log_predicted + j)[l] = log_c;
       for (int i = 0; i < n; ++i) {
@@ -151,33 +184,7 @@ void step_tracks(const Block& b) {
 
   // B (vector): mixed initial conditions (eq. 4–5) into `mixed`.
   for (int j = 0; j < n; ++j) {
-    double* mixed = sc(layout.mixed + j * kEntries);
-    const double* w = sc(layout.weights + j * n);
-    for (int e = 0; e < kEntries; ++e) std::fill_n(mixed + e * kB, lanes, 0.0);
-    for (int i = 0; i < n; ++i) {
-      for (int e = 0; e < kN; ++e) {
-        const double* __restrict mean = st(i, e);
-        double* __restrict out = mixed + e * kB;
-        const double* __restrict wi = w + i * kB;
-        for (int l = 0; l < lanes; ++l) out[l] += wi[l] * mean[l];
-      }
-    }
-    for (int i = 0; i < n; ++i) {
-      const double* __restrict wi = w + i * kB;
-      for (int a = 0; a < kN; ++a) {
-        for (int c = a; c < kN; ++c) {
-          const double* __restrict ma = st(i, a);
-          const double* __restrict mc = st(i, c);
-          const double* __restrict xa = mixed + a * kB;
-          const double* __restrict xc = mixed + c * kB;
-          const double* __restrict p = st(i, kN + sym(a, c));
-          double* __restrict out = mixed + (kN + sym(a, c)) * kB;
-          for (int l = 0; l < lanes; ++l) {
-            out[l] += wi[l] * (p[l] + (ma[l] - xa[l]) * (mc[l] - xc[l]));
-          }
-        }
-      }
-    }
+    moment_match(n, lanes, sc(layout.weights + j * n), st, sc(layout.mixed + j * kEntries));
   }
 
   // C (vector): prediction x⁻ = F x, P⁻ = F P Fᵀ + Q with F = [[1, T], [0, 1]] per axis.
@@ -339,29 +346,7 @@ void step_tracks(const Block& b) {
   // The combination, computed for every lane (scratch: mode 0's mixed slots, no longer needed)
   // and stored for the committed ones.
   double* out = sc(layout.mixed);
-  for (int e = 0; e < kEntries; ++e) std::fill_n(out + e * kB, lanes, 0.0);
-  for (int j = 0; j < n; ++j) {
-    const double* __restrict w = sc(layout.posterior + j);
-    for (int a = 0; a < kN; ++a) {
-      const double* __restrict mean = st(j, a);
-      double* __restrict sum = out + a * kB;
-      for (int l = 0; l < lanes; ++l) sum[l] += w[l] * mean[l];
-    }
-  }
-  for (int j = 0; j < n; ++j) {
-    const double* __restrict w = sc(layout.posterior + j);
-    for (int a = 0; a < kN; ++a) {
-      for (int c = a; c < kN; ++c) {
-        const double* __restrict ma = st(j, a);
-        const double* __restrict mc = st(j, c);
-        const double* __restrict xa = out + a * kB;
-        const double* __restrict xc = out + c * kB;
-        const double* __restrict p = st(j, kN + sym(a, c));
-        double* __restrict sum = out + (kN + sym(a, c)) * kB;
-        for (int l = 0; l < lanes; ++l) sum[l] += w[l] * (p[l] + (ma[l] - xa[l]) * (mc[l] - xc[l]));
-      }
-    }
-  }
+  moment_match(n, lanes, sc(layout.posterior), st, out);
   for (int e = 0; e < kEntries; ++e) {
     double* __restrict target = combined(e);
     const double* __restrict value = out + e * kB;
@@ -497,6 +482,10 @@ void TrackBank::step_block(std::size_t first, int lanes, const Eigen::Vector2d* 
   block.status = status;
   step_tracks(block);
 }
+
+int TrackBank::mode_slot(int j, int entry) const { return j * kModeSlots + entry; }
+
+int TrackBank::combined_slot(int entry) const { return modes_ * kModeSlots + entry; }
 
 bool TrackBank::initialized(std::size_t track) const { return initialized_[checked(track)] != 0; }
 

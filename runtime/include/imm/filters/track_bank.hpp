@@ -69,14 +69,11 @@ class TrackBank {
   [[nodiscard]] ModeVector log_mode_probabilities(std::size_t track) const;
 
  private:
-  // Per mode: mean (4), covariance upper triangle (10), log μ, μ̃ = μ / max μ.
-  static constexpr int kMean = 0, kCov = 4, kLogMu = 14, kScaledMu = 15, kModeSlots = 16;
-  static constexpr int kEntries = 14;  // mean + covariance triangle
-
   [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
   [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
-  [[nodiscard]] int mode_slot(int j, int entry) const { return j * kModeSlots + entry; }
-  [[nodiscard]] int combined_slot(int entry) const { return modes_ * kModeSlots + entry; }
+  // The state slot of entry `entry` of mode j / of the combined estimate (layout in the .cpp).
+  [[nodiscard]] int mode_slot(int j, int entry) const;
+  [[nodiscard]] int combined_slot(int entry) const;
   [[nodiscard]] std::size_t checked(std::size_t track) const;
   void step_block(std::size_t first, int lanes, const Eigen::Vector2d* plots, StepStatus* status);
 
