@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
+#include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "imm/datasets/random.hpp"
@@ -96,6 +98,30 @@ TEST(Backpropagation, LearnsASmoothTarget) {
     const auto curve = train(network, samples, samples, options);
     EXPECT_LT(curve.back().training, 0.05)
         << "mode " << static_cast<int>(mode) << ", from " << before;
+  }
+}
+
+// Full-batch training works on whole-batch matrix products; with OpenMP in the build Eigen would
+// split large products across threads (in blocks that depend on the thread count, and in the
+// sanitizer build not even reproducibly). Eigen's own threading is off: the trainer parallelizes
+// at the level of its jobs, and a model is the same bits at any thread count.
+TEST(Backpropagation, FullBatchTrainingDoesNotDependOnTheThreadCount) {
+  const Samples samples = random_samples(2000, 12);
+  TrainingOptions options;
+  options.mode = UpdateMode::kBatch;
+  options.phases = {{40, 0.2, 0.2}};
+  const int threads = omp_get_max_threads();
+  std::vector<Network> trained;
+  for (int count : {1, std::max(2, threads)}) {
+    omp_set_num_threads(count);
+    Network network({2, 64, 64, 1}, Activation::kLinear, 1.0, 0.5, 13);
+    (void)train(network, samples, samples, options);
+    trained.push_back(network);
+  }
+  omp_set_num_threads(threads);
+  for (std::size_t l = 0; l < trained[0].layers().size(); ++l) {
+    EXPECT_EQ(trained[0].layers()[l].weights, trained[1].layers()[l].weights) << "layer " << l;
+    EXPECT_EQ(trained[0].layers()[l].bias, trained[1].layers()[l].bias) << "layer " << l;
   }
 }
 
