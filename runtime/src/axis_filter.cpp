@@ -32,6 +32,18 @@ Eigen::VectorXd AxisImmSettings::initial_probabilities(int n) const {
   return mu;
 }
 
+TrackOptions AxisImmSettings::track_options(std::int64_t max_gap) const {
+  validate();
+  TrackOptions options;
+  options.sample_period = sample_period;
+  options.measurement_kind = MeasurementKind::kCartesian;
+  options.measurement_covariance =
+      measurement_sigma * measurement_sigma * Eigen::Matrix2d::Identity();
+  options.initialization.method = InitializationMethod::kTwoPoint;
+  options.max_gap = max_gap;
+  return options;
+}
+
 TwoAxisFilter::TwoAxisFilter(std::unique_ptr<AxisFilter> x, std::unique_ptr<AxisFilter> y)
     : x_(std::move(x)), y_(std::move(y)) {
   if (!x_ || !y_) throw InvalidParameter("axis", "both axis filters are required");

@@ -38,6 +38,18 @@ Eigen::MatrixXd FcmImmSpec::switching_transition(int n, double stay) {
   return pi;
 }
 
+TrackOptions FcmImmSpec::track_options(std::int64_t max_gap) const {
+  validate();
+  TrackOptions options;
+  options.sample_period = sample_period;
+  options.measurement_kind = MeasurementKind::kCartesian;
+  options.measurement_covariance =
+      measurement_sigma * measurement_sigma * Eigen::Matrix2d::Identity();
+  options.initialization.method = InitializationMethod::kTwoPoint;
+  options.max_gap = max_gap;
+  return options;
+}
+
 void FcmImmSpec::validate() const {
   limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
   limits::require_in(measurement_sigma, limits::kSigma, "measurement_sigma");

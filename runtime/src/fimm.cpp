@@ -34,6 +34,19 @@ void FimmSpec::validate() const {
   if (iterations < 1 || iterations > 100) {
     throw InvalidParameter("iterations", "must be in [1, 100]");
   }
+  limits::require_in(acceleration_variance, limits::kVariance, "acceleration_variance");
+}
+
+TrackOptions FimmSpec::track_options(std::int64_t max_gap) const {
+  validate();
+  TrackOptions options;
+  options.sample_period = sample_period;
+  options.measurement_kind = MeasurementKind::kCartesian;
+  options.measurement_covariance = measurement_covariance;
+  options.initialization.method = InitializationMethod::kTwoPoint;
+  options.initialization.acceleration_variance = acceleration_variance;
+  options.max_gap = max_gap;
+  return options;
 }
 
 double FimmSpec::process_noise(int mode) const {

@@ -59,6 +59,10 @@ StepStatus InnovationFeatureExtractor::step(double z, Eigen::Vector2d& features)
   return StepStatus::kOk;
 }
 
+void InnovationFeatureExtractor::predict_only() {
+  cv_ = predict(cv_, motion_.transition, motion_.process_noise);
+}
+
 InputEstimationFilter::InputEstimationFilter(InputEstimatorModel model,
                                              const CvKfSettings& settings)
     : model_(std::move(model)),
@@ -110,6 +114,29 @@ StepStatus InputEstimationFilter::step(double z) {
   innovation_ = primary_report.innovation(0);
   primary_ = primary;
   return StepStatus::kOk;
+}
+
+void InputEstimationFilter::predict_only() {
+  primary_ =
+      predict(primary_, motion_.transition, motion_.process_noise, G_, Vector<1>(acceleration_));
+  features_.predict_only();
+}
+
+TrackOptions InputEstimatorModel::track_options(std::int64_t max_gap) const {
+  settings.validate();
+  TrackOptions options;
+  options.sample_period = settings.sample_period;
+  options.measurement_kind = MeasurementKind::kCartesian;
+  options.measurement_covariance = settings.measurement_variance * Eigen::Matrix2d::Identity();
+  options.initialization.method = InitializationMethod::kTwoPoint;
+  options.max_gap = max_gap;
+  return options;
+}
+
+std::unique_ptr<TwoAxisFilter> make_input_estimation_filter(const InputEstimatorModel& model) {
+  return std::make_unique<TwoAxisFilter>(
+      std::make_unique<InputEstimationAxis>(model, model.settings),
+      std::make_unique<InputEstimationAxis>(model, model.settings));
 }
 
 }  // namespace imm

@@ -45,17 +45,6 @@ std::unique_ptr<TwoAxisFilter> make_ga_fuzzy_imm_filter(const GaFuzzyImmSpec& sp
       std::make_unique<ImmAxisFilter>(build_ga_fuzzy_axis_imm(spec)));
 }
 
-TrackOptions axis_track_options(const AxisImmSettings& settings) {
-  settings.validate();
-  TrackOptions options;
-  options.sample_period = settings.sample_period;
-  options.measurement_kind = MeasurementKind::kCartesian;
-  options.measurement_covariance =
-      settings.measurement_sigma * settings.measurement_sigma * Eigen::Matrix2d::Identity();
-  options.initialization.method = InitializationMethod::kTwoPoint;
-  return options;
-}
-
 // --- Adaptive IMM ----------------------------------------------------------------------------
 
 void AimmSpec::validate() const {

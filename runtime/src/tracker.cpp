@@ -80,12 +80,12 @@ std::unique_ptr<TrackFilter> make_plain_imm_filter(const PlainImmSpec& spec) {
   return std::make_unique<PlainImmFilter>(spec);
 }
 
-TrackOptions track_options(const PlainImmSpec& spec, std::int64_t max_gap) {
+TrackOptions PlainImmSpec::track_options(std::int64_t max_gap) const {
   TrackOptions options;
-  options.sample_period = spec.sample_period;
-  options.measurement_kind = spec.measurement.kind;
-  options.measurement_covariance = spec.measurement.covariance;
-  options.initialization = spec.initialization;
+  options.sample_period = sample_period;
+  options.measurement_kind = measurement.kind;
+  options.measurement_covariance = measurement.covariance;
+  options.initialization = initialization;
   options.max_gap = max_gap;
   return options;
 }

@@ -6,6 +6,7 @@ namespace imm::io {
 namespace {
 
 constexpr const char* kGroup = "/tsk";
+constexpr const char* kFimmGroup = "/fimm";
 const std::vector<std::string>& rule_columns() {
   static const std::vector<std::string> columns = {
       "center_xi", "width_xi", "center_eta", "width_eta", "a0", "a_xi", "a_eta"};
@@ -93,6 +94,45 @@ TskModel read_tsk_sensor(const ModelFileReader& reader) {
 
 TskModel read_tsk_sensor(const std::filesystem::path& path) {
   return read_tsk_sensor(ModelFileReader(path, kTskSensorKind));
+}
+
+void write_fimm_settings(ModelFileWriter& writer, const FimmSpec& spec) {
+  spec.validate();
+  writer.set_attribute(kFimmGroup, "sample_period", spec.sample_period);
+  writer.set_attribute(kFimmGroup, "cruise_sigma", spec.cruise_sigma);
+  writer.set_attribute(kFimmGroup, "lane_change_ratio", spec.lane_change_ratio);
+  writer.set_attribute(kFimmGroup, "noise_scale", spec.noise_scale);
+  writer.set_attribute(kFimmGroup, "iterations", std::int64_t{spec.iterations});
+  writer.set_attribute(kFimmGroup, "acceleration_variance", spec.acceleration_variance);
+  writer.write_matrix("/fimm/transition", spec.transition, {"cruise", "lane_change"});
+  writer.write_vector("/fimm/initial_probabilities", spec.initial_probabilities);
+  writer.write_matrix("/fimm/measurement_covariance", spec.measurement_covariance, {"z1", "z2"});
+}
+
+std::optional<FimmSpec> read_fimm_settings(const ModelFileReader& reader) {
+  if (reader.container().kind(kFimmGroup) == ObjectKind::kMissing) return std::nullopt;
+  FimmSpec spec;
+  spec.sample_period = reader.real(kFimmGroup, "sample_period", ValueRule::kPositive);
+  spec.cruise_sigma = reader.real(kFimmGroup, "cruise_sigma", ValueRule::kPositive);
+  spec.lane_change_ratio = reader.real(kFimmGroup, "lane_change_ratio", ValueRule::kPositive);
+  spec.noise_scale = reader.real(kFimmGroup, "noise_scale", ValueRule::kPositive);
+  spec.iterations = static_cast<int>(reader.integer(kFimmGroup, "iterations", 1, 100));
+  spec.acceleration_variance =
+      reader.real(kFimmGroup, "acceleration_variance", ValueRule::kNonNegative);
+  spec.transition = reader.matrix("/fimm/transition", 2, 2, ValueRule::kProbability);
+  spec.initial_probabilities =
+      reader.vector("/fimm/initial_probabilities", 2, ValueRule::kProbability);
+  spec.measurement_covariance = reader.matrix("/fimm/measurement_covariance", 2, 2);
+  try {
+    spec.validate();
+  } catch (const InvalidParameter& error) {
+    const std::string& f = error.field();
+    const auto starts = [&](std::string_view name) { return f.rfind(name, 0) == 0; };
+    const bool dataset =
+        starts("transition") || starts("initial_probabilities") || starts("measurement_covariance");
+    reader.fail(std::string(kFimmGroup) + (dataset ? "/" : "@") + f, error.what());
+  }
+  return spec;
 }
 
 }  // namespace imm::io

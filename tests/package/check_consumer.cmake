@@ -29,4 +29,13 @@ if(NOT status EQUAL 0)
   message(FATAL_ERROR "consumer run failed:\n${out}")
 endif()
 message(STATUS "${out}")
+# Every shipped model, loaded through imm::load_tracker against the installed package.
+file(GLOB models ${SOURCE_DIR}/models/*.h5 ${SOURCE_DIR}/models/reference/*.h5)
+list(SORT models)
+execute_process(COMMAND ${WORK_DIR}/build/track_every_model ${models}
+                RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT status EQUAL 0)
+  message(FATAL_ERROR "track_every_model failed (${status}):\n${out}\n${err}")
+endif()
+message(STATUS "${out}")
 file(REMOVE_RECURSE ${WORK_DIR})

@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/filters/tracker.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/regimes.hpp"

@@ -55,11 +55,11 @@ inline KindFilter make_kind_filter(const io::ModelFileReader& reader) {
   if (made.kind == io::kPlainImmKind) {
     const PlainImmSpec spec = io::read_plain_imm(reader);
     made.filter = make_plain_imm_filter(spec);
-    made.options = track_options(spec);
+    made.options = spec.track_options();
   } else if (made.kind == io::kGaFuzzyImmKind) {
     const GaFuzzyImmSpec spec = io::read_ga_fuzzy_imm(reader);
     made.filter = make_ga_fuzzy_imm_filter(spec);
-    made.options = axis_track_options(spec.settings);
+    made.options = spec.track_options();
   } else if (made.kind == io::kWimmKind) {
     const WimmSpec spec = io::read_wimm(reader);
     made.filter = std::make_unique<WeightedImmFilter>(spec);

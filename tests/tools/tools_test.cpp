@@ -426,6 +426,8 @@ TEST_F(Tools, TskTrainingAndFimmEvaluationEndToEnd) {
   EXPECT_NE(inspected.out.find("kind             tsk_sensor"), std::string::npos) << inspected.out;
   EXPECT_NE(inspected.out.find("/tsk/output2/rules"), std::string::npos) << inspected.out;
   EXPECT_NE(inspected.out.find("center_eta"), std::string::npos) << inspected.out;
+  // The FIMM it was evaluated in travels with it (imm::load_filter needs nothing else).
+  EXPECT_NE(inspected.out.find("/fimm/measurement_covariance"), std::string::npos) << inspected.out;
 
   for (const std::string sensor : {"default", "hard"}) {
     const bool hard = sensor == "hard";

@@ -14,6 +14,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -22,6 +23,7 @@
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
+#include "imm/support/cli.hpp"
 #include "imm/support/regime_config.hpp"
 
 namespace {
@@ -56,6 +58,7 @@ void write_csv(const std::string& path, const imm::datasets::Regime& regime,
 
 int main(int argc, char** argv) {
   CLI::App app{"Draw a seeded, reproducible data set from a regime."};
+  imm::support::standard_options(app, "imm-data");
   app.require_subcommand(1);
   std::string regime_path, out_path, csv_path;
   std::string split_name = "test";
@@ -71,19 +74,23 @@ int main(int argc, char** argv) {
                      "test seed (the training and validation splits use the "
                      "regime's [splits] seed)");
   tracks->add_option("--count", count, "tracks (default: the regime's split size)")
-      ->check(CLI::PositiveNumber);
+      ->check(imm::support::at_least(1));
   tracks->add_option("--csv", csv_path, "also write one track's plots as CSV for imm-track");
   tracks->add_option("--csv-track", csv_track, "which track --csv writes")
-      ->check(CLI::NonNegativeNumber);
+      ->check(imm::support::at_least(0));
 
   auto* sensor = app.add_subcommand("sensor", "the calibration samples of a range sensor");
   sensor->add_option("--regime", regime_path, "regime TOML with a range sensor")->required();
   sensor->add_option("--out", out_path, "data-set file to write (HDF5)")->required();
   sensor->add_option("--seed", seed, "seed of the draw");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
 
   try {
     const imm::support::RegimeFile file = imm::support::load_regime(regime_path);
+    for (const std::string& written : {out_path, csv_path}) {  // their folders, as needed
+      const std::filesystem::path folder = std::filesystem::path(written).parent_path();
+      if (!written.empty() && !folder.empty()) std::filesystem::create_directories(folder);
+    }
     const imm::datasets::Regime& regime = file.regime;
     if (*sensor) {
       if (regime.sensor.kind != imm::datasets::SensorKind::kRangeSensor) {

@@ -26,6 +26,7 @@
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
+#include "imm/support/cli.hpp"
 
 namespace {
 
@@ -227,6 +228,7 @@ int print_manifest(const std::string& path) {
 
 int main(int argc, char** argv) {
   CLI::App app{"Print what an immtrain model or data-set file holds."};
+  imm::support::standard_options(app, "imm-inspect");
   std::string path;
   bool as_json = false, full = false, show_config = false;
   app.add_option("file", path, "model or data-set file (with --manifest: models/manifest.json)")
@@ -239,7 +241,7 @@ int main(int argc, char** argv) {
   bool show_regime = false;
   app.add_flag("--regime", show_regime,
                "print the full text of the regime a model was trained for");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
   if (show_manifest) return print_manifest(path);
 
   try {

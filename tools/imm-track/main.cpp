@@ -1,21 +1,25 @@
-// imm-track: runs a plain IMM over a measurement CSV — a client of imm::runtime alone.
+// imm-track: runs any model file's filter (or a plain IMM TOML config) over a measurement CSV — a
+// client of imm::runtime alone (imm::load_filter).
 //
 //   imm-track --filter configs/track/cv3_imm.toml --measurements plots.csv [--out track.csv]
-//   imm-track --filter models/cv3_imm.h5 --measurements plots.csv
+//   imm-track --filter models/ga_fuzzy_imm.h5 --measurements plots.csv
 //
 // Writes per input row: k, status (waiting|initialized|updated|rejected), the combined state,
-// its covariance diagonal and the mode probabilities. Rows that cannot be used are reported on
-// stderr with their line number and leave the filter untouched.
+// its covariance diagonal and the mode probabilities, every number in its shortest form that
+// reads back to the same double. Rows that cannot be used are reported on stderr with their line
+// number and leave the filter untouched.
 // Exit codes: 0 success, 1 usage, 2 unreadable or invalid filter or measurement file.
 
 #include <CLI/CLI.hpp>
-#include <cstdio>
+#include <charconv>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <memory>
 
 #include "imm/filters/tracker.hpp"
-#include "imm/io/plain_imm_file.hpp"
+#include "imm/load.hpp"
+#include "imm/support/cli.hpp"
 #include "imm/support/config.hpp"
 #include "imm/support/measurement_csv.hpp"
 #include "imm/support/plain_imm_config.hpp"
@@ -31,9 +35,23 @@ bool is_container(const std::string& path) {
   return in.gcount() == sizeof magic && std::string_view(magic, sizeof magic) == "IMMTRAIN";
 }
 
-imm::PlainImmSpec load_filter(const std::string& path) {
-  if (is_container(path)) return imm::io::read_plain_imm(path);
-  return imm::support::load_plain_imm_config(path);
+// A model file of any kind, or a plain IMM TOML config.
+imm::LoadedFilter load_filter(const std::string& path, std::int64_t max_gap) {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) {
+    throw std::runtime_error(path + ": no such model file or config");
+  }
+  if (is_container(path)) return imm::load_filter(path, max_gap);
+  const imm::PlainImmSpec spec = imm::support::load_plain_imm_config(path);
+  return {imm::make_plain_imm_filter(spec), spec.track_options(max_gap), {}};
+}
+
+// A mode name as a CSV column: "x.lane change" → "x.lane_change".
+std::string column_name(std::string name) {
+  for (char& c : name) {
+    if (c == ' ' || c == ',') c = '_';
+  }
+  return name;
 }
 
 std::vector<std::string> state_names(int dimension) {
@@ -41,39 +59,43 @@ std::vector<std::string> state_names(int dimension) {
   return {"x", "vx", "ax", "y", "vy", "ay"};
 }
 
+// The shortest text that reads back to the same double (std::to_chars).
 void write_number(std::ostream& out, double value) {
   char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.10g", value);
-  out << buffer;
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  out.write(buffer, result.ptr - buffer);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Run a plain IMM (TOML config or plain_imm model file) over a measurement CSV."};
+  CLI::App app{
+      "Run a model file's filter (any kind) or a plain IMM TOML config over a measurement "
+      "CSV."};
+  imm::support::standard_options(app, "imm-track");
   std::string filter_path, measurements_path, out_path;
-  std::int64_t max_gap = imm::PlainImmTracker::kDefaultMaxGap;
-  app.add_option("--filter", filter_path, "filter: TOML config or plain_imm model file")
+  std::int64_t max_gap = imm::kDefaultMaxGap;
+  app.add_option("--filter", filter_path, "model file (any kind) or plain IMM TOML config")
       ->required();
   app.add_option("--measurements", measurements_path, "CSV with k,zx,zy or k,range,azimuth")
       ->required();
   app.add_option("--out", out_path, "output CSV (default: standard output)");
   app.add_option("--max-gap", max_gap, "scans without a plot before the track is restarted")
-      ->check(CLI::PositiveNumber);
-  CLI11_PARSE(app, argc, argv);
+      ->check(imm::support::at_least(1));
+  if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
 
-  imm::PlainImmSpec spec;
+  imm::LoadedFilter loaded;
   imm::support::MeasurementCsv csv;
   try {
-    spec = load_filter(filter_path);
+    loaded = load_filter(filter_path, max_gap);
     std::ifstream in(measurements_path);
     if (!in) throw std::runtime_error(measurements_path + ": cannot open");
     csv = imm::support::read_measurement_csv(in, measurements_path);
-    if (csv.kind != spec.measurement.kind) {
+    if (csv.kind != loaded.options.measurement_kind) {
       throw std::runtime_error(measurements_path + ": holds " +
                                std::string(imm::to_string(csv.kind)) +
                                " measurements but the filter expects " +
-                               std::string(imm::to_string(spec.measurement.kind)));
+                               std::string(imm::to_string(loaded.options.measurement_kind)));
     }
   } catch (const std::exception& error) {
     std::cerr << "imm-track: " << error.what() << '\n';
@@ -93,13 +115,16 @@ int main(int argc, char** argv) {
   }
   std::ostream& out = out_path.empty() ? std::cout : file_out;
 
-  imm::PlainImmTracker tracker(spec, max_gap);
+  const imm::TrackFilter& filter = *loaded.filter;
+  std::vector<std::string> modes;
+  for (int j = 0; j < filter.mode_count(); ++j) modes.push_back(column_name(filter.mode_name(j)));
+  imm::Tracker tracker(std::move(loaded.filter), loaded.options);
   const int n = tracker.state_dimension();
   const auto names = state_names(n);
   out << "k,status";
   for (const auto& name : names) out << ',' << name;
   for (const auto& name : names) out << ",var_" << name;
-  for (const auto& mode : spec.modes) out << ",mu_" << mode.name;
+  for (const auto& mode : modes) out << ",mu_" << mode;
   out << '\n';
 
   Eigen::VectorXd mean(n), variance(n);

@@ -34,6 +34,7 @@
 
 #include "imm/datasets/random.hpp"
 #include "imm/io/file_error.hpp"
+#include "imm/support/cli.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/freeze.hpp"
@@ -212,6 +213,7 @@ int main(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_st("imm-train"));
   spdlog::set_pattern("%Y-%m-%d %H:%M:%S.%e %^%l%$ %v");
   CLI::App app{"Train immtrain models into model files; run the nightly pipeline."};
+  imm::support::standard_options(app, "imm-train");
   app.require_subcommand(1);
 
   imm::trainer::FreezeOptions freeze;
@@ -229,7 +231,7 @@ int main(int argc, char** argv) {
   ga_subcommand->add_option("--out", ga_command.out, "model file to write");
   ga_subcommand->add_option("--seed", ga_command.seed, "override the config's seed");
   ga_subcommand->add_option("--threads", ga_command.threads, "OpenMP threads (default: all cores)")
-      ->check(CLI::PositiveNumber);
+      ->check(imm::support::at_least(1));
   ga_subcommand->add_flag("--resume", ga_command.resume,
                           "continue from the checkpoint beside --out");
 
@@ -283,7 +285,7 @@ int main(int argc, char** argv) {
                                "regime name (omitted: a model trained for no regime)");
   rollback_command->add_option("--registry", rollback_registry, "registry folder (models)");
 
-  CLI11_PARSE(app, argc, argv);
+  if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
   // A training killed with SIGKILL while writing leaves a hidden temporary beside its output: a
   // guard process removes it (see temporaries_guard.hpp).
   const std::vector<std::pair<CLI::App*, std::filesystem::path>> outputs{

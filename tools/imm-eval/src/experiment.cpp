@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "imm/support/cli.hpp"
+
 namespace imm::evaluation {
 namespace {
 
@@ -40,7 +42,7 @@ void add_common_options(CLI::App& command, CommonOptions& options, const std::st
                      "regime TOML to evaluate on, or a model file whose recorded regime to use "
                      "(default: the one recorded in the model)");
   command.add_option("--runs", options.runs, "test tracks (default: the regime's test split)")
-      ->check(CLI::PositiveNumber);
+      ->check(support::at_least(1));
   command.add_option("--seed", options.seed, "seed of the test tracks");
   command.add_option("--out", options.out, "report folder");
 }

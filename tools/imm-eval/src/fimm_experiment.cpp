@@ -33,7 +33,6 @@ namespace imm::evaluation {
 namespace {
 
 constexpr int kFirstScoredScan = 2;
-constexpr double kAccelerationVariance = 4.0;  // (m/s²)², the start's ξ̈, η̈ uncertainty
 constexpr double kMaxClampedShare = 0.05;
 /// Below this range slope dη_m/dη the sensor counts as flat (the measured range changes by less
 /// than half the true change).
@@ -67,7 +66,8 @@ double range_slope(const datasets::Sensor& sensor, const Eigen::Vector2d& p) {
 }
 
 Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
-            const datasets::TrackSet& data, const datasets::Sensor& sensor, double r) {
+            const datasets::TrackSet& data, const datasets::Sensor& sensor, double r,
+            double acceleration_variance) {
   Score out;
   const Eigen::Index steps = data.scans;
   const double T = data.sample_period;
@@ -88,7 +88,7 @@ Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
       mean(p) = z(1, axis);
       mean(p + 1) = (z(1, axis) - z(0, axis)) / T;
       covariance.block<3, 3>(p, p) << r, r / T, 0.0, r / T, 2.0 * r / (T * T), 0.0, 0.0, 0.0,
-          kAccelerationVariance;
+          acceleration_variance;
     }
     filter->initialize(mean, covariance);
     for (Eigen::Index k = kFirstScoredScan; k < steps; ++k) {
@@ -175,12 +175,12 @@ int run(const FimmOptions& options) {
     FimmSpec iterated = spec;
     iterated.iterations = config.iekf_iterations;
     const double r = noise.sigma(0) * noise.sigma(0);
-    const Score imm =
-        score([&] { return std::make_unique<FimmFilter>(spec, nullptr); }, part, regime.sensor, r);
+    const Score imm = score([&] { return std::make_unique<FimmFilter>(spec, nullptr); }, part,
+                            regime.sensor, r, spec.acceleration_variance);
     const Score fimm = score([&] { return std::make_unique<FimmFilter>(spec, sensor_model); }, part,
-                             regime.sensor, r);
+                             regime.sensor, r, spec.acceleration_variance);
     const Score iekf = score([&] { return std::make_unique<FimmFilter>(iterated, sensor_model); },
-                             part, regime.sensor, r);
+                             part, regime.sensor, r, spec.acceleration_variance);
     const int runs = static_cast<int>(part.tracks.size());
     headline.push_back(in_case(fimm.headline("fimm_mse " + name), offset, all_runs));
     headline.push_back(in_case(iekf.headline("fimm_iekf_mse " + name), offset, all_runs));

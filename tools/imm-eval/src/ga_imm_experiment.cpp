@@ -124,7 +124,7 @@ int run(const GaImmOptions& options) {
   if (paper) training_scores["GA-IMM-paper"] = axis_score(fuzzy_axis(*paper), training);
   training_scores["GA-IMM"] = axis_score(fuzzy_axis(learned), training);
 
-  const TrackOptions track = axis_track_options(learned.settings);
+  const TrackOptions track = learned.track_options();
   std::vector<FilterOutcome> filters;
   filters.reserve(6);
   filters.push_back(run_monte_carlo(

@@ -22,9 +22,11 @@
 
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
+#include "imm/support/cli.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"Monte Carlo evaluation of immtrain filters against their baselines."};
+  imm::support::standard_options(app, "imm-eval");
   app.require_subcommand(1);
   int exit_code = 1;
   imm::evaluation::add_plain_imm_command(app, exit_code);
@@ -34,6 +36,6 @@ int main(int argc, char** argv) {
   imm::evaluation::add_fcm_imm_command(app, exit_code);
   imm::evaluation::add_fimm_command(app, exit_code);
   imm::evaluation::add_regression_command(app, exit_code);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
   return exit_code;
 }

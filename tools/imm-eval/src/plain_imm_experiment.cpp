@@ -75,7 +75,7 @@ int run(const PlainImmOptions& options) {
   std::vector<FilterOutcome> filters;
   auto evaluate = [&](const std::string& name, const PlainImmSpec& s) {
     filters.push_back(run_monte_carlo(
-        name, [&] { return make_plain_imm_filter(s); }, track_options(s), data));
+        name, [&] { return make_plain_imm_filter(s); }, s.track_options(), data));
   };
   evaluate(model.stem().string(), spec);
   for (std::size_t j = 0; j < spec.modes.size() && spec.modes.size() > 1; ++j) {

@@ -60,6 +60,7 @@ TskTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
     s.cruise_sigma = f->real_or("cruise_sigma", s.cruise_sigma);
     s.lane_change_ratio = f->real_or("lane_change_ratio", s.lane_change_ratio);
     s.noise_scale = f->real_or("noise_scale", s.noise_scale);
+    s.acceleration_variance = f->real_or("acceleration_variance", s.acceleration_variance);
     if (f->has("transition")) s.transition = f->matrix("transition", 2, 2);
     if (f->has("initial_probabilities")) {
       s.initial_probabilities = f->reals("initial_probabilities", 2);
@@ -262,6 +263,11 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples
   }
   io::ModelFileWriter writer(out, provenance);
   io::write_tsk_sensor(writer, result.model);
+  // The FIMM as imm-eval fimm runs it (the EKF), with the regime's first case's plot noise: what
+  // a tracking application loads (imm::load_filter) without the training config.
+  FimmSpec fimm = config.fimm;
+  fimm.measurement_covariance = config.regime.noise_of(0).covariance();
+  io::write_fimm_settings(writer, fimm);
   writer.commit();
   return result;
 }

@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "imm/filters/tracker.hpp"
 #include "imm/math/angle.hpp"
 
 namespace imm::trainer::wimm {

@@ -23,6 +23,10 @@ struct AimmSpec {
   /// Throws InvalidParameter naming the field.
   void validate() const;
   [[nodiscard]] int mode_count() const { return 1 + 2 * static_cast<int>(intervals.size()); }
+  /// Cartesian plots, two-point initialization (AxisImmSettings::track_options).
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const {
+    return settings.track_options(max_gap);
+  }
 };
 
 class AimmAxisFilter final : public AxisFilter {

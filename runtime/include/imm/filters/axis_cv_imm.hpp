@@ -15,6 +15,10 @@ struct AxisCvImmSpec {
   std::vector<double> process_noise = {1e-6, 1e-4, 1e-2};  ///< q_j ≥ 0, (unit/s²)²
 
   void validate() const;
+  /// Cartesian plots, two-point initialization (AxisImmSettings::track_options).
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const {
+    return settings.track_options(max_gap);
+  }
 };
 
 [[nodiscard]] ImmEstimator<2, 1> build_axis_cv_imm(const AxisCvImmSpec& spec);

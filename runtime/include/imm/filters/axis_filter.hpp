@@ -10,6 +10,7 @@
 #include "imm/filters/gaussian_state.hpp"
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/track_filter.hpp"
+#include "imm/filters/track_options.hpp"
 
 namespace imm {
 
@@ -26,6 +27,8 @@ struct AxisImmSettings {
   [[nodiscard]] Eigen::MatrixXd transition(int n) const;
   /// Eq. (21) for n modes (n = 1: [1]).
   [[nodiscard]] Eigen::VectorXd initial_probabilities(int n) const;
+  /// Cartesian plots with σ_z² I, two-point initialization.
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
 class AxisFilter {

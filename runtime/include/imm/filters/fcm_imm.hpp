@@ -57,6 +57,7 @@
 #include "imm/filters/axis_filter.hpp"
 #include "imm/filters/imm_mode.hpp"
 #include "imm/filters/kalman_filter.hpp"
+#include "imm/filters/track_options.hpp"
 #include "imm/models/fuzzy_c_means.hpp"
 
 namespace imm {
@@ -91,6 +92,8 @@ struct FcmImmSpec {
   [[nodiscard]] int mode_count() const { return static_cast<int>(process_noise.size()); }
   /// Throws InvalidParameter naming the field.
   void validate() const;
+  /// Cartesian plots with σ_z² I, two-point initialization.
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 
   /// p_jj = stay, the rest spread evenly (n = 1: [[1]]).
   [[nodiscard]] static Eigen::MatrixXd switching_transition(int n, double stay);

@@ -19,6 +19,7 @@
 
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/track_filter.hpp"
+#include "imm/filters/track_options.hpp"
 #include "imm/models/tsk_model.hpp"
 
 namespace imm {
@@ -32,11 +33,15 @@ struct FimmSpec {
   Eigen::Vector2d initial_probabilities = Eigen::Vector2d(0.9, 0.1);
   Eigen::Matrix2d measurement_covariance = Eigen::Matrix2d::Identity();  ///< the sensor's R
   int iterations = 1;  ///< 1: EKF; > 1: iterated EKF with up to that many linearizations
+  double acceleration_variance = 4.0;  ///< (m/s²)², a two-point start's ξ̈ and η̈ variance
 
   /// Throws InvalidParameter naming the field.
   void validate() const;
   /// q of mode j (0 cruise, 1 lane change), the variance of the acceleration increment per step.
   [[nodiscard]] double process_noise(int mode) const;
+  /// Plots in the sensor's own space, taken as positions to start a track (two-point, R,
+  /// acceleration_variance): the seed's sensor reads approximately the position.
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
 class FimmFilter final : public TrackFilter {

@@ -25,6 +25,10 @@ struct GaFuzzyImmSpec {
 
   /// Throws InvalidParameter naming the field.
   void validate() const;
+  /// Cartesian plots, two-point initialization (AxisImmSettings::track_options).
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const {
+    return settings.track_options(max_gap);
+  }
 };
 
 /// The per-axis IMM (modes in level order).
@@ -32,8 +36,5 @@ struct GaFuzzyImmSpec {
 
 /// The 2-D filter: the per-axis IMM on x and on y.
 [[nodiscard]] std::unique_ptr<TwoAxisFilter> make_ga_fuzzy_imm_filter(const GaFuzzyImmSpec& spec);
-
-/// Track options for a per-axis spec: Cartesian plots, two-point initialization.
-[[nodiscard]] TrackOptions axis_track_options(const AxisImmSettings& settings);
 
 }  // namespace imm

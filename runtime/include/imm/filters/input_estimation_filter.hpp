@@ -13,9 +13,11 @@
 /// differently is refused (the network's inputs would mean something else).
 
 #include <array>
+#include <memory>
 #include <string>
 #include <string_view>
 
+#include "imm/filters/axis_filter.hpp"
 #include "imm/filters/kalman_filter.hpp"
 #include "imm/models/constant_velocity.hpp"
 #include "imm/models/mlp.hpp"
@@ -71,6 +73,9 @@ class InnovationFeatureExtractor {
   void initialize(const GaussianState<2>& state);
   /// One scan of the CV KF; returns kOk and sets `features` = (sum, diff), or leaves all as it was.
   StepStatus step(double z, Eigen::Vector2d& features);
+  /// One scan without a measurement: the CV KF predicts; the innovation window does not move (a
+  /// scan without a plot has no innovation).
+  void predict_only();
 
   [[nodiscard]] const GaussianState<2>& estimate() const { return cv_; }
   [[nodiscard]] double normalized_innovation() const { return ino_; }
@@ -108,6 +113,9 @@ struct InputEstimatorModel {
   double output_bias = 0.0;  ///< mean output without a maneuver (training time), subtracted
   InputSign sign = InputSign::kPositive;
   CvKfSettings settings;
+
+  /// Cartesian plots with R I per axis, two-point initialization.
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
 class InputEstimationFilter {
@@ -120,6 +128,8 @@ class InputEstimationFilter {
   void initialize(const GaussianState<2>& state);
   /// One scan; on a status other than kOk nothing changes.
   StepStatus step(double z);
+  /// One scan without a measurement: both KFs predict, the primary with the last û, which is held.
+  void predict_only();
 
   [[nodiscard]] const GaussianState<2>& estimate() const { return primary_; }  ///< corrected
   [[nodiscard]] const GaussianState<2>& cv_estimate() const { return features_.estimate(); }
@@ -148,5 +158,32 @@ class InputEstimationFilter {
   double raw_output_ = 0.0;
   double innovation_ = 0.0;
 };
+
+/// The input-estimation filter as one axis of a TwoAxisFilter: one mode ("input estimation"),
+/// so the model tracks in two dimensions like every other kind (load_filter, imm/load.hpp).
+class InputEstimationAxis final : public AxisFilter {
+ public:
+  InputEstimationAxis(InputEstimatorModel model, const CvKfSettings& settings)
+      : filter_(std::move(model), settings) {}
+
+  void initialize(const GaussianState<2>& state) override { filter_.initialize(state); }
+  StepStatus step(double z) override { return filter_.step(z); }
+  StepStatus predict_only() override {
+    filter_.predict_only();
+    return StepStatus::kOk;
+  }
+  [[nodiscard]] const GaussianState<2>& estimate() const override { return filter_.estimate(); }
+  [[nodiscard]] ModeVector mode_probabilities() const override { return ModeVector::Ones(1); }
+  [[nodiscard]] int mode_count() const override { return 1; }
+  [[nodiscard]] std::string mode_name(int /*j*/) const override { return "input estimation"; }
+  [[nodiscard]] const InputEstimationFilter& filter() const { return filter_; }
+
+ private:
+  InputEstimationFilter filter_;
+};
+
+/// Both axes of an input-estimator model: x and y each run their own filter from the same model.
+[[nodiscard]] std::unique_ptr<TwoAxisFilter> make_input_estimation_filter(
+    const InputEstimatorModel& model);
 
 }  // namespace imm

@@ -13,25 +13,18 @@
 #include <vector>
 
 #include "imm/filters/imm_estimator.hpp"
+#include "imm/filters/track_options.hpp"
 #include "imm/models/motion_model.hpp"
 
 namespace imm {
 
 enum class MotionKind { kConstantVelocity, kConstantAcceleration, kSinger };
-enum class MeasurementKind { kCartesian, kPolar };
-enum class InitializationMethod { kExplicit, kTwoPoint };
 
-[[nodiscard]] std::string_view to_string(MotionKind kind);       ///< "cv", "ca", "singer"
-[[nodiscard]] std::string_view to_string(NoiseForm form);        ///< "piecewise", "continuous"
-[[nodiscard]] std::string_view to_string(MeasurementKind kind);  ///< "cartesian", "polar"
-[[nodiscard]] std::string_view to_string(InitializationMethod method);  ///< "explicit", "two_point"
+[[nodiscard]] std::string_view to_string(MotionKind kind);  ///< "cv", "ca", "singer"
+[[nodiscard]] std::string_view to_string(NoiseForm form);   ///< "piecewise", "continuous"
 /// Inverse of to_string; throw InvalidParameter naming `field` for unknown names.
 [[nodiscard]] MotionKind motion_kind_from(std::string_view name, const std::string& field);
 [[nodiscard]] NoiseForm noise_form_from(std::string_view name, const std::string& field);
-[[nodiscard]] MeasurementKind measurement_kind_from(std::string_view name,
-                                                    const std::string& field);
-[[nodiscard]] InitializationMethod initialization_method_from(std::string_view name,
-                                                              const std::string& field);
 
 struct ModeSpec {
   std::string name;
@@ -50,15 +43,6 @@ struct MeasurementSpec {
   Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
 };
 
-struct InitializationSpec {
-  /// kTwoPoint: position from the second valid plot, velocity from the difference of the first
-  /// two; kExplicit: `state`/`covariance` are the estimate one period before the first plot.
-  InitializationMethod method = InitializationMethod::kTwoPoint;
-  Eigen::VectorXd state;               ///< explicit: mixing-space mean
-  Eigen::MatrixXd covariance;          ///< explicit: mixing-space covariance
-  double acceleration_variance = 0.0;  ///< two-point, 6-state: variance of ax and ay
-};
-
 struct PlainImmSpec {
   double sample_period = 1.0;
   std::vector<ModeSpec> modes;
@@ -71,6 +55,8 @@ struct PlainImmSpec {
   [[nodiscard]] int mixing_dimension() const;
   /// Throws InvalidParameter naming the first offending field.
   void validate() const;
+  /// The measurement and initialization of the spec, as a Tracker takes them.
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
 /// Builds the IMM of a validated spec in its mixing space NX (4 or 6; must equal

@@ -12,6 +12,7 @@
 
 #include "imm/filters/plain_imm.hpp"
 #include "imm/filters/track_filter.hpp"
+#include "imm/filters/track_options.hpp"
 
 namespace imm {
 
@@ -31,18 +32,9 @@ struct TrackStepResult {
   std::string_view reason;              ///< human-readable reason for a rejection
 };
 
-struct TrackOptions {
-  double sample_period = 1.0;
-  MeasurementKind measurement_kind = MeasurementKind::kCartesian;
-  Eigen::Matrix2d measurement_covariance = Eigen::Matrix2d::Identity();
-  InitializationSpec initialization;
-  /// Gaps longer than this many scans end the track; the next plot starts a new one.
-  std::int64_t max_gap = 50;
-};
-
 class Tracker {
  public:
-  static constexpr std::int64_t kDefaultMaxGap = 50;
+  static constexpr std::int64_t kDefaultMaxGap = imm::kDefaultMaxGap;
 
   /// Throws InvalidParameter for invalid options.
   Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options);
@@ -81,16 +73,14 @@ class Tracker {
   bool initialized_ = false;
 };
 
-/// A plain IMM as a TrackFilter, and the track options its spec implies.
+/// A plain IMM as a TrackFilter.
 [[nodiscard]] std::unique_ptr<TrackFilter> make_plain_imm_filter(const PlainImmSpec& spec);
-[[nodiscard]] TrackOptions track_options(const PlainImmSpec& spec,
-                                         std::int64_t max_gap = Tracker::kDefaultMaxGap);
 
 /// The track of a plain IMM spec.
 class PlainImmTracker : public Tracker {
  public:
   explicit PlainImmTracker(const PlainImmSpec& spec, std::int64_t max_gap = kDefaultMaxGap)
-      : Tracker(make_plain_imm_filter(spec), track_options(spec, max_gap)) {}
+      : Tracker(make_plain_imm_filter(spec), spec.track_options(max_gap)) {}
 };
 
 }  // namespace imm

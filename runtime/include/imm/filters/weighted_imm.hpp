@@ -21,7 +21,7 @@
 
 #include "imm/filters/imm_estimator.hpp"
 #include "imm/filters/track_filter.hpp"
-#include "imm/filters/tracker.hpp"
+#include "imm/filters/track_options.hpp"
 #include "imm/models/fused_polar_measurement.hpp"
 
 namespace imm {
@@ -54,7 +54,7 @@ struct WimmSpec {
   void validate() const;
   [[nodiscard]] Eigen::Matrix2d measurement_covariance() const;
   /// Polar plots, two-point initialization.
-  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = Tracker::kDefaultMaxGap) const;
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
 class WeightedImmFilter final : public TrackFilter {

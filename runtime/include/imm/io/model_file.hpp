@@ -30,11 +30,12 @@
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/io/schema_reader.hpp"
+#include "imm/version.hpp"
 
 namespace imm::io {
 
 inline constexpr std::string_view kModelFormat = "immtrain-model";
-inline constexpr int kModelSchemaVersion = 1;
+inline constexpr int kModelSchemaVersion = imm::kModelSchemaVersion;
 
 /// Where a model came from: the root attributes of SPEC §5.
 struct Provenance {

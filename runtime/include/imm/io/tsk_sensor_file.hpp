@@ -5,10 +5,18 @@
 ///   /tsk/input_box  2 × 2: row 0 the lower, row 1 the upper bound of (ξ, η) seen in training
 ///   /tsk/output<i>/rules   c × 7 (i = 1, 2): center_xi, width_xi, center_eta, width_eta,
 ///                          a0, a_xi, a_eta;  @sigma ≥ 0 on /tsk/output<i>
+///   /fimm           the FIMM the model was evaluated in (fimm.hpp): @sample_period (s),
+///                   @cruise_sigma, @lane_change_ratio, @noise_scale, @iterations (integer),
+///                   @acceleration_variance; /fimm/transition 2 × 2, /fimm/initial_probabilities
+///                   2, /fimm/measurement_covariance 2 × 2 (the regime's first case). Absent in
+///                   files written before the settings were stored: their FIMM settings are the
+///                   [fimm] table of the training config.
 /// The training data's digest is the root attribute dataset_digest.
 
 #include <filesystem>
+#include <optional>
 
+#include "imm/filters/fimm.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/models/tsk_model.hpp"
 
@@ -19,6 +27,10 @@ inline constexpr std::string_view kTskSensorKind = "tsk_sensor";
 void write_tsk_sensor(ModelFileWriter& writer, const TskModel& model);
 [[nodiscard]] TskModel read_tsk_sensor(const ModelFileReader& reader);
 [[nodiscard]] TskModel read_tsk_sensor(const std::filesystem::path& path);
+
+/// The FIMM settings stored beside the sensor model (/fimm); nullopt when the file has none.
+void write_fimm_settings(ModelFileWriter& writer, const FimmSpec& spec);
+[[nodiscard]] std::optional<FimmSpec> read_fimm_settings(const ModelFileReader& reader);
 
 /// A rule set as the c × 7 matrix of the file, and back.
 [[nodiscard]] Eigen::MatrixXd rules_matrix(const std::vector<TskRule>& rules);

@@ -1,0 +1,48 @@
+#pragma once
+/// How a Tracker (tracker.hpp) feeds a filter: the measurement space of the plots, their noise, the
+/// track start and when a gap ends a track. Every filter spec of the runtime has
+/// `track_options(max_gap)` returning the options it was trained and evaluated with, and
+/// load_tracker() (imm/load.hpp) uses them.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace imm {
+
+/// The plots' space: Cartesian [x, y] or polar [range, azimuth (rad, from the x axis)].
+enum class MeasurementKind { kCartesian, kPolar };
+enum class InitializationMethod { kExplicit, kTwoPoint };
+
+[[nodiscard]] std::string_view to_string(MeasurementKind kind);         ///< "cartesian", "polar"
+[[nodiscard]] std::string_view to_string(InitializationMethod method);  ///< "explicit", "two_point"
+/// Inverse of to_string; throw InvalidParameter naming `field` for unknown names.
+[[nodiscard]] MeasurementKind measurement_kind_from(std::string_view name,
+                                                    const std::string& field);
+[[nodiscard]] InitializationMethod initialization_method_from(std::string_view name,
+                                                              const std::string& field);
+
+struct InitializationSpec {
+  /// kTwoPoint: position from the second valid plot, velocity from the difference of the first
+  /// two; kExplicit: `state`/`covariance` are the estimate one period before the first plot.
+  InitializationMethod method = InitializationMethod::kTwoPoint;
+  Eigen::VectorXd state;               ///< explicit: the filter's state layout
+  Eigen::MatrixXd covariance;          ///< explicit: the filter's state layout
+  double acceleration_variance = 0.0;  ///< two-point, 6-state: variance of ax and ay
+};
+
+/// Gaps longer than this many scans end a track unless the options say otherwise.
+inline constexpr std::int64_t kDefaultMaxGap = 50;
+
+struct TrackOptions {
+  double sample_period = 1.0;  ///< T, s: one scan
+  MeasurementKind measurement_kind = MeasurementKind::kCartesian;
+  /// R of one plot: Cartesian [x, y] or polar [range, azimuth (rad)].
+  Eigen::Matrix2d measurement_covariance = Eigen::Matrix2d::Identity();
+  InitializationSpec initialization;
+  /// Gaps longer than this many scans end the track; the next plot starts a new one.
+  std::int64_t max_gap = kDefaultMaxGap;
+};
+
+}  // namespace imm

@@ -1,0 +1,90 @@
+#include "imm/load.hpp"
+
+#include <system_error>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/filters/fcm_imm.hpp"
+#include "imm/filters/fimm.hpp"
+#include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/filters/input_estimation_filter.hpp"
+#include "imm/filters/weighted_imm.hpp"
+#include "imm/io/fcm_imm_file.hpp"
+#include "imm/io/ga_fuzzy_imm_file.hpp"
+#include "imm/io/mlp_input_estimator_file.hpp"
+#include "imm/io/plain_imm_file.hpp"
+#include "imm/io/tsk_sensor_file.hpp"
+#include "imm/io/wimm_file.hpp"
+
+namespace imm {
+namespace {
+
+template <class Spec, class Make>
+void build(LoadedFilter& loaded, const Spec& spec, std::int64_t max_gap, Make&& make) {
+  loaded.options = spec.track_options(max_gap);
+  loaded.filter = make(spec);
+}
+
+LoadedFilter load(const io::ModelFileReader& reader, std::int64_t max_gap) {
+  LoadedFilter loaded;
+  loaded.provenance = reader.provenance();
+  const std::string& kind = loaded.provenance.model_kind;
+  if (kind == io::kPlainImmKind) {
+    build(loaded, io::read_plain_imm(reader), max_gap, make_plain_imm_filter);
+  } else if (kind == io::kGaFuzzyImmKind) {
+    build(loaded, io::read_ga_fuzzy_imm(reader), max_gap, make_ga_fuzzy_imm_filter);
+  } else if (kind == io::kMlpInputEstimatorKind) {
+    build(loaded, io::read_mlp_input_estimator(reader), max_gap, make_input_estimation_filter);
+  } else if (kind == io::kFcmImmKind) {
+    build(loaded, io::read_fcm_imm(reader), max_gap, make_fcm_imm_filter);
+  } else if (kind == io::kWimmKind) {
+    build(loaded, io::read_wimm(reader), max_gap,
+          [](const WimmSpec& spec) { return std::make_unique<WeightedImmFilter>(spec); });
+  } else if (kind == io::kTskSensorKind) {
+    auto sensor = std::make_shared<const TskModel>(io::read_tsk_sensor(reader));
+    const std::optional<FimmSpec> fimm = io::read_fimm_settings(reader);
+    if (!fimm) {
+      reader.fail("/fimm",
+                  "missing: the file predates stored FIMM settings (retrain it with imm-train tsk; "
+                  "until then build FimmFilter with the [fimm] settings of its training config)");
+    }
+    build(loaded, *fimm, max_gap, [&](const FimmSpec& spec) {
+      return std::make_unique<FimmFilter>(spec, std::move(sensor));
+    });
+  } else {
+    std::string known;
+    for (std::string_view k : loadable_model_kinds())
+      known += (known.empty() ? "" : ", ") + std::string(k);
+    reader.fail("/@model_kind",
+                "unknown model kind '" + kind + "' (this runtime reads " + known + ")");
+  }
+  return loaded;
+}
+
+}  // namespace
+
+const std::vector<std::string_view>& loadable_model_kinds() {
+  static const std::vector<std::string_view> kinds = {
+      io::kPlainImmKind, io::kGaFuzzyImmKind, io::kMlpInputEstimatorKind,
+      io::kFcmImmKind,   io::kTskSensorKind,  io::kWimmKind};
+  return kinds;
+}
+
+LoadedFilter load_filter(const std::filesystem::path& path, std::int64_t max_gap) {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) {
+    throw io::FileError(path.string(), "", "no such model file");
+  }
+  const io::ModelFileReader reader(path);
+  try {
+    return load(reader, max_gap);
+  } catch (const InvalidParameter& invalid) {
+    reader.fail(invalid.field(), invalid.what());
+  }
+}
+
+Tracker load_tracker(const std::filesystem::path& path, std::int64_t max_gap) {
+  LoadedFilter loaded = load_filter(path, max_gap);
+  return Tracker(std::move(loaded.filter), std::move(loaded.options));
+}
+
+}  // namespace imm

@@ -1,0 +1,165 @@
+// The command line keeps the README's promises: every tool prints its version, usage errors exit
+// 1 with one readable line (a mistyped subcommand gets the closest match, a range error names the
+// bound), --help shows defaults, imm-data creates its output folder, and imm-track runs every
+// shipped model kind and writes every number so that it reads back to the same double.
+
+#include <gtest/gtest.h>
+
+#include <charconv>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "imm/load.hpp"
+#include "imm/version.hpp"
+#include "testing/kind_filters.hpp"
+#include "testing/run_tool.hpp"
+#include "testing/shipped_models.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm {
+namespace {
+
+using testing::run_tool;
+
+const std::vector<std::string> kTools = {"imm-train", "imm-eval", "imm-data", "imm-inspect",
+                                         "imm-track"};
+
+TEST(CommandLine, EveryToolPrintsItsVersion) {
+  for (const std::string& tool : kTools) {
+    const auto result = run_tool(tool, {"--version"}, testing::source_root());
+    EXPECT_EQ(result.exit_code, 0) << tool << ": " << result.err;
+    const std::string expected =
+        tool + " " + kVersion + " (model schema " + std::to_string(kModelSchemaVersion) + ", git ";
+    EXPECT_EQ(result.out.rfind(expected, 0), 0u) << result.out;
+  }
+}
+
+struct UsageCase {
+  std::string tool;
+  std::vector<std::string> arguments;
+  std::string message;  ///< expected on stderr
+};
+
+TEST(CommandLine, UsageErrorsExitOneWithAReadableMessage) {
+  const std::vector<UsageCase> cases = {
+      {"imm-train", {"gaa"}, "imm-train: unknown command 'gaa'; did you mean 'ga'?"},
+      {"imm-train", {"tks", "--config", "x"}, "unknown command 'tks'; did you mean 'tsk'?"},
+      {"imm-eval", {"fimn"}, "imm-eval: unknown command 'fimn'; did you mean 'fimm'?"},
+      {"imm-eval", {"input-estimater"}, "did you mean 'input-estimator'?"},
+      {"imm-data", {"trakcs"}, "imm-data: unknown command 'trakcs'; did you mean 'tracks'?"},
+      {"imm-train", {"zebra"}, "imm-train: unknown command 'zebra'\n"},  // nothing close
+      {"imm-train", {"ga", "--threads", "0"}, "imm-train: --threads: must be ≥ 1 (got 0)"},
+      {"imm-eval", {"plain-imm", "--runs", "-3"}, "--runs: must be ≥ 1 (got -3)"},
+      {"imm-data",
+       {"tracks", "--regime", "r", "--out", "o", "--count", "0"},
+       "--count: must be ≥ 1 (got 0)"},
+      {"imm-track", {"--measurements", "m.csv"}, "imm-track: --filter is required"},
+      {"imm-inspect", {}, "imm-inspect: file is required"},
+      {"imm-track", {"--filter", "f", "--measurements", "m", "--bogus"}, "--bogus"},
+  };
+  for (const UsageCase& c : cases) {
+    const auto result = run_tool(c.tool, c.arguments, testing::source_root());
+    EXPECT_EQ(result.exit_code, 1) << c.tool << " " << c.message << ": " << result.err;
+    EXPECT_NE(result.err.find(c.message), std::string::npos) << result.err;
+    EXPECT_NE(result.err.find("Run with --help"), std::string::npos) << result.err;
+  }
+}
+
+TEST(CommandLine, HelpShowsTheDefaults) {
+  const auto track = run_tool("imm-track", {"--help"}, testing::source_root());
+  EXPECT_EQ(track.exit_code, 0);
+  EXPECT_NE(track.out.find("--max-gap INT:≥ 1=50"), std::string::npos) << track.out;
+  const auto tsk = run_tool("imm-train", {"tsk", "--help"}, testing::source_root());
+  EXPECT_EQ(tsk.exit_code, 0);
+  EXPECT_NE(tsk.out.find("--config TEXT=configs/tsk_range_sensor.toml"), std::string::npos)
+      << tsk.out;
+}
+
+TEST(CommandLine, ImmTrackNamesAMissingModelFile) {
+  const auto result =
+      run_tool("imm-track", {"--filter", "models/no_such.h5", "--measurements", "m"},
+               testing::source_root());
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("models/no_such.h5: no such model file"), std::string::npos)
+      << result.err;
+}
+
+TEST(CommandLine, ImmDataCreatesItsOutputFolder) {
+  testing::TempDir dir;
+  const auto out = dir.path() / "new" / "folder" / "test.h5";
+  const auto csv = dir.path() / "other" / "plots.csv";
+  const auto result = run_tool("imm-data",
+                               {"tracks", "--regime", "configs/regimes/paper/ga_imm_table3.toml",
+                                "--count", "1", "--out", out.string(), "--csv", csv.string()},
+                               testing::source_root());
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_TRUE(std::filesystem::is_regular_file(out));
+  EXPECT_TRUE(std::filesystem::is_regular_file(csv));
+}
+
+// Every number of a row, parsed exactly (std::from_chars).
+std::vector<double> numbers_of(const std::string& line) {
+  std::vector<double> values;
+  std::stringstream in(line);
+  std::string field;
+  std::getline(in, field, ',');  // k
+  std::getline(in, field, ',');  // status
+  while (std::getline(in, field, ',')) {
+    double value = 0.0;
+    const auto parsed = std::from_chars(field.data(), field.data() + field.size(), value);
+    EXPECT_EQ(parsed.ptr, field.data() + field.size()) << field;
+    values.push_back(value);
+  }
+  return values;
+}
+
+// imm-track over 60 plausible plots of each shipped model, against load_tracker in this process:
+// the last row's numbers are the tracker's doubles, bit for bit.
+TEST(CommandLine, ImmTrackRunsEveryShippedKindAndWritesNumbersLosslessly) {
+  testing::TempDir dir;
+  std::set<std::string> kinds;
+  for (const auto& path : testing::shipped_models()) {
+    SCOPED_TRACE(path.string());
+    Tracker tracker = load_tracker(path);
+    LoadedFilter loaded = load_filter(path);
+    const bool polar = loaded.options.measurement_kind == MeasurementKind::kPolar;
+    const auto csv = dir.path() / (path.stem().string() + ".csv");
+    {
+      std::ofstream out(csv);
+      out << (polar ? "k,range,azimuth\n" : "k,zx,zy\n");
+      out.precision(17);
+      for (int k = 0; k < 60; ++k) {
+        const Eigen::Vector2d z = testing::plausible_plot(loaded.options, k);
+        out << k << ',' << z(0) << ',' << z(1) << '\n';
+        (void)tracker.process(k, z);  // the same decimal text reads back to z: 17 digits
+      }
+    }
+    const auto result =
+        run_tool("imm-track", {"--filter", path.string(), "--measurements", csv.string()},
+                 testing::source_root());
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    std::vector<std::string> lines;
+    std::istringstream in(result.out);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+    ASSERT_EQ(lines.size(), 61u);
+    const std::vector<double> last = numbers_of(lines.back());
+    const int n = tracker.state_dimension();
+    Eigen::VectorXd mean(n), variance(n);
+    tracker.state(mean, variance);
+    const ModeVector mu = tracker.mode_probabilities();
+    ASSERT_EQ(last.size(), static_cast<std::size_t>(2 * n + mu.size()));
+    for (int i = 0; i < n; ++i) {
+      EXPECT_EQ(last[static_cast<std::size_t>(i)], mean(i)) << "state " << i;
+      EXPECT_EQ(last[static_cast<std::size_t>(n + i)], variance(i)) << "variance " << i;
+    }
+    for (int j = 0; j < mu.size(); ++j) {
+      EXPECT_EQ(last[static_cast<std::size_t>(2 * n + j)], mu(j)) << "mode " << j;
+    }
+    kinds.insert(loaded.provenance.model_kind);
+  }
+  EXPECT_EQ(kinds.size(), loadable_model_kinds().size());  // every kind is shipped and ran
+}
+
+}  // namespace
+}  // namespace imm

@@ -1,0 +1,158 @@
+#pragma once
+/// The command line every tool shares (header-only: each tool links CLI11 itself).
+///
+///   CLI::App app{"…"};
+///   imm::support::standard_options(app, "imm-track");  // before adding options and subcommands
+///   app.add_option("--threads", threads, "…")->check(imm::support::at_least(1));
+///   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
+///
+/// --version prints the tool, the project version, the model-file schema version and the git
+/// revision it was built from; --help shows every option's default; a usage error prints one line
+/// naming the option, with the closest subcommand for a mistyped one, and exits 1 (CLI11's own
+/// exit codes 105–109 never reach the shell).
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cstdio>
+#include <iostream>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "imm/build_info.hpp"
+#include "imm/version.hpp"
+
+namespace imm::support {
+
+inline constexpr int kExitUsage = 1;
+
+/// "imm-track 0.1.0 (model schema 1, git 3773557)".
+[[nodiscard]] inline std::string version_text(std::string_view tool) {
+  return std::string(tool) + ' ' + kVersion + " (model schema " +
+         std::to_string(kModelSchemaVersion) + ", git " + kBuildVersion + ')';
+}
+
+/// --version, and defaults shown in --help for the options added after this call.
+inline void standard_options(CLI::App& app, std::string_view tool) {
+  app.set_version_flag("--version", version_text(tool), "print the version and exit");
+  app.option_defaults()->always_capture_default();
+  app.name(std::string(tool));
+}
+
+/// Edit distance (insertions, deletions, substitutions).
+[[nodiscard]] inline std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+/// The name among `candidates` closest to `word`, if it is close enough to be a typo.
+[[nodiscard]] inline std::optional<std::string> closest(
+    std::string_view word, const std::vector<std::string>& candidates) {
+  std::optional<std::string> best;
+  std::size_t best_distance = std::max<std::size_t>(2, word.size() / 3) + 1;  // beyond: no typo
+  for (const std::string& candidate : candidates) {
+    const std::size_t d = edit_distance(word, candidate);
+    if (d < best_distance) {
+      best = candidate;
+      best_distance = d;
+    }
+  }
+  return best;
+}
+
+/// A numeric option's lower bound, with a message a person reads: "must be ≥ 1 (got 0)".
+[[nodiscard]] inline CLI::Validator at_least(double minimum) {
+  std::ostringstream bound;
+  bound << minimum;
+  const std::string text = bound.str();
+  return CLI::Validator(
+      [minimum, text](std::string& value) -> std::string {
+        double number = 0.0;
+        if (!CLI::detail::lexical_cast(value, number))
+          return "must be a number (got " + value + ")";
+        if (!(number >= minimum)) return "must be ≥ " + text + " (got " + value + ")";
+        return {};
+      },
+      "≥ " + text);
+}
+
+/// A numeric option that must be positive: "must be > 0 (got -1)".
+[[nodiscard]] inline CLI::Validator positive() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        double number = 0.0;
+        if (!CLI::detail::lexical_cast(value, number))
+          return "must be a number (got " + value + ")";
+        if (!(number > 0.0)) return "must be > 0 (got " + value + ")";
+        return {};
+      },
+      "> 0");
+}
+
+namespace detail {
+
+// The subcommand names of `app` (aliases included).
+inline std::vector<std::string> subcommand_names(const CLI::App& app) {
+  std::vector<std::string> names;
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+    names.push_back(sub->get_name());
+    for (const std::string& alias : sub->get_aliases()) names.push_back(alias);
+  }
+  return names;
+}
+
+// The deepest (sub)command that was selected, and the first argument after it on the command
+// line that is neither an option nor one of its subcommands.
+inline std::string usage_message(const CLI::App& app, int argc, const char* const* argv,
+                                 const CLI::ParseError& error) {
+  const CLI::App* current = &app;
+  for (int i = 1; i < argc; ++i) {
+    const std::string word = argv[i];
+    if (word.empty() || word[0] == '-') break;  // options come after the command words
+    const std::vector<std::string> names = subcommand_names(*current);
+    if (names.empty()) break;
+    if (std::find(names.begin(), names.end(), word) != names.end()) {
+      current = current->get_subcommand(word);
+      continue;
+    }
+    std::string message = "unknown command '" + word + "'";
+    if (const auto match = closest(word, names)) message += "; did you mean '" + *match + "'?";
+    return message;
+  }
+  return error.what();
+}
+
+}  // namespace detail
+
+/// Parses the command line. Empty: go on. Otherwise the exit code: 0 after --help or --version,
+/// kExitUsage (1) after a usage error (printed to stderr as "tool: message").
+[[nodiscard]] inline std::optional<int> parse(CLI::App& app, int argc, const char* const* argv) {
+  try {
+    app.parse(argc, argv);
+    return std::nullopt;
+  } catch (const CLI::Success& done) {
+    (void)app.exit(done);
+    return 0;
+  } catch (const CLI::ParseError& error) {
+    std::cerr << app.get_name() << ": " << detail::usage_message(app, argc, argv, error) << '\n'
+              << "Run with --help for more information.\n";
+    return kExitUsage;
+  }
+}
+[[nodiscard]] inline std::optional<int> parse(CLI::App& app, int argc, char** argv) {
+  return parse(app, argc, const_cast<const char* const*>(argv));
+}
+
+}  // namespace imm::support
