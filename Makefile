@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # The README's two commands: `make train` and `make test`.
 # Both install missing Debian packages, configure (Release unless BUILD_TYPE says otherwise)
 # and build; `train` then runs the nightly pipeline, `test` the ctest suite.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Sanitizer and fuzzing builds (`make test-sanitize`, `make fuzz`; see the README).
 #
 # IMM_SANITIZERS: a comma-separated -fsanitize list (e.g. "address,undefined") applied to every

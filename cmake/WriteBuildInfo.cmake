@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Run at build time: writes OUTPUT (a header with the git describe of SOURCE_DIR) only when it
 # changed, so that a new commit re-stamps the tools without rebuilding everything.
 execute_process(COMMAND git describe --always --dirty --tags

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # `make bench`: runs the benchmarks (5 repetitions, medians; the trainer's on one thread) and
 # writes their medians to reports/bench/latest.json beside the previous run's, flagging any
 # benchmark more than 10 % slower. Usage: scripts/bench.sh BUILD_DIR [FILTER]

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Runs every fuzz target of a libFuzzer build for a bounded time each (`make fuzz SECONDS=N`).
 #   scripts/fuzz.sh BUILD_DIR SECONDS_PER_TARGET [TARGET ...]
 # Each target starts from its seeds (the shipped models, the configs, tests/fuzz/seeds/) and its

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs the Debian packages immtrain builds with, only those that are missing.
 # Idempotent: when everything is present it prints one line and touches nothing.
 set -euo pipefail

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/datasets/range_sensor_file.hpp"
 
 #include <array>
@@ -13,6 +14,7 @@
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/io/schema_reader.hpp"
+#include "imm/support/csv.hpp"
 
 namespace imm::datasets {
 
@@ -66,39 +68,28 @@ RangeSensorData read_sensor_samples(const std::filesystem::path& path) {
   std::ifstream in(path);
   if (!in) throw io::FileError(path.string(), "", "cannot open");
   const std::string name = path.string();
-  std::string line;
-  int number = 0;
-  auto fail = [&](const std::string& message) -> void {
-    throw io::FileError(name + ":" + std::to_string(number), "", message);
-  };
+  support::CsvReader reader(in, name);
+  support::CsvLine line;
   std::vector<std::array<double, 4>> rows;
-  while (std::getline(in, line)) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line.front() == '#') continue;
-    std::vector<std::string> fields;
-    std::stringstream fields_in(line);
-    std::string field;
-    while (std::getline(fields_in, field, ',')) fields.push_back(field);
-    if (rows.empty() && !fields.empty() && fields.front() == "xi") {
-      if (fields != std::vector<std::string>{"xi", "eta", "z1", "z2"}) {
-        fail("header must be xi,eta,z1,z2");
-      }
+  static const std::vector<std::string_view> kColumns = {"xi", "eta", "z1", "z2"};
+  while (reader.next(line)) {
+    const auto fail = [&](const std::string& message) {
+      throw io::FileError(reader.where(), "", message);
+    };
+    if (rows.empty() && !line.fields.empty() && line.fields.front() == "xi") {
+      if (line.fields != kColumns) fail("header must be xi,eta,z1,z2");
       continue;
     }
-    if (fields.size() != 4)
-      fail("expected 4 fields (xi,eta,z1,z2), found " + std::to_string(fields.size()));
+    if (line.fields.size() != 4)
+      fail("expected 4 fields (xi,eta,z1,z2), found " + std::to_string(line.fields.size()));
     std::array<double, 4> row{};
     for (std::size_t i = 0; i < 4; ++i) {
-      std::size_t used = 0;
-      try {
-        row[i] = std::stod(fields[i], &used);
-      } catch (const std::exception&) {
-        used = 0;
+      const std::optional<double> value = support::parse_real(line.fields[i]);
+      if (!value) {
+        fail(std::string(kColumns[i]) + " ('" + std::string(line.fields[i]) +
+             "') is not a finite number");
       }
-      if (used == 0 || used != fields[i].size() || !std::isfinite(row[i])) {
-        fail("field " + std::to_string(i + 1) + " ('" + fields[i] + "') is not a finite number");
-      }
+      row[i] = *value;
     }
     rows.push_back(row);
   }

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/datasets/sampled_sensor.hpp"
 
 #include <Eigen/Cholesky>

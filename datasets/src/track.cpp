@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/datasets/track.hpp"
 
 #include <Eigen/Cholesky>

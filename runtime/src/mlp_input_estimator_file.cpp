@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/io/mlp_input_estimator_file.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/io/plain_imm_file.hpp"
 
 #include "imm/core/invalid_parameter.hpp"

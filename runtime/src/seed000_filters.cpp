@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The per-axis filters of seed 000: GA-fuzzy IMM, adaptive IMM, constant-q IMM.
 #include <cmath>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The hostile-HDF5 drill (testing/hostile_hdf5.hpp) on the three kinds of data-set file: every
 // mutation behind a valid checksum is refused with a FileError naming the file, or read — never a
 // hang, a crash or another exception. Structural mutations (cycles, links, shared objects, named

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: the TOML config loaders — every trainer's (ga, mlp, tsk, fcm, wimm, with the regime
 // given as the command line's --regime would, so the rest of the file is read), imm-track's plain
 // IMM, the nightly plan and the regime file itself — on the same text.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: the container itself, byte for byte (header, checksums, HDF5 payload unsealed). An
 // accepted file is walked completely as imm-inspect walks it: every object, every attribute, every
 // dataset read.

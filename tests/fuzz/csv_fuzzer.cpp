@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: the CSV readers — imm-track's measurements, imm-train import-rules' rule tables
 // (against the GA paper config's filter settings) and imm-train tsk --data's sensor samples — on
 // the same text.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: a data-set file (track set or range-sensor samples) whose HDF5 payload is hostile
 // but sealed with valid checksums, read by the data-set readers the trainer and imm-eval use.
 //

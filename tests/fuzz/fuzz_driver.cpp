@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The plain driver that stands in for libFuzzer where it is absent (GCC builds): replays every file
 // given, or every file under every folder given, through LLVMFuzzerTestOneInput. Options starting
 // with '-' (libFuzzer's) are ignored, so one command line serves both builds.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// What the fuzz targets share: a per-process scratch file for the input, sealing a payload into a
 /// checksummed container (so the fuzzer's mutations reach HDF5 and the schema checks instead of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: a model file whose HDF5 payload is hostile but sealed with valid checksums (the
 // container header is public), read by every kind's runtime reader. The input is the payload (a
 // whole container from models/ is accepted as a seed: its header is dropped); the target seals it

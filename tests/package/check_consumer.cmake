@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Installs the runtime into a scratch prefix, then configures, builds and runs a separate project
 # that only does find_package(immtrain) and links imm::runtime.
 file(REMOVE_RECURSE ${WORK_DIR})
@@ -38,4 +39,36 @@ if(NOT status EQUAL 0)
   message(FATAL_ERROR "track_every_model failed (${status}):\n${out}\n${err}")
 endif()
 message(STATUS "${out}")
+# The same consumer built with pkg-config's flags instead of CMake's package.
+find_program(PKG_CONFIG pkg-config)
+find_program(CXX_COMPILER NAMES c++ g++ clang++)
+if(PKG_CONFIG AND CXX_COMPILER)
+  execute_process(COMMAND ${CMAKE_COMMAND} -E env PKG_CONFIG_PATH=${WORK_DIR}/prefix/lib/pkgconfig:${WORK_DIR}/prefix/lib64/pkgconfig
+                          ${PKG_CONFIG} --cflags --libs immtrain-runtime
+                  RESULT_VARIABLE status OUTPUT_VARIABLE flags ERROR_VARIABLE err
+                  OUTPUT_STRIP_TRAILING_WHITESPACE)
+  if(NOT status EQUAL 0)
+    message(FATAL_ERROR "pkg-config immtrain-runtime failed:\n${err}")
+  endif()
+  separate_arguments(flags UNIX_COMMAND "${flags}")
+  set(sanitize "")
+  if(SANITIZERS)
+    set(sanitize -fsanitize=${SANITIZERS})
+  endif()
+  execute_process(COMMAND ${CXX_COMPILER} -std=c++20 ${sanitize} ${SOURCE_DIR}/tests/package/consumer/main.cpp
+                          ${flags} -o ${WORK_DIR}/consumer_pkg_config
+                  RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT status EQUAL 0)
+    message(FATAL_ERROR "consumer build with pkg-config's flags failed:\n${out}\n${err}")
+  endif()
+  execute_process(COMMAND ${CMAKE_COMMAND} -E env LD_LIBRARY_PATH=${WORK_DIR}/prefix/lib:${WORK_DIR}/prefix/lib64
+                          ${WORK_DIR}/consumer_pkg_config RESULT_VARIABLE status OUTPUT_VARIABLE out)
+  if(NOT status EQUAL 0)
+    message(FATAL_ERROR "consumer (pkg-config) run failed:\n${out}")
+  endif()
+endif()
+# The licence travels with the package.
+if(NOT EXISTS ${WORK_DIR}/prefix/share/doc/immtrain/LICENSE)
+  message(FATAL_ERROR "the installed package has no LICENSE")
+endif()
 file(REMOVE_RECURSE ${WORK_DIR})

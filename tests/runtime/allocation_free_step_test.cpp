@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Proves that a filter step does not touch the heap: this test binary replaces the global
 // operator new/delete with counting versions, runs the filters past their set-up, and requires
 // zero allocations over many steps (plain KF, IMM with mixed dimensions, polar EKF modes).

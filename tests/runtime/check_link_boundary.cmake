@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Fails when the runtime (or a runtime-only client) links Ceres, NLopt, OpenMP or spdlog, either
 # in its CMake link interface or in the shared libraries its binary needs at run time.
 set(forbidden "ceres|nlopt|gomp|omp|spdlog|fmt|glog|gflags")

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Long-run numerical stability: the Joseph-form update and the IMM's moment matching keep every
 // covariance symmetric positive definite over 10⁶ steps even when process and measurement noise
 // differ by 10¹⁶.

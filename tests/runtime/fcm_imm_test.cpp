@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzzy c-means and the FCM acceleration-compensating IMM (seed 003): clustering against known
 // clusters and hand-computed memberships, the compensated update against the plain KF and the
 // α–β closed form, the degeneracy of the seed's scale-free memberships, and the model file.

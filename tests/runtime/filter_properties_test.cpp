@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Properties every filter kind keeps under hostile plots, drilled on every shipped model: whatever
 // the measurement (NaN, ±Inf, ±1e300, denormals, zeros, plausible values) and whatever the gap
 // pattern, the estimate stays finite with mode probabilities that form a distribution, and a plot

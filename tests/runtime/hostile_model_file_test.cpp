@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Hostile HDF5 content behind valid checksums, drilled on every shipped model file: link cycles
 // (hard and soft), external links, shared objects, wrong object types at every path, huge declared
 // dataset sizes, wrong attribute types and absurd values. Each mutated file is resealed (the

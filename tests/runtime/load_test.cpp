@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // imm::load_filter / imm::load_tracker (imm/load.hpp): every shipped model through the one entry
 // point equals its kind-specific recipe step for step, to the bit; the input estimator tracks in
 // two dimensions as two independent axis filters; the FIMM settings stored with a TSK sensor model

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The TSK sensor model and the fuzzy IMM of seed 002: h and its Jacobian against hand values and
 // central differences, the outside-box policies, the iterated EKF against the EKF (linear h) and
 // against the MAP point (nonlinear h), the FIMM with an identity sensor against the plain IMM, and

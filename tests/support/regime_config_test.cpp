@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Regime files: parsing (errors name file and key), the shipped presets, and the papers' scenarios
 // they stand for, track for track against independent simulations of the scenarios as the SPEC
 // (§7) and the seeds state them.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The key a config loader names when it refuses a config text: "" when it accepts it.
 

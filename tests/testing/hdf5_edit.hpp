@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Editing the HDF5 payload of a container directly and resealing it: hostile content behind a
 /// valid checksum (the container header format is public), for the drills against the readers.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The hostile-HDF5 drill shared by the model-file and data-set-file tests: every mutation of a
 /// container's payload that a reader must survive — link cycles (hard and soft), external links,

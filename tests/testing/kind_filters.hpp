@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A runnable filter for a model file of any kind, built the way the evaluations build it: what the
 /// fuzz targets step after a hostile file loads (an invalid value that the reader let through shows

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Shared checkers for the test suite: matrix closeness, symmetric positive definiteness and
 /// Jacobians against central finite differences.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Small regime files for trainer and tool tests, written into a test's folder.
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Regimes built in code for the runtime's filter tests (the TOML presets under configs/regimes are
 // tested against independent references in tests/support/regime_config_test.cpp).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Runs one of the project's executables (from $IMM_BIN_DIR, set by ctest) and captures its exit
 /// code, standard output and standard error — for end-to-end tests of the command-line tools.

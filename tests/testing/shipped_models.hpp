@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The shipped model files (models/, models/reference/; not the registry's archive), sorted, as
 /// the tests that drill every shipped model iterate them (ctest runs in the source folder).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A deliberately plain IMM written from the textbook (Bar-Shalom, Li & Kirubarajan §11.6.6):
 /// dynamic-size matrices, linear-space probabilities, the standard covariance update

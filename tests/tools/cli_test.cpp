@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The command line keeps the README's promises: every tool prints its version, usage errors exit
 // 1 with one readable line (a mistyped subcommand gets the closest match, a range error names the
 // bound), --help shows defaults, imm-data creates its output folder, and imm-track runs every

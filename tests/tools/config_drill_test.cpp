@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The config drill: every numeric key of every shipped config, set in turn to 0, −1, 1e-320,
 // 1e308, NaN and inf, given to the tool that reads it, as a separate process with a time limit.
 // Each run must either be refused at load (exit 2, one line on stderr naming the file and the

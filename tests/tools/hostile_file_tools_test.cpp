@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The command-line tools on hostile model files behind valid checksums: a link cycle, a soft link
 // to the root and an external link make imm-inspect (text and JSON) and imm-track refuse the file
 // at once with one line naming the file and the link — never walk forever.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Kill -9 drills for every trainer: each is started on a small config and killed with SIGKILL at
 // 20 seeded random moments spread over its uninterrupted run time (a few land after it finished).
 // After every kill the output folder holds nothing partial: no file under the model's name unless

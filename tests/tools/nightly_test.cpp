@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The nightly as a product, driven through `imm-train all` with small plans on a temporary
 // registry: promotion, the regression gate (a worse candidate is held back and the shipped model
 // stays byte for byte), the stage cache, rollback, a failing stage that does not stop the others,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/evaluation/normalized_errors.hpp"
 
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // End-to-end tests of the command-line tools, run as separate processes like a user would.
 
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The four reference workloads (tools/workloads) against independent references: the textbook
 // IMM, a plain-loop back-propagation, a plain-loop fuzzy c-means and scikit-fuzzy's published
 // objective, and the GA engine against the straightforward generation loop it replaced.

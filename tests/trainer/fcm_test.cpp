@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // imm-train fcm: config validation, thread-count independence of the scoring, the λ = 0 member
 // of the family equal to the constant-q IMM, and a small end-to-end fit.
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // imm-train tsk: the FCRM membership update (hand values, the I_q case), FCRM recovering known
 // hyperplanes, the parameter gradient of the fine tuning against finite differences, fine tuning
 // beating FCRM on held-out data, thread-count independence, config errors and a small training

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // imm-bench-report: collects the medians of Google Benchmark JSON outputs into
 // reports/bench/latest.json, beside the previous run's medians, and flags every benchmark more
 // than 10 % slower than before (the nightly report shows the table). Run by `make bench`:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Speed of one filter step (Google Benchmark). Not a test: run `make bench` or
 //   build/bin/imm-bench --benchmark_min_time=1
 //

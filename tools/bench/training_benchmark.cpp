@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Training speed (Google Benchmark): one back-propagation epoch of the input estimator's 2-10-10-1
 // network on the default training features (per-sample, the seed's classic update), one FCM-fit
 // objective evaluation, and a whole TSK sensor fit.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // imm-data: writes seeded, reproducible data sets drawn from a regime (configs/regimes/…).
 //
 //   imm-data tracks --regime configs/regimes/paper/ga_imm_table3.toml --out data/seed000.h5

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // imm-inspect: prints what a model (or data-set) file holds — kind, schema version, provenance and
 // every parameter as readable tables, or as JSON with --json. Known model kinds are also fully
 // validated by their runtime reader, so a file imm-inspect accepts is a file the runtime loads.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // imm-track: runs any model file's filter (or a plain IMM TOML config) over a measurement CSV — a
 // client of imm::runtime alone (imm::load_filter).
 //

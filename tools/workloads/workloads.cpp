@@ -1,6 +1,6 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "workloads.hpp"
 
-#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -9,29 +9,10 @@
 #include <stdexcept>
 #include <string>
 
+#include "imm/support/csv.hpp"
 #include "imm/support/plain_imm_config.hpp"
 
 namespace imm::workloads {
-namespace {
-
-[[noreturn]] void fail(const std::filesystem::path& path, std::size_t line,
-                       const std::string& what) {
-  throw std::runtime_error(path.string() + ":" + std::to_string(line) + ": " + what);
-}
-
-std::vector<std::string> split(const std::string& line) {
-  std::vector<std::string> fields;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = line.find(',', start);
-    fields.push_back(line.substr(start, comma - start));
-    if (comma == std::string::npos) return fields;
-    start = comma + 1;
-  }
-}
-
-}  // namespace
-
 std::filesystem::path input_folder() {
   const char* configured = std::getenv("IMM_BENCH_INPUTS");
   std::filesystem::path folder = configured != nullptr ? std::filesystem::path(configured)
@@ -47,31 +28,20 @@ std::filesystem::path input_folder() {
 Eigen::MatrixXd read_table(const std::filesystem::path& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open " + path.string());
-  std::string line;
-  if (!std::getline(in, line)) fail(path, 1, "empty file, expected a header");
-  const std::size_t columns = split(line).size();
-  if (columns < 2) fail(path, 1, "expected an index column and at least one value column");
+  support::CsvReader reader(in, path.string());
+  support::CsvLine line;
+  if (!reader.next(line)) throw std::runtime_error(path.string() + ": empty, expected a header");
+  const std::vector<std::string> header(line.fields.begin(), line.fields.end());
+  const std::size_t columns = header.size();
+  if (columns < 2) reader.fail("expected an index column and at least one value column");
   std::vector<double> values;
-  std::size_t number = 1, rows = 0;
-  while (std::getline(in, line)) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    const auto fields = split(line);
-    if (fields.size() != columns) {
-      fail(path, number,
-           std::to_string(fields.size()) + " fields, header has " + std::to_string(columns));
+  std::size_t rows = 0;
+  while (reader.next(line)) {
+    if (line.fields.size() != columns) {
+      reader.fail(std::to_string(line.fields.size()) + " fields, header has " +
+                  std::to_string(columns));
     }
-    for (std::size_t c = 1; c < columns; ++c) {
-      const std::string& text = fields[c];
-      double value = 0.0;
-      const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-      if (error != std::errc() || end != text.data() + text.size() || !std::isfinite(value)) {
-        fail(path, number,
-             "column " + std::to_string(c + 1) + " is not a finite number: '" + text + "'");
-      }
-      values.push_back(value);
-    }
+    for (std::size_t c = 1; c < columns; ++c) values.push_back(reader.real(line, c, header[c]));
     ++rows;
   }
   Eigen::MatrixXd table(static_cast<Eigen::Index>(rows), static_cast<Eigen::Index>(columns - 1));

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The four reference workloads of ../shared/bench (README there): their inputs, and each run
 /// through our own code with the figure that checks it. The benchmarks (imm-bench,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // imm-train: trains (or freezes) models into model files and runs the nightly pipeline.
 //
 //   imm-train ga --config configs/ga_fuzzy_imm.toml [--regime R] [--out F] [--seed N]

@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/import_rules.hpp"
 
-#include <charconv>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -8,6 +9,7 @@
 
 #include "imm/datasets/sha256.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
+#include "imm/support/csv.hpp"
 #include "imm/trainer/ga/ga_config.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/provenance.hpp"
@@ -20,47 +22,27 @@ GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSet
   if (!in) throw std::runtime_error(csv.string() + ": cannot open");
   std::vector<double> level_order;
   std::map<double, std::vector<FuzzyRule>> rules;
-  std::string line;
-  std::size_t number = 0;
   bool header = false;
   std::map<std::string, std::string> stated;  // the "#@ key = value" lines
-  while (std::getline(in, line)) {
-    ++number;
-    const std::string where = csv.string() + ":" + std::to_string(number) + ": ";
-    if (line.rfind("#@", 0) == 0) {
-      const auto equals = line.find('=');
-      if (equals == std::string::npos)
-        throw std::runtime_error(where + "expected '#@ key = value'");
-      auto trim = [](std::string text) {
-        const auto first = text.find_first_not_of(" \t\r");
-        const auto last = text.find_last_not_of(" \t\r");
-        return first == std::string::npos ? std::string() : text.substr(first, last - first + 1);
-      };
-      stated[trim(line.substr(2, equals - 2))] = trim(line.substr(equals + 1));
+  support::CsvReader reader(in, csv.string(), /*directives=*/true);
+  support::CsvLine line;
+  static const std::vector<std::string_view> kColumns = {"level", "c1",     "sigma1",
+                                                         "c2",    "sigma2", "w"};
+  while (reader.next(line)) {
+    if (line.directive) {
+      stated[std::string(line.key)] = std::string(line.value);
       continue;
     }
-    if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos)
-      continue;
     if (!header) {
-      if (line.rfind("level,c1,sigma1,c2,sigma2,w", 0) != 0) {
-        throw std::runtime_error(where + "expected the header level,c1,sigma1,c2,sigma2,w");
-      }
+      if (line.fields != kColumns) reader.fail("expected the header level,c1,sigma1,c2,sigma2,w");
       header = true;
       continue;
     }
-    std::stringstream fields(line);
-    std::string field;
-    std::vector<double> values;
-    while (std::getline(fields, field, ',')) {
-      char* end = nullptr;
-      const double value = std::strtod(field.c_str(), &end);
-      if (end == field.c_str() || !std::isfinite(value)) {
-        throw std::runtime_error(
-            std::string(where).append("'").append(field).append("' is not a finite number"));
-      }
-      values.push_back(value);
+    if (line.fields.size() != kColumns.size()) {
+      reader.fail("expected 6 fields, found " + std::to_string(line.fields.size()));
     }
-    if (values.size() != 6) throw std::runtime_error(where + "expected 6 fields");
+    std::array<double, 6> values{};
+    for (std::size_t i = 0; i < values.size(); ++i) values[i] = reader.real(line, i, kColumns[i]);
     if (rules.find(values[0]) == rules.end()) level_order.push_back(values[0]);
     rules[values[0]].push_back({values[1], values[2], values[3], values[4], values[5]});
   }
@@ -72,7 +54,12 @@ GaFuzzyImmSpec read_rules_csv(const std::filesystem::path& csv, const AxisImmSet
       throw std::runtime_error(csv.string() + ": no '#@ " + key + " = …' line: the tables must " +
                                "state what they were learned for");
     }
-    return std::strtod(it->second.c_str(), nullptr);
+    const std::optional<double> value = support::parse_real(it->second);
+    if (!value) {
+      throw std::runtime_error(csv.string() + ": '#@ " + key + " = " + it->second +
+                               "': not a finite number");
+    }
+    return *value;
   };
   if (const auto it = stated.find("units"); it == stated.end() || it->second != units) {
     throw std::runtime_error(csv.string() + ": the tables are in " +

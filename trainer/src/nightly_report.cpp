@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The morning report of a nightly run: reports/nightly/<night>/index.md and a self-contained
 // index.html (plots embedded), and the `latest` link beside them.
 

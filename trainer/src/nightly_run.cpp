@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The nightly run: stages, the candidate → evaluation → regression → promotion path of each
 // model, the stage cache, and the exit code (see imm/trainer/nightly.hpp).
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/training_config.hpp"
 
 namespace imm::trainer {

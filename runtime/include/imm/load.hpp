@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// One entry point from a model file to a running filter, for every model kind:
 ///

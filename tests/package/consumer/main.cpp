@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A tracking application as users write it: links imm::runtime only, builds a filter in code.
 #include <cstdio>
 #include <imm/filters/plain_imm.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A tracking application that loads trained models: every model file given on the command line
 // through imm::load_tracker, and again through its kind's own reader and filter, tracking the
 // same seeded plots; the two must agree to the bit at every scan. Links imm::runtime only.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `imm-eval fcm-imm`: seed 003's experiment (Fig. 5–8) on any regime with Cartesian plots. On
 // the same test tracks: a single CV KF with q tuned (KF), the adaptive IMM tuned (AIMM), the
 // constant-q IMM tuned (IMM-tuned), the learned FCM-IMM, and the same FCM-IMM with its

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `imm-eval fimm`: seed 002's experiment (Table 1, Fig. 6–8) on any regime with a range sensor.
 // Per case of the regime (seed 002: the vehicle cut-in for R = 0.1², 0.5², 1², 2² I), on identical
 // plots: the baseline IMM (h = identity), the FIMM (EKF through the learned TSK sensor model) and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `imm-eval ga-imm`: seed 000's experiment (Table 3) on any regime with Cartesian plots. On the
 // same test tracks: AIMM3 and AIMM5 with the seed's intervals (0.4 a and 0.2 a, 0.4 a — the
 // seed's 0.04 and 0.02, 0.04 km/s² for its a = 0.1 km/s²), the AIMM with intervals tuned on the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/evaluation/headline.hpp"
 
 #include <algorithm>
@@ -266,7 +267,7 @@ int run_regression(const std::filesystem::path& candidate_path,
       {"metrics", nlohmann::json::array()}};
   std::vector<std::string> worse;
   for (const Regression& r : regressions) {
-    const std::string verdict = r.worse() ? "worse" : r.difference.below() ? "better" : "tie";
+    const std::string verdict = r.worse() ? "worse" : r.better() ? "better" : "tie";
     rows.push_back(
         {r.metric, cell(r.candidate, 6), cell(r.shipped, 6), r.difference.text(6), verdict});
     document["metrics"].push_back({{"name", r.metric},

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `imm-eval input-estimator`: seed 001's experiments (Tables 1 and 2) on any regime with
 // Cartesian plots. The estimator is one axis: every axis of every test track is one run. On the
 // same plots: the constant-velocity KF, the corrected KF (the network's acceleration fed to the

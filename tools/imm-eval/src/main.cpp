@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // imm-eval: Monte Carlo evaluations of the learned filters against their baselines on the test
 // split of a regime, every filter on identical plots; prints the tables with their Monte Carlo
 // uncertainty, writes metrics.json, details.json, CSV time series and PNG plots.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `imm-eval plain-imm`: a plain IMM model file (by default the three-level CV IMM of
 // configs/track/cv3_imm.toml) on a regime's test tracks, against each of its modes run alone as a
 // single Kalman filter, on identical plots. Metrics: seed 000's normalized errors ζ_p, ζ_v

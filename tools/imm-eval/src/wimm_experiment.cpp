@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `imm-eval wimm`: seed 004's experiment (Table 2) on any regime with a polar sensor. Per case of
 // the regime (seed 004's scenario 1, constant velocity, and 2, two coordinated turns), every
 // filter on identical plots: the seed's normal IMM (nIMM), the weighted IMM of the model file

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/support/plain_imm_config.hpp"
 
 #include "imm/core/invalid_parameter.hpp"

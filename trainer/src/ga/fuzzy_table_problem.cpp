@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/ga/fuzzy_table_problem.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/ga/training_set.hpp"
 
 #include "imm/datasets/sha256.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 
 #include <chrono>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/mlp/network_training.hpp"
 
 #include <numeric>

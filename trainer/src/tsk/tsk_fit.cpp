@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/tsk/tsk_fit.hpp"
 
 #include <ceres/ceres.h>

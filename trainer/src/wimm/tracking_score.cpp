@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/wimm/tracking_score.hpp"
 
 #include <Eigen/Cholesky>

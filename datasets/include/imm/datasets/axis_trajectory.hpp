@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// One-axis trajectories (per-axis filters: seed 000's tables, seed 001's input estimator),
 /// simulated with the runtime's CV model, x(k+1) = F x(k) + G (u(k) + w(k)), z(k) = p(k) + v(k).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Data-set files: a split of a regime's tracks with everything needed to reproduce and audit it.
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Seeded, platform-independent random numbers. The standard distributions' algorithms are
 /// implementation-defined, so the same seed could give other data with another standard library;

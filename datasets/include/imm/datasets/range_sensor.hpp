@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Seed 002's distorted long-range sensor (SPEC §7). Units m.
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Sensor-sample files of seed 002 (format "immtrain-dataset", as dataset_file.hpp), kind
 /// "range_sensor": a range sensor's calibration data — what a TSK model of it is fitted on.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A regime: the distribution of tracking situations a model is trained for and evaluated on
 /// (configs/regimes/*.toml; imm/support/regime_config.hpp reads them). A track is a seeded draw

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A range sensor known only through samples of it — (true position, output) pairs from a data
 /// file — as a function the track simulator can measure through: "the sensor these samples came

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Tracks drawn from a regime (imm/datasets/regime.hpp): the truth, simulated with the runtime's
 /// own CV model with the noise switched on — x(k+1) = F x(k) + G (u(k) + w(k)) (seed 000 eq. 1),

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Thrown when a filter or model description is invalid: names the offending field in the
 /// vocabulary of the configs ("modes[1].process_noise"), so that a config loader can point at

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The ranges every physical quantity must lie in — in a filter spec, a model file, a trainer
 /// config or a scenario — and the check that names the offending field.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The acceleration estimate of the adaptive IMM (seed 000 §2.2, after Munir & Atherton): per axis,
 /// the target's acceleration is a random bias b on the constant-velocity model,

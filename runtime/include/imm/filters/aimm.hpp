@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The adaptive IMM baseline of seed 000 §2.2 (Munir & Atherton; SPEC §4.2), one axis:
 /// an acceleration estimate â from the two-stage (bias) estimator (acceleration_estimator.hpp),

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A per-axis IMM of constant-velocity KFs with constant process noises q_j (Q = q G Gᵀ), with
 /// seed 000's transition and initial probabilities: the "three well-chosen noise levels" baseline

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Per-axis filtering, as seed 000 tracks: each Cartesian axis has its own filter (state [p, v],
 /// scalar measurement), and TwoAxisFilter puts two of them behind the 2-D TrackFilter interface

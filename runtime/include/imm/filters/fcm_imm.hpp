@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The FCM acceleration-compensating IMM of seed 003 (SPEC §4.5), per axis, in a dimensionally
 /// consistent and stable form.

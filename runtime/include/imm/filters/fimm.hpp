@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The fuzzy IMM (FIMM) of seed 002 §3 (SPEC §4.4): a two-mode CA IMM, state
 /// [ξ, ξ̇, ξ̈, η, η̇, η̈] (eq. 8), modes "cruise" and "lane change" that differ only in the process

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The fuzzy-noise Kalman filter of seed 000 §3.2 for one axis, state [p, v], H = [1 0]:
 ///   x̂⁻ = F x̂₀                                           (19-1)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The GA-fuzzy IMM of seed 000 §3.2 (SPEC §4.1): per axis an IMM whose modes are fuzzy-noise KFs
 /// (fuzzy_noise_filter.hpp), one learned rule table per maneuver level; transition and initial

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Interacting multiple model estimator (Blom & Bar-Shalom; seed 000 eq. 4–11) over modes that
 /// may have different state dimensions.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// One mode (sub-model) of an IMM, as the IMM sees it. The IMM only mixes, asks its modes to
 /// predict and update, reweights them by likelihood and combines; a mode owns its own state

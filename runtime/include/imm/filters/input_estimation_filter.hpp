@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The neural input-estimation filter of seed 001 (SPEC §4.3), one axis:
 ///   a constant-velocity KF (eq. 3–9) yields the normalized innovation ino(k) = ν²(k)/S(k) (11);

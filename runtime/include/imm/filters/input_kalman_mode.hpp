@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A constant-velocity Kalman mode driven by a known acceleration input, one axis:
 /// x̂⁻ = F x̂₀ + G u, P⁻ = F P₀ Fᵀ + G q Gᵀ (seed 000 eq. 7-1, 7-2). The adaptive IMM sets u to

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The Kalman algebra, written once: prediction, the Joseph-form measurement update, and the
 /// extended (linearized) update through a measurement model. Every filter of the runtime — plain

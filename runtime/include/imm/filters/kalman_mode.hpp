@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The plain IMM mode: a Kalman filter with a fixed linear motion model and a measurement model
 /// (linear or, through its Jacobian, extended).

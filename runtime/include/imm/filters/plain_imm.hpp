@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A plain IMM described by parameters: 2-D motion models with fixed process noise per mode, a
 /// Cartesian or polar measurement, a transition matrix, initial mode probabilities and a track

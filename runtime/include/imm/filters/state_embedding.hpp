@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Places a mode's N-dimensional state inside the IMM's NX-dimensional mixing space. IMM modes may
 /// have different state dimensions (CV with 4 states beside Singer with 6, seed 004); the IMM

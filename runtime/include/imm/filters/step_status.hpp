@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Outcome of one filter step. A step that does not return kOk has left the filter untouched
 /// (the second of the three error tiers: numerical trouble is a value, not an exception).

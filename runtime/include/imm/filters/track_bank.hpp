@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Many independent tracks of one plain IMM, stepped by one call: the structure of a radar
 /// tracker (thousands of tracks, one model). Built from the same PlainImmSpec as the single-track

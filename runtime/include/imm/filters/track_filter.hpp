@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A 2-D filter as a track sees it (tracker.hpp): a plain IMM, two per-axis IMMs, an adaptive IMM.
 /// State layout: one block per axis, [x, vx, y, vy] or [x, vx, ax, y, vy, ay].

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// How a Tracker (tracker.hpp) feeds a filter: the measurement space of the plots, their noise, the
 /// track start and when a gap ends a track. Every filter spec of the runtime has

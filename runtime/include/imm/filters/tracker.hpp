@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A single track over a stream of scan-indexed 2-D plots, around any TrackFilter: starts the track
 /// (two-point or explicit), predicts through scans without a usable plot, and rejects bad plots

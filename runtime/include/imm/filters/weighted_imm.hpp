@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The weighted IMM of seed 004 §3.2 (SPEC §4.6), and the normal IMM it is compared with.
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The checked HDF5 container behind model files and data-set files.
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Model files of kind "fcm_imm": the fitted parameters of an FCM-IMM (seed 003).
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The error thrown for a bad model or data-set file: it names the file and, where one is to
 /// blame, the field (an HDF5 object path, optionally with an attribute: "/imm/transition" or

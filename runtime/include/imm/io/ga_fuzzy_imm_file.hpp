@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Model files of kind "ga_fuzzy_imm": the fuzzy rule tables of a GA-fuzzy IMM (seed 000).
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Model files of kind "mlp_input_estimator" (seed 001).
 ///

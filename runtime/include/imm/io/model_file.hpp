@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The model-file schema (SPEC §5), one module for both sides: the trainer writes through
 /// ModelFileWriter, the runtime reads through ModelFileReader.

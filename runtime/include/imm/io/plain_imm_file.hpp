@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Model files of kind "plain_imm": a PlainImmSpec frozen into the model-file schema.
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Validated access to a container's content: every getter checks presence, type, shape and a value
 /// rule, and throws a FileError naming the file and the field. Model files and data-set files read

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Model files of kind "tsk_sensor": a probabilistic TSK model of a range sensor (seed 002).
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Model files of kind "wimm": the parameters of a weighted IMM (seed 004).
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Fixed-size Eigen aliases used throughout the runtime. Hot paths use these types only, so a
 /// filter step never touches the heap.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Constant-acceleration (CA) model: per axis [p, v, a],
 /// F = [[1, T, T²/2], [0, 1, T], [0, 0, 1]] (seed 002 eq. 8).

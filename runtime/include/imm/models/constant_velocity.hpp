@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Constant-velocity (CV) model: per axis [p, v], F = [[1, T], [0, 1]], input gain
 /// G = [T²/2, T]ᵀ (seed 000 eq. 1, seed 004 eq. 14).

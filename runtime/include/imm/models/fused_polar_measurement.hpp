@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The polar plot model of seed 004's weighted IMM, three ways (the per-cycle choice is shared by
 /// every mode through AzimuthFusion, set by the filter before the update):

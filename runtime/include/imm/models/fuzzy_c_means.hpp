@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Fuzzy c-means clustering of scalar data (Bezdek; seed 003 eq. 7–10), c = 3 clusters ordered
 /// deceleration / noise / acceleration, as a batch function and as an online clustering of a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A fuzzy rule table mapping (residual, residual change) to a process-noise variance
 /// (seed 000 §3.1–3.2):

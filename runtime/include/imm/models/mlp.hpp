@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A multilayer perceptron (seed 001 Fig. 2: 2-10-10-1, sigmoid hidden units, biases). Each layer
 /// computes a = f(W x + b); the network's output is output_scale × (last layer's activation), so a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A linear-Gaussian motion model x(k+1) = F x(k) + w(k), w ~ N(0, Q), discretized once for a
 /// fixed sample period. Models know nothing of filters: the filters are handed F and Q, and the

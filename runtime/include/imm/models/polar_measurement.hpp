@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Polar radar plot z = [range, azimuth] + v, v ~ N(0, R): range √(x² + y²) and azimuth
 /// atan2(x, y), measured clockwise from the y axis (seed 004 eq. 15). The azimuth residual is

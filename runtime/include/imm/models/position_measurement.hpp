@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Cartesian position measurement z = H x + v, v ~ N(0, R), H selecting the position components
 /// of the state (seed 000 eq. 2 per axis; [x, y] in 2-D).

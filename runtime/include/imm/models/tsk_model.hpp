@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The probabilistic TSK fuzzy model of a range sensor (seed 002 §2, eq. 1–4, 9–10): two inputs
 /// (ξ lateral, η longitudinal), two outputs, per output c rules

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A learned range sensor as an EKF measurement model: z = h(ξ, η) + v, h the TSK model
 /// (tsk_model.hpp) of the position components, v ~ N(0, R + diag(σ₁², σ₂²)) — the sensor's noise

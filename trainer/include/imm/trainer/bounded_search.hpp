@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Bounded derivative-free minimization for the tuners: a full grid over the box, then NLopt's
 /// Subplex from the grid's best point. Tuning objectives here are Monte Carlo tracking scores —

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// `imm-train freeze`: turns a plain-IMM TOML config into a "plain_imm" model file. Nothing is
 /// learned — the parameters are the config's — but the result is a model file like any trained

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// `imm-train import-rules`: writes published (or hand-made) fuzzy rule tables as a
 /// "ga_fuzzy_imm" model file through the same writer the GA uses, so that they run in the same

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The nightly pipeline of `imm-train all --config configs/nightly.toml`: data sets, then models,
 /// then tracking runs; every stage a process of its own (a crash or a failed gate is an exit

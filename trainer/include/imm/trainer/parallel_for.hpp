@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The trainer's one way to run independent work items in parallel (OpenMP).
 ///

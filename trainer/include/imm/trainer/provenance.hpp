@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// What every trainer stamps into its outputs: provenance for model files and the
 /// `<model>.metrics.json` written beside them.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// What a kind of model needs of a regime, checked when its config loads (InvalidParameter naming
 /// the config's `regime` key, so the user sees which regime and why).

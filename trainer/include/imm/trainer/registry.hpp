@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The model registry: what is shipped in models/, and the models it replaced.
 ///

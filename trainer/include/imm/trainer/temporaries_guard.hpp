@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// What a trainer killed with SIGKILL leaves behind, removed by a process that outlives it.
 ///

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Loading a trainer's TOML config: `from(root, regime)` builds it; the document refuses unknown
 /// keys and turns a spec's InvalidParameter into a ConfigError naming the key; the config keeps its

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Tuning the seed-000 baselines on the model's training split, so that the learned filter is
 /// compared with the strongest adaptive IMM and the best constant-noise IMM, not with hand-picked

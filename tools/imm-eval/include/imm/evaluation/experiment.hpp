@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// What every `imm-eval` experiment shares: the command line (--models, --model, --regime, --runs,
 /// --seed, --out), the regime it evaluates on and the checks that a model may run on it, and the

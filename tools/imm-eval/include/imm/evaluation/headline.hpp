@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// An experiment's headline metrics, kept with their per-run terms so that two evaluations on the
 /// same test tracks (the same regime, seed and runs: the same noise) compare with the paired
@@ -11,6 +12,8 @@
 
 #include <CLI/CLI.hpp>
 #include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -71,11 +74,22 @@ struct HeadlineFile {
 [[nodiscard]] HeadlineFile read_headline(const std::filesystem::path& path);
 
 /// One metric of a candidate against the shipped model on the same runs.
+///
+/// Worse means worse beyond the Monte Carlo uncertainty *and* beyond rounding: two models that
+/// differ only in the last bits of their parameters (a retraining on another machine, another
+/// summation order) give per-run differences of ~1e-15 relative whose bootstrap interval is as
+/// narrow as they are — evidence of rounding, not of a regression. A difference whose interval
+/// lies within kRoundingTolerance × |shipped| of zero is therefore a tie.
 struct Regression {
+  static constexpr double kRoundingTolerance = 1e-9;
   std::string metric;
   double candidate = 0.0, shipped = 0.0;
   Difference difference;  ///< candidate − shipped with its 95 % paired-bootstrap interval
-  [[nodiscard]] bool worse() const { return difference.above(); }
+  [[nodiscard]] double rounding() const {
+    return kRoundingTolerance * std::max(std::abs(shipped), std::abs(candidate));
+  }
+  [[nodiscard]] bool worse() const { return difference.lower > rounding(); }
+  [[nodiscard]] bool better() const { return difference.upper < -rounding(); }
 };
 
 /// Compares every headline metric of `candidate` with the same-named one of `shipped`. Throws

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The Monte Carlo loop of the Cartesian experiments: a fresh filter per test track, the same plots
 /// for every filter, seed 000's normalized errors and the mean mode probabilities per scan. Each

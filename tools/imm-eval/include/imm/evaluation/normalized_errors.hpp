@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The normalized errors of seed 000 §4, accumulated over Monte Carlo runs:
 ///   P_e(k) = √(Σ_s ‖p − p̂‖²) / √(Σ_s ‖p − z‖²),  V_e(k) = √(Σ_s ‖v − v̂‖²) / √(Σ_s ‖v − v̄‖²),

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Report pieces shared by the experiments: Markdown tables on stdout, CSV time series, and PNG
 /// line plots through gnuplot.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The Monte Carlo uncertainty of a comparison: a paired bootstrap over the runs (tracks). Both
 /// filters ran on the same tracks, so the tracks are resampled together and the difference of the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The command line every tool shares (header-only: each tool links CLI11 itself).
 ///

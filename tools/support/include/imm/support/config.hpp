@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Checked reading of TOML configs. Every key a loader reads is recorded; once the loader is done,
 /// finish() reports any key that was present but never read ("unknown key"), so that a typo in a

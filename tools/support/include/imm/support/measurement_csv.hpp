@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Measurement CSV files for imm-track: a header line `k,zx,zy` (Cartesian) or `k,range,azimuth`
 /// (polar, azimuth in radians from the y axis), then one row per scan. Lines starting with '#'

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The TOML form of a plain IMM (configs/track/*.toml). Keys mirror PlainImmSpec:
 ///

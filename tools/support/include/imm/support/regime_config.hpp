@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The TOML form of a regime (configs/regimes/*.toml; imm/datasets/regime.hpp says what a regime
 /// is). Every key, with its unit (the regime's `units` for lengths, s for times, degrees for

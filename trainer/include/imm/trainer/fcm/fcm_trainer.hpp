@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// `imm-train fcm --config configs/fcm_imm.toml`: fits the FCM-IMM's free parameters (seed 003;
 /// SPEC §6 fcm) — the sub-filters' noise levels q_j, the transition probability, the window

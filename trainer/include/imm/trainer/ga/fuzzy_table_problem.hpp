@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The optimization problem of seed 000 §3.1: find a fuzzy rule table (parameters and number of
 /// rules) for one maneuver level. pagmo-style, the problem only knows genomes, bounds and fitness;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// `configs/ga_fuzzy_imm.toml`: everything `imm-train ga` needs, one options struct per component,
 /// keys one to one with fields (see the shipped config for every key and its meaning). The regime

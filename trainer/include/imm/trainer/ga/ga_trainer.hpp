@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// `imm-train ga`: one rule table per maneuver level by the genetic algorithm (+ the optional
 /// memetic polish), checkpointed after every generation, written as one "ga_fuzzy_imm" model file

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The genetic algorithm of seed 000 §3.1 (Table 1: population 500, 100 generations, crossover
 /// 0.9, mutation 0.01), for the mixed real/binary genome of fuzzy_table_problem.hpp.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// The optional memetic step: a bounded derivative-free local search (NLopt's BOBYQA) polishes the
 /// continuous parameters of the GA's best genome — the active rules' centers, spreads and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Training data for the fuzzy rule tables: the one-axis trajectories of a regime's split (the
 /// fuzzy-noise KF is a per-axis filter, so every 2-D track gives its x and its y axis), with the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// `imm-train mlp --config configs/mlp_input_estimator.toml`: the neural input estimator of seed
 /// 001. Training data: the one-axis trajectories of the regime's training split (every 2-D track

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Back-propagation for the input estimator's MLP, written here with Eigen and plain loops (no ML
 /// framework). The network is the runtime's (imm/models/mlp.hpp): layers a = f(W x + b), output

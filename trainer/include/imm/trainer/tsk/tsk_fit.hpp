@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Fitting one output of a two-input probabilistic TSK model (seed 002 §2.2):
 ///

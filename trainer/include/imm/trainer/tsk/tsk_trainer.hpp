@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// `imm-train tsk --config configs/tsk_range_sensor.toml`: the probabilistic TSK model of a
 /// distorted range sensor (seed 002 §2.2, §3.3). The sensor is the regime's range sensor: its

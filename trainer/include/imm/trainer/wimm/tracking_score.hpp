@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Scores of a weighted/normal IMM over polar Monte Carlo data (seed 004 §4): azimuth error of the
 /// combined estimate (radians, wrapped), position error and the NEES of the 4-D position–velocity

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// `imm-train wimm --config configs/wimm.toml`: tunes the weighted IMM's fusion threshold and
 /// weight α with NLopt on the regime's training split (a polar sensor; for the paper the random

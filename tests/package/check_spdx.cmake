@@ -1,0 +1,26 @@
+# SPDX-License-Identifier: Apache-2.0
+# Every C++ source, CMake file and script of the project names its licence in its first lines.
+file(GLOB_RECURSE files RELATIVE ${SOURCE_DIR}
+     ${SOURCE_DIR}/runtime/* ${SOURCE_DIR}/trainer/* ${SOURCE_DIR}/datasets/* ${SOURCE_DIR}/tools/*
+     ${SOURCE_DIR}/tests/* ${SOURCE_DIR}/cmake/* ${SOURCE_DIR}/scripts/*)
+list(APPEND files CMakeLists.txt Makefile .ci/run)
+set(missing "")
+foreach(file ${files})
+  if(file MATCHES "(corpus|/inputs/)" OR NOT file MATCHES "(\\.(cpp|hpp|h|cmake|sh|in)|CMakeLists\\.txt|Makefile|/run)$")
+    continue()
+  endif()
+  if(file MATCHES "\\.pc\\.in$")
+    continue()
+  endif()
+  file(STRINGS ${SOURCE_DIR}/${file} head LIMIT_COUNT 2)
+  if(NOT head MATCHES "SPDX-License-Identifier: Apache-2.0")
+    list(APPEND missing ${file})
+  endif()
+endforeach()
+if(missing)
+  list(JOIN missing "\n  " text)
+  message(FATAL_ERROR "no SPDX-License-Identifier line in:\n  ${text}")
+endif()
+if(NOT EXISTS ${SOURCE_DIR}/LICENSE)
+  message(FATAL_ERROR "no LICENSE")
+endif()

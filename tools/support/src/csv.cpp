@@ -1,0 +1,96 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/support/csv.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <stdexcept>
+
+namespace imm::support {
+
+std::string_view trim(std::string_view text) {
+  const auto first = text.find_first_not_of(" \t\r");
+  if (first == std::string_view::npos) return {};
+  const auto last = text.find_last_not_of(" \t\r");
+  return text.substr(first, last - first + 1);
+}
+
+std::vector<std::string_view> split_csv(std::string_view line) {
+  std::vector<std::string_view> fields;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = line.find(',', start);
+    fields.push_back(trim(line.substr(start, comma - start)));
+    if (comma == std::string_view::npos) return fields;
+    start = comma + 1;
+  }
+}
+
+namespace {
+
+template <class T>
+std::optional<T> parse_whole(std::string_view text) {
+  text = trim(text);
+  if (text.size() > 1 && text.front() == '+' && text[1] != '-' && text[1] != '+') {
+    text.remove_prefix(1);  // from_chars takes no '+'
+  }
+  if (text.empty()) return std::nullopt;
+  T value{};
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size()) return std::nullopt;
+  return value;
+}
+
+}  // namespace
+
+std::optional<double> parse_real(std::string_view field, bool finite_only) {
+  const std::optional<double> value = parse_whole<double>(field);
+  if (value && finite_only && !std::isfinite(*value)) return std::nullopt;
+  return value;
+}
+
+std::optional<std::int64_t> parse_integer(std::string_view field) {
+  return parse_whole<std::int64_t>(field);
+}
+
+CsvReader::CsvReader(std::istream& in, std::string name, bool directives)
+    : in_(in), name_(std::move(name)), directives_(directives) {}
+
+bool CsvReader::next(CsvLine& line) {
+  while (std::getline(in_, buffer_)) {
+    ++number_;
+    const std::string_view text = trim(buffer_);
+    if (text.empty()) continue;
+    line = CsvLine{};
+    line.number = number_;
+    line.text = text;
+    if (text.rfind("#@", 0) == 0 && directives_) {
+      const auto equals = text.find('=');
+      if (equals == std::string_view::npos) fail("expected '#@ key = value'");
+      line.directive = true;
+      line.key = trim(text.substr(2, equals - 2));
+      line.value = trim(text.substr(equals + 1));
+      return true;
+    }
+    if (text.front() == '#') continue;
+    line.fields = split_csv(text);
+    return true;
+  }
+  return false;
+}
+
+std::string CsvReader::where() const { return name_ + ":" + std::to_string(number_); }
+
+void CsvReader::fail(const std::string& message) const {
+  throw std::runtime_error(where() + ": " + message);
+}
+
+double CsvReader::real(const CsvLine& line, std::size_t i, std::string_view column) const {
+  if (i >= line.fields.size()) fail("missing " + std::string(column));
+  const std::optional<double> value = parse_real(line.fields[i]);
+  if (!value) {
+    fail(std::string(column) + " ('" + std::string(line.fields[i]) + "') is not a finite number");
+  }
+  return *value;
+}
+
+}  // namespace imm::support
