@@ -182,7 +182,9 @@ TEST(InputEstimationFilter, PredictOnlyHoldsTheLastInputEstimate) {
 }
 
 // The FIMM of a TSK sensor file: its settings come from the file, and the track starts as
-// imm-eval fimm starts it (two-point with R, the acceleration variance from the settings).
+// imm-eval fimm starts it (two-point with R, the acceleration variance from the settings). A
+// shipped file written before the settings were stored (a retraining the regression gate held
+// back) is refused naming /fimm.
 TEST(LoadTracker, TskSensorModelRunsTheFimmWithTheSettingsItCarries) {
   int compared = 0;
   for (const auto& path : testing::shipped_models()) {
@@ -190,7 +192,15 @@ TEST(LoadTracker, TskSensorModelRunsTheFimmWithTheSettingsItCarries) {
     if (reader.provenance().model_kind != io::kTskSensorKind) continue;
     SCOPED_TRACE(path.string());
     const std::optional<FimmSpec> spec = io::read_fimm_settings(reader);
-    ASSERT_TRUE(spec) << "a shipped TSK sensor model without /fimm";
+    if (!spec) {
+      try {
+        (void)load_filter(path);
+        ADD_FAILURE() << "a TSK file without /fimm loaded";
+      } catch (const io::FileError& error) {
+        EXPECT_NE(std::string(error.what()).find("'/fimm': missing"), std::string::npos);
+      }
+      continue;
+    }
     const auto sensor = std::make_shared<const TskModel>(io::read_tsk_sensor(reader));
     FimmFilter expected(*spec, sensor);
     Tracker tracker = load_tracker(path);

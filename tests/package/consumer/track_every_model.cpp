@@ -58,6 +58,12 @@ imm::Tracker kind_specific(const char* path) {
 int main(int argc, char** argv) try {
   std::printf("immtrain runtime %s, model schema %d\n", imm::kVersion, imm::kModelSchemaVersion);
   for (int i = 1; i < argc; ++i) {
+    if (const imm::io::ModelFileReader reader(argv[i]);
+        reader.provenance().model_kind == imm::io::kTskSensorKind &&
+        !imm::io::read_fimm_settings(reader)) {
+      std::printf("%s: written before TSK files carried their FIMM settings; skipped\n", argv[i]);
+      continue;
+    }
     imm::Tracker tracker = imm::load_tracker(argv[i]);
     imm::Tracker reference = kind_specific(argv[i]);
     const imm::TrackOptions options = imm::load_filter(argv[i]).options;
