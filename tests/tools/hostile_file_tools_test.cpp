@@ -69,3 +69,59 @@ INSTANTIATE_TEST_SUITE_P(
 
 }  // namespace
 }  // namespace imm
+
+namespace imm {
+namespace {
+
+// An edit made with HDF5 directly (as h5py would) breaks the checksum: --verify says so and
+// names `imm-train seal`; sealing checks the content first, so a valid edit is re-sealed and an
+// invalid one is refused naming the field, with the file left byte for byte as it was.
+TEST(SealAndVerify, AnEditedModelIsReSealedOnlyWhenItStillReads) {
+  const testing::TempDir dir;
+  const auto path = dir / "edited.h5";
+  testing::write_bytes(path, testing::read_bytes("models/cv3_imm.h5"));
+  const auto root = testing::source_root();
+  const auto verify = [&] {
+    return testing::run_tool("imm-inspect", {path.string(), "--verify"}, root);
+  };
+  const auto intact = verify();
+  EXPECT_EQ(intact.exit_code, 0) << intact.err;
+  EXPECT_NE(intact.out.find(": ok (immtrain-model, schema 1, plain_imm"), std::string::npos)
+      << intact.out;
+
+  const auto edit = [&](const std::vector<double>& covariance) {
+    const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    testing::replace_dataset(file, "/measurement/covariance", {2, 2}, covariance);
+    H5Fclose(file);
+  };
+  edit({0.3, 0.0, 0.0, 0.3});  // a deliberate, valid change of R
+  const auto broken = verify();
+  EXPECT_EQ(broken.exit_code, 2);
+  EXPECT_NE(broken.err.find("payload checksum mismatch"), std::string::npos) << broken.err;
+  EXPECT_NE(broken.err.find("imm-train seal " + path.string()), std::string::npos) << broken.err;
+
+  const auto sealed = testing::run_tool("imm-train", {"seal", path.string()}, root);
+  EXPECT_EQ(sealed.exit_code, 0) << sealed.err;
+  EXPECT_NE(sealed.err.find("sealed " + path.string() + " (plain_imm"), std::string::npos)
+      << sealed.err;
+  EXPECT_EQ(verify().exit_code, 0);
+  const auto track = testing::run_tool("imm-inspect", {path.string()}, root);
+  EXPECT_NE(track.out.find("0.3"), std::string::npos) << track.out;
+
+  edit({0.3, 0.0, 0.0, -1.0});  // R no longer positive definite
+  const std::vector<char> before = testing::read_bytes(path);
+  const auto refused = testing::run_tool("imm-train", {"seal", path.string()}, root);
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find(path.string() + ": field '/measurement/covariance'"),
+            std::string::npos)
+      << refused.err;
+  EXPECT_EQ(testing::read_bytes(path), before);  // unchanged, still unsealed
+  EXPECT_EQ(verify().exit_code, 2);
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos) << entry.path();
+  }
+}
+
+}  // namespace
+}  // namespace imm

@@ -9,6 +9,7 @@
 // stderr naming the file and the field).
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <functional>
@@ -19,6 +20,7 @@
 
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
+#include "imm/datasets/sha256.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
@@ -27,6 +29,7 @@
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
+#include "imm/load.hpp"
 #include "imm/support/cli.hpp"
 
 namespace {
@@ -239,6 +242,10 @@ int main(int argc, char** argv) {
   app.add_flag("--json", as_json, "machine-readable output");
   app.add_flag("--full", full, "print every row of every table");
   app.add_flag("--config", show_config, "print the full config text the file was made from");
+  bool verify = false;
+  app.add_flag("--verify", verify,
+               "check the file (checksum, every field, and for models the filter it builds) and "
+               "print one line: exit 0 when intact, 2 otherwise");
   bool show_regime = false;
   app.add_flag("--regime", show_regime,
                "print the full text of the regime a model was trained for");
@@ -270,6 +277,18 @@ int main(int argc, char** argv) {
       throw imm::io::FileError(path, "", "unknown container format '" + file.format() + "'");
     }
     const bool validated = file.format() != imm::io::kModelFormat || validators().count(kind) > 0;
+    if (verify) {
+      const auto& loadable = imm::loadable_model_kinds();
+      const bool model = file.format() == imm::io::kModelFormat;
+      if (model && std::find(loadable.begin(), loadable.end(), kind) != loadable.end()) {
+        (void)imm::load_filter(path);
+      }
+      std::cout << path << ": ok (" << file.format() << ", schema " << schema_version << ", "
+                << (kind.empty() ? "-" : kind)
+                << (validated ? "" : ", contents not validated: unknown to this build")
+                << ", sha256 " << imm::datasets::file_sha256_hex(path).substr(0, 16) << ")\n";
+      return 0;
+    }
 
     const Inspector inspector{file, full};
     if (as_json) {
@@ -332,6 +351,12 @@ int main(int argc, char** argv) {
     inspector.text(std::cout, "/");
   } catch (const std::exception& error) {
     std::cerr << "imm-inspect: " << error.what() << '\n';
+    if (std::string_view(error.what()).find("payload checksum mismatch") !=
+        std::string_view::npos) {
+      std::cerr << "imm-inspect: the content changed after the file was written; if that edit was "
+                   "deliberate, `imm-train seal "
+                << path << "` checks the content and re-seals it\n";
+    }
     return kExitBadFile;
   } catch (...) {
     std::cerr << "imm-inspect: unexpected error\n";

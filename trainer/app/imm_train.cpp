@@ -45,6 +45,7 @@
 #include "imm/trainer/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/registry.hpp"
+#include "imm/trainer/seal.hpp"
 #include "imm/trainer/temporaries_guard.hpp"
 #include "imm/trainer/tsk/tsk_trainer.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
@@ -276,6 +277,12 @@ int main(int argc, char** argv) {
   all_command->add_option("--night", nightly.night, "report folder name (default: UTC date)");
   all_command->add_option("--reports", nightly.reports, "where the nightly reports go");
 
+  std::filesystem::path seal_path;
+  auto* seal_command = app.add_subcommand(
+      "seal",
+      "re-seal a model file edited with other tools (h5py), after checking that it still reads");
+  seal_command->add_option("file", seal_path, "model file")->required();
+
   std::string rollback_kind, rollback_regime;
   std::filesystem::path rollback_registry = "models";
   auto* rollback_command = app.add_subcommand(
@@ -412,6 +419,13 @@ int main(int argc, char** argv) {
     }
     if (*all_command) return run_all(nightly);
     if (*rollback_command) return run_rollback(rollback_kind, rollback_regime, rollback_registry);
+    if (*seal_command) {
+      const auto sealed = imm::trainer::seal_model_file(seal_path);
+      if (sealed.before != "intact") spdlog::warn("before sealing: {}", sealed.before);
+      spdlog::info("sealed {} ({}, sha256 {})", seal_path.string(), sealed.kind,
+                   sealed.sha256.substr(0, 16));
+      return 0;
+    }
   } catch (const imm::support::ConfigError& error) {
     spdlog::error("{}", error.what());
     return kExitBadInput;
