@@ -7,14 +7,16 @@ execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "cmake --install failed")
 endif()
-# A runtime built with sanitizers (IMM_SANITIZERS) needs a consumer linked with the same ones: the
-# sanitizer runtime must come first in the executable, as it would in a user's sanitized build.
+# A runtime built with sanitizers (IMM_SANITIZERS) needs a consumer linked with the same ones, by
+# the same compiler (two compilers' sanitizer runtimes do not mix): the sanitizer runtime must come
+# first in the executable, as it would in a user's sanitized build.
 set(consumer_flags "")
 if(SANITIZERS)
   set(consumer_flags -DCMAKE_CXX_FLAGS=-fsanitize=${SANITIZERS} -DCMAKE_EXE_LINKER_FLAGS=-fsanitize=${SANITIZERS})
 endif()
 execute_process(COMMAND ${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/package/consumer -B ${WORK_DIR}/build
                         -G ${GENERATOR} -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix -DCMAKE_BUILD_TYPE=Release
+                        -DCMAKE_CXX_COMPILER=${CXX_COMPILER}
                         ${consumer_flags}
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT status EQUAL 0)
@@ -41,7 +43,6 @@ endif()
 message(STATUS "${out}")
 # The same consumer built with pkg-config's flags instead of CMake's package.
 find_program(PKG_CONFIG pkg-config)
-find_program(CXX_COMPILER NAMES c++ g++ clang++)
 if(PKG_CONFIG AND CXX_COMPILER)
   execute_process(COMMAND ${CMAKE_COMMAND} -E env PKG_CONFIG_PATH=${WORK_DIR}/prefix/lib/pkgconfig:${WORK_DIR}/prefix/lib64/pkgconfig
                           ${PKG_CONFIG} --cflags --libs immtrain-runtime

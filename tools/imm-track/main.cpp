@@ -118,6 +118,7 @@ int main(int argc, char** argv) {
 
   const imm::TrackFilter& filter = *loaded.filter;
   std::vector<std::string> modes;
+  modes.reserve(static_cast<std::size_t>(filter.mode_count()));
   for (int j = 0; j < filter.mode_count(); ++j) modes.push_back(column_name(filter.mode_name(j)));
   imm::Tracker tracker(std::move(loaded.filter), loaded.options);
   const int n = tracker.state_dimension();

@@ -18,7 +18,7 @@ namespace {
 // The kind reader and, for the kinds the runtime loads, the filter built from it.
 std::string check_model(const std::filesystem::path& path) {
   const io::ModelFileReader reader(path);
-  const std::string kind = reader.provenance().model_kind;
+  std::string kind = reader.provenance().model_kind;
   const auto& kinds = loadable_model_kinds();
   if (std::find(kinds.begin(), kinds.end(), kind) != kinds.end()) (void)load_filter(path);
   return kind;

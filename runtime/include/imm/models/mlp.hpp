@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -84,6 +85,8 @@ class Mlp {
       for (Eigen::Index j = 0; j < a.size(); ++j) a(j) = activate(layer.activation, a(j));
       x = &a;
     }
+    // A default-constructed network has no layers and no output (the filters refuse it).
+    if (x == nullptr) return std::numeric_limits<double>::quiet_NaN();
     return output_scale_ * (*x)(0);
   }
 
