@@ -100,6 +100,7 @@ TEST(SealAndVerify, AnEditedModelIsReSealedOnlyWhenItStillReads) {
   EXPECT_EQ(broken.exit_code, 2);
   EXPECT_NE(broken.err.find("payload checksum mismatch"), std::string::npos) << broken.err;
   EXPECT_NE(broken.err.find("imm-train seal " + path.string()), std::string::npos) << broken.err;
+  EXPECT_EQ(std::count(broken.err.begin(), broken.err.end(), '\n'), 1) << broken.err;
 
   const auto sealed = testing::run_tool("imm-train", {"seal", path.string()}, root);
   EXPECT_EQ(sealed.exit_code, 0) << sealed.err;

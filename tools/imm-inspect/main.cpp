@@ -350,13 +350,14 @@ int main(int argc, char** argv) {
     std::cout << '\n';
     inspector.text(std::cout, "/");
   } catch (const std::exception& error) {
-    std::cerr << "imm-inspect: " << error.what() << '\n';
+    // One line, as for every bad input; a changed payload gets the way to re-seal it deliberately.
+    std::cerr << "imm-inspect: " << error.what();
     if (std::string_view(error.what()).find("payload checksum mismatch") !=
         std::string_view::npos) {
-      std::cerr << "imm-inspect: the content changed after the file was written; if that edit was "
-                   "deliberate, `imm-train seal "
-                << path << "` checks the content and re-seals it\n";
+      std::cerr << " (if the content was edited on purpose, `imm-train seal " << path
+                << "` checks it and re-seals it)";
     }
+    std::cerr << '\n';
     return kExitBadFile;
   } catch (...) {
     std::cerr << "imm-inspect: unexpected error\n";
