@@ -35,14 +35,9 @@ Eigen::VectorXd AxisImmSettings::initial_probabilities(int n) const {
 
 TrackOptions AxisImmSettings::track_options(std::int64_t max_gap) const {
   validate();
-  TrackOptions options;
-  options.sample_period = sample_period;
-  options.measurement_kind = MeasurementKind::kCartesian;
-  options.measurement_covariance =
-      measurement_sigma * measurement_sigma * Eigen::Matrix2d::Identity();
-  options.initialization.method = InitializationMethod::kTwoPoint;
-  options.max_gap = max_gap;
-  return options;
+  return two_point_track_options(
+      sample_period, MeasurementKind::kCartesian,
+      measurement_sigma * measurement_sigma * Eigen::Matrix2d::Identity(), max_gap);
 }
 
 TwoAxisFilter::TwoAxisFilter(std::unique_ptr<AxisFilter> x, std::unique_ptr<AxisFilter> y)

@@ -41,14 +41,9 @@ Eigen::MatrixXd FcmImmSpec::switching_transition(int n, double stay) {
 
 TrackOptions FcmImmSpec::track_options(std::int64_t max_gap) const {
   validate();
-  TrackOptions options;
-  options.sample_period = sample_period;
-  options.measurement_kind = MeasurementKind::kCartesian;
-  options.measurement_covariance =
-      measurement_sigma * measurement_sigma * Eigen::Matrix2d::Identity();
-  options.initialization.method = InitializationMethod::kTwoPoint;
-  options.max_gap = max_gap;
-  return options;
+  return two_point_track_options(
+      sample_period, MeasurementKind::kCartesian,
+      measurement_sigma * measurement_sigma * Eigen::Matrix2d::Identity(), max_gap);
 }
 
 void FcmImmSpec::validate() const {

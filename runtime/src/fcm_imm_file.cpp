@@ -64,10 +64,8 @@ FcmImmSpec read_fcm_imm(const ModelFileReader& reader) {
   try {
     spec.validate();
   } catch (const InvalidParameter& error) {
-    const std::string& f = error.field();
-    const bool dataset = f == "transition" || f == "initial_probabilities" ||
-                         f == "mean_memberships" || f.rfind("process_noise", 0) == 0;
-    reader.fail(dataset ? "/fcm_imm/" + f : std::string(kGroup) + "@" + f, error.what());
+    reader.fail_spec(kGroup, error,
+                     {"transition", "initial_probabilities", "mean_memberships", "process_noise"});
   }
   return spec;
 }

@@ -40,14 +40,8 @@ void FimmSpec::validate() const {
 
 TrackOptions FimmSpec::track_options(std::int64_t max_gap) const {
   validate();
-  TrackOptions options;
-  options.sample_period = sample_period;
-  options.measurement_kind = MeasurementKind::kCartesian;
-  options.measurement_covariance = measurement_covariance;
-  options.initialization.method = InitializationMethod::kTwoPoint;
-  options.initialization.acceleration_variance = acceleration_variance;
-  options.max_gap = max_gap;
-  return options;
+  return two_point_track_options(sample_period, MeasurementKind::kCartesian, measurement_covariance,
+                                 max_gap, acceleration_variance);
 }
 
 double FimmSpec::process_noise(int mode) const {

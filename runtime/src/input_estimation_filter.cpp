@@ -125,13 +125,9 @@ void InputEstimationFilter::predict_only() {
 
 TrackOptions InputEstimatorModel::track_options(std::int64_t max_gap) const {
   settings.validate();
-  TrackOptions options;
-  options.sample_period = settings.sample_period;
-  options.measurement_kind = MeasurementKind::kCartesian;
-  options.measurement_covariance = settings.measurement_variance * Eigen::Matrix2d::Identity();
-  options.initialization.method = InitializationMethod::kTwoPoint;
-  options.max_gap = max_gap;
-  return options;
+  return two_point_track_options(settings.sample_period, MeasurementKind::kCartesian,
+                                 settings.measurement_variance * Eigen::Matrix2d::Identity(),
+                                 max_gap);
 }
 
 std::unique_ptr<TwoAxisFilter> make_input_estimation_filter(const InputEstimatorModel& model) {

@@ -75,7 +75,10 @@ LoadedFilter load_filter(const std::filesystem::path& path, std::int64_t max_gap
   if (!std::filesystem::exists(path, error)) {
     throw io::FileError(path.string(), "", "no such model file");
   }
-  const io::ModelFileReader reader(path);
+  return load_filter(io::ModelFileReader(path), max_gap);
+}
+
+LoadedFilter load_filter(const io::ModelFileReader& reader, std::int64_t max_gap) {
   try {
     return load(reader, max_gap);
   } catch (const InvalidParameter& invalid) {

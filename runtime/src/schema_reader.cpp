@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/io/schema_reader.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -77,6 +78,15 @@ Array SchemaReader::array(std::string_view dataset, const std::vector<long>& sha
 
 void SchemaReader::fail(std::string_view field, const std::string& message) const {
   throw FileError(file(), std::string(field), message);
+}
+
+void SchemaReader::fail_spec(std::string_view group, const InvalidParameter& error,
+                             std::initializer_list<std::string_view> datasets) const {
+  const std::string& f = error.field();
+  const bool dataset = std::any_of(datasets.begin(), datasets.end(), [&](std::string_view name) {
+    return f.rfind(name, 0) == 0 && (f.size() == name.size() || f[name.size()] == '[');
+  });
+  fail(std::string(group) + (dataset ? "/" : "@") + f, error.what());
 }
 
 Eigen::MatrixXd SchemaReader::matrix(std::string_view dataset, int rows, int cols,

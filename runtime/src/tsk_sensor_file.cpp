@@ -127,11 +127,8 @@ std::optional<FimmSpec> read_fimm_settings(const ModelFileReader& reader) {
   try {
     spec.validate();
   } catch (const InvalidParameter& error) {
-    const std::string& f = error.field();
-    const auto starts = [&](std::string_view name) { return f.rfind(name, 0) == 0; };
-    const bool dataset =
-        starts("transition") || starts("initial_probabilities") || starts("measurement_covariance");
-    reader.fail(std::string(kFimmGroup) + (dataset ? "/" : "@") + f, error.what());
+    reader.fail_spec(kFimmGroup, error,
+                     {"transition", "initial_probabilities", "measurement_covariance"});
   }
   return spec;
 }

@@ -84,14 +84,8 @@ Eigen::Matrix2d WimmSpec::measurement_covariance() const {
 
 TrackOptions WimmSpec::track_options(std::int64_t max_gap) const {
   validate();
-  TrackOptions options;
-  options.sample_period = sample_period;
-  options.measurement_kind = MeasurementKind::kPolar;
-  options.measurement_covariance = measurement_covariance();
-  options.initialization.method = InitializationMethod::kTwoPoint;
-  options.initialization.acceleration_variance = acceleration_variance;
-  options.max_gap = max_gap;
-  return options;
+  return two_point_track_options(sample_period, MeasurementKind::kPolar, measurement_covariance(),
+                                 max_gap, acceleration_variance);
 }
 
 WeightedImmFilter::WeightedImmFilter(const WimmSpec& spec)

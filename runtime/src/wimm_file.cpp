@@ -49,11 +49,7 @@ WimmSpec read_wimm(const ModelFileReader& reader) {
   try {
     spec.validate();
   } catch (const InvalidParameter& error) {
-    const std::string field =
-        error.field() == "transition" || error.field() == "initial_probabilities"
-            ? "/wimm/" + error.field()
-            : std::string(kGroup) + "@" + error.field();
-    reader.fail(field, error.what());
+    reader.fail_spec(kGroup, error, {"transition", "initial_probabilities"});
   }
   return spec;
 }

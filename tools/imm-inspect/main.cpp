@@ -261,6 +261,10 @@ int main(int argc, char** argv) {
       kind = model.provenance().model_kind;
       schema_version = model.schema_version();
       if (const auto it = validators().find(kind); it != validators().end()) it->second(path);
+      const auto& loadable = imm::loadable_model_kinds();
+      if (verify && std::find(loadable.begin(), loadable.end(), kind) != loadable.end()) {
+        (void)imm::load_filter(model);  // and the filter it builds
+      }
     } else if (file.format() == imm::datasets::kDatasetFormat) {
       const auto stored_kind = file.attribute("/", "dataset_kind");
       kind = stored_kind && std::holds_alternative<std::string>(*stored_kind)
@@ -278,11 +282,6 @@ int main(int argc, char** argv) {
     }
     const bool validated = file.format() != imm::io::kModelFormat || validators().count(kind) > 0;
     if (verify) {
-      const auto& loadable = imm::loadable_model_kinds();
-      const bool model = file.format() == imm::io::kModelFormat;
-      if (model && std::find(loadable.begin(), loadable.end(), kind) != loadable.end()) {
-        (void)imm::load_filter(path);
-      }
       std::cout << path << ": ok (" << file.format() << ", schema " << schema_version << ", "
                 << (kind.empty() ? "-" : kind)
                 << (validated ? "" : ", contents not validated: unknown to this build")

@@ -20,7 +20,7 @@ std::string check_model(const std::filesystem::path& path) {
   const io::ModelFileReader reader(path);
   std::string kind = reader.provenance().model_kind;
   const auto& kinds = loadable_model_kinds();
-  if (std::find(kinds.begin(), kinds.end(), kind) != kinds.end()) (void)load_filter(path);
+  if (std::find(kinds.begin(), kinds.end(), kind) != kinds.end()) (void)load_filter(reader);
   return kind;
 }
 

@@ -44,6 +44,10 @@ struct LoadedFilter {
 [[nodiscard]] LoadedFilter load_filter(const std::filesystem::path& path,
                                        std::int64_t max_gap = kDefaultMaxGap);
 
+/// The same from a reader the caller has already opened (the file is read once).
+[[nodiscard]] LoadedFilter load_filter(const io::ModelFileReader& reader,
+                                       std::int64_t max_gap = kDefaultMaxGap);
+
 /// load_filter() wrapped in a Tracker: the track starts, predicts through gaps and rejects bad
 /// plots as TrackOptions say.
 [[nodiscard]] Tracker load_tracker(const std::filesystem::path& path,

@@ -46,4 +46,21 @@ struct TrackOptions {
   std::int64_t max_gap = kDefaultMaxGap;
 };
 
+/// The options of a filter started from two plots (every spec but an explicit plain IMM): plots of
+/// `kind` with covariance R; `acceleration_variance` is the start's ax, ay variance (6-state).
+[[nodiscard]] inline TrackOptions two_point_track_options(double sample_period,
+                                                          MeasurementKind kind,
+                                                          const Eigen::Matrix2d& R,
+                                                          std::int64_t max_gap,
+                                                          double acceleration_variance = 0.0) {
+  TrackOptions options;
+  options.sample_period = sample_period;
+  options.measurement_kind = kind;
+  options.measurement_covariance = R;
+  options.initialization.method = InitializationMethod::kTwoPoint;
+  options.initialization.acceleration_variance = acceleration_variance;
+  options.max_gap = max_gap;
+  return options;
+}
+
 }  // namespace imm

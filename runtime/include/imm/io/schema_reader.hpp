@@ -7,10 +7,12 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <initializer_list>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "imm/core/invalid_parameter.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"
 
@@ -51,6 +53,12 @@ class SchemaReader {
 
   /// Throws FileError for `field` of this file.
   [[noreturn]] void fail(std::string_view field, const std::string& message) const;
+  /// Throws FileError for a spec's InvalidParameter raised when validating what was read from
+  /// `group`: the field is the group's dataset when the spec's field is one of `datasets` (or an
+  /// entry of one: "process_noise[2]" → <group>/process_noise[2]), else the group's attribute
+  /// (<group>@<field>).
+  [[noreturn]] void fail_spec(std::string_view group, const InvalidParameter& error,
+                              std::initializer_list<std::string_view> datasets) const;
 
  private:
   ContainerReader container_;
