@@ -11,6 +11,7 @@ packages=(
   libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
+  doxygen python3-h5py    # the API documentation test; the h5py reading test
   clang libclang-rt-dev   # make test-sanitize / make fuzz: ASan, UBSan, libFuzzer
 )
 

@@ -241,6 +241,7 @@ void write_attribute(hid_t object, const std::string& name, const Attribute& val
   std::int64_t integer = 0;
   double real = 0.0;
   std::string text;
+  const char* text_pointer = nullptr;
   if (const auto* i = std::get_if<std::int64_t>(&value)) {
     integer = *i;
     file_type = Handle(H5Tcopy(H5T_STD_I64LE), H5Tclose);
@@ -253,14 +254,14 @@ void write_attribute(hid_t object, const std::string& name, const Attribute& val
     memory_type = H5T_NATIVE_DOUBLE;
     data = &real;
   } else {
+    // Variable-length UTF-8: h5py and other readers return it as text, not bytes.
     text = std::get<std::string>(value);
     file_type = Handle(H5Tcopy(H5T_C_S1), H5Tclose);
-    H5Tset_size(file_type.get(), std::max<std::size_t>(text.size(), 1));
-    H5Tset_strpad(file_type.get(), H5T_STR_NULLPAD);
+    H5Tset_size(file_type.get(), H5T_VARIABLE);
     H5Tset_cset(file_type.get(), H5T_CSET_UTF8);
-    if (text.empty()) text.push_back('\0');
+    text_pointer = text.c_str();
     memory_type = file_type.get();
-    data = text.data();
+    data = &text_pointer;
   }
   Handle attribute(
       H5Acreate2(object, name.c_str(), file_type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
@@ -871,6 +872,7 @@ std::optional<Attribute> ContainerReader::attribute(std::string_view object,
       if (H5Tis_variable_str(type.get()) > 0) {
         Handle memory(H5Tcopy(H5T_C_S1), H5Tclose);
         H5Tset_size(memory.get(), H5T_VARIABLE);
+        H5Tset_cset(memory.get(), H5Tget_cset(type.get()));
         char* raw = nullptr;
         if (H5Aread(handle.get(), memory.get(), &raw) < 0) {
           throw FileError(file, field, "cannot read: " + hdf5_cause());

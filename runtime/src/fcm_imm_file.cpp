@@ -13,25 +13,28 @@ void write_fcm_imm(ModelFileWriter& writer, const FcmImmSpec& spec) {
   if (spec.mean_memberships.size() == 0) {
     throw InvalidParameter("mean_memberships", "a model file needs the mean memberships");
   }
-  writer.set_attribute(kGroup, "sample_period", spec.sample_period);
-  writer.set_attribute(kGroup, "measurement_sigma", spec.measurement_sigma);
+  const UnitNames& u = writer.units();
+  writer.set_quantity(kGroup, "sample_period", spec.sample_period, "s");
+  writer.set_quantity(kGroup, "measurement_sigma", spec.measurement_sigma, u.length);
   writer.set_attribute(kGroup, "window", static_cast<std::int64_t>(spec.window));
-  writer.set_attribute(kGroup, "fuzzifier", spec.clustering.fuzzifier);
-  writer.set_attribute(kGroup, "tolerance", spec.clustering.tolerance);
+  writer.set_quantity(kGroup, "fuzzifier", spec.clustering.fuzzifier, kDimensionless);
+  writer.set_quantity(kGroup, "tolerance", spec.clustering.tolerance, kDimensionless);
   writer.set_attribute(kGroup, "max_iterations",
                        static_cast<std::int64_t>(spec.clustering.max_iterations));
   writer.set_attribute(kGroup, "membership_scale", std::string(to_string(spec.scale)));
-  writer.set_attribute(kGroup, "separation", spec.separation);
-  writer.set_attribute(kGroup, "compensation_gain", spec.compensation_gain);
+  writer.set_quantity(kGroup, "separation", spec.separation, kDimensionless);
+  writer.set_quantity(kGroup, "compensation_gain", spec.compensation_gain, kDimensionless);
   writer.set_attribute(kGroup, "compensate_lowest",
                        static_cast<std::int64_t>(spec.compensate_lowest ? 1 : 0));
   const Eigen::Map<const Eigen::VectorXd> q(spec.process_noise.data(),
                                             static_cast<Eigen::Index>(spec.process_noise.size()));
-  writer.write_vector("/fcm_imm/process_noise", q);
-  writer.write_matrix("/fcm_imm/transition", spec.transition);
-  writer.write_vector("/fcm_imm/initial_probabilities", spec.initial_probabilities);
+  writer.write_vector("/fcm_imm/process_noise", q, u.acceleration_variance());
+  std::vector<std::string> modes;
+  for (int j = 0; j < spec.mode_count(); ++j) modes.push_back("mode" + std::to_string(j));
+  writer.write_matrix("/fcm_imm/transition", spec.transition, modes, kDimensionless);
+  writer.write_vector("/fcm_imm/initial_probabilities", spec.initial_probabilities, kDimensionless);
   writer.write_matrix("/fcm_imm/mean_memberships", spec.mean_memberships,
-                      {"deceleration", "noise", "acceleration"});
+                      {"deceleration", "noise", "acceleration"}, kDimensionless);
 }
 
 FcmImmSpec read_fcm_imm(const ModelFileReader& reader) {

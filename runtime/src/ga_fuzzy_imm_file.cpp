@@ -33,23 +33,35 @@ FuzzyRuleTable table_from_matrix(const Eigen::MatrixXd& rules) {
 }
 
 void write_ga_fuzzy_imm(ModelFileWriter& writer, const GaFuzzyImmSpec& spec,
-                        const std::vector<std::map<std::string, double>>& level_metrics) {
+                        const std::vector<std::vector<LevelMetric>>& level_metrics) {
   spec.validate();
   const AxisImmSettings& s = spec.settings;
-  writer.set_attribute(kRoot, "sample_period", s.sample_period);
-  writer.set_attribute(kRoot, "measurement_sigma", s.measurement_sigma);
-  writer.set_attribute(kRoot, "transition_stay", s.transition_stay);
-  writer.set_attribute(kRoot, "initial_first_probability", s.initial_first_probability);
+  const UnitNames& u = writer.units();
+  writer.set_quantity(kRoot, "sample_period", s.sample_period, "s");
+  writer.set_quantity(kRoot, "measurement_sigma", s.measurement_sigma, u.length);
+  writer.set_quantity(kRoot, "transition_stay", s.transition_stay, kDimensionless);
+  writer.set_quantity(kRoot, "initial_first_probability", s.initial_first_probability,
+                      kDimensionless);
+  // The rules map (residual, residual change), in lengths, to a process-noise variance
+  // (fuzzy_rule_table.hpp).
+  const std::string rule_units =
+      u.length + "," + u.length + "," + u.length + "," + u.length + "," + u.acceleration_variance();
   writer.set_attribute(kRoot, "level_count", static_cast<std::int64_t>(spec.levels.size()));
   for (std::size_t i = 0; i < spec.levels.size(); ++i) {
     const FuzzyLevel& level = spec.levels[i];
     const std::string group = level_group(i);
     writer.set_attribute(group, "name", level.name);
-    writer.set_attribute(group, "maneuver_level", level.maneuver_level);
+    writer.set_quantity(group, "maneuver_level", level.maneuver_level, u.acceleration());
     if (i < level_metrics.size()) {
-      for (const auto& [name, value] : level_metrics[i]) writer.set_attribute(group, name, value);
+      for (const auto& metric : level_metrics[i]) {
+        if (const auto* real = std::get_if<double>(&metric.value)) {
+          writer.set_quantity(group, metric.name, *real, metric.units);
+        } else {
+          writer.set_attribute(group, metric.name, metric.value);
+        }
+      }
     }
-    writer.write_matrix(group + "/rules", rules_matrix(level.table), rule_columns());
+    writer.write_matrix(group + "/rules", rules_matrix(level.table), rule_columns(), rule_units);
   }
 }
 

@@ -15,23 +15,35 @@ void write_mlp_input_estimator(ModelFileWriter& writer, const InputEstimatorMode
                                const Eigen::MatrixXd& loss_curves) {
   const auto& layers = model.network.layers();
   writer.set_attribute("/mlp", "layer_count", static_cast<std::int64_t>(layers.size()));
-  writer.set_attribute("/mlp", "output_scale", model.network.output_scale());
-  writer.set_attribute("/mlp", "output_bias", model.output_bias);
+  const UnitNames& u = writer.units();
+  // The network's output, times output_scale plus output_bias, is the input estimate û: an
+  // acceleration.
+  writer.set_quantity("/mlp", "output_scale", model.network.output_scale(), u.acceleration());
+  writer.set_quantity("/mlp", "output_bias", model.output_bias, u.acceleration());
   writer.set_attribute("/mlp", "sign", std::string(to_string(model.sign)));
   for (std::size_t i = 0; i < layers.size(); ++i) {
     writer.set_attribute(layer_group(i), "activation",
                          std::string(to_string(layers[i].activation)));
-    writer.write_matrix(layer_group(i) + "/weights", layers[i].weights);
-    writer.write_vector(layer_group(i) + "/bias", layers[i].bias);
+    const Eigen::MatrixXd& weights = layers[i].weights;
+    std::vector<std::string> inputs;
+    for (Eigen::Index c = 0; c < weights.cols(); ++c) {
+      inputs.push_back(i == 0 ? (c == 0 ? "sum" : "diff") : "unit" + std::to_string(c));
+    }
+    writer.write_matrix(layer_group(i) + "/weights", weights, inputs, kDimensionless);
+    writer.write_vector(layer_group(i) + "/bias", layers[i].bias, kDimensionless);
   }
   writer.set_attribute("/features", "definition", std::string(kFeatureDefinition));
-  writer.write_vector("/features/input_mean", model.input_mean);
-  writer.write_vector("/features/input_scale", model.input_scale);
-  writer.set_attribute("/cv_kf", "sample_period", model.settings.sample_period);
-  writer.set_attribute("/cv_kf", "process_noise", model.settings.process_noise);
-  writer.set_attribute("/cv_kf", "measurement_variance", model.settings.measurement_variance);
+  writer.write_vector("/features/input_mean", model.input_mean, kDimensionless);
+  writer.write_vector("/features/input_scale", model.input_scale, kDimensionless);
+  writer.set_quantity("/cv_kf", "sample_period", model.settings.sample_period, "s");
+  writer.set_quantity("/cv_kf", "process_noise", model.settings.process_noise,
+                      u.acceleration_variance());
+  writer.set_quantity("/cv_kf", "measurement_variance", model.settings.measurement_variance,
+                      u.area());
   if (loss_curves.size() > 0) {
-    writer.write_matrix("/training/loss", loss_curves, {"epoch", "training_mse", "validation_mse"});
+    // The training targets are the network's outputs before output_scale: dimensionless.
+    writer.write_matrix("/training/loss", loss_curves, {"epoch", "training_mse", "validation_mse"},
+                        kDimensionless);
   }
 }
 

@@ -28,29 +28,56 @@ std::string file_field(const std::string& spec_field) {
 
 void write_plain_imm(ModelFileWriter& writer, const PlainImmSpec& spec) {
   spec.validate();
-  writer.set_attribute("/imm", "sample_period", spec.sample_period);
+  const UnitNames& u = writer.units();
+  writer.set_quantity("/imm", "sample_period", spec.sample_period, "s");
   writer.set_attribute("/imm", "mode_count", static_cast<std::int64_t>(spec.modes.size()));
-  writer.write_matrix("/imm/transition", spec.transition);
-  writer.write_vector("/imm/initial_probabilities", spec.initial_probabilities);
+  std::vector<std::string> mode_names;
+  for (const ModeSpec& mode : spec.modes) mode_names.push_back(mode.name);
+  writer.write_matrix("/imm/transition", spec.transition, mode_names, kDimensionless);
+  writer.write_vector("/imm/initial_probabilities", spec.initial_probabilities, kDimensionless);
   for (std::size_t i = 0; i < spec.modes.size(); ++i) {
     const ModeSpec& mode = spec.modes[i];
     const std::string group = mode_group(i);
     writer.set_attribute(group, "name", mode.name);
     writer.set_attribute(group, "motion", std::string(to_string(mode.motion)));
     writer.set_attribute(group, "noise_form", std::string(to_string(mode.noise_form)));
-    writer.set_attribute(group, "process_noise", mode.process_noise);
-    writer.set_attribute(group, "tau", mode.singer_tau);
-    writer.set_attribute(group, "sigma_a", mode.singer_sigma);
+    // q: the variance of the highest derivative's per-period value (piecewise), or the power
+    // spectral density of its continuous white noise (continuous): of the acceleration for CV,
+    // of the jerk for CA.
+    std::string q_units = mode.noise_form == NoiseForm::kPiecewiseConstant
+                              ? u.acceleration_variance()
+                              : u.acceleration_density();
+    if (mode.motion == MotionKind::kConstantAcceleration &&
+        mode.noise_form == NoiseForm::kContinuous) {
+      q_units = u.length + "^2/s^5";
+    }
+    writer.set_quantity(group, "process_noise", mode.process_noise, q_units);
+    writer.set_quantity(group, "tau", mode.singer_tau, "s");
+    writer.set_quantity(group, "sigma_a", mode.singer_sigma, u.acceleration());
   }
   writer.set_attribute("/measurement", "kind", std::string(to_string(spec.measurement.kind)));
-  writer.write_matrix("/measurement/covariance", spec.measurement.covariance);
+  if (spec.measurement.kind == MeasurementKind::kPolar) {
+    writer.write_covariance("/measurement/covariance", spec.measurement.covariance,
+                            {"range", "azimuth"}, u.length + ",rad");
+  } else {
+    writer.write_covariance("/measurement/covariance", spec.measurement.covariance, {"x", "y"},
+                            u.length + "," + u.length);
+  }
   writer.set_attribute("/initialization", "method",
                        std::string(to_string(spec.initialization.method)));
-  writer.set_attribute("/initialization", "acceleration_variance",
-                       spec.initialization.acceleration_variance);
+  writer.set_quantity("/initialization", "acceleration_variance",
+                      spec.initialization.acceleration_variance, u.acceleration_variance());
   if (spec.initialization.method == InitializationMethod::kExplicit) {
-    writer.write_vector("/initialization/state", spec.initialization.state);
-    writer.write_matrix("/initialization/covariance", spec.initialization.covariance);
+    std::vector<std::string> variables = {"x", "vx", "y", "vy"};
+    std::string units = u.length + "," + u.speed() + "," + u.length + "," + u.speed();
+    if (spec.initialization.state.size() == 6) {
+      variables = {"x", "vx", "ax", "y", "vy", "ay"};
+      units = u.length + "," + u.speed() + "," + u.acceleration() + "," + u.length + "," +
+              u.speed() + "," + u.acceleration();
+    }
+    writer.write_vector("/initialization/state", spec.initialization.state, units);
+    writer.write_covariance("/initialization/covariance", spec.initialization.covariance, variables,
+                            units);
   }
 }
 

@@ -150,6 +150,14 @@ double SchemaReader::real(std::string_view object, std::string_view name, ValueR
     message << "value " << number << " is not " << rule_text(rule);
     fail(field, message.str());
   }
+  if (require_attribute_units_ && field_path(object) != "/") {
+    const auto units = container_.attribute(object, "units");
+    const std::string* list = units ? std::get_if<std::string>(&*units) : nullptr;
+    const std::string entry = std::string(name) + "=";
+    if (list == nullptr || ("," + *list).find("," + entry) == std::string::npos) {
+      fail(field_path(object, "units"), "does not give the units of '" + std::string(name) + "'");
+    }
+  }
   return number;
 }
 

@@ -46,11 +46,16 @@ void write_tsk_sensor(ModelFileWriter& writer, const TskModel& model) {
   Eigen::Matrix2d box;
   box.row(0) = model.input_lower().transpose();
   box.row(1) = model.input_upper().transpose();
-  writer.write_matrix("/tsk/input_box", box, {"xi", "eta"});
+  const UnitNames& u = writer.units();
+  writer.write_matrix("/tsk/input_box", box, {"xi", "eta"}, u.length);
+  // Premises on (ξ, η) and the outputs in lengths; the consequents' slopes a_ξ, a_η are ratios.
+  const std::string rule_units =
+      u.length + "," + u.length + "," + u.length + "," + u.length + "," + u.length + ",1,1";
   for (int i = 0; i < 2; ++i) {
     const TskOutput& out = model.outputs()[static_cast<std::size_t>(i)];
-    writer.write_matrix(output_group(i) + "/rules", rules_matrix(out.rules), rule_columns());
-    writer.set_attribute(output_group(i), "sigma", out.sigma);
+    writer.write_matrix(output_group(i) + "/rules", rules_matrix(out.rules), rule_columns(),
+                        rule_units);
+    writer.set_quantity(output_group(i), "sigma", out.sigma, u.length);
   }
 }
 
@@ -99,15 +104,20 @@ TskModel read_tsk_sensor(const std::filesystem::path& path) {
 
 void write_fimm_settings(ModelFileWriter& writer, const FimmSpec& spec) {
   spec.validate();
-  writer.set_attribute(kFimmGroup, "sample_period", spec.sample_period);
-  writer.set_attribute(kFimmGroup, "cruise_sigma", spec.cruise_sigma);
-  writer.set_attribute(kFimmGroup, "lane_change_ratio", spec.lane_change_ratio);
-  writer.set_attribute(kFimmGroup, "noise_scale", spec.noise_scale);
+  const UnitNames& u = writer.units();
+  writer.set_quantity(kFimmGroup, "sample_period", spec.sample_period, "s");
+  // √q₁ per step (fimm.hpp): an acceleration standard deviation.
+  writer.set_quantity(kFimmGroup, "cruise_sigma", spec.cruise_sigma, u.acceleration());
+  writer.set_quantity(kFimmGroup, "lane_change_ratio", spec.lane_change_ratio, kDimensionless);
+  writer.set_quantity(kFimmGroup, "noise_scale", spec.noise_scale, kDimensionless);
   writer.set_attribute(kFimmGroup, "iterations", std::int64_t{spec.iterations});
-  writer.set_attribute(kFimmGroup, "acceleration_variance", spec.acceleration_variance);
-  writer.write_matrix("/fimm/transition", spec.transition, {"cruise", "lane_change"});
-  writer.write_vector("/fimm/initial_probabilities", spec.initial_probabilities);
-  writer.write_matrix("/fimm/measurement_covariance", spec.measurement_covariance, {"z1", "z2"});
+  writer.set_quantity(kFimmGroup, "acceleration_variance", spec.acceleration_variance,
+                      u.acceleration_variance());
+  writer.write_matrix("/fimm/transition", spec.transition, {"cruise", "lane_change"},
+                      kDimensionless);
+  writer.write_vector("/fimm/initial_probabilities", spec.initial_probabilities, kDimensionless);
+  writer.write_covariance("/fimm/measurement_covariance", spec.measurement_covariance, {"z1", "z2"},
+                          u.length + "," + u.length);
 }
 
 std::optional<FimmSpec> read_fimm_settings(const ModelFileReader& reader) {

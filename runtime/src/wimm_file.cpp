@@ -10,19 +10,21 @@ constexpr const char* kGroup = "/wimm";
 
 void write_wimm(ModelFileWriter& writer, const WimmSpec& spec) {
   spec.validate();
-  writer.set_attribute(kGroup, "sample_period", spec.sample_period);
-  writer.set_attribute(kGroup, "cv_process_noise", spec.cv_process_noise);
-  writer.set_attribute(kGroup, "singer_tau", spec.singer_tau);
-  writer.set_attribute(kGroup, "singer_sigma", spec.singer_sigma);
-  writer.set_attribute(kGroup, "range_sigma", spec.range_sigma);
-  writer.set_attribute(kGroup, "azimuth_sigma", spec.azimuth_sigma);
-  writer.set_attribute(kGroup, "threshold", spec.threshold);
-  writer.set_attribute(kGroup, "alpha", spec.alpha);
+  const UnitNames& u = writer.units();
+  writer.set_quantity(kGroup, "sample_period", spec.sample_period, "s");
+  writer.set_quantity(kGroup, "cv_process_noise", spec.cv_process_noise, u.acceleration_variance());
+  writer.set_quantity(kGroup, "singer_tau", spec.singer_tau, "s");
+  writer.set_quantity(kGroup, "singer_sigma", spec.singer_sigma, u.acceleration());
+  writer.set_quantity(kGroup, "range_sigma", spec.range_sigma, u.length);
+  writer.set_quantity(kGroup, "azimuth_sigma", spec.azimuth_sigma, "rad");
+  writer.set_quantity(kGroup, "threshold", spec.threshold, kDimensionless);
+  writer.set_quantity(kGroup, "alpha", spec.alpha, kDimensionless);
   writer.set_attribute(kGroup, "fusion", std::string(to_string(spec.fusion)));
   writer.set_attribute(kGroup, "update", std::string(to_string(spec.update)));
-  writer.set_attribute(kGroup, "acceleration_variance", spec.acceleration_variance);
-  writer.write_matrix("/wimm/transition", spec.transition, {"cv", "singer"});
-  writer.write_vector("/wimm/initial_probabilities", spec.initial_probabilities);
+  writer.set_quantity(kGroup, "acceleration_variance", spec.acceleration_variance,
+                      u.acceleration_variance());
+  writer.write_matrix("/wimm/transition", spec.transition, {"cv", "singer"}, kDimensionless);
+  writer.write_vector("/wimm/initial_probabilities", spec.initial_probabilities, kDimensionless);
 }
 
 WimmSpec read_wimm(const ModelFileReader& reader) {

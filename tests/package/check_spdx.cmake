@@ -6,7 +6,7 @@ file(GLOB_RECURSE files RELATIVE ${SOURCE_DIR}
 list(APPEND files CMakeLists.txt Makefile .ci/run)
 set(missing "")
 foreach(file ${files})
-  if(file MATCHES "(corpus|/inputs/)" OR NOT file MATCHES "(\\.(cpp|hpp|h|cmake|sh|in)|CMakeLists\\.txt|Makefile|/run)$")
+  if(file MATCHES "(corpus|/inputs/)" OR NOT file MATCHES "(\\.(cpp|hpp|h|cmake|sh|in|py)|CMakeLists\\.txt|Makefile|/run)$")
     continue()
   endif()
   if(file MATCHES "\\.pc\\.in$")

@@ -502,7 +502,7 @@ TEST(FcmImmFile, HostileValuesAreRefusedByName) {
     }
   };
   refused(
-      "gain", [](auto& w) { w.set_attribute("/fcm_imm", "compensation_gain", 1.5); },
+      "gain", [](auto& w) { w.set_quantity("/fcm_imm", "compensation_gain", 1.5, "1"); },
       "/fcm_imm@compensation_gain");
   refused(
       "scale", [](auto& w) { w.set_attribute("/fcm_imm", "membership_scale", "fuzzy"); },
@@ -511,23 +511,28 @@ TEST(FcmImmFile, HostileValuesAreRefusedByName) {
       "window", [](auto& w) { w.set_attribute("/fcm_imm", "window", std::int64_t{1000}); },
       "/fcm_imm@window");
   refused(
-      "fuzzifier", [](auto& w) { w.set_attribute("/fcm_imm", "fuzzifier", 1.0); },
+      "fuzzifier", [](auto& w) { w.set_quantity("/fcm_imm", "fuzzifier", 1.0, "1"); },
       "/fcm_imm@clustering.fuzzifier");
   refused(
-      "separation", [](auto& w) { w.set_attribute("/fcm_imm", "separation", -1.0); },
+      "separation", [](auto& w) { w.set_quantity("/fcm_imm", "separation", -1.0, "1"); },
       "/fcm_imm@separation");
   refused(
       "order",
-      [](auto& w) { w.write_vector("/fcm_imm/process_noise", Eigen::Vector3d(5.0, 1.0, 9.0)); },
+      [](auto& w) {
+        w.write_vector("/fcm_imm/process_noise", Eigen::Vector3d(5.0, 1.0, 9.0), "m^2/s^4");
+      },
       "/fcm_imm/process_noise[1]");
   refused(
       "memberships",
-      [](auto& w) { w.write_matrix("/fcm_imm/mean_memberships", Eigen::MatrixXd::Ones(3, 2)); },
+      [](auto& w) {
+        w.write_matrix("/fcm_imm/mean_memberships", Eigen::MatrixXd::Ones(3, 2), {"a", "b"}, "1");
+      },
       "/fcm_imm/mean_memberships");
   refused(
       "rows",
       [](auto& w) {
-        w.write_matrix("/fcm_imm/mean_memberships", Eigen::MatrixXd::Constant(3, 3, 0.5));
+        w.write_matrix("/fcm_imm/mean_memberships", Eigen::MatrixXd::Constant(3, 3, 0.5),
+                       {"deceleration", "noise", "acceleration"}, "1");
       },
       "/fcm_imm/mean_memberships");
 }

@@ -23,25 +23,6 @@ namespace imm {
 namespace {
 
 constexpr int kScans = 80;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-// A seeded track in the filter's measurement space: plausible_plot plus Gaussian noise of the
-// options' R, a NaN plot at scan 30 and no plots for scans 41–43.
-std::vector<std::pair<std::int64_t, Eigen::Vector2d>> seeded_plots(const TrackOptions& options,
-                                                                   std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal;
-  const Eigen::Matrix2d L = options.measurement_covariance.llt().matrixL();
-  std::vector<std::pair<std::int64_t, Eigen::Vector2d>> plots;
-  for (std::int64_t k = 0; k < kScans; ++k) {
-    if (k >= 41 && k <= 43) continue;
-    const double a = normal(rng), b = normal(rng);
-    Eigen::Vector2d z = testing::plausible_plot(options, k) + L * Eigen::Vector2d(a, b);
-    if (k == 30) z(0) = kNaN;
-    plots.emplace_back(k, z);
-  }
-  return plots;
-}
 
 struct Estimate {
   Eigen::VectorXd mean, variance;
@@ -75,7 +56,7 @@ TEST(LoadTracker, EveryShippedTrackFilterEqualsItsKindSpecificRecipe) {
     ASSERT_EQ(loaded.filter->mode_count(), made.filter->mode_count());
     Tracker expected(std::move(made.filter), made.options);
     Tracker tracker = load_tracker(path);
-    for (const auto& [k, z] : seeded_plots(made.options, 7)) {
+    for (const auto& [k, z] : testing::seeded_plots(made.options, 7, kScans)) {
       const TrackStepResult a = tracker.process(k, z), b = expected.process(k, z);
       ASSERT_EQ(a.event, b.event) << "scan " << k;
       if (!tracker.initialized()) continue;
@@ -107,7 +88,7 @@ TEST(LoadTracker, InputEstimatorTracksAsTwoIndependentAxisFilters) {
     const double T = model.settings.sample_period, R = model.settings.measurement_variance;
     EXPECT_EQ(options.measurement_covariance, R * Eigen::Matrix2d::Identity());
     std::vector<InputEstimationFilter> axes(2, InputEstimationFilter(model, model.settings));
-    const auto plots = seeded_plots(options, 11);
+    const auto plots = testing::seeded_plots(options, 11, kScans);
     for (std::size_t i = 0; i < plots.size(); ++i) {
       const auto& [k, z] = plots[i];
       const TrackStepResult result = tracker.process(k, z);

@@ -197,7 +197,8 @@ INSTANTIATE_TEST_SUITE_P(
               "/imm@mode_count", "outside [1, 16]"},
         Drill{"newer schema",
               [](hid_t f) {
-                replace_attribute(f, "/", "schema_version", H5T_NATIVE_INT64, std::int64_t{2});
+                replace_attribute(f, "/", "schema_version", H5T_NATIVE_INT64,
+                                  std::int64_t{kModelSchemaVersion + 1});
               },
               "/@schema_version", "newer than this reader supports"},
         Drill{"wrong kind",

@@ -25,6 +25,9 @@
 namespace imm {
 namespace {
 
+const std::vector<std::string> kRuleColumns = {"center_xi", "width_xi", "center_eta", "width_eta",
+                                               "a0",        "a_xi",     "a_eta"};
+
 TskRule rule(double m_xi, double s_xi, double m_eta, double s_eta, double a0, double a_xi,
              double a_eta) {
   TskRule r;
@@ -498,24 +501,28 @@ TEST(TskSensorFile, HostileValuesAreRefusedByName) {
       "t_norm", [](auto& w) { w.set_attribute("/tsk", "t_norm", std::string("max")); },
       "/tsk@t_norm");
   refused(
-      "sigma", [](auto& w) { w.set_attribute("/tsk/output2", "sigma", -0.5); },
+      "sigma", [](auto& w) { w.set_quantity("/tsk/output2", "sigma", -0.5, "m"); },
       "/tsk/output2@sigma");
   refused(
       "width",
       [&](auto& w) {
         Eigen::MatrixXd rules = io::rules_matrix(model.outputs()[0].rules);
         rules(1, 3) = 0.0;
-        w.write_matrix("/tsk/output1/rules", rules);
+        w.write_matrix("/tsk/output1/rules", rules, kRuleColumns, "m");
       },
       "/tsk/output1/rules");
   refused(
-      "columns", [](auto& w) { w.write_matrix("/tsk/output1/rules", Eigen::MatrixXd::Ones(3, 6)); },
+      "columns",
+      [](auto& w) {
+        w.write_matrix("/tsk/output1/rules", Eigen::MatrixXd::Ones(3, 6),
+                       {"a", "b", "c", "d", "e", "f"}, "m");
+      },
       "/tsk/output1/rules");
   refused(
       "too_many",
       [](auto& w) {
         Eigen::MatrixXd rules = Eigen::MatrixXd::Ones(TskModel::kMaxRules + 1, 7);
-        w.write_matrix("/tsk/output1/rules", rules);
+        w.write_matrix("/tsk/output1/rules", rules, kRuleColumns, "m");
       },
       "/tsk/output1/rules");
   refused(
@@ -523,7 +530,7 @@ TEST(TskSensorFile, HostileValuesAreRefusedByName) {
       [&](auto& w) {
         Eigen::MatrixXd rules = io::rules_matrix(model.outputs()[1].rules);
         rules(2, 1) = 1e-300;
-        w.write_matrix("/tsk/output2/rules", rules);
+        w.write_matrix("/tsk/output2/rules", rules, kRuleColumns, "m");
       },
       "/tsk/output2/rules");
   refused(
@@ -531,13 +538,14 @@ TEST(TskSensorFile, HostileValuesAreRefusedByName) {
       [&](auto& w) {
         Eigen::MatrixXd rules = io::rules_matrix(model.outputs()[0].rules);
         rules(0, 5) = 1e308;  // a_xi: overflows at the box corners
-        w.write_matrix("/tsk/output1/rules", rules);
+        w.write_matrix("/tsk/output1/rules", rules, kRuleColumns, "m");
       },
       "/tsk/output1/rules");
   refused(
       "box",
       [](auto& w) {
-        w.write_matrix("/tsk/input_box", (Eigen::Matrix2d() << 6, 100, -6, 1).finished());
+        w.write_matrix("/tsk/input_box", (Eigen::Matrix2d() << 6, 100, -6, 1).finished(),
+                       {"xi", "eta"}, "m");
       },
       "/tsk/input_box");
 }

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <string>
@@ -51,11 +53,60 @@ inline void add_dataset(hid_t file, const std::string& path, hid_t type,
   H5Sclose(space);
 }
 
-/// Replaces a dataset by a float64 one of the given shape and values.
+/// A text attribute of an object (fixed or variable length); "" when there is none.
+inline std::string read_text_attribute(hid_t file, const std::string& object,
+                                       const std::string& name) {
+  if (H5Aexists_by_name(file, object.c_str(), name.c_str(), H5P_DEFAULT) <= 0) return {};
+  const hid_t attribute =
+      H5Aopen_by_name(file, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t type = H5Aget_type(attribute);
+  std::string text;
+  if (H5Tget_class(type) == H5T_STRING) {
+    if (H5Tis_variable_str(type) > 0) {
+      char* raw = nullptr;
+      H5Aread(attribute, type, &raw);
+      text = raw != nullptr ? raw : "";
+      H5free_memory(raw);
+    } else {
+      text.assign(H5Tget_size(type), '\0');
+      H5Aread(attribute, type, text.data());
+      text.resize(std::strlen(text.c_str()));
+    }
+  }
+  H5Tclose(type);
+  H5Aclose(attribute);
+  return text;
+}
+
+/// A fixed-length text attribute.
+inline void set_text_attribute(hid_t file, const std::string& object, const std::string& name,
+                               const std::string& text);
+
+/// Replaces a dataset by a float64 one of the given shape and values. The replacement keeps the
+/// old dataset's description (schema version 2: units, columns, quantity), adapted to the new
+/// shape (generic column names c0, c1, …, and one unit for all when the count no longer fits), so
+/// that the readers' value rules — not the missing description — are what a drill meets.
 inline void replace_dataset(hid_t file, const std::string& path, const std::vector<hsize_t>& dims,
                             const std::vector<double>& values) {
+  std::string units = read_text_attribute(file, path, "units");
+  std::string columns = read_text_attribute(file, path, "columns");
+  const std::string quantity = read_text_attribute(file, path, "quantity");
   H5Ldelete(file, path.c_str(), H5P_DEFAULT);
   add_dataset(file, path, H5T_NATIVE_DOUBLE, dims, values.data());
+  const auto count = [](const std::string& list) {
+    return static_cast<hsize_t>(std::count(list.begin(), list.end(), ',') + 1);
+  };
+  if (dims.size() == 2 && !columns.empty() && count(columns) != dims[1]) {
+    columns.clear();
+    for (hsize_t c = 0; c < dims[1]; ++c) columns += (c == 0 ? "c" : ",c") + std::to_string(c);
+  }
+  const hsize_t entries = dims.size() == 2 ? dims[1] : (dims.empty() ? 1 : dims[0]);
+  if (!units.empty() && count(units) != 1 && count(units) != entries) {
+    units = units.substr(0, units.find(','));
+  }
+  if (!units.empty()) set_text_attribute(file, path, "units", units);
+  if (dims.size() == 2 && !columns.empty()) set_text_attribute(file, path, "columns", columns);
+  if (!quantity.empty()) set_text_attribute(file, path, "quantity", quantity);
 }
 
 /// Replaces (or adds) an attribute: a scalar of `type` from `value`, or a 1-D array of `count`.

@@ -7,11 +7,14 @@
 /// Every kind but the input estimator is a TrackFilter; the input estimator is one axis
 /// (InputEstimationFilter) and comes back as `axis`.
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
+#include <random>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -145,6 +148,24 @@ inline Eigen::Vector2d plausible_plot(const TrackOptions& options, std::int64_t 
     return {sigma(0) * (200.0 + 2.0 * t + 0.5 * std::sin(t)), 0.3 + sigma(1) * std::sin(0.7 * t)};
   }
   return {sigma(0) * (5.0 * t + 0.5 * std::sin(t)), sigma(1) * (2.0 * t + 0.5 * std::cos(t))};
+}
+
+/// A seeded track in the filter's measurement space: plausible_plot plus Gaussian noise of the
+/// options' R, a NaN plot at scan 30 and no plots for scans 41–43.
+inline std::vector<std::pair<std::int64_t, Eigen::Vector2d>> seeded_plots(
+    const TrackOptions& options, std::uint64_t seed, std::int64_t scans) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal;
+  const Eigen::Matrix2d L = options.measurement_covariance.llt().matrixL();
+  std::vector<std::pair<std::int64_t, Eigen::Vector2d>> plots;
+  for (std::int64_t k = 0; k < scans; ++k) {
+    if (k >= 41 && k <= 43) continue;
+    const double a = normal(rng), b = normal(rng);
+    Eigen::Vector2d z = plausible_plot(options, k) + L * Eigen::Vector2d(a, b);
+    if (k == 30) z(0) = std::numeric_limits<double>::quiet_NaN();
+    plots.emplace_back(k, z);
+  }
+  return plots;
 }
 
 /// Runs `scans` plausible plots through the model's filter (a Tracker for the track filters, the

@@ -41,9 +41,14 @@ struct Plan {
   fs::path dir, registry, plan, reports;
 };
 
-Plan write_plan(const testing::TempDir& dir, const std::string& extra_models = "") {
+// The tests' plans allow a trainer built from uncommitted code (a developer's build tree); the
+// refusal is tested on its own below.
+Plan write_plan(const testing::TempDir& dir, const std::string& extra_models = "",
+                bool allow_dirty_trainer = true) {
   Plan p{dir.path(), dir / "models", dir / "nightly.toml", dir / "nightly"};
   std::ofstream(p.plan) << "registry = \"" << p.registry.string() << "\"\n"
+                        << "allow_dirty_trainer = " << (allow_dirty_trainer ? "true" : "false")
+                        << "\n"
                         << extra_models
                         << "[[models]]\nname = \"cv3\"\ncommand = \"freeze\"\nconfig = \""
                         << (dir / "cv3.toml").string() << "\"\n"
@@ -129,6 +134,30 @@ TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
       run_tool("imm-inspect", {"--manifest", (p.registry / "manifest.json").string()}, {});
   EXPECT_EQ(table.exit_code, 0) << table.err;
   EXPECT_NE(table.out.find("| cv3 | plain_imm |  | cv3.h5 |"), std::string::npos) << table.out;
+}
+
+// A shipped model is never stamped by a build of uncommitted code: with the shipped plan's
+// default, such a candidate is not promoted and the morning report says why. Which of the two
+// this binary is decides the expectation: a clean build promotes, a dirty one is refused.
+TEST(NightlyProduct, ACandidateTrainedFromUncommittedCodeIsNotPromoted) {
+  const testing::TempDir dir;
+  write_cv3(dir / "cv3.toml", 1.0);
+  const Plan p = write_plan(dir, "", /*allow_dirty_trainer=*/false);
+  const auto version = run_tool("imm-train", {"--version"}, {});
+  ASSERT_EQ(version.exit_code, 0);
+  const bool dirty = version.out.find("-dirty)") != std::string::npos;
+  const auto run = nightly(p);
+  if (dirty) {
+    EXPECT_EQ(run.exit_code, 3) << run.err;
+    EXPECT_FALSE(fs::exists(p.registry / "cv3.h5"));
+    const std::string report = slurp(p.reports / "latest" / "index.md");
+    EXPECT_NE(report.find("uncommitted code"), std::string::npos) << report;
+  } else {
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_TRUE(fs::exists(p.registry / "cv3.h5"));
+    EXPECT_EQ(manifest(p)["models"][0]["trainer_version"].get<std::string>().find("-dirty"),
+              std::string::npos);
+  }
 }
 
 TEST(NightlyProduct, AFailingStageDoesNotStopTheOthers) {

@@ -171,7 +171,7 @@ TEST_F(Tools, ImmInspectPrintsTablesAndJson) {
   ASSERT_EQ(json.exit_code, 0);
   const auto document = nlohmann::json::parse(json.out);
   EXPECT_EQ(document["kind"], "plain_imm");
-  EXPECT_EQ(document["schema_version"], 1);
+  EXPECT_EQ(document["schema_version"], 2);
   EXPECT_EQ(document["objects"]["/imm/transition"]["shape"], nlohmann::json::array({3, 3}));
 }
 

@@ -57,6 +57,7 @@ NightlyStage make_stage(std::string kind, std::string name, std::string executab
 NightlyPlan plan_from(const support::ConfigTable& root) {
   NightlyPlan plan;
   plan.registry = root.text_or("registry", "models");
+  plan.allow_dirty_trainer = root.boolean_or("allow_dirty_trainer", false);
   for (const auto& entry : root.tables("data")) {
     const std::string out = entry.text("out");
     NightlyStage stage = make_stage("data", entry.text("name"), "imm-data");

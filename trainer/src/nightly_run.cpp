@@ -521,6 +521,14 @@ class Night {
     }
     try {
       RegistryEntry entry = describe_model(staging, plan_.registry, stage.name);
+      if (entry.trainer_version.ends_with("-dirty") && !plan_.allow_dirty_trainer) {
+        model.failed = true;
+        model.status = "not promoted";
+        model.message = "trained by a build of uncommitted code (trainer_version " +
+                        entry.trainer_version +
+                        "): shipped models come only from committed code; commit and rerun";
+        return conclude(model);
+      }
       entry.file = stage.out.lexically_relative(plan_.registry).generic_string();
       entry.inputs_digest = inputs;
       entry.metrics = headline_metrics(evaluations);

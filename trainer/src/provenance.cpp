@@ -35,6 +35,7 @@ void set_regime(io::Provenance& provenance, const datasets::Regime& regime) {
   provenance.regime_name = regime.name;
   provenance.regime_toml = regime.text;
   provenance.regime_digest = regime.digest;
+  provenance.length_unit = std::string(datasets::to_string(regime.units));
 }
 
 std::filesystem::path metrics_path(const std::filesystem::path& model_path) {

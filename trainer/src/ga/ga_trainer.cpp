@@ -202,15 +202,17 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
   io::Provenance provenance =
       make_provenance(std::string(io::kGaFuzzyImmKind), config.text,
                       static_cast<std::int64_t>(config.seed), digest.hex_digest(), config.regime);
-  std::vector<std::map<std::string, double>> level_metrics;
+  std::vector<std::vector<io::LevelMetric>> level_metrics;
   for (std::size_t i = 0; i < result.levels.size(); ++i) {
     const LevelResult& r = result.levels[i];
+    // Fitness and error (eq. 16–17, the error over σ_z) are dimensionless; rules and
+    // generations are counts.
     level_metrics.push_back({{"fitness", r.training.fitness},
                              {"error", r.training.error},
-                             {"rules", r.training.rules},
+                             {"rules", static_cast<std::int64_t>(r.training.rules)},
                              {"validation_error", r.validation.error},
-                             {"generations", r.generations},
-                             {"wall_seconds", r.wall_seconds}});
+                             {"generations", static_cast<std::int64_t>(r.generations)},
+                             {"wall_seconds", r.wall_seconds, "s"}});
     provenance.training_metrics["error_level" + std::to_string(i)] = r.training.error;
     provenance.validation_metrics["error_level" + std::to_string(i)] = r.validation.error;
   }

@@ -5,7 +5,7 @@
 ///   /ga_fuzzy_imm              @sample_period > 0, @measurement_sigma > 0, @transition_stay,
 ///                              @initial_first_probability, @level_count (1–8)
 ///   /ga_fuzzy_imm/level<i>     @name, @maneuver_level ≥ 0 (km/s² in seed 000), and any per-level
-///                              training metrics as reals (@fitness, @error, …)
+///                              training metrics (@fitness, @error, @rules, @generations, …)
 ///   /ga_fuzzy_imm/level<i>/rules   n × 5 (n = 1–50), columns c1, sigma1, c2, sigma2, w
 ///                              (residuals in measurement units, w in (unit/s²)²; σ > 0, w ≥ 0)
 
@@ -21,9 +21,16 @@ namespace imm::io {
 
 inline constexpr std::string_view kGaFuzzyImmKind = "ga_fuzzy_imm";
 
+/// A training metric stored on a level's group: a real with its units, or a count.
+struct LevelMetric {
+  std::string name;
+  Attribute value;
+  std::string units = "1";  ///< of a real value
+};
+
 /// Writes the spec; `level_metrics[i]` (optional) are stored on level i's group.
 void write_ga_fuzzy_imm(ModelFileWriter& writer, const GaFuzzyImmSpec& spec,
-                        const std::vector<std::map<std::string, double>>& level_metrics = {});
+                        const std::vector<std::vector<LevelMetric>>& level_metrics = {});
 
 [[nodiscard]] GaFuzzyImmSpec read_ga_fuzzy_imm(const ModelFileReader& reader);
 [[nodiscard]] GaFuzzyImmSpec read_ga_fuzzy_imm(const std::filesystem::path& path);

@@ -1,24 +1,31 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-/// The model-file schema (SPEC §5), one module for both sides: the trainer writes through
-/// ModelFileWriter, the runtime reads through ModelFileReader.
+/// The model-file schema (SPEC §5, docs/model-schema.md), one module for both sides: the trainer
+/// writes through ModelFileWriter, the runtime reads through ModelFileReader.
 ///
 /// A model file is a checked container (container_file.hpp) of format "immtrain-model" whose root
 /// attributes are:
-///   format = "immtrain-model", schema_version (integer, this reader: 1), model_kind,
-///   created_utc, trainer_version, seed, config_toml, dataset_digest,
-///   regime_name, regime_toml, regime_digest (the regime the model was trained for: what it is
-///   the frozen answer to; absent in files written before regimes),
+///   format = "immtrain-model", schema_version (integer; written: 2, read: 1 and 2), model_kind,
+///   created_utc, trainer_version, seed, config_toml, dataset_digest, length_unit ("m" | "km",
+///   version 2), regime_name, regime_toml, regime_digest (the regime the model was trained for:
+///   what it is the frozen answer to; absent in files written before regimes),
 ///   training.<metric> and validation.<metric> (reals).
-/// Kind-specific content lives in groups named by meaning (e.g. /imm/transition); a matrix
-/// dataset may carry a "columns" attribute naming its columns (comma-separated), which
-/// imm-inspect prints as table headers.
+/// Kind-specific content lives in groups named by meaning (e.g. /imm/transition).
+///
+/// Version 2 files describe themselves: every dataset carries `units` (one unit for every entry,
+/// or one per column of a matrix or entry of a vector, comma-separated; "1" is dimensionless) and
+/// every matrix `columns` (its column names, comma-separated); a covariance matrix carries
+/// `quantity = "covariance"` and the units of its variables (entry (i, j) is in unitᵢ·unitⱼ). Every
+/// group with real-valued attributes carries `units` = "name=unit,name=unit,…" naming each of them.
+/// Counts are integers and text is variable-length UTF-8. The reader checks all of that on a
+/// version-2 file.
 ///
 /// The reader refuses, with a FileError naming the file and the field: a foreign or corrupt
 /// file, another format or kind, a schema version newer than kModelSchemaVersion, a missing
-/// dataset or attribute, a wrong shape, and values that break the field's rule (NaN/Inf always;
-/// σ > 0, w ≥ 0 and probabilities where the schema says so). Older schema versions stay
-/// readable: kind readers branch on schema_version().
+/// dataset or attribute, a wrong shape, a version-2 file whose `units` or `columns` are missing
+/// or malformed, and values that break the field's rule (NaN/Inf always; σ > 0, w ≥ 0 and
+/// probabilities where the schema says so). Version-1 files (no units, no columns on most
+/// matrices, fixed-length strings) stay readable.
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -41,14 +48,16 @@ inline constexpr int kModelSchemaVersion = imm::kModelSchemaVersion;
 /// Where a model came from: the root attributes of SPEC §5.
 struct Provenance {
   std::string model_kind;
-  std::string created_utc;      ///< ISO 8601 UTC; the writer fills in "now" when empty
-  std::string trainer_version;  ///< git describe of the trainer that wrote the file
-  std::int64_t seed = 0;        ///< the training seed (0 for deterministic exports)
-  std::string config_toml;      ///< the full config text the model was trained from
-  std::string dataset_digest;   ///< SHA-256 of the training data ("" when there is none)
-  std::string regime_name;      ///< the regime trained for ("" when none is recorded)
-  std::string regime_toml;      ///< its full text
-  std::string regime_digest;    ///< SHA-256 of the regime (imm/datasets/regime.hpp)
+  std::string created_utc;        ///< ISO 8601 UTC; the writer fills in "now" when empty
+  std::string trainer_version;    ///< git describe of the trainer that wrote the file
+  std::int64_t seed = 0;          ///< the training seed (0 for deterministic exports)
+  std::string config_toml;        ///< the full config text the model was trained from
+  std::string dataset_digest;     ///< SHA-256 of the training data ("" when there is none)
+  std::string regime_name;        ///< the regime trained for ("" when none is recorded)
+  std::string regime_toml;        ///< its full text
+  std::string regime_digest;      ///< SHA-256 of the regime (imm/datasets/regime.hpp)
+  std::string length_unit = "m";  ///< unit of every length in the file ("m" | "km"); "" when a
+                                  ///< version-1 file does not say
   std::map<std::string, double> training_metrics;
   std::map<std::string, double> validation_metrics;
 };
@@ -56,26 +65,60 @@ struct Provenance {
 /// The current time as ISO 8601 UTC, e.g. "2026-11-22T00:18:36Z".
 [[nodiscard]] std::string utc_now();
 
+/// Names of the units a model file's values are in, built from its length unit (times in s).
+struct UnitNames {
+  std::string length = "m";
+  [[nodiscard]] std::string speed() const { return length + "/s"; }
+  [[nodiscard]] std::string acceleration() const { return length + "/s^2"; }
+  /// Variance of a position.
+  [[nodiscard]] std::string area() const { return length + "^2"; }
+  /// Variance of an acceleration (the piecewise-constant white-acceleration noise q).
+  [[nodiscard]] std::string acceleration_variance() const { return length + "^2/s^4"; }
+  /// Power spectral density of a continuous white acceleration (the continuous-noise q).
+  [[nodiscard]] std::string acceleration_density() const { return length + "^2/s^3"; }
+};
+
+/// The dimensionless unit.
+inline constexpr std::string_view kDimensionless = "1";
+
 class ModelFileWriter {
  public:
   /// Starts a model file at `path` (written atomically on commit()). Throws FileError when the
-  /// kind is empty or the folder is missing.
+  /// kind is empty, the length unit is not "m" or "km", or the folder is missing.
   ModelFileWriter(const std::filesystem::path& path, Provenance provenance);
 
-  /// Writes a matrix dataset; `columns` (optional) names its columns.
-  void write_matrix(std::string_view dataset, const Eigen::MatrixXd& matrix,
-                    const std::vector<std::string>& columns = {});
-  void write_vector(std::string_view dataset, const Eigen::VectorXd& vector);
-  void set_attribute(std::string_view object, std::string_view name, const Attribute& value);
+  /// The units of this file's values.
+  [[nodiscard]] const UnitNames& units() const { return units_; }
 
-  /// Writes the provenance and renames the file into place.
+  /// Writes a matrix dataset with its column names and `units` (one for every entry, or one per
+  /// column, comma-separated). Throws FileError when the counts disagree.
+  void write_matrix(std::string_view dataset, const Eigen::MatrixXd& matrix,
+                    const std::vector<std::string>& columns, std::string_view units);
+  /// Writes a covariance matrix of the named variables, whose units are `variable_units` (one per
+  /// variable, comma-separated): entry (i, j) is in unitᵢ·unitⱼ.
+  void write_covariance(std::string_view dataset, const Eigen::MatrixXd& covariance,
+                        const std::vector<std::string>& variables, std::string_view variable_units);
+  /// Writes a vector dataset whose entries are in `units` (one for all, or one per entry).
+  void write_vector(std::string_view dataset, const Eigen::VectorXd& vector,
+                    std::string_view units);
+  /// Sets a text or integer attribute. A real attribute needs its units (set_quantity), except on
+  /// the root; this throws FileError naming the attribute when one is given here.
+  void set_attribute(std::string_view object, std::string_view name, const Attribute& value);
+  /// Sets a real attribute and records its units in the object's `units` attribute.
+  void set_quantity(std::string_view object, std::string_view name, double value,
+                    std::string_view units);
+
+  /// Writes the provenance and the groups' `units`, and renames the file into place.
   void commit();
 
   [[nodiscard]] ContainerWriter& container() { return container_; }
 
  private:
   Provenance provenance_;
+  UnitNames units_;
   ContainerWriter container_;
+  /// Per object, "name=unit" of its real attributes, in the order they were set.
+  std::map<std::string, std::vector<std::pair<std::string, std::string>>> attribute_units_;
 };
 
 /// Reads a model file: a SchemaReader that has also checked the format, the schema version and the
@@ -89,6 +132,8 @@ class ModelFileReader : public SchemaReader {
   [[nodiscard]] int schema_version() const { return schema_version_; }
 
  private:
+  void check_self_description() const;
+
   Provenance provenance_;
   int schema_version_ = 0;
 };

@@ -60,7 +60,13 @@ class SchemaReader {
   [[noreturn]] void fail_spec(std::string_view group, const InvalidParameter& error,
                               std::initializer_list<std::string_view> datasets) const;
 
+ protected:
+  /// From here on, real() requires the units of every real attribute it reads outside the root
+  /// in its object's `units` attribute (model-file schema version 2).
+  void require_attribute_units() { require_attribute_units_ = true; }
+
  private:
+  bool require_attribute_units_ = false;
   ContainerReader container_;
 };
 

@@ -51,6 +51,10 @@ struct NightlyStage {
 
 struct NightlyPlan {
   std::filesystem::path registry = "models";
+  /// Promote candidates trained by a build of a tree with uncommitted changes (trainer_version
+  /// "…-dirty"). Off: shipped models come only from committed code. For trying a plan on
+  /// uncommitted code (the nightly's own tests), never in the shipped plan.
+  bool allow_dirty_trainer = false;
   std::vector<NightlyStage> stages;
   /// The evaluations of a model stage.
   [[nodiscard]] std::vector<const NightlyStage*> evaluations_of(const std::string& model) const;
