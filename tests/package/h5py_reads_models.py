@@ -82,10 +82,9 @@ def check(path):
 
 
 def main():
-    folder = pathlib.Path(sys.argv[1])
-    files = sorted(folder.glob("*.h5"))
+    files = sorted(f for folder in sys.argv[1:] for f in pathlib.Path(folder).glob("*.h5"))
     if not files:
-        print(f"no model files in {folder}")
+        print(f"no model files in {' '.join(sys.argv[1:])}")
         return 1
     problems = [p for path in files for p in check(path)]
     for p in problems:

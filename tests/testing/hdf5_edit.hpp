@@ -113,7 +113,7 @@ inline void replace_dataset(hid_t file, const std::string& path, const std::vect
 inline void set_attribute(hid_t file, const std::string& object, const std::string& name,
                           hid_t type, const void* value, hsize_t count = 0) {
   const hid_t handle = H5Oopen(file, object.c_str(), H5P_DEFAULT);
-  H5Adelete(handle, name.c_str());
+  if (H5Aexists(handle, name.c_str()) > 0) H5Adelete(handle, name.c_str());
   const hid_t space = count == 0 ? H5Screate(H5S_SCALAR) : H5Screate_simple(1, &count, nullptr);
   const hid_t attribute = H5Acreate2(handle, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT);
   H5Awrite(attribute, type, value);

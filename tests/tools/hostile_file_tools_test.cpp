@@ -86,7 +86,7 @@ TEST(SealAndVerify, AnEditedModelIsReSealedOnlyWhenItStillReads) {
   };
   const auto intact = verify();
   EXPECT_EQ(intact.exit_code, 0) << intact.err;
-  EXPECT_NE(intact.out.find(": ok (immtrain-model, schema 1, plain_imm"), std::string::npos)
+  EXPECT_NE(intact.out.find(": ok (immtrain-model, schema 2, plain_imm"), std::string::npos)
       << intact.out;
 
   const auto edit = [&](const std::vector<double>& covariance) {

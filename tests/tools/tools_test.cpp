@@ -39,6 +39,19 @@ std::vector<std::string> fields_of(const std::string& line) {
   return fields;
 }
 
+// The experiment's own tables of an imm-eval folder's metrics.json (its "results"), after checking
+// the shape every experiment shares (evaluation_report.hpp).
+nlohmann::json evaluation_results(const std::filesystem::path& out) {
+  const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+  EXPECT_EQ(metrics.value("format", ""), "immtrain-evaluation");
+  for (const char* key :
+       {"experiment", "command", "regime", "runs", "seed", "models", "definitions", "results"}) {
+    EXPECT_TRUE(metrics.contains(key)) << key;
+  }
+  EXPECT_FALSE(metrics["definitions"].empty());
+  return metrics["results"];
+}
+
 class Tools : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -217,7 +230,7 @@ TEST_F(Tools, PlainImmEvaluationWritesMetricsAndBeatsEachModeAlone) {
       {"plain-imm", "--models", (dir_ / "models").string(), "--runs", "30", "--out", out.string()},
       root_);
   ASSERT_EQ(result.exit_code, 0) << result.err;
-  const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+  const auto metrics = evaluation_results(out);
   ASSERT_EQ(metrics["rows"].size(), 4u);
   const double imm_zeta_p = metrics["rows"][0]["zeta_p"];
   for (std::size_t i = 1; i < 4; ++i) {
@@ -226,6 +239,38 @@ TEST_F(Tools, PlainImmEvaluationWritesMetricsAndBeatsEachModeAlone) {
   }
   EXPECT_TRUE(std::filesystem::exists(out / "normalized_position_error.csv"));
   EXPECT_TRUE(std::filesystem::exists(out / "mode_probabilities.csv"));
+
+  // metrics.json names the model it evaluated, byte for byte.
+  const auto document = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+  const auto& evaluated = document["models"][0];
+  EXPECT_EQ(evaluated["role"], "evaluated");
+  EXPECT_EQ(evaluated["sha256"],
+            run_tool("/usr/bin/sha256sum", {model.string()}, {}).out.substr(0, 64));
+  EXPECT_EQ(evaluated["kind"], "plain_imm");
+  EXPECT_EQ(document["runs"], 30);
+  // report.md: readable alone — the command, the model with its trainer version and digest, the
+  // definitions with units, then the tables.
+  const std::string report = testing::slurp(out / "report.md");
+  for (const std::string& expected :
+       {std::string("# imm-eval plain-imm"), std::string("--runs 30"), std::string("## Models"),
+        evaluated["trainer_version"].get<std::string>(),
+        evaluated["sha256"].get<std::string>().substr(0, 16), std::string("| ζ_p | 1 |"),
+        std::string("| position RMSE | km |"), std::string("## Results"),
+        std::string("IMM − this ζ_p [95 %]")}) {
+    EXPECT_NE(report.find(expected), std::string::npos) << expected << "\n" << report;
+  }
+  // The plot scripts name their files relative to the folder: moved elsewhere, a script still
+  // draws its PNG there, with the runs and the model named.
+  const std::string script = testing::slurp(out / "normalized_position_error.gp");
+  EXPECT_EQ(script.find(out.string()), std::string::npos) << script;
+  EXPECT_NE(script.find("30 runs, seed 1, model cv3_imm.h5"), std::string::npos) << script;
+  const auto moved = dir_ / "moved";
+  std::filesystem::rename(out, moved);
+  std::filesystem::remove(moved / "normalized_position_error.png");
+  const auto gnuplot = run_tool("/usr/bin/gnuplot", {"normalized_position_error.gp"}, moved);
+  if (gnuplot.exit_code == 0) {
+    EXPECT_TRUE(std::filesystem::exists(moved / "normalized_position_error.png"));
+  }
 }
 
 // A real kill (SIGKILL) in the middle of training, then --resume: the same model as an
@@ -274,7 +319,7 @@ TEST_F(Tools, GaImmEvaluationReportsTable3ForEveryFilter) {
                                root_);
   ASSERT_TRUE(result.exit_code == 0 || result.exit_code == 5) << result.err;
   EXPECT_NE(result.out.find("| GA-IMM-paper "), std::string::npos) << result.out;
-  const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+  const auto metrics = evaluation_results(out);
   for (const char* name : {"AIMM3", "AIMM5", "AIMM-tuned", "IMM-tuned", "GA-IMM-paper", "GA-IMM"}) {
     ASSERT_TRUE(metrics.contains(name)) << name;
     EXPECT_GT(metrics[name]["zeta_p"].get<double>(), 0.0);
@@ -316,7 +361,7 @@ TEST_F(Tools, WimmTrainingAndEvaluationEndToEnd) {
   ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 5) << evaluated.err;
   EXPECT_NE(evaluated.out.find("cannot come from plots"), std::string::npos);
   EXPECT_NE(evaluated.out.find("off its training maneuvers"), std::string::npos);
-  const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+  const auto metrics = evaluation_results(out);
   for (const char* scenario : {"scenario 1", "scenario 2"}) {
     for (const char* filter : {"nIMM", "wIMM", "nIMM-tuned"}) {
       ASSERT_TRUE(metrics[scenario].contains(filter)) << scenario << " " << filter;
@@ -374,7 +419,7 @@ TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
       root_);
   ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 5) << evaluated.err;
   EXPECT_NE(evaluated.out.find("FCM-IMM-const"), std::string::npos);
-  const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+  const auto metrics = evaluation_results(out);
   ASSERT_EQ(metrics.size(), 5u);
   for (const char* filter : {"KF", "AIMM", "IMM-tuned", "FCM-IMM", "FCM-IMM-const"}) {
     ASSERT_TRUE(metrics.contains(filter)) << filter;
@@ -441,7 +486,7 @@ TEST_F(Tools, TskTrainingAndFimmEvaluationEndToEnd) {
                  root_);
     ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 5) << evaluated.err;
     EXPECT_NE(evaluated.out.find("clamped"), std::string::npos) << evaluated.out;
-    const auto metrics = nlohmann::json::parse(testing::slurp(out / "metrics.json"));
+    const auto metrics = evaluation_results(out);
     ASSERT_EQ(metrics["rows"].size(), 4u);
     const double expected_r[4] = {0.01, 0.25, 1.0, 4.0};
     for (std::size_t i = 0; i < 4; ++i) {

@@ -9,6 +9,7 @@
 #include "imm/support/config.hpp"
 #include "imm/trainer/freeze.hpp"
 #include "imm/trainer/nightly.hpp"
+#include "imm/trainer/promote.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/registry.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
@@ -207,6 +208,53 @@ TEST(Registry, RepairMakesTheShippedFilesTheManifests) {
   (void)registry.rollback("cv3");
   EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(first));
   EXPECT_EQ(Registry(models).find("cv3")->sha256, datasets::file_sha256_hex(first));
+}
+
+// The plain IMM of configs/track/cv3_imm.toml written with the given trainer version.
+void write_cv3_stamped(const std::filesystem::path& out, const std::string& trainer_version,
+                       const testing::TempDir& dir) {
+  const auto frozen = dir / "frozen.h5";
+  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", frozen, {}});
+  const io::ModelFileReader reader(frozen);
+  io::Provenance provenance = reader.provenance();
+  provenance.trainer_version = trainer_version;
+  io::ModelFileWriter writer(out, provenance);
+  io::write_plain_imm(writer, io::read_plain_imm(reader));
+  writer.commit();
+}
+
+// imm-train promote: a deliberate promotion past the gates ships the file with its reason in the
+// manifest; a file from uncommitted code, an empty reason or a file that does not read are refused
+// and leave the registry as it was.
+TEST(Registry, PromotionByHandRecordsItsReasonAndRefusesUncommittedCode) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  std::filesystem::create_directories(models);
+  const auto clean = dir / "clean.h5", dirty = dir / "dirty.h5";
+  write_cv3_stamped(clean, "f92683f", dir);
+  write_cv3_stamped(dirty, "f92683f-dirty", dir);
+
+  const auto refused = [&](const PromoteOptions& options, const std::string& expected) {
+    try {
+      (void)promote_by_hand(options);
+      ADD_FAILURE() << "promoted " << options.file;
+    } catch (const std::exception& error) {
+      EXPECT_NE(std::string(error.what()).find(expected), std::string::npos) << error.what();
+    }
+    EXPECT_FALSE(std::filesystem::exists(models / "cv3.h5"));
+  };
+  refused({dirty, "cv3", "schema 2", models}, "uncommitted code");
+  refused({clean, "cv3", "  ", models}, "--reason");
+  testing::write_text(dir / "broken.h5", "not a model");
+  refused({dir / "broken.h5", "cv3", "schema 2", models}, "broken.h5");
+
+  const RegistryEntry entry = promote_by_hand({clean, "cv3", "schema 2 rewrite", models});
+  EXPECT_EQ(entry.file, "cv3.h5");
+  EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(clean));
+  const Registry reloaded(models);
+  ASSERT_NE(reloaded.find("cv3"), nullptr);
+  EXPECT_EQ(reloaded.find("cv3")->promotion_reason, "schema 2 rewrite");
+  EXPECT_EQ(reloaded.find("cv3")->trainer_version, "f92683f");
 }
 
 TEST(Registry, AHostileManifestIsRefusedNamingTheField) {

@@ -221,6 +221,14 @@ int print_manifest(const std::string& path) {
         std::cout << " | " << value.value("versus_previous", std::string("–")) << " |\n";
       }
     }
+    bool header = false;
+    for (const json& e : manifest.at("models")) {
+      const std::string reason = e.value("promotion_reason", "");
+      if (reason.empty()) continue;
+      if (!header) std::cout << "\nPromoted by hand, past the nightly's gates:\n";
+      header = true;
+      std::cout << "- " << e.at("name").get<std::string>() << ": " << reason << '\n';
+    }
   } catch (const json::exception& error) {
     std::cerr << "imm-inspect: " << path << ": not a model manifest (" << error.what() << ")\n";
     return 2;

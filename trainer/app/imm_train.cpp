@@ -18,6 +18,8 @@
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
 //   imm-train all --config configs/nightly.toml [--force] [--night NAME] [--reports DIR]
 //   imm-train rollback KIND [REGIME] [--registry models]
+//   imm-train promote FILE --name NAME --reason TEXT [--registry models]
+//   imm-train seal FILE
 //
 // Progress goes to stderr (spdlog). Exit codes: 0 model written (or every nightly candidate
 // promoted or unchanged), 1 usage, 2 invalid config or input, 3 a nightly stage failed, 4 the
@@ -43,6 +45,7 @@
 #include "imm/trainer/import_rules.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/nightly.hpp"
+#include "imm/trainer/promote.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/registry.hpp"
 #include "imm/trainer/seal.hpp"
@@ -283,6 +286,16 @@ int main(int argc, char** argv) {
       "re-seal a model file edited with other tools (h5py), after checking that it still reads");
   seal_command->add_option("file", seal_path, "model file")->required();
 
+  imm::trainer::PromoteOptions promote_options;
+  auto* promote_command = app.add_subcommand(
+      "promote",
+      "ship a model file past the nightly's gates, deliberately, with the reason recorded");
+  promote_command->add_option("file", promote_options.file, "model file")->required();
+  promote_command->add_option("--name", promote_options.name, "registry entry (nightly stage name)")
+      ->required();
+  promote_command->add_option("--reason", promote_options.reason, "why, in a sentence")->required();
+  promote_command->add_option("--registry", promote_options.registry, "registry folder");
+
   std::string rollback_kind, rollback_regime;
   std::filesystem::path rollback_registry = "models";
   auto* rollback_command = app.add_subcommand(
@@ -419,6 +432,12 @@ int main(int argc, char** argv) {
     }
     if (*all_command) return run_all(nightly);
     if (*rollback_command) return run_rollback(rollback_kind, rollback_regime, rollback_registry);
+    if (*promote_command) {
+      const auto entry = imm::trainer::promote_by_hand(promote_options);
+      spdlog::info("promoted {} as {} ({}, sha256 {}): {}", promote_options.file.string(),
+                   entry.name, entry.file, entry.sha256.substr(0, 12), entry.promotion_reason);
+      return 0;
+    }
     if (*seal_command) {
       const auto sealed = imm::trainer::seal_model_file(seal_path);
       if (sealed.before != "intact") spdlog::warn("before sealing: {}", sealed.before);

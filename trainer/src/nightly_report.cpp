@@ -215,7 +215,14 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
       continue;
     }
     if (o.kind != "evaluation") continue;
-    const std::string tables = read_or_empty(o.report / "report.md");
+    // The evaluation's report.md, its headings nested under this section's.
+    std::string tables;
+    {
+      std::istringstream lines(read_or_empty(o.report / "report.md"));
+      for (std::string line; std::getline(lines, line);) {
+        tables += (line.starts_with("#") ? "###" : "") + line + "\n";
+      }
+    }
     const std::string regression = read_or_empty(o.report / "regression.json").empty()
                                        ? std::string()
                                        : read_or_empty(o.report / "regression.json");

@@ -452,14 +452,12 @@ class Night {
       o.report = e->out;
       fs::create_directories(e->out);
       fs::remove(e->out / "regression.json");
+      fs::remove(e->out / "report.md");  // imm-eval writes it (headings, models, definitions)
       const auto candidate_arguments = evaluation_arguments(*e, staging, e->out, std::nullopt);
       o.command = command_line(tool(*e), candidate_arguments);
       o.log = log_stem("evaluation_" + e->name + "_" + e->out.filename().string() +
                        e->out.parent_path().filename().string());
       o.exit_code = spawn(tool(*e), candidate_arguments, o.log, o.wall_seconds);
-      std::error_code ignored;
-      fs::copy_file(o.log.string() + ".out", e->out / "report.md",
-                    fs::copy_options::overwrite_existing, ignored);
       if (o.exit_code == kExitGateFailed) {
         o.failed = true;
         o.status = "gate failed";

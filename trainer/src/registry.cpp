@@ -28,6 +28,7 @@ nlohmann::json to_json(const RegistryEntry& e) {
                       {"inputs_digest", e.inputs_digest},
                       {"promoted_utc", e.promoted_utc},
                       {"metrics", e.metrics}};
+  if (!e.promotion_reason.empty()) j["promotion_reason"] = e.promotion_reason;
   if (!e.history.empty()) {
     j["history"] = nlohmann::json::array();
     for (const RegistryEntry& h : e.history) j["history"].push_back(to_json(h));
@@ -51,6 +52,7 @@ RegistryEntry from_json(const nlohmann::json& j, const std::string& where) {
     e.inputs_digest = j.value("inputs_digest", "");
     e.promoted_utc = j.value("promoted_utc", "");
     e.metrics = j.value("metrics", nlohmann::json::object());
+    e.promotion_reason = j.value("promotion_reason", "");
     if (j.contains("history")) {
       for (const auto& h : j.at("history")) e.history.push_back(from_json(h, where + ".history"));
     }

@@ -13,18 +13,14 @@
 #include "imm/load.hpp"
 
 namespace imm::trainer {
-namespace {
 
-// The kind reader and, for the kinds the runtime loads, the filter built from it.
-std::string check_model(const std::filesystem::path& path) {
+std::string check_model_file(const std::filesystem::path& path) {
   const io::ModelFileReader reader(path);
   std::string kind = reader.provenance().model_kind;
   const auto& kinds = loadable_model_kinds();
   if (std::find(kinds.begin(), kinds.end(), kind) != kinds.end()) (void)load_filter(reader);
   return kind;
 }
-
-}  // namespace
 
 SealResult seal_model_file(const std::filesystem::path& path) {
   std::error_code error;
@@ -33,7 +29,7 @@ SealResult seal_model_file(const std::filesystem::path& path) {
   }
   SealResult result;
   try {
-    (void)check_model(path);
+    (void)check_model_file(path);
     result.before = "intact";
   } catch (const std::exception& problem) {
     result.before = problem.what();
@@ -49,7 +45,7 @@ SealResult seal_model_file(const std::filesystem::path& path) {
   std::filesystem::copy_file(path, temp, std::filesystem::copy_options::overwrite_existing);
   try {
     io::seal_container(temp, io::kModelFormat);
-    result.kind = check_model(temp);
+    result.kind = check_model_file(temp);
     result.sha256 = datasets::file_sha256_hex(temp);
     std::filesystem::rename(temp, path);
   } catch (const io::FileError& problem) {  // named after the file the user gave

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// One entry point from a model file to a running filter, for every model kind:
 ///
 ///   imm::Tracker tracker = imm::load_tracker("models/ga_fuzzy_imm.h5");

@@ -21,6 +21,7 @@
 #include <sstream>
 
 #include "imm/datasets/random.hpp"
+#include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/report.hpp"
@@ -32,6 +33,21 @@
 
 namespace imm::evaluation {
 namespace {
+
+// The columns of the tables, for metrics.json and report.md.
+std::vector<MetricDefinition> definitions(const std::string& length) {
+  return {
+      {"IMM, FIMM (EKF), FIMM (IEKF)", length + "^2",
+       "position MSE: ξ and η errors squared and summed, from scan 3 on, over tracks"},
+      {"EKF − IMM, IEKF − IMM [95 %]", length + "^2",
+       "MSE difference with its 95 % paired-bootstrap interval over tracks"},
+      {"paper IMM, paper FIMM", length + "^2", "seed 002's Table 1"},
+      {"NEES", "1", "mean position NEES (2 when consistent)"},
+      {"clamped", "1", "share of FIMM steps whose estimate lay outside the sensor model's box"},
+      {"flat, elsewhere", length + "^2",
+       "MSE where the true sensor's range slope is flat, and elsewhere"},
+  };
+}
 
 constexpr int kFirstScoredScan = 2;
 constexpr double kMaxClampedShare = 0.05;
@@ -270,12 +286,12 @@ int run(const FimmOptions& options) {
                        {"model_regime", regimes.trained.regime.name},
                        {"off_training", regimes.off_training()}};
   details["fimm"] = settings.str();
-  trainer::write_json_atomically(out / "metrics.json", metrics);
+  const HeadlineRuns evaluated{"fimm",        model_path,          regime.name,
+                               regime.digest, options.common.seed, static_cast<int>(all_runs)};
+  write_metrics(out, evaluated, definitions(std::string(datasets::to_string(regime.units))),
+                metrics);
   trainer::write_json_atomically(out / "details.json", details);
-  write_headline(out,
-                 {"fimm", model_path, regime.name, regime.digest, options.common.seed,
-                  static_cast<int>(all_runs)},
-                 headline);
+  write_headline(out, evaluated, headline);
   write_series_csv(out / "mse_by_scan.csv", by_scan_names, by_scan);
 
   // The fitted sensor against the true one along the road (ξ = 0) and at the start's lateral

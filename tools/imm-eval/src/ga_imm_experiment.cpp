@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "imm/evaluation/baseline_tuning.hpp"
+#include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
@@ -231,9 +232,14 @@ int run(const GaImmOptions& options) {
   std::filesystem::create_directories(out);
   nlohmann::json metrics;
   for (const auto& f : filters) metrics[f.name] = {{"zeta_p", f.zeta_p}, {"zeta_v", f.zeta_v}};
-  trainer::write_json_atomically(out / "metrics.json", metrics);
-  write_headline(out, {"ga-imm", model_path, regime.name, regime.digest, options.common.seed, runs},
-                 ours.zeta_headline());
+  const HeadlineRuns evaluated{"ga-imm",      model_path,          regime.name,
+                               regime.digest, options.common.seed, runs};
+  std::vector<ModelUse> more_models;
+  if (std::filesystem::exists(paper_path)) more_models.push_back({"paper rules", paper_path});
+  write_metrics(out, evaluated,
+                normalized_error_definitions(std::string(datasets::to_string(regime.units))),
+                metrics, more_models);
+  write_headline(out, evaluated, ours.zeta_headline());
   nlohmann::json details;
   details["regime"] = {{"name", regime.name},
                        {"digest", regime.digest},

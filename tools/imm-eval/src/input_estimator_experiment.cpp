@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "imm/datasets/axis_trajectory.hpp"
+#include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/report.hpp"
@@ -23,6 +24,20 @@
 
 namespace imm::evaluation {
 namespace {
+
+// The columns of the tables, for metrics.json and report.md.
+std::vector<MetricDefinition> definitions(const std::string& length) {
+  return {
+      {"innov CV, innov corrected", length + "^2",
+       "MSE of the innovation of the CV KF and of the primary KF corrected by û"},
+      {"pos CV, pos corrected", length + "^2", "position MSE of the two"},
+      {"vel CV, vel corrected", "(" + length + "/s)^2", "velocity MSE of the two"},
+      {"ratio", "1", "corrected / CV"},
+      {"beats", "–",
+       "whether the corrected KF is below the CV KF beyond the 95 % paired-bootstrap interval"},
+      {"pos, true input (floor)", length + "^2", "the primary KF fed the true acceleration"},
+  };
+}
 
 constexpr double kRequiredShare = 0.9;
 constexpr const char* kQuantity[3] = {"innovation", "position", "velocity"};
@@ -201,11 +216,11 @@ int run(const CommonOptions& options) {
                        {"off_training", regimes.off_training()}};
   metrics["wins"] = wins;
   metrics["cells"] = cells;
-  trainer::write_json_atomically(out / "metrics.json", metrics);
-  write_headline(out,
-                 {"input-estimator", model_path, regime.name, regime.digest, options.seed,
-                  static_cast<int>(axes.size())},
-                 corrected_headline(cases));
+  const HeadlineRuns evaluated{"input-estimator", model_path,   regime.name,
+                               regime.digest,     options.seed, static_cast<int>(axes.size())};
+  write_metrics(out, evaluated, definitions(std::string(datasets::to_string(regime.units))),
+                metrics);
+  write_headline(out, evaluated, corrected_headline(cases));
 
   // Fig. 4 and 5 of the seed: true vs estimated acceleration and the position RMSE over time, for
   // the first case and the middle one.

@@ -10,7 +10,8 @@
 // tools/imm-eval/src/; `imm-eval <experiment> --help` lists its own options). Without --regime the
 // model is evaluated on the regime recorded in it.
 //
-// Every experiment also writes headline.json: its headline metrics with their per-run terms.
+// Every experiment writes metrics.json in one shape and report.md (evaluation_report.hpp), and
+// headline.json: its headline metrics with their per-run terms.
 //   imm-eval regression --candidate DIR --shipped DIR [--out DIR]
 // compares two such evaluations on the same runs (the nightly's regression gate).
 //
@@ -20,7 +21,9 @@
 // the Monte Carlo uncertainty.
 
 #include <CLI/CLI.hpp>
+#include <iostream>
 
+#include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/support/cli.hpp"
@@ -37,6 +40,14 @@ int main(int argc, char** argv) {
   imm::evaluation::add_fcm_imm_command(app, exit_code);
   imm::evaluation::add_fimm_command(app, exit_code);
   imm::evaluation::add_regression_command(app, exit_code);
+  // Everything an experiment prints also goes into its folder's report.md.
+  imm::evaluation::ReportRecorder recorder(argc, argv);
   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
+  try {
+    (void)recorder.finish();
+  } catch (const std::exception& error) {
+    std::cerr << "imm-eval: report.md: " << error.what() << '\n';
+    return 2;
+  }
   return exit_code;
 }

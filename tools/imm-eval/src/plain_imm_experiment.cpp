@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "imm/datasets/dataset_file.hpp"
+#include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
@@ -56,6 +57,7 @@ int run(const PlainImmOptions& options) {
   const PlainImmSpec spec = io::read_plain_imm(model);
   datasets::TrackSet data;
   std::string source;
+  std::string length = "the data set's length unit";
   if (!options.data.empty()) {
     datasets::TrackSetFile stored = datasets::read_track_set(options.data);
     data = std::move(stored.set);
@@ -65,6 +67,7 @@ int run(const PlainImmOptions& options) {
     const support::RegimeFile regime = load_regime_option(
         options.common.regime.value_or("configs/regimes/paper/ga_imm_table3.toml"));
     data = test_tracks(regime.regime, options.common);
+    length = std::string(datasets::to_string(regime.regime.units));
     source =
         "regime " + regime.regime.name + " test split, seed " + std::to_string(options.common.seed);
   }
@@ -118,9 +121,9 @@ int run(const PlainImmOptions& options) {
                                {"velocity_rmse", f.velocity_rmse},
                                {"rejected_steps", f.rejected_steps}});
   }
-  trainer::write_json_atomically(out / "metrics.json", metrics);
-  write_headline(out, {"plain-imm", model, data.regime, data.digest(), data.seed, runs},
-                 filters.front().zeta_headline());
+  const HeadlineRuns evaluated{"plain-imm", model, data.regime, data.digest(), data.seed, runs};
+  write_metrics(out, evaluated, normalized_error_definitions(length), metrics);
+  write_headline(out, evaluated, filters.front().zeta_headline());
   bool plotted = write_error_series(filters, data.scans, out);
   plotted &= write_mode_probabilities(filters.front(), out, "mode_probabilities");
   std::cout << "\nwrote " << (out / "metrics.json").string() << ", CSV series"

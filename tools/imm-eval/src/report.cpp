@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/evaluation/report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "imm/evaluation/monte_carlo.hpp"
@@ -73,37 +75,99 @@ void write_series_csv(const std::filesystem::path& path, const std::vector<std::
   }
 }
 
+namespace {
+
+// The medians of the positive values of the named CSV columns (NaN: no positive value).
+std::vector<double> column_medians(const std::filesystem::path& csv,
+                                   const std::vector<std::string>& names) {
+  std::ifstream in(csv);
+  std::string line;
+  std::vector<double> medians(names.size(), std::numeric_limits<double>::quiet_NaN());
+  if (!std::getline(in, line)) return medians;
+  std::vector<std::string> header;
+  {
+    std::stringstream row(line);
+    for (std::string cell; std::getline(row, cell, ',');) header.push_back(cell);
+  }
+  std::vector<std::vector<double>> values(names.size());
+  while (std::getline(in, line)) {
+    std::stringstream row(line);
+    std::size_t column = 0;
+    for (std::string cell; std::getline(row, cell, ','); ++column) {
+      if (column >= header.size() || cell.empty()) continue;
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        if (header[column] != names[i]) continue;
+        const double v = std::strtod(cell.c_str(), nullptr);
+        if (v > 0.0 && std::isfinite(v)) values[i].push_back(v);
+      }
+    }
+  }
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    auto& v = values[i];
+    if (v.empty()) continue;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    medians[i] = v[v.size() / 2];
+  }
+  return medians;
+}
+
+std::string& caption_text() {
+  static std::string caption;
+  return caption;
+}
+
+}  // namespace
+
+const std::string& plot_caption() { return caption_text(); }
+void set_plot_caption(std::string caption) { caption_text() = std::move(caption); }
+
 bool plot_series(const PlotSpec& spec) {
-  const auto script_path = spec.png.parent_path() / (spec.png.stem().string() + ".gp");
+  const std::filesystem::path folder =
+      spec.png.parent_path().empty() ? std::filesystem::path(".") : spec.png.parent_path();
+  const auto script_path = folder / (spec.png.stem().string() + ".gp");
+  const std::string csv = spec.csv.lexically_relative(folder).generic_string();
+  // One series dominating (a diverging baseline) would flatten the others: log scale then.
+  bool logarithmic = false;
+  if (spec.x_series.empty()) {
+    double low = std::numeric_limits<double>::infinity(), high = 0.0;
+    bool all_positive = true;
+    for (double m : column_medians(spec.csv, spec.series)) {
+      if (!(m > 0.0)) all_positive = false;
+      low = std::min(low, m), high = std::max(high, m);
+    }
+    logarithmic = all_positive && spec.series.size() > 1 && high > 30.0 * low;
+  }
   {
     std::ofstream script(script_path);
-    script << "set terminal pngcairo size 900,500 noenhanced\n"
-           << "set output '" << spec.png.string() << "'\n"
+    std::string title = spec.title;
+    if (!plot_caption().empty()) title += "\\n" + plot_caption();
+    script << "# Run inside this folder: gnuplot " << script_path.filename().string() << "\n"
+           << "set terminal pngcairo size 900,500 noenhanced\n"
+           << "set output '" << spec.png.filename().string() << "'\n"
            << "set datafile separator ','\n"
            << "set datafile missing ''\n"
            << "set key outside right\n"
            << "set grid\n"
-           << "set title '" << spec.title << "'\n"
+           << "set title \"" << title << "\"\n"
            << "set xlabel '" << spec.x_label << "'\n"
-           << "set ylabel '" << spec.y_label << "'\n"
-           << "plot ";
-    auto gnuplot_style = [](const std::string& style) {
-      return style == "lines"  ? std::string("lines lw 2")
-             : style == "dots" ? std::string("dots")
-                               : style + " ps 0.6";
-    };
+           << "set ylabel '" << spec.y_label << (logarithmic ? " (log scale)" : "") << "'\n"
+           << (logarithmic ? "set logscale y\n" : "") << "plot ";
     for (std::size_t i = 0; i < spec.series.size(); ++i) {
       const std::string x = i < spec.x_series.size() ? spec.x_series[i] : "k";
       const std::string& style = i < spec.styles.size() ? spec.styles[i] : spec.style;
-      script << (i == 0 ? "" : ", ") << "'" << spec.csv.string() << "' using '" << x << "':'"
-             << spec.series[i] << "' with " << gnuplot_style(style) << " title '" << spec.series[i]
-             << "'";
+      const std::string n = std::to_string(i + 1);
+      const std::string drawn = style == "lines"  ? "lines lw 2 dashtype " + n
+                                : style == "dots" ? std::string("dots")
+                                                  : style + " ps 0.6 pointtype " + n;
+      script << (i == 0 ? "" : ", ") << "'" << csv << "' using '" << x << "':'" << spec.series[i]
+             << "' with " << drawn << " title '" << spec.series[i] << "'";
     }
     script << "\n";
   }
   int status = 1;
   try {
-    status = trainer::run_process("gnuplot", {script_path.string()});
+    const std::string cd = "cd '" + folder.string() + "'";
+    status = trainer::run_process("gnuplot", {"-e", cd, script_path.filename().string()});
   } catch (const std::exception&) {
     status = 127;
   }

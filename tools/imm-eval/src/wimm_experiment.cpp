@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/report.hpp"
@@ -24,6 +25,22 @@
 
 namespace imm::evaluation {
 namespace {
+
+// The columns of the tables, for metrics.json and report.md.
+std::vector<MetricDefinition> definitions(const std::string& length) {
+  return {
+      {"az (rad)", "rad",
+       "RMS azimuth error of the estimate, over runs per scan, averaged over scans"},
+      {"az settled", "rad", "the same over the settled scans (from the first settled scan on)"},
+      {"ratio settled", "1", "settled azimuth error over the nIMM's"},
+      {"− nIMM settled [95 %]", "rad",
+       "settled RMS azimuth error minus the nIMM's, 95 % paired-bootstrap interval over tracks"},
+      {"paper az, paper ratio", "rad, 1", "seed 004's published figures"},
+      {"pos, pos settled", length, "RMS position error, all scans and settled scans"},
+      {"NEES settled", "1", "mean position NEES over the settled scans (2 when consistent)"},
+      {"fused", "1", "share of cycles that fused the azimuth"},
+  };
+}
 
 using trainer::wimm::TrackingScore;
 
@@ -210,11 +227,11 @@ int run(const CommonOptions& options) {
                "uncertainty): "
             << (failures.empty() ? "passed" : "FAILED") << '\n';
   for (const auto& failure : failures) std::cout << "  - " << failure << '\n';
-  trainer::write_json_atomically(out / "metrics.json", metrics);
-  write_headline(out,
-                 {"wimm", model_path, regime.name, regime.digest, options.seed,
-                  static_cast<int>(data.tracks.size())},
-                 wimm_headline(headline_cases));
+  const HeadlineRuns evaluated{"wimm",        model_path,   regime.name,
+                               regime.digest, options.seed, static_cast<int>(data.tracks.size())};
+  write_metrics(out, evaluated, definitions(std::string(datasets::to_string(regime.units))),
+                metrics);
+  write_headline(out, evaluated, wimm_headline(headline_cases));
   details["parameters"] = parameters;
   details["regime"] = {{"name", regime.name},
                        {"model_regime", regimes.trained.regime.name},

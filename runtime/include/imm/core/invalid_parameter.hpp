@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Thrown when a filter or model description is invalid: names the offending field in the
 /// vocabulary of the configs ("modes[1].process_noise"), so that a config loader can point at
 /// the key.
@@ -9,13 +10,16 @@
 
 namespace imm {
 
+/// A parameter outside its valid range, naming the field (e.g. "transition", "process_noise[2]").
 class InvalidParameter : public std::invalid_argument {
  public:
+  /// `field`: the parameter's name as the config or model file spells it.
   InvalidParameter(std::string field, std::string message)
       : std::invalid_argument(field + ": " + message),
         field_(std::move(field)),
         message_(std::move(message)) {}
 
+  /// The name of the invalid parameter.
   [[nodiscard]] const std::string& field() const { return field_; }
   /// what() without the leading "field: ".
   [[nodiscard]] const std::string& message() const { return message_; }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The ranges every physical quantity must lie in — in a filter spec, a model file, a trainer
 /// config or a scenario — and the check that names the offending field.
 ///
@@ -22,14 +23,19 @@ namespace imm::limits {
 
 /// A closed interval [min, max] with its unit (for the error message).
 struct Interval {
+  /// Lower bound (inclusive).
   double min;
+  /// Upper bound (inclusive).
   double max;
+  /// Unit printed after the interval ("" when it depends on the config).
   std::string_view unit;
 };
 
 /// Sample periods, time constants, durations: a microsecond to ten hours.
 inline constexpr Interval kSamplePeriod{1e-6, 36000.0, "s"};
+/// Time constants (Singer τ, FCM windows in time): a microsecond to 10⁷ s.
 inline constexpr Interval kTimeConstant{1e-6, 1e7, "s"};
+/// Durations (maneuvers, scenarios): 0 to 10⁷ s.
 inline constexpr Interval kDuration{0.0, 1e7, "s"};
 /// Standard deviations of measurements, sensors and truth noise (m, km, rad): strictly positive
 /// where they divide (σ² must not underflow to 0) ...
@@ -42,6 +48,7 @@ inline constexpr Interval kVariance{0.0, 1e18, ""};
 inline constexpr Interval kDistance{0.0, 1e9, ""};
 /// Speeds (m/s or km/s) and accelerations (m/s² or km/s²), as magnitudes.
 inline constexpr Interval kSpeed{0.0, 1e6, ""};
+/// Accelerations, as magnitudes (m/s² or km/s²).
 inline constexpr Interval kAcceleration{0.0, 1e6, ""};
 /// Turn rates, rad/s or deg/s.
 inline constexpr Interval kTurnRate{0.0, 1e3, ""};
@@ -58,6 +65,7 @@ inline constexpr double kMaxMeasurement = kDistance.max;
 [[nodiscard]] inline bool usable_measurement(double value) {
   return std::abs(value) <= kMaxMeasurement;
 }
+/// Whether every component of a measurement is usable (see the scalar overload).
 template <class Derived>
 [[nodiscard]] bool usable_measurement(const Eigen::DenseBase<Derived>& z) {
   return (z.derived().array().abs() <= kMaxMeasurement).all();
@@ -71,6 +79,7 @@ template <class Derived>
   return text.str();
 }
 
+/// Whether `value` is finite and lies in `interval`.
 [[nodiscard]] inline bool contains(const Interval& interval, double value) {
   return std::isfinite(value) && value >= interval.min && value <= interval.max;
 }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The acceleration estimate of the adaptive IMM (seed 000 §2.2, after Munir & Atherton): per axis,
 /// the target's acceleration is a random bias b on the constant-velocity model,
 ///   x(k+1) = F x(k) + G (b(k) + w(k)),  b(k+1) = b(k) + w_b(k),  z = H x + v,
@@ -15,8 +16,12 @@
 
 namespace imm {
 
+/// The augmented-state [p, v, b] Kalman filter that estimates the acceleration bias b of one axis
+/// (AIMM, seed 001 §2; see the file comment).
 class AccelerationEstimator {
  public:
+  /// Throws InvalidParameter naming the field: a non-positive sample period or measurement
+  /// variance, a negative σ.
   AccelerationEstimator(double sample_period, double state_noise_sigma, double bias_noise_sigma,
                         double measurement_variance)
       : F_(ca_axis_transition(sample_period)), R_(SquareMatrix<1>::Constant(measurement_variance)) {
@@ -47,8 +52,11 @@ class AccelerationEstimator {
     return report.status;
   }
 
+  /// The current acceleration estimate b̂.
   [[nodiscard]] double acceleration() const { return estimate_.mean(2); }
+  /// The current [p, v, b] estimate.
   [[nodiscard]] const GaussianState<3>& estimate() const { return estimate_; }
+  /// Replaces the current estimate (track initialization).
   void set_estimate(const GaussianState<3>& estimate) { estimate_ = estimate; }
 
  private:

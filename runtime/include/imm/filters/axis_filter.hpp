@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Per-axis filtering, as seed 000 tracks: each Cartesian axis has its own filter (state [p, v],
 /// scalar measurement), and TwoAxisFilter puts two of them behind the 2-D TrackFilter interface
 /// (state [x, vx, y, vy]; mode probabilities x modes first, then y modes).
@@ -32,6 +33,8 @@ struct AxisImmSettings {
   [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
+/// One Cartesian axis of a track: state [p, v], scalar measurement. TwoAxisFilter runs two of them
+/// as a TrackFilter.
 class AxisFilter {
  public:
   AxisFilter() = default;
@@ -39,30 +42,44 @@ class AxisFilter {
   AxisFilter& operator=(const AxisFilter&) = delete;
   virtual ~AxisFilter() = default;
 
+  /// Starts the filter from a Gaussian [p, v].
   virtual void initialize(const GaussianState<2>& state) = 0;
   /// One cycle with the axis measurement z; any status other than kOk leaves the filter as it was.
   virtual StepStatus step(double z) = 0;
+  /// One cycle without a measurement; any status other than kOk leaves the filter as it was.
   virtual StepStatus predict_only() = 0;
+  /// The combined [p, v] estimate.
   [[nodiscard]] virtual const GaussianState<2>& estimate() const = 0;
+  /// The mode probabilities, in mode order (one entry for a single-model filter).
   [[nodiscard]] virtual ModeVector mode_probabilities() const = 0;
+  /// The number of modes.
   [[nodiscard]] virtual int mode_count() const = 0;
+  /// The name of mode j (0-based).
   [[nodiscard]] virtual std::string mode_name(int j) const = 0;
 };
 
 /// An IMM over per-axis modes (filters with per-mode extras derive from it).
 class ImmAxisFilter : public AxisFilter {
  public:
+  /// Takes an IMM of axis modes.
   explicit ImmAxisFilter(ImmEstimator<2, 1> imm) : imm_(std::move(imm)) {}
 
+  /// Starts every mode from `state`; the mode probabilities restart at the initial ones.
   void initialize(const GaussianState<2>& state) override { imm_.initialize(state); }
   StepStatus step(double z) override { return imm_.step(Vector<1>(z)); }
+  /// One IMM cycle without a measurement.
   StepStatus predict_only() override { return imm_.predict_only(); }
+  /// The IMM's combined estimate.
   [[nodiscard]] const GaussianState<2>& estimate() const override { return imm_.estimate(); }
+  /// The IMM's mode probabilities.
   [[nodiscard]] ModeVector mode_probabilities() const override { return imm_.mode_probabilities(); }
+  /// The number of IMM modes.
   [[nodiscard]] int mode_count() const override { return imm_.mode_count(); }
+  /// The name of IMM mode j.
   [[nodiscard]] std::string mode_name(int j) const override {
     return std::string(imm_.mode(j).name());
   }
+  /// The underlying IMM.
   [[nodiscard]] const ImmEstimator<2, 1>& imm() const { return imm_; }
 
  private:
@@ -74,17 +91,23 @@ class ImmAxisFilter : public AxisFilter {
 /// reported, with x already advanced.
 class TwoAxisFilter final : public TrackFilter {
  public:
+  /// Takes the x and y axis filters (neither null).
   TwoAxisFilter(std::unique_ptr<AxisFilter> x, std::unique_ptr<AxisFilter> y);
 
+  /// 4: [x, vx, y, vy].
   [[nodiscard]] int state_dimension() const override { return 4; }
+  /// The x modes plus the y modes.
   [[nodiscard]] int mode_count() const override { return x_->mode_count() + y_->mode_count(); }
+  /// "x.<name>" for the x modes, then "y.<name>".
   [[nodiscard]] std::string mode_name(int j) const override;
   void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override;
   StepStatus step(const Eigen::Vector2d& z) override;
   StepStatus predict_only() override;
   void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override;
+  /// The x axis's mode probabilities followed by the y axis's.
   [[nodiscard]] ModeVector mode_probabilities() const override;
 
+  /// Axis 0 (x) or 1 (y).
   [[nodiscard]] const AxisFilter& axis(int i) const { return i == 0 ? *x_ : *y_; }
 
  private:

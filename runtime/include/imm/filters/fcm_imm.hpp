@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The FCM acceleration-compensating IMM of seed 003 (SPEC §4.5), per axis, in a dimensionally
 /// consistent and stable form.
 ///
@@ -63,25 +64,31 @@
 
 namespace imm {
 
+/// How the innovation errors are scaled before clustering (see the file comment).
 enum class MembershipScale {
   kSeed,        ///< the seed's scale-free FCM: free centers, the middle cluster is noise
   kInnovation,  ///< errors in innovation standard deviations, noise pinned at 0, |outer| ≥ κ
 };
 
 [[nodiscard]] std::string_view to_string(MembershipScale scale);  ///< seed | innovation
+/// Parses "seed" or "innovation"; throws InvalidParameter naming `field` otherwise.
 [[nodiscard]] MembershipScale membership_scale_from(std::string_view name,
                                                     const std::string& field);
 
+/// The FCM-IMM of one axis (seed 003): CV Kalman filters at ascending process-noise levels,
+/// compensated by fuzzy c-means memberships of the recent innovation errors.
 struct FcmImmSpec {
   double sample_period = 1.0;        ///< T, s
   double measurement_sigma = 100.0;  ///< σ_z per axis
   /// q_j of Q_j = q_j G Gᵀ per mode, (unit/s²)², ascending; 1 to 8 modes.
   std::vector<double> process_noise = {1.0, 100.0, 2500.0};
   Eigen::MatrixXd transition = switching_transition(3, 0.95);  ///< rows sum to 1
+  /// μ₀, sums to 1.
   Eigen::VectorXd initial_probabilities = Eigen::VectorXd::Constant(3, 1.0 / 3.0);
 
   FuzzyCMeansSettings clustering;  ///< fuzzifier m, tolerance, iteration cap
   int window = 16;                 ///< errors per sliding window, [3, 128]
+  /// How the errors are scaled before clustering.
   MembershipScale scale = MembershipScale::kInnovation;
   double separation = 3.0;         ///< κ ≥ 0 (kInnovation only)
   double compensation_gain = 0.1;  ///< λ ∈ [0, 1]
@@ -90,6 +97,7 @@ struct FcmImmSpec {
   bool constant_memberships = false;  ///< the ablation: mean_memberships instead of the FCM
   Eigen::MatrixXd mean_memberships;   ///< modes × 3 (dec, noise, acc), rows sum to 1; may be empty
 
+  /// The number of modes (process-noise levels).
   [[nodiscard]] int mode_count() const { return static_cast<int>(process_noise.size()); }
   /// Throws InvalidParameter naming the field.
   void validate() const;
@@ -107,13 +115,19 @@ class FcmCompensatedMode final : public ImmMode<2, 1> {
   FcmCompensatedMode(const FcmImmSpec& spec, int mode);
 
   [[nodiscard]] std::string_view name() const override { return name_; }
+  /// The current estimate (already in mixing space).
   void embedded_estimate(Vector<2>& mean, SquareMatrix<2>& covariance) const override {
     mean = estimate_.mean;
     covariance = estimate_.covariance;
   }
+  /// Sets the estimate and clears the error window.
   void reset(const GaussianState<2>& state) override;
+  /// Predicts from `mixed`, updates with z and applies the FCM compensation; pending until
+  /// commit().
   ModeStep propose(const GaussianState<2>& mixed, const Vector<1>& z) override;
+  /// Predicts from `mixed` without a measurement; pending until commit().
   ModeStep propose_prediction(const GaussianState<2>& mixed) override;
+  /// F times the mixed mean.
   void predicted_mean(const GaussianState<2>& mixed, Vector<2>& mean) const override {
     mean.noalias() = F_ * mixed.mean;
   }
@@ -125,6 +139,7 @@ class FcmCompensatedMode final : public ImmMode<2, 1> {
   [[nodiscard]] double error() const { return error_; }
   /// c = λ (1 − u_noise) of the last committed step (0 for an uncompensated mode).
   [[nodiscard]] double compensation() const { return compensation_; }
+  /// The current estimate.
   [[nodiscard]] const GaussianState<2>& estimate() const { return estimate_; }
 
  private:
@@ -153,8 +168,10 @@ class FcmCompensatedMode final : public ImmMode<2, 1> {
 /// The per-axis FCM-IMM.
 class FcmImmAxisFilter final : public ImmAxisFilter {
  public:
+  /// Throws InvalidParameter naming the field of an invalid spec.
   explicit FcmImmAxisFilter(const FcmImmSpec& spec);
 
+  /// Mode j of the axis IMM.
   [[nodiscard]] const FcmCompensatedMode& mode(int j) const {
     return *modes_[static_cast<std::size_t>(j)];
   }
@@ -167,6 +184,7 @@ class FcmImmAxisFilter final : public ImmAxisFilter {
   std::vector<const FcmCompensatedMode*> modes_;  // the IMM's modes, owned by it
 };
 
+/// The one-axis FCM-IMM of the spec (throws InvalidParameter naming the field).
 [[nodiscard]] ImmEstimator<2, 1> build_fcm_axis_imm(const FcmImmSpec& spec);
 
 /// The 2-D FCM-IMM (an FcmImmAxisFilter per axis).

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The fuzzy IMM (FIMM) of seed 002 §3 (SPEC §4.4): a two-mode CA IMM, state
 /// [ξ, ξ̇, ξ̈, η, η̇, η̈] (eq. 8), modes "cruise" and "lane change" that differ only in the process
 /// noise Γ q Γᵀ (eq. 11), whose update goes through the learned range-sensor model h (TSK,
@@ -25,12 +26,16 @@
 
 namespace imm {
 
+/// The fuzzy-sensor IMM of seed 002: two CA modes (cruise, lane change) with an EKF through the TSK
+/// sensor model (see the file comment).
 struct FimmSpec {
   double sample_period = 0.1;      ///< T, s
   double cruise_sigma = 9.81e-4;   ///< the seed's √q₁ (eq. 11)
   double lane_change_ratio = 5.0;  ///< √q₂ / √q₁
   double noise_scale = 100.0;      ///< multiplies √q₁ and √q₂ (see above)
+  /// Mode switching (cruise, lane change), rows sum to 1.
   Eigen::Matrix2d transition = (Eigen::Matrix2d() << 0.97, 0.03, 0.03, 0.97).finished();
+  /// μ₀ (cruise, lane change).
   Eigen::Vector2d initial_probabilities = Eigen::Vector2d(0.9, 0.1);
   Eigen::Matrix2d measurement_covariance = Eigen::Matrix2d::Identity();  ///< the sensor's R
   int iterations = 1;  ///< 1: EKF; > 1: iterated EKF with up to that many linearizations
@@ -45,19 +50,24 @@ struct FimmSpec {
   [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
+/// The FIMM as a TrackFilter: state [ξ, ξ̇, ξ̈, η, η̇, η̈], plots (z1, z2) of the sensor.
 class FimmFilter final : public TrackFilter {
  public:
   /// `sensor` null: h = identity (the baseline IMM).
   FimmFilter(const FimmSpec& spec, std::shared_ptr<const TskModel> sensor);
   ~FimmFilter() override;
 
+  /// 6: [ξ, ξ̇, ξ̈, η, η̇, η̈].
   [[nodiscard]] int state_dimension() const override { return 6; }
+  /// 2: cruise and lane change.
   [[nodiscard]] int mode_count() const override { return 2; }
+  /// "cruise" or "lane change".
   [[nodiscard]] std::string mode_name(int j) const override;
   void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override;
   StepStatus step(const Eigen::Vector2d& z) override;
   StepStatus predict_only() override;
   void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override;
+  /// (cruise, lane change).
   [[nodiscard]] ModeVector mode_probabilities() const override;
 
   /// The combined estimate with its full covariance.

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The fuzzy-noise Kalman filter of seed 000 §3.2 for one axis, state [p, v], H = [1 0]:
 ///   x̂⁻ = F x̂₀                                           (19-1)
 ///   r(k) = z(k) − H x̂⁻,  Δr(k) = r(k) − r(k−1)           (19-3, 19-4)
@@ -20,15 +21,21 @@
 
 namespace imm {
 
+/// The fuzzy-noise Kalman filter of one axis (see the file comment).
 class FuzzyNoiseFilter {
  public:
+  /// What one step did.
   struct Step {
+    /// kOk, or why the state was left unchanged.
     StepStatus status = StepStatus::kOk;
     double residual = 0.0;       ///< r(k)
     double process_noise = 0.0;  ///< q(k)
+    /// log N(r; 0, S) of the innovation.
     double log_likelihood = 0.0;
   };
 
+  /// Throws InvalidParameter naming the field: a non-positive sample period or measurement
+  /// variance.
   FuzzyNoiseFilter(FuzzyRuleTable table, double sample_period, double measurement_variance)
       : table_(std::move(table)),
         F_(cv_axis_transition(sample_period)),
@@ -67,7 +74,9 @@ class FuzzyNoiseFilter {
     return predict(state, F_, SquareMatrix<2>(table_.mean_w() * GGt_));
   }
 
+  /// The rule table that sets q(k).
   [[nodiscard]] const FuzzyRuleTable& table() const { return table_; }
+  /// F of the CV model.
   [[nodiscard]] const SquareMatrix<2>& transition() const { return F_; }
 
  private:
@@ -82,22 +91,26 @@ class FuzzyNoiseFilter {
 /// The fuzzy-noise KF as an IMM mode (seed 000's sub-model m_j, eq. 18–19).
 class FuzzyNoiseMode final : public ImmMode<2, 1> {
  public:
+  /// A named mode of `filter`.
   FuzzyNoiseMode(std::string name, FuzzyNoiseFilter filter)
       : name_(std::move(name)), filter_(std::move(filter)) {}
 
   [[nodiscard]] std::string_view name() const override { return name_; }
 
+  /// The current estimate (the mixing space is the filter's).
   void embedded_estimate(Vector<2>& mean, SquareMatrix<2>& covariance) const override {
     mean = estimate_.mean;
     covariance = estimate_.covariance;
   }
 
+  /// Sets the estimate and clears the previous residual.
   void reset(const GaussianState<2>& state) override {
     estimate_ = state;
     residual_ = 0.0;
     process_noise_ = filter_.table().mean_w();
   }
 
+  /// One fuzzy-noise step from `mixed` with z; pending until commit().
   ModeStep propose(const GaussianState<2>& mixed, const Vector<1>& z) override {
     pending_ = mixed;
     const FuzzyNoiseFilter::Step step = filter_.step(pending_, residual_, z(0));
@@ -106,6 +119,7 @@ class FuzzyNoiseMode final : public ImmMode<2, 1> {
     return {step.status, step.log_likelihood};
   }
 
+  /// Prediction from `mixed` with the table's mean w; pending until commit().
   ModeStep propose_prediction(const GaussianState<2>& mixed) override {
     pending_ = filter_.predict_only(mixed);
     pending_residual_ = residual_;
@@ -113,6 +127,7 @@ class FuzzyNoiseMode final : public ImmMode<2, 1> {
     return {pending_.all_finite() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
   }
 
+  /// F times the mixed mean.
   void predicted_mean(const GaussianState<2>& mixed, Vector<2>& mean) const override {
     mean = filter_.transition() * mixed.mean;
   }
@@ -125,6 +140,7 @@ class FuzzyNoiseMode final : public ImmMode<2, 1> {
 
   /// q(k) of the last committed step: how much the table adapts.
   [[nodiscard]] double process_noise() const { return process_noise_; }
+  /// The underlying filter.
   [[nodiscard]] const FuzzyNoiseFilter& filter() const { return filter_; }
 
  private:

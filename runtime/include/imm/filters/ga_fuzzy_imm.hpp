@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The GA-fuzzy IMM of seed 000 §3.2 (SPEC §4.1): per axis an IMM whose modes are fuzzy-noise KFs
 /// (fuzzy_noise_filter.hpp), one learned rule table per maneuver level; transition and initial
 /// probabilities by eq. (20)–(21); the two axes behind one 2-D filter.
@@ -14,13 +15,17 @@
 
 namespace imm {
 
+/// One maneuver level of the GA-fuzzy IMM: a rule table trained for one acceleration input.
 struct FuzzyLevel {
   std::string name;             ///< e.g. "u0.01"
   double maneuver_level = 0.0;  ///< the acceleration input u the table was trained for
+  /// The trained rule table.
   FuzzyRuleTable table;
 };
 
+/// The GA-fuzzy IMM of seed 000: one fuzzy-noise mode per maneuver level, per axis.
 struct GaFuzzyImmSpec {
+  /// Sample period, plot σ and mode switching of the axis IMM.
   AxisImmSettings settings;
   std::vector<FuzzyLevel> levels;  ///< one IMM mode per level, 1 to 8
 

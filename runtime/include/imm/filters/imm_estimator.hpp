@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Interacting multiple model estimator (Blom & Bar-Shalom; seed 000 eq. 4–11) over modes that
 /// may have different state dimensions.
 ///
@@ -48,11 +49,15 @@ void validate_mode_probabilities(const Eigen::MatrixXd& transition,
                                  const Eigen::VectorXd& initial_probabilities, int modes);
 }  // namespace detail
 
+/// The interacting multiple model estimator over modes of one mixing space (see the file comment).
 template <int NX, int NZ>
 class ImmEstimator {
  public:
+  /// The modes' interface.
   using Mode = ImmMode<NX, NZ>;
+  /// The mixing-space dimension.
   static constexpr int kDim = NX;
+  /// The measurement dimension.
   static constexpr int kMeasurementDim = NZ;
 
   /// `transition(i, j)` is the probability of switching from mode i to mode j (rows sum to 1);
@@ -84,7 +89,9 @@ class ImmEstimator {
     scratch_.resize(n);
   }
 
+  /// Movable, not copyable (it owns its modes).
   ImmEstimator(ImmEstimator&&) noexcept = default;
+  /// Move assignment.
   ImmEstimator& operator=(ImmEstimator&&) noexcept = default;
 
   /// Starts a track: every mode takes `state` (its own components of it) and the mode
@@ -145,9 +152,13 @@ class ImmEstimator {
     return finish_cycle();
   }
 
+  /// Whether initialize() has been called.
   [[nodiscard]] bool initialized() const { return initialized_; }
+  /// The combined estimate (eq. 10–11 of seed 000).
   [[nodiscard]] const GaussianState<NX>& estimate() const { return combined_; }
+  /// The number of modes.
   [[nodiscard]] int mode_count() const { return static_cast<int>(modes_.size()); }
+  /// Mode j (0-based).
   [[nodiscard]] const Mode& mode(int j) const { return *modes_[index(j)]; }
 
   /// Mode probabilities μ_j (linear space; may contain exact zeros after underflow).

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// One mode (sub-model) of an IMM, as the IMM sees it. The IMM only mixes, asks its modes to
 /// predict and update, reweights them by likelihood and combines; a mode owns its own state
 /// (of any dimension ≤ NX) and decides how it predicts and updates. A plain Kalman mode,
@@ -18,15 +19,22 @@
 
 namespace imm {
 
+/// What a mode's propose step returns.
 struct ModeStep {
+  /// kOk, or why the mode left its estimate unchanged.
   StepStatus status = StepStatus::kOk;
   double log_likelihood = 0.0;  ///< log N(ν; 0, S); 0 for a prediction without measurement
 };
 
+/// One mode of an IMM: a filter over a NX-dimensional mixing space with NZ-dimensional
+/// measurements. Steps are two-phase: propose*() computes a pending estimate, commit() makes it
+/// current.
 template <int NX, int NZ>
 class ImmMode {
  public:
+  /// The mixing-space dimension.
   static constexpr int kMixingDim = NX;
+  /// The measurement dimension.
   static constexpr int kMeasurementDim = NZ;
 
   ImmMode() = default;

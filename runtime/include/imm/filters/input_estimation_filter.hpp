@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The neural input-estimation filter of seed 001 (SPEC §4.3), one axis:
 ///   a constant-velocity KF (eq. 3–9) yields the normalized innovation ino(k) = ν²(k)/S(k) (11);
 ///   sum(k) = 0.1 Σ_{i=0..9} ino(k−i) (13), diff(k) = ino(k) − ino(k−10) (14);
@@ -28,10 +29,12 @@ namespace imm {
 /// sum and diff of eq. (13)–(14) over a ring of the last 11 normalized innovations.
 class InnovationFeatures {
  public:
+  /// The number of normalized innovations each feature sums over.
   static constexpr int kWindow = 10;
   static constexpr double kPad = 1.0;  ///< E[ν²/S] without a maneuver
 
   InnovationFeatures() { reset(); }
+  /// Fills the window with kPad (a track's start looks like straight flight).
   void reset() {
     ring_.fill(kPad);
     head_ = 0;
@@ -60,6 +63,7 @@ struct CvKfSettings {
   double process_noise = 1.0;          ///< q, Q = q [[T⁴/4, T³/2], [T³/2, T²]]
   double measurement_variance = 2500;  ///< R, m²
 
+  /// Settings compare equal field by field.
   [[nodiscard]] bool operator==(const CvKfSettings&) const = default;
   /// InvalidParameter naming the field outside its physical range (imm/core/physical_limits.hpp).
   void validate() const;
@@ -69,8 +73,10 @@ struct CvKfSettings {
 /// sees. The trainer computes its training inputs with this very class.
 class InnovationFeatureExtractor {
  public:
+  /// Throws InvalidParameter naming the field of invalid settings.
   explicit InnovationFeatureExtractor(const CvKfSettings& settings);
 
+  /// Starts the CV KF from `state` and refills the innovation window.
   void initialize(const GaussianState<2>& state);
   /// One scan of the CV KF; returns kOk and sets `features` = (sum, diff), or leaves all as it was.
   StepStatus step(double z, Eigen::Vector2d& features);
@@ -78,8 +84,11 @@ class InnovationFeatureExtractor {
   /// scan without a plot has no innovation).
   void predict_only();
 
+  /// The CV KF's estimate.
   [[nodiscard]] const GaussianState<2>& estimate() const { return cv_; }
+  /// ino(k) = ν²/S of the last scan.
   [[nodiscard]] double normalized_innovation() const { return ino_; }
+  /// ν(k) of the last scan.
   [[nodiscard]] double innovation() const { return innovation_; }
   /// Σ ν over the last ten scans (the sign of a maneuver).
   [[nodiscard]] double innovation_sum() const { return innovation_sum_; }
@@ -102,23 +111,30 @@ enum class InputSign {
   kPositive,    ///< the seed's: every maneuver accelerates in +x
   kInnovation,  ///< the sign of the CV KF's last ten innovations' sum
 };
+/// "positive" | "innovation".
 [[nodiscard]] std::string_view to_string(InputSign sign);
 /// "positive" | "innovation"; InvalidParameter naming `field` otherwise.
 [[nodiscard]] InputSign input_sign_from(std::string_view name, const std::string& field);
 
 /// What the filter needs of a trained model.
 struct InputEstimatorModel {
+  /// The trained network: (sum, diff) standardized → û / output_scale.
   Mlp network;
   Eigen::Vector2d input_mean = Eigen::Vector2d::Zero();  ///< feature standardization
+  /// Feature standardization: divides (feature − input_mean); > 0.
   Eigen::Vector2d input_scale = Eigen::Vector2d::Ones();
   double output_bias = 0.0;  ///< mean output without a maneuver (training time), subtracted
+  /// How the magnitude gets its sign.
   InputSign sign = InputSign::kPositive;
+  /// The CV KF settings the features assume.
   CvKfSettings settings;
 
   /// Cartesian plots with R I per axis, two-point initialization.
   [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
+/// The input-estimation filter of seed 001 on one axis: a CV KF whose innovations feed the
+/// network's input estimate û, and a primary KF corrected by û.
 class InputEstimationFilter {
  public:
   /// Throws InvalidParameter when `settings` differ from the model's or the network does not take
@@ -133,11 +149,15 @@ class InputEstimationFilter {
   void predict_only();
 
   [[nodiscard]] const GaussianState<2>& estimate() const { return primary_; }  ///< corrected
+  /// The feature KF's estimate (uncorrected).
   [[nodiscard]] const GaussianState<2>& cv_estimate() const { return features_.estimate(); }
   [[nodiscard]] double acceleration() const { return acceleration_; }  ///< û(k)
+  /// The network's output before scaling, bias and sign.
   [[nodiscard]] double raw_network_output() const { return raw_output_; }
+  /// The feature KF's ν(k).
   [[nodiscard]] double cv_innovation() const { return features_.innovation(); }
   [[nodiscard]] double innovation() const { return innovation_; }  ///< primary KF's ν(k)
+  /// The model the filter runs.
   [[nodiscard]] const InputEstimatorModel& model() const { return model_; }
 
   /// The features of one normalized innovation, standardized as the network expects (training).
@@ -164,19 +184,27 @@ class InputEstimationFilter {
 /// so the model tracks in two dimensions like every other kind (load_filter, imm/load.hpp).
 class InputEstimationAxis final : public AxisFilter {
  public:
+  /// Throws InvalidParameter as InputEstimationFilter does.
   InputEstimationAxis(InputEstimatorModel model, const CvKfSettings& settings)
       : filter_(std::move(model), settings) {}
 
+  /// Starts both KFs from `state`.
   void initialize(const GaussianState<2>& state) override { filter_.initialize(state); }
   StepStatus step(double z) override { return filter_.step(z); }
+  /// One scan without a plot; the last û is held.
   StepStatus predict_only() override {
     filter_.predict_only();
     return StepStatus::kOk;
   }
+  /// The corrected [p, v] estimate.
   [[nodiscard]] const GaussianState<2>& estimate() const override { return filter_.estimate(); }
+  /// [1]: a single mode.
   [[nodiscard]] ModeVector mode_probabilities() const override { return ModeVector::Ones(1); }
+  /// 1.
   [[nodiscard]] int mode_count() const override { return 1; }
+  /// "input estimation".
   [[nodiscard]] std::string mode_name(int /*j*/) const override { return "input estimation"; }
+  /// The underlying filter (û and the features).
   [[nodiscard]] const InputEstimationFilter& filter() const { return filter_; }
 
  private:

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The Kalman algebra, written once: prediction, the Joseph-form measurement update, and the
 /// extended (linearized) update through a measurement model. Every filter of the runtime — plain
 /// KF, IMM mode, fuzzy-noise KF, EKF through a learned sensor model — calls these functions and
@@ -24,11 +25,13 @@ namespace imm {
 /// What a measurement update reports besides the new state.
 template <int M>
 struct UpdateReport {
+  /// kOk, or why the update was refused.
   StepStatus status = StepStatus::kOk;
   Vector<M> innovation = Vector<M>::Zero();  ///< ν = z − h(x̂⁻), wrapped if angular
   SquareMatrix<M> innovation_covariance = SquareMatrix<M>::Zero();  ///< S = H P⁻ Hᵀ + R
   double log_likelihood = 0.0;  ///< log N(ν; 0, S), seed 000 eq. (9) in log space
 
+  /// Whether the update succeeded.
   [[nodiscard]] bool ok() const { return status == StepStatus::kOk; }
 };
 

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The plain IMM mode: a Kalman filter with a fixed linear motion model and a measurement model
 /// (linear or, through its Jacobian, extended).
 
@@ -14,9 +15,12 @@
 
 namespace imm {
 
+/// A linear-motion Kalman mode of N states inside an NX-state mixing space, with any measurement
+/// model (Joseph-form update).
 template <int NX, int N, class MeasurementModel>
 class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
  public:
+  /// The mode's own state dimension.
   static constexpr int kDim = N;
   using ImmMode<NX, MeasurementModel::kDim>::kMeasurementDim;
 
@@ -38,6 +42,8 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
 
   void reset(const GaussianState<NX>& state) override { estimate_ = embedding_.project(state); }
 
+  /// Predicts from the mixed estimate (projected to the mode's states) and updates with z; pending
+  /// until commit().
   [[gnu::flatten]] ModeStep propose(const GaussianState<NX>& mixed,
                                     const Vector<kMeasurementDim>& z) override {
     pending_ = predict(embedding_.project(mixed), motion_.transition, motion_.process_noise);
@@ -60,8 +66,11 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
 
   void commit() override { estimate_ = pending_; }
 
+  /// The mode's current estimate in its own states.
   [[nodiscard]] const GaussianState<N>& estimate() const { return estimate_; }
+  /// The mode's motion model.
   [[nodiscard]] const LinearMotionModel<N>& motion() const { return motion_; }
+  /// The mode's measurement model.
   [[nodiscard]] const MeasurementModel& measurement() const { return measurement_; }
 
  private:

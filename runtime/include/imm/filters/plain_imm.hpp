@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// A plain IMM described by parameters: 2-D motion models with fixed process noise per mode, a
 /// Cartesian or polar measurement, a transition matrix, initial mode probabilities and a track
 /// initialization. This is the filter `imm-track` runs from a TOML file or a "plain_imm" model
@@ -19,37 +20,51 @@
 
 namespace imm {
 
+/// The motion model of a mode.
 enum class MotionKind { kConstantVelocity, kConstantAcceleration, kSinger };
 
 [[nodiscard]] std::string_view to_string(MotionKind kind);  ///< "cv", "ca", "singer"
 [[nodiscard]] std::string_view to_string(NoiseForm form);   ///< "piecewise", "continuous"
 /// Inverse of to_string; throw InvalidParameter naming `field` for unknown names.
 [[nodiscard]] MotionKind motion_kind_from(std::string_view name, const std::string& field);
+/// "piecewise" | "continuous"; InvalidParameter naming `field` otherwise.
 [[nodiscard]] NoiseForm noise_form_from(std::string_view name, const std::string& field);
 
+/// One mode of a plain IMM.
 struct ModeSpec {
+  /// The mode's name (reports, mode_name()).
   std::string name;
+  /// CV, CA or Singer.
   MotionKind motion = MotionKind::kConstantVelocity;
   /// CV/CA: q of the noise form (variance per period for piecewise-constant noise, PSD for
   /// continuous). Unused by Singer.
   double process_noise = 0.0;
+  /// How q enters Q (CV, CA).
   NoiseForm noise_form = NoiseForm::kPiecewiseConstant;
   double singer_tau = 20.0;   ///< Singer: maneuver time constant τ, s
   double singer_sigma = 0.0;  ///< Singer: acceleration standard deviation σ_a
 };
 
+/// The plots a plain IMM takes.
 struct MeasurementSpec {
+  /// Cartesian or polar.
   MeasurementKind kind = MeasurementKind::kCartesian;
   /// R: Cartesian [x, y] or polar [range, azimuth (rad)].
   Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
 };
 
+/// A plain IMM of linear motion modes with a common measurement (frozen by imm-train freeze).
 struct PlainImmSpec {
+  /// T, s.
   double sample_period = 1.0;
+  /// The modes, 1 to 16.
   std::vector<ModeSpec> modes;
   Eigen::MatrixXd transition;  ///< transition(i, j) = P(mode j at k | mode i at k−1)
+  /// μ₀, sums to 1.
   Eigen::VectorXd initial_probabilities;
+  /// The plots' kind and R.
   MeasurementSpec measurement;
+  /// How a track starts.
   InitializationSpec initialization;
 
   /// 4 when every mode is CV, else 6.
@@ -65,11 +80,14 @@ struct PlainImmSpec {
 template <int NX>
 [[nodiscard]] ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec);
 
+/// The 4-state instantiation (every mode CV).
 extern template ImmEstimator<4, 2> build_plain_imm<4>(const PlainImmSpec&);
+/// The 6-state instantiation.
 extern template ImmEstimator<6, 2> build_plain_imm<6>(const PlainImmSpec&);
 
 /// The IMM of a spec, whichever its mixing dimension.
 using PlainImm = std::variant<ImmEstimator<4, 2>, ImmEstimator<6, 2>>;
+/// Builds the IMM of a validated spec in its own mixing dimension.
 [[nodiscard]] PlainImm build_plain_imm(const PlainImmSpec& spec);
 
 }  // namespace imm

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Places a mode's N-dimensional state inside the IMM's NX-dimensional mixing space. IMM modes may
 /// have different state dimensions (CV with 4 states beside Singer with 6, seed 004); the IMM
 /// mixes and combines in the larger space, where a mode's missing components are zero with zero
@@ -13,6 +14,8 @@
 
 namespace imm {
 
+/// How a mode's N states sit in the NX-state mixing space: an index per mode state (see the file
+/// comment).
 template <int N, int NX>
 class StateEmbedding {
   static_assert(N <= NX, "a mode cannot have more states than the mixing space");
@@ -71,6 +74,7 @@ class StateEmbedding {
     return projected;
   }
 
+  /// The mixing-space index of mode state i.
   [[nodiscard]] int index(int i) const { return indices_[static_cast<std::size_t>(i)]; }
 
  private:

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Outcome of one filter step. A step that does not return kOk has left the filter untouched
 /// (the second of the three error tiers: numerical trouble is a value, not an exception).
 
@@ -7,6 +8,7 @@
 
 namespace imm {
 
+/// The outcome of a filter step: kOk, or why the filter was left unchanged.
 enum class StepStatus {
   kOk,
   kInvalidMeasurement,    ///< the measurement holds NaN, ±Inf or a value beyond ±1e9
@@ -16,6 +18,7 @@ enum class StepStatus {
   kProbabilityUnderflow,  ///< every mode's likelihood is zero even in log space
 };
 
+/// A human-readable description of a status.
 [[nodiscard]] constexpr std::string_view to_string(StepStatus status) {
   switch (status) {
     case StepStatus::kOk:

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Many independent tracks of one plain IMM, stepped by one call: the structure of a radar
 /// tracker (thousands of tracks, one model). Built from the same PlainImmSpec as the single-track
 /// IMM (plain_imm.hpp) when every mode is constant-velocity and the measurement Cartesian, the
@@ -36,8 +37,11 @@
 
 namespace imm {
 
+/// N tracks of one plain IMM of CV modes with Cartesian plots, stepped together (structure of
+/// arrays; see the file comment).
 class TrackBank {
  public:
+  /// The state dimension: [x, vx, y, vy].
   static constexpr int kDim = 4;
   /// Tracks per phase block: its scratch (≈ 30 values per mode and track) stays in L1.
   static constexpr int kBlock = 64;
@@ -47,7 +51,9 @@ class TrackBank {
   /// ("measurement.kind").
   TrackBank(const PlainImmSpec& spec, std::size_t capacity);
 
+  /// The number of tracks it holds.
   [[nodiscard]] std::size_t capacity() const { return capacity_; }
+  /// The number of IMM modes.
   [[nodiscard]] int mode_count() const { return modes_; }
 
   /// Starts (or restarts) track `track`: every mode takes `state`, the mode probabilities their
@@ -60,6 +66,7 @@ class TrackBank {
   /// std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
+  /// Whether track `track` has been initialized.
   [[nodiscard]] bool initialized(std::size_t track) const;
   /// The combined estimate of a track (eq. 10–11).
   [[nodiscard]] GaussianState<kDim> estimate(std::size_t track) const;
@@ -67,6 +74,7 @@ class TrackBank {
   [[nodiscard]] GaussianState<kDim> mode_estimate(std::size_t track, int j) const;
   /// μ_j (linear; may hold exact zeros after underflow) and log μ_j.
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
+  /// log μ_j of a track (finite where μ_j underflows to 0).
   [[nodiscard]] ModeVector log_mode_probabilities(std::size_t track) const;
 
  private:

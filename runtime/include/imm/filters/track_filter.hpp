@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// A 2-D filter as a track sees it (tracker.hpp): a plain IMM, two per-axis IMMs, an adaptive IMM.
 /// State layout: one block per axis, [x, vx, y, vy] or [x, vx, ax, y, vy, ay].
 
@@ -11,6 +12,8 @@
 
 namespace imm {
 
+/// A filter that tracks one target in two dimensions: what Tracker drives and load_filter returns,
+/// for every model kind.
 class TrackFilter {
  public:
   TrackFilter() = default;
@@ -18,8 +21,11 @@ class TrackFilter {
   TrackFilter& operator=(const TrackFilter&) = delete;
   virtual ~TrackFilter() = default;
 
+  /// The length of the state (4 or 6).
   [[nodiscard]] virtual int state_dimension() const = 0;
+  /// The number of modes (1 for a single-model filter).
   [[nodiscard]] virtual int mode_count() const = 0;
+  /// The name of mode j (0-based).
   [[nodiscard]] virtual std::string mode_name(int j) const = 0;
 
   /// Starts the filter from a Gaussian in its layout (state_dimension() entries).
@@ -32,6 +38,7 @@ class TrackFilter {
   /// Combined mean and covariance diagonal.
   virtual void state(Eigen::Ref<Eigen::VectorXd> mean,
                      Eigen::Ref<Eigen::VectorXd> variance) const = 0;
+  /// The mode probabilities, in mode order.
   [[nodiscard]] virtual ModeVector mode_probabilities() const = 0;
 };
 

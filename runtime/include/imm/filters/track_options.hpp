@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// How a Tracker (tracker.hpp) feeds a filter: the measurement space of the plots, their noise, the
 /// track start and when a gap ends a track. Every filter spec of the runtime has
 /// `track_options(max_gap)` returning the options it was trained and evaluated with, and
@@ -12,8 +13,9 @@
 
 namespace imm {
 
-/// The plots' space: Cartesian [x, y] or polar [range, azimuth (rad, from the x axis)].
+/// The plots' space: Cartesian [x, y] or polar [range, azimuth (rad, clockwise from the y axis)].
 enum class MeasurementKind { kCartesian, kPolar };
+/// How a track starts: from an explicit Gaussian or from its first two plots.
 enum class InitializationMethod { kExplicit, kTwoPoint };
 
 [[nodiscard]] std::string_view to_string(MeasurementKind kind);         ///< "cartesian", "polar"
@@ -21,9 +23,11 @@ enum class InitializationMethod { kExplicit, kTwoPoint };
 /// Inverse of to_string; throw InvalidParameter naming `field` for unknown names.
 [[nodiscard]] MeasurementKind measurement_kind_from(std::string_view name,
                                                     const std::string& field);
+/// "explicit" | "two_point"; InvalidParameter naming `field` otherwise.
 [[nodiscard]] InitializationMethod initialization_method_from(std::string_view name,
                                                               const std::string& field);
 
+/// How a Tracker starts a track.
 struct InitializationSpec {
   /// kTwoPoint: position from the second valid plot, velocity from the difference of the first
   /// two; kExplicit: `state`/`covariance` are the estimate one period before the first plot.
@@ -36,11 +40,15 @@ struct InitializationSpec {
 /// Gaps longer than this many scans end a track unless the options say otherwise.
 inline constexpr std::int64_t kDefaultMaxGap = 50;
 
+/// How a Tracker runs a filter: the scan period, the plots' kind and R, the start and the longest
+/// gap.
 struct TrackOptions {
   double sample_period = 1.0;  ///< T, s: one scan
+  /// Cartesian or polar plots.
   MeasurementKind measurement_kind = MeasurementKind::kCartesian;
   /// R of one plot: Cartesian [x, y] or polar [range, azimuth (rad)].
   Eigen::Matrix2d measurement_covariance = Eigen::Matrix2d::Identity();
+  /// How a track starts.
   InitializationSpec initialization;
   /// Gaps longer than this many scans end the track; the next plot starts a new one.
   std::int64_t max_gap = kDefaultMaxGap;

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The checked HDF5 container behind model files and data-set files.
 ///
 /// On disk a container is an HDF5 file with a 512-byte user block in front. The user block holds
@@ -36,17 +37,25 @@ using Attribute = std::variant<std::int64_t, double, std::string>;
 
 /// An N-dimensional array of doubles in row-major order.
 struct Array {
+  /// Extent per dimension.
   std::vector<std::size_t> shape;
+  /// The values, row-major.
   std::vector<double> values;
 
+  /// A rank-2 array of a matrix.
   [[nodiscard]] static Array from_matrix(const Eigen::MatrixXd& matrix);
+  /// A rank-1 array of a vector.
   [[nodiscard]] static Array from_vector(const Eigen::VectorXd& vector);
+  /// The number of dimensions.
   [[nodiscard]] std::size_t rank() const { return shape.size(); }
+  /// The product of the extents.
   [[nodiscard]] std::size_t element_count() const;
 };
 
+/// What a path names in a container.
 enum class ObjectKind { kMissing, kGroup, kDataset };
 
+/// Writes a container atomically (see the file comment).
 class ContainerWriter {
  public:
   /// Starts a container of the given format that will appear at `path` on commit().
@@ -59,6 +68,7 @@ class ContainerWriter {
   /// Writes a dataset (intermediate groups are created; an existing one is replaced).
   /// Non-finite values are refused.
   void write(std::string_view dataset, const Array& array);
+  /// Writes a matrix as a rank-2 dataset.
   void write(std::string_view dataset, const Eigen::MatrixXd& matrix);
 
   /// Creates a group (and its parents) if it does not exist yet.
@@ -70,6 +80,7 @@ class ContainerWriter {
   /// Closes, checksums, flushes and renames the file to its final name.
   void commit();
 
+  /// The final path of the file.
   [[nodiscard]] const std::filesystem::path& path() const;
 
  private:
@@ -77,6 +88,7 @@ class ContainerWriter {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Reads and verifies a container (see the file comment).
 class ContainerReader {
  public:
   /// Opens and verifies a container. Throws FileError (naming the file) when the file is missing,
@@ -90,20 +102,26 @@ class ContainerReader {
   ContainerReader(const ContainerReader&) = delete;
   ContainerReader& operator=(const ContainerReader&) = delete;
 
+  /// The file's path.
   [[nodiscard]] const std::filesystem::path& path() const;
   /// The format named in the header ("immtrain-model", "immtrain-dataset").
   [[nodiscard]] const std::string& format() const;
+  /// Whether `object` is a group, a dataset or missing.
   [[nodiscard]] ObjectKind kind(std::string_view object) const;
   /// Names of a group's members, sorted.
   [[nodiscard]] std::vector<std::string> children(std::string_view group) const;
   /// Paths of every object in the file ("/" first), sorted.
   [[nodiscard]] std::vector<std::string> objects() const;
+  /// The extents of a dataset.
   [[nodiscard]] std::vector<std::size_t> shape(std::string_view dataset) const;
   /// Reads a floating-point dataset. Throws FileError naming the dataset on a checksum mismatch,
   /// a non-float type or a missing dataset.
   [[nodiscard]] Array read(std::string_view dataset) const;
+  /// A scalar attribute of an object, or nothing when it is absent. Throws FileError naming the
+  /// attribute when it is not a scalar integer, real or text.
   [[nodiscard]] std::optional<Attribute> attribute(std::string_view object,
                                                    std::string_view name) const;
+  /// The names of an object's attributes.
   [[nodiscard]] std::vector<std::string> attribute_names(std::string_view object) const;
 
  private:

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The error thrown for a bad model or data-set file: it names the file and, where one is to
 /// blame, the field (an HDF5 object path, optionally with an attribute: "/imm/transition" or
-/// "/@schema_version").
+/// "/\@schema_version").
 
 #include <stdexcept>
 #include <string>
@@ -21,14 +22,19 @@ namespace imm::io {
   return field;
 }
 
+/// A model or data-set file that cannot be read or written, naming the file and the field
+/// ("/imm/transition", "/@schema_version").
 class FileError : public std::runtime_error {
  public:
+  /// The message reads "<file>: field '<field>': <message>".
   FileError(std::string file, std::string field, const std::string& message)
       : std::runtime_error(compose(file, field, message)),
         file_(std::move(file)),
         field_(std::move(field)) {}
 
+  /// The file.
   [[nodiscard]] const std::string& file() const { return file_; }
+  /// The field: an object path, or object\@attribute.
   [[nodiscard]] const std::string& field() const { return field_; }
 
  private:

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The model-file schema (SPEC §5, docs/model-schema.md), one module for both sides: the trainer
 /// writes through ModelFileWriter, the runtime reads through ModelFileReader.
 ///
@@ -9,7 +10,7 @@
 ///   created_utc, trainer_version, seed, config_toml, dataset_digest, length_unit ("m" | "km",
 ///   version 2), regime_name, regime_toml, regime_digest (the regime the model was trained for:
 ///   what it is the frozen answer to; absent in files written before regimes),
-///   training.<metric> and validation.<metric> (reals).
+///   training.`<metric>` and validation.`<metric>` (reals).
 /// Kind-specific content lives in groups named by meaning (e.g. /imm/transition).
 ///
 /// Version 2 files describe themselves: every dataset carries `units` (one unit for every entry,
@@ -42,11 +43,14 @@
 
 namespace imm::io {
 
+/// The container format name of model files.
 inline constexpr std::string_view kModelFormat = "immtrain-model";
+/// The newest schema version this runtime reads, and the one the trainer writes.
 inline constexpr int kModelSchemaVersion = imm::kModelSchemaVersion;
 
 /// Where a model came from: the root attributes of SPEC §5.
 struct Provenance {
+  /// plain_imm, ga_fuzzy_imm, mlp_input_estimator, wimm, fcm_imm or tsk_sensor.
   std::string model_kind;
   std::string created_utc;        ///< ISO 8601 UTC; the writer fills in "now" when empty
   std::string trainer_version;    ///< git describe of the trainer that wrote the file
@@ -58,7 +62,9 @@ struct Provenance {
   std::string regime_digest;      ///< SHA-256 of the regime (imm/datasets/regime.hpp)
   std::string length_unit = "m";  ///< unit of every length in the file ("m" | "km"); "" when a
                                   ///< version-1 file does not say
+  /// `training.<metric>` root attributes.
   std::map<std::string, double> training_metrics;
+  /// `validation.<metric>` root attributes.
   std::map<std::string, double> validation_metrics;
 };
 
@@ -67,8 +73,11 @@ struct Provenance {
 
 /// Names of the units a model file's values are in, built from its length unit (times in s).
 struct UnitNames {
+  /// "m" or "km".
   std::string length = "m";
+  /// The unit of a speed.
   [[nodiscard]] std::string speed() const { return length + "/s"; }
+  /// The unit of an acceleration.
   [[nodiscard]] std::string acceleration() const { return length + "/s^2"; }
   /// Variance of a position.
   [[nodiscard]] std::string area() const { return length + "^2"; }
@@ -81,6 +90,8 @@ struct UnitNames {
 /// The dimensionless unit.
 inline constexpr std::string_view kDimensionless = "1";
 
+/// Writes a model file: the kind's writer fills in the content, commit() adds the provenance and
+/// renames the file into place.
 class ModelFileWriter {
  public:
   /// Starts a model file at `path` (written atomically on commit()). Throws FileError when the
@@ -111,6 +122,7 @@ class ModelFileWriter {
   /// Writes the provenance and the groups' `units`, and renames the file into place.
   void commit();
 
+  /// The container being written (for content outside the schema's helpers).
   [[nodiscard]] ContainerWriter& container() { return container_; }
 
  private:
@@ -128,7 +140,9 @@ class ModelFileReader : public SchemaReader {
   /// Opens and validates a model file; `expected_kind` empty accepts any kind.
   explicit ModelFileReader(const std::filesystem::path& path, std::string_view expected_kind = {});
 
+  /// The root attributes.
   [[nodiscard]] const Provenance& provenance() const { return provenance_; }
+  /// The file's schema version (1 or 2).
   [[nodiscard]] int schema_version() const { return schema_version_; }
 
  private:

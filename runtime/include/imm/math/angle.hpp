@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Angle helpers for polar measurements.
 
 #include <cmath>
@@ -25,10 +26,12 @@ namespace imm {
   return wrap_angle(theta_b + alpha * wrap_angle(theta_a - theta_b));
 }
 
+/// Degrees to radians.
 [[nodiscard]] constexpr double degrees_to_radians(double degrees) {
   return degrees * std::numbers::pi / 180.0;
 }
 
+/// Radians to degrees.
 [[nodiscard]] constexpr double radians_to_degrees(double radians) {
   return radians * 180.0 / std::numbers::pi;
 }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Fixed-size Eigen aliases used throughout the runtime. Hot paths use these types only, so a
 /// filter step never touches the heap.
 
@@ -7,12 +8,15 @@
 
 namespace imm {
 
+/// A fixed-size column vector of N doubles.
 template <int N>
 using Vector = Eigen::Matrix<double, N, 1>;
 
+/// A fixed-size Rows × Cols matrix of doubles.
 template <int Rows, int Cols>
 using Matrix = Eigen::Matrix<double, Rows, Cols>;
 
+/// A fixed-size N × N matrix of doubles.
 template <int N>
 using SquareMatrix = Eigen::Matrix<double, N, N>;
 
@@ -20,7 +24,9 @@ using SquareMatrix = Eigen::Matrix<double, N, N>;
 /// transition matrix) use Eigen's fixed maximum size, so they live inside the filter object.
 inline constexpr int kMaxModes = 16;
 
+/// Mode-indexed vector (probabilities), at most kMaxModes entries, stored inline.
 using ModeVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxModes, 1>;
+/// Mode-indexed matrix (transition probabilities), at most kMaxModes², stored inline.
 using ModeMatrix =
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxModes, kMaxModes>;
 

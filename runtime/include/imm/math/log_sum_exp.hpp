@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Log-space arithmetic for model probabilities (seed 000 eq. 8): likelihoods of far-off modes
 /// underflow in linear space long before they matter, so the IMM keeps log μ and normalizes with
 /// log-sum-exp.

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Constant-acceleration (CA) model: per axis [p, v, a],
 /// F = [[1, T, T²/2], [0, 1, T], [0, 0, 1]] (seed 002 eq. 8).
 
@@ -7,6 +8,7 @@
 
 namespace imm {
 
+/// F of one CA axis [p, v, a] over a period T.
 [[nodiscard]] inline SquareMatrix<3> ca_axis_transition(double T) {
   SquareMatrix<3> F;
   F << 1.0, T, 0.5 * T * T, 0.0, 1.0, T, 0.0, 0.0, 1.0;

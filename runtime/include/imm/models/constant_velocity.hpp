@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Constant-velocity (CV) model: per axis [p, v], F = [[1, T], [0, 1]], input gain
 /// G = [T²/2, T]ᵀ (seed 000 eq. 1, seed 004 eq. 14).
 
@@ -9,6 +10,7 @@
 
 namespace imm {
 
+/// F of one CV axis [p, v] over a period T.
 [[nodiscard]] inline SquareMatrix<2> cv_axis_transition(double T) {
   SquareMatrix<2> F;
   F << 1.0, T, 0.0, 1.0;

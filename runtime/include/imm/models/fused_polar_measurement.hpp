@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The polar plot model of seed 004's weighted IMM, three ways (the per-cycle choice is shared by
 /// every mode through AzimuthFusion, set by the filter before the update):
 ///
@@ -25,21 +26,29 @@
 
 namespace imm {
 
+/// Which azimuth the update uses: the plot's, the seed's fused one, the correlated fusion, or the
+/// converted Cartesian plot.
 enum class AzimuthUse { kPlot, kSeed, kCorrelated, kConverted };
 
 /// The fusion of the current cycle.
 struct AzimuthFusion {
+  /// The azimuth the update uses this cycle.
   AzimuthUse use = AzimuthUse::kPlot;
   double alpha = 1.0;              ///< weight of the plot azimuth (kSeed, kCorrelated)
   double predicted_azimuth = 0.0;  ///< θ̄ (kCorrelated)
   SquareMatrix<2> converted_covariance = SquareMatrix<2>::Identity();  ///< kConverted
 };
 
+/// A polar measurement whose azimuth may be fused with the prediction's, as the shared
+/// AzimuthFusion says for the current cycle (the WIMM's update).
 template <int N>
 class FusedPolarMeasurement {
  public:
+  /// The measurement dimension: (range, azimuth).
   static constexpr int kDim = 2;
 
+  /// Position at state indices x_index, y_index; R = diag(σ_R², σ_θ²); `fusion` set by the filter
+  /// before each cycle.
   FusedPolarMeasurement(int x_index, int y_index, const SquareMatrix<2>& R,
                         std::shared_ptr<const AzimuthFusion> fusion)
       : polar_(x_index, y_index, R),
@@ -48,6 +57,7 @@ class FusedPolarMeasurement {
         R_(R),
         fusion_(std::move(fusion)) {}
 
+  /// h(x): range and azimuth of the position.
   [[nodiscard]] Vector<2> predict(const Vector<N>& x) const {
     if (fusion_->use == AzimuthUse::kConverted) return Vector<2>(x(x_index_), x(y_index_));
     Vector<2> h = polar_.predict(x);
@@ -58,6 +68,7 @@ class FusedPolarMeasurement {
     return h;
   }
 
+  /// ∂h/∂x at x.
   [[nodiscard]] Matrix<2, N> jacobian(const Vector<N>& x) const {
     if (fusion_->use == AzimuthUse::kConverted) {
       Matrix<2, N> H = Matrix<2, N>::Zero();
@@ -78,6 +89,7 @@ class FusedPolarMeasurement {
     return polar_.residual(z, predicted);
   }
 
+  /// R of the current cycle's azimuth use.
   [[nodiscard]] const SquareMatrix<2>& covariance() const {
     switch (fusion_->use) {
       case AzimuthUse::kCorrelated: {
@@ -93,6 +105,7 @@ class FusedPolarMeasurement {
     }
   }
 
+  /// Whether h and its Jacobian are defined at x (range above the minimum).
   [[nodiscard]] bool defined_at(const Vector<N>& x) const {
     return fusion_->use == AzimuthUse::kConverted || polar_.defined_at(x);
   }

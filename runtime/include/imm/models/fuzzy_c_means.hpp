@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Fuzzy c-means clustering of scalar data (Bezdek; seed 003 eq. 7–10), c = 3 clusters ordered
 /// deceleration / noise / acceleration, as a batch function and as an online clustering of a
 /// sliding window.
@@ -29,10 +30,12 @@
 
 namespace imm {
 
+/// The number of clusters: deceleration, noise, acceleration.
 inline constexpr int kFcmClusters = 3;
 /// Cluster-indexed values: [deceleration, noise, acceleration].
 using ClusterVector = Vector<kFcmClusters>;
 
+/// Fuzzy c-means settings.
 struct FuzzyCMeansSettings {
   double fuzzifier = 2.0;    ///< m > 1
   double tolerance = 1e-4;   ///< on max |ΔU|, > 0
@@ -46,10 +49,14 @@ struct FuzzyCMeansSettings {
 [[nodiscard]] ClusterVector fcm_memberships(double x, const ClusterVector& centers,
                                             double fuzzifier);
 
+/// The result of a clustering.
 struct FcmResult {
+  /// The cluster centers v.
   ClusterVector centers = ClusterVector::Zero();
+  /// Iterations done.
   int iterations = 0;
   double change = 0.0;  ///< max |ΔU| of the last iteration
+  /// Whether max |ΔU| fell below the tolerance.
   bool converged = false;
 };
 
@@ -81,6 +88,7 @@ FcmResult fuzzy_c_means_from_memberships(std::span<const double> data,
 /// most negative (deceleration) and index 2 the most positive (acceleration).
 class SlidingFuzzyCMeans {
  public:
+  /// The longest window.
   static constexpr int kMaxWindow = 128;
 
   SlidingFuzzyCMeans() = default;
@@ -88,13 +96,18 @@ class SlidingFuzzyCMeans {
   SlidingFuzzyCMeans(int window, const FuzzyCMeansSettings& settings, const ClusterVector& lower,
                      const ClusterVector& upper);
 
+  /// The memberships of x in the committed window with x appended; changes nothing.
   [[nodiscard]] ClusterVector propose(double x);
+  /// Makes the last propose()'s window and centers current.
   void commit();
   /// Empties the window.
   void reset();
 
+  /// The window length.
   [[nodiscard]] int window() const { return window_; }
+  /// The number of points in the window.
   [[nodiscard]] int size() const { return size_; }
+  /// The committed centers (sorted: deceleration, noise, acceleration).
   [[nodiscard]] const ClusterVector& centers() const { return centers_; }
   /// Iterations of the last propose() (0 when it did not cluster).
   [[nodiscard]] int last_iterations() const { return pending_iterations_; }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// A fuzzy rule table mapping (residual, residual change) to a process-noise variance
 /// (seed 000 §3.1–3.2):
 ///   rule l: if r is A₁ˡ and Δr is A₂ˡ then q is wˡ                                  (13)
@@ -24,6 +25,7 @@
 
 namespace imm {
 
+/// One rule of eq. (13): Gaussian premises on r and Δr, a constant consequent w.
 struct FuzzyRule {
   double c1 = 0.0;      ///< center on the residual r
   double sigma1 = 1.0;  ///< spread on r, > 0
@@ -53,6 +55,7 @@ template <class Scalar>
 /// A validated table: 1 to kMaxRules rules, finite, σ > 0, w ≥ 0.
 class FuzzyRuleTable {
  public:
+  /// The most rules a table may hold.
   static constexpr std::size_t kMaxRules = 50;
 
   FuzzyRuleTable() = default;
@@ -92,8 +95,11 @@ class FuzzyRuleTable {
     return fuzzy_inference(rules_.data(), rules_.size(), r, dr, mean_w_);
   }
 
+  /// The rules.
   [[nodiscard]] const std::vector<FuzzyRule>& rules() const { return rules_; }
+  /// The number of rules.
   [[nodiscard]] std::size_t size() const { return rules_.size(); }
+  /// The mean consequent w: the answer far from every rule.
   [[nodiscard]] double mean_w() const { return mean_w_; }
 
  private:

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// A multilayer perceptron (seed 001 Fig. 2: 2-10-10-1, sigmoid hidden units, biases). Each layer
 /// computes a = f(W x + b); the network's output is output_scale × (last layer's activation), so a
 /// sigmoid output unit covers [0, output_scale]. The runtime evaluates one input at a time without
@@ -15,12 +16,15 @@
 
 namespace imm {
 
+/// A layer's activation function.
 enum class Activation { kSigmoid, kLinear };
 
+/// "sigmoid" | "linear".
 [[nodiscard]] inline std::string_view to_string(Activation activation) {
   return activation == Activation::kSigmoid ? "sigmoid" : "linear";
 }
 
+/// f(x).
 [[nodiscard]] inline double activate(Activation activation, double x) {
   return activation == Activation::kSigmoid ? 1.0 / (1.0 + std::exp(-x)) : x;
 }
@@ -30,12 +34,15 @@ enum class Activation { kSigmoid, kLinear };
   return activation == Activation::kSigmoid ? a * (1.0 - a) : 1.0;
 }
 
+/// One fully connected layer: a = f(W x + b).
 struct MlpLayer {
   Eigen::MatrixXd weights;  ///< outputs × inputs
   Eigen::VectorXd bias;     ///< outputs
+  /// f.
   Activation activation = Activation::kSigmoid;
 };
 
+/// A multilayer perceptron whose output is scaled by output_scale (seed 001's network).
 class Mlp {
  public:
   Mlp() = default;
@@ -90,10 +97,13 @@ class Mlp {
     return output_scale_ * (*x)(0);
   }
 
+  /// The number of inputs of the first layer.
   [[nodiscard]] int input_count() const {
     return layers_.empty() ? 0 : static_cast<int>(layers_.front().weights.cols());
   }
+  /// The layers, input first.
   [[nodiscard]] const std::vector<MlpLayer>& layers() const { return layers_; }
+  /// The factor the last layer's output is multiplied by.
   [[nodiscard]] double output_scale() const { return output_scale_; }
 
  private:

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// A linear-Gaussian motion model x(k+1) = F x(k) + w(k), w ~ N(0, Q), discretized once for a
 /// fixed sample period. Models know nothing of filters: the filters are handed F and Q, and the
 /// data-set generators draw w from the same Q to simulate truth.
@@ -15,8 +16,10 @@
 
 namespace imm {
 
+/// A linear motion model x⁺ = F x + w, w ~ N(0, Q), over one period.
 template <int N>
 struct LinearMotionModel {
+  /// The state dimension.
   static constexpr int kDim = N;
   SquareMatrix<N> transition = SquareMatrix<N>::Identity();  ///< F
   SquareMatrix<N> process_noise = SquareMatrix<N>::Zero();   ///< Q
@@ -59,12 +62,14 @@ template <int D, int K>
 }
 
 namespace detail {
+/// Throws std::invalid_argument naming `field` unless `value` is positive and finite.
 inline void require_positive(double value, const char* field) {
   if (!(value > 0.0) || !std::isfinite(value)) {
     throw std::invalid_argument(std::string(field) + " must be positive and finite, got " +
                                 std::to_string(value));
   }
 }
+/// Throws std::invalid_argument naming `field` unless `value` is non-negative and finite.
 inline void require_non_negative(double value, const char* field) {
   if (!(value >= 0.0) || !std::isfinite(value)) {
     throw std::invalid_argument(std::string(field) + " must be non-negative and finite, got " +

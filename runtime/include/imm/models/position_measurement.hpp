@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Cartesian position measurement z = H x + v, v ~ N(0, R), H selecting the position components
 /// of the state (seed 000 eq. 2 per axis; [x, y] in 2-D).
 
@@ -26,9 +27,11 @@ void require_measurement_covariance(const SquareMatrix<M>& R, const char* field)
 }
 }  // namespace detail
 
+/// A linear measurement of M position components of an N-state: z = H x + v.
 template <int N, int M>
 class PositionMeasurement {
  public:
+  /// The measurement dimension.
   static constexpr int kDim = M;
 
   /// `position_indices[i]` is the state component measured by z_i.
@@ -46,13 +49,19 @@ class PositionMeasurement {
     }
   }
 
+  /// H x.
   [[nodiscard]] Vector<M> predict(const Vector<N>& x) const { return H_ * x; }
+  /// H (constant).
   [[nodiscard]] const Matrix<M, N>& jacobian(const Vector<N>& /*x*/) const { return H_; }
+  /// z − H x̂⁻.
   [[nodiscard]] Vector<M> residual(const Vector<M>& z, const Vector<M>& predicted) const {
     return z - predicted;
   }
+  /// R.
   [[nodiscard]] const SquareMatrix<M>& covariance() const { return R_; }
+  /// Always true: a linear measurement is defined everywhere.
   [[nodiscard]] bool defined_at(const Vector<N>& /*x*/) const { return true; }
+  /// H.
   [[nodiscard]] const Matrix<M, N>& matrix() const { return H_; }
 
  private:

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// Singer model: per axis [p, v, a] with the acceleration a first-order Markov process,
 /// ȧ = −a/τ + w, w white of PSD q = 2σ_a²/τ, so that the stationary variance of a is σ_a².
 ///

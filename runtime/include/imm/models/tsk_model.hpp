@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// The probabilistic TSK fuzzy model of a range sensor (seed 002 §2, eq. 1–4, 9–10): two inputs
 /// (ξ lateral, η longitudinal), two outputs, per output c rules
 ///   Rʳ: if ξ is A₁ʳ and η is A₂ʳ then zʳ = a₀ʳ + a_ξʳ ξ + a_ηʳ η,
@@ -37,29 +38,36 @@
 
 namespace imm {
 
+/// The t-norm combining a rule's two premise memberships.
 enum class TNorm { kMin, kProduct };
+/// What the model answers outside its trained input box (see the file comment).
 enum class OutsideBox { kLinear, kHold };
 
 [[nodiscard]] std::string_view to_string(TNorm t_norm);  ///< "min" | "product"
+/// "min" | "product"; InvalidParameter naming `field` otherwise.
 [[nodiscard]] TNorm t_norm_from(std::string_view name, const std::string& field);
 
+/// One TSK rule: Gaussian premises on (ξ, η), a linear consequent.
 struct TskRule {
   Eigen::Vector2d center = Eigen::Vector2d::Zero();      ///< premise centers m (ξ, η)
   Eigen::Vector2d width = Eigen::Vector2d::Ones();       ///< premise widths s > 0
   Eigen::Vector3d consequent = Eigen::Vector3d::Zero();  ///< a₀, a_ξ, a_η
 };
 
+/// The rules of one output and its noise σ.
 struct TskOutput {
   std::vector<TskRule> rules;  ///< 1 … kMaxRules
   double sigma = 0.0;          ///< σ of eq. (7), ≥ 0
 };
 
+/// The model at one input: values, Jacobian and whether the input was clamped.
 struct TskEvaluation {
   Eigen::Vector2d value = Eigen::Vector2d::Zero();     ///< (h₁, h₂)
   Eigen::Matrix2d jacobian = Eigen::Matrix2d::Zero();  ///< ∂h_i/∂(ξ, η)
   bool clamped = false;                                ///< the input lay outside the trained box
 };
 
+/// The most rules an output may have.
 inline constexpr int kTskMaxRules = 32;
 
 /// One output's rules fired at an input: what h, its input gradient (here) and the trainer's
@@ -75,8 +83,10 @@ struct TskFiring {
   double value = 0.0;                               ///< h = Σ shareʳ zʳ
 };
 
+/// The two-output TSK sensor model of seed 002 (see the file comment).
 class TskModel {
  public:
+  /// The most rules an output may have.
   static constexpr int kMaxRules = kTskMaxRules;
 
   TskModel() = default;
@@ -100,11 +110,17 @@ class TskModel {
                                      const Eigen::Vector2d& input,
                                      Eigen::Vector2d* gradient = nullptr);
 
+  /// The two outputs' rules and σ.
   [[nodiscard]] const std::array<TskOutput, 2>& outputs() const { return outputs_; }
+  /// The t-norm.
   [[nodiscard]] TNorm t_norm() const { return t_norm_; }
+  /// What the model answers outside its input box.
   [[nodiscard]] OutsideBox outside_policy() const { return outside_; }
+  /// Sets the outside-box policy.
   void set_outside_policy(OutsideBox policy) { outside_ = policy; }
+  /// The input box's lower corner (ξ, η).
   [[nodiscard]] const Eigen::Vector2d& input_lower() const { return lower_; }
+  /// The input box's upper corner (ξ, η).
   [[nodiscard]] const Eigen::Vector2d& input_upper() const { return upper_; }
   /// diag(σ₁², σ₂²): the model's own noise, added to the sensor's R by the FIMM.
   [[nodiscard]] Eigen::Matrix2d noise_covariance() const;

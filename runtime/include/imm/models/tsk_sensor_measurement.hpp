@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
+/// @file
 /// A learned range sensor as an EKF measurement model: z = h(ξ, η) + v, h the TSK model
 /// (tsk_model.hpp) of the position components, v ~ N(0, R + diag(σ₁², σ₂²)) — the sensor's noise
 /// plus the model's own (seed 002 eq. 3, 7). The Jacobian is non-zero only in the two position
@@ -16,9 +17,11 @@
 
 namespace imm {
 
+/// The TSK sensor model as a measurement model of an N-state filter (the FIMM's EKF update).
 template <int N>
 class TskSensorMeasurement {
  public:
+  /// The measurement dimension: (z1, z2).
   static constexpr int kDim = 2;
 
   /// `position_indices` = state indices of ξ and η; R the sensor's noise covariance.
@@ -35,7 +38,9 @@ class TskSensorMeasurement {
     covariance_ = R + model_->noise_covariance();
   }
 
+  /// h(x): the sensor model at the state's (ξ, η).
   [[nodiscard]] Vector<2> predict(const Vector<N>& x) const { return evaluate(x).value; }
+  /// ∂h/∂x: the model's Jacobian placed at the (ξ, η) columns.
   [[nodiscard]] Matrix<2, N> jacobian(const Vector<N>& x) const {
     const TskEvaluation& e = evaluate(x);
     Matrix<2, N> H = Matrix<2, N>::Zero();
@@ -43,10 +48,13 @@ class TskSensorMeasurement {
     H.col(indices_[1]) = e.jacobian.col(1);
     return H;
   }
+  /// z − h(x̂⁻).
   [[nodiscard]] Vector<2> residual(const Vector<2>& z, const Vector<2>& predicted) const {
     return z - predicted;
   }
+  /// R.
   [[nodiscard]] const SquareMatrix<2>& covariance() const { return covariance_; }
+  /// Whether the state is finite (the model is defined everywhere, clamped outside its box).
   [[nodiscard]] bool defined_at(const Vector<N>& x) const { return x.allFinite(); }
 
  private:

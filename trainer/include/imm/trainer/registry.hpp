@@ -36,7 +36,10 @@ struct RegistryEntry {
   std::string inputs_digest;  ///< the nightly stage's inputs (empty: not from a nightly)
   std::string promoted_utc;
   nlohmann::json metrics = nlohmann::json::object();  ///< headline metrics with intervals
-  std::vector<RegistryEntry> history;                 ///< replaced entries, newest first
+  /// Why a person promoted the file past the nightly's gates (`imm-train promote`); empty for a
+  /// nightly promotion.
+  std::string promotion_reason;
+  std::vector<RegistryEntry> history;  ///< replaced entries, newest first
 };
 
 /// The registry entry of a model file (kind, regime, digests, dates from its provenance).

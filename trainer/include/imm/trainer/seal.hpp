@@ -21,4 +21,8 @@ struct SealResult {
 /// model; the file is then unchanged.
 SealResult seal_model_file(const std::filesystem::path& path);
 
+/// Reads a model file with its kind's reader and, for the kinds the runtime loads, builds its
+/// filter (imm::load_filter); returns the kind. Throws io::FileError naming the field.
+std::string check_model_file(const std::filesystem::path& path);
+
 }  // namespace imm::trainer

@@ -35,8 +35,17 @@ struct PlotSpec {
 };
 
 /// Draws the series with gnuplot (pngcairo or png terminal). Returns false, leaving no PNG,
-/// when gnuplot is missing or fails; the caller reports it.
+/// when gnuplot is missing or fails; the caller reports it. The plot names the runs, the seed and
+/// the model (plot_caption()); every series gets its own dash pattern or point type, and the y
+/// axis turns logarithmic when one series dominates the others (medians 30× apart), so that no
+/// curve is flattened out of sight. The script (<png stem>.gp, beside the PNG) names its files
+/// relative to its folder, so a report folder can be moved and the script rerun inside it.
 bool plot_series(const PlotSpec& spec);
+
+/// The line under every plot's title: "<runs> runs, seed <seed>, model <file> (<trainer version>)"
+/// of the last write_metrics() (evaluation_report.hpp); empty before it.
+[[nodiscard]] const std::string& plot_caption();
+void set_plot_caption(std::string caption);
 
 /// "%.3g" text ("8.16e+03").
 [[nodiscard]] std::string scientific(double value);

@@ -1,0 +1,46 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/trainer/promote.hpp"
+
+#include <stdexcept>
+
+#include "imm/io/model_file.hpp"
+#include "imm/trainer/provenance.hpp"
+#include "imm/trainer/seal.hpp"
+
+namespace imm::trainer {
+
+RegistryEntry promote_by_hand(const PromoteOptions& options) {
+  if (options.reason.find_first_not_of(" \t\n") == std::string::npos) {
+    throw std::runtime_error("promote: --reason must say why the file is shipped past the gates");
+  }
+  if (!std::filesystem::is_regular_file(options.file)) {
+    throw io::FileError(options.file.string(), "", "no such model file");
+  }
+  const std::string kind = check_model_file(options.file);
+  const io::ModelFileReader reader(options.file);
+  const std::string& version = reader.provenance().trainer_version;
+  if (version.ends_with("-dirty")) {
+    throw std::runtime_error(options.file.string() +
+                             ": trained by a build of uncommitted code (trainer_version " +
+                             version + "); shipped models come only from committed code");
+  }
+  Registry registry(options.registry);
+  (void)registry.repair();
+  RegistryEntry entry = describe_model(options.file, options.registry, options.name);
+  if (const RegistryEntry* current = registry.find(options.name)) {
+    if (current->kind != kind) {
+      throw std::runtime_error("promote: '" + options.name + "' is a " + current->kind +
+                               " model; " + options.file.string() + " holds a " + kind + " model");
+    }
+    entry.file = current->file;
+  } else {
+    entry.file = options.name + ".h5";
+  }
+  entry.promotion_reason = options.reason;
+  const auto metrics = metrics_path(options.file);
+  registry.promote(entry, options.file,
+                   std::filesystem::exists(metrics) ? std::optional(metrics) : std::nullopt);
+  return *registry.find(options.name);
+}
+
+}  // namespace imm::trainer
