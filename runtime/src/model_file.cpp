@@ -151,7 +151,8 @@ void ModelFileWriter::commit() {
   for (const auto& [object, list] : attribute_units_) {
     std::vector<std::string> entries;
     entries.reserve(list.size());
-    for (const auto& [name, unit] : list) entries.push_back(name + "=" + unit);
+    for (const auto& [name, unit] : list)
+      entries.push_back(std::string(name).append("=").append(unit));
     container_.set_attribute(object, "units", join_list(entries));
   }
   if (!provenance_.regime_name.empty()) {

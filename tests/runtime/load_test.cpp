@@ -163,9 +163,8 @@ TEST(InputEstimationFilter, PredictOnlyHoldsTheLastInputEstimate) {
 }
 
 // The FIMM of a TSK sensor file: its settings come from the file, and the track starts as
-// imm-eval fimm starts it (two-point with R, the acceleration variance from the settings). A
-// shipped file written before the settings were stored (a retraining the regression gate held
-// back) is refused naming /fimm.
+// imm-eval fimm starts it (two-point with R, the acceleration variance from the settings). Every
+// shipped sensor model carries its settings (a file without them is refused naming /fimm: below).
 TEST(LoadTracker, TskSensorModelRunsTheFimmWithTheSettingsItCarries) {
   int compared = 0;
   for (const auto& path : testing::shipped_models()) {
@@ -173,15 +172,7 @@ TEST(LoadTracker, TskSensorModelRunsTheFimmWithTheSettingsItCarries) {
     if (reader.provenance().model_kind != io::kTskSensorKind) continue;
     SCOPED_TRACE(path.string());
     const std::optional<FimmSpec> spec = io::read_fimm_settings(reader);
-    if (!spec) {
-      try {
-        (void)load_filter(path);
-        ADD_FAILURE() << "a TSK file without /fimm loaded";
-      } catch (const io::FileError& error) {
-        EXPECT_NE(std::string(error.what()).find("'/fimm': missing"), std::string::npos);
-      }
-      continue;
-    }
+    ASSERT_TRUE(spec) << "a shipped sensor model without its FIMM settings";
     const auto sensor = std::make_shared<const TskModel>(io::read_tsk_sensor(reader));
     FimmFilter expected(*spec, sensor);
     Tracker tracker = load_tracker(path);
@@ -221,7 +212,7 @@ TEST(LoadTracker, TskSensorModelRunsTheFimmWithTheSettingsItCarries) {
     EXPECT_EQ(options.measurement_kind, MeasurementKind::kCartesian);
     ++compared;
   }
-  EXPECT_GE(compared, 1);
+  EXPECT_GE(compared, 2);  // tsk_range_sensor and tsk_range_sensor_hard
 }
 
 std::shared_ptr<const TskModel> identity_sensor() {

@@ -123,15 +123,6 @@ TEST(CommandLine, ImmTrackRunsEveryShippedKindAndWritesNumbersLosslessly) {
   std::set<std::string> kinds;
   for (const auto& path : testing::shipped_models()) {
     SCOPED_TRACE(path.string());
-    if (const io::ModelFileReader reader(path);
-        reader.provenance().model_kind == io::kTskSensorKind && !io::read_fimm_settings(reader)) {
-      // Written before the FIMM settings were stored: refused, naming what is missing.
-      const auto refused = run_tool("imm-track", {"--filter", path.string(), "--measurements", "m"},
-                                    testing::source_root());
-      EXPECT_EQ(refused.exit_code, 2);
-      EXPECT_NE(refused.err.find("'/fimm': missing"), std::string::npos) << refused.err;
-      continue;
-    }
     Tracker tracker = load_tracker(path);
     LoadedFilter loaded = load_filter(path);
     const bool polar = loaded.options.measurement_kind == MeasurementKind::kPolar;

@@ -162,7 +162,7 @@ std::filesystem::path ReportRecorder::finish() {
   const auto& folder = written_metrics_folder();
   if (!folder) return {};
   const auto metrics = nlohmann::json::parse(trainer::read_text_file(*folder / "metrics.json"));
-  const std::filesystem::path path = *folder / "report.md";
+  std::filesystem::path path = *folder / "report.md";
   const std::filesystem::path temp = *folder / ".report.md.tmp";
   {
     std::ofstream md(temp, std::ios::trunc);

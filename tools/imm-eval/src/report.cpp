@@ -156,9 +156,12 @@ bool plot_series(const PlotSpec& spec) {
       const std::string x = i < spec.x_series.size() ? spec.x_series[i] : "k";
       const std::string& style = i < spec.styles.size() ? spec.styles[i] : spec.style;
       const std::string n = std::to_string(i + 1);
-      const std::string drawn = style == "lines"  ? "lines lw 2 dashtype " + n
-                                : style == "dots" ? std::string("dots")
-                                                  : style + " ps 0.6 pointtype " + n;
+      std::string drawn = style;
+      if (style == "lines") {
+        drawn.append(" lw 2 dashtype ").append(n);
+      } else if (style != "dots") {
+        drawn.append(" ps 0.6 pointtype ").append(n);
+      }
       script << (i == 0 ? "" : ", ") << "'" << csv << "' using '" << x << "':'" << spec.series[i]
              << "' with " << drawn << " title '" << spec.series[i] << "'";
     }
