@@ -179,6 +179,9 @@ TEST_F(Tools, ImmInspectPrintsTablesAndJson) {
   ASSERT_EQ(text.exit_code, 0) << text.err;
   EXPECT_NE(text.out.find("kind             plain_imm"), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("/imm/transition  [3x3]"), std::string::npos) << text.out;
+  // Schema 2: each real attribute with its unit, read from the group's units.
+  EXPECT_NE(text.out.find("/imm  mode_count=3  sample_period=1 s"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("process_noise=1e-06 km^2/s^4"), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("trainer_version"), std::string::npos);
   const auto json = run_tool("imm-inspect", {model.string(), "--json"}, root_);
   ASSERT_EQ(json.exit_code, 0);
@@ -645,7 +648,9 @@ TEST_F(Tools, ImmInspectShowsRuleTablesLikeTable2) {
   const auto text = run_tool("imm-inspect", {model.string()}, root_);
   ASSERT_EQ(text.exit_code, 0) << text.err;
   EXPECT_NE(text.out.find("kind             ga_fuzzy_imm"), std::string::npos);
-  EXPECT_NE(text.out.find("c1      sigma1          c2      sigma2           w"), std::string::npos)
+  // The column headers carry their units (schema 2: the paper's rules are in km).
+  EXPECT_NE(text.out.find("c1 (km) sigma1 (km)     c2 (km) sigma2 (km) w (km^2/s^4)"),
+            std::string::npos)
       << text.out;
   EXPECT_NE(text.out.find("2.33       0.376       0.254       2.591    2.15e-06"),
             std::string::npos)

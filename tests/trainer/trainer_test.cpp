@@ -33,6 +33,30 @@ TEST(Freeze, WritesALoadableModelWithProvenanceAndMetrics) {
   EXPECT_NE(metrics.find("\"modes\": 3"), std::string::npos) << metrics;
 }
 
+// The config's `units` go into the file (every length of cv3_imm.toml is in km), and a regime in
+// other units is refused naming the key.
+TEST(Freeze, RecordsTheConfigsLengthUnitAndRefusesARegimeInAnother) {
+  const testing::TempDir dir;
+  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", dir / "km.h5", {}});
+  EXPECT_EQ(io::ModelFileReader(dir / "km.h5").provenance().length_unit, "km");
+  (void)freeze_plain_imm(
+      {"configs/track/cv3_imm.toml", dir / "r.h5", "configs/regimes/paper/ga_imm_table3.toml"});
+  EXPECT_EQ(io::ModelFileReader(dir / "r.h5").provenance().regime_name, "ga_imm_table3");
+  std::string metres = read_text_file("configs/track/cv3_imm.toml");
+  metres.replace(metres.find("units = \"km\""), 12, "units = \"m\" ");
+  testing::write_text(dir / "m.toml", metres);
+  (void)freeze_plain_imm({dir / "m.toml", dir / "m.h5", {}});
+  EXPECT_EQ(io::ModelFileReader(dir / "m.h5").provenance().length_unit, "m");
+  try {
+    (void)freeze_plain_imm(
+        {dir / "m.toml", dir / "x.h5", "configs/regimes/paper/ga_imm_table3.toml"});
+    ADD_FAILURE() << "a metres config frozen for a km regime";
+  } catch (const support::ConfigError& error) {
+    EXPECT_EQ(error.key(), "units");
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.h5"));
+}
+
 TEST(Freeze, BadConfigLeavesNoModelBehind) {
   const testing::TempDir dir;
   testing::write_text(dir / "bad.toml", "sample_period = 1.0\n");

@@ -129,12 +129,39 @@ struct Inspector {
       const ObjectKind kind = file.kind(path);
       std::string attributes;
       std::vector<std::string> columns;
+      // Schema 2: a group's units name each real attribute ("name=unit,…"), a dataset's are one
+      // unit or one per column. Printed beside the values ("sample_period=2 s").
+      std::map<std::string, std::string> attribute_units;
+      std::vector<std::string> column_units;
+      const auto units = file.attribute(path, "units");
+      if (units && std::holds_alternative<std::string>(*units)) {
+        for (const std::string& entry : split_columns(std::get<std::string>(*units))) {
+          const auto equals = entry.find('=');
+          if (equals != std::string::npos) {
+            attribute_units[entry.substr(0, equals)] = entry.substr(equals + 1);
+          } else {
+            column_units.push_back(entry);
+          }
+        }
+      }
       for (const std::string& attribute : file.attribute_names(path)) {
         const Attribute value = *file.attribute(path, attribute);
         if (attribute == "columns") {
           columns = split_columns(std::get<std::string>(value));
+        } else if (attribute == "units" && kind == ObjectKind::kGroup && !attribute_units.empty()) {
+          continue;  // shown with each value
         } else {
           attributes += "  " + attribute + "=" + attribute_text(value);
+          const auto unit = attribute_units.find(attribute);
+          if (unit != attribute_units.end() && unit->second != "1")
+            attributes += " " + unit->second;
+        }
+      }
+      // (A covariance's units are its variables': entry (i, j) is in unitᵢ·unitⱼ, not a column's.)
+      const bool covariance = file.attribute(path, "quantity").has_value();
+      if (!covariance && column_units.size() > 1 && column_units.size() == columns.size()) {
+        for (std::size_t c = 0; c < columns.size(); ++c) {
+          if (column_units[c] != "1") columns[c] += " (" + column_units[c] + ")";
         }
       }
       if (kind == ObjectKind::kGroup) {

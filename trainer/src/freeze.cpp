@@ -13,9 +13,11 @@ namespace imm::trainer {
 
 FreezeSummary freeze_plain_imm(const FreezeOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  const PlainImmSpec spec = support::load_plain_imm_config(options.config);
+  const support::PlainImmConfig config = support::load_plain_imm_file(options.config);
+  const PlainImmSpec& spec = config.spec;
   io::Provenance provenance =
       make_provenance(std::string(io::kPlainImmKind), read_text_file(options.config), 0, "");
+  provenance.length_unit = config.length_unit;
   if (options.regime) {
     const datasets::Regime regime = support::load_regime(*options.regime).regime;
     const std::string file = options.config.string();
@@ -37,6 +39,12 @@ FreezeSummary freeze_plain_imm(const FreezeOptions& options) {
         throw support::ConfigError(file, "measurement.covariance",
                                    "differs from the plot noise of regime '" + regime.name + "'");
       }
+    }
+    if (config.length_unit != datasets::to_string(regime.units)) {
+      throw support::ConfigError(file, "units",
+                                 "\"" + config.length_unit + "\" differs from regime '" +
+                                     regime.name + "' (" +
+                                     std::string(datasets::to_string(regime.units)) + ")");
     }
     set_regime(provenance, regime);
   }

@@ -65,9 +65,22 @@ PlainImmSpec plain_imm_from(const ConfigTable& table) {
   return spec;
 }
 
-PlainImmSpec load_plain_imm_config(const std::filesystem::path& path) {
+PlainImmConfig load_plain_imm_file(const std::filesystem::path& path) {
   const auto document = ConfigDocument::load(path);
-  return document->load_checked([&] { return plain_imm_from(document->root()); });
+  return document->load_checked([&] {
+    PlainImmConfig config;
+    const ConfigTable& root = document->root();
+    config.length_unit = root.text_or("units", "m");
+    if (config.length_unit != "m" && config.length_unit != "km") {
+      root.fail("units", "must be \"m\" or \"km\"");
+    }
+    config.spec = plain_imm_from(root);
+    return config;
+  });
+}
+
+PlainImmSpec load_plain_imm_config(const std::filesystem::path& path) {
+  return load_plain_imm_file(path).spec;
 }
 
 }  // namespace imm::support
