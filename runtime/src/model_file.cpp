@@ -43,16 +43,35 @@ bool valid_name(std::string_view part) {
   return !part.empty() && part.find_first_of(",=") == std::string_view::npos;
 }
 
+// Why a dataset's `units` do not fit its `entries` columns (a matrix) or entries (a vector): one
+// unit for all, or one valid unit each. Empty when they fit. The writer and the reader share it.
+std::string units_problem(const std::vector<std::string>& units, std::size_t entries,
+                          std::string_view what) {
+  if (units.size() != 1 && units.size() != entries) {
+    return "gives " + std::to_string(units.size()) + " units for " + std::to_string(entries) + " " +
+           std::string(what);
+  }
+  for (const auto& unit : units) {
+    if (!valid_name(unit)) return "invalid unit '" + unit + "'";
+  }
+  return {};
+}
+
+std::string length_unit_problem(const std::string& unit) {
+  return valid_length_unit(unit) ? std::string() : "must be \"m\" or \"km\", got \"" + unit + "\"";
+}
+
 }  // namespace
+
+bool valid_length_unit(std::string_view unit) { return unit == "m" || unit == "km"; }
 
 ModelFileWriter::ModelFileWriter(const std::filesystem::path& path, Provenance provenance)
     : provenance_(std::move(provenance)), container_(path, kModelFormat) {
   if (provenance_.model_kind.empty()) {
     throw FileError(path.string(), "/@model_kind", "model kind must not be empty");
   }
-  if (provenance_.length_unit != "m" && provenance_.length_unit != "km") {
-    throw FileError(path.string(), "/@length_unit",
-                    "must be \"m\" or \"km\", got \"" + provenance_.length_unit + "\"");
+  if (const auto problem = length_unit_problem(provenance_.length_unit); !problem.empty()) {
+    throw FileError(path.string(), "/@length_unit", problem);
   }
   units_.length = provenance_.length_unit;
   if (provenance_.created_utc.empty()) provenance_.created_utc = utc_now();
@@ -72,16 +91,9 @@ void ModelFileWriter::write_matrix(std::string_view dataset, const Eigen::Matrix
       throw FileError(file, field_path(dataset, "columns"), "invalid column name '" + column + "'");
     }
   }
-  const auto unit_list = split_list(units);
-  if (unit_list.size() != 1 && unit_list.size() != columns.size()) {
-    throw FileError(file, field_path(dataset, "units"),
-                    "gives " + std::to_string(unit_list.size()) + " units for " +
-                        std::to_string(columns.size()) + " columns");
-  }
-  for (const auto& unit : unit_list) {
-    if (!valid_name(unit)) {
-      throw FileError(file, field_path(dataset, "units"), "invalid unit '" + unit + "'");
-    }
+  if (const auto problem = units_problem(split_list(units), columns.size(), "columns");
+      !problem.empty()) {
+    throw FileError(file, field_path(dataset, "units"), problem);
   }
   container_.write(dataset, matrix);
   container_.set_attribute(dataset, "columns", join_list(columns));
@@ -101,17 +113,10 @@ void ModelFileWriter::write_covariance(std::string_view dataset, const Eigen::Ma
 
 void ModelFileWriter::write_vector(std::string_view dataset, const Eigen::VectorXd& vector,
                                    std::string_view units) {
-  const auto unit_list = split_list(units);
-  if (unit_list.size() != 1 && static_cast<Eigen::Index>(unit_list.size()) != vector.size()) {
-    throw FileError(container_.path().string(), field_path(dataset, "units"),
-                    "gives " + std::to_string(unit_list.size()) + " units for " +
-                        std::to_string(vector.size()) + " entries");
-  }
-  for (const auto& unit : unit_list) {
-    if (!valid_name(unit)) {
-      throw FileError(container_.path().string(), field_path(dataset, "units"),
-                      "invalid unit '" + unit + "'");
-    }
+  if (const auto problem =
+          units_problem(split_list(units), static_cast<std::size_t>(vector.size()), "entries");
+      !problem.empty()) {
+    throw FileError(container_.path().string(), field_path(dataset, "units"), problem);
   }
   container_.write(dataset, Array::from_vector(vector));
   container_.set_attribute(dataset, "units", std::string(units));
@@ -201,8 +206,8 @@ ModelFileReader::ModelFileReader(const std::filesystem::path& path, std::string_
   provenance_.dataset_digest = text("/", "dataset_digest");
   if (schema_version_ >= 2) {
     provenance_.length_unit = text("/", "length_unit");
-    if (provenance_.length_unit != "m" && provenance_.length_unit != "km") {
-      fail("/@length_unit", "must be \"m\" or \"km\", got \"" + provenance_.length_unit + "\"");
+    if (const auto problem = length_unit_problem(provenance_.length_unit); !problem.empty()) {
+      fail("/@length_unit", problem);
     }
   } else {
     provenance_.length_unit.clear();
@@ -237,9 +242,7 @@ void ModelFileReader::check_self_description() const {
       const auto shape = container().shape(object);
       if (!has("units")) fail(field_path(object, "units"), "missing (schema version 2)");
       const auto units = split_list(text(object, "units"));
-      for (const auto& unit : units) {
-        if (!valid_name(unit)) fail(field_path(object, "units"), "invalid unit '" + unit + "'");
-      }
+      std::string problem;
       if (shape.size() == 2) {
         if (!has("columns")) fail(field_path(object, "columns"), "missing (schema version 2)");
         const auto columns = split_list(text(object, "columns"));
@@ -248,15 +251,11 @@ void ModelFileReader::check_self_description() const {
                                                   " columns of a matrix with " +
                                                   std::to_string(shape[1]));
         }
-        if (units.size() != 1 && units.size() != columns.size()) {
-          fail(field_path(object, "units"), "gives " + std::to_string(units.size()) +
-                                                " units for " + std::to_string(columns.size()) +
-                                                " columns");
-        }
-      } else if (units.size() != 1 && (shape.size() != 1 || units.size() != shape[0])) {
-        fail(field_path(object, "units"),
-             "gives " + std::to_string(units.size()) + " units, expected one or one per entry");
+        problem = units_problem(units, columns.size(), "columns");
+      } else {
+        problem = units_problem(units, shape.size() == 1 ? shape[0] : 1, "entries");
       }
+      if (!problem.empty()) fail(field_path(object, "units"), problem);
       continue;
     }
     if (object == "/") continue;  // the root's reals are the training metrics (SPEC §5)

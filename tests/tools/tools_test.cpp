@@ -270,10 +270,10 @@ TEST_F(Tools, PlainImmEvaluationWritesMetricsAndBeatsEachModeAlone) {
   const auto moved = dir_ / "moved";
   std::filesystem::rename(out, moved);
   std::filesystem::remove(moved / "normalized_position_error.png");
+  // gnuplot is a dependency (scripts/install-deps.sh: gnuplot-nox).
   const auto gnuplot = run_tool("/usr/bin/gnuplot", {"normalized_position_error.gp"}, moved);
-  if (gnuplot.exit_code == 0) {
-    EXPECT_TRUE(std::filesystem::exists(moved / "normalized_position_error.png"));
-  }
+  EXPECT_EQ(gnuplot.exit_code, 0) << gnuplot.err;
+  EXPECT_TRUE(std::filesystem::exists(moved / "normalized_position_error.png"));
 }
 
 // A real kill (SIGKILL) in the middle of training, then --resume: the same model as an

@@ -519,7 +519,7 @@ class Night {
     }
     try {
       RegistryEntry entry = describe_model(staging, plan_.registry, stage.name);
-      if (entry.trainer_version.ends_with("-dirty") && !plan_.allow_dirty_trainer) {
+      if (from_uncommitted_code(entry) && !plan_.allow_dirty_trainer) {
         model.failed = true;
         model.status = "not promoted";
         model.message = "trained by a build of uncommitted code (trainer_version " +

@@ -3,7 +3,7 @@
 
 #include <stdexcept>
 
-#include "imm/io/model_file.hpp"
+#include "imm/io/file_error.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/seal.hpp"
 
@@ -16,21 +16,20 @@ RegistryEntry promote_by_hand(const PromoteOptions& options) {
   if (!std::filesystem::is_regular_file(options.file)) {
     throw io::FileError(options.file.string(), "", "no such model file");
   }
-  const std::string kind = check_model_file(options.file);
-  const io::ModelFileReader reader(options.file);
-  const std::string& version = reader.provenance().trainer_version;
-  if (version.ends_with("-dirty")) {
-    throw std::runtime_error(options.file.string() +
-                             ": trained by a build of uncommitted code (trainer_version " +
-                             version + "); shipped models come only from committed code");
+  (void)check_model_file(options.file);
+  RegistryEntry entry = describe_model(options.file, options.registry, options.name);
+  if (from_uncommitted_code(entry)) {
+    throw std::runtime_error(
+        options.file.string() + ": trained by a build of uncommitted code (trainer_version " +
+        entry.trainer_version + "); shipped models come only from committed code");
   }
   Registry registry(options.registry);
   (void)registry.repair();
-  RegistryEntry entry = describe_model(options.file, options.registry, options.name);
   if (const RegistryEntry* current = registry.find(options.name)) {
-    if (current->kind != kind) {
+    if (current->kind != entry.kind) {
       throw std::runtime_error("promote: '" + options.name + "' is a " + current->kind +
-                               " model; " + options.file.string() + " holds a " + kind + " model");
+                               " model; " + options.file.string() + " holds a " + entry.kind +
+                               " model");
     }
     entry.file = current->file;
   } else {

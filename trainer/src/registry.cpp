@@ -86,6 +86,10 @@ std::filesystem::path metrics_beside(const std::filesystem::path& model) {
 
 }  // namespace
 
+bool from_uncommitted_code(const RegistryEntry& entry) {
+  return entry.trainer_version.ends_with("-dirty");
+}
+
 RegistryEntry describe_model(const std::filesystem::path& file,
                              const std::filesystem::path& models_folder, const std::string& name) {
   const io::ModelFileReader reader(file);

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/evaluation/evaluation_report.hpp"
 
+#include <fstream>
 #include <iostream>
 #include <optional>
 
@@ -17,9 +18,15 @@ std::string& recorded_command() {
   return command;
 }
 
-std::optional<std::filesystem::path>& written_metrics_folder() {
-  static std::optional<std::filesystem::path> folder;
-  return folder;
+// The folder of the last metrics.json written and the report.md header made from it.
+struct PendingReport {
+  std::filesystem::path folder;
+  std::string header;
+};
+
+std::optional<PendingReport>& pending_report() {
+  static std::optional<PendingReport> report;
+  return report;
 }
 
 std::string markdown_cell(std::string text) {
@@ -112,7 +119,7 @@ void write_metrics(const std::filesystem::path& out, const HeadlineRuns& runs,
       {"definitions", defined},
       {"results", std::move(results)}};
   trainer::write_json_atomically(out / "metrics.json", metrics);
-  written_metrics_folder() = out;
+  pending_report() = PendingReport{out, report_header(metrics)};
   std::string caption = std::to_string(runs.runs) + " runs, seed " + std::to_string(runs.seed);
   if (!models.empty() && models[0].contains("trainer_version")) {
     caption += ", model " + runs.model.filename().string() + " (trainer " +
@@ -148,7 +155,7 @@ ReportRecorder::ReportRecorder(int argc, const char* const* argv) {
   std::string command = "imm-eval";
   for (int i = 1; i < argc; ++i) command.append(" ").append(argv[i]);
   recorded_command() = command;
-  written_metrics_folder().reset();
+  pending_report().reset();
   original_ = std::cout.rdbuf();
   tee_ = std::make_unique<Tee>(original_);
   std::cout.rdbuf(tee_.get());
@@ -159,14 +166,13 @@ ReportRecorder::~ReportRecorder() { std::cout.rdbuf(original_); }
 std::filesystem::path ReportRecorder::finish() {
   std::cout.flush();
   std::cout.rdbuf(original_);
-  const auto& folder = written_metrics_folder();
-  if (!folder) return {};
-  const auto metrics = nlohmann::json::parse(trainer::read_text_file(*folder / "metrics.json"));
-  std::filesystem::path path = *folder / "report.md";
-  const std::filesystem::path temp = *folder / ".report.md.tmp";
+  const auto& report = pending_report();
+  if (!report) return {};
+  std::filesystem::path path = report->folder / "report.md";
+  const std::filesystem::path temp = report->folder / ".report.md.tmp";
   {
     std::ofstream md(temp, std::ios::trunc);
-    md << report_header(metrics) << tee_->text();
+    md << report->header << tee_->text();
     if (!md) throw std::runtime_error(temp.string() + ": cannot write");
   }
   std::filesystem::rename(temp, path);

@@ -2,6 +2,7 @@
 #include "imm/support/plain_imm_config.hpp"
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/io/model_file.hpp"
 
 namespace imm::support {
 namespace {
@@ -71,7 +72,7 @@ PlainImmConfig load_plain_imm_file(const std::filesystem::path& path) {
     PlainImmConfig config;
     const ConfigTable& root = document->root();
     config.length_unit = root.text_or("units", "m");
-    if (config.length_unit != "m" && config.length_unit != "km") {
+    if (!io::valid_length_unit(config.length_unit)) {
       root.fail("units", "must be \"m\" or \"km\"");
     }
     config.spec = plain_imm_from(root);

@@ -68,6 +68,9 @@ struct Provenance {
   std::map<std::string, double> validation_metrics;
 };
 
+/// Whether `unit` is a length unit model files use: "m" or "km".
+[[nodiscard]] bool valid_length_unit(std::string_view unit);
+
 /// The current time as ISO 8601 UTC, e.g. "2026-11-22T00:18:36Z".
 [[nodiscard]] std::string utc_now();
 

@@ -42,6 +42,10 @@ struct RegistryEntry {
   std::vector<RegistryEntry> history;  ///< replaced entries, newest first
 };
 
+/// Whether the entry's file was written by a build of uncommitted code (trainer_version "…-dirty"):
+/// such a file is never shipped, by the nightly or by hand.
+[[nodiscard]] bool from_uncommitted_code(const RegistryEntry& entry);
+
 /// The registry entry of a model file (kind, regime, digests, dates from its provenance).
 [[nodiscard]] RegistryEntry describe_model(const std::filesystem::path& file,
                                            const std::filesystem::path& models_folder,
