@@ -18,6 +18,9 @@
 #include <map>
 #include <sstream>
 #include <system_error>
+#include <utility>
+
+#include "global_heap_text.hpp"
 
 namespace imm::io {
 namespace {
@@ -546,6 +549,10 @@ struct ContainerReader::Impl {
   std::string format;
   Handle file;
   std::uint64_t file_bytes = 0;
+  /// The descriptor the checksum was computed through: variable-length strings are read from it
+  /// (see global_heap_text.hpp), never through HDF5's global heap code.
+  FileDescriptor descriptor;
+  detail::HeapFile heap;
   /// Every object of the file by its path, with a group's members sorted: built once at open by
   /// index_objects(), which refuses anything but a tree of groups and datasets joined by hard
   /// links. Later lookups never traverse the file's links again.
@@ -721,6 +728,21 @@ ContainerReader::ContainerReader(const std::filesystem::path& path,
   H5Pset_fclose_degree(access_list.get(), H5F_CLOSE_STRONG);
   impl_->file = Handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, access_list.get()), H5Fclose);
   if (!impl_->file.valid()) throw FileError(file, "", "cannot open as HDF5: " + hdf5_cause());
+  Handle create_list(H5Fget_create_plist(impl_->file.get()), H5Pclose);
+  hsize_t user_block = 0;
+  std::size_t address_bytes = 0;
+  std::size_t length_bytes = 0;
+  if (!create_list.valid() || H5Pget_userblock(create_list.get(), &user_block) < 0 ||
+      H5Pget_sizes(create_list.get(), &address_bytes, &length_bytes) < 0) {
+    throw FileError(file, "", "cannot read the HDF5 superblock: " + hdf5_cause());
+  }
+  if (address_bytes != 8 || length_bytes != 8) {
+    throw FileError(file, "",
+                    "HDF5 addresses of " + std::to_string(address_bytes) + " and lengths of " +
+                        std::to_string(length_bytes) + " bytes (a container uses 8 and 8)");
+  }
+  impl_->heap = {descriptor.fd, impl_->file_bytes, user_block};
+  impl_->descriptor.fd = std::exchange(descriptor.fd, -1);
   impl_->index_objects();
 }
 
@@ -870,15 +892,17 @@ std::optional<Attribute> ContainerReader::attribute(std::string_view object,
     }
     case H5T_STRING: {
       if (H5Tis_variable_str(type.get()) > 0) {
-        Handle memory(H5Tcopy(H5T_C_S1), H5Tclose);
-        H5Tset_size(memory.get(), H5T_VARIABLE);
-        H5Tset_cset(memory.get(), H5Tget_cset(type.get()));
-        char* raw = nullptr;
-        if (H5Aread(handle.get(), memory.get(), &raw) < 0) {
+        // The stored reference, not followed by HDF5 (see global_heap_text.hpp).
+        detail::DiskReference reference{};
+        const Handle memory(detail::make_disk_reference_type(), H5Tclose);
+        if (!memory.valid() || H5Aread(handle.get(), memory.get(), reference.data()) < 0) {
           throw FileError(file, field, "cannot read: " + hdf5_cause());
         }
-        std::string value = raw != nullptr ? raw : "";
-        H5free_memory(raw);
+        std::string value;
+        std::string problem;
+        if (!detail::read_global_heap_text(impl_->heap, reference, value, problem)) {
+          throw FileError(file, field, problem);
+        }
         return Attribute{value};
       }
       const std::size_t size = H5Tget_size(type.get());

@@ -2,8 +2,11 @@
 #include "imm/io/container_file.hpp"
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <cmath>
+#include <cstdint>
+#include <string_view>
 
 #include "testing/temp_dir.hpp"
 
@@ -181,6 +184,139 @@ TEST(ContainerFile, AnotherFormatIsRefused) {
   const auto path = make_valid_container(dir);
   EXPECT_NE(open_error(path, "immtrain-model").find("expected 'immtrain-model'"),
             std::string::npos);
+}
+
+// --- Variable-length text in a hostile file -------------------------------------------------
+// The global heap collection and the reference to a string inside it are edited byte by byte
+// (the layouts are HDF5's published file format) and the file resealed: each corruption HDF5
+// 1.10's own reader turns into an overflow, an out-of-bounds read or an endless loop must be one
+// FileError naming the attribute.
+
+struct HeapText {
+  std::vector<char> bytes;
+  std::size_t object = 0;      ///< offset of the text's heap object header
+  std::size_t collection = 0;  ///< offset of its collection ("GCOL")
+  std::size_t reference =
+      0;  ///< offset of the attribute's stored reference (length, address, index)
+};
+
+std::uint64_t get_le(const std::vector<char>& bytes, std::size_t at, std::size_t count) {
+  std::uint64_t value = 0;
+  for (std::size_t i = count; i-- > 0;) {
+    value = (value << 8U) | static_cast<unsigned char>(bytes[at + i]);
+  }
+  return value;
+}
+
+void put_le(std::vector<char>& bytes, std::size_t at, std::size_t count, std::uint64_t value) {
+  for (std::size_t i = 0; i < count; ++i)
+    bytes[at + i] = static_cast<char>((value >> (8 * i)) & 0xFFU);
+}
+
+constexpr std::string_view kText = "the regime's name: agile air, units km";
+
+/// A container whose root holds one variable-length UTF-8 attribute, written by HDF5 with its
+/// earliest object-header version (no metadata checksum, so the reference can be edited too).
+HeapText make_heap_text(const std::filesystem::path& path) {
+  {
+    const hid_t create_list = H5Pcreate(H5P_FILE_CREATE);
+    H5Pset_userblock(create_list, kContainerHeaderBytes);
+    const hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, create_list, H5P_DEFAULT);
+    const hid_t type = H5Tcopy(H5T_C_S1);
+    H5Tset_size(type, H5T_VARIABLE);
+    H5Tset_cset(type, H5T_CSET_UTF8);
+    const hid_t space = H5Screate(H5S_SCALAR);
+    const hid_t attribute = H5Acreate2(file, "label", type, space, H5P_DEFAULT, H5P_DEFAULT);
+    const std::string text(kText);
+    const char* characters = text.c_str();
+    H5Awrite(attribute, type, &characters);
+    for (hid_t id : {attribute, space, type}) H5Idec_ref(id);
+    H5Fclose(file);
+    H5Pclose(create_list);
+    seal_container(path, "test-format");
+  }
+  HeapText found{testing::read_bytes(path)};
+  const std::string_view all(found.bytes.data(), found.bytes.size());
+  const std::size_t text = all.find(kText);
+  const std::size_t collection = all.find("GCOL");
+  if (text == std::string_view::npos || collection == std::string_view::npos) return found;
+  found.object = text - 16;
+  found.collection = collection;
+  // The reference: length (4) = the text's size, address (8) = the collection's relative to the
+  // user block, index (4) = the object's.
+  std::vector<char> pattern(16);
+  put_le(pattern, 0, 4, kText.size());
+  put_le(pattern, 4, 8, collection - kContainerHeaderBytes);
+  put_le(pattern, 12, 4, get_le(found.bytes, found.object, 2));
+  found.reference = all.find(std::string_view(pattern.data(), pattern.size()));
+  return found;
+}
+
+std::string reseal_and_read(const std::filesystem::path& path, const std::vector<char>& bytes) {
+  testing::write_bytes(path, bytes);
+  seal_container(path, "test-format");
+  try {
+    const ContainerReader reader(path, "test-format");
+    const auto label = reader.attribute("/", "label");
+    return "read '" + (label ? std::get<std::string>(*label) : std::string("(none)")) + "'";
+  } catch (const FileError& error) {
+    return error.what();
+  }
+}
+
+TEST(ContainerFile, VariableLengthTextIsReadFromItsHeapObjectWithinBounds) {
+  const testing::TempDir dir;
+  const auto path = dir / "text.h5";
+  const HeapText file = make_heap_text(path);
+  ASSERT_NE(file.object, 0U);
+  ASSERT_NE(file.reference, std::string::npos) << "the stored reference was not found";
+  EXPECT_EQ(get_le(file.bytes, file.object + 8, 8), kText.size());
+  EXPECT_EQ(reseal_and_read(path, file.bytes), "read '" + std::string(kText) + "'");
+
+  struct Case {
+    const char* what;
+    std::size_t at;
+    std::size_t count;
+    std::uint64_t value;
+    const char* expected;
+  };
+  const std::size_t free_space = file.object + 16 + ((kText.size() + 7) / 8) * 8;
+  const std::vector<Case> cases = {
+      // HDF5 copies the object's size into a buffer sized by the reference: an overflow.
+      {"object larger than the reference says", file.object + 8, 8, kText.size() + 64,
+       "names a heap object of"},
+      {"object larger than its collection", file.object + 8, 8, std::uint64_t{1} << 40U,
+       "overruns its collection"},
+      {"reference longer than the object", file.reference, 4, 4096, "names a heap object of"},
+      // HDF5 indexes its object table with this without a bound.
+      {"reference to an index the collection lacks", file.reference + 12, 4, 4000,
+       "which its collection lacks"},
+      {"reference to the free space", file.reference + 12, 4, 0, "heap object 0"},
+      {"reference past the file", file.reference + 4, 8, std::uint64_t{1} << 50U,
+       "outside the file"},
+      {"reference to no collection", file.reference + 4, 8, file.object - kContainerHeaderBytes,
+       "no global heap collection"},
+      // A free-space object of size 0 first: HDF5 never advances past it.
+      {"free space of size 0 first", file.object, 2, 0, "which its collection lacks"},
+      {"collection larger than the file", file.collection + 8, 8, file.bytes.size(),
+       "does not fit the file"},
+      {"collection smaller than its header", file.collection + 8, 8, 4, "does not fit the file"},
+      {"free space overrunning the collection", free_space + 8, 8, std::uint64_t{1} << 32U,
+       "read '"},
+  };
+  for (const Case& c : cases) {
+    auto bytes = file.bytes;
+    put_le(bytes, c.at, c.count, c.value);
+    const std::string outcome = reseal_and_read(path, bytes);
+    EXPECT_NE(outcome.find(c.expected), std::string::npos) << c.what << ": " << outcome;
+    if (std::string_view(c.expected) != "read '") {
+      EXPECT_NE(outcome.find("/@label"), std::string::npos) << c.what << ": " << outcome;
+    }
+  }
+  // A NUL inside the characters would cut the text short where a C reader meets it.
+  auto bytes = file.bytes;
+  bytes[file.object + 16 + 3] = '\0';
+  EXPECT_NE(reseal_and_read(path, bytes).find("NUL"), std::string::npos);
 }
 
 }  // namespace
