@@ -12,6 +12,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
   doxygen python3-h5py    # the API documentation test; the h5py reading test
+  libopenmpi-dev openmpi-bin  # mpirun: GA fitness, sweeps and evaluations over MPI ranks
   clang libclang-rt-dev   # make test-sanitize / make fuzz: ASan, UBSan, libFuzzer
 )
 

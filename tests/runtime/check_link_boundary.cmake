@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
-# Fails when the runtime (or a runtime-only client) links Ceres, NLopt, OpenMP or spdlog, either
+# Fails when the runtime (or a runtime-only client) links Ceres, NLopt, OpenMP, spdlog or MPI, either
 # in its CMake link interface or in the shared libraries its binary needs at run time.
-set(forbidden "ceres|nlopt|gomp|omp|spdlog|fmt|glog|gflags")
+set(forbidden "ceres|nlopt|gomp|omp|spdlog|fmt|glog|gflags|mpi|open-pal|open-rte|pmix")
 
 file(READ ${LINK_INTERFACE} interface)
 message(STATUS "${interface}")

@@ -20,9 +20,12 @@
 //   imm-train rollback KIND [REGIME] [--registry models]
 //   imm-train promote FILE --name NAME --reason TEXT [--registry models]
 //   imm-train seal FILE
+//   [mpirun -np N] imm-train sweep --config sweep.toml   (many trainings; see sweep.hpp)
+//   mpirun -np N imm-train ga …   (each generation's fitness evaluations spread over the ranks)
 //
 // Progress goes to stderr (spdlog). Exit codes: 0 model written (or every nightly candidate
-// promoted or unchanged), 1 usage, 2 invalid config or input, 3 a nightly stage failed, 4 the
+// promoted or unchanged), 1 usage, 2 invalid config or input, 3 a nightly stage or a sweep's
+// training failed, 4 the
 // quality gate failed (no model written), 6 a nightly candidate was held back by the regression
 // gate (worse than the shipped model).
 
@@ -32,6 +35,7 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <iostream>
 #include <optional>
 
@@ -47,8 +51,10 @@
 #include "imm/trainer/nightly.hpp"
 #include "imm/trainer/promote.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/ranks.hpp"
 #include "imm/trainer/registry.hpp"
 #include "imm/trainer/seal.hpp"
+#include "imm/trainer/sweep.hpp"
 #include "imm/trainer/temporaries_guard.hpp"
 #include "imm/trainer/tsk/tsk_trainer.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
@@ -132,6 +138,163 @@ int run_ga(const GaCommand& command) {
   }
   spdlog::info("wrote {} and {} ({:.1f} s)", command.out.string(),
                imm::trainer::metrics_path(command.out).string(), result.wall_seconds);
+  const imm::trainer::Ranks& ranks = imm::trainer::Ranks::world();
+  if (ranks.distributed()) {
+    spdlog::info(
+        "{} ranks: the root sent {} bytes in {} messages to the others, {:.3f} s in "
+        "exchanges (waiting for the slowest rank included)",
+        ranks.size(), ranks.bytes_sent(), ranks.messages_sent(), ranks.exchange_seconds());
+  }
+  return 0;
+}
+
+int train_mlp(const TrainCommand& command) {
+  auto config = imm::trainer::mlp::load_mlp_config(command.config, command.regime);
+  if (command.seed) {
+    config.seed = *command.seed;
+    config.training.seed = imm::datasets::derive_seed(config.seed, 3);
+  }
+  int epochs = 0;
+  for (const auto& phase : config.training.phases) epochs += phase.epochs;
+  spdlog::info("mlp: regime {}, {} training and {} validation tracks, {} epochs, seed {}",
+               config.regime.name, config.regime.splits.training, config.regime.splits.validation,
+               epochs, config.seed);
+  const auto result = imm::trainer::mlp::train_mlp(config, command.out);
+  const std::size_t step = std::max<std::size_t>(1, result.loss.size() / 8);
+  for (std::size_t i = 0; i < result.loss.size(); i += step) {
+    const auto& p = result.loss[i];
+    spdlog::info("epoch {:5}/{}: training MSE {:.4f}, validation MSE {:.4f} (m/s²)²", p.epoch,
+                 epochs, p.training, p.validation);
+  }
+  spdlog::info(
+      "trained in {:.2f} s (back-propagation {:.2f} s): RMSE {:.3f} / {:.3f} m/s² "
+      "(training / validation); no-maneuver output {:.3f} m/s² before, {:.3f} after "
+      "removing the trained bias",
+      result.wall_seconds, result.training_seconds, result.training_rmse, result.validation_rmse,
+      result.bias_before, result.bias_after);
+  if (!result.gate_passed) {
+    spdlog::error("quality gate failed: validation RMSE {:.3f} m/s² exceeds {:.3f}; {} not written",
+                  result.validation_rmse, config.max_validation_rmse, command.out.string());
+    return kExitGateFailed;
+  }
+  spdlog::info("wrote {}", command.out.string());
+  return 0;
+}
+
+int train_wimm(const TrainCommand& command) {
+  auto config = imm::trainer::wimm::load_wimm_config(command.config, command.regime);
+  if (command.seed) config.seed = *command.seed;
+  spdlog::info("wimm: tuning threshold and alpha on regime {}: {} training tracks of {} scans",
+               config.regime.name, config.regime.splits.training, config.regime.scans);
+  const auto result = imm::trainer::wimm::train_wimm(config, command.out);
+  spdlog::info(
+      "threshold {:.4f}, alpha {:.4f}: settled azimuth RMSE x{:.4f}, position RMSE "
+      "x{:.4f} of the normal IMM on the training scenarios ({} evaluations, {:.1f} s); "
+      "wrote {}",
+      result.tuned.spec.threshold, result.tuned.spec.alpha, result.tuned.azimuth_ratio,
+      result.tuned.position_ratio, result.tuned.evaluations, result.wall_seconds,
+      command.out.string());
+  return 0;
+}
+
+int train_tsk(const TrainCommand& command, const std::filesystem::path& tsk_data) {
+  auto config = imm::trainer::tsk::load_tsk_config(command.config, command.regime);
+  if (command.seed) config.seed = *command.seed;
+  const auto samples = tsk_data.empty() ? imm::trainer::tsk::calibration_samples(config)
+                                        : imm::trainer::tsk::load_sensor_samples(tsk_data, config);
+  spdlog::info(
+      "tsk: {} samples from {} ({:.0f} % held out), {} rules per output, t-norm {}, seed {}",
+      samples.data.positions.rows(), samples.source, 100.0 * config.validation_fraction,
+      config.fcrm.clusters, imm::to_string(config.t_norm), config.seed);
+  const auto result = imm::trainer::tsk::train_tsk(config, samples, command.out);
+  spdlog::info("fitted in {:.2f} s", result.wall_seconds);
+  if (!result.gate_passed) {
+    spdlog::error("quality gate failed: a validation RMSE exceeds {:.3f} m; {} not written",
+                  config.max_validation_rmse, command.out.string());
+    return kExitGateFailed;
+  }
+  spdlog::info("wrote {}", command.out.string());
+  return 0;
+}
+
+int train_fcm(const TrainCommand& command) {
+  auto config = imm::trainer::fcm::load_fcm_config(command.config, command.regime);
+  if (command.seed) config.seed = *command.seed;
+  spdlog::info(
+      "fcm: regime {}: fitting on {} training tracks ({} held out, {} scans, seed {}), "
+      "windows {}",
+      config.regime.name, config.regime.splits.training, config.regime.splits.validation,
+      config.regime.scans, config.seed, fmt::join(config.tuning.windows, ", "));
+  const auto result = imm::trainer::fcm::train_fcm(config, command.out);
+  const auto& s = result.spec;
+  spdlog::info(
+      "fitted: window {}, lambda {:.3f}, m {:.2f}, kappa {:.2f}, stay {:.4f}, q = {:.4g} "
+      "(m/s^2)^2; J = {:.4f} training, {:.4f} validation (lambda = 0 IMM {:.4f}, KF {:.4f}); "
+      "{} evaluations, {:.1f} s",
+      s.window, s.compensation_gain, s.clustering.fuzzifier, s.separation, s.transition(0, 0),
+      fmt::join(s.process_noise, ", "), result.training.objective, result.validation.objective,
+      result.imm_validation.objective, result.kf_validation.objective, result.evaluations,
+      result.wall_seconds);
+  if (!result.gate_passed) {
+    spdlog::error(
+        "quality gate failed: validation J {:.4f} exceeds {:.3f} x the tuned KF's "
+        "{:.4f}; {} not written",
+        result.validation.objective, config.max_validation_ratio, result.kf_validation.objective,
+        command.out.string());
+    return kExitGateFailed;
+  }
+  spdlog::info("wrote {}", command.out.string());
+  return 0;
+}
+
+/// One job of a sweep, exactly as its subcommand runs it.
+int train_job(const imm::trainer::SweepJob& job) {
+  imm::trainer::guard_temporaries({job.out.parent_path().empty() ? "." : job.out.parent_path()});
+  if (job.kind == "ga") return run_ga({job.config, job.out, job.regime, job.seed, 0, false});
+  const TrainCommand command{job.config, job.out, job.regime, job.seed};
+  if (job.kind == "mlp") return train_mlp(command);
+  if (job.kind == "wimm") return train_wimm(command);
+  if (job.kind == "fcm") return train_fcm(command);
+  if (job.kind == "tsk") return train_tsk(command, {});
+  throw std::invalid_argument("unknown training kind '" + job.kind + "'");
+}
+
+constexpr int kExitJobFailed = 3;
+
+int run_sweep(const std::filesystem::path& plan_file) {
+  const imm::trainer::Ranks& ranks = imm::trainer::Ranks::world();
+  const auto plan = imm::trainer::load_sweep_plan(plan_file);
+  spdlog::info("sweep {}: {} trainings over {} rank{}", plan_file.string(), plan.jobs.size(),
+               ranks.size(), ranks.size() == 1 ? "" : "s");
+  const auto start = std::chrono::steady_clock::now();
+  const auto outcomes = imm::trainer::run_sweep(
+      plan, train_job, [&](const imm::trainer::SweepJob& job, const imm::trainer::SweepOutcome& o) {
+        if (o.exit_code != 0) {
+          spdlog::warn("sweep: {} failed on rank {}: {}", job.name, o.rank, o.message);
+        }
+      });
+  if (!ranks.root()) return 0;
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::vector<std::string> failed;
+  for (std::size_t i = 0; i < outcomes.size(); ++i) {
+    const auto& o = outcomes[i];
+    const auto& job = plan.jobs[i];
+    if (o.exit_code == 0) {
+      spdlog::info("sweep: {} -> {} (rank {}, {:.1f} s)", job.name, job.out.string(), o.rank,
+                   o.seconds);
+    } else {
+      spdlog::error("sweep: {} FAILED (rank {}, {:.1f} s): {}", job.name, o.rank, o.seconds,
+                    o.message);
+      failed.push_back(job.name);
+    }
+  }
+  if (!failed.empty()) {
+    spdlog::error("sweep: {} of {} trainings failed in {:.1f} s: {}", failed.size(),
+                  outcomes.size(), seconds, fmt::join(failed, "; "));
+    return kExitJobFailed;
+  }
+  spdlog::info("sweep: {} trainings in {:.1f} s", outcomes.size(), seconds);
   return 0;
 }
 
@@ -214,9 +377,16 @@ int run_rollback(const std::string& kind, const std::string& regime,
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
+  const imm::trainer::Ranks& ranks = imm::trainer::Ranks::world();
   spdlog::set_default_logger(spdlog::stderr_color_st("imm-train"));
-  spdlog::set_pattern("%Y-%m-%d %H:%M:%S.%e %^%l%$ %v");
+  if (ranks.root()) {
+    spdlog::set_pattern("%Y-%m-%d %H:%M:%S.%e %^%l%$ %v");
+  } else {
+    // The root reports progress; the other ranks only what goes wrong on them.
+    spdlog::set_pattern(fmt::format("%Y-%m-%d %H:%M:%S.%e [rank {}] %^%l%$ %v", ranks.rank()));
+    spdlog::set_level(spdlog::level::warn);
+  }
   CLI::App app{"Train immtrain models into model files; run the nightly pipeline."};
   imm::support::standard_options(app, "imm-train");
   app.require_subcommand(1);
@@ -280,6 +450,12 @@ int main(int argc, char** argv) {
   all_command->add_option("--night", nightly.night, "report folder name (default: UTC date)");
   all_command->add_option("--reports", nightly.reports, "where the nightly reports go");
 
+  std::filesystem::path sweep_plan;
+  auto* sweep_command = app.add_subcommand(
+      "sweep",
+      "train many models (kind x regime x seed); under mpirun the ranks take them as they free up");
+  sweep_command->add_option("--config", sweep_plan, "sweep plan TOML ([[jobs]])")->required();
+
   std::filesystem::path seal_path;
   auto* seal_command = app.add_subcommand(
       "seal",
@@ -307,6 +483,17 @@ int main(int argc, char** argv) {
   rollback_command->add_option("--registry", rollback_registry, "registry folder (models)");
 
   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
+  if (ranks.size() > 1) {
+    if (!*ga_subcommand && !*sweep_command) {
+      spdlog::error(
+          "imm-train {} runs as one process: under mpirun only 'ga' spreads its work over the "
+          "ranks (and 'sweep' hands out whole trainings)",
+          app.get_subcommands().front()->get_name());
+      return 1;
+    }
+    // Each rank's OpenMP threads share the machine with the other ranks on it.
+    omp_set_num_threads(std::max(1, omp_get_num_procs() / ranks.local_size()));
+  }
   // A training killed with SIGKILL while writing leaves a hidden temporary beside its output: a
   // guard process removes it (see temporaries_guard.hpp).
   const std::vector<std::pair<CLI::App*, std::filesystem::path>> outputs{
@@ -325,103 +512,10 @@ int main(int argc, char** argv) {
   try {
     if (*ga_subcommand) return run_ga(ga_command);
     if (*freeze_command) return run_freeze(freeze);
-    if (*mlp_command) {
-      auto config = imm::trainer::mlp::load_mlp_config(mlp.config, mlp.regime);
-      if (mlp.seed) {
-        config.seed = *mlp.seed;
-        config.training.seed = imm::datasets::derive_seed(config.seed, 3);
-      }
-      int epochs = 0;
-      for (const auto& phase : config.training.phases) epochs += phase.epochs;
-      spdlog::info("mlp: regime {}, {} training and {} validation tracks, {} epochs, seed {}",
-                   config.regime.name, config.regime.splits.training,
-                   config.regime.splits.validation, epochs, config.seed);
-      const auto result = imm::trainer::mlp::train_mlp(config, mlp.out);
-      const std::size_t step = std::max<std::size_t>(1, result.loss.size() / 8);
-      for (std::size_t i = 0; i < result.loss.size(); i += step) {
-        const auto& p = result.loss[i];
-        spdlog::info("epoch {:5}/{}: training MSE {:.4f}, validation MSE {:.4f} (m/s²)²", p.epoch,
-                     epochs, p.training, p.validation);
-      }
-      spdlog::info(
-          "trained in {:.2f} s (back-propagation {:.2f} s): RMSE {:.3f} / {:.3f} m/s² "
-          "(training / validation); no-maneuver output {:.3f} m/s² before, {:.3f} after "
-          "removing the trained bias",
-          result.wall_seconds, result.training_seconds, result.training_rmse,
-          result.validation_rmse, result.bias_before, result.bias_after);
-      if (!result.gate_passed) {
-        spdlog::error(
-            "quality gate failed: validation RMSE {:.3f} m/s² exceeds {:.3f}; {} not written",
-            result.validation_rmse, config.max_validation_rmse, mlp.out.string());
-        return kExitGateFailed;
-      }
-      spdlog::info("wrote {}", mlp.out.string());
-      return 0;
-    }
-    if (*wimm_command) {
-      auto config = imm::trainer::wimm::load_wimm_config(wimm.config, wimm.regime);
-      if (wimm.seed) config.seed = *wimm.seed;
-      spdlog::info("wimm: tuning threshold and alpha on regime {}: {} training tracks of {} scans",
-                   config.regime.name, config.regime.splits.training, config.regime.scans);
-      const auto result = imm::trainer::wimm::train_wimm(config, wimm.out);
-      spdlog::info(
-          "threshold {:.4f}, alpha {:.4f}: settled azimuth RMSE x{:.4f}, position RMSE "
-          "x{:.4f} of the normal IMM on the training scenarios ({} evaluations, {:.1f} s); "
-          "wrote {}",
-          result.tuned.spec.threshold, result.tuned.spec.alpha, result.tuned.azimuth_ratio,
-          result.tuned.position_ratio, result.tuned.evaluations, result.wall_seconds,
-          wimm.out.string());
-      return 0;
-    }
-    if (*tsk_command) {
-      auto config = imm::trainer::tsk::load_tsk_config(tsk.config, tsk.regime);
-      if (tsk.seed) config.seed = *tsk.seed;
-      const auto samples = tsk_data.empty()
-                               ? imm::trainer::tsk::calibration_samples(config)
-                               : imm::trainer::tsk::load_sensor_samples(tsk_data, config);
-      spdlog::info(
-          "tsk: {} samples from {} ({:.0f} % held out), {} rules per output, t-norm {}, seed {}",
-          samples.data.positions.rows(), samples.source, 100.0 * config.validation_fraction,
-          config.fcrm.clusters, imm::to_string(config.t_norm), config.seed);
-      const auto result = imm::trainer::tsk::train_tsk(config, samples, tsk.out);
-      spdlog::info("fitted in {:.2f} s", result.wall_seconds);
-      if (!result.gate_passed) {
-        spdlog::error("quality gate failed: a validation RMSE exceeds {:.3f} m; {} not written",
-                      config.max_validation_rmse, tsk.out.string());
-        return kExitGateFailed;
-      }
-      spdlog::info("wrote {}", tsk.out.string());
-      return 0;
-    }
-    if (*fcm_command) {
-      auto config = imm::trainer::fcm::load_fcm_config(fcm.config, fcm.regime);
-      if (fcm.seed) config.seed = *fcm.seed;
-      spdlog::info(
-          "fcm: regime {}: fitting on {} training tracks ({} held out, {} scans, seed {}), "
-          "windows {}",
-          config.regime.name, config.regime.splits.training, config.regime.splits.validation,
-          config.regime.scans, config.seed, fmt::join(config.tuning.windows, ", "));
-      const auto result = imm::trainer::fcm::train_fcm(config, fcm.out);
-      const auto& s = result.spec;
-      spdlog::info(
-          "fitted: window {}, lambda {:.3f}, m {:.2f}, kappa {:.2f}, stay {:.4f}, q = {:.4g} "
-          "(m/s^2)^2; J = {:.4f} training, {:.4f} validation (lambda = 0 IMM {:.4f}, KF {:.4f}); "
-          "{} evaluations, {:.1f} s",
-          s.window, s.compensation_gain, s.clustering.fuzzifier, s.separation, s.transition(0, 0),
-          fmt::join(s.process_noise, ", "), result.training.objective, result.validation.objective,
-          result.imm_validation.objective, result.kf_validation.objective, result.evaluations,
-          result.wall_seconds);
-      if (!result.gate_passed) {
-        spdlog::error(
-            "quality gate failed: validation J {:.4f} exceeds {:.3f} x the tuned KF's "
-            "{:.4f}; {} not written",
-            result.validation.objective, config.max_validation_ratio,
-            result.kf_validation.objective, fcm.out.string());
-        return kExitGateFailed;
-      }
-      spdlog::info("wrote {}", fcm.out.string());
-      return 0;
-    }
+    if (*mlp_command) return train_mlp(mlp);
+    if (*wimm_command) return train_wimm(wimm);
+    if (*tsk_command) return train_tsk(tsk, tsk_data);
+    if (*fcm_command) return train_fcm(fcm);
     if (*import_command) {
       const auto spec = imm::trainer::import_rules(import_options);
       std::size_t rules = 0;
@@ -431,6 +525,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*all_command) return run_all(nightly);
+    if (*sweep_command) return run_sweep(sweep_plan);
     if (*rollback_command) return run_rollback(rollback_kind, rollback_regime, rollback_registry);
     if (*promote_command) {
       const auto entry = imm::trainer::promote_by_hand(promote_options);
@@ -459,4 +554,17 @@ int main(int argc, char** argv) {
     return kExitBadInput;
   }
   return 1;
+}
+
+int main(int argc, char** argv) {
+  const imm::trainer::Ranks::Session session(argc, argv);
+  const int code = run(argc, argv);
+  // A rank that fails (a file it cannot write, an error only it saw) must not leave the others
+  // waiting for it in the next exchange: the job ends on every rank. A quality gate's verdict is
+  // the same on every rank, and a sweep's failed trainings are in its summary: both end the job
+  // normally.
+  if (code != 0 && code != kExitGateFailed && code != kExitJobFailed) {
+    imm::trainer::Ranks::world().abort_job(code);
+  }
+  return code;
 }

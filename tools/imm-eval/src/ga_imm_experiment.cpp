@@ -12,8 +12,10 @@
 // above GA-IMM-paper by more than 0.005 plus that uncertainty.
 
 #include <algorithm>
+#include <cmath>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <sstream>
 
 #include "imm/evaluation/baseline_tuning.hpp"
@@ -142,20 +144,33 @@ int run(const GaImmOptions& options) {
   if (paper) fuzzy.emplace_back("GA-IMM-paper", &*paper);
   fuzzy.emplace_back("GA-IMM", &learned);
   for (const auto& [name, spec] : fuzzy) {
-    std::vector<std::vector<double>> q(spec->levels.size());
-    const StepObserver observe_q = [&](std::size_t, int, const TrackFilter& filter) {
-      const auto& two_axis = static_cast<const TwoAxisFilter&>(filter);
-      for (int axis = 0; axis < 2; ++axis) {
-        const auto& imm = static_cast<const ImmAxisFilter&>(two_axis.axis(axis)).imm();
-        for (int j = 0; j < imm.mode_count(); ++j) {
-          q[static_cast<std::size_t>(j)].push_back(
-              static_cast<const FuzzyNoiseMode&>(imm.mode(j)).process_noise());
-        }
-      }
-    };
+    // q_j(k) of every mode on both axes after every scan: axis 0's modes, then axis 1's.
+    const int modes = static_cast<int>(spec->levels.size());
+    const StepRecorder record_q{
+        2 * modes, [modes](const TrackFilter& filter, std::span<double> values) {
+          const auto& two_axis = static_cast<const TwoAxisFilter&>(filter);
+          for (int axis = 0; axis < 2; ++axis) {
+            const auto& imm = static_cast<const ImmAxisFilter&>(two_axis.axis(axis)).imm();
+            for (int j = 0; j < modes; ++j) {
+              values[static_cast<std::size_t>(axis * modes + j)] =
+                  static_cast<const FuzzyNoiseMode&>(imm.mode(j)).process_noise();
+            }
+          }
+        }};
     const GaFuzzyImmSpec* captured = spec;
     filters.push_back(run_monte_carlo(
-        name, [captured] { return make_ga_fuzzy_imm_filter(*captured); }, track, data, observe_q));
+        name, [captured] { return make_ga_fuzzy_imm_filter(*captured); }, track, data, record_q));
+    std::vector<std::vector<double>> q(spec->levels.size());
+    const std::vector<double>& recorded = filters.back().recorded;
+    for (std::size_t at = 0; at < recorded.size(); at += static_cast<std::size_t>(2 * modes)) {
+      if (std::isnan(recorded[at])) continue;  // a scan without an estimate
+      for (int axis = 0; axis < 2; ++axis) {
+        for (int j = 0; j < modes; ++j) {
+          q[static_cast<std::size_t>(j)].push_back(
+              recorded[at + static_cast<std::size_t>(axis * modes + j)]);
+        }
+      }
+    }
     for (std::size_t j = 0; j < q.size(); ++j) {
       spreads.push_back({name, spec->levels[j].name, percentile(q[j], 0.01), percentile(q[j], 0.50),
                          percentile(q[j], 0.99)});

@@ -15,8 +15,6 @@
 namespace imm::evaluation {
 namespace {
 
-constexpr int kExitRegression = 6;
-
 const char* form_name(HeadlineMetric::Form form) {
   switch (form) {
     case HeadlineMetric::Form::kRatio:

@@ -20,15 +20,62 @@
 // is written either way), 6 (regression) the candidate is worse than the shipped model beyond
 // the Monte Carlo uncertainty.
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
+#include "imm/evaluation/monte_carlo.hpp"
 #include "imm/support/cli.hpp"
+#include "imm/trainer/ranks.hpp"
 
-int main(int argc, char** argv) {
+namespace {
+
+/// Under mpirun every rank runs the same experiment (the same exchanges, in the same order); the
+/// root alone prints and keeps the report. The others print nowhere and write into a folder of
+/// their own, removed at the end: their `--out` is replaced.
+class ScratchForOtherRanks {
+ public:
+  explicit ScratchForOtherRanks(std::vector<std::string>& arguments) {
+    if (imm::trainer::Ranks::world().root()) return;
+    std::string pattern =
+        (std::filesystem::temp_directory_path() / "imm-eval-rank-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) return;
+    folder_ = pattern;
+    const auto out = std::find(arguments.begin(), arguments.end(), "--out");
+    if (out != arguments.end() && out + 1 != arguments.end()) {
+      *(out + 1) = folder_.string();
+    } else {
+      arguments.insert(arguments.end(), {"--out", folder_.string()});
+    }
+    const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+    if (null >= 0) {
+      ::dup2(null, STDOUT_FILENO);
+      ::close(null);
+    }
+  }
+  ~ScratchForOtherRanks() {
+    std::error_code ignored;
+    if (!folder_.empty()) std::filesystem::remove_all(folder_, ignored);
+  }
+  ScratchForOtherRanks(const ScratchForOtherRanks&) = delete;
+  ScratchForOtherRanks& operator=(const ScratchForOtherRanks&) = delete;
+
+ private:
+  std::filesystem::path folder_;
+};
+
+int run(int argc, char** argv) {
   CLI::App app{"Monte Carlo evaluation of immtrain filters against their baselines."};
   imm::support::standard_options(app, "imm-eval");
   app.require_subcommand(1);
@@ -50,4 +97,35 @@ int main(int argc, char** argv) {
     return 2;
   }
   return exit_code;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const imm::trainer::Ranks::Session session(argc, argv);
+  std::vector<std::string> arguments(argv, argv + argc);
+  int code = 0;
+  {
+    const ScratchForOtherRanks scratch(arguments);
+    std::vector<char*> pointers;
+    for (std::string& argument : arguments) pointers.push_back(argument.data());
+    const auto start = std::chrono::steady_clock::now();
+    code = run(static_cast<int>(pointers.size()), pointers.data());
+    const imm::trainer::Ranks& ranks = imm::trainer::Ranks::world();
+    if (ranks.distributed() && ranks.root()) {
+      std::cerr << "imm-eval: " << ranks.size()
+                << " ranks: " << imm::evaluation::monte_carlo_seconds() << " s of "
+                << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+                << " s in the shared Monte Carlo runs; the root sent " << ranks.bytes_sent()
+                << " bytes in " << ranks.messages_sent() << " messages, "
+                << ranks.exchange_seconds() << " s in exchanges\n";
+    }
+  }
+  // A rank that fails alone must not leave the others waiting in the next exchange; a gate's or
+  // the regression's verdict is the same on every rank.
+  if (code != 0 && code != imm::evaluation::kExitGateFailed &&
+      code != imm::evaluation::kExitRegression) {
+    imm::trainer::Ranks::world().abort_job(code);
+  }
+  return code;
 }

@@ -1,10 +1,19 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/evaluation/monte_carlo.hpp"
 
+#include <algorithm>
+#include <chrono>
 #include <limits>
 #include <stdexcept>
 
+#include "imm/trainer/ranks.hpp"
+
 namespace imm::evaluation {
+namespace {
+double g_monte_carlo_seconds = 0.0;
+}  // namespace
+
+double monte_carlo_seconds() { return g_monte_carlo_seconds; }
 
 // seed 000's ζ with the runs weighted: HeadlineMetric::Form::kScanZeta.
 Statistic FilterOutcome::zeta_p_statistic() const { return zeta_headline()[0].statistic(); }
@@ -19,7 +28,7 @@ std::vector<HeadlineMetric> FilterOutcome::zeta_headline() const {
 
 FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make_filter,
                               const TrackOptions& options, const datasets::TrackSet& data,
-                              const StepObserver& observer) {
+                              const StepRecorder& recorder) {
   if (options.measurement_kind != MeasurementKind::kCartesian) {
     throw std::runtime_error("filter '" + name + "': the evaluation scores Cartesian plots");
   }
@@ -29,48 +38,86 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
   const int steps = data.scans;
   const double T = data.sample_period;
   const auto runs = static_cast<Eigen::Index>(data.tracks.size());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
   FilterOutcome outcome;
   outcome.name = name;
-  outcome.run_position = Eigen::MatrixXd::Zero(runs, steps);
-  outcome.run_position_plot = outcome.run_position;
-  outcome.run_velocity = outcome.run_position;
-  outcome.run_velocity_plot = outcome.run_position;
-  outcome.run_counted = outcome.run_position;
-  Eigen::VectorXi probability_samples = Eigen::VectorXi::Zero(steps);
+  {
+    const Tracker probe(make_filter(), options);
+    outcome.modes = probe.mode_count();
+    for (int j = 0; j < outcome.modes; ++j)
+      outcome.mode_names.push_back(probe.filter().mode_name(j));
+  }
+  const int modes = outcome.modes;
+  const int extra = recorder.record ? recorder.width : 0;
+  // One run's terms: for every scan the squared errors (4), whether it counted (1), the mode
+  // probabilities and the recorder's values; then the rejected plots.
+  const int per_scan = 5 + modes + extra;
+  const int width = steps * per_scan + 1;
 
-  for (Eigen::Index run = 0; run < runs; ++run) {
+  const auto start = std::chrono::steady_clock::now();
+  const trainer::Ranks& ranks = trainer::Ranks::world();
+  const auto [first, last] = ranks.share(runs);
+  std::vector<double> mine(static_cast<std::size_t>((last - first) * width), 0.0);
+  for (Eigen::Index run = first; run < last; ++run) {
+    double* terms = mine.data() + (run - first) * width;
+    for (int k = 0; k < steps; ++k) {
+      std::fill_n(terms + k * per_scan + 5 + modes, extra, nan);
+    }
     const datasets::Track& track = data.tracks[static_cast<std::size_t>(run)];
     const Eigen::MatrixXd& z = track.plots;
     Tracker tracker(make_filter(), options);
-    if (run == 0) {
-      outcome.modes = tracker.mode_count();
-      for (int j = 0; j < outcome.modes; ++j)
-        outcome.mode_names.push_back(tracker.filter().mode_name(j));
-      outcome.mean_mode_probabilities = Eigen::MatrixXd::Zero(steps, outcome.modes);
-    }
     const int n = tracker.state_dimension();
     const int y = n / 2;
     Eigen::VectorXd mean(n), variance(n);
     for (int k = 0; k < steps; ++k) {
       const TrackStepResult result = tracker.process(k, z.row(k).transpose());
-      if (result.event == TrackEvent::kRejected) ++outcome.rejected_steps;
+      if (result.event == TrackEvent::kRejected) terms[width - 1] += 1.0;
       if (!tracker.initialized() || k == 0) continue;
       tracker.state(mean, variance);
       const Eigen::Vector2d p = datasets::position_at(track, k),
                             v = datasets::velocity_at(track, k);
       const Eigen::Vector2d plot = z.row(k).transpose();
       const Eigen::Vector2d measured_velocity = (z.row(k) - z.row(k - 1)).transpose() / T;
-      outcome.run_position(run, k) = (p - Eigen::Vector2d(mean(0), mean(y))).squaredNorm();
-      outcome.run_position_plot(run, k) = (p - plot).squaredNorm();
-      outcome.run_velocity(run, k) = (v - Eigen::Vector2d(mean(1), mean(y + 1))).squaredNorm();
-      outcome.run_velocity_plot(run, k) = (v - measured_velocity).squaredNorm();
-      outcome.run_counted(run, k) = 1.0;
-      outcome.mean_mode_probabilities.row(k) += tracker.mode_probabilities().transpose();
-      ++probability_samples(k);
-      if (observer) observer(static_cast<std::size_t>(run), k, tracker.filter());
+      double* scan = terms + k * per_scan;
+      scan[0] = (p - Eigen::Vector2d(mean(0), mean(y))).squaredNorm();
+      scan[1] = (p - plot).squaredNorm();
+      scan[2] = (v - Eigen::Vector2d(mean(1), mean(y + 1))).squaredNorm();
+      scan[3] = (v - measured_velocity).squaredNorm();
+      scan[4] = 1.0;
+      Eigen::Map<Eigen::VectorXd>(scan + 5, modes) = tracker.mode_probabilities();
+      if (extra > 0) recorder.record(tracker.filter(), std::span<double>(scan + 5 + modes, extra));
     }
   }
-  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<double> all = ranks.gather_all(mine, static_cast<long>(runs), width);
+  g_monte_carlo_seconds +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  // Every figure from the runs' terms, in run order.
+  outcome.run_position = Eigen::MatrixXd::Zero(runs, steps);
+  outcome.run_position_plot = outcome.run_position;
+  outcome.run_velocity = outcome.run_position;
+  outcome.run_velocity_plot = outcome.run_position;
+  outcome.run_counted = outcome.run_position;
+  outcome.mean_mode_probabilities = Eigen::MatrixXd::Zero(steps, modes);
+  Eigen::VectorXi probability_samples = Eigen::VectorXi::Zero(steps);
+  outcome.recorded.assign(static_cast<std::size_t>(runs * steps * extra), nan);
+  for (Eigen::Index run = 0; run < runs; ++run) {
+    const double* terms = all.data() + run * width;
+    outcome.rejected_steps += static_cast<long>(terms[width - 1]);
+    for (int k = 0; k < steps; ++k) {
+      const double* scan = terms + k * per_scan;
+      if (scan[4] == 0.0) continue;
+      outcome.run_position(run, k) = scan[0];
+      outcome.run_position_plot(run, k) = scan[1];
+      outcome.run_velocity(run, k) = scan[2];
+      outcome.run_velocity_plot(run, k) = scan[3];
+      outcome.run_counted(run, k) = 1.0;
+      outcome.mean_mode_probabilities.row(k) +=
+          Eigen::Map<const Eigen::RowVectorXd>(scan + 5, modes);
+      ++probability_samples(k);
+      std::copy_n(scan + 5 + modes, extra, outcome.recorded.begin() + (run * steps + k) * extra);
+    }
+  }
   for (int k = 0; k < steps; ++k) {
     if (probability_samples(k) > 0) {
       outcome.mean_mode_probabilities.row(k) /= probability_samples(k);

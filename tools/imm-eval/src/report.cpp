@@ -10,6 +10,7 @@
 
 #include "imm/evaluation/monte_carlo.hpp"
 #include "imm/trainer/nightly.hpp"
+#include "imm/trainer/ranks.hpp"
 
 namespace imm::evaluation {
 
@@ -167,6 +168,8 @@ bool plot_series(const PlotSpec& spec) {
     }
     script << "\n";
   }
+  // Under mpirun only the root's report is kept: the other ranks draw nothing.
+  if (!trainer::Ranks::world().root()) return true;
   int status = 1;
   try {
     const std::string cd = "cd '" + folder.string() + "'";

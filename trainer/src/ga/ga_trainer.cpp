@@ -10,6 +10,7 @@
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/schema_reader.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/ranks.hpp"
 
 namespace imm::trainer::ga {
 namespace {
@@ -275,6 +276,7 @@ GaFuzzyImmSpec spec_from(const GaTrainingConfig& config, const std::vector<Level
 GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& options,
                           const GaObserver& observer) {
   config.validate();
+  const Ranks& ranks = Ranks::world();
   const auto run_start = Clock::now();
   const std::filesystem::path checkpoint_file = checkpoint_path(options.out);
   ensure_parent_folder(options.out);
@@ -329,10 +331,11 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
       state.history = {log_of(state.population)};
     }
     const auto level_start = Clock::now();
+    // The root writes; every rank stops when any is asked to (they must leave together).
     auto checkpoint = [&] {
       state.level_seconds = earlier_seconds + seconds_since(level_start);
-      write_checkpoint(checkpoint_file, config, state);
-      return observer.should_stop && observer.should_stop();
+      if (ranks.root()) write_checkpoint(checkpoint_file, config, state);
+      return ranks.any(observer.should_stop && observer.should_stop());
     };
     if (observer.on_generation)
       observer.on_generation(level, state.history.back(), earlier_seconds);
@@ -382,6 +385,7 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
                             std::to_string(config.max_validation_error);
     }
   }
+  if (!ranks.root()) return result;
   if (result.gate_passed) write_outputs(config, options, result);
   // The run is complete either way: a resume would only repeat the verdict. (A run that stops
   // early — killed, stopped, or an error — keeps its checkpoint for --resume.)

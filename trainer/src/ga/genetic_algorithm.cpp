@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "imm/trainer/parallel_for.hpp"
+#include "imm/trainer/ranks.hpp"
 
 namespace imm::trainer::ga {
 
@@ -122,11 +123,30 @@ void GeneticAlgorithm::evaluate(Population& population) const {
 
 void GeneticAlgorithm::evaluate_range(Population& population, std::size_t first) const {
   const auto n = static_cast<long>(population.genomes.size() - first);
-  // Each evaluation is a pure function of its genome: any schedule gives the same results.
-  parallel_for(n, 4, [&](long i) {
-    const std::size_t index = first + static_cast<std::size_t>(i);
+  // Each evaluation is a pure function of its genome: any schedule gives the same results. Every
+  // rank holds the same population (the same seeded draws); each evaluates its share, with OpenMP
+  // inside, and the evaluations are exchanged whole.
+  const Ranks& ranks = Ranks::world();
+  const auto [begin, end] = ranks.share(n);
+  parallel_for(end - begin, 4, [&](long i) {
+    const std::size_t index = first + static_cast<std::size_t>(begin + i);
     population.evaluations[index] = problem_.evaluate(population.genomes[index]);
   });
+  if (ranks.size() == 1) return;
+  constexpr int kWidth = 5;
+  std::vector<double> mine;
+  mine.reserve(static_cast<std::size_t>((end - begin) * kWidth));
+  for (long i = begin; i < end; ++i) {
+    const Evaluation& e = population.evaluations[first + static_cast<std::size_t>(i)];
+    mine.insert(mine.end(), {e.fitness, e.error, e.position_error, e.velocity_error,
+                             static_cast<double>(e.rules)});
+  }
+  const std::vector<double> all = ranks.gather_all(mine, n, kWidth);
+  for (long i = 0; i < n; ++i) {
+    const double* row = all.data() + i * kWidth;
+    population.evaluations[first + static_cast<std::size_t>(i)] = {row[0], row[1], row[2], row[3],
+                                                                   static_cast<int>(row[4])};
+  }
 }
 
 Population GeneticAlgorithm::initialize() const {

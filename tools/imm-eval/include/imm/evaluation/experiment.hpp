@@ -30,6 +30,8 @@ namespace imm::evaluation {
 
 inline constexpr int kExitBadInput = 2;
 inline constexpr int kExitGateFailed = 5;
+/// `imm-eval regression`: the candidate is worse than the shipped model.
+inline constexpr int kExitRegression = 6;
 
 struct CommonOptions {
   std::filesystem::path models = "models";

@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,9 @@ struct FilterOutcome {
   Eigen::MatrixXd mean_mode_probabilities;         ///< steps × modes, averaged over runs
   std::vector<std::string> mode_names;
   long rejected_steps = 0;  ///< plots the filter could not use
+  /// runs × scans × StepRecorder::width, run-major: what the recorder took (NaN where a scan has
+  /// no estimate).
+  std::vector<double> recorded;
   /// runs × scans: ‖p − p̂‖², ‖p − z‖², ‖v − v̂‖², ‖v − v̄‖² (0 where a run has no estimate), and
   /// 1 where it has one.
   Eigen::MatrixXd run_position, run_position_plot, run_velocity, run_velocity_plot, run_counted;
@@ -38,14 +42,27 @@ struct FilterOutcome {
 };
 
 using FilterFactory = std::function<std::unique_ptr<TrackFilter>()>;
-/// Called after every scan with an estimate (run, scan, the filter).
-using StepObserver = std::function<void(std::size_t run, int scan, const TrackFilter& filter)>;
+
+/// Values an experiment takes from the filter after every scan with an estimate: `width` of them,
+/// written by `record` into its span. They come back in FilterOutcome::recorded.
+struct StepRecorder {
+  int width = 0;
+  std::function<void(const TrackFilter& filter, std::span<double> values)> record;
+};
 
 /// Runs `make_filter()` over every track of `data` (Cartesian plots) and scores it.
+///
+/// The runs are spread over the job's ranks (trainer/ranks.hpp): each rank runs its share and
+/// keeps every run's per-scan terms; the terms are exchanged whole and every figure is then
+/// summed in run order, so the outcome is the same to the bit at any rank count.
 [[nodiscard]] FilterOutcome run_monte_carlo(const std::string& name,
                                             const FilterFactory& make_filter,
                                             const TrackOptions& options,
                                             const datasets::TrackSet& data,
-                                            const StepObserver& observer = {});
+                                            const StepRecorder& recorder = {});
+
+/// Wall seconds this process has spent in run_monte_carlo so far (its share of the runs and the
+/// exchange): what mpirun divides, against the rest of an evaluation (data, tuning, plots).
+[[nodiscard]] double monte_carlo_seconds();
 
 }  // namespace imm::evaluation
