@@ -20,17 +20,6 @@ Ranks& mutable_world() {
   return world;
 }
 
-#if IMM_WITH_MPI
-/// Whether an MPI launcher started this process (OpenMPI's mpirun, a PMI or PMIx launcher such
-/// as Slurm's srun). Without one the program stays a single process and never initializes MPI,
-/// so a plain run costs nothing and needs no MPI runtime set up.
-bool launched_by_mpi() {
-  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE"}) {
-    if (std::getenv(name) != nullptr) return true;
-  }
-  return false;
-}
-
 /// Adds the seconds of its scope to a total.
 class Stopwatch {
  public:
@@ -45,6 +34,17 @@ class Stopwatch {
   double& total_;
   std::chrono::steady_clock::time_point start_;
 };
+
+#if IMM_WITH_MPI
+/// Whether an MPI launcher started this process (OpenMPI's mpirun, a PMI or PMIx launcher such
+/// as Slurm's srun). Without one the program stays a single process and never initializes MPI,
+/// so a plain run costs nothing and needs no MPI runtime set up.
+bool launched_by_mpi() {
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE"}) {
+    if (std::getenv(name) != nullptr) return true;
+  }
+  return false;
+}
 
 int checked_count(long value) {
   if (value > 0x7FFFFFFFL) throw std::length_error("MPI message of more than 2^31 values");
@@ -129,6 +129,19 @@ std::vector<double> Ranks::gather_all(std::span<const double> mine, long count, 
 #else
   return {mine.begin(), mine.end()};
 #endif
+}
+
+std::vector<double> shared_items(
+    long count, int width, const std::function<void(long item, std::span<double> terms)>& body) {
+  const Ranks& ranks = Ranks::world();
+  const Stopwatch stopwatch(ranks.shared_seconds_);
+  const auto [first, last] = ranks.share(count);
+  std::vector<double> mine(static_cast<std::size_t>((last - first) * width), 0.0);
+  for (long item = first; item < last; ++item) {
+    body(item,
+         std::span<double>(mine.data() + (item - first) * width, static_cast<std::size_t>(width)));
+  }
+  return ranks.gather_all(mine, count, width);
 }
 
 bool Ranks::any(bool flag) const {

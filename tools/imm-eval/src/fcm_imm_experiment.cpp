@@ -13,6 +13,7 @@
 
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <sstream>
 
 #include "imm/evaluation/evaluation_report.hpp"
@@ -23,6 +24,7 @@
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/ranks.hpp"
 
 namespace imm::evaluation {
 namespace {
@@ -82,44 +84,66 @@ Outcome run_filter(const std::string& name, const trainer::fcm::FilterFactory& m
   long n_straight = 0, n_maneuver = 0;
   bool is_fcm = false;
   out.first_run = Eigen::MatrixXd::Constant(steps, 4, kNaN);
+  // One run's terms: whether its filter is an FCM-IMM; per scan: counted, dp, dv, maneuvering,
+  // the FCM fraction, the estimate (4), failed.
+  constexpr int kPerScan = 10;
+  const int width = 1 + steps * kPerScan;
+  const std::vector<double> all =
+      trainer::shared_items(static_cast<long>(runs), width, [&](long run, std::span<double> terms) {
+        const datasets::Track& track = data.tracks[static_cast<std::size_t>(run)];
+        const Eigen::MatrixXd& z = track.plots;
+        std::unique_ptr<TwoAxisFilter> filter = make();
+        const auto* fx = dynamic_cast<const FcmImmAxisFilter*>(&filter->axis(0));
+        const auto* fy = dynamic_cast<const FcmImmAxisFilter*>(&filter->axis(1));
+        const bool fcm = fx != nullptr && fy != nullptr;
+        terms[0] = fcm ? 1.0 : 0.0;
+        Eigen::VectorXd mean(4);
+        Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(4, 4);
+        for (Eigen::Index axis = 0; axis < 2; ++axis) {
+          mean.segment<2>(2 * axis) << z(1, axis), (z(1, axis) - z(0, axis)) / T;
+          covariance.block<2, 2>(2 * axis, 2 * axis) << r, r / T, r / T, 2.0 * r / (T * T);
+        }
+        filter->initialize(mean, covariance);
+        Eigen::VectorXd estimate(4), variance(4);
+        for (int k = kFirstScoredScan; k < steps; ++k) {
+          double* scan = terms.data() + 1 + k * kPerScan;
+          if (filter->step(z.row(k).transpose()) != StepStatus::kOk) {
+            scan[9] = 1.0;
+            continue;
+          }
+          filter->state(estimate, variance);
+          const Eigen::Vector2d p = datasets::position_at(track, k),
+                                v = datasets::velocity_at(track, k);
+          scan[0] = 1.0;
+          scan[1] = std::pow(estimate(0) - p(0), 2) + std::pow(estimate(2) - p(1), 2);
+          scan[2] = std::pow(estimate(1) - v(0), 2) + std::pow(estimate(3) - v(1), 2);
+          scan[3] = track.maneuvering[static_cast<std::size_t>(k)] ? 1.0 : 0.0;
+          if (fcm) scan[4] = 0.5 * (fx->maneuver_fraction() + fy->maneuver_fraction());
+          Eigen::Map<Eigen::Vector4d>(scan + 5) = estimate;
+        }
+      });
+  // The figures, summed in run order.
   for (Eigen::Index run = 0; run < runs; ++run) {
-    const datasets::Track& track = data.tracks[static_cast<std::size_t>(run)];
-    const Eigen::MatrixXd& z = track.plots;
-    std::unique_ptr<TwoAxisFilter> filter = make();
-    const auto* fx = dynamic_cast<const FcmImmAxisFilter*>(&filter->axis(0));
-    const auto* fy = dynamic_cast<const FcmImmAxisFilter*>(&filter->axis(1));
-    is_fcm = fx != nullptr && fy != nullptr;
-    Eigen::VectorXd mean(4);
-    Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(4, 4);
-    for (Eigen::Index axis = 0; axis < 2; ++axis) {
-      mean.segment<2>(2 * axis) << z(1, axis), (z(1, axis) - z(0, axis)) / T;
-      covariance.block<2, 2>(2 * axis, 2 * axis) << r, r / T, r / T, 2.0 * r / (T * T);
-    }
-    filter->initialize(mean, covariance);
-    Eigen::VectorXd estimate(4), variance(4);
+    const double* terms = all.data() + run * width;
+    is_fcm = terms[0] != 0.0;
     for (int k = kFirstScoredScan; k < steps; ++k) {
-      if (filter->step(z.row(k).transpose()) != StepStatus::kOk) {
-        ++out.failed_steps;
-        continue;
-      }
-      filter->state(estimate, variance);
-      const Eigen::Vector2d p = datasets::position_at(track, k),
-                            v = datasets::velocity_at(track, k);
-      const double dp = std::pow(estimate(0) - p(0), 2) + std::pow(estimate(2) - p(1), 2);
-      const double dv = std::pow(estimate(1) - v(0), 2) + std::pow(estimate(3) - v(1), 2);
+      const double* scan = terms + 1 + k * kPerScan;
+      if (scan[9] != 0.0) ++out.failed_steps;
+      if (scan[0] == 0.0) continue;
+      const double dp = scan[1], dv = scan[2];
       position(k) += dp;
       velocity(k) += dv;
       ++samples(k);
-      const bool maneuvering = track.maneuvering[static_cast<std::size_t>(k)];
+      const bool maneuvering = scan[3] != 0.0;
       out.per_track.row(run).head<4>() += Eigen::RowVector4d(dp, 1.0, dv, 1.0);
       if (maneuvering) out.per_track.row(run).tail<4>() += Eigen::RowVector4d(dp, 1.0, dv, 1.0);
       if (is_fcm) {
-        const double f = 0.5 * (fx->maneuver_fraction() + fy->maneuver_fraction());
+        const double f = scan[4];
         fraction(k) += f;
         (maneuvering ? f_maneuver : f_straight) += f;
         ++(maneuvering ? n_maneuver : n_straight);
       }
-      if (run == 0) out.first_run.row(k) = estimate.transpose();
+      if (run == 0) out.first_run.row(k) = Eigen::Map<const Eigen::RowVector4d>(scan + 5);
     }
   }
   out.position_rmse = Eigen::VectorXd::Constant(steps, kNaN);

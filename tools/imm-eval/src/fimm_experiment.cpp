@@ -18,6 +18,7 @@
 #include <Eigen/LU>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <sstream>
 
 #include "imm/datasets/random.hpp"
@@ -29,6 +30,7 @@
 #include "imm/filters/fimm.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/ranks.hpp"
 #include "imm/trainer/tsk/tsk_trainer.hpp"
 
 namespace imm::evaluation {
@@ -92,43 +94,64 @@ Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
   out.per_track = Eigen::MatrixXd::Zero(runs, 2);
   Eigen::VectorXd scan_sum = Eigen::VectorXd::Zero(steps), scan_count = scan_sum;
   out.first_run = Eigen::MatrixXd::Constant(steps, 2, std::numeric_limits<double>::quiet_NaN());
+  // One run's terms, per scan: counted, e², NEES, outside the sensor box, in the flat part, the
+  // estimate (ξ̂, η̂), failed.
+  constexpr int kPerScan = 8;
+  const int width = static_cast<int>(steps) * kPerScan;
+  const std::vector<double> all =
+      trainer::shared_items(static_cast<long>(runs), width, [&](long run, std::span<double> terms) {
+        const datasets::Track& track = data.tracks[static_cast<std::size_t>(run)];
+        const Eigen::MatrixXd& z = track.plots;
+        std::unique_ptr<FimmFilter> filter = make();
+        Eigen::VectorXd mean = Eigen::VectorXd::Zero(6);
+        Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(6, 6);
+        for (Eigen::Index axis = 0; axis < 2; ++axis) {
+          const Eigen::Index p = 3 * axis;
+          mean(p) = z(1, axis);
+          mean(p + 1) = (z(1, axis) - z(0, axis)) / T;
+          covariance.block<3, 3>(p, p) << r, r / T, 0.0, r / T, 2.0 * r / (T * T), 0.0, 0.0, 0.0,
+              acceleration_variance;
+        }
+        filter->initialize(mean, covariance);
+        for (Eigen::Index k = kFirstScoredScan; k < steps; ++k) {
+          double* scan = terms.data() + k * kPerScan;
+          if (filter->step(z.row(k).transpose()) != StepStatus::kOk) {
+            scan[7] = 1.0;
+            continue;
+          }
+          const GaussianState<6>& x = filter->estimate();
+          const Eigen::Vector2d truth = datasets::position_at(track, k);
+          const Eigen::Vector2d error(x.mean(0) - truth(0), x.mean(3) - truth(1));
+          Eigen::Matrix2d P;
+          P << x.covariance(0, 0), x.covariance(0, 3), x.covariance(3, 0), x.covariance(3, 3);
+          scan[0] = 1.0;
+          scan[1] = error.squaredNorm();
+          scan[2] = error.dot(P.inverse() * error);
+          scan[3] = filter->outside_sensor_box() ? 1.0 : 0.0;
+          scan[4] = range_slope(sensor, truth) < kFlatSlope ? 1.0 : 0.0;
+          scan[5] = x.mean(0);
+          scan[6] = x.mean(3);
+        }
+      });
+  // The figures, summed in run order.
   double nees = 0.0, flat[2] = {}, steep[2] = {};
   long samples = 0, outside = 0;
   for (Eigen::Index run = 0; run < runs; ++run) {
-    const datasets::Track& track = data.tracks[static_cast<std::size_t>(run)];
-    const Eigen::MatrixXd& z = track.plots;
-    std::unique_ptr<FimmFilter> filter = make();
-    Eigen::VectorXd mean = Eigen::VectorXd::Zero(6);
-    Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(6, 6);
-    for (Eigen::Index axis = 0; axis < 2; ++axis) {
-      const Eigen::Index p = 3 * axis;
-      mean(p) = z(1, axis);
-      mean(p + 1) = (z(1, axis) - z(0, axis)) / T;
-      covariance.block<3, 3>(p, p) << r, r / T, 0.0, r / T, 2.0 * r / (T * T), 0.0, 0.0, 0.0,
-          acceleration_variance;
-    }
-    filter->initialize(mean, covariance);
     for (Eigen::Index k = kFirstScoredScan; k < steps; ++k) {
-      if (filter->step(z.row(k).transpose()) != StepStatus::kOk) {
-        ++out.failed_steps;
-        continue;
-      }
-      const GaussianState<6>& x = filter->estimate();
-      const Eigen::Vector2d truth = datasets::position_at(track, k);
-      const Eigen::Vector2d error(x.mean(0) - truth(0), x.mean(3) - truth(1));
-      Eigen::Matrix2d P;
-      P << x.covariance(0, 0), x.covariance(0, 3), x.covariance(3, 0), x.covariance(3, 3);
-      const double e2 = error.squaredNorm();
+      const double* scan = all.data() + run * width + k * kPerScan;
+      if (scan[7] != 0.0) ++out.failed_steps;
+      if (scan[0] == 0.0) continue;
+      const double e2 = scan[1];
       out.per_track.row(run) += Eigen::RowVector2d(e2, 1.0);
       scan_sum(k) += e2;
       scan_count(k) += 1.0;
-      double* bucket = range_slope(sensor, truth) < kFlatSlope ? flat : steep;
+      double* bucket = scan[4] != 0.0 ? flat : steep;
       bucket[0] += e2;
       bucket[1] += 1.0;
-      nees += error.dot(P.inverse() * error);
-      outside += filter->outside_sensor_box() ? 1 : 0;
+      nees += scan[2];
+      outside += scan[3] != 0.0 ? 1 : 0;
       ++samples;
-      if (run == 0) out.first_run.row(k) << x.mean(0), x.mean(3);
+      if (run == 0) out.first_run.row(k) << scan[5], scan[6];
     }
   }
   const double nan = std::numeric_limits<double>::quiet_NaN();

@@ -11,6 +11,7 @@
 
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <span>
 
 #include "imm/datasets/axis_trajectory.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
@@ -21,6 +22,7 @@
 #include "imm/filters/input_estimation_filter.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/ranks.hpp"
 
 namespace imm::evaluation {
 namespace {
@@ -100,43 +102,66 @@ int run(const CommonOptions& options) {
   }
   // axis_trajectories gives each track's x then its y axis.
   const std::vector<datasets::AxisTrajectory> axes = datasets::axis_trajectories(data);
+  // One axis run's terms: its mean squared innovation, position and velocity errors of the CV
+  // filter, the corrected estimate and the known-input floor (3 × 3); per scan: counted, the
+  // acceleration estimate, the CV and corrected squared position errors.
+  constexpr int kPerScan = 4;
+  const int width = 9 + steps * kPerScan;
+  const std::vector<double> all = trainer::shared_items(
+      static_cast<long>(axes.size()), width, [&](long run, std::span<double> terms) {
+        const datasets::AxisTrajectory& t = axes[static_cast<std::size_t>(run)];
+        InputEstimationFilter filter(model, settings);
+        GaussianState<2> start;
+        start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
+        start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
+        filter.initialize(start);
+        GaussianState<2> known = start;  // the primary KF fed the true acceleration
+        Eigen::RowVector3d cv = Eigen::RowVector3d::Zero(), corrected = cv, floor = cv;
+        int samples = 0;
+        for (int k = 2; k < steps; ++k) {
+          if (filter.step(t.measurement(k)) != StepStatus::kOk) continue;
+          known = predict(known, motion.transition, motion.process_noise, G,
+                          Vector<1>(t.acceleration_input(k - 1)));
+          const auto known_report = update(known, Vector<1>(t.measurement(k)), H, R_matrix);
+          const auto& e = filter.cv_estimate();
+          const auto& p = filter.estimate();
+          auto add = [](Eigen::RowVector3d& sum, double nu, double dp, double dv) {
+            sum += Eigen::RowVector3d(nu * nu, dp * dp, dv * dv);
+          };
+          add(cv, filter.cv_innovation(), t.position(k) - e.mean(0), t.velocity(k) - e.mean(1));
+          add(corrected, filter.innovation(), t.position(k) - p.mean(0), t.velocity(k) - p.mean(1));
+          add(floor, known_report.innovation(0), t.position(k) - known.mean(0),
+              t.velocity(k) - known.mean(1));
+          ++samples;
+          double* scan = terms.data() + 9 + k * kPerScan;
+          scan[0] = 1.0;
+          scan[1] = filter.acceleration();
+          scan[2] = std::pow(t.position(k) - e.mean(0), 2);
+          scan[3] = std::pow(t.position(k) - p.mean(0), 2);
+        }
+        const double n = std::max(1, samples);
+        Eigen::Map<Eigen::RowVector3d>(terms.data()) = cv / n;
+        Eigen::Map<Eigen::RowVector3d>(terms.data() + 3) = corrected / n;
+        Eigen::Map<Eigen::RowVector3d>(terms.data() + 6) = floor / n;
+      });
+  // The figures, summed in run order.
   for (std::size_t run = 0; run < axes.size(); ++run) {
     const datasets::AxisTrajectory& t = axes[run];
     const auto c = static_cast<std::size_t>(data.tracks[run / 2].case_index);
     CaseResult& out = cases[c];
     if (case_runs[c] == 0) out.true_acceleration = t.acceleration_input;
     ++case_runs[c];
-    InputEstimationFilter filter(model, settings);
-    GaussianState<2> start;
-    start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
-    start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
-    filter.initialize(start);
-    GaussianState<2> known = start;  // the primary KF fed the true acceleration
-    Eigen::RowVector3d cv = Eigen::RowVector3d::Zero(), corrected = cv, floor = cv;
-    int samples = 0;
+    const double* terms = all.data() + static_cast<std::ptrdiff_t>(run) * width;
     for (int k = 2; k < steps; ++k) {
-      if (filter.step(t.measurement(k)) != StepStatus::kOk) continue;
-      known = predict(known, motion.transition, motion.process_noise, G,
-                      Vector<1>(t.acceleration_input(k - 1)));
-      const auto known_report = update(known, Vector<1>(t.measurement(k)), H, R_matrix);
-      const auto& e = filter.cv_estimate();
-      const auto& p = filter.estimate();
-      auto add = [](Eigen::RowVector3d& sum, double nu, double dp, double dv) {
-        sum += Eigen::RowVector3d(nu * nu, dp * dp, dv * dv);
-      };
-      add(cv, filter.cv_innovation(), t.position(k) - e.mean(0), t.velocity(k) - e.mean(1));
-      add(corrected, filter.innovation(), t.position(k) - p.mean(0), t.velocity(k) - p.mean(1));
-      add(floor, known_report.innovation(0), t.position(k) - known.mean(0),
-          t.velocity(k) - known.mean(1));
-      ++samples;
-      out.mean_estimate(k) += filter.acceleration();
-      out.cv_position_rmse(k) += std::pow(t.position(k) - e.mean(0), 2);
-      out.corrected_position_rmse(k) += std::pow(t.position(k) - p.mean(0), 2);
+      const double* scan = terms + 9 + k * kPerScan;
+      if (scan[0] == 0.0) continue;
+      out.mean_estimate(k) += scan[1];
+      out.cv_position_rmse(k) += scan[2];
+      out.corrected_position_rmse(k) += scan[3];
     }
-    const double n = std::max(1, samples);
-    cv_runs[c].push_back(cv / n);
-    corrected_runs[c].push_back(corrected / n);
-    floor_runs[c].push_back(floor / n);
+    cv_runs[c].emplace_back(Eigen::Map<const Eigen::RowVector3d>(terms));
+    corrected_runs[c].emplace_back(Eigen::Map<const Eigen::RowVector3d>(terms + 3));
+    floor_runs[c].emplace_back(Eigen::Map<const Eigen::RowVector3d>(terms + 6));
   }
   auto stack = [](const std::vector<Eigen::RowVector3d>& rows) {
     Eigen::MatrixXd m(static_cast<Eigen::Index>(rows.size()), 3);

@@ -35,7 +35,6 @@
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
-#include "imm/evaluation/monte_carlo.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/trainer/ranks.hpp"
 
@@ -113,8 +112,7 @@ int main(int argc, char** argv) {
     code = run(static_cast<int>(pointers.size()), pointers.data());
     const imm::trainer::Ranks& ranks = imm::trainer::Ranks::world();
     if (ranks.distributed() && ranks.root()) {
-      std::cerr << "imm-eval: " << ranks.size()
-                << " ranks: " << imm::evaluation::monte_carlo_seconds() << " s of "
+      std::cerr << "imm-eval: " << ranks.size() << " ranks: " << ranks.shared_seconds() << " s of "
                 << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
                 << " s in the shared Monte Carlo runs; the root sent " << ranks.bytes_sent()
                 << " bytes in " << ranks.messages_sent() << " messages, "

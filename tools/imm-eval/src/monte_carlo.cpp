@@ -2,19 +2,12 @@
 #include "imm/evaluation/monte_carlo.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <limits>
 #include <stdexcept>
 
 #include "imm/trainer/ranks.hpp"
 
 namespace imm::evaluation {
-namespace {
-double g_monte_carlo_seconds = 0.0;
-}  // namespace
-
-double monte_carlo_seconds() { return g_monte_carlo_seconds; }
-
 // seed 000's ζ with the runs weighted: HeadlineMetric::Form::kScanZeta.
 Statistic FilterOutcome::zeta_p_statistic() const { return zeta_headline()[0].statistic(); }
 
@@ -54,43 +47,38 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
   const int per_scan = 5 + modes + extra;
   const int width = steps * per_scan + 1;
 
-  const auto start = std::chrono::steady_clock::now();
-  const trainer::Ranks& ranks = trainer::Ranks::world();
-  const auto [first, last] = ranks.share(runs);
-  std::vector<double> mine(static_cast<std::size_t>((last - first) * width), 0.0);
-  for (Eigen::Index run = first; run < last; ++run) {
-    double* terms = mine.data() + (run - first) * width;
-    for (int k = 0; k < steps; ++k) {
-      std::fill_n(terms + k * per_scan + 5 + modes, extra, nan);
-    }
-    const datasets::Track& track = data.tracks[static_cast<std::size_t>(run)];
-    const Eigen::MatrixXd& z = track.plots;
-    Tracker tracker(make_filter(), options);
-    const int n = tracker.state_dimension();
-    const int y = n / 2;
-    Eigen::VectorXd mean(n), variance(n);
-    for (int k = 0; k < steps; ++k) {
-      const TrackStepResult result = tracker.process(k, z.row(k).transpose());
-      if (result.event == TrackEvent::kRejected) terms[width - 1] += 1.0;
-      if (!tracker.initialized() || k == 0) continue;
-      tracker.state(mean, variance);
-      const Eigen::Vector2d p = datasets::position_at(track, k),
-                            v = datasets::velocity_at(track, k);
-      const Eigen::Vector2d plot = z.row(k).transpose();
-      const Eigen::Vector2d measured_velocity = (z.row(k) - z.row(k - 1)).transpose() / T;
-      double* scan = terms + k * per_scan;
-      scan[0] = (p - Eigen::Vector2d(mean(0), mean(y))).squaredNorm();
-      scan[1] = (p - plot).squaredNorm();
-      scan[2] = (v - Eigen::Vector2d(mean(1), mean(y + 1))).squaredNorm();
-      scan[3] = (v - measured_velocity).squaredNorm();
-      scan[4] = 1.0;
-      Eigen::Map<Eigen::VectorXd>(scan + 5, modes) = tracker.mode_probabilities();
-      if (extra > 0) recorder.record(tracker.filter(), std::span<double>(scan + 5 + modes, extra));
-    }
-  }
-  const std::vector<double> all = ranks.gather_all(mine, static_cast<long>(runs), width);
-  g_monte_carlo_seconds +=
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const std::vector<double> all = trainer::shared_items(
+      static_cast<long>(runs), width, [&](long run, std::span<double> run_terms) {
+        double* terms = run_terms.data();
+        for (int k = 0; k < steps; ++k) {
+          std::fill_n(terms + k * per_scan + 5 + modes, extra, nan);
+        }
+        const datasets::Track& track = data.tracks[static_cast<std::size_t>(run)];
+        const Eigen::MatrixXd& z = track.plots;
+        Tracker tracker(make_filter(), options);
+        const int n = tracker.state_dimension();
+        const int y = n / 2;
+        Eigen::VectorXd mean(n), variance(n);
+        for (int k = 0; k < steps; ++k) {
+          const TrackStepResult result = tracker.process(k, z.row(k).transpose());
+          if (result.event == TrackEvent::kRejected) terms[width - 1] += 1.0;
+          if (!tracker.initialized() || k == 0) continue;
+          tracker.state(mean, variance);
+          const Eigen::Vector2d p = datasets::position_at(track, k),
+                                v = datasets::velocity_at(track, k);
+          const Eigen::Vector2d plot = z.row(k).transpose();
+          const Eigen::Vector2d measured_velocity = (z.row(k) - z.row(k - 1)).transpose() / T;
+          double* scan = terms + k * per_scan;
+          scan[0] = (p - Eigen::Vector2d(mean(0), mean(y))).squaredNorm();
+          scan[1] = (p - plot).squaredNorm();
+          scan[2] = (v - Eigen::Vector2d(mean(1), mean(y + 1))).squaredNorm();
+          scan[3] = (v - measured_velocity).squaredNorm();
+          scan[4] = 1.0;
+          Eigen::Map<Eigen::VectorXd>(scan + 5, modes) = tracker.mode_probabilities();
+          if (extra > 0)
+            recorder.record(tracker.filter(), std::span<double>(scan + 5 + modes, extra));
+        }
+      });
 
   // Every figure from the runs' terms, in run order.
   outcome.run_position = Eigen::MatrixXd::Zero(runs, steps);

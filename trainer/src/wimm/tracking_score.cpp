@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <stdexcept>
 
 #include "imm/filters/tracker.hpp"
 #include "imm/math/angle.hpp"
+#include "imm/trainer/ranks.hpp"
 
 namespace imm::trainer::wimm {
 namespace {
@@ -45,10 +47,12 @@ TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& dat
   Eigen::VectorXi count = Eigen::VectorXi::Zero(steps);
   Eigen::MatrixXd mu = Eigen::MatrixXd::Zero(steps, 2);
   const std::array<int, 4> pv = {0, 1, 3, 4};  // x, vx, y, vy in the 6-state layout
-  for (std::size_t t = 0; t < data.tracks.size(); ++t) {
-    const datasets::Track& track = data.tracks[t];
-    const auto i = static_cast<Eigen::Index>(t);
-    int settled_count = 0;
+  // One track's terms, per scan: counted, da², position error², NEES, fused, μ (2).
+  constexpr int kPerScan = 7;
+  const int width = steps * kPerScan;
+  const auto tracks = static_cast<long>(data.tracks.size());
+  const std::vector<double> all = shared_items(tracks, width, [&](long t, std::span<double> terms) {
+    const datasets::Track& track = data.tracks[static_cast<std::size_t>(t)];
     auto owned = std::make_unique<WeightedImmFilter>(spec);
     const WeightedImmFilter& filter = *owned;
     Tracker tracker(std::move(owned), spec.track_options());
@@ -69,15 +73,31 @@ TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& dat
         for (int b = 0; b < 4; ++b) P(a, b) = estimate.covariance(pv[a], pv[b]);
       }
       const Eigen::LDLT<Eigen::Matrix4d> ldlt(P);
-      azimuth_sq(k) += da * da;
-      position_sq(k) += dx * dx + dy * dy;
-      nees(k) += error.dot(ldlt.solve(error));
-      fused(k) += filter.fused() ? 1.0 : 0.0;
-      mu.row(k) += filter.mode_probabilities().head<2>().transpose();
+      double* scan = terms.data() + k * kPerScan;
+      scan[0] = 1.0;
+      scan[1] = da * da;
+      scan[2] = dx * dx + dy * dy;
+      scan[3] = error.dot(ldlt.solve(error));
+      scan[4] = filter.fused() ? 1.0 : 0.0;
+      Eigen::Map<Eigen::Vector2d>(scan + 5) = filter.mode_probabilities().head<2>();
+    }
+  });
+  // The figures, summed in track order.
+  for (long t = 0; t < tracks; ++t) {
+    const auto i = static_cast<Eigen::Index>(t);
+    int settled_count = 0;
+    for (int k = 0; k < steps; ++k) {
+      const double* scan = all.data() + t * width + k * kPerScan;
+      if (scan[0] == 0.0) continue;
+      azimuth_sq(k) += scan[1];
+      position_sq(k) += scan[2];
+      nees(k) += scan[3];
+      fused(k) += scan[4];
+      mu.row(k) += Eigen::Map<const Eigen::RowVector2d>(scan + 5);
       ++count(k);
       if (k >= settled) {
-        score.track_azimuth_settled(i) += da * da;
-        score.track_position_settled(i) += dx * dx + dy * dy;
+        score.track_azimuth_settled(i) += scan[1];
+        score.track_position_settled(i) += scan[2];
         ++settled_count;
       }
     }

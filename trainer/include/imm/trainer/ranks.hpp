@@ -67,6 +67,9 @@ class Ranks {
   [[nodiscard]] std::uint64_t messages_sent() const { return messages_sent_; }
   /// Wall seconds this rank spent in MPI's exchanges (waiting for the slowest rank included).
   [[nodiscard]] double exchange_seconds() const { return exchange_seconds_; }
+  /// Wall seconds this rank spent in shared_items (its share of the items and the exchange): the
+  /// part of a run that more ranks divide.
+  [[nodiscard]] double shared_seconds() const { return shared_seconds_; }
 
  private:
   friend class JobQueue;
@@ -78,7 +81,17 @@ class Ranks {
   mutable std::uint64_t bytes_sent_ = 0;
   mutable std::uint64_t messages_sent_ = 0;
   mutable double exchange_seconds_ = 0.0;
+  mutable double shared_seconds_ = 0.0;
+  friend std::vector<double> shared_items(
+      long count, int width, const std::function<void(long item, std::span<double> terms)>& body);
 };
+
+/// The `width` terms of each of `count` independent items (Monte Carlo runs, tracks), spread
+/// over the job's ranks: `body(item, terms)` fills the terms of each item of this rank's share
+/// (they start at 0), and every item's terms come back, item-major, on every rank. The caller then
+/// sums its figures from them in item order: the same figures at any rank count.
+[[nodiscard]] std::vector<double> shared_items(
+    long count, int width, const std::function<void(long item, std::span<double> terms)>& body);
 
 /// While alive, Ranks::world() on this process is one rank alone: a sweep's job trains by itself,
 /// whatever the job's ranks are doing meanwhile.

@@ -61,8 +61,4 @@ struct StepRecorder {
                                             const datasets::TrackSet& data,
                                             const StepRecorder& recorder = {});
 
-/// Wall seconds this process has spent in run_monte_carlo so far (its share of the runs and the
-/// exchange): what mpirun divides, against the rest of an evaluation (data, tuning, plots).
-[[nodiscard]] double monte_carlo_seconds();
-
 }  // namespace imm::evaluation
