@@ -157,6 +157,7 @@ TEST_F(Mpi, GaResumesUnderMpiFromACheckpointToTheSameModel) {
   resume.emplace_back("--resume");
   const auto resumed = run(2, "imm-train", resume);
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_NE(resumed.err.find("resuming level"), std::string::npos) << resumed.err;
   EXPECT_EQ(model_contents(out), model_contents(dir / "alone.h5"));
   EXPECT_FALSE(fs::exists(checkpoint));
 }

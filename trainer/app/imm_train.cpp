@@ -33,9 +33,11 @@
 #include <spdlog/fmt/ranges.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cstdlib>
 #include <iostream>
 #include <optional>
 
@@ -491,8 +493,13 @@ int run(int argc, char** argv) {
           app.get_subcommands().front()->get_name());
       return 1;
     }
-    // Each rank's OpenMP threads share the machine with the other ranks on it.
-    omp_set_num_threads(std::max(1, omp_get_num_procs() / ranks.local_size()));
+    // Each rank's OpenMP threads: OMP_NUM_THREADS when set (a Slurm script's cpus-per-task), the
+    // cores the launcher bound the rank to, or else its part of the machine's cores.
+    if (std::getenv("OMP_NUM_THREADS") == nullptr) {
+      const int bound = omp_get_num_procs();
+      const int machine = static_cast<int>(::sysconf(_SC_NPROCESSORS_ONLN));
+      omp_set_num_threads(bound < machine ? bound : std::max(1, machine / ranks.local_size()));
+    }
   }
   // A training killed with SIGKILL while writing leaves a hidden temporary beside its output: a
   // guard process removes it (see temporaries_guard.hpp).
