@@ -3,9 +3,9 @@
 
 #include <algorithm>
 #include <chrono>
-#include <iterator>
 #include <cmath>
 #include <exception>
+#include <iterator>
 #include <map>
 #include <sstream>
 

@@ -86,8 +86,8 @@ Outcome run_filter(const std::string& name, const trainer::fcm::FilterFactory& m
   out.first_run = Eigen::MatrixXd::Constant(steps, 4, kNaN);
   // One run's terms: whether its filter is an FCM-IMM; per scan: counted, dp, dv, maneuvering,
   // the FCM fraction, the estimate (4), failed.
-  constexpr int kPerScan = 10;
-  const int width = 1 + steps * kPerScan;
+  constexpr std::ptrdiff_t kPerScan = 10;
+  const auto width = static_cast<int>(1 + steps * kPerScan);
   const std::vector<double> all =
       trainer::shared_items(static_cast<long>(runs), width, [&](long run, std::span<double> terms) {
         const datasets::Track& track = data.tracks[static_cast<std::size_t>(run)];

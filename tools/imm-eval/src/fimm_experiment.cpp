@@ -96,8 +96,8 @@ Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
   out.first_run = Eigen::MatrixXd::Constant(steps, 2, std::numeric_limits<double>::quiet_NaN());
   // One run's terms, per scan: counted, e², NEES, outside the sensor box, in the flat part, the
   // estimate (ξ̂, η̂), failed.
-  constexpr int kPerScan = 8;
-  const int width = static_cast<int>(steps) * kPerScan;
+  constexpr std::ptrdiff_t kPerScan = 8;
+  const auto width = static_cast<int>(steps * kPerScan);
   const std::vector<double> all =
       trainer::shared_items(static_cast<long>(runs), width, [&](long run, std::span<double> terms) {
         const datasets::Track& track = data.tracks[static_cast<std::size_t>(run)];

@@ -105,8 +105,8 @@ int run(const CommonOptions& options) {
   // One axis run's terms: its mean squared innovation, position and velocity errors of the CV
   // filter, the corrected estimate and the known-input floor (3 × 3); per scan: counted, the
   // acceleration estimate, the CV and corrected squared position errors.
-  constexpr int kPerScan = 4;
-  const int width = 9 + steps * kPerScan;
+  constexpr std::ptrdiff_t kPerScan = 4;
+  const auto width = static_cast<int>(9 + steps * kPerScan);
   const std::vector<double> all = trainer::shared_items(
       static_cast<long>(axes.size()), width, [&](long run, std::span<double> terms) {
         const datasets::AxisTrajectory& t = axes[static_cast<std::size_t>(run)];

@@ -107,6 +107,7 @@ int main(int argc, char** argv) {
   {
     const ScratchForOtherRanks scratch(arguments);
     std::vector<char*> pointers;
+    pointers.reserve(arguments.size());
     for (std::string& argument : arguments) pointers.push_back(argument.data());
     const auto start = std::chrono::steady_clock::now();
     code = run(static_cast<int>(pointers.size()), pointers.data());

@@ -44,8 +44,8 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
   const int extra = recorder.record ? recorder.width : 0;
   // One run's terms: for every scan the squared errors (4), whether it counted (1), the mode
   // probabilities and the recorder's values; then the rejected plots.
-  const int per_scan = 5 + modes + extra;
-  const int width = steps * per_scan + 1;
+  const std::ptrdiff_t per_scan = 5 + modes + extra;
+  const auto width = static_cast<int>(steps * per_scan + 1);
 
   const std::vector<double> all = trainer::shared_items(
       static_cast<long>(runs), width, [&](long run, std::span<double> run_terms) {

@@ -127,7 +127,9 @@ void GeneticAlgorithm::evaluate_range(Population& population, std::size_t first)
   // rank holds the same population (the same seeded draws); each evaluates its share, with OpenMP
   // inside, and the evaluations are exchanged whole.
   const Ranks& ranks = Ranks::world();
-  const auto [begin, end] = ranks.share(n);
+  const std::pair<long, long> share = ranks.share(n);
+  const long begin = share.first;
+  const long end = share.second;
   parallel_for(end - begin, 4, [&](long i) {
     const std::size_t index = first + static_cast<std::size_t>(begin + i);
     population.evaluations[index] = problem_.evaluate(population.genomes[index]);

@@ -48,8 +48,8 @@ TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& dat
   Eigen::MatrixXd mu = Eigen::MatrixXd::Zero(steps, 2);
   const std::array<int, 4> pv = {0, 1, 3, 4};  // x, vx, y, vy in the 6-state layout
   // One track's terms, per scan: counted, da², position error², NEES, fused, μ (2).
-  constexpr int kPerScan = 7;
-  const int width = steps * kPerScan;
+  constexpr std::ptrdiff_t kPerScan = 7;
+  const auto width = static_cast<int>(steps * kPerScan);
   const auto tracks = static_cast<long>(data.tracks.size());
   const std::vector<double> all = shared_items(tracks, width, [&](long t, std::span<double> terms) {
     const datasets::Track& track = data.tracks[static_cast<std::size_t>(t)];
