@@ -40,6 +40,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <optional>
+#include <set>
 
 #include "imm/datasets/random.hpp"
 #include "imm/io/file_error.hpp"
@@ -251,7 +252,6 @@ int train_fcm(const TrainCommand& command) {
 
 /// One job of a sweep, exactly as its subcommand runs it.
 int train_job(const imm::trainer::SweepJob& job) {
-  imm::trainer::guard_temporaries({job.out.parent_path().empty() ? "." : job.out.parent_path()});
   if (job.kind == "ga") return run_ga({job.config, job.out, job.regime, job.seed, 0, false});
   const TrainCommand command{job.config, job.out, job.regime, job.seed};
   if (job.kind == "mlp") return train_mlp(command);
@@ -266,6 +266,12 @@ constexpr int kExitJobFailed = 3;
 int run_sweep(const std::filesystem::path& plan_file) {
   const imm::trainer::Ranks& ranks = imm::trainer::Ranks::world();
   const auto plan = imm::trainer::load_sweep_plan(plan_file);
+  // One temporaries guard for every output folder of the plan (see temporaries_guard.hpp).
+  std::set<std::filesystem::path> folders;
+  for (const auto& job : plan.jobs) {
+    folders.insert(job.out.parent_path().empty() ? "." : job.out.parent_path());
+  }
+  imm::trainer::guard_temporaries({folders.begin(), folders.end()});
   spdlog::info("sweep {}: {} trainings over {} rank{}", plan_file.string(), plan.jobs.size(),
                ranks.size(), ranks.size() == 1 ? "" : "s");
   const auto start = std::chrono::steady_clock::now();

@@ -35,6 +35,14 @@ class Stopwatch {
   std::chrono::steady_clock::time_point start_;
 };
 
+/// Rank `rank`'s share [first, last) of `count` items over `size` ranks.
+std::pair<long, long> share_of(long count, int rank, int size) {
+  const long base = count / size;
+  const long extra = count % size;
+  const long first = rank * base + std::min<long>(rank, extra);
+  return {first, first + base + (rank < extra ? 1 : 0)};
+}
+
 #if IMM_WITH_MPI
 /// Whether an MPI launcher started this process (OpenMPI's mpirun, a PMI or PMIx launcher such
 /// as Slurm's srun). Without one the program stays a single process and never initializes MPI,
@@ -96,25 +104,16 @@ Ranks::Session::~Session() {
 }
 // NOLINTEND(readability-convert-member-functions-to-static)
 
-std::pair<long, long> Ranks::share(long count) const {
-  const long base = count / size_;
-  const long extra = count % size_;
-  const long first = rank_ * base + std::min<long>(rank_, extra);
-  return {first, first + base + (rank_ < extra ? 1 : 0)};
-}
+std::pair<long, long> Ranks::share(long count) const { return share_of(count, rank_, size_); }
 
 std::vector<double> Ranks::gather_all(std::span<const double> mine, long count, int width) const {
   if (!distributed_ || size_ == 1) return {mine.begin(), mine.end()};
 #if IMM_WITH_MPI
   std::vector<int> counts(static_cast<std::size_t>(size_)), offsets(counts.size());
-  const long base = count / size_;
-  const long extra = count % size_;
-  long offset = 0;
   for (int r = 0; r < size_; ++r) {
-    const long items = base + (r < extra ? 1 : 0);
-    counts[static_cast<std::size_t>(r)] = checked_count(items * width);
-    offsets[static_cast<std::size_t>(r)] = checked_count(offset * width);
-    offset += items;
+    const auto [first, last] = share_of(count, r, size_);
+    counts[static_cast<std::size_t>(r)] = checked_count((last - first) * width);
+    offsets[static_cast<std::size_t>(r)] = checked_count(first * width);
   }
   if (static_cast<long>(mine.size()) != counts[static_cast<std::size_t>(rank_)]) {
     throw std::logic_error("gather_all: this rank's share has the wrong size");
@@ -156,35 +155,6 @@ bool Ranks::any(bool flag) const {
   return global != 0;
 #else
   return flag;
-#endif
-}
-
-std::vector<std::string> Ranks::gather_text(const std::string& mine) const {
-  if (!distributed_ || size_ == 1) return {mine};
-#if IMM_WITH_MPI
-  const int length = checked_count(static_cast<long>(mine.size()));
-  std::vector<int> lengths(static_cast<std::size_t>(size_));
-  MPI_Gather(&length, 1, MPI_INT, lengths.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
-  std::vector<int> offsets(lengths.size());
-  long total = 0;
-  for (std::size_t r = 0; r < lengths.size(); ++r) {
-    offsets[r] = checked_count(total);
-    total += lengths[r];
-  }
-  std::string all(root() ? static_cast<std::size_t>(total) : 0, '\0');
-  MPI_Gatherv(mine.data(), length, MPI_CHAR, all.data(), lengths.data(), offsets.data(), MPI_CHAR,
-              0, MPI_COMM_WORLD);
-  bytes_sent_ += mine.size() + sizeof(int);
-  messages_sent_ += 2;
-  std::vector<std::string> texts;
-  if (!root()) return texts;
-  for (std::size_t r = 0; r < lengths.size(); ++r) {
-    texts.push_back(
-        all.substr(static_cast<std::size_t>(offsets[r]), static_cast<std::size_t>(lengths[r])));
-  }
-  return texts;
-#else
-  return {mine};
 #endif
 }
 
@@ -250,7 +220,7 @@ struct JobQueue::State {
 #endif
 };
 
-JobQueue::JobQueue(const Ranks& ranks, long jobs) : state_(new State) {
+JobQueue::JobQueue(const Ranks& ranks, long jobs) : state_(std::make_unique<State>()) {
   state_->ranks = &ranks;
   state_->jobs = jobs;
   state_->results.resize(static_cast<std::size_t>(jobs));
@@ -264,7 +234,6 @@ JobQueue::JobQueue(const Ranks& ranks, long jobs) : state_(new State) {
 
 JobQueue::~JobQueue() {
   if (state_->dispatcher.joinable()) state_->dispatcher.join();
-  delete state_;
 }
 
 long JobQueue::next(long job, const std::string& result) {

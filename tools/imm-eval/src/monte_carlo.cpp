@@ -8,6 +8,7 @@
 #include "imm/trainer/ranks.hpp"
 
 namespace imm::evaluation {
+
 // seed 000's ζ with the runs weighted: HeadlineMetric::Form::kScanZeta.
 Statistic FilterOutcome::zeta_p_statistic() const { return zeta_headline()[0].statistic(); }
 

@@ -55,9 +55,6 @@ class Ranks {
   /// Whether `flag` is true on any rank (on every rank).
   [[nodiscard]] bool any(bool flag) const;
 
-  /// Every rank's text, in rank order, on the root (empty elsewhere).
-  [[nodiscard]] std::vector<std::string> gather_text(const std::string& mine) const;
-
   /// Ends every rank of the job with `code` after a failure only this rank may have seen (the
   /// others may be waiting for it). Returns only when not distributed.
   void abort_job(int code) const;
@@ -126,7 +123,7 @@ class JobQueue {
 
  private:
   struct State;
-  State* state_;
+  std::unique_ptr<State> state_;
 };
 
 /// Whether this build can run distributed (IMM_WITH_MPI).
