@@ -106,7 +106,8 @@ Ranks::Session::~Session() {
 
 std::pair<long, long> Ranks::share(long count) const { return share_of(count, rank_, size_); }
 
-std::vector<double> Ranks::gather_all(std::span<const double> mine, long count, int width) const {
+std::vector<double> Ranks::gather_all(std::span<const double> mine, [[maybe_unused]] long count,
+                                      [[maybe_unused]] int width) const {
   if (!distributed_ || size_ == 1) return {mine.begin(), mine.end()};
 #if IMM_WITH_MPI
   std::vector<int> counts(static_cast<std::size_t>(size_)), offsets(counts.size());
