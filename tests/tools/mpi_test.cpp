@@ -301,5 +301,65 @@ TEST_F(Mpi, ARankKilledMidRunEndsTheJobWithAnErrorAndNoModel) {
   EXPECT_TRUE(others.empty()) << others.front();
 }
 
+// The nightly with its candidates trained in one sweep over two ranks: the same decisions and the
+// same promoted models (to the bit, but for their timestamps) as stage by stage; a broken stage
+// fails alone; each training's full log is in its stage's log whichever rank ran it.
+TEST_F(Mpi, NightlyTrainsItsCandidatesInOneSweepOverTheRanks) {
+  const testing::TempDir dir;
+  const SmallGa ga(dir);
+  testing::write_text(dir / "cv3.toml", testing::slurp("configs/track/cv3_imm.toml"));
+  auto plan = [&](const std::string& name) {
+    const fs::path registry = dir / name;
+    const fs::path file = dir / (name + ".toml");
+    testing::write_text(
+        file, "registry = \"" + registry.string() + "\"\nallow_dirty_trainer = true\n\n" +
+                  "[[models]]\nname = \"ga\"\ncommand = \"ga\"\nconfig = \"" + ga.config.string() +
+                  "\"\nregime = \"" + ga.regime.string() + "\"\nout = \"" +
+                  (registry / "ga.h5").string() + "\"\n\n" +
+                  "[[models]]\nname = \"broken\"\ncommand = \"freeze\"\nconfig = \"" +
+                  (dir / "missing.toml").string() + "\"\nout = \"" +
+                  (registry / "broken.h5").string() + "\"\n\n" +
+                  "[[models]]\nname = \"cv3\"\ncommand = \"freeze\"\nconfig = \"" +
+                  (dir / "cv3.toml").string() + "\"\nout = \"" + (registry / "cv3.h5").string() +
+                  "\"\n\n[[evaluations]]\nexperiment = \"plain-imm\"\nmodel = \"cv3\"\nout = \"" +
+                  (dir / name / "cv3_report").string() +
+                  "\"\nregime = \"configs/regimes/paper/ga_imm_table3.toml\"\nruns = 20\n");
+    return file;
+  };
+  const auto nightly = [&](const std::string& name, std::vector<std::string> extra) {
+    std::vector<std::string> arguments = {"all", "--config", plan(name).string(), "--reports",
+                                          (dir / (name + "_reports")).string()};
+    arguments.insert(arguments.end(), extra.begin(), extra.end());
+    return run(0, "imm-train", arguments);
+  };
+  const auto stages = nightly("stages", {});
+  ASSERT_EQ(stages.exit_code, 3) << stages.err;
+  const auto swept =
+      nightly("swept", {"--launcher", std::string(kMpiexec) + " -np 2 --oversubscribe"});
+  ASSERT_EQ(swept.exit_code, 3) << swept.err;
+
+  const std::string report = testing::slurp(dir / "swept_reports" / "latest" / "index.md");
+  EXPECT_NE(report.find("Training: 3 candidates trained in one sweep over 2 ranks"),
+            std::string::npos)
+      << report;
+  const std::string alone = testing::slurp(dir / "stages_reports" / "latest" / "index.md");
+  for (const char* row :
+       {"| model | ga | promoted (first in the manifest) |", "| model | broken | failed |",
+        "| model | cv3 | promoted (first in the manifest) |",
+        "| evaluation | plain-imm cv3 | ok |"}) {
+    EXPECT_NE(report.find(row), std::string::npos) << row << "\n" << report;
+    EXPECT_NE(alone.find(row), std::string::npos) << row << "\n" << alone;
+  }
+  for (const char* model : {"ga.h5", "cv3.h5"}) {
+    EXPECT_EQ(model_contents(dir / "swept" / model), model_contents(dir / "stages" / model))
+        << model;
+  }
+  const fs::path logs = dir / "swept_reports" / "latest" / "logs";
+  EXPECT_NE(testing::slurp(logs / "model_ga.err").find("level"), std::string::npos);
+  EXPECT_NE(testing::slurp(logs / "model_ga.err").find(" info "), std::string::npos);
+  EXPECT_EQ(testing::slurp(logs / "model_ga.err").find("[rank"), std::string::npos);
+  EXPECT_NE(testing::slurp(logs / "model_broken.err").find("missing.toml"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace imm

@@ -160,14 +160,17 @@ TEST(NightlyProduct, ACandidateTrainedFromUncommittedCodeIsNotPromoted) {
   }
 }
 
+// The cv3 plan and a model stage "broken" whose config is missing (it fails every night).
+Plan write_plan_with_a_broken_model(const testing::TempDir& dir) {
+  write_cv3(dir / "cv3.toml", 1.0);
+  return write_plan(dir, "[[models]]\nname = \"broken\"\ncommand = \"freeze\"\nconfig = \"" +
+                             (dir / "missing.toml").string() + "\"\nout = \"" +
+                             (dir / "models" / "broken.h5").string() + "\"\n\n");
+}
+
 TEST(NightlyProduct, AFailingStageDoesNotStopTheOthers) {
   const testing::TempDir dir;
-  write_cv3(dir / "cv3.toml", 1.0);
-  const Plan p = write_plan(dir,
-                            "[[models]]\nname = \"broken\"\ncommand = \"freeze\"\n"
-                            "config = \"" +
-                                (dir / "missing.toml").string() + "\"\nout = \"" +
-                                (dir / "models" / "broken.h5").string() + "\"\n\n");
+  const Plan p = write_plan_with_a_broken_model(dir);
   const auto run = nightly(p);
   EXPECT_EQ(run.exit_code, 3) << run.err;
   EXPECT_TRUE(fs::exists(p.registry / "cv3.h5"));  // the stage after the failure ran
@@ -184,6 +187,130 @@ TEST(NightlyProduct, AFailingStageDoesNotStopTheOthers) {
   }
   if (plots) {
     EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
+  }
+}
+
+// `imm-train all --sweep` trains every stale candidate first in one `imm-train sweep`, then
+// evaluates and promotes each as its own stage would; a sweep that reports nothing (its launcher
+// failed) leaves the trainings to their stages. Under mpirun: tests/tools/mpi_test.cpp.
+TEST(NightlyProduct, CandidatesTrainInOneSweepAndAFailedSweepLeavesThemToTheirStages) {
+  const testing::TempDir dir;
+  const Plan p = write_plan_with_a_broken_model(dir);
+  auto run = nightly(p, {"--sweep"});
+  EXPECT_EQ(run.exit_code, 3) << run.err;
+  ASSERT_TRUE(fs::exists(p.registry / "cv3.h5")) << run.err;
+  EXPECT_FALSE(fs::exists(p.registry / "broken.h5"));
+  std::string report = slurp(p.reports / "latest" / "index.md");
+  EXPECT_NE(report.find("Training: 2 candidates trained in one sweep over 1 rank in "),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find("imm-train sweep --config"), std::string::npos) << report;
+  EXPECT_NE(report.find("model broken — failed"), std::string::npos) << report;
+  EXPECT_NE(report.find("missing.toml"), std::string::npos) << report;  // why, from its log
+  EXPECT_NE(report.find("| cv3 | promoted (first in the manifest) |"), std::string::npos) << report;
+  // Each training's output is in its stage's log, as when it runs as its own process.
+  const fs::path logs = p.reports / "latest" / "logs";
+  EXPECT_NE(slurp(logs / "model_cv3.err").find("froze"), std::string::npos);
+  EXPECT_NE(slurp(logs / "model_broken.err").find("missing.toml"), std::string::npos);
+  EXPECT_EQ(slurp(logs / "sweep.err").find("froze"), std::string::npos);
+  EXPECT_NE(slurp(logs / "sweep.err").find("broken FAILED"), std::string::npos);
+  const nlohmann::json manifest_after_sweep = manifest(p);
+
+  // Nothing changed: everything is cached, no sweep starts.
+  run = nightly(p, {"--sweep"});
+  EXPECT_EQ(run.exit_code, 3) << run.err;
+  EXPECT_EQ(run.err.find("sweep"), std::string::npos) << run.err;
+
+  // A launcher that fails: the sweep reports nothing and the candidate trains as its own stage
+  // (the broken stage's inputs did not change: it stays cached).
+  write_cv3(dir / "cv3.toml", 1.0, "# the same filter\n");
+  run = nightly(p, {"--launcher", "/bin/false"});
+  EXPECT_EQ(run.exit_code, 3) << run.err;
+  report = slurp(p.reports / "latest" / "index.md");
+  EXPECT_NE(report.find("Training: the sweep of 1 candidate ("), std::string::npos) << report;
+  EXPECT_NE(report.find("ended with exit code 1"), std::string::npos) << report;
+  EXPECT_NE(report.find("the candidates it did not report on (1) were trained as their own stages"),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find("| cv3 | promoted |"), std::string::npos) << report;
+  EXPECT_NE(report.find("missing.toml"), std::string::npos) << report;
+  EXPECT_NE(manifest(p)["models"][0]["sha256"], manifest_after_sweep["models"][0]["sha256"]);
+
+  // The sweep hands out the longest training first, by how long each took the last time it ran.
+  const fs::path cache_file = p.registry / ".registry" / "nightly-cache.json";
+  for (const auto& [longest, shortest] :
+       std::vector<std::pair<std::string, std::string>>{{"broken", "cv3"}, {"cv3", "broken"}}) {
+    SCOPED_TRACE(longest);
+    auto cache = nlohmann::json::parse(slurp(cache_file));
+    cache["stages"]["model:" + longest]["wall_seconds"] = 100.0;
+    cache["stages"]["model:" + shortest]["wall_seconds"] = 1.0;
+    testing::write_text(cache_file, cache.dump());
+    run = nightly(p, {"--sweep", "--force"});
+    EXPECT_EQ(run.exit_code, 3) << run.err;
+    const std::string jobs = slurp(p.registry / ".registry" / "staging" / "sweep.toml");
+    ASSERT_NE(jobs.find("name = '" + shortest + "'"), std::string::npos) << jobs;
+    EXPECT_LT(jobs.find("name = '" + longest + "'"), jobs.find("name = '" + shortest + "'"))
+        << jobs;
+  }
+}
+
+// A sweep's jobs given as imm-train command lines (the nightly's form), each with its own log,
+// and the plans a sweep refuses before anything trains.
+TEST(SweepPlan, CommandJobsRunTheirSubcommandIntoTheirLogsAndBadPlansAreRefused) {
+  const testing::TempDir dir;
+  const fs::path plan = dir / "sweep.toml";
+  std::ofstream(plan) << "[[jobs]]\nname = \"cv3\"\ncommand = [\"freeze\", \"--config\", "
+                         "\"configs/track/cv3_imm.toml\", \"--out\", \""
+                      << (dir / "out" / "cv3.h5").string() << "\"]\nlog = \""
+                      << (dir / "logs" / "cv3").string()
+                      << "\"\n\n[[jobs]]\ncommand = [\"import-rules\", \"--csv\", "
+                         "\"configs/reference/ga_fuzzy_imm_paper_rules.csv\", \"--config\", "
+                         "\"configs/ga_fuzzy_imm.toml\", \"--out\", \""
+                      << (dir / "out" / "paper.h5").string() << "\"]\n";
+  const fs::path summary = dir / "summary.json";
+  const auto swept = run_tool(
+      "imm-train", {"sweep", "--config", plan.string(), "--summary", summary.string()}, {}, 120);
+  ASSERT_EQ(swept.exit_code, 0) << swept.err;
+  EXPECT_TRUE(fs::exists(dir / "out" / "cv3.h5"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "paper.h5"));
+  // The logged job's output is in its log only; the other's goes to the sweep's stderr.
+  EXPECT_NE(slurp(dir / "logs" / "cv3.err").find("froze"), std::string::npos);
+  EXPECT_EQ(swept.err.find("froze"), std::string::npos) << swept.err;
+  EXPECT_NE(swept.err.find("imported 3 levels"), std::string::npos) << swept.err;
+  const auto outcomes = nlohmann::json::parse(slurp(summary));
+  EXPECT_EQ(outcomes["ranks"], 1);
+  ASSERT_EQ(outcomes["jobs"].size(), 2U);
+  EXPECT_EQ(outcomes["jobs"][0]["name"], "cv3");
+  EXPECT_EQ(outcomes["jobs"][0]["exit_code"], 0);
+  EXPECT_EQ(outcomes["jobs"][1]["name"], "import-rules " + (dir / "out" / "paper.h5").string());
+  EXPECT_EQ(outcomes["jobs"][1]["exit_code"], 0);
+
+  // Refused, naming the key, before anything trains.
+  const std::string out = (dir / "refused.h5").string();
+  for (const auto& [jobs, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"command = [\"all\", \"--config\", \"configs/nightly.toml\", \"--out\", \"" + out +
+                "\"]",
+            "'jobs[0].command': 'all' is not a subcommand that writes a model file"},
+           {"command = [\"freeze\", \"--config\", \"configs/track/cv3_imm.toml\"]",
+            "'jobs[0].command': gives no --out FILE"},
+           {"command = []", "'jobs[0].command': an empty command"},
+           {"command = [\"freeze\", \"--config\", \"configs/track/cv3_imm.toml\", \"--bogus\", "
+            "\"--out\", \"" +
+                out + "\"]",
+            "'jobs': 'freeze " + out +
+                "' is not an imm-train command line: The following "
+                "argument was not expected: --bogus"},
+           {"kind = \"ga\"\ncommand = [\"ga\", \"--out\", \"" + out + "\"]",
+            "'jobs[0].command': a job is either"},
+           {"kind = \"mlp\"\nconfig = \"configs/mlp_input_estimator.toml\"\nout = \"" + out +
+                "\"\nlog = \"logs/{seed}\"",
+            "'jobs[0].log': names {seed}, but the job lists no seeds"}}) {
+    SCOPED_TRACE(jobs);
+    std::ofstream(plan) << "[[jobs]]\n" << jobs << "\n";
+    const auto refused = run_tool("imm-train", {"sweep", "--config", plan.string()}, {}, 60);
+    EXPECT_EQ(refused.exit_code, 2);
+    EXPECT_NE(refused.err.find(expected), std::string::npos) << refused.err;
+    EXPECT_FALSE(fs::exists(out));
   }
 }
 

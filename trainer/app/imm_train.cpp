@@ -17,10 +17,11 @@
 // for another regime.
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
 //   imm-train all --config configs/nightly.toml [--force] [--night NAME] [--reports DIR]
+//                 [--sweep] [--launcher "mpirun -np 8"]   (candidates trained first, in one sweep)
 //   imm-train rollback KIND [REGIME] [--registry models]
 //   imm-train promote FILE --name NAME --reason TEXT [--registry models]
 //   imm-train seal FILE
-//   [mpirun -np N] imm-train sweep --config sweep.toml   (many trainings; see sweep.hpp)
+//   [mpirun -np N] imm-train sweep --config sweep.toml [--summary F]   (many trainings; sweep.hpp)
 //   mpirun -np N imm-train ga …   (each generation's fitness evaluations spread over the ranks)
 //
 // Progress goes to stderr (spdlog). Exit codes: 0 model written (or every nightly candidate
@@ -41,6 +42,7 @@
 #include <iostream>
 #include <optional>
 #include <set>
+#include <sstream>
 
 #include "imm/datasets/random.hpp"
 #include "imm/io/file_error.hpp"
@@ -91,6 +93,18 @@ CLI::App* add_train_command(CLI::App& app, const std::string& name, const std::s
   sub->add_option("--out", command.out, "model file to write");
   sub->add_option("--seed", command.seed, "override the config's seed");
   return sub;
+}
+
+/// The log of rank `rank`: the root reports progress; the other ranks only what goes wrong on
+/// them, their lines marked with their rank.
+void log_as(int rank) {
+  if (rank == 0) {
+    spdlog::set_pattern("%Y-%m-%d %H:%M:%S.%e %^%l%$ %v");
+    spdlog::set_level(spdlog::level::info);
+  } else {
+    spdlog::set_pattern(fmt::format("%Y-%m-%d %H:%M:%S.%e [rank {}] %^%l%$ %v", rank));
+    spdlog::set_level(spdlog::level::warn);
+  }
 }
 
 int run_ga(const GaCommand& command) {
@@ -250,33 +264,184 @@ int train_fcm(const TrainCommand& command) {
   return 0;
 }
 
-/// One job of a sweep, exactly as its subcommand runs it.
-int train_job(const imm::trainer::SweepJob& job) {
-  if (job.kind == "ga") return run_ga({job.config, job.out, job.regime, job.seed, 0, false});
-  const TrainCommand command{job.config, job.out, job.regime, job.seed};
-  if (job.kind == "mlp") return train_mlp(command);
-  if (job.kind == "wimm") return train_wimm(command);
-  if (job.kind == "fcm") return train_fcm(command);
-  if (job.kind == "tsk") return train_tsk(command, {});
-  throw std::invalid_argument("unknown training kind '" + job.kind + "'");
+int run_freeze(const imm::trainer::FreezeOptions& options) {
+  const auto summary = imm::trainer::freeze_plain_imm(options);
+  spdlog::info("froze {} ({} modes, {}-state mixing space) into {} in {:.3f} s",
+               options.config.string(), summary.modes, summary.state_dimension,
+               options.out.string(), summary.wall_seconds);
+  return 0;
+}
+
+int run_import_rules(const imm::trainer::ImportRulesOptions& options) {
+  const auto spec = imm::trainer::import_rules(options);
+  std::size_t rules = 0;
+  for (const auto& level : spec.levels) rules += level.table.size();
+  spdlog::info("imported {} levels ({} rules) from {} into {}", spec.levels.size(), rules,
+               options.csv.string(), options.out.string());
+  return 0;
+}
+
+/// The subcommands that write one model file (imm::trainer::sweep_subcommands()): on the command
+/// line, and as a sweep's jobs, which run exactly them.
+class TrainingCommands {
+ public:
+  explicit TrainingCommands(CLI::App& app) {
+    freeze_ =
+        app.add_subcommand("freeze", "write a plain-IMM TOML config as a plain_imm model file");
+    freeze_->add_option("--config", freeze_options_.config, "plain-IMM TOML")->required();
+    freeze_->add_option("--out", freeze_options_.out, "model file to write")->required();
+
+    ga_ = app.add_subcommand("ga", "learn the fuzzy rule tables of the GA-fuzzy IMM (seed 000)");
+    ga_->add_option("--config", ga_command_.config, "GA config TOML");
+    ga_->add_option("--regime", ga_command_.regime,
+                    "regime TOML to train for (replaces the config's)");
+    ga_->add_option("--out", ga_command_.out, "model file to write");
+    ga_->add_option("--seed", ga_command_.seed, "override the config's seed");
+    ga_->add_option("--threads", ga_command_.threads, "OpenMP threads (default: all cores)")
+        ->check(imm::support::at_least(1));
+    ga_->add_flag("--resume", ga_command_.resume, "continue from the checkpoint beside --out");
+
+    import_ = app.add_subcommand(
+        "import-rules", "write published fuzzy rule tables (CSV) as a ga_fuzzy_imm model file");
+    import_->add_option("--csv", import_options_.csv, "rules: level,c1,sigma1,c2,sigma2,w")
+        ->required();
+    import_->add_option("--config", import_options_.config, "GA config whose [filter] applies")
+        ->required();
+    import_->add_option("--regime", import_options_.regime, "regime TOML (replaces the config's)");
+    import_->add_option("--out", import_options_.out, "model file to write")->required();
+
+    mlp_ = add_train_command(app, "mlp",
+                             "train the neural input estimator (seed 001) by back-propagation",
+                             mlp_command_);
+    wimm_ = add_train_command(app, "wimm",
+                              "tune the weighted IMM's fusion threshold and weight (seed 004) on "
+                              "the regime's training split",
+                              wimm_command_);
+    fcm_ = add_train_command(
+        app, "fcm", "fit the FCM-IMM's parameters (seed 003) on the regime's training split",
+        fcm_command_);
+    tsk_ = add_train_command(
+        app, "tsk",
+        "fit the probabilistic TSK model of a range sensor (seed 002): FCRM, then Ceres",
+        tsk_command_);
+    tsk_->add_option("--data", tsk_data_,
+                     "fit these samples (a range-sensor data set .h5 or a CSV xi,eta,z1,z2); they "
+                     "must be the sensor samples the regime names");
+  }
+  TrainingCommands(const TrainingCommands&) = delete;
+  TrainingCommands& operator=(const TrainingCommands&) = delete;
+
+  /// The model file of the subcommand the command line chose, if it chose one of these.
+  [[nodiscard]] std::optional<std::filesystem::path> chosen_out() const {
+    for (const auto& [command, out] : outputs()) {
+      if (*command) return out;
+    }
+    return std::nullopt;
+  }
+
+  /// Runs the chosen subcommand; its exit code.
+  [[nodiscard]] int run() const {
+    if (*ga_) return run_ga(ga_command_);
+    if (*freeze_) return run_freeze(freeze_options_);
+    if (*mlp_) return train_mlp(mlp_command_);
+    if (*wimm_) return train_wimm(wimm_command_);
+    if (*tsk_) return train_tsk(tsk_command_, tsk_data_);
+    if (*fcm_) return train_fcm(fcm_command_);
+    if (*import_) return run_import_rules(import_options_);
+    throw std::logic_error("no training subcommand was chosen");
+  }
+
+  [[nodiscard]] const CLI::App* ga() const { return ga_; }
+
+ private:
+  [[nodiscard]] std::vector<std::pair<const CLI::App*, std::filesystem::path>> outputs() const {
+    return {{ga_, ga_command_.out},        {freeze_, freeze_options_.out}, {mlp_, mlp_command_.out},
+            {wimm_, wimm_command_.out},    {fcm_, fcm_command_.out},       {tsk_, tsk_command_.out},
+            {import_, import_options_.out}};
+  }
+
+  GaCommand ga_command_;
+  imm::trainer::FreezeOptions freeze_options_;
+  imm::trainer::ImportRulesOptions import_options_;
+  TrainCommand mlp_command_{
+      "configs/mlp_input_estimator.toml", "models/mlp_input_estimator.h5", {}, {}};
+  TrainCommand wimm_command_{"configs/wimm.toml", "models/wimm.h5", {}, {}};
+  TrainCommand fcm_command_{"configs/fcm_imm.toml", "models/fcm_imm.h5", {}, {}};
+  TrainCommand tsk_command_{"configs/tsk_range_sensor.toml", "models/tsk_range_sensor.h5", {}, {}};
+  std::filesystem::path tsk_data_;
+  CLI::App *freeze_ = nullptr, *ga_ = nullptr, *import_ = nullptr, *mlp_ = nullptr,
+           *wimm_ = nullptr, *fcm_ = nullptr, *tsk_ = nullptr;
+};
+
+/// A sweep job's arguments parsed as its subcommand's command line; a CLI::ParseError when they
+/// are not one.
+void parse_job(CLI::App& app, const imm::trainer::SweepJob& job) {
+  app.require_subcommand(1);
+  std::vector<std::string> reversed(job.arguments.rbegin(), job.arguments.rend());
+  app.parse(reversed);  // CLI11 takes a vector in reverse order
+}
+
+/// One job of a sweep, exactly as its subcommand runs it. With a log, the training's progress
+/// goes there in full (info level, as a single process logs it) whichever rank runs it.
+int train_job(const imm::trainer::SweepJob& job, int real_rank) {
+  CLI::App app{"imm-train"};
+  const TrainingCommands training(app);
+  try {
+    parse_job(app, job);
+  } catch (const CLI::ParseError& error) {
+    throw std::invalid_argument(job.name + ": " + error.what());
+  }
+  if (!job.log) return training.run();
+  log_as(0);
+  try {
+    const int code = training.run();
+    log_as(real_rank);
+    return code;
+  } catch (const std::exception& error) {
+    spdlog::error("{}", error.what());  // into the job's log, as its subcommand would
+    log_as(real_rank);
+    throw;
+  } catch (...) {
+    log_as(real_rank);
+    throw;
+  }
 }
 
 constexpr int kExitJobFailed = 3;
 
-int run_sweep(const std::filesystem::path& plan_file) {
+struct SweepCommand {
+  std::filesystem::path plan;
+  std::optional<std::filesystem::path> summary;
+};
+
+int run_sweep(const SweepCommand& command) {
   const imm::trainer::Ranks& ranks = imm::trainer::Ranks::world();
-  const auto plan = imm::trainer::load_sweep_plan(plan_file);
+  const auto plan = imm::trainer::load_sweep_plan(command.plan);
+  // Every job's arguments must be its subcommand's command line before anything trains.
+  for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
+    CLI::App app{"imm-train"};
+    const TrainingCommands training(app);
+    try {
+      parse_job(app, plan.jobs[i]);
+    } catch (const CLI::ParseError& error) {
+      throw imm::support::ConfigError(command.plan.string(), "jobs",
+                                      fmt::format("'{}' is not an imm-train command line: {}",
+                                                  plan.jobs[i].name, error.what()));
+    }
+  }
   // One temporaries guard for every output folder of the plan (see temporaries_guard.hpp).
   std::set<std::filesystem::path> folders;
   for (const auto& job : plan.jobs) {
     folders.insert(job.out.parent_path().empty() ? "." : job.out.parent_path());
   }
   imm::trainer::guard_temporaries({folders.begin(), folders.end()});
-  spdlog::info("sweep {}: {} trainings over {} rank{}", plan_file.string(), plan.jobs.size(),
+  spdlog::info("sweep {}: {} trainings over {} rank{}", command.plan.string(), plan.jobs.size(),
                ranks.size(), ranks.size() == 1 ? "" : "s");
   const auto start = std::chrono::steady_clock::now();
+  const int rank = ranks.rank();
   const auto outcomes = imm::trainer::run_sweep(
-      plan, train_job, [&](const imm::trainer::SweepJob& job, const imm::trainer::SweepOutcome& o) {
+      plan, [rank](const imm::trainer::SweepJob& job) { return train_job(job, rank); },
+      [&](const imm::trainer::SweepJob& job, const imm::trainer::SweepOutcome& o) {
         if (o.exit_code != 0) {
           spdlog::warn("sweep: {} failed on rank {}: {}", job.name, o.rank, o.message);
         }
@@ -292,10 +457,14 @@ int run_sweep(const std::filesystem::path& plan_file) {
       spdlog::info("sweep: {} -> {} (rank {}, {:.1f} s)", job.name, job.out.string(), o.rank,
                    o.seconds);
     } else {
-      spdlog::error("sweep: {} FAILED (rank {}, {:.1f} s): {}", job.name, o.rank, o.seconds,
-                    o.message);
+      spdlog::error("sweep: {} FAILED (rank {}, {:.1f} s): {}{}", job.name, o.rank, o.seconds,
+                    o.message, job.log ? " (log " + job.log->string() + ".err)" : "");
       failed.push_back(job.name);
     }
+  }
+  if (command.summary) {
+    imm::trainer::write_json_atomically(
+        *command.summary, imm::trainer::sweep_summary(plan, outcomes, ranks.size(), seconds));
   }
   if (!failed.empty()) {
     spdlog::error("sweep: {} of {} trainings failed in {:.1f} s: {}", failed.size(),
@@ -306,17 +475,11 @@ int run_sweep(const std::filesystem::path& plan_file) {
   return 0;
 }
 
-int run_freeze(const imm::trainer::FreezeOptions& options) {
-  const auto summary = imm::trainer::freeze_plain_imm(options);
-  spdlog::info("froze {} ({} modes, {}-state mixing space) into {} in {:.3f} s",
-               options.config.string(), summary.modes, summary.state_dimension,
-               options.out.string(), summary.wall_seconds);
-  return 0;
-}
-
 struct NightlyCommand {
   std::filesystem::path config;
   bool force = false;
+  bool sweep = false;
+  std::string launcher;
   std::string night;
   std::filesystem::path reports = "reports/nightly";
 };
@@ -326,6 +489,9 @@ int run_all(const NightlyCommand& command) {
   imm::trainer::NightlyOptions options;
   options.tools = imm::trainer::executable_folder();
   options.force = command.force;
+  options.sweep = command.sweep || !command.launcher.empty();
+  std::istringstream words(command.launcher);
+  for (std::string word; words >> word;) options.launcher.push_back(word);
   options.night = command.night;
   options.reports = command.reports;
   spdlog::info("nightly plan {}: {} stages, tools from {}, registry {}{}", command.config.string(),
@@ -388,67 +554,12 @@ int run_rollback(const std::string& kind, const std::string& regime,
 int run(int argc, char** argv) {
   const imm::trainer::Ranks& ranks = imm::trainer::Ranks::world();
   spdlog::set_default_logger(spdlog::stderr_color_st("imm-train"));
-  if (ranks.root()) {
-    spdlog::set_pattern("%Y-%m-%d %H:%M:%S.%e %^%l%$ %v");
-  } else {
-    // The root reports progress; the other ranks only what goes wrong on them.
-    spdlog::set_pattern(fmt::format("%Y-%m-%d %H:%M:%S.%e [rank {}] %^%l%$ %v", ranks.rank()));
-    spdlog::set_level(spdlog::level::warn);
-  }
+  log_as(ranks.rank());
   CLI::App app{"Train immtrain models into model files; run the nightly pipeline."};
   imm::support::standard_options(app, "imm-train");
   app.require_subcommand(1);
 
-  imm::trainer::FreezeOptions freeze;
-  auto* freeze_command =
-      app.add_subcommand("freeze", "write a plain-IMM TOML config as a plain_imm model file");
-  freeze_command->add_option("--config", freeze.config, "plain-IMM TOML")->required();
-  freeze_command->add_option("--out", freeze.out, "model file to write")->required();
-
-  GaCommand ga_command;
-  auto* ga_subcommand =
-      app.add_subcommand("ga", "learn the fuzzy rule tables of the GA-fuzzy IMM (seed 000)");
-  ga_subcommand->add_option("--config", ga_command.config, "GA config TOML");
-  ga_subcommand->add_option("--regime", ga_command.regime,
-                            "regime TOML to train for (replaces the config's)");
-  ga_subcommand->add_option("--out", ga_command.out, "model file to write");
-  ga_subcommand->add_option("--seed", ga_command.seed, "override the config's seed");
-  ga_subcommand->add_option("--threads", ga_command.threads, "OpenMP threads (default: all cores)")
-      ->check(imm::support::at_least(1));
-  ga_subcommand->add_flag("--resume", ga_command.resume,
-                          "continue from the checkpoint beside --out");
-
-  imm::trainer::ImportRulesOptions import_options;
-  auto* import_command = app.add_subcommand(
-      "import-rules", "write published fuzzy rule tables (CSV) as a ga_fuzzy_imm model file");
-  import_command->add_option("--csv", import_options.csv, "rules: level,c1,sigma1,c2,sigma2,w")
-      ->required();
-  import_command->add_option("--config", import_options.config, "GA config whose [filter] applies")
-      ->required();
-  import_command->add_option("--regime", import_options.regime,
-                             "regime TOML (replaces the config's)");
-  import_command->add_option("--out", import_options.out, "model file to write")->required();
-
-  TrainCommand mlp{"configs/mlp_input_estimator.toml", "models/mlp_input_estimator.h5", {}, {}};
-  auto* mlp_command = add_train_command(
-      app, "mlp", "train the neural input estimator (seed 001) by back-propagation", mlp);
-  TrainCommand wimm{"configs/wimm.toml", "models/wimm.h5", {}, {}};
-  auto* wimm_command = add_train_command(
-      app, "wimm",
-      "tune the weighted IMM's fusion threshold and weight (seed 004) on the regime's training "
-      "split",
-      wimm);
-  TrainCommand fcm{"configs/fcm_imm.toml", "models/fcm_imm.h5", {}, {}};
-  auto* fcm_command = add_train_command(
-      app, "fcm", "fit the FCM-IMM's parameters (seed 003) on the regime's training split", fcm);
-  TrainCommand tsk{"configs/tsk_range_sensor.toml", "models/tsk_range_sensor.h5", {}, {}};
-  auto* tsk_command = add_train_command(
-      app, "tsk", "fit the probabilistic TSK model of a range sensor (seed 002): FCRM, then Ceres",
-      tsk);
-  std::filesystem::path tsk_data;
-  tsk_command->add_option("--data", tsk_data,
-                          "fit these samples (a range-sensor data set .h5 or a CSV "
-                          "xi,eta,z1,z2); they must be the sensor samples the regime names");
+  const TrainingCommands training(app);
 
   NightlyCommand nightly;
   auto* all_command = app.add_subcommand(
@@ -457,12 +568,19 @@ int run(int argc, char** argv) {
   all_command->add_flag("--force", nightly.force, "rerun every stage (ignore the stage cache)");
   all_command->add_option("--night", nightly.night, "report folder name (default: UTC date)");
   all_command->add_option("--reports", nightly.reports, "where the nightly reports go");
+  all_command->add_flag("--sweep", nightly.sweep,
+                        "train every candidate that is not cached first, in one 'imm-train sweep'");
+  all_command->add_option("--launcher", nightly.launcher,
+                          "start that sweep with this command, words split at spaces ('mpirun -np "
+                          "8', 'srun'); implies --sweep");
 
-  std::filesystem::path sweep_plan;
+  SweepCommand sweep;
   auto* sweep_command = app.add_subcommand(
       "sweep",
       "train many models (kind x regime x seed); under mpirun the ranks take them as they free up");
-  sweep_command->add_option("--config", sweep_plan, "sweep plan TOML ([[jobs]])")->required();
+  sweep_command->add_option("--config", sweep.plan, "sweep plan TOML ([[jobs]])")->required();
+  sweep_command->add_option("--summary", sweep.summary,
+                            "write every job's outcome there (JSON: exit code, rank, seconds)");
 
   std::filesystem::path seal_path;
   auto* seal_command = app.add_subcommand(
@@ -492,7 +610,7 @@ int run(int argc, char** argv) {
 
   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
   if (ranks.size() > 1) {
-    if (!*ga_subcommand && !*sweep_command) {
+    if (!*training.ga() && !*sweep_command) {
       spdlog::error(
           "imm-train {} runs as one process: under mpirun only 'ga' spreads its work over the "
           "ranks (and 'sweep' hands out whole trainings)",
@@ -509,36 +627,13 @@ int run(int argc, char** argv) {
   }
   // A training killed with SIGKILL while writing leaves a hidden temporary beside its output: a
   // guard process removes it (see temporaries_guard.hpp).
-  const std::vector<std::pair<CLI::App*, std::filesystem::path>> outputs{
-      {ga_subcommand, ga_command.out},
-      {freeze_command, freeze.out},
-      {mlp_command, mlp.out},
-      {wimm_command, wimm.out},
-      {fcm_command, fcm.out},
-      {tsk_command, tsk.out},
-      {import_command, import_options.out}};
-  for (const auto& [command, out] : outputs) {
-    if (*command) {
-      imm::trainer::guard_temporaries({out.parent_path().empty() ? "." : out.parent_path()});
-    }
+  if (const auto out = training.chosen_out()) {
+    imm::trainer::guard_temporaries({out->parent_path().empty() ? "." : out->parent_path()});
   }
   try {
-    if (*ga_subcommand) return run_ga(ga_command);
-    if (*freeze_command) return run_freeze(freeze);
-    if (*mlp_command) return train_mlp(mlp);
-    if (*wimm_command) return train_wimm(wimm);
-    if (*tsk_command) return train_tsk(tsk, tsk_data);
-    if (*fcm_command) return train_fcm(fcm);
-    if (*import_command) {
-      const auto spec = imm::trainer::import_rules(import_options);
-      std::size_t rules = 0;
-      for (const auto& level : spec.levels) rules += level.table.size();
-      spdlog::info("imported {} levels ({} rules) from {} into {}", spec.levels.size(), rules,
-                   import_options.csv.string(), import_options.out.string());
-      return 0;
-    }
+    if (training.chosen_out()) return training.run();
     if (*all_command) return run_all(nightly);
-    if (*sweep_command) return run_sweep(sweep_plan);
+    if (*sweep_command) return run_sweep(sweep);
     if (*rollback_command) return run_rollback(rollback_kind, rollback_regime, rollback_registry);
     if (*promote_command) {
       const auto entry = imm::trainer::promote_by_hand(promote_options);

@@ -156,7 +156,9 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
   md << "# Nightly " << night << "\n\nExit code **" << result.exit_code << "** ("
      << exit_meaning(result.exit_code) << "); " << result.stages.size() << " stages in "
      << static_cast<int>(result.wall_seconds) << " s: " << failed << " failed, " << held
-     << " held back, " << cached << " cached.\n\n## Stages\n\n"
+     << " held back, " << cached << " cached.\n\n";
+  if (!result.training.empty()) md << "Training: " << result.training << ".\n\n";
+  md << "## Stages\n\n"
      << "| kind | stage | status | wall s | note |\n|---|---|---|---|---|\n";
   html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>Nightly "
        << night << "</title><style>body{font-family:sans-serif;max-width:1200px;margin:2em auto}"
@@ -167,7 +169,11 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
        << "</h1>\n<p id=\"summary\">Exit code <b>" << result.exit_code << "</b> ("
        << exit_meaning(result.exit_code) << "); " << result.stages.size() << " stages in "
        << static_cast<int>(result.wall_seconds) << " s: " << failed << " failed, " << held
-       << " held back, " << cached << " cached.</p>\n<h2>Stages</h2>\n<table id=\"stages\">"
+       << " held back, " << cached << " cached.</p>\n";
+  if (!result.training.empty()) {
+    html << "<p id=\"training\">Training: " << html_escape(result.training) << ".</p>\n";
+  }
+  html << "<h2>Stages</h2>\n<table id=\"stages\">"
        << "<tr><th>kind</th><th>stage</th><th>status</th><th>wall s</th><th>note</th></tr>\n";
   for (const auto& o : result.stages) {
     md << "| " << o.kind << " | " << o.name << " | " << o.status << " | " << seconds_text(o)

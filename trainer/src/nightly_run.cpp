@@ -4,12 +4,15 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <toml++/toml.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <regex>
 #include <set>
@@ -189,6 +192,7 @@ class StageCache {
         record.outcome.report = r.value("report", "");
         record.outcome.regression = r.value("regression", "");
         record.outcome.night = r.at("night").get<std::string>();
+        record.outcome.wall_seconds = r.value("wall_seconds", 0.0);
         record.outputs = r.at("outputs").get<std::map<std::string, std::string>>();
         records_[key] = std::move(record);
       }
@@ -213,6 +217,13 @@ class StageCache {
     outcome.wall_seconds = 0.0;
     outcome.log.clear();
     return outcome;
+  }
+
+  // How long the stage ran the last time it ran, whatever its inputs were then.
+  std::optional<double> last_seconds(const std::string& key) const {
+    const auto it = records_.find(key);
+    if (it == records_.end() || !(it->second.outcome.wall_seconds > 0.0)) return std::nullopt;
+    return it->second.outcome.wall_seconds;
   }
 
   void store(const std::string& key, const std::string& inputs, const StageOutcome& outcome,
@@ -241,6 +252,7 @@ class StageCache {
                      {"report", r.outcome.report.string()},
                      {"regression", r.outcome.regression.string()},
                      {"night", r.outcome.night},
+                     {"wall_seconds", r.outcome.wall_seconds},
                      {"outputs", r.outputs}};
     }
     write_json_atomically(path_, {{"stages", stages}});
@@ -268,9 +280,9 @@ class Night {
       : plan_(plan),
         options_(options),
         registry_(plan.registry),
-        cache_(plan.registry / ".registry" / "nightly-cache.json") {
-    night_ = options.night.empty() ? today_utc() : options.night;
-    folder_ = options.reports / night_;
+        cache_(plan.registry / ".registry" / "nightly-cache.json"),
+        night_(options.night.empty() ? today_utc() : options.night),
+        folder_(options.reports / night_) {
     fs::create_directories(folder_ / "logs");
   }
 
@@ -294,12 +306,18 @@ class Night {
     for (const auto& repaired : registry_.repair()) {
       std::cerr << "imm-train: restored " << repaired << " from the registry archive\n";
     }
+    bool swept = false;
     for (const NightlyStage& stage : plan_.stages) {
       if (stage.kind == "data" || stage.kind == "track") run_plain(stage);
-      if (stage.kind == "model") run_model(stage);
+      if (stage.kind != "model") continue;
+      // The data stages are done (they come first): every candidate can train now.
+      if (options_.sweep && !swept) train_in_sweep();
+      swept = true;
+      run_model(stage);
     }
     NightlyResult result;
     result.stages = outcomes_;
+    result.training = training_;
     result.report_folder = folder_;
     bool failed = false, held_back = false;
     for (const auto& o : outcomes_) failed |= o.failed, held_back |= o.held_back;
@@ -380,15 +398,116 @@ class Night {
     return arguments;
   }
 
-  void run_model(const NightlyStage& stage) {
-    const std::string key = "model:" + stage.name;
-    const auto evaluations = plan_.evaluations_of(stage.name);
+  // A model stage's cache key and inputs: its own and those of the evaluations that name it.
+  std::pair<std::string, std::string> model_inputs(const NightlyStage& stage) {
     std::vector<std::string> evaluation_texts;
-    evaluation_texts.reserve(evaluations.size());
-    for (const NightlyStage* e : evaluations) {
+    for (const NightlyStage* e : plan_.evaluations_of(stage.name)) {
       evaluation_texts.push_back(inputs_digest(*e, tool(*e), digests_, {}, plan_outputs()));
     }
-    const std::string inputs = inputs_digest(stage, tool(stage), digests_, evaluation_texts);
+    return {"model:" + stage.name, inputs_digest(stage, tool(stage), digests_, evaluation_texts)};
+  }
+
+  // Where a model stage's candidate is trained.
+  fs::path staging_of(const NightlyStage& stage) const {
+    return registry_.staging_folder() / stage.out.lexically_relative(plan_.registry);
+  }
+
+  // The stage's arguments with the candidate as its output.
+  std::vector<std::string> candidate_arguments(const NightlyStage& stage) const {
+    std::vector<std::string> arguments = stage.arguments;
+    arguments[*stage.out_argument] = staging_of(stage).string();
+    return arguments;
+  }
+
+  // Trains every model stage that is not cached in one `imm-train sweep` (NightlyOptions::sweep),
+  // each into its staging file with its log where its own stage would put it. What the sweep
+  // reports is taken by run_model; a training it does not report on is trained there as usual.
+  void train_in_sweep() {
+    std::vector<const NightlyStage*> stages;
+    for (const NightlyStage& stage : plan_.stages) {
+      if (stage.kind != "model") continue;
+      const auto [key, inputs] = model_inputs(stage);
+      if (options_.force || !cache_.find(key, inputs, digests_)) stages.push_back(&stage);
+    }
+    // Longest first, by what each took the last time (one never run counts as the longest):
+    // the sweep hands jobs out in plan order, so a long training started last would leave the
+    // other ranks idle while it finishes.
+    const auto cost = [this](const NightlyStage* stage) {
+      return cache_.last_seconds("model:" + stage->name)
+          .value_or(std::numeric_limits<double>::infinity());
+    };
+    std::stable_sort(
+        stages.begin(), stages.end(),
+        [&](const NightlyStage* a, const NightlyStage* b) { return cost(a) > cost(b); });
+    toml::array jobs;
+    for (const NightlyStage* s : stages) {
+      const NightlyStage& stage = *s;
+      for (const auto& folder : stage.output_folders) fs::create_directories(folder);
+      const fs::path staging = staging_of(stage);
+      fs::create_directories(staging.parent_path());
+      fs::remove(staging);
+      toml::array command;
+      for (const auto& a : candidate_arguments(stage)) command.push_back(a);
+      jobs.push_back(toml::table{{"name", stage.name},
+                                 {"command", std::move(command)},
+                                 {"log", log_stem("model_" + stage.name).string()}});
+    }
+    if (stages.empty()) return;
+    fs::create_directories(registry_.staging_folder());
+    const fs::path sweep_plan = registry_.staging_folder() / "sweep.toml";
+    const fs::path summary = registry_.staging_folder() / "sweep.json";
+    std::ofstream(sweep_plan) << toml::table{{"jobs", std::move(jobs)}} << '\n';
+    std::vector<std::string> arguments(options_.launcher.begin(), options_.launcher.end());
+    arguments.push_back((options_.tools / "imm-train").string());
+    arguments.insert(arguments.end(),
+                     {"sweep", "--config", sweep_plan.string(), "--summary", summary.string()});
+    const fs::path executable = arguments.front();
+    arguments.erase(arguments.begin());
+    const fs::path log = log_stem("sweep");
+    fs::remove(summary);
+    double seconds = 0.0;
+    const int code = spawn(executable, arguments, log, seconds);
+    std::size_t reported = 0;
+    int ranks = 0;
+    try {
+      const auto document = nlohmann::json::parse(read_text_file(summary));
+      ranks = document.at("ranks").get<int>();
+      for (const auto& job : document.at("jobs")) {
+        pretrained_[job.at("name").get<std::string>()] = {job.at("exit_code").get<int>(),
+                                                          job.at("seconds").get<double>(),
+                                                          job.at("message").get<std::string>()};
+        ++reported;
+      }
+    } catch (const std::exception& error) {
+      std::cerr << "imm-train: the sweep reported no outcomes (" << error.what() << ")\n";
+    }
+    std::ostringstream text;
+    text.precision(1);
+    text << std::fixed;
+    const std::string candidates =
+        std::to_string(stages.size()) + " candidate" + (stages.size() == 1 ? "" : "s");
+    const std::string how = "`" + command_line(executable, arguments) + "`";
+    if (code == 0 || (code == kNightlyStageFailed && reported == stages.size())) {
+      text << candidates << " trained in one sweep over " << ranks << " rank"
+           << (ranks == 1 ? "" : "s") << " in " << seconds << " s (" << how << ")";
+    } else {
+      const std::string why = tail_of(log.string() + ".err", 2);
+      text << "the sweep of " << candidates << " (" << how << ") ended with exit code " << code
+           << " after " << seconds << " s" << (why.empty() ? "" : ": " + why);
+    }
+    if (reported < stages.size()) {
+      text << "; the candidates it did not report on (" << stages.size() - reported
+           << ") were trained as their own stages";
+    }
+    training_ = text.str();
+    std::cerr << "imm-train: " << training_ << '\n';
+  }
+
+  void run_model(const NightlyStage& stage) {
+    const auto evaluations = plan_.evaluations_of(stage.name);
+    const auto identity = model_inputs(stage);
+    const std::string& key = identity.first;
+    const std::string& inputs = identity.second;
     if (registry_.find(stage.name) == nullptr && fs::is_regular_file(stage.out)) {
       // A model shipped before the manifest existed: recorded as it is, then compared as usual.
       try {
@@ -416,17 +535,23 @@ class Night {
         return;
       }
     }
-    for (const auto& folder : stage.output_folders) fs::create_directories(folder);
-    const fs::path staging =
-        registry_.staging_folder() / stage.out.lexically_relative(plan_.registry);
-    fs::create_directories(staging.parent_path());
-    fs::remove(staging);
+    const fs::path staging = staging_of(stage);
     StageOutcome model = outcome_of("model", stage.name);
-    std::vector<std::string> arguments = stage.arguments;
-    arguments[*stage.out_argument] = staging.string();
+    const std::vector<std::string> arguments = candidate_arguments(stage);
     model.command = command_line(tool(stage), arguments);
     model.log = log_stem("model_" + stage.name);
-    model.exit_code = spawn(tool(stage), arguments, model.log, model.wall_seconds);
+    std::string swept_message;
+    if (const auto swept = pretrained_.find(stage.name); swept != pretrained_.end()) {
+      model.exit_code = swept->second.exit_code;
+      model.wall_seconds = swept->second.seconds;
+      swept_message = swept->second.message;
+      echo(model.log.string() + ".out");
+    } else {
+      for (const auto& folder : stage.output_folders) fs::create_directories(folder);
+      fs::create_directories(staging.parent_path());
+      fs::remove(staging);
+      model.exit_code = spawn(tool(stage), arguments, model.log, model.wall_seconds);
+    }
     std::vector<StageOutcome> evaluation_outcomes;
     auto conclude = [&](const StageOutcome& m) {
       cache_.store(key, inputs, m, {stage.out}, digests_);
@@ -439,8 +564,13 @@ class Night {
     if (model.exit_code != 0 || !fs::exists(staging)) {
       model.failed = true;
       model.status = "failed";
-      model.message = "training failed (exit code " + std::to_string(model.exit_code) +
-                      "): " + tail_of(model.log.string() + ".err");
+      std::string why = tail_of(model.log.string() + ".err");
+      // An error the sweep caught after the job's log was closed.
+      if (!swept_message.empty() && why.find(swept_message) == std::string::npos &&
+          !swept_message.starts_with("exit code")) {
+        why += (why.empty() ? "" : "\n") + swept_message;
+      }
+      model.message = "training failed (exit code " + std::to_string(model.exit_code) + "): " + why;
       return conclude(model);
     }
     // The candidate's own evaluations (its quality gates), then the shipped model's on the same
@@ -611,6 +741,13 @@ class Night {
   std::string night_;
   fs::path folder_;
   std::vector<StageOutcome> outcomes_;
+  struct Trained {
+    int exit_code = 0;
+    double seconds = 0.0;
+    std::string message;
+  };
+  std::map<std::string, Trained> pretrained_;  ///< by model stage: what the sweep reported
+  std::string training_;                       ///< how the sweep went, for the report
   int lock_ = -1;
 };
 

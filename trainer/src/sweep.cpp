@@ -1,10 +1,17 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/sweep.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <exception>
+#include <iostream>
 #include <iterator>
 #include <map>
 #include <sstream>
@@ -48,7 +55,146 @@ SweepOutcome decode(const std::string& text) {
   return outcome;
 }
 
+/// While alive, this process's stdout and stderr go to `log`.out and `log`.err (created or
+/// truncated); both come back when it ends. Whatever this process writes meanwhile goes there:
+/// in a sweep only the job's training writes (the root's dispatcher thread prints nothing).
+class OutputToLog {
+ public:
+  explicit OutputToLog(const std::filesystem::path& log) {
+    if (log.has_parent_path()) std::filesystem::create_directories(log.parent_path());
+    flush();
+    for (int i = 0; i < 2; ++i) {
+      const std::string file = log.string() + (i == 0 ? ".out" : ".err");
+      const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+      if (fd < 0) {
+        restore();
+        throw std::runtime_error("cannot write the job's log " + file + ": " +
+                                 std::strerror(errno));
+      }
+      saved_[i] = ::dup(i + 1);
+      ::dup2(fd, i + 1);
+      ::close(fd);
+    }
+  }
+  ~OutputToLog() { restore(); }
+  OutputToLog(const OutputToLog&) = delete;
+  OutputToLog& operator=(const OutputToLog&) = delete;
+
+ private:
+  static void flush() {
+    std::cout.flush();
+    std::cerr.flush();
+    std::fflush(stdout);
+    std::fflush(stderr);
+  }
+  void restore() {
+    flush();
+    for (int i = 0; i < 2; ++i) {
+      if (saved_[i] < 0) continue;
+      ::dup2(saved_[i], i + 1);
+      ::close(saved_[i]);
+      saved_[i] = -1;
+    }
+  }
+  int saved_[2] = {-1, -1};
+};
+
+// A [[jobs]] entry of the kind × regimes × seeds form: one job for each regime and seed.
+std::vector<SweepJob> expand_jobs(const support::ConfigTable& entry) {
+  const std::string kind = entry.text("kind");
+  if (std::find(kinds().begin(), kinds().end(), kind) == kinds().end()) {
+    entry.fail("kind", "'" + kind + "' is not a training kind (ga, mlp, wimm, fcm, tsk)");
+  }
+  const std::filesystem::path config = entry.text("config");
+  if (!std::filesystem::is_regular_file(config)) {
+    entry.fail("config", "no such config file: " + config.string());
+  }
+  std::vector<std::optional<std::filesystem::path>> regimes;
+  if (entry.has("regimes")) {
+    const std::vector<std::string> listed = entry.texts("regimes");
+    regimes.assign(listed.begin(), listed.end());
+    if (regimes.empty()) entry.fail("regimes", "an empty list (leave it out for the config's)");
+  } else {
+    regimes.emplace_back(std::nullopt);
+  }
+  std::vector<std::optional<std::uint64_t>> seeds;
+  if (entry.has("seeds")) {
+    for (double seed : entry.reals("seeds")) {
+      if (!(seed >= 0.0) || seed != std::floor(seed) || seed > 9.0e15) {
+        entry.fail("seeds", "seeds are non-negative integers");
+      }
+      seeds.emplace_back(static_cast<std::uint64_t>(seed));
+    }
+    if (seeds.empty()) entry.fail("seeds", "an empty list (leave it out for the config's)");
+  } else {
+    seeds.emplace_back(std::nullopt);
+  }
+  const std::string out = entry.text("out");
+  const std::optional<std::string> log =
+      entry.has("log") ? std::optional<std::string>(entry.text("log")) : std::nullopt;
+  for (const auto& [key, pattern] : {std::pair{"out", out}, std::pair{"log", log.value_or("")}}) {
+    if (!entry.has("regimes") && pattern.find("{regime}") != std::string::npos) {
+      entry.fail(key, "names {regime}, but the job lists no regimes");
+    }
+    if (!entry.has("seeds") && pattern.find("{seed}") != std::string::npos) {
+      entry.fail(key, "names {seed}, but the job lists no seeds");
+    }
+  }
+  std::vector<SweepJob> jobs;
+  for (const auto& regime : regimes) {
+    for (const auto& seed : seeds) {
+      auto fill = [&](std::string text) {
+        text = replaced(std::move(text), "{kind}", kind);
+        if (regime) text = replaced(std::move(text), "{regime}", regime->stem().string());
+        if (seed) text = replaced(std::move(text), "{seed}", std::to_string(*seed));
+        return text;
+      };
+      SweepJob job;
+      job.kind = kind;
+      job.out = fill(out);
+      if (log) job.log = fill(*log);
+      job.arguments = {kind, "--config", config.string()};
+      if (regime) job.arguments.insert(job.arguments.end(), {"--regime", regime->string()});
+      if (seed) job.arguments.insert(job.arguments.end(), {"--seed", std::to_string(*seed)});
+      job.arguments.insert(job.arguments.end(), {"--out", job.out.string()});
+      job.name = kind + " " + config.stem().string();
+      if (regime) job.name += ", regime " + regime->stem().string();
+      if (seed) job.name += ", seed " + std::to_string(*seed);
+      jobs.push_back(std::move(job));
+    }
+  }
+  return jobs;
+}
+
+// A [[jobs]] entry of the command form: one training as its imm-train arguments.
+SweepJob command_job(const support::ConfigTable& entry) {
+  SweepJob job;
+  job.arguments = entry.texts("command");
+  if (job.arguments.empty()) entry.fail("command", "an empty command: nothing to train");
+  job.kind = job.arguments.front();
+  const auto& allowed = sweep_subcommands();
+  if (std::find(allowed.begin(), allowed.end(), job.kind) == allowed.end()) {
+    entry.fail("command", "'" + job.kind +
+                              "' is not a subcommand that writes a model file (ga, mlp, wimm, "
+                              "fcm, tsk, freeze, import-rules)");
+  }
+  const auto out = std::find(job.arguments.begin(), job.arguments.end(), "--out");
+  if (out == job.arguments.end() || std::next(out) == job.arguments.end()) {
+    entry.fail("command", "gives no --out FILE: a job must say which model file it writes");
+  }
+  job.out = *std::next(out);
+  job.name = entry.has("name") ? entry.text("name") : job.kind + " " + job.out.string();
+  if (entry.has("log")) job.log = entry.text("log");
+  return job;
+}
+
 }  // namespace
+
+const std::vector<std::string>& sweep_subcommands() {
+  static const std::vector<std::string> names{"ga",  "mlp",    "wimm",        "fcm",
+                                              "tsk", "freeze", "import-rules"};
+  return names;
+}
 
 SweepPlan load_sweep_plan(const std::filesystem::path& path) {
   const auto document = support::ConfigDocument::load(path);
@@ -60,60 +206,17 @@ SweepPlan load_sweep_plan(const std::filesystem::path& path) {
     if (entries.empty()) root.fail("jobs", "no [[jobs]]: nothing to train");
     std::map<std::string, std::string> outputs;  // out → the job writing it
     for (const support::ConfigTable& entry : entries) {
-      const std::string kind = entry.text("kind");
-      if (std::find(kinds().begin(), kinds().end(), kind) == kinds().end()) {
-        entry.fail("kind", "'" + kind + "' is not a training kind (ga, mlp, wimm, fcm, tsk)");
+      if (entry.has("command") && entry.has("kind")) {
+        entry.fail("command", "a job is either `kind` (with config, regimes, seeds) or `command`");
       }
-      const std::filesystem::path config = entry.text("config");
-      if (!std::filesystem::is_regular_file(config)) {
-        entry.fail("config", "no such config file: " + config.string());
-      }
-      std::vector<std::optional<std::filesystem::path>> regimes;
-      if (entry.has("regimes")) {
-        const std::vector<std::string> listed = entry.texts("regimes");
-        regimes.assign(listed.begin(), listed.end());
-        if (regimes.empty()) entry.fail("regimes", "an empty list (leave it out for the config's)");
-      } else {
-        regimes.emplace_back(std::nullopt);
-      }
-      std::vector<std::optional<std::uint64_t>> seeds;
-      if (entry.has("seeds")) {
-        for (double seed : entry.reals("seeds")) {
-          if (!(seed >= 0.0) || seed != std::floor(seed) || seed > 9.0e15) {
-            entry.fail("seeds", "seeds are non-negative integers");
-          }
-          seeds.emplace_back(static_cast<std::uint64_t>(seed));
+      const std::vector<SweepJob> jobs =
+          entry.has("command") ? std::vector<SweepJob>{command_job(entry)} : expand_jobs(entry);
+      for (const SweepJob& job : jobs) {
+        if (const auto [it, fresh] = outputs.emplace(job.out.string(), job.name); !fresh) {
+          entry.fail(entry.has("command") ? "command" : "out",
+                     "'" + job.name + "' and '" + it->second + "' both write " + job.out.string());
         }
-        if (seeds.empty()) entry.fail("seeds", "an empty list (leave it out for the config's)");
-      } else {
-        seeds.emplace_back(std::nullopt);
-      }
-      const std::string out = entry.text("out");
-      if (!entry.has("regimes") && out.find("{regime}") != std::string::npos) {
-        entry.fail("out", "names {regime}, but the job lists no regimes");
-      }
-      if (!entry.has("seeds") && out.find("{seed}") != std::string::npos) {
-        entry.fail("out", "names {seed}, but the job lists no seeds");
-      }
-      for (const auto& regime : regimes) {
-        for (const auto& seed : seeds) {
-          SweepJob job;
-          job.kind = kind;
-          job.config = config;
-          job.regime = regime;
-          job.seed = seed;
-          std::string file = replaced(out, "{kind}", kind);
-          if (regime) file = replaced(file, "{regime}", regime->stem().string());
-          if (seed) file = replaced(file, "{seed}", std::to_string(*seed));
-          job.out = file;
-          job.name = kind + " " + config.stem().string();
-          if (regime) job.name += ", regime " + regime->stem().string();
-          if (seed) job.name += ", seed " + std::to_string(*seed);
-          if (const auto [it, fresh] = outputs.emplace(file, job.name); !fresh) {
-            entry.fail("out", "'" + job.name + "' and '" + it->second + "' both write " + file);
-          }
-          plan.jobs.push_back(std::move(job));
-        }
+        plan.jobs.push_back(job);
       }
     }
     return plan;
@@ -135,6 +238,8 @@ std::vector<SweepOutcome> run_sweep(
     try {
       // The job trains by itself: a GA inside it spreads over this rank's threads only.
       const AloneInTheJob alone;
+      const std::optional<OutputToLog> logged =
+          current.log ? std::optional<OutputToLog>(std::in_place, *current.log) : std::nullopt;
       outcome.exit_code = train(current);
       if (outcome.exit_code != 0)
         outcome.message = "exit code " + std::to_string(outcome.exit_code);
@@ -155,6 +260,24 @@ std::vector<SweepOutcome> run_sweep(
   const std::vector<std::string> results = queue.results();
   std::transform(results.begin(), results.end(), std::back_inserter(outcomes), decode);
   return outcomes;
+}
+
+nlohmann::json sweep_summary(const SweepPlan& plan, const std::vector<SweepOutcome>& outcomes,
+                             int ranks, double seconds) {
+  nlohmann::json jobs = nlohmann::json::array();
+  for (std::size_t i = 0; i < plan.jobs.size() && i < outcomes.size(); ++i) {
+    const SweepJob& job = plan.jobs[i];
+    const SweepOutcome& o = outcomes[i];
+    jobs.push_back({{"name", job.name},
+                    {"arguments", job.arguments},
+                    {"out", job.out.string()},
+                    {"log", job.log ? job.log->string() : ""},
+                    {"exit_code", o.exit_code},
+                    {"rank", o.rank},
+                    {"seconds", o.seconds},
+                    {"message", o.message}});
+  }
+  return {{"plan", plan.file.string()}, {"ranks", ranks}, {"seconds", seconds}, {"jobs", jobs}};
 }
 
 }  // namespace imm::trainer

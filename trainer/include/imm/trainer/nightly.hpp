@@ -22,6 +22,10 @@
 ///   [[evaluations]]  experiment, model (a [[models]] name), out, [models], [regime], [runs],
 ///                    [seed], [arguments]
 ///
+/// With `sweep`, the candidates that are not cached are all trained first, in one `imm-train sweep`
+/// (under `launcher`: `mpirun -np 8`, `srun`), into the staging folder; then each model stage
+/// evaluates and promotes its candidate as above.
+///
 /// Exit codes of the run: 0 everything promoted or unchanged, 3 a stage failed, 6 no stage failed
 /// but a candidate was held back by the regression gate.
 
@@ -93,12 +97,20 @@ struct NightlyOptions {
   std::filesystem::path reports = "reports/nightly";
   std::string night;  ///< the report folder's name (default: today's UTC date)
   bool force = false;
+  /// Train every candidate that is not cached first, all in one `imm-train sweep` (its ranks take
+  /// the trainings as they free up), then evaluate and promote each as usual. A training the sweep
+  /// did not report on (the sweep itself failed) is trained as its own stage.
+  bool sweep = false;
+  /// How the sweep is started: `mpirun -np 8`, `srun` (empty: one process).
+  std::vector<std::string> launcher;
   /// Called as each stage finishes (the log).
   std::function<void(const StageOutcome&)> on_finish;
 };
 
 struct NightlyResult {
   std::vector<StageOutcome> stages;
+  /// How the candidates were trained, when in a sweep (for the report).
+  std::string training;
   int exit_code = 0;
   double wall_seconds = 0.0;
   std::filesystem::path report_folder;

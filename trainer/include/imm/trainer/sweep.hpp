@@ -16,10 +16,23 @@
 ///     out = "sweep/ga_{regime}_{seed}.h5" # {regime}: the regime file's stem; {seed}; {kind}
 ///
 /// Each [[jobs]] entry stands for every regime × seed it lists; two jobs may not write one file.
+///
+/// Or one training as its imm-train arguments (how the nightly hands its stages to a sweep):
+///
+///     [[jobs]]
+///     name = "ga_fuzzy_imm"               # optional: how the summary names it
+///     command = ["ga", "--config", "configs/ga_fuzzy_imm.toml", "--out", "models/x.h5"]
+///
+/// `command` starts with a subcommand that writes one model file (ga, mlp, wimm, fcm, tsk, freeze,
+/// import-rules) and gives its `--out`. Either form may add
+///
+///     log = "logs/{kind}_{regime}_{seed}"  # the training's stdout and stderr go to LOG.out and
+///                                          # LOG.err instead of the job's
 
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -28,11 +41,11 @@ namespace imm::trainer {
 
 struct SweepJob {
   std::string name;  ///< "ga seed 3, regime agile_air": how the summary names it
-  std::string kind;
-  std::filesystem::path config;
-  std::optional<std::filesystem::path> regime;
-  std::optional<std::uint64_t> seed;
+  std::string kind;  ///< the imm-train subcommand (arguments.front())
+  /// The imm-train arguments that run it: the subcommand first (`ga --config … --out …`).
+  std::vector<std::string> arguments;
   std::filesystem::path out;
+  std::optional<std::filesystem::path> log;  ///< stdout to log.out, stderr to log.err
 };
 
 struct SweepPlan {
@@ -53,10 +66,20 @@ struct SweepOutcome {
 /// Runs one job as its subcommand would; returns the subcommand's exit code or throws.
 using SweepTraining = std::function<int(const SweepJob&)>;
 
-/// Runs every job of `plan` over the job's ranks. On the root: every job's outcome, by job (the
-/// other ranks get an empty list). `on_done` is called on the rank that ran each job.
+/// The subcommands a job may run (they write one model file each).
+[[nodiscard]] const std::vector<std::string>& sweep_subcommands();
+
+/// Runs every job of `plan` over the job's ranks (a job with a log writes its output there). On the
+/// root: every job's outcome, by job (the other ranks get an empty list). `on_done` is called on
+/// the rank that ran each job.
 [[nodiscard]] std::vector<SweepOutcome> run_sweep(
     const SweepPlan& plan, const SweepTraining& train,
     const std::function<void(const SweepJob&, const SweepOutcome&)>& on_done = {});
+
+/// The root's summary of a sweep (`imm-train sweep --summary FILE`): the plan, the ranks, the
+/// seconds, and every job's name, out, log, exit code, rank, seconds and message, by job.
+[[nodiscard]] nlohmann::json sweep_summary(const SweepPlan& plan,
+                                           const std::vector<SweepOutcome>& outcomes, int ranks,
+                                           double seconds);
 
 }  // namespace imm::trainer
