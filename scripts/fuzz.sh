@@ -60,8 +60,9 @@ if [[ ${#failed[@]} -gt 0 ]]; then
   echo "fuzz: findings in ${failed[*]}" >&2
   for target in "${failed[@]}"; do
     echo "--- $target:" >&2
-    grep -E 'FUZZ FINDING|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)|runtime error|SUMMARY' \
-      "$build_dir/fuzz-logs/$target.log" | head -20 >&2 || true
+    # The report, an assertion or an uncaught exception, and the project's and toml++'s frames.
+    grep -E 'FUZZ FINDING|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)|runtime error|SUMMARY|Assertion|terminate called|what\(\)| in (imm|toml)::' \
+      "$build_dir/fuzz-logs/$target.log" | head -30 >&2 || true
   done
   exit 1
 fi
