@@ -12,7 +12,7 @@ SANITIZE_DIR ?= build-sanitize
 SANITIZERS   ?= address,undefined
 SECONDS      ?= 60
 
-.PHONY: all deps configure build train test bench format clean sanitize-build test-sanitize fuzz
+.PHONY: all deps configure build train test test-long bench format clean sanitize-build test-sanitize fuzz
 
 all: build
 
@@ -30,12 +30,21 @@ build: configure
 train: build
 	$(BUILD_DIR)/bin/imm-train all --config $(NIGHTLY)
 
+# The default suite: every test but the studies labelled `long` (make test-long). Prints the
+# build's test count and its ten slowest tests (scripts/test-summary.py); with CI=true a test that
+# skips fails the target unless .ci/skip-allowlist names it.
 test: build
-	ctest --test-dir $(BUILD_DIR) --output-on-failure -j $(JOBS)
+	@status=0; ctest --test-dir $(BUILD_DIR) --output-on-failure -j $(JOBS) -LE '^long$$' \
+	   --output-junit ctest-results.xml || status=$$?; \
+	 python3 scripts/test-summary.py $(BUILD_DIR) || { [ $$status -ne 0 ] || status=1; }; exit $$status
+
+# The studies and long drills: minutes each, run by hand or by a scheduled job, never by .ci/run.
+test-long: build
+	ctest --test-dir $(BUILD_DIR) --output-on-failure -j $(JOBS) -L '^long$$'
 
 # ASan + UBSan (+ LeakSanitizer) build of the whole suite, fuzz targets included. Without MPI:
 # LeakSanitizer reports what OpenMPI itself keeps until exit, so the sanitized suite checks the
-# single-process path (the MPI tests skip there; they run in `make test`).
+# single-process path (test-sanitize leaves out the MPI tests; they run in `make test`).
 sanitize-build: deps
 	@if command -v clang++ >/dev/null; then compilers="-DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DIMM_FUZZERS=ON"; \
 	 else compilers="-DIMM_FUZZERS=OFF"; fi; \
@@ -44,15 +53,22 @@ sanitize-build: deps
 	   || { cat $(SANITIZE_DIR).configure.log; exit 1; }
 	cmake --build $(SANITIZE_DIR) -j $(JOBS)
 
-# Every test but the three config drills of the evaluations (ConfigDrill/*_evaluation): each runs
-# a whole evaluation with baseline tuning for every numeric key at six values, minutes apiece under
-# the sanitizers; the evaluations themselves run sanitized in the tools tests.
+# The unit and property suite and the fuzz replays under the sanitizers. The long end-to-end
+# drills run in the Release suite only, where they already run whole: the kill -9 drills (label
+# drill), whole nightlies (nightly), the MPI runs (mpi: the sanitized build has no MPI, see
+# sanitize-build), the config drills of the evaluations (each a whole evaluation with baseline
+# tuning per drilled value) and the studies (long). The config drills of the trainers, the tools
+# and the regime files do run here: an absurd value must not reach undefined behaviour.
+SANITIZE_EXCLUDE_LABELS ?= ^(drill|nightly|mpi|long)$$
 SANITIZE_EXCLUDE ?= ConfigDrill.*_evaluation
 test-sanitize: sanitize-build
-	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+	@status=0; ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1 \
 	UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp:print_suppressions=0 \
-	  ctest --test-dir $(SANITIZE_DIR) --output-on-failure -j $(JOBS) -E '$(SANITIZE_EXCLUDE)'
+	  ctest --test-dir $(SANITIZE_DIR) --output-on-failure -j $(JOBS) -LE '$(SANITIZE_EXCLUDE_LABELS)' \
+	    -E '$(SANITIZE_EXCLUDE)' \
+	  --output-junit ctest-results.xml || status=$$?; \
+	 python3 scripts/test-summary.py $(SANITIZE_DIR) || { [ $$status -ne 0 ] || status=1; }; exit $$status
 
 # Runs every fuzz target for SECONDS seconds (make fuzz SECONDS=600 for a longer campaign).
 fuzz: sanitize-build

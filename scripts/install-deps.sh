@@ -14,6 +14,8 @@ packages=(
   doxygen python3-h5py    # the API documentation test; the h5py reading test
   libopenmpi-dev openmpi-bin  # mpirun: GA fitness, sweeps and evaluations over MPI ranks
   clang libclang-rt-dev   # make test-sanitize / make fuzz: ASan, UBSan, libFuzzer
+  ccache                  # repeated builds (cmake/ImmBuildSpeed.cmake)
+  chromium                # the morning report rendered headless (tests/tools/nightly_test.cpp)
 )
 
 missing=()

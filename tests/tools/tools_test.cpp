@@ -2,9 +2,6 @@
 // End-to-end tests of the command-line tools, run as separate processes like a user would.
 
 #include <gtest/gtest.h>
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -278,42 +275,6 @@ TEST_F(Tools, PlainImmEvaluationWritesMetricsAndBeatsEachModeAlone) {
 
 // A real kill (SIGKILL) in the middle of training, then --resume: the same model as an
 // uninterrupted run.
-TEST_F(Tools, GaTrainingResumedAfterAKillEqualsAnUninterruptedRun) {
-  testing::write_text(dir_ / "ga.toml",
-                      testing::regime_line(testing::write_ga_regime(dir_, 80, 2, 1)) +
-                          "seed = 3\n[training]\nlevels = [0.01, 0.05]\n[ga]\npopulation = 120\n"
-                          "generations = 40\n[memetic]\nmax_evaluations = 30\n");
-  const std::string config = (dir_ / "ga.toml").string();
-  const auto reference =
-      run_tool("imm-train", {"ga", "--config", config, "--out", (dir_ / "a.h5").string()}, root_);
-  ASSERT_EQ(reference.exit_code, 0) << reference.err;
-
-  const auto model = dir_ / "b.h5";
-  const auto checkpoint = dir_ / "b.h5.checkpoint";
-  const pid_t pid =
-      testing::spawn_tool("imm-train", {"ga", "--config", config, "--out", model.string()});
-  ASSERT_GT(pid, 0);
-  for (int i = 0; i < 2000 && !std::filesystem::exists(checkpoint); ++i) ::usleep(5000);
-  ::usleep(30000);  // a few generations further
-  ::kill(pid, SIGKILL);
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  ASSERT_TRUE(WIFSIGNALED(status)) << "training finished before the kill; make the config larger";
-  EXPECT_FALSE(std::filesystem::exists(model));
-  const auto resumed =
-      run_tool("imm-train", {"ga", "--config", config, "--out", model.string(), "--resume"}, root_);
-  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
-  EXPECT_NE(resumed.err.find("resuming level"), std::string::npos) << resumed.err;
-
-  auto tables = [&](const std::filesystem::path& path) {
-    const auto json =
-        nlohmann::json::parse(run_tool("imm-inspect", {path.string(), "--json"}, root_).out);
-    return std::vector<nlohmann::json>{json["objects"]["/ga_fuzzy_imm/level0/rules"]["values"],
-                                       json["objects"]["/ga_fuzzy_imm/level1/rules"]["values"]};
-  };
-  EXPECT_EQ(tables(dir_ / "a.h5"), tables(model));
-}
-
 TEST_F(Tools, GaImmEvaluationReportsTable3ForEveryFilter) {
   const auto out = dir_ / "ga-imm";
   const auto result = run_tool("imm-eval",
