@@ -161,7 +161,9 @@ TEST_P(KillDrill, TwentyKillsLeaveNothingPartial) {
             << " caught writing (temporary removed by the guard), " << resumed
             << " resumed from a checkpoint\n";
   EXPECT_GT(killed, 10) << "most kills should land during training";
-  if (drill.resumable) EXPECT_GT(resumed, 0) << "no kill landed after a checkpoint";
+  if (drill.resumable) {
+    EXPECT_GT(resumed, 0) << "no kill landed after a checkpoint";
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(
