@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """Summarizes one build's ctest run from the JUnit file ctest wrote (--output-junit).
 
-    scripts/test-summary.py BUILD_DIR [--slowest N] [--strict]
+    scripts/test-summary.py BUILD_DIR [--slowest N] [--strict] [--allowlist FILE]
 
 Prints the build's test count (passed, failed, skipped, not run) and its N slowest tests. With
 --strict (what .ci/run passes, and the default when CI=true) a skipped test is a failure unless
@@ -43,6 +43,7 @@ def main():
     parser.add_argument("build_dir")
     parser.add_argument("--slowest", type=int, default=10)
     parser.add_argument("--strict", action="store_true", default=os.environ.get("CI") == "true")
+    parser.add_argument("--allowlist", default=ALLOWLIST, help="default: .ci/skip-allowlist")
     arguments = parser.parse_args()
 
     build = os.path.basename(os.path.normpath(arguments.build_dir))
@@ -82,7 +83,7 @@ def main():
     status = 1 if counts["failed"] or counts["disabled"] else 0
     skipped = [name for name, _, outcome in cases if outcome == "skipped"]
     if skipped:
-        allowed = read_allowlist(ALLOWLIST)
+        allowed = read_allowlist(arguments.allowlist)
         for name in skipped:
             listed = any(fnmatch.fnmatchcase(build, b) and fnmatch.fnmatchcase(name, t)
                          for b, t in allowed)
