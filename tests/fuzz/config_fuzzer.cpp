@@ -12,10 +12,10 @@
 #include <string_view>
 
 #include "fuzz/fuzz_support.hpp"
+#include "imm/datasets/regime_file.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/support/config.hpp"
 #include "imm/support/plain_imm_config.hpp"
-#include "imm/support/regime_config.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/ga/ga_config.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
@@ -64,6 +64,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       "wimm", [&] { (void)trainer::wimm::load_wimm_config(path, regime("wimm_training.toml")); });
   load_expecting_config_errors("plain imm", [&] { (void)support::load_plain_imm_config(path); });
   load_expecting_config_errors("nightly", [&] { (void)trainer::load_nightly_plan(path); });
-  load_expecting_config_errors("regime", [&] { (void)support::parse_regime(text, "fuzz"); });
+  load_expecting_config_errors("regime", [&] { (void)datasets::parse_regime(text, "fuzz"); });
   return 0;
 }

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <tuple>
 
+#include "imm/datasets/regime_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/support/config.hpp"
-#include "imm/support/regime_config.hpp"
 #include "imm/trainer/ga/ga_config.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
@@ -21,7 +21,7 @@ namespace {
 
 TrainingSet small_training_set() {
   const testing::TempDir dir;
-  const auto regime = support::load_regime(testing::write_ga_regime(dir, 60, 2, 1)).regime;
+  const auto regime = datasets::load_regime(testing::write_ga_regime(dir, 60, 2, 1)).regime;
   return make_training_set(regime, datasets::Split::kTraining);
 }
 
@@ -257,7 +257,7 @@ TEST(GaConfig, AbsurdFiniteValuesAreRefusedAtLoad) {
             "sample_period = 1.0", "sample_period = 1e-320", "sample_period"},
         {"sigma = [0.5, 0.5]", "sigma = [1e308, 1e308]", "sensor.sigma"}}) {
     try {
-      (void)support::load_regime(
+      (void)datasets::load_regime(
           testing::write_preset_variant(dir, "ga_imm_training", {{from, to}}));
       ADD_FAILURE() << key;
     } catch (const support::ConfigError& error) {

@@ -9,6 +9,7 @@
 
 #include <memory>
 
+#include "imm/datasets/regime_file.hpp"
 #include "imm/datasets/track.hpp"
 #include "imm/filters/aimm.hpp"
 #include "imm/filters/axis_cv_imm.hpp"
@@ -31,7 +32,6 @@
 #include "imm/models/position_measurement.hpp"
 #include "imm/models/singer.hpp"
 #include "imm/support/plain_imm_config.hpp"
-#include "imm/support/regime_config.hpp"
 #include "workloads.hpp"
 
 namespace {
@@ -41,7 +41,7 @@ using imm::TrackFilter;
 // Test track `index` (seed 1) of a paper preset (configs/regimes/paper/NAME.toml); a scripted
 // regime's track i follows its case i mod cases.
 imm::datasets::Track preset_track(const std::string& name, int index = 0) {
-  const auto file = imm::support::load_regime(
+  const auto file = imm::datasets::load_regime(
       std::string(IMM_SOURCE_DIR "/configs/regimes/paper/") + name + ".toml");
   return imm::datasets::draw_track(file.regime, imm::datasets::Split::kTest, index, 1);
 }

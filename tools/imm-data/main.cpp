@@ -24,12 +24,11 @@
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
+#include "imm/datasets/regime_file.hpp"
 #include "imm/support/cli.hpp"
-#include "imm/support/regime_config.hpp"
+#include "imm/support/exit_codes.hpp"
 
 namespace {
-
-constexpr int kExitBadInput = 2;
 
 void write_csv(const std::string& path, const imm::datasets::Regime& regime,
                const Eigen::MatrixXd& plots) {
@@ -87,7 +86,7 @@ int main(int argc, char** argv) {
   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
 
   try {
-    const imm::support::RegimeFile file = imm::support::load_regime(regime_path);
+    const imm::datasets::RegimeFile file = imm::datasets::load_regime(regime_path);
     for (const std::string& written : {out_path, csv_path}) {  // their folders, as needed
       const std::filesystem::path folder = std::filesystem::path(written).parent_path();
       if (!written.empty() && !folder.empty()) std::filesystem::create_directories(folder);
@@ -125,10 +124,10 @@ int main(int argc, char** argv) {
               << " (sha256 " << digest.substr(0, 16) << ")\n";
   } catch (const std::exception& error) {
     std::cerr << "imm-data: " << error.what() << '\n';
-    return kExitBadInput;
+    return imm::support::exit_code::kBadInput;
   } catch (...) {
     std::cerr << "imm-data: unexpected error\n";
-    return kExitBadInput;
+    return imm::support::exit_code::kBadInput;
   }
   return 0;
 }

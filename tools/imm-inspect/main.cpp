@@ -31,6 +31,7 @@
 #include "imm/io/wimm_file.hpp"
 #include "imm/load.hpp"
 #include "imm/support/cli.hpp"
+#include "imm/support/exit_codes.hpp"
 
 namespace {
 
@@ -40,7 +41,6 @@ using imm::io::ContainerReader;
 using imm::io::ObjectKind;
 using nlohmann::json;
 
-constexpr int kExitBadFile = 2;
 constexpr std::size_t kRowsShown = 12;
 
 // Runtime validators of the model kinds this build knows; each throws FileError when the file
@@ -392,10 +392,10 @@ int main(int argc, char** argv) {
                 << "` checks it and re-seals it)";
     }
     std::cerr << '\n';
-    return kExitBadFile;
+    return imm::support::exit_code::kBadInput;
   } catch (...) {
     std::cerr << "imm-inspect: unexpected error\n";
-    return kExitBadFile;
+    return imm::support::exit_code::kBadInput;
   }
   return 0;
 }

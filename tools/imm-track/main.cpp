@@ -22,12 +22,11 @@
 #include "imm/load.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/support/config.hpp"
+#include "imm/support/exit_codes.hpp"
 #include "imm/support/measurement_csv.hpp"
 #include "imm/support/plain_imm_config.hpp"
 
 namespace {
-
-constexpr int kExitBadInput = 2;
 
 bool is_container(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -100,10 +99,10 @@ int main(int argc, char** argv) {
     }
   } catch (const std::exception& error) {
     std::cerr << "imm-track: " << error.what() << '\n';
-    return kExitBadInput;
+    return imm::support::exit_code::kBadInput;
   } catch (...) {
     std::cerr << "imm-track: unexpected error\n";
-    return kExitBadInput;
+    return imm::support::exit_code::kBadInput;
   }
 
   std::ofstream file_out;
@@ -111,7 +110,7 @@ int main(int argc, char** argv) {
     file_out.open(out_path);
     if (!file_out) {
       std::cerr << "imm-track: cannot write " << out_path << '\n';
-      return kExitBadInput;
+      return imm::support::exit_code::kBadInput;
     }
   }
   std::ostream& out = out_path.empty() ? std::cout : file_out;

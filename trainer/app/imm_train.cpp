@@ -48,6 +48,8 @@
 #include "imm/io/file_error.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/support/config.hpp"
+#include "imm/support/exit_codes.hpp"
+#include "imm/support/process.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/freeze.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
@@ -66,8 +68,7 @@
 
 namespace {
 
-constexpr int kExitBadInput = 2;
-constexpr int kExitGateFailed = 4;
+namespace exit_code = imm::support::exit_code;
 
 struct GaCommand {
   std::filesystem::path config = "configs/ga_fuzzy_imm.toml";
@@ -151,7 +152,7 @@ int run_ga(const GaCommand& command) {
   if (!result.gate_passed) {
     spdlog::error("quality gate failed: {}; {} not written", result.gate_message,
                   command.out.string());
-    return kExitGateFailed;
+    return exit_code::kTrainingGateFailed;
   }
   spdlog::info("wrote {} and {} ({:.1f} s)", command.out.string(),
                imm::trainer::metrics_path(command.out).string(), result.wall_seconds);
@@ -192,7 +193,7 @@ int train_mlp(const TrainCommand& command) {
   if (!result.gate_passed) {
     spdlog::error("quality gate failed: validation RMSE {:.3f} m/s² exceeds {:.3f}; {} not written",
                   result.validation_rmse, config.max_validation_rmse, command.out.string());
-    return kExitGateFailed;
+    return exit_code::kTrainingGateFailed;
   }
   spdlog::info("wrote {}", command.out.string());
   return 0;
@@ -228,7 +229,7 @@ int train_tsk(const TrainCommand& command, const std::filesystem::path& tsk_data
   if (!result.gate_passed) {
     spdlog::error("quality gate failed: a validation RMSE exceeds {:.3f} m; {} not written",
                   config.max_validation_rmse, command.out.string());
-    return kExitGateFailed;
+    return exit_code::kTrainingGateFailed;
   }
   spdlog::info("wrote {}", command.out.string());
   return 0;
@@ -258,7 +259,7 @@ int train_fcm(const TrainCommand& command) {
         "{:.4f}; {} not written",
         result.validation.objective, config.max_validation_ratio, result.kf_validation.objective,
         command.out.string());
-    return kExitGateFailed;
+    return exit_code::kTrainingGateFailed;
   }
   spdlog::info("wrote {}", command.out.string());
   return 0;
@@ -407,8 +408,6 @@ int train_job(const imm::trainer::SweepJob& job, int real_rank) {
   }
 }
 
-constexpr int kExitJobFailed = 3;
-
 struct SweepCommand {
   std::filesystem::path plan;
   std::optional<std::filesystem::path> summary;
@@ -469,7 +468,7 @@ int run_sweep(const SweepCommand& command) {
   if (!failed.empty()) {
     spdlog::error("sweep: {} of {} trainings failed in {:.1f} s: {}", failed.size(),
                   outcomes.size(), seconds, fmt::join(failed, "; "));
-    return kExitJobFailed;
+    return exit_code::kJobFailed;
   }
   spdlog::info("sweep: {} trainings in {:.1f} s", outcomes.size(), seconds);
   return 0;
@@ -487,7 +486,7 @@ struct NightlyCommand {
 int run_all(const NightlyCommand& command) {
   const auto plan = imm::trainer::load_nightly_plan(command.config);
   imm::trainer::NightlyOptions options;
-  options.tools = imm::trainer::executable_folder();
+  options.tools = imm::support::executable_folder();
   options.force = command.force;
   options.sweep = command.sweep || !command.launcher.empty();
   std::istringstream words(command.launcher);
@@ -532,14 +531,14 @@ int run_rollback(const std::string& kind, const std::string& regime,
   if (found.empty()) {
     spdlog::error("rollback: no shipped {} model for regime '{}' in {}", kind, regime,
                   registry.manifest_path().string());
-    return kExitBadInput;
+    return exit_code::kBadInput;
   }
   if (found.size() > 1) {
     std::string names;
     for (const auto* e : found) names += " " + e->name;
     spdlog::error("rollback: {} models of kind {} for regime '{}':{}", found.size(), kind, regime,
                   names);
-    return kExitBadInput;
+    return exit_code::kBadInput;
   }
   const std::string name = found.front()->name;
   const std::string replaced = found.front()->sha256;
@@ -650,16 +649,16 @@ int run(int argc, char** argv) {
     }
   } catch (const imm::support::ConfigError& error) {
     spdlog::error("{}", error.what());
-    return kExitBadInput;
+    return exit_code::kBadInput;
   } catch (const imm::io::FileError& error) {
     spdlog::error("{}", error.what());
-    return kExitBadInput;
+    return exit_code::kBadInput;
   } catch (const std::exception& error) {
     spdlog::error("{}", error.what());
-    return kExitBadInput;
+    return exit_code::kBadInput;
   } catch (...) {
     spdlog::error("unexpected error");
-    return kExitBadInput;
+    return exit_code::kBadInput;
   }
   return 1;
 }
@@ -671,7 +670,7 @@ int main(int argc, char** argv) {
   // waiting for it in the next exchange: the job ends on every rank. A quality gate's verdict is
   // the same on every rank, and a sweep's failed trainings are in its summary: both end the job
   // normally.
-  if (code != 0 && code != kExitGateFailed && code != kExitJobFailed) {
+  if (code != 0 && code != exit_code::kTrainingGateFailed && code != exit_code::kJobFailed) {
     imm::trainer::Ranks::world().abort_job(code);
   }
   return code;

@@ -4,9 +4,9 @@
 #include <chrono>
 #include <cmath>
 
+#include "imm/datasets/regime_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/support/plain_imm_config.hpp"
-#include "imm/support/regime_config.hpp"
 #include "imm/trainer/provenance.hpp"
 
 namespace imm::trainer {
@@ -19,7 +19,7 @@ FreezeSummary freeze_plain_imm(const FreezeOptions& options) {
       make_provenance(std::string(io::kPlainImmKind), read_text_file(options.config), 0, "");
   provenance.length_unit = config.length_unit;
   if (options.regime) {
-    const datasets::Regime regime = support::load_regime(*options.regime).regime;
+    const datasets::Regime regime = datasets::load_regime(*options.regime).regime;
     const std::string file = options.config.string();
     if (std::abs(spec.sample_period - regime.sample_period) > 1e-12 * regime.sample_period) {
       throw support::ConfigError(file, "sample_period",

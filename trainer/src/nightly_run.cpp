@@ -20,6 +20,8 @@
 
 #include "imm/datasets/sha256.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/support/exit_codes.hpp"
+#include "imm/support/process.hpp"
 #include "imm/trainer/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/registry.hpp"
@@ -28,8 +30,6 @@ namespace imm::trainer {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr int kExitGateFailed = 5;  // imm-eval: a quality gate failed
-constexpr int kExitHeldBack = 6;    // imm-eval regression: worse than the shipped model
 
 std::string command_line(const fs::path& tool, const std::vector<std::string>& arguments) {
   std::string text = tool.filename().string();
@@ -344,7 +344,7 @@ class Night {
     const auto start = std::chrono::steady_clock::now();
     int code = 0;
     try {
-      code = run_process(executable, arguments, log);
+      code = support::run_process(executable, arguments, log);
     } catch (const std::exception& error) {
       std::ofstream(log.string() + ".err") << error.what() << '\n';
       code = 127;
@@ -588,7 +588,7 @@ class Night {
       o.log = log_stem("evaluation_" + e->name + "_" + e->out.filename().string() +
                        e->out.parent_path().filename().string());
       o.exit_code = spawn(tool(*e), candidate_arguments, o.log, o.wall_seconds);
-      if (o.exit_code == kExitGateFailed) {
+      if (o.exit_code == support::exit_code::kEvaluationGateFailed) {
         o.failed = true;
         o.status = "gate failed";
         o.message = "quality gate failed: " + gate_lines(o.log.string() + ".out");
@@ -610,7 +610,7 @@ class Night {
         const auto shipped_arguments = evaluation_arguments(*e, shipped_file, shipped_out, staging);
         const fs::path shipped_log = o.log.string() + "_shipped";
         const int shipped_code = spawn(tool(*e), shipped_arguments, shipped_log, o.wall_seconds);
-        if (shipped_code == 0 || shipped_code == kExitGateFailed) {
+        if (shipped_code == 0 || shipped_code == support::exit_code::kEvaluationGateFailed) {
           const std::vector<std::string> compare = {
               "regression",         "--candidate", e->out.string(), "--shipped",
               shipped_out.string(), "--out",       e->out.string()};
@@ -618,7 +618,7 @@ class Night {
           const int verdict =
               spawn(options_.tools / "imm-eval", compare, compare_log, o.wall_seconds);
           model.regression = e->out / "regression.json";
-          if (verdict == kExitHeldBack) {
+          if (verdict == support::exit_code::kRegression) {
             regressions.push_back(e->name + ": " + tail_of(compare_log.string() + ".out", 8));
           } else if (verdict != 0) {
             comparisons.push_back(e->name + ": not compared (" +

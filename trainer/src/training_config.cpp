@@ -3,12 +3,12 @@
 
 namespace imm::trainer {
 
-support::RegimeFile regime_of(const support::ConfigTable& root,
-                              const std::optional<std::filesystem::path>& override) {
+datasets::RegimeFile regime_of(const support::ConfigTable& root,
+                               const std::optional<std::filesystem::path>& override) {
   const std::string named = root.text_or("regime", "");
-  if (override) return support::load_regime(*override);
+  if (override) return datasets::load_regime(*override);
   if (named.empty()) root.fail("regime", "missing: name the regime file to train for");
-  return support::load_regime(named);
+  return datasets::load_regime(named);
 }
 
 }  // namespace imm::trainer

@@ -62,24 +62,24 @@ std::string EvaluationRegimes::describe() const {
 
 namespace {
 
-support::RegimeFile recorded_regime(const io::Provenance& model,
-                                    const std::filesystem::path& path) {
+datasets::RegimeFile recorded_regime(const io::Provenance& model,
+                                     const std::filesystem::path& path) {
   if (model.regime_toml.empty()) {
     throw std::runtime_error(path.string() +
                              ": the model records no regime (written before regimes); retrain it");
   }
-  return support::parse_regime(model.regime_toml,
-                               path.string() + ": /@regime_toml (" + model.regime_name + ")");
+  return datasets::parse_regime(model.regime_toml,
+                                path.string() + ": /@regime_toml (" + model.regime_name + ")");
 }
 
 }  // namespace
 
-support::RegimeFile load_regime_option(const std::filesystem::path& path) {
+datasets::RegimeFile load_regime_option(const std::filesystem::path& path) {
   if (path.extension() == ".h5") {
     const io::ModelFileReader reader(path);
     return recorded_regime(reader.provenance(), path);
   }
-  return support::load_regime(path);
+  return datasets::load_regime(path);
 }
 
 EvaluationRegimes evaluation_regimes(const CommonOptions& options, const io::Provenance& model,
@@ -90,7 +90,7 @@ EvaluationRegimes evaluation_regimes(const CommonOptions& options, const io::Pro
   return regimes;
 }
 
-EvaluationRegimes evaluation_regimes(const support::RegimeFile& evaluated,
+EvaluationRegimes evaluation_regimes(const datasets::RegimeFile& evaluated,
                                      const io::Provenance& model,
                                      const std::filesystem::path& path) {
   return {evaluated, recorded_regime(model, path)};
@@ -182,7 +182,7 @@ int finish_report(const std::filesystem::path& out, bool plotted,
   if (!failures_printed) {
     for (const auto& failure : failures) std::cerr << "imm-eval: gate failed: " << failure << '\n';
   }
-  return failures.empty() ? 0 : kExitGateFailed;
+  return failures.empty() ? 0 : support::exit_code::kEvaluationGateFailed;
 }
 
 int guarded(const std::function<int()>& body) {
@@ -193,7 +193,7 @@ int guarded(const std::function<int()>& body) {
   } catch (...) {
     std::cerr << "imm-eval: unexpected error\n";
   }
-  return kExitBadInput;
+  return support::exit_code::kBadInput;
 }
 
 }  // namespace imm::evaluation

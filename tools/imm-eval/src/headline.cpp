@@ -290,7 +290,7 @@ int run_regression(const std::filesystem::path& candidate_path,
     std::cout << "Regression gate (not worse than the shipped model beyond the uncertainty): "
                  "FAILED\n";
     for (const auto& w : worse) std::cout << "  - worse: " << w << '\n';
-    return kExitRegression;
+    return support::exit_code::kRegression;
   }
   std::cout << "Regression gate (not worse than the shipped model beyond the uncertainty): "
                "passed\n";

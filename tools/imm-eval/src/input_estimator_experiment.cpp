@@ -200,7 +200,7 @@ int run(const CommonOptions& options) {
       const std::string metric = std::string(kQuantity[q]) + "_mse";
       const auto* paper_cv = regimes.evaluated.find("CV KF", r.name, metric);
       const auto* paper_corrected = regimes.evaluated.find("corrected KF", r.name, metric);
-      auto with_paper = [](double ours, const support::PublishedFigure* paper) {
+      auto with_paper = [](double ours, const datasets::PublishedFigure* paper) {
         return scientific(ours) + (paper ? " (" + scientific(paper->value) + ")" : "");
       };
       row.push_back(with_paper(cv.mean(), paper_cv));
@@ -286,7 +286,7 @@ int run(const CommonOptions& options) {
                  {"training_mse", "validation_mse"}});
   }
   std::cout << "\nwrote metrics.json, CSV series and PNG plots in " << out.string() << '\n';
-  return passed ? 0 : kExitGateFailed;
+  return passed ? 0 : support::exit_code::kEvaluationGateFailed;
 }
 
 }  // namespace

@@ -122,8 +122,8 @@ int main(int argc, char** argv) {
   }
   // A rank that fails alone must not leave the others waiting in the next exchange; a gate's or
   // the regression's verdict is the same on every rank.
-  if (code != 0 && code != imm::evaluation::kExitGateFailed &&
-      code != imm::evaluation::kExitRegression) {
+  if (code != 0 && code != imm::support::exit_code::kEvaluationGateFailed &&
+      code != imm::support::exit_code::kRegression) {
     imm::trainer::Ranks::world().abort_job(code);
   }
   return code;

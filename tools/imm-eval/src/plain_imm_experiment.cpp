@@ -64,7 +64,7 @@ int run(const PlainImmOptions& options) {
     source =
         options.data + " (regime " + data.regime + ", sha256 " + stored.digest.substr(0, 16) + ")";
   } else {
-    const support::RegimeFile regime = load_regime_option(
+    const datasets::RegimeFile regime = load_regime_option(
         options.common.regime.value_or("configs/regimes/paper/ga_imm_table3.toml"));
     data = test_tracks(regime.regime, options.common);
     length = std::string(datasets::to_string(regime.regime.units));

@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "imm/evaluation/monte_carlo.hpp"
-#include "imm/trainer/nightly.hpp"
+#include "imm/support/process.hpp"
 #include "imm/trainer/ranks.hpp"
 
 namespace imm::evaluation {
@@ -173,7 +173,7 @@ bool plot_series(const PlotSpec& spec) {
   int status = 1;
   try {
     const std::string cd = "cd '" + folder.string() + "'";
-    status = trainer::run_process("gnuplot", {"-e", cd, script_path.filename().string()});
+    status = support::run_process("gnuplot", {"-e", cd, script_path.filename().string()});
   } catch (const std::exception&) {
     status = 127;
   }

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// A regime: the distribution of tracking situations a model is trained for and evaluated on
-/// (configs/regimes/*.toml; imm/support/regime_config.hpp reads them). A track is a seeded draw
+/// (configs/regimes/*.toml; imm/datasets/regime_file.hpp reads them). A track is a seeded draw
 /// from it; the training, validation and test splits are draws from disjoint seeds.
 ///
 /// What a regime fixes: the unit of length (m or km; time is always s), the sample period, the

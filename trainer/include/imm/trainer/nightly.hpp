@@ -68,15 +68,6 @@ struct NightlyPlan {
 /// [[models]] stage, a model outside the registry folder are ConfigErrors).
 [[nodiscard]] NightlyPlan load_nightly_plan(const std::filesystem::path& path);
 
-/// Runs `executable` (a path, or a bare name looked up in PATH) with `arguments`; returns its exit
-/// code, or 128 + signal when it was killed. With `log`, stdout and stderr go to `log`.out and
-/// `log`.err instead of the terminal.
-int run_process(const std::filesystem::path& executable, const std::vector<std::string>& arguments,
-                const std::optional<std::filesystem::path>& log = std::nullopt);
-
-/// The folder of the running executable (where the sibling tools are).
-[[nodiscard]] std::filesystem::path executable_folder();
-
 /// What happened to one stage in a night.
 struct StageOutcome {
   std::string kind, name;

@@ -11,15 +11,15 @@
 #include <filesystem>
 #include <optional>
 
+#include "imm/datasets/regime_file.hpp"
 #include "imm/support/config.hpp"
-#include "imm/support/regime_config.hpp"
 
 namespace imm::trainer {
 
 /// The regime a config names (or the override), loaded. ConfigError on the `regime` key when it
 /// is missing; a bad regime file raises its own ConfigError (naming that file and its key).
-[[nodiscard]] support::RegimeFile regime_of(const support::ConfigTable& root,
-                                            const std::optional<std::filesystem::path>& override);
+[[nodiscard]] datasets::RegimeFile regime_of(const support::ConfigTable& root,
+                                             const std::optional<std::filesystem::path>& override);
 
 template <class Config, class From>
 [[nodiscard]] Config load_training_config(
@@ -27,7 +27,7 @@ template <class Config, class From>
     const std::optional<std::filesystem::path>& regime_override = std::nullopt) {
   const auto document = support::ConfigDocument::load(path);
   Config config = document->load_checked([&] {
-    support::RegimeFile regime = regime_of(document->root(), regime_override);
+    datasets::RegimeFile regime = regime_of(document->root(), regime_override);
     return from(document->root(), std::move(regime.regime));
   });
   config.text = document->text();

@@ -22,16 +22,12 @@
 #include <string>
 #include <vector>
 
+#include "imm/datasets/regime_file.hpp"
 #include "imm/datasets/track.hpp"
 #include "imm/io/model_file.hpp"
-#include "imm/support/regime_config.hpp"
+#include "imm/support/exit_codes.hpp"
 
 namespace imm::evaluation {
-
-inline constexpr int kExitBadInput = 2;
-inline constexpr int kExitGateFailed = 5;
-/// `imm-eval regression`: the candidate is worse than the shipped model.
-inline constexpr int kExitRegression = 6;
 
 struct CommonOptions {
   std::filesystem::path models = "models";
@@ -51,12 +47,12 @@ void add_common_options(CLI::App& command, CommonOptions& options, const std::st
 
 /// A --regime value: a regime TOML, or a model file (.h5) whose recorded regime is meant (so a
 /// candidate and the shipped model are evaluated on the same tracks).
-[[nodiscard]] support::RegimeFile load_regime_option(const std::filesystem::path& path);
+[[nodiscard]] datasets::RegimeFile load_regime_option(const std::filesystem::path& path);
 
 /// The regimes of one evaluation.
 struct EvaluationRegimes {
-  support::RegimeFile evaluated;  ///< where the test tracks come from
-  support::RegimeFile trained;    ///< the model's own (its training split tunes the baselines)
+  datasets::RegimeFile evaluated;  ///< where the test tracks come from
+  datasets::RegimeFile trained;    ///< the model's own (its training split tunes the baselines)
   /// The evaluated regime is not the one the model was trained for.
   [[nodiscard]] bool off_training() const {
     return evaluated.regime.digest != trained.regime.digest;
@@ -72,7 +68,7 @@ struct EvaluationRegimes {
                                                    const std::filesystem::path& path);
 
 /// Another model on an already chosen regime (a second model of the same experiment).
-[[nodiscard]] EvaluationRegimes evaluation_regimes(const support::RegimeFile& evaluated,
+[[nodiscard]] EvaluationRegimes evaluation_regimes(const datasets::RegimeFile& evaluated,
                                                    const io::Provenance& model,
                                                    const std::filesystem::path& path);
 
@@ -120,7 +116,7 @@ struct CaseTracks {
 int finish_report(const std::filesystem::path& out, bool plotted,
                   const std::vector<std::string>& failures, bool failures_printed = false);
 
-/// Runs an experiment's body, turning exceptions into a message and kExitBadInput.
+/// Runs an experiment's body, turning exceptions into a message and support::exit_code::kBadInput.
 int guarded(const std::function<int()>& body);
 
 // --- The experiments -----------------------------------------------------------------------

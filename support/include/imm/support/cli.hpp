@@ -23,11 +23,10 @@
 #include <vector>
 
 #include "imm/build_info.hpp"
+#include "imm/support/exit_codes.hpp"
 #include "imm/version.hpp"
 
 namespace imm::support {
-
-inline constexpr int kExitUsage = 1;
 
 /// "imm-track 0.1.0 (model schema 1, git 3773557)".
 [[nodiscard]] inline std::string version_text(std::string_view tool) {
@@ -138,7 +137,7 @@ inline std::string usage_message(const CLI::App& app, int argc, const char* cons
 }  // namespace detail
 
 /// Parses the command line. Empty: go on. Otherwise the exit code: 0 after --help or --version,
-/// kExitUsage (1) after a usage error (printed to stderr as "tool: message").
+/// exit_code::kUsage (1) after a usage error (printed to stderr as "tool: message").
 [[nodiscard]] inline std::optional<int> parse(CLI::App& app, int argc, const char* const* argv) {
   try {
     app.parse(argc, argv);
@@ -149,7 +148,7 @@ inline std::string usage_message(const CLI::App& app, int argc, const char* cons
   } catch (const CLI::ParseError& error) {
     std::cerr << app.get_name() << ": " << detail::usage_message(app, argc, argv, error) << '\n'
               << "Run with --help for more information.\n";
-    return kExitUsage;
+    return exit_code::kUsage;
   }
 }
 [[nodiscard]] inline std::optional<int> parse(CLI::App& app, int argc, char** argv) {

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/support/regime_config.hpp"
+#include "imm/datasets/regime_file.hpp"
 
 #include <cmath>
 #include <numbers>
@@ -9,13 +9,12 @@
 #include "imm/datasets/sampled_sensor.hpp"
 #include "imm/datasets/sha256.hpp"
 
-namespace imm::support {
+namespace imm::datasets {
 namespace {
 
-using datasets::Direction;
-using datasets::Interval;
-using datasets::SegmentKind;
-using datasets::SensorKind;
+using support::ConfigDocument;
+using support::ConfigError;
+using support::ConfigTable;
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
@@ -319,4 +318,4 @@ RegimeFile load_regime(const std::filesystem::path& path) {
   return file;
 }
 
-}  // namespace imm::support
+}  // namespace imm::datasets

@@ -3,7 +3,7 @@
 // they stand for, track for track against independent simulations of the scenarios as the SPEC
 // (§7) and the seeds state them.
 
-#include "imm/support/regime_config.hpp"
+#include "imm/datasets/regime_file.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,12 +15,8 @@
 #include "imm/datasets/track.hpp"
 #include "testing/config_error.hpp"
 
-namespace imm::support {
+namespace imm::datasets {
 namespace {
-
-using datasets::Regime;
-using datasets::Split;
-using datasets::Track;
 
 constexpr const char* kMinimal = R"(
 name = "minimal"
@@ -315,4 +311,4 @@ TEST(PaperPresets, Seed001RowsOnBothAxes) {
 }
 
 }  // namespace
-}  // namespace imm::support
+}  // namespace imm::datasets

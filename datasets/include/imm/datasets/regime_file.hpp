@@ -37,7 +37,7 @@
 #include "imm/datasets/regime.hpp"
 #include "imm/support/config.hpp"
 
-namespace imm::support {
+namespace imm::datasets {
 
 /// A figure a paper published for this regime (reported beside ours; never used to gate).
 struct PublishedFigure {
@@ -59,4 +59,4 @@ struct RegimeFile {
 /// The same from text (a regime recorded in a model file); `name` stands for the file in errors.
 [[nodiscard]] RegimeFile parse_regime(const std::string& text, const std::string& name);
 
-}  // namespace imm::support
+}  // namespace imm::datasets
