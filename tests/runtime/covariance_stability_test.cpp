@@ -20,7 +20,7 @@
 namespace imm {
 namespace {
 
-const int kSteps = testing::quick_or_study(20'000, 1'000'000);
+int steps() { return testing::quick_or_study(20'000, 1'000'000); }
 constexpr int kFullCheckEvery = 100;
 
 struct NoiseRatio {
@@ -42,7 +42,8 @@ TEST_P(CovarianceStability, KalmanCovarianceStaysSymmetricPositiveDefinite) {
   state.covariance = 1e2 * SquareMatrix<4>::Identity();
   std::mt19937_64 rng(11);
   std::normal_distribution<double> noise(0.0, std::sqrt(r));
-  for (int k = 0; k < kSteps; ++k) {
+  const int n = steps();
+  for (int k = 0; k < n; ++k) {
     state = predict(state, model.transition, model.process_noise);
     const Vector<2> z(noise(rng), noise(rng));
     ASSERT_TRUE(update(state, z, measurement).ok()) << "step " << k;
@@ -70,7 +71,8 @@ TEST_P(CovarianceStability, ImmCovarianceStaysSymmetricPositiveDefinite) {
   imm.initialize(start);
   std::mt19937_64 rng(12);
   std::normal_distribution<double> noise(0.0, std::sqrt(r));
-  for (int k = 0; k < kSteps; ++k) {
+  const int n = steps();
+  for (int k = 0; k < n; ++k) {
     const Vector<2> z(noise(rng), noise(rng));
     ASSERT_EQ(imm.step(z), StepStatus::kOk) << "step " << k;
     ASSERT_EQ(Eigen::LLT<SquareMatrix<4>>(imm.estimate().covariance).info(), Eigen::Success)
