@@ -30,13 +30,17 @@ build: configure
 train: build
 	$(BUILD_DIR)/bin/imm-train all --config $(NIGHTLY)
 
+# $(call ctest_and_summary,BUILD_DIR,CTEST_ARGS): ctest with a JUnit file, then the build's test
+# count and ten slowest tests (scripts/test-summary.py); fails when either does.
+ctest_and_summary = status=0; ctest --test-dir $(1) --output-on-failure -j $(JOBS) $(2) \
+	--output-junit ctest-results.xml || status=$$?; \
+	python3 scripts/test-summary.py $(1) || { [ $$status -ne 0 ] || status=1; }; exit $$status
+
 # The default suite: every test but the studies labelled `long` (make test-long). Prints the
 # build's test count and its ten slowest tests (scripts/test-summary.py); with CI=true a test that
 # skips fails the target unless .ci/skip-allowlist names it.
 test: build
-	@status=0; ctest --test-dir $(BUILD_DIR) --output-on-failure -j $(JOBS) -LE '^long$$' \
-	   --output-junit ctest-results.xml || status=$$?; \
-	 python3 scripts/test-summary.py $(BUILD_DIR) || { [ $$status -ne 0 ] || status=1; }; exit $$status
+	@$(call ctest_and_summary,$(BUILD_DIR),-LE '^long$$')
 
 # The studies and long drills: minutes each, run by hand or by a scheduled job, never by .ci/run.
 test-long: build
@@ -62,13 +66,10 @@ sanitize-build: deps
 SANITIZE_EXCLUDE_LABELS ?= ^(drill|nightly|mpi|long)$$
 SANITIZE_EXCLUDE ?= ConfigDrill.*_evaluation
 test-sanitize: sanitize-build
-	@status=0; ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1 \
-	UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp:print_suppressions=0 \
-	  ctest --test-dir $(SANITIZE_DIR) --output-on-failure -j $(JOBS) -LE '$(SANITIZE_EXCLUDE_LABELS)' \
-	    -E '$(SANITIZE_EXCLUDE)' \
-	  --output-junit ctest-results.xml || status=$$?; \
-	 python3 scripts/test-summary.py $(SANITIZE_DIR) || { [ $$status -ne 0 ] || status=1; }; exit $$status
+	@export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp:print_suppressions=0; \
+	  $(call ctest_and_summary,$(SANITIZE_DIR),-LE '$(SANITIZE_EXCLUDE_LABELS)' -E '$(SANITIZE_EXCLUDE)')
 
 # Runs every fuzz target for SECONDS seconds (make fuzz SECONDS=600 for a longer campaign).
 fuzz: sanitize-build

@@ -4,8 +4,8 @@
 
     scripts/test-summary.py BUILD_DIR [--slowest N] [--strict] [--allowlist FILE]
 
-Prints the build's test count (passed, failed, skipped, not run) and its N slowest tests. With
---strict (what .ci/run passes, and the default when CI=true) a skipped test is a failure unless
+Prints the build's test count (passed, failed, skipped, disabled) and its N slowest tests. With
+--strict (the default when CI=true, which .ci/run sets) a skipped test is a failure unless
 it matches an entry of .ci/skip-allowlist: a test that cannot run in CI is a test that cannot
 fail. Exit 0 when the counts are clean, 1 when a test failed or skipped outside the list, 2 when
 the results file is missing or unreadable.
