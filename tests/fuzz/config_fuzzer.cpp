@@ -14,12 +14,12 @@
 #include "fuzz/fuzz_support.hpp"
 #include "imm/datasets/regime_file.hpp"
 #include "imm/io/file_error.hpp"
+#include "imm/pipeline/nightly.hpp"
 #include "imm/support/config.hpp"
 #include "imm/support/plain_imm_config.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/ga/ga_config.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
-#include "imm/trainer/nightly.hpp"
 #include "imm/trainer/tsk/tsk_trainer.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
 
@@ -63,7 +63,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   load_expecting_config_errors(
       "wimm", [&] { (void)trainer::wimm::load_wimm_config(path, regime("wimm_training.toml")); });
   load_expecting_config_errors("plain imm", [&] { (void)support::load_plain_imm_config(path); });
-  load_expecting_config_errors("nightly", [&] { (void)trainer::load_nightly_plan(path); });
+  load_expecting_config_errors("nightly", [&] { (void)pipeline::load_nightly_plan(path); });
   load_expecting_config_errors("regime", [&] { (void)datasets::parse_regime(text, "fuzz"); });
   return 0;
 }

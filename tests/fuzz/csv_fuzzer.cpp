@@ -17,7 +17,7 @@
 #include "imm/datasets/range_sensor_file.hpp"
 #include "imm/support/measurement_csv.hpp"
 #include "imm/trainer/ga/ga_config.hpp"
-#include "imm/trainer/import_rules.hpp"
+#include "imm/trainer/model_files/import_rules.hpp"
 
 namespace {
 

@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: Apache-2.0
 # Fails when an include points up a layer. The folders are the layers, each built on those before
-# it: runtime < support < datasets < trainer < evaluation < tools (thin mains, benchmarks). A file
-# may include its own layer's headers and those of any layer below; tests may include anything.
+# it: runtime < support < datasets < trainer < {evaluation, pipeline} < tools (thin mains,
+# benchmarks). A file may include its own layer's headers and those of any layer below, but not a
+# sibling's (evaluation and pipeline meet only through processes); tests may include anything.
 #
 #   cmake -DSOURCE_DIR=<root> -P check_layers.cmake
 # prints every include that points up (file:line, the header, both layers) and fails on any.
@@ -11,10 +12,9 @@ set(layer_folders
   "runtime/"            runtime
   "support/"            support
   "datasets/"           datasets
-  "trainer/app/"        tools
   "trainer/"            trainer
-  "tools/imm-eval/src/main.cpp" tools
-  "tools/imm-eval/"     evaluation
+  "evaluation/"         evaluation
+  "pipeline/"           pipeline
   "tools/"              tools)
 # Where each layer's public headers live (relative to SOURCE_DIR), and the generated ones.
 set(layer_includes
@@ -22,9 +22,12 @@ set(layer_includes
   support    "support/include"
   datasets   "datasets/include"
   trainer    "trainer/include"
-  evaluation "tools/imm-eval/include")
+  evaluation "evaluation/include"
+  pipeline   "pipeline/include")
 set(generated_headers "imm/version.hpp" runtime "imm/build_info.hpp" support)
-set(order runtime support datasets trainer evaluation tools)
+# Rank of each layer; evaluation and pipeline share one and may not include each other.
+set(order runtime support datasets trainer evaluation pipeline tools)
+set(siblings evaluation pipeline)
 
 function(rank_of layer out)
   list(FIND order ${layer} rank)
@@ -66,7 +69,7 @@ function(layer_of_header header out)
 endfunction()
 
 set(sources "")
-foreach(top runtime support datasets trainer tools)
+foreach(top runtime support datasets trainer evaluation pipeline tools)
   file(GLOB_RECURSE found RELATIVE "${SOURCE_DIR}" "${SOURCE_DIR}/${top}/*.cpp"
        "${SOURCE_DIR}/${top}/*.hpp")
   list(APPEND sources ${found})
@@ -95,7 +98,13 @@ foreach(relative ${sources})
       continue()
     endif()
     rank_of(${header_layer} header_rank)
-    if(header_rank GREATER file_rank)
+    list(FIND siblings ${file_layer} file_sibling)
+    list(FIND siblings ${header_layer} header_sibling)
+    if(NOT file_sibling EQUAL -1 AND NOT header_sibling EQUAL -1
+       AND NOT file_layer STREQUAL header_layer)
+      string(APPEND violations
+             "${relative} (${file_layer}) includes ${header} (${header_layer}): a sibling layer\n")
+    elseif(header_rank GREATER file_rank)
       string(APPEND violations
              "${relative} (${file_layer}) includes ${header} (${header_layer}): points up\n")
     endif()

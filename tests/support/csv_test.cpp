@@ -13,7 +13,7 @@
 #include "imm/datasets/range_sensor_file.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/support/measurement_csv.hpp"
-#include "imm/trainer/import_rules.hpp"
+#include "imm/trainer/model_files/import_rules.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::support {

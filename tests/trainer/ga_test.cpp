@@ -12,7 +12,7 @@
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
 #include "imm/trainer/ga/memetic.hpp"
-#include "imm/trainer/import_rules.hpp"
+#include "imm/trainer/model_files/import_rules.hpp"
 #include "testing/regime_files.hpp"
 #include "testing/temp_dir.hpp"
 

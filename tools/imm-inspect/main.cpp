@@ -209,7 +209,7 @@ struct Inspector {
   }
 };
 
-// models/manifest.json (imm/trainer/registry.hpp) as tables: what is shipped, and its metrics.
+// models/manifest.json (imm/pipeline/registry.hpp) as tables: what is shipped, and its metrics.
 int print_manifest(const std::string& path) {
   std::ifstream in(path);
   if (!in) {

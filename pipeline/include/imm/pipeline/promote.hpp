@@ -14,9 +14,9 @@
 #include <filesystem>
 #include <string>
 
-#include "imm/trainer/registry.hpp"
+#include "imm/pipeline/registry.hpp"
 
-namespace imm::trainer {
+namespace imm::pipeline {
 
 struct PromoteOptions {
   std::filesystem::path file;                 ///< the model file to ship
@@ -29,4 +29,4 @@ struct PromoteOptions {
 /// is one; returns the new entry. Throws std::runtime_error (or io::FileError) saying why not.
 RegistryEntry promote_by_hand(const PromoteOptions& options);
 
-}  // namespace imm::trainer
+}  // namespace imm::pipeline

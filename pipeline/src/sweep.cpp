@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/trainer/sweep.hpp"
+#include "imm/pipeline/sweep.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -19,7 +19,7 @@
 #include "imm/support/config.hpp"
 #include "imm/trainer/ranks.hpp"
 
-namespace imm::trainer {
+namespace imm::pipeline {
 namespace {
 
 const std::vector<std::string>& kinds() {
@@ -226,8 +226,8 @@ SweepPlan load_sweep_plan(const std::filesystem::path& path) {
 std::vector<SweepOutcome> run_sweep(
     const SweepPlan& plan, const SweepTraining& train,
     const std::function<void(const SweepJob&, const SweepOutcome&)>& on_done) {
-  const Ranks& ranks = Ranks::world();
-  JobQueue queue(ranks, static_cast<long>(plan.jobs.size()));
+  const trainer::Ranks& ranks = trainer::Ranks::world();
+  trainer::JobQueue queue(ranks, static_cast<long>(plan.jobs.size()));
   long job = -1;
   std::string result;
   while ((job = queue.next(job, result)) >= 0) {
@@ -237,7 +237,7 @@ std::vector<SweepOutcome> run_sweep(
     const auto start = std::chrono::steady_clock::now();
     try {
       // The job trains by itself: a GA inside it spreads over this rank's threads only.
-      const AloneInTheJob alone;
+      const trainer::AloneInTheJob alone;
       const std::optional<OutputToLog> logged =
           current.log ? std::optional<OutputToLog>(std::in_place, *current.log) : std::nullopt;
       outcome.exit_code = train(current);
@@ -280,4 +280,4 @@ nlohmann::json sweep_summary(const SweepPlan& plan, const std::vector<SweepOutco
   return {{"plan", plan.file.string()}, {"ranks", ranks}, {"seconds", seconds}, {"jobs", jobs}};
 }
 
-}  // namespace imm::trainer
+}  // namespace imm::pipeline

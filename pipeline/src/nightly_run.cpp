@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // The nightly run: stages, the candidate → evaluation → regression → promotion path of each
-// model, the stage cache, and the exit code (see imm/trainer/nightly.hpp).
+// model, the stage cache, and the exit code (see imm/pipeline/nightly.hpp).
 
 #include <fcntl.h>
 #include <sys/file.h>
@@ -20,13 +20,13 @@
 
 #include "imm/datasets/sha256.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/pipeline/nightly.hpp"
+#include "imm/pipeline/registry.hpp"
 #include "imm/support/exit_codes.hpp"
 #include "imm/support/process.hpp"
-#include "imm/trainer/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
-#include "imm/trainer/registry.hpp"
 
-namespace imm::trainer {
+namespace imm::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
@@ -179,7 +179,7 @@ class StageCache {
   explicit StageCache(fs::path path) : path_(std::move(path)) {
     if (!fs::exists(path_)) return;
     try {
-      const auto document = nlohmann::json::parse(read_text_file(path_));
+      const auto document = nlohmann::json::parse(trainer::read_text_file(path_));
       for (const auto& [key, r] : document.at("stages").items()) {
         CacheRecord record;
         record.inputs = r.at("inputs").get<std::string>();
@@ -255,7 +255,7 @@ class StageCache {
                      {"wall_seconds", r.outcome.wall_seconds},
                      {"outputs", r.outputs}};
     }
-    write_json_atomically(path_, {{"stages", stages}});
+    trainer::write_json_atomically(path_, {{"stages", stages}});
   }
 
   fs::path path_;
@@ -321,7 +321,9 @@ class Night {
     result.report_folder = folder_;
     bool failed = false, held_back = false;
     for (const auto& o : outcomes_) failed |= o.failed, held_back |= o.held_back;
-    result.exit_code = failed ? kNightlyStageFailed : held_back ? kNightlyHeldBack : 0;
+    result.exit_code = failed      ? support::exit_code::kJobFailed
+                       : held_back ? support::exit_code::kRegression
+                                   : 0;
     result.wall_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
@@ -470,7 +472,7 @@ class Night {
     std::size_t reported = 0;
     int ranks = 0;
     try {
-      const auto document = nlohmann::json::parse(read_text_file(summary));
+      const auto document = nlohmann::json::parse(trainer::read_text_file(summary));
       ranks = document.at("ranks").get<int>();
       for (const auto& job : document.at("jobs")) {
         pretrained_[job.at("name").get<std::string>()] = {job.at("exit_code").get<int>(),
@@ -487,7 +489,7 @@ class Night {
     const std::string candidates =
         std::to_string(stages.size()) + " candidate" + (stages.size() == 1 ? "" : "s");
     const std::string how = "`" + command_line(executable, arguments) + "`";
-    if (code == 0 || (code == kNightlyStageFailed && reported == stages.size())) {
+    if (code == 0 || (code == support::exit_code::kJobFailed && reported == stages.size())) {
       text << candidates << " trained in one sweep over " << ranks << " rank"
            << (ranks == 1 ? "" : "s") << " in " << seconds << " s (" << how << ")";
     } else {
@@ -660,11 +662,11 @@ class Night {
       entry.file = stage.out.lexically_relative(plan_.registry).generic_string();
       entry.inputs_digest = inputs;
       entry.metrics = headline_metrics(evaluations);
-      registry_.promote(entry, staging, metrics_path(staging));
+      registry_.promote(entry, staging, trainer::metrics_path(staging));
       model.status = had_entry ? "promoted" : "promoted (first in the manifest)";
       model.message = comparisons.empty() ? "" : join(comparisons);
       fs::remove(staging);
-      fs::remove(metrics_path(staging));
+      fs::remove(trainer::metrics_path(staging));
     } catch (const std::exception& error) {
       model.failed = true;
       model.status = "failed";
@@ -708,10 +710,11 @@ class Night {
     for (const NightlyStage* e : evaluations) {
       const fs::path headline = e->out / "headline.json";
       if (!fs::exists(headline)) continue;
-      const auto document = nlohmann::json::parse(read_text_file(headline));
+      const auto document = nlohmann::json::parse(trainer::read_text_file(headline));
       std::map<std::string, nlohmann::json> versus;
       if (fs::exists(e->out / "regression.json")) {
-        const auto regression = nlohmann::json::parse(read_text_file(e->out / "regression.json"));
+        const auto regression =
+            nlohmann::json::parse(trainer::read_text_file(e->out / "regression.json"));
         for (const auto& m : regression.at("metrics")) versus[m.at("name")] = m;
       }
       for (const auto& m : document.at("metrics")) {
@@ -760,4 +763,4 @@ NightlyResult run_nightly(const NightlyPlan& plan, const NightlyOptions& options
   return result;
 }
 
-}  // namespace imm::trainer
+}  // namespace imm::pipeline

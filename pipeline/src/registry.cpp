@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/trainer/registry.hpp"
+#include "imm/pipeline/registry.hpp"
 
 #include <unistd.h>
 
@@ -10,7 +10,7 @@
 #include "imm/io/model_file.hpp"
 #include "imm/trainer/provenance.hpp"
 
-namespace imm::trainer {
+namespace imm::pipeline {
 namespace {
 
 constexpr int kManifestVersion = 1;
@@ -72,7 +72,7 @@ RegistryEntry from_json(const nlohmann::json& j, const std::string& where) {
 
 // Copies `from` to `to` through a temporary file beside `to` and a rename.
 void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to) {
-  ensure_parent_folder(to);
+  trainer::ensure_parent_folder(to);
   std::string temp_name = ".";
   temp_name.append(to.filename().string()).append(".tmp-").append(std::to_string(::getpid()));
   const auto temp = to.parent_path() / temp_name;
@@ -81,7 +81,7 @@ void copy_atomically(const std::filesystem::path& from, const std::filesystem::p
 }
 
 std::filesystem::path metrics_beside(const std::filesystem::path& model) {
-  return metrics_path(model);
+  return trainer::metrics_path(model);
 }
 
 }  // namespace
@@ -142,7 +142,7 @@ void Registry::load() {
   if (!std::filesystem::exists(path)) return;
   nlohmann::json document;
   try {
-    document = nlohmann::json::parse(read_text_file(path));
+    document = nlohmann::json::parse(trainer::read_text_file(path));
   } catch (const nlohmann::json::exception& error) {
     throw std::runtime_error(path.string() + ": not JSON (" + error.what() + ")");
   }
@@ -166,7 +166,7 @@ void Registry::save() const {
   nlohmann::json document = {{"manifest_version", kManifestVersion},
                              {"models", nlohmann::json::array()}};
   for (const RegistryEntry& e : entries_) document["models"].push_back(to_json(e));
-  write_json_atomically(manifest_path(), document);
+  trainer::write_json_atomically(manifest_path(), document);
 }
 
 void Registry::archive(const std::filesystem::path& file, const std::string& sha256) const {
@@ -270,4 +270,4 @@ RegistryEntry Registry::rollback(const std::string& name) {
   return *it;
 }
 
-}  // namespace imm::trainer
+}  // namespace imm::pipeline

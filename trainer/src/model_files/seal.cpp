@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/trainer/seal.hpp"
+#include "imm/trainer/model_files/seal.hpp"
 
 #include <unistd.h>
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/trainer/freeze.hpp"
+#include "imm/trainer/model_files/freeze.hpp"
 
 #include <chrono>
 #include <cmath>

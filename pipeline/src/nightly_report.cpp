@@ -8,10 +8,10 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "imm/trainer/nightly.hpp"
+#include "imm/pipeline/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
 
-namespace imm::trainer {
+namespace imm::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
@@ -288,4 +288,4 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
   fs::rename(temp_link, latest);
 }
 
-}  // namespace imm::trainer
+}  // namespace imm::pipeline

@@ -1,13 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/trainer/promote.hpp"
+#include "imm/pipeline/promote.hpp"
 
 #include <stdexcept>
 
 #include "imm/io/file_error.hpp"
+#include "imm/trainer/model_files/seal.hpp"
 #include "imm/trainer/provenance.hpp"
-#include "imm/trainer/seal.hpp"
 
-namespace imm::trainer {
+namespace imm::pipeline {
 
 RegistryEntry promote_by_hand(const PromoteOptions& options) {
   if (options.reason.find_first_not_of(" \t\n") == std::string::npos) {
@@ -16,7 +16,7 @@ RegistryEntry promote_by_hand(const PromoteOptions& options) {
   if (!std::filesystem::is_regular_file(options.file)) {
     throw io::FileError(options.file.string(), "", "no such model file");
   }
-  (void)check_model_file(options.file);
+  (void)trainer::check_model_file(options.file);
   RegistryEntry entry = describe_model(options.file, options.registry, options.name);
   if (from_uncommitted_code(entry)) {
     throw std::runtime_error(
@@ -36,10 +36,10 @@ RegistryEntry promote_by_hand(const PromoteOptions& options) {
     entry.file = options.name + ".h5";
   }
   entry.promotion_reason = options.reason;
-  const auto metrics = metrics_path(options.file);
+  const auto metrics = trainer::metrics_path(options.file);
   registry.promote(entry, options.file,
                    std::filesystem::exists(metrics) ? std::optional(metrics) : std::nullopt);
   return *registry.find(options.name);
 }
 
-}  // namespace imm::trainer
+}  // namespace imm::pipeline

@@ -6,7 +6,7 @@
 ///
 /// A model stage trains a *candidate* into the registry's staging folder (never over the shipped
 /// file), evaluates it with every evaluation that names it, evaluates the shipped model of the
-/// same name on the same test tracks, and promotes the candidate (imm/trainer/registry.hpp) only
+/// same name on the same test tracks, and promotes the candidate (imm/pipeline/registry.hpp) only
 /// when its own quality gates pass and it is not worse than the shipped one beyond the Monte
 /// Carlo uncertainty on the experiment's headline metrics (`imm-eval regression`). A failing
 /// stage does not stop the stages after it. A stage whose inputs (tool binaries, arguments, the
@@ -35,10 +35,7 @@
 #include <string>
 #include <vector>
 
-namespace imm::trainer {
-
-inline constexpr int kNightlyStageFailed = 3;
-inline constexpr int kNightlyHeldBack = 6;
+namespace imm::pipeline {
 
 struct NightlyStage {
   std::string kind;        ///< "data", "model", "track", "evaluation"
@@ -115,4 +112,4 @@ NightlyResult run_nightly(const NightlyPlan& plan, const NightlyOptions& options
 void write_morning_report(const std::filesystem::path& folder, const NightlyPlan& plan,
                           const NightlyResult& result);
 
-}  // namespace imm::trainer
+}  // namespace imm::pipeline

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-namespace imm::trainer {
+namespace imm::pipeline {
 
 struct RegistryEntry {
   std::string name;  ///< the nightly stage's name, e.g. "ga_fuzzy_imm_agile_air"
@@ -93,4 +93,4 @@ class Registry {
   std::vector<RegistryEntry> entries_;
 };
 
-}  // namespace imm::trainer
+}  // namespace imm::pipeline

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/trainer/import_rules.hpp"
+#include "imm/trainer/model_files/import_rules.hpp"
 
 #include <array>
 #include <cmath>

@@ -7,7 +7,7 @@
 //                         [--seed N] [--out reports/<experiment>/]
 //
 // experiments: plain-imm, ga-imm, input-estimator, wimm, fcm-imm, fimm (one file each under
-// tools/imm-eval/src/; `imm-eval <experiment> --help` lists its own options). Without --regime the
+// evaluation/src/; `imm-eval <experiment> --help` lists its own options). Without --regime the
 // model is evaluated on the regime recorded in it.
 //
 // Every experiment writes metrics.json in one shape and report.md (evaluation_report.hpp), and

@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/trainer/nightly.hpp"
+#include "imm/pipeline/nightly.hpp"
 
 #include <algorithm>
 #include <stdexcept>
 
 #include "imm/support/config.hpp"
 
-namespace imm::trainer {
+namespace imm::pipeline {
 namespace {
 
 void add_folder_of(NightlyStage& stage, const std::string& path, bool path_is_folder = false) {
@@ -147,4 +147,4 @@ NightlyPlan load_nightly_plan(const std::filesystem::path& path) {
   return document->load_checked([&] { return plan_from(document->root()); });
 }
 
-}  // namespace imm::trainer
+}  // namespace imm::pipeline

@@ -37,7 +37,7 @@
 #include <string>
 #include <vector>
 
-namespace imm::trainer {
+namespace imm::pipeline {
 
 struct SweepJob {
   std::string name;  ///< "ga seed 3, regime agile_air": how the summary names it
@@ -82,4 +82,4 @@ using SweepTraining = std::function<int(const SweepJob&)>;
                                            const std::vector<SweepOutcome>& outcomes, int ranks,
                                            double seconds);
 
-}  // namespace imm::trainer
+}  // namespace imm::pipeline

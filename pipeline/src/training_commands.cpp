@@ -1,0 +1,382 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/pipeline/training_commands.hpp"
+
+#include <omp.h>
+#include <spdlog/fmt/ranges.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <set>
+#include <stdexcept>
+
+#include "imm/datasets/random.hpp"
+#include "imm/support/cli.hpp"
+#include "imm/support/config.hpp"
+#include "imm/support/exit_codes.hpp"
+#include "imm/trainer/fcm/fcm_trainer.hpp"
+#include "imm/trainer/ga/ga_trainer.hpp"
+#include "imm/trainer/mlp/mlp_trainer.hpp"
+#include "imm/trainer/provenance.hpp"
+#include "imm/trainer/ranks.hpp"
+#include "imm/trainer/temporaries_guard.hpp"
+#include "imm/trainer/tsk/tsk_trainer.hpp"
+#include "imm/trainer/wimm/wimm_trainer.hpp"
+
+namespace imm::pipeline {
+namespace {
+
+namespace exit_code = support::exit_code;
+
+CLI::App* add_train_command(CLI::App& app, const std::string& name, const std::string& about,
+                            TrainCommand& command) {
+  auto* sub = app.add_subcommand(name, about);
+  sub->add_option("--config", command.config, "training config TOML");
+  sub->add_option("--regime", command.regime, "regime TOML to train for (replaces the config's)");
+  sub->add_option("--out", command.out, "model file to write");
+  sub->add_option("--seed", command.seed, "override the config's seed");
+  return sub;
+}
+
+int run_ga(const GaCommand& command) {
+  namespace ga = trainer::ga;
+  ga::GaTrainingConfig config = ga::load_ga_config(command.config, command.regime);
+  if (command.seed) config.seed = *command.seed;
+  if (command.threads > 0) omp_set_num_threads(command.threads);
+  const std::size_t levels = config.levels.size();
+  const int generations = config.ga.generations;
+  spdlog::info("ga: regime {}, levels [{}] {}, population {}, {} generations, seed {}, {} threads",
+               config.regime.name, fmt::join(config.levels, ", "),
+               datasets::to_string(config.regime.units) == "km" ? "km/s²" : "m/s²",
+               config.ga.population, generations, config.seed, omp_get_max_threads());
+
+  ga::GaObserver observer;
+  observer.on_resume = [&](std::size_t level, int generation) {
+    spdlog::info("resuming level {} at generation {} from {}", ga::level_name(config.levels[level]),
+                 generation, ga::checkpoint_path(command.out).string());
+  };
+  observer.on_generation = [&](std::size_t level, const ga::GenerationLog& log, double seconds) {
+    if (log.generation % 10 != 0 && log.generation != generations) return;
+    const double per_generation = log.generation > 0 ? seconds / log.generation : 0.0;
+    const double eta = per_generation * ((generations - log.generation) +
+                                         static_cast<double>(levels - level - 1) * generations);
+    spdlog::info(
+        "level {} [{}/{}] generation {:3}/{}: best fitness {:.5f} (error {:.4f}, {} rules), "
+        "mean {:.5f}, ETA {:.0f} s",
+        ga::level_name(config.levels[level]), level + 1, levels, log.generation, generations,
+        log.best_fitness, log.best_error, log.best_rules, log.mean_fitness, eta);
+  };
+  observer.on_level_done = [&](std::size_t, const ga::LevelResult& r) {
+    const std::string memetic =
+        r.memetic_evaluations > 0
+            ? fmt::format("fitness {:.5f} -> {:.5f} after memetic ({} evaluations)",
+                          r.before_memetic.fitness, r.training.fitness, r.memetic_evaluations)
+            : fmt::format("fitness {:.5f}", r.training.fitness);
+    spdlog::info(
+        "level {} done in {:.1f} s: {}, {} rules, training error {:.4f}, validation "
+        "error {:.4f}",
+        ga::level_name(r.maneuver_level), r.wall_seconds, memetic, r.training.rules,
+        r.training.error, r.validation.error);
+  };
+  const ga::GaTrainingResult result = ga::train_ga(config, {command.out, command.resume}, observer);
+  if (!result.gate_passed) {
+    spdlog::error("quality gate failed: {}; {} not written", result.gate_message,
+                  command.out.string());
+    return exit_code::kTrainingGateFailed;
+  }
+  spdlog::info("wrote {} and {} ({:.1f} s)", command.out.string(),
+               trainer::metrics_path(command.out).string(), result.wall_seconds);
+  const trainer::Ranks& ranks = trainer::Ranks::world();
+  if (ranks.distributed()) {
+    spdlog::info(
+        "{} ranks: the root sent {} bytes in {} messages to the others, {:.3f} s in "
+        "exchanges (waiting for the slowest rank included)",
+        ranks.size(), ranks.bytes_sent(), ranks.messages_sent(), ranks.exchange_seconds());
+  }
+  return 0;
+}
+
+int train_mlp(const TrainCommand& command) {
+  auto config = trainer::mlp::load_mlp_config(command.config, command.regime);
+  if (command.seed) {
+    config.seed = *command.seed;
+    config.training.seed = datasets::derive_seed(config.seed, 3);
+  }
+  int epochs = 0;
+  for (const auto& phase : config.training.phases) epochs += phase.epochs;
+  spdlog::info("mlp: regime {}, {} training and {} validation tracks, {} epochs, seed {}",
+               config.regime.name, config.regime.splits.training, config.regime.splits.validation,
+               epochs, config.seed);
+  const auto result = trainer::mlp::train_mlp(config, command.out);
+  const std::size_t step = std::max<std::size_t>(1, result.loss.size() / 8);
+  for (std::size_t i = 0; i < result.loss.size(); i += step) {
+    const auto& p = result.loss[i];
+    spdlog::info("epoch {:5}/{}: training MSE {:.4f}, validation MSE {:.4f} (m/s²)²", p.epoch,
+                 epochs, p.training, p.validation);
+  }
+  spdlog::info(
+      "trained in {:.2f} s (back-propagation {:.2f} s): RMSE {:.3f} / {:.3f} m/s² "
+      "(training / validation); no-maneuver output {:.3f} m/s² before, {:.3f} after "
+      "removing the trained bias",
+      result.wall_seconds, result.training_seconds, result.training_rmse, result.validation_rmse,
+      result.bias_before, result.bias_after);
+  if (!result.gate_passed) {
+    spdlog::error("quality gate failed: validation RMSE {:.3f} m/s² exceeds {:.3f}; {} not written",
+                  result.validation_rmse, config.max_validation_rmse, command.out.string());
+    return exit_code::kTrainingGateFailed;
+  }
+  spdlog::info("wrote {}", command.out.string());
+  return 0;
+}
+
+int train_wimm(const TrainCommand& command) {
+  auto config = trainer::wimm::load_wimm_config(command.config, command.regime);
+  if (command.seed) config.seed = *command.seed;
+  spdlog::info("wimm: tuning threshold and alpha on regime {}: {} training tracks of {} scans",
+               config.regime.name, config.regime.splits.training, config.regime.scans);
+  const auto result = trainer::wimm::train_wimm(config, command.out);
+  spdlog::info(
+      "threshold {:.4f}, alpha {:.4f}: settled azimuth RMSE x{:.4f}, position RMSE "
+      "x{:.4f} of the normal IMM on the training scenarios ({} evaluations, {:.1f} s); "
+      "wrote {}",
+      result.tuned.spec.threshold, result.tuned.spec.alpha, result.tuned.azimuth_ratio,
+      result.tuned.position_ratio, result.tuned.evaluations, result.wall_seconds,
+      command.out.string());
+  return 0;
+}
+
+int train_tsk(const TrainCommand& command, const std::filesystem::path& tsk_data) {
+  auto config = trainer::tsk::load_tsk_config(command.config, command.regime);
+  if (command.seed) config.seed = *command.seed;
+  const auto samples = tsk_data.empty() ? trainer::tsk::calibration_samples(config)
+                                        : trainer::tsk::load_sensor_samples(tsk_data, config);
+  spdlog::info(
+      "tsk: {} samples from {} ({:.0f} % held out), {} rules per output, t-norm {}, seed {}",
+      samples.data.positions.rows(), samples.source, 100.0 * config.validation_fraction,
+      config.fcrm.clusters, imm::to_string(config.t_norm), config.seed);
+  const auto result = trainer::tsk::train_tsk(config, samples, command.out);
+  spdlog::info("fitted in {:.2f} s", result.wall_seconds);
+  if (!result.gate_passed) {
+    spdlog::error("quality gate failed: a validation RMSE exceeds {:.3f} m; {} not written",
+                  config.max_validation_rmse, command.out.string());
+    return exit_code::kTrainingGateFailed;
+  }
+  spdlog::info("wrote {}", command.out.string());
+  return 0;
+}
+
+int train_fcm(const TrainCommand& command) {
+  auto config = trainer::fcm::load_fcm_config(command.config, command.regime);
+  if (command.seed) config.seed = *command.seed;
+  spdlog::info(
+      "fcm: regime {}: fitting on {} training tracks ({} held out, {} scans, seed {}), "
+      "windows {}",
+      config.regime.name, config.regime.splits.training, config.regime.splits.validation,
+      config.regime.scans, config.seed, fmt::join(config.tuning.windows, ", "));
+  const auto result = trainer::fcm::train_fcm(config, command.out);
+  const auto& s = result.spec;
+  spdlog::info(
+      "fitted: window {}, lambda {:.3f}, m {:.2f}, kappa {:.2f}, stay {:.4f}, q = {:.4g} "
+      "(m/s^2)^2; J = {:.4f} training, {:.4f} validation (lambda = 0 IMM {:.4f}, KF {:.4f}); "
+      "{} evaluations, {:.1f} s",
+      s.window, s.compensation_gain, s.clustering.fuzzifier, s.separation, s.transition(0, 0),
+      fmt::join(s.process_noise, ", "), result.training.objective, result.validation.objective,
+      result.imm_validation.objective, result.kf_validation.objective, result.evaluations,
+      result.wall_seconds);
+  if (!result.gate_passed) {
+    spdlog::error(
+        "quality gate failed: validation J {:.4f} exceeds {:.3f} x the tuned KF's "
+        "{:.4f}; {} not written",
+        result.validation.objective, config.max_validation_ratio, result.kf_validation.objective,
+        command.out.string());
+    return exit_code::kTrainingGateFailed;
+  }
+  spdlog::info("wrote {}", command.out.string());
+  return 0;
+}
+
+int run_freeze(const trainer::FreezeOptions& options) {
+  const auto summary = trainer::freeze_plain_imm(options);
+  spdlog::info("froze {} ({} modes, {}-state mixing space) into {} in {:.3f} s",
+               options.config.string(), summary.modes, summary.state_dimension,
+               options.out.string(), summary.wall_seconds);
+  return 0;
+}
+
+int run_import_rules(const trainer::ImportRulesOptions& options) {
+  const auto spec = trainer::import_rules(options);
+  std::size_t rules = 0;
+  for (const auto& level : spec.levels) rules += level.table.size();
+  spdlog::info("imported {} levels ({} rules) from {} into {}", spec.levels.size(), rules,
+               options.csv.string(), options.out.string());
+  return 0;
+}
+
+}  // namespace
+
+void log_as(int rank) {
+  if (rank == 0) {
+    spdlog::set_pattern("%Y-%m-%d %H:%M:%S.%e %^%l%$ %v");
+    spdlog::set_level(spdlog::level::info);
+  } else {
+    spdlog::set_pattern(fmt::format("%Y-%m-%d %H:%M:%S.%e [rank {}] %^%l%$ %v", rank));
+    spdlog::set_level(spdlog::level::warn);
+  }
+}
+
+TrainingCommands::TrainingCommands(CLI::App& app) {
+  freeze_ = app.add_subcommand("freeze", "write a plain-IMM TOML config as a plain_imm model file");
+  freeze_->add_option("--config", freeze_options_.config, "plain-IMM TOML")->required();
+  freeze_->add_option("--out", freeze_options_.out, "model file to write")->required();
+
+  ga_ = app.add_subcommand("ga", "learn the fuzzy rule tables of the GA-fuzzy IMM (seed 000)");
+  ga_->add_option("--config", ga_command_.config, "GA config TOML");
+  ga_->add_option("--regime", ga_command_.regime,
+                  "regime TOML to train for (replaces the config's)");
+  ga_->add_option("--out", ga_command_.out, "model file to write");
+  ga_->add_option("--seed", ga_command_.seed, "override the config's seed");
+  ga_->add_option("--threads", ga_command_.threads, "OpenMP threads (default: all cores)")
+      ->check(support::at_least(1));
+  ga_->add_flag("--resume", ga_command_.resume, "continue from the checkpoint beside --out");
+
+  import_ = app.add_subcommand(
+      "import-rules", "write published fuzzy rule tables (CSV) as a ga_fuzzy_imm model file");
+  import_->add_option("--csv", import_options_.csv, "rules: level,c1,sigma1,c2,sigma2,w")
+      ->required();
+  import_->add_option("--config", import_options_.config, "GA config whose [filter] applies")
+      ->required();
+  import_->add_option("--regime", import_options_.regime, "regime TOML (replaces the config's)");
+  import_->add_option("--out", import_options_.out, "model file to write")->required();
+
+  mlp_ = add_train_command(
+      app, "mlp", "train the neural input estimator (seed 001) by back-propagation", mlp_command_);
+  wimm_ = add_train_command(app, "wimm",
+                            "tune the weighted IMM's fusion threshold and weight (seed 004) on "
+                            "the regime's training split",
+                            wimm_command_);
+  fcm_ = add_train_command(app, "fcm",
+                           "fit the FCM-IMM's parameters (seed 003) on the regime's training split",
+                           fcm_command_);
+  tsk_ = add_train_command(
+      app, "tsk", "fit the probabilistic TSK model of a range sensor (seed 002): FCRM, then Ceres",
+      tsk_command_);
+  tsk_->add_option("--data", tsk_data_,
+                   "fit these samples (a range-sensor data set .h5 or a CSV xi,eta,z1,z2); they "
+                   "must be the sensor samples the regime names");
+}
+
+std::optional<std::filesystem::path> TrainingCommands::chosen_out() const {
+  for (const auto& [command, out] : outputs()) {
+    if (*command) return out;
+  }
+  return std::nullopt;
+}
+
+int TrainingCommands::run() const {
+  if (*ga_) return run_ga(ga_command_);
+  if (*freeze_) return run_freeze(freeze_options_);
+  if (*mlp_) return train_mlp(mlp_command_);
+  if (*wimm_) return train_wimm(wimm_command_);
+  if (*tsk_) return train_tsk(tsk_command_, tsk_data_);
+  if (*fcm_) return train_fcm(fcm_command_);
+  if (*import_) return run_import_rules(import_options_);
+  throw std::logic_error("no training subcommand was chosen");
+}
+
+std::vector<std::pair<const CLI::App*, std::filesystem::path>> TrainingCommands::outputs() const {
+  return {{ga_, ga_command_.out},        {freeze_, freeze_options_.out}, {mlp_, mlp_command_.out},
+          {wimm_, wimm_command_.out},    {fcm_, fcm_command_.out},       {tsk_, tsk_command_.out},
+          {import_, import_options_.out}};
+}
+
+void parse_job(CLI::App& app, const SweepJob& job) {
+  app.require_subcommand(1);
+  std::vector<std::string> reversed(job.arguments.rbegin(), job.arguments.rend());
+  app.parse(reversed);  // CLI11 takes a vector in reverse order
+}
+
+int train_job(const SweepJob& job, int real_rank) {
+  CLI::App app{"imm-train"};
+  const TrainingCommands training(app);
+  try {
+    parse_job(app, job);
+  } catch (const CLI::ParseError& error) {
+    throw std::invalid_argument(job.name + ": " + error.what());
+  }
+  if (!job.log) return training.run();
+  log_as(0);
+  try {
+    const int code = training.run();
+    log_as(real_rank);
+    return code;
+  } catch (const std::exception& error) {
+    spdlog::error("{}", error.what());  // into the job's log, as its subcommand would
+    log_as(real_rank);
+    throw;
+  } catch (...) {
+    log_as(real_rank);
+    throw;
+  }
+}
+
+int run_sweep_command(const std::filesystem::path& plan_file,
+                      const std::optional<std::filesystem::path>& summary) {
+  const trainer::Ranks& ranks = trainer::Ranks::world();
+  const auto plan = load_sweep_plan(plan_file);
+  // Every job's arguments must be its subcommand's command line before anything trains.
+  for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
+    CLI::App app{"imm-train"};
+    const TrainingCommands training(app);
+    try {
+      parse_job(app, plan.jobs[i]);
+    } catch (const CLI::ParseError& error) {
+      throw support::ConfigError(plan_file.string(), "jobs",
+                                 fmt::format("'{}' is not an imm-train command line: {}",
+                                             plan.jobs[i].name, error.what()));
+    }
+  }
+  // One temporaries guard for every output folder of the plan (see temporaries_guard.hpp).
+  std::set<std::filesystem::path> folders;
+  for (const auto& job : plan.jobs) {
+    folders.insert(job.out.parent_path().empty() ? "." : job.out.parent_path());
+  }
+  trainer::guard_temporaries({folders.begin(), folders.end()});
+  spdlog::info("sweep {}: {} trainings over {} rank{}", plan_file.string(), plan.jobs.size(),
+               ranks.size(), ranks.size() == 1 ? "" : "s");
+  const auto start = std::chrono::steady_clock::now();
+  const int rank = ranks.rank();
+  const auto outcomes = run_sweep(
+      plan, [rank](const SweepJob& job) { return train_job(job, rank); },
+      [&](const SweepJob& job, const SweepOutcome& o) {
+        if (o.exit_code != 0) {
+          spdlog::warn("sweep: {} failed on rank {}: {}", job.name, o.rank, o.message);
+        }
+      });
+  if (!ranks.root()) return 0;
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::vector<std::string> failed;
+  for (std::size_t i = 0; i < outcomes.size(); ++i) {
+    const auto& o = outcomes[i];
+    const auto& job = plan.jobs[i];
+    if (o.exit_code == 0) {
+      spdlog::info("sweep: {} -> {} (rank {}, {:.1f} s)", job.name, job.out.string(), o.rank,
+                   o.seconds);
+    } else {
+      spdlog::error("sweep: {} FAILED (rank {}, {:.1f} s): {}{}", job.name, o.rank, o.seconds,
+                    o.message, job.log ? " (log " + job.log->string() + ".err)" : "");
+      failed.push_back(job.name);
+    }
+  }
+  if (summary) {
+    trainer::write_json_atomically(*summary, sweep_summary(plan, outcomes, ranks.size(), seconds));
+  }
+  if (!failed.empty()) {
+    spdlog::error("sweep: {} of {} trainings failed in {:.1f} s: {}", failed.size(),
+                  outcomes.size(), seconds, fmt::join(failed, "; "));
+    return exit_code::kJobFailed;
+  }
+  spdlog::info("sweep: {} trainings in {:.1f} s", outcomes.size(), seconds);
+  return 0;
+}
+
+}  // namespace imm::pipeline

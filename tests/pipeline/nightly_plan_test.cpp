@@ -1,0 +1,100 @@
+// SPDX-License-Identifier: Apache-2.0
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "imm/pipeline/nightly.hpp"
+#include "imm/support/config.hpp"
+#include "testing/config_error.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm::pipeline {
+namespace {
+
+TEST(Nightly, PlanListsStagesInPipelineOrder) {
+  const NightlyPlan plan = load_nightly_plan("configs/nightly.toml");
+  ASSERT_GE(plan.stages.size(), 4u);
+  std::vector<std::string> kinds;
+  for (const auto& stage : plan.stages) kinds.push_back(stage.kind);
+  EXPECT_TRUE(std::is_sorted(kinds.begin(), kinds.end(), [](const auto& a, const auto& b) {
+    auto rank = [](const std::string& k) {
+      return k == "data" ? 0 : k == "model" ? 1 : k == "track" ? 2 : 3;
+    };
+    return rank(a) < rank(b);
+  }));
+  EXPECT_EQ(plan.stages.front().executable, "imm-data");
+}
+
+TEST(Nightly, UnknownKeyInThePlanIsAnError) {
+  const testing::TempDir dir;
+  testing::write_text(
+      dir / "n.toml",
+      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\nout = \"models/o\"\n"
+      "threads = 2\n");
+  try {
+    (void)load_nightly_plan(dir / "n.toml");
+    FAIL();
+  } catch (const support::ConfigError& error) {
+    EXPECT_EQ(error.key(), "models[0].threads");
+  }
+}
+
+TEST(Nightly, AnEvaluationMustNameAModelStage) {
+  const testing::TempDir dir;
+  testing::write_text(dir / "n.toml",
+                      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\n"
+                      "out = \"models/a.h5\"\n[[evaluations]]\nexperiment = \"plain-imm\"\n"
+                      "model = \"b\"\nout = \"r/\"\n");
+  try {
+    (void)load_nightly_plan(dir / "n.toml");
+    FAIL();
+  } catch (const support::ConfigError& error) {
+    EXPECT_EQ(error.key(), "evaluations[0].model");
+  }
+}
+
+TEST(Nightly, AModelMustBeWrittenInsideTheRegistry) {
+  const testing::TempDir dir;
+  testing::write_text(dir / "n.toml",
+                      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\n"
+                      "out = \"elsewhere/a.h5\"\n");
+  try {
+    (void)load_nightly_plan(dir / "n.toml");
+    FAIL();
+  } catch (const support::ConfigError& error) {
+    EXPECT_EQ(error.key(), "models[0].out");
+  }
+}
+
+TEST(Nightly, EvaluationsFollowTheirModel) {
+  const NightlyPlan plan = load_nightly_plan("configs/nightly.toml");
+  for (const auto& stage : plan.stages) {
+    if (stage.kind != "model") continue;
+    for (const NightlyStage* e : plan.evaluations_of(stage.name)) {
+      ASSERT_TRUE(e->model_argument.has_value());
+      EXPECT_EQ(e->arguments[*e->model_argument], stage.out.string());
+    }
+  }
+}
+
+// The morning report shows the last `make bench` medians and flags the ones > 10 % slower.
+TEST(Nightly, MorningReportShowsBenchmarksAndFlagsSlowdowns) {
+  testing::TempDir dir;
+  const auto bench = dir.path() / "reports" / "bench";
+  std::filesystem::create_directories(bench);
+  std::ofstream(bench / "latest.json") << R"({"generated": "2026-11-23T01:00:00Z",
+    "previous_run": "2026-11-22T01:00:00Z", "benchmarks": [
+    {"name": "BM_W1_PlainImmStep", "median": 560.0, "unit": "ns", "previous": 500.0,
+     "change": 0.12, "slower": true},
+    {"name": "BM_W3_FuzzyCMeans1d", "median": 0.57, "unit": "ms", "previous": 0.58,
+     "change": -0.017, "slower": false}]})";
+  const auto night = dir.path() / "reports" / "nightly" / "2026-11-23";
+  write_morning_report(night, NightlyPlan{}, NightlyResult{});
+  std::ifstream in(night / "index.md");
+  const std::string md((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(md.find("| BM_W1_PlainImmStep | 560 ns | 500 ns | +12 % ⚠ |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| BM_W3_FuzzyCMeans1d | 0.57 ms | 0.58 ms | -2 % |"), std::string::npos) << md;
+}
+
+}  // namespace
+}  // namespace imm::pipeline

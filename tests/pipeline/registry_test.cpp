@@ -1,0 +1,122 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/pipeline/registry.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "imm/datasets/sha256.hpp"
+#include "imm/io/plain_imm_file.hpp"
+#include "imm/pipeline/promote.hpp"
+#include "imm/trainer/model_files/freeze.hpp"
+#include "imm/trainer/provenance.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm::pipeline {
+namespace {
+using trainer::freeze_plain_imm;
+using trainer::read_text_file;
+
+std::string bytes_of(const std::filesystem::path& path) { return testing::slurp_text(path); }
+
+// A process killed between the manifest's rename (the commit point) and the shipped file's
+// rename leaves the new manifest beside the old file; the next registry operation (every nightly
+// starts with repair()) makes the file the manifest's, byte for byte, from the archive.
+TEST(Registry, RepairMakesTheShippedFilesTheManifests) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  const auto first = dir / "first.h5", second = dir / "second.h5";
+  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", first, {}});
+  testing::write_text(dir / "cv3.toml", "# another text, the same filter\n" +
+                                            read_text_file("configs/track/cv3_imm.toml"));
+  (void)freeze_plain_imm({dir / "cv3.toml", second, {}});
+  ASSERT_NE(bytes_of(first), bytes_of(second));
+  std::filesystem::create_directories(models);
+  {
+    Registry registry(models);
+    RegistryEntry entry = describe_model(first, dir.path(), "cv3");
+    entry.file = "cv3.h5";
+    registry.promote(entry, first);
+    entry = describe_model(second, dir.path(), "cv3");
+    entry.file = "cv3.h5";
+    registry.promote(entry, second);
+    EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(second));
+    ASSERT_EQ(registry.find("cv3")->history.size(), 1u);
+  }
+  // The crash: the manifest names the second model, the old bytes are still shipped.
+  std::filesystem::copy_file(first, models / "cv3.h5",
+                             std::filesystem::copy_options::overwrite_existing);
+  Registry registry(models);
+  EXPECT_EQ(registry.repair(), std::vector<std::string>{"cv3.h5"});
+  EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(second));
+  EXPECT_TRUE(registry.repair().empty());
+  // Rollback restores the first byte for byte, and the manifest says so after a reload.
+  (void)registry.rollback("cv3");
+  EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(first));
+  EXPECT_EQ(Registry(models).find("cv3")->sha256, datasets::file_sha256_hex(first));
+}
+
+// The plain IMM of configs/track/cv3_imm.toml written with the given trainer version.
+void write_cv3_stamped(const std::filesystem::path& out, const std::string& trainer_version,
+                       const testing::TempDir& dir) {
+  const auto frozen = dir / "frozen.h5";
+  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", frozen, {}});
+  const io::ModelFileReader reader(frozen);
+  io::Provenance provenance = reader.provenance();
+  provenance.trainer_version = trainer_version;
+  io::ModelFileWriter writer(out, provenance);
+  io::write_plain_imm(writer, io::read_plain_imm(reader));
+  writer.commit();
+}
+
+// imm-train promote: a deliberate promotion past the gates ships the file with its reason in the
+// manifest; a file from uncommitted code, an empty reason or a file that does not read are refused
+// and leave the registry as it was.
+TEST(Registry, PromotionByHandRecordsItsReasonAndRefusesUncommittedCode) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  std::filesystem::create_directories(models);
+  const auto clean = dir / "clean.h5", dirty = dir / "dirty.h5";
+  write_cv3_stamped(clean, "f92683f", dir);
+  write_cv3_stamped(dirty, "f92683f-dirty", dir);
+
+  const auto refused = [&](const PromoteOptions& options, const std::string& expected) {
+    try {
+      (void)promote_by_hand(options);
+      ADD_FAILURE() << "promoted " << options.file;
+    } catch (const std::exception& error) {
+      EXPECT_NE(std::string(error.what()).find(expected), std::string::npos) << error.what();
+    }
+    EXPECT_FALSE(std::filesystem::exists(models / "cv3.h5"));
+  };
+  refused({dirty, "cv3", "schema 2", models}, "uncommitted code");
+  refused({clean, "cv3", "  ", models}, "--reason");
+  testing::write_text(dir / "broken.h5", "not a model");
+  refused({dir / "broken.h5", "cv3", "schema 2", models}, "broken.h5");
+
+  const RegistryEntry entry = promote_by_hand({clean, "cv3", "schema 2 rewrite", models});
+  EXPECT_EQ(entry.file, "cv3.h5");
+  EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(clean));
+  const Registry reloaded(models);
+  ASSERT_NE(reloaded.find("cv3"), nullptr);
+  EXPECT_EQ(reloaded.find("cv3")->promotion_reason, "schema 2 rewrite");
+  EXPECT_EQ(reloaded.find("cv3")->trainer_version, "f92683f");
+}
+
+TEST(Registry, AHostileManifestIsRefusedNamingTheField) {
+  const testing::TempDir dir;
+  testing::write_text(dir / "manifest.json",
+                      R"({"manifest_version": 1, "models": [{"name": "a", "kind": "plain_imm",
+                      "regime": {"name": "", "digest": ""}, "file": "../../etc/passwd",
+                      "sha256": "x", "schema_version": 1, "trainer_version": "v",
+                      "config_digest": "", "trained_utc": ""}]})");
+  try {
+    Registry registry(dir.path());
+    FAIL();
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("models[0]: file"), std::string::npos) << error.what();
+  }
+}
+
+}  // namespace
+}  // namespace imm::pipeline
