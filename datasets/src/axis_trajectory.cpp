@@ -3,7 +3,7 @@
 
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/track.hpp"
-#include "imm/models/constant_velocity.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
 
 namespace imm::datasets {
 

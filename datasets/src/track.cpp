@@ -8,8 +8,8 @@
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/sha256.hpp"
 #include "imm/math/angle.hpp"
-#include "imm/models/constant_velocity.hpp"
-#include "imm/models/polar_measurement.hpp"
+#include "imm/models/measurement/polar_measurement.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
 
 namespace imm::datasets {
 namespace {

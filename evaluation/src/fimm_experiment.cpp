@@ -171,7 +171,7 @@ Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
 int run(const FimmOptions& options) {
   const std::filesystem::path model_path = options.common.model_path();
   const io::ModelFileReader reader(model_path, io::kTskSensorKind);
-  const auto sensor_model = std::make_shared<const TskModel>(io::read_tsk_sensor(model_path));
+  const auto sensor_model = std::make_shared<const TskSensorModel>(io::read_tsk_sensor(model_path));
   const EvaluationRegimes regimes =
       evaluation_regimes(options.common, reader.provenance(), model_path);
   const datasets::Regime& regime = regimes.evaluated.regime;

@@ -15,8 +15,8 @@
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
 #include "imm/evaluation/report.hpp"
-#include "imm/filters/tracker.hpp"
 #include "imm/io/plain_imm_file.hpp"
+#include "imm/tracking/tracker.hpp"
 #include "imm/trainer/provenance.hpp"
 
 namespace imm::evaluation {

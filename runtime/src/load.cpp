@@ -7,8 +7,8 @@
 #include "imm/filters/fcm_imm.hpp"
 #include "imm/filters/fimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
-#include "imm/filters/input_estimation_filter.hpp"
-#include "imm/filters/weighted_imm.hpp"
+#include "imm/filters/mlp_input_estimator.hpp"
+#include "imm/filters/wimm.hpp"
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
@@ -34,14 +34,14 @@ LoadedFilter load(const io::ModelFileReader& reader, std::int64_t max_gap) {
   } else if (kind == io::kGaFuzzyImmKind) {
     build(loaded, io::read_ga_fuzzy_imm(reader), max_gap, make_ga_fuzzy_imm_filter);
   } else if (kind == io::kMlpInputEstimatorKind) {
-    build(loaded, io::read_mlp_input_estimator(reader), max_gap, make_input_estimation_filter);
+    build(loaded, io::read_mlp_input_estimator(reader), max_gap, make_mlp_input_estimator_filter);
   } else if (kind == io::kFcmImmKind) {
     build(loaded, io::read_fcm_imm(reader), max_gap, make_fcm_imm_filter);
   } else if (kind == io::kWimmKind) {
     build(loaded, io::read_wimm(reader), max_gap,
-          [](const WimmSpec& spec) { return std::make_unique<WeightedImmFilter>(spec); });
+          [](const WimmSpec& spec) { return std::make_unique<WimmFilter>(spec); });
   } else if (kind == io::kTskSensorKind) {
-    auto sensor = std::make_shared<const TskModel>(io::read_tsk_sensor(reader));
+    auto sensor = std::make_shared<const TskSensorModel>(io::read_tsk_sensor(reader));
     const std::optional<FimmSpec> fimm = io::read_fimm_settings(reader);
     if (!fimm) {
       reader.fail("/fimm",

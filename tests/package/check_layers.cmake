@@ -24,7 +24,8 @@ set(layer_includes
   trainer    "trainer/include"
   evaluation "evaluation/include"
   pipeline   "pipeline/include")
-set(generated_headers "imm/version.hpp" runtime "imm/build_info.hpp" support)
+set(generated_headers "imm/version.hpp" runtime "imm/runtime_export.hpp" runtime
+  "imm/build_info.hpp" support)
 # Rank of each layer; evaluation and pipeline share one and may not include each other.
 set(order runtime support datasets trainer evaluation pipeline tools)
 set(siblings evaluation pipeline)

@@ -13,20 +13,20 @@
 #include <memory>
 #include <new>
 
+#include "imm/estimation/imm_estimator.hpp"
+#include "imm/estimation/kalman_mode.hpp"
 #include "imm/filters/aimm.hpp"
 #include "imm/filters/fcm_imm.hpp"
 #include "imm/filters/fimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
-#include "imm/filters/imm_estimator.hpp"
-#include "imm/filters/input_estimation_filter.hpp"
-#include "imm/filters/kalman_mode.hpp"
+#include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/filters/plain_imm.hpp"
-#include "imm/filters/track_bank.hpp"
-#include "imm/filters/weighted_imm.hpp"
-#include "imm/models/constant_velocity.hpp"
-#include "imm/models/polar_measurement.hpp"
-#include "imm/models/position_measurement.hpp"
-#include "imm/models/singer.hpp"
+#include "imm/filters/wimm.hpp"
+#include "imm/models/measurement/polar_measurement.hpp"
+#include "imm/models/measurement/position_measurement.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
+#include "imm/models/motion/singer.hpp"
+#include "imm/tracking/track_bank.hpp"
 #include "testing/specs.hpp"
 
 namespace {
@@ -163,7 +163,7 @@ TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
     wimm.fusion = fusion;
     wimm.range_sigma = 0.05;  // km-scale plots of this loop
     wimm.azimuth_sigma = 0.01;
-    filters.push_back(std::make_unique<WeightedImmFilter>(wimm));
+    filters.push_back(std::make_unique<WimmFilter>(wimm));
   }
   for (auto& filter : filters) {
     const int n = filter->state_dimension();
@@ -179,14 +179,14 @@ TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
   }
 }
 
-TEST(AllocationFreeStep, InputEstimationFilterStep) {
-  InputEstimatorModel model;
+TEST(AllocationFreeStep, MlpInputEstimatorStep) {
+  MlpInputEstimatorModel model;
   MlpLayer hidden{Eigen::MatrixXd::Constant(10, 2, 0.1), Eigen::VectorXd::Constant(10, 0.1),
                   Activation::kSigmoid};
   MlpLayer output{Eigen::MatrixXd::Constant(1, 10, 0.2), Eigen::VectorXd::Constant(1, -1.0),
                   Activation::kSigmoid};
   model.network = Mlp({hidden, output}, 12.0);
-  InputEstimationFilter filter(model, model.settings);
+  MlpInputEstimatorFilter filter(model, model.settings);
   GaussianState<2> start;
   start.mean << 0.0, 100.0;
   start.covariance << 2500.0, 2500.0, 2500.0, 5000.0;
@@ -210,7 +210,7 @@ TEST(AllocationFreeStep, FimmStepThroughTheTskSensor) {
     }
     outputs[static_cast<std::size_t>(i)].sigma = 0.05;
   }
-  const auto sensor = std::make_shared<const TskModel>(
+  const auto sensor = std::make_shared<const TskSensorModel>(
       outputs, TNorm::kMin, Eigen::Vector2d(-6.0, 1.0), Eigen::Vector2d(6.0, 100.0));
   for (int iterations : {1, 5}) {
     FimmSpec spec;

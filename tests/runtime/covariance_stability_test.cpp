@@ -10,10 +10,10 @@
 #include <memory>
 #include <random>
 
-#include "imm/filters/imm_estimator.hpp"
-#include "imm/filters/kalman_mode.hpp"
-#include "imm/models/constant_velocity.hpp"
-#include "imm/models/position_measurement.hpp"
+#include "imm/estimation/imm_estimator.hpp"
+#include "imm/estimation/kalman_mode.hpp"
+#include "imm/models/measurement/position_measurement.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/study.hpp"
 

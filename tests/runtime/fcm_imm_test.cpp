@@ -14,10 +14,10 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/datasets/random.hpp"
-#include "imm/filters/kalman_mode.hpp"
+#include "imm/estimation/kalman_mode.hpp"
 #include "imm/io/fcm_imm_file.hpp"
-#include "imm/models/constant_velocity.hpp"
-#include "imm/models/position_measurement.hpp"
+#include "imm/models/measurement/position_measurement.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm {

@@ -9,8 +9,8 @@
 #include "imm/filters/fuzzy_noise_filter.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
-#include "imm/models/constant_velocity.hpp"
-#include "imm/models/position_measurement.hpp"
+#include "imm/models/measurement/position_measurement.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/temp_dir.hpp"
 

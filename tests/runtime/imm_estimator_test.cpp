@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/filters/imm_estimator.hpp"
+#include "imm/estimation/imm_estimator.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,12 +8,12 @@
 #include <memory>
 #include <random>
 
-#include "imm/filters/kalman_mode.hpp"
-#include "imm/models/constant_acceleration.hpp"
-#include "imm/models/constant_velocity.hpp"
-#include "imm/models/polar_measurement.hpp"
-#include "imm/models/position_measurement.hpp"
-#include "imm/models/singer.hpp"
+#include "imm/estimation/kalman_mode.hpp"
+#include "imm/models/measurement/polar_measurement.hpp"
+#include "imm/models/measurement/position_measurement.hpp"
+#include "imm/models/motion/constant_acceleration.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
+#include "imm/models/motion/singer.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/textbook_imm.hpp"
 

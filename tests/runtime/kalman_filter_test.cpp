@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/filters/kalman_filter.hpp"
+#include "imm/estimation/kalman_filter.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,8 +7,8 @@
 #include <limits>
 #include <numbers>
 
-#include "imm/models/constant_velocity.hpp"
-#include "imm/models/position_measurement.hpp"
+#include "imm/models/measurement/position_measurement.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
 #include "testing/matrix_checks.hpp"
 
 namespace imm {

@@ -72,7 +72,7 @@ TEST(LoadTracker, EveryShippedTrackFilterEqualsItsKindSpecificRecipe) {
   EXPECT_GE(compared, 4);
 }
 
-// The input estimator: x and y each an InputEstimationFilter of the file's model, started by hand
+// The input estimator: x and y each an MlpInputEstimatorFilter of the file's model, started by hand
 // as a two-point start (p = z₂, v = (z₂ − z₁)/T, cov [[R, R/T], [R/T, 2R/T²]]).
 TEST(LoadTracker, InputEstimatorTracksAsTwoIndependentAxisFilters) {
   int compared = 0;
@@ -80,14 +80,14 @@ TEST(LoadTracker, InputEstimatorTracksAsTwoIndependentAxisFilters) {
     const io::ModelFileReader reader(path);
     if (reader.provenance().model_kind != io::kMlpInputEstimatorKind) continue;
     SCOPED_TRACE(path.string());
-    const InputEstimatorModel model = io::read_mlp_input_estimator(reader);
+    const MlpInputEstimatorModel model = io::read_mlp_input_estimator(reader);
     Tracker tracker = load_tracker(path);
     EXPECT_EQ(tracker.mode_count(), 2);
     EXPECT_EQ(tracker.filter().mode_name(0), "x.input estimation");
     const TrackOptions options = model.track_options();
     const double T = model.settings.sample_period, R = model.settings.measurement_variance;
     EXPECT_EQ(options.measurement_covariance, R * Eigen::Matrix2d::Identity());
-    std::vector<InputEstimationFilter> axes(2, InputEstimationFilter(model, model.settings));
+    std::vector<MlpInputEstimatorFilter> axes(2, MlpInputEstimatorFilter(model, model.settings));
     const auto plots = testing::seeded_plots(options, 11, kScans);
     for (std::size_t i = 0; i < plots.size(); ++i) {
       const auto& [k, z] = plots[i];
@@ -129,14 +129,14 @@ TEST(LoadTracker, InputEstimatorTracksAsTwoIndependentAxisFilters) {
 
 // Without a plot both KFs predict with the held û: p ← p + T v + T²/2 û, v ← v + T û,
 // P ← F P Fᵀ + q [[T⁴/4, T³/2], [T³/2, T²]], computed here by hand.
-TEST(InputEstimationFilter, PredictOnlyHoldsTheLastInputEstimate) {
+TEST(MlpInputEstimatorFilter, PredictOnlyHoldsTheLastInputEstimate) {
   for (const auto& path : testing::shipped_models()) {
     const io::ModelFileReader reader(path);
     if (reader.provenance().model_kind != io::kMlpInputEstimatorKind) continue;
-    const InputEstimatorModel model = io::read_mlp_input_estimator(reader);
+    const MlpInputEstimatorModel model = io::read_mlp_input_estimator(reader);
     const double T = model.settings.sample_period, q = model.settings.process_noise;
     const double sigma = std::sqrt(model.settings.measurement_variance);
-    InputEstimationFilter filter(model, model.settings);
+    MlpInputEstimatorFilter filter(model, model.settings);
     GaussianState<2> start;
     start.covariance *= model.settings.measurement_variance;
     filter.initialize(start);
@@ -173,7 +173,7 @@ TEST(LoadTracker, TskSensorModelRunsTheFimmWithTheSettingsItCarries) {
     SCOPED_TRACE(path.string());
     const std::optional<FimmSpec> spec = io::read_fimm_settings(reader);
     ASSERT_TRUE(spec) << "a shipped sensor model without its FIMM settings";
-    const auto sensor = std::make_shared<const TskModel>(io::read_tsk_sensor(reader));
+    const auto sensor = std::make_shared<const TskSensorModel>(io::read_tsk_sensor(reader));
     FimmFilter expected(*spec, sensor);
     Tracker tracker = load_tracker(path);
     const TrackOptions options = spec->track_options();
@@ -215,7 +215,7 @@ TEST(LoadTracker, TskSensorModelRunsTheFimmWithTheSettingsItCarries) {
   EXPECT_GE(compared, 2);  // tsk_range_sensor and tsk_range_sensor_hard
 }
 
-std::shared_ptr<const TskModel> identity_sensor() {
+std::shared_ptr<const TskSensorModel> identity_sensor() {
   std::array<TskOutput, 2> outputs;
   TskRule x, y;
   x.center = y.center = Eigen::Vector2d::Zero();
@@ -224,8 +224,8 @@ std::shared_ptr<const TskModel> identity_sensor() {
   y.consequent << 0.0, 0.0, 1.0;
   outputs[0].rules = {x};
   outputs[1].rules = {y};
-  return std::make_shared<const TskModel>(outputs, TNorm::kMin, Eigen::Vector2d::Constant(-1e6),
-                                          Eigen::Vector2d::Constant(1e6));
+  return std::make_shared<const TskSensorModel>(
+      outputs, TNorm::kMin, Eigen::Vector2d::Constant(-1e6), Eigen::Vector2d::Constant(1e6));
 }
 
 std::filesystem::path write_tsk_file(const std::filesystem::path& path, const FimmSpec* fimm) {

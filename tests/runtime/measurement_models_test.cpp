@@ -5,10 +5,10 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "imm/filters/kalman_filter.hpp"
+#include "imm/estimation/kalman_filter.hpp"
 #include "imm/math/angle.hpp"
-#include "imm/models/polar_measurement.hpp"
-#include "imm/models/position_measurement.hpp"
+#include "imm/models/measurement/polar_measurement.hpp"
+#include "imm/models/measurement/position_measurement.hpp"
 #include "testing/matrix_checks.hpp"
 
 namespace imm {

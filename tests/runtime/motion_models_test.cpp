@@ -4,9 +4,9 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "imm/models/constant_acceleration.hpp"
-#include "imm/models/constant_velocity.hpp"
-#include "imm/models/singer.hpp"
+#include "imm/models/motion/constant_acceleration.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
+#include "imm/models/motion/singer.hpp"
 #include "testing/matrix_checks.hpp"
 
 namespace imm {

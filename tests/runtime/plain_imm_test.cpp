@@ -7,8 +7,8 @@
 #include <limits>
 
 #include "imm/core/invalid_parameter.hpp"
-#include "imm/filters/tracker.hpp"
-#include "imm/models/constant_velocity.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
+#include "imm/tracking/tracker.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/specs.hpp"
 

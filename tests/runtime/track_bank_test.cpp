@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/filters/track_bank.hpp"
+#include "imm/tracking/track_bank.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +8,7 @@
 #include <random>
 
 #include "imm/core/invalid_parameter.hpp"
-#include "imm/models/constant_velocity.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/specs.hpp"
 #include "testing/textbook_imm.hpp"

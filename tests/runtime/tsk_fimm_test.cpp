@@ -13,12 +13,12 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/datasets/range_sensor.hpp"
+#include "imm/estimation/kalman_filter.hpp"
 #include "imm/filters/fimm.hpp"
-#include "imm/filters/kalman_filter.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
-#include "imm/models/tsk_model.hpp"
-#include "imm/models/tsk_sensor_measurement.hpp"
+#include "imm/models/learned/tsk_sensor_model.hpp"
+#include "imm/models/measurement/tsk_sensor_measurement.hpp"
 #include "testing/regimes.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -51,22 +51,22 @@ std::array<TskOutput, 2> sensor_like_outputs() {
   return outputs;
 }
 
-TskModel sensor_like_model(TNorm t_norm, OutsideBox outside = OutsideBox::kLinear) {
-  return TskModel(sensor_like_outputs(), t_norm, Eigen::Vector2d(-6.0, 1.0),
-                  Eigen::Vector2d(6.0, 100.0), outside);
+TskSensorModel sensor_like_model(TNorm t_norm, OutsideBox outside = OutsideBox::kLinear) {
+  return TskSensorModel(sensor_like_outputs(), t_norm, Eigen::Vector2d(-6.0, 1.0),
+                        Eigen::Vector2d(6.0, 100.0), outside);
 }
 
 /// An exact identity sensor: one rule per output, z₁ = ξ, z₂ = η, σ = 0, a box nothing leaves.
-std::shared_ptr<const TskModel> identity_sensor() {
+std::shared_ptr<const TskSensorModel> identity_sensor() {
   std::array<TskOutput, 2> outputs;
   outputs[0].rules = {rule(0.0, 1e3, 0.0, 1e3, 0.0, 1.0, 0.0)};
   outputs[1].rules = {rule(0.0, 1e3, 0.0, 1e3, 0.0, 0.0, 1.0)};
-  return std::make_shared<const TskModel>(outputs, TNorm::kMin, Eigen::Vector2d::Constant(-1e6),
-                                          Eigen::Vector2d::Constant(1e6));
+  return std::make_shared<const TskSensorModel>(
+      outputs, TNorm::kMin, Eigen::Vector2d::Constant(-1e6), Eigen::Vector2d::Constant(1e6));
 }
 
 /// Membership logs of every rule of both outputs at x: used to stay away from min-ties.
-double smallest_tie_gap(const TskModel& model, const Eigen::Vector2d& x) {
+double smallest_tie_gap(const TskSensorModel& model, const Eigen::Vector2d& x) {
   double gap = 1e300;
   for (const TskOutput& out : model.outputs()) {
     for (const TskRule& r : out.rules) {
@@ -79,12 +79,12 @@ double smallest_tie_gap(const TskModel& model, const Eigen::Vector2d& x) {
 
 // --- h and ∇h -------------------------------------------------------------------------------
 
-TEST(TskModel, OneRuleIsItsHyperplane) {
+TEST(TskSensorModel, OneRuleIsItsHyperplane) {
   std::array<TskOutput, 2> outputs;
   outputs[0].rules = {rule(1.0, 2.0, 3.0, 4.0, 0.5, 2.0, -1.0)};
   outputs[1].rules = {rule(-1.0, 1.0, 30.0, 9.0, -3.0, 0.25, 0.75)};
-  const TskModel model(outputs, TNorm::kProduct, Eigen::Vector2d(-10, -10),
-                       Eigen::Vector2d(10, 100));
+  const TskSensorModel model(outputs, TNorm::kProduct, Eigen::Vector2d(-10, -10),
+                             Eigen::Vector2d(10, 100));
   const TskEvaluation e = model.evaluate(Eigen::Vector2d(2.0, 7.0));
   EXPECT_DOUBLE_EQ(e.value(0), 0.5 + 2.0 * 2.0 - 7.0);
   EXPECT_DOUBLE_EQ(e.value(1), -3.0 + 0.25 * 2.0 + 0.75 * 7.0);
@@ -95,7 +95,7 @@ TEST(TskModel, OneRuleIsItsHyperplane) {
   EXPECT_FALSE(e.clamped);
 }
 
-TEST(TskModel, TwoRulesByHand) {
+TEST(TskSensorModel, TwoRulesByHand) {
   // Rules at ξ-centers 0 and 2 (width 1), η-centers 0 (width 1); at x = (1, 0.5):
   // A_ξ = e^{−1/2} for both, A_η = e^{−1/8} for both. Product and min both give equal weights,
   // so h = (z¹ + z²)/2 with z¹ = 1 + 1·1 = 2, z² = 3 · 0.5 = 1.5 → 1.75.
@@ -104,7 +104,7 @@ TEST(TskModel, TwoRulesByHand) {
                       rule(2.0, 1.0, 0.0, 1.0, 0.0, 0.0, 3.0)};
   outputs[1] = outputs[0];
   for (TNorm t : {TNorm::kProduct, TNorm::kMin}) {
-    const TskModel model(outputs, t, Eigen::Vector2d(-5, -5), Eigen::Vector2d(5, 5));
+    const TskSensorModel model(outputs, t, Eigen::Vector2d(-5, -5), Eigen::Vector2d(5, 5));
     const TskEvaluation e = model.evaluate(Eigen::Vector2d(1.0, 0.5));
     EXPECT_NEAR(e.value(0), 1.75, 1e-15);
     // ∂h/∂ξ = Σ w [∂log w/∂ξ (z − h) + a_ξ] / Σ w. The ξ-memberships decide the min too here
@@ -117,9 +117,9 @@ TEST(TskModel, TwoRulesByHand) {
   }
 }
 
-TEST(TskModel, JacobianMatchesCentralDifferences) {
+TEST(TskSensorModel, JacobianMatchesCentralDifferences) {
   for (TNorm t : {TNorm::kProduct, TNorm::kMin}) {
-    const TskModel model = sensor_like_model(t);
+    const TskSensorModel model = sensor_like_model(t);
     int checked = 0;
     for (double xi = -5.5; xi <= 5.5; xi += 1.37) {
       for (double eta = 2.0; eta <= 99.0; eta += 6.1) {
@@ -145,15 +145,15 @@ TEST(TskModel, JacobianMatchesCentralDifferences) {
   }
 }
 
-TEST(TskModel, FarFromEveryCenterTheWeightsDoNotUnderflow) {
+TEST(TskSensorModel, FarFromEveryCenterTheWeightsDoNotUnderflow) {
   // 40 widths from every center every exp(−u²/2) underflows in linear space; the log-space
   // weights keep h the consequent of the nearest rule (in units of its widths).
   std::array<TskOutput, 2> outputs;
   outputs[0].rules = {rule(0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0),
                       rule(10.0, 1.0, 0.0, 1.0, 2.0, 0.0, 0.0)};
   outputs[1] = outputs[0];
-  const TskModel model(outputs, TNorm::kProduct, Eigen::Vector2d(-1e3, -1e3),
-                       Eigen::Vector2d(1e3, 1e3));
+  const TskSensorModel model(outputs, TNorm::kProduct, Eigen::Vector2d(-1e3, -1e3),
+                             Eigen::Vector2d(1e3, 1e3));
   const TskEvaluation e = model.evaluate(Eigen::Vector2d(60.0, 0.0));
   ASSERT_TRUE(e.value.allFinite());
   ASSERT_TRUE(e.jacobian.allFinite());
@@ -162,8 +162,8 @@ TEST(TskModel, FarFromEveryCenterTheWeightsDoNotUnderflow) {
 
 // --- Outside the trained box ------------------------------------------------------------------
 
-TEST(TskModel, OutsideTheBoxLinearContinuesFromTheClampedPoint) {
-  const TskModel model = sensor_like_model(TNorm::kProduct, OutsideBox::kLinear);
+TEST(TskSensorModel, OutsideTheBoxLinearContinuesFromTheClampedPoint) {
+  const TskSensorModel model = sensor_like_model(TNorm::kProduct, OutsideBox::kLinear);
   const Eigen::Vector2d edge(2.0, 100.0);
   const TskEvaluation at_edge = model.evaluate(edge);
   EXPECT_FALSE(at_edge.clamped);
@@ -187,8 +187,8 @@ TEST(TskModel, OutsideTheBoxLinearContinuesFromTheClampedPoint) {
               0.0, 1e-12);
 }
 
-TEST(TskModel, OutsideTheBoxHoldFreezesTheValueAndZeroesTheClampedColumn) {
-  const TskModel model = sensor_like_model(TNorm::kMin, OutsideBox::kHold);
+TEST(TskSensorModel, OutsideTheBoxHoldFreezesTheValueAndZeroesTheClampedColumn) {
+  const TskSensorModel model = sensor_like_model(TNorm::kMin, OutsideBox::kHold);
   const TskEvaluation edge = model.evaluate(Eigen::Vector2d(1.5, 100.0));
   const TskEvaluation e = model.evaluate(Eigen::Vector2d(1.5, 400.0));
   EXPECT_TRUE(e.clamped);
@@ -197,7 +197,7 @@ TEST(TskModel, OutsideTheBoxHoldFreezesTheValueAndZeroesTheClampedColumn) {
   EXPECT_EQ(e.jacobian.col(1), Eigen::Vector2d::Zero());
 }
 
-TEST(TskModel, InvalidRulesAreRefusedByName) {
+TEST(TskSensorModel, InvalidRulesAreRefusedByName) {
   auto refused = [](const std::function<void()>& make, const std::string& field) {
     try {
       make();
@@ -211,58 +211,58 @@ TEST(TskModel, InvalidRulesAreRefusedByName) {
       [&] {
         auto o = sensor_like_outputs();
         o[1].rules[2].width(1) = 0.0;
-        (void)TskModel(o, TNorm::kMin, lo, hi);
+        (void)TskSensorModel(o, TNorm::kMin, lo, hi);
       },
       "outputs[1].rules[2].width");
   refused(
       [&] {
         auto o = sensor_like_outputs();
         o[0].rules[1].consequent(0) = std::nan("");
-        (void)TskModel(o, TNorm::kMin, lo, hi);
+        (void)TskSensorModel(o, TNorm::kMin, lo, hi);
       },
       "outputs[0].rules[1].consequent");
   refused(
       [&] {
         auto o = sensor_like_outputs();
         o[0].sigma = -0.1;
-        (void)TskModel(o, TNorm::kMin, lo, hi);
+        (void)TskSensorModel(o, TNorm::kMin, lo, hi);
       },
       "outputs[0].sigma");
   refused(
       [&] {
         auto o = sensor_like_outputs();
         o[1].rules.clear();
-        (void)TskModel(o, TNorm::kMin, lo, hi);
+        (void)TskSensorModel(o, TNorm::kMin, lo, hi);
       },
       "outputs[1].rules");
-  refused([&] { (void)TskModel(sensor_like_outputs(), TNorm::kMin, hi, lo); }, "input_upper");
+  refused([&] { (void)TskSensorModel(sensor_like_outputs(), TNorm::kMin, hi, lo); }, "input_upper");
   // Degenerate but finite values that would make the evaluation overflow or divide 0 by 0.
   refused(
       [&] {
         auto o = sensor_like_outputs();
         o[0].rules[0].width(0) = 1e-300;
-        (void)TskModel(o, TNorm::kMin, lo, hi);
+        (void)TskSensorModel(o, TNorm::kMin, lo, hi);
       },
       "outputs[0].rules[0].width");
   refused(
       [&] {
         auto o = sensor_like_outputs();
         o[1].rules[1].center(1) = 1e300;
-        (void)TskModel(o, TNorm::kMin, lo, hi);
+        (void)TskSensorModel(o, TNorm::kMin, lo, hi);
       },
       "outputs[1].rules[1].center");
   refused(
       [&] {
         auto o = sensor_like_outputs();
         o[1].rules[0].consequent(2) = 1e307;
-        (void)TskModel(o, TNorm::kProduct, lo, hi);
+        (void)TskSensorModel(o, TNorm::kProduct, lo, hi);
       },
       "outputs[1].rules");
   refused([&] { (void)t_norm_from("max", "t_norm"); }, "t_norm");
 }
 
 TEST(TskSensorMeasurement, JacobianGoesToThePositionColumns) {
-  const auto model = std::make_shared<const TskModel>(sensor_like_model(TNorm::kProduct));
+  const auto model = std::make_shared<const TskSensorModel>(sensor_like_model(TNorm::kProduct));
   const TskSensorMeasurement<6> h(model, {0, 3}, 0.25 * SquareMatrix<2>::Identity());
   Vector<6> x;
   x << 1.2, 0.3, -0.1, 47.0, 3.0, 0.2;
@@ -435,7 +435,7 @@ TEST(Fimm, InvalidInitialStatesAreRefusedByName) {
 
 TEST(Fimm, ABadPlotLeavesTheFilterUnchanged) {
   FimmSpec spec;
-  FimmFilter fimm(spec, std::make_shared<const TskModel>(sensor_like_model(TNorm::kMin)));
+  FimmFilter fimm(spec, std::make_shared<const TskSensorModel>(sensor_like_model(TNorm::kMin)));
   Eigen::VectorXd start(6);
   start << 3.5, 0.0, 0.0, 20.0, 3.0, 0.0;
   fimm.initialize(start, start_covariance());
@@ -450,7 +450,7 @@ TEST(Fimm, ABadPlotLeavesTheFilterUnchanged) {
 // (Non-finite numbers cannot be written by the writer at all; the generic reader's refusal of
 // them is drilled in model_file_test.cpp.)
 
-void write(const std::filesystem::path& path, const TskModel& model,
+void write(const std::filesystem::path& path, const TskSensorModel& model,
            const std::function<void(io::ModelFileWriter&)>& tamper = {}) {
   io::Provenance provenance;
   provenance.model_kind = std::string(io::kTskSensorKind);
@@ -463,9 +463,9 @@ void write(const std::filesystem::path& path, const TskModel& model,
 TEST(TskSensorFile, RoundTrip) {
   const testing::TempDir dir;
   for (TNorm t : {TNorm::kMin, TNorm::kProduct}) {
-    const TskModel model = sensor_like_model(t);
+    const TskSensorModel model = sensor_like_model(t);
     write(dir / "tsk.h5", model);
-    const TskModel back = io::read_tsk_sensor(dir / "tsk.h5");
+    const TskSensorModel back = io::read_tsk_sensor(dir / "tsk.h5");
     EXPECT_EQ(back.t_norm(), t);
     EXPECT_EQ(back.input_lower(), model.input_lower());
     EXPECT_EQ(back.input_upper(), model.input_upper());
@@ -485,7 +485,7 @@ TEST(TskSensorFile, RoundTrip) {
 
 TEST(TskSensorFile, HostileValuesAreRefusedByName) {
   const testing::TempDir dir;
-  const TskModel model = sensor_like_model(TNorm::kMin);
+  const TskSensorModel model = sensor_like_model(TNorm::kMin);
   auto refused = [&](const std::string& name, const std::function<void(io::ModelFileWriter&)>& f,
                      const std::string& field) {
     write(dir / (name + ".h5"), model, f);
@@ -521,7 +521,7 @@ TEST(TskSensorFile, HostileValuesAreRefusedByName) {
   refused(
       "too_many",
       [](auto& w) {
-        Eigen::MatrixXd rules = Eigen::MatrixXd::Ones(TskModel::kMaxRules + 1, 7);
+        Eigen::MatrixXd rules = Eigen::MatrixXd::Ones(TskSensorModel::kMaxRules + 1, 7);
         w.write_matrix("/tsk/output1/rules", rules, kRuleColumns, "m");
       },
       "/tsk/output1/rules");

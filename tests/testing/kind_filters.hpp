@@ -5,7 +5,7 @@
 /// up as a non-finite estimate) and what the filter property tests drive with hostile plots.
 ///
 /// Every kind but the input estimator is a TrackFilter; the input estimator is one axis
-/// (InputEstimationFilter) and comes back as `axis`.
+/// (MlpInputEstimatorFilter) and comes back as `axis`.
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -24,9 +24,8 @@
 #include "imm/filters/fcm_imm.hpp"
 #include "imm/filters/fimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
-#include "imm/filters/input_estimation_filter.hpp"
-#include "imm/filters/tracker.hpp"
-#include "imm/filters/weighted_imm.hpp"
+#include "imm/filters/mlp_input_estimator.hpp"
+#include "imm/filters/wimm.hpp"
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
@@ -34,6 +33,7 @@
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
+#include "imm/tracking/tracker.hpp"
 
 namespace imm::testing {
 
@@ -41,7 +41,7 @@ struct KindFilter {
   std::string kind;
   std::unique_ptr<TrackFilter> filter;  ///< every kind but the input estimator
   TrackOptions options;                 ///< how a Tracker starts it (Cartesian or polar plots)
-  std::unique_ptr<InputEstimationFilter> axis;  ///< the input estimator (one axis)
+  std::unique_ptr<MlpInputEstimatorFilter> axis;  ///< the input estimator (one axis)
   /// A plausible first state: position near the plots `first_plot` describes, at rest.
   Eigen::VectorXd initial_mean;
   Eigen::MatrixXd initial_covariance;
@@ -66,7 +66,7 @@ inline KindFilter make_kind_filter(const io::ModelFileReader& reader) {
     made.options = spec.track_options();
   } else if (made.kind == io::kWimmKind) {
     const WimmSpec spec = io::read_wimm(reader);
-    made.filter = std::make_unique<WeightedImmFilter>(spec);
+    made.filter = std::make_unique<WimmFilter>(spec);
     made.options = spec.track_options();
   } else if (made.kind == io::kFcmImmKind) {
     const FcmImmSpec spec = io::read_fcm_imm(reader);
@@ -75,13 +75,13 @@ inline KindFilter make_kind_filter(const io::ModelFileReader& reader) {
     made.options.measurement_covariance =
         Eigen::Matrix2d::Identity() * spec.measurement_sigma * spec.measurement_sigma;
   } else if (made.kind == io::kTskSensorKind) {
-    auto sensor = std::make_shared<const TskModel>(io::read_tsk_sensor(reader));
+    auto sensor = std::make_shared<const TskSensorModel>(io::read_tsk_sensor(reader));
     made.filter = std::make_unique<FimmFilter>(FimmSpec{}, std::move(sensor));
     made.options.sample_period = FimmSpec{}.sample_period;
   } else if (made.kind == io::kMlpInputEstimatorKind) {
-    InputEstimatorModel model = io::read_mlp_input_estimator(reader);
+    MlpInputEstimatorModel model = io::read_mlp_input_estimator(reader);
     const CvKfSettings settings = model.settings;
-    made.axis = std::make_unique<InputEstimationFilter>(std::move(model), settings);
+    made.axis = std::make_unique<MlpInputEstimatorFilter>(std::move(model), settings);
     start(2, settings.measurement_variance);
     return made;
   } else {

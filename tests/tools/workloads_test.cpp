@@ -12,7 +12,7 @@
 #include <fstream>
 #include <numeric>
 
-#include "imm/models/constant_velocity.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/study.hpp"
 #include "testing/textbook_imm.hpp"

@@ -180,12 +180,12 @@ TEST(FineTuning, ParameterGradientMatchesCentralDifferences) {
          {Eigen::Vector2d(-1.0, 30.0), Eigen::Vector2d(2.2, 61.0), Eigen::Vector2d(0.4, 90.0)}) {
       std::vector<double> gradient(21);
       const double h = output_and_parameter_gradient(rules, t, x, gradient.data());
-      EXPECT_DOUBLE_EQ(h, TskModel::output(rules, t, x));
+      EXPECT_DOUBLE_EQ(h, TskSensorModel::output(rules, t, x));
       for (std::size_t r = 0; r < 3; ++r) {
         for (int i = 0; i < 7; ++i) {
           const double step = 1e-6;
-          const double fd = (TskModel::output(perturbed(rules, r, i, step), t, x) -
-                             TskModel::output(perturbed(rules, r, i, -step), t, x)) /
+          const double fd = (TskSensorModel::output(perturbed(rules, r, i, step), t, x) -
+                             TskSensorModel::output(perturbed(rules, r, i, -step), t, x)) /
                             (2.0 * step);
           EXPECT_NEAR(gradient[r * 7 + static_cast<std::size_t>(i)], fd,
                       1e-6 * std::max(1.0, std::abs(fd)))
@@ -281,7 +281,7 @@ TEST(TskTraining, SmallRunWritesAModelThatReproducesTheSensor) {
     EXPECT_LT(r.validation_rmse, r.fcrm_validation_rmse);
     EXPECT_DOUBLE_EQ(r.sigma, r.training_rmse);  // eq. (7)
   }
-  const TskModel model = io::read_tsk_sensor(out);
+  const TskSensorModel model = io::read_tsk_sensor(out);
   // The box is the training inputs' extent, inside the data box.
   EXPECT_GE(model.input_lower()(1), 1.0);
   EXPECT_LE(model.input_upper()(1), 100.0);

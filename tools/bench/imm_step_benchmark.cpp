@@ -11,27 +11,27 @@
 
 #include "imm/datasets/regime_file.hpp"
 #include "imm/datasets/track.hpp"
+#include "imm/estimation/imm_estimator.hpp"
+#include "imm/estimation/kalman_mode.hpp"
 #include "imm/filters/aimm.hpp"
 #include "imm/filters/axis_cv_imm.hpp"
 #include "imm/filters/fcm_imm.hpp"
 #include "imm/filters/fimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
-#include "imm/filters/imm_estimator.hpp"
-#include "imm/filters/input_estimation_filter.hpp"
-#include "imm/filters/kalman_mode.hpp"
+#include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/filters/plain_imm.hpp"
-#include "imm/filters/track_bank.hpp"
-#include "imm/filters/weighted_imm.hpp"
+#include "imm/filters/wimm.hpp"
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
-#include "imm/models/constant_velocity.hpp"
-#include "imm/models/polar_measurement.hpp"
-#include "imm/models/position_measurement.hpp"
-#include "imm/models/singer.hpp"
+#include "imm/models/measurement/polar_measurement.hpp"
+#include "imm/models/measurement/position_measurement.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
+#include "imm/models/motion/singer.hpp"
 #include "imm/support/plain_imm_config.hpp"
+#include "imm/tracking/track_bank.hpp"
 #include "workloads.hpp"
 
 namespace {
@@ -177,7 +177,7 @@ void run_polar(benchmark::State& state, imm::FusionVariant fusion) {
   static const Eigen::MatrixXd plots = preset_track("wimm_table2", 0).plots;
   imm::WimmSpec spec;
   spec.fusion = fusion;
-  imm::WeightedImmFilter filter(spec);
+  imm::WimmFilter filter(spec);
   Eigen::VectorXd mean(6), variance(6);
   mean << 99000.0, -100.0, 0.0, 99000.0, -100.0, 0.0;
   variance << 2500.0, 100.0, 25.0, 2500.0, 100.0, 25.0;
@@ -208,7 +208,7 @@ BENCHMARK(BM_MlpForward);
 void BM_InputEstimationFilterStep(benchmark::State& state) {
   const auto model =
       imm::io::read_mlp_input_estimator(IMM_SOURCE_DIR "/models/mlp_input_estimator.h5");
-  imm::InputEstimationFilter filter(model, model.settings);
+  imm::MlpInputEstimatorFilter filter(model, model.settings);
   imm::GaussianState<2> start;
   start.mean << 0.0, 100.0;
   start.covariance << 2500.0, 2500.0, 2500.0, 5000.0;
@@ -273,7 +273,7 @@ imm::datasets::Track cut_in(bool hard) {
 
 void BM_TskEvaluate(benchmark::State& state) {
   const bool hard = state.range(0) == 1;
-  const imm::TskModel model = imm::io::read_tsk_sensor(tsk_model_path(hard));
+  const imm::TskSensorModel model = imm::io::read_tsk_sensor(tsk_model_path(hard));
   const Eigen::MatrixXd truth = cut_in(hard).truth;
   Eigen::Index k = 0;
   for (auto _ : state) {
@@ -291,9 +291,10 @@ void BM_FimmStep(benchmark::State& state) {
   const int iterations = static_cast<int>(state.range(0));
   const bool hard = state.range(1) == 1;
   const imm::datasets::Track track = cut_in(hard);
-  std::shared_ptr<const imm::TskModel> sensor;
+  std::shared_ptr<const imm::TskSensorModel> sensor;
   if (iterations > 0) {
-    sensor = std::make_shared<const imm::TskModel>(imm::io::read_tsk_sensor(tsk_model_path(hard)));
+    sensor =
+        std::make_shared<const imm::TskSensorModel>(imm::io::read_tsk_sensor(tsk_model_path(hard)));
   }
   imm::FimmSpec spec;
   spec.measurement_covariance = track.noise.covariance();
@@ -340,7 +341,7 @@ void BM_W1_PlainImmStep(benchmark::State& state) {
 }
 BENCHMARK(BM_W1_PlainImmStep);
 
-// W1 through the multi-track API with one track (imm/filters/track_bank.hpp).
+// W1 through the multi-track API with one track (imm/tracking/track_bank.hpp).
 void BM_W1_TrackBankOneTrack(benchmark::State& state) {
   const auto& input = w1_input();
   imm::TrackBank bank(imm::workloads::w1_spec(), 1);

@@ -18,13 +18,13 @@
 #include <iostream>
 #include <memory>
 
-#include "imm/filters/tracker.hpp"
 #include "imm/load.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/support/config.hpp"
 #include "imm/support/exit_codes.hpp"
 #include "imm/support/measurement_csv.hpp"
 #include "imm/support/plain_imm_config.hpp"
+#include "imm/tracking/tracker.hpp"
 
 namespace {
 

@@ -16,10 +16,10 @@
 #include <filesystem>
 #include <vector>
 
-#include "imm/filters/gaussian_state.hpp"
+#include "imm/estimation/gaussian_state.hpp"
 #include "imm/filters/plain_imm.hpp"
-#include "imm/models/fuzzy_c_means.hpp"
-#include "imm/models/mlp.hpp"
+#include "imm/models/learned/fuzzy_c_means.hpp"
+#include "imm/models/learned/mlp.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
 
@@ -91,8 +91,8 @@ struct W3Result {
   double objective = 0.0;  ///< J = Σ_k Σ_i u_ik^m (x_k − v_i)² at the final U and V
   bool converged = false;
 };
-/// The runtime's FCM (imm/models/fuzzy_c_means.hpp) from the given memberships, c = 3, m = 2,
-/// stop when max |ΔU| < 1e-6. `memberships` is scratch of 3 n values.
+/// The runtime's FCM (imm/models/learned/fuzzy_c_means.hpp) from the given memberships, c = 3, m =
+/// 2, stop when max |ΔU| < 1e-6. `memberships` is scratch of 3 n values.
 [[nodiscard]] W3Result run_w3(const W3Input& input, std::vector<double>& memberships);
 
 // --- W4 ---------------------------------------------------------------------------------------

@@ -22,36 +22,37 @@
 #include <string_view>
 #include <vector>
 
-#include "imm/filters/track_filter.hpp"
-#include "imm/filters/track_options.hpp"
-#include "imm/filters/tracker.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/runtime_export.hpp"
+#include "imm/tracking/track_filter.hpp"
+#include "imm/tracking/track_options.hpp"
+#include "imm/tracking/tracker.hpp"
 
 namespace imm {
 
 /// A model file's filter and how to feed it.
-struct LoadedFilter {
+struct IMM_RUNTIME_EXPORT LoadedFilter {
   std::unique_ptr<TrackFilter> filter;  ///< ready to initialize; state [x, vx, y, vy] or 6-state
   TrackOptions options;                 ///< the plots' space and noise, the track start
   io::Provenance provenance;            ///< model_kind, trainer version, regime, …
 };
 
 /// The model kinds load_filter reads.
-[[nodiscard]] const std::vector<std::string_view>& loadable_model_kinds();
+[[nodiscard]] IMM_RUNTIME_EXPORT const std::vector<std::string_view>& loadable_model_kinds();
 
 /// Reads a model file of any kind and builds its filter. Throws io::FileError naming the file and
 /// the field: no such model file, not a model file, a kind this runtime does not know, a schema
 /// version newer than it reads, or any invalid content.
-[[nodiscard]] LoadedFilter load_filter(const std::filesystem::path& path,
-                                       std::int64_t max_gap = kDefaultMaxGap);
+[[nodiscard]] IMM_RUNTIME_EXPORT LoadedFilter load_filter(const std::filesystem::path& path,
+                                                          std::int64_t max_gap = kDefaultMaxGap);
 
 /// The same from a reader the caller has already opened (the file is read once).
-[[nodiscard]] LoadedFilter load_filter(const io::ModelFileReader& reader,
-                                       std::int64_t max_gap = kDefaultMaxGap);
+[[nodiscard]] IMM_RUNTIME_EXPORT LoadedFilter load_filter(const io::ModelFileReader& reader,
+                                                          std::int64_t max_gap = kDefaultMaxGap);
 
 /// load_filter() wrapped in a Tracker: the track starts, predicts through gaps and rejects bad
 /// plots as TrackOptions say.
-[[nodiscard]] Tracker load_tracker(const std::filesystem::path& path,
-                                   std::int64_t max_gap = kDefaultMaxGap);
+[[nodiscard]] IMM_RUNTIME_EXPORT Tracker load_tracker(const std::filesystem::path& path,
+                                                      std::int64_t max_gap = kDefaultMaxGap);
 
 }  // namespace imm

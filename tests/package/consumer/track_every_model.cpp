@@ -7,8 +7,8 @@
 #include <imm/filters/fcm_imm.hpp>
 #include <imm/filters/fimm.hpp>
 #include <imm/filters/ga_fuzzy_imm.hpp>
-#include <imm/filters/input_estimation_filter.hpp>
-#include <imm/filters/weighted_imm.hpp>
+#include <imm/filters/mlp_input_estimator.hpp>
+#include <imm/filters/wimm.hpp>
 #include <imm/io/fcm_imm_file.hpp>
 #include <imm/io/ga_fuzzy_imm_file.hpp>
 #include <imm/io/mlp_input_estimator_file.hpp>
@@ -38,7 +38,7 @@ imm::Tracker kind_specific(const char* path) {
   }
   if (kind == imm::io::kMlpInputEstimatorKind) {
     const auto model = imm::io::read_mlp_input_estimator(reader);
-    return make(imm::make_input_estimation_filter(model), model);
+    return make(imm::make_mlp_input_estimator_filter(model), model);
   }
   if (kind == imm::io::kFcmImmKind) {
     const auto spec = imm::io::read_fcm_imm(reader);
@@ -46,10 +46,10 @@ imm::Tracker kind_specific(const char* path) {
   }
   if (kind == imm::io::kWimmKind) {
     const auto spec = imm::io::read_wimm(reader);
-    return make(std::make_unique<imm::WeightedImmFilter>(spec), spec);
+    return make(std::make_unique<imm::WimmFilter>(spec), spec);
   }
   const auto spec = *imm::io::read_fimm_settings(reader);
-  auto sensor = std::make_shared<const imm::TskModel>(imm::io::read_tsk_sensor(reader));
+  auto sensor = std::make_shared<const imm::TskSensorModel>(imm::io::read_tsk_sensor(reader));
   return make(std::make_unique<imm::FimmFilter>(spec, sensor), spec);
 }
 

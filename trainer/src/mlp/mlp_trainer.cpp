@@ -106,11 +106,11 @@ MlpTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
   return c;
 }
 
-double mean_output(const InputEstimatorModel& model, const Samples& features, bool corrected) {
+double mean_output(const MlpInputEstimatorModel& model, const Samples& features, bool corrected) {
   double sum = 0.0;
   for (Eigen::Index i = 0; i < features.inputs.rows(); ++i) {
     const Eigen::Vector2d x =
-        InputEstimationFilter::standardize(model, features.inputs.row(i).transpose());
+        MlpInputEstimatorFilter::standardize(model, features.inputs.row(i).transpose());
     const double raw = model.network.forward(x);
     sum += corrected ? std::max(0.0, raw - model.output_bias) : raw;
   }
@@ -216,7 +216,7 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
                     datasets::draw_split(quiet_tracks, datasets::Split::kValidation, seed, 1));
 
   // Standardization from the training features.
-  InputEstimatorModel& model = result.model;
+  MlpInputEstimatorModel& model = result.model;
   model.settings = config.cv_kf;
   model.sign = config.sign;
   const Eigen::MatrixXd& x = training.samples.inputs;
@@ -231,7 +231,7 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
     Samples s = raw;
     for (Eigen::Index i = 0; i < s.inputs.rows(); ++i) {
       s.inputs.row(i) =
-          InputEstimationFilter::standardize(model, raw.inputs.row(i).transpose()).transpose();
+          MlpInputEstimatorFilter::standardize(model, raw.inputs.row(i).transpose()).transpose();
     }
     return s;
   };

@@ -265,7 +265,7 @@ Eigen::VectorXd predict(const std::vector<TskRule>& rules, TNorm t_norm,
                         const Eigen::MatrixXd& inputs) {
   Eigen::VectorXd out(inputs.rows());
   for (Eigen::Index q = 0; q < inputs.rows(); ++q) {
-    out(q) = TskModel::output(rules, t_norm, inputs.row(q).transpose());
+    out(q) = TskSensorModel::output(rules, t_norm, inputs.row(q).transpose());
   }
   return out;
 }
@@ -278,11 +278,11 @@ double rmse(const std::vector<TskRule>& rules, TNorm t_norm, const Eigen::Matrix
 
 double output_and_parameter_gradient(const std::vector<TskRule>& rules, TNorm t_norm,
                                      const Eigen::Vector2d& input, double* gradient) {
-  if (rules.empty() || rules.size() > TskModel::kMaxRules) {
-    throw std::invalid_argument("TSK output: need 1 to " + std::to_string(TskModel::kMaxRules) +
-                                " rules");
+  if (rules.empty() || rules.size() > TskSensorModel::kMaxRules) {
+    throw std::invalid_argument("TSK output: need 1 to " +
+                                std::to_string(TskSensorModel::kMaxRules) + " rules");
   }
-  const TskFiring f = TskModel::fire(rules, t_norm, input);
+  const TskFiring f = TskSensorModel::fire(rules, t_norm, input);
   if (gradient) {
     for (std::size_t r = 0; r < f.rules; ++r) {
       const TskRule& rule = rules[r];

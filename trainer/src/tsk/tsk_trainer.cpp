@@ -84,8 +84,8 @@ std::string output_key(int i) {
 void TskTrainingConfig::validate() const {
   require(validation_fraction > 0.0 && validation_fraction < 1.0, "fit.validation_fraction",
           "must be in (0, 1)");
-  require(fcrm.clusters >= 1 && fcrm.clusters <= TskModel::kMaxRules, "fit.rules",
-          "must be in [1, " + std::to_string(TskModel::kMaxRules) + "]");
+  require(fcrm.clusters >= 1 && fcrm.clusters <= TskSensorModel::kMaxRules, "fit.rules",
+          "must be in [1, " + std::to_string(TskSensorModel::kMaxRules) + "]");
   require(fcrm.fuzzifier >= 1.01 && fcrm.fuzzifier <= 100.0, "fit.fuzzifier",
           "must be in [1.01, 100]");
   require(fcrm.tolerance >= 1e-15 && fcrm.tolerance <= 1.0, "fit.tolerance",
@@ -212,9 +212,9 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples
     outputs[static_cast<std::size_t>(i)].rules = std::move(rules);
     outputs[static_cast<std::size_t>(i)].sigma = report.sigma;
   }
-  result.model = TskModel(std::move(outputs), config.t_norm,
-                          parts.training_inputs.colwise().minCoeff().transpose(),
-                          parts.training_inputs.colwise().maxCoeff().transpose());
+  result.model = TskSensorModel(std::move(outputs), config.t_norm,
+                                parts.training_inputs.colwise().minCoeff().transpose(),
+                                parts.training_inputs.colwise().maxCoeff().transpose());
   result.gate_passed = true;
   for (const OutputReport& r : result.outputs) {
     result.gate_passed = result.gate_passed && r.validation_rmse <= config.max_validation_rmse &&

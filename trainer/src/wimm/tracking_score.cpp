@@ -8,8 +8,8 @@
 #include <span>
 #include <stdexcept>
 
-#include "imm/filters/tracker.hpp"
 #include "imm/math/angle.hpp"
+#include "imm/tracking/tracker.hpp"
 #include "imm/trainer/ranks.hpp"
 
 namespace imm::trainer::wimm {
@@ -53,8 +53,8 @@ TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& dat
   const auto tracks = static_cast<long>(data.tracks.size());
   const std::vector<double> all = shared_items(tracks, width, [&](long t, std::span<double> terms) {
     const datasets::Track& track = data.tracks[static_cast<std::size_t>(t)];
-    auto owned = std::make_unique<WeightedImmFilter>(spec);
-    const WeightedImmFilter& filter = *owned;
+    auto owned = std::make_unique<WimmFilter>(spec);
+    const WimmFilter& filter = *owned;
     Tracker tracker(std::move(owned), spec.track_options());
     const Eigen::MatrixXd& truth = track.truth;
     const Eigen::MatrixXd& z = track.plots;

@@ -121,7 +121,7 @@ double objective(const TrackingScore& score, const TrackingScore& reference,
   return std::isfinite(value) ? value : std::numeric_limits<double>::max();
 }
 
-Tuned tune_weighted_imm(const WimmTrainingConfig& config, const TrainingScenarios& data) {
+Tuned tune_wimm(const WimmTrainingConfig& config, const TrainingScenarios& data) {
   return tune(config, data,
               [&](const std::vector<double>& x) {
                 WimmSpec spec = config.filter;
@@ -152,7 +152,7 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
   const TrainingScenarios data =
       datasets::draw_split(config.regime, datasets::Split::kTraining, config.regime.splits.seed);
   WimmTrainingResult result;
-  result.tuned = tune_weighted_imm(config, data);
+  result.tuned = tune_wimm(config, data);
   result.digest = data.digest();
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -14,7 +14,7 @@
 #include "imm/datasets/track.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/uncertainty.hpp"
-#include "imm/filters/tracker.hpp"
+#include "imm/tracking/tracker.hpp"
 
 namespace imm::evaluation {
 

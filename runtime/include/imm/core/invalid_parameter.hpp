@@ -8,10 +8,12 @@
 #include <stdexcept>
 #include <string>
 
+#include "imm/runtime_export.hpp"
+
 namespace imm {
 
 /// A parameter outside its valid range, naming the field (e.g. "transition", "process_noise[2]").
-class InvalidParameter : public std::invalid_argument {
+class IMM_RUNTIME_EXPORT InvalidParameter : public std::invalid_argument {
  public:
   /// `field`: the parameter's name as the config or model file spells it.
   InvalidParameter(std::string field, std::string message)

@@ -18,11 +18,12 @@
 #include <string_view>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm::limits {
 
 /// A closed interval [min, max] with its unit (for the error message).
-struct Interval {
+struct IMM_RUNTIME_EXPORT Interval {
   /// Lower bound (inclusive).
   double min;
   /// Upper bound (inclusive).

@@ -10,25 +10,27 @@
 /// Kalman filter of the augmented state [p, v, b] (Hsieh & Chen, IEEE TAC 44(1), 1999), which is
 /// what runs here: the same b̂, without the decoupling bookkeeping.
 
-#include "imm/filters/kalman_filter.hpp"
-#include "imm/models/constant_acceleration.hpp"
-#include "imm/models/constant_velocity.hpp"
+#include "imm/core/checks.hpp"
+#include "imm/estimation/kalman_filter.hpp"
+#include "imm/models/motion/constant_acceleration.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm {
 
 /// The augmented-state [p, v, b] Kalman filter that estimates the acceleration bias b of one axis
 /// (AIMM, seed 001 §2; see the file comment).
-class AccelerationEstimator {
+class IMM_RUNTIME_EXPORT AccelerationEstimator {
  public:
   /// Throws InvalidParameter naming the field: a non-positive sample period or measurement
   /// variance, a negative σ.
   AccelerationEstimator(double sample_period, double state_noise_sigma, double bias_noise_sigma,
                         double measurement_variance)
       : F_(ca_axis_transition(sample_period)), R_(SquareMatrix<1>::Constant(measurement_variance)) {
-    detail::require_positive(sample_period, "sample_period");
-    detail::require_non_negative(state_noise_sigma, "state_noise_sigma");
-    detail::require_non_negative(bias_noise_sigma, "bias_noise_sigma");
-    detail::require_positive(measurement_variance, "measurement_variance");
+    require_positive(sample_period, "sample_period");
+    require_non_negative(state_noise_sigma, "state_noise_sigma");
+    require_non_negative(bias_noise_sigma, "bias_noise_sigma");
+    require_positive(measurement_variance, "measurement_variance");
     const Vector<2> g = cv_axis_input_gain(sample_period);
     Q_.setZero();
     Q_.block<2, 2>(0, 0) = state_noise_sigma * state_noise_sigma * g * g.transpose();

@@ -9,15 +9,16 @@
 #include <memory>
 #include <vector>
 
+#include "imm/estimation/input_kalman_mode.hpp"
 #include "imm/filters/acceleration_estimator.hpp"
 #include "imm/filters/axis_filter.hpp"
-#include "imm/filters/input_kalman_mode.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm {
 
 /// The adaptive IMM of one axis (seed 001): sub-models at the estimated acceleration and at ± the
 /// intervals around it.
-struct AimmSpec {
+struct IMM_RUNTIME_EXPORT AimmSpec {
   /// Sample period, plot σ and mode switching of the axis IMM.
   AxisImmSettings settings;
   std::vector<double> intervals = {0.04};  ///< ε_i > 0; the modes are â, â ± ε_1, â ± ε_2, …
@@ -36,7 +37,7 @@ struct AimmSpec {
 };
 
 /// The adaptive IMM (AimmSpec) as one axis of a TwoAxisFilter.
-class AimmAxisFilter final : public AxisFilter {
+class IMM_RUNTIME_EXPORT AimmAxisFilter final : public AxisFilter {
  public:
   /// Throws InvalidParameter naming the field of an invalid spec.
   explicit AimmAxisFilter(const AimmSpec& spec);
@@ -68,6 +69,7 @@ class AimmAxisFilter final : public AxisFilter {
 };
 
 /// The 2-D adaptive IMM (AIMM per axis).
-[[nodiscard]] std::unique_ptr<TwoAxisFilter> make_aimm_filter(const AimmSpec& spec);
+[[nodiscard]] IMM_RUNTIME_EXPORT std::unique_ptr<TwoAxisFilter> make_aimm_filter(
+    const AimmSpec& spec);
 
 }  // namespace imm

@@ -9,12 +9,13 @@
 #include <vector>
 
 #include "imm/filters/axis_filter.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm {
 
 /// The IMM of CV Kalman filters per axis at fixed process-noise levels: the baseline the GA-fuzzy
 /// IMM is compared with.
-struct AxisCvImmSpec {
+struct IMM_RUNTIME_EXPORT AxisCvImmSpec {
   /// Sample period, plot σ and mode switching of the axis IMM.
   AxisImmSettings settings;
   std::vector<double> process_noise = {1e-6, 1e-4, 1e-2};  ///< q_j ≥ 0, (unit/s²)²
@@ -28,8 +29,9 @@ struct AxisCvImmSpec {
 };
 
 /// The one-axis IMM of the spec (throws InvalidParameter naming the field).
-[[nodiscard]] ImmEstimator<2, 1> build_axis_cv_imm(const AxisCvImmSpec& spec);
+[[nodiscard]] IMM_RUNTIME_EXPORT ImmEstimator<2, 1> build_axis_cv_imm(const AxisCvImmSpec& spec);
 /// The two-axis filter of the spec: one build_axis_cv_imm per Cartesian axis.
-[[nodiscard]] std::unique_ptr<TwoAxisFilter> make_axis_cv_imm_filter(const AxisCvImmSpec& spec);
+[[nodiscard]] IMM_RUNTIME_EXPORT std::unique_ptr<TwoAxisFilter> make_axis_cv_imm_filter(
+    const AxisCvImmSpec& spec);
 
 }  // namespace imm

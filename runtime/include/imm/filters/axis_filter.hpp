@@ -9,15 +9,16 @@
 #include <memory>
 #include <string>
 
-#include "imm/filters/gaussian_state.hpp"
-#include "imm/filters/imm_estimator.hpp"
-#include "imm/filters/track_filter.hpp"
-#include "imm/filters/track_options.hpp"
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/imm_estimator.hpp"
+#include "imm/runtime_export.hpp"
+#include "imm/tracking/track_filter.hpp"
+#include "imm/tracking/track_options.hpp"
 
 namespace imm {
 
 /// Settings shared by seed 000's per-axis IMMs (eq. 20–21 and the sensor).
-struct AxisImmSettings {
+struct IMM_RUNTIME_EXPORT AxisImmSettings {
   double sample_period = 1.0;              ///< T, s
   double measurement_sigma = 0.5;          ///< σ_z per axis (km in seed 000)
   double transition_stay = 0.97;           ///< p_jj of eq. (20); the rest spread evenly
@@ -35,7 +36,7 @@ struct AxisImmSettings {
 
 /// One Cartesian axis of a track: state [p, v], scalar measurement. TwoAxisFilter runs two of them
 /// as a TrackFilter.
-class AxisFilter {
+class IMM_RUNTIME_EXPORT AxisFilter {
  public:
   AxisFilter() = default;
   AxisFilter(const AxisFilter&) = delete;
@@ -59,7 +60,7 @@ class AxisFilter {
 };
 
 /// An IMM over per-axis modes (filters with per-mode extras derive from it).
-class ImmAxisFilter : public AxisFilter {
+class IMM_RUNTIME_EXPORT ImmAxisFilter : public AxisFilter {
  public:
   /// Takes an IMM of axis modes.
   explicit ImmAxisFilter(ImmEstimator<2, 1> imm) : imm_(std::move(imm)) {}
@@ -89,7 +90,7 @@ class ImmAxisFilter : public AxisFilter {
 /// Two axis filters as one 2-D filter. A plot is validated before either axis moves; a numerical
 /// failure of the y axis after x succeeded (impossible for finite estimates with R > 0) is
 /// reported, with x already advanced.
-class TwoAxisFilter final : public TrackFilter {
+class IMM_RUNTIME_EXPORT TwoAxisFilter final : public TrackFilter {
  public:
   /// Takes the x and y axis filters (neither null).
   TwoAxisFilter(std::unique_ptr<AxisFilter> x, std::unique_ptr<AxisFilter> y);

@@ -56,11 +56,12 @@
 #include <string_view>
 #include <vector>
 
+#include "imm/estimation/imm_mode.hpp"
+#include "imm/estimation/kalman_filter.hpp"
 #include "imm/filters/axis_filter.hpp"
-#include "imm/filters/imm_mode.hpp"
-#include "imm/filters/kalman_filter.hpp"
-#include "imm/filters/track_options.hpp"
-#include "imm/models/fuzzy_c_means.hpp"
+#include "imm/models/learned/fuzzy_c_means.hpp"
+#include "imm/runtime_export.hpp"
+#include "imm/tracking/track_options.hpp"
 
 namespace imm {
 
@@ -70,14 +71,15 @@ enum class MembershipScale {
   kInnovation,  ///< errors in innovation standard deviations, noise pinned at 0, |outer| ≥ κ
 };
 
-[[nodiscard]] std::string_view to_string(MembershipScale scale);  ///< seed | innovation
+[[nodiscard]] IMM_RUNTIME_EXPORT std::string_view to_string(
+    MembershipScale scale);  ///< seed | innovation
 /// Parses "seed" or "innovation"; throws InvalidParameter naming `field` otherwise.
-[[nodiscard]] MembershipScale membership_scale_from(std::string_view name,
-                                                    const std::string& field);
+[[nodiscard]] IMM_RUNTIME_EXPORT MembershipScale membership_scale_from(std::string_view name,
+                                                                       const std::string& field);
 
 /// The FCM-IMM of one axis (seed 003): CV Kalman filters at ascending process-noise levels,
 /// compensated by fuzzy c-means memberships of the recent innovation errors.
-struct FcmImmSpec {
+struct IMM_RUNTIME_EXPORT FcmImmSpec {
   double sample_period = 1.0;        ///< T, s
   double measurement_sigma = 100.0;  ///< σ_z per axis
   /// q_j of Q_j = q_j G Gᵀ per mode, (unit/s²)², ascending; 1 to 8 modes.
@@ -109,7 +111,7 @@ struct FcmImmSpec {
 };
 
 /// One FCM-compensated CV Kalman filter, one axis (derivation above).
-class FcmCompensatedMode final : public ImmMode<2, 1> {
+class IMM_RUNTIME_EXPORT FcmCompensatedMode final : public ImmMode<2, 1> {
  public:
   /// `mode` indexes spec's process_noise and mean_memberships.
   FcmCompensatedMode(const FcmImmSpec& spec, int mode);
@@ -166,7 +168,7 @@ class FcmCompensatedMode final : public ImmMode<2, 1> {
 };
 
 /// The per-axis FCM-IMM.
-class FcmImmAxisFilter final : public ImmAxisFilter {
+class IMM_RUNTIME_EXPORT FcmImmAxisFilter final : public ImmAxisFilter {
  public:
   /// Throws InvalidParameter naming the field of an invalid spec.
   explicit FcmImmAxisFilter(const FcmImmSpec& spec);
@@ -185,9 +187,10 @@ class FcmImmAxisFilter final : public ImmAxisFilter {
 };
 
 /// The one-axis FCM-IMM of the spec (throws InvalidParameter naming the field).
-[[nodiscard]] ImmEstimator<2, 1> build_fcm_axis_imm(const FcmImmSpec& spec);
+[[nodiscard]] IMM_RUNTIME_EXPORT ImmEstimator<2, 1> build_fcm_axis_imm(const FcmImmSpec& spec);
 
 /// The 2-D FCM-IMM (an FcmImmAxisFilter per axis).
-[[nodiscard]] std::unique_ptr<TwoAxisFilter> make_fcm_imm_filter(const FcmImmSpec& spec);
+[[nodiscard]] IMM_RUNTIME_EXPORT std::unique_ptr<TwoAxisFilter> make_fcm_imm_filter(
+    const FcmImmSpec& spec);
 
 }  // namespace imm

@@ -4,9 +4,9 @@
 /// The fuzzy IMM (FIMM) of seed 002 §3 (SPEC §4.4): a two-mode CA IMM, state
 /// [ξ, ξ̇, ξ̈, η, η̇, η̈] (eq. 8), modes "cruise" and "lane change" that differ only in the process
 /// noise Γ q Γᵀ (eq. 11), whose update goes through the learned range-sensor model h (TSK,
-/// tsk_model.hpp) with its analytic Jacobian and R + σ² per output — an EKF, or optionally an
-/// iterated EKF where the sensor saturates. Without a sensor model (h = identity) the same filter
-/// is the baseline IMM.
+/// tsk_sensor_model.hpp) with its analytic Jacobian and R + σ² per output — an EKF, or optionally
+/// an iterated EKF where the sensor saturates. Without a sensor model (h = identity) the same
+/// filter is the baseline IMM.
 ///
 /// Noise scale. Read as m/s² per step, the seed's √q₁ = 9.81e-4 and √q₂ = 5 · 9.81e-4 let the
 /// acceleration change by at most a few mm/s² per step: the filter becomes a polynomial smoother
@@ -19,16 +19,17 @@
 #include <memory>
 #include <string>
 
-#include "imm/filters/imm_estimator.hpp"
-#include "imm/filters/track_filter.hpp"
-#include "imm/filters/track_options.hpp"
-#include "imm/models/tsk_model.hpp"
+#include "imm/estimation/imm_estimator.hpp"
+#include "imm/models/learned/tsk_sensor_model.hpp"
+#include "imm/runtime_export.hpp"
+#include "imm/tracking/track_filter.hpp"
+#include "imm/tracking/track_options.hpp"
 
 namespace imm {
 
 /// The fuzzy-sensor IMM of seed 002: two CA modes (cruise, lane change) with an EKF through the TSK
 /// sensor model (see the file comment).
-struct FimmSpec {
+struct IMM_RUNTIME_EXPORT FimmSpec {
   double sample_period = 0.1;      ///< T, s
   double cruise_sigma = 9.81e-4;   ///< the seed's √q₁ (eq. 11)
   double lane_change_ratio = 5.0;  ///< √q₂ / √q₁
@@ -51,10 +52,10 @@ struct FimmSpec {
 };
 
 /// The FIMM as a TrackFilter: state [ξ, ξ̇, ξ̈, η, η̇, η̈], plots (z1, z2) of the sensor.
-class FimmFilter final : public TrackFilter {
+class IMM_RUNTIME_EXPORT FimmFilter final : public TrackFilter {
  public:
   /// `sensor` null: h = identity (the baseline IMM).
-  FimmFilter(const FimmSpec& spec, std::shared_ptr<const TskModel> sensor);
+  FimmFilter(const FimmSpec& spec, std::shared_ptr<const TskSensorModel> sensor);
   ~FimmFilter() override;
 
   /// 6: [ξ, ξ̇, ξ̈, η, η̇, η̈].
@@ -76,7 +77,7 @@ class FimmFilter final : public TrackFilter {
   [[nodiscard]] bool outside_sensor_box() const;
 
  private:
-  std::shared_ptr<const TskModel> sensor_;
+  std::shared_ptr<const TskSensorModel> sensor_;
   std::unique_ptr<ImmEstimator<6, 2>> imm_;
 };
 

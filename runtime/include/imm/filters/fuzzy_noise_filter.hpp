@@ -13,16 +13,18 @@
 #include <string>
 #include <utility>
 
+#include "imm/core/checks.hpp"
 #include "imm/core/physical_limits.hpp"
-#include "imm/filters/imm_mode.hpp"
-#include "imm/filters/kalman_filter.hpp"
-#include "imm/models/constant_velocity.hpp"
-#include "imm/models/fuzzy_rule_table.hpp"
+#include "imm/estimation/imm_mode.hpp"
+#include "imm/estimation/kalman_filter.hpp"
+#include "imm/models/learned/fuzzy_rule_table.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm {
 
 /// The fuzzy-noise Kalman filter of one axis (see the file comment).
-class FuzzyNoiseFilter {
+class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
  public:
   /// What one step did.
   struct Step {
@@ -41,8 +43,8 @@ class FuzzyNoiseFilter {
         F_(cv_axis_transition(sample_period)),
         G_(cv_axis_input_gain(sample_period)),
         R_(SquareMatrix<1>::Constant(measurement_variance)) {
-    detail::require_positive(sample_period, "sample_period");
-    detail::require_positive(measurement_variance, "measurement_variance");
+    require_positive(sample_period, "sample_period");
+    require_positive(measurement_variance, "measurement_variance");
     GGt_ = G_ * G_.transpose();
     H_ << 1.0, 0.0;
   }
@@ -89,7 +91,7 @@ class FuzzyNoiseFilter {
 };
 
 /// The fuzzy-noise KF as an IMM mode (seed 000's sub-model m_j, eq. 18–19).
-class FuzzyNoiseMode final : public ImmMode<2, 1> {
+class IMM_RUNTIME_EXPORT FuzzyNoiseMode final : public ImmMode<2, 1> {
  public:
   /// A named mode of `filter`.
   FuzzyNoiseMode(std::string name, FuzzyNoiseFilter filter)

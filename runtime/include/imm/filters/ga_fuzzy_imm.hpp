@@ -10,13 +10,14 @@
 #include <vector>
 
 #include "imm/filters/axis_filter.hpp"
-#include "imm/filters/tracker.hpp"
-#include "imm/models/fuzzy_rule_table.hpp"
+#include "imm/models/learned/fuzzy_rule_table.hpp"
+#include "imm/runtime_export.hpp"
+#include "imm/tracking/tracker.hpp"
 
 namespace imm {
 
 /// One maneuver level of the GA-fuzzy IMM: a rule table trained for one acceleration input.
-struct FuzzyLevel {
+struct IMM_RUNTIME_EXPORT FuzzyLevel {
   std::string name;             ///< e.g. "u0.01"
   double maneuver_level = 0.0;  ///< the acceleration input u the table was trained for
   /// The trained rule table.
@@ -24,7 +25,7 @@ struct FuzzyLevel {
 };
 
 /// The GA-fuzzy IMM of seed 000: one fuzzy-noise mode per maneuver level, per axis.
-struct GaFuzzyImmSpec {
+struct IMM_RUNTIME_EXPORT GaFuzzyImmSpec {
   /// Sample period, plot σ and mode switching of the axis IMM.
   AxisImmSettings settings;
   std::vector<FuzzyLevel> levels;  ///< one IMM mode per level, 1 to 8
@@ -38,9 +39,11 @@ struct GaFuzzyImmSpec {
 };
 
 /// The per-axis IMM (modes in level order).
-[[nodiscard]] ImmEstimator<2, 1> build_ga_fuzzy_axis_imm(const GaFuzzyImmSpec& spec);
+[[nodiscard]] IMM_RUNTIME_EXPORT ImmEstimator<2, 1> build_ga_fuzzy_axis_imm(
+    const GaFuzzyImmSpec& spec);
 
 /// The 2-D filter: the per-axis IMM on x and on y.
-[[nodiscard]] std::unique_ptr<TwoAxisFilter> make_ga_fuzzy_imm_filter(const GaFuzzyImmSpec& spec);
+[[nodiscard]] IMM_RUNTIME_EXPORT std::unique_ptr<TwoAxisFilter> make_ga_fuzzy_imm_filter(
+    const GaFuzzyImmSpec& spec);
 
 }  // namespace imm

@@ -14,24 +14,29 @@
 #include <variant>
 #include <vector>
 
-#include "imm/filters/imm_estimator.hpp"
-#include "imm/filters/track_options.hpp"
-#include "imm/models/motion_model.hpp"
+#include "imm/estimation/imm_estimator.hpp"
+#include "imm/models/motion/motion_model.hpp"
+#include "imm/runtime_export.hpp"
+#include "imm/tracking/track_options.hpp"
 
 namespace imm {
 
 /// The motion model of a mode.
 enum class MotionKind { kConstantVelocity, kConstantAcceleration, kSinger };
 
-[[nodiscard]] std::string_view to_string(MotionKind kind);  ///< "cv", "ca", "singer"
-[[nodiscard]] std::string_view to_string(NoiseForm form);   ///< "piecewise", "continuous"
+[[nodiscard]] IMM_RUNTIME_EXPORT std::string_view to_string(
+    MotionKind kind);  ///< "cv", "ca", "singer"
+[[nodiscard]] IMM_RUNTIME_EXPORT std::string_view to_string(
+    NoiseForm form);  ///< "piecewise", "continuous"
 /// Inverse of to_string; throw InvalidParameter naming `field` for unknown names.
-[[nodiscard]] MotionKind motion_kind_from(std::string_view name, const std::string& field);
+[[nodiscard]] IMM_RUNTIME_EXPORT MotionKind motion_kind_from(std::string_view name,
+                                                             const std::string& field);
 /// "piecewise" | "continuous"; InvalidParameter naming `field` otherwise.
-[[nodiscard]] NoiseForm noise_form_from(std::string_view name, const std::string& field);
+[[nodiscard]] IMM_RUNTIME_EXPORT NoiseForm noise_form_from(std::string_view name,
+                                                           const std::string& field);
 
 /// One mode of a plain IMM.
-struct ModeSpec {
+struct IMM_RUNTIME_EXPORT ModeSpec {
   /// The mode's name (reports, mode_name()).
   std::string name;
   /// CV, CA or Singer.
@@ -46,7 +51,7 @@ struct ModeSpec {
 };
 
 /// The plots a plain IMM takes.
-struct MeasurementSpec {
+struct IMM_RUNTIME_EXPORT MeasurementSpec {
   /// Cartesian or polar.
   MeasurementKind kind = MeasurementKind::kCartesian;
   /// R: Cartesian [x, y] or polar [range, azimuth (rad)].
@@ -54,7 +59,7 @@ struct MeasurementSpec {
 };
 
 /// A plain IMM of linear motion modes with a common measurement (frozen by imm-train freeze).
-struct PlainImmSpec {
+struct IMM_RUNTIME_EXPORT PlainImmSpec {
   /// T, s.
   double sample_period = 1.0;
   /// The modes, 1 to 16.
@@ -81,13 +86,13 @@ template <int NX>
 [[nodiscard]] ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec);
 
 /// The 4-state instantiation (every mode CV).
-extern template ImmEstimator<4, 2> build_plain_imm<4>(const PlainImmSpec&);
+extern template IMM_RUNTIME_EXPORT ImmEstimator<4, 2> build_plain_imm<4>(const PlainImmSpec&);
 /// The 6-state instantiation.
-extern template ImmEstimator<6, 2> build_plain_imm<6>(const PlainImmSpec&);
+extern template IMM_RUNTIME_EXPORT ImmEstimator<6, 2> build_plain_imm<6>(const PlainImmSpec&);
 
 /// The IMM of a spec, whichever its mixing dimension.
 using PlainImm = std::variant<ImmEstimator<4, 2>, ImmEstimator<6, 2>>;
 /// Builds the IMM of a validated spec in its own mixing dimension.
-[[nodiscard]] PlainImm build_plain_imm(const PlainImmSpec& spec);
+[[nodiscard]] IMM_RUNTIME_EXPORT PlainImm build_plain_imm(const PlainImmSpec& spec);
 
 }  // namespace imm

@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "imm/io/file_error.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm::io {
 
@@ -36,7 +37,7 @@ namespace imm::io {
 using Attribute = std::variant<std::int64_t, double, std::string>;
 
 /// An N-dimensional array of doubles in row-major order.
-struct Array {
+struct IMM_RUNTIME_EXPORT Array {
   /// Extent per dimension.
   std::vector<std::size_t> shape;
   /// The values, row-major.
@@ -56,7 +57,7 @@ struct Array {
 enum class ObjectKind { kMissing, kGroup, kDataset };
 
 /// Writes a container atomically (see the file comment).
-class ContainerWriter {
+class IMM_RUNTIME_EXPORT ContainerWriter {
  public:
   /// Starts a container of the given format that will appear at `path` on commit().
   /// Throws FileError when the folder does not exist or is not writable.
@@ -84,12 +85,12 @@ class ContainerWriter {
   [[nodiscard]] const std::filesystem::path& path() const;
 
  private:
-  struct Impl;
+  struct IMM_RUNTIME_NO_EXPORT Impl;
   std::unique_ptr<Impl> impl_;
 };
 
 /// Reads and verifies a container (see the file comment).
-class ContainerReader {
+class IMM_RUNTIME_EXPORT ContainerReader {
  public:
   /// Opens and verifies a container. Throws FileError (naming the file) when the file is missing,
   /// truncated, corrupt, not an immtrain container, or of another format than `expected_format`
@@ -125,7 +126,7 @@ class ContainerReader {
   [[nodiscard]] std::vector<std::string> attribute_names(std::string_view object) const;
 
  private:
-  struct Impl;
+  struct IMM_RUNTIME_NO_EXPORT Impl;
   std::unique_ptr<Impl> impl_;
 };
 
@@ -136,9 +137,10 @@ inline constexpr std::size_t kContainerHeaderBytes = 512;
 /// container of `format` by writing the checksummed header, and flushes it to disk. ContainerWriter
 /// does this in commit(); it is public for tools that build the HDF5 part with other means (and
 /// for fault drills that need a correctly sealed file with hostile content).
-void seal_container(const std::filesystem::path& path, std::string_view format);
+IMM_RUNTIME_EXPORT void seal_container(const std::filesystem::path& path, std::string_view format);
 
 /// CRC-32 (IEEE 802.3, as zlib) of a byte range, continuing from `crc` (0 to start).
-[[nodiscard]] std::uint32_t crc32(const void* data, std::size_t size, std::uint32_t crc = 0);
+[[nodiscard]] IMM_RUNTIME_EXPORT std::uint32_t crc32(const void* data, std::size_t size,
+                                                     std::uint32_t crc = 0);
 
 }  // namespace imm::io

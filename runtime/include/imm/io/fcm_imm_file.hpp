@@ -17,6 +17,7 @@
 
 #include "imm/filters/fcm_imm.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm::io {
 
@@ -25,10 +26,10 @@ inline constexpr std::string_view kFcmImmKind = "fcm_imm";
 
 /// Writes `spec` (mean_memberships required); constant_memberships is a run-time choice and is
 /// not stored.
-void write_fcm_imm(ModelFileWriter& writer, const FcmImmSpec& spec);
+IMM_RUNTIME_EXPORT void write_fcm_imm(ModelFileWriter& writer, const FcmImmSpec& spec);
 /// Reads and validates an FCM-IMM model; FileError names the file and the field.
-[[nodiscard]] FcmImmSpec read_fcm_imm(const ModelFileReader& reader);
+[[nodiscard]] IMM_RUNTIME_EXPORT FcmImmSpec read_fcm_imm(const ModelFileReader& reader);
 /// Opens the file and reads it as read_fcm_imm(const ModelFileReader&).
-[[nodiscard]] FcmImmSpec read_fcm_imm(const std::filesystem::path& path);
+[[nodiscard]] IMM_RUNTIME_EXPORT FcmImmSpec read_fcm_imm(const std::filesystem::path& path);
 
 }  // namespace imm::io

@@ -9,6 +9,8 @@
 #include <string>
 #include <string_view>
 
+#include "imm/runtime_export.hpp"
+
 namespace imm::io {
 
 /// The field name of an object ("/a/b") or of one of its attributes ("/a/b@name").
@@ -24,7 +26,7 @@ namespace imm::io {
 
 /// A model or data-set file that cannot be read or written, naming the file and the field
 /// ("/imm/transition", "/@schema_version").
-class FileError : public std::runtime_error {
+class IMM_RUNTIME_EXPORT FileError : public std::runtime_error {
  public:
   /// The message reads "<file>: field '<field>': <message>".
   FileError(std::string file, std::string field, const std::string& message)

@@ -18,6 +18,7 @@
 
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm::io {
 
@@ -25,7 +26,7 @@ namespace imm::io {
 inline constexpr std::string_view kGaFuzzyImmKind = "ga_fuzzy_imm";
 
 /// A training metric stored on a level's group: a real with its units, or a count.
-struct LevelMetric {
+struct IMM_RUNTIME_EXPORT LevelMetric {
   /// The attribute's name on the level's group.
   std::string name;
   /// A real (with `units`) or an integer count.
@@ -34,17 +35,19 @@ struct LevelMetric {
 };
 
 /// Writes the spec; `level_metrics[i]` (optional) are stored on level i's group.
-void write_ga_fuzzy_imm(ModelFileWriter& writer, const GaFuzzyImmSpec& spec,
-                        const std::vector<std::vector<LevelMetric>>& level_metrics = {});
+IMM_RUNTIME_EXPORT void write_ga_fuzzy_imm(
+    ModelFileWriter& writer, const GaFuzzyImmSpec& spec,
+    const std::vector<std::vector<LevelMetric>>& level_metrics = {});
 
 /// Reads and validates a GA-fuzzy IMM model; FileError names the file and the field.
-[[nodiscard]] GaFuzzyImmSpec read_ga_fuzzy_imm(const ModelFileReader& reader);
+[[nodiscard]] IMM_RUNTIME_EXPORT GaFuzzyImmSpec read_ga_fuzzy_imm(const ModelFileReader& reader);
 /// Opens the file and reads it as read_ga_fuzzy_imm(const ModelFileReader&).
-[[nodiscard]] GaFuzzyImmSpec read_ga_fuzzy_imm(const std::filesystem::path& path);
+[[nodiscard]] IMM_RUNTIME_EXPORT GaFuzzyImmSpec
+read_ga_fuzzy_imm(const std::filesystem::path& path);
 
 /// The rule table as an n × 5 matrix (c1, σ1, c2, σ2, w) and back (validated).
-[[nodiscard]] Eigen::MatrixXd rules_matrix(const FuzzyRuleTable& table);
+[[nodiscard]] IMM_RUNTIME_EXPORT Eigen::MatrixXd rules_matrix(const FuzzyRuleTable& table);
 /// Throws std::invalid_argument for a matrix that is not n × 5 or an invalid rule.
-[[nodiscard]] FuzzyRuleTable table_from_matrix(const Eigen::MatrixXd& rules);
+[[nodiscard]] IMM_RUNTIME_EXPORT FuzzyRuleTable table_from_matrix(const Eigen::MatrixXd& rules);
 
 }  // namespace imm::io

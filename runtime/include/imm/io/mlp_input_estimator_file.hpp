@@ -13,8 +13,9 @@
 
 #include <filesystem>
 
-#include "imm/filters/input_estimation_filter.hpp"
+#include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm::io {
 
@@ -27,11 +28,14 @@ inline constexpr std::string_view kFeatureDefinition =
     "network input = (feature - input_mean) / input_scale";
 
 /// Writes the model; `loss_curves` (optional, epochs × 3) goes to /training/loss.
-void write_mlp_input_estimator(ModelFileWriter& writer, const InputEstimatorModel& model,
-                               const Eigen::MatrixXd& loss_curves = {});
+IMM_RUNTIME_EXPORT void write_mlp_input_estimator(ModelFileWriter& writer,
+                                                  const MlpInputEstimatorModel& model,
+                                                  const Eigen::MatrixXd& loss_curves = {});
 /// Reads and validates an input-estimator model; FileError names the file and the field.
-[[nodiscard]] InputEstimatorModel read_mlp_input_estimator(const ModelFileReader& reader);
+[[nodiscard]] IMM_RUNTIME_EXPORT MlpInputEstimatorModel
+read_mlp_input_estimator(const ModelFileReader& reader);
 /// Opens the file and reads it as read_mlp_input_estimator(const ModelFileReader&).
-[[nodiscard]] InputEstimatorModel read_mlp_input_estimator(const std::filesystem::path& path);
+[[nodiscard]] IMM_RUNTIME_EXPORT MlpInputEstimatorModel
+read_mlp_input_estimator(const std::filesystem::path& path);
 
 }  // namespace imm::io

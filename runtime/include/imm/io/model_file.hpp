@@ -39,6 +39,7 @@
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/io/schema_reader.hpp"
+#include "imm/runtime_export.hpp"
 #include "imm/version.hpp"
 
 namespace imm::io {
@@ -49,7 +50,7 @@ inline constexpr std::string_view kModelFormat = "immtrain-model";
 inline constexpr int kModelSchemaVersion = imm::kModelSchemaVersion;
 
 /// Where a model came from: the root attributes of SPEC §5.
-struct Provenance {
+struct IMM_RUNTIME_EXPORT Provenance {
   /// plain_imm, ga_fuzzy_imm, mlp_input_estimator, wimm, fcm_imm or tsk_sensor.
   std::string model_kind;
   std::string created_utc;        ///< ISO 8601 UTC; the writer fills in "now" when empty
@@ -69,13 +70,13 @@ struct Provenance {
 };
 
 /// Whether `unit` is a length unit model files use: "m" or "km".
-[[nodiscard]] bool valid_length_unit(std::string_view unit);
+[[nodiscard]] IMM_RUNTIME_EXPORT bool valid_length_unit(std::string_view unit);
 
 /// The current time as ISO 8601 UTC, e.g. "2026-11-22T00:18:36Z".
-[[nodiscard]] std::string utc_now();
+[[nodiscard]] IMM_RUNTIME_EXPORT std::string utc_now();
 
 /// Names of the units a model file's values are in, built from its length unit (times in s).
-struct UnitNames {
+struct IMM_RUNTIME_EXPORT UnitNames {
   /// "m" or "km".
   std::string length = "m";
   /// The unit of a speed.
@@ -95,7 +96,7 @@ inline constexpr std::string_view kDimensionless = "1";
 
 /// Writes a model file: the kind's writer fills in the content, commit() adds the provenance and
 /// renames the file into place.
-class ModelFileWriter {
+class IMM_RUNTIME_EXPORT ModelFileWriter {
  public:
   /// Starts a model file at `path` (written atomically on commit()). Throws FileError when the
   /// kind is empty, the length unit is not "m" or "km", or the folder is missing.
@@ -138,7 +139,7 @@ class ModelFileWriter {
 
 /// Reads a model file: a SchemaReader that has also checked the format, the schema version and the
 /// kind, and holds the provenance.
-class ModelFileReader : public SchemaReader {
+class IMM_RUNTIME_EXPORT ModelFileReader : public SchemaReader {
  public:
   /// Opens and validates a model file; `expected_kind` empty accepts any kind.
   explicit ModelFileReader(const std::filesystem::path& path, std::string_view expected_kind = {});

@@ -17,6 +17,7 @@
 
 #include "imm/filters/plain_imm.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm::io {
 
@@ -24,11 +25,11 @@ namespace imm::io {
 inline constexpr std::string_view kPlainImmKind = "plain_imm";
 
 /// Writes the spec's datasets and attributes (provenance is the writer's).
-void write_plain_imm(ModelFileWriter& writer, const PlainImmSpec& spec);
+IMM_RUNTIME_EXPORT void write_plain_imm(ModelFileWriter& writer, const PlainImmSpec& spec);
 
 /// Reads and validates a plain_imm model; FileError names the file and the field.
-[[nodiscard]] PlainImmSpec read_plain_imm(const ModelFileReader& reader);
+[[nodiscard]] IMM_RUNTIME_EXPORT PlainImmSpec read_plain_imm(const ModelFileReader& reader);
 /// Opens the file and reads it as read_plain_imm(const ModelFileReader&).
-[[nodiscard]] PlainImmSpec read_plain_imm(const std::filesystem::path& path);
+[[nodiscard]] IMM_RUNTIME_EXPORT PlainImmSpec read_plain_imm(const std::filesystem::path& path);
 
 }  // namespace imm::io

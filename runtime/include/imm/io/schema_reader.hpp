@@ -16,6 +16,7 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm::io {
 
@@ -28,7 +29,7 @@ enum class ValueRule {
 };
 
 /// Validated, field-naming access to a container's content (see the file comment).
-class SchemaReader {
+class IMM_RUNTIME_EXPORT SchemaReader {
  public:
   /// Opens and verifies a container of `format` (see ContainerReader).
   SchemaReader(const std::filesystem::path& path, std::string_view format);

@@ -20,7 +20,8 @@
 
 #include "imm/filters/fimm.hpp"
 #include "imm/io/model_file.hpp"
-#include "imm/models/tsk_model.hpp"
+#include "imm/models/learned/tsk_sensor_model.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm::io {
 
@@ -28,20 +29,22 @@ namespace imm::io {
 inline constexpr std::string_view kTskSensorKind = "tsk_sensor";
 
 /// Writes the sensor model (/tsk).
-void write_tsk_sensor(ModelFileWriter& writer, const TskModel& model);
+IMM_RUNTIME_EXPORT void write_tsk_sensor(ModelFileWriter& writer, const TskSensorModel& model);
 /// Reads and validates a TSK sensor model; FileError names the file and the field.
-[[nodiscard]] TskModel read_tsk_sensor(const ModelFileReader& reader);
+[[nodiscard]] IMM_RUNTIME_EXPORT TskSensorModel read_tsk_sensor(const ModelFileReader& reader);
 /// Opens the file and reads it as read_tsk_sensor(const ModelFileReader&).
-[[nodiscard]] TskModel read_tsk_sensor(const std::filesystem::path& path);
+[[nodiscard]] IMM_RUNTIME_EXPORT TskSensorModel read_tsk_sensor(const std::filesystem::path& path);
 
 /// The FIMM settings stored beside the sensor model (/fimm); nullopt when the file has none.
-void write_fimm_settings(ModelFileWriter& writer, const FimmSpec& spec);
+IMM_RUNTIME_EXPORT void write_fimm_settings(ModelFileWriter& writer, const FimmSpec& spec);
 /// Reads /fimm; FileError names the field of an invalid setting.
-[[nodiscard]] std::optional<FimmSpec> read_fimm_settings(const ModelFileReader& reader);
+[[nodiscard]] IMM_RUNTIME_EXPORT std::optional<FimmSpec> read_fimm_settings(
+    const ModelFileReader& reader);
 
 /// A rule set as the c × 7 matrix of the file, and back.
-[[nodiscard]] Eigen::MatrixXd rules_matrix(const std::vector<TskRule>& rules);
+[[nodiscard]] IMM_RUNTIME_EXPORT Eigen::MatrixXd rules_matrix(const std::vector<TskRule>& rules);
 /// Throws std::invalid_argument for a matrix that is not c × 7.
-[[nodiscard]] std::vector<TskRule> rules_from_matrix(const Eigen::MatrixXd& matrix);
+[[nodiscard]] IMM_RUNTIME_EXPORT std::vector<TskRule> rules_from_matrix(
+    const Eigen::MatrixXd& matrix);
 
 }  // namespace imm::io

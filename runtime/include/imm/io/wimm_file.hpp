@@ -11,8 +11,9 @@
 
 #include <filesystem>
 
-#include "imm/filters/weighted_imm.hpp"
+#include "imm/filters/wimm.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/runtime_export.hpp"
 
 namespace imm::io {
 
@@ -20,10 +21,10 @@ namespace imm::io {
 inline constexpr std::string_view kWimmKind = "wimm";
 
 /// Writes the spec's datasets and attributes (provenance is the writer's).
-void write_wimm(ModelFileWriter& writer, const WimmSpec& spec);
+IMM_RUNTIME_EXPORT void write_wimm(ModelFileWriter& writer, const WimmSpec& spec);
 /// Reads and validates a WIMM model; FileError names the file and the field.
-[[nodiscard]] WimmSpec read_wimm(const ModelFileReader& reader);
+[[nodiscard]] IMM_RUNTIME_EXPORT WimmSpec read_wimm(const ModelFileReader& reader);
 /// Opens the file and reads it as read_wimm(const ModelFileReader&).
-[[nodiscard]] WimmSpec read_wimm(const std::filesystem::path& path);
+[[nodiscard]] IMM_RUNTIME_EXPORT WimmSpec read_wimm(const std::filesystem::path& path);
 
 }  // namespace imm::io

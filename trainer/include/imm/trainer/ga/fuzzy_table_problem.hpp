@@ -31,7 +31,7 @@
 #include <vector>
 
 #include "imm/filters/ga_fuzzy_imm.hpp"
-#include "imm/models/fuzzy_rule_table.hpp"
+#include "imm/models/learned/fuzzy_rule_table.hpp"
 #include "imm/trainer/ga/training_set.hpp"
 
 namespace imm::trainer::ga {

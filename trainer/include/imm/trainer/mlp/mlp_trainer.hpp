@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "imm/datasets/track.hpp"
-#include "imm/filters/input_estimation_filter.hpp"
+#include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
 
 namespace imm::trainer::mlp {
@@ -61,7 +61,7 @@ struct FeatureSet {
                                        const datasets::TrackSet& tracks);
 
 struct MlpTrainingResult {
-  InputEstimatorModel model;
+  MlpInputEstimatorModel model;
   std::vector<LossPoint> loss;
   double training_rmse = 0.0, validation_rmse = 0.0;  ///< m/s², of the trained network
   double bias_before = 0.0;  ///< mean output without a maneuver (held-out quiet trajectory)

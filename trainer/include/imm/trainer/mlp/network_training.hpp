@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Back-propagation for the input estimator's MLP, written here with Eigen and plain loops (no ML
-/// framework). The network is the runtime's (imm/models/mlp.hpp): layers a = f(W x + b), output
-/// y = scale × a_L. Training works in the output unit's own range: the target t becomes t / scale
-/// and the loss is E = ½ (a_L − t/scale)² per sample, the classic formulation the seed's learning
-/// rates (0.1, then 0.05 / 0.01) are meant for. Reported losses are MSEs in the target's unit,
-/// scale² × 2E.
+/// framework). The network is the runtime's (imm/models/learned/mlp.hpp): layers a = f(W x + b),
+/// output y = scale × a_L. Training works in the output unit's own range: the target t becomes t /
+/// scale and the loss is E = ½ (a_L − t/scale)² per sample, the classic formulation the seed's
+/// learning rates (0.1, then 0.05 / 0.01) are meant for. Reported losses are MSEs in the target's
+/// unit, scale² × 2E.
 ///
 /// Output unit, and why: a sigmoid scaled to [0, scale] (default 12 m/s², above the 10 m/s² of the
 /// training maneuvers). Its output is bounded and non-negative like the seed's maneuvers, and its
@@ -17,7 +17,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "imm/models/mlp.hpp"
+#include "imm/models/learned/mlp.hpp"
 
 namespace imm::trainer::mlp {
 

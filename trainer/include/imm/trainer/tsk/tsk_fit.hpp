@@ -23,7 +23,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "imm/models/tsk_model.hpp"
+#include "imm/models/learned/tsk_sensor_model.hpp"
 
 namespace imm::trainer::tsk {
 

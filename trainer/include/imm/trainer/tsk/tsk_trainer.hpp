@@ -55,7 +55,7 @@ struct OutputReport {
 };
 
 struct TskTrainingResult {
-  TskModel model;
+  TskSensorModel model;
   OutputReport outputs[2];
   int training_samples = 0, validation_samples = 0;
   double wall_seconds = 0.0;

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "imm/datasets/track.hpp"
-#include "imm/filters/weighted_imm.hpp"
+#include "imm/filters/wimm.hpp"
 
 namespace imm::trainer::wimm {
 

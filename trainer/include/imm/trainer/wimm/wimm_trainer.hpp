@@ -16,7 +16,7 @@
 #include <optional>
 #include <string>
 
-#include "imm/filters/weighted_imm.hpp"
+#include "imm/filters/wimm.hpp"
 #include "imm/trainer/wimm/tracking_score.hpp"
 
 namespace imm::trainer::wimm {
@@ -55,8 +55,7 @@ struct Tuned {
                                double position_penalty);
 
 /// Threshold and α of the weighted IMM.
-[[nodiscard]] Tuned tune_weighted_imm(const WimmTrainingConfig& config,
-                                      const TrainingScenarios& data);
+[[nodiscard]] Tuned tune_wimm(const WimmTrainingConfig& config, const TrainingScenarios& data);
 /// q₁ and the CV → CV transition probability of the normal IMM (nIMM-tuned).
 [[nodiscard]] Tuned tune_normal_imm(const WimmTrainingConfig& config,
                                     const TrainingScenarios& data);

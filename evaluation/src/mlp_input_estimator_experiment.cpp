@@ -1,0 +1,302 @@
+// SPDX-License-Identifier: Apache-2.0
+// `imm-eval input-estimator`: seed 001's experiments (Tables 1 and 2) on any regime with
+// Cartesian plots. The estimator is one axis: every axis of every test track is one run. On the
+// same plots: the constant-velocity KF, the corrected KF (the network's acceleration fed to the
+// primary KF, eq. 10) and, as a floor, the primary KF fed the true acceleration. Per case of the
+// regime: the MSE of the innovation, the position and the velocity over every scan after the
+// two-point start, the corrected − CV difference with its 95 % paired-bootstrap interval, and the
+// paper's figures where the regime file records them.
+//
+// Gate: the corrected KF beats the CV KF beyond the uncertainty in at least 90 % of the cells.
+
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <span>
+
+#include "imm/datasets/axis_trajectory.hpp"
+#include "imm/evaluation/evaluation_report.hpp"
+#include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/headline.hpp"
+#include "imm/evaluation/report.hpp"
+#include "imm/evaluation/uncertainty.hpp"
+#include "imm/filters/mlp_input_estimator.hpp"
+#include "imm/io/mlp_input_estimator_file.hpp"
+#include "imm/trainer/provenance.hpp"
+#include "imm/trainer/ranks.hpp"
+
+namespace imm::evaluation {
+namespace {
+
+// The columns of the tables, for metrics.json and report.md.
+std::vector<MetricDefinition> definitions(const std::string& length) {
+  return {
+      {"innov CV, innov corrected", length + "^2",
+       "MSE of the innovation of the CV KF and of the primary KF corrected by û"},
+      {"pos CV, pos corrected", length + "^2", "position MSE of the two"},
+      {"vel CV, vel corrected", "(" + length + "/s)^2", "velocity MSE of the two"},
+      {"ratio", "1", "corrected / CV"},
+      {"beats", "–",
+       "whether the corrected KF is below the CV KF beyond the 95 % paired-bootstrap interval"},
+      {"pos, true input (floor)", length + "^2", "the primary KF fed the true acceleration"},
+  };
+}
+
+constexpr double kRequiredShare = 0.9;
+constexpr const char* kQuantity[3] = {"innovation", "position", "velocity"};
+
+struct CaseResult {
+  std::string name;
+  Eigen::MatrixXd cv, corrected, floor;  // runs × 3 (innovation, position, velocity MSE)
+  Eigen::VectorXd true_acceleration, mean_estimate;           // per scan (run 0; mean of runs)
+  Eigen::VectorXd cv_position_rmse, corrected_position_rmse;  // per scan
+};
+
+// The corrected KF's position and velocity MSE per case, over all runs in case order (a run of
+// another case weighs nothing in a case's figure).
+std::vector<HeadlineMetric> corrected_headline(const std::vector<CaseResult>& cases) {
+  Eigen::Index runs = 0;
+  for (const CaseResult& r : cases) runs += r.corrected.rows();
+  std::vector<HeadlineMetric> headline;
+  Eigen::Index offset = 0;
+  for (const CaseResult& r : cases) {
+    for (int q : {1, 2}) {
+      headline.push_back(
+          in_case(mean_metric(std::string(kQuantity[q]) + "_mse " + r.name, r.corrected.col(q)),
+                  offset, runs));
+    }
+    offset += r.corrected.rows();
+  }
+  return headline;
+}
+
+int run(const CommonOptions& options) {
+  const std::filesystem::path model_path = options.model_path();
+  const io::ModelFileReader reader(model_path, io::kMlpInputEstimatorKind);
+  const MlpInputEstimatorModel model = io::read_mlp_input_estimator(model_path);
+  const EvaluationRegimes regimes = evaluation_regimes(options, reader.provenance(), model_path);
+  const CvKfSettings& settings = model.settings;
+  check_model({settings.sample_period, datasets::SensorKind::kCartesian,
+               std::sqrt(settings.measurement_variance), std::nullopt},
+              regimes, model_path);
+  const datasets::Regime& regime = regimes.evaluated.regime;
+  const datasets::TrackSet data = test_tracks(regime, options);
+
+  const double T = settings.sample_period;
+  const double R = settings.measurement_variance;
+  const auto motion = constant_velocity<1>(T, settings.process_noise);
+  const Matrix<2, 1> G = cv_axis_input_gain(T);
+  Matrix<1, 2> H;
+  H << 1.0, 0.0;
+  const SquareMatrix<1> R_matrix = SquareMatrix<1>::Constant(R);
+  const int steps = data.scans;
+
+  std::vector<CaseResult> cases(static_cast<std::size_t>(regime.case_count()));
+  std::vector<std::vector<Eigen::RowVector3d>> cv_runs(cases.size()), corrected_runs(cases.size()),
+      floor_runs(cases.size());
+  std::vector<int> case_runs(cases.size(), 0);
+  for (std::size_t c = 0; c < cases.size(); ++c) {
+    cases[c].name = case_label(regime, static_cast<int>(c));
+    cases[c].mean_estimate = Eigen::VectorXd::Zero(steps);
+    cases[c].cv_position_rmse = Eigen::VectorXd::Zero(steps);
+    cases[c].corrected_position_rmse = Eigen::VectorXd::Zero(steps);
+  }
+  // axis_trajectories gives each track's x then its y axis.
+  const std::vector<datasets::AxisTrajectory> axes = datasets::axis_trajectories(data);
+  // One axis run's terms: its mean squared innovation, position and velocity errors of the CV
+  // filter, the corrected estimate and the known-input floor (3 × 3); per scan: counted, the
+  // acceleration estimate, the CV and corrected squared position errors.
+  constexpr std::ptrdiff_t kPerScan = 4;
+  const auto width = static_cast<int>(9 + steps * kPerScan);
+  const std::vector<double> all = trainer::shared_items(
+      static_cast<long>(axes.size()), width, [&](long run, std::span<double> terms) {
+        const datasets::AxisTrajectory& t = axes[static_cast<std::size_t>(run)];
+        MlpInputEstimatorFilter filter(model, settings);
+        GaussianState<2> start;
+        start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
+        start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
+        filter.initialize(start);
+        GaussianState<2> known = start;  // the primary KF fed the true acceleration
+        Eigen::RowVector3d cv = Eigen::RowVector3d::Zero(), corrected = cv, floor = cv;
+        int samples = 0;
+        for (int k = 2; k < steps; ++k) {
+          if (filter.step(t.measurement(k)) != StepStatus::kOk) continue;
+          known = predict(known, motion.transition, motion.process_noise, G,
+                          Vector<1>(t.acceleration_input(k - 1)));
+          const auto known_report = update(known, Vector<1>(t.measurement(k)), H, R_matrix);
+          const auto& e = filter.cv_estimate();
+          const auto& p = filter.estimate();
+          auto add = [](Eigen::RowVector3d& sum, double nu, double dp, double dv) {
+            sum += Eigen::RowVector3d(nu * nu, dp * dp, dv * dv);
+          };
+          add(cv, filter.cv_innovation(), t.position(k) - e.mean(0), t.velocity(k) - e.mean(1));
+          add(corrected, filter.innovation(), t.position(k) - p.mean(0), t.velocity(k) - p.mean(1));
+          add(floor, known_report.innovation(0), t.position(k) - known.mean(0),
+              t.velocity(k) - known.mean(1));
+          ++samples;
+          double* scan = terms.data() + 9 + k * kPerScan;
+          scan[0] = 1.0;
+          scan[1] = filter.acceleration();
+          scan[2] = std::pow(t.position(k) - e.mean(0), 2);
+          scan[3] = std::pow(t.position(k) - p.mean(0), 2);
+        }
+        const double n = std::max(1, samples);
+        Eigen::Map<Eigen::RowVector3d>(terms.data()) = cv / n;
+        Eigen::Map<Eigen::RowVector3d>(terms.data() + 3) = corrected / n;
+        Eigen::Map<Eigen::RowVector3d>(terms.data() + 6) = floor / n;
+      });
+  // The figures, summed in run order.
+  for (std::size_t run = 0; run < axes.size(); ++run) {
+    const datasets::AxisTrajectory& t = axes[run];
+    const auto c = static_cast<std::size_t>(data.tracks[run / 2].case_index);
+    CaseResult& out = cases[c];
+    if (case_runs[c] == 0) out.true_acceleration = t.acceleration_input;
+    ++case_runs[c];
+    const double* terms = all.data() + static_cast<std::ptrdiff_t>(run) * width;
+    for (int k = 2; k < steps; ++k) {
+      const double* scan = terms + 9 + k * kPerScan;
+      if (scan[0] == 0.0) continue;
+      out.mean_estimate(k) += scan[1];
+      out.cv_position_rmse(k) += scan[2];
+      out.corrected_position_rmse(k) += scan[3];
+    }
+    cv_runs[c].emplace_back(Eigen::Map<const Eigen::RowVector3d>(terms));
+    corrected_runs[c].emplace_back(Eigen::Map<const Eigen::RowVector3d>(terms + 3));
+    floor_runs[c].emplace_back(Eigen::Map<const Eigen::RowVector3d>(terms + 6));
+  }
+  auto stack = [](const std::vector<Eigen::RowVector3d>& rows) {
+    Eigen::MatrixXd m(static_cast<Eigen::Index>(rows.size()), 3);
+    for (std::size_t i = 0; i < rows.size(); ++i) m.row(static_cast<Eigen::Index>(i)) = rows[i];
+    return m;
+  };
+  for (std::size_t c = 0; c < cases.size(); ++c) {
+    cases[c].cv = stack(cv_runs[c]);
+    cases[c].corrected = stack(corrected_runs[c]);
+    cases[c].floor = stack(floor_runs[c]);
+    const double n = std::max(1, case_runs[c]);
+    cases[c].mean_estimate /= n;
+    cases[c].cv_position_rmse = (cases[c].cv_position_rmse / n).cwiseSqrt();
+    cases[c].corrected_position_rmse = (cases[c].corrected_position_rmse / n).cwiseSqrt();
+  }
+
+  // The table: per case and quantity, CV, corrected, the difference and the paper's.
+  nlohmann::json metrics;
+  int wins = 0, cells = 0;
+  std::vector<std::string> losses;
+  std::vector<std::vector<std::string>> table;
+  for (const CaseResult& r : cases) {
+    if (r.cv.rows() == 0) continue;
+    std::vector<std::string> row = {r.name};
+    nlohmann::json m = {{"name", r.name}, {"runs", r.cv.rows()}};
+    for (int q = 0; q < 3; ++q) {
+      const Eigen::VectorXd cv = r.cv.col(q), corrected = r.corrected.col(q);
+      const Difference d =
+          paired_difference(static_cast<int>(cv.size()), mean_of(corrected), mean_of(cv));
+      ++cells;
+      if (d.below()) {
+        ++wins;
+      } else {
+        losses.push_back(r.name + " " + kQuantity[q] + ": corrected − CV " + d.text(1));
+      }
+      const std::string metric = std::string(kQuantity[q]) + "_mse";
+      const auto* paper_cv = regimes.evaluated.find("CV KF", r.name, metric);
+      const auto* paper_corrected = regimes.evaluated.find("corrected KF", r.name, metric);
+      auto with_paper = [](double ours, const datasets::PublishedFigure* paper) {
+        return scientific(ours) + (paper ? " (" + scientific(paper->value) + ")" : "");
+      };
+      row.push_back(with_paper(cv.mean(), paper_cv));
+      row.push_back(with_paper(corrected.mean(), paper_corrected));
+      row.push_back(cell(corrected.mean() / cv.mean(), 3) +
+                    (paper_cv && paper_corrected
+                         ? " (" + cell(paper_corrected->value / paper_cv->value, 3) + ")"
+                         : ""));
+      row.push_back(d.below() ? "yes" : d.above() ? "no (worse)" : "tie");
+      m["cv_kf"][metric] = cv.mean();
+      m["corrected_kf"][metric] = corrected.mean();
+      m["true_input_kf"][metric] = r.floor.col(q).mean();
+      m["corrected_minus_cv"][metric] = {d.estimate, d.lower, d.upper};
+    }
+    row.push_back(scientific(r.floor.col(1).mean()));
+    table.push_back(row);
+    metrics["rows"].push_back(m);
+  }
+  std::cout << "input-estimator: " << regimes.describe() << "\n  test split: " << data.tracks.size()
+            << " tracks x " << steps << " scans (both axes: " << 2 * data.tracks.size()
+            << " runs), seed " << options.seed
+            << "\n\nMSE (the paper's in parentheses); ratio = corrected / CV; 'beats' = the 95 % "
+               "paired-bootstrap interval of corrected − CV lies below 0:\n\n"
+            << markdown_table({"case", "innov CV", "innov corrected", "ratio", "beats", "pos CV",
+                               "pos corrected", "ratio", "beats", "vel CV", "vel corrected",
+                               "ratio", "beats", "pos, true input (floor)"},
+                              table);
+  const bool passed = cells > 0 && wins >= kRequiredShare * cells;
+  std::cout << "\nThe corrected KF beats the CV KF beyond the uncertainty in " << wins << " of "
+            << cells << " cells (gate: at least " << 100.0 * kRequiredShare
+            << " %; the paper: 22 of 24): " << (passed ? "passed" : "FAILED") << "\n";
+  for (const auto& loss : losses) std::cout << "  not better: " << loss << '\n';
+
+  const std::filesystem::path& out = options.out;
+  std::filesystem::create_directories(out);
+  metrics["regime"] = {{"name", regime.name},
+                       {"model_regime", regimes.trained.regime.name},
+                       {"off_training", regimes.off_training()}};
+  metrics["wins"] = wins;
+  metrics["cells"] = cells;
+  const HeadlineRuns evaluated{"input-estimator", model_path,   regime.name,
+                               regime.digest,     options.seed, static_cast<int>(axes.size())};
+  write_metrics(out, evaluated, definitions(std::string(datasets::to_string(regime.units))),
+                metrics);
+  write_headline(out, evaluated, corrected_headline(cases));
+
+  // Fig. 4 and 5 of the seed: true vs estimated acceleration and the position RMSE over time, for
+  // the first case and the middle one.
+  std::vector<std::size_t> shown = {0};
+  if (cases.size() > 1) shown.push_back(cases.size() / 2);
+  for (std::size_t index : shown) {
+    const CaseResult& r = cases[index];
+    if (r.true_acceleration.size() == 0) continue;
+    const std::string stem = "case" + std::to_string(index);
+    Eigen::MatrixXd acceleration(steps, 2);
+    acceleration << r.true_acceleration, r.mean_estimate;
+    write_series_csv(out / (stem + "_acceleration.csv"), {"true", "estimated"}, acceleration);
+    Eigen::MatrixXd position(steps, 2);
+    position << r.cv_position_rmse, r.corrected_position_rmse;
+    write_series_csv(out / (stem + "_position_rmse.csv"), {"cv_kf", "corrected_kf"}, position);
+    plot_series({out / (stem + "_acceleration.png"),
+                 r.name + ": true and mean estimated acceleration (seed 001 Fig. 4-5)",
+                 "time (s)",
+                 "acceleration",
+                 out / (stem + "_acceleration.csv"),
+                 {"true", "estimated"}});
+    plot_series({out / (stem + "_position_rmse.png"),
+                 r.name + ": position RMSE (seed 001 Fig. 4-5)",
+                 "time (s)",
+                 "position",
+                 out / (stem + "_position_rmse.csv"),
+                 {"cv_kf", "corrected_kf"}});
+  }
+  // The training curve stored in the model.
+  if (reader.container().kind("/training/loss") == io::ObjectKind::kDataset) {
+    const Eigen::MatrixXd loss = reader.matrix("/training/loss", -1, 3);
+    write_series_csv(out / "training_loss.csv", {"epoch", "training_mse", "validation_mse"}, loss);
+    plot_series({out / "training_loss.png",
+                 "Training curve of the input estimator (MSE)",
+                 "loss point (every loss_every epochs)",
+                 "MSE",
+                 out / "training_loss.csv",
+                 {"training_mse", "validation_mse"}});
+  }
+  std::cout << "\nwrote metrics.json, CSV series and PNG plots in " << out.string() << '\n';
+  return passed ? 0 : support::exit_code::kEvaluationGateFailed;
+}
+
+}  // namespace
+
+void add_input_estimator_command(CLI::App& app, ExitCode& exit_code) {
+  auto options = std::make_shared<CommonOptions>();
+  auto* command = app.add_subcommand(
+      "input-estimator", "seed 001 Tables 1-2: neural input estimator vs the constant-velocity KF");
+  add_common_options(*command, *options, "mlp_input_estimator", "reports/input-estimator");
+  command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
+}
+
+}  // namespace imm::evaluation

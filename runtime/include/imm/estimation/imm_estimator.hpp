@@ -1,0 +1,310 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// Interacting multiple model estimator (Blom & Bar-Shalom; seed 000 eq. 4–11) over modes that
+/// may have different state dimensions.
+///
+/// One step, with Π = [p_ij] the mode transition matrix and μ the mode probabilities:
+///   1. predicted mode probabilities c_j = Σ_i p_ij μ_i, mixing weights μ_ij = p_ij μ_i / c_j (6);
+///   2. mixed initial conditions x̂₀ⱼ = Σ_i μ_ij x̂_i, P₀ⱼ = Σ_i μ_ij (P_i + (x̂_i − x̂₀ⱼ)(·)ᵀ) (4–5),
+///      formed in the NX-dimensional mixing space where lower-dimensional modes are zero-padded;
+///   3. each mode predicts from its mixed condition and updates with z (7 / 19);
+///   4. μ_j ∝ Λ_j c_j (8–9), computed as log μ_j = log Λ_j + log c_j − log Σ exp(·): far-off modes
+///      have likelihoods that underflow in linear space, never in log space;
+///
+/// Underflow: μ is stored as log μ. Steps 1–2 work on μ scaled by its largest entry
+/// (μ̃_i = exp(log μ_i − max log μ) ∈ (0, 1]), which is exact and costs one exponential per mode
+/// instead of one per (i, j) pair; entries below 1e-308 of the largest vanish there, as they would
+/// in any floating-point sum. Where a c̃_j underflows to zero (possible only with zero
+/// transition entries) log c_j falls back to the exact log-sum-exp.
+///   5. combined estimate x̂ = Σ μ_j x̂_j, P = Σ μ_j (P_j + (x̂_j − x̂)(·)ᵀ) (10–11).
+///
+/// Failure handling: a NaN/Inf measurement, a singular innovation covariance or a non-finite
+/// result in any mode returns that status and leaves every mode, μ and the combined estimate as
+/// they were. Nothing is allocated per step: mode-indexed arrays have a fixed maximum size
+/// (kMaxModes) and modes are allocation-free by contract.
+
+#include <Eigen/Core>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "imm/core/checks.hpp"
+#include "imm/core/physical_limits.hpp"
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/imm_mode.hpp"
+#include "imm/estimation/step_status.hpp"
+#include "imm/math/linear_algebra.hpp"
+#include "imm/math/log_sum_exp.hpp"
+#include "imm/runtime_export.hpp"
+
+namespace imm {
+
+/// The interacting multiple model estimator over modes of one mixing space (see the file comment).
+template <int NX, int NZ>
+class ImmEstimator {
+ public:
+  /// The modes' interface.
+  using Mode = ImmMode<NX, NZ>;
+  /// The mixing-space dimension.
+  static constexpr int kDim = NX;
+  /// The measurement dimension.
+  static constexpr int kMeasurementDim = NZ;
+
+  /// `transition(i, j)` is the probability of switching from mode i to mode j (rows sum to 1);
+  /// `initial_probabilities` sum to 1. Throws std::invalid_argument naming the offending entry.
+  ImmEstimator(std::vector<std::unique_ptr<Mode>> modes, const Eigen::MatrixXd& transition,
+               const Eigen::VectorXd& initial_probabilities)
+      : modes_(std::move(modes)) {
+    const int n = static_cast<int>(modes_.size());
+    if (n < 1 || n > kMaxModes) {
+      throw std::invalid_argument("an IMM needs 1 to " + std::to_string(kMaxModes) +
+                                  " modes, got " + std::to_string(n));
+    }
+    for (const auto& mode : modes_) {
+      if (!mode) throw std::invalid_argument("IMM mode is null");
+    }
+    validate_mode_probabilities(transition, initial_probabilities, n);
+    transition_ = transition;
+    log_transition_.resize(n, n);
+    initial_log_probabilities_.resize(n);
+    for (int i = 0; i < n; ++i) {
+      initial_log_probabilities_(i) = safe_log(initial_probabilities(i));
+      for (int j = 0; j < n; ++j) log_transition_(i, j) = safe_log(transition(i, j));
+    }
+    log_probabilities_ = initial_log_probabilities_;
+    log_predicted_.resize(n);
+    predicted_scaled_.resize(n);
+    log_posterior_.resize(n);
+    scaled_.resize(n);
+    scratch_.resize(n);
+  }
+
+  /// Movable, not copyable (it owns its modes).
+  ImmEstimator(ImmEstimator&&) noexcept = default;
+  /// Move assignment.
+  ImmEstimator& operator=(ImmEstimator&&) noexcept = default;
+
+  /// Starts a track: every mode takes `state` (its own components of it) and the mode
+  /// probabilities return to their initial values.
+  void initialize(const GaussianState<NX>& state) {
+    for (auto& mode : modes_) mode->reset(state);
+    log_probabilities_ = initial_log_probabilities_;
+    combine();
+    initialized_ = true;
+  }
+
+  /// One IMM cycle with measurement z. On any status other than kOk nothing changes. Flattened:
+  /// every call inside is inlined (Eigen's small products otherwise stay out of line).
+  [[gnu::flatten]] StepStatus step(const Vector<NZ>& z) {
+    require_initialized();
+    if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
+    predict_mode_probabilities();
+    mix_and_propose(
+        [&](Mode& mode, const GaussianState<NX>& mixed) { return mode.propose(mixed, z); });
+    return finish_cycle();
+  }
+
+  /// One IMM cycle without a measurement (a missed or rejected plot): the modes predict and the
+  /// mode probabilities only follow the Markov chain.
+  StepStatus predict_only() {
+    require_initialized();
+    predict_mode_probabilities();
+    mix_and_propose(
+        [](Mode& mode, const GaussianState<NX>& mixed) { return mode.propose_prediction(mixed); });
+    return finish_cycle();
+  }
+
+  /// One IMM cycle in which the measurement is chosen after the prediction: `choose` receives the
+  /// predicted mode probabilities c_j = Σ_i p_ij μ_i (linear), every mode's predicted mean in
+  /// mixing space and z, and returns the measurement to update with (seed 004's weighted IMM
+  /// fuses the plot azimuth with the predicted one). On any status other than kOk nothing
+  /// changes.
+  template <class Choose>
+  StepStatus step_with(const Vector<NZ>& z, Choose&& choose) {
+    require_initialized();
+    if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
+    predict_mode_probabilities();
+    const int n = mode_count();
+    ModeVector predicted(n);
+    for (int j = 0; j < n; ++j) {
+      predicted(j) = std::exp(log_predicted_(j));
+      mix(j, mixed_states_[index(j)]);
+      mode_at(j).predicted_mean(mixed_states_[index(j)], predicted_means_[index(j)]);
+    }
+    const Vector<NZ> chosen =
+        choose(static_cast<const ModeVector&>(predicted),
+               static_cast<const std::array<Vector<NX>, kMaxModes>&>(predicted_means_), z);
+    if (!limits::usable_measurement(chosen)) return StepStatus::kInvalidMeasurement;
+    status_ = StepStatus::kOk;
+    for (int j = 0; j < n; ++j) {
+      if (!record(j, mode_at(j).propose(mixed_states_[index(j)], chosen))) break;
+    }
+    return finish_cycle();
+  }
+
+  /// Whether initialize() has been called.
+  [[nodiscard]] bool initialized() const { return initialized_; }
+  /// The combined estimate (eq. 10–11 of seed 000).
+  [[nodiscard]] const GaussianState<NX>& estimate() const { return combined_; }
+  /// The number of modes.
+  [[nodiscard]] int mode_count() const { return static_cast<int>(modes_.size()); }
+  /// Mode j (0-based).
+  [[nodiscard]] const Mode& mode(int j) const { return *modes_[index(j)]; }
+
+  /// Mode probabilities μ_j (linear space; may contain exact zeros after underflow).
+  [[nodiscard]] ModeVector mode_probabilities() const {
+    ModeVector mu(mode_count());
+    for (int j = 0; j < mode_count(); ++j) mu(j) = std::exp(log_probabilities_(j));
+    return mu;
+  }
+
+  /// log μ_j, exact where linear probabilities underflow.
+  [[nodiscard]] const ModeVector& log_mode_probabilities() const { return log_probabilities_; }
+
+ private:
+  void require_initialized() const {
+    if (!initialized_) throw std::logic_error("ImmEstimator used before initialize()");
+  }
+
+  // log c_j = log Σ_i p_ij μ_i (eq. 8's inner sum), through the scaled μ̃ (see the class comment).
+  void predict_mode_probabilities() {
+    const int n = mode_count();
+    const double shift = log_probabilities_.maxCoeff();
+    for (int i = 0; i < n; ++i) scaled_(i) = std::exp(log_probabilities_(i) - shift);
+    for (int j = 0; j < n; ++j) {
+      double c = 0.0;
+      for (int i = 0; i < n; ++i) c += transition_(i, j) * scaled_(i);
+      predicted_scaled_(j) = c;
+      if (c > 0.0) {
+        log_predicted_(j) = std::log(c) + shift;
+      } else {
+        for (int i = 0; i < n; ++i) scratch_(i) = log_transition_(i, j) + log_probabilities_(i);
+        log_predicted_(j) = log_sum_exp(scratch_);
+      }
+    }
+  }
+
+  // The mixed initial condition of mode j (eq. 4–6).
+  [[gnu::always_inline]] inline void mix(int j, GaussianState<NX>& mixed) {
+    const int n = mode_count();
+    // means_/covariances_ hold every mode's current estimate (see combine()).
+    if (log_predicted_(j) == -std::numeric_limits<double>::infinity()) {
+      // Mode j is unreachable under Π and μ: its weights are undefined; it keeps its own
+      // estimate as the initial condition and its probability stays zero.
+      mixed.mean = means_[index(j)];
+      mixed.covariance = covariances_[index(j)];
+      return;
+    }
+    if (predicted_scaled_(j) > 0.0) {
+      for (int i = 0; i < n; ++i) {
+        scratch_(i) = transition_(i, j) * scaled_(i) / predicted_scaled_(j);
+      }
+    } else {
+      for (int i = 0; i < n; ++i) {
+        scratch_(i) = std::exp(log_transition_(i, j) + log_probabilities_(i) - log_predicted_(j));
+      }
+    }
+    moment_match(scratch_, mixed);
+  }
+
+  // Mixing and the modes' predict/update. Stops at the first failing mode.
+  template <class Propose>
+  void mix_and_propose(Propose&& propose) {
+    status_ = StepStatus::kOk;
+    for (int j = 0; j < mode_count(); ++j) {
+      mix(j, mixed_);
+      if (!record(j, propose(mode_at(j), mixed_))) return;
+    }
+  }
+
+  // Stores mode j's result; false (and status_ set) when it failed.
+  bool record(int j, const ModeStep& result) {
+    if (result.status != StepStatus::kOk) {
+      status_ = result.status;
+      return false;
+    }
+    log_posterior_(j) = result.log_likelihood + log_predicted_(j);
+    return true;
+  }
+
+  // Normalizes the posterior in log space, commits the modes and combines.
+  StepStatus finish_cycle() {
+    if (status_ != StepStatus::kOk) return status_;
+    const int n = mode_count();
+    const double shift = log_posterior_.maxCoeff();
+    if (!std::isfinite(shift)) return StepStatus::kProbabilityUnderflow;
+    double sum = 0.0;
+    for (int j = 0; j < n; ++j) {
+      scaled_(j) = std::exp(log_posterior_(j) - shift);
+      sum += scaled_(j);
+    }
+    // sum ≥ 1: the largest entry contributes exp(0). log μ_j = (ℓ_j − shift) − log sum, in that
+    // order: with log-likelihoods far from zero (a plot many σ away gives ℓ ≈ −1e30) the sum
+    // shift + log sum rounds to shift, and ℓ_j − (shift + log sum) would give two modes log μ = 0.
+    const double log_sum = std::log(sum);  // cppcheck-suppress invalidFunctionArg
+    for (auto& mode : modes_) mode->commit();
+    log_probabilities_ = (log_posterior_.array() - shift) - log_sum;
+    scaled_ /= sum;
+    combine(scaled_);
+    return StepStatus::kOk;
+  }
+
+  // Combination (eq. 10–11) with mode probabilities `mu` (linear, summing to 1). Refreshes
+  // means_/covariances_ with the modes' current estimates, which the next mixing reuses: they
+  // change only in initialize() and finish_cycle(), both of which end here.
+  void combine(const ModeVector& mu) {
+    const int n = mode_count();
+    for (int j = 0; j < n; ++j)
+      mode_at(j).embedded_estimate(means_[index(j)], covariances_[index(j)]);
+    moment_match(mu, combined_);
+  }
+
+  void combine() {
+    const int n = mode_count();
+    for (int j = 0; j < n; ++j) scaled_(j) = std::exp(log_probabilities_(j));
+    combine(scaled_);
+  }
+
+  // Σ w_i N(means_i, covariances_i) collapsed to one Gaussian (weights sum to 1). The result is
+  // exactly symmetric when the inputs are: entries (a, b) and (b, a) see the same operations.
+  void moment_match(const ModeVector& weights, GaussianState<NX>& out) const {
+    const int n = mode_count();
+    out.mean.setZero();
+    for (int i = 0; i < n; ++i) out.mean += weights(i) * means_[index(i)];
+    out.covariance.setZero();
+    for (int i = 0; i < n; ++i) {
+      if (weights(i) == 0.0) continue;
+      const Vector<NX> d = means_[index(i)] - out.mean;
+      out.covariance += weights(i) * (covariances_[index(i)] + d * d.transpose());
+    }
+  }
+
+  static std::size_t index(int i) { return static_cast<std::size_t>(i); }
+  Mode& mode_at(int i) { return *modes_[index(i)]; }
+
+  std::vector<std::unique_ptr<Mode>> modes_;
+  ModeMatrix transition_;
+  ModeMatrix log_transition_;
+  ModeVector initial_log_probabilities_;
+  ModeVector log_probabilities_;
+  ModeVector log_predicted_;
+  ModeVector predicted_scaled_;  // c̃_j = c_j / max μ
+  ModeVector log_posterior_;
+  ModeVector scaled_;  // μ̃ (prediction) or posterior weights (combination)
+  ModeVector scratch_;
+  std::array<Vector<NX>, kMaxModes> means_{};  // embedded current mode estimates
+  std::array<SquareMatrix<NX>, kMaxModes> covariances_{};
+  GaussianState<NX> mixed_;
+  std::array<GaussianState<NX>, kMaxModes> mixed_states_{};  // step_with() only
+  std::array<Vector<NX>, kMaxModes> predicted_means_{};
+  GaussianState<NX> combined_;
+  StepStatus status_ = StepStatus::kOk;
+  bool initialized_ = false;
+};
+
+}  // namespace imm

@@ -1,0 +1,86 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// The plain IMM mode: a Kalman filter with a fixed linear motion model and a measurement model
+/// (linear or, through its Jacobian, extended).
+
+#include <string>
+#include <string_view>
+#include <utility>
+
+#include "imm/estimation/imm_mode.hpp"
+#include "imm/estimation/kalman_filter.hpp"
+#include "imm/estimation/state_embedding.hpp"
+#include "imm/models/motion/motion_model.hpp"
+
+namespace imm {
+
+/// A linear-motion Kalman mode of N states inside an NX-state mixing space, with any measurement
+/// model (Joseph-form update).
+template <int NX, int N, class MeasurementModel>
+class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
+ public:
+  /// The mode's own state dimension.
+  static constexpr int kDim = N;
+  using ImmMode<NX, MeasurementModel::kDim>::kMeasurementDim;
+
+  /// `iterations` > 1: the iterated EKF update (kalman_filter.hpp) for nonlinear measurements.
+  KalmanMode(std::string name, const LinearMotionModel<N>& motion,
+             const MeasurementModel& measurement, const StateEmbedding<N, NX>& embedding,
+             int iterations = 1)
+      : name_(std::move(name)),
+        motion_(motion),
+        measurement_(measurement),
+        embedding_(embedding),
+        iterations_(iterations) {}
+
+  [[nodiscard]] std::string_view name() const override { return name_; }
+
+  void embedded_estimate(Vector<NX>& mean, SquareMatrix<NX>& covariance) const override {
+    embedding_.embed(estimate_, mean, covariance);
+  }
+
+  void reset(const GaussianState<NX>& state) override { estimate_ = embedding_.project(state); }
+
+  /// Predicts from the mixed estimate (projected to the mode's states) and updates with z; pending
+  /// until commit().
+  [[gnu::flatten]] ModeStep propose(const GaussianState<NX>& mixed,
+                                    const Vector<kMeasurementDim>& z) override {
+    pending_ = predict(embedding_.project(mixed), motion_.transition, motion_.process_noise);
+    const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
+                                        : update(pending_, z, measurement_);
+    return {report.status, report.log_likelihood};
+  }
+
+  ModeStep propose_prediction(const GaussianState<NX>& mixed) override {
+    pending_ = predict(embedding_.project(mixed), motion_.transition, motion_.process_noise);
+    return {pending_.all_finite() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
+  }
+
+  void predicted_mean(const GaussianState<NX>& mixed, Vector<NX>& mean) const override {
+    GaussianState<N> predicted = embedding_.project(mixed);
+    predicted.mean = motion_.transition * predicted.mean;
+    SquareMatrix<NX> unused;
+    embedding_.embed(predicted, mean, unused);
+  }
+
+  void commit() override { estimate_ = pending_; }
+
+  /// The mode's current estimate in its own states.
+  [[nodiscard]] const GaussianState<N>& estimate() const { return estimate_; }
+  /// The mode's motion model.
+  [[nodiscard]] const LinearMotionModel<N>& motion() const { return motion_; }
+  /// The mode's measurement model.
+  [[nodiscard]] const MeasurementModel& measurement() const { return measurement_; }
+
+ private:
+  std::string name_;
+  LinearMotionModel<N> motion_;
+  MeasurementModel measurement_;
+  StateEmbedding<N, NX> embedding_;
+  int iterations_ = 1;
+  GaussianState<N> estimate_;
+  GaussianState<N> pending_;
+};
+
+}  // namespace imm

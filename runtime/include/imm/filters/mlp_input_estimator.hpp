@@ -1,0 +1,220 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// The neural input-estimation filter of seed 001 (SPEC §4.3), one axis:
+///   a constant-velocity KF (eq. 3–9) yields the normalized innovation ino(k) = ν²(k)/S(k) (11);
+///   sum(k) = 0.1 Σ_{i=0..9} ino(k−i) (13), diff(k) = ino(k) − ino(k−10) (14);
+///   the MLP maps the standardized (sum, diff) to |û(k)|; the trained no-maneuver bias is
+///   subtracted and the result clipped at 0; the sign is the seed's (always positive: its maneuvers
+///   are) or, for regimes that accelerate both ways, that of the CV KF's last ten innovations' sum
+///   (ν²/S has lost it; a maneuver shows as innovations of one sign);
+///   the primary KF predicts with F x̂ + G û(k−1) (10) and updates with z(k).
+/// Before ten innovations exist, the missing ino values are taken as 1, their expectation without a
+/// maneuver (ν²/S is χ²₁), so the first features look like straight flight rather than a jump.
+/// The model carries the CV-KF settings (T, q, R) its features assume; a filter configured
+/// differently is refused (the network's inputs would mean something else).
+
+#include <array>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "imm/estimation/kalman_filter.hpp"
+#include "imm/filters/axis_filter.hpp"
+#include "imm/models/learned/mlp.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
+#include "imm/runtime_export.hpp"
+
+namespace imm {
+
+/// sum and diff of eq. (13)–(14) over a ring of the last 11 normalized innovations.
+class IMM_RUNTIME_EXPORT InnovationFeatures {
+ public:
+  /// The number of normalized innovations each feature sums over.
+  static constexpr int kWindow = 10;
+  static constexpr double kPad = 1.0;  ///< E[ν²/S] without a maneuver
+
+  InnovationFeatures() { reset(); }
+  /// Fills the window with kPad (a track's start looks like straight flight).
+  void reset() {
+    ring_.fill(kPad);
+    head_ = 0;
+  }
+  /// Adds ino(k) and returns (sum(k), diff(k)).
+  Eigen::Vector2d push(double ino) {
+    head_ = (head_ + 1) % ring_.size();
+    ring_[head_] = ino;
+    double sum = 0.0;
+    for (int i = 0; i < kWindow; ++i) sum += at(i);
+    return {0.1 * sum, at(0) - at(kWindow)};
+  }
+  /// ino(k − lag), 0 ≤ lag ≤ 10.
+  [[nodiscard]] double at(int lag) const {
+    return ring_[(head_ + ring_.size() - static_cast<std::size_t>(lag)) % ring_.size()];
+  }
+
+ private:
+  std::array<double, kWindow + 1> ring_{};
+  std::size_t head_ = 0;
+};
+
+/// The CV-KF settings the features assume.
+struct IMM_RUNTIME_EXPORT CvKfSettings {
+  double sample_period = 1.0;          ///< T, s
+  double process_noise = 1.0;          ///< q, Q = q [[T⁴/4, T³/2], [T³/2, T²]]
+  double measurement_variance = 2500;  ///< R, m²
+
+  /// Settings compare equal field by field.
+  [[nodiscard]] bool operator==(const CvKfSettings&) const = default;
+  /// InvalidParameter naming the field outside its physical range (imm/core/physical_limits.hpp).
+  void validate() const;
+};
+
+/// The constant-velocity KF and the features of its normalized innovations: what the network
+/// sees. The trainer computes its training inputs with this very class.
+class IMM_RUNTIME_EXPORT InnovationFeatureExtractor {
+ public:
+  /// Throws InvalidParameter naming the field of invalid settings.
+  explicit InnovationFeatureExtractor(const CvKfSettings& settings);
+
+  /// Starts the CV KF from `state` and refills the innovation window.
+  void initialize(const GaussianState<2>& state);
+  /// One scan of the CV KF; returns kOk and sets `features` = (sum, diff), or leaves all as it was.
+  StepStatus step(double z, Eigen::Vector2d& features);
+  /// One scan without a measurement: the CV KF predicts; the innovation window does not move (a
+  /// scan without a plot has no innovation).
+  void predict_only();
+
+  /// The CV KF's estimate.
+  [[nodiscard]] const GaussianState<2>& estimate() const { return cv_; }
+  /// ino(k) = ν²/S of the last scan.
+  [[nodiscard]] double normalized_innovation() const { return ino_; }
+  /// ν(k) of the last scan.
+  [[nodiscard]] double innovation() const { return innovation_; }
+  /// Σ ν over the last ten scans (the sign of a maneuver).
+  [[nodiscard]] double innovation_sum() const { return innovation_sum_; }
+
+ private:
+  LinearMotionModel<2> motion_;
+  Matrix<1, 2> H_;
+  SquareMatrix<1> R_;
+  InnovationFeatures features_;
+  std::array<double, InnovationFeatures::kWindow> innovations_{};  ///< ring of the last ν
+  std::size_t innovation_head_ = 0;
+  double innovation_sum_ = 0.0;
+  GaussianState<2> cv_;
+  double ino_ = 0.0;
+  double innovation_ = 0.0;
+};
+
+/// The sign the filter gives the network's magnitude.
+enum class InputSign {
+  kPositive,    ///< the seed's: every maneuver accelerates in +x
+  kInnovation,  ///< the sign of the CV KF's last ten innovations' sum
+};
+/// "positive" | "innovation".
+[[nodiscard]] IMM_RUNTIME_EXPORT std::string_view to_string(InputSign sign);
+/// "positive" | "innovation"; InvalidParameter naming `field` otherwise.
+[[nodiscard]] IMM_RUNTIME_EXPORT InputSign input_sign_from(std::string_view name,
+                                                           const std::string& field);
+
+/// What the filter needs of a trained model.
+struct IMM_RUNTIME_EXPORT MlpInputEstimatorModel {
+  /// The trained network: (sum, diff) standardized → û / output_scale.
+  Mlp network;
+  Eigen::Vector2d input_mean = Eigen::Vector2d::Zero();  ///< feature standardization
+  /// Feature standardization: divides (feature − input_mean); > 0.
+  Eigen::Vector2d input_scale = Eigen::Vector2d::Ones();
+  double output_bias = 0.0;  ///< mean output without a maneuver (training time), subtracted
+  /// How the magnitude gets its sign.
+  InputSign sign = InputSign::kPositive;
+  /// The CV KF settings the features assume.
+  CvKfSettings settings;
+
+  /// Cartesian plots with R I per axis, two-point initialization.
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
+};
+
+/// The input-estimation filter of seed 001 on one axis: a CV KF whose innovations feed the
+/// network's input estimate û, and a primary KF corrected by û.
+class IMM_RUNTIME_EXPORT MlpInputEstimatorFilter {
+ public:
+  /// Throws InvalidParameter when `settings` differ from the model's or the network does not take
+  /// two inputs.
+  MlpInputEstimatorFilter(MlpInputEstimatorModel model, const CvKfSettings& settings);
+
+  /// Starts both KFs from the same [p, v] estimate.
+  void initialize(const GaussianState<2>& state);
+  /// One scan; on a status other than kOk nothing changes.
+  StepStatus step(double z);
+  /// One scan without a measurement: both KFs predict, the primary with the last û, which is held.
+  void predict_only();
+
+  [[nodiscard]] const GaussianState<2>& estimate() const { return primary_; }  ///< corrected
+  /// The feature KF's estimate (uncorrected).
+  [[nodiscard]] const GaussianState<2>& cv_estimate() const { return features_.estimate(); }
+  [[nodiscard]] double acceleration() const { return acceleration_; }  ///< û(k)
+  /// The network's output before scaling, bias and sign.
+  [[nodiscard]] double raw_network_output() const { return raw_output_; }
+  /// The feature KF's ν(k).
+  [[nodiscard]] double cv_innovation() const { return features_.innovation(); }
+  [[nodiscard]] double innovation() const { return innovation_; }  ///< primary KF's ν(k)
+  /// The model the filter runs.
+  [[nodiscard]] const MlpInputEstimatorModel& model() const { return model_; }
+
+  /// The features of one normalized innovation, standardized as the network expects (training).
+  [[nodiscard]] static Eigen::Vector2d standardize(const MlpInputEstimatorModel& model,
+                                                   const Eigen::Vector2d& features) {
+    return (features - model.input_mean).cwiseQuotient(model.input_scale);
+  }
+
+ private:
+  MlpInputEstimatorModel model_;
+  LinearMotionModel<2> motion_;
+  Matrix<2, 1> G_;
+  Matrix<1, 2> H_;
+  SquareMatrix<1> R_;
+  InnovationFeatureExtractor features_;
+  GaussianState<2> primary_;
+  Eigen::VectorXd input_ = Eigen::VectorXd::Zero(2);
+  double acceleration_ = 0.0;  // û(k), used by the next prediction
+  double raw_output_ = 0.0;
+  double innovation_ = 0.0;
+};
+
+/// The input-estimation filter as one axis of a TwoAxisFilter: one mode ("input estimation"),
+/// so the model tracks in two dimensions like every other kind (load_filter, imm/load.hpp).
+class IMM_RUNTIME_EXPORT MlpInputEstimatorAxis final : public AxisFilter {
+ public:
+  /// Throws InvalidParameter as MlpInputEstimatorFilter does.
+  MlpInputEstimatorAxis(MlpInputEstimatorModel model, const CvKfSettings& settings)
+      : filter_(std::move(model), settings) {}
+
+  /// Starts both KFs from `state`.
+  void initialize(const GaussianState<2>& state) override { filter_.initialize(state); }
+  StepStatus step(double z) override { return filter_.step(z); }
+  /// One scan without a plot; the last û is held.
+  StepStatus predict_only() override {
+    filter_.predict_only();
+    return StepStatus::kOk;
+  }
+  /// The corrected [p, v] estimate.
+  [[nodiscard]] const GaussianState<2>& estimate() const override { return filter_.estimate(); }
+  /// [1]: a single mode.
+  [[nodiscard]] ModeVector mode_probabilities() const override { return ModeVector::Ones(1); }
+  /// 1.
+  [[nodiscard]] int mode_count() const override { return 1; }
+  /// "input estimation".
+  [[nodiscard]] std::string mode_name(int /*j*/) const override { return "input estimation"; }
+  /// The underlying filter (û and the features).
+  [[nodiscard]] const MlpInputEstimatorFilter& filter() const { return filter_; }
+
+ private:
+  MlpInputEstimatorFilter filter_;
+};
+
+/// Both axes of an input-estimator model: x and y each run their own filter from the same model.
+[[nodiscard]] IMM_RUNTIME_EXPORT std::unique_ptr<TwoAxisFilter> make_mlp_input_estimator_filter(
+    const MlpInputEstimatorModel& model);
+
+}  // namespace imm

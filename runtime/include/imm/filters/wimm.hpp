@@ -1,0 +1,110 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// The weighted IMM of seed 004 §3.2 (SPEC §4.6), and the normal IMM it is compared with.
+///
+/// Modes: CV (4 states, Q = q₁ Γ Γᵀ per axis) and Singer (6 states, exact discretization), mixed in
+/// the 6-state space [x, vx, ax, y, vy, ay]; polar plots (range, azimuth atan2(x, y)).
+/// Each cycle, before the update:
+///   μ̄ = Πᵀ μ (the seed's eq. 6–7, read as μ̄_CV = π₁₁ μ_CV + π₂₁ μ_Singer);
+///   θ̄ = circular mean of the modes' predicted azimuths weighted by μ̄ (eq. 9–11);
+///   if μ̄_CV > threshold: the plot azimuth becomes θ̄ + α (θ_plot − θ̄) on the circle (eq. 8).
+/// The fused plot is then used as FusionVariant says (see fused_polar_measurement.hpp): kNone is
+/// the normal IMM, kSeed the seed's (R unchanged), kCorrelated the fused plot with its correlation
+/// to the prediction modelled, which makes the update exactly the normal IMM's.
+/// Measurement update: EKF with a wrapped azimuth innovation (default; exact Jacobian, no
+/// conversion bias, and the seed's fusion acts on the azimuth it measures) or converted
+/// measurements (the plot as a Cartesian position with linearized covariance; kept as an option
+/// for comparison — at 140 km the conversion is strongly non-Gaussian across the beam).
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+
+#include "imm/estimation/imm_estimator.hpp"
+#include "imm/models/measurement/fused_polar_measurement.hpp"
+#include "imm/runtime_export.hpp"
+#include "imm/tracking/track_filter.hpp"
+#include "imm/tracking/track_options.hpp"
+
+namespace imm {
+
+/// Whether and how the WIMM fuses the plot azimuth with the estimate's (seed 004; see the file
+/// comment).
+enum class FusionVariant { kNone, kSeed, kCorrelated };
+/// The polar measurement update: EKF on (r, θ) or converted Cartesian.
+enum class MeasurementUpdate { kExtended, kConverted };
+
+[[nodiscard]] IMM_RUNTIME_EXPORT std::string_view to_string(
+    FusionVariant variant);  ///< none | seed | correlated
+[[nodiscard]] IMM_RUNTIME_EXPORT std::string_view to_string(
+    MeasurementUpdate update);  ///< extended | converted
+/// "none" | "seed" | "correlated"; InvalidParameter naming `field` otherwise.
+[[nodiscard]] IMM_RUNTIME_EXPORT FusionVariant fusion_variant_from(std::string_view name,
+                                                                   const std::string& field);
+/// "extended" | "converted"; InvalidParameter naming `field` otherwise.
+[[nodiscard]] IMM_RUNTIME_EXPORT MeasurementUpdate
+measurement_update_from(std::string_view name, const std::string& field);
+
+/// The weighted IMM of seed 004: a CV and a Singer mode on polar plots, with azimuth fusion when
+/// the CV mode dominates.
+struct IMM_RUNTIME_EXPORT WimmSpec {
+  double sample_period = 2.0;                                   ///< T, s
+  double cv_process_noise = 2.0;                                ///< q₁, (m/s²)²
+  double singer_tau = 20.0;                                     ///< τ, s
+  double singer_sigma = 5.0;                                    ///< σ_a, m/s²
+  double range_sigma = 50.0;                                    ///< σ_R, m
+  double azimuth_sigma = 0.5 * 3.14159265358979323846 / 180.0;  ///< σ_θ, rad
+  /// Mode switching (CV, Singer), rows sum to 1.
+  Eigen::Matrix2d transition = (Eigen::Matrix2d() << 0.95, 0.05, 0.05, 0.95).finished();
+  Eigen::Vector2d initial_probabilities = Eigen::Vector2d(0.5, 0.5);  ///< CV, Singer
+  double threshold = 0.7;  ///< fuse when μ̄_CV exceeds it
+  double alpha = 0.5;      ///< weight of the plot azimuth
+  /// The azimuth fusion variant.
+  FusionVariant fusion = FusionVariant::kSeed;
+  /// The polar update.
+  MeasurementUpdate update = MeasurementUpdate::kExtended;
+  double acceleration_variance = 25.0;  ///< initial variance of ax, ay (m/s²)²
+
+  /// Throws InvalidParameter naming the field.
+  void validate() const;
+  /// R = diag(σ_R², σ_θ²).
+  [[nodiscard]] Eigen::Matrix2d measurement_covariance() const;
+  /// Polar plots, two-point initialization.
+  [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
+};
+
+/// The WIMM as a TrackFilter: state [x, vx, ax, y, vy, ay], polar plots.
+class IMM_RUNTIME_EXPORT WimmFilter final : public TrackFilter {
+ public:
+  /// Throws InvalidParameter naming the field of an invalid spec.
+  explicit WimmFilter(const WimmSpec& spec);
+
+  /// 6: [x, vx, ax, y, vy, ay].
+  [[nodiscard]] int state_dimension() const override { return 6; }
+  /// 2: CV and Singer.
+  [[nodiscard]] int mode_count() const override { return 2; }
+  /// "cv" or "singer".
+  [[nodiscard]] std::string mode_name(int j) const override { return j == 0 ? "cv" : "singer"; }
+  void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override;
+  StepStatus step(const Eigen::Vector2d& z) override;
+  StepStatus predict_only() override;
+  void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override;
+  /// (CV, Singer).
+  [[nodiscard]] ModeVector mode_probabilities() const override { return imm_.mode_probabilities(); }
+
+  /// The combined estimate (6 states) and whether the last cycle fused the azimuth.
+  [[nodiscard]] const GaussianState<6>& estimate() const { return imm_.estimate(); }
+  /// Whether the last cycle fused the azimuth.
+  [[nodiscard]] bool fused() const { return fused_; }
+  /// The spec the filter runs.
+  [[nodiscard]] const WimmSpec& spec() const { return spec_; }
+
+ private:
+  WimmSpec spec_;
+  std::shared_ptr<AzimuthFusion> fusion_;
+  ImmEstimator<6, 2> imm_;
+  bool fused_ = false;
+};
+
+}  // namespace imm

@@ -1,0 +1,105 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// Many independent tracks of one plain IMM, stepped by one call: the structure of a radar
+/// tracker (thousands of tracks, one model). Built from the same PlainImmSpec as the single-track
+/// IMM (plain_imm.hpp) when every mode is constant-velocity and the measurement Cartesian, the
+/// common case of air and ground surveillance: state [x, vx, y, vy], z = [x, y] + v.
+///
+/// Layout, and why: the tracks are stored as structure of arrays — entry e of mode j of track t
+/// at slot(j, e)[t] — and one step runs in phases over blocks of kBlock tracks (mode-probability
+/// prediction, mixing, prediction, Joseph update, posterior, combination). Each arithmetic phase
+/// is a loop over tracks with no branches and no calls, which the compiler vectorizes (AVX2 where
+/// the CPU has it, chosen at run time; SSE2 otherwise); the transcendental functions run in their
+/// own scalar phases. Tracks never interact, and a track's arithmetic is the same sequence of
+/// IEEE operations in every lane and in the scalar remainder (no fused multiply-add, no
+/// reassociation), so a track's result does not depend on its position, on the number of tracks
+/// or on the instruction set: a bank of N tracks equals N banks of one track to the bit.
+///
+/// Numerics are those of ImmEstimator: log-space mode probabilities (the scaled linear μ̃ of the
+/// class comment there, kept from the previous posterior instead of recomputed), the Joseph-form
+/// covariance update written out for the position-selecting H, and a track whose plot is unusable
+/// or whose step fails (singular S, non-finite result, every likelihood zero) is left exactly as
+/// it was, with its status. Covariances are stored as their upper triangle, so they are exactly
+/// symmetric. Differences to ImmEstimator are rounding only (its fixed-size Eigen products sum in
+/// another order); tests bound them against the textbook IMM.
+///
+/// Nothing is allocated after construction.
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/step_status.hpp"
+#include "imm/filters/plain_imm.hpp"
+#include "imm/runtime_export.hpp"
+
+namespace imm {
+
+/// N tracks of one plain IMM of CV modes with Cartesian plots, stepped together (structure of
+/// arrays; see the file comment).
+class IMM_RUNTIME_EXPORT TrackBank {
+ public:
+  /// The state dimension: [x, vx, y, vy].
+  static constexpr int kDim = 4;
+  /// Tracks per phase block: its scratch (≈ 30 values per mode and track) stays in L1.
+  static constexpr int kBlock = 64;
+
+  /// Room for `capacity` tracks of the IMM of `spec`. Throws InvalidParameter naming the field
+  /// for an invalid spec, a mode that is not CV ("modes[i].motion") or a polar measurement
+  /// ("measurement.kind").
+  TrackBank(const PlainImmSpec& spec, std::size_t capacity);
+
+  /// The number of tracks it holds.
+  [[nodiscard]] std::size_t capacity() const { return capacity_; }
+  /// The number of IMM modes.
+  [[nodiscard]] int mode_count() const { return modes_; }
+
+  /// Starts (or restarts) track `track`: every mode takes `state`, the mode probabilities their
+  /// initial values. Throws std::out_of_range for a track ≥ capacity().
+  void initialize(std::size_t track, const GaussianState<kDim>& state);
+
+  /// One IMM cycle of tracks 0 … plots.size() − 1, track t with plots[t]; status[t] receives its
+  /// outcome (a track whose status is not kOk is unchanged). Tracks from plots.size() on are not
+  /// touched. Throws std::invalid_argument when the spans differ in size or exceed capacity(),
+  /// std::logic_error when a stepped track was never initialized.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
+
+  /// Whether track `track` has been initialized.
+  [[nodiscard]] bool initialized(std::size_t track) const;
+  /// The combined estimate of a track (eq. 10–11).
+  [[nodiscard]] GaussianState<kDim> estimate(std::size_t track) const;
+  /// Mode j's own estimate of a track.
+  [[nodiscard]] GaussianState<kDim> mode_estimate(std::size_t track, int j) const;
+  /// μ_j (linear; may hold exact zeros after underflow) and log μ_j.
+  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
+  /// log μ_j of a track (finite where μ_j underflows to 0).
+  [[nodiscard]] ModeVector log_mode_probabilities(std::size_t track) const;
+
+ private:
+  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
+  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
+  // The state slot of entry `entry` of mode j / of the combined estimate (layout in the .cpp).
+  [[nodiscard]] int mode_slot(int j, int entry) const;
+  [[nodiscard]] int combined_slot(int entry) const;
+  [[nodiscard]] std::size_t checked(std::size_t track) const;
+  void step_block(std::size_t first, int lanes, const Eigen::Vector2d* plots, StepStatus* status);
+
+  int modes_ = 0;
+  std::size_t capacity_ = 0;
+  std::ptrdiff_t stride_ = 0;  // capacity rounded up to whole blocks
+  double period_ = 1.0;
+  std::vector<double> transition_;  // π_ij at i * modes + j
+  std::vector<double> log_transition_;
+  std::vector<double> initial_log_mu_;
+  std::vector<double> noise_;  // per mode, Q's upper triangle (10)
+  double r00_ = 0.0, r01_ = 0.0, r11_ = 0.0;
+
+  std::vector<double> state_;
+  std::vector<unsigned char> initialized_;
+  std::vector<double> scratch_;  // one block's phase values, kBlock per slot
+};
+
+}  // namespace imm

@@ -1,0 +1,46 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// A 2-D filter as a track sees it (tracker.hpp): a plain IMM, two per-axis IMMs, an adaptive IMM.
+/// State layout: one block per axis, [x, vx, y, vy] or [x, vx, ax, y, vy, ay].
+
+#include <Eigen/Core>
+#include <string>
+
+#include "imm/estimation/step_status.hpp"
+#include "imm/math/linear_algebra.hpp"
+#include "imm/runtime_export.hpp"
+
+namespace imm {
+
+/// A filter that tracks one target in two dimensions: what Tracker drives and load_filter returns,
+/// for every model kind.
+class IMM_RUNTIME_EXPORT TrackFilter {
+ public:
+  TrackFilter() = default;
+  TrackFilter(const TrackFilter&) = delete;
+  TrackFilter& operator=(const TrackFilter&) = delete;
+  virtual ~TrackFilter() = default;
+
+  /// The length of the state (4 or 6).
+  [[nodiscard]] virtual int state_dimension() const = 0;
+  /// The number of modes (1 for a single-model filter).
+  [[nodiscard]] virtual int mode_count() const = 0;
+  /// The name of mode j (0-based).
+  [[nodiscard]] virtual std::string mode_name(int j) const = 0;
+
+  /// Starts the filter from a Gaussian in its layout (state_dimension() entries).
+  virtual void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) = 0;
+  /// One cycle with plot z; any status other than kOk means z was not used.
+  virtual StepStatus step(const Eigen::Vector2d& z) = 0;
+  /// One cycle without a plot.
+  virtual StepStatus predict_only() = 0;
+
+  /// Combined mean and covariance diagonal.
+  virtual void state(Eigen::Ref<Eigen::VectorXd> mean,
+                     Eigen::Ref<Eigen::VectorXd> variance) const = 0;
+  /// The mode probabilities, in mode order.
+  [[nodiscard]] virtual ModeVector mode_probabilities() const = 0;
+};
+
+}  // namespace imm

@@ -1,0 +1,106 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// A single track over a stream of scan-indexed 2-D plots, around any TrackFilter: starts the track
+/// (two-point or explicit), predicts through scans without a usable plot, and rejects bad plots
+/// without touching the filter. What `imm-track` and the evaluations run, and what a tracking
+/// application wants around a filter.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string_view>
+
+#include "imm/filters/plain_imm.hpp"
+#include "imm/runtime_export.hpp"
+#include "imm/tracking/track_filter.hpp"
+#include "imm/tracking/track_options.hpp"
+
+namespace imm {
+
+/// What Tracker::process did with a plot.
+enum class TrackEvent {
+  kWaiting,      ///< first plot of a two-point initialization stored; no estimate yet
+  kInitialized,  ///< the track was started at this scan
+  kUpdated,      ///< a filter cycle with this plot (after predicting through any skipped scans)
+  kRejected,     ///< the plot was not used (scans skipped before it may have been predicted)
+};
+
+/// "waiting", "initialized", "updated" or "rejected".
+[[nodiscard]] IMM_RUNTIME_EXPORT std::string_view to_string(TrackEvent event);
+
+/// The outcome of one Tracker::process call.
+struct IMM_RUNTIME_EXPORT TrackStepResult {
+  /// What happened to the plot.
+  TrackEvent event = TrackEvent::kWaiting;
+  StepStatus status = StepStatus::kOk;  ///< why a plot was rejected (kOk otherwise)
+  std::int64_t predicted_scans = 0;     ///< scans predicted through without a plot
+  std::string_view reason;              ///< human-readable reason for a rejection
+};
+
+/// Drives a TrackFilter through a sequence of scans: starts the track (two-point or explicit),
+/// predicts through missing scans, rejects unusable plots without touching the estimate, and ends a
+/// track after too long a gap.
+class IMM_RUNTIME_EXPORT Tracker {
+ public:
+  /// Gaps longer than this many scans end a track by default.
+  static constexpr std::int64_t kDefaultMaxGap = imm::kDefaultMaxGap;
+
+  /// Throws InvalidParameter for invalid options.
+  Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options);
+
+  /// Feeds the plot of `scan`. Scans must increase; skipped scans are predicted through. A plot
+  /// with NaN/Inf or a repeated or decreasing scan is rejected and leaves the track unchanged; a
+  /// plot the filter cannot use (singular S) is rejected after the skipped scans were predicted.
+  TrackStepResult process(std::int64_t scan, const Eigen::Vector2d& z);
+
+  /// Whether a track is running.
+  [[nodiscard]] bool initialized() const { return initialized_; }
+  /// The filter's state dimension.
+  [[nodiscard]] int state_dimension() const { return filter_->state_dimension(); }
+  /// The filter's mode count.
+  [[nodiscard]] int mode_count() const { return filter_->mode_count(); }
+  /// The filter being driven.
+  [[nodiscard]] const TrackFilter& filter() const { return *filter_; }
+  /// The filter being driven (mutable).
+  [[nodiscard]] TrackFilter& filter() { return *filter_; }
+  /// The scan of the last accepted plot (none before the first).
+  [[nodiscard]] std::optional<std::int64_t> last_scan() const { return last_scan_; }
+
+  /// Combined mean and covariance diagonal, state_dimension() entries each (initialized only).
+  void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const;
+  /// The filter's mode probabilities.
+  [[nodiscard]] ModeVector mode_probabilities() const { return filter_->mode_probabilities(); }
+
+ private:
+  struct Plot {
+    std::int64_t scan = 0;
+    Eigen::Vector2d position = Eigen::Vector2d::Zero();
+    Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
+  };
+
+  [[nodiscard]] Plot cartesian_plot(std::int64_t scan, const Eigen::Vector2d& z) const;
+  void start_track(const Plot& first, const Plot& second);
+  TrackStepResult reject(StepStatus status, std::string_view reason) const;
+
+  std::unique_ptr<TrackFilter> filter_;
+  TrackOptions options_;
+  std::optional<Plot> first_plot_;
+  std::optional<std::int64_t> last_scan_;
+  bool initialized_ = false;
+};
+
+/// A plain IMM as a TrackFilter.
+[[nodiscard]] IMM_RUNTIME_EXPORT std::unique_ptr<TrackFilter> make_plain_imm_filter(
+    const PlainImmSpec& spec);
+
+/// The track of a plain IMM spec.
+class IMM_RUNTIME_EXPORT PlainImmTracker : public Tracker {
+ public:
+  /// Throws InvalidParameter naming the field of an invalid spec.
+  explicit PlainImmTracker(const PlainImmSpec& spec, std::int64_t max_gap = kDefaultMaxGap)
+      : Tracker(make_plain_imm_filter(spec), spec.track_options(max_gap)) {}
+};
+
+}  // namespace imm

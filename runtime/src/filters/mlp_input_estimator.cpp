@@ -1,0 +1,140 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/filters/mlp_input_estimator.hpp"
+
+#include <algorithm>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
+
+namespace imm {
+
+void CvKfSettings::validate() const {
+  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_in(process_noise, limits::kVariance, "process_noise");
+  limits::require_in(measurement_variance, {1e-18, limits::kVariance.max, ""},
+                     "measurement_variance");
+}
+
+InnovationFeatureExtractor::InnovationFeatureExtractor(const CvKfSettings& settings)
+    : motion_(constant_velocity<1>(settings.sample_period, settings.process_noise)),
+      R_(SquareMatrix<1>::Constant(settings.measurement_variance)) {
+  settings.validate();
+  H_ << 1.0, 0.0;
+}
+
+std::string_view to_string(InputSign sign) {
+  return sign == InputSign::kPositive ? "positive" : "innovation";
+}
+
+InputSign input_sign_from(std::string_view name, const std::string& field) {
+  for (InputSign sign : {InputSign::kPositive, InputSign::kInnovation}) {
+    if (name == to_string(sign)) return sign;
+  }
+  throw InvalidParameter(
+      field, "unknown sign '" + std::string(name) + "' (expected positive or innovation)");
+}
+
+void InnovationFeatureExtractor::initialize(const GaussianState<2>& state) {
+  cv_ = state;
+  features_.reset();
+  innovations_.fill(0.0);
+  innovation_head_ = 0;
+  innovation_sum_ = 0.0;
+  ino_ = 0.0;
+  innovation_ = 0.0;
+}
+
+StepStatus InnovationFeatureExtractor::step(double z, Eigen::Vector2d& features) {
+  if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
+  GaussianState<2> cv = predict(cv_, motion_.transition, motion_.process_noise);
+  const auto report = update(cv, Vector<1>(z), H_, R_);
+  if (!report.ok()) return report.status;
+  innovation_ = report.innovation(0);
+  ino_ = innovation_ * innovation_ / report.innovation_covariance(0, 0);
+  features = features_.push(ino_);
+  innovation_head_ = (innovation_head_ + 1) % innovations_.size();
+  innovations_[innovation_head_] = innovation_;
+  innovation_sum_ = 0.0;
+  for (double nu : innovations_) innovation_sum_ += nu;
+  cv_ = cv;
+  return StepStatus::kOk;
+}
+
+void InnovationFeatureExtractor::predict_only() {
+  cv_ = predict(cv_, motion_.transition, motion_.process_noise);
+}
+
+MlpInputEstimatorFilter::MlpInputEstimatorFilter(MlpInputEstimatorModel model,
+                                                 const CvKfSettings& settings)
+    : model_(std::move(model)),
+      motion_(constant_velocity<1>(settings.sample_period, settings.process_noise)),
+      G_(cv_axis_input_gain(settings.sample_period)),
+      R_(SquareMatrix<1>::Constant(settings.measurement_variance)),
+      features_(settings) {
+  if (!(settings == model_.settings)) {
+    throw InvalidParameter(
+        "cv_kf",
+        "the model's features assume T = " + std::to_string(model_.settings.sample_period) +
+            " s, q = " + std::to_string(model_.settings.process_noise) +
+            ", R = " + std::to_string(model_.settings.measurement_variance) +
+            "; the filter has T = " + std::to_string(settings.sample_period) +
+            " s, q = " + std::to_string(settings.process_noise) +
+            ", R = " + std::to_string(settings.measurement_variance));
+  }
+  if (model_.network.input_count() != 2) {
+    throw InvalidParameter("network", "the input estimator's network takes (sum, diff)");
+  }
+  H_ << 1.0, 0.0;
+}
+
+void MlpInputEstimatorFilter::initialize(const GaussianState<2>& state) {
+  features_.initialize(state);
+  primary_ = state;
+  acceleration_ = 0.0;
+  raw_output_ = 0.0;
+  innovation_ = 0.0;
+}
+
+StepStatus MlpInputEstimatorFilter::step(double z) {
+  if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
+  // The primary KF with the input estimated at k − 1 (eq. 10).
+  GaussianState<2> primary =
+      predict(primary_, motion_.transition, motion_.process_noise, G_, Vector<1>(acceleration_));
+  const auto primary_report = update(primary, Vector<1>(z), H_, R_);
+  if (!primary_report.ok()) return primary_report.status;
+  // The plain CV KF and its features (eq. 4–9, 11–14), then û(k).
+  Eigen::Vector2d features;
+  const StepStatus status = features_.step(z, features);
+  if (status != StepStatus::kOk) return status;
+  input_ = standardize(model_, features);
+  raw_output_ = model_.network.forward(input_);
+  const double magnitude = std::max(0.0, raw_output_ - model_.output_bias);
+  acceleration_ = model_.sign == InputSign::kInnovation && features_.innovation_sum() < 0.0
+                      ? -magnitude
+                      : magnitude;
+  innovation_ = primary_report.innovation(0);
+  primary_ = primary;
+  return StepStatus::kOk;
+}
+
+void MlpInputEstimatorFilter::predict_only() {
+  primary_ =
+      predict(primary_, motion_.transition, motion_.process_noise, G_, Vector<1>(acceleration_));
+  features_.predict_only();
+}
+
+TrackOptions MlpInputEstimatorModel::track_options(std::int64_t max_gap) const {
+  settings.validate();
+  return two_point_track_options(settings.sample_period, MeasurementKind::kCartesian,
+                                 settings.measurement_variance * Eigen::Matrix2d::Identity(),
+                                 max_gap);
+}
+
+std::unique_ptr<TwoAxisFilter> make_mlp_input_estimator_filter(
+    const MlpInputEstimatorModel& model) {
+  return std::make_unique<TwoAxisFilter>(
+      std::make_unique<MlpInputEstimatorAxis>(model, model.settings),
+      std::make_unique<MlpInputEstimatorAxis>(model, model.settings));
+}
+
+}  // namespace imm

@@ -1,0 +1,194 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/filters/plain_imm.hpp"
+
+#include <Eigen/Cholesky>
+#include <array>
+#include <cmath>
+#include <memory>
+
+#include "imm/core/checks.hpp"
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
+#include "imm/estimation/kalman_mode.hpp"
+#include "imm/models/measurement/polar_measurement.hpp"
+#include "imm/models/measurement/position_measurement.hpp"
+#include "imm/models/motion/constant_acceleration.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
+#include "imm/models/motion/singer.hpp"
+
+namespace imm {
+namespace {
+
+std::string mode_field(std::size_t index, const char* key) {
+  return "modes[" + std::to_string(index) + "]." + key;
+}
+
+// The mixing-space indices of [x, vx, (ax), y, vy, (ay)] for a mode of dimension N.
+template <int N, int NX>
+StateEmbedding<N, NX> embedding_for() {
+  if constexpr (N == NX) {
+    return StateEmbedding<N, NX>();
+  } else {
+    static_assert(N == 4 && NX == 6, "only CV modes are embedded in the 6-state space");
+    return StateEmbedding<N, NX>(std::array<int, 4>{0, 1, 3, 4});
+  }
+}
+
+template <int NX, int N>
+std::unique_ptr<ImmMode<NX, 2>> make_mode(const ModeSpec& mode, const LinearMotionModel<N>& motion,
+                                          const MeasurementSpec& measurement) {
+  constexpr int kY = N / 2;  // index of y: 2 in [x, vx, y, vy], 3 in [x, vx, ax, y, vy, ay]
+  const auto embedding = embedding_for<N, NX>();
+  if (measurement.kind == MeasurementKind::kCartesian) {
+    using Model = PositionMeasurement<N, 2>;
+    return std::make_unique<KalmanMode<NX, N, Model>>(
+        mode.name, motion, Model({0, kY}, measurement.covariance), embedding);
+  }
+  using Model = PolarMeasurement<N>;
+  return std::make_unique<KalmanMode<NX, N, Model>>(
+      mode.name, motion, Model(0, kY, measurement.covariance), embedding);
+}
+
+}  // namespace
+
+std::string_view to_string(MotionKind kind) {
+  switch (kind) {
+    case MotionKind::kConstantVelocity:
+      return "cv";
+    case MotionKind::kConstantAcceleration:
+      return "ca";
+    case MotionKind::kSinger:
+      return "singer";
+  }
+  return "?";
+}
+
+std::string_view to_string(NoiseForm form) {
+  return form == NoiseForm::kPiecewiseConstant ? "piecewise" : "continuous";
+}
+
+std::string_view to_string(MeasurementKind kind) {
+  return kind == MeasurementKind::kCartesian ? "cartesian" : "polar";
+}
+
+std::string_view to_string(InitializationMethod method) {
+  return method == InitializationMethod::kExplicit ? "explicit" : "two_point";
+}
+
+// The enum value whose to_string() is `name`; otherwise InvalidParameter listing the choices.
+template <class Enum, std::size_t Count>
+Enum enum_from(std::string_view name, const std::string& field, const char* what,
+               const std::array<Enum, Count>& values) {
+  std::string expected;
+  for (std::size_t i = 0; i < Count; ++i) {
+    if (name == to_string(values[i])) return values[i];
+    expected +=
+        (i == 0 ? "" : (i + 1 == Count ? " or " : ", ")) + std::string(to_string(values[i]));
+  }
+  throw InvalidParameter(field, "unknown " + std::string(what) + " '" + std::string(name) +
+                                    "' (expected " + expected + ")");
+}
+
+MotionKind motion_kind_from(std::string_view name, const std::string& field) {
+  return enum_from(name, field, "motion model",
+                   std::array{MotionKind::kConstantVelocity, MotionKind::kConstantAcceleration,
+                              MotionKind::kSinger});
+}
+
+NoiseForm noise_form_from(std::string_view name, const std::string& field) {
+  return enum_from(name, field, "noise form",
+                   std::array{NoiseForm::kPiecewiseConstant, NoiseForm::kContinuous});
+}
+
+MeasurementKind measurement_kind_from(std::string_view name, const std::string& field) {
+  return enum_from(name, field, "measurement",
+                   std::array{MeasurementKind::kCartesian, MeasurementKind::kPolar});
+}
+
+InitializationMethod initialization_method_from(std::string_view name, const std::string& field) {
+  return enum_from(name, field, "initialization",
+                   std::array{InitializationMethod::kExplicit, InitializationMethod::kTwoPoint});
+}
+
+int PlainImmSpec::mixing_dimension() const {
+  for (const auto& mode : modes) {
+    if (mode.motion != MotionKind::kConstantVelocity) return 6;
+  }
+  return 4;
+}
+
+void PlainImmSpec::validate() const {
+  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  require(!modes.empty() && static_cast<int>(modes.size()) <= kMaxModes, "modes",
+          "need 1 to " + std::to_string(kMaxModes) + " modes");
+  for (std::size_t i = 0; i < modes.size(); ++i) {
+    const ModeSpec& mode = modes[i];
+    require(!mode.name.empty(), mode_field(i, "name"), "must not be empty");
+    for (std::size_t j = 0; j < i; ++j) {
+      require(modes[j].name != mode.name, mode_field(i, "name"), "'" + mode.name + "' is repeated");
+    }
+    if (mode.motion == MotionKind::kSinger) {
+      limits::require_in(mode.singer_tau, limits::kTimeConstant, mode_field(i, "tau"));
+      limits::require_in(mode.singer_sigma, limits::kAcceleration, mode_field(i, "sigma_a"));
+    } else {
+      limits::require_in(mode.process_noise, limits::kVariance, mode_field(i, "process_noise"));
+    }
+  }
+  const auto n = static_cast<Eigen::Index>(modes.size());
+  validate_mode_probabilities(transition, initial_probabilities, static_cast<int>(n));
+  const Eigen::Matrix2d& R = measurement.covariance;
+  require(R.allFinite() && R.cwiseAbs().maxCoeff() <= limits::kVariance.max &&
+              R.isApprox(R.transpose(), 1e-12) &&
+              Eigen::LLT<Eigen::Matrix2d>(R).info() == Eigen::Success,
+          "measurement.covariance", "must be finite, symmetric and positive definite");
+  if (initialization.method == InitializationMethod::kExplicit) {
+    const int nx = mixing_dimension();
+    require(initialization.state.size() == nx && initialization.state.allFinite(),
+            "initialization.state", "must hold " + std::to_string(nx) + " finite values");
+    const Eigen::MatrixXd& P = initialization.covariance;
+    require(P.rows() == nx && P.cols() == nx && P.allFinite() && P.isApprox(P.transpose(), 1e-12) &&
+                Eigen::LLT<Eigen::MatrixXd>(P).info() == Eigen::Success,
+            "initialization.covariance",
+            "must be a finite, symmetric, positive definite " + std::to_string(nx) + "x" +
+                std::to_string(nx) + " matrix");
+  } else {
+    limits::require_in(initialization.acceleration_variance, limits::kVariance,
+                       "initialization.acceleration_variance");
+  }
+}
+
+template <int NX>
+ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec) {
+  spec.validate();
+  if (spec.mixing_dimension() != NX) {
+    throw InvalidParameter("modes", "spec needs a " + std::to_string(spec.mixing_dimension()) +
+                                        "-state mixing space, not " + std::to_string(NX));
+  }
+  const double T = spec.sample_period;
+  std::vector<std::unique_ptr<ImmMode<NX, 2>>> modes;
+  for (const ModeSpec& mode : spec.modes) {
+    if (mode.motion == MotionKind::kConstantVelocity) {
+      modes.push_back(make_mode<NX, 4>(
+          mode, constant_velocity<2>(T, mode.process_noise, mode.noise_form), spec.measurement));
+    } else if constexpr (NX == 6) {  // CA and Singer need the 6-state space (checked above)
+      const LinearMotionModel<6> motion =
+          mode.motion == MotionKind::kSinger
+              ? singer<2>(T, mode.singer_tau, mode.singer_sigma)
+              : constant_acceleration<2>(T, mode.process_noise, mode.noise_form);
+      modes.push_back(make_mode<NX, 6>(mode, motion, spec.measurement));
+    }
+  }
+  return ImmEstimator<NX, 2>(std::move(modes), spec.transition, spec.initial_probabilities);
+}
+
+template ImmEstimator<4, 2> build_plain_imm<4>(const PlainImmSpec&);
+template ImmEstimator<6, 2> build_plain_imm<6>(const PlainImmSpec&);
+
+PlainImm build_plain_imm(const PlainImmSpec& spec) {
+  spec.validate();
+  if (spec.mixing_dimension() == 4)
+    return PlainImm(std::in_place_index<0>, build_plain_imm<4>(spec));
+  return PlainImm(std::in_place_index<1>, build_plain_imm<6>(spec));
+}
+
+}  // namespace imm

@@ -1,0 +1,232 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/tracking/tracker.hpp"
+
+#include <stdexcept>
+#include <string>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
+#include "imm/models/measurement/polar_measurement.hpp"
+
+namespace imm {
+namespace {
+
+// The plain IMM (either mixing dimension) behind the TrackFilter interface.
+class PlainImmFilter final : public TrackFilter {
+ public:
+  explicit PlainImmFilter(const PlainImmSpec& spec) : spec_(spec), imm_(build_plain_imm(spec)) {}
+
+  [[nodiscard]] int state_dimension() const override { return spec_.mixing_dimension(); }
+  [[nodiscard]] int mode_count() const override { return static_cast<int>(spec_.modes.size()); }
+  [[nodiscard]] std::string mode_name(int j) const override {
+    return spec_.modes[static_cast<std::size_t>(j)].name;
+  }
+
+  void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override {
+    std::visit(
+        [&](auto& imm) {
+          constexpr int kNx = std::decay_t<decltype(imm)>::kDim;
+          GaussianState<kNx> state;
+          state.mean = mean;
+          state.covariance = covariance;
+          imm.initialize(state);
+        },
+        imm_);
+  }
+
+  StepStatus step(const Eigen::Vector2d& z) override {
+    return std::visit([&](auto& imm) { return imm.step(z); }, imm_);
+  }
+
+  StepStatus predict_only() override {
+    return std::visit([](auto& imm) { return imm.predict_only(); }, imm_);
+  }
+
+  void state(Eigen::Ref<Eigen::VectorXd> mean,
+             Eigen::Ref<Eigen::VectorXd> variance) const override {
+    std::visit(
+        [&](const auto& imm) {
+          mean = imm.estimate().mean;
+          variance = imm.estimate().covariance.diagonal();
+        },
+        imm_);
+  }
+
+  [[nodiscard]] ModeVector mode_probabilities() const override {
+    return std::visit([](const auto& imm) { return imm.mode_probabilities(); }, imm_);
+  }
+
+ private:
+  PlainImmSpec spec_;
+  PlainImm imm_;
+};
+
+}  // namespace
+
+std::string_view to_string(TrackEvent event) {
+  switch (event) {
+    case TrackEvent::kWaiting:
+      return "waiting";
+    case TrackEvent::kInitialized:
+      return "initialized";
+    case TrackEvent::kUpdated:
+      return "updated";
+    case TrackEvent::kRejected:
+      return "rejected";
+  }
+  return "?";
+}
+
+std::unique_ptr<TrackFilter> make_plain_imm_filter(const PlainImmSpec& spec) {
+  return std::make_unique<PlainImmFilter>(spec);
+}
+
+TrackOptions PlainImmSpec::track_options(std::int64_t max_gap) const {
+  TrackOptions options;
+  options.sample_period = sample_period;
+  options.measurement_kind = measurement.kind;
+  options.measurement_covariance = measurement.covariance;
+  options.initialization = initialization;
+  options.max_gap = max_gap;
+  return options;
+}
+
+Tracker::Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options)
+    : filter_(std::move(filter)), options_(std::move(options)) {
+  if (!filter_) throw InvalidParameter("filter", "must not be null");
+  if (options_.max_gap < 1) throw InvalidParameter("max_gap", "must be at least 1");
+  limits::require_in(options_.sample_period, limits::kSamplePeriod, "sample_period");
+  const int n = filter_->state_dimension();
+  if (options_.initialization.method == InitializationMethod::kExplicit &&
+      (options_.initialization.state.size() != n ||
+       options_.initialization.covariance.rows() != n ||
+       options_.initialization.covariance.cols() != n)) {
+    throw InvalidParameter("initialization.state",
+                           "must match the filter's " + std::to_string(n) + " states");
+  }
+}
+
+Tracker::Plot Tracker::cartesian_plot(std::int64_t scan, const Eigen::Vector2d& z) const {
+  Plot plot;
+  plot.scan = scan;
+  if (options_.measurement_kind == MeasurementKind::kCartesian) {
+    plot.position = z;
+    plot.covariance = options_.measurement_covariance;
+  } else {
+    const CartesianPlot converted = polar_to_cartesian(z, options_.measurement_covariance);
+    plot.position = converted.position;
+    plot.covariance = converted.covariance;
+  }
+  return plot;
+}
+
+// Two-point initialization: position from the second plot, velocity from the difference;
+// cov(p) = R₂, cov(v) = (R₁ + R₂)/Δt², cov(p, v) = R₂/Δt (Bar-Shalom, Li & Kirubarajan §5.5.3).
+void Tracker::start_track(const Plot& first, const Plot& second) {
+  const double dt = static_cast<double>(second.scan - first.scan) * options_.sample_period;
+  const int n = filter_->state_dimension();
+  const int per_axis = n / 2;
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(n);
+  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(n, n);
+  for (int axis = 0; axis < 2; ++axis) {
+    const int p = axis * per_axis;
+    mean(p) = second.position(axis);
+    mean(p + 1) = (second.position(axis) - first.position(axis)) / dt;
+    for (int other = 0; other < 2; ++other) {
+      const int q = other * per_axis;
+      const double r1 = first.covariance(axis, other), r2 = second.covariance(axis, other);
+      covariance(p, q) = r2;
+      covariance(p, q + 1) = r2 / dt;
+      covariance(p + 1, q) = r2 / dt;
+      covariance(p + 1, q + 1) = (r1 + r2) / (dt * dt);
+    }
+    if (per_axis == 3) covariance(p + 2, p + 2) = options_.initialization.acceleration_variance;
+  }
+  filter_->initialize(mean, covariance);
+}
+
+TrackStepResult Tracker::reject(StepStatus status, std::string_view reason) const {
+  TrackStepResult result;
+  result.event = TrackEvent::kRejected;
+  result.status = status;
+  result.reason = reason;
+  return result;
+}
+
+TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
+  if (last_scan_ && scan <= *last_scan_) {
+    return reject(StepStatus::kInvalidMeasurement, "scan index does not increase");
+  }
+  if (!limits::usable_measurement(z)) {
+    return reject(StepStatus::kInvalidMeasurement,
+                  "measurement is NaN, infinite or beyond the physical range (|z| > 1e9)");
+  }
+
+  if (initialized_ && scan - *last_scan_ > options_.max_gap) {
+    initialized_ = false;  // track lost: start again from this plot
+    first_plot_.reset();
+  }
+
+  TrackStepResult result;
+  if (!initialized_) {
+    if (options_.initialization.method == InitializationMethod::kExplicit) {
+      filter_->initialize(options_.initialization.state, options_.initialization.covariance);
+      const StepStatus status = filter_->step(z);
+      if (status != StepStatus::kOk) return reject(status, to_string(status));
+      initialized_ = true;
+      last_scan_ = scan;
+      result.event = TrackEvent::kInitialized;
+      return result;
+    }
+    const Plot plot = cartesian_plot(scan, z);
+    if (!plot.position.allFinite()) {
+      return reject(StepStatus::kInvalidMeasurement,
+                    "measurement is not convertible to a position");
+    }
+    if (!first_plot_ || scan - first_plot_->scan > options_.max_gap) {
+      first_plot_ = plot;
+      last_scan_ = scan;
+      result.event = TrackEvent::kWaiting;
+      return result;
+    }
+    start_track(*first_plot_, plot);
+    first_plot_.reset();
+    initialized_ = true;
+    last_scan_ = scan;
+    result.event = TrackEvent::kInitialized;
+    return result;
+  }
+
+  // Predict through the skipped scans, then update. If the update fails, the predictions stay:
+  // the track then stands at the scan before this plot.
+  const std::int64_t gap = scan - *last_scan_ - 1;
+  for (std::int64_t i = 0; i < gap; ++i) {
+    const StepStatus status = filter_->predict_only();
+    if (status != StepStatus::kOk) {
+      last_scan_ = *last_scan_ + i;
+      TrackStepResult failed = reject(status, to_string(status));
+      failed.predicted_scans = i;
+      return failed;
+    }
+    ++result.predicted_scans;
+  }
+  const StepStatus status = filter_->step(z);
+  last_scan_ = scan - (status == StepStatus::kOk ? 0 : 1);
+  if (status != StepStatus::kOk) {
+    TrackStepResult failed = reject(status, to_string(status));
+    failed.predicted_scans = result.predicted_scans;
+    return failed;
+  }
+  result.event = TrackEvent::kUpdated;
+  return result;
+}
+
+// Eigen::Ref is a writable view and is passed by value by design.
+void Tracker::state(
+    Eigen::Ref<Eigen::VectorXd> mean,              // NOLINT(performance-unnecessary-value-param)
+    Eigen::Ref<Eigen::VectorXd> variance) const {  // NOLINT(performance-unnecessary-value-param)
+  if (!initialized_) throw std::logic_error("Tracker::state before initialization");
+  filter_->state(mean, variance);
+}
+
+}  // namespace imm

@@ -1,0 +1,139 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/filters/mlp_input_estimator.hpp"
+
+#include <gtest/gtest.h>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/datasets/axis_trajectory.hpp"
+#include "imm/io/mlp_input_estimator_file.hpp"
+#include "testing/matrix_checks.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm {
+namespace {
+
+// sum(k) = 0.1 Σ_{i<10} ino(k−i), diff(k) = ino(k) − ino(k−10), ino before the first scan = 1.
+TEST(InnovationFeatures, MatchDirectComputationIncludingTheFirstTenScans) {
+  const std::vector<double> ino = {4.0, 0.5, 2.0, 9.0, 0.1, 3.0, 1.5, 0.2, 7.0, 2.5, 6.0, 0.3, 8.0};
+  InnovationFeatures features;
+  for (std::size_t k = 0; k < ino.size(); ++k) {
+    const Eigen::Vector2d f = features.push(ino[k]);
+    auto value = [&](long j) { return j < 0 ? 1.0 : ino[static_cast<std::size_t>(j)]; };
+    double sum = 0.0;
+    for (long i = 0; i < 10; ++i) sum += value(static_cast<long>(k) - i);
+    EXPECT_NEAR(f(0), 0.1 * sum, 1e-14) << "k=" << k;
+    EXPECT_NEAR(f(1), ino[k] - value(static_cast<long>(k) - 10), 1e-14) << "k=" << k;
+  }
+}
+
+// A network that outputs exactly 0 after the bias: output = 12 σ(−40) ≈ 5e-17, bias 1.
+MlpInputEstimatorModel zero_model() {
+  MlpInputEstimatorModel model;
+  MlpLayer layer;
+  layer.weights = Eigen::MatrixXd::Zero(1, 2);
+  layer.bias = Eigen::VectorXd::Constant(1, -40.0);
+  layer.activation = Activation::kSigmoid;
+  model.network = Mlp({layer}, 12.0);
+  model.output_bias = 1.0;
+  model.settings = {1.0, 1.0, 2500.0};
+  return model;
+}
+
+datasets::AxisTrajectory maneuvering_truth() {
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(200);
+  u.segment(80, 30).setConstant(8.0);
+  return datasets::simulate_axis(0.0, 100.0, u, {1.0, 0.0, 50.0}, 17);
+}
+
+GaussianState<2> start_of(const datasets::AxisTrajectory& t) {
+  GaussianState<2> s;
+  s.mean << t.measurement(1), t.measurement(1) - t.measurement(0);
+  s.covariance << 2500.0, 2500.0, 2500.0, 5000.0;
+  return s;
+}
+
+TEST(MlpInputEstimatorFilter, WithZeroInputThePrimaryKfIsTheCvKf) {
+  const auto truth = maneuvering_truth();
+  MlpInputEstimatorFilter filter(zero_model(), {1.0, 1.0, 2500.0});
+  filter.initialize(start_of(truth));
+  for (Eigen::Index k = 2; k < truth.measurement.size(); ++k) {
+    ASSERT_EQ(filter.step(truth.measurement(k)), StepStatus::kOk);
+    EXPECT_EQ(filter.acceleration(), 0.0);
+    ASSERT_TRUE(testing::matrices_near(filter.estimate().mean, filter.cv_estimate().mean, 1e-12));
+    ASSERT_TRUE(testing::matrices_near(filter.estimate().covariance,
+                                       filter.cv_estimate().covariance, 1e-12));
+  }
+}
+
+// The primary KF fed the true acceleration (the floor of the method) beats the CV KF.
+TEST(MlpInputEstimatorFilter, TrueInputBeatsTheCvKf) {
+  const auto truth = maneuvering_truth();
+  const auto motion = constant_velocity<1>(1.0, 1.0);
+  Matrix<1, 2> H;
+  H << 1.0, 0.0;
+  GaussianState<2> cv = start_of(truth), known = cv;
+  double cv_error = 0.0, known_error = 0.0;
+  for (Eigen::Index k = 2; k < truth.measurement.size(); ++k) {
+    cv = predict(cv, motion.transition, motion.process_noise);
+    (void)update(cv, Vector<1>(truth.measurement(k)), H, SquareMatrix<1>(2500.0));
+    known = predict(known, motion.transition, motion.process_noise, cv_input_gain<1>(1.0),
+                    Vector<1>(truth.acceleration_input(k - 1)));
+    (void)update(known, Vector<1>(truth.measurement(k)), H, SquareMatrix<1>(2500.0));
+    cv_error += std::pow(cv.mean(0) - truth.position(k), 2);
+    known_error += std::pow(known.mean(0) - truth.position(k), 2);
+  }
+  EXPECT_LT(known_error, 0.2 * cv_error);
+}
+
+TEST(MlpInputEstimatorFilter, RefusesAModelBuiltForOtherKfSettings) {
+  MlpInputEstimatorModel model = zero_model();
+  model.settings.sample_period = 1.0;
+  try {
+    MlpInputEstimatorFilter filter(model, {2.0, 1.0, 2500.0});
+    FAIL();
+  } catch (const InvalidParameter& error) {
+    EXPECT_EQ(error.field(), "cv_kf");
+    EXPECT_NE(std::string(error.what()).find("T = 2"), std::string::npos) << error.what();
+  }
+}
+
+TEST(MlpInputEstimatorFilter, NanPlotLeavesTheFilterUnchanged) {
+  const auto truth = maneuvering_truth();
+  MlpInputEstimatorFilter filter(zero_model(), {1.0, 1.0, 2500.0});
+  filter.initialize(start_of(truth));
+  ASSERT_EQ(filter.step(truth.measurement(2)), StepStatus::kOk);
+  const GaussianState<2> before = filter.estimate();
+  EXPECT_EQ(filter.step(std::nan("")), StepStatus::kInvalidMeasurement);
+  EXPECT_EQ(filter.estimate().mean, before.mean);
+}
+
+TEST(MlpInputEstimatorFile, RoundTripGivesTheSameOutputs) {
+  const testing::TempDir dir;
+  MlpInputEstimatorModel model = zero_model();
+  MlpLayer hidden{Eigen::MatrixXd{{0.3, -0.2}, {0.7, 0.1}, {-0.4, 0.9}},
+                  Eigen::Vector3d(0.1, -0.3, 0.2), Activation::kSigmoid};
+  MlpLayer output{Eigen::MatrixXd{{0.5, -1.0, 0.8}}, Eigen::VectorXd::Constant(1, 0.05),
+                  Activation::kSigmoid};
+  model.network = Mlp({hidden, output}, 12.0);
+  model.input_mean = Eigen::Vector2d(1.0, 0.0);
+  model.input_scale = Eigen::Vector2d(3.0, 2.0);
+  {
+    io::Provenance provenance;
+    provenance.model_kind = std::string(io::kMlpInputEstimatorKind);
+    io::ModelFileWriter writer(dir / "m.h5", provenance);
+    io::write_mlp_input_estimator(writer, model, Eigen::MatrixXd{{0, 5.0, 6.0}, {50, 1.0, 1.5}});
+    writer.commit();
+  }
+  const MlpInputEstimatorModel back = io::read_mlp_input_estimator(dir / "m.h5");
+  EXPECT_EQ(back.settings, model.settings);
+  EXPECT_EQ(back.output_bias, model.output_bias);
+  for (double a : {-2.0, 0.0, 3.0}) {
+    const Eigen::Vector2d x(a, 0.5 * a);
+    EXPECT_EQ(back.network.forward(x), model.network.forward(x));
+  }
+  // A model for T = 1 s is refused by a filter at T = 2 s.
+  EXPECT_THROW(MlpInputEstimatorFilter(back, {2.0, 1.0, 2500.0}), InvalidParameter);
+}
+
+}  // namespace
+}  // namespace imm
