@@ -1,0 +1,76 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "stage_cache.hpp"
+
+#include <fstream>
+#include <regex>
+
+namespace imm::pipeline {
+namespace {
+
+// The regime file a trainer config names (regime = "…"), for the inputs digest.
+std::optional<std::string> config_regime(const fs::path& config) {
+  std::ifstream in(config);
+  static const std::regex line(R"re(^\s*regime\s*=\s*"([^"]+)")re");
+  for (std::string text; std::getline(in, text);) {
+    std::smatch match;
+    if (std::regex_search(text, match, line)) return match[1].str();
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::string normal_path(const fs::path& path) {
+  return fs::absolute(path).lexically_normal().string();
+}
+
+std::string inputs_digest(const NightlyStage& stage, const fs::path& tool, Digests& digests,
+                          const std::vector<std::string>& extra, const PlanOutputs& plan_outputs) {
+  datasets::Sha256 hash;
+  hash.update(stage.kind + '\n' + digests.of_file(tool) + '\n');
+  auto add_file = [&](const fs::path& path) {
+    hash.update(path.string() + '=' + digests.of_file(path) + '\n');
+  };
+  for (std::size_t i = 0; i < stage.arguments.size(); ++i) {
+    const std::string& a = stage.arguments[i];
+    hash.update(a + '\n');
+    // What it writes, and an evaluation's model (the model stage's output, digested there).
+    if (stage.out_argument && i == *stage.out_argument) continue;
+    if (i > 0 && (stage.arguments[i - 1] == "--out" ||
+                  (stage.kind == "data" && stage.arguments[i - 1] == "--csv"))) {
+      continue;  // what the stage writes
+    }
+    if (stage.model_argument && i == *stage.model_argument) continue;
+    std::error_code error;
+    if (fs::is_regular_file(a, error)) {
+      add_file(a);
+      if (i > 0 && stage.arguments[i - 1] == "--config") {
+        if (auto regime = config_regime(a); regime && fs::is_regular_file(*regime))
+          add_file(*regime);
+      }
+    } else if (fs::is_directory(a, error) && stage.kind == "evaluation") {
+      const std::string folder = normal_path(a);
+      const std::string evaluated =
+          stage.model_argument ? normal_path(stage.arguments[*stage.model_argument]) : "";
+      std::map<std::string, std::string> files;  // path relative to the folder → digest
+      for (const auto& [file, digest] : plan_outputs) {
+        const fs::path relative = fs::path(file).lexically_relative(folder);
+        if (!relative.empty() && *relative.begin() != ".." && file != evaluated) {
+          files[relative.generic_string()] = "stage " + digest;
+        }
+      }
+      for (const auto& f : fs::recursive_directory_iterator(a)) {
+        const auto relative = f.path().lexically_relative(a).generic_string();
+        if (f.is_regular_file() && f.path().extension() == ".h5" && relative[0] != '.' &&
+            normal_path(f.path()) != evaluated && !files.contains(relative)) {
+          files[relative] = digests.of_file(f.path());
+        }
+      }
+      for (const auto& [relative, digest] : files) hash.update(relative + '=' + digest + '\n');
+    }
+  }
+  for (const auto& e : extra) hash.update(e + '\n');
+  return hash.hex_digest();
+}
+
+}  // namespace imm::pipeline
