@@ -1,0 +1,302 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "track_bank_kernel.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <type_traits>
+#include <utility>
+
+#include "imm/math/log_sum_exp.hpp"
+
+// Run-time choice of AVX2 for the phase loops (GCC on x86-64 with ifunc). Only "avx2": it does not
+// enable FMA contraction, so every instruction set computes the same bits.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define IMM_BANK_CLONES __attribute__((target_clones("avx2", "default"), flatten))
+#else
+#define IMM_BANK_CLONES __attribute__((flatten))
+#endif
+
+namespace imm::bank {
+namespace {
+
+// f(integral_constant<int, 0>) … f(integral_constant<int, N − 1>), unrolled at compile time so
+// that the small per-track arrays of the phase loops become registers.
+template <int N, class F>
+[[gnu::always_inline]] inline void each(F&& f) {
+  [&]<int... I>(std::integer_sequence<int, I...>) { (f(std::integral_constant<int, I>{}), ...); }
+  (std::make_integer_sequence<int, N>{});
+}
+
+constexpr double kLogTwoPi = 1.8378770664093454836;
+
+// Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian per lane (eq. 4–5 and 10–11): component i's
+// weights at weights + i·kB, its entries at mode(i, e); the result into out (kEntries slots).
+template <class Mode>
+[[gnu::always_inline]] inline void moment_match(int components, int lanes, const double* weights,
+                                                Mode&& mode, double* out) {
+  for (int e = 0; e < kEntries; ++e) std::fill_n(out + e * kB, lanes, 0.0);
+  for (int i = 0; i < components; ++i) {
+    const double* __restrict w = weights + i * kB;
+    for (int a = 0; a < kN; ++a) {
+      const double* __restrict mean = mode(i, a);
+      double* __restrict sum = out + a * kB;
+      for (int l = 0; l < lanes; ++l) sum[l] += w[l] * mean[l];
+    }
+  }
+  for (int i = 0; i < components; ++i) {
+    const double* __restrict w = weights + i * kB;
+    for (int a = 0; a < kN; ++a) {
+      for (int c = a; c < kN; ++c) {
+        const double* __restrict ma = mode(i, a);
+        const double* __restrict mc = mode(i, c);
+        const double* __restrict xa = out + a * kB;
+        const double* __restrict xc = out + c * kB;
+        const double* __restrict p = mode(i, kN + sym(a, c));
+        double* __restrict sum = out + (kN + sym(a, c)) * kB;
+        for (int l = 0; l < lanes; ++l) sum[l] += w[l] * (p[l] + (ma[l] - xa[l]) * (mc[l] - xc[l]));
+      }
+    }
+  }
+}
+
+}  // namespace
+
+IMM_BANK_CLONES
+void step_tracks(const Block& b) {
+  const int n = b.modes;
+  const int lanes = b.lanes;
+  const ScratchLayout layout(n);
+  auto st = [&](int j, int entry) { return b.state + (j * kModeSlots + entry) * b.stride; };
+  auto combined = [&](int entry) { return b.state + (n * kModeSlots + entry) * b.stride; };
+  auto sc = [&](int slot) { return b.scratch + slot * kB; };
+
+  // A (vector): predicted mode probabilities c̃_j = Σ_i p_ij μ̃_i with μ̃ = μ / max μ (as
+  // ImmEstimator does) and mixing weights μ_ij = p_ij μ̃_i / c̃_j (eq. 6).
+  for (int j = 0; j < n; ++j) {
+    double* __restrict c = sc(layout.predicted + j);
+    std::fill_n(c, lanes, 0.0);
+    for (int i = 0; i < n; ++i) {
+      const double p = b.transition[i * n + j];
+      const double* __restrict mu = st(i, kScaledMu);
+      for (int l = 0; l < lanes; ++l) c[l] += p * mu[l];
+    }
+    for (int i = 0; i < n; ++i) {
+      const double p = b.transition[i * n + j];
+      const double* __restrict mu = st(i, kScaledMu);
+      double* __restrict w = sc(layout.weights + j * n + i);
+      for (int l = 0; l < lanes; ++l) w[l] = p * mu[l] / c[l];  // NaN where c̃_j = 0: fixed below
+    }
+  }
+
+  // A' (scalar): usable plots; log c_j; where c̃_j underflowed (zero transition entries) the exact
+  // log-sum-exp and weights from it.
+  for (int l = 0; l < lanes; ++l) {
+    const double zx = b.plots[l].x(), zy = b.plots[l].y();
+    const bool usable = limits::usable_measurement(zx) && limits::usable_measurement(zy);
+    sc(layout.zx)[l] = usable ? zx : 0.0;
+    sc(layout.zy)[l] = usable ? zy : 0.0;
+    sc(layout.ok)[l] = usable ? 1.0 : 0.0;
+    double shift = -std::numeric_limits<double>::infinity();
+    for (int i = 0; i < n; ++i) shift = std::max(shift, st(i, kLogMu)[l]);
+    for (int j = 0; j < n; ++j) {
+      const double c = sc(layout.predicted + j)[l];
+      if (c > 0.0) {
+        sc(layout.log_predicted + j)[l] = std::log(c) + shift;
+        continue;
+      }
+      double* w = sc(layout.weights + j * n);
+      double largest = -std::numeric_limits<double>::infinity();
+      for (int i = 0; i < n; ++i)
+        largest = std::max(largest, b.log_transition[i * n + j] + st(i, kLogMu)[l]);
+      double log_c = largest;
+      if (std::isfinite(largest)) {
+        double sum = 0.0;
+        for (int i = 0; i < n; ++i)
+          sum += std::exp(b.log_transition[i * n + j] + st(i, kLogMu)[l] - largest);
+        // sum ≥ 1: the largest term is exp(0).
+        log_c = largest + std::log(sum);  // cppcheck-suppress invalidFunctionArg
+      }
+      sc(layout.log_predicted + j)[l] = log_c;
+      for (int i = 0; i < n; ++i) {
+        // Unreachable mode: it keeps its own estimate as the initial condition.
+        w[i * kB + l] = !std::isfinite(log_c)
+                            ? (i == j ? 1.0 : 0.0)
+                            : std::exp(b.log_transition[i * n + j] + st(i, kLogMu)[l] - log_c);
+      }
+    }
+  }
+
+  // B (vector): mixed initial conditions (eq. 4–5) into `mixed`.
+  for (int j = 0; j < n; ++j) {
+    moment_match(n, lanes, sc(layout.weights + j * n), st, sc(layout.mixed + j * kEntries));
+  }
+
+  // C (vector): prediction x⁻ = F x, P⁻ = F P Fᵀ + Q with F = [[1, T], [0, 1]] per axis.
+  const double T = b.period;
+  for (int j = 0; j < n; ++j) {
+    double* __restrict x = sc(layout.mixed + j * kEntries);
+    const double* q = b.noise + static_cast<std::ptrdiff_t>(j) * kTriangle;
+    for (int l = 0; l < lanes; ++l) {
+      double p[kN][kN];
+#pragma GCC unroll 4
+      for (int a = 0; a < kN; ++a)
+#pragma GCC unroll 4
+        for (int c = 0; c < kN; ++c) p[a][c] = x[(kN + sym(a, c)) * kB + l];
+      double fp[kN][kN];  // F P
+#pragma GCC unroll 4
+      for (int c = 0; c < kN; ++c) {
+        fp[0][c] = p[0][c] + T * p[1][c];
+        fp[1][c] = p[1][c];
+        fp[2][c] = p[2][c] + T * p[3][c];
+        fp[3][c] = p[3][c];
+      }
+#pragma GCC unroll 4
+      for (int a = 0; a < kN; ++a) {
+        const double row[kN] = {fp[a][0] + T * fp[a][1], fp[a][1], fp[a][2] + T * fp[a][3],
+                                fp[a][3]};
+#pragma GCC unroll 4
+        for (int c = a; c < kN; ++c) x[(kN + sym(a, c)) * kB + l] = row[c] + q[sym(a, c)];
+      }
+      x[0 * kB + l] = x[0 * kB + l] + T * x[1 * kB + l];
+      x[2 * kB + l] = x[2 * kB + l] + T * x[3 * kB + l];
+    }
+  }
+
+  // D (vector): Joseph-form update with H selecting [x, y] (kalman_filter.hpp written out):
+  // S = H P Hᵀ + R, K = P Hᵀ S⁻¹, C = P − K (P Hᵀ)ᵀ, P⁺ = C − (C Hᵀ) Kᵀ + K R Kᵀ.
+  const double r00 = b.r00, r01 = b.r01, r11 = b.r11;
+  const double* __restrict zx = sc(layout.zx);
+  const double* __restrict zy = sc(layout.zy);
+  for (int j = 0; j < n; ++j) {
+    const double* __restrict x = sc(layout.mixed + j * kEntries);
+    double* __restrict u = sc(layout.updated + j * kEntries);
+    double* __restrict det_out = sc(layout.determinant + j);
+    double* __restrict maha_out = sc(layout.mahalanobis + j);
+    double* __restrict s00_out = sc(layout.s00 + j);
+    double* __restrict threshold_out = sc(layout.threshold + j);
+    double* __restrict finite_out = sc(layout.finite + j);
+    for (int l = 0; l < lanes; ++l) {
+      double p[kN][kN];
+      each<kN>([&](auto a) { each<kN>([&](auto c) { p[a][c] = x[(kN + sym(a, c)) * kB + l]; }); });
+      const double s00 = p[0][0] + r00, s01 = p[0][2] + r01, s11 = p[2][2] + r11;
+      const double det = s00 * s11 - s01 * s01;
+      const double inverse_det = 1.0 / det;
+      const double i00 = s11 * inverse_det, i01 = -s01 * inverse_det, i11 = s00 * inverse_det;
+      double k[kN][2];
+      each<kN>([&](auto a) {
+        k[a][0] = p[a][0] * i00 + p[a][2] * i01;
+        k[a][1] = p[a][0] * i01 + p[a][2] * i11;
+      });
+      const double nu0 = zx[l] - x[0 * kB + l], nu1 = zy[l] - x[2 * kB + l];
+      double finite = 0.0;  // stays 0 unless an output is NaN or ±Inf
+      each<kN>([&](auto a) {
+        const double mean = x[a * kB + l] + (k[a][0] * nu0 + k[a][1] * nu1);
+        u[a * kB + l] = mean;
+        finite += mean - mean;
+      });
+      double cc[kN][kN];
+      each<kN>([&](auto a) {
+        each<kN>([&](auto c) { cc[a][c] = p[a][c] - (k[a][0] * p[c][0] + k[a][1] * p[c][2]); });
+      });
+      each<kN>([&](auto a) {
+        const double kr0 = k[a][0] * r00 + k[a][1] * r01;
+        const double kr1 = k[a][0] * r01 + k[a][1] * r11;
+        each<kN>([&](auto c) {
+          if constexpr (c >= a) {
+            const double value = (cc[a][c] - (cc[a][0] * k[c][0] + cc[a][2] * k[c][1])) +
+                                 (kr0 * k[c][0] + kr1 * k[c][1]);
+            u[(kN + sym(a, c)) * kB + l] = value;
+            finite += value - value;
+          }
+        });
+      });
+      det_out[l] = det;
+      maha_out[l] = nu0 * (i00 * nu0 + i01 * nu1) + nu1 * (i01 * nu0 + i11 * nu1);
+      // kSingular (+ kNonFinite), or kNonFinite alone, or 0.
+      // The checks themselves run in phase E: a comparison here would keep this loop scalar.
+      s00_out[l] = s00;
+      threshold_out[l] = 1e-14 * s00 * s11;
+      finite_out[l] = finite;
+    }
+  }
+
+  // E (scalar): statuses and the posterior mode probabilities in log space (eq. 8–9).
+  for (int l = 0; l < lanes; ++l) {
+    double* ok = sc(layout.ok) + l;
+    if (*ok == 0.0) {
+      b.status[l] = StepStatus::kInvalidMeasurement;
+      continue;
+    }
+    StepStatus outcome = StepStatus::kOk;
+    for (int j = 0; j < n && outcome == StepStatus::kOk; ++j) {
+      // S positive definite (Sylvester, with kalman_filter.hpp's relative guard), then finite.
+      const double s00 = sc(layout.s00 + j)[l];
+      if (!(s00 > 0.0) || !(sc(layout.determinant + j)[l] > sc(layout.threshold + j)[l])) {
+        outcome = StepStatus::kSingularInnovation;
+      } else if (sc(layout.finite + j)[l] != 0.0) {
+        outcome = StepStatus::kNonFiniteResult;
+      }
+    }
+    double shift = -std::numeric_limits<double>::infinity();
+    double* posterior = sc(layout.posterior) + l;
+    if (outcome == StepStatus::kOk) {
+      for (int j = 0; j < n; ++j) {
+        const double log_likelihood =
+            -0.5 * (sc(layout.mahalanobis + j)[l] + std::log(sc(layout.determinant + j)[l]) +
+                    2 * kLogTwoPi);
+        posterior[j * kB] = log_likelihood + sc(layout.log_predicted + j)[l];
+        shift = std::max(shift, posterior[j * kB]);
+      }
+      if (!std::isfinite(shift)) outcome = StepStatus::kProbabilityUnderflow;
+    }
+    b.status[l] = outcome;
+    if (outcome != StepStatus::kOk) {
+      *ok = 0.0;
+      continue;
+    }
+    double sum = 0.0;
+    for (int j = 0; j < n; ++j) {
+      const double centered = posterior[j * kB] - shift;
+      sc(layout.new_log_mu + j)[l] = centered;
+      const double scaled = std::exp(centered);
+      sc(layout.new_scaled_mu + j)[l] = scaled;
+      sum += scaled;
+    }
+    // log μ_j = (ℓ_j − shift) − log Σ, in that order (see ImmEstimator::finish_cycle).
+    const double log_sum = std::log(sum);  // cppcheck-suppress invalidFunctionArg
+    for (int j = 0; j < n; ++j) {
+      sc(layout.new_log_mu + j)[l] -= log_sum;
+      posterior[j * kB] = sc(layout.new_scaled_mu + j)[l] / sum;
+    }
+  }
+
+  // F (vector): commit the tracks that succeeded and combine (eq. 10–11).
+  const double* __restrict ok = sc(layout.ok);
+  for (int j = 0; j < n; ++j) {
+    for (int e = 0; e < kEntries; ++e) {
+      double* __restrict current = st(j, e);
+      const double* __restrict pending = sc(layout.updated + j * kEntries + e);
+      for (int l = 0; l < lanes; ++l) current[l] = ok[l] != 0.0 ? pending[l] : current[l];
+    }
+    double* __restrict log_mu = st(j, kLogMu);
+    double* __restrict scaled = st(j, kScaledMu);
+    const double* __restrict new_log = sc(layout.new_log_mu + j);
+    const double* __restrict new_scaled = sc(layout.new_scaled_mu + j);
+    for (int l = 0; l < lanes; ++l) {
+      log_mu[l] = ok[l] != 0.0 ? new_log[l] : log_mu[l];
+      scaled[l] = ok[l] != 0.0 ? new_scaled[l] : scaled[l];
+    }
+  }
+  // The combination, computed for every lane (scratch: mode 0's mixed slots, no longer needed)
+  // and stored for the committed ones.
+  double* out = sc(layout.mixed);
+  moment_match(n, lanes, sc(layout.posterior), st, out);
+  for (int e = 0; e < kEntries; ++e) {
+    double* __restrict target = combined(e);
+    const double* __restrict value = out + e * kB;
+    for (int l = 0; l < lanes; ++l) target[l] = ok[l] != 0.0 ? value[l] : target[l];
+  }
+}
+
+}  // namespace imm::bank

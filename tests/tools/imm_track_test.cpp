@@ -1,0 +1,95 @@
+// SPDX-License-Identifier: Apache-2.0
+// End-to-end: imm-track: tracking a measurement CSV with a model file or a config.
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "testing/regime_files.hpp"
+#include "testing/tools_fixture.hpp"
+
+namespace imm {
+namespace {
+
+using testing::fields_of;
+using testing::lines_of;
+using testing::run_tool;
+using testing::Tools;
+
+TEST_F(Tools, ImmTrackReportsBadRowsAndKeepsTheFilterIntact) {
+  // Corrupt scans 50 and 51 of a clean run.
+  const auto clean_lines = lines_of(testing::slurp(dir_ / "plots.csv"));
+  std::ofstream dirty(dir_ / "dirty.csv");
+  std::size_t corrupted_line = 0;
+  for (std::size_t i = 0; i < clean_lines.size(); ++i) {
+    if (clean_lines[i].rfind("50,", 0) == 0) {
+      dirty << "50,nan,1.0\n";
+      corrupted_line = i + 1;
+    } else if (clean_lines[i].rfind("51,", 0) == 0) {
+      dirty << "51,2.0\n";
+    } else {
+      dirty << clean_lines[i] << '\n';
+    }
+  }
+  dirty.close();
+  const std::string filter = config("configs/track/cv3_imm.toml").string();
+  const auto clean = run_tool(
+      "imm-track", {"--filter", filter, "--measurements", (dir_ / "plots.csv").string()}, root_);
+  const auto bad = run_tool(
+      "imm-track", {"--filter", filter, "--measurements", (dir_ / "dirty.csv").string()}, root_);
+  ASSERT_EQ(clean.exit_code, 0) << clean.err;
+  ASSERT_EQ(bad.exit_code, 0) << bad.err;
+  EXPECT_NE(bad.err.find("dirty.csv:" + std::to_string(corrupted_line) + ": zx is nan"),
+            std::string::npos)
+      << bad.err;
+  EXPECT_NE(bad.err.find("dirty.csv:" + std::to_string(corrupted_line + 1) + ": expected 3 fields"),
+            std::string::npos)
+      << bad.err;
+
+  const auto clean_rows = lines_of(clean.out);
+  const auto bad_rows = lines_of(bad.out);
+  ASSERT_EQ(clean_rows.size(), 161u);  // header + 160 scans
+  ASSERT_EQ(bad_rows.size(), 161u);    // both bad rows name their scan: reported as rejected
+  for (std::size_t i = 0; i <= 50; ++i) EXPECT_EQ(clean_rows[i], bad_rows[i]) << "row " << i;
+  const auto before = fields_of(bad_rows[50]);  // scan 49
+  for (std::size_t i : {51u, 52u}) {
+    const auto rejected = fields_of(bad_rows[i]);
+    EXPECT_EQ(rejected[0], std::to_string(i - 1));
+    EXPECT_EQ(rejected[1], "rejected");
+    EXPECT_EQ(std::vector<std::string>(rejected.begin() + 2, rejected.end()),
+              std::vector<std::string>(before.begin() + 2, before.end()));
+  }
+  // Scan 52 predicts through 50 and 51 and then tracks on.
+  const auto resumed = fields_of(bad_rows[53]);
+  EXPECT_EQ(resumed[0], "52");
+  EXPECT_EQ(resumed[1], "updated");
+  EXPECT_NEAR(std::stod(resumed[2]), std::stod(fields_of(clean_rows[53])[2]), 1.0);
+}
+
+TEST_F(Tools, ImmTrackGivesTheSameTrackFromTheModelFileAsFromTheConfig) {
+  const auto model = dir_ / "cv3.h5";
+  freeze_cv3(model);
+  const auto from_config = run_tool("imm-track",
+                                    {"--filter", config("configs/track/cv3_imm.toml").string(),
+                                     "--measurements", (dir_ / "plots.csv").string()},
+                                    root_);
+  const auto from_model = run_tool(
+      "imm-track", {"--filter", model.string(), "--measurements", (dir_ / "plots.csv").string()},
+      root_);
+  ASSERT_EQ(from_model.exit_code, 0) << from_model.err;
+  EXPECT_EQ(from_config.out, from_model.out);
+}
+
+TEST_F(Tools, ImmTrackRefusesMismatchedMeasurements) {
+  testing::write_text(dir_ / "polar.csv", "k,range,azimuth\n0,100,0.1\n");
+  const auto result = run_tool("imm-track",
+                               {"--filter", config("configs/track/cv3_imm.toml").string(),
+                                "--measurements", (dir_ / "polar.csv").string()},
+                               root_);
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("polar"), std::string::npos) << result.err;
+}
+
+}  // namespace
+}  // namespace imm
