@@ -7,6 +7,7 @@
 #include <limits>
 #include <numbers>
 
+#include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
@@ -57,61 +58,35 @@ void check_start(const Start& s, const std::string& prefix) {
 
 }  // namespace
 
-std::string_view to_string(Units units) { return units == Units::kMetres ? "m" : "km"; }
+constexpr std::array kUnitsNames{EnumName<Units>{Units::kMetres, "m"},
+                                 EnumName<Units>{Units::kKilometres, "km"}};
+constexpr std::array kSensorKindNames{
+    EnumName<SensorKind>{SensorKind::kCartesian, "cartesian"},
+    EnumName<SensorKind>{SensorKind::kPolar, "polar"},
+    EnumName<SensorKind>{SensorKind::kRangeSensor, "range_sensor"}};
+constexpr std::array kSegmentKindNames{
+    EnumName<SegmentKind>{SegmentKind::kConstantVelocity, "cv"},
+    EnumName<SegmentKind>{SegmentKind::kConstantAcceleration, "ca"},
+    EnumName<SegmentKind>{SegmentKind::kTurn, "turn"},
+    EnumName<SegmentKind>{SegmentKind::kZigzag, "zigzag"},
+    EnumName<SegmentKind>{SegmentKind::kLaneChange, "lane_change"}};
+constexpr std::array kDirectionNames{EnumName<Direction>{Direction::kAlong, "along"},
+                                     EnumName<Direction>{Direction::kLateral, "lateral"},
+                                     EnumName<Direction>{Direction::kAny, "any"},
+                                     EnumName<Direction>{Direction::kAxis, "axis"}};
+constexpr std::array kSplitNames{EnumName<Split>{Split::kTraining, "training"},
+                                 EnumName<Split>{Split::kValidation, "validation"},
+                                 EnumName<Split>{Split::kTest, "test"}};
 
-std::string_view to_string(SensorKind kind) {
-  switch (kind) {
-    case SensorKind::kCartesian:
-      return "cartesian";
-    case SensorKind::kPolar:
-      return "polar";
-    case SensorKind::kRangeSensor:
-      return "range_sensor";
-  }
-  return "?";
-}
+std::string_view to_string(Units units) { return name_of(kUnitsNames, units); }
 
-std::string_view to_string(SegmentKind kind) {
-  switch (kind) {
-    case SegmentKind::kConstantVelocity:
-      return "cv";
-    case SegmentKind::kConstantAcceleration:
-      return "ca";
-    case SegmentKind::kTurn:
-      return "turn";
-    case SegmentKind::kZigzag:
-      return "zigzag";
-    case SegmentKind::kLaneChange:
-      return "lane_change";
-  }
-  return "?";
-}
+std::string_view to_string(SensorKind kind) { return name_of(kSensorKindNames, kind); }
 
-std::string_view to_string(Direction direction) {
-  switch (direction) {
-    case Direction::kAlong:
-      return "along";
-    case Direction::kLateral:
-      return "lateral";
-    case Direction::kAny:
-      return "any";
-    case Direction::kAxis:
-      return "axis";
-  }
-  return "?";
-}
+std::string_view to_string(SegmentKind kind) { return name_of(kSegmentKindNames, kind); }
 
-std::string_view to_string(Split split) {
-  switch (split) {
-    case Split::kTraining:
-      return "training";
-    case Split::kValidation:
-      return "validation";
-    case Split::kTest:
-      return "test";
-  }
-  return "?";
-}
+std::string_view to_string(Direction direction) { return name_of(kDirectionNames, direction); }
+
+std::string_view to_string(Split split) { return name_of(kSplitNames, split); }
 
 double Interval::draw(Rng& rng) const {
   if (min == max) return min;

@@ -198,7 +198,7 @@ void expect_tracks_equal(const Regime& regime, int case_index, int tracks,
   }
 }
 
-TEST(PaperPresets, Seed000ScenarioTrackForTrack) {
+TEST(PaperPresets, GaImmTable3TrackForTrack) {
   const Regime r = load_regime("configs/regimes/paper/ga_imm_table3.toml").regime;
   Reference s;
   s.scans = 160;
@@ -217,9 +217,9 @@ TEST(PaperPresets, Seed000ScenarioTrackForTrack) {
   EXPECT_EQ(r.splits.test, 100);
 }
 
-TEST(PaperPresets, Seed003ScenarioTrackForTrack) {
-  for (const auto& preset : {std::pair<std::string, double>{"fcm_imm_seed003.toml", 1.0},
-                             {"fcm_imm_seed003_literal.toml", 10.0}}) {
+TEST(PaperPresets, FcmImmZigzagTrackForTrack) {
+  for (const auto& preset : {std::pair<std::string, double>{"fcm_imm_zigzag.toml", 1.0},
+                             {"fcm_imm_zigzag_literal.toml", 10.0}}) {
     const std::string& file = preset.first;
     const double scale = preset.second;  // a named copy: the lambda below captures it
     const Regime r = load_regime("configs/regimes/paper/" + file).regime;
@@ -242,7 +242,7 @@ TEST(PaperPresets, Seed003ScenarioTrackForTrack) {
   }
 }
 
-TEST(PaperPresets, Seed004ScenariosTrackForTrack) {
+TEST(PaperPresets, WimmTable2ScenariosTrackForTrack) {
   const Regime r = load_regime("configs/regimes/paper/wimm_table2.toml").regime;
   ASSERT_EQ(r.case_count(), 2);
   for (int scenario : {1, 2}) {
@@ -267,7 +267,7 @@ TEST(PaperPresets, Seed004ScenariosTrackForTrack) {
 
 // Seed 002's cut-in: the truth of §4 (half-cosine lane changes), the plots the distorted position
 // plus N(0, R) with R per case.
-TEST(PaperPresets, Seed002CutInTruthAndNoiseLevels) {
+TEST(PaperPresets, FimmTable1CutInTruthAndNoiseLevels) {
   for (const char* file : {"fimm_table1.toml", "fimm_table1_hard.toml"}) {
     const Regime r = load_regime(std::string("configs/regimes/paper/") + file).regime;
     ASSERT_EQ(r.case_count(), 4);
@@ -296,7 +296,7 @@ TEST(PaperPresets, Seed002CutInTruthAndNoiseLevels) {
 }
 
 // Seed 001's rows: every track is two independent runs of the paper's one-axis trajectory.
-TEST(PaperPresets, Seed001RowsOnBothAxes) {
+TEST(PaperPresets, InputEstimatorTablesRowsOnBothAxes) {
   const Regime r = load_regime("configs/regimes/paper/input_estimator_tables.toml").regime;
   ASSERT_EQ(r.case_count(), 8);
   const RegimeFile file = load_regime("configs/regimes/paper/input_estimator_tables.toml");

@@ -48,7 +48,7 @@ std::vector<Vector<6>> track(const WimmSpec& spec, const datasets::Track& data,
 }
 
 datasets::Track scenario_run(int number, std::uint64_t seed = 3) {
-  return testing::test_track(testing::seed004_regime(number), seed);
+  return testing::test_track(testing::wimm_table2_regime(number), seed);
 }
 
 WimmSpec with_fusion(FusionVariant fusion) {

@@ -33,7 +33,7 @@ inline datasets::Regime scripted_regime(double T, int scans, const Eigen::Vector
 
 // Seed 004's scenarios (polar sensor σ_r 50 m, σ_θ 0.5°, T = 2 s, 250 scans, 140 km out at 45°
 // inbound at 141 m/s): 1 straight, 2 with two coordinated turns of 3.82°/s.
-inline datasets::Regime seed004_regime(int number) {
+inline datasets::Regime wimm_table2_regime(int number) {
   const double d = 140e3 / std::sqrt(2.0);
   std::vector<datasets::ScriptedSegment> turns;
   if (number == 2) {

@@ -46,7 +46,7 @@ imm::datasets::Track preset_track(const std::string& name, int index = 0) {
   return imm::datasets::draw_track(file.regime, imm::datasets::Split::kTest, index, 1);
 }
 
-const Eigen::MatrixXd& seed000_plots() {
+const Eigen::MatrixXd& table3_plots() {
   static const Eigen::MatrixXd plots = preset_track("ga_imm_table3").plots;
   return plots;
 }
@@ -62,7 +62,7 @@ void BM_PlainImmStep(benchmark::State& state) {
   const auto spec =
       imm::support::load_plain_imm_config(IMM_SOURCE_DIR "/configs/track/cv3_imm.toml");
   auto imm = imm::build_plain_imm<4>(spec);
-  const Eigen::MatrixXd& plots = seed000_plots();
+  const Eigen::MatrixXd& plots = table3_plots();
   imm.initialize(start_state(plots));
   Eigen::Index k = 1;
   for (auto _ : state) {
@@ -81,7 +81,7 @@ BENCHMARK(BM_PlainImmStep);
 void BM_KalmanStepCv2d(benchmark::State& state) {
   const auto motion = imm::constant_velocity<2>(1.0, 1e-4);
   const imm::PositionMeasurement<4, 2> measurement({0, 2}, 0.25 * imm::SquareMatrix<2>::Identity());
-  const Eigen::MatrixXd& plots = seed000_plots();
+  const Eigen::MatrixXd& plots = table3_plots();
   imm::GaussianState<4> filter = start_state(plots);
   Eigen::Index k = 1;
   for (auto _ : state) {
@@ -125,8 +125,8 @@ void BM_CvSingerPolarImmStep(benchmark::State& state) {
 }
 BENCHMARK(BM_CvSingerPolarImmStep);
 
-const Eigen::MatrixXd& seed003_plots() {
-  static const Eigen::MatrixXd plots = preset_track("fcm_imm_seed003").plots;
+const Eigen::MatrixXd& zigzag_plots() {
+  static const Eigen::MatrixXd plots = preset_track("fcm_imm_zigzag").plots;
   return plots;
 }
 
@@ -149,7 +149,7 @@ void step_through(benchmark::State& state, TrackFilter& filter, const Eigen::Mat
 // One 2-D step of a per-axis filter pair (x and y), fed the seed-000 plots (σ_z² = 0.25 km²) or
 // others with their own measurement variance.
 void run_two_axis(benchmark::State& state, TrackFilter& filter,
-                  const Eigen::MatrixXd& plots = seed000_plots(), double variance = 0.25) {
+                  const Eigen::MatrixXd& plots = table3_plots(), double variance = 0.25) {
   step_through(
       state, filter, plots, Eigen::Vector4d(plots(0, 0), 0.0, plots(0, 1), 0.0),
       Eigen::Vector4d(variance, 2 * variance, variance, 2 * variance).asDiagonal().toDenseMatrix());
@@ -241,7 +241,7 @@ void BM_FcmImmStep(benchmark::State& state) {
   if (state.range(0) == 1) spec.constant_memberships = true;
   if (state.range(0) == 2) spec.scale = imm::MembershipScale::kSeed;
   auto filter = imm::make_fcm_imm_filter(spec);
-  run_two_axis(state, *filter, seed003_plots(), 1e4);
+  run_two_axis(state, *filter, zigzag_plots(), 1e4);
   state.SetLabel(state.range(0) == 0   ? "fitted"
                  : state.range(0) == 1 ? "constant memberships"
                                        : "seed (scale-free) memberships");
@@ -249,15 +249,15 @@ void BM_FcmImmStep(benchmark::State& state) {
 BENCHMARK(BM_FcmImmStep)->Arg(0)->Arg(1)->Arg(2);
 
 // The constant-q IMM with the same noise levels, for comparison.
-void BM_CvImm3Seed003Step(benchmark::State& state) {
+void BM_CvImm3ZigzagStep(benchmark::State& state) {
   const auto fitted = imm::io::read_fcm_imm(IMM_SOURCE_DIR "/models/fcm_imm.h5");
   imm::AxisCvImmSpec spec;
   spec.settings.measurement_sigma = 100.0;
   spec.process_noise = fitted.process_noise;
   auto filter = imm::make_axis_cv_imm_filter(spec);
-  run_two_axis(state, *filter, seed003_plots(), 1e4);
+  run_two_axis(state, *filter, zigzag_plots(), 1e4);
 }
-BENCHMARK(BM_CvImm3Seed003Step);
+BENCHMARK(BM_CvImm3ZigzagStep);
 
 // Seed 002: the shipped TSK sensor model (models/tsk_range_sensor[_hard].h5), h and its 2 × 2
 // Jacobian for both outputs, at positions along the cut-in (some outside the trained box).

@@ -3,7 +3,7 @@
 //
 //   imm-data tracks --regime configs/regimes/paper/ga_imm_table3.toml --out data/seed000.h5
 //                   [--split test|training|validation] [--seed N] [--count N]
-//                   [--csv data/seed000_run0.csv] [--csv-track I]
+//                   [--csv data/ga_imm_table3_run0.csv] [--csv-track I]
 //   imm-data sensor --regime configs/regimes/paper/fimm_table1.toml --out data/range_sensor.h5
 //                   [--seed N]
 //

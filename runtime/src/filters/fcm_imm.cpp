@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "imm/core/checks.hpp"
+#include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
@@ -22,15 +23,16 @@ std::string mode_name(double q) {
 
 }  // namespace
 
-std::string_view to_string(MembershipScale scale) {
-  return scale == MembershipScale::kSeed ? "seed" : "innovation";
-}
+namespace {
+constexpr std::array kMembershipScaleNames{
+    EnumName<MembershipScale>{MembershipScale::kSeed, "seed"},
+    EnumName<MembershipScale>{MembershipScale::kInnovation, "innovation"}};
+}  // namespace
+
+std::string_view to_string(MembershipScale scale) { return name_of(kMembershipScaleNames, scale); }
 
 MembershipScale membership_scale_from(std::string_view name, const std::string& field) {
-  if (name == "seed") return MembershipScale::kSeed;
-  if (name == "innovation") return MembershipScale::kInnovation;
-  throw InvalidParameter(field,
-                         "must be \"seed\" or \"innovation\", got \"" + std::string(name) + "\"");
+  return value_named(kMembershipScaleNames, name, field, "membership scale");
 }
 
 Eigen::MatrixXd FcmImmSpec::switching_transition(int n, double stay) {

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 
+#include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 
@@ -22,16 +23,15 @@ InnovationFeatureExtractor::InnovationFeatureExtractor(const CvKfSettings& setti
   H_ << 1.0, 0.0;
 }
 
-std::string_view to_string(InputSign sign) {
-  return sign == InputSign::kPositive ? "positive" : "innovation";
-}
+namespace {
+constexpr std::array kInputSignNames{EnumName<InputSign>{InputSign::kPositive, "positive"},
+                                     EnumName<InputSign>{InputSign::kInnovation, "innovation"}};
+}  // namespace
+
+std::string_view to_string(InputSign sign) { return name_of(kInputSignNames, sign); }
 
 InputSign input_sign_from(std::string_view name, const std::string& field) {
-  for (InputSign sign : {InputSign::kPositive, InputSign::kInnovation}) {
-    if (name == to_string(sign)) return sign;
-  }
-  throw InvalidParameter(
-      field, "unknown sign '" + std::string(name) + "' (expected positive or innovation)");
+  return value_named(kInputSignNames, name, field, "sign");
 }
 
 void InnovationFeatureExtractor::initialize(const GaussianState<2>& state) {

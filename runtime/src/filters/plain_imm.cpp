@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "imm/core/checks.hpp"
+#include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/kalman_mode.hpp"
@@ -18,6 +19,19 @@
 
 namespace imm {
 namespace {
+
+constexpr std::array kMotionKindNames{EnumName<MotionKind>{MotionKind::kConstantVelocity, "cv"},
+                                      EnumName<MotionKind>{MotionKind::kConstantAcceleration, "ca"},
+                                      EnumName<MotionKind>{MotionKind::kSinger, "singer"}};
+constexpr std::array kNoiseFormNames{
+    EnumName<NoiseForm>{NoiseForm::kPiecewiseConstant, "piecewise"},
+    EnumName<NoiseForm>{NoiseForm::kContinuous, "continuous"}};
+constexpr std::array kMeasurementKindNames{
+    EnumName<MeasurementKind>{MeasurementKind::kCartesian, "cartesian"},
+    EnumName<MeasurementKind>{MeasurementKind::kPolar, "polar"}};
+constexpr std::array kInitializationMethodNames{
+    EnumName<InitializationMethod>{InitializationMethod::kExplicit, "explicit"},
+    EnumName<InitializationMethod>{InitializationMethod::kTwoPoint, "two_point"}};
 
 std::string mode_field(std::size_t index, const char* key) {
   return "modes[" + std::to_string(index) + "]." + key;
@@ -51,63 +65,30 @@ std::unique_ptr<ImmMode<NX, 2>> make_mode(const ModeSpec& mode, const LinearMoti
 
 }  // namespace
 
-std::string_view to_string(MotionKind kind) {
-  switch (kind) {
-    case MotionKind::kConstantVelocity:
-      return "cv";
-    case MotionKind::kConstantAcceleration:
-      return "ca";
-    case MotionKind::kSinger:
-      return "singer";
-  }
-  return "?";
-}
+std::string_view to_string(MotionKind kind) { return name_of(kMotionKindNames, kind); }
 
-std::string_view to_string(NoiseForm form) {
-  return form == NoiseForm::kPiecewiseConstant ? "piecewise" : "continuous";
-}
+std::string_view to_string(NoiseForm form) { return name_of(kNoiseFormNames, form); }
 
-std::string_view to_string(MeasurementKind kind) {
-  return kind == MeasurementKind::kCartesian ? "cartesian" : "polar";
-}
+std::string_view to_string(MeasurementKind kind) { return name_of(kMeasurementKindNames, kind); }
 
 std::string_view to_string(InitializationMethod method) {
-  return method == InitializationMethod::kExplicit ? "explicit" : "two_point";
-}
-
-// The enum value whose to_string() is `name`; otherwise InvalidParameter listing the choices.
-template <class Enum, std::size_t Count>
-Enum enum_from(std::string_view name, const std::string& field, const char* what,
-               const std::array<Enum, Count>& values) {
-  std::string expected;
-  for (std::size_t i = 0; i < Count; ++i) {
-    if (name == to_string(values[i])) return values[i];
-    expected +=
-        (i == 0 ? "" : (i + 1 == Count ? " or " : ", ")) + std::string(to_string(values[i]));
-  }
-  throw InvalidParameter(field, "unknown " + std::string(what) + " '" + std::string(name) +
-                                    "' (expected " + expected + ")");
+  return name_of(kInitializationMethodNames, method);
 }
 
 MotionKind motion_kind_from(std::string_view name, const std::string& field) {
-  return enum_from(name, field, "motion model",
-                   std::array{MotionKind::kConstantVelocity, MotionKind::kConstantAcceleration,
-                              MotionKind::kSinger});
+  return value_named(kMotionKindNames, name, field, "motion model");
 }
 
 NoiseForm noise_form_from(std::string_view name, const std::string& field) {
-  return enum_from(name, field, "noise form",
-                   std::array{NoiseForm::kPiecewiseConstant, NoiseForm::kContinuous});
+  return value_named(kNoiseFormNames, name, field, "noise form");
 }
 
 MeasurementKind measurement_kind_from(std::string_view name, const std::string& field) {
-  return enum_from(name, field, "measurement",
-                   std::array{MeasurementKind::kCartesian, MeasurementKind::kPolar});
+  return value_named(kMeasurementKindNames, name, field, "measurement");
 }
 
 InitializationMethod initialization_method_from(std::string_view name, const std::string& field) {
-  return enum_from(name, field, "initialization",
-                   std::array{InitializationMethod::kExplicit, InitializationMethod::kTwoPoint});
+  return value_named(kInitializationMethodNames, name, field, "initialization");
 }
 
 int PlainImmSpec::mixing_dimension() const {

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "imm/core/checks.hpp"
+#include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/kalman_mode.hpp"
@@ -31,36 +32,28 @@ ImmEstimator<6, 2> build_imm(const WimmSpec& spec,
 
 }  // namespace
 
-std::string_view to_string(FusionVariant variant) {
-  switch (variant) {
-    case FusionVariant::kNone:
-      return "none";
-    case FusionVariant::kSeed:
-      return "seed";
-    case FusionVariant::kCorrelated:
-      return "correlated";
-  }
-  return "?";
-}
+namespace {
+constexpr std::array kFusionVariantNames{
+    EnumName<FusionVariant>{FusionVariant::kNone, "none"},
+    EnumName<FusionVariant>{FusionVariant::kSeed, "seed"},
+    EnumName<FusionVariant>{FusionVariant::kCorrelated, "correlated"}};
+constexpr std::array kMeasurementUpdateNames{
+    EnumName<MeasurementUpdate>{MeasurementUpdate::kExtended, "extended"},
+    EnumName<MeasurementUpdate>{MeasurementUpdate::kConverted, "converted"}};
+}  // namespace
+
+std::string_view to_string(FusionVariant variant) { return name_of(kFusionVariantNames, variant); }
 
 std::string_view to_string(MeasurementUpdate update) {
-  return update == MeasurementUpdate::kExtended ? "extended" : "converted";
+  return name_of(kMeasurementUpdateNames, update);
 }
 
 FusionVariant fusion_variant_from(std::string_view name, const std::string& field) {
-  for (auto v : {FusionVariant::kNone, FusionVariant::kSeed, FusionVariant::kCorrelated}) {
-    if (name == to_string(v)) return v;
-  }
-  throw InvalidParameter(
-      field, "unknown fusion '" + std::string(name) + "' (expected none, seed or correlated)");
+  return value_named(kFusionVariantNames, name, field, "fusion");
 }
 
 MeasurementUpdate measurement_update_from(std::string_view name, const std::string& field) {
-  for (auto u : {MeasurementUpdate::kExtended, MeasurementUpdate::kConverted}) {
-    if (name == to_string(u)) return u;
-  }
-  throw InvalidParameter(field, "unknown measurement update '" + std::string(name) +
-                                    "' (expected extended or converted)");
+  return value_named(kMeasurementUpdateNames, name, field, "measurement update");
 }
 
 void WimmSpec::validate() const {

@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/models/measurement/polar_measurement.hpp"
@@ -63,19 +64,14 @@ class PlainImmFilter final : public TrackFilter {
 
 }  // namespace
 
-std::string_view to_string(TrackEvent event) {
-  switch (event) {
-    case TrackEvent::kWaiting:
-      return "waiting";
-    case TrackEvent::kInitialized:
-      return "initialized";
-    case TrackEvent::kUpdated:
-      return "updated";
-    case TrackEvent::kRejected:
-      return "rejected";
-  }
-  return "?";
-}
+namespace {
+constexpr std::array kTrackEventNames{EnumName<TrackEvent>{TrackEvent::kWaiting, "waiting"},
+                                      EnumName<TrackEvent>{TrackEvent::kInitialized, "initialized"},
+                                      EnumName<TrackEvent>{TrackEvent::kUpdated, "updated"},
+                                      EnumName<TrackEvent>{TrackEvent::kRejected, "rejected"}};
+}  // namespace
+
+std::string_view to_string(TrackEvent event) { return name_of(kTrackEventNames, event); }
 
 std::unique_ptr<TrackFilter> make_plain_imm_filter(const PlainImmSpec& spec) {
   return std::make_unique<PlainImmFilter>(spec);

@@ -127,20 +127,11 @@ void GaTrainingConfig::validate() const {
               fuzzy.consequent_high > fuzzy.consequent_low && fuzzy.consequent_high <= 1000.0,
           "fuzzy.consequent_range", "must be [low, high] with 0 ≤ low < high ≤ 1000");
   require(fuzzy.lambda >= 0.0 && fuzzy.lambda <= 1.0, "ga.lambda", "must be in [0, 1]");
-  require(ga.population >= 2 && ga.population <= 100000, "ga.population", "must be in [2, 100000]");
-  require(ga.generations >= 0 && ga.generations <= 100000, "ga.generations",
-          "must be in [0, 100000]");
-  require(ga.crossover_rate >= 0.0 && ga.crossover_rate <= 1.0, "ga.crossover_rate",
-          "must be in [0, 1]");
-  require(ga.mutation_rate >= 0.0 && ga.mutation_rate <= 1.0, "ga.mutation_rate",
-          "must be in [0, 1]");
-  require(ga.elite >= 0 && ga.elite < ga.population, "ga.elite", "must be in [0, population)");
-  require(ga.tournament_size >= 1 && ga.tournament_size <= ga.population, "ga.tournament_size",
-          "must be in [1, population]");
-  require(ga.initial_rule_probability > 0.0 && ga.initial_rule_probability <= 1.0,
-          "ga.initial_rule_probability", "must be in (0, 1]");
-  require(finite_positive(ga.mutation_scale) && ga.mutation_scale <= 1.0, "ga.mutation_scale",
-          "must be in (0, 1]");
+  try {
+    ga.validate();
+  } catch (const InvalidParameter& error) {
+    throw error.within("ga.");
+  }
   require(memetic.max_evaluations >= 0, "memetic.max_evaluations", "must be non-negative");
   require(finite_positive(max_validation_error), "gate.max_validation_error", "must be positive");
   require(memetic.max_evaluations <= 1000000, "memetic.max_evaluations", "must be at most 10⁶");

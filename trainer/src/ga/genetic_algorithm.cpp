@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "imm/core/invalid_parameter.hpp"
 #include "imm/trainer/parallel_for.hpp"
 #include "imm/trainer/ranks.hpp"
 
@@ -25,15 +26,28 @@ double Population::mean_fitness() const {
   return evaluations.empty() ? 0.0 : sum / static_cast<double>(evaluations.size());
 }
 
+namespace {
+bool finite_positive(double x) { return std::isfinite(x) && x > 0.0; }
+}  // namespace
+
+void GaOptions::validate() const {
+  require(population >= 2 && population <= 100000, "population", "must be in [2, 100000]");
+  require(generations >= 0 && generations <= 100000, "generations", "must be in [0, 100000]");
+  require(crossover_rate >= 0.0 && crossover_rate <= 1.0, "crossover_rate", "must be in [0, 1]");
+  require(mutation_rate >= 0.0 && mutation_rate <= 1.0, "mutation_rate", "must be in [0, 1]");
+  require(elite >= 0 && elite < population, "elite", "must be in [0, population)");
+  require(tournament_size >= 1 && tournament_size <= population, "tournament_size",
+          "must be in [1, population]");
+  require(initial_rule_probability > 0.0 && initial_rule_probability <= 1.0,
+          "initial_rule_probability", "must be in (0, 1]");
+  require(finite_positive(mutation_scale) && mutation_scale <= 1.0, "mutation_scale",
+          "must be in (0, 1]");
+}
+
 GeneticAlgorithm::GeneticAlgorithm(const GenomeProblem& problem, const GaOptions& options,
                                    std::uint64_t seed)
     : problem_(problem), options_(options), seed_(seed) {
-  if (options_.population < 2) throw std::invalid_argument("population must be at least 2");
-  if (options_.generations < 0) throw std::invalid_argument("generations must be non-negative");
-  if (options_.elite < 0 || options_.elite >= options_.population) {
-    throw std::invalid_argument("elite must be in [0, population)");
-  }
-  if (options_.tournament_size < 1) throw std::invalid_argument("tournament_size must be ≥ 1");
+  options_.validate();
   if (problem_.max_rules() < 1 ||
       problem_.lower().size() != static_cast<std::size_t>(problem_.max_rules()) * kGenesPerRule ||
       problem_.upper().size() != problem_.lower().size()) {

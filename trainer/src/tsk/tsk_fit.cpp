@@ -11,7 +11,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "imm/core/invalid_parameter.hpp"
 #include "imm/datasets/random.hpp"
+#include "imm/models/learned/tsk_sensor_model.hpp"
 #include "imm/trainer/parallel_for.hpp"
 
 namespace imm::trainer::tsk {
@@ -178,14 +180,22 @@ FcrmResult fcrm_from(const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targe
   return result;
 }
 
+void FcrmSettings::validate() const {
+  require(clusters >= 1 && clusters <= TskSensorModel::kMaxRules, "rules",
+          "must be in [1, " + std::to_string(TskSensorModel::kMaxRules) + "]");
+  require(fuzzifier >= 1.01 && fuzzifier <= 100.0, "fuzzifier", "must be in [1.01, 100]");
+  require(tolerance >= 1e-15 && tolerance <= 1.0, "tolerance", "must be in [1e-15, 1]");
+  require(max_iterations >= 1 && max_iterations <= 100000, "max_iterations",
+          "must be in [1, 100000]");
+  require(restarts >= 1 && restarts <= 1000, "restarts", "must be in [1, 1000]");
+}
+
 FcrmResult fcrm(const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targets,
                 const FcrmSettings& settings, std::uint64_t seed) {
   if (inputs.rows() != targets.size() || inputs.cols() != 2 || inputs.rows() < 3) {
     throw std::invalid_argument("fcrm: need N × 2 inputs and N targets, N ≥ 3");
   }
-  if (settings.clusters < 1 || !(settings.fuzzifier > 1.0) || settings.restarts < 1) {
-    throw std::invalid_argument("fcrm: clusters ≥ 1, fuzzifier > 1, restarts ≥ 1");
-  }
+  settings.validate();
   // Restarts run in parallel; each depends only on (seed, start) and the lowest objective wins
   // (the earliest start on a tie), so the result does not depend on the thread count.
   std::vector<FcrmResult> results(static_cast<std::size_t>(settings.restarts));

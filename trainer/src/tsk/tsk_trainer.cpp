@@ -84,15 +84,7 @@ std::string output_key(int i) {
 void TskTrainingConfig::validate() const {
   require(validation_fraction > 0.0 && validation_fraction < 1.0, "fit.validation_fraction",
           "must be in (0, 1)");
-  require(fcrm.clusters >= 1 && fcrm.clusters <= TskSensorModel::kMaxRules, "fit.rules",
-          "must be in [1, " + std::to_string(TskSensorModel::kMaxRules) + "]");
-  require(fcrm.fuzzifier >= 1.01 && fcrm.fuzzifier <= 100.0, "fit.fuzzifier",
-          "must be in [1.01, 100]");
-  require(fcrm.tolerance >= 1e-15 && fcrm.tolerance <= 1.0, "fit.tolerance",
-          "must be in [1e-15, 1]");
-  require(fcrm.max_iterations >= 1 && fcrm.max_iterations <= 100000, "fit.max_iterations",
-          "must be in [1, 100000]");
-  require(fcrm.restarts >= 1 && fcrm.restarts <= 1000, "fit.restarts", "must be in [1, 1000]");
+  validate_as("fit.", [&] { fcrm.validate(); });
   require(fine_tuning.max_iterations >= 0 && fine_tuning.max_iterations <= 100000,
           "fit.fine_tuning_iterations", "must be in [0, 100000]");
   require(max_validation_rmse > 0.0 && std::isfinite(max_validation_rmse),

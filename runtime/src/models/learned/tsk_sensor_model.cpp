@@ -6,6 +6,7 @@
 #include <limits>
 #include <string>
 
+#include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 
@@ -17,13 +18,15 @@ constexpr double kWidthRange = 1e-6;   // widths within [kWidthRange, 1/kWidthRa
 
 }  // namespace
 
-std::string_view to_string(TNorm t_norm) { return t_norm == TNorm::kMin ? "min" : "product"; }
+namespace {
+constexpr std::array kTNormNames{EnumName<TNorm>{TNorm::kMin, "min"},
+                                 EnumName<TNorm>{TNorm::kProduct, "product"}};
+}  // namespace
+
+std::string_view to_string(TNorm t_norm) { return name_of(kTNormNames, t_norm); }
 
 TNorm t_norm_from(std::string_view name, const std::string& field) {
-  if (name == "min") return TNorm::kMin;
-  if (name == "product") return TNorm::kProduct;
-  throw InvalidParameter(field,
-                         "must be \"min\" or \"product\", got \"" + std::string(name) + "\"");
+  return value_named(kTNormNames, name, field, "t-norm");
 }
 
 TskSensorModel::TskSensorModel(std::array<TskOutput, 2> outputs, TNorm t_norm,

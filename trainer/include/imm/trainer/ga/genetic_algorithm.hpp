@@ -41,6 +41,10 @@ struct GaOptions {
   int tournament_size = 2;
   double initial_rule_probability = 0.5;  ///< P(slot active) in the initial population
   double mutation_scale = 0.1;            ///< Gaussian step, fraction of the gene's range
+
+  /// Throws InvalidParameter naming the option as a GA config's [ga] table spells it
+  /// ("population", "elite", …). The config's loader and the GeneticAlgorithm both call it.
+  void validate() const;
 };
 
 struct Population {

@@ -33,6 +33,10 @@ struct FcrmSettings {
   double tolerance = 1e-5;
   int max_iterations = 300;
   int restarts = 10;
+
+  /// Throws InvalidParameter naming the setting as a TSK config's [fit] table spells it ("rules",
+  /// "fuzzifier", …). The config's loader and fcrm() both call it.
+  void validate() const;
 };
 
 struct FcrmResult {

@@ -1,0 +1,42 @@
+# SPDX-License-Identifier: Apache-2.0
+# Fails when a source file outside tests/ grows past 500 lines (split it by concept), or when a
+# file or a symbol is named after a source paper's number ("seed000_…", "Seed003…") instead of
+# what it is.
+#
+#   cmake -DSOURCE_DIR=<root> -P check_sources.cmake
+cmake_minimum_required(VERSION 3.22)
+set(max_lines 500)
+set(problems "")
+set(count 0)
+foreach(top runtime support datasets trainer evaluation pipeline tools tests configs)
+  file(GLOB_RECURSE found RELATIVE "${SOURCE_DIR}" "${SOURCE_DIR}/${top}/*")
+  foreach(relative ${found})
+    if(relative MATCHES "(^|/)[Ss]eed_?[0-9][0-9][0-9]")
+      string(APPEND problems "${relative}: named after a paper's number\n")
+    endif()
+    if(NOT relative MATCHES "\\.(cpp|hpp)$")
+      continue()
+    endif()
+    math(EXPR count "${count} + 1")
+    file(STRINGS "${SOURCE_DIR}/${relative}" lines)
+    list(LENGTH lines length)
+    if(length GREATER max_lines AND NOT relative MATCHES "^tests/")
+      string(APPEND problems "${relative}: ${length} lines (at most ${max_lines} outside tests)\n")
+    endif()
+    # Identifiers (not prose): seed000_plots, BM_Seed003Step, seed004_regime(…).
+    file(STRINGS "${SOURCE_DIR}/${relative}" named REGEX "[A-Za-z_][Ss]eed_?[0-9][0-9][0-9]|(^|[^A-Za-z ])[Ss]eed_?[0-9][0-9][0-9][A-Za-z_]")
+    foreach(line ${named})
+      string(STRIP "${line}" line)
+      if(NOT line MATCHES "^//")
+        string(APPEND problems "${relative}: a symbol named after a paper's number: ${line}\n")
+      endif()
+    endforeach()
+  endforeach()
+endforeach()
+if(count LESS 100)
+  message(FATAL_ERROR "only ${count} source files under ${SOURCE_DIR}: is SOURCE_DIR the root?")
+endif()
+message(STATUS "checked ${count} source files")
+if(problems)
+  message(FATAL_ERROR "${problems}")
+endif()
