@@ -49,6 +49,7 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
   NightlyPlan plan;
   plan.registry = root.text_or("registry", "models");
   plan.allow_dirty_trainer = root.boolean_or("allow_dirty_trainer", false);
+  if (root.has("evaluations_page")) plan.evaluations_page = root.text("evaluations_page");
   for (const auto& entry : root.tables("data")) {
     const std::string out = entry.text("out");
     NightlyStage stage = make_stage("data", entry.text("name"), "imm-data");

@@ -288,4 +288,44 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
   fs::rename(temp_link, latest);
 }
 
+void write_evaluations_page(const fs::path& page, const NightlyPlan& plan,
+                            const NightlyResult& result) {
+  std::ostringstream md;
+  const std::string night = result.report_folder.filename().string();
+  md << "# Latest evaluations\n\n"
+     << "Written by the nightly of " << night
+     << " (`imm-train all`) from the report of every evaluation stage, in the plan's order; "
+        "rewritten every night, never by hand. Differences carry their 95 % paired-bootstrap "
+        "interval over tracks, and \"beats\" means the interval excludes zero. The night's "
+        "stages, promotions and benchmarks are in its morning report (reports/nightly/latest/).\n";
+  for (const NightlyStage& stage : plan.stages) {
+    if (stage.kind != "evaluation") continue;
+    md << "\n## " << stage.name << "\n\n";
+    const StageOutcome* outcome = nullptr;
+    for (const auto& o : result.stages) {
+      if (o.kind == "evaluation" && o.name == stage.name) outcome = &o;
+    }
+    if (outcome == nullptr) {
+      md << "Not run this night.\n";
+      continue;
+    }
+    if (!outcome->command.empty()) md << "`" << outcome->command << "` — ";
+    md << outcome->status << " (exit " << outcome->exit_code << ")";
+    if (outcome->cached) md << ", unchanged since " << outcome->night;
+    md << "\n\n";
+    const fs::path report = stage.out / "report.md";
+    std::ifstream in(report);
+    if (!in) {
+      md << "No report (" << report.generic_string() << ")"
+         << (outcome->message.empty() ? "" : ": " + outcome->message) << ".\n";
+      continue;
+    }
+    for (std::string line; std::getline(in, line);) {
+      if (line.starts_with("#")) md << '#';  // under this page's stage heading
+      md << line << '\n';
+    }
+  }
+  trainer::write_text_atomically(page, md.str());
+}
+
 }  // namespace imm::pipeline

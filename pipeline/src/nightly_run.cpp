@@ -227,6 +227,7 @@ NightlyResult run_nightly(const NightlyPlan& plan, const NightlyOptions& options
   Night night(plan, options);
   NightlyResult result = night.run();
   write_morning_report(result.report_folder, plan, result);
+  if (plan.evaluations_page) write_evaluations_page(*plan.evaluations_page, plan, result);
   return result;
 }
 

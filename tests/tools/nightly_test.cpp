@@ -48,6 +48,8 @@ Plan write_plan(const testing::TempDir& dir, const std::string& extra_models = "
                 bool allow_dirty_trainer = true) {
   Plan p{dir.path(), dir / "models", dir / "nightly.toml", dir / "nightly"};
   std::ofstream(p.plan) << "registry = \"" << p.registry.string() << "\"\n"
+                        << "evaluations_page = \"" << (dir / "docs" / "evaluations.md").string()
+                        << "\"\n"
                         << "allow_dirty_trainer = " << (allow_dirty_trainer ? "true" : "false")
                         << "\n"
                         << extra_models
@@ -88,6 +90,19 @@ TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
   EXPECT_EQ(m["models"][0]["regime"]["name"], "");  // a frozen plain IMM is trained for none
   EXPECT_TRUE(m["models"][0]["metrics"].contains("plain-imm cv3: zeta_p"));
   EXPECT_FALSE(fs::exists(p.registry / ".registry" / "staging" / "cv3.h5"));
+  // The page of the latest evaluations: the stage, the command that reproduces it, and the
+  // tables of its report.md, one heading level down.
+  const std::string page = slurp(dir / "docs" / "evaluations.md");
+  const std::string evaluation_report = slurp(dir / "reports" / "cv3" / "report.md");
+  EXPECT_NE(page.find("# Latest evaluations"), std::string::npos) << page;
+  EXPECT_NE(page.find("`imm-eval plain-imm"), std::string::npos) << page;
+  const auto table_row = evaluation_report.find("\n|");
+  ASSERT_NE(table_row, std::string::npos) << evaluation_report;
+  EXPECT_NE(page.find(evaluation_report.substr(
+                table_row, evaluation_report.find('\n', table_row + 1) - table_row)),
+            std::string::npos)
+      << page;
+  EXPECT_EQ(page.find("\n# ", 1), std::string::npos) << page;  // one title, the report's below it
 
   // 2. Nothing changed: every stage is cached, nothing is retrained.
   run = nightly(p);

@@ -47,18 +47,22 @@ void ensure_parent_folder(const std::filesystem::path& path) {
   if (!folder.empty()) std::filesystem::create_directories(folder);
 }
 
-void write_json_atomically(const std::filesystem::path& path, const nlohmann::json& document) {
+void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
   ensure_parent_folder(path);
   std::string temp_name = ".";
   temp_name.append(path.filename().string()).append(".tmp-").append(std::to_string(::getpid()));
   const auto temp = path.parent_path() / temp_name;
   {
     std::ofstream out(temp, std::ios::trunc);
-    out << document.dump(2) << '\n';
+    out << text;
     out.flush();
     if (!out) throw std::runtime_error(temp.string() + ": cannot write");
   }
   std::filesystem::rename(temp, path);
+}
+
+void write_json_atomically(const std::filesystem::path& path, const nlohmann::json& document) {
+  write_text_atomically(path, document.dump(2) + '\n');
 }
 
 std::string read_text_file(const std::filesystem::path& path) {

@@ -15,6 +15,8 @@
 ///
 /// configs/nightly.toml:
 ///   registry = "models"   (optional: the folder of shipped models and models/manifest.json)
+///   evaluations_page = "docs/evaluations.md"   (optional: rewritten every night from the report
+///                                               of every evaluation stage)
 ///   [[data]]         name, command (tracks | sensor), regime, out, [split], [csv], [count], [seed]
 ///   [[models]]       name, command (an imm-train subcommand), config, out, [regime], [seed],
 ///                    [arguments]
@@ -56,6 +58,8 @@ struct NightlyPlan {
   /// "…-dirty"). Off: shipped models come only from committed code. For trying a plan on
   /// uncommitted code (the nightly's own tests), never in the shipped plan.
   bool allow_dirty_trainer = false;
+  /// The page of the latest evaluations, rewritten after every night (write_evaluations_page).
+  std::optional<std::filesystem::path> evaluations_page;
   std::vector<NightlyStage> stages;
   /// The evaluations of a model stage.
   [[nodiscard]] std::vector<const NightlyStage*> evaluations_of(const std::string& model) const;
@@ -111,5 +115,11 @@ NightlyResult run_nightly(const NightlyPlan& plan, const NightlyOptions& options
 /// Writes `folder`/index.md and index.html for a night (plots of the evaluations embedded).
 void write_morning_report(const std::filesystem::path& folder, const NightlyPlan& plan,
                           const NightlyResult& result);
+
+/// Writes `page` (Markdown, atomically): every evaluation stage of the plan, in plan order, with
+/// the command that reproduces it, its outcome, and its report.md (the tables and gates imm-eval
+/// printed), its headings one level down. A stage without a report says why.
+void write_evaluations_page(const std::filesystem::path& page, const NightlyPlan& plan,
+                            const NightlyResult& result);
 
 }  // namespace imm::pipeline

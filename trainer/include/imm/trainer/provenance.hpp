@@ -25,6 +25,10 @@ void set_regime(io::Provenance& provenance, const datasets::Regime& regime);
 /// `<folder>/<stem>.metrics.json` for a model file path.
 [[nodiscard]] std::filesystem::path metrics_path(const std::filesystem::path& model_path);
 
+/// Writes `text` to `path` through a temporary beside it and a rename: a reader sees the old file
+/// or the new one, never a part.
+void write_text_atomically(const std::filesystem::path& path, const std::string& text);
+
 /// Writes JSON atomically (temporary file in the same folder, then rename).
 void write_json_atomically(const std::filesystem::path& path, const nlohmann::json& document);
 
