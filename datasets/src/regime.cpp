@@ -109,8 +109,8 @@ Eigen::Vector2d Sensor::response(const Eigen::Vector2d& at) const {
 int Regime::case_count() const { return cases.empty() ? 1 : static_cast<int>(cases.size()); }
 
 const std::string& Regime::case_name(int index) const {
-  static const std::string kNone;
-  return cases.empty() ? kNone : cases[static_cast<std::size_t>(index)].name;
+  static const std::string no_name;
+  return cases.empty() ? no_name : cases[static_cast<std::size_t>(index)].name;
 }
 
 const SensorNoise& Regime::noise_of(int case_index) const {

@@ -66,7 +66,11 @@ std::string inputs_digest(const NightlyStage& stage, const fs::path& tool, Diges
           files[relative] = digests.of_file(f.path());
         }
       }
-      for (const auto& [relative, digest] : files) hash.update(relative + '=' + digest + '\n');
+      for (const auto& [relative, digest] : files) {
+        std::string line = relative;
+        line.append("=").append(digest).append("\n");
+        hash.update(line);
+      }
     }
   }
   for (const auto& e : extra) hash.update(e + '\n');

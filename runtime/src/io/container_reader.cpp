@@ -91,7 +91,8 @@ void ContainerReader::Impl::index_objects() {
       H5Lget_name_by_idx(group.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, child.data(),
                          child.size(), H5P_DEFAULT);
       child.resize(static_cast<std::size_t>(length));
-      const std::string child_path = group_path == "/" ? "/" + child : group_path + "/" + child;
+      std::string child_path = group_path == "/" ? std::string() : group_path;
+      child_path.append("/").append(child);
       if (child.find('\0') != std::string::npos || child == "." || child == "..") {
         throw FileError(file_name, child_path, "invalid member name");
       }
