@@ -1,0 +1,32 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// Whether a filter is honest about its own errors: the normalized estimation error squared,
+/// NEES = (x − x̂)ᵀ P⁻¹ (x − x̂), and the normalized innovation squared, NIS = νᵀ S⁻¹ ν, averaged
+/// over N independent runs. For a consistent filter N·(average NEES) is χ² with N·n degrees of
+/// freedom (n the dimension), so the average lies in [χ²_{Nn}(α/2), χ²_{Nn}(1 − α/2)] / N with
+/// probability 1 − α (Bar-Shalom, Li & Kirubarajan, Estimation with Applications to Tracking and
+/// Navigation, §5.4.2). An average above the bounds: the filter is optimistic (its covariance is
+/// too small); below: pessimistic.
+
+namespace imm::evaluation {
+
+/// The regularized lower incomplete gamma function P(a, x) = γ(a, x) / Γ(a), a > 0, x ≥ 0: the
+/// χ² CDF with k degrees of freedom is P(k/2, x/2). Throws std::invalid_argument outside its
+/// domain.
+[[nodiscard]] double regularized_gamma_p(double a, double x);
+
+/// The x with P(χ²_dof ≤ x) = p, for 0 < p < 1 and dof > 0 (relative accuracy ~1e-12).
+[[nodiscard]] double chi_square_quantile(double p, double dof);
+
+/// The two-sided bounds of an average of `runs` independent NEES or NIS values of dimension
+/// `dimension` under consistency, at `confidence` (0.95: the 2.5 and 97.5 % quantiles).
+struct ConsistencyBounds {
+  double lower = 0.0;
+  double upper = 0.0;
+  /// Where `average` lies: "consistent", "optimistic" (above: the covariance is too small) or
+  /// "pessimistic" (below).
+  [[nodiscard]] const char* verdict(double average) const;
+};
+[[nodiscard]] ConsistencyBounds average_bounds(int dimension, long runs, double confidence = 0.95);
+
+}  // namespace imm::evaluation
