@@ -67,20 +67,29 @@ std::string report_header(const nlohmann::json& metrics) {
 
 const std::string& command_line() { return recorded_command(); }
 
-std::vector<MetricDefinition> normalized_error_definitions(const std::string& length) {
-  return {
+std::vector<MetricDefinition> normalized_error_definitions(const std::string& length,
+                                                           const std::string& reference,
+                                                           bool with_rmse) {
+  std::vector<MetricDefinition> definitions = {
       {"ζ_p", "1",
        "mean over scans of P_e(k) = √(Σ_runs ‖p − p̂‖²) / √(Σ_runs ‖p − z‖²): the position error "
        "over the raw plots' (seed 000 §4); below 1 the filter beats its plots"},
       {"ζ_v", "1",
        "mean over scans of V_e(k) = √(Σ_runs ‖v − v̂‖²) / √(Σ_runs ‖v − v̄‖²), v̄ = (z(k) − "
        "z(k−1))/T the measured velocity"},
-      {"IMM − this [95 %]", "1",
-       "ζ of the first filter minus this filter's, with its 95 % paired-bootstrap interval over "
-       "runs (same plots for every filter)"},
-      {"position RMSE", length, "√ of the mean over runs and scans of ‖p − p̂‖²"},
-      {"velocity RMSE", length + "/s", "√ of the mean over runs and scans of ‖v − v̂‖²"},
+      {reference + " − this [95 %]", "1",
+       "ζ of " + reference +
+           " minus this filter's, with its 95 % paired-bootstrap interval over "
+           "runs (same plots for every filter); below 0: " +
+           reference + " is better"},
   };
+  if (with_rmse) {
+    definitions.push_back(
+        {"position RMSE", length, "√ of the mean over runs and scans of ‖p − p̂‖²"});
+    definitions.push_back(
+        {"velocity RMSE", length + "/s", "√ of the mean over runs and scans of ‖v − v̂‖²"});
+  }
+  return definitions;
 }
 
 nlohmann::json model_provenance(const ModelUse& use) {

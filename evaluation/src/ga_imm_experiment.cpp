@@ -12,6 +12,7 @@
 // above GA-IMM-paper by more than 0.005 plus that uncertainty.
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -233,15 +234,15 @@ int run(const GaImmOptions& options) {
     }
   }
   const auto& [imm_p, imm_v] = versus.at("IMM-tuned");
-  const std::string against_imm = imm_p.below() && imm_v.below()   ? "beats"
-                                  : imm_p.above() || imm_v.above() ? "loses to"
-                                                                   : "ties";
+  const std::array against_imm_terms{imm_p, imm_v};
+  const std::string_view against_imm = verdict(against_imm_terms);
   std::cout << "\nGates (GA-IMM beats AIMM3, AIMM5, AIMM-tuned beyond the 95 % interval"
             << (paper ? "; within 0.005 of GA-IMM-paper" : "")
             << "): " << (failures.empty() ? "passed" : "FAILED") << '\n';
   for (const auto& failure : failures) std::cout << "  - " << failure << '\n';
   std::cout << "Against IMM-tuned: GA-IMM " << against_imm << " it (ζ_p " << imm_p.text()
-            << ", ζ_v " << imm_v.text() << ")\n";
+            << ", ζ_v " << imm_v.text() << ")\n\n"
+            << kDifferenceConvention << ' ' << kVerdictRule << '\n';
 
   const std::filesystem::path& out = options.common.out;
   std::filesystem::create_directories(out);
@@ -251,9 +252,10 @@ int run(const GaImmOptions& options) {
                                regime.digest, options.common.seed, runs};
   std::vector<ModelUse> more_models;
   if (std::filesystem::exists(paper_path)) more_models.push_back({"paper rules", paper_path});
-  write_metrics(out, evaluated,
-                normalized_error_definitions(std::string(datasets::to_string(regime.units))),
-                metrics, more_models);
+  write_metrics(
+      out, evaluated,
+      normalized_error_definitions(std::string(datasets::to_string(regime.units)), "GA-IMM", false),
+      metrics, more_models);
   write_headline(out, evaluated, ours.zeta_headline());
   nlohmann::json details;
   details["regime"] = {{"name", regime.name},

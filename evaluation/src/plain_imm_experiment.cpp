@@ -122,7 +122,7 @@ int run(const PlainImmOptions& options) {
                                {"rejected_steps", f.rejected_steps}});
   }
   const HeadlineRuns evaluated{"plain-imm", model, data.regime, data.digest(), data.seed, runs};
-  write_metrics(out, evaluated, normalized_error_definitions(length), metrics);
+  write_metrics(out, evaluated, normalized_error_definitions(length, "IMM", true), metrics);
   write_headline(out, evaluated, filters.front().zeta_headline());
   bool plotted = write_error_series(filters, data.scans, out);
   plotted &= write_mode_probabilities(filters.front(), out, "mode_probabilities");

@@ -65,4 +65,16 @@ double standard_error(const Eigen::VectorXd& per_run) {
   return std::sqrt((per_run.array() - mean).square().sum() / (n - 1.0) / n);
 }
 
+std::string_view verdict(std::span<const Difference> differences) {
+  bool better = false, worse = false;
+  for (const Difference& d : differences) {
+    better |= d.below();
+    worse |= d.above();
+  }
+  if (better && worse) return "mixed";
+  if (better) return "beats";
+  if (worse) return "loses to";
+  return "ties";
+}
+
 }  // namespace imm::evaluation

@@ -66,8 +66,10 @@ class ReportRecorder {
   std::streambuf* original_ = nullptr;
 };
 
-/// ζ_p, ζ_v and the RMSEs of seed 000 §4 (normalized_errors.hpp), lengths in `length`.
-[[nodiscard]] std::vector<MetricDefinition> normalized_error_definitions(const std::string& length);
+/// ζ_p, ζ_v, the difference column "<reference> − this [95 %]" and, `with_rmse`, the RMSEs of
+/// seed 000 §4 (normalized_errors.hpp), lengths in `length`: exactly the columns of the table.
+[[nodiscard]] std::vector<MetricDefinition> normalized_error_definitions(
+    const std::string& length, const std::string& reference, bool with_rmse);
 
 /// The command line of this run ("imm-eval fimm --models models …"), for the reports.
 [[nodiscard]] const std::string& command_line();

@@ -11,7 +11,9 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <string>
+#include <string_view>
 
 namespace imm::evaluation {
 
@@ -33,6 +35,24 @@ struct Difference {
 
 /// The weighted mean of per-run values (the statistic of a per-run mean metric).
 [[nodiscard]] Statistic mean_of(const Eigen::VectorXd& per_run);
+
+/// The sign convention of every comparison, in words, for the reports.
+inline constexpr std::string_view kDifferenceConvention =
+    "A difference is the named filter's error minus the other's, with its 95 % paired-bootstrap "
+    "interval over the runs: below zero the named filter is better (every metric here is an "
+    "error: lower is better).";
+
+/// How the named filter compares with another over several error metrics, each given as
+/// named − other with its interval: "beats" when it is better beyond the interval in at least one
+/// metric and worse in none, "loses to" when worse in at least one and better in none, "mixed"
+/// when better in one and worse in another, "ties" when no metric differs beyond its interval.
+[[nodiscard]] std::string_view verdict(std::span<const Difference> differences);
+
+/// The rule of verdict(), in words, for the reports.
+inline constexpr std::string_view kVerdictRule =
+    "Verdicts: \"beats\" = better beyond the interval in at least one metric and worse in none; "
+    "\"loses to\" = worse in at least one and better in none; \"mixed\" = better in one and "
+    "worse in another; \"ties\" = no metric differs beyond its interval.";
 
 /// The standard error of the mean of per-run values.
 [[nodiscard]] double standard_error(const Eigen::VectorXd& per_run);
