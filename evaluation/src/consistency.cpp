@@ -104,4 +104,42 @@ ConsistencyBounds average_bounds(int dimension, long runs, double confidence) {
           chi_square_quantile(1.0 - tail, dof) / static_cast<double>(runs)};
 }
 
+const char* NeesSummary::verdict() const {
+  if (scans == 0 || inside >= 0.9) return "consistent";
+  return above >= 1.0 - inside - above ? "optimistic" : "pessimistic";
+}
+
+NeesSummary position_consistency(const Eigen::MatrixXd& run_nees) {
+  NeesSummary summary;
+  const auto runs = static_cast<long>(run_nees.rows());
+  if (runs == 0) return summary;
+  summary.bounds = average_bounds(2, runs);
+  double sum = 0.0;
+  long inside = 0, above = 0;
+  for (Eigen::Index k = 0; k < run_nees.cols(); ++k) {
+    double scan_sum = 0.0;
+    long count = 0;
+    for (Eigen::Index r = 0; r < run_nees.rows(); ++r) {
+      if (std::isfinite(run_nees(r, k))) {
+        scan_sum += run_nees(r, k);
+        ++count;
+      }
+    }
+    if (count == 0) continue;
+    const double average = scan_sum / static_cast<double>(count);
+    const ConsistencyBounds bounds = count == runs ? summary.bounds : average_bounds(2, count);
+    inside += average >= bounds.lower && average <= bounds.upper ? 1 : 0;
+    above += average > bounds.upper ? 1 : 0;
+    sum += average;
+    ++summary.scans;
+  }
+  if (summary.scans > 0) {
+    const auto scans = static_cast<double>(summary.scans);
+    summary.average = sum / scans;
+    summary.inside = static_cast<double>(inside) / scans;
+    summary.above = static_cast<double>(above) / scans;
+  }
+  return summary;
+}
+
 }  // namespace imm::evaluation

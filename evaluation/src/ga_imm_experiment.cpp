@@ -242,12 +242,19 @@ int run(const GaImmOptions& options) {
   for (const auto& failure : failures) std::cout << "  - " << failure << '\n';
   std::cout << "Against IMM-tuned: GA-IMM " << against_imm << " it (ζ_p " << imm_p.text()
             << ", ζ_v " << imm_v.text() << ")\n\n"
-            << kDifferenceConvention << ' ' << kVerdictRule << '\n';
+            << kDifferenceConvention << ' ' << kVerdictRule << "\n\nConsistency:\n\n"
+            << consistency_table(filters);
 
   const std::filesystem::path& out = options.common.out;
   std::filesystem::create_directories(out);
   nlohmann::json metrics;
-  for (const auto& f : filters) metrics[f.name] = {{"zeta_p", f.zeta_p}, {"zeta_v", f.zeta_v}};
+  for (const auto& f : filters) {
+    metrics[f.name] = {{"zeta_p", f.zeta_p},
+                       {"zeta_v", f.zeta_v},
+                       {"position_nees", f.position_consistency.average},
+                       {"position_nees_scans_inside", f.position_consistency.inside},
+                       {"consistency", f.position_consistency.verdict()}};
+  }
   const HeadlineRuns evaluated{"ga-imm",      model_path,          regime.name,
                                regime.digest, options.common.seed, runs};
   std::vector<ModelUse> more_models;

@@ -102,7 +102,9 @@ int run(const PlainImmOptions& options) {
   std::cout << "plain-imm: " << source << ", " << runs << " tracks x " << data.scans << " scans\n\n"
             << markdown_table({"filter", "modes", "ζ_p", "ζ_v", "IMM − this ζ_p [95 %]",
                                "IMM − this ζ_v [95 %]", "position RMSE", "velocity RMSE"},
-                              rows);
+                              rows)
+            << "\nConsistency:\n\n"
+            << consistency_table(filters);
 
   const std::filesystem::path& out = options.common.out;
   std::filesystem::create_directories(out);

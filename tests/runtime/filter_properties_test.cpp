@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -107,6 +108,33 @@ TEST_P(TrackerProperties, NeverHoldsANonFiniteEstimate) {
   }
   EXPECT_GT(accepted, 0);
   EXPECT_GT(refused, 0);
+}
+
+// The combined covariance of every kind: symmetric, positive definite, and its diagonal is the
+// variance state() reports (the evaluations' NEES reads it).
+TEST_P(TrackerProperties, CovarianceIsSymmetricPositiveDefiniteAndMatchesTheVariance) {
+  const io::ModelFileReader reader(GetParam());
+  testing::KindFilter made = testing::make_kind_filter(reader);
+  const TrackOptions options = made.options;
+  Tracker tracker(std::move(made.filter), made.options);
+  const int n = tracker.state_dimension();
+  Eigen::VectorXd mean(n), variance(n);
+  Eigen::MatrixXd covariance(n, n);
+  EXPECT_THROW(tracker.covariance(covariance), std::logic_error);  // no track yet
+  int checked = 0;
+  for (std::int64_t scan = 0; scan < 30; ++scan) {
+    (void)tracker.process(scan, testing::plausible_plot(options, scan));
+    if (!tracker.initialized()) continue;
+    tracker.state(mean, variance);
+    tracker.covariance(covariance);
+    ASSERT_EQ(covariance.diagonal(), variance) << "scan " << scan;
+    ASSERT_LE((covariance - covariance.transpose()).cwiseAbs().maxCoeff(),
+              1e-12 * covariance.cwiseAbs().maxCoeff())
+        << "scan " << scan;
+    ASSERT_EQ(Eigen::LLT<Eigen::MatrixXd>(covariance).info(), Eigen::Success) << "scan " << scan;
+    ++checked;
+  }
+  EXPECT_GT(checked, 20);
 }
 
 // The filter's own step, started from a plausible state: a refused step changes nothing, an

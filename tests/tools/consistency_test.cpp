@@ -82,5 +82,36 @@ TEST(ConsistencyBounds, HoldTheAverageOfAConsistentEstimatorNinetyFivePercentOfT
   EXPECT_NEAR(static_cast<double>(inside) / trials, 0.95, 4 * 0.0034);
 }
 
+// The summary of a planted evaluation: runs × scans NEES drawn from χ²₂ scaled by `scale` (1: a
+// consistent filter; 3: its covariance a third of its errors'; 0.4: too large).
+Eigen::MatrixXd planted_nees(double scale, std::uint64_t seed) {
+  datasets::Rng rng(seed);
+  Eigen::MatrixXd nees(40, 200);
+  for (Eigen::Index r = 0; r < nees.rows(); ++r) {
+    for (Eigen::Index k = 0; k < nees.cols(); ++k) {
+      const double a = rng.normal(0.0, 1.0), b = rng.normal(0.0, 1.0);
+      nees(r, k) = scale * (a * a + b * b);
+    }
+  }
+  nees(3, 5) = std::nan("");  // a run without an estimate at that scan
+  return nees;
+}
+
+TEST(PositionConsistency, NamesAConsistentAnOptimisticAndAPessimisticFilter) {
+  const NeesSummary consistent = position_consistency(planted_nees(1.0, 1));
+  EXPECT_NEAR(consistent.average, 2.0, 0.05);
+  EXPECT_NEAR(consistent.inside, 0.95, 0.04);
+  EXPECT_EQ(consistent.scans, 200);
+  EXPECT_STREQ(consistent.verdict(), "consistent");
+  const NeesSummary optimistic = position_consistency(planted_nees(3.0, 2));
+  EXPECT_GT(optimistic.above, 0.99);
+  EXPECT_STREQ(optimistic.verdict(), "optimistic");
+  const NeesSummary pessimistic = position_consistency(planted_nees(0.4, 3));
+  EXPECT_LT(pessimistic.inside, 0.01);
+  EXPECT_EQ(pessimistic.above, 0.0);
+  EXPECT_STREQ(pessimistic.verdict(), "pessimistic");
+  EXPECT_EQ(position_consistency(Eigen::MatrixXd(0, 0)).scans, 0);
+}
+
 }  // namespace
 }  // namespace imm::evaluation

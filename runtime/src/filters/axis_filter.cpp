@@ -80,6 +80,13 @@ void TwoAxisFilter::state(Eigen::Ref<Eigen::VectorXd> mean,
   variance.segment<2>(2) = y_->estimate().covariance.diagonal();
 }
 
+void TwoAxisFilter::covariance(
+    Eigen::Ref<Eigen::MatrixXd> covariance) const {  // NOLINT(performance-unnecessary-value-param)
+  covariance.setZero();                              // the axes are filtered independently
+  covariance.block<2, 2>(0, 0) = x_->estimate().covariance;
+  covariance.block<2, 2>(2, 2) = y_->estimate().covariance;
+}
+
 ModeVector TwoAxisFilter::mode_probabilities() const {
   const ModeVector x = x_->mode_probabilities(), y = y_->mode_probabilities();
   ModeVector mu(x.size() + y.size());

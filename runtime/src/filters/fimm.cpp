@@ -101,6 +101,11 @@ void FimmFilter::state(Eigen::Ref<Eigen::VectorXd> mean,
   variance = imm_->estimate().covariance.diagonal();
 }
 
+void FimmFilter::covariance(
+    Eigen::Ref<Eigen::MatrixXd> covariance) const {  // NOLINT(performance-unnecessary-value-param)
+  covariance = imm_->estimate().covariance;
+}
+
 ModeVector FimmFilter::mode_probabilities() const { return imm_->mode_probabilities(); }
 
 const GaussianState<6>& FimmFilter::estimate() const { return imm_->estimate(); }

@@ -140,4 +140,9 @@ void WimmFilter::state(
   variance = imm_.estimate().covariance.diagonal();
 }
 
+void WimmFilter::covariance(
+    Eigen::Ref<Eigen::MatrixXd> covariance) const {  // NOLINT(performance-unnecessary-value-param)
+  covariance = imm_.estimate().covariance;
+}
+
 }  // namespace imm

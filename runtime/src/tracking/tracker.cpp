@@ -53,6 +53,10 @@ class PlainImmFilter final : public TrackFilter {
         imm_);
   }
 
+  void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const override {
+    std::visit([&](const auto& imm) { covariance = imm.estimate().covariance; }, imm_);
+  }
+
   [[nodiscard]] ModeVector mode_probabilities() const override {
     return std::visit([](const auto& imm) { return imm.mode_probabilities(); }, imm_);
   }
@@ -223,6 +227,12 @@ void Tracker::state(
     Eigen::Ref<Eigen::VectorXd> variance) const {  // NOLINT(performance-unnecessary-value-param)
   if (!initialized_) throw std::logic_error("Tracker::state before initialization");
   filter_->state(mean, variance);
+}
+
+void Tracker::covariance(
+    Eigen::Ref<Eigen::MatrixXd> covariance) const {  // NOLINT(performance-unnecessary-value-param)
+  if (!initialized_) throw std::logic_error("Tracker::covariance before initialization");
+  filter_->covariance(covariance);
 }
 
 }  // namespace imm

@@ -8,6 +8,8 @@
 /// Navigation, §5.4.2). An average above the bounds: the filter is optimistic (its covariance is
 /// too small); below: pessimistic.
 
+#include <Eigen/Core>
+
 namespace imm::evaluation {
 
 /// The regularized lower incomplete gamma function P(a, x) = γ(a, x) / Γ(a), a > 0, x ≥ 0: the
@@ -28,5 +30,21 @@ struct ConsistencyBounds {
   [[nodiscard]] const char* verdict(double average) const;
 };
 [[nodiscard]] ConsistencyBounds average_bounds(int dimension, long runs, double confidence = 0.95);
+
+/// A filter's position NEES over a Monte Carlo evaluation: the average over runs at every scan,
+/// checked against that scan's bounds (2 dimensions, the runs that have an estimate there).
+struct NeesSummary {
+  double average = 0.0;      ///< mean over scans of the per-scan averages (2 when consistent)
+  double inside = 0.0;       ///< share of scans whose average lies within its 95 % bounds
+  double above = 0.0;        ///< share above them: the filter claims more accuracy than it has
+  ConsistencyBounds bounds;  ///< the bounds of a scan with every run
+  long scans = 0;            ///< scans with at least one run
+  /// "consistent" (≥ 90 % of the scans inside), "optimistic" or "pessimistic" (more scans outside
+  /// on that side).
+  [[nodiscard]] const char* verdict() const;
+};
+
+/// From runs × scans position NEES values (NaN where a run has no estimate).
+[[nodiscard]] NeesSummary position_consistency(const Eigen::MatrixXd& run_nees);
 
 }  // namespace imm::evaluation

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "imm/datasets/track.hpp"
+#include "imm/evaluation/consistency.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/uncertainty.hpp"
 #include "imm/tracking/tracker.hpp"
@@ -33,6 +34,10 @@ struct FilterOutcome {
   /// runs × scans: ‖p − p̂‖², ‖p − z‖², ‖v − v̂‖², ‖v − v̄‖² (0 where a run has no estimate), and
   /// 1 where it has one.
   Eigen::MatrixXd run_position, run_position_plot, run_velocity, run_velocity_plot, run_counted;
+  /// runs × scans: the position NEES (x − x̂)ᵀ P⁻¹ (x − x̂) over the position block (NaN where a
+  /// run has no estimate), and its summary against the χ² bounds.
+  Eigen::MatrixXd run_position_nees;
+  NeesSummary position_consistency;
 
   /// ζ_p and ζ_v with the runs weighted (all ones: the figures above), for the bootstrap.
   [[nodiscard]] Statistic zeta_p_statistic() const;
@@ -49,6 +54,10 @@ struct StepRecorder {
   int width = 0;
   std::function<void(const TrackFilter& filter, std::span<double> values)> record;
 };
+
+/// Every filter's position NEES against its χ² bounds, as a Markdown table with the rule in words
+/// (consistency.hpp): "filter | NEES | 95 % bounds | scans inside | above | verdict".
+[[nodiscard]] std::string consistency_table(const std::vector<FilterOutcome>& filters);
 
 /// Runs `make_filter()` over every track of `data` (Cartesian plots) and scores it.
 ///

@@ -105,6 +105,7 @@ class IMM_RUNTIME_EXPORT TwoAxisFilter final : public TrackFilter {
   StepStatus step(const Eigen::Vector2d& z) override;
   StepStatus predict_only() override;
   void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override;
+  void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const override;
   /// The x axis's mode probabilities followed by the y axis's.
   [[nodiscard]] ModeVector mode_probabilities() const override;
 

@@ -68,6 +68,7 @@ class IMM_RUNTIME_EXPORT FimmFilter final : public TrackFilter {
   StepStatus step(const Eigen::Vector2d& z) override;
   StepStatus predict_only() override;
   void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override;
+  void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const override;
   /// (cruise, lane change).
   [[nodiscard]] ModeVector mode_probabilities() const override;
 

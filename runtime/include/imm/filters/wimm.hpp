@@ -90,6 +90,7 @@ class IMM_RUNTIME_EXPORT WimmFilter final : public TrackFilter {
   StepStatus step(const Eigen::Vector2d& z) override;
   StepStatus predict_only() override;
   void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override;
+  void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const override;
   /// (CV, Singer).
   [[nodiscard]] ModeVector mode_probabilities() const override { return imm_.mode_probabilities(); }
 

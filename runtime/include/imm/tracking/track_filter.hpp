@@ -39,6 +39,9 @@ class IMM_RUNTIME_EXPORT TrackFilter {
   /// Combined mean and covariance diagonal.
   virtual void state(Eigen::Ref<Eigen::VectorXd> mean,
                      Eigen::Ref<Eigen::VectorXd> variance) const = 0;
+  /// The combined covariance, state_dimension() square (the NEES of an evaluation needs its
+  /// off-diagonal terms).
+  virtual void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const = 0;
   /// The mode probabilities, in mode order.
   [[nodiscard]] virtual ModeVector mode_probabilities() const = 0;
 };

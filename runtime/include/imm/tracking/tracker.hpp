@@ -70,6 +70,8 @@ class IMM_RUNTIME_EXPORT Tracker {
 
   /// Combined mean and covariance diagonal, state_dimension() entries each (initialized only).
   void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const;
+  /// The combined covariance, state_dimension() square (initialized only).
+  void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const;
   /// The filter's mode probabilities.
   [[nodiscard]] ModeVector mode_probabilities() const { return filter_->mode_probabilities(); }
 
