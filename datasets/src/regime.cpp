@@ -217,11 +217,7 @@ void Regime::validate() const {
   }
   if (sensor.kind == SensorKind::kRangeSensor) {
     if (!sensor.sampled) {
-      try {
-        sensor.distortion.validate();
-      } catch (const InvalidParameter& error) {
-        throw error.within("sensor.");
-      }
+      validate_within("sensor.", sensor.distortion);
     }
     const SensorCalibration& c = sensor.calibration;
     require(c.samples >= 10 && c.samples <= 10'000'000, "sensor.calibration.samples",

@@ -69,11 +69,7 @@ void FcmImmSpec::validate() const {
     throw InvalidParameter("initial_probabilities", "must have " + std::to_string(n) + " entries");
   }
   validate_mode_probabilities(transition, initial_probabilities, n);
-  try {
-    clustering.validate();
-  } catch (const InvalidParameter& error) {
-    throw error.within("clustering.");
-  }
+  validate_within("clustering.", clustering);
   if (window < 3 || window > SlidingFuzzyCMeans::kMaxWindow) {
     throw InvalidParameter(
         "window", "must be in [3, " + std::to_string(SlidingFuzzyCMeans::kMaxWindow) + "]");

@@ -112,11 +112,7 @@ ProblemOptions GaTrainingConfig::problem_options(std::size_t level) const {
 
 void GaTrainingConfig::validate() const {
   require_per_axis_sensor(regime, "the GA-fuzzy IMM");
-  try {
-    filter.validate();
-  } catch (const InvalidParameter& error) {
-    throw error.within("filter.");
-  }
+  validate_within("filter.", filter);
   require(!levels.empty() && levels.size() <= 8, "training.levels", "need 1 to 8 levels");
   for (double u : levels) limits::require_in(u, limits::kAcceleration, "training.levels");
   require(fuzzy.max_rules >= 1 && fuzzy.max_rules <= 50, "fuzzy.max_rules", "must be in [1, 50]");
@@ -127,11 +123,7 @@ void GaTrainingConfig::validate() const {
               fuzzy.consequent_high > fuzzy.consequent_low && fuzzy.consequent_high <= 1000.0,
           "fuzzy.consequent_range", "must be [low, high] with 0 ≤ low < high ≤ 1000");
   require(fuzzy.lambda >= 0.0 && fuzzy.lambda <= 1.0, "ga.lambda", "must be in [0, 1]");
-  try {
-    ga.validate();
-  } catch (const InvalidParameter& error) {
-    throw error.within("ga.");
-  }
+  validate_within("ga.", ga);
   require(memetic.max_evaluations >= 0, "memetic.max_evaluations", "must be non-negative");
   require(finite_positive(max_validation_error), "gate.max_validation_error", "must be positive");
   require(memetic.max_evaluations <= 1000000, "memetic.max_evaluations", "must be at most 10⁶");

@@ -121,11 +121,7 @@ double mean_output(const MlpInputEstimatorModel& model, const Samples& features,
 
 void MlpTrainingConfig::validate() const {
   require_per_axis_sensor(regime, "the input estimator");
-  try {
-    cv_kf.validate();
-  } catch (const InvalidParameter& error) {
-    throw error.within("cv_kf.");
-  }
+  validate_within("cv_kf.", cv_kf);
   require(!hidden.empty() && hidden.size() <= 4, "network.hidden", "1 to 4 hidden layers");
   for (int h : hidden) require(h >= 1 && h <= 256, "network.hidden", "layer sizes in [1, 256]");
   limits::require_in(output_scale, {1e-9, limits::kAcceleration.max, ""}, "network.output_scale");

@@ -26,16 +26,6 @@
 namespace imm::trainer::tsk {
 namespace {
 
-// Rethrows a component's InvalidParameter under the config section `prefix`.
-template <class F>
-void validate_as(const std::string& prefix, F&& f) {
-  try {
-    f();
-  } catch (const InvalidParameter& error) {
-    throw error.within(prefix);
-  }
-}
-
 TskTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
   TskTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
@@ -84,12 +74,12 @@ std::string output_key(int i) {
 void TskTrainingConfig::validate() const {
   require(validation_fraction > 0.0 && validation_fraction < 1.0, "fit.validation_fraction",
           "must be in (0, 1)");
-  validate_as("fit.", [&] { fcrm.validate(); });
+  validate_within("fit.", fcrm);
   require(fine_tuning.max_iterations >= 0 && fine_tuning.max_iterations <= 100000,
           "fit.fine_tuning_iterations", "must be in [0, 100000]");
   require(max_validation_rmse > 0.0 && std::isfinite(max_validation_rmse),
           "gate.max_validation_rmse", "must be positive");
-  validate_as("fimm.", [&] { fimm.validate(); });
+  validate_within("fimm.", fimm);
   require(iekf_iterations >= 2 && iekf_iterations <= 100, "fimm.iekf_iterations",
           "must be in [2, 100]");
 }

@@ -92,11 +92,7 @@ void WimmTrainingConfig::validate() const {
             "the weighted IMM is built for one plot noise; regime '" + regime.name +
                 "' varies it from case to case");
   }
-  try {
-    filter.validate();
-  } catch (const InvalidParameter& error) {
-    throw error.within("filter.");
-  }
+  validate_within("filter.", filter);
   require(regime.scans > first_settled_scan(regime.scans) + 1, "regime",
           "regime '" + regime.name + "' is too short to settle");
   require(min_threshold < max_threshold && min_threshold >= 0.0 && max_threshold <= 1.0,

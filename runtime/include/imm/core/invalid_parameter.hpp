@@ -40,4 +40,15 @@ inline void require(bool condition, const std::string& field, const std::string&
   if (!condition) throw InvalidParameter(field, message);
 }
 
+/// Calls `part.validate()` and names what it refuses under the enclosing description's key
+/// `prefix` ("filter." + field): a spec checked as part of a config.
+template <class Part>
+void validate_within(const std::string& prefix, const Part& part) {
+  try {
+    part.validate();
+  } catch (const InvalidParameter& error) {
+    throw error.within(prefix);
+  }
+}
+
 }  // namespace imm
