@@ -26,10 +26,6 @@ double Population::mean_fitness() const {
   return evaluations.empty() ? 0.0 : sum / static_cast<double>(evaluations.size());
 }
 
-namespace {
-bool finite_positive(double x) { return std::isfinite(x) && x > 0.0; }
-}  // namespace
-
 void GaOptions::validate() const {
   require(population >= 2 && population <= 100000, "population", "must be in [2, 100000]");
   require(generations >= 0 && generations <= 100000, "generations", "must be in [0, 100000]");
@@ -40,8 +36,8 @@ void GaOptions::validate() const {
           "must be in [1, population]");
   require(initial_rule_probability > 0.0 && initial_rule_probability <= 1.0,
           "initial_rule_probability", "must be in (0, 1]");
-  require(finite_positive(mutation_scale) && mutation_scale <= 1.0, "mutation_scale",
-          "must be in (0, 1]");
+  // (0, 1] holds no NaN or infinity.
+  require(mutation_scale > 0.0 && mutation_scale <= 1.0, "mutation_scale", "must be in (0, 1]");
 }
 
 GeneticAlgorithm::GeneticAlgorithm(const GenomeProblem& problem, const GaOptions& options,
