@@ -55,12 +55,10 @@ MlpInputEstimatorModel read_mlp_input_estimator(const ModelFileReader& reader) {
     const std::string group = layer_group(static_cast<std::size_t>(i));
     MlpLayer layer;
     const std::string activation = reader.text(group, "activation");
-    if (activation == "sigmoid") {
-      layer.activation = Activation::kSigmoid;
-    } else if (activation == "linear") {
-      layer.activation = Activation::kLinear;
-    } else {
-      reader.fail(group + "@activation", "unknown activation '" + activation + "'");
+    try {
+      layer.activation = value_named(kActivationNames, activation, "activation", "activation");
+    } catch (const InvalidParameter& error) {
+      reader.fail(group + "@activation", error.message());
     }
     const int inputs = i == 0 ? -1 : static_cast<int>(layers.back().weights.rows());
     layer.weights = reader.matrix(group + "/weights", -1, inputs);

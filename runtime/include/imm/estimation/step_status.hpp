@@ -4,7 +4,10 @@
 /// Outcome of one filter step. A step that does not return kOk has left the filter untouched
 /// (the second of the three error tiers: numerical trouble is a value, not an exception).
 
+#include <array>
 #include <string_view>
+
+#include "imm/core/enum_names.hpp"
 
 namespace imm {
 
@@ -18,23 +21,21 @@ enum class StepStatus {
   kProbabilityUnderflow,  ///< every mode's likelihood is zero even in log space
 };
 
+/// Each status with its description (core/enum_names.hpp).
+inline constexpr std::array kStepStatusNames{
+    EnumName<StepStatus>{StepStatus::kOk, "ok"},
+    EnumName<StepStatus>{StepStatus::kInvalidMeasurement,
+                         "invalid measurement (NaN, Inf or |z| > 1e9)"},
+    EnumName<StepStatus>{StepStatus::kSingularInnovation,
+                         "innovation covariance not positive definite"},
+    EnumName<StepStatus>{StepStatus::kUndefinedMeasurement,
+                         "measurement function undefined at the prediction"},
+    EnumName<StepStatus>{StepStatus::kNonFiniteResult, "update produced a non-finite estimate"},
+    EnumName<StepStatus>{StepStatus::kProbabilityUnderflow, "every mode likelihood is zero"}};
+
 /// A human-readable description of a status.
 [[nodiscard]] constexpr std::string_view to_string(StepStatus status) {
-  switch (status) {
-    case StepStatus::kOk:
-      return "ok";
-    case StepStatus::kInvalidMeasurement:
-      return "invalid measurement (NaN, Inf or |z| > 1e9)";
-    case StepStatus::kSingularInnovation:
-      return "innovation covariance not positive definite";
-    case StepStatus::kUndefinedMeasurement:
-      return "measurement function undefined at the prediction";
-    case StepStatus::kNonFiniteResult:
-      return "update produced a non-finite estimate";
-    case StepStatus::kProbabilityUnderflow:
-      return "every mode likelihood is zero";
-  }
-  return "unknown";
+  return name_of(kStepStatusNames, status);
 }
 
 }  // namespace imm

@@ -8,12 +8,14 @@
 /// these same layers (trainer/…/mlp/backpropagation.hpp).
 
 #include <Eigen/Core>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "imm/core/enum_names.hpp"
 #include "imm/runtime_export.hpp"
 
 namespace imm {
@@ -21,9 +23,13 @@ namespace imm {
 /// A layer's activation function.
 enum class Activation { kSigmoid, kLinear };
 
+/// Each activation with its name in model files (core/enum_names.hpp).
+inline constexpr std::array kActivationNames{EnumName<Activation>{Activation::kSigmoid, "sigmoid"},
+                                             EnumName<Activation>{Activation::kLinear, "linear"}};
+
 /// "sigmoid" | "linear".
-[[nodiscard]] inline std::string_view to_string(Activation activation) {
-  return activation == Activation::kSigmoid ? "sigmoid" : "linear";
+[[nodiscard]] constexpr std::string_view to_string(Activation activation) {
+  return name_of(kActivationNames, activation);
 }
 
 /// f(x).
