@@ -19,7 +19,6 @@
 #include <span>
 #include <sstream>
 
-#include "imm/evaluation/baseline_tuning.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
@@ -27,12 +26,18 @@
 #include "imm/evaluation/report.hpp"
 #include "imm/filters/fuzzy_noise_filter.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
+#include "imm/trainer/ga/baseline_tuning.hpp"
 #include "imm/trainer/ga/training_set.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/regime_checks.hpp"
 
 namespace imm::evaluation {
 namespace {
+
+using trainer::ga::axis_score;
+using trainer::ga::AxisFilterFactory;
+using trainer::ga::TransitionTuning;
+using trainer::ga::Tuned;
 
 struct GaImmOptions {
   CommonOptions common;
@@ -46,7 +51,7 @@ struct ProcessNoiseSpread {
 
 double percentile(std::vector<double>& values, double p) {
   if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const auto k = static_cast<std::size_t>(p * static_cast<double>(values.size() - 1) + 0.5);
+  const auto k = static_cast<std::size_t>(std::lround(p * static_cast<double>(values.size() - 1)));
   std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
   return values[k];
 }
@@ -106,15 +111,18 @@ int run(const GaImmOptions& options) {
   aimm3.intervals = {0.4 * a};
   AimmSpec aimm5 = aimm3;
   aimm5.intervals = {0.2 * a, 0.4 * a};
-  const Tuned<AimmSpec> aimm_tuned = tune_aimm(aimm3, training, a, 2);
+  const Tuned<AimmSpec> aimm_tuned = trainer::ga::tune_aimm(aimm3, training, a, 2);
+  // Three noise levels and the stay probability, as a GA trainer with tuned levels starts.
   AxisCvImmSpec imm_base;
   imm_base.settings = learned.settings;
-  const Tuned<AxisCvImmSpec> imm_tuned = tune_axis_cv_imm(imm_base, training, a, 3);
+  const Tuned<AxisCvImmSpec> imm_tuned =
+      trainer::ga::tune_axis_cv_imm(imm_base, training, a, 3, TransitionTuning::kJointly);
   const std::string unit = std::string(datasets::to_string(own.units));
   std::map<std::string, std::string> tuned;
   tuned["AIMM-tuned"] = "intervals [" + list(aimm_tuned.spec.intervals) + "] " + unit + "/s² (" +
                         std::to_string(aimm_tuned.evaluations) + " evaluations)";
-  tuned["IMM-tuned"] = "q [" + list(imm_tuned.spec.process_noise) + "] (" + unit + "/s²)² (" +
+  tuned["IMM-tuned"] = "q [" + list(imm_tuned.spec.process_noise) + "] (" + unit + "/s²)², stay " +
+                       std::to_string(imm_tuned.spec.settings.transition_stay) + " (" +
                        std::to_string(imm_tuned.evaluations) + " evaluations)";
   auto fuzzy_axis = [](const GaFuzzyImmSpec& spec) -> AxisFilterFactory {
     return [&spec] { return std::make_unique<ImmAxisFilter>(build_ga_fuzzy_axis_imm(spec)); };
@@ -153,7 +161,8 @@ int run(const GaImmOptions& options) {
           for (int axis = 0; axis < 2; ++axis) {
             const auto& imm = static_cast<const ImmAxisFilter&>(two_axis.axis(axis)).imm();
             for (int j = 0; j < modes; ++j) {
-              values[static_cast<std::size_t>(axis * modes + j)] =
+              values[(static_cast<std::size_t>(axis) * static_cast<std::size_t>(modes)) +
+                     static_cast<std::size_t>(j)] =
                   static_cast<const FuzzyNoiseMode&>(imm.mode(j)).process_noise();
             }
           }
@@ -209,6 +218,7 @@ int run(const GaImmOptions& options) {
   for (const auto& [name, text] : tuned) std::cout << "  " << name << ": " << text << '\n';
   if (!paper_note.empty()) std::cout << "  " << paper_note << '\n';
   std::vector<std::vector<std::string>> spread_rows;
+  spread_rows.reserve(spreads.size());
   for (const auto& s : spreads) {
     spread_rows.push_back(
         {s.filter, s.mode, scientific(s.p01), scientific(s.p50), scientific(s.p99)});
@@ -236,6 +246,17 @@ int run(const GaImmOptions& options) {
   const auto& [imm_p, imm_v] = versus.at("IMM-tuned");
   const std::array against_imm_terms{imm_p, imm_v};
   const std::string_view against_imm = verdict(against_imm_terms);
+  // A tuned-levels model whose tables did not beat the tuned IMM on its validation split ships
+  // as that IMM (ga_trainer.hpp, BaselineCheck): say so beside the verdict.
+  const auto& trained_metrics = reader.provenance().training_metrics;
+  const auto learned_part = trained_metrics.find("learned_part_on");
+  const bool learned_part_off =
+      learned_part != trained_metrics.end() && learned_part->second == 0.0;
+  if (learned_part_off) {
+    std::cout << "\nGA-IMM's learned part is switched off: its tables did not beat the tuned "
+                 "constant-q IMM on its validation split, so the model is that IMM (one constant "
+                 "rule per level).\n";
+  }
   std::cout << "\nGates (GA-IMM beats AIMM3, AIMM5, AIMM-tuned beyond the 95 % interval"
             << (paper ? "; within 0.005 of GA-IMM-paper" : "")
             << "): " << (failures.empty() ? "passed" : "FAILED") << '\n';
@@ -277,6 +298,7 @@ int run(const GaImmOptions& options) {
   details["gates_passed"] = failures.empty();
   details["gate_failures"] = failures;
   details["against_imm_tuned"] = against_imm;
+  details["learned_part_on"] = !learned_part_off;
   for (const auto& f : filters) {
     details["filters"][f.name] = {{"zeta_p", f.zeta_p},
                                   {"zeta_v", f.zeta_v},

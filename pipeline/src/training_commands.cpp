@@ -42,6 +42,16 @@ int run_ga(const GaCommand& command) {
   ga::GaTrainingConfig config = ga::load_ga_config(command.config, command.regime);
   if (command.seed) config.seed = *command.seed;
   if (command.threads > 0) omp_set_num_threads(command.threads);
+  if (config.tuned_levels) {
+    const ga::TrainingSet training =
+        ga::make_training_set(config.regime, datasets::Split::kTraining);
+    config = ga::resolve_levels(std::move(config), training);
+    spdlog::info(
+        "ga: starting from the constant-q IMM tuned on the training split: q [{}], stay {:.4f}, "
+        "ζ_p + ζ_v {:.4f} ({} evaluations)",
+        fmt::join(config.baseline->process_noise, ", "), config.baseline->transition_stay,
+        config.baseline->score, config.baseline->evaluations);
+  }
   const std::size_t levels = config.levels.size();
   const int generations = config.ga.generations;
   spdlog::info("ga: regime {}, levels [{}] {}, population {}, {} generations, seed {}, {} threads",
@@ -78,6 +88,28 @@ int run_ga(const GaCommand& command) {
         r.training.error, r.validation.error);
   };
   const ga::GaTrainingResult result = ga::train_ga(config, {command.out, command.resume}, observer);
+  if (result.refinement) {
+    const ga::LevelRefinement& r = *result.refinement;
+    spdlog::info("levels and stay refined jointly ({} evaluations): error {:.4f} -> {:.4f}{}",
+                 r.evaluations, r.before.error, r.after.error,
+                 r.accepted ? fmt::format(", factors on w [{:.3g}], stay {:.4f}",
+                                          fmt::join(r.factors, ", "), r.transition_stay)
+                            : std::string(" (no gain, unchanged)"));
+  }
+  if (result.baseline_check) {
+    const ga::BaselineCheck& c = *result.baseline_check;
+    if (c.learned_part_on) {
+      spdlog::info(
+          "validation split: the learned tables beat the tuned IMM (error {:.4f} < {:.4f})",
+          c.learned.error, c.baseline.error);
+    } else {
+      spdlog::warn(
+          "validation split: the learned tables do not beat the tuned IMM (error {:.4f} >= "
+          "{:.4f}): "
+          "learned part switched off, the model is the tuned constant-q IMM",
+          c.learned.error, c.baseline.error);
+    }
+  }
   if (!result.gate_passed) {
     spdlog::error("quality gate failed: {}; {} not written", result.gate_message,
                   command.out.string());

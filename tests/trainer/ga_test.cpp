@@ -281,6 +281,19 @@ TEST(ShippedConfig, IsTheSeedsTable1) {
   EXPECT_NEAR(config.levels[2], 0.1, 1e-12);
 }
 
+// The regime preset: tuned levels resolved by the trainer, λ that lets a rule pay.
+TEST(ShippedConfig, TunedPresetStartsFromTheTunedImm) {
+  const GaTrainingConfig config = load_ga_config("configs/ga_fuzzy_imm_tuned.toml");
+  EXPECT_TRUE(config.tuned_levels);
+  EXPECT_TRUE(config.levels.empty());
+  EXPECT_EQ(config.level_count, 3);
+  EXPECT_TRUE(config.refine_levels);
+  EXPECT_EQ(config.fuzzy.fitness, FitnessKind::kImm);
+  EXPECT_DOUBLE_EQ(config.fuzzy.lambda, 0.999);
+  EXPECT_LE(config.fuzzy.consequent_low, 1.0);
+  EXPECT_GE(config.fuzzy.consequent_high, 1.0);
+}
+
 TEST(ImportRules, ReadsThePublishedTables) {
   const auto spec =
       read_rules_csv("configs/reference/ga_fuzzy_imm_paper_rules.csv", AxisImmSettings{}, "km");

@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/ga/fuzzy_table_problem.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
 #include "imm/filters/fuzzy_noise_filter.hpp"
+#include "imm/trainer/ga/baseline_tuning.hpp"
 
 namespace imm::trainer::ga {
 namespace {
@@ -18,6 +20,30 @@ GaussianState<2> two_point(const AxisTrajectory& t, double T, double r) {
   return state;
 }
 
+// Eq. (16); a failed run (infinite error) has fitness 0.
+double fitness_of(const ProblemOptions& options, double error, int rules) {
+  return std::isfinite(error)
+             ? options.lambda / (error + 1.0) + (1.0 - options.lambda) / (rules + 1.0)
+             : 0.0;
+}
+
+// Eq. (16)-(17) from the error sums.
+Evaluation score(const ProblemOptions& options, double position_sum, double velocity_sum,
+                 long count, bool failed, int rules) {
+  Evaluation e;
+  e.rules = rules;
+  if (failed || count == 0) {
+    e.error = std::numeric_limits<double>::infinity();
+    e.fitness = 0.0;
+    return e;
+  }
+  e.position_error = position_sum / static_cast<double>(count);
+  e.velocity_error = velocity_sum / static_cast<double>(count);
+  e.error = std::hypot(e.position_error, e.velocity_error) / options.error_scale;
+  e.fitness = fitness_of(options, e.error, e.rules);
+  return e;
+}
+
 }  // namespace
 
 int Genome::rule_count() const {
@@ -28,6 +54,10 @@ int Genome::rule_count() const {
 
 std::string_view to_string(FitnessKind kind) {
   return kind == FitnessKind::kSingleFilter ? "single" : "imm";
+}
+
+std::string_view to_string(ErrorKind kind) {
+  return kind == ErrorKind::kEquation17 ? "equation17" : "zeta";
 }
 
 FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, const ProblemOptions& options,
@@ -87,28 +117,63 @@ FuzzyRuleTable FuzzyTableProblem::decode(const Genome& genome) const {
   return FuzzyRuleTable(std::move(rules));
 }
 
-Evaluation FuzzyTableProblem::score(double position_sum, double velocity_sum, long count,
-                                    bool failed, int rules) const {
-  Evaluation e;
-  e.rules = rules;
-  if (failed || count == 0) {
-    e.error = std::numeric_limits<double>::infinity();
-    e.fitness = 0.0;
+Genome FuzzyTableProblem::constant_genome(double sqrt_w) const {
+  Genome genome;
+  genome.genes.resize(lower_.size());
+  for (std::size_t g = 0; g < lower_.size(); ++g) genome.genes[g] = 0.5 * (lower_[g] + upper_[g]);
+  genome.active.assign(static_cast<std::size_t>(options_.max_rules), 0);
+  genome.active[0] = 1;
+  genome.genes[0] = std::clamp(0.0, lower_[0], upper_[0]);
+  genome.genes[1] = upper_[1];
+  genome.genes[2] = std::clamp(0.0, lower_[2], upper_[2]);
+  genome.genes[3] = upper_[3];
+  genome.genes[4] = std::clamp(sqrt_w, lower_[4], upper_[4]);
+  return genome;
+}
+
+Evaluation evaluate_imm(const GaFuzzyImmSpec& spec, const TrainingSet& set,
+                        const ProblemOptions& options, int rules) {
+  if (options.error == ErrorKind::kZeta) {
+    const AxisZetas zetas = axis_zetas(
+        [&spec] { return std::make_unique<ImmAxisFilter>(build_ga_fuzzy_axis_imm(spec)); }, {set});
+    Evaluation e;
+    e.rules = rules;
+    e.position_error = zetas.position;
+    e.velocity_error = zetas.velocity;
+    e.error = zetas.position + zetas.velocity;
+    e.fitness = fitness_of(options, e.error, e.rules);
     return e;
   }
-  e.position_error = position_sum / static_cast<double>(count);
-  e.velocity_error = velocity_sum / static_cast<double>(count);
-  e.error = std::hypot(e.position_error, e.velocity_error) / options_.error_scale;
-  e.fitness = options_.lambda / (e.error + 1.0) + (1.0 - options_.lambda) / (e.rules + 1.0);
-  return e;
+  double position_sum = 0.0, velocity_sum = 0.0;
+  long count = 0;
+  bool failed = false;
+  ImmEstimator<2, 1> imm = build_ga_fuzzy_axis_imm(spec);
+  for (const auto& t : set.trajectories) {
+    imm.initialize(two_point(t, set.sample_period, set.measurement_variance));
+    for (Eigen::Index k = 2; k < t.measurement.size() && !failed; ++k) {
+      failed = imm.step(Vector<1>(t.measurement(k))) != StepStatus::kOk;
+      position_sum += std::abs(t.position(k) - imm.estimate().mean(0));
+      velocity_sum += std::abs(t.velocity(k) - imm.estimate().mean(1));
+      ++count;
+    }
+  }
+  return score(options, position_sum, velocity_sum, count, failed, rules);
 }
 
 Evaluation FuzzyTableProblem::evaluate_table(const FuzzyRuleTable& table,
                                              const TrainingSet& set) const {
+  if (options_.fitness == FitnessKind::kImm) {
+    GaFuzzyImmSpec spec;
+    spec.settings = context_.settings;
+    spec.levels = context_.levels;
+    spec.levels[context_.slot].table = table;
+    // The candidate's own rules count (eq. 16 is per table).
+    return evaluate_imm(spec, set, options_, static_cast<int>(table.size()));
+  }
   double position_sum = 0.0, velocity_sum = 0.0;
   long count = 0;
   bool failed = false;
-  if (options_.fitness == FitnessKind::kSingleFilter) {
+  {
     const FuzzyNoiseFilter filter(table, set.sample_period, set.measurement_variance);
     for (const auto& t : set.trajectories) {
       GaussianState<2> state = two_point(t, set.sample_period, set.measurement_variance);
@@ -122,23 +187,8 @@ Evaluation FuzzyTableProblem::evaluate_table(const FuzzyRuleTable& table,
         ++count;
       }
     }
-  } else {
-    GaFuzzyImmSpec spec;
-    spec.settings = context_.settings;
-    spec.levels = context_.levels;
-    spec.levels[context_.slot].table = table;
-    ImmEstimator<2, 1> imm = build_ga_fuzzy_axis_imm(spec);
-    for (const auto& t : set.trajectories) {
-      imm.initialize(two_point(t, set.sample_period, set.measurement_variance));
-      for (Eigen::Index k = 2; k < t.measurement.size() && !failed; ++k) {
-        failed = imm.step(Vector<1>(t.measurement(k))) != StepStatus::kOk;
-        position_sum += std::abs(t.position(k) - imm.estimate().mean(0));
-        velocity_sum += std::abs(t.velocity(k) - imm.estimate().mean(1));
-        ++count;
-      }
-    }
   }
-  return score(position_sum, velocity_sum, count, failed, static_cast<int>(table.size()));
+  return score(options_, position_sum, velocity_sum, count, failed, static_cast<int>(table.size()));
 }
 
 Evaluation FuzzyTableProblem::evaluate(const Genome& genome) const {

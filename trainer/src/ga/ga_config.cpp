@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/ga/ga_config.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -27,16 +28,29 @@ GaTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime 
     c.filter.initial_first_probability =
         f->real_or("initial_first_probability", c.filter.initial_first_probability);
   }
-  int level_count = 3;
   bool automatic = true;
   if (const auto t = root.table("training")) {
-    level_count = t->count_or("level_count", level_count);
+    c.level_count = t->count_or("level_count", c.level_count);
+    c.refine_levels = t->boolean_or("refine_levels", c.refine_levels);
+    if (t->has("error")) {
+      const std::string error = t->text("error");
+      if (error == "equation17") {
+        c.fuzzy.error = ErrorKind::kEquation17;
+      } else if (error == "zeta") {
+        c.fuzzy.error = ErrorKind::kZeta;
+      } else {
+        t->fail("error", "unknown error '" + error + "' (expected equation17 or zeta)");
+      }
+    }
     if (t->is_array("levels")) {
       const Eigen::VectorXd levels = t->reals("levels");
       c.levels.assign(levels.data(), levels.data() + levels.size());
       automatic = false;
+    } else if (t->has("levels") && t->text("levels") == "tuned") {
+      c.tuned_levels = true;
+      automatic = false;
     } else if (t->has("levels") && t->text("levels") != "auto") {
-      t->fail("levels", "expected \"auto\" or a list of accelerations");
+      t->fail("levels", "expected \"auto\", \"tuned\" or a list of accelerations");
     }
     if (t->has("fitness")) {
       const std::string fitness = t->text("fitness");
@@ -49,8 +63,8 @@ GaTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime 
       }
     }
   }
-  require(level_count >= 1 && level_count <= 8, "training.level_count", "must be in [1, 8]");
-  if (automatic) c.levels = automatic_levels(c.regime, level_count);
+  require(c.level_count >= 1 && c.level_count <= 8, "training.level_count", "must be in [1, 8]");
+  if (automatic) c.levels = automatic_levels(c.regime, c.level_count);
   if (const auto f = root.table("fuzzy")) {
     c.fuzzy.max_rules = f->count_or("max_rules", c.fuzzy.max_rules);
     if (f->has("sigma_range")) {
@@ -105,7 +119,7 @@ std::vector<double> automatic_levels(const datasets::Regime& regime, int count) 
 ProblemOptions GaTrainingConfig::problem_options(std::size_t level) const {
   ProblemOptions o = fuzzy;
   o.maneuver_level = levels[level];
-  o.process_noise_sigma = regime.process_noise_sigma;
+  o.process_noise_sigma = tuned_levels ? 0.0 : regime.process_noise_sigma;
   o.error_scale = filter.measurement_sigma;
   return o;
 }
@@ -113,7 +127,16 @@ ProblemOptions GaTrainingConfig::problem_options(std::size_t level) const {
 void GaTrainingConfig::validate() const {
   require_per_axis_sensor(regime, "the GA-fuzzy IMM");
   validate_within("filter.", filter);
-  require(!levels.empty() && levels.size() <= 8, "training.levels", "need 1 to 8 levels");
+  require((tuned_levels && !baseline) || (!levels.empty() && levels.size() <= 8), "training.levels",
+          "need 1 to 8 levels");
+  require(fuzzy.error == ErrorKind::kEquation17 || fuzzy.fitness == FitnessKind::kImm,
+          "training.error", "ζ_p + ζ_v needs the IMM fitness (\"imm\")");
+  if (tuned_levels) {
+    require(fuzzy.fitness == FitnessKind::kImm, "training.fitness",
+            "tuned levels need the IMM fitness (\"imm\")");
+    require(fuzzy.consequent_low <= 1.0 && fuzzy.consequent_high >= 1.0, "fuzzy.consequent_range",
+            "must contain 1 with tuned levels (the tuned IMM's own q_j)");
+  }
   for (double u : levels) limits::require_in(u, limits::kAcceleration, "training.levels");
   require(fuzzy.max_rules >= 1 && fuzzy.max_rules <= 50, "fuzzy.max_rules", "must be in [1, 50]");
   require(fuzzy.sigma_min > 0.0 && fuzzy.sigma_max > fuzzy.sigma_min && fuzzy.sigma_max <= 1e6,

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/ga/ga_trainer.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 
 #include "imm/datasets/random.hpp"
@@ -9,6 +11,7 @@
 #include "imm/io/container_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/schema_reader.hpp"
+#include "imm/trainer/ga/tuned_levels.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/ranks.hpp"
 
@@ -217,6 +220,12 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
     provenance.training_metrics["error_level" + std::to_string(i)] = r.training.error;
     provenance.validation_metrics["error_level" + std::to_string(i)] = r.validation.error;
   }
+  if (result.baseline_check) {
+    const BaselineCheck& c = *result.baseline_check;
+    provenance.training_metrics["learned_part_on"] = c.learned_part_on ? 1.0 : 0.0;
+    provenance.validation_metrics["error_learned"] = c.learned.error;
+    provenance.validation_metrics["error_tuned_baseline"] = c.baseline.error;
+  }
   ensure_parent_folder(options.out);
   io::ModelFileWriter writer(options.out, provenance);
   io::write_ga_fuzzy_imm(writer, spec_from(config, result.levels), level_metrics);
@@ -229,7 +238,30 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
   metrics["seed"] = config.seed;
   metrics["regime"] = config.regime.name;
   metrics["fitness"] = std::string(to_string(config.fuzzy.fitness));
+  metrics["error"] = std::string(to_string(config.fuzzy.error));
   metrics["wall_seconds"] = result.wall_seconds;
+  if (config.baseline) {
+    metrics["baseline"] = {{"process_noise", config.baseline->process_noise},
+                           {"transition_stay", config.baseline->transition_stay},
+                           {"training_zeta_p_plus_zeta_v", config.baseline->score},
+                           {"evaluations", config.baseline->evaluations}};
+  }
+  if (result.refinement) {
+    const LevelRefinement& r = *result.refinement;
+    metrics["refinement"] = {{"before", evaluation_json(r.before)},
+                             {"after", evaluation_json(r.after)},
+                             {"factors", r.factors},
+                             {"transition_stay", r.transition_stay},
+                             {"evaluations", r.evaluations},
+                             {"accepted", r.accepted}};
+  }
+  if (result.baseline_check) {
+    const BaselineCheck& c = *result.baseline_check;
+    metrics["against_baseline"] = {{"validation_learned", evaluation_json(c.learned)},
+                                   {"validation_baseline", evaluation_json(c.baseline)},
+                                   {"learned_part_on", c.learned_part_on}};
+  }
+  metrics["transition_stay"] = config.filter.transition_stay;
   for (const LevelResult& r : result.levels) {
     nlohmann::json level;
     level["maneuver_level"] = r.maneuver_level;
@@ -273,13 +305,20 @@ GaFuzzyImmSpec spec_from(const GaTrainingConfig& config, const std::vector<Level
   return spec;
 }
 
-GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& options,
+GaTrainingResult train_ga(const GaTrainingConfig& requested, const GaRunOptions& options,
                           const GaObserver& observer) {
-  config.validate();
+  requested.validate();
   const Ranks& ranks = Ranks::world();
   const auto run_start = Clock::now();
   const std::filesystem::path checkpoint_file = checkpoint_path(options.out);
   ensure_parent_folder(options.out);
+
+  // Every level's table learns on the regime's training split (the IMM fitness scores each in its
+  // slot of the IMM that sees every maneuver the regime has; the single-filter fitness gives each
+  // level its own consequent range of eq. 15 on the same data).
+  const TrainingSet training = make_training_set(requested.regime, datasets::Split::kTraining);
+  const TrainingSet validation = make_training_set(requested.regime, datasets::Split::kValidation);
+  GaTrainingConfig config = resolve_levels(requested, training);
 
   std::optional<Checkpoint> resumed;
   if (options.resume) resumed = read_checkpoint(checkpoint_file, config);
@@ -291,22 +330,19 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
     first_level = resumed->level;
   }
 
-  // Every level's table learns on the regime's training split (the IMM fitness scores each in its
-  // slot of the IMM that sees every maneuver the regime has; the single-filter fitness gives each
-  // level its own consequent range of eq. 15 on the same data).
-  const TrainingSet training = make_training_set(config.regime, datasets::Split::kTraining);
-  const TrainingSet validation = make_training_set(config.regime, datasets::Split::kValidation);
   const bool imm_fitness = config.fuzzy.fitness == FitnessKind::kImm;
 
   for (std::size_t level = first_level; level < config.levels.size(); ++level) {
     ImmContext context;
     if (imm_fitness) {
       // Levels trained so far keep their tables; the others stand in with the constant q of the
-      // top of eq. (15), where the single-filter GA ends anyway.
+      // top of eq. (15), where the single-filter GA ends anyway (tuned levels: the tuned IMM's
+      // q_j, so the first candidate context is the tuned IMM itself).
       context.settings = config.filter;
       context.slot = level;
       for (std::size_t j = 0; j < config.levels.size(); ++j) {
-        const double s = config.levels[j] + config.regime.process_noise_sigma;
+        const ProblemOptions level_options = config.problem_options(j);
+        const double s = level_options.maneuver_level + level_options.process_noise_sigma;
         FuzzyLevel stand_in{level_name(config.levels[j]), config.levels[j],
                             FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, s * s}})};
         if (j < result.levels.size()) stand_in.table = result.levels[j].table;
@@ -327,7 +363,9 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
       if (observer.on_resume) observer.on_resume(level, state.population.generation);
       resumed.reset();
     } else {
-      state.population = algorithm.initialize();
+      std::vector<Genome> seeds;
+      if (config.tuned_levels) seeds.push_back(problem.constant_genome(config.levels[level]));
+      state.population = algorithm.initialize(seeds);
       state.history = {log_of(state.population)};
     }
     const auto level_start = Clock::now();
@@ -374,6 +412,24 @@ GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& op
     result.levels.push_back(std::move(r));
   }
 
+  if (config.refine_levels || config.baseline) {
+    // The continuous parameters with the tables, then the tuned IMM's check: on the whole spec.
+    GaFuzzyImmSpec spec = spec_from(config, result.levels);
+    if (config.refine_levels) result.refinement = refine_levels(spec, config, training);
+    if (config.baseline) result.baseline_check = check_against_baseline(spec, config, validation);
+    config.filter.transition_stay = spec.settings.transition_stay;
+    for (std::size_t j = 0; j < result.levels.size(); ++j) {
+      LevelResult& r = result.levels[j];
+      r.table = spec.levels[j].table;
+      r.maneuver_level = spec.levels[j].maneuver_level;
+      // Every level's scores are now those of the final IMM.
+      const ProblemOptions level_options = config.problem_options(j);
+      const int own = static_cast<int>(r.table.size());
+      r.training = evaluate_imm(spec, training, level_options, own);
+      r.validation = evaluate_imm(spec, validation, level_options, own);
+    }
+  }
+  result.config = config;
   result.wall_seconds = seconds_since(run_start);
   result.gate_passed = true;
   for (std::size_t i = 0; i < result.levels.size(); ++i) {

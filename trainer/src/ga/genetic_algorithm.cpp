@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <numeric>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "imm/core/invalid_parameter.hpp"
@@ -161,12 +162,31 @@ void GeneticAlgorithm::evaluate_range(Population& population, std::size_t first)
   }
 }
 
-Population GeneticAlgorithm::initialize() const {
+Population GeneticAlgorithm::initialize(std::span<const Genome> seeds) const {
+  if (seeds.size() > static_cast<std::size_t>(options_.population)) {
+    throw std::invalid_argument("more seed genomes than the population holds");
+  }
   datasets::Rng rng(datasets::derive_seed(seed_, 0));
   Population population;
   population.generation = 0;
   population.genomes.reserve(static_cast<std::size_t>(options_.population));
   for (int i = 0; i < options_.population; ++i) population.genomes.push_back(random_genome(rng));
+  const std::vector<double>& lower = problem_.lower();
+  const std::vector<double>& upper = problem_.upper();
+  for (std::size_t s = 0; s < seeds.size(); ++s) {
+    const Genome& seed = seeds[s];
+    bool inside = seed.genes.size() == lower.size() &&
+                  seed.active.size() == static_cast<std::size_t>(problem_.max_rules()) &&
+                  seed.rule_count() > 0;
+    for (std::size_t g = 0; inside && g < seed.genes.size(); ++g) {
+      inside = seed.genes[g] >= lower[g] && seed.genes[g] <= upper[g];
+    }
+    if (!inside) {
+      throw std::invalid_argument("seed genome " + std::to_string(s) +
+                                  " does not fit the problem (size, bounds or no active rule)");
+    }
+    population.genomes[s] = seed;
+  }
   evaluate(population);
   return population;
 }

@@ -46,9 +46,9 @@ struct Genome {
 
 struct Evaluation {
   double fitness = 0.0;
-  double error = 0.0;           ///< eq. (17), per-scan means
-  double position_error = 0.0;  ///< ē_p
-  double velocity_error = 0.0;  ///< ē_v
+  double error = 0.0;           ///< eq. (17), per-scan means (kZeta: ζ_p + ζ_v)
+  double position_error = 0.0;  ///< ē_p (kZeta: ζ_p)
+  double velocity_error = 0.0;  ///< ē_v (kZeta: ζ_v)
   int rules = 0;
 };
 
@@ -68,8 +68,19 @@ enum class FitnessKind { kSingleFilter, kImm };
 
 [[nodiscard]] std::string_view to_string(FitnessKind kind);
 
+/// The error term of eq. (16):
+/// - kEquation17: the seed's √(ē_p² + ē_v²)/σ_z (mean absolute errors, see above);
+/// - kZeta: ζ_p + ζ_v, seed 000's normalized errors (§4) of the IMM over the trajectories — what
+///   the evaluation compares filters by and the tuned baselines are tuned on (kImm only). With
+///   tuned levels, the GA and the baseline it starts from then optimize the same number, so the
+///   table the GA keeps is better than the baseline in the very figure it is judged by.
+enum class ErrorKind { kEquation17, kZeta };
+
+[[nodiscard]] std::string_view to_string(ErrorKind kind);
+
 struct ProblemOptions {
   FitnessKind fitness = FitnessKind::kImm;
+  ErrorKind error = ErrorKind::kEquation17;
   double lambda = 0.95;
   int max_rules = 50;
   double sigma_min = 0.1, sigma_max = 10.0;  ///< membership spreads, × error_scale
@@ -98,6 +109,10 @@ class FuzzyTableProblem final : public GenomeProblem {
   [[nodiscard]] Evaluation evaluate_table(const FuzzyRuleTable& table,
                                           const TrainingSet& set) const;
   [[nodiscard]] FuzzyRuleTable decode(const Genome& genome) const;
+  /// The genome of a one-rule table with consequent √w = `sqrt_w` (clamped into its range): a
+  /// constant q = w, i.e. a constant-q Kalman mode. Its rule sits at the origin of (r, Δr) with
+  /// the widest spreads; the inactive slots hold their ranges' midpoints.
+  [[nodiscard]] Genome constant_genome(double sqrt_w) const;
 
   [[nodiscard]] int max_rules() const override { return options_.max_rules; }
   [[nodiscard]] int gene_count() const { return options_.max_rules * kGenesPerRule; }
@@ -109,14 +124,17 @@ class FuzzyTableProblem final : public GenomeProblem {
   [[nodiscard]] std::array<double, 4> residual_ranges() const { return ranges_; }
 
  private:
-  [[nodiscard]] Evaluation score(double position_sum, double velocity_sum, long count, bool failed,
-                                 int rules) const;
-
   TrainingSet training_;
   ProblemOptions options_;
   ImmContext context_;
   std::array<double, 4> ranges_{};
   std::vector<double> lower_, upper_;
 };
+
+/// Error and fitness (eq. 16–17 with `options`' λ and σ_z) of a whole GA-fuzzy IMM on a set: what
+/// the kImm fitness scores a candidate by, for any spec (the joint refinement of the levels).
+/// `rules` is the rule count eq. (16) charges.
+[[nodiscard]] Evaluation evaluate_imm(const GaFuzzyImmSpec& spec, const TrainingSet& set,
+                                      const ProblemOptions& options, int rules);
 
 }  // namespace imm::trainer::ga

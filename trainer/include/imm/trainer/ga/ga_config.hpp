@@ -20,6 +20,15 @@
 
 namespace imm::trainer::ga {
 
+/// The constant-q IMM a `levels = "tuned"` run starts from (baseline_tuning.hpp), tuned on the
+/// training split: its noise levels and stay probability, and its ζ_p + ζ_v there.
+struct TunedBaseline {
+  std::vector<double> process_noise;  ///< q_j, (unit/s²)²
+  double transition_stay = 0.0;
+  double score = 0.0;
+  int evaluations = 0;
+};
+
 struct GaTrainingConfig {
   std::uint64_t seed = 1;
   datasets::Regime regime;
@@ -27,8 +36,23 @@ struct GaTrainingConfig {
   AxisImmSettings filter;
   /// Maneuver levels a_M, one table each, in the regime's acceleration unit. By default
   /// (`levels = "auto"`) `level_count` levels log-spaced from the regime's smallest to its largest
-  /// commanded acceleration.
+  /// commanded acceleration. `levels = "tuned"`: empty until resolve_levels() fills it with the
+  /// tuned IMM's √q_j (see tuned_levels).
   std::vector<double> levels;
+  /// `levels = "tuned"`: the trainer first tunes a constant-q IMM of `level_count` modes and its
+  /// stay probability on the training split (the evaluation's IMM-tuned, tune_axis_cv_imm with
+  /// TransitionTuning::kJointly), takes its √q_j as the levels and its p_jj as the filter's, and
+  /// seeds every level's GA with the one-rule table q = q_j: the GA then starts from — and by
+  /// elitism never falls below — the tuned IMM, and the consequents range over
+  /// consequent_range × √q_j. The paper's form ("auto" or a list) uses a_M + √q of eq. (15).
+  bool tuned_levels = false;
+  int level_count = 3;
+  /// Set by resolve_levels() for tuned levels.
+  std::optional<TunedBaseline> baseline;
+  /// `[training] refine_levels`: after the tables, Subplex scales every table's consequents (one
+  /// factor per level) and the stay probability together on the IMM fitness's error — the levels
+  /// and transitions trained with the tables; by ζ_p + ζ_v, kept only when it improves.
+  bool refine_levels = false;
   ProblemOptions fuzzy;  ///< maneuver_level and process_noise_sigma are set per level
   GaOptions ga;
   MemeticOptions memetic;
@@ -39,7 +63,7 @@ struct GaTrainingConfig {
 
   /// Throws InvalidParameter naming the key ("ga.lambda").
   void validate() const;
-  /// The options of level i's problem.
+  /// The options of level i's problem (tuned levels: √w in units of √q_j alone).
   [[nodiscard]] ProblemOptions problem_options(std::size_t level) const;
 };
 

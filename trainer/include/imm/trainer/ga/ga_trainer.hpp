@@ -16,6 +16,7 @@
 
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/trainer/ga/ga_config.hpp"
+#include "imm/trainer/ga/tuned_levels.hpp"
 
 namespace imm::trainer::ga {
 
@@ -56,7 +57,12 @@ struct GaObserver {
 };
 
 struct GaTrainingResult {
+  /// The config as trained: tuned levels resolved (resolve_levels), the refinement applied to the
+  /// filter's stay probability.
+  GaTrainingConfig config;
   std::vector<LevelResult> levels;
+  std::optional<LevelRefinement> refinement;
+  std::optional<BaselineCheck> baseline_check;
   bool stopped = false;  ///< should_stop() ended the run early; nothing was written
   bool gate_passed = false;
   std::string gate_message;
@@ -65,7 +71,8 @@ struct GaTrainingResult {
 
 [[nodiscard]] std::filesystem::path checkpoint_path(const std::filesystem::path& model);
 
-/// Trains every level and, if the gate passes, writes the model file and its metrics.
+/// Trains every level and, if the gate passes, writes the model file and its metrics. Tuned levels
+/// that `config` has not resolved yet are resolved first (resolve_levels on the training split).
 GaTrainingResult train_ga(const GaTrainingConfig& config, const GaRunOptions& options,
                           const GaObserver& observer = {});
 

@@ -25,6 +25,7 @@
 /// generation g continues exactly as the uninterrupted run.
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "imm/datasets/random.hpp"
@@ -61,8 +62,10 @@ class GeneticAlgorithm {
   /// Throws std::invalid_argument for inconsistent options.
   GeneticAlgorithm(const GenomeProblem& problem, const GaOptions& options, std::uint64_t seed);
 
-  /// The random, evaluated initial population (generation 0).
-  [[nodiscard]] Population initialize() const;
+  /// The random, evaluated initial population (generation 0); `seeds` (at most the population)
+  /// replace its first genomes after every random one was drawn, so the random rest is the same
+  /// with or without them. A seed outside the problem's bounds or of the wrong size is refused.
+  [[nodiscard]] Population initialize(std::span<const Genome> seeds = {}) const;
   /// Replaces `population` by the next generation, evaluated.
   void evolve(Population& population) const;
 

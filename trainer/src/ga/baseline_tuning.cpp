@@ -1,23 +1,27 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/evaluation/baseline_tuning.hpp"
+#include "imm/trainer/ga/baseline_tuning.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "imm/evaluation/normalized_errors.hpp"
 #include "imm/trainer/bounded_search.hpp"
+#include "imm/trainer/normalized_errors.hpp"
 
-namespace imm::evaluation {
+namespace imm::trainer::ga {
 namespace {
 
-using trainer::grid_then_subplex;
-using trainer::SearchOptions;
-using trainer::SearchResult;
+std::vector<double> exponentials(const std::vector<double>& logs) {
+  std::vector<double> values;
+  values.reserve(logs.size());
+  for (double e : logs) values.push_back(std::pow(10.0, e));
+  return values;
+}
 
 }  // namespace
 
-double axis_score(const AxisFilterFactory& make_filter,
-                  const std::vector<trainer::ga::TrainingSet>& sets) {
+AxisZetas axis_zetas(const AxisFilterFactory& make_filter, const std::vector<TrainingSet>& sets) {
+  constexpr double kFailed = std::numeric_limits<double>::infinity();
   long steps = 0;
   for (const auto& set : sets) {
     for (const auto& t : set.trajectories) steps = std::max<long>(steps, t.measurement.size());
@@ -33,7 +37,7 @@ double axis_score(const AxisFilterFactory& make_filter,
       filter->initialize(start);
       for (Eigen::Index k = 2; k < t.measurement.size(); ++k) {
         if (filter->step(t.measurement(k)) != StepStatus::kOk) {
-          return std::numeric_limits<double>::infinity();
+          return {kFailed, kFailed};
         }
         const auto& x = filter->estimate().mean;
         errors.add(static_cast<int>(k), {t.position(k), 0.0}, {x(0), 0.0}, {t.measurement(k), 0.0},
@@ -42,11 +46,16 @@ double axis_score(const AxisFilterFactory& make_filter,
       }
     }
   }
-  return errors.zeta_p() + errors.zeta_v();
+  return {errors.zeta_p(), errors.zeta_v()};
 }
 
-Tuned<AimmSpec> tune_aimm(const AimmSpec& base, const std::vector<trainer::ga::TrainingSet>& sets,
-                          double a, int max_intervals) {
+double axis_score(const AxisFilterFactory& make_filter, const std::vector<TrainingSet>& sets) {
+  const AxisZetas zetas = axis_zetas(make_filter, sets);
+  return zetas.position + zetas.velocity;
+}
+
+Tuned<AimmSpec> tune_aimm(const AimmSpec& base, const std::vector<TrainingSet>& sets, double a,
+                          int max_intervals) {
   Tuned<AimmSpec> best;
   best.score = std::numeric_limits<double>::infinity();
   for (int n = 1; n <= max_intervals; ++n) {
@@ -75,26 +84,48 @@ Tuned<AimmSpec> tune_aimm(const AimmSpec& base, const std::vector<trainer::ga::T
 }
 
 Tuned<AxisCvImmSpec> tune_axis_cv_imm(const AxisCvImmSpec& base,
-                                      const std::vector<trainer::ga::TrainingSet>& sets, double a,
-                                      int levels) {
-  auto score = [&](const std::vector<double>& log_q) {
-    AxisCvImmSpec spec = base;
-    spec.process_noise.clear();
-    for (double e : log_q) spec.process_noise.push_back(std::pow(10.0, e));
+                                      const std::vector<TrainingSet>& sets, double a, int levels,
+                                      TransitionTuning transitions) {
+  auto score_of = [&](const AxisCvImmSpec& spec) {
     return axis_score([&] { return std::make_unique<ImmAxisFilter>(build_axis_cv_imm(spec)); },
                       sets);
   };
+  auto score = [&](const std::vector<double>& log_q) {
+    AxisCvImmSpec spec = base;
+    spec.process_noise = exponentials(log_q);
+    return score_of(spec);
+  };
+  const double log_low = std::log10(1e-8 * a * a), log_high = std::log10(10.0 * a * a);
   const SearchResult result = grid_then_subplex(
-      score, std::vector<double>(levels, std::log10(1e-8 * a * a)),
-      std::vector<double>(levels, std::log10(10.0 * a * a)),
+      score, std::vector<double>(levels, log_low), std::vector<double>(levels, log_high),
       {.grid_points = 8, .polish_evaluations = 150, .ordered = true, .xtol_abs = 1e-3});
   Tuned<AxisCvImmSpec> tuned;
   tuned.spec = base;
-  tuned.spec.process_noise.clear();
-  for (double e : result.x) tuned.spec.process_noise.push_back(std::pow(10.0, e));
+  tuned.spec.process_noise = exponentials(result.x);
   tuned.score = result.value;
   tuned.evaluations = result.evaluations;
+  if (transitions == TransitionTuning::kFixed) return tuned;
+
+  // The levels and log10(1 − p_jj) together, from the levels' optimum at the base's p_jj.
+  auto joint = [&](const std::vector<double>& x) {
+    AxisCvImmSpec spec = base;
+    spec.process_noise = exponentials({x.begin(), x.end() - 1});
+    spec.settings.transition_stay = 1.0 - std::pow(10.0, x.back());
+    return score_of(spec);
+  };
+  std::vector<double> x0 = result.x, lower(levels, log_low), upper(levels, log_high);
+  x0.push_back(
+      std::clamp(std::log10(1.0 - base.settings.transition_stay), kLogLeaveLow, kLogLeaveHigh));
+  lower.push_back(kLogLeaveLow);
+  upper.push_back(kLogLeaveHigh);
+  const SearchResult refined = subplex(joint, x0, lower, upper, 150, 1e-4);
+  tuned.evaluations += refined.evaluations;
+  if (refined.value < tuned.score) {
+    tuned.score = refined.value;
+    tuned.spec.process_noise = exponentials({refined.x.begin(), refined.x.end() - 1});
+    tuned.spec.settings.transition_stay = 1.0 - std::pow(10.0, refined.x.back());
+  }
   return tuned;
 }
 
-}  // namespace imm::evaluation
+}  // namespace imm::trainer::ga

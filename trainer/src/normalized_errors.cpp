@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/evaluation/normalized_errors.hpp"
+#include "imm/trainer/normalized_errors.hpp"
 
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
-namespace imm::evaluation {
+namespace imm::trainer {
 namespace {
 
 double mean_over_defined(const Eigen::VectorXd& values) {
@@ -75,4 +75,4 @@ double NormalizedErrors::velocity_rmse() const {
   return std::sqrt(velocity_error_.sum() / std::max(1, samples_.sum()));
 }
 
-}  // namespace imm::evaluation
+}  // namespace imm::trainer

@@ -7,7 +7,7 @@
 
 #include <Eigen/Core>
 
-namespace imm::evaluation {
+namespace imm::trainer {
 
 class NormalizedErrors {
  public:
@@ -36,4 +36,4 @@ class NormalizedErrors {
   Eigen::VectorXi samples_;
 };
 
-}  // namespace imm::evaluation
+}  // namespace imm::trainer

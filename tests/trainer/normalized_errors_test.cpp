@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/evaluation/normalized_errors.hpp"
+#include "imm/trainer/normalized_errors.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-namespace imm::evaluation {
+namespace imm::trainer {
 namespace {
 
 // Two runs, scan 1, by hand:
@@ -35,4 +35,4 @@ TEST(NormalizedErrors, HandComputedExample) {
 }
 
 }  // namespace
-}  // namespace imm::evaluation
+}  // namespace imm::trainer

@@ -1,0 +1,202 @@
+// SPDX-License-Identifier: Apache-2.0
+// The GA-fuzzy IMM contains its tuned baseline: one constant rule per level is the constant-q IMM,
+// a tuned-levels run starts from that IMM and never ends below it, and the joint tuning of the
+// stay probability never scores worse than the levels alone.
+#include "imm/trainer/ga/baseline_tuning.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "imm/datasets/random.hpp"
+#include "imm/datasets/regime_file.hpp"
+#include "imm/filters/axis_cv_imm.hpp"
+#include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/io/ga_fuzzy_imm_file.hpp"
+#include "imm/io/model_file.hpp"
+#include "imm/trainer/ga/ga_config.hpp"
+#include "imm/trainer/ga/ga_trainer.hpp"
+#include "imm/trainer/ga/genetic_algorithm.hpp"
+#include "imm/trainer/regime_checks.hpp"
+#include "testing/regime_files.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm::trainer::ga {
+namespace {
+
+TrainingSet training_set_of(const std::filesystem::path& regime_file) {
+  return make_training_set(datasets::load_regime(regime_file).regime, datasets::Split::kTraining);
+}
+
+// Plots of a target that flies straight, then accelerates, then flies straight again.
+std::vector<double> maneuvering_plots(int scans, double sigma, std::uint64_t seed) {
+  datasets::Rng rng(seed);
+  std::vector<double> z;
+  double p = 0.0, v = 0.2;
+  for (int k = 0; k < scans; ++k) {
+    const double a = k >= 40 && k < 60 ? 0.03 : 0.0;
+    p += v + 0.5 * a;
+    v += a;
+    z.push_back(p + rng.normal(0.0, sigma));
+  }
+  return z;
+}
+
+TEST(TunedBaseline, OneConstantRulePerLevelIsTheConstantNoiseImm) {
+  AxisCvImmSpec imm;
+  imm.settings.sample_period = 1.0;
+  imm.settings.measurement_sigma = 0.5;
+  imm.settings.transition_stay = 0.931;
+  imm.process_noise = {1e-7, 3e-5, 2e-3};
+  GaFuzzyImmSpec fuzzy;
+  fuzzy.settings = imm.settings;
+  for (double q : imm.process_noise) {
+    // Any premise: one rule's inference is its consequent wherever it fires.
+    fuzzy.levels.push_back({"level", std::sqrt(q), FuzzyRuleTable({{0.3, 0.2, -0.1, 0.05, q}})});
+  }
+  ImmEstimator<2, 1> a = build_axis_cv_imm(imm);
+  ImmEstimator<2, 1> b = build_ga_fuzzy_axis_imm(fuzzy);
+  GaussianState<2> start;
+  start.mean << 0.0, 0.2;
+  start.covariance << 0.25, 0.25, 0.25, 0.5;
+  a.initialize(start);
+  b.initialize(start);
+  for (double z : maneuvering_plots(120, 0.5, 5)) {
+    ASSERT_EQ(a.step(Vector<1>(z)), StepStatus::kOk);
+    ASSERT_EQ(b.step(Vector<1>(z)), StepStatus::kOk);
+    for (int i = 0; i < 2; ++i) {
+      EXPECT_NEAR(b.estimate().mean(i), a.estimate().mean(i),
+                  1e-12 * (1.0 + std::abs(a.estimate().mean(i))));
+      for (int j = 0; j < 2; ++j) {
+        EXPECT_NEAR(b.estimate().covariance(i, j), a.estimate().covariance(i, j),
+                    1e-12 * (1.0 + std::abs(a.estimate().covariance(i, j))));
+      }
+    }
+    for (int j = 0; j < 3; ++j) {
+      EXPECT_NEAR(b.mode_probabilities()(j), a.mode_probabilities()(j), 1e-12);
+    }
+  }
+}
+
+TEST(TunedBaseline, JointStayTuningIsNeverWorseThanTheLevelsAlone) {
+  const testing::TempDir dir;
+  const TrainingSet training = training_set_of(testing::write_ga_regime(dir, 60, 2, 1));
+  AxisCvImmSpec base;
+  base.settings.measurement_sigma = 0.5;
+  base.settings.transition_stay = 0.97;
+  const Tuned<AxisCvImmSpec> fixed =
+      tune_axis_cv_imm(base, {training}, 0.05, 2, TransitionTuning::kFixed);
+  const Tuned<AxisCvImmSpec> joint =
+      tune_axis_cv_imm(base, {training}, 0.05, 2, TransitionTuning::kJointly);
+  EXPECT_EQ(fixed.spec.settings.transition_stay, 0.97);
+  EXPECT_LE(joint.score, fixed.score);
+  EXPECT_GT(joint.evaluations, fixed.evaluations);
+  // The reported score is the score of the reported spec.
+  EXPECT_DOUBLE_EQ(
+      joint.score,
+      axis_score([&] { return std::make_unique<ImmAxisFilter>(build_axis_cv_imm(joint.spec)); },
+                 {training}));
+}
+
+TEST(GeneticAlgorithm, SeedGenomesOpenThePopulationAndTheRestIsUnchanged) {
+  const testing::TempDir dir;
+  ProblemOptions options;
+  options.maneuver_level = 0.01;
+  options.fitness = FitnessKind::kSingleFilter;
+  const FuzzyTableProblem problem(training_set_of(testing::write_ga_regime(dir)), options);
+  GaOptions ga;
+  ga.population = 8;
+  const GeneticAlgorithm algorithm(problem, ga, 4);
+  const Genome seed = problem.constant_genome(0.008);
+  const std::vector<Genome> seeds{seed};
+  const Population plain = algorithm.initialize();
+  const Population seeded = algorithm.initialize(seeds);
+  EXPECT_EQ(seeded.genomes[0].genes, seed.genes);
+  EXPECT_EQ(seeded.genomes[0].rule_count(), 1);
+  for (std::size_t i = 1; i < plain.genomes.size(); ++i) {
+    EXPECT_EQ(seeded.genomes[i].genes, plain.genomes[i].genes);
+  }
+  // Its table is the constant q = 0.008².
+  const FuzzyRuleTable table = problem.decode(seed);
+  ASSERT_EQ(table.size(), 1u);
+  EXPECT_NEAR(table.rules()[0].w, 0.008 * 0.008, 1e-18);
+  Genome outside = seed;
+  outside.genes[4] = problem.upper()[4] * 2.0;
+  const std::vector<Genome> bad{outside};
+  EXPECT_THROW((void)algorithm.initialize(bad), std::invalid_argument);
+}
+
+GaTrainingConfig tuned_config(const testing::TempDir& dir, const std::string& training_extra) {
+  const std::string text = testing::regime_line(testing::write_ga_regime(dir, 60, 2, 1)) +
+                           "seed = 3\n[training]\nlevels = \"tuned\"\nlevel_count = 2\n" +
+                           training_extra +
+                           "[fuzzy]\nconsequent_range = [0.25, 4.0]\n"
+                           "[ga]\npopulation = 12\ngenerations = 4\n"
+                           "[memetic]\nenabled = false\nmax_evaluations = 60\n";
+  testing::write_text(dir / "tuned.toml", text);
+  return load_ga_config(dir / "tuned.toml");
+}
+
+// Tuned levels: the levels and the stay probability are the tuned IMM's, the GA starts from it
+// and (by elitism) never ends below it on the training split; the joint refinement never makes
+// the training ζ_p + ζ_v worse; the validation check keeps the tables only when they beat the
+// tuned IMM there.
+TEST(GaTrainer, TunedLevelsStartFromTheTunedImmAndNeverEndBelowIt) {
+  const testing::TempDir dir;
+  const GaTrainingConfig config = tuned_config(dir, "refine_levels = true\n");
+  EXPECT_TRUE(config.tuned_levels);
+  EXPECT_TRUE(config.levels.empty());
+  const TrainingSet training = make_training_set(config.regime, datasets::Split::kTraining);
+  const GaTrainingConfig resolved = resolve_levels(config, training);
+  ASSERT_TRUE(resolved.baseline);
+  ASSERT_EQ(resolved.levels.size(), 2u);
+  EXPECT_NEAR(resolved.levels[0] * resolved.levels[0], resolved.baseline->process_noise[0], 1e-15);
+  EXPECT_EQ(resolved.filter.transition_stay, resolved.baseline->transition_stay);
+
+  AxisCvImmSpec baseline;
+  baseline.settings = resolved.filter;
+  baseline.process_noise = resolved.baseline->process_noise;
+  const Evaluation baseline_error = [&] {
+    GaFuzzyImmSpec spec;
+    spec.settings = resolved.filter;
+    for (double q : baseline.process_noise) {
+      spec.levels.push_back({"q", std::sqrt(q), FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, q}})});
+    }
+    return evaluate_imm(spec, training, resolved.problem_options(0), 2);
+  }();
+
+  const GaTrainingResult result = train_ga(resolved, {dir / "m.h5", false});
+  ASSERT_TRUE(result.gate_passed) << result.gate_message;
+  ASSERT_TRUE(result.refinement);
+  EXPECT_LE(result.refinement->after.error, result.refinement->before.error);
+  const GaFuzzyImmSpec trained = spec_from(result.config, result.levels);
+  const Evaluation trained_error = evaluate_imm(trained, training, resolved.problem_options(0), 2);
+  // By elitism the GA's tables are never worse than the constant rules in its own error; the
+  // refinement then trades in ζ_p + ζ_v.
+  if (!result.refinement->accepted) {
+    EXPECT_LE(trained_error.error, baseline_error.error * (1.0 + 1e-12));
+  }
+  EXPECT_DOUBLE_EQ(trained_error.error, result.levels.back().training.error);
+
+  // The validation check: kept tables beat the tuned IMM there; otherwise the model is that IMM.
+  ASSERT_TRUE(result.baseline_check);
+  const io::ModelFileReader reader(dir / "m.h5", io::kGaFuzzyImmKind);
+  EXPECT_EQ(reader.provenance().training_metrics.at("learned_part_on"),
+            result.baseline_check->learned_part_on ? 1.0 : 0.0);
+  const GaFuzzyImmSpec shipped = io::read_ga_fuzzy_imm(dir / "m.h5");
+  if (result.baseline_check->learned_part_on) {
+    EXPECT_LT(result.baseline_check->learned.error, result.baseline_check->baseline.error);
+  } else {
+    EXPECT_EQ(shipped.settings.transition_stay, resolved.baseline->transition_stay);
+    for (std::size_t j = 0; j < shipped.levels.size(); ++j) {
+      ASSERT_EQ(shipped.levels[j].table.size(), 1u);
+      EXPECT_EQ(shipped.levels[j].table.rules()[0].w, resolved.baseline->process_noise[j]);
+    }
+  }
+
+  // The config is refused where tuned levels cannot work.
+  EXPECT_THROW((void)tuned_config(dir, "fitness = \"single\"\n"), std::exception);
+}
+
+}  // namespace
+}  // namespace imm::trainer::ga
