@@ -1,10 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/evaluation/experiment.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <iostream>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 
 #include "imm/support/cli.hpp"
 
@@ -26,7 +29,7 @@ bool close(double a, double b) { return std::abs(a - b) <= 1e-9 * std::max(std::
 }  // namespace
 
 std::filesystem::path CommonOptions::model_path() const {
-  const std::filesystem::path named(model);
+  std::filesystem::path named(model);
   if (named.has_parent_path() && std::filesystem::exists(named)) return named;
   if (named.extension() == ".h5") return models / named;
   return models / (model + ".h5");
@@ -174,15 +177,39 @@ std::vector<CaseTracks> tracks_by_case(const datasets::Regime& regime,
   return cases;
 }
 
+bool paper_scenario(const datasets::Regime& regime) {
+  static constexpr std::array<std::string_view, 11> kPresets = {"ga_imm_training",
+                                                                "ga_imm_table3",
+                                                                "input_estimator_training",
+                                                                "input_estimator_tables",
+                                                                "wimm_training",
+                                                                "wimm_table2",
+                                                                "fcm_imm_training",
+                                                                "fcm_imm_zigzag",
+                                                                "fcm_imm_zigzag_literal",
+                                                                "fimm_table1",
+                                                                "fimm_table1_hard"};
+  return std::find(kPresets.begin(), kPresets.end(), regime.name) != kPresets.end();
+}
+
+void print_findings(const std::vector<std::string>& findings) {
+  std::cout << "Findings (the learned model against the baselines tuned on its regime; not "
+               "failures): "
+            << (findings.empty() ? "none" : std::to_string(findings.size())) << '\n';
+  for (const auto& finding : findings) std::cout << "  - " << finding << '\n';
+}
+
 int finish_report(const std::filesystem::path& out, bool plotted,
-                  const std::vector<std::string>& failures, bool failures_printed) {
+                  const std::vector<std::string>& failures, bool failures_printed,
+                  const std::vector<std::string>& findings) {
   std::cout << "\nwrote metrics.json, details.json, CSV series"
             << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
             << " in " << out.string() << '\n';
   if (!failures_printed) {
     for (const auto& failure : failures) std::cerr << "imm-eval: gate failed: " << failure << '\n';
   }
-  return failures.empty() ? 0 : support::exit_code::kEvaluationGateFailed;
+  if (!failures.empty()) return support::exit_code::kEvaluationGateFailed;
+  return findings.empty() ? 0 : support::exit_code::kFindings;
 }
 
 int guarded(const std::function<int()>& body) {

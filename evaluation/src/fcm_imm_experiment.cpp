@@ -7,9 +7,11 @@
 // test tracks. Position and velocity RMSE over every scored scan and over the scans where a
 // maneuver acts.
 //
-// Gates: the FCM-IMM is below the KF and the AIMM in all four figures beyond the Monte Carlo
-// uncertainty (95 % paired-bootstrap interval over tracks). IMM-tuned and the ablation are
-// reported beside it with the same intervals, not gated.
+// Gates: on the seed's own scenarios the FCM-IMM is below the KF and the AIMM in all four figures
+// beyond the Monte Carlo uncertainty (95 % paired-bootstrap interval over tracks); on any other
+// regime it is above neither in any figure beyond it. Findings (reported, exit 7 when they are
+// all there is): off the seed's scenarios a figure where it only ties the KF or the AIMM, and
+// beating IMM-tuned in fewer than two of the four. The ablation is reported, not gated.
 
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -64,7 +66,8 @@ struct Outcome {
   long failed_steps = 0;
 
   [[nodiscard]] HeadlineMetric headline(int figure) const {
-    return rms_metric(kFigures[figure], per_track.col(2 * figure), per_track.col(2 * figure + 1));
+    const Eigen::Index column = Eigen::Index{2} * figure;
+    return rms_metric(kFigures[figure], per_track.col(column), per_track.col(column + 1));
   }
   [[nodiscard]] Statistic statistic(int figure) const { return headline(figure).statistic(); }
 };
@@ -233,6 +236,7 @@ int run(const CommonOptions& options) {
       {"IMM-tuned", [&] { return make_axis_cv_imm_filter(imm.spec); }},
       {"FCM-IMM", [&] { return make_fcm_imm_filter(fitted); }},
       {"FCM-IMM-const", [&] { return make_fcm_imm_filter(constant); }}};
+  filters.reserve(makers.size());
   for (const auto& [name, make] : makers) filters.push_back(run_filter(name, make, data, sigma));
   const Outcome& fcm = find_filter(filters, "FCM-IMM");
 
@@ -261,19 +265,29 @@ int run(const CommonOptions& options) {
             << markdown_table({"filter", "pos", "vel", "pos manoeuvre", "vel manoeuvre",
                                "fraction straight", "fraction manoeuvre", "training J"},
                               rows);
-  std::vector<std::string> failures;
+  std::vector<std::string> failures, findings;
   std::vector<std::vector<std::string>> versus_rows;
+  const bool paper = paper_scenario(regime);
   for (const auto& other : filters) {
     if (other.name == fcm.name) continue;
     std::vector<std::string> row = {other.name};
+    int better = 0;
     for (int i = 0; i < 4; ++i) {
       const Difference d = paired_difference(runs, fcm.statistic(i), other.statistic(i));
       row.push_back(d.text(1));
       details["fcm_imm_minus"][other.name][kFigures[i]] = {d.estimate, d.lower, d.upper};
+      better += d.below() ? 1 : 0;
       if ((other.name == "KF" || other.name == "AIMM") && !d.below()) {
-        failures.push_back(std::string("FCM-IMM's ") + kFigures[i] + " is not below " + other.name +
-                           "'s beyond the uncertainty (" + d.text(2) + ")");
+        // The seed's claim on its own scenario; elsewhere only "not worse" is a gate.
+        (paper || d.above() ? failures : findings)
+            .push_back(std::string("FCM-IMM's ") + kFigures[i] + " is " +
+                       (d.above() ? "above " : "not below ") + other.name +
+                       "'s beyond the uncertainty (" + d.text(2) + ")");
       }
+    }
+    if (other.name == "IMM-tuned" && better < 2) {
+      findings.push_back("FCM-IMM beats IMM-tuned in " + std::to_string(better) +
+                         " of its four figures (fewer than two)");
     }
     versus_rows.push_back(row);
   }
@@ -281,9 +295,12 @@ int run(const CommonOptions& options) {
                "better):\n\n"
             << markdown_table({"filter", "pos", "vel", "pos manoeuvre", "vel manoeuvre"},
                               versus_rows);
-  std::cout << "\nGates (FCM-IMM below KF and AIMM in all four, beyond the uncertainty): "
-            << (failures.empty() ? "passed" : "FAILED") << '\n';
+  std::cout << "\nGates (FCM-IMM "
+            << (paper ? "below KF and AIMM in all four (the seed's scenario)"
+                      : "not above KF and AIMM in any of the four (a regime beyond the seed)")
+            << ", beyond the uncertainty): " << (failures.empty() ? "passed" : "FAILED") << '\n';
   for (const auto& failure : failures) std::cout << "  - " << failure << '\n';
+  print_findings(findings);
 
   const std::filesystem::path& out = options.out;
   std::filesystem::create_directories(out);
@@ -295,6 +312,7 @@ int run(const CommonOptions& options) {
   details["dataset_digest"] = data.digest();
   details["parameters"] = parameters;
   details["gate_failures"] = failures;
+  details["findings"] = findings;
   const HeadlineRuns evaluated{"fcm-imm",     model_path,   regime.name,
                                regime.digest, options.seed, runs};
   write_metrics(out, evaluated, definitions(std::string(datasets::to_string(regime.units))),
@@ -344,7 +362,7 @@ int run(const CommonOptions& options) {
                           "fraction",
                           out / "maneuver_fraction.csv",
                           {"FCM-IMM", "FCM-IMM-const"}});
-  return finish_report(out, plotted, failures, /*failures_printed=*/true);
+  return finish_report(out, plotted, failures, /*failures_printed=*/true, findings);
 }
 
 }  // namespace

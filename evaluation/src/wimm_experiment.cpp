@@ -8,7 +8,10 @@
 //
 // Gates, per case: the wIMM's settled azimuth error is below the nIMM's beyond the Monte Carlo
 // uncertainty (95 % paired-bootstrap interval over tracks of the difference of the settled RMS
-// errors), and its settled position error is not above the nIMM's beyond it.
+// errors) on the seed's own scenarios, and not above it on any other regime; its settled position
+// error is not above the nIMM's beyond it. Findings (reported, exit 7 when they are all there
+// is): off the seed's scenarios the wIMM only ties the nIMM, and wherever it is not below the
+// nIMM-tuned in settled azimuth.
 
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -122,7 +125,7 @@ int run(const CommonOptions& options) {
   const std::filesystem::path& out = options.out;
   std::filesystem::create_directories(out);
   nlohmann::json metrics, details;
-  std::vector<std::string> failures;
+  std::vector<std::string> failures, findings;
   bool plotted = true;
   const int settled = trainer::wimm::first_settled_scan(data.scans);
   std::vector<CaseHeadline> headline_cases;
@@ -179,10 +182,14 @@ int run(const CommonOptions& options) {
         paired_difference(runs, rms_of(w.track_azimuth_settled), rms_of(n.track_azimuth_settled));
     const Difference position =
         paired_difference(runs, rms_of(w.track_position_settled), rms_of(n.track_position_settled));
-    if (!azimuth.below()) {
-      failures.push_back(case_name +
-                         ": the wIMM's settled azimuth error is not below the nIMM's "
-                         "beyond the uncertainty (" +
+    if (!azimuth.below() && (paper_scenario(regime) || azimuth.above())) {
+      failures.push_back(case_name + ": the wIMM's settled azimuth error is " +
+                         (azimuth.above() ? "above" : "not below") +
+                         " the nIMM's beyond the uncertainty (" + azimuth.text(5) + " rad)");
+    } else if (!azimuth.below()) {
+      findings.push_back(case_name +
+                         ": the wIMM's settled azimuth error ties the nIMM's (the seed's claim "
+                         "that it is below does not hold on this regime: " +
                          azimuth.text(5) + " rad)");
     }
     if (position.above()) {
@@ -190,6 +197,14 @@ int run(const CommonOptions& options) {
                          ": the wIMM's settled position error is above the nIMM's "
                          "beyond the uncertainty (" +
                          position.text(1) + ")");
+    }
+    const TrackingScore& t = rows.back().score;  // nIMM-tuned
+    const Difference against_tuned =
+        paired_difference(runs, rms_of(w.track_azimuth_settled), rms_of(t.track_azimuth_settled));
+    if (!against_tuned.below()) {
+      findings.push_back(case_name +
+                         ": the wIMM's settled azimuth error is not below nIMM-tuned's " +
+                         "beyond the uncertainty (" + against_tuned.text(5) + " rad)");
     }
     // Series: azimuth RMSE per scan, mode probabilities (seed Fig. 7, 8, 10, 11).
     std::vector<std::string> names;
@@ -223,10 +238,13 @@ int run(const CommonOptions& options) {
                  "plots with σ_θ = 0.5° (0.0087 rad): they exceed the raw plot error. Compare the "
                  "ratios.\n";
   }
-  std::cout << "\nGates (settled azimuth below the nIMM's, position not above it, beyond the "
-               "uncertainty): "
+  std::cout << "\nGates (settled azimuth "
+            << (paper_scenario(regime) ? "below the nIMM's (the seed's scenario)"
+                                       : "not above the nIMM's (a regime beyond the seed)")
+            << ", position not above it, beyond the uncertainty): "
             << (failures.empty() ? "passed" : "FAILED") << '\n';
   for (const auto& failure : failures) std::cout << "  - " << failure << '\n';
+  print_findings(findings);
   const HeadlineRuns evaluated{"wimm",        model_path,   regime.name,
                                regime.digest, options.seed, static_cast<int>(data.tracks.size())};
   write_metrics(out, evaluated, definitions(std::string(datasets::to_string(regime.units))),
@@ -239,8 +257,9 @@ int run(const CommonOptions& options) {
   details["runs"] = data.tracks.size();
   details["seed"] = options.seed;
   details["gate_failures"] = failures;
+  details["findings"] = findings;
   trainer::write_json_atomically(out / "details.json", details);
-  return finish_report(out, plotted, failures, /*failures_printed=*/true);
+  return finish_report(out, plotted, failures, /*failures_printed=*/true, findings);
 }
 
 }  // namespace

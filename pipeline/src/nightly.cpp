@@ -129,6 +129,42 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     add_passthrough(entry, stage);
     plan.stages.push_back(std::move(stage));
   }
+  for (const auto& entry : root.tables("trackers")) {
+    NightlyStage stage = make_stage("tracker", entry.text("name"), "imm-eval");
+    const auto model_out = [&](const std::string& key, const std::string& name) {
+      const auto linked = std::find_if(plan.stages.begin(), plan.stages.end(), [&](const auto& s) {
+        return s.kind == "model" && s.name == name;
+      });
+      if (linked == plan.stages.end()) {
+        entry.fail(key, "names no [[models]] stage ('" + name + "')");
+      }
+      return linked->out.string();
+    };
+    const std::string out = entry.text("out");
+    const auto relative = std::filesystem::path(out).lexically_relative(plan.registry);
+    if (relative.empty() || relative.begin()->string() == ".." || relative.is_absolute()) {
+      entry.fail("out", "the tracker must be written inside the registry folder '" +
+                            plan.registry.string() + "'");
+    }
+    const auto candidates = entry.texts("candidates");
+    if (candidates.empty()) entry.fail("candidates", "lists no learned model");
+    stage.arguments = {"rank", "--baseline", model_out("baseline", entry.text("baseline")),
+                       "--candidates"};
+    for (const auto& candidate : candidates) {
+      stage.arguments.push_back(model_out("candidates", candidate));
+    }
+    const std::string report = entry.text("report");
+    stage.arguments.insert(stage.arguments.end(), {"--out", report});
+    add_optional(entry, "runs", "--runs", stage);
+    add_optional(entry, "seed", "--seed", stage);
+    stage.arguments.insert(stage.arguments.end(), {"--ship", out});
+    stage.out_argument = stage.arguments.size() - 1;
+    stage.out = out;
+    stage.report = report;
+    add_folder_of(stage, out);
+    add_folder_of(stage, report, true);
+    plan.stages.push_back(std::move(stage));
+  }
   if (plan.stages.empty()) root.fail("models", "the plan lists no stages");
   return plan;
 }

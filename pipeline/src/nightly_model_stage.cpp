@@ -209,7 +209,7 @@ void Night::run_model(const NightlyStage& stage) {
   // The candidate's own evaluations (its quality gates), then the shipped model's on the same
   // tracks and the regression comparison.
   const bool comparable_shipped = fs::exists(shipped_file);
-  std::vector<std::string> regressions, gate_failures, comparisons;
+  std::vector<std::string> regressions, gate_failures, comparisons, findings;
   for (const NightlyStage* e : evaluations) {
     StageOutcome o = outcome_of("evaluation", e->name);
     o.report = e->out;
@@ -226,6 +226,13 @@ void Night::run_model(const NightlyStage& stage) {
       o.status = "gate failed";
       o.message = "quality gate failed: " + gate_lines(o.log.string() + ".out");
       gate_failures.push_back(e->name);
+    } else if (o.exit_code == support::exit_code::kFindings) {
+      // Every gate passed; the report has findings (the learned model does not beat a baseline
+      // tuned on its regime). The candidate goes on to the regression gate like any other.
+      o.finding = true;
+      o.status = "finding";
+      o.message = findings_lines(o.log.string() + ".out");
+      findings.push_back(e->name);
     } else if (o.exit_code != 0) {
       o.failed = true;
       o.status = "failed";
@@ -242,7 +249,8 @@ void Night::run_model(const NightlyStage& stage) {
       const auto shipped_arguments = evaluation_arguments(*e, shipped_file, shipped_out, staging);
       const fs::path shipped_log = o.log.string() + "_shipped";
       const int shipped_code = spawn(tool(*e), shipped_arguments, shipped_log, o.wall_seconds);
-      if (shipped_code == 0 || shipped_code == support::exit_code::kEvaluationGateFailed) {
+      if (shipped_code == 0 || shipped_code == support::exit_code::kEvaluationGateFailed ||
+          shipped_code == support::exit_code::kFindings) {
         const std::vector<std::string> compare = {
             "regression",         "--candidate", e->out.string(), "--shipped",
             shipped_out.string(), "--out",       e->out.string()};
@@ -294,6 +302,7 @@ void Night::run_model(const NightlyStage& stage) {
     entry.metrics = headline_metrics(evaluations);
     registry_.promote(entry, staging, trainer::metrics_path(staging));
     model.status = had_entry ? "promoted" : "promoted (first in the manifest)";
+    if (!findings.empty()) comparisons.push_back("with findings (" + join(findings) + ")");
     model.message = comparisons.empty() ? "" : join(comparisons);
     fs::remove(staging);
     fs::remove(trainer::metrics_path(staging));

@@ -71,7 +71,7 @@ std::string read_or_empty(const fs::path& path) {
 }
 
 std::string exit_meaning(int code) {
-  return code == 0   ? "everything promoted or unchanged"
+  return code == 0   ? "nothing failed, nothing held back"
          : code == 3 ? "a stage failed"
          : code == 6 ? "a candidate was held back by the regression gate"
                      : "unexpected";
@@ -142,6 +142,62 @@ void write_benchmarks(const fs::path& latest, std::ostringstream& md, std::ostri
   html << "</table>\n";
 }
 
+// Per regime, the filter to use (the tracker stages): the winner, why, and the ranking with the
+// intervals against the tuned baseline.
+void write_trackers(const NightlyResult& result, std::ostringstream& md, std::ostringstream& html) {
+  bool any = false;
+  for (const auto& o : result.stages) {
+    if (o.kind != "tracker") continue;
+    if (!any) {
+      md << "## The regime's trackers\n\nThe filter to use for each regime (`models/<regime>/"
+            "tracker.h5`): a learned model only when it beats the regime's tuned baseline beyond "
+            "the 95 % interval.\n\n";
+      html << "<h2>The regime's trackers</h2>\n<p>The filter to use for each regime: a learned "
+              "model only when it beats the regime's tuned baseline beyond the 95 % "
+              "interval.</p>\n";
+      any = true;
+    }
+    md << "### " << o.name << " — " << o.status << "\n\n" << o.message << "\n\n";
+    html << "<h3 id=\"tracker-" << html_escape(o.name) << "\">" << html_escape(o.name) << " — "
+         << html_escape(o.status) << "</h3>\n<p>" << html_escape(o.message) << "</p>\n";
+    const auto document =
+        nlohmann::json::parse(read_or_empty(o.report / "tracker.json"), nullptr, false);
+    if (document.is_discarded() || !document.contains("ranking")) continue;
+    md << "| place | filter | ζ_p | ζ_v | this − baseline ζ_p [95 %] | this − baseline ζ_v [95 %] "
+          "| "
+          "against the baseline |\n|---|---|---|---|---|---|---|\n";
+    html << "<table><tr><th>place</th><th>filter</th><th>ζ_p</th><th>ζ_v</th><th>this − baseline "
+            "ζ_p [95 %]</th><th>this − baseline ζ_v [95 %]</th><th>against the baseline</th>"
+            "</tr>\n";
+    for (const auto& row : document.at("ranking")) {
+      const auto difference = [&](const char* metric) {
+        if (!row.contains("versus_baseline")) return std::string("–");
+        const auto& d = row.at("versus_baseline").at(metric);
+        std::ostringstream text;
+        text.precision(4);
+        text << std::fixed << std::showpos << d.at(0).get<double>() << " [" << d.at(1).get<double>()
+             << ", " << d.at(2).get<double>() << "]";
+        return text.str();
+      };
+      std::ostringstream p, v;
+      p.precision(4), v.precision(4);
+      p << std::fixed << row.value("zeta_p", 0.0);
+      v << std::fixed << row.value("zeta_v", 0.0);
+      const std::string name =
+          row.value("filter", "?") + (row.value("baseline", false) ? " (tuned baseline)" : "");
+      md << "| " << row.value("place", 0) << " | " << name << " | " << p.str() << " | " << v.str()
+         << " | " << difference("zeta_p") << " | " << difference("zeta_v") << " | "
+         << row.value("verdict", "") << " |\n";
+      html << "<tr><td>" << row.value("place", 0) << "</td><td>" << html_escape(name) << "</td><td>"
+           << p.str() << "</td><td>" << v.str() << "</td><td>" << difference("zeta_p")
+           << "</td><td>" << difference("zeta_v") << "</td><td>"
+           << html_escape(row.value("verdict", "")) << "</td></tr>\n";
+    }
+    md << "\n";
+    html << "</table>\n";
+  }
+}
+
 }  // namespace
 
 void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
@@ -149,15 +205,19 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
   (void)plan;
   fs::create_directories(folder);
   const std::string night = folder.filename().string();
-  std::size_t failed = 0, held = 0, cached = 0;
-  for (const auto& o : result.stages) failed += o.failed, held += o.held_back, cached += o.cached;
+  std::size_t failed = 0, held = 0, cached = 0, findings = 0;
+  for (const auto& o : result.stages) {
+    failed += o.failed, held += o.held_back, cached += o.cached, findings += o.finding;
+  }
 
   std::ostringstream md, html;
   md << "# Nightly " << night << "\n\nExit code **" << result.exit_code << "** ("
      << exit_meaning(result.exit_code) << "); " << result.stages.size() << " stages in "
      << static_cast<int>(result.wall_seconds) << " s: " << failed << " failed, " << held
-     << " held back, " << cached << " cached.\n\n";
+     << " held back, " << findings << " with findings, " << cached << " cached.\n\n";
   if (!result.training.empty()) md << "Training: " << result.training << ".\n\n";
+  std::ostringstream tracker_html;
+  write_trackers(result, md, tracker_html);
   md << "## Stages\n\n"
      << "| kind | stage | status | wall s | note |\n|---|---|---|---|---|\n";
   html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>Nightly "
@@ -169,10 +229,11 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
        << "</h1>\n<p id=\"summary\">Exit code <b>" << result.exit_code << "</b> ("
        << exit_meaning(result.exit_code) << "); " << result.stages.size() << " stages in "
        << static_cast<int>(result.wall_seconds) << " s: " << failed << " failed, " << held
-       << " held back, " << cached << " cached.</p>\n";
+       << " held back, " << findings << " with findings, " << cached << " cached.</p>\n";
   if (!result.training.empty()) {
     html << "<p id=\"training\">Training: " << html_escape(result.training) << ".</p>\n";
   }
+  html << tracker_html.str();
   html << "<h2>Stages</h2>\n<table id=\"stages\">"
        << "<tr><th>kind</th><th>stage</th><th>status</th><th>wall s</th><th>note</th></tr>\n";
   for (const auto& o : result.stages) {
@@ -199,6 +260,26 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
     html << "<h3>" << o.kind << " " << html_escape(o.name) << " — " << html_escape(o.status)
          << "</h3>\n<pre>" << html_escape(o.message) << "</pre>\n<p>Reproduce: <code>"
          << html_escape(o.command) << "</code></p>\n";
+  }
+  if (!any) {
+    md << "None.\n";
+    html << "<p>None.</p>\n";
+  }
+
+  // Findings: a learned model that does not beat a baseline tuned on its regime, with its numbers.
+  // Not failures: the model passed its gates and went on to the regression gate.
+  md << "\n## Findings\n\nA learned model that does not beat a baseline tuned on its regime "
+        "(reported, not a failure).\n\n";
+  html << "<h2>Findings</h2>\n<p>A learned model that does not beat a baseline tuned on its regime "
+          "(reported, not a failure).</p>\n";
+  any = false;
+  for (const auto& o : result.stages) {
+    if (!o.finding) continue;
+    any = true;
+    md << "### " << o.name << "\n\n```\n"
+       << o.message << "\n```\n\nReproduce: `" << o.command << "`\n\n";
+    html << "<h3>" << html_escape(o.name) << "</h3>\n<pre>" << html_escape(o.message)
+         << "</pre>\n<p>Reproduce: <code>" << html_escape(o.command) << "</code></p>\n";
   }
   if (!any) {
     md << "None.\n";
@@ -294,16 +375,17 @@ void write_evaluations_page(const fs::path& page, const NightlyPlan& plan,
   const std::string night = result.report_folder.filename().string();
   md << "# Latest evaluations\n\n"
      << "Written by the nightly of " << night
-     << " (`imm-train all`) from the report of every evaluation stage, in the plan's order; "
+     << " (`imm-train all`) from the report of every evaluation and tracker stage, in the "
+        "plan's order; "
         "rewritten every night, never by hand. Differences carry their 95 % paired-bootstrap "
         "interval over tracks, and \"beats\" means the interval excludes zero. The night's "
         "stages, promotions and benchmarks are in its morning report (reports/nightly/latest/).\n";
   for (const NightlyStage& stage : plan.stages) {
-    if (stage.kind != "evaluation") continue;
-    md << "\n## " << stage.name << "\n\n";
+    if (stage.kind != "evaluation" && stage.kind != "tracker") continue;
+    md << "\n## " << (stage.kind == "tracker" ? "tracker " : "") << stage.name << "\n\n";
     const StageOutcome* outcome = nullptr;
     for (const auto& o : result.stages) {
-      if (o.kind == "evaluation" && o.name == stage.name) outcome = &o;
+      if (o.kind == stage.kind && o.name == stage.name) outcome = &o;
     }
     if (outcome == nullptr) {
       md << "Not run this night.\n";
@@ -313,7 +395,7 @@ void write_evaluations_page(const fs::path& page, const NightlyPlan& plan,
     md << outcome->status << " (exit " << outcome->exit_code << ")";
     if (outcome->cached) md << ", unchanged since " << outcome->night;
     md << "\n\n";
-    const fs::path report = stage.out / "report.md";
+    const fs::path report = (stage.kind == "tracker" ? stage.report : stage.out) / "report.md";
     std::ifstream in(report);
     if (!in) {
       md << "No report (" << report.generic_string() << ")"

@@ -19,6 +19,7 @@
 #include <regex>
 #include <set>
 #include <sstream>
+#include <string_view>
 
 #include "imm/datasets/sha256.hpp"
 #include "imm/io/model_file.hpp"
@@ -61,18 +62,35 @@ std::string tail_of(const fs::path& file, std::size_t lines) {
   return text;
 }
 
-std::string gate_lines(const fs::path& file) {
+namespace {
+
+// The block of `file` that opens with a line starting with `heading` and goes on with "  - " lines.
+std::string block_of(const fs::path& file, std::string_view heading) {
   std::ifstream in(file);
   std::string text;
-  bool in_gates = false;
+  bool inside = false;
   for (std::string line; std::getline(in, line);) {
-    if (line.rfind("Gates", 0) == 0) in_gates = true;
-    if (in_gates && (line.rfind("Gates", 0) == 0 || line.rfind("  - ", 0) == 0)) {
+    if (line.starts_with(heading)) {
+      inside = true;
       text += (text.empty() ? "" : "\n") + line;
-    } else if (in_gates && line.empty()) {
-      in_gates = false;
+    } else if (inside && line.starts_with("  - ")) {
+      text += "\n" + line;
+    } else {
+      inside = false;
     }
   }
+  return text;
+}
+
+}  // namespace
+
+std::string gate_lines(const fs::path& file) {
+  std::string text = block_of(file, "Gates");
+  return text.empty() ? tail_of(file, 3) : text;
+}
+
+std::string findings_lines(const fs::path& file) {
+  std::string text = block_of(file, "Findings");
   return text.empty() ? tail_of(file, 3) : text;
 }
 
@@ -122,6 +140,7 @@ NightlyResult Night::run() {
   bool swept = false;
   for (const NightlyStage& stage : plan_.stages) {
     if (stage.kind == "data" || stage.kind == "track") run_plain(stage);
+    if (stage.kind == "tracker") run_tracker(stage);
     if (stage.kind != "model") continue;
     // The data stages are done (they come first): every candidate can train now.
     if (options_.sweep && !swept) train_in_sweep();

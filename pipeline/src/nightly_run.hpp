@@ -24,6 +24,8 @@ namespace imm::pipeline {
 [[nodiscard]] std::string tail_of(const fs::path& file, std::size_t lines = 4);
 /// The gate lines of an evaluation's report ("Gates …: FAILED" and the failures under it).
 [[nodiscard]] std::string gate_lines(const fs::path& file);
+/// The "Findings" block of an imm-eval report's stdout (its heading and its "  - " lines).
+[[nodiscard]] std::string findings_lines(const fs::path& file);
 /// Copies a stage's stdout (its tables) to ours.
 void echo(const fs::path& file);
 /// An outcome of a stage of that kind and name, not yet run.
@@ -74,6 +76,9 @@ class Night {
   void train_in_sweep();
 
   void run_model(const NightlyStage& stage);
+  // A tracker stage: rank the shipped baseline and learned models of one regime, and promote the
+  // winner as the regime's tracker (nightly_tracker_stage.cpp).
+  void run_tracker(const NightlyStage& stage);
 
   // Temporary files of a run that was killed (".<name>.tmp-<pid>" beside models, archive entries,
   // the manifest and the cache), and its staged candidates.

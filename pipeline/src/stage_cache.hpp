@@ -74,6 +74,7 @@ class StageCache {
         record.outcome.status = r.at("status").get<std::string>();
         record.outcome.failed = r.at("failed").get<bool>();
         record.outcome.held_back = r.at("held_back").get<bool>();
+        record.outcome.finding = r.value("finding", false);
         record.outcome.exit_code = r.at("exit_code").get<int>();
         record.outcome.message = r.at("message").get<std::string>();
         record.outcome.command = r.at("command").get<std::string>();
@@ -134,6 +135,7 @@ class StageCache {
                      {"status", r.outcome.status},
                      {"failed", r.outcome.failed},
                      {"held_back", r.outcome.held_back},
+                     {"finding", r.outcome.finding},
                      {"exit_code", r.outcome.exit_code},
                      {"message", r.outcome.message},
                      {"command", r.outcome.command},

@@ -15,6 +15,7 @@
 #include "imm/support/exit_codes.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
+#include "imm/trainer/ga/tuned_baseline_file.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/ranks.hpp"
@@ -243,6 +244,20 @@ int run_import_rules(const trainer::ImportRulesOptions& options) {
   return 0;
 }
 
+int run_baseline(const TrainCommand& command) {
+  namespace ga = trainer::ga;
+  ga::GaTrainingConfig config = ga::load_ga_config(command.config, command.regime);
+  if (command.seed) config.seed = *command.seed;
+  const ga::TunedBaselineResult result = ga::write_tuned_baseline(std::move(config), command.out);
+  spdlog::info(
+      "baseline: the constant-q IMM tuned on the training split: q [{}], stay {:.4f}, ζ_p + ζ_v "
+      "{:.4f} ({} evaluations); wrote {} ({:.1f} s)",
+      fmt::join(result.baseline.process_noise, ", "), result.baseline.transition_stay,
+      result.baseline.score, result.baseline.evaluations, command.out.string(),
+      result.wall_seconds);
+  return 0;
+}
+
 }  // namespace
 
 void log_as(int rank) {
@@ -288,6 +303,12 @@ TrainingCommands::TrainingCommands(CLI::App& app) {
   fcm_ = add_train_command(app, "fcm",
                            "fit the FCM-IMM's parameters (seed 003) on the regime's training split",
                            fcm_command_);
+  baseline_ = add_train_command(
+      app, "baseline",
+      "write the regime's tuned classical filter: the constant-q IMM per axis, its levels and "
+      "stay probability tuned on the training split (the GA config's level count and budget)",
+      baseline_command_);
+  baseline_->get_option("--out")->required();
   tsk_ = add_train_command(
       app, "tsk", "fit the probabilistic TSK model of a range sensor (seed 002): FCRM, then Ceres",
       tsk_command_);
@@ -311,13 +332,15 @@ int TrainingCommands::run() const {
   if (*tsk_) return train_tsk(tsk_command_, tsk_data_);
   if (*fcm_) return train_fcm(fcm_command_);
   if (*import_) return run_import_rules(import_options_);
+  if (*baseline_) return run_baseline(baseline_command_);
   throw std::logic_error("no training subcommand was chosen");
 }
 
 std::vector<std::pair<const CLI::App*, std::filesystem::path>> TrainingCommands::outputs() const {
-  return {{ga_, ga_command_.out},        {freeze_, freeze_options_.out}, {mlp_, mlp_command_.out},
-          {wimm_, wimm_command_.out},    {fcm_, fcm_command_.out},       {tsk_, tsk_command_.out},
-          {import_, import_options_.out}};
+  return {{ga_, ga_command_.out},         {freeze_, freeze_options_.out},
+          {mlp_, mlp_command_.out},       {wimm_, wimm_command_.out},
+          {fcm_, fcm_command_.out},       {tsk_, tsk_command_.out},
+          {import_, import_options_.out}, {baseline_, baseline_command_.out}};
 }
 
 void parse_job(CLI::App& app, const SweepJob& job) {

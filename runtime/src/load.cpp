@@ -19,14 +19,16 @@
 namespace imm {
 namespace {
 
+// The spec read once, shared by every filter the maker builds.
 template <class Spec, class Make>
-void build(LoadedFilter& loaded, const Spec& spec, std::int64_t max_gap, Make&& make) {
+void build(FilterMaker& loaded, Spec spec, std::int64_t max_gap, Make make) {
   loaded.options = spec.track_options(max_gap);
-  loaded.filter = make(spec);
+  auto shared = std::make_shared<const Spec>(std::move(spec));
+  loaded.make = [shared = std::move(shared), make = std::move(make)] { return make(*shared); };
 }
 
-LoadedFilter load(const io::ModelFileReader& reader, std::int64_t max_gap) {
-  LoadedFilter loaded;
+FilterMaker load(const io::ModelFileReader& reader, std::int64_t max_gap) {
+  FilterMaker loaded;
   loaded.provenance = reader.provenance();
   const std::string& kind = loaded.provenance.model_kind;
   if (kind == io::kPlainImmKind) {
@@ -48,9 +50,8 @@ LoadedFilter load(const io::ModelFileReader& reader, std::int64_t max_gap) {
                   "missing: the file predates stored FIMM settings (retrain it with imm-train tsk; "
                   "until then build FimmFilter with the [fimm] settings of its training config)");
     }
-    build(loaded, *fimm, max_gap, [&](const FimmSpec& spec) {
-      return std::make_unique<FimmFilter>(spec, std::move(sensor));
-    });
+    build(loaded, *fimm, max_gap,
+          [sensor](const FimmSpec& spec) { return std::make_unique<FimmFilter>(spec, sensor); });
   } else {
     std::string known;
     for (std::string_view k : loadable_model_kinds())
@@ -78,9 +79,28 @@ LoadedFilter load_filter(const std::filesystem::path& path, std::int64_t max_gap
   return load_filter(io::ModelFileReader(path), max_gap);
 }
 
+FilterMaker load_filter_maker(const io::ModelFileReader& reader, std::int64_t max_gap) {
+  try {
+    FilterMaker maker = load(reader, max_gap);
+    maker.make();  // a spec its filter refuses is refused here, naming the field
+    return maker;
+  } catch (const InvalidParameter& invalid) {
+    reader.fail(invalid.field(), invalid.what());
+  }
+}
+
+FilterMaker load_filter_maker(const std::filesystem::path& path, std::int64_t max_gap) {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) {
+    throw io::FileError(path.string(), "", "no such model file");
+  }
+  return load_filter_maker(io::ModelFileReader(path), max_gap);
+}
+
 LoadedFilter load_filter(const io::ModelFileReader& reader, std::int64_t max_gap) {
   try {
-    return load(reader, max_gap);
+    FilterMaker maker = load(reader, max_gap);
+    return {maker.make(), std::move(maker.options), std::move(maker.provenance)};
   } catch (const InvalidParameter& invalid) {
     reader.fail(invalid.field(), invalid.what());
   }

@@ -18,7 +18,7 @@ TEST(Nightly, PlanListsStagesInPipelineOrder) {
   for (const auto& stage : plan.stages) kinds.push_back(stage.kind);
   EXPECT_TRUE(std::is_sorted(kinds.begin(), kinds.end(), [](const auto& a, const auto& b) {
     auto rank = [](const std::string& k) {
-      return k == "data" ? 0 : k == "model" ? 1 : k == "track" ? 2 : 3;
+      return k == "data" ? 0 : k == "model" ? 1 : k == "track" ? 2 : k == "evaluation" ? 3 : 4;
     };
     return rank(a) < rank(b);
   }));
@@ -50,6 +50,46 @@ TEST(Nightly, AnEvaluationMustNameAModelStage) {
     FAIL();
   } catch (const support::ConfigError& error) {
     EXPECT_EQ(error.key(), "evaluations[0].model");
+  }
+}
+
+TEST(Nightly, ATrackerRanksItsModelsFilesAndShipsIntoTheRegistry) {
+  const testing::TempDir dir;
+  const std::string models =
+      "[[models]]\nname = \"base\"\ncommand = \"baseline\"\nconfig = \"c\"\n"
+      "out = \"models/base.h5\"\n[[models]]\nname = \"ga\"\ncommand = \"ga\"\nconfig = \"c\"\n"
+      "out = \"models/ga.h5\"\n";
+  testing::write_text(dir / "n.toml", models +
+                                          "[[trackers]]\nname = \"r\"\nbaseline = \"base\"\n"
+                                          "candidates = [\"ga\"]\nout = \"models/r/tracker.h5\"\n"
+                                          "report = \"reports/r/\"\nruns = 20\n");
+  const NightlyPlan plan = load_nightly_plan(dir / "n.toml");
+  const NightlyStage& tracker = plan.stages.back();
+  EXPECT_EQ(tracker.kind, "tracker");
+  EXPECT_EQ(tracker.executable, "imm-eval");
+  EXPECT_EQ(tracker.arguments,
+            (std::vector<std::string>{"rank", "--baseline", "models/base.h5", "--candidates",
+                                      "models/ga.h5", "--out", "reports/r/", "--runs", "20",
+                                      "--ship", "models/r/tracker.h5"}));
+  EXPECT_EQ(tracker.out_argument, tracker.arguments.size() - 1);
+
+  for (const auto& [tracker_text, key] : std::vector<std::pair<std::string, std::string>>{
+           {"baseline = \"none\"\ncandidates = [\"ga\"]\nout = \"models/t.h5\"\n",
+            "trackers[0].baseline"},
+           {"baseline = \"base\"\ncandidates = [\"ga\", \"x\"]\nout = \"models/t.h5\"\n",
+            "trackers[0].candidates"},
+           {"baseline = \"base\"\ncandidates = []\nout = \"models/t.h5\"\n",
+            "trackers[0].candidates"},
+           {"baseline = \"base\"\ncandidates = [\"ga\"]\nout = \"elsewhere/t.h5\"\n",
+            "trackers[0].out"}}) {
+    testing::write_text(dir / "bad.toml",
+                        models + "[[trackers]]\nname = \"r\"\nreport = \"x/\"\n" + tracker_text);
+    try {
+      (void)load_nightly_plan(dir / "bad.toml");
+      ADD_FAILURE() << tracker_text;
+    } catch (const support::ConfigError& error) {
+      EXPECT_EQ(error.key(), key) << tracker_text;
+    }
   }
 }
 

@@ -74,6 +74,34 @@ TEST(LoadTracker, EveryShippedTrackFilterEqualsItsKindSpecificRecipe) {
 
 // The input estimator: x and y each an MlpInputEstimatorFilter of the file's model, started by hand
 // as a two-point start (p = z₂, v = (z₂ − z₁)/T, cov [[R, R/T], [R/T, 2R/T²]]).
+// A maker reads the file once and builds filters that are independent of each other (one track
+// does not move another) and equal, step for step, to load_tracker's.
+TEST(LoadFilterMaker, EveryShippedKindMakesIndependentFiltersEqualToLoadTrackers) {
+  int compared = 0;
+  for (const auto& path : testing::shipped_models()) {
+    SCOPED_TRACE(path.string());
+    const FilterMaker maker = load_filter_maker(path);
+    Tracker first(maker.make(), maker.options), second(maker.make(), maker.options);
+    Tracker expected = load_tracker(path);
+    const auto plots = testing::seeded_plots(maker.options, 11, kScans);
+    for (const auto& [k, z] : plots) {
+      const TrackStepResult a = first.process(k, z), b = expected.process(k, z);
+      ASSERT_EQ(a.event, b.event) << "scan " << k;
+      if (!first.initialized()) continue;
+      const Estimate x(first), y(expected);
+      ASSERT_TRUE((x.mean.array() == y.mean.array()).all()) << "scan " << k;
+      ASSERT_TRUE((x.variance.array() == y.variance.array()).all()) << "scan " << k;
+    }
+    EXPECT_FALSE(second.initialized());  // untouched by the first track
+    for (const auto& [k, z] : plots) (void)second.process(k, z);
+    const Estimate x(first), y(second);
+    EXPECT_TRUE((x.mean.array() == y.mean.array()).all());
+    ++compared;
+  }
+  EXPECT_GE(compared, 6);
+  EXPECT_THROW((void)load_filter_maker("no/such/model.h5"), io::FileError);
+}
+
 TEST(LoadTracker, InputEstimatorTracksAsTwoIndependentAxisFilters) {
   int compared = 0;
   for (const auto& path : testing::shipped_models()) {

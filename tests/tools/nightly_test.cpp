@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
+#include "testing/regime_files.hpp"
 #include "testing/run_tool.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -204,6 +205,60 @@ TEST(NightlyProduct, AFailingStageDoesNotStopTheOthers) {
   if (plots) {
     EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
   }
+}
+
+// A night whose only news is that a model ties the regime's tuned baseline: the tracker stage
+// ranks both shipped files, ships the baseline as the regime's tracker (the other does not beat
+// it beyond the interval — here it is the same filter under another config text, so it ties to
+// the bit), reports that as a finding, and the night exits 0.
+TEST(NightlyProduct, ANightWhoseOnlyNewsIsATieWithTheBaselineIsGreenAndShipsTheBaseline) {
+  const testing::TempDir dir;
+  const auto regime =
+      testing::write_preset_variant(dir, "ga_imm_training",
+                                    {{"name = \"ga_imm_training\"", "name = \"small\""},
+                                     {"scans = 160", "scans = 60"},
+                                     {"training = 9", "training = 2"},
+                                     {"validation = 6", "validation = 1"},
+                                     {"test = 100", "test = 10"}});
+  const std::string tuned = slurp("configs/ga_fuzzy_imm_tuned.toml");
+  std::ofstream(dir / "tuned.toml") << tuned;
+  std::ofstream(dir / "again.toml") << "# the same filter under another config text\n" << tuned;
+  const fs::path registry = dir / "models";
+  const auto model = [&](const std::string& name, const std::string& config) {
+    return "[[models]]\nname = \"" + name + "\"\ncommand = \"baseline\"\nconfig = \"" +
+           (dir / config).string() + "\"\nregime = \"" + regime.string() + "\"\nout = \"" +
+           (registry / (name + ".h5")).string() + "\"\n\n";
+  };
+  const Plan p{dir.path(), registry, dir / "nightly.toml", dir / "nightly"};
+  std::ofstream(p.plan) << "registry = \"" << registry.string() << "\"\n"
+                        << "allow_dirty_trainer = true\n"
+                        << model("base", "tuned.toml") << model("again", "again.toml")
+                        << "[[trackers]]\nname = \"small\"\nbaseline = \"base\"\n"
+                        << "candidates = [\"again\"]\nout = \""
+                        << (registry / "small" / "tracker.h5").string() << "\"\nreport = \""
+                        << (dir / "reports" / "small").string() << "\"\n";
+  const auto run = nightly(p);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(slurp(registry / "small" / "tracker.h5"), slurp(registry / "base.h5"));
+  const auto m = manifest(p);
+  nlohmann::json tracker;
+  for (const auto& entry : m["models"]) {
+    if (entry["name"] == "small") tracker = entry;
+  }
+  ASSERT_FALSE(tracker.is_null()) << m.dump(2);
+  EXPECT_EQ(tracker["file"], "small/tracker.h5");
+  EXPECT_EQ(tracker["metrics"]["tracker"], "base");
+  ASSERT_EQ(tracker["metrics"]["ranking"].size(), 2u);
+  EXPECT_EQ(tracker["metrics"]["ranking"][1]["verdict"], "ties");
+  const std::string report = slurp(p.reports / "latest" / "index.md");
+  EXPECT_NE(report.find("## The regime's trackers"), std::string::npos) << report;
+  EXPECT_NE(report.find("no learned model beats the tuned baseline"), std::string::npos) << report;
+  EXPECT_NE(report.find("1 with findings"), std::string::npos) << report;
+  EXPECT_NE(report.find("again ties the tuned baseline"), std::string::npos) << report;
+  // Unchanged inputs: the tracker stage is cached like any other.
+  const auto again = nightly(p);
+  EXPECT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_NE(again.err.find("cached"), std::string::npos) << again.err;
 }
 
 // `imm-train all --sweep` trains every stale candidate first in one `imm-train sweep`, then

@@ -85,6 +85,7 @@ int run(int argc, char** argv) {
   imm::evaluation::add_wimm_command(app, exit_code);
   imm::evaluation::add_fcm_imm_command(app, exit_code);
   imm::evaluation::add_fimm_command(app, exit_code);
+  imm::evaluation::add_rank_command(app, exit_code);
   imm::evaluation::add_regression_command(app, exit_code);
   // Everything an experiment prints also goes into its folder's report.md.
   imm::evaluation::ReportRecorder recorder(argc, argv);
@@ -121,9 +122,9 @@ int main(int argc, char** argv) {
     }
   }
   // A rank that fails alone must not leave the others waiting in the next exchange; a gate's or
-  // the regression's verdict is the same on every rank.
+  // the regression's verdict and the findings are the same on every rank.
   if (code != 0 && code != imm::support::exit_code::kEvaluationGateFailed &&
-      code != imm::support::exit_code::kRegression) {
+      code != imm::support::exit_code::kRegression && code != imm::support::exit_code::kFindings) {
     imm::trainer::Ranks::world().abort_job(code);
   }
   return code;

@@ -17,6 +17,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -37,6 +38,13 @@ struct IMM_RUNTIME_EXPORT LoadedFilter {
   io::Provenance provenance;            ///< model_kind, trainer version, regime, …
 };
 
+/// A model file read once, building as many fresh filters as wanted (one per track), all alike.
+struct IMM_RUNTIME_EXPORT FilterMaker {
+  std::function<std::unique_ptr<TrackFilter>()> make;  ///< a fresh filter, ready to initialize
+  TrackOptions options;                                ///< the plots' space and noise, the start
+  io::Provenance provenance;                           ///< model_kind, trainer version, regime, …
+};
+
 /// The model kinds load_filter reads.
 [[nodiscard]] IMM_RUNTIME_EXPORT const std::vector<std::string_view>& loadable_model_kinds();
 
@@ -49,6 +57,14 @@ struct IMM_RUNTIME_EXPORT LoadedFilter {
 /// The same from a reader the caller has already opened (the file is read once).
 [[nodiscard]] IMM_RUNTIME_EXPORT LoadedFilter load_filter(const io::ModelFileReader& reader,
                                                           std::int64_t max_gap = kDefaultMaxGap);
+
+/// The same, read once for many tracks: `make()` builds each track's filter from the one spec.
+/// Throws io::FileError as load_filter does.
+[[nodiscard]] IMM_RUNTIME_EXPORT FilterMaker
+load_filter_maker(const std::filesystem::path& path, std::int64_t max_gap = kDefaultMaxGap);
+/// The same from a reader the caller has already opened.
+[[nodiscard]] IMM_RUNTIME_EXPORT FilterMaker
+load_filter_maker(const io::ModelFileReader& reader, std::int64_t max_gap = kDefaultMaxGap);
 
 /// load_filter() wrapped in a Tracker: the track starts, predicts through gaps and rejects bad
 /// plots as TrackOptions say.

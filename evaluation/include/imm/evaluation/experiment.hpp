@@ -111,10 +111,23 @@ struct CaseTracks {
 [[nodiscard]] std::vector<CaseTracks> tracks_by_case(const datasets::Regime& regime,
                                                      const datasets::TrackSet& data);
 
+/// Whether `regime` is one of the papers' own scenarios (a preset of configs/regimes/paper/, by
+/// name). There a learned model must reproduce its paper's claim — beat the paper's baseline
+/// beyond the uncertainty — and not doing so is a gate failure. On any other regime the gate is
+/// that it is not *worse* than the paper's baseline beyond the uncertainty; not beating it is a
+/// finding (something learned, reported with its numbers), not something broken.
+[[nodiscard]] bool paper_scenario(const datasets::Regime& regime);
+
 /// The closing lines of a report: where it went, the gate failures on stderr (unless printed
-/// already), and the exit code.
+/// already), and the exit code: kEvaluationGateFailed when a gate failed (something is broken: the
+/// learned model is worse than a paper baseline), else kFindings when there are findings (the
+/// learned model does not beat a baseline tuned on its regime — reported, not a failure), else 0.
 int finish_report(const std::filesystem::path& out, bool plotted,
-                  const std::vector<std::string>& failures, bool failures_printed = false);
+                  const std::vector<std::string>& failures, bool failures_printed = false,
+                  const std::vector<std::string>& findings = {});
+
+/// Prints the findings block of a report ("Findings (…): none" or one line each), after the gates.
+void print_findings(const std::vector<std::string>& findings);
 
 /// Runs an experiment's body, turning exceptions into a message and support::exit_code::kBadInput.
 int guarded(const std::function<int()>& body);
@@ -127,5 +140,6 @@ void add_input_estimator_command(CLI::App& app, ExitCode& exit_code);
 void add_wimm_command(CLI::App& app, ExitCode& exit_code);
 void add_fcm_imm_command(CLI::App& app, ExitCode& exit_code);
 void add_fimm_command(CLI::App& app, ExitCode& exit_code);
+void add_rank_command(CLI::App& app, ExitCode& exit_code);
 
 }  // namespace imm::evaluation

@@ -23,13 +23,21 @@
 ///   [[tracks]]       filter, measurements, out
 ///   [[evaluations]]  experiment, model (a [[models]] name), out, [models], [regime], [runs],
 ///                    [seed], [arguments]
+///   [[trackers]]     name, baseline (a [[models]] name: `imm-train baseline`), candidates (the
+///                    [[models]] names of the learned models of the same regime), out (the
+///                    regime's tracker file, in the registry), report, [runs], [seed]
+///
+/// A tracker stage runs after every model stage: `imm-eval rank` over the *shipped* files of its
+/// baseline and candidates (a candidate never shipped is left out), and the winner is promoted
+/// as the regime's tracker under the stage's name, its ranking in the manifest entry's metrics.
 ///
 /// With `sweep`, the candidates that are not cached are all trained first, in one `imm-train sweep`
 /// (under `launcher`: `mpirun -np 8`, `srun`), into the staging folder; then each model stage
 /// evaluates and promotes its candidate as above.
 ///
-/// Exit codes of the run: 0 everything promoted or unchanged, 3 a stage failed, 6 no stage failed
-/// but a candidate was held back by the regression gate.
+/// Exit codes of the run: 0 nothing failed and nothing was held back (findings — a learned model
+/// that does not beat the baseline tuned on its regime — are reported, not failures), 3 a stage
+/// failed, 6 no stage failed but a candidate was held back by the regression gate.
 
 #include <filesystem>
 #include <functional>
@@ -40,14 +48,15 @@
 namespace imm::pipeline {
 
 struct NightlyStage {
-  std::string kind;        ///< "data", "model", "track", "evaluation"
+  std::string kind;        ///< "data", "model", "track", "evaluation", "tracker"
   std::string name;        ///< for the log and the report
   std::string executable;  ///< imm-data, imm-train, imm-track, imm-eval
   std::vector<std::string> arguments;
   std::vector<std::filesystem::path> output_folders;  ///< created before the stage runs
-  std::filesystem::path out;  ///< the model file (model), the report folder (evaluation), …
-  std::string model;          ///< evaluation: the [[models]] stage it evaluates
-  bool has_regime = false;    ///< evaluation: --regime given
+  std::filesystem::path out;     ///< the model file (model), the report folder (evaluation), …
+  std::string model;             ///< evaluation: the [[models]] stage it evaluates
+  std::filesystem::path report;  ///< tracker: the ranking's report folder
+  bool has_regime = false;       ///< evaluation: --regime given
   /// The `--out` / `--model` value's index in `arguments` (replaced for candidates).
   std::optional<std::size_t> out_argument, model_argument;
 };
@@ -72,8 +81,11 @@ struct NightlyPlan {
 /// What happened to one stage in a night.
 struct StageOutcome {
   std::string kind, name;
-  std::string status;  ///< ok, cached, failed, promoted, held back, first, blocked
+  std::string status;  ///< ok, finding, cached, failed, promoted, held back, first, blocked
   bool failed = false, held_back = false, cached = false;
+  /// evaluation: it exited kFindings (the learned model does not beat a baseline tuned on its
+  /// regime; reported with its numbers in `message`, not a failure).
+  bool finding = false;
   int exit_code = 0;
   double wall_seconds = 0.0;
   std::string message;               ///< why it failed or was held back, or what it did

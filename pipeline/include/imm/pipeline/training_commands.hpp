@@ -64,10 +64,11 @@ class TrainingCommands {
       "configs/mlp_input_estimator.toml", "models/mlp_input_estimator.h5", {}, {}};
   TrainCommand wimm_command_{"configs/wimm.toml", "models/wimm.h5", {}, {}};
   TrainCommand fcm_command_{"configs/fcm_imm.toml", "models/fcm_imm.h5", {}, {}};
+  TrainCommand baseline_command_{"configs/ga_fuzzy_imm_tuned.toml", {}, {}, {}};
   TrainCommand tsk_command_{"configs/tsk_range_sensor.toml", "models/tsk_range_sensor.h5", {}, {}};
   std::filesystem::path tsk_data_;
   CLI::App *freeze_ = nullptr, *ga_ = nullptr, *import_ = nullptr, *mlp_ = nullptr,
-           *wimm_ = nullptr, *fcm_ = nullptr, *tsk_ = nullptr;
+           *wimm_ = nullptr, *fcm_ = nullptr, *tsk_ = nullptr, *baseline_ = nullptr;
 };
 
 /// A sweep job's arguments parsed as its subcommand's command line; a CLI::ParseError when they

@@ -19,5 +19,9 @@ inline constexpr int kTrainingGateFailed = 4;
 inline constexpr int kEvaluationGateFailed = 5;
 /// imm-eval regression: the candidate is worse than the shipped model beyond the interval.
 inline constexpr int kRegression = 6;
+/// imm-eval <experiment>: every gate passed, and the report has findings — the learned model does
+/// not beat a baseline tuned on its regime. Reported with its numbers; not a failure (the nightly
+/// promotes such a model and stays green).
+inline constexpr int kFindings = 7;
 
 }  // namespace imm::support::exit_code

@@ -1,0 +1,43 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// The regime's tracker: which filter a tracking application should load for a regime, chosen
+/// among the learned models trained for it and the tuned classical baseline, on the same test
+/// tracks (`imm-eval rank`).
+///
+/// The rule: a learned model is eligible only when it *beats* the baseline (verdict() over ζ_p
+/// and ζ_v: better beyond the 95 % paired-bootstrap interval in at least one, worse in neither).
+/// Among the eligible ones the lowest ζ_p + ζ_v wins; when none is eligible the baseline is
+/// shipped — a learned model that only ties it has not earned its extra parts.
+
+#include <cstddef>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "imm/evaluation/uncertainty.hpp"
+
+namespace imm::evaluation {
+
+struct RankedFilter {
+  std::string name;  ///< the model file's stem
+  std::string kind;  ///< its model_kind
+  bool baseline = false;
+  double zeta_p = 0.0, zeta_v = 0.0;
+  double position_rmse = 0.0, velocity_rmse = 0.0;
+  Difference versus_baseline_p, versus_baseline_v;  ///< this − baseline (zero for the baseline)
+};
+
+struct TrackerChoice {
+  std::size_t winner = 0;          ///< index into the filters
+  std::vector<std::size_t> order;  ///< every filter by ζ_p + ζ_v, lowest first
+  std::string reason;              ///< why the winner won, in one sentence with its numbers
+};
+
+/// Applies the rule above. Throws std::invalid_argument unless exactly one filter is the baseline.
+[[nodiscard]] TrackerChoice choose_tracker(std::span<const RankedFilter> filters);
+
+/// The verdict of a filter against the baseline ("beats", "ties", "loses to", "mixed"; "—" for the
+/// baseline itself).
+[[nodiscard]] std::string verdict_against_baseline(const RankedFilter& filter);
+
+}  // namespace imm::evaluation

@@ -1,0 +1,195 @@
+// SPDX-License-Identifier: Apache-2.0
+// `imm-eval rank`: the regime's tracker. The tuned classical baseline (`imm-train baseline`) and
+// every learned model trained for the regime run on the same test tracks through imm::load_filter
+// — exactly as a tracking application would run them — and are ranked by seed 000's ζ_p + ζ_v,
+// each with its difference from the baseline and the 95 % paired-bootstrap interval. The winner is
+// chosen by the rule of tracker_choice.hpp (a learned model must beat the baseline beyond the
+// interval) and, with --ship, written as the regime's tracker file. A learned model that does not
+// beat the baseline is a finding (exit 7), not a failure: the baseline is shipped in its place.
+
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <system_error>
+
+#include "imm/evaluation/evaluation_report.hpp"
+#include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/monte_carlo.hpp"
+#include "imm/evaluation/report.hpp"
+#include "imm/evaluation/tracker_choice.hpp"
+#include "imm/load.hpp"
+#include "imm/support/cli.hpp"
+#include "imm/trainer/provenance.hpp"
+
+namespace imm::evaluation {
+namespace {
+
+struct RankOptions {
+  std::filesystem::path baseline;
+  std::vector<std::filesystem::path> candidates;
+  std::optional<std::filesystem::path> regime;
+  std::optional<int> runs;
+  std::uint64_t seed = 1;
+  std::filesystem::path out = "reports/rank";
+  std::optional<std::filesystem::path> ship;
+};
+
+// `from` copied to `to` through a temporary beside it and a rename: a reader sees the old file or
+// the whole new one.
+void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to) {
+  if (!to.parent_path().empty()) std::filesystem::create_directories(to.parent_path());
+  std::filesystem::path temporary = to;
+  temporary += ".tmp";
+  std::filesystem::copy_file(from, temporary, std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::rename(temporary, to);
+}
+
+int run(const RankOptions& options) {
+  const datasets::RegimeFile regime = load_regime_option(options.regime.value_or(options.baseline));
+  CommonOptions common;
+  common.runs = options.runs;
+  common.seed = options.seed;
+  const datasets::TrackSet data = test_tracks(regime.regime, common);
+  const int runs = static_cast<int>(data.tracks.size());
+
+  std::vector<std::filesystem::path> files{options.baseline};
+  files.insert(files.end(), options.candidates.begin(), options.candidates.end());
+  std::vector<FilterOutcome> outcomes;
+  std::vector<RankedFilter> ranked;
+  for (const auto& file : files) {
+    const FilterMaker maker = load_filter_maker(file);
+    const EvaluationRegimes regimes = evaluation_regimes(regime, maker.provenance, file);
+    if (regimes.off_training()) {
+      throw std::runtime_error("model " + file.string() + ": trained for regime " +
+                               regimes.trained.regime.name + ", not " + regime.regime.name +
+                               ": a regime's tracker is chosen among its own models");
+    }
+    outcomes.push_back(run_monte_carlo(file.stem().string(), maker.make, maker.options, data));
+    RankedFilter r;
+    r.name = file.stem().string();
+    r.kind = maker.provenance.model_kind;
+    r.baseline = ranked.empty();
+    r.zeta_p = outcomes.back().zeta_p;
+    r.zeta_v = outcomes.back().zeta_v;
+    r.position_rmse = outcomes.back().position_rmse;
+    r.velocity_rmse = outcomes.back().velocity_rmse;
+    if (!r.baseline) {
+      r.versus_baseline_p = paired_difference(runs, outcomes.back().zeta_p_statistic(),
+                                              outcomes.front().zeta_p_statistic());
+      r.versus_baseline_v = paired_difference(runs, outcomes.back().zeta_v_statistic(),
+                                              outcomes.front().zeta_v_statistic());
+    }
+    ranked.push_back(std::move(r));
+  }
+  const TrackerChoice choice = choose_tracker(ranked);
+
+  const std::string length(datasets::to_string(regime.regime.units));
+  std::vector<std::vector<std::string>> rows;
+  for (std::size_t place = 0; place < choice.order.size(); ++place) {
+    const RankedFilter& f = ranked[choice.order[place]];
+    rows.push_back({std::to_string(place + 1), f.name + (f.baseline ? " (tuned baseline)" : ""),
+                    f.kind, cell(f.zeta_p), cell(f.zeta_v),
+                    f.baseline ? "–" : f.versus_baseline_p.text(),
+                    f.baseline ? "–" : f.versus_baseline_v.text(), verdict_against_baseline(f),
+                    cell(f.position_rmse), cell(f.velocity_rmse, 5)});
+  }
+  std::cout << "rank: regime " << regime.regime.name << " test split, seed " << options.seed << ", "
+            << runs << " tracks x " << data.scans << " scans\n\n"
+            << markdown_table(
+                   {"place", "filter", "kind", "ζ_p", "ζ_v", "this − baseline ζ_p [95 %]",
+                    "this − baseline ζ_v [95 %]", "against the baseline",
+                    "position RMSE (" + length + ")", "velocity RMSE (" + length + "/s)"},
+                   rows)
+            << '\n'
+            << kDifferenceConvention << ' ' << kVerdictRule
+            << "\nThe rule: a learned model is the tracker only when it beats the tuned baseline; "
+               "among those that do, the lowest ζ_p + ζ_v.\n\nConsistency:\n\n"
+            << consistency_table(outcomes) << "\nTracker: " << ranked[choice.winner].name << " — "
+            << choice.reason << '\n';
+
+  std::vector<std::string> findings;
+  for (const RankedFilter& f : ranked) {
+    if (!f.baseline && verdict_against_baseline(f) != "beats") {
+      findings.push_back(f.name + " " + verdict_against_baseline(f) + " the tuned baseline (ζ_p " +
+                         f.versus_baseline_p.text() + ", ζ_v " + f.versus_baseline_v.text() + ")");
+    }
+  }
+  std::cout << "\nGates: none (every model here passed its own experiment's gates)\n";
+  print_findings(findings);
+
+  const std::filesystem::path& out = options.out;
+  std::filesystem::create_directories(out);
+  nlohmann::json results;
+  results["tracker"] = ranked[choice.winner].name;
+  results["tracker_file"] = files[choice.winner].string();
+  results["reason"] = choice.reason;
+  results["rule"] =
+      "a learned model is the tracker only when it beats the tuned baseline (verdict over ζ_p "
+      "and ζ_v); among those that do, the lowest ζ_p + ζ_v; otherwise the baseline";
+  for (std::size_t place = 0; place < choice.order.size(); ++place) {
+    const std::size_t i = choice.order[place];
+    const RankedFilter& f = ranked[i];
+    nlohmann::json row = {{"place", place + 1},
+                          {"filter", f.name},
+                          {"file", files[i].string()},
+                          {"kind", f.kind},
+                          {"baseline", f.baseline},
+                          {"zeta_p", f.zeta_p},
+                          {"zeta_v", f.zeta_v},
+                          {"position_rmse", f.position_rmse},
+                          {"velocity_rmse", f.velocity_rmse},
+                          {"verdict", verdict_against_baseline(f)},
+                          {"position_nees", outcomes[i].position_consistency.average}};
+    if (!f.baseline) {
+      row["versus_baseline"] = {
+          {"zeta_p",
+           {f.versus_baseline_p.estimate, f.versus_baseline_p.lower, f.versus_baseline_p.upper}},
+          {"zeta_v",
+           {f.versus_baseline_v.estimate, f.versus_baseline_v.lower, f.versus_baseline_v.upper}}};
+    }
+    results["ranking"].push_back(row);
+  }
+  results["findings"] = findings;
+  std::vector<ModelUse> more;
+  for (std::size_t i = 1; i < files.size(); ++i) more.push_back({"candidate", files[i]});
+  const HeadlineRuns evaluated{"rank",        options.baseline, regime.regime.name,
+                               data.digest(), options.seed,     runs};
+  write_metrics(out, evaluated, normalized_error_definitions(length, "baseline", true), results,
+                more);
+  trainer::write_json_atomically(out / "tracker.json", results);
+  if (options.ship) {
+    copy_atomically(files[choice.winner], *options.ship);
+    std::cout << "shipped " << files[choice.winner].string() << " as " << options.ship->string()
+              << '\n';
+  }
+  std::cout << "\nwrote metrics.json and tracker.json in " << out.string() << '\n';
+  return findings.empty() ? 0 : support::exit_code::kFindings;
+}
+
+}  // namespace
+
+void add_rank_command(CLI::App& app, ExitCode& exit_code) {
+  auto options = std::make_shared<RankOptions>();
+  auto* command = app.add_subcommand(
+      "rank",
+      "the regime's tracker: the tuned baseline and the learned models of one regime ranked on "
+      "its test split, the winner written with --ship");
+  command
+      ->add_option("--baseline", options->baseline,
+                   "the regime's tuned classical filter (imm-train baseline)")
+      ->required();
+  command
+      ->add_option("--candidates", options->candidates,
+                   "learned model files trained for the same regime")
+      ->required();
+  command->add_option("--regime", options->regime,
+                      "regime TOML (default: the one recorded in the baseline)");
+  command->add_option("--runs", options->runs, "test tracks (default: the regime's test split)")
+      ->check(support::at_least(1));
+  command->add_option("--seed", options->seed, "seed of the test tracks");
+  command->add_option("--out", options->out, "report folder");
+  command->add_option("--ship", options->ship, "write the winning model file here (atomically)");
+  command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
+}
+
+}  // namespace imm::evaluation

@@ -1,0 +1,69 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/evaluation/tracker_choice.hpp"
+
+#include <algorithm>
+#include <array>
+#include <numeric>
+#include <stdexcept>
+
+namespace imm::evaluation {
+
+std::string verdict_against_baseline(const RankedFilter& filter) {
+  if (filter.baseline) return "—";
+  const std::array<Difference, 2> differences{filter.versus_baseline_p, filter.versus_baseline_v};
+  return std::string(verdict(differences));
+}
+
+TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
+  const auto baselines =
+      std::count_if(filters.begin(), filters.end(), [](const auto& f) { return f.baseline; });
+  if (baselines != 1) {
+    throw std::invalid_argument("choose_tracker: exactly one filter must be the baseline, not " +
+                                std::to_string(baselines));
+  }
+  TrackerChoice choice;
+  choice.order.resize(filters.size());
+  std::iota(choice.order.begin(), choice.order.end(), std::size_t{0});
+  const auto score = [&](std::size_t i) { return filters[i].zeta_p + filters[i].zeta_v; };
+  std::stable_sort(choice.order.begin(), choice.order.end(),
+                   [&](std::size_t a, std::size_t b) { return score(a) < score(b); });
+
+  const auto baseline = static_cast<std::size_t>(
+      std::find_if(filters.begin(), filters.end(), [](const auto& f) { return f.baseline; }) -
+      filters.begin());
+  choice.winner = baseline;
+  std::vector<std::string> beaten_by, not_earned;
+  for (std::size_t i : choice.order) {
+    if (i == baseline) continue;
+    const std::string v = verdict_against_baseline(filters[i]);
+    if (v == "beats") {
+      if (choice.winner == baseline) choice.winner = i;
+      beaten_by.push_back(filters[i].name);
+    } else {
+      not_earned.push_back(filters[i].name + " " + v + " it (ζ_p " +
+                           filters[i].versus_baseline_p.text() + ", ζ_v " +
+                           filters[i].versus_baseline_v.text() + ")");
+    }
+  }
+  const auto joined = [](const std::vector<std::string>& parts) {
+    std::string text;
+    for (const auto& p : parts) text += (text.empty() ? "" : "; ") + p;
+    return text;
+  };
+  const RankedFilter& w = filters[choice.winner];
+  if (choice.winner == baseline) {
+    choice.reason = "no learned model beats the tuned baseline beyond the 95 % interval" +
+                    (not_earned.empty() ? std::string() : " (" + joined(not_earned) + ")") +
+                    ", so the baseline " + w.name + " is the regime's tracker";
+  } else {
+    choice.reason =
+        w.name + " beats the tuned baseline (ζ_p " + w.versus_baseline_p.text() + ", ζ_v " +
+        w.versus_baseline_v.text() + ")" +
+        (beaten_by.size() > 1 ? " and has the lowest ζ_p + ζ_v of the " +
+                                    std::to_string(beaten_by.size()) + " learned models that do"
+                              : std::string());
+  }
+  return choice;
+}
+
+}  // namespace imm::evaluation

@@ -1,0 +1,93 @@
+// SPDX-License-Identifier: Apache-2.0
+// The regime's tracker chosen from planted rankings, and the exit codes of a report with gate
+// failures, findings, or neither.
+#include "imm/evaluation/tracker_choice.hpp"
+
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+#include <vector>
+
+#include "imm/evaluation/experiment.hpp"
+#include "imm/support/exit_codes.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm::evaluation {
+namespace {
+
+constexpr Difference kBetter{-0.02, -0.03, -0.01};
+constexpr Difference kWorse{+0.02, +0.01, +0.03};
+constexpr Difference kTied{-0.001, -0.004, +0.002};
+
+RankedFilter baseline(double zeta_p = 0.50, double zeta_v = 0.60) {
+  RankedFilter f;
+  f.name = "baseline_imm";
+  f.baseline = true;
+  f.zeta_p = zeta_p;
+  f.zeta_v = zeta_v;
+  return f;
+}
+
+RankedFilter learned(std::string name, double zeta_p, double zeta_v, Difference p, Difference v) {
+  RankedFilter f;
+  f.name = std::move(name);
+  f.zeta_p = zeta_p;
+  f.zeta_v = zeta_v;
+  f.versus_baseline_p = p;
+  f.versus_baseline_v = v;
+  return f;
+}
+
+TEST(TrackerChoice, TheBaselineIsShippedWhenNoLearnedModelBeatsIt) {
+  // A learned model lower in both figures but within the interval has not earned its place; one
+  // better in ζ_p and worse in ζ_v (mixed) neither.
+  const std::vector<RankedFilter> filters{baseline(), learned("ga_tied", 0.49, 0.59, kTied, kTied),
+                                          learned("fcm_mixed", 0.45, 0.70, kBetter, kWorse),
+                                          learned("mlp_worse", 0.60, 0.70, kWorse, kWorse)};
+  const TrackerChoice choice = choose_tracker(filters);
+  EXPECT_EQ(choice.winner, 0u);
+  EXPECT_NE(choice.reason.find("no learned model beats the tuned baseline"), std::string::npos)
+      << choice.reason;
+  EXPECT_NE(choice.reason.find("ga_tied ties it"), std::string::npos) << choice.reason;
+  EXPECT_NE(choice.reason.find("fcm_mixed mixed it"), std::string::npos) << choice.reason;
+  // The ranking is by ζ_p + ζ_v whatever the choice: 1.08 (ga), 1.10 (baseline), 1.15, 1.30.
+  EXPECT_EQ(choice.order, (std::vector<std::size_t>{1, 0, 2, 3}));
+}
+
+TEST(TrackerChoice, ALearnedModelThatBeatsTheBaselineIsShipped) {
+  const std::vector<RankedFilter> filters{baseline(), learned("ga", 0.45, 0.58, kBetter, kTied)};
+  const TrackerChoice choice = choose_tracker(filters);
+  EXPECT_EQ(choice.winner, 1u);
+  EXPECT_NE(choice.reason.find("ga beats the tuned baseline"), std::string::npos) << choice.reason;
+}
+
+TEST(TrackerChoice, AmongSeveralThatBeatTheBaselineTheLowestSumWins) {
+  // mlp beats the baseline but has a larger ζ_p + ζ_v than ga; tied_low is lowest but only ties.
+  const std::vector<RankedFilter> filters{learned("mlp", 0.40, 0.58, kBetter, kTied), baseline(),
+                                          learned("tied_low", 0.30, 0.40, kTied, kTied),
+                                          learned("ga", 0.42, 0.50, kBetter, kBetter)};
+  const TrackerChoice choice = choose_tracker(filters);
+  EXPECT_EQ(choice.winner, 3u);
+  EXPECT_NE(choice.reason.find("lowest ζ_p + ζ_v of the 2 learned models that do"),
+            std::string::npos)
+      << choice.reason;
+}
+
+TEST(TrackerChoice, ExactlyOneBaselineIsRequired) {
+  const std::vector<RankedFilter> none{learned("ga", 0.4, 0.5, kBetter, kBetter)};
+  EXPECT_THROW((void)choose_tracker(none), std::invalid_argument);
+  const std::vector<RankedFilter> two{baseline(), baseline()};
+  EXPECT_THROW((void)choose_tracker(two), std::invalid_argument);
+}
+
+TEST(FinishReport, GateFailuresOutrankFindingsAndFindingsAreNotFailures) {
+  const testing::TempDir dir;
+  EXPECT_EQ(finish_report(dir.path(), true, {}, true, {}), 0);
+  EXPECT_EQ(finish_report(dir.path(), true, {}, true, {"ties IMM-tuned"}),
+            support::exit_code::kFindings);
+  EXPECT_EQ(finish_report(dir.path(), true, {"loses to AIMM3"}, true, {"ties IMM-tuned"}),
+            support::exit_code::kEvaluationGateFailed);
+}
+
+}  // namespace
+}  // namespace imm::evaluation

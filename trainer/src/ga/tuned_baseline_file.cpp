@@ -1,0 +1,54 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/trainer/ga/tuned_baseline_file.hpp"
+
+#include <chrono>
+#include <nlohmann/json.hpp>
+
+#include "imm/io/ga_fuzzy_imm_file.hpp"
+#include "imm/io/model_file.hpp"
+#include "imm/trainer/ga/training_set.hpp"
+#include "imm/trainer/ga/tuned_levels.hpp"
+#include "imm/trainer/provenance.hpp"
+
+namespace imm::trainer::ga {
+
+TunedBaselineResult write_tuned_baseline(GaTrainingConfig config,
+                                         const std::filesystem::path& out) {
+  const auto start = std::chrono::steady_clock::now();
+  config.tuned_levels = true;
+  config.baseline.reset();
+  const TrainingSet training = make_training_set(config.regime, datasets::Split::kTraining);
+  config = resolve_levels(std::move(config), training);
+  const TunedBaseline& baseline = *config.baseline;
+
+  io::Provenance provenance =
+      make_provenance(std::string(io::kGaFuzzyImmKind), config.text,
+                      static_cast<std::int64_t>(config.seed), training.digest(), config.regime);
+  provenance.training_metrics["learned_part_on"] = 0.0;
+  provenance.training_metrics["classical_baseline"] = 1.0;
+  provenance.training_metrics["zeta_p_plus_zeta_v"] = baseline.score;
+  ensure_parent_folder(out);
+  io::ModelFileWriter writer(out, provenance);
+  io::write_ga_fuzzy_imm(writer, tuned_baseline_spec(config));
+  writer.commit();
+
+  TunedBaselineResult result{
+      baseline, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
+  nlohmann::json metrics;
+  metrics["model_kind"] = io::kGaFuzzyImmKind;
+  metrics["classical_baseline"] =
+      "the constant-q IMM tuned on the training split (one constant rule per level, no learned "
+      "part)";
+  metrics["model"] = out.string();
+  metrics["config"] = config.name;
+  metrics["regime"] = config.regime.name;
+  metrics["baseline"] = {{"process_noise", baseline.process_noise},
+                         {"transition_stay", baseline.transition_stay},
+                         {"training_zeta_p_plus_zeta_v", baseline.score},
+                         {"evaluations", baseline.evaluations}};
+  metrics["wall_seconds"] = result.wall_seconds;
+  write_json_atomically(metrics_path(out), metrics);
+  return result;
+}
+
+}  // namespace imm::trainer::ga
