@@ -53,6 +53,11 @@ int run_ga(const GaCommand& command) {
         fmt::join(config.baseline->process_noise, ", "), config.baseline->transition_stay,
         config.baseline->score, config.baseline->evaluations);
   }
+  if (!config.tuned_levels) {
+    const auto warning = ga::unreachable_quiet_level(
+        config, ga::make_training_set(config.regime, datasets::Split::kTraining));
+    if (warning) spdlog::warn("ga: levels: {}", *warning);
+  }
   const std::size_t levels = config.levels.size();
   const int generations = config.ga.generations;
   spdlog::info("ga: regime {}, levels [{}] {}, population {}, {} generations, seed {}, {} threads",

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "imm/datasets/random.hpp"
@@ -17,6 +18,7 @@
 #include "imm/trainer/ga/ga_config.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
+#include "imm/trainer/ga/tuned_levels.hpp"
 #include "imm/trainer/regime_checks.hpp"
 #include "testing/regime_files.hpp"
 #include "testing/temp_dir.hpp"
@@ -135,6 +137,35 @@ GaTrainingConfig tuned_config(const testing::TempDir& dir, const std::string& tr
                            "[memetic]\nenabled = false\nmax_evaluations = 60\n";
   testing::write_text(dir / "tuned.toml", text);
   return load_ga_config(dir / "tuned.toml");
+}
+
+// Levels the config chose itself are checked against the quietest behaviour of the regime: a
+// quietest level whose consequent floor lies far above the tuned IMM's lowest q is warned about
+// (with both numbers); levels at the tuned IMM's own q are not; tuned levels are never.
+TEST(GaTrainer, WarnsWhenTheQuietestLevelCannotReachTheTunedImmsQuietestQ) {
+  const testing::TempDir dir;
+  const GaTrainingConfig tuned = tuned_config(dir, "");
+  const TrainingSet training = make_training_set(tuned.regime, datasets::Split::kTraining);
+  EXPECT_FALSE(unreachable_quiet_level(tuned, training));
+  const GaTrainingConfig resolved = resolve_levels(tuned, training);
+
+  GaTrainingConfig chosen = tuned;
+  chosen.tuned_levels = false;
+  chosen.fuzzy.consequent_low = 0.5;
+  chosen.regime.process_noise_sigma = 0.0;  // the floor is then 0.5 · a_M alone
+  // 100 times the tuned IMM's √q at the quietest level: the floor (0.5 · a_M)² is 2500 times q.
+  const double quiet_q = *std::min_element(resolved.baseline->process_noise.begin(),
+                                           resolved.baseline->process_noise.end());
+  chosen.levels = {100.0 * std::sqrt(quiet_q), 1000.0 * std::sqrt(quiet_q)};
+  chosen.validate();
+  const auto warning = unreachable_quiet_level(chosen, training);
+  ASSERT_TRUE(warning);
+  EXPECT_NE(warning->find("cannot go below"), std::string::npos) << *warning;
+  EXPECT_NE(warning->find("levels = \"tuned\""), std::string::npos) << *warning;
+
+  // Levels that reach the tuned q (floor 0.5² · 4 q = q) draw no warning.
+  chosen.levels = {2.0 * std::sqrt(quiet_q), 1000.0 * std::sqrt(quiet_q)};
+  EXPECT_FALSE(unreachable_quiet_level(chosen, training));
 }
 
 // Tuned levels: the levels and the stay probability are the tuned IMM's, the GA starts from it

@@ -117,4 +117,32 @@ BaselineCheck check_against_baseline(GaFuzzyImmSpec& spec, const GaTrainingConfi
   return check;
 }
 
+std::optional<std::string> unreachable_quiet_level(const GaTrainingConfig& config,
+                                                   const TrainingSet& training) {
+  if (config.tuned_levels || config.levels.empty()) return std::nullopt;
+  const auto quietest = std::min_element(config.levels.begin(), config.levels.end());
+  const ProblemOptions options =
+      config.problem_options(static_cast<std::size_t>(quietest - config.levels.begin()));
+  const double floor_sqrt =
+      options.consequent_low * (options.maneuver_level + options.process_noise_sigma);
+  const double reachable = floor_sqrt * floor_sqrt;
+  AxisCvImmSpec base;
+  base.settings = config.filter;
+  const Tuned<AxisCvImmSpec> tuned =
+      tune_axis_cv_imm(base, {training}, acceleration_scale(config.regime),
+                       static_cast<int>(config.levels.size()), TransitionTuning::kFixed);
+  const double quiet =
+      *std::min_element(tuned.spec.process_noise.begin(), tuned.spec.process_noise.end());
+  if (!(reachable > 10.0 * quiet)) return std::nullopt;
+  char text[512];
+  std::snprintf(
+      text, sizeof text,
+      "the quietest level (a_M %g) cannot go below q = %.3g (consequent floor %g x (a_M + "
+      "sqrt q)), %.0f times the lowest q of the constant-q IMM tuned on the training "
+      "split (%.3g): on straight segments the model cannot be as quiet as that IMM; use "
+      "levels = \"tuned\" (configs/ga_fuzzy_imm_tuned.toml) or quieter levels",
+      *quietest, reachable, options.consequent_low, reachable / quiet, quiet);
+  return std::string(text);
+}
+
 }  // namespace imm::trainer::ga

@@ -6,6 +6,8 @@
 /// are then refined with the tables, and the result is kept only when it beats that IMM on the
 /// validation split.
 
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "imm/filters/ga_fuzzy_imm.hpp"
@@ -53,5 +55,14 @@ struct BaselineCheck {
 /// Replaces `spec` by tuned_baseline_spec(config) when it does not beat it on `validation`.
 BaselineCheck check_against_baseline(GaFuzzyImmSpec& spec, const GaTrainingConfig& config,
                                      const TrainingSet& validation);
+
+/// For levels the config did not tune (`"auto"` or a list): a warning when the quietest level
+/// cannot reach the quietest behaviour of its regime — its lowest consequent, (consequent_low ·
+/// (a_M + √q))², lies more than ten times above the lowest q of the constant-q IMM tuned on
+/// `training` (tune_axis_cv_imm, the same search as `levels = "tuned"`). Such a model cannot be
+/// as quiet as that IMM on straight flight, whatever its tables. Empty when it can, and for tuned
+/// levels.
+[[nodiscard]] std::optional<std::string> unreachable_quiet_level(const GaTrainingConfig& config,
+                                                                 const TrainingSet& training);
 
 }  // namespace imm::trainer::ga
