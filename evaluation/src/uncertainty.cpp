@@ -23,7 +23,16 @@ Difference paired_difference(int runs, const Statistic& a, const Statistic& b, s
   if (runs < 1) throw std::invalid_argument("paired_difference: no runs");
   Difference d;
   const Eigen::VectorXd ones = Eigen::VectorXd::Ones(runs);
-  d.estimate = a(ones) - b(ones);
+  const double a_value = a(ones), b_value = b(ones);
+  d.estimate = a_value - b_value;
+  // Two filters that are the same filter computed two ways (a learned model with its learned part
+  // switched off, and its baseline) differ by rounding, with the same sign on every resample: that
+  // is no difference, and must not read as "beats".
+  const double rounding = kRoundingLevel * std::max(std::abs(a_value), std::abs(b_value));
+  const auto at_rounding_level = [&](const Difference& x) {
+    return std::abs(x.estimate) <= rounding && std::abs(x.lower) <= rounding &&
+           std::abs(x.upper) <= rounding;
+  };
   if (runs < 2) {
     d.lower = d.upper = d.estimate;
     return d;
@@ -51,6 +60,7 @@ Difference paired_difference(int runs, const Statistic& a, const Statistic& b, s
   };
   d.lower = at(0.025);
   d.upper = at(0.975);
+  if (at_rounding_level(d)) d = Difference{};
   return d;
 }
 

@@ -2,6 +2,7 @@
 // The verdict of a comparison over several error metrics, and the rule the reports state.
 #include <gtest/gtest.h>
 
+#include <Eigen/Core>
 #include <string_view>
 #include <vector>
 
@@ -32,6 +33,24 @@ TEST(Verdict, FollowsTheStatedRule) {
   for (const char* word : {"beats", "loses to", "mixed", "ties"}) {
     EXPECT_NE(kVerdictRule.find(word), std::string_view::npos) << word;
   }
+}
+
+// The same filter computed two ways (a learned model with its learned part off, and its
+// baseline) differs by rounding with one sign on every resample: that ties, it does not beat. A
+// real difference of the same sign, however small against the statistic's spread, still counts.
+TEST(PairedDifference, RoundingLevelDifferencesTieAndRealOnesCount) {
+  Eigen::VectorXd per_run(20);
+  for (int i = 0; i < 20; ++i) per_run(i) = 0.75 + 0.01 * i;
+  const Statistic a = mean_of(per_run);
+  const Statistic rounded = mean_of(per_run * (1.0 + 4e-12));
+  const Difference same = paired_difference(20, a, rounded);
+  EXPECT_EQ(same.estimate, 0.0);
+  EXPECT_EQ(same.lower, 0.0);
+  EXPECT_EQ(same.upper, 0.0);
+  EXPECT_EQ(of({same, same}), "ties");
+  const Statistic better = mean_of(per_run * (1.0 + 1e-6));
+  const Difference real = paired_difference(20, a, better);
+  EXPECT_TRUE(real.below()) << real.text(9);
 }
 
 }  // namespace

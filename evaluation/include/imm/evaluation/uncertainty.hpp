@@ -29,7 +29,12 @@ struct Difference {
   [[nodiscard]] std::string text(int decimals = 4) const;
 };
 
-/// Paired bootstrap of a − b over `runs` runs (draws resamples, seeded: deterministic).
+/// Differences within this fraction of the statistics themselves are rounding, not a difference.
+inline constexpr double kRoundingLevel = 1e-9;
+
+/// Paired bootstrap of a − b over `runs` runs (draws resamples, seeded: deterministic). When the
+/// estimate and both bounds lie within kRoundingLevel × max(|a|, |b|) of zero, the difference is
+/// exactly zero (the same filter computed two ways ties itself).
 [[nodiscard]] Difference paired_difference(int runs, const Statistic& a, const Statistic& b,
                                            std::uint64_t seed = 7, int draws = 1000);
 
