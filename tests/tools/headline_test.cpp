@@ -54,10 +54,12 @@ TEST(Headline, RegressionIsWorseOnlyBeyondThePairedUncertainty) {
   for (int i = 0; i < 50; ++i) noisy(i) += (i % 2 == 0 ? 0.05 : -0.05);
   EXPECT_FALSE(compare_headlines(file_of(noisy), file_of(shipped))[0].worse());
   // Rounding: every run worse by 1e-13 relative (a retrained model equal but for its last bits)
-  // gives an interval tight around it, strictly above zero: a tie, not a regression.
+  // would give an interval tight around it, strictly above zero; at rounding level the paired
+  // difference is exactly zero (paired_difference): a tie, not a regression.
   const Eigen::VectorXd rounded = shipped * (1.0 + 1e-13);
   const auto tie = compare_headlines(file_of(rounded), file_of(shipped))[0];
-  EXPECT_GT(tie.difference.lower, 0.0);
+  EXPECT_EQ(tie.difference.lower, 0.0);
+  EXPECT_EQ(tie.difference.upper, 0.0);
   EXPECT_FALSE(tie.worse());
   EXPECT_FALSE(tie.better());
   // … while a difference of 1e-6 relative on every run is beyond rounding.
