@@ -255,6 +255,16 @@ TEST(NightlyProduct, ANightWhoseOnlyNewsIsATieWithTheBaselineIsGreenAndShipsTheB
   EXPECT_NE(report.find("no learned model beats the tuned baseline"), std::string::npos) << report;
   EXPECT_NE(report.find("1 with findings"), std::string::npos) << report;
   EXPECT_NE(report.find("again ties the tuned baseline"), std::string::npos) << report;
+  // Three entries share the kind and the regime (the baseline, the other model, the tracker): a
+  // rollback by kind and regime is ambiguous and says how to name one; by name it finds the one.
+  const auto ambiguous = run_tool(
+      "imm-train", {"rollback", "ga_fuzzy_imm", "small", "--registry", registry.string()}, {});
+  EXPECT_EQ(ambiguous.exit_code, 2);
+  EXPECT_NE(ambiguous.err.find("name one"), std::string::npos) << ambiguous.err;
+  const auto by_name =
+      run_tool("imm-train", {"rollback", "small", "--registry", registry.string()}, {});
+  EXPECT_EQ(by_name.exit_code, 2);  // the first tracker has no earlier one to restore
+  EXPECT_NE(by_name.err.find("'small' has no earlier model"), std::string::npos) << by_name.err;
   // Unchanged inputs: the tracker stage is cached like any other.
   const auto again = nightly(p);
   EXPECT_EQ(again.exit_code, 0) << again.err;

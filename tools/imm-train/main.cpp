@@ -18,7 +18,7 @@
 //   imm-train freeze --config configs/track/cv3_imm.toml --out models/cv3_imm.h5
 //   imm-train all --config configs/nightly.toml [--force] [--night NAME] [--reports DIR]
 //                 [--sweep] [--launcher "mpirun -np 8"]   (candidates trained first, in one sweep)
-//   imm-train rollback KIND [REGIME] [--registry models]
+//   imm-train rollback KIND [REGIME] [--registry models]   (or NAME, a manifest entry's name)
 //   imm-train promote FILE --name NAME --reason TEXT [--registry models]
 //   imm-train seal FILE
 //   [mpirun -np N] imm-train sweep --config sweep.toml [--summary F]   (many trainings; sweep.hpp)
@@ -109,7 +109,10 @@ int run_all(const NightlyCommand& command) {
 int run_rollback(const std::string& kind, const std::string& regime,
                  const std::filesystem::path& registry_folder) {
   imm::pipeline::Registry registry(registry_folder);
-  const auto found = registry.find(kind, regime);
+  // An entry's own name (a nightly stage's: "ga_fuzzy_imm_agile_air", a tracker's "agile_air")
+  // names exactly one model.
+  auto found = registry.find(kind, regime);
+  if (const auto* named = registry.find(kind); named != nullptr && regime.empty()) found = {named};
   if (found.empty()) {
     spdlog::error("rollback: no shipped {} model for regime '{}' in {}", kind, regime,
                   registry.manifest_path().string());
@@ -118,8 +121,10 @@ int run_rollback(const std::string& kind, const std::string& regime,
   if (found.size() > 1) {
     std::string names;
     for (const auto* e : found) names += " " + e->name;
-    spdlog::error("rollback: {} models of kind {} for regime '{}':{}", found.size(), kind, regime,
-                  names);
+    spdlog::error(
+        "rollback: {} models of kind {} for regime '{}':{}; name one: imm-train rollback "
+        "NAME",
+        found.size(), kind, regime, names);
     return exit_code::kBadInput;
   }
   const std::string name = found.front()->name;
@@ -182,8 +187,9 @@ int run(int argc, char** argv) {
 
   std::string rollback_kind, rollback_regime;
   std::filesystem::path rollback_registry = "models";
-  auto* rollback_command = app.add_subcommand(
-      "rollback", "restore the model a promotion replaced: imm-train rollback KIND [REGIME]");
+  auto* rollback_command = app.add_subcommand("rollback",
+                                              "restore the model a promotion replaced: imm-train "
+                                              "rollback KIND [REGIME], or NAME (a manifest entry)");
   rollback_command->add_option("kind", rollback_kind, "model kind or nightly command (ga, …)")
       ->required();
   rollback_command->add_option("regime", rollback_regime,
