@@ -10,7 +10,6 @@
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
-#include <system_error>
 
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
@@ -33,16 +32,6 @@ struct RankOptions {
   std::filesystem::path out = "reports/rank";
   std::optional<std::filesystem::path> ship;
 };
-
-// `from` copied to `to` through a temporary beside it and a rename: a reader sees the old file or
-// the whole new one.
-void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to) {
-  if (!to.parent_path().empty()) std::filesystem::create_directories(to.parent_path());
-  std::filesystem::path temporary = to;
-  temporary += ".tmp";
-  std::filesystem::copy_file(from, temporary, std::filesystem::copy_options::overwrite_existing);
-  std::filesystem::rename(temporary, to);
-}
 
 int run(const RankOptions& options) {
   const datasets::RegimeFile regime = load_regime_option(options.regime.value_or(options.baseline));
@@ -158,7 +147,7 @@ int run(const RankOptions& options) {
                 more);
   trainer::write_json_atomically(out / "tracker.json", results);
   if (options.ship) {
-    copy_atomically(files[choice.winner], *options.ship);
+    trainer::copy_atomically(files[choice.winner], *options.ship);
     std::cout << "shipped " << files[choice.winner].string() << " as " << options.ship->string()
               << '\n';
   }

@@ -37,6 +37,16 @@ void add_passthrough(const support::ConfigTable& table, NightlyStage& stage) {
   }
 }
 
+// A stage's `out` must be a file inside the registry folder (the nightly ships nothing elsewhere).
+void require_inside_registry(const support::ConfigTable& entry, const std::string& out,
+                             const std::filesystem::path& registry, const std::string& what) {
+  const auto relative = std::filesystem::path(out).lexically_relative(registry);
+  if (relative.empty() || relative.begin()->string() == ".." || relative.is_absolute()) {
+    entry.fail("out", "the " + what + " must be written inside the registry folder '" +
+                          registry.string() + "'");
+  }
+}
+
 NightlyStage make_stage(std::string kind, std::string name, std::string executable) {
   NightlyStage stage;
   stage.kind = std::move(kind);
@@ -74,11 +84,7 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     stage.arguments = {entry.text("command"), "--config", entry.text("config"), "--out", out};
     stage.out = out;
     stage.out_argument = 4;
-    const auto relative = std::filesystem::path(out).lexically_relative(plan.registry);
-    if (relative.empty() || relative.begin()->string() == ".." || relative.is_absolute()) {
-      entry.fail("out", "the model must be written inside the registry folder '" +
-                            plan.registry.string() + "'");
-    }
+    require_inside_registry(entry, out, plan.registry, "model");
     for (const auto& other : plan.stages) {
       if (other.kind == "model" && other.name == stage.name) {
         entry.fail("name", "a second model stage named '" + stage.name + "'");
@@ -141,11 +147,7 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
       return linked->out.string();
     };
     const std::string out = entry.text("out");
-    const auto relative = std::filesystem::path(out).lexically_relative(plan.registry);
-    if (relative.empty() || relative.begin()->string() == ".." || relative.is_absolute()) {
-      entry.fail("out", "the tracker must be written inside the registry folder '" +
-                            plan.registry.string() + "'");
-    }
+    require_inside_registry(entry, out, plan.registry, "tracker");
     const auto candidates = entry.texts("candidates");
     if (candidates.empty()) entry.fail("candidates", "lists no learned model");
     stage.arguments = {"rank", "--baseline", model_out("baseline", entry.text("baseline")),

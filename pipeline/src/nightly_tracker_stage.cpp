@@ -44,12 +44,12 @@ void Night::run_tracker(const NightlyStage& stage) {
   StageOutcome o = outcome_of("tracker", stage.name);
   o.report = stage.report;
   const std::string baseline = arguments.at(2);
-  if (!fs::exists(baseline) || candidates == 0) {
+  const bool baseline_shipped = fs::exists(baseline);
+  if (!baseline_shipped || candidates == 0) {
     o.failed = true;
     o.status = "failed";
-    o.message = !fs::exists(baseline)
-                    ? "the regime's tuned baseline " + baseline + " is not shipped"
-                    : "no learned model of the regime is shipped";
+    o.message = !baseline_shipped ? "the regime's tuned baseline " + baseline + " is not shipped"
+                                  : "no learned model of the regime is shipped";
     o.command = command_line(tool(ranked), arguments);
     return finish(o);
   }

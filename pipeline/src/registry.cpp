@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/pipeline/registry.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <stdexcept>
 
@@ -70,15 +68,7 @@ RegistryEntry from_json(const nlohmann::json& j, const std::string& where) {
   }
 }
 
-// Copies `from` to `to` through a temporary file beside `to` and a rename.
-void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to) {
-  trainer::ensure_parent_folder(to);
-  std::string temp_name = ".";
-  temp_name.append(to.filename().string()).append(".tmp-").append(std::to_string(::getpid()));
-  const auto temp = to.parent_path() / temp_name;
-  std::filesystem::copy_file(from, temp, std::filesystem::copy_options::overwrite_existing);
-  std::filesystem::rename(temp, to);
-}
+using trainer::copy_atomically;
 
 std::filesystem::path metrics_beside(const std::filesystem::path& model) {
   return trainer::metrics_path(model);

@@ -62,6 +62,15 @@ FilterMaker load(const io::ModelFileReader& reader, std::int64_t max_gap) {
   return loaded;
 }
 
+// The reader of a model file that must exist (a missing one named as such, not as an HDF5 error).
+io::ModelFileReader open_model(const std::filesystem::path& path) {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) {
+    throw io::FileError(path.string(), "", "no such model file");
+  }
+  return io::ModelFileReader(path);
+}
+
 }  // namespace
 
 const std::vector<std::string_view>& loadable_model_kinds() {
@@ -72,11 +81,7 @@ const std::vector<std::string_view>& loadable_model_kinds() {
 }
 
 LoadedFilter load_filter(const std::filesystem::path& path, std::int64_t max_gap) {
-  std::error_code error;
-  if (!std::filesystem::exists(path, error)) {
-    throw io::FileError(path.string(), "", "no such model file");
-  }
-  return load_filter(io::ModelFileReader(path), max_gap);
+  return load_filter(open_model(path), max_gap);
 }
 
 FilterMaker load_filter_maker(const io::ModelFileReader& reader, std::int64_t max_gap) {
@@ -90,11 +95,7 @@ FilterMaker load_filter_maker(const io::ModelFileReader& reader, std::int64_t ma
 }
 
 FilterMaker load_filter_maker(const std::filesystem::path& path, std::int64_t max_gap) {
-  std::error_code error;
-  if (!std::filesystem::exists(path, error)) {
-    throw io::FileError(path.string(), "", "no such model file");
-  }
-  return load_filter_maker(io::ModelFileReader(path), max_gap);
+  return load_filter_maker(open_model(path), max_gap);
 }
 
 LoadedFilter load_filter(const io::ModelFileReader& reader, std::int64_t max_gap) {

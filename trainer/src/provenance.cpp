@@ -47,11 +47,28 @@ void ensure_parent_folder(const std::filesystem::path& path) {
   if (!folder.empty()) std::filesystem::create_directories(folder);
 }
 
-void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
-  ensure_parent_folder(path);
+namespace {
+
+// The temporary beside `path` that an atomic write renames over it: ".<name>.tmp-<pid>" (the
+// nightly removes stale ones).
+std::filesystem::path temporary_beside(const std::filesystem::path& path) {
   std::string temp_name = ".";
   temp_name.append(path.filename().string()).append(".tmp-").append(std::to_string(::getpid()));
-  const auto temp = path.parent_path() / temp_name;
+  return path.parent_path() / temp_name;
+}
+
+}  // namespace
+
+void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to) {
+  ensure_parent_folder(to);
+  const auto temp = temporary_beside(to);
+  std::filesystem::copy_file(from, temp, std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::rename(temp, to);
+}
+
+void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
+  ensure_parent_folder(path);
+  const auto temp = temporary_beside(path);
   {
     std::ofstream out(temp, std::ios::trunc);
     out << text;

@@ -29,6 +29,9 @@ void set_regime(io::Provenance& provenance, const datasets::Regime& regime);
 /// or the new one, never a part.
 void write_text_atomically(const std::filesystem::path& path, const std::string& text);
 
+/// Copies `from` to `to` the same way: a temporary beside `to`, then a rename.
+void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to);
+
 /// Writes JSON atomically (temporary file in the same folder, then rename).
 void write_json_atomically(const std::filesystem::path& path, const nlohmann::json& document);
 
