@@ -12,8 +12,6 @@ if(NOT status EQUAL 0)
   message(FATAL_ERROR "nm failed on ${LIBRARY}")
 endif()
 string(REGEX MATCHALL "[^\n]*imm::[^\n]*" ours "${symbols}")
-list(LENGTH ours count)
-message(STATUS "${LIBRARY}: ${count} exported symbols of namespace imm")
 set(leaks "")
 foreach(symbol ${ours})
   if(symbol MATCHES "imm::[A-Za-z_:]*(detail|container)::|::Impl|anonymous namespace")
@@ -23,6 +21,13 @@ endforeach()
 if(leaks)
   message(FATAL_ERROR "internal symbols exported by the runtime:\n${leaks}")
 endif()
+# UBSan's function check (-fsanitize=function) gives every function type it checks a typeinfo
+# ("typeinfo for R (Args...)"), exported with the function: 150 in the sanitizer build. They are
+# not the library's API and are left out of the count.
+set(counted ${ours})
+list(FILTER counted EXCLUDE REGEX "typeinfo (name )?for [^(]*\\(")
+list(LENGTH counted count)
+message(STATUS "${LIBRARY}: ${count} exported symbols of namespace imm")
 foreach(api "imm::load_filter(" "imm::io::ModelFileReader::ModelFileReader("
             "imm::Tracker::process(" "typeinfo for imm::InvalidParameter" "typeinfo for imm::io::FileError")
   string(FIND "${symbols}" "${api}" at)
@@ -30,8 +35,9 @@ foreach(api "imm::load_filter(" "imm::io::ModelFileReader::ModelFileReader("
     message(FATAL_ERROR "the runtime does not export ${api}: is IMM_RUNTIME_EXPORT defined empty?")
   endif()
 endforeach()
-# Hidden by default: the same sources built with default visibility export 611 symbols of
-# namespace imm (every inline function and template instance the library compiles), the API 271.
+# Hidden by default: the same sources built with default visibility export 671 symbols of
+# namespace imm (every inline function and template instance the library compiles), the API 284
+# (303 in the sanitizer build: its instrumented inline functions and vtables).
 if(count GREATER 450)
   message(FATAL_ERROR "${count} exported symbols: is the runtime built with hidden visibility?")
 endif()
