@@ -177,6 +177,11 @@ std::vector<CaseTracks> tracks_by_case(const datasets::Regime& regime,
   return cases;
 }
 
+bool learned_part_off(const io::Provenance& provenance) {
+  const auto on = provenance.training_metrics.find("learned_part_on");
+  return on != provenance.training_metrics.end() && on->second == 0.0;
+}
+
 bool paper_scenario(const datasets::Regime& regime) {
   static constexpr std::array<std::string_view, 11> kPresets = {"ga_imm_training",
                                                                 "ga_imm_table3",

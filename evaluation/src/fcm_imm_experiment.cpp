@@ -265,6 +265,14 @@ int run(const CommonOptions& options) {
             << markdown_table({"filter", "pos", "vel", "pos manoeuvre", "vel manoeuvre",
                                "fraction straight", "fraction manoeuvre", "training J"},
                               rows);
+  // A fit whose compensation did not pay on its validation split ships as the tuned IMM
+  // (fcm_trainer.hpp, FcmTrainingResult::learned_part_on): say so beside the verdicts.
+  const bool part_off = learned_part_off(reader.provenance());
+  if (part_off) {
+    std::cout << "\nFCM-IMM's learned part is switched off: its compensation did not beat the "
+                 "constant-q IMM on its validation split, so the model is that IMM (λ = 0).\n";
+  }
+  details["learned_part_on"] = !part_off;
   std::vector<std::string> failures, findings;
   std::vector<std::vector<std::string>> versus_rows;
   const bool paper = paper_scenario(regime);
@@ -287,7 +295,8 @@ int run(const CommonOptions& options) {
     }
     if (other.name == "IMM-tuned" && better < 2) {
       findings.push_back("FCM-IMM beats IMM-tuned in " + std::to_string(better) +
-                         " of its four figures (fewer than two)");
+                         " of its four figures (fewer than two)" +
+                         (part_off ? ": its learned part is switched off" : ""));
     }
     versus_rows.push_back(row);
   }

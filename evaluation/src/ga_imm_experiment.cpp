@@ -59,12 +59,6 @@ double percentile(std::vector<double>& values, double p) {
   return values[k];
 }
 
-std::string list(const std::vector<double>& values) {
-  std::ostringstream out;
-  for (std::size_t i = 0; i < values.size(); ++i) out << (i ? ", " : "") << values[i];
-  return out.str();
-}
-
 int run(const GaImmOptions& options) {
   const std::filesystem::path model_path = options.common.model_path();
   const io::ModelFileReader reader(model_path, io::kGaFuzzyImmKind);
@@ -122,11 +116,11 @@ int run(const GaImmOptions& options) {
       trainer::ga::tune_axis_cv_imm(imm_base, training, a, 3, TransitionTuning::kJointly);
   const std::string unit = std::string(datasets::to_string(own.units));
   std::map<std::string, std::string> tuned;
-  tuned["AIMM-tuned"] = "intervals [" + list(aimm_tuned.spec.intervals) + "] " + unit + "/s² (" +
-                        std::to_string(aimm_tuned.evaluations) + " evaluations)";
-  tuned["IMM-tuned"] = "q [" + list(imm_tuned.spec.process_noise) + "] (" + unit + "/s²)², stay " +
-                       std::to_string(imm_tuned.spec.settings.transition_stay) + " (" +
-                       std::to_string(imm_tuned.evaluations) + " evaluations)";
+  tuned["AIMM-tuned"] = "intervals [" + comma_list(aimm_tuned.spec.intervals) + "] " + unit +
+                        "/s² (" + std::to_string(aimm_tuned.evaluations) + " evaluations)";
+  tuned["IMM-tuned"] = "q [" + comma_list(imm_tuned.spec.process_noise) + "] (" + unit +
+                       "/s²)², stay " + std::to_string(imm_tuned.spec.settings.transition_stay) +
+                       " (" + std::to_string(imm_tuned.evaluations) + " evaluations)";
   auto fuzzy_axis = [](const GaFuzzyImmSpec& spec) -> AxisFilterFactory {
     return [&spec] { return std::make_unique<ImmAxisFilter>(build_ga_fuzzy_axis_imm(spec)); };
   };
@@ -257,11 +251,8 @@ int run(const GaImmOptions& options) {
   const std::string_view against_imm = verdict(against_imm_terms);
   // A tuned-levels model whose tables did not beat the tuned IMM on its validation split ships
   // as that IMM (ga_trainer.hpp, BaselineCheck): say so beside the verdict.
-  const auto& trained_metrics = reader.provenance().training_metrics;
-  const auto learned_part = trained_metrics.find("learned_part_on");
-  const bool learned_part_off =
-      learned_part != trained_metrics.end() && learned_part->second == 0.0;
-  if (learned_part_off) {
+  const bool part_off = learned_part_off(reader.provenance());
+  if (part_off) {
     std::cout << "\nGA-IMM's learned part is switched off: its tables did not beat the tuned "
                  "constant-q IMM on its validation split, so the model is that IMM (one constant "
                  "rule per level).\n";
@@ -269,7 +260,7 @@ int run(const GaImmOptions& options) {
   if (against_imm != "beats") {
     findings.push_back(std::string("GA-IMM ") + std::string(against_imm) + " IMM-tuned (ζ_p " +
                        imm_p.text() + ", ζ_v " + imm_v.text() + ")" +
-                       (learned_part_off ? ": its learned part is switched off" : ""));
+                       (part_off ? ": its learned part is switched off" : ""));
   }
   std::cout << "\nGates (GA-IMM "
             << (seed_scenario ? "beats AIMM3, AIMM5" : "is not worse than AIMM3, AIMM5")
@@ -315,7 +306,7 @@ int run(const GaImmOptions& options) {
   details["gate_failures"] = failures;
   details["findings"] = findings;
   details["against_imm_tuned"] = against_imm;
-  details["learned_part_on"] = !learned_part_off;
+  details["learned_part_on"] = !part_off;
   for (const auto& f : filters) {
     details["filters"][f.name] = {{"zeta_p", f.zeta_p},
                                   {"zeta_v", f.zeta_v},

@@ -191,6 +191,12 @@ std::string scientific(double value) {
   return buffer;
 }
 
+std::string comma_list(const std::vector<double>& values) {
+  std::ostringstream out;
+  for (std::size_t i = 0; i < values.size(); ++i) out << (i ? ", " : "") << values[i];
+  return out.str();
+}
+
 bool write_error_series(const std::vector<FilterOutcome>& filters, int steps,
                         const std::filesystem::path& out) {
   std::vector<std::string> names;

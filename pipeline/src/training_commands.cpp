@@ -212,14 +212,18 @@ int train_fcm(const TrainCommand& command) {
       config.regime.scans, config.seed, fmt::join(config.tuning.windows, ", "));
   const auto result = trainer::fcm::train_fcm(config, command.out);
   const auto& s = result.spec;
+  // With the learned part off the clustering settings are unused: the model is the tuned IMM.
+  const std::string learned =
+      result.learned_part_on
+          ? fmt::format("window {}, lambda {:.3f}, m {:.2f}, kappa {:.2f}", s.window,
+                        s.compensation_gain, s.clustering.fuzzifier, s.separation)
+          : std::string("the constant-q IMM (learned part off, lambda 0)");
   spdlog::info(
-      "fitted: window {}, lambda {:.3f}, m {:.2f}, kappa {:.2f}, stay {:.4f}, q = {:.4g} "
-      "(m/s^2)^2; J = {:.4f} training, {:.4f} validation (lambda = 0 IMM {:.4f}, KF {:.4f}); "
-      "{} evaluations, {:.1f} s",
-      s.window, s.compensation_gain, s.clustering.fuzzifier, s.separation, s.transition(0, 0),
-      fmt::join(s.process_noise, ", "), result.training.objective, result.validation.objective,
-      result.imm_validation.objective, result.kf_validation.objective, result.evaluations,
-      result.wall_seconds);
+      "fitted: {}, stay {:.4f}, q = {:.4g} (m/s^2)^2; J = {:.4f} training, {:.4f} validation "
+      "(lambda = 0 IMM {:.4f}, KF {:.4f}); {} evaluations, {:.1f} s",
+      learned, s.transition(0, 0), fmt::join(s.process_noise, ", "), result.training.objective,
+      result.validation.objective, result.imm_validation.objective, result.kf_validation.objective,
+      result.evaluations, result.wall_seconds);
   if (!result.gate_passed) {
     spdlog::error(
         "quality gate failed: validation J {:.4f} exceeds {:.3f} x the tuned KF's "

@@ -230,6 +230,17 @@ FcmImmSpec fcm_spec_from(const FcmTrainingConfig& config, const AxisCvImmSpec& i
   return spec;
 }
 
+namespace {
+
+// The λ = 0 member: the constant-q IMM; the window does not matter, the first is recorded.
+FcmImmSpec best_off(FcmImmSpec base, int window) {
+  base.compensation_gain = 0.0;
+  base.window = window;
+  return base;
+}
+
+}  // namespace
+
 Eigen::MatrixXd mean_memberships(const FcmImmSpec& spec, const TrackingData& data) {
   const int n = spec.mode_count();
   const double T = spec.sample_period;
@@ -305,8 +316,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
              std::clamp(config.filter.separation, g.min_separation, g.max_separation)});
   for (std::size_t d = 0; d < x0.size(); ++d) x0[d] = std::clamp(x0[d], lower[d], upper[d]);
 
-  FcmImmSpec best = base;  // λ = 0: the window does not matter; the first candidate is recorded
-  best.window = g.windows.front();
+  FcmImmSpec best = best_off(base, g.windows.front());
   double best_objective = imm.score.objective;
   for (int window : g.windows) {
     const auto window_start = std::chrono::steady_clock::now();
@@ -332,11 +342,35 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
       best = fitted;
     }
   }
-  result.spec = best;
-  result.spec.mean_memberships = mean_memberships(best, training);
-  result.training = score_filter([&] { return make_fcm_imm_filter(result.spec); }, training, sigma);
-  result.validation =
-      score_filter([&] { return make_fcm_imm_filter(result.spec); }, validation, sigma);
+  auto adopt = [&](const FcmImmSpec& spec) {
+    result.spec = spec;
+    result.spec.mean_memberships = mean_memberships(spec, training);
+    result.training =
+        score_filter([&] { return make_fcm_imm_filter(result.spec); }, training, sigma);
+    result.validation =
+        score_filter([&] { return make_fcm_imm_filter(result.spec); }, validation, sigma);
+  };
+  // The learned part pays on data the fit has not seen, or the model is a constant-q IMM: the
+  // fit's own levels and stay with λ = 0 (the ablation of the compensation alone), or the tuned
+  // IMM when those do not score better on the validation split either.
+  const FcmImmSpec fitted_off = best_off(best, best.window);
+  const double off_validation =
+      score_filter([&] { return make_fcm_imm_filter(fitted_off); }, validation, sigma).objective;
+  const bool fitted_levels_pay = off_validation < result.imm_validation.objective;
+  const FcmImmSpec off = fitted_levels_pay ? fitted_off : best_off(base, g.windows.front());
+  const double off_objective = fitted_levels_pay ? off_validation : result.imm_validation.objective;
+  adopt(best);
+  result.learned_part_on =
+      best.compensation_gain > 0.0 && result.validation.objective < off_objective;
+  if (!result.learned_part_on) {
+    spdlog::warn(
+        "fcm: learned part switched off: the fitted compensation (lambda {:.3f}) does not beat the "
+        "constant-q IMM on the validation split (J {:.4f} against {:.4f}); the model is that IMM "
+        "(lambda = 0, {} levels)",
+        best.compensation_gain, result.validation.objective, off_objective,
+        fitted_levels_pay ? "the fit's" : "the tuned IMM's");
+    adopt(off);
+  }
   const Tuned<AxisCvImmSpec> kf = tune_kf(config, training);
   result.evaluations += kf.evaluations;
   result.kf_validation =
@@ -382,6 +416,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
         {{"window", w.window}, {"objective", w.objective}, {"evaluations", w.evaluations}});
   }
   metrics["windows"] = windows;
+  metrics["learned_part_on"] = result.learned_part_on;
   metrics["evaluations"] = result.evaluations;
   metrics["regime"] = config.regime.name;
   metrics["training_tracks"] = training.tracks.size();
@@ -398,6 +433,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
       make_provenance(std::string(io::kFcmImmKind), config.text,
                       static_cast<std::int64_t>(config.seed), result.digest, config.regime);
   provenance.training_metrics["objective"] = result.training.objective;
+  provenance.training_metrics["learned_part_on"] = result.learned_part_on ? 1.0 : 0.0;
   provenance.training_metrics["pos_rmse"] = result.training.position_rmse;
   provenance.training_metrics["vel_rmse"] = result.training.velocity_rmse;
   provenance.validation_metrics["objective"] = result.validation.objective;

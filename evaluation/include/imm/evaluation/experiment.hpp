@@ -118,6 +118,11 @@ struct CaseTracks {
 /// finding (something learned, reported with its numbers), not something broken.
 [[nodiscard]] bool paper_scenario(const datasets::Regime& regime);
 
+/// True when the model's trainer switched its learned part off (`training.learned_part_on` = 0:
+/// the learned part did not pay on the validation split), so the model is its tuned classical
+/// baseline; reports say so beside their verdicts.
+[[nodiscard]] bool learned_part_off(const io::Provenance& provenance);
+
 /// The closing lines of a report: where it went, the gate failures on stderr (unless printed
 /// already), and the exit code: kEvaluationGateFailed when a gate failed (something is broken: the
 /// learned model is worse than a paper baseline), else kFindings when there are findings (the

@@ -49,6 +49,8 @@ void set_plot_caption(std::string caption);
 
 /// "%.3g" text ("8.16e+03").
 [[nodiscard]] std::string scientific(double value);
+/// "a, b, c" of the values in the stream's default format.
+[[nodiscard]] std::string comma_list(const std::vector<double>& values);
 
 struct FilterOutcome;
 /// P_e(k), V_e(k) of every filter as CSV and PNG (seed 000 Fig. 4); returns whether plots worked.
