@@ -172,6 +172,18 @@ int train_wimm(const TrainCommand& command) {
   spdlog::info("wimm: tuning threshold and alpha on regime {}: {} training tracks of {} scans",
                config.regime.name, config.regime.splits.training, config.regime.scans);
   const auto result = trainer::wimm::train_wimm(config, command.out);
+  if (result.base) {
+    spdlog::info(
+        "wimm: on top of the nIMM tuned on the training split: q1 {:.4g}, P(CV->CV) {:.4f} "
+        "({} evaluations); J on the validation split {:.4f} against it",
+        result.base->spec.cv_process_noise, result.base->spec.transition(0, 0),
+        result.base->evaluations, result.validation_objective);
+    if (!result.learned_part_on) {
+      spdlog::warn(
+          "wimm: learned part switched off: the fusion does not beat its tuned nIMM on the "
+          "training and validation splits; the model is that nIMM (fusion none)");
+    }
+  }
   spdlog::info(
       "threshold {:.4f}, alpha {:.4f}: settled azimuth RMSE x{:.4f}, position RMSE "
       "x{:.4f} of the normal IMM on the training scenarios ({} evaluations, {:.1f} s); "

@@ -52,6 +52,14 @@ WimmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regim
     }
     c.max_evaluations = u->count_or("max_evaluations", c.max_evaluations);
     c.position_penalty = u->real_or("position_penalty", c.position_penalty);
+    if (u->has("base")) {
+      const std::string base = u->text("base");
+      require(base == "seed" || base == "tuned", u->path("base"),
+              "must be \"seed\" (the config's nIMM) or \"tuned\" (q1 and P(CV->CV) tuned on "
+              "the training split first), not \"" +
+                  base + "\"");
+      c.on_tuned_normal_imm = base == "tuned";
+    }
   }
   c.validate();
   return c;
@@ -148,7 +156,32 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
   const TrainingScenarios data =
       datasets::draw_split(config.regime, datasets::Split::kTraining, config.regime.splits.seed);
   WimmTrainingResult result;
-  result.tuned = tune_wimm(config, data);
+  WimmTrainingConfig on_top = config;
+  if (config.on_tuned_normal_imm) {
+    // The fusion on top of the tuned nIMM: its q₁ and transition row become the model's.
+    result.base = tune_normal_imm(config, data);
+    on_top.filter.cv_process_noise = result.base->spec.cv_process_noise;
+    on_top.filter.transition = result.base->spec.transition;
+  }
+  result.tuned = tune_wimm(on_top, data);
+  if (config.on_tuned_normal_imm) {
+    // J against the model's own nIMM on tracks the tuning has not seen: below 1, the fusion pays.
+    const TrainingScenarios validation = datasets::draw_split(
+        config.regime, datasets::Split::kValidation, config.regime.splits.seed);
+    WimmSpec normal = on_top.filter;
+    normal.fusion = FusionVariant::kNone;
+    const Eigen::Vector2d& sensor = config.regime.sensor.position;
+    result.validation_objective =
+        objective(score_tracking(result.tuned.spec, validation, sensor),
+                  score_tracking(normal, validation, sensor), config.position_penalty);
+    result.learned_part_on = result.tuned.objective < 1.0 && result.validation_objective < 1.0;
+    if (!result.learned_part_on) {
+      result.tuned.spec = normal;
+      result.tuned.objective = 1.0;
+      result.tuned.azimuth_ratio = 1.0;
+      result.tuned.position_ratio = 1.0;
+    }
+  }
   result.digest = data.digest();
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -159,6 +192,11 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
   provenance.training_metrics["objective"] = result.tuned.objective;
   provenance.training_metrics["azimuth_ratio"] = result.tuned.azimuth_ratio;
   provenance.training_metrics["position_ratio"] = result.tuned.position_ratio;
+  if (result.base) {
+    provenance.training_metrics["on_tuned_nimm"] = 1.0;
+    provenance.training_metrics["learned_part_on"] = result.learned_part_on ? 1.0 : 0.0;
+    provenance.validation_metrics["objective"] = result.validation_objective;
+  }
   ensure_parent_folder(out);
   io::ModelFileWriter writer(out, provenance);
   io::write_wimm(writer, result.tuned.spec);
@@ -175,6 +213,14 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
   metrics["azimuth_ratio_settled"] = result.tuned.azimuth_ratio;
   metrics["position_ratio_settled"] = result.tuned.position_ratio;
   metrics["evaluations"] = result.tuned.evaluations;
+  metrics["base"] = config.on_tuned_normal_imm ? "tuned" : "seed";
+  if (result.base) {
+    metrics["base_nimm"] = {{"cv_process_noise", result.base->spec.cv_process_noise},
+                            {"stay", result.base->spec.transition(0, 0)},
+                            {"evaluations", result.base->evaluations}};
+    metrics["validation_objective"] = result.validation_objective;
+    metrics["learned_part_on"] = result.learned_part_on;
+  }
   metrics["regime"] = config.regime.name;
   metrics["training_tracks"] = data.tracks.size();
   metrics["wall_seconds"] = result.wall_seconds;

@@ -30,6 +30,12 @@ struct WimmTrainingConfig {
   double min_alpha = 0.05, max_alpha = 1.0;
   int max_evaluations = 150;
   double position_penalty = 10.0;
+  /// `tuning.base`: "seed" learns the fusion on the config's nIMM (the seed's q₁ and transition:
+  /// the paper preset's literal form); "tuned" first tunes q₁ and P(CV→CV) on the training split
+  /// (the nIMM-tuned baseline's search) and learns the fusion on top of that, so that the model
+  /// with its fusion off is the tuned nIMM. With "tuned" a fusion that does not beat its nIMM on
+  /// the validation split is switched off (the model is then the tuned nIMM, and says so).
+  bool on_tuned_normal_imm = false;
 
   std::string text, name;
 
@@ -62,6 +68,11 @@ struct Tuned {
 
 struct WimmTrainingResult {
   Tuned tuned;
+  /// With `tuning.base = "tuned"`: the nIMM the fusion is learned on, and whether the fusion paid
+  /// on the validation split (J below 1 against that nIMM); false: the model is that nIMM.
+  std::optional<Tuned> base;
+  bool learned_part_on = true;
+  double validation_objective = 0.0;  ///< J of the model against its nIMM on the validation split
   double wall_seconds = 0.0;
   std::string digest;
 };
