@@ -120,7 +120,7 @@ struct FcmTrainingResult {
   int evaluations = 0;
   double wall_seconds = 0.0;
   bool gate_passed = false;
-  /// False when the fit's compensation did not beat the constant-q IMM on the validation split
+  /// False when no window's fit with λ > 0 beat the tuned constant-q IMM on the training split
   /// (or the fit drove λ to 0): the model is then that IMM (λ = 0), and the log, the model file
   /// (`training.learned_part_on` = 0), the metrics and the fcm-imm report say so.
   bool learned_part_on = true;
