@@ -61,6 +61,10 @@ int run(const RankOptions& options) {
     r.zeta_p = outcomes.back().zeta_p;
     r.zeta_v = outcomes.back().zeta_v;
     r.position_rmse = outcomes.back().position_rmse;
+    const NeesSummary& nees = outcomes.back().position_consistency;
+    r.consistency = nees.verdict();
+    r.position_nees = nees.average;
+    r.scans_inside = nees.inside;
     r.velocity_rmse = outcomes.back().velocity_rmse;
     if (!r.baseline) {
       r.versus_baseline_p = paired_difference(runs, outcomes.back().zeta_p_statistic(),
@@ -101,6 +105,9 @@ int run(const RankOptions& options) {
     if (!f.baseline && verdict_against_baseline(f) != "beats") {
       findings.push_back(f.name + " " + verdict_against_baseline(f) + " the tuned baseline (ζ_p " +
                          f.versus_baseline_p.text() + ", ζ_v " + f.versus_baseline_v.text() + ")");
+    }
+    if (std::string flag = inconsistency_finding(f); !flag.empty()) {
+      findings.push_back(std::move(flag));
     }
   }
   std::cout << "\nGates: none (every model here passed its own experiment's gates)\n";

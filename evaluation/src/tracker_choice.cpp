@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdio>
 #include <numeric>
 #include <stdexcept>
 
@@ -12,6 +13,18 @@ std::string verdict_against_baseline(const RankedFilter& filter) {
   if (filter.baseline) return "—";
   const std::array<Difference, 2> differences{filter.versus_baseline_p, filter.versus_baseline_v};
   return std::string(verdict(differences));
+}
+
+std::string inconsistency_finding(const RankedFilter& filter) {
+  if (filter.baseline || filter.consistency == "consistent" ||
+      verdict_against_baseline(filter) != "beats") {
+    return "";
+  }
+  char numbers[96];
+  std::snprintf(numbers, sizeof numbers, "position NEES %.2f, %.1f %% of the scans inside",
+                filter.position_nees, 100.0 * filter.scans_inside);
+  return filter.name + " beats the tuned baseline but is " + filter.consistency + " (" + numbers +
+         " the 95 % bounds): its covariance does not match its errors";
 }
 
 TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {

@@ -80,6 +80,31 @@ TEST(TrackerChoice, ExactlyOneBaselineIsRequired) {
   EXPECT_THROW((void)choose_tracker(two), std::invalid_argument);
 }
 
+// More accurate but not honest about it: flagged (and still eligible); a consistent winner, a
+// model that only ties, and the baseline itself are not.
+TEST(TrackerChoice, AWinnerWhoseCovarianceDoesNotMatchItsErrorsIsFlagged) {
+  RankedFilter optimistic = learned("fcm_imm", 0.45, 0.55, kBetter, kTied);
+  optimistic.consistency = "optimistic";
+  optimistic.position_nees = 8.19;
+  optimistic.scans_inside = 0.033;
+  const std::string flag = inconsistency_finding(optimistic);
+  EXPECT_NE(flag.find("fcm_imm beats the tuned baseline but is optimistic"), std::string::npos)
+      << flag;
+  EXPECT_NE(flag.find("position NEES 8.19, 3.3 % of the scans inside"), std::string::npos) << flag;
+  const std::vector<RankedFilter> filters{baseline(), optimistic};
+  EXPECT_EQ(choose_tracker(filters).winner, 1u);
+
+  RankedFilter consistent = optimistic;
+  consistent.consistency = "consistent";
+  EXPECT_EQ(inconsistency_finding(consistent), "");
+  RankedFilter tied = learned("ga", 0.50, 0.60, kTied, kTied);
+  tied.consistency = "pessimistic";
+  EXPECT_EQ(inconsistency_finding(tied), "");
+  RankedFilter base = baseline();
+  base.consistency = "pessimistic";
+  EXPECT_EQ(inconsistency_finding(base), "");
+}
+
 TEST(FinishReport, GateFailuresOutrankFindingsAndFindingsAreNotFailures) {
   const testing::TempDir dir;
   EXPECT_EQ(finish_report(dir.path(), true, {}, true, {}), 0);

@@ -25,6 +25,10 @@ struct RankedFilter {
   double zeta_p = 0.0, zeta_v = 0.0;
   double position_rmse = 0.0, velocity_rmse = 0.0;
   Difference versus_baseline_p, versus_baseline_v;  ///< this − baseline (zero for the baseline)
+  /// Its position NEES on the same tracks: the verdict against the per-scan 95 % bounds
+  /// ("consistent", "optimistic", "pessimistic"), the average and the share of scans inside.
+  std::string consistency = "consistent";
+  double position_nees = 0.0, scans_inside = 1.0;
 };
 
 struct TrackerChoice {
@@ -39,5 +43,11 @@ struct TrackerChoice {
 /// The verdict of a filter against the baseline ("beats", "ties", "loses to", "mixed"; "—" for the
 /// baseline itself).
 [[nodiscard]] std::string verdict_against_baseline(const RankedFilter& filter);
+
+/// A learned model that beats the baseline in accuracy but whose covariance does not match its
+/// errors (its position NEES outside the 95 % bounds on more than a tenth of the scans) is flagged:
+/// the finding's text, or empty when there is nothing to flag. It stays eligible as the tracker —
+/// an application that gates or fuses on its covariance needs to know.
+[[nodiscard]] std::string inconsistency_finding(const RankedFilter& filter);
 
 }  // namespace imm::evaluation
