@@ -142,4 +142,22 @@ NeesSummary position_consistency(const Eigen::MatrixXd& run_nees) {
   return summary;
 }
 
+Eigen::VectorXd nees_log_ratio(const Eigen::MatrixXd& run_nees, int dimension) {
+  Eigen::VectorXd per_run = Eigen::VectorXd::Zero(run_nees.rows());
+  for (Eigen::Index r = 0; r < run_nees.rows(); ++r) {
+    double sum = 0.0;
+    long count = 0;
+    for (Eigen::Index k = 0; k < run_nees.cols(); ++k) {
+      if (std::isfinite(run_nees(r, k))) {
+        sum += run_nees(r, k);
+        ++count;
+      }
+    }
+    if (count > 0 && sum > 0.0) {
+      per_run(r) = std::abs(std::log(sum / static_cast<double>(count) / dimension));
+    }
+  }
+  return per_run;
+}
+
 }  // namespace imm::evaluation

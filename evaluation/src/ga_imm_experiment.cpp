@@ -295,7 +295,7 @@ int run(const GaImmOptions& options) {
       out, evaluated,
       normalized_error_definitions(std::string(datasets::to_string(regime.units)), "GA-IMM", false),
       metrics, more_models);
-  write_headline(out, evaluated, ours.zeta_headline());
+  write_headline(out, evaluated, ours.headline());
   nlohmann::json details;
   details["regime"] = {{"name", regime.name},
                        {"digest", regime.digest},

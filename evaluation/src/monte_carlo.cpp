@@ -22,6 +22,12 @@ std::vector<HeadlineMetric> FilterOutcome::zeta_headline() const {
       {"zeta_v", HeadlineMetric::Form::kScanZeta, run_velocity, run_velocity_plot, run_counted}};
 }
 
+std::vector<HeadlineMetric> FilterOutcome::headline() const {
+  std::vector<HeadlineMetric> metrics = zeta_headline();
+  metrics.push_back(mean_metric("position_nees_log_ratio", nees_log_ratio(run_position_nees, 2)));
+  return metrics;
+}
+
 FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make_filter,
                               const TrackOptions& options, const datasets::TrackSet& data,
                               const StepRecorder& recorder) {

@@ -125,7 +125,7 @@ int run(const PlainImmOptions& options) {
   }
   const HeadlineRuns evaluated{"plain-imm", model, data.regime, data.digest(), data.seed, runs};
   write_metrics(out, evaluated, normalized_error_definitions(length, "IMM", true), metrics);
-  write_headline(out, evaluated, filters.front().zeta_headline());
+  write_headline(out, evaluated, filters.front().headline());
   bool plotted = write_error_series(filters, data.scans, out);
   plotted &= write_mode_probabilities(filters.front(), out, "mode_probabilities");
   std::cout << "\nwrote " << (out / "metrics.json").string() << ", CSV series"

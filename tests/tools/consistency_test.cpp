@@ -113,5 +113,21 @@ TEST(PositionConsistency, NamesAConsistentAnOptimisticAndAPessimisticFilter) {
   EXPECT_EQ(position_consistency(Eigen::MatrixXd(0, 0)).scans, 0);
 }
 
+// The regression gate's consistency error: |ln(ANEES / 2)| per run, 0 for a consistent filter up
+// to its sampling error (a run's ANEES over 200 scans of χ²₂ / 2 has a standard deviation of
+// 1/√200 ≈ 0.071), ln 3 with the covariance a third of the errors', |ln 0.4| with it too large.
+TEST(PositionConsistency, TheLogRatioMeasuresHowFarEachRunIsFromConsistent) {
+  const Eigen::VectorXd consistent = nees_log_ratio(planted_nees(1.0, 1), 2);
+  ASSERT_EQ(consistent.size(), 40);
+  EXPECT_LT(consistent.mean(), 4 * 0.071);
+  EXPECT_NEAR(nees_log_ratio(planted_nees(3.0, 2), 2).mean(), std::log(3.0), 4 * 0.071 / 3);
+  EXPECT_NEAR(nees_log_ratio(planted_nees(0.4, 3), 2).mean(), -std::log(0.4), 4 * 0.071);
+  Eigen::MatrixXd none = Eigen::MatrixXd::Constant(2, 3, std::nan(""));
+  none(1, 2) = 6.0;  // one scan: ANEES 6 against 2
+  const Eigen::VectorXd sparse = nees_log_ratio(none, 2);
+  EXPECT_EQ(sparse(0), 0.0);
+  EXPECT_NEAR(sparse(1), std::log(3.0), 1e-15);
+}
+
 }  // namespace
 }  // namespace imm::evaluation

@@ -50,6 +50,12 @@ TEST_F(Tools, PlainImmEvaluationWritesMetricsAndBeatsEachModeAlone) {
   }
   EXPECT_TRUE(std::filesystem::exists(out / "normalized_position_error.csv"));
   EXPECT_TRUE(std::filesystem::exists(out / "mode_probabilities.csv"));
+  // The regression gate compares accuracy and consistency: ζ_p, ζ_v and the NEES log ratio.
+  const auto headline = nlohmann::json::parse(testing::slurp(out / "headline.json"));
+  std::vector<std::string> names;
+  for (const auto& m : headline["metrics"]) names.push_back(m["name"]);
+  EXPECT_EQ(names, (std::vector<std::string>{"zeta_p", "zeta_v", "position_nees_log_ratio"}));
+  EXPECT_GE(headline["metrics"][2]["value"].get<double>(), 0.0);
 
   // metrics.json names the model it evaluated, byte for byte.
   const auto document = nlohmann::json::parse(testing::slurp(out / "metrics.json"));

@@ -47,4 +47,11 @@ struct NeesSummary {
 /// From runs × scans position NEES values (NaN where a run has no estimate).
 [[nodiscard]] NeesSummary position_consistency(const Eigen::MatrixXd& run_nees);
 
+/// Per run: |ln(ANEES / dimension)|, the run's NEES averaged over its scans with an estimate,
+/// against the value a consistent filter averages to (0 when consistent; ln 3 ≈ 1.1 when the
+/// covariance is a third of the errors', or three times them). NaN-only runs give 0. An error
+/// measure of consistency, so that the regression gate can hold back a candidate whose covariance
+/// got less honest beyond the Monte Carlo uncertainty.
+[[nodiscard]] Eigen::VectorXd nees_log_ratio(const Eigen::MatrixXd& run_nees, int dimension);
+
 }  // namespace imm::evaluation

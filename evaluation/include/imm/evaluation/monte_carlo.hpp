@@ -44,6 +44,9 @@ struct FilterOutcome {
   [[nodiscard]] Statistic zeta_v_statistic() const;
   /// ζ_p and ζ_v as headline metrics (their per-run, per-scan terms).
   [[nodiscard]] std::vector<HeadlineMetric> zeta_headline() const;
+  /// ζ_p, ζ_v and the position consistency (`position_nees_log_ratio`: the mean over runs of
+  /// nees_log_ratio, lower is better) as headline metrics: what the regression gate compares.
+  [[nodiscard]] std::vector<HeadlineMetric> headline() const;
 };
 
 using FilterFactory = std::function<std::unique_ptr<TrackFilter>()>;
