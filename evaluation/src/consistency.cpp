@@ -109,6 +109,27 @@ const char* NeesSummary::verdict() const {
   return above >= 1.0 - inside - above ? "optimistic" : "pessimistic";
 }
 
+namespace {
+
+// The sum and the count of the finite values of a row or column (NaN: no estimate there).
+struct FiniteSum {
+  double sum = 0.0;
+  long count = 0;
+};
+template <class Values>
+FiniteSum finite_sum(const Values& values) {
+  FiniteSum s;
+  for (Eigen::Index i = 0; i < values.size(); ++i) {
+    if (std::isfinite(values(i))) {
+      s.sum += values(i);
+      ++s.count;
+    }
+  }
+  return s;
+}
+
+}  // namespace
+
 NeesSummary position_consistency(const Eigen::MatrixXd& run_nees) {
   NeesSummary summary;
   const auto runs = static_cast<long>(run_nees.rows());
@@ -117,14 +138,7 @@ NeesSummary position_consistency(const Eigen::MatrixXd& run_nees) {
   double sum = 0.0;
   long inside = 0, above = 0;
   for (Eigen::Index k = 0; k < run_nees.cols(); ++k) {
-    double scan_sum = 0.0;
-    long count = 0;
-    for (Eigen::Index r = 0; r < run_nees.rows(); ++r) {
-      if (std::isfinite(run_nees(r, k))) {
-        scan_sum += run_nees(r, k);
-        ++count;
-      }
-    }
+    const auto [scan_sum, count] = finite_sum(run_nees.col(k));
     if (count == 0) continue;
     const double average = scan_sum / static_cast<double>(count);
     const ConsistencyBounds bounds = count == runs ? summary.bounds : average_bounds(2, count);
@@ -145,14 +159,7 @@ NeesSummary position_consistency(const Eigen::MatrixXd& run_nees) {
 Eigen::VectorXd nees_log_ratio(const Eigen::MatrixXd& run_nees, int dimension) {
   Eigen::VectorXd per_run = Eigen::VectorXd::Zero(run_nees.rows());
   for (Eigen::Index r = 0; r < run_nees.rows(); ++r) {
-    double sum = 0.0;
-    long count = 0;
-    for (Eigen::Index k = 0; k < run_nees.cols(); ++k) {
-      if (std::isfinite(run_nees(r, k))) {
-        sum += run_nees(r, k);
-        ++count;
-      }
-    }
+    const auto [sum, count] = finite_sum(run_nees.row(r));
     if (count > 0 && sum > 0.0) {
       per_run(r) = std::abs(std::log(sum / static_cast<double>(count) / dimension));
     }

@@ -265,12 +265,12 @@ int run(const CommonOptions& options) {
             << markdown_table({"filter", "pos", "vel", "pos manoeuvre", "vel manoeuvre",
                                "fraction straight", "fraction manoeuvre", "training J"},
                               rows);
-  // A fit whose compensation did not pay on its validation split ships as the tuned IMM
-  // (fcm_trainer.hpp, FcmTrainingResult::learned_part_on): say so beside the verdicts.
+  // A fit that drove λ to 0 ships as the tuned IMM (fcm_trainer.hpp,
+  // FcmTrainingResult::learned_part_on): say so beside the verdicts.
   const bool part_off = learned_part_off(reader.provenance());
   if (part_off) {
-    std::cout << "\nFCM-IMM's learned part is switched off: its compensation did not beat the "
-                 "constant-q IMM on its validation split, so the model is that IMM (λ = 0).\n";
+    std::cout << "\nFCM-IMM's learned part is switched off: no fit with a compensation beat the "
+                 "constant-q IMM on its training split, so the model is that IMM (λ = 0).\n";
   }
   details["learned_part_on"] = !part_off;
   std::vector<std::string> failures, findings;

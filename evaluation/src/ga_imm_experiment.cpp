@@ -39,7 +39,6 @@ namespace {
 
 using trainer::ga::axis_score;
 using trainer::ga::AxisFilterFactory;
-using trainer::ga::TransitionTuning;
 using trainer::ga::Tuned;
 
 struct GaImmOptions {
@@ -110,14 +109,8 @@ int run(const GaImmOptions& options) {
   aimm5.intervals = {0.2 * a, 0.4 * a};
   const Tuned<AimmSpec> aimm_tuned = trainer::ga::tune_aimm(aimm3, training, a, 2);
   // Three noise levels and the stay probability, as a GA trainer with tuned levels starts.
-  // The search starts where the trainer's does (the default stay probability, the configs'),
-  // never from the stay of the model under judgement: with `levels = "tuned"` the model with its
-  // learned part off is then this IMM-tuned, not a second tuning of it.
-  AxisCvImmSpec imm_base;
-  imm_base.settings = learned.settings;
-  imm_base.settings.transition_stay = AxisImmSettings{}.transition_stay;
   const Tuned<AxisCvImmSpec> imm_tuned =
-      trainer::ga::tune_axis_cv_imm(imm_base, training, a, 3, TransitionTuning::kJointly);
+      trainer::ga::tune_imm_baseline(learned.settings, training, a);
   const std::string unit = std::string(datasets::to_string(own.units));
   std::map<std::string, std::string> tuned;
   tuned["AIMM-tuned"] = "intervals [" + comma_list(aimm_tuned.spec.intervals) + "] " + unit +

@@ -95,8 +95,7 @@ int run(const CommonOptions& options) {
   // The seed's nIMM (the paper's baseline): the model's own nIMM, unless the model learned its
   // fusion on top of a tuned nIMM (configs/wimm_tuned.toml), whose q₁ and transition row then
   // give way to the seed's. nIMM-tuned searches from it, as the trainer's base does.
-  const auto& trained_metrics = reader.provenance().training_metrics;
-  const bool on_tuned = trained_metrics.contains("on_tuned_nimm");
+  const bool on_tuned = reader.provenance().training_metrics.contains("on_tuned_nimm");
   const bool part_off = learned_part_off(reader.provenance());
   WimmSpec normal = trained;
   normal.fusion = FusionVariant::kNone;

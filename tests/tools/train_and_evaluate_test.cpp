@@ -348,7 +348,7 @@ TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
                 "--out", (models / "fcm_imm.h5").string(), "--seed", "4"},
                root_);
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
-  // Either the compensation pays on the validation split, or the model says it is the IMM.
+  // Either a fit with a compensation beats the tuned IMM, or the model says it is that IMM.
   EXPECT_TRUE(
       trained.err.find("fitted: window 8") != std::string::npos ||
       (trained.err.find("fitted: the constant-q IMM (learned part off") != std::string::npos &&

@@ -128,4 +128,12 @@ Tuned<AxisCvImmSpec> tune_axis_cv_imm(const AxisCvImmSpec& base,
   return tuned;
 }
 
+Tuned<AxisCvImmSpec> tune_imm_baseline(AxisImmSettings settings,
+                                       const std::vector<TrainingSet>& sets, double a) {
+  settings.transition_stay = AxisImmSettings{}.transition_stay;
+  AxisCvImmSpec base;
+  base.settings = settings;
+  return tune_axis_cv_imm(base, sets, a, 3, TransitionTuning::kJointly);
+}
+
 }  // namespace imm::trainer::ga

@@ -119,7 +119,7 @@ struct CaseTracks {
 [[nodiscard]] bool paper_scenario(const datasets::Regime& regime);
 
 /// True when the model's trainer switched its learned part off (`training.learned_part_on` = 0:
-/// the learned part did not pay on the validation split), so the model is its tuned classical
+/// the learned part did not pay, by the trainer's own rule), so the model is its tuned classical
 /// baseline; reports say so beside their verdicts.
 [[nodiscard]] bool learned_part_off(const io::Provenance& provenance);
 

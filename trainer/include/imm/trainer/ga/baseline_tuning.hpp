@@ -61,4 +61,12 @@ enum class TransitionTuning {
     const AxisCvImmSpec& base, const std::vector<TrainingSet>& sets, double a, int levels = 3,
     TransitionTuning transitions = TransitionTuning::kFixed);
 
+/// The evaluations' IMM-tuned: three levels and the stay probability tuned jointly on `sets`, the
+/// stay's search starting from AxisImmSettings' default (the configs' and the trainer's start)
+/// whatever `settings` holds, so that a model learned on top of this IMM with its learned part off
+/// is this IMM, not a second tuning of it.
+[[nodiscard]] Tuned<AxisCvImmSpec> tune_imm_baseline(AxisImmSettings settings,
+                                                     const std::vector<TrainingSet>& sets,
+                                                     double a);
+
 }  // namespace imm::trainer::ga
