@@ -5,6 +5,9 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
+
+#include "imm/evaluation/report.hpp"
 
 namespace imm::evaluation {
 namespace {
@@ -104,8 +107,9 @@ ConsistencyBounds average_bounds(int dimension, long runs, double confidence) {
           chi_square_quantile(1.0 - tail, dof) / static_cast<double>(runs)};
 }
 
-const char* NeesSummary::verdict() const {
-  if (scans == 0 || inside >= 0.9) return "consistent";
+const char* ConsistencySummary::verdict() const {
+  if (scans == 0) return "–";
+  if (inside >= 0.9) return "consistent";
   return above >= 1.0 - inside - above ? "optimistic" : "pessimistic";
 }
 
@@ -130,18 +134,20 @@ FiniteSum finite_sum(const Values& values) {
 
 }  // namespace
 
-NeesSummary position_consistency(const Eigen::MatrixXd& run_nees) {
-  NeesSummary summary;
-  const auto runs = static_cast<long>(run_nees.rows());
+ConsistencySummary summarize_consistency(const Eigen::MatrixXd& run_values, int dimension) {
+  ConsistencySummary summary;
+  summary.dimension = dimension;
+  const auto runs = static_cast<long>(run_values.rows());
   if (runs == 0) return summary;
-  summary.bounds = average_bounds(2, runs);
+  summary.bounds = average_bounds(dimension, runs);
   double sum = 0.0;
   long inside = 0, above = 0;
-  for (Eigen::Index k = 0; k < run_nees.cols(); ++k) {
-    const auto [scan_sum, count] = finite_sum(run_nees.col(k));
+  for (Eigen::Index k = 0; k < run_values.cols(); ++k) {
+    const auto [scan_sum, count] = finite_sum(run_values.col(k));
     if (count == 0) continue;
     const double average = scan_sum / static_cast<double>(count);
-    const ConsistencyBounds bounds = count == runs ? summary.bounds : average_bounds(2, count);
+    const ConsistencyBounds bounds =
+        count == runs ? summary.bounds : average_bounds(dimension, count);
     inside += average >= bounds.lower && average <= bounds.upper ? 1 : 0;
     above += average > bounds.upper ? 1 : 0;
     sum += average;
@@ -154,6 +160,33 @@ NeesSummary position_consistency(const Eigen::MatrixXd& run_nees) {
     summary.above = static_cast<double>(above) / scans;
   }
   return summary;
+}
+
+std::string consistency_table(std::span<const FilterConsistency> filters) {
+  std::vector<std::vector<std::string>> rows;
+  auto bounds = [](const ConsistencySummary& c) {
+    return "[" + cell(c.bounds.lower, 2) + ", " + cell(c.bounds.upper, 2) + "]";
+  };
+  for (const FilterConsistency& f : filters) {
+    const ConsistencySummary &nees = f.position_nees, &nis = f.nis;
+    rows.push_back({f.name, cell(nees.average, 2), bounds(nees),
+                    cell(100.0 * nees.inside, 1) + " %", nis.scans > 0 ? cell(nis.average, 2) : "–",
+                    nis.scans > 0 ? bounds(nis) : "–",
+                    nis.scans > 0 ? cell(100.0 * nis.inside, 1) + " %" : "–",
+                    std::string(nees.verdict()) + " / " + nis.verdict()});
+  }
+  return markdown_table({"filter", "position NEES", "95 % bounds", "scans inside", "NIS",
+                         "95 % bounds", "scans inside", "consistency (NEES / NIS)"},
+                        rows) +
+         "\nPosition NEES (x − x̂)ᵀ P⁻¹ (x − x̂) over the position block, and NIS νᵀ S⁻¹ ν of "
+         "the plot's innovation, each averaged over the runs at every scan and then over the "
+         "scans: equal to their dimension (2, or 1 per axis) when the filter's covariance matches "
+         "its "
+         "errors. A scan's average lies within "
+         "the two-sided 95 % χ² bounds for the number of runs (the bounds shown: a scan with "
+         "every run) 95 % of the time for a consistent filter. \"optimistic\": more scans above "
+         "the bounds (the filter claims more accuracy than it has) than below; \"consistent\": at "
+         "least 90 % of the scans inside.\n";
 }
 
 Eigen::VectorXd nees_log_ratio(const Eigen::MatrixXd& run_nees, int dimension) {

@@ -18,6 +18,7 @@
 #include <span>
 #include <sstream>
 
+#include "imm/evaluation/consistency.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
@@ -25,6 +26,7 @@
 #include "imm/evaluation/uncertainty.hpp"
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
+#include "imm/trainer/normalized_errors.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/ranks.hpp"
 
@@ -64,6 +66,7 @@ struct Outcome {
   Eigen::VectorXd fraction;
   Eigen::MatrixXd first_run;  // steps × 4 estimates of track 0 (x, vx, y, vy)
   long failed_steps = 0;
+  ConsistencySummary position_nees, nis;
 
   [[nodiscard]] HeadlineMetric headline(int figure) const {
     const Eigen::Index column = Eigen::Index{2} * figure;
@@ -88,8 +91,8 @@ Outcome run_filter(const std::string& name, const trainer::fcm::FilterFactory& m
   bool is_fcm = false;
   out.first_run = Eigen::MatrixXd::Constant(steps, 4, kNaN);
   // One run's terms: whether its filter is an FCM-IMM; per scan: counted, dp, dv, maneuvering,
-  // the FCM fraction, the estimate (4), failed.
-  constexpr std::ptrdiff_t kPerScan = 10;
+  // the FCM fraction, the estimate (4), failed, position NEES, NIS.
+  constexpr std::ptrdiff_t kPerScan = 12;
   const auto width = static_cast<int>(1 + steps * kPerScan);
   const std::vector<double> all =
       trainer::shared_items(static_cast<long>(runs), width, [&](long run, std::span<double> terms) {
@@ -123,9 +126,13 @@ Outcome run_filter(const std::string& name, const trainer::fcm::FilterFactory& m
           scan[3] = track.maneuvering[static_cast<std::size_t>(k)] ? 1.0 : 0.0;
           if (fcm) scan[4] = 0.5 * (fx->maneuver_fraction() + fy->maneuver_fraction());
           Eigen::Map<Eigen::Vector4d>(scan + 5) = estimate;
+          const trainer::StepConsistency consistency = trainer::step_consistency(*filter, p);
+          scan[10] = consistency.position_nees;
+          scan[11] = consistency.nis;
         }
       });
   // The figures, summed in run order.
+  Eigen::MatrixXd run_nees = Eigen::MatrixXd::Constant(runs, steps, kNaN), run_nis = run_nees;
   for (Eigen::Index run = 0; run < runs; ++run) {
     const double* terms = all.data() + run * width;
     is_fcm = terms[0] != 0.0;
@@ -138,6 +145,8 @@ Outcome run_filter(const std::string& name, const trainer::fcm::FilterFactory& m
       velocity(k) += dv;
       ++samples(k);
       const bool maneuvering = scan[3] != 0.0;
+      run_nees(run, k) = scan[10];
+      run_nis(run, k) = scan[11];
       out.per_track.row(run).head<4>() += Eigen::RowVector4d(dp, 1.0, dv, 1.0);
       if (maneuvering) out.per_track.row(run).tail<4>() += Eigen::RowVector4d(dp, 1.0, dv, 1.0);
       if (is_fcm) {
@@ -160,6 +169,8 @@ Outcome run_filter(const std::string& name, const trainer::fcm::FilterFactory& m
   }
   const Eigen::VectorXd ones = Eigen::VectorXd::Ones(runs);
   for (int f = 0; f < 4; ++f) out.figures[f] = out.statistic(f)(ones);
+  out.position_nees = summarize_consistency(run_nees, 2);
+  out.nis = summarize_consistency(run_nis, 2);
   if (is_fcm) {
     out.fraction_straight = n_straight > 0 ? f_straight / static_cast<double>(n_straight) : kNaN;
     out.fraction_maneuver = n_maneuver > 0 ? f_maneuver / static_cast<double>(n_maneuver) : kNaN;
@@ -257,6 +268,8 @@ int run(const CommonOptions& options) {
     details[f.name] = {{"maneuver_fraction_straight", f.fraction_straight},
                        {"maneuver_fraction_maneuver", f.fraction_maneuver},
                        {"training_objective", training_objective.at(f.name)},
+                       {"position_nees", f.position_nees.average},
+                       {"nis", f.nis.average},
                        {"failed_steps", f.failed_steps}};
   }
   std::cout << "\nPosition and velocity RMSE (over tracks and scans 2 on, and over the scans where "
@@ -265,6 +278,9 @@ int run(const CommonOptions& options) {
             << markdown_table({"filter", "pos", "vel", "pos manoeuvre", "vel manoeuvre",
                                "fraction straight", "fraction manoeuvre", "training J"},
                               rows);
+  std::vector<FilterConsistency> consistency;
+  for (const auto& f : filters) consistency.push_back({f.name, f.position_nees, f.nis});
+  std::cout << "\nConsistency:\n\n" << consistency_table(consistency);
   // A fit that drove λ to 0 ships as the tuned IMM (fcm_trainer.hpp,
   // FcmTrainingResult::learned_part_on): say so beside the verdicts.
   const bool part_off = learned_part_off(reader.provenance());

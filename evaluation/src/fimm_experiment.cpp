@@ -22,6 +22,7 @@
 #include <sstream>
 
 #include "imm/datasets/random.hpp"
+#include "imm/evaluation/consistency.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
@@ -29,6 +30,7 @@
 #include "imm/evaluation/uncertainty.hpp"
 #include "imm/filters/fimm.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
+#include "imm/trainer/normalized_errors.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/ranks.hpp"
 #include "imm/trainer/tsk/tsk_trainer.hpp"
@@ -71,6 +73,8 @@ struct Score {
   Eigen::MatrixXd per_track;  ///< tracks × 2: Σ squared position error, samples
   Eigen::MatrixXd first_run;  ///< scans × 2: track 0's (ξ̂, η̂)
   Eigen::VectorXd scan_mse;   ///< per scan, over tracks
+  /// Position NEES and NIS (of the sensor's (z1, z2)) against their χ² bounds for the runs.
+  ConsistencySummary position_nees, nis;
 
   [[nodiscard]] HeadlineMetric headline(std::string name) const {
     return ratio_metric(std::move(name), per_track.col(0), per_track.col(1));
@@ -95,8 +99,8 @@ Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
   Eigen::VectorXd scan_sum = Eigen::VectorXd::Zero(steps), scan_count = scan_sum;
   out.first_run = Eigen::MatrixXd::Constant(steps, 2, std::numeric_limits<double>::quiet_NaN());
   // One run's terms, per scan: counted, e², NEES, outside the sensor box, in the flat part, the
-  // estimate (ξ̂, η̂), failed.
-  constexpr std::ptrdiff_t kPerScan = 8;
+  // estimate (ξ̂, η̂), failed, NIS.
+  constexpr std::ptrdiff_t kPerScan = 9;
   const auto width = static_cast<int>(steps * kPerScan);
   const std::vector<double> all =
       trainer::shared_items(static_cast<long>(runs), width, [&](long run, std::span<double> terms) {
@@ -122,11 +126,11 @@ Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
           const GaussianState<6>& x = filter->estimate();
           const Eigen::Vector2d truth = datasets::position_at(track, k);
           const Eigen::Vector2d error(x.mean(0) - truth(0), x.mean(3) - truth(1));
-          Eigen::Matrix2d P;
-          P << x.covariance(0, 0), x.covariance(0, 3), x.covariance(3, 0), x.covariance(3, 3);
+          const trainer::StepConsistency consistency = trainer::step_consistency(*filter, truth);
           scan[0] = 1.0;
           scan[1] = error.squaredNorm();
-          scan[2] = error.dot(P.inverse() * error);
+          scan[2] = consistency.position_nees;
+          scan[8] = consistency.nis;
           scan[3] = filter->outside_sensor_box() ? 1.0 : 0.0;
           scan[4] = range_slope(sensor, truth) < kFlatSlope ? 1.0 : 0.0;
           scan[5] = x.mean(0);
@@ -136,6 +140,8 @@ Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
   // The figures, summed in run order.
   double nees = 0.0, flat[2] = {}, steep[2] = {};
   long samples = 0, outside = 0;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  Eigen::MatrixXd run_nees = Eigen::MatrixXd::Constant(runs, steps, nan), run_nis = run_nees;
   for (Eigen::Index run = 0; run < runs; ++run) {
     for (Eigen::Index k = kFirstScoredScan; k < steps; ++k) {
       const double* scan = all.data() + run * width + k * kPerScan;
@@ -149,13 +155,16 @@ Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
       bucket[0] += e2;
       bucket[1] += 1.0;
       nees += scan[2];
+      run_nees(run, k) = scan[2];
+      run_nis(run, k) = scan[8];
       outside += scan[3] != 0.0 ? 1 : 0;
       ++samples;
       if (run == 0) out.first_run.row(k) << scan[5], scan[6];
     }
   }
-  const double nan = std::numeric_limits<double>::quiet_NaN();
   const double n = std::max<double>(1.0, static_cast<double>(samples));
+  out.position_nees = summarize_consistency(run_nees, 2);
+  out.nis = summarize_consistency(run_nis, 2);
   out.mse = out.per_track.col(0).sum() / n;
   out.nees = nees / n;
   out.clamped = static_cast<double>(outside) / n;
@@ -184,10 +193,20 @@ int run(const FimmOptions& options) {
                           : std::nullopt);
   FimmSpec base = config.fimm;
   base.sample_period = regime.sample_period;
+  // The mode transitions the model was trained with (learned from the training tracks when its
+  // config says "sojourns"): the FIMM and its IMM share them.
+  const std::optional<FimmSpec> stored = io::read_fimm_settings(reader);
+  if (stored &&
+      std::abs(stored->sample_period - base.sample_period) <= 1e-12 * base.sample_period) {
+    base.transition = stored->transition;
+  }
   std::ostringstream settings;
   settings << "noise scale " << base.noise_scale << " (√q₁ = " << std::sqrt(base.process_noise(0))
            << ", √q₂ = " << std::sqrt(base.process_noise(1)) << " per step), IEKF "
-           << config.iekf_iterations << " iterations";
+           << config.iekf_iterations << " iterations, P(stay) " << base.transition(0, 0) << " / "
+           << base.transition(1, 1)
+           << (config.transitions_from_sojourns ? " (learned from the training tracks' sojourns)"
+                                                : "");
 
   const datasets::TrackSet data = test_tracks(regime, options.common);
   const int steps = data.scans;
@@ -206,6 +225,7 @@ int run(const FimmOptions& options) {
   Eigen::Index offset = 0;
   const auto all_runs = static_cast<Eigen::Index>(data.tracks.size());
   std::vector<std::string> by_scan_names;
+  std::vector<FilterConsistency> consistency;
   for (const CaseTracks& one_case : tracks_by_case(regime, data)) {
     const datasets::TrackSet& part = one_case.tracks;
     const std::string& name = one_case.name;
@@ -233,6 +253,9 @@ int run(const FimmOptions& options) {
                     d_iekf.text(3), paper_imm ? cell(paper_imm->value, 4) : "–",
                     paper_fimm ? cell(paper_fimm->value, 4) : "–", cell(imm.nees, 2),
                     cell(fimm.nees, 2), cell(iekf.nees, 2), cell(100.0 * fimm.clamped, 1) + " %"});
+    consistency.push_back({name + ": IMM", imm.position_nees, imm.nis});
+    consistency.push_back({name + ": FIMM (EKF)", fimm.position_nees, fimm.nis});
+    consistency.push_back({name + ": FIMM (IEKF)", iekf.position_nees, iekf.nis});
     split.push_back({name, cell(imm.mse_flat, 4), cell(fimm.mse_flat, 4), cell(iekf.mse_flat, 4),
                      cell(imm.mse_steep, 4), cell(fimm.mse_steep, 4), cell(iekf.mse_steep, 4)});
     metrics["rows"].push_back({{"case", name},
@@ -248,6 +271,9 @@ int run(const FimmOptions& options) {
          {"imm_nees", imm.nees},
          {"fimm_nees", fimm.nees},
          {"fimm_iekf_nees", iekf.nees},
+         {"imm_nis", imm.nis.average},
+         {"fimm_nis", fimm.nis.average},
+         {"fimm_iekf_nis", iekf.nis.average},
          {"fimm_clamped_share", fimm.clamped},
          {"fimm_iekf_clamped_share", iekf.clamped},
          {"mse_flat",
@@ -298,7 +324,9 @@ int run(const FimmOptions& options) {
             << ") and elsewhere:\n\n"
             << markdown_table({"case", "IMM flat", "FIMM flat", "IEKF flat", "IMM elsewhere",
                                "FIMM elsewhere", "IEKF elsewhere"},
-                              split);
+                              split)
+            << "\nConsistency per case (the NIS of the sensor's (z1, z2) plot; scans 3 on):\n\n"
+            << consistency_table(consistency);
   std::cout << "\nGates (" << (options.gate_on == "best" ? "the better FIMM" : "the FIMM (EKF)")
             << " below the IMM beyond the uncertainty; at most " << 100.0 * kMaxClampedShare
             << " % clamped): " << (failures.empty() ? "passed" : "FAILED") << '\n';

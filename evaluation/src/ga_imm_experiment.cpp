@@ -278,7 +278,10 @@ int run(const GaImmOptions& options) {
                        {"zeta_v", f.zeta_v},
                        {"position_nees", f.position_consistency.average},
                        {"position_nees_scans_inside", f.position_consistency.inside},
-                       {"consistency", f.position_consistency.verdict()}};
+                       {"nis", f.nis_consistency.average},
+                       {"nis_scans_inside", f.nis_consistency.inside},
+                       {"consistency", f.position_consistency.verdict()},
+                       {"nis_consistency", f.nis_consistency.verdict()}};
   }
   const HeadlineRuns evaluated{"ga-imm",      model_path,          regime.name,
                                regime.digest, options.common.seed, runs};

@@ -12,12 +12,16 @@
 // Gate: the corrected KF beats the CV KF beyond the uncertainty in at least 90 % of the cells (the
 // paper's claim). Findings: every case where it does not beat IMM-tuned in position and velocity.
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <iostream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <span>
 
 #include "imm/datasets/axis_trajectory.hpp"
+#include "imm/evaluation/consistency.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
@@ -49,6 +53,7 @@ std::vector<MetricDefinition> definitions(const std::string& length) {
 }
 
 constexpr double kRequiredShare = 0.9;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr const char* kQuantity[3] = {"innovation", "position", "velocity"};
 
 // "estimate [lower, upper]" of a difference of MSEs, in the tables' scientific notation.
@@ -62,6 +67,8 @@ struct CaseResult {
   Eigen::MatrixXd imm;                   // runs × 3: IMM-tuned (its innovation column unused)
   Eigen::VectorXd true_acceleration, mean_estimate;           // per scan (run 0; mean of runs)
   Eigen::VectorXd cv_position_rmse, corrected_position_rmse;  // per scan
+  /// Axis runs × scans: position NEES and NIS (1-D) of the corrected KF and of IMM-tuned.
+  std::array<std::vector<Eigen::RowVectorXd>, 4> consistency;
 };
 
 // The corrected KF's position and velocity MSE per case, over all runs in case order (a run of
@@ -126,52 +133,69 @@ int run(const CommonOptions& options) {
   const std::vector<datasets::AxisTrajectory> axes = datasets::axis_trajectories(data);
   // One axis run's terms: its mean squared innovation, position and velocity errors of the CV
   // filter, the corrected estimate, the known-input floor and IMM-tuned (4 × 3); per scan:
-  // counted, the acceleration estimate, the CV and corrected squared position errors.
-  constexpr std::ptrdiff_t kPerScan = 4;
+  // counted, the acceleration estimate, the CV and corrected squared position errors, then the
+  // position NEES and the NIS of the corrected KF and of IMM-tuned (NaN where a filter rejected
+  // the plot: each filter's figures are over the plots it used).
+  constexpr std::ptrdiff_t kPerScan = 8;
   constexpr std::ptrdiff_t kRunTerms = 12;
   const auto width = static_cast<int>(kRunTerms + steps * kPerScan);
   const std::vector<double> all = trainer::shared_items(
       static_cast<long>(axes.size()), width, [&](long run, std::span<double> terms) {
         const datasets::AxisTrajectory& t = axes[static_cast<std::size_t>(run)];
-        MlpInputEstimatorFilter filter(model, settings);
+        MlpInputEstimatorAxis axis(model, settings);
         ImmAxisFilter imm(build_axis_cv_imm(imm_tuned.spec));
         GaussianState<2> start;
         start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
         start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
-        filter.initialize(start);
+        axis.initialize(start);
         imm.initialize(start);
         GaussianState<2> known = start;  // the primary KF fed the true acceleration
         Eigen::RowVector3d cv = Eigen::RowVector3d::Zero(), corrected = cv, floor = cv, tuned = cv;
-        int samples = 0;
+        int samples = 0, imm_samples = 0;
+        auto add = [](Eigen::RowVector3d& sum, double nu, double dp, double dv) {
+          sum += Eigen::RowVector3d(nu * nu, dp * dp, dv * dv);
+        };
+        // ν²/S and the position's e²/P (1-D NIS and NEES).
+        auto consistency = [&t](double* out, const AxisFilter& axis, int k) {
+          const GaussianState<2>& x = axis.estimate();
+          out[0] = x.covariance(0, 0) > 0.0
+                       ? std::pow(t.position(k) - x.mean(0), 2) / x.covariance(0, 0)
+                       : kNaN;
+          double nu = 0.0, variance = 0.0;
+          out[1] = axis.innovation(nu, variance) && variance > 0.0 ? nu * nu / variance : kNaN;
+        };
         for (int k = 2; k < steps; ++k) {
-          const bool imm_ok = imm.step(t.measurement(k)) == StepStatus::kOk;
-          if (filter.step(t.measurement(k)) != StepStatus::kOk || !imm_ok) continue;
+          double* scan = terms.data() + kRunTerms + k * kPerScan;
+          std::fill_n(scan + 4, 4, kNaN);
+          if (imm.step(t.measurement(k)) == StepStatus::kOk) {
+            const auto& m = imm.estimate();
+            add(tuned, 0.0, t.position(k) - m.mean(0), t.velocity(k) - m.mean(1));
+            ++imm_samples;
+            consistency(scan + 6, imm, k);
+          }
+          if (axis.step(t.measurement(k)) != StepStatus::kOk) continue;
           known = predict(known, motion.transition, motion.process_noise, G,
                           Vector<1>(t.acceleration_input(k - 1)));
           const auto known_report = update(known, Vector<1>(t.measurement(k)), H, R_matrix);
+          const MlpInputEstimatorFilter& filter = axis.filter();
           const auto& e = filter.cv_estimate();
           const auto& p = filter.estimate();
-          auto add = [](Eigen::RowVector3d& sum, double nu, double dp, double dv) {
-            sum += Eigen::RowVector3d(nu * nu, dp * dp, dv * dv);
-          };
           add(cv, filter.cv_innovation(), t.position(k) - e.mean(0), t.velocity(k) - e.mean(1));
           add(corrected, filter.innovation(), t.position(k) - p.mean(0), t.velocity(k) - p.mean(1));
           add(floor, known_report.innovation(0), t.position(k) - known.mean(0),
               t.velocity(k) - known.mean(1));
-          const auto& m = imm.estimate();
-          add(tuned, 0.0, t.position(k) - m.mean(0), t.velocity(k) - m.mean(1));
           ++samples;
-          double* scan = terms.data() + kRunTerms + k * kPerScan;
           scan[0] = 1.0;
           scan[1] = filter.acceleration();
           scan[2] = std::pow(t.position(k) - e.mean(0), 2);
           scan[3] = std::pow(t.position(k) - p.mean(0), 2);
+          consistency(scan + 4, axis, k);
         }
         const double n = std::max(1, samples);
         Eigen::Map<Eigen::RowVector3d>(terms.data()) = cv / n;
         Eigen::Map<Eigen::RowVector3d>(terms.data() + 3) = corrected / n;
         Eigen::Map<Eigen::RowVector3d>(terms.data() + 6) = floor / n;
-        Eigen::Map<Eigen::RowVector3d>(terms.data() + 9) = tuned / n;
+        Eigen::Map<Eigen::RowVector3d>(terms.data() + 9) = tuned / std::max(1, imm_samples);
       });
   // The figures, summed in run order.
   for (std::size_t run = 0; run < axes.size(); ++run) {
@@ -181,8 +205,10 @@ int run(const CommonOptions& options) {
     if (case_runs[c] == 0) out.true_acceleration = t.acceleration_input;
     ++case_runs[c];
     const double* terms = all.data() + static_cast<std::ptrdiff_t>(run) * width;
+    for (auto& rows : out.consistency) rows.emplace_back(Eigen::RowVectorXd::Constant(steps, kNaN));
     for (int k = 2; k < steps; ++k) {
       const double* scan = terms + kRunTerms + k * kPerScan;
+      for (std::size_t i = 0; i < 4; ++i) out.consistency[i].back()(k) = scan[4 + i];
       if (scan[0] == 0.0) continue;
       out.mean_estimate(k) += scan[1];
       out.cv_position_rmse(k) += scan[2];
@@ -215,6 +241,7 @@ int run(const CommonOptions& options) {
   std::vector<std::string> losses;
   std::vector<std::vector<std::string>> table, imm_table;
   std::vector<std::string> findings;
+  std::vector<FilterConsistency> consistency;
   for (const CaseResult& r : cases) {
     if (r.cv.rows() == 0) continue;
     std::vector<std::string> row = {r.name};
@@ -275,6 +302,21 @@ int run(const CommonOptions& options) {
                          imm_row[3] + ", velocity " + imm_row[6] + ")");
     }
     imm_table.push_back(imm_row);
+    // Consistency of the corrected KF and IMM-tuned, per axis run (1-D position NEES and NIS).
+    auto summary = [&r](std::size_t i) {
+      Eigen::MatrixXd values(static_cast<Eigen::Index>(r.consistency[i].size()),
+                             r.consistency[i].empty() ? 0 : r.consistency[i].front().size());
+      for (std::size_t j = 0; j < r.consistency[i].size(); ++j) {
+        values.row(static_cast<Eigen::Index>(j)) = r.consistency[i][j];
+      }
+      return summarize_consistency(values, 1);
+    };
+    consistency.push_back({r.name + ": corrected KF", summary(0), summary(1)});
+    consistency.push_back({r.name + ": IMM-tuned", summary(2), summary(3)});
+    m["corrected_kf"]["position_nees"] = consistency[consistency.size() - 2].position_nees.average;
+    m["corrected_kf"]["nis"] = consistency[consistency.size() - 2].nis.average;
+    m["imm_tuned"]["position_nees"] = consistency.back().position_nees.average;
+    m["imm_tuned"]["nis"] = consistency.back().nis.average;
     metrics["rows"].push_back(m);
   }
   std::cout
@@ -300,7 +342,9 @@ int run(const CommonOptions& options) {
       << kVerdictRule << "\n\n"
       << markdown_table({"case", "pos IMM-tuned", "pos corrected", "− IMM-tuned [95 %]",
                          "vel IMM-tuned", "vel corrected", "− IMM-tuned [95 %]", "verdict"},
-                        imm_table);
+                        imm_table)
+      << "\nConsistency per axis run (1-D: position NEES and NIS average 1 when consistent):\n\n"
+      << consistency_table(consistency);
   print_findings(findings);
 
   const std::filesystem::path& out = options.out;

@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/evaluation/monte_carlo.hpp"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <limits>
 #include <stdexcept>
 
 #include "imm/evaluation/report.hpp"
+#include "imm/trainer/normalized_errors.hpp"
 #include "imm/trainer/ranks.hpp"
 
 namespace imm::evaluation {
@@ -52,8 +52,9 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
   const int modes = outcome.modes;
   const int extra = recorder.record ? recorder.width : 0;
   // One run's terms: for every scan the squared errors (4), whether it counted (1), the position
-  // NEES (1), the mode probabilities and the recorder's values; then the rejected plots.
-  constexpr int kModes = 6;
+  // NEES and the NIS (2), the mode probabilities and the recorder's values; then the rejected
+  // plots.
+  constexpr int kModes = 7;
   const std::ptrdiff_t per_scan = kModes + modes + extra;
   const auto width = static_cast<int>(steps * per_scan + 1);
 
@@ -69,7 +70,6 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
         const int n = tracker.state_dimension();
         const int y = n / 2;
         Eigen::VectorXd mean(n), variance(n);
-        Eigen::MatrixXd covariance(n, n);
         for (int k = 0; k < steps; ++k) {
           const TrackStepResult result = tracker.process(k, z.row(k).transpose());
           if (result.event == TrackEvent::kRejected) terms[width - 1] += 1.0;
@@ -85,14 +85,10 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
           scan[2] = (v - Eigen::Vector2d(mean(1), mean(y + 1))).squaredNorm();
           scan[3] = (v - measured_velocity).squaredNorm();
           scan[4] = 1.0;
-          // Position NEES: e' P_pp⁻¹ e with the position block of the combined covariance.
-          tracker.covariance(covariance);
-          Eigen::Matrix2d position_covariance;
-          position_covariance << covariance(0, 0), covariance(0, y), covariance(y, 0),
-              covariance(y, y);
-          const Eigen::Vector2d e = p - Eigen::Vector2d(mean(0), mean(y));
-          const Eigen::LLT<Eigen::Matrix2d> llt(position_covariance);
-          scan[5] = llt.info() == Eigen::Success ? e.dot(llt.solve(e)) : nan;
+          const trainer::StepConsistency consistency =
+              trainer::step_consistency(tracker.filter(), p);
+          scan[5] = consistency.position_nees;
+          scan[6] = result.event == TrackEvent::kUpdated ? consistency.nis : nan;
           Eigen::Map<Eigen::VectorXd>(scan + kModes, modes) = tracker.mode_probabilities();
           if (extra > 0)
             recorder.record(tracker.filter(), std::span<double>(scan + kModes + modes, extra));
@@ -106,6 +102,7 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
   outcome.run_velocity_plot = outcome.run_position;
   outcome.run_counted = outcome.run_position;
   outcome.run_position_nees = Eigen::MatrixXd::Constant(runs, steps, nan);
+  outcome.run_nis = outcome.run_position_nees;
   outcome.mean_mode_probabilities = Eigen::MatrixXd::Zero(steps, modes);
   Eigen::VectorXi probability_samples = Eigen::VectorXi::Zero(steps);
   outcome.recorded.assign(static_cast<std::size_t>(runs * steps * extra), nan);
@@ -121,6 +118,7 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
       outcome.run_velocity_plot(run, k) = scan[3];
       outcome.run_counted(run, k) = 1.0;
       outcome.run_position_nees(run, k) = scan[5];
+      outcome.run_nis(run, k) = scan[6];
       outcome.mean_mode_probabilities.row(k) +=
           Eigen::Map<const Eigen::RowVectorXd>(scan + kModes, modes);
       ++probability_samples(k);
@@ -152,27 +150,16 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
   const double samples = std::max(1.0, count.sum());
   outcome.position_rmse = std::sqrt(pe.sum() / samples);
   outcome.velocity_rmse = std::sqrt(ve.sum() / samples);
-  outcome.position_consistency = position_consistency(outcome.run_position_nees);
+  outcome.position_consistency = summarize_consistency(outcome.run_position_nees, 2);
+  outcome.nis_consistency = summarize_consistency(outcome.run_nis, 2);
   return outcome;
 }
 
 std::string consistency_table(const std::vector<FilterOutcome>& filters) {
-  std::vector<std::vector<std::string>> rows;
-  for (const FilterOutcome& f : filters) {
-    const NeesSummary& c = f.position_consistency;
-    rows.push_back({f.name, cell(c.average, 2),
-                    "[" + cell(c.bounds.lower, 2) + ", " + cell(c.bounds.upper, 2) + "]",
-                    cell(100.0 * c.inside, 1) + " %", cell(100.0 * c.above, 1) + " %",
-                    c.verdict()});
-  }
-  return markdown_table({"filter", "position NEES", "95 % bounds (per scan)", "scans inside",
-                         "above", "consistency"},
-                        rows) +
-         "\nPosition NEES averaged over the runs at every scan, then over the scans (2 when the "
-         "filter's covariance matches its errors); a scan's average lies within the χ² bounds "
-         "95 % of the time for a consistent filter. \"optimistic\": more scans above the bounds "
-         "(the filter claims more accuracy than it has) than below; \"consistent\": at least "
-         "90 % of the scans inside.\n";
+  std::vector<FilterConsistency> rows;
+  rows.reserve(filters.size());
+  for (const FilterOutcome& f : filters) rows.push_back(f.consistency());
+  return consistency_table(rows);
 }
 
 }  // namespace imm::evaluation

@@ -121,6 +121,8 @@ int run(const PlainImmOptions& options) {
                                {"zeta_v", f.zeta_v},
                                {"position_rmse", f.position_rmse},
                                {"velocity_rmse", f.velocity_rmse},
+                               {"position_nees", f.position_consistency.average},
+                               {"nis", f.nis_consistency.average},
                                {"rejected_steps", f.rejected_steps}});
   }
   const HeadlineRuns evaluated{"plain-imm", model, data.regime, data.digest(), data.seed, runs};

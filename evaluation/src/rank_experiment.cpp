@@ -61,7 +61,7 @@ int run(const RankOptions& options) {
     r.zeta_p = outcomes.back().zeta_p;
     r.zeta_v = outcomes.back().zeta_v;
     r.position_rmse = outcomes.back().position_rmse;
-    const NeesSummary& nees = outcomes.back().position_consistency;
+    const ConsistencySummary& nees = outcomes.back().position_consistency;
     r.consistency = nees.verdict();
     r.position_nees = nees.average;
     r.scans_inside = nees.inside;
@@ -135,7 +135,8 @@ int run(const RankOptions& options) {
                           {"position_rmse", f.position_rmse},
                           {"velocity_rmse", f.velocity_rmse},
                           {"verdict", verdict_against_baseline(f)},
-                          {"position_nees", outcomes[i].position_consistency.average}};
+                          {"position_nees", outcomes[i].position_consistency.average},
+                          {"nis", outcomes[i].nis_consistency.average}};
     if (!f.baseline) {
       row["versus_baseline"] = {
           {"zeta_p",

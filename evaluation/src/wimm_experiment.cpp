@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "imm/evaluation/consistency.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
@@ -166,6 +167,7 @@ int run(const CommonOptions& options) {
     const TrackingScore& n = rows.front().score;
     const TrackingScore& w = rows[1].score;
     std::vector<std::vector<std::string>> table;
+    std::vector<FilterConsistency> consistency;
     for (const Row& row : rows) {
       const TrackingScore& s = row.score;
       const auto* paper = regimes.evaluated.find(row.filter, case_name, "azimuth_rmse");
@@ -185,6 +187,10 @@ int run(const CommonOptions& options) {
                                         {"pos_rmse", s.position},
                                         {"pos_rmse_settled", s.position_settled},
                                         {"nees", s.nees_settled}};
+      consistency.push_back({row.filter, summarize_consistency(s.run_position_nees, 2),
+                             summarize_consistency(s.run_nis, 2)});
+      details[case_name][row.filter] = {{"position_nees", consistency.back().position_nees.average},
+                                        {"nis", consistency.back().nis.average}};
       if (&row != &rows.front()) {
         metrics[case_name][row.filter]["az_settled_minus_nimm"] = {versus.estimate, versus.lower,
                                                                    versus.upper};
@@ -197,7 +203,10 @@ int run(const CommonOptions& options) {
               << markdown_table(
                      {"filter", "az (rad)", "az settled", "ratio settled", "− nIMM settled [95 %]",
                       "paper az", "paper ratio", "pos", "pos settled", "NEES settled", "fused"},
-                     table);
+                     table)
+              << "\nNEES settled: of the 4-D position–velocity state. Consistency over every scan "
+                 "(the NIS of the measurement the filter updated with, in range and azimuth):\n\n"
+              << consistency_table(consistency);
     headline_cases.push_back({case_name, w.track_azimuth_settled, w.track_position_settled});
     const Difference azimuth =
         paired_difference(runs, rms_of(w.track_azimuth_settled), rms_of(n.track_azimuth_settled));

@@ -137,6 +137,37 @@ TEST_P(TrackerProperties, CovarianceIsSymmetricPositiveDefiniteAndMatchesTheVari
   EXPECT_GT(checked, 20);
 }
 
+// The innovation behind the evaluations' NIS: after every update a finite ν with a symmetric
+// positive definite S; before the track's first update none (a plot the tracker refuses never
+// reaches the filter, whose last innovation then stands).
+TEST_P(TrackerProperties, ReportsAnInnovationAfterEveryUpdateAndNoneOtherwise) {
+  const io::ModelFileReader reader(GetParam());
+  testing::KindFilter made = testing::make_kind_filter(reader);
+  const TrackOptions options = made.options;
+  Tracker tracker(std::move(made.filter), made.options);
+  Eigen::Vector2d nu;
+  Eigen::Matrix2d S;
+  int updates = 0;
+  for (std::int64_t scan = 0; scan < 30; ++scan) {
+    const bool gap = scan == 20;
+    const TrackStepResult result =
+        gap ? tracker.process(scan, Eigen::Vector2d(kNan, kNan))
+            : tracker.process(scan, testing::plausible_plot(options, scan));
+    SCOPED_TRACE("scan " + std::to_string(scan));
+    if (result.event == TrackEvent::kRejected) continue;  // the filter was not called
+    if (result.event != TrackEvent::kUpdated) {
+      ASSERT_FALSE(tracker.filter().innovation(nu, S)) << to_string(result.event);
+      continue;
+    }
+    ASSERT_TRUE(tracker.filter().innovation(nu, S));
+    ASSERT_TRUE(nu.allFinite() && S.allFinite());
+    ASSERT_LE(std::abs(S(0, 1) - S(1, 0)), 1e-12 * S.cwiseAbs().maxCoeff());
+    ASSERT_EQ(Eigen::LLT<Eigen::Matrix2d>(S).info(), Eigen::Success);
+    ++updates;
+  }
+  EXPECT_GT(updates, 20);
+}
+
 // The filter's own step, started from a plausible state: a refused step changes nothing, an
 // accepted one leaves a finite estimate; predict_only through long gaps stays finite.
 TEST_P(FilterProperties, StepRefusesOrStaysFinite) {

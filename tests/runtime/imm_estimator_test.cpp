@@ -131,7 +131,47 @@ TEST(ImmEstimator, MatchesTextbookImplementationWithMixedDimensions) {
         << "step " << k;
     ASSERT_TRUE(testing::matrices_near(imm.mode_probabilities(), reference.probabilities(), 1e-9))
         << "step " << k;
+    // The innovation of the NIS: the moments of the predicted measurement mixture.
+    Vector<2> nu;
+    SquareMatrix<2> S;
+    ASSERT_TRUE(imm.innovation(nu, S));
+    ASSERT_TRUE(testing::matrices_near(nu, reference.innovation(), 1e-9)) << "step " << k;
+    ASSERT_TRUE(testing::matrices_near(S, reference.innovation_covariance(), 1e-9)) << "step " << k;
   }
+}
+
+// The innovation exists only after a successful update: not before the first step, not after a
+// prediction without a plot, not after a refused plot.
+TEST(ImmEstimator, HasAnInnovationOnlyAfterASuccessfulUpdate) {
+  const auto motion = constant_velocity<2>(1.0, 1e-3);
+  const Cartesian4 measurement({0, 2}, measurement_covariance());
+  std::vector<std::unique_ptr<ImmMode<4, 2>>> modes;
+  modes.push_back(std::make_unique<KalmanMode<4, 4, Cartesian4>>("cv", motion, measurement,
+                                                                 StateEmbedding<4, 4>()));
+  ImmEstimator<4, 2> imm(std::move(modes), Eigen::MatrixXd::Ones(1, 1), Eigen::VectorXd::Ones(1));
+  imm.initialize(initial_cv_state());
+  Vector<2> nu = Vector<2>::Constant(7.0);
+  SquareMatrix<2> S = SquareMatrix<2>::Constant(7.0);
+  EXPECT_FALSE(imm.innovation(nu, S));
+  EXPECT_EQ(nu(0), 7.0);  // nothing written
+  ASSERT_EQ(imm.step(Vector<2>(10.2, -4.7)), StepStatus::kOk);
+  ASSERT_TRUE(imm.innovation(nu, S));
+  // One mode: the Kalman filter's own ν = z − H F x and S = H (F P Fᵀ + Q) Hᵀ + R, by hand.
+  const GaussianState<4> x0 = initial_cv_state();
+  const Vector<4> predicted = motion.transition * x0.mean;
+  const SquareMatrix<4> P =
+      motion.transition * x0.covariance * motion.transition.transpose() + motion.process_noise;
+  EXPECT_NEAR(nu(0), 10.2 - predicted(0), 1e-12);
+  EXPECT_NEAR(nu(1), -4.7 - predicted(2), 1e-12);
+  EXPECT_NEAR(S(0, 0), P(0, 0) + 0.25, 1e-12);
+  EXPECT_NEAR(S(0, 1), P(0, 2) + 0.02, 1e-12);
+  EXPECT_NEAR(S(1, 1), P(2, 2) + 0.3, 1e-12);
+  ASSERT_EQ(imm.predict_only(), StepStatus::kOk);
+  EXPECT_FALSE(imm.innovation(nu, S));
+  ASSERT_EQ(imm.step(Vector<2>(10.4, -4.5)), StepStatus::kOk);
+  EXPECT_TRUE(imm.innovation(nu, S));
+  EXPECT_EQ(imm.step(Vector<2>(std::nan(""), 1.0)), StepStatus::kInvalidMeasurement);
+  EXPECT_FALSE(imm.innovation(nu, S));
 }
 
 // Same comparison for the 4-state, three-level CV IMM (the benchmark filter).

@@ -54,8 +54,11 @@ class TextbookImm {
       x0[static_cast<std::size_t>(j)] = xm;
       p0[static_cast<std::size_t>(j)] = pm;
     }
-    // Mode-matched filtering.
+    // Mode-matched filtering; the predicted measurement density Σ_j c_j N(ẑ_j, S_j) is kept by its
+    // first two moments.
     Eigen::VectorXd likelihood(r);
+    std::vector<Eigen::VectorXd> z_hat(static_cast<std::size_t>(r));
+    std::vector<Eigen::MatrixXd> s_mode(static_cast<std::size_t>(r));
     for (int j = 0; j < r; ++j) {
       auto& m = modes_[static_cast<std::size_t>(j)];
       const Eigen::VectorXd x = m.E.transpose() * x0[static_cast<std::size_t>(j)];
@@ -64,6 +67,8 @@ class TextbookImm {
       const Eigen::MatrixXd Pp = m.F * P * m.F.transpose() + m.Q;
       const Eigen::VectorXd nu = z - m.H * xp;
       const Eigen::MatrixXd S = m.H * Pp * m.H.transpose() + m.R;
+      z_hat[static_cast<std::size_t>(j)] = m.H * xp;
+      s_mode[static_cast<std::size_t>(j)] = S;
       const Eigen::MatrixXd K = Pp * m.H.transpose() * S.inverse();
       m.x = xp + K * nu;
       const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(xp.size(), xp.size());
@@ -75,6 +80,20 @@ class TextbookImm {
     }
     const Eigen::VectorXd unnormalized = likelihood.cwiseProduct(c);
     mu_ = unnormalized / unnormalized.sum();
+    Eigen::VectorXd predicted = Eigen::VectorXd::Zero(z.size());
+    for (int j = 0; j < r; ++j) predicted += c(j) * z_hat[static_cast<std::size_t>(j)];
+    innovation_covariance_ = Eigen::MatrixXd::Zero(z.size(), z.size());
+    for (int j = 0; j < r; ++j) {
+      const Eigen::VectorXd d = z_hat[static_cast<std::size_t>(j)] - predicted;
+      innovation_covariance_ += c(j) * (s_mode[static_cast<std::size_t>(j)] + d * d.transpose());
+    }
+    innovation_ = z - predicted;
+  }
+
+  /// The last step's z − ẑ and the covariance of the predicted measurement density.
+  [[nodiscard]] const Eigen::VectorXd& innovation() const { return innovation_; }
+  [[nodiscard]] const Eigen::MatrixXd& innovation_covariance() const {
+    return innovation_covariance_;
   }
 
   [[nodiscard]] Eigen::VectorXd mean() const {
@@ -101,6 +120,8 @@ class TextbookImm {
   std::vector<TextbookMode> modes_;
   Eigen::MatrixXd pi_;
   Eigen::VectorXd mu_;
+  Eigen::VectorXd innovation_;
+  Eigen::MatrixXd innovation_covariance_;
 };
 
 }  // namespace imm::testing

@@ -98,19 +98,19 @@ Eigen::MatrixXd planted_nees(double scale, std::uint64_t seed) {
 }
 
 TEST(PositionConsistency, NamesAConsistentAnOptimisticAndAPessimisticFilter) {
-  const NeesSummary consistent = position_consistency(planted_nees(1.0, 1));
+  const ConsistencySummary consistent = summarize_consistency(planted_nees(1.0, 1), 2);
   EXPECT_NEAR(consistent.average, 2.0, 0.05);
   EXPECT_NEAR(consistent.inside, 0.95, 0.04);
   EXPECT_EQ(consistent.scans, 200);
   EXPECT_STREQ(consistent.verdict(), "consistent");
-  const NeesSummary optimistic = position_consistency(planted_nees(3.0, 2));
+  const ConsistencySummary optimistic = summarize_consistency(planted_nees(3.0, 2), 2);
   EXPECT_GT(optimistic.above, 0.99);
   EXPECT_STREQ(optimistic.verdict(), "optimistic");
-  const NeesSummary pessimistic = position_consistency(planted_nees(0.4, 3));
+  const ConsistencySummary pessimistic = summarize_consistency(planted_nees(0.4, 3), 2);
   EXPECT_LT(pessimistic.inside, 0.01);
   EXPECT_EQ(pessimistic.above, 0.0);
   EXPECT_STREQ(pessimistic.verdict(), "pessimistic");
-  EXPECT_EQ(position_consistency(Eigen::MatrixXd(0, 0)).scans, 0);
+  EXPECT_EQ(summarize_consistency(Eigen::MatrixXd(0, 0), 2).scans, 0);
 }
 
 // The regression gate's consistency error: |ln(ANEES / 2)| per run, 0 for a consistent filter up

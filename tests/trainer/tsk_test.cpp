@@ -9,9 +9,11 @@
 
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/track.hpp"
+#include "imm/io/model_file.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/tsk/tsk_fit.hpp"
@@ -255,6 +257,8 @@ TEST(TskConfig, InvalidValuesAreNamed) {
   EXPECT_EQ(config_error("[fimm]\niekf_iterations = 1\n"), "fimm.iekf_iterations");
   EXPECT_EQ(config_error("[fimm]\ntransition = [[0.9, 0.2], [0.1, 0.9]]\n"), "fimm.transition");
   EXPECT_EQ(config_error("[fimm]\nsample_period = 0.2\n"), "fimm.sample_period");  // regime's
+  EXPECT_EQ(config_error("[fimm]\ntransition = \"learned\"\n"), "fimm.transition");
+  EXPECT_EQ(config_error("[fimm]\ntransition = \"sojourns\"\n"), "");
   // A regime without a range sensor is refused under the config's `regime` key.
   EXPECT_EQ(testing::config_error_key("regime = \"configs/regimes/paper/wimm_training.toml\"\n",
                                       [](const auto& path) { return load_tsk_config(path); }),
@@ -307,6 +311,47 @@ TEST(TskTraining, SmallRunWritesAModelThatReproducesTheSensor) {
   EXPECT_FALSE(train_tsk(config, refused).gate_passed);
   EXPECT_FALSE(std::filesystem::exists(refused));
   EXPECT_TRUE(std::filesystem::exists(dir / "models" / "refused.metrics.json"));
+}
+
+// `fimm.transition = "sojourns"`: the FIMM's transitions are the chain learned from the training
+// tracks' maneuver labels. In the seed's cut-in (T = 0.1 s, 200 scans) every track cruises over
+// scans 0–9, 40–139 and 180–199 and changes lane over 10–39 and 140–179: per track 129 scan-to-
+// scan steps from cruise with 2 exits, 70 from a lane change with 2 exits, so P̂ = [[1 − a, a],
+// [b, 1 − b]] with a = 2/129, b = 2/70. For two states log P̂ = log(1 − a − b) / (−(a + b)) ·
+// (P̂ − I), so the mean sojourns are (a + b) T / (a · −log(1 − a − b)) ≈ 6.31 s and the same with
+// b ≈ 3.42 s (not 6.45 and 3.5: the logarithm corrects for changes between samples).
+TEST(TskTraining, LearnsTheFimmsTransitionsFromTheTrainingTracksSojourns) {
+  const testing::TempDir dir;
+  TskTrainingConfig config = load_tsk_config("configs/tsk_range_sensor.toml");
+  config.regime.sensor.calibration.samples = 600;
+  config.fcrm.restarts = 2;
+  config.fine_tuning.max_iterations = 5;
+  config.transitions_from_sojourns = true;
+  const auto out = dir / "tsk.h5";
+  const TskTrainingResult result = train_tsk(config, out);
+  ASSERT_TRUE(result.sojourns.has_value());
+  const double a = 2.0 / 129.0, b = 2.0 / 70.0, T = 0.1;
+  const double decay = -std::log(1.0 - a - b);
+  EXPECT_NEAR(result.sojourns->mean_sojourn(0), (a + b) * T / (a * decay), 1e-9);
+  EXPECT_NEAR(result.sojourns->mean_sojourn(1), (a + b) * T / (b * decay), 1e-9);
+  // exp(Q T) of a two-state chain: P(leave) = r_i / (r_0 + r_1) (1 − e^{−(r_0 + r_1) T}).
+  const double r0 = 1.0 / result.sojourns->mean_sojourn(0),
+               r1 = 1.0 / result.sojourns->mean_sojourn(1);
+  const double leave = 1.0 - std::exp(-(r0 + r1) * T);
+  EXPECT_NEAR(result.fimm.transition(0, 1), r0 / (r0 + r1) * leave, 1e-12);
+  EXPECT_NEAR(result.fimm.transition(1, 0), r1 / (r0 + r1) * leave, 1e-12);
+  if (result.gate_passed) {
+    const std::optional<FimmSpec> stored = io::read_fimm_settings(io::ModelFileReader(out));
+    ASSERT_TRUE(stored.has_value());
+    EXPECT_EQ(stored->transition, result.fimm.transition);
+  }
+  const auto metrics = nlohmann::json::parse(testing::slurp_text(dir / "tsk.metrics.json"));
+  EXPECT_EQ(metrics["fimm_transition"]["source"], "sojourns");
+  // Without it, the config's matrix.
+  config.transitions_from_sojourns = false;
+  const TskTrainingResult preset = train_tsk(config, dir / "preset.h5");
+  EXPECT_FALSE(preset.sojourns.has_value());
+  EXPECT_EQ(preset.fimm.transition, config.fimm.transition);
 }
 
 }  // namespace

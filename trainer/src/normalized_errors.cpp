@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/normalized_errors.hpp"
 
+#include <Eigen/Cholesky>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -73,6 +74,29 @@ double NormalizedErrors::position_rmse() const {
 
 double NormalizedErrors::velocity_rmse() const {
   return std::sqrt(velocity_error_.sum() / std::max(1, samples_.sum()));
+}
+
+StepConsistency step_consistency(const TrackFilter& filter, const Eigen::Vector2d& position) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  StepConsistency out{kNaN, kNaN};
+  const int n = filter.state_dimension();
+  const int y = n / 2;
+  Eigen::VectorXd mean(n), variance(n);
+  Eigen::MatrixXd covariance(n, n);
+  filter.state(mean, variance);
+  filter.covariance(covariance);
+  Eigen::Matrix2d block;
+  block << covariance(0, 0), covariance(0, y), covariance(y, 0), covariance(y, y);
+  const Eigen::Vector2d e = position - Eigen::Vector2d(mean(0), mean(y));
+  const Eigen::LLT<Eigen::Matrix2d> position_llt(block);
+  if (position_llt.info() == Eigen::Success) out.position_nees = e.dot(position_llt.solve(e));
+  Eigen::Vector2d nu;
+  Eigen::Matrix2d S;
+  if (filter.innovation(nu, S)) {
+    const Eigen::LLT<Eigen::Matrix2d> innovation_llt(S);
+    if (innovation_llt.info() == Eigen::Success) out.nis = nu.dot(innovation_llt.solve(nu));
+  }
+  return out;
 }
 
 }  // namespace imm::trainer

@@ -87,6 +87,10 @@ StepStatus AimmAxisFilter::step(double z) {
   return status;
 }
 
+bool AimmAxisFilter::innovation(double& nu, double& variance) const {
+  return axis_innovation(imm_, nu, variance);
+}
+
 StepStatus AimmAxisFilter::predict_only() {
   set_inputs();
   return imm_.predict_only();

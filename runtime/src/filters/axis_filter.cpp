@@ -94,4 +94,12 @@ ModeVector TwoAxisFilter::mode_probabilities() const {
   return mu;
 }
 
+bool TwoAxisFilter::innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const {
+  double nx = 0.0, sx = 0.0, ny = 0.0, sy = 0.0;
+  if (!x_->innovation(nx, sx) || !y_->innovation(ny, sy)) return false;
+  nu << nx, ny;
+  S << sx, 0.0, 0.0, sy;
+  return true;
+}
+
 }  // namespace imm

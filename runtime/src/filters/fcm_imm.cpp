@@ -147,6 +147,7 @@ ModeStep FcmCompensatedMode::propose(const GaussianState<2>& mixed, const Vector
   const Vector<2> K = pending_.covariance.col(0) / S;
   const Matrix<2, 1> gain = K + pending_compensation_ * (g_hat_ - K);
   const auto report = update_with_gain(pending_, Vector<1>(error), H_, R_, gain);
+  keep_innovation(report.innovation, report.innovation_covariance);
   return {report.status, report.log_likelihood};
 }
 

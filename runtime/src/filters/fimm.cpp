@@ -108,6 +108,10 @@ void FimmFilter::covariance(
 
 ModeVector FimmFilter::mode_probabilities() const { return imm_->mode_probabilities(); }
 
+bool FimmFilter::innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const {
+  return imm_->innovation(nu, S);
+}
+
 const GaussianState<6>& FimmFilter::estimate() const { return imm_->estimate(); }
 
 bool FimmFilter::outside_sensor_box() const {

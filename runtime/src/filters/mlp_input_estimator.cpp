@@ -93,9 +93,11 @@ void MlpInputEstimatorFilter::initialize(const GaussianState<2>& state) {
   acceleration_ = 0.0;
   raw_output_ = 0.0;
   innovation_ = 0.0;
+  updated_ = false;
 }
 
 StepStatus MlpInputEstimatorFilter::step(double z) {
+  updated_ = false;
   if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
   // The primary KF with the input estimated at k − 1 (eq. 10).
   GaussianState<2> primary =
@@ -113,11 +115,14 @@ StepStatus MlpInputEstimatorFilter::step(double z) {
                       ? -magnitude
                       : magnitude;
   innovation_ = primary_report.innovation(0);
+  innovation_variance_ = primary_report.innovation_covariance(0, 0);
   primary_ = primary;
+  updated_ = true;
   return StepStatus::kOk;
 }
 
 void MlpInputEstimatorFilter::predict_only() {
+  updated_ = false;
   primary_ =
       predict(primary_, motion_.transition, motion_.process_noise, G_, Vector<1>(acceleration_));
   features_.predict_only();

@@ -133,6 +133,10 @@ StepStatus WimmFilter::step(const Eigen::Vector2d& z) {
 
 StepStatus WimmFilter::predict_only() { return imm_.predict_only(); }
 
+bool WimmFilter::innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const {
+  return imm_.innovation(nu, S);
+}
+
 void WimmFilter::state(
     Eigen::Ref<Eigen::VectorXd> mean,              // NOLINT(performance-unnecessary-value-param)
     Eigen::Ref<Eigen::VectorXd> variance) const {  // NOLINT(performance-unnecessary-value-param)

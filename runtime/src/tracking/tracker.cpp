@@ -61,6 +61,10 @@ class PlainImmFilter final : public TrackFilter {
     return std::visit([](const auto& imm) { return imm.mode_probabilities(); }, imm_);
   }
 
+  bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const override {
+    return std::visit([&](const auto& imm) { return imm.innovation(nu, S); }, imm_);
+  }
+
  private:
   PlainImmSpec spec_;
   PlainImm imm_;

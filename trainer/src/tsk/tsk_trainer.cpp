@@ -16,6 +16,7 @@
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
 #include "imm/datasets/track.hpp"
+#include "imm/estimation/mode_transitions.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/support/config.hpp"
@@ -52,7 +53,18 @@ TskTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
     s.lane_change_ratio = f->real_or("lane_change_ratio", s.lane_change_ratio);
     s.noise_scale = f->real_or("noise_scale", s.noise_scale);
     s.acceleration_variance = f->real_or("acceleration_variance", s.acceleration_variance);
-    if (f->has("transition")) s.transition = f->matrix("transition", 2, 2);
+    if (f->has("transition") && f->is_array("transition")) {
+      s.transition = f->matrix("transition", 2, 2);
+    } else if (f->has("transition")) {
+      const std::string how = f->text("transition");
+      if (how != "sojourns") {
+        throw InvalidParameter(f->path("transition"),
+                               "must be a 2 × 2 matrix or \"sojourns\" (learned from the "
+                               "regime's training tracks), got \"" +
+                                   how + "\"");
+      }
+      c.transitions_from_sojourns = true;
+    }
     if (f->has("initial_probabilities")) {
       s.initial_probabilities = f->reals("initial_probabilities", 2);
     }
@@ -202,6 +214,24 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples
     result.gate_passed = result.gate_passed && r.validation_rmse <= config.max_validation_rmse &&
                          std::isfinite(r.validation_rmse);
   }
+  // The FIMM as imm-eval fimm runs it (the EKF), with the regime's first case's plot noise: what
+  // a tracking application loads (imm::load_filter) without the training config.
+  result.fimm = config.fimm;
+  result.fimm.measurement_covariance = config.regime.noise_of(0).covariance();
+  if (config.transitions_from_sojourns) {
+    const datasets::TrackSet tracks =
+        datasets::draw_split(config.regime, datasets::Split::kTraining, 0);
+    result.sojourns = estimate_maneuver_sojourns(tracks);
+    result.fimm.transition = transition_matrix(result.sojourns->generator, tracks.sample_period);
+    const SojournEstimate& e = *result.sojourns;
+    spdlog::info(
+        "tsk: FIMM mode transitions from {} training tracks: mean sojourn cruise {:.3g} ± {:.2g} "
+        "s ({} exits), lane change {:.3g} ± {:.2g} s ({} exits); P(stay) {:.5f} / {:.5f} at T = "
+        "{} s",
+        tracks.tracks.size(), e.mean_sojourn(0), e.standard_error(0), e.exits(0), e.mean_sojourn(1),
+        e.standard_error(1), e.exits(1), result.fimm.transition(0, 0), result.fimm.transition(1, 1),
+        tracks.sample_period);
+  }
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -227,6 +257,15 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples
                                          {"fcrm_iterations", r.fcrm_iterations},
                                          {"fine_tuning_iterations", r.fine_tuning.iterations}};
   }
+  metrics["fimm_transition"] = {
+      {"source", config.transitions_from_sojourns ? "sojourns" : "config"},
+      {"stay", {result.fimm.transition(0, 0), result.fimm.transition(1, 1)}}};
+  if (result.sojourns) {
+    metrics["fimm_transition"]["mean_sojourn_s"] = {result.sojourns->mean_sojourn(0),
+                                                    result.sojourns->mean_sojourn(1)};
+    metrics["fimm_transition"]["standard_error_s"] = {result.sojourns->standard_error(0),
+                                                      result.sojourns->standard_error(1)};
+  }
   metrics["wall_seconds"] = result.wall_seconds;
   metrics["gate"] = {{"max_validation_rmse", config.max_validation_rmse},
                      {"passed", result.gate_passed}};
@@ -244,13 +283,13 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples
     provenance.validation_metrics[key + "_rmse"] = result.outputs[i].validation_rmse;
     provenance.validation_metrics[key + "_fcrm_rmse"] = result.outputs[i].fcrm_validation_rmse;
   }
+  if (result.sojourns) {
+    provenance.training_metrics["cruise_sojourn_s"] = result.sojourns->mean_sojourn(0);
+    provenance.training_metrics["lane_change_sojourn_s"] = result.sojourns->mean_sojourn(1);
+  }
   io::ModelFileWriter writer(out, provenance);
   io::write_tsk_sensor(writer, result.model);
-  // The FIMM as imm-eval fimm runs it (the EKF), with the regime's first case's plot noise: what
-  // a tracking application loads (imm::load_filter) without the training config.
-  FimmSpec fimm = config.fimm;
-  fimm.measurement_covariance = config.regime.noise_of(0).covariance();
-  io::write_fimm_settings(writer, fimm);
+  io::write_fimm_settings(writer, result.fimm);
   writer.commit();
   return result;
 }

@@ -10,6 +10,7 @@
 
 #include "imm/math/angle.hpp"
 #include "imm/tracking/tracker.hpp"
+#include "imm/trainer/normalized_errors.hpp"
 #include "imm/trainer/ranks.hpp"
 
 namespace imm::trainer::wimm {
@@ -47,8 +48,9 @@ TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& dat
   Eigen::VectorXi count = Eigen::VectorXi::Zero(steps);
   Eigen::MatrixXd mu = Eigen::MatrixXd::Zero(steps, 2);
   const std::array<int, 4> pv = {0, 1, 3, 4};  // x, vx, y, vy in the 6-state layout
-  // One track's terms, per scan: counted, da², position error², NEES, fused, μ (2).
-  constexpr std::ptrdiff_t kPerScan = 7;
+  // One track's terms, per scan: counted, da², position error², NEES, fused, μ (2), position
+  // NEES, NIS.
+  constexpr std::ptrdiff_t kPerScan = 9;
   const auto width = static_cast<int>(steps * kPerScan);
   const auto tracks = static_cast<long>(data.tracks.size());
   const std::vector<double> all = shared_items(tracks, width, [&](long t, std::span<double> terms) {
@@ -59,7 +61,7 @@ TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& dat
     const Eigen::MatrixXd& truth = track.truth;
     const Eigen::MatrixXd& z = track.plots;
     for (int k = 0; k < steps; ++k) {
-      (void)tracker.process(k, z.row(k).transpose());
+      const TrackStepResult result = tracker.process(k, z.row(k).transpose());
       if (!tracker.initialized()) continue;
       const GaussianState<6>& estimate = filter.estimate();
       // The filter works around the sensor; the truth is in the regime's frame.
@@ -80,9 +82,16 @@ TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& dat
       scan[3] = error.dot(ldlt.solve(error));
       scan[4] = filter.fused() ? 1.0 : 0.0;
       Eigen::Map<Eigen::Vector2d>(scan + 5) = filter.mode_probabilities().head<2>();
+      const StepConsistency consistency = step_consistency(filter, Eigen::Vector2d(x, y));
+      scan[7] = consistency.position_nees;
+      scan[8] = result.event == TrackEvent::kUpdated ? consistency.nis
+                                                     : std::numeric_limits<double>::quiet_NaN();
     }
   });
   // The figures, summed in track order.
+  score.run_position_nees = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(tracks), steps,
+                                                      std::numeric_limits<double>::quiet_NaN());
+  score.run_nis = score.run_position_nees;
   for (long t = 0; t < tracks; ++t) {
     const auto i = static_cast<Eigen::Index>(t);
     int settled_count = 0;
@@ -94,6 +103,8 @@ TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& dat
       nees(k) += scan[3];
       fused(k) += scan[4];
       mu.row(k) += Eigen::Map<const Eigen::RowVector2d>(scan + 5);
+      score.run_position_nees(i, k) = scan[7];
+      score.run_nis(i, k) = scan[8];
       ++count(k);
       if (k >= settled) {
         score.track_azimuth_settled(i) += scan[1];

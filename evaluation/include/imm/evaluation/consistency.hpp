@@ -9,6 +9,8 @@
 /// too small); below: pessimistic.
 
 #include <Eigen/Core>
+#include <span>
+#include <string>
 
 namespace imm::evaluation {
 
@@ -31,21 +33,34 @@ struct ConsistencyBounds {
 };
 [[nodiscard]] ConsistencyBounds average_bounds(int dimension, long runs, double confidence = 0.95);
 
-/// A filter's position NEES over a Monte Carlo evaluation: the average over runs at every scan,
-/// checked against that scan's bounds (2 dimensions, the runs that have an estimate there).
-struct NeesSummary {
-  double average = 0.0;      ///< mean over scans of the per-scan averages (2 when consistent)
+/// A consistency statistic (position NEES or NIS) over a Monte Carlo evaluation: the average over
+/// runs at every scan, checked against that scan's bounds (for the runs that have a value there).
+struct ConsistencySummary {
+  int dimension = 2;         ///< of the statistic (its average is `dimension` when consistent)
+  double average = 0.0;      ///< mean over scans of the per-scan averages
   double inside = 0.0;       ///< share of scans whose average lies within its 95 % bounds
   double above = 0.0;        ///< share above them: the filter claims more accuracy than it has
   ConsistencyBounds bounds;  ///< the bounds of a scan with every run
   long scans = 0;            ///< scans with at least one run
   /// "consistent" (≥ 90 % of the scans inside), "optimistic" or "pessimistic" (more scans outside
-  /// on that side).
+  /// on that side); "–" without scans.
   [[nodiscard]] const char* verdict() const;
 };
 
-/// From runs × scans position NEES values (NaN where a run has no estimate).
-[[nodiscard]] NeesSummary position_consistency(const Eigen::MatrixXd& run_nees);
+/// From runs × scans values of a statistic of `dimension` (NaN where a run has none).
+[[nodiscard]] ConsistencySummary summarize_consistency(const Eigen::MatrixXd& run_values,
+                                                       int dimension);
+
+/// A filter's position NEES and NIS, for the consistency table.
+struct FilterConsistency {
+  std::string name;
+  ConsistencySummary position_nees;
+  ConsistencySummary nis;
+};
+
+/// Every filter's position NEES and NIS against their χ² bounds, as a Markdown table with the rule
+/// in words: "filter | position NEES | scans inside | NIS | scans inside | verdict".
+[[nodiscard]] std::string consistency_table(std::span<const FilterConsistency> filters);
 
 /// Per run: |ln(ANEES / dimension)|, the run's NEES averaged over its scans with an estimate,
 /// against the value a consistent filter averages to (0 when consistent; ln 3 ≈ 1.1 when the

@@ -37,7 +37,16 @@ struct FilterOutcome {
   /// runs × scans: the position NEES (x − x̂)ᵀ P⁻¹ (x − x̂) over the position block (NaN where a
   /// run has no estimate), and its summary against the χ² bounds.
   Eigen::MatrixXd run_position_nees;
-  NeesSummary position_consistency;
+  /// runs × scans: the NIS of every update (NaN where a run has none: before the track starts,
+  /// a rejected plot).
+  Eigen::MatrixXd run_nis;
+  ConsistencySummary position_consistency;
+  ConsistencySummary nis_consistency;
+
+  /// The name with both summaries, for consistency_table.
+  [[nodiscard]] FilterConsistency consistency() const {
+    return {name, position_consistency, nis_consistency};
+  }
 
   /// ζ_p and ζ_v with the runs weighted (all ones: the figures above), for the bootstrap.
   [[nodiscard]] Statistic zeta_p_statistic() const;
@@ -58,8 +67,7 @@ struct StepRecorder {
   std::function<void(const TrackFilter& filter, std::span<double> values)> record;
 };
 
-/// Every filter's position NEES against its χ² bounds, as a Markdown table with the rule in words
-/// (consistency.hpp): "filter | NEES | 95 % bounds | scans inside | above | verdict".
+/// consistency_table (consistency.hpp) of the filters' outcomes.
 [[nodiscard]] std::string consistency_table(const std::vector<FilterOutcome>& filters);
 
 /// Runs `make_filter()` over every track of `data` (Cartesian plots) and scores it.

@@ -92,6 +92,7 @@ class ImmEstimator {
   /// Starts a track: every mode takes `state` (its own components of it) and the mode
   /// probabilities return to their initial values.
   void initialize(const GaussianState<NX>& state) {
+    updated_ = false;
     for (auto& mode : modes_) mode->reset(state);
     log_probabilities_ = initial_log_probabilities_;
     combine();
@@ -102,17 +103,19 @@ class ImmEstimator {
   /// every call inside is inlined (Eigen's small products otherwise stay out of line).
   [[gnu::flatten]] StepStatus step(const Vector<NZ>& z) {
     require_initialized();
+    updated_ = false;
     if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
     predict_mode_probabilities();
     mix_and_propose(
         [&](Mode& mode, const GaussianState<NX>& mixed) { return mode.propose(mixed, z); });
-    return finish_cycle();
+    return finish_update();
   }
 
   /// One IMM cycle without a measurement (a missed or rejected plot): the modes predict and the
   /// mode probabilities only follow the Markov chain.
   StepStatus predict_only() {
     require_initialized();
+    updated_ = false;
     predict_mode_probabilities();
     mix_and_propose(
         [](Mode& mode, const GaussianState<NX>& mixed) { return mode.propose_prediction(mixed); });
@@ -127,6 +130,7 @@ class ImmEstimator {
   template <class Choose>
   StepStatus step_with(const Vector<NZ>& z, Choose&& choose) {
     require_initialized();
+    updated_ = false;
     if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
     predict_mode_probabilities();
     const int n = mode_count();
@@ -144,7 +148,7 @@ class ImmEstimator {
     for (int j = 0; j < n; ++j) {
       if (!record(j, mode_at(j).propose(mixed_states_[index(j)], chosen))) break;
     }
-    return finish_cycle();
+    return finish_update();
   }
 
   /// Whether initialize() has been called.
@@ -165,6 +169,36 @@ class ImmEstimator {
 
   /// log μ_j, exact where linear probabilities underflow.
   [[nodiscard]] const ModeVector& log_mode_probabilities() const { return log_probabilities_; }
+
+  /// The innovation of the last cycle and its covariance, as the moments of the IMM's predicted
+  /// measurement density Σ_j c_j N(ẑ_j, S_j) (c_j the predicted mode probabilities):
+  /// ν = z − ẑ = Σ_j c_j ν_j and S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ), so that νᵀ S⁻¹ ν is the
+  /// filter's normalized innovation squared (NIS; Bar-Shalom, Li & Kirubarajan §5.4.2, with the
+  /// mixture collapsed to its first two moments). The measurement is the one the modes updated
+  /// with (step_with's chosen one). False, and nothing written, unless the last call was a
+  /// successful step() or step_with(). Computed here, not in the cycle: the filter step pays
+  /// nothing for it.
+  bool innovation(Vector<NZ>& nu, SquareMatrix<NZ>& S) const {
+    if (!updated_) return false;
+    const int n = mode_count();
+    // c_j, normalized over the modes (predict_mode_probabilities keeps them in log space).
+    const double shift = log_predicted_.maxCoeff();
+    double total = 0.0;
+    for (int j = 0; j < n; ++j) total += std::exp(log_predicted_(j) - shift);
+    nu.setZero();
+    for (int j = 0; j < n; ++j) {
+      const double c = std::exp(log_predicted_(j) - shift) / total;
+      if (c != 0.0) nu += c * modes_[index(j)]->innovation();
+    }
+    S.setZero();
+    for (int j = 0; j < n; ++j) {
+      const double c = std::exp(log_predicted_(j) - shift) / total;
+      if (c == 0.0) continue;
+      const Vector<NZ> d = modes_[index(j)]->innovation() - nu;
+      S += c * (modes_[index(j)]->innovation_covariance() + d * d.transpose());
+    }
+    return true;
+  }
 
  private:
   void require_initialized() const {
@@ -230,6 +264,13 @@ class ImmEstimator {
     }
     log_posterior_(j) = result.log_likelihood + log_predicted_(j);
     return true;
+  }
+
+  // finish_cycle() after an update with a measurement: innovation() is defined when it succeeds.
+  StepStatus finish_update() {
+    const StepStatus status = finish_cycle();
+    updated_ = status == StepStatus::kOk;
+    return status;
   }
 
   // Normalizes the posterior in log space, commits the modes and combines.
@@ -305,6 +346,7 @@ class ImmEstimator {
   GaussianState<NX> combined_;
   StepStatus status_ = StepStatus::kOk;
   bool initialized_ = false;
+  bool updated_ = false;  // the last call was a successful update (innovation())
 };
 
 }  // namespace imm

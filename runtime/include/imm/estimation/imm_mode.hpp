@@ -64,6 +64,26 @@ class ImmMode {
 
   /// Makes the pending estimate of the last successful propose*() current.
   virtual void commit() = 0;
+
+  /// The innovation ν = z − ẑ of the last propose() with a measurement, in the coordinates the
+  /// mode updated in (wrapped where angular), and its covariance S: what the IMM's normalized
+  /// innovation squared is built from (ImmEstimator::innovation). Zero before the first one.
+  [[nodiscard]] const Vector<NZ>& innovation() const { return innovation_; }
+  /// S of innovation().
+  [[nodiscard]] const SquareMatrix<NZ>& innovation_covariance() const {
+    return innovation_covariance_;
+  }
+
+ protected:
+  /// For propose(): keeps the update's ν and S (no allocation).
+  void keep_innovation(const Vector<NZ>& innovation, const SquareMatrix<NZ>& covariance) {
+    innovation_ = innovation;
+    innovation_covariance_ = covariance;
+  }
+
+ private:
+  Vector<NZ> innovation_ = Vector<NZ>::Zero();
+  SquareMatrix<NZ> innovation_covariance_ = SquareMatrix<NZ>::Zero();
 };
 
 }  // namespace imm

@@ -50,6 +50,7 @@ class IMM_RUNTIME_EXPORT InputKalmanMode final : public ImmMode<2, 1> {
   ModeStep propose(const GaussianState<2>& mixed, const Vector<1>& z) override {
     pending_ = predict(mixed, motion_.transition, motion_.process_noise, G_, Vector<1>(input_));
     const auto report = update(pending_, z, H_, R_);
+    keep_innovation(report.innovation, report.innovation_covariance);
     return {report.status, report.log_likelihood};
   }
 

@@ -49,6 +49,7 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
     pending_ = predict(embedding_.project(mixed), motion_.transition, motion_.process_noise);
     const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
                                         : update(pending_, z, measurement_);
+    this->keep_innovation(report.innovation, report.innovation_covariance);
     return {report.status, report.log_likelihood};
   }
 

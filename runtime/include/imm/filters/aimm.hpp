@@ -55,6 +55,8 @@ class IMM_RUNTIME_EXPORT AimmAxisFilter final : public AxisFilter {
   [[nodiscard]] int mode_count() const override { return imm_.mode_count(); }
   /// The name of sub-model j.
   [[nodiscard]] std::string mode_name(int j) const override;
+  /// The IMM's combined innovation.
+  bool innovation(double& nu, double& variance) const override;
   /// The current acceleration estimate â(k).
   [[nodiscard]] double acceleration() const { return estimator_.acceleration(); }
 

@@ -34,6 +34,16 @@ struct IMM_RUNTIME_EXPORT AxisImmSettings {
   [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
+/// ImmEstimator::innovation of a one-axis IMM as scalars.
+inline bool axis_innovation(const ImmEstimator<2, 1>& imm, double& nu, double& variance) {
+  Vector<1> v;
+  SquareMatrix<1> s;
+  if (!imm.innovation(v, s)) return false;
+  nu = v(0);
+  variance = s(0, 0);
+  return true;
+}
+
 /// One Cartesian axis of a track: state [p, v], scalar measurement. TwoAxisFilter runs two of them
 /// as a TrackFilter.
 class IMM_RUNTIME_EXPORT AxisFilter {
@@ -57,6 +67,9 @@ class IMM_RUNTIME_EXPORT AxisFilter {
   [[nodiscard]] virtual int mode_count() const = 0;
   /// The name of mode j (0-based).
   [[nodiscard]] virtual std::string mode_name(int j) const = 0;
+  /// The last cycle's innovation and its variance (TrackFilter::innovation, one axis); false
+  /// unless the last call was a successful step().
+  virtual bool innovation(double& nu, double& variance) const = 0;
 };
 
 /// An IMM over per-axis modes (filters with per-mode extras derive from it).
@@ -79,6 +92,10 @@ class IMM_RUNTIME_EXPORT ImmAxisFilter : public AxisFilter {
   /// The name of IMM mode j.
   [[nodiscard]] std::string mode_name(int j) const override {
     return std::string(imm_.mode(j).name());
+  }
+  /// The IMM's combined innovation.
+  bool innovation(double& nu, double& variance) const override {
+    return axis_innovation(imm_, nu, variance);
   }
   /// The underlying IMM.
   [[nodiscard]] const ImmEstimator<2, 1>& imm() const { return imm_; }
@@ -108,6 +125,8 @@ class IMM_RUNTIME_EXPORT TwoAxisFilter final : public TrackFilter {
   void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const override;
   /// The x axis's mode probabilities followed by the y axis's.
   [[nodiscard]] ModeVector mode_probabilities() const override;
+  /// [ν_x, ν_y] with S = diag(S_x, S_y): the axes are independent filters.
+  bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const override;
 
   /// Axis 0 (x) or 1 (y).
   [[nodiscard]] const AxisFilter& axis(int i) const { return i == 0 ? *x_ : *y_; }

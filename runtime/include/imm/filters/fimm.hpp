@@ -71,6 +71,8 @@ class IMM_RUNTIME_EXPORT FimmFilter final : public TrackFilter {
   void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const override;
   /// (cruise, lane change).
   [[nodiscard]] ModeVector mode_probabilities() const override;
+  /// The IMM's combined innovation in the sensor's (z1, z2).
+  bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const override;
 
   /// The combined estimate with its full covariance.
   [[nodiscard]] const GaussianState<6>& estimate() const;

@@ -30,8 +30,9 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
   struct Step {
     /// kOk, or why the state was left unchanged.
     StepStatus status = StepStatus::kOk;
-    double residual = 0.0;       ///< r(k)
-    double process_noise = 0.0;  ///< q(k)
+    double residual = 0.0;             ///< r(k)
+    double process_noise = 0.0;        ///< q(k)
+    double innovation_variance = 0.0;  ///< S(k) = H P⁻ Hᵀ + R with q(k)
     /// log N(r; 0, S) of the innovation.
     double log_likelihood = 0.0;
   };
@@ -66,6 +67,7 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
     symmetrize(predicted.covariance);
     const auto report = update_with_innovation(predicted, Vector<1>(result.residual), H_, R_);
     result.status = report.status;
+    result.innovation_variance = report.innovation_covariance(0, 0);
     result.log_likelihood = report.log_likelihood;
     if (report.ok()) state = predicted;
     return result;
@@ -118,6 +120,7 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseMode final : public ImmMode<2, 1> {
     const FuzzyNoiseFilter::Step step = filter_.step(pending_, residual_, z(0));
     pending_residual_ = step.residual;
     pending_process_noise_ = step.process_noise;
+    keep_innovation(Vector<1>(step.residual), SquareMatrix<1>(step.innovation_variance));
     return {step.status, step.log_likelihood};
   }
 

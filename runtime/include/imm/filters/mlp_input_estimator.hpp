@@ -159,6 +159,14 @@ class IMM_RUNTIME_EXPORT MlpInputEstimatorFilter {
   /// The feature KF's ν(k).
   [[nodiscard]] double cv_innovation() const { return features_.innovation(); }
   [[nodiscard]] double innovation() const { return innovation_; }  ///< primary KF's ν(k)
+  /// The primary KF's ν(k) and its variance S(k); false unless the last call was a successful
+  /// step().
+  bool innovation(double& nu, double& variance) const {
+    if (!updated_) return false;
+    nu = innovation_;
+    variance = innovation_variance_;
+    return true;
+  }
   /// The model the filter runs.
   [[nodiscard]] const MlpInputEstimatorModel& model() const { return model_; }
 
@@ -180,6 +188,8 @@ class IMM_RUNTIME_EXPORT MlpInputEstimatorFilter {
   double acceleration_ = 0.0;  // û(k), used by the next prediction
   double raw_output_ = 0.0;
   double innovation_ = 0.0;
+  double innovation_variance_ = 0.0;
+  bool updated_ = false;  // the last call was a successful step()
 };
 
 /// The input-estimation filter as one axis of a TwoAxisFilter: one mode ("input estimation"),
@@ -206,6 +216,10 @@ class IMM_RUNTIME_EXPORT MlpInputEstimatorAxis final : public AxisFilter {
   [[nodiscard]] int mode_count() const override { return 1; }
   /// "input estimation".
   [[nodiscard]] std::string mode_name(int /*j*/) const override { return "input estimation"; }
+  /// The primary (corrected) KF's innovation.
+  bool innovation(double& nu, double& variance) const override {
+    return filter_.innovation(nu, variance);
+  }
   /// The underlying filter (û and the features).
   [[nodiscard]] const MlpInputEstimatorFilter& filter() const { return filter_; }
 

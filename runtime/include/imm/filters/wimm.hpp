@@ -93,6 +93,10 @@ class IMM_RUNTIME_EXPORT WimmFilter final : public TrackFilter {
   void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const override;
   /// (CV, Singer).
   [[nodiscard]] ModeVector mode_probabilities() const override { return imm_.mode_probabilities(); }
+  /// The IMM's combined innovation of the measurement it updated with: [range, azimuth] against
+  /// the fused azimuth when the cycle fused (the plot's own otherwise), or the converted
+  /// Cartesian plot under MeasurementUpdate::kConverted.
+  bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const override;
 
   /// The combined estimate (6 states) and whether the last cycle fused the azimuth.
   [[nodiscard]] const GaussianState<6>& estimate() const { return imm_.estimate(); }

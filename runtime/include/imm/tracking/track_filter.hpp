@@ -44,6 +44,12 @@ class IMM_RUNTIME_EXPORT TrackFilter {
   virtual void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const = 0;
   /// The mode probabilities, in mode order.
   [[nodiscard]] virtual ModeVector mode_probabilities() const = 0;
+  /// The last cycle's innovation ν = z − ẑ and its covariance S in the coordinates the filter
+  /// updated in (Cartesian [x, y], or [range, azimuth] for polar plots, as the family states),
+  /// combined over the modes (ImmEstimator::innovation): νᵀ S⁻¹ ν is the normalized innovation
+  /// squared of a consistency check. False, and nothing written, unless the last call was a
+  /// successful step().
+  virtual bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const = 0;
 };
 
 }  // namespace imm

@@ -1,13 +1,27 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-/// The normalized errors of seed 000 §4, accumulated over Monte Carlo runs:
+/// The normalized errors of seed 000 §4, accumulated over Monte Carlo runs (and, per step, the
+/// consistency statistics NEES and NIS):
 ///   P_e(k) = √(Σ_s ‖p − p̂‖²) / √(Σ_s ‖p − z‖²),  V_e(k) = √(Σ_s ‖v − v̂‖²) / √(Σ_s ‖v − v̄‖²),
 /// with v̄(k) = (z(k) − z(k−1))/T the "measured velocity", and ζ_p, ζ_v their means over the
 /// scans. Values below 1 mean the filter beats the raw measurements. RMSEs come with them.
 
 #include <Eigen/Core>
 
+#include "imm/tracking/track_filter.hpp"
+
 namespace imm::trainer {
+
+/// The position NEES (x − x̂)ᵀ P⁻¹ (x − x̂) of a filter's combined estimate over its position block
+/// (state entries 0 and n/2) against the true `position`, and the NIS νᵀ S⁻¹ ν of its last cycle
+/// (TrackFilter::innovation): NaN where the covariance is not positive definite, or, for the NIS,
+/// where the last call was not a successful update.
+struct StepConsistency {
+  double position_nees = 0.0;
+  double nis = 0.0;
+};
+[[nodiscard]] StepConsistency step_consistency(const TrackFilter& filter,
+                                               const Eigen::Vector2d& position);
 
 class NormalizedErrors {
  public:

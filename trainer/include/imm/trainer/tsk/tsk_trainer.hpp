@@ -20,6 +20,7 @@
 #include "imm/datasets/range_sensor.hpp"
 #include "imm/datasets/regime.hpp"
 #include "imm/filters/fimm.hpp"
+#include "imm/trainer/mode_sojourns.hpp"
 #include "imm/trainer/tsk/tsk_fit.hpp"
 
 namespace imm::trainer::tsk {
@@ -35,6 +36,11 @@ struct TskTrainingConfig {
 
   FimmSpec fimm;            ///< for imm-eval fimm (T from the regime, R per case)
   int iekf_iterations = 5;  ///< the FIMM (IEKF) variant
+  /// `fimm.transition = "sojourns"`: the FIMM's mode transitions are learned from the regime's
+  /// training tracks (cruise / lane change, from the truth's maneuver labels) as a continuous-time
+  /// chain (mode_sojourns.hpp) and discretized at the regime's T; otherwise `fimm.transition` is
+  /// the config's matrix (the seed preset's).
+  bool transitions_from_sojourns = false;
 
   std::string text, name;
 
@@ -56,6 +62,10 @@ struct OutputReport {
 
 struct TskTrainingResult {
   TskSensorModel model;
+  /// The FIMM written beside the sensor model (its transition learned when the config says so).
+  FimmSpec fimm;
+  /// The mean sojourns behind a learned transition (empty otherwise).
+  std::optional<SojournEstimate> sojourns;
   OutputReport outputs[2];
   int training_samples = 0, validation_samples = 0;
   double wall_seconds = 0.0;

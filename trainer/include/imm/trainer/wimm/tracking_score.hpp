@@ -30,6 +30,9 @@ struct TrackingScore {
   /// Per track: mean squared azimuth error (rad²) and position error (m²) over its settled scans —
   /// the Monte Carlo samples a comparison's uncertainty is computed from.
   Eigen::VectorXd track_azimuth_settled, track_position_settled;
+  /// tracks × scans: the position NEES and the NIS of the polar plot (normalized_errors.hpp) where
+  /// the track has an estimate, resp. an update; NaN elsewhere. For the consistency table.
+  Eigen::MatrixXd run_position_nees, run_nis;
 };
 
 /// Runs `spec` over every track of `data` (polar plots of a sensor at `sensor_position`).
