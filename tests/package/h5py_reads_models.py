@@ -1,10 +1,11 @@
 # SPDX-License-Identifier: Apache-2.0
 """Every shipped model file read by h5py, as a user with no immtrain code reads it.
 
-Checks, for each models/*.h5: schema version 2; every text attribute comes back as str (variable
-length UTF-8), never bytes; every dataset has `units`, every matrix `columns` naming each of its
-columns; every group with real-valued attributes a `units` entry for each of them; the counts are
-integers; the datasets' values are finite. Exits 77 (skipped) where h5py is absent.
+Checks, for each models/*.h5: schema version 2 (3 for a GA-fuzzy IMM with normalized antecedents,
+the one version-3 field); every text attribute comes back as str (variable length UTF-8), never
+bytes; every dataset has `units`, every matrix `columns` naming each of its columns; every group
+with real-valued attributes a `units` entry for each of them; the counts are integers; the
+datasets' values are finite. Exits 77 (skipped) where h5py is absent.
 """
 import math
 import pathlib
@@ -32,8 +33,13 @@ def check(path):
         problems.append(f"{path.name}: {where}: {message}")
 
     with h5py.File(path, "r") as f:
-        if f.attrs.get("schema_version") != 2:
-            problem("/@schema_version", f"is {f.attrs.get('schema_version')!r}, expected 2")
+        # Version 3 only for a file with a version-3 field (a GA-fuzzy IMM with normalized
+        # antecedents); every other file is written as version 2.
+        group = f.get("ga_fuzzy_imm")
+        expected = 3 if group is not None and "antecedents" in group.attrs else 2
+        if f.attrs.get("schema_version") != expected:
+            problem("/@schema_version",
+                    f"is {f.attrs.get('schema_version')!r}, expected {expected}")
         if f.attrs.get("length_unit") not in ("m", "km"):
             problem("/@length_unit", f"is {f.attrs.get('length_unit')!r}")
         if str(f.attrs.get("trainer_version", "")).endswith("-dirty"):

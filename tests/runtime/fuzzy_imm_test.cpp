@@ -11,6 +11,7 @@
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/models/measurement/position_measurement.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
+#include "testing/hdf5_edit.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -88,6 +89,80 @@ TEST(FuzzyNoiseFilter, ProcessNoiseFollowsResidualAndItsChange) {
   GaussianState<2> untouched = state;
   EXPECT_EQ(filter.step(untouched, 0.0, std::nan("")).status, StepStatus::kInvalidMeasurement);
   EXPECT_EQ(untouched.mean, state.mean);
+}
+
+// By hand: x̂ = 0, P = 0.01 I, T = 1, R = 0.25: (F P Fᵀ)₀₀ = P₀₀ + 2T P₀₁ + T² P₁₁ = 0.02, so
+// S̄ = 0.27; z = 2 gives r = 2 and ñ = 2/√0.27, Δñ = ñ − 0.5 after a previous ñ of 0.5.
+TEST(FuzzyNoiseFilter, NormalizedAntecedentsReadTheInnovationOverItsStandardDeviation) {
+  const FuzzyRuleTable table({{0.0, 1.0, 0.0, 1.0, 1e-6}, {3.0, 1.0, 3.0, 1.0, 1e-2}});
+  const FuzzyNoiseFilter filter(table, 1.0, 0.25, FuzzyAntecedents::kNormalizedInnovation);
+  EXPECT_EQ(filter.antecedents(), FuzzyAntecedents::kNormalizedInnovation);
+  GaussianState<2> state;
+  state.mean.setZero();
+  state.covariance = 0.01 * SquareMatrix<2>::Identity();
+  const auto step = filter.step(state, 0.5, 2.0);
+  const double normalized = 2.0 / std::sqrt(0.27);
+  EXPECT_DOUBLE_EQ(step.residual, 2.0);
+  EXPECT_NEAR(step.antecedent, normalized, 1e-15);
+  EXPECT_NEAR(step.process_noise, table.process_noise(normalized, normalized - 0.5), 1e-18);
+  // The seed's form reads r = 2 and Δr = 1.5 with the same table.
+  GaussianState<2> raw_state;
+  raw_state.mean.setZero();
+  raw_state.covariance = 0.01 * SquareMatrix<2>::Identity();
+  const auto raw = FuzzyNoiseFilter(table, 1.0, 0.25).step(raw_state, 0.5, 2.0);
+  EXPECT_DOUBLE_EQ(raw.antecedent, 2.0);
+  EXPECT_NEAR(raw.process_noise, table.process_noise(2.0, 1.5), 1e-18);
+}
+
+// A normalized table means the same at any scale: plots, state and R scaled by s, the table's
+// consequents (variances) by s², and every estimate scales by s, q by s². The residual table of
+// the same rules does not (its centers and spreads are lengths).
+TEST(FuzzyNoiseFilter, NormalizedTableMeansTheSameAtAnyScale) {
+  const std::vector<FuzzyRule> rules = {{0.0, 1.0, 0.0, 1.5, 4.0}, {2.5, 1.0, 1.0, 2.0, 400.0}};
+  // The residual table: the same rules with centers and spreads in metres of a 100 m plot σ.
+  auto scaled_rules = [&](double s, FuzzyAntecedents antecedents) {
+    std::vector<FuzzyRule> out = rules;
+    for (FuzzyRule& rule : out) {
+      rule.w *= s * s;
+      if (antecedents == FuzzyAntecedents::kResidual) {
+        rule.c1 *= 100.0, rule.sigma1 *= 100.0, rule.c2 *= 100.0, rule.sigma2 *= 100.0;
+      }
+    }
+    return FuzzyRuleTable(out);
+  };
+  auto run = [&](double s, FuzzyAntecedents antecedents, std::vector<double>& noise) {
+    const FuzzyNoiseFilter filter(scaled_rules(s, antecedents), 1.0, 100.0 * 100.0 * s * s,
+                                  antecedents);
+    GaussianState<2> state;
+    state.mean << 0.0, 200.0 * s;
+    state.covariance << 1e4 * s * s, 1e4 * s * s, 1e4 * s * s, 2e4 * s * s;
+    double previous = 0.0;
+    for (int k = 1; k <= 60; ++k) {
+      // A target that turns at k = 30 (a lateral 40 m/s² from then on), with a fixed noise.
+      const double t = k;
+      const double truth = 200.0 * t + (k > 30 ? 20.0 * (t - 30.0) * (t - 30.0) : 0.0);
+      const auto step = filter.step(state, previous, s * (truth + 80.0 * std::sin(1.7 * k)));
+      EXPECT_EQ(step.status, StepStatus::kOk);
+      previous = step.antecedent;
+      noise.push_back(step.process_noise);
+    }
+    return state;
+  };
+  for (const double s : {1e-3, 7.0}) {
+    std::vector<double> q1, qs;
+    const GaussianState<2> one = run(1.0, FuzzyAntecedents::kNormalizedInnovation, q1);
+    const GaussianState<2> scaled = run(s, FuzzyAntecedents::kNormalizedInnovation, qs);
+    EXPECT_TRUE(testing::matrices_near(scaled.mean / s, one.mean, 1e-9 * one.mean.norm()));
+    for (std::size_t k = 0; k < q1.size(); ++k) EXPECT_NEAR(qs[k] / (s * s), q1[k], 1e-9 * q1[k]);
+    std::vector<double> r1, rs;
+    (void)run(1.0, FuzzyAntecedents::kResidual, r1);
+    (void)run(s, FuzzyAntecedents::kResidual, rs);
+    double largest = 0.0;
+    for (std::size_t k = 0; k < r1.size(); ++k) {
+      largest = std::max(largest, std::abs(rs[k] / (s * s) - r1[k]) / r1[k]);
+    }
+    EXPECT_GT(largest, 0.1) << "a residual table read at another scale reads other inputs";
+  }
 }
 
 TEST(AxisImmSettings, TransitionAndInitialProbabilitiesFollowEquations20And21) {
@@ -203,6 +278,74 @@ TEST(GaFuzzyImmFile, RoundTripKeepsEveryRule) {
   EXPECT_EQ(back.settings.transition_stay, 0.97);
   const io::ModelFileReader reader(path);
   EXPECT_EQ(reader.real("/ga_fuzzy_imm/level0", "fitness"), 0.7);
+}
+
+// The seed's residual tables are written as version 2 (every reader of version 2 reads them
+// right); normalized ones as version 3 with /ga_fuzzy_imm@antecedents and dimensionless inputs.
+TEST(GaFuzzyImmFile, NormalizedAntecedentsRoundTripAsVersion3) {
+  const testing::TempDir dir;
+  auto write = [&](const std::filesystem::path& path, FuzzyAntecedents antecedents) {
+    io::Provenance provenance;
+    provenance.model_kind = std::string(io::kGaFuzzyImmKind);
+    io::ModelFileWriter writer(path, provenance);
+    GaFuzzyImmSpec spec = example_fuzzy_spec();
+    spec.antecedents = antecedents;
+    io::write_ga_fuzzy_imm(writer, spec, {});
+    writer.commit();
+  };
+  write(dir / "residual.h5", FuzzyAntecedents::kResidual);
+  write(dir / "normalized.h5", FuzzyAntecedents::kNormalizedInnovation);
+  const io::ModelFileReader residual(dir / "residual.h5");
+  EXPECT_EQ(residual.schema_version(), io::kBaseModelSchemaVersion);
+  EXPECT_FALSE(residual.container().attribute("/ga_fuzzy_imm", "antecedents"));
+  EXPECT_EQ(io::read_ga_fuzzy_imm(residual).antecedents, FuzzyAntecedents::kResidual);
+  const io::ModelFileReader normalized(dir / "normalized.h5");
+  EXPECT_EQ(normalized.schema_version(), 3);
+  EXPECT_EQ(normalized.text("/ga_fuzzy_imm", "antecedents"), "normalized_innovation");
+  EXPECT_EQ(normalized.text("/ga_fuzzy_imm/level0/rules", "units").substr(0, 8), "1,1,1,1,");
+  const GaFuzzyImmSpec back = io::read_ga_fuzzy_imm(normalized);
+  EXPECT_EQ(back.antecedents, FuzzyAntecedents::kNormalizedInnovation);
+  EXPECT_EQ(io::rules_matrix(back.levels[1].table),
+            io::rules_matrix(example_fuzzy_spec().levels[1].table));
+}
+
+// A normalized file relabelled as version 2 (an older reader would ignore the attribute and read
+// the tables as residual ones), or naming unknown antecedents, is refused naming the field.
+TEST(GaFuzzyImmFile, AntecedentsOutsideVersion3OrUnknownAreRefusedNamingTheField) {
+  const testing::TempDir dir;
+  const auto path = dir / "normalized.h5";
+  auto write = [&] {
+    io::Provenance provenance;
+    provenance.model_kind = std::string(io::kGaFuzzyImmKind);
+    io::ModelFileWriter writer(path, provenance);
+    GaFuzzyImmSpec spec = example_fuzzy_spec();
+    spec.antecedents = FuzzyAntecedents::kNormalizedInnovation;
+    io::write_ga_fuzzy_imm(writer, spec, {});
+    writer.commit();
+  };
+  auto refusal = [&] {
+    try {
+      (void)io::read_ga_fuzzy_imm(path);
+    } catch (const io::FileError& error) {
+      return std::string(error.what());
+    }
+    return std::string("read");
+  };
+  write();
+  testing::edit_and_reseal(path, [](hid_t f) {
+    const std::int64_t two = 2;
+    testing::set_attribute(f, "/", "schema_version", H5T_NATIVE_INT64, &two);
+  });
+  std::string what = refusal();
+  EXPECT_NE(what.find("/ga_fuzzy_imm@antecedents"), std::string::npos) << what;
+  EXPECT_NE(what.find("schema version 3"), std::string::npos) << what;
+  write();
+  testing::edit_and_reseal(path, [](hid_t f) {
+    testing::set_text_attribute(f, "/ga_fuzzy_imm", "antecedents", "innovation");
+  });
+  what = refusal();
+  EXPECT_NE(what.find("/ga_fuzzy_imm@antecedents"), std::string::npos) << what;
+  EXPECT_NE(what.find("normalized_innovation"), std::string::npos) << what;
 }
 
 TEST(GaFuzzyImmFile, InvalidRuleMatrixNamesTheRule) {

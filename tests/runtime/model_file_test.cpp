@@ -57,7 +57,7 @@ TEST(ModelFile, RoundTripKeepsProvenanceAndParameters) {
   const testing::TempDir dir;
   const auto path = write_example(dir);
   const ModelFileReader reader(path, kPlainImmKind);
-  EXPECT_EQ(reader.schema_version(), kModelSchemaVersion);
+  EXPECT_EQ(reader.schema_version(), kBaseModelSchemaVersion);
   const Provenance& p = reader.provenance();
   const Provenance expected = example_provenance();
   EXPECT_EQ(p.model_kind, expected.model_kind);

@@ -77,7 +77,7 @@ TEST(SchemaVersion1, EveryKindStillReadsAndTracksLikeItsVersion2Rewrite) {
     const auto upgraded = dir.path() / path.filename();
     rewrite(old_reader, upgraded);
     const io::ModelFileReader new_reader(upgraded);
-    ASSERT_EQ(new_reader.schema_version(), kModelSchemaVersion);
+    ASSERT_EQ(new_reader.schema_version(), kBaseModelSchemaVersion);
     EXPECT_EQ(new_reader.provenance().config_toml, old_reader.provenance().config_toml);
 
     Tracker old_tracker = load_tracker(path);

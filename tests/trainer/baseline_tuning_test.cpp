@@ -44,7 +44,10 @@ std::vector<double> maneuvering_plots(int scans, double sigma, std::uint64_t see
   return z;
 }
 
-TEST(TunedBaseline, OneConstantRulePerLevelIsTheConstantNoiseImm) {
+// With either antecedents (a table of one rule answers its consequent whatever it reads).
+class OneConstantRulePerLevel : public ::testing::TestWithParam<FuzzyAntecedents> {};
+
+TEST_P(OneConstantRulePerLevel, IsTheConstantNoiseImm) {
   AxisCvImmSpec imm;
   imm.settings.sample_period = 1.0;
   imm.settings.measurement_sigma = 0.5;
@@ -52,6 +55,7 @@ TEST(TunedBaseline, OneConstantRulePerLevelIsTheConstantNoiseImm) {
   imm.process_noise = {1e-7, 3e-5, 2e-3};
   GaFuzzyImmSpec fuzzy;
   fuzzy.settings = imm.settings;
+  fuzzy.antecedents = GetParam();
   for (double q : imm.process_noise) {
     // Any premise: one rule's inference is its consequent wherever it fires.
     fuzzy.levels.push_back({"level", std::sqrt(q), FuzzyRuleTable({{0.3, 0.2, -0.1, 0.05, q}})});
@@ -79,6 +83,10 @@ TEST(TunedBaseline, OneConstantRulePerLevelIsTheConstantNoiseImm) {
     }
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(TunedBaseline, OneConstantRulePerLevel,
+                         ::testing::Values(FuzzyAntecedents::kResidual,
+                                           FuzzyAntecedents::kNormalizedInnovation));
 
 TEST(TunedBaseline, JointStayTuningIsNeverWorseThanTheLevelsAlone) {
   const testing::TempDir dir;

@@ -76,6 +76,25 @@ TEST(FuzzyTableProblem, BoundsFollowEquation15AndTheObservedResiduals) {
   EXPECT_DOUBLE_EQ(table.rules()[0].w, 1e-4);  // w = gene²
 }
 
+// Normalized antecedents: the centers span the observed ñ = r/√S̄ (a few units, whatever the
+// plot σ), the spreads are dimensionless (sigma_range × 1, not × σ_z), and the trained tables'
+// IMM reads them (the decoded table is the same; the config and the spec say which inputs).
+TEST(FuzzyTableProblem, NormalizedAntecedentsSpanTheNormalizedInnovations) {
+  ProblemOptions options = single_filter_options();
+  options.antecedents = FuzzyAntecedents::kNormalizedInnovation;
+  options.error_scale = 0.5;
+  const FuzzyTableProblem problem(small_training_set(), options);
+  const auto ranges = problem.residual_ranges();
+  EXPECT_LT(ranges[0], -0.5);
+  EXPECT_GT(ranges[1], 0.5);
+  EXPECT_LT(std::max(-ranges[0], ranges[1]), 50.0);  // not residuals in km of a diverged filter
+  EXPECT_DOUBLE_EQ(problem.lower()[1], options.sigma_min);
+  EXPECT_DOUBLE_EQ(problem.upper()[3], options.sigma_max);
+  const FuzzyTableProblem residual(small_training_set(), single_filter_options());
+  EXPECT_DOUBLE_EQ(residual.upper()[3],
+                   single_filter_options().sigma_max * single_filter_options().error_scale);
+}
+
 // A toy problem with a known optimum: every gene at 0.3 and every slot active.
 class ToyProblem final : public GenomeProblem {
  public:
@@ -233,6 +252,7 @@ TEST(GaConfig, InvalidValuesAreNamed) {
   EXPECT_EQ(config_error_key("", "[fuzzy]\nsigma_range = [-1.0, 2.0]\n"), "fuzzy.sigma_range");
   EXPECT_EQ(config_error_key("crossover = 0.9\n"), "ga.crossover");  // unknown key (in [ga])
   EXPECT_EQ(config_error_key("mutation_rate = \"high\"\n"), "ga.mutation_rate");
+  EXPECT_EQ(config_error_key("", "[fuzzy]\nantecedents = \"innovation\"\n"), "fuzzy.antecedents");
   const testing::TempDir dir;
   testing::write_text(dir / "p.toml", testing::regime_line(testing::write_ga_regime(dir)) +
                                           "[ga]\npopulation = 1\n");
@@ -275,6 +295,7 @@ TEST(ShippedConfig, IsTheSeedsTable1) {
   EXPECT_DOUBLE_EQ(config.ga.crossover_rate, 0.9);
   EXPECT_DOUBLE_EQ(config.ga.mutation_rate, 0.01);
   EXPECT_DOUBLE_EQ(config.fuzzy.lambda, 0.95);
+  EXPECT_EQ(config.fuzzy.antecedents, FuzzyAntecedents::kResidual);  // the seed's literal form
   ASSERT_EQ(config.levels.size(), 3u);  // "auto": the seed's levels from the training regime
   EXPECT_NEAR(config.levels[0], 0.001, 1e-12);
   EXPECT_NEAR(config.levels[1], 0.01, 1e-12);
@@ -290,6 +311,7 @@ TEST(ShippedConfig, TunedPresetStartsFromTheTunedImm) {
   EXPECT_TRUE(config.refine_levels);
   EXPECT_EQ(config.fuzzy.fitness, FitnessKind::kImm);
   EXPECT_DOUBLE_EQ(config.fuzzy.lambda, 0.999);
+  EXPECT_EQ(config.fuzzy.antecedents, FuzzyAntecedents::kNormalizedInnovation);
   EXPECT_LE(config.fuzzy.consequent_low, 1.0);
   EXPECT_GE(config.fuzzy.consequent_high, 1.0);
 }

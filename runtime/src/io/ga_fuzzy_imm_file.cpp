@@ -42,10 +42,17 @@ void write_ga_fuzzy_imm(ModelFileWriter& writer, const GaFuzzyImmSpec& spec,
   writer.set_quantity(kRoot, "transition_stay", s.transition_stay, kDimensionless);
   writer.set_quantity(kRoot, "initial_first_probability", s.initial_first_probability,
                       kDimensionless);
-  // The rules map (residual, residual change), in lengths, to a process-noise variance
-  // (fuzzy_rule_table.hpp).
+  // The rules map (residual, residual change), in lengths, or the normalized innovation and its
+  // change (dimensionless) to a process-noise variance (fuzzy_noise_filter.hpp). An older reader
+  // would read normalized tables as residual ones: such a file is version 3.
+  const bool normalized = spec.antecedents == FuzzyAntecedents::kNormalizedInnovation;
+  if (normalized) {
+    writer.require_schema_version(3);
+    writer.set_attribute(kRoot, "antecedents", std::string(to_string(spec.antecedents)));
+  }
+  const std::string input = normalized ? std::string(kDimensionless) : u.length;
   const std::string rule_units =
-      u.length + "," + u.length + "," + u.length + "," + u.length + "," + u.acceleration_variance();
+      input + "," + input + "," + input + "," + input + "," + u.acceleration_variance();
   writer.set_attribute(kRoot, "level_count", static_cast<std::int64_t>(spec.levels.size()));
   for (std::size_t i = 0; i < spec.levels.size(); ++i) {
     const FuzzyLevel& level = spec.levels[i];
@@ -73,6 +80,17 @@ GaFuzzyImmSpec read_ga_fuzzy_imm(const ModelFileReader& reader) {
   s.transition_stay = reader.real(kRoot, "transition_stay", ValueRule::kProbability);
   s.initial_first_probability =
       reader.real(kRoot, "initial_first_probability", ValueRule::kProbability);
+  // Version 3 may name the antecedents; older files hold the seed's residual tables (a reader of
+  // their version would ignore the attribute, so an older file must not carry it).
+  if (reader.container().attribute(kRoot, "antecedents")) {
+    const std::string field = std::string(kRoot) + "@antecedents";
+    if (reader.schema_version() < 3) reader.fail(field, "needs schema version 3");
+    try {
+      spec.antecedents = fuzzy_antecedents_from(reader.text(kRoot, "antecedents"), field);
+    } catch (const InvalidParameter& error) {
+      reader.fail(field, error.message());
+    }
+  }
   const auto n = reader.integer(kRoot, "level_count", 1, 8);
   for (std::int64_t i = 0; i < n; ++i) {
     const std::string group = level_group(static_cast<std::size_t>(i));

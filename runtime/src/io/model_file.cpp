@@ -143,9 +143,17 @@ void ModelFileWriter::set_quantity(std::string_view object, std::string_view nam
   list.emplace_back(name, units);
 }
 
+void ModelFileWriter::require_schema_version(int version) {
+  if (version < kBaseModelSchemaVersion || version > kModelSchemaVersion) {
+    throw FileError(container_.path().string(), "/@schema_version",
+                    "cannot write schema version " + std::to_string(version));
+  }
+  schema_version_ = std::max(schema_version_, version);
+}
+
 void ModelFileWriter::commit() {
   container_.set_attribute("/", "format", std::string(kModelFormat));
-  container_.set_attribute("/", "schema_version", std::int64_t{kModelSchemaVersion});
+  container_.set_attribute("/", "schema_version", std::int64_t{schema_version_});
   container_.set_attribute("/", "model_kind", provenance_.model_kind);
   container_.set_attribute("/", "created_utc", provenance_.created_utc);
   container_.set_attribute("/", "trainer_version", provenance_.trainer_version);

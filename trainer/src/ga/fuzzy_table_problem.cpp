@@ -75,7 +75,8 @@ FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, const ProblemOptions&
   const double s = options_.maneuver_level + options_.process_noise_sigma;
   // Observed residual ranges under a constant q = s² (one rule at the top of eq. 15).
   const FuzzyNoiseFilter reference(FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, s * s}}),
-                                   training_.sample_period, training_.measurement_variance);
+                                   training_.sample_period, training_.measurement_variance,
+                                   options_.antecedents);
   double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min;
   double dr_min = r_min, dr_max = -r_min;
   for (const auto& t : training_.trajectories) {
@@ -84,12 +85,12 @@ FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, const ProblemOptions&
     for (Eigen::Index k = 2; k < t.measurement.size(); ++k) {
       const auto step = reference.step(state, previous, t.measurement(k));
       if (k > 2) {
-        dr_min = std::min(dr_min, step.residual - previous);
-        dr_max = std::max(dr_max, step.residual - previous);
+        dr_min = std::min(dr_min, step.antecedent - previous);
+        dr_max = std::max(dr_max, step.antecedent - previous);
       }
-      r_min = std::min(r_min, step.residual);
-      r_max = std::max(r_max, step.residual);
-      previous = step.residual;
+      r_min = std::min(r_min, step.antecedent);
+      r_max = std::max(r_max, step.antecedent);
+      previous = step.antecedent;
     }
   }
   ranges_ = {r_min, r_max, dr_min, dr_max};
@@ -98,8 +99,8 @@ FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, const ProblemOptions&
   for (int l = 0; l < options_.max_rules; ++l) {
     const auto base = static_cast<std::size_t>(l) * kGenesPerRule;
     lower_[base + 0] = r_min, upper_[base + 0] = r_max;
-    const double sigma_min = options_.sigma_min * options_.error_scale;
-    const double sigma_max = options_.sigma_max * options_.error_scale;
+    const double sigma_min = options_.sigma_min * options_.input_scale();
+    const double sigma_max = options_.sigma_max * options_.input_scale();
     lower_[base + 1] = sigma_min, upper_[base + 1] = sigma_max;
     lower_[base + 2] = dr_min, upper_[base + 2] = dr_max;
     lower_[base + 3] = sigma_min, upper_[base + 3] = sigma_max;
@@ -165,6 +166,7 @@ Evaluation FuzzyTableProblem::evaluate_table(const FuzzyRuleTable& table,
   if (options_.fitness == FitnessKind::kImm) {
     GaFuzzyImmSpec spec;
     spec.settings = context_.settings;
+    spec.antecedents = options_.antecedents;
     spec.levels = context_.levels;
     spec.levels[context_.slot].table = table;
     // The candidate's own rules count (eq. 16 is per table).
@@ -174,14 +176,15 @@ Evaluation FuzzyTableProblem::evaluate_table(const FuzzyRuleTable& table,
   long count = 0;
   bool failed = false;
   {
-    const FuzzyNoiseFilter filter(table, set.sample_period, set.measurement_variance);
+    const FuzzyNoiseFilter filter(table, set.sample_period, set.measurement_variance,
+                                  options_.antecedents);
     for (const auto& t : set.trajectories) {
       GaussianState<2> state = two_point(t, set.sample_period, set.measurement_variance);
       double previous = 0.0;
       for (Eigen::Index k = 2; k < t.measurement.size() && !failed; ++k) {
         const auto step = filter.step(state, previous, t.measurement(k));
         failed = step.status != StepStatus::kOk;
-        previous = step.residual;
+        previous = step.antecedent;
         position_sum += std::abs(t.position(k) - state.mean(0));
         velocity_sum += std::abs(t.velocity(k) - state.mean(1));
         ++count;

@@ -66,6 +66,9 @@ GaTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime 
   require(c.level_count >= 1 && c.level_count <= 8, "training.level_count", "must be in [1, 8]");
   if (automatic) c.levels = automatic_levels(c.regime, c.level_count);
   if (const auto f = root.table("fuzzy")) {
+    if (f->has("antecedents")) {
+      c.fuzzy.antecedents = fuzzy_antecedents_from(f->text("antecedents"), f->path("antecedents"));
+    }
     c.fuzzy.max_rules = f->count_or("max_rules", c.fuzzy.max_rules);
     if (f->has("sigma_range")) {
       const Eigen::VectorXd range = f->reals("sigma_range", 2);

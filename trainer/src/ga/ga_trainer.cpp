@@ -299,6 +299,7 @@ std::string level_name(double maneuver_level) {
 GaFuzzyImmSpec spec_from(const GaTrainingConfig& config, const std::vector<LevelResult>& levels) {
   GaFuzzyImmSpec spec;
   spec.settings = config.filter;
+  spec.antecedents = config.fuzzy.antecedents;
   for (const LevelResult& r : levels) {
     spec.levels.push_back({level_name(r.maneuver_level), r.maneuver_level, r.table});
   }

@@ -9,8 +9,18 @@
 ///   then the Kalman update with innovation r(k)           (19-7 … 19-10, Joseph form here)
 /// The same step serves the runtime's IMM mode and the trainer's fitness (train what you deploy).
 /// r(k−1) is the filter's own previous residual; a new track starts with r(−1) = 0.
+///
+/// Antecedents (FuzzyAntecedents): the seed's table reads the raw residual r and its change Δr, in
+/// measurement units, so a table learned at one plot σ means something else at another. With
+/// kNormalizedInnovation it reads ñ = r/√S̄ and Δñ = ñ(k) − ñ(k−1) instead, S̄ = H F P₀ Fᵀ Hᵀ + R
+/// the innovation variance before this step's process noise (the noise the table sets cannot be
+/// inside its own input). ñ is dimensionless and about N(0, 1) while the mode fits the target, so
+/// one table reads alike at any σ, unit and sample period; only its consequents w carry units.
 
+#include <cmath>
+#include <cstdint>
 #include <string>
+#include <string_view>
 #include <utility>
 
 #include "imm/core/checks.hpp"
@@ -23,6 +33,18 @@
 
 namespace imm {
 
+/// What a rule table's two inputs are (see the file comment).
+enum class FuzzyAntecedents : std::uint8_t {
+  kResidual,              ///< r and Δr in measurement units (seed 000's literal form)
+  kNormalizedInnovation,  ///< r/√S̄ and its change: dimensionless
+};
+
+/// "residual" or "normalized_innovation" (configs and model files).
+[[nodiscard]] IMM_RUNTIME_EXPORT std::string_view to_string(FuzzyAntecedents antecedents);
+/// The antecedents named `name`; InvalidParameter(field) listing the names otherwise.
+[[nodiscard]] IMM_RUNTIME_EXPORT FuzzyAntecedents fuzzy_antecedents_from(std::string_view name,
+                                                                         const std::string& field);
+
 /// The fuzzy-noise Kalman filter of one axis (see the file comment).
 class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
  public:
@@ -30,6 +52,9 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
   struct Step {
     /// kOk, or why the state was left unchanged.
     StepStatus status = StepStatus::kOk;
+    /// The table's first input: r(k), or r(k)/√S̄ with normalized antecedents. The next step's
+    /// `previous` (its change is the second input).
+    double antecedent = 0.0;
     double residual = 0.0;             ///< r(k)
     double process_noise = 0.0;        ///< q(k)
     double innovation_variance = 0.0;  ///< S(k) = H P⁻ Hᵀ + R with q(k)
@@ -39,8 +64,10 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
 
   /// Throws InvalidParameter naming the field: a non-positive sample period or measurement
   /// variance.
-  FuzzyNoiseFilter(FuzzyRuleTable table, double sample_period, double measurement_variance)
+  FuzzyNoiseFilter(FuzzyRuleTable table, double sample_period, double measurement_variance,
+                   FuzzyAntecedents antecedents = FuzzyAntecedents::kResidual)
       : table_(std::move(table)),
+        antecedents_(antecedents),
         F_(cv_axis_transition(sample_period)),
         G_(cv_axis_input_gain(sample_period)),
         R_(SquareMatrix<1>::Constant(measurement_variance)) {
@@ -51,7 +78,8 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
   }
 
   /// Predicts `state` one period and updates it with z; on failure `state` is unchanged.
-  Step step(GaussianState<2>& state, double previous_residual, double z) const {
+  /// `previous` is the last step's Step::antecedent (0 on a new track).
+  Step step(GaussianState<2>& state, double previous, double z) const {
     Step result;
     if (!limits::usable_measurement(z)) {
       result.status = StepStatus::kInvalidMeasurement;
@@ -60,9 +88,13 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
     GaussianState<2> predicted;
     predicted.mean.noalias() = F_ * state.mean;
     result.residual = z - predicted.mean(0);
-    result.process_noise =
-        table_.process_noise(result.residual, result.residual - previous_residual);
     predicted.covariance.noalias() = F_ * state.covariance * F_.transpose();
+    result.antecedent = result.residual;
+    if (antecedents_ == FuzzyAntecedents::kNormalizedInnovation) {
+      // S̄ ≥ R > 0 for a PSD covariance; a non-finite S̄ propagates to a failed update below.
+      result.antecedent = result.residual / std::sqrt(predicted.covariance(0, 0) + R_(0, 0));
+    }
+    result.process_noise = table_.process_noise(result.antecedent, result.antecedent - previous);
     predicted.covariance += result.process_noise * GGt_;
     symmetrize(predicted.covariance);
     const auto report = update_with_innovation(predicted, Vector<1>(result.residual), H_, R_);
@@ -80,11 +112,14 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
 
   /// The rule table that sets q(k).
   [[nodiscard]] const FuzzyRuleTable& table() const { return table_; }
+  /// What the table reads.
+  [[nodiscard]] FuzzyAntecedents antecedents() const { return antecedents_; }
   /// F of the CV model.
   [[nodiscard]] const SquareMatrix<2>& transition() const { return F_; }
 
  private:
   FuzzyRuleTable table_;
+  FuzzyAntecedents antecedents_ = FuzzyAntecedents::kResidual;
   SquareMatrix<2> F_;
   Vector<2> G_;
   SquareMatrix<2> GGt_;
@@ -110,15 +145,15 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseMode final : public ImmMode<2, 1> {
   /// Sets the estimate and clears the previous residual.
   void reset(const GaussianState<2>& state) override {
     estimate_ = state;
-    residual_ = 0.0;
+    antecedent_ = 0.0;
     process_noise_ = filter_.table().mean_w();
   }
 
   /// One fuzzy-noise step from `mixed` with z; pending until commit().
   ModeStep propose(const GaussianState<2>& mixed, const Vector<1>& z) override {
     pending_ = mixed;
-    const FuzzyNoiseFilter::Step step = filter_.step(pending_, residual_, z(0));
-    pending_residual_ = step.residual;
+    const FuzzyNoiseFilter::Step step = filter_.step(pending_, antecedent_, z(0));
+    pending_antecedent_ = step.antecedent;
     pending_process_noise_ = step.process_noise;
     keep_innovation(Vector<1>(step.residual), SquareMatrix<1>(step.innovation_variance));
     return {step.status, step.log_likelihood};
@@ -127,7 +162,7 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseMode final : public ImmMode<2, 1> {
   /// Prediction from `mixed` with the table's mean w; pending until commit().
   ModeStep propose_prediction(const GaussianState<2>& mixed) override {
     pending_ = filter_.predict_only(mixed);
-    pending_residual_ = residual_;
+    pending_antecedent_ = antecedent_;
     pending_process_noise_ = filter_.table().mean_w();
     return {pending_.all_finite() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
   }
@@ -139,7 +174,7 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseMode final : public ImmMode<2, 1> {
 
   void commit() override {
     estimate_ = pending_;
-    residual_ = pending_residual_;
+    antecedent_ = pending_antecedent_;
     process_noise_ = pending_process_noise_;
   }
 
@@ -153,8 +188,8 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseMode final : public ImmMode<2, 1> {
   FuzzyNoiseFilter filter_;
   GaussianState<2> estimate_;
   GaussianState<2> pending_;
-  double residual_ = 0.0;
-  double pending_residual_ = 0.0;
+  double antecedent_ = 0.0;  // the table's first input at the last committed step
+  double pending_antecedent_ = 0.0;
   double process_noise_ = 0.0;
   double pending_process_noise_ = 0.0;
 };

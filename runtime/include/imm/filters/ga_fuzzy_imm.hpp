@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "imm/filters/axis_filter.hpp"
+#include "imm/filters/fuzzy_noise_filter.hpp"
 #include "imm/models/learned/fuzzy_rule_table.hpp"
 #include "imm/runtime_export.hpp"
 #include "imm/tracking/tracker.hpp"
@@ -29,6 +30,9 @@ struct IMM_RUNTIME_EXPORT GaFuzzyImmSpec {
   /// Sample period, plot σ and mode switching of the axis IMM.
   AxisImmSettings settings;
   std::vector<FuzzyLevel> levels;  ///< one IMM mode per level, 1 to 8
+  /// What every level's table reads (fuzzy_noise_filter.hpp): the seed's raw residuals, or
+  /// normalized innovations.
+  FuzzyAntecedents antecedents = FuzzyAntecedents::kResidual;
 
   /// Throws InvalidParameter naming the field.
   void validate() const;

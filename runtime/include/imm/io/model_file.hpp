@@ -6,7 +6,8 @@
 ///
 /// A model file is a checked container (container_file.hpp) of format "immtrain-model" whose root
 /// attributes are:
-///   format = "immtrain-model", schema_version (integer; written: 2, read: 1 and 2), model_kind,
+///   format = "immtrain-model", schema_version (integer; written: 2, or 3 for a file that needs
+///   a version-3 field; read: 1 to 3), model_kind,
 ///   created_utc, trainer_version, seed, config_toml, dataset_digest, length_unit ("m" | "km",
 ///   version 2), regime_name, regime_toml, regime_digest (the regime the model was trained for:
 ///   what it is the frozen answer to; absent in files written before regimes),
@@ -27,6 +28,11 @@
 /// or malformed, and values that break the field's rule (NaN/Inf always; σ > 0, w ≥ 0 and
 /// probabilities where the schema says so). Version-1 files (no units, no columns on most
 /// matrices, fixed-length strings) stay readable.
+///
+/// Version 3 is version 2 plus fields an older reader would misread if it ignored them: a GA-fuzzy
+/// IMM whose tables read normalized innovations (`/ga_fuzzy_imm@antecedents`). A writer that sets
+/// such a field calls require_schema_version(3); every other file is still written as version 2,
+/// so that the runtimes that read version 2 keep reading it.
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -46,8 +52,10 @@ namespace imm::io {
 
 /// The container format name of model files.
 inline constexpr std::string_view kModelFormat = "immtrain-model";
-/// The newest schema version this runtime reads, and the one the trainer writes.
+/// The newest schema version this runtime reads.
 inline constexpr int kModelSchemaVersion = imm::kModelSchemaVersion;
+/// The version a file is written as unless it needs a newer one (require_schema_version).
+inline constexpr int kBaseModelSchemaVersion = imm::kBaseModelSchemaVersion;
 
 /// Where a model came from: the root attributes of SPEC §5.
 struct IMM_RUNTIME_EXPORT Provenance {
@@ -123,6 +131,10 @@ class IMM_RUNTIME_EXPORT ModelFileWriter {
   void set_quantity(std::string_view object, std::string_view name, double value,
                     std::string_view units);
 
+  /// Writes the file as at least `version` (≤ kModelSchemaVersion): for a field an older reader
+  /// would misread. Throws FileError for a version this writer does not know.
+  void require_schema_version(int version);
+
   /// Writes the provenance and the groups' `units`, and renames the file into place.
   void commit();
 
@@ -133,6 +145,7 @@ class IMM_RUNTIME_EXPORT ModelFileWriter {
   Provenance provenance_;
   UnitNames units_;
   ContainerWriter container_;
+  int schema_version_ = kBaseModelSchemaVersion;
   /// Per object, "name=unit" of its real attributes, in the order they were set.
   std::map<std::string, std::vector<std::pair<std::string, std::string>>> attribute_units_;
 };
@@ -146,7 +159,7 @@ class IMM_RUNTIME_EXPORT ModelFileReader : public SchemaReader {
 
   /// The root attributes.
   [[nodiscard]] const Provenance& provenance() const { return provenance_; }
-  /// The file's schema version (1 or 2).
+  /// The file's schema version (1 to kModelSchemaVersion).
   [[nodiscard]] int schema_version() const { return schema_version_; }
 
  private:

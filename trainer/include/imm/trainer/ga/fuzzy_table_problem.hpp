@@ -83,11 +83,19 @@ struct ProblemOptions {
   ErrorKind error = ErrorKind::kEquation17;
   double lambda = 0.95;
   int max_rules = 50;
-  double sigma_min = 0.1, sigma_max = 10.0;  ///< membership spreads, × error_scale
+  /// What the tables read: the seed's residuals, or normalized innovations (then the centers
+  /// span the observed normalized values and the spreads are dimensionless: × 1, not × σ_z).
+  FuzzyAntecedents antecedents = FuzzyAntecedents::kResidual;
+  double sigma_min = 0.1, sigma_max = 10.0;  ///< membership spreads, × input_scale()
   double error_scale = 0.5;                  ///< σ_z: the unit of the error and the spreads
-  double maneuver_level = 0.01;              ///< a_M
-  double process_noise_sigma = 0.001;        ///< √q of eq. (15)
-  double consequent_low = 0.5;               ///< √w bounds as multiples of a_M + √q (eq. 15)
+
+  /// The unit of the antecedents' spreads: σ_z for residuals, 1 for normalized innovations.
+  [[nodiscard]] double input_scale() const {
+    return antecedents == FuzzyAntecedents::kResidual ? error_scale : 1.0;
+  }
+  double maneuver_level = 0.01;        ///< a_M
+  double process_noise_sigma = 0.001;  ///< √q of eq. (15)
+  double consequent_low = 0.5;         ///< √w bounds as multiples of a_M + √q (eq. 15)
   double consequent_high = 1.0;
 };
 
@@ -120,7 +128,8 @@ class FuzzyTableProblem final : public GenomeProblem {
   [[nodiscard]] const std::vector<double>& upper() const override { return upper_; }
   [[nodiscard]] const TrainingSet& training() const { return training_; }
   [[nodiscard]] const ProblemOptions& options() const { return options_; }
-  /// Observed ranges [r_min, r_max], [Δr_min, Δr_max].
+  /// Observed ranges [r_min, r_max], [Δr_min, Δr_max] of the antecedents (normalized ones when
+  /// the tables read normalized innovations).
   [[nodiscard]] std::array<double, 4> residual_ranges() const { return ranges_; }
 
  private:
