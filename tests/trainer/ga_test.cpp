@@ -312,6 +312,8 @@ TEST(ShippedConfig, TunedPresetStartsFromTheTunedImm) {
   EXPECT_EQ(config.fuzzy.fitness, FitnessKind::kImm);
   EXPECT_DOUBLE_EQ(config.fuzzy.lambda, 0.999);
   EXPECT_EQ(config.fuzzy.antecedents, FuzzyAntecedents::kNormalizedInnovation);
+  EXPECT_EQ(config.fuzzy.error, ErrorKind::kZeta);  // the figure it is judged by
+  EXPECT_EQ(config.fuzzy.max_rules, 3);
   EXPECT_LE(config.fuzzy.consequent_low, 1.0);
   EXPECT_GE(config.fuzzy.consequent_high, 1.0);
 }
