@@ -75,6 +75,7 @@ struct Score {
   Eigen::VectorXd scan_mse;   ///< per scan, over tracks
   /// Position NEES and NIS (of the sensor's (z1, z2)) against their χ² bounds for the runs.
   ConsistencySummary position_nees, nis;
+  Eigen::MatrixXd run_position_nees;  ///< runs × scans (NaN where a scan has no sample)
 
   [[nodiscard]] HeadlineMetric headline(std::string name) const {
     return ratio_metric(std::move(name), per_track.col(0), per_track.col(1));
@@ -165,6 +166,7 @@ Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
   const double n = std::max<double>(1.0, static_cast<double>(samples));
   out.position_nees = summarize_consistency(run_nees, 2);
   out.nis = summarize_consistency(run_nis, 2);
+  out.run_position_nees = std::move(run_nees);
   out.mse = out.per_track.col(0).sum() / n;
   out.nees = nees / n;
   out.clamped = static_cast<double>(outside) / n;
@@ -244,6 +246,13 @@ int run(const FimmOptions& options) {
     const int runs = static_cast<int>(part.tracks.size());
     headline.push_back(in_case(fimm.headline("fimm_mse " + name), offset, all_runs));
     headline.push_back(in_case(iekf.headline("fimm_iekf_mse " + name), offset, all_runs));
+    // How far each run's covariance is from its errors: a less consistent candidate is held back.
+    headline.push_back(in_case(mean_metric("fimm_position_nees_log_ratio " + name,
+                                           nees_log_ratio(fimm.run_position_nees, 2)),
+                               offset, all_runs));
+    headline.push_back(in_case(mean_metric("fimm_iekf_position_nees_log_ratio " + name,
+                                           nees_log_ratio(iekf.run_position_nees, 2)),
+                               offset, all_runs));
     offset += runs;
     const Difference d_fimm = paired_difference(runs, fimm.statistic(), imm.statistic());
     const Difference d_iekf = paired_difference(runs, iekf.statistic(), imm.statistic());

@@ -71,8 +71,17 @@ struct CaseResult {
   std::array<std::vector<Eigen::RowVectorXd>, 4> consistency;
 };
 
+// Axis runs × scans of one of CaseResult::consistency's series.
+Eigen::MatrixXd stacked(const std::vector<Eigen::RowVectorXd>& rows) {
+  Eigen::MatrixXd values(static_cast<Eigen::Index>(rows.size()),
+                         rows.empty() ? 0 : rows.front().size());
+  for (std::size_t j = 0; j < rows.size(); ++j) values.row(static_cast<Eigen::Index>(j)) = rows[j];
+  return values;
+}
+
 // The corrected KF's position and velocity MSE per case, over all runs in case order (a run of
-// another case weighs nothing in a case's figure).
+// another case weighs nothing in a case's figure), and how far its covariance is from its errors
+// (per axis run |ln ANEES| of the 1-D position NEES: a less consistent candidate is held back).
 std::vector<HeadlineMetric> corrected_headline(const std::vector<CaseResult>& cases) {
   Eigen::Index runs = 0;
   for (const CaseResult& r : cases) runs += r.corrected.rows();
@@ -84,6 +93,9 @@ std::vector<HeadlineMetric> corrected_headline(const std::vector<CaseResult>& ca
           in_case(mean_metric(std::string(kQuantity[q]) + "_mse " + r.name, r.corrected.col(q)),
                   offset, runs));
     }
+    headline.push_back(in_case(mean_metric("position_nees_log_ratio " + r.name,
+                                           nees_log_ratio(stacked(r.consistency[0]), 1)),
+                               offset, runs));
     offset += r.corrected.rows();
   }
   return headline;
@@ -156,13 +168,13 @@ int run(const CommonOptions& options) {
           sum += Eigen::RowVector3d(nu * nu, dp * dp, dv * dv);
         };
         // ν²/S and the position's e²/P (1-D NIS and NEES).
-        auto consistency = [&t](double* out, const AxisFilter& axis, int k) {
-          const GaussianState<2>& x = axis.estimate();
+        auto consistency = [&t](double* out, const AxisFilter& scored, int k) {
+          const GaussianState<2>& x = scored.estimate();
           out[0] = x.covariance(0, 0) > 0.0
                        ? std::pow(t.position(k) - x.mean(0), 2) / x.covariance(0, 0)
                        : kNaN;
           double nu = 0.0, variance = 0.0;
-          out[1] = axis.innovation(nu, variance) && variance > 0.0 ? nu * nu / variance : kNaN;
+          out[1] = scored.innovation(nu, variance) && variance > 0.0 ? nu * nu / variance : kNaN;
         };
         for (int k = 2; k < steps; ++k) {
           double* scan = terms.data() + kRunTerms + k * kPerScan;
@@ -304,12 +316,7 @@ int run(const CommonOptions& options) {
     imm_table.push_back(imm_row);
     // Consistency of the corrected KF and IMM-tuned, per axis run (1-D position NEES and NIS).
     auto summary = [&r](std::size_t i) {
-      Eigen::MatrixXd values(static_cast<Eigen::Index>(r.consistency[i].size()),
-                             r.consistency[i].empty() ? 0 : r.consistency[i].front().size());
-      for (std::size_t j = 0; j < r.consistency[i].size(); ++j) {
-        values.row(static_cast<Eigen::Index>(j)) = r.consistency[i][j];
-      }
-      return summarize_consistency(values, 1);
+      return summarize_consistency(stacked(r.consistency[i]), 1);
     };
     consistency.push_back({r.name + ": corrected KF", summary(0), summary(1)});
     consistency.push_back({r.name + ": IMM-tuned", summary(2), summary(3)});

@@ -18,6 +18,22 @@ using testing::kTable3;
 using testing::run_tool;
 using testing::Tools;
 
+// How many of an evaluation's headline metrics (what `imm-eval regression` compares) measure
+// consistency (the position NEES log ratio), each finite and ≥ 0.
+int consistency_headlines(const std::filesystem::path& out) {
+  const auto headline = nlohmann::json::parse(testing::slurp(out / "headline.json"));
+  int count = 0;
+  for (const auto& m : headline.at("metrics")) {
+    if (m.at("name").get<std::string>().find("position_nees_log_ratio") == std::string::npos) {
+      continue;
+    }
+    const double value = m.at("value");
+    EXPECT_TRUE(std::isfinite(value) && value >= 0.0) << m.dump();
+    ++count;
+  }
+  return count;
+}
+
 TEST_F(Tools, ImmTrainFreezeNamesTheBadKey) {
   testing::write_text(dir_ / "bad.toml",
                       testing::slurp(config("configs/track/cv3_imm.toml")) +
@@ -196,6 +212,9 @@ TEST_F(Tools, GaAndInputEstimatorTrainAndEvaluateOnARegimeWrittenInTheTest) {
   if (mlp_report.exit_code != 5) {  // gates passed: exit 7 exactly when there is a finding
     EXPECT_EQ(mlp_report.exit_code == 7, verdict != "beats") << mlp_report.out;
   }
+  // The regression gate also holds back a less consistent candidate: one NEES figure per case.
+  EXPECT_EQ(consistency_headlines(dir_ / "mlp-report"),
+            static_cast<int>(metrics.at("results").at("rows").size()));
 }
 
 // The regime's tracker on a regime no code has seen (the GA's levels ×3 at T = 2 s): its tuned
@@ -303,6 +322,7 @@ TEST_F(Tools, WimmTrainingAndEvaluationEndToEnd) {
   EXPECT_NE(evaluated.out.find("cannot come from plots"), std::string::npos);
   EXPECT_NE(evaluated.out.find("off its training maneuvers"), std::string::npos);
   const auto metrics = evaluation_results(out);
+  EXPECT_GE(consistency_headlines(out), 1);  // one per scenario: the regression gate's consistency
   for (const char* scenario : {"scenario 1", "scenario 2"}) {
     for (const char* filter : {"nIMM", "wIMM", "nIMM-tuned"}) {
       ASSERT_TRUE(metrics[scenario].contains(filter)) << scenario << " " << filter;
@@ -367,6 +387,7 @@ TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
       << evaluated.err;
   EXPECT_NE(evaluated.out.find("FCM-IMM-const"), std::string::npos);
   const auto metrics = evaluation_results(out);
+  EXPECT_EQ(consistency_headlines(out), 1);  // the regression gate holds back a less consistent one
   ASSERT_EQ(metrics.size(), 5u);
   for (const char* filter : {"KF", "AIMM", "IMM-tuned", "FCM-IMM", "FCM-IMM-const"}) {
     ASSERT_TRUE(metrics.contains(filter)) << filter;
@@ -435,6 +456,8 @@ TEST_F(Tools, TskTrainingAndFimmEvaluationEndToEnd) {
         << evaluated.err;
     EXPECT_NE(evaluated.out.find("clamped"), std::string::npos) << evaluated.out;
     const auto metrics = evaluation_results(out);
+    EXPECT_EQ(consistency_headlines(out) % 2, 0);  // the FIMM (EKF) and (IEKF) per case
+    EXPECT_GE(consistency_headlines(out), 2);
     ASSERT_EQ(metrics["rows"].size(), 4u);
     const double expected_r[4] = {0.01, 0.25, 1.0, 4.0};
     for (std::size_t i = 0; i < 4; ++i) {
