@@ -209,7 +209,7 @@ void Night::run_model(const NightlyStage& stage) {
   // The candidate's own evaluations (its quality gates), then the shipped model's on the same
   // tracks and the regression comparison.
   const bool comparable_shipped = fs::exists(shipped_file);
-  std::vector<std::string> regressions, gate_failures, comparisons, findings;
+  std::vector<std::string> regressions, uncompared, gate_failures, comparisons, findings;
   for (const NightlyStage* e : evaluations) {
     StageOutcome o = outcome_of("evaluation", e->name);
     o.report = e->out;
@@ -261,8 +261,12 @@ void Night::run_model(const NightlyStage& stage) {
         if (verdict == support::exit_code::kRegression) {
           regressions.push_back(e->name + ": " + tail_of(compare_log.string() + ".out", 8));
         } else if (verdict != 0) {
-          comparisons.push_back(e->name + ": not compared (" +
-                                tail_of(compare_log.string() + ".err", 2) + ")");
+          // A comparison that could not be made is no evidence that the candidate is not worse:
+          // the gate fails closed (a malformed headline, runs that differ, a killed or missing
+          // tool all hold the candidate back, saying why).
+          uncompared.push_back(e->name + ": the comparison with the shipped model failed (exit " +
+                               std::to_string(verdict) + ": " +
+                               tail_of(compare_log.string() + ".err", 2) + ")");
         }
       } else {
         comparisons.push_back(e->name +
@@ -285,6 +289,12 @@ void Night::run_model(const NightlyStage& stage) {
     model.held_back = true;
     model.status = "held back";
     model.message = "worse than the shipped model beyond the uncertainty — " + join(regressions);
+    return conclude(model);
+  }
+  if (!uncompared.empty()) {
+    model.held_back = true;
+    model.status = "held back";
+    model.message = "not compared with the shipped model, so not promoted — " + join(uncompared);
     return conclude(model);
   }
   try {

@@ -153,6 +153,46 @@ TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
   EXPECT_NE(table.out.find("| cv3 | plain_imm |  | cv3.h5 |"), std::string::npos) << table.out;
 }
 
+// The regression gate fails closed: when `imm-eval regression` itself fails (a malformed
+// headline, runs that differ, a killed tool), the candidate is held back with the reason, never
+// promoted "on its own gates". The nightly runs its tools from its own folder: a copy of imm-train
+// beside an imm-eval that fails its `regression` subcommand (exit 2, then killed by SIGKILL).
+TEST(NightlyProduct, AComparisonThatCannotBeMadeHoldsTheCandidateBack) {
+  const testing::TempDir dir;
+  write_cv3(dir / "cv3.toml", 1.0);
+  const Plan p = write_plan(dir);
+  ASSERT_EQ(nightly(p).exit_code, 0);
+  const fs::path shipped = p.registry / "cv3.h5";
+  const std::string first = sha256_of(shipped);
+
+  const fs::path bin = dir / "bin";
+  fs::create_directories(bin);
+  fs::copy_file(testing::tool_path("imm-train"), bin / "imm-train");
+  const std::string real_eval = fs::absolute(testing::tool_path("imm-eval")).string();
+  int round = 0;
+  for (const std::string failure : {"exit 2", "kill -9 $$"}) {
+    {
+      std::ofstream script(bin / "imm-eval");
+      script << "#!/bin/sh\nif [ \"$1\" = regression ]; then\n"
+             << "  echo 'planted: the comparison failed' >&2\n  " << failure << "\nfi\n"
+             << "exec " << real_eval << " \"$@\"\n";
+    }
+    fs::permissions(bin / "imm-eval", fs::perms::owner_all);
+    // The same filter under another config text: a candidate that would tie.
+    write_cv3(dir / "cv3.toml", 1.0, "# round " + std::to_string(++round) + "\n");
+    const auto run =
+        run_tool((bin / "imm-train").string(),
+                 {"all", "--config", p.plan.string(), "--reports", p.reports.string()}, {}, 300);
+    EXPECT_EQ(run.exit_code, 6) << failure << "\n" << run.err;
+    EXPECT_EQ(sha256_of(shipped), first) << failure;
+    EXPECT_EQ(manifest(p)["models"][0]["sha256"], first) << failure;
+    const std::string report = slurp(p.reports / "latest" / "index.md");
+    EXPECT_NE(report.find("held back"), std::string::npos) << report;
+    EXPECT_NE(report.find("the comparison with the shipped model failed"), std::string::npos)
+        << report;
+  }
+}
+
 // A shipped model is never stamped by a build of uncommitted code: with the shipped plan's
 // default, such a candidate is not promoted and the morning report says why. Which of the two
 // this binary is decides the expectation: a clean build promotes, a dirty one is refused.
