@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "imm/evaluation/report.hpp"
+#include "imm/models/measurement/polar_measurement.hpp"
 #include "imm/trainer/normalized_errors.hpp"
 #include "imm/trainer/ranks.hpp"
 
@@ -30,10 +31,17 @@ std::vector<HeadlineMetric> FilterOutcome::headline() const {
 
 FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make_filter,
                               const TrackOptions& options, const datasets::TrackSet& data,
-                              const StepRecorder& recorder) {
-  if (options.measurement_kind != MeasurementKind::kCartesian) {
-    throw std::runtime_error("filter '" + name + "': the evaluation scores Cartesian plots");
-  }
+                              const StepRecorder& recorder,
+                              const Eigen::Vector2d& sensor_position) {
+  const bool polar = options.measurement_kind == MeasurementKind::kPolar;
+  // Where the filter's frame sits in the regime's: polar filters work around the sensor.
+  const Eigen::Vector2d origin = polar ? sensor_position : Eigen::Vector2d::Zero();
+  // A plot as a position in the regime's frame.
+  auto plot_position = [&](const Eigen::MatrixXd& z, int k) -> Eigen::Vector2d {
+    const Eigen::Vector2d plot = z.row(k).transpose();
+    if (!polar) return plot;
+    return origin + polar_to_cartesian(plot, options.measurement_covariance).position;
+  };
   if (std::abs(data.sample_period - options.sample_period) > 1e-12 * data.sample_period) {
     throw std::runtime_error("filter '" + name + "': sample period differs from the tracks'");
   }
@@ -77,16 +85,16 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
           tracker.state(mean, variance);
           const Eigen::Vector2d p = datasets::position_at(track, k),
                                 v = datasets::velocity_at(track, k);
-          const Eigen::Vector2d plot = z.row(k).transpose();
-          const Eigen::Vector2d measured_velocity = (z.row(k) - z.row(k - 1)).transpose() / T;
+          const Eigen::Vector2d plot = plot_position(z, k);
+          const Eigen::Vector2d measured_velocity = (plot - plot_position(z, k - 1)) / T;
           double* scan = terms + k * per_scan;
-          scan[0] = (p - Eigen::Vector2d(mean(0), mean(y))).squaredNorm();
+          scan[0] = (p - origin - Eigen::Vector2d(mean(0), mean(y))).squaredNorm();
           scan[1] = (p - plot).squaredNorm();
           scan[2] = (v - Eigen::Vector2d(mean(1), mean(y + 1))).squaredNorm();
           scan[3] = (v - measured_velocity).squaredNorm();
           scan[4] = 1.0;
           const trainer::StepConsistency consistency =
-              trainer::step_consistency(tracker.filter(), p);
+              trainer::step_consistency(tracker.filter(), p - origin);
           scan[5] = consistency.position_nees;
           scan[6] = result.event == TrackEvent::kUpdated ? consistency.nis : nan;
           Eigen::Map<Eigen::VectorXd>(scan + kModes, modes) = tracker.mode_probabilities();

@@ -53,7 +53,8 @@ int run(const RankOptions& options) {
                                regimes.trained.regime.name + ", not " + regime.regime.name +
                                ": a regime's tracker is chosen among its own models");
     }
-    outcomes.push_back(run_monte_carlo(file.stem().string(), maker.make, maker.options, data));
+    outcomes.push_back(run_monte_carlo(file.stem().string(), maker.make, maker.options, data, {},
+                                       regime.regime.sensor.position));
     RankedFilter r;
     r.name = file.stem().string();
     r.kind = maker.provenance.model_kind;

@@ -265,7 +265,30 @@ int run_import_rules(const trainer::ImportRulesOptions& options) {
   return 0;
 }
 
+// A wIMM config (its [filter] names the Singer mode) gives a polar regime's baseline, the tuned
+// normal IMM; any other config is read as a GA config (a Cartesian regime's constant-q IMM).
+bool is_wimm_config(const std::filesystem::path& path) {
+  const auto document = support::ConfigDocument::load(path);
+  const auto filter = document->root().table("filter");
+  return filter && filter->has("singer_tau");
+}
+
 int run_baseline(const TrainCommand& command) {
+  if (is_wimm_config(command.config)) {
+    trainer::wimm::WimmTrainingConfig config =
+        trainer::wimm::load_wimm_config(command.config, command.regime);
+    if (command.seed) config.seed = *command.seed;
+    const auto start = std::chrono::steady_clock::now();
+    const trainer::wimm::Tuned base =
+        trainer::wimm::write_tuned_normal_imm_baseline(config, command.out);
+    spdlog::info(
+        "baseline: the normal IMM tuned on the training split: q1 {:.4g}, P(CV->CV) {:.4f} ({} "
+        "evaluations); wrote {} ({:.1f} s)",
+        base.spec.cv_process_noise, base.spec.transition(0, 0), base.evaluations,
+        command.out.string(),
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    return 0;
+  }
   namespace ga = trainer::ga;
   ga::GaTrainingConfig config = ga::load_ga_config(command.config, command.regime);
   if (command.seed) config.seed = *command.seed;
@@ -326,8 +349,9 @@ TrainingCommands::TrainingCommands(CLI::App& app) {
                            fcm_command_);
   baseline_ = add_train_command(
       app, "baseline",
-      "write the regime's tuned classical filter: the constant-q IMM per axis, its levels and "
-      "stay probability tuned on the training split (the GA config's level count and budget)",
+      "write the regime's tuned classical filter, tuned on the training split: with a GA config "
+      "the constant-q IMM per axis (its levels and stay; the config's level count and budget), "
+      "with a wIMM config (a polar regime) the normal IMM (q1 and P(CV->CV), fusion off)",
       baseline_command_);
   baseline_->get_option("--out")->required();
   tsk_ = add_train_command(

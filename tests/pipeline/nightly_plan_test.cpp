@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "imm/pipeline/nightly.hpp"
 #include "imm/support/config.hpp"
@@ -115,6 +117,23 @@ TEST(Nightly, EvaluationsFollowTheirModel) {
       EXPECT_EQ(e->arguments[*e->model_argument], stage.out.string());
     }
   }
+}
+
+// Every regime beyond the papers (configs/regimes/*.toml) has its tracker stage: the filter a
+// tracking application loads for it, chosen every night among its models and its tuned baseline.
+TEST(Nightly, EveryShippedRegimeHasATracker) {
+  const NightlyPlan plan = load_nightly_plan("configs/nightly.toml");
+  std::set<std::string> trackers;
+  for (const auto& stage : plan.stages) {
+    if (stage.kind == "tracker") trackers.insert(stage.name);
+  }
+  int regimes = 0;
+  for (const auto& entry : std::filesystem::directory_iterator("configs/regimes")) {
+    if (entry.path().extension() != ".toml") continue;
+    ++regimes;
+    EXPECT_TRUE(trackers.contains(entry.path().stem().string())) << entry.path();
+  }
+  EXPECT_GE(regimes, 3);
 }
 
 // The morning report shows the last `make bench` medians and flags the ones > 10 % slower.

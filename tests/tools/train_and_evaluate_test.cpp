@@ -290,6 +290,68 @@ TEST_F(Tools, TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest) {
   EXPECT_NE(other.err.find("ga_fuzzy_imm.h5"), std::string::npos) << other.err;
 }
 
+// A polar regime's tracker (a regime written in the test: air_surveillance, small, its sensor away
+// from the origin): its tuned normal IMM (`imm-train baseline` with a wIMM config) and a wIMM
+// learned on top of it, ranked on the test split by the Cartesian regimes' rule, the plots scored
+// as positions around the sensor.
+TEST_F(Tools, APolarRegimesTrackerIsChosenAmongItsWimmAndItsTunedNormalImm) {
+  std::string text = testing::slurp(config("configs/regimes/air_surveillance.toml"));
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"name = \"air_surveillance\"", "name = \"polar_small\""},
+           {"scans = 120", "scans = 40"},
+           {"azimuth_sigma_deg = 0.2", "azimuth_sigma_deg = 0.2\nposition = [30000.0, -20000.0]"},
+           {"training = 24", "training = 3"},
+           {"validation = 8", "validation = 2"},
+           {"test = 100", "test = 10"}}) {
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  }
+  const auto regime = dir_ / "polar_small.toml";
+  testing::write_text(regime, text);
+  const auto models = dir_ / "models";
+  const std::string wimm_config = config("configs/wimm_tuned.toml").string();
+  const auto baseline = run_tool("imm-train",
+                                 {"baseline", "--config", wimm_config, "--regime", regime.string(),
+                                  "--out", (models / "baseline.h5").string()},
+                                 root_);
+  ASSERT_EQ(baseline.exit_code, 0) << baseline.err;
+  EXPECT_NE(baseline.err.find("the normal IMM tuned on the training split"), std::string::npos)
+      << baseline.err;
+  const auto trained = run_tool("imm-train",
+                                {"wimm", "--config", wimm_config, "--regime", regime.string(),
+                                 "--out", (models / "wimm.h5").string()},
+                                root_);
+  ASSERT_EQ(trained.exit_code, 0) << trained.err;
+
+  const auto tracker = dir_ / "shipped" / "polar_small" / "tracker.h5";
+  const auto ranked = run_tool("imm-eval",
+                               {"rank", "--baseline", (models / "baseline.h5").string(),
+                                "--candidates", (models / "wimm.h5").string(), "--out",
+                                (dir_ / "rank").string(), "--ship", tracker.string()},
+                               root_);
+  ASSERT_TRUE(ranked.exit_code == 0 || ranked.exit_code == 7) << ranked.err;
+  EXPECT_NE(ranked.out.find("regime polar_small test split"), std::string::npos) << ranked.out;
+  const auto choice = nlohmann::json::parse(testing::slurp(dir_ / "rank" / "tracker.json"));
+  ASSERT_EQ(choice["ranking"].size(), 2u);
+  for (const auto& row : choice["ranking"]) {
+    // Scored around the sensor: better than the plots themselves (a filter scored in the wrong
+    // frame would be 36 km off, ζ in the hundreds), with a finite NEES.
+    EXPECT_GT(row["zeta_p"].get<double>(), 0.0) << row.dump();
+    EXPECT_LT(row["zeta_p"].get<double>(), 1.0) << row.dump();
+    EXPECT_LT(row["zeta_v"].get<double>(), 1.0) << row.dump();
+    EXPECT_TRUE(std::isfinite(row["position_nees"].get<double>())) << row.dump();
+  }
+  EXPECT_EQ(testing::slurp(tracker),
+            testing::slurp(models / (choice["tracker"].get<std::string>() + ".h5")));
+  // A wIMM whose fusion is off is its tuned normal IMM: the same figures, to the bit.
+  const auto wimm_metrics = nlohmann::json::parse(testing::slurp(models / "wimm.metrics.json"));
+  if (!wimm_metrics.at("learned_part_on").get<bool>()) {
+    EXPECT_EQ(choice["ranking"][0]["zeta_p"], choice["ranking"][1]["zeta_p"]);
+    EXPECT_EQ(choice["tracker"], "baseline");
+  }
+}
+
 // A regime generated in the test (the training regime with 3 tracks): trains, records the regime,
 // and evaluates on the paper's two scenarios with every baseline.
 TEST_F(Tools, WimmTrainingAndEvaluationEndToEnd) {

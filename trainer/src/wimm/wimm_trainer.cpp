@@ -228,4 +228,37 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
   return result;
 }
 
+Tuned write_tuned_normal_imm_baseline(const WimmTrainingConfig& config,
+                                      const std::filesystem::path& out) {
+  const auto start = std::chrono::steady_clock::now();
+  const TrainingScenarios data =
+      datasets::draw_split(config.regime, datasets::Split::kTraining, config.regime.splits.seed);
+  const Tuned base = tune_normal_imm(config, data);
+  io::Provenance provenance =
+      make_provenance(std::string(io::kWimmKind), config.text,
+                      static_cast<std::int64_t>(config.seed), data.digest(), config.regime);
+  provenance.training_metrics["on_tuned_nimm"] = 1.0;
+  provenance.training_metrics["learned_part_on"] = 0.0;
+  provenance.training_metrics["classical_baseline"] = 1.0;
+  ensure_parent_folder(out);
+  io::ModelFileWriter writer(out, provenance);
+  io::write_wimm(writer, base.spec);
+  writer.commit();
+
+  nlohmann::json metrics;
+  metrics["model_kind"] = io::kWimmKind;
+  metrics["classical_baseline"] =
+      "the normal IMM with q1 and P(CV->CV) tuned on the training split (fusion off)";
+  metrics["model"] = out.string();
+  metrics["config"] = config.name;
+  metrics["regime"] = config.regime.name;
+  metrics["baseline"] = {{"cv_process_noise", base.spec.cv_process_noise},
+                         {"stay", base.spec.transition(0, 0)},
+                         {"evaluations", base.evaluations}};
+  metrics["wall_seconds"] =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  write_json_atomically(metrics_path(out), metrics);
+  return base;
+}
+
 }  // namespace imm::trainer::wimm

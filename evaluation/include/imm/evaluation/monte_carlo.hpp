@@ -75,10 +75,14 @@ struct StepRecorder {
 /// The runs are spread over the job's ranks (trainer/ranks.hpp): each rank runs its share and
 /// keeps every run's per-scan terms; the terms are exchanged whole and every figure is then
 /// summed in run order, so the outcome is the same to the bit at any rank count.
-[[nodiscard]] FilterOutcome run_monte_carlo(const std::string& name,
-                                            const FilterFactory& make_filter,
-                                            const TrackOptions& options,
-                                            const datasets::TrackSet& data,
-                                            const StepRecorder& recorder = {});
+///
+/// Polar plots (range, azimuth around `sensor_position`, the regime's sensor): the filter works
+/// around the sensor, so its estimate is shifted by the sensor's position before it is scored,
+/// and ζ's raw-plot terms use the plots converted to Cartesian positions (and their differences
+/// over T for the measured velocity).
+[[nodiscard]] FilterOutcome run_monte_carlo(
+    const std::string& name, const FilterFactory& make_filter, const TrackOptions& options,
+    const datasets::TrackSet& data, const StepRecorder& recorder = {},
+    const Eigen::Vector2d& sensor_position = Eigen::Vector2d::Zero());
 
 }  // namespace imm::evaluation

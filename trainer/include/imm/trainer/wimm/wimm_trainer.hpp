@@ -80,4 +80,11 @@ struct WimmTrainingResult {
 /// Tunes and writes the model and `<model>.metrics.json`.
 WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::filesystem::path& out);
 
+/// A polar regime's tuned classical filter (`imm-train baseline` with a wIMM config): the normal
+/// IMM with q₁ and P(CV→CV) tuned on the training split (nIMM-tuned, tune_normal_imm), written as
+/// a wimm model file with its fusion off (`training.classical_baseline` = 1), and its
+/// `<model>.metrics.json`. The same filter a wIMM learned on top of it is with its fusion off.
+Tuned write_tuned_normal_imm_baseline(const WimmTrainingConfig& config,
+                                      const std::filesystem::path& out);
+
 }  // namespace imm::trainer::wimm
