@@ -38,7 +38,7 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
   const Eigen::Vector2d origin = polar ? sensor_position : Eigen::Vector2d::Zero();
   // A plot as a position in the regime's frame.
   auto plot_position = [&](const Eigen::MatrixXd& z, int k) -> Eigen::Vector2d {
-    const Eigen::Vector2d plot = z.row(k).transpose();
+    Eigen::Vector2d plot = z.row(k).transpose();
     if (!polar) return plot;
     return origin + polar_to_cartesian(plot, options.measurement_covariance).position;
   };
