@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "imm/pipeline/registry.hpp"
 #include "imm/support/config.hpp"
 
 namespace imm::pipeline {
@@ -80,6 +81,10 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
   for (std::size_t i = 0; i < models.size(); ++i) {
     const auto& entry = models[i];
     NightlyStage stage = make_stage("model", entry.text("name"), "imm-train");
+    // The name becomes a registry entry's: one path component (registry.hpp).
+    if (const std::string problem = model_name_problem(stage.name); !problem.empty()) {
+      entry.fail("name", problem);
+    }
     const std::string out = entry.text("out");
     stage.arguments = {entry.text("command"), "--config", entry.text("config"), "--out", out};
     stage.out = out;
@@ -137,6 +142,9 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
   }
   for (const auto& entry : root.tables("trackers")) {
     NightlyStage stage = make_stage("tracker", entry.text("name"), "imm-eval");
+    if (const std::string problem = model_name_problem(stage.name); !problem.empty()) {
+      entry.fail("name", problem);
+    }
     const auto model_out = [&](const std::string& key, const std::string& name) {
       const auto linked = std::find_if(plan.stages.begin(), plan.stages.end(), [&](const auto& s) {
         return s.kind == "model" && s.name == name;

@@ -10,6 +10,9 @@
 namespace imm::pipeline {
 
 RegistryEntry promote_by_hand(const PromoteOptions& options) {
+  if (const std::string problem = model_name_problem(options.name); !problem.empty()) {
+    throw std::runtime_error("promote: --name " + problem);
+  }
   if (options.reason.find_first_not_of(" \t\n") == std::string::npos) {
     throw std::runtime_error("promote: --reason must say why the file is shipped past the gates");
   }

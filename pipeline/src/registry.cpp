@@ -59,7 +59,12 @@ RegistryEntry from_json(const nlohmann::json& j, const std::string& where) {
         std::any_of(file.begin(), file.end(), [](const auto& part) { return part == ".."; })) {
       throw std::runtime_error("file '" + e.file + "' must be a path inside the models folder");
     }
-    if (e.sha256.size() != 64) throw std::runtime_error("sha256 is not a SHA-256 digest");
+    if (const std::string problem = model_name_problem(e.name); !problem.empty()) {
+      throw std::runtime_error("name: " + problem);
+    }
+    if (const std::string problem = sha256_problem(e.sha256); !problem.empty()) {
+      throw std::runtime_error("sha256: " + problem);
+    }
     return e;
   } catch (const nlohmann::json::exception& error) {
     throw std::runtime_error(where + ": " + error.what());
@@ -78,6 +83,29 @@ std::filesystem::path metrics_beside(const std::filesystem::path& model) {
 
 bool from_uncommitted_code(const RegistryEntry& entry) {
   return entry.trainer_version.ends_with("-dirty");
+}
+
+std::string model_name_problem(std::string_view name) {
+  std::string quoted(1, '\'');
+  quoted.append(name).push_back('\'');
+  if (name.empty() || name.size() > 128) return quoted + " must have 1 to 128 characters";
+  if (name.front() == '.') return quoted + " must not start with '.'";
+  for (const char c : name) {
+    const bool allowed = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                         (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.';
+    if (!allowed) {
+      return quoted + " must be one path component of letters, digits, '_', '-' and '.'";
+    }
+  }
+  return "";
+}
+
+std::string sha256_problem(std::string_view digest) {
+  const bool hex = std::all_of(digest.begin(), digest.end(), [](char c) {
+    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f');
+  });
+  if (digest.size() != 64 || !hex) return "is not a SHA-256 digest (64 lowercase hex digits)";
+  return "";
 }
 
 RegistryEntry describe_model(const std::filesystem::path& file,

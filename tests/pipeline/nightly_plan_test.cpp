@@ -108,6 +108,20 @@ TEST(Nightly, AModelMustBeWrittenInsideTheRegistry) {
   }
 }
 
+// A model's name becomes its registry entry's: it must stay one path component.
+TEST(Nightly, AModelNameThatCouldLeaveTheRegistryIsAnError) {
+  const testing::TempDir dir;
+  testing::write_text(dir / "n.toml",
+                      "[[models]]\nname = \"../x\"\ncommand = \"freeze\"\nconfig = \"c\"\n"
+                      "out = \"models/o.h5\"\n");
+  try {
+    (void)load_nightly_plan(dir / "n.toml");
+    FAIL();
+  } catch (const support::ConfigError& error) {
+    EXPECT_EQ(error.key(), "models[0].name");
+  }
+}
+
 TEST(Nightly, EvaluationsFollowTheirModel) {
   const NightlyPlan plan = load_nightly_plan("configs/nightly.toml");
   for (const auto& stage : plan.stages) {

@@ -118,5 +118,54 @@ TEST(Registry, AHostileManifestIsRefusedNamingTheField) {
   }
 }
 
+// Names and digests lead to files: a name must stay one path component and a digest hex, in the
+// manifest (its history too), in `promote --name` and in a nightly plan; each is refused naming
+// the field, and nothing is written outside the registry.
+TEST(Registry, NamesAndDigestsThatCouldLeaveTheRegistryAreRefused) {
+  const testing::TempDir dir;
+  const auto manifest = [&](const std::string& name, const std::string& sha256) {
+    return R"({"manifest_version": 1, "models": [{"name": ")" + name +
+           R"(", "kind": "plain_imm", "regime": {"name": "", "digest": ""}, "file": "a.h5",
+           "sha256": ")" +
+           sha256 +
+           R"(", "schema_version": 2, "trainer_version": "v", "config_digest": "",
+           "trained_utc": ""}]})";
+  };
+  const std::string good(64, 'a');
+  const auto refused = [&](const std::string& text, const std::string& field) {
+    testing::write_text(dir / "manifest.json", text);
+    try {
+      Registry registry(dir.path());
+      ADD_FAILURE() << text;
+    } catch (const std::runtime_error& error) {
+      EXPECT_NE(std::string(error.what()).find(field), std::string::npos) << error.what();
+    }
+  };
+  for (const std::string name : {"../x", "/elsewhere/x", "a/b", ".hidden", "", "a name"}) {
+    refused(manifest(name, good), "models[0]: name");
+  }
+  refused(manifest("a", std::string(60, 'a') + "/../"), "models[0]: sha256");
+  refused(manifest("a", std::string(64, 'g')), "models[0]: sha256");
+  refused(manifest("a", std::string(64, 'A')), "models[0]: sha256");
+  testing::write_text(dir / "manifest.json", manifest("a", good));
+  EXPECT_NO_THROW(Registry registry(dir.path()));
+
+  const auto models = dir / "models";
+  std::filesystem::create_directories(models);
+  const auto clean = dir / "clean.h5";
+  write_cv3_stamped(clean, "f92683f", dir);
+  for (const std::string name : {"../escaped", "/tmp/escaped", "sub/escaped"}) {
+    try {
+      (void)promote_by_hand({clean, name, "by hand", models});
+      ADD_FAILURE() << name;
+    } catch (const std::exception& error) {
+      EXPECT_NE(std::string(error.what()).find("--name"), std::string::npos) << error.what();
+    }
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "escaped.h5"));
+  EXPECT_FALSE(std::filesystem::exists(models / "sub"));
+  EXPECT_FALSE(std::filesystem::exists(models / "manifest.json"));
+}
+
 }  // namespace
 }  // namespace imm::pipeline

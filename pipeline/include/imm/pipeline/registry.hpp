@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace imm::pipeline {
@@ -45,6 +46,14 @@ struct RegistryEntry {
 /// Whether the entry's file was written by a build of uncommitted code (trainer_version "…-dirty"):
 /// such a file is never shipped, by the nightly or by hand.
 [[nodiscard]] bool from_uncommitted_code(const RegistryEntry& entry);
+
+/// Why `name` cannot name a registry entry (empty when it can): one path component of letters,
+/// digits, '_', '-' and '.', not starting with '.', at most 128 characters — a name becomes a
+/// file name in the registry and must never lead out of it.
+[[nodiscard]] std::string model_name_problem(std::string_view name);
+/// Why `digest` is not a SHA-256 digest as the registry writes it (64 lowercase hex digits; empty
+/// when it is): a digest names the archive copy a repair ships.
+[[nodiscard]] std::string sha256_problem(std::string_view digest);
 
 /// The registry entry of a model file (kind, regime, digests, dates from its provenance).
 [[nodiscard]] RegistryEntry describe_model(const std::filesystem::path& file,
