@@ -180,11 +180,12 @@ void Registry::load() {
   }
 }
 
-void Registry::save() const {
+void Registry::commit(std::vector<RegistryEntry> entries) {
   nlohmann::json document = {{"manifest_version", kManifestVersion},
                              {"models", nlohmann::json::array()}};
-  for (const RegistryEntry& e : entries_) document["models"].push_back(to_json(e));
+  for (const RegistryEntry& e : entries) document["models"].push_back(to_json(e));
   trainer::write_json_atomically(manifest_path(), document);
+  entries_ = std::move(entries);
 }
 
 void Registry::archive(const std::filesystem::path& file, const std::string& sha256) const {
@@ -224,14 +225,15 @@ void Registry::adopt(const RegistryEntry& entry) {
     copy_atomically(metrics_beside(file),
                     archive_path(entry.sha256).replace_extension(".metrics.json"));
   }
-  auto it = std::find_if(entries_.begin(), entries_.end(),
+  std::vector<RegistryEntry> next = entries_;
+  auto it = std::find_if(next.begin(), next.end(),
                          [&](const RegistryEntry& e) { return e.name == entry.name; });
-  if (it != entries_.end()) {
+  if (it != next.end()) {
     *it = entry;
   } else {
-    entries_.push_back(entry);
+    next.push_back(entry);
   }
-  save();
+  commit(std::move(next));
 }
 
 void Registry::promote(RegistryEntry entry, const std::filesystem::path& candidate,
@@ -244,9 +246,10 @@ void Registry::promote(RegistryEntry entry, const std::filesystem::path& candida
   if (metrics_file && std::filesystem::exists(*metrics_file)) {
     copy_atomically(*metrics_file, archive_path(entry.sha256).replace_extension(".metrics.json"));
   }
-  auto it = std::find_if(entries_.begin(), entries_.end(),
+  std::vector<RegistryEntry> next = entries_;
+  auto it = std::find_if(next.begin(), next.end(),
                          [&](const RegistryEntry& e) { return e.name == entry.name; });
-  if (it != entries_.end()) {
+  if (it != next.end()) {
     const auto shipped = folder_ / it->file;
     if (std::filesystem::exists(shipped) && datasets::file_sha256_hex(shipped) == it->sha256) {
       archive(shipped, it->sha256);
@@ -261,10 +264,10 @@ void Registry::promote(RegistryEntry entry, const std::filesystem::path& candida
     entry.history.insert(entry.history.begin(), std::move(previous));
     *it = std::move(entry);
   } else {
-    entries_.push_back(std::move(entry));
+    next.push_back(std::move(entry));
   }
-  // 2. The commit point: one rename of the manifest.
-  save();
+  // 2. The commit point: one rename of the manifest (the entries change only when it is done).
+  commit(std::move(next));
   // 3. The shipped file follows the manifest.
   materialize(*find(name));
 }
@@ -282,10 +285,11 @@ RegistryEntry Registry::rollback(const std::string& name) {
                              restored.sha256.substr(0, 12));
   }
   restored.history.assign(it->history.begin() + 1, it->history.end());
-  *it = restored;
-  save();
-  materialize(*it);
-  return *it;
+  std::vector<RegistryEntry> next = entries_;
+  next[static_cast<std::size_t>(it - entries_.begin())] = restored;
+  commit(std::move(next));
+  materialize(restored);
+  return restored;
 }
 
 }  // namespace imm::pipeline

@@ -2,8 +2,10 @@
 #include "imm/pipeline/registry.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <fstream>
+#include <string>
 
 #include "imm/datasets/sha256.hpp"
 #include "imm/io/plain_imm_file.hpp"
@@ -54,6 +56,44 @@ TEST(Registry, RepairMakesTheShippedFilesTheManifests) {
   (void)registry.rollback("cv3");
   EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(first));
   EXPECT_EQ(Registry(models).find("cv3")->sha256, datasets::file_sha256_hex(first));
+}
+
+// A promotion whose manifest cannot be written (here: a folder where its temporary goes, as a full
+// disk would) fails and leaves the registry's entries and files as they were; the next promotion
+// does not commit the failed one.
+TEST(Registry, AFailedPromotionIsNotCommittedByTheNextOne) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  std::filesystem::create_directories(models);
+  const auto first = dir / "first.h5", second = dir / "second.h5";
+  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", first, {}});
+  testing::write_text(dir / "cv3.toml", "# another text, the same filter\n" +
+                                            read_text_file("configs/track/cv3_imm.toml"));
+  (void)freeze_plain_imm({dir / "cv3.toml", second, {}});
+  Registry registry(models);
+  RegistryEntry a = describe_model(first, dir.path(), "a");
+  a.file = "a.h5";
+  registry.promote(a, first);
+  const std::string manifest = bytes_of(models / "manifest.json");
+
+  const auto blocker = models / (".manifest.json.tmp-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(blocker);
+  RegistryEntry b = describe_model(second, dir.path(), "b");
+  b.file = "b.h5";
+  EXPECT_ANY_THROW(registry.promote(b, second));
+  EXPECT_EQ(registry.find("b"), nullptr);
+  EXPECT_EQ(registry.entries().size(), 1u);
+  EXPECT_EQ(bytes_of(models / "manifest.json"), manifest);
+  EXPECT_FALSE(std::filesystem::exists(models / "b.h5"));
+
+  std::filesystem::remove(blocker);
+  RegistryEntry c = describe_model(second, dir.path(), "c");
+  c.file = "c.h5";
+  registry.promote(c, second);
+  const Registry reloaded(models);
+  EXPECT_EQ(reloaded.find("b"), nullptr);
+  ASSERT_NE(reloaded.find("c"), nullptr);
+  EXPECT_NE(reloaded.find("a"), nullptr);
 }
 
 // The plain IMM of configs/track/cv3_imm.toml written with the given trainer version.

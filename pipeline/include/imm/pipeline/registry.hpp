@@ -94,7 +94,10 @@ class Registry {
 
  private:
   void load();
-  void save() const;
+  /// Writes `entries` as the manifest (the commit point), then makes them the registry's: a save
+  /// that throws leaves the registry's entries as they were, so a failed step is never committed
+  /// by the next one.
+  void commit(std::vector<RegistryEntry> entries);
   void archive(const std::filesystem::path& file, const std::string& sha256) const;
   void materialize(const RegistryEntry& entry) const;
 
