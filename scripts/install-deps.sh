@@ -16,6 +16,7 @@ packages=(
   clang libclang-rt-dev   # make test-sanitize / make fuzz: ASan, UBSan, libFuzzer
   ccache                  # repeated builds (cmake/ImmBuildSpeed.cmake)
   chromium                # the morning report rendered headless (tests/tools/nightly_test.cpp)
+  strace                  # the registry's durable writes, observed (tests/tools/nightly_test.cpp)
 )
 
 missing=()

@@ -202,6 +202,13 @@ void Registry::materialize(const RegistryEntry& entry) const {
     throw std::runtime_error(target.string() + ": differs from the manifest's sha256 " +
                              entry.sha256.substr(0, 12) + " and the archive has no copy");
   }
+  // What is shipped is checked first: a damaged archive copy (a write cut short) is never
+  // "restored" into models/.
+  if (datasets::file_sha256_hex(source) != entry.sha256) {
+    throw std::runtime_error(source.string() + ": the archive copy of " + entry.file +
+                             " does not match its sha256 " + entry.sha256.substr(0, 12) +
+                             "; nothing shipped");
+  }
   copy_atomically(source, target);
   const auto metrics = archive_path(entry.sha256).replace_extension(".metrics.json");
   if (std::filesystem::exists(metrics)) copy_atomically(metrics, metrics_beside(target));

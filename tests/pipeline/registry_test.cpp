@@ -96,6 +96,33 @@ TEST(Registry, AFailedPromotionIsNotCommittedByTheNextOne) {
   EXPECT_NE(reloaded.find("a"), nullptr);
 }
 
+// What is shipped is checked first: an archive copy that no longer matches its digest (a write cut
+// short by a power loss) is never "restored" into models/ by a repair.
+TEST(Registry, ADamagedArchiveCopyIsNeverShipped) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  std::filesystem::create_directories(models);
+  const auto model = dir / "cv3_source.h5";
+  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", model, {}});
+  Registry registry(models);
+  RegistryEntry entry = describe_model(model, dir.path(), "cv3");
+  entry.file = "cv3.h5";
+  registry.promote(entry, model);
+  const std::string sha256 = registry.find("cv3")->sha256;
+  const auto archived = models / ".registry" / "archive" / (sha256 + ".h5");
+  ASSERT_TRUE(std::filesystem::exists(archived));
+  testing::write_text(archived, "");              // the archive copy, emptied
+  testing::write_text(models / "cv3.h5", "old");  // and the shipped file is not the manifest's
+  try {
+    (void)Registry(models).repair();
+    ADD_FAILURE() << "repaired from a damaged archive copy";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("does not match its sha256"), std::string::npos)
+        << error.what();
+  }
+  EXPECT_EQ(bytes_of(models / "cv3.h5"), "old");
+}
+
 // The plain IMM of configs/track/cv3_imm.toml written with the given trainer version.
 void write_cv3_stamped(const std::filesystem::path& out, const std::string& trainer_version,
                        const testing::TempDir& dir) {

@@ -6,10 +6,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <sstream>
 
 #include "testing/regime_files.hpp"
 #include "testing/run_tool.hpp"
@@ -191,6 +194,72 @@ TEST(NightlyProduct, AComparisonThatCannotBeMadeHoldsTheCandidateBack) {
     EXPECT_NE(report.find("the comparison with the shipped model failed"), std::string::npos)
         << report;
   }
+}
+
+// Crash consistency, observed: every rename into the registry during a night (the candidate into
+// staging, the archive copies, the manifest, the shipped file and its metrics) follows an fsync of
+// the file it renames and is followed by an fsync of its folder, so that a power loss leaves the
+// old or the new file whole (strace records the system calls of the night and its tools; the
+// leak checker, which stops threads with ptrace itself, is off under it).
+TEST(NightlyProduct, EveryRenameIntoTheRegistryIsDurable) {
+  const testing::TempDir dir;
+  write_cv3(dir / "cv3.toml", 1.0);
+  const Plan p = write_plan(dir);
+  const fs::path trace = dir / "trace.log";
+  ASSERT_TRUE(fs::exists("/usr/bin/strace")) << "strace (Debian package, scripts/install-deps.sh)";
+  const auto run = run_tool("/usr/bin/env",
+                            {"ASAN_OPTIONS=detect_leaks=0", "/usr/bin/strace", "-f", "-y", "-qq",
+                             "-e", "trace=fsync,fdatasync,rename,renameat,renameat2", "-o",
+                             trace.string(), fs::absolute(testing::tool_path("imm-train")).string(),
+                             "all", "--config", p.plan.string(), "--reports", p.reports.string()},
+                            {}, 600);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+
+  // Per process, in order: fsync(fd<path>) and rename*(…"from", …"to").
+  struct Call {
+    bool rename = false;
+    fs::path path, to;
+  };
+  std::map<std::string, std::vector<Call>> calls;
+  const std::regex fsync_line(R"re(^(\d+)\s+f(?:data)?sync\(\d+<([^>]*)>)re");
+  const std::regex rename_line(
+      R"re(^(\d+)\s+rename(?:at2?)?\((?:\w+(?:<([^>]*)>)?, )?"([^"]*)", (?:\w+(?:<([^>]*)>)?, )?"([^"]*)")re");
+  std::istringstream lines(slurp(trace));
+  std::string line;
+  std::smatch m;
+  while (std::getline(lines, line)) {
+    if (std::regex_search(line, m, fsync_line)) {
+      calls[m[1]].push_back({false, fs::path(m[2].str()).lexically_normal(), {}});
+    } else if (std::regex_search(line, m, rename_line)) {
+      const auto absolute = [](const std::string& base, const std::string& path) {
+        return (fs::path(path).is_absolute() ? fs::path(path) : fs::path(base) / path)
+            .lexically_normal();
+      };
+      calls[m[1]].push_back({true, absolute(m[2], m[3]), absolute(m[4], m[5])});
+    }
+  }
+  const fs::path registry = fs::absolute(p.registry).lexically_normal();
+  int checked = 0;
+  for (const auto& [pid, list] : calls) {
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const Call& r = list[i];
+      if (!r.rename) continue;
+      const auto [end, unused] = std::mismatch(registry.begin(), registry.end(), r.to.begin());
+      if (end != registry.end()) continue;  // not into the registry
+      ++checked;
+      const bool file_synced =
+          std::any_of(list.begin(), list.begin() + static_cast<long>(i),
+                      [&](const Call& c) { return !c.rename && c.path == r.path; });
+      const bool folder_synced =
+          std::any_of(list.begin() + static_cast<long>(i) + 1, list.end(),
+                      [&](const Call& c) { return !c.rename && c.path == r.to.parent_path(); });
+      EXPECT_TRUE(file_synced) << r.path << " renamed to " << r.to << " without an fsync of it";
+      EXPECT_TRUE(folder_synced) << r.to << ": its folder is not fsynced after the rename";
+    }
+  }
+  // The candidate, its two archive copies (model, metrics), the manifest, the shipped model and
+  // its metrics at least.
+  EXPECT_GE(checked, 5) << slurp(trace);
 }
 
 // A shipped model is never stamped by a build of uncommitted code: with the shipped plan's

@@ -1,8 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/provenance.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -57,25 +60,70 @@ std::filesystem::path temporary_beside(const std::filesystem::path& path) {
   return path.parent_path() / temp_name;
 }
 
+// A file descriptor closed on scope exit.
+struct Descriptor {
+  int fd = -1;
+  explicit Descriptor(int d) : fd(d) {}
+  Descriptor(const Descriptor&) = delete;
+  Descriptor& operator=(const Descriptor&) = delete;
+  ~Descriptor() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+std::string errno_text() { return std::strerror(errno); }
+
+// fsync of an open file, or a runtime_error naming it.
+void sync(int fd, const std::filesystem::path& path) {
+  if (::fsync(fd) != 0) throw std::runtime_error(path.string() + ": fsync: " + errno_text());
+}
+
+// The last step of every durable write: `temp` (written and fsynced) renamed over `path`, then the
+// folder fsynced, so that after a power loss the folder holds the old or the new file, whole.
+void rename_durably(const std::filesystem::path& temp, const std::filesystem::path& path) {
+  std::error_code error;
+  std::filesystem::rename(temp, path, error);
+  if (error) {
+    std::filesystem::remove(temp, error);
+    throw std::runtime_error(path.string() + ": cannot rename its temporary into place");
+  }
+  std::filesystem::path folder = path.parent_path();
+  if (folder.empty()) folder = ".";
+  const Descriptor directory(::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (directory.fd < 0) throw std::runtime_error(folder.string() + ": open: " + errno_text());
+  sync(directory.fd, folder);
+}
+
 }  // namespace
 
 void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to) {
   ensure_parent_folder(to);
   const auto temp = temporary_beside(to);
   std::filesystem::copy_file(from, temp, std::filesystem::copy_options::overwrite_existing);
-  std::filesystem::rename(temp, to);
+  {
+    const Descriptor copy(::open(temp.c_str(), O_RDONLY | O_CLOEXEC));
+    if (copy.fd < 0) throw std::runtime_error(temp.string() + ": open: " + errno_text());
+    sync(copy.fd, temp);
+  }
+  rename_durably(temp, to);
 }
 
 void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
   ensure_parent_folder(path);
   const auto temp = temporary_beside(path);
   {
-    std::ofstream out(temp, std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error(temp.string() + ": cannot write");
+    const Descriptor out(::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
+    if (out.fd < 0) throw std::runtime_error(temp.string() + ": cannot write: " + errno_text());
+    std::size_t written = 0;
+    while (written < text.size()) {
+      const ssize_t n = ::write(out.fd, text.data() + written, text.size() - written);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) throw std::runtime_error(temp.string() + ": cannot write: " + errno_text());
+      written += static_cast<std::size_t>(n);
+    }
+    sync(out.fd, temp);
   }
-  std::filesystem::rename(temp, path);
+  rename_durably(temp, path);
 }
 
 void write_json_atomically(const std::filesystem::path& path, const nlohmann::json& document) {

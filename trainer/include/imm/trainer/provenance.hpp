@@ -25,11 +25,13 @@ void set_regime(io::Provenance& provenance, const datasets::Regime& regime);
 /// `<folder>/<stem>.metrics.json` for a model file path.
 [[nodiscard]] std::filesystem::path metrics_path(const std::filesystem::path& model_path);
 
-/// Writes `text` to `path` through a temporary beside it and a rename: a reader sees the old file
-/// or the new one, never a part.
+/// Writes `text` to `path` durably: a temporary beside it, fsynced, renamed over `path`, then the
+/// folder fsynced — a reader sees the old file or the new one, never a part, and after a power
+/// loss the folder holds one of them whole.
 void write_text_atomically(const std::filesystem::path& path, const std::string& text);
 
-/// Copies `from` to `to` the same way: a temporary beside `to`, then a rename.
+/// Copies `from` to `to` the same way: a temporary beside `to`, fsynced, a rename, the folder
+/// fsynced.
 void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to);
 
 /// Writes JSON atomically (temporary file in the same folder, then rename).
