@@ -10,7 +10,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <functional>
 #include <iostream>
@@ -125,13 +127,21 @@ Night::~Night() {
 
 NightlyResult Night::run() {
   const auto start = std::chrono::steady_clock::now();
-  // One nightly per registry at a time; the lock dies with the process (kill -9 included).
+  // One nightly per registry at a time; the lock dies with the process (kill -9 included). (Each
+  // change of the manifest also holds the registry's own lock, registry.cpp, for its duration:
+  // a rollback or a promotion by hand during a night is kept.)
   fs::create_directories(plan_.registry / ".registry");
-  lock_ =
-      ::open((plan_.registry / ".registry" / "lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (lock_ < 0 || ::flock(lock_, LOCK_EX | LOCK_NB) != 0) {
-    throw std::runtime_error("another nightly holds the registry " + plan_.registry.string() +
-                             " (" + (plan_.registry / ".registry" / "lock").string() + ")");
+  const fs::path night_lock = plan_.registry / ".registry" / "nightly.lock";
+  lock_ = ::open(night_lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (lock_ < 0) {
+    throw std::runtime_error(night_lock.string() +
+                             ": cannot open the nightly's lock: " + std::strerror(errno));
+  }
+  if (::flock(lock_, LOCK_EX | LOCK_NB) != 0) {
+    throw std::runtime_error(errno == EWOULDBLOCK
+                                 ? "another nightly holds the registry " + plan_.registry.string() +
+                                       " (" + night_lock.string() + ")"
+                                 : night_lock.string() + ": cannot lock: " + std::strerror(errno));
   }
   remove_stale_temporaries();
   for (const auto& repaired : registry_.repair()) {

@@ -79,15 +79,17 @@ void Night::run_tracker(const NightlyStage& stage) {
                      {"reason", ranking.at("reason")},
                      {"rule", ranking.at("rule")},
                      {"ranking", ranking.at("ranking")}};
+    // (A promotion re-reads the manifest: no pointer into the entries outlives it.)
     const RegistryEntry* shipped = registry_.find(stage.name);
+    const bool had_entry = shipped != nullptr;
     const std::string winner = ranking.at("tracker").get<std::string>();
-    if (shipped != nullptr && shipped->sha256 == datasets::file_sha256_hex(staging) &&
+    if (had_entry && shipped->sha256 == datasets::file_sha256_hex(staging) &&
         fs::exists(stage.out)) {
       o.status = "unchanged (" + winner + ")";
     } else {
       registry_.promote(entry, staging);
-      o.status = std::string(shipped != nullptr ? "promoted" : "promoted (first in the manifest)") +
-                 " (" + winner + ")";
+      o.status = std::string(had_entry ? "promoted" : "promoted (first in the manifest)") + " (" +
+                 winner + ")";
     }
     o.message = ranking.at("reason").get<std::string>();
     if (o.exit_code == support::exit_code::kFindings) {

@@ -1,7 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/pipeline/registry.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <stdexcept>
 
 #include "imm/datasets/sha256.hpp"
@@ -74,6 +80,34 @@ RegistryEntry from_json(const nlohmann::json& j, const std::string& where) {
 }
 
 using trainer::copy_atomically;
+
+// The registry's one lock (`<models>/.registry/lock`, flock): every change of the manifest holds
+// it from reading the manifest to writing it, so two commands (a nightly's promotion, a rollback
+// or a promotion by hand) never write from a stale copy. The lock dies with its process.
+class RegistryLock {
+ public:
+  explicit RegistryLock(const std::filesystem::path& folder) {
+    const auto path = folder / ".registry" / "lock";
+    std::filesystem::create_directories(path.parent_path());
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) {
+      throw std::runtime_error(path.string() +
+                               ": cannot open the registry's lock: " + std::strerror(errno));
+    }
+    while (::flock(fd_, LOCK_EX) != 0) {
+      if (errno == EINTR) continue;
+      const std::string why = std::strerror(errno);
+      ::close(fd_);
+      throw std::runtime_error(path.string() + ": cannot lock the registry: " + why);
+    }
+  }
+  RegistryLock(const RegistryLock&) = delete;
+  RegistryLock& operator=(const RegistryLock&) = delete;
+  ~RegistryLock() { ::close(fd_); }
+
+ private:
+  int fd_ = -1;
+};
 
 std::filesystem::path metrics_beside(const std::filesystem::path& model) {
   return trainer::metrics_path(model);
@@ -215,6 +249,8 @@ void Registry::materialize(const RegistryEntry& entry) const {
 }
 
 std::vector<std::string> Registry::repair() {
+  const RegistryLock lock(folder_);
+  load();
   std::vector<std::string> rewritten;
   for (const RegistryEntry& e : entries_) {
     const auto target = folder_ / e.file;
@@ -226,6 +262,8 @@ std::vector<std::string> Registry::repair() {
 }
 
 void Registry::adopt(const RegistryEntry& entry) {
+  const RegistryLock lock(folder_);
+  load();
   const auto file = folder_ / entry.file;
   archive(file, entry.sha256);
   if (std::filesystem::exists(metrics_beside(file))) {
@@ -245,6 +283,9 @@ void Registry::adopt(const RegistryEntry& entry) {
 
 void Registry::promote(RegistryEntry entry, const std::filesystem::path& candidate,
                        const std::optional<std::filesystem::path>& metrics_file) {
+  // Under the lock, from the manifest as it is now (another command may have changed it).
+  const RegistryLock lock(folder_);
+  load();
   entry.sha256 = datasets::file_sha256_hex(candidate);
   entry.promoted_utc = io::utc_now();
   const std::string name = entry.name;
@@ -280,6 +321,8 @@ void Registry::promote(RegistryEntry entry, const std::filesystem::path& candida
 }
 
 RegistryEntry Registry::rollback(const std::string& name) {
+  const RegistryLock lock(folder_);
+  load();
   auto it = std::find_if(entries_.begin(), entries_.end(),
                          [&](const RegistryEntry& e) { return e.name == name; });
   if (it == entries_.end()) throw std::runtime_error("rollback: no shipped model '" + name + "'");

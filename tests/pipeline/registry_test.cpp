@@ -1,11 +1,16 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/pipeline/registry.hpp"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/file.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <fstream>
 #include <string>
+#include <thread>
 
 #include "imm/datasets/sha256.hpp"
 #include "imm/io/plain_imm_file.hpp"
@@ -121,6 +126,57 @@ TEST(Registry, ADamagedArchiveCopyIsNeverShipped) {
         << error.what();
   }
   EXPECT_EQ(bytes_of(models / "cv3.h5"), "old");
+}
+
+// Every change of the manifest re-reads it under the registry's lock: a command that opened the
+// registry before another one changed it (a nightly before a rollback or a promotion by hand)
+// keeps that change when it writes; and while another process holds the lock, a promotion waits.
+TEST(Registry, EveryChangeReadsTheManifestUnderTheLock) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  std::filesystem::create_directories(models);
+  const auto first = dir / "first.h5", second = dir / "second.h5";
+  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", first, {}});
+  testing::write_text(dir / "cv3.toml", "# another text, the same filter\n" +
+                                            read_text_file("configs/track/cv3_imm.toml"));
+  (void)freeze_plain_imm({dir / "cv3.toml", second, {}});
+  const auto entry = [&](const std::filesystem::path& file, const std::string& name) {
+    RegistryEntry e = describe_model(file, dir.path(), name);
+    e.file = name + ".h5";
+    return e;
+  };
+  {
+    Registry setup(models);
+    setup.promote(entry(first, "a"), first);
+    setup.promote(entry(second, "a"), second);  // "a" has a history now
+  }
+  Registry night(models);  // opened before the others' changes
+  Registry(models).promote(entry(first, "by_hand"), first);
+  (void)Registry(models).rollback("a");
+  night.promote(entry(second, "tonight"), second);
+  const Registry after(models);
+  ASSERT_NE(after.find("by_hand"), nullptr);
+  ASSERT_NE(after.find("tonight"), nullptr);
+  EXPECT_EQ(after.find("a")->sha256, datasets::file_sha256_hex(first));  // the rollback stands
+  EXPECT_EQ(bytes_of(models / "a.h5"), bytes_of(first));
+
+  // Another process's lock (here: this process's own open file description) makes it wait.
+  const int held = ::open((models / ".registry" / "lock").c_str(), O_RDWR | O_CLOEXEC);
+  ASSERT_GE(held, 0);
+  ASSERT_EQ(::flock(held, LOCK_EX), 0);
+  std::atomic<bool> done{false};
+  std::thread waiting([&] {
+    Registry(models).promote(entry(first, "waited"), first);
+    done = true;
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_FALSE(done.load()) << "promoted while another process held the registry's lock";
+  EXPECT_EQ(Registry(models).find("waited"), nullptr);
+  ::flock(held, LOCK_UN);
+  ::close(held);
+  waiting.join();
+  EXPECT_TRUE(done.load());
+  EXPECT_NE(Registry(models).find("waited"), nullptr);
 }
 
 // The plain IMM of configs/track/cv3_imm.toml written with the given trainer version.

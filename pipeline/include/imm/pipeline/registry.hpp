@@ -14,6 +14,11 @@
 /// rename). The manifest is the truth: `repair()` rewrites any shipped file whose bytes differ
 /// from the manifest's SHA-256 from the archive, so a process killed between the two renames
 /// leaves the old or the new manifest and, after repair, exactly its files.
+///
+/// Every change (repair, promote, rollback, adopt) holds the registry's one lock
+/// (`.registry/lock`, flock) and re-reads the manifest under it before writing it, so commands
+/// that run at the same time (a nightly, a rollback, a promotion by hand) never write from a stale
+/// copy; a pointer from find() does not outlive the next change.
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
