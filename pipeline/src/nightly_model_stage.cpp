@@ -238,6 +238,8 @@ void Night::run_model(const NightlyStage& stage) {
       o.status = "failed";
       o.message =
           "exit code " + std::to_string(o.exit_code) + ": " + tail_of(o.log.string() + ".err");
+      o.transient = o.exit_code > 128 || o.exit_code < 0;  // killed: not the candidate's verdict
+      model.transient = model.transient || o.transient;
       gate_failures.push_back(e->name);
     } else {
       o.status = "ok";
@@ -293,6 +295,7 @@ void Night::run_model(const NightlyStage& stage) {
   }
   if (!uncompared.empty()) {
     model.held_back = true;
+    model.transient = true;  // the next night compares again
     model.status = "held back";
     model.message = "not compared with the shipped model, so not promoted — " + join(uncompared);
     return conclude(model);
@@ -320,6 +323,7 @@ void Night::run_model(const NightlyStage& stage) {
     model.failed = true;
     model.status = "failed";
     model.message = std::string("promotion failed: ") + error.what();
+    model.transient = true;
   }
   conclude(model);
 }

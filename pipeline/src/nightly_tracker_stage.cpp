@@ -104,6 +104,7 @@ void Night::run_tracker(const NightlyStage& stage) {
     o.failed = true;
     o.status = "failed";
     o.message = std::string("tracker promotion failed: ") + error.what();
+    o.transient = true;
   }
   cache_.store(key, inputs, o, {stage.out}, digests_);
   finish(o);

@@ -115,8 +115,15 @@ class StageCache {
     return it->second.outcome.wall_seconds;
   }
 
+  // Only an outcome that follows from the inputs is kept: a transient one (StageOutcome::transient,
+  // or a tool killed by a signal: exit code above 128, or one that did not start) drops the
+  // stage's record, so the next night runs it again instead of replaying the accident.
   void store(const std::string& key, const std::string& inputs, const StageOutcome& outcome,
              const std::vector<fs::path>& outputs, Digests& digests) {
+    if (outcome.transient || outcome.exit_code > 128 || outcome.exit_code < 0) {
+      if (records_.erase(key) > 0) save();
+      return;
+    }
     CacheRecord record{inputs, outcome, {}};
     for (const auto& f : outputs) {
       if (!fs::is_regular_file(f)) continue;

@@ -196,6 +196,41 @@ TEST(NightlyProduct, AComparisonThatCannotBeMadeHoldsTheCandidateBack) {
   }
 }
 
+// Only outcomes that follow from the inputs are cached: a training killed by a signal (here the
+// nightly's imm-train, a script around the real one, kills itself once) is not replayed from the
+// stage cache the next night — the stage runs again and its model is promoted.
+TEST(NightlyProduct, AKilledStageIsNotReplayedFromTheCache) {
+  const testing::TempDir dir;
+  write_cv3(dir / "cv3.toml", 1.0);
+  const Plan p = write_plan(dir);
+  const fs::path bin = dir / "bin";
+  fs::create_directories(bin);
+  fs::copy_file(testing::tool_path("imm-train"), bin / "imm-train-night");
+  const fs::path marker = dir / "kill-the-next-training";
+  const auto script = [&](const std::string& name, const std::string& before) {
+    std::ofstream(bin / name) << "#!/bin/sh\n"
+                              << before << "exec "
+                              << fs::absolute(testing::tool_path(name)).string() << " \"$@\"\n";
+    fs::permissions(bin / name, fs::perms::owner_all);
+  };
+  script("imm-train", "if [ \"$1\" = freeze ] && [ -e " + marker.string() + " ]; then\n  rm " +
+                          marker.string() + "\n  kill -9 $$\nfi\n");
+  script("imm-eval", "");
+  const auto night = [&] {
+    return run_tool((bin / "imm-train-night").string(),
+                    {"all", "--config", p.plan.string(), "--reports", p.reports.string()}, {}, 300);
+  };
+  std::ofstream(marker) << "once\n";
+  auto run = night();
+  EXPECT_EQ(run.exit_code, 3) << run.err;
+  EXPECT_FALSE(fs::exists(p.registry / "cv3.h5"));
+  run = night();
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(slurp(p.reports / "latest" / "index.md").find("cached: failed"), std::string::npos);
+  ASSERT_TRUE(fs::exists(p.registry / "manifest.json"));
+  EXPECT_EQ(manifest(p)["models"][0]["name"], "cv3");
+}
+
 // Crash consistency, observed: every rename into the registry during a night (the candidate into
 // staging, the archive copies, the manifest, the shipped file and its metrics) follows an fsync of
 // the file it renames and is followed by an fsync of its folder, so that a power loss leaves the

@@ -86,6 +86,10 @@ struct StageOutcome {
   /// evaluation: it exited kFindings (the learned model does not beat a baseline tuned on its
   /// regime; reported with its numbers in `message`, not a failure).
   bool finding = false;
+  /// It failed (or was held back) for a reason that does not follow from its inputs — a tool
+  /// killed by a signal, a failed promotion, a comparison that could not be made — so the stage
+  /// cache never replays it: the next night runs the stage again.
+  bool transient = false;
   int exit_code = 0;
   double wall_seconds = 0.0;
   std::string message;               ///< why it failed or was held back, or what it did
