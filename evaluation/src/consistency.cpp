@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "imm/evaluation/report.hpp"
@@ -187,6 +188,11 @@ std::string consistency_table(std::span<const FilterConsistency> filters) {
          "every run) 95 % of the time for a consistent filter. \"optimistic\": more scans above "
          "the bounds (the filter claims more accuracy than it has) than below; \"consistent\": at "
          "least 90 % of the scans inside.\n";
+}
+
+HeadlineMetric nees_log_ratio_metric(std::string name, const Eigen::MatrixXd& run_nees,
+                                     int dimension) {
+  return mean_metric(std::move(name), nees_log_ratio(run_nees, dimension));
 }
 
 Eigen::VectorXd nees_log_ratio(const Eigen::MatrixXd& run_nees, int dimension) {

@@ -348,10 +348,9 @@ int run(const CommonOptions& options) {
   trainer::write_json_atomically(out / "details.json", details);
   // The four figures, and how far the covariance is from the errors (a candidate whose
   // consistency got worse beyond its interval is held back like a less accurate one).
-  write_headline(
-      out, evaluated,
-      {fcm.headline(0), fcm.headline(1), fcm.headline(2), fcm.headline(3),
-       mean_metric("position_nees_log_ratio", nees_log_ratio(fcm.run_position_nees, 2))});
+  write_headline(out, evaluated,
+                 {fcm.headline(0), fcm.headline(1), fcm.headline(2), fcm.headline(3),
+                  nees_log_ratio_metric("position_nees_log_ratio", fcm.run_position_nees, 2)});
 
   // Series and plots (seed Fig. 5, 7, 8).
   const int steps = data.scans;

@@ -247,11 +247,11 @@ int run(const FimmOptions& options) {
     headline.push_back(in_case(fimm.headline("fimm_mse " + name), offset, all_runs));
     headline.push_back(in_case(iekf.headline("fimm_iekf_mse " + name), offset, all_runs));
     // How far each run's covariance is from its errors: a less consistent candidate is held back.
-    headline.push_back(in_case(mean_metric("fimm_position_nees_log_ratio " + name,
-                                           nees_log_ratio(fimm.run_position_nees, 2)),
-                               offset, all_runs));
-    headline.push_back(in_case(mean_metric("fimm_iekf_position_nees_log_ratio " + name,
-                                           nees_log_ratio(iekf.run_position_nees, 2)),
+    headline.push_back(in_case(
+        nees_log_ratio_metric("fimm_position_nees_log_ratio " + name, fimm.run_position_nees, 2),
+        offset, all_runs));
+    headline.push_back(in_case(nees_log_ratio_metric("fimm_iekf_position_nees_log_ratio " + name,
+                                                     iekf.run_position_nees, 2),
                                offset, all_runs));
     offset += runs;
     const Difference d_fimm = paired_difference(runs, fimm.statistic(), imm.statistic());

@@ -93,9 +93,9 @@ std::vector<HeadlineMetric> corrected_headline(const std::vector<CaseResult>& ca
           in_case(mean_metric(std::string(kQuantity[q]) + "_mse " + r.name, r.corrected.col(q)),
                   offset, runs));
     }
-    headline.push_back(in_case(mean_metric("position_nees_log_ratio " + r.name,
-                                           nees_log_ratio(stacked(r.consistency[0]), 1)),
-                               offset, runs));
+    headline.push_back(in_case(
+        nees_log_ratio_metric("position_nees_log_ratio " + r.name, stacked(r.consistency[0]), 1),
+        offset, runs));
     offset += r.corrected.rows();
   }
   return headline;

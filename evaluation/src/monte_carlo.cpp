@@ -25,7 +25,7 @@ std::vector<HeadlineMetric> FilterOutcome::zeta_headline() const {
 
 std::vector<HeadlineMetric> FilterOutcome::headline() const {
   std::vector<HeadlineMetric> metrics = zeta_headline();
-  metrics.push_back(mean_metric("position_nees_log_ratio", nees_log_ratio(run_position_nees, 2)));
+  metrics.push_back(nees_log_ratio_metric("position_nees_log_ratio", run_position_nees, 2));
   return metrics;
 }
 

@@ -62,7 +62,7 @@ Statistic rms_of(const Eigen::VectorXd& per_track) {
 struct CaseHeadline {
   std::string name;
   Eigen::VectorXd azimuth, position;
-  Eigen::VectorXd nees_log_ratio;  // per run |ln(ANEES / 2)| of the position NEES
+  Eigen::MatrixXd run_position_nees;  // runs × scans
 };
 
 // Settled azimuth and position RMS per case, over all tracks in case order (a track of another
@@ -80,7 +80,8 @@ std::vector<HeadlineMetric> wimm_headline(const std::vector<CaseHeadline>& cases
         in_case(rms_metric("pos_rmse_settled " + c.name, c.position, ones), offset, runs));
     // How far each run's covariance is from its errors: a less consistent candidate is held back.
     headline.push_back(
-        in_case(mean_metric("position_nees_log_ratio " + c.name, c.nees_log_ratio), offset, runs));
+        in_case(nees_log_ratio_metric("position_nees_log_ratio " + c.name, c.run_position_nees, 2),
+                offset, runs));
     offset += c.azimuth.size();
   }
   return headline;
@@ -211,8 +212,8 @@ int run(const CommonOptions& options) {
               << "\nNEES settled: of the 4-D position–velocity state. Consistency over every scan "
                  "(the NIS of the measurement the filter updated with, in range and azimuth):\n\n"
               << consistency_table(consistency);
-    headline_cases.push_back({case_name, w.track_azimuth_settled, w.track_position_settled,
-                              nees_log_ratio(w.run_position_nees, 2)});
+    headline_cases.push_back(
+        {case_name, w.track_azimuth_settled, w.track_position_settled, w.run_position_nees});
     const Difference azimuth =
         paired_difference(runs, rms_of(w.track_azimuth_settled), rms_of(n.track_azimuth_settled));
     const Difference position =

@@ -12,6 +12,8 @@
 #include <span>
 #include <string>
 
+#include "imm/evaluation/headline.hpp"
+
 namespace imm::evaluation {
 
 /// The regularized lower incomplete gamma function P(a, x) = γ(a, x) / Γ(a), a > 0, x ≥ 0: the
@@ -68,5 +70,11 @@ struct FilterConsistency {
 /// measure of consistency, so that the regression gate can hold back a candidate whose covariance
 /// got less honest beyond the Monte Carlo uncertainty.
 [[nodiscard]] Eigen::VectorXd nees_log_ratio(const Eigen::MatrixXd& run_nees, int dimension);
+
+/// The regression gate's consistency metric: the mean over runs of nees_log_ratio (lower is
+/// better), as the headline metric `name` (by convention "position_nees_log_ratio", with the
+/// experiment's case or filter in the name where it has several).
+[[nodiscard]] HeadlineMetric nees_log_ratio_metric(std::string name,
+                                                   const Eigen::MatrixXd& run_nees, int dimension);
 
 }  // namespace imm::evaluation
