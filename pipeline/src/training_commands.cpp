@@ -278,15 +278,13 @@ int run_baseline(const TrainCommand& command) {
     trainer::wimm::WimmTrainingConfig config =
         trainer::wimm::load_wimm_config(command.config, command.regime);
     if (command.seed) config.seed = *command.seed;
-    const auto start = std::chrono::steady_clock::now();
-    const trainer::wimm::Tuned base =
-        trainer::wimm::write_tuned_normal_imm_baseline(config, command.out);
+    const auto result = trainer::wimm::write_tuned_normal_imm_baseline(config, command.out);
+    const trainer::wimm::Tuned& base = result.base;
     spdlog::info(
         "baseline: the normal IMM tuned on the training split: q1 {:.4g}, P(CV->CV) {:.4f} ({} "
         "evaluations); wrote {} ({:.1f} s)",
         base.spec.cv_process_noise, base.spec.transition(0, 0), base.evaluations,
-        command.out.string(),
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        command.out.string(), result.wall_seconds);
     return 0;
   }
   namespace ga = trainer::ga;

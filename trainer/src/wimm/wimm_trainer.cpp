@@ -228,12 +228,13 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
   return result;
 }
 
-Tuned write_tuned_normal_imm_baseline(const WimmTrainingConfig& config,
-                                      const std::filesystem::path& out) {
+NormalImmBaselineResult write_tuned_normal_imm_baseline(const WimmTrainingConfig& config,
+                                                        const std::filesystem::path& out) {
   const auto start = std::chrono::steady_clock::now();
   const TrainingScenarios data =
       datasets::draw_split(config.regime, datasets::Split::kTraining, config.regime.splits.seed);
-  const Tuned base = tune_normal_imm(config, data);
+  NormalImmBaselineResult result{tune_normal_imm(config, data), 0.0};
+  const Tuned& base = result.base;
   io::Provenance provenance =
       make_provenance(std::string(io::kWimmKind), config.text,
                       static_cast<std::int64_t>(config.seed), data.digest(), config.regime);
@@ -255,10 +256,11 @@ Tuned write_tuned_normal_imm_baseline(const WimmTrainingConfig& config,
   metrics["baseline"] = {{"cv_process_noise", base.spec.cv_process_noise},
                          {"stay", base.spec.transition(0, 0)},
                          {"evaluations", base.evaluations}};
-  metrics["wall_seconds"] =
+  result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  metrics["wall_seconds"] = result.wall_seconds;
   write_json_atomically(metrics_path(out), metrics);
-  return base;
+  return result;
 }
 
 }  // namespace imm::trainer::wimm

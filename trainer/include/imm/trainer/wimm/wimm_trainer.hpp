@@ -84,7 +84,11 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
 /// IMM with q₁ and P(CV→CV) tuned on the training split (nIMM-tuned, tune_normal_imm), written as
 /// a wimm model file with its fusion off (`training.classical_baseline` = 1), and its
 /// `<model>.metrics.json`. The same filter a wIMM learned on top of it is with its fusion off.
-Tuned write_tuned_normal_imm_baseline(const WimmTrainingConfig& config,
-                                      const std::filesystem::path& out);
+struct NormalImmBaselineResult {
+  Tuned base;  ///< the tuned q₁ and P(CV→CV)
+  double wall_seconds = 0.0;
+};
+NormalImmBaselineResult write_tuned_normal_imm_baseline(const WimmTrainingConfig& config,
+                                                        const std::filesystem::path& out);
 
 }  // namespace imm::trainer::wimm
