@@ -96,30 +96,20 @@ TEST(Nightly, ATrackerRanksItsModelsFilesAndShipsIntoTheRegistry) {
 }
 
 TEST(Nightly, AModelMustBeWrittenInsideTheRegistry) {
-  const testing::TempDir dir;
-  testing::write_text(dir / "n.toml",
-                      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\n"
-                      "out = \"elsewhere/a.h5\"\n");
-  try {
-    (void)load_nightly_plan(dir / "n.toml");
-    FAIL();
-  } catch (const support::ConfigError& error) {
-    EXPECT_EQ(error.key(), "models[0].out");
-  }
+  EXPECT_EQ(
+      testing::config_error_key("[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\n"
+                                "out = \"elsewhere/a.h5\"\n",
+                                [](const auto& path) { return load_nightly_plan(path); }),
+      "models[0].out");
 }
 
 // A model's name becomes its registry entry's: it must stay one path component.
 TEST(Nightly, AModelNameThatCouldLeaveTheRegistryIsAnError) {
-  const testing::TempDir dir;
-  testing::write_text(dir / "n.toml",
-                      "[[models]]\nname = \"../x\"\ncommand = \"freeze\"\nconfig = \"c\"\n"
-                      "out = \"models/o.h5\"\n");
-  try {
-    (void)load_nightly_plan(dir / "n.toml");
-    FAIL();
-  } catch (const support::ConfigError& error) {
-    EXPECT_EQ(error.key(), "models[0].name");
-  }
+  EXPECT_EQ(testing::config_error_key(
+                "[[models]]\nname = \"../x\"\ncommand = \"freeze\"\nconfig = \"c\"\n"
+                "out = \"models/o.h5\"\n",
+                [](const auto& path) { return load_nightly_plan(path); }),
+            "models[0].name");
 }
 
 TEST(Nightly, EvaluationsFollowTheirModel) {

@@ -26,27 +26,41 @@ using trainer::read_text_file;
 
 std::string bytes_of(const std::filesystem::path& path) { return testing::slurp_text(path); }
 
+// Two model files of the same plain IMM under two config texts: dir/first.h5, dir/second.h5
+// (different bytes, the same filter).
+struct TwoModels {
+  std::filesystem::path first, second;
+};
+TwoModels write_two_models(const testing::TempDir& dir) {
+  TwoModels m{dir / "first.h5", dir / "second.h5"};
+  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", m.first, {}});
+  testing::write_text(dir / "cv3.toml", "# another text, the same filter\n" +
+                                            read_text_file("configs/track/cv3_imm.toml"));
+  (void)freeze_plain_imm({dir / "cv3.toml", m.second, {}});
+  return m;
+}
+
+// The registry entry of `file` shipped as `name`, at <name>.h5.
+RegistryEntry entry_of(const std::filesystem::path& file, const testing::TempDir& dir,
+                       const std::string& name) {
+  RegistryEntry e = describe_model(file, dir.path(), name);
+  e.file = name + ".h5";
+  return e;
+}
+
 // A process killed between the manifest's rename (the commit point) and the shipped file's
 // rename leaves the new manifest beside the old file; the next registry operation (every nightly
 // starts with repair()) makes the file the manifest's, byte for byte, from the archive.
 TEST(Registry, RepairMakesTheShippedFilesTheManifests) {
   const testing::TempDir dir;
   const auto models = dir / "models";
-  const auto first = dir / "first.h5", second = dir / "second.h5";
-  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", first, {}});
-  testing::write_text(dir / "cv3.toml", "# another text, the same filter\n" +
-                                            read_text_file("configs/track/cv3_imm.toml"));
-  (void)freeze_plain_imm({dir / "cv3.toml", second, {}});
+  const auto [first, second] = write_two_models(dir);
   ASSERT_NE(bytes_of(first), bytes_of(second));
   std::filesystem::create_directories(models);
   {
     Registry registry(models);
-    RegistryEntry entry = describe_model(first, dir.path(), "cv3");
-    entry.file = "cv3.h5";
-    registry.promote(entry, first);
-    entry = describe_model(second, dir.path(), "cv3");
-    entry.file = "cv3.h5";
-    registry.promote(entry, second);
+    registry.promote(entry_of(first, dir, "cv3"), first);
+    registry.promote(entry_of(second, dir, "cv3"), second);
     EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(second));
     ASSERT_EQ(registry.find("cv3")->history.size(), 1u);
   }
@@ -70,31 +84,21 @@ TEST(Registry, AFailedPromotionIsNotCommittedByTheNextOne) {
   const testing::TempDir dir;
   const auto models = dir / "models";
   std::filesystem::create_directories(models);
-  const auto first = dir / "first.h5", second = dir / "second.h5";
-  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", first, {}});
-  testing::write_text(dir / "cv3.toml", "# another text, the same filter\n" +
-                                            read_text_file("configs/track/cv3_imm.toml"));
-  (void)freeze_plain_imm({dir / "cv3.toml", second, {}});
+  const auto [first, second] = write_two_models(dir);
   Registry registry(models);
-  RegistryEntry a = describe_model(first, dir.path(), "a");
-  a.file = "a.h5";
-  registry.promote(a, first);
+  registry.promote(entry_of(first, dir, "a"), first);
   const std::string manifest = bytes_of(models / "manifest.json");
 
   const auto blocker = models / (".manifest.json.tmp-" + std::to_string(::getpid()));
   std::filesystem::create_directories(blocker);
-  RegistryEntry b = describe_model(second, dir.path(), "b");
-  b.file = "b.h5";
-  EXPECT_ANY_THROW(registry.promote(b, second));
+  EXPECT_ANY_THROW(registry.promote(entry_of(second, dir, "b"), second));
   EXPECT_EQ(registry.find("b"), nullptr);
   EXPECT_EQ(registry.entries().size(), 1u);
   EXPECT_EQ(bytes_of(models / "manifest.json"), manifest);
   EXPECT_FALSE(std::filesystem::exists(models / "b.h5"));
 
   std::filesystem::remove(blocker);
-  RegistryEntry c = describe_model(second, dir.path(), "c");
-  c.file = "c.h5";
-  registry.promote(c, second);
+  registry.promote(entry_of(second, dir, "c"), second);
   const Registry reloaded(models);
   EXPECT_EQ(reloaded.find("b"), nullptr);
   ASSERT_NE(reloaded.find("c"), nullptr);
@@ -110,9 +114,7 @@ TEST(Registry, ADamagedArchiveCopyIsNeverShipped) {
   const auto model = dir / "cv3_source.h5";
   (void)freeze_plain_imm({"configs/track/cv3_imm.toml", model, {}});
   Registry registry(models);
-  RegistryEntry entry = describe_model(model, dir.path(), "cv3");
-  entry.file = "cv3.h5";
-  registry.promote(entry, model);
+  registry.promote(entry_of(model, dir, "cv3"), model);
   const std::string sha256 = registry.find("cv3")->sha256;
   const auto archived = models / ".registry" / "archive" / (sha256 + ".h5");
   ASSERT_TRUE(std::filesystem::exists(archived));
@@ -135,25 +137,18 @@ TEST(Registry, EveryChangeReadsTheManifestUnderTheLock) {
   const testing::TempDir dir;
   const auto models = dir / "models";
   std::filesystem::create_directories(models);
-  const auto first = dir / "first.h5", second = dir / "second.h5";
-  (void)freeze_plain_imm({"configs/track/cv3_imm.toml", first, {}});
-  testing::write_text(dir / "cv3.toml", "# another text, the same filter\n" +
-                                            read_text_file("configs/track/cv3_imm.toml"));
-  (void)freeze_plain_imm({dir / "cv3.toml", second, {}});
-  const auto entry = [&](const std::filesystem::path& file, const std::string& name) {
-    RegistryEntry e = describe_model(file, dir.path(), name);
-    e.file = name + ".h5";
-    return e;
-  };
+  // (Plain variables: the waiting thread's lambda captures them.)
+  const TwoModels two = write_two_models(dir);
+  const std::filesystem::path first = two.first, second = two.second;
   {
     Registry setup(models);
-    setup.promote(entry(first, "a"), first);
-    setup.promote(entry(second, "a"), second);  // "a" has a history now
+    setup.promote(entry_of(first, dir, "a"), first);
+    setup.promote(entry_of(second, dir, "a"), second);  // "a" has a history now
   }
   Registry night(models);  // opened before the others' changes
-  Registry(models).promote(entry(first, "by_hand"), first);
+  Registry(models).promote(entry_of(first, dir, "by_hand"), first);
   (void)Registry(models).rollback("a");
-  night.promote(entry(second, "tonight"), second);
+  night.promote(entry_of(second, dir, "tonight"), second);
   const Registry after(models);
   ASSERT_NE(after.find("by_hand"), nullptr);
   ASSERT_NE(after.find("tonight"), nullptr);
@@ -166,7 +161,7 @@ TEST(Registry, EveryChangeReadsTheManifestUnderTheLock) {
   ASSERT_EQ(::flock(held, LOCK_EX), 0);
   std::atomic<bool> done{false};
   std::thread waiting([&] {
-    Registry(models).promote(entry(first, "waited"), first);
+    Registry(models).promote(entry_of(first, dir, "waited"), first);
     done = true;
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(300));

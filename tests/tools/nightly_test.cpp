@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
+#include <utility>
 
 #include "testing/regime_files.hpp"
 #include "testing/run_tool.hpp"
@@ -76,6 +77,33 @@ testing::ToolResult nightly(const Plan& p, std::vector<std::string> extra = {}) 
 nlohmann::json manifest(const Plan& p) {
   return nlohmann::json::parse(slurp(p.registry / "manifest.json"));
 }
+
+// The nightly's tools with planted faults: the night runs as <bin>/imm-train-night, a copy of
+// imm-train (so its tool folder is <bin>), and the tools it starts, <bin>/imm-train and
+// <bin>/imm-eval, are scripts that run their `before` lines and then the real tool.
+class PlantedTools {
+ public:
+  explicit PlantedTools(fs::path bin) : bin_(std::move(bin)) {
+    fs::create_directories(bin_);
+    fs::copy_file(testing::tool_path("imm-train"), bin_ / "imm-train-night");
+    plant("imm-train", "");
+    plant("imm-eval", "");
+  }
+  // Rewrites <bin>/<name> to run the shell lines `before` first.
+  void plant(const std::string& name, const std::string& before) const {
+    std::ofstream(bin_ / name) << "#!/bin/sh\n"
+                               << before << "exec "
+                               << fs::absolute(testing::tool_path(name)).string() << " \"$@\"\n";
+    fs::permissions(bin_ / name, fs::perms::owner_all);
+  }
+  [[nodiscard]] testing::ToolResult night(const Plan& p) const {
+    return run_tool((bin_ / "imm-train-night").string(),
+                    {"all", "--config", p.plan.string(), "--reports", p.reports.string()}, {}, 300);
+  }
+
+ private:
+  fs::path bin_;
+};
 
 TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
   const testing::TempDir dir;
@@ -168,24 +196,16 @@ TEST(NightlyProduct, AComparisonThatCannotBeMadeHoldsTheCandidateBack) {
   const fs::path shipped = p.registry / "cv3.h5";
   const std::string first = sha256_of(shipped);
 
-  const fs::path bin = dir / "bin";
-  fs::create_directories(bin);
-  fs::copy_file(testing::tool_path("imm-train"), bin / "imm-train");
-  const std::string real_eval = fs::absolute(testing::tool_path("imm-eval")).string();
+  const PlantedTools tools(dir / "bin");
   int round = 0;
   for (const std::string failure : {"exit 2", "kill -9 $$"}) {
-    {
-      std::ofstream script(bin / "imm-eval");
-      script << "#!/bin/sh\nif [ \"$1\" = regression ]; then\n"
-             << "  echo 'planted: the comparison failed' >&2\n  " << failure << "\nfi\n"
-             << "exec " << real_eval << " \"$@\"\n";
-    }
-    fs::permissions(bin / "imm-eval", fs::perms::owner_all);
+    tools.plant("imm-eval",
+                "if [ \"$1\" = regression ]; then\n"
+                "  echo 'planted: the comparison failed' >&2\n  " +
+                    failure + "\nfi\n");
     // The same filter under another config text: a candidate that would tie.
     write_cv3(dir / "cv3.toml", 1.0, "# round " + std::to_string(++round) + "\n");
-    const auto run =
-        run_tool((bin / "imm-train").string(),
-                 {"all", "--config", p.plan.string(), "--reports", p.reports.string()}, {}, 300);
+    const auto run = tools.night(p);
     EXPECT_EQ(run.exit_code, 6) << failure << "\n" << run.err;
     EXPECT_EQ(sha256_of(shipped), first) << failure;
     EXPECT_EQ(manifest(p)["models"][0]["sha256"], first) << failure;
@@ -203,28 +223,15 @@ TEST(NightlyProduct, AKilledStageIsNotReplayedFromTheCache) {
   const testing::TempDir dir;
   write_cv3(dir / "cv3.toml", 1.0);
   const Plan p = write_plan(dir);
-  const fs::path bin = dir / "bin";
-  fs::create_directories(bin);
-  fs::copy_file(testing::tool_path("imm-train"), bin / "imm-train-night");
+  const PlantedTools tools(dir / "bin");
   const fs::path marker = dir / "kill-the-next-training";
-  const auto script = [&](const std::string& name, const std::string& before) {
-    std::ofstream(bin / name) << "#!/bin/sh\n"
-                              << before << "exec "
-                              << fs::absolute(testing::tool_path(name)).string() << " \"$@\"\n";
-    fs::permissions(bin / name, fs::perms::owner_all);
-  };
-  script("imm-train", "if [ \"$1\" = freeze ] && [ -e " + marker.string() + " ]; then\n  rm " +
-                          marker.string() + "\n  kill -9 $$\nfi\n");
-  script("imm-eval", "");
-  const auto night = [&] {
-    return run_tool((bin / "imm-train-night").string(),
-                    {"all", "--config", p.plan.string(), "--reports", p.reports.string()}, {}, 300);
-  };
+  tools.plant("imm-train", "if [ \"$1\" = freeze ] && [ -e " + marker.string() + " ]; then\n  rm " +
+                               marker.string() + "\n  kill -9 $$\nfi\n");
   std::ofstream(marker) << "once\n";
-  auto run = night();
+  auto run = tools.night(p);
   EXPECT_EQ(run.exit_code, 3) << run.err;
   EXPECT_FALSE(fs::exists(p.registry / "cv3.h5"));
-  run = night();
+  run = tools.night(p);
   EXPECT_EQ(run.exit_code, 0) << run.err;
   EXPECT_EQ(slurp(p.reports / "latest" / "index.md").find("cached: failed"), std::string::npos);
   ASSERT_TRUE(fs::exists(p.registry / "manifest.json"));
