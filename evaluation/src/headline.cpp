@@ -213,8 +213,51 @@ HeadlineFile read_headline(const std::filesystem::path& given) {
   return file;
 }
 
+MarginRule parse_margin(const std::string& text, bool relative) {
+  MarginRule rule;
+  const auto equals = text.rfind('=');
+  const std::string value = equals == std::string::npos ? text : text.substr(equals + 1);
+  if (equals != std::string::npos) rule.metric = text.substr(0, equals);
+  double number = 0.0;
+  std::size_t used = 0;
+  try {
+    number = std::stod(value, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != value.size() || !std::isfinite(number) || number < 0.0) {
+    throw std::runtime_error(std::string(relative ? "--relative-margin" : "--absolute-margin") +
+                             " '" + text + "': expected [METRIC=]VALUE with a finite VALUE ≥ 0");
+  }
+  (relative ? rule.relative : rule.absolute) = number;
+  return rule;
+}
+
+namespace {
+
+// The margin of `metric` at values `a` and `b`: from the longest rule naming it, per field.
+double margin_of(const std::string& metric, double a, double b,
+                 const std::vector<MarginRule>& rules) {
+  const MarginRule* relative = nullptr;
+  const MarginRule* absolute = nullptr;
+  auto longer = [](const MarginRule* so_far, const MarginRule& rule) {
+    return so_far == nullptr || rule.metric.size() >= so_far->metric.size();
+  };
+  for (const MarginRule& rule : rules) {
+    if (metric.find(rule.metric) == std::string::npos) continue;
+    if (rule.relative && longer(relative, rule)) relative = &rule;
+    if (rule.absolute && longer(absolute, rule)) absolute = &rule;
+  }
+  return std::max(
+      relative != nullptr ? *relative->relative * std::max(std::abs(a), std::abs(b)) : 0.0,
+      absolute != nullptr ? *absolute->absolute : 0.0);
+}
+
+}  // namespace
+
 std::vector<Regression> compare_headlines(const HeadlineFile& candidate,
-                                          const HeadlineFile& shipped) {
+                                          const HeadlineFile& shipped,
+                                          const std::vector<MarginRule>& margins) {
   const HeadlineRuns& a = candidate.runs;
   const HeadlineRuns& b = shipped.runs;
   auto differ = [&](const std::string& field, const std::string& x, const std::string& y) {
@@ -239,6 +282,7 @@ std::vector<Regression> compare_headlines(const HeadlineFile& candidate,
     r.candidate = ours.value();
     r.shipped = theirs->value();
     r.difference = paired_difference(a.runs, ours.statistic(), theirs->statistic());
+    r.margin = margin_of(r.metric, r.candidate, r.shipped, margins);
     regressions.push_back(std::move(r));
   }
   return regressions;
@@ -248,10 +292,11 @@ namespace {
 
 int run_regression(const std::filesystem::path& candidate_path,
                    const std::filesystem::path& shipped_path,
-                   const std::optional<std::filesystem::path>& out) {
+                   const std::optional<std::filesystem::path>& out,
+                   const std::vector<MarginRule>& margins) {
   const HeadlineFile candidate = read_headline(candidate_path);
   const HeadlineFile shipped = read_headline(shipped_path);
-  const std::vector<Regression> regressions = compare_headlines(candidate, shipped);
+  const std::vector<Regression> regressions = compare_headlines(candidate, shipped, margins);
   std::cout << "regression: " << candidate.runs.experiment << " on regime " << candidate.runs.regime
             << " (" << candidate.runs.runs << " runs, seed " << candidate.runs.seed
             << ")\n  candidate " << candidate.runs.model.string() << " ("
@@ -266,20 +311,21 @@ int run_regression(const std::filesystem::path& candidate_path,
   std::vector<std::string> worse;
   for (const Regression& r : regressions) {
     const std::string verdict = r.worse() ? "worse" : r.better() ? "better" : "tie";
-    rows.push_back(
-        {r.metric, cell(r.candidate, 6), cell(r.shipped, 6), r.difference.text(6), verdict});
+    rows.push_back({r.metric, cell(r.candidate, 6), cell(r.shipped, 6), r.difference.text(6),
+                    cell(r.margin, 3), verdict});
     document["metrics"].push_back({{"name", r.metric},
                                    {"candidate", r.candidate},
                                    {"shipped", r.shipped},
                                    {"difference", r.difference.estimate},
                                    {"lower", r.difference.lower},
                                    {"upper", r.difference.upper},
+                                   {"margin", r.margin},
                                    {"verdict", verdict}});
     if (r.worse()) worse.push_back(r.metric + " " + r.difference.text());
   }
-  std::cout << markdown_table(
-                   {"metric", "candidate", "shipped", "candidate − shipped [95 %]", "verdict"},
-                   rows)
+  std::cout << markdown_table({"metric", "candidate", "shipped", "candidate − shipped [95 %]",
+                               "margin", "verdict"},
+                              rows)
             << '\n';
   document["held_back"] = !worse.empty();
   if (out) {
@@ -287,13 +333,13 @@ int run_regression(const std::filesystem::path& candidate_path,
     trainer::write_json_atomically(*out / "regression.json", document);
   }
   if (!worse.empty()) {
-    std::cout << "Regression gate (not worse than the shipped model beyond the uncertainty): "
-                 "FAILED\n";
+    std::cout << "Regression gate (not worse than the shipped model beyond the uncertainty and "
+                 "the margin): FAILED\n";
     for (const auto& w : worse) std::cout << "  - worse: " << w << '\n';
     return support::exit_code::kRegression;
   }
-  std::cout << "Regression gate (not worse than the shipped model beyond the uncertainty): "
-               "passed\n";
+  std::cout << "Regression gate (not worse than the shipped model beyond the uncertainty and the "
+               "margin): passed\n";
   return 0;
 }
 
@@ -303,6 +349,7 @@ void add_regression_command(CLI::App& app, ExitCode& exit_code) {
   struct Options {
     std::filesystem::path candidate, shipped;
     std::optional<std::filesystem::path> out;
+    std::vector<std::string> relative, absolute;
   };
   auto options = std::make_shared<Options>();
   auto* command = app.add_subcommand(
@@ -311,9 +358,17 @@ void add_regression_command(CLI::App& app, ExitCode& exit_code) {
       ->required();
   command->add_option("--shipped", options->shipped, "headline.json (or its folder)")->required();
   command->add_option("--out", options->out, "folder for regression.json");
+  command->add_option("--relative-margin", options->relative,
+                      "[METRIC=]R: a difference below R × |value| is a tie (repeatable)");
+  command->add_option("--absolute-margin", options->absolute,
+                      "[METRIC=]A: a difference below A is a tie (repeatable)");
   command->callback([options, &exit_code] {
-    exit_code =
-        guarded([&] { return run_regression(options->candidate, options->shipped, options->out); });
+    exit_code = guarded([&] {
+      std::vector<MarginRule> margins;
+      for (const auto& r : options->relative) margins.push_back(parse_margin(r, true));
+      for (const auto& a : options->absolute) margins.push_back(parse_margin(a, false));
+      return run_regression(options->candidate, options->shipped, options->out, margins);
+    });
   });
 }
 

@@ -2,7 +2,10 @@
 #include "imm/pipeline/nightly.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "imm/pipeline/registry.hpp"
 #include "imm/support/config.hpp"
@@ -56,9 +59,38 @@ NightlyStage make_stage(std::string kind, std::string name, std::string executab
   return stage;
 }
 
+RegressionMargin margin_from(const support::ConfigTable& table, bool with_metric) {
+  RegressionMargin margin;
+  if (with_metric) {
+    margin.metric = table.text("metric");
+    if (margin.metric.empty()) table.fail("metric", "must name a part of a metric's name");
+  }
+  for (const auto& [key, field] : {std::pair{"relative_margin", &margin.relative},
+                                   std::pair{"absolute_margin", &margin.absolute}}) {
+    if (!table.has(key)) continue;
+    const double value = table.real(key);
+    if (!std::isfinite(value) || value < 0.0) table.fail(key, "must be a finite number ≥ 0");
+    *field = value;
+  }
+  if (!margin.relative && !margin.absolute) {
+    table.fail("relative_margin", "a margin needs relative_margin or absolute_margin");
+  }
+  margin.reason = table.text("reason");
+  if (margin.reason.find_first_not_of(" \t\n") == std::string::npos) {
+    table.fail("reason", "must say why a difference within the margin is no news");
+  }
+  return margin;
+}
+
 NightlyPlan plan_from(const support::ConfigTable& root) {
   NightlyPlan plan;
   plan.registry = root.text_or("registry", "models");
+  if (const auto regression = root.table("regression")) {
+    plan.margins.push_back(margin_from(*regression, false));
+    for (const auto& entry : regression->tables("margins")) {
+      plan.margins.push_back(margin_from(entry, true));
+    }
+  }
   plan.allow_dirty_trainer = root.boolean_or("allow_dirty_trainer", false);
   if (root.has("evaluations_page")) plan.evaluations_page = root.text("evaluations_page");
   for (const auto& entry : root.tables("data")) {
@@ -180,6 +212,20 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
 }
 
 }  // namespace
+
+std::vector<std::string> RegressionMargin::arguments() const {
+  const std::string prefix = metric.empty() ? "" : metric + "=";
+  std::vector<std::string> texts;
+  auto number = [](double value) {
+    std::ostringstream text;
+    text.precision(17);
+    text << value;
+    return text.str();
+  };
+  if (relative) texts.insert(texts.end(), {"--relative-margin", prefix + number(*relative)});
+  if (absolute) texts.insert(texts.end(), {"--absolute-margin", prefix + number(*absolute)});
+  return texts;
+}
 
 std::vector<const NightlyStage*> NightlyPlan::evaluations_of(const std::string& model) const {
   std::vector<const NightlyStage*> found;

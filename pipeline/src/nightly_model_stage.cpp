@@ -47,6 +47,10 @@ std::pair<std::string, std::string> Night::model_inputs(const NightlyStage& stag
   for (const NightlyStage* e : plan_.evaluations_of(stage.name)) {
     evaluation_texts.push_back(inputs_digest(*e, tool(*e), digests_, {}, plan_outputs()));
   }
+  // The regression gate's margins decide with the evaluations.
+  for (const RegressionMargin& margin : plan_.margins) {
+    for (const std::string& a : margin.arguments()) evaluation_texts.push_back(a);
+  }
   return {"model:" + stage.name, inputs_digest(stage, tool(stage), digests_, evaluation_texts)};
 }
 
@@ -60,8 +64,12 @@ void Night::train_in_sweep() {
   std::vector<const NightlyStage*> stages;
   for (const NightlyStage& stage : plan_.stages) {
     if (stage.kind != "model") continue;
-    const auto [key, inputs] = model_inputs(stage);
-    if (options_.force || !cache_.find(key, inputs, digests_)) stages.push_back(&stage);
+    try {
+      const auto [key, inputs] = model_inputs(stage);
+      if (options_.force || !cache_.find(key, inputs, digests_)) stages.push_back(&stage);
+    } catch (const std::exception&) {
+      continue;  // its inputs do not read: its own stage fails, saying why
+    }
   }
   // Longest first, by what each took the last time (one never run counts as the longest):
   // the sweep hands jobs out in plan order, so a long training started last would leave the
@@ -204,6 +212,7 @@ void Night::run_model(const NightlyStage& stage) {
       why += (why.empty() ? "" : "\n") + swept_message;
     }
     model.message = "training failed (exit code " + std::to_string(model.exit_code) + "): " + why;
+    model.transient = out_of_room(why);
     return conclude(model);
   }
   // The candidate's own evaluations (its quality gates), then the shipped model's on the same
@@ -238,7 +247,8 @@ void Night::run_model(const NightlyStage& stage) {
       o.status = "failed";
       o.message =
           "exit code " + std::to_string(o.exit_code) + ": " + tail_of(o.log.string() + ".err");
-      o.transient = o.exit_code > 128 || o.exit_code < 0;  // killed: not the candidate's verdict
+      // Killed, or out of room: not the candidate's verdict.
+      o.transient = o.exit_code > 128 || o.exit_code < 0 || out_of_room(o.message);
       model.transient = model.transient || o.transient;
       gate_failures.push_back(e->name);
     } else {
@@ -253,9 +263,12 @@ void Night::run_model(const NightlyStage& stage) {
       const int shipped_code = spawn(tool(*e), shipped_arguments, shipped_log, o.wall_seconds);
       if (shipped_code == 0 || shipped_code == support::exit_code::kEvaluationGateFailed ||
           shipped_code == support::exit_code::kFindings) {
-        const std::vector<std::string> compare = {
-            "regression",         "--candidate", e->out.string(), "--shipped",
-            shipped_out.string(), "--out",       e->out.string()};
+        std::vector<std::string> compare = {"regression",   "--candidate",        e->out.string(),
+                                            "--shipped",    shipped_out.string(), "--out",
+                                            e->out.string()};
+        for (const RegressionMargin& margin : plan_.margins) {
+          for (const std::string& a : margin.arguments()) compare.push_back(a);
+        }
         const fs::path compare_log = o.log.string() + "_regression";
         const int verdict =
             spawn(options_.tools / "imm-eval", compare, compare_log, o.wall_seconds);
@@ -300,6 +313,26 @@ void Night::run_model(const NightlyStage& stage) {
     model.message = "not compared with the shipped model, so not promoted — " + join(uncompared);
     return conclude(model);
   }
+  if (!options_.force) {
+    if (const auto rejected = registry_.rejection(stage.name, staging, inputs)) {
+      // A person rolled this model back: it is not shipped again until a person says so.
+      model.status = "not promoted (rolled back)";
+      model.message = "the candidate is the model " + rejected->sha256.substr(0, 12) +
+                      " that was rolled back on " + rejected->rolled_back_utc +
+                      "; `imm-train all --force` (or `imm-train promote`) ships it again";
+      fs::remove(staging);
+      fs::remove(trainer::metrics_path(staging));
+      return conclude(model);
+    }
+  }
+  if (const auto why = no_news(stage, staging, evaluations)) {
+    model.status = "kept (ties the shipped model)";
+    model.message = *why;
+    if (!findings.empty()) model.message += "; with findings (" + join(findings) + ")";
+    fs::remove(staging);
+    fs::remove(trainer::metrics_path(staging));
+    return conclude(model);
+  }
   try {
     RegistryEntry entry = describe_model(staging, plan_.registry, stage.name);
     if (from_uncommitted_code(entry) && !plan_.allow_dirty_trainer) {
@@ -326,6 +359,50 @@ void Night::run_model(const NightlyStage& stage) {
     model.transient = true;
   }
   conclude(model);
+}
+
+std::optional<std::string> Night::no_news(const NightlyStage& stage, const fs::path& staging,
+                                          const std::vector<const NightlyStage*>& evaluations) {
+  const RegistryEntry* shipped = registry_.find(stage.name);
+  if (shipped == nullptr || !fs::exists(stage.out) ||
+      datasets::file_sha256_hex(stage.out) != shipped->sha256) {
+    return std::nullopt;
+  }
+  std::string difference;
+  RegistryEntry candidate;
+  try {
+    difference = model_difference(staging, stage.out);
+    candidate = describe_model(staging, plan_.registry, stage.name);
+  } catch (const std::exception& error) {
+    return std::nullopt;  // a file that does not read is no tie; the promotion says why
+  }
+  if (difference.empty()) {
+    return "the candidate is the shipped model (the same parameters to rounding; only its build "
+           "and training date differ): " +
+           stage.out.filename().string() + " stays byte for byte";
+  }
+  // A tie on every metric is no news when the model is trained from the same definition; a new
+  // config, regime or schema is (the shipped file would no longer say how it was made).
+  if (evaluations.empty() || candidate.kind != shipped->kind ||
+      candidate.config_digest != shipped->config_digest ||
+      candidate.regime_digest != shipped->regime_digest ||
+      candidate.schema_version != shipped->schema_version) {
+    return std::nullopt;
+  }
+  std::size_t metrics = 0;
+  for (const NightlyStage* e : evaluations) {
+    const fs::path regression = e->out / "regression.json";
+    if (!fs::exists(regression)) return std::nullopt;  // not compared: no evidence of a tie
+    const auto document = nlohmann::json::parse(trainer::read_text_file(regression));
+    for (const auto& m : document.at("metrics")) {
+      if (m.at("verdict").get<std::string>() != "tie") return std::nullopt;
+      ++metrics;
+    }
+  }
+  return "ties the shipped model in all " + std::to_string(metrics) +
+         " headline metrics (within the interval or the plan's margin) and is trained from the "
+         "same config and regime (" +
+         difference + "): " + stage.out.filename().string() + " stays byte for byte";
 }
 
 nlohmann::json Night::headline_metrics(const std::vector<const NightlyStage*>& evaluations) {

@@ -25,6 +25,7 @@
 
 #include "imm/datasets/sha256.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/io/temporary_files.hpp"
 #include "imm/pipeline/nightly.hpp"
 #include "imm/pipeline/registry.hpp"
 #include "imm/support/exit_codes.hpp"
@@ -96,6 +97,13 @@ std::string findings_lines(const fs::path& file) {
   return text.empty() ? tail_of(file, 3) : text;
 }
 
+bool out_of_room(const std::string& message) {
+  for (const char* words : {"No space left on device", "File too large", "Disk quota exceeded"}) {
+    if (message.find(words) != std::string::npos) return true;
+  }
+  return false;
+}
+
 void echo(const fs::path& file) {
   std::ifstream in(file);
   // An empty file would set failbit on std::cout and silence everything after it.
@@ -149,13 +157,26 @@ NightlyResult Night::run() {
   }
   bool swept = false;
   for (const NightlyStage& stage : plan_.stages) {
-    if (stage.kind == "data" || stage.kind == "track") run_plain(stage);
-    if (stage.kind == "tracker") run_tracker(stage);
-    if (stage.kind != "model") continue;
-    // The data stages are done (they come first): every candidate can train now.
-    if (options_.sweep && !swept) train_in_sweep();
-    swept = true;
-    run_model(stage);
+    // A stage that cannot even start (a tool binary or a file it reads is missing or unreadable,
+    // so its inputs have no digest) fails alone; the others run and the report is written.
+    try {
+      if (stage.kind == "data" || stage.kind == "track") run_plain(stage);
+      if (stage.kind == "tracker") run_tracker(stage);
+      if (stage.kind != "model") continue;
+      // The data stages are done (they come first): every candidate can train now.
+      if (options_.sweep && !swept) train_in_sweep();
+      swept = true;
+      run_model(stage);
+    } catch (const std::exception& error) {
+      StageOutcome o = outcome_of(stage.kind, stage.name);
+      o.failed = true;
+      o.transient = true;
+      o.status = "failed";
+      o.command = command_line(tool(stage), stage.arguments);
+      o.message = std::string("the stage could not run: ") + error.what();
+      std::cerr << "imm-train: " << stage.kind << " " << stage.name << ": " << o.message << '\n';
+      finish(o);
+    }
   }
   NightlyResult result;
   result.stages = outcomes_;
@@ -216,9 +237,11 @@ void Night::run_plain(const NightlyStage& stage) {
   o.exit_code = spawn(tool(stage), stage.arguments, o.log, o.wall_seconds);
   o.failed = o.exit_code != 0;
   o.status = o.failed ? "failed" : "ok";
-  if (o.failed)
+  if (o.failed) {
     o.message =
         "exit code " + std::to_string(o.exit_code) + ": " + tail_of(o.log.string() + ".err");
+    o.transient = out_of_room(o.message);
+  }
   std::vector<fs::path> outputs = {stage.out};
   for (std::size_t i = 1; i < stage.arguments.size(); ++i) {
     if (stage.arguments[i - 1] == "--csv") outputs.emplace_back(stage.arguments[i]);
@@ -230,8 +253,9 @@ void Night::run_plain(const NightlyStage& stage) {
 void Night::remove_stale_temporaries() const {
   std::error_code error;
   for (const auto& f : fs::recursive_directory_iterator(plan_.registry, error)) {
-    const std::string name = f.path().filename().string();
-    if (f.is_regular_file() && name.starts_with(".") && name.find(".tmp-") != std::string::npos) {
+    // Only this host's temporaries of dead processes: another user's imm-train running now, or a
+    // rank on another node of a shared folder, is writing its own.
+    if (f.is_regular_file() && io::is_stale_temporary(f.path().filename().string())) {
       fs::remove(f.path(), error);
     }
   }
@@ -241,7 +265,13 @@ void Night::remove_stale_temporaries() const {
 PlanOutputs Night::plan_outputs() {
   PlanOutputs outputs;
   for (const NightlyStage& s : plan_.stages) {
-    if (s.kind == "model") outputs[normal_path(s.out)] = inputs_digest(s, tool(s), digests_);
+    if (s.kind != "model") continue;
+    try {
+      outputs[normal_path(s.out)] = inputs_digest(s, tool(s), digests_);
+    } catch (const std::exception& error) {
+      // That stage fails on its own; the others' digests name what it would have read.
+      outputs[normal_path(s.out)] = std::string("unreadable: ") + error.what();
+    }
   }
   return outputs;
 }

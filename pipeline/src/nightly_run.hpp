@@ -26,6 +26,10 @@ namespace imm::pipeline {
 [[nodiscard]] std::string gate_lines(const fs::path& file);
 /// The "Findings" block of an imm-eval report's stdout (its heading and its "  - " lines).
 [[nodiscard]] std::string findings_lines(const fs::path& file);
+/// Whether a failure's message says the machine ran out of room (no space left, a file-size limit,
+/// a quota): not the stage's inputs' fault, so the stage cache does not keep it (StageOutcome::
+/// transient) and the next night runs the stage again.
+[[nodiscard]] bool out_of_room(const std::string& message);
 /// Copies a stage's stdout (its tables) to ours.
 void echo(const fs::path& file);
 /// An outcome of a stage of that kind and name, not yet run.
@@ -80,14 +84,20 @@ class Night {
   // winner as the regime's tracker (nightly_tracker_stage.cpp).
   void run_tracker(const NightlyStage& stage);
 
-  // Temporary files of a run that was killed (".<name>.tmp-<pid>" beside models, archive entries,
-  // the manifest and the cache), and its staged candidates.
+  // Temporary files of a run that was killed (".<name>.tmp-<pid>@<host>" beside models, archive
+  // entries, the manifest and the cache: this host's, of dead processes), and its staged
+  // candidates.
   void remove_stale_temporaries() const;
 
   // The plan's model stages by output file, as their own inputs digest (without evaluations).
   PlanOutputs plan_outputs();
 
   static std::string join(const std::vector<std::string>& parts);
+
+  // Why the candidate is no news against the shipped model of its stage (the same model, or a
+  // tie on every metric from the same definition: see nightly.hpp), or nothing when it is news.
+  std::optional<std::string> no_news(const NightlyStage& stage, const fs::path& staging,
+                                     const std::vector<const NightlyStage*>& evaluations);
 
   // The headline metrics of the candidate's evaluations, with the regression intervals when the
   // shipped model was compared.

@@ -18,6 +18,8 @@ namespace imm::pipeline {
 namespace {
 
 constexpr int kManifestVersion = 1;
+// metrics_sha256 of a model shipped without a metrics file.
+constexpr std::string_view kNoMetrics = "none";
 
 nlohmann::json to_json(const RegistryEntry& e) {
   nlohmann::json j = {{"name", e.name},
@@ -33,10 +35,16 @@ nlohmann::json to_json(const RegistryEntry& e) {
                       {"promoted_utc", e.promoted_utc},
                       {"metrics", e.metrics}};
   if (!e.promotion_reason.empty()) j["promotion_reason"] = e.promotion_reason;
+  if (!e.metrics_sha256.empty()) j["metrics_sha256"] = e.metrics_sha256;
   if (!e.history.empty()) {
     j["history"] = nlohmann::json::array();
     for (const RegistryEntry& h : e.history) j["history"].push_back(to_json(h));
   }
+  if (!e.rejected.empty()) {
+    j["rejected"] = nlohmann::json::array();
+    for (const RegistryEntry& r : e.rejected) j["rejected"].push_back(to_json(r));
+  }
+  if (!e.rolled_back_utc.empty()) j["rolled_back_utc"] = e.rolled_back_utc;
   return j;
 }
 
@@ -57,9 +65,16 @@ RegistryEntry from_json(const nlohmann::json& j, const std::string& where) {
     e.promoted_utc = j.value("promoted_utc", "");
     e.metrics = j.value("metrics", nlohmann::json::object());
     e.promotion_reason = j.value("promotion_reason", "");
+    e.metrics_sha256 = j.value("metrics_sha256", "");
     if (j.contains("history")) {
       for (const auto& h : j.at("history")) e.history.push_back(from_json(h, where + ".history"));
     }
+    if (j.contains("rejected")) {
+      for (const auto& r : j.at("rejected")) {
+        e.rejected.push_back(from_json(r, where + ".rejected"));
+      }
+    }
+    e.rolled_back_utc = j.value("rolled_back_utc", "");
     const std::filesystem::path file(e.file);
     if (e.file.empty() || file.is_absolute() ||
         std::any_of(file.begin(), file.end(), [](const auto& part) { return part == ".."; })) {
@@ -70,6 +85,11 @@ RegistryEntry from_json(const nlohmann::json& j, const std::string& where) {
     }
     if (const std::string problem = sha256_problem(e.sha256); !problem.empty()) {
       throw std::runtime_error("sha256: " + problem);
+    }
+    if (!e.metrics_sha256.empty() && e.metrics_sha256 != kNoMetrics) {
+      if (const std::string problem = sha256_problem(e.metrics_sha256); !problem.empty()) {
+        throw std::runtime_error("metrics_sha256: " + problem + " or \"none\"");
+      }
     }
     return e;
   } catch (const nlohmann::json::exception& error) {
@@ -222,30 +242,66 @@ void Registry::commit(std::vector<RegistryEntry> entries) {
   entries_ = std::move(entries);
 }
 
+std::filesystem::path Registry::metrics_archive_path(const std::string& sha256) const {
+  return folder_ / ".registry" / "archive" / (sha256 + ".metrics.json");
+}
+
+std::string Registry::archive_metrics(const std::optional<std::filesystem::path>& file) const {
+  if (!file || !std::filesystem::exists(*file)) return std::string(kNoMetrics);
+  const std::string sha256 = datasets::file_sha256_hex(*file);
+  const auto target = metrics_archive_path(sha256);
+  if (!std::filesystem::exists(target) || datasets::file_sha256_hex(target) != sha256) {
+    copy_atomically(*file, target);
+  }
+  return sha256;
+}
+
 void Registry::archive(const std::filesystem::path& file, const std::string& sha256) const {
   const auto target = archive_path(sha256);
   if (std::filesystem::exists(target) && datasets::file_sha256_hex(target) == sha256) return;
   copy_atomically(file, target);
 }
 
-void Registry::materialize(const RegistryEntry& entry) const {
+bool Registry::materialize(const RegistryEntry& entry) const {
   const auto target = folder_ / entry.file;
-  if (std::filesystem::exists(target) && datasets::file_sha256_hex(target) == entry.sha256) return;
-  const auto source = archive_path(entry.sha256);
-  if (!std::filesystem::exists(source)) {
-    throw std::runtime_error(target.string() + ": differs from the manifest's sha256 " +
-                             entry.sha256.substr(0, 12) + " and the archive has no copy");
+  bool rewritten = false;
+  if (!std::filesystem::exists(target) || datasets::file_sha256_hex(target) != entry.sha256) {
+    const auto source = archive_path(entry.sha256);
+    if (!std::filesystem::exists(source)) {
+      throw std::runtime_error(target.string() + ": differs from the manifest's sha256 " +
+                               entry.sha256.substr(0, 12) + " and the archive has no copy");
+    }
+    // What is shipped is checked first: a damaged archive copy (a write cut short) is never
+    // "restored" into models/.
+    if (datasets::file_sha256_hex(source) != entry.sha256) {
+      throw std::runtime_error(source.string() + ": the archive copy of " + entry.file +
+                               " does not match its sha256 " + entry.sha256.substr(0, 12) +
+                               "; nothing shipped");
+    }
+    copy_atomically(source, target);
+    rewritten = true;
   }
-  // What is shipped is checked first: a damaged archive copy (a write cut short) is never
-  // "restored" into models/.
-  if (datasets::file_sha256_hex(source) != entry.sha256) {
-    throw std::runtime_error(source.string() + ": the archive copy of " + entry.file +
-                             " does not match its sha256 " + entry.sha256.substr(0, 12) +
-                             "; nothing shipped");
+  // The metrics file beside a model is its own or none: never the one of the model it replaced.
+  const auto beside = metrics_beside(target);
+  if (entry.metrics_sha256 == kNoMetrics) {
+    if (std::filesystem::exists(beside)) {
+      std::filesystem::remove(beside);
+      rewritten = true;
+    }
+  } else if (!entry.metrics_sha256.empty() &&
+             (!std::filesystem::exists(beside) ||
+              datasets::file_sha256_hex(beside) != entry.metrics_sha256)) {
+    const auto source = metrics_archive_path(entry.metrics_sha256);
+    if (!std::filesystem::exists(source) ||
+        datasets::file_sha256_hex(source) != entry.metrics_sha256) {
+      throw std::runtime_error(beside.string() + ": differs from the manifest's metrics_sha256 " +
+                               entry.metrics_sha256.substr(0, 12) +
+                               " and the archive has no matching copy");
+    }
+    copy_atomically(source, beside);
+    rewritten = true;
   }
-  copy_atomically(source, target);
-  const auto metrics = archive_path(entry.sha256).replace_extension(".metrics.json");
-  if (std::filesystem::exists(metrics)) copy_atomically(metrics, metrics_beside(target));
+  return rewritten;
 }
 
 std::vector<std::string> Registry::repair() {
@@ -253,10 +309,7 @@ std::vector<std::string> Registry::repair() {
   load();
   std::vector<std::string> rewritten;
   for (const RegistryEntry& e : entries_) {
-    const auto target = folder_ / e.file;
-    if (std::filesystem::exists(target) && datasets::file_sha256_hex(target) == e.sha256) continue;
-    materialize(e);
-    rewritten.push_back(e.file);
+    if (materialize(e)) rewritten.push_back(e.file);
   }
   return rewritten;
 }
@@ -266,17 +319,15 @@ void Registry::adopt(const RegistryEntry& entry) {
   load();
   const auto file = folder_ / entry.file;
   archive(file, entry.sha256);
-  if (std::filesystem::exists(metrics_beside(file))) {
-    copy_atomically(metrics_beside(file),
-                    archive_path(entry.sha256).replace_extension(".metrics.json"));
-  }
+  RegistryEntry adopted = entry;
+  adopted.metrics_sha256 = archive_metrics(metrics_beside(file));
   std::vector<RegistryEntry> next = entries_;
   auto it = std::find_if(next.begin(), next.end(),
                          [&](const RegistryEntry& e) { return e.name == entry.name; });
   if (it != next.end()) {
-    *it = entry;
+    *it = std::move(adopted);
   } else {
-    next.push_back(entry);
+    next.push_back(std::move(adopted));
   }
   commit(std::move(next));
 }
@@ -291,9 +342,7 @@ void Registry::promote(RegistryEntry entry, const std::filesystem::path& candida
   const std::string name = entry.name;
   // 1. Both the candidate and the model it replaces are in the archive.
   archive(candidate, entry.sha256);
-  if (metrics_file && std::filesystem::exists(*metrics_file)) {
-    copy_atomically(*metrics_file, archive_path(entry.sha256).replace_extension(".metrics.json"));
-  }
+  entry.metrics_sha256 = archive_metrics(metrics_file);
   std::vector<RegistryEntry> next = entries_;
   auto it = std::find_if(next.begin(), next.end(),
                          [&](const RegistryEntry& e) { return e.name == entry.name; });
@@ -301,14 +350,19 @@ void Registry::promote(RegistryEntry entry, const std::filesystem::path& candida
     const auto shipped = folder_ / it->file;
     if (std::filesystem::exists(shipped) && datasets::file_sha256_hex(shipped) == it->sha256) {
       archive(shipped, it->sha256);
-      if (std::filesystem::exists(metrics_beside(shipped))) {
-        copy_atomically(metrics_beside(shipped),
-                        archive_path(it->sha256).replace_extension(".metrics.json"));
-      }
+      // An entry from before metrics were recorded gets the metrics shipped beside it now.
+      if (it->metrics_sha256.empty()) it->metrics_sha256 = archive_metrics(metrics_beside(shipped));
     }
     RegistryEntry previous = *it;
     entry.history = std::move(previous.history);
     previous.history.clear();
+    // The rejections stay with the name; promoting a rejected model (a person's decision) ends its.
+    for (RegistryEntry& r : previous.rejected) {
+      if (!is_rejected(r, candidate, entry.sha256, entry.inputs_digest)) {
+        entry.rejected.push_back(std::move(r));
+      }
+    }
+    previous.rejected.clear();
     entry.history.insert(entry.history.begin(), std::move(previous));
     *it = std::move(entry);
   } else {
@@ -335,11 +389,42 @@ RegistryEntry Registry::rollback(const std::string& name) {
                              restored.sha256.substr(0, 12));
   }
   restored.history.assign(it->history.begin() + 1, it->history.end());
+  // The rolled-back model is recorded, so that the next night does not promote it again.
+  RegistryEntry rejected = *it;
+  rejected.history.clear();
+  rejected.rejected.clear();
+  rejected.rolled_back_utc = io::utc_now();
+  restored.rejected = it->rejected;
+  restored.rejected.insert(restored.rejected.begin(), std::move(rejected));
   std::vector<RegistryEntry> next = entries_;
   next[static_cast<std::size_t>(it - entries_.begin())] = restored;
   commit(std::move(next));
   materialize(restored);
   return restored;
+}
+
+bool Registry::is_rejected(const RegistryEntry& r, const std::filesystem::path& candidate,
+                           const std::string& sha256, const std::string& inputs) const {
+  if (r.sha256 == sha256 || (!inputs.empty() && r.inputs_digest == inputs)) return true;
+  const auto archived = archive_path(r.sha256);
+  if (!std::filesystem::exists(archived)) return false;
+  try {
+    return model_difference(candidate, archived).empty();
+  } catch (const std::exception&) {
+    return false;  // a copy that does not read is no evidence of the same model
+  }
+}
+
+std::optional<RegistryEntry> Registry::rejection(const std::string& name,
+                                                 const std::filesystem::path& candidate,
+                                                 const std::string& inputs_digest) const {
+  const RegistryEntry* entry = find(name);
+  if (entry == nullptr) return std::nullopt;
+  const std::string sha256 = datasets::file_sha256_hex(candidate);
+  for (const RegistryEntry& r : entry->rejected) {
+    if (is_rejected(r, candidate, sha256, inputs_digest)) return r;
+  }
+  return std::nullopt;
 }
 
 }  // namespace imm::pipeline

@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "stage_cache.hpp"
 
+#include <link.h>
+
+#include <algorithm>
 #include <fstream>
 #include <regex>
 
@@ -20,6 +23,21 @@ std::optional<std::string> config_regime(const fs::path& config) {
 
 }  // namespace
 
+std::vector<fs::path> project_libraries() {
+  std::vector<fs::path> found;
+  ::dl_iterate_phdr(
+      [](dl_phdr_info* info, std::size_t /*size*/, void* data) {
+        const fs::path path = info->dlpi_name == nullptr ? "" : info->dlpi_name;
+        if (path.filename().string().starts_with("libimm")) {
+          static_cast<std::vector<fs::path>*>(data)->push_back(path);
+        }
+        return 0;
+      },
+      &found);
+  std::sort(found.begin(), found.end());
+  return found;
+}
+
 std::string normal_path(const fs::path& path) {
   return fs::absolute(path).lexically_normal().string();
 }
@@ -28,6 +46,12 @@ std::string inputs_digest(const NightlyStage& stage, const fs::path& tool, Diges
                           const std::vector<std::string>& extra, const PlanOutputs& plan_outputs) {
   datasets::Sha256 hash;
   hash.update(stage.kind + '\n' + digests.of_file(tool) + '\n');
+  // The tools load the project's shared libraries (the runtime) beside their own code: a rebuilt
+  // runtime is a changed input even where the tool binaries are not.
+  static const std::vector<fs::path> libraries = project_libraries();
+  for (const fs::path& library : libraries) {
+    hash.update(library.filename().string() + '=' + digests.of_file(library) + '\n');
+  }
   auto add_file = [&](const fs::path& path) {
     hash.update(path.string() + '=' + digests.of_file(path) + '\n');
   };

@@ -46,6 +46,10 @@ class Digests {
 // change the digests of the stages before it.
 using PlanOutputs = std::map<std::string, std::string>;  // normalized file → stage digest
 
+/// The project's shared libraries this process loaded ("libimm…", e.g. the runtime when it is built
+/// shared): the tools of the same build load the same files, so every stage digest includes them.
+[[nodiscard]] std::vector<fs::path> project_libraries();
+
 /// The absolute, lexically normal form of a path: how the digests name files.
 [[nodiscard]] std::string normal_path(const fs::path& path);
 

@@ -1,12 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <set>
 
 #include "imm/pipeline/nightly.hpp"
 #include "imm/support/config.hpp"
+#include "stage_cache.hpp"
 #include "testing/config_error.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -110,6 +112,47 @@ TEST(Nightly, AModelNameThatCouldLeaveTheRegistryIsAnError) {
                 "out = \"models/o.h5\"\n",
                 [](const auto& path) { return load_nightly_plan(path); }),
             "models[0].name");
+}
+
+// The regression gate's practical margins: the shipped plan states one for every metric and one
+// for the consistency log ratios, each with its reason; a margin without a reason, or negative,
+// is refused naming the field.
+TEST(Nightly, RegressionMarginsCarryTheirReasons) {
+  const NightlyPlan plan = load_nightly_plan("configs/nightly.toml");
+  ASSERT_GE(plan.margins.size(), 2u);
+  EXPECT_EQ(plan.margins[0].metric, "");
+  EXPECT_EQ(plan.margins[0].arguments(), (std::vector<std::string>{"--relative-margin", "0.001"}));
+  for (const auto& margin : plan.margins) EXPECT_GT(margin.reason.size(), 40u) << margin.metric;
+  const std::string model =
+      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\nout = \"models/a.h5\"\n";
+  const auto load = [](const auto& path) { return load_nightly_plan(path); };
+  EXPECT_EQ(testing::config_error_key("[regression]\nrelative_margin = 0.01\n" + model, load),
+            "regression.reason");
+  EXPECT_EQ(testing::config_error_key(
+                "[regression]\nrelative_margin = -0.01\nreason = \"why\"\n" + model, load),
+            "regression.relative_margin");
+  EXPECT_EQ(testing::config_error_key("[regression]\nreason = \"why\"\n" + model, load),
+            "regression.relative_margin");
+  EXPECT_EQ(testing::config_error_key("[regression]\nrelative_margin = 0.01\nreason = \"why\"\n"
+                                      "[[regression.margins]]\nabsolute_margin = 1.0\n"
+                                      "reason = \"why\"\n" +
+                                          model,
+                                      load),
+            "regression.margins[0].metric");
+}
+
+// Every stage digest includes the project's shared libraries the tools load (the runtime, when it
+// is built shared): a rebuilt runtime reruns the stages.
+TEST(Nightly, TheStageDigestIncludesTheSharedRuntime) {
+  const auto libraries = project_libraries();
+#ifdef IMM_RUNTIME_STATIC_DEFINE
+  EXPECT_TRUE(libraries.empty());
+#else
+  ASSERT_FALSE(libraries.empty());
+  EXPECT_TRUE(std::any_of(libraries.begin(), libraries.end(), [](const auto& library) {
+    return library.filename().string().starts_with("libimmruntime.so");
+  }));
+#endif
 }
 
 TEST(Nightly, EvaluationsFollowTheirModel) {

@@ -3,7 +3,9 @@
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/file.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -13,7 +15,10 @@
 #include <thread>
 
 #include "imm/datasets/sha256.hpp"
+#include "imm/io/container_file.hpp"
+#include "imm/io/model_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
+#include "imm/io/temporary_files.hpp"
 #include "imm/pipeline/promote.hpp"
 #include "imm/trainer/model_files/freeze.hpp"
 #include "imm/trainer/provenance.hpp"
@@ -89,7 +94,7 @@ TEST(Registry, AFailedPromotionIsNotCommittedByTheNextOne) {
   registry.promote(entry_of(first, dir, "a"), first);
   const std::string manifest = bytes_of(models / "manifest.json");
 
-  const auto blocker = models / (".manifest.json.tmp-" + std::to_string(::getpid()));
+  const auto blocker = io::temporary_beside(models / "manifest.json");
   std::filesystem::create_directories(blocker);
   EXPECT_ANY_THROW(registry.promote(entry_of(second, dir, "b"), second));
   EXPECT_EQ(registry.find("b"), nullptr);
@@ -283,6 +288,155 @@ TEST(Registry, NamesAndDigestsThatCouldLeaveTheRegistryAreRefused) {
   EXPECT_FALSE(std::filesystem::exists(dir / "escaped.h5"));
   EXPECT_FALSE(std::filesystem::exists(models / "sub"));
   EXPECT_FALSE(std::filesystem::exists(models / "manifest.json"));
+}
+
+// A rollback records the model it rejects; the same model again (the file, or a retraining that
+// differs only in its date) is found as that rejection until a promotion of it ends the record.
+TEST(Registry, ARollbackRecordsTheRejectedModel) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  const auto [first, second] = write_two_models(dir);
+  std::filesystem::create_directories(models);
+  Registry registry(models);
+  registry.promote(entry_of(first, dir, "cv3"), first);
+  registry.promote(entry_of(second, dir, "cv3"), second);
+  EXPECT_FALSE(registry.rejection("cv3", second, "").has_value());
+  (void)registry.rollback("cv3");
+  const Registry reloaded(models);
+  const RegistryEntry& shipped = *reloaded.find("cv3");
+  ASSERT_EQ(shipped.rejected.size(), 1u);
+  EXPECT_EQ(shipped.rejected[0].sha256, datasets::file_sha256_hex(second));
+  EXPECT_FALSE(shipped.rejected[0].rolled_back_utc.empty());
+  EXPECT_TRUE(registry.rejection("cv3", second, "").has_value());
+  // A retraining of the rejected model: other bytes (its date, to the second), the same model.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+  (void)freeze_plain_imm({dir / "cv3.toml", dir / "again.h5", {}});
+  ASSERT_NE(datasets::file_sha256_hex(dir / "again.h5"), datasets::file_sha256_hex(second));
+  EXPECT_TRUE(registry.rejection("cv3", dir / "again.h5", "").has_value());
+  EXPECT_FALSE(registry.rejection("cv3", first, "").has_value());
+  registry.promote(entry_of(dir / "again.h5", dir, "cv3"), dir / "again.h5");
+  EXPECT_TRUE(registry.find("cv3")->rejected.empty());
+}
+
+// kill -9 at seeded random moments of promotions and rollbacks (each in a child process, as a
+// person's `imm-train promote` / `rollback` would run): the manifest always parses, and after the
+// next command's repair every shipped file and metrics file is the manifest's, byte for byte.
+TEST(Registry, KillNineDuringPromoteAndRollbackLeavesTheOldOrTheNewState) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  const auto [first, second] = write_two_models(dir);
+  testing::write_text(dir / "second.metrics.json", "{\"model\": \"second\"}\n");
+  std::filesystem::create_directories(models);
+  Registry(models).promote(entry_of(first, dir, "cv3"), first);
+  std::uint64_t state = 2026;
+  int killed = 0;
+  for (int round = 0; round < 30; ++round) {
+    const bool promote = round % 2 == 0;
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      try {
+        Registry registry(models);
+        (void)registry.repair();
+        if (promote) {
+          registry.promote(entry_of(round % 4 == 0 ? second : first, dir, "cv3"),
+                           round % 4 == 0 ? second : first, dir / "second.metrics.json");
+        } else if (!registry.find("cv3")->history.empty()) {
+          (void)registry.rollback("cv3");
+        }
+      } catch (...) {
+        ::_exit(1);
+      }
+      ::_exit(0);
+    }
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    ::usleep(static_cast<useconds_t>((state >> 33) % 20000));  // 0 … 20 ms
+    ::kill(child, SIGKILL);
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    killed += WIFSIGNALED(status) ? 1 : 0;
+    ASSERT_TRUE(WIFSIGNALED(status) || WEXITSTATUS(status) == 0) << "round " << round;
+    Registry registry(models);  // the manifest parses
+    (void)registry.repair();
+    for (const RegistryEntry& e : registry.entries()) {
+      EXPECT_EQ(datasets::file_sha256_hex(models / e.file), e.sha256) << "round " << round;
+      const auto metrics = trainer::metrics_path(models / e.file);
+      if (e.metrics_sha256 == "none") EXPECT_FALSE(std::filesystem::exists(metrics));
+      if (e.metrics_sha256.size() == 64) {
+        EXPECT_EQ(datasets::file_sha256_hex(metrics), e.metrics_sha256) << "round " << round;
+      }
+    }
+  }
+  EXPECT_GT(killed, 0);
+}
+
+// A model's metrics file ships with it or not at all: a model promoted without one does not keep
+// the metrics of the model it replaced, a rollback brings the old ones back, and repair restores
+// a lost or changed one from the archive.
+TEST(Registry, AMetricsFileShipsWithItsModelOnly) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  const auto [first, second] = write_two_models(dir);
+  std::filesystem::create_directories(models);
+  testing::write_text(dir / "first.metrics.json", "{\"model\": \"first\"}\n");
+  const auto beside = models / "cv3.metrics.json";
+  Registry registry(models);
+  registry.promote(entry_of(first, dir, "cv3"), first, dir / "first.metrics.json");
+  EXPECT_EQ(bytes_of(beside), "{\"model\": \"first\"}\n");
+  registry.promote(entry_of(second, dir, "cv3"), second);
+  EXPECT_FALSE(std::filesystem::exists(beside));
+  EXPECT_EQ(registry.find("cv3")->metrics_sha256, "none");
+  (void)registry.rollback("cv3");
+  EXPECT_EQ(bytes_of(beside), "{\"model\": \"first\"}\n");
+  testing::write_text(beside, "{\"model\": \"edited\"}\n");
+  EXPECT_EQ(registry.repair(), std::vector<std::string>{"cv3.h5"});
+  EXPECT_EQ(bytes_of(beside), "{\"model\": \"first\"}\n");
+}
+
+// Two trainings of one definition that differ only by rounding, their build and their clock are
+// the same model (the nightly keeps the shipped file for such a candidate); anything else is a
+// difference, named.
+TEST(Registry, ModelDifferenceIgnoresRoundingBuildAndClockOnly) {
+  const testing::TempDir dir;
+  struct Variant {
+    double scale = 1.0;  // of the parameters
+    std::string created = "2026-11-01T00:00:00Z", version = "1.0.0", config = "seed = 1";
+    double seconds = 12.5, objective = 0.25;
+  };
+  auto write = [&](const std::string& name, const Variant& v) {
+    const auto path = dir / name;
+    io::ContainerWriter w(path, io::kModelFormat);
+    Eigen::MatrixXd weights(2, 2);
+    weights << 1.0, -2.0, 1e-9, 4.0;  // a tiny entry compares at its dataset's scale
+    w.write("/layer/weights", Eigen::MatrixXd(weights * v.scale));
+    w.set_attribute("/", "created_utc", v.created);
+    w.set_attribute("/", "trainer_version", v.version);
+    w.set_attribute("/", "config_toml", v.config);
+    w.set_attribute("/layer", "wall_seconds", v.seconds);
+    w.set_attribute("/layer", "objective", v.objective);
+    w.commit();
+    return path;
+  };
+  const auto base = write("base.h5", {});
+  Variant clock;
+  clock.created = "2026-11-25T03:00:00Z", clock.version = "1.0.1-dirty", clock.seconds = 99.0;
+  EXPECT_EQ(model_difference(base, write("clock.h5", clock)), "");
+  Variant rounded;
+  rounded.scale = 1.0 + 1e-9, rounded.objective = 0.25 * (1.0 + 1e-9);
+  EXPECT_EQ(model_difference(base, write("rounded.h5", rounded)), "");
+
+  Variant moved;
+  moved.scale = 1.0 + 1e-4;
+  EXPECT_NE(model_difference(base, write("moved.h5", moved)).find("/layer/weights[0]"),
+            std::string::npos);
+  Variant config;
+  config.config = "seed = 2";
+  EXPECT_NE(model_difference(base, write("config.h5", config)).find("/@config_toml"),
+            std::string::npos);
+  Variant objective;
+  objective.objective = 0.26;
+  EXPECT_NE(model_difference(base, write("objective.h5", objective)).find("/layer@objective"),
+            std::string::npos);
 }
 
 }  // namespace

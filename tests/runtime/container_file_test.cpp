@@ -3,11 +3,14 @@
 
 #include <gtest/gtest.h>
 #include <hdf5.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdint>
 #include <string_view>
 
+#include "imm/io/temporary_files.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::io {
@@ -317,6 +320,87 @@ TEST(ContainerFile, VariableLengthTextIsReadFromItsHeapObjectWithinBounds) {
   auto bytes = file.bytes;
   bytes[file.object + 16 + 3] = '\0';
   EXPECT_NE(reseal_and_read(path, bytes).find("NUL"), std::string::npos);
+}
+
+// A corrupt attribute index: the root's twelve attributes are stored densely (a fractal heap and a
+// version-2 B-tree indexing their names), and a byte of the B-tree's leaf is flipped. Listing the
+// attributes must then fail naming the object — never return the ones it could walk, which let
+// `imm-inspect --verify` say "ok" about a file whose provenance does not read.
+TEST(ContainerFile, ACorruptAttributeIndexIsAnErrorNotFewerAttributes) {
+  const testing::TempDir dir;
+  const auto path = dir / "dense.h5";
+  {
+    const hid_t create_list = H5Pcreate(H5P_FILE_CREATE);
+    H5Pset_userblock(create_list, kContainerHeaderBytes);
+    const hid_t access_list = H5Pcreate(H5P_FILE_ACCESS);
+    H5Pset_libver_bounds(access_list, H5F_LIBVER_V18, H5F_LIBVER_LATEST);
+    const hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, create_list, access_list);
+    const hid_t space = H5Screate(H5S_SCALAR);
+    for (int i = 0; i < 12; ++i) {
+      const std::string name = "attribute_" + std::to_string(i);
+      const hid_t attribute =
+          H5Acreate2(file, name.c_str(), H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT);
+      const double value = i;
+      H5Awrite(attribute, H5T_NATIVE_DOUBLE, &value);
+      H5Aclose(attribute);
+    }
+    H5Sclose(space);
+    H5Fclose(file);
+    H5Pclose(access_list);
+    H5Pclose(create_list);
+    seal_container(path, "test-format");
+  }
+  EXPECT_EQ(ContainerReader(path, "test-format").attribute_names("/").size(), 12u);
+  std::vector<char> bytes = testing::read_bytes(path);
+  const std::size_t leaf = std::string_view(bytes.data(), bytes.size()).find("BTLF");
+  ASSERT_NE(leaf, std::string_view::npos);
+  bytes[leaf + 8] = static_cast<char>(bytes[leaf + 8] ^ 0x5A);  // a record of the name index
+  testing::write_bytes(path, bytes);
+  seal_container(path, "test-format");
+  try {
+    const ContainerReader reader(path, "test-format");
+    const auto names = reader.attribute_names("/");
+    FAIL() << "listed " << names.size() << " attributes from a corrupt index";
+  } catch (const FileError& error) {
+    EXPECT_EQ(error.field(), "/") << error.what();
+  }
+}
+
+// Temporaries carry their host: a writer removes a temporary only when this host wrote it and its
+// process is gone — never another node's in-flight file in a shared folder, whose process ID means
+// nothing here, and never a live writer's.
+TEST(Temporaries, OnlyThisHostsDeadWritersAreRemoved) {
+  const testing::TempDir dir;
+  const auto mine = temporary_beside(dir / "m.h5", 3u);
+  EXPECT_EQ(mine.filename().string(),
+            ".m.h5.tmp-" + std::to_string(::getpid()) + "-3@" + this_host());
+  const auto writer = temporary_writer(mine.filename().string());
+  ASSERT_TRUE(writer.has_value());
+  EXPECT_EQ(writer->pid, ::getpid());
+  EXPECT_EQ(writer->host, this_host());
+  EXPECT_EQ(temporary_writer(".a@b.h5.tmp-12@node-7.example")->host, "node-7.example");
+  EXPECT_EQ(temporary_writer(".m.h5.tmp-12")->host, this_host());  // from before hosts
+  for (const char* name : {"m.h5", ".m.h5", ".m.h5.tmp-", ".m.h5.tmp-x@h", ".m.h5.tmp-12-@h",
+                           ".m.h5.tmp-12@", ".m.h5.tmp-0@h"}) {
+    EXPECT_FALSE(temporary_writer(name).has_value()) << name;
+  }
+
+  const pid_t child = ::fork();  // a process ID that is surely dead once reaped
+  if (child == 0) ::_exit(0);
+  ASSERT_GT(child, 0);
+  ASSERT_EQ(::waitpid(child, nullptr, 0), child);
+  const std::string dead = std::to_string(child);
+  const std::vector<std::string> removed = {".a.h5.tmp-" + dead + "-0@" + this_host(),
+                                            ".b.h5.tmp-" + dead};
+  const std::vector<std::string> kept = {".c.h5.tmp-" + dead + "-0@another-node",
+                                         mine.filename().string()};
+  for (const auto& name : removed) testing::write_text(dir / name, "partial");
+  for (const auto& name : kept) testing::write_text(dir / name, "in flight");
+  ContainerWriter w(dir / "new.h5", "immtrain-model");
+  w.write("/x", Eigen::MatrixXd::Ones(1, 1));
+  w.commit();
+  for (const auto& name : removed) EXPECT_FALSE(std::filesystem::exists(dir / name)) << name;
+  for (const auto& name : kept) EXPECT_TRUE(std::filesystem::exists(dir / name)) << name;
 }
 
 }  // namespace

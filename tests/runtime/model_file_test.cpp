@@ -5,7 +5,9 @@
 #include <hdf5.h>
 
 #include <cmath>
+#include <filesystem>
 #include <functional>
+#include <limits>
 
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
@@ -162,7 +164,7 @@ INSTANTIATE_TEST_SUITE_P(
                 replace_dataset(f, "/imm/transition", {3, 3},
                                 {0.9, 0.05, 0.05, kNan, 0.8, 0.1, 0.02, 0.08, 0.9});
               },
-              "/imm/transition", "entry (1, 0) = nan is not a probability"},
+              "/imm/transition", "entry (1, 0) = nan is not finite"},
         Drill{"rows not stochastic",
               [](hid_t f) {
                 replace_dataset(f, "/imm/transition", {3, 3},
@@ -189,7 +191,7 @@ INSTANTIATE_TEST_SUITE_P(
                 replace_attribute(f, "/imm/modes/mode2", "sigma_a", H5T_NATIVE_DOUBLE,
                                   std::numeric_limits<double>::infinity());
               },
-              "/imm/modes/mode2@sigma_a", "not non-negative"},
+              "/imm/modes/mode2@sigma_a", "value inf is not finite"},
         Drill{"mode count too large",
               [](hid_t f) {
                 replace_attribute(f, "/imm", "mode_count", H5T_NATIVE_INT64, std::int64_t{1000});
@@ -284,6 +286,69 @@ TEST(ModelFile, DataSetContainerIsNotAModel) {
 TEST(ModelFile, EmptyKindIsRefusedByTheWriter) {
   const testing::TempDir dir;
   EXPECT_THROW(ModelFileWriter(dir / "x.h5", Provenance{}), FileError);
+}
+
+// One rule for every number and every name in a model file, whether a loader reads it or not:
+// the GA levels' metadata and the MLP's training curve are held to it like the parameters, and
+// units and column names to the grammar docs/model-schema.md states. Each edit of a shipped model
+// (resealed, so it reaches the reader) is refused naming the field.
+TEST(ModelFileReader, MetadataUnitsAndNamesFollowTheSchemaRules) {
+  struct Edit {
+    std::string model, field, expected;
+    std::function<void(hid_t)> apply;
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  const std::vector<Edit> edits = {
+      {"ga_fuzzy_imm_agile_air.h5", "/ga_fuzzy_imm/level0@validation_error", "is not finite",
+       [&](hid_t f) {
+         testing::set_attribute(f, "/ga_fuzzy_imm/level0", "validation_error", H5T_NATIVE_DOUBLE,
+                                &nan);
+       }},
+      {"ga_fuzzy_imm_agile_air.h5", "/ga_fuzzy_imm/level1@wall_seconds", "is not finite",
+       [&](hid_t f) {
+         testing::set_attribute(f, "/ga_fuzzy_imm/level1", "wall_seconds", H5T_NATIVE_DOUBLE, &inf);
+       }},
+      {"ga_fuzzy_imm_agile_air.h5", "/ga_fuzzy_imm/level0@generations", "negative",
+       [](hid_t f) {
+         const std::int64_t count = -3;
+         testing::set_attribute(f, "/ga_fuzzy_imm/level0", "generations", H5T_NATIVE_INT64, &count);
+       }},
+      {"mlp_input_estimator.h5", "/training/loss", "entry (2, 1) = nan is not finite",
+       [&](hid_t f) {
+         std::vector<double> loss(121 * 3, 1.0);
+         loss[2 * 3 + 1] = nan;
+         testing::replace_dataset(f, "/training/loss", {121, 3}, loss);
+         testing::set_text_attribute(f, "/training/loss", "columns",
+                                     "epoch,training_mse,validation_mse");
+         testing::set_text_attribute(f, "/training/loss", "units", "1");
+       }},
+      {"ga_fuzzy_imm_agile_air.h5", "/ga_fuzzy_imm/level0@units", "is not name=unit",
+       [](hid_t f) {
+         testing::set_text_attribute(f, "/ga_fuzzy_imm/level0", "units",
+                                     "maneuver_level=km^2.s^4,fitness=1,error=1,"
+                                     "validation_error=1,wall_seconds=s");
+       }},
+      {"mlp_input_estimator.h5", "/training/loss@columns", "column name 'epoch\\x07'",
+       [](hid_t f) {
+         testing::set_text_attribute(f, "/training/loss", "columns",
+                                     "epoch\a,training_mse,validation_mse");
+       }},
+  };
+  for (const Edit& edit : edits) {
+    const testing::TempDir dir;
+    const auto path = dir / edit.model;
+    std::filesystem::copy_file(std::filesystem::path("models") / edit.model, path);
+    (void)ModelFileReader(path);  // the shipped file reads
+    testing::edit_and_reseal(path, edit.apply);
+    try {
+      (void)ModelFileReader(path);
+      FAIL() << "accepted: " << edit.field;
+    } catch (const FileError& error) {
+      EXPECT_EQ(error.field(), edit.field) << error.what();
+      EXPECT_NE(std::string(error.what()).find(edit.expected), std::string::npos) << error.what();
+    }
+  }
 }
 
 }  // namespace

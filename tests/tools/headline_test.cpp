@@ -66,6 +66,36 @@ TEST(Headline, RegressionIsWorseOnlyBeyondThePairedUncertainty) {
   EXPECT_TRUE(compare_headlines(file_of(shipped * (1.0 + 1e-6)), file_of(shipped))[0].worse());
 }
 
+// The practical margin: a retraining on another machine that moves every run by +0.003 % (the
+// libm rounding a clean clone once showed on tsk_range_sensor_hard) is resolved by the paired
+// interval but is no regression under a 0.1 % margin, while a real regression (+5 %) still is.
+TEST(Headline, AMarginMakesCrossMachineRoundingATieAndKeepsARealRegression) {
+  Eigen::VectorXd shipped(50);
+  for (int i = 0; i < 50; ++i) shipped(i) = 1.0 + 0.5 * std::sin(1.7 * i);
+  const std::vector<MarginRule> margins = {parse_margin("0.001", true)};
+  const auto drift = file_of(shipped * (1.0 + 3e-5));
+  EXPECT_TRUE(compare_headlines(drift, file_of(shipped))[0].worse());  // the interval alone
+  const auto tie = compare_headlines(drift, file_of(shipped), margins)[0];
+  EXPECT_GT(tie.difference.lower, 0.0);
+  EXPECT_NEAR(tie.margin, 0.001 * tie.candidate, 1e-15);
+  EXPECT_FALSE(tie.worse());
+  EXPECT_FALSE(compare_headlines(file_of(shipped), drift, margins)[0].better());
+  EXPECT_TRUE(compare_headlines(file_of(shipped * 1.05), file_of(shipped), margins)[0].worse());
+  EXPECT_TRUE(compare_headlines(file_of(shipped), file_of(shipped * 1.05), margins)[0].better());
+
+  // Per metric: the rule with the longest matching name sets each field; absolute and relative
+  // margins combine as their maximum.
+  const std::vector<MarginRule> rules = {parse_margin("0.001", true), parse_margin("err=0.5", true),
+                                         parse_margin("error=0.02", true),
+                                         parse_margin("error=0.3", false)};
+  const auto r = compare_headlines(file_of(shipped * 1.05), file_of(shipped), rules)[0];
+  EXPECT_DOUBLE_EQ(r.margin, std::max(0.02 * r.candidate, 0.3));
+  EXPECT_EQ(parse_margin("nees_log_ratio=0.002", false).metric, "nees_log_ratio");
+  for (const char* bad : {"x", "-1", "a=", "a=nan", "0.1 "}) {
+    EXPECT_THROW((void)parse_margin(bad, true), std::runtime_error) << bad;
+  }
+}
+
 TEST(Headline, OnlyEvaluationsOfTheSameRunsCompare) {
   const Eigen::VectorXd v = Eigen::VectorXd::Ones(4);
   try {

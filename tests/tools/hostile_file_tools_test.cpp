@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "testing/hdf5_edit.hpp"
+#include "testing/hostile_hdf5.hpp"
 #include "testing/run_tool.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -122,6 +123,40 @@ TEST(SealAndVerify, AnEditedModelIsReSealedOnlyWhenItStillReads) {
   for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
     EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos) << entry.path();
   }
+}
+
+// `--verify` is what a person runs before shipping a file by hand: on a sample of the hostile
+// mutants of two shipped models (every 16th of the drill's mutations, resealed) it prints exactly
+// one line — "ok" on stdout for a file that reads whole, or the refusal naming the file on stderr
+// (no HDF5 error stack or shutdown noise after it) — and never says "ok" about a file the runtime
+// refuses.
+TEST(SealAndVerify, VerifySaysOneLineAboutEveryHostileMutant) {
+  const testing::TempDir dir;
+  const auto root = testing::source_root();
+  std::size_t sampled = 0;
+  for (const char* model : {"models/ga_fuzzy_imm_agile_air.h5", "models/mlp_input_estimator.h5"}) {
+    const auto bytes = testing::read_bytes(model);
+    const auto mutations = testing::mutations_of(testing::layout_of(model));
+    for (std::size_t i = 0; i < mutations.size(); i += 16, ++sampled) {
+      SCOPED_TRACE(std::string(model) + ": " + mutations[i].name);
+      const auto path = dir / "mutant.h5";
+      testing::write_bytes(path, bytes);
+      testing::edit_and_reseal(path, mutations[i].apply);
+      const auto verify = testing::run_tool("imm-inspect", {path.string(), "--verify"}, root, 10.0);
+      ASSERT_NE(verify.exit_code, testing::kTimedOut);
+      if (verify.exit_code == 0) {
+        EXPECT_TRUE(verify.err.empty()) << verify.err;
+        EXPECT_EQ(std::count(verify.out.begin(), verify.out.end(), '\n'), 1) << verify.out;
+        EXPECT_FALSE(mutations[i].structural) << "ok about a structurally hostile file";
+      } else {
+        EXPECT_EQ(verify.exit_code, 2) << verify.err;
+        EXPECT_EQ(std::count(verify.err.begin(), verify.err.end(), '\n'), 1) << verify.err;
+        EXPECT_EQ(verify.err.find("imm-inspect: " + path.string() + ": "), 0u) << verify.err;
+        EXPECT_TRUE(verify.out.empty()) << verify.out;
+      }
+    }
+  }
+  EXPECT_GT(sampled, 20u);
 }
 
 }  // namespace

@@ -56,7 +56,8 @@ Plan write_plan(const testing::TempDir& dir, const std::string& extra_models = "
                         << "evaluations_page = \"" << (dir / "docs" / "evaluations.md").string()
                         << "\"\n"
                         << "allow_dirty_trainer = " << (allow_dirty_trainer ? "true" : "false")
-                        << "\n"
+                        << "\n[regression]\nrelative_margin = 0.001\n"
+                        << "reason = \"rounding across machines\"\n"
                         << extra_models
                         << "[[models]]\nname = \"cv3\"\ncommand = \"freeze\"\nconfig = \""
                         << (dir / "cv3.toml").string() << "\"\n"
@@ -177,6 +178,35 @@ TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
   EXPECT_EQ(again.exit_code, 2);
   EXPECT_NE(again.err.find("no earlier model"), std::string::npos) << again.err;
 
+  // 5. The rollback is recorded: the next night retrains the rolled-back model (its inputs are
+  //    unchanged) and does not ship it again; the night is green, the report says why.
+  m = manifest(p);
+  ASSERT_EQ(m["models"][0]["rejected"].size(), 1u) << m.dump(2);
+  EXPECT_EQ(m["models"][0]["rejected"][0]["sha256"], second);
+  EXPECT_FALSE(m["models"][0]["rejected"][0]["rolled_back_utc"].get<std::string>().empty());
+  run = nightly(p);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(sha256_of(shipped), first);
+  EXPECT_NE(slurp(p.reports / "latest" / "index.md").find("rolled back"), std::string::npos);
+  // … until a person says so: --force ships it again and ends the record.
+  run = nightly(p, {"--force"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string third = sha256_of(shipped);
+  EXPECT_NE(third, first);
+  m = manifest(p);
+  EXPECT_EQ(m["models"][0]["sha256"], third);
+  EXPECT_FALSE(m["models"][0].contains("rejected")) << m.dump(2);
+
+  // 6. No news, no churn: retrained from the same config (another training date), the candidate
+  //    is the shipped model; the shipped file and the manifest stay byte for byte.
+  const std::string manifest_bytes = slurp(p.registry / "manifest.json");
+  run = nightly(p, {"--force"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(sha256_of(shipped), third);
+  EXPECT_EQ(slurp(p.registry / "manifest.json"), manifest_bytes);
+  EXPECT_NE(slurp(p.reports / "latest" / "index.md").find("kept (ties the shipped model)"),
+            std::string::npos);
+
   // The manifest prints as a table.
   const auto table =
       run_tool("imm-inspect", {"--manifest", (p.registry / "manifest.json").string()}, {});
@@ -214,6 +244,38 @@ TEST(NightlyProduct, AComparisonThatCannotBeMadeHoldsTheCandidateBack) {
     EXPECT_NE(report.find("the comparison with the shipped model failed"), std::string::npos)
         << report;
   }
+}
+
+// A full disk, as a file-size limit (`ulimit -f`, SIGXFSZ ignored so that writes fail with EFBIG):
+// the night says so and changes nothing in the registry — the manifest and the shipped file stay
+// byte for byte — and, the failure not being the inputs' fault, it is not cached: the next night
+// trains the candidate again and ships it.
+TEST(NightlyProduct, AFullDiskChangesNothingAndTheNextNightRecovers) {
+  const testing::TempDir dir;
+  write_cv3(dir / "cv3.toml", 1.0);
+  const Plan p = write_plan(dir);
+  ASSERT_EQ(nightly(p).exit_code, 0);
+  const fs::path shipped = p.registry / "cv3.h5";
+  const std::string first = sha256_of(shipped);
+  const std::string manifest_bytes = slurp(p.registry / "manifest.json");
+
+  write_cv3(dir / "cv3.toml", 1.0, "# news: another config text\n");
+  const auto full = run_tool("/bin/sh",
+                             {"-c", "trap '' XFSZ; ulimit -f 16; exec \"$0\" \"$@\"",
+                              fs::absolute(testing::tool_path("imm-train")).string(), "all",
+                              "--config", p.plan.string(), "--reports", p.reports.string()},
+                             {}, 300);
+  EXPECT_NE(full.exit_code, 0) << full.err;
+  EXPECT_LT(full.exit_code, 128) << "crashed: " << full.err;
+  EXPECT_NE((full.err + full.out).find("File too large"), std::string::npos) << full.err;
+  EXPECT_EQ(sha256_of(shipped), first);
+  EXPECT_EQ(slurp(p.registry / "manifest.json"), manifest_bytes);
+
+  const auto next = nightly(p);
+  EXPECT_EQ(next.exit_code, 0) << next.err;
+  EXPECT_EQ(next.err.find("cached: failed"), std::string::npos) << next.err;
+  EXPECT_NE(sha256_of(shipped), first);
+  EXPECT_EQ(manifest(p)["models"][0]["sha256"], sha256_of(shipped));
 }
 
 // Only outcomes that follow from the inputs are cached: a training killed by a signal (here the
@@ -337,6 +399,25 @@ Plan write_plan_with_a_broken_model(const testing::TempDir& dir) {
   return write_plan(dir, "[[models]]\nname = \"broken\"\ncommand = \"freeze\"\nconfig = \"" +
                              (dir / "missing.toml").string() + "\"\nout = \"" +
                              (dir / "models" / "broken.h5").string() + "\"\n\n");
+}
+
+// A stage whose inputs do not read (here its evaluation's tool binary is missing, so the stage has
+// no digest) fails alone: the other stages run and the morning report is written.
+TEST(NightlyProduct, AStageThatCannotReadItsInputsFailsAlone) {
+  const testing::TempDir dir;
+  write_cv3(dir / "cv3.toml", 1.0);
+  const Plan p = write_plan(dir, "[[models]]\nname = \"solo\"\ncommand = \"freeze\"\nconfig = \"" +
+                                     (dir / "cv3.toml").string() + "\"\nout = \"" +
+                                     (dir / "models" / "solo.h5").string() + "\"\n\n");
+  const PlantedTools tools(dir / "bin");
+  fs::remove(dir / "bin" / "imm-eval");
+  const auto run = tools.night(p);
+  EXPECT_EQ(run.exit_code, 3) << run.err;
+  EXPECT_TRUE(fs::exists(p.registry / "solo.h5"));
+  EXPECT_FALSE(fs::exists(p.registry / "cv3.h5"));
+  const std::string report = slurp(p.reports / "latest" / "index.md");
+  EXPECT_NE(report.find("model cv3 — failed"), std::string::npos) << report;
+  EXPECT_NE(report.find("imm-eval: cannot open"), std::string::npos) << report;
 }
 
 TEST(NightlyProduct, AFailingStageDoesNotStopTheOthers) {

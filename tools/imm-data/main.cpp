@@ -25,6 +25,7 @@
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
 #include "imm/datasets/regime_file.hpp"
+#include "imm/io/container_file.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/support/exit_codes.hpp"
 
@@ -57,6 +58,7 @@ void write_csv(const std::string& path, const imm::datasets::Regime& regime,
 }  // namespace
 
 int main(int argc, char** argv) {
+  imm::io::skip_hdf5_shutdown_at_exit();  // before any HDF5 call (container_file.hpp)
   CLI::App app{"Draw a seeded, reproducible data set from a regime."};
   imm::support::standard_options(app, "imm-data");
   app.require_subcommand(1);

@@ -35,6 +35,7 @@
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
+#include "imm/io/container_file.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/trainer/ranks.hpp"
 
@@ -102,6 +103,7 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  imm::io::skip_hdf5_shutdown_at_exit();  // before any HDF5 call (container_file.hpp)
   const imm::trainer::Ranks::Session session(argc, argv);
   std::vector<std::string> arguments(argv, argv + argc);
   int code = 0;

@@ -266,6 +266,7 @@ int print_manifest(const std::string& path) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  imm::io::skip_hdf5_shutdown_at_exit();  // before any HDF5 call (container_file.hpp)
   CLI::App app{"Print what an immtrain model or data-set file holds."};
   imm::support::standard_options(app, "imm-inspect");
   std::string path;

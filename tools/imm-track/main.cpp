@@ -18,6 +18,7 @@
 #include <iostream>
 #include <memory>
 
+#include "imm/io/container_file.hpp"
 #include "imm/load.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/support/config.hpp"
@@ -69,6 +70,7 @@ void write_number(std::ostream& out, double value) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  imm::io::skip_hdf5_shutdown_at_exit();  // before any HDF5 call (container_file.hpp)
   CLI::App app{
       "Run a model file's filter (any kind) or a plain IMM TOML config over a measurement "
       "CSV."};

@@ -39,6 +39,7 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/pipeline/nightly.hpp"
 #include "imm/pipeline/promote.hpp"
@@ -109,6 +110,10 @@ int run_all(const NightlyCommand& command) {
 int run_rollback(const std::string& kind, const std::string& regime,
                  const std::filesystem::path& registry_folder) {
   imm::pipeline::Registry registry(registry_folder);
+  // A command killed before left the manifest's state or the one before it: make the files the
+  // manifest's first, so the rollback starts from what is recorded.
+  for (const auto& restored : registry.repair())
+    spdlog::info("restored {} from the archive", restored);
   // An entry's own name (a nightly stage's: "ga_fuzzy_imm_agile_air", a tracker's "agile_air")
   // names exactly one model.
   auto found = registry.find(kind, regime);
@@ -151,7 +156,9 @@ int run(int argc, char** argv) {
   auto* all_command = app.add_subcommand(
       "all", "the nightly: train candidates, evaluate, promote what passes, write the report");
   all_command->add_option("--config", nightly.config, "nightly plan TOML")->required();
-  all_command->add_flag("--force", nightly.force, "rerun every stage (ignore the stage cache)");
+  all_command->add_flag(
+      "--force", nightly.force,
+      "rerun every stage (ignore the stage cache) and let a rolled-back model be promoted again");
   all_command->add_option("--night", nightly.night, "report folder name (default: UTC date)");
   all_command->add_option("--reports", nightly.reports, "where the nightly reports go");
   all_command->add_flag("--sweep", nightly.sweep,
@@ -253,6 +260,7 @@ int run(int argc, char** argv) {
 }
 
 int main(int argc, char** argv) {
+  imm::io::skip_hdf5_shutdown_at_exit();  // before any HDF5 call (container_file.hpp)
   const imm::trainer::Ranks::Session session(argc, argv);
   const int code = run(argc, argv);
   // A rank that fails (a file it cannot write, an error only it saw) must not leave the others

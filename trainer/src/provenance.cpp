@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "imm/build_info.hpp"
+#include "imm/io/temporary_files.hpp"
 
 namespace imm::trainer {
 
@@ -52,12 +53,9 @@ void ensure_parent_folder(const std::filesystem::path& path) {
 
 namespace {
 
-// The temporary beside `path` that an atomic write renames over it: ".<name>.tmp-<pid>" (the
-// nightly removes stale ones).
+// The temporary beside `path` that an atomic write renames over it (imm/io/temporary_files.hpp).
 std::filesystem::path temporary_beside(const std::filesystem::path& path) {
-  std::string temp_name = ".";
-  temp_name.append(path.filename().string()).append(".tmp-").append(std::to_string(::getpid()));
-  return path.parent_path() / temp_name;
+  return io::temporary_beside(path);
 }
 
 // A file descriptor closed on scope exit.

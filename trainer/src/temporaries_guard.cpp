@@ -11,23 +11,18 @@
 #include <string>
 #include <system_error>
 
+#include "imm/io/temporary_files.hpp"
+
 namespace imm::trainer {
 
 int remove_temporaries_of(const std::filesystem::path& folder, long pid) {
-  const std::string marker = ".tmp-" + std::to_string(pid);
   int removed = 0;
   std::error_code error;
   for (const auto& entry : std::filesystem::directory_iterator(folder, error)) {
-    const std::string name = entry.path().filename().string();
-    const auto at = name.rfind(marker);
-    if (name.empty() || name.front() != '.' || at == std::string::npos || at == 0) continue;
-    const std::string rest = name.substr(at + marker.size());
-    bool matches = rest.empty();
-    if (rest.size() > 1 && rest.front() == '-') {
-      matches = rest.find_first_not_of("0123456789", 1) == std::string::npos;
-    }
+    const auto writer = io::temporary_writer(entry.path().filename().string());
+    if (!writer || writer->pid != pid || writer->host != io::this_host()) continue;
     std::error_code ignored;
-    if (matches && std::filesystem::remove(entry.path(), ignored)) ++removed;
+    if (std::filesystem::remove(entry.path(), ignored)) ++removed;
   }
   return removed;
 }

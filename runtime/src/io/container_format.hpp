@@ -131,6 +131,10 @@ inline std::string hdf5_cause() {
       },
       &cause);
   H5Eclear2(H5E_DEFAULT);
+  // One line: HDF5's descriptions of a failed write carry a ctime() date and its newline.
+  for (char& c : cause) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
   return cause.empty() ? "HDF5 error" : cause;
 }
 

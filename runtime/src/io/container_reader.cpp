@@ -403,13 +403,28 @@ std::vector<std::string> ContainerReader::attribute_names(std::string_view objec
   if (!handle.valid()) throw FileError(impl_->name(), path, "cannot open: " + hdf5_cause());
   std::vector<std::string> names;
   hsize_t index = 0;
-  H5Aiterate2(
+  // A walk that fails, or finds fewer attributes than the object header counts (a corrupt
+  // attribute index), is an error: a reader that silently drops attributes would let --verify
+  // say "ok" about a file that does not read whole.
+  const herr_t walked = H5Aiterate2(
       handle.get(), H5_INDEX_NAME, H5_ITER_INC, &index,
       [](hid_t, const char* name, const H5A_info_t*, void* data) -> herr_t {
         static_cast<std::vector<std::string>*>(data)->emplace_back(name);
         return 0;
       },
       &names);
+  if (walked < 0) {
+    throw FileError(impl_->name(), path, "cannot list the attributes: " + hdf5_cause());
+  }
+  H5O_info_t info{};
+  if (H5Oget_info2(handle.get(), &info, H5O_INFO_NUM_ATTRS) < 0) {
+    throw FileError(impl_->name(), path, "cannot read the object header: " + hdf5_cause());
+  }
+  if (info.num_attrs != names.size()) {
+    throw FileError(impl_->name(), path,
+                    "the attribute index lists " + std::to_string(names.size()) + " of " +
+                        std::to_string(info.num_attrs) + " attributes");
+  }
   return names;
 }
 

@@ -8,6 +8,7 @@
 #include <variant>
 
 #include "container_format.hpp"
+#include "imm/io/temporary_files.hpp"
 
 namespace imm::io {
 
@@ -57,11 +58,13 @@ void write_attribute(hid_t object, const std::string& name, const Attribute& val
 
 }  // namespace
 
+void skip_hdf5_shutdown_at_exit() { (void)H5dont_atexit(); }
+
 // --- Writer ----------------------------------------------------------------------------------
 
 struct ContainerWriter::Impl {
   std::filesystem::path final_path;
-  std::filesystem::path temp_path;  ///< ".<name>.tmp-<pid>-<n>" beside the target
+  std::filesystem::path temp_path;  ///< ".<name>.tmp-<pid>-<n>@<host>" beside the target
   bool temp_exists = false;
   std::string format;
   Handle file;
@@ -72,26 +75,12 @@ struct ContainerWriter::Impl {
 
 namespace {
 
-/// Removes what writers killed while writing left in `folder` (SIGKILL runs no destructor): hidden
-/// temporaries ".<name>.tmp-<pid>" or ".<name>.tmp-<pid>-<n>" — the pattern of this writer and of
-/// the trainer's atomic JSON writes — whose process no longer exists.
+/// Removes what writers killed while writing left in `folder` (SIGKILL runs no destructor): the
+/// temporaries of this host whose process no longer exists (imm/io/temporary_files.hpp).
 void remove_stale_temporaries(const std::filesystem::path& folder) {
   std::error_code error;
   for (const auto& entry : std::filesystem::directory_iterator(folder, error)) {
-    const std::string name = entry.path().filename().string();
-    const auto marker = name.rfind(".tmp-");
-    if (name.empty() || name.front() != '.' || marker == std::string::npos || marker == 0) continue;
-    const char* digits = name.c_str() + marker + 5;
-    char* end = nullptr;
-    const long pid = std::strtol(digits, &end, 10);
-    if (end == digits || pid <= 0) continue;
-    if (*end == '-') {
-      const char* counter = end + 1;
-      std::strtol(counter, &end, 10);
-      if (end == counter) continue;
-    }
-    if (*end != '\0') continue;
-    if (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
+    if (is_stale_temporary(entry.path().filename().string())) {
       std::error_code ignored;
       std::filesystem::remove(entry.path(), ignored);
     }
@@ -115,10 +104,7 @@ ContainerWriter::ContainerWriter(const std::filesystem::path& path, std::string_
     throw FileError(path.string(), "", "folder '" + folder.string() + "' does not exist");
   }
   remove_stale_temporaries(folder);
-  std::string temp_name = ".";
-  temp_name += path.filename().string();
-  temp_name += ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
-  impl_->temp_path = folder / temp_name;
+  impl_->temp_path = folder / temporary_beside(path, counter++).filename();
   // HDF5 needs a path to create its file (it resolves the name, so an unnamed O_TMPFILE behind
   // /proc/self/fd cannot serve), hence a hidden named file in the destination folder. A process
   // killed while it exists (SIGKILL runs no destructor) leaves it; the next writer in the same

@@ -2,6 +2,7 @@
 #include "imm/io/model_file.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <ctime>
 
 namespace imm::io {
@@ -39,8 +40,47 @@ std::string join_list(const std::vector<std::string>& parts) {
   return joined;
 }
 
+// A column, variable or attribute name: 1 to 64 of [A-Za-z0-9_.-] (printable, no list syntax).
 bool valid_name(std::string_view part) {
-  return !part.empty() && part.find_first_of(",=") == std::string_view::npos;
+  if (part.empty() || part.size() > 64) return false;
+  return std::all_of(part.begin(), part.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '.' || c == '-';
+  });
+}
+
+// `text` for a one-line message: bytes outside printable ASCII as \xNN.
+std::string printable(std::string_view text) {
+  std::string shown;
+  for (const char c : text.substr(0, 64)) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte >= 0x20 && byte < 0x7F) {
+      shown.push_back(c);
+    } else {
+      constexpr std::string_view kHex = "0123456789abcdef";
+      shown.append("\\x").push_back(kHex[byte >> 4U]);
+      shown.push_back(kHex[byte & 0xFU]);
+    }
+  }
+  return shown;
+}
+
+// A unit as docs/model-schema.md states them: "1", or FACTOR, or (FACTOR | "1") "/" FACTOR, where
+// FACTOR is m, km, s or rad with an optional exponent ^2 … ^9 (m/s^2, m^2/s^4, km^2/s^3, 1/s).
+bool valid_unit(std::string_view unit) {
+  auto factor = [](std::string_view f) {
+    const auto caret = f.find('^');
+    const std::string_view base = f.substr(0, caret);
+    if (base != "m" && base != "km" && base != "s" && base != "rad") return false;
+    if (caret == std::string_view::npos) return true;
+    const std::string_view exponent = f.substr(caret + 1);
+    return exponent.size() == 1 && exponent[0] >= '2' && exponent[0] <= '9';
+  };
+  if (unit == "1") return true;
+  const auto slash = unit.find('/');
+  if (slash == std::string_view::npos) return factor(unit);
+  const std::string_view numerator = unit.substr(0, slash);
+  return (numerator == "1" || factor(numerator)) && factor(unit.substr(slash + 1));
 }
 
 // Why a dataset's `units` do not fit its `entries` columns (a matrix) or entries (a vector): one
@@ -52,7 +92,9 @@ std::string units_problem(const std::vector<std::string>& units, std::size_t ent
            std::string(what);
   }
   for (const auto& unit : units) {
-    if (!valid_name(unit)) return "invalid unit '" + unit + "'";
+    if (!valid_unit(unit)) {
+      return "invalid unit '" + printable(unit) + "' (docs/model-schema.md: units)";
+    }
   }
   return {};
 }
@@ -88,7 +130,8 @@ void ModelFileWriter::write_matrix(std::string_view dataset, const Eigen::Matrix
   }
   for (const auto& column : columns) {
     if (!valid_name(column)) {
-      throw FileError(file, field_path(dataset, "columns"), "invalid column name '" + column + "'");
+      throw FileError(file, field_path(dataset, "columns"),
+                      "invalid column name '" + printable(column) + "'");
     }
   }
   if (const auto problem = units_problem(split_list(units), columns.size(), "columns");
@@ -133,9 +176,9 @@ void ModelFileWriter::set_attribute(std::string_view object, std::string_view na
 
 void ModelFileWriter::set_quantity(std::string_view object, std::string_view name, double value,
                                    std::string_view units) {
-  if (!valid_name(name) || !valid_name(units)) {
+  if (!valid_name(name) || !valid_unit(units)) {
     throw FileError(container_.path().string(), field_path(object, name),
-                    "invalid name or unit '" + std::string(units) + "'");
+                    "invalid name or unit '" + printable(units) + "'");
   }
   container_.set_attribute(object, name, value);
   auto& list = attribute_units_[field_path(object)];
@@ -234,9 +277,41 @@ ModelFileReader::ModelFileReader(const std::filesystem::path& path, std::string_
       }
     }
   }
+  check_values();
   if (schema_version_ >= 2) {
     check_self_description();
     require_attribute_units();
+  }
+}
+
+void ModelFileReader::check_values() const {
+  // One rule for every number in the file, whether a loader reads it or not (training curves,
+  // the GA levels' metadata): a real is finite, an integer is a count or a version (≥ 0).
+  for (const auto& object : container().objects()) {
+    for (const auto& name : container().attribute_names(object)) {
+      const auto value = container().attribute(object, name);
+      if (const auto* real = value ? std::get_if<double>(&*value) : nullptr) {
+        if (!std::isfinite(*real)) {
+          fail(field_path(object, name), "value " + std::to_string(*real) + " is not finite");
+        }
+      } else if (const auto* integer = value ? std::get_if<std::int64_t>(&*value) : nullptr) {
+        if (*integer < 0) {
+          fail(field_path(object, name), "negative (" + std::to_string(*integer) + ")");
+        }
+      }
+    }
+    if (container().kind(object) == ObjectKind::kDataset) {
+      const Array array = container().read(object);
+      for (std::size_t i = 0; i < array.values.size(); ++i) {
+        if (std::isfinite(array.values[i])) continue;
+        const std::string entry = array.rank() == 2
+                                      ? "(" + std::to_string(i / array.shape[1]) + ", " +
+                                            std::to_string(i % array.shape[1]) + ")"
+                                      : std::to_string(i);
+        fail(field_path(object),
+             "entry " + entry + " = " + std::to_string(array.values[i]) + " is not finite");
+      }
+    }
   }
 }
 
@@ -254,6 +329,12 @@ void ModelFileReader::check_self_description() const {
       if (shape.size() == 2) {
         if (!has("columns")) fail(field_path(object, "columns"), "missing (schema version 2)");
         const auto columns = split_list(text(object, "columns"));
+        for (const auto& column : columns) {
+          if (!valid_name(column)) {
+            fail(field_path(object, "columns"),
+                 "column name '" + printable(column) + "' is not 1 to 64 of [A-Za-z0-9_.-]");
+          }
+        }
         if (columns.size() != shape[1]) {
           fail(field_path(object, "columns"), "names " + std::to_string(columns.size()) +
                                                   " columns of a matrix with " +
@@ -271,8 +352,8 @@ void ModelFileReader::check_self_description() const {
       for (const auto& entry : split_list(text(object, "units"))) {
         const std::size_t equals = entry.find('=');
         if (equals == std::string::npos || !valid_name(entry.substr(0, equals)) ||
-            !valid_name(entry.substr(equals + 1))) {
-          fail(field_path(object, "units"), "entry '" + entry + "' is not name=unit");
+            !valid_unit(entry.substr(equals + 1))) {
+          fail(field_path(object, "units"), "entry '" + printable(entry) + "' is not name=unit");
         }
       }
     }

@@ -10,6 +10,7 @@
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/io/temporary_files.hpp"
 #include "imm/load.hpp"
 
 namespace imm::trainer {
@@ -35,13 +36,8 @@ SealResult seal_model_file(const std::filesystem::path& path) {
     result.before = problem.what();
   }
   const std::filesystem::path folder = path.parent_path().empty() ? "." : path.parent_path();
-  // The writers' temporary pattern: a guard removes it if this process dies. (Appended, not
-  // "." + …: GCC 12 warns falsely on that form, bug 105329.)
-  std::string name = ".";
-  name += path.filename().string();
-  name += ".tmp-";
-  name += std::to_string(::getpid());
-  const std::filesystem::path temp = folder / name;
+  // The writers' temporary pattern: a guard removes it if this process dies.
+  const std::filesystem::path temp = folder / io::temporary_beside(path).filename();
   std::filesystem::copy_file(path, temp, std::filesystem::copy_options::overwrite_existing);
   try {
     io::seal_container(temp, io::kModelFormat);

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -73,32 +74,56 @@ struct HeadlineFile {
 };
 [[nodiscard]] HeadlineFile read_headline(const std::filesystem::path& path);
 
+/// A practical margin: a difference smaller than max(relative × |value|, absolute) is no news
+/// for a tracking application, whatever its interval. `metric` names the metrics it applies to
+/// (those whose name contains it; empty: every metric); per field, the rule with the longest
+/// matching `metric` that sets it wins.
+struct MarginRule {
+  std::string metric;
+  std::optional<double> relative, absolute;
+};
+/// Parses "[METRIC=]VALUE" (the form of `--relative-margin` / `--absolute-margin`) into a rule with
+/// the value in the named field. Throws std::runtime_error on a bad or negative value.
+[[nodiscard]] MarginRule parse_margin(const std::string& text, bool relative);
+
 /// One metric of a candidate against the shipped model on the same runs.
 ///
-/// Worse means worse beyond the Monte Carlo uncertainty *and* beyond rounding: two models that
-/// differ only in the last bits of their parameters (a retraining on another machine, another
-/// summation order) give per-run differences of ~1e-15 relative whose bootstrap interval is as
-/// narrow as they are — evidence of rounding, not of a regression. A difference whose interval
-/// lies within kRoundingTolerance × |shipped| of zero is therefore a tie.
+/// Worse means worse beyond the Monte Carlo uncertainty *and* beyond the practical margin:
+/// - the interval must lie beyond rounding: two models that differ only in the last bits of their
+///   parameters give per-run differences of ~1e-15 relative whose bootstrap interval is as narrow
+///   as they are — evidence of rounding, not of a regression. A difference whose interval lies
+///   within kRoundingTolerance × |shipped| of zero is therefore a tie;
+/// - the difference itself must exceed `margin` (from the MarginRule of the metric): a retraining
+///   on another machine moves a trained model by its libm's rounding amplified through the
+///   optimizer's path, which a paired comparison on 100 tracks can resolve but no application
+///   can notice.
+/// Better is the same on the other side.
 struct Regression {
   static constexpr double kRoundingTolerance = 1e-9;
   std::string metric;
   double candidate = 0.0, shipped = 0.0;
   Difference difference;  ///< candidate − shipped with its 95 % paired-bootstrap interval
+  double margin = 0.0;    ///< the practical margin, in the metric's unit
   [[nodiscard]] double rounding() const {
     return kRoundingTolerance * std::max(std::abs(shipped), std::abs(candidate));
   }
-  [[nodiscard]] bool worse() const { return difference.lower > rounding(); }
-  [[nodiscard]] bool better() const { return difference.upper < -rounding(); }
+  [[nodiscard]] bool worse() const {
+    return difference.lower > rounding() && difference.estimate > margin;
+  }
+  [[nodiscard]] bool better() const {
+    return difference.upper < -rounding() && difference.estimate < -margin;
+  }
 };
 
-/// Compares every headline metric of `candidate` with the same-named one of `shipped`. Throws
-/// std::runtime_error when they were not evaluated on the same runs (experiment, regime digest,
-/// seed, number of runs) or a metric is missing.
-[[nodiscard]] std::vector<Regression> compare_headlines(const HeadlineFile& candidate,
-                                                        const HeadlineFile& shipped);
+/// Compares every headline metric of `candidate` with the same-named one of `shipped`, each with
+/// its practical margin from `margins`. Throws std::runtime_error when they were not evaluated on
+/// the same runs (experiment, regime digest, seed, number of runs) or a metric is missing.
+[[nodiscard]] std::vector<Regression> compare_headlines(
+    const HeadlineFile& candidate, const HeadlineFile& shipped,
+    const std::vector<MarginRule>& margins = {});
 
-/// `imm-eval regression --candidate DIR|FILE --shipped DIR|FILE [--out DIR]`.
+/// `imm-eval regression --candidate DIR|FILE --shipped DIR|FILE [--out DIR]
+///  [--relative-margin [METRIC=]R]… [--absolute-margin [METRIC=]A]…`.
 using ExitCode = int;
 void add_regression_command(CLI::App& app, ExitCode& exit_code);
 

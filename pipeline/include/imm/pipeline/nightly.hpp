@@ -23,6 +23,12 @@
 ///   [[tracks]]       filter, measurements, out
 ///   [[evaluations]]  experiment, model (a [[models]] name), out, [models], [regime], [runs],
 ///                    [seed], [arguments]
+///   [regression]     [relative_margin], [absolute_margin], reason — the practical margin of the
+///                    regression gate (`imm-eval regression`): a candidate is worse (or better)
+///                    than the shipped model only beyond the interval *and* by more than
+///                    max(relative_margin × |value|, absolute_margin)
+///   [[regression.margins]]  metric (a part of the metric names it applies to), [relative_margin],
+///                    [absolute_margin], reason — the margin of some metrics
 ///   [[trackers]]     name, baseline (a [[models]] name: `imm-train baseline`), candidates (the
 ///                    [[models]] names of the learned models of the same regime), out (the
 ///                    regime's tracker file, in the registry), report, [runs], [seed]
@@ -34,6 +40,15 @@
 /// With `sweep`, the candidates that are not cached are all trained first, in one `imm-train sweep`
 /// (under `launcher`: `mpirun -np 8`, `srun`), into the staging folder; then each model stage
 /// evaluates and promotes its candidate as above.
+///
+/// A candidate that ties the shipped model — the same model but for its build and training date
+/// (registry.hpp's model_difference), or no metric better or worse beyond the interval and the
+/// margin while trained from the same config, regime and schema — is not promoted: the shipped
+/// file stays byte for byte, so a night without news changes nothing in models/.
+///
+/// A candidate that is a model a person rolled back (`imm-train rollback`, recorded in the
+/// manifest: Registry::rejection) is not promoted again until a person says so: `--force`, or
+/// `imm-train promote`.
 ///
 /// Exit codes of the run: 0 nothing failed and nothing was held back (findings — a learned model
 /// that does not beat the baseline tuned on its regime — are reported, not failures), 3 a stage
@@ -61,6 +76,16 @@ struct NightlyStage {
   std::optional<std::size_t> out_argument, model_argument;
 };
 
+/// A practical margin of the regression gate, with the reason it is no news (nightly.toml's
+/// [regression] and [[regression.margins]]).
+struct RegressionMargin {
+  std::string metric;  ///< empty: every metric
+  std::optional<double> relative, absolute;
+  std::string reason;
+  /// As `imm-eval regression` arguments.
+  [[nodiscard]] std::vector<std::string> arguments() const;
+};
+
 struct NightlyPlan {
   std::filesystem::path registry = "models";
   /// Promote candidates trained by a build of a tree with uncommitted changes (trainer_version
@@ -69,6 +94,8 @@ struct NightlyPlan {
   bool allow_dirty_trainer = false;
   /// The page of the latest evaluations, rewritten after every night (write_evaluations_page).
   std::optional<std::filesystem::path> evaluations_page;
+  /// The regression gate's practical margins (none: the interval alone decides).
+  std::vector<RegressionMargin> margins;
   std::vector<NightlyStage> stages;
   /// The evaluations of a model stage.
   [[nodiscard]] std::vector<const NightlyStage*> evaluations_of(const std::string& model) const;

@@ -35,6 +35,9 @@ struct RegistryEntry {
   std::string regime_name, regime_digest;
   std::string file;  ///< relative to the models folder
   std::string sha256;
+  /// SHA-256 of the metrics file shipped beside it (<stem>.metrics.json), "none" when it ships
+  /// without one (a stale one is removed), empty in entries written before it was recorded.
+  std::string metrics_sha256;
   int schema_version = 0;
   std::string trainer_version;
   std::string config_digest;  ///< SHA-256 of the recorded config text
@@ -46,6 +49,10 @@ struct RegistryEntry {
   /// nightly promotion.
   std::string promotion_reason;
   std::vector<RegistryEntry> history;  ///< replaced entries, newest first
+  /// Models a person rolled back from this name, newest first: the nightly does not promote the
+  /// same model again (Registry::rejection) until a person says so.
+  std::vector<RegistryEntry> rejected;
+  std::string rolled_back_utc;  ///< of a rejected entry: when it was rolled back
 };
 
 /// Whether the entry's file was written by a build of uncommitted code (trainer_version "…-dirty"):
@@ -59,6 +66,15 @@ struct RegistryEntry {
 /// Why `digest` is not a SHA-256 digest as the registry writes it (64 lowercase hex digits; empty
 /// when it is): a digest names the archive copy a repair ships.
 [[nodiscard]] std::string sha256_problem(std::string_view digest);
+
+/// Why the models in two files differ, or empty when they are the same model: the same objects,
+/// the same attributes, texts and integers equal, and every real equal to within 1e-6 of the
+/// largest magnitude of its dataset (or attribute) — rounding, as another machine's libm or another
+/// summation order gives it — except what says when and by which build a file was written
+/// (`created_utc`, `trainer_version`) and how long its steps took (attributes named "…seconds").
+/// Two trainings of one definition that differ only in that are the same model: no news to ship.
+[[nodiscard]] std::string model_difference(const std::filesystem::path& a,
+                                           const std::filesystem::path& b);
 
 /// The registry entry of a model file (kind, regime, digests, dates from its provenance).
 [[nodiscard]] RegistryEntry describe_model(const std::filesystem::path& file,
@@ -81,8 +97,9 @@ class Registry {
   [[nodiscard]] std::vector<const RegistryEntry*> find(const std::string& kind,
                                                        const std::string& regime) const;
 
-  /// Makes every shipped file match the manifest (restoring from the archive); returns the files
-  /// it rewrote. Throws std::runtime_error when a needed archived file is missing.
+  /// Makes every shipped file and its metrics file match the manifest (restoring from the
+  /// archive); returns the files it rewrote. Throws std::runtime_error when a needed archived file
+  /// is missing.
   std::vector<std::string> repair();
 
   /// Ships `candidate` (a model file) as `entry.name` at `entry.file`, with its metrics file
@@ -90,9 +107,18 @@ class Registry {
   void promote(RegistryEntry entry, const std::filesystem::path& candidate,
                const std::optional<std::filesystem::path>& metrics_file = std::nullopt);
 
-  /// Restores the entry before the current one of `name`; returns the restored entry. Throws
+  /// Restores the entry before the current one of `name` and records the current one as rejected
+  /// (in the restored entry's `rejected`, with the time); returns the restored entry. Throws
   /// std::runtime_error when there is none.
   RegistryEntry rollback(const std::string& name);
+
+  /// The model rolled back from `name` that `candidate` is again — the same file, the same nightly
+  /// inputs, or the same model but for its build and date (model_difference against the archived
+  /// copy) — or nothing. A promotion of such a candidate (by hand, or a nightly with --force)
+  /// clears the record.
+  [[nodiscard]] std::optional<RegistryEntry> rejection(const std::string& name,
+                                                       const std::filesystem::path& candidate,
+                                                       const std::string& inputs_digest) const;
 
   /// Records an existing shipped file without promotion (a manifest started from models/).
   void adopt(const RegistryEntry& entry);
@@ -104,7 +130,16 @@ class Registry {
   /// by the next one.
   void commit(std::vector<RegistryEntry> entries);
   void archive(const std::filesystem::path& file, const std::string& sha256) const;
-  void materialize(const RegistryEntry& entry) const;
+  /// Where the archive keeps a metrics file, by its own SHA-256.
+  [[nodiscard]] std::filesystem::path metrics_archive_path(const std::string& sha256) const;
+  /// Archives a metrics file (when there is one); returns its SHA-256, or "none".
+  std::string archive_metrics(const std::optional<std::filesystem::path>& file) const;
+  /// Makes the shipped file (and its metrics file: the archived one, or none) the entry's; returns
+  /// whether it rewrote either.
+  bool materialize(const RegistryEntry& entry) const;
+  /// Whether `candidate` (with that SHA-256 and nightly inputs) is the rejected model `r`.
+  [[nodiscard]] bool is_rejected(const RegistryEntry& r, const std::filesystem::path& candidate,
+                                 const std::string& sha256, const std::string& inputs) const;
 
   std::filesystem::path folder_;
   std::vector<RegistryEntry> entries_;

@@ -130,6 +130,14 @@ class IMM_RUNTIME_EXPORT ContainerReader {
   std::unique_ptr<Impl> impl_;
 };
 
+/// For a program's main, before anything else touches HDF5: the library then skips its own
+/// shutdown at exit. After a write that failed (a full disk, a file-size limit) HDF5 1.10 cannot
+/// close the file it was writing, and its shutdown at exit crashes on it or loops ("infinite loop
+/// closing library" on stderr) — after the program has reported the failure in one line. A reader
+/// has nothing to flush; a writer's temporary is removed by the next writer in its folder. Every
+/// imm-* tool calls it; a library that embeds the runtime need not.
+IMM_RUNTIME_EXPORT void skip_hdf5_shutdown_at_exit();
+
 /// Size of the user block an HDF5 file needs to become a container.
 inline constexpr std::size_t kContainerHeaderBytes = 512;
 

@@ -164,6 +164,7 @@ class IMM_RUNTIME_EXPORT ModelFileReader : public SchemaReader {
 
  private:
   void check_self_description() const;
+  void check_values() const;
 
   Provenance provenance_;
   int schema_version_ = 0;

@@ -3,12 +3,12 @@
 /// What a trainer killed with SIGKILL leaves behind, removed by a process that outlives it.
 ///
 /// Model files, checkpoints and JSON sidecars are written under a hidden temporary name
-/// (".<name>.tmp-<pid>[-<n>]") and renamed into place, so a kill never leaves a partial file under
-/// an output's name; but SIGKILL runs no destructor, so a kill while a file is being written leaves
-/// its temporary. guard_temporaries() forks a small guard process that waits on a pipe from this
-/// one: when this process ends — normally or killed — the pipe closes and the guard removes this
-/// process's temporaries from the given folders, then exits. Call it once, early, before any thread
-/// starts (it forks).
+/// (".<name>.tmp-<pid>[-<n>]@<host>", imm/io/temporary_files.hpp) and renamed into place, so a kill
+/// never leaves a partial file under an output's name; but SIGKILL runs no destructor, so a kill
+/// while a file is being written leaves its temporary. guard_temporaries() forks a small guard
+/// process that waits on a pipe from this one: when this process ends — normally or killed — the
+/// pipe closes and the guard removes this process's temporaries from the given folders, then exits.
+/// Call it once, early, before any thread starts (it forks).
 
 #include <filesystem>
 #include <vector>
@@ -20,8 +20,8 @@ namespace imm::trainer {
 /// stale temporaries too).
 void guard_temporaries(const std::vector<std::filesystem::path>& folders);
 
-/// Removes ".<name>.tmp-<pid>" and ".<name>.tmp-<pid>-<n>" files of process `pid` in `folder`.
-/// Returns how many were removed.
+/// Removes the temporaries of process `pid` of this host in `folder` (another host's process of
+/// the same ID is another process). Returns how many were removed.
 int remove_temporaries_of(const std::filesystem::path& folder, long pid);
 
 }  // namespace imm::trainer
