@@ -70,8 +70,10 @@ std::string model_difference(const std::filesystem::path& a, const std::filesyst
                             ? close(*p, *q, std::max(std::abs(*p), std::abs(*q)))
                             : u == v;
       if (!same) {
-        return object + "@" + name + " is " + (u ? attribute_text(*u) : "absent") + " against " +
-               (v ? attribute_text(*v) : "absent");
+        std::string text = object;
+        text.append("@").append(name).append(" is ");
+        text.append(u ? attribute_text(*u) : "absent").append(" against ");
+        return text.append(v ? attribute_text(*v) : "absent");
       }
     }
   }

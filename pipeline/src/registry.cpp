@@ -248,7 +248,7 @@ std::filesystem::path Registry::metrics_archive_path(const std::string& sha256) 
 
 std::string Registry::archive_metrics(const std::optional<std::filesystem::path>& file) const {
   if (!file || !std::filesystem::exists(*file)) return std::string(kNoMetrics);
-  const std::string sha256 = datasets::file_sha256_hex(*file);
+  std::string sha256 = datasets::file_sha256_hex(*file);
   const auto target = metrics_archive_path(sha256);
   if (!std::filesystem::exists(target) || datasets::file_sha256_hex(target) != sha256) {
     copy_atomically(*file, target);
@@ -366,6 +366,10 @@ void Registry::promote(RegistryEntry entry, const std::filesystem::path& candida
     entry.history.insert(entry.history.begin(), std::move(previous));
     *it = std::move(entry);
   } else {
+    // A file under the name that the manifest does not know (one that could not be adopted) is
+    // never overwritten without an archive copy.
+    const auto existing = folder_ / entry.file;
+    if (std::filesystem::exists(existing)) archive(existing, datasets::file_sha256_hex(existing));
     next.push_back(std::move(entry));
   }
   // 2. The commit point: one rename of the manifest (the entries change only when it is done).

@@ -370,6 +370,20 @@ TEST(Registry, KillNineDuringPromoteAndRollbackLeavesTheOldOrTheNewState) {
   EXPECT_GT(killed, 0);
 }
 
+// A shipped file the manifest does not know (it could not be adopted) is archived before a
+// promotion replaces it: nothing shipped is ever lost.
+TEST(Registry, AnUnrecordedShippedFileIsArchivedBeforeItIsReplaced) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  const auto [first, second] = write_two_models(dir);
+  std::filesystem::create_directories(models);
+  std::filesystem::copy_file(first, models / "cv3.h5");
+  Registry registry(models);
+  registry.promote(entry_of(second, dir, "cv3"), second);
+  EXPECT_EQ(bytes_of(models / "cv3.h5"), bytes_of(second));
+  EXPECT_EQ(bytes_of(registry.archive_path(datasets::file_sha256_hex(first))), bytes_of(first));
+}
+
 // A model's metrics file ships with it or not at all: a model promoted without one does not keep
 // the metrics of the model it replaced, a rollback brings the old ones back, and repair restores
 // a lost or changed one from the archive.

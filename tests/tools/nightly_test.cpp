@@ -184,6 +184,9 @@ TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
   ASSERT_EQ(m["models"][0]["rejected"].size(), 1u) << m.dump(2);
   EXPECT_EQ(m["models"][0]["rejected"][0]["sha256"], second);
   EXPECT_FALSE(m["models"][0]["rejected"][0]["rolled_back_utc"].get<std::string>().empty());
+  const auto listed =
+      run_tool("imm-inspect", {"--manifest", (p.registry / "manifest.json").string()}, {});
+  EXPECT_NE(listed.out.find("- cv3: " + second.substr(0, 12)), std::string::npos) << listed.out;
   run = nightly(p);
   EXPECT_EQ(run.exit_code, 0) << run.err;
   EXPECT_EQ(sha256_of(shipped), first);

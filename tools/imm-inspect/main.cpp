@@ -256,6 +256,20 @@ int print_manifest(const std::string& path) {
       header = true;
       std::cout << "- " << e.at("name").get<std::string>() << ": " << reason << '\n';
     }
+    header = false;
+    for (const json& e : manifest.at("models")) {
+      if (!e.contains("rejected")) continue;
+      if (!header) {
+        std::cout << "\nRolled back (not promoted again until --force or imm-train promote):\n";
+      }
+      header = true;
+      for (const json& r : e.at("rejected")) {
+        std::cout << "- " << e.at("name").get<std::string>() << ": "
+                  << r.at("sha256").get<std::string>().substr(0, 12) << ", trained "
+                  << r.at("trained_utc").get<std::string>() << ", rolled back "
+                  << r.value("rolled_back_utc", std::string("–")) << '\n';
+      }
+    }
   } catch (const json::exception& error) {
     std::cerr << "imm-inspect: " << path << ": not a model manifest (" << error.what() << ")\n";
     return 2;
