@@ -36,6 +36,7 @@ nlohmann::json to_json(const RegistryEntry& e) {
                       {"metrics", e.metrics}};
   if (!e.promotion_reason.empty()) j["promotion_reason"] = e.promotion_reason;
   if (!e.metrics_sha256.empty()) j["metrics_sha256"] = e.metrics_sha256;
+  if (!e.learned_part.empty()) j["learned_part"] = e.learned_part;
   if (!e.history.empty()) {
     j["history"] = nlohmann::json::array();
     for (const RegistryEntry& h : e.history) j["history"].push_back(to_json(h));
@@ -66,6 +67,12 @@ RegistryEntry from_json(const nlohmann::json& j, const std::string& where) {
     e.metrics = j.value("metrics", nlohmann::json::object());
     e.promotion_reason = j.value("promotion_reason", "");
     e.metrics_sha256 = j.value("metrics_sha256", "");
+    e.learned_part = j.value("learned_part", "");
+    if (!e.learned_part.empty() && e.learned_part != "on" && e.learned_part != "off" &&
+        e.learned_part != "none") {
+      throw std::runtime_error("learned_part: '" + e.learned_part +
+                               "' is not \"on\", \"off\" or \"none\"");
+    }
     if (j.contains("history")) {
       for (const auto& h : j.at("history")) e.history.push_back(from_json(h, where + ".history"));
     }
@@ -135,6 +142,16 @@ std::filesystem::path metrics_beside(const std::filesystem::path& model) {
 
 }  // namespace
 
+namespace {
+
+std::string learned_part_of(const io::Provenance& p) {
+  const auto it = p.training_metrics.find("learned_part_on");
+  if (it == p.training_metrics.end()) return "none";
+  return it->second > 0.5 ? "on" : "off";
+}
+
+}  // namespace
+
 bool from_uncommitted_code(const RegistryEntry& entry) {
   return entry.trainer_version.ends_with("-dirty");
 }
@@ -177,6 +194,7 @@ RegistryEntry describe_model(const std::filesystem::path& file,
   e.config_digest = datasets::sha256_hex(p.config_toml);
   e.trained_utc = p.created_utc;
   e.file = std::filesystem::relative(file, models_folder).generic_string();
+  e.learned_part = learned_part_of(p);
   return e;
 }
 
@@ -311,6 +329,19 @@ std::vector<std::string> Registry::repair() {
   for (const RegistryEntry& e : entries_) {
     if (materialize(e)) rewritten.push_back(e.file);
   }
+  // Entries written before `learned_part` was recorded get it from the file they ship (once).
+  std::vector<RegistryEntry> described = entries_;
+  bool changed = false;
+  for (RegistryEntry& e : described) {
+    if (!e.learned_part.empty()) continue;
+    try {
+      e.learned_part = learned_part_of(io::ModelFileReader(folder_ / e.file).provenance());
+      changed = true;
+    } catch (const std::exception&) {
+      // A file that does not read says nothing here; its own stage reports it.
+    }
+  }
+  if (changed) commit(std::move(described));
   return rewritten;
 }
 

@@ -384,6 +384,36 @@ TEST(Registry, AnUnrecordedShippedFileIsArchivedBeforeItIsReplaced) {
   EXPECT_EQ(bytes_of(registry.archive_path(datasets::file_sha256_hex(first))), bytes_of(first));
 }
 
+// The manifest says whether each model's learned part is on, switched off by its fit (the file is
+// its tuned baseline), or absent from its kind — and a manifest written before it was recorded
+// gets it from the shipped files at the next repair.
+TEST(Registry, TheManifestSaysWhetherTheLearnedPartIsOn) {
+  const testing::TempDir dir;
+  const auto models = dir / "models";
+  std::filesystem::create_directories(models);
+  const std::vector<std::pair<std::string, std::string>> shipped = {
+      {"ga_fuzzy_imm_agile_air", "on"},
+      {"ga_fuzzy_imm_ground_vehicle", "off"},
+      {"cv3_imm", "none"}};
+  {
+    Registry registry(models);
+    for (const auto& [name, part] : shipped) {
+      const auto file = std::filesystem::path("models") / (name + ".h5");
+      registry.promote(entry_of(file, dir, name), file);
+      EXPECT_EQ(registry.find(name)->learned_part, part) << name;
+    }
+  }
+  auto manifest = nlohmann::json::parse(read_text_file(models / "manifest.json"));
+  for (auto& e : manifest["models"]) e.erase("learned_part");
+  testing::write_text(models / "manifest.json", manifest.dump(2));
+  EXPECT_EQ(Registry(models).find("cv3_imm")->learned_part, "");
+  Registry registry(models);
+  (void)registry.repair();
+  for (const auto& [name, part] : shipped) {
+    EXPECT_EQ(Registry(models).find(name)->learned_part, part) << name;
+  }
+}
+
 // A model's metrics file ships with it or not at all: a model promoted without one does not keep
 // the metrics of the model it replaced, a rollback brings the old ones back, and repair restores
 // a lost or changed one from the archive.

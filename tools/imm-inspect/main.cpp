@@ -220,7 +220,7 @@ int print_manifest(const std::string& path) {
   try {
     manifest = json::parse(in);
     std::cout << "| name | kind | regime | file | sha256 | schema | trainer | trained | promoted | "
-                 "earlier |\n|---|---|---|---|---|---|---|---|---|---|\n";
+                 "earlier | learned part |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const json& e : manifest.at("models")) {
       const std::string promoted = e.value("promoted_utc", "");
       std::cout << "| " << e.at("name").get<std::string>() << " | "
@@ -232,7 +232,8 @@ int print_manifest(const std::string& path) {
                 << e.at("trainer_version").get<std::string>() << " | "
                 << e.at("trained_utc").get<std::string>() << " | "
                 << (promoted.empty() ? "–" : promoted) << " | "
-                << (e.contains("history") ? e.at("history").size() : 0) << " |\n";
+                << (e.contains("history") ? e.at("history").size() : 0) << " | "
+                << e.value("learned_part", std::string("–")) << " |\n";
     }
     std::cout << "\n| name | metric | value [95 %] | vs the model it replaced [95 %] "
                  "|\n|---|---|---|---|\n";

@@ -45,6 +45,11 @@ struct RegistryEntry {
   std::string inputs_digest;  ///< the nightly stage's inputs (empty: not from a nightly)
   std::string promoted_utc;
   nlohmann::json metrics = nlohmann::json::object();  ///< headline metrics with intervals
+  /// Whether the model's learned part is on ("on"), switched off by its fit so that the file is its
+  /// tuned baseline ("off"), or the kind has no such switch ("none"); from the file's
+  /// `training.learned_part_on`. Empty in entries written before it was recorded (repair fills it
+  /// in from the shipped file).
+  std::string learned_part;
   /// Why a person promoted the file past the nightly's gates (`imm-train promote`); empty for a
   /// nightly promotion.
   std::string promotion_reason;
