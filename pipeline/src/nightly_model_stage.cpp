@@ -376,6 +376,12 @@ std::optional<std::string> Night::no_news(const NightlyStage& stage, const fs::p
   } catch (const std::exception& error) {
     return std::nullopt;  // a file that does not read is no tie; the promotion says why
   }
+  // A candidate that holds what the shipped file lacks (or the reverse) is news: a new field of
+  // the file's content (its calibrated envelope, say), whatever its metrics.
+  if (difference.starts_with("they hold different objects") ||
+      difference.find(" has other attributes") != std::string::npos) {
+    return std::nullopt;
+  }
   if (difference.empty()) {
     return "the candidate is the shipped model (the same parameters to rounding; only its build "
            "and training date differ): " +

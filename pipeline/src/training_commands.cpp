@@ -17,6 +17,7 @@
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/ga/tuned_baseline_file.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
+#include "imm/trainer/model_files/envelope.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/ranks.hpp"
 #include "imm/trainer/temporaries_guard.hpp"
@@ -368,6 +369,12 @@ std::optional<std::filesystem::path> TrainingCommands::chosen_out() const {
 }
 
 int TrainingCommands::run() const {
+  const int code = dispatch();
+  if (code == 0 && trainer::Ranks::world().root()) trainer::calibrate_written_model(chosen_out());
+  return code;
+}
+
+int TrainingCommands::dispatch() const {
   if (*ga_) return run_ga(ga_command_);
   if (*freeze_) return run_freeze(freeze_options_);
   if (*mlp_) return train_mlp(mlp_command_);

@@ -59,6 +59,7 @@ FilterMaker load(const io::ModelFileReader& reader, std::int64_t max_gap) {
     reader.fail("/@model_kind",
                 "unknown model kind '" + kind + "' (this runtime reads " + known + ")");
   }
+  loaded.options.envelope = reader.envelope();
   return loaded;
 }
 

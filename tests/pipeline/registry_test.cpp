@@ -361,7 +361,9 @@ TEST(Registry, KillNineDuringPromoteAndRollbackLeavesTheOldOrTheNewState) {
     for (const RegistryEntry& e : registry.entries()) {
       EXPECT_EQ(datasets::file_sha256_hex(models / e.file), e.sha256) << "round " << round;
       const auto metrics = trainer::metrics_path(models / e.file);
-      if (e.metrics_sha256 == "none") EXPECT_FALSE(std::filesystem::exists(metrics));
+      if (e.metrics_sha256 == "none") {
+        EXPECT_FALSE(std::filesystem::exists(metrics));
+      }
       if (e.metrics_sha256.size() == 64) {
         EXPECT_EQ(datasets::file_sha256_hex(metrics), e.metrics_sha256) << "round " << round;
       }

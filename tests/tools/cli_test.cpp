@@ -150,7 +150,10 @@ TEST(CommandLine, ImmTrackRunsEveryShippedKindAndWritesNumbersLosslessly) {
     Eigen::VectorXd mean(n), variance(n);
     tracker.state(mean, variance);
     const ModeVector mu = tracker.mode_probabilities();
-    ASSERT_EQ(last.size(), static_cast<std::size_t>(2 * n + mu.size()));
+    // …, the modes' probabilities, then the envelope test: the window's mean NIS and its flag.
+    ASSERT_EQ(last.size(), static_cast<std::size_t>(2 * n + mu.size() + 2));
+    EXPECT_EQ(last[last.size() - 2], tracker.envelope().mean());
+    EXPECT_EQ(last.back(), tracker.envelope().outside() ? 1.0 : 0.0);
     for (int i = 0; i < n; ++i) {
       EXPECT_EQ(last[static_cast<std::size_t>(i)], mean(i)) << "state " << i;
       EXPECT_EQ(last[static_cast<std::size_t>(n + i)], variance(i)) << "variance " << i;

@@ -13,6 +13,7 @@
 
 #include <CLI/CLI.hpp>
 #include <charconv>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -128,7 +129,7 @@ int main(int argc, char** argv) {
   for (const auto& name : names) out << ',' << name;
   for (const auto& name : names) out << ",var_" << name;
   for (const auto& mode : modes) out << ",mu_" << mode;
-  out << '\n';
+  out << ",envelope_nis,outside_envelope\n";
 
   Eigen::VectorXd mean(n), variance(n);
   std::size_t rejected = 0;
@@ -159,7 +160,11 @@ int main(int argc, char** argv) {
     } else {
       for (int i = 0; i < 2 * n + tracker.mode_count(); ++i) out << ',';
     }
-    out << '\n';
+    // The envelope test (imm/tracking/envelope.hpp): the window's mean NIS, and 1 when the plots
+    // no longer fit the model.
+    out << ',';
+    if (std::isfinite(result.envelope_nis)) write_number(out, result.envelope_nis);
+    out << ',' << (result.outside_envelope ? 1 : 0) << '\n';
   }
   if (rejected > 0) std::cerr << "imm-track: " << rejected << " row(s) not used\n";
   return 0;

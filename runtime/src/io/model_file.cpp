@@ -5,6 +5,8 @@
 #include <cmath>
 #include <ctime>
 
+#include "imm/core/invalid_parameter.hpp"
+
 namespace imm::io {
 
 std::string utc_now() {
@@ -194,7 +196,22 @@ void ModelFileWriter::require_schema_version(int version) {
   schema_version_ = std::max(schema_version_, version);
 }
 
+void ModelFileWriter::set_envelope(const EnvelopeSettings& settings) {
+  try {
+    settings.validate();
+  } catch (const InvalidParameter& invalid) {
+    throw FileError(container_.path().string(), "/envelope", invalid.what());
+  }
+  container_.create_group("/envelope");
+  set_attribute("/envelope", "window", std::int64_t{settings.window});
+  set_quantity("/envelope", "significance", settings.significance, kDimensionless);
+  set_quantity("/envelope", "scale", settings.scale, kDimensionless);
+  set_quantity("/envelope", "dof", settings.dof, kDimensionless);
+  envelope_written_ = true;
+}
+
 void ModelFileWriter::commit() {
+  if (!envelope_written_) set_envelope(EnvelopeSettings{});
   container_.set_attribute("/", "format", std::string(kModelFormat));
   container_.set_attribute("/", "schema_version", std::int64_t{schema_version_});
   container_.set_attribute("/", "model_kind", provenance_.model_kind);
@@ -281,6 +298,18 @@ ModelFileReader::ModelFileReader(const std::filesystem::path& path, std::string_
   if (schema_version_ >= 2) {
     check_self_description();
     require_attribute_units();
+  }
+  if (container().kind("/envelope") != ObjectKind::kMissing) {
+    envelope_.window =
+        static_cast<int>(integer("/envelope", "window", 1, EnvelopeSettings::kMaxWindow));
+    envelope_.significance = real("/envelope", "significance", ValueRule::kProbability);
+    envelope_.scale = real("/envelope", "scale", ValueRule::kPositive);
+    envelope_.dof = real("/envelope", "dof", ValueRule::kNonNegative);
+    try {
+      envelope_.validate();
+    } catch (const InvalidParameter& invalid) {
+      fail("/envelope@" + invalid.field().substr(invalid.field().find('.') + 1), invalid.what());
+    }
   }
 }
 

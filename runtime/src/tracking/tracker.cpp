@@ -96,7 +96,7 @@ TrackOptions PlainImmSpec::track_options(std::int64_t max_gap) const {
 }
 
 Tracker::Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options)
-    : filter_(std::move(filter)), options_(std::move(options)) {
+    : filter_(std::move(filter)), options_(std::move(options)), envelope_(options_.envelope) {
   if (!filter_) throw InvalidParameter("filter", "must not be null");
   if (options_.max_gap < 1) throw InvalidParameter("max_gap", "must be at least 1");
   limits::require_in(options_.sample_period, limits::kSamplePeriod, "sample_period");
@@ -154,6 +154,12 @@ TrackStepResult Tracker::reject(StepStatus status, std::string_view reason) cons
   result.event = TrackEvent::kRejected;
   result.status = status;
   result.reason = reason;
+  return with_envelope(result);
+}
+
+TrackStepResult Tracker::with_envelope(TrackStepResult result) const {
+  result.outside_envelope = envelope_.outside();
+  result.envelope_nis = envelope_.mean();
   return result;
 }
 
@@ -170,6 +176,7 @@ TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
     initialized_ = false;  // track lost: start again from this plot
     first_plot_.reset();
   }
+  if (!initialized_) envelope_.reset();  // a new track, a new window
 
   TrackStepResult result;
   if (!initialized_) {
@@ -180,7 +187,7 @@ TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
       initialized_ = true;
       last_scan_ = scan;
       result.event = TrackEvent::kInitialized;
-      return result;
+      return with_envelope(result);
     }
     const Plot plot = cartesian_plot(scan, z);
     if (!plot.position.allFinite()) {
@@ -191,14 +198,14 @@ TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
       first_plot_ = plot;
       last_scan_ = scan;
       result.event = TrackEvent::kWaiting;
-      return result;
+      return with_envelope(result);
     }
     start_track(*first_plot_, plot);
     first_plot_.reset();
     initialized_ = true;
     last_scan_ = scan;
     result.event = TrackEvent::kInitialized;
-    return result;
+    return with_envelope(result);
   }
 
   // Predict through the skipped scans, then update. If the update fails, the predictions stay:
@@ -222,7 +229,19 @@ TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
     return failed;
   }
   result.event = TrackEvent::kUpdated;
-  return result;
+  // The envelope test: this update's NIS into the window (fixed storage, no allocation).
+  Eigen::Vector2d nu;
+  Eigen::Matrix2d S;
+  if (filter_->innovation(nu, S)) {
+    const double det = S(0, 0) * S(1, 1) - S(0, 1) * S(1, 0);
+    if (det > 0.0) {
+      const double nis = (S(1, 1) * nu(0) * nu(0) - (S(0, 1) + S(1, 0)) * nu(0) * nu(1) +
+                          S(0, 0) * nu(1) * nu(1)) /
+                         det;
+      (void)envelope_.add(nis);
+    }
+  }
+  return with_envelope(result);
 }
 
 // Eigen::Ref is a writable view and is passed by value by design.

@@ -13,16 +13,13 @@
 #include <string>
 
 #include "imm/evaluation/headline.hpp"
+#include "imm/math/chi_square.hpp"
 
 namespace imm::evaluation {
 
-/// The regularized lower incomplete gamma function P(a, x) = γ(a, x) / Γ(a), a > 0, x ≥ 0: the
-/// χ² CDF with k degrees of freedom is P(k/2, x/2). Throws std::invalid_argument outside its
-/// domain.
-[[nodiscard]] double regularized_gamma_p(double a, double x);
-
-/// The x with P(χ²_dof ≤ x) = p, for 0 < p < 1 and dof > 0 (relative accuracy ~1e-12).
-[[nodiscard]] double chi_square_quantile(double p, double dof);
+/// (imm/math/chi_square.hpp: the runtime's envelope monitor uses them too.)
+using imm::chi_square_quantile;
+using imm::regularized_gamma_p;
 
 /// The two-sided bounds of an average of `runs` independent NEES or NIS values of dimension
 /// `dimension` under consistency, at `confidence` (0.95: the 2.5 and 97.5 % quantiles).

@@ -49,12 +49,14 @@ class TrainingCommands {
   /// The model file of the subcommand the command line chose, if it chose one of these.
   [[nodiscard]] std::optional<std::filesystem::path> chosen_out() const;
 
-  /// Runs the chosen subcommand; its exit code (support/exit_codes.hpp).
+  /// Runs the chosen subcommand, then calibrates the written model's envelope test on its regime
+  /// (imm/trainer/model_files/envelope.hpp); its exit code (support/exit_codes.hpp).
   [[nodiscard]] int run() const;
 
   [[nodiscard]] const CLI::App* ga() const { return ga_; }
 
  private:
+  [[nodiscard]] int dispatch() const;
   [[nodiscard]] std::vector<std::pair<const CLI::App*, std::filesystem::path>> outputs() const;
 
   GaCommand ga_command_;

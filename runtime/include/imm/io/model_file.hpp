@@ -46,6 +46,7 @@
 #include "imm/io/file_error.hpp"
 #include "imm/io/schema_reader.hpp"
 #include "imm/runtime_export.hpp"
+#include "imm/tracking/envelope.hpp"
 #include "imm/version.hpp"
 
 namespace imm::io {
@@ -135,7 +136,13 @@ class IMM_RUNTIME_EXPORT ModelFileWriter {
   /// would misread. Throws FileError for a version this writer does not know.
   void require_schema_version(int version);
 
-  /// Writes the provenance and the groups' `units`, and renames the file into place.
+  /// The envelope test a tracker of this model runs (imm/tracking/envelope.hpp), written as
+  /// `/envelope@{window,significance}`; commit() writes the defaults when this is not called.
+  /// Throws FileError naming the field of invalid settings.
+  void set_envelope(const EnvelopeSettings& settings);
+
+  /// Writes the provenance, the envelope settings and the groups' `units`, and renames the file
+  /// into place.
   void commit();
 
   /// The container being written (for content outside the schema's helpers).
@@ -146,6 +153,7 @@ class IMM_RUNTIME_EXPORT ModelFileWriter {
   UnitNames units_;
   ContainerWriter container_;
   int schema_version_ = kBaseModelSchemaVersion;
+  bool envelope_written_ = false;
   /// Per object, "name=unit" of its real attributes, in the order they were set.
   std::map<std::string, std::vector<std::pair<std::string, std::string>>> attribute_units_;
 };
@@ -161,6 +169,8 @@ class IMM_RUNTIME_EXPORT ModelFileReader : public SchemaReader {
   [[nodiscard]] const Provenance& provenance() const { return provenance_; }
   /// The file's schema version (1 to kModelSchemaVersion).
   [[nodiscard]] int schema_version() const { return schema_version_; }
+  /// The envelope test stored in the file (`/envelope`), or the defaults for a file without one.
+  [[nodiscard]] const EnvelopeSettings& envelope() const { return envelope_; }
 
  private:
   void check_self_description() const;
@@ -168,6 +178,7 @@ class IMM_RUNTIME_EXPORT ModelFileReader : public SchemaReader {
 
   Provenance provenance_;
   int schema_version_ = 0;
+  EnvelopeSettings envelope_;
 };
 
 }  // namespace imm::io

@@ -12,6 +12,7 @@
 #include <string_view>
 
 #include "imm/runtime_export.hpp"
+#include "imm/tracking/envelope.hpp"
 
 namespace imm {
 
@@ -56,6 +57,8 @@ struct IMM_RUNTIME_EXPORT TrackOptions {
   InitializationSpec initialization;
   /// Gaps longer than this many scans end the track; the next plot starts a new one.
   std::int64_t max_gap = kDefaultMaxGap;
+  /// The envelope test of the plots (envelope.hpp): the model file's, or the defaults.
+  EnvelopeSettings envelope;
 };
 
 /// The options of a filter started from two plots (every spec but an explicit plain IMM): plots of

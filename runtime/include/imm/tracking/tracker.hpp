@@ -14,6 +14,7 @@
 
 #include "imm/filters/plain_imm.hpp"
 #include "imm/runtime_export.hpp"
+#include "imm/tracking/envelope.hpp"
 #include "imm/tracking/track_filter.hpp"
 #include "imm/tracking/track_options.hpp"
 
@@ -37,6 +38,11 @@ struct IMM_RUNTIME_EXPORT TrackStepResult {
   StepStatus status = StepStatus::kOk;  ///< why a plot was rejected (kOk otherwise)
   std::int64_t predicted_scans = 0;     ///< scans predicted through without a plot
   std::string_view reason;              ///< human-readable reason for a rejection
+  /// Whether the last `envelope.window` updates' NIS sum is outside its χ² bounds: the plots no
+  /// longer fit the model (envelope.hpp). False until a window is full; kept through rejections.
+  bool outside_envelope = false;
+  /// The mean NIS of the window so far (2 for a consistent filter; NaN before the first update).
+  double envelope_nis = 0.0;
 };
 
 /// Drives a TrackFilter through a sequence of scans: starts the track (two-point or explicit),
@@ -74,6 +80,8 @@ class IMM_RUNTIME_EXPORT Tracker {
   void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const;
   /// The filter's mode probabilities.
   [[nodiscard]] ModeVector mode_probabilities() const { return filter_->mode_probabilities(); }
+  /// The envelope test of the current track (envelope.hpp).
+  [[nodiscard]] const EnvelopeMonitor& envelope() const { return envelope_; }
 
  private:
   struct Plot {
@@ -85,9 +93,12 @@ class IMM_RUNTIME_EXPORT Tracker {
   [[nodiscard]] Plot cartesian_plot(std::int64_t scan, const Eigen::Vector2d& z) const;
   void start_track(const Plot& first, const Plot& second);
   TrackStepResult reject(StepStatus status, std::string_view reason) const;
+  // The result with the envelope test's state.
+  TrackStepResult with_envelope(TrackStepResult result) const;
 
   std::unique_ptr<TrackFilter> filter_;
   TrackOptions options_;
+  EnvelopeMonitor envelope_;
   std::optional<Plot> first_plot_;
   std::optional<std::int64_t> last_scan_;
   bool initialized_ = false;

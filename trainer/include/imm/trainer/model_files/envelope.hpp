@@ -1,0 +1,48 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// The envelope test a model's trackers run (imm/tracking/envelope.hpp), calibrated on its own
+/// regime. For a consistent filter the NIS sum of a window of W plots is χ²(2W); an IMM on
+/// manoeuvring targets is not exactly consistent (measured on agile_air: the tuned IMM's windows
+/// leave the 1 % χ² bounds 13 % of the time on the regime's own test tracks), so the bounds are
+/// taken from scale · χ²(dof) with scale and dof matched to the mean and variance of the window
+/// sums over fresh tracks of the regime (its validation stream, beyond the validation split's
+/// tracks' count: never the test split).
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "imm/tracking/envelope.hpp"
+
+namespace imm::trainer {
+
+/// What calibrate_envelope measured.
+struct EnvelopeCalibration {
+  EnvelopeSettings settings;          ///< the window and significance kept, scale and dof fitted
+  int tracks = 0;                     ///< tracks run
+  int windows = 0;                    ///< disjoint full windows measured
+  double mean = 0.0, variance = 0.0;  ///< of the window sums
+  bool calibrated = false;  ///< false: the file records no regime (the χ² defaults stay)
+};
+
+/// Runs the model's tracker over `tracks` tracks of the regime recorded in `model_file` and fits
+/// scale and dof to its window sums. Throws io::FileError naming the file when it does not read.
+[[nodiscard]] EnvelopeCalibration calibrate_envelope(const std::filesystem::path& model_file,
+                                                     int tracks = 200);
+
+/// Rewrites `model_file` (atomically, sealed) with `settings` as its `/envelope`; everything else
+/// is copied unchanged.
+void store_envelope(const std::filesystem::path& model_file, const EnvelopeSettings& settings);
+
+/// calibrate_envelope, then store_envelope when it calibrated; returns what it measured.
+EnvelopeCalibration calibrate_and_store_envelope(const std::filesystem::path& model_file,
+                                                 int tracks = 200);
+
+/// calibrate_and_store_envelope for a file a training command wrote (nothing when there is none),
+/// with describe()'s line in the log.
+void calibrate_written_model(const std::optional<std::filesystem::path>& model_file);
+
+/// One line for the log: what was calibrated, on what.
+[[nodiscard]] std::string describe(const EnvelopeCalibration& calibration);
+
+}  // namespace imm::trainer

@@ -1,0 +1,107 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/trainer/model_files/envelope.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <memory>
+#include <sstream>
+#include <vector>
+
+#include "imm/datasets/regime_file.hpp"
+#include "imm/datasets/track.hpp"
+#include "imm/io/container_file.hpp"
+#include "imm/io/model_file.hpp"
+#include "imm/load.hpp"
+#include "imm/trainer/model_files/seal.hpp"
+
+namespace imm::trainer {
+
+EnvelopeCalibration calibrate_envelope(const std::filesystem::path& model_file, int tracks) {
+  const io::ModelFileReader reader(model_file);
+  EnvelopeCalibration c;
+  c.settings = reader.envelope();
+  c.settings.scale = 1.0;
+  c.settings.dof = 0.0;
+  const io::Provenance& p = reader.provenance();
+  if (p.regime_toml.empty() || tracks < 1) return c;
+  const datasets::Regime regime = datasets::parse_regime(p.regime_toml, p.regime_name).regime;
+  const int window = c.settings.window;
+  std::vector<double> sums;
+  for (int i = 0; i < tracks; ++i) {
+    const datasets::Track track = datasets::draw_track(regime, datasets::Split::kValidation, i, 0);
+    Tracker tracker = load_tracker(model_file);
+    for (int k = 0; k < track.plots.rows(); ++k) {
+      (void)tracker.process(k, track.plots.row(k).transpose());
+      // Disjoint full windows after the start has settled (two windows).
+      if (k >= 2 * window && (k - 2 * window) % window == window - 1 &&
+          tracker.envelope().filled() == window) {
+        sums.push_back(tracker.envelope().mean() * window);
+      }
+    }
+  }
+  c.tracks = tracks;
+  c.windows = static_cast<int>(sums.size());
+  if (c.windows < 30) return c;  // too few to fit: the χ² defaults stay
+  for (const double s : sums) c.mean += s;
+  c.mean /= c.windows;
+  for (const double s : sums) c.variance += (s - c.mean) * (s - c.mean);
+  c.variance /= c.windows - 1;
+  if (!(c.variance > 0.0) || !(c.mean > 0.0)) return c;
+  c.settings.scale = c.variance / (2.0 * c.mean);
+  c.settings.dof = 2.0 * c.mean * c.mean / c.variance;
+  c.settings.validate();
+  c.calibrated = true;
+  return c;
+}
+
+void store_envelope(const std::filesystem::path& model_file, const EnvelopeSettings& settings) {
+  settings.validate();
+  {
+    auto in = std::make_unique<io::ContainerReader>(model_file, io::kModelFormat);
+    io::ContainerWriter out(model_file, io::kModelFormat);
+    for (const std::string& object : in->objects()) {
+      if (object != "/" && in->kind(object) == io::ObjectKind::kGroup) out.create_group(object);
+      if (in->kind(object) == io::ObjectKind::kDataset) out.write(object, in->read(object));
+      for (const std::string& name : in->attribute_names(object)) {
+        if (object == "/envelope") continue;  // rewritten below
+        out.set_attribute(object, name, *in->attribute(object, name));
+      }
+    }
+    in.reset();
+    out.create_group("/envelope");
+    out.set_attribute("/envelope", "window", std::int64_t{settings.window});
+    out.set_attribute("/envelope", "significance", settings.significance);
+    out.set_attribute("/envelope", "scale", settings.scale);
+    out.set_attribute("/envelope", "dof", settings.dof);
+    out.set_attribute("/envelope", "units", std::string("significance=1,scale=1,dof=1"));
+    out.commit();
+  }
+  (void)check_model_file(model_file);  // the rewritten file reads whole
+}
+
+EnvelopeCalibration calibrate_and_store_envelope(const std::filesystem::path& model_file,
+                                                 int tracks) {
+  EnvelopeCalibration c = calibrate_envelope(model_file, tracks);
+  if (c.calibrated) store_envelope(model_file, c.settings);
+  return c;
+}
+
+void calibrate_written_model(const std::optional<std::filesystem::path>& model_file) {
+  if (!model_file || !std::filesystem::exists(*model_file)) return;
+  spdlog::info("{}", describe(calibrate_and_store_envelope(*model_file)));
+}
+
+std::string describe(const EnvelopeCalibration& c) {
+  std::ostringstream text;
+  text << "envelope of " << c.settings.window << "-plot windows at " << c.settings.significance;
+  if (!c.calibrated) {
+    text << ": the χ² bounds of a consistent filter (no regime recorded to calibrate on)";
+    return text.str();
+  }
+  text << ": NIS sums fitted as " << c.settings.scale << " · χ²(" << c.settings.dof << ") on "
+       << c.windows << " windows of " << c.tracks << " fresh tracks of the regime (mean " << c.mean
+       << ", a consistent filter's " << 2 * c.settings.window << ")";
+  return text.str();
+}
+
+}  // namespace imm::trainer
