@@ -27,6 +27,7 @@
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/models/motion/singer.hpp"
 #include "imm/tracking/track_bank.hpp"
+#include "imm/tracking/tracker.hpp"
 #include "testing/specs.hpp"
 
 namespace {
@@ -92,6 +93,27 @@ TEST(AllocationFreeStep, PlainCvImmStep) {
   }
   (void)imm.step(Vector<2>(std::nan(""), 0.0));
   EXPECT_EQ(allocations(), before);
+}
+
+// A Tracker's cycle with its envelope test (a window's NIS into a fixed ring) allocates nothing
+// either, flags and rejected plots included.
+TEST(AllocationFreeStep, TrackerCycleWithItsEnvelopeTest) {
+  const PlainImmSpec spec = testing::cv3_spec();
+  TrackOptions options = spec.track_options(kDefaultMaxGap);
+  options.envelope = {20, 0.01};
+  Tracker tracker(make_plain_imm_filter(spec), options);
+  (void)tracker.process(0, Eigen::Vector2d(0.0, 0.0));
+  (void)tracker.process(1, Eigen::Vector2d(1.0, 0.5));
+  const long before = allocations();
+  bool flagged = false;
+  for (int k = 2; k < 5000; ++k) {
+    const double jump = k > 4000 ? 5.0 * (k - 4000) : 0.0;  // plots the model does not expect
+    const TrackStepResult r = tracker.process(k, Eigen::Vector2d(1.0 * k + jump, 0.5 * k));
+    flagged = flagged || r.outside_envelope;
+  }
+  (void)tracker.process(5000, Eigen::Vector2d(std::nan(""), 0.0));
+  EXPECT_EQ(allocations(), before);
+  EXPECT_TRUE(flagged);
 }
 
 // The multi-track API: 1000 tracks (several blocks and a partial one), bad plots included.

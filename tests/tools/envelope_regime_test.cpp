@@ -87,6 +87,7 @@ TEST(EnvelopeOnRegimes,
   for (const char* shipped : {"models/baseline_imm_agile_air.h5", "models/agile_air/tracker.h5"}) {
     const auto copy = dir / std::filesystem::path(shipped).filename();
     std::filesystem::copy_file(shipped, copy, std::filesystem::copy_options::overwrite_existing);
+    trainer::store_envelope(copy, EnvelopeSettings{});  // the χ² bounds of a consistent filter
     const Flags chi = run(copy.string(), own, strong);
     std::cout << shipped << ": χ² bounds: " << chi.alarms << " of " << chi.windows << " flagged ("
               << chi.above << " above)\n";
