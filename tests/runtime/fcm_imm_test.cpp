@@ -42,6 +42,35 @@ TEST(FuzzyCMeans, HandComputedMemberships) {
   EXPECT_NEAR(m3(2), 0.25, 1e-15);
 }
 
+// The integer fuzzifiers take roots and products instead of the general pow: the same
+// memberships (eq. 9, u_i = 1 / Σ_j (d_i²/d_j²)^{1/(m−1)}, written here with pow) to rounding, and
+// the general path for a fractional m; and the same objective weights u^m.
+TEST(FuzzyCMeans, IntegerFuzzifiersAgreeWithTheGeneralFormula) {
+  const ClusterVector centers(-2.0, 0.3, 4.5);
+  for (const double m : {2.0, 2.5, 3.0, 4.0, 5.0, 3.7}) {
+    for (const double x : {-7.0, -1.1, 0.0, 0.2999, 1.7, 9.0}) {
+      const ClusterVector u = fcm_memberships(x, centers, m);
+      for (int i = 0; i < kFcmClusters; ++i) {
+        double sum = 0.0;
+        for (int j = 0; j < kFcmClusters; ++j) {
+          const double di = (x - centers(i)) * (x - centers(i));
+          const double dj = (x - centers(j)) * (x - centers(j));
+          sum += std::pow(di / dj, 1.0 / (m - 1.0));
+        }
+        EXPECT_NEAR(u(i), 1.0 / sum, 1e-14) << "m " << m << ", x " << x << ", cluster " << i;
+      }
+      const std::vector<double> data = {x};
+      const std::vector<double> memberships(u.data(), u.data() + kFcmClusters);
+      double objective = 0.0;
+      for (int i = 0; i < kFcmClusters; ++i) {
+        objective += std::pow(u(i), m) * (x - centers(i)) * (x - centers(i));
+      }
+      EXPECT_NEAR(fcm_objective(data, centers, memberships, m), objective, 1e-13 * objective)
+          << "m " << m << ", x " << x;
+    }
+  }
+}
+
 TEST(FuzzyCMeans, PointOnACenterBelongsToItAlone) {
   const ClusterVector centers(-2.0, 0.5, 4.0);
   for (double m : {1.5, 2.0, 3.7}) {

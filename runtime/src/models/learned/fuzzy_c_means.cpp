@@ -19,9 +19,25 @@
 namespace imm {
 namespace {
 
-// u^m, with the common m = 2 without a pow.
+// u^m: products for the integer fuzzifiers 2, 3 and 4 (the fits' bounds and the shipped models'),
+// the general pow otherwise.
 double weight_power(double u, double fuzzifier) {
-  return fuzzifier == 2.0 ? u * u : std::pow(u, fuzzifier);
+  if (fuzzifier == 2.0) return u * u;
+  if (fuzzifier == 3.0) return u * u * u;
+  if (fuzzifier == 4.0) {
+    const double u2 = u * u;
+    return u2 * u2;
+  }
+  return std::pow(u, fuzzifier);
+}
+
+// r^{1/(m − 1)} for r in (0, 1]: the root for the integer fuzzifiers 2 … 5, pow otherwise.
+double membership_root(double r, double fuzzifier) {
+  if (fuzzifier == 2.0) return r;
+  if (fuzzifier == 3.0) return std::sqrt(r);
+  if (fuzzifier == 4.0) return std::cbrt(r);
+  if (fuzzifier == 5.0) return std::sqrt(std::sqrt(r));
+  return std::pow(r, 1.0 / (fuzzifier - 1.0));
 }
 
 ClusterVector clamp(const ClusterVector& v, const ClusterVector& lower,
@@ -48,11 +64,9 @@ void memberships_into(double x, const ClusterVector& centers, double fuzzifier, 
   }
   // u_i = w_i / Σ w_j with w_i = (d²_min / d²_i)^{1/(m−1)} ∈ (0, 1]: the ratio form of eq. (9)
   // scaled so that nothing overflows however small the distances are.
-  const double exponent = 1.0 / (fuzzifier - 1.0);
   double sum = 0.0;
   for (int i = 0; i < kFcmClusters; ++i) {
-    const double ratio = smallest / d2[i];
-    row[i] = fuzzifier == 2.0 ? ratio : std::pow(ratio, exponent);
+    row[i] = membership_root(smallest / d2[i], fuzzifier);
     sum += row[i];
   }
   for (int i = 0; i < kFcmClusters; ++i) row[i] /= sum;
