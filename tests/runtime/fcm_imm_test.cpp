@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "imm/core/invalid_parameter.hpp"
@@ -67,6 +68,27 @@ TEST(FuzzyCMeans, IntegerFuzzifiersAgreeWithTheGeneralFormula) {
       }
       EXPECT_NEAR(fcm_objective(data, centers, memberships, m), objective, 1e-13 * objective)
           << "m " << m << ", x " << x;
+    }
+  }
+}
+
+// m = 4 takes its own cube root (fuzzy_c_means.cpp): over ratios from 1 down to 1e-30 and below,
+// the memberships agree with libm's cube root to rounding (a few units in the last place).
+TEST(FuzzyCMeans, TheFuzzifierFourCubeRootIsLibmsToRounding) {
+  const ClusterVector centers(-1.0, 0.0, 1.0);
+  for (int i = 0; i <= 4000; ++i) {
+    const double x = std::pow(10.0, -15.0 + 30.0 * i / 4000.0) * (i % 2 == 0 ? 1.0 : -1.0);
+    const ClusterVector u = fcm_memberships(x, centers, 4.0);
+    double d2[kFcmClusters], smallest = std::numeric_limits<double>::infinity();
+    for (int c = 0; c < kFcmClusters; ++c) {
+      d2[c] = (x - centers(c)) * (x - centers(c));
+      smallest = std::min(smallest, d2[c]);
+    }
+    if (smallest == 0.0) continue;  // on a center: PointOnACenterBelongsToItAlone
+    double w[kFcmClusters], sum = 0.0;
+    for (int c = 0; c < kFcmClusters; ++c) sum += w[c] = std::cbrt(smallest / d2[c]);
+    for (int c = 0; c < kFcmClusters; ++c) {
+      EXPECT_NEAR(u(c), w[c] / sum, 1e-15) << "x " << x << ", cluster " << c;
     }
   }
 }
