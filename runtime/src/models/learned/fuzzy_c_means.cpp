@@ -39,6 +39,7 @@ double weight_power(double u, double fuzzifier) {
 // rounding). Plain IEEE arithmetic: the same bits on every machine. Values too small for the
 // guess (subnormal ratios) take libm's cbrt.
 double cube_root_of_ratio(double r) {
+  if (r == 1.0) return 1.0;  // the nearest center's own ratio: one root in three per point
   if (r < 1e-290) return std::cbrt(r);
   std::uint64_t bits = 0;
   std::memcpy(&bits, &r, sizeof bits);
