@@ -36,30 +36,34 @@ std::string attribute_text(const io::Attribute& value) {
 
 }  // namespace
 
-std::string model_difference(const std::filesystem::path& a, const std::filesystem::path& b) {
+ModelDifference model_difference(const std::filesystem::path& a, const std::filesystem::path& b) {
+  using Kind = ModelDifference::Kind;
   const io::ContainerReader x(a, io::kModelFormat);
   const io::ContainerReader y(b, io::kModelFormat);
   const std::vector<std::string> objects = x.objects();
-  if (objects != y.objects()) return "they hold different objects";
+  if (objects != y.objects()) return {Kind::kStructure, "they hold different objects"};
   for (const std::string& object : objects) {
-    if (x.kind(object) != y.kind(object)) return object + " is a group in one file only";
+    if (x.kind(object) != y.kind(object))
+      return {Kind::kValues, object + " is a group in one file only"};
     if (x.kind(object) == io::ObjectKind::kDataset) {
       const io::Array u = x.read(object);
       const io::Array v = y.read(object);
-      if (u.shape != v.shape) return object + " has another shape";
+      if (u.shape != v.shape) return {Kind::kValues, object + " has another shape"};
       double scale = 0.0;
       for (std::size_t i = 0; i < u.values.size(); ++i) {
         scale = std::max({scale, std::abs(u.values[i]), std::abs(v.values[i])});
       }
       for (std::size_t i = 0; i < u.values.size(); ++i) {
         if (!close(u.values[i], v.values[i], scale)) {
-          return object + "[" + std::to_string(i) + "] is " + std::to_string(u.values[i]) +
-                 " against " + std::to_string(v.values[i]);
+          return {Kind::kValues, object + "[" + std::to_string(i) + "] is " +
+                                     std::to_string(u.values[i]) + " against " +
+                                     std::to_string(v.values[i])};
         }
       }
     }
     std::vector<std::string> names = x.attribute_names(object);
-    if (names != y.attribute_names(object)) return object + " has other attributes";
+    if (names != y.attribute_names(object))
+      return {Kind::kStructure, object + " has other attributes"};
     for (const std::string& name : names) {
       if (circumstantial(object, name)) continue;
       const std::optional<io::Attribute> u = x.attribute(object, name);
@@ -73,11 +77,11 @@ std::string model_difference(const std::filesystem::path& a, const std::filesyst
         std::string text = object;
         text.append("@").append(name).append(" is ");
         text.append(u ? attribute_text(*u) : "absent").append(" against ");
-        return text.append(v ? attribute_text(*v) : "absent");
+        return {Kind::kValues, text.append(v ? attribute_text(*v) : "absent")};
       }
     }
   }
-  return "";
+  return {};
 }
 
 }  // namespace imm::pipeline

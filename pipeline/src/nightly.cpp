@@ -227,6 +227,14 @@ std::vector<std::string> RegressionMargin::arguments() const {
   return texts;
 }
 
+std::vector<std::string> NightlyPlan::margin_arguments() const {
+  std::vector<std::string> all;
+  for (const RegressionMargin& margin : margins) {
+    for (std::string& a : margin.arguments()) all.push_back(std::move(a));
+  }
+  return all;
+}
+
 std::vector<const NightlyStage*> NightlyPlan::evaluations_of(const std::string& model) const {
   std::vector<const NightlyStage*> found;
   for (const auto& stage : stages) {

@@ -48,9 +48,7 @@ std::pair<std::string, std::string> Night::model_inputs(const NightlyStage& stag
     evaluation_texts.push_back(inputs_digest(*e, tool(*e), digests_, {}, plan_outputs()));
   }
   // The regression gate's margins decide with the evaluations.
-  for (const RegressionMargin& margin : plan_.margins) {
-    for (const std::string& a : margin.arguments()) evaluation_texts.push_back(a);
-  }
+  for (std::string& a : plan_.margin_arguments()) evaluation_texts.push_back(std::move(a));
   return {"model:" + stage.name, inputs_digest(stage, tool(stage), digests_, evaluation_texts)};
 }
 
@@ -266,9 +264,7 @@ void Night::run_model(const NightlyStage& stage) {
         std::vector<std::string> compare = {"regression",   "--candidate",        e->out.string(),
                                             "--shipped",    shipped_out.string(), "--out",
                                             e->out.string()};
-        for (const RegressionMargin& margin : plan_.margins) {
-          for (const std::string& a : margin.arguments()) compare.push_back(a);
-        }
+        for (std::string& a : plan_.margin_arguments()) compare.push_back(std::move(a));
         const fs::path compare_log = o.log.string() + "_regression";
         const int verdict =
             spawn(options_.tools / "imm-eval", compare, compare_log, o.wall_seconds);
@@ -368,7 +364,7 @@ std::optional<std::string> Night::no_news(const NightlyStage& stage, const fs::p
       datasets::file_sha256_hex(stage.out) != shipped->sha256) {
     return std::nullopt;
   }
-  std::string difference;
+  ModelDifference difference;
   RegistryEntry candidate;
   try {
     difference = model_difference(staging, stage.out);
@@ -378,11 +374,8 @@ std::optional<std::string> Night::no_news(const NightlyStage& stage, const fs::p
   }
   // A candidate that holds what the shipped file lacks (or the reverse) is news: a new field of
   // the file's content (its calibrated envelope, say), whatever its metrics.
-  if (difference.starts_with("they hold different objects") ||
-      difference.find(" has other attributes") != std::string::npos) {
-    return std::nullopt;
-  }
-  if (difference.empty()) {
+  if (difference.kind == ModelDifference::Kind::kStructure) return std::nullopt;
+  if (difference.same()) {
     return "the candidate is the shipped model (the same parameters to rounding; only its build "
            "and training date differ): " +
            stage.out.filename().string() + " stays byte for byte";
@@ -408,7 +401,7 @@ std::optional<std::string> Night::no_news(const NightlyStage& stage, const fs::p
   return "ties the shipped model in all " + std::to_string(metrics) +
          " headline metrics (within the interval or the plan's margin) and is trained from the "
          "same config and regime (" +
-         difference + "): " + stage.out.filename().string() + " stays byte for byte";
+         difference.what + "): " + stage.out.filename().string() + " stays byte for byte";
 }
 
 nlohmann::json Night::headline_metrics(const std::vector<const NightlyStage*>& evaluations) {

@@ -444,7 +444,7 @@ bool Registry::is_rejected(const RegistryEntry& r, const std::filesystem::path& 
   const auto archived = archive_path(r.sha256);
   if (!std::filesystem::exists(archived)) return false;
   try {
-    return model_difference(candidate, archived).empty();
+    return model_difference(candidate, archived).same();
   } catch (const std::exception&) {
     return false;  // a copy that does not read is no evidence of the same model
   }

@@ -448,6 +448,7 @@ TEST(Registry, ModelDifferenceIgnoresRoundingBuildAndClockOnly) {
     double scale = 1.0;  // of the parameters
     std::string created = "2026-11-01T00:00:00Z", version = "1.0.0", config = "seed = 1";
     double seconds = 12.5, objective = 0.25;
+    bool extra = false;  // an attribute the base file lacks
   };
   auto write = [&](const std::string& name, const Variant& v) {
     const auto path = dir / name;
@@ -460,29 +461,37 @@ TEST(Registry, ModelDifferenceIgnoresRoundingBuildAndClockOnly) {
     w.set_attribute("/", "config_toml", v.config);
     w.set_attribute("/layer", "wall_seconds", v.seconds);
     w.set_attribute("/layer", "objective", v.objective);
+    if (v.extra) w.set_attribute("/layer", "extra", std::int64_t{1});
     w.commit();
     return path;
   };
   const auto base = write("base.h5", {});
   Variant clock;
   clock.created = "2026-11-25T03:00:00Z", clock.version = "1.0.1-dirty", clock.seconds = 99.0;
-  EXPECT_EQ(model_difference(base, write("clock.h5", clock)), "");
+  EXPECT_EQ(model_difference(base, write("clock.h5", clock)).what, "");
   Variant rounded;
   rounded.scale = 1.0 + 1e-9, rounded.objective = 0.25 * (1.0 + 1e-9);
-  EXPECT_EQ(model_difference(base, write("rounded.h5", rounded)), "");
+  EXPECT_EQ(model_difference(base, write("rounded.h5", rounded)).what, "");
 
   Variant moved;
   moved.scale = 1.0 + 1e-4;
-  EXPECT_NE(model_difference(base, write("moved.h5", moved)).find("/layer/weights[0]"),
+  EXPECT_NE(model_difference(base, write("moved.h5", moved)).what.find("/layer/weights[0]"),
             std::string::npos);
   Variant config;
   config.config = "seed = 2";
-  EXPECT_NE(model_difference(base, write("config.h5", config)).find("/@config_toml"),
+  EXPECT_NE(model_difference(base, write("config.h5", config)).what.find("/@config_toml"),
             std::string::npos);
   Variant objective;
   objective.objective = 0.26;
-  EXPECT_NE(model_difference(base, write("objective.h5", objective)).find("/layer@objective"),
+  EXPECT_NE(model_difference(base, write("objective.h5", objective)).what.find("/layer@objective"),
             std::string::npos);
+  EXPECT_EQ(model_difference(base, write("objective2.h5", objective)).kind,
+            ModelDifference::Kind::kValues);
+  Variant extra;
+  extra.extra = true;
+  const ModelDifference structure = model_difference(base, write("extra.h5", extra));
+  EXPECT_EQ(structure.kind, ModelDifference::Kind::kStructure);
+  EXPECT_NE(structure.what.find("/layer has other attributes"), std::string::npos);
 }
 
 }  // namespace

@@ -79,6 +79,20 @@ nlohmann::json manifest(const Plan& p) {
   return nlohmann::json::parse(slurp(p.registry / "manifest.json"));
 }
 
+// The cv3 plan (write_plan) after its first night, which ships cv3.h5 into its registry.
+struct FirstNight {
+  Plan plan;
+  testing::ToolResult night;  // exit code 0 when the model was shipped
+  fs::path shipped;           // the shipped file
+};
+FirstNight first_night(const testing::TempDir& dir) {
+  write_cv3(dir / "cv3.toml", 1.0);
+  FirstNight f{write_plan(dir), {}, {}};
+  f.night = nightly(f.plan);
+  f.shipped = f.plan.registry / "cv3.h5";
+  return f;
+}
+
 // The nightly's tools with planted faults: the night runs as <bin>/imm-train-night, a copy of
 // imm-train (so its tool folder is <bin>), and the tools it starts, <bin>/imm-train and
 // <bin>/imm-eval, are scripts that run their `before` lines and then the real tool.
@@ -223,10 +237,8 @@ TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
 // beside an imm-eval that fails its `regression` subcommand (exit 2, then killed by SIGKILL).
 TEST(NightlyProduct, AComparisonThatCannotBeMadeHoldsTheCandidateBack) {
   const testing::TempDir dir;
-  write_cv3(dir / "cv3.toml", 1.0);
-  const Plan p = write_plan(dir);
-  ASSERT_EQ(nightly(p).exit_code, 0);
-  const fs::path shipped = p.registry / "cv3.h5";
+  const auto [p, night, shipped] = first_night(dir);
+  ASSERT_EQ(night.exit_code, 0) << night.err;
   const std::string first = sha256_of(shipped);
 
   const PlantedTools tools(dir / "bin");
@@ -255,10 +267,8 @@ TEST(NightlyProduct, AComparisonThatCannotBeMadeHoldsTheCandidateBack) {
 // trains the candidate again and ships it.
 TEST(NightlyProduct, AFullDiskChangesNothingAndTheNextNightRecovers) {
   const testing::TempDir dir;
-  write_cv3(dir / "cv3.toml", 1.0);
-  const Plan p = write_plan(dir);
-  ASSERT_EQ(nightly(p).exit_code, 0);
-  const fs::path shipped = p.registry / "cv3.h5";
+  const auto [p, night, shipped] = first_night(dir);
+  ASSERT_EQ(night.exit_code, 0) << night.err;
   const std::string first = sha256_of(shipped);
   const std::string manifest_bytes = slurp(p.registry / "manifest.json");
 
@@ -651,9 +661,8 @@ TEST(NightlyProduct, TheReportRendersInAHeadlessBrowser) {
     GTEST_SKIP() << "no headless browser (Debian's chromium, scripts/install-deps.sh) here";
   }
   const testing::TempDir dir;
-  write_cv3(dir / "cv3.toml", 1.0);
-  const Plan p = write_plan(dir);
-  ASSERT_EQ(nightly(p).exit_code, 0);
+  const auto [p, night, shipped] = first_night(dir);
+  ASSERT_EQ(night.exit_code, 0) << night.err;
 
   // The report as shipped, with a probe in front of it: the policy and the probe script come
   // before any of the report's own content, so they see every request it makes.
@@ -748,9 +757,8 @@ namespace {
 // temporary file behind.
 TEST(NightlyProduct, KillNineDuringPromotionLeavesTheOldOrTheNewState) {
   const testing::TempDir dir;
-  write_cv3(dir / "cv3.toml", 1.0);
-  const Plan p = write_plan(dir);
-  ASSERT_EQ(nightly(p).exit_code, 0);
+  const auto [p, night, shipped] = first_night(dir);
+  ASSERT_EQ(night.exit_code, 0) << night.err;
   std::uint64_t state = 12345;
   for (int round = 0; round < 20; ++round) {
     // Each round a new config text, so that every run trains, evaluates and promotes.
@@ -772,7 +780,7 @@ TEST(NightlyProduct, KillNineDuringPromotionLeavesTheOldOrTheNewState) {
     const auto rerun = nightly(p);
     ASSERT_TRUE(rerun.exit_code == 0) << "round " << round << ": " << rerun.err;
     const auto m = manifest(p);
-    EXPECT_EQ(m["models"][0]["sha256"], sha256_of(p.registry / "cv3.h5")) << "round " << round;
+    EXPECT_EQ(m["models"][0]["sha256"], sha256_of(shipped)) << "round " << round;
     for (const auto& f : fs::recursive_directory_iterator(p.registry)) {
       EXPECT_EQ(f.path().filename().string().find(".tmp-"), std::string::npos)
           << f.path() << " left behind in round " << round;

@@ -90,12 +90,7 @@ StepConsistency step_consistency(const TrackFilter& filter, const Eigen::Vector2
   const Eigen::Vector2d e = position - Eigen::Vector2d(mean(0), mean(y));
   const Eigen::LLT<Eigen::Matrix2d> position_llt(block);
   if (position_llt.info() == Eigen::Success) out.position_nees = e.dot(position_llt.solve(e));
-  Eigen::Vector2d nu;
-  Eigen::Matrix2d S;
-  if (filter.innovation(nu, S)) {
-    const Eigen::LLT<Eigen::Matrix2d> innovation_llt(S);
-    if (innovation_llt.info() == Eigen::Success) out.nis = nu.dot(innovation_llt.solve(nu));
-  }
+  out.nis = last_step_nis(filter).value_or(kNaN);
   return out;
 }
 

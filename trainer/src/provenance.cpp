@@ -53,11 +53,6 @@ void ensure_parent_folder(const std::filesystem::path& path) {
 
 namespace {
 
-// The temporary beside `path` that an atomic write renames over it (imm/io/temporary_files.hpp).
-std::filesystem::path temporary_beside(const std::filesystem::path& path) {
-  return io::temporary_beside(path);
-}
-
 // A file descriptor closed on scope exit.
 struct Descriptor {
   int fd = -1;
@@ -96,7 +91,7 @@ void rename_durably(const std::filesystem::path& temp, const std::filesystem::pa
 
 void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to) {
   ensure_parent_folder(to);
-  const auto temp = temporary_beside(to);
+  const auto temp = io::temporary_beside(to);
   std::filesystem::copy_file(from, temp, std::filesystem::copy_options::overwrite_existing);
   {
     const Descriptor copy(::open(temp.c_str(), O_RDONLY | O_CLOEXEC));
@@ -108,7 +103,7 @@ void copy_atomically(const std::filesystem::path& from, const std::filesystem::p
 
 void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
   ensure_parent_folder(path);
-  const auto temp = temporary_beside(path);
+  const auto temp = io::temporary_beside(path);
   {
     const Descriptor out(::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
     if (out.fd < 0) throw std::runtime_error(temp.string() + ": cannot write: " + errno_text());

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/tracking/tracker.hpp"
 
+#include <Eigen/Cholesky>
 #include <stdexcept>
 #include <string>
 
@@ -93,6 +94,15 @@ TrackOptions PlainImmSpec::track_options(std::int64_t max_gap) const {
   options.initialization = initialization;
   options.max_gap = max_gap;
   return options;
+}
+
+std::optional<double> last_step_nis(const TrackFilter& filter) {
+  Eigen::Vector2d nu;
+  Eigen::Matrix2d S;
+  if (!filter.innovation(nu, S)) return std::nullopt;
+  const Eigen::LLT<Eigen::Matrix2d> llt(S);
+  if (llt.info() != Eigen::Success) return std::nullopt;
+  return nu.dot(llt.solve(nu));
 }
 
 Tracker::Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options)
@@ -230,17 +240,7 @@ TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
   }
   result.event = TrackEvent::kUpdated;
   // The envelope test: this update's NIS into the window (fixed storage, no allocation).
-  Eigen::Vector2d nu;
-  Eigen::Matrix2d S;
-  if (filter_->innovation(nu, S)) {
-    const double det = S(0, 0) * S(1, 1) - S(0, 1) * S(1, 0);
-    if (det > 0.0) {
-      const double nis = (S(1, 1) * nu(0) * nu(0) - (S(0, 1) + S(1, 0)) * nu(0) * nu(1) +
-                          S(0, 0) * nu(1) * nu(1)) /
-                         det;
-      (void)envelope_.add(nis);
-    }
-  }
+  if (const auto nis = last_step_nis(*filter_)) (void)envelope_.add(*nis);
   return with_envelope(result);
 }
 

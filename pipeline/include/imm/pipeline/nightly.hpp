@@ -96,6 +96,8 @@ struct NightlyPlan {
   std::optional<std::filesystem::path> evaluations_page;
   /// The regression gate's practical margins (none: the interval alone decides).
   std::vector<RegressionMargin> margins;
+  /// Every margin as `imm-eval regression` arguments, in plan order.
+  [[nodiscard]] std::vector<std::string> margin_arguments() const;
   std::vector<NightlyStage> stages;
   /// The evaluations of a model stage.
   [[nodiscard]] std::vector<const NightlyStage*> evaluations_of(const std::string& model) const;

@@ -72,14 +72,26 @@ struct RegistryEntry {
 /// when it is): a digest names the archive copy a repair ships.
 [[nodiscard]] std::string sha256_problem(std::string_view digest);
 
-/// Why the models in two files differ, or empty when they are the same model: the same objects,
-/// the same attributes, texts and integers equal, and every real equal to within 1e-6 of the
-/// largest magnitude of its dataset (or attribute) — rounding, as another machine's libm or another
-/// summation order gives it — except what says when and by which build a file was written
-/// (`created_utc`, `trainer_version`) and how long its steps took (attributes named "…seconds").
-/// Two trainings of one definition that differ only in that are the same model: no news to ship.
-[[nodiscard]] std::string model_difference(const std::filesystem::path& a,
-                                           const std::filesystem::path& b);
+/// How the models in two files differ (model_difference).
+struct ModelDifference {
+  enum class Kind {
+    kNone,       ///< the same model
+    kValues,     ///< the same objects and attributes, other values (or shapes)
+    kStructure,  ///< other objects, or other attributes on an object: a file holding a new field
+  };
+  Kind kind = Kind::kNone;
+  std::string what;  ///< the first difference, for the log (empty for kNone)
+  [[nodiscard]] bool same() const { return kind == Kind::kNone; }
+};
+
+/// How the models in two files differ. The same model: the same objects, the same attributes,
+/// texts and integers equal, and every real equal to within 1e-6 of the largest magnitude of its
+/// dataset (or attribute) — rounding, as another machine's libm or another summation order gives
+/// it — except what says when and by which build a file was written (`created_utc`,
+/// `trainer_version`) and how long its steps took (attributes named "…seconds"). Two trainings of
+/// one definition that differ only in that are the same model: no news to ship.
+[[nodiscard]] ModelDifference model_difference(const std::filesystem::path& a,
+                                               const std::filesystem::path& b);
 
 /// The registry entry of a model file (kind, regime, digests, dates from its provenance).
 [[nodiscard]] RegistryEntry describe_model(const std::filesystem::path& file,

@@ -5,6 +5,7 @@
 /// State layout: one block per axis, [x, vx, y, vy] or [x, vx, ax, y, vy, ay].
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 
 #include "imm/estimation/step_status.hpp"
@@ -51,5 +52,9 @@ class IMM_RUNTIME_EXPORT TrackFilter {
   /// successful step().
   virtual bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const = 0;
 };
+
+/// The normalized innovation squared νᵀ S⁻¹ ν of the filter's last step (TrackFilter::innovation),
+/// or nothing when there is none or S is not positive definite. Allocation-free.
+[[nodiscard]] IMM_RUNTIME_EXPORT std::optional<double> last_step_nis(const TrackFilter& filter);
 
 }  // namespace imm
