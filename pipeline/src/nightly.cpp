@@ -170,6 +170,16 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     add_optional(entry, "runs", "--runs", stage);
     add_optional(entry, "seed", "--seed", stage);
     add_passthrough(entry, stage);
+    for (const auto& known : entry.tables("known_failures")) {
+      KnownFailure failure{known.text("gate"), known.text("reason")};
+      if (failure.gate.find_first_not_of(" \t\n") == std::string::npos) {
+        known.fail("gate", "must name a part of the failed gate's line");
+      }
+      if (failure.reason.find_first_not_of(" \t\n") == std::string::npos) {
+        known.fail("reason", "must say why the failure is known and accepted");
+      }
+      stage.known_failures.push_back(std::move(failure));
+    }
     plan.stages.push_back(std::move(stage));
   }
   for (const auto& entry : root.tables("trackers")) {

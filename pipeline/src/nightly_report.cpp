@@ -268,18 +268,21 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
 
   // Findings: a learned model that does not beat a baseline tuned on its regime, with its numbers.
   // Not failures: the model passed its gates and went on to the regression gate.
-  md << "\n## Findings\n\nA learned model that does not beat a baseline tuned on its regime "
-        "(reported, not a failure).\n\n";
-  html << "<h2>Findings</h2>\n<p>A learned model that does not beat a baseline tuned on its regime "
-          "(reported, not a failure).</p>\n";
+  static constexpr const char* kFindings =
+      "A learned model that does not beat a baseline tuned on its regime, or a quality gate that "
+      "failed where the plan knows it fails (its known failures, each with its measured reason; "
+      "nightly.toml's [[evaluations.known_failures]]): reported, not failures.";
+  md << "\n## Findings\n\n" << kFindings << "\n\n";
+  html << "<h2>Findings</h2>\n<p>" << html_escape(kFindings) << "</p>\n";
   any = false;
   for (const auto& o : result.stages) {
     if (!o.finding) continue;
     any = true;
-    md << "### " << o.name << "\n\n```\n"
+    md << "### " << o.name << " — " << o.status << "\n\n```\n"
        << o.message << "\n```\n\nReproduce: `" << o.command << "`\n\n";
-    html << "<h3>" << html_escape(o.name) << "</h3>\n<pre>" << html_escape(o.message)
-         << "</pre>\n<p>Reproduce: <code>" << html_escape(o.command) << "</code></p>\n";
+    html << "<h3>" << html_escape(o.name) << " — " << html_escape(o.status) << "</h3>\n<pre>"
+         << html_escape(o.message) << "</pre>\n<p>Reproduce: <code>" << html_escape(o.command)
+         << "</code></p>\n";
   }
   if (!any) {
     md << "None.\n";

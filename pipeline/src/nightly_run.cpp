@@ -92,6 +92,41 @@ std::string gate_lines(const fs::path& file) {
   return text.empty() ? tail_of(file, 3) : text;
 }
 
+std::vector<std::string> failed_gates(const fs::path& file) {
+  std::vector<std::string> failed;
+  std::istringstream lines(block_of(file, "Gates"));
+  for (std::string line; std::getline(lines, line);) {
+    if (line.starts_with("  - ")) failed.push_back(line.substr(4));
+  }
+  return failed;
+}
+
+std::vector<std::string> unknown_failures(const std::vector<std::string>& failed,
+                                          const std::vector<KnownFailure>& known) {
+  std::vector<std::string> unknown;
+  for (const std::string& line : failed) {
+    if (std::none_of(known.begin(), known.end(), [&](const KnownFailure& k) {
+          return line.find(k.gate) != std::string::npos;
+        })) {
+      unknown.push_back(line);
+    }
+  }
+  return unknown;
+}
+
+std::string known_reasons(const std::vector<std::string>& failed,
+                          const std::vector<KnownFailure>& known) {
+  std::string text;
+  for (const KnownFailure& k : known) {
+    if (std::any_of(failed.begin(), failed.end(), [&](const std::string& line) {
+          return line.find(k.gate) != std::string::npos;
+        })) {
+      text += (text.empty() ? "known: " : "; ") + k.reason;
+    }
+  }
+  return text;
+}
+
 std::string findings_lines(const fs::path& file) {
   std::string text = block_of(file, "Findings");
   return text.empty() ? tail_of(file, 3) : text;

@@ -24,6 +24,14 @@ namespace imm::pipeline {
 [[nodiscard]] std::string tail_of(const fs::path& file, std::size_t lines = 4);
 /// The gate lines of an evaluation's report ("Gates …: FAILED" and the failures under it).
 [[nodiscard]] std::string gate_lines(const fs::path& file);
+/// The failed lines of an evaluation's gates (the "  - " lines under "Gates", without the dash).
+[[nodiscard]] std::vector<std::string> failed_gates(const fs::path& file);
+/// The lines of `failed` that contain none of the known failures' `gate`.
+[[nodiscard]] std::vector<std::string> unknown_failures(const std::vector<std::string>& failed,
+                                                        const std::vector<KnownFailure>& known);
+/// "known: " and the reasons of the known failures that some line of `failed` matches.
+[[nodiscard]] std::string known_reasons(const std::vector<std::string>& failed,
+                                        const std::vector<KnownFailure>& known);
 /// The "Findings" block of an imm-eval report's stdout (its heading and its "  - " lines).
 [[nodiscard]] std::string findings_lines(const fs::path& file);
 /// Whether a failure's message says the machine ran out of room (no space left, a file-size limit,

@@ -79,6 +79,7 @@ class StageCache {
         record.outcome.failed = r.at("failed").get<bool>();
         record.outcome.held_back = r.at("held_back").get<bool>();
         record.outcome.finding = r.value("finding", false);
+        record.outcome.known_failure = r.value("known_failure", false);
         record.outcome.exit_code = r.at("exit_code").get<int>();
         record.outcome.message = r.at("message").get<std::string>();
         record.outcome.command = r.at("command").get<std::string>();
@@ -147,6 +148,7 @@ class StageCache {
                      {"failed", r.outcome.failed},
                      {"held_back", r.outcome.held_back},
                      {"finding", r.outcome.finding},
+                     {"known_failure", r.outcome.known_failure},
                      {"exit_code", r.outcome.exit_code},
                      {"message", r.outcome.message},
                      {"command", r.outcome.command},

@@ -141,6 +141,31 @@ TEST(Nightly, RegressionMarginsCarryTheirReasons) {
             "regression.margins[0].metric");
 }
 
+TEST(Nightly, KnownFailuresCarryTheirReasons) {
+  const std::string plan =
+      "[[models]]\nname = \"a\"\ncommand = \"freeze\"\nconfig = \"c\"\nout = "
+      "\"models/a.h5\"\n[[evaluations]]\nexperiment = \"plain-imm\"\nmodel = \"a\"\nout = "
+      "\"r\"\n[[evaluations.known_failures]]\ngate = \"is above KF's\"\n";
+  const auto load = [](const auto& path) { return load_nightly_plan(path); };
+  EXPECT_EQ(testing::config_error_key(plan, load), "evaluations[0].known_failures[0].reason");
+  EXPECT_EQ(testing::config_error_key(plan + "reason = \" \"\n", load),
+            "evaluations[0].known_failures[0].reason");
+  EXPECT_EQ(testing::config_error_key(plan + "reason = \"why\"\ngait = \"x\"\n", load),
+            "evaluations[0].known_failures[0].gait");
+  const testing::TempDir dir;
+  std::ofstream(dir / "plan.toml") << plan << "reason = \"measured: the onset\"\n";
+  const NightlyPlan loaded = load_nightly_plan(dir / "plan.toml");
+  const auto evaluation = loaded.evaluations_of("a");
+  ASSERT_EQ(evaluation.size(), 1u);
+  ASSERT_EQ(evaluation[0]->known_failures.size(), 1u);
+  EXPECT_EQ(evaluation[0]->known_failures[0].gate, "is above KF's");
+  EXPECT_EQ(evaluation[0]->known_failures[0].reason, "measured: the onset");
+  // The shipped plan's known failures say why, at length.
+  for (const auto& stage : load_nightly_plan("configs/nightly.toml").stages) {
+    for (const auto& known : stage.known_failures) EXPECT_GT(known.reason.size(), 80u);
+  }
+}
+
 // Every stage digest includes the project's shared libraries the tools load (the runtime, when it
 // is built shared): a rebuilt runtime reruns the stages.
 TEST(Nightly, TheStageDigestIncludesTheSharedRuntime) {

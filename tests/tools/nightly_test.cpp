@@ -111,6 +111,15 @@ class PlantedTools {
                                << fs::absolute(testing::tool_path(name)).string() << " \"$@\"\n";
     fs::permissions(bin_ / name, fs::perms::owner_all);
   }
+  // Rewrites <bin>/<name> to run the real tool and then the shell lines `after` (the tool's exit
+  // code is in $code).
+  void plant_after(const std::string& name, const std::string& after) const {
+    std::ofstream(bin_ / name) << "#!/bin/sh\n"
+                               << fs::absolute(testing::tool_path(name)).string() << " \"$@\"\n"
+                               << "code=$?\n"
+                               << after << "exit $code\n";
+    fs::permissions(bin_ / name, fs::perms::owner_all);
+  }
   [[nodiscard]] testing::ToolResult night(const Plan& p) const {
     return run_tool((bin_ / "imm-train-night").string(),
                     {"all", "--config", p.plan.string(), "--reports", p.reports.string()}, {}, 300);
@@ -453,6 +462,52 @@ TEST(NightlyProduct, AFailingStageDoesNotStopTheOthers) {
   if (plots) {
     EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
   }
+}
+
+// A gate the plan knows fails ([[evaluations.known_failures]], with its reason) is a finding, not
+// a failure: the candidate is promoted past it and the night is green. Any other failed gate still
+// fails the stage; a known failure that stops happening is reported as news.
+TEST(NightlyProduct, AKnownGateFailureIsAFindingAndAnyOtherFailsTheNight) {
+  const testing::TempDir dir;
+  write_cv3(dir / "cv3.toml", 1.0);
+  const Plan p = write_plan(dir);
+  std::ofstream(p.plan, std::ios::app)
+      << "[[evaluations.known_failures]]\ngate = \"pos_rmse_maneuver is above KF's\"\n"
+      << "reason = \"the onset of the first zigzag, measured\"\n";
+  const PlantedTools tools(dir / "bin");
+  // The evaluation's gates fail in one line (the real report, then a planted gate block).
+  const auto fail_with = [&](const std::string& line) {
+    tools.plant_after("imm-eval",
+                      "if [ $code -eq 0 ] && [ \"$1\" = plain-imm ]; then\n"
+                      "  echo 'Gates (planted): FAILED'\n  echo \"  - " +
+                          line + "\"\n  exit 5\nfi\n");
+  };
+  fail_with("FCM-IMM's pos_rmse_maneuver is above KF's beyond the uncertainty (+1.09)");
+  auto run = tools.night(p);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(fs::exists(p.registry / "cv3.h5"));
+  std::string report = slurp(p.reports / "latest" / "index.md");
+  EXPECT_NE(report.find("plain-imm cv3 — known failure"), std::string::npos) << report;
+  EXPECT_NE(report.find("the onset of the first zigzag, measured"), std::string::npos) << report;
+  const std::string shipped = sha256_of(p.registry / "cv3.h5");
+
+  // Another gate fails beside it: the stage fails, the shipped file stays.
+  write_cv3(dir / "cv3.toml", 1.5);
+  fail_with("FCM-IMM's pos_rmse is above KF's beyond the uncertainty (+3.1)");
+  run = tools.night(p);
+  EXPECT_EQ(run.exit_code, 3) << run.err;
+  EXPECT_EQ(sha256_of(p.registry / "cv3.h5"), shipped);
+  report = slurp(p.reports / "latest" / "index.md");
+  EXPECT_NE(report.find("plain-imm cv3 — gate failed"), std::string::npos) << report;
+
+  // Every gate passes: green, and the known failure that did not happen is news.
+  write_cv3(dir / "cv3.toml", 1.0);
+  tools.plant_after("imm-eval", "");
+  run = tools.night(p);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  report = slurp(p.reports / "latest" / "index.md");
+  EXPECT_NE(report.find("'pos_rmse_maneuver is above KF's' no longer happens"), std::string::npos)
+      << report;
 }
 
 // A night whose only news is that a model ties the regime's tuned baseline: the tracker stage

@@ -23,6 +23,8 @@
 ///   [[tracks]]       filter, measurements, out
 ///   [[evaluations]]  experiment, model (a [[models]] name), out, [models], [regime], [runs],
 ///                    [seed], [arguments]
+///   [[evaluations.known_failures]]  gate (a part of the failed gate's line), reason — a gate
+///                    failure that is known and accepted (KnownFailure)
 ///   [regression]     [relative_margin], [absolute_margin], reason — the practical margin of the
 ///                    regression gate (`imm-eval regression`): a candidate is worse (or better)
 ///                    than the shipped model only beyond the interval *and* by more than
@@ -51,8 +53,9 @@
 /// `imm-train promote`.
 ///
 /// Exit codes of the run: 0 nothing failed and nothing was held back (findings — a learned model
-/// that does not beat the baseline tuned on its regime — are reported, not failures), 3 a stage
-/// failed, 6 no stage failed but a candidate was held back by the regression gate.
+/// that does not beat the baseline tuned on its regime, a known failure — are reported, not
+/// failures), 3 a stage failed, 6 no stage failed but a candidate was held back by the regression
+/// gate.
 
 #include <filesystem>
 #include <functional>
@@ -61,6 +64,18 @@
 #include <vector>
 
 namespace imm::pipeline {
+
+/// A quality-gate failure of an evaluation that is known, measured and accepted, with its reason
+/// ([[evaluations.known_failures]]): a paper's claim the product does not reproduce against a
+/// baseline stronger than the paper's, say. When every failed line of an evaluation's gates
+/// contains the `gate` of one of its known failures, the evaluation is a finding, not a failure:
+/// the candidate goes on to the regression gate like any other, and the morning report shows the
+/// failed lines with the reason. Any other failed line fails the stage as before; a known failure
+/// that no longer happens is reported as news (remove the entry).
+struct KnownFailure {
+  std::string gate;    ///< a part of the gate's failure line ("pos_rmse_maneuver is above KF's")
+  std::string reason;  ///< why it is accepted: the measured cause (required)
+};
 
 struct NightlyStage {
   std::string kind;        ///< "data", "model", "track", "evaluation", "tracker"
@@ -72,6 +87,7 @@ struct NightlyStage {
   std::string model;             ///< evaluation: the [[models]] stage it evaluates
   std::filesystem::path report;  ///< tracker: the ranking's report folder
   bool has_regime = false;       ///< evaluation: --regime given
+  std::vector<KnownFailure> known_failures;  ///< evaluation: its accepted gate failures
   /// The `--out` / `--model` value's index in `arguments` (replaced for candidates).
   std::optional<std::size_t> out_argument, model_argument;
 };
@@ -113,8 +129,10 @@ struct StageOutcome {
   std::string status;  ///< ok, finding, cached, failed, promoted, held back, first, blocked
   bool failed = false, held_back = false, cached = false;
   /// evaluation: it exited kFindings (the learned model does not beat a baseline tuned on its
-  /// regime; reported with its numbers in `message`, not a failure).
+  /// regime; reported with its numbers in `message`, not a failure), or its gates failed only in
+  /// its known failures (`known_failure` too), or a known failure of it no longer happens.
   bool finding = false;
+  bool known_failure = false;
   /// It failed (or was held back) for a reason that does not follow from its inputs — a tool
   /// killed by a signal, a failed promotion, a comparison that could not be made — so the stage
   /// cache never replays it: the next night runs the stage again.
