@@ -17,6 +17,8 @@ packages=(
   ccache                  # repeated builds (cmake/ImmBuildSpeed.cmake)
   chromium                # the morning report rendered headless (tests/tools/nightly_test.cpp)
   strace                  # the registry's durable writes, observed (tests/tools/nightly_test.cpp)
+  pybind11-dev python3-dev python3-numpy  # the Python module (bindings/python)
+  python3-pytest python3-matplotlib       # its tests and its example (tests/python, docs/examples)
 )
 
 missing=()

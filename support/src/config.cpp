@@ -114,13 +114,68 @@ std::shared_ptr<ConfigDocument> ConfigDocument::load(const std::filesystem::path
 
 ConfigTable ConfigDocument::root() const { return {&parsed_->table, "", shared_from_this()}; }
 
+namespace {
+
+// Levenshtein distance, for the "did you mean" of a misspelt key.
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+// Whether `written` is close enough to `meant` to be its misspelling: a typo or two in a key of
+// five characters or more (at most one in three). Shorter keys (q1, q2) are too alike to guess.
+bool misspells(std::string_view written, std::string_view meant) {
+  if (meant.size() < 5 || written == meant) return false;
+  return edit_distance(written, meant) <= std::min<std::size_t>(2, meant.size() / 3);
+}
+
+// "modes[1].name" → "modes[1]." (the table), "name" (the key).
+std::pair<std::string, std::string> split_path(const std::string& path) {
+  const auto dot = path.rfind('.');
+  if (dot == std::string::npos) return {"", path};
+  return {path.substr(0, dot + 1), path.substr(dot + 1)};
+}
+
+}  // namespace
+
+std::string ConfigDocument::likely_meant(const std::string& path) const {
+  const auto [table, key] = split_path(path);
+  std::string best;
+  std::size_t best_distance = 0;
+  for (const std::string& asked : asked_keys_) {
+    const auto [asked_table, asked_key] = split_path(asked);
+    if (asked_table != table || !misspells(key, asked_key)) continue;
+    const std::size_t d = edit_distance(key, asked_key);
+    if (best.empty() || d < best_distance) {
+      best = asked_key;
+      best_distance = d;
+    }
+  }
+  return best;
+}
+
 void ConfigDocument::finish() const {
   // Depth-first walk; the first unread key is reported.
   std::function<void(const toml::table&, const std::string&)> walk =
       [&](const toml::table& table, const std::string& prefix) {
         for (const auto& [key, node] : table) {
           const std::string path = prefix + std::string(key.str());
-          if (read_keys_.count(path) == 0) throw ConfigError(name_, path, "unknown key");
+          if (read_keys_.count(path) == 0) {
+            const std::string meant = likely_meant(path);
+            throw ConfigError(
+                name_, path,
+                meant.empty() ? "unknown key" : "unknown key; did you mean '" + meant + "'?");
+          }
           if (const auto* sub = node.as_table()) {
             walk(*sub, path + ".");
           } else if (const auto* array = node.as_array();
@@ -155,7 +210,10 @@ void ConfigTable::fail(std::string_view key, const std::string& message) const {
   throw ConfigError(document_->name(), path(key), message);
 }
 
-bool ConfigTable::has(std::string_view key) const { return as_table(table_).contains(key); }
+bool ConfigTable::has(std::string_view key) const {
+  document_->ask(path(key));
+  return as_table(table_).contains(key);
+}
 
 bool ConfigTable::is_array(std::string_view key) const {
   const toml::node* n = as_table(table_).get(key);
@@ -163,6 +221,7 @@ bool ConfigTable::is_array(std::string_view key) const {
 }
 
 bool ConfigTable::is_auto(std::string_view key) const {
+  document_->ask(path(key));
   const toml::node* n = as_table(table_).get(key);
   if (n == nullptr) return true;
   if (const auto* text = n->as_string()) {
@@ -181,8 +240,18 @@ std::vector<std::string> ConfigTable::keys() const {
 }
 
 const void* ConfigTable::node(std::string_view key) const {
+  document_->ask(path(key));
   const toml::node* n = as_table(table_).get(key);
-  if (n == nullptr) fail(key, "missing");
+  if (n == nullptr) {
+    // A key beside it that nothing reads and that misspells it is the error to report first.
+    for (const auto& [present, value] : as_table(table_)) {
+      const std::string written(present.str());
+      if (document_->read_keys().count(path(written)) == 0 && misspells(written, key)) {
+        fail(written, "unknown key; did you mean '" + std::string(key) + "'? (which is missing)");
+      }
+    }
+    fail(key, "missing");
+  }
   document_->mark(path(key));
   return n;
 }

@@ -2,6 +2,7 @@
 #include "imm/support/measurement_csv.hpp"
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <string_view>
 
@@ -18,15 +19,20 @@ MeasurementCsv read_measurement_csv(std::istream& in, const std::string& name) {
   while (reader.next(line)) {
     const auto& fields = line.fields;
     if (!have_header) {
-      if (fields.size() == 3 && fields[0] == "k" && fields[1] == "zx" && fields[2] == "zy") {
+      const bool first = fields.size() == 3 && (fields[0] == "k" || fields[0] == "t");
+      if (first && fields[1] == "zx" && fields[2] == "zy") {
         csv.kind = MeasurementKind::kCartesian;
-      } else if (fields.size() == 3 && fields[0] == "k" && fields[1] == "range" &&
-                 fields[2] == "azimuth") {
+      } else if (first && fields[1] == "range" && fields[2] == "azimuth") {
         csv.kind = MeasurementKind::kPolar;
+      } else if (first && fields[1] == "z1" && fields[2] == "z2") {
+        csv.model_space = true;
       } else {
-        reader.fail("expected the header 'k,zx,zy' or 'k,range,azimuth', found '" +
-                    std::string(line.text) + "'");
+        reader.fail(
+            "expected the header 'k,zx,zy', 'k,range,azimuth' or 'k,z1,z2' (or 't' for 'k': "
+            "times in s), found '" +
+            std::string(line.text) + "'");
       }
+      csv.timed = fields[0] == "t";
       columns[0] = std::string(fields[1]);
       columns[1] = std::string(fields[2]);
       have_header = true;
@@ -34,10 +40,16 @@ MeasurementCsv read_measurement_csv(std::istream& in, const std::string& name) {
     }
     MeasurementRow row;
     row.line = line.number;
-    row.scan = parse_integer(fields[0]);
+    if (csv.timed) {
+      row.time = parse_real(fields[0], /*finite_only=*/true);
+    } else {
+      row.scan = parse_integer(fields[0]);
+    }
     if (fields.size() != 3) {
       row.problem = "expected 3 fields, found " + std::to_string(fields.size());
-    } else if (!row.scan) {
+    } else if (csv.timed && !row.time) {
+      row.problem = "t '" + std::string(fields[0]) + "' is not a finite number of seconds";
+    } else if (!csv.timed && !row.scan) {
       row.problem = "k '" + std::string(fields[0]) + "' is not an integer";
     } else {
       for (int i = 0; i < 2 && row.problem.empty(); ++i) {
@@ -59,6 +71,27 @@ MeasurementCsv read_measurement_csv(std::istream& in, const std::string& name) {
   }
   if (!have_header) throw std::runtime_error(name + ": empty, expected a header line");
   return csv;
+}
+
+void scans_from_times(MeasurementCsv& csv, double sample_period, const std::string& name) {
+  if (!csv.timed) return;
+  std::optional<double> t0;
+  for (MeasurementRow& row : csv.rows) {
+    if (!row.time) continue;
+    if (!t0) t0 = *row.time;
+    const double periods = (*row.time - *t0) / sample_period;
+    const double whole = std::round(periods);
+    if (std::abs(periods - whole) > 1e-6 || std::abs(whole) > 1e15) {
+      std::ostringstream message;
+      message.precision(10);
+      message << name << ':' << row.line << ": column 't': " << *row.time << " s is "
+              << *row.time - *t0 << " s after the first plot, not a whole number of the model's "
+              << "sample period " << sample_period
+              << " s: the plots were recorded at another period than the model was trained for";
+      throw std::runtime_error(message.str());
+    }
+    row.scan = static_cast<std::int64_t>(whole);
+  }
 }
 
 }  // namespace imm::support

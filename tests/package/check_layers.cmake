@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 # Fails when an include points up a layer. The folders are the layers, each built on those before
-# it: runtime < support < datasets < trainer < {evaluation, pipeline} < tools (thin mains,
-# benchmarks). A file may include its own layer's headers and those of any layer below, but not a
+# it: runtime < bindings (the Python module: the runtime alone) < support < datasets < trainer <
+# {evaluation, pipeline} < tools (thin mains, benchmarks). A file may include its own layer's headers and those of any layer below, but not a
 # sibling's (evaluation and pipeline meet only through processes); tests may include anything.
 #
 #   cmake -DSOURCE_DIR=<root> -P check_layers.cmake
@@ -10,6 +10,7 @@
 # Layer of a source file, from its folder (first match wins).
 set(layer_folders
   "runtime/"            runtime
+  "bindings/"           bindings
   "support/"            support
   "datasets/"           datasets
   "trainer/"            trainer
@@ -27,7 +28,7 @@ set(layer_includes
 set(generated_headers "imm/version.hpp" runtime "imm/runtime_export.hpp" runtime
   "imm/build_info.hpp" support)
 # Rank of each layer; evaluation and pipeline share one and may not include each other.
-set(order runtime support datasets trainer evaluation pipeline tools)
+set(order runtime bindings support datasets trainer evaluation pipeline tools)
 set(siblings evaluation pipeline)
 
 function(rank_of layer out)
@@ -70,7 +71,7 @@ function(layer_of_header header out)
 endfunction()
 
 set(sources "")
-foreach(top runtime support datasets trainer evaluation pipeline tools)
+foreach(top runtime bindings support datasets trainer evaluation pipeline tools)
   file(GLOB_RECURSE found RELATIVE "${SOURCE_DIR}" "${SOURCE_DIR}/${top}/*.cpp"
        "${SOURCE_DIR}/${top}/*.hpp")
   list(APPEND sources ${found})

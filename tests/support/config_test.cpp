@@ -64,6 +64,31 @@ TEST(PlainImmConfig, UnknownKeyIsNamed) {
   EXPECT_EQ(key, "modes[1].colour");
 }
 
+// A misspelt key is reported as what the user wrote, with what they meant: before the "missing"
+// of the required key it misspells, and for an optional one at the end; an unknown key close to
+// nothing gets no guess.
+TEST(PlainImmConfig, AMisspeltKeyIsNamedWithWhatItMeant) {
+  std::string text = kCv2;
+  text.replace(text.find("sample_period"), 13, "sampel_period");
+  auto [key, what] = error_of(text);
+  EXPECT_EQ(key, "sampel_period");
+  EXPECT_NE(what.find("unknown key; did you mean 'sample_period'? (which is missing)"),
+            std::string::npos)
+      << what;
+  text = kCv2;
+  text.replace(text.find("process_noise = 1e-2"), 13, "proces_noise");  // in modes[1]
+  std::tie(key, what) = error_of(text);
+  EXPECT_EQ(key, "modes[1].proces_noise");
+  EXPECT_NE(what.find("did you mean 'process_noise'?"), std::string::npos) << what;
+  // An optional key ([initialization] is read with defaults): reported by finish().
+  std::tie(key, what) = error_of(std::string(kCv2) + "[initialisation]\nmethod = \"two_point\"\n");
+  EXPECT_EQ(key, "initialisation");
+  EXPECT_NE(what.find("did you mean 'initialization'?"), std::string::npos) << what;
+  std::tie(key, what) = error_of("colour = \"red\"\n" + std::string(kCv2));
+  EXPECT_EQ(key, "colour");
+  EXPECT_EQ(what.find("did you mean"), std::string::npos) << what;
+}
+
 TEST(PlainImmConfig, WrongTypeIsNamed) {
   std::string text = kCv2;
   text.replace(text.find("sample_period = 1.0"), 19, "sample_period = \"1\"");
@@ -224,6 +249,30 @@ TEST(MeasurementCsv, ReportsBadRowsWithTheirLineNumbers) {
       EXPECT_FALSE(row.z.allFinite());
     }
   }
+}
+
+TEST(MeasurementCsv, ATimeColumnBecomesScansOfTheSamplePeriod) {
+  std::istringstream in("t,zx,zy\n10.0,1,2\n12.0,3,4\n18.0,5,6\nabc,7,8\n");
+  MeasurementCsv csv = read_measurement_csv(in, "t.csv");
+  EXPECT_TRUE(csv.timed);
+  ASSERT_EQ(csv.rows.size(), 4u);
+  EXPECT_EQ(csv.rows[3].problem, "t 'abc' is not a finite number of seconds");
+  scans_from_times(csv, 2.0, "t.csv");
+  EXPECT_EQ(csv.rows[0].scan, 0);
+  EXPECT_EQ(csv.rows[1].scan, 1);
+  EXPECT_EQ(csv.rows[2].scan, 4);  // a gap of three scans
+  EXPECT_FALSE(csv.rows[3].scan);
+  std::istringstream odd("t,zx,zy\n0,1,2\n5,3,4\n");
+  csv = read_measurement_csv(odd, "odd.csv");
+  try {
+    scans_from_times(csv, 2.0, "odd.csv");
+    ADD_FAILURE() << "5 s after the first plot is not a whole number of 2 s periods";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("odd.csv:3: column 't'"), std::string::npos)
+        << error.what();
+  }
+  std::istringstream sensor("k,z1,z2\n0,1,2\n");
+  EXPECT_TRUE(read_measurement_csv(sensor, "s.csv").model_space);
 }
 
 TEST(MeasurementCsv, PolarHeaderAndMissingHeader) {

@@ -91,5 +91,42 @@ TEST_F(Tools, ImmTrackRefusesMismatchedMeasurements) {
   EXPECT_NE(result.err.find("polar"), std::string::npos) << result.err;
 }
 
+// A CSV with a time column: t = 100 + k T gives the k file's track; times recorded at another
+// period are refused naming the column, the line and the model's sample period, which stderr
+// always states with the units (a CSV cannot say its own).
+TEST_F(Tools, ImmTrackHoldsATimeColumnToTheModelsSamplePeriod) {
+  const auto model = dir_ / "cv3.h5";
+  freeze_cv3(model);
+  const auto lines = lines_of(testing::slurp(dir_ / "plots.csv"));
+  ASSERT_GT(lines.size(), 10u);
+  std::string timed = "t,zx,zy\n", stretched = "t,zx,zy\n";
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    const auto comma = lines[i].find(',');
+    const double k = std::stod(lines[i].substr(0, comma));
+    timed += std::to_string(100.0 + k) + lines[i].substr(comma) + "\n";
+    stretched += std::to_string(2.5 * k) + lines[i].substr(comma) + "\n";
+  }
+  testing::write_text(dir_ / "timed.csv", timed);
+  testing::write_text(dir_ / "stretched.csv", stretched);
+  const auto run = [&](const std::string& csv) {
+    return run_tool("imm-track", {"--filter", model.string(), "--measurements", csv}, root_);
+  };
+  const auto by_scan = run((dir_ / "plots.csv").string());
+  const auto by_time = run((dir_ / "timed.csv").string());
+  ASSERT_EQ(by_time.exit_code, 0) << by_time.err;
+  EXPECT_EQ(by_time.out, by_scan.out);
+  EXPECT_NE(
+      by_scan.err.find("sample period 1 s, lengths in km, Cartesian plots with σ = 0.5 km, 0.5 km"),
+      std::string::npos)
+      << by_scan.err;
+  const auto refused = run((dir_ / "stretched.csv").string());
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("stretched.csv:3: column 't': 2.5 s is 2.5 s after the first plot"),
+            std::string::npos)
+      << refused.err;
+  EXPECT_NE(refused.err.find("sample period 1 s"), std::string::npos) << refused.err;
+  EXPECT_TRUE(refused.out.empty());
+}
+
 }  // namespace
 }  // namespace imm

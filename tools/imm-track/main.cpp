@@ -5,6 +5,9 @@
 //   imm-track --filter configs/track/cv3_imm.toml --measurements plots.csv [--out track.csv]
 //   imm-track --filter models/ga_fuzzy_imm.h5 --measurements plots.csv
 //
+// The CSV's first column is the scan k, or the time t in s (held to the model's sample period: a
+// file recorded at another period is refused naming the column). The model's sample period, length
+// unit and plot noise are printed on stderr, since a CSV cannot say its units.
 // Writes per input row: k, status (waiting|initialized|updated|rejected), the combined state,
 // its covariance diagonal and the mode probabilities, every number in its shortest form that
 // reads back to the same double. Rows that cannot be used are reported on stderr with their line
@@ -18,6 +21,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <sstream>
 
 #include "imm/io/container_file.hpp"
 #include "imm/load.hpp"
@@ -46,6 +50,27 @@ imm::LoadedFilter load_filter(const std::string& path, std::int64_t max_gap) {
   if (is_container(path)) return imm::load_filter(path, max_gap);
   const imm::PlainImmSpec spec = imm::support::load_plain_imm_config(path);
   return {imm::make_plain_imm_filter(spec), spec.track_options(max_gap), {}};
+}
+
+// "ga_fuzzy_imm model for agile_air: sample period 1 s, lengths in m, Cartesian plots with
+// σ = 25 m, 25 m".
+std::string describe(const imm::LoadedFilter& loaded) {
+  const imm::io::Provenance& p = loaded.provenance;
+  const std::string unit = p.model_kind.empty() ? "the config's unit" : p.length_unit;
+  std::ostringstream text;
+  text.precision(6);
+  text << (p.model_kind.empty() ? std::string("plain IMM config") : p.model_kind + " model")
+       << (p.regime_name.empty() ? "" : " for " + p.regime_name) << ": sample period "
+       << loaded.options.sample_period << " s, lengths in " << unit << ", ";
+  const Eigen::Matrix2d& R = loaded.options.measurement_covariance;
+  if (loaded.options.measurement_kind == imm::MeasurementKind::kPolar) {
+    text << "polar plots with σ = " << std::sqrt(R(0, 0)) << ' ' << unit << " (range), "
+         << std::sqrt(R(1, 1)) << " rad (azimuth)";
+  } else {
+    text << "Cartesian plots with σ = " << std::sqrt(R(0, 0)) << ' ' << unit << ", "
+         << std::sqrt(R(1, 1)) << ' ' << unit;
+  }
+  return text.str();
 }
 
 // A mode name as a CSV column: "x.lane change" → "x.lane_change".
@@ -80,7 +105,10 @@ int main(int argc, char** argv) {
   std::int64_t max_gap = imm::kDefaultMaxGap;
   app.add_option("--filter", filter_path, "model file (any kind) or plain IMM TOML config")
       ->required();
-  app.add_option("--measurements", measurements_path, "CSV with k,zx,zy or k,range,azimuth")
+  app.add_option(
+         "--measurements", measurements_path,
+         "CSV with k,zx,zy, k,range,azimuth or k,z1,z2 (the model's own plot space); t for k: "
+         "times in s")
       ->required();
   app.add_option("--out", out_path, "output CSV (default: standard output)");
   app.add_option("--max-gap", max_gap, "scans without a plot before the track is restarted")
@@ -94,12 +122,16 @@ int main(int argc, char** argv) {
     std::ifstream in(measurements_path);
     if (!in) throw std::runtime_error(measurements_path + ": cannot open");
     csv = imm::support::read_measurement_csv(in, measurements_path);
-    if (csv.kind != loaded.options.measurement_kind) {
+    // What the filter assumes of the plots (the CSV cannot say its units; its t column can say
+    // its period, and is held to the model's).
+    std::cerr << "imm-track: " << filter_path << ": " << describe(loaded) << '\n';
+    if (!csv.model_space && csv.kind != loaded.options.measurement_kind) {
       throw std::runtime_error(measurements_path + ": holds " +
                                std::string(imm::to_string(csv.kind)) +
                                " measurements but the filter expects " +
                                std::string(imm::to_string(loaded.options.measurement_kind)));
     }
+    imm::support::scans_from_times(csv, loaded.options.sample_period, measurements_path);
   } catch (const std::exception& error) {
     std::cerr << "imm-track: " << error.what() << '\n';
     return imm::support::exit_code::kBadInput;

@@ -1,9 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// Checked reading of TOML configs. Every key a loader reads is recorded; once the loader is done,
-/// finish() reports any key that was present but never read ("unknown key"), so that a typo in a
-/// config is an error, not a silently ignored setting. Type errors name the key; range errors
-/// come from the specs' validate() (InvalidParameter) and are re-thrown with the file and key.
+/// finish() reports any key that was present but never read ("unknown key", with the key it most
+/// likely misspells), so that a typo in a config is an error, not a silently ignored setting. A
+/// required key that is missing while a key beside it misspells it reports that unknown key first
+/// ("key 'sampel_period': unknown key; did you mean 'sample_period'? (which is missing)"). Type
+/// errors name the key; range errors come from the specs' validate() (InvalidParameter) and are
+/// re-thrown with the file and key.
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -105,6 +108,13 @@ class ConfigDocument : public std::enable_shared_from_this<ConfigDocument> {
   auto load_checked(Loader&& loader, const std::string& prefix = "") const -> decltype(loader());
 
   void mark(std::string key) const { read_keys_.insert(std::move(key)); }
+  /// Records a key a loader asked for, present or not (the "did you mean" of an unknown key).
+  void ask(std::string key) const { asked_keys_.insert(std::move(key)); }
+  /// Of the keys asked for beside `path` (the same table), the one `path` most likely misspells,
+  /// or "" when none is close.
+  [[nodiscard]] std::string likely_meant(const std::string& path) const;
+  /// The keys read so far (full paths).
+  [[nodiscard]] const std::set<std::string>& read_keys() const { return read_keys_; }
   [[noreturn]] void rethrow_invalid(const std::string& prefix) const;
 
  private:
@@ -114,6 +124,7 @@ class ConfigDocument : public std::enable_shared_from_this<ConfigDocument> {
   std::string text_;
   std::string name_;
   mutable std::set<std::string> read_keys_;
+  mutable std::set<std::string> asked_keys_;
 };
 
 template <class Loader>

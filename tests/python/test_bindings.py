@@ -1,0 +1,200 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The Python module immtrain against imm-track: every shipped model gives the same numbers to the
+bit over plots of its own regime; bad files and bad plots raise the documented errors with the C++
+message; the track bank equals single tracks; nothing grows when a tracker is made and run again
+and again.
+
+Run by ctest (python.Bindings) with PYTHONPATH=<build>/python and IMM_BIN=<build>/bin, from the
+source root."""
+
+import csv
+import glob
+import os
+import resource
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import immtrain
+
+BIN = os.environ.get("IMM_BIN", "build/bin")
+MODELS = os.environ.get("IMM_MODELS", "models")
+
+
+def shipped_models():
+    files = sorted(glob.glob(os.path.join(MODELS, "*.h5")) +
+                   glob.glob(os.path.join(MODELS, "*", "tracker.h5")))
+    return [f for f in files if "/reference/" not in f]
+
+
+def regime_plots(model, folder):
+    """One test track of the model's own regime as imm-track's CSV (imm-data writes it), or a
+    straight Cartesian track where the model records no regime."""
+    regime = immtrain.inspect(model)["provenance"]["regime_toml"]
+    out = os.path.join(folder, "plots.csv")
+    if regime:
+        toml = os.path.join(folder, "regime.toml")
+        with open(toml, "w") as f:
+            f.write(regime)
+        subprocess.run([os.path.join(BIN, "imm-data"), "tracks", "--regime", toml, "--out",
+                        os.path.join(folder, "tracks.h5"), "--count", "1", "--csv", out],
+                       check=True, capture_output=True)
+        return out
+    rng = np.random.default_rng(7)
+    with open(out, "w") as f:
+        f.write("k,zx,zy\n")
+        for k in range(120):
+            x, y = 1000.0 + 150.0 * k, 2000.0 - 80.0 * k
+            f.write(f"{k},{x + rng.normal(0, 30)!r},{y + rng.normal(0, 30)!r}\n")
+    return out
+
+
+def read_plots(path):
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    return np.array([[float(v) for v in row[:3]] for row in rows[1:]])
+
+
+@pytest.mark.parametrize("model", shipped_models())
+def test_every_shipped_model_equals_imm_track_to_the_bit(model, tmp_path):
+    plots_csv = regime_plots(model, str(tmp_path))
+    track = subprocess.run([os.path.join(BIN, "imm-track"), "--filter", model, "--measurements",
+                            plots_csv], check=True, capture_output=True, text=True).stdout
+    rows = list(csv.reader(track.splitlines()))
+    header, rows = rows[0], rows[1:]
+    tracker = immtrain.load_tracker(model)
+    out = tracker.run(read_plots(plots_csv))
+    n, m = tracker.state_dimension, tracker.mode_count
+    assert header[2:2 + n] == tracker.state_names
+    assert len(rows) == len(out["event"]) > 10
+    compared = 0
+    for i, row in enumerate(rows):
+        assert row[1] == out["event"][i]
+        if row[2] == "":
+            assert np.isnan(out["mean"][i]).all()
+            continue
+        values = [float(v) for v in row[2:2 + 2 * n + m]]
+        assert values[:n] == out["mean"][i].tolist()
+        assert values[n:2 * n] == np.diag(out["covariance"][i]).tolist()
+        assert values[2 * n:] == out["mode_probabilities"][i].tolist()
+        nis = row[2 + 2 * n + m]
+        assert (float(nis) if nis else float("nan")) == pytest.approx(out["envelope_nis"][i],
+                                                                      rel=0, abs=0, nan_ok=True)
+        assert int(row[-1]) == int(out["outside_envelope"][i])
+        compared += 1
+    assert compared > 10
+    # process() one plot at a time is run() row by row.
+    again = immtrain.load_tracker(model)
+    plots = read_plots(plots_csv)
+    for i in range(len(plots)):
+        step = again.process(int(plots[i, 0]), plots[i, 1:])
+        assert step["event"] == out["event"][i]
+    mean, covariance = again.state()
+    assert mean.tolist() == out["mean"][-1].tolist()
+    assert covariance.tolist() == out["covariance"][-1].tolist()
+
+
+def test_inspect_and_verify_say_what_a_model_is():
+    model = os.path.join(MODELS, "cv3_imm.h5")
+    info = immtrain.inspect(model)
+    assert info["kind"] == "plain_imm"
+    assert info["schema_version"] >= 1
+    assert info["provenance"]["model_kind"] == "plain_imm"
+    assert info["provenance"]["length_unit"] in ("m", "km")
+    datasets = {k: v for k, v in info["parameters"].items() if "values" in v}
+    assert datasets, info["parameters"].keys()
+    for path, entry in datasets.items():
+        assert isinstance(entry["values"], np.ndarray) and np.isfinite(entry["values"]).all(), path
+    assert any(unit for unit in info["units"].values())
+    assert immtrain.verify(model)["ok"] is True
+    assert set(immtrain.loadable_kinds()) >= {"plain_imm", "ga_fuzzy_imm", "fcm_imm", "wimm",
+                                              "mlp_input_estimator", "tsk_sensor"}
+
+
+def test_bad_files_raise_file_error_naming_the_file(tmp_path):
+    missing = str(tmp_path / "missing.h5")
+    with pytest.raises(immtrain.FileError, match="missing.h5"):
+        immtrain.load_tracker(missing)
+    text = tmp_path / "text.h5"
+    text.write_text("not a model\n")
+    with pytest.raises(immtrain.FileError, match="text.h5"):
+        immtrain.verify(str(text))
+    truncated = tmp_path / "truncated.h5"
+    data = open(os.path.join(MODELS, "cv3_imm.h5"), "rb").read()
+    truncated.write_bytes(data[: len(data) // 2])
+    for call in (immtrain.load_tracker, immtrain.inspect, immtrain.verify):
+        with pytest.raises(immtrain.FileError, match="truncated.h5"):
+            call(str(truncated))
+    # A flipped payload byte: the checksum names the field.
+    flipped = tmp_path / "flipped.h5"
+    shutil.copy(os.path.join(MODELS, "cv3_imm.h5"), flipped)
+    raw = bytearray(flipped.read_bytes())
+    raw[-200] ^= 0xFF
+    flipped.write_bytes(bytes(raw))
+    with pytest.raises(immtrain.FileError, match="flipped.h5"):
+        immtrain.verify(str(flipped))
+    assert issubclass(immtrain.FileError, RuntimeError)
+
+
+def test_bad_plots_raise_invalid_parameter_or_are_rejected():
+    tracker = immtrain.load_tracker(os.path.join(MODELS, "cv3_imm.h5"))
+    with pytest.raises(immtrain.InvalidParameter, match=r"plots: expected an \(N, 3\)"):
+        tracker.run(np.zeros((4, 2)))
+    with pytest.raises(ValueError, match=r"plots\[1, 0\]: the scan k must be a whole number"):
+        tracker.run(np.array([[0.0, 1.0, 2.0], [1.5, 1.0, 2.0]]))
+    with pytest.raises(immtrain.InvalidParameter, match="state: no track is running yet"):
+        tracker.state()
+    out = tracker.run(np.array([[0.0, 1.0, 2.0], [1.0, np.nan, 2.0], [2.0, 3.0, 2.0]]))
+    assert out["event"] == ["waiting", "rejected", "initialized"]
+    with pytest.raises(TypeError):
+        tracker.process(3, [1.0, 2.0, 3.0])
+
+
+def test_the_track_bank_equals_single_tracks():
+    model = os.path.join(MODELS, "cv3_imm.h5")
+    bank = immtrain.TrackBank(model, 3)
+    rng = np.random.default_rng(3)
+    starts = [np.array([100.0 * t, 10.0, 50.0 * t, -5.0]) for t in range(3)]
+    P0 = np.diag([100.0, 25.0, 100.0, 25.0])
+    for t in range(3):
+        bank.initialize(t, starts[t], P0)
+    truth = np.array([s.copy() for s in starts])
+    plots = []
+    for k in range(30):
+        truth[:, 0] += truth[:, 1]
+        truth[:, 2] += truth[:, 3]
+        z = truth[:, [0, 2]] + rng.normal(0.0, 5.0, (3, 2))
+        plots.append(z)
+        assert bank.step(z) == ["ok", "ok", "ok"]
+    for t in range(3):
+        one = immtrain.TrackBank(model, 1)
+        one.initialize(0, starts[t], P0)
+        for z in plots:
+            one.step(z[t:t + 1])
+        mean, cov = bank.estimate(t)
+        mean1, cov1 = one.estimate(0)
+        assert mean.tolist() == mean1.tolist()
+        assert cov.tolist() == cov1.tolist()
+        assert bank.mode_probabilities(t).tolist() == one.mode_probabilities(0).tolist()
+    with pytest.raises(ValueError):
+        bank.step(np.zeros((3, 3)))
+
+
+def test_nothing_grows_when_trackers_are_made_and_run_again_and_again():
+    model = os.path.join(MODELS, "cv3_imm.h5")
+    plots = np.array([[k, 10.0 * k, 5.0 * k] for k in range(200)], dtype=float)
+
+    def cycle(times):
+        for _ in range(times):
+            tracker = immtrain.load_tracker(model)
+            tracker.run(plots)
+            immtrain.inspect(model)
+
+    cycle(50)  # the allocator's and HDF5's caches settle
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    cycle(300)
+    after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    # A leak of one tracker (its filter, > 10 kB) per cycle would add > 3 MB.
+    assert after - before < 3000, (before, after)
