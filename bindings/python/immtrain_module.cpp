@@ -52,7 +52,8 @@ py::dict attributes_of(const imm::io::ContainerReader& file, const std::string& 
 // Every group and dataset under `group`, by path: {"attributes": {...}, "values": ndarray}.
 void collect(const imm::io::ContainerReader& file, const std::string& group, py::dict& objects) {
   for (const std::string& name : file.children(group)) {
-    const std::string path = group == "/" ? "/" + name : group + "/" + name;
+    std::string path = group == "/" ? std::string() : group;
+    path.append("/").append(name);
     py::dict object;
     object["attributes"] = attributes_of(file, path);
     if (file.kind(path) == imm::io::ObjectKind::kGroup) {
@@ -298,15 +299,17 @@ PYBIND11_MODULE(immtrain, m) {
   m.doc() = "immtrain's runtime: load a model file's tracker and run it over plots";
   static py::exception<imm::io::FileError> file_error(m, "FileError", PyExc_RuntimeError);
   static py::exception<imm::InvalidParameter> invalid(m, "InvalidParameter", PyExc_ValueError);
-  py::register_exception_translator([](std::exception_ptr p) {
-    try {
-      if (p) std::rethrow_exception(p);
-    } catch (const imm::io::FileError& e) {
-      file_error(e.what());
-    } catch (const imm::InvalidParameter& e) {
-      invalid(e.what());
-    }
-  });
+  // pybind11's translator type takes the pointer by value.
+  py::register_exception_translator(
+      [](std::exception_ptr p) {  // NOLINT(performance-unnecessary-value-param)
+        try {
+          if (p) std::rethrow_exception(p);
+        } catch (const imm::io::FileError& e) {
+          file_error(e.what());
+        } catch (const imm::InvalidParameter& e) {
+          invalid(e.what());
+        }
+      });
 
   py::class_<PyTracker>(m, "Tracker", "A model file's filter driven over scan-indexed plots")
       .def("process", &PyTracker::process, py::arg("k"), py::arg("z"),

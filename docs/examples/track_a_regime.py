@@ -42,8 +42,11 @@ def main():
         with open(toml, "w") as f:
             f.write(regime)
         data = os.path.join(folder, "tracks.h5")
+        # (imm-data without a sanitizer runtime preloaded into this interpreter, if any)
+        env = {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
         subprocess.run([os.path.join(args.bin, "imm-data"), "tracks", "--regime", toml, "--out",
-                        data, "--count", str(args.track + 1)], check=True, capture_output=True)
+                        data, "--count", str(args.track + 1)], check=True, capture_output=True,
+                       env=env)
         with h5py.File(data, "r") as f:
             z = f["plots"][args.track]
             truth = f["truth"][args.track]

@@ -13,8 +13,15 @@ namespace imm::evaluation {
 
 std::string Difference::text(int decimals) const {
   char buffer[96];
-  std::snprintf(buffer, sizeof buffer, "%+.*f [%+.*f, %+.*f]", decimals, estimate, decimals, lower,
-                decimals, upper);
+  // A difference too small for the decimals would read "+0.0000 [+0.0000, +0.0000]", which says
+  // nothing: it is given to three significant digits instead.
+  const double largest = std::max({std::abs(estimate), std::abs(lower), std::abs(upper)});
+  if (largest > 0.0 && largest < 0.5 * std::pow(10.0, -decimals)) {
+    std::snprintf(buffer, sizeof buffer, "%+.3g [%+.3g, %+.3g]", estimate, lower, upper);
+  } else {
+    std::snprintf(buffer, sizeof buffer, "%+.*f [%+.*f, %+.*f]", decimals, estimate, decimals,
+                  lower, decimals, upper);
+  }
   return buffer;
 }
 

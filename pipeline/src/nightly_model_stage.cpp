@@ -299,7 +299,7 @@ void Night::run_model(const NightlyStage& stage) {
             spawn(options_.tools / "imm-eval", compare, compare_log, o.wall_seconds);
         model.regression = e->out / "regression.json";
         if (verdict == support::exit_code::kRegression) {
-          regressions.push_back(e->name + ": " + tail_of(compare_log.string() + ".out", 8));
+          regressions.push_back(e->name + ":\n" + tail_of(compare_log.string() + ".out", 40));
         } else if (verdict != 0) {
           // A comparison that could not be made is no evidence that the candidate is not worse:
           // the gate fails closed (a malformed headline, runs that differ, a killed or missing

@@ -10,6 +10,7 @@
 
 #include "imm/pipeline/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "nightly_trends.hpp"
 
 namespace imm::pipeline {
 namespace {
@@ -36,29 +37,6 @@ std::string base64(const std::string& bytes) {
     const auto n = (static_cast<unsigned char>(bytes[i]) << 16) |
                    (static_cast<unsigned char>(bytes[i + 1]) << 8);
     out += {kAlphabet[(n >> 18) & 63], kAlphabet[(n >> 12) & 63], kAlphabet[(n >> 6) & 63], '='};
-  }
-  return out;
-}
-
-std::string html_escape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
   }
   return out;
 }
@@ -113,7 +91,7 @@ void write_benchmarks(const fs::path& latest, std::ostringstream& md, std::ostri
     doc = nlohmann::json::parse(in);
   } catch (const std::exception& e) {
     md << "\n## Benchmarks\n\n" << latest.string() << " is unreadable: " << e.what() << "\n";
-    html << "<h2>Benchmarks</h2><p>" << html_escape(latest.string()) << " is unreadable.</p>\n";
+    html << "<h2>Benchmarks</h2><p>" << html_text(latest.string()) << " is unreadable.</p>\n";
     return;
   }
   const std::string when = doc.value("generated", "?"), before = doc.value("previous_run", "");
@@ -121,8 +99,8 @@ void write_benchmarks(const fs::path& latest, std::ostringstream& md, std::ostri
      << (before.empty() ? std::string() : ", against " + before)
      << " (medians; ⚠ more than 10 % slower):\n\n| benchmark | median | before | change |\n"
         "|---|---|---|---|\n";
-  html << "<h2>Benchmarks</h2>\n<p><code>make bench</code> of " << html_escape(when)
-       << (before.empty() ? std::string() : ", against " + html_escape(before))
+  html << "<h2>Benchmarks</h2>\n<p><code>make bench</code> of " << html_text(when)
+       << (before.empty() ? std::string() : ", against " + html_text(before))
        << " (medians; ⚠ more than 10 % slower)</p>\n<table id=\"benchmarks\"><tr><th>benchmark"
           "</th><th>median</th><th>before</th><th>change</th></tr>\n";
   for (const auto& row : doc.value("benchmarks", nlohmann::json::array())) {
@@ -136,8 +114,8 @@ void write_benchmarks(const fs::path& latest, std::ostringstream& md, std::ostri
     const std::string name = row.value("name", "?");
     md << "| " << cell_text(name) << " | " << median.str() << " | " << previous.str() << " | "
        << change.str() << " |\n";
-    html << "<tr><td>" << html_escape(name) << "</td><td>" << median.str() << "</td><td>"
-         << previous.str() << "</td><td>" << html_escape(change.str()) << "</td></tr>\n";
+    html << "<tr><td>" << html_text(name) << "</td><td>" << median.str() << "</td><td>"
+         << previous.str() << "</td><td>" << html_text(change.str()) << "</td></tr>\n";
   }
   html << "</table>\n";
 }
@@ -158,8 +136,8 @@ void write_trackers(const NightlyResult& result, std::ostringstream& md, std::os
       any = true;
     }
     md << "### " << o.name << " — " << o.status << "\n\n" << o.message << "\n\n";
-    html << "<h3 id=\"tracker-" << html_escape(o.name) << "\">" << html_escape(o.name) << " — "
-         << html_escape(o.status) << "</h3>\n<p>" << html_escape(o.message) << "</p>\n";
+    html << "<h3 id=\"tracker-" << html_text(o.name) << "\">" << html_text(o.name) << " — "
+         << html_text(o.status) << "</h3>\n<p>" << html_text(o.message) << "</p>\n";
     const auto document =
         nlohmann::json::parse(read_or_empty(o.report / "tracker.json"), nullptr, false);
     if (document.is_discarded() || !document.contains("ranking")) continue;
@@ -188,10 +166,10 @@ void write_trackers(const NightlyResult& result, std::ostringstream& md, std::os
       md << "| " << row.value("place", 0) << " | " << name << " | " << p.str() << " | " << v.str()
          << " | " << difference("zeta_p") << " | " << difference("zeta_v") << " | "
          << row.value("verdict", "") << " |\n";
-      html << "<tr><td>" << row.value("place", 0) << "</td><td>" << html_escape(name) << "</td><td>"
+      html << "<tr><td>" << row.value("place", 0) << "</td><td>" << html_text(name) << "</td><td>"
            << p.str() << "</td><td>" << v.str() << "</td><td>" << difference("zeta_p")
            << "</td><td>" << difference("zeta_v") << "</td><td>"
-           << html_escape(row.value("verdict", "")) << "</td></tr>\n";
+           << html_text(row.value("verdict", "")) << "</td></tr>\n";
     }
     md << "\n";
     html << "</table>\n";
@@ -202,7 +180,6 @@ void write_trackers(const NightlyResult& result, std::ostringstream& md, std::os
 
 void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
                           const NightlyResult& result) {
-  (void)plan;
   fs::create_directories(folder);
   const std::string night = folder.filename().string();
   std::size_t failed = 0, held = 0, cached = 0, findings = 0;
@@ -216,7 +193,9 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
      << static_cast<int>(result.wall_seconds) << " s: " << failed << " failed, " << held
      << " held back, " << findings << " with findings, " << cached << " cached.\n\n";
   if (!result.training.empty()) md << "Training: " << result.training << ".\n\n";
-  std::ostringstream tracker_html;
+  // The first screen: what changed and what to do; then the regime's trackers, then the details.
+  std::ostringstream first_html, tracker_html;
+  write_first_screen(result, plan.registry, md, first_html);
   write_trackers(result, md, tracker_html);
   md << "## Stages\n\n"
      << "| kind | stage | status | wall s | note |\n|---|---|---|---|---|\n";
@@ -231,18 +210,22 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
        << static_cast<int>(result.wall_seconds) << " s: " << failed << " failed, " << held
        << " held back, " << findings << " with findings, " << cached << " cached.</p>\n";
   if (!result.training.empty()) {
-    html << "<p id=\"training\">Training: " << html_escape(result.training) << ".</p>\n";
+    html << "<p id=\"training\">Training: " << html_text(result.training) << ".</p>\n";
   }
-  html << tracker_html.str();
+  html << first_html.str() << tracker_html.str();
   html << "<h2>Stages</h2>\n<table id=\"stages\">"
        << "<tr><th>kind</th><th>stage</th><th>status</th><th>wall s</th><th>note</th></tr>\n";
   for (const auto& o : result.stages) {
+    // A note's first line here; the whole of it (tables included) in the sections below.
+    const auto end = o.message.find('\n');
+    const std::string note =
+        end == std::string::npos ? o.message : o.message.substr(0, end) + " (more below)";
     md << "| " << o.kind << " | " << o.name << " | " << o.status << " | " << seconds_text(o)
-       << " | " << cell_text(o.message) << " |\n";
+       << " | " << cell_text(note) << " |\n";
     const char* css = o.failed ? " class=\"failed\"" : o.held_back ? " class=\"held\"" : "";
-    html << "<tr><td>" << o.kind << "</td><td>" << html_escape(o.name) << "</td><td" << css << ">"
-         << html_escape(o.status) << "</td><td>" << seconds_text(o) << "</td><td>"
-         << html_escape(o.message) << "</td></tr>\n";
+    html << "<tr><td>" << o.kind << "</td><td>" << html_text(o.name) << "</td><td" << css << ">"
+         << html_text(o.status) << "</td><td>" << seconds_text(o) << "</td><td>" << html_text(note)
+         << "</td></tr>\n";
   }
   html << "</table>\n";
 
@@ -253,13 +236,15 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
   for (const auto& o : result.stages) {
     if (!o.failed && !o.held_back) continue;
     any = true;
-    md << "### " << o.kind << " " << o.name << " — " << o.status << "\n\n```\n"
-       << o.message << "\n```\n\nReproduce: `" << o.command << "`";
+    // Notes are sentences and their tables are tables (the regression comparison's rows).
+    md << "### " << o.kind << " " << o.name << " — " << o.status << "\n\n"
+       << o.message << "\n\nReproduce: `" << o.command << "`";
     if (!o.log.empty()) md << " (logs: `" << o.log.string() << ".out`, `.err`)";
     md << "\n\n";
-    html << "<h3>" << o.kind << " " << html_escape(o.name) << " — " << html_escape(o.status)
-         << "</h3>\n<pre>" << html_escape(o.message) << "</pre>\n<p>Reproduce: <code>"
-         << html_escape(o.command) << "</code></p>\n";
+    html << "<h3>" << o.kind << " " << html_text(o.name) << " — " << html_text(o.status)
+         << "</h3>\n"
+         << markdown_to_html(o.message) << "\n<p>Reproduce: <code>" << html_text(o.command)
+         << "</code></p>\n";
   }
   if (!any) {
     md << "None.\n";
@@ -273,15 +258,15 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
       "failed where the plan knows it fails (its known failures, each with its measured reason; "
       "nightly.toml's [[evaluations.known_failures]]): reported, not failures.";
   md << "\n## Findings\n\n" << kFindings << "\n\n";
-  html << "<h2>Findings</h2>\n<p>" << html_escape(kFindings) << "</p>\n";
+  html << "<h2>Findings</h2>\n<p>" << html_text(kFindings) << "</p>\n";
   any = false;
   for (const auto& o : result.stages) {
     if (!o.finding) continue;
     any = true;
     md << "### " << o.name << " — " << o.status << "\n\n```\n"
        << o.message << "\n```\n\nReproduce: `" << o.command << "`\n\n";
-    html << "<h3>" << html_escape(o.name) << " — " << html_escape(o.status) << "</h3>\n<pre>"
-         << html_escape(o.message) << "</pre>\n<p>Reproduce: <code>" << html_escape(o.command)
+    html << "<h3>" << html_text(o.name) << " — " << html_text(o.status) << "</h3>\n<pre>"
+         << html_text(o.message) << "</pre>\n<p>Reproduce: <code>" << html_text(o.command)
          << "</code></p>\n";
   }
   if (!any) {
@@ -296,11 +281,11 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
   for (const auto& o : result.stages) {
     if (o.kind == "model") {
       md << "\n### " << o.name << " — " << o.status << "\n\n";
-      html << "<h3 id=\"model-" << html_escape(o.name) << "\">" << html_escape(o.name) << " — "
-           << html_escape(o.status) << "</h3>\n";
+      html << "<h3 id=\"model-" << html_text(o.name) << "\">" << html_text(o.name) << " — "
+           << html_text(o.status) << "</h3>\n";
       if (!o.message.empty()) {
         md << o.message << "\n\n";
-        html << "<p>" << html_escape(o.message) << "</p>\n";
+        html << markdown_to_html(o.message) << "\n";
       }
       continue;
     }
@@ -318,8 +303,8 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
                                        : read_or_empty(o.report / "regression.json");
     md << "#### " << o.name << " (`" << o.report.string() << "`, " << o.status << ")\n\n"
        << tables << "\n";
-    html << "<h4>" << html_escape(o.name) << " (" << html_escape(o.report.string()) << ", "
-         << html_escape(o.status) << ")</h4>\n<pre>" << html_escape(tables) << "</pre>\n";
+    html << "<h4>" << html_text(o.name) << " (" << html_text(o.report.string()) << ", "
+         << html_text(o.status) << ")</h4>\n<pre>" << html_text(tables) << "</pre>\n";
     if (!regression.empty()) {
       const auto document = nlohmann::json::parse(regression, nullptr, false);
       if (!document.is_discarded() && document.contains("metrics")) {
@@ -337,7 +322,7 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
           md << "| " << m.value("name", "") << " | " << m.value("candidate", 0.0) << " | "
              << m.value("shipped", 0.0) << " | " << diff.str() << " | " << m.value("verdict", "")
              << " |\n";
-          html << "<tr><td>" << html_escape(m.value("name", "")) << "</td><td>"
+          html << "<tr><td>" << html_text(m.value("name", "")) << "</td><td>"
                << m.value("candidate", 0.0) << "</td><td>" << m.value("shipped", 0.0) << "</td><td>"
                << diff.str() << "</td><td>" << m.value("verdict", "") << "</td></tr>\n";
         }
@@ -347,10 +332,11 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
     }
     for (const auto& plot : plots_in(o.report)) {
       md << "![" << plot.filename().string() << "](" << fs::absolute(plot).string() << ")\n";
-      html << "<img alt=\"" << html_escape(plot.filename().string())
+      html << "<img alt=\"" << html_text(plot.filename().string())
            << "\" src=\"data:image/png;base64," << base64(read_or_empty(plot)) << "\">\n";
     }
   }
+  write_trends(plan.registry, folder.parent_path() / "nights.jsonl", md, html);
   write_benchmarks(folder.parent_path().parent_path() / "bench" / "latest.json", md, html);
   html << "</body></html>\n";
 

@@ -31,6 +31,7 @@
 #include "imm/support/exit_codes.hpp"
 #include "imm/support/process.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "nightly_trends.hpp"
 
 namespace imm::pipeline {
 namespace {
@@ -320,6 +321,8 @@ std::string Night::join(const std::vector<std::string>& parts) {
 NightlyResult run_nightly(const NightlyPlan& plan, const NightlyOptions& options) {
   Night night(plan, options);
   NightlyResult result = night.run();
+  record_night(result.report_folder.parent_path() / "nights.jsonl",
+               result.report_folder.filename().string(), result);
   write_morning_report(result.report_folder, plan, result);
   if (plan.evaluations_page) write_evaluations_page(*plan.evaluations_page, plan, result);
   return result;

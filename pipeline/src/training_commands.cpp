@@ -136,31 +136,32 @@ int run_ga(const GaCommand& command) {
 
 int train_mlp(const TrainCommand& command) {
   auto config = trainer::mlp::load_mlp_config(command.config, command.regime);
-  if (command.seed) {
-    config.seed = *command.seed;
-    config.training.seed = datasets::derive_seed(config.seed, 3);
-  }
+  if (command.seed) config.seed = *command.seed;
+  if (command.seed) config.training.seed = datasets::derive_seed(config.seed, 3);
   int epochs = 0;
   for (const auto& phase : config.training.phases) epochs += phase.epochs;
   spdlog::info("mlp: regime {}, {} training and {} validation tracks, {} epochs, seed {}",
                config.regime.name, config.regime.splits.training, config.regime.splits.validation,
                epochs, config.seed);
+  // Live progress: about eight lines over the run, each as its epoch is reached.
+  const std::string unit(datasets::to_string(config.regime.units));
+  config.training.on_point = [&, every = std::max(1, epochs / 8), next = 0](const auto& p) mutable {
+    if (p.epoch < next && p.epoch != epochs) return;
+    next = p.epoch + every;
+    spdlog::info("epoch {:5}/{}: training MSE {:.4f}, validation MSE {:.4f} ({}/s²)²", p.epoch,
+                 epochs, p.training, p.validation, unit);
+  };
   const auto result = trainer::mlp::train_mlp(config, command.out);
-  const std::size_t step = std::max<std::size_t>(1, result.loss.size() / 8);
-  for (std::size_t i = 0; i < result.loss.size(); i += step) {
-    const auto& p = result.loss[i];
-    spdlog::info("epoch {:5}/{}: training MSE {:.4f}, validation MSE {:.4f} (m/s²)²", p.epoch,
-                 epochs, p.training, p.validation);
-  }
   spdlog::info(
-      "trained in {:.2f} s (back-propagation {:.2f} s): RMSE {:.3f} / {:.3f} m/s² "
-      "(training / validation); no-maneuver output {:.3f} m/s² before, {:.3f} after "
+      "trained in {:.2f} s (back-propagation {:.2f} s): RMSE {:.3f} / {:.3f} {}/s² "
+      "(training / validation); no-maneuver output {:.3f} {}/s² before, {:.3f} after "
       "removing the trained bias",
       result.wall_seconds, result.training_seconds, result.training_rmse, result.validation_rmse,
-      result.bias_before, result.bias_after);
+      unit, result.bias_before, unit, result.bias_after);
   if (!result.gate_passed) {
-    spdlog::error("quality gate failed: validation RMSE {:.3f} m/s² exceeds {:.3f}; {} not written",
-                  result.validation_rmse, config.max_validation_rmse, command.out.string());
+    spdlog::error(
+        "quality gate failed: validation RMSE {:.3f} {}/s² exceeds {:.3f}; {} not written",
+        result.validation_rmse, unit, config.max_validation_rmse, command.out.string());
     return exit_code::kTrainingGateFailed;
   }
   spdlog::info("wrote {}", command.out.string());
@@ -232,9 +233,10 @@ int train_fcm(const TrainCommand& command) {
                         s.compensation_gain, s.clustering.fuzzifier, s.separation)
           : std::string("the constant-q IMM (learned part off, lambda 0)");
   spdlog::info(
-      "fitted: {}, stay {:.4f}, q = {:.4g} (m/s^2)^2; J = {:.4f} training, {:.4f} validation "
+      "fitted: {}, stay {:.4f}, q = {:.4g} ({}/s^2)^2; J = {:.4f} training, {:.4f} validation "
       "(lambda = 0 IMM {:.4f}, KF {:.4f}); {} evaluations, {:.1f} s",
-      learned, s.transition(0, 0), fmt::join(s.process_noise, ", "), result.training.objective,
+      learned, s.transition(0, 0), fmt::join(s.process_noise, ", "),
+      datasets::to_string(config.regime.units), result.training.objective,
       result.validation.objective, result.imm_validation.objective, result.kf_validation.objective,
       result.evaluations, result.wall_seconds);
   if (!result.gate_passed) {

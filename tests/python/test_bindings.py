@@ -23,6 +23,11 @@ BIN = os.environ.get("IMM_BIN", "build/bin")
 MODELS = os.environ.get("IMM_MODELS", "models")
 
 
+# The tools run without the sanitizer runtime preloaded into this interpreter (tests/python/
+# CMakeLists.txt): an instrumented tool carries its own.
+TOOL_ENV = {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
+
+
 def shipped_models():
     files = sorted(glob.glob(os.path.join(MODELS, "*.h5")) +
                    glob.glob(os.path.join(MODELS, "*", "tracker.h5")))
@@ -40,7 +45,7 @@ def regime_plots(model, folder):
             f.write(regime)
         subprocess.run([os.path.join(BIN, "imm-data"), "tracks", "--regime", toml, "--out",
                         os.path.join(folder, "tracks.h5"), "--count", "1", "--csv", out],
-                       check=True, capture_output=True)
+                       check=True, capture_output=True, env=TOOL_ENV)
         return out
     rng = np.random.default_rng(7)
     with open(out, "w") as f:
@@ -61,7 +66,8 @@ def read_plots(path):
 def test_every_shipped_model_equals_imm_track_to_the_bit(model, tmp_path):
     plots_csv = regime_plots(model, str(tmp_path))
     track = subprocess.run([os.path.join(BIN, "imm-track"), "--filter", model, "--measurements",
-                            plots_csv], check=True, capture_output=True, text=True).stdout
+                            plots_csv], check=True, capture_output=True, text=True,
+                           env=TOOL_ENV).stdout
     rows = list(csv.reader(track.splitlines()))
     header, rows = rows[0], rows[1:]
     tracker = immtrain.load_tracker(model)

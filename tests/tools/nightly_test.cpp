@@ -18,6 +18,7 @@
 #include "testing/regime_files.hpp"
 #include "testing/run_tool.hpp"
 #include "testing/temp_dir.hpp"
+#include "testing/tools_fixture.hpp"
 
 namespace imm {
 namespace {
@@ -177,6 +178,22 @@ TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
   EXPECT_NE(report.find("held back"), std::string::npos) << report;
   EXPECT_NE(report.find("zeta_p"), std::string::npos) << report;
   EXPECT_NE(report.find("imm-train freeze"), std::string::npos) << report;  // how to reproduce
+  // The first screen: the hold-back first, with what to do; nothing shipped got worse.
+  const auto last_night = report.find("## Last night");
+  ASSERT_NE(last_night, std::string::npos) << report;
+  EXPECT_LT(last_night, report.find("## Stages"));
+  EXPECT_NE(report.find("| model cv3 | **held back**", last_night), std::string::npos) << report;
+  EXPECT_NE(report.find("`imm-train promote`", last_night), std::string::npos) << report;
+  EXPECT_NE(report.find("Did anything shipped get worse? No shipped file changed for the worse"),
+            std::string::npos)
+      << report;
+  // The hold-back's comparison is a table in the HTML, not Markdown pasted into a cell.
+  const std::string held_html = slurp(p.reports / "latest" / "index.html");
+  const auto held_section = held_html.find("<h2>Failures and hold-backs</h2>");
+  ASSERT_NE(held_section, std::string::npos);
+  const auto held_table = held_html.find("<table><tr><td>metric</td>", held_section);
+  EXPECT_LT(held_table, held_html.find("<h2>Findings</h2>"))
+      << held_html.substr(held_section, 3000);
   EXPECT_EQ(nightly(p).exit_code, 6);  // cached, still held back
 
   // 4. An equally good candidate (another config text) is promoted; rollback restores the first
@@ -190,6 +207,19 @@ TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
   EXPECT_EQ(m["models"][0]["sha256"], second);
   ASSERT_EQ(m["models"][0]["history"].size(), 1u);
   EXPECT_EQ(m["models"][0]["history"][0]["sha256"], first);
+  // Trends: the model's headline metric at both promotions (an SVG with a point each), and the
+  // wall time of every stage that ran over the nights so far (five lines of nights.jsonl).
+  const std::string trends = slurp(p.reports / "latest" / "index.html");
+  const auto svg = trends.find("<svg", trends.find("id=\"metric-trends\""));
+  ASSERT_NE(svg, std::string::npos);
+  const std::string plot = trends.substr(svg, trends.find("</svg>", svg) - svg);
+  EXPECT_NE(plot.find("cv3: plain-imm cv3: zeta_p"), std::string::npos) << plot;
+  std::size_t points = 0;
+  for (auto at = plot.find("<circle"); at != std::string::npos; at = plot.find("<circle", at + 1))
+    ++points;
+  EXPECT_EQ(points, 2u) << plot;
+  EXPECT_EQ(testing::lines_of(slurp(p.reports / "nights.jsonl")).size(), 5u);
+  EXPECT_NE(slurp(p.reports / "latest" / "index.md").find("| model cv3 |"), std::string::npos);
 
   const auto rollback =
       run_tool("imm-train", {"rollback", "plain_imm", "--registry", p.registry.string()}, {});
@@ -739,6 +769,9 @@ window.addEventListener('load', () => {
     decoded: images.filter(i => i.complete && i.naturalWidth > 0 && i.naturalHeight > 0).length,
     tables: [...document.querySelectorAll('table')].map(t => ({
       id: t.id, rows: t.rows.length, height: t.getBoundingClientRect().height})),
+    news: document.getElementById('news') ? document.getElementById('news').getBoundingClientRect().top : -1,
+    stages_top: document.getElementById('stages').getBoundingClientRect().top,
+    trends: document.querySelectorAll('#metric-trends svg circle').length,
     blocked: blocked,
     fetched: performance.getEntriesByType('resource').map(r => r.name)
                  .filter(n => !n.startsWith('data:')),
@@ -759,7 +792,7 @@ window.addEventListener('load', () => {
       run_tool(browser,
                {"--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                "--user-data-dir=" + (dir / "browser-profile").string(),
+                "--user-data-dir=" + (dir / "browser-profile").string(), "--window-size=1400,900",
                 "--virtual-time-budget=10000", "--dump-dom", "file://" + probed.string()},
                {}, 120);
   ASSERT_EQ(dom.exit_code, 0) << dom.err;
@@ -795,6 +828,12 @@ window.addEventListener('load', () => {
     }
   }
   EXPECT_TRUE(stages) << "no stage table rendered";
+  // The first screen (1400 × 900) answers what changed: the news table starts on it, above the
+  // stage table; the metric's trend is drawn (one promotion, one point).
+  EXPECT_GE(seen["news"].get<double>(), 0.0) << seen.dump();
+  EXPECT_LT(seen["news"].get<double>(), 900.0) << seen.dump();
+  EXPECT_LT(seen["news"].get<double>(), seen["stages_top"].get<double>());
+  EXPECT_EQ(seen["trends"], 1);
   // What a reader reads: the decision and the evaluation's table.
   const std::string text = seen["text"];
   EXPECT_NE(text.find("promoted"), std::string::npos) << text.substr(0, 2000);

@@ -38,6 +38,16 @@ TEST(Verdict, FollowsTheStatedRule) {
 // The same filter computed two ways (a learned model with its learned part off, and its
 // baseline) differs by rounding with one sign on every resample: that ties, it does not beat. A
 // real difference of the same sign, however small against the statistic's spread, still counts.
+// A difference is written with enough digits to be read: fixed decimals where they show it,
+// three significant digits where every number would round to zero.
+TEST(PairedDifference, ATinyDifferenceShowsItsDigits) {
+  EXPECT_EQ((Difference{-0.0123, -0.0150, -0.0097}).text(), "-0.0123 [-0.0150, -0.0097]");
+  EXPECT_EQ((Difference{3.2e-6, 1.1e-6, 5.04e-6}).text(), "+3.2e-06 [+1.1e-06, +5.04e-06]");
+  EXPECT_EQ((Difference{0.0, 0.0, 0.0}).text(), "+0.0000 [+0.0000, +0.0000]");
+  EXPECT_EQ((Difference{0.03, 0.01, 0.04}).text(1), "+0.03 [+0.01, +0.04]");
+  EXPECT_EQ((Difference{0.4, 0.01, 0.6}).text(1), "+0.4 [+0.0, +0.6]");
+}
+
 TEST(PairedDifference, RoundingLevelDifferencesTieAndRealOnesCount) {
   Eigen::VectorXd per_run(20);
   for (int i = 0; i < 20; ++i) per_run(i) = 0.75 + 0.01 * i;

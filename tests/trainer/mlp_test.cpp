@@ -141,6 +141,31 @@ TEST(Backpropagation, TrainingIsDeterministicForASeed) {
   EXPECT_DOUBLE_EQ(mlp.forward(Eigen::Vector2d(x[0], x[1])), a.predict(x));
 }
 
+// Progress is reported as training goes: each point of the curve reaches on_point when it is
+// measured — before the next epochs run (the network then still has the weights it was measured
+// with) — and the points are the curve's.
+TEST(Backpropagation, EachLossPointIsReportedWhenItIsMeasured) {
+  const Samples samples = random_samples(50, 2);
+  TrainingOptions options;
+  options.phases = {{25, 0.1, 0.1}};
+  options.loss_every = 10;
+  Network network({2, 10, 10, 1}, Activation::kSigmoid, 12.0, 0.5, 9);
+  std::vector<LossPoint> seen;
+  std::vector<double> mse_then;
+  options.on_point = [&](const LossPoint& p) {
+    seen.push_back(p);
+    mse_then.push_back(network.mse(samples));
+  };
+  const auto curve = train(network, samples, samples, options);
+  ASSERT_EQ(seen.size(), curve.size());
+  ASSERT_EQ(curve.size(), 4u);  // epochs 0, 10, 20 and the last, 25
+  for (std::size_t i = 0; i < curve.size(); ++i) {
+    EXPECT_EQ(seen[i].epoch, curve[i].epoch);
+    EXPECT_EQ(seen[i].training, curve[i].training);
+    EXPECT_EQ(mse_then[i], curve[i].training) << "point " << i << " was not reported live";
+  }
+}
+
 TEST(MlpConfig, ShippedConfigIsTheSeedsSchedule) {
   const auto config = load_mlp_config("configs/mlp_input_estimator.toml");
   ASSERT_EQ(config.training.phases.size(), 2u);

@@ -166,7 +166,12 @@ void Network::update_on_sample(const double* input, double target, double hidden
 std::vector<LossPoint> train(Network& network, const Samples& training, const Samples& validation,
                              const TrainingOptions& options) {
   std::vector<LossPoint> curve;
-  curve.push_back({0, network.mse(training), network.mse(validation)});
+  // Each point of the curve as it is measured (the live progress of `imm-train mlp`).
+  const auto record = [&](int at) {
+    curve.push_back({at, network.mse(training), network.mse(validation)});
+    if (options.on_point) options.on_point(curve.back());
+  };
+  record(0);
   const auto n = static_cast<std::size_t>(training.inputs.rows());
   const auto columns = static_cast<std::size_t>(training.inputs.cols());
   // Row-major copy for fast per-sample access.
@@ -231,12 +236,11 @@ std::vector<LossPoint> train(Network& network, const Samples& training, const Sa
         }
       }
       if (epoch % options.loss_every == 0) {
-        curve.push_back({epoch, network.mse(training), network.mse(validation)});
+        record(epoch);
       }
     }
   }
-  if (curve.back().epoch != epoch)
-    curve.push_back({epoch, network.mse(training), network.mse(validation)});
+  if (curve.back().epoch != epoch) record(epoch);
   return curve;
 }
 

@@ -25,7 +25,8 @@ struct Difference {
   /// a is lower (better, for an error) than b beyond the uncertainty.
   [[nodiscard]] bool below() const { return upper < 0.0; }
   [[nodiscard]] bool above() const { return lower > 0.0; }
-  /// "−0.0123 [−0.0150, −0.0097]".
+  /// "−0.0123 [−0.0150, −0.0097]" with `decimals` decimals; a difference whose every number
+  /// rounds to zero there (but is not zero) to three significant digits: "+3.2e-06 [+1.1e-06, …]".
   [[nodiscard]] std::string text(int decimals = 4) const;
 };
 

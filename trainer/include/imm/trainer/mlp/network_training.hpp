@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "imm/models/learned/mlp.hpp"
@@ -35,12 +36,19 @@ struct Phase {
 enum class UpdateMode { kPerSample, kBatch };
 enum class Optimizer { kGradientDescent, kAdam };
 
+struct LossPoint {
+  int epoch = 0;
+  double training = 0.0, validation = 0.0;  ///< MSE, target unit
+};
+
 struct TrainingOptions {
   std::vector<Phase> phases = {{3000, 0.1, 0.1}, {3000, 0.05, 0.01}};
   UpdateMode mode = UpdateMode::kPerSample;
   Optimizer optimizer = Optimizer::kGradientDescent;
   int loss_every = 50;     ///< epochs between loss-curve points
   std::uint64_t seed = 1;  ///< sample order (per-sample mode)
+  /// Called with each point of the loss curve as it is measured (progress; may be empty).
+  std::function<void(const LossPoint&)> on_point;
 };
 
 /// A trainable copy of an MLP's parameters.
@@ -75,11 +83,6 @@ class Network {
   mutable std::vector<std::vector<double>> deltas_;
   mutable std::vector<Eigen::MatrixXd> batch_activations_;  // gradients(): n × units per layer
   mutable std::vector<Eigen::MatrixXd> batch_deltas_;
-};
-
-struct LossPoint {
-  int epoch = 0;
-  double training = 0.0, validation = 0.0;  ///< MSE, target unit
 };
 
 /// Trains `network` with the phases of `options`; returns the loss curve (epoch 0 and every
