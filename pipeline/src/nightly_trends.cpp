@@ -55,7 +55,7 @@ std::string what_to_do(const StageOutcome& o) {
     return "Nothing while it does not get worse: the plan knows this gate fails, and why.";
   if (o.status.starts_with("promoted"))
     return "Nothing: it passed its gates and is not worse than what it replaced.";
-  if (o.kind == "tracker" && o.status != "unchanged")
+  if (o.kind == "tracker" && !o.status.starts_with("unchanged"))
     return "Nothing: the regime's tracker changed to the better filter.";
   if (o.finding)
     return "Nothing unless it surprises: the regime ships its tuned baseline where a learned model "
@@ -67,7 +67,7 @@ std::string what_to_do(const StageOutcome& o) {
 bool is_news(const StageOutcome& o) {
   if (o.failed || o.held_back || o.known_failure) return true;
   if (o.kind == "model") return o.status.starts_with("promoted");
-  if (o.kind == "tracker") return o.status != "unchanged" && !o.cached;
+  if (o.kind == "tracker") return !o.status.starts_with("unchanged") && !o.cached;
   return o.kind == "evaluation" && o.finding &&
          o.message.find("no longer happens") != std::string::npos;
 }

@@ -7,6 +7,22 @@ execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "cmake --install failed")
 endif()
+# The Python module installed with the package (IMM_BUILD_PYTHON) imports from the prefix alone
+# and reads a shipped model (not under sanitizers: the interpreter would need their runtime).
+if(PYTHON AND NOT SANITIZERS)
+  file(GLOB_RECURSE module ${WORK_DIR}/prefix/immtrain*.so)
+  if(NOT module)
+    message(FATAL_ERROR "cmake --install put no Python module immtrain under ${WORK_DIR}/prefix")
+  endif()
+  get_filename_component(site ${module} DIRECTORY)
+  execute_process(COMMAND ${CMAKE_COMMAND} -E env PYTHONPATH=${site} ${PYTHON} -c
+                          "import immtrain; print(immtrain.__file__, immtrain.verify('${SOURCE_DIR}/models/cv3_imm.h5')['kind'])"
+                  RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT status EQUAL 0 OR NOT out MATCHES "${site}.*plain_imm")
+    message(FATAL_ERROR "the installed module does not import or read a model:\n${out}\n${err}")
+  endif()
+  message(STATUS "installed module: ${out}")
+endif()
 # A runtime built with sanitizers (IMM_SANITIZERS) needs a consumer linked with the same ones, by
 # the same compiler (two compilers' sanitizer runtimes do not mix): the sanitizer runtime must come
 # first in the executable, as it would in a user's sanitized build.

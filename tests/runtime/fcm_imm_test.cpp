@@ -93,6 +93,38 @@ TEST(FuzzyCMeans, TheFuzzifierFourCubeRootIsLibmsToRounding) {
   }
 }
 
+// The clustering updates the memberships of all points at once for m = 2 and 4 (a loop the
+// compiler vectorizes, by blocks of 64): each row is fcm_memberships' for the centers to the bit —
+// over 150 points (blocks and a remainder) with points on a center, one at a ratio of 1e-41 from
+// one (below the cube root's guess, redone point by point), and coinciding values.
+TEST(FuzzyCMeans, TheBatchUpdateIsThePointwiseRuleToTheBit) {
+  datasets::Rng rng(17);
+  std::vector<double> data(150);
+  for (double& x : data) x = rng.normal(0.0, 3.0);
+  // Centers pinned by their bounds, so that points can sit on them (and next to them).
+  const ClusterVector centers(-3.0, 0.0, 3.0);
+  data[3] = -3.0;
+  data[70] = 0.0;
+  data[71] = 1e-20;  // a ratio of 1e-40/9 from the center at 0
+  data[140] = data[141];
+  for (const double m : {2.0, 4.0}) {
+    FuzzyCMeansSettings settings;
+    settings.fuzzifier = m;
+    settings.max_iterations = 1;
+    std::vector<double> memberships(3 * data.size());
+    const FcmResult result = fuzzy_c_means(data, centers, centers, centers, settings, memberships);
+    const std::vector<double>& special = data;
+    ASSERT_EQ(result.iterations, 1);
+    for (std::size_t k = 0; k < special.size(); ++k) {
+      const ClusterVector expected = fcm_memberships(special[k], result.centers, m);
+      for (int i = 0; i < kFcmClusters; ++i) {
+        EXPECT_EQ(memberships[3 * k + static_cast<std::size_t>(i)], expected(i))
+            << "m " << m << ", point " << k << ", cluster " << i;
+      }
+    }
+  }
+}
+
 TEST(FuzzyCMeans, PointOnACenterBelongsToItAlone) {
   const ClusterVector centers(-2.0, 0.5, 4.0);
   for (double m : {1.5, 2.0, 3.7}) {

@@ -2,6 +2,7 @@
 #include "imm/models/learned/fuzzy_c_means.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -33,24 +34,30 @@ double weight_power(double u, double fuzzifier) {
   return std::pow(u, fuzzifier);
 }
 
-// ∛r for r in (0, 1] without libm's cbrt (whose frexp and scalbn were most of an FCM-IMM step):
-// a first guess from the exponent bits (a third of the exponent, ~3 % off), then three Halley
-// steps y ← y (y³ + 2r) / (2y³ + r), each cubing the relative error (3e-2 → 3e-5 → 3e-14 →
-// rounding). Plain IEEE arithmetic: the same bits on every machine. Values too small for the
-// guess (subnormal ratios) take libm's cbrt.
-double cube_root_of_ratio(double r) {
-  if (r == 1.0) return 1.0;  // the nearest center's own ratio: one root in three per point
-  if (r < 1e-290) return std::cbrt(r);
-  std::uint64_t bits = 0;
-  std::memcpy(&bits, &r, sizeof bits);
-  bits = bits / 3 + 0x2A9F7893782DA1CEULL;
-  double y = 0.0;
-  std::memcpy(&y, &bits, sizeof y);
+// Ratios below this take libm's cube root: the first guess is read from the ratio as a float.
+constexpr double kSmallestGuessedRatio = 1e-37;
+
+// ∛r for r in [kSmallestGuessedRatio, 1) without libm's cbrt (whose frexp and scalbn were most of
+// an FCM-IMM step): a first guess from the bits of r as a float (a third of its exponent, FreeBSD
+// cbrtf's constant, ~6 % off), then three Halley steps y ← y (y³ + 2r) / (2y³ + r), each cubing
+// the relative error (6e-2 → 2e-4 → 1e-11 → rounding). Plain IEEE arithmetic without branches,
+// so that the loops over points vectorize and every instruction set gives the same bits.
+inline double guessed_cube_root(double r) {
+  const auto bits = std::bit_cast<std::uint32_t>(static_cast<float>(r));
+  double y = static_cast<double>(std::bit_cast<float>(bits / 3U + 709958130U));
   for (int i = 0; i < 3; ++i) {
     const double y3 = y * y * y;
     y = y * (y3 + 2.0 * r) / (2.0 * y3 + r);
   }
   return y;
+}
+
+// ∛r for r in (0, 1]: exactly 1 for the nearest center's own ratio (one root in three per point),
+// libm's cbrt below the guess's range.
+double cube_root_of_ratio(double r) {
+  if (r == 1.0) return 1.0;
+  if (r < kSmallestGuessedRatio) return std::cbrt(r);
+  return guessed_cube_root(r);
 }
 
 // r^{1/(m − 1)} for r in (0, 1]: the root for the integer fuzzifiers 2 … 5, pow otherwise.
@@ -116,46 +123,90 @@ ClusterVector fcm_memberships(double x, const ClusterVector& centers, double fuz
 
 namespace {
 
-// New memberships of every point for centers v (m = 2), the old ones replaced; returns max |ΔU|.
-// The same operations as memberships_into, written without branches so that the compiler
-// vectorizes the loop; a point on a center (0/0 below) is redone by memberships_into.
-IMM_FCM_CLONES
-double update_memberships_m2(const double* __restrict data, std::size_t n, double v0, double v1,
-                             double v2, double* __restrict memberships) {
-  double change = 0.0;
-  int on_center = 0;
-  for (std::size_t k = 0; k < n; ++k) {
+// `use` ? a : b by bit masks: a select the vectorizer keeps as one (a ?: on a stored value
+// becomes a conditional store, which stops it).
+inline double pick(bool use, double a, double b) {
+  const std::uint64_t mask = std::uint64_t{0} - static_cast<std::uint64_t>(use);
+  return std::bit_cast<double>((std::bit_cast<std::uint64_t>(a) & mask) |
+                               (std::bit_cast<std::uint64_t>(b) & ~mask));
+}
+
+// Points per block of the membership updates: their per-point changes are reduced after each
+// block (a floating-point max reduction inside the loop stops the vectorizer).
+constexpr std::size_t kUpdateBlock = 64;
+
+// New memberships of points [first, first + count) for centers v, the old ones replaced where the
+// new ones are usable; writes each point's max |ΔU| (0 where unusable) to `change` and returns the
+// number of unusable points. m = 2: w_i = d²_min / d²_i; m = 4: ∛ of it (a ratio of 1 selects 1
+// exactly). The operations of memberships_into, without branches, so that the loop vectorizes
+// (AVX2 where the CPU has it). Unusable: a point on a center (0/0), and for m = 4 a ratio below
+// the cube root's guess (kSmallestGuessedRatio); memberships_into redoes them.
+template <int M>
+IMM_FCM_CLONES int update_block(const double* __restrict data, std::size_t count, double v0,
+                                double v1, double v2, double* __restrict memberships,
+                                double* __restrict change) {
+  int unusable = 0;
+  for (std::size_t k = 0; k < count; ++k) {
     const double a = (data[k] - v0) * (data[k] - v0);
     const double b = (data[k] - v1) * (data[k] - v1);
     const double c = (data[k] - v2) * (data[k] - v2);
     double smallest = a < b ? a : b;
     smallest = c < smallest ? c : smallest;
     const double ra = smallest / a, rb = smallest / b, rc = smallest / c;
-    const double sum = (ra + rb) + rc;
-    const bool usable = sum == sum;  // false (0/0) for a point on a center
-    const double ua = ra / sum, ub = rb / sum, uc = rc / sum;
+    double wa = ra, wb = rb, wc = rc;
+    bool usable = false;
+    if constexpr (M == 4) {
+      usable = (ra >= kSmallestGuessedRatio) & (rb >= kSmallestGuessedRatio) &
+               (rc >= kSmallestGuessedRatio);
+      wa = pick(ra == 1.0, 1.0, guessed_cube_root(pick(usable, ra, 1.0)));
+      wb = pick(rb == 1.0, 1.0, guessed_cube_root(pick(usable, rb, 1.0)));
+      wc = pick(rc == 1.0, 1.0, guessed_cube_root(pick(usable, rc, 1.0)));
+    }
+    const double sum = (wa + wb) + wc;
+    if constexpr (M == 2) usable = sum == sum;  // false (0/0) for a point on a center
+    const double ua = wa / sum, ub = wb / sum, uc = wc / sum;
     double* row = memberships + kFcmClusters * k;
     const double da = std::abs(ua - row[0]), db = std::abs(ub - row[1]), dc = std::abs(uc - row[2]);
     double d = da > db ? da : db;
     d = dc > d ? dc : d;
-    d = usable ? d : 0.0;
-    change = d > change ? d : change;
-    on_center += usable ? 0 : 1;
-    row[0] = usable ? ua : row[0];
-    row[1] = usable ? ub : row[1];
-    row[2] = usable ? uc : row[2];
+    change[k] = pick(usable, d, 0.0);
+    unusable += usable ? 0 : 1;
+    row[0] = pick(usable, ua, row[0]);
+    row[1] = pick(usable, ub, row[1]);
+    row[2] = pick(usable, uc, row[2]);
   }
-  if (on_center == 0) return change;
-  // The points on a center, by the exact rule (their rows still hold the old memberships).
-  const ClusterVector centers(v0, v1, v2);
+  return unusable;
+}
+
+// Every point's memberships for centers v with the integer fuzzifier M (2 or 4), by blocks;
+// returns max |ΔU|. The unusable points are redone by memberships_into (their rows still hold the
+// old memberships).
+template <int M>
+double update_memberships(const double* data, std::size_t n, const ClusterVector& v,
+                          double* memberships) {
+  double change = 0.0;
+  int unusable = 0;
+  double block_change[kUpdateBlock];
+  for (std::size_t first = 0; first < n; first += kUpdateBlock) {
+    const std::size_t count = std::min(kUpdateBlock, n - first);
+    unusable += update_block<M>(data + first, count, v(0), v(1), v(2),
+                                memberships + kFcmClusters * first, block_change);
+    for (std::size_t k = 0; k < count; ++k) change = std::max(change, block_change[k]);
+  }
+  if (unusable == 0) return change;
   for (std::size_t k = 0; k < n; ++k) {
-    const double a = (data[k] - v0) * (data[k] - v0);
-    const double b = (data[k] - v1) * (data[k] - v1);
-    const double c = (data[k] - v2) * (data[k] - v2);
-    if (a != 0.0 && b != 0.0 && c != 0.0) continue;
+    const double a = (data[k] - v(0)) * (data[k] - v(0));
+    const double b = (data[k] - v(1)) * (data[k] - v(1));
+    const double c = (data[k] - v(2)) * (data[k] - v(2));
+    const double smallest = std::min({a, b, c});
+    const bool usable =
+        M == 2 ? (a != 0.0 && b != 0.0 && c != 0.0)
+               : (smallest / a >= kSmallestGuessedRatio && smallest / b >= kSmallestGuessedRatio &&
+                  smallest / c >= kSmallestGuessedRatio);
+    if (usable) continue;
     double* row = memberships + kFcmClusters * k;
     double updated[kFcmClusters];
-    memberships_into(data[k], centers, 2.0, updated);
+    memberships_into(data[k], v, static_cast<double>(M), updated);
     for (int i = 0; i < kFcmClusters; ++i) {
       change = std::max(change, std::abs(updated[i] - row[i]));
       row[i] = updated[i];
@@ -190,10 +241,10 @@ FcmResult iterate(std::span<const double> data, const ClusterVector& centers,
     // Eq. (9)–(10): new memberships and max |ΔU|.
     double change = 0.0;
     if (m == 2.0) {
-      change = update_memberships_m2(data.data(), n, result.centers(0), result.centers(1),
-                                     result.centers(2), memberships.data());
-    }
-    if (m != 2.0) {
+      change = update_memberships<2>(data.data(), n, result.centers, memberships.data());
+    } else if (m == 4.0) {
+      change = update_memberships<4>(data.data(), n, result.centers, memberships.data());
+    } else {
       change = 0.0;
       for (std::size_t k = 0; k < n; ++k) {
         double* row = &memberships[kFcmClusters * k];
@@ -228,8 +279,18 @@ FcmResult fuzzy_c_means(std::span<const double> data, const ClusterVector& cente
                         const FuzzyCMeansSettings& settings, std::span<double> memberships) {
   require_storage(data.size(), memberships);
   const ClusterVector start = clamp(centers, lower, upper);
-  for (std::size_t k = 0; k < data.size(); ++k) {
-    memberships_into(data[k], start, settings.fuzzifier, &memberships[kFcmClusters * k]);
+  if (settings.fuzzifier == 2.0 || settings.fuzzifier == 4.0) {
+    // The same memberships as memberships_into's, by the vectorized update over cleared rows.
+    std::fill_n(memberships.begin(), kFcmClusters * data.size(), 0.0);
+    if (settings.fuzzifier == 2.0) {
+      (void)update_memberships<2>(data.data(), data.size(), start, memberships.data());
+    } else {
+      (void)update_memberships<4>(data.data(), data.size(), start, memberships.data());
+    }
+  } else {
+    for (std::size_t k = 0; k < data.size(); ++k) {
+      memberships_into(data[k], start, settings.fuzzifier, &memberships[kFcmClusters * k]);
+    }
   }
   return iterate(data, start, lower, upper, settings, memberships);
 }
