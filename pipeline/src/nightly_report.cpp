@@ -137,7 +137,8 @@ void write_trackers(const NightlyResult& result, std::ostringstream& md, std::os
     }
     md << "### " << o.name << " — " << o.status << "\n\n" << o.message << "\n\n";
     html << "<h3 id=\"tracker-" << html_text(o.name) << "\">" << html_text(o.name) << " — "
-         << html_text(o.status) << "</h3>\n<p>" << html_text(o.message) << "</p>\n";
+         << html_text(o.status) << "</h3>\n"
+         << markdown_to_html(o.message) << "\n";
     const auto document =
         nlohmann::json::parse(read_or_empty(o.report / "tracker.json"), nullptr, false);
     if (document.is_discarded() || !document.contains("ranking")) continue;
