@@ -2,7 +2,8 @@
 # SPDX-License-Identifier: Apache-2.0
 # `make bench`: runs the benchmarks (5 repetitions, medians; the trainer's on one thread) and
 # writes their medians to reports/bench/latest.json beside the previous run's, flagging any
-# benchmark more than 10 % slower. Usage: scripts/bench.sh BUILD_DIR [FILTER]
+# benchmark more than 10 % slower; the last nightly's stage wall times (reports/nightly/nights.jsonl)
+# go beside them. Usage: scripts/bench.sh BUILD_DIR [FILTER]
 set -euo pipefail
 build=${1:-build}
 filter=${2:-.}
@@ -12,4 +13,8 @@ common=(--benchmark_repetitions=5 --benchmark_report_aggregates_only=true
         --benchmark_filter="$filter" --benchmark_out_format=json)
 "$build/bin/imm-bench" "${common[@]}" --benchmark_out="$work/runtime.json"
 OMP_NUM_THREADS=1 "$build/bin/imm-train-bench" "${common[@]}" --benchmark_out="$work/trainer.json"
-"$build/bin/imm-bench-report" --out reports/bench/latest.json "$work/runtime.json" "$work/trainer.json"
+# The last nightly's wall time per stage beside them (the trainings' cost), when there was one.
+nightly=()
+if [[ -s reports/nightly/nights.jsonl ]]; then nightly=(--nightly reports/nightly/nights.jsonl); fi
+"$build/bin/imm-bench-report" --out reports/bench/latest.json "${nightly[@]}" \
+  "$work/runtime.json" "$work/trainer.json"

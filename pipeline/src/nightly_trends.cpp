@@ -277,12 +277,33 @@ void write_trends(const fs::path& registry, const fs::path& history, std::ostrin
                   std::ostringstream& html, std::size_t nights) {
   md << "\n## Trends\n\n";
   html << "<h2>Trends</h2>\n";
+  std::vector<nlohmann::json> lines;  // the nights, oldest first
+  {
+    std::ifstream in(history);
+    for (std::string line; std::getline(in, line);) {
+      auto document = nlohmann::json::parse(line, nullptr, false);
+      if (!document.is_discarded() && document.contains("stages")) lines.push_back(document);
+    }
+  }
+  // A model's training cost: its stage's wall time in the last night that ran it.
+  const auto training_seconds = [&](const std::string& name) -> std::string {
+    for (auto night = lines.rbegin(); night != lines.rend(); ++night) {
+      const auto& stages = night->at("stages");
+      if (stages.contains("model " + name))
+        return number(stages.at("model " + name).get<double>(), 3);
+    }
+    return "–";
+  };
   // Every shipped model's headline metric over its promotions (the manifest's history, oldest
   // first, then the shipped entry).
   md << "Every shipped model's headline metric at each promotion, with its 95 % interval (lower "
-        "is better):\n\n| model | metric | promotions | first | now |\n|---|---|---|---|---|\n";
+        "is better), beside its training cost (the wall time of its stage, training and "
+        "evaluations, "
+        "in the last night that ran it):\n\n| model | metric | promotions | first | now | "
+        "training s |\n|---|---|---|---|---|---|\n";
   html << "<p>Every shipped model's headline metric at each promotion, with its 95 % interval "
-          "(lower is better; hover a point for its value):</p>\n<div id=\"metric-trends\">\n";
+          "(lower is better; hover a point for its value), and its training cost (the wall time of "
+          "its stage in the last night that ran it):</p>\n<div id=\"metric-trends\">\n";
   for (const auto& [name, entry] : shipped_models(registry)) {
     std::vector<nlohmann::json> promotions;
     for (const auto& old : entry.value("history", nlohmann::json::array()))
@@ -304,19 +325,15 @@ void write_trends(const fs::path& registry, const fs::path& history, std::ostrin
     }
     if (value.empty()) continue;
     md << "| " << name << " | " << *metric << " | " << value.size() << " | "
-       << number(value.front()) << " | " << number(value.back()) << " |\n";
-    html << svg_series(value, lower, upper, labels, html_text(name + ": " + *metric)) << "\n";
+       << number(value.front()) << " | " << number(value.back()) << " | " << training_seconds(name)
+       << " |\n";
+    html << svg_series(
+                value, lower, upper, labels,
+                html_text(name + ": " + *metric + " (training " + training_seconds(name) + " s)"))
+         << "\n";
   }
   html << "</div>\n";
   // The nightly's wall time per stage over the last nights.
-  std::vector<nlohmann::json> lines;
-  {
-    std::ifstream in(history);
-    for (std::string line; std::getline(in, line);) {
-      auto document = nlohmann::json::parse(line, nullptr, false);
-      if (!document.is_discarded() && document.contains("stages")) lines.push_back(document);
-    }
-  }
   if (lines.size() > nights) lines.erase(lines.begin(), lines.end() - static_cast<long>(nights));
   md << "\nWall time per stage over the last " << lines.size()
      << " night(s) (s; ⚠ more than 10 % above its median of the nights before, and above 5 s):\n\n";

@@ -220,6 +220,13 @@ TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
   EXPECT_EQ(points, 2u) << plot;
   EXPECT_EQ(testing::lines_of(slurp(p.reports / "nights.jsonl")).size(), 5u);
   EXPECT_NE(slurp(p.reports / "latest" / "index.md").find("| model cv3 |"), std::string::npos);
+  // Beside its quality, the model's training cost: its stage's seconds of the last night.
+  const std::string trend_md = slurp(p.reports / "latest" / "index.md");
+  const auto trend_row = trend_md.find("| cv3 | plain-imm cv3: zeta_p | 2 |");
+  ASSERT_NE(trend_row, std::string::npos) << trend_md;
+  const std::string row_text =
+      trend_md.substr(trend_row, trend_md.find('\n', trend_row) - trend_row);
+  EXPECT_EQ(row_text.find("| – |"), std::string::npos) << row_text;
 
   const auto rollback =
       run_tool("imm-train", {"rollback", "plain_imm", "--registry", p.registry.string()}, {});

@@ -1,8 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 // imm-bench-report: collects the medians of Google Benchmark JSON outputs into
 // reports/bench/latest.json, beside the previous run's medians, and flags every benchmark more
-// than 10 % slower than before (the nightly report shows the table). Run by `make bench`:
-//   imm-bench-report --out reports/bench/latest.json RUNTIME.json TRAINER.json
+// than 10 % slower than before (the nightly report shows the table). With --nightly, the last
+// night's wall time of every stage that ran at least a second (reports/nightly/nights.jsonl: the
+// trainings, the GA's among them, and the evaluations) is collected beside them as
+// "nightly: <stage>" in s, so a slower training is flagged like a slower filter step. Run by
+// `make bench`:
+//   imm-bench-report --out reports/bench/latest.json [--nightly NIGHTS.jsonl] RUNTIME.json …
 
 #include <chrono>
 #include <cmath>
@@ -46,6 +50,28 @@ std::map<std::string, std::pair<double, std::string>> medians(const fs::path& pa
   return out.empty() ? single : out;
 }
 
+// "nightly: <stage>" → (seconds, "s") of the last night of a nights.jsonl, the stages that ran
+// at least a second (cached ones are not in it).
+std::map<std::string, std::pair<double, std::string>> last_night(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open " + path.string());
+  json last;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty()) continue;
+    auto document = json::parse(line, nullptr, false);
+    if (document.is_discarded() || !document.contains("stages")) {
+      throw std::runtime_error(path.string() + ": a line that is not a night's record");
+    }
+    last = std::move(document);
+  }
+  std::map<std::string, std::pair<double, std::string>> out;
+  if (last.is_null()) return out;
+  for (const auto& [stage, seconds] : last.at("stages").items()) {
+    if (seconds.get<double>() >= 1.0) out["nightly: " + stage] = {seconds.get<double>(), "s"};
+  }
+  return out;
+}
+
 std::string utc_now() {
   const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
   char text[32];
@@ -57,14 +83,17 @@ std::string utc_now() {
 
 int main(int argc, char** argv) {
   try {
-    fs::path out;
+    fs::path out, nights;
     std::vector<fs::path> inputs;
     for (int i = 1; i < argc; ++i) {
       const std::string arg = argv[i];
       if (arg == "--out" && i + 1 < argc) {
         out = argv[++i];
+      } else if (arg == "--nightly" && i + 1 < argc) {
+        nights = argv[++i];
       } else if (arg == "--help" || arg == "-h") {
-        std::cout << "usage: imm-bench-report --out LATEST.json BENCHMARK_OUTPUT.json...\n";
+        std::cout << "usage: imm-bench-report --out LATEST.json [--nightly NIGHTS.jsonl] "
+                     "BENCHMARK_OUTPUT.json...\n";
         return 0;
       } else {
         inputs.emplace_back(arg);
@@ -89,8 +118,11 @@ int main(int argc, char** argv) {
     doc["benchmarks"] = json::array();
     int flagged = 0;
     std::printf("%-48s %14s %14s %9s\n", "benchmark (median)", "now", "before", "change");
-    for (const auto& input : inputs) {
-      for (const auto& [name, value] : medians(input)) {
+    std::vector<std::map<std::string, std::pair<double, std::string>>> tables;
+    for (const auto& input : inputs) tables.push_back(medians(input));
+    if (!nights.empty()) tables.push_back(last_night(nights));
+    for (const auto& table : tables) {
+      for (const auto& [name, value] : table) {
         json row = {{"name", name}, {"median", value.first}, {"unit", value.second}};
         std::string before = "-", change = "-";
         if (const auto it = previous.find(name); it != previous.end() && it->second > 0.0) {
