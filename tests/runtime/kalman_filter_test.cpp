@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numbers>
 
@@ -37,6 +38,38 @@ TEST(KalmanFilter, ScalarStepMatchesHandComputation) {
   EXPECT_DOUBLE_EQ(predicted.covariance(0, 0), 2.0 / 3.0);
   EXPECT_NEAR(report.log_likelihood,
               -0.5 * (3.0 + std::log(3.0) + std::log(2.0 * std::numbers::pi)), 1e-15);
+}
+
+// A position-selecting H is gathered, not multiplied (kalman_filter.hpp): over random states the
+// update through PositionMeasurement equals the dense products with H to the bit — mean,
+// covariance, innovation covariance and log-likelihood.
+TEST(KalmanFilter, ASelectingHGivesTheDenseProductsBits) {
+  std::uint64_t seed = 99;
+  const auto uniform = [&seed] {
+    seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(seed >> 11) * 0x1.0p-53 - 0.5;
+  };
+  const Eigen::Matrix2d R{{0.3, 0.05}, {0.05, 0.2}};
+  const PositionMeasurement<4, 2> model({2, 0}, R);  // z = (y, x): not in state order
+  for (int trial = 0; trial < 200; ++trial) {
+    GaussianState<4> state;
+    Matrix<4, 4> A;
+    for (int i = 0; i < 16; ++i) A.data()[i] = uniform();
+    state.covariance = A * A.transpose() + 0.1 * SquareMatrix<4>::Identity();
+    for (int i = 0; i < 4; ++i) state.mean(i) = 100.0 * uniform();
+    const Vector<2> z(50.0 * uniform(), 50.0 * uniform());
+    GaussianState<4> gathered = state, dense = state;
+    const auto g = update(gathered, z, model);
+    const Matrix<2, 4>& H = model.matrix();
+    const Vector<2> innovation = z - H * state.mean;
+    const auto d = update_with_innovation(dense, innovation, H, R);
+    ASSERT_EQ(g.status, StepStatus::kOk);
+    ASSERT_EQ(d.status, StepStatus::kOk);
+    EXPECT_EQ(gathered.mean, dense.mean) << trial;
+    EXPECT_EQ(gathered.covariance, dense.covariance) << trial;
+    EXPECT_EQ(g.innovation_covariance, d.innovation_covariance) << trial;
+    EXPECT_EQ(g.log_likelihood, d.log_likelihood) << trial;
+  }
 }
 
 TEST(KalmanFilter, PredictWithInputAddsGainTimesInput) {

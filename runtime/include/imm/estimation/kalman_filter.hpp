@@ -12,6 +12,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -59,14 +60,27 @@ template <int N, int U>
 
 /// Joseph-form update from a given innovation ν and measurement matrix H (the Jacobian for an
 /// EKF). On any status other than kOk `state` is left exactly as it was.
+/// `selected`: when H is a selection (row i is 1 at column selected[i], 0 elsewhere), the
+/// products with H are gathers of rows and columns — the same numbers (a sum whose other terms
+/// are exact zeros), without the multiplications.
 template <int N, int M>
 UpdateReport<M> update_with_innovation(GaussianState<N>& state, const Vector<M>& innovation,
-                                       const Matrix<M, N>& H, const SquareMatrix<M>& R) {
+                                       const Matrix<M, N>& H, const SquareMatrix<M>& R,
+                                       const std::array<int, std::size_t{M}>* selected = nullptr) {
   UpdateReport<M> report;
   report.innovation = innovation;
   Matrix<N, M> PHt;
-  PHt.noalias() = state.covariance * H.transpose();
-  report.innovation_covariance.noalias() = H * PHt;
+  if (selected != nullptr) {
+    for (int i = 0; i < M; ++i) {
+      PHt.col(i) = state.covariance.col((*selected)[static_cast<std::size_t>(i)]);
+    }
+    for (int i = 0; i < M; ++i) {
+      report.innovation_covariance.row(i) = PHt.row((*selected)[static_cast<std::size_t>(i)]);
+    }
+  } else {
+    PHt.noalias() = state.covariance * H.transpose();
+    report.innovation_covariance.noalias() = H * PHt;
+  }
   report.innovation_covariance += R;
   symmetrize(report.innovation_covariance);
   const SquareMatrix<M>& S = report.innovation_covariance;
@@ -126,7 +140,11 @@ UpdateReport<M> update_with_innovation(GaussianState<N>& state, const Vector<M>&
   SquareMatrix<N> C = state.covariance;
   C.noalias() -= K * PHt.transpose();
   Matrix<N, M> CHt;
-  CHt.noalias() = C * H.transpose();
+  if (selected != nullptr) {
+    for (int i = 0; i < M; ++i) CHt.col(i) = C.col((*selected)[static_cast<std::size_t>(i)]);
+  } else {
+    CHt.noalias() = C * H.transpose();
+  }
   Matrix<N, M> KR;
   KR.noalias() = K * R;
   GaussianState<N> updated;
@@ -222,7 +240,12 @@ UpdateReport<Model::kDim> update(GaussianState<N>& state, const Vector<Model::kD
   }
   const Vector<M> innovation = model.residual(z, model.predict(state.mean));
   const Matrix<M, N>& H = model.jacobian(state.mean);  // a reference or an extended temporary
-  return update_with_innovation(state, innovation, H, model.covariance());
+  if constexpr (requires { model.selected_indices(); }) {
+    return update_with_innovation(state, innovation, H, model.covariance(),
+                                  &model.selected_indices());
+  } else {
+    return update_with_innovation(state, innovation, H, model.covariance());
+  }
 }
 
 /// Iterated extended Kalman update (Gauss–Newton on the MAP objective; Bell & Cathey): starting

@@ -23,7 +23,7 @@ class PositionMeasurement {
 
   /// `position_indices[i]` is the state component measured by z_i.
   PositionMeasurement(const std::array<int, M>& position_indices, const SquareMatrix<M>& R)
-      : R_(R) {
+      : indices_(position_indices), R_(R) {
     require_measurement_covariance(R, "measurement covariance R");
     H_.setZero();
     for (int i = 0; i < M; ++i) {
@@ -36,8 +36,15 @@ class PositionMeasurement {
     }
   }
 
-  /// H x.
-  [[nodiscard]] Vector<M> predict(const Vector<N>& x) const { return H_ * x; }
+  /// H x: the selected components (the same numbers as the product with H).
+  [[nodiscard]] Vector<M> predict(const Vector<N>& x) const {
+    Vector<M> z;
+    for (int i = 0; i < M; ++i) z(i) = x(indices_[static_cast<std::size_t>(i)]);
+    return z;
+  }
+  /// The state component measured by each z_i: H as a selection, which the Kalman update uses
+  /// to gather rows and columns instead of multiplying by H's zeros and ones.
+  [[nodiscard]] const std::array<int, M>& selected_indices() const { return indices_; }
   /// H (constant).
   [[nodiscard]] const Matrix<M, N>& jacobian(const Vector<N>& /*x*/) const { return H_; }
   /// z − H x̂⁻.
@@ -52,6 +59,7 @@ class PositionMeasurement {
   [[nodiscard]] const Matrix<M, N>& matrix() const { return H_; }
 
  private:
+  std::array<int, M> indices_;
   Matrix<M, N> H_;
   SquareMatrix<M> R_;
 };
