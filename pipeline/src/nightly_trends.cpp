@@ -77,7 +77,8 @@ std::string svg_series(const std::vector<double>& value, const std::vector<doubl
                        const std::vector<double>& upper, const std::vector<std::string>& labels,
                        const std::string& title) {
   constexpr double kWidth = 420, kHeight = 150, kLeft = 60, kRight = 10, kTop = 20, kBottom = 30;
-  double lo = value.front(), hi = value.front();
+  const auto [lowest, highest] = std::minmax_element(value.begin(), value.end());
+  double lo = *lowest, hi = *highest;
   for (std::size_t i = 0; i < value.size(); ++i) {
     lo = std::min({lo, value[i], lower[i]});
     hi = std::max({hi, value[i], upper[i]});

@@ -119,6 +119,7 @@ int main(int argc, char** argv) {
     int flagged = 0;
     std::printf("%-48s %14s %14s %9s\n", "benchmark (median)", "now", "before", "change");
     std::vector<std::map<std::string, std::pair<double, std::string>>> tables;
+    tables.reserve(inputs.size() + 1);
     for (const auto& input : inputs) tables.push_back(medians(input));
     if (!nights.empty()) tables.push_back(last_night(nights));
     for (const auto& table : tables) {
