@@ -212,20 +212,25 @@ int run(const CommonOptions& options) {
   const auto imm = trainer::fcm::tune_cv_imm(tuning, training);
   const double sigma = fitted.measurement_sigma;
 
+  // Every quantity with its unit: q in (length/s²)², accelerations and their σ in length/s².
+  const std::string length(datasets::to_string(tuning.regime.units));
+  const std::string q_unit = " (" + length + "/s²)²", a_unit = " " + length + "/s²";
   std::map<std::string, std::string> parameters;
   std::ostringstream text;
-  text << "q " << describe(kf.spec.process_noise) << " (" << kf.evaluations << " evaluations)";
+  text << "q " << describe(kf.spec.process_noise) << q_unit << " (" << kf.evaluations
+       << " evaluations)";
   parameters["KF"] = text.str();
   text.str("");
-  text << "ε " << describe(aimm.spec.intervals) << ", σ_w " << aimm.spec.process_noise_sigma
-       << ", σ_b " << aimm.spec.bias_noise_sigma << " (" << aimm.evaluations << " evaluations)";
+  text << "ε " << describe(aimm.spec.intervals) << a_unit << ", σ_w "
+       << aimm.spec.process_noise_sigma << a_unit << ", σ_b " << aimm.spec.bias_noise_sigma
+       << a_unit << " (" << aimm.evaluations << " evaluations)";
   parameters["AIMM"] = text.str();
   text.str("");
-  text << "q " << describe(imm.spec.process_noise) << ", stay " << imm.spec.settings.transition_stay
-       << " (" << imm.evaluations << " evaluations)";
+  text << "q " << describe(imm.spec.process_noise) << q_unit << ", stay "
+       << imm.spec.settings.transition_stay << " (" << imm.evaluations << " evaluations)";
   parameters["IMM-tuned"] = text.str();
   text.str("");
-  text << "q " << describe(fitted.process_noise) << ", stay " << fitted.transition(0, 0)
+  text << "q " << describe(fitted.process_noise) << q_unit << ", stay " << fitted.transition(0, 0)
        << ", window " << fitted.window << ", m " << fitted.clustering.fuzzifier << ", κ "
        << fitted.separation << ", λ " << fitted.compensation_gain << ", " << to_string(fitted.scale)
        << " memberships" << (fitted.compensate_lowest ? "" : ", lowest mode uncompensated");

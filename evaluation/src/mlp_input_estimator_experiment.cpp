@@ -329,9 +329,10 @@ int run(const CommonOptions& options) {
   std::cout
       << "input-estimator: " << regimes.describe() << "\n  test split: " << data.tracks.size()
       << " tracks x " << steps << " scans (both axes: " << 2 * data.tracks.size() << " runs), seed "
-      << options.seed << "\n  IMM-tuned: q " << comma_list(imm_tuned.spec.process_noise)
-      << ", stay " << imm_tuned.spec.settings.transition_stay << " (" << imm_tuned.evaluations
-      << " evaluations on the training split of " << own.name << ")"
+      << options.seed << "\n  IMM-tuned: q " << comma_list(imm_tuned.spec.process_noise) << " ("
+      << datasets::to_string(own.units) << "/s²)², stay " << imm_tuned.spec.settings.transition_stay
+      << " (" << imm_tuned.evaluations << " evaluations on the training split of " << own.name
+      << ")"
       << "\n\nMSE (the paper's in parentheses); ratio = corrected / CV; 'beats' = corrected − CV "
          "with its 95 % paired-bootstrap interval [lower, upper] lies below 0 (every figure "
          "is an error: below 0 the corrected KF is better):\n\n"

@@ -199,6 +199,7 @@ TEST_F(Tools, GaAndInputEstimatorTrainAndEvaluateOnARegimeWrittenInTheTest) {
   EXPECT_NE(mlp_report.out.find("| all tracks "), std::string::npos) << mlp_report.out;
   // Beside the CV KF, the tuned classical filter, with a verdict and an interval in every cell.
   EXPECT_NE(mlp_report.out.find("IMM-tuned: q "), std::string::npos) << mlp_report.out;
+  EXPECT_NE(mlp_report.out.find("/s²)², stay "), std::string::npos) << mlp_report.out;
   EXPECT_NE(mlp_report.out.find("Against the tuned classical filter"), std::string::npos);
   const auto metrics = nlohmann::json::parse(testing::slurp(dir_ / "mlp-report/metrics.json"));
   const auto& row = metrics.at("results").at("rows").at(0);
@@ -448,6 +449,9 @@ TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
   ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 5 || evaluated.exit_code == 7)
       << evaluated.err;
   EXPECT_NE(evaluated.out.find("FCM-IMM-const"), std::string::npos);
+  // Every tuned quantity with its unit (the seed's regime is in m).
+  EXPECT_NE(evaluated.out.find("(m/s²)² ("), std::string::npos) << evaluated.out;
+  EXPECT_NE(evaluated.out.find(" m/s², σ_w "), std::string::npos) << evaluated.out;
   const auto metrics = evaluation_results(out);
   EXPECT_EQ(consistency_headlines(out), 1);  // the regression gate holds back a less consistent one
   ASSERT_EQ(metrics.size(), 5u);
