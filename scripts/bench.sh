@@ -13,8 +13,16 @@ common=(--benchmark_repetitions=5 --benchmark_report_aggregates_only=true
         --benchmark_filter="$filter" --benchmark_out_format=json)
 "$build/bin/imm-bench" "${common[@]}" --benchmark_out="$work/runtime.json"
 OMP_NUM_THREADS=1 "$build/bin/imm-train-bench" "${common[@]}" --benchmark_out="$work/trainer.json"
+# A FILTER that matches only one program's benchmarks leaves the other's output empty.
+outputs=()
+for output in "$work/runtime.json" "$work/trainer.json"; do
+  if [[ -s "$output" ]]; then outputs+=("$output"); fi
+done
+if [[ ${#outputs[@]} -eq 0 ]]; then
+  echo "bench: no benchmark matches '$filter'" >&2
+  exit 1
+fi
 # The last nightly's wall time per stage beside them (the trainings' cost), when there was one.
 nightly=()
 if [[ -s reports/nightly/nights.jsonl ]]; then nightly=(--nightly reports/nightly/nights.jsonl); fi
-"$build/bin/imm-bench-report" --out reports/bench/latest.json "${nightly[@]}" \
-  "$work/runtime.json" "$work/trainer.json"
+"$build/bin/imm-bench-report" --out reports/bench/latest.json "${nightly[@]}" "${outputs[@]}"
