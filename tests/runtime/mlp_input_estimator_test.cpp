@@ -3,9 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/datasets/axis_trajectory.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
+#include "imm/io/model_file.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -62,6 +65,37 @@ TEST(MlpInputEstimatorFilter, WithZeroInputThePrimaryKfIsTheCvKf) {
     ASSERT_TRUE(testing::matrices_near(filter.estimate().mean, filter.cv_estimate().mean, 1e-12));
     ASSERT_TRUE(testing::matrices_near(filter.estimate().covariance,
                                        filter.cv_estimate().covariance, 1e-12));
+  }
+}
+
+// input_variance σ² enters the primary KF as process noise σ² G Gᵀ, G = [T²/2, T]: a scan without
+// a plot from a known state predicts P₁ = F P₀ Fᵀ + (q + σ²) G Gᵀ, worked by hand with T = 1,
+// q = 1: G Gᵀ = [[1/4, 1/2], [1/2, 1]]; the CV KF of the features keeps q. Negative or NaN is
+// refused naming the field.
+TEST(MlpInputEstimatorFilter, TheInputsErrorVarianceIsProcessNoiseOfThePrimaryKf) {
+  MlpInputEstimatorModel model = zero_model();
+  model.input_variance = 9.0;
+  MlpInputEstimatorFilter filter(model, {1.0, 1.0, 2500.0});
+  GaussianState<2> start;
+  start.mean << 0.0, 10.0;
+  start.covariance << 100.0, 10.0, 10.0, 4.0;
+  filter.initialize(start);
+  filter.predict_only();
+  // F P₀ Fᵀ = [[100 + 2·10 + 4, 10 + 4], [10 + 4, 4]] = [[124, 14], [14, 4]].
+  const Eigen::Matrix2d expected{{124.0 + 10.0 * 0.25, 14.0 + 10.0 * 0.5},
+                                 {14.0 + 10.0 * 0.5, 4.0 + 10.0}};
+  EXPECT_TRUE(testing::matrices_near(filter.estimate().covariance, expected, 1e-12))
+      << filter.estimate().covariance;
+  const Eigen::Matrix2d cv{{124.0 + 0.25, 14.0 + 0.5}, {14.0 + 0.5, 4.0 + 1.0}};
+  EXPECT_TRUE(testing::matrices_near(filter.cv_estimate().covariance, cv, 1e-12));
+  for (const double bad : {-1.0, std::numeric_limits<double>::quiet_NaN()}) {
+    model.input_variance = bad;
+    try {
+      MlpInputEstimatorFilter refused(model, {1.0, 1.0, 2500.0});
+      ADD_FAILURE() << "input_variance " << bad << " was accepted";
+    } catch (const InvalidParameter& error) {
+      EXPECT_EQ(error.field(), "input_variance");
+    }
   }
 }
 
@@ -127,6 +161,21 @@ TEST(MlpInputEstimatorFile, RoundTripGivesTheSameOutputs) {
   const MlpInputEstimatorModel back = io::read_mlp_input_estimator(dir / "m.h5");
   EXPECT_EQ(back.settings, model.settings);
   EXPECT_EQ(back.output_bias, model.output_bias);
+  EXPECT_EQ(back.input_variance, 0.0);  // the seed's filter: no field, schema 2
+  EXPECT_EQ(io::ModelFileReader(dir / "m.h5").schema_version(), 2);
+  // With the input's error variance: stored with its unit, read back, and schema 3 (a reader
+  // that did not know it would run the seed's filter).
+  model.input_variance = 177.25;
+  {
+    io::Provenance provenance;
+    provenance.model_kind = std::string(io::kMlpInputEstimatorKind);
+    io::ModelFileWriter writer(dir / "v.h5", provenance);
+    io::write_mlp_input_estimator(writer, model, Eigen::MatrixXd{{0, 5.0, 6.0}, {50, 1.0, 1.5}});
+    writer.commit();
+  }
+  EXPECT_EQ(io::read_mlp_input_estimator(dir / "v.h5").input_variance, 177.25);
+  EXPECT_EQ(io::ModelFileReader(dir / "v.h5").schema_version(), 3);
+  model.input_variance = 0.0;
   for (double a : {-2.0, 0.0, 3.0}) {
     const Eigen::Vector2d x(a, 0.5 * a);
     EXPECT_EQ(back.network.forward(x), model.network.forward(x));

@@ -185,6 +185,19 @@ TEST(MlpConfig, ShippedConfigIsTheSeedsSchedule) {
   } catch (const support::ConfigError& error) {
     EXPECT_EQ(error.key(), "network.output");
   }
+  // The seed's filter takes û as exact; the realistic regimes' config adds its error variance.
+  EXPECT_FALSE(config.input_noise_from_validation);
+  EXPECT_TRUE(
+      load_mlp_config("configs/mlp_input_estimator_tuned.toml").input_noise_from_validation);
+  testing::write_text(dir / "noise.toml",
+                      "regime = \"configs/regimes/paper/input_estimator_training.toml\"\n"
+                      "[network]\ninput_noise = \"guess\"\n");
+  try {
+    (void)load_mlp_config(dir / "noise.toml");
+    FAIL();
+  } catch (const support::ConfigError& error) {
+    EXPECT_EQ(error.key(), "network.input_noise");
+  }
 }
 
 }  // namespace

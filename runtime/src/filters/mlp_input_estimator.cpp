@@ -84,6 +84,12 @@ MlpInputEstimatorFilter::MlpInputEstimatorFilter(MlpInputEstimatorModel model,
   if (model_.network.input_count() != 2) {
     throw InvalidParameter("network", "the input estimator's network takes (sum, diff)");
   }
+  if (model_.input_variance != 0.0) {
+    limits::require_in(model_.input_variance, limits::kVariance, "input_variance");
+  }
+  // The input's error as process noise of the primary KF: σ_û² G Gᵀ (0: the seed's filter, the
+  // same numbers as without it).
+  motion_.process_noise.noalias() += model_.input_variance * G_ * G_.transpose();
   H_ << 1.0, 0.0;
 }
 

@@ -21,6 +21,11 @@ void write_mlp_input_estimator(ModelFileWriter& writer, const MlpInputEstimatorM
   writer.set_quantity("/mlp", "output_scale", model.network.output_scale(), u.acceleration());
   writer.set_quantity("/mlp", "output_bias", model.output_bias, u.acceleration());
   writer.set_attribute("/mlp", "sign", std::string(to_string(model.sign)));
+  if (model.input_variance > 0.0) {
+    // A reader that does not know it would run the seed's filter: schema 3.
+    writer.set_quantity("/mlp", "input_variance", model.input_variance, u.acceleration_variance());
+    writer.require_schema_version(3);
+  }
   for (std::size_t i = 0; i < layers.size(); ++i) {
     writer.set_attribute(layer_group(i), "activation",
                          std::string(to_string(layers[i].activation)));
@@ -78,6 +83,12 @@ MlpInputEstimatorModel read_mlp_input_estimator(const ModelFileReader& reader) {
       model.sign = input_sign_from(reader.text("/mlp", "sign"), "sign");
     } catch (const InvalidParameter& error) {
       reader.fail("/mlp@sign", error.message());
+    }
+  }
+  if (reader.container().attribute("/mlp", "input_variance")) {
+    model.input_variance = reader.real("/mlp", "input_variance", ValueRule::kNonNegative);
+    if (!limits::contains(limits::kVariance, model.input_variance)) {
+      reader.fail("/mlp@input_variance", "must be in " + limits::describe(limits::kVariance));
     }
   }
   if (model.network.input_count() != 2) reader.fail("/mlp/layer0/weights", "expected 2 inputs");

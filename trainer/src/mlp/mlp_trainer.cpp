@@ -57,6 +57,13 @@ MlpTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
     }
     if (!n->is_auto("output_scale")) c.output_scale = n->real("output_scale");
     c.init_range = n->real_or("init_range", c.init_range);
+    if (n->has("input_noise")) {
+      const std::string noise = n->text("input_noise");
+      if (noise != "none" && noise != "validation") {
+        n->fail("input_noise", "unknown input noise '" + noise + "' (expected none or validation)");
+      }
+      c.input_noise_from_validation = noise == "validation";
+    }
     if (n->has("sign")) {
       try {
         c.sign = input_sign_from(n->text("sign"), n->path("sign"));
@@ -246,6 +253,7 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
   result.training_rmse = std::sqrt(network.mse(train_set));
   result.validation_rmse = std::sqrt(network.mse(validation_set));
 
+  if (config.input_noise_from_validation) model.input_variance = network.mse(validation_set);
   model.output_bias = mean_output(model, quiet.samples, false);
   result.bias_before = mean_output(model, quiet_check.samples, false);
   result.bias_after = mean_output(model, quiet_check.samples, true);

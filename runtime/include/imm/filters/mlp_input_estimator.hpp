@@ -128,6 +128,10 @@ struct IMM_RUNTIME_EXPORT MlpInputEstimatorModel {
   double output_bias = 0.0;  ///< mean output without a maneuver (training time), subtracted
   /// How the magnitude gets its sign.
   InputSign sign = InputSign::kPositive;
+  /// σ_û², (length/s²)²: the variance of the input estimate's error, added to the primary KF's
+  /// process noise as σ_û² G Gᵀ (so its q becomes q + σ_û²), so that its covariance accounts for
+  /// the input it is corrected by. 0: the seed's filter, which takes û as exact.
+  double input_variance = 0.0;
   /// The CV KF settings the features assume.
   CvKfSettings settings;
 
