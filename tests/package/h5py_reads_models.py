@@ -34,9 +34,13 @@ def check(path):
 
     with h5py.File(path, "r") as f:
         # Version 3 only for a file with a version-3 field (a GA-fuzzy IMM with normalized
-        # antecedents); every other file is written as version 2.
+        # antecedents, an input estimator with its input's error variance); every other file is
+        # written as version 2.
         group = f.get("ga_fuzzy_imm")
-        expected = 3 if group is not None and "antecedents" in group.attrs else 2
+        mlp = f.get("mlp")
+        newer = (group is not None and "antecedents" in group.attrs) or (
+            mlp is not None and "input_variance" in mlp.attrs)
+        expected = 3 if newer else 2
         if f.attrs.get("schema_version") != expected:
             problem("/@schema_version",
                     f"is {f.attrs.get('schema_version')!r}, expected {expected}")

@@ -162,7 +162,9 @@ TEST(MlpInputEstimatorFilter, PredictOnlyHoldsTheLastInputEstimate) {
     const io::ModelFileReader reader(path);
     if (reader.provenance().model_kind != io::kMlpInputEstimatorKind) continue;
     const MlpInputEstimatorModel model = io::read_mlp_input_estimator(reader);
-    const double T = model.settings.sample_period, q = model.settings.process_noise;
+    // The primary KF's q: the features' q plus the input's error variance (0 for the seed's).
+    const double T = model.settings.sample_period;
+    const double q = model.settings.process_noise + model.input_variance;
     const double sigma = std::sqrt(model.settings.measurement_variance);
     MlpInputEstimatorFilter filter(model, model.settings);
     GaussianState<2> start;
