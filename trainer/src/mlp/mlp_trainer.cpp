@@ -185,6 +185,30 @@ FeatureSet make_features(const MlpTrainingConfig& config, const datasets::TrackS
 
 namespace {
 
+/// E[(û(k) − a(k))²] of the filter over the tracks: its signed input estimate against the
+/// acceleration that acts over the transition it is used for (the sign's and the lag's errors
+/// included), per axis.
+double signed_input_mse(const MlpInputEstimatorModel& model, const datasets::TrackSet& tracks) {
+  const double T = model.settings.sample_period;
+  const double R = model.settings.measurement_variance;
+  double sum = 0.0;
+  std::size_t count = 0;
+  for (const datasets::AxisTrajectory& truth : datasets::axis_trajectories(tracks)) {
+    MlpInputEstimatorFilter filter(model, model.settings);
+    GaussianState<2> start;
+    start.mean << truth.measurement(1), (truth.measurement(1) - truth.measurement(0)) / T;
+    start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
+    filter.initialize(start);
+    for (Eigen::Index k = 2; k + 1 < truth.measurement.size(); ++k) {
+      if (filter.step(truth.measurement(k)) != StepStatus::kOk) continue;
+      const double error = filter.acceleration() - truth.acceleration_input(k);
+      sum += error * error;
+      ++count;
+    }
+  }
+  return count > 0 ? sum / static_cast<double>(count) : 0.0;
+}
+
 /// The regime without maneuvers: its start (the first case's for a scripted one), its sensor.
 datasets::Regime quiet_regime(const datasets::Regime& regime) {
   datasets::Regime quiet = regime;
@@ -253,10 +277,14 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
   result.training_rmse = std::sqrt(network.mse(train_set));
   result.validation_rmse = std::sqrt(network.mse(validation_set));
 
-  if (config.input_noise_from_validation) model.input_variance = network.mse(validation_set);
   model.output_bias = mean_output(model, quiet.samples, false);
   result.bias_before = mean_output(model, quiet_check.samples, false);
   result.bias_after = mean_output(model, quiet_check.samples, true);
+  if (config.input_noise_from_validation) {
+    // The whole model as the filter runs it (network, bias, sign) on the validation split.
+    model.input_variance =
+        signed_input_mse(model, datasets::draw_split(regime, datasets::Split::kValidation, seed));
+  }
   datasets::Sha256 digest;
   digest.update(training.digest);
   digest.update(validation.digest);

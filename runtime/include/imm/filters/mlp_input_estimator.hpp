@@ -130,7 +130,8 @@ struct IMM_RUNTIME_EXPORT MlpInputEstimatorModel {
   InputSign sign = InputSign::kPositive;
   /// σ_û², (length/s²)²: the variance of the input estimate's error, added to the primary KF's
   /// process noise as σ_û² G Gᵀ (so its q becomes q + σ_û²), so that its covariance accounts for
-  /// the input it is corrected by. 0: the seed's filter, which takes û as exact.
+  /// the input it is corrected by (the trainer measures it on its validation split). 0: the seed's
+  /// filter, which takes û as exact.
   double input_variance = 0.0;
   /// The CV KF settings the features assume.
   CvKfSettings settings;

@@ -37,9 +37,10 @@ struct MlpTrainingConfig {
   double output_scale = 12.0;  ///< by default 1.2 a
   double init_range = 0.5;
   InputSign sign = InputSign::kInnovation;
-  /// [network] input_noise = "validation": the model's input_variance is the network's validation
-  /// MSE, so that the primary KF's covariance accounts for the input's error (beyond the seed,
-  /// whose filter takes û as exact: "none", the default).
+  /// [network] input_noise = "validation": the model's input_variance is the mean squared error of
+  /// the filter's signed û against the true acceleration over the validation split (sign and lag
+  /// included), so that the primary KF's covariance accounts for the input's error (beyond the
+  /// seed, whose filter takes û as exact: "none", the default).
   bool input_noise_from_validation = false;
   TrainingOptions training;
   double max_validation_rmse = 3.0;  ///< quality gate (config: × a), regime units
