@@ -12,6 +12,7 @@
 #include <map>
 #include <sstream>
 
+#include "imm/pipeline/registry.hpp"
 #include "imm/trainer/provenance.hpp"
 
 namespace imm::pipeline {
@@ -25,15 +26,15 @@ std::string number(double value, int digits = 4) {
   return text.str();
 }
 
-// The manifest's models by name ({} when there is none or it does not parse).
-std::map<std::string, nlohmann::json> shipped_models(const fs::path& registry) {
-  std::map<std::string, nlohmann::json> models;
-  std::ifstream in(registry / "manifest.json");
-  if (!in) return models;
-  const auto manifest = nlohmann::json::parse(in, nullptr, false);
-  if (manifest.is_discarded() || !manifest.contains("models")) return models;
-  for (const auto& entry : manifest.at("models")) {
-    if (entry.contains("name")) models[entry.at("name").get<std::string>()] = entry;
+// The manifest's entries by name, as the registry reads them ({} when it does not read: the report
+// is written whatever the manifest's state).
+std::map<std::string, RegistryEntry> shipped_models(const fs::path& registry) {
+  std::map<std::string, RegistryEntry> models;
+  try {
+    const Registry read(registry);
+    for (const RegistryEntry& entry : read.entries()) models[entry.name] = entry;
+  } catch (const std::exception&) {
+    models.clear();
   }
   return models;
 }
@@ -212,9 +213,7 @@ void write_first_screen(const NightlyResult& result, const fs::path& registry,
     if (o.kind == "tracker") return o.name;
     const std::string model = o.kind == "evaluation" ? o.name.substr(o.name.find(' ') + 1) : o.name;
     const auto it = shipped.find(model);
-    if (it == shipped.end()) return "–";
-    const std::string name = it->second.value("regime", nlohmann::json::object()).value("name", "");
-    return name.empty() ? "–" : name;
+    return it == shipped.end() || it->second.regime_name.empty() ? "–" : it->second.regime_name;
   };
   std::vector<const StageOutcome*> news;
   std::vector<std::string> unchanged;
@@ -295,8 +294,8 @@ void write_trends(const fs::path& registry, const fs::path& history, std::ostrin
     }
     return "–";
   };
-  // Every shipped model's headline metric over its promotions (the manifest's history, oldest
-  // first, then the shipped entry).
+  // Every shipped model's headline metric over its promotions, oldest first: the history (which
+  // the registry keeps newest first) reversed, then the shipped entry.
   md << "Every shipped model's headline metric at each promotion, with its 95 % interval (lower "
         "is better), beside its training cost (the wall time of its stage, training and "
         "evaluations, "
@@ -306,23 +305,22 @@ void write_trends(const fs::path& registry, const fs::path& history, std::ostrin
           "(lower is better; hover a point for its value), and its training cost (the wall time of "
           "its stage in the last night that ran it):</p>\n<div id=\"metric-trends\">\n";
   for (const auto& [name, entry] : shipped_models(registry)) {
-    std::vector<nlohmann::json> promotions;
-    for (const auto& old : entry.value("history", nlohmann::json::array()))
-      promotions.push_back(old);
-    promotions.push_back(entry);
-    const auto metric = headline_of(entry.value("metrics", nlohmann::json::object()));
+    std::vector<const RegistryEntry*> promotions;
+    for (auto old = entry.history.rbegin(); old != entry.history.rend(); ++old)
+      promotions.push_back(&*old);
+    promotions.push_back(&entry);
+    const auto metric = headline_of(entry.metrics);
     if (!metric) continue;
     std::vector<double> value, lower, upper;
     std::vector<std::string> labels;
-    for (const auto& p : promotions) {
-      const auto& metrics = p.value("metrics", nlohmann::json::object());
-      if (!metrics.contains(*metric)) continue;
-      const auto& m = metrics.at(*metric);
+    for (const RegistryEntry* p : promotions) {
+      if (!p->metrics.contains(*metric)) continue;
+      const auto& m = p->metrics.at(*metric);
       value.push_back(m.value("value", 0.0));
       const auto interval = m.value("interval", nlohmann::json::array());
       lower.push_back(interval.size() == 2 ? interval[0].get<double>() : value.back());
       upper.push_back(interval.size() == 2 ? interval[1].get<double>() : value.back());
-      labels.push_back(p.value("promoted_utc", "?").substr(0, 10));
+      labels.push_back(p->promoted_utc.empty() ? "?" : p->promoted_utc.substr(0, 10));
     }
     if (value.empty()) continue;
     md << "| " << name << " | " << *metric << " | " << value.size() << " | "
