@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/support/edit_distance.hpp"
 #include "toml_text.hpp"
 
 namespace imm::support {
@@ -115,22 +116,6 @@ std::shared_ptr<ConfigDocument> ConfigDocument::load(const std::filesystem::path
 ConfigTable ConfigDocument::root() const { return {&parsed_->table, "", shared_from_this()}; }
 
 namespace {
-
-// Levenshtein distance, for the "did you mean" of a misspelt key.
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
 
 // Whether `written` is close enough to `meant` to be its misspelling: a typo or two in a key of
 // five characters or more (at most one in three). Shorter keys (q1, q2) are too alike to guess.

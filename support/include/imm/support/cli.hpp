@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "imm/build_info.hpp"
+#include "imm/support/edit_distance.hpp"
 #include "imm/support/exit_codes.hpp"
 #include "imm/version.hpp"
 
@@ -39,22 +40,6 @@ inline void standard_options(CLI::App& app, std::string_view tool) {
   app.set_version_flag("--version", version_text(tool), "print the version and exit");
   app.option_defaults()->always_capture_default();
   app.name(std::string(tool));
-}
-
-/// Edit distance (insertions, deletions, substitutions).
-[[nodiscard]] inline std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
 }
 
 /// The name among `candidates` closest to `word`, if it is close enough to be a typo.
