@@ -53,4 +53,14 @@ std::vector<AxisTrajectory> axis_trajectories(const TrackSet& set) {
   return result;
 }
 
+GaussianState<2> two_point_start(const AxisTrajectory& trajectory, double sample_period,
+                                 double measurement_variance) {
+  const double T = sample_period, R = measurement_variance;
+  const Eigen::VectorXd& z = trajectory.measurement;
+  GaussianState<2> start;
+  start.mean << z(1), (z(1) - z(0)) / T;
+  start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
+  return start;
+}
+
 }  // namespace imm::datasets

@@ -156,9 +156,7 @@ int run(const CommonOptions& options) {
         const datasets::AxisTrajectory& t = axes[static_cast<std::size_t>(run)];
         MlpInputEstimatorAxis axis(model, settings);
         ImmAxisFilter imm(build_axis_cv_imm(imm_tuned.spec));
-        GaussianState<2> start;
-        start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
-        start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
+        const GaussianState<2> start = datasets::two_point_start(t, T, R);
         axis.initialize(start);
         imm.initialize(start);
         GaussianState<2> known = start;  // the primary KF fed the true acceleration

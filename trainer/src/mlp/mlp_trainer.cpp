@@ -160,10 +160,7 @@ FeatureSet make_features(const MlpTrainingConfig& config, const datasets::TrackS
   std::vector<double> targets;
   for (const datasets::AxisTrajectory& truth : datasets::axis_trajectories(tracks)) {
     InnovationFeatureExtractor extractor(config.cv_kf);
-    GaussianState<2> start;
-    start.mean << truth.measurement(1), (truth.measurement(1) - truth.measurement(0)) / T;
-    start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
-    extractor.initialize(start);
+    extractor.initialize(datasets::two_point_start(truth, T, R));
     for (Eigen::Index k = 2; k < truth.measurement.size(); ++k) {
       Eigen::Vector2d features;
       if (extractor.step(truth.measurement(k), features) != StepStatus::kOk) continue;
@@ -195,10 +192,7 @@ double signed_input_mse(const MlpInputEstimatorModel& model, const datasets::Tra
   std::size_t count = 0;
   for (const datasets::AxisTrajectory& truth : datasets::axis_trajectories(tracks)) {
     MlpInputEstimatorFilter filter(model, model.settings);
-    GaussianState<2> start;
-    start.mean << truth.measurement(1), (truth.measurement(1) - truth.measurement(0)) / T;
-    start.covariance << R, R / T, R / T, 2.0 * R / (T * T);
-    filter.initialize(start);
+    filter.initialize(datasets::two_point_start(truth, T, R));
     for (Eigen::Index k = 2; k + 1 < truth.measurement.size(); ++k) {
       if (filter.step(truth.measurement(k)) != StepStatus::kOk) continue;
       const double error = filter.acceleration() - truth.acceleration_input(k);

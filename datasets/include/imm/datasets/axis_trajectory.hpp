@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "imm/estimation/gaussian_state.hpp"
+
 namespace imm::datasets {
 
 struct AxisTrajectory {
@@ -37,5 +39,10 @@ struct TrackSet;
 /// The one-axis trajectories of a set of 2-D tracks: x, then y, of every track in order (the
 /// per-axis filters' view of a regime; acceleration_input is the truth's commanded acceleration).
 [[nodiscard]] std::vector<AxisTrajectory> axis_trajectories(const TrackSet& set);
+
+/// The two-point start of a one-axis filter at scan 1: position z(1), velocity (z(1) − z(0)) / T,
+/// and their covariance for plots of variance R — [[R, R/T], [R/T, 2R/T²]].
+[[nodiscard]] GaussianState<2> two_point_start(const AxisTrajectory& trajectory,
+                                               double sample_period, double measurement_variance);
 
 }  // namespace imm::datasets
