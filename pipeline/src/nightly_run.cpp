@@ -106,9 +106,8 @@ std::vector<std::string> unknown_failures(const std::vector<std::string>& failed
                                           const std::vector<KnownFailure>& known) {
   std::vector<std::string> unknown;
   for (const std::string& line : failed) {
-    if (std::none_of(known.begin(), known.end(), [&](const KnownFailure& k) {
-          return line.find(k.gate) != std::string::npos;
-        })) {
+    if (std::none_of(known.begin(), known.end(),
+                     [&](const KnownFailure& k) { return k.accepts(line); })) {
       unknown.push_back(line);
     }
   }
@@ -119,9 +118,8 @@ std::string known_reasons(const std::vector<std::string>& failed,
                           const std::vector<KnownFailure>& known) {
   std::string text;
   for (const KnownFailure& k : known) {
-    if (std::any_of(failed.begin(), failed.end(), [&](const std::string& line) {
-          return line.find(k.gate) != std::string::npos;
-        })) {
+    if (std::any_of(failed.begin(), failed.end(),
+                    [&](const std::string& line) { return k.accepts(line); })) {
       text += (text.empty() ? "known: " : "; ") + k.reason;
     }
   }

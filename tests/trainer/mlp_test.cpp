@@ -9,7 +9,7 @@
 #include "imm/support/config.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
-#include "testing/temp_dir.hpp"
+#include "testing/config_error.hpp"
 
 namespace imm::trainer::mlp {
 namespace {
@@ -175,29 +175,16 @@ TEST(MlpConfig, ShippedConfigIsTheSeedsSchedule) {
   EXPECT_DOUBLE_EQ(config.training.phases[1].output_rate, 0.01);
   EXPECT_EQ(config.hidden, (std::vector<int>{10, 10}));
   EXPECT_DOUBLE_EQ(config.cv_kf.measurement_variance, 2500.0);
-  const testing::TempDir dir;
-  testing::write_text(dir / "bad.toml",
-                      "regime = \"configs/regimes/paper/input_estimator_training.toml\"\n"
-                      "[network]\noutput = \"tanh\"\n");
-  try {
-    (void)load_mlp_config(dir / "bad.toml");
-    FAIL();
-  } catch (const support::ConfigError& error) {
-    EXPECT_EQ(error.key(), "network.output");
-  }
+  const auto load = [](const auto& path) { return load_mlp_config(path); };
+  const std::string regime = "regime = \"configs/regimes/paper/input_estimator_training.toml\"\n";
+  EXPECT_EQ(testing::config_error_key(regime + "[network]\noutput = \"tanh\"\n", load),
+            "network.output");
   // The seed's filter takes û as exact; the realistic regimes' config adds its error variance.
   EXPECT_FALSE(config.input_noise_from_validation);
   EXPECT_TRUE(
       load_mlp_config("configs/mlp_input_estimator_tuned.toml").input_noise_from_validation);
-  testing::write_text(dir / "noise.toml",
-                      "regime = \"configs/regimes/paper/input_estimator_training.toml\"\n"
-                      "[network]\ninput_noise = \"guess\"\n");
-  try {
-    (void)load_mlp_config(dir / "noise.toml");
-    FAIL();
-  } catch (const support::ConfigError& error) {
-    EXPECT_EQ(error.key(), "network.input_noise");
-  }
+  EXPECT_EQ(testing::config_error_key(regime + "[network]\ninput_noise = \"guess\"\n", load),
+            "network.input_noise");
 }
 
 }  // namespace

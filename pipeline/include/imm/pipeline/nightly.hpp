@@ -61,6 +61,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace imm::pipeline {
@@ -75,6 +76,10 @@ namespace imm::pipeline {
 struct KnownFailure {
   std::string gate;    ///< a part of the gate's failure line ("pos_rmse_maneuver is above KF's")
   std::string reason;  ///< why it is accepted: the measured cause (required)
+  /// Whether a failed gate's line is this failure (it contains `gate`).
+  [[nodiscard]] bool accepts(std::string_view line) const {
+    return line.find(gate) != std::string_view::npos;
+  }
 };
 
 struct NightlyStage {
