@@ -7,6 +7,7 @@
 // naming the problem, an unusable message, or a value accepted that the reader's contract refuses
 // (a row reported good with a non-finite value, a rule table or sample set with one).
 
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <sstream>
@@ -49,13 +50,22 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   file.write(text);
   read_expecting_runtime_errors("measurement csv", [&] {
     std::istringstream in(text);
-    const support::MeasurementCsv csv = support::read_measurement_csv(in, "fuzz.csv");
+    support::MeasurementCsv csv = support::read_measurement_csv(in, "fuzz.csv");
+    // A good row has its index column: k, or a finite t that scans_from_times turns into k.
     for (const support::MeasurementRow& row : csv.rows) {
-      if (row.problem.empty() && (!row.z.allFinite() || !row.scan)) {
+      const bool indexed = csv.timed ? row.time && std::isfinite(*row.time) : row.scan.has_value();
+      if (row.problem.empty() && (!row.z.allFinite() || !indexed)) {
         fuzz::finding("measurement csv: line " + std::to_string(row.line) +
                       " reported good with a missing or non-finite value");
       }
       if (!row.problem.empty()) fuzz::expect_usable_message(row.problem, "measurement csv row");
+    }
+    support::scans_from_times(csv, 0.5, "fuzz.csv");
+    for (const support::MeasurementRow& row : csv.rows) {
+      if (row.problem.empty() && !row.scan) {
+        fuzz::finding("measurement csv: line " + std::to_string(row.line) +
+                      " reported good without a scan after scans_from_times");
+      }
     }
   });
   read_expecting_runtime_errors("rules csv", [&] {
