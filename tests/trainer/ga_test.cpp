@@ -54,6 +54,111 @@ TEST(GeneticOperators, KeepEveryGeneInBoundsAndTheRuleCountInRange) {
   }
 }
 
+// A genome problem of 80 rule slots (two 64-slot crossover words) in [0, 1]: the operators only.
+class UnitBoxProblem final : public GenomeProblem {
+ public:
+  [[nodiscard]] int max_rules() const override { return kSlots; }
+  [[nodiscard]] const std::vector<double>& lower() const override { return lower_; }
+  [[nodiscard]] const std::vector<double>& upper() const override { return upper_; }
+  [[nodiscard]] Evaluation evaluate(const Genome& /*genome*/) const override { return {}; }
+  static constexpr int kSlots = 80;
+
+ private:
+  std::vector<double> lower_ = std::vector<double>(kSlots * kGenesPerRule, 0.0);
+  std::vector<double> upper_ = std::vector<double>(kSlots * kGenesPerRule, 1.0);
+};
+
+Genome uniform_genome(double gene, std::uint8_t bit) {
+  Genome genome;
+  genome.genes.assign(UnitBoxProblem::kSlots * kGenesPerRule, gene);
+  genome.active.assign(UnitBoxProblem::kSlots, bit);
+  return genome;
+}
+
+// Geometric skipping must mutate every position (each gene, then each bit) independently with
+// probability p_m, as one Bernoulli draw per position does: per-position counts within 5σ of the
+// binomial mean, at a low and a high rate; p_m = 0 changes nothing, p_m = 1 changes everything.
+TEST(GeneticOperators, MutationHitsEveryPositionWithItsRate) {
+  const UnitBoxProblem problem;
+  for (const double rate : {0.01, 0.2}) {
+    GaOptions options;
+    options.population = 10;
+    options.mutation_rate = rate;
+    const GeneticAlgorithm algorithm(problem, options, 3);
+    datasets::Rng rng(17);
+    const Genome original = uniform_genome(0.5, 1);
+    const std::size_t genes = original.genes.size();
+    std::vector<int> hits(genes + original.active.size(), 0);
+    constexpr int kDraws = 20000;
+    for (int n = 0; n < kDraws; ++n) {
+      Genome genome = original;
+      algorithm.mutate(genome, rng);
+      for (std::size_t i = 0; i < genes; ++i) hits[i] += genome.genes[i] != 0.5 ? 1 : 0;
+      for (std::size_t i = 0; i < genome.active.size(); ++i)
+        hits[genes + i] += genome.active[i] == 0;
+    }
+    const double mean = kDraws * rate;
+    const double sigma = std::sqrt(kDraws * rate * (1.0 - rate));
+    long total = 0;
+    for (std::size_t i = 0; i < hits.size(); ++i) {
+      EXPECT_NEAR(hits[i], mean, 5.0 * sigma) << "position " << i << " at p_m " << rate;
+      total += hits[i];
+    }
+    const double positions = static_cast<double>(hits.size());
+    EXPECT_NEAR(static_cast<double>(total), positions * mean, 5.0 * sigma * std::sqrt(positions));
+  }
+  for (const double rate : {0.0, 1.0}) {
+    GaOptions options;
+    options.population = 10;
+    options.mutation_rate = rate;
+    const GeneticAlgorithm algorithm(problem, options, 3);
+    datasets::Rng rng(5);
+    Genome genome = uniform_genome(0.5, 1);
+    algorithm.mutate(genome, rng);
+    int moved = 0;
+    for (const double gene : genome.genes) moved += gene != 0.5 ? 1 : 0;
+    EXPECT_EQ(moved, rate == 0.0 ? 0 : static_cast<int>(genome.genes.size()));
+    // p_m = 1 flips every bit off; the repair then gives one slot back.
+    EXPECT_EQ(genome.rule_count(), rate == 0.0 ? UnitBoxProblem::kSlots : 1);
+  }
+}
+
+// Slot-uniform crossover from 64-bit draws: each slot comes whole (five genes and the bit) from
+// one parent, from each with probability ½, independently of its neighbours, across the boundary
+// of two draws too (slots 63 and 64).
+TEST(GeneticOperators, CrossoverTakesEachWholeSlotFromEitherParentWithProbabilityOneHalf) {
+  const UnitBoxProblem problem;
+  const GeneticAlgorithm algorithm(problem, GaOptions{}, 3);
+  datasets::Rng rng(23);
+  const Genome a = uniform_genome(0.0, 1), b = uniform_genome(1.0, 0);
+  constexpr int kDraws = 20000;
+  std::vector<int> from_b(UnitBoxProblem::kSlots, 0);
+  int pair_low = 0, pair_boundary = 0;
+  Genome child;
+  for (int n = 0; n < kDraws; ++n) {
+    algorithm.crossover_into(a, b, child, rng);
+    for (int slot = 0; slot < UnitBoxProblem::kSlots; ++slot) {
+      const auto s = static_cast<std::size_t>(slot);
+      const bool b_slot = child.genes[s * kGenesPerRule] == 1.0;
+      for (int g = 1; g < kGenesPerRule; ++g) {
+        ASSERT_EQ(child.genes[s * kGenesPerRule + static_cast<std::size_t>(g)], b_slot ? 1.0 : 0.0);
+      }
+      ASSERT_EQ(child.active[s], b_slot ? 0 : 1);
+      from_b[s] += b_slot ? 1 : 0;
+    }
+    pair_low += child.genes[0] == 1.0 && child.genes[kGenesPerRule] == 1.0 ? 1 : 0;
+    pair_boundary +=
+        child.genes[63 * kGenesPerRule] == 1.0 && child.genes[64 * kGenesPerRule] == 1.0 ? 1 : 0;
+  }
+  const double half_sigma = std::sqrt(kDraws * 0.25);
+  for (int slot = 0; slot < UnitBoxProblem::kSlots; ++slot) {
+    EXPECT_NEAR(from_b[static_cast<std::size_t>(slot)], kDraws / 2.0, 5.0 * half_sigma) << slot;
+  }
+  const double quarter_sigma = std::sqrt(kDraws * 0.25 * 0.75);
+  EXPECT_NEAR(pair_low, kDraws / 4.0, 5.0 * quarter_sigma);
+  EXPECT_NEAR(pair_boundary, kDraws / 4.0, 5.0 * quarter_sigma);
+}
+
 // Eq. (15): the consequent gene is √w within [0.5, 1] (a_M + √q); centers within the observed
 // residual ranges.
 TEST(FuzzyTableProblem, BoundsFollowEquation15AndTheObservedResiduals) {

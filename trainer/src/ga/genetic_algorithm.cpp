@@ -2,6 +2,7 @@
 #include "imm/trainer/ga/genetic_algorithm.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -50,6 +51,7 @@ GeneticAlgorithm::GeneticAlgorithm(const GenomeProblem& problem, const GaOptions
       problem_.upper().size() != problem_.lower().size()) {
     throw std::invalid_argument("problem bounds do not match its rule slots");
   }
+  log_keep_ = std::log1p(-options_.mutation_rate);
 }
 
 Genome GeneticAlgorithm::random_genome(datasets::Rng& rng) const {
@@ -78,24 +80,44 @@ Genome GeneticAlgorithm::crossover(const Genome& a, const Genome& b, datasets::R
 
 void GeneticAlgorithm::crossover_into(const Genome& a, const Genome& b, Genome& child,
                                       datasets::Rng& rng) const {
-  child.genes = a.genes;  // same size after the first generation: no allocation
-  child.active = a.active;
+  // Each slot is copied once, from the parent its coin names; sizes match after the first
+  // generation, so nothing is allocated.
+  child.genes.resize(a.genes.size());
+  child.active.resize(a.active.size());
+  std::uint64_t coins = 0;
   for (std::size_t slot = 0; slot < a.active.size(); ++slot) {
-    if (rng.uniform() < 0.5) {
-      const std::size_t base = slot * kGenesPerRule;
-      std::copy_n(b.genes.begin() + static_cast<std::ptrdiff_t>(base), kGenesPerRule,
-                  child.genes.begin() + static_cast<std::ptrdiff_t>(base));
-      child.active[slot] = b.active[slot];
-    }
+    if (slot % 64 == 0) coins = rng.bits();
+    const Genome& parent = (coins & 1U) != 0 ? b : a;
+    coins >>= 1U;
+    const std::size_t base = slot * kGenesPerRule;
+    std::copy_n(parent.genes.data() + base, kGenesPerRule, child.genes.data() + base);
+    child.active[slot] = parent.active[slot];
   }
   repair(child, rng);
+}
+
+std::size_t GeneticAlgorithm::next_mutation(datasets::Rng& rng, std::size_t from,
+                                            std::size_t end) const {
+  if (from >= end || options_.mutation_rate <= 0.0) return end;
+  if (options_.mutation_rate >= 1.0) return from;
+  // P(gap = g) = (1 − p)^g p: the number of positions kept before the next mutated one. 1 − U is
+  // in (0, 1], so the logarithm is finite; a gap past the end (or beyond any index) is the end.
+  const double gap = std::floor(std::log1p(-rng.uniform()) / log_keep_);
+  if (!(gap < static_cast<double>(end - from))) return end;
+  return from + static_cast<std::size_t>(gap);
 }
 
 void GeneticAlgorithm::mutate(Genome& genome, datasets::Rng& rng) const {
   const auto& lower = problem_.lower();
   const auto& upper = problem_.upper();
-  for (std::size_t i = 0; i < genome.genes.size(); ++i) {
-    if (rng.uniform() >= options_.mutation_rate) continue;
+  const std::size_t genes = genome.genes.size();
+  const std::size_t end = genes + genome.active.size();
+  for (std::size_t i = next_mutation(rng, 0, end); i < end; i = next_mutation(rng, i + 1, end)) {
+    if (i >= genes) {
+      auto& bit = genome.active[i - genes];
+      bit = bit != 0 ? 0 : 1;
+      continue;
+    }
     const double range = upper[i] - lower[i];
     double value = genome.genes[i] + options_.mutation_scale * range * rng.normal();
     // Reflect into [lower, upper] (twice at most for steps under a range; clamp the rest).
@@ -104,9 +126,6 @@ void GeneticAlgorithm::mutate(Genome& genome, datasets::Rng& rng) const {
       if (value > upper[i]) value = 2.0 * upper[i] - value;
     }
     genome.genes[i] = std::clamp(value, lower[i], upper[i]);
-  }
-  for (auto& bit : genome.active) {
-    if (rng.uniform() < options_.mutation_rate) bit = bit != 0 ? 0 : 1;
   }
   repair(genome, rng);
 }

@@ -28,6 +28,9 @@ class Rng {
  public:
   explicit Rng(std::uint64_t seed) : engine_(seed) {}
 
+  /// 64 uniform random bits: one per fair coin (the GA's crossover takes 64 slots per draw).
+  std::uint64_t bits() { return engine_(); }
+
   /// Uniform on [0, 1), 53 random bits.
   double uniform() { return static_cast<double>(engine_() >> 11U) * 0x1.0p-53; }
 

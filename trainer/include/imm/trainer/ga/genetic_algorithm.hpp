@@ -9,11 +9,15 @@
 /// - Crossover (rate p_c): slot-uniform — each rule slot (its five reals and its bit) comes whole
 ///   from one parent or the other. A rule is a building block: mixing the center of one rule
 ///   with the spread of another destroys what both parents learned, whereas exchanging whole
-///   rules recombines working rules and lets the rule count vary through the bits.
+///   rules recombines working rules and lets the rule count vary through the bits. One 64-bit draw
+///   decides 64 slots (a bit per slot), not one uniform per slot.
 /// - Mutation (rate p_m per gene): a real gene moves by a Gaussian step of a fixed fraction of its
 ///   range and is reflected into its bounds (every gene stays in range, no mass piles up on the
 ///   bounds); a bit flips. A genome that lost every rule gets one random slot back, so the rule
-///   count stays in 1 … max_rules.
+///   count stays in 1 … max_rules. The mutated positions (genes, then bits) are found by geometric
+///   skipping: the gap to the next one is ⌊log U / log(1 − p_m)⌋, which mutates each position
+///   independently with probability p_m, as a draw per position would, with one draw per
+///   mutation instead of one per position (2.5 instead of 300 for Table 1's genome).
 /// - Elitism: the best individuals pass unchanged, so the best fitness never decreases.
 ///
 /// Memory: evolve() builds the next generation in a spare population whose genomes keep their
@@ -83,11 +87,14 @@ class GeneticAlgorithm {
 
  private:
   void repair(Genome& genome, datasets::Rng& rng) const;
+  /// The next position ≥ `from` that mutates (geometric skipping), or `end` when none before it.
+  std::size_t next_mutation(datasets::Rng& rng, std::size_t from, std::size_t end) const;
   void evaluate_range(Population& population, std::size_t first) const;
 
   const GenomeProblem& problem_;
   GaOptions options_;
   std::uint64_t seed_;
+  double log_keep_ = 0.0;  ///< log(1 − p_m), < 0 for 0 < p_m < 1
   // evolve()'s workspace: the population the next generation is built in (swapped with the
   // caller's), and the elite indices. One GeneticAlgorithm evolves one population at a time.
   mutable Population spare_;
