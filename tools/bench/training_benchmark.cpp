@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Training speed (Google Benchmark): one back-propagation epoch of the input estimator's 2-10-10-1
 // network on the default training features (per-sample, the seed's classic update), one FCM-fit
-// objective evaluation, and a whole TSK sensor fit.
+// objective evaluation, a whole TSK sensor fit, and the GA's IMM fitness of one genome.
 //   build/bin/imm-train-bench --benchmark_min_time=1
 
 #include <benchmark/benchmark.h>
@@ -9,6 +9,8 @@
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/track.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
+#include "imm/trainer/ga/ga_config.hpp"
+#include "imm/trainer/ga/imm_fitness_batch.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
 #include "imm/trainer/tsk/tsk_trainer.hpp"
@@ -136,6 +138,49 @@ void BM_W4_GaGeneration(benchmark::State& state) {
   state.counters["generation"] = population.generation;
 }
 BENCHMARK(BM_W4_GaGeneration)->Unit(benchmark::kMicrosecond);
+
+// The GA's IMM fitness of one genome on the paper's training split (18 one-axis trajectories of
+// 160 scans): the lane batch against the runtime filter one trajectory at a time, with
+// state.range(0) rules in each of the three levels' tables.
+void ga_fitness(benchmark::State& state, bool batched) {
+  using namespace imm::trainer::ga;
+  const GaTrainingConfig config =
+      load_ga_config(IMM_SOURCE_DIR "/configs/ga_fuzzy_imm.toml", preset("ga_imm_training"));
+  const TrainingSet set = make_training_set(config.regime, imm::datasets::Split::kTraining);
+  imm::datasets::Rng rng(3);
+  imm::GaFuzzyImmSpec spec;
+  spec.settings = config.filter;
+  for (int level = 0; level < 3; ++level) {
+    std::vector<imm::FuzzyRule> rules;
+    for (int r = 0; r < state.range(0); ++r) {
+      rules.push_back({rng.uniform(-1.0, 1.0), rng.uniform(0.1, 2.0), rng.uniform(-1.0, 1.0),
+                       rng.uniform(0.1, 2.0), std::pow(10.0, rng.uniform(-6.0, -2.0))});
+    }
+    spec.levels.push_back(
+        {std::string("level ").append(std::to_string(level)), 0.01, imm::FuzzyRuleTable(rules)});
+  }
+  ProblemOptions options;
+  const ImmFitnessBatch batch(set);
+  for (auto _ : state) {
+    if (batched) {
+      ImmRunErrors run = batch.run(spec);
+      benchmark::DoNotOptimize(run);
+    } else {
+      Evaluation e = evaluate_imm(spec, set, options, 1);
+      benchmark::DoNotOptimize(e);
+    }
+  }
+  // The figure both compute (eq. 17's mean position error), once outside the timing.
+  const ImmRunErrors run = batch.run(spec);
+  state.counters["position_error"] = batched ? run.position_abs_sum / static_cast<double>(run.count)
+                                             : evaluate_imm(spec, set, options, 1).position_error;
+  state.counters["lane_steps_per_s"] = benchmark::Counter(
+      static_cast<double>(set.total_steps()), benchmark::Counter::kIsIterationInvariantRate);
+}
+void BM_GaFitnessBatched(benchmark::State& state) { ga_fitness(state, true); }
+void BM_GaFitnessRuntimeFilter(benchmark::State& state) { ga_fitness(state, false); }
+BENCHMARK(BM_GaFitnessBatched)->Arg(1)->Arg(5)->Arg(25)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_GaFitnessRuntimeFilter)->Arg(1)->Arg(5)->Arg(25)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -44,6 +44,21 @@ Evaluation score(const ProblemOptions& options, double position_sum, double velo
   return e;
 }
 
+// Eq. (16) from a batched run: ζ_p + ζ_v (kZeta) or eq. (17)'s sums.
+Evaluation score(const ProblemOptions& options, const ImmRunErrors& run, int rules) {
+  if (options.error == ErrorKind::kEquation17) {
+    return score(options, run.position_abs_sum, run.velocity_abs_sum, run.count, run.failed, rules);
+  }
+  constexpr double kFailed = std::numeric_limits<double>::infinity();
+  Evaluation e;
+  e.rules = rules;
+  e.position_error = run.failed ? kFailed : run.zeta_p;
+  e.velocity_error = run.failed ? kFailed : run.zeta_v;
+  e.error = e.position_error + e.velocity_error;
+  e.fitness = fitness_of(options, e.error, e.rules);
+  return e;
+}
+
 }  // namespace
 
 int Genome::rule_count() const {
@@ -94,6 +109,9 @@ FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, const ProblemOptions&
     }
   }
   ranges_ = {r_min, r_max, dr_min, dr_max};
+  if (options_.fitness == FitnessKind::kImm && options_.batched) {
+    batch_ = std::make_shared<const ImmFitnessBatch>(training_);
+  }
   lower_.resize(static_cast<std::size_t>(gene_count()));
   upper_.resize(lower_.size());
   for (int l = 0; l < options_.max_rules; ++l) {
@@ -195,7 +213,20 @@ Evaluation FuzzyTableProblem::evaluate_table(const FuzzyRuleTable& table,
 }
 
 Evaluation FuzzyTableProblem::evaluate(const Genome& genome) const {
-  return evaluate_table(decode(genome), training_);
+  FuzzyRuleTable table = decode(genome);
+  if (batch_) {
+    GaFuzzyImmSpec spec;
+    spec.settings = context_.settings;
+    spec.antecedents = options_.antecedents;
+    spec.levels = context_.levels;
+    spec.levels[context_.slot].table = std::move(table);
+    if (ImmFitnessBatch::supports(spec)) {
+      const auto rules = static_cast<int>(spec.levels[context_.slot].table.size());
+      return score(options_, batch_->run(spec), rules);
+    }
+    table = std::move(spec.levels[context_.slot].table);
+  }
+  return evaluate_table(table, training_);
 }
 
 }  // namespace imm::trainer::ga

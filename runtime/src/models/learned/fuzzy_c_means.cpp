@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/math/lane_math.hpp"
 
 // Run-time choice of AVX2 for the membership loop (GCC on x86-64 Linux). Only "avx2": it does not
 // enable FMA contraction, so every instruction set computes the same bits.
@@ -122,14 +123,6 @@ ClusterVector fcm_memberships(double x, const ClusterVector& centers, double fuz
 }
 
 namespace {
-
-// `use` ? a : b by bit masks: a select the vectorizer keeps as one (a ?: on a stored value
-// becomes a conditional store, which stops it).
-inline double pick(bool use, double a, double b) {
-  const std::uint64_t mask = std::uint64_t{0} - static_cast<std::uint64_t>(use);
-  return std::bit_cast<double>((std::bit_cast<std::uint64_t>(a) & mask) |
-                               (std::bit_cast<std::uint64_t>(b) & ~mask));
-}
 
 // Points per block of the membership updates: their per-point changes are reduced after each
 // block (a floating-point max reduction inside the loop stops the vectorizer).

@@ -28,10 +28,12 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/models/learned/fuzzy_rule_table.hpp"
+#include "imm/trainer/ga/imm_fitness_batch.hpp"
 #include "imm/trainer/ga/training_set.hpp"
 
 namespace imm::trainer::ga {
@@ -97,6 +99,11 @@ struct ProblemOptions {
   double process_noise_sigma = 0.001;  ///< √q of eq. (15)
   double consequent_low = 0.5;         ///< √w bounds as multiples of a_M + √q (eq. 15)
   double consequent_high = 1.0;
+  /// kImm: score genomes with the lane-batched IMM (imm_fitness_batch.hpp), where it supports the
+  /// spec; false: with the runtime's ImmEstimator, one trajectory at a time (to the bit what the
+  /// shipped filter computes, several times slower). Tables and levels are scored by
+  /// evaluate_table and evaluate_imm with the runtime filter either way.
+  bool batched = true;
 };
 
 /// The IMM around a candidate table (kImm): every level's table, the candidate's slot, settings.
@@ -138,6 +145,7 @@ class FuzzyTableProblem final : public GenomeProblem {
   ImmContext context_;
   std::array<double, 4> ranges_{};
   std::vector<double> lower_, upper_;
+  std::shared_ptr<const ImmFitnessBatch> batch_;  ///< the training set's lanes (kImm, batched)
 };
 
 /// Error and fitness (eq. 16–17 with `options`' λ and σ_z) of a whole GA-fuzzy IMM on a set: what

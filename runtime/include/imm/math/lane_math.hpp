@@ -1,0 +1,94 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// Element functions for loops over lanes (tracks, trajectories, points) that the compiler
+/// vectorizes: plain IEEE arithmetic and integer bit operations, no branches and no library call,
+/// so that a loop of them becomes a handful of vector instructions and every instruction set
+/// (SSE2, AVX2; never FMA) gives the same bits as the scalar code.
+///
+/// lane_exp and lane_log are not libm's: they are within 2 ulp of the correctly rounded result
+/// over their documented ranges (tested against libm), not bit-equal to it. Code whose results
+/// must equal the runtime filters' to the bit keeps std::exp and std::log.
+
+#include <bit>
+#include <cstdint>
+#include <limits>
+
+namespace imm {
+
+/// `use` ? a : b by bit masks: a select the vectorizer keeps as one (a `?:` on a stored value
+/// becomes a conditional store, which stops it).
+[[nodiscard]] inline double pick(bool use, double a, double b) {
+  const std::uint64_t mask = std::uint64_t{0} - static_cast<std::uint64_t>(use);
+  return std::bit_cast<double>((std::bit_cast<std::uint64_t>(a) & mask) |
+                               (std::bit_cast<std::uint64_t>(b) & ~mask));
+}
+
+/// eˣ within 2 ulp for x in [−708, 709]; 0 below −708 (libm's subnormal results are flushed),
+/// +∞ above 709, NaN for NaN. Cody–Waite reduction x = n ln 2 + r, |r| ≤ ½ ln 2, a degree-13
+/// Taylor polynomial of eʳ (truncation below 10⁻¹⁷), and 2ⁿ assembled in the exponent bits.
+[[nodiscard]] inline double lane_exp(double x) {
+  constexpr double kLog2e = 1.4426950408889634074;
+  constexpr double kLn2High = 6.93147180369123816490e-01;  // ln 2 with 32 trailing zero bits
+  constexpr double kLn2Low = 1.90821492927058770002e-10;   // ln 2 − kLn2High
+  constexpr double kRound = 0x1.8p52;                      // adding it rounds to an integer
+  const bool underflow = x < -708.0;
+  const bool overflow = x > 709.0;
+  // Clamped (NaN stays NaN: both comparisons are false), so that n fits the exponent field.
+  const double clamped = pick(underflow, -708.0, pick(overflow, 709.0, x));
+  const double shifted = clamped * kLog2e + kRound;
+  const double n = shifted - kRound;
+  const double r = (clamped - n * kLn2High) - n * kLn2Low;
+  // eʳ = Σ rᵏ/k!, k ≤ 13, by Estrin's scheme: pairs, then pairs of pairs, so that the longest
+  // chain of dependent operations is 8 long instead of Horner's 26 (the loops that call this are
+  // bound by that latency, not by the operation count).
+  const double r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
+  const double a0 = 1.0 + r, a1 = 1.0 / 2.0 + r * (1.0 / 6.0);
+  const double a2 = 1.0 / 24.0 + r * (1.0 / 120.0), a3 = 1.0 / 720.0 + r * (1.0 / 5040.0);
+  const double a4 = 1.0 / 40320.0 + r * (1.0 / 362880.0);
+  const double a5 = 1.0 / 3628800.0 + r * (1.0 / 39916800.0);
+  const double a6 = 1.0 / 479001600.0 + r * (1.0 / 6227020800.0);
+  const double b0 = a0 + r2 * a1, b1 = a2 + r2 * a3, b2 = a4 + r2 * a5;
+  const double p = (b0 + r4 * b1) + r8 * (b2 + r4 * a6);
+  // n is in [−1022, 1023]: it sits in the low bits of `shifted`'s mantissa.
+  const std::int64_t k = std::bit_cast<std::int64_t>(shifted) - std::bit_cast<std::int64_t>(kRound);
+  const double scale = std::bit_cast<double>(static_cast<std::uint64_t>(k + 1023) << 52U);
+  const double result = p * scale;
+  return pick(underflow, 0.0, pick(overflow, std::numeric_limits<double>::infinity(), result));
+}
+
+/// ln x within 2 ulp for every positive x, subnormal ones included; −∞ for 0, +∞ for +∞, NaN for
+/// a negative x or NaN. x = m 2ᵉ with m in [√½, √2), ln m = 2 atanh f with f = (m − 1)/(m + 1),
+/// |f| ≤ 0.172, by its odd series to f²¹ (truncation below 10⁻¹⁸).
+[[nodiscard]] inline double lane_log(double x) {
+  constexpr double kLn2High = 6.93147180369123816490e-01;
+  constexpr double kLn2Low = 1.90821492927058770002e-10;
+  constexpr double kSqrtHalf = 0.70710678118654752440;
+  const bool subnormal = x < std::numeric_limits<double>::min();
+  const double scaled = pick(subnormal, x * 0x1p54, x);
+  const auto bits = std::bit_cast<std::uint64_t>(scaled);
+  // The biased exponent as a double (the 2⁵² trick: an integer below 2⁵² in the low mantissa).
+  const double biased =
+      std::bit_cast<double>(((bits >> 52U) & 0x7ffU) | 0x4330000000000000ULL) - 0x1p52;
+  const double m1 = std::bit_cast<double>((bits & 0x000fffffffffffffULL) | 0x3ff0000000000000ULL);
+  // m in [1, 2) → [√½, √2): halve it (exactly) above √2 and count one more in the exponent.
+  const bool high = m1 > 2.0 * kSqrtHalf;
+  const double m = pick(high, m1 * 0.5, m1);
+  const double e = biased - 1023.0 + pick(high, 1.0, 0.0) - pick(subnormal, 54.0, 0.0);
+  const double f = (m - 1.0) / (m + 1.0);
+  const double f2 = f * f;
+  // Σ f²ᵏ/(2k + 1), k ≤ 10, by Estrin's scheme (see lane_exp).
+  const double f4 = f2 * f2, f8 = f4 * f4;
+  const double t0 = 1.0 / 3.0 + f2 * (1.0 / 5.0), t1 = 1.0 / 7.0 + f2 * (1.0 / 9.0);
+  const double t2 = 1.0 / 11.0 + f2 * (1.0 / 13.0), t3 = 1.0 / 15.0 + f2 * (1.0 / 17.0);
+  const double t4 = 1.0 / 19.0 + f2 * (1.0 / 21.0);
+  const double s = (t0 + f4 * t1) + f8 * ((t2 + f4 * t3) + f8 * t4);
+  const double log_m = 2.0 * f + 2.0 * f * (f2 * s);
+  const double result = e * kLn2High + (log_m + e * kLn2Low);
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const double special =
+      pick(x == 0.0, -kInf, pick(x == kInf, kInf, std::numeric_limits<double>::quiet_NaN()));
+  return pick((x > 0.0) & (x < kInf), result, special);
+}
+
+}  // namespace imm

@@ -1,0 +1,170 @@
+// SPDX-License-Identifier: Apache-2.0
+// The lane-batched GA-fuzzy IMM against the runtime's ImmEstimator one trajectory at a time
+// (evaluate_imm with batched = false is that path), and the GA it drives against the GA the
+// runtime path drives.
+#include "imm/trainer/ga/imm_fitness_batch.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "imm/datasets/random.hpp"
+#include "imm/datasets/regime_file.hpp"
+#include "imm/trainer/ga/fuzzy_table_problem.hpp"
+#include "imm/trainer/ga/genetic_algorithm.hpp"
+#include "testing/regime_files.hpp"
+#include "testing/temp_dir.hpp"
+
+namespace imm::trainer::ga {
+namespace {
+
+// 3 tracks of 80 scans: 6 one-axis trajectories, so the second block of four has two empty lanes.
+TrainingSet training_set() {
+  const testing::TempDir dir;
+  const auto regime = datasets::load_regime(testing::write_ga_regime(dir, 80, 3, 1)).regime;
+  return make_training_set(regime, datasets::Split::kTraining);
+}
+
+FuzzyRuleTable random_table(datasets::Rng& rng, int rules, double scale) {
+  std::vector<FuzzyRule> table;
+  table.reserve(static_cast<std::size_t>(rules));
+  for (int l = 0; l < rules; ++l) {
+    table.push_back({rng.uniform(-scale, scale), rng.uniform(0.05, 2.0) * scale,
+                     rng.uniform(-scale, scale), rng.uniform(0.05, 2.0) * scale,
+                     std::pow(10.0, rng.uniform(-9.0, -2.0))});
+  }
+  return FuzzyRuleTable(std::move(table));
+}
+
+GaFuzzyImmSpec random_spec(datasets::Rng& rng, int levels, FuzzyAntecedents antecedents) {
+  GaFuzzyImmSpec spec;
+  spec.settings.sample_period = 1.0;
+  spec.settings.measurement_sigma = 0.5;
+  spec.settings.transition_stay = rng.uniform(0.8, 0.99);
+  spec.settings.initial_first_probability = rng.uniform(0.2, 0.9);
+  spec.antecedents = antecedents;
+  const double scale = antecedents == FuzzyAntecedents::kResidual ? 0.5 : 1.5;
+  for (int i = 0; i < levels; ++i) {
+    spec.levels.push_back({std::string("level ").append(std::to_string(i)), 0.01,
+                           random_table(rng, 1 + static_cast<int>(rng.below(6)), scale)});
+  }
+  return spec;
+}
+
+void expect_same_figures(const Evaluation& batch, const Evaluation& runtime, double tolerance) {
+  EXPECT_NEAR(batch.position_error, runtime.position_error,
+              tolerance * std::abs(runtime.position_error));
+  EXPECT_NEAR(batch.velocity_error, runtime.velocity_error,
+              tolerance * std::abs(runtime.velocity_error));
+  EXPECT_NEAR(batch.fitness, runtime.fitness, tolerance);
+  EXPECT_EQ(batch.rules, runtime.rules);
+}
+
+Evaluation batched(const ImmFitnessBatch& batch, const GaFuzzyImmSpec& spec,
+                   const ProblemOptions& options, int rules) {
+  const ImmRunErrors run = batch.run(spec);
+  Evaluation e;
+  e.rules = rules;
+  if (options.error == ErrorKind::kZeta) {
+    e.position_error = run.failed ? std::numeric_limits<double>::infinity() : run.zeta_p;
+    e.velocity_error = run.failed ? std::numeric_limits<double>::infinity() : run.zeta_v;
+  } else {
+    e.position_error = run.position_abs_sum / static_cast<double>(run.count);
+    e.velocity_error = run.velocity_abs_sum / static_cast<double>(run.count);
+  }
+  e.fitness = run.failed ? 0.0 : 1.0;
+  return e;
+}
+
+// Random specs (1 to 5 levels, 1 to 6 rules each, both antecedent kinds, random switching) on
+// trajectories of unequal lengths: ζ and eq. (17)'s mean errors agree with the runtime filter's
+// to 1e-12 relative (the exp and log differ from libm's by at most 2 ulp).
+TEST(ImmFitnessBatch, EqualsTheRuntimeImmOnEveryTrajectoryToRounding) {
+  TrainingSet set = training_set();
+  ASSERT_EQ(set.trajectories.size(), 6u);
+  for (const int cut : {1, 4}) {  // two trajectories end early: masked scans
+    auto& t = set.trajectories[static_cast<std::size_t>(cut)];
+    const Eigen::Index length = 50 + 7 * cut;
+    t.position.conservativeResize(length);
+    t.velocity.conservativeResize(length);
+    t.measurement.conservativeResize(length);
+    t.acceleration_input.conservativeResize(length);
+  }
+  const ImmFitnessBatch batch(set);
+  datasets::Rng rng(5);
+  int compared = 0;
+  for (int trial = 0; trial < 24; ++trial) {
+    const auto antecedents =
+        trial % 2 == 0 ? FuzzyAntecedents::kResidual : FuzzyAntecedents::kNormalizedInnovation;
+    const GaFuzzyImmSpec spec = random_spec(rng, 1 + trial % 5, antecedents);
+    ASSERT_TRUE(ImmFitnessBatch::supports(spec));
+    for (const ErrorKind kind : {ErrorKind::kEquation17, ErrorKind::kZeta}) {
+      ProblemOptions options;
+      options.error = kind;
+      const Evaluation runtime = evaluate_imm(spec, set, options, 3);
+      ASSERT_TRUE(std::isfinite(runtime.error)) << trial;
+      Evaluation fast = batched(batch, spec, options, 3);
+      fast.fitness = runtime.fitness;  // compared through the figures
+      expect_same_figures(fast, runtime, 1e-12);
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 48);
+}
+
+// A plot the filter cannot take fails the run on both paths; in a masked lane it is never read.
+TEST(ImmFitnessBatch, AFailedStepFailsTheRunLikeTheRuntimeFilter) {
+  TrainingSet set = training_set();
+  set.trajectories[2].measurement(30) = std::numeric_limits<double>::quiet_NaN();
+  datasets::Rng rng(9);
+  const GaFuzzyImmSpec spec = random_spec(rng, 3, FuzzyAntecedents::kResidual);
+  ProblemOptions options;
+  EXPECT_FALSE(std::isfinite(evaluate_imm(spec, set, options, 1).error));
+  EXPECT_TRUE(ImmFitnessBatch(set).run(spec).failed);
+
+  // Without switching (stay 1) the mode prediction may be zero: the batch declines the spec.
+  GaFuzzyImmSpec sticky = spec;
+  sticky.settings.transition_stay = 1.0;
+  EXPECT_FALSE(ImmFitnessBatch::supports(sticky));
+  EXPECT_THROW((void)ImmFitnessBatch(training_set()).run(sticky), std::invalid_argument);
+}
+
+// The GA scored by the batch keeps the genomes the GA scored by the runtime filter keeps, genome
+// for genome, on a short run of the IMM fitness; the fitness values agree to rounding.
+TEST(ImmFitnessBatch, TheGaItDrivesKeepsTheRuntimePathsGenomes) {
+  const TrainingSet set = training_set();
+  datasets::Rng rng(3);
+  ImmContext context;
+  const GaFuzzyImmSpec spec = random_spec(rng, 3, FuzzyAntecedents::kNormalizedInnovation);
+  context.settings = spec.settings;
+  context.levels = spec.levels;
+  context.slot = 1;
+  ProblemOptions options;
+  options.antecedents = FuzzyAntecedents::kNormalizedInnovation;
+  options.error = ErrorKind::kZeta;
+  options.max_rules = 6;
+  options.error_scale = 0.5;
+  options.batched = true;
+  const FuzzyTableProblem fast(set, options, context);
+  options.batched = false;
+  const FuzzyTableProblem runtime(set, options, context);
+  GaOptions ga;
+  ga.population = 24;
+  const GeneticAlgorithm fast_ga(fast, ga, 17), runtime_ga(runtime, ga, 17);
+  Population a = fast_ga.initialize(), b = runtime_ga.initialize();
+  for (int generation = 0; generation <= 4; ++generation) {
+    if (generation > 0) {
+      fast_ga.evolve(a);
+      runtime_ga.evolve(b);
+    }
+    for (std::size_t i = 0; i < a.genomes.size(); ++i) {
+      ASSERT_EQ(a.genomes[i].genes, b.genomes[i].genes) << "generation " << generation;
+      ASSERT_EQ(a.genomes[i].active, b.genomes[i].active) << "generation " << generation;
+      EXPECT_NEAR(a.evaluations[i].fitness, b.evaluations[i].fitness, 1e-13);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace imm::trainer::ga
