@@ -67,8 +67,12 @@ class Network {
   /// whole batch (not thread-safe: the network keeps the batch workspace).
   void gradients(const Samples& samples, std::vector<Eigen::MatrixXd>& weights,
                  std::vector<Eigen::VectorXd>& biases) const;
-  /// One back-propagation update on one sample (per-layer learning rates).
+  /// One back-propagation update on one sample (per-layer learning rates). A 2-10-10-1 network
+  /// with sigmoid hidden layers (the input estimator's) takes a path with its sizes known to the
+  /// compiler; every other shape the general one. Both give the same bits.
   void update_on_sample(const double* input, double target, double hidden_rate, double output_rate);
+  /// The general path of update_on_sample, for any shape (public for the test that compares them).
+  void update_general(const double* input, double target, double hidden_rate, double output_rate);
 
   [[nodiscard]] std::vector<MlpLayer>& layers() { return layers_; }
   [[nodiscard]] const std::vector<MlpLayer>& layers() const { return layers_; }
