@@ -122,6 +122,12 @@ TEST(ImmFitnessBatch, AFailedStepFailsTheRunLikeTheRuntimeFilter) {
   ProblemOptions options;
   EXPECT_FALSE(std::isfinite(evaluate_imm(spec, set, options, 1).error));
   EXPECT_TRUE(ImmFitnessBatch(set).run(spec).failed);
+  // A finite plot beyond the physical limits: the runtime refuses it, and so does the batch.
+  TrainingSet far = training_set();
+  far.trajectories[4].measurement(40) = 1e30;
+  EXPECT_FALSE(std::isfinite(evaluate_imm(spec, far, options, 1).error));
+  EXPECT_TRUE(ImmFitnessBatch(far).run(spec).failed);
+  EXPECT_FALSE(ImmFitnessBatch(training_set()).run(spec).failed);
 
   // Without switching (stay 1) the mode prediction may be zero: the batch declines the spec.
   GaFuzzyImmSpec sticky = spec;

@@ -9,6 +9,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
 
@@ -174,7 +175,9 @@ template <int W>
         next_previous[j][l] = antecedent[l];
         const bool finite = std::isfinite(nx0[j][l] + nx1[j][l] + np00[j][l] + np01[j][l] +
                                           np11[j][l] + exponent[j][l]);
-        bad[l] += pick(usable & finite, 0.0, d.mask[k * W + l]);
+        // A plot the runtime refuses (limits::usable_measurement) fails its step there too.
+        const bool plot = std::abs(z[l]) <= limits::kMaxMeasurement;
+        bad[l] += pick(usable & finite & plot, 0.0, d.mask[k * W + l]);
       }
     }
     // The posterior μ_j ∝ c_j N(r_j; 0, S_j), each likelihood's exponent taken relative to the
