@@ -136,6 +136,16 @@ FuzzyRuleTable FuzzyTableProblem::decode(const Genome& genome) const {
   return FuzzyRuleTable(std::move(rules));
 }
 
+bool FuzzyTableProblem::phenotype(const Genome& genome, std::vector<double>& key) const {
+  key.clear();
+  for (int l = 0; l < options_.max_rules; ++l) {
+    if (genome.active[static_cast<std::size_t>(l)] == 0) continue;
+    const auto begin = genome.genes.begin() + static_cast<std::ptrdiff_t>(l) * kGenesPerRule;
+    key.insert(key.end(), begin, begin + kGenesPerRule);
+  }
+  return true;
+}
+
 Genome FuzzyTableProblem::constant_genome(double sqrt_w) const {
   Genome genome;
   genome.genes.resize(lower_.size());

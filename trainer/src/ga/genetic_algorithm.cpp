@@ -152,7 +152,44 @@ void GeneticAlgorithm::evaluate(Population& population) const {
 }
 
 void GeneticAlgorithm::evaluate_range(Population& population, std::size_t first) const {
-  const auto n = static_cast<long>(population.genomes.size() - first);
+  const std::size_t size = population.genomes.size();
+  // The genomes to evaluate: every one, or (with phenotype keys) the first of each key that is
+  // neither cached nor earlier in this range; the others copy their source's evaluation.
+  std::vector<std::size_t> todo;
+  std::vector<std::pair<std::size_t, std::size_t>> copies;  // (genome, its source)
+  std::vector<std::pair<std::string, std::size_t>> fresh;   // keys evaluated now, and where
+  std::unordered_map<std::string, std::size_t> first_of;
+  previous_cache_.swap(cache_);
+  cache_.clear();
+  std::vector<double> key;
+  for (std::size_t i = first; i < size; ++i) {
+    if (!problem_.phenotype(population.genomes[i], key)) {
+      todo.push_back(i);
+      continue;
+    }
+    std::string bytes(reinterpret_cast<const char*>(key.data()), key.size() * sizeof(double));
+    if (const auto cached = previous_cache_.find(bytes); cached != previous_cache_.end()) {
+      population.evaluations[i] = cached->second;
+      cache_.insert(*cached);
+    } else if (const auto seen = first_of.find(bytes); seen != first_of.end()) {
+      copies.emplace_back(i, seen->second);
+    } else {
+      first_of.emplace(bytes, i);
+      fresh.emplace_back(std::move(bytes), i);
+      todo.push_back(i);
+    }
+  }
+  evaluate_indices(population, todo);
+  for (const auto& [genome, source] : copies) {
+    population.evaluations[genome] = population.evaluations[source];
+  }
+  for (auto& [bytes, index] : fresh)
+    cache_.emplace(std::move(bytes), population.evaluations[index]);
+}
+
+void GeneticAlgorithm::evaluate_indices(Population& population,
+                                        const std::vector<std::size_t>& todo) const {
+  const auto n = static_cast<long>(todo.size());
   // Each evaluation is a pure function of its genome: any schedule gives the same results. Every
   // rank holds the same population (the same seeded draws); each evaluates its share, with OpenMP
   // inside, and the evaluations are exchanged whole.
@@ -161,7 +198,7 @@ void GeneticAlgorithm::evaluate_range(Population& population, std::size_t first)
   const long begin = share.first;
   const long end = share.second;
   parallel_for(end - begin, 4, [&](long i) {
-    const std::size_t index = first + static_cast<std::size_t>(begin + i);
+    const std::size_t index = todo[static_cast<std::size_t>(begin + i)];
     population.evaluations[index] = problem_.evaluate(population.genomes[index]);
   });
   if (ranks.size() == 1) return;
@@ -169,15 +206,15 @@ void GeneticAlgorithm::evaluate_range(Population& population, std::size_t first)
   std::vector<double> mine;
   mine.reserve(static_cast<std::size_t>((end - begin) * kWidth));
   for (long i = begin; i < end; ++i) {
-    const Evaluation& e = population.evaluations[first + static_cast<std::size_t>(i)];
+    const Evaluation& e = population.evaluations[todo[static_cast<std::size_t>(i)]];
     mine.insert(mine.end(), {e.fitness, e.error, e.position_error, e.velocity_error,
                              static_cast<double>(e.rules)});
   }
   const std::vector<double> all = ranks.gather_all(mine, n, kWidth);
   for (long i = 0; i < n; ++i) {
     const double* row = all.data() + i * kWidth;
-    population.evaluations[first + static_cast<std::size_t>(i)] = {row[0], row[1], row[2], row[3],
-                                                                   static_cast<int>(row[4])};
+    population.evaluations[todo[static_cast<std::size_t>(i)]] = {row[0], row[1], row[2], row[3],
+                                                                 static_cast<int>(row[4])};
   }
 }
 

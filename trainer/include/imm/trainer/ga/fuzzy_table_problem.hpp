@@ -64,6 +64,12 @@ class GenomeProblem {
   [[nodiscard]] virtual const std::vector<double>& upper() const = 0;
   /// Must be a pure function of the genome (called concurrently).
   [[nodiscard]] virtual Evaluation evaluate(const Genome& genome) const = 0;
+  /// What evaluate() reads of a genome, as values: genomes with bitwise-equal keys must have equal
+  /// evaluations, so the GA evaluates one of them and copies the result (its cache). False (the
+  /// default): every genome is evaluated.
+  virtual bool phenotype(const Genome& /*genome*/, std::vector<double>& /*key*/) const {
+    return false;
+  }
 };
 
 enum class FitnessKind { kSingleFilter, kImm };
@@ -120,6 +126,8 @@ class FuzzyTableProblem final : public GenomeProblem {
   FuzzyTableProblem(TrainingSet training, const ProblemOptions& options, ImmContext context = {});
 
   [[nodiscard]] Evaluation evaluate(const Genome& genome) const override;
+  /// The active slots' genes in slot order: all that decode() reads.
+  bool phenotype(const Genome& genome, std::vector<double>& key) const override;
   /// Error and fitness of a decoded table on any set (validation).
   [[nodiscard]] Evaluation evaluate_table(const FuzzyRuleTable& table,
                                           const TrainingSet& set) const;
