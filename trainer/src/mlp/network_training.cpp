@@ -147,8 +147,8 @@ void update_fixed(std::vector<MlpLayer>& layers, double output_scale, const doub
   double* b2 = layers[1].bias.data();
   double* b3 = layers[2].bias.data();
   const Activation output = layers[2].activation;
-  std::array<double, H1> a1;
-  std::array<double, H2> a2;
+  std::array<double, H1> a1{};
+  std::array<double, H2> a2{};
   for (int r = 0; r < H1; ++r) a1[r] = b1[r];
   for (int c = 0; c < I; ++c) {
     for (int r = 0; r < H1; ++r) a1[r] += w1[c * H1 + r] * input[c];
@@ -164,7 +164,7 @@ void update_fixed(std::vector<MlpLayer>& layers, double output_scale, const doub
   a3 = activate(output, a3);
 
   const double d3 = (a3 - target / output_scale) * activation_derivative(output, a3);
-  std::array<double, H2> d2;
+  std::array<double, H2> d2{};
   for (int c = 0; c < H2; ++c) {
     double sum = 0.0;
     sum += w3[c] * d3;
@@ -172,7 +172,7 @@ void update_fixed(std::vector<MlpLayer>& layers, double output_scale, const doub
   }
   for (int c = 0; c < H2; ++c) w3[c] -= d3 * (output_rate * a2[c]);
   b3[0] -= output_rate * d3;
-  std::array<double, H1> d1;
+  std::array<double, H1> d1{};
   for (int c = 0; c < H1; ++c) {
     double sum = 0.0;
     for (int r = 0; r < H2; ++r) sum += w2[c * H2 + r] * d2[r];
