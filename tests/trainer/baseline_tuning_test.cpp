@@ -10,7 +10,6 @@
 #include <cmath>
 
 #include "imm/datasets/random.hpp"
-#include "imm/datasets/regime_file.hpp"
 #include "imm/filters/axis_cv_imm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
@@ -20,15 +19,12 @@
 #include "imm/trainer/ga/genetic_algorithm.hpp"
 #include "imm/trainer/ga/tuned_levels.hpp"
 #include "imm/trainer/regime_checks.hpp"
+#include "testing/ga_training_sets.hpp"
 #include "testing/regime_files.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::trainer::ga {
 namespace {
-
-TrainingSet training_set_of(const std::filesystem::path& regime_file) {
-  return make_training_set(datasets::load_regime(regime_file).regime, datasets::Split::kTraining);
-}
 
 // Plots of a target that flies straight, then accelerates, then flies straight again.
 std::vector<double> maneuvering_plots(int scans, double sigma, std::uint64_t seed) {
@@ -90,7 +86,7 @@ INSTANTIATE_TEST_SUITE_P(TunedBaseline, OneConstantRulePerLevel,
 
 TEST(TunedBaseline, JointStayTuningIsNeverWorseThanTheLevelsAlone) {
   const testing::TempDir dir;
-  const TrainingSet training = training_set_of(testing::write_ga_regime(dir, 60, 2, 1));
+  const TrainingSet training = testing::training_split(testing::write_ga_regime(dir, 60, 2, 1));
   AxisCvImmSpec base;
   base.settings.measurement_sigma = 0.5;
   base.settings.transition_stay = 0.97;
@@ -113,7 +109,7 @@ TEST(GeneticAlgorithm, SeedGenomesOpenThePopulationAndTheRestIsUnchanged) {
   ProblemOptions options;
   options.maneuver_level = 0.01;
   options.fitness = FitnessKind::kSingleFilter;
-  const FuzzyTableProblem problem(training_set_of(testing::write_ga_regime(dir)), options);
+  const FuzzyTableProblem problem(testing::training_split(testing::write_ga_regime(dir)), options);
   GaOptions ga;
   ga.population = 8;
   const GeneticAlgorithm algorithm(problem, ga, 4);

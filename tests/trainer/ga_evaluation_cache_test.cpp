@@ -5,10 +5,8 @@
 
 #include <atomic>
 
-#include "imm/datasets/regime_file.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
-#include "testing/regime_files.hpp"
-#include "testing/temp_dir.hpp"
+#include "testing/ga_training_sets.hpp"
 
 namespace imm::trainer::ga {
 namespace {
@@ -37,12 +35,10 @@ class Counting final : public GenomeProblem {
 };
 
 TEST(GaEvaluationCache, GivesTheUncachedPopulationsWithFewerEvaluations) {
-  const testing::TempDir dir;
-  const auto regime = datasets::load_regime(testing::write_ga_regime(dir, 40, 2, 1)).regime;
   ProblemOptions options;
   options.fitness = FitnessKind::kSingleFilter;
   options.max_rules = 6;
-  const FuzzyTableProblem problem(make_training_set(regime, datasets::Split::kTraining), options);
+  const FuzzyTableProblem problem(testing::ga_training_set(40, 2, 1), options);
   const Counting cached(problem, true), uncached(problem, false);
   GaOptions ga;
   ga.population = 40;

@@ -13,17 +13,14 @@
 #include "imm/trainer/ga/genetic_algorithm.hpp"
 #include "imm/trainer/ga/memetic.hpp"
 #include "imm/trainer/model_files/import_rules.hpp"
+#include "testing/ga_training_sets.hpp"
 #include "testing/regime_files.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::trainer::ga {
 namespace {
 
-TrainingSet small_training_set() {
-  const testing::TempDir dir;
-  const auto regime = datasets::load_regime(testing::write_ga_regime(dir, 60, 2, 1)).regime;
-  return make_training_set(regime, datasets::Split::kTraining);
-}
+TrainingSet small_training_set() { return testing::ga_training_set(60, 2, 1); }
 
 ProblemOptions single_filter_options() {
   ProblemOptions options;
@@ -75,16 +72,21 @@ Genome uniform_genome(double gene, std::uint8_t bit) {
   return genome;
 }
 
+// A small GA's options at mutation rate `rate` (the operator tests draw from it directly).
+GaOptions mutation_only(double rate) {
+  GaOptions options;
+  options.population = 10;
+  options.mutation_rate = rate;
+  return options;
+}
+
 // Geometric skipping must mutate every position (each gene, then each bit) independently with
 // probability p_m, as one Bernoulli draw per position does: per-position counts within 5σ of the
 // binomial mean, at a low and a high rate; p_m = 0 changes nothing, p_m = 1 changes everything.
 TEST(GeneticOperators, MutationHitsEveryPositionWithItsRate) {
   const UnitBoxProblem problem;
   for (const double rate : {0.01, 0.2}) {
-    GaOptions options;
-    options.population = 10;
-    options.mutation_rate = rate;
-    const GeneticAlgorithm algorithm(problem, options, 3);
+    const GeneticAlgorithm algorithm(problem, mutation_only(rate), 3);
     datasets::Rng rng(17);
     const Genome original = uniform_genome(0.5, 1);
     const std::size_t genes = original.genes.size();
@@ -108,10 +110,7 @@ TEST(GeneticOperators, MutationHitsEveryPositionWithItsRate) {
     EXPECT_NEAR(static_cast<double>(total), positions * mean, 5.0 * sigma * std::sqrt(positions));
   }
   for (const double rate : {0.0, 1.0}) {
-    GaOptions options;
-    options.population = 10;
-    options.mutation_rate = rate;
-    const GeneticAlgorithm algorithm(problem, options, 3);
+    const GeneticAlgorithm algorithm(problem, mutation_only(rate), 3);
     datasets::Rng rng(5);
     Genome genome = uniform_genome(0.5, 1);
     algorithm.mutate(genome, rng);

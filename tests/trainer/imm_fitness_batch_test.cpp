@@ -10,21 +10,15 @@
 #include <limits>
 
 #include "imm/datasets/random.hpp"
-#include "imm/datasets/regime_file.hpp"
 #include "imm/trainer/ga/fuzzy_table_problem.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
-#include "testing/regime_files.hpp"
-#include "testing/temp_dir.hpp"
+#include "testing/ga_training_sets.hpp"
 
 namespace imm::trainer::ga {
 namespace {
 
-// 3 tracks of 80 scans: 6 one-axis trajectories, so the second block of four has two empty lanes.
-TrainingSet training_set() {
-  const testing::TempDir dir;
-  const auto regime = datasets::load_regime(testing::write_ga_regime(dir, 80, 3, 1)).regime;
-  return make_training_set(regime, datasets::Split::kTraining);
-}
+// 3 tracks of 80 scans: 6 one-axis trajectories, so the block of eight has two empty lanes.
+TrainingSet training_set() { return testing::ga_training_set(80, 3, 1); }
 
 FuzzyRuleTable random_table(datasets::Rng& rng, int rules, double scale) {
   std::vector<FuzzyRule> table;

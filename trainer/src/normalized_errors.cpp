@@ -9,18 +9,6 @@
 namespace imm::trainer {
 namespace {
 
-double mean_over_defined(const Eigen::VectorXd& values) {
-  double sum = 0.0;
-  int count = 0;
-  for (Eigen::Index k = 0; k < values.size(); ++k) {
-    if (std::isfinite(values(k))) {
-      sum += values(k);
-      ++count;
-    }
-  }
-  return count > 0 ? sum / count : std::numeric_limits<double>::quiet_NaN();
-}
-
 Eigen::VectorXd ratio(const Eigen::VectorXd& error, const Eigen::VectorXd& reference,
                       const Eigen::VectorXi& samples) {
   Eigen::VectorXd result(error.size());
@@ -65,8 +53,14 @@ Eigen::VectorXd NormalizedErrors::velocity() const {
   return ratio(velocity_error_, velocity_measurement_, samples_);
 }
 
-double NormalizedErrors::zeta_p() const { return mean_over_defined(position()); }
-double NormalizedErrors::zeta_v() const { return mean_over_defined(velocity()); }
+double NormalizedErrors::zeta_p() const {
+  return mean_normalized_ratio(position_error_, position_measurement_, samples_,
+                               position_error_.size());
+}
+double NormalizedErrors::zeta_v() const {
+  return mean_normalized_ratio(velocity_error_, velocity_measurement_, samples_,
+                               velocity_error_.size());
+}
 
 double NormalizedErrors::position_rmse() const {
   return std::sqrt(position_error_.sum() / std::max(1, samples_.sum()));

@@ -49,11 +49,11 @@ Evaluation score(const ProblemOptions& options, const ImmRunErrors& run, int rul
   if (options.error == ErrorKind::kEquation17) {
     return score(options, run.position_abs_sum, run.velocity_abs_sum, run.count, run.failed, rules);
   }
-  constexpr double kFailed = std::numeric_limits<double>::infinity();
   Evaluation e;
   e.rules = rules;
-  e.position_error = run.failed ? kFailed : run.zeta_p;
-  e.velocity_error = run.failed ? kFailed : run.zeta_v;
+  e.position_error = run.zeta_p;
+  e.velocity_error = run.zeta_v;
+  if (run.failed) e.position_error = e.velocity_error = std::numeric_limits<double>::infinity();
   e.error = e.position_error + e.velocity_error;
   e.fitness = fitness_of(options, e.error, e.rules);
   return e;
@@ -109,7 +109,10 @@ FuzzyTableProblem::FuzzyTableProblem(TrainingSet training, const ProblemOptions&
     }
   }
   ranges_ = {r_min, r_max, dr_min, dr_max};
-  if (options_.fitness == FitnessKind::kImm && options_.batched) {
+  // Whether the batch runs this IMM depends only on the settings and the level count: decided
+  // once, for every genome.
+  if (options_.fitness == FitnessKind::kImm && options_.batched &&
+      ImmFitnessBatch::supports(imm_with(context_.levels[context_.slot].table))) {
     batch_ = std::make_shared<const ImmFitnessBatch>(training_);
   }
   lower_.resize(static_cast<std::size_t>(gene_count()));
@@ -192,13 +195,8 @@ Evaluation evaluate_imm(const GaFuzzyImmSpec& spec, const TrainingSet& set,
 Evaluation FuzzyTableProblem::evaluate_table(const FuzzyRuleTable& table,
                                              const TrainingSet& set) const {
   if (options_.fitness == FitnessKind::kImm) {
-    GaFuzzyImmSpec spec;
-    spec.settings = context_.settings;
-    spec.antecedents = options_.antecedents;
-    spec.levels = context_.levels;
-    spec.levels[context_.slot].table = table;
     // The candidate's own rules count (eq. 16 is per table).
-    return evaluate_imm(spec, set, options_, static_cast<int>(table.size()));
+    return evaluate_imm(imm_with(table), set, options_, static_cast<int>(table.size()));
   }
   double position_sum = 0.0, velocity_sum = 0.0;
   long count = 0;
@@ -222,21 +220,20 @@ Evaluation FuzzyTableProblem::evaluate_table(const FuzzyRuleTable& table,
   return score(options_, position_sum, velocity_sum, count, failed, static_cast<int>(table.size()));
 }
 
+GaFuzzyImmSpec FuzzyTableProblem::imm_with(FuzzyRuleTable table) const {
+  GaFuzzyImmSpec spec;
+  spec.settings = context_.settings;
+  spec.antecedents = options_.antecedents;
+  spec.levels = context_.levels;
+  spec.levels[context_.slot].table = std::move(table);
+  return spec;
+}
+
 Evaluation FuzzyTableProblem::evaluate(const Genome& genome) const {
-  FuzzyRuleTable table = decode(genome);
-  if (batch_) {
-    GaFuzzyImmSpec spec;
-    spec.settings = context_.settings;
-    spec.antecedents = options_.antecedents;
-    spec.levels = context_.levels;
-    spec.levels[context_.slot].table = std::move(table);
-    if (ImmFitnessBatch::supports(spec)) {
-      const auto rules = static_cast<int>(spec.levels[context_.slot].table.size());
-      return score(options_, batch_->run(spec), rules);
-    }
-    table = std::move(spec.levels[context_.slot].table);
-  }
-  return evaluate_table(table, training_);
+  if (!batch_) return evaluate_table(decode(genome), training_);
+  const GaFuzzyImmSpec spec = imm_with(decode(genome));
+  const auto rules = static_cast<int>(spec.levels[context_.slot].table.size());
+  return score(options_, batch_->run(spec), rules);
 }
 
 }  // namespace imm::trainer::ga

@@ -157,8 +157,7 @@ void GeneticAlgorithm::evaluate_range(Population& population, std::size_t first)
   // neither cached nor earlier in this range; the others copy their source's evaluation.
   std::vector<std::size_t> todo;
   std::vector<std::pair<std::size_t, std::size_t>> copies;  // (genome, its source)
-  std::vector<std::pair<std::string, std::size_t>> fresh;   // keys evaluated now, and where
-  std::unordered_map<std::string, std::size_t> first_of;
+  std::unordered_map<std::string, std::size_t> first_of;    // keys evaluated now, and where
   previous_cache_.swap(cache_);
   cache_.clear();
   std::vector<double> key;
@@ -174,8 +173,7 @@ void GeneticAlgorithm::evaluate_range(Population& population, std::size_t first)
     } else if (const auto seen = first_of.find(bytes); seen != first_of.end()) {
       copies.emplace_back(i, seen->second);
     } else {
-      first_of.emplace(bytes, i);
-      fresh.emplace_back(std::move(bytes), i);
+      first_of.emplace(std::move(bytes), i);
       todo.push_back(i);
     }
   }
@@ -183,8 +181,7 @@ void GeneticAlgorithm::evaluate_range(Population& population, std::size_t first)
   for (const auto& [genome, source] : copies) {
     population.evaluations[genome] = population.evaluations[source];
   }
-  for (auto& [bytes, index] : fresh)
-    cache_.emplace(std::move(bytes), population.evaluations[index]);
+  for (auto& [bytes, index] : first_of) cache_.emplace(bytes, population.evaluations[index]);
 }
 
 void GeneticAlgorithm::evaluate_indices(Population& population,

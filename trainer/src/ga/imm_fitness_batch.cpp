@@ -12,6 +12,7 @@
 #include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
+#include "imm/trainer/normalized_errors.hpp"
 
 // Run-time choice of AVX2 (GCC on x86-64 Linux), as the runtime's FCM and bank kernels: "avx2"
 // does not enable FMA contraction, so every instruction set computes the same bits.
@@ -272,7 +273,7 @@ std::vector<double>& workspace() {
 
 }  // namespace
 
-ImmFitnessBatch::ImmFitnessBatch(const TrainingSet& set) : sample_period_(set.sample_period) {
+ImmFitnessBatch::ImmFitnessBatch(const TrainingSet& set) {
   const auto count = static_cast<int>(set.trajectories.size());
   if (count == 0) throw std::invalid_argument("a fitness batch needs trajectories");
   for (const auto& t : set.trajectories) {
@@ -374,25 +375,9 @@ ImmRunErrors ImmFitnessBatch::run(const GaFuzzyImmSpec& spec) const {
   errors.position_abs_sum = sums.position_abs;
   errors.velocity_abs_sum = sums.velocity_abs;
   errors.count = static_cast<long>(sums.count);
-  // ζ as NormalizedErrors defines it: the mean over scans with samples of √Σe² / √Σm².
-  double zeta_p = 0.0, zeta_v = 0.0;
-  int defined_p = 0, defined_v = 0;
-  for (std::size_t k = 0; k < scans; ++k) {
-    if (sums.samples[k] <= 0.0) continue;
-    const double ratio_p = std::sqrt(sums.pe[k]) / std::sqrt(sums.pm[k]);
-    const double ratio_v = std::sqrt(sums.ve[k]) / std::sqrt(sums.vm[k]);
-    if (sums.pm[k] > 0.0 && std::isfinite(ratio_p)) {
-      zeta_p += ratio_p;
-      ++defined_p;
-    }
-    if (sums.vm[k] > 0.0 && std::isfinite(ratio_v)) {
-      zeta_v += ratio_v;
-      ++defined_v;
-    }
-  }
-  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  errors.zeta_p = defined_p > 0 ? zeta_p / defined_p : kNaN;
-  errors.zeta_v = defined_v > 0 ? zeta_v / defined_v : kNaN;
+  const auto n = static_cast<long>(scans);
+  errors.zeta_p = mean_normalized_ratio(sums.pe, sums.pm, sums.samples, n);
+  errors.zeta_v = mean_normalized_ratio(sums.ve, sums.vm, sums.samples, n);
   return errors;
 }
 

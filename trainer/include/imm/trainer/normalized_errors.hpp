@@ -7,6 +7,8 @@
 /// scans. Values below 1 mean the filter beats the raw measurements. RMSEs come with them.
 
 #include <Eigen/Core>
+#include <cmath>
+#include <limits>
 
 #include "imm/tracking/track_filter.hpp"
 
@@ -22,6 +24,24 @@ struct StepConsistency {
 };
 [[nodiscard]] StepConsistency step_consistency(const TrackFilter& filter,
                                                const Eigen::Vector2d& position);
+
+/// ζ from per-scan sums (NormalizedErrors::zeta_p and zeta_v, and the GA's fitness batch): the
+/// mean, over the scans k < n with samples(k) > 0 and reference(k) > 0 whose ratio is finite, of
+/// √error(k) / √reference(k); NaN when no scan qualifies. Any indexable containers.
+template <class Error, class Reference, class Samples>
+[[nodiscard]] double mean_normalized_ratio(const Error& error, const Reference& reference,
+                                           const Samples& samples, long n) {
+  double sum = 0.0;
+  int count = 0;
+  for (long k = 0; k < n; ++k) {
+    if (!(samples[k] > 0) || !(reference[k] > 0.0)) continue;
+    const double ratio = std::sqrt(error[k]) / std::sqrt(reference[k]);
+    if (!std::isfinite(ratio)) continue;
+    sum += ratio;
+    ++count;
+  }
+  return count > 0 ? sum / count : std::numeric_limits<double>::quiet_NaN();
+}
 
 class NormalizedErrors {
  public:

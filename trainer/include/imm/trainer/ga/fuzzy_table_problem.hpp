@@ -153,7 +153,11 @@ class FuzzyTableProblem final : public GenomeProblem {
   ImmContext context_;
   std::array<double, 4> ranges_{};
   std::vector<double> lower_, upper_;
-  std::shared_ptr<const ImmFitnessBatch> batch_;  ///< the training set's lanes (kImm, batched)
+  /// The training set's lanes: kImm, batched, and an IMM the batch supports.
+  std::shared_ptr<const ImmFitnessBatch> batch_;
+
+  /// The IMM of the context with `table` in the candidate's slot (kImm).
+  [[nodiscard]] GaFuzzyImmSpec imm_with(FuzzyRuleTable table) const;
 };
 
 /// Error and fitness (eq. 16–17 with `options`' λ and σ_z) of a whole GA-fuzzy IMM on a set: what

@@ -52,9 +52,8 @@ class ImmFitnessBatch {
   [[nodiscard]] static bool supports(const GaFuzzyImmSpec& spec);
 
  private:
-  std::vector<int> widths_;  ///< lanes per block, in order
-  int scans_ = 0;            ///< the longest trajectory's
-  double sample_period_ = 1.0;
+  std::vector<int> widths_;      ///< lanes per block, in order
+  int scans_ = 0;                ///< the longest trajectory's
   double start_variance_ = 1.0;  ///< the two-point start's plot variance (the set's)
   // Per block [scan][lane]: plots, truth, the lane's mask (1 where the scan exists).
   std::vector<double> measurement_, position_, velocity_, mask_;
