@@ -26,6 +26,7 @@
 #include "imm/models/measurement/position_measurement.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/models/motion/singer.hpp"
+#include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "imm/tracking/tracker.hpp"
 #include "testing/specs.hpp"
@@ -133,6 +134,30 @@ TEST(AllocationFreeStep, TrackBankStep) {
   }
   EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
   EXPECT_EQ(status[8], StepStatus::kOk);
+  EXPECT_EQ(allocations(), before);
+}
+
+// The GA-fuzzy IMM's bank: 1001 tracks (whole blocks of four and a partial one), bad plots
+// included.
+TEST(AllocationFreeStep, GaFuzzyTrackBankStep) {
+  GaFuzzyImmSpec spec;
+  spec.levels = {
+      {"u0.001", 0.001, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 4e-6}, {1.0, 0.5, 0.5, 2.0, 2e-6}})},
+      {"u0.1", 0.1, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1e-2}})}};
+  const std::size_t tracks = 1001;
+  GaFuzzyTrackBank bank(spec, tracks);
+  for (std::size_t t = 0; t < tracks; ++t) bank.initialize(t, GaussianState<4>{});
+  std::vector<Eigen::Vector2d> plots(tracks);
+  std::vector<StepStatus> status(tracks);
+  const long before = allocations();
+  for (int k = 0; k < 100; ++k) {
+    for (std::size_t t = 0; t < tracks; ++t)
+      plots[t] = Eigen::Vector2d(0.01 * k + static_cast<double>(t), -0.02 * k);
+    plots[7] = Eigen::Vector2d(std::nan(""), 0.0);
+    bank.step(plots, status);
+  }
+  EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
+  EXPECT_EQ(status[1000], StepStatus::kOk);
   EXPECT_EQ(allocations(), before);
 }
 

@@ -5,8 +5,15 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <random>
+#include <string>
+#include <typeinfo>
+#include <vector>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/estimation/kalman_mode.hpp"
+#include "imm/models/measurement/position_measurement.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/tracking/tracker.hpp"
 #include "testing/matrix_checks.hpp"
@@ -54,6 +61,95 @@ TEST(PlainImmSpec, ValidationNamesTheField) {
   spec.initialization.method = InitializationMethod::kExplicit;
   spec.initialization.state = Eigen::VectorXd::Zero(3);
   EXPECT_EQ(invalid_field(spec), "initialization.state");
+}
+
+// The IMM of a CV spec with Cartesian plots, assembled from the general Kalman mode
+// (kalman_filter.hpp's Eigen algebra): the reference for build_plain_imm's written-out mode.
+ImmEstimator<4, 2> general_cv_imm(const PlainImmSpec& spec) {
+  using Mode = KalmanMode<4, 4, PositionMeasurement<4, 2>>;
+  std::vector<std::unique_ptr<ImmMode<4, 2>>> modes;
+  for (const ModeSpec& mode : spec.modes) {
+    modes.push_back(std::make_unique<Mode>(
+        mode.name, constant_velocity<2>(spec.sample_period, mode.process_noise, mode.noise_form),
+        PositionMeasurement<4, 2>({0, 2}, spec.measurement.covariance), StateEmbedding<4, 4>()));
+  }
+  return {std::move(modes), spec.transition, spec.initial_probabilities};
+}
+
+void expect_close(double value, double reference, const std::string& what) {
+  EXPECT_LE(std::abs(value - reference), 1e-9 * (1.0 + std::abs(reference))) << what;
+}
+
+// build_plain_imm runs CV modes with Cartesian plots through cv_position_algebra.hpp (the
+// TrackBank's per-track arithmetic). Against the general mode, over random specs and plots with
+// NaN plots, 1e6-σ outliers and a prior that makes S singular, every status, estimate, log μ and
+// innovation agrees to rounding.
+TEST(PlainImm, TheWrittenOutCvModeIsTheGeneralKalmanModeToRounding) {
+  std::mt19937_64 rng(20261126);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int compared_steps = 0, failed_steps = 0;
+  for (int trial = 0; trial < 12; ++trial) {
+    auto spec = testing::cv3_spec();
+    spec.sample_period = 0.1 + 4.0 * unit(rng);
+    for (auto& mode : spec.modes) {
+      mode.process_noise = std::pow(10.0, -6.0 + 5.0 * unit(rng));
+      mode.noise_form = trial % 2 == 0 ? NoiseForm::kPiecewiseConstant : NoiseForm::kContinuous;
+    }
+    const double sx = 0.1 + unit(rng), sy = 0.1 + unit(rng), rho = -0.8 + 1.6 * unit(rng);
+    spec.measurement.covariance << sx * sx, rho * sx * sy, rho * sx * sy, sy * sy;
+    auto fast = build_plain_imm<4>(spec);
+    ASSERT_NE(std::string(typeid(fast.mode(0)).name()).find("CvPositionMode"), std::string::npos);
+    auto general = general_cv_imm(spec);
+    GaussianState<4> start;
+    start.mean << 10.0 * unit(rng), unit(rng), -5.0 * unit(rng), unit(rng);
+    start.covariance = Eigen::Vector4d(4.0, 1.0, 4.0, 1.0).asDiagonal();
+    if (trial == 11) start.covariance(0, 0) = -spec.measurement.covariance(0, 0);  // S singular
+    fast.initialize(start);
+    general.initialize(start);
+    Eigen::Vector4d truth = start.mean;
+    std::normal_distribution<double> noise(0.0, 1.0);
+    for (int k = 0; k < 150; ++k) {
+      truth(0) += spec.sample_period * truth(1);
+      truth(2) += spec.sample_period * truth(3);
+      truth(1) += 0.2 * noise(rng);
+      truth(3) += 0.2 * noise(rng);
+      Vector<2> z(truth(0) + sx * noise(rng), truth(2) + sy * noise(rng));
+      if (k % 37 == 5) z(1) = std::numeric_limits<double>::quiet_NaN();
+      if (k % 41 == 7) z(0) += 1e6 * sx;
+      const StepStatus status = fast.step(z);
+      ASSERT_EQ(status, general.step(z)) << "trial " << trial << " scan " << k;
+      if (status != StepStatus::kOk) ++failed_steps;
+      const std::string at = "trial " + std::to_string(trial) + " scan " + std::to_string(k);
+      for (int a = 0; a < 4; ++a) {
+        expect_close(fast.estimate().mean(a), general.estimate().mean(a), at + " mean");
+        for (int c = 0; c < 4; ++c) {
+          expect_close(fast.estimate().covariance(a, c), general.estimate().covariance(a, c),
+                       at + " covariance");
+        }
+      }
+      // μ to 1e-9; log μ to 1e-7 relative: after a 1e6-σ outlier the log-likelihoods are near
+      // −1e11, and their rounding reaches log μ through the normalization.
+      for (int j = 0; j < 3; ++j) {
+        expect_close(fast.mode_probabilities()(j), general.mode_probabilities()(j), at + " mu");
+        const double reference = general.log_mode_probabilities()(j);
+        EXPECT_LE(std::abs(fast.log_mode_probabilities()(j) - reference),
+                  1e-7 * (1.0 + std::abs(reference)))
+            << at << " log mu";
+      }
+      Vector<2> nu_fast, nu_general;
+      SquareMatrix<2> s_fast, s_general;
+      const bool updated = fast.innovation(nu_fast, s_fast);
+      ASSERT_EQ(updated, general.innovation(nu_general, s_general));
+      for (int a = 0; a < 2 && updated; ++a) {
+        expect_close(nu_fast(a), nu_general(a), at + " innovation");
+        for (int c = 0; c < 2; ++c) expect_close(s_fast(a, c), s_general(a, c), at + " S");
+      }
+      ++compared_steps;
+      if (::testing::Test::HasFailure()) return;
+    }
+  }
+  EXPECT_EQ(compared_steps, 12 * 150);
+  EXPECT_GT(failed_steps, 150);  // the singular trial fails every scan; the NaN plots fail too
 }
 
 TEST(PlainImmSpec, MixingDimensionFollowsTheModes) {

@@ -9,8 +9,7 @@
 
 #include <memory>
 
-#include "imm/datasets/regime_file.hpp"
-#include "imm/datasets/track.hpp"
+#include "bench_inputs.hpp"
 #include "imm/estimation/imm_estimator.hpp"
 #include "imm/estimation/kalman_mode.hpp"
 #include "imm/filters/aimm.hpp"
@@ -31,25 +30,13 @@
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/models/motion/singer.hpp"
 #include "imm/support/plain_imm_config.hpp"
-#include "imm/tracking/track_bank.hpp"
-#include "workloads.hpp"
 
 namespace {
 
 using imm::TrackFilter;
-
-// Test track `index` (seed 1) of a paper preset (configs/regimes/paper/NAME.toml); a scripted
-// regime's track i follows its case i mod cases.
-imm::datasets::Track preset_track(const std::string& name, int index = 0) {
-  const auto file = imm::datasets::load_regime(
-      std::string(IMM_SOURCE_DIR "/configs/regimes/paper/") + name + ".toml");
-  return imm::datasets::draw_track(file.regime, imm::datasets::Split::kTest, index, 1);
-}
-
-const Eigen::MatrixXd& table3_plots() {
-  static const Eigen::MatrixXd plots = preset_track("ga_imm_table3").plots;
-  return plots;
-}
+using imm::bench::preset_track;
+using imm::bench::table3_plots;
+using imm::bench::w1_input;
 
 imm::GaussianState<4> start_state(const Eigen::MatrixXd& plots) {
   imm::GaussianState<4> state;
@@ -311,12 +298,6 @@ BENCHMARK(BM_FimmStep)->Args({0, 0})->Args({1, 0})->Args({5, 0})->Args({1, 1})->
 
 // --- The reference workloads of ../shared/bench (tools/workloads) --------------------------------
 
-const imm::workloads::W1Input& w1_input() {
-  static const imm::workloads::W1Input input =
-      imm::workloads::load_w1(imm::workloads::input_folder());
-  return input;
-}
-
 // W1: one IMM step (predict and update) of the plain IMM built from configs/track/cv3_imm.toml,
 // over the workload's 10 000 plots from the W1 start, restarting after the last. Checks the
 // filter against the truth column once (position RMSE of the whole run).
@@ -340,83 +321,6 @@ void BM_W1_PlainImmStep(benchmark::State& state) {
   state.counters["rmse_km"] = check.position_rmse;
 }
 BENCHMARK(BM_W1_PlainImmStep);
-
-// W1 through the multi-track API with one track (imm/tracking/track_bank.hpp).
-void BM_W1_TrackBankOneTrack(benchmark::State& state) {
-  const auto& input = w1_input();
-  imm::TrackBank bank(imm::workloads::w1_spec(), 1);
-  bank.initialize(0, imm::workloads::w1_start());
-  std::array<Eigen::Vector2d, 1> plot;
-  std::array<imm::StepStatus, 1> status{};
-  Eigen::Index k = 0;
-  for (auto _ : state) {
-    plot[0] = input.plots.row(k).transpose();
-    bank.step(plot, status);
-    benchmark::DoNotOptimize(status.data());
-    if (++k == input.plots.rows()) {
-      k = 0;
-      bank.initialize(0, imm::workloads::w1_start());
-    }
-  }
-  state.SetItemsProcessed(state.iterations());
-}
-BENCHMARK(BM_W1_TrackBankOneTrack);
-
-// N tracks of the W1 IMM, each fed the W1 plots shifted by its own offset (so the tracks differ):
-// range(1) = 0 as N separate ImmEstimators, 1 as one TrackBank. Items: track steps.
-void BM_MultiTrack(benchmark::State& state) {
-  const auto tracks = static_cast<std::size_t>(state.range(0));
-  const bool bank_api = state.range(1) == 1;
-  const auto& input = w1_input();
-  const auto spec = imm::workloads::w1_spec();
-  std::vector<Eigen::Vector2d> offsets(tracks);
-  for (std::size_t t = 0; t < tracks; ++t)
-    offsets[t] = Eigen::Vector2d(0.37 * static_cast<double>(t), -0.21 * static_cast<double>(t));
-  auto start = [&](std::size_t t) {
-    imm::GaussianState<4> s = imm::workloads::w1_start();
-    s.mean(0) += offsets[t](0);
-    s.mean(2) += offsets[t](1);
-    return s;
-  };
-  std::vector<imm::ImmEstimator<4, 2>> separate;
-  std::unique_ptr<imm::TrackBank> bank;
-  if (bank_api) {
-    bank = std::make_unique<imm::TrackBank>(spec, tracks);
-    for (std::size_t t = 0; t < tracks; ++t) bank->initialize(t, start(t));
-  } else {
-    separate.reserve(tracks);
-    for (std::size_t t = 0; t < tracks; ++t) {
-      separate.push_back(imm::build_plain_imm<4>(spec));
-      separate.back().initialize(start(t));
-    }
-  }
-  std::vector<Eigen::Vector2d> plots(tracks);
-  std::vector<imm::StepStatus> status(tracks);
-  Eigen::Index k = 0;
-  for (auto _ : state) {
-    const Eigen::Vector2d z = input.plots.row(k).transpose();
-    for (std::size_t t = 0; t < tracks; ++t) plots[t] = z + offsets[t];
-    if (bank_api) {
-      bank->step(plots, status);
-    } else {
-      for (std::size_t t = 0; t < tracks; ++t) status[t] = separate[t].step(plots[t]);
-    }
-    benchmark::DoNotOptimize(status.data());
-    if (++k == input.plots.rows()) {
-      k = 0;
-      for (std::size_t t = 0; t < tracks; ++t) {
-        if (bank_api) {
-          bank->initialize(t, start(t));
-        } else {
-          separate[t].initialize(start(t));
-        }
-      }
-    }
-  }
-  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(tracks));
-  state.SetLabel(bank_api ? "TrackBank" : "separate ImmEstimators");
-}
-BENCHMARK(BM_MultiTrack)->Args({1000, 0})->Args({1000, 1})->Args({16, 1})->Args({10000, 1});
 
 // W3: fuzzy c-means of the 4000 scalars from the given memberships (c = 3, m = 2, 1e-6).
 void BM_W3_FuzzyCMeans1d(benchmark::State& state) {

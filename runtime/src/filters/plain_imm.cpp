@@ -6,6 +6,7 @@
 #include <cmath>
 #include <memory>
 
+#include "estimation/cv_position_mode.hpp"
 #include "imm/core/checks.hpp"
 #include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
@@ -53,6 +54,13 @@ std::unique_ptr<ImmMode<NX, 2>> make_mode(const ModeSpec& mode, const LinearMoti
                                           const MeasurementSpec& measurement) {
   constexpr int kY = N / 2;  // index of y: 2 in [x, vx, y, vy], 3 in [x, vx, ax, y, vy, ay]
   const auto embedding = embedding_for<N, NX>();
+  if constexpr (NX == 4 && N == 4) {
+    if (measurement.kind == MeasurementKind::kCartesian) {
+      // The written-out algebra of the common case (cv_position_mode.hpp).
+      return std::make_unique<CvPositionMode>(mode.name, motion.transition(0, 1),
+                                              motion.process_noise, measurement.covariance);
+    }
+  }
   if (measurement.kind == MeasurementKind::kCartesian) {
     using Model = PositionMeasurement<N, 2>;
     return std::make_unique<KalmanMode<NX, N, Model>>(

@@ -20,14 +20,6 @@
 namespace imm::bank {
 namespace {
 
-// f(integral_constant<int, 0>) … f(integral_constant<int, N − 1>), unrolled at compile time so
-// that the small per-track arrays of the phase loops become registers.
-template <int N, class F>
-[[gnu::always_inline]] inline void each(F&& f) {
-  [&]<int... I>(std::integer_sequence<int, I...>) { (f(std::integral_constant<int, I>{}), ...); }
-  (std::make_integer_sequence<int, N>{});
-}
-
 constexpr double kLogTwoPi = 1.8378770664093454836;
 
 // Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian per lane (eq. 4–5 and 10–11): component i's
@@ -138,33 +130,12 @@ void step_tracks(const Block& b) {
     double* __restrict x = sc(layout.mixed + j * kEntries);
     const double* q = b.noise + static_cast<std::ptrdiff_t>(j) * kTriangle;
     for (int l = 0; l < lanes; ++l) {
-      double p[kN][kN];
-#pragma GCC unroll 4
-      for (int a = 0; a < kN; ++a)
-#pragma GCC unroll 4
-        for (int c = 0; c < kN; ++c) p[a][c] = x[(kN + sym(a, c)) * kB + l];
-      double fp[kN][kN];  // F P
-#pragma GCC unroll 4
-      for (int c = 0; c < kN; ++c) {
-        fp[0][c] = p[0][c] + T * p[1][c];
-        fp[1][c] = p[1][c];
-        fp[2][c] = p[2][c] + T * p[3][c];
-        fp[3][c] = p[3][c];
-      }
-#pragma GCC unroll 4
-      for (int a = 0; a < kN; ++a) {
-        const double row[kN] = {fp[a][0] + T * fp[a][1], fp[a][1], fp[a][2] + T * fp[a][3],
-                                fp[a][3]};
-#pragma GCC unroll 4
-        for (int c = a; c < kN; ++c) x[(kN + sym(a, c)) * kB + l] = row[c] + q[sym(a, c)];
-      }
-      x[0 * kB + l] = x[0 * kB + l] + T * x[1 * kB + l];
-      x[2 * kB + l] = x[2 * kB + l] + T * x[3 * kB + l];
+      cv_position::predict([&](int e) -> double& { return x[e * kB + l]; }, T, q);
     }
   }
 
-  // D (vector): Joseph-form update with H selecting [x, y] (kalman_filter.hpp written out):
-  // S = H P Hᵀ + R, K = P Hᵀ S⁻¹, C = P − K (P Hᵀ)ᵀ, P⁺ = C − (C Hᵀ) Kᵀ + K R Kᵀ.
+  // D (vector): Joseph-form update with H selecting [x, y] (cv_position_algebra.hpp). The checks
+  // of its outcome run in phase E: a comparison here would keep this loop scalar.
   const double r00 = b.r00, r01 = b.r01, r11 = b.r11;
   const double* __restrict zx = sc(layout.zx);
   const double* __restrict zy = sc(layout.zy);
@@ -177,47 +148,14 @@ void step_tracks(const Block& b) {
     double* __restrict threshold_out = sc(layout.threshold + j);
     double* __restrict finite_out = sc(layout.finite + j);
     for (int l = 0; l < lanes; ++l) {
-      double p[kN][kN];
-      each<kN>([&](auto a) { each<kN>([&](auto c) { p[a][c] = x[(kN + sym(a, c)) * kB + l]; }); });
-      const double s00 = p[0][0] + r00, s01 = p[0][2] + r01, s11 = p[2][2] + r11;
-      const double det = s00 * s11 - s01 * s01;
-      const double inverse_det = 1.0 / det;
-      const double i00 = s11 * inverse_det, i01 = -s01 * inverse_det, i11 = s00 * inverse_det;
-      double k[kN][2];
-      each<kN>([&](auto a) {
-        k[a][0] = p[a][0] * i00 + p[a][2] * i01;
-        k[a][1] = p[a][0] * i01 + p[a][2] * i11;
-      });
-      const double nu0 = zx[l] - x[0 * kB + l], nu1 = zy[l] - x[2 * kB + l];
-      double finite = 0.0;  // stays 0 unless an output is NaN or ±Inf
-      each<kN>([&](auto a) {
-        const double mean = x[a * kB + l] + (k[a][0] * nu0 + k[a][1] * nu1);
-        u[a * kB + l] = mean;
-        finite += mean - mean;
-      });
-      double cc[kN][kN];
-      each<kN>([&](auto a) {
-        each<kN>([&](auto c) { cc[a][c] = p[a][c] - (k[a][0] * p[c][0] + k[a][1] * p[c][2]); });
-      });
-      each<kN>([&](auto a) {
-        const double kr0 = k[a][0] * r00 + k[a][1] * r01;
-        const double kr1 = k[a][0] * r01 + k[a][1] * r11;
-        each<kN>([&](auto c) {
-          if constexpr (c >= a) {
-            const double value = (cc[a][c] - (cc[a][0] * k[c][0] + cc[a][2] * k[c][1])) +
-                                 (kr0 * k[c][0] + kr1 * k[c][1]);
-            u[(kN + sym(a, c)) * kB + l] = value;
-            finite += value - value;
-          }
-        });
-      });
-      det_out[l] = det;
-      maha_out[l] = nu0 * (i00 * nu0 + i01 * nu1) + nu1 * (i01 * nu0 + i11 * nu1);
-      // kSingular (+ kNonFinite), or kNonFinite alone, or 0.
-      // The checks themselves run in phase E: a comparison here would keep this loop scalar.
-      s00_out[l] = s00;
-      threshold_out[l] = 1e-14 * s00 * s11;
-      finite_out[l] = finite;
+      const cv_position::UpdateOutcome o = cv_position::update(
+          [&](int e) { return x[e * kB + l]; }, [&](int e) -> double& { return u[e * kB + l]; },
+          zx[l], zy[l], r00, r01, r11);
+      det_out[l] = o.det;
+      maha_out[l] = o.mahalanobis;
+      s00_out[l] = o.s00;
+      threshold_out[l] = o.threshold;
+      finite_out[l] = o.finite;
     }
   }
 

@@ -6,23 +6,21 @@
 #include <Eigen/Core>
 #include <cstddef>
 
+#include "estimation/cv_position_algebra.hpp"
 #include "imm/tracking/track_bank.hpp"
 
 namespace imm::bank {
 
-constexpr int kN = TrackBank::kDim;
+using cv_position::kEntries;
+using cv_position::kN;
+using cv_position::kTriangle;
+using cv_position::sym;
 constexpr std::ptrdiff_t kB = TrackBank::kBlock;
-constexpr int kTriangle = 10;
-constexpr int kEntries = kN + kTriangle;
+static_assert(kN == TrackBank::kDim);
 // State slots per mode: mean, covariance upper triangle, log μ, μ̃ = μ / max μ; the combined
 // estimate (mean, triangle) follows the modes.
 constexpr int kMean = 0, kCov = kN, kLogMu = kEntries, kScaledMu = kEntries + 1,
               kModeSlots = kEntries + 2;
-// Index of P(a, b) in the stored upper triangle (row by row).
-constexpr int sym(int a, int b) {
-  return a <= b ? a * kN - a * (a + 1) / 2 + b : b * kN - b * (b + 1) / 2 + a;
-}
-
 // What one block's phases read and write: the bank's constants, its state slots (stride apart,
 // already offset to the block's first track) and the block's scratch (kB apart).
 struct Block {

@@ -10,8 +10,8 @@
 #include <stdexcept>
 
 #include "imm/core/physical_limits.hpp"
+#include "imm/filters/fuzzy_noise_lanes.hpp"
 #include "imm/math/lane_math.hpp"
-#include "imm/models/motion/constant_velocity.hpp"
 #include "imm/trainer/normalized_errors.hpp"
 
 // Run-time choice of AVX2 (GCC on x86-64 Linux), as the runtime's FCM and bank kernels: "avx2"
@@ -31,21 +31,14 @@ namespace {
 
 constexpr int kMaxLevels = 8;
 
-// The model's constants: transitions, initial log probabilities, the rule tables, F, GGᵀ, R.
+// The model's constants: transitions, initial probabilities, the axis and the levels' tables.
 struct Model {
   int modes = 0;
   double transition[kMaxLevels][kMaxLevels] = {};
   double initial[kMaxLevels] = {};
-  // The rules, with their spreads inverted (a multiplication per rule instead of a division).
-  struct Rule {
-    double c1, inverse_sigma1, c2, inverse_sigma2, w;
-  };
-  Rule rules[kMaxLevels][FuzzyRuleTable::kMaxRules] = {};
-  int rule_count[kMaxLevels] = {};
-  double mean_w[kMaxLevels] = {};
-  bool normalized = false;
-  double T = 1.0, R = 1.0, start_variance = 1.0;
-  double g00 = 0.0, g01 = 0.0, g11 = 0.0;  // G Gᵀ
+  lanes::FuzzyLevelConstants levels[kMaxLevels];
+  lanes::FuzzyAxisConstants axis;
+  double start_variance = 1.0;
 };
 
 // One block's trajectories: [scan][lane] views, and the per-scan sums of the ζ figures.
@@ -80,7 +73,7 @@ template <int W>
   Lanes exponent[kMaxLevels], scale[kMaxLevels], next_previous[kMaxLevels];
   Lanes predicted[kMaxLevels], inverse_predicted[kMaxLevels], weight[kMaxLevels];
   Lanes bad, abs_p, abs_v, count;
-  const double T = m.T, r = m.start_variance;
+  const double T = m.axis.T, r = m.start_variance;
   // Two-point start from scans 0 and 1.
   for (int j = 0; j < n; ++j) {
     IMM_LANES {
@@ -106,79 +99,28 @@ template <int W>
       IMM_LANES inverse_predicted[j][l] = 1.0 / predicted[j][l];
     }
     for (int j = 0; j < n; ++j) {
-      // Mixing (eq. 4–6): the weights μ_{i|j}, the mixed mean, then the spread of the means.
+      // Mixing (eq. 4–6), then the mode's fuzzy-noise step (fuzzy_noise_lanes.hpp).
+      for (int i = 0; i < n; ++i) {
+        IMM_LANES weight[i][l] = m.transition[i][j] * mu[i][l] * inverse_predicted[j][l];
+      }
       Lanes m0, m1, c00, c01, c11;
-      IMM_LANES m0[l] = m1[l] = c00[l] = c01[l] = c11[l] = 0.0;
-      for (int i = 0; i < n; ++i) {
-        IMM_LANES {
-          weight[i][l] = m.transition[i][j] * mu[i][l] * inverse_predicted[j][l];
-          m0[l] += weight[i][l] * x0[i][l];
-          m1[l] += weight[i][l] * x1[i][l];
-        }
-      }
-      for (int i = 0; i < n; ++i) {
-        IMM_LANES {
-          const double w = weight[i][l];
-          const double d0 = x0[i][l] - m0[l], d1 = x1[i][l] - m1[l];
-          c00[l] += pick(w == 0.0, 0.0, w * (p00[i][l] + d0 * d0));
-          c01[l] += pick(w == 0.0, 0.0, w * (p01[i][l] + d0 * d1));
-          c11[l] += pick(w == 0.0, 0.0, w * (p11[i][l] + d1 * d1));
-        }
-      }
-      // Prediction F x, F P Fᵀ; the residual and the table's inputs.
-      Lanes a0, residual, antecedent, q00, q01, q11;
+      lanes::mix<W>(n, weight, x0, x1, p00, p01, p11, m0, m1, c00, c01, c11);
+      lanes::FuzzyStep<W> step;
+      lanes::fuzzy_noise_step<W>(m.axis, m.levels[j], z, previous[j], m0, m1, c00, c01, c11, step);
       IMM_LANES {
-        a0[l] = m0[l] + T * m1[l];
-        const double fp00 = c00[l] + T * c01[l], fp01 = c01[l] + T * c11[l];
-        q00[l] = fp00 + fp01 * T;
-        q01[l] = fp01;
-        q11[l] = c11[l];
-        residual[l] = z[l] - a0[l];
-        antecedent[l] = m.normalized ? residual[l] / std::sqrt(q00[l] + m.R) : residual[l];
-      }
-      // q(k) of the rule table (eq. 19-5), the mean w where no rule fires.
-      Lanes numerator, denominator;
-      IMM_LANES numerator[l] = denominator[l] = 0.0;
-      for (int rule = 0; rule < m.rule_count[j]; ++rule) {
-        const Model::Rule& f = m.rules[j][rule];
-        IMM_LANES {
-          const double a = (antecedent[l] - f.c1) * f.inverse_sigma1;
-          const double b = (antecedent[l] - previous[j][l] - f.c2) * f.inverse_sigma2;
-          const double firing = lane_exp(-0.5 * (a * a + b * b));
-          numerator[l] += f.w * firing;
-          denominator[l] += firing;
-        }
-      }
-      IMM_LANES {
-        const double q = pick(denominator[l] >= std::numeric_limits<double>::min(),
-                              numerator[l] / denominator[l], m.mean_w[j]);
-        q00[l] += q * m.g00;
-        q01[l] += q * m.g01;
-        q11[l] += q * m.g11;
-        // The Kalman update with H = [1 0] in the order of update_with_innovation.
-        const double S = q00[l] + m.R;
-        const bool usable = (S > 0.0) & (S < std::numeric_limits<double>::infinity());
-        const double S_inverse = 1.0 / S;
-        const double k0 = q00[l] * S_inverse, k1 = q01[l] * S_inverse;
-        const double C00 = q00[l] - k0 * q00[l], C01 = q01[l] - k0 * q01[l];
-        const double C10 = q01[l] - k1 * q00[l], C11 = q11[l] - k1 * q01[l];
-        const double kr0 = k0 * m.R, kr1 = k1 * m.R;
-        nx0[j][l] = a0[l] + k0 * residual[l];
-        nx1[j][l] = m1[l] + k1 * residual[l];
-        np00[j][l] = C00 - C00 * k0 + kr0 * k0;
-        const double u01 = C01 - C00 * k1 + kr0 * k1;
-        const double u10 = C10 - C10 * k0 + kr1 * k0;
-        np01[j][l] = 0.5 * (u01 + u10);
-        np11[j][l] = C11 - C10 * k1 + kr1 * k1;
+        nx0[j][l] = step.x0[l];
+        nx1[j][l] = step.x1[l];
+        np00[j][l] = step.p00[l];
+        np01[j][l] = step.p01[l];
+        np11[j][l] = step.p11[l];
         // N(r; 0, S) c_j = exp(−½ r²/S) · c_j/√S · (2π)^−½; the constant cancels below.
-        exponent[j][l] = -0.5 * (residual[l] * (S_inverse * residual[l]));
-        scale[j][l] = predicted[j][l] * std::sqrt(S_inverse);
-        next_previous[j][l] = antecedent[l];
-        const bool finite = std::isfinite(nx0[j][l] + nx1[j][l] + np00[j][l] + np01[j][l] +
-                                          np11[j][l] + exponent[j][l]);
+        exponent[j][l] = step.exponent[l];
+        scale[j][l] = predicted[j][l] * std::sqrt(step.s_inverse[l]);
+        next_previous[j][l] = step.antecedent[l];
         // A plot the runtime refuses (limits::usable_measurement) fails its step there too.
         const bool plot = std::abs(z[l]) <= limits::kMaxMeasurement;
-        bad[l] += pick(usable & finite & plot, 0.0, d.mask[k * W + l]);
+        bad[l] +=
+            pick((step.usable[l] != 0.0) & (step.finite[l] != 0.0) & plot, 0.0, d.mask[k * W + l]);
       }
     }
     // The posterior μ_j ∝ c_j N(r_j; 0, S_j), each likelihood's exponent taken relative to the
@@ -333,22 +275,11 @@ ImmRunErrors ImmFitnessBatch::run(const GaFuzzyImmSpec& spec) const {
   for (int i = 0; i < m.modes; ++i) {
     m.initial[i] = initial(i);
     for (int j = 0; j < m.modes; ++j) m.transition[i][j] = transition(i, j);
-    const FuzzyRuleTable& table = spec.levels[static_cast<std::size_t>(i)].table;
-    m.rule_count[i] = static_cast<int>(table.size());
-    for (std::size_t k = 0; k < table.size(); ++k) {
-      const FuzzyRule& rule = table.rules()[k];
-      m.rules[i][k] = {rule.c1, 1.0 / rule.sigma1, rule.c2, 1.0 / rule.sigma2, rule.w};
-    }
-    m.mean_w[i] = table.mean_w();
+    m.levels[i] = lanes::FuzzyLevelConstants(spec.levels[static_cast<std::size_t>(i)].table);
   }
-  m.normalized = spec.antecedents == FuzzyAntecedents::kNormalizedInnovation;
-  m.T = spec.settings.sample_period;
-  m.R = spec.settings.measurement_sigma * spec.settings.measurement_sigma;
+  m.axis = lanes::FuzzyAxisConstants(spec.settings.sample_period, spec.settings.measurement_sigma,
+                                     spec.antecedents);
   m.start_variance = start_variance_;
-  const Vector<2> G = cv_axis_input_gain(m.T);
-  m.g00 = G(0) * G(0);
-  m.g01 = G(0) * G(1);
-  m.g11 = G(1) * G(1);
 
   std::vector<double>& buffer = workspace();
   const auto scans = static_cast<std::size_t>(scans_);

@@ -80,6 +80,10 @@ class ImmMode {
     innovation_ = innovation;
     innovation_covariance_ = covariance;
   }
+  /// For propose(): ν and S written in place, entry by entry.
+  Vector<NZ>& kept_innovation() { return innovation_; }
+  /// S of kept_innovation().
+  SquareMatrix<NZ>& kept_innovation_covariance() { return innovation_covariance_; }
 
  private:
   Vector<NZ> innovation_ = Vector<NZ>::Zero();

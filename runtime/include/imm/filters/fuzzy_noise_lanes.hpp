@@ -1,0 +1,194 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// The GA-fuzzy IMM's per-mode arithmetic over W independent axis filters at once (lanes): the
+/// mixing of eq. (4–6) and the fuzzy-noise step of fuzzy_noise_filter.hpp (prediction, the rule
+/// table's q, the Joseph update with H = [1 0]) in the order of FuzzyNoiseFilter::step and
+/// update_with_innovation, written as loops over lanes with no branches and no calls, which the
+/// compiler vectorizes. Used by the runtime's GaFuzzyTrackBank (many tracks) and by the trainer's
+/// GA fitness batch (many trajectories), so the two run the same arithmetic.
+///
+/// Differences to the one-track filter are rounding only: exp is lane_exp (lane_math.hpp, within
+/// 2 ulp of libm's), and the rules' spreads and S are inverted once and multiplied.
+
+#include <cmath>
+#include <cstddef>
+#include <limits>
+
+#include "imm/core/physical_limits.hpp"
+#include "imm/filters/fuzzy_noise_filter.hpp"
+#include "imm/math/lane_math.hpp"
+#include "imm/models/learned/fuzzy_rule_table.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
+
+/// Every loop over the lanes: one vector operation. `omp simd` keeps the compiler from unrolling
+/// the iterations into scalar code before it vectorizes them; it is there where OpenMP is (the
+/// trainer) or where a kernel's source is built with -fopenmp-simd and IMM_OPENMP_SIMD.
+#if defined(_OPENMP) || defined(IMM_OPENMP_SIMD)
+#define IMM_LANES _Pragma("omp simd") for (int l = 0; l < W; ++l)
+#else
+#define IMM_LANES for (int l = 0; l < W; ++l)
+#endif
+
+namespace imm::lanes {
+
+/// What every mode of an axis shares: T, R = σ_z², G Gᵀ, and what the tables read.
+struct FuzzyAxisConstants {
+  double T = 1.0;           ///< sample period, s
+  double R = 1.0;           ///< σ_z²
+  double g00 = 0.0;         ///< (G Gᵀ)₀₀ of cv_axis_input_gain
+  double g01 = 0.0;         ///< (G Gᵀ)₀₁
+  double g11 = 0.0;         ///< (G Gᵀ)₁₁
+  bool normalized = false;  ///< FuzzyAntecedents::kNormalizedInnovation
+
+  /// T = 1, R = 1, no process noise.
+  FuzzyAxisConstants() = default;
+  /// The constants of an axis with sample period T, plot σ and antecedents.
+  FuzzyAxisConstants(double sample_period, double measurement_sigma, FuzzyAntecedents antecedents)
+      : T(sample_period),
+        R(measurement_sigma * measurement_sigma),
+        normalized(antecedents == FuzzyAntecedents::kNormalizedInnovation) {
+    const Vector<2> G = cv_axis_input_gain(T);
+    g00 = G(0) * G(0);
+    g01 = G(0) * G(1);
+    g11 = G(1) * G(1);
+  }
+};
+
+/// One level's rule table, its spreads inverted (a multiplication per rule instead of a division).
+struct FuzzyLevelConstants {
+  /// One rule (FuzzyRule) with 1/σ in place of σ.
+  struct Rule {
+    double c1;              ///< centre of the first input
+    double inverse_sigma1;  ///< 1/σ₁
+    double c2;              ///< centre of the second input
+    double inverse_sigma2;  ///< 1/σ₂
+    double w;               ///< consequent q
+  };
+  Rule rules[FuzzyRuleTable::kMaxRules] = {};  ///< the first rule_count are the table
+  int rule_count = 0;                          ///< rules in the table
+  double mean_w = 0.0;                         ///< q where no rule fires
+
+  /// An empty table.
+  FuzzyLevelConstants() = default;
+  /// The constants of `table`.
+  explicit FuzzyLevelConstants(const FuzzyRuleTable& table)
+      : rule_count(static_cast<int>(table.size())), mean_w(table.mean_w()) {
+    for (std::size_t k = 0; k < table.size(); ++k) {
+      const FuzzyRule& rule = table.rules()[k];
+      rules[k] = {rule.c1, 1.0 / rule.sigma1, rule.c2, 1.0 / rule.sigma2, rule.w};
+    }
+  }
+};
+
+/// The mixed initial condition of one mode (eq. 4–5) over W lanes: mean [m0, m1], covariance
+/// [[c00, c01], [c01, c11]]. `weight[i]` are the mixing weights μ_{i|j}; x0 … p11 the n modes'
+/// estimates. A zero weight contributes nothing, as in ImmEstimator.
+template <int W>
+[[gnu::always_inline]] inline void mix(int n, const double (*weight)[W], const double (*x0)[W],
+                                       const double (*x1)[W], const double (*p00)[W],
+                                       const double (*p01)[W], const double (*p11)[W],
+                                       double (&m0)[W], double (&m1)[W], double (&c00)[W],
+                                       double (&c01)[W], double (&c11)[W]) {
+  IMM_LANES m0[l] = m1[l] = c00[l] = c01[l] = c11[l] = 0.0;
+  for (int i = 0; i < n; ++i) {
+    IMM_LANES {
+      m0[l] += weight[i][l] * x0[i][l];
+      m1[l] += weight[i][l] * x1[i][l];
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    IMM_LANES {
+      const double w = weight[i][l];
+      const double d0 = x0[i][l] - m0[l], d1 = x1[i][l] - m1[l];
+      c00[l] += pick(w == 0.0, 0.0, w * (p00[i][l] + d0 * d0));
+      c01[l] += pick(w == 0.0, 0.0, w * (p01[i][l] + d0 * d1));
+      c11[l] += pick(w == 0.0, 0.0, w * (p11[i][l] + d1 * d1));
+    }
+  }
+}
+
+/// What one fuzzy-noise step gives per lane.
+template <int W>
+struct FuzzyStep {
+  double x0[W];          ///< the updated position
+  double x1[W];          ///< the updated velocity
+  double p00[W];         ///< the updated covariance, P₀₀
+  double p01[W];         ///< P₀₁
+  double p11[W];         ///< P₁₁
+  double antecedent[W];  ///< the table's first input: the next `previous`
+  double exponent[W];    ///< −½ r² / S
+  double s[W];           ///< S = H P⁻ Hᵀ + R
+  double s_inverse[W];   ///< 1 / S
+  /// 1 where S is positive and finite (else the step is kSingularInnovation).
+  double usable[W];
+  /// 1 where every output is finite (else kNonFiniteResult).
+  double finite[W];
+};
+
+/// One fuzzy-noise step (fuzzy_noise_filter.hpp, eq. 19) of a mode from its mixed condition
+/// [m0, m1], [[c00, c01], [c01, c11]] with plots z and the mode's previous antecedents.
+template <int W>
+[[gnu::always_inline]] inline void fuzzy_noise_step(const FuzzyAxisConstants& a,
+                                                    const FuzzyLevelConstants& level,
+                                                    const double* z, const double* previous,
+                                                    const double (&m0)[W], const double (&m1)[W],
+                                                    const double (&c00)[W], const double (&c01)[W],
+                                                    const double (&c11)[W], FuzzyStep<W>& out) {
+  const double T = a.T;
+  // Prediction F x, F P Fᵀ; the residual and the table's inputs.
+  double a0[W], residual[W], q00[W], q01[W], q11[W];
+  IMM_LANES {
+    a0[l] = m0[l] + T * m1[l];
+    const double fp00 = c00[l] + T * c01[l], fp01 = c01[l] + T * c11[l];
+    q00[l] = fp00 + fp01 * T;
+    q01[l] = fp01;
+    q11[l] = c11[l];
+    residual[l] = z[l] - a0[l];
+    out.antecedent[l] = a.normalized ? residual[l] / std::sqrt(q00[l] + a.R) : residual[l];
+  }
+  // q(k) of the rule table (eq. 19-5), the mean w where no rule fires.
+  double numerator[W], denominator[W];
+  IMM_LANES numerator[l] = denominator[l] = 0.0;
+  for (int rule = 0; rule < level.rule_count; ++rule) {
+    const FuzzyLevelConstants::Rule& f = level.rules[rule];
+    IMM_LANES {
+      const double u = (out.antecedent[l] - f.c1) * f.inverse_sigma1;
+      const double v = (out.antecedent[l] - previous[l] - f.c2) * f.inverse_sigma2;
+      const double firing = lane_exp(-0.5 * (u * u + v * v));
+      numerator[l] += f.w * firing;
+      denominator[l] += firing;
+    }
+  }
+  IMM_LANES {
+    const double q = pick(denominator[l] >= std::numeric_limits<double>::min(),
+                          numerator[l] / denominator[l], level.mean_w);
+    q00[l] += q * a.g00;
+    q01[l] += q * a.g01;
+    q11[l] += q * a.g11;
+    // The Kalman update with H = [1 0] in the order of update_with_innovation.
+    const double S = q00[l] + a.R;
+    const double S_inverse = 1.0 / S;
+    const double k0 = q00[l] * S_inverse, k1 = q01[l] * S_inverse;
+    const double C00 = q00[l] - k0 * q00[l], C01 = q01[l] - k0 * q01[l];
+    const double C10 = q01[l] - k1 * q00[l], C11 = q11[l] - k1 * q01[l];
+    const double kr0 = k0 * a.R, kr1 = k1 * a.R;
+    out.x0[l] = a0[l] + k0 * residual[l];
+    out.x1[l] = m1[l] + k1 * residual[l];
+    out.p00[l] = C00 - C00 * k0 + kr0 * k0;
+    const double u01 = C01 - C00 * k1 + kr0 * k1;
+    const double u10 = C10 - C10 * k0 + kr1 * k0;
+    out.p01[l] = 0.5 * (u01 + u10);
+    out.p11[l] = C11 - C10 * k1 + kr1 * k1;
+    out.exponent[l] = -0.5 * (residual[l] * (S_inverse * residual[l]));
+    out.s[l] = S;
+    out.s_inverse[l] = S_inverse;
+    out.usable[l] = pick((S > 0.0) & (S < std::numeric_limits<double>::infinity()), 1.0, 0.0);
+    out.finite[l] = pick(std::isfinite(out.x0[l] + out.x1[l] + out.p00[l] + out.p01[l] +
+                                       out.p11[l] + out.exponent[l]),
+                         1.0, 0.0);
+  }
+}
+
+}  // namespace imm::lanes
+#undef IMM_LANES

@@ -1,0 +1,93 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// Many independent tracks of one GA-fuzzy IMM (ga_fuzzy_imm.hpp), stepped by one call: the
+/// multi-track form of make_ga_fuzzy_imm_filter, as TrackBank is of the plain IMM.
+///
+/// Layout: every track is two axis filters (x, then y), and every axis filter is a lane. Lanes
+/// are stored structure of arrays and stepped 8 at a time (four tracks) in loops over lanes with
+/// no branches and no calls (fuzzy_noise_lanes.hpp, the arithmetic the trainer's GA fitness runs
+/// too), which the compiler vectorizes: AVX2 where the CPU has it, chosen at run time, without
+/// fused multiply-add, so a track's result does not depend on the instruction set, on its
+/// position or on the number of tracks.
+///
+/// Numerics are those of ImmEstimator: log-space mode probabilities (log μ stored, μ̃ = μ / max μ
+/// kept from the last posterior for the prediction), likelihoods N(r; 0, S) in log space. The
+/// differences to the one-track filter are rounding only: exp and log are lane_exp and lane_log
+/// (lane_math.hpp, within 2 ulp of libm's), and divisions by c_j and S are multiplications by
+/// their inverses. A track whose plot is unusable, or whose x or y step fails, is left exactly as
+/// it was, both axes, with the status of the first axis that failed (the one-track TwoAxisFilter
+/// advances x when only y fails, which cannot happen for finite estimates with R > 0).
+///
+/// Every transition probability must be positive (eq. 20 with transition_stay < 1, or one
+/// level): c_j then never vanishes, so no mode is ever unreachable. Nothing is allocated after
+/// construction.
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/step_status.hpp"
+#include "imm/filters/fuzzy_noise_lanes.hpp"
+#include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/runtime_export.hpp"
+
+namespace imm {
+
+/// N tracks of one GA-fuzzy IMM with Cartesian plots, stepped together (see the file comment).
+class IMM_RUNTIME_EXPORT GaFuzzyTrackBank {
+ public:
+  /// Axis lanes per block: two AVX2 vectors.
+  static constexpr int kBlock = 8;
+
+  /// Room for `capacity` tracks of the IMM of `spec`. Throws InvalidParameter naming the field
+  /// for an invalid spec, a transition probability of zero ("settings.transition_stay") or a
+  /// capacity outside [1, 2^26].
+  GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capacity);
+
+  /// The number of tracks it holds.
+  [[nodiscard]] std::size_t capacity() const { return capacity_; }
+  /// Modes per axis (the levels).
+  [[nodiscard]] int mode_count() const { return modes_; }
+
+  /// Starts (or restarts) track `track` from [x, vx, y, vy] (the covariance's two axis blocks;
+  /// the cross terms are not used, as by the one-track filter): every mode takes the state, the
+  /// mode probabilities their initial values, the tables' previous input 0. Throws
+  /// std::out_of_range for a track ≥ capacity().
+  void initialize(std::size_t track, const GaussianState<4>& state);
+
+  /// One IMM cycle of tracks 0 … plots.size() − 1, track t with plots[t]; status[t] receives its
+  /// outcome (a track whose status is not kOk is unchanged). Tracks from plots.size() on are not
+  /// touched. Throws std::invalid_argument when the spans differ in size or exceed capacity(),
+  /// std::logic_error when a stepped track was never initialized.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
+
+  /// Whether track `track` has been initialized.
+  [[nodiscard]] bool initialized(std::size_t track) const;
+  /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
+  [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
+  /// μ of the x modes, then of the y modes (as TwoAxisFilter::mode_probabilities).
+  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
+
+ private:
+  // State slot of entry `entry` of mode j (entries in ga_fuzzy_track_bank.cpp).
+  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
+  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
+  [[nodiscard]] std::size_t checked(std::size_t track) const;
+
+  int modes_ = 0;
+  std::size_t capacity_ = 0;
+  std::ptrdiff_t stride_ = 0;       // axis lanes, rounded up to whole blocks
+  std::vector<double> transition_;  // π_ij at i * modes + j
+  std::vector<double> initial_log_mu_;
+  lanes::FuzzyAxisConstants axis_;
+  std::vector<lanes::FuzzyLevelConstants> levels_;
+  std::vector<double> state_;
+  std::vector<double> plots_;    // one block's axis plots at a time
+  std::vector<double> outcome_;  // one block's per-lane status codes
+  std::vector<unsigned char> initialized_;
+};
+
+}  // namespace imm

@@ -1,0 +1,120 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+// The Kalman algebra of a constant-velocity mode with a Cartesian plot, written out: state
+// [x, vx, y, vy], F = [[1, T], [0, 1]] per axis, H selecting [x, y]. A Gaussian is 14 numbers,
+// the mean (entries 0–3) and the covariance's upper triangle row by row (4–13), so it is exactly
+// symmetric. One track's arithmetic, used by the TrackBank's lanes (track_bank_kernel.cpp) and
+// by the one-track CvPositionMode (cv_position_mode.hpp): both compute the same IEEE operations
+// in the same order. Not installed.
+//
+// Entries are read and written through accessors (at(e) returning double&), so a lane of a
+// structure-of-arrays block and a plain array take the same code; everything is inline and
+// branch-free, which the bank's vectorized lane loops need.
+
+#include <cstddef>
+#include <type_traits>
+#include <utility>
+
+namespace imm::cv_position {
+
+constexpr int kN = 4;
+constexpr int kTriangle = 10;
+constexpr int kEntries = kN + kTriangle;
+
+// Index of P(a, b) in the stored upper triangle (row by row).
+constexpr int sym(int a, int b) {
+  return a <= b ? a * kN - a * (a + 1) / 2 + b : b * kN - b * (b + 1) / 2 + a;
+}
+
+// f(integral_constant<int, 0>) … f(integral_constant<int, N − 1>), unrolled at compile time so
+// that the small per-track arrays become registers.
+template <int N, class F>
+[[gnu::always_inline]] inline void each(F&& f) {
+  [&]<int... I>(std::integer_sequence<int, I...>) { (f(std::integral_constant<int, I>{}), ...); }
+  (std::make_integer_sequence<int, N>{});
+}
+
+// Prediction in place: x⁻ = F x, P⁻ = F P Fᵀ + Q (q: Q's upper triangle, row by row).
+template <class At>
+[[gnu::always_inline]] inline void predict(At&& at, double T, const double* q) {
+  double p[kN][kN];
+  each<kN>([&](auto a) { each<kN>([&](auto c) { p[a][c] = at(kN + sym(a, c)); }); });
+  double fp[kN][kN];  // F P
+  each<kN>([&](auto c) {
+    fp[0][c] = p[0][c] + T * p[1][c];
+    fp[1][c] = p[1][c];
+    fp[2][c] = p[2][c] + T * p[3][c];
+    fp[3][c] = p[3][c];
+  });
+  each<kN>([&](auto a) {
+    const double row[kN] = {fp[a][0] + T * fp[a][1], fp[a][1], fp[a][2] + T * fp[a][3], fp[a][3]};
+    each<kN>([&](auto c) {
+      if constexpr (c >= a) at(kN + sym(a, c)) = row[c] + q[sym(a, c)];
+    });
+  });
+  at(0) = at(0) + T * at(1);
+  at(2) = at(2) + T * at(3);
+}
+
+// What an update reports besides the updated Gaussian. The checks are left to the caller (a
+// comparison in the bank's lane loop would keep it scalar): S is positive definite when
+// s00 > 0 and det > threshold (Sylvester, with kalman_filter.hpp's relative guard), and the
+// result is finite when `finite` is 0 (it sums v − v over every output).
+struct UpdateOutcome {
+  double nu0 = 0.0, nu1 = 0.0;             // ν = z − H x⁻
+  double s00 = 0.0, s01 = 0.0, s11 = 0.0;  // S = H P⁻ Hᵀ + R
+  double det = 0.0;                        // |S|
+  double mahalanobis = 0.0;                // νᵀ S⁻¹ ν
+  double threshold = 0.0;                  // 1e-14 s00 s11
+  double finite = 0.0;
+};
+
+// Joseph-form update (kalman_filter.hpp written out for the position-selecting H) of the
+// predicted Gaussian `in` into `out`: S = H P Hᵀ + R, K = P Hᵀ S⁻¹, C = P − K (P Hᵀ)ᵀ,
+// P⁺ = C − (C Hᵀ) Kᵀ + K R Kᵀ.
+template <class In, class Out>
+[[gnu::always_inline]] inline UpdateOutcome update(In&& in, Out&& out, double zx, double zy,
+                                                   double r00, double r01, double r11) {
+  UpdateOutcome o;
+  double p[kN][kN];
+  each<kN>([&](auto a) { each<kN>([&](auto c) { p[a][c] = in(kN + sym(a, c)); }); });
+  o.s00 = p[0][0] + r00;
+  o.s01 = p[0][2] + r01;
+  o.s11 = p[2][2] + r11;
+  o.det = o.s00 * o.s11 - o.s01 * o.s01;
+  const double inverse_det = 1.0 / o.det;
+  const double i00 = o.s11 * inverse_det, i01 = -o.s01 * inverse_det, i11 = o.s00 * inverse_det;
+  double k[kN][2];
+  each<kN>([&](auto a) {
+    k[a][0] = p[a][0] * i00 + p[a][2] * i01;
+    k[a][1] = p[a][0] * i01 + p[a][2] * i11;
+  });
+  o.nu0 = zx - in(0);
+  o.nu1 = zy - in(2);
+  each<kN>([&](auto a) {
+    const double mean = in(a) + (k[a][0] * o.nu0 + k[a][1] * o.nu1);
+    out(a) = mean;
+    o.finite += mean - mean;
+  });
+  double cc[kN][kN];
+  each<kN>([&](auto a) {
+    each<kN>([&](auto c) { cc[a][c] = p[a][c] - (k[a][0] * p[c][0] + k[a][1] * p[c][2]); });
+  });
+  each<kN>([&](auto a) {
+    const double kr0 = k[a][0] * r00 + k[a][1] * r01;
+    const double kr1 = k[a][0] * r01 + k[a][1] * r11;
+    each<kN>([&](auto c) {
+      if constexpr (c >= a) {
+        const double value = (cc[a][c] - (cc[a][0] * k[c][0] + cc[a][2] * k[c][1])) +
+                             (kr0 * k[c][0] + kr1 * k[c][1]);
+        out(kN + sym(a, c)) = value;
+        o.finite += value - value;
+      }
+    });
+  });
+  o.mahalanobis = o.nu0 * (i00 * o.nu0 + i01 * o.nu1) + o.nu1 * (i01 * o.nu0 + i11 * o.nu1);
+  o.threshold = 1e-14 * o.s00 * o.s11;
+  return o;
+}
+
+}  // namespace imm::cv_position

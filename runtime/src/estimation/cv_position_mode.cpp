@@ -1,0 +1,98 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "estimation/cv_position_mode.hpp"
+
+#include <cmath>
+#include <utility>
+
+namespace imm {
+namespace {
+
+using cv_position::kEntries;
+using cv_position::kN;
+using cv_position::sym;
+
+constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
+
+}  // namespace
+
+CvPositionMode::CvPositionMode(std::string name, double sample_period,
+                               const SquareMatrix<4>& process_noise,
+                               const SquareMatrix<2>& measurement_covariance)
+    : name_(std::move(name)),
+      period_(sample_period),
+      r00_(measurement_covariance(0, 0)),
+      r01_(measurement_covariance(0, 1)),
+      r11_(measurement_covariance(1, 1)) {
+  for (int a = 0; a < kN; ++a)
+    for (int c = a; c < kN; ++c) noise_[static_cast<std::size_t>(sym(a, c))] = process_noise(a, c);
+}
+
+void CvPositionMode::load(const GaussianState<4>& state, Entries& entries) {
+  for (int a = 0; a < kN; ++a) {
+    entries[static_cast<std::size_t>(a)] = state.mean(a);
+    for (int c = a; c < kN; ++c) {
+      const int entry = kN + sym(a, c);
+      entries[static_cast<std::size_t>(entry)] = state.covariance(a, c);
+    }
+  }
+}
+
+void CvPositionMode::embedded_estimate(Vector<4>& mean, SquareMatrix<4>& covariance) const {
+  for (int a = 0; a < kN; ++a) {
+    mean(a) = estimate_[static_cast<std::size_t>(a)];
+    for (int c = 0; c < kN; ++c) {
+      const int entry = kN + sym(a, c);
+      covariance(a, c) = estimate_[static_cast<std::size_t>(entry)];
+    }
+  }
+}
+
+void CvPositionMode::reset(const GaussianState<4>& state) { load(state, estimate_); }
+
+[[gnu::flatten]] ModeStep CvPositionMode::propose(const GaussianState<4>& mixed,
+                                                  const Vector<2>& z) {
+  Entries predicted;
+  load(mixed, predicted);
+  cv_position::predict([&](int e) -> double& { return predicted[static_cast<std::size_t>(e)]; },
+                       period_, noise_.data());
+  Entries updated;
+  const cv_position::UpdateOutcome o =
+      cv_position::update([&](int e) { return predicted[static_cast<std::size_t>(e)]; },
+                          [&](int e) -> double& { return updated[static_cast<std::size_t>(e)]; },
+                          z(0), z(1), r00_, r01_, r11_);
+  // Element by element: a 2-vector built on the stack and copied stalls on store forwarding.
+  Vector<2>& innovation = kept_innovation();
+  innovation(0) = o.nu0;
+  innovation(1) = o.nu1;
+  SquareMatrix<2>& S = kept_innovation_covariance();
+  S(0, 0) = o.s00;
+  S(0, 1) = o.s01;
+  S(1, 0) = o.s01;
+  S(1, 1) = o.s11;
+  // S positive definite and finite (Sylvester, with kalman_filter.hpp's relative guard), then
+  // every output finite: the checks and statuses of update_with_innovation.
+  if (!(o.s00 > 0.0) || !(o.det > o.threshold) || !std::isfinite(o.det)) {
+    return {StepStatus::kSingularInnovation, 0.0};
+  }
+  if (o.finite != 0.0) return {StepStatus::kNonFiniteResult, 0.0};
+  pending_ = updated;
+  return {StepStatus::kOk, -0.5 * (o.mahalanobis + std::log(o.det) + 2 * kLogTwoPi)};
+}
+
+ModeStep CvPositionMode::propose_prediction(const GaussianState<4>& mixed) {
+  load(mixed, pending_);
+  cv_position::predict([&](int e) -> double& { return pending_[static_cast<std::size_t>(e)]; },
+                       period_, noise_.data());
+  bool finite = true;
+  for (const double value : pending_) finite = finite && std::isfinite(value);
+  return {finite ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
+}
+
+void CvPositionMode::predicted_mean(const GaussianState<4>& mixed, Vector<4>& mean) const {
+  mean(0) = mixed.mean(0) + period_ * mixed.mean(1);
+  mean(1) = mixed.mean(1);
+  mean(2) = mixed.mean(2) + period_ * mixed.mean(3);
+  mean(3) = mixed.mean(3);
+}
+
+}  // namespace imm

@@ -1,0 +1,199 @@
+// SPDX-License-Identifier: Apache-2.0
+// The GA-fuzzy IMM bank against the one-track filter (make_ga_fuzzy_imm_filter): statuses,
+// estimates and mode probabilities to rounding over random specs, tracks independent of their
+// neighbours to the bit, refused plots leaving a track exactly as it was, and what it refuses.
+#include "imm/tracking/ga_fuzzy_track_bank.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/filters/ga_fuzzy_imm.hpp"
+
+namespace imm {
+namespace {
+
+// A spec of `levels` random tables of 1 … 6 rules around the scale of a 1 km plot σ.
+GaFuzzyImmSpec random_spec(std::mt19937_64& rng, int levels, FuzzyAntecedents antecedents) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  GaFuzzyImmSpec spec;
+  spec.settings.sample_period = 0.5 + 2.0 * unit(rng);
+  spec.settings.measurement_sigma = 0.2 + unit(rng);
+  spec.settings.transition_stay = 0.8 + 0.19 * unit(rng);
+  spec.antecedents = antecedents;
+  for (int level = 0; level < levels; ++level) {
+    std::vector<FuzzyRule> rules;
+    const int count = 1 + static_cast<int>(unit(rng) * 6.0);
+    for (int r = 0; r < count; ++r) {
+      rules.push_back({-2.0 + 4.0 * unit(rng), 0.2 + 2.0 * unit(rng), -2.0 + 4.0 * unit(rng),
+                       0.2 + 2.0 * unit(rng), std::pow(10.0, -6.0 + 5.0 * unit(rng))});
+    }
+    std::string name = "u";
+    name += std::to_string(level);
+    spec.levels.push_back({name, 0.01 * (level + 1), FuzzyRuleTable(rules)});
+  }
+  return spec;
+}
+
+GaussianState<4> start_of(int track) {
+  GaussianState<4> s;
+  s.mean << 10.0 + track, 0.3, -4.0 + 0.5 * track, -0.2;
+  s.covariance = Eigen::Vector4d(2.0, 0.5, 2.0, 0.5).asDiagonal();
+  s.covariance(0, 1) = s.covariance(1, 0) = 0.3;
+  s.covariance(2, 3) = s.covariance(3, 2) = -0.2;
+  return s;
+}
+
+// Plots of track t at scan k: a weaving target with noise, a NaN or an out-of-range plot now and
+// then.
+Eigen::Vector2d plot_of(int track, int k, std::mt19937_64& rng) {
+  std::normal_distribution<double> noise(0.0, 0.5);
+  const double time = k;
+  Eigen::Vector2d z(10.0 + track + 0.3 * time + 3.0 * std::sin(0.05 * time * (1 + track % 3)),
+                    -4.0 + 0.5 * track - 0.2 * time + 2.0 * std::cos(0.07 * time));
+  z += Eigen::Vector2d(noise(rng), noise(rng));
+  if ((k + track) % 29 == 3) z.y() = std::numeric_limits<double>::quiet_NaN();
+  if ((k * 7 + track) % 53 == 11) z.x() = 1e300;
+  return z;
+}
+
+void expect_close(double value, double reference, const std::string& what) {
+  EXPECT_LE(std::abs(value - reference), 1e-9 * (1.0 + std::abs(reference))) << what;
+}
+
+TEST(GaFuzzyTrackBank, EqualsTheOneTrackFilterToRounding) {
+  std::mt19937_64 rng(26112026);
+  int refused = 0;
+  for (int trial = 0; trial < 8; ++trial) {
+    const auto antecedents =
+        trial % 2 == 0 ? FuzzyAntecedents::kResidual : FuzzyAntecedents::kNormalizedInnovation;
+    const GaFuzzyImmSpec spec = random_spec(rng, 1 + trial % 4, antecedents);
+    constexpr int kTracks = 13;  // three whole blocks of four tracks and one track more
+    GaFuzzyTrackBank bank(spec, kTracks);
+    std::vector<std::unique_ptr<TwoAxisFilter>> single;
+    for (int t = 0; t < kTracks; ++t) {
+      bank.initialize(static_cast<std::size_t>(t), start_of(t));
+      single.push_back(make_ga_fuzzy_imm_filter(spec));
+      single.back()->initialize(start_of(t).mean, start_of(t).covariance);
+    }
+    std::vector<Eigen::Vector2d> plots(kTracks);
+    std::vector<StepStatus> status(kTracks);
+    for (int k = 0; k < 120; ++k) {
+      for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng);
+      bank.step(plots, status);
+      for (int t = 0; t < kTracks; ++t) {
+        const auto u = static_cast<std::size_t>(t);
+        const std::string at = "trial " + std::to_string(trial) + " scan " + std::to_string(k) +
+                               " track " + std::to_string(t);
+        ASSERT_EQ(status[u], single[u]->step(plots[u])) << at;
+        if (status[u] != StepStatus::kOk) ++refused;
+        Eigen::Vector4d mean, variance;
+        single[u]->state(mean, variance);
+        Eigen::Matrix4d covariance;
+        single[u]->covariance(covariance);
+        const GaussianState<4> estimate = bank.estimate(u);
+        for (int a = 0; a < 4; ++a) {
+          expect_close(estimate.mean(a), mean(a), at + " mean");
+          for (int c = 0; c < 4; ++c) {
+            expect_close(estimate.covariance(a, c), covariance(a, c), at + " covariance");
+          }
+        }
+        const ModeVector mu = bank.mode_probabilities(u);
+        const ModeVector reference = single[u]->mode_probabilities();
+        ASSERT_EQ(mu.size(), reference.size());
+        for (Eigen::Index j = 0; j < mu.size(); ++j) expect_close(mu(j), reference(j), at + " mu");
+        if (::testing::Test::HasFailure()) return;
+      }
+    }
+  }
+  EXPECT_GT(refused, 100);  // the NaN and out-of-range plots were refused, by both
+}
+
+TEST(GaFuzzyTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
+  std::mt19937_64 rng(7);
+  const GaFuzzyImmSpec spec = random_spec(rng, 3, FuzzyAntecedents::kNormalizedInnovation);
+  constexpr int kTracks = 11;
+  GaFuzzyTrackBank bank(spec, kTracks);
+  std::vector<GaFuzzyTrackBank> alone;
+  for (int t = 0; t < kTracks; ++t) {
+    bank.initialize(static_cast<std::size_t>(t), start_of(t));
+    alone.emplace_back(spec, 1);
+    alone.back().initialize(0, start_of(t));
+  }
+  std::vector<Eigen::Vector2d> plots(kTracks);
+  std::vector<StepStatus> status(kTracks);
+  for (int k = 0; k < 80; ++k) {
+    for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng);
+    bank.step(plots, status);
+    for (int t = 0; t < kTracks; ++t) {
+      const auto u = static_cast<std::size_t>(t);
+      std::vector<StepStatus> one(1);
+      alone[u].step(std::span<const Eigen::Vector2d>(&plots[u], 1), one);
+      ASSERT_EQ(one[0], status[u]);
+      const GaussianState<4> a = bank.estimate(u), b = alone[u].estimate(0);
+      ASSERT_EQ(std::memcmp(a.mean.data(), b.mean.data(), sizeof(double) * 4), 0);
+      ASSERT_EQ(std::memcmp(a.covariance.data(), b.covariance.data(), sizeof(double) * 16), 0);
+    }
+  }
+}
+
+TEST(GaFuzzyTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTracksUntouched) {
+  std::mt19937_64 rng(11);
+  const GaFuzzyImmSpec spec = random_spec(rng, 2, FuzzyAntecedents::kResidual);
+  GaFuzzyTrackBank bank(spec, 6);
+  for (std::size_t t = 0; t < 6; ++t) bank.initialize(t, start_of(static_cast<int>(t)));
+  std::vector<Eigen::Vector2d> plots{{10.2, -4.1}, {11.0, -3.4}, {12.1, -3.1}};
+  std::vector<StepStatus> status(3);
+  bank.step(plots, status);
+  const GaussianState<4> before = bank.estimate(1);
+  const ModeVector mu_before = bank.mode_probabilities(1);
+  const GaussianState<4> untouched = bank.estimate(4);
+  plots[1].y() = std::numeric_limits<double>::infinity();
+  bank.step(plots, status);
+  EXPECT_EQ(status[0], StepStatus::kOk);
+  EXPECT_EQ(status[1], StepStatus::kInvalidMeasurement);
+  EXPECT_EQ(bank.estimate(1).mean, before.mean);
+  EXPECT_EQ(bank.estimate(1).covariance, before.covariance);
+  EXPECT_EQ(bank.mode_probabilities(1), mu_before);
+  EXPECT_EQ(bank.estimate(4).mean, untouched.mean);
+  EXPECT_EQ(bank.estimate(4).covariance, untouched.covariance);
+}
+
+std::string refused_field(const GaFuzzyImmSpec& spec, std::size_t capacity) {
+  try {
+    GaFuzzyTrackBank bank(spec, capacity);
+  } catch (const InvalidParameter& error) {
+    return error.field();
+  }
+  return "";
+}
+
+TEST(GaFuzzyTrackBank, RefusesWhatItCannotRun) {
+  std::mt19937_64 rng(3);
+  GaFuzzyImmSpec spec = random_spec(rng, 2, FuzzyAntecedents::kResidual);
+  EXPECT_EQ(refused_field(spec, 0), "capacity");
+  spec.settings.transition_stay = 1.0;  // zero transitions: a mode could become unreachable
+  EXPECT_EQ(refused_field(spec, 4), "settings.transition_stay");
+  spec.levels.clear();
+  EXPECT_EQ(refused_field(spec, 4), "levels");
+  spec = random_spec(rng, 1, FuzzyAntecedents::kResidual);
+  spec.settings.transition_stay = 1.0;  // one level: [[1]] is fine
+  GaFuzzyTrackBank bank(spec, 3);
+  std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(1.0, 2.0));
+  std::vector<StepStatus> status(2);
+  bank.initialize(0, start_of(0));
+  EXPECT_THROW(bank.step(plots, status), std::logic_error);  // track 1 never started
+  std::vector<StepStatus> wrong(3);
+  EXPECT_THROW(bank.step(plots, wrong), std::invalid_argument);
+  EXPECT_THROW(bank.initialize(3, start_of(0)), std::out_of_range);
+}
+
+}  // namespace
+}  // namespace imm

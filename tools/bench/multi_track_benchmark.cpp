@@ -1,0 +1,166 @@
+// SPDX-License-Identifier: Apache-2.0
+// Many tracks per call (imm/tracking/): the plain IMM's TrackBank and the GA-fuzzy IMM's bank
+// against as many one-track filters (Google Benchmark; `make bench`).
+
+#include <benchmark/benchmark.h>
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bench_inputs.hpp"
+#include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/filters/plain_imm.hpp"
+#include "imm/io/ga_fuzzy_imm_file.hpp"
+#include "imm/tracking/ga_fuzzy_track_bank.hpp"
+#include "imm/tracking/track_bank.hpp"
+
+namespace {
+
+using imm::TrackFilter;
+using imm::bench::table3_plots;
+using imm::bench::w1_input;
+
+// W1 through the multi-track API with one track (imm/tracking/track_bank.hpp).
+void BM_W1_TrackBankOneTrack(benchmark::State& state) {
+  const auto& input = w1_input();
+  imm::TrackBank bank(imm::workloads::w1_spec(), 1);
+  bank.initialize(0, imm::workloads::w1_start());
+  std::array<Eigen::Vector2d, 1> plot;
+  std::array<imm::StepStatus, 1> status{};
+  Eigen::Index k = 0;
+  for (auto _ : state) {
+    plot[0] = input.plots.row(k).transpose();
+    bank.step(plot, status);
+    benchmark::DoNotOptimize(status.data());
+    if (++k == input.plots.rows()) {
+      k = 0;
+      bank.initialize(0, imm::workloads::w1_start());
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_W1_TrackBankOneTrack);
+
+// N tracks of the W1 IMM, each fed the W1 plots shifted by its own offset (so the tracks differ):
+// range(1) = 0 as N separate ImmEstimators, 1 as one TrackBank. Items: track steps.
+void BM_MultiTrack(benchmark::State& state) {
+  const auto tracks = static_cast<std::size_t>(state.range(0));
+  const bool bank_api = state.range(1) == 1;
+  const auto& input = w1_input();
+  const auto spec = imm::workloads::w1_spec();
+  std::vector<Eigen::Vector2d> offsets(tracks);
+  for (std::size_t t = 0; t < tracks; ++t)
+    offsets[t] = Eigen::Vector2d(0.37 * static_cast<double>(t), -0.21 * static_cast<double>(t));
+  auto start = [&](std::size_t t) {
+    imm::GaussianState<4> s = imm::workloads::w1_start();
+    s.mean(0) += offsets[t](0);
+    s.mean(2) += offsets[t](1);
+    return s;
+  };
+  std::vector<imm::ImmEstimator<4, 2>> separate;
+  std::unique_ptr<imm::TrackBank> bank;
+  if (bank_api) {
+    bank = std::make_unique<imm::TrackBank>(spec, tracks);
+    for (std::size_t t = 0; t < tracks; ++t) bank->initialize(t, start(t));
+  } else {
+    separate.reserve(tracks);
+    for (std::size_t t = 0; t < tracks; ++t) {
+      separate.push_back(imm::build_plain_imm<4>(spec));
+      separate.back().initialize(start(t));
+    }
+  }
+  std::vector<Eigen::Vector2d> plots(tracks);
+  std::vector<imm::StepStatus> status(tracks);
+  Eigen::Index k = 0;
+  for (auto _ : state) {
+    const Eigen::Vector2d z = input.plots.row(k).transpose();
+    for (std::size_t t = 0; t < tracks; ++t) plots[t] = z + offsets[t];
+    if (bank_api) {
+      bank->step(plots, status);
+    } else {
+      for (std::size_t t = 0; t < tracks; ++t) status[t] = separate[t].step(plots[t]);
+    }
+    benchmark::DoNotOptimize(status.data());
+    if (++k == input.plots.rows()) {
+      k = 0;
+      for (std::size_t t = 0; t < tracks; ++t) {
+        if (bank_api) {
+          bank->initialize(t, start(t));
+        } else {
+          separate[t].initialize(start(t));
+        }
+      }
+    }
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(tracks));
+  state.SetLabel(bank_api ? "TrackBank" : "separate ImmEstimators");
+}
+BENCHMARK(BM_MultiTrack)->Args({1000, 0})->Args({1000, 1})->Args({16, 1})->Args({10000, 1});
+
+// N tracks of the GA-fuzzy IMM, each fed the seed-000 plots shifted by its own offset:
+// range(1) = 0 as N one-track filters (make_ga_fuzzy_imm_filter), 1 as one GaFuzzyTrackBank;
+// range(2) = 0 the shipped tables, 1 seed 000's published ones. Items: track steps.
+void BM_GaFuzzyMultiTrack(benchmark::State& state) {
+  const auto tracks = static_cast<std::size_t>(state.range(0));
+  const bool bank_api = state.range(1) == 1;
+  const auto spec = imm::io::read_ga_fuzzy_imm(
+      state.range(2) == 0 ? IMM_SOURCE_DIR "/models/ga_fuzzy_imm.h5"
+                          : IMM_SOURCE_DIR "/models/reference/ga_fuzzy_imm_paper.h5");
+  const Eigen::MatrixXd& source = table3_plots();
+  auto start = [&](std::size_t t) {
+    imm::GaussianState<4> s;
+    s.mean << source(0, 0) + 0.37 * static_cast<double>(t), 0.0,
+        source(0, 1) - 0.21 * static_cast<double>(t), 0.0;
+    s.covariance = Eigen::Vector4d(0.25, 0.5, 0.25, 0.5).asDiagonal();
+    return s;
+  };
+  std::vector<std::unique_ptr<TrackFilter>> separate;
+  std::unique_ptr<imm::GaFuzzyTrackBank> bank;
+  auto restart = [&] {
+    for (std::size_t t = 0; t < tracks; ++t) {
+      if (bank_api) {
+        bank->initialize(t, start(t));
+      } else {
+        separate[t]->initialize(start(t).mean, start(t).covariance);
+      }
+    }
+  };
+  if (bank_api) {
+    bank = std::make_unique<imm::GaFuzzyTrackBank>(spec, tracks);
+  } else {
+    for (std::size_t t = 0; t < tracks; ++t)
+      separate.push_back(imm::make_ga_fuzzy_imm_filter(spec));
+  }
+  restart();
+  std::vector<Eigen::Vector2d> plots(tracks);
+  std::vector<imm::StepStatus> status(tracks);
+  Eigen::Index k = 1;
+  for (auto _ : state) {
+    for (std::size_t t = 0; t < tracks; ++t) {
+      plots[t] = source.row(k).transpose() +
+                 Eigen::Vector2d(0.37 * static_cast<double>(t), -0.21 * static_cast<double>(t));
+    }
+    if (bank_api) {
+      bank->step(plots, status);
+    } else {
+      for (std::size_t t = 0; t < tracks; ++t) status[t] = separate[t]->step(plots[t]);
+    }
+    benchmark::DoNotOptimize(status.data());
+    if (++k == source.rows()) {
+      k = 1;
+      restart();
+    }
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(tracks));
+  state.SetLabel(std::string(bank_api ? "GaFuzzyTrackBank" : "separate filters") +
+                 (state.range(2) == 0 ? ", shipped tables" : ", paper tables"));
+}
+BENCHMARK(BM_GaFuzzyMultiTrack)
+    ->Args({1000, 0, 0})
+    ->Args({1000, 1, 0})
+    ->Args({1000, 0, 1})
+    ->Args({1000, 1, 1});
+
+}  // namespace
