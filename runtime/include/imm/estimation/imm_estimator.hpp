@@ -13,11 +13,10 @@
 ///      have likelihoods that underflow in linear space, never in log space;
 ///
 /// Underflow: μ is stored as log μ. Steps 1–2 work on μ scaled by its largest entry
-/// (μ̃_i = exp(log μ_i − max log μ) ∈ (0, 1]), kept from the posterior's normalization (step 4
-/// computes exactly these exponentials), so the prediction needs no exponential at all; entries
-/// below 1e-308 of the largest vanish there, as they would in any floating-point sum. Where a c̃_j
-/// underflows to zero (possible only with zero transition entries) log c_j falls back to the exact
-/// log-sum-exp.
+/// (μ̃_i = exp(log μ_i − max log μ) ∈ (0, 1]), which is exact and costs one exponential per mode
+/// instead of one per (i, j) pair; entries below 1e-308 of the largest vanish there, as they would
+/// in any floating-point sum. Where a c̃_j underflows to zero (possible only with zero
+/// transition entries) log c_j falls back to the exact log-sum-exp.
 ///   5. combined estimate x̂ = Σ μ_j x̂_j, P = Σ μ_j (P_j + (x̂_j − x̂)(·)ᵀ) (10–11).
 ///
 /// Failure handling: a NaN/Inf measurement, a singular innovation covariance or a non-finite
@@ -82,7 +81,6 @@ class ImmEstimator {
     predicted_scaled_.resize(n);
     log_posterior_.resize(n);
     scaled_.resize(n);
-    scaled_probabilities_.resize(n);
     scratch_.resize(n);
   }
 
@@ -211,7 +209,7 @@ class ImmEstimator {
   void predict_mode_probabilities() {
     const int n = mode_count();
     const double shift = log_probabilities_.maxCoeff();
-    scaled_ = scaled_probabilities_;
+    for (int i = 0; i < n; ++i) scaled_(i) = std::exp(log_probabilities_(i) - shift);
     for (int j = 0; j < n; ++j) {
       double c = 0.0;
       for (int i = 0; i < n; ++i) c += transition_(i, j) * scaled_(i);
@@ -286,7 +284,6 @@ class ImmEstimator {
       scaled_(j) = std::exp(log_posterior_(j) - shift);
       sum += scaled_(j);
     }
-    scaled_probabilities_ = scaled_;  // μ̃ of the next prediction: its largest entry is exp(0)
     // sum ≥ 1: the largest entry contributes exp(0). log μ_j = (ℓ_j − shift) − log sum, in that
     // order: with log-likelihoods far from zero (a plot many σ away gives ℓ ≈ −1e30) the sum
     // shift + log sum rounds to shift, and ℓ_j − (shift + log sum) would give two modes log μ = 0.
@@ -310,11 +307,7 @@ class ImmEstimator {
 
   void combine() {
     const int n = mode_count();
-    const double shift = log_probabilities_.maxCoeff();
-    for (int j = 0; j < n; ++j) {
-      scaled_probabilities_(j) = std::exp(log_probabilities_(j) - shift);
-      scaled_(j) = std::exp(log_probabilities_(j));
-    }
+    for (int j = 0; j < n; ++j) scaled_(j) = std::exp(log_probabilities_(j));
     combine(scaled_);
   }
 
@@ -334,6 +327,7 @@ class ImmEstimator {
     out.mean = mean;
     out.covariance = covariance;
   }
+
   static std::size_t index(int i) { return static_cast<std::size_t>(i); }
   Mode& mode_at(int i) { return *modes_[index(i)]; }
 
@@ -345,8 +339,7 @@ class ImmEstimator {
   ModeVector log_predicted_;
   ModeVector predicted_scaled_;  // c̃_j = c_j / max μ
   ModeVector log_posterior_;
-  ModeVector scaled_;                // μ̃ (prediction) or posterior weights (combination)
-  ModeVector scaled_probabilities_;  // μ̃ = μ / max μ, kept from the last posterior
+  ModeVector scaled_;  // μ̃ (prediction) or posterior weights (combination)
   ModeVector scratch_;
   std::array<Vector<NX>, kMaxModes> means_{};  // embedded current mode estimates
   std::array<SquareMatrix<NX>, kMaxModes> covariances_{};
