@@ -76,8 +76,10 @@ ImmEstimator<4, 2> general_cv_imm(const PlainImmSpec& spec) {
   return {std::move(modes), spec.transition, spec.initial_probabilities};
 }
 
+// 1e-8 relative: 150 scans with 1e6-σ outliers accumulate the two algebras' rounding (and an
+// unoptimized build sums Eigen's products in yet another order).
 void expect_close(double value, double reference, const std::string& what) {
-  EXPECT_LE(std::abs(value - reference), 1e-9 * (1.0 + std::abs(reference))) << what;
+  EXPECT_LE(std::abs(value - reference), 1e-8 * (1.0 + std::abs(reference))) << what;
 }
 
 // build_plain_imm runs CV modes with Cartesian plots through cv_position_algebra.hpp (the
@@ -103,7 +105,7 @@ TEST(PlainImm, TheWrittenOutCvModeIsTheGeneralKalmanModeToRounding) {
     GaussianState<4> start;
     start.mean << 10.0 * unit(rng), unit(rng), -5.0 * unit(rng), unit(rng);
     start.covariance = Eigen::Vector4d(4.0, 1.0, 4.0, 1.0).asDiagonal();
-    if (trial == 11) start.covariance(0, 0) = -spec.measurement.covariance(0, 0);  // S singular
+    if (trial == 11) start.covariance(0, 0) = -1e3;  // S₀₀ < 0 at every scan: never updates
     fast.initialize(start);
     general.initialize(start);
     Eigen::Vector4d truth = start.mean;
@@ -127,7 +129,7 @@ TEST(PlainImm, TheWrittenOutCvModeIsTheGeneralKalmanModeToRounding) {
                        at + " covariance");
         }
       }
-      // μ to 1e-9; log μ to 1e-7 relative: after a 1e6-σ outlier the log-likelihoods are near
+      // μ to 1e-8; log μ to 1e-7 relative: after a 1e6-σ outlier the log-likelihoods are near
       // −1e11, and their rounding reaches log μ through the normalization.
       for (int j = 0; j < 3; ++j) {
         expect_close(fast.mode_probabilities()(j), general.mode_probabilities()(j), at + " mu");
@@ -149,7 +151,7 @@ TEST(PlainImm, TheWrittenOutCvModeIsTheGeneralKalmanModeToRounding) {
     }
   }
   EXPECT_EQ(compared_steps, 12 * 150);
-  EXPECT_GT(failed_steps, 150);  // the singular trial fails every scan; the NaN plots fail too
+  EXPECT_GT(failed_steps, 150);  // the singular trial's 150 scans, and the NaN plots
 }
 
 TEST(PlainImmSpec, MixingDimensionFollowsTheModes) {
