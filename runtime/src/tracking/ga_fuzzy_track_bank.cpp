@@ -10,28 +10,16 @@
 #include <stdexcept>
 #include <string>
 
+#include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
 
-// AVX2 chosen at run time (GCC on x86-64 Linux), without FMA: every instruction set computes the
-// same bits.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define IMM_GA_BANK_CLONES __attribute__((target_clones("avx2", "default"), flatten))
-#else
-#define IMM_GA_BANK_CLONES
-#endif
-#if defined(_OPENMP) || defined(IMM_OPENMP_SIMD)
-#define IMM_LANES _Pragma("omp simd") for (int l = 0; l < W; ++l)
-#else
-#define IMM_LANES for (int l = 0; l < W; ++l)
-#endif
-
 namespace imm {
 namespace {
 
-constexpr int kMaxLevels = 8;
+using lanes::kMaxLevels;
 constexpr int W = GaFuzzyTrackBank::kBlock;
 constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
 // State slots of mode j at j * kModeSlots + entry; the combined estimate after the modes.
@@ -49,23 +37,24 @@ struct BankConstants {
 
 // One IMM cycle of one block's lanes. `state` points at the block's first lane of slot 0; `z` the
 // lanes' plots; `stepped` 1 for a lane to step; `code` receives each lane's outcome.
-IMM_GA_BANK_CLONES
-void step_block(const BankConstants& b, double* state, std::ptrdiff_t stride, const double* z,
-                const double* stepped, double* code) {
+[[gnu::flatten]] IMM_AVX2_CLONES void step_block(const BankConstants& b, double* state,
+                                                 std::ptrdiff_t stride, const double* z,
+                                                 const double* stepped, double* code) {
   using Lanes = double[W];
   const int n = b.modes;
   auto st = [&](int j, int entry) { return state + (j * kModeSlots + entry) * stride; };
   auto combined = [&](int entry) { return state + (n * kModeSlots + entry) * stride; };
 
-  // The modes' current estimates, as the mixing reads them.
-  Lanes x0[kMaxLevels], x1[kMaxLevels], p00[kMaxLevels], p01[kMaxLevels], p11[kMaxLevels];
+  // The modes' current states, as the mixing reads them, and the states the step gives.
+  lanes::AxisModes<W> now, next;
   for (int i = 0; i < n; ++i) {
     IMM_LANES {
-      x0[i][l] = st(i, kX0)[l];
-      x1[i][l] = st(i, kX1)[l];
-      p00[i][l] = st(i, kP00)[l];
-      p01[i][l] = st(i, kP01)[l];
-      p11[i][l] = st(i, kP11)[l];
+      now.x0[i][l] = st(i, kX0)[l];
+      now.x1[i][l] = st(i, kX1)[l];
+      now.p00[i][l] = st(i, kP00)[l];
+      now.p01[i][l] = st(i, kP01)[l];
+      now.p11[i][l] = st(i, kP11)[l];
+      now.previous[i][l] = st(i, kPrevious)[l];
     }
   }
   // log c_j = log Σ_i p_ij μ̃_i + max log μ (ImmEstimator::predict_mode_probabilities).
@@ -85,8 +74,7 @@ void step_block(const BankConstants& b, double* state, std::ptrdiff_t stride, co
   }
 
   // Each mode: mixing (eq. 4–6), its fuzzy-noise step, ℓ_j = log N(r; 0, S) + log c_j.
-  Lanes nx0[kMaxLevels], nx1[kMaxLevels], np00[kMaxLevels], np01[kMaxLevels], np11[kMaxLevels];
-  Lanes previous[kMaxLevels], posterior[kMaxLevels], outcome;
+  Lanes posterior[kMaxLevels], outcome;
   IMM_LANES outcome[l] = kOk;
   for (int j = 0; j < n; ++j) {
     Lanes weight[kMaxLevels];
@@ -96,17 +84,12 @@ void step_block(const BankConstants& b, double* state, std::ptrdiff_t stride, co
       IMM_LANES weight[i][l] = p * mu[l] / predicted[j][l];
     }
     Lanes m0, m1, c00, c01, c11;
-    lanes::mix<W>(n, weight, x0, x1, p00, p01, p11, m0, m1, c00, c01, c11);
+    lanes::mix<W>(n, weight, now, m0, m1, c00, c01, c11);
     // Every lane of every field is written by fuzzy_noise_step; zeroing it first would cost.
     lanes::FuzzyStep<W> s;  // NOLINT(cppcoreguidelines-pro-type-member-init)
-    lanes::fuzzy_noise_step<W>(*b.axis, b.levels[j], z, st(j, kPrevious), m0, m1, c00, c01, c11, s);
+    lanes::fuzzy_noise_step<W>(*b.axis, b.levels[j], z, now.previous[j], m0, m1, c00, c01, c11, j,
+                               next, s);
     IMM_LANES {
-      nx0[j][l] = s.x0[l];
-      nx1[j][l] = s.x1[l];
-      np00[j][l] = s.p00[l];
-      np01[j][l] = s.p01[l];
-      np11[j][l] = s.p11[l];
-      previous[j][l] = s.antecedent[l];
       const double log_likelihood = -0.5 * (-2.0 * s.exponent[l] + lane_log(s.s[l]) + kLogTwoPi);
       posterior[j][l] = log_likelihood + log_predicted[j][l];
       // The first mode that fails decides the status (ImmEstimator stops there).
@@ -138,11 +121,14 @@ void step_block(const BankConstants& b, double* state, std::ptrdiff_t stride, co
     log_sum[l] = lane_log(sum[l]);
   }
   for (int j = 0; j < n; ++j) {
-    IMM_LANES mu[j][l] = scaled[j][l] / sum[l];
+    IMM_LANES {
+      mu[j][l] = scaled[j][l] / sum[l];
+      posterior[j][l] -= log_sum[l];  // log μ_j
+    }
   }
   // The combination (eq. 10–11) of the new estimates.
   Lanes e0, e1, e00, e01, e11;
-  lanes::mix<W>(n, mu, nx0, nx1, np00, np01, np11, e0, e1, e00, e01, e11);
+  lanes::mix<W>(n, mu, next, e0, e1, e00, e01, e11);
 
   // A track commits when both its lanes (x at an even lane, y after it) succeeded.
   Lanes commit;
@@ -152,15 +138,12 @@ void step_block(const BankConstants& b, double* state, std::ptrdiff_t stride, co
     commit[l] = commit[l + 1] = stepped[l] != 0.0 && code[l] == kOk ? 1.0 : 0.0;
   }
   for (int j = 0; j < n; ++j) {
-    const double* values[kModeSlots] = {nx0[j],  nx1[j],       np00[j],   np01[j],
-                                        np11[j], posterior[j], scaled[j], previous[j]};
+    const double* values[kModeSlots] = {next.x0[j],  next.x1[j],   next.p00[j], next.p01[j],
+                                        next.p11[j], posterior[j], scaled[j],   next.previous[j]};
     for (int e = 0; e < kModeSlots; ++e) {
       double* target = st(j, e);
       const double* value = values[e];
-      IMM_LANES {
-        const double v = e == kLogMu ? value[l] - log_sum[l] : value[l];
-        target[l] = pick(commit[l] != 0.0, v, target[l]);
-      }
+      IMM_LANES target[l] = pick(commit[l] != 0.0, value[l], target[l]);
     }
   }
   const double* estimate[5] = {e0, e1, e00, e01, e11};
@@ -181,10 +164,7 @@ GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capac
                            "the GA-fuzzy track bank needs every transition probability positive "
                            "(transition_stay below 1 with more than one level)");
   }
-  if (capacity < 1 || capacity > (std::size_t{1} << 26U)) {
-    throw InvalidParameter("capacity",
-                           "must be in [1, 67108864] tracks, got " + std::to_string(capacity));
-  }
+  bank::require_capacity(capacity);
   capacity_ = capacity;
   stride_ = static_cast<std::ptrdiff_t>((2 * capacity + kBlock - 1) / kBlock * kBlock);
   const Eigen::VectorXd initial = spec.settings.initial_probabilities(modes_);
@@ -202,11 +182,7 @@ GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capac
 }
 
 std::size_t GaFuzzyTrackBank::checked(std::size_t track) const {
-  if (track >= capacity_) {
-    throw std::out_of_range("track " + std::to_string(track) + " outside a bank of " +
-                            std::to_string(capacity_));
-  }
-  return track;
+  return bank::checked_track(track, capacity_);
 }
 
 bool GaFuzzyTrackBank::initialized(std::size_t track) const {
@@ -248,16 +224,7 @@ void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& sta
 }
 
 void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
-  if (plots.size() != status.size() || plots.size() > capacity_) {
-    throw std::invalid_argument("track bank step: " + std::to_string(plots.size()) + " plots, " +
-                                std::to_string(status.size()) + " statuses, capacity " +
-                                std::to_string(capacity_));
-  }
-  for (std::size_t t = 0; t < plots.size(); ++t) {
-    if (initialized_[t] == 0) {
-      throw std::logic_error("track " + std::to_string(t) + " stepped before initialize()");
-    }
-  }
+  bank::check_step("GaFuzzyTrackBank", plots.size(), status.size(), initialized_);
   const BankConstants constants{modes_, transition_.data(), &axis_, levels_.data()};
   const std::size_t lanes = 2 * plots.size();
   double* z = plots_.data();

@@ -9,6 +9,7 @@
 #include <type_traits>
 #include <utility>
 
+#include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/math/log_sum_exp.hpp"
@@ -38,10 +39,7 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
   if (spec.measurement.kind != MeasurementKind::kCartesian) {
     throw InvalidParameter("measurement.kind", "the track bank needs a Cartesian measurement");
   }
-  if (capacity < 1 || capacity > (std::size_t{1} << 26U)) {
-    throw InvalidParameter("capacity",
-                           "must be in [1, 67108864] tracks, got " + std::to_string(capacity));
-  }
+  bank::require_capacity(capacity);
   modes_ = static_cast<int>(spec.modes.size());
   capacity_ = capacity;
   stride_ = static_cast<std::ptrdiff_t>((capacity + kBlock - 1) / kBlock * kBlock);
@@ -71,11 +69,7 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
 }
 
 std::size_t TrackBank::checked(std::size_t track) const {
-  if (track >= capacity_) {
-    throw std::out_of_range("track " + std::to_string(track) + " outside a bank of " +
-                            std::to_string(capacity_));
-  }
-  return track;
+  return bank::checked_track(track, capacity_);
 }
 
 void TrackBank::initialize(std::size_t track, const GaussianState<kDim>& state) {
@@ -112,17 +106,7 @@ void TrackBank::initialize(std::size_t track, const GaussianState<kDim>& state) 
 }
 
 void TrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
-  if (plots.size() != status.size() || plots.size() > capacity_) {
-    throw std::invalid_argument("TrackBank::step: " + std::to_string(plots.size()) + " plots and " +
-                                std::to_string(status.size()) + " statuses for a bank of " +
-                                std::to_string(capacity_));
-  }
-  for (std::size_t t = 0; t < plots.size(); ++t) {
-    if (initialized_[t] == 0) {
-      throw std::logic_error("TrackBank::step: track " + std::to_string(t) +
-                             " was never initialized");
-    }
-  }
+  bank::check_step("TrackBank", plots.size(), status.size(), initialized_);
   for (std::size_t first = 0; first < plots.size(); first += kBlock) {
     const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
     step_block(first, lanes, plots.data() + first, status.data() + first);

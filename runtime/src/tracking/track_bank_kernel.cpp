@@ -7,15 +7,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
-
-// Run-time choice of AVX2 for the phase loops (GCC on x86-64 with ifunc). Only "avx2": it does not
-// enable FMA contraction, so every instruction set computes the same bits.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define IMM_BANK_CLONES __attribute__((target_clones("avx2", "default"), flatten))
-#else
-#define IMM_BANK_CLONES __attribute__((flatten))
-#endif
 
 namespace imm::bank {
 namespace {
@@ -54,8 +47,7 @@ template <class Mode>
 
 }  // namespace
 
-IMM_BANK_CLONES
-void step_tracks(const Block& b) {
+[[gnu::flatten]] IMM_AVX2_CLONES void step_tracks(const Block& b) {
   const int n = b.modes;
   const int lanes = b.lanes;
   const ScratchLayout layout(n);

@@ -8,28 +8,17 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 
 #include "imm/core/physical_limits.hpp"
 #include "imm/filters/fuzzy_noise_lanes.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/trainer/normalized_errors.hpp"
 
-// Run-time choice of AVX2 (GCC on x86-64 Linux), as the runtime's FCM and bank kernels: "avx2"
-// does not enable FMA contraction, so every instruction set computes the same bits.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define IMM_BATCH_CLONES __attribute__((target_clones("avx2", "default"), flatten))
-#else
-#define IMM_BATCH_CLONES
-#endif
-
-// Every loop over the lanes of a block: one vector operation. `omp simd` keeps the compiler from
-// unrolling the four iterations into scalar code before it vectorizes them.
-#define IMM_LANES _Pragma("omp simd") for (int l = 0; l < W; ++l)
-
 namespace imm::trainer::ga {
 namespace {
 
-constexpr int kMaxLevels = 8;
+using lanes::kMaxLevels;
 
 // The model's constants: transitions, initial probabilities, the axis and the levels' tables.
 struct Model {
@@ -67,23 +56,24 @@ template <int W>
 [[gnu::always_inline]] inline void run_lanes(const Model& m, const BlockData& d, Sums& sums) {
   using Lanes = double[W];
   const int n = m.modes;
-  Lanes x0[kMaxLevels], x1[kMaxLevels], p00[kMaxLevels], p01[kMaxLevels], p11[kMaxLevels];
-  Lanes mu[kMaxLevels], previous[kMaxLevels];
-  Lanes nx0[kMaxLevels], nx1[kMaxLevels], np00[kMaxLevels], np01[kMaxLevels], np11[kMaxLevels];
-  Lanes exponent[kMaxLevels], scale[kMaxLevels], next_previous[kMaxLevels];
+  // The modes' states before and after the scan's step (swapped at its end).
+  lanes::AxisModes<W> modes[2];
+  lanes::AxisModes<W>* now = &modes[0];
+  lanes::AxisModes<W>* next = &modes[1];
+  Lanes mu[kMaxLevels], exponent[kMaxLevels], scale[kMaxLevels];
   Lanes predicted[kMaxLevels], inverse_predicted[kMaxLevels], weight[kMaxLevels];
   Lanes bad, abs_p, abs_v, count;
   const double T = m.axis.T, r = m.start_variance;
   // Two-point start from scans 0 and 1.
   for (int j = 0; j < n; ++j) {
     IMM_LANES {
-      x0[j][l] = d.z[W + l];
-      x1[j][l] = (d.z[W + l] - d.z[l]) / T;
-      p00[j][l] = r;
-      p01[j][l] = r / T;
-      p11[j][l] = 2.0 * r / (T * T);
+      now->x0[j][l] = d.z[W + l];
+      now->x1[j][l] = (d.z[W + l] - d.z[l]) / T;
+      now->p00[j][l] = r;
+      now->p01[j][l] = r / T;
+      now->p11[j][l] = 2.0 * r / (T * T);
       mu[j][l] = m.initial[j];
-      previous[j][l] = 0.0;
+      now->previous[j][l] = 0.0;
     }
   }
   IMM_LANES bad[l] = abs_p[l] = abs_v[l] = count[l] = 0.0;
@@ -104,19 +94,14 @@ template <int W>
         IMM_LANES weight[i][l] = m.transition[i][j] * mu[i][l] * inverse_predicted[j][l];
       }
       Lanes m0, m1, c00, c01, c11;
-      lanes::mix<W>(n, weight, x0, x1, p00, p01, p11, m0, m1, c00, c01, c11);
+      lanes::mix<W>(n, weight, *now, m0, m1, c00, c01, c11);
       lanes::FuzzyStep<W> step;
-      lanes::fuzzy_noise_step<W>(m.axis, m.levels[j], z, previous[j], m0, m1, c00, c01, c11, step);
+      lanes::fuzzy_noise_step<W>(m.axis, m.levels[j], z, now->previous[j], m0, m1, c00, c01, c11, j,
+                                 *next, step);
       IMM_LANES {
-        nx0[j][l] = step.x0[l];
-        nx1[j][l] = step.x1[l];
-        np00[j][l] = step.p00[l];
-        np01[j][l] = step.p01[l];
-        np11[j][l] = step.p11[l];
         // N(r; 0, S) c_j = exp(−½ r²/S) · c_j/√S · (2π)^−½; the constant cancels below.
         exponent[j][l] = step.exponent[l];
         scale[j][l] = predicted[j][l] * std::sqrt(step.s_inverse[l]);
-        next_previous[j][l] = step.antecedent[l];
         // A plot the runtime refuses (limits::usable_measurement) fails its step there too.
         const bool plot = std::abs(z[l]) <= limits::kMaxMeasurement;
         bad[l] +=
@@ -143,17 +128,12 @@ template <int W>
       inverse_sum[l] = 1.0 / sum[l];
       e0[l] = e1[l] = 0.0;
     }
+    std::swap(now, next);  // commit
     for (int j = 0; j < n; ++j) {
       IMM_LANES {
         mu[j][l] = exponent[j][l] * inverse_sum[l];
-        x0[j][l] = nx0[j][l];
-        x1[j][l] = nx1[j][l];
-        p00[j][l] = np00[j][l];
-        p01[j][l] = np01[j][l];
-        p11[j][l] = np11[j][l];
-        previous[j][l] = next_previous[j][l];
-        e0[l] += mu[j][l] * x0[j][l];
-        e1[l] += mu[j][l] * x1[j][l];
+        e0[l] += mu[j][l] * now->x0[j][l];
+        e1[l] += mu[j][l] * now->x1[j][l];
       }
     }
     // The errors of the combined estimate, masked.
@@ -199,11 +179,11 @@ template <int W>
   }
 }
 
-IMM_BATCH_CLONES void run_block8(const Model& m, const BlockData& d, Sums& sums) {
+[[gnu::flatten]] IMM_AVX2_CLONES void run_block8(const Model& m, const BlockData& d, Sums& sums) {
   run_lanes<8>(m, d, sums);
 }
 
-IMM_BATCH_CLONES void run_block4(const Model& m, const BlockData& d, Sums& sums) {
+[[gnu::flatten]] IMM_AVX2_CLONES void run_block4(const Model& m, const BlockData& d, Sums& sums) {
   run_lanes<4>(m, d, sums);
 }
 

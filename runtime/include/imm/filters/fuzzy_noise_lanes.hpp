@@ -21,15 +21,6 @@
 #include "imm/models/learned/fuzzy_rule_table.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
 
-/// Every loop over the lanes: one vector operation. `omp simd` keeps the compiler from unrolling
-/// the iterations into scalar code before it vectorizes them; it is there where OpenMP is (the
-/// trainer) or where a kernel's source is built with -fopenmp-simd and IMM_OPENMP_SIMD.
-#if defined(_OPENMP) || defined(IMM_OPENMP_SIMD)
-#define IMM_LANES _Pragma("omp simd") for (int l = 0; l < W; ++l)
-#else
-#define IMM_LANES for (int l = 0; l < W; ++l)
-#endif
-
 namespace imm::lanes {
 
 /// What every mode of an axis shares: T, R = σ_z², G Gᵀ, and what the tables read.
@@ -81,60 +72,69 @@ struct FuzzyLevelConstants {
   }
 };
 
-/// The mixed initial condition of one mode (eq. 4–5) over W lanes: mean [m0, m1], covariance
-/// [[c00, c01], [c01, c11]]. `weight[i]` are the mixing weights μ_{i|j}; x0 … p11 the n modes'
-/// estimates. A zero weight contributes nothing, as in ImmEstimator.
+/// The most levels (modes per axis) a GA-fuzzy IMM has (GaFuzzyImmSpec::validate).
+inline constexpr int kMaxLevels = 8;
+
+/// The state of up to kMaxLevels fuzzy-noise modes over W lanes: mode j's estimate
+/// [x0, x1], [[p00, p01], [p01, p11]] and its table's last first input (the next step's
+/// `previous`) at [j][lane].
 template <int W>
-[[gnu::always_inline]] inline void mix(int n, const double (*weight)[W], const double (*x0)[W],
-                                       const double (*x1)[W], const double (*p00)[W],
-                                       const double (*p01)[W], const double (*p11)[W],
+struct AxisModes {
+  double x0[kMaxLevels][W];        ///< position
+  double x1[kMaxLevels][W];        ///< velocity
+  double p00[kMaxLevels][W];       ///< covariance P₀₀
+  double p01[kMaxLevels][W];       ///< P₀₁
+  double p11[kMaxLevels][W];       ///< P₁₁
+  double previous[kMaxLevels][W];  ///< the table's first input at the last step
+};
+
+/// The mixed initial condition of one mode (eq. 4–5) over W lanes: mean [m0, m1], covariance
+/// [[c00, c01], [c01, c11]]. `weight[i]` are the weights μ_{i|j} of the n modes' estimates in
+/// `modes` (the combination of eq. 10–11 is the same sum with μ_j). A zero weight contributes
+/// nothing, as in ImmEstimator.
+template <int W>
+[[gnu::always_inline]] inline void mix(int n, const double (*weight)[W], const AxisModes<W>& modes,
                                        double (&m0)[W], double (&m1)[W], double (&c00)[W],
                                        double (&c01)[W], double (&c11)[W]) {
   IMM_LANES m0[l] = m1[l] = c00[l] = c01[l] = c11[l] = 0.0;
   for (int i = 0; i < n; ++i) {
     IMM_LANES {
-      m0[l] += weight[i][l] * x0[i][l];
-      m1[l] += weight[i][l] * x1[i][l];
+      m0[l] += weight[i][l] * modes.x0[i][l];
+      m1[l] += weight[i][l] * modes.x1[i][l];
     }
   }
   for (int i = 0; i < n; ++i) {
     IMM_LANES {
       const double w = weight[i][l];
-      const double d0 = x0[i][l] - m0[l], d1 = x1[i][l] - m1[l];
-      c00[l] += pick(w == 0.0, 0.0, w * (p00[i][l] + d0 * d0));
-      c01[l] += pick(w == 0.0, 0.0, w * (p01[i][l] + d0 * d1));
-      c11[l] += pick(w == 0.0, 0.0, w * (p11[i][l] + d1 * d1));
+      const double d0 = modes.x0[i][l] - m0[l], d1 = modes.x1[i][l] - m1[l];
+      c00[l] += pick(w == 0.0, 0.0, w * (modes.p00[i][l] + d0 * d0));
+      c01[l] += pick(w == 0.0, 0.0, w * (modes.p01[i][l] + d0 * d1));
+      c11[l] += pick(w == 0.0, 0.0, w * (modes.p11[i][l] + d1 * d1));
     }
   }
 }
 
-/// What one fuzzy-noise step gives per lane.
+/// What one fuzzy-noise step gives per lane besides the mode's new state.
 template <int W>
 struct FuzzyStep {
-  double x0[W];          ///< the updated position
-  double x1[W];          ///< the updated velocity
-  double p00[W];         ///< the updated covariance, P₀₀
-  double p01[W];         ///< P₀₁
-  double p11[W];         ///< P₁₁
-  double antecedent[W];  ///< the table's first input: the next `previous`
-  double exponent[W];    ///< −½ r² / S
-  double s[W];           ///< S = H P⁻ Hᵀ + R
-  double s_inverse[W];   ///< 1 / S
+  double exponent[W];   ///< −½ r² / S
+  double s[W];          ///< S = H P⁻ Hᵀ + R
+  double s_inverse[W];  ///< 1 / S
   /// 1 where S is positive and finite (else the step is kSingularInnovation).
   double usable[W];
   /// 1 where every output is finite (else kNonFiniteResult).
   double finite[W];
 };
 
-/// One fuzzy-noise step (fuzzy_noise_filter.hpp, eq. 19) of a mode from its mixed condition
-/// [m0, m1], [[c00, c01], [c01, c11]] with plots z and the mode's previous antecedents.
+/// One fuzzy-noise step (fuzzy_noise_filter.hpp, eq. 19) of mode j from its mixed condition
+/// [m0, m1], [[c00, c01], [c01, c11]] with plots z and the mode's previous antecedents: mode j of
+/// `next` receives the new state, `out` the rest.
 template <int W>
-[[gnu::always_inline]] inline void fuzzy_noise_step(const FuzzyAxisConstants& a,
-                                                    const FuzzyLevelConstants& level,
-                                                    const double* z, const double* previous,
-                                                    const double (&m0)[W], const double (&m1)[W],
-                                                    const double (&c00)[W], const double (&c01)[W],
-                                                    const double (&c11)[W], FuzzyStep<W>& out) {
+[[gnu::always_inline]] inline void fuzzy_noise_step(
+    const FuzzyAxisConstants& a, const FuzzyLevelConstants& level, const double* z,
+    const double* previous, const double (&m0)[W], const double (&m1)[W], const double (&c00)[W],
+    const double (&c01)[W], const double (&c11)[W], int j, AxisModes<W>& next, FuzzyStep<W>& out) {
+  double* __restrict antecedent = next.previous[j];
   const double T = a.T;
   // Prediction F x, F P Fᵀ; the residual and the table's inputs.
   double a0[W], residual[W], q00[W], q01[W], q11[W];
@@ -145,7 +145,7 @@ template <int W>
     q01[l] = fp01;
     q11[l] = c11[l];
     residual[l] = z[l] - a0[l];
-    out.antecedent[l] = a.normalized ? residual[l] / std::sqrt(q00[l] + a.R) : residual[l];
+    antecedent[l] = a.normalized ? residual[l] / std::sqrt(q00[l] + a.R) : residual[l];
   }
   // q(k) of the rule table (eq. 19-5), the mean w where no rule fires.
   double numerator[W], denominator[W];
@@ -153,8 +153,8 @@ template <int W>
   for (int rule = 0; rule < level.rule_count; ++rule) {
     const FuzzyLevelConstants::Rule& f = level.rules[rule];
     IMM_LANES {
-      const double u = (out.antecedent[l] - f.c1) * f.inverse_sigma1;
-      const double v = (out.antecedent[l] - previous[l] - f.c2) * f.inverse_sigma2;
+      const double u = (antecedent[l] - f.c1) * f.inverse_sigma1;
+      const double v = (antecedent[l] - previous[l] - f.c2) * f.inverse_sigma2;
       const double firing = lane_exp(-0.5 * (u * u + v * v));
       numerator[l] += f.w * firing;
       denominator[l] += firing;
@@ -173,22 +173,24 @@ template <int W>
     const double C00 = q00[l] - k0 * q00[l], C01 = q01[l] - k0 * q01[l];
     const double C10 = q01[l] - k1 * q00[l], C11 = q11[l] - k1 * q01[l];
     const double kr0 = k0 * a.R, kr1 = k1 * a.R;
-    out.x0[l] = a0[l] + k0 * residual[l];
-    out.x1[l] = m1[l] + k1 * residual[l];
-    out.p00[l] = C00 - C00 * k0 + kr0 * k0;
+    const double x0 = a0[l] + k0 * residual[l];
+    const double x1 = m1[l] + k1 * residual[l];
+    const double p00 = C00 - C00 * k0 + kr0 * k0;
     const double u01 = C01 - C00 * k1 + kr0 * k1;
     const double u10 = C10 - C10 * k0 + kr1 * k0;
-    out.p01[l] = 0.5 * (u01 + u10);
-    out.p11[l] = C11 - C10 * k1 + kr1 * k1;
+    const double p01 = 0.5 * (u01 + u10);
+    const double p11 = C11 - C10 * k1 + kr1 * k1;
+    next.x0[j][l] = x0;
+    next.x1[j][l] = x1;
+    next.p00[j][l] = p00;
+    next.p01[j][l] = p01;
+    next.p11[j][l] = p11;
     out.exponent[l] = -0.5 * (residual[l] * (S_inverse * residual[l]));
     out.s[l] = S;
     out.s_inverse[l] = S_inverse;
     out.usable[l] = pick((S > 0.0) & (S < std::numeric_limits<double>::infinity()), 1.0, 0.0);
-    out.finite[l] = pick(std::isfinite(out.x0[l] + out.x1[l] + out.p00[l] + out.p01[l] +
-                                       out.p11[l] + out.exponent[l]),
-                         1.0, 0.0);
+    out.finite[l] = pick(std::isfinite(x0 + x1 + p00 + p01 + p11 + out.exponent[l]), 1.0, 0.0);
   }
 }
 
 }  // namespace imm::lanes
-#undef IMM_LANES

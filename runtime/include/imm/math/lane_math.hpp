@@ -14,6 +14,25 @@
 #include <cstdint>
 #include <limits>
 
+/// On a function of lane loops: AVX2 chosen at run time where GCC can (ifunc on x86-64 Linux),
+/// SSE2 otherwise. Only "avx2": it does not enable FMA contraction, so every instruction set
+/// computes the same bits.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define IMM_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define IMM_AVX2_CLONES
+#endif
+
+/// A loop over the W lanes of a block, index l: one vector operation per statement. `omp simd`
+/// keeps the compiler from unrolling the iterations into scalar code before it vectorizes them;
+/// it is there with OpenMP (the trainer) or in a source built with -fopenmp-simd and
+/// IMM_OPENMP_SIMD.
+#if defined(_OPENMP) || defined(IMM_OPENMP_SIMD)
+#define IMM_LANES _Pragma("omp simd") for (int l = 0; l < W; ++l)
+#else
+#define IMM_LANES for (int l = 0; l < W; ++l)
+#endif
+
 namespace imm {
 
 /// `use` ? a : b by bit masks: a select the vectorizer keeps as one (a `?:` on a stored value

@@ -12,13 +12,7 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/math/lane_math.hpp"
 
-// Run-time choice of AVX2 for the membership loop (GCC on x86-64 Linux). Only "avx2": it does not
-// enable FMA contraction, so every instruction set computes the same bits.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define IMM_FCM_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define IMM_FCM_CLONES
-#endif
+// The membership loop takes AVX2 where the CPU has it (IMM_AVX2_CLONES, lane_math.hpp).
 
 namespace imm {
 namespace {
@@ -135,9 +129,9 @@ constexpr std::size_t kUpdateBlock = 64;
 // (AVX2 where the CPU has it). Unusable: a point on a center (0/0), and for m = 4 a ratio below
 // the cube root's guess (kSmallestGuessedRatio); memberships_into redoes them.
 template <int M>
-IMM_FCM_CLONES int update_block(const double* __restrict data, std::size_t count, double v0,
-                                double v1, double v2, double* __restrict memberships,
-                                double* __restrict change) {
+IMM_AVX2_CLONES int update_block(const double* __restrict data, std::size_t count, double v0,
+                                 double v1, double v2, double* __restrict memberships,
+                                 double* __restrict change) {
   int unusable = 0;
   for (std::size_t k = 0; k < count; ++k) {
     const double a = (data[k] - v0) * (data[k] - v0);

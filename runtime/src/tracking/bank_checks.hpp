@@ -1,0 +1,53 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+// The argument checks every multi-track bank makes (TrackBank, GaFuzzyTrackBank), with one
+// wording. Not installed.
+
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "imm/core/invalid_parameter.hpp"
+
+namespace imm::bank {
+
+/// The most tracks a bank holds.
+inline constexpr std::size_t kMaxCapacity = std::size_t{1} << 26U;
+
+/// InvalidParameter("capacity") unless 1 ≤ capacity ≤ kMaxCapacity.
+inline void require_capacity(std::size_t capacity) {
+  if (capacity < 1 || capacity > kMaxCapacity) {
+    throw InvalidParameter("capacity", "must be in [1, " + std::to_string(kMaxCapacity) +
+                                           "] tracks, got " + std::to_string(capacity));
+  }
+}
+
+/// `track`, or std::out_of_range when it is not below `capacity`.
+inline std::size_t checked_track(std::size_t track, std::size_t capacity) {
+  if (track >= capacity) {
+    throw std::out_of_range("track " + std::to_string(track) + " outside a bank of " +
+                            std::to_string(capacity));
+  }
+  return track;
+}
+
+/// Before `bank`'s step of plots.size() tracks: std::invalid_argument when the spans differ or
+/// exceed the capacity, std::logic_error naming the first stepped track never initialized.
+inline void check_step(std::string_view bank, std::size_t plots, std::size_t statuses,
+                       const std::vector<unsigned char>& initialized) {
+  if (plots != statuses || plots > initialized.size()) {
+    throw std::invalid_argument(std::string(bank) + "::step: " + std::to_string(plots) +
+                                " plots and " + std::to_string(statuses) +
+                                " statuses for a bank of " + std::to_string(initialized.size()));
+  }
+  for (std::size_t t = 0; t < plots; ++t) {
+    if (initialized[t] == 0) {
+      throw std::logic_error(std::string(bank) + "::step: track " + std::to_string(t) +
+                             " was never initialized");
+    }
+  }
+}
+
+}  // namespace imm::bank
