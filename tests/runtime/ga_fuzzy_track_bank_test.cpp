@@ -16,29 +16,16 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
+#include "testing/ga_fuzzy_specs.hpp"
 
 namespace imm {
 namespace {
 
-// A spec of `levels` random tables of 1 … 6 rules around the scale of a 1 km plot σ.
-GaFuzzyImmSpec random_spec(std::mt19937_64& rng, int levels, FuzzyAntecedents antecedents) {
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  GaFuzzyImmSpec spec;
-  spec.settings.sample_period = 0.5 + 2.0 * unit(rng);
-  spec.settings.measurement_sigma = 0.2 + unit(rng);
-  spec.settings.transition_stay = 0.8 + 0.19 * unit(rng);
-  spec.antecedents = antecedents;
-  for (int level = 0; level < levels; ++level) {
-    std::vector<FuzzyRule> rules;
-    const int count = 1 + static_cast<int>(unit(rng) * 6.0);
-    for (int r = 0; r < count; ++r) {
-      rules.push_back({-2.0 + 4.0 * unit(rng), 0.2 + 2.0 * unit(rng), -2.0 + 4.0 * unit(rng),
-                       0.2 + 2.0 * unit(rng), std::pow(10.0, -6.0 + 5.0 * unit(rng))});
-    }
-    std::string name = "u";
-    name += std::to_string(level);
-    spec.levels.push_back({name, 0.01 * (level + 1), FuzzyRuleTable(rules)});
-  }
+// A random spec (testing/ga_fuzzy_specs.hpp) at a random sample period and plot σ.
+GaFuzzyImmSpec random_spec(datasets::Rng& rng, int levels, FuzzyAntecedents antecedents) {
+  GaFuzzyImmSpec spec = testing::random_ga_fuzzy_spec(rng, levels, antecedents);
+  spec.settings.sample_period = rng.uniform(0.5, 2.5);
+  spec.settings.measurement_sigma = rng.uniform(0.2, 1.2);
   return spec;
 }
 
@@ -69,12 +56,13 @@ void expect_close(double value, double reference, const std::string& what) {
 }
 
 TEST(GaFuzzyTrackBank, EqualsTheOneTrackFilterToRounding) {
+  datasets::Rng specs(26112026);
   std::mt19937_64 rng(26112026);
   int refused = 0;
   for (int trial = 0; trial < 8; ++trial) {
     const auto antecedents =
         trial % 2 == 0 ? FuzzyAntecedents::kResidual : FuzzyAntecedents::kNormalizedInnovation;
-    const GaFuzzyImmSpec spec = random_spec(rng, 1 + trial % 4, antecedents);
+    const GaFuzzyImmSpec spec = random_spec(specs, 1 + trial % 4, antecedents);
     constexpr int kTracks = 13;  // three whole blocks of four tracks and one track more
     GaFuzzyTrackBank bank(spec, kTracks);
     std::vector<std::unique_ptr<TwoAxisFilter>> single;
@@ -117,8 +105,9 @@ TEST(GaFuzzyTrackBank, EqualsTheOneTrackFilterToRounding) {
 }
 
 TEST(GaFuzzyTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
+  datasets::Rng specs(7);
   std::mt19937_64 rng(7);
-  const GaFuzzyImmSpec spec = random_spec(rng, 3, FuzzyAntecedents::kNormalizedInnovation);
+  const GaFuzzyImmSpec spec = random_spec(specs, 3, FuzzyAntecedents::kNormalizedInnovation);
   constexpr int kTracks = 11;
   GaFuzzyTrackBank bank(spec, kTracks);
   std::vector<GaFuzzyTrackBank> alone;
@@ -145,8 +134,8 @@ TEST(GaFuzzyTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
 }
 
 TEST(GaFuzzyTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTracksUntouched) {
-  std::mt19937_64 rng(11);
-  const GaFuzzyImmSpec spec = random_spec(rng, 2, FuzzyAntecedents::kResidual);
+  datasets::Rng specs(11);
+  const GaFuzzyImmSpec spec = random_spec(specs, 2, FuzzyAntecedents::kResidual);
   GaFuzzyTrackBank bank(spec, 6);
   for (std::size_t t = 0; t < 6; ++t) bank.initialize(t, start_of(static_cast<int>(t)));
   std::vector<Eigen::Vector2d> plots{{10.2, -4.1}, {11.0, -3.4}, {12.1, -3.1}};
@@ -176,14 +165,14 @@ std::string refused_field(const GaFuzzyImmSpec& spec, std::size_t capacity) {
 }
 
 TEST(GaFuzzyTrackBank, RefusesWhatItCannotRun) {
-  std::mt19937_64 rng(3);
-  GaFuzzyImmSpec spec = random_spec(rng, 2, FuzzyAntecedents::kResidual);
+  datasets::Rng specs(3);
+  GaFuzzyImmSpec spec = random_spec(specs, 2, FuzzyAntecedents::kResidual);
   EXPECT_EQ(refused_field(spec, 0), "capacity");
   spec.settings.transition_stay = 1.0;  // zero transitions: a mode could become unreachable
   EXPECT_EQ(refused_field(spec, 4), "settings.transition_stay");
   spec.levels.clear();
   EXPECT_EQ(refused_field(spec, 4), "levels");
-  spec = random_spec(rng, 1, FuzzyAntecedents::kResidual);
+  spec = random_spec(specs, 1, FuzzyAntecedents::kResidual);
   spec.settings.transition_stay = 1.0;  // one level: [[1]] is fine
   GaFuzzyTrackBank bank(spec, 3);
   std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(1.0, 2.0));

@@ -12,6 +12,7 @@
 #include "imm/datasets/random.hpp"
 #include "imm/trainer/ga/fuzzy_table_problem.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
+#include "testing/ga_fuzzy_specs.hpp"
 #include "testing/ga_training_sets.hpp"
 
 namespace imm::trainer::ga {
@@ -20,31 +21,7 @@ namespace {
 // 3 tracks of 80 scans: 6 one-axis trajectories, so the block of eight has two empty lanes.
 TrainingSet training_set() { return testing::ga_training_set(80, 3, 1); }
 
-FuzzyRuleTable random_table(datasets::Rng& rng, int rules, double scale) {
-  std::vector<FuzzyRule> table;
-  table.reserve(static_cast<std::size_t>(rules));
-  for (int l = 0; l < rules; ++l) {
-    table.push_back({rng.uniform(-scale, scale), rng.uniform(0.05, 2.0) * scale,
-                     rng.uniform(-scale, scale), rng.uniform(0.05, 2.0) * scale,
-                     std::pow(10.0, rng.uniform(-9.0, -2.0))});
-  }
-  return FuzzyRuleTable(std::move(table));
-}
-
-GaFuzzyImmSpec random_spec(datasets::Rng& rng, int levels, FuzzyAntecedents antecedents) {
-  GaFuzzyImmSpec spec;
-  spec.settings.sample_period = 1.0;
-  spec.settings.measurement_sigma = 0.5;
-  spec.settings.transition_stay = rng.uniform(0.8, 0.99);
-  spec.settings.initial_first_probability = rng.uniform(0.2, 0.9);
-  spec.antecedents = antecedents;
-  const double scale = antecedents == FuzzyAntecedents::kResidual ? 0.5 : 1.5;
-  for (int i = 0; i < levels; ++i) {
-    spec.levels.push_back({std::string("level ").append(std::to_string(i)), 0.01,
-                           random_table(rng, 1 + static_cast<int>(rng.below(6)), scale)});
-  }
-  return spec;
-}
+using testing::random_ga_fuzzy_spec;
 
 void expect_same_figures(const Evaluation& batch, const Evaluation& runtime, double tolerance) {
   EXPECT_NEAR(batch.position_error, runtime.position_error,
@@ -91,7 +68,7 @@ TEST(ImmFitnessBatch, EqualsTheRuntimeImmOnEveryTrajectoryToRounding) {
   for (int trial = 0; trial < 24; ++trial) {
     const auto antecedents =
         trial % 2 == 0 ? FuzzyAntecedents::kResidual : FuzzyAntecedents::kNormalizedInnovation;
-    const GaFuzzyImmSpec spec = random_spec(rng, 1 + trial % 5, antecedents);
+    const GaFuzzyImmSpec spec = random_ga_fuzzy_spec(rng, 1 + trial % 5, antecedents);
     ASSERT_TRUE(ImmFitnessBatch::supports(spec));
     for (const ErrorKind kind : {ErrorKind::kEquation17, ErrorKind::kZeta}) {
       ProblemOptions options;
@@ -112,7 +89,7 @@ TEST(ImmFitnessBatch, AFailedStepFailsTheRunLikeTheRuntimeFilter) {
   TrainingSet set = training_set();
   set.trajectories[2].measurement(30) = std::numeric_limits<double>::quiet_NaN();
   datasets::Rng rng(9);
-  const GaFuzzyImmSpec spec = random_spec(rng, 3, FuzzyAntecedents::kResidual);
+  const GaFuzzyImmSpec spec = random_ga_fuzzy_spec(rng, 3, FuzzyAntecedents::kResidual);
   ProblemOptions options;
   EXPECT_FALSE(std::isfinite(evaluate_imm(spec, set, options, 1).error));
   EXPECT_TRUE(ImmFitnessBatch(set).run(spec).failed);
@@ -136,7 +113,7 @@ TEST(ImmFitnessBatch, TheGaItDrivesKeepsTheRuntimePathsGenomes) {
   const TrainingSet set = training_set();
   datasets::Rng rng(3);
   ImmContext context;
-  const GaFuzzyImmSpec spec = random_spec(rng, 3, FuzzyAntecedents::kNormalizedInnovation);
+  const GaFuzzyImmSpec spec = random_ga_fuzzy_spec(rng, 3, FuzzyAntecedents::kNormalizedInnovation);
   context.settings = spec.settings;
   context.levels = spec.levels;
   context.slot = 1;
