@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/datasets/dataset_file.hpp"
 
+#include <cmath>
+#include <limits>
+
 #include "imm/io/model_file.hpp"
 #include "imm/io/schema_reader.hpp"
 
@@ -13,9 +16,9 @@ constexpr std::string_view kDatasetKind = "tracks";
 
 void write_dataset_root(io::ContainerWriter& writer, std::string_view kind, std::uint64_t seed,
                         const std::string& config_toml, const std::string& generator_version,
-                        const std::string& digest) {
+                        const std::string& digest, int schema_version) {
   writer.set_attribute("/", "format", std::string(kDatasetFormat));
-  writer.set_attribute("/", "schema_version", std::int64_t{kDatasetSchemaVersion});
+  writer.set_attribute("/", "schema_version", std::int64_t{schema_version});
   writer.set_attribute("/", "dataset_kind", std::string(kind));
   writer.set_attribute("/", "seed", static_cast<std::int64_t>(seed));
   writer.set_attribute("/", "created_utc", io::utc_now());
@@ -26,7 +29,7 @@ void write_dataset_root(io::ContainerWriter& writer, std::string_view kind, std:
 
 void check_dataset_header(const io::SchemaReader& reader, std::string_view kind) {
   const std::int64_t version = reader.integer("/", "schema_version", 1, INT64_MAX);
-  if (version < kDatasetSchemaVersion) {
+  if (version < kDrawnDatasetSchemaVersion) {
     reader.fail("/@schema_version", "schema version " + std::to_string(version) +
                                         " data sets (scenario-based) are not read any more; "
                                         "regenerate the file with imm-data");
@@ -70,9 +73,13 @@ std::vector<Eigen::MatrixXd> unstack_runs(const io::Array& array) {
 std::string write_track_set(const std::filesystem::path& path, const Regime& regime,
                             const TrackSet& set, const std::string& generator_version) {
   if (set.tracks.empty()) throw io::FileError(path.string(), "/truth", "no tracks to write");
+  if (!set.has_truth && !set.recorded) {
+    throw io::FileError(path.string(), "/truth", "a drawn set always has its truth");
+  }
   std::string data_digest = set.digest();
   io::ContainerWriter writer(path, kDatasetFormat);
-  write_dataset_root(writer, kDatasetKind, set.seed, regime.text, generator_version, data_digest);
+  write_dataset_root(writer, kDatasetKind, set.seed, regime.text, generator_version, data_digest,
+                     set.recorded ? kDatasetSchemaVersion : kDrawnDatasetSchemaVersion);
   std::vector<Eigen::MatrixXd> truth, plots;
   Eigen::MatrixXd cases(static_cast<Eigen::Index>(set.tracks.size()), 4);
   std::vector<Eigen::MatrixXd> maneuvering;
@@ -88,8 +95,22 @@ std::string write_track_set(const std::filesystem::path& path, const Regime& reg
     }
     maneuvering.push_back(std::move(flags));
   }
-  writer.write("/truth", stack_runs(truth));
-  writer.set_attribute("/truth", "columns", std::string("x,vx,ax,y,vy,ay"));
+  if (set.has_truth) {
+    writer.write("/truth", stack_runs(truth));
+    writer.set_attribute("/truth", "columns", std::string("x,vx,ax,y,vy,ay"));
+  }
+  if (set.recorded) {
+    Eigen::MatrixXd recording(static_cast<Eigen::Index>(set.tracks.size()), 1);
+    for (std::size_t i = 0; i < set.tracks.size(); ++i) {
+      recording(static_cast<Eigen::Index>(i), 0) = set.recording.at(i);
+    }
+    writer.write("/recordings", recording);
+    std::string names;
+    for (const std::string& name : set.recording_names) names += name + '\n';
+    writer.set_attribute("/parameters", "recording_names", names);
+    writer.set_attribute("/parameters", "recorded", std::int64_t{1});
+    writer.set_attribute("/parameters", "has_truth", std::int64_t{set.has_truth ? 1 : 0});
+  }
   writer.write("/plots", stack_runs(plots));
   writer.set_attribute("/plots", "columns",
                        std::string(regime.sensor.kind == SensorKind::kPolar       ? "range,azimuth"
@@ -132,8 +153,38 @@ TrackSetFile read_track_set(const std::filesystem::path& path) {
   set.scans = static_cast<int>(reader.integer("/parameters", "scans", 3, 1'000'000));
   const long tracks = reader.integer("/parameters", "tracks", 1, 1'000'000);
   const long scans = set.scans;
-  const auto truth = unstack_runs(reader.array("/truth", {tracks, scans, 6}));
-  const auto plots = unstack_runs(reader.array("/plots", {tracks, scans, 2}));
+  result.units = reader.text("/parameters", "units");
+  result.sensor = reader.text("/parameters", "sensor");
+  const bool recorded = reader.container().attribute("/parameters", "recorded").has_value();
+  // A recording's gaps are NaN plots (and NaN truth); a drawn set has no gap.
+  const io::ValueRule values = recorded ? io::ValueRule::kFiniteOrMissing : io::ValueRule::kFinite;
+  if (recorded) {
+    set.recorded = true;
+    set.has_truth = reader.integer("/parameters", "has_truth", 0, 1) == 1;
+    const std::string names = reader.text("/parameters", "recording_names");
+    for (std::size_t from = 0; from < names.size();) {
+      const std::size_t end = names.find('\n', from);
+      if (end == std::string::npos) reader.fail("/parameters@recording_names", "not newline-ended");
+      set.recording_names.push_back(names.substr(from, end - from));
+      from = end + 1;
+    }
+    const long count = static_cast<long>(set.recording_names.size());
+    const Eigen::MatrixXd recording = reader.matrix("/recordings", static_cast<int>(tracks), 1);
+    for (long i = 0; i < tracks; ++i) {
+      const double r = recording(i, 0);
+      if (!(r >= 0.0 && r < static_cast<double>(count) && r == std::floor(r))) {
+        reader.fail("/recordings", "entry " + std::to_string(i) + " names no recording");
+      }
+      set.recording.push_back(static_cast<int>(r));
+    }
+  }
+  const auto truth =
+      set.has_truth
+          ? unstack_runs(reader.array("/truth", {tracks, scans, 6}, values))
+          : std::vector<Eigen::MatrixXd>(
+                static_cast<std::size_t>(tracks),
+                Eigen::MatrixXd::Constant(scans, 6, std::numeric_limits<double>::quiet_NaN()));
+  const auto plots = unstack_runs(reader.array("/plots", {tracks, scans, 2}, values));
   const auto flags = unstack_runs(reader.array("/maneuvering", {tracks, scans, 1}));
   const Eigen::MatrixXd cases = reader.matrix("/cases", static_cast<int>(tracks), 4);
   for (long i = 0; i < tracks; ++i) {

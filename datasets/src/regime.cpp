@@ -11,6 +11,7 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
+#include "imm/datasets/recorded.hpp"
 #include "imm/datasets/sampled_sensor.hpp"
 
 namespace imm::datasets {
@@ -119,6 +120,18 @@ const SensorNoise& Regime::noise_of(int case_index) const {
   return c.noise ? *c.noise : sensor.noise;
 }
 
+namespace {
+
+void validate_splits(const Splits& splits) {
+  require(splits.training >= 1 && splits.training <= 1'000'000, "splits.training",
+          "must be in [1, 10⁶]");
+  require(splits.validation >= 1 && splits.validation <= 1'000'000, "splits.validation",
+          "must be in [1, 10⁶]");
+  require(splits.test >= 1 && splits.test <= 1'000'000, "splits.test", "must be in [1, 10⁶]");
+}
+
+}  // namespace
+
 double Regime::max_speed() const {
   double speed = start.fixed ? start.velocity.norm() : start.speed.max;
   for (const auto& c : cases) {
@@ -189,8 +202,12 @@ std::pair<double, double> acceleration_range(const Regime& r) {
 
 }  // namespace
 
-double Regime::max_acceleration() const { return acceleration_range(*this).first; }
-double Regime::min_acceleration() const { return acceleration_range(*this).second; }
+double Regime::max_acceleration() const {
+  return recorded ? recorded->max_acceleration : acceleration_range(*this).first;
+}
+double Regime::min_acceleration() const {
+  return recorded ? recorded->min_acceleration : acceleration_range(*this).second;
+}
 
 double Regime::position_sigma() const {
   double sigma = 0.0;
@@ -198,6 +215,7 @@ double Regime::position_sigma() const {
     const SensorNoise& n = noise_of(c);
     if (sensor.kind == SensorKind::kPolar) {
       double range = start.fixed ? (start.position - sensor.position).norm() : start.range.max;
+      if (recorded) range = recorded_max_range(*recorded->set);
       sigma = std::max({sigma, n.sigma(0), n.sigma(1) * range});
     } else {
       sigma = std::max({sigma, n.sigma(0), n.sigma(1)});
@@ -212,6 +230,10 @@ void Regime::validate() const {
   require(scans >= 3 && scans <= 1'000'000, "scans", "must be in [3, 10⁶]");
   limits::require_in(process_noise_sigma, limits::kAcceleration, "process_noise_sigma");
   check_noise(sensor.kind, sensor.noise, "sensor.");
+  if (recorded) {  // no generator: the splits are the only other keys
+    validate_splits(splits);
+    return;
+  }
   for (Eigen::Index i = 0; i < 2; ++i) {
     limits::require_magnitude(sensor.position(i), limits::kDistance, "sensor.position");
   }
@@ -313,11 +335,7 @@ void Regime::validate() const {
       }
     }
   }
-  require(splits.training >= 1 && splits.training <= 1'000'000, "splits.training",
-          "must be in [1, 10⁶]");
-  require(splits.validation >= 1 && splits.validation <= 1'000'000, "splits.validation",
-          "must be in [1, 10⁶]");
-  require(splits.test >= 1 && splits.test <= 1'000'000, "splits.test", "must be in [1, 10⁶]");
+  validate_splits(splits);
 }
 
 std::uint64_t track_seed(const Regime& regime, Split split, int index, std::uint64_t test_seed) {
@@ -334,6 +352,7 @@ std::uint64_t track_seed(const Regime& regime, Split split, int index, std::uint
 }
 
 int split_size(const Regime& regime, Split split) {
+  if (regime.recorded) return recorded_split_size(regime, split);
   switch (split) {
     case Split::kTraining:
       return regime.splits.training;

@@ -5,8 +5,12 @@
 #include <numbers>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
+#include "imm/datasets/dataset_file.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
+#include "imm/datasets/recorded.hpp"
 #include "imm/datasets/sampled_sensor.hpp"
+#include "imm/datasets/sensor_estimate.hpp"
 #include "imm/datasets/sha256.hpp"
 
 namespace imm::datasets {
@@ -95,6 +99,10 @@ std::optional<datasets::SensorNoise> noise_from(const ConfigTable& table, Sensor
       any = true;
     }
   } else {
+    if (table.has("sigma") && !table.is_array("sigma") && table.text("sigma") == "estimate") {
+      noise.sigma.setConstant(std::numeric_limits<double>::quiet_NaN());
+      return noise;  // learned from a recorded regime's plots (sensor_from checks where)
+    }
     if (table.has("sigma")) noise.sigma = table.reals("sigma", 2), any = true;
     if (table.has("correlation")) noise.correlation = table.real("correlation"), any = true;
   }
@@ -113,6 +121,10 @@ datasets::Sensor sensor_from(const ConfigTable& table) {
                "the sensor's plot noise is missing");
   }
   sensor.noise = *noise;
+  sensor.estimate_sigma = std::isnan(sensor.noise.sigma(0));
+  if (sensor.estimate_sigma && sensor.kind != SensorKind::kCartesian) {
+    table.fail("sigma", "\"estimate\" is for a Cartesian sensor's plots");
+  }
   if (sensor.kind == SensorKind::kPolar) {
     if (table.has("position")) sensor.position = table.reals("position", 2);
     return sensor;
@@ -219,24 +231,56 @@ datasets::ScriptedSegment segment_from(const ConfigTable& table) {
   return s;
 }
 
+Units units_from(const ConfigTable& root) {
+  const std::string units = root.text("units");
+  if (units == "m") return datasets::Units::kMetres;
+  if (units == "km") return datasets::Units::kKilometres;
+  root.fail("units", "unknown units '" + units + "' (expected m or km)");
+}
+
+void published_from(const ConfigTable& root, RegimeFile& file) {
+  for (const ConfigTable& table : root.tables("published")) {
+    PublishedFigure figure;
+    figure.source = table.text("source");
+    figure.filter = table.text("filter");
+    figure.case_name = table.text_or("case", "");
+    for (const std::string& key : table.keys()) {
+      if (key == "source" || key == "filter" || key == "case") continue;
+      figure.metric = key;
+      figure.value = table.real(key);
+      file.published.push_back(figure);
+    }
+  }
+}
+
+/// The text, the digest (of the text, the sensor's samples and the recorded set) and validation.
+void finish(datasets::Regime& r, const std::string& text) {
+  r.text = text;
+  datasets::Sha256 hash;
+  hash.update(text);
+  hash.update(r.sensor.samples_digest);
+  if (r.recorded) hash.update(r.recorded->digest);
+  r.digest = hash.hex_digest();
+  r.validate();
+}
+
+RegimeFile recorded_regime_from(const ConfigTable& root, const ConfigTable& table,
+                                const std::string& text);
+
 RegimeFile regime_from(const ConfigTable& root, const std::string& text) {
+  if (const auto recorded = root.table("recorded"))
+    return recorded_regime_from(root, *recorded, text);
   RegimeFile file;
   datasets::Regime& r = file.regime;
   r.name = root.text("name");
-  const std::string units = root.text("units");
-  if (units == "m") {
-    r.units = datasets::Units::kMetres;
-  } else if (units == "km") {
-    r.units = datasets::Units::kKilometres;
-  } else {
-    root.fail("units", "unknown units '" + units + "' (expected m or km)");
-  }
+  r.units = units_from(root);
   r.sample_period = root.real("sample_period");
   r.scans = root.count("scans");
   r.process_noise_sigma = root.real_or("process_noise_sigma", 0.0);
   const auto sensor = root.table("sensor");
   if (!sensor) root.fail("sensor", "missing");
   r.sensor = sensor_from(*sensor);
+  if (r.sensor.estimate_sigma) sensor->fail("sigma", "\"estimate\" needs a [recorded] regime");
   if (const auto start = root.table("start")) {
     r.start = start_from(*start);
   } else if (!root.has("cases")) {
@@ -270,24 +314,90 @@ RegimeFile regime_from(const ConfigTable& root, const std::string& text) {
     r.splits.test = splits->count_or("test", r.splits.test);
     r.splits.seed = splits->seed_or("seed", r.splits.seed);
   }
-  for (const ConfigTable& table : root.tables("published")) {
-    PublishedFigure figure;
-    figure.source = table.text("source");
-    figure.filter = table.text("filter");
-    figure.case_name = table.text_or("case", "");
-    for (const std::string& key : table.keys()) {
-      if (key == "source" || key == "filter" || key == "case") continue;
-      figure.metric = key;
-      figure.value = table.real(key);
-      file.published.push_back(figure);
-    }
+  published_from(root, file);
+  finish(r, text);
+  return file;
+}
+
+RegimeFile recorded_regime_from(const ConfigTable& root, const ConfigTable& table,
+                                const std::string& text) {
+  for (const char* key : {"start", "maneuvers", "cases", "process_noise_sigma"}) {
+    if (root.has(key)) root.fail(key, "a recorded regime's tracks come from [recorded].set");
   }
-  r.text = text;
-  datasets::Sha256 hash;
-  hash.update(text);
-  hash.update(r.sensor.samples_digest);
-  r.digest = hash.hex_digest();
-  r.validate();
+  RegimeFile file;
+  datasets::Regime& r = file.regime;
+  r.name = root.text("name");
+  r.units = units_from(root);
+  auto recorded = std::make_shared<Recorded>();
+  recorded->file = table.text("set");
+  TrackSetFile set;
+  try {
+    set = read_track_set(recorded->file);
+  } catch (const std::exception& error) {
+    table.fail("set", error.what());
+  }
+  if (!set.set.recorded) {
+    table.fail("set", "'" + recorded->file + "' holds drawn tracks, not imported recordings");
+  }
+  if (set.units != to_string(r.units)) {
+    root.fail("units", "the recorded set '" + recorded->file + "' is in " + set.units);
+  }
+  r.sample_period = root.real_or("sample_period", set.set.sample_period);
+  if (std::abs(r.sample_period - set.set.sample_period) > 1e-9 * set.set.sample_period) {
+    root.fail("sample_period",
+              "the recorded set was imported at " + std::to_string(set.set.sample_period) + " s");
+  }
+  r.scans = root.count_or("scans", set.set.scans);
+  if (r.scans != set.set.scans) {
+    root.fail("scans", "the recorded set's windows have " + std::to_string(set.set.scans));
+  }
+  const auto sensor = root.table("sensor");
+  if (!sensor) root.fail("sensor", "missing");
+  r.sensor = sensor_from(*sensor);
+  if (set.sensor != to_string(r.sensor.kind)) {
+    sensor->fail("kind", "the recorded set's plots are " + set.sensor);
+  }
+  const std::string truth = table.text_or("truth", "evaluation");
+  if (truth != "evaluation" && truth != "training") {
+    table.fail("truth", "unknown use '" + truth + "' (expected evaluation or training)");
+  }
+  recorded->truth_for_training = truth == "training";
+  if (recorded->truth_for_training && !set.set.has_truth) {
+    table.fail("truth", "the recorded set has no truth to train on");
+  }
+  if (table.has("acceleration")) {
+    const Eigen::VectorXd a = table.reals("acceleration", 2);
+    if (!(a(0) > 0.0 && a(1) >= a(0) && a(1) <= limits::kAcceleration.max)) {
+      table.fail("acceleration", "must be [smallest, largest] with 0 < smallest ≤ largest ≤ " +
+                                     std::to_string(limits::kAcceleration.max));
+    }
+    recorded->min_acceleration = a(0);
+    recorded->max_acceleration = a(1);
+  }
+  recorded->digest = set.digest;
+  const int recordings = static_cast<int>(set.set.recording_names.size());
+  // Default splits: 60 % of the recordings for training, 20 % for validation, the rest for test.
+  r.splits.training = std::max(1, (3 * recordings) / 5);
+  r.splits.validation = std::max(1, recordings / 5);
+  r.splits.test = std::max(1, recordings - r.splits.training - r.splits.validation);
+  if (const auto splits = root.table("splits")) {
+    r.splits.training = splits->count_or("training", r.splits.training);
+    r.splits.validation = splits->count_or("validation", r.splits.validation);
+    r.splits.test = splits->count_or("test", r.splits.test);
+    r.splits.seed = splits->seed_or("seed", r.splits.seed);
+  }
+  if (r.splits.training + r.splits.validation + r.splits.test > recordings) {
+    root.fail("splits",
+              "training + validation + test = " +
+                  std::to_string(r.splits.training + r.splits.validation + r.splits.test) +
+                  " recordings; the set has " + std::to_string(recordings));
+  }
+  recorded->set = std::make_shared<const TrackSet>(std::move(set.set));
+  assign_recorded_splits(*recorded, r.splits);
+  r.recorded = recorded;
+  published_from(root, file);
+  if (r.sensor.estimate_sigma) r.sensor.noise.sigma.setConstant(estimate_plot_sigma(r));
+  finish(r, text);
   return file;
 }
 

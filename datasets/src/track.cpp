@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "imm/datasets/random.hpp"
+#include "imm/datasets/recorded.hpp"
 #include "imm/datasets/sha256.hpp"
 #include "imm/math/angle.hpp"
 #include "imm/models/measurement/polar_measurement.hpp"
@@ -235,6 +236,7 @@ Program random_program(const Regime& regime, Rng& rng) {
 }  // namespace
 
 Track draw_track(const Regime& regime, Split split, int index, std::uint64_t seed) {
+  if (regime.recorded) return recorded_track(regime, split, index);
   const double T = regime.sample_period;
   const int n = regime.scans;
   Track track;
@@ -307,6 +309,7 @@ Track draw_track(const Regime& regime, Split split, int index, std::uint64_t see
 }
 
 TrackSet draw_split(const Regime& regime, Split split, std::uint64_t seed, int count) {
+  if (regime.recorded) return recorded_split(regime, split, count);
   TrackSet set;
   set.regime = regime.name;
   set.split = split;
@@ -341,6 +344,10 @@ std::string TrackSet::digest() const {
   for (const Track& track : tracks) {
     hash_matrix(hash, track.truth);
     hash_matrix(hash, track.plots);
+  }
+  if (recorded) {  // which windows share a recording decides the splits
+    for (const int r : recording) hash.update(&r, sizeof r);
+    for (const std::string& name : recording_names) hash.update(name + '\n');
   }
   return hash.hex_digest();
 }

@@ -55,8 +55,36 @@ std::optional<std::int64_t> parse_integer(std::string_view field) {
 CsvReader::CsvReader(std::istream& in, std::string name, bool directives)
     : in_(in), name_(std::move(name)), directives_(directives) {}
 
+bool CsvReader::read_line() {
+  // std::getline would grow the buffer to whatever a line holds (a hostile file's 2 GB line);
+  // chunks of at most kMaxLineBytes are read instead.
+  buffer_.clear();
+  char chunk[4096];
+  for (;;) {
+    in_.getline(chunk, sizeof chunk);
+    const auto got = static_cast<std::size_t>(in_.gcount());
+    const bool full = in_.fail() && !in_.eof() && got == sizeof chunk - 1;
+    // Stored characters: all of a full chunk, all at the end of the file, else all but the
+    // newline that getline counted (a NUL byte is kept and then refused as a field's text).
+    const std::size_t stored = full || in_.eof() ? got : got - 1;
+    buffer_.append(chunk, stored);
+    if (buffer_.size() > kMaxLineBytes) {
+      ++number_;
+      fail("the line is longer than " + std::to_string(kMaxLineBytes) + " bytes");
+    }
+    if (full) {
+      in_.clear();  // the line goes on
+      continue;
+    }
+    if (in_.eof() && got == 0 && buffer_.empty()) return false;  // the end
+    if (in_.bad()) fail("read error");
+    in_.clear(in_.rdstate() & std::ios::eofbit);
+    return true;
+  }
+}
+
 bool CsvReader::next(CsvLine& line) {
-  while (std::getline(in_, buffer_)) {
+  while (read_line()) {
     ++number_;
     const std::string_view text = trim(buffer_);
     if (text.empty()) continue;

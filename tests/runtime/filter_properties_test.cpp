@@ -138,8 +138,8 @@ TEST_P(TrackerProperties, CovarianceIsSymmetricPositiveDefiniteAndMatchesTheVari
 }
 
 // The innovation behind the evaluations' NIS: after every update a finite ν with a symmetric
-// positive definite S; before the track's first update none (a plot the tracker refuses never
-// reaches the filter, whose last innovation then stands).
+// positive definite S, and a finite predictive log-likelihood; before the track's first update none
+// (a plot the tracker refuses never reaches the filter, whose last innovation then stands).
 TEST_P(TrackerProperties, ReportsAnInnovationAfterEveryUpdateAndNoneOtherwise) {
   const io::ModelFileReader reader(GetParam());
   testing::KindFilter made = testing::make_kind_filter(reader);
@@ -157,9 +157,11 @@ TEST_P(TrackerProperties, ReportsAnInnovationAfterEveryUpdateAndNoneOtherwise) {
     if (result.event == TrackEvent::kRejected) continue;  // the filter was not called
     if (result.event != TrackEvent::kUpdated) {
       ASSERT_FALSE(tracker.filter().innovation(nu, S)) << to_string(result.event);
+      ASSERT_TRUE(std::isnan(tracker.filter().log_predictive_likelihood()));
       continue;
     }
     ASSERT_TRUE(tracker.filter().innovation(nu, S));
+    ASSERT_TRUE(std::isfinite(tracker.filter().log_predictive_likelihood()));
     ASSERT_TRUE(nu.allFinite() && S.allFinite());
     ASSERT_LE(std::abs(S(0, 1) - S(1, 0)), 1e-12 * S.cwiseAbs().maxCoeff());
     ASSERT_EQ(Eigen::LLT<Eigen::Matrix2d>(S).info(), Eigen::Success);

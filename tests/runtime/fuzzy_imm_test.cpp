@@ -228,7 +228,7 @@ TEST(AimmAxisFilter, TracksAConstantAccelerationWithItsCentralModel) {
 TEST(TwoAxisFilter, AxesAreIndependent) {
   AxisCvImmSpec spec;
   auto two = make_axis_cv_imm_filter(spec);
-  ImmAxisFilter x_alone(build_axis_cv_imm(spec));
+  ImmAxisFilter x_alone(build_axis_cv_imm(spec)), y_alone(build_axis_cv_imm(spec));
   Eigen::VectorXd mean(4);
   mean << 1.0, 0.1, -2.0, 0.3;
   const Eigen::MatrixXd covariance = Eigen::Vector4d(0.25, 0.5, 0.25, 0.5).asDiagonal();
@@ -237,10 +237,18 @@ TEST(TwoAxisFilter, AxesAreIndependent) {
   x0.mean = mean.head<2>();
   x0.covariance = covariance.topLeftCorner<2, 2>();
   x_alone.initialize(x0);
+  GaussianState<2> y0;
+  y0.mean = mean.tail<2>();
+  y0.covariance = covariance.bottomRightCorner<2, 2>();
+  y_alone.initialize(y0);
   for (int k = 1; k <= 30; ++k) {
     const Eigen::Vector2d z(1.0 + 0.1 * k + 0.2 * std::cos(k), -2.0 + 0.3 * k + 0.01 * k * k);
     ASSERT_EQ(two->step(z), StepStatus::kOk);
     ASSERT_EQ(x_alone.step(z(0)), StepStatus::kOk);
+    ASSERT_EQ(y_alone.step(z(1)), StepStatus::kOk);
+    // The plot's predictive density is the product of the axes'.
+    ASSERT_EQ(two->log_predictive_likelihood(),
+              x_alone.log_predictive_likelihood() + y_alone.log_predictive_likelihood());
   }
   Eigen::VectorXd m(4), v(4);
   two->state(m, v);

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <random>
 
 #include "imm/estimation/kalman_mode.hpp"
@@ -137,7 +138,59 @@ TEST(ImmEstimator, MatchesTextbookImplementationWithMixedDimensions) {
     ASSERT_TRUE(imm.innovation(nu, S));
     ASSERT_TRUE(testing::matrices_near(nu, reference.innovation(), 1e-9)) << "step " << k;
     ASSERT_TRUE(testing::matrices_near(S, reference.innovation_covariance(), 1e-9)) << "step " << k;
+    ASSERT_NEAR(imm.log_predictive_likelihood(), std::log(reference.predictive_likelihood()), 1e-9)
+        << "step " << k;
   }
+}
+
+// log p(z | Z^(k−1)) = log Σ_j c_j N(z; ẑ_j, S_j), by hand for two scalar random-walk modes
+// (x(k+1) = x(k) + w_j, z = x + v) on three plots: every number below is the textbook's formula
+// written out, with no matrix code.
+TEST(ImmEstimator, PredictiveLikelihoodOfTwoModesOnThreePlotsByHand) {
+  const double q[2] = {0.01, 1.0}, r = 0.25, stay = 0.9;
+  LinearMotionModel<1> walk;
+  walk.transition << 1.0;
+  std::vector<std::unique_ptr<ImmMode<1, 1>>> modes;
+  for (int j = 0; j < 2; ++j) {
+    walk.process_noise << q[j];
+    SquareMatrix<1> R;
+    R << r;
+    modes.push_back(std::make_unique<KalmanMode<1, 1, PositionMeasurement<1, 1>>>(
+        "m" + std::to_string(j), walk, PositionMeasurement<1, 1>({0}, R), StateEmbedding<1, 1>()));
+  }
+  Eigen::Matrix2d pi;
+  pi << stay, 1.0 - stay, 1.0 - stay, stay;
+  ImmEstimator<1, 1> imm(std::move(modes), pi, Eigen::Vector2d(0.7, 0.3));
+  GaussianState<1> start;
+  start.mean << 0.0;
+  start.covariance << 1.0;
+  imm.initialize(start);
+  EXPECT_TRUE(std::isnan(imm.log_predictive_likelihood()));  // no plot yet
+
+  double mu[2] = {0.7, 0.3}, x[2] = {0.0, 0.0}, P[2] = {1.0, 1.0};
+  for (const double z : {0.4, -0.3, 2.5}) {
+    double c[2], x0[2], P0[2];
+    for (int j = 0; j < 2; ++j) c[j] = pi(0, j) * mu[0] + pi(1, j) * mu[1];
+    for (int j = 0; j < 2; ++j) {  // mixing
+      const double w0 = pi(0, j) * mu[0] / c[j], w1 = pi(1, j) * mu[1] / c[j];
+      x0[j] = w0 * x[0] + w1 * x[1];
+      P0[j] = w0 * (P[0] + (x[0] - x0[j]) * (x[0] - x0[j])) +
+              w1 * (P[1] + (x[1] - x0[j]) * (x[1] - x0[j]));
+    }
+    double density = 0.0, joint[2];
+    for (int j = 0; j < 2; ++j) {  // mode-matched filters
+      const double Pp = P0[j] + q[j], S = Pp + r, nu = z - x0[j];
+      joint[j] = c[j] * std::exp(-0.5 * nu * nu / S) / std::sqrt(2.0 * std::numbers::pi * S);
+      density += joint[j];
+      x[j] = x0[j] + Pp / S * nu;
+      P[j] = Pp - Pp * Pp / S;
+    }
+    for (int j = 0; j < 2; ++j) mu[j] = joint[j] / density;
+    ASSERT_EQ(imm.step(Vector<1>(z)), StepStatus::kOk);
+    EXPECT_NEAR(imm.log_predictive_likelihood(), std::log(density), 1e-12) << "z " << z;
+  }
+  ASSERT_EQ(imm.predict_only(), StepStatus::kOk);
+  EXPECT_TRUE(std::isnan(imm.log_predictive_likelihood()));  // a prediction scores no plot
 }
 
 // The innovation exists only after a successful update: not before the first step, not after a

@@ -79,6 +79,7 @@ class TextbookImm {
                                 S.determinant());
     }
     const Eigen::VectorXd unnormalized = likelihood.cwiseProduct(c);
+    predictive_likelihood_ = unnormalized.sum();
     mu_ = unnormalized / unnormalized.sum();
     Eigen::VectorXd predicted = Eigen::VectorXd::Zero(z.size());
     for (int j = 0; j < r; ++j) predicted += c(j) * z_hat[static_cast<std::size_t>(j)];
@@ -90,6 +91,8 @@ class TextbookImm {
     innovation_ = z - predicted;
   }
 
+  /// p(z | Z^(k−1)) of the last plot: Σ_j c_j N(ν_j; 0, S_j), in linear space.
+  [[nodiscard]] double predictive_likelihood() const { return predictive_likelihood_; }
   /// The last step's z − ẑ and the covariance of the predicted measurement density.
   [[nodiscard]] const Eigen::VectorXd& innovation() const { return innovation_; }
   [[nodiscard]] const Eigen::MatrixXd& innovation_covariance() const {
@@ -122,6 +125,7 @@ class TextbookImm {
   Eigen::VectorXd mu_;
   Eigen::VectorXd innovation_;
   Eigen::MatrixXd innovation_covariance_;
+  double predictive_likelihood_ = 0.0;
 };
 
 }  // namespace imm::testing

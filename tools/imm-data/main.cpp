@@ -6,6 +6,14 @@
 //                   [--csv data/ga_imm_table3_run0.csv] [--csv-track I]
 //   imm-data sensor --regime configs/regimes/paper/fimm_table1.toml --out data/range_sensor.h5
 //                   [--seed N]
+//   imm-data import --out data/recorded.h5 [--name N] [--sensor cartesian|polar] [--units m|km]
+//                   [--sample-period T] [--tolerance F] [--scans N] FILE.csv…
+//   imm-data export (--regime R [--split S] [--seed N] [--count N] | --data set.h5)
+//                   --out-dir DIR [--no-truth]
+//
+// `import` reads recorded tracks (imm/datasets/recorded.hpp: one CSV per track or a `track`
+// column, checked line by line) into a track set that a recorded regime names; `export` writes a
+// set's tracks as such CSV files, one per track (what a user's recordings look like).
 //
 // `tracks` writes a split of the regime (the test split of --seed, default 1; the training and
 // validation splits of the regime's own seed), `sensor` the calibration samples of its range
@@ -24,6 +32,7 @@
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
+#include "imm/datasets/recorded.hpp"
 #include "imm/datasets/regime_file.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/support/cli.hpp"
@@ -53,6 +62,79 @@ void write_csv(const std::string& path, const imm::datasets::Regime& regime,
     out << line;
   }
   if (!out) throw std::runtime_error(path + ": write failed");
+}
+
+const std::map<std::string, imm::datasets::Split>& split_names() {
+  static const std::map<std::string, imm::datasets::Split> splits = {
+      {"test", imm::datasets::Split::kTest},
+      {"training", imm::datasets::Split::kTraining},
+      {"validation", imm::datasets::Split::kValidation}};
+  return splits;
+}
+
+int import_recordings(const std::vector<std::string>& inputs, const std::string& out_path,
+                      const std::string& name, const std::string& sensor_name,
+                      const std::string& units_name, imm::datasets::ImportOptions options) {
+  using imm::datasets::SensorKind;
+  options.name = name;
+  options.kind = sensor_name == "polar" ? SensorKind::kPolar : SensorKind::kCartesian;
+  options.units =
+      units_name == "km" ? imm::datasets::Units::kKilometres : imm::datasets::Units::kMetres;
+  std::vector<imm::datasets::RecordedTrack> tracks;
+  for (const std::string& input : inputs) {
+    for (auto& track : imm::datasets::read_recording(input, {options.kind})) {
+      tracks.push_back(std::move(track));
+    }
+  }
+  imm::datasets::ImportReport report;
+  const imm::datasets::TrackSet set = imm::datasets::import_recordings(tracks, options, &report);
+  const std::filesystem::path folder = std::filesystem::path(out_path).parent_path();
+  if (!folder.empty()) std::filesystem::create_directories(folder);
+  const std::string digest = imm::datasets::write_track_set(
+      out_path, imm::datasets::recording_header(options, set), set, imm::kBuildVersion);
+  std::cout << "imm-data: " << report.recordings << " recordings, " << report.windows
+            << " tracks x " << report.scans << " scans at T = " << report.sample_period << " s ("
+            << report.gap_scans << " gap scans, " << report.dropped_scans
+            << " scans after the last whole window dropped), "
+            << (set.has_truth ? "with" : "without") << " truth -> " << out_path << " (sha256 "
+            << digest.substr(0, 16) << ")\n";
+  return 0;
+}
+
+int export_recordings(const std::string& regime_path, const std::string& data_path,
+                      const std::string& split_name, std::uint64_t seed, int count,
+                      const std::string& out_dir, bool no_truth) {
+  imm::datasets::TrackSet set;
+  imm::datasets::SensorKind kind = imm::datasets::SensorKind::kCartesian;
+  if (!data_path.empty()) {
+    const imm::datasets::TrackSetFile file = imm::datasets::read_track_set(data_path);
+    set = file.set;
+    kind = file.sensor == "polar" ? imm::datasets::SensorKind::kPolar
+                                  : imm::datasets::SensorKind::kCartesian;
+    if (count > 0 && static_cast<std::size_t>(count) < set.tracks.size()) {
+      set.tracks.resize(static_cast<std::size_t>(count));
+    }
+  } else if (!regime_path.empty()) {
+    const imm::datasets::Regime regime = imm::datasets::load_regime(regime_path).regime;
+    kind = regime.sensor.kind;
+    set = imm::datasets::draw_split(regime, split_names().at(split_name), seed, count);
+  } else {
+    throw std::runtime_error("export: --regime or --data names the tracks");
+  }
+  if (kind == imm::datasets::SensorKind::kRangeSensor) {
+    throw std::runtime_error("export: a range sensor's plots are not a recording's columns");
+  }
+  std::filesystem::create_directories(out_dir);
+  for (std::size_t i = 0; i < set.tracks.size(); ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "track_%03zu.csv", i);
+    imm::datasets::write_recording_csv(std::filesystem::path(out_dir) / name, set, kind, i,
+                                       set.has_truth && !no_truth);
+  }
+  std::cout << "imm-data: " << set.tracks.size() << " tracks x " << set.scans << " scans -> "
+            << out_dir << "/track_*.csv (" << (set.has_truth && !no_truth ? "with" : "without")
+            << " truth)\n";
+  return 0;
 }
 
 }  // namespace
@@ -85,9 +167,45 @@ int main(int argc, char** argv) {
   sensor->add_option("--regime", regime_path, "regime TOML with a range sensor")->required();
   sensor->add_option("--out", out_path, "data-set file to write (HDF5)")->required();
   sensor->add_option("--seed", seed, "seed of the draw");
+  std::vector<std::string> inputs;
+  std::string name = "recorded", sensor_name = "cartesian", units_name = "m", data_path, out_dir;
+  imm::datasets::ImportOptions import_options;
+  bool no_truth = false;
+  auto* import = app.add_subcommand("import", "recorded tracks (CSV) into a track set");
+  import->add_option("files", inputs, "recording CSV files")->required();
+  import->add_option("--out", out_path, "track-set file to write (HDF5)")->required();
+  import->add_option("--name", name, "the set's name");
+  import->add_option("--sensor", sensor_name, "cartesian (zx, zy) | polar (range, azimuth)")
+      ->check(CLI::IsMember({"cartesian", "polar"}));
+  import->add_option("--units", units_name, "m | km")->check(CLI::IsMember({"m", "km"}));
+  import
+      ->add_option("--sample-period", import_options.sample_period,
+                   "s (default: the first track's median step)")
+      ->check(CLI::PositiveNumber);
+  import
+      ->add_option("--tolerance", import_options.tolerance,
+                   "of a sample period, for each time's place on the grid")
+      ->check(CLI::Range(1e-9, 0.49));
+  import->add_option("--scans", import_options.scans, "per window (default: the shortest track)")
+      ->check(imm::support::at_least(3));
+  auto* exporter = app.add_subcommand("export", "a track set as recording CSV files");
+  auto* from_regime =
+      exporter->add_option("--regime", regime_path, "draw the tracks from a regime");
+  exporter->add_option("--data", data_path, "or export a track-set file")->excludes(from_regime);
+  exporter->add_option("--split", split_name, "test | training | validation")
+      ->check(CLI::IsMember({"test", "training", "validation"}));
+  exporter->add_option("--seed", seed, "test seed");
+  exporter->add_option("--count", count, "tracks")->check(imm::support::at_least(1));
+  exporter->add_option("--out-dir", out_dir, "folder for track_000.csv, …")->required();
+  exporter->add_flag("--no-truth", no_truth, "plots only (drop the truth columns)");
   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
 
   try {
+    if (*import)
+      return import_recordings(inputs, out_path, name, sensor_name, units_name, import_options);
+    if (*exporter) {
+      return export_recordings(regime_path, data_path, split_name, seed, count, out_dir, no_truth);
+    }
     const imm::datasets::RegimeFile file = imm::datasets::load_regime(regime_path);
     for (const std::string& written : {out_path, csv_path}) {  // their folders, as needed
       const std::filesystem::path folder = std::filesystem::path(written).parent_path();
@@ -106,11 +224,7 @@ int main(int argc, char** argv) {
                 << digest.substr(0, 16) << ")\n";
       return 0;
     }
-    static const std::map<std::string, imm::datasets::Split> splits = {
-        {"test", imm::datasets::Split::kTest},
-        {"training", imm::datasets::Split::kTraining},
-        {"validation", imm::datasets::Split::kValidation}};
-    const imm::datasets::Split split = splits.at(split_name);
+    const imm::datasets::Split split = split_names().at(split_name);
     const imm::datasets::TrackSet set = imm::datasets::draw_split(regime, split, seed, count);
     if (set.tracks.empty()) throw std::runtime_error(regime_path + ": the split holds no tracks");
     if (csv_track >= static_cast<int>(set.tracks.size())) {

@@ -2,6 +2,7 @@
 #include "imm/filters/axis_filter.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
@@ -38,6 +39,15 @@ TrackOptions AxisImmSettings::track_options(std::int64_t max_gap) const {
   return two_point_track_options(
       sample_period, MeasurementKind::kCartesian,
       measurement_sigma * measurement_sigma * Eigen::Matrix2d::Identity(), max_gap);
+}
+
+double AxisFilter::log_predictive_likelihood() const {
+  constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
+  double nu = 0.0, variance = 0.0;
+  if (!innovation(nu, variance) || !(variance > 0.0)) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  return -0.5 * (nu * nu / variance + std::log(variance) + kLogTwoPi);
 }
 
 TwoAxisFilter::TwoAxisFilter(std::unique_ptr<AxisFilter> x, std::unique_ptr<AxisFilter> y)

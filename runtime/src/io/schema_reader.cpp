@@ -18,11 +18,14 @@ const char* rule_text(ValueRule rule) {
       return "non-negative";
     case ValueRule::kProbability:
       return "a probability in [0, 1]";
+    case ValueRule::kFiniteOrMissing:
+      return "finite (or NaN where missing)";
   }
   return "valid";
 }
 
 bool satisfies(double value, ValueRule rule) {
+  if (rule == ValueRule::kFiniteOrMissing) return !std::isinf(value);
   if (!std::isfinite(value)) return false;
   switch (rule) {
     case ValueRule::kFinite:
@@ -33,6 +36,8 @@ bool satisfies(double value, ValueRule rule) {
       return value >= 0.0;
     case ValueRule::kProbability:
       return value >= 0.0 && value <= 1.0;
+    case ValueRule::kFiniteOrMissing:
+      return true;
   }
   return false;
 }

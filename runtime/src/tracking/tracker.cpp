@@ -2,6 +2,8 @@
 #include "imm/tracking/tracker.hpp"
 
 #include <Eigen/Cholesky>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -66,6 +68,10 @@ class PlainImmFilter final : public TrackFilter {
     return std::visit([&](const auto& imm) { return imm.innovation(nu, S); }, imm_);
   }
 
+  [[nodiscard]] double log_predictive_likelihood() const override {
+    return std::visit([](const auto& imm) { return imm.log_predictive_likelihood(); }, imm_);
+  }
+
  private:
   PlainImmSpec spec_;
   PlainImm imm_;
@@ -103,6 +109,18 @@ std::optional<double> last_step_nis(const TrackFilter& filter) {
   const Eigen::LLT<Eigen::Matrix2d> llt(S);
   if (llt.info() != Eigen::Success) return std::nullopt;
   return nu.dot(llt.solve(nu));
+}
+
+double TrackFilter::log_predictive_likelihood() const {
+  constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
+  Eigen::Vector2d nu;
+  Eigen::Matrix2d S;
+  if (!innovation(nu, S)) return std::numeric_limits<double>::quiet_NaN();
+  const Eigen::LLT<Eigen::Matrix2d> llt(S);
+  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
+  const Eigen::Matrix2d L = llt.matrixL();
+  const double log_det = 2.0 * (std::log(L(0, 0)) + std::log(L(1, 1)));
+  return -0.5 * (nu.dot(llt.solve(nu)) + log_det + 2.0 * kLogTwoPi);
 }
 
 Tracker::Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options)

@@ -14,12 +14,17 @@
 #include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/io/fcm_imm_file.hpp"
+#include "imm/support/bounded_search.hpp"
 #include "imm/support/config.hpp"
-#include "imm/trainer/bounded_search.hpp"
 #include "imm/trainer/parallel_for.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
+
+using imm::support::grid_then_subplex;
+using imm::support::SearchOptions;
+using imm::support::SearchResult;
+using imm::support::subplex;
 
 namespace imm::trainer::fcm {
 namespace {

@@ -5,8 +5,13 @@
 #include <cmath>
 #include <limits>
 
-#include "imm/trainer/bounded_search.hpp"
+#include "imm/support/bounded_search.hpp"
 #include "imm/trainer/normalized_errors.hpp"
+
+using imm::support::grid_then_subplex;
+using imm::support::SearchOptions;
+using imm::support::SearchResult;
+using imm::support::subplex;
 
 namespace imm::trainer::ga {
 namespace {

@@ -6,9 +6,14 @@
 #include <cstdio>
 #include <stdexcept>
 
-#include "imm/trainer/bounded_search.hpp"
+#include "imm/support/bounded_search.hpp"
 #include "imm/trainer/ga/baseline_tuning.hpp"
 #include "imm/trainer/regime_checks.hpp"
+
+using imm::support::grid_then_subplex;
+using imm::support::SearchOptions;
+using imm::support::SearchResult;
+using imm::support::subplex;
 
 namespace imm::trainer::ga {
 namespace {

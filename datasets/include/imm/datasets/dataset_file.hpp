@@ -12,6 +12,11 @@
 ///   /cases         tracks × 4 (case index, the plot noise σ₁, σ₂ and correlation)
 ///   /parameters    @regime, @regime_digest, @split, @sample_period, @scans, @tracks, @units,
 ///                  @sensor
+///   recorded sets (imm/datasets/recorded.hpp) also:
+///   /recordings    tracks × 1 (the recording each window comes from)
+///   /parameters    @recorded (1), @has_truth (0: no /truth; every truth value reads as NaN),
+///                  @recording_names (each name followed by a newline)
+///   and NaN plots (and truth) where a recording has a gap.
 /// The reader recomputes the digest and refuses a file whose data do not match it. Schema 1 (the
 /// scenario files before regimes) is refused with a message to regenerate.
 
@@ -28,7 +33,10 @@
 namespace imm::datasets {
 
 inline constexpr std::string_view kDatasetFormat = "immtrain-dataset";
-inline constexpr int kDatasetSchemaVersion = 2;
+/// The newest schema this reader reads: 3 adds recorded sets (drawn sets are still written as 2,
+/// byte for byte what they were).
+inline constexpr int kDatasetSchemaVersion = 3;
+inline constexpr int kDrawnDatasetSchemaVersion = 2;
 
 struct TrackSetFile {
   TrackSet set;
@@ -36,6 +44,7 @@ struct TrackSetFile {
   std::string digest;
   std::string created_utc;
   std::string generator_version;
+  std::string units, sensor;  ///< /parameters@units and @sensor
 };
 
 /// Writes atomically (temp + rename). Returns the digest written.
@@ -51,7 +60,7 @@ std::string write_track_set(const std::filesystem::path& path, const Regime& reg
 /// @generator_version, @config_toml and @digest.
 void write_dataset_root(io::ContainerWriter& writer, std::string_view kind, std::uint64_t seed,
                         const std::string& config_toml, const std::string& generator_version,
-                        const std::string& digest);
+                        const std::string& digest, int schema_version = kDrawnDatasetSchemaVersion);
 /// Refuses a newer schema version or another kind (FileError naming /@schema_version or
 /// /@dataset_kind).
 void check_dataset_header(const io::SchemaReader& reader, std::string_view kind);

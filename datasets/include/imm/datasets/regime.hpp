@@ -81,6 +81,10 @@ struct Sensor {
   RangeDistortion distortion;
   std::shared_ptr<const SampledSensor> sampled;
   std::string samples_file, samples_digest;
+  /// A recorded regime's `sigma = "estimate"`: the plot σ (one for both axes) is learned from the
+  /// training split's plots, and `noise` holds the estimate once a trainer has made it
+  /// (imm/datasets/sensor_estimate.hpp).
+  bool estimate_sigma = false;
   SensorCalibration calibration;
 
   /// The noise-free output of the sensor at a position (range sensor; the others measure the
@@ -131,6 +135,25 @@ struct ScriptedCase {
   std::vector<ScriptedSegment> segments;
 };
 
+struct TrackSet;
+
+/// A recorded regime's tracks (imm/datasets/recorded.hpp): a track-set file written by
+/// `imm-data import`, split into training, validation and test by a seeded shuffle of whole
+/// recordings (Splits: counts of recordings; every window of a recording goes with it).
+struct Recorded {
+  std::string file;  ///< the track-set file, as the regime names it
+  std::shared_ptr<const TrackSet> set;
+  std::string digest;  ///< the set's data digest (what models record, never the plots)
+  /// Truth, where the set has it: for evaluation only (the trainers learn from the plots), or for
+  /// training too.
+  bool truth_for_training = false;
+  /// The manoeuvres' acceleration magnitudes the models are built for, [smallest, largest]
+  /// (recorded.acceleration; 0: not stated, and a trainer that needs it says so).
+  double min_acceleration = 0.0, max_acceleration = 0.0;
+  /// The recordings of each split, in their shuffled order, and the windows they hold.
+  std::vector<int> training, validation, test;
+};
+
 struct Splits {
   int training = 12;
   int validation = 6;
@@ -152,6 +175,9 @@ struct Regime {
   std::vector<MenuEntry> menu;      ///< random maneuvers (when there are no cases)
   std::vector<ScriptedCase> cases;  ///< scripted maneuvers
   Splits splits;
+  /// Set for a recorded regime: its tracks come from a recording instead of a generator (there is
+  /// no start, maneuver or process noise then).
+  std::shared_ptr<const Recorded> recorded;
 
   std::string file;    ///< where it was read from ("" for one built in code)
   std::string text;    ///< the file's text: what models record

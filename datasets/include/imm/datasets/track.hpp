@@ -40,6 +40,13 @@ struct TrackSet {
   double sample_period = 1.0;
   int scans = 0;
   std::vector<Track> tracks;
+  /// Recorded sets (imm/datasets/recorded.hpp): each track's recording (an index into
+  /// `recording_names`; a recording's windows share it), and whether every track has its truth
+  /// (without it, a track's truth is NaN and only the plots may be used).
+  bool recorded = false;
+  bool has_truth = true;
+  std::vector<int> recording;
+  std::vector<std::string> recording_names;
 
   /// SHA-256 over the shapes and bytes of every truth and plot matrix.
   [[nodiscard]] std::string digest() const;

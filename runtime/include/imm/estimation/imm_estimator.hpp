@@ -170,6 +170,19 @@ class ImmEstimator {
   /// log μ_j, exact where linear probabilities underflow.
   [[nodiscard]] const ModeVector& log_mode_probabilities() const { return log_probabilities_; }
 
+  /// log p(z | Z^(k−1)) of the last plot under the IMM's predicted measurement density,
+  /// log Σ_j c_j N(ν_j; 0, S_j) (c_j the predicted mode probabilities): the predictive
+  /// log-likelihood that learning from plots alone maximizes. NaN unless the last call was a
+  /// successful step() or step_with(). Computed here from the cycle's ℓ_j + log c_j, so the
+  /// filter step pays nothing for it.
+  [[nodiscard]] double log_predictive_likelihood() const {
+    if (!updated_) return std::numeric_limits<double>::quiet_NaN();
+    const double shift = log_posterior_.maxCoeff();
+    double sum = 0.0;
+    for (int j = 0; j < mode_count(); ++j) sum += std::exp(log_posterior_(j) - shift);
+    return shift + std::log(sum);
+  }
+
   /// The innovation of the last cycle and its covariance, as the moments of the IMM's predicted
   /// measurement density Σ_j c_j N(ẑ_j, S_j) (c_j the predicted mode probabilities):
   /// ν = z − ẑ = Σ_j c_j ν_j and S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ), so that νᵀ S⁻¹ ν is the

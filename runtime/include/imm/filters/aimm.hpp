@@ -57,6 +57,10 @@ class IMM_RUNTIME_EXPORT AimmAxisFilter final : public AxisFilter {
   [[nodiscard]] std::string mode_name(int j) const override;
   /// The IMM's combined innovation.
   bool innovation(double& nu, double& variance) const override;
+  /// The IMM's mixture log Σ_j c_j N(ν_j; 0, S_j).
+  [[nodiscard]] double log_predictive_likelihood() const override {
+    return imm_.log_predictive_likelihood();
+  }
   /// The current acceleration estimate â(k).
   [[nodiscard]] double acceleration() const { return estimator_.acceleration(); }
 

@@ -70,6 +70,9 @@ class IMM_RUNTIME_EXPORT AxisFilter {
   /// The last cycle's innovation and its variance (TrackFilter::innovation, one axis); false
   /// unless the last call was a successful step().
   virtual bool innovation(double& nu, double& variance) const = 0;
+  /// log p(z | Z^(k−1)) of the last step's plot (TrackFilter::log_predictive_likelihood, one
+  /// axis); the default is log N(ν; 0, S) of innovation(), NaN without one.
+  [[nodiscard]] virtual double log_predictive_likelihood() const;
 };
 
 /// An IMM over per-axis modes (filters with per-mode extras derive from it).
@@ -96,6 +99,10 @@ class IMM_RUNTIME_EXPORT ImmAxisFilter : public AxisFilter {
   /// The IMM's combined innovation.
   bool innovation(double& nu, double& variance) const override {
     return axis_innovation(imm_, nu, variance);
+  }
+  /// The IMM's mixture log Σ_j c_j N(ν_j; 0, S_j).
+  [[nodiscard]] double log_predictive_likelihood() const override {
+    return imm_.log_predictive_likelihood();
   }
   /// The underlying IMM.
   [[nodiscard]] const ImmEstimator<2, 1>& imm() const { return imm_; }
@@ -127,6 +134,10 @@ class IMM_RUNTIME_EXPORT TwoAxisFilter final : public TrackFilter {
   [[nodiscard]] ModeVector mode_probabilities() const override;
   /// [ν_x, ν_y] with S = diag(S_x, S_y): the axes are independent filters.
   bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const override;
+  /// The sum of the axes' (independent filters).
+  [[nodiscard]] double log_predictive_likelihood() const override {
+    return x_->log_predictive_likelihood() + y_->log_predictive_likelihood();
+  }
 
   /// Axis 0 (x) or 1 (y).
   [[nodiscard]] const AxisFilter& axis(int i) const { return i == 0 ? *x_ : *y_; }

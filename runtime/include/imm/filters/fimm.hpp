@@ -73,6 +73,10 @@ class IMM_RUNTIME_EXPORT FimmFilter final : public TrackFilter {
   [[nodiscard]] ModeVector mode_probabilities() const override;
   /// The IMM's combined innovation in the sensor's (z1, z2).
   bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const override;
+  /// The IMM's mixture log Σ_j c_j N(ν_j; 0, S_j) in the sensor's (z1, z2).
+  [[nodiscard]] double log_predictive_likelihood() const override {
+    return imm_->log_predictive_likelihood();
+  }
 
   /// The combined estimate with its full covariance.
   [[nodiscard]] const GaussianState<6>& estimate() const;

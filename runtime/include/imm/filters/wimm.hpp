@@ -97,6 +97,11 @@ class IMM_RUNTIME_EXPORT WimmFilter final : public TrackFilter {
   /// the fused azimuth when the cycle fused (the plot's own otherwise), or the converted
   /// Cartesian plot under MeasurementUpdate::kConverted.
   bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const override;
+  /// The IMM's mixture log Σ_j c_j N(ν_j; 0, S_j) of the measurement it updated with (as
+  /// innovation(): with a fused azimuth, the density of the fused measurement, not of the plot).
+  [[nodiscard]] double log_predictive_likelihood() const override {
+    return imm_.log_predictive_likelihood();
+  }
 
   /// The combined estimate (6 states) and whether the last cycle fused the azimuth.
   [[nodiscard]] const GaussianState<6>& estimate() const { return imm_.estimate(); }

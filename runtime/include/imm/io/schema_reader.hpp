@@ -22,10 +22,11 @@ namespace imm::io {
 
 /// Rule a numeric field must satisfy on read.
 enum class ValueRule {
-  kFinite,       ///< any finite value
-  kPositive,     ///< > 0 (σ, sample periods, variances that must not vanish)
-  kNonNegative,  ///< ≥ 0 (rule weights w, process-noise variances)
-  kProbability,  ///< in [0, 1]
+  kFinite,           ///< any finite value
+  kPositive,         ///< > 0 (σ, sample periods, variances that must not vanish)
+  kNonNegative,      ///< ≥ 0 (rule weights w, process-noise variances)
+  kProbability,      ///< in [0, 1]
+  kFiniteOrMissing,  ///< finite, or NaN for a missing value (a recording's gaps); never ±∞
 };
 
 /// Validated, field-naming access to a container's content (see the file comment).

@@ -51,6 +51,12 @@ class IMM_RUNTIME_EXPORT TrackFilter {
   /// squared of a consistency check. False, and nothing written, unless the last call was a
   /// successful step().
   virtual bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const = 0;
+  /// log p(z | Z^(k−1)) of the last step's plot under the filter's predicted measurement density:
+  /// for an IMM the mixture log Σ_j c_j N(ν_j; 0, S_j) (ImmEstimator::log_predictive_likelihood),
+  /// for a single model log N(ν; 0, S). What training from plots alone maximizes and the
+  /// evaluation on recorded plots reports. NaN unless the last call was a successful step(). The
+  /// default is the Gaussian of innovation(); every IMM family overrides it with its mixture.
+  [[nodiscard]] virtual double log_predictive_likelihood() const;
 };
 
 /// The normalized innovation squared νᵀ S⁻¹ ν of the filter's last step (TrackFilter::innovation),

@@ -48,7 +48,12 @@ class CsvReader {
   /// Field `i` of `line` as a finite number, or fail() naming the column and the text.
   [[nodiscard]] double real(const CsvLine& line, std::size_t i, std::string_view column) const;
 
+  /// A longer line is refused (fail()) before it is read whole.
+  static constexpr std::size_t kMaxLineBytes = std::size_t{1} << 20;
+
  private:
+  bool read_line();
+
   std::istream& in_;
   std::string name_;
   bool directives_ = false;

@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/trainer/bounded_search.hpp"
+#include "imm/support/bounded_search.hpp"
 
 #include <cmath>
 #include <nlopt.hpp>
 #include <stdexcept>
 
-namespace imm::trainer {
+namespace imm::support {
 namespace {
 
 double finite_or_max(double value) {
@@ -109,4 +109,4 @@ SearchResult subplex(const SearchObjective& f, const std::vector<double>& x0,
   return best;
 }
 
-}  // namespace imm::trainer
+}  // namespace imm::support

@@ -9,7 +9,7 @@
 #include <limits>
 #include <vector>
 
-namespace imm::trainer {
+namespace imm::support {
 
 using SearchObjective = std::function<double(const std::vector<double>&)>;
 
@@ -39,4 +39,4 @@ struct SearchResult {
                                    const std::vector<double>& upper, int max_evaluations,
                                    double xtol_rel = 1e-4);
 
-}  // namespace imm::trainer
+}  // namespace imm::support

@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/trainer/bounded_search.hpp"
+#include "imm/support/bounded_search.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-namespace imm::trainer {
+namespace imm::support {
 namespace {
 
 // A separable quadratic with its minimum at `center`.
@@ -50,4 +50,4 @@ TEST(GridThenSubplex, NonFiniteValuesCountAsWorst) {
 }
 
 }  // namespace
-}  // namespace imm::trainer
+}  // namespace imm::support
