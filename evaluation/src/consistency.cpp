@@ -91,9 +91,11 @@ std::string consistency_table(std::span<const FilterConsistency> filters) {
   };
   for (const FilterConsistency& f : filters) {
     const ConsistencySummary &nees = f.position_nees, &nis = f.nis;
-    rows.push_back({f.name, cell(nees.average, 2), bounds(nees),
-                    cell(100.0 * nees.inside, 1) + " %", nis.scans > 0 ? cell(nis.average, 2) : "–",
-                    nis.scans > 0 ? bounds(nis) : "–",
+    // No NEES without truth (recorded plots): its cells are dashes.
+    rows.push_back({f.name, nees.scans > 0 ? cell(nees.average, 2) : "–",
+                    nees.scans > 0 ? bounds(nees) : "–",
+                    nees.scans > 0 ? cell(100.0 * nees.inside, 1) + " %" : "–",
+                    nis.scans > 0 ? cell(nis.average, 2) : "–", nis.scans > 0 ? bounds(nis) : "–",
                     nis.scans > 0 ? cell(100.0 * nis.inside, 1) + " %" : "–",
                     std::string(nees.verdict()) + " / " + nis.verdict()});
   }

@@ -149,9 +149,17 @@ void check_model(const ModelRequirements& model, const EvaluationRegimes& regime
   }
 }
 
-datasets::TrackSet test_tracks(const datasets::Regime& regime, const CommonOptions& options) {
-  return datasets::draw_split(regime, datasets::Split::kTest, options.seed,
-                              options.runs ? *options.runs : -1);
+datasets::TrackSet test_tracks(const datasets::Regime& regime, const CommonOptions& options,
+                               const std::string& needs_truth) {
+  datasets::TrackSet data = datasets::draw_split(regime, datasets::Split::kTest, options.seed,
+                                                 options.runs ? *options.runs : -1);
+  if (!data.has_truth && !needs_truth.empty()) {
+    throw std::runtime_error(regime.file + ": recorded.set: regime '" + regime.name +
+                             "' has no truth, and " + needs_truth +
+                             " scores against it; imm-eval ga-imm, plain-imm and rank judge "
+                             "filters by the plots alone");
+  }
+  return data;
 }
 
 std::string case_label(const datasets::Regime& regime, int case_index) {

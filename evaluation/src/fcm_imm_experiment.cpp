@@ -29,6 +29,7 @@
 #include "imm/trainer/normalized_errors.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/ranks.hpp"
+#include "imm/trainer/regime_checks.hpp"
 
 namespace imm::evaluation {
 namespace {
@@ -205,6 +206,7 @@ int run(const CommonOptions& options) {
   tuning.filter = fitted;
   tuning.initial_first_probability = fitted.initial_probabilities(0);
   tuning.tuning.set_automatic_log_q(tuning.regime);
+  trainer::require_training_truth(tuning.regime, "the fcm-imm experiment's tuned baselines");
   const datasets::TrackSet training =
       datasets::draw_split(tuning.regime, datasets::Split::kTraining, 0);
   const auto kf = trainer::fcm::tune_kf(tuning, training);
@@ -245,7 +247,7 @@ int run(const CommonOptions& options) {
   training_objective["FCM-IMM"] = objective([&] { return make_fcm_imm_filter(fitted); });
   training_objective["FCM-IMM-const"] = objective([&] { return make_fcm_imm_filter(constant); });
 
-  const datasets::TrackSet data = test_tracks(regime, options);
+  const datasets::TrackSet data = test_tracks(regime, options, "imm-eval fcm-imm");
   const int runs = static_cast<int>(data.tracks.size());
   std::vector<Outcome> filters;
   const std::vector<std::pair<std::string, trainer::fcm::FilterFactory>> makers = {

@@ -210,7 +210,7 @@ int run(const FimmOptions& options) {
            << (config.transitions_from_sojourns ? " (learned from the training tracks' sojourns)"
                                                 : "");
 
-  const datasets::TrackSet data = test_tracks(regime, options.common);
+  const datasets::TrackSet data = test_tracks(regime, options.common, "imm-eval fimm");
   const int steps = data.scans;
   std::cout << "fimm: " << regimes.describe() << "\n  test split: " << data.tracks.size()
             << " tracks x " << steps << " scans, seed " << options.common.seed

@@ -26,6 +26,7 @@
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
+#include "imm/evaluation/plot_metrics.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/filters/fuzzy_noise_filter.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
@@ -179,6 +180,18 @@ int run(const GaImmOptions& options) {
       spreads.push_back({name, spec->levels[j].name, percentile(q[j], 0.01), percentile(q[j], 0.50),
                          percentile(q[j], 0.99)});
     }
+  }
+
+  if (!data.has_truth) {  // recorded plots without truth: judged by their prediction
+    std::cout << "ga-imm: " << regimes.describe() << "\n  test split: " << runs << " tracks x "
+              << data.scans << " scans; baselines tuned on the training split of " << own.name
+              << "\n\n";
+    std::vector<ModelUse> more;
+    if (std::filesystem::exists(paper_path)) more.push_back({"paper rules", paper_path});
+    return plots_only_report(
+        "ga-imm", filters, "GA-IMM", {"IMM-tuned", "AIMM-tuned"},
+        {"ga-imm", model_path, regime.name, regime.digest, options.common.seed, runs},
+        options.common.out, more);
   }
 
   // Table, with ours − each filter and its uncertainty.

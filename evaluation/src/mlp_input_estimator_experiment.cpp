@@ -111,7 +111,7 @@ int run(const CommonOptions& options) {
                std::sqrt(settings.measurement_variance), std::nullopt},
               regimes, model_path);
   const datasets::Regime& regime = regimes.evaluated.regime;
-  const datasets::TrackSet data = test_tracks(regime, options);
+  const datasets::TrackSet data = test_tracks(regime, options, "imm-eval input-estimator");
 
   const double T = settings.sample_period;
   const double R = settings.measurement_variance;

@@ -2,6 +2,7 @@
 #include "imm/evaluation/monte_carlo.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 
@@ -23,7 +24,33 @@ std::vector<HeadlineMetric> FilterOutcome::zeta_headline() const {
       {"zeta_v", HeadlineMetric::Form::kScanZeta, run_velocity, run_velocity_plot, run_counted}};
 }
 
+std::vector<HeadlineMetric> FilterOutcome::plot_headline() const {
+  const Eigen::Index runs = run_log_likelihood.rows();
+  Eigen::VectorXd nll = Eigen::VectorXd::Zero(runs), squares = nll, plots = nll;
+  for (Eigen::Index r = 0; r < runs; ++r) {
+    for (Eigen::Index k = 0; k < run_log_likelihood.cols(); ++k) {
+      const double l = run_log_likelihood(r, k);
+      const double s = run_innovation_x(r, k) + run_innovation_y(r, k);
+      if (!std::isfinite(l) || !std::isfinite(s)) continue;
+      nll(r) -= l;
+      squares(r) += s;
+      plots(r) += 1.0;
+    }
+  }
+  return {ratio_metric("predictive_nll", nll, plots),
+          nees_log_ratio_metric("nis_log_ratio", run_nis, 2),
+          rms_metric("innovation_rms", squares, plots)};
+}
+
+std::vector<std::string> FilterOutcome::plot_cells() const {
+  const std::vector<HeadlineMetric> metrics = plot_headline();
+  return {cell(-metrics[0].value(), 3),
+          nis_consistency.scans > 0 ? cell(nis_consistency.average, 2) : "–",
+          cell(metrics[2].value(), 4)};
+}
+
 std::vector<HeadlineMetric> FilterOutcome::headline() const {
+  if (!has_truth) return plot_headline();
   std::vector<HeadlineMetric> metrics = zeta_headline();
   metrics.push_back(nees_log_ratio_metric("position_nees_log_ratio", run_position_nees, 2));
   return metrics;
@@ -59,10 +86,13 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
   }
   const int modes = outcome.modes;
   const int extra = recorder.record ? recorder.width : 0;
-  // One run's terms: for every scan the squared errors (4), whether it counted (1), the position
-  // NEES and the NIS (2), the mode probabilities and the recorder's values; then the rejected
-  // plots.
-  constexpr int kModes = 7;
+  // One run's terms: for every scan the squared errors (4), whether they counted (1: the scan has
+  // an estimate and its truth), the position NEES and the NIS (2), whether the scan has an
+  // estimate (1), the plot's predictive log-likelihood and the squared innovation's two
+  // components (3: NaN without an update), the mode probabilities and the recorder's values; then
+  // the rejected plots.
+  constexpr int kEstimated = 7, kLogLikelihood = 8, kInnovation = 9;
+  constexpr int kModes = 11;
   const std::ptrdiff_t per_scan = kModes + modes + extra;
   const auto width = static_cast<int>(steps * per_scan + 1);
 
@@ -83,20 +113,33 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
           if (result.event == TrackEvent::kRejected) terms[width - 1] += 1.0;
           if (!tracker.initialized() || k == 0) continue;
           tracker.state(mean, variance);
+          double* scan = terms + k * per_scan;
+          const bool updated = result.event == TrackEvent::kUpdated;
+          scan[kEstimated] = 1.0;
+          Eigen::Vector2d nu(nan, nan);
+          Eigen::Matrix2d S;
+          if (updated && !tracker.filter().innovation(nu, S)) nu.setConstant(nan);
+          scan[kLogLikelihood] = updated ? tracker.filter().log_predictive_likelihood() : nan;
+          scan[kInnovation] = nu(0) * nu(0);
+          scan[kInnovation + 1] = nu(1) * nu(1);
           const Eigen::Vector2d p = datasets::position_at(track, k),
                                 v = datasets::velocity_at(track, k);
-          const Eigen::Vector2d plot = plot_position(z, k);
-          const Eigen::Vector2d measured_velocity = (plot - plot_position(z, k - 1)) / T;
-          double* scan = terms + k * per_scan;
-          scan[0] = (p - origin - Eigen::Vector2d(mean(0), mean(y))).squaredNorm();
-          scan[1] = (p - plot).squaredNorm();
-          scan[2] = (v - Eigen::Vector2d(mean(1), mean(y + 1))).squaredNorm();
-          scan[3] = (v - measured_velocity).squaredNorm();
-          scan[4] = 1.0;
-          const trainer::StepConsistency consistency =
-              trainer::step_consistency(tracker.filter(), p - origin);
-          scan[5] = consistency.position_nees;
-          scan[6] = result.event == TrackEvent::kUpdated ? consistency.nis : nan;
+          const Eigen::Vector2d plot = plot_position(z, k), before = plot_position(z, k - 1);
+          // Truth-free scans (a recording without truth, or its gaps) count only their NIS.
+          const bool truth =
+              p.allFinite() && v.allFinite() && plot.allFinite() && before.allFinite();
+          const trainer::StepConsistency consistency = trainer::step_consistency(
+              tracker.filter(), truth ? Eigen::Vector2d(p - origin) : Eigen::Vector2d::Zero());
+          scan[5] = truth ? consistency.position_nees : nan;
+          scan[6] = updated ? consistency.nis : nan;
+          if (truth) {
+            const Eigen::Vector2d measured_velocity = (plot - before) / T;
+            scan[0] = (p - origin - Eigen::Vector2d(mean(0), mean(y))).squaredNorm();
+            scan[1] = (p - plot).squaredNorm();
+            scan[2] = (v - Eigen::Vector2d(mean(1), mean(y + 1))).squaredNorm();
+            scan[3] = (v - measured_velocity).squaredNorm();
+            scan[4] = 1.0;
+          }
           Eigen::Map<Eigen::VectorXd>(scan + kModes, modes) = tracker.mode_probabilities();
           if (extra > 0)
             recorder.record(tracker.filter(), std::span<double>(scan + kModes + modes, extra));
@@ -111,6 +154,10 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
   outcome.run_counted = outcome.run_position;
   outcome.run_position_nees = Eigen::MatrixXd::Constant(runs, steps, nan);
   outcome.run_nis = outcome.run_position_nees;
+  outcome.run_log_likelihood = outcome.run_position_nees;
+  outcome.run_innovation_x = outcome.run_position_nees;
+  outcome.run_innovation_y = outcome.run_position_nees;
+  outcome.has_truth = data.has_truth;
   outcome.mean_mode_probabilities = Eigen::MatrixXd::Zero(steps, modes);
   Eigen::VectorXi probability_samples = Eigen::VectorXi::Zero(steps);
   outcome.recorded.assign(static_cast<std::size_t>(runs * steps * extra), nan);
@@ -119,14 +166,19 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
     outcome.rejected_steps += static_cast<long>(terms[width - 1]);
     for (int k = 0; k < steps; ++k) {
       const double* scan = terms + k * per_scan;
-      if (scan[4] == 0.0) continue;
-      outcome.run_position(run, k) = scan[0];
-      outcome.run_position_plot(run, k) = scan[1];
-      outcome.run_velocity(run, k) = scan[2];
-      outcome.run_velocity_plot(run, k) = scan[3];
-      outcome.run_counted(run, k) = 1.0;
-      outcome.run_position_nees(run, k) = scan[5];
+      if (scan[kEstimated] == 0.0) continue;
+      if (scan[4] != 0.0) {
+        outcome.run_position(run, k) = scan[0];
+        outcome.run_position_plot(run, k) = scan[1];
+        outcome.run_velocity(run, k) = scan[2];
+        outcome.run_velocity_plot(run, k) = scan[3];
+        outcome.run_counted(run, k) = 1.0;
+        outcome.run_position_nees(run, k) = scan[5];
+      }
       outcome.run_nis(run, k) = scan[6];
+      outcome.run_log_likelihood(run, k) = scan[kLogLikelihood];
+      outcome.run_innovation_x(run, k) = scan[kInnovation];
+      outcome.run_innovation_y(run, k) = scan[kInnovation + 1];
       outcome.mean_mode_probabilities.row(k) +=
           Eigen::Map<const Eigen::RowVectorXd>(scan + kModes, modes);
       ++probability_samples(k);

@@ -14,6 +14,7 @@
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
+#include "imm/evaluation/plot_metrics.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/tracking/tracker.hpp"
@@ -87,6 +88,15 @@ int run(const PlainImmOptions& options) {
   }
 
   const int runs = static_cast<int>(data.tracks.size());
+  if (!data.has_truth) {  // recorded plots without truth: judged by their prediction
+    std::cout << "plain-imm: " << source << ", " << runs << " tracks x " << data.scans
+              << " scans\n\n";
+    std::vector<std::string> modes;
+    for (std::size_t f = 1; f < filters.size(); ++f) modes.push_back(filters[f].name);
+    return plots_only_report("plain-imm", filters, filters.front().name, modes,
+                             {"plain-imm", model, data.regime, data.digest(), data.seed, runs},
+                             options.common.out);
+  }
   std::vector<std::vector<std::string>> rows;
   for (const auto& f : filters) {
     std::string versus_p = "–", versus_v = "–";

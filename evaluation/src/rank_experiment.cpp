@@ -33,6 +33,48 @@ struct RankOptions {
   std::optional<std::filesystem::path> ship;
 };
 
+// The criteria of the verdict: ζ_p and ζ_v against truth, or — on recorded plots without it —
+// the predictive NLL per plot and the innovation RMS (FilterOutcome::plot_headline). The last
+// outcome is the filter's, the first the baseline's.
+RankedFilter ranked_filter(const std::filesystem::path& file, const std::string& kind,
+                           const std::vector<FilterOutcome>& outcomes, int runs) {
+  const FilterOutcome& own = outcomes.back();
+  RankedFilter r;
+  r.name = file.stem().string();
+  r.kind = kind;
+  r.baseline = outcomes.size() == 1;
+  r.position_rmse = own.position_rmse;
+  r.velocity_rmse = own.velocity_rmse;
+  // Without truth the consistency is the NIS's.
+  const ConsistencySummary& consistency =
+      own.has_truth ? own.position_consistency : own.nis_consistency;
+  r.consistency = consistency.verdict();
+  r.position_nees = consistency.average;
+  r.scans_inside = consistency.inside;
+  if (own.has_truth) {
+    r.zeta_p = own.zeta_p;
+    r.zeta_v = own.zeta_v;
+    if (!r.baseline) {
+      r.versus_baseline_p =
+          paired_difference(runs, own.zeta_p_statistic(), outcomes.front().zeta_p_statistic());
+      r.versus_baseline_v =
+          paired_difference(runs, own.zeta_v_statistic(), outcomes.front().zeta_v_statistic());
+    }
+    return r;
+  }
+  const std::vector<HeadlineMetric> metrics = own.plot_headline();
+  const std::vector<HeadlineMetric> base = outcomes.front().plot_headline();
+  r.criteria = {"predictive NLL", "innovation RMS"};
+  r.zeta_p = metrics[0].value();
+  r.zeta_v = metrics[2].value();
+  r.score = r.zeta_p;
+  if (!r.baseline) {
+    r.versus_baseline_p = paired_difference(runs, metrics[0].statistic(), base[0].statistic());
+    r.versus_baseline_v = paired_difference(runs, metrics[2].statistic(), base[2].statistic());
+  }
+  return r;
+}
+
 int run(const RankOptions& options) {
   const datasets::RegimeFile regime = load_regime_option(options.regime.value_or(options.baseline));
   CommonOptions common;
@@ -55,29 +97,12 @@ int run(const RankOptions& options) {
     }
     outcomes.push_back(run_monte_carlo(file.stem().string(), maker.make, maker.options, data, {},
                                        regime.regime.sensor.position));
-    RankedFilter r;
-    r.name = file.stem().string();
-    r.kind = maker.provenance.model_kind;
-    r.baseline = ranked.empty();
-    r.zeta_p = outcomes.back().zeta_p;
-    r.zeta_v = outcomes.back().zeta_v;
-    r.position_rmse = outcomes.back().position_rmse;
-    const ConsistencySummary& nees = outcomes.back().position_consistency;
-    r.consistency = nees.verdict();
-    r.position_nees = nees.average;
-    r.scans_inside = nees.inside;
-    r.velocity_rmse = outcomes.back().velocity_rmse;
-    if (!r.baseline) {
-      r.versus_baseline_p = paired_difference(runs, outcomes.back().zeta_p_statistic(),
-                                              outcomes.front().zeta_p_statistic());
-      r.versus_baseline_v = paired_difference(runs, outcomes.back().zeta_v_statistic(),
-                                              outcomes.front().zeta_v_statistic());
-    }
-    ranked.push_back(std::move(r));
+    ranked.push_back(ranked_filter(file, maker.provenance.model_kind, outcomes, runs));
   }
   const TrackerChoice choice = choose_tracker(ranked);
 
   const std::string length(datasets::to_string(regime.regime.units));
+  const std::array<std::string, 2>& criteria = ranked.front().criteria;
   std::vector<std::vector<std::string>> rows;
   for (std::size_t place = 0; place < choice.order.size(); ++place) {
     const RankedFilter& f = ranked[choice.order[place]];
@@ -90,22 +115,31 @@ int run(const RankOptions& options) {
   std::cout << "rank: regime " << regime.regime.name << " test split, seed " << options.seed << ", "
             << runs << " tracks x " << data.scans << " scans\n\n"
             << markdown_table(
-                   {"place", "filter", "kind", "ζ_p", "ζ_v", "this − baseline ζ_p [95 %]",
-                    "this − baseline ζ_v [95 %]", "against the baseline",
+                   {"place", "filter", "kind", criteria[0], criteria[1],
+                    "this − baseline " + criteria[0] + " [95 %]",
+                    "this − baseline " + criteria[1] + " [95 %]", "against the baseline",
                     "position RMSE (" + length + ")", "velocity RMSE (" + length + "/s)"},
                    rows)
             << '\n'
             << kDifferenceConvention << ' ' << kVerdictRule
-            << "\nThe rule: a learned model is the tracker only when it beats the tuned baseline; "
-               "among those that do, the lowest ζ_p + ζ_v.\n\nConsistency:\n\n"
+            << (data.has_truth
+                    ? "\nThe rule: a learned model is the tracker only when it beats the tuned "
+                      "baseline; among those that do, the lowest ζ_p + ζ_v.\n\nConsistency:\n\n"
+                    : "\nThe tracks have no truth: the filters are judged by how well they "
+                      "predict the plots — the predictive NLL −log p(z | Z^(k−1)) per plot and "
+                      "the RMS of the innovation ‖z − ẑ‖ (position errors are not known; their "
+                      "columns are 0). The rule: a learned model is the tracker only when it "
+                      "beats the tuned baseline; among those that do, the lowest NLL.\n\n"
+                      "Consistency (NIS only):\n\n")
             << consistency_table(outcomes) << "\nTracker: " << ranked[choice.winner].name << " — "
             << choice.reason << '\n';
 
   std::vector<std::string> findings;
   for (const RankedFilter& f : ranked) {
     if (!f.baseline && verdict_against_baseline(f) != "beats") {
-      findings.push_back(f.name + " " + verdict_against_baseline(f) + " the tuned baseline (ζ_p " +
-                         f.versus_baseline_p.text() + ", ζ_v " + f.versus_baseline_v.text() + ")");
+      findings.push_back(f.name + " " + verdict_against_baseline(f) + " the tuned baseline (" +
+                         criteria[0] + " " + f.versus_baseline_p.text() + ", " + criteria[1] + " " +
+                         f.versus_baseline_v.text() + ")");
     }
     if (std::string flag = inconsistency_finding(f); !flag.empty()) {
       findings.push_back(std::move(flag));
@@ -121,8 +155,13 @@ int run(const RankOptions& options) {
   results["tracker_file"] = files[choice.winner].string();
   results["reason"] = choice.reason;
   results["rule"] =
-      "a learned model is the tracker only when it beats the tuned baseline (verdict over ζ_p "
-      "and ζ_v); among those that do, the lowest ζ_p + ζ_v; otherwise the baseline";
+      data.has_truth
+          ? "a learned model is the tracker only when it beats the tuned baseline (verdict over "
+            "ζ_p and ζ_v); among those that do, the lowest ζ_p + ζ_v; otherwise the baseline"
+          : "no truth: a learned model is the tracker only when it beats the tuned baseline "
+            "(verdict over the predictive NLL per plot and the innovation RMS); among those that "
+            "do, the lowest NLL; otherwise the baseline";
+  results["truth"] = data.has_truth;
   for (std::size_t place = 0; place < choice.order.size(); ++place) {
     const std::size_t i = choice.order[place];
     const RankedFilter& f = ranked[i];
@@ -131,20 +170,23 @@ int run(const RankOptions& options) {
                           {"file", files[i].string()},
                           {"kind", f.kind},
                           {"baseline", f.baseline},
-                          {"zeta_p", f.zeta_p},
-                          {"zeta_v", f.zeta_v},
                           {"position_rmse", f.position_rmse},
                           {"velocity_rmse", f.velocity_rmse},
                           {"verdict", verdict_against_baseline(f)},
+                          {"predictive_nll", outcomes[i].plot_headline()[0].value()},
+                          {"innovation_rms", outcomes[i].plot_headline()[2].value()},
                           {"position_nees", outcomes[i].position_consistency.average},
                           {"nis", outcomes[i].nis_consistency.average}};
     if (!f.baseline) {
+      const char* first = data.has_truth ? "zeta_p" : "predictive_nll";
+      const char* second = data.has_truth ? "zeta_v" : "innovation_rms";
       row["versus_baseline"] = {
-          {"zeta_p",
+          {first,
            {f.versus_baseline_p.estimate, f.versus_baseline_p.lower, f.versus_baseline_p.upper}},
-          {"zeta_v",
+          {second,
            {f.versus_baseline_v.estimate, f.versus_baseline_v.lower, f.versus_baseline_v.upper}}};
     }
+    if (data.has_truth) row["zeta_p"] = f.zeta_p, row["zeta_v"] = f.zeta_v;
     results["ranking"].push_back(row);
   }
   results["findings"] = findings;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <numeric>
 #include <stdexcept>
@@ -37,7 +38,10 @@ TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
   TrackerChoice choice;
   choice.order.resize(filters.size());
   std::iota(choice.order.begin(), choice.order.end(), std::size_t{0});
-  const auto score = [&](std::size_t i) { return filters[i].zeta_p + filters[i].zeta_v; };
+  const auto score = [&](std::size_t i) {
+    const RankedFilter& f = filters[i];
+    return std::isnan(f.score) ? f.zeta_p + f.zeta_v : f.score;
+  };
   std::stable_sort(choice.order.begin(), choice.order.end(),
                    [&](std::size_t a, std::size_t b) { return score(a) < score(b); });
 
@@ -53,9 +57,9 @@ TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
       if (choice.winner == baseline) choice.winner = i;
       beaten_by.push_back(filters[i].name);
     } else {
-      not_earned.push_back(filters[i].name + " " + v + " it (ζ_p " +
-                           filters[i].versus_baseline_p.text() + ", ζ_v " +
-                           filters[i].versus_baseline_v.text() + ")");
+      not_earned.push_back(filters[i].name + " " + v + " it (" + filters[i].criteria[0] + " " +
+                           filters[i].versus_baseline_p.text() + ", " + filters[i].criteria[1] +
+                           " " + filters[i].versus_baseline_v.text() + ")");
     }
   }
   const auto joined = [](const std::vector<std::string>& parts) {
@@ -70,11 +74,13 @@ TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
                     ", so the baseline " + w.name + " is the regime's tracker";
   } else {
     choice.reason =
-        w.name + " beats the tuned baseline (ζ_p " + w.versus_baseline_p.text() + ", ζ_v " +
-        w.versus_baseline_v.text() + ")" +
-        (beaten_by.size() > 1 ? " and has the lowest ζ_p + ζ_v of the " +
-                                    std::to_string(beaten_by.size()) + " learned models that do"
-                              : std::string());
+        w.name + " beats the tuned baseline (" + w.criteria[0] + " " + w.versus_baseline_p.text() +
+        ", " + w.criteria[1] + " " + w.versus_baseline_v.text() + ")" +
+        (beaten_by.size() > 1
+             ? " and has the lowest " +
+                   (std::isnan(w.score) ? w.criteria[0] + " + " + w.criteria[1] : w.criteria[0]) +
+                   " of the " + std::to_string(beaten_by.size()) + " learned models that do"
+             : std::string());
   }
   return choice;
 }

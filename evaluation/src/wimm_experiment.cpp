@@ -25,6 +25,7 @@
 #include "imm/evaluation/uncertainty.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/wimm/wimm_trainer.hpp"
 
 namespace imm::evaluation {
@@ -120,6 +121,7 @@ int run(const CommonOptions& options) {
   trainer::wimm::WimmTrainingConfig tuning;
   tuning.regime = regimes.trained.regime;
   tuning.filter = normal;
+  trainer::require_training_truth(tuning.regime, "the wimm experiment's tuned nIMM");
   const trainer::wimm::Tuned tuned_normal = trainer::wimm::tune_normal_imm(
       tuning, datasets::draw_split(tuning.regime, datasets::Split::kTraining, 0));
 
@@ -133,7 +135,7 @@ int run(const CommonOptions& options) {
        << tuned_normal.spec.transition(0, 0) << " (" << tuned_normal.evaluations << " evaluations)";
   parameters["nIMM-tuned"] = text.str();
 
-  const datasets::TrackSet data = test_tracks(regime, options);
+  const datasets::TrackSet data = test_tracks(regime, options, "imm-eval wimm");
   std::cout << "wimm: " << regimes.describe() << "\n  test split: " << data.tracks.size()
             << " tracks x " << data.scans << " scans, seed " << options.seed
             << "\n  wIMM: " << parameters.at("wIMM")

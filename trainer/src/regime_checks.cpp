@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/datasets/track.hpp"
 
 namespace imm::trainer {
 
@@ -26,6 +27,18 @@ void require_sensor(const datasets::Regime& regime, datasets::SensorKind sensor,
           kind + " needs a " + std::string(datasets::to_string(sensor)) + " sensor; regime '" +
               regime.name + "' has a " + std::string(datasets::to_string(regime.sensor.kind)) +
               " one (sensor.kind)");
+}
+
+void require_training_truth(const datasets::Regime& regime, const std::string& who) {
+  if (!regime.recorded || regime.recorded->truth_for_training) return;
+  const bool has_truth = regime.recorded->set->has_truth;
+  require(false, "recorded.truth",
+          who + " learns from the truth of the training split, and regime '" + regime.name +
+              "' is recorded " +
+              (has_truth ? "with truth for evaluation only (recorded.truth = \"evaluation\")"
+                         : "without truth") +
+              "; it can be evaluated (imm-eval rank) but not trained on" +
+              (has_truth ? " unless recorded.truth = \"training\"" : ""));
 }
 
 double acceleration_scale(const datasets::Regime& regime) {

@@ -3,6 +3,7 @@
 
 #include "imm/datasets/sha256.hpp"
 #include "imm/datasets/track.hpp"
+#include "imm/trainer/regime_checks.hpp"
 
 namespace imm::trainer::ga {
 
@@ -24,6 +25,7 @@ long TrainingSet::total_steps() const {
 }
 
 TrainingSet make_training_set(const datasets::Regime& regime, datasets::Split split) {
+  require_training_truth(regime, "the GA-fuzzy IMM's training and the tuned baseline");
   TrainingSet set;
   set.sample_period = regime.sample_period;
   set.measurement_variance = regime.sensor.noise.sigma(0) * regime.sensor.noise.sigma(0);

@@ -84,9 +84,13 @@ struct ModelRequirements {
 void check_model(const ModelRequirements& model, const EvaluationRegimes& regimes,
                  const std::filesystem::path& path);
 
-/// The test tracks (--runs of them, or the regime's test split) of --seed.
+/// The test tracks (--runs of them, or the regime's test split) of --seed. A recorded regime's
+/// tracks may lack truth: an experiment that scores against truth passes its name as
+/// `needs_truth`, and such a set is refused (std::runtime_error naming the experiment, the regime
+/// and the experiments that judge plots alone).
 [[nodiscard]] datasets::TrackSet test_tracks(const datasets::Regime& regime,
-                                             const CommonOptions& options);
+                                             const CommonOptions& options,
+                                             const std::string& needs_truth = "");
 
 /// The filter named `name` among an experiment's results (anything with a `name`).
 template <class Outcome>

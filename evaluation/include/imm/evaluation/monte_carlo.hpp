@@ -40,6 +40,12 @@ struct FilterOutcome {
   /// runs × scans: the NIS of every update (NaN where a run has none: before the track starts,
   /// a rejected plot).
   Eigen::MatrixXd run_nis;
+  /// runs × scans, NaN where a run has no update: the plot's predictive log-likelihood
+  /// (TrackFilter::log_predictive_likelihood) and the squares of its innovation's two components
+  /// (in the filter's plot coordinates) — what a recorded regime without truth is scored by.
+  Eigen::MatrixXd run_log_likelihood, run_innovation_x, run_innovation_y;
+  /// Whether the tracks had their truth (the errors above are all zero without it).
+  bool has_truth = true;
   ConsistencySummary position_consistency;
   ConsistencySummary nis_consistency;
 
@@ -55,7 +61,15 @@ struct FilterOutcome {
   [[nodiscard]] std::vector<HeadlineMetric> zeta_headline() const;
   /// ζ_p, ζ_v and the position consistency (`position_nees_log_ratio`: the mean over runs of
   /// nees_log_ratio, lower is better) as headline metrics: what the regression gate compares.
+  /// Without truth, plot_headline().
   [[nodiscard]] std::vector<HeadlineMetric> headline() const;
+  /// What needs no truth, each lower-is-better: `predictive_nll` (−log p(z | Z^(k−1)) per plot),
+  /// `nis_log_ratio` (the NIS's consistency, as position_nees_log_ratio) and `innovation_rms`
+  /// (√ of the mean ‖ν‖² per plot, in the plot's coordinates).
+  [[nodiscard]] std::vector<HeadlineMetric> plot_headline() const;
+  /// The plot_headline() figures as a markdown table row's cells: predictive log-likelihood per
+  /// plot, mean NIS, innovation RMS.
+  [[nodiscard]] std::vector<std::string> plot_cells() const;
 };
 
 using FilterFactory = std::function<std::unique_ptr<TrackFilter>()>;

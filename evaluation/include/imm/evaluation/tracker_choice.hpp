@@ -6,10 +6,13 @@
 ///
 /// The rule: a learned model is eligible only when it *beats* the baseline (verdict() over ζ_p
 /// and ζ_v: better beyond the 95 % paired-bootstrap interval in at least one, worse in neither).
-/// Among the eligible ones the lowest ζ_p + ζ_v wins; when none is eligible the baseline is
-/// shipped — a learned model that only ties it has not earned its extra parts.
+/// Among the eligible ones the lowest ζ_p + ζ_v wins (without truth: the two criteria are the
+/// predictive NLL per plot and the innovation RMS, and the lowest NLL wins); when none is eligible
+/// the baseline is shipped — a learned model that only ties it has not earned its extra parts.
 
+#include <array>
 #include <cstddef>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -22,7 +25,13 @@ struct RankedFilter {
   std::string name;  ///< the model file's stem
   std::string kind;  ///< its model_kind
   bool baseline = false;
+  /// The two criteria of the verdict, lower is better: ζ_p and ζ_v, or — on recorded plots without
+  /// truth — the predictive NLL per plot and the innovation RMS (`criteria` names them).
   double zeta_p = 0.0, zeta_v = 0.0;
+  std::array<std::string, 2> criteria{"ζ_p", "ζ_v"};
+  /// What orders the filters (lowest first): ζ_p + ζ_v by default, the predictive NLL without
+  /// truth (NaN: the sum of the criteria).
+  double score = std::numeric_limits<double>::quiet_NaN();
   double position_rmse = 0.0, velocity_rmse = 0.0;
   Difference versus_baseline_p, versus_baseline_v;  ///< this − baseline (zero for the baseline)
   /// Its position NEES on the same tracks: the verdict against the per-scan 95 % bounds

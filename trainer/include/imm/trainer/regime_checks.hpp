@@ -17,6 +17,12 @@ void require_per_axis_sensor(const datasets::Regime& regime, const std::string& 
 void require_sensor(const datasets::Regime& regime, datasets::SensorKind sensor,
                     const std::string& kind);
 
+/// Training and tuning learn from the truth of a regime's training and validation splits. A
+/// recorded regime allows that only when its set has truth and `recorded.truth = "training"`;
+/// otherwise InvalidParameter naming `recorded.truth`, with `who` (the trainer or the tuned
+/// baseline) in the message. Drawn regimes always pass.
+void require_training_truth(const datasets::Regime& regime, const std::string& who);
+
 /// An acceleration scale of the regime for the defaults and search boxes that depend on it: its
 /// largest commanded acceleration, else ten times its truth noise, else one unit.
 [[nodiscard]] double acceleration_scale(const datasets::Regime& regime);

@@ -1,0 +1,30 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// An experiment on recorded plots without truth: the filters are judged by how well they predict
+/// the plots, with no error against a truth nobody has.
+///
+/// Per filter: the predictive log-likelihood per plot (1/N Σ log p(z | Z^(k−1)), higher is
+/// better), the NIS averaged over tracks per scan against its two-sided 95 % χ² bounds, and the
+/// innovation RMS √(1/N Σ ‖z − ẑ‖²) in the plot's coordinates; each learned filter against every
+/// other with the 95 % paired-bootstrap interval over tracks. The headline (what the regression
+/// gate compares) is FilterOutcome::plot_headline of the experiment's own filter.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "imm/evaluation/evaluation_report.hpp"
+#include "imm/evaluation/monte_carlo.hpp"
+
+namespace imm::evaluation {
+
+/// Prints the plot-metric tables of `filters` (ours against each other one), writes
+/// metrics.json and headline.json in `out`, and returns the report's exit code: a finding
+/// (exit 7) when `ours` does not beat a filter named in `baselines` in predictive NLL beyond the
+/// interval, else 0.
+int plots_only_report(const std::string& experiment, const std::vector<FilterOutcome>& filters,
+                      const std::string& ours, const std::vector<std::string>& baselines,
+                      const HeadlineRuns& evaluated, const std::filesystem::path& out,
+                      const std::vector<ModelUse>& more_models = {});
+
+}  // namespace imm::evaluation

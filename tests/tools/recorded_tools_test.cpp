@@ -1,0 +1,81 @@
+// SPDX-License-Identifier: Apache-2.0
+// End-to-end: recorded tracks through the tools, as a user would bring them — exported without
+// truth, imported, named by a recorded regime, and evaluated by the plots alone.
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "testing/tools_fixture.hpp"
+
+namespace imm {
+namespace {
+
+using testing::kTable3;
+using testing::run_tool;
+using testing::Tools;
+
+TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
+  const auto exported = run_tool("imm-data",
+                                 {"export", "--regime", kTable3, "--count", "6", "--out-dir",
+                                  (dir_ / "rec").string(), "--no-truth"},
+                                 root_);
+  ASSERT_EQ(exported.exit_code, 0) << exported.err;
+  const std::string header = testing::lines_of(testing::slurp(dir_ / "rec" / "track_000.csv"))[0];
+  EXPECT_EQ(header, "t,zx,zy");
+  std::vector<std::string> import = {"import", "--out", (dir_ / "rec.h5").string(), "--units",
+                                     "km"};
+  for (int i = 0; i < 6; ++i) {
+    import.push_back((dir_ / "rec" / ("track_00" + std::to_string(i) + ".csv")).string());
+  }
+  const auto imported = run_tool("imm-data", import, root_);
+  ASSERT_EQ(imported.exit_code, 0) << imported.err;
+  EXPECT_NE(imported.out.find("6 recordings, 6 tracks"), std::string::npos) << imported.out;
+  EXPECT_NE(imported.out.find("without truth"), std::string::npos) << imported.out;
+
+  // The set as data for the plain IMM: judged by the plots, headline without ζ.
+  const auto evaluated = run_tool("imm-eval",
+                                  {"plain-imm", "--model", "models/cv3_imm.h5", "--data",
+                                   (dir_ / "rec.h5").string(), "--out", (dir_ / "e").string()},
+                                  root_);
+  ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 7) << evaluated.err;
+  EXPECT_NE(evaluated.out.find("the tracks have no truth"), std::string::npos) << evaluated.out;
+  const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "e" / "headline.json"));
+  std::vector<std::string> names;
+  for (const auto& m : headline["metrics"]) names.push_back(m["name"]);
+  EXPECT_EQ(names, (std::vector<std::string>{"predictive_nll", "nis_log_ratio", "innovation_rms"}));
+  for (const auto& m : headline["metrics"]) EXPECT_TRUE(std::isfinite(m["value"].get<double>()));
+
+  // A recorded regime without truth: nothing trains on it, and it says why.
+  std::ofstream(dir_ / "recorded.toml")
+      << "name = \"rec\"\nunits = \"km\"\n[recorded]\nset = \"" << (dir_ / "rec.h5").string()
+      << "\"\n[sensor]\nkind = \"cartesian\"\nsigma = [0.5, 0.5]\n[splits]\ntraining = 2\n"
+         "validation = 2\ntest = 2\n";
+  const auto trained =
+      run_tool("imm-train",
+               {"baseline", "--config", "configs/ga_fuzzy_imm_tuned.toml", "--regime",
+                (dir_ / "recorded.toml").string(), "--out", (dir_ / "b.h5").string()},
+               root_);
+  EXPECT_EQ(trained.exit_code, 2);
+  EXPECT_NE(trained.err.find("recorded.truth"), std::string::npos) << trained.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "b.h5"));
+}
+
+TEST_F(Tools, AHostileRecordingIsRefusedAndNothingIsImported) {
+  std::filesystem::create_directories(dir_ / "in");
+  std::ofstream(dir_ / "in" / "good.csv") << "t,zx,zy\n0,1,2\n1,1.5,2.5\n2,2,3\n3,2.5,3.5\n";
+  std::ofstream(dir_ / "in" / "bad.csv") << "t,zx,zy\n0,1,2\n1,1.5,2.5\n2,nan,3\n";
+  const auto result =
+      run_tool("imm-data",
+               {"import", "--out", (dir_ / "set.h5").string(), (dir_ / "in" / "good.csv").string(),
+                (dir_ / "in" / "bad.csv").string()},
+               root_);
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("bad.csv:4: column 2: 'nan' is not a finite number"), std::string::npos)
+      << result.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "set.h5"));
+}
+
+}  // namespace
+}  // namespace imm
