@@ -50,9 +50,9 @@ int run_ga(const GaCommand& command) {
     config = ga::resolve_levels(std::move(config), training);
     spdlog::info(
         "ga: starting from the constant-q IMM tuned on the training split: q [{}], stay {:.4f}, "
-        "ζ_p + ζ_v {:.4f} ({} evaluations)",
+        "{} {:.4f} ({} evaluations)",
         fmt::join(config.baseline->process_noise, ", "), config.baseline->transition_stay,
-        config.baseline->score, config.baseline->evaluations);
+        training.criterion(), config.baseline->score, config.baseline->evaluations);
   }
   if (!config.tuned_levels) {
     const auto warning = ga::unreachable_quiet_level(
@@ -295,10 +295,10 @@ int run_baseline(const TrainCommand& command) {
   if (command.seed) config.seed = *command.seed;
   const ga::TunedBaselineResult result = ga::write_tuned_baseline(std::move(config), command.out);
   spdlog::info(
-      "baseline: the constant-q IMM tuned on the training split: q [{}], stay {:.4f}, ζ_p + ζ_v "
+      "baseline: the constant-q IMM tuned on the training split: q [{}], stay {:.4f}, {} "
       "{:.4f} ({} evaluations); wrote {} ({:.1f} s)",
       fmt::join(result.baseline.process_noise, ", "), result.baseline.transition_stay,
-      result.baseline.score, result.baseline.evaluations, command.out.string(),
+      result.criterion, result.baseline.score, result.baseline.evaluations, command.out.string(),
       result.wall_seconds);
   return 0;
 }

@@ -47,19 +47,30 @@ TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
   EXPECT_EQ(names, (std::vector<std::string>{"predictive_nll", "nis_log_ratio", "innovation_rms"}));
   for (const auto& m : headline["metrics"]) EXPECT_TRUE(std::isfinite(m["value"].get<double>()));
 
-  // A recorded regime without truth: nothing trains on it, and it says why.
+  // A recorded regime without truth: the tuned baseline learns from the plots' likelihood; the
+  // input estimator, which needs acceleration targets, refuses it and says why.
   std::ofstream(dir_ / "recorded.toml")
       << "name = \"rec\"\nunits = \"km\"\n[recorded]\nset = \"" << (dir_ / "rec.h5").string()
-      << "\"\n[sensor]\nkind = \"cartesian\"\nsigma = [0.5, 0.5]\n[splits]\ntraining = 2\n"
-         "validation = 2\ntest = 2\n";
+      << "\"\nacceleration = [0.01, 0.05]\n[sensor]\nkind = \"cartesian\"\nsigma = [0.5, 0.5]\n"
+         "[splits]\ntraining = 2\nvalidation = 2\ntest = 2\n";
   const auto trained =
       run_tool("imm-train",
                {"baseline", "--config", "configs/ga_fuzzy_imm_tuned.toml", "--regime",
                 (dir_ / "recorded.toml").string(), "--out", (dir_ / "b.h5").string()},
                root_);
-  EXPECT_EQ(trained.exit_code, 2);
-  EXPECT_NE(trained.err.find("recorded.truth"), std::string::npos) << trained.err;
-  EXPECT_FALSE(std::filesystem::exists(dir_ / "b.h5"));
+  ASSERT_EQ(trained.exit_code, 0) << trained.err;
+  EXPECT_NE(trained.err.find("excess NLL per plot"), std::string::npos) << trained.err;
+  const auto inspected = nlohmann::json::parse(
+      run_tool("imm-inspect", {(dir_ / "b.h5").string(), "--json"}, root_).out);
+  EXPECT_EQ(inspected["attributes"]["training.trained_without_truth"], 1.0) << inspected.dump();
+  const auto refused =
+      run_tool("imm-train",
+               {"mlp", "--config", "configs/mlp_input_estimator.toml", "--regime",
+                (dir_ / "recorded.toml").string(), "--out", (dir_ / "m.h5").string()},
+               root_);
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("recorded.truth"), std::string::npos) << refused.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "m.h5"));
 }
 
 TEST_F(Tools, AHostileRecordingIsRefusedAndNothingIsImported) {

@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "imm/datasets/random.hpp"
+#include "imm/trainer/ga/baseline_tuning.hpp"
 #include "imm/trainer/ga/fuzzy_table_problem.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
 #include "testing/ga_fuzzy_specs.hpp"
@@ -82,6 +83,36 @@ TEST(ImmFitnessBatch, EqualsTheRuntimeImmOnEveryTrajectoryToRounding) {
     }
   }
   EXPECT_EQ(compared, 48);
+}
+
+// Without truth the batch's predictive NLL per plot is the runtime filter's
+// (ImmEstimator::log_predictive_likelihood through axis_zetas), to lane_log's rounding; the
+// truth is never read (NaN here).
+TEST(ImmFitnessBatch, ItsPredictiveNllIsTheRuntimeFiltersWithoutTruth) {
+  TrainingSet set = training_set();
+  set.trajectories[2].measurement.conservativeResize(61);  // masked scans
+  set.trajectories[2].position.conservativeResize(61);
+  set.trajectories[2].velocity.conservativeResize(61);
+  set.trajectories[2].acceleration_input.conservativeResize(61);
+  set.plots_only = true;
+  for (auto& t : set.trajectories) {
+    t.position.setConstant(std::nan(""));
+    t.velocity.setConstant(std::nan(""));
+  }
+  const ImmFitnessBatch batch(set);
+  datasets::Rng rng(8);
+  for (int trial = 0; trial < 12; ++trial) {
+    const GaFuzzyImmSpec spec = random_ga_fuzzy_spec(
+        rng, 1 + trial % 4,
+        trial % 2 == 0 ? FuzzyAntecedents::kResidual : FuzzyAntecedents::kNormalizedInnovation);
+    const double runtime =
+        axis_zetas([&] { return std::make_unique<ImmAxisFilter>(build_ga_fuzzy_axis_imm(spec)); },
+                   {set})
+            .position;
+    ASSERT_TRUE(std::isfinite(runtime)) << trial;
+    const double fast = batch.run(spec).predictive_nll - set.nll_floor();
+    EXPECT_NEAR(fast, runtime, 1e-12 * std::abs(set.nll_floor())) << trial;
+  }
 }
 
 // A plot the filter cannot take fails the run on both paths; in a masked lane it is never read.

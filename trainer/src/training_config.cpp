@@ -1,9 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/training_config.hpp"
 
-#include "imm/core/invalid_parameter.hpp"
-#include "imm/trainer/regime_checks.hpp"
-
 namespace imm::trainer {
 
 datasets::RegimeFile regime_of(const support::ConfigTable& root,
@@ -12,11 +9,6 @@ datasets::RegimeFile regime_of(const support::ConfigTable& root,
   if (!override && named.empty()) root.fail("regime", "missing: name the regime file to train for");
   datasets::RegimeFile file =
       datasets::load_regime(override ? *override : std::filesystem::path(named));
-  try {
-    require_training_truth(file.regime, "imm-train");
-  } catch (const InvalidParameter& error) {  // the regime file's key, not the config's
-    throw support::ConfigError(file.regime.file, error.field(), error.message());
-  }
   return file;
 }
 

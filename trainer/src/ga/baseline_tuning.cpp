@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "imm/support/bounded_search.hpp"
 #include "imm/trainer/normalized_errors.hpp"
@@ -27,6 +28,27 @@ std::vector<double> exponentials(const std::vector<double>& logs) {
 
 AxisZetas axis_zetas(const AxisFilterFactory& make_filter, const std::vector<TrainingSet>& sets) {
   constexpr double kFailed = std::numeric_limits<double>::infinity();
+  if (!sets.empty() && sets.front().plots_only) {
+    double nll = 0.0;
+    long plots = 0;
+    for (const auto& set : sets) {
+      if (!set.plots_only) throw std::invalid_argument("axis_zetas: sets with and without truth");
+      const double T = set.sample_period, r = set.measurement_variance;
+      for (const auto& t : set.trajectories) {
+        auto filter = make_filter();
+        GaussianState<2> start;
+        start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
+        start.covariance << r, r / T, r / T, 2.0 * r / (T * T);
+        filter->initialize(start);
+        for (Eigen::Index k = 2; k < t.measurement.size(); ++k) {
+          if (filter->step(t.measurement(k)) != StepStatus::kOk) return {kFailed, kFailed};
+          nll -= filter->log_predictive_likelihood() + set.nll_floor();
+          ++plots;
+        }
+      }
+    }
+    return {plots > 0 && std::isfinite(nll) ? nll / static_cast<double>(plots) : kFailed, 0.0};
+  }
   long steps = 0;
   for (const auto& set : sets) {
     for (const auto& t : set.trajectories) steps = std::max<long>(steps, t.measurement.size());

@@ -44,15 +44,17 @@ Evaluation score(const ProblemOptions& options, double position_sum, double velo
   return e;
 }
 
-// Eq. (16) from a batched run: ζ_p + ζ_v (kZeta) or eq. (17)'s sums.
-Evaluation score(const ProblemOptions& options, const ImmRunErrors& run, int rules) {
+// Eq. (16) from a batched run: ζ_p + ζ_v (kZeta; without truth the predictive NLL per plot, as
+// axis_zetas) or eq. (17)'s sums.
+Evaluation score(const ProblemOptions& options, const ImmRunErrors& run, int rules, bool plots_only,
+                 double nll_floor) {
   if (options.error == ErrorKind::kEquation17) {
     return score(options, run.position_abs_sum, run.velocity_abs_sum, run.count, run.failed, rules);
   }
   Evaluation e;
   e.rules = rules;
-  e.position_error = run.zeta_p;
-  e.velocity_error = run.zeta_v;
+  e.position_error = plots_only ? run.predictive_nll - nll_floor : run.zeta_p;
+  e.velocity_error = plots_only ? 0.0 : run.zeta_v;
   if (run.failed) e.position_error = e.velocity_error = std::numeric_limits<double>::infinity();
   e.error = e.position_error + e.velocity_error;
   e.fitness = fitness_of(options, e.error, e.rules);
@@ -233,7 +235,7 @@ Evaluation FuzzyTableProblem::evaluate(const Genome& genome) const {
   if (!batch_) return evaluate_table(decode(genome), training_);
   const GaFuzzyImmSpec spec = imm_with(decode(genome));
   const auto rules = static_cast<int>(spec.levels[context_.slot].table.size());
-  return score(options_, batch_->run(spec), rules);
+  return score(options_, batch_->run(spec), rules, training_.plots_only, training_.nll_floor());
 }
 
 }  // namespace imm::trainer::ga

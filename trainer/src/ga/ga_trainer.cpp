@@ -241,10 +241,14 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
   metrics["error"] = std::string(to_string(config.fuzzy.error));
   metrics["wall_seconds"] = result.wall_seconds;
   if (config.baseline) {
-    metrics["baseline"] = {{"process_noise", config.baseline->process_noise},
-                           {"transition_stay", config.baseline->transition_stay},
-                           {"training_zeta_p_plus_zeta_v", config.baseline->score},
-                           {"evaluations", config.baseline->evaluations}};
+    metrics["baseline"] = {
+        {"process_noise", config.baseline->process_noise},
+        {"transition_stay", config.baseline->transition_stay},
+        {"training_criterion", config.regime.recorded && !config.regime.recorded->truth_for_training
+                                   ? "excess NLL per plot"
+                                   : "ζ_p + ζ_v"},
+        {"training_zeta_p_plus_zeta_v", config.baseline->score},
+        {"evaluations", config.baseline->evaluations}};
   }
   if (result.refinement) {
     const LevelRefinement& r = *result.refinement;
@@ -319,6 +323,12 @@ GaTrainingResult train_ga(const GaTrainingConfig& requested, const GaRunOptions&
   // level its own consequent range of eq. 15 on the same data).
   const TrainingSet training = make_training_set(requested.regime, datasets::Split::kTraining);
   const TrainingSet validation = make_training_set(requested.regime, datasets::Split::kValidation);
+  require(!training.plots_only || (requested.fuzzy.fitness == FitnessKind::kImm &&
+                                   requested.fuzzy.error == ErrorKind::kZeta),
+          "training.error",
+          "regime '" + requested.regime.name +
+              "' has no truth to train on: the GA learns from the plots' predictive likelihood "
+              "only with fitness = \"imm\" and error = \"zeta\" (configs/ga_fuzzy_imm_tuned.toml)");
   GaTrainingConfig config = resolve_levels(requested, training);
 
   std::optional<Checkpoint> resumed;

@@ -41,6 +41,7 @@ struct BlockData {
 
 struct Sums {
   double position_abs = 0.0, velocity_abs = 0.0, count = 0.0;
+  double log_likelihood = 0.0;  // Σ log p(z | Z^(k−1)) + ½ log 2π per plot
   bool failed = false;
   // ζ: per scan Σ (p − p̂)², Σ (p − z)², Σ (v − v̂)², Σ (v − v̄)², samples.
   double* pe = nullptr;
@@ -62,7 +63,7 @@ template <int W>
   lanes::AxisModes<W>* next = &modes[1];
   Lanes mu[kMaxLevels], exponent[kMaxLevels], scale[kMaxLevels];
   Lanes predicted[kMaxLevels], inverse_predicted[kMaxLevels], weight[kMaxLevels];
-  Lanes bad, abs_p, abs_v, count;
+  Lanes bad, abs_p, abs_v, count, log_likelihood;
   const double T = m.axis.T, r = m.start_variance;
   // Two-point start from scans 0 and 1.
   for (int j = 0; j < n; ++j) {
@@ -76,7 +77,7 @@ template <int W>
       now->previous[j][l] = 0.0;
     }
   }
-  IMM_LANES bad[l] = abs_p[l] = abs_v[l] = count[l] = 0.0;
+  IMM_LANES bad[l] = abs_p[l] = abs_v[l] = count[l] = log_likelihood[l] = 0.0;
 
   for (int k = 2; k < d.scans; ++k) {
     const double* z = d.z + static_cast<std::ptrdiff_t>(k) * W;
@@ -127,6 +128,9 @@ template <int W>
       bad[l] += pick(normal, 0.0, d.mask[k * W + l]);
       inverse_sum[l] = 1.0 / sum[l];
       e0[l] = e1[l] = 0.0;
+      // log Σ_j c_j N(r_j; 0, S_j) but for −½ log 2π: the plot's predictive log-likelihood.
+      log_likelihood[l] +=
+          pick((d.mask[k * W + l] != 0.0) & normal, lane_log(sum[l]) + shift[l], 0.0);
     }
     std::swap(now, next);  // commit
     for (int j = 0; j < n; ++j) {
@@ -175,6 +179,7 @@ template <int W>
     sums.position_abs += abs_p[l];
     sums.velocity_abs += abs_v[l];
     sums.count += count[l];
+    sums.log_likelihood += log_likelihood[l];
     sums.failed = sums.failed || bad[l] != 0.0;
   }
 }
@@ -286,6 +291,9 @@ ImmRunErrors ImmFitnessBatch::run(const GaFuzzyImmSpec& spec) const {
   errors.position_abs_sum = sums.position_abs;
   errors.velocity_abs_sum = sums.velocity_abs;
   errors.count = static_cast<long>(sums.count);
+  constexpr double kHalfLogTwoPi = 0.91893853320467274178;  // ½ log(2π)
+  errors.predictive_nll =
+      sums.count > 0.0 ? -sums.log_likelihood / sums.count + kHalfLogTwoPi : 0.0;
   const auto n = static_cast<long>(scans);
   errors.zeta_p = mean_normalized_ratio(sums.pe, sums.pm, sums.samples, n);
   errors.zeta_v = mean_normalized_ratio(sums.ve, sums.vm, sums.samples, n);

@@ -26,14 +26,17 @@ TunedBaselineResult write_tuned_baseline(GaTrainingConfig config,
                       static_cast<std::int64_t>(config.seed), training.digest(), config.regime);
   provenance.training_metrics["learned_part_on"] = 0.0;
   provenance.training_metrics["classical_baseline"] = 1.0;
-  provenance.training_metrics["zeta_p_plus_zeta_v"] = baseline.score;
+  provenance.training_metrics[training.plots_only ? "excess_nll" : "zeta_p_plus_zeta_v"] =
+      baseline.score;
+  provenance.training_metrics["trained_without_truth"] = training.plots_only ? 1.0 : 0.0;
   ensure_parent_folder(out);
   io::ModelFileWriter writer(out, provenance);
   io::write_ga_fuzzy_imm(writer, tuned_baseline_spec(config));
   writer.commit();
 
   TunedBaselineResult result{
-      baseline, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
+      baseline, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+      training.criterion()};
   nlohmann::json metrics;
   metrics["model_kind"] = io::kGaFuzzyImmKind;
   metrics["classical_baseline"] =
@@ -44,6 +47,7 @@ TunedBaselineResult write_tuned_baseline(GaTrainingConfig config,
   metrics["regime"] = config.regime.name;
   metrics["baseline"] = {{"process_noise", baseline.process_noise},
                          {"transition_stay", baseline.transition_stay},
+                         {"training_criterion", training.criterion()},
                          {"training_zeta_p_plus_zeta_v", baseline.score},
                          {"evaluations", baseline.evaluations}};
   metrics["wall_seconds"] = result.wall_seconds;

@@ -20,6 +20,7 @@ namespace imm::trainer::mlp {
 namespace {
 
 MlpTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
+  require_training_truth(regime, "the MLP input estimator (its acceleration targets)");
   MlpTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
   c.regime = std::move(regime);

@@ -3,6 +3,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <memory>
 #include <sstream>
 #include <vector>
@@ -26,6 +27,10 @@ EnvelopeCalibration calibrate_envelope(const std::filesystem::path& model_file, 
   if (p.regime_toml.empty() || tracks < 1) return c;
   const datasets::Regime regime = datasets::parse_regime(p.regime_toml, p.regime_name).regime;
   const int window = c.settings.window;
+  // A recorded regime has the validation windows it has; a drawn one draws fresh tracks.
+  if (regime.recorded) {
+    tracks = std::min(tracks, datasets::split_size(regime, datasets::Split::kValidation));
+  }
   std::vector<double> sums;
   for (int i = 0; i < tracks; ++i) {
     const datasets::Track track = datasets::draw_track(regime, datasets::Split::kValidation, i, 0);

@@ -28,6 +28,7 @@ namespace imm::trainer::tsk {
 namespace {
 
 TskTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
+  require_training_truth(regime, "the TSK sensor model (its calibration positions)");
   TskTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
   c.regime = std::move(regime);

@@ -26,6 +26,7 @@ namespace imm::trainer::wimm {
 namespace {
 
 WimmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
+  require_training_truth(regime, "the wIMM");
   WimmTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
   c.regime = std::move(regime);

@@ -20,7 +20,10 @@ namespace imm::trainer::ga {
 using AxisFilterFactory = std::function<std::unique_ptr<AxisFilter>()>;
 
 /// ζ_p and ζ_v of a per-axis filter over one-axis trajectories (two-point start at scans 0, 1);
-/// +∞ when a step fails.
+/// +∞ when a step fails. Without truth (plots_only sets, all of them or none) `position` is the
+/// excess NLL per plot, −1/N Σ (log p(z | Z^(k−1)) + TrainingSet::nll_floor())
+/// (AxisFilter::log_predictive_likelihood), and `velocity` 0: every tuner that minimizes
+/// ζ_p + ζ_v then maximizes the plots' likelihood.
 struct AxisZetas {
   double position = 0.0;
   double velocity = 0.0;

@@ -33,6 +33,9 @@ struct ImmRunErrors {
   double velocity_abs_sum = 0.0;      ///< Σ |v − v̂|
   long count = 0;                     ///< the scans summed
   double zeta_p = 0.0, zeta_v = 0.0;  ///< as NormalizedErrors gives them
+  /// −1/N Σ log p(z | Z^(k−1)) over the same scans: the plots' predictive NLL per plot, which
+  /// needs no truth (what axis_zetas gives for a plots_only set, to lane_log's rounding).
+  double predictive_nll = 0.0;
 };
 
 class ImmFitnessBatch {

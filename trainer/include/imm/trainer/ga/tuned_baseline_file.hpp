@@ -15,8 +15,9 @@
 namespace imm::trainer::ga {
 
 struct TunedBaselineResult {
-  TunedBaseline baseline;  ///< the tuned q_j, stay and training ζ_p + ζ_v
+  TunedBaseline baseline;  ///< the tuned q_j, stay and training score
   double wall_seconds = 0.0;
+  std::string criterion;  ///< what the score is (TrainingSet::criterion)
 };
 
 /// Tunes the baseline of `config` (its regime, level_count and search budget; `levels = "tuned"`
