@@ -53,7 +53,9 @@ struct Sums {
 
 // One block of W lanes (W = 8 or 4: two AVX2 vectors, so that each loop has two independent
 // chains of operations, or one for the last few trajectories).
-template <int W>
+// kLikelihood: also sum the plots' predictive log-likelihood (a training set without truth); a
+// lane_log per plot that the truth's runs do not pay.
+template <int W, bool kLikelihood>
 [[gnu::always_inline]] inline void run_lanes(const Model& m, const BlockData& d, Sums& sums) {
   using Lanes = double[W];
   const int n = m.modes;
@@ -128,9 +130,14 @@ template <int W>
       bad[l] += pick(normal, 0.0, d.mask[k * W + l]);
       inverse_sum[l] = 1.0 / sum[l];
       e0[l] = e1[l] = 0.0;
+    }
+    if constexpr (kLikelihood) {
       // log Σ_j c_j N(r_j; 0, S_j) but for −½ log 2π: the plot's predictive log-likelihood.
-      log_likelihood[l] +=
-          pick((d.mask[k * W + l] != 0.0) & normal, lane_log(sum[l]) + shift[l], 0.0);
+      IMM_LANES {
+        const bool normal = (sum[l] > 0.0) & (sum[l] < std::numeric_limits<double>::infinity());
+        log_likelihood[l] +=
+            pick((d.mask[k * W + l] != 0.0) & normal, lane_log(sum[l]) + shift[l], 0.0);
+      }
     }
     std::swap(now, next);  // commit
     for (int j = 0; j < n; ++j) {
@@ -185,11 +192,21 @@ template <int W>
 }
 
 [[gnu::flatten]] IMM_AVX2_CLONES void run_block8(const Model& m, const BlockData& d, Sums& sums) {
-  run_lanes<8>(m, d, sums);
+  run_lanes<8, false>(m, d, sums);
 }
 
 [[gnu::flatten]] IMM_AVX2_CLONES void run_block4(const Model& m, const BlockData& d, Sums& sums) {
-  run_lanes<4>(m, d, sums);
+  run_lanes<4, false>(m, d, sums);
+}
+
+[[gnu::flatten]] IMM_AVX2_CLONES void likelihood_block8(const Model& m, const BlockData& d,
+                                                        Sums& sums) {
+  run_lanes<8, true>(m, d, sums);
+}
+
+[[gnu::flatten]] IMM_AVX2_CLONES void likelihood_block4(const Model& m, const BlockData& d,
+                                                        Sums& sums) {
+  run_lanes<4, true>(m, d, sums);
 }
 
 // Per-thread workspace of the per-scan sums: grows to the longest set, then allocates nothing.
@@ -214,6 +231,7 @@ ImmFitnessBatch::ImmFitnessBatch(const TrainingSet& set) {
     lanes += widths_.back();
   }
   start_variance_ = set.measurement_variance;
+  plots_only_ = set.plots_only;
   const auto size = static_cast<std::size_t>(lanes) * static_cast<std::size_t>(scans_);
   measurement_.assign(size, 0.0);
   position_.assign(size, 0.0);
@@ -280,9 +298,9 @@ ImmRunErrors ImmFitnessBatch::run(const GaFuzzyImmSpec& spec) const {
     const BlockData block{measurement_.data() + at, position_.data() + at, velocity_.data() + at,
                           mask_.data() + at, scans_};
     if (widths_[b] == 8) {
-      run_block8(m, block, sums);
+      (plots_only_ ? likelihood_block8 : run_block8)(m, block, sums);
     } else {
-      run_block4(m, block, sums);
+      (plots_only_ ? likelihood_block4 : run_block4)(m, block, sums);
     }
     at += static_cast<std::size_t>(widths_[b]) * scans;
   }

@@ -34,7 +34,8 @@ struct ImmRunErrors {
   long count = 0;                     ///< the scans summed
   double zeta_p = 0.0, zeta_v = 0.0;  ///< as NormalizedErrors gives them
   /// −1/N Σ log p(z | Z^(k−1)) over the same scans: the plots' predictive NLL per plot, which
-  /// needs no truth (what axis_zetas gives for a plots_only set, to lane_log's rounding).
+  /// needs no truth (what axis_zetas gives for a plots_only set, to lane_log's rounding). Summed
+  /// only for a plots_only set (0 otherwise).
   double predictive_nll = 0.0;
 };
 
@@ -58,6 +59,7 @@ class ImmFitnessBatch {
   std::vector<int> widths_;      ///< lanes per block, in order
   int scans_ = 0;                ///< the longest trajectory's
   double start_variance_ = 1.0;  ///< the two-point start's plot variance (the set's)
+  bool plots_only_ = false;      ///< the set has no truth: the run sums the predictive NLL
   // Per block [scan][lane]: plots, truth, the lane's mask (1 where the scan exists).
   std::vector<double> measurement_, position_, velocity_, mask_;
 };
