@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include "imm/core/invalid_parameter.hpp"
@@ -71,12 +72,16 @@ TrackSet recorded_split(const Regime& regime, Split split, int count) {
   set.sample_period = regime.sample_period;
   set.scans = regime.scans;
   set.recorded = true;
-  set.has_truth = recorded.set->has_truth;
+  // Truth for evaluation only never reaches a training or validation split.
+  const bool truth =
+      recorded.set->has_truth && (split == Split::kTest || recorded.truth_for_training);
+  set.has_truth = truth;
   set.recording_names = recorded.set->recording_names;
   const std::size_t n = count >= 0 ? static_cast<std::size_t>(count) : windows.size();
   for (std::size_t i = 0; i < n; ++i) {
     Track track = recorded.set->tracks[windows[i]];
     track.noise = regime.sensor.noise;
+    if (!truth) track.truth.setConstant(std::numeric_limits<double>::quiet_NaN());
     set.tracks.push_back(std::move(track));
     set.recording.push_back(recorded.set->recording[windows[i]]);
   }
@@ -105,6 +110,9 @@ Track recorded_track(const Regime& regime, Split split, int index) {
               std::to_string(windows.size()) + ")");
   Track track = regime.recorded->set->tracks[windows[static_cast<std::size_t>(index)]];
   track.noise = regime.sensor.noise;
+  if (split != Split::kTest && !regime.recorded->truth_for_training) {
+    track.truth.setConstant(std::numeric_limits<double>::quiet_NaN());
+  }
   return track;
 }
 

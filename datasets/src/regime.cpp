@@ -230,8 +230,11 @@ void Regime::validate() const {
   require(scans >= 3 && scans <= 1'000'000, "scans", "must be in [3, 10⁶]");
   limits::require_in(process_noise_sigma, limits::kAcceleration, "process_noise_sigma");
   check_noise(sensor.kind, sensor.noise, "sensor.");
-  if (recorded) {  // no generator: the splits are the only other keys
-    validate_splits(splits);
+  if (recorded) {  // no generator: the splits are the only other keys (test may be empty)
+    require(splits.test >= 0, "splits.test", "must be in [0, 10⁶]");
+    Splits checked = splits;
+    checked.test = std::max(1, splits.test);
+    validate_splits(checked);
     return;
   }
   for (Eigen::Index i = 0; i < 2; ++i) {

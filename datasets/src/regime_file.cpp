@@ -396,7 +396,18 @@ RegimeFile recorded_regime_from(const ConfigTable& root, const ConfigTable& tabl
   assign_recorded_splits(*recorded, r.splits);
   r.recorded = recorded;
   published_from(root, file);
-  if (r.sensor.estimate_sigma) r.sensor.noise.sigma.setConstant(estimate_plot_sigma(r));
+  if (r.sensor.estimate_sigma || !table.has("acceleration")) {
+    // One fit of the training split's plots gives the σ to estimate and the manoeuvres' scale:
+    // the manoeuvring mode's √q₂ (the quiet mode's √q₁ the smallest, at least 10⁻³ of it).
+    const PlotSigmaFit fit = fit_plot_sigma(recorded_split(r, Split::kTraining));
+    if (r.sensor.estimate_sigma) r.sensor.noise.sigma.setConstant(fit.model.sigma);
+    if (!table.has("acceleration")) {
+      recorded->max_acceleration = std::sqrt(fit.model.manoeuvre_noise);
+      recorded->min_acceleration =
+          std::max(std::sqrt(fit.model.quiet_noise), 1e-3 * recorded->max_acceleration);
+      recorded->acceleration_estimated = true;
+    }
+  }
   finish(r, text);
   return file;
 }

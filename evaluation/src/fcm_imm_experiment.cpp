@@ -29,7 +29,6 @@
 #include "imm/trainer/normalized_errors.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/ranks.hpp"
-#include "imm/trainer/regime_checks.hpp"
 
 namespace imm::evaluation {
 namespace {
@@ -206,7 +205,6 @@ int run(const CommonOptions& options) {
   tuning.filter = fitted;
   tuning.initial_first_probability = fitted.initial_probabilities(0);
   tuning.tuning.set_automatic_log_q(tuning.regime);
-  trainer::require_training_truth(tuning.regime, "the fcm-imm experiment's tuned baselines");
   const datasets::TrackSet training =
       datasets::draw_split(tuning.regime, datasets::Split::kTraining, 0);
   const auto kf = trainer::fcm::tune_kf(tuning, training);

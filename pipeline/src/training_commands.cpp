@@ -105,16 +105,21 @@ int run_ga(const GaCommand& command) {
   }
   if (result.baseline_check) {
     const ga::BaselineCheck& c = *result.baseline_check;
+    // Without truth the rule has two parts: the excess NLL and the innovation RMS.
+    const std::string rms = c.baseline_innovation_rms > 0.0
+                                ? fmt::format("; innovation RMS {:.4f} against {:.4f} σ",
+                                              c.learned_innovation_rms, c.baseline_innovation_rms)
+                                : std::string();
     if (c.learned_part_on) {
       spdlog::info(
-          "validation split: the learned tables beat the tuned IMM (error {:.4f} < {:.4f})",
-          c.learned.error, c.baseline.error);
+          "validation split: the learned tables beat the tuned IMM (error {:.4f} < "
+          "{:.4f}{})",
+          c.learned.error, c.baseline.error, rms);
     } else {
       spdlog::warn(
-          "validation split: the learned tables do not beat the tuned IMM (error {:.4f} >= "
-          "{:.4f}): "
-          "learned part switched off, the model is the tuned constant-q IMM",
-          c.learned.error, c.baseline.error);
+          "validation split: the learned tables do not beat the tuned IMM (error {:.4f} against "
+          "{:.4f}{}): learned part switched off, the model is the tuned constant-q IMM",
+          c.learned.error, c.baseline.error, rms);
     }
   }
   if (!result.gate_passed) {

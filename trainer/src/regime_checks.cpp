@@ -2,6 +2,7 @@
 #include "imm/trainer/regime_checks.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/datasets/track.hpp"
@@ -33,12 +34,26 @@ void require_training_truth(const datasets::Regime& regime, const std::string& w
   if (!regime.recorded || regime.recorded->truth_for_training) return;
   const bool has_truth = regime.recorded->set->has_truth;
   require(false, "recorded.truth",
-          who + " learns from the truth of the training split, and regime '" + regime.name +
+          "training " + who + " needs the truth of the training split, and regime '" + regime.name +
               "' is recorded " +
               (has_truth ? "with truth for evaluation only (recorded.truth = \"evaluation\")"
                          : "without truth") +
-              "; it can be evaluated (imm-eval rank) but not trained on" +
+              "; train a kind that learns from plots alone (the tuned baseline, the GA-fuzzy IMM, "
+              "the FCM-IMM) or evaluate on it" +
               (has_truth ? " unless recorded.truth = \"training\"" : ""));
+}
+
+void require_gap_free(const datasets::Regime& regime, const datasets::TrackSet& set) {
+  for (std::size_t i = 0; i < set.tracks.size(); ++i) {
+    if (set.tracks[i].plots.allFinite()) continue;
+    const auto r = static_cast<std::size_t>(set.recorded ? set.recording.at(i) : 0);
+    throw std::runtime_error(
+        regime.file + ": recorded.set: recording '" +
+        (set.recorded ? set.recording_names.at(r) : std::to_string(i)) + "' has a gap in a " +
+        std::string(datasets::to_string(set.split)) +
+        " window; training from plots needs windows without gaps (import with --scans short "
+        "enough to fit between them)");
+  }
 }
 
 double acceleration_scale(const datasets::Regime& regime) {

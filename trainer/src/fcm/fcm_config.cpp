@@ -21,7 +21,6 @@ std::pair<double, double> range(const support::ConfigTable& t, std::string_view 
 }
 
 FcmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
-  require_training_truth(regime, "the FCM-IMM");
   FcmTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
   c.regime = std::move(regime);

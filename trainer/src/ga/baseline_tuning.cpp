@@ -76,6 +76,33 @@ AxisZetas axis_zetas(const AxisFilterFactory& make_filter, const std::vector<Tra
   return {errors.zeta_p(), errors.zeta_v()};
 }
 
+double axis_innovation_rms(const AxisFilterFactory& make_filter,
+                           const std::vector<TrainingSet>& sets) {
+  double sum = 0.0;
+  long plots = 0;
+  for (const auto& set : sets) {
+    const double T = set.sample_period, r = set.measurement_variance;
+    for (const auto& t : set.trajectories) {
+      auto filter = make_filter();
+      GaussianState<2> start;
+      start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
+      start.covariance << r, r / T, r / T, 2.0 * r / (T * T);
+      filter->initialize(start);
+      for (Eigen::Index k = 2; k < t.measurement.size(); ++k) {
+        double nu = 0.0, variance = 0.0;
+        if (filter->step(t.measurement(k)) != StepStatus::kOk ||
+            !filter->innovation(nu, variance)) {
+          return std::numeric_limits<double>::infinity();
+        }
+        sum += nu * nu / r;
+        ++plots;
+      }
+    }
+  }
+  return plots > 0 ? std::sqrt(sum / static_cast<double>(plots))
+                   : std::numeric_limits<double>::infinity();
+}
+
 double axis_score(const AxisFilterFactory& make_filter, const std::vector<TrainingSet>& sets) {
   const AxisZetas zetas = axis_zetas(make_filter, sets);
   return zetas.position + zetas.velocity;

@@ -1,10 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/ga/training_set.hpp"
 
-#include <stdexcept>
-
 #include "imm/datasets/sha256.hpp"
 #include "imm/datasets/track.hpp"
+#include "imm/trainer/regime_checks.hpp"
 
 namespace imm::trainer::ga {
 
@@ -31,18 +30,7 @@ TrainingSet make_training_set(const datasets::Regime& regime, datasets::Split sp
   set.measurement_variance = regime.sensor.noise.sigma(0) * regime.sensor.noise.sigma(0);
   set.plots_only = regime.recorded && !regime.recorded->truth_for_training;
   const datasets::TrackSet tracks = datasets::draw_split(regime, split, regime.splits.seed);
-  if (set.plots_only) {
-    for (std::size_t i = 0; i < tracks.tracks.size(); ++i) {
-      if (!tracks.tracks[i].plots.allFinite()) {
-        throw std::runtime_error(
-            regime.file + ": recorded.set: recording '" +
-            tracks.recording_names.at(static_cast<std::size_t>(tracks.recording[i])) +
-            "' has a gap in a " + std::string(datasets::to_string(split)) +
-            " window; training from plots needs windows without gaps (import with --scans "
-            "short enough to fit between them)");
-      }
-    }
-  }
+  if (set.plots_only) require_gap_free(regime, tracks);
   set.trajectories = datasets::axis_trajectories(tracks);
   return set;
 }

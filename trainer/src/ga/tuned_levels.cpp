@@ -118,6 +118,17 @@ BaselineCheck check_against_baseline(GaFuzzyImmSpec& spec, const GaTrainingConfi
   check.learned = evaluate_imm(spec, validation, options, total_rules(spec));
   check.baseline = evaluate_imm(baseline, validation, options, total_rules(baseline));
   check.learned_part_on = check.learned.error < check.baseline.error;
+  if (validation.plots_only) {
+    auto rms = [&](const GaFuzzyImmSpec& s) {
+      return axis_innovation_rms(
+          [&s] { return std::make_unique<ImmAxisFilter>(build_ga_fuzzy_axis_imm(s)); },
+          {validation});
+    };
+    check.learned_innovation_rms = rms(spec);
+    check.baseline_innovation_rms = rms(baseline);
+    check.learned_part_on =
+        check.learned_part_on && check.learned_innovation_rms <= check.baseline_innovation_rms;
+  }
   if (!check.learned_part_on) spec = std::move(baseline);
   return check;
 }

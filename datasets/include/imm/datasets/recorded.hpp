@@ -86,6 +86,9 @@ void assign_recorded_splits(Recorded& recorded, const Splits& splits);
 
 /// A recorded regime's split: the windows of its recordings, in the shuffled order (`count` ≥ 0
 /// keeps the first `count`; more than the split holds is an InvalidParameter naming the split).
+/// The training and validation splits carry truth only when the regime says recorded.truth =
+/// "training" (otherwise their truth is NaN and has_truth false); the test split whenever the set
+/// has it.
 [[nodiscard]] TrackSet recorded_split(const Regime& regime, Split split, int count = -1);
 /// The windows a recorded regime's split holds.
 [[nodiscard]] int recorded_split_size(const Regime& regime, Split split);

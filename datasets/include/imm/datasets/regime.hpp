@@ -147,9 +147,12 @@ struct Recorded {
   /// Truth, where the set has it: for evaluation only (the trainers learn from the plots), or for
   /// training too.
   bool truth_for_training = false;
-  /// The manoeuvres' acceleration magnitudes the models are built for, [smallest, largest]
-  /// (recorded.acceleration; 0: not stated, and a trainer that needs it says so).
+  /// The manoeuvres' acceleration magnitudes the models are built for, [smallest, largest]:
+  /// recorded.acceleration, or — when it is not stated — estimated from the training split's
+  /// plots (the √q of a two-mode CV IMM's modes fitted by their predictive likelihood,
+  /// sensor_estimate.hpp).
   double min_acceleration = 0.0, max_acceleration = 0.0;
+  bool acceleration_estimated = false;
   /// The recordings of each split, in their shuffled order, and the windows they hold.
   std::vector<int> training, validation, test;
 };

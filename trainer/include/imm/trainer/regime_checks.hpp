@@ -6,6 +6,7 @@
 #include <string>
 
 #include "imm/datasets/regime.hpp"
+#include "imm/datasets/track.hpp"
 
 namespace imm::trainer {
 
@@ -22,6 +23,10 @@ void require_sensor(const datasets::Regime& regime, datasets::SensorKind sensor,
 /// otherwise InvalidParameter naming `recorded.truth`, with `who` (the trainer or the tuned
 /// baseline) in the message. Drawn regimes always pass.
 void require_training_truth(const datasets::Regime& regime, const std::string& who);
+
+/// Training from plots alone steps every plot of a window: a window with a gap (NaN plots) is
+/// refused (std::runtime_error naming the regime's file and the recording).
+void require_gap_free(const datasets::Regime& regime, const datasets::TrackSet& set);
 
 /// An acceleration scale of the regime for the defaults and search boxes that depend on it: its
 /// largest commanded acceleration, else ten times its truth noise, else one unit.

@@ -70,14 +70,19 @@ struct FcmTrainingConfig {
 using TrackingData = datasets::TrackSet;
 
 struct TrackingScore {
-  double position_rmse = 0.0, velocity_rmse = 0.0;
-  double objective = 0.0;  ///< (pos + T · vel) / σ_z; +∞ when a filter failed
+  double position_rmse = 0.0, velocity_rmse = 0.0;  ///< NaN without truth
+  /// (pos + T · vel) / σ_z; without truth (a recorded regime's plots alone) the excess NLL per
+  /// plot, −1/N Σ log p(z | Z^(k−1)) − log(2π e σ_z²) (both axes' plot entropy). +∞ when a filter
+  /// failed.
+  double objective = 0.0;
 };
 
 using FilterFactory = std::function<std::unique_ptr<TwoAxisFilter>()>;
 
 /// Runs `make()` over every track of `data` (two-point start at scans 0, 1) and scores scans 2 …
-/// on. Tracks run in parallel; the result does not depend on the thread count.
+/// on, against the truth or — for a set without it — by the plots' predictive likelihood
+/// (TrackFilter::log_predictive_likelihood). Tracks run in parallel; the result does not depend
+/// on the thread count.
 [[nodiscard]] TrackingScore score_filter(const FilterFactory& make, const TrackingData& data,
                                          double measurement_sigma);
 

@@ -30,6 +30,11 @@ struct AxisZetas {
 };
 [[nodiscard]] AxisZetas axis_zetas(const AxisFilterFactory& make_filter,
                                    const std::vector<TrainingSet>& sets);
+/// √(1/N Σ ν²) / σ_z over the same plots: the RMS of the filter's one-step prediction error of the
+/// plots (AxisFilter::innovation, ν = z − ẑ), in plot σ — the accuracy a set without truth still
+/// shows (E ν² = the predicted position's mean square error + σ_z²). +∞ when a step fails.
+[[nodiscard]] double axis_innovation_rms(const AxisFilterFactory& make_filter,
+                                         const std::vector<TrainingSet>& sets);
 /// ζ_p + ζ_v of axis_zetas: the tuning objective.
 [[nodiscard]] double axis_score(const AxisFilterFactory& make_filter,
                                 const std::vector<TrainingSet>& sets);

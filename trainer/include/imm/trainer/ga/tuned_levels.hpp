@@ -49,10 +49,15 @@ LevelRefinement refine_levels(GaFuzzyImmSpec& spec, const GaTrainingConfig& conf
 /// (`training.learned_part_on` = 0) and the evaluation report say.
 struct BaselineCheck {
   Evaluation learned, baseline;  ///< the whole IMM on the validation split
+  /// Without truth also the innovation RMS in plot σ (axis_innovation_rms) of both.
+  double learned_innovation_rms = 0.0, baseline_innovation_rms = 0.0;
   bool learned_part_on = true;
 };
 
-/// Replaces `spec` by tuned_baseline_spec(config) when it does not beat it on `validation`.
+/// Replaces `spec` by tuned_baseline_spec(config) when it does not beat it on `validation`: a
+/// lower ζ_p + ζ_v, or — without truth — a lower excess NLL per plot *and* an innovation RMS no
+/// higher (the likelihood also rewards a better-calibrated S; the tables must not buy it with
+/// worse predictions, the rule of imm-eval rank's two criteria).
 BaselineCheck check_against_baseline(GaFuzzyImmSpec& spec, const GaTrainingConfig& config,
                                      const TrainingSet& validation);
 
