@@ -96,7 +96,27 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
   for (const auto& entry : root.tables("data")) {
     const std::string out = entry.text("out");
     NightlyStage stage = make_stage("data", entry.text("name"), "imm-data");
-    stage.arguments = {entry.text("command"), "--regime", entry.text("regime"), "--out", out};
+    const std::string command = entry.text("command");
+    if (command == "export" || command == "import") {  // a recorded regime's recordings
+      stage.arguments = {command, command == "export" ? "--out-dir" : "--out", out};
+      stage.out = out;
+      add_folder_of(stage, out, command == "export");
+      if (command == "export") {
+        stage.arguments.insert(stage.arguments.end(), {"--regime", entry.text("regime")});
+        add_optional_text(entry, "split", "--split", stage);
+        add_optional(entry, "count", "--count", stage);
+        add_optional(entry, "seed", "--seed", stage);
+        if (entry.boolean_or("no_truth", false)) stage.arguments.emplace_back("--no-truth");
+      } else {
+        add_optional_text(entry, "units", "--units", stage);
+        add_optional_text(entry, "sensor", "--sensor", stage);
+        add_optional_text(entry, "set_name", "--name", stage);
+        for (auto& input : entry.texts("inputs")) stage.arguments.push_back(std::move(input));
+      }
+      plan.stages.push_back(std::move(stage));
+      continue;
+    }
+    stage.arguments = {command, "--regime", entry.text("regime"), "--out", out};
     stage.out = out;
     add_folder_of(stage, out);
     add_optional_text(entry, "split", "--split", stage);

@@ -277,6 +277,10 @@ void Night::run_plain(const NightlyStage& stage) {
     o.transient = out_of_room(o.message);
   }
   std::vector<fs::path> outputs = {stage.out};
+  std::error_code error;
+  if (fs::is_directory(stage.out, error)) {  // an export's recordings
+    for (const auto& f : fs::directory_iterator(stage.out, error)) outputs.push_back(f.path());
+  }
   for (std::size_t i = 1; i < stage.arguments.size(); ++i) {
     if (stage.arguments[i - 1] == "--csv") outputs.emplace_back(stage.arguments[i]);
   }

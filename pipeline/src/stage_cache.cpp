@@ -21,6 +21,20 @@ std::optional<std::string> config_regime(const fs::path& config) {
   return std::nullopt;
 }
 
+// The track set a recorded regime file names ([recorded] set = "…"), if `path` is one.
+std::optional<std::string> recorded_set(const fs::path& path) {
+  if (path.extension() != ".toml") return std::nullopt;
+  std::ifstream in(path);
+  static const std::regex line(R"re(^\s*set\s*=\s*"([^"]+)")re");
+  bool recorded = false;
+  for (std::string text; std::getline(in, text);) {
+    if (text.rfind('[', 0) == 0) recorded = text.rfind("[recorded]", 0) == 0;
+    std::smatch match;
+    if (recorded && std::regex_search(text, match, line)) return match[1].str();
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 std::vector<fs::path> project_libraries() {
@@ -60,7 +74,7 @@ std::string inputs_digest(const NightlyStage& stage, const fs::path& tool, Diges
     hash.update(a + '\n');
     // What it writes, and an evaluation's model (the model stage's output, digested there).
     if (stage.out_argument && i == *stage.out_argument) continue;
-    if (i > 0 && (stage.arguments[i - 1] == "--out" ||
+    if (i > 0 && (stage.arguments[i - 1] == "--out" || stage.arguments[i - 1] == "--out-dir" ||
                   (stage.kind == "data" && stage.arguments[i - 1] == "--csv"))) {
       continue;  // what the stage writes
     }
@@ -69,9 +83,19 @@ std::string inputs_digest(const NightlyStage& stage, const fs::path& tool, Diges
     if (fs::is_regular_file(a, error)) {
       add_file(a);
       if (i > 0 && stage.arguments[i - 1] == "--config") {
-        if (auto regime = config_regime(a); regime && fs::is_regular_file(*regime))
+        if (auto regime = config_regime(a); regime && fs::is_regular_file(*regime)) {
           add_file(*regime);
+          if (auto set = recorded_set(*regime); set && fs::is_regular_file(*set)) add_file(*set);
+        }
       }
+      // A recorded regime's track set is an input of whatever names the regime.
+      if (auto set = recorded_set(a); set && fs::is_regular_file(*set)) add_file(*set);
+    } else if (fs::is_directory(a, error) && stage.kind == "data") {
+      std::map<std::string, std::string> files;  // an import's recordings, in name order
+      for (const auto& f : fs::directory_iterator(a)) {
+        if (f.is_regular_file()) files[f.path().filename().string()] = digests.of_file(f.path());
+      }
+      for (const auto& [name, digest] : files) hash.update(name + '=' + digest + '\n');
     } else if (fs::is_directory(a, error) && stage.kind == "evaluation") {
       const std::string folder = normal_path(a);
       const std::string evaluated =

@@ -8,12 +8,16 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <numbers>
 
+#include "imm/datasets/dataset_file.hpp"
 #include "imm/datasets/random.hpp"
+#include "imm/datasets/recorded.hpp"
 #include "imm/datasets/sha256.hpp"
 #include "imm/datasets/track.hpp"
 #include "testing/config_error.hpp"
+#include "testing/temp_dir.hpp"
 
 namespace imm::datasets {
 namespace {
@@ -119,11 +123,43 @@ acceleration = [0.01, 0.0]
       "cases[0].start");
 }
 
+// A recorded regime's text with its set replaced by a stand-in: 60 agile_air tracks exported
+// without truth and imported (what the nightly does), in `dir`.
+std::string recorded_with_stand_in(std::string text, const testing::TempDir& dir) {
+  const Regime source = load_regime("configs/regimes/agile_air.toml").regime;
+  const TrackSet drawn = draw_split(source, Split::kTest, 11, 60);
+  std::vector<RecordedTrack> tracks;
+  for (std::size_t i = 0; i < drawn.tracks.size(); ++i) {
+    const auto csv = dir.path() / std::string("r").append(std::to_string(i)).append(".csv");
+    write_recording_csv(csv, drawn, SensorKind::kCartesian, i, false);
+    for (auto& t : read_recording(csv, {SensorKind::kCartesian})) tracks.push_back(std::move(t));
+  }
+  ImportOptions options;
+  const TrackSet set = import_recordings(tracks, options, nullptr);
+  const auto path = dir.path() / "set.h5";
+  (void)write_track_set(path, recording_header(options, set), set, "test");
+  const std::size_t key = text.find("set = \"");
+  const std::size_t end = text.find('"', key + 7);
+  return text.replace(key + 7, end - key - 7, path.string());
+}
+
 TEST(RegimeConfig, EveryShippedRegimeLoads) {
+  const testing::TempDir dir;
   int count = 0;
   for (const auto& entry : std::filesystem::recursive_directory_iterator("configs/regimes")) {
     if (entry.path().extension() != ".toml") continue;
     SCOPED_TRACE(entry.path().string());
+    std::ifstream in(entry.path());
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (text.find("[recorded]") != std::string::npos) {
+      // Its set is the nightly's data: a stand-in set of its kind and period takes its place.
+      text = recorded_with_stand_in(text, dir);
+      const RegimeFile file = parse_regime(text, entry.path().string());
+      EXPECT_EQ(file.regime.name, entry.path().stem().string());
+      EXPECT_NO_THROW((void)datasets::draw_track(file.regime, Split::kTest, 0, 1));
+      ++count;
+      continue;
+    }
     const RegimeFile file = load_regime(entry.path());
     EXPECT_EQ(file.regime.name, entry.path().stem().string());
     EXPECT_NO_THROW((void)datasets::draw_track(file.regime, Split::kTest, 0, 1));

@@ -22,6 +22,7 @@
 // Exit codes: 0 success, 1 usage, 2 invalid regime or unwritable output.
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -80,9 +81,26 @@ int import_recordings(const std::vector<std::string>& inputs, const std::string&
   options.kind = sensor_name == "polar" ? SensorKind::kPolar : SensorKind::kCartesian;
   options.units =
       units_name == "km" ? imm::datasets::Units::kKilometres : imm::datasets::Units::kMetres;
-  std::vector<imm::datasets::RecordedTrack> tracks;
+  // A folder stands for its *.csv files, in name order.
+  std::vector<std::filesystem::path> files;
   for (const std::string& input : inputs) {
-    for (auto& track : imm::datasets::read_recording(input, {options.kind})) {
+    if (!std::filesystem::is_directory(input)) {
+      files.emplace_back(input);
+      continue;
+    }
+    std::vector<std::filesystem::path> inside;
+    for (const auto& entry : std::filesystem::directory_iterator(input)) {
+      if (entry.is_regular_file() && entry.path().extension() == ".csv") {
+        inside.push_back(entry.path());
+      }
+    }
+    if (inside.empty()) throw std::runtime_error(input + ": no .csv files in the folder");
+    std::sort(inside.begin(), inside.end());
+    files.insert(files.end(), inside.begin(), inside.end());
+  }
+  std::vector<imm::datasets::RecordedTrack> tracks;
+  for (const auto& file : files) {
+    for (auto& track : imm::datasets::read_recording(file, {options.kind})) {
       tracks.push_back(std::move(track));
     }
   }
@@ -172,7 +190,7 @@ int main(int argc, char** argv) {
   imm::datasets::ImportOptions import_options;
   bool no_truth = false;
   auto* import = app.add_subcommand("import", "recorded tracks (CSV) into a track set");
-  import->add_option("files", inputs, "recording CSV files")->required();
+  import->add_option("files", inputs, "recording CSV files, or folders of them")->required();
   import->add_option("--out", out_path, "track-set file to write (HDF5)")->required();
   import->add_option("--name", name, "the set's name");
   import->add_option("--sensor", sensor_name, "cartesian (zx, zy) | polar (range, azimuth)")
