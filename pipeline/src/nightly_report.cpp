@@ -2,6 +2,7 @@
 // The morning report of a nightly run: reports/nightly/<night>/index.md and a self-contained
 // index.html (plots embedded), and the `latest` link beside them.
 
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -142,15 +143,25 @@ void write_trackers(const NightlyResult& result, std::ostringstream& md, std::os
     const auto document =
         nlohmann::json::parse(read_or_empty(o.report / "tracker.json"), nullptr, false);
     if (document.is_discarded() || !document.contains("ranking")) continue;
-    md << "| place | filter | ζ_p | ζ_v | this − baseline ζ_p [95 %] | this − baseline ζ_v [95 %] "
-          "| "
-          "against the baseline |\n|---|---|---|---|---|---|---|\n";
-    html << "<table><tr><th>place</th><th>filter</th><th>ζ_p</th><th>ζ_v</th><th>this − baseline "
-            "ζ_p [95 %]</th><th>this − baseline ζ_v [95 %]</th><th>against the baseline</th>"
-            "</tr>\n";
+    // The two criteria: ζ_p and ζ_v, or — on recorded plots without truth — the predictive NLL
+    // per plot and the innovation RMS.
+    const bool truth = document.value("truth", true);
+    const std::array<const char*, 2> keys =
+        truth ? std::array{"zeta_p", "zeta_v"} : std::array{"predictive_nll", "innovation_rms"};
+    const std::array<std::string, 2> labels =
+        truth ? std::array<std::string, 2>{"ζ_p", "ζ_v"}
+              : std::array<std::string, 2>{"predictive NLL", "innovation RMS"};
+    md << "| place | filter | " << labels[0] << " | " << labels[1] << " | this − baseline "
+       << labels[0] << " [95 %] | this − baseline " << labels[1]
+       << " [95 %] | against the baseline |\n|---|---|---|---|---|---|---|\n";
+    html << "<table><tr><th>place</th><th>filter</th><th>" << labels[0] << "</th><th>" << labels[1]
+         << "</th><th>this − baseline " << labels[0] << " [95 %]</th><th>this − baseline "
+         << labels[1] << " [95 %]</th><th>against the baseline</th></tr>\n";
     for (const auto& row : document.at("ranking")) {
       const auto difference = [&](const char* metric) {
-        if (!row.contains("versus_baseline")) return std::string("–");
+        if (!row.contains("versus_baseline") || !row.at("versus_baseline").contains(metric)) {
+          return std::string("–");
+        }
         const auto& d = row.at("versus_baseline").at(metric);
         std::ostringstream text;
         text.precision(4);
@@ -160,17 +171,17 @@ void write_trackers(const NightlyResult& result, std::ostringstream& md, std::os
       };
       std::ostringstream p, v;
       p.precision(4), v.precision(4);
-      p << std::fixed << row.value("zeta_p", 0.0);
-      v << std::fixed << row.value("zeta_v", 0.0);
+      p << std::fixed << row.value(keys[0], 0.0);
+      v << std::fixed << row.value(keys[1], 0.0);
       const std::string name =
           row.value("filter", "?") + (row.value("baseline", false) ? " (tuned baseline)" : "");
       md << "| " << row.value("place", 0) << " | " << name << " | " << p.str() << " | " << v.str()
-         << " | " << difference("zeta_p") << " | " << difference("zeta_v") << " | "
+         << " | " << difference(keys[0]) << " | " << difference(keys[1]) << " | "
          << row.value("verdict", "") << " |\n";
       html << "<tr><td>" << row.value("place", 0) << "</td><td>" << html_text(name) << "</td><td>"
-           << p.str() << "</td><td>" << v.str() << "</td><td>" << difference("zeta_p")
-           << "</td><td>" << difference("zeta_v") << "</td><td>"
-           << html_text(row.value("verdict", "")) << "</td></tr>\n";
+           << p.str() << "</td><td>" << v.str() << "</td><td>" << difference(keys[0]) << "</td><td>"
+           << difference(keys[1]) << "</td><td>" << html_text(row.value("verdict", ""))
+           << "</td></tr>\n";
     }
     md << "\n";
     html << "</table>\n";

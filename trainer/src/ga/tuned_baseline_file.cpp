@@ -28,7 +28,7 @@ TunedBaselineResult write_tuned_baseline(GaTrainingConfig config,
   provenance.training_metrics["classical_baseline"] = 1.0;
   provenance.training_metrics[training.plots_only ? "excess_nll" : "zeta_p_plus_zeta_v"] =
       baseline.score;
-  provenance.training_metrics["trained_without_truth"] = training.plots_only ? 1.0 : 0.0;
+  if (training.plots_only) provenance.training_metrics["trained_without_truth"] = 1.0;
   ensure_parent_folder(out);
   io::ModelFileWriter writer(out, provenance);
   io::write_ga_fuzzy_imm(writer, tuned_baseline_spec(config));

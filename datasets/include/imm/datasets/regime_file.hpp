@@ -25,6 +25,13 @@
 ///              ca: acceleration = [ax, ay]; turn: rate_deg; zigzag: quarter, amplitudes = [...];
 ///              lane_change: offset
 ///   [splits]  training = 12  validation = 6  test = 100  seed = 1
+///   [recorded]  set = "data/recorded/x.h5"       a recorded regime (imm/datasets/recorded.hpp):
+///               truth = "evaluation" | "training"  its tracks come from an imported set instead
+///               acceleration = [min, max]          of start/maneuvers/cases/process_noise_sigma
+///                                                  (refused beside it); [splits] counts whole
+///               recordings (default 60/20/20 %, test may be 0); sample_period and scans default
+///               to the set's; [sensor] sigma = "estimate" (Cartesian) learns σ from the plots, as
+///               an absent acceleration is (imm/datasets/sensor_estimate.hpp)
 ///   [[published]]  source = "..."  filter = "..."  case = "..."  <metric> = value …
 ///
 /// An interval is a number (fixed) or [min, max]; `<key>_scale = "log"` draws it log-uniformly.
