@@ -110,7 +110,8 @@ int run(const RankOptions& options) {
                     f.kind, cell(f.zeta_p), cell(f.zeta_v),
                     f.baseline ? "–" : f.versus_baseline_p.text(),
                     f.baseline ? "–" : f.versus_baseline_v.text(), verdict_against_baseline(f),
-                    cell(f.position_rmse), cell(f.velocity_rmse, 5)});
+                    data.has_truth ? cell(f.position_rmse) : "–",
+                    data.has_truth ? cell(f.velocity_rmse, 5) : "–"});
   }
   std::cout << "rank: regime " << regime.regime.name << " test split, seed " << options.seed << ", "
             << runs << " tracks x " << data.scans << " scans\n\n"

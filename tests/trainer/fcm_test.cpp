@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <numbers>
 
 #include "imm/datasets/track.hpp"
 #include "imm/io/fcm_imm_file.hpp"
@@ -89,6 +90,44 @@ TEST(FcmTraining, ScoreIsIndependentOfTheThreadCount) {
   EXPECT_EQ(one.objective, two.objective);
   EXPECT_EQ(one.position_rmse, two.position_rmse);
   EXPECT_GT(one.position_rmse, 0.0);
+}
+
+// Without truth the objective is the excess NLL per plot: the two-axis filter's own
+// −log p(z | Z^(k−1)), averaged over the scored scans, less the plots' entropy log(2πeσ²) (two
+// axes); recomputed here by stepping the filter by hand. The truth is NaN: nothing reads it.
+TEST(FcmTraining, WithoutTruthTheObjectiveIsTheFiltersExcessNll) {
+  const auto config = small_config();
+  auto data = datasets::draw_split(config.regime, datasets::Split::kTraining, 0);
+  data.has_truth = false;
+  for (auto& track : data.tracks) track.truth.setConstant(std::nan(""));
+  FcmImmSpec spec = config.filter;
+  spec.compensation_gain = 0.3;
+  auto make = [&] { return make_fcm_imm_filter(spec); };
+  const auto score = fcm::score_filter(make, data, 100.0);
+  double nll = 0.0;
+  long plots = 0;
+  const double T = data.sample_period, r = 100.0 * 100.0;
+  for (const auto& track : data.tracks) {
+    auto filter = make();
+    Eigen::VectorXd mean(4);
+    Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(4, 4);
+    for (int axis = 0; axis < 2; ++axis) {
+      const double z0 = track.plots(0, axis), z1 = track.plots(1, axis);
+      mean.segment<2>(2 * axis) << z1, (z1 - z0) / T;
+      covariance.block<2, 2>(2 * axis, 2 * axis) << r, r / T, r / T, 2.0 * r / (T * T);
+    }
+    filter->initialize(mean, covariance);
+    for (Eigen::Index k = 2; k < track.plots.rows(); ++k) {
+      ASSERT_EQ(filter->step(track.plots.row(k).transpose()), StepStatus::kOk);
+      nll -= filter->log_predictive_likelihood();
+      ++plots;
+    }
+  }
+  const double expected =
+      nll / static_cast<double>(plots) - std::log(2.0 * std::numbers::pi * std::numbers::e * r);
+  EXPECT_NEAR(score.objective, expected, 1e-12 * std::abs(nll / static_cast<double>(plots)));
+  EXPECT_TRUE(std::isnan(score.position_rmse));
+  EXPECT_GT(score.objective, 0.0);  // a filter cannot know the positions better than the plots
 }
 
 TEST(FcmTraining, LambdaZeroIsTheConstantNoiseImm) {

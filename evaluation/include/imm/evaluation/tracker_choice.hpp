@@ -34,8 +34,9 @@ struct RankedFilter {
   double score = std::numeric_limits<double>::quiet_NaN();
   double position_rmse = 0.0, velocity_rmse = 0.0;
   Difference versus_baseline_p, versus_baseline_v;  ///< this − baseline (zero for the baseline)
-  /// Its position NEES on the same tracks: the verdict against the per-scan 95 % bounds
-  /// ("consistent", "optimistic", "pessimistic"), the average and the share of scans inside.
+  /// Its position NEES on the same tracks (without truth: its NIS): the verdict against the
+  /// per-scan 95 % bounds ("consistent", "optimistic", "pessimistic"), the average and the share
+  /// of scans inside.
   std::string consistency = "consistent";
   double position_nees = 0.0, scans_inside = 1.0;
 };
