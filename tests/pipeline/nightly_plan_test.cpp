@@ -180,6 +180,55 @@ TEST(Nightly, TheStageDigestIncludesTheSharedRuntime) {
 #endif
 }
 
+// The recorded regime's data: an export without truth, then an import of its folder, both imm-data
+// command lines; and the digests that decide whether a stage reruns follow the recordings an import
+// reads and the track set a recorded regime names.
+TEST(Nightly, RecordedDataStagesExportThenImportAndTheirInputsAreDigested) {
+  const NightlyPlan plan = load_nightly_plan("configs/nightly.toml");
+  const NightlyStage* exported = nullptr;
+  const NightlyStage* imported = nullptr;
+  for (const auto& stage : plan.stages) {
+    if (stage.kind != "data" || stage.arguments.empty()) continue;
+    if (stage.arguments[0] == "export") exported = &stage;
+    if (stage.arguments[0] == "import") imported = &stage;
+  }
+  ASSERT_NE(exported, nullptr);
+  ASSERT_NE(imported, nullptr);
+  const auto has = [](const NightlyStage& s, const std::string& a) {
+    return std::find(s.arguments.begin(), s.arguments.end(), a) != s.arguments.end();
+  };
+  EXPECT_TRUE(has(*exported, "--no-truth"));
+  EXPECT_TRUE(has(*exported, "--out-dir"));
+  EXPECT_TRUE(has(*imported, exported->out.string()));  // the import reads the export's folder
+  EXPECT_LT(exported - plan.stages.data(), imported - plan.stages.data());
+
+  testing::TempDir dir;
+  const auto folder = dir.path() / "recordings";
+  std::filesystem::create_directories(folder);
+  std::ofstream(folder / "a.csv") << "t,zx,zy\n0,1,2\n";
+  NightlyStage import = *imported;
+  import.arguments = {"import", "--out", (dir.path() / "set.h5").string(), folder.string()};
+  const auto tool = std::filesystem::path("configs/nightly.toml");  // any file stands for the tool
+  Digests digests;
+  const std::string before = inputs_digest(import, tool, digests);
+  std::ofstream(folder / "a.csv", std::ios::app) << "1,1,2\n";
+  Digests fresh;
+  EXPECT_NE(inputs_digest(import, tool, fresh), before);
+
+  // A model stage naming a recorded regime depends on its set.
+  std::ofstream(dir.path() / "set.h5") << "one";
+  std::ofstream(dir.path() / "recorded.toml")
+      << "name = \"r\"\n[recorded]\nset = \"" << (dir.path() / "set.h5").string() << "\"\n";
+  NightlyStage model;
+  model.kind = "model";
+  model.arguments = {"baseline", "--regime", (dir.path() / "recorded.toml").string()};
+  Digests first;
+  const std::string with_one = inputs_digest(model, tool, first);
+  std::ofstream(dir.path() / "set.h5") << "two";
+  Digests second;
+  EXPECT_NE(inputs_digest(model, tool, second), with_one);
+}
+
 TEST(Nightly, EvaluationsFollowTheirModel) {
   const NightlyPlan plan = load_nightly_plan("configs/nightly.toml");
   for (const auto& stage : plan.stages) {
