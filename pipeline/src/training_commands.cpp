@@ -163,6 +163,13 @@ int train_mlp(const TrainCommand& command) {
       "removing the trained bias",
       result.wall_seconds, result.training_seconds, result.training_rmse, result.validation_rmse,
       unit, result.bias_before, unit, result.bias_after);
+  if (result.smoother) {
+    spdlog::info(
+        "labels (no truth): the accelerations of the RTS smoother of the constant-q IMM tuned on "
+        "the training plots (q [{}] ({}/s²)², stay {:.4f}); the RMSE above is against them",
+        fmt::join(result.smoother->process_noise, ", "), unit,
+        result.smoother->settings.transition_stay);
+  }
   if (!result.gate_passed) {
     spdlog::error(
         "quality gate failed: validation RMSE {:.3f} {}/s² exceeds {:.3f}; {} not written",

@@ -48,7 +48,7 @@ TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
   for (const auto& m : headline["metrics"]) EXPECT_TRUE(std::isfinite(m["value"].get<double>()));
 
   // A recorded regime without truth: the tuned baseline learns from the plots' likelihood; the
-  // input estimator, which needs acceleration targets, refuses it and says why.
+  // wIMM, which learns from truth alone, refuses it and says why.
   std::ofstream(dir_ / "recorded.toml")
       << "name = \"rec\"\nunits = \"km\"\n[recorded]\nset = \"" << (dir_ / "rec.h5").string()
       << "\"\nacceleration = [0.01, 0.05]\n[sensor]\nkind = \"cartesian\"\nsigma = [0.5, 0.5]\n"
@@ -65,7 +65,7 @@ TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
   EXPECT_EQ(inspected["attributes"]["training.trained_without_truth"], 1.0) << inspected.dump();
   const auto refused =
       run_tool("imm-train",
-               {"mlp", "--config", "configs/mlp_input_estimator.toml", "--regime",
+               {"wimm", "--config", "configs/wimm_tuned.toml", "--regime",
                 (dir_ / "recorded.toml").string(), "--out", (dir_ / "m.h5").string()},
                root_);
   EXPECT_EQ(refused.exit_code, 2);

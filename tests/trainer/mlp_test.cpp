@@ -4,11 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "imm/datasets/random.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
+#include "imm/trainer/mlp/smoothed_labels.hpp"
 #include "testing/config_error.hpp"
 
 namespace imm::trainer::mlp {
@@ -194,6 +196,74 @@ TEST(Backpropagation, EachLossPointIsReportedWhenItIsMeasured) {
     EXPECT_EQ(seen[i].training, curve[i].training);
     EXPECT_EQ(mse_then[i], curve[i].training) << "point " << i << " was not reported live";
   }
+}
+
+// With one mode the IMM is a CV Kalman filter, and the labels' smoother is the textbook
+// Rauch–Tung–Striebel smoother of it, written out here with explicit 2 × 2 matrices; with several
+// modes a constant acceleration of 4 m/s² in low noise is found in the window's interior.
+TEST(SmoothedLabels, OneModeIsTheTextbookRtsSmootherAndAnAccelerationIsFound) {
+  const double T = 0.5, sigma = 2.0, q = 0.3;
+  datasets::Rng rng(4);
+  datasets::TrackSet set;
+  set.sample_period = T;
+  set.scans = 60;
+  datasets::Track track;
+  track.plots.resize(60, 2);
+  for (Eigen::Index k = 0; k < 60; ++k) {
+    const double t = T * static_cast<double>(k);
+    track.plots(k, 0) = 10.0 * t + sigma * rng.normal();
+    track.plots(k, 1) = -3.0 * t + (k >= 20 && k < 40 ? 2.0 * (t - 10.0) * (t - 10.0) : 0.0) +
+                        (k >= 40 ? 2.0 * 100.0 + 40.0 * (t - 20.0) : 0.0) + sigma * rng.normal();
+  }
+  set.tracks = {track};
+  AxisCvImmSpec one;
+  one.settings.sample_period = T;
+  one.settings.measurement_sigma = sigma;
+  one.process_noise = {q};
+  const datasets::TrackSet smoothed = smoothed_truth(set, one);
+  ASSERT_TRUE(smoothed.has_truth);
+  // The textbook: forward KF from the two-point start at scan 1, then RTS backward.
+  const Eigen::VectorXd z = track.plots.col(0);
+  const double r = sigma * sigma;
+  Eigen::Matrix2d F, Q;
+  F << 1.0, T, 0.0, 1.0;
+  Q << T * T * T * T / 4.0, T * T * T / 2.0, T * T * T / 2.0, T * T;
+  Q *= q;
+  std::vector<Eigen::Vector2d> x(60);
+  std::vector<Eigen::Matrix2d> P(60);
+  x[1] << z(1), (z(1) - z(0)) / T;
+  P[1] << r, r / T, r / T, 2.0 * r / (T * T);
+  for (int k = 2; k < 60; ++k) {
+    const Eigen::Vector2d xp = F * x[k - 1];
+    const Eigen::Matrix2d Pp = F * P[k - 1] * F.transpose() + Q;
+    const double S = Pp(0, 0) + r;
+    const Eigen::Vector2d K = Pp.col(0) / S;
+    x[k] = xp + K * (z(k) - xp(0));
+    P[k] = Pp - K * K.transpose() * S;
+  }
+  std::vector<Eigen::Vector2d> xs = x;
+  for (int k = 58; k >= 1; --k) {
+    const Eigen::Matrix2d Pp = F * P[k] * F.transpose() + Q;
+    xs[k] = x[k] + P[k] * F.transpose() * Pp.inverse() * (xs[k + 1] - F * x[k]);
+  }
+  for (int k = 1; k < 59; ++k) {
+    EXPECT_NEAR(smoothed.tracks[0].truth(k, 0), xs[k](0), 1e-9 * (1.0 + std::abs(xs[k](0))));
+    EXPECT_NEAR(smoothed.tracks[0].truth(k, 1), xs[k](1), 1e-9 * (1.0 + std::abs(xs[k](1))));
+    EXPECT_NEAR(smoothed.tracks[0].truth(k, 2), (xs[k + 1](1) - xs[k](1)) / T, 1e-8);
+  }
+  // Three modes, quiet to agile: the y axis accelerates at 4 m/s² over scans 20–39.
+  AxisCvImmSpec imm = one;
+  imm.process_noise = {1e-3, 1.0, 30.0};
+  const datasets::TrackSet labelled = smoothed_truth(set, imm);
+  double mean = 0.0;
+  for (int k = 24; k < 36; ++k) mean += labelled.tracks[0].truth(k, 5) / 12.0;
+  EXPECT_NEAR(mean, 4.0, 0.6);
+  double quiet = 0.0;
+  for (int k = 44; k < 56; ++k) quiet += std::abs(labelled.tracks[0].truth(k, 5)) / 12.0;
+  EXPECT_LT(quiet, 0.6);
+  // A window with a gap is refused.
+  set.tracks[0].plots(30, 1) = std::nan("");
+  EXPECT_THROW((void)smoothed_truth(set, imm), std::runtime_error);
 }
 
 TEST(MlpConfig, ShippedConfigIsTheSeedsSchedule) {

@@ -12,6 +12,9 @@
 #include "imm/datasets/track.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/support/config.hpp"
+#include "imm/trainer/ga/baseline_tuning.hpp"
+#include "imm/trainer/ga/training_set.hpp"
+#include "imm/trainer/mlp/smoothed_labels.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
@@ -20,7 +23,6 @@ namespace imm::trainer::mlp {
 namespace {
 
 MlpTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
-  require_training_truth(regime, "the MLP input estimator (its acceleration targets)");
   MlpTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
   c.regime = std::move(regime);
@@ -204,8 +206,27 @@ double signed_input_mse(const MlpInputEstimatorModel& model, const datasets::Tra
   return count > 0 ? sum / static_cast<double>(count) : 0.0;
 }
 
-/// The regime without maneuvers: its start (the first case's for a scripted one), its sensor.
+/// The regime without maneuvers: its start (the first case's for a scripted one), its sensor. A
+/// recorded regime has no start: a target at rest at the origin (the features of a CV KF on a
+/// target without manoeuvre depend on the plot noise alone).
 datasets::Regime quiet_regime(const datasets::Regime& regime) {
+  if (regime.recorded) {
+    datasets::Regime quiet;
+    quiet.name = regime.name + "_quiet";
+    quiet.units = regime.units;
+    quiet.sample_period = regime.sample_period;
+    quiet.scans = regime.scans;
+    quiet.sensor = regime.sensor;
+    quiet.sensor.estimate_sigma = false;
+    quiet.start.fixed = true;
+    datasets::MenuEntry cruise;
+    cruise.probability = 1.0;
+    cruise.duration = {regime.sample_period * regime.scans, regime.sample_period * regime.scans};
+    quiet.menu = {cruise};
+    quiet.splits = {1, 1, 1, regime.splits.seed};
+    quiet.validate();
+    return quiet;
+  }
   datasets::Regime quiet = regime;
   if (regime.scripted() && regime.cases.front().start) quiet.start = *regime.cases.front().start;
   quiet.cases.clear();
@@ -225,10 +246,26 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
   MlpTrainingResult result;
   const datasets::Regime& regime = config.regime;
   const std::uint64_t seed = regime.splits.seed;
-  const FeatureSet training =
-      make_features(config, datasets::draw_split(regime, datasets::Split::kTraining, seed));
-  const FeatureSet validation =
-      make_features(config, datasets::draw_split(regime, datasets::Split::kValidation, seed));
+  datasets::TrackSet training_tracks =
+      datasets::draw_split(regime, datasets::Split::kTraining, seed);
+  datasets::TrackSet validation_tracks =
+      datasets::draw_split(regime, datasets::Split::kValidation, seed);
+  const bool plots_only = regime.recorded && !regime.recorded->truth_for_training;
+  if (plots_only) {  // labels from the smoother of the tuned IMM (smoothed_labels.hpp)
+    require_gap_free(regime, training_tracks);
+    require_gap_free(regime, validation_tracks);
+    AxisImmSettings settings;
+    settings.sample_period = regime.sample_period;
+    settings.measurement_sigma = regime.sensor.noise.sigma(0);
+    const ga::TrainingSet plots = ga::make_training_set(regime, datasets::Split::kTraining);
+    const ga::Tuned<AxisCvImmSpec> smoother =
+        ga::tune_imm_baseline(settings, {plots}, acceleration_scale(regime));
+    result.smoother = smoother.spec;
+    training_tracks = smoothed_truth(training_tracks, smoother.spec);
+    validation_tracks = smoothed_truth(validation_tracks, smoother.spec);
+  }
+  const FeatureSet training = make_features(config, training_tracks);
+  const FeatureSet validation = make_features(config, validation_tracks);
   const datasets::Regime quiet_tracks = quiet_regime(regime);
   const FeatureSet quiet =  // sets the bias
       make_features(config,
@@ -277,8 +314,7 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
   result.bias_after = mean_output(model, quiet_check.samples, true);
   if (config.input_noise_from_validation) {
     // The whole model as the filter runs it (network, bias, sign) on the validation split.
-    model.input_variance =
-        signed_input_mse(model, datasets::draw_split(regime, datasets::Split::kValidation, seed));
+    model.input_variance = signed_input_mse(model, validation_tracks);
   }
   datasets::Sha256 digest;
   digest.update(training.digest);
@@ -293,6 +329,7 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
       make_provenance(std::string(io::kMlpInputEstimatorKind), config.text,
                       static_cast<std::int64_t>(config.seed), result.digest, config.regime);
   provenance.training_metrics["rmse"] = result.training_rmse;
+  if (plots_only) provenance.training_metrics["labels_rts_smoother"] = 1.0;
   provenance.validation_metrics["rmse"] = result.validation_rmse;
   provenance.training_metrics["bias_before"] = result.bias_before;
   provenance.training_metrics["bias_after"] = result.bias_after;

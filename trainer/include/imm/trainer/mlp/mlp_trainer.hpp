@@ -13,6 +13,10 @@
 /// without a maneuver. It is measured at training time — the network's mean output on a
 /// maneuver-free track of the regime (its start and sensor, no maneuvers) — stored as output_bias,
 /// and subtracted (then clipped at 0) by the runtime. Nothing is chosen on evaluation data.
+///
+/// Without truth (a recorded regime without truth for training) the targets are the accelerations
+/// a fixed-interval smoother of the regime's tuned IMM finds in the plots (smoothed_labels.hpp),
+/// and the no-maneuver bias is measured on a target at rest seen through the regime's sensor.
 
 #include <cstdint>
 #include <filesystem>
@@ -21,6 +25,7 @@
 #include <vector>
 
 #include "imm/datasets/track.hpp"
+#include "imm/filters/axis_cv_imm.hpp"
 #include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
 
@@ -75,6 +80,9 @@ struct MlpTrainingResult {
   double training_seconds = 0.0;  ///< back-propagation alone
   bool gate_passed = false;
   std::string digest;
+  /// Without truth (a recorded regime): the tuned IMM whose smoother labelled the tracks
+  /// (smoothed_labels.hpp); empty otherwise.
+  std::optional<AxisCvImmSpec> smoother;
 };
 
 /// Trains; writes the model and metrics when the gate passes.
