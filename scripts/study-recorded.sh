@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Training from plots alone against training with truth, on the same tracks.
 #
 #   scripts/study-recorded.sh REGIME CONFIG KIND EXPERIMENT [OUT]

@@ -10,6 +10,7 @@ source root."""
 import csv
 import glob
 import os
+import re
 import resource
 import shutil
 import subprocess
@@ -34,12 +35,20 @@ def shipped_models():
     return [f for f in files if "/reference/" not in f]
 
 
+def recorded_set_missing(regime):
+    """A recorded regime whose track set (the nightly's data, absent from a fresh checkout) is
+    not there: its plots cannot be drawn again."""
+    match = re.search(r'^\s*set\s*=\s*"([^"]+)"', regime, re.MULTILINE)
+    return "[recorded]" in regime and (match is None or not os.path.exists(match.group(1)))
+
+
 def regime_plots(model, folder):
     """One test track of the model's own regime as imm-track's CSV (imm-data writes it), or a
-    straight Cartesian track where the model records no regime."""
+    straight Cartesian track where the model records no regime or a recorded one whose set is
+    missing (the recorded regimes' models are Cartesian)."""
     regime = immtrain.inspect(model)["provenance"]["regime_toml"]
     out = os.path.join(folder, "plots.csv")
-    if regime:
+    if regime and not recorded_set_missing(regime):
         toml = os.path.join(folder, "regime.toml")
         with open(toml, "w") as f:
             f.write(regime)

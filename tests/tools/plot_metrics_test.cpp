@@ -7,11 +7,18 @@
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
+#include "imm/datasets/dataset_file.hpp"
+#include "imm/datasets/recorded.hpp"
 #include "imm/datasets/regime_file.hpp"
+#include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
 #include "imm/evaluation/tracker_choice.hpp"
 #include "imm/filters/axis_cv_imm.hpp"
+#include "testing/temp_dir.hpp"
 
 namespace imm::evaluation {
 namespace {
@@ -79,6 +86,41 @@ TEST(PlotMetrics, TheSamePlotsScoreTheSameWithoutTruthAndTheLikelihoodIsTheFilte
   EXPECT_GT(headline[2].value(), 30.0 * std::sqrt(2.0));
   EXPECT_LT(headline[2].value(), 3.0 * 30.0 * std::sqrt(2.0));
   EXPECT_EQ(a.headline()[0].name, "zeta_p");  // with truth, the headline is unchanged
+}
+
+// An experiment that scores against truth refuses a recorded regime without it, naming the
+// experiment; one that judges by the plots gets the tracks.
+TEST(PlotMetrics, ExperimentsThatNeedTruthRefuseARecordedRegimeWithoutIt) {
+  const testing::TempDir dir;
+  const datasets::Regime source = datasets::load_regime("configs/regimes/agile_air.toml").regime;
+  const datasets::TrackSet drawn = datasets::draw_split(source, datasets::Split::kTest, 5, 6);
+  std::vector<datasets::RecordedTrack> tracks;
+  for (std::size_t i = 0; i < drawn.tracks.size(); ++i) {
+    const auto csv = dir.path() / std::string("r").append(std::to_string(i)).append(".csv");
+    datasets::write_recording_csv(csv, drawn, datasets::SensorKind::kCartesian, i, false);
+    for (auto& t : datasets::read_recording(csv, {datasets::SensorKind::kCartesian})) {
+      tracks.push_back(std::move(t));
+    }
+  }
+  const datasets::ImportOptions options;
+  const datasets::TrackSet set = datasets::import_recordings(tracks, options, nullptr);
+  (void)datasets::write_track_set(dir.path() / "set.h5", datasets::recording_header(options, set),
+                                  set, "test");
+  std::string text = "name = \"r\"\nunits = \"m\"\n[recorded]\nset = \"";
+  text.append((dir.path() / "set.h5").string())
+      .append("\"\n[sensor]\nkind = \"cartesian\"\nsigma = [30.0, 30.0]\n[splits]\n")
+      .append("training = 2\nvalidation = 2\ntest = 2\n");
+  const datasets::Regime recorded = datasets::parse_regime(text, "r.toml").regime;
+  const CommonOptions common;
+  EXPECT_FALSE(test_tracks(recorded, common).has_truth);
+  try {
+    (void)test_tracks(recorded, common, "imm-eval fcm-imm");
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("has no truth, and imm-eval fcm-imm"),
+              std::string::npos)
+        << error.what();
+  }
 }
 
 TEST(PlotMetrics, WithoutTruthTheTrackerChoiceOrdersByItsOwnScore) {

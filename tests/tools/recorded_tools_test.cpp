@@ -63,6 +63,24 @@ TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
   const auto inspected = nlohmann::json::parse(
       run_tool("imm-inspect", {(dir_ / "b.h5").string(), "--json"}, root_).out);
   EXPECT_EQ(inspected["attributes"]["training.trained_without_truth"], 1.0) << inspected.dump();
+  // Its own regime's test recordings judge it by the plots: ga-imm and rank.
+  const auto ga = run_tool(
+      "imm-eval", {"ga-imm", "--model", (dir_ / "b.h5").string(), "--out", (dir_ / "g").string()},
+      root_);
+  ASSERT_TRUE(ga.exit_code == 0 || ga.exit_code == 7) << ga.err;
+  EXPECT_NE(ga.out.find("log-likelihood per plot"), std::string::npos) << ga.out;
+  const auto ga_headline = nlohmann::json::parse(testing::slurp(dir_ / "g" / "headline.json"));
+  EXPECT_EQ(ga_headline["metrics"][0]["name"], "predictive_nll");
+  const auto ranked = run_tool("imm-eval",
+                               {"rank", "--baseline", (dir_ / "b.h5").string(), "--candidates",
+                                (dir_ / "b.h5").string(), "--out", (dir_ / "r").string()},
+                               root_);
+  ASSERT_TRUE(ranked.exit_code == 0 || ranked.exit_code == 7) << ranked.err;
+  const auto tracker = nlohmann::json::parse(testing::slurp(dir_ / "r" / "tracker.json"));
+  EXPECT_FALSE(tracker["truth"].get<bool>());
+  EXPECT_TRUE(tracker["ranking"][0].contains("predictive_nll"));
+  EXPECT_FALSE(tracker["ranking"][0].contains("zeta_p"));
+
   const auto refused =
       run_tool("imm-train",
                {"wimm", "--config", "configs/wimm_tuned.toml", "--regime",
