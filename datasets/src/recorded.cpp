@@ -173,7 +173,7 @@ TrackSet import_recordings(const std::vector<RecordedTrack>& recordings,
   }
   // Every track on its grid: k = (t − t₀)/T within the tolerance.
   std::vector<std::vector<Eigen::Index>> grid(recordings.size());
-  Eigen::Index shortest = std::numeric_limits<Eigen::Index>::max();
+  Eigen::Index shortest = std::numeric_limits<Eigen::Index>::max(), total = 0;
   ImportReport local;
   for (std::size_t r = 0; r < recordings.size(); ++r) {
     const RecordedTrack& track = recordings[r];
@@ -185,7 +185,12 @@ TrackSet import_recordings(const std::vector<RecordedTrack>& recordings,
     for (Eigen::Index k = 0; k < track.times.size(); ++k) {
       const double periods = (track.times(k) - track.times(0)) / T;
       const double whole = std::round(periods);
-      if (std::abs(periods - whole) > options.tolerance || whole > 1e7) {
+      if (whole >= 1e6) {  // a regime's scans are at most 10⁶ (and a hostile time a grid's size)
+        throw std::runtime_error(where(track, static_cast<std::size_t>(k)) +
+                                 ": column 't': more than 10⁶ sample periods after the track's "
+                                 "first plot");
+      }
+      if (std::abs(periods - whole) > options.tolerance) {
         std::ostringstream message;
         message.precision(10);
         message << where(track, static_cast<std::size_t>(k)) << ": column 't': " << track.times(k)
@@ -203,6 +208,11 @@ TrackSet import_recordings(const std::vector<RecordedTrack>& recordings,
       grid[r].push_back(scan);
     }
     shortest = std::min(shortest, grid[r].back() + 1);
+    total += grid[r].back() + 1;
+    if (total > 10'000'000) {  // gaps make a grid longer than its rows: bound what it allocates
+      throw std::runtime_error(track.file + ": track '" + track.name +
+                               "': the recordings span more than 10⁷ scans with their gaps");
+    }
   }
   const int scans = options.scans > 0 ? options.scans : static_cast<int>(shortest);
   if (scans < 3)

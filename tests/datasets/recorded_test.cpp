@@ -141,6 +141,7 @@ TEST(RecordedTracks, HostileRecordingsAreRefusedWithFileLineAndColumn) {
       {"header_only", "t,zx,zy\n", "header_only.csv: no plots"},
       {"half_truth", "t,zx,zy,x,vx\n0,1,2,3,4\n", "half_truth.csv:1: header: truth needs"},
       {"twice", "t,zx,zy\n0,1,2\n0.001,1,2\n1,1,2\n", "twice.csv:3: column 't': two plots"},
+      {"far", "t,zx,zy\n0,1,2\n1,1,2\n1000000,1,2\n", "far.csv:4: column 't': more than 10⁶"},
   };
   for (const Case& c : cases) {
     const auto path = dir.path() / (c.name + ".csv");

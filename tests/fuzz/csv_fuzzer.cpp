@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // Fuzz target: the CSV readers — imm-track's measurements, imm-train import-rules' rule tables
-// (against the GA paper config's filter settings) and imm-train tsk --data's sensor samples — on
-// the same text.
+// (against the GA paper config's filter settings), imm-train tsk --data's sensor samples and
+// imm-data import's recordings (read, then put on their grid and cut into windows) — on the same
+// text.
 //
 // Findings: a crash, a hang, a sanitizer report, an exception that is not a std::runtime_error
 // naming the problem, an unusable message, or a value accepted that the reader's contract refuses
@@ -16,6 +17,7 @@
 
 #include "fuzz/fuzz_support.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
+#include "imm/datasets/recorded.hpp"
 #include "imm/support/measurement_csv.hpp"
 #include "imm/trainer/ga/ga_config.hpp"
 #include "imm/trainer/model_files/import_rules.hpp"
@@ -71,6 +73,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   read_expecting_runtime_errors("rules csv", [&] {
     const GaFuzzyImmSpec spec = trainer::read_rules_csv(file.path(), ga_config().filter, "km");
     spec.validate();
+  });
+  read_expecting_runtime_errors("recording csv", [&] {
+    const auto tracks = datasets::read_recording(file.path(), {datasets::SensorKind::kCartesian});
+    datasets::ImportReport report;
+    const datasets::TrackSet set = datasets::import_recordings(tracks, {}, &report);
+    // Every value read is finite; a gap is NaN, never ±∞; every window has its recording.
+    for (std::size_t i = 0; i < set.tracks.size(); ++i) {
+      if (set.tracks[i].plots.array().isInf().any()) fuzz::finding("recording: an infinite plot");
+      if (set.recording.at(i) < 0 ||
+          static_cast<std::size_t>(set.recording[i]) >= set.recording_names.size()) {
+        fuzz::finding("recording: a window without its recording");
+      }
+      if (set.tracks[i].plots.rows() != set.scans) fuzz::finding("recording: a short window");
+    }
   });
   read_expecting_runtime_errors("sensor samples csv", [&] {
     const datasets::RangeSensorData samples = datasets::read_sensor_samples(file.path());
