@@ -100,7 +100,8 @@ TEST(PlainImm, TheWrittenOutCvModeIsTheGeneralKalmanModeToRounding) {
     const double sx = 0.1 + unit(rng), sy = 0.1 + unit(rng), rho = -0.8 + 1.6 * unit(rng);
     spec.measurement.covariance << sx * sx, rho * sx * sy, rho * sx * sy, sy * sy;
     auto fast = build_plain_imm<4>(spec);
-    ASSERT_NE(std::string(typeid(fast.mode(0)).name()).find("CvPositionMode"), std::string::npos);
+    const auto& first_mode = fast.mode(0);
+    ASSERT_NE(std::string(typeid(first_mode).name()).find("CvPositionMode"), std::string::npos);
     auto general = general_cv_imm(spec);
     GaussianState<4> start;
     start.mean << 10.0 * unit(rng), unit(rng), -5.0 * unit(rng), unit(rng);
