@@ -132,11 +132,18 @@ void check_model(const ModelRequirements& model, const EvaluationRegimes& regime
                              "distortion (knee " + number(own.sensor.distortion.knee) +
                              " m, softness " + number(own.sensor.distortion.softness) + " m)");
   }
+  // A σ the recorded regime estimated from its plots is an estimate: within 10 % of the model's
+  // it is the model's sensor (the estimate's own spread on a few dozen tracks is a few percent).
+  const auto same_sigma = [&](double regime_sigma, double model_sigma) {
+    return r.sensor.estimate_sigma ? std::abs(regime_sigma - model_sigma) <= 0.1 * model_sigma
+                                   : close(regime_sigma, model_sigma);
+  };
   for (int c = 0; c < r.case_count(); ++c) {
     const datasets::SensorNoise& noise = r.noise_of(c);
-    if (model.plot_sigma && !(close(noise.sigma(0), *model.plot_sigma) &&
-                              (model.azimuth_sigma || close(noise.sigma(1), *model.plot_sigma)) &&
-                              noise.correlation == 0.0)) {
+    if (model.plot_sigma &&
+        !(same_sigma(noise.sigma(0), *model.plot_sigma) &&
+          (model.azimuth_sigma || same_sigma(noise.sigma(1), *model.plot_sigma)) &&
+          noise.correlation == 0.0)) {
       throw std::runtime_error(where + "sensor.sigma: the model is built for σ = " +
                                number(*model.plot_sigma) + " per axis, uncorrelated; the regime" +
                                (r.scripted() ? "'s case '" + r.case_name(c) + "'" : "") + " has [" +

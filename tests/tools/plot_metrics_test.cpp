@@ -111,6 +111,21 @@ TEST(PlotMetrics, ExperimentsThatNeedTruthRefuseARecordedRegimeWithoutIt) {
       .append("\"\n[sensor]\nkind = \"cartesian\"\nsigma = [30.0, 30.0]\n[splits]\n")
       .append("training = 2\nvalidation = 2\ntest = 2\n");
   const datasets::Regime recorded = datasets::parse_regime(text, "r.toml").regime;
+  // A model built for σ = 30 m runs on recorded plots whose σ was estimated near it, not beyond.
+  std::string estimated = text;
+  estimated.replace(estimated.find("[30.0, 30.0]"), 12, "\"estimate\"");
+  EvaluationRegimes regimes{datasets::parse_regime(estimated, "e.toml"),
+                            datasets::load_regime("configs/regimes/agile_air.toml")};
+  const double sigma = regimes.evaluated.regime.sensor.noise.sigma(0);
+  EXPECT_GT(std::abs(sigma - 30.0), 0.0);
+  EXPECT_LT(std::abs(sigma - 30.0), 0.1 * 30.0);
+  ModelRequirements built{1.0, datasets::SensorKind::kCartesian, 30.0, std::nullopt};
+  EXPECT_NO_THROW(check_model(built, regimes, "m.h5"));
+  built.plot_sigma = 0.85 * sigma;
+  EXPECT_THROW(check_model(built, regimes, "m.h5"), std::runtime_error);
+  regimes.evaluated = datasets::parse_regime(text, "r.toml");  // a stated σ of 30 m: exact
+  built.plot_sigma = 30.0 * (1.0 + 1e-3);
+  EXPECT_THROW(check_model(built, regimes, "m.h5"), std::runtime_error);
   const CommonOptions common;
   EXPECT_FALSE(test_tracks(recorded, common).has_truth);
   try {

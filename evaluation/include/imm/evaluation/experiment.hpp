@@ -73,7 +73,8 @@ struct EvaluationRegimes {
                                                    const std::filesystem::path& path);
 
 /// What a model is built for, checked against the evaluated regime: the sample period, the unit,
-/// the sensor kind, and the plot σ when given (per axis; the model's R). Throws
+/// the sensor kind, and the plot σ when given (per axis; the model's R; a recorded regime's
+/// estimated σ within 10 % of it). Throws
 /// std::runtime_error "model M: sample_period 2 s differs from regime R's 1 s" naming the field.
 struct ModelRequirements {
   double sample_period = 0.0;
