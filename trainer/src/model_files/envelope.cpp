@@ -30,6 +30,7 @@ EnvelopeCalibration calibrate_envelope(const std::filesystem::path& model_file, 
   // A recorded regime has the validation windows it has; a drawn one draws fresh tracks.
   if (regime.recorded) {
     tracks = std::min(tracks, datasets::split_size(regime, datasets::Split::kValidation));
+    c.recorded = true;
   }
   std::vector<double> sums;
   for (int i = 0; i < tracks; ++i) {
@@ -100,12 +101,16 @@ std::string describe(const EnvelopeCalibration& c) {
   std::ostringstream text;
   text << "envelope of " << c.settings.window << "-plot windows at " << c.settings.significance;
   if (!c.calibrated) {
-    text << ": the χ² bounds of a consistent filter (no regime recorded to calibrate on)";
+    text << ": the χ² bounds of a consistent filter ("
+         << (c.tracks > 0 ? std::to_string(c.windows) + " windows are too few to fit"
+                          : std::string("no regime recorded to calibrate on"))
+         << ")";
     return text.str();
   }
   text << ": NIS sums fitted as " << c.settings.scale << " · χ²(" << c.settings.dof << ") on "
-       << c.windows << " windows of " << c.tracks << " fresh tracks of the regime (mean " << c.mean
-       << ", a consistent filter's " << 2 * c.settings.window << ")";
+       << c.windows << " windows of " << c.tracks
+       << (c.recorded ? " validation recordings" : " fresh tracks") << " of the regime (mean "
+       << c.mean << ", a consistent filter's " << 2 * c.settings.window << ")";
   return text.str();
 }
 

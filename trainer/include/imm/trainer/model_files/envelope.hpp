@@ -22,7 +22,8 @@ struct EnvelopeCalibration {
   int tracks = 0;                     ///< tracks run
   int windows = 0;                    ///< disjoint full windows measured
   double mean = 0.0, variance = 0.0;  ///< of the window sums
-  bool calibrated = false;  ///< false: the file records no regime (the χ² defaults stay)
+  bool calibrated = false;  ///< false: no regime, or too few windows (the χ² defaults stay)
+  bool recorded = false;    ///< the tracks were a recorded regime's validation windows
 };
 
 /// Runs the model's tracker over `tracks` tracks of the regime recorded in `model_file` and fits
