@@ -95,7 +95,11 @@ std::string inputs_digest(const NightlyStage& stage, const fs::path& tool, Diges
       for (const auto& f : fs::directory_iterator(a)) {
         if (f.is_regular_file()) files[f.path().filename().string()] = digests.of_file(f.path());
       }
-      for (const auto& [name, digest] : files) hash.update(name + '=' + digest + '\n');
+      for (const auto& [name, digest] : files) {
+        std::string line = name;
+        line.append("=").append(digest).append("\n");
+        hash.update(line);
+      }
     } else if (fs::is_directory(a, error) && stage.kind == "evaluation") {
       const std::string folder = normal_path(a);
       const std::string evaluated =

@@ -44,8 +44,9 @@ void smooth_axis(const Eigen::VectorXd& z, const AxisCvImmSpec& spec, Eigen::Mat
   for (Eigen::Index k = n - 2; k >= 1; --k) {
     const auto i = static_cast<std::size_t>(k);
     const Eigen::Vector2d predicted = F * x[i];
-    const Eigen::Matrix2d predicted_P = F * P[i] * F.transpose() + q_next[i] * G * G.transpose();
-    const Eigen::Matrix2d gain = P[i] * F.transpose() * predicted_P.inverse();
+    const Eigen::Matrix2d predicted_covariance =
+        F * P[i] * F.transpose() + q_next[i] * G * G.transpose();
+    const Eigen::Matrix2d gain = P[i] * F.transpose() * predicted_covariance.inverse();
     xs[i] = x[i] + gain * (xs[i + 1] - predicted);
   }
   xs[0] = Eigen::Vector2d(z(0), xs[1](1));
