@@ -233,9 +233,10 @@ datasets::ScriptedSegment segment_from(const ConfigTable& table) {
 
 Units units_from(const ConfigTable& root) {
   const std::string units = root.text("units");
-  if (units == "m") return datasets::Units::kMetres;
-  if (units == "km") return datasets::Units::kKilometres;
-  root.fail("units", "unknown units '" + units + "' (expected m or km)");
+  if (units != "m" && units != "km") {
+    root.fail("units", "unknown units '" + units + "' (expected m or km)");
+  }
+  return units == "m" ? datasets::Units::kMetres : datasets::Units::kKilometres;
 }
 
 void published_from(const ConfigTable& root, RegimeFile& file) {

@@ -180,7 +180,9 @@ class ImmEstimator {
     const double shift = log_posterior_.maxCoeff();
     double sum = 0.0;
     for (int j = 0; j < mode_count(); ++j) sum += std::exp(log_posterior_(j) - shift);
-    return shift + std::log(sum);
+    // sum ≥ 1: the largest term is exp(0).
+    const double log_sum = std::log(sum);  // cppcheck-suppress invalidFunctionArg
+    return shift + log_sum;
   }
 
   /// The innovation of the last cycle and its covariance, as the moments of the IMM's predicted
