@@ -22,6 +22,8 @@
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
+#include "imm/evaluation/monte_carlo.hpp"
+#include "imm/evaluation/plot_metrics.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/evaluation/uncertainty.hpp"
 #include "imm/io/fcm_imm_file.hpp"
@@ -245,7 +247,7 @@ int run(const CommonOptions& options) {
   training_objective["FCM-IMM"] = objective([&] { return make_fcm_imm_filter(fitted); });
   training_objective["FCM-IMM-const"] = objective([&] { return make_fcm_imm_filter(constant); });
 
-  const datasets::TrackSet data = test_tracks(regime, options, "imm-eval fcm-imm");
+  const datasets::TrackSet data = test_tracks(regime, options);
   const int runs = static_cast<int>(data.tracks.size());
   std::vector<Outcome> filters;
   const std::vector<std::pair<std::string, trainer::fcm::FilterFactory>> makers = {
@@ -254,6 +256,21 @@ int run(const CommonOptions& options) {
       {"IMM-tuned", [&] { return make_axis_cv_imm_filter(imm.spec); }},
       {"FCM-IMM", [&] { return make_fcm_imm_filter(fitted); }},
       {"FCM-IMM-const", [&] { return make_fcm_imm_filter(constant); }}};
+  if (!data.has_truth) {  // recorded plots without truth: judged by their prediction
+    std::vector<FilterOutcome> outcomes;
+    for (const auto& [name, make] : makers) {
+      const trainer::fcm::FilterFactory& two_axis = make;
+      outcomes.push_back(run_monte_carlo(
+          name, [&two_axis]() -> std::unique_ptr<TrackFilter> { return two_axis(); },
+          fitted.track_options(), data));
+    }
+    std::cout << "fcm-imm: " << regimes.describe() << "\n  test split: " << runs << " tracks x "
+              << data.scans << " scans; baselines tuned on the training split of "
+              << tuning.regime.name << "\n\n";
+    return plots_only_report(
+        "fcm-imm", outcomes, "FCM-IMM", {"KF", "AIMM", "IMM-tuned"},
+        {"fcm-imm", model_path, regime.name, regime.digest, options.seed, runs}, options.out);
+  }
   filters.reserve(makers.size());
   for (const auto& [name, make] : makers) filters.push_back(run_filter(name, make, data, sigma));
   const Outcome& fcm = find_filter(filters, "FCM-IMM");

@@ -81,6 +81,18 @@ TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
   EXPECT_TRUE(tracker["ranking"][0].contains("predictive_nll"));
   EXPECT_FALSE(tracker["ranking"][0].contains("zeta_p"));
 
+  // The FCM-IMM learns from the plots too, and its experiment judges it by them.
+  const auto fcm = run_tool("imm-train",
+                            {"fcm", "--config", "configs/fcm_imm.toml", "--regime",
+                             (dir_ / "recorded.toml").string(), "--out", (dir_ / "f.h5").string()},
+                            root_);
+  ASSERT_EQ(fcm.exit_code, 0) << fcm.err;
+  const auto fcm_eval = run_tool(
+      "imm-eval", {"fcm-imm", "--model", (dir_ / "f.h5").string(), "--out", (dir_ / "fe").string()},
+      root_);
+  ASSERT_TRUE(fcm_eval.exit_code == 0 || fcm_eval.exit_code == 7) << fcm_eval.err;
+  EXPECT_NE(fcm_eval.out.find("FCM-IMM − this NLL per plot"), std::string::npos) << fcm_eval.out;
+
   const auto refused =
       run_tool("imm-train",
                {"wimm", "--config", "configs/wimm_tuned.toml", "--regime",
