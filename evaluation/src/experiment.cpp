@@ -163,8 +163,8 @@ datasets::TrackSet test_tracks(const datasets::Regime& regime, const CommonOptio
   if (!data.has_truth && !needs_truth.empty()) {
     throw std::runtime_error(regime.file + ": recorded.set: regime '" + regime.name +
                              "' has no truth, and " + needs_truth +
-                             " scores against it; imm-eval ga-imm, plain-imm, fcm-imm and rank "
-                             "judge filters by the plots alone");
+                             " scores against it; imm-eval ga-imm, plain-imm, fcm-imm, "
+                             "input-estimator and rank judge filters by the plots alone");
   }
   return data;
 }

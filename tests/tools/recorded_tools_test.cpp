@@ -92,6 +92,21 @@ TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
       root_);
   ASSERT_TRUE(fcm_eval.exit_code == 0 || fcm_eval.exit_code == 7) << fcm_eval.err;
   EXPECT_NE(fcm_eval.out.find("FCM-IMM − this NLL per plot"), std::string::npos) << fcm_eval.out;
+  // The input estimator learns the smoother's accelerations, and is judged by the plots.
+  const auto mlp =
+      run_tool("imm-train",
+               {"mlp", "--config", "configs/mlp_input_estimator_tuned.toml", "--regime",
+                (dir_ / "recorded.toml").string(), "--out", (dir_ / "i.h5").string()},
+               root_);
+  ASSERT_EQ(mlp.exit_code, 0) << mlp.err;
+  EXPECT_NE(mlp.err.find("labels (no truth)"), std::string::npos) << mlp.err;
+  const auto mlp_eval = run_tool(
+      "imm-eval",
+      {"input-estimator", "--model", (dir_ / "i.h5").string(), "--out", (dir_ / "ie").string()},
+      root_);
+  ASSERT_TRUE(mlp_eval.exit_code == 0 || mlp_eval.exit_code == 7) << mlp_eval.err;
+  EXPECT_NE(mlp_eval.out.find("corrected KF − this NLL per plot"), std::string::npos)
+      << mlp_eval.out;
 
   const auto refused =
       run_tool("imm-train",
