@@ -239,6 +239,17 @@ Units units_from(const ConfigTable& root) {
   return units == "m" ? datasets::Units::kMetres : datasets::Units::kKilometres;
 }
 
+/// [splits], each key defaulting to `defaults`'.
+Splits splits_from(const ConfigTable& root, Splits defaults) {
+  if (const auto splits = root.table("splits")) {
+    defaults.training = splits->count_or("training", defaults.training);
+    defaults.validation = splits->count_or("validation", defaults.validation);
+    defaults.test = splits->count_or("test", defaults.test);
+    defaults.seed = splits->seed_or("seed", defaults.seed);
+  }
+  return defaults;
+}
+
 void published_from(const ConfigTable& root, RegimeFile& file) {
   for (const ConfigTable& table : root.tables("published")) {
     PublishedFigure figure;
@@ -309,12 +320,7 @@ RegimeFile regime_from(const ConfigTable& root, const std::string& text) {
       }
     }
   }
-  if (const auto splits = root.table("splits")) {
-    r.splits.training = splits->count_or("training", r.splits.training);
-    r.splits.validation = splits->count_or("validation", r.splits.validation);
-    r.splits.test = splits->count_or("test", r.splits.test);
-    r.splits.seed = splits->seed_or("seed", r.splits.seed);
-  }
+  r.splits = splits_from(root, r.splits);
   published_from(root, file);
   finish(r, text);
   return file;
@@ -381,12 +387,7 @@ RegimeFile recorded_regime_from(const ConfigTable& root, const ConfigTable& tabl
   r.splits.training = std::max(1, (3 * recordings) / 5);
   r.splits.validation = std::max(1, recordings / 5);
   r.splits.test = std::max(1, recordings - r.splits.training - r.splits.validation);
-  if (const auto splits = root.table("splits")) {
-    r.splits.training = splits->count_or("training", r.splits.training);
-    r.splits.validation = splits->count_or("validation", r.splits.validation);
-    r.splits.test = splits->count_or("test", r.splits.test);
-    r.splits.seed = splits->seed_or("seed", r.splits.seed);
-  }
+  r.splits = splits_from(root, r.splits);
   if (r.splits.training + r.splits.validation + r.splits.test > recordings) {
     root.fail("splits",
               "training + validation + test = " +

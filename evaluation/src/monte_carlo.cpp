@@ -42,13 +42,6 @@ std::vector<HeadlineMetric> FilterOutcome::plot_headline() const {
           rms_metric("innovation_rms", squares, plots)};
 }
 
-std::vector<std::string> FilterOutcome::plot_cells() const {
-  const std::vector<HeadlineMetric> metrics = plot_headline();
-  return {cell(-metrics[0].value(), 3),
-          nis_consistency.scans > 0 ? cell(nis_consistency.average, 2) : "–",
-          cell(metrics[2].value(), 4)};
-}
-
 std::vector<HeadlineMetric> FilterOutcome::headline() const {
   if (!has_truth) return plot_headline();
   std::vector<HeadlineMetric> metrics = zeta_headline();

@@ -24,8 +24,10 @@ int plots_only_report(const std::string& experiment, const std::vector<FilterOut
   std::vector<std::string> findings;
   for (const FilterOutcome& f : filters) {
     const std::vector<HeadlineMetric> m = f.plot_headline();
-    std::vector<std::string> row{f.name};
-    for (std::string& c : f.plot_cells()) row.push_back(std::move(c));
+    std::vector<std::string> row{
+        f.name, cell(-m[0].value(), 3),
+        f.nis_consistency.scans > 0 ? cell(f.nis_consistency.average, 2) : "–",
+        cell(m[2].value(), 4)};
     row.push_back(f.nis_consistency.scans > 0 ? cell(100.0 * f.nis_consistency.inside, 1) + " %"
                                               : "–");
     nlohmann::json entry = {{"predictive_log_likelihood", -m[0].value()},

@@ -166,6 +166,7 @@ int run(const RankOptions& options) {
   for (std::size_t place = 0; place < choice.order.size(); ++place) {
     const std::size_t i = choice.order[place];
     const RankedFilter& f = ranked[i];
+    const std::vector<HeadlineMetric> plots = outcomes[i].plot_headline();
     nlohmann::json row = {{"place", place + 1},
                           {"filter", f.name},
                           {"file", files[i].string()},
@@ -174,8 +175,8 @@ int run(const RankOptions& options) {
                           {"position_rmse", f.position_rmse},
                           {"velocity_rmse", f.velocity_rmse},
                           {"verdict", verdict_against_baseline(f)},
-                          {"predictive_nll", outcomes[i].plot_headline()[0].value()},
-                          {"innovation_rms", outcomes[i].plot_headline()[2].value()},
+                          {"predictive_nll", plots[0].value()},
+                          {"innovation_rms", plots[2].value()},
                           {"position_nees", outcomes[i].position_consistency.average},
                           {"nis", outcomes[i].nis_consistency.average}};
     if (!f.baseline) {

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <utility>
 
+#include "imm/math/log_sum_exp.hpp"
+
 namespace imm {
 namespace {
 
@@ -11,7 +13,6 @@ using cv_position::kEntries;
 using cv_position::kN;
 using cv_position::sym;
 
-constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
 
 }  // namespace
 

@@ -6,6 +6,7 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
+#include "imm/math/log_sum_exp.hpp"
 
 namespace imm {
 
@@ -42,7 +43,6 @@ TrackOptions AxisImmSettings::track_options(std::int64_t max_gap) const {
 }
 
 double AxisFilter::log_predictive_likelihood() const {
-  constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
   double nu = 0.0, variance = 0.0;
   if (!innovation(nu, variance) || !(variance > 0.0)) {
     return std::numeric_limits<double>::quiet_NaN();

@@ -21,7 +21,6 @@ namespace {
 
 using lanes::kMaxLevels;
 constexpr int W = GaFuzzyTrackBank::kBlock;
-constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
 // State slots of mode j at j * kModeSlots + entry; the combined estimate after the modes.
 constexpr int kX0 = 0, kX1 = 1, kP00 = 2, kP01 = 3, kP11 = 4, kLogMu = 5, kScaledMu = 6,
               kPrevious = 7, kModeSlots = 8;

@@ -13,7 +13,6 @@
 namespace imm::bank {
 namespace {
 
-constexpr double kLogTwoPi = 1.8378770664093454836;
 
 // Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian per lane (eq. 4–5 and 10–11): component i's
 // weights at weights + i·kB, its entries at mode(i, e); the result into out (kEntries slots).

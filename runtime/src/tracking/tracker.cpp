@@ -11,6 +11,7 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/models/measurement/polar_measurement.hpp"
+#include "imm/math/log_sum_exp.hpp"
 
 namespace imm {
 namespace {
@@ -112,7 +113,6 @@ std::optional<double> last_step_nis(const TrackFilter& filter) {
 }
 
 double TrackFilter::log_predictive_likelihood() const {
-  constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
   Eigen::Vector2d nu;
   Eigen::Matrix2d S;
   if (!innovation(nu, S)) return std::numeric_limits<double>::quiet_NaN();

@@ -20,6 +20,7 @@
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
+#include "imm/math/log_sum_exp.hpp"
 
 using imm::support::grid_then_subplex;
 using imm::support::SearchOptions;
@@ -110,7 +111,6 @@ TrackingScore score_filter(const FilterFactory& make, const TrackingData& data,
   }
   TrackingScore score;
   if (!data.has_truth) {
-    constexpr double kLogTwoPiE = 2.8378770664093454836;  // log(2π e)
     score.position_rmse = score.velocity_rmse = std::numeric_limits<double>::quiet_NaN();
     score.objective = position / static_cast<double>(std::max(1L, scans)) -
                       (kLogTwoPiE + std::log(r));  // ½ log(2π e σ²) per axis, two axes

@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "imm/datasets/axis_trajectory.hpp"
 #include "imm/support/bounded_search.hpp"
 #include "imm/trainer/normalized_errors.hpp"
 
@@ -26,27 +27,45 @@ std::vector<double> exponentials(const std::vector<double>& logs) {
 
 }  // namespace
 
+namespace {
+
+// Runs a fresh `make_filter()` over every trajectory of `sets`, two-point started from scans 0
+// and 1, and calls `scan(filter, set, trajectory, k)` after each successful step k ≥ 2. False
+// when a step fails (the rest is not run).
+template <class Scan>
+bool run_axis_filters(const AxisFilterFactory& make_filter, const std::vector<TrainingSet>& sets,
+                      Scan&& scan) {
+  for (const auto& set : sets) {
+    for (const auto& t : set.trajectories) {
+      auto filter = make_filter();
+      filter->initialize(datasets::two_point_start(t, set.sample_period, set.measurement_variance));
+      for (Eigen::Index k = 2; k < t.measurement.size(); ++k) {
+        if (filter->step(t.measurement(k)) != StepStatus::kOk) return false;
+        if (!scan(*filter, set, t, k)) return false;
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
 AxisZetas axis_zetas(const AxisFilterFactory& make_filter, const std::vector<TrainingSet>& sets) {
   constexpr double kFailed = std::numeric_limits<double>::infinity();
   if (!sets.empty() && sets.front().plots_only) {
-    double nll = 0.0;
-    long plots = 0;
     for (const auto& set : sets) {
       if (!set.plots_only) throw std::invalid_argument("axis_zetas: sets with and without truth");
-      const double T = set.sample_period, r = set.measurement_variance;
-      for (const auto& t : set.trajectories) {
-        auto filter = make_filter();
-        GaussianState<2> start;
-        start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
-        start.covariance << r, r / T, r / T, 2.0 * r / (T * T);
-        filter->initialize(start);
-        for (Eigen::Index k = 2; k < t.measurement.size(); ++k) {
-          if (filter->step(t.measurement(k)) != StepStatus::kOk) return {kFailed, kFailed};
-          nll -= filter->log_predictive_likelihood() + set.nll_floor();
-          ++plots;
-        }
-      }
     }
+    double nll = 0.0;
+    long plots = 0;
+    const bool ran = run_axis_filters(
+        make_filter, sets,
+        [&](const AxisFilter& filter, const TrainingSet& set, const AxisTrajectory&, Eigen::Index) {
+          nll -= filter.log_predictive_likelihood() + set.nll_floor();
+          ++plots;
+          return true;
+        });
+    if (!ran) return {kFailed, kFailed};
     return {plots > 0 && std::isfinite(nll) ? nll / static_cast<double>(plots) : kFailed, 0.0};
   }
   long steps = 0;
@@ -54,25 +73,17 @@ AxisZetas axis_zetas(const AxisFilterFactory& make_filter, const std::vector<Tra
     for (const auto& t : set.trajectories) steps = std::max<long>(steps, t.measurement.size());
   }
   NormalizedErrors errors(static_cast<int>(steps));
-  for (const auto& set : sets) {
-    const double T = set.sample_period, r = set.measurement_variance;
-    for (const auto& t : set.trajectories) {
-      auto filter = make_filter();
-      GaussianState<2> start;
-      start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
-      start.covariance << r, r / T, r / T, 2.0 * r / (T * T);
-      filter->initialize(start);
-      for (Eigen::Index k = 2; k < t.measurement.size(); ++k) {
-        if (filter->step(t.measurement(k)) != StepStatus::kOk) {
-          return {kFailed, kFailed};
-        }
-        const auto& x = filter->estimate().mean;
+  const bool ran = run_axis_filters(
+      make_filter, sets,
+      [&](const AxisFilter& filter, const TrainingSet& set, const AxisTrajectory& t,
+          Eigen::Index k) {
+        const auto& x = filter.estimate().mean;
         errors.add(static_cast<int>(k), {t.position(k), 0.0}, {x(0), 0.0}, {t.measurement(k), 0.0},
                    {t.velocity(k), 0.0}, {x(1), 0.0},
-                   {(t.measurement(k) - t.measurement(k - 1)) / T, 0.0});
-      }
-    }
-  }
+                   {(t.measurement(k) - t.measurement(k - 1)) / set.sample_period, 0.0});
+        return true;
+      });
+  if (!ran) return {kFailed, kFailed};
   return {errors.zeta_p(), errors.zeta_v()};
 }
 
@@ -80,27 +91,17 @@ double axis_innovation_rms(const AxisFilterFactory& make_filter,
                            const std::vector<TrainingSet>& sets) {
   double sum = 0.0;
   long plots = 0;
-  for (const auto& set : sets) {
-    const double T = set.sample_period, r = set.measurement_variance;
-    for (const auto& t : set.trajectories) {
-      auto filter = make_filter();
-      GaussianState<2> start;
-      start.mean << t.measurement(1), (t.measurement(1) - t.measurement(0)) / T;
-      start.covariance << r, r / T, r / T, 2.0 * r / (T * T);
-      filter->initialize(start);
-      for (Eigen::Index k = 2; k < t.measurement.size(); ++k) {
+  const bool ran = run_axis_filters(
+      make_filter, sets,
+      [&](const AxisFilter& filter, const TrainingSet& set, const AxisTrajectory&, Eigen::Index) {
         double nu = 0.0, variance = 0.0;
-        if (filter->step(t.measurement(k)) != StepStatus::kOk ||
-            !filter->innovation(nu, variance)) {
-          return std::numeric_limits<double>::infinity();
-        }
-        sum += nu * nu / r;
+        if (!filter.innovation(nu, variance)) return false;
+        sum += nu * nu / set.measurement_variance;
         ++plots;
-      }
-    }
-  }
-  return plots > 0 ? std::sqrt(sum / static_cast<double>(plots))
-                   : std::numeric_limits<double>::infinity();
+        return true;
+      });
+  return ran && plots > 0 ? std::sqrt(sum / static_cast<double>(plots))
+                          : std::numeric_limits<double>::infinity();
 }
 
 double axis_score(const AxisFilterFactory& make_filter, const std::vector<TrainingSet>& sets) {

@@ -14,6 +14,7 @@
 #include "imm/filters/fuzzy_noise_lanes.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/trainer/normalized_errors.hpp"
+#include "imm/math/log_sum_exp.hpp"
 
 namespace imm::trainer::ga {
 namespace {
@@ -309,9 +310,8 @@ ImmRunErrors ImmFitnessBatch::run(const GaFuzzyImmSpec& spec) const {
   errors.position_abs_sum = sums.position_abs;
   errors.velocity_abs_sum = sums.velocity_abs;
   errors.count = static_cast<long>(sums.count);
-  constexpr double kHalfLogTwoPi = 0.91893853320467274178;  // ½ log(2π)
   errors.predictive_nll =
-      sums.count > 0.0 ? -sums.log_likelihood / sums.count + kHalfLogTwoPi : 0.0;
+      sums.count > 0.0 ? -sums.log_likelihood / sums.count + 0.5 * kLogTwoPi : 0.0;
   const auto n = static_cast<long>(scans);
   errors.zeta_p = mean_normalized_ratio(sums.pe, sums.pm, sums.samples, n);
   errors.zeta_v = mean_normalized_ratio(sums.ve, sums.vm, sums.samples, n);

@@ -67,9 +67,6 @@ struct FilterOutcome {
   /// `nis_log_ratio` (the NIS's consistency, as position_nees_log_ratio) and `innovation_rms`
   /// (√ of the mean ‖ν‖² per plot, in the plot's coordinates).
   [[nodiscard]] std::vector<HeadlineMetric> plot_headline() const;
-  /// The plot_headline() figures as a markdown table row's cells: predictive log-likelihood per
-  /// plot, mean NIS, innovation RMS.
-  [[nodiscard]] std::vector<std::string> plot_cells() const;
 };
 
 using FilterFactory = std::function<std::unique_ptr<TrackFilter>()>;

@@ -177,12 +177,7 @@ class ImmEstimator {
   /// filter step pays nothing for it.
   [[nodiscard]] double log_predictive_likelihood() const {
     if (!updated_) return std::numeric_limits<double>::quiet_NaN();
-    const double shift = log_posterior_.maxCoeff();
-    double sum = 0.0;
-    for (int j = 0; j < mode_count(); ++j) sum += std::exp(log_posterior_(j) - shift);
-    // sum ≥ 1: the largest term is exp(0).
-    const double log_sum = std::log(sum);  // cppcheck-suppress invalidFunctionArg
-    return shift + log_sum;
+    return log_sum_exp(log_posterior_);
   }
 
   /// The innovation of the last cycle and its covariance, as the moments of the IMM's predicted

@@ -20,6 +20,7 @@
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
 #include "imm/math/linear_algebra.hpp"
+#include "imm/math/log_sum_exp.hpp"
 
 namespace imm {
 
@@ -160,7 +161,6 @@ UpdateReport<M> update_with_innovation(GaussianState<N>& state, const Vector<M>&
   }
 
   const double mahalanobis = innovation.dot(S_inverse * innovation);
-  constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
   report.log_likelihood = -0.5 * (mahalanobis + log_det + M * kLogTwoPi);
   state = updated;
   return report;
@@ -200,7 +200,6 @@ UpdateReport<M> update_with_gain(GaussianState<N>& state, const Vector<M>& innov
   const Vector<M> whitened = llt.matrixL().solve(innovation);
   double log_det = 0.0;
   for (int i = 0; i < M; ++i) log_det += 2.0 * std::log(llt.matrixL()(i, i));
-  constexpr double kLogTwoPi = 1.8378770664093454836;  // log(2π)
   report.log_likelihood = -0.5 * (whitened.squaredNorm() + log_det + M * kLogTwoPi);
   state = updated;
   return report;

@@ -11,6 +11,11 @@
 
 namespace imm {
 
+/// log(2π): the normal density's constant, log N(ν; 0, S) = −½ (νᵀ S⁻¹ ν + log det S + n log 2π).
+inline constexpr double kLogTwoPi = 1.8378770664093454836;
+/// log(2π e): twice a unit normal's entropy, ½ log(2π e σ²) being a N(0, σ²) plot noise's.
+inline constexpr double kLogTwoPiE = 2.8378770664093454836;
+
 /// log Σ exp(v_i), stable for any finite or −∞ entries. Returns −∞ when every entry is −∞ (or the
 /// vector is empty) and NaN when an entry is NaN or +∞.
 template <class Derived>

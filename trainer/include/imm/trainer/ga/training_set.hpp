@@ -11,6 +11,7 @@
 
 #include "imm/datasets/axis_trajectory.hpp"
 #include "imm/datasets/regime.hpp"
+#include "imm/math/log_sum_exp.hpp"
 
 namespace imm::trainer::ga {
 
@@ -33,7 +34,6 @@ struct TrainingSet {
   /// same optimum as the NLL, on ζ's scale (a few tenths for a good filter), so that eq. (16)'s
   /// "error + 1" and the trainers' quality gates keep their meaning.
   [[nodiscard]] double nll_floor() const {
-    constexpr double kLogTwoPiE = 2.8378770664093454836;  // log(2π e)
     return 0.5 * (kLogTwoPiE + std::log(measurement_variance));
   }
   /// SHA-256 of the measurements and truth (for the model's dataset_digest).
