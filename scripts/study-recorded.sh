@@ -12,7 +12,8 @@
 # "evaluation" (it learns from the plots alone; the manoeuvres' scale is estimated from them too);
 # trains KIND with CONFIG for both; evaluates both with EXPERIMENT on the synthetic regime's test
 # split, with truth; and compares them with `imm-eval regression` (candidate: without truth;
-# shipped: with truth). The plot σ is the regime's in both, so the synthetic regime accepts them.
+# shipped: with truth). The sensor (its kind and σ) is the regime's in both, so the synthetic
+# regime accepts them.
 set -eu
 regime=$1 config=$2 kind=$3 experiment=$4
 out=${5:-reports/study-recorded/$(basename "$regime" .toml)-$kind}
@@ -20,12 +21,13 @@ bin=${BUILD_DIR:-build}/bin
 split_key() { sed -n "/^\[splits\]/,/^\[/s/^$1 *= *//p" "$regime" | head -1; }
 training=$(split_key training)
 validation=$(split_key validation)
-sigma=$(sed -n '/^\[sensor\]/,/^\[/s/^sigma *= *//p' "$regime" | head -1)
+sensor=$(sed -n '/^\[sensor\]/,/^\[/{/^\[/d;s/ *#.*//;/^ *$/d;p}' "$regime")
+sensor_kind=$(sed -n '/^\[sensor\]/,/^\[/s/^kind *= *"\(.*\)".*/\1/p' "$regime" | head -1)
 units=$(sed -n 's/^units *= *"\(.*\)"$/\1/p' "$regime" | head -1)
 rm -rf "$out" && mkdir -p "$out"
 "$bin/imm-data" export --regime "$regime" --split training --count $((training + validation)) \
   --out-dir "$out/recordings"
-"$bin/imm-data" import --out "$out/set.h5" --units "$units" "$out"/recordings/*.csv
+"$bin/imm-data" import --out "$out/set.h5" --units "$units" --sensor "${sensor_kind:-cartesian}" "$out"/recordings/*.csv
 for truth in training evaluation; do
   cat > "$out/$truth.toml" <<TOML
 name = "$(basename "$regime" .toml)_recorded_$truth"
@@ -34,8 +36,7 @@ units = "$units"
 set = "$out/set.h5"
 truth = "$truth"
 [sensor]
-kind = "cartesian"
-sigma = $sigma
+$sensor
 [splits]
 training = $training
 validation = $validation

@@ -42,8 +42,15 @@ Columns read_header(const support::CsvReader& reader, const support::CsvLine& li
     const std::string where =
         "column " + std::to_string(i + 1) + " ('" + std::string(line.fields[i]) + "')";
     if (found == known.end()) {
+      // A plot column of another sensor: say which --sensor reads it.
+      const std::string_view name = line.fields[i];
+      const std::string hint =
+          name == "range" || name == "azimuth" ? "; polar plots: --sensor polar"
+          : name == "zx" || name == "zy"       ? "; Cartesian plots: --sensor cartesian"
+          : name == "z1" || name == "z2"       ? "; a range sensor's plots: --sensor range_sensor"
+                                               : "";
       reader.fail("header: " + where + " is not a recording column (t, " + z1 + ", " + z2 +
-                  ", track, and truth x, vx, y, vy)");
+                  ", track, and truth x, vx, y, vy)" + hint);
     }
     if (*found->second >= 0) reader.fail("header: " + where + " appears twice");
     *found->second = static_cast<int>(i);

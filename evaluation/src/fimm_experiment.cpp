@@ -14,18 +14,25 @@
 //
 // Gates, per case: the FIMM (EKF; --gate-on best: the better of EKF and IEKF) below the IMM beyond
 // the uncertainty, and at most 5 % of its steps clamped.
+//
+// A recorded regime without truth (plots of a range sensor, z1 and z2, whose truth nobody has;
+// the TSK model fitted to the sensor's calibration samples): the three filters are judged by how
+// well they predict the test plots.
 
 #include <Eigen/LU>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <span>
 #include <sstream>
+#include <tuple>
 
 #include "imm/datasets/random.hpp"
 #include "imm/evaluation/consistency.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
+#include "imm/evaluation/monte_carlo.hpp"
+#include "imm/evaluation/plot_metrics.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/evaluation/uncertainty.hpp"
 #include "imm/filters/fimm.hpp"
@@ -179,6 +186,36 @@ Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
   return out;
 }
 
+// A recorded regime without truth: the IMM and the FIMM (EKF and IEKF) judged by how well they
+// predict the test plots (plot_metrics.hpp).
+int plots_only(const FimmOptions& options, const EvaluationRegimes& regimes,
+               const std::filesystem::path& model_path, const FimmSpec& base,
+               const std::shared_ptr<const TskSensorModel>& sensor_model, int iekf_iterations,
+               const datasets::TrackSet& data) {
+  const datasets::Regime& regime = regimes.evaluated.regime;
+  FimmSpec spec = base;
+  spec.measurement_covariance = regime.sensor.noise.covariance();
+  FimmSpec iterated = spec;
+  iterated.iterations = iekf_iterations;
+  std::vector<FilterOutcome> outcomes;
+  for (const auto& [name, filter_spec, model] :
+       std::vector<std::tuple<std::string, FimmSpec, std::shared_ptr<const TskSensorModel>>>{
+           {"FIMM (EKF)", spec, sensor_model},
+           {"FIMM (IEKF)", iterated, sensor_model},
+           {"IMM", spec, nullptr}}) {
+    outcomes.push_back(run_monte_carlo(
+        name, [&] { return std::make_unique<FimmFilter>(filter_spec, model); },
+        filter_spec.track_options(), data));
+  }
+  const int runs = static_cast<int>(data.tracks.size());
+  std::cout << "fimm: " << regimes.describe() << "\n  test split: " << runs << " tracks x "
+            << data.scans << " scans\n\n";
+  return plots_only_report(
+      "fimm", outcomes, "FIMM (EKF)", {"IMM"},
+      {"fimm", model_path, regime.name, regime.digest, options.common.seed, runs},
+      options.common.out);
+}
+
 int run(const FimmOptions& options) {
   const std::filesystem::path model_path = options.common.model_path();
   const io::ModelFileReader reader(model_path, io::kTskSensorKind);
@@ -210,7 +247,11 @@ int run(const FimmOptions& options) {
            << (config.transitions_from_sojourns ? " (learned from the training tracks' sojourns)"
                                                 : "");
 
-  const datasets::TrackSet data = test_tracks(regime, options.common, "imm-eval fimm");
+  const datasets::TrackSet data = test_tracks(regime, options.common);
+  if (!data.has_truth) {
+    return plots_only(options, regimes, model_path, base, sensor_model, config.iekf_iterations,
+                      data);
+  }
   const int steps = data.scans;
   std::cout << "fimm: " << regimes.describe() << "\n  test split: " << data.tracks.size()
             << " tracks x " << steps << " scans, seed " << options.common.seed

@@ -97,6 +97,67 @@ TEST(Wimm, CorrelatedFusionEqualsTheNormalImm) {
   }
 }
 
+// Per scan with an update: the plot's log predictive density and NIS, and whether the cycle fused.
+struct PlotTerms {
+  std::vector<double> density, nis;
+  std::vector<bool> fused;
+};
+
+PlotTerms plot_terms(const WimmSpec& spec, const datasets::Track& data) {
+  Tracker tracker(std::make_unique<WimmFilter>(spec), spec.track_options());
+  PlotTerms terms;
+  const Eigen::MatrixXd& z = data.plots;
+  for (Eigen::Index k = 0; k < z.rows(); ++k) {
+    const TrackStepResult result = tracker.process(k, z.row(k).transpose());
+    if (result.event != TrackEvent::kUpdated) continue;
+    const auto& filter = static_cast<const WimmFilter&>(tracker.filter());
+    terms.density.push_back(filter.log_predictive_likelihood());
+    terms.nis.push_back(last_step_nis(filter).value_or(-1.0));
+    terms.fused.push_back(filter.fused());
+  }
+  return terms;
+}
+
+// The correlated fusion updates exactly as the normal IMM, so it predicts the same plots: its
+// density and NIS of the plot (not of the fused azimuth) are the normal IMM's at every scan.
+TEST(WimmPlotDensity, TheCorrelatedFusionPredictsThePlotsAsTheNormalImm) {
+  const auto data = scenario_run(1);
+  const PlotTerms normal = plot_terms(with_fusion(FusionVariant::kNone), data);
+  const PlotTerms fused = plot_terms(with_fusion(FusionVariant::kCorrelated), data);
+  ASSERT_EQ(normal.density.size(), fused.density.size());
+  EXPECT_GT(std::count(fused.fused.begin(), fused.fused.end(), true), 150);
+  for (std::size_t k = 0; k < normal.density.size(); ++k) {
+    ASSERT_NEAR(fused.density[k], normal.density[k], 1e-7) << "scan " << k;
+    ASSERT_NEAR(fused.nis[k], normal.nis[k], 1e-6 * (1.0 + normal.nis[k])) << "scan " << k;
+  }
+}
+
+// Up to the first fused cycle the seed's fusion has not acted, so its prediction of that cycle's
+// plot is the normal IMM's: the plot's density and NIS agree there, for either update (the fused
+// azimuth, 0.3 of the way from the prediction to the plot, would give another density).
+TEST(WimmPlotDensity, AtTheFirstFusedCycleThePlotIsPredictedAsByTheNormalImm) {
+  const auto data = scenario_run(1);
+  for (const MeasurementUpdate update :
+       {MeasurementUpdate::kExtended, MeasurementUpdate::kConverted}) {
+    WimmSpec seed = with_fusion(FusionVariant::kSeed);
+    WimmSpec normal = with_fusion(FusionVariant::kNone);
+    seed.update = normal.update = update;
+    seed.alpha = 0.3;
+    const PlotTerms a = plot_terms(normal, data);
+    const PlotTerms b = plot_terms(seed, data);
+    const auto first =
+        static_cast<std::size_t>(std::find(b.fused.begin(), b.fused.end(), true) - b.fused.begin());
+    ASSERT_LT(first, b.fused.size());
+    for (std::size_t k = 0; k <= first; ++k) {
+      ASSERT_NEAR(b.density[k], a.density[k], 1e-9) << to_string(update) << " scan " << k;
+      ASSERT_NEAR(b.nis[k], a.nis[k], 1e-9 * (1.0 + a.nis[k]))
+          << to_string(update) << " scan " << k;
+    }
+    EXPECT_GT(std::abs(b.density[first + 1] - a.density[first + 1]), 1e-9)
+        << "the fusion acted after the first fused cycle";
+  }
+}
+
 // The seed's fusion does change the estimate, and on a constant-velocity target it fuses nearly
 // all the time once settled.
 TEST(Wimm, SeedFusionActsOnConstantVelocity) {

@@ -47,8 +47,7 @@ TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
   EXPECT_EQ(names, (std::vector<std::string>{"predictive_nll", "nis_log_ratio", "innovation_rms"}));
   for (const auto& m : headline["metrics"]) EXPECT_TRUE(std::isfinite(m["value"].get<double>()));
 
-  // A recorded regime without truth: the tuned baseline learns from the plots' likelihood; the
-  // wIMM, which learns from truth alone, refuses it and says why.
+  // A recorded regime without truth: the tuned baseline learns from the plots' likelihood.
   std::ofstream(dir_ / "recorded.toml")
       << "name = \"rec\"\nunits = \"km\"\n[recorded]\nset = \"" << (dir_ / "rec.h5").string()
       << "\"\nacceleration = [0.01, 0.05]\n[sensor]\nkind = \"cartesian\"\nsigma = [0.5, 0.5]\n"
@@ -108,14 +107,63 @@ TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
   EXPECT_NE(mlp_eval.out.find("corrected KF − this NLL per plot"), std::string::npos)
       << mlp_eval.out;
 
+  // The TSK sensor model needs calibration positions: refused, saying why.
   const auto refused =
       run_tool("imm-train",
-               {"wimm", "--config", "configs/wimm_tuned.toml", "--regime",
+               {"tsk", "--config", "configs/tsk_range_sensor.toml", "--regime",
                 (dir_ / "recorded.toml").string(), "--out", (dir_ / "m.h5").string()},
                root_);
   EXPECT_EQ(refused.exit_code, 2);
   EXPECT_NE(refused.err.find("recorded.truth"), std::string::npos) << refused.err;
   EXPECT_FALSE(std::filesystem::exists(dir_ / "m.h5"));
+}
+
+// Polar recordings: the wIMM and its nIMM baseline learn from the plots alone, and imm-eval wimm
+// judges them by the plots.
+TEST_F(Tools, PolarRecordingsTrainAndEvaluateTheWimmWithoutTruth) {
+  const auto exported =
+      run_tool("imm-data",
+               {"export", "--regime", "configs/regimes/air_surveillance.toml", "--count", "6",
+                "--out-dir", (dir_ / "rec").string(), "--no-truth"},
+               root_);
+  ASSERT_EQ(exported.exit_code, 0) << exported.err;
+  const auto wrong_sensor = run_tool(
+      "imm-data", {"import", "--out", (dir_ / "p.h5").string(), (dir_ / "rec").string()}, root_);
+  EXPECT_EQ(wrong_sensor.exit_code, 2);
+  EXPECT_NE(wrong_sensor.err.find("--sensor polar"), std::string::npos) << wrong_sensor.err;
+  const auto imported = run_tool("imm-data",
+                                 {"import", "--sensor", "polar", "--scans", "60", "--out",
+                                  (dir_ / "p.h5").string(), (dir_ / "rec").string()},
+                                 root_);
+  ASSERT_EQ(imported.exit_code, 0) << imported.err;
+  std::ofstream(dir_ / "polar.toml")
+      << "name = \"polar_rec\"\nunits = \"m\"\n[recorded]\nset = \"" << (dir_ / "p.h5").string()
+      << "\"\n[sensor]\nkind = \"polar\"\nrange_sigma = 100.0\nazimuth_sigma_deg = 0.2\n"
+         "[splits]\ntraining = 2\nvalidation = 2\ntest = 2\n";
+  const auto trained = run_tool("imm-train",
+                                {"wimm", "--config", "configs/wimm_tuned.toml", "--regime",
+                                 (dir_ / "polar.toml").string(), "--out", (dir_ / "w.h5").string()},
+                                root_);
+  ASSERT_EQ(trained.exit_code, 0) << trained.err;
+  const auto metrics = nlohmann::json::parse(testing::slurp(dir_ / "w.metrics.json"));
+  EXPECT_TRUE(metrics.contains("excess_nll")) << metrics.dump();
+  EXPECT_FALSE(metrics.contains("azimuth_ratio_settled")) << metrics.dump();
+  const auto inspected = nlohmann::json::parse(
+      run_tool("imm-inspect", {(dir_ / "w.h5").string(), "--json"}, root_).out);
+  EXPECT_EQ(inspected["attributes"]["training.trained_without_truth"], 1.0) << inspected.dump();
+  const auto baseline =
+      run_tool("imm-train",
+               {"baseline", "--config", "configs/wimm_tuned.toml", "--regime",
+                (dir_ / "polar.toml").string(), "--out", (dir_ / "n.h5").string()},
+               root_);
+  ASSERT_EQ(baseline.exit_code, 0) << baseline.err;
+  const auto evaluated = run_tool(
+      "imm-eval", {"wimm", "--model", (dir_ / "w.h5").string(), "--out", (dir_ / "we").string()},
+      root_);
+  ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 7) << evaluated.err;
+  EXPECT_NE(evaluated.out.find("wIMM − this NLL per plot"), std::string::npos) << evaluated.out;
+  const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "we" / "headline.json"));
+  EXPECT_EQ(headline["metrics"][0]["name"], "predictive_nll");
 }
 
 TEST_F(Tools, AHostileRecordingIsRefusedAndNothingIsImported) {

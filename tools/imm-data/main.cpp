@@ -6,7 +6,8 @@
 //                   [--csv data/ga_imm_table3_run0.csv] [--csv-track I]
 //   imm-data sensor --regime configs/regimes/paper/fimm_table1.toml --out data/range_sensor.h5
 //                   [--seed N]
-//   imm-data import --out data/recorded.h5 [--name N] [--sensor cartesian|polar] [--units m|km]
+//   imm-data import --out data/recorded.h5 [--name N] [--sensor cartesian|polar|range_sensor]
+//   [--units m|km]
 //                   [--sample-period T] [--tolerance F] [--scans N] FILE.csv…
 //   imm-data export (--regime R [--split S] [--seed N] [--count N] | --data set.h5)
 //                   --out-dir DIR [--no-truth]
@@ -78,7 +79,9 @@ int import_recordings(const std::vector<std::string>& inputs, const std::string&
                       const std::string& units_name, imm::datasets::ImportOptions options) {
   using imm::datasets::SensorKind;
   options.name = name;
-  options.kind = sensor_name == "polar" ? SensorKind::kPolar : SensorKind::kCartesian;
+  options.kind = sensor_name == "polar"          ? SensorKind::kPolar
+                 : sensor_name == "range_sensor" ? SensorKind::kRangeSensor
+                                                 : SensorKind::kCartesian;
   options.units =
       units_name == "km" ? imm::datasets::Units::kKilometres : imm::datasets::Units::kMetres;
   // A folder stands for its *.csv files, in name order.
@@ -127,8 +130,9 @@ int export_recordings(const std::string& regime_path, const std::string& data_pa
   if (!data_path.empty()) {
     const imm::datasets::TrackSetFile file = imm::datasets::read_track_set(data_path);
     set = file.set;
-    kind = file.sensor == "polar" ? imm::datasets::SensorKind::kPolar
-                                  : imm::datasets::SensorKind::kCartesian;
+    kind = file.sensor == "polar"          ? imm::datasets::SensorKind::kPolar
+           : file.sensor == "range_sensor" ? imm::datasets::SensorKind::kRangeSensor
+                                           : imm::datasets::SensorKind::kCartesian;
     if (count > 0 && static_cast<std::size_t>(count) < set.tracks.size()) {
       set.tracks.resize(static_cast<std::size_t>(count));
     }
@@ -138,9 +142,6 @@ int export_recordings(const std::string& regime_path, const std::string& data_pa
     set = imm::datasets::draw_split(regime, split_names().at(split_name), seed, count);
   } else {
     throw std::runtime_error("export: --regime or --data names the tracks");
-  }
-  if (kind == imm::datasets::SensorKind::kRangeSensor) {
-    throw std::runtime_error("export: a range sensor's plots are not a recording's columns");
   }
   std::filesystem::create_directories(out_dir);
   for (std::size_t i = 0; i < set.tracks.size(); ++i) {
@@ -193,8 +194,10 @@ int main(int argc, char** argv) {
   import->add_option("files", inputs, "recording CSV files, or folders of them")->required();
   import->add_option("--out", out_path, "track-set file to write (HDF5)")->required();
   import->add_option("--name", name, "the set's name");
-  import->add_option("--sensor", sensor_name, "cartesian (zx, zy) | polar (range, azimuth)")
-      ->check(CLI::IsMember({"cartesian", "polar"}));
+  import
+      ->add_option("--sensor", sensor_name,
+                   "cartesian (zx, zy) | polar (range, azimuth) | range_sensor (z1, z2)")
+      ->check(CLI::IsMember({"cartesian", "polar", "range_sensor"}));
   import->add_option("--units", units_name, "m | km")->check(CLI::IsMember({"m", "km"}));
   import
       ->add_option("--sample-period", import_options.sample_period,

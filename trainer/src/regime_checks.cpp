@@ -38,8 +38,8 @@ void require_training_truth(const datasets::Regime& regime, const std::string& w
               "' is recorded " +
               (has_truth ? "with truth for evaluation only (recorded.truth = \"evaluation\")"
                          : "without truth") +
-              "; train a kind that learns from plots alone (the tuned baseline, the GA-fuzzy IMM, "
-              "the FCM-IMM) or evaluate on it" +
+              "; train a kind that learns from plots alone (the tuned baselines, the GA-fuzzy IMM, "
+              "the FCM-IMM, the input estimator, the wIMM) or evaluate on it" +
               (has_truth ? " unless recorded.truth = \"training\"" : ""));
 }
 

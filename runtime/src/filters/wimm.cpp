@@ -125,16 +125,59 @@ StepStatus WimmFilter::step(const Eigen::Vector2d& z) {
                          fusion_->converted_covariance =
                              polar_to_cartesian(chosen, spec_.measurement_covariance()).covariance;
                        }
+                       chosen_ = chosen;
                        return chosen;
                      });
-  if (status == StepStatus::kOk) fused_ = fused;
+  if (status == StepStatus::kOk) {
+    fused_ = fused;
+    plot_ = z;
+    use_ = fusion_->use;
+  }
   return status;
 }
 
 StepStatus WimmFilter::predict_only() { return imm_.predict_only(); }
 
+void WimmFilter::to_plot(Vector<2>& nu, SquareMatrix<2>& S) const {
+  if (!fused_) return;
+  switch (use_) {
+    case AzimuthUse::kSeed:
+    case AzimuthUse::kPlot:
+      // ν_θ = θ_f − ĥ_θ: the plot's is θ_p − ĥ_θ, and S does not depend on the azimuth.
+      nu(1) = wrap_angle(nu(1) + wrap_angle(plot_(1) - chosen_(1)));
+      return;
+    case AzimuthUse::kCorrelated:
+      // ν_f = A ν, S_f = A S Aᵀ with A = diag(1, α).
+      nu(1) /= spec_.alpha;
+      S.row(1) /= spec_.alpha;
+      S.col(1) /= spec_.alpha;
+      return;
+    case AzimuthUse::kConverted: {
+      const Eigen::Matrix2d R = spec_.measurement_covariance();
+      const auto plot = polar_to_cartesian(plot_, R);
+      const auto fused = polar_to_cartesian(chosen_, R);
+      nu += plot.position - fused.position;
+      S += plot.covariance - fused.covariance;
+      return;
+    }
+  }
+}
+
 bool WimmFilter::innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const {
-  return imm_.innovation(nu, S);
+  Vector<2> n;
+  SquareMatrix<2> s;
+  if (!imm_.innovation(n, s, [this](Vector<2>& v, SquareMatrix<2>& c) { to_plot(v, c); }))
+    return false;
+  nu = n;
+  S = s;
+  return true;
+}
+
+double WimmFilter::log_predictive_likelihood() const {
+  const double density =
+      imm_.log_predictive_likelihood([this](Vector<2>& v, SquareMatrix<2>& c) { to_plot(v, c); });
+  // p(r, θ) = p(x, y) · r under the converted update.
+  return use_ == AzimuthUse::kConverted ? density + std::log(plot_(0)) : density;
 }
 
 void WimmFilter::state(

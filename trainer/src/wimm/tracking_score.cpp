@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "imm/math/angle.hpp"
+#include "imm/math/log_sum_exp.hpp"
 #include "imm/tracking/tracker.hpp"
 #include "imm/trainer/normalized_errors.hpp"
 #include "imm/trainer/ranks.hpp"
@@ -140,6 +141,48 @@ TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& dat
   score.position = mean_over(score.position_rmse, 0);
   score.position_settled = mean_over(score.position_rmse, settled);
   score.nees_settled = mean_over(score.mean_nees, settled);
+  return score;
+}
+
+PlotScore score_plots(const WimmSpec& spec, const datasets::TrackSet& data) {
+  if (std::abs(spec.sample_period - data.sample_period) > 1e-12 * data.sample_period) {
+    throw std::invalid_argument("the filter's sample period differs from the tracks'");
+  }
+  // One track's terms: Σ −log p, Σ normalized ν², updates.
+  constexpr int kWidth = 3;
+  const auto tracks = static_cast<long>(data.tracks.size());
+  const Eigen::Vector2d sigma(spec.range_sigma, spec.azimuth_sigma);
+  const std::vector<double> all =
+      shared_items(tracks, kWidth, [&](long t, std::span<double> terms) {
+        const datasets::Track& track = data.tracks[static_cast<std::size_t>(t)];
+        auto owned = std::make_unique<WimmFilter>(spec);
+        const WimmFilter& filter = *owned;
+        Tracker tracker(std::move(owned), spec.track_options());
+        Eigen::Vector2d nu;
+        Eigen::Matrix2d S;
+        for (Eigen::Index k = 0; k < track.plots.rows(); ++k) {
+          if (tracker.process(k, track.plots.row(k).transpose()).event != TrackEvent::kUpdated) {
+            continue;
+          }
+          terms[0] -= filter.log_predictive_likelihood();
+          if (filter.innovation(nu, S)) terms[1] += nu.cwiseQuotient(sigma).squaredNorm();
+          terms[2] += 1.0;
+        }
+      });
+  double nll = 0.0, squares = 0.0, plots = 0.0;
+  for (long t = 0; t < tracks; ++t) {
+    nll += all[static_cast<std::size_t>(t * kWidth)];
+    squares += all[static_cast<std::size_t>(t * kWidth + 1)];
+    plots += all[static_cast<std::size_t>(t * kWidth + 2)];
+  }
+  PlotScore score;
+  score.plots = static_cast<long>(plots);
+  const double entropy = kLogTwoPiE + std::log(spec.range_sigma * spec.azimuth_sigma);
+  score.excess_nll = nll / plots - entropy;
+  score.innovation_rms = std::sqrt(squares / plots);
+  constexpr double kWorst = std::numeric_limits<double>::max();
+  if (!std::isfinite(score.excess_nll)) score.excess_nll = kWorst;
+  if (!std::isfinite(score.innovation_rms)) score.innovation_rms = kWorst;
   return score;
 }
 

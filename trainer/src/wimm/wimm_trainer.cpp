@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <numbers>
+#include <optional>
 #include <utility>
 
 #include "imm/core/invalid_parameter.hpp"
@@ -26,7 +27,6 @@ namespace imm::trainer::wimm {
 namespace {
 
 WimmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
-  require_training_truth(regime, "the wIMM");
   WimmTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
   c.regime = std::move(regime);
@@ -77,9 +77,12 @@ Tuned tune(const WimmTrainingConfig& config, const TrainingScenarios& data,
   WimmSpec reference_spec = config.filter;
   reference_spec.fusion = FusionVariant::kNone;
   const Eigen::Vector2d& sensor = config.regime.sensor.position;
-  const TrackingScore reference = score_tracking(reference_spec, data, sensor);
+  // With truth: J against the fusion-off filter. From plots alone: the excess NLL of the plots.
+  std::optional<TrackingScore> reference;
+  if (data.has_truth) reference = score_tracking(reference_spec, data, sensor);
   auto f = [&](const std::vector<double>& x) {
-    return objective(score_tracking(make(x), data, sensor), reference, config.position_penalty);
+    if (!reference) return score_plots(make(x), data).excess_nll;
+    return objective(score_tracking(make(x), data, sensor), *reference, config.position_penalty);
   };
   const int grid = 6;
   const SearchResult search =
@@ -91,9 +94,14 @@ Tuned tune(const WimmTrainingConfig& config, const TrainingScenarios& data,
   tuned.spec = make(search.x);
   tuned.objective = search.value;
   tuned.evaluations = search.evaluations + 1;
+  if (!reference) {
+    tuned.plots = score_plots(tuned.spec, data);
+    tuned.reference_plots = score_plots(reference_spec, data);
+    return tuned;
+  }
   const TrackingScore score = score_tracking(tuned.spec, data, sensor);
-  tuned.azimuth_ratio = score.azimuth_settled / reference.azimuth_settled;
-  tuned.position_ratio = score.position_settled / reference.position_settled;
+  tuned.azimuth_ratio = score.azimuth_settled / reference->azimuth_settled;
+  tuned.position_ratio = score.position_settled / reference->position_settled;
   return tuned;
 }
 
@@ -171,21 +179,33 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
   }
   result.tuned = tune_wimm(on_top, data);
   if (config.on_tuned_normal_imm) {
-    // J against the model's own nIMM on tracks the tuning has not seen: below 1, the fusion pays.
+    // Against the model's own nIMM on tracks the tuning has not seen. With truth J below 1, the
+    // fusion pays; from plots alone a lower excess NLL of the plots and an innovation RMS no worse
+    // (the rule the GA keeps its tables by without truth).
     const TrainingScenarios validation = datasets::draw_split(
         config.regime, datasets::Split::kValidation, config.regime.splits.seed);
     WimmSpec normal = on_top.filter;
     normal.fusion = FusionVariant::kNone;
     const Eigen::Vector2d& sensor = config.regime.sensor.position;
-    result.validation_objective =
-        objective(score_tracking(result.tuned.spec, validation, sensor),
-                  score_tracking(normal, validation, sensor), config.position_penalty);
-    result.learned_part_on = result.tuned.objective < 1.0 && result.validation_objective < 1.0;
+    if (validation.has_truth) {
+      result.validation_objective =
+          objective(score_tracking(result.tuned.spec, validation, sensor),
+                    score_tracking(normal, validation, sensor), config.position_penalty);
+      result.learned_part_on = result.tuned.objective < 1.0 && result.validation_objective < 1.0;
+    } else {
+      const PlotScore learned = score_plots(result.tuned.spec, validation);
+      const PlotScore plain = score_plots(normal, validation);
+      result.validation_objective = learned.excess_nll - plain.excess_nll;
+      result.learned_part_on = result.tuned.objective < result.tuned.reference_plots.excess_nll &&
+                               result.validation_objective < 0.0 &&
+                               learned.innovation_rms <= plain.innovation_rms;
+    }
     if (!result.learned_part_on) {
       result.tuned.spec = normal;
-      result.tuned.objective = 1.0;
+      result.tuned.objective = data.has_truth ? 1.0 : result.tuned.reference_plots.excess_nll;
       result.tuned.azimuth_ratio = 1.0;
       result.tuned.position_ratio = 1.0;
+      result.tuned.plots = result.tuned.reference_plots;
     }
   }
   result.digest = data.digest();
@@ -196,8 +216,14 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
       make_provenance(std::string(io::kWimmKind), config.text,
                       static_cast<std::int64_t>(config.seed), result.digest, config.regime);
   provenance.training_metrics["objective"] = result.tuned.objective;
-  provenance.training_metrics["azimuth_ratio"] = result.tuned.azimuth_ratio;
-  provenance.training_metrics["position_ratio"] = result.tuned.position_ratio;
+  if (data.has_truth) {
+    provenance.training_metrics["azimuth_ratio"] = result.tuned.azimuth_ratio;
+    provenance.training_metrics["position_ratio"] = result.tuned.position_ratio;
+  } else {  // the objective is the plots' excess NLL
+    provenance.training_metrics["trained_without_truth"] = 1.0;
+    provenance.training_metrics["innovation_rms"] = result.tuned.plots.innovation_rms;
+    provenance.training_metrics["nimm_excess_nll"] = result.tuned.reference_plots.excess_nll;
+  }
   if (result.base) {
     provenance.training_metrics["on_tuned_nimm"] = 1.0;
     provenance.training_metrics["learned_part_on"] = result.learned_part_on ? 1.0 : 0.0;
@@ -216,8 +242,16 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
   metrics["threshold"] = result.tuned.spec.threshold;
   metrics["alpha"] = result.tuned.spec.alpha;
   metrics["objective"] = result.tuned.objective;
-  metrics["azimuth_ratio_settled"] = result.tuned.azimuth_ratio;
-  metrics["position_ratio_settled"] = result.tuned.position_ratio;
+  if (data.has_truth) {
+    metrics["azimuth_ratio_settled"] = result.tuned.azimuth_ratio;
+    metrics["position_ratio_settled"] = result.tuned.position_ratio;
+  } else {
+    metrics["criterion"] = "excess NLL per plot (no truth: learned from the plots alone)";
+    metrics["excess_nll"] = result.tuned.plots.excess_nll;
+    metrics["innovation_rms_sigma"] = result.tuned.plots.innovation_rms;
+    metrics["nimm_excess_nll"] = result.tuned.reference_plots.excess_nll;
+    metrics["nimm_innovation_rms_sigma"] = result.tuned.reference_plots.innovation_rms;
+  }
   metrics["evaluations"] = result.tuned.evaluations;
   metrics["base"] = config.on_tuned_normal_imm ? "tuned" : "seed";
   if (result.base) {
@@ -247,6 +281,7 @@ NormalImmBaselineResult write_tuned_normal_imm_baseline(const WimmTrainingConfig
   provenance.training_metrics["on_tuned_nimm"] = 1.0;
   provenance.training_metrics["learned_part_on"] = 0.0;
   provenance.training_metrics["classical_baseline"] = 1.0;
+  if (!data.has_truth) provenance.training_metrics["trained_without_truth"] = 1.0;
   ensure_parent_folder(out);
   io::ModelFileWriter writer(out, provenance);
   io::write_wimm(writer, base.spec);
@@ -262,6 +297,9 @@ NormalImmBaselineResult write_tuned_normal_imm_baseline(const WimmTrainingConfig
   metrics["baseline"] = {{"cv_process_noise", base.spec.cv_process_noise},
                          {"stay", base.spec.transition(0, 0)},
                          {"evaluations", base.evaluations}};
+  if (!data.has_truth) {
+    metrics["criterion"] = "excess NLL per plot (no truth: learned from the plots alone)";
+  }
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   metrics["wall_seconds"] = result.wall_seconds;

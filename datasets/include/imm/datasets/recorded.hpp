@@ -7,7 +7,9 @@
 /// need not be contiguous; their order within the track must be). The first line that is not
 /// blank or a comment is the header; its columns, in any order:
 ///   t                       time, s (strictly increasing within a track)
-///   zx, zy | range, azimuth the plots (Cartesian, or polar with the azimuth in radians from north)
+///   zx, zy | range, azimuth | z1, z2
+///                           the plots (Cartesian; polar with the azimuth in radians from north;
+///                           a range sensor's two outputs, seed 002)
 ///   track                   optional: the track's name
 ///   x, vx, y, vy            optional truth (the whole file has it or not)
 /// Any other column is refused by name. Values are strict numbers; a non-finite one is refused

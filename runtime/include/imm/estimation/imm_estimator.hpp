@@ -24,6 +24,7 @@
 /// they were. Nothing is allocated per step: mode-indexed arrays have a fixed maximum size
 /// (kMaxModes) and modes are allocation-free by contract.
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <array>
 #include <cmath>
@@ -189,8 +190,23 @@ class ImmEstimator {
   /// successful step() or step_with(). Computed here, not in the cycle: the filter step pays
   /// nothing for it.
   bool innovation(Vector<NZ>& nu, SquareMatrix<NZ>& S) const {
+    return innovation(nu, S, [](Vector<NZ>&, SquareMatrix<NZ>&) {});
+  }
+
+  /// innovation() of another measurement than the one the modes updated with: `to_plot(ν_j, S_j)`
+  /// rewrites every mode's innovation and its covariance in place into that measurement's (the
+  /// weighted IMM updates with a fused azimuth and reports the plot's).
+  template <class ToPlot>
+  bool innovation(Vector<NZ>& nu, SquareMatrix<NZ>& S, ToPlot&& to_plot) const {
     if (!updated_) return false;
     const int n = mode_count();
+    std::array<Vector<NZ>, kMaxModes> nus;
+    std::array<SquareMatrix<NZ>, kMaxModes> covariances;
+    for (int j = 0; j < n; ++j) {
+      nus[index(j)] = modes_[index(j)]->innovation();
+      covariances[index(j)] = modes_[index(j)]->innovation_covariance();
+      to_plot(nus[index(j)], covariances[index(j)]);
+    }
     // c_j, normalized over the modes (predict_mode_probabilities keeps them in log space).
     const double shift = log_predicted_.maxCoeff();
     double total = 0.0;
@@ -198,16 +214,38 @@ class ImmEstimator {
     nu.setZero();
     for (int j = 0; j < n; ++j) {
       const double c = std::exp(log_predicted_(j) - shift) / total;
-      if (c != 0.0) nu += c * modes_[index(j)]->innovation();
+      if (c != 0.0) nu += c * nus[index(j)];
     }
     S.setZero();
     for (int j = 0; j < n; ++j) {
       const double c = std::exp(log_predicted_(j) - shift) / total;
       if (c == 0.0) continue;
-      const Vector<NZ> d = modes_[index(j)]->innovation() - nu;
-      S += c * (modes_[index(j)]->innovation_covariance() + d * d.transpose());
+      const Vector<NZ> d = nus[index(j)] - nu;
+      S += c * (covariances[index(j)] + d * d.transpose());
     }
     return true;
+  }
+
+  /// log_predictive_likelihood() of another measurement than the one the modes updated with
+  /// (`to_plot` as for innovation()): log Σ_j c_j N(ν_j'; 0, S_j'), with the mode's ν_j, S_j
+  /// rewritten. NaN unless the last call was a successful update, or where an S_j' is not
+  /// positive definite.
+  template <class ToPlot>
+  [[nodiscard]] double log_predictive_likelihood(ToPlot&& to_plot) const {
+    if (!updated_) return std::numeric_limits<double>::quiet_NaN();
+    const int n = mode_count();
+    ModeVector terms(n);
+    for (int j = 0; j < n; ++j) {
+      Vector<NZ> nu = modes_[index(j)]->innovation();
+      SquareMatrix<NZ> S = modes_[index(j)]->innovation_covariance();
+      to_plot(nu, S);
+      const Eigen::LLT<SquareMatrix<NZ>> llt(S);
+      if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
+      const SquareMatrix<NZ> L = llt.matrixL();
+      const double log_det = 2.0 * L.diagonal().array().log().sum();
+      terms(j) = log_predicted_(j) - 0.5 * (nu.dot(llt.solve(nu)) + log_det + NZ * kLogTwoPi);
+    }
+    return log_sum_exp(terms);
   }
 
  private:

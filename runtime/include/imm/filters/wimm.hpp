@@ -93,15 +93,18 @@ class IMM_RUNTIME_EXPORT WimmFilter final : public TrackFilter {
   void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const override;
   /// (CV, Singer).
   [[nodiscard]] ModeVector mode_probabilities() const override { return imm_.mode_probabilities(); }
-  /// The IMM's combined innovation of the measurement it updated with: [range, azimuth] against
-  /// the fused azimuth when the cycle fused (the plot's own otherwise), or the converted
-  /// Cartesian plot under MeasurementUpdate::kConverted.
+  /// The innovation of the plot, combined over the modes (ImmEstimator::innovation): [range,
+  /// azimuth], or the converted Cartesian plot under MeasurementUpdate::kConverted. A cycle that
+  /// fused updated with the fused azimuth; the plot's innovation and S are still reported, the
+  /// modes' rewritten exactly (the seed's fusion: the plot's azimuth in place of the fused one, S
+  /// unchanged; the correlated fusion: A⁻¹ ν and A⁻¹ S A⁻ᵀ; converted: the plot's conversion and
+  /// its covariance in place of the fused ones), so that the NIS tests the plots the sensor gave.
   bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const override;
-  /// The IMM's mixture log Σ_j c_j N(ν_j; 0, S_j) of the measurement it updated with (as
-  /// innovation(): with a fused azimuth, the density of the fused measurement, not of the plot).
-  [[nodiscard]] double log_predictive_likelihood() const override {
-    return imm_.log_predictive_likelihood();
-  }
+  /// log p(z | Z^(k−1)) of the plot (not of a fused azimuth), with the modes' terms rewritten as in
+  /// innovation(); under the converted update the Cartesian density times the Jacobian r of the
+  /// polar-to-Cartesian map, so that every variant gives a density of the same (range, azimuth)
+  /// plot and filters of either update compare.
+  [[nodiscard]] double log_predictive_likelihood() const override;
 
   /// The combined estimate (6 states) and whether the last cycle fused the azimuth.
   [[nodiscard]] const GaussianState<6>& estimate() const { return imm_.estimate(); }
@@ -115,6 +118,11 @@ class IMM_RUNTIME_EXPORT WimmFilter final : public TrackFilter {
   std::shared_ptr<AzimuthFusion> fusion_;
   ImmEstimator<6, 2> imm_;
   bool fused_ = false;
+  Vector<2> plot_ = Vector<2>::Zero();    // the last cycle's plot
+  Vector<2> chosen_ = Vector<2>::Zero();  // and the measurement it updated with
+  AzimuthUse use_ = AzimuthUse::kPlot;    // how
+  // Rewrites a mode's innovation of the chosen measurement into the plot's.
+  void to_plot(Vector<2>& nu, SquareMatrix<2>& S) const;
 };
 
 }  // namespace imm

@@ -35,6 +35,23 @@ struct TrackingScore {
   Eigen::MatrixXd run_position_nees, run_nis;
 };
 
+/// How well a filter predicts the plots, with no truth (a recorded regime's plots alone): over
+/// every plot the filter updated with, summed in track order.
+struct PlotScore {
+  /// −1/N Σ log p(z | Z^(k−1)) (WimmFilter::log_predictive_likelihood: the density of the plot,
+  /// not of a fused azimuth) minus the plot noise's own entropy ½ log((2πe)² σ_r² σ_θ²): 0 for a
+  /// filter that knew every position; lower is better.
+  double excess_nll = 0.0;
+  /// √(1/N Σ ν_r²/σ_r² + ν_θ²/σ_θ²) of the plot's innovation: in plot σ, so range and azimuth
+  /// weigh alike.
+  double innovation_rms = 0.0;
+  long plots = 0;  ///< N
+};
+
+/// Runs `spec` over every track of `data` and scores its prediction of the plots (the figures
+/// are `max()` when a filter predicts a plot with zero density).
+[[nodiscard]] PlotScore score_plots(const WimmSpec& spec, const datasets::TrackSet& data);
+
 /// Runs `spec` over every track of `data` (polar plots of a sensor at `sensor_position`).
 [[nodiscard]] TrackingScore score_tracking(const WimmSpec& spec, const datasets::TrackSet& data,
                                            const Eigen::Vector2d& sensor_position);

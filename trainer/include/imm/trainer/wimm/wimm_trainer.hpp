@@ -10,6 +10,11 @@
 /// az and pos the settled (first_settled_scan on) azimuth and position RMSE averaged over the
 /// training scenarios, relative to the seed's normal IMM on the same plots: azimuth accuracy may
 /// not be bought with position accuracy.
+///
+/// A recorded regime without truth for training: the objective is the excess NLL per plot of the
+/// plots themselves (score_plots: the density of each plot before it is fused, so a fusion cannot
+/// flatter itself), and a fusion learned on a tuned nIMM stays on only when it predicts the
+/// validation plots better than that nIMM with an innovation RMS no worse.
 
 #include <cstdint>
 #include <filesystem>
@@ -51,8 +56,12 @@ using TrainingScenarios = datasets::TrackSet;
 
 struct Tuned {
   WimmSpec spec;
+  /// J with truth; from plots alone (a training split without truth) the excess NLL per plot.
   double objective = 0.0;
-  double azimuth_ratio = 0.0, position_ratio = 0.0;  ///< settled, against the nIMM
+  double azimuth_ratio = 0.0, position_ratio = 0.0;  ///< settled, against the nIMM (with truth)
+  /// From plots alone: the tuned filter's plot score and that of the same filter with its
+  /// fusion off.
+  PlotScore plots, reference_plots;
   int evaluations = 0;
 };
 
@@ -72,7 +81,9 @@ struct WimmTrainingResult {
   /// on the validation split (J below 1 against that nIMM); false: the model is that nIMM.
   std::optional<Tuned> base;
   bool learned_part_on = true;
-  double validation_objective = 0.0;  ///< J of the model against its nIMM on the validation split
+  /// J of the model against its nIMM on the validation split; from plots alone the difference of
+  /// their excess NLL per plot.
+  double validation_objective = 0.0;
   double wall_seconds = 0.0;
   std::string digest;
 };
