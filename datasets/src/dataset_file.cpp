@@ -80,6 +80,9 @@ std::string write_track_set(const std::filesystem::path& path, const Regime& reg
   io::ContainerWriter writer(path, kDatasetFormat);
   write_dataset_root(writer, kDatasetKind, set.seed, regime.text, generator_version, data_digest,
                      set.recorded ? kDatasetSchemaVersion : kDrawnDatasetSchemaVersion);
+  // A recording's gaps are NaN plots and truth (and a recording without truth NaN truth).
+  const auto values = set.recorded ? io::ContainerWriter::Values::kFiniteOrMissing
+                                   : io::ContainerWriter::Values::kFinite;
   std::vector<Eigen::MatrixXd> truth, plots;
   Eigen::MatrixXd cases(static_cast<Eigen::Index>(set.tracks.size()), 4);
   std::vector<Eigen::MatrixXd> maneuvering;
@@ -95,8 +98,8 @@ std::string write_track_set(const std::filesystem::path& path, const Regime& reg
     }
     maneuvering.push_back(std::move(flags));
   }
-  if (set.has_truth) {
-    writer.write("/truth", stack_runs(truth));
+  if (set.has_truth || !set.recording_truth.empty()) {  // NaN for a recording without truth
+    writer.write("/truth", stack_runs(truth), values);
     writer.set_attribute("/truth", "columns", std::string("x,vx,ax,y,vy,ay"));
   }
   if (set.recorded) {
@@ -110,8 +113,15 @@ std::string write_track_set(const std::filesystem::path& path, const Regime& reg
     writer.set_attribute("/parameters", "recording_names", names);
     writer.set_attribute("/parameters", "recorded", std::int64_t{1});
     writer.set_attribute("/parameters", "has_truth", std::int64_t{set.has_truth ? 1 : 0});
+    if (!set.recording_truth.empty()) {  // partial truth: which recordings have it
+      Eigen::MatrixXd flags(static_cast<Eigen::Index>(set.recording_truth.size()), 1);
+      for (std::size_t r = 0; r < set.recording_truth.size(); ++r) {
+        flags(static_cast<Eigen::Index>(r), 0) = set.recording_truth[r] ? 1.0 : 0.0;
+      }
+      writer.write("/recording_truth", flags);
+    }
   }
-  writer.write("/plots", stack_runs(plots));
+  writer.write("/plots", stack_runs(plots), values);
   writer.set_attribute("/plots", "columns",
                        std::string(regime.sensor.kind == SensorKind::kPolar       ? "range,azimuth"
                                    : regime.sensor.kind == SensorKind::kCartesian ? "zx,zy"
@@ -177,9 +187,19 @@ TrackSetFile read_track_set(const std::filesystem::path& path) {
       }
       set.recording.push_back(static_cast<int>(r));
     }
+    if (reader.container().kind("/recording_truth") != io::ObjectKind::kMissing) {
+      const Eigen::MatrixXd flags = reader.matrix("/recording_truth", static_cast<int>(count), 1);
+      for (long r = 0; r < count; ++r) {
+        const double f = flags(r, 0);
+        if (f != 0.0 && f != 1.0) reader.fail("/recording_truth", "entries must be 0 or 1");
+        set.recording_truth.push_back(f == 1.0);
+      }
+      if (set.has_truth)
+        reader.fail("/recording_truth", "a set with truth for all has no such flags");
+    }
   }
   const auto truth =
-      set.has_truth
+      set.has_truth || !set.recording_truth.empty()
           ? unstack_runs(reader.array("/truth", {tracks, scans, 6}, values))
           : std::vector<Eigen::MatrixXd>(
                 static_cast<std::size_t>(tracks),

@@ -159,7 +159,9 @@ TrackSet import_recordings(const std::vector<RecordedTrack>& recordings,
   if (!(options.tolerance > 0.0 && options.tolerance < 0.5)) {
     throw std::runtime_error("the tolerance must be in (0, 0.5) of a sample period");
   }
-  const bool truth = recordings.front().truth.cols() == 4;
+  // Truth for every recording, none, or some (partial truth: TrackSet::recording_truth).
+  std::size_t with_truth = 0;
+  for (const RecordedTrack& r : recordings) with_truth += r.truth.cols() == 4 ? 1 : 0;
   double T = options.sample_period;
   if (T == 0.0) {  // the median step of the first track with two plots
     for (const RecordedTrack& r : recordings) {
@@ -184,11 +186,6 @@ TrackSet import_recordings(const std::vector<RecordedTrack>& recordings,
   ImportReport local;
   for (std::size_t r = 0; r < recordings.size(); ++r) {
     const RecordedTrack& track = recordings[r];
-    if ((track.truth.cols() == 4) != truth) {
-      throw std::runtime_error(track.file + ": track '" + track.name +
-                               "' has truth columns where the first track has " +
-                               (truth ? "them" : "none") + "; a set has truth for all or none");
-    }
     for (Eigen::Index k = 0; k < track.times.size(); ++k) {
       const double periods = (track.times(k) - track.times(0)) / T;
       const double whole = std::round(periods);
@@ -231,9 +228,13 @@ TrackSet import_recordings(const std::vector<RecordedTrack>& recordings,
   set.sample_period = T;
   set.scans = scans;
   set.recorded = true;
-  set.has_truth = truth;
+  set.has_truth = with_truth == recordings.size();
+  if (with_truth > 0 && with_truth < recordings.size()) {
+    for (const RecordedTrack& r : recordings) set.recording_truth.push_back(r.truth.cols() == 4);
+  }
   for (std::size_t r = 0; r < recordings.size(); ++r) {
     const RecordedTrack& track = recordings[r];
+    const bool truth = track.truth.cols() == 4;
     const Eigen::Index length = grid[r].back() + 1;
     // The track on its grid: NaN where a scan has no plot.
     Eigen::MatrixXd plots = Eigen::MatrixXd::Constant(length, 2, kNaN);

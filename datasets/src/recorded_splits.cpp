@@ -53,9 +53,37 @@ void assign_recorded_splits(Recorded& recorded, const Splits& splits) {
   };
   const auto training = static_cast<std::size_t>(splits.training);
   const auto validation = static_cast<std::size_t>(splits.validation);
-  recorded.training = deal(0, splits.training);
-  recorded.validation = deal(training, splits.validation);
-  recorded.test = deal(training + validation, splits.test);
+  const std::vector<bool>& truth = recorded.set->recording_truth;
+  if (truth.empty()) {  // truth for all recordings or none
+    recorded.training = deal(0, splits.training);
+    recorded.validation = deal(training, splits.validation);
+    recorded.test = deal(training + validation, splits.test);
+  } else {
+    // Partial truth: the recordings with truth go first (in their shuffled order) to where the
+    // regime uses it — the training and validation splits with recorded.truth = "training", else
+    // the test split, which is then dealt first.
+    std::stable_partition(order.begin(), order.end(),
+                          [&](int r) { return truth[static_cast<std::size_t>(r)]; });
+    if (recorded.truth_for_training) {
+      recorded.training = deal(0, splits.training);
+      recorded.validation = deal(training, splits.validation);
+      recorded.test = deal(training + validation, splits.test);
+    } else {
+      const auto test = static_cast<std::size_t>(splits.test);
+      recorded.test = deal(0, splits.test);
+      recorded.training = deal(test, splits.training);
+      recorded.validation = deal(test + training, splits.validation);
+    }
+  }
+  // The trainers learn from truth only where every training and validation window has it.
+  recorded.training_has_truth = recorded.truth_for_training;
+  for (const std::vector<int>* split : {&recorded.training, &recorded.validation}) {
+    for (const int r : *split) {
+      recorded.training_has_truth &= truth.empty()
+                                         ? recorded.set->has_truth
+                                         : static_cast<bool>(truth[static_cast<std::size_t>(r)]);
+    }
+  }
 }
 
 TrackSet recorded_split(const Regime& regime, Split split, int count) {
@@ -73,17 +101,27 @@ TrackSet recorded_split(const Regime& regime, Split split, int count) {
   set.scans = regime.scans;
   set.recorded = true;
   // Truth for evaluation only never reaches a training or validation split.
-  const bool truth =
-      recorded.set->has_truth && (split == Split::kTest || recorded.truth_for_training);
-  set.has_truth = truth;
+  const bool truth_allowed = split == Split::kTest || recorded.truth_for_training;
   set.recording_names = recorded.set->recording_names;
   const std::size_t n = count >= 0 ? static_cast<std::size_t>(count) : windows.size();
+  std::size_t with_truth = 0;
   for (std::size_t i = 0; i < n; ++i) {
     Track track = recorded.set->tracks[windows[i]];
     track.noise = regime.sensor.noise;
+    const bool truth = truth_allowed && recorded.set->track_has_truth(windows[i]);
     if (!truth) track.truth.setConstant(std::numeric_limits<double>::quiet_NaN());
+    with_truth += truth ? 1 : 0;
     set.tracks.push_back(std::move(track));
     set.recording.push_back(recorded.set->recording[windows[i]]);
+  }
+  set.has_truth = n > 0 && with_truth == n;
+  if (with_truth > 0 && with_truth < n) {  // partial truth in this split
+    set.recording_truth.assign(set.recording_names.size(), false);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (recorded.set->track_has_truth(windows[i])) {
+        set.recording_truth[static_cast<std::size_t>(set.recording[i])] = true;
+      }
+    }
   }
   return set;
 }
@@ -110,7 +148,9 @@ Track recorded_track(const Regime& regime, Split split, int index) {
               std::to_string(windows.size()) + ")");
   Track track = regime.recorded->set->tracks[windows[static_cast<std::size_t>(index)]];
   track.noise = regime.sensor.noise;
-  if (split != Split::kTest && !regime.recorded->truth_for_training) {
+  const std::size_t window = windows[static_cast<std::size_t>(index)];
+  if ((split != Split::kTest && !regime.recorded->truth_for_training) ||
+      !regime.recorded->set->track_has_truth(window)) {
     track.truth.setConstant(std::numeric_limits<double>::quiet_NaN());
   }
   return track;

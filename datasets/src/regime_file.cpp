@@ -369,7 +369,7 @@ RegimeFile recorded_regime_from(const ConfigTable& root, const ConfigTable& tabl
     table.fail("truth", "unknown use '" + truth + "' (expected evaluation or training)");
   }
   recorded->truth_for_training = truth == "training";
-  if (recorded->truth_for_training && !set.set.has_truth) {
+  if (recorded->truth_for_training && !set.set.has_truth && set.set.recording_truth.empty()) {
     table.fail("truth", "the recorded set has no truth to train on");
   }
   if (table.has("acceleration")) {
@@ -398,12 +398,21 @@ RegimeFile recorded_regime_from(const ConfigTable& root, const ConfigTable& tabl
   assign_recorded_splits(*recorded, r.splits);
   r.recorded = recorded;
   published_from(root, file);
-  if (r.sensor.estimate_sigma || !table.has("acceleration")) {
+  if (r.sensor.estimate_sigma && r.splits.training < 1) {
+    root.fail("splits.training", "sigma = \"estimate\" learns σ from the training recordings");
+  }
+  // The fit is a Cartesian CV IMM's: a polar or range sensor's regime states its manoeuvres'
+  // scale (recorded.acceleration) where a trainer needs it, and so does a regime with no
+  // training recordings.
+  const bool estimate_acceleration = !table.has("acceleration") &&
+                                     r.sensor.kind == SensorKind::kCartesian &&
+                                     r.splits.training > 0;
+  if (r.sensor.estimate_sigma || estimate_acceleration) {
     // One fit of the training split's plots gives the σ to estimate and the manoeuvres' scale:
     // the manoeuvring mode's √q₂ (the quiet mode's √q₁ the smallest, at least 10⁻³ of it).
     const PlotSigmaFit fit = fit_plot_sigma(recorded_split(r, Split::kTraining));
     if (r.sensor.estimate_sigma) r.sensor.noise.sigma.setConstant(fit.model.sigma);
-    if (!table.has("acceleration")) {
+    if (estimate_acceleration) {
       recorded->max_acceleration = std::sqrt(fit.model.manoeuvre_noise);
       recorded->min_acceleration =
           std::max(std::sqrt(fit.model.quiet_noise), 1e-3 * recorded->max_acceleration);

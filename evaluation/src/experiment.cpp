@@ -49,6 +49,9 @@ void add_common_options(CLI::App& command, CommonOptions& options, const std::st
       ->check(support::at_least(1));
   command.add_option("--seed", options.seed, "seed of the test tracks");
   command.add_option("--out", options.out, "report folder");
+  command.add_flag("--truth-tracks", options.truth_tracks,
+                   "only the test tracks with truth (a recorded set with truth for some "
+                   "recordings), judged by their errors");
 }
 
 std::string EvaluationRegimes::describe() const {
@@ -160,6 +163,33 @@ datasets::TrackSet test_tracks(const datasets::Regime& regime, const CommonOptio
                                const std::string& needs_truth) {
   datasets::TrackSet data = datasets::draw_split(regime, datasets::Split::kTest, options.seed,
                                                  options.runs ? *options.runs : -1);
+  if (!data.recording_truth.empty()) {  // partial truth: the tracks with it, or all by the plots
+    std::size_t with = 0;
+    for (std::size_t i = 0; i < data.tracks.size(); ++i) with += data.track_has_truth(i) ? 1 : 0;
+    if (!options.truth_tracks) {
+      std::cout << "  " << with << " of " << data.tracks.size()
+                << " test tracks have truth: every track is judged by the plots here; "
+                   "--truth-tracks judges those "
+                << with << " by their errors\n";
+    } else {
+      datasets::TrackSet kept = data;
+      kept.tracks.clear();
+      kept.recording.clear();
+      kept.recording_truth.clear();
+      for (std::size_t i = 0; i < data.tracks.size(); ++i) {
+        if (!data.track_has_truth(i)) continue;
+        kept.tracks.push_back(data.tracks[i]);
+        kept.recording.push_back(data.recording[i]);
+      }
+      kept.has_truth = true;
+      std::cout << "  --truth-tracks: the " << with << " of " << data.tracks.size()
+                << " test tracks with truth\n";
+      data = std::move(kept);
+    }
+  } else if (options.truth_tracks && !data.has_truth) {
+    throw std::runtime_error(regime.file + ": --truth-tracks: no test track of regime '" +
+                             regime.name + "' has truth");
+  }
   if (!data.has_truth && !needs_truth.empty()) {
     throw std::runtime_error(regime.file + ": recorded.set: regime '" + regime.name +
                              "' has no truth, and " + needs_truth +

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <streambuf>
 
@@ -122,6 +123,21 @@ TEST(RecordedTracks, OneFileWithATrackColumnGapsAndWindows) {
   EXPECT_TRUE(std::isnan(set.tracks[1].plots(1, 1)));  // scan 4
   EXPECT_EQ(set.tracks[1].plots(2, 0), 5.0);
   EXPECT_TRUE(set.tracks[0].truth.array().isNaN().all());
+  // The gaps are written as missing values and read back as NaN, the rest to the bit.
+  write_track_set(dir.path() / "gaps.h5", recording_header(options, set), set, "test");
+  const TrackSet read = read_track_set(dir.path() / "gaps.h5").set;
+  EXPECT_EQ(read.digest(), set.digest());
+  EXPECT_TRUE(std::isnan(read.tracks[1].plots(0, 0)) && std::isnan(read.tracks[1].plots(1, 1)));
+  EXPECT_EQ(read.tracks[1].plots(2, 0), 5.0);
+  // ±∞ is never a missing value.
+  TrackSet infinite = set;
+  infinite.tracks[2].plots(0, 0) = std::numeric_limits<double>::infinity();
+  EXPECT_NE(error_of([&] {
+              (void)write_track_set(dir.path() / "inf.h5", recording_header(options, infinite),
+                                    infinite, "test");
+            }).find("non-finite"),
+            std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "inf.h5"));
 }
 
 TEST(RecordedTracks, HostileRecordingsAreRefusedWithFileLineAndColumn) {
@@ -238,6 +254,74 @@ TEST(RecordedRegime, SplitsKeepARecordingsWindowsTogetherAndFollowTheSeed) {
               (void)parse_regime(regime_text(1) + "process_noise_sigma = 1.0\n", "d.toml");
             }).find("process_noise_sigma"),
             std::string::npos);
+}
+
+// Truth for some recordings (a GPS track for a few): it survives the file, goes where the regime
+// uses it — the test split with recorded.truth = "evaluation", the training and validation splits
+// with "training" — and a split learns from truth only when all of it has truth.
+TEST(RecordedRegime, PartialTruthGoesWhereTheRegimeUsesIt) {
+  TempDir dir;
+  const TrackSet drawn = draw_split(agile_air(), Split::kTest, 3, 10);
+  std::vector<std::filesystem::path> files;
+  const std::set<std::size_t> with_truth = {1, 4, 6, 9};
+  for (std::size_t i = 0; i < drawn.tracks.size(); ++i) {
+    files.push_back(dir.path() / std::string("r").append(std::to_string(i)).append(".csv"));
+    write_recording_csv(files.back(), drawn, SensorKind::kCartesian, i, with_truth.contains(i));
+  }
+  ImportOptions options;
+  options.scans = 100;  // 2 windows per recording
+  const TrackSet set = import_recordings(read_all(files), options, nullptr);
+  EXPECT_FALSE(set.has_truth);
+  ASSERT_EQ(set.recording_truth.size(), 10U);
+  for (std::size_t r = 0; r < 10; ++r) EXPECT_EQ(set.recording_truth[r], with_truth.contains(r));
+  write_track_set(dir.path() / "set.h5", recording_header(options, set), set, "test");
+  const TrackSet read = read_track_set(dir.path() / "set.h5").set;
+  EXPECT_EQ(read.recording_truth, set.recording_truth);
+  EXPECT_EQ(read.digest(), set.digest());
+  EXPECT_TRUE(read.tracks[2].truth.allFinite());  // recording 1's first window
+  EXPECT_TRUE(read.tracks[0].truth.array().isNaN().all());
+  EXPECT_EQ(read.tracks[2].truth.col(0), drawn.tracks[1].truth.col(0).head(100));
+
+  auto regime = [&](const char* truth, int training, int validation, int test) {
+    const std::string text =
+        "name = \"r\"\nunits = \"m\"\n[recorded]\nset = \"" + (dir.path() / "set.h5").string() +
+        "\"\ntruth = \"" + truth +
+        "\"\nacceleration = [1.0, 50.0]\n[sensor]\nkind = \"cartesian\"\nsigma = [30.0, 30.0]\n"
+        "[splits]\ntraining = " +
+        std::to_string(training) + "\nvalidation = " + std::to_string(validation) +
+        "\ntest = " + std::to_string(test) + "\n";
+    return parse_regime(text, "p.toml").regime;
+  };
+  auto truth_recordings = [](const TrackSet& split) {
+    std::set<int> recordings;
+    for (std::size_t i = 0; i < split.tracks.size(); ++i) {
+      if (split.tracks[i].truth.allFinite()) recordings.insert(split.recording[i]);
+      EXPECT_EQ(split.tracks[i].truth.allFinite(), split.track_has_truth(i));
+    }
+    return recordings;
+  };
+  // For evaluation: the test split is dealt first, from the recordings with truth.
+  const Regime evaluation = regime("evaluation", 5, 2, 3);
+  const TrackSet test = draw_split(evaluation, Split::kTest, 1);
+  EXPECT_TRUE(test.has_truth);
+  EXPECT_EQ(truth_recordings(test).size(), 3U);
+  for (const Split split : {Split::kTraining, Split::kValidation}) {
+    EXPECT_TRUE(truth_recordings(draw_split(evaluation, split, 1)).empty());
+  }
+  EXPECT_FALSE(evaluation.trains_from_truth());
+  // Six test recordings hold the four with truth: a partial split, judged by its plots.
+  const TrackSet mixed = draw_split(regime("evaluation", 2, 2, 6), Split::kTest, 1);
+  EXPECT_FALSE(mixed.has_truth);
+  EXPECT_EQ(truth_recordings(mixed), std::set<int>({1, 4, 6, 9}));
+  // For training: the training and validation splits take them first; all four fit in 3 + 1.
+  const Regime training = regime("training", 3, 1, 6);
+  EXPECT_TRUE(training.trains_from_truth());
+  EXPECT_EQ(truth_recordings(draw_split(training, Split::kTraining, 1)).size(), 3U);
+  EXPECT_TRUE(draw_split(training, Split::kValidation, 1).has_truth);
+  EXPECT_TRUE(truth_recordings(draw_split(training, Split::kTest, 1)).empty());
+  // Five training recordings cannot all have truth: the trainers learn from the plots.
+  EXPECT_FALSE(regime("training", 5, 1, 4).trains_from_truth());
+  EXPECT_FALSE(draw_split(regime("training", 5, 1, 4), Split::kTraining, 1).has_truth);
 }
 
 TEST(PlotSigma, LearnedFromPlotsAloneWithinFivePercentOnThirtyAgileAirTracks) {

@@ -6,6 +6,7 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <tuple>
 
 #include "testing/tools_fixture.hpp"
 
@@ -106,16 +107,6 @@ TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
   ASSERT_TRUE(mlp_eval.exit_code == 0 || mlp_eval.exit_code == 7) << mlp_eval.err;
   EXPECT_NE(mlp_eval.out.find("corrected KF − this NLL per plot"), std::string::npos)
       << mlp_eval.out;
-
-  // The TSK sensor model needs calibration positions: refused, saying why.
-  const auto refused =
-      run_tool("imm-train",
-               {"tsk", "--config", "configs/tsk_range_sensor.toml", "--regime",
-                (dir_ / "recorded.toml").string(), "--out", (dir_ / "m.h5").string()},
-               root_);
-  EXPECT_EQ(refused.exit_code, 2);
-  EXPECT_NE(refused.err.find("recorded.truth"), std::string::npos) << refused.err;
-  EXPECT_FALSE(std::filesystem::exists(dir_ / "m.h5"));
 }
 
 // Polar recordings: the wIMM and its nIMM baseline learn from the plots alone, and imm-eval wimm
@@ -164,6 +155,103 @@ TEST_F(Tools, PolarRecordingsTrainAndEvaluateTheWimmWithoutTruth) {
   EXPECT_NE(evaluated.out.find("wIMM − this NLL per plot"), std::string::npos) << evaluated.out;
   const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "we" / "headline.json"));
   EXPECT_EQ(headline["metrics"][0]["name"], "predictive_nll");
+}
+
+// A range sensor's recordings (z1, z2): the FIMM, through the TSK model fitted to the sensor's
+// calibration samples, and the IMM are judged by the plots; the TSK trains from the calibration
+// samples, but the FIMM's transitions from sojourns need the tracks' truth and are refused.
+TEST_F(Tools, RangeSensorRecordingsEvaluateTheFimmByTheirPlots) {
+  const std::string sensor =
+      "[sensor]\nkind = \"range_sensor\"\nsigma = [0.5, 0.5]\nknee = 40.0\nsoftness = 30.0\n"
+      "[sensor.calibration]\nbox = [[-6.0, 1.0], [6.0, 100.0]]\nsamples = 8000\n"
+      "noise_sigma = 0.05\n";
+  std::ofstream(dir_ / "cut_in.toml")
+      << "name = \"cut_in\"\nunits = \"m\"\nsample_period = 0.1\nscans = 200\n"
+      << sensor
+      << "[start]\nposition = [3.5, 0.0]\nvelocity = [0.0, 3.0]\n[[cases]]\nname = \"R\"\n"
+         "[[cases.segments]]\nkind = \"lane_change\"\nstart = 1.0\nend = 4.0\noffset = 3.5\n";
+  const auto exported = run_tool("imm-data",
+                                 {"export", "--regime", (dir_ / "cut_in.toml").string(), "--count",
+                                  "12", "--out-dir", (dir_ / "rec").string(), "--no-truth"},
+                                 root_);
+  ASSERT_EQ(exported.exit_code, 0) << exported.err;
+  EXPECT_EQ(testing::lines_of(testing::slurp(dir_ / "rec" / "track_000.csv"))[0], "t,z1,z2");
+  const auto imported = run_tool("imm-data",
+                                 {"import", "--sensor", "range_sensor", "--out",
+                                  (dir_ / "r.h5").string(), (dir_ / "rec").string()},
+                                 root_);
+  ASSERT_EQ(imported.exit_code, 0) << imported.err;
+  std::ofstream(dir_ / "recorded.toml")
+      << "name = \"cut_in_rec\"\nunits = \"m\"\n[recorded]\nset = \"" << (dir_ / "r.h5").string()
+      << "\"\n"
+      << sensor << "[splits]\ntraining = 1\nvalidation = 1\ntest = 10\n";
+  const auto evaluated =
+      run_tool("imm-eval",
+               {"fimm", "--model", "models/tsk_range_sensor.h5", "--regime",
+                (dir_ / "recorded.toml").string(), "--out", (dir_ / "fe").string()},
+               root_);
+  ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 7) << evaluated.err;
+  EXPECT_NE(evaluated.out.find("FIMM (EKF) − this NLL per plot"), std::string::npos)
+      << evaluated.out;
+  const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "fe" / "headline.json"));
+  EXPECT_EQ(headline["metrics"][0]["name"], "predictive_nll");
+  const auto refused =
+      run_tool("imm-train",
+               {"tsk", "--config", "configs/tsk_range_sensor.toml", "--regime",
+                (dir_ / "recorded.toml").string(), "--out", (dir_ / "m.h5").string()},
+               root_);
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("recorded.truth"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("sojourns"), std::string::npos) << refused.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "m.h5"));
+}
+
+// Truth for some recordings only: the test split takes them first; every test track is judged by
+// its plots, and --truth-tracks judges those with truth by their errors.
+TEST_F(Tools, PartialTruthJudgesAllByThePlotsAndTheTruthTracksByTheirErrors) {
+  for (const auto& [folder, seed, truth] :
+       {std::tuple{"with", "1", true}, std::tuple{"without", "2", false}}) {
+    std::vector<std::string> args = {"export",  "--regime",  kTable3,
+                                     "--count", "4",         "--seed",
+                                     seed,      "--out-dir", (dir_ / folder).string()};
+    if (!truth) args.emplace_back("--no-truth");
+    ASSERT_EQ(run_tool("imm-data", args, root_).exit_code, 0);
+  }
+  const auto imported = run_tool("imm-data",
+                                 {"import", "--units", "km", "--out", (dir_ / "p.h5").string(),
+                                  (dir_ / "with").string(), (dir_ / "without").string()},
+                                 root_);
+  ASSERT_EQ(imported.exit_code, 0) << imported.err;
+  EXPECT_NE(imported.out.find("with truth for 4 of 8 recordings"), std::string::npos)
+      << imported.out;
+  std::ofstream(dir_ / "partial.toml")
+      << "name = \"partial\"\nunits = \"km\"\n[recorded]\nset = \"" << (dir_ / "p.h5").string()
+      << "\"\nacceleration = [0.01, 0.05]\n[sensor]\nkind = \"cartesian\"\nsigma = [0.5, 0.5]\n"
+         "[splits]\ntraining = 2\nvalidation = 1\ntest = 5\n";
+  const auto trained =
+      run_tool("imm-train",
+               {"baseline", "--config", "configs/ga_fuzzy_imm_tuned.toml", "--regime",
+                (dir_ / "partial.toml").string(), "--out", (dir_ / "b.h5").string()},
+               root_);
+  ASSERT_EQ(trained.exit_code, 0) << trained.err;
+  EXPECT_NE(trained.err.find("excess NLL per plot"), std::string::npos) << trained.err;
+  const auto plots = run_tool(
+      "imm-eval", {"ga-imm", "--model", (dir_ / "b.h5").string(), "--out", (dir_ / "g").string()},
+      root_);
+  ASSERT_TRUE(plots.exit_code == 0 || plots.exit_code == 7) << plots.err;
+  EXPECT_NE(plots.out.find("4 of 5 test tracks have truth"), std::string::npos) << plots.out;
+  EXPECT_EQ(
+      nlohmann::json::parse(testing::slurp(dir_ / "g" / "headline.json"))["metrics"][0]["name"],
+      "predictive_nll");
+  const auto errors = run_tool("imm-eval",
+                               {"ga-imm", "--model", (dir_ / "b.h5").string(), "--truth-tracks",
+                                "--out", (dir_ / "t").string()},
+                               root_);
+  ASSERT_TRUE(errors.exit_code == 0 || errors.exit_code == 7) << errors.err;
+  EXPECT_NE(errors.out.find("the 4 of 5 test tracks with truth"), std::string::npos) << errors.out;
+  const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "t" / "headline.json"));
+  EXPECT_EQ(headline["metrics"][0]["name"], "zeta_p") << headline.dump();
+  EXPECT_EQ(headline["runs"], 4) << headline.dump();
 }
 
 TEST_F(Tools, AHostileRecordingIsRefusedAndNothingIsImported) {

@@ -74,6 +74,14 @@ const std::map<std::string, imm::datasets::Split>& split_names() {
   return splits;
 }
 
+// "with truth", "without truth" or "with truth for N of M recordings".
+std::string truth_text(const imm::datasets::TrackSet& set) {
+  if (set.recording_truth.empty()) return set.has_truth ? "with truth" : "without truth";
+  const auto with = std::count(set.recording_truth.begin(), set.recording_truth.end(), true);
+  return "with truth for " + std::to_string(with) + " of " +
+         std::to_string(set.recording_truth.size()) + " recordings";
+}
+
 int import_recordings(const std::vector<std::string>& inputs, const std::string& out_path,
                       const std::string& name, const std::string& sensor_name,
                       const std::string& units_name, imm::datasets::ImportOptions options) {
@@ -116,9 +124,8 @@ int import_recordings(const std::vector<std::string>& inputs, const std::string&
   std::cout << "imm-data: " << report.recordings << " recordings, " << report.windows
             << " tracks x " << report.scans << " scans at T = " << report.sample_period << " s ("
             << report.gap_scans << " gap scans, " << report.dropped_scans
-            << " scans after the last whole window dropped), "
-            << (set.has_truth ? "with" : "without") << " truth -> " << out_path << " (sha256 "
-            << digest.substr(0, 16) << ")\n";
+            << " scans after the last whole window dropped), " << truth_text(set) << " -> "
+            << out_path << " (sha256 " << digest.substr(0, 16) << ")\n";
   return 0;
 }
 
@@ -148,11 +155,11 @@ int export_recordings(const std::string& regime_path, const std::string& data_pa
     char name[32];
     std::snprintf(name, sizeof name, "track_%03zu.csv", i);
     imm::datasets::write_recording_csv(std::filesystem::path(out_dir) / name, set, kind, i,
-                                       set.has_truth && !no_truth);
+                                       set.track_has_truth(i) && !no_truth);
   }
   std::cout << "imm-data: " << set.tracks.size() << " tracks x " << set.scans << " scans -> "
-            << out_dir << "/track_*.csv (" << (set.has_truth && !no_truth ? "with" : "without")
-            << " truth)\n";
+            << out_dir << "/track_*.csv (" << (no_truth ? "without truth" : truth_text(set))
+            << ")\n";
   return 0;
 }
 

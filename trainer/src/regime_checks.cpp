@@ -31,16 +31,22 @@ void require_sensor(const datasets::Regime& regime, datasets::SensorKind sensor,
 }
 
 void require_training_truth(const datasets::Regime& regime, const std::string& who) {
-  if (!regime.recorded || regime.recorded->truth_for_training) return;
-  const bool has_truth = regime.recorded->set->has_truth;
+  if (regime.trains_from_truth()) return;
+  const datasets::Recorded& recorded = *regime.recorded;
+  const bool partial = !recorded.set->recording_truth.empty();
+  const bool has_truth = recorded.set->has_truth || partial;
+  const std::string state = !has_truth ? "without truth"
+                            : !recorded.truth_for_training
+                                ? "with truth for evaluation only (recorded.truth = \"evaluation\")"
+                                : "with truth for some recordings only, and the training or "
+                                  "validation split holds recordings without it";
   require(false, "recorded.truth",
           "training " + who + " needs the truth of the training split, and regime '" + regime.name +
-              "' is recorded " +
-              (has_truth ? "with truth for evaluation only (recorded.truth = \"evaluation\")"
-                         : "without truth") +
+              "' is recorded " + state +
               "; train a kind that learns from plots alone (the tuned baselines, the GA-fuzzy IMM, "
               "the FCM-IMM, the input estimator, the wIMM) or evaluate on it" +
-              (has_truth ? " unless recorded.truth = \"training\"" : ""));
+              (has_truth && !recorded.truth_for_training ? " unless recorded.truth = \"training\""
+                                                         : ""));
 }
 
 void require_gap_free(const datasets::Regime& regime, const datasets::TrackSet& set) {

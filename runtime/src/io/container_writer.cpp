@@ -158,7 +158,7 @@ void ContainerWriter::write(std::string_view dataset, const Eigen::MatrixXd& mat
   write(dataset, Array::from_matrix(matrix));
 }
 
-void ContainerWriter::write(std::string_view dataset, const Array& array) {
+void ContainerWriter::write(std::string_view dataset, const Array& array, Values values) {
   const ErrorSilencer silencer;
   const std::string name = normalized(dataset);
   const std::string file = impl_->name();
@@ -170,8 +170,9 @@ void ContainerWriter::write(std::string_view dataset, const Array& array) {
                     "shape holds " + std::to_string(array.element_count()) + " elements but " +
                         std::to_string(array.values.size()) + " values were given");
   }
+  const bool missing = values == Values::kFiniteOrMissing;
   for (std::size_t i = 0; i < array.values.size(); ++i) {
-    if (!std::isfinite(array.values[i])) {
+    if (!std::isfinite(array.values[i]) && !(missing && std::isnan(array.values[i]))) {
       throw FileError(file, name,
                       "refusing to write non-finite value at flat index " + std::to_string(i));
     }

@@ -433,7 +433,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
   provenance.training_metrics["objective"] = result.training.objective;
   provenance.training_metrics["learned_part_on"] = result.learned_part_on ? 1.0 : 0.0;
   provenance.validation_metrics["objective"] = result.validation.objective;
-  if (config.regime.recorded && !config.regime.recorded->truth_for_training) {
+  if (!config.regime.trains_from_truth()) {
     provenance.training_metrics["trained_without_truth"] = 1.0;  // the objective: excess NLL
   } else {
     provenance.training_metrics["pos_rmse"] = result.training.position_rmse;

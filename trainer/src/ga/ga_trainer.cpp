@@ -244,7 +244,7 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
     metrics["baseline"] = {
         {"process_noise", config.baseline->process_noise},
         {"transition_stay", config.baseline->transition_stay},
-        {"training_criterion", config.regime.recorded && !config.regime.recorded->truth_for_training
+        {"training_criterion", !config.regime.trains_from_truth()
                                    ? "excess NLL per plot"
                                    : "ζ_p + ζ_v"},
         {"training_zeta_p_plus_zeta_v", config.baseline->score},

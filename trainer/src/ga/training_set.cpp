@@ -28,7 +28,7 @@ TrainingSet make_training_set(const datasets::Regime& regime, datasets::Split sp
   TrainingSet set;
   set.sample_period = regime.sample_period;
   set.measurement_variance = regime.sensor.noise.sigma(0) * regime.sensor.noise.sigma(0);
-  set.plots_only = regime.recorded && !regime.recorded->truth_for_training;
+  set.plots_only = !regime.trains_from_truth();
   const datasets::TrackSet tracks = datasets::draw_split(regime, split, regime.splits.seed);
   if (set.plots_only) require_gap_free(regime, tracks);
   set.trajectories = datasets::axis_trajectories(tracks);

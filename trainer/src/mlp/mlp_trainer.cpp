@@ -250,7 +250,7 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
       datasets::draw_split(regime, datasets::Split::kTraining, seed);
   datasets::TrackSet validation_tracks =
       datasets::draw_split(regime, datasets::Split::kValidation, seed);
-  const bool plots_only = regime.recorded && !regime.recorded->truth_for_training;
+  const bool plots_only = !regime.trains_from_truth();
   if (plots_only) {  // labels from the smoother of the tuned IMM (smoothed_labels.hpp)
     require_gap_free(regime, training_tracks);
     require_gap_free(regime, validation_tracks);

@@ -28,7 +28,6 @@ namespace imm::trainer::tsk {
 namespace {
 
 TskTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
-  require_training_truth(regime, "the TSK sensor model (its calibration positions)");
   TskTrainingConfig c;
   c.seed = root.seed_or("seed", 1);
   c.regime = std::move(regime);
@@ -162,6 +161,13 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const std::filesyst
 
 TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples& samples,
                             const std::filesystem::path& out) {
+  // The sensor model is fitted to the calibration samples the regime's sensor names, which carry
+  // their positions; a recorded regime's tracks need no truth for it. The sojourns are read from
+  // the training tracks' truth.
+  if (config.transitions_from_sojourns) {
+    require_training_truth(config.regime, "the FIMM's mode transitions from the training tracks' "
+                                          "sojourns (fimm.transition = \"sojourns\")");
+  }
   const auto start = std::chrono::steady_clock::now();
   const datasets::RangeSensorData& data = samples.data;
   const Eigen::Index n = data.positions.rows();

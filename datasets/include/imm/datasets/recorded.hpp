@@ -83,14 +83,17 @@ struct ImportReport {
 
 /// Shuffles the recordings with a stream of `splits.seed` and deals them out: the first
 /// `splits.training` to training, the next `splits.validation` to validation, the next
-/// `splits.test` to test (a recording's windows stay together).
+/// `splits.test` to test (a recording's windows stay together). With partial truth the recordings
+/// with truth come first (in their shuffled order), and with recorded.truth = "evaluation" the
+/// test split is dealt first, so the truth goes where the regime uses it.
 void assign_recorded_splits(Recorded& recorded, const Splits& splits);
 
 /// A recorded regime's split: the windows of its recordings, in the shuffled order (`count` ≥ 0
 /// keeps the first `count`; more than the split holds is an InvalidParameter naming the split).
 /// The training and validation splits carry truth only when the regime says recorded.truth =
 /// "training" (otherwise their truth is NaN and has_truth false); the test split whenever the set
-/// has it.
+/// has it. With partial truth a window keeps its recording's; has_truth is true when every window
+/// of the split has it (otherwise the split's recording_truth says which do).
 [[nodiscard]] TrackSet recorded_split(const Regime& regime, Split split, int count = -1);
 /// The windows a recorded regime's split holds.
 [[nodiscard]] int recorded_split_size(const Regime& regime, Split split);

@@ -150,11 +150,15 @@ struct Recorded {
   /// The manoeuvres' acceleration magnitudes the models are built for, [smallest, largest]:
   /// recorded.acceleration, or — when it is not stated — estimated from the training split's
   /// plots (the √q of a two-mode CV IMM's modes fitted by their predictive likelihood,
-  /// sensor_estimate.hpp).
+  /// sensor_estimate.hpp) for a Cartesian sensor with training recordings; 0 (not known) otherwise.
   double min_acceleration = 0.0, max_acceleration = 0.0;
   bool acceleration_estimated = false;
   /// The recordings of each split, in their shuffled order, and the windows they hold.
   std::vector<int> training, validation, test;
+  /// Whether the trainers learn from truth: recorded.truth = "training" and every training and
+  /// validation recording has its truth (with partial truth, a split that lacks some is learned
+  /// from its plots alone).
+  bool training_has_truth = false;
 };
 
 struct Splits {
@@ -189,6 +193,10 @@ struct Regime {
   /// Throws InvalidParameter naming the field in the file's vocabulary ("start.speed").
   void validate() const;
   [[nodiscard]] bool scripted() const { return !cases.empty(); }
+  /// Whether the trainers learn from the truth of the training and validation splits: a drawn
+  /// regime, or a recorded one whose every training and validation recording has truth and which
+  /// says recorded.truth = "training" (Recorded::training_has_truth). Otherwise from the plots.
+  [[nodiscard]] bool trains_from_truth() const { return !recorded || recorded->training_has_truth; }
   /// Cases of the regime (1 for a random one) and their names ("" for a random regime).
   [[nodiscard]] int case_count() const;
   [[nodiscard]] const std::string& case_name(int index) const;

@@ -47,6 +47,16 @@ struct TrackSet {
   bool has_truth = true;
   std::vector<int> recording;
   std::vector<std::string> recording_names;
+  /// A recorded set with truth for some recordings only (partial truth): per recording, whether it
+  /// has its truth (has_truth is then false). Empty when every recording has it or none does.
+  std::vector<bool> recording_truth;
+
+  /// Whether track `index` carries its truth: has_truth, or its recording's entry of
+  /// recording_truth.
+  [[nodiscard]] bool track_has_truth(std::size_t index) const {
+    if (recording_truth.empty()) return has_truth;
+    return recording_truth.at(static_cast<std::size_t>(recording.at(index)));
+  }
 
   /// SHA-256 over the shapes and bytes of every truth and plot matrix.
   [[nodiscard]] std::string digest() const;

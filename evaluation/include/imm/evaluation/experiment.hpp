@@ -36,6 +36,9 @@ struct CommonOptions {
   std::optional<int> runs;  ///< test tracks (default: the regime's test split)
   std::uint64_t seed = 1;
   std::filesystem::path out;
+  /// --truth-tracks: only the test tracks that carry truth (a recorded set with truth for some
+  /// recordings), judged by their errors.
+  bool truth_tracks = false;
 
   /// The model file: `model` if it names an existing path, else models/model(.h5).
   [[nodiscard]] std::filesystem::path model_path() const;

@@ -66,9 +66,14 @@ class IMM_RUNTIME_EXPORT ContainerWriter {
   ContainerWriter(const ContainerWriter&) = delete;
   ContainerWriter& operator=(const ContainerWriter&) = delete;
 
+  /// What a dataset may hold besides finite values.
+  enum class Values {
+    kFinite,           ///< finite only
+    kFiniteOrMissing,  ///< NaN marks a missing value (a recording's gaps); ±∞ is refused
+  };
   /// Writes a dataset (intermediate groups are created; an existing one is replaced).
-  /// Non-finite values are refused.
-  void write(std::string_view dataset, const Array& array);
+  /// Non-finite values are refused, except NaN where `values` allows missing ones.
+  void write(std::string_view dataset, const Array& array, Values values = Values::kFinite);
   /// Writes a matrix as a rank-2 dataset.
   void write(std::string_view dataset, const Eigen::MatrixXd& matrix);
 
