@@ -49,8 +49,9 @@ Columns read_header(const support::CsvReader& reader, const support::CsvLine& li
           : name == "zx" || name == "zy"       ? "; Cartesian plots: --sensor cartesian"
           : name == "z1" || name == "z2"       ? "; a range sensor's plots: --sensor range_sensor"
                                                : "";
-      reader.fail("header: " + where + " is not a recording column (t, " + z1 + ", " + z2 +
-                  ", track, and truth x, vx, y, vy)" + hint);
+      std::string message = "header: " + where + " is not a recording column (t, ";
+      message.append(z1).append(", ").append(z2).append(", track, and truth x, vx, y, vy)");
+      reader.fail(message.append(hint));
     }
     if (*found->second >= 0) reader.fail("header: " + where + " appears twice");
     *found->second = static_cast<int>(i);

@@ -24,7 +24,6 @@
 #include <nlohmann/json.hpp>
 #include <span>
 #include <sstream>
-#include <tuple>
 
 #include "imm/datasets/random.hpp"
 #include "imm/evaluation/consistency.hpp"
@@ -198,15 +197,15 @@ int plots_only(const FimmOptions& options, const EvaluationRegimes& regimes,
   FimmSpec iterated = spec;
   iterated.iterations = iekf_iterations;
   std::vector<FilterOutcome> outcomes;
-  for (const auto& [name, filter_spec, model] :
-       std::vector<std::tuple<std::string, FimmSpec, std::shared_ptr<const TskSensorModel>>>{
-           {"FIMM (EKF)", spec, sensor_model},
-           {"FIMM (IEKF)", iterated, sensor_model},
-           {"IMM", spec, nullptr}}) {
+  const auto evaluate = [&](const std::string& name, const FimmSpec& filter_spec,
+                            const std::shared_ptr<const TskSensorModel>& model) {
     outcomes.push_back(run_monte_carlo(
         name, [&] { return std::make_unique<FimmFilter>(filter_spec, model); },
         filter_spec.track_options(), data));
-  }
+  };
+  evaluate("FIMM (EKF)", spec, sensor_model);
+  evaluate("FIMM (IEKF)", iterated, sensor_model);
+  evaluate("IMM", spec, nullptr);
   const int runs = static_cast<int>(data.tracks.size());
   std::cout << "fimm: " << regimes.describe() << "\n  test split: " << runs << " tracks x "
             << data.scans << " scans\n\n";

@@ -157,15 +157,15 @@ int run(const CommonOptions& options) {
   }
   if (!data.has_truth) {  // recorded plots without truth: judged by their prediction
     std::vector<FilterOutcome> outcomes;
-    for (const auto& [name, spec] :
-         std::vector<std::pair<std::string, WimmSpec>>{{"wIMM", trained},
-                                                       {"nIMM", normal},
-                                                       {"wIMM-seed", seed_fusion},
-                                                       {"nIMM-tuned", tuned_normal.spec}}) {
+    const auto evaluate = [&](const std::string& name, const WimmSpec& spec) {
       outcomes.push_back(run_monte_carlo(
           name, [&spec] { return std::make_unique<WimmFilter>(spec); }, spec.track_options(), data,
           {}, sensor));
-    }
+    };
+    evaluate("wIMM", trained);
+    evaluate("nIMM", normal);
+    evaluate("wIMM-seed", seed_fusion);
+    evaluate("nIMM-tuned", tuned_normal.spec);
     std::cout << "\n";
     return plots_only_report("wimm", outcomes, "wIMM", {"nIMM", "nIMM-tuned"},
                              {"wimm", model_path, regime.name, regime.digest, options.seed,
