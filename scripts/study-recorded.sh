@@ -12,8 +12,9 @@
 # "evaluation" (it learns from the plots alone; the manoeuvres' scale is estimated from them too);
 # trains KIND with CONFIG for both; evaluates both with EXPERIMENT on the synthetic regime's test
 # split, with truth; and compares them with `imm-eval regression` (candidate: without truth;
-# shipped: with truth). The sensor (its kind and σ) is the regime's in both, so the synthetic
-# regime accepts them.
+# shipped: with truth). The sensor (its kind and σ) is the regime's in both; with
+# ESTIMATE_SIGMA=1 the run without truth learns σ from the plots too (sigma = "estimate": the
+# synthetic regime accepts a model whose σ is within 10 % of its own).
 set -eu
 regime=$1 config=$2 kind=$3 experiment=$4
 out=${5:-reports/study-recorded/$(basename "$regime" .toml)-$kind}
@@ -29,6 +30,10 @@ rm -rf "$out" && mkdir -p "$out"
   --out-dir "$out/recordings"
 "$bin/imm-data" import --out "$out/set.h5" --units "$units" --sensor "${sensor_kind:-cartesian}" "$out"/recordings/*.csv
 for truth in training evaluation; do
+  plots_sensor=$sensor
+  if [ "$truth" = evaluation ] && [ "${ESTIMATE_SIGMA:-0}" = 1 ]; then
+    plots_sensor=$(printf 'kind = "%s"\nsigma = "estimate"' "${sensor_kind:-cartesian}")
+  fi
   cat > "$out/$truth.toml" <<TOML
 name = "$(basename "$regime" .toml)_recorded_$truth"
 units = "$units"
@@ -36,7 +41,7 @@ units = "$units"
 set = "$out/set.h5"
 truth = "$truth"
 [sensor]
-$sensor
+$plots_sensor
 [splits]
 training = $training
 validation = $validation

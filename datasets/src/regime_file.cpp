@@ -92,6 +92,11 @@ std::optional<datasets::SensorNoise> noise_from(const ConfigTable& table, Sensor
                                                 const datasets::SensorNoise& fallback) {
   datasets::SensorNoise noise = fallback;
   bool any = false;
+  if (kind != SensorKind::kRangeSensor && table.has("sigma") && !table.is_array("sigma") &&
+      table.text("sigma") == "estimate") {
+    noise.sigma.setConstant(std::numeric_limits<double>::quiet_NaN());
+    return noise;  // learned from a recorded regime's plots (sensor_from checks where)
+  }
   if (kind == SensorKind::kPolar) {
     if (table.has("range_sigma")) noise.sigma(0) = table.real("range_sigma"), any = true;
     if (table.has("azimuth_sigma_deg")) {
@@ -99,10 +104,6 @@ std::optional<datasets::SensorNoise> noise_from(const ConfigTable& table, Sensor
       any = true;
     }
   } else {
-    if (table.has("sigma") && !table.is_array("sigma") && table.text("sigma") == "estimate") {
-      noise.sigma.setConstant(std::numeric_limits<double>::quiet_NaN());
-      return noise;  // learned from a recorded regime's plots (sensor_from checks where)
-    }
     if (table.has("sigma")) noise.sigma = table.reals("sigma", 2), any = true;
     if (table.has("correlation")) noise.correlation = table.real("correlation"), any = true;
   }
@@ -122,8 +123,12 @@ datasets::Sensor sensor_from(const ConfigTable& table) {
   }
   sensor.noise = *noise;
   sensor.estimate_sigma = std::isnan(sensor.noise.sigma(0));
-  if (sensor.estimate_sigma && sensor.kind != SensorKind::kCartesian) {
-    table.fail("sigma", "\"estimate\" is for a Cartesian sensor's plots");
+  if (sensor.estimate_sigma && sensor.kind == SensorKind::kRangeSensor) {
+    table.fail("sigma", "\"estimate\" is for a Cartesian or polar sensor's plots");
+  }
+  if (sensor.estimate_sigma && (table.has("range_sigma") || table.has("azimuth_sigma_deg"))) {
+    table.fail("sigma", "\"estimate\" learns both σ_r and σ_θ; range_sigma and "
+                        "azimuth_sigma_deg go without it");
   }
   if (sensor.kind == SensorKind::kPolar) {
     if (table.has("position")) sensor.position = table.reals("position", 2);
@@ -410,8 +415,16 @@ RegimeFile recorded_regime_from(const ConfigTable& root, const ConfigTable& tabl
   if (r.sensor.estimate_sigma || estimate_acceleration) {
     // One fit of the training split's plots gives the σ to estimate and the manoeuvres' scale:
     // the manoeuvring mode's √q₂ (the quiet mode's √q₁ the smallest, at least 10⁻³ of it).
-    const PlotSigmaFit fit = fit_plot_sigma(recorded_split(r, Split::kTraining));
-    if (r.sensor.estimate_sigma) r.sensor.noise.sigma.setConstant(fit.model.sigma);
+    const TrackSet training = recorded_split(r, Split::kTraining);
+    if (r.sensor.estimate_sigma && r.sensor.kind == SensorKind::kPolar) {  // σ_r, σ_θ apart
+      const PolarSigmaFit polar = fit_polar_sigma(training);
+      r.sensor.noise.sigma << polar.range.model.sigma, polar.azimuth.model.sigma;
+    }
+    const PlotSigmaFit fit =
+        r.sensor.kind == SensorKind::kCartesian ? fit_plot_sigma(training) : PlotSigmaFit{};
+    if (r.sensor.estimate_sigma && r.sensor.kind == SensorKind::kCartesian) {
+      r.sensor.noise.sigma.setConstant(fit.model.sigma);
+    }
     if (estimate_acceleration) {
       recorded->max_acceleration = std::sqrt(fit.model.manoeuvre_noise);
       recorded->min_acceleration =

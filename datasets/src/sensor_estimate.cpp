@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 
 #include "imm/datasets/recorded.hpp"
@@ -126,6 +127,32 @@ PlotSigmaFit fit_plot_sigma(const TrackSet& set) {
   fit.log_likelihood = log_likelihood;
   fit.plots = plots;
   return fit;
+}
+
+PolarSigmaFit fit_polar_sigma(const TrackSet& set) {
+  // One coordinate as both axes of a set (the likelihood doubles; its maximum does not move).
+  auto coordinate = [&](int column) {
+    TrackSet one = set;
+    for (Track& track : one.tracks) {
+      Eigen::VectorXd z = track.plots.col(column);
+      if (column == 1) {  // the azimuth unwrapped along the track, across its gaps
+        double previous = std::numeric_limits<double>::quiet_NaN(), offset = 0.0;
+        for (Eigen::Index k = 0; k < z.size(); ++k) {
+          if (!std::isfinite(z(k))) continue;
+          if (std::isfinite(previous)) {
+            const double step = z(k) + offset - previous;
+            offset -= 2.0 * std::numbers::pi * std::round(step / (2.0 * std::numbers::pi));
+          }
+          z(k) += offset;
+          previous = z(k);
+        }
+      }
+      track.plots.col(0) = z;
+      track.plots.col(1) = z;
+    }
+    return fit_plot_sigma(one);
+  };
+  return {coordinate(0), coordinate(1)};
 }
 
 double estimate_plot_sigma(const Regime& regime) {

@@ -135,11 +135,13 @@ void check_model(const ModelRequirements& model, const EvaluationRegimes& regime
                              "distortion (knee " + number(own.sensor.distortion.knee) +
                              " m, softness " + number(own.sensor.distortion.softness) + " m)");
   }
-  // A σ the recorded regime estimated from its plots is an estimate: within 10 % of the model's
-  // it is the model's sensor (the estimate's own spread on a few dozen tracks is a few percent).
+  // A σ a recorded regime estimated from its plots — the evaluated one's, or the one the model
+  // was trained with — is an estimate: within 10 % it is the same sensor (the estimate's own
+  // spread on a few dozen tracks is a few percent).
+  const bool estimated = r.sensor.estimate_sigma || own.sensor.estimate_sigma;
   const auto same_sigma = [&](double regime_sigma, double model_sigma) {
-    return r.sensor.estimate_sigma ? std::abs(regime_sigma - model_sigma) <= 0.1 * model_sigma
-                                   : close(regime_sigma, model_sigma);
+    return estimated ? std::abs(regime_sigma - model_sigma) <= 0.1 * model_sigma
+                     : close(regime_sigma, model_sigma);
   };
   for (int c = 0; c < r.case_count(); ++c) {
     const datasets::SensorNoise& noise = r.noise_of(c);
@@ -147,12 +149,14 @@ void check_model(const ModelRequirements& model, const EvaluationRegimes& regime
         !(same_sigma(noise.sigma(0), *model.plot_sigma) &&
           (model.azimuth_sigma || same_sigma(noise.sigma(1), *model.plot_sigma)) &&
           noise.correlation == 0.0)) {
-      throw std::runtime_error(where + "sensor.sigma: the model is built for σ = " +
-                               number(*model.plot_sigma) + " per axis, uncorrelated; the regime" +
-                               (r.scripted() ? "'s case '" + r.case_name(c) + "'" : "") + " has [" +
-                               number(noise.sigma(0)) + ", " + number(noise.sigma(1)) + "]");
+      throw std::runtime_error(
+          where + "sensor.sigma: the model is built for " +
+          (model.azimuth_sigma ? "σ_r = " + number(*model.plot_sigma)
+                               : "σ = " + number(*model.plot_sigma) + " per axis, uncorrelated") +
+          "; the regime" + (r.scripted() ? "'s case '" + r.case_name(c) + "'" : "") + " has [" +
+          number(noise.sigma(0)) + ", " + number(noise.sigma(1)) + "]");
     }
-    if (model.azimuth_sigma && !close(noise.sigma(1), *model.azimuth_sigma)) {
+    if (model.azimuth_sigma && !same_sigma(noise.sigma(1), *model.azimuth_sigma)) {
       throw std::runtime_error(where + "sensor.azimuth_sigma_deg: the model is built for another " +
                                "azimuth σ");
     }

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <numbers>
 #include <set>
 #include <streambuf>
 
@@ -330,6 +331,16 @@ TEST(PlotSigma, LearnedFromPlotsAloneWithinFivePercentOnThirtyAgileAirTracks) {
   const PlotSigmaFit fit = fit_plot_sigma(set);
   EXPECT_NEAR(fit.model.sigma, 30.0, 0.05 * 30.0) << "start " << fit.start_sigma;
   EXPECT_LE(fit.model.quiet_noise, fit.model.manoeuvre_noise);
+}
+
+// A polar sensor's σ_r and σ_θ from the plots alone: 30 air_surveillance tracks (σ_r 100 m,
+// σ_θ 0.2°), every target inbound from all bearings (the azimuth crosses ±π on some).
+TEST(PlotSigma, PolarRangeAndAzimuthWithinFivePercentOnThirtyAirSurveillanceTracks) {
+  const Regime regime = load_regime("configs/regimes/air_surveillance.toml").regime;
+  const TrackSet set = draw_split(regime, Split::kTest, 11, 30);
+  const PolarSigmaFit fit = fit_polar_sigma(set);
+  EXPECT_NEAR(fit.range.model.sigma, 100.0, 5.0);
+  EXPECT_NEAR(fit.azimuth.model.sigma / (0.2 * std::numbers::pi / 180.0), 1.0, 0.05);
 }
 
 }  // namespace

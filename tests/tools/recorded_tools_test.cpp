@@ -109,8 +109,8 @@ TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
       << mlp_eval.out;
 }
 
-// Polar recordings: the wIMM and its nIMM baseline learn from the plots alone, and imm-eval wimm
-// judges them by the plots.
+// Polar recordings: σ_r and σ_θ, the wIMM and its nIMM baseline are learned from the plots alone,
+// and imm-eval wimm judges them by the plots.
 TEST_F(Tools, PolarRecordingsTrainAndEvaluateTheWimmWithoutTruth) {
   const auto exported =
       run_tool("imm-data",
@@ -129,7 +129,7 @@ TEST_F(Tools, PolarRecordingsTrainAndEvaluateTheWimmWithoutTruth) {
   ASSERT_EQ(imported.exit_code, 0) << imported.err;
   std::ofstream(dir_ / "polar.toml")
       << "name = \"polar_rec\"\nunits = \"m\"\n[recorded]\nset = \"" << (dir_ / "p.h5").string()
-      << "\"\n[sensor]\nkind = \"polar\"\nrange_sigma = 100.0\nazimuth_sigma_deg = 0.2\n"
+      << "\"\n[sensor]\nkind = \"polar\"\nsigma = \"estimate\"\n"
          "[splits]\ntraining = 2\nvalidation = 2\ntest = 2\n";
   const auto trained = run_tool("imm-train",
                                 {"wimm", "--config", "configs/wimm_tuned.toml", "--regime",
@@ -142,6 +142,12 @@ TEST_F(Tools, PolarRecordingsTrainAndEvaluateTheWimmWithoutTruth) {
   const auto inspected = nlohmann::json::parse(
       run_tool("imm-inspect", {(dir_ / "w.h5").string(), "--json"}, root_).out);
   EXPECT_EQ(inspected["attributes"]["training.trained_without_truth"], 1.0) << inspected.dump();
+  // σ_r (100 m) and σ_θ (0.2°) learned from four windows of 60 plots.
+  const auto& wimm = inspected["objects"]["/wimm"]["attributes"];
+  EXPECT_NE(wimm["range_sigma"].get<double>(), 100.0);
+  EXPECT_NEAR(wimm["range_sigma"].get<double>(), 100.0, 20.0) << wimm.dump();
+  EXPECT_NEAR(wimm["azimuth_sigma"].get<double>() * 180.0 / 3.14159265358979, 0.2, 0.04)
+      << wimm.dump();
   const auto baseline =
       run_tool("imm-train",
                {"baseline", "--config", "configs/wimm_tuned.toml", "--regime",

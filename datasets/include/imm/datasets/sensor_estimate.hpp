@@ -37,6 +37,14 @@ struct PlotSigmaFit {
 /// The maximum-likelihood σ, q₁, q₂ of a set's plots (the regime's sample period).
 [[nodiscard]] PlotSigmaFit fit_plot_sigma(const TrackSet& set);
 
+/// A polar sensor's σ_r and σ_θ from the plots alone: range and azimuth (unwrapped along each
+/// track) are each fitted as a one-axis coordinate of fit_plot_sigma — over a scan a target's
+/// range and bearing drift smoothly, and the manoeuvring mode takes the bearing's curvature.
+struct PolarSigmaFit {
+  PlotSigmaFit range, azimuth;  ///< σ_r in the set's unit, σ_θ in rad
+};
+[[nodiscard]] PolarSigmaFit fit_polar_sigma(const TrackSet& set);
+
 /// A recorded regime's σ, fitted on its training split (what `sigma = "estimate"` resolves to).
 [[nodiscard]] double estimate_plot_sigma(const Regime& regime);
 
