@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The Python module `immtrain`: the runtime (imm::runtime) as Python objects — a model file's
-// tracker, a plain IMM's track bank, and what a model file holds. A client of the runtime alone,
-// like imm-track: the same calls, so the same numbers to the bit.
+// tracker, a plain or GA-fuzzy IMM's track bank, and what a model file holds. A client of the
+// runtime alone, like imm-track: the same calls, so the same numbers to the bit.
 //
 //   import immtrain
 //   tracker = immtrain.load_tracker("models/ga_fuzzy_imm.h5")
@@ -19,14 +19,17 @@
 
 #include <cmath>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"
+#include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/load.hpp"
+#include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "imm/tracking/tracker.hpp"
 
@@ -247,14 +250,14 @@ class PyTracker {
   std::vector<std::string> modes_;
 };
 
-// A plain IMM model's TrackBank: many tracks stepped by one call.
+// A model's bank: many tracks stepped by one call — TrackBank for a plain IMM, GaFuzzyTrackBank
+// for a GA-fuzzy IMM (the kinds with a bank; another kind is refused, naming it).
 class PyTrackBank {
  public:
-  PyTrackBank(const fs::path& path, std::size_t capacity)
-      : bank_(imm::io::read_plain_imm(path), capacity) {}
+  PyTrackBank(const fs::path& path, std::size_t capacity) : bank_(open(path, capacity)) {}
 
   void initialize(std::size_t track, const Eigen::Vector4d& mean, const Eigen::Matrix4d& P) {
-    bank_.initialize(track, imm::GaussianState<4>{mean, P});
+    std::visit([&](auto& bank) { bank.initialize(track, imm::GaussianState<4>{mean, P}); }, bank_);
   }
 
   // One cycle of tracks 0 … N − 1 with plots (N, 2); returns each track's status.
@@ -271,7 +274,7 @@ class PyTrackBank {
       plots_[t] =
           Eigen::Vector2d(p(static_cast<py::ssize_t>(t), 0), p(static_cast<py::ssize_t>(t), 1));
     }
-    bank_.step(plots_, status_);
+    std::visit([&](auto& bank) { bank.step(plots_, status_); }, bank_);
     std::vector<std::string> out;
     out.reserve(rows);
     for (const imm::StepStatus s : status_) out.emplace_back(imm::to_string(s));
@@ -279,16 +282,40 @@ class PyTrackBank {
   }
 
   [[nodiscard]] py::tuple estimate(std::size_t track) const {
-    const imm::GaussianState<4> e = bank_.estimate(track);
+    const imm::GaussianState<4> e =
+        std::visit([&](const auto& bank) { return bank.estimate(track); }, bank_);
     return py::make_tuple(Eigen::Vector4d(e.mean), Eigen::Matrix4d(e.covariance));
   }
   [[nodiscard]] Eigen::VectorXd mode_probabilities(std::size_t track) const {
-    return bank_.mode_probabilities(track);
+    return std::visit(
+        [&](const auto& bank) -> Eigen::VectorXd { return bank.mode_probabilities(track); }, bank_);
   }
-  [[nodiscard]] std::size_t capacity() const { return bank_.capacity(); }
+  [[nodiscard]] std::size_t capacity() const {
+    return std::visit([](const auto& bank) { return bank.capacity(); }, bank_);
+  }
+  [[nodiscard]] std::string kind() const {
+    return std::string(std::holds_alternative<imm::TrackBank>(bank_) ? imm::io::kPlainImmKind
+                                                                     : imm::io::kGaFuzzyImmKind);
+  }
 
  private:
-  imm::TrackBank bank_;
+  using Bank = std::variant<imm::TrackBank, imm::GaFuzzyTrackBank>;
+  static Bank open(const fs::path& path, std::size_t capacity) {
+    const imm::io::ModelFileReader reader(path);
+    const std::string& kind = reader.provenance().model_kind;
+    if (kind == imm::io::kPlainImmKind) {
+      return Bank(std::in_place_type<imm::TrackBank>, imm::io::read_plain_imm(path), capacity);
+    }
+    if (kind == imm::io::kGaFuzzyImmKind) {
+      return Bank(std::in_place_type<imm::GaFuzzyTrackBank>, imm::io::read_ga_fuzzy_imm(reader),
+                  capacity);
+    }
+    throw imm::InvalidParameter("path", path.string() + " is a " + kind +
+                                            " model; a bank steps plain_imm and ga_fuzzy_imm "
+                                            "models (load_tracker runs every kind)");
+  }
+
+  Bank bank_;
   std::vector<Eigen::Vector2d> plots_;
   std::vector<imm::StepStatus> status_;
 };
@@ -330,14 +357,16 @@ PYBIND11_MODULE(immtrain, m) {
       .def_property_readonly("kind", &PyTracker::kind)
       .def_property_readonly("regime", &PyTracker::regime);
 
-  py::class_<PyTrackBank>(m, "TrackBank", "Many tracks of one plain IMM model, stepped together")
+  py::class_<PyTrackBank>(m, "TrackBank",
+                          "Many tracks of one plain IMM or GA-fuzzy IMM model, stepped together")
       .def(py::init<const fs::path&, std::size_t>(), py::arg("path"), py::arg("capacity"))
       .def("initialize", &PyTrackBank::initialize, py::arg("track"), py::arg("mean"),
            py::arg("covariance"))
       .def("step", &PyTrackBank::step, py::arg("plots"))
       .def("estimate", &PyTrackBank::estimate, py::arg("track"))
       .def("mode_probabilities", &PyTrackBank::mode_probabilities, py::arg("track"))
-      .def_property_readonly("capacity", &PyTrackBank::capacity);
+      .def_property_readonly("capacity", &PyTrackBank::capacity)
+      .def_property_readonly("kind", &PyTrackBank::kind);
 
   m.def(
       "load_tracker",

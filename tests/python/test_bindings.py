@@ -167,9 +167,12 @@ def test_bad_plots_raise_invalid_parameter_or_are_rejected():
         tracker.process(3, [1.0, 2.0, 3.0])
 
 
-def test_the_track_bank_equals_single_tracks():
-    model = os.path.join(MODELS, "cv3_imm.h5")
+@pytest.mark.parametrize("name,kind", [("cv3_imm.h5", "plain_imm"),
+                                       ("ga_fuzzy_imm.h5", "ga_fuzzy_imm")])
+def test_the_track_bank_equals_single_tracks(name, kind):
+    model = os.path.join(MODELS, name)
     bank = immtrain.TrackBank(model, 3)
+    assert bank.kind == kind
     rng = np.random.default_rng(3)
     starts = [np.array([100.0 * t, 10.0, 50.0 * t, -5.0]) for t in range(3)]
     P0 = np.diag([100.0, 25.0, 100.0, 25.0])
@@ -195,6 +198,11 @@ def test_the_track_bank_equals_single_tracks():
         assert bank.mode_probabilities(t).tolist() == one.mode_probabilities(0).tolist()
     with pytest.raises(ValueError):
         bank.step(np.zeros((3, 3)))
+
+
+def test_a_kind_without_a_bank_is_refused_by_name():
+    with pytest.raises(immtrain.InvalidParameter, match="is a wimm model"):
+        immtrain.TrackBank(os.path.join(MODELS, "wimm.h5"), 2)
 
 
 def test_nothing_grows_when_trackers_are_made_and_run_again_and_again():
