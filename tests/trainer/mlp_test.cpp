@@ -66,6 +66,36 @@ TEST(Backpropagation, GradientsMatchFiniteDifferences) {
   }
 }
 
+// The 2-10-10-1 network's fused batch gradient is the matrix-product one to rounding, on a batch
+// large enough to be split into chunks (and a last block with one sample), and gives the same
+// bits on one thread as on two.
+TEST(Backpropagation, TheFusedBatchGradientIsTheMatrixProductsOneAtAnyThreadCount) {
+  for (const Activation output : {Activation::kLinear, Activation::kSigmoid}) {
+    const Network network({2, 10, 10, 1}, output, 12.0, 0.8, 11);
+    const Samples samples = random_samples(1033, 5);
+    std::vector<Eigen::MatrixXd> fused_w, general_w, one_w;
+    std::vector<Eigen::VectorXd> fused_b, general_b, one_b;
+    network.gradients(samples, fused_w, fused_b);
+    network.gradients_general(samples, general_w, general_b);
+    const int threads = omp_get_max_threads();
+    omp_set_num_threads(1);
+    network.gradients(samples, one_w, one_b);
+    omp_set_num_threads(std::max(2, threads));
+    std::vector<Eigen::MatrixXd> two_w;
+    std::vector<Eigen::VectorXd> two_b;
+    network.gradients(samples, two_w, two_b);
+    omp_set_num_threads(threads);
+    ASSERT_EQ(fused_w.size(), 3U);
+    for (std::size_t l = 0; l < 3; ++l) {
+      const double scale = general_w[l].cwiseAbs().maxCoeff() + general_b[l].cwiseAbs().maxCoeff();
+      EXPECT_LT((fused_w[l] - general_w[l]).cwiseAbs().maxCoeff(), 1e-13 * scale) << "layer " << l;
+      EXPECT_LT((fused_b[l] - general_b[l]).cwiseAbs().maxCoeff(), 1e-13 * scale) << "layer " << l;
+      EXPECT_EQ(one_w[l], two_w[l]) << "layer " << l;
+      EXPECT_EQ(one_b[l], two_b[l]) << "layer " << l;
+    }
+  }
+}
+
 // XOR-like: target 1 where the inputs' signs differ. A 2-10-10-1 sigmoid net fits it.
 // The 2-10-10-1 network's compiled path and the general one give the same weights to the bit
 // after 3000 one-sample steps (random samples, targets and rates; a linear and a sigmoid output),

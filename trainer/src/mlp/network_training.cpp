@@ -5,6 +5,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "batch_gradients.hpp"
 #include "imm/datasets/random.hpp"
 
 namespace imm::trainer::mlp {
@@ -84,6 +85,16 @@ void Network::gradients(const Samples& samples, std::vector<Eigen::MatrixXd>& we
   // a handful of matrix products (Eigen's GEMM) and element-wise sigmoids (Eigen's vectorized
   // exp) instead of a loop over samples. Workspace persists between calls: no allocation after
   // the first epoch.
+  if (has_shape(layers_, 2, 10, 10)) {
+    fused_gradients_2_10_10(layers_, output_scale_, samples.inputs, samples.targets, weights,
+                            biases);
+    return;
+  }
+  gradients_general(samples, weights, biases);
+}
+
+void Network::gradients_general(const Samples& samples, std::vector<Eigen::MatrixXd>& weights,
+                                std::vector<Eigen::VectorXd>& biases) const {
   const std::size_t layers = layers_.size();
   const Eigen::Index n = samples.inputs.rows();
   weights.resize(layers);
@@ -188,15 +199,6 @@ void update_fixed(std::vector<MlpLayer>& layers, double output_scale, const doub
     for (int r = 0; r < H1; ++r) w1[c * H1 + r] -= d1[r] * xc;
   }
   for (int r = 0; r < H1; ++r) b1[r] -= hidden_rate * d1[r];
-}
-
-// Whether `layers` is I-H1-H2-1 with sigmoid hidden layers.
-bool has_shape(const std::vector<MlpLayer>& layers, int inputs, int h1, int h2) {
-  return layers.size() == 3 && layers[0].weights.rows() == h1 &&
-         layers[0].weights.cols() == inputs && layers[1].weights.rows() == h2 &&
-         layers[1].weights.cols() == h1 && layers[2].weights.rows() == 1 &&
-         layers[2].weights.cols() == h2 && layers[0].activation == Activation::kSigmoid &&
-         layers[1].activation == Activation::kSigmoid;
 }
 
 }  // namespace

@@ -63,10 +63,17 @@ class Network {
   [[nodiscard]] double predict(const double* input) const;
   /// Mean squared error in the target's unit.
   [[nodiscard]] double mse(const Samples& samples) const;
-  /// ∂E/∂(W, b) of the batch loss E = mean ½ (a_L − t/scale)², by matrix products over the
-  /// whole batch (not thread-safe: the network keeps the batch workspace).
+  /// ∂E/∂(W, b) of the batch loss E = mean ½ (a_L − t/scale)² (not thread-safe: the network
+  /// keeps the batch workspace). A 2-10-10-1 network with sigmoid hidden layers takes one fused
+  /// pass over the samples in vector lanes, spread over the OpenMP threads in a fixed number of
+  /// chunks (the same bits at any thread count; batch_gradients.hpp); every other shape the
+  /// matrix products of gradients_general. They differ by rounding.
   void gradients(const Samples& samples, std::vector<Eigen::MatrixXd>& weights,
                  std::vector<Eigen::VectorXd>& biases) const;
+  /// gradients() by matrix products over the whole batch, for any shape (public for the test
+  /// that compares the two).
+  void gradients_general(const Samples& samples, std::vector<Eigen::MatrixXd>& weights,
+                         std::vector<Eigen::VectorXd>& biases) const;
   /// One back-propagation update on one sample (per-layer learning rates). A 2-10-10-1 network
   /// with sigmoid hidden layers (the input estimator's) takes a path with its sizes known to the
   /// compiler; every other shape the general one. Both give the same bits.

@@ -1,0 +1,180 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "batch_gradients.hpp"
+
+#include <algorithm>
+#include <array>
+
+#include "imm/math/lane_math.hpp"
+
+namespace imm::trainer::mlp {
+namespace {
+
+constexpr int kLanes = 8;  // two AVX2 vectors of samples
+
+// Every lane's running share of the gradient (layouts as the layers': column-major weights).
+template <int I, int H1, int H2>
+struct LaneSums {
+  static constexpr int W = kLanes;
+  std::array<std::array<double, W>, H1 * I> w1{};
+  std::array<std::array<double, W>, H1> b1{};
+  std::array<std::array<double, W>, H2 * H1> w2{};
+  std::array<std::array<double, W>, H2> b2{};
+  std::array<std::array<double, W>, H2> w3{};
+  std::array<double, W> b3{};
+};
+
+// One block of kLanes samples from `first` (`valid` of them real; the rest weigh nothing).
+template <int I, int H1, int H2>
+[[gnu::always_inline]] inline void block(const std::vector<MlpLayer>& layers, double inverse_scale,
+                                         bool sigmoid_output, const Eigen::MatrixXd& inputs,
+                                         const Eigen::VectorXd& targets, Eigen::Index first,
+                                         int valid, double inverse_n, LaneSums<I, H1, H2>& g) {
+  constexpr int W = kLanes;
+  const double* w1 = layers[0].weights.data();
+  const double* w2 = layers[1].weights.data();
+  const double* w3 = layers[2].weights.data();
+  const double* b1 = layers[0].bias.data();
+  const double* b2 = layers[1].bias.data();
+  const double b3 = layers[2].bias(0);
+  alignas(64) double x[I][W], t[W], weight[W];
+  for (int l = 0; l < W; ++l) {
+    const Eigen::Index s = first + (l < valid ? l : 0);
+    for (int c = 0; c < I; ++c) x[c][l] = inputs(s, c);
+    t[l] = targets(s) * inverse_scale;
+    weight[l] = l < valid ? inverse_n : 0.0;
+  }
+  alignas(64) double a1[H1][W], a2[H2][W], a3[W], d3[W], d2[H2][W];
+  for (int r = 0; r < H1; ++r) {
+    IMM_LANES {
+      double s = b1[r];
+      for (int c = 0; c < I; ++c) s += w1[c * H1 + r] * x[c][l];
+      a1[r][l] = 1.0 / (1.0 + lane_exp(-s));
+    }
+  }
+  for (int r = 0; r < H2; ++r) {
+    IMM_LANES {
+      double s = b2[r];
+      for (int c = 0; c < H1; ++c) s += w2[c * H2 + r] * a1[c][l];
+      a2[r][l] = 1.0 / (1.0 + lane_exp(-s));
+    }
+  }
+  IMM_LANES {
+    double s = b3;
+    for (int c = 0; c < H2; ++c) s += w3[c] * a2[c][l];
+    const double sigmoid = 1.0 / (1.0 + lane_exp(-s));
+    a3[l] = pick(sigmoid_output, sigmoid, s);
+    const double slope = pick(sigmoid_output, a3[l] * (1.0 - a3[l]), 1.0);
+    d3[l] = (a3[l] - t[l]) * slope * weight[l];
+    g.b3[l] += d3[l];
+  }
+  for (int c = 0; c < H2; ++c) {
+    IMM_LANES {
+      g.w3[c][l] += d3[l] * a2[c][l];
+      d2[c][l] = w3[c] * d3[l] * (a2[c][l] * (1.0 - a2[c][l]));
+      g.b2[c][l] += d2[c][l];
+    }
+  }
+  for (int c = 0; c < H1; ++c) {
+    IMM_LANES {
+      double sum = 0.0;
+      for (int r = 0; r < H2; ++r) {
+        g.w2[c * H2 + r][l] += d2[r][l] * a1[c][l];
+        sum += w2[c * H2 + r] * d2[r][l];
+      }
+      const double d1 = sum * (a1[c][l] * (1.0 - a1[c][l]));
+      g.b1[c][l] += d1;
+      for (int i = 0; i < I; ++i) g.w1[i * H1 + c][l] += d1 * x[i][l];
+    }
+  }
+}
+
+// The blocks from `begin` to `end` (sample indices, `begin` a multiple of kLanes).
+template <int I, int H1, int H2>
+[[gnu::flatten]] IMM_AVX2_CLONES void blocks(const std::vector<MlpLayer>& layers,
+                                             double output_scale, const Eigen::MatrixXd& inputs,
+                                             const Eigen::VectorXd& targets, Eigen::Index begin,
+                                             Eigen::Index end, LaneSums<I, H1, H2>& g) {
+  const double inverse_n = 1.0 / static_cast<double>(inputs.rows());
+  const bool sigmoid_output = layers[2].activation == Activation::kSigmoid;
+  for (Eigen::Index first = begin; first < end; first += kLanes) {
+    const int valid = static_cast<int>(std::min<Eigen::Index>(kLanes, end - first));
+    block<I, H1, H2>(layers, 1.0 / output_scale, sigmoid_output, inputs, targets, first, valid,
+                     inverse_n, g);
+  }
+}
+
+// The chunks' lane shares summed chunk by chunk, each in lane order.
+template <std::size_t N, class Field>
+void reduce(const std::vector<LaneSums<2, 10, 10>>& chunks, Field field, double* out) {
+  for (std::size_t k = 0; k < N; ++k) {
+    double sum = 0.0;
+    for (const auto& chunk : chunks) {
+      for (int l = 0; l < kLanes; ++l) sum += field(chunk)[k][static_cast<std::size_t>(l)];
+    }
+    out[k] = sum;
+  }
+}
+
+// Samples per chunk, at least: below it one chunk (and one thread) does the whole batch.
+constexpr Eigen::Index kChunkSamples = 128;
+// Chunks of a large batch: a fixed number, so that the sums do not depend on the thread count.
+constexpr Eigen::Index kChunks = 4;
+
+}  // namespace
+
+bool has_shape(const std::vector<MlpLayer>& layers, int inputs, int h1, int h2) {
+  return layers.size() == 3 && layers[0].weights.rows() == h1 &&
+         layers[0].weights.cols() == inputs && layers[1].weights.rows() == h2 &&
+         layers[1].weights.cols() == h1 && layers[2].weights.rows() == 1 &&
+         layers[2].weights.cols() == h2 && layers[0].activation == Activation::kSigmoid &&
+         layers[1].activation == Activation::kSigmoid;
+}
+
+void fused_gradients_2_10_10(const std::vector<MlpLayer>& layers, double output_scale,
+                             const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targets,
+                             std::vector<Eigen::MatrixXd>& weights,
+                             std::vector<Eigen::VectorXd>& biases) {
+  constexpr int I = 2, H1 = 10, H2 = 10;
+  const Eigen::Index n = inputs.rows();
+  // Contiguous chunks of whole blocks, spread over the threads; each sums into its own lanes.
+  const Eigen::Index chunks = n >= kChunks * kChunkSamples ? kChunks : 1;
+  const Eigen::Index blocks_per_chunk = ((n + kLanes - 1) / kLanes + chunks - 1) / chunks;
+  // The calling thread's workspace (no allocation after the first call), shared with the team:
+  // a thread_local named inside the region would be each thread's own.
+  thread_local std::vector<LaneSums<I, H1, H2>> workspace;
+  std::vector<LaneSums<I, H1, H2>>& sums = workspace;
+  sums.assign(static_cast<std::size_t>(chunks), LaneSums<I, H1, H2>{});
+#pragma omp parallel for schedule(static) if (chunks > 1)
+  for (Eigen::Index c = 0; c < chunks; ++c) {
+    const Eigen::Index begin = std::min(n, c * blocks_per_chunk * kLanes);
+    const Eigen::Index end = std::min(n, (c + 1) * blocks_per_chunk * kLanes);
+    blocks<I, H1, H2>(layers, output_scale, inputs, targets, begin, end,
+                      sums[static_cast<std::size_t>(c)]);
+  }
+  weights.resize(3);
+  biases.resize(3);
+  weights[0].resize(H1, I);
+  weights[1].resize(H2, H1);
+  weights[2].resize(1, H2);
+  biases[0].resize(H1);
+  biases[1].resize(H2);
+  biases[2].resize(1);
+  using Sums = LaneSums<I, H1, H2>;
+  reduce<H1 * I>(
+      sums, [](const Sums& g) -> const auto& { return g.w1; }, weights[0].data());
+  reduce<H2 * H1>(
+      sums, [](const Sums& g) -> const auto& { return g.w2; }, weights[1].data());
+  reduce<H2>(
+      sums, [](const Sums& g) -> const auto& { return g.w3; }, weights[2].data());
+  reduce<H1>(
+      sums, [](const Sums& g) -> const auto& { return g.b1; }, biases[0].data());
+  reduce<H2>(
+      sums, [](const Sums& g) -> const auto& { return g.b2; }, biases[1].data());
+  double b3 = 0.0;
+  for (const Sums& g : sums) {
+    for (int l = 0; l < kLanes; ++l) b3 += g.b3[static_cast<std::size_t>(l)];
+  }
+  biases[2](0) = b3;
+}
+
+}  // namespace imm::trainer::mlp
