@@ -15,9 +15,11 @@ constexpr int kLanes = 8;  // two AVX2 vectors of samples
 template <int I, int H1, int H2>
 struct LaneSums {
   static constexpr int W = kLanes;
-  std::array<std::array<double, W>, H1 * I> w1{};
+  static constexpr auto kW1 = static_cast<std::size_t>(H1) * I;
+  static constexpr auto kW2 = static_cast<std::size_t>(H2) * H1;
+  std::array<std::array<double, W>, kW1> w1{};
   std::array<std::array<double, W>, H1> b1{};
-  std::array<std::array<double, W>, H2 * H1> w2{};
+  std::array<std::array<double, W>, kW2> w2{};
   std::array<std::array<double, W>, H2> b2{};
   std::array<std::array<double, W>, H2> w3{};
   std::array<double, W> b3{};
