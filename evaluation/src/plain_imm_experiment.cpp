@@ -115,6 +115,10 @@ int run(const PlainImmOptions& options) {
                               rows)
             << "\nConsistency:\n\n"
             << consistency_table(filters);
+  if (data.recorded) {  // recorded plots with their truth: how well each filter predicts them too
+    std::cout << "\nThe recorded plots' prediction:\n\n"
+              << plot_table(filters, filters.front().name, {}).text;
+  }
 
   const std::filesystem::path& out = options.common.out;
   std::filesystem::create_directories(out);

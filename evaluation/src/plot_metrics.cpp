@@ -12,16 +12,13 @@
 
 namespace imm::evaluation {
 
-int plots_only_report(const std::string& experiment, const std::vector<FilterOutcome>& filters,
-                      const std::string& ours, const std::vector<std::string>& baselines,
-                      const HeadlineRuns& evaluated, const std::filesystem::path& out,
-                      const std::vector<ModelUse>& more_models) {
+PlotTable plot_table(const std::vector<FilterOutcome>& filters, const std::string& ours,
+                     const std::vector<std::string>& baselines) {
   const FilterOutcome& own = find_filter(filters, ours);
   const std::vector<HeadlineMetric> own_metrics = own.plot_headline();
   const int runs = static_cast<int>(own_metrics[0].runs());
   std::vector<std::vector<std::string>> rows;
-  nlohmann::json metrics;
-  std::vector<std::string> findings;
+  PlotTable table;
   for (const FilterOutcome& f : filters) {
     const std::vector<HeadlineMetric> m = f.plot_headline();
     std::vector<std::string> row{
@@ -46,27 +43,39 @@ int plots_only_report(const std::string& experiment, const std::vector<FilterOut
                               {"innovation_rms", {rms.estimate, rms.lower, rms.upper}}};
       if (std::find(baselines.begin(), baselines.end(), f.name) != baselines.end() &&
           !nll.below()) {
-        findings.push_back(ours +
-                           (nll.above() ? " predicts the plots worse than "
-                                        : " does not predict the plots better than ") +
-                           f.name + " beyond the uncertainty (predictive NLL per plot " +
-                           nll.text() + ")");
+        table.findings.push_back(ours +
+                                 (nll.above() ? " predicts the plots worse than "
+                                              : " does not predict the plots better than ") +
+                                 f.name + " beyond the uncertainty (predictive NLL per plot " +
+                                 nll.text() + ")");
       }
     }
     rows.push_back(std::move(row));
-    metrics[f.name] = entry;
+    table.metrics[f.name] = entry;
   }
-  std::cout << experiment << ": the tracks have no truth; the filters are judged by how well they "
-            << "predict the plots\n\n"
-            << markdown_table({"filter", "log-likelihood per plot", "NIS", "innovation RMS",
+  table.text = markdown_table({"filter", "log-likelihood per plot", "NIS", "innovation RMS",
                                "NIS scans inside 95 %", ours + " − this NLL per plot [95 %]",
                                ours + " − this innovation RMS [95 %]"},
-                              rows)
-            << "\nlog-likelihood per plot: 1/N Σ log p(z | Z^(k−1)), the filter's predictive "
+                              rows) +
+               "\nlog-likelihood per plot: 1/N Σ log p(z | Z^(k−1)), the filter's predictive "
                "density of each plot (higher is better; the NLL is its negative). NIS: νᵀ S⁻¹ ν "
                "averaged over the tracks per scan and then over the scans (2 for a consistent "
-               "filter). Innovation RMS: √(1/N Σ ‖z − ẑ‖²), in the plot's coordinates.\n"
-            << kDifferenceConvention << "\n\nConsistency (NIS):\n\n"
+               "filter). Innovation RMS: √(1/N Σ ‖z − ẑ‖²), in the plot's coordinates.\n" +
+               std::string(kDifferenceConvention) + "\n";
+  return table;
+}
+
+int plots_only_report(const std::string& experiment, const std::vector<FilterOutcome>& filters,
+                      const std::string& ours, const std::vector<std::string>& baselines,
+                      const HeadlineRuns& evaluated, const std::filesystem::path& out,
+                      const std::vector<ModelUse>& more_models) {
+  const PlotTable table = plot_table(filters, ours, baselines);
+  const std::vector<std::string>& findings = table.findings;
+  const nlohmann::json& metrics = table.metrics;
+  const FilterOutcome& own = find_filter(filters, ours);
+  std::cout << experiment << ": the tracks have no truth; the filters are judged by how well they "
+            << "predict the plots\n\n"
+            << table.text << "\nConsistency (NIS):\n\n"
             << consistency_table(filters);
   print_findings(findings);
   std::filesystem::create_directories(out);

@@ -255,6 +255,7 @@ TEST_F(Tools, PartialTruthJudgesAllByThePlotsAndTheTruthTracksByTheirErrors) {
                                root_);
   ASSERT_TRUE(errors.exit_code == 0 || errors.exit_code == 7) << errors.err;
   EXPECT_NE(errors.out.find("the 4 of 5 test tracks with truth"), std::string::npos) << errors.out;
+  EXPECT_NE(errors.out.find("The recorded plots' prediction"), std::string::npos) << errors.out;
   const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "t" / "headline.json"));
   EXPECT_EQ(headline["metrics"][0]["name"], "zeta_p") << headline.dump();
   EXPECT_EQ(headline["runs"], 4) << headline.dump();

@@ -10,6 +10,7 @@
 /// gate compares) is FilterOutcome::plot_headline of the experiment's own filter.
 
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,18 @@
 #include "imm/evaluation/monte_carlo.hpp"
 
 namespace imm::evaluation {
+
+/// The plot-metric table of `filters` (ours against each other one): its markdown with the
+/// definitions, the metrics.json entries, and the findings against `baselines` (ours not
+/// predicting the plots better beyond the interval).
+struct PlotTable {
+  std::string text;
+  nlohmann::json metrics;
+  std::vector<std::string> findings;
+};
+[[nodiscard]] PlotTable plot_table(const std::vector<FilterOutcome>& filters,
+                                   const std::string& ours,
+                                   const std::vector<std::string>& baselines);
 
 /// Prints the plot-metric tables of `filters` (ours against each other one), writes
 /// metrics.json and headline.json in `out`, and returns the report's exit code: a finding
