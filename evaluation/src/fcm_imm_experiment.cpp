@@ -256,7 +256,9 @@ int run(const CommonOptions& options) {
       {"IMM-tuned", [&] { return make_axis_cv_imm_filter(imm.spec); }},
       {"FCM-IMM", [&] { return make_fcm_imm_filter(fitted); }},
       {"FCM-IMM-const", [&] { return make_fcm_imm_filter(constant); }}};
-  if (!data.has_truth) {  // recorded plots without truth: judged by their prediction
+  // How well every filter predicts the plots (the judgement without truth; beside the errors on
+  // recorded tracks with truth).
+  const auto plot_outcomes = [&] {
     std::vector<FilterOutcome> outcomes;
     for (const auto& [name, make] : makers) {
       const trainer::fcm::FilterFactory& two_axis = make;
@@ -264,6 +266,10 @@ int run(const CommonOptions& options) {
           name, [&two_axis]() -> std::unique_ptr<TrackFilter> { return two_axis(); },
           fitted.track_options(), data));
     }
+    return outcomes;
+  };
+  if (!data.has_truth) {  // recorded plots without truth: judged by their prediction
+    const std::vector<FilterOutcome> outcomes = plot_outcomes();
     std::cout << "fcm-imm: " << regimes.describe() << "\n  test split: " << runs << " tracks x "
               << data.scans << " scans; baselines tuned on the training split of "
               << tuning.regime.name << "\n\n";
@@ -306,6 +312,10 @@ int run(const CommonOptions& options) {
   consistency.reserve(filters.size());
   for (const auto& f : filters) consistency.push_back({f.name, f.position_nees, f.nis});
   std::cout << "\nConsistency:\n\n" << consistency_table(consistency);
+  if (data.recorded) {  // recorded plots with their truth: how well each filter predicts them too
+    std::cout << "\nThe recorded plots' prediction:\n\n"
+              << plot_table(plot_outcomes(), "FCM-IMM", {}).text;
+  }
   // A fit that drove λ to 0 ships as the tuned IMM (fcm_trainer.hpp,
   // FcmTrainingResult::learned_part_on): say so beside the verdicts.
   const bool part_off = learned_part_off(reader.provenance());

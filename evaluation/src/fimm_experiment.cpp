@@ -185,13 +185,11 @@ Score score(const std::function<std::unique_ptr<FimmFilter>()>& make,
   return out;
 }
 
-// A recorded regime without truth: the IMM and the FIMM (EKF and IEKF) judged by how well they
-// predict the test plots (plot_metrics.hpp).
-int plots_only(const FimmOptions& options, const EvaluationRegimes& regimes,
-               const std::filesystem::path& model_path, const FimmSpec& base,
-               const std::shared_ptr<const TskSensorModel>& sensor_model, int iekf_iterations,
-               const datasets::TrackSet& data) {
-  const datasets::Regime& regime = regimes.evaluated.regime;
+// The IMM and the FIMM (EKF and IEKF) over recorded plots, for the plot metrics: with the
+// regime's one plot noise (a recorded regime has one case).
+std::vector<FilterOutcome> plot_outcomes(const datasets::Regime& regime, const FimmSpec& base,
+                                         const std::shared_ptr<const TskSensorModel>& sensor_model,
+                                         int iekf_iterations, const datasets::TrackSet& data) {
   FimmSpec spec = base;
   spec.measurement_covariance = regime.sensor.noise.covariance();
   FimmSpec iterated = spec;
@@ -206,6 +204,18 @@ int plots_only(const FimmOptions& options, const EvaluationRegimes& regimes,
   evaluate("FIMM (EKF)", spec, sensor_model);
   evaluate("FIMM (IEKF)", iterated, sensor_model);
   evaluate("IMM", spec, nullptr);
+  return outcomes;
+}
+
+// A recorded regime without truth: the filters judged by how well they predict the test plots
+// (plot_metrics.hpp).
+int plots_only(const FimmOptions& options, const EvaluationRegimes& regimes,
+               const std::filesystem::path& model_path, const FimmSpec& base,
+               const std::shared_ptr<const TskSensorModel>& sensor_model, int iekf_iterations,
+               const datasets::TrackSet& data) {
+  const datasets::Regime& regime = regimes.evaluated.regime;
+  const std::vector<FilterOutcome> outcomes =
+      plot_outcomes(regime, base, sensor_model, iekf_iterations, data);
   const int runs = static_cast<int>(data.tracks.size());
   std::cout << "fimm: " << regimes.describe() << "\n  test split: " << runs << " tracks x "
             << data.scans << " scans\n\n";
@@ -376,6 +386,12 @@ int run(const FimmOptions& options) {
                               split)
             << "\nConsistency per case (the NIS of the sensor's (z1, z2) plot; scans 3 on):\n\n"
             << consistency_table(consistency);
+  if (data.recorded) {  // recorded plots with their truth: how well each filter predicts them too
+    std::cout << "\nThe recorded plots' prediction:\n\n"
+              << plot_table(plot_outcomes(regime, base, sensor_model, config.iekf_iterations, data),
+                            "FIMM (EKF)", {})
+                     .text;
+  }
   std::cout << "\nGates (" << (options.gate_on == "best" ? "the better FIMM" : "the FIMM (EKF)")
             << " below the IMM beyond the uncertainty; at most " << 100.0 * kMaxClampedShare
             << " % clamped): " << (failures.empty() ? "passed" : "FAILED") << '\n';

@@ -133,19 +133,24 @@ int run(const CommonOptions& options) {
       imm_settings, {trainer::ga::make_training_set(own, datasets::Split::kTraining)},
       trainer::acceleration_scale(own));
 
-  if (!data.has_truth) {  // recorded plots without truth: judged by their prediction (the
-                          // true-input floor needs the truth, and is left out)
-    AxisCvImmSpec cv;     // the CV KF: a one-mode IMM with the features' q
-    cv.settings = imm_settings;
-    cv.process_noise = {settings.process_noise};
+  // How well every filter predicts the plots (the judgement without truth, where the true-input
+  // floor needs the truth and is left out; beside the errors on recorded tracks with truth).
+  AxisCvImmSpec cv_kf;  // the CV KF: a one-mode IMM with the features' q
+  cv_kf.settings = imm_settings;
+  cv_kf.process_noise = {settings.process_noise};
+  const auto plot_outcomes = [&] {
     const std::vector<std::pair<std::string, FilterFactory>> makers = {
-        {"CV KF", [&] { return make_axis_cv_imm_filter(cv); }},
+        {"CV KF", [&] { return make_axis_cv_imm_filter(cv_kf); }},
         {"IMM-tuned", [&] { return make_axis_cv_imm_filter(imm_tuned.spec); }},
         {"corrected KF", [&] { return make_mlp_input_estimator_filter(model); }}};
     std::vector<FilterOutcome> outcomes;
     for (const auto& [name, make] : makers) {
       outcomes.push_back(run_monte_carlo(name, make, model.track_options(), data));
     }
+    return outcomes;
+  };
+  if (!data.has_truth) {  // recorded plots without truth: judged by their prediction
+    const std::vector<FilterOutcome> outcomes = plot_outcomes();
     const int runs = static_cast<int>(data.tracks.size());
     std::cout << "input-estimator: " << regimes.describe() << "\n  test split: " << runs
               << " tracks x " << data.scans << " scans; IMM-tuned on the training split of "
@@ -376,6 +381,10 @@ int run(const CommonOptions& options) {
                         imm_table)
       << "\nConsistency per axis run (1-D: position NEES and NIS average 1 when consistent):\n\n"
       << consistency_table(consistency);
+  if (data.recorded) {  // recorded plots with their truth: how well each filter predicts them too
+    std::cout << "\nThe recorded plots' prediction:\n\n"
+              << plot_table(plot_outcomes(), "corrected KF", {}).text;
+  }
   print_findings(findings);
 
   const std::filesystem::path& out = options.out;

@@ -161,6 +161,32 @@ TEST_F(Tools, PolarRecordingsTrainAndEvaluateTheWimmWithoutTruth) {
   EXPECT_NE(evaluated.out.find("wIMM − this NLL per plot"), std::string::npos) << evaluated.out;
   const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "we" / "headline.json"));
   EXPECT_EQ(headline["metrics"][0]["name"], "predictive_nll");
+  // Recordings with their truth: the wIMM's usual errors, and the plots' prediction beside them.
+  ASSERT_EQ(run_tool("imm-data",
+                     {"export", "--regime", "configs/regimes/air_surveillance.toml", "--count", "6",
+                      "--seed", "5", "--out-dir", (dir_ / "rect").string()},
+                     root_)
+                .exit_code,
+            0);
+  ASSERT_EQ(run_tool("imm-data",
+                     {"import", "--sensor", "polar", "--scans", "60", "--out",
+                      (dir_ / "pt.h5").string(), (dir_ / "rect").string()},
+                     root_)
+                .exit_code,
+            0);
+  std::ofstream(dir_ / "polar_truth.toml")
+      << "name = \"polar_truth\"\nunits = \"m\"\n[recorded]\nset = \"" << (dir_ / "pt.h5").string()
+      << "\"\n[sensor]\nkind = \"polar\"\nrange_sigma = 100.0\nazimuth_sigma_deg = 0.2\n"
+         "[splits]\ntraining = 2\nvalidation = 2\ntest = 2\n";
+  const auto with_truth =
+      run_tool("imm-eval",
+               {"wimm", "--model", (dir_ / "w.h5").string(), "--regime",
+                (dir_ / "polar_truth.toml").string(), "--out", (dir_ / "wt").string()},
+               root_);
+  ASSERT_TRUE(with_truth.exit_code == 0 || with_truth.exit_code == 7) << with_truth.err;
+  EXPECT_NE(with_truth.out.find("The recorded plots' prediction"), std::string::npos)
+      << with_truth.out;
+  EXPECT_NE(with_truth.out.find("az settled"), std::string::npos) << with_truth.out;
 }
 
 // A range sensor's recordings (z1, z2): the FIMM, through the TSK model fitted to the sensor's
@@ -201,6 +227,34 @@ TEST_F(Tools, RangeSensorRecordingsEvaluateTheFimmByTheirPlots) {
       << evaluated.out;
   const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "fe" / "headline.json"));
   EXPECT_EQ(headline["metrics"][0]["name"], "predictive_nll");
+  // The same plots with their truth: the usual errors, and the plots' prediction beside them.
+  ASSERT_EQ(run_tool("imm-data",
+                     {"export", "--regime", (dir_ / "cut_in.toml").string(), "--count", "12",
+                      "--out-dir", (dir_ / "rect").string()},
+                     root_)
+                .exit_code,
+            0);
+  ASSERT_EQ(run_tool("imm-data",
+                     {"import", "--sensor", "range_sensor", "--out", (dir_ / "rt.h5").string(),
+                      (dir_ / "rect").string()},
+                     root_)
+                .exit_code,
+            0);
+  std::ofstream(dir_ / "truth.toml")
+      << "name = \"cut_in_truth\"\nunits = \"m\"\n[recorded]\nset = \"" << (dir_ / "rt.h5").string()
+      << "\"\n"
+      << sensor << "[splits]\ntraining = 1\nvalidation = 1\ntest = 10\n";
+  const auto with_truth =
+      run_tool("imm-eval",
+               {"fimm", "--model", "models/tsk_range_sensor.h5", "--regime",
+                (dir_ / "truth.toml").string(), "--out", (dir_ / "ft").string()},
+               root_);
+  ASSERT_TRUE(with_truth.exit_code == 0 || with_truth.exit_code == 7) << with_truth.err;
+  EXPECT_NE(with_truth.out.find("The recorded plots' prediction"), std::string::npos)
+      << with_truth.out;
+  EXPECT_NE(
+      nlohmann::json::parse(testing::slurp(dir_ / "ft" / "headline.json"))["metrics"][0]["name"],
+      "predictive_nll");
   const auto refused =
       run_tool("imm-train",
                {"tsk", "--config", "configs/tsk_range_sensor.toml", "--regime",
@@ -259,6 +313,28 @@ TEST_F(Tools, PartialTruthJudgesAllByThePlotsAndTheTruthTracksByTheirErrors) {
   const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "t" / "headline.json"));
   EXPECT_EQ(headline["metrics"][0]["name"], "zeta_p") << headline.dump();
   EXPECT_EQ(headline["runs"], 4) << headline.dump();
+  // The FCM-IMM and the input estimator learn from the plots (two training recordings have no
+  // truth) and on the truth tracks report the plots' prediction beside the errors.
+  const auto fcm = run_tool("imm-train",
+                            {"fcm", "--config", "configs/fcm_imm.toml", "--regime",
+                             (dir_ / "partial.toml").string(), "--out", (dir_ / "f.h5").string()},
+                            root_);
+  ASSERT_EQ(fcm.exit_code, 0) << fcm.err;
+  const auto mlp =
+      run_tool("imm-train",
+               {"mlp", "--config", "configs/mlp_input_estimator_tuned.toml", "--regime",
+                (dir_ / "partial.toml").string(), "--out", (dir_ / "i.h5").string()},
+               root_);
+  ASSERT_EQ(mlp.exit_code, 0) << mlp.err;
+  for (const auto& [experiment, model] :
+       {std::pair{"fcm-imm", "f.h5"}, std::pair{"input-estimator", "i.h5"}}) {
+    const auto judged = run_tool("imm-eval",
+                                 {experiment, "--model", (dir_ / model).string(), "--truth-tracks",
+                                  "--out", (dir_ / experiment).string()},
+                                 root_);
+    ASSERT_TRUE(judged.exit_code == 0 || judged.exit_code == 7) << judged.err;
+    EXPECT_NE(judged.out.find("The recorded plots' prediction"), std::string::npos) << judged.out;
+  }
 }
 
 TEST_F(Tools, AHostileRecordingIsRefusedAndNothingIsImported) {
