@@ -144,6 +144,7 @@ int run(const CommonOptions& options) {
         {"IMM-tuned", [&] { return make_axis_cv_imm_filter(imm_tuned.spec); }},
         {"corrected KF", [&] { return make_mlp_input_estimator_filter(model); }}};
     std::vector<FilterOutcome> outcomes;
+    outcomes.reserve(makers.size());
     for (const auto& [name, make] : makers) {
       outcomes.push_back(run_monte_carlo(name, make, model.track_options(), data));
     }
