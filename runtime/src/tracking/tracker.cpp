@@ -10,8 +10,8 @@
 #include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
-#include "imm/models/measurement/polar_measurement.hpp"
 #include "imm/math/log_sum_exp.hpp"
+#include "imm/models/measurement/polar_measurement.hpp"
 
 namespace imm {
 namespace {
@@ -116,11 +116,7 @@ double TrackFilter::log_predictive_likelihood() const {
   Eigen::Vector2d nu;
   Eigen::Matrix2d S;
   if (!innovation(nu, S)) return std::numeric_limits<double>::quiet_NaN();
-  const Eigen::LLT<Eigen::Matrix2d> llt(S);
-  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
-  const Eigen::Matrix2d L = llt.matrixL();
-  const double log_det = 2.0 * (std::log(L(0, 0)) + std::log(L(1, 1)));
-  return -0.5 * (nu.dot(llt.solve(nu)) + log_det + 2.0 * kLogTwoPi);
+  return log_normal_density(nu, S);
 }
 
 Tracker::Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options)

@@ -24,7 +24,6 @@
 /// they were. Nothing is allocated per step: mode-indexed arrays have a fixed maximum size
 /// (kMaxModes) and modes are allocation-free by contract.
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <array>
 #include <cmath>
@@ -239,11 +238,8 @@ class ImmEstimator {
       Vector<NZ> nu = modes_[index(j)]->innovation();
       SquareMatrix<NZ> S = modes_[index(j)]->innovation_covariance();
       to_plot(nu, S);
-      const Eigen::LLT<SquareMatrix<NZ>> llt(S);
-      if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
-      const SquareMatrix<NZ> L = llt.matrixL();
-      const double log_det = 2.0 * L.diagonal().array().log().sum();
-      terms(j) = log_predicted_(j) - 0.5 * (nu.dot(llt.solve(nu)) + log_det + NZ * kLogTwoPi);
+      terms(j) = log_predicted_(j) + log_normal_density(nu, S);
+      if (std::isnan(terms(j))) return terms(j);
     }
     return log_sum_exp(terms);
   }

@@ -5,6 +5,7 @@
 /// underflow in linear space long before they matter, so the IMM keeps log μ and normalizes with
 /// log-sum-exp.
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <cmath>
 #include <limits>
@@ -15,6 +16,17 @@ namespace imm {
 inline constexpr double kLogTwoPi = 1.8378770664093454836;
 /// log(2π e): twice a unit normal's entropy, ½ log(2π e σ²) being a N(0, σ²) plot noise's.
 inline constexpr double kLogTwoPiE = 2.8378770664093454836;
+
+/// log N(ν; 0, S) by a Cholesky factor of S; NaN where S is not positive definite.
+template <int N>
+[[nodiscard]] double log_normal_density(const Eigen::Matrix<double, N, 1>& nu,
+                                        const Eigen::Matrix<double, N, N>& S) {
+  const Eigen::LLT<Eigen::Matrix<double, N, N>> llt(S);
+  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
+  const Eigen::Matrix<double, N, N> L = llt.matrixL();
+  const double log_det = 2.0 * L.diagonal().array().log().sum();
+  return -0.5 * (nu.dot(llt.solve(nu)) + log_det + N * kLogTwoPi);
+}
 
 /// log Σ exp(v_i), stable for any finite or −∞ entries. Returns −∞ when every entry is −∞ (or the
 /// vector is empty) and NaN when an entry is NaN or +∞.
