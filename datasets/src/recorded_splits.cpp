@@ -53,8 +53,8 @@ void assign_recorded_splits(Recorded& recorded, const Splits& splits) {
   };
   const auto training = static_cast<std::size_t>(splits.training);
   const auto validation = static_cast<std::size_t>(splits.validation);
-  const std::vector<bool>& truth = recorded.set->recording_truth;
-  if (truth.empty()) {  // truth for all recordings or none
+  const TrackSet& set = *recorded.set;
+  if (set.recording_truth.empty()) {  // truth for all recordings or none
     recorded.training = deal(0, splits.training);
     recorded.validation = deal(training, splits.validation);
     recorded.test = deal(training + validation, splits.test);
@@ -63,7 +63,7 @@ void assign_recorded_splits(Recorded& recorded, const Splits& splits) {
     // regime uses it — the training and validation splits with recorded.truth = "training", else
     // the test split, which is then dealt first.
     std::stable_partition(order.begin(), order.end(),
-                          [&](int r) { return truth[static_cast<std::size_t>(r)]; });
+                          [&](int r) { return set.recording_has_truth(r); });
     if (recorded.truth_for_training) {
       recorded.training = deal(0, splits.training);
       recorded.validation = deal(training, splits.validation);
@@ -78,11 +78,7 @@ void assign_recorded_splits(Recorded& recorded, const Splits& splits) {
   // The trainers learn from truth only where every training and validation window has it.
   recorded.training_has_truth = recorded.truth_for_training;
   for (const std::vector<int>* split : {&recorded.training, &recorded.validation}) {
-    for (const int r : *split) {
-      recorded.training_has_truth &= truth.empty()
-                                         ? recorded.set->has_truth
-                                         : static_cast<bool>(truth[static_cast<std::size_t>(r)]);
-    }
+    for (const int r : *split) recorded.training_has_truth &= set.recording_has_truth(r);
   }
 }
 
@@ -115,13 +111,8 @@ TrackSet recorded_split(const Regime& regime, Split split, int count) {
     set.recording.push_back(recorded.set->recording[windows[i]]);
   }
   set.has_truth = n > 0 && with_truth == n;
-  if (with_truth > 0 && with_truth < n) {  // partial truth in this split
-    set.recording_truth.assign(set.recording_names.size(), false);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (recorded.set->track_has_truth(windows[i])) {
-        set.recording_truth[static_cast<std::size_t>(set.recording[i])] = true;
-      }
-    }
+  if (with_truth > 0 && with_truth < n) {  // partial truth in this split: the set's own flags
+    set.recording_truth = recorded.set->recording_truth;
   }
   return set;
 }

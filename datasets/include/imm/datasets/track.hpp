@@ -51,11 +51,13 @@ struct TrackSet {
   /// has its truth (has_truth is then false). Empty when every recording has it or none does.
   std::vector<bool> recording_truth;
 
-  /// Whether track `index` carries its truth: has_truth, or its recording's entry of
-  /// recording_truth.
+  /// Whether recording `r` has its truth: has_truth, or its entry of recording_truth.
+  [[nodiscard]] bool recording_has_truth(int r) const {
+    return recording_truth.empty() ? has_truth : recording_truth.at(static_cast<std::size_t>(r));
+  }
+  /// Whether track `index` carries its truth (its recording's, or has_truth for a drawn set).
   [[nodiscard]] bool track_has_truth(std::size_t index) const {
-    if (recording_truth.empty()) return has_truth;
-    return recording_truth.at(static_cast<std::size_t>(recording.at(index)));
+    return recording_truth.empty() ? has_truth : recording_has_truth(recording.at(index));
   }
 
   /// SHA-256 over the shapes and bytes of every truth and plot matrix.
