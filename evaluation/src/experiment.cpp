@@ -163,8 +163,7 @@ void check_model(const ModelRequirements& model, const EvaluationRegimes& regime
   }
 }
 
-datasets::TrackSet test_tracks(const datasets::Regime& regime, const CommonOptions& options,
-                               const std::string& needs_truth) {
+datasets::TrackSet test_tracks(const datasets::Regime& regime, const CommonOptions& options) {
   datasets::TrackSet data = datasets::draw_split(regime, datasets::Split::kTest, options.seed,
                                                  options.runs ? *options.runs : -1);
   if (!data.recording_truth.empty()) {  // partial truth: the tracks with it, or all by the plots
@@ -176,29 +175,23 @@ datasets::TrackSet test_tracks(const datasets::Regime& regime, const CommonOptio
                    "--truth-tracks judges those "
                 << with << " by their errors\n";
     } else {
-      datasets::TrackSet kept = data;
-      kept.tracks.clear();
-      kept.recording.clear();
-      kept.recording_truth.clear();
-      for (std::size_t i = 0; i < data.tracks.size(); ++i) {
-        if (!data.track_has_truth(i)) continue;
-        kept.tracks.push_back(data.tracks[i]);
-        kept.recording.push_back(data.recording[i]);
-      }
-      kept.has_truth = true;
       std::cout << "  --truth-tracks: the " << with << " of " << data.tracks.size()
                 << " test tracks with truth\n";
-      data = std::move(kept);
+      std::vector<datasets::Track> tracks;
+      std::vector<int> recording;
+      for (std::size_t i = 0; i < data.tracks.size(); ++i) {
+        if (!data.track_has_truth(i)) continue;
+        tracks.push_back(std::move(data.tracks[i]));
+        recording.push_back(data.recording[i]);
+      }
+      data.tracks = std::move(tracks);
+      data.recording = std::move(recording);
+      data.recording_truth.clear();
+      data.has_truth = true;
     }
   } else if (options.truth_tracks && !data.has_truth) {
     throw std::runtime_error(regime.file + ": --truth-tracks: no test track of regime '" +
                              regime.name + "' has truth");
-  }
-  if (!data.has_truth && !needs_truth.empty()) {
-    throw std::runtime_error(regime.file + ": recorded.set: regime '" + regime.name +
-                             "' has no truth, and " + needs_truth +
-                             " scores against it; imm-eval ga-imm, plain-imm, fcm-imm, "
-                             "input-estimator and rank judge filters by the plots alone");
   }
   return data;
 }

@@ -312,10 +312,7 @@ int run(const CommonOptions& options) {
   consistency.reserve(filters.size());
   for (const auto& f : filters) consistency.push_back({f.name, f.position_nees, f.nis});
   std::cout << "\nConsistency:\n\n" << consistency_table(consistency);
-  if (data.recorded) {  // recorded plots with their truth: how well each filter predicts them too
-    std::cout << "\nThe recorded plots' prediction:\n\n"
-              << plot_table(plot_outcomes(), "FCM-IMM", {}).text;
-  }
+  print_recorded_prediction(data, plot_outcomes, "FCM-IMM");
   // A fit that drove λ to 0 ships as the tuned IMM (fcm_trainer.hpp,
   // FcmTrainingResult::learned_part_on): say so beside the verdicts.
   const bool part_off = learned_part_off(reader.provenance());

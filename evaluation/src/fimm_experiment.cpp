@@ -386,12 +386,9 @@ int run(const FimmOptions& options) {
                               split)
             << "\nConsistency per case (the NIS of the sensor's (z1, z2) plot; scans 3 on):\n\n"
             << consistency_table(consistency);
-  if (data.recorded) {  // recorded plots with their truth: how well each filter predicts them too
-    std::cout << "\nThe recorded plots' prediction:\n\n"
-              << plot_table(plot_outcomes(regime, base, sensor_model, config.iekf_iterations, data),
-                            "FIMM (EKF)", {})
-                     .text;
-  }
+  print_recorded_prediction(
+      data, [&] { return plot_outcomes(regime, base, sensor_model, config.iekf_iterations, data); },
+      "FIMM (EKF)");
   std::cout << "\nGates (" << (options.gate_on == "best" ? "the better FIMM" : "the FIMM (EKF)")
             << " below the IMM beyond the uncertainty; at most " << 100.0 * kMaxClampedShare
             << " % clamped): " << (failures.empty() ? "passed" : "FAILED") << '\n';

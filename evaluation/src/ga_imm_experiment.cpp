@@ -232,10 +232,7 @@ int run(const GaImmOptions& options) {
   }
   std::cout << "\nq_j(k) over scans, runs and axes, (" << unit << "/s²)²:\n\n"
             << markdown_table({"filter", "sub-model", "p1", "p50", "p99"}, spread_rows);
-  if (data.recorded) {  // recorded plots with their truth: how well each filter predicts them too
-    std::cout << "\nThe recorded plots' prediction:\n\n"
-              << plot_table(filters, "GA-IMM", {}).text;
-  }
+  print_recorded_prediction(data, filters, "GA-IMM");
 
   std::vector<std::string> failures, findings;
   // The seed's claim (beat AIMM3 and AIMM5) is a gate on its own scenarios; elsewhere the gate is

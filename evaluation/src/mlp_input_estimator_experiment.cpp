@@ -382,10 +382,7 @@ int run(const CommonOptions& options) {
                         imm_table)
       << "\nConsistency per axis run (1-D: position NEES and NIS average 1 when consistent):\n\n"
       << consistency_table(consistency);
-  if (data.recorded) {  // recorded plots with their truth: how well each filter predicts them too
-    std::cout << "\nThe recorded plots' prediction:\n\n"
-              << plot_table(plot_outcomes(), "corrected KF", {}).text;
-  }
+  print_recorded_prediction(data, plot_outcomes, "corrected KF");
   print_findings(findings);
 
   const std::filesystem::path& out = options.out;

@@ -115,10 +115,7 @@ int run(const PlainImmOptions& options) {
                               rows)
             << "\nConsistency:\n\n"
             << consistency_table(filters);
-  if (data.recorded) {  // recorded plots with their truth: how well each filter predicts them too
-    std::cout << "\nThe recorded plots' prediction:\n\n"
-              << plot_table(filters, filters.front().name, {}).text;
-  }
+  print_recorded_prediction(data, filters, filters.front().name);
 
   const std::filesystem::path& out = options.common.out;
   std::filesystem::create_directories(out);

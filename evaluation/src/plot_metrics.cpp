@@ -65,6 +65,18 @@ PlotTable plot_table(const std::vector<FilterOutcome>& filters, const std::strin
   return table;
 }
 
+void print_recorded_prediction(const datasets::TrackSet& data,
+                               const std::vector<FilterOutcome>& filters, const std::string& ours) {
+  if (!data.recorded) return;
+  std::cout << "\nThe recorded plots' prediction:\n\n" << plot_table(filters, ours, {}).text;
+}
+
+void print_recorded_prediction(const datasets::TrackSet& data,
+                               const std::function<std::vector<FilterOutcome>()>& outcomes,
+                               const std::string& ours) {
+  if (data.recorded) print_recorded_prediction(data, outcomes(), ours);
+}
+
 int plots_only_report(const std::string& experiment, const std::vector<FilterOutcome>& filters,
                       const std::string& ours, const std::vector<std::string>& baselines,
                       const HeadlineRuns& evaluated, const std::filesystem::path& out,

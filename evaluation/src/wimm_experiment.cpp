@@ -304,10 +304,7 @@ int run(const CommonOptions& options) {
                  "plots with σ_θ = 0.5° (0.0087 rad): they exceed the raw plot error. Compare the "
                  "ratios.\n";
   }
-  if (data.recorded) {  // recorded plots with their truth: how well each filter predicts them too
-    std::cout << "\nThe recorded plots' prediction:\n\n"
-              << plot_table(plot_outcomes(), "wIMM", {}).text;
-  }
+  print_recorded_prediction(data, plot_outcomes, "wIMM");
   std::cout << "\nGates (settled azimuth "
             << (paper_scenario(regime) ? "below the nIMM's (the seed's scenario)"
                                        : "not above the nIMM's (a regime beyond the seed)")

@@ -89,12 +89,10 @@ void check_model(const ModelRequirements& model, const EvaluationRegimes& regime
                  const std::filesystem::path& path);
 
 /// The test tracks (--runs of them, or the regime's test split) of --seed. A recorded regime's
-/// tracks may lack truth: an experiment that scores against truth passes its name as
-/// `needs_truth`, and such a set is refused (std::runtime_error naming the experiment, the regime
-/// and the experiments that judge plots alone).
+/// tracks may lack truth (has_truth false: every experiment then judges by the plots); where some
+/// have it, --truth-tracks keeps those only (std::runtime_error naming the regime when none has).
 [[nodiscard]] datasets::TrackSet test_tracks(const datasets::Regime& regime,
-                                             const CommonOptions& options,
-                                             const std::string& needs_truth = "");
+                                             const CommonOptions& options);
 
 /// The filter named `name` among an experiment's results (anything with a `name`).
 template <class Outcome>

@@ -10,6 +10,7 @@
 /// gate compares) is FilterOutcome::plot_headline of the experiment's own filter.
 
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -30,6 +31,17 @@ struct PlotTable {
 [[nodiscard]] PlotTable plot_table(const std::vector<FilterOutcome>& filters,
                                    const std::string& ours,
                                    const std::vector<std::string>& baselines);
+
+/// On recorded tracks that carry their truth (`data.recorded`), prints how well each filter
+/// predicts the plots (plot_table, ours against the others) beside the experiment's errors.
+/// Nothing for drawn tracks.
+void print_recorded_prediction(const datasets::TrackSet& data,
+                               const std::vector<FilterOutcome>& filters, const std::string& ours);
+/// The same for an experiment whose errors come from its own loop: `outcomes` runs the filters
+/// over `data` for their plot metrics, and only for recorded tracks.
+void print_recorded_prediction(const datasets::TrackSet& data,
+                               const std::function<std::vector<FilterOutcome>()>& outcomes,
+                               const std::string& ours);
 
 /// Prints the plot-metric tables of `filters` (ours against each other one), writes
 /// metrics.json and headline.json in `out`, and returns the report's exit code: a finding
