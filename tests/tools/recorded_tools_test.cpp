@@ -109,31 +109,62 @@ TEST_F(Tools, RecordingsExportedWithoutTruthImportAndEvaluateByTheirPlots) {
       << mlp_eval.out;
 }
 
+// `count` tracks of the regime file `regime` exported as recordings into dir/`name`/
+// (`exported`: more export options), imported with the `imported` options into dir/`name`.h5, and
+// a recorded regime over them written to dir/`name`.toml with the [sensor] and [splits] `tables`
+// (units m). Returns the regime's path; a tool that fails throws its stderr.
+std::filesystem::path recorded_regime(const std::filesystem::path& root,
+                                      const std::filesystem::path& dir, const std::string& name,
+                                      const std::string& regime, int count,
+                                      const std::vector<std::string>& exported,
+                                      const std::vector<std::string>& imported,
+                                      const std::string& tables) {
+  std::vector<std::string> export_args = {
+      "export",    "--regime",           regime, "--count", std::to_string(count),
+      "--out-dir", (dir / name).string()};
+  export_args.insert(export_args.end(), exported.begin(), exported.end());
+  std::vector<std::string> import_args = {"import", "--out", (dir / (name + ".h5")).string()};
+  import_args.insert(import_args.end(), imported.begin(), imported.end());
+  import_args.push_back((dir / name).string());
+  for (const auto& [tool, args] : {std::pair{"imm-data", export_args}, {"imm-data", import_args}}) {
+    const auto result = run_tool(tool, args, root);
+    if (result.exit_code != 0) throw std::runtime_error(args[0] + ": " + result.err);
+  }
+  std::filesystem::path path = dir / (name + ".toml");
+  std::ofstream(path) << "name = \"" << name << "\"\nunits = \"m\"\n[recorded]\nset = \""
+                      << (dir / (name + ".h5")).string() << "\"\n"
+                      << tables;
+  return path;
+}
+
+// An experiment's run on recorded plots: it ran (a finding is allowed), printed `text`, and its
+// headline (in `out`) leads with `first_metric`.
+void expect_judged(const testing::ToolResult& result, const std::string& text,
+                   const std::filesystem::path& out, const std::string& first_metric) {
+  ASSERT_TRUE(result.exit_code == 0 || result.exit_code == 7) << result.err;
+  EXPECT_NE(result.out.find(text), std::string::npos) << result.out;
+  EXPECT_EQ(nlohmann::json::parse(testing::slurp(out / "headline.json"))["metrics"][0]["name"],
+            first_metric);
+}
+
+constexpr const char* kAirSurveillance = "configs/regimes/air_surveillance.toml";
+
 // Polar recordings: σ_r and σ_θ, the wIMM and its nIMM baseline are learned from the plots alone,
 // and imm-eval wimm judges them by the plots.
 TEST_F(Tools, PolarRecordingsTrainAndEvaluateTheWimmWithoutTruth) {
-  const auto exported =
+  const std::filesystem::path polar =
+      recorded_regime(root_, dir_.path(), "polar_rec", kAirSurveillance, 6, {"--no-truth"},
+                      {"--sensor", "polar", "--scans", "60"},
+                      "[sensor]\nkind = \"polar\"\nsigma = \"estimate\"\n"
+                      "[splits]\ntraining = 2\nvalidation = 2\ntest = 2\n");
+  const auto wrong_sensor =
       run_tool("imm-data",
-               {"export", "--regime", "configs/regimes/air_surveillance.toml", "--count", "6",
-                "--out-dir", (dir_ / "rec").string(), "--no-truth"},
-               root_);
-  ASSERT_EQ(exported.exit_code, 0) << exported.err;
-  const auto wrong_sensor = run_tool(
-      "imm-data", {"import", "--out", (dir_ / "p.h5").string(), (dir_ / "rec").string()}, root_);
+               {"import", "--out", (dir_ / "p.h5").string(), (dir_ / "polar_rec").string()}, root_);
   EXPECT_EQ(wrong_sensor.exit_code, 2);
   EXPECT_NE(wrong_sensor.err.find("--sensor polar"), std::string::npos) << wrong_sensor.err;
-  const auto imported = run_tool("imm-data",
-                                 {"import", "--sensor", "polar", "--scans", "60", "--out",
-                                  (dir_ / "p.h5").string(), (dir_ / "rec").string()},
-                                 root_);
-  ASSERT_EQ(imported.exit_code, 0) << imported.err;
-  std::ofstream(dir_ / "polar.toml")
-      << "name = \"polar_rec\"\nunits = \"m\"\n[recorded]\nset = \"" << (dir_ / "p.h5").string()
-      << "\"\n[sensor]\nkind = \"polar\"\nsigma = \"estimate\"\n"
-         "[splits]\ntraining = 2\nvalidation = 2\ntest = 2\n";
   const auto trained = run_tool("imm-train",
                                 {"wimm", "--config", "configs/wimm_tuned.toml", "--regime",
-                                 (dir_ / "polar.toml").string(), "--out", (dir_ / "w.h5").string()},
+                                 polar.string(), "--out", (dir_ / "w.h5").string()},
                                 root_);
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
   const auto metrics = nlohmann::json::parse(testing::slurp(dir_ / "w.metrics.json"));
@@ -148,45 +179,29 @@ TEST_F(Tools, PolarRecordingsTrainAndEvaluateTheWimmWithoutTruth) {
   EXPECT_NEAR(wimm["range_sigma"].get<double>(), 100.0, 20.0) << wimm.dump();
   EXPECT_NEAR(wimm["azimuth_sigma"].get<double>() * 180.0 / 3.14159265358979, 0.2, 0.04)
       << wimm.dump();
-  const auto baseline =
-      run_tool("imm-train",
-               {"baseline", "--config", "configs/wimm_tuned.toml", "--regime",
-                (dir_ / "polar.toml").string(), "--out", (dir_ / "n.h5").string()},
-               root_);
+  const auto baseline = run_tool("imm-train",
+                                 {"baseline", "--config", "configs/wimm_tuned.toml", "--regime",
+                                  polar.string(), "--out", (dir_ / "n.h5").string()},
+                                 root_);
   ASSERT_EQ(baseline.exit_code, 0) << baseline.err;
-  const auto evaluated = run_tool(
-      "imm-eval", {"wimm", "--model", (dir_ / "w.h5").string(), "--out", (dir_ / "we").string()},
-      root_);
-  ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 7) << evaluated.err;
-  EXPECT_NE(evaluated.out.find("wIMM − this NLL per plot"), std::string::npos) << evaluated.out;
-  const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "we" / "headline.json"));
-  EXPECT_EQ(headline["metrics"][0]["name"], "predictive_nll");
-  // Recordings with their truth: the wIMM's usual errors, and the plots' prediction beside them.
-  ASSERT_EQ(run_tool("imm-data",
-                     {"export", "--regime", "configs/regimes/air_surveillance.toml", "--count", "6",
-                      "--seed", "5", "--out-dir", (dir_ / "rect").string()},
-                     root_)
-                .exit_code,
-            0);
-  ASSERT_EQ(run_tool("imm-data",
-                     {"import", "--sensor", "polar", "--scans", "60", "--out",
-                      (dir_ / "pt.h5").string(), (dir_ / "rect").string()},
-                     root_)
-                .exit_code,
-            0);
-  std::ofstream(dir_ / "polar_truth.toml")
-      << "name = \"polar_truth\"\nunits = \"m\"\n[recorded]\nset = \"" << (dir_ / "pt.h5").string()
-      << "\"\n[sensor]\nkind = \"polar\"\nrange_sigma = 100.0\nazimuth_sigma_deg = 0.2\n"
-         "[splits]\ntraining = 2\nvalidation = 2\ntest = 2\n";
-  const auto with_truth =
+  expect_judged(
       run_tool("imm-eval",
-               {"wimm", "--model", (dir_ / "w.h5").string(), "--regime",
-                (dir_ / "polar_truth.toml").string(), "--out", (dir_ / "wt").string()},
-               root_);
-  ASSERT_TRUE(with_truth.exit_code == 0 || with_truth.exit_code == 7) << with_truth.err;
-  EXPECT_NE(with_truth.out.find("The recorded plots' prediction"), std::string::npos)
-      << with_truth.out;
-  EXPECT_NE(with_truth.out.find("az settled"), std::string::npos) << with_truth.out;
+               {"wimm", "--model", (dir_ / "w.h5").string(), "--out", (dir_ / "we").string()},
+               root_),
+      "wIMM − this NLL per plot", dir_ / "we", "predictive_nll");
+  // Recordings with their truth: the wIMM's usual errors, and the plots' prediction beside them.
+  const std::filesystem::path with_truth =
+      recorded_regime(root_, dir_.path(), "polar_truth", kAirSurveillance, 6, {"--seed", "5"},
+                      {"--sensor", "polar", "--scans", "60"},
+                      "[sensor]\nkind = \"polar\"\nrange_sigma = 100.0\nazimuth_sigma_deg = 0.2\n"
+                      "[splits]\ntraining = 2\nvalidation = 2\ntest = 2\n");
+  const auto judged = run_tool("imm-eval",
+                               {"wimm", "--model", (dir_ / "w.h5").string(), "--regime",
+                                with_truth.string(), "--out", (dir_ / "wt").string()},
+                               root_);
+  expect_judged(judged, "The recorded plots' prediction", dir_ / "wt",
+                "az_rmse_settled all tracks");
+  EXPECT_NE(judged.out.find("az settled"), std::string::npos) << judged.out;
 }
 
 // A range sensor's recordings (z1, z2): the FIMM, through the TSK model fitted to the sensor's
@@ -197,69 +212,35 @@ TEST_F(Tools, RangeSensorRecordingsEvaluateTheFimmByTheirPlots) {
       "[sensor]\nkind = \"range_sensor\"\nsigma = [0.5, 0.5]\nknee = 40.0\nsoftness = 30.0\n"
       "[sensor.calibration]\nbox = [[-6.0, 1.0], [6.0, 100.0]]\nsamples = 8000\n"
       "noise_sigma = 0.05\n";
+  const std::string splits = "[splits]\ntraining = 1\nvalidation = 1\ntest = 10\n";
   std::ofstream(dir_ / "cut_in.toml")
       << "name = \"cut_in\"\nunits = \"m\"\nsample_period = 0.1\nscans = 200\n"
       << sensor
       << "[start]\nposition = [3.5, 0.0]\nvelocity = [0.0, 3.0]\n[[cases]]\nname = \"R\"\n"
          "[[cases.segments]]\nkind = \"lane_change\"\nstart = 1.0\nend = 4.0\noffset = 3.5\n";
-  const auto exported = run_tool("imm-data",
-                                 {"export", "--regime", (dir_ / "cut_in.toml").string(), "--count",
-                                  "12", "--out-dir", (dir_ / "rec").string(), "--no-truth"},
-                                 root_);
-  ASSERT_EQ(exported.exit_code, 0) << exported.err;
-  EXPECT_EQ(testing::lines_of(testing::slurp(dir_ / "rec" / "track_000.csv"))[0], "t,z1,z2");
-  const auto imported = run_tool("imm-data",
-                                 {"import", "--sensor", "range_sensor", "--out",
-                                  (dir_ / "r.h5").string(), (dir_ / "rec").string()},
-                                 root_);
-  ASSERT_EQ(imported.exit_code, 0) << imported.err;
-  std::ofstream(dir_ / "recorded.toml")
-      << "name = \"cut_in_rec\"\nunits = \"m\"\n[recorded]\nset = \"" << (dir_ / "r.h5").string()
-      << "\"\n"
-      << sensor << "[splits]\ntraining = 1\nvalidation = 1\ntest = 10\n";
-  const auto evaluated =
-      run_tool("imm-eval",
-               {"fimm", "--model", "models/tsk_range_sensor.h5", "--regime",
-                (dir_ / "recorded.toml").string(), "--out", (dir_ / "fe").string()},
-               root_);
-  ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 7) << evaluated.err;
-  EXPECT_NE(evaluated.out.find("FIMM (EKF) − this NLL per plot"), std::string::npos)
-      << evaluated.out;
-  const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "fe" / "headline.json"));
-  EXPECT_EQ(headline["metrics"][0]["name"], "predictive_nll");
+  const std::string cut_in = (dir_ / "cut_in.toml").string();
+  const std::filesystem::path recorded =
+      recorded_regime(root_, dir_.path(), "cut_in_rec", cut_in, 12, {"--no-truth"},
+                      {"--sensor", "range_sensor"}, sensor + splits);
+  EXPECT_EQ(testing::lines_of(testing::slurp(dir_ / "cut_in_rec" / "track_000.csv"))[0], "t,z1,z2");
+  expect_judged(run_tool("imm-eval",
+                         {"fimm", "--model", "models/tsk_range_sensor.h5", "--regime",
+                          recorded.string(), "--out", (dir_ / "fe").string()},
+                         root_),
+                "FIMM (EKF) − this NLL per plot", dir_ / "fe", "predictive_nll");
   // The same plots with their truth: the usual errors, and the plots' prediction beside them.
-  ASSERT_EQ(run_tool("imm-data",
-                     {"export", "--regime", (dir_ / "cut_in.toml").string(), "--count", "12",
-                      "--out-dir", (dir_ / "rect").string()},
-                     root_)
-                .exit_code,
-            0);
-  ASSERT_EQ(run_tool("imm-data",
-                     {"import", "--sensor", "range_sensor", "--out", (dir_ / "rt.h5").string(),
-                      (dir_ / "rect").string()},
-                     root_)
-                .exit_code,
-            0);
-  std::ofstream(dir_ / "truth.toml")
-      << "name = \"cut_in_truth\"\nunits = \"m\"\n[recorded]\nset = \"" << (dir_ / "rt.h5").string()
-      << "\"\n"
-      << sensor << "[splits]\ntraining = 1\nvalidation = 1\ntest = 10\n";
-  const auto with_truth =
-      run_tool("imm-eval",
-               {"fimm", "--model", "models/tsk_range_sensor.h5", "--regime",
-                (dir_ / "truth.toml").string(), "--out", (dir_ / "ft").string()},
-               root_);
-  ASSERT_TRUE(with_truth.exit_code == 0 || with_truth.exit_code == 7) << with_truth.err;
-  EXPECT_NE(with_truth.out.find("The recorded plots' prediction"), std::string::npos)
-      << with_truth.out;
-  EXPECT_NE(
-      nlohmann::json::parse(testing::slurp(dir_ / "ft" / "headline.json"))["metrics"][0]["name"],
-      "predictive_nll");
-  const auto refused =
-      run_tool("imm-train",
-               {"tsk", "--config", "configs/tsk_range_sensor.toml", "--regime",
-                (dir_ / "recorded.toml").string(), "--out", (dir_ / "m.h5").string()},
-               root_);
+  const std::filesystem::path with_truth =
+      recorded_regime(root_, dir_.path(), "cut_in_truth", cut_in, 12, {},
+                      {"--sensor", "range_sensor"}, sensor + splits);
+  expect_judged(run_tool("imm-eval",
+                         {"fimm", "--model", "models/tsk_range_sensor.h5", "--regime",
+                          with_truth.string(), "--out", (dir_ / "ft").string()},
+                         root_),
+                "The recorded plots' prediction", dir_ / "ft", "fimm_mse all tracks");
+  const auto refused = run_tool("imm-train",
+                                {"tsk", "--config", "configs/tsk_range_sensor.toml", "--regime",
+                                 recorded.string(), "--out", (dir_ / "m.h5").string()},
+                                root_);
   EXPECT_EQ(refused.exit_code, 2);
   EXPECT_NE(refused.err.find("recorded.truth"), std::string::npos) << refused.err;
   EXPECT_NE(refused.err.find("sojourns"), std::string::npos) << refused.err;
@@ -295,24 +276,18 @@ TEST_F(Tools, PartialTruthJudgesAllByThePlotsAndTheTruthTracksByTheirErrors) {
                root_);
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
   EXPECT_NE(trained.err.find("excess NLL per plot"), std::string::npos) << trained.err;
-  const auto plots = run_tool(
-      "imm-eval", {"ga-imm", "--model", (dir_ / "b.h5").string(), "--out", (dir_ / "g").string()},
-      root_);
-  ASSERT_TRUE(plots.exit_code == 0 || plots.exit_code == 7) << plots.err;
-  EXPECT_NE(plots.out.find("4 of 5 test tracks have truth"), std::string::npos) << plots.out;
-  EXPECT_EQ(
-      nlohmann::json::parse(testing::slurp(dir_ / "g" / "headline.json"))["metrics"][0]["name"],
-      "predictive_nll");
+  expect_judged(
+      run_tool("imm-eval",
+               {"ga-imm", "--model", (dir_ / "b.h5").string(), "--out", (dir_ / "g").string()},
+               root_),
+      "4 of 5 test tracks have truth", dir_ / "g", "predictive_nll");
   const auto errors = run_tool("imm-eval",
                                {"ga-imm", "--model", (dir_ / "b.h5").string(), "--truth-tracks",
                                 "--out", (dir_ / "t").string()},
                                root_);
-  ASSERT_TRUE(errors.exit_code == 0 || errors.exit_code == 7) << errors.err;
-  EXPECT_NE(errors.out.find("the 4 of 5 test tracks with truth"), std::string::npos) << errors.out;
+  expect_judged(errors, "the 4 of 5 test tracks with truth", dir_ / "t", "zeta_p");
   EXPECT_NE(errors.out.find("The recorded plots' prediction"), std::string::npos) << errors.out;
-  const auto headline = nlohmann::json::parse(testing::slurp(dir_ / "t" / "headline.json"));
-  EXPECT_EQ(headline["metrics"][0]["name"], "zeta_p") << headline.dump();
-  EXPECT_EQ(headline["runs"], 4) << headline.dump();
+  EXPECT_EQ(nlohmann::json::parse(testing::slurp(dir_ / "t" / "headline.json"))["runs"], 4);
   // The FCM-IMM and the input estimator learn from the plots (two training recordings have no
   // truth) and on the truth tracks report the plots' prediction beside the errors.
   const auto fcm = run_tool("imm-train",
