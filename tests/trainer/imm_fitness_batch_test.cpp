@@ -115,6 +115,44 @@ TEST(ImmFitnessBatch, ItsPredictiveNllIsTheRuntimeFiltersWithoutTruth) {
   }
 }
 
+// The layouts of both instruction sets (blocks of 24 and 16 where the AVX-512 clones run, of 8
+// elsewhere) give the same bits, with and without truth: 26 trajectories are 24 + 4 (two empty
+// lanes) in one and 8 + 8 + 8 + 4 in the other, two of them shorter (masked scans). The sums run in
+// trajectory order in both. Both layouts run here whatever the CPU (the clone does not).
+TEST(ImmFitnessBatch, TheWideAndNarrowLayoutsGiveTheSameBits) {
+  TrainingSet set = testing::ga_training_set(60, 13, 2);
+  ASSERT_EQ(set.trajectories.size(), 26u);
+  for (const int cut : {5, 23}) {
+    auto& t = set.trajectories[static_cast<std::size_t>(cut)];
+    t.position.conservativeResize(41);
+    t.velocity.conservativeResize(41);
+    t.measurement.conservativeResize(41);
+    t.acceleration_input.conservativeResize(41);
+  }
+  TrainingSet plots = set;
+  plots.plots_only = true;
+  datasets::Rng rng(11);
+  for (const TrainingSet* data : {&set, &plots}) {
+    const ImmFitnessBatch wide(*data, true);
+    const ImmFitnessBatch narrow(*data, false);
+    for (int trial = 0; trial < 6; ++trial) {
+      const GaFuzzyImmSpec spec = random_ga_fuzzy_spec(
+          rng, 1 + trial % 4,
+          trial % 2 == 0 ? FuzzyAntecedents::kResidual : FuzzyAntecedents::kNormalizedInnovation);
+      const ImmRunErrors a = wide.run(spec);
+      const ImmRunErrors b = narrow.run(spec);
+      ASSERT_FALSE(a.failed) << trial;
+      EXPECT_EQ(a.failed, b.failed);
+      EXPECT_EQ(a.count, b.count);
+      EXPECT_EQ(a.position_abs_sum, b.position_abs_sum) << trial;
+      EXPECT_EQ(a.velocity_abs_sum, b.velocity_abs_sum) << trial;
+      EXPECT_EQ(a.zeta_p, b.zeta_p) << trial;
+      EXPECT_EQ(a.zeta_v, b.zeta_v) << trial;
+      EXPECT_EQ(a.predictive_nll, b.predictive_nll) << trial;
+    }
+  }
+}
+
 // A plot the filter cannot take fails the run on both paths; in a masked lane it is never read.
 TEST(ImmFitnessBatch, AFailedStepFailsTheRunLikeTheRuntimeFilter) {
   TrainingSet set = training_set();

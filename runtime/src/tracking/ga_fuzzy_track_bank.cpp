@@ -36,9 +36,9 @@ struct BankConstants {
 
 // One IMM cycle of one block's lanes. `state` points at the block's first lane of slot 0; `z` the
 // lanes' plots; `stepped` 1 for a lane to step; `code` receives each lane's outcome.
-[[gnu::flatten]] IMM_AVX2_CLONES void step_block(const BankConstants& b, double* state,
-                                                 std::ptrdiff_t stride, const double* z,
-                                                 const double* stepped, double* code) {
+[[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const BankConstants& b, double* state,
+                                                   std::ptrdiff_t stride, const double* z,
+                                                   const double* stepped, double* code) {
   using Lanes = double[W];
   const int n = b.modes;
   auto st = [&](int j, int entry) { return state + (j * kModeSlots + entry) * stride; };

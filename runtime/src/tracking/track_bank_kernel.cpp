@@ -13,7 +13,6 @@
 namespace imm::bank {
 namespace {
 
-
 // Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian per lane (eq. 4–5 and 10–11): component i's
 // weights at weights + i·kB, its entries at mode(i, e); the result into out (kEntries slots).
 template <class Mode>
@@ -46,7 +45,7 @@ template <class Mode>
 
 }  // namespace
 
-[[gnu::flatten]] IMM_AVX2_CLONES void step_tracks(const Block& b) {
+[[gnu::flatten]] IMM_VECTOR_CLONES void step_tracks(const Block& b) {
   const int n = b.modes;
   const int lanes = b.lanes;
   const ScratchLayout layout(n);

@@ -13,8 +13,8 @@
 #include "imm/core/physical_limits.hpp"
 #include "imm/filters/fuzzy_noise_lanes.hpp"
 #include "imm/math/lane_math.hpp"
-#include "imm/trainer/normalized_errors.hpp"
 #include "imm/math/log_sum_exp.hpp"
+#include "imm/trainer/normalized_errors.hpp"
 
 namespace imm::trainer::ga {
 namespace {
@@ -52,8 +52,7 @@ struct Sums {
   double* samples = nullptr;
 };
 
-// One block of W lanes (W = 8 or 4: two AVX2 vectors, so that each loop has two independent
-// chains of operations, or one for the last few trajectories).
+// One block of W lanes (W = 24, 16, 8 or 4: see the constructor's comment in the header).
 // kLikelihood: also sum the plots' predictive log-likelihood (a training set without truth); a
 // lane_log per plot that the truth's runs do not pay.
 template <int W, bool kLikelihood>
@@ -192,22 +191,29 @@ template <int W, bool kLikelihood>
   }
 }
 
-[[gnu::flatten]] IMM_AVX2_CLONES void run_block8(const Model& m, const BlockData& d, Sums& sums) {
-  run_lanes<8, false>(m, d, sums);
+template <int W>
+[[gnu::flatten]] IMM_VECTOR_CLONES void run_block(const Model& m, const BlockData& d, Sums& sums) {
+  run_lanes<W, false>(m, d, sums);
 }
 
-[[gnu::flatten]] IMM_AVX2_CLONES void run_block4(const Model& m, const BlockData& d, Sums& sums) {
-  run_lanes<4, false>(m, d, sums);
+template <int W>
+[[gnu::flatten]] IMM_VECTOR_CLONES void likelihood_block(const Model& m, const BlockData& d,
+                                                         Sums& sums) {
+  run_lanes<W, true>(m, d, sums);
 }
 
-[[gnu::flatten]] IMM_AVX2_CLONES void likelihood_block8(const Model& m, const BlockData& d,
-                                                        Sums& sums) {
-  run_lanes<8, true>(m, d, sums);
-}
-
-[[gnu::flatten]] IMM_AVX2_CLONES void likelihood_block4(const Model& m, const BlockData& d,
-                                                        Sums& sums) {
-  run_lanes<4, true>(m, d, sums);
+// The block of `width` lanes: with or without the plots' likelihood.
+void run_width(int width, bool likelihood, const Model& m, const BlockData& d, Sums& sums) {
+  switch (width) {
+    case 24:
+      return (likelihood ? likelihood_block<24> : run_block<24>)(m, d, sums);
+    case 16:
+      return (likelihood ? likelihood_block<16> : run_block<16>)(m, d, sums);
+    case 8:
+      return (likelihood ? likelihood_block<8> : run_block<8>)(m, d, sums);
+    default:
+      return (likelihood ? likelihood_block<4> : run_block<4>)(m, d, sums);
+  }
 }
 
 // Per-thread workspace of the per-scan sums: grows to the longest set, then allocates nothing.
@@ -218,18 +224,23 @@ std::vector<double>& workspace() {
 
 }  // namespace
 
-ImmFitnessBatch::ImmFitnessBatch(const TrainingSet& set) {
+ImmFitnessBatch::ImmFitnessBatch(const TrainingSet& set, bool wide_blocks) {
   const auto count = static_cast<int>(set.trajectories.size());
   if (count == 0) throw std::invalid_argument("a fitness batch needs trajectories");
   for (const auto& t : set.trajectories) {
     if (t.measurement.size() < 3) throw std::invalid_argument("trajectories need 3 scans");
     scans_ = std::max(scans_, static_cast<int>(t.measurement.size()));
   }
-  // Blocks of 8 while more than 4 trajectories remain, then one of 4.
+  // Blocks of 8 while more than 4 trajectories remain, then one of 4; where the AVX-512 clones
+  // run, of 24 while more than 16 remain, then 16 while more than 8.
   int lanes = 0;
   for (int remaining = count; remaining > 0; remaining -= widths_.back()) {
-    widths_.push_back(remaining > 4 ? 8 : 4);
-    lanes += widths_.back();
+    const int width = remaining > 16 && wide_blocks  ? 24
+                      : remaining > 8 && wide_blocks ? 16
+                      : remaining > 4                ? 8
+                                                     : 4;
+    widths_.push_back(width);
+    lanes += width;
   }
   start_variance_ = set.measurement_variance;
   plots_only_ = set.plots_only;
@@ -298,11 +309,7 @@ ImmRunErrors ImmFitnessBatch::run(const GaFuzzyImmSpec& spec) const {
   for (std::size_t b = 0; b < widths_.size() && !sums.failed; ++b) {
     const BlockData block{measurement_.data() + at, position_.data() + at, velocity_.data() + at,
                           mask_.data() + at, scans_};
-    if (widths_[b] == 8) {
-      (plots_only_ ? likelihood_block8 : run_block8)(m, block, sums);
-    } else {
-      (plots_only_ ? likelihood_block4 : run_block4)(m, block, sums);
-    }
+    run_width(widths_[b], plots_only_, m, block, sums);
     at += static_cast<std::size_t>(widths_[b]) * scans;
   }
   ImmRunErrors errors;

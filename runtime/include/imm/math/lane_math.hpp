@@ -4,7 +4,7 @@
 /// Element functions for loops over lanes (tracks, trajectories, points) that the compiler
 /// vectorizes: plain IEEE arithmetic and integer bit operations, no branches and no library call,
 /// so that a loop of them becomes a handful of vector instructions and every instruction set
-/// (SSE2, AVX2; never FMA) gives the same bits as the scalar code.
+/// (SSE2, AVX2, AVX-512; never FMA) gives the same bits as the scalar code.
 ///
 /// lane_exp and lane_log are not libm's: they are within 2 ulp of the correctly rounded result
 /// over their documented ranges (tested against libm), not bit-equal to it. Code whose results
@@ -14,13 +14,17 @@
 #include <cstdint>
 #include <limits>
 
-/// On a function of lane loops: AVX2 chosen at run time where GCC can (ifunc on x86-64 Linux),
-/// SSE2 otherwise. Only "avx2": it does not enable FMA contraction, so every instruction set
-/// computes the same bits.
+/// On a function of lane loops: AVX-512 or AVX2 chosen at run time where GCC can (ifunc on x86-64
+/// Linux), SSE2 otherwise. The project compiles with -ffp-contract=off, so the AVX-512 clone (where
+/// FMA exists) contracts nothing either, and every instruction set computes the same bits.
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define IMM_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
+#define IMM_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+/// 1 where IMM_VECTOR_CLONES makes clones (GCC on x86-64 Linux), 0 where it is empty.
+#define IMM_HAS_VECTOR_CLONES 1
 #else
-#define IMM_AVX2_CLONES
+#define IMM_VECTOR_CLONES
+/// 0: IMM_VECTOR_CLONES is empty here (another compiler or platform).
+#define IMM_HAS_VECTOR_CLONES 0
 #endif
 
 /// A loop over the W lanes of a block, index l: one vector operation per statement. `omp simd`
@@ -34,6 +38,16 @@
 #endif
 
 namespace imm {
+
+/// Whether IMM_VECTOR_CLONES runs its AVX-512 clone on this CPU: a kernel bound by the latency of
+/// one block's chain of operations takes wider blocks there (its results do not depend on it).
+[[nodiscard]] inline bool wide_vector_clones() {
+#if IMM_HAS_VECTOR_CLONES
+  return __builtin_cpu_supports("avx512f") != 0;
+#else
+  return false;
+#endif
+}
 
 /// `use` ? a : b by bit masks: a select the vectorizer keeps as one (a `?:` on a stored value
 /// becomes a conditional store, which stops it).

@@ -7,8 +7,8 @@
 /// Layout: every track is two axis filters (x, then y), and every axis filter is a lane. Lanes
 /// are stored structure of arrays and stepped 8 at a time (four tracks) in loops over lanes with
 /// no branches and no calls (fuzzy_noise_lanes.hpp, the arithmetic the trainer's GA fitness runs
-/// too), which the compiler vectorizes: AVX2 where the CPU has it, chosen at run time, without
-/// fused multiply-add, so a track's result does not depend on the instruction set, on its
+/// too), which the compiler vectorizes: AVX-512 or AVX2 where the CPU has it, chosen at run time,
+/// without fused multiply-add, so a track's result does not depend on the instruction set, on its
 /// position or on the number of tracks.
 ///
 /// Numerics are those of ImmEstimator: log-space mode probabilities (log μ stored, μ̃ = μ / max μ
@@ -39,7 +39,7 @@ namespace imm {
 /// N tracks of one GA-fuzzy IMM with Cartesian plots, stepped together (see the file comment).
 class IMM_RUNTIME_EXPORT GaFuzzyTrackBank {
  public:
-  /// Axis lanes per block: two AVX2 vectors.
+  /// Axis lanes per block: one AVX-512 or two AVX2 vectors.
   static constexpr int kBlock = 8;
 
   /// Room for `capacity` tracks of the IMM of `spec`. Throws InvalidParameter naming the field

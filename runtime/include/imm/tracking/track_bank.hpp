@@ -9,10 +9,10 @@
 /// Layout, and why: the tracks are stored as structure of arrays — entry e of mode j of track t
 /// at slot(j, e)[t] — and one step runs in phases over blocks of kBlock tracks (mode-probability
 /// prediction, mixing, prediction, Joseph update, posterior, combination). Each arithmetic phase
-/// is a loop over tracks with no branches and no calls, which the compiler vectorizes (AVX2 where
-/// the CPU has it, chosen at run time; SSE2 otherwise); the transcendental functions run in their
-/// own scalar phases. Tracks never interact, and a track's arithmetic is the same sequence of
-/// IEEE operations in every lane and in the scalar remainder (no fused multiply-add, no
+/// is a loop over tracks with no branches and no calls, which the compiler vectorizes (AVX-512 or
+/// AVX2 where the CPU has it, chosen at run time; SSE2 otherwise); the transcendental functions run
+/// in their own scalar phases. Tracks never interact, and a track's arithmetic is the same sequence
+/// of IEEE operations in every lane and in the scalar remainder (no fused multiply-add, no
 /// reassociation), so a track's result does not depend on its position, on the number of tracks
 /// or on the instruction set: a bank of N tracks equals N banks of one track to the bit.
 ///

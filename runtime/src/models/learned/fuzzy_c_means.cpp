@@ -12,7 +12,8 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/math/lane_math.hpp"
 
-// The membership loop takes AVX2 where the CPU has it (IMM_AVX2_CLONES, lane_math.hpp).
+// The membership loop takes AVX-512 or AVX2 where the CPU has it (IMM_VECTOR_CLONES,
+// lane_math.hpp).
 
 namespace imm {
 namespace {
@@ -126,12 +127,12 @@ constexpr std::size_t kUpdateBlock = 64;
 // new ones are usable; writes each point's max |ΔU| (0 where unusable) to `change` and returns the
 // number of unusable points. m = 2: w_i = d²_min / d²_i; m = 4: ∛ of it (a ratio of 1 selects 1
 // exactly). The operations of memberships_into, without branches, so that the loop vectorizes
-// (AVX2 where the CPU has it). Unusable: a point on a center (0/0), and for m = 4 a ratio below
-// the cube root's guess (kSmallestGuessedRatio); memberships_into redoes them.
+// (AVX-512 or AVX2 where the CPU has it). Unusable: a point on a center (0/0), and for m = 4 a
+// ratio below the cube root's guess (kSmallestGuessedRatio); memberships_into redoes them.
 template <int M>
-IMM_AVX2_CLONES int update_block(const double* __restrict data, std::size_t count, double v0,
-                                 double v1, double v2, double* __restrict memberships,
-                                 double* __restrict change) {
+IMM_VECTOR_CLONES int update_block(const double* __restrict data, std::size_t count, double v0,
+                                   double v1, double v2, double* __restrict memberships,
+                                   double* __restrict change) {
   int unusable = 0;
   for (std::size_t k = 0; k < count; ++k) {
     const double a = (data[k] - v0) * (data[k] - v0);

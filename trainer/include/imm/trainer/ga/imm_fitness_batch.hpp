@@ -2,9 +2,9 @@
 #pragma once
 /// The GA's IMM fitness (evaluate_imm) as a batch: every one-axis trajectory of a training set is
 /// a lane of a structure-of-arrays GA-fuzzy IMM (fuzzy-noise CV modes, the 1-D position plot), and
-/// a genome's evaluation steps all of them scan by scan, 8 at a time (4 for the last few), in loops
-/// over lanes that the compiler vectorizes (AVX2 chosen at run time, no FMA, so every instruction
-/// set and thread count gives the same bits).
+/// a genome's evaluation steps all of them scan by scan, a block of lanes at a time, in loops over
+/// lanes that the compiler vectorizes (AVX-512 or AVX2 chosen at run time, no FMA, so every
+/// instruction set and thread count gives the same bits).
 ///
 /// It computes what the runtime's ImmEstimator<2, 1> of build_ga_fuzzy_axis_imm computes: the
 /// same mixing, fuzzy inference and Joseph update, in the same order. Two things differ, both
@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/math/lane_math.hpp"
 #include "imm/trainer/ga/training_set.hpp"
 
 namespace imm::trainer::ga {
@@ -41,10 +42,13 @@ struct ImmRunErrors {
 
 class ImmFitnessBatch {
  public:
-  /// Lays out `set` scan-major in blocks of 8 trajectories (two AVX2 vectors: two independent
-  /// chains per loop), the last of 4 when 4 or fewer remain; a short trajectory's missing scans and
-  /// the last block's empty lanes are masked out of every sum.
-  explicit ImmFitnessBatch(const TrainingSet& set);
+  /// Lays out `set` scan-major in blocks of trajectories: of 8 (two AVX2 vectors: two independent
+  /// chains per loop), the last of 4 when 4 or fewer remain; where the AVX-512 clones run, of 24
+  /// (three vectors) while more than 16 remain, then 16, 8 or 4, since a block is bound by the
+  /// latency of its scan-to-scan chain. A short trajectory's missing scans and the last block's
+  /// empty lanes are masked out of every sum; the sums run in trajectory order, so the figures do
+  /// not depend on the widths. `wide_blocks` chooses the layout (the CPU's by default).
+  explicit ImmFitnessBatch(const TrainingSet& set, bool wide_blocks = wide_vector_clones());
 
   /// The GA-fuzzy IMM of `spec` over every trajectory, two-point started from scans 0 and 1 (as
   /// evaluate_imm does), with lane arithmetic (see the file comment). Thread-safe. Throws
