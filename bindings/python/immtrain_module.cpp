@@ -17,8 +17,10 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <array>
 #include <cmath>
 #include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -26,10 +28,12 @@
 #include "imm/io/container_file.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
+#include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/load.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
+#include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "imm/tracking/tracker.hpp"
 
@@ -251,7 +255,8 @@ class PyTracker {
 };
 
 // A model's bank: many tracks stepped by one call — TrackBank for a plain IMM, GaFuzzyTrackBank
-// for a GA-fuzzy IMM (the kinds with a bank; another kind is refused, naming it).
+// for a GA-fuzzy IMM, InputEstimatorTrackBank for an input estimator (the kinds with a bank;
+// another kind is refused, naming it).
 class PyTrackBank {
  public:
   PyTrackBank(const fs::path& path, std::size_t capacity) : bank_(open(path, capacity)) {}
@@ -294,12 +299,13 @@ class PyTrackBank {
     return std::visit([](const auto& bank) { return bank.capacity(); }, bank_);
   }
   [[nodiscard]] std::string kind() const {
-    return std::string(std::holds_alternative<imm::TrackBank>(bank_) ? imm::io::kPlainImmKind
-                                                                     : imm::io::kGaFuzzyImmKind);
+    constexpr std::array<std::string_view, 3> kKinds{
+        imm::io::kPlainImmKind, imm::io::kGaFuzzyImmKind, imm::io::kMlpInputEstimatorKind};
+    return std::string(kKinds[bank_.index()]);
   }
 
  private:
-  using Bank = std::variant<imm::TrackBank, imm::GaFuzzyTrackBank>;
+  using Bank = std::variant<imm::TrackBank, imm::GaFuzzyTrackBank, imm::InputEstimatorTrackBank>;
   static Bank open(const fs::path& path, std::size_t capacity) {
     const imm::io::ModelFileReader reader(path);
     const std::string& kind = reader.provenance().model_kind;
@@ -310,9 +316,14 @@ class PyTrackBank {
       return Bank(std::in_place_type<imm::GaFuzzyTrackBank>, imm::io::read_ga_fuzzy_imm(reader),
                   capacity);
     }
+    if (kind == imm::io::kMlpInputEstimatorKind) {
+      return Bank(std::in_place_type<imm::InputEstimatorTrackBank>,
+                  imm::io::read_mlp_input_estimator(reader), capacity);
+    }
     throw imm::InvalidParameter("path", path.string() + " is a " + kind +
-                                            " model; a bank steps plain_imm and ga_fuzzy_imm "
-                                            "models (load_tracker runs every kind)");
+                                            " model; a bank steps plain_imm, ga_fuzzy_imm and "
+                                            "mlp_input_estimator models (load_tracker runs every "
+                                            "kind)");
   }
 
   Bank bank_;

@@ -168,7 +168,9 @@ def test_bad_plots_raise_invalid_parameter_or_are_rejected():
 
 
 @pytest.mark.parametrize("name,kind", [("cv3_imm.h5", "plain_imm"),
-                                       ("ga_fuzzy_imm.h5", "ga_fuzzy_imm")])
+                                       ("ga_fuzzy_imm.h5", "ga_fuzzy_imm"),
+                                       ("mlp_input_estimator_ground_vehicle.h5",
+                                        "mlp_input_estimator")])
 def test_the_track_bank_equals_single_tracks(name, kind):
     model = os.path.join(MODELS, name)
     bank = immtrain.TrackBank(model, 3)

@@ -27,6 +27,7 @@
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/models/motion/singer.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
+#include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "imm/tracking/tracker.hpp"
 #include "testing/specs.hpp"
@@ -240,6 +241,32 @@ TEST(AllocationFreeStep, MlpInputEstimatorStep) {
   filter.initialize(start);
   const long before = allocations();
   for (int k = 1; k <= 5000; ++k) (void)filter.step(100.0 * k + 20.0 * std::sin(k));
+  EXPECT_EQ(allocations(), before);
+}
+
+// The input estimator's bank: 1001 tracks (whole blocks of four and a partial one), bad plots
+// included.
+TEST(AllocationFreeStep, InputEstimatorTrackBankStep) {
+  MlpInputEstimatorModel model;
+  MlpLayer hidden{Eigen::MatrixXd::Constant(10, 2, 0.1), Eigen::VectorXd::Constant(10, 0.1),
+                  Activation::kSigmoid};
+  MlpLayer output{Eigen::MatrixXd::Constant(1, 10, 0.2), Eigen::VectorXd::Constant(1, -1.0),
+                  Activation::kSigmoid};
+  model.network = Mlp({hidden, output}, 12.0);
+  const std::size_t tracks = 1001;
+  InputEstimatorTrackBank bank(model, tracks);
+  for (std::size_t t = 0; t < tracks; ++t) bank.initialize(t, GaussianState<4>{});
+  std::vector<Eigen::Vector2d> plots(tracks);
+  std::vector<StepStatus> status(tracks);
+  const long before = allocations();
+  for (int k = 0; k < 100; ++k) {
+    for (std::size_t t = 0; t < tracks; ++t)
+      plots[t] = Eigen::Vector2d(100.0 * k + static_cast<double>(t), -20.0 * k);
+    plots[7] = Eigen::Vector2d(std::nan(""), 0.0);
+    bank.step(plots, status);
+  }
+  EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
+  EXPECT_EQ(status[1000], StepStatus::kOk);
   EXPECT_EQ(allocations(), before);
 }
 

@@ -6,14 +6,18 @@
 
 #include <array>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "bench_inputs.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/filters/plain_imm.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
+#include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
+#include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 
 namespace {
@@ -162,5 +166,76 @@ BENCHMARK(BM_GaFuzzyMultiTrack)
     ->Args({1000, 1, 0})
     ->Args({1000, 0, 1})
     ->Args({1000, 1, 1});
+
+// N tracks of the shipped input estimator (seed 001's model, R = 50² m²), each a target at
+// 300 m/s that turns at 20 m/s² for 20 of every 60 scans, the same noise per scan shifted by the
+// track's offset: range(1) = 0 as N one-track filters (make_mlp_input_estimator_filter), 1 as one
+// InputEstimatorTrackBank. Items: track steps.
+void BM_InputEstimatorMultiTrack(benchmark::State& state) {
+  const auto tracks = static_cast<std::size_t>(state.range(0));
+  const bool bank_api = state.range(1) == 1;
+  const auto model =
+      imm::io::read_mlp_input_estimator(IMM_SOURCE_DIR "/models/mlp_input_estimator.h5");
+  constexpr int kScans = 600;
+  Eigen::MatrixXd source(kScans, 2);
+  std::mt19937_64 rng(1);
+  std::normal_distribution<double> noise(0.0, 50.0);
+  Eigen::Vector2d position(0.0, 0.0), velocity(300.0, 0.0);
+  for (int k = 0; k < kScans; ++k) {
+    const bool turning = k % 60 >= 40;
+    const Eigen::Vector2d normal(-velocity.y(), velocity.x());
+    const Eigen::Vector2d a =
+        turning ? Eigen::Vector2d(20.0 * normal / normal.norm()) : Eigen::Vector2d::Zero();
+    position += velocity + 0.5 * a;
+    velocity += a;
+    source.row(k) = (position + Eigen::Vector2d(noise(rng), noise(rng))).transpose();
+  }
+  auto offset = [](std::size_t t) {
+    return Eigen::Vector2d(37.0 * static_cast<double>(t), -21.0 * static_cast<double>(t));
+  };
+  auto start = [&](std::size_t t) {
+    imm::GaussianState<4> s;
+    s.mean << source(0, 0) + offset(t).x(), 300.0, source(0, 1) + offset(t).y(), 0.0;
+    s.covariance = Eigen::Vector4d(2500.0, 5000.0, 2500.0, 5000.0).asDiagonal();
+    return s;
+  };
+  std::vector<std::unique_ptr<TrackFilter>> separate;
+  std::unique_ptr<imm::InputEstimatorTrackBank> bank;
+  if (bank_api) {
+    bank = std::make_unique<imm::InputEstimatorTrackBank>(model, tracks);
+  } else {
+    for (std::size_t t = 0; t < tracks; ++t)
+      separate.push_back(imm::make_mlp_input_estimator_filter(model));
+  }
+  auto restart = [&] {
+    for (std::size_t t = 0; t < tracks; ++t) {
+      if (bank_api) {
+        bank->initialize(t, start(t));
+      } else {
+        separate[t]->initialize(start(t).mean, start(t).covariance);
+      }
+    }
+  };
+  restart();
+  std::vector<Eigen::Vector2d> plots(tracks);
+  std::vector<imm::StepStatus> status(tracks);
+  Eigen::Index k = 1;
+  for (auto _ : state) {
+    for (std::size_t t = 0; t < tracks; ++t) plots[t] = source.row(k).transpose() + offset(t);
+    if (bank_api) {
+      bank->step(plots, status);
+    } else {
+      for (std::size_t t = 0; t < tracks; ++t) status[t] = separate[t]->step(plots[t]);
+    }
+    benchmark::DoNotOptimize(status.data());
+    if (++k == source.rows()) {
+      k = 1;
+      restart();
+    }
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(tracks));
+  state.SetLabel(bank_api ? "InputEstimatorTrackBank" : "separate filters");
+}
+BENCHMARK(BM_InputEstimatorMultiTrack)->Args({1000, 0})->Args({1000, 1});
 
 }  // namespace

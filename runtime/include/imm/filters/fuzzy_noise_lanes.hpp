@@ -16,6 +16,7 @@
 #include <limits>
 
 #include "imm/core/physical_limits.hpp"
+#include "imm/estimation/cv_axis_lanes.hpp"
 #include "imm/filters/fuzzy_noise_filter.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/models/learned/fuzzy_rule_table.hpp"
@@ -139,11 +140,11 @@ template <int W>
   // Prediction F x, F P Fᵀ; the residual and the table's inputs.
   double a0[W], residual[W], q00[W], q01[W], q11[W];
   IMM_LANES {
-    a0[l] = m0[l] + T * m1[l];
-    const double fp00 = c00[l] + T * c01[l], fp01 = c01[l] + T * c11[l];
-    q00[l] = fp00 + fp01 * T;
-    q01[l] = fp01;
-    q11[l] = c11[l];
+    const AxisEstimate predicted = cv_predict(T, {m0[l], m1[l], c00[l], c01[l], c11[l]});
+    a0[l] = predicted.x0;
+    q00[l] = predicted.p00;
+    q01[l] = predicted.p01;
+    q11[l] = predicted.p11;
     residual[l] = z[l] - a0[l];
     antecedent[l] = a.normalized ? residual[l] / std::sqrt(q00[l] + a.R) : residual[l];
   }
@@ -167,29 +168,21 @@ template <int W>
     q01[l] += q * a.g01;
     q11[l] += q * a.g11;
     // The Kalman update with H = [1 0] in the order of update_with_innovation.
+    double S_inverse;
+    const AxisEstimate e =
+        position_update({a0[l], m1[l], q00[l], q01[l], q11[l]}, a.R, residual[l], S_inverse);
     const double S = q00[l] + a.R;
-    const double S_inverse = 1.0 / S;
-    const double k0 = q00[l] * S_inverse, k1 = q01[l] * S_inverse;
-    const double C00 = q00[l] - k0 * q00[l], C01 = q01[l] - k0 * q01[l];
-    const double C10 = q01[l] - k1 * q00[l], C11 = q11[l] - k1 * q01[l];
-    const double kr0 = k0 * a.R, kr1 = k1 * a.R;
-    const double x0 = a0[l] + k0 * residual[l];
-    const double x1 = m1[l] + k1 * residual[l];
-    const double p00 = C00 - C00 * k0 + kr0 * k0;
-    const double u01 = C01 - C00 * k1 + kr0 * k1;
-    const double u10 = C10 - C10 * k0 + kr1 * k0;
-    const double p01 = 0.5 * (u01 + u10);
-    const double p11 = C11 - C10 * k1 + kr1 * k1;
-    next.x0[j][l] = x0;
-    next.x1[j][l] = x1;
-    next.p00[j][l] = p00;
-    next.p01[j][l] = p01;
-    next.p11[j][l] = p11;
+    next.x0[j][l] = e.x0;
+    next.x1[j][l] = e.x1;
+    next.p00[j][l] = e.p00;
+    next.p01[j][l] = e.p01;
+    next.p11[j][l] = e.p11;
     out.exponent[l] = -0.5 * (residual[l] * (S_inverse * residual[l]));
     out.s[l] = S;
     out.s_inverse[l] = S_inverse;
     out.usable[l] = pick((S > 0.0) & (S < std::numeric_limits<double>::infinity()), 1.0, 0.0);
-    out.finite[l] = pick(std::isfinite(x0 + x1 + p00 + p01 + p11 + out.exponent[l]), 1.0, 0.0);
+    out.finite[l] =
+        pick(std::isfinite(e.x0 + e.x1 + e.p00 + e.p01 + e.p11 + out.exponent[l]), 1.0, 0.0);
   }
 }
 

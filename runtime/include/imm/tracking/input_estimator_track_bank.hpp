@@ -1,0 +1,89 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// Many independent tracks of one neural input-estimation model (mlp_input_estimator.hpp),
+/// stepped by one call: the multi-track form of make_mlp_input_estimator_filter, as TrackBank is
+/// of the plain IMM.
+///
+/// Layout: every track is two axis filters (x, then y), every axis filter a lane; lanes are
+/// stored structure of arrays and stepped kBlock at a time in loops over lanes with no branches
+/// and no calls (cv_axis_lanes.hpp for both Kalman filters, the network layer by layer), which the
+/// compiler vectorizes: AVX-512 or AVX2 where the CPU has it, chosen at run time, without fused
+/// multiply-add, so a track's result does not depend on the instruction set, on its position or
+/// on the number of tracks. The ten-innovation windows are shift registers and rings whose
+/// position is per lane, selected by masks.
+///
+/// The differences to the one-track filter are rounding only: the sigmoid's exp is lane_exp
+/// (lane_math.hpp, within 2 ulp of libm's), and a layer's products are summed input by input
+/// where Eigen's matrix-vector product may block them. A track whose plot is unusable, or whose x
+/// or y step fails, is left exactly as it was, both axes, with the status of the first axis that
+/// failed (the one-track TwoAxisFilter advances x when only y fails, which cannot happen for
+/// finite estimates with R > 0). Nothing is allocated after construction.
+#include <Eigen/Core>
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/step_status.hpp"
+#include "imm/filters/mlp_input_estimator.hpp"
+#include "imm/runtime_export.hpp"
+
+namespace imm {
+
+/// N tracks of one input-estimation model with Cartesian plots, stepped together (see the file
+/// comment).
+class IMM_RUNTIME_EXPORT InputEstimatorTrackBank {
+ public:
+  /// Axis lanes per block: one AVX-512 or two AVX2 vectors.
+  static constexpr int kBlock = 8;
+
+  /// Room for `capacity` tracks of `model`. Throws InvalidParameter naming the field as
+  /// MlpInputEstimatorFilter does (settings, a network that does not take two inputs,
+  /// input_variance), or for a capacity outside [1, 2^26].
+  InputEstimatorTrackBank(const MlpInputEstimatorModel& model, std::size_t capacity);
+
+  /// The number of tracks it holds.
+  [[nodiscard]] std::size_t capacity() const { return capacity_; }
+
+  /// Starts (or restarts) track `track` from [x, vx, y, vy] (the covariance's two axis blocks):
+  /// both Kalman filters of each axis take the state, the input estimate 0, the windows their
+  /// start (MlpInputEstimatorFilter::initialize). Throws std::out_of_range for a track ≥
+  /// capacity().
+  void initialize(std::size_t track, const GaussianState<4>& state);
+
+  /// One scan of tracks 0 … plots.size() − 1, track t with plots[t]; status[t] receives its
+  /// outcome (a track whose status is not kOk is unchanged). Tracks from plots.size() on are not
+  /// touched. Throws std::invalid_argument when the spans differ in size or exceed capacity(),
+  /// std::logic_error when a stepped track was never initialized.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
+
+  /// Whether track `track` has been initialized.
+  [[nodiscard]] bool initialized(std::size_t track) const;
+
+  /// The corrected estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
+  [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
+
+  /// The input estimates (û_x, û_y) of the last scan.
+  [[nodiscard]] Eigen::Vector2d acceleration(std::size_t track) const;
+
+  /// [1, 1]: one mode per axis (as TwoAxisFilter::mode_probabilities of the one-track filter).
+  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
+
+ private:
+  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
+  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
+  [[nodiscard]] std::size_t checked(std::size_t track) const;
+
+  MlpInputEstimatorModel model_;
+  std::size_t capacity_ = 0;
+  std::ptrdiff_t stride_ = 0;    // axis lanes, rounded up to whole blocks
+  std::vector<double> network_;  // the layers' weights (row-major) and biases, in order
+  std::vector<int> shape_;       // per layer: outputs, inputs, activation (1 = sigmoid)
+  int widest_ = 0;               // the most units of a layer
+  std::vector<double> state_;    // slots × stride (see input_estimator_track_bank.cpp)
+  std::vector<double> scratch_;  // one block's plots, flags, codes and two layers' activations
+  std::vector<unsigned char> initialized_;
+};
+
+}  // namespace imm

@@ -1,0 +1,287 @@
+// SPDX-License-Identifier: Apache-2.0
+// The input-estimator bank: axis filters as lanes, blocks of kBlock lanes stepped in vector loops
+// (see the header). The order of operations follows MlpInputEstimatorFilter::step: the primary
+// KF with û(k − 1), the feature KF, its windows, the network, the sign, the commit.
+#include "imm/tracking/input_estimator_track_bank.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "bank_checks.hpp"
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
+#include "imm/estimation/cv_axis_lanes.hpp"
+#include "imm/math/lane_math.hpp"
+#include "imm/models/motion/constant_velocity.hpp"
+
+namespace imm {
+namespace {
+
+constexpr int W = InputEstimatorTrackBank::kBlock;
+constexpr int kWindow = InnovationFeatures::kWindow;
+// State slots: the primary KF, û, the feature KF, ino(k − i) for i = 0 … 10 (newest first), the
+// feature KF's last ten ν in ring order and the ring's head.
+constexpr int kPrimary = 0, kInput = 5, kCv = 6, kIno = 11, kNu = kIno + kWindow + 1,
+              kHead = kNu + kWindow, kSlots = kHead + 1;
+// Per-lane outcomes, in the order the one-track filter checks them.
+constexpr double kOk = 0.0, kBadPlot = 1.0, kSingular = 2.0, kNonFinite = 3.0;
+
+struct BankConstants {
+  double T, R, g0, g1;
+  double qp00, qp01, qp11;  // the primary KF's Q (with σ_û² G Gᵀ)
+  double qc00, qc01, qc11;  // the feature KF's Q
+  double mean0, mean1, scale0, scale1, output_scale, output_bias;
+  bool innovation_sign;
+  int layers;
+  const int* shape;       // per layer: outputs, inputs, sigmoid
+  const double* network;  // per layer: weights row-major, then the biases
+};
+
+// One predicted-and-updated axis KF per lane, its outcome code and ν, S.
+struct AxisStep {
+  lanes::AxisEstimate e;
+  double nu, s, code;
+};
+
+[[gnu::always_inline]] inline AxisStep kf_step(double T, double R, const lanes::AxisEstimate& from,
+                                               double q00, double q01, double q11, double b0,
+                                               double b1, double z) {
+  lanes::AxisEstimate p = lanes::cv_predict(T, from);
+  p.x0 += b0;
+  p.x1 += b1;
+  p.p00 += q00;
+  p.p01 += q01;
+  p.p11 += q11;
+  AxisStep out;
+  out.nu = z - p.x0;
+  out.s = p.p00 + R;
+  double s_inverse;
+  out.e = lanes::position_update(p, R, out.nu, s_inverse);
+  const bool usable = (out.s > 0.0) & (out.s < std::numeric_limits<double>::infinity());
+  const bool finite = std::isfinite(out.e.x0 + out.e.x1 + out.e.p00 + out.e.p01 + out.e.p11);
+  out.code = pick(usable, pick(finite, kOk, kNonFinite), kSingular);
+  return out;
+}
+
+// One scan of one block's lanes. `state` points at the block's first lane of slot 0; `z` the
+// lanes' plots (NaN: unusable); `stepped` 1 for a lane to step; `code` receives each lane's
+// outcome; `work` holds two layers' activations.
+[[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const BankConstants& b, double* state,
+                                                   std::ptrdiff_t stride, const double* z,
+                                                   const double* stepped, double* code,
+                                                   double* work, int widest) {
+  auto st = [&](int entry) { return state + entry * stride; };
+  double primary[5][W], cv[5][W], nu[W], outcome[W], nu_sum[W], head[W], ino[W], x[2][W];
+  IMM_LANES {
+    const double u = st(kInput)[l];
+    const AxisStep p = kf_step(b.T, b.R,
+                               {st(kPrimary)[l], st(kPrimary + 1)[l], st(kPrimary + 2)[l],
+                                st(kPrimary + 3)[l], st(kPrimary + 4)[l]},
+                               b.qp00, b.qp01, b.qp11, b.g0 * u, b.g1 * u, z[l]);
+    const AxisStep c = kf_step(
+        b.T, b.R, {st(kCv)[l], st(kCv + 1)[l], st(kCv + 2)[l], st(kCv + 3)[l], st(kCv + 4)[l]},
+        b.qc00, b.qc01, b.qc11, 0.0, 0.0, z[l]);
+    const double values[2][5] = {{p.e.x0, p.e.x1, p.e.p00, p.e.p01, p.e.p11},
+                                 {c.e.x0, c.e.x1, c.e.p00, c.e.p01, c.e.p11}};
+    for (int e = 0; e < 5; ++e) {
+      primary[e][l] = values[0][e];
+      cv[e][l] = values[1][e];
+    }
+    outcome[l] = pick(p.code != kOk, p.code, c.code);
+    ino[l] = c.nu * c.nu / c.s;
+    nu[l] = c.nu;
+    // sum(k) = 0.1 Σ ino(k − i), i < 10, newest first; diff(k) = ino(k) − ino(k − 10).
+    double sum = 0.0 + ino[l];
+    for (int i = 0; i + 1 < kWindow; ++i) sum += st(kIno + i)[l];
+    x[0][l] = (0.1 * sum - b.mean0) / b.scale0;
+    x[1][l] = (ino[l] - st(kIno + kWindow - 1)[l] - b.mean1) / b.scale1;
+    // The ν ring: the next head takes ν(k); the sum in ring order.
+    const double next = st(kHead)[l] + 1.0;
+    head[l] = pick(next >= kWindow, 0.0, next);
+    double ring_sum = 0.0;
+    for (int i = 0; i < kWindow; ++i) ring_sum += pick(head[l] == i, c.nu, st(kNu + i)[l]);
+    nu_sum[l] = ring_sum;
+  }
+  // The network, layer by layer: a = f(W x + b), the sums input by input.
+  const double* layer = b.network;
+  const double* in = x[0];
+  for (int k = 0; k < b.layers; ++k) {
+    const int outputs = b.shape[3 * k], inputs = b.shape[3 * k + 1];
+    const bool sigmoid = b.shape[3 * k + 2] != 0;
+    double* out = work + (k % 2) * widest * W;
+    const double* bias = layer + outputs * inputs;
+    for (int r = 0; r < outputs; ++r) {
+      const double* weights = layer + r * inputs;
+      double sum[W];
+      IMM_LANES sum[l] = 0.0;
+      for (int c = 0; c < inputs; ++c) {
+        IMM_LANES sum[l] += weights[c] * in[c * W + l];
+      }
+      IMM_LANES {
+        const double a = sum[l] + bias[r];
+        out[r * W + l] = pick(sigmoid, 1.0 / (1.0 + lane_exp(-a)), a);
+      }
+    }
+    in = out;
+    layer = bias + outputs;
+  }
+  // û(k): the scaled output less the bias, clipped at 0, signed; then the track's commit.
+  for (int l = 0; l < W; l += 2) {
+    const double track_outcome = outcome[l] != kOk ? outcome[l] : outcome[l + 1];
+    code[l] = code[l + 1] = pick(z[l] == z[l] && z[l + 1] == z[l + 1], track_outcome, kBadPlot);
+  }
+  IMM_LANES {
+    const double raw = b.output_scale * in[l] - b.output_bias;
+    const double magnitude = pick(0.0 < raw, raw, 0.0);
+    const double u = pick(b.innovation_sign & (nu_sum[l] < 0.0), -magnitude, magnitude);
+    const bool commit = (stepped[l] != 0.0) & (code[l] == kOk);
+    for (int e = 0; e < 5; ++e) {
+      st(kPrimary + e)[l] = pick(commit, primary[e][l], st(kPrimary + e)[l]);
+      st(kCv + e)[l] = pick(commit, cv[e][l], st(kCv + e)[l]);
+    }
+    st(kInput)[l] = pick(commit, u, st(kInput)[l]);
+    for (int i = kWindow; i > 0; --i) {
+      st(kIno + i)[l] = pick(commit, st(kIno + i - 1)[l], st(kIno + i)[l]);
+    }
+    st(kIno)[l] = pick(commit, ino[l], st(kIno)[l]);
+    for (int i = 0; i < kWindow; ++i) {
+      st(kNu + i)[l] = pick(commit & (head[l] == i), nu[l], st(kNu + i)[l]);
+    }
+    st(kHead)[l] = pick(commit, head[l], st(kHead)[l]);
+  }
+}
+
+}  // namespace
+
+InputEstimatorTrackBank::InputEstimatorTrackBank(const MlpInputEstimatorModel& model,
+                                                 std::size_t capacity)
+    : model_(model) {
+  // The one-track filter's checks, with its wording.
+  const MlpInputEstimatorFilter check(model, model.settings);
+  (void)check;
+  bank::require_capacity(capacity);
+  capacity_ = capacity;
+  stride_ = static_cast<std::ptrdiff_t>((2 * capacity + kBlock - 1) / kBlock * kBlock);
+  for (const MlpLayer& layer : model.network.layers()) {
+    const auto outputs = static_cast<int>(layer.weights.rows());
+    const auto inputs = static_cast<int>(layer.weights.cols());
+    shape_.insert(shape_.end(), {outputs, inputs, layer.activation == Activation::kSigmoid});
+    for (int r = 0; r < outputs; ++r) {
+      for (int c = 0; c < inputs; ++c) network_.push_back(layer.weights(r, c));
+    }
+    network_.insert(network_.end(), layer.bias.data(), layer.bias.data() + outputs);
+    widest_ = std::max({widest_, outputs, inputs});
+  }
+  state_.assign(static_cast<std::size_t>(kSlots * stride_), 0.0);
+  scratch_.assign(static_cast<std::size_t>((3 + 2 * widest_) * kBlock), 0.0);
+  initialized_.assign(capacity, 0);
+}
+
+std::size_t InputEstimatorTrackBank::checked(std::size_t track) const {
+  return bank::checked_track(track, capacity_);
+}
+
+bool InputEstimatorTrackBank::initialized(std::size_t track) const {
+  return initialized_[checked(track)] != 0;
+}
+
+void InputEstimatorTrackBank::initialize(std::size_t track, const GaussianState<4>& state) {
+  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  for (int axis = 0; axis < 2; ++axis) {
+    const std::ptrdiff_t lane = 2 * t + axis;
+    const int a = 2 * axis;
+    const double values[5] = {state.mean(a), state.mean(a + 1), state.covariance(a, a),
+                              state.covariance(a, a + 1), state.covariance(a + 1, a + 1)};
+    for (int e = 0; e < 5; ++e) slot(kPrimary + e)[lane] = slot(kCv + e)[lane] = values[e];
+    slot(kInput)[lane] = 0.0;
+    for (int i = 0; i <= kWindow; ++i) slot(kIno + i)[lane] = InnovationFeatures::kPad;
+    for (int i = 0; i < kWindow; ++i) slot(kNu + i)[lane] = 0.0;
+    slot(kHead)[lane] = 0.0;
+  }
+  initialized_[static_cast<std::size_t>(t)] = 1;
+}
+
+void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
+                                   std::span<StepStatus> status) {
+  bank::check_step("InputEstimatorTrackBank", plots.size(), status.size(), initialized_);
+  const CvKfSettings& s = model_.settings;
+  const LinearMotionModel<2> motion = constant_velocity<1>(s.sample_period, s.process_noise);
+  const Vector<2> G = cv_axis_input_gain(s.sample_period);
+  SquareMatrix<2> primary_noise = motion.process_noise;
+  primary_noise.noalias() += model_.input_variance * G * G.transpose();
+  const BankConstants b{s.sample_period,
+                        s.measurement_variance,
+                        G(0),
+                        G(1),
+                        primary_noise(0, 0),
+                        primary_noise(0, 1),
+                        primary_noise(1, 1),
+                        motion.process_noise(0, 0),
+                        motion.process_noise(0, 1),
+                        motion.process_noise(1, 1),
+                        model_.input_mean(0),
+                        model_.input_mean(1),
+                        model_.input_scale(0),
+                        model_.input_scale(1),
+                        model_.network.output_scale(),
+                        model_.output_bias,
+                        model_.sign == InputSign::kInnovation,
+                        static_cast<int>(model_.network.layers().size()),
+                        shape_.data(),
+                        network_.data()};
+  const std::size_t lanes = 2 * plots.size();
+  double* z = scratch_.data();
+  double* stepped = z + kBlock;
+  double* outcome = stepped + kBlock;
+  double* work = outcome + kBlock;
+  for (std::size_t first = 0; first < lanes; first += kBlock) {
+    for (std::size_t l = 0; l < static_cast<std::size_t>(kBlock); l += 2) {
+      const std::size_t track = (first + l) / 2;
+      const bool real = track < plots.size();
+      const bool usable = real && limits::usable_measurement(plots[track]);
+      // An unusable plot's lanes run on a NaN plot (marked bad in the kernel), an empty lane on 0.
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      z[l] = usable ? plots[track].x() : (real ? nan : 0.0);
+      z[l + 1] = usable ? plots[track].y() : (real ? nan : 0.0);
+      stepped[l] = stepped[l + 1] = real ? 1.0 : 0.0;
+    }
+    step_block(b, state_.data() + first, stride_, z, stepped, outcome, work, widest_);
+    for (std::size_t l = 0; l < static_cast<std::size_t>(kBlock) && first + l < lanes; l += 2) {
+      const double c = outcome[l];
+      status[(first + l) / 2] = c == kOk         ? StepStatus::kOk
+                                : c == kBadPlot  ? StepStatus::kInvalidMeasurement
+                                : c == kSingular ? StepStatus::kSingularInnovation
+                                                 : StepStatus::kNonFiniteResult;
+    }
+  }
+}
+
+GaussianState<4> InputEstimatorTrackBank::estimate(std::size_t track) const {
+  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  GaussianState<4> out;
+  out.covariance.setZero();
+  for (int axis = 0; axis < 2; ++axis) {
+    const std::ptrdiff_t lane = 2 * t + axis;
+    const int a = 2 * axis;
+    auto value = [&](int e) { return slot(kPrimary + e)[lane]; };
+    out.mean(a) = value(0);
+    out.mean(a + 1) = value(1);
+    out.covariance(a, a) = value(2);
+    out.covariance(a, a + 1) = out.covariance(a + 1, a) = value(3);
+    out.covariance(a + 1, a + 1) = value(4);
+  }
+  return out;
+}
+
+Eigen::Vector2d InputEstimatorTrackBank::acceleration(std::size_t track) const {
+  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  return {slot(kInput)[2 * t], slot(kInput)[2 * t + 1]};
+}
+
+ModeVector InputEstimatorTrackBank::mode_probabilities(std::size_t track) const {
+  (void)checked(track);
+  return ModeVector::Ones(2);
+}
+
+}  // namespace imm

@@ -1,0 +1,246 @@
+// SPDX-License-Identifier: Apache-2.0
+// The input-estimator bank against the one-track filter (make_mlp_input_estimator_filter):
+// statuses, estimates and input estimates to rounding over random models and the shipped ones,
+// tracks independent of their neighbours to the bit, refused plots leaving a track exactly as it
+// was, and what it refuses.
+#include "imm/tracking/input_estimator_track_bank.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/io/mlp_input_estimator_file.hpp"
+
+namespace imm {
+namespace {
+
+// A random 2-h-1 or 2-h1-h2-1 network (sigmoid hidden layers, a sigmoid or linear output) with
+// random features' standardization, bias, sign and input variance, at a random T, q and R.
+MlpInputEstimatorModel random_model(std::mt19937_64& rng, int trial) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  auto random_layer = [&](int outputs, int inputs, Activation activation) {
+    MlpLayer layer;
+    layer.weights = Eigen::MatrixXd::NullaryExpr(outputs, inputs, [&] { return 2.0 * unit(rng); });
+    layer.bias = Eigen::VectorXd::NullaryExpr(outputs, [&] { return unit(rng); });
+    layer.activation = activation;
+    return layer;
+  };
+  std::vector<MlpLayer> layers;
+  const int h1 = 3 + trial % 9;
+  layers.push_back(random_layer(h1, 2, Activation::kSigmoid));
+  int last = h1;
+  if (trial % 2 == 0) {
+    layers.push_back(random_layer(10, h1, Activation::kSigmoid));
+    last = 10;
+  }
+  layers.push_back(
+      random_layer(1, last, trial % 3 == 0 ? Activation::kLinear : Activation::kSigmoid));
+  MlpInputEstimatorModel model;
+  model.network = Mlp(std::move(layers), 5.0 + 10.0 * (unit(rng) + 1.0));
+  model.input_mean = Eigen::Vector2d(1.0 + 0.5 * unit(rng), 0.3 * unit(rng));
+  model.input_scale = Eigen::Vector2d(0.5 + std::abs(unit(rng)), 1.0 + std::abs(unit(rng)));
+  model.output_bias = 2.0 * (unit(rng) + 1.0);
+  model.sign = trial % 2 == 0 ? InputSign::kInnovation : InputSign::kPositive;
+  model.input_variance = trial % 3 == 1 ? 0.0 : 4.0 * (unit(rng) + 1.0);
+  model.settings.sample_period = 0.5 + (unit(rng) + 1.0);
+  model.settings.process_noise = 0.1 + (unit(rng) + 1.0);
+  model.settings.measurement_variance = 20.0 + 40.0 * (unit(rng) + 1.0);
+  return model;
+}
+
+GaussianState<4> start_of(int track) {
+  GaussianState<4> s;
+  s.mean << 100.0 + track, 3.0, -40.0 + 5.0 * track, -2.0;
+  s.covariance = Eigen::Vector4d(60.0, 20.0, 60.0, 20.0).asDiagonal();
+  s.covariance(0, 1) = s.covariance(1, 0) = 10.0;
+  s.covariance(2, 3) = s.covariance(3, 2) = -5.0;
+  return s;
+}
+
+// Plots of track t at scan k: a target that turns hard now and then, with noise, a NaN or an
+// out-of-range plot now and then.
+Eigen::Vector2d plot_of(int track, int k, std::mt19937_64& rng) {
+  std::normal_distribution<double> noise(0.0, 6.0);
+  const double time = k;
+  const double turn = (k / 25) % 2 == 1 ? 0.5 * std::pow(time - 25.0 * (k / 25), 2) : 0.0;
+  Eigen::Vector2d z(100.0 + track + 3.0 * time + turn * (1 + track % 3),
+                    -40.0 + 5.0 * track - 2.0 * time - 0.4 * turn);
+  z += Eigen::Vector2d(noise(rng), noise(rng));
+  if ((k + track) % 29 == 3) z.y() = std::numeric_limits<double>::quiet_NaN();
+  if ((k * 7 + track) % 53 == 11) z.x() = 1e300;
+  return z;
+}
+
+void expect_close(double value, double reference, const std::string& what) {
+  EXPECT_LE(std::abs(value - reference), 1e-9 * (1.0 + std::abs(reference))) << what;
+}
+
+// Every track of the bank beside its own one-track filter, scan by scan.
+void expect_equals_one_track_filters(const MlpInputEstimatorModel& model, int scans,
+                                     std::mt19937_64& rng, const std::string& name, int& refused) {
+  constexpr int kTracks = 13;  // three whole blocks of four tracks and one track more
+  InputEstimatorTrackBank bank(model, kTracks);
+  std::vector<std::unique_ptr<TwoAxisFilter>> single;
+  for (int t = 0; t < kTracks; ++t) {
+    bank.initialize(static_cast<std::size_t>(t), start_of(t));
+    single.push_back(make_mlp_input_estimator_filter(model));
+    single.back()->initialize(start_of(t).mean, start_of(t).covariance);
+  }
+  std::vector<Eigen::Vector2d> plots(kTracks);
+  std::vector<StepStatus> status(kTracks);
+  for (int k = 0; k < scans; ++k) {
+    for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng);
+    bank.step(plots, status);
+    for (int t = 0; t < kTracks; ++t) {
+      const auto u = static_cast<std::size_t>(t);
+      const std::string at = name + " scan " + std::to_string(k) + " track " + std::to_string(t);
+      ASSERT_EQ(status[u], single[u]->step(plots[u])) << at;
+      if (status[u] != StepStatus::kOk) ++refused;
+      Eigen::Vector4d mean, variance;
+      single[u]->state(mean, variance);
+      Eigen::Matrix4d covariance;
+      single[u]->covariance(covariance);
+      const GaussianState<4> estimate = bank.estimate(u);
+      for (int a = 0; a < 4; ++a) {
+        expect_close(estimate.mean(a), mean(a), at + " mean");
+        for (int c = 0; c < 4; ++c) {
+          expect_close(estimate.covariance(a, c), covariance(a, c), at + " covariance");
+        }
+      }
+      const auto& x = dynamic_cast<const MlpInputEstimatorAxis&>(single[u]->axis(0)).filter();
+      const auto& y = dynamic_cast<const MlpInputEstimatorAxis&>(single[u]->axis(1)).filter();
+      expect_close(bank.acceleration(u).x(), x.acceleration(), at + " û_x");
+      expect_close(bank.acceleration(u).y(), y.acceleration(), at + " û_y");
+      if (::testing::Test::HasFailure()) return;
+    }
+  }
+}
+
+TEST(InputEstimatorTrackBank, EqualsTheOneTrackFilterToRounding) {
+  std::mt19937_64 rng(26112026);
+  int refused = 0;
+  for (int trial = 0; trial < 8; ++trial) {
+    expect_equals_one_track_filters(random_model(rng, trial), 150, rng,
+                                    "trial " + std::to_string(trial), refused);
+    if (HasFailure()) return;
+  }
+  EXPECT_GT(refused, 100);  // the NaN and out-of-range plots were refused, by both
+}
+
+TEST(InputEstimatorTrackBank, EqualsTheOneTrackFilterWithTheShippedModels) {
+  std::mt19937_64 rng(5);
+  int refused = 0;
+  for (const char* name : {"mlp_input_estimator.h5", "mlp_input_estimator_ground_vehicle.h5"}) {
+    expect_equals_one_track_filters(io::read_mlp_input_estimator(std::string("models/") + name),
+                                    150, rng, name, refused);
+  }
+}
+
+TEST(InputEstimatorTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
+  std::mt19937_64 rng(7);
+  const MlpInputEstimatorModel model = random_model(rng, 4);
+  constexpr int kTracks = 11;
+  InputEstimatorTrackBank bank(model, kTracks);
+  std::vector<InputEstimatorTrackBank> alone;
+  for (int t = 0; t < kTracks; ++t) {
+    bank.initialize(static_cast<std::size_t>(t), start_of(t));
+    alone.emplace_back(model, 1);
+    alone.back().initialize(0, start_of(t));
+  }
+  std::vector<Eigen::Vector2d> plots(kTracks);
+  std::vector<StepStatus> status(kTracks);
+  for (int k = 0; k < 80; ++k) {
+    for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng);
+    bank.step(plots, status);
+    for (int t = 0; t < kTracks; ++t) {
+      const auto u = static_cast<std::size_t>(t);
+      std::vector<StepStatus> one(1);
+      alone[u].step(std::span<const Eigen::Vector2d>(&plots[u], 1), one);
+      ASSERT_EQ(one[0], status[u]);
+      const GaussianState<4> a = bank.estimate(u), b = alone[u].estimate(0);
+      ASSERT_EQ(std::memcmp(a.mean.data(), b.mean.data(), sizeof(double) * 4), 0);
+      ASSERT_EQ(std::memcmp(a.covariance.data(), b.covariance.data(), sizeof(double) * 16), 0);
+      ASSERT_EQ(bank.acceleration(u), alone[u].acceleration(0));
+    }
+  }
+}
+
+TEST(InputEstimatorTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTracksUntouched) {
+  std::mt19937_64 rng(11);
+  const MlpInputEstimatorModel model = random_model(rng, 2);
+  InputEstimatorTrackBank bank(model, 6);
+  for (std::size_t t = 0; t < 6; ++t) bank.initialize(t, start_of(static_cast<int>(t)));
+  std::vector<Eigen::Vector2d> plots{{102.0, -41.0}, {105.0, -33.0}, {104.0, -31.0}};
+  std::vector<StepStatus> status(3);
+  for (int k = 0; k < 12; ++k) {  // some input estimate and windows to keep
+    for (auto& z : plots) z += Eigen::Vector2d(3.0 + 0.5 * k, -2.0);
+    bank.step(plots, status);
+  }
+  const GaussianState<4> before = bank.estimate(1);
+  const Eigen::Vector2d input_before = bank.acceleration(1);
+  const GaussianState<4> untouched = bank.estimate(4);
+  plots[1].y() = std::numeric_limits<double>::infinity();
+  bank.step(plots, status);
+  EXPECT_EQ(status[0], StepStatus::kOk);
+  EXPECT_EQ(status[1], StepStatus::kInvalidMeasurement);
+  EXPECT_EQ(bank.estimate(1).mean, before.mean);
+  EXPECT_EQ(bank.estimate(1).covariance, before.covariance);
+  EXPECT_EQ(bank.acceleration(1), input_before);
+  EXPECT_EQ(bank.estimate(4).mean, untouched.mean);
+  EXPECT_EQ(bank.estimate(4).covariance, untouched.covariance);
+  // The windows did not move either: the next scans equal a bank that never saw the bad plot.
+  InputEstimatorTrackBank twin(model, 1);
+  twin.initialize(0, start_of(1));
+  std::vector<Eigen::Vector2d> replay{{105.0, -33.0}};
+  std::vector<StepStatus> one(1);
+  for (int k = 0; k < 12; ++k) {
+    replay[0] += Eigen::Vector2d(3.0 + 0.5 * k, -2.0);
+    twin.step(replay, one);
+  }
+  plots[1] = replay[0] + Eigen::Vector2d(9.0, -2.0);
+  replay[0] = plots[1];
+  bank.step(plots, status);
+  twin.step(replay, one);
+  EXPECT_EQ(bank.estimate(1).mean, twin.estimate(0).mean);
+  EXPECT_EQ(bank.acceleration(1), twin.acceleration(0));
+}
+
+std::string refused_field(const MlpInputEstimatorModel& model, std::size_t capacity) {
+  try {
+    InputEstimatorTrackBank bank(model, capacity);
+  } catch (const InvalidParameter& e) {
+    return e.field();
+  }
+  return "";
+}
+
+TEST(InputEstimatorTrackBank, RefusesWhatItCannotRun) {
+  std::mt19937_64 rng(3);
+  const MlpInputEstimatorModel model = random_model(rng, 1);
+  EXPECT_EQ(refused_field(model, 0), "capacity");
+  EXPECT_EQ(refused_field(model, (std::size_t{1} << 26U) + 1), "capacity");
+  MlpInputEstimatorModel bad = model;
+  bad.settings.measurement_variance = -1.0;
+  EXPECT_EQ(refused_field(bad, 4), "measurement_variance");
+  bad = model;
+  bad.input_variance = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(refused_field(bad, 4), "input_variance");
+  InputEstimatorTrackBank bank(model, 3);
+  bank.initialize(0, start_of(0));
+  std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(1.0, 2.0));
+  std::vector<StepStatus> status(2);
+  EXPECT_THROW(bank.step(plots, status), std::logic_error);  // track 1 never initialized
+  std::vector<StepStatus> fewer(1);
+  EXPECT_THROW(bank.step(plots, fewer), std::invalid_argument);
+  EXPECT_THROW(bank.initialize(3, start_of(0)), std::out_of_range);
+  EXPECT_THROW((void)bank.estimate(3), std::out_of_range);
+}
+
+}  // namespace
+}  // namespace imm
