@@ -8,7 +8,9 @@
 
 #include <cmath>
 #include <cstdint>
+#include <string>
 #include <string_view>
+#include <vector>
 
 #include "imm/io/temporary_files.hpp"
 #include "testing/temp_dir.hpp"
@@ -21,6 +23,36 @@ TEST(Crc32, MatchesTheStandardCheckValue) {
   EXPECT_EQ(crc32("123456789", 9), 0xCBF43926U);
   // Incremental use gives the same value.
   EXPECT_EQ(crc32("6789", 4, crc32("12345", 5)), 0xCBF43926U);
+  // Longer than one 8-byte step, with a tail: zlib's crc32 of these 43 bytes.
+  const std::string fox = "The quick brown fox jumps over the lazy dog";
+  EXPECT_EQ(crc32(fox.data(), fox.size()), 0x414FA339U);
+}
+
+// Eight bytes a step and one byte a step give the same CRC, whatever the length, the alignment
+// and the split into calls.
+TEST(Crc32, EveryLengthOffsetAndSplitGivesTheBytewiseCrc) {
+  std::vector<unsigned char> bytes(300);
+  std::uint32_t state = 12345;
+  for (auto& b : bytes) {
+    state = state * 1103515245U + 12345U;
+    b = static_cast<unsigned char>(state >> 16U);
+  }
+  auto bytewise = [](const unsigned char* p, std::size_t n) {
+    std::uint32_t crc = 0xFFFFFFFFU;
+    for (std::size_t i = 0; i < n; ++i) {
+      crc ^= p[i];
+      for (int k = 0; k < 8; ++k) crc = (crc & 1U) ? 0xEDB88320U ^ (crc >> 1U) : crc >> 1U;
+    }
+    return ~crc;
+  };
+  for (std::size_t offset = 0; offset < 8; ++offset) {
+    for (std::size_t n = 0; n + offset <= bytes.size(); n += 7) {
+      const unsigned char* p = bytes.data() + offset;
+      ASSERT_EQ(crc32(p, n), bytewise(p, n)) << offset << " " << n;
+      const std::size_t cut = n / 3;
+      ASSERT_EQ(crc32(p + cut, n - cut, crc32(p, cut)), bytewise(p, n)) << offset << " " << n;
+    }
+  }
 }
 
 TEST(ContainerFile, RoundTripsArraysAndAttributes) {
