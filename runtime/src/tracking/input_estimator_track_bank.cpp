@@ -53,15 +53,13 @@ struct AxisStep {
   p.p00 += q00;
   p.p01 += q01;
   p.p11 += q11;
-  AxisStep out;
-  out.nu = z - p.x0;
-  out.s = p.p00 + R;
+  const double nu = z - p.x0;
+  const double s = p.p00 + R;
   double s_inverse;
-  out.e = lanes::position_update(p, R, out.nu, s_inverse);
-  const bool usable = (out.s > 0.0) & (out.s < std::numeric_limits<double>::infinity());
-  const bool finite = std::isfinite(out.e.x0 + out.e.x1 + out.e.p00 + out.e.p01 + out.e.p11);
-  out.code = pick(usable, pick(finite, kOk, kNonFinite), kSingular);
-  return out;
+  const lanes::AxisEstimate e = lanes::position_update(p, R, nu, s_inverse);
+  const bool usable = (s > 0.0) & (s < std::numeric_limits<double>::infinity());
+  const bool finite = std::isfinite(e.x0 + e.x1 + e.p00 + e.p01 + e.p11);
+  return {e, nu, s, pick(usable, pick(finite, kOk, kNonFinite), kSingular)};
 }
 
 // One scan of one block's lanes. `state` points at the block's first lane of slot 0; `z` the
@@ -106,16 +104,16 @@ struct AxisStep {
   // The network, layer by layer: a = f(W x + b), the sums input by input.
   const double* layer = b.network;
   const double* in = x[0];
-  for (int k = 0; k < b.layers; ++k) {
-    const int outputs = b.shape[3 * k], inputs = b.shape[3 * k + 1];
+  for (std::ptrdiff_t k = 0; k < b.layers; ++k) {
+    const std::ptrdiff_t outputs = b.shape[3 * k], inputs = b.shape[3 * k + 1];
     const bool sigmoid = b.shape[3 * k + 2] != 0;
     double* out = work + (k % 2) * widest * W;
     const double* bias = layer + outputs * inputs;
-    for (int r = 0; r < outputs; ++r) {
+    for (std::ptrdiff_t r = 0; r < outputs; ++r) {
       const double* weights = layer + r * inputs;
       double sum[W];
       IMM_LANES sum[l] = 0.0;
-      for (int c = 0; c < inputs; ++c) {
+      for (std::ptrdiff_t c = 0; c < inputs; ++c) {
         IMM_LANES sum[l] += weights[c] * in[c * W + l];
       }
       IMM_LANES {
@@ -174,7 +172,7 @@ InputEstimatorTrackBank::InputEstimatorTrackBank(const MlpInputEstimatorModel& m
     widest_ = std::max({widest_, outputs, inputs});
   }
   state_.assign(static_cast<std::size_t>(kSlots * stride_), 0.0);
-  scratch_.assign(static_cast<std::size_t>((3 + 2 * widest_) * kBlock), 0.0);
+  scratch_.assign((3 + 2 * static_cast<std::size_t>(widest_)) * kBlock, 0.0);
   initialized_.assign(capacity, 0);
 }
 

@@ -98,7 +98,8 @@ template <int W, bool kLikelihood>
       }
       Lanes m0, m1, c00, c01, c11;
       lanes::mix<W>(n, weight, *now, m0, m1, c00, c01, c11);
-      lanes::FuzzyStep<W> step;
+      // Every lane of every field is written by fuzzy_noise_step; zeroing it first would cost.
+      lanes::FuzzyStep<W> step;  // NOLINT(cppcoreguidelines-pro-type-member-init)
       lanes::fuzzy_noise_step<W>(m.axis, m.levels[j], z, now->previous[j], m0, m1, c00, c01, c11, j,
                                  *next, step);
       IMM_LANES {
