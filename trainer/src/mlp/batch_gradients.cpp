@@ -134,8 +134,7 @@ template <int I, int H1, int H2>
 }
 
 // The chunks' lane shares: summed over the chunks in order, lane by lane, then over the lanes by
-// halves (lane l + lane l + w, w = 4, 2, 1). A fixed order, so the same bits at any thread
-// count, and independent chains that the epoch's serial part does not wait on one by one.
+// halves (lane l + lane l + w, w = 4, 2, 1): a fixed order, so the same bits at any thread count.
 template <std::size_t N, class Field>
 void reduce(const std::vector<LaneSums<2, 10, 10>>& chunks, Field field, double* out) {
   for (std::size_t k = 0; k < N; ++k) {

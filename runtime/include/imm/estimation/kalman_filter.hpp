@@ -180,8 +180,19 @@ UpdateReport<M> update_with_gain(GaussianState<N>& state, const Vector<M>& innov
   report.innovation_covariance.noalias() = H * state.covariance * H.transpose();
   report.innovation_covariance += R;
   symmetrize(report.innovation_covariance);
-  const Eigen::LLT<SquareMatrix<M>> llt(report.innovation_covariance);
-  if (!report.innovation_covariance.allFinite() || llt.info() != Eigen::Success || !K.allFinite()) {
+  // S = L Lᵀ: for one measurement L = √S, written out (what Eigen's LLT computes for a 1 × 1
+  // matrix, without its norm and solve machinery).
+  SquareMatrix<M> L;
+  bool factored = false;
+  if constexpr (M == 1) {
+    factored = report.innovation_covariance(0, 0) > 0.0;
+    L(0, 0) = std::sqrt(report.innovation_covariance(0, 0));
+  } else {
+    const Eigen::LLT<SquareMatrix<M>> llt(report.innovation_covariance);
+    factored = llt.info() == Eigen::Success;
+    L = llt.matrixL();
+  }
+  if (!report.innovation_covariance.allFinite() || !factored || !K.allFinite()) {
     report.status = StepStatus::kSingularInnovation;
     return report;
   }
@@ -197,9 +208,14 @@ UpdateReport<M> update_with_gain(GaussianState<N>& state, const Vector<M>& innov
     report.status = StepStatus::kNonFiniteResult;
     return report;
   }
-  const Vector<M> whitened = llt.matrixL().solve(innovation);
+  Vector<M> whitened;
+  if constexpr (M == 1) {
+    whitened(0) = innovation(0) / L(0, 0);
+  } else {
+    whitened = L.template triangularView<Eigen::Lower>().solve(innovation);
+  }
   double log_det = 0.0;
-  for (int i = 0; i < M; ++i) log_det += 2.0 * std::log(llt.matrixL()(i, i));
+  for (int i = 0; i < M; ++i) log_det += 2.0 * std::log(L(i, i));
   report.log_likelihood = -0.5 * (whitened.squaredNorm() + log_det + M * kLogTwoPi);
   state = updated;
   return report;
