@@ -133,21 +133,47 @@ template <int I, int H1, int H2>
   }
 }
 
-// The chunks' lane shares: summed over the chunks in order, lane by lane, then over the lanes by
-// halves (lane l + lane l + w, w = 4, 2, 1): a fixed order, so the same bits at any thread count.
-template <std::size_t N, class Field>
-void reduce(const std::vector<LaneSums<2, 10, 10>>& chunks, Field field, double* out) {
-  for (std::size_t k = 0; k < N; ++k) {
-    std::array<double, kLanes> acc = field(chunks.front())[k];
-    for (std::size_t c = 1; c < chunks.size(); ++c) {
-      const auto& share = field(chunks[c])[k];
-      for (std::size_t l = 0; l < acc.size(); ++l) acc[l] += share[l];
-    }
-    for (std::size_t w = acc.size() / 2; w >= 1; w /= 2) {
-      for (std::size_t l = 0; l < w; ++l) acc[l] += acc[l + w];
-    }
-    out[k] = acc[0];
+// Gradient row k of a chunk's lane shares: w1, b1, w2, b2, w3, b3 in turn (kRows rows).
+template <int I, int H1, int H2>
+struct Rows {
+  static constexpr int kW1 = H1 * I, kB1 = kW1 + H1, kW2 = kB1 + H2 * H1, kB2 = kW2 + H2,
+                       kW3 = kB2 + H2, kRows = kW3 + 1;
+  static const std::array<double, kLanes>& row(const LaneSums<I, H1, H2>& g, int k) {
+    const auto at = [](int i) { return static_cast<std::size_t>(i); };
+    if (k < kW1) return g.w1[at(k)];
+    if (k < kB1) return g.b1[at(k - kW1)];
+    if (k < kW2) return g.w2[at(k - kB1)];
+    if (k < kB2) return g.b2[at(k - kW2)];
+    if (k < kW3) return g.w3[at(k - kB2)];
+    return g.b3[0];
   }
+  // Where row k of the gradient goes.
+  static double& out(std::vector<Eigen::MatrixXd>& weights, std::vector<Eigen::VectorXd>& biases,
+                     int k) {
+    if (k < kW1) return weights[0].data()[k];
+    if (k < kB1) return biases[0].data()[k - kW1];
+    if (k < kW2) return weights[1].data()[k - kB1];
+    if (k < kB2) return biases[1].data()[k - kW2];
+    if (k < kW3) return weights[2].data()[k - kB2];
+    return biases[2].data()[0];
+  }
+};
+
+// Row k of the chunks' lane shares: summed over the chunks in order, lane by lane, then over the
+// lanes by halves (lane l + lane l + w, w = 4, 2, 1): a fixed order, so the same bits at any
+// thread count.
+template <int I, int H1, int H2>
+double reduce_row(const std::vector<LaneSums<I, H1, H2>>& chunks, int k) {
+  using R = Rows<I, H1, H2>;
+  std::array<double, kLanes> acc = R::row(chunks.front(), k);
+  for (std::size_t c = 1; c < chunks.size(); ++c) {
+    const auto& share = R::row(chunks[c], k);
+    for (std::size_t l = 0; l < acc.size(); ++l) acc[l] += share[l];
+  }
+  for (std::size_t w = acc.size() / 2; w >= 1; w /= 2) {
+    for (std::size_t l = 0; l < w; ++l) acc[l] += acc[l + w];
+  }
+  return acc[0];
 }
 
 // Samples per chunk, at least: below it one chunk (and one thread) does the whole batch.
@@ -178,14 +204,7 @@ void fused_gradients_2_10_10(const std::vector<MlpLayer>& layers, double output_
   // a thread_local named inside the region would be each thread's own.
   thread_local std::vector<LaneSums<I, H1, H2>> workspace;
   std::vector<LaneSums<I, H1, H2>>& sums = workspace;
-  sums.assign(static_cast<std::size_t>(chunks), LaneSums<I, H1, H2>{});
-#pragma omp parallel for schedule(static) if (chunks > 1)
-  for (Eigen::Index c = 0; c < chunks; ++c) {
-    const Eigen::Index begin = std::min(n, c * blocks_per_chunk * kLanes);
-    const Eigen::Index end = std::min(n, (c + 1) * blocks_per_chunk * kLanes);
-    blocks<I, H1, H2>(layers, output_scale, inputs, targets, begin, end,
-                      sums[static_cast<std::size_t>(c)]);
-  }
+  sums.resize(static_cast<std::size_t>(chunks));
   weights.resize(3);
   biases.resize(3);
   weights[0].resize(H1, I);
@@ -194,19 +213,22 @@ void fused_gradients_2_10_10(const std::vector<MlpLayer>& layers, double output_
   biases[0].resize(H1);
   biases[1].resize(H2);
   biases[2].resize(1);
-  using Sums = LaneSums<I, H1, H2>;
-  reduce<H1 * I>(
-      sums, [](const Sums& g) -> const auto& { return g.w1; }, weights[0].data());
-  reduce<H2 * H1>(
-      sums, [](const Sums& g) -> const auto& { return g.w2; }, weights[1].data());
-  reduce<H2>(
-      sums, [](const Sums& g) -> const auto& { return g.w3; }, weights[2].data());
-  reduce<H1>(
-      sums, [](const Sums& g) -> const auto& { return g.b1; }, biases[0].data());
-  reduce<H2>(
-      sums, [](const Sums& g) -> const auto& { return g.b2; }, biases[1].data());
-  reduce<1>(
-      sums, [](const Sums& g) -> const auto& { return g.b3; }, biases[2].data());
+  using R = Rows<I, H1, H2>;
+  // One team for both loops: each chunk zeroed and summed by its thread, then the rows reduced
+  // over the threads (the implicit barrier between the loops waits for every chunk).
+#pragma omp parallel if (chunks > 1)
+  {
+#pragma omp for schedule(static)
+    for (Eigen::Index c = 0; c < chunks; ++c) {
+      const Eigen::Index begin = std::min(n, c * blocks_per_chunk * kLanes);
+      const Eigen::Index end = std::min(n, (c + 1) * blocks_per_chunk * kLanes);
+      LaneSums<I, H1, H2>& mine = sums[static_cast<std::size_t>(c)];
+      mine = LaneSums<I, H1, H2>{};
+      blocks<I, H1, H2>(layers, output_scale, inputs, targets, begin, end, mine);
+    }
+#pragma omp for schedule(static)
+    for (int k = 0; k < R::kRows; ++k) R::out(weights, biases, k) = reduce_row(sums, k);
+  }
 }
 
 }  // namespace imm::trainer::mlp
