@@ -171,6 +171,32 @@ TEST(InputEstimatorTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit)
   }
 }
 
+// Blocks of 16 lanes (where the AVX-512 clone runs) and of 8 give the same bits: both run here
+// whatever the CPU; 13 tracks are one whole block of 16 lanes and a partial one.
+TEST(InputEstimatorTrackBank, TheWideAndNarrowBlocksGiveTheSameBits) {
+  std::mt19937_64 rng(19);
+  const MlpInputEstimatorModel model = random_model(rng, 2);
+  constexpr int kTracks = 13;
+  InputEstimatorTrackBank wide(model, kTracks, true), narrow(model, kTracks, false);
+  for (int t = 0; t < kTracks; ++t) {
+    wide.initialize(static_cast<std::size_t>(t), start_of(t));
+    narrow.initialize(static_cast<std::size_t>(t), start_of(t));
+  }
+  std::vector<Eigen::Vector2d> plots(kTracks);
+  std::vector<StepStatus> a(kTracks), b(kTracks);
+  for (int k = 0; k < 80; ++k) {
+    for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng);
+    wide.step(plots, a);
+    narrow.step(plots, b);
+    ASSERT_EQ(a, b);
+    for (std::size_t t = 0; t < kTracks; ++t) {
+      ASSERT_EQ(wide.estimate(t).mean, narrow.estimate(t).mean);
+      ASSERT_EQ(wide.estimate(t).covariance, narrow.estimate(t).covariance);
+      ASSERT_EQ(wide.acceleration(t), narrow.acceleration(t));
+    }
+  }
+}
+
 TEST(InputEstimatorTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTracksUntouched) {
   std::mt19937_64 rng(11);
   const MlpInputEstimatorModel model = random_model(rng, 2);

@@ -20,7 +20,6 @@ namespace imm {
 namespace {
 
 using lanes::kMaxLevels;
-constexpr int W = GaFuzzyTrackBank::kBlock;
 // State slots of mode j at j * kModeSlots + entry; the combined estimate after the modes.
 constexpr int kX0 = 0, kX1 = 1, kP00 = 2, kP01 = 3, kP11 = 4, kLogMu = 5, kScaledMu = 6,
               kPrevious = 7, kModeSlots = 8;
@@ -34,8 +33,9 @@ struct BankConstants {
   const lanes::FuzzyLevelConstants* levels = nullptr;
 };
 
-// One IMM cycle of one block's lanes. `state` points at the block's first lane of slot 0; `z` the
-// lanes' plots; `stepped` 1 for a lane to step; `code` receives each lane's outcome.
+// One IMM cycle of one block's W lanes. `state` points at the block's first lane of slot 0; `z`
+// the lanes' plots; `stepped` 1 for a lane to step; `code` receives each lane's outcome.
+template <int W>
 [[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const BankConstants& b, double* state,
                                                    std::ptrdiff_t stride, const double* z,
                                                    const double* stepped, double* code) {
@@ -154,7 +154,9 @@ struct BankConstants {
 
 }  // namespace
 
-GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capacity) {
+GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capacity,
+                                   bool wide_blocks)
+    : wide_blocks_(wide_blocks) {
   spec.validate();
   modes_ = static_cast<int>(spec.levels.size());
   const Eigen::MatrixXd transition = spec.settings.transition(modes_);
@@ -239,7 +241,14 @@ void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<St
       z[l + 1] = usable ? plots[track].y() : (real ? nan : 0.0);
       stepped[l] = stepped[l + 1] = real ? 1.0 : 0.0;
     }
-    step_block(constants, state_.data() + first, stride_, z, stepped, outcome_.data());
+    if (wide_blocks_) {
+      step_block<kBlock>(constants, state_.data() + first, stride_, z, stepped, outcome_.data());
+    } else {
+      for (std::size_t half = 0; half < static_cast<std::size_t>(kBlock); half += kBlock / 2) {
+        step_block<kBlock / 2>(constants, state_.data() + first + half, stride_, z + half,
+                               stepped + half, outcome_.data() + half);
+      }
+    }
     for (std::size_t l = 0; l < static_cast<std::size_t>(kBlock) && first + l < lanes; l += 2) {
       const double c = outcome_[l];
       status[(first + l) / 2] = c == kOk          ? StepStatus::kOk

@@ -18,7 +18,6 @@
 namespace imm {
 namespace {
 
-constexpr int W = InputEstimatorTrackBank::kBlock;
 constexpr int kWindow = InnovationFeatures::kWindow;
 // State slots: the primary KF, û, the feature KF, ino(k − i) for i = 0 … 10 (newest first), the
 // feature KF's last ten ν in ring order and the ring's head.
@@ -62,9 +61,10 @@ struct AxisStep {
   return {e, nu, s, pick(usable, pick(finite, kOk, kNonFinite), kSingular)};
 }
 
-// One scan of one block's lanes. `state` points at the block's first lane of slot 0; `z` the
+// One scan of one block's W lanes. `state` points at the block's first lane of slot 0; `z` the
 // lanes' plots (NaN: unusable); `stepped` 1 for a lane to step; `code` receives each lane's
 // outcome; `work` holds two layers' activations.
+template <int W>
 [[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const BankConstants& b, double* state,
                                                    std::ptrdiff_t stride, const double* z,
                                                    const double* stepped, double* code,
@@ -153,8 +153,8 @@ struct AxisStep {
 }  // namespace
 
 InputEstimatorTrackBank::InputEstimatorTrackBank(const MlpInputEstimatorModel& model,
-                                                 std::size_t capacity)
-    : model_(model) {
+                                                 std::size_t capacity, bool wide_blocks)
+    : model_(model), wide_blocks_(wide_blocks) {
   // The one-track filter's checks, with its wording.
   const MlpInputEstimatorFilter check(model, model.settings);
   (void)check;
@@ -244,7 +244,14 @@ void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
       z[l + 1] = usable ? plots[track].y() : (real ? nan : 0.0);
       stepped[l] = stepped[l + 1] = real ? 1.0 : 0.0;
     }
-    step_block(b, state_.data() + first, stride_, z, stepped, outcome, work, widest_);
+    if (wide_blocks_) {
+      step_block<kBlock>(b, state_.data() + first, stride_, z, stepped, outcome, work, widest_);
+    } else {
+      for (std::size_t half = 0; half < static_cast<std::size_t>(kBlock); half += kBlock / 2) {
+        step_block<kBlock / 2>(b, state_.data() + first + half, stride_, z + half, stepped + half,
+                               outcome + half, work, widest_);
+      }
+    }
     for (std::size_t l = 0; l < static_cast<std::size_t>(kBlock) && first + l < lanes; l += 2) {
       const double c = outcome[l];
       status[(first + l) / 2] = c == kOk         ? StepStatus::kOk

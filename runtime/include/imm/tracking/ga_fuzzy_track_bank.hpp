@@ -5,11 +5,11 @@
 /// multi-track form of make_ga_fuzzy_imm_filter, as TrackBank is of the plain IMM.
 ///
 /// Layout: every track is two axis filters (x, then y), and every axis filter is a lane. Lanes
-/// are stored structure of arrays and stepped 8 at a time (four tracks) in loops over lanes with
-/// no branches and no calls (fuzzy_noise_lanes.hpp, the arithmetic the trainer's GA fitness runs
-/// too), which the compiler vectorizes: AVX-512 or AVX2 where the CPU has it, chosen at run time,
-/// without fused multiply-add, so a track's result does not depend on the instruction set, on its
-/// position or on the number of tracks.
+/// are stored structure of arrays and stepped 16 or 8 at a time (eight or four tracks) in loops
+/// over lanes with no branches and no calls (fuzzy_noise_lanes.hpp, the arithmetic the trainer's GA
+/// fitness runs too), which the compiler vectorizes: AVX-512 or AVX2 where the CPU has it, chosen
+/// at run time, without fused multiply-add, so a track's result does not depend on the instruction
+/// set, on its position or on the number of tracks.
 ///
 /// Numerics are those of ImmEstimator: log-space mode probabilities (log μ stored, μ̃ = μ / max μ
 /// kept from the last posterior for the prediction), likelihoods N(r; 0, S) in log space. The
@@ -32,6 +32,7 @@
 #include "imm/estimation/step_status.hpp"
 #include "imm/filters/fuzzy_noise_lanes.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/math/lane_math.hpp"
 #include "imm/runtime_export.hpp"
 
 namespace imm {
@@ -39,13 +40,16 @@ namespace imm {
 /// N tracks of one GA-fuzzy IMM with Cartesian plots, stepped together (see the file comment).
 class IMM_RUNTIME_EXPORT GaFuzzyTrackBank {
  public:
-  /// Axis lanes per block: one AVX-512 or two AVX2 vectors.
-  static constexpr int kBlock = 8;
+  /// Axis lanes per block of the layout: stepped as one block (two AVX-512 vectors: two
+  /// independent chains per loop) where the AVX-512 clone runs, as two blocks of 8 otherwise.
+  static constexpr int kBlock = 16;
 
   /// Room for `capacity` tracks of the IMM of `spec`. Throws InvalidParameter naming the field
   /// for an invalid spec, a transition probability of zero ("settings.transition_stay") or a
-  /// capacity outside [1, 2^26].
-  GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capacity);
+  /// capacity outside [1, 2^26]. `wide_blocks` steps blocks of 16 lanes at once (the default
+  /// where the AVX-512 clone runs) or of 8; the results do not depend on it.
+  GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capacity,
+                   bool wide_blocks = wide_vector_clones());
 
   /// The number of tracks it holds.
   [[nodiscard]] std::size_t capacity() const { return capacity_; }
@@ -77,6 +81,7 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank {
   [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
   [[nodiscard]] std::size_t checked(std::size_t track) const;
 
+  bool wide_blocks_ = false;
   int modes_ = 0;
   std::size_t capacity_ = 0;
   std::ptrdiff_t stride_ = 0;       // axis lanes, rounded up to whole blocks

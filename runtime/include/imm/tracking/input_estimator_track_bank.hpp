@@ -6,7 +6,7 @@
 /// of the plain IMM.
 ///
 /// Layout: every track is two axis filters (x, then y), every axis filter a lane; lanes are
-/// stored structure of arrays and stepped kBlock at a time in loops over lanes with no branches
+/// stored structure of arrays and stepped 16 or 8 at a time in loops over lanes with no branches
 /// and no calls (cv_axis_lanes.hpp for both Kalman filters, the network layer by layer), which the
 /// compiler vectorizes: AVX-512 or AVX2 where the CPU has it, chosen at run time, without fused
 /// multiply-add, so a track's result does not depend on the instruction set, on its position or
@@ -27,6 +27,7 @@
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
 #include "imm/filters/mlp_input_estimator.hpp"
+#include "imm/math/lane_math.hpp"
 #include "imm/runtime_export.hpp"
 
 namespace imm {
@@ -35,13 +36,16 @@ namespace imm {
 /// comment).
 class IMM_RUNTIME_EXPORT InputEstimatorTrackBank {
  public:
-  /// Axis lanes per block: one AVX-512 or two AVX2 vectors.
-  static constexpr int kBlock = 8;
+  /// Axis lanes per block of the layout: stepped as one block (two AVX-512 vectors) where the
+  /// AVX-512 clone runs, as two blocks of 8 otherwise.
+  static constexpr int kBlock = 16;
 
   /// Room for `capacity` tracks of `model`. Throws InvalidParameter naming the field as
   /// MlpInputEstimatorFilter does (settings, a network that does not take two inputs,
-  /// input_variance), or for a capacity outside [1, 2^26].
-  InputEstimatorTrackBank(const MlpInputEstimatorModel& model, std::size_t capacity);
+  /// input_variance), or for a capacity outside [1, 2^26]. `wide_blocks` steps blocks of 16 lanes
+  /// at once (the default where the AVX-512 clone runs) or of 8; the results do not depend on it.
+  InputEstimatorTrackBank(const MlpInputEstimatorModel& model, std::size_t capacity,
+                          bool wide_blocks = wide_vector_clones());
 
   /// The number of tracks it holds.
   [[nodiscard]] std::size_t capacity() const { return capacity_; }
@@ -76,6 +80,7 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank {
   [[nodiscard]] std::size_t checked(std::size_t track) const;
 
   MlpInputEstimatorModel model_;
+  bool wide_blocks_ = false;
   std::size_t capacity_ = 0;
   std::ptrdiff_t stride_ = 0;    // axis lanes, rounded up to whole blocks
   std::vector<double> network_;  // the layers' weights (row-major) and biases, in order
