@@ -44,8 +44,9 @@ template <int W>
   auto st = [&](int j, int entry) { return state + (j * kModeSlots + entry) * stride; };
   auto combined = [&](int entry) { return state + (n * kModeSlots + entry) * stride; };
 
-  // The modes' current states, as the mixing reads them, and the states the step gives.
-  lanes::AxisModes<W> now, next;
+  // The modes' current states, as the mixing reads them, and the states the step gives: the n
+  // modes' fields are written before they are read, the others never read.
+  lanes::AxisModes<W> now, next;  // NOLINT(cppcoreguidelines-pro-type-member-init)
   for (int i = 0; i < n; ++i) {
     IMM_LANES {
       now.x0[i][l] = st(i, kX0)[l];
