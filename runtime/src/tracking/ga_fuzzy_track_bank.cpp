@@ -5,11 +5,13 @@
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
+#include "axis_lane_bank.hpp"
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
@@ -23,8 +25,7 @@ using lanes::kMaxLevels;
 // State slots of mode j at j * kModeSlots + entry; the combined estimate after the modes.
 constexpr int kX0 = 0, kX1 = 1, kP00 = 2, kP01 = 3, kP11 = 4, kLogMu = 5, kScaledMu = 6,
               kPrevious = 7, kModeSlots = 8;
-// Per-lane outcomes, in the order the one-track filter checks them.
-constexpr double kOk = 0.0, kBadPlot = 1.0, kSingular = 2.0, kNonFinite = 3.0, kUnderflow = 4.0;
+using bank::kNonFinite, bank::kOk, bank::kSingular, bank::kUnderflow;
 
 struct BankConstants {
   int modes = 0;
@@ -131,12 +132,9 @@ template <int W>
   lanes::mix<W>(n, mu, next, e0, e1, e00, e01, e11);
 
   // A track commits when both its lanes (x at an even lane, y after it) succeeded.
+  bank::track_codes<W>(outcome, z, code);
   Lanes commit;
-  for (int l = 0; l < W; l += 2) {
-    const double track_outcome = outcome[l] != kOk ? outcome[l] : outcome[l + 1];
-    code[l] = code[l + 1] = pick(z[l] == z[l] && z[l + 1] == z[l + 1], track_outcome, kBadPlot);
-    commit[l] = commit[l + 1] = stepped[l] != 0.0 && code[l] == kOk ? 1.0 : 0.0;
-  }
+  IMM_LANES commit[l] = pick((stepped[l] != 0.0) & (code[l] == kOk), 1.0, 0.0);
   for (int j = 0; j < n; ++j) {
     const double* values[kModeSlots] = {next.x0[j],  next.x1[j],   next.p00[j], next.p01[j],
                                         next.p11[j], posterior[j], scaled[j],   next.previous[j]};
@@ -178,8 +176,7 @@ GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capac
   axis_ = lanes::FuzzyAxisConstants(spec.settings.sample_period, spec.settings.measurement_sigma,
                                     spec.antecedents);
   state_.assign(static_cast<std::size_t>((modes_ * kModeSlots + 5) * stride_), 0.0);
-  plots_.assign(std::size_t{2} * kBlock, 0.0);
-  outcome_.assign(kBlock, 0.0);
+  scratch_.assign(std::size_t{3} * kBlock, 0.0);
   initialized_.assign(capacity, 0);
 }
 
@@ -196,9 +193,7 @@ void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& sta
   const double top = *std::max_element(initial_log_mu_.begin(), initial_log_mu_.end());
   for (int axis = 0; axis < 2; ++axis) {
     const std::ptrdiff_t lane = 2 * t + axis;
-    const int a = 2 * axis;
-    const double values[5] = {state.mean(a), state.mean(a + 1), state.covariance(a, a),
-                              state.covariance(a, a + 1), state.covariance(a + 1, a + 1)};
+    const std::array<double, 5> values = bank::axis_entries(state, axis);
     // ImmEstimator::initialize: every mode takes the state, then the combination with
     // μ_j = exp(log μ_j(0)).
     double sum[5] = {};
@@ -228,54 +223,18 @@ void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& sta
 void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
   bank::check_step("GaFuzzyTrackBank", plots.size(), status.size(), initialized_);
   const BankConstants constants{modes_, transition_.data(), &axis_, levels_.data()};
-  const std::size_t lanes = 2 * plots.size();
-  double* z = plots_.data();
-  double* stepped = plots_.data() + kBlock;
-  for (std::size_t first = 0; first < lanes; first += kBlock) {
-    for (std::size_t l = 0; l < static_cast<std::size_t>(kBlock); l += 2) {
-      const std::size_t track = (first + l) / 2;
-      const bool real = track < plots.size();
-      const bool usable = real && limits::usable_measurement(plots[track]);
-      // An unusable plot's lanes run on a NaN plot (marked bad in the kernel), an empty lane on 0.
-      const double nan = std::numeric_limits<double>::quiet_NaN();
-      z[l] = usable ? plots[track].x() : (real ? nan : 0.0);
-      z[l + 1] = usable ? plots[track].y() : (real ? nan : 0.0);
-      stepped[l] = stepped[l + 1] = real ? 1.0 : 0.0;
-    }
-    if (wide_blocks_) {
-      step_block<kBlock>(constants, state_.data() + first, stride_, z, stepped, outcome_.data());
-    } else {
-      for (std::size_t half = 0; half < static_cast<std::size_t>(kBlock); half += kBlock / 2) {
-        step_block<kBlock / 2>(constants, state_.data() + first + half, stride_, z + half,
-                               stepped + half, outcome_.data() + half);
-      }
-    }
-    for (std::size_t l = 0; l < static_cast<std::size_t>(kBlock) && first + l < lanes; l += 2) {
-      const double c = outcome_[l];
-      status[(first + l) / 2] = c == kOk          ? StepStatus::kOk
-                                : c == kBadPlot   ? StepStatus::kInvalidMeasurement
-                                : c == kSingular  ? StepStatus::kSingularInnovation
-                                : c == kNonFinite ? StepStatus::kNonFiniteResult
-                                                  : StepStatus::kProbabilityUnderflow;
-    }
-  }
+  bank::step_blocks<kBlock>(
+      plots, status, wide_blocks_, scratch_.data(),
+      [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
+        step_block<decltype(width)::value>(constants, state_.data() + first, stride_, z, stepped,
+                                           code);
+      });
 }
 
 GaussianState<4> GaFuzzyTrackBank::estimate(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
-  GaussianState<4> out;
-  out.covariance.setZero();
-  for (int axis = 0; axis < 2; ++axis) {
-    const std::ptrdiff_t lane = 2 * t + axis;
-    const int a = 2 * axis;
-    auto value = [&](int e) { return slot(modes_ * kModeSlots + e)[lane]; };
-    out.mean(a) = value(kX0);
-    out.mean(a + 1) = value(kX1);
-    out.covariance(a, a) = value(kP00);
-    out.covariance(a, a + 1) = out.covariance(a + 1, a) = value(kP01);
-    out.covariance(a + 1, a + 1) = value(kP11);
-  }
-  return out;
+  return bank::two_axis_estimate(
+      static_cast<std::ptrdiff_t>(checked(track)),
+      [&](int e, std::ptrdiff_t lane) { return slot(modes_ * kModeSlots + e)[lane]; });
 }
 
 ModeVector GaFuzzyTrackBank::mode_probabilities(std::size_t track) const {

@@ -5,9 +5,11 @@
 #include "imm/tracking/input_estimator_track_bank.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
+#include "axis_lane_bank.hpp"
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
@@ -23,8 +25,7 @@ constexpr int kWindow = InnovationFeatures::kWindow;
 // feature KF's last ten ν in ring order and the ring's head.
 constexpr int kPrimary = 0, kInput = 5, kCv = 6, kIno = 11, kNu = kIno + kWindow + 1,
               kHead = kNu + kWindow, kSlots = kHead + 1;
-// Per-lane outcomes, in the order the one-track filter checks them.
-constexpr double kOk = 0.0, kBadPlot = 1.0, kSingular = 2.0, kNonFinite = 3.0;
+using bank::kNonFinite, bank::kOk, bank::kSingular;
 
 struct BankConstants {
   double T, R, g0, g1;
@@ -53,9 +54,8 @@ struct AxisStep {
   p.p01 += q01;
   p.p11 += q11;
   const double nu = z - p.x0;
-  const double s = p.p00 + R;
-  double s_inverse;
-  const lanes::AxisEstimate e = lanes::position_update(p, R, nu, s_inverse);
+  double s, s_inverse;
+  const lanes::AxisEstimate e = lanes::position_update(p, R, nu, s, s_inverse);
   const bool usable = (s > 0.0) & (s < std::numeric_limits<double>::infinity());
   const bool finite = std::isfinite(e.x0 + e.x1 + e.p00 + e.p01 + e.p11);
   return {e, nu, s, pick(usable, pick(finite, kOk, kNonFinite), kSingular)};
@@ -125,10 +125,7 @@ template <int W>
     layer = bias + outputs;
   }
   // û(k): the scaled output less the bias, clipped at 0, signed; then the track's commit.
-  for (int l = 0; l < W; l += 2) {
-    const double track_outcome = outcome[l] != kOk ? outcome[l] : outcome[l + 1];
-    code[l] = code[l + 1] = pick(z[l] == z[l] && z[l + 1] == z[l + 1], track_outcome, kBadPlot);
-  }
+  bank::track_codes<W>(outcome, z, code);
   IMM_LANES {
     const double raw = b.output_scale * in[l] - b.output_bias;
     const double magnitude = pick(0.0 < raw, raw, 0.0);
@@ -188,9 +185,7 @@ void InputEstimatorTrackBank::initialize(std::size_t track, const GaussianState<
   const auto t = static_cast<std::ptrdiff_t>(checked(track));
   for (int axis = 0; axis < 2; ++axis) {
     const std::ptrdiff_t lane = 2 * t + axis;
-    const int a = 2 * axis;
-    const double values[5] = {state.mean(a), state.mean(a + 1), state.covariance(a, a),
-                              state.covariance(a, a + 1), state.covariance(a + 1, a + 1)};
+    const std::array<double, 5> values = bank::axis_entries(state, axis);
     for (int e = 0; e < 5; ++e) slot(kPrimary + e)[lane] = slot(kCv + e)[lane] = values[e];
     slot(kInput)[lane] = 0.0;
     for (int i = 0; i <= kWindow; ++i) slot(kIno + i)[lane] = InnovationFeatures::kPad;
@@ -228,55 +223,19 @@ void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
                         static_cast<int>(model_.network.layers().size()),
                         shape_.data(),
                         network_.data()};
-  const std::size_t lanes = 2 * plots.size();
-  double* z = scratch_.data();
-  double* stepped = z + kBlock;
-  double* outcome = stepped + kBlock;
-  double* work = outcome + kBlock;
-  for (std::size_t first = 0; first < lanes; first += kBlock) {
-    for (std::size_t l = 0; l < static_cast<std::size_t>(kBlock); l += 2) {
-      const std::size_t track = (first + l) / 2;
-      const bool real = track < plots.size();
-      const bool usable = real && limits::usable_measurement(plots[track]);
-      // An unusable plot's lanes run on a NaN plot (marked bad in the kernel), an empty lane on 0.
-      const double nan = std::numeric_limits<double>::quiet_NaN();
-      z[l] = usable ? plots[track].x() : (real ? nan : 0.0);
-      z[l + 1] = usable ? plots[track].y() : (real ? nan : 0.0);
-      stepped[l] = stepped[l + 1] = real ? 1.0 : 0.0;
-    }
-    if (wide_blocks_) {
-      step_block<kBlock>(b, state_.data() + first, stride_, z, stepped, outcome, work, widest_);
-    } else {
-      for (std::size_t half = 0; half < static_cast<std::size_t>(kBlock); half += kBlock / 2) {
-        step_block<kBlock / 2>(b, state_.data() + first + half, stride_, z + half, stepped + half,
-                               outcome + half, work, widest_);
-      }
-    }
-    for (std::size_t l = 0; l < static_cast<std::size_t>(kBlock) && first + l < lanes; l += 2) {
-      const double c = outcome[l];
-      status[(first + l) / 2] = c == kOk         ? StepStatus::kOk
-                                : c == kBadPlot  ? StepStatus::kInvalidMeasurement
-                                : c == kSingular ? StepStatus::kSingularInnovation
-                                                 : StepStatus::kNonFiniteResult;
-    }
-  }
+  double* work = scratch_.data() + std::ptrdiff_t{3} * kBlock;
+  bank::step_blocks<kBlock>(
+      plots, status, wide_blocks_, scratch_.data(),
+      [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
+        step_block<decltype(width)::value>(b, state_.data() + first, stride_, z, stepped, code,
+                                           work, widest_);
+      });
 }
 
 GaussianState<4> InputEstimatorTrackBank::estimate(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
-  GaussianState<4> out;
-  out.covariance.setZero();
-  for (int axis = 0; axis < 2; ++axis) {
-    const std::ptrdiff_t lane = 2 * t + axis;
-    const int a = 2 * axis;
-    auto value = [&](int e) { return slot(kPrimary + e)[lane]; };
-    out.mean(a) = value(0);
-    out.mean(a + 1) = value(1);
-    out.covariance(a, a) = value(2);
-    out.covariance(a, a + 1) = out.covariance(a + 1, a) = value(3);
-    out.covariance(a + 1, a + 1) = value(4);
-  }
-  return out;
+  return bank::two_axis_estimate(
+      static_cast<std::ptrdiff_t>(checked(track)),
+      [&](int e, std::ptrdiff_t lane) { return slot(kPrimary + e)[lane]; });
 }
 
 Eigen::Vector2d InputEstimatorTrackBank::acceleration(std::size_t track) const {

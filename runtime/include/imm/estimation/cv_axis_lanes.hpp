@@ -27,10 +27,12 @@ struct AxisEstimate {
 
 /// The update of a predicted estimate by a position plot with residual r = z − x0 and variance R,
 /// in the order of update_with_innovation: S = p00 + R, K = [p00, p01] / S, the Joseph form with
-/// its off-diagonal symmetrized. `s_inverse` receives 1/S.
+/// its off-diagonal symmetrized. `s` and `s_inverse` receive S and 1/S.
 [[gnu::always_inline]] inline AxisEstimate position_update(const AxisEstimate& q, double R,
-                                                           double residual, double& s_inverse) {
+                                                           double residual, double& s,
+                                                           double& s_inverse) {
   const double S = q.p00 + R;
+  s = S;
   s_inverse = 1.0 / S;
   const double k0 = q.p00 * s_inverse, k1 = q.p01 * s_inverse;
   const double C00 = q.p00 - k0 * q.p00, C01 = q.p01 - k0 * q.p01;

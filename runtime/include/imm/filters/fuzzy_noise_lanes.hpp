@@ -168,10 +168,9 @@ template <int W>
     q01[l] += q * a.g01;
     q11[l] += q * a.g11;
     // The Kalman update with H = [1 0] in the order of update_with_innovation.
-    double S_inverse;
+    double S, S_inverse;
     const AxisEstimate e =
-        position_update({a0[l], m1[l], q00[l], q01[l], q11[l]}, a.R, residual[l], S_inverse);
-    const double S = q00[l] + a.R;
+        position_update({a0[l], m1[l], q00[l], q01[l], q11[l]}, a.R, residual[l], S, S_inverse);
     next.x0[j][l] = e.x0;
     next.x1[j][l] = e.x1;
     next.p00[j][l] = e.p00;

@@ -90,8 +90,7 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank {
   lanes::FuzzyAxisConstants axis_;
   std::vector<lanes::FuzzyLevelConstants> levels_;
   std::vector<double> state_;
-  std::vector<double> plots_;    // one block's axis plots at a time
-  std::vector<double> outcome_;  // one block's per-lane status codes
+  std::vector<double> scratch_;  // one block's plots, step flags and codes
   std::vector<unsigned char> initialized_;
 };
 

@@ -1,0 +1,109 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+// What the banks whose tracks are two axis lanes (x at an even lane, y after it) share —
+// GaFuzzyTrackBank and InputEstimatorTrackBank: the outcome codes their kernels write, a track's
+// code from its two lanes', the step over blocks of lanes, and a track's start and estimate in
+// its lanes' slots. Not installed.
+
+#include <Eigen/Core>
+#include <array>
+#include <cstddef>
+#include <limits>
+#include <span>
+#include <type_traits>
+
+#include "imm/core/physical_limits.hpp"
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/step_status.hpp"
+#include "imm/math/lane_math.hpp"
+
+namespace imm::bank {
+
+/// Per-lane outcomes, in the order the one-track filters check them.
+inline constexpr double kOk = 0.0, kBadPlot = 1.0, kSingular = 2.0, kNonFinite = 3.0,
+                        kUnderflow = 4.0;
+
+/// Each track's code from its lanes' outcomes: that of the first axis that failed, or kBadPlot
+/// where the step gave the lanes a NaN plot (an unusable one). Both lanes get it.
+template <int W>
+[[gnu::always_inline]] inline void track_codes(const double* outcome, const double* z,
+                                               double* code) {
+  for (int l = 0; l < W; l += 2) {
+    const double track_outcome = outcome[l] != kOk ? outcome[l] : outcome[l + 1];
+    code[l] = code[l + 1] = pick(z[l] == z[l] && z[l + 1] == z[l + 1], track_outcome, kBadPlot);
+  }
+}
+
+/// The StepStatus of a code.
+[[nodiscard]] inline StepStatus status_of(double code) {
+  return code == kOk          ? StepStatus::kOk
+         : code == kBadPlot   ? StepStatus::kInvalidMeasurement
+         : code == kSingular  ? StepStatus::kSingularInnovation
+         : code == kNonFinite ? StepStatus::kNonFiniteResult
+                              : StepStatus::kProbabilityUnderflow;
+}
+
+/// One step of tracks 0 … plots.size() − 1 over blocks of kBlock axis lanes. Per block: the
+/// lanes' plots (NaN for an unusable plot, 0 for an empty lane) and step flags into `scratch`
+/// (3 kBlock doubles), then kernel(std::integral_constant<int, W>{}, first, z, stepped, code)
+/// once with W = kBlock (`wide`) or twice with W = kBlock / 2, first the block's first lane; then
+/// every track's status from its code.
+template <int kBlock, class Kernel>
+void step_blocks(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status, bool wide,
+                 double* scratch, Kernel&& kernel) {
+  double* z = scratch;
+  double* stepped = z + kBlock;
+  double* code = stepped + kBlock;
+  const std::size_t lanes = 2 * plots.size();
+  constexpr auto kLanes = static_cast<std::size_t>(kBlock);
+  for (std::size_t first = 0; first < lanes; first += kLanes) {
+    for (std::size_t l = 0; l < kLanes; l += 2) {
+      const std::size_t track = (first + l) / 2;
+      const bool real = track < plots.size();
+      const bool usable = real && limits::usable_measurement(plots[track]);
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      z[l] = usable ? plots[track].x() : (real ? nan : 0.0);
+      z[l + 1] = usable ? plots[track].y() : (real ? nan : 0.0);
+      stepped[l] = stepped[l + 1] = real ? 1.0 : 0.0;
+    }
+    if (wide) {
+      kernel(std::integral_constant<int, kBlock>{}, first, z, stepped, code);
+    } else {
+      for (std::size_t half = 0; half < kLanes; half += kLanes / 2) {
+        kernel(std::integral_constant<int, kBlock / 2>{}, first + half, z + half, stepped + half,
+               code + half);
+      }
+    }
+    for (std::size_t l = 0; l < kLanes && first + l < lanes; l += 2) {
+      status[(first + l) / 2] = status_of(code[l]);
+    }
+  }
+}
+
+/// Axis `axis` (0: x, 1: y) of a [x, vx, y, vy] state: x0, x1, p00, p01, p11 (the cross-axis
+/// covariance is not used, as by the one-track filters).
+[[nodiscard]] inline std::array<double, 5> axis_entries(const GaussianState<4>& state, int axis) {
+  const int a = 2 * axis;
+  return {state.mean(a), state.mean(a + 1), state.covariance(a, a), state.covariance(a, a + 1),
+          state.covariance(a + 1, a + 1)};
+}
+
+/// Track `track`'s [x, vx, y, vy] with a block-diagonal covariance: entry(e, lane) gives x0, x1,
+/// p00, p01, p11 (e = 0 … 4) of axis lane `lane`.
+template <class Entry>
+[[nodiscard]] GaussianState<4> two_axis_estimate(std::ptrdiff_t track, Entry&& entry) {
+  GaussianState<4> out;
+  out.covariance.setZero();
+  for (int axis = 0; axis < 2; ++axis) {
+    const std::ptrdiff_t lane = 2 * track + axis;
+    const int a = 2 * axis;
+    out.mean(a) = entry(0, lane);
+    out.mean(a + 1) = entry(1, lane);
+    out.covariance(a, a) = entry(2, lane);
+    out.covariance(a, a + 1) = out.covariance(a + 1, a) = entry(3, lane);
+    out.covariance(a + 1, a + 1) = entry(4, lane);
+  }
+  return out;
+}
+
+}  // namespace imm::bank
