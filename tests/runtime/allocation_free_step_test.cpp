@@ -138,28 +138,37 @@ TEST(AllocationFreeStep, TrackBankStep) {
   EXPECT_EQ(allocations(), before);
 }
 
-// The GA-fuzzy IMM's bank: 1001 tracks (whole blocks of four and a partial one), bad plots
+// Tracks in the banks' allocation tests: whole blocks and a partial one.
+constexpr std::size_t kBankTracks = 1001;
+
+// 100 steps of every track of `bank` (track t at (dx k + t, dy k), track 7 a NaN plot) allocate
+// nothing; the bad plot is refused and the last track stepped.
+template <class Bank>
+void expect_bank_steps_allocate_nothing(Bank& bank, double dx, double dy) {
+  for (std::size_t t = 0; t < kBankTracks; ++t) bank.initialize(t, GaussianState<4>{});
+  std::vector<Eigen::Vector2d> plots(kBankTracks);
+  std::vector<StepStatus> status(kBankTracks);
+  const long before = allocations();
+  for (int k = 0; k < 100; ++k) {
+    for (std::size_t t = 0; t < kBankTracks; ++t)
+      plots[t] = Eigen::Vector2d(dx * k + static_cast<double>(t), dy * k);
+    plots[7] = Eigen::Vector2d(std::nan(""), 0.0);
+    bank.step(plots, status);
+  }
+  EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
+  EXPECT_EQ(status[kBankTracks - 1], StepStatus::kOk);
+  EXPECT_EQ(allocations(), before);
+}
+
+// The GA-fuzzy IMM's bank: kBankTracks tracks, bad plots
 // included.
 TEST(AllocationFreeStep, GaFuzzyTrackBankStep) {
   GaFuzzyImmSpec spec;
   spec.levels = {
       {"u0.001", 0.001, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 4e-6}, {1.0, 0.5, 0.5, 2.0, 2e-6}})},
       {"u0.1", 0.1, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1e-2}})}};
-  const std::size_t tracks = 1001;
-  GaFuzzyTrackBank bank(spec, tracks);
-  for (std::size_t t = 0; t < tracks; ++t) bank.initialize(t, GaussianState<4>{});
-  std::vector<Eigen::Vector2d> plots(tracks);
-  std::vector<StepStatus> status(tracks);
-  const long before = allocations();
-  for (int k = 0; k < 100; ++k) {
-    for (std::size_t t = 0; t < tracks; ++t)
-      plots[t] = Eigen::Vector2d(0.01 * k + static_cast<double>(t), -0.02 * k);
-    plots[7] = Eigen::Vector2d(std::nan(""), 0.0);
-    bank.step(plots, status);
-  }
-  EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
-  EXPECT_EQ(status[1000], StepStatus::kOk);
-  EXPECT_EQ(allocations(), before);
+  GaFuzzyTrackBank bank(spec, kBankTracks);
+  expect_bank_steps_allocate_nothing(bank, 0.01, -0.02);
 }
 
 TEST(AllocationFreeStep, MixedDimensionPolarImmStep) {
@@ -227,13 +236,19 @@ TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
   }
 }
 
-TEST(AllocationFreeStep, MlpInputEstimatorStep) {
+// A 2-10-1 input estimator with constant weights.
+MlpInputEstimatorModel small_input_estimator() {
   MlpInputEstimatorModel model;
   MlpLayer hidden{Eigen::MatrixXd::Constant(10, 2, 0.1), Eigen::VectorXd::Constant(10, 0.1),
                   Activation::kSigmoid};
   MlpLayer output{Eigen::MatrixXd::Constant(1, 10, 0.2), Eigen::VectorXd::Constant(1, -1.0),
                   Activation::kSigmoid};
   model.network = Mlp({hidden, output}, 12.0);
+  return model;
+}
+
+TEST(AllocationFreeStep, MlpInputEstimatorStep) {
+  const MlpInputEstimatorModel model = small_input_estimator();
   MlpInputEstimatorFilter filter(model, model.settings);
   GaussianState<2> start;
   start.mean << 0.0, 100.0;
@@ -244,30 +259,11 @@ TEST(AllocationFreeStep, MlpInputEstimatorStep) {
   EXPECT_EQ(allocations(), before);
 }
 
-// The input estimator's bank: 1001 tracks (whole blocks of four and a partial one), bad plots
+// The input estimator's bank: kBankTracks tracks, bad plots
 // included.
 TEST(AllocationFreeStep, InputEstimatorTrackBankStep) {
-  MlpInputEstimatorModel model;
-  MlpLayer hidden{Eigen::MatrixXd::Constant(10, 2, 0.1), Eigen::VectorXd::Constant(10, 0.1),
-                  Activation::kSigmoid};
-  MlpLayer output{Eigen::MatrixXd::Constant(1, 10, 0.2), Eigen::VectorXd::Constant(1, -1.0),
-                  Activation::kSigmoid};
-  model.network = Mlp({hidden, output}, 12.0);
-  const std::size_t tracks = 1001;
-  InputEstimatorTrackBank bank(model, tracks);
-  for (std::size_t t = 0; t < tracks; ++t) bank.initialize(t, GaussianState<4>{});
-  std::vector<Eigen::Vector2d> plots(tracks);
-  std::vector<StepStatus> status(tracks);
-  const long before = allocations();
-  for (int k = 0; k < 100; ++k) {
-    for (std::size_t t = 0; t < tracks; ++t)
-      plots[t] = Eigen::Vector2d(100.0 * k + static_cast<double>(t), -20.0 * k);
-    plots[7] = Eigen::Vector2d(std::nan(""), 0.0);
-    bank.step(plots, status);
-  }
-  EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
-  EXPECT_EQ(status[1000], StepStatus::kOk);
-  EXPECT_EQ(allocations(), before);
+  InputEstimatorTrackBank bank(small_input_estimator(), kBankTracks);
+  expect_bank_steps_allocate_nothing(bank, 100.0, -20.0);
 }
 
 TEST(AllocationFreeStep, FimmStepThroughTheTskSensor) {

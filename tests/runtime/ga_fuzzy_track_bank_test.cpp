@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -16,6 +15,7 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
+#include "testing/axis_lane_bank_checks.hpp"
 #include "testing/ga_fuzzy_specs.hpp"
 
 namespace imm {
@@ -104,33 +104,19 @@ TEST(GaFuzzyTrackBank, EqualsTheOneTrackFilterToRounding) {
   EXPECT_GT(refused, 100);  // the NaN and out-of-range plots were refused, by both
 }
 
+// The mode probabilities of track t of `a` and track u of `b`, to the bit.
+void expect_same_mu(const GaFuzzyTrackBank& a, std::size_t t, const GaFuzzyTrackBank& b,
+                    std::size_t u) {
+  testing::expect_same_bits(a.mode_probabilities(t), b.mode_probabilities(u));
+}
+
 TEST(GaFuzzyTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
   datasets::Rng specs(7);
   std::mt19937_64 rng(7);
   const GaFuzzyImmSpec spec = random_spec(specs, 3, FuzzyAntecedents::kNormalizedInnovation);
-  constexpr int kTracks = 11;
-  GaFuzzyTrackBank bank(spec, kTracks);
-  std::vector<GaFuzzyTrackBank> alone;
-  for (int t = 0; t < kTracks; ++t) {
-    bank.initialize(static_cast<std::size_t>(t), start_of(t));
-    alone.emplace_back(spec, 1);
-    alone.back().initialize(0, start_of(t));
-  }
-  std::vector<Eigen::Vector2d> plots(kTracks);
-  std::vector<StepStatus> status(kTracks);
-  for (int k = 0; k < 80; ++k) {
-    for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng);
-    bank.step(plots, status);
-    for (int t = 0; t < kTracks; ++t) {
-      const auto u = static_cast<std::size_t>(t);
-      std::vector<StepStatus> one(1);
-      alone[u].step(std::span<const Eigen::Vector2d>(&plots[u], 1), one);
-      ASSERT_EQ(one[0], status[u]);
-      const GaussianState<4> a = bank.estimate(u), b = alone[u].estimate(0);
-      ASSERT_EQ(std::memcmp(a.mean.data(), b.mean.data(), sizeof(double) * 4), 0);
-      ASSERT_EQ(std::memcmp(a.covariance.data(), b.covariance.data(), sizeof(double) * 16), 0);
-    }
-  }
+  testing::expect_tracks_independent_of_their_neighbours(
+      11, 80, [&](std::size_t n) { return GaFuzzyTrackBank(spec, n); }, start_of,
+      [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_mu);
 }
 
 // Blocks of 16 lanes (where the AVX-512 clone runs) and of 8 give the same bits: both run here
@@ -139,25 +125,9 @@ TEST(GaFuzzyTrackBank, TheWideAndNarrowBlocksGiveTheSameBits) {
   datasets::Rng specs(19);
   std::mt19937_64 rng(19);
   const GaFuzzyImmSpec spec = random_spec(specs, 3, FuzzyAntecedents::kResidual);
-  constexpr int kTracks = 13;
-  GaFuzzyTrackBank wide(spec, kTracks, true), narrow(spec, kTracks, false);
-  for (int t = 0; t < kTracks; ++t) {
-    wide.initialize(static_cast<std::size_t>(t), start_of(t));
-    narrow.initialize(static_cast<std::size_t>(t), start_of(t));
-  }
-  std::vector<Eigen::Vector2d> plots(kTracks);
-  std::vector<StepStatus> a(kTracks), b(kTracks);
-  for (int k = 0; k < 80; ++k) {
-    for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng);
-    wide.step(plots, a);
-    narrow.step(plots, b);
-    ASSERT_EQ(a, b);
-    for (std::size_t t = 0; t < kTracks; ++t) {
-      ASSERT_EQ(wide.estimate(t).mean, narrow.estimate(t).mean);
-      ASSERT_EQ(wide.estimate(t).covariance, narrow.estimate(t).covariance);
-      ASSERT_EQ(wide.mode_probabilities(t), narrow.mode_probabilities(t));
-    }
-  }
+  testing::expect_wide_blocks_as_narrow_ones(
+      13, 80, [&](std::size_t n, bool wide) { return GaFuzzyTrackBank(spec, n, wide); }, start_of,
+      [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_mu);
 }
 
 TEST(GaFuzzyTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTracksUntouched) {

@@ -15,6 +15,7 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
+#include "testing/axis_lane_bank_checks.hpp"
 
 namespace imm {
 namespace {
@@ -142,33 +143,18 @@ TEST(InputEstimatorTrackBank, EqualsTheOneTrackFilterWithTheShippedModels) {
   }
 }
 
+// The input estimates of track t of `a` and track u of `b`, to the bit.
+void expect_same_input(const InputEstimatorTrackBank& a, std::size_t t,
+                       const InputEstimatorTrackBank& b, std::size_t u) {
+  testing::expect_same_bits(a.acceleration(t), b.acceleration(u));
+}
+
 TEST(InputEstimatorTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
   std::mt19937_64 rng(7);
   const MlpInputEstimatorModel model = random_model(rng, 4);
-  constexpr int kTracks = 11;
-  InputEstimatorTrackBank bank(model, kTracks);
-  std::vector<InputEstimatorTrackBank> alone;
-  for (int t = 0; t < kTracks; ++t) {
-    bank.initialize(static_cast<std::size_t>(t), start_of(t));
-    alone.emplace_back(model, 1);
-    alone.back().initialize(0, start_of(t));
-  }
-  std::vector<Eigen::Vector2d> plots(kTracks);
-  std::vector<StepStatus> status(kTracks);
-  for (int k = 0; k < 80; ++k) {
-    for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng);
-    bank.step(plots, status);
-    for (int t = 0; t < kTracks; ++t) {
-      const auto u = static_cast<std::size_t>(t);
-      std::vector<StepStatus> one(1);
-      alone[u].step(std::span<const Eigen::Vector2d>(&plots[u], 1), one);
-      ASSERT_EQ(one[0], status[u]);
-      const GaussianState<4> a = bank.estimate(u), b = alone[u].estimate(0);
-      ASSERT_EQ(a.mean, b.mean);  // every estimate is finite: == is equality of the bits
-      ASSERT_EQ(a.covariance, b.covariance);
-      ASSERT_EQ(bank.acceleration(u), alone[u].acceleration(0));
-    }
-  }
+  testing::expect_tracks_independent_of_their_neighbours(
+      11, 80, [&](std::size_t n) { return InputEstimatorTrackBank(model, n); }, start_of,
+      [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_input);
 }
 
 // Blocks of 16 lanes (where the AVX-512 clone runs) and of 8 give the same bits: both run here
@@ -176,25 +162,9 @@ TEST(InputEstimatorTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit)
 TEST(InputEstimatorTrackBank, TheWideAndNarrowBlocksGiveTheSameBits) {
   std::mt19937_64 rng(19);
   const MlpInputEstimatorModel model = random_model(rng, 2);
-  constexpr int kTracks = 13;
-  InputEstimatorTrackBank wide(model, kTracks, true), narrow(model, kTracks, false);
-  for (int t = 0; t < kTracks; ++t) {
-    wide.initialize(static_cast<std::size_t>(t), start_of(t));
-    narrow.initialize(static_cast<std::size_t>(t), start_of(t));
-  }
-  std::vector<Eigen::Vector2d> plots(kTracks);
-  std::vector<StepStatus> a(kTracks), b(kTracks);
-  for (int k = 0; k < 80; ++k) {
-    for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng);
-    wide.step(plots, a);
-    narrow.step(plots, b);
-    ASSERT_EQ(a, b);
-    for (std::size_t t = 0; t < kTracks; ++t) {
-      ASSERT_EQ(wide.estimate(t).mean, narrow.estimate(t).mean);
-      ASSERT_EQ(wide.estimate(t).covariance, narrow.estimate(t).covariance);
-      ASSERT_EQ(wide.acceleration(t), narrow.acceleration(t));
-    }
-  }
+  testing::expect_wide_blocks_as_narrow_ones(
+      13, 80, [&](std::size_t n, bool wide) { return InputEstimatorTrackBank(model, n, wide); },
+      start_of, [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_input);
 }
 
 TEST(InputEstimatorTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTracksUntouched) {

@@ -1,0 +1,101 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+// Properties every bank of two-axis-lane tracks has (GaFuzzyTrackBank, InputEstimatorTrackBank),
+// checked the same way: a track's result does not depend on its neighbours, and blocks of 16
+// lanes give what blocks of 8 give — to the bit.
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <bit>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/step_status.hpp"
+
+namespace imm::testing {
+
+// Equal bit for bit, entry by entry (−0 ≠ +0; a NaN equals the same NaN).
+template <class A, class B>
+void expect_same_bits(const Eigen::DenseBase<A>& a, const Eigen::DenseBase<B>& b) {
+  ASSERT_EQ(a.rows(), b.rows());
+  ASSERT_EQ(a.cols(), b.cols());
+  for (Eigen::Index i = 0; i < a.rows(); ++i) {
+    for (Eigen::Index j = 0; j < a.cols(); ++j) {
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(static_cast<double>(a.derived()(i, j))),
+                std::bit_cast<std::uint64_t>(static_cast<double>(b.derived()(i, j))))
+          << "entry (" << i << ", " << j << ")";
+    }
+  }
+}
+
+// Track t of `a` and track u of `b`: the same estimate to the bit, and `same_rest(a, t, b, u)`
+// checks what else the bank reports.
+template <class Bank, class SameRest>
+void expect_same_track(const Bank& a, std::size_t t, const Bank& b, std::size_t u,
+                       SameRest&& same_rest) {
+  const GaussianState<4> x = a.estimate(t), y = b.estimate(u);
+  expect_same_bits(x.mean, y.mean);
+  expect_same_bits(x.covariance, y.covariance);
+  same_rest(a, t, b, u);
+}
+
+// `tracks` tracks stepped in one bank (make(tracks)) and each in a bank of its own (make(1)),
+// `scans` scans of plot_of(t, k) from start_of(t): the same statuses and the same bits.
+template <class Make, class Start, class Plot, class SameRest>
+void expect_tracks_independent_of_their_neighbours(int tracks, int scans, Make&& make,
+                                                   Start&& start_of, Plot&& plot_of,
+                                                   SameRest&& same_rest) {
+  const auto n = static_cast<std::size_t>(tracks);
+  auto bank = make(n);
+  std::vector<decltype(make(n))> alone;
+  for (std::size_t t = 0; t < n; ++t) {
+    bank.initialize(t, start_of(static_cast<int>(t)));
+    alone.push_back(make(1));
+    alone.back().initialize(0, start_of(static_cast<int>(t)));
+  }
+  std::vector<Eigen::Vector2d> plots(n);
+  std::vector<StepStatus> status(n);
+  for (int k = 0; k < scans; ++k) {
+    for (std::size_t t = 0; t < n; ++t) plots[t] = plot_of(static_cast<int>(t), k);
+    bank.step(plots, status);
+    for (std::size_t t = 0; t < n; ++t) {
+      std::vector<StepStatus> one(1);
+      alone[t].step(std::span<const Eigen::Vector2d>(&plots[t], 1), one);
+      ASSERT_EQ(one[0], status[t]);
+      expect_same_track(bank, t, alone[t], 0, same_rest);
+      if (::testing::Test::HasFatalFailure()) return;
+    }
+  }
+}
+
+// The same tracks in a bank of wide blocks (make(tracks, true)) and one of narrow blocks
+// (make(tracks, false)): the same statuses and the same bits, scan by scan.
+template <class Make, class Start, class Plot, class SameRest>
+void expect_wide_blocks_as_narrow_ones(int tracks, int scans, Make&& make, Start&& start_of,
+                                       Plot&& plot_of, SameRest&& same_rest) {
+  const auto n = static_cast<std::size_t>(tracks);
+  auto wide = make(n, true);
+  auto narrow = make(n, false);
+  for (std::size_t t = 0; t < n; ++t) {
+    wide.initialize(t, start_of(static_cast<int>(t)));
+    narrow.initialize(t, start_of(static_cast<int>(t)));
+  }
+  std::vector<Eigen::Vector2d> plots(n);
+  std::vector<StepStatus> a(n), b(n);
+  for (int k = 0; k < scans; ++k) {
+    for (std::size_t t = 0; t < n; ++t) plots[t] = plot_of(static_cast<int>(t), k);
+    wide.step(plots, a);
+    narrow.step(plots, b);
+    ASSERT_EQ(a, b);
+    for (std::size_t t = 0; t < n; ++t) {
+      expect_same_track(wide, t, narrow, t, same_rest);
+      if (::testing::Test::HasFatalFailure()) return;
+    }
+  }
+}
+
+}  // namespace imm::testing
