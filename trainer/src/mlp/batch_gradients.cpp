@@ -51,6 +51,23 @@ template <int H>
   }
 }
 
+// A sigmoid layer of R units over C inputs for every lane: out = σ(b + W in), W column-major,
+// each unit's sum from its bias input by input.
+template <int R, int C>
+[[gnu::always_inline]] inline void sigmoid_layer(const double* w, const double* b,
+                                                 const double (&in)[C][kLanes],
+                                                 double (&out)[R][kLanes]) {
+  constexpr int W = kLanes;
+  for (int r = 0; r < R; ++r) {
+    IMM_LANES {
+      double s = b[r];
+      for (int c = 0; c < C; ++c) s += w[c * R + r] * in[c][l];
+      out[r][l] = s;
+    }
+  }
+  sigmoids<R>(out);
+}
+
 // One block of kLanes samples from `first` (`valid` of them real; the rest weigh nothing).
 template <int I, int H1, int H2>
 [[gnu::always_inline]] inline void block(const std::vector<MlpLayer>& layers, double inverse_scale,
@@ -72,22 +89,8 @@ template <int I, int H1, int H2>
     weight[l] = l < valid ? inverse_n : 0.0;
   }
   alignas(64) double a1[H1][W], a2[H2][W], a3[W], d3[W], d2[H2][W];
-  for (int r = 0; r < H1; ++r) {
-    IMM_LANES {
-      double s = b1[r];
-      for (int c = 0; c < I; ++c) s += w1[c * H1 + r] * x[c][l];
-      a1[r][l] = s;
-    }
-  }
-  sigmoids<H1>(a1);
-  for (int r = 0; r < H2; ++r) {
-    IMM_LANES {
-      double s = b2[r];
-      for (int c = 0; c < H1; ++c) s += w2[c * H2 + r] * a1[c][l];
-      a2[r][l] = s;
-    }
-  }
-  sigmoids<H2>(a2);
+  sigmoid_layer<H1, I>(w1, b1, x, a1);
+  sigmoid_layer<H2, H1>(w2, b2, a1, a2);
   IMM_LANES {
     double s = b3;
     for (int c = 0; c < H2; ++c) s += w3[c] * a2[c][l];
