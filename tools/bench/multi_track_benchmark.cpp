@@ -103,50 +103,34 @@ void BM_MultiTrack(benchmark::State& state) {
 }
 BENCHMARK(BM_MultiTrack)->Args({1000, 0})->Args({1000, 1})->Args({16, 1})->Args({10000, 1});
 
-// N tracks of the GA-fuzzy IMM, each fed the seed-000 plots shifted by its own offset:
-// range(1) = 0 as N one-track filters (make_ga_fuzzy_imm_filter), 1 as one GaFuzzyTrackBank;
-// range(2) = 0 the shipped tables, 1 seed 000's published ones. Items: track steps.
-void BM_GaFuzzyMultiTrack(benchmark::State& state) {
-  const auto tracks = static_cast<std::size_t>(state.range(0));
-  const bool bank_api = state.range(1) == 1;
-  const auto spec = imm::io::read_ga_fuzzy_imm(
-      state.range(2) == 0 ? IMM_SOURCE_DIR "/models/ga_fuzzy_imm.h5"
-                          : IMM_SOURCE_DIR "/models/reference/ga_fuzzy_imm_paper.h5");
-  const Eigen::MatrixXd& source = table3_plots();
-  auto start = [&](std::size_t t) {
-    imm::GaussianState<4> s;
-    s.mean << source(0, 0) + 0.37 * static_cast<double>(t), 0.0,
-        source(0, 1) - 0.21 * static_cast<double>(t), 0.0;
-    s.covariance = Eigen::Vector4d(0.25, 0.5, 0.25, 0.5).asDiagonal();
-    return s;
-  };
+// The benchmark loop of a bank against one-track filters: N tracks, track t fed the plots of
+// `source` (from its second row) shifted by t · offset, restarted from start(t) at the end of
+// `source`; `bank` null runs N filters from make_filter() instead. Items: track steps.
+template <class Bank, class MakeFilter, class Start>
+void step_tracks(benchmark::State& state, std::size_t tracks, std::unique_ptr<Bank> bank,
+                 MakeFilter&& make_filter, const Eigen::MatrixXd& source,
+                 const Eigen::Vector2d& offset, Start&& start) {
   std::vector<std::unique_ptr<TrackFilter>> separate;
-  std::unique_ptr<imm::GaFuzzyTrackBank> bank;
+  if (!bank) {
+    for (std::size_t t = 0; t < tracks; ++t) separate.push_back(make_filter());
+  }
   auto restart = [&] {
     for (std::size_t t = 0; t < tracks; ++t) {
-      if (bank_api) {
+      if (bank) {
         bank->initialize(t, start(t));
       } else {
         separate[t]->initialize(start(t).mean, start(t).covariance);
       }
     }
   };
-  if (bank_api) {
-    bank = std::make_unique<imm::GaFuzzyTrackBank>(spec, tracks);
-  } else {
-    for (std::size_t t = 0; t < tracks; ++t)
-      separate.push_back(imm::make_ga_fuzzy_imm_filter(spec));
-  }
   restart();
   std::vector<Eigen::Vector2d> plots(tracks);
   std::vector<imm::StepStatus> status(tracks);
   Eigen::Index k = 1;
   for (auto _ : state) {
-    for (std::size_t t = 0; t < tracks; ++t) {
-      plots[t] = source.row(k).transpose() +
-                 Eigen::Vector2d(0.37 * static_cast<double>(t), -0.21 * static_cast<double>(t));
-    }
-    if (bank_api) {
+    for (std::size_t t = 0; t < tracks; ++t)
+      plots[t] = source.row(k).transpose() + static_cast<double>(t) * offset;
+    if (bank) {
       bank->step(plots, status);
     } else {
       for (std::size_t t = 0; t < tracks; ++t) status[t] = separate[t]->step(plots[t]);
@@ -158,6 +142,29 @@ void BM_GaFuzzyMultiTrack(benchmark::State& state) {
     }
   }
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(tracks));
+}
+
+// N tracks of the GA-fuzzy IMM, each fed the seed-000 plots shifted by its own offset:
+// range(1) = 0 as N one-track filters (make_ga_fuzzy_imm_filter), 1 as one GaFuzzyTrackBank;
+// range(2) = 0 the shipped tables, 1 seed 000's published ones. Items: track steps.
+void BM_GaFuzzyMultiTrack(benchmark::State& state) {
+  const auto tracks = static_cast<std::size_t>(state.range(0));
+  const bool bank_api = state.range(1) == 1;
+  const auto spec = imm::io::read_ga_fuzzy_imm(
+      state.range(2) == 0 ? IMM_SOURCE_DIR "/models/ga_fuzzy_imm.h5"
+                          : IMM_SOURCE_DIR "/models/reference/ga_fuzzy_imm_paper.h5");
+  const Eigen::MatrixXd& source = table3_plots();
+  const Eigen::Vector2d offset(0.37, -0.21);
+  auto start = [&](std::size_t t) {
+    imm::GaussianState<4> s;
+    s.mean << source(0, 0) + offset.x() * static_cast<double>(t), 0.0,
+        source(0, 1) + offset.y() * static_cast<double>(t), 0.0;
+    s.covariance = Eigen::Vector4d(0.25, 0.5, 0.25, 0.5).asDiagonal();
+    return s;
+  };
+  step_tracks(
+      state, tracks, bank_api ? std::make_unique<imm::GaFuzzyTrackBank>(spec, tracks) : nullptr,
+      [&] { return imm::make_ga_fuzzy_imm_filter(spec); }, source, offset, start);
   state.SetLabel(std::string(bank_api ? "GaFuzzyTrackBank" : "separate filters") +
                  (state.range(2) == 0 ? ", shipped tables" : ", paper tables"));
 }
@@ -190,50 +197,18 @@ void BM_InputEstimatorMultiTrack(benchmark::State& state) {
     velocity += a;
     source.row(k) = (position + Eigen::Vector2d(noise(rng), noise(rng))).transpose();
   }
-  auto offset = [](std::size_t t) {
-    return Eigen::Vector2d(37.0 * static_cast<double>(t), -21.0 * static_cast<double>(t));
-  };
+  const Eigen::Vector2d offset(37.0, -21.0);
   auto start = [&](std::size_t t) {
     imm::GaussianState<4> s;
-    s.mean << source(0, 0) + offset(t).x(), 300.0, source(0, 1) + offset(t).y(), 0.0;
+    s.mean << source(0, 0) + offset.x() * static_cast<double>(t), 300.0,
+        source(0, 1) + offset.y() * static_cast<double>(t), 0.0;
     s.covariance = Eigen::Vector4d(2500.0, 5000.0, 2500.0, 5000.0).asDiagonal();
     return s;
   };
-  std::vector<std::unique_ptr<TrackFilter>> separate;
-  std::unique_ptr<imm::InputEstimatorTrackBank> bank;
-  if (bank_api) {
-    bank = std::make_unique<imm::InputEstimatorTrackBank>(model, tracks);
-  } else {
-    for (std::size_t t = 0; t < tracks; ++t)
-      separate.push_back(imm::make_mlp_input_estimator_filter(model));
-  }
-  auto restart = [&] {
-    for (std::size_t t = 0; t < tracks; ++t) {
-      if (bank_api) {
-        bank->initialize(t, start(t));
-      } else {
-        separate[t]->initialize(start(t).mean, start(t).covariance);
-      }
-    }
-  };
-  restart();
-  std::vector<Eigen::Vector2d> plots(tracks);
-  std::vector<imm::StepStatus> status(tracks);
-  Eigen::Index k = 1;
-  for (auto _ : state) {
-    for (std::size_t t = 0; t < tracks; ++t) plots[t] = source.row(k).transpose() + offset(t);
-    if (bank_api) {
-      bank->step(plots, status);
-    } else {
-      for (std::size_t t = 0; t < tracks; ++t) status[t] = separate[t]->step(plots[t]);
-    }
-    benchmark::DoNotOptimize(status.data());
-    if (++k == source.rows()) {
-      k = 1;
-      restart();
-    }
-  }
-  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(tracks));
+  step_tracks(
+      state, tracks,
+      bank_api ? std::make_unique<imm::InputEstimatorTrackBank>(model, tracks) : nullptr,
+      [&] { return imm::make_mlp_input_estimator_filter(model); }, source, offset, start);
   state.SetLabel(bank_api ? "InputEstimatorTrackBank" : "separate filters");
 }
 BENCHMARK(BM_InputEstimatorMultiTrack)->Args({1000, 0})->Args({1000, 1});
