@@ -30,6 +30,7 @@
 #include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "imm/tracking/tracker.hpp"
+#include "imm/tracking/wimm_track_bank.hpp"
 #include "testing/specs.hpp"
 
 namespace {
@@ -264,6 +265,37 @@ TEST(AllocationFreeStep, MlpInputEstimatorStep) {
 TEST(AllocationFreeStep, InputEstimatorTrackBankStep) {
   InputEstimatorTrackBank bank(small_input_estimator(), kBankTracks);
   expect_bank_steps_allocate_nothing(bank, 100.0, -20.0);
+}
+
+// The weighted IMM's bank (seed fusion on every scan, a converted update beside it): kBankTracks
+// tracks, a bad plot included.
+TEST(AllocationFreeStep, WimmTrackBankStep) {
+  for (const MeasurementUpdate update :
+       {MeasurementUpdate::kExtended, MeasurementUpdate::kConverted}) {
+    WimmSpec spec;
+    spec.threshold = 0.0;
+    spec.update = update;
+    WimmTrackBank bank(spec, kBankTracks);
+    GaussianState<6> start;
+    start.mean << 3e4, -100.0, 0.0, 6e4, 50.0, 0.0;
+    start.covariance = Eigen::Matrix<double, 6, 1>(2500, 100, 1, 2500, 100, 1).asDiagonal();
+    for (std::size_t t = 0; t < kBankTracks; ++t) bank.initialize(t, start);
+    std::vector<Eigen::Vector2d> plots(kBankTracks);
+    std::vector<StepStatus> status(kBankTracks);
+    const long before = allocations();
+    for (int k = 1; k <= 100; ++k) {
+      for (std::size_t t = 0; t < kBankTracks; ++t) {
+        const double x = 3e4 - 200.0 * k + static_cast<double>(t), y = 6e4 + 100.0 * k;
+        plots[t] = Eigen::Vector2d(std::hypot(x, y), std::atan2(x, y));
+      }
+      plots[7] = Eigen::Vector2d(std::nan(""), 0.0);
+      bank.step(plots, status);
+    }
+    EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
+    EXPECT_EQ(status[kBankTracks - 1], StepStatus::kOk);
+    EXPECT_TRUE(bank.fused(kBankTracks - 1));
+    EXPECT_EQ(allocations(), before);
+  }
 }
 
 TEST(AllocationFreeStep, FimmStepThroughTheTskSensor) {

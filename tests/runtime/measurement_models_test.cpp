@@ -1,9 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
+#include <random>
 #include <stdexcept>
+#include <vector>
 
 #include "imm/estimation/kalman_filter.hpp"
 #include "imm/math/angle.hpp"
@@ -24,6 +28,36 @@ TEST(Angle, WrapIntoHalfOpenInterval) {
   EXPECT_NEAR(wrap_angle(-7.0 * kPi / 2.0), kPi / 2.0, 1e-14);
   EXPECT_NEAR(wrap_angle(100.0), 100.0 - 16.0 * 2.0 * kPi, 1e-12);
   EXPECT_TRUE(std::isnan(wrap_angle(std::nan(""))));
+}
+
+// The rule the fast path must reproduce: libm's exact remainder, −π moved to π.
+double wrapped_by_remainder(double angle) {
+  double wrapped = std::remainder(angle, 2.0 * kPi);
+  if (wrapped <= -kPi) wrapped += 2.0 * kPi;
+  return wrapped;
+}
+
+TEST(Angle, WrapGivesTheExactRemaindersBits) {
+  std::vector<double> angles = {0.0,        -0.0, kPi,  -kPi,   2.0 * kPi, -2.0 * kPi, 3.0 * kPi,
+                                -3.0 * kPi, 6.0,  -6.0, 1e-300, 1e6,       -12.5};
+  for (const double a : {kPi, 2.0 * kPi, 3.0 * kPi, 6.0}) {  // the neighbours of every edge
+    for (const double sign : {1.0, -1.0}) {
+      double up = sign * a, down = sign * a;
+      for (int i = 0; i < 4; ++i) {
+        up = std::nextafter(up, 10.0);
+        down = std::nextafter(down, -10.0);
+        angles.insert(angles.end(), {up, down});
+      }
+    }
+  }
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> uniform(-7.0, 7.0);
+  for (int i = 0; i < 200000; ++i) angles.push_back(uniform(rng));
+  for (const double a : angles) {
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(wrap_angle(a)),
+              std::bit_cast<std::uint64_t>(wrapped_by_remainder(a)))
+        << std::hexfloat << a;
+  }
 }
 
 TEST(Angle, AzimuthIsMeasuredClockwiseFromY) {

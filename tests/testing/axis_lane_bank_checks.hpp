@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-// Properties every bank of two-axis-lane tracks has (GaFuzzyTrackBank, InputEstimatorTrackBank),
-// checked the same way: a track's result does not depend on its neighbours, and blocks of 16
-// lanes give what blocks of 8 give — to the bit.
+// Properties of the multi-track banks, checked the same way: a track's result does not depend on
+// its neighbours (GaFuzzyTrackBank, InputEstimatorTrackBank, WimmTrackBank), and, in the banks of
+// two-axis-lane tracks, blocks of 16 lanes give what blocks of 8 give — to the bit.
 
 #include <gtest/gtest.h>
 
@@ -37,7 +37,7 @@ void expect_same_bits(const Eigen::DenseBase<A>& a, const Eigen::DenseBase<B>& b
 template <class Bank, class SameRest>
 void expect_same_track(const Bank& a, std::size_t t, const Bank& b, std::size_t u,
                        SameRest&& same_rest) {
-  const GaussianState<4> x = a.estimate(t), y = b.estimate(u);
+  const auto x = a.estimate(t), y = b.estimate(u);
   expect_same_bits(x.mean, y.mean);
   expect_same_bits(x.covariance, y.covariance);
   same_rest(a, t, b, u);

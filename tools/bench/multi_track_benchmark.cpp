@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// Many tracks per call (imm/tracking/): the plain IMM's TrackBank and the GA-fuzzy IMM's bank
-// against as many one-track filters (Google Benchmark; `make bench`).
+// Many tracks per call (imm/tracking/): the banks of the plain IMM, the GA-fuzzy IMM, the input
+// estimator and the weighted IMM against as many one-track filters (Google Benchmark;
+// `make bench`).
 
 #include <benchmark/benchmark.h>
 
@@ -14,11 +15,14 @@
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/filters/plain_imm.hpp"
+#include "imm/filters/wimm.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
+#include "imm/io/wimm_file.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
+#include "imm/tracking/wimm_track_bank.hpp"
 
 namespace {
 
@@ -105,7 +109,8 @@ BENCHMARK(BM_MultiTrack)->Args({1000, 0})->Args({1000, 1})->Args({16, 1})->Args(
 
 // The benchmark loop of a bank against one-track filters: N tracks, track t fed the plots of
 // `source` (from its second row) shifted by t · offset, restarted from start(t) at the end of
-// `source`; `bank` null runs N filters from make_filter() instead. Items: track steps.
+// `source`; `bank` null runs N filters from make_filter() instead. Items: track steps; the counter
+// `refused`: the share of steps whose status was not kOk.
 template <class Bank, class MakeFilter, class Start>
 void step_tracks(benchmark::State& state, std::size_t tracks, std::unique_ptr<Bank> bank,
                  MakeFilter&& make_filter, const Eigen::MatrixXd& source,
@@ -127,6 +132,7 @@ void step_tracks(benchmark::State& state, std::size_t tracks, std::unique_ptr<Ba
   std::vector<Eigen::Vector2d> plots(tracks);
   std::vector<imm::StepStatus> status(tracks);
   Eigen::Index k = 1;
+  std::int64_t refused = 0;
   for (auto _ : state) {
     for (std::size_t t = 0; t < tracks; ++t)
       plots[t] = source.row(k).transpose() + static_cast<double>(t) * offset;
@@ -136,12 +142,17 @@ void step_tracks(benchmark::State& state, std::size_t tracks, std::unique_ptr<Ba
       for (std::size_t t = 0; t < tracks; ++t) status[t] = separate[t]->step(plots[t]);
     }
     benchmark::DoNotOptimize(status.data());
+    for (const imm::StepStatus s : status) refused += s != imm::StepStatus::kOk ? 1 : 0;
     if (++k == source.rows()) {
       k = 1;
       restart();
     }
   }
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(tracks));
+  // The share of steps a filter refused: a figure of steps that did the work.
+  state.counters["refused"] =
+      static_cast<double>(refused) /
+      static_cast<double>(state.iterations() * static_cast<std::int64_t>(tracks));
 }
 
 // N tracks of the GA-fuzzy IMM, each fed the seed-000 plots shifted by its own offset:
@@ -212,5 +223,39 @@ void BM_InputEstimatorMultiTrack(benchmark::State& state) {
   state.SetLabel(bank_api ? "InputEstimatorTrackBank" : "separate filters");
 }
 BENCHMARK(BM_InputEstimatorMultiTrack)->Args({1000, 0})->Args({1000, 1});
+
+// N tracks of seed 004's weighted IMM on its scenario-1 plots (a target 140 km out, T = 2 s), the
+// range shifted by 3.7 m and the azimuth by 10 µrad per track: range(1) = 0 as N WimmFilters, 1 as
+// one WimmTrackBank; range(2) = 0 the shipped model (models/wimm.h5: the seed's fusion), 1 the
+// same spec with the correlated fusion fusing on every scan. Items: track steps.
+void BM_WimmMultiTrack(benchmark::State& state) {
+  const auto tracks = static_cast<std::size_t>(state.range(0));
+  const bool bank_api = state.range(1) == 1;
+  imm::WimmSpec spec = imm::io::read_wimm(IMM_SOURCE_DIR "/models/wimm.h5");
+  if (state.range(2) == 1) {
+    spec.fusion = imm::FusionVariant::kCorrelated;
+    spec.threshold = 0.0;
+  }
+  static const Eigen::MatrixXd source = imm::bench::preset_track("wimm_table2", 0).plots;
+  const Eigen::Vector2d offset(3.7, 1e-5);
+  auto start = [&](std::size_t) {
+    imm::GaussianState<6> s;
+    s.mean << 99000.0, -100.0, 0.0, 99000.0, -100.0, 0.0;
+    s.covariance = (Eigen::Matrix<double, 6, 1>() << 2500.0, 100.0, 25.0, 2500.0, 100.0, 25.0)
+                       .finished()
+                       .asDiagonal();
+    return s;
+  };
+  step_tracks(
+      state, tracks, bank_api ? std::make_unique<imm::WimmTrackBank>(spec, tracks) : nullptr,
+      [&] { return std::make_unique<imm::WimmFilter>(spec); }, source, offset, start);
+  state.SetLabel(std::string(bank_api ? "WimmTrackBank" : "separate filters") +
+                 (state.range(2) == 0 ? ", shipped model" : ", correlated fusion"));
+}
+BENCHMARK(BM_WimmMultiTrack)
+    ->Args({1000, 0, 0})
+    ->Args({1000, 1, 0})
+    ->Args({1000, 0, 1})
+    ->Args({1000, 1, 1});
 
 }  // namespace

@@ -21,7 +21,7 @@ namespace imm::bank {
 
 /// Per-lane outcomes, in the order the one-track filters check them.
 inline constexpr double kOk = 0.0, kBadPlot = 1.0, kSingular = 2.0, kNonFinite = 3.0,
-                        kUnderflow = 4.0;
+                        kUnderflow = 4.0, kUndefined = 5.0;
 
 /// Each track's code from its lanes' outcomes: that of the first axis that failed, or kBadPlot
 /// where the step gave the lanes a NaN plot (an unusable one). Both lanes get it.
@@ -40,6 +40,7 @@ template <int W>
          : code == kBadPlot   ? StepStatus::kInvalidMeasurement
          : code == kSingular  ? StepStatus::kSingularInnovation
          : code == kNonFinite ? StepStatus::kNonFiniteResult
+         : code == kUndefined ? StepStatus::kUndefinedMeasurement
                               : StepStatus::kProbabilityUnderflow;
 }
 

@@ -10,10 +10,24 @@
 namespace imm {
 
 /// Wraps an angle into (−π, π]. Finite input only; NaN and ±Inf come back as NaN.
+///
+/// The exact remainder r = angle − n·2π (n the nearest integer to angle / 2π, ties to even; 2π
+/// as the double 2·π), then −π moved to π. Below |angle| < 6 — every difference of two wrapped
+/// angles — n is 0 or ±1 and angle ∓ 2π is exact by Sterbenz's lemma (|angle| ≥ π lies within a
+/// factor 2 of 2π), so that case skips libm's remainder (a fifth of the wIMM bank's time) and
+/// gives the same bits.
 [[nodiscard]] inline double wrap_angle(double angle) {
+  constexpr double kPi = std::numbers::pi, kTwoPi = 2.0 * std::numbers::pi;
   if (!std::isfinite(angle)) return std::numeric_limits<double>::quiet_NaN();
-  double wrapped = std::remainder(angle, 2.0 * std::numbers::pi);  // exact, in [−π, π]
-  if (wrapped <= -std::numbers::pi) wrapped += 2.0 * std::numbers::pi;
+  double wrapped = angle;  // n = 0 for |angle| ≤ π (at ±π the tie rounds to the even 0)
+  if (std::abs(angle) >= 6.0) {
+    wrapped = std::remainder(angle, kTwoPi);  // exact, in [−π, π]
+  } else if (angle > kPi) {
+    wrapped = angle - kTwoPi;
+  } else if (angle < -kPi) {
+    wrapped = angle + kTwoPi;
+  }
+  if (wrapped <= -kPi) wrapped += kTwoPi;
   return wrapped;
 }
 

@@ -1,0 +1,92 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// Many independent tracks of one weighted IMM (wimm.hpp), stepped by one call: the multi-track
+/// form of WimmFilter, as TrackBank is of the plain IMM.
+///
+/// Layout: every track is a lane (its two modes, the CV's 4 states and the Singer's 6, with their
+/// covariances' upper triangles, and log μ), stored structure of arrays and stepped 8 at a time.
+/// A step runs in three phases per block:
+///   1. vector loops: the predicted mode probabilities, the mixing in the 6-state space and both
+///      modes' predictions;
+///   2. one scalar loop over the lanes for what needs libm: the predicted ranges and azimuths
+///      (hypot, atan2), the fused azimuth (atan2) and the wrapped residuals; it leaves every
+///      mode's linearization — H at the position, R and the innovation — to
+///   3. vector loops: both modes' Joseph-form updates, their likelihoods and the posterior μ.
+/// The vector loops have no branches and no calls, and the compiler vectorizes them: AVX-512 or
+/// AVX2 where the CPU has it, chosen at run time, without fused multiply-add, so a track's result
+/// does not depend on the instruction set, on its position or on the number of tracks.
+///
+/// Every fusion variant and both measurement updates run as in WimmFilter::step. The differences
+/// to the one-track filter are rounding only: the mode probabilities' exp and log are lane_exp and
+/// lane_log (lane_math.hpp, within 2 ulp of libm's), the fusion's sin θ_j and cos θ_j are x_j / r_j
+/// and y_j / r_j, and the products sum only H's non-zero entries. A track whose plot is unusable,
+/// or whose step fails in either mode, is left exactly as it was, with the status of the first mode
+/// that failed (CV, then Singer), as the one-track filter reports it.
+///
+/// Every transition probability must be positive: c_j then never vanishes, so no mode is ever
+/// unreachable. Nothing is allocated after construction.
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/step_status.hpp"
+#include "imm/filters/wimm.hpp"
+#include "imm/runtime_export.hpp"
+
+namespace imm {
+
+/// N tracks of one weighted IMM with polar plots, stepped together (see the file comment).
+class IMM_RUNTIME_EXPORT WimmTrackBank {
+ public:
+  /// Tracks per block of the layout.
+  static constexpr int kBlock = 8;
+
+  /// Room for `capacity` tracks of `spec`. Throws InvalidParameter naming the field for an invalid
+  /// spec (WimmSpec::validate), a transition probability that is not positive ("transition") or a
+  /// capacity outside [1, 2^26].
+  WimmTrackBank(const WimmSpec& spec, std::size_t capacity);
+
+  /// The number of tracks it holds.
+  [[nodiscard]] std::size_t capacity() const { return capacity_; }
+
+  /// Starts (or restarts) track `track` from `state` ([x, vx, ax, y, vy, ay]): both modes take
+  /// their components of it, μ its initial value (WimmFilter::initialize). Throws
+  /// std::out_of_range for a track ≥ capacity(), InvalidParameter("state") for a non-finite state.
+  void initialize(std::size_t track, const GaussianState<6>& state);
+
+  /// One scan of tracks 0 … plots.size() − 1, track t with the polar plot plots[t] = (range,
+  /// azimuth); status[t] receives its outcome (a track whose status is not kOk is unchanged).
+  /// Tracks from plots.size() on are not touched. Throws std::invalid_argument when the spans
+  /// differ in size or exceed capacity(), std::logic_error when a stepped track was never
+  /// initialized.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
+
+  /// Whether track `track` has been initialized.
+  [[nodiscard]] bool initialized(std::size_t track) const;
+
+  /// The combined estimate [x, vx, ax, y, vy, ay] (WimmFilter::estimate).
+  [[nodiscard]] GaussianState<6> estimate(std::size_t track) const;
+
+  /// μ = (CV, Singer).
+  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
+
+  /// Whether the track's last successful step fused the azimuth (WimmFilter::fused).
+  [[nodiscard]] bool fused(std::size_t track) const;
+
+ private:
+  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
+  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
+  [[nodiscard]] std::size_t checked(std::size_t track) const;
+
+  WimmSpec spec_;
+  std::size_t capacity_ = 0;
+  std::ptrdiff_t stride_ = 0;  // tracks, rounded up to whole blocks
+  std::vector<double> state_;  // slots × stride (see wimm_track_bank.cpp)
+  std::vector<unsigned char> initialized_;
+};
+
+}  // namespace imm

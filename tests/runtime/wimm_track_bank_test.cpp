@@ -1,0 +1,267 @@
+// SPDX-License-Identifier: Apache-2.0
+// The weighted IMM's bank against the one-track WimmFilter: statuses, estimates, μ and the fusion
+// flag to rounding over random specs of every fusion variant and both updates and the shipped
+// models, tracks independent of their neighbours to the bit, refused plots leaving a track
+// exactly as it was, and what it refuses.
+#include "imm/tracking/wimm_track_bank.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/io/wimm_file.hpp"
+#include "testing/axis_lane_bank_checks.hpp"
+
+namespace imm {
+namespace {
+
+// A random spec; `trial` picks the fusion variant, the update and whether the threshold fuses on
+// every scan, on none or in between.
+WimmSpec random_spec(std::mt19937_64& rng, int trial) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  WimmSpec spec;
+  spec.sample_period = 1.0 + 4.0 * unit(rng);
+  spec.cv_process_noise = 0.1 + 10.0 * unit(rng);
+  spec.singer_tau = 5.0 + 55.0 * unit(rng);
+  spec.singer_sigma = 1.0 + 19.0 * unit(rng);
+  spec.range_sigma = 10.0 + 90.0 * unit(rng);
+  spec.azimuth_sigma = (0.1 + 0.9 * unit(rng)) * std::numbers::pi / 180.0;
+  const double stay0 = 0.8 + 0.19 * unit(rng), stay1 = 0.8 + 0.19 * unit(rng);
+  spec.transition << stay0, 1.0 - stay0, 1.0 - stay1, stay1;
+  const double mu0 = trial % 4 == 3 ? 1.0 : unit(rng);  // one trial starts with μ_Singer = 0
+  spec.initial_probabilities = Eigen::Vector2d(mu0, 1.0 - mu0);
+  const int fuses = (trial / 3) % 3;  // on every scan, in between, on none
+  spec.threshold = fuses == 0 ? 0.0 : (fuses == 1 ? 0.3 + 0.6 * unit(rng) : 1.0);
+  spec.alpha = 0.2 + 0.8 * unit(rng);
+  constexpr std::array kVariants = {FusionVariant::kNone, FusionVariant::kSeed,
+                                    FusionVariant::kCorrelated};
+  spec.fusion = kVariants[static_cast<std::size_t>(trial % 3)];
+  spec.update = trial % 2 == 1 && spec.fusion != FusionVariant::kCorrelated
+                    ? MeasurementUpdate::kConverted
+                    : MeasurementUpdate::kExtended;
+  spec.acceleration_variance = 1.0 + 30.0 * unit(rng);
+  return spec;
+}
+
+// Track t's true position at time s: a target 20–90 km out weaving at up to 5.5 m/s² (period
+// 120 s), faster for odd tracks; every fifth track flies straight across the south seam (azimuth
+// ±π).
+Eigen::Vector2d truth_of(int track, double s) {
+  if (track % 5 == 0) return {-3000.0 + 150.0 * s + track, -40000.0 - 20.0 * s};
+  const double w = (track % 2 == 1 ? 2.0 : 1.0) * std::numbers::pi / 60.0;
+  const double amplitude = 5.5 / (w * w);
+  return {20000.0 + 1000.0 * track - 180.0 * s + amplitude * std::sin(w * s),
+          30000.0 + 2500.0 * track + 90.0 * s + amplitude * (std::cos(w * s) - 1.0)};
+}
+
+GaussianState<6> start_of(int track) {
+  const Eigen::Vector2d p = truth_of(track, 0.0);
+  const Eigen::Vector2d v = truth_of(track, 1.0) - p;
+  GaussianState<6> s;
+  s.mean << p.x() + 40.0, v.x(), 0.0, p.y() - 30.0, v.y(), 0.0;
+  s.covariance =
+      (Eigen::Matrix<double, 6, 1>() << 2e4, 400.0, 9.0, 2e4, 400.0, 9.0).finished().asDiagonal();
+  s.covariance(0, 1) = s.covariance(1, 0) = 500.0;
+  s.covariance(3, 4) = s.covariance(4, 3) = -300.0;
+  s.covariance(0, 3) = s.covariance(3, 0) = 1000.0;
+  return s;
+}
+
+// The polar plot of track t at scan k: noise, and a NaN or an out-of-range plot now and then.
+Eigen::Vector2d plot_of(const WimmSpec& spec, int track, int k, std::mt19937_64& rng) {
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const Eigen::Vector2d p = truth_of(track, k * spec.sample_period);
+  Eigen::Vector2d z(std::hypot(p.x(), p.y()) + spec.range_sigma * noise(rng),
+                    std::atan2(p.x(), p.y()) + spec.azimuth_sigma * noise(rng));
+  z.y() = std::remainder(z.y(), 2.0 * std::numbers::pi);
+  if ((k + track) % 29 == 3) z.y() = std::numeric_limits<double>::quiet_NaN();
+  if ((k * 7 + track) % 53 == 11) z.x() = 1e300;
+  return z;
+}
+
+// Rounding differences (lane_exp and lane_log for μ, sums of H's non-zero terms only), relative to
+// an entry's scale in the state's units (a mean's: 1 + its σ). They stay below 1e-11 here; an
+// error in the algebra shows many orders above (a correlated fusion's R scaled by α instead of α²:
+// 1.5 against 3e-4 at scan 1).
+constexpr double kTolerance = 1e-9;
+
+void expect_close(double value, double reference, double scale, const std::string& what) {
+  EXPECT_LE(std::abs(value - reference), kTolerance * (scale + std::abs(reference))) << what;
+}
+
+// Every track of the bank beside its own one-track filter, scan by scan.
+void expect_equals_one_track_filters(const WimmSpec& spec, int scans, std::mt19937_64& rng,
+                                     const std::string& name, int& refused, int& fused) {
+  constexpr int kTracks = 13;  // one whole block of eight tracks and a partial one
+  WimmTrackBank bank(spec, kTracks);
+  std::vector<std::unique_ptr<WimmFilter>> single;
+  for (int t = 0; t < kTracks; ++t) {
+    bank.initialize(static_cast<std::size_t>(t), start_of(t));
+    single.push_back(std::make_unique<WimmFilter>(spec));
+    single.back()->initialize(start_of(t).mean, start_of(t).covariance);
+  }
+  std::vector<Eigen::Vector2d> plots(kTracks);
+  std::vector<StepStatus> status(kTracks);
+  for (int k = 1; k <= scans; ++k) {
+    for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(spec, t, k, rng);
+    bank.step(plots, status);
+    for (int t = 0; t < kTracks; ++t) {
+      const auto u = static_cast<std::size_t>(t);
+      const std::string at = name + " scan " + std::to_string(k) + " track " + std::to_string(t);
+      ASSERT_EQ(status[u], single[u]->step(plots[u])) << at;
+      if (status[u] != StepStatus::kOk) ++refused;
+      const GaussianState<6>& reference = single[u]->estimate();
+      const GaussianState<6> estimate = bank.estimate(u);
+      for (int a = 0; a < 6; ++a) {
+        expect_close(estimate.mean(a), reference.mean(a),
+                     std::sqrt(1.0 + reference.covariance(a, a)), at + " mean");
+        for (int c = 0; c < 6; ++c) {
+          // Relative to the entry's scale √((1 + P_aa)(1 + P_cc)) in the state's units:
+          // off-diagonal entries may pass near zero, and an acceleration's variance is μ_Singer
+          // times the Singer mode's, 1e-266 when μ_Singer is (its log carries the log-likelihoods'
+          // rounding over the scans).
+          const double scale =
+              std::sqrt((1.0 + reference.covariance(a, a)) * (1.0 + reference.covariance(c, c)));
+          expect_close(estimate.covariance(a, c), reference.covariance(a, c), scale,
+                       at + " covariance");
+        }
+      }
+      const ModeVector mu = bank.mode_probabilities(u);
+      const ModeVector mu_single = single[u]->mode_probabilities();
+      for (int j = 0; j < 2; ++j) expect_close(mu(j), mu_single(j), 1.0, at + " μ");
+      EXPECT_EQ(bank.fused(u), single[u]->fused()) << at;
+      fused += bank.fused(u) ? 1 : 0;
+      if (::testing::Test::HasFailure()) return;
+    }
+  }
+}
+
+TEST(WimmTrackBank, EqualsTheOneTrackFilterToRounding) {
+  std::mt19937_64 rng(26112026);
+  int refused = 0, fused = 0;
+  for (int trial = 0; trial < 12; ++trial) {
+    const WimmSpec spec = random_spec(rng, trial);
+    expect_equals_one_track_filters(spec, 150, rng,
+                                    "trial " + std::to_string(trial) + " (" +
+                                        std::string(to_string(spec.fusion)) + ", " +
+                                        std::string(to_string(spec.update)) + ")",
+                                    refused, fused);
+    if (HasFailure()) return;
+  }
+  EXPECT_GT(refused, 100);  // the NaN and out-of-range plots were refused, by both
+  EXPECT_GT(fused, 1000);   // and the fusion ran
+}
+
+TEST(WimmTrackBank, EqualsTheOneTrackFilterWithTheShippedModels) {
+  std::mt19937_64 rng(5);
+  int refused = 0, fused = 0;
+  for (const char* name :
+       {"wimm.h5", "wimm_air_surveillance.h5", "baseline_nimm_air_surveillance.h5"}) {
+    expect_equals_one_track_filters(io::read_wimm(std::string("models/") + name), 150, rng, name,
+                                    refused, fused);
+  }
+  EXPECT_GT(fused, 100);
+}
+
+TEST(WimmTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
+  std::mt19937_64 specs(7);
+  const WimmSpec spec = random_spec(specs, 1);
+  std::mt19937_64 rng(8);
+  testing::expect_tracks_independent_of_their_neighbours(
+      11, 80, [&](std::size_t n) { return WimmTrackBank(spec, n); }, start_of,
+      [&](int t, int k) { return plot_of(spec, t, k + 1, rng); },
+      [](const WimmTrackBank& a, std::size_t t, const WimmTrackBank& b, std::size_t u) {
+        testing::expect_same_bits(a.mode_probabilities(t), b.mode_probabilities(u));
+        EXPECT_EQ(a.fused(t), b.fused(u));
+      });
+}
+
+TEST(WimmTrackBank, ARefusedPlotOrAFailedModeLeavesTheTrackExactlyAsItWas) {
+  WimmSpec spec;
+  spec.threshold = 0.0;
+  WimmTrackBank bank(spec, 5);
+  for (std::size_t t = 0; t < 5; ++t) bank.initialize(t, start_of(static_cast<int>(t)));
+  std::mt19937_64 rng(11);
+  std::vector<Eigen::Vector2d> plots(3);
+  std::vector<StepStatus> status(3);
+  for (int k = 1; k <= 10; ++k) {
+    for (int t = 0; t < 3; ++t) {
+      const Eigen::Vector2d p = truth_of(t + 1, k * spec.sample_period);
+      plots[static_cast<std::size_t>(t)] = {std::hypot(p.x(), p.y()), std::atan2(p.x(), p.y())};
+    }
+    bank.step(plots, status);
+  }
+  ASSERT_EQ(status, std::vector<StepStatus>(3, StepStatus::kOk));
+  const GaussianState<6> before = bank.estimate(1);
+  const ModeVector mu_before = bank.mode_probabilities(1);
+  const GaussianState<6> untouched = bank.estimate(4);
+  plots[1].y() = std::numeric_limits<double>::infinity();
+  bank.step(plots, status);
+  EXPECT_EQ(status[0], StepStatus::kOk);
+  EXPECT_EQ(status[1], StepStatus::kInvalidMeasurement);
+  EXPECT_EQ(bank.estimate(1).mean, before.mean);
+  EXPECT_EQ(bank.estimate(1).covariance, before.covariance);
+  EXPECT_EQ(bank.mode_probabilities(1), mu_before);
+  EXPECT_TRUE(bank.fused(1));  // from the last successful step
+  EXPECT_EQ(bank.estimate(4).mean, untouched.mean);
+  EXPECT_EQ(bank.estimate(4).covariance, untouched.covariance);
+
+  // A track at the radar with no velocity: the range and azimuth are undefined at its
+  // prediction, as the one-track filter says, and it stays where it was.
+  GaussianState<6> origin = start_of(2);
+  origin.mean.setZero();
+  bank.initialize(2, origin);
+  WimmFilter single(spec);
+  single.initialize(origin.mean, origin.covariance);
+  bank.step(plots, status);
+  EXPECT_EQ(status[2], StepStatus::kUndefinedMeasurement);
+  EXPECT_EQ(single.step(plots[2]), StepStatus::kUndefinedMeasurement);
+  EXPECT_EQ(bank.estimate(2).mean, Vector<6>::Zero());
+}
+
+std::string refused_field(const WimmSpec& spec, std::size_t capacity) {
+  try {
+    WimmTrackBank bank(spec, capacity);
+  } catch (const InvalidParameter& error) {
+    return error.field();
+  }
+  return "";
+}
+
+TEST(WimmTrackBank, RefusesWhatItCannotRun) {
+  WimmSpec spec;
+  EXPECT_EQ(refused_field(spec, 0), "capacity");
+  spec.transition << 1.0, 0.0, 0.05, 0.95;  // CV absorbing: the Singer mode could be unreachable
+  EXPECT_EQ(refused_field(spec, 4), "transition");
+  spec = WimmSpec();
+  spec.alpha = 0.0;
+  EXPECT_EQ(refused_field(spec, 4), "alpha");
+  spec = WimmSpec();
+  WimmTrackBank bank(spec, 3);
+  GaussianState<6> bad = start_of(0);
+  bad.mean(4) = std::numeric_limits<double>::quiet_NaN();
+  try {
+    bank.initialize(0, bad);
+    ADD_FAILURE() << "a NaN state was taken";
+  } catch (const InvalidParameter& error) {
+    EXPECT_EQ(error.field(), "state");
+  }
+  std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(3e4, 0.5));
+  std::vector<StepStatus> status(2);
+  bank.initialize(0, start_of(0));
+  EXPECT_THROW(bank.step(plots, status), std::logic_error);  // track 1 never started
+  std::vector<StepStatus> wrong(3);
+  EXPECT_THROW(bank.step(plots, wrong), std::invalid_argument);
+  EXPECT_THROW(bank.initialize(3, start_of(0)), std::out_of_range);
+  EXPECT_THROW((void)bank.estimate(3), std::out_of_range);
+}
+
+}  // namespace
+}  // namespace imm
