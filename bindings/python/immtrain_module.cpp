@@ -31,11 +31,13 @@
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
+#include "imm/io/wimm_file.hpp"
 #include "imm/load.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "imm/tracking/tracker.hpp"
+#include "imm/tracking/wimm_track_bank.hpp"
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
@@ -255,14 +257,31 @@ class PyTracker {
 };
 
 // A model's bank: many tracks stepped by one call — TrackBank for a plain IMM, GaFuzzyTrackBank
-// for a GA-fuzzy IMM, InputEstimatorTrackBank for an input estimator (the kinds with a bank;
-// another kind is refused, naming it).
+// for a GA-fuzzy IMM, InputEstimatorTrackBank for an input estimator, WimmTrackBank for a weighted
+// IMM (the kinds with a bank; another kind is refused, naming it).
 class PyTrackBank {
  public:
   PyTrackBank(const fs::path& path, std::size_t capacity) : bank_(open(path, capacity)) {}
 
-  void initialize(std::size_t track, const Eigen::Vector4d& mean, const Eigen::Matrix4d& P) {
-    std::visit([&](auto& bank) { bank.initialize(track, imm::GaussianState<4>{mean, P}); }, bank_);
+  // Starts track `track` from a mean and covariance of the bank's state dimension.
+  void initialize(std::size_t track, const Eigen::VectorXd& mean, const Eigen::MatrixXd& P) {
+    std::visit(
+        [&](auto& bank) {
+          using State = decltype(bank.estimate(0));
+          constexpr int n = decltype(State::mean)::RowsAtCompileTime;
+          if (mean.size() != n) {
+            throw imm::InvalidParameter("mean", "expected " + std::to_string(n) + " entries");
+          }
+          if (P.rows() != n || P.cols() != n) {
+            throw imm::InvalidParameter("covariance",
+                                        "expected " + std::to_string(n) + "×" + std::to_string(n));
+          }
+          State state;
+          state.mean = mean;
+          state.covariance = P;
+          bank.initialize(track, state);
+        },
+        bank_);
   }
 
   // One cycle of tracks 0 … N − 1 with plots (N, 2); returns each track's status.
@@ -287,9 +306,19 @@ class PyTrackBank {
   }
 
   [[nodiscard]] py::tuple estimate(std::size_t track) const {
-    const imm::GaussianState<4> e =
-        std::visit([&](const auto& bank) { return bank.estimate(track); }, bank_);
-    return py::make_tuple(Eigen::Vector4d(e.mean), Eigen::Matrix4d(e.covariance));
+    return std::visit(
+        [&](const auto& bank) {
+          const auto e = bank.estimate(track);
+          return py::make_tuple(Eigen::VectorXd(e.mean), Eigen::MatrixXd(e.covariance));
+        },
+        bank_);
+  }
+  [[nodiscard]] int state_dimension() const {
+    return std::visit(
+        [](const auto& bank) {
+          return static_cast<int>(decltype(bank.estimate(0).mean)::RowsAtCompileTime);
+        },
+        bank_);
   }
   [[nodiscard]] Eigen::VectorXd mode_probabilities(std::size_t track) const {
     return std::visit(
@@ -299,13 +328,15 @@ class PyTrackBank {
     return std::visit([](const auto& bank) { return bank.capacity(); }, bank_);
   }
   [[nodiscard]] std::string kind() const {
-    constexpr std::array<std::string_view, 3> kKinds{
-        imm::io::kPlainImmKind, imm::io::kGaFuzzyImmKind, imm::io::kMlpInputEstimatorKind};
+    constexpr std::array<std::string_view, 4> kKinds{
+        imm::io::kPlainImmKind, imm::io::kGaFuzzyImmKind, imm::io::kMlpInputEstimatorKind,
+        imm::io::kWimmKind};
     return std::string(kKinds[bank_.index()]);
   }
 
  private:
-  using Bank = std::variant<imm::TrackBank, imm::GaFuzzyTrackBank, imm::InputEstimatorTrackBank>;
+  using Bank = std::variant<imm::TrackBank, imm::GaFuzzyTrackBank, imm::InputEstimatorTrackBank,
+                            imm::WimmTrackBank>;
   static Bank open(const fs::path& path, std::size_t capacity) {
     const imm::io::ModelFileReader reader(path);
     const std::string& kind = reader.provenance().model_kind;
@@ -320,10 +351,13 @@ class PyTrackBank {
       return Bank(std::in_place_type<imm::InputEstimatorTrackBank>,
                   imm::io::read_mlp_input_estimator(reader), capacity);
     }
+    if (kind == imm::io::kWimmKind) {
+      return Bank(std::in_place_type<imm::WimmTrackBank>, imm::io::read_wimm(reader), capacity);
+    }
     throw imm::InvalidParameter("path", path.string() + " is a " + kind +
-                                            " model; a bank steps plain_imm, ga_fuzzy_imm and "
-                                            "mlp_input_estimator models (load_tracker runs every "
-                                            "kind)");
+                                            " model; a bank steps plain_imm, ga_fuzzy_imm, "
+                                            "mlp_input_estimator and wimm models (load_tracker "
+                                            "runs every kind)");
   }
 
   Bank bank_;
@@ -369,7 +403,8 @@ PYBIND11_MODULE(immtrain, m) {
       .def_property_readonly("regime", &PyTracker::regime);
 
   py::class_<PyTrackBank>(m, "TrackBank",
-                          "Many tracks of one plain IMM or GA-fuzzy IMM model, stepped together")
+                          "Many tracks of one plain IMM, GA-fuzzy IMM, input-estimator or "
+                          "weighted IMM model, stepped together")
       .def(py::init<const fs::path&, std::size_t>(), py::arg("path"), py::arg("capacity"))
       .def("initialize", &PyTrackBank::initialize, py::arg("track"), py::arg("mean"),
            py::arg("covariance"))
@@ -377,6 +412,7 @@ PYBIND11_MODULE(immtrain, m) {
       .def("estimate", &PyTrackBank::estimate, py::arg("track"))
       .def("mode_probabilities", &PyTrackBank::mode_probabilities, py::arg("track"))
       .def_property_readonly("capacity", &PyTrackBank::capacity)
+      .def_property_readonly("state_dimension", &PyTrackBank::state_dimension)
       .def_property_readonly("kind", &PyTrackBank::kind);
 
   m.def(

@@ -202,9 +202,41 @@ def test_the_track_bank_equals_single_tracks(name, kind):
         bank.step(np.zeros((3, 3)))
 
 
+def test_the_weighted_imms_bank_equals_single_tracks():
+    # Polar plots (range, azimuth) of three targets 30-50 km out, with the 6-state start.
+    bank = immtrain.TrackBank(os.path.join(MODELS, "wimm.h5"), 3)
+    assert bank.kind == "wimm" and bank.state_dimension == 6
+    rng = np.random.default_rng(4)
+    starts = [np.array([30e3 + 5e3 * t, -150.0, 0.0, 20e3, 100.0, 0.0]) for t in range(3)]
+    P0 = np.diag([2500.0, 400.0, 25.0, 2500.0, 400.0, 25.0])
+    for t in range(3):
+        bank.initialize(t, starts[t], P0)
+    plots = []
+    for k in range(1, 31):
+        x = np.array([s[0] + 2.0 * k * s[1] for s in starts])
+        y = np.array([s[3] + 2.0 * k * s[4] for s in starts])
+        z = np.column_stack([np.hypot(x, y) + rng.normal(0.0, 50.0, 3),
+                             np.arctan2(x, y) + rng.normal(0.0, 0.005, 3)])
+        plots.append(z)
+        assert bank.step(z) == ["ok", "ok", "ok"]
+    for t in range(3):
+        one = immtrain.TrackBank(os.path.join(MODELS, "wimm.h5"), 1)
+        one.initialize(0, starts[t], P0)
+        for z in plots:
+            one.step(z[t:t + 1])
+        mean, cov = bank.estimate(t)
+        mean1, cov1 = one.estimate(0)
+        assert mean.shape == (6,) and cov.shape == (6, 6)
+        assert mean.tolist() == mean1.tolist()
+        assert cov.tolist() == cov1.tolist()
+        assert abs(mean[0] - (starts[t][0] + 60.0 * starts[t][1])) < 300.0
+    with pytest.raises(immtrain.InvalidParameter, match="mean: expected 6 entries"):
+        bank.initialize(0, np.zeros(4), np.eye(4))
+
+
 def test_a_kind_without_a_bank_is_refused_by_name():
-    with pytest.raises(immtrain.InvalidParameter, match="is a wimm model"):
-        immtrain.TrackBank(os.path.join(MODELS, "wimm.h5"), 2)
+    with pytest.raises(immtrain.InvalidParameter, match="is a fcm_imm model"):
+        immtrain.TrackBank(os.path.join(MODELS, "fcm_imm.h5"), 2)
 
 
 def test_nothing_grows_when_trackers_are_made_and_run_again_and_again():
