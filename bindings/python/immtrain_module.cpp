@@ -31,8 +31,10 @@
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
+#include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "imm/load.hpp"
+#include "imm/tracking/fimm_track_bank.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
@@ -258,7 +260,8 @@ class PyTracker {
 
 // A model's bank: many tracks stepped by one call — TrackBank for a plain IMM, GaFuzzyTrackBank
 // for a GA-fuzzy IMM, InputEstimatorTrackBank for an input estimator, WimmTrackBank for a weighted
-// IMM (the kinds with a bank; another kind is refused, naming it).
+// IMM, FimmTrackBank for a TSK sensor's FIMM (the kinds with a bank; another kind is refused,
+// naming it).
 class PyTrackBank {
  public:
   PyTrackBank(const fs::path& path, std::size_t capacity) : bank_(open(path, capacity)) {}
@@ -328,15 +331,17 @@ class PyTrackBank {
     return std::visit([](const auto& bank) { return bank.capacity(); }, bank_);
   }
   [[nodiscard]] std::string kind() const {
-    constexpr std::array<std::string_view, 4> kKinds{
+    // In the order of the Bank variant's alternatives.
+    constexpr std::array<std::string_view, 5> kKinds{
         imm::io::kPlainImmKind, imm::io::kGaFuzzyImmKind, imm::io::kMlpInputEstimatorKind,
-        imm::io::kWimmKind};
+        imm::io::kWimmKind, imm::io::kTskSensorKind};
+    static_assert(kKinds.size() == std::variant_size_v<Bank>);
     return std::string(kKinds[bank_.index()]);
   }
 
  private:
   using Bank = std::variant<imm::TrackBank, imm::GaFuzzyTrackBank, imm::InputEstimatorTrackBank,
-                            imm::WimmTrackBank>;
+                            imm::WimmTrackBank, imm::FimmTrackBank>;
   static Bank open(const fs::path& path, std::size_t capacity) {
     const imm::io::ModelFileReader reader(path);
     const std::string& kind = reader.provenance().model_kind;
@@ -354,10 +359,17 @@ class PyTrackBank {
     if (kind == imm::io::kWimmKind) {
       return Bank(std::in_place_type<imm::WimmTrackBank>, imm::io::read_wimm(reader), capacity);
     }
+    if (kind == imm::io::kTskSensorKind) {
+      const std::optional<imm::FimmSpec> fimm = imm::io::read_fimm_settings(reader);
+      if (!fimm) reader.fail("/fimm", "missing: the file predates stored FIMM settings");
+      return Bank(std::in_place_type<imm::FimmTrackBank>, *fimm,
+                  std::make_shared<const imm::TskSensorModel>(imm::io::read_tsk_sensor(reader)),
+                  capacity);
+    }
     throw imm::InvalidParameter("path", path.string() + " is a " + kind +
                                             " model; a bank steps plain_imm, ga_fuzzy_imm, "
-                                            "mlp_input_estimator and wimm models (load_tracker "
-                                            "runs every kind)");
+                                            "mlp_input_estimator, wimm and tsk_sensor models "
+                                            "(load_tracker runs every kind)");
   }
 
   Bank bank_;
@@ -403,8 +415,8 @@ PYBIND11_MODULE(immtrain, m) {
       .def_property_readonly("regime", &PyTracker::regime);
 
   py::class_<PyTrackBank>(m, "TrackBank",
-                          "Many tracks of one plain IMM, GA-fuzzy IMM, input-estimator or "
-                          "weighted IMM model, stepped together")
+                          "Many tracks of one plain IMM, GA-fuzzy IMM, input-estimator, "
+                          "weighted IMM or TSK-sensor FIMM model, stepped together")
       .def(py::init<const fs::path&, std::size_t>(), py::arg("path"), py::arg("capacity"))
       .def("initialize", &PyTrackBank::initialize, py::arg("track"), py::arg("mean"),
            py::arg("covariance"))

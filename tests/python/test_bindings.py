@@ -234,6 +234,31 @@ def test_the_weighted_imms_bank_equals_single_tracks():
         bank.initialize(0, np.zeros(4), np.eye(4))
 
 
+def test_the_fimms_bank_equals_single_tracks():
+    # The sensor's plots (z1, z2) of three vehicles 3 m/s ahead, with the 6-state start.
+    model = os.path.join(MODELS, "tsk_range_sensor.h5")
+    bank = immtrain.TrackBank(model, 3)
+    assert bank.kind == "tsk_sensor" and bank.state_dimension == 6
+    rng = np.random.default_rng(5)
+    starts = [np.array([3.5 - 1.0 * t, 0.0, 0.0, 5.0 + 10.0 * t, 3.0, 0.0]) for t in range(3)]
+    P0 = np.eye(6)
+    for t in range(3):
+        bank.initialize(t, starts[t], P0)
+    plots = []
+    for k in range(1, 41):
+        z = np.array([[s[0], s[3] + 0.3 * k] for s in starts]) + rng.normal(0.0, 0.5, (3, 2))
+        plots.append(z)
+        assert bank.step(z) == ["ok", "ok", "ok"]
+    for t in range(3):
+        one = immtrain.TrackBank(model, 1)
+        one.initialize(0, starts[t], P0)
+        for z in plots:
+            one.step(z[t:t + 1])
+        assert bank.estimate(t)[0].tolist() == one.estimate(0)[0].tolist()
+        assert bank.estimate(t)[1].tolist() == one.estimate(0)[1].tolist()
+        assert bank.mode_probabilities(t).tolist() == one.mode_probabilities(0).tolist()
+
+
 def test_a_kind_without_a_bank_is_refused_by_name():
     with pytest.raises(immtrain.InvalidParameter, match="is a fcm_imm model"):
         immtrain.TrackBank(os.path.join(MODELS, "fcm_imm.h5"), 2)

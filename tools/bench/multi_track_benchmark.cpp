@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Many tracks per call (imm/tracking/): the banks of the plain IMM, the GA-fuzzy IMM, the input
-// estimator and the weighted IMM against as many one-track filters (Google Benchmark;
+// estimator, the weighted IMM and the FIMM against as many one-track filters (Google Benchmark;
 // `make bench`).
 
 #include <benchmark/benchmark.h>
@@ -12,13 +12,16 @@
 #include <vector>
 
 #include "bench_inputs.hpp"
+#include "imm/filters/fimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/filters/plain_imm.hpp"
 #include "imm/filters/wimm.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
+#include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
+#include "imm/tracking/fimm_track_bank.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
@@ -257,5 +260,40 @@ BENCHMARK(BM_WimmMultiTrack)
     ->Args({1000, 1, 0})
     ->Args({1000, 0, 1})
     ->Args({1000, 1, 1});
+
+// N tracks of seed 002's FIMM with the shipped sensor (models/tsk_range_sensor.h5) on the cut-in
+// plots (R = 0.5² I, the presets' case 1), shifted by 1 mm along and 2 cm ahead per track:
+// range(1) = 0 as N FimmFilters, 1 as one FimmTrackBank; range(2) = linearizations per update
+// (1: EKF, 5: IEKF). Items: track steps.
+void BM_FimmMultiTrack(benchmark::State& state) {
+  const auto tracks = static_cast<std::size_t>(state.range(0));
+  const bool bank_api = state.range(1) == 1;
+  static const imm::datasets::Track track = imm::bench::preset_track("fimm_table1", 1);
+  const auto sensor = std::make_shared<const imm::TskSensorModel>(
+      imm::io::read_tsk_sensor(IMM_SOURCE_DIR "/models/tsk_range_sensor.h5"));
+  imm::FimmSpec spec;
+  spec.measurement_covariance = track.noise.covariance();
+  spec.iterations = static_cast<int>(state.range(2));
+  const Eigen::Vector2d offset(0.001, 0.02);
+  auto start = [&](std::size_t t) {
+    imm::GaussianState<6> s;
+    s.mean = track.truth.row(0).transpose();
+    s.mean(0) += offset.x() * static_cast<double>(t);
+    s.mean(3) += offset.y() * static_cast<double>(t);
+    s.covariance.setIdentity();
+    return s;
+  };
+  step_tracks(
+      state, tracks,
+      bank_api ? std::make_unique<imm::FimmTrackBank>(spec, sensor, tracks) : nullptr,
+      [&] { return std::make_unique<imm::FimmFilter>(spec, sensor); }, track.plots, offset, start);
+  state.SetLabel(std::string(bank_api ? "FimmTrackBank" : "separate filters") +
+                 (spec.iterations == 1 ? ", EKF" : ", IEKF ≤ 5"));
+}
+BENCHMARK(BM_FimmMultiTrack)
+    ->Args({1000, 0, 1})
+    ->Args({1000, 1, 1})
+    ->Args({1000, 0, 5})
+    ->Args({1000, 1, 5});
 
 }  // namespace

@@ -263,6 +263,9 @@ UpdateReport<Model::kDim> update(GaussianState<N>& state, const Vector<Model::kD
   }
 }
 
+/// The default step tolerance of iterated_update, relative to the prior's standard deviations.
+inline constexpr double kIteratedUpdateTolerance = 1e-6;
+
 /// Iterated extended Kalman update (Gauss–Newton on the MAP objective; Bell & Cathey): starting
 /// at x₀ = x⁻, each iteration linearizes h at x_i and updates the prior with
 ///   ν_i = z − h(x_i) − H_i (x⁻ − x_i),  x_{i+1} = x⁻ + K_i ν_i,  K_i from H_i,
@@ -274,7 +277,7 @@ UpdateReport<Model::kDim> update(GaussianState<N>& state, const Vector<Model::kD
 template <int N, class Model>
 UpdateReport<Model::kDim> iterated_update(GaussianState<N>& state, const Vector<Model::kDim>& z,
                                           const Model& model, int iterations,
-                                          double tolerance = 1e-6) {
+                                          double tolerance = kIteratedUpdateTolerance) {
   if (iterations <= 1) return update(state, z, model);
   constexpr int M = Model::kDim;
   if (!limits::usable_measurement(z)) {

@@ -1,0 +1,93 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// Many independent tracks of one fuzzy-sensor IMM (fimm.hpp), stepped by one call: the
+/// multi-track form of FimmFilter, as TrackBank is of the plain IMM.
+///
+/// Layout: every track is a lane (its two CA modes' means and covariances' upper triangles, and
+/// log μ), stored structure of arrays and stepped 8 at a time. A step runs per block:
+///   1. vector loops: the predicted mode probabilities, the mixing and both modes' predictions;
+///   2. per mode, one scalar loop over the lanes that evaluates the TSK sensor model (h and its
+///      Jacobian at the predicted position), then vector loops for the Joseph-form update; the
+///      iterated EKF repeats both from the relinearized point, lane by lane until its step is
+///      below the tolerance (kIteratedUpdateTolerance) or the iterations are spent, as
+///      iterated_update does;
+///   3. vector loops: the posterior μ and the commit.
+/// The vector loops have no branches and no calls, and the compiler vectorizes them: AVX-512 or
+/// AVX2 where the CPU has it, chosen at run time, without fused multiply-add, so a track's result
+/// does not depend on the instruction set, on its position or on the number of tracks.
+///
+/// The differences to the one-track filter are rounding only: the mode probabilities' exp and log
+/// are lane_exp and lane_log (lane_math.hpp, within 2 ulp of libm's), and the products sum only
+/// H's non-zero entries. A track whose plot is unusable, or whose step fails in either mode, is
+/// left exactly as it was, with the status of the first mode that failed (cruise, then lane
+/// change), as the one-track filter reports it.
+///
+/// Every transition probability must be positive: c_j then never vanishes, so no mode is ever
+/// unreachable. Nothing is allocated after construction.
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/step_status.hpp"
+#include "imm/filters/fimm.hpp"
+#include "imm/models/learned/tsk_sensor_model.hpp"
+#include "imm/runtime_export.hpp"
+
+namespace imm {
+
+/// N tracks of one FIMM with plots in the sensor's (z1, z2), stepped together (see the file
+/// comment).
+class IMM_RUNTIME_EXPORT FimmTrackBank {
+ public:
+  /// Tracks per block of the layout.
+  static constexpr int kBlock = 8;
+
+  /// Room for `capacity` tracks of `spec` through `sensor` (null: h = identity, the baseline IMM,
+  /// as FimmFilter). Throws InvalidParameter naming the field for an invalid spec
+  /// (FimmSpec::validate), a transition probability that is not positive ("transition") or a
+  /// capacity outside [1, 2^26].
+  FimmTrackBank(const FimmSpec& spec, std::shared_ptr<const TskSensorModel> sensor,
+                std::size_t capacity);
+
+  /// The number of tracks it holds.
+  [[nodiscard]] std::size_t capacity() const { return capacity_; }
+
+  /// Starts (or restarts) track `track` from `state` ([ξ, ξ̇, ξ̈, η, η̇, η̈]): both modes take it, μ
+  /// its initial value (FimmFilter::initialize). Throws std::out_of_range for a track ≥
+  /// capacity(), InvalidParameter("state") for a non-finite state.
+  void initialize(std::size_t track, const GaussianState<6>& state);
+
+  /// One scan of tracks 0 … plots.size() − 1, track t with the plot plots[t] = (z1, z2); status[t]
+  /// receives its outcome (a track whose status is not kOk is unchanged). Tracks from
+  /// plots.size() on are not touched. Throws std::invalid_argument when the spans differ in size
+  /// or exceed capacity(), std::logic_error when a stepped track was never initialized.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
+
+  /// Whether track `track` has been initialized.
+  [[nodiscard]] bool initialized(std::size_t track) const;
+
+  /// The combined estimate [ξ, ξ̇, ξ̈, η, η̇, η̈] (FimmFilter::estimate).
+  [[nodiscard]] GaussianState<6> estimate(std::size_t track) const;
+
+  /// μ = (cruise, lane change).
+  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
+
+ private:
+  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
+  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
+  [[nodiscard]] std::size_t checked(std::size_t track) const;
+
+  FimmSpec spec_;
+  std::shared_ptr<const TskSensorModel> sensor_;
+  std::size_t capacity_ = 0;
+  std::ptrdiff_t stride_ = 0;  // tracks, rounded up to whole blocks
+  std::vector<double> state_;  // slots × stride (see fimm_track_bank.cpp)
+  std::vector<unsigned char> initialized_;
+};
+
+}  // namespace imm

@@ -1,0 +1,416 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+// What the banks of two-mode IMMs in the 6-state space [x, vx, ax, y, vy, ay] share —
+// WimmTrackBank (CV and Singer, polar plots) and FimmTrackBank (two CA modes, a learned sensor):
+// a track is a lane; its modes' means and covariances' upper triangles, and log μ, are slots of
+// the bank's structure of arrays. Per block of W tracks: the predicted mode probabilities and
+// the mixing (ImmEstimator::predict_mode_probabilities and mix), each mode's prediction
+// (KalmanMode::propose), its Joseph-form update from a linearization the bank computes
+// (update_with_innovation with H non-zero in the position columns), the posterior μ
+// (ImmEstimator::finish_cycle) and the commit. Every statement of the vector parts is a loop over
+// the lanes, with no branch and no call, which the compiler vectorizes. Not installed.
+
+#include <Eigen/Core>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <span>
+
+#include "axis_lane_bank.hpp"
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/step_status.hpp"
+#include "imm/math/lane_math.hpp"
+#include "imm/math/log_sum_exp.hpp"
+#include "imm/models/motion/motion_model.hpp"
+
+namespace imm::bank {
+
+/// InvalidParameter("transition") unless every entry of Π is positive: c_j then never vanishes,
+/// so no mode is ever unreachable and the banks need no fallback.
+inline void require_positive_transitions(const Eigen::Matrix2d& transition) {
+  if (!(transition.array() > 0.0).all()) {
+    throw InvalidParameter("transition", "the bank needs every transition probability > 0");
+  }
+}
+
+/// One step of tracks 0 … plots.size() − 1 over blocks of kBlock tracks, one lane each. Per block:
+/// the plots' two components (NaN for an unusable plot; `pad` for a lane past the last track)
+/// and step flags, kernel(first, z0, z1, stepped, code), then every track's status.
+template <int kBlock, class Kernel>
+void step_blocks(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                 const Eigen::Vector2d& pad, Kernel&& kernel) {
+  const std::size_t n = plots.size();
+  constexpr auto kLanes = static_cast<std::size_t>(kBlock);
+  for (std::size_t first = 0; first < n; first += kLanes) {
+    double z0[kBlock], z1[kBlock], stepped[kBlock], code[kBlock];
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      const std::size_t track = first + l;
+      const bool real = track < n;
+      const bool usable = real && limits::usable_measurement(plots[track]);
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      z0[l] = usable ? plots[track](0) : (real ? nan : pad(0));
+      z1[l] = usable ? plots[track](1) : (real ? nan : pad(1));
+      stepped[l] = real ? 1.0 : 0.0;
+    }
+    kernel(first, z0, z1, stepped, code);
+    for (std::size_t l = 0; l < kLanes && first + l < n; ++l) {
+      status[first + l] = status_of(code[l]);
+    }
+  }
+}
+
+/// Entry (i, j), i ≤ j, of an n × n upper triangle stored row by row.
+constexpr int packed(int n, int i, int j) { return i * n - i * (i - 1) / 2 + (j - i); }
+/// The mixing-space index of state i of a mode with d states per axis ([p, v] or [p, v, a]).
+constexpr int mixing_index(int d, int i) { return (i / d) * 3 + i % d; }
+
+/// One axis block of a mode's F and Q (the first d × d entries used; both are block-diagonal
+/// over the axes).
+struct AxisModel {
+  double F[3][3] = {};
+  double Q[3][3] = {};
+};
+
+/// The axis block of a one-axis motion model.
+template <int D>
+AxisModel axis_model(const LinearMotionModel<D>& model) {
+  AxisModel axis;
+  for (int i = 0; i < D; ++i) {
+    for (int j = 0; j < D; ++j) {
+      axis.F[i][j] = model.transition(i, j);
+      axis.Q[i][j] = model.process_noise(i, j);
+    }
+  }
+  return axis;
+}
+
+/// Where a mode's state sits in a track's slots: its d states per axis, its mean (2d slots) and
+/// its covariance's upper triangle (d(2d + 1) slots).
+struct ModeSlots {
+  int d, mean, covariance;
+};
+
+/// One mode of a block: its mixed then predicted mean and covariance, its update.
+template <int D, int W>
+struct ModeLanes {
+  static constexpr int N = 2 * D;
+  double x[N][W];     // mixed mean, then predicted
+  double P[N][N][W];  // mixed covariance, then predicted
+  double xu[N][W];    // updated mean
+  double U[N][N][W];  // updated covariance
+  double log_likelihood[W], code[W];
+};
+
+/// A mode's linearization at a point: H's two columns at the position (x, y), R, the innovation,
+/// and whether h is defined there.
+template <int W>
+struct Linearization {
+  double h[2][2][W];
+  double r00[W], r01[W], r11[W], nu0[W], nu1[W], defined[W];
+};
+
+/// The mixing of a block: the predicted mode probabilities (log c_j and c_j) and the mixing
+/// weights μ_ij, from log μ in slots `log_mu` and `log_mu` + 1 under Π = p.
+template <int W>
+struct Mixing {
+  double log_c[2][W], predicted[2][W], weight[2][2][W];  // weight[i][j]: μ_ij
+};
+
+/// Reads the block's modes into the mixing space (zero-padded where a mode has no acceleration)
+/// and computes the mixing weights. `st(slot)` points at the block's first lane of a slot.
+template <int W, class Slot>
+[[gnu::always_inline]] inline void load_and_weigh(const double (&p)[2][2],
+                                                  const std::array<ModeSlots, 2>& modes, int log_mu,
+                                                  Slot&& st, Mixing<W>& mixing,
+                                                  double (&embedded)[2][6][W],
+                                                  double (&covariance)[2][6][6][W]) {
+  const double* log_mu0 = st(log_mu);
+  const double* log_mu1 = st(log_mu + 1);
+  IMM_LANES {
+    const double a = log_mu0[l], c = log_mu1[l];
+    const double shift = pick(c > a, c, a);
+    const double scaled0 = lane_exp(a - shift), scaled1 = lane_exp(c - shift);
+    const double sum0 = 0.0 + p[0][0] * scaled0 + p[1][0] * scaled1;
+    const double sum1 = 0.0 + p[0][1] * scaled0 + p[1][1] * scaled1;
+    mixing.log_c[0][l] = lane_log(sum0) + shift;
+    mixing.log_c[1][l] = lane_log(sum1) + shift;
+    mixing.predicted[0][l] = lane_exp(mixing.log_c[0][l]);
+    mixing.predicted[1][l] = lane_exp(mixing.log_c[1][l]);
+    mixing.weight[0][0][l] = p[0][0] * scaled0 / sum0;
+    mixing.weight[1][0][l] = p[1][0] * scaled1 / sum0;
+    mixing.weight[0][1][l] = p[0][1] * scaled0 / sum1;
+    mixing.weight[1][1][l] = p[1][1] * scaled1 / sum1;
+  }
+  for (int m = 0; m < 2; ++m) {
+    const ModeSlots& mode = modes[static_cast<std::size_t>(m)];
+    const int n = 2 * mode.d;
+    for (int a = 0; a < 6; ++a) {
+      const bool held = a % 3 < mode.d;
+      const int i = (a / 3) * mode.d + a % 3;  // the mode's state, where it has one
+      const double* mean = st(mode.mean + (held ? i : 0));
+      IMM_LANES embedded[m][a][l] = held ? mean[l] : 0.0;
+      for (int c = a; c < 6; ++c) {
+        const int k = (c / 3) * mode.d + c % 3;
+        const bool entry = held && c % 3 < mode.d;
+        const double* value = st(mode.covariance + (entry ? packed(n, i, k) : 0));
+        IMM_LANES covariance[m][a][c][l] = covariance[m][c][a][l] = entry ? value[l] : 0.0;
+      }
+    }
+  }
+}
+
+/// Mode j's mixed initial condition (eq. 4–6 of seed 000, in the 6-state space) in its own
+/// states, and its prediction x⁻ = F x, P⁻ = F P Fᵀ + Q, symmetrized (KalmanMode::propose).
+template <int D, int W>
+[[gnu::always_inline]] inline void mix_and_predict(const AxisModel& model, const double* weight0,
+                                                   const double* weight1,
+                                                   const double (&embedded)[2][6][W],
+                                                   const double (&covariance)[2][6][6][W],
+                                                   ModeLanes<D, W>& mode) {
+  constexpr int N = 2 * D;
+  double mean[N][W], d[2][N][W], mixed[N][N][W];
+  for (int i = 0; i < N; ++i) {
+    const int a = mixing_index(D, i);
+    IMM_LANES {
+      mean[i][l] = 0.0 + weight0[l] * embedded[0][a][l] + weight1[l] * embedded[1][a][l];
+      d[0][i][l] = embedded[0][a][l] - mean[i][l];
+      d[1][i][l] = embedded[1][a][l] - mean[i][l];
+    }
+  }
+  // Σ_m w_m (P_m + d_m d_mᵀ), a weight of 0 adding nothing (ImmEstimator::moment_match); the
+  // terms of (i, k) and (k, i) are the same products, so the result is exactly symmetric.
+  for (int i = 0; i < N; ++i) {
+    for (int k = i; k < N; ++k) {
+      const int a = mixing_index(D, i), b = mixing_index(D, k);
+      IMM_LANES {
+        const double t0 = weight0[l] * (covariance[0][a][b][l] + d[0][i][l] * d[0][k][l]);
+        const double t1 = weight1[l] * (covariance[1][a][b][l] + d[1][i][l] * d[1][k][l]);
+        mixed[i][k][l] = mixed[k][i][l] =
+            (0.0 + pick(weight0[l] != 0.0, t0, 0.0)) + pick(weight1[l] != 0.0, t1, 0.0);
+      }
+    }
+  }
+  // Per axis block (F and Q are block-diagonal).
+  for (int i = 0; i < N; ++i) {
+    const int axis = i / D, r = i % D;
+    IMM_LANES {
+      double sum = 0.0;
+      for (int c = 0; c < D; ++c) sum += model.F[r][c] * mean[axis * D + c][l];
+      mode.x[i][l] = sum;
+    }
+  }
+  double fp[N][N][W];
+  for (int i = 0; i < N; ++i) {
+    for (int k = 0; k < N; ++k) {
+      const int axis = i / D, r = i % D;
+      IMM_LANES {
+        double sum = 0.0;
+        for (int c = 0; c < D; ++c) sum += model.F[r][c] * mixed[axis * D + c][k][l];
+        fp[i][k][l] = sum;
+      }
+    }
+  }
+  double predicted[N][N][W];
+  for (int i = 0; i < N; ++i) {
+    for (int k = 0; k < N; ++k) {
+      const int axis = k / D, r = k % D;
+      const double q = i / D == axis ? model.Q[i % D][r] : 0.0;
+      IMM_LANES {
+        double sum = 0.0;
+        for (int c = 0; c < D; ++c) sum += fp[i][axis * D + c][l] * model.F[r][c];
+        predicted[i][k][l] = sum + q;
+      }
+    }
+  }
+  for (int i = 0; i < N; ++i) {
+    IMM_LANES mode.P[i][i][l] = predicted[i][i][l];
+    for (int k = i + 1; k < N; ++k) {
+      IMM_LANES mode.P[i][k][l] = mode.P[k][i][l] = 0.5 * (predicted[i][k][l] + predicted[k][i][l]);
+    }
+  }
+}
+
+/// The Joseph-form update of one mode's prediction with its linearization (update_with_innovation
+/// with H's non-zero columns 0 and D) into xu and U, its log-likelihood and outcome code.
+template <int D, int W>
+[[gnu::always_inline]] inline void update_mode(const Linearization<W>& g, ModeLanes<D, W>& mode) {
+  constexpr int N = 2 * D;
+  const auto& h = g.h;
+  double pht[N][2][W];
+  for (int a = 0; a < N; ++a) {
+    for (int m = 0; m < 2; ++m) {
+      IMM_LANES pht[a][m][l] = mode.P[a][0][l] * h[m][0][l] + mode.P[a][D][l] * h[m][1][l];
+    }
+  }
+  double si[2][2][W], log_det[W], valid[W];
+  IMM_LANES {
+    const double s00 = (h[0][0][l] * pht[0][0][l] + h[0][1][l] * pht[D][0][l]) + g.r00[l];
+    const double s01 = (h[0][0][l] * pht[0][1][l] + h[0][1][l] * pht[D][1][l]) + g.r01[l];
+    const double s10 = (h[1][0][l] * pht[0][0][l] + h[1][1][l] * pht[D][0][l]) + g.r01[l];
+    const double s11 = (h[1][0][l] * pht[0][1][l] + h[1][1][l] * pht[D][1][l]) + g.r11[l];
+    const double S[2][2] = {{s00, 0.5 * (s01 + s10)}, {0.5 * (s01 + s10), s11}};
+    const bool finite = std::isfinite(S[0][0] + S[0][1] + S[1][1]);
+    const double det = S[0][0] * S[1][1] - S[0][1] * S[1][0];
+    valid[l] = pick(finite & (S[0][0] > 0.0) & (det > 1e-14 * S[0][0] * S[1][1]), 1.0, 0.0);
+    log_det[l] = lane_log(det);
+    // S⁻¹ in closed form (as Eigen's 2 × 2 inverse), symmetrized.
+    const double inverse_det = 1.0 / (S[0][0] * S[1][1] - S[1][0] * S[0][1]);
+    si[0][0][l] = S[1][1] * inverse_det;
+    si[0][1][l] = si[1][0][l] = 0.5 * (-S[0][1] * inverse_det + -S[1][0] * inverse_det);
+    si[1][1][l] = S[0][0] * inverse_det;
+  }
+  double K[N][2][W];
+  for (int a = 0; a < N; ++a) {
+    for (int m = 0; m < 2; ++m) {
+      IMM_LANES K[a][m][l] = pht[a][0][l] * si[0][m][l] + pht[a][1][l] * si[1][m][l];
+    }
+  }
+  // C = P − K (P Hᵀ)ᵀ, C Hᵀ, K R; then P⁺ = C − (C Hᵀ) Kᵀ + (K R) Kᵀ.
+  double C[N][N][W];
+  for (int a = 0; a < N; ++a) {
+    for (int b = 0; b < N; ++b) {
+      IMM_LANES C[a][b][l] =
+          mode.P[a][b][l] - (K[a][0][l] * pht[b][0][l] + K[a][1][l] * pht[b][1][l]);
+    }
+  }
+  double cht[N][2][W], kr[N][2][W];
+  for (int a = 0; a < N; ++a) {
+    for (int m = 0; m < 2; ++m) {
+      IMM_LANES {
+        const double r0 = m == 0 ? g.r00[l] : g.r01[l], r1 = m == 0 ? g.r01[l] : g.r11[l];
+        cht[a][m][l] = C[a][0][l] * h[m][0][l] + C[a][D][l] * h[m][1][l];
+        kr[a][m][l] = K[a][0][l] * r0 + K[a][1][l] * r1;
+      }
+    }
+  }
+  double updated[N][N][W];
+  for (int a = 0; a < N; ++a) {
+    for (int b = 0; b < N; ++b) {
+      IMM_LANES updated[a][b][l] =
+          (C[a][b][l] - (cht[a][0][l] * K[b][0][l] + cht[a][1][l] * K[b][1][l])) +
+          (kr[a][0][l] * K[b][0][l] + kr[a][1][l] * K[b][1][l]);
+    }
+  }
+  // x * 0 is 0 for a finite x and NaN otherwise: the sum is 0 exactly when every entry is finite.
+  double zero[W];
+  IMM_LANES zero[l] = 0.0;
+  for (int a = 0; a < N; ++a) {
+    IMM_LANES {
+      mode.xu[a][l] = mode.x[a][l] + (K[a][0][l] * g.nu0[l] + K[a][1][l] * g.nu1[l]);
+      mode.U[a][a][l] = updated[a][a][l];
+      zero[l] += mode.xu[a][l] * 0.0 + updated[a][a][l] * 0.0;
+    }
+    for (int b = a + 1; b < N; ++b) {
+      IMM_LANES {
+        const double mean = 0.5 * (updated[a][b][l] + updated[b][a][l]);
+        mode.U[a][b][l] = mode.U[b][a][l] = mean;
+        zero[l] += mean * 0.0;
+      }
+    }
+  }
+  IMM_LANES {
+    const double n0 = g.nu0[l], n1 = g.nu1[l];
+    const double mahalanobis =
+        n0 * (si[0][0][l] * n0 + si[0][1][l] * n1) + n1 * (si[1][0][l] * n0 + si[1][1][l] * n1);
+    mode.log_likelihood[l] = -0.5 * (mahalanobis + log_det[l] + 2.0 * kLogTwoPi);
+    mode.code[l] = pick(g.defined[l] == 0.0, kUndefined,
+                        pick(valid[l] != 0.0, pick(zero[l] == 0.0, kOk, kNonFinite), kSingular));
+  }
+}
+
+/// The posterior μ of the two updated modes (ImmEstimator::finish_cycle), each track's outcome
+/// code (kBadPlot where `usable` is 0; else the first mode's failure, the second's, or an
+/// underflow) and whether it commits (`stepped` and kOk).
+template <int D0, int D1, int W>
+[[gnu::always_inline]] inline void finish(const Mixing<W>& mixing, const ModeLanes<D0, W>& mode0,
+                                          const ModeLanes<D1, W>& mode1, const double* usable,
+                                          const double* stepped, double (&log_mu)[2][W],
+                                          double* code, double* commit) {
+  IMM_LANES {
+    const double posterior0 = mode0.log_likelihood[l] + mixing.log_c[0][l];
+    const double posterior1 = mode1.log_likelihood[l] + mixing.log_c[1][l];
+    const double shift = pick(posterior1 > posterior0, posterior1, posterior0);
+    const double sum = 0.0 + lane_exp(posterior0 - shift) + lane_exp(posterior1 - shift);
+    const double log_sum = lane_log(sum);
+    log_mu[0][l] = (posterior0 - shift) - log_sum;
+    log_mu[1][l] = (posterior1 - shift) - log_sum;
+    const double mode_code = pick(mode0.code[l] != kOk, mode0.code[l], mode1.code[l]);
+    const double outcome =
+        pick(mode_code != kOk, mode_code, pick(std::isfinite(shift), kOk, kUnderflow));
+    code[l] = pick(usable[l] != 0.0, outcome, kBadPlot);
+    commit[l] = pick((stepped[l] != 0.0) & (code[l] == kOk), 1.0, 0.0);
+  }
+}
+
+/// Slot `slot` takes `value` in the lanes that commit.
+template <int W, class Slot>
+[[gnu::always_inline]] inline void keep(Slot&& st, int slot, const double* value,
+                                        const double* commit) {
+  double* target = st(slot);
+  IMM_LANES target[l] = pick(commit[l] != 0.0, value[l], target[l]);
+}
+
+/// A mode's slots take its update in the lanes that commit.
+template <int D, int W, class Slot>
+[[gnu::always_inline]] inline void keep_mode(Slot&& st, const ModeSlots& slots,
+                                             const ModeLanes<D, W>& mode, const double* commit) {
+  constexpr int N = 2 * D;
+  for (int i = 0; i < N; ++i) {
+    keep<W>(st, slots.mean + i, mode.xu[i], commit);
+    for (int k = i; k < N; ++k)
+      keep<W>(st, slots.covariance + packed(N, i, k), mode.U[i][k], commit);
+  }
+}
+
+/// Writes `state` (6 states) into a mode's slots of lane `lane`: its own components.
+template <class Slot>
+void start_mode(Slot&& slot, const ModeSlots& mode, std::ptrdiff_t lane,
+                const GaussianState<6>& state) {
+  const int n = 2 * mode.d;
+  for (int i = 0; i < n; ++i) {
+    slot(mode.mean + i)[lane] = state.mean(mixing_index(mode.d, i));
+    for (int k = i; k < n; ++k) {
+      slot(mode.covariance + packed(n, i, k))[lane] =
+          state.covariance(mixing_index(mode.d, i), mixing_index(mode.d, k));
+    }
+  }
+}
+
+/// The combined estimate of lane `lane`: the modes embedded in the 6-state space, moment-matched
+/// with μ = exp(log μ) (ImmEstimator::combine).
+template <class Slot>
+GaussianState<6> combined_estimate(Slot&& slot, const std::array<ModeSlots, 2>& modes, int log_mu,
+                                   std::ptrdiff_t lane) {
+  std::array<Vector<6>, 2> means{};
+  std::array<SquareMatrix<6>, 2> covariances{};
+  double mu[2];
+  for (std::size_t m = 0; m < 2; ++m) {
+    const ModeSlots& mode = modes[m];
+    const int n = 2 * mode.d;
+    means[m].setZero();
+    covariances[m].setZero();
+    for (int i = 0; i < n; ++i) {
+      const int a = mixing_index(mode.d, i);
+      means[m](a) = slot(mode.mean + i)[lane];
+      for (int k = i; k < n; ++k) {
+        const int c = mixing_index(mode.d, k);
+        covariances[m](a, c) = covariances[m](c, a) = slot(mode.covariance + packed(n, i, k))[lane];
+      }
+    }
+    mu[m] = std::exp(slot(log_mu + static_cast<int>(m))[lane]);
+  }
+  GaussianState<6> out;
+  out.mean = mu[0] * means[0] + mu[1] * means[1];
+  out.covariance.setZero();
+  for (std::size_t m = 0; m < 2; ++m) {
+    if (mu[m] == 0.0) continue;
+    const Vector<6> d = means[m] - out.mean;
+    out.covariance += mu[m] * (covariances[m] + d * d.transpose());
+  }
+  return out;
+}
+
+}  // namespace imm::bank
