@@ -26,6 +26,7 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/io/container_file.hpp"
+#include "imm/io/fcm_imm_file.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
@@ -34,6 +35,7 @@
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "imm/load.hpp"
+#include "imm/tracking/fcm_imm_track_bank.hpp"
 #include "imm/tracking/fimm_track_bank.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
@@ -260,8 +262,8 @@ class PyTracker {
 
 // A model's bank: many tracks stepped by one call — TrackBank for a plain IMM, GaFuzzyTrackBank
 // for a GA-fuzzy IMM, InputEstimatorTrackBank for an input estimator, WimmTrackBank for a weighted
-// IMM, FimmTrackBank for a TSK sensor's FIMM (the kinds with a bank; another kind is refused,
-// naming it).
+// IMM, FimmTrackBank for a TSK sensor's FIMM, FcmImmTrackBank for an FCM-IMM: every kind
+// load_tracker reads.
 class PyTrackBank {
  public:
   PyTrackBank(const fs::path& path, std::size_t capacity) : bank_(open(path, capacity)) {}
@@ -332,16 +334,16 @@ class PyTrackBank {
   }
   [[nodiscard]] std::string kind() const {
     // In the order of the Bank variant's alternatives.
-    constexpr std::array<std::string_view, 5> kKinds{
+    constexpr std::array<std::string_view, 6> kKinds{
         imm::io::kPlainImmKind, imm::io::kGaFuzzyImmKind, imm::io::kMlpInputEstimatorKind,
-        imm::io::kWimmKind, imm::io::kTskSensorKind};
+        imm::io::kWimmKind,     imm::io::kTskSensorKind,  imm::io::kFcmImmKind};
     static_assert(kKinds.size() == std::variant_size_v<Bank>);
     return std::string(kKinds[bank_.index()]);
   }
 
  private:
   using Bank = std::variant<imm::TrackBank, imm::GaFuzzyTrackBank, imm::InputEstimatorTrackBank,
-                            imm::WimmTrackBank, imm::FimmTrackBank>;
+                            imm::WimmTrackBank, imm::FimmTrackBank, imm::FcmImmTrackBank>;
   static Bank open(const fs::path& path, std::size_t capacity) {
     const imm::io::ModelFileReader reader(path);
     const std::string& kind = reader.provenance().model_kind;
@@ -366,10 +368,12 @@ class PyTrackBank {
                   std::make_shared<const imm::TskSensorModel>(imm::io::read_tsk_sensor(reader)),
                   capacity);
     }
-    throw imm::InvalidParameter("path", path.string() + " is a " + kind +
-                                            " model; a bank steps plain_imm, ga_fuzzy_imm, "
-                                            "mlp_input_estimator, wimm and tsk_sensor models "
-                                            "(load_tracker runs every kind)");
+    if (kind == imm::io::kFcmImmKind) {
+      return Bank(std::in_place_type<imm::FcmImmTrackBank>, imm::io::read_fcm_imm(reader),
+                  capacity);
+    }
+    throw imm::InvalidParameter(
+        "path", path.string() + " is a " + kind + " model, a kind this runtime has no bank for");
   }
 
   Bank bank_;
@@ -415,8 +419,8 @@ PYBIND11_MODULE(immtrain, m) {
       .def_property_readonly("regime", &PyTracker::regime);
 
   py::class_<PyTrackBank>(m, "TrackBank",
-                          "Many tracks of one plain IMM, GA-fuzzy IMM, input-estimator, "
-                          "weighted IMM or TSK-sensor FIMM model, stepped together")
+                          "Many tracks of one model (any kind load_tracker reads), stepped "
+                          "together")
       .def(py::init<const fs::path&, std::size_t>(), py::arg("path"), py::arg("capacity"))
       .def("initialize", &PyTrackBank::initialize, py::arg("track"), py::arg("mean"),
            py::arg("covariance"))

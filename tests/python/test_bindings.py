@@ -170,7 +170,8 @@ def test_bad_plots_raise_invalid_parameter_or_are_rejected():
 @pytest.mark.parametrize("name,kind", [("cv3_imm.h5", "plain_imm"),
                                        ("ga_fuzzy_imm.h5", "ga_fuzzy_imm"),
                                        ("mlp_input_estimator_ground_vehicle.h5",
-                                        "mlp_input_estimator")])
+                                        "mlp_input_estimator"),
+                                       ("fcm_imm.h5", "fcm_imm")])
 def test_the_track_bank_equals_single_tracks(name, kind):
     model = os.path.join(MODELS, name)
     bank = immtrain.TrackBank(model, 3)
@@ -259,9 +260,18 @@ def test_the_fimms_bank_equals_single_tracks():
         assert bank.mode_probabilities(t).tolist() == one.mode_probabilities(0).tolist()
 
 
-def test_a_kind_without_a_bank_is_refused_by_name():
-    with pytest.raises(immtrain.InvalidParameter, match="is a fcm_imm model"):
-        immtrain.TrackBank(os.path.join(MODELS, "fcm_imm.h5"), 2)
+@pytest.mark.parametrize("name,kind,dimension", [("cv3_imm.h5", "plain_imm", 4),
+                                                 ("ga_fuzzy_imm.h5", "ga_fuzzy_imm", 4),
+                                                 ("mlp_input_estimator.h5",
+                                                  "mlp_input_estimator", 4),
+                                                 ("wimm.h5", "wimm", 6),
+                                                 ("tsk_range_sensor.h5", "tsk_sensor", 6),
+                                                 ("fcm_imm.h5", "fcm_imm", 4)])
+def test_every_kind_load_tracker_reads_has_a_bank(name, kind, dimension):
+    bank = immtrain.TrackBank(os.path.join(MODELS, name), 2)
+    assert bank.kind == kind and bank.state_dimension == dimension
+    with pytest.raises(immtrain.InvalidParameter, match="mean: expected"):
+        bank.initialize(0, np.zeros(dimension + 1), np.eye(dimension + 1))
 
 
 def test_nothing_grows_when_trackers_are_made_and_run_again_and_again():

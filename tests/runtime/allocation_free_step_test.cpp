@@ -26,6 +26,8 @@
 #include "imm/models/measurement/position_measurement.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/models/motion/singer.hpp"
+#include "imm/tracking/fcm_imm_track_bank.hpp"
+#include "imm/tracking/fimm_track_bank.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
@@ -329,7 +331,35 @@ TEST(AllocationFreeStep, FimmStepThroughTheTskSensor) {
       if (k % 50 == 0) (void)filter.predict_only();
     }
     EXPECT_EQ(allocations(), before) << iterations;
+
+    // Its bank: kBankTracks tracks, a bad plot included.
+    FimmTrackBank bank(spec, sensor, kBankTracks);
+    GaussianState<6> state;
+    state.mean = start;
+    state.covariance.setIdentity();
+    for (std::size_t t = 0; t < kBankTracks; ++t) bank.initialize(t, state);
+    std::vector<Eigen::Vector2d> plots(kBankTracks);
+    std::vector<StepStatus> status(kBankTracks);
+    const long bank_before = allocations();
+    for (int k = 1; k <= 100; ++k) {
+      for (std::size_t t = 0; t < kBankTracks; ++t) {
+        plots[t] =
+            Eigen::Vector2d(3.5 * std::cos(0.01 * k), 0.3 * k + 1e-3 * static_cast<double>(t));
+      }
+      plots[7] = Eigen::Vector2d(std::nan(""), 0.0);
+      bank.step(plots, status);
+    }
+    EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
+    EXPECT_EQ(status[kBankTracks - 1], StepStatus::kOk);
+    EXPECT_EQ(allocations(), bank_before) << iterations;
   }
+}
+
+// The FCM-IMM's bank: kBankTracks tracks, bad plots included (the clustering's windows are the
+// bank's own slots and scratch).
+TEST(AllocationFreeStep, FcmImmTrackBankStep) {
+  FcmImmTrackBank bank(FcmImmSpec(), kBankTracks);
+  expect_bank_steps_allocate_nothing(bank, 100.0, -20.0);
 }
 
 }  // namespace

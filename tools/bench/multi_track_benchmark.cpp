@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Many tracks per call (imm/tracking/): the banks of the plain IMM, the GA-fuzzy IMM, the input
-// estimator, the weighted IMM and the FIMM against as many one-track filters (Google Benchmark;
-// `make bench`).
+// estimator, the weighted IMM, the FIMM and the FCM-IMM against as many one-track filters (Google
+// Benchmark; `make bench`).
 
 #include <benchmark/benchmark.h>
 
@@ -12,15 +12,18 @@
 #include <vector>
 
 #include "bench_inputs.hpp"
+#include "imm/filters/fcm_imm.hpp"
 #include "imm/filters/fimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/filters/plain_imm.hpp"
 #include "imm/filters/wimm.hpp"
+#include "imm/io/fcm_imm_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
+#include "imm/tracking/fcm_imm_track_bank.hpp"
 #include "imm/tracking/fimm_track_bank.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
@@ -295,5 +298,35 @@ BENCHMARK(BM_FimmMultiTrack)
     ->Args({1000, 1, 1})
     ->Args({1000, 0, 5})
     ->Args({1000, 1, 5});
+
+// N tracks of seed 003's FCM-IMM with the shipped fit (models/fcm_imm.h5) on the seed-003 zigzag
+// plots, shifted by (37, −21) m per track: range(1) = 0 as N one-track filters
+// (make_fcm_imm_filter), 1 as one FcmImmTrackBank; range(2) = 1 with constant memberships (the
+// ablation: no clustering). Items: track steps.
+void BM_FcmImmMultiTrack(benchmark::State& state) {
+  const auto tracks = static_cast<std::size_t>(state.range(0));
+  const bool bank_api = state.range(1) == 1;
+  auto spec = imm::io::read_fcm_imm(IMM_SOURCE_DIR "/models/fcm_imm.h5");
+  spec.constant_memberships = state.range(2) == 1;
+  static const Eigen::MatrixXd source = imm::bench::preset_track("fcm_imm_zigzag").plots;
+  const Eigen::Vector2d offset(37.0, -21.0);
+  auto start = [&](std::size_t t) {
+    imm::GaussianState<4> s;
+    s.mean << source(0, 0) + offset.x() * static_cast<double>(t), 0.0,
+        source(0, 1) + offset.y() * static_cast<double>(t), 0.0;
+    s.covariance = Eigen::Vector4d(1e4, 2e4, 1e4, 2e4).asDiagonal();
+    return s;
+  };
+  step_tracks(
+      state, tracks, bank_api ? std::make_unique<imm::FcmImmTrackBank>(spec, tracks) : nullptr,
+      [&] { return imm::make_fcm_imm_filter(spec); }, source, offset, start);
+  state.SetLabel(std::string(bank_api ? "FcmImmTrackBank" : "separate filters") +
+                 (spec.constant_memberships ? ", constant memberships" : ", fitted"));
+}
+BENCHMARK(BM_FcmImmMultiTrack)
+    ->Args({1000, 0, 0})
+    ->Args({1000, 1, 0})
+    ->Args({1000, 0, 1})
+    ->Args({1000, 1, 1});
 
 }  // namespace

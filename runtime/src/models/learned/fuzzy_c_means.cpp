@@ -321,6 +321,46 @@ SlidingFuzzyCMeans::SlidingFuzzyCMeans(int window, const FuzzyCMeansSettings& se
   }
 }
 
+ClusterVector cluster_window(std::span<const double> window, const ClusterVector* previous,
+                             const ClusterVector& lower, const ClusterVector& upper,
+                             const FuzzyCMeansSettings& settings, std::span<double> memberships,
+                             ClusterVector& centers, int& iterations) {
+  const auto n = static_cast<int>(window.size());
+  ClusterVector start;
+  if (previous != nullptr) {
+    start = *previous;
+  } else {
+    double lowest = window[0], highest = window[0], sum = 0.0;
+    for (int k = 0; k < n; ++k) {
+      const double value = window[static_cast<std::size_t>(k)];
+      lowest = std::min(lowest, value);
+      highest = std::max(highest, value);
+      sum += value;
+    }
+    start = ClusterVector(lowest, sum / n, highest);
+  }
+  const FcmResult result = fuzzy_c_means(window, start, lower, upper, settings, memberships);
+  iterations = result.iterations;
+
+  // Order free centers ascending (deceleration, noise, acceleration); bounded centers keep the
+  // roles their bounds give them.
+  std::array<int, kFcmClusters> order = {0, 1, 2};
+  const bool free = (lower.array() == -std::numeric_limits<double>::infinity()).all() &&
+                    (upper.array() == std::numeric_limits<double>::infinity()).all();
+  if (free) {
+    std::sort(order.begin(), order.end(),
+              [&](int a, int b) { return result.centers(a) < result.centers(b); });
+  }
+  ClusterVector u;
+  const double* last =
+      &memberships[static_cast<std::size_t>(kFcmClusters) * static_cast<std::size_t>(n - 1)];
+  for (int i = 0; i < kFcmClusters; ++i) {
+    centers(i) = result.centers(order[static_cast<std::size_t>(i)]);
+    u(i) = last[order[static_cast<std::size_t>(i)]];
+  }
+  return u;
+}
+
 ClusterVector SlidingFuzzyCMeans::propose(double x) {
   // The window after this point: the newest min(size, window − 1) committed points, then x.
   const int kept = std::min(size_, window_ - 1);
@@ -338,42 +378,12 @@ ClusterVector SlidingFuzzyCMeans::propose(double x) {
     pending_centers_ = centers_;
     return ClusterVector(0.0, 1.0, 0.0);
   }
-
-  ClusterVector start = centers_;
-  if (!has_centers_) {
-    double lowest = work_[0], highest = work_[0], sum = 0.0;
-    for (int k = 0; k < n; ++k) {
-      const double value = work_[static_cast<std::size_t>(k)];
-      lowest = std::min(lowest, value);
-      highest = std::max(highest, value);
-      sum += value;
-    }
-    start = ClusterVector(lowest, sum / n, highest);
-  }
-  const std::span<const double> data(work_.data(), static_cast<std::size_t>(n));
-  const FcmResult result = fuzzy_c_means(
-      data, start, lower_, upper_, settings_,
-      std::span<double>(memberships_.data(), static_cast<std::size_t>(kFcmClusters * n)));
-  pending_iterations_ = result.iterations;
   pending_clustered_ = true;
-
-  // Order free centers ascending (deceleration, noise, acceleration); bounded centers keep the
-  // roles their bounds give them.
-  std::array<int, kFcmClusters> order = {0, 1, 2};
-  const bool free = (lower_.array() == -std::numeric_limits<double>::infinity()).all() &&
-                    (upper_.array() == std::numeric_limits<double>::infinity()).all();
-  if (free) {
-    std::sort(order.begin(), order.end(),
-              [&](int a, int b) { return result.centers(a) < result.centers(b); });
-  }
-  ClusterVector u;
-  const double* last =
-      &memberships_[static_cast<std::size_t>(kFcmClusters) * static_cast<std::size_t>(n - 1)];
-  for (int i = 0; i < kFcmClusters; ++i) {
-    pending_centers_(i) = result.centers(order[static_cast<std::size_t>(i)]);
-    u(i) = last[order[static_cast<std::size_t>(i)]];
-  }
-  return u;
+  return cluster_window(
+      std::span<const double>(work_.data(), static_cast<std::size_t>(n)),
+      has_centers_ ? &centers_ : nullptr, lower_, upper_, settings_,
+      std::span<double>(memberships_.data(), static_cast<std::size_t>(kFcmClusters * n)),
+      pending_centers_, pending_iterations_);
 }
 
 void SlidingFuzzyCMeans::commit() {

@@ -83,6 +83,17 @@ IMM_RUNTIME_EXPORT FcmResult fuzzy_c_means_from_memberships(std::span<const doub
                                                       std::span<const double> memberships,
                                                       double fuzzifier);
 
+/// One clustering of a sliding window on caller storage — what SlidingFuzzyCMeans::propose does
+/// once its window holds three points: `window` holds the n ≥ 3 points (the new one last),
+/// `previous` the last centers (null before the first clustering: then the window's minimum, mean
+/// and maximum), and `memberships` room for 3·n values. Returns the new point's memberships;
+/// `centers` receives the new centers (free ones sorted: deceleration, noise, acceleration),
+/// `iterations` the iterations done.
+IMM_RUNTIME_EXPORT ClusterVector cluster_window(
+    std::span<const double> window, const ClusterVector* previous, const ClusterVector& lower,
+    const ClusterVector& upper, const FuzzyCMeansSettings& settings, std::span<double> memberships,
+    ClusterVector& centers, int& iterations);
+
 /// Online FCM over a sliding window of the most recent points, warm-started from the previous
 /// centers. Follows the IMM's propose/commit contract: propose(x) clusters the committed window
 /// with x appended (the oldest point dropping out of a full window) and returns x's memberships

@@ -1,0 +1,96 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// Many independent tracks of one FCM-IMM (fcm_imm.hpp), stepped by one call: the multi-track
+/// form of make_fcm_imm_filter, as TrackBank is of the plain IMM.
+///
+/// Layout: every track is two axis filters (x, then y), every axis filter a lane; lanes are
+/// stored structure of arrays (each mode's estimate, log μ and its clustering's window, head,
+/// size and centers) and stepped 8 at a time. A step runs per block:
+///   1. vector loops: the predicted mode probabilities, every mode's mixing and CV prediction,
+///      its error e and S;
+///   2. one scalar loop over lanes and modes: the sliding fuzzy c-means of the errors
+///      (cluster_window, the clustering SlidingFuzzyCMeans runs, on the bank's windows: the same
+///      memberships to the bit);
+///   3. vector loops: every mode's compensated-gain Joseph update, its likelihood, the posterior
+///      μ and the commit; then the committed lanes' windows and centers.
+/// The vector loops have no branches and no calls, and the compiler vectorizes them: AVX-512 or
+/// AVX2 where the CPU has it, chosen at run time, without fused multiply-add, so a track's result
+/// does not depend on the instruction set, on its position or on the number of tracks.
+///
+/// The clustering iterates to its tolerance per lane and mode, so it keeps its one-track cost;
+/// the bank speeds up the rest of the step (fcm_imm's profile: about 56 % of a one-track step is
+/// the clustering). The clustering stops where max |ΔU| first falls below the tolerance, a rule a
+/// change in the last bit of an error can move by an iteration (and the memberships by up to the
+/// tolerance); so the bank computes the errors with the one-track filter's operations in its
+/// order, libm's exp and log included, not lane_exp and lane_log, and its results differ from the
+/// one-track filter's by rounding only (the tests hold them to 1e-9; the mixing's Eigen products
+/// may round differently). A track whose plot is unusable, or whose x or y step fails, is left
+/// exactly as it was, both axes, with the status of the first axis that failed.
+///
+/// Every transition probability must be positive: c_j then never vanishes, so no mode is ever
+/// unreachable. Nothing is allocated after construction.
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/step_status.hpp"
+#include "imm/filters/fcm_imm.hpp"
+#include "imm/runtime_export.hpp"
+
+namespace imm {
+
+/// N tracks of one FCM-IMM with Cartesian plots, stepped together (see the file comment).
+class IMM_RUNTIME_EXPORT FcmImmTrackBank {
+ public:
+  /// Axis lanes per block of the layout (four tracks).
+  static constexpr int kBlock = 8;
+
+  /// Room for `capacity` tracks of `spec`. Throws InvalidParameter naming the field for an invalid
+  /// spec (FcmImmSpec::validate), a transition probability that is not positive ("transition") or
+  /// a capacity outside [1, 2^26].
+  FcmImmTrackBank(const FcmImmSpec& spec, std::size_t capacity);
+
+  /// The number of tracks it holds.
+  [[nodiscard]] std::size_t capacity() const { return capacity_; }
+
+  /// Starts (or restarts) track `track` from [x, vx, y, vy] (the covariance's two axis blocks):
+  /// every mode of each axis takes the state, μ its initial value, the clusterings empty windows
+  /// (make_fcm_imm_filter's initialize). Throws std::out_of_range for a track ≥ capacity(),
+  /// InvalidParameter("state") for a non-finite state.
+  void initialize(std::size_t track, const GaussianState<4>& state);
+
+  /// One scan of tracks 0 … plots.size() − 1, track t with plots[t]; status[t] receives its
+  /// outcome (a track whose status is not kOk is unchanged). Tracks from plots.size() on are not
+  /// touched. Throws std::invalid_argument when the spans differ in size or exceed capacity(),
+  /// std::logic_error when a stepped track was never initialized.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
+
+  /// Whether track `track` has been initialized.
+  [[nodiscard]] bool initialized(std::size_t track) const;
+
+  /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
+  [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
+
+  /// μ of the x axis's IMM, then the y axis's (TwoAxisFilter::mode_probabilities).
+  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
+
+ private:
+  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
+  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
+  [[nodiscard]] std::size_t checked(std::size_t track) const;
+
+  FcmImmSpec spec_;
+  std::size_t capacity_ = 0;
+  std::ptrdiff_t stride_ = 0;       // axis lanes, rounded up to whole blocks
+  int mode_slots_ = 0;              // slots per mode
+  std::vector<double> transition_;  // π_ij at i * modes + j
+  std::vector<double> state_;       // slots × stride (see fcm_imm_track_bank.cpp)
+  std::vector<double> scratch_;     // one lane's window and memberships for the clustering
+  std::vector<unsigned char> initialized_;
+};
+
+}  // namespace imm
