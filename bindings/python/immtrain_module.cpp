@@ -273,13 +273,13 @@ class PyTrackBank {
     std::visit(
         [&](auto& bank) {
           using State = decltype(bank.estimate(0));
-          constexpr int n = decltype(State::mean)::RowsAtCompileTime;
-          if (mean.size() != n) {
-            throw imm::InvalidParameter("mean", "expected " + std::to_string(n) + " entries");
+          constexpr int kDimension = decltype(State::mean)::RowsAtCompileTime;
+          const std::string n = std::to_string(kDimension);
+          if (mean.size() != kDimension) {
+            throw imm::InvalidParameter("mean", "expected " + n + " entries");
           }
-          if (P.rows() != n || P.cols() != n) {
-            throw imm::InvalidParameter("covariance",
-                                        "expected " + std::to_string(n) + "×" + std::to_string(n));
+          if (P.rows() != kDimension || P.cols() != kDimension) {
+            throw imm::InvalidParameter("covariance", "expected " + n + "×" + n);
           }
           State state;
           state.mean = mean;

@@ -135,7 +135,7 @@ template <int W>
       double* window = b.window_scratch;
       for (int i = 0; i < kept; ++i) window[i] = st(j, kRing + (head + skip + i) % b.window)[l];
       window[kept] = s.x[l];
-      const auto points = static_cast<std::size_t>(kept + 1);
+      const auto points = static_cast<std::size_t>(kept) + 1;
       const ClusterVector previous(st(j, kCenters)[l], st(j, kCenters + 1)[l],
                                    st(j, kCenters + 2)[l]);
       ClusterVector centers;
@@ -256,8 +256,11 @@ FcmImmTrackBank::FcmImmTrackBank(const FcmImmSpec& spec, std::size_t capacity) :
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < n; ++j) transition_.push_back(spec.transition(i, j));
   }
-  state_.assign(static_cast<std::size_t>(n * mode_slots_ * stride_), 0.0);
-  scratch_.assign(static_cast<std::size_t>((1 + kFcmClusters) * spec.window), 0.0);
+  state_.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(mode_slots_) *
+                    static_cast<std::size_t>(stride_),
+                0.0);
+  scratch_.assign(
+      static_cast<std::size_t>(1 + kFcmClusters) * static_cast<std::size_t>(spec.window), 0.0);
   initialized_.assign(capacity, 0);
 }
 

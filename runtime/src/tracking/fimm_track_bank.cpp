@@ -28,11 +28,11 @@ constexpr std::array<bank::ModeSlots, 2> kModes{bank::ModeSlots{kAxis, 0, 6},
 constexpr int kLogMu = 54, kSlots = 56;
 
 struct BankConstants {
-  double p[2][2];  // Π
+  double p[2][2] = {};  // Π
   std::array<bank::AxisModel, 2> modes;
-  double r00, r01, r11;          // R, with the sensor model's own noise
-  const TskSensorModel* sensor;  // null: h = identity
-  int iterations;
+  double r00 = 0.0, r01 = 0.0, r11 = 0.0;  // R, with the sensor model's own noise
+  const TskSensorModel* sensor = nullptr;  // null: h = identity
+  int iterations = 1;
 };
 
 template <int W>
@@ -81,7 +81,7 @@ template <int W>
   double point[6][W], active[W];
   for (int a = 0; a < 6; ++a) IMM_LANES point[a][l] = mode.x[a][l];
   IMM_LANES active[l] = 1.0;
-  bank::Linearization<W> g;
+  bank::Linearization<W> g;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   const int iterations = b.sensor != nullptr ? b.iterations : 1;
   if (iterations <= 1) {
     linearize<W>(b, z0, z1, mode, point, active, g);
@@ -144,7 +144,7 @@ template <int W>
                                                    const double* z1, const double* stepped,
                                                    double* code) {
   auto st = [&](int entry) { return state + entry * stride; };
-  bank::Mixing<W> mixing;
+  bank::Mixing<W> mixing;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   double embedded[2][6][W], covariance[2][6][6][W];
   bank::load_and_weigh<W>(b.p, kModes, kLogMu, st, mixing, embedded, covariance);
   Mode<W> modes[2];

@@ -32,10 +32,10 @@ constexpr std::array<bank::ModeSlots, 2> kModes{kCv, kSinger};
 constexpr int kLogMu = 41, kFused = 43, kSlots = 44;
 
 struct BankConstants {
-  double p[2][2];  // Π
+  double p[2][2] = {};  // Π
   bank::AxisModel cv, singer;
-  double range_variance, azimuth_variance, threshold, alpha;
-  bool fuse, correlated, converted;
+  double range_variance = 0.0, azimuth_variance = 0.0, threshold = 0.0, alpha = 1.0;
+  bool fuse = false, correlated = false, converted = false;
 };
 
 // One scan of one block's W tracks. `state` points at the block's first track of slot 0; `range`
@@ -48,11 +48,12 @@ template <int W>
                                                    double* code) {
   auto st = [&](int entry) { return state + entry * stride; };
   // 1. The mixing and both modes' predictions.
-  bank::Mixing<W> mixing;
+  bank::Mixing<W> mixing;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   double embedded[2][6][W], covariance[2][6][6][W];
   bank::load_and_weigh<W>(b.p, kModes, kLogMu, st, mixing, embedded, covariance);
-  bank::ModeLanes<kCvAxis, W> cv;
-  bank::ModeLanes<kSingerAxis, W> singer;
+  // Every field is written before it is read; zeroing them first would cost.
+  bank::ModeLanes<kCvAxis, W> cv;          // NOLINT(cppcoreguidelines-pro-type-member-init)
+  bank::ModeLanes<kSingerAxis, W> singer;  // NOLINT(cppcoreguidelines-pro-type-member-init)
   const auto& weight = mixing.weight;
   const auto& predicted = mixing.predicted;
   bank::mix_and_predict<kCvAxis, W>(b.cv, weight[0][0], weight[1][0], embedded, covariance, cv);

@@ -321,10 +321,14 @@ SlidingFuzzyCMeans::SlidingFuzzyCMeans(int window, const FuzzyCMeansSettings& se
   }
 }
 
-ClusterVector cluster_window(std::span<const double> window, const ClusterVector* previous,
-                             const ClusterVector& lower, const ClusterVector& upper,
-                             const FuzzyCMeansSettings& settings, std::span<double> memberships,
-                             ClusterVector& centers, int& iterations) {
+namespace {
+
+// cluster_window's body, inlined into SlidingFuzzyCMeans::propose as well (as a call it cost an
+// FCM-IMM step ~5 %).
+[[gnu::always_inline]] inline ClusterVector cluster(
+    std::span<const double> window, const ClusterVector* previous, const ClusterVector& lower,
+    const ClusterVector& upper, const FuzzyCMeansSettings& settings, std::span<double> memberships,
+    ClusterVector& centers, int& iterations) {
   const auto n = static_cast<int>(window.size());
   ClusterVector start;
   if (previous != nullptr) {
@@ -361,6 +365,15 @@ ClusterVector cluster_window(std::span<const double> window, const ClusterVector
   return u;
 }
 
+}  // namespace
+
+ClusterVector cluster_window(std::span<const double> window, const ClusterVector* previous,
+                             const ClusterVector& lower, const ClusterVector& upper,
+                             const FuzzyCMeansSettings& settings, std::span<double> memberships,
+                             ClusterVector& centers, int& iterations) {
+  return cluster(window, previous, lower, upper, settings, memberships, centers, iterations);
+}
+
 ClusterVector SlidingFuzzyCMeans::propose(double x) {
   // The window after this point: the newest min(size, window − 1) committed points, then x.
   const int kept = std::min(size_, window_ - 1);
@@ -379,11 +392,10 @@ ClusterVector SlidingFuzzyCMeans::propose(double x) {
     return ClusterVector(0.0, 1.0, 0.0);
   }
   pending_clustered_ = true;
-  return cluster_window(
-      std::span<const double>(work_.data(), static_cast<std::size_t>(n)),
-      has_centers_ ? &centers_ : nullptr, lower_, upper_, settings_,
-      std::span<double>(memberships_.data(), static_cast<std::size_t>(kFcmClusters * n)),
-      pending_centers_, pending_iterations_);
+  return cluster(std::span<const double>(work_.data(), static_cast<std::size_t>(n)),
+                 has_centers_ ? &centers_ : nullptr, lower_, upper_, settings_,
+                 std::span<double>(memberships_.data(), static_cast<std::size_t>(kFcmClusters * n)),
+                 pending_centers_, pending_iterations_);
 }
 
 void SlidingFuzzyCMeans::commit() {
