@@ -75,16 +75,17 @@ Plots cut_in_plots(int tracks) {
   return out;
 }
 
-void expect_close(double value, double reference, double scale, const std::string& what) {
-  EXPECT_LE(std::abs(value - reference), 1e-9 * (scale + std::abs(reference))) << what;
+void expect_close(double value, double reference, double scale, const std::string& what,
+                  double tolerance) {
+  EXPECT_LE(std::abs(value - reference), tolerance * (scale + std::abs(reference))) << what;
 }
 
-// Every track of the bank beside its own one-track filter, scan by scan up to `last_scan`, to 1e-9
-// of each entry's scale; returns the refusals.
+// Every track of the bank beside its own one-track filter, scan by scan up to `last_scan`, to
+// `tolerance` of each entry's scale; returns the refusals.
 int expect_equals_one_track_filters(const FimmSpec& spec,
                                     const std::shared_ptr<const TskSensorModel>& sensor,
                                     const Plots& data, const std::string& name,
-                                    Eigen::Index last_scan = 199) {
+                                    Eigen::Index last_scan = 199, double tolerance = 1e-9) {
   const auto tracks = static_cast<int>(data.tracks.size());
   FimmTrackBank bank(spec, sensor, static_cast<std::size_t>(tracks));
   std::vector<std::unique_ptr<FimmFilter>> single;
@@ -112,17 +113,17 @@ int expect_equals_one_track_filters(const FimmSpec& spec,
       for (int a = 0; a < 6; ++a) {
         // Relative to the entry's scale in the state's units (see wimm_track_bank_test.cpp).
         expect_close(estimate.mean(a), reference.mean(a),
-                     std::sqrt(1.0 + reference.covariance(a, a)), at + " mean");
+                     std::sqrt(1.0 + reference.covariance(a, a)), at + " mean", tolerance);
         for (int c = 0; c < 6; ++c) {
           const double scale =
               std::sqrt((1.0 + reference.covariance(a, a)) * (1.0 + reference.covariance(c, c)));
           expect_close(estimate.covariance(a, c), reference.covariance(a, c), scale,
-                       at + " covariance");
+                       at + " covariance", tolerance);
         }
       }
       const ModeVector mu = bank.mode_probabilities(u);
       const ModeVector mu_single = single[u]->mode_probabilities();
-      for (int j = 0; j < 2; ++j) expect_close(mu(j), mu_single(j), 1.0, at + " μ");
+      for (int j = 0; j < 2; ++j) expect_close(mu(j), mu_single(j), 1.0, at + " μ", tolerance);
       if (::testing::Test::HasFailure()) return refused;
     }
   }
@@ -151,10 +152,12 @@ TEST(FimmTrackBank, EqualsTheOneTrackFilterToRounding) {
   EXPECT_GT(refused, 100);  // the NaN and out-of-range plots were refused, by both
 }
 
-// The hard sensor's tracks leave its trained box in their last scans, where the outside-box
-// continuation has a kink: there the one-track filter itself moves by up to 7e-8 of an entry's
-// scale when its start is perturbed by 1e-15 (track 6, scan 196), so its comparison ends at scan
-// 150; the other sensor's runs all 199.
+// With the shipped sensors the second lane change (scans 140–180) swings μ, and the rounding the
+// bank and the one-track filter differ by grows there to a few 1e-9 of an entry's scale (3.2e-9
+// under Clang's sanitizer build, < 1e-9 with GCC): 1e-8 here. The hard sensor's tracks also leave
+// its trained box in their last scans, where the outside-box continuation has a kink and the
+// one-track filter itself moves by up to 7e-8 of an entry's scale when its start is perturbed by
+// 1e-15 (track 6, scan 196): its comparison ends at scan 150.
 TEST(FimmTrackBank, EqualsTheOneTrackFilterWithTheShippedSensors) {
   const Plots data = cut_in_plots(9);
   for (const char* name : {"tsk_range_sensor.h5", "tsk_range_sensor_hard.h5"}) {
@@ -163,10 +166,11 @@ TEST(FimmTrackBank, EqualsTheOneTrackFilterWithTheShippedSensors) {
     const std::optional<FimmSpec> spec = io::read_fimm_settings(reader);
     ASSERT_TRUE(spec.has_value()) << name;
     const Eigen::Index last = std::string(name) == "tsk_range_sensor.h5" ? 199 : 150;
-    expect_equals_one_track_filters(*spec, sensor, data, name, last);
+    expect_equals_one_track_filters(*spec, sensor, data, name, last, 1e-8);
     FimmSpec iterated = *spec;
     iterated.iterations = 5;
-    expect_equals_one_track_filters(iterated, sensor, data, std::string(name) + " iterated", last);
+    expect_equals_one_track_filters(iterated, sensor, data, std::string(name) + " iterated", last,
+                                    1e-8);
   }
 }
 
