@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// lane_exp and lane_log against libm over their whole documented ranges, in ulp.
+// lane_exp, lane_log and lane_atan2 against libm over their documented ranges, in ulp.
 #include "imm/math/lane_math.hpp"
 
 #include <gtest/gtest.h>
@@ -68,6 +68,35 @@ TEST(LaneMath, LogIsWithinTwoUlpOfLibmForEveryPositiveDouble) {
             std::numeric_limits<double>::infinity());
   EXPECT_TRUE(std::isnan(lane_log(-1.0)));
   EXPECT_TRUE(std::isnan(lane_log(std::numeric_limits<double>::quiet_NaN())));
+}
+
+TEST(LaneMath, Atan2IsWithinTwoUlpOfLibmInEveryQuadrant) {
+  std::mt19937_64 rng(29);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::uniform_int_distribution<int> exponent(-40, 40);
+  std::int64_t worst = 0;
+  for (int i = 0; i < 2000000; ++i) {
+    // Both coordinates over 80 binades, and near the axes and diagonals.
+    double y = std::ldexp(unit(rng), exponent(rng)), x = std::ldexp(unit(rng), exponent(rng));
+    if (i % 7 == 1) x = y * (1.0 + 1e-9 * unit(rng));
+    if (i % 7 == 2) x = -y * (1.0 + 1e-9 * unit(rng));
+    if (i % 11 == 3) y = 1e-300 * unit(rng);
+    const double got = lane_atan2(y, x), expected = std::atan2(y, x);
+    ASSERT_LE(ulps(got, expected), 2) << "atan2(" << y << ", " << x << ")";
+    worst = std::max(worst, ulps(got, expected));
+  }
+  EXPECT_LE(worst, 2);
+  // The axes and the zeros, signs included, as libm.
+  for (const double y : {0.0, -0.0, 1.0, -1.0}) {
+    for (const double x : {0.0, -0.0, 1.0, -1.0}) {
+      if (x != 0.0 && y != 0.0) continue;  // the diagonals: within 2 ulp above
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(lane_atan2(y, x)),
+                std::bit_cast<std::uint64_t>(std::atan2(y, x)))
+          << y << ", " << x;
+    }
+  }
+  EXPECT_TRUE(std::isnan(lane_atan2(std::nan(""), 1.0)));
+  EXPECT_TRUE(std::isnan(lane_atan2(1.0, std::nan(""))));
 }
 
 TEST(LaneMath, PickSelectsEitherValueBitForBit) {

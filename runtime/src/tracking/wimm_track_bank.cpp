@@ -60,31 +60,34 @@ template <int W>
   bank::mix_and_predict<kSingerAxis, W>(b.singer, weight[0][1], weight[1][1], embedded, covariance,
                                         singer);
 
-  // 2. The fusion and the modes' linearizations (WimmFilter::step's choice, then
-  // FusedPolarMeasurement), one lane at a time: libm's hypot and atan2.
+  // 2. The predicted ranges and azimuths, and θ̄: the μ̄-weighted circular mean of the azimuths
+  // (WimmFilter::step, eq. 9–11, with sin θ_j = x_j / r_j and cos θ_j = y_j / r_j), over lanes.
+  double px[2][W], py[2][W], r[2][W], predicted_azimuth[2][W], theta_bar[W];
+  for (int j = 0; j < 2; ++j) {
+    const double* x = j == 0 ? cv.x[0] : singer.x[0];
+    const double* y = j == 0 ? cv.x[kCvAxis] : singer.x[kSingerAxis];
+    IMM_LANES {
+      px[j][l] = x[l];
+      py[j][l] = y[l];
+      r[j][l] = std::sqrt(x[l] * x[l] + y[l] * y[l]);
+      predicted_azimuth[j][l] = lane_atan2(x[l], y[l]);
+    }
+  }
+  IMM_LANES {
+    double s = 0.0, c = 0.0;
+    for (int j = 0; j < 2; ++j) {
+      s += predicted[j][l] * (px[j][l] / r[j][l]);
+      c += predicted[j][l] * (py[j][l] / r[j][l]);
+    }
+    theta_bar[l] = lane_atan2(s, c);
+  }
+  // The fusion and the modes' linearizations (FusedPolarMeasurement), one lane at a time: the
+  // wraps (exact remainders) and, for the converted update, libm's sin and cos.
   bank::Linearization<W> lin[2];
   double fused[W];
   for (int l = 0; l < W; ++l) {
-    const double px[2] = {cv.x[0][l], singer.x[0][l]};
-    const double py[2] = {cv.x[kCvAxis][l], singer.x[kSingerAxis][l]};
-    double predicted_range[2], predicted_azimuth[2], r[2];
-    for (int j = 0; j < 2; ++j) {
-      predicted_range[j] = std::hypot(px[j], py[j]);
-      predicted_azimuth[j] = azimuth_of(px[j], py[j]);
-      r[j] = std::sqrt(px[j] * px[j] + py[j] * py[j]);  // the Jacobian's
-    }
-    double chosen = azimuth[l], theta_bar = 0.0;
     const bool fuse = b.fuse && predicted[0][l] > b.threshold;
-    if (fuse) {
-      // sin θ_j = x_j / r_j and cos θ_j = y_j / r_j (to rounding; an undefined mode fails anyway).
-      double s = 0.0, c = 0.0;
-      for (int j = 0; j < 2; ++j) {
-        s += predicted[j][l] * (px[j] / r[j]);
-        c += predicted[j][l] * (py[j] / r[j]);
-      }
-      theta_bar = std::atan2(s, c);
-      chosen = blend_angles(azimuth[l], theta_bar, b.alpha);
-    }
+    const double chosen = fuse ? blend_angles(azimuth[l], theta_bar[l], b.alpha) : azimuth[l];
     fused[l] = fuse ? 1.0 : 0.0;
     const bool correlated = fuse && b.correlated;
     CartesianPlot plot{};
@@ -101,27 +104,27 @@ template <int W>
         g.r00[l] = plot.covariance(0, 0);
         g.r01[l] = plot.covariance(0, 1);
         g.r11[l] = plot.covariance(1, 1);
-        g.nu0[l] = plot.position(0) - px[j];
-        g.nu1[l] = plot.position(1) - py[j];
+        g.nu0[l] = plot.position(0) - px[j][l];
+        g.nu1[l] = plot.position(1) - py[j][l];
         g.defined[l] = 1.0;
         continue;
       }
-      const double x = px[j], y = py[j];
+      const double x = px[j][l], y = py[j][l];
       const double r2 = x * x + y * y;
       const double a = correlated ? b.alpha : 1.0;
-      g.h[0][0][l] = x / r[j];
-      g.h[0][1][l] = y / r[j];
+      g.h[0][0][l] = x / r[j][l];
+      g.h[0][1][l] = y / r[j][l];
       g.h[1][0][l] = correlated ? y / r2 * a : y / r2;
       g.h[1][1][l] = correlated ? -x / r2 * a : -x / r2;
       g.r00[l] = b.range_variance;
       g.r01[l] = 0.0;
       g.r11[l] = correlated ? b.azimuth_variance * a * a : b.azimuth_variance;
-      const double h_azimuth = correlated
-                                   ? theta_bar + a * wrap_angle(predicted_azimuth[j] - theta_bar)
-                                   : predicted_azimuth[j];
-      g.nu0[l] = range[l] - predicted_range[j];
+      const double h_azimuth =
+          correlated ? theta_bar[l] + a * wrap_angle(predicted_azimuth[j][l] - theta_bar[l])
+                     : predicted_azimuth[j][l];
+      g.nu0[l] = range[l] - r[j][l];
       g.nu1[l] = wrap_angle(chosen - h_azimuth);
-      g.defined[l] = predicted_range[j] > PolarMeasurement<6>::kMinimumRange ? 1.0 : 0.0;
+      g.defined[l] = r[j][l] > PolarMeasurement<6>::kMinimumRange ? 1.0 : 0.0;
     }
   }
 

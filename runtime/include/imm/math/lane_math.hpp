@@ -6,9 +6,9 @@
 /// so that a loop of them becomes a handful of vector instructions and every instruction set
 /// (SSE2, AVX2, AVX-512; never FMA) gives the same bits as the scalar code.
 ///
-/// lane_exp and lane_log are not libm's: they are within 2 ulp of the correctly rounded result
-/// over their documented ranges (tested against libm), not bit-equal to it. Code whose results
-/// must equal the runtime filters' to the bit keeps std::exp and std::log.
+/// lane_exp, lane_log and lane_atan2 are not libm's: they are within 2 ulp of the correctly rounded
+/// result over their documented ranges (tested against libm), not bit-equal to it. Code whose
+/// results must equal the runtime filters' to the bit keeps std::exp and std::log.
 
 #include <bit>
 #include <cstdint>
@@ -122,6 +122,49 @@ namespace imm {
   const double special =
       pick(x == 0.0, -kInf, pick(x == kInf, kInf, std::numeric_limits<double>::quiet_NaN()));
   return pick((x > 0.0) & (x < kInf), result, special);
+}
+
+/// atan2(y, x) within 2 ulp of libm's (tested) for finite (y, x) not both 0 (both 0 gives ±0 or ±π
+/// with y's and x's signs, as libm); NaN for a NaN. The ratio t = min(|x|, |y|) / max(|x|, |y|) in
+/// [0, 1], reduced by atan t = π/4 + atan((t − 1)/(t + 1)) above 0.66, then Cephes's rational
+/// approximation of atan on [−0.2, 0.66] (Moshier's atan.c, with its extra bits of π/4); then
+/// π/2 ∓ a where |y| > |x|, π − a where x < 0 (−0 included), and y's sign.
+[[nodiscard]] inline double lane_atan2(double y, double x) {
+  constexpr double kPi = 3.14159265358979323846;
+  constexpr double kPiOver2 = 1.57079632679489661923, kPiOver4 = 0.78539816339744830962;
+  constexpr double kMoreBits = 6.123233995736765886130e-17;  // π/2 − kPiOver2
+  const std::uint64_t y_bits = std::bit_cast<std::uint64_t>(y);
+  const std::uint64_t x_bits = std::bit_cast<std::uint64_t>(x);
+  const double ay = std::bit_cast<double>(y_bits & 0x7fffffffffffffffULL);
+  const double ax = std::bit_cast<double>(x_bits & 0x7fffffffffffffffULL);
+  const bool steep = ay > ax;
+  const double big = pick(steep, ay, ax), small = pick(steep, ax, ay);
+  const double t = pick(big > 0.0, small / big, 0.0);
+  const bool high = t > 0.66;
+  const double u = pick(high, (t - 1.0) / (t + 1.0), t);
+  const double z = u * u;
+  const double p = ((((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z -
+                      7.500855792314704667340e1) *
+                         z -
+                     1.228866684490136173410e2) *
+                        z -
+                    6.485021904942025371773e1);
+  const double q = (((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z +
+                      4.328810604912902668951e2) *
+                         z +
+                     4.853903996359136964868e2) *
+                        z +
+                    1.945506571482613964425e2);
+  const double r = u + u * (z * p / q);
+  const double a = pick(high, kPiOver4 + (r + 0.5 * kMoreBits), r);  // atan t, in [0, π/4]
+  // The angle from the positive x axis: a, π/2 ∓ a or π − a, each with its constant's lost bits.
+  const bool negative_x = (x_bits >> 63U) != 0;
+  const double base = pick(steep, kPiOver2, pick(negative_x, kPi, 0.0));
+  const double extra = pick(steep, kMoreBits, pick(negative_x, 2.0 * kMoreBits, 0.0));
+  const double quadrant = (base + pick(steep != negative_x, -a, a)) + extra;
+  const double result = std::bit_cast<double>(std::bit_cast<std::uint64_t>(quadrant) |
+                                              (y_bits & 0x8000000000000000ULL));
+  return pick((x == x) & (y == y), result, std::numeric_limits<double>::quiet_NaN());
 }
 
 }  // namespace imm

@@ -8,19 +8,20 @@
 /// covariances' upper triangles, and log μ), stored structure of arrays and stepped 8 at a time.
 /// A step runs in three phases per block:
 ///   1. vector loops: the predicted mode probabilities, the mixing in the 6-state space and both
-///      modes' predictions;
-///   2. one scalar loop over the lanes for what needs libm: the predicted ranges and azimuths
-///      (hypot, atan2), the fused azimuth (atan2) and the wrapped residuals; it leaves every
-///      mode's linearization — H at the position, R and the innovation — to
+///      modes' predictions, their predicted ranges and azimuths and the fusion's θ̄;
+///   2. one scalar loop over the lanes: whether to fuse, the fused azimuth and the wrapped
+///      residuals (and, for the converted update, the plot's conversion); it leaves every mode's
+///      linearization — H at the position, R and the innovation — to
 ///   3. vector loops: both modes' Joseph-form updates, their likelihoods and the posterior μ.
 /// The vector loops have no branches and no calls, and the compiler vectorizes them: AVX-512 or
 /// AVX2 where the CPU has it, chosen at run time, without fused multiply-add, so a track's result
 /// does not depend on the instruction set, on its position or on the number of tracks.
 ///
 /// Every fusion variant and both measurement updates run as in WimmFilter::step. The differences
-/// to the one-track filter are rounding only: the mode probabilities' exp and log are lane_exp and
-/// lane_log (lane_math.hpp, within 2 ulp of libm's), the fusion's sin θ_j and cos θ_j are x_j / r_j
-/// and y_j / r_j, and the products sum only H's non-zero entries. A track whose plot is unusable,
+/// to the one-track filter are rounding only: exp, log and atan2 are lane_exp, lane_log and
+/// lane_atan2 (lane_math.hpp, within 2 ulp of libm's), a range is √(x² + y²) rather than hypot,
+/// the fusion's sin θ_j and cos θ_j are x_j / r_j and y_j / r_j, and the products sum only H's
+/// non-zero entries. A track whose plot is unusable,
 /// or whose step fails in either mode, is left exactly as it was, with the status of the first mode
 /// that failed (CV, then Singer), as the one-track filter reports it.
 ///
