@@ -33,8 +33,9 @@ TskRule rule(double m_xi, double s_xi, double m_eta, double s_eta, double a0, do
 }
 
 // Three rules per output, shaped like a fitted range-sensor model (saturating, so that the
-// iterated EKF relinearizes), with the linear continuation outside its box.
-std::shared_ptr<const TskSensorModel> sensor_like_model(TNorm t_norm) {
+// iterated EKF relinearizes); the cut-in's first scans lie outside its box (η < 1).
+std::shared_ptr<const TskSensorModel> sensor_like_model(TNorm t_norm,
+                                                        OutsideBox outside = OutsideBox::kLinear) {
   std::array<TskOutput, 2> outputs;
   outputs[0].rules = {rule(-3.0, 2.5, 15.0, 12.0, 0.1, 0.98, 0.002),
                       rule(0.5, 3.0, 50.0, 15.0, -0.2, 0.8, 0.01),
@@ -45,7 +46,7 @@ std::shared_ptr<const TskSensorModel> sensor_like_model(TNorm t_norm) {
                       rule(1.0, 5.0, 90.0, 18.0, 38.0, 0.03, 0.25)};
   outputs[1].sigma = 0.07;
   return std::make_shared<const TskSensorModel>(outputs, t_norm, Eigen::Vector2d(-6.0, 1.0),
-                                                Eigen::Vector2d(6.0, 100.0));
+                                                Eigen::Vector2d(6.0, 100.0), outside);
 }
 
 // Track t's plots: test track t of the cut-in regime (two lane changes, 200 scans of 0.1 s), a
@@ -135,15 +136,17 @@ TEST(FimmTrackBank, EqualsTheOneTrackFilterToRounding) {
   int refused = 0;
   for (const int iterations : {1, 3, 8}) {
     for (const TNorm t_norm : {TNorm::kProduct, TNorm::kMin}) {
-      FimmSpec spec;
-      spec.measurement_covariance << 0.25, 0.05, 0.05, 0.3;
-      spec.iterations = iterations;
-      spec.transition << 0.95, 0.05, 0.1, 0.9;
-      refused +=
-          expect_equals_one_track_filters(spec, sensor_like_model(t_norm), data,
-                                          "iterations " + std::to_string(iterations) + " t-norm " +
-                                              std::to_string(static_cast<int>(t_norm)));
-      if (HasFailure()) return;
+      for (const OutsideBox outside : {OutsideBox::kLinear, OutsideBox::kHold}) {
+        FimmSpec spec;
+        spec.measurement_covariance << 0.25, 0.05, 0.05, 0.3;
+        spec.iterations = iterations;
+        spec.transition << 0.95, 0.05, 0.1, 0.9;
+        refused += expect_equals_one_track_filters(
+            spec, sensor_like_model(t_norm, outside), data,
+            "iterations " + std::to_string(iterations) + ", " + std::string(to_string(t_norm)) +
+                (outside == OutsideBox::kLinear ? ", linear outside" : ", held outside"));
+        if (HasFailure()) return;
+      }
     }
   }
   FimmSpec spec;
