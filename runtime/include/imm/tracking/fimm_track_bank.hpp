@@ -7,19 +7,19 @@
 /// Layout: every track is a lane (its two CA modes' means and covariances' upper triangles, and
 /// log μ), stored structure of arrays and stepped 8 at a time. A step runs per block:
 ///   1. vector loops: the predicted mode probabilities, the mixing and both modes' predictions;
-///   2. per mode, one scalar loop over the lanes that evaluates the TSK sensor model (h and its
-///      Jacobian at the predicted position), then vector loops for the Joseph-form update; the
-///      iterated EKF repeats both from the relinearized point, lane by lane until its step is
-///      below the tolerance (kIteratedUpdateTolerance) or the iterations are spent, as
-///      iterated_update does;
+///   2. per mode, vector loops that evaluate the TSK sensor model (h and its Jacobian at the
+///      predicted position: TskSensorModel::evaluate's operations in its order) and make the
+///      Joseph-form update; the iterated EKF repeats both from the relinearized point, lane by
+///      lane until its step is below the tolerance (kIteratedUpdateTolerance) or the iterations
+///      are spent, as iterated_update does;
 ///   3. vector loops: the posterior μ and the commit.
 /// The vector loops have no branches and no calls, and the compiler vectorizes them: AVX-512 or
 /// AVX2 where the CPU has it, chosen at run time, without fused multiply-add, so a track's result
 /// does not depend on the instruction set, on its position or on the number of tracks.
 ///
-/// The differences to the one-track filter are rounding only: the mode probabilities' exp and log
-/// are lane_exp and lane_log (lane_math.hpp, within 2 ulp of libm's), and the products sum only
-/// H's non-zero entries. A track whose plot is unusable, or whose step fails in either mode, is
+/// The differences to the one-track filter are rounding only: exp and log (the mode probabilities,
+/// the TSK rules' weights) are lane_exp and lane_log (lane_math.hpp, within 2 ulp of libm's), and
+/// the products sum only H's non-zero entries. A track whose plot is unusable, or whose step fails in either mode, is
 /// left exactly as it was, with the status of the first mode that failed (cruise, then lane
 /// change), as the one-track filter reports it.
 ///
