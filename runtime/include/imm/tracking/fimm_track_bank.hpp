@@ -19,9 +19,9 @@
 ///
 /// The differences to the one-track filter are rounding only: exp and log (the mode probabilities,
 /// the TSK rules' weights) are lane_exp and lane_log (lane_math.hpp, within 2 ulp of libm's), and
-/// the products sum only H's non-zero entries. A track whose plot is unusable, or whose step fails in either mode, is
-/// left exactly as it was, with the status of the first mode that failed (cruise, then lane
-/// change), as the one-track filter reports it.
+/// the products sum only H's non-zero entries. A track whose plot is unusable, or whose step fails
+/// in either mode, is left exactly as it was, with the status of the first mode that failed
+/// (cruise, then lane change), as the one-track filter reports it.
 ///
 /// Every transition probability must be positive: c_j then never vanishes, so no mode is ever
 /// unreachable. Nothing is allocated after construction.
