@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-// The argument checks every multi-track bank makes (TrackBank, GaFuzzyTrackBank), with one
-// wording. Not installed.
+// The argument checks every multi-track bank makes, with one wording. Not installed.
 
+#include <Eigen/Core>
 #include <cstddef>
 #include <stdexcept>
 #include <string>
@@ -21,6 +21,14 @@ inline void require_capacity(std::size_t capacity) {
   if (capacity < 1 || capacity > kMaxCapacity) {
     throw InvalidParameter("capacity", "must be in [1, " + std::to_string(kMaxCapacity) +
                                            "] tracks, got " + std::to_string(capacity));
+  }
+}
+
+/// InvalidParameter("transition") unless every entry of Π is positive: c_j then never vanishes,
+/// so no mode is ever unreachable and the banks need no fallback.
+inline void require_positive_transitions(const Eigen::MatrixXd& transition) {
+  if (!(transition.array() > 0.0).all()) {
+    throw InvalidParameter("transition", "the bank needs every transition probability > 0");
   }
 }
 

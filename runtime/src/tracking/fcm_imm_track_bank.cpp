@@ -245,9 +245,7 @@ template <int W>
 
 FcmImmTrackBank::FcmImmTrackBank(const FcmImmSpec& spec, std::size_t capacity) : spec_(spec) {
   spec.validate();
-  if (!(spec.transition.array() > 0.0).all()) {
-    throw InvalidParameter("transition", "the bank needs every transition probability > 0");
-  }
+  bank::require_positive_transitions(spec.transition);
   bank::require_capacity(capacity);
   capacity_ = capacity;
   stride_ = static_cast<std::ptrdiff_t>((2 * capacity + kBlock - 1) / kBlock * kBlock);

@@ -18,7 +18,6 @@
 #include <span>
 
 #include "axis_lane_bank.hpp"
-#include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
@@ -27,14 +26,6 @@
 #include "imm/models/motion/motion_model.hpp"
 
 namespace imm::bank {
-
-/// InvalidParameter("transition") unless every entry of Π is positive: c_j then never vanishes,
-/// so no mode is ever unreachable and the banks need no fallback.
-inline void require_positive_transitions(const Eigen::Matrix2d& transition) {
-  if (!(transition.array() > 0.0).all()) {
-    throw InvalidParameter("transition", "the bank needs every transition probability > 0");
-  }
-}
 
 /// One step of tracks 0 … plots.size() − 1 over blocks of kBlock tracks, one lane each. Per block:
 /// the plots' two components (NaN for an unusable plot; `pad` for a lane past the last track)
