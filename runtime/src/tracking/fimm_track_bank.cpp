@@ -270,7 +270,31 @@ template <int W>
   }
 }
 
+// The kernel's constants of a spec and its sensor (null: h = identity).
+BankConstants constants_of(const FimmSpec& spec, const TskSensorModel* sensor) {
+  BankConstants b;
+  bank::transitions_into(spec.transition, b.p);
+  for (int j = 0; j < 2; ++j) {
+    b.modes[static_cast<std::size_t>(j)] = bank::axis_model<kAxis>(
+        constant_acceleration<1>(spec.sample_period, spec.process_noise(j)));
+  }
+  Eigen::Matrix2d R = spec.measurement_covariance;
+  if (sensor != nullptr) R += sensor->noise_covariance();
+  b.r00 = R(0, 0);
+  b.r01 = R(0, 1);
+  b.r11 = R(1, 1);
+  b.sensor = sensor != nullptr;
+  if (sensor != nullptr) b.tsk = TskConstants(*sensor);
+  b.iterations = spec.iterations;
+  return b;
+}
+
 }  // namespace
+
+// The kernel's constants, made once per bank.
+struct FimmTrackBank::Constants {
+  BankConstants b;
+};
 
 FimmTrackBank::FimmTrackBank(const FimmSpec& spec, std::shared_ptr<const TskSensorModel> sensor,
                              std::size_t capacity)
@@ -278,6 +302,7 @@ FimmTrackBank::FimmTrackBank(const FimmSpec& spec, std::shared_ptr<const TskSens
   spec.validate();
   bank::require_positive_transitions(spec.transition);
   bank::require_capacity(capacity);
+  constants_ = std::make_shared<const Constants>(Constants{constants_of(spec, sensor_.get())});
   capacity_ = capacity;
   stride_ = static_cast<std::ptrdiff_t>((capacity + kBlock - 1) / kBlock * kBlock);
   state_.assign(static_cast<std::size_t>(kSlots * stride_), 0.0);
@@ -294,36 +319,18 @@ bool FimmTrackBank::initialized(std::size_t track) const {
 
 void FimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state) {
   const auto t = static_cast<std::ptrdiff_t>(checked(track));
-  if (!state.all_finite()) throw InvalidParameter("state", "must be finite");
-  auto at = [&](int entry) { return slot(entry); };
-  for (const bank::ModeSlots& mode : kModes) bank::start_mode(at, mode, t, state);
-  for (int j = 0; j < 2; ++j) slot(kLogMu + j)[t] = safe_log(spec_.initial_probabilities(j));
+  bank::start_track([&](int entry) { return slot(entry); }, kModes, kLogMu, t, state,
+                    spec_.initial_probabilities);
   initialized_[static_cast<std::size_t>(t)] = 1;
 }
 
 void FimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
   bank::check_step("FimmTrackBank", plots.size(), status.size(), initialized_);
-  BankConstants b{};
-  for (int i = 0; i < 2; ++i) {
-    for (int j = 0; j < 2; ++j) b.p[i][j] = spec_.transition(i, j);
-  }
-  for (int j = 0; j < 2; ++j) {
-    b.modes[static_cast<std::size_t>(j)] = bank::axis_model<kAxis>(
-        constant_acceleration<1>(spec_.sample_period, spec_.process_noise(j)));
-  }
-  Eigen::Matrix2d R = spec_.measurement_covariance;
-  if (sensor_) R += sensor_->noise_covariance();
-  b.r00 = R(0, 0);
-  b.r01 = R(0, 1);
-  b.r11 = R(1, 1);
-  b.sensor = sensor_ != nullptr;
-  if (sensor_) b.tsk = TskConstants(*sensor_);
-  b.iterations = spec_.iterations;
   bank::step_blocks<kBlock>(plots, status, Eigen::Vector2d::Zero(),
                             [&](std::size_t first, const double* z0, const double* z1,
                                 const double* stepped, double* code) {
-                              step_block<kBlock>(b, state_.data() + first, stride_, z0, z1, stepped,
-                                                 code);
+                              step_block<kBlock>(constants_->b, state_.data() + first, stride_, z0,
+                                                 z1, stepped, code);
                             });
 }
 
@@ -333,10 +340,8 @@ GaussianState<6> FimmTrackBank::estimate(std::size_t track) const {
 }
 
 ModeVector FimmTrackBank::mode_probabilities(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
-  ModeVector mu(2);
-  for (int j = 0; j < 2; ++j) mu(j) = std::exp(slot(kLogMu + j)[t]);
-  return mu;
+  return bank::mode_probabilities([&](int entry) { return slot(entry); }, kLogMu,
+                                  static_cast<std::ptrdiff_t>(checked(track)));
 }
 
 }  // namespace imm

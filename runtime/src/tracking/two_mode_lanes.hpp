@@ -18,6 +18,7 @@
 #include <span>
 
 #include "axis_lane_bank.hpp"
+#include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
@@ -356,6 +357,13 @@ template <int D, int W, class Slot>
   }
 }
 
+/// Π as the kernels read it.
+inline void transitions_into(const Eigen::Matrix2d& transition, double (&p)[2][2]) {
+  for (int i = 0; i < 2; ++i) {
+    for (int j = 0; j < 2; ++j) p[i][j] = transition(i, j);
+  }
+}
+
 /// Writes `state` (6 states) into a mode's slots of lane `lane`: its own components.
 template <class Slot>
 void start_mode(Slot&& slot, const ModeSlots& mode, std::ptrdiff_t lane,
@@ -368,6 +376,26 @@ void start_mode(Slot&& slot, const ModeSlots& mode, std::ptrdiff_t lane,
           state.covariance(mixing_index(mode.d, i), mixing_index(mode.d, k));
     }
   }
+}
+
+/// Starts lane `lane` (ImmEstimator::initialize): both modes take their components of `state`,
+/// log μ (slots `log_mu`, `log_mu` + 1) the log of `initial`. InvalidParameter("state") for a
+/// state that is not finite.
+template <class Slot>
+void start_track(Slot&& slot, const std::array<ModeSlots, 2>& modes, int log_mu,
+                 std::ptrdiff_t lane, const GaussianState<6>& state,
+                 const Eigen::Vector2d& initial) {
+  if (!state.all_finite()) throw InvalidParameter("state", "must be finite");
+  for (const ModeSlots& mode : modes) start_mode(slot, mode, lane, state);
+  for (int j = 0; j < 2; ++j) slot(log_mu + j)[lane] = safe_log(initial(j));
+}
+
+/// μ = exp(log μ) of lane `lane`.
+template <class Slot>
+ModeVector mode_probabilities(Slot&& slot, int log_mu, std::ptrdiff_t lane) {
+  ModeVector mu(2);
+  for (int j = 0; j < 2; ++j) mu(j) = std::exp(slot(log_mu + j)[lane]);
+  return mu;
 }
 
 /// The combined estimate of lane `lane`: the modes embedded in the 6-state space, moment-matched

@@ -141,12 +141,35 @@ template <int W>
   bank::keep_mode<kSingerAxis, W>(st, kSinger, singer, commit);
 }
 
+// The kernel's constants of a spec.
+BankConstants constants_of(const WimmSpec& spec) {
+  BankConstants b;
+  bank::transitions_into(spec.transition, b.p);
+  b.cv = bank::axis_model<kCvAxis>(constant_velocity<1>(spec.sample_period, spec.cv_process_noise));
+  b.singer = bank::axis_model<kSingerAxis>(
+      singer<1>(spec.sample_period, spec.singer_tau, spec.singer_sigma));
+  b.range_variance = spec.range_sigma * spec.range_sigma;
+  b.azimuth_variance = spec.azimuth_sigma * spec.azimuth_sigma;
+  b.threshold = spec.threshold;
+  b.alpha = spec.alpha;
+  b.fuse = spec.fusion != FusionVariant::kNone;
+  b.correlated = spec.fusion == FusionVariant::kCorrelated;
+  b.converted = spec.update == MeasurementUpdate::kConverted;
+  return b;
+}
+
 }  // namespace
+
+// The kernel's constants, made once per bank.
+struct WimmTrackBank::Constants {
+  BankConstants b;
+};
 
 WimmTrackBank::WimmTrackBank(const WimmSpec& spec, std::size_t capacity) : spec_(spec) {
   spec.validate();
   bank::require_positive_transitions(spec.transition);
   bank::require_capacity(capacity);
+  constants_ = std::make_shared<const Constants>(Constants{constants_of(spec)});
   capacity_ = capacity;
   stride_ = static_cast<std::ptrdiff_t>((capacity + kBlock - 1) / kBlock * kBlock);
   state_.assign(static_cast<std::size_t>(kSlots * stride_), 0.0);
@@ -163,38 +186,20 @@ bool WimmTrackBank::initialized(std::size_t track) const {
 
 void WimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state) {
   const auto t = static_cast<std::ptrdiff_t>(checked(track));
-  if (!state.all_finite()) throw InvalidParameter("state", "must be finite");
-  auto at = [&](int entry) { return slot(entry); };
-  for (const bank::ModeSlots& mode : kModes) bank::start_mode(at, mode, t, state);
-  for (int j = 0; j < 2; ++j) slot(kLogMu + j)[t] = safe_log(spec_.initial_probabilities(j));
+  bank::start_track([&](int entry) { return slot(entry); }, kModes, kLogMu, t, state,
+                    spec_.initial_probabilities);
   slot(kFused)[t] = 0.0;
   initialized_[static_cast<std::size_t>(t)] = 1;
 }
 
 void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
   bank::check_step("WimmTrackBank", plots.size(), status.size(), initialized_);
-  BankConstants b{};
-  for (int i = 0; i < 2; ++i) {
-    for (int j = 0; j < 2; ++j) b.p[i][j] = spec_.transition(i, j);
-  }
-  b.cv =
-      bank::axis_model<kCvAxis>(constant_velocity<1>(spec_.sample_period, spec_.cv_process_noise));
-  b.singer = bank::axis_model<kSingerAxis>(
-      singer<1>(spec_.sample_period, spec_.singer_tau, spec_.singer_sigma));
-  b.range_variance = spec_.range_sigma * spec_.range_sigma;
-  b.azimuth_variance = spec_.azimuth_sigma * spec_.azimuth_sigma;
-  b.threshold = spec_.threshold;
-  b.alpha = spec_.alpha;
-  b.fuse = spec_.fusion != FusionVariant::kNone;
-  b.correlated = spec_.fusion == FusionVariant::kCorrelated;
-  b.converted = spec_.update == MeasurementUpdate::kConverted;
-
   // Lanes past the last track get a plot 1 away from the radar (their results are not kept).
   bank::step_blocks<kBlock>(plots, status, Eigen::Vector2d(1.0, 0.0),
                             [&](std::size_t first, const double* range, const double* azimuth,
                                 const double* stepped, double* code) {
-                              step_block<kBlock>(b, state_.data() + first, stride_, range, azimuth,
-                                                 stepped, code);
+                              step_block<kBlock>(constants_->b, state_.data() + first, stride_,
+                                                 range, azimuth, stepped, code);
                             });
 }
 
@@ -204,10 +209,8 @@ GaussianState<6> WimmTrackBank::estimate(std::size_t track) const {
 }
 
 ModeVector WimmTrackBank::mode_probabilities(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
-  ModeVector mu(2);
-  for (int j = 0; j < 2; ++j) mu(j) = std::exp(slot(kLogMu + j)[t]);
-  return mu;
+  return bank::mode_probabilities([&](int entry) { return slot(entry); }, kLogMu,
+                                  static_cast<std::ptrdiff_t>(checked(track)));
 }
 
 bool WimmTrackBank::fused(std::size_t track) const {

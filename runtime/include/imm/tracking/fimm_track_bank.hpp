@@ -82,8 +82,10 @@ class IMM_RUNTIME_EXPORT FimmTrackBank {
   [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
   [[nodiscard]] std::size_t checked(std::size_t track) const;
 
+  struct Constants;
   FimmSpec spec_;
   std::shared_ptr<const TskSensorModel> sensor_;
+  std::shared_ptr<const Constants> constants_;  // the kernel's, made from spec_ and sensor_ once
   std::size_t capacity_ = 0;
   std::ptrdiff_t stride_ = 0;  // tracks, rounded up to whole blocks
   std::vector<double> state_;  // slots × stride (see fimm_track_bank.cpp)

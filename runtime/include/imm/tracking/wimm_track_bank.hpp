@@ -30,6 +30,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -83,7 +84,9 @@ class IMM_RUNTIME_EXPORT WimmTrackBank {
   [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
   [[nodiscard]] std::size_t checked(std::size_t track) const;
 
+  struct Constants;
   WimmSpec spec_;
+  std::shared_ptr<const Constants> constants_;  // the kernel's, made from spec_ once
   std::size_t capacity_ = 0;
   std::ptrdiff_t stride_ = 0;  // tracks, rounded up to whole blocks
   std::vector<double> state_;  // slots × stride (see wimm_track_bank.cpp)
