@@ -212,39 +212,19 @@ TEST(FcmImmTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasWindowsIncluded) {
   }
 }
 
-std::string refused_field(const FcmImmSpec& spec, std::size_t capacity) {
-  try {
-    FcmImmTrackBank bank(spec, capacity);
-  } catch (const InvalidParameter& error) {
-    return error.field();
-  }
-  return "";
-}
-
 TEST(FcmImmTrackBank, RefusesWhatItCannotRun) {
   FcmImmSpec spec;
-  EXPECT_EQ(refused_field(spec, 0), "capacity");
+  EXPECT_EQ(testing::refused_field<FcmImmTrackBank>(spec, 0), "capacity");
   spec.transition = FcmImmSpec::switching_transition(3, 1.0);  // no switching at all
-  EXPECT_EQ(refused_field(spec, 4), "transition");
+  EXPECT_EQ(testing::refused_field<FcmImmTrackBank>(spec, 4), "transition");
   spec = FcmImmSpec();
   spec.window = 2;
-  EXPECT_EQ(refused_field(spec, 4), "window");
+  EXPECT_EQ(testing::refused_field<FcmImmTrackBank>(spec, 4), "window");
   FcmImmTrackBank bank(FcmImmSpec(), 3);
   GaussianState<4> bad = start_of(0);
   bad.mean(1) = std::numeric_limits<double>::quiet_NaN();
-  try {
-    bank.initialize(0, bad);
-    ADD_FAILURE() << "a NaN state was taken";
-  } catch (const InvalidParameter& error) {
-    EXPECT_EQ(error.field(), "state");
-  }
-  std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(1.0, 2.0));
-  std::vector<StepStatus> status(2);
-  bank.initialize(0, start_of(0));
-  EXPECT_THROW(bank.step(plots, status), std::logic_error);  // track 1 never started
-  std::vector<StepStatus> wrong(3);
-  EXPECT_THROW(bank.step(plots, wrong), std::invalid_argument);
-  EXPECT_THROW(bank.initialize(3, start_of(0)), std::out_of_range);
+  EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "state");
+  testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(1.0, 2.0));
 }
 
 }  // namespace

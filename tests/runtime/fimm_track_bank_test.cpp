@@ -220,42 +220,22 @@ TEST(FimmTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWas) {
   EXPECT_EQ(bank.estimate(4).covariance, untouched.covariance);
 }
 
-std::string refused_field(const FimmSpec& spec, std::size_t capacity) {
-  try {
-    FimmTrackBank bank(spec, nullptr, capacity);
-  } catch (const InvalidParameter& error) {
-    return error.field();
-  }
-  return "";
-}
-
 TEST(FimmTrackBank, RefusesWhatItCannotRun) {
   FimmSpec spec;
-  EXPECT_EQ(refused_field(spec, 0), "capacity");
+  EXPECT_EQ(testing::refused_field<FimmTrackBank>(spec, nullptr, 0), "capacity");
   spec.transition << 1.0, 0.0, 0.03, 0.97;  // cruise absorbing
-  EXPECT_EQ(refused_field(spec, 4), "transition");
+  EXPECT_EQ(testing::refused_field<FimmTrackBank>(spec, nullptr, 4), "transition");
   spec = FimmSpec();
   spec.iterations = 0;
-  EXPECT_EQ(refused_field(spec, 4), "iterations");
+  EXPECT_EQ(testing::refused_field<FimmTrackBank>(spec, nullptr, 4), "iterations");
   FimmTrackBank bank(FimmSpec(), nullptr, 3);
   GaussianState<6> bad;
   bad.mean.setZero();
   bad.covariance.setIdentity();
   bad.covariance(2, 2) = std::numeric_limits<double>::infinity();
-  try {
-    bank.initialize(0, bad);
-    ADD_FAILURE() << "an infinite covariance was taken";
-  } catch (const InvalidParameter& error) {
-    EXPECT_EQ(error.field(), "state");
-  }
+  EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "state");
   bad.covariance(2, 2) = 1.0;
-  std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(3.0, 1.0));
-  std::vector<StepStatus> status(2);
-  bank.initialize(0, bad);
-  EXPECT_THROW(bank.step(plots, status), std::logic_error);  // track 1 never started
-  std::vector<StepStatus> wrong(3);
-  EXPECT_THROW(bank.step(plots, wrong), std::invalid_argument);
-  EXPECT_THROW(bank.initialize(3, bad), std::out_of_range);
+  testing::expect_refused_misuse(bank, bad, Eigen::Vector2d(3.0, 1.0));
 }
 
 }  // namespace

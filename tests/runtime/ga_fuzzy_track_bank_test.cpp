@@ -152,33 +152,18 @@ TEST(GaFuzzyTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTracksUnt
   EXPECT_EQ(bank.estimate(4).covariance, untouched.covariance);
 }
 
-std::string refused_field(const GaFuzzyImmSpec& spec, std::size_t capacity) {
-  try {
-    GaFuzzyTrackBank bank(spec, capacity);
-  } catch (const InvalidParameter& error) {
-    return error.field();
-  }
-  return "";
-}
-
 TEST(GaFuzzyTrackBank, RefusesWhatItCannotRun) {
   datasets::Rng specs(3);
   GaFuzzyImmSpec spec = random_spec(specs, 2, FuzzyAntecedents::kResidual);
-  EXPECT_EQ(refused_field(spec, 0), "capacity");
+  EXPECT_EQ(testing::refused_field<GaFuzzyTrackBank>(spec, 0), "capacity");
   spec.settings.transition_stay = 1.0;  // zero transitions: a mode could become unreachable
-  EXPECT_EQ(refused_field(spec, 4), "settings.transition_stay");
+  EXPECT_EQ(testing::refused_field<GaFuzzyTrackBank>(spec, 4), "settings.transition_stay");
   spec.levels.clear();
-  EXPECT_EQ(refused_field(spec, 4), "levels");
+  EXPECT_EQ(testing::refused_field<GaFuzzyTrackBank>(spec, 4), "levels");
   spec = random_spec(specs, 1, FuzzyAntecedents::kResidual);
   spec.settings.transition_stay = 1.0;  // one level: [[1]] is fine
   GaFuzzyTrackBank bank(spec, 3);
-  std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(1.0, 2.0));
-  std::vector<StepStatus> status(2);
-  bank.initialize(0, start_of(0));
-  EXPECT_THROW(bank.step(plots, status), std::logic_error);  // track 1 never started
-  std::vector<StepStatus> wrong(3);
-  EXPECT_THROW(bank.step(plots, wrong), std::invalid_argument);
-  EXPECT_THROW(bank.initialize(3, start_of(0)), std::out_of_range);
+  testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(1.0, 2.0));
 }
 
 }  // namespace

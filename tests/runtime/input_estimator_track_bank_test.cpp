@@ -207,35 +207,20 @@ TEST(InputEstimatorTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTr
   EXPECT_EQ(bank.acceleration(1), twin.acceleration(0));
 }
 
-std::string refused_field(const MlpInputEstimatorModel& model, std::size_t capacity) {
-  try {
-    InputEstimatorTrackBank bank(model, capacity);
-  } catch (const InvalidParameter& e) {
-    return e.field();
-  }
-  return "";
-}
-
 TEST(InputEstimatorTrackBank, RefusesWhatItCannotRun) {
   std::mt19937_64 rng(3);
   const MlpInputEstimatorModel model = random_model(rng, 1);
-  EXPECT_EQ(refused_field(model, 0), "capacity");
-  EXPECT_EQ(refused_field(model, (std::size_t{1} << 26U) + 1), "capacity");
+  EXPECT_EQ(testing::refused_field<InputEstimatorTrackBank>(model, 0), "capacity");
+  EXPECT_EQ(testing::refused_field<InputEstimatorTrackBank>(model, (std::size_t{1} << 26U) + 1),
+            "capacity");
   MlpInputEstimatorModel bad = model;
   bad.settings.measurement_variance = -1.0;
-  EXPECT_EQ(refused_field(bad, 4), "measurement_variance");
+  EXPECT_EQ(testing::refused_field<InputEstimatorTrackBank>(bad, 4), "measurement_variance");
   bad = model;
   bad.input_variance = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_EQ(refused_field(bad, 4), "input_variance");
+  EXPECT_EQ(testing::refused_field<InputEstimatorTrackBank>(bad, 4), "input_variance");
   InputEstimatorTrackBank bank(model, 3);
-  bank.initialize(0, start_of(0));
-  std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(1.0, 2.0));
-  std::vector<StepStatus> status(2);
-  EXPECT_THROW(bank.step(plots, status), std::logic_error);  // track 1 never initialized
-  std::vector<StepStatus> fewer(1);
-  EXPECT_THROW(bank.step(plots, fewer), std::invalid_argument);
-  EXPECT_THROW(bank.initialize(3, start_of(0)), std::out_of_range);
-  EXPECT_THROW((void)bank.estimate(3), std::out_of_range);
+  testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(1.0, 2.0));
 }
 
 }  // namespace

@@ -226,41 +226,20 @@ TEST(WimmTrackBank, ARefusedPlotOrAFailedModeLeavesTheTrackExactlyAsItWas) {
   EXPECT_EQ(bank.estimate(2).mean, Vector<6>::Zero());
 }
 
-std::string refused_field(const WimmSpec& spec, std::size_t capacity) {
-  try {
-    WimmTrackBank bank(spec, capacity);
-  } catch (const InvalidParameter& error) {
-    return error.field();
-  }
-  return "";
-}
-
 TEST(WimmTrackBank, RefusesWhatItCannotRun) {
   WimmSpec spec;
-  EXPECT_EQ(refused_field(spec, 0), "capacity");
+  EXPECT_EQ(testing::refused_field<WimmTrackBank>(spec, 0), "capacity");
   spec.transition << 1.0, 0.0, 0.05, 0.95;  // CV absorbing: the Singer mode could be unreachable
-  EXPECT_EQ(refused_field(spec, 4), "transition");
+  EXPECT_EQ(testing::refused_field<WimmTrackBank>(spec, 4), "transition");
   spec = WimmSpec();
   spec.alpha = 0.0;
-  EXPECT_EQ(refused_field(spec, 4), "alpha");
+  EXPECT_EQ(testing::refused_field<WimmTrackBank>(spec, 4), "alpha");
   spec = WimmSpec();
   WimmTrackBank bank(spec, 3);
   GaussianState<6> bad = start_of(0);
   bad.mean(4) = std::numeric_limits<double>::quiet_NaN();
-  try {
-    bank.initialize(0, bad);
-    ADD_FAILURE() << "a NaN state was taken";
-  } catch (const InvalidParameter& error) {
-    EXPECT_EQ(error.field(), "state");
-  }
-  std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(3e4, 0.5));
-  std::vector<StepStatus> status(2);
-  bank.initialize(0, start_of(0));
-  EXPECT_THROW(bank.step(plots, status), std::logic_error);  // track 1 never started
-  std::vector<StepStatus> wrong(3);
-  EXPECT_THROW(bank.step(plots, wrong), std::invalid_argument);
-  EXPECT_THROW(bank.initialize(3, start_of(0)), std::out_of_range);
-  EXPECT_THROW((void)bank.estimate(3), std::out_of_range);
+  EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "state");
+  testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(3e4, 0.5));
 }
 
 }  // namespace

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Properties of the multi-track banks, checked the same way: a track's result does not depend on
-// its neighbours (GaFuzzyTrackBank, InputEstimatorTrackBank, WimmTrackBank), and, in the banks of
-// two-axis-lane tracks, blocks of 16 lanes give what blocks of 8 give — to the bit.
+// its neighbours, and, in the banks of two-axis-lane tracks, blocks of 16 lanes give what blocks of
+// 8 give — to the bit; what every bank refuses, naming the field or by the exception's type.
 
 #include <gtest/gtest.h>
 
@@ -11,8 +11,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <stdexcept>
+#include <string>
+#include <utility>
 #include <vector>
 
+#include "imm/core/invalid_parameter.hpp"
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
 
@@ -96,6 +100,40 @@ void expect_wide_blocks_as_narrow_ones(int tracks, int scans, Make&& make, Start
       if (::testing::Test::HasFatalFailure()) return;
     }
   }
+}
+
+// The field of the InvalidParameter that `call()` throws; "" when it throws none.
+template <class Call>
+std::string refused_field_of(Call&& call) {
+  try {
+    call();
+  } catch (const InvalidParameter& error) {
+    return error.field();
+  }
+  return "";
+}
+
+// The field a Bank(args…) construction is refused by; "" when it is built.
+template <class Bank, class... Args>
+std::string refused_field(Args&&... args) {
+  return refused_field_of([&] { Bank bank(std::forward<Args>(args)...); });
+}
+
+// What every bank refuses of its caller, on a bank of 3 tracks none of which has been started:
+// once track 0 is started from `start`, a step of 2 tracks (track 1 never started:
+// std::logic_error), status spans of another size than the plots' (std::invalid_argument), and
+// track 3 (std::out_of_range) to start or to read.
+template <class Bank, class State>
+void expect_refused_misuse(Bank& bank, const State& start, const Eigen::Vector2d& plot) {
+  std::vector<Eigen::Vector2d> plots(2, plot);
+  std::vector<StepStatus> status(2);
+  bank.initialize(0, start);
+  EXPECT_THROW(bank.step(plots, status), std::logic_error);
+  std::vector<StepStatus> fewer(1), more(3);
+  EXPECT_THROW(bank.step(plots, fewer), std::invalid_argument);
+  EXPECT_THROW(bank.step(plots, more), std::invalid_argument);
+  EXPECT_THROW(bank.initialize(3, start), std::out_of_range);
+  EXPECT_THROW((void)bank.estimate(3), std::out_of_range);
 }
 
 }  // namespace imm::testing
