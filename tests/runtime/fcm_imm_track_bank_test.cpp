@@ -80,10 +80,6 @@ Eigen::Vector2d plot_of(int track, int k, std::mt19937_64& rng, double scale = 1
   return z;
 }
 
-void expect_close(double value, double reference, double scale, const std::string& what) {
-  EXPECT_LE(std::abs(value - reference), 1e-9 * (scale + std::abs(reference))) << what;
-}
-
 // Every track of the bank beside its own one-track filter, scan by scan, the plots' noise 10
 // units of `scale`; returns the refusals.
 int expect_equals_one_track_filters(const FcmImmSpec& spec, int scans, std::mt19937_64& rng,
@@ -114,20 +110,8 @@ int expect_equals_one_track_filters(const FcmImmSpec& spec, int scans, std::mt19
       single[u]->state(mean, variance);
       Eigen::Matrix4d covariance;
       single[u]->covariance(covariance);
-      const GaussianState<4> estimate = bank.estimate(u);
-      for (int a = 0; a < 4; ++a) {
-        // Relative to the entry's scale in the state's units (see wimm_track_bank_test.cpp).
-        expect_close(estimate.mean(a), mean(a), std::sqrt(1.0 + covariance(a, a)), at + " mean");
-        for (int c = 0; c < 4; ++c) {
-          expect_close(estimate.covariance(a, c), covariance(a, c),
-                       std::sqrt((1.0 + covariance(a, a)) * (1.0 + covariance(c, c))),
-                       at + " covariance");
-        }
-      }
-      const ModeVector mu = bank.mode_probabilities(u), mu_single = single[u]->mode_probabilities();
-      EXPECT_EQ(mu.size(), mu_single.size());
-      for (Eigen::Index j = 0; j < std::min(mu.size(), mu_single.size()); ++j)
-        expect_close(mu(j), mu_single(j), 1.0, at + " μ");
+      testing::expect_estimate_close(bank.estimate(u), mean, covariance, bank.mode_probabilities(u),
+                                     single[u]->mode_probabilities(), at);
       if (::testing::Test::HasFailure()) return refused;
     }
   }

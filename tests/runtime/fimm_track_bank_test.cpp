@@ -76,11 +76,6 @@ Plots cut_in_plots(int tracks) {
   return out;
 }
 
-void expect_close(double value, double reference, double scale, const std::string& what,
-                  double tolerance) {
-  EXPECT_LE(std::abs(value - reference), tolerance * (scale + std::abs(reference))) << what;
-}
-
 // Every track of the bank beside its own one-track filter, scan by scan up to `last_scan`, to
 // `tolerance` of each entry's scale; returns the refusals.
 int expect_equals_one_track_filters(const FimmSpec& spec,
@@ -110,21 +105,9 @@ int expect_equals_one_track_filters(const FimmSpec& spec,
       EXPECT_EQ(status[u], single[u]->step(plots[u])) << at;
       if (status[u] != StepStatus::kOk) ++refused;
       const GaussianState<6>& reference = single[u]->estimate();
-      const GaussianState<6> estimate = bank.estimate(u);
-      for (int a = 0; a < 6; ++a) {
-        // Relative to the entry's scale in the state's units (see wimm_track_bank_test.cpp).
-        expect_close(estimate.mean(a), reference.mean(a),
-                     std::sqrt(1.0 + reference.covariance(a, a)), at + " mean", tolerance);
-        for (int c = 0; c < 6; ++c) {
-          const double scale =
-              std::sqrt((1.0 + reference.covariance(a, a)) * (1.0 + reference.covariance(c, c)));
-          expect_close(estimate.covariance(a, c), reference.covariance(a, c), scale,
-                       at + " covariance", tolerance);
-        }
-      }
-      const ModeVector mu = bank.mode_probabilities(u);
-      const ModeVector mu_single = single[u]->mode_probabilities();
-      for (int j = 0; j < 2; ++j) expect_close(mu(j), mu_single(j), 1.0, at + " μ", tolerance);
+      testing::expect_estimate_close(bank.estimate(u), reference.mean, reference.covariance,
+                                     bank.mode_probabilities(u), single[u]->mode_probabilities(),
+                                     at, tolerance);
       if (::testing::Test::HasFailure()) return refused;
     }
   }

@@ -86,15 +86,10 @@ Eigen::Vector2d plot_of(const WimmSpec& spec, int track, int k, std::mt19937_64&
   return z;
 }
 
-// Rounding differences (lane_exp and lane_log for μ, sums of H's non-zero terms only), relative to
-// an entry's scale in the state's units (a mean's: 1 + its σ). They stay below 1e-11 here; an
-// error in the algebra shows many orders above (a correlated fusion's R scaled by α instead of α²:
-// 1.5 against 3e-4 at scan 1).
-constexpr double kTolerance = 1e-9;
-
-void expect_close(double value, double reference, double scale, const std::string& what) {
-  EXPECT_LE(std::abs(value - reference), kTolerance * (scale + std::abs(reference))) << what;
-}
+// The tolerance of testing::expect_estimate_close holds the rounding differences (lane_exp,
+// lane_log and lane_atan2, sums of H's non-zero terms only): they stay below 1e-11 here; an error
+// in the algebra shows many orders above (a correlated fusion's R scaled by α instead of α²: 1.5
+// against 3e-4 at scan 1).
 
 // Every track of the bank beside its own one-track filter, scan by scan.
 void expect_equals_one_track_filters(const WimmSpec& spec, int scans, std::mt19937_64& rng,
@@ -118,24 +113,9 @@ void expect_equals_one_track_filters(const WimmSpec& spec, int scans, std::mt199
       ASSERT_EQ(status[u], single[u]->step(plots[u])) << at;
       if (status[u] != StepStatus::kOk) ++refused;
       const GaussianState<6>& reference = single[u]->estimate();
-      const GaussianState<6> estimate = bank.estimate(u);
-      for (int a = 0; a < 6; ++a) {
-        expect_close(estimate.mean(a), reference.mean(a),
-                     std::sqrt(1.0 + reference.covariance(a, a)), at + " mean");
-        for (int c = 0; c < 6; ++c) {
-          // Relative to the entry's scale √((1 + P_aa)(1 + P_cc)) in the state's units:
-          // off-diagonal entries may pass near zero, and an acceleration's variance is μ_Singer
-          // times the Singer mode's, 1e-266 when μ_Singer is (its log carries the log-likelihoods'
-          // rounding over the scans).
-          const double scale =
-              std::sqrt((1.0 + reference.covariance(a, a)) * (1.0 + reference.covariance(c, c)));
-          expect_close(estimate.covariance(a, c), reference.covariance(a, c), scale,
-                       at + " covariance");
-        }
-      }
-      const ModeVector mu = bank.mode_probabilities(u);
-      const ModeVector mu_single = single[u]->mode_probabilities();
-      for (int j = 0; j < 2; ++j) expect_close(mu(j), mu_single(j), 1.0, at + " μ");
+      testing::expect_estimate_close(bank.estimate(u), reference.mean, reference.covariance,
+                                     bank.mode_probabilities(u), single[u]->mode_probabilities(),
+                                     at);
       EXPECT_EQ(bank.fused(u), single[u]->fused()) << at;
       fused += bank.fused(u) ? 1 : 0;
       if (::testing::Test::HasFailure()) return;

@@ -7,7 +7,9 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -19,6 +21,7 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
+#include "imm/math/linear_algebra.hpp"
 
 namespace imm::testing {
 
@@ -99,6 +102,31 @@ void expect_wide_blocks_as_narrow_ones(int tracks, int scans, Make&& make, Start
       expect_same_track(wide, t, narrow, t, same_rest);
       if (::testing::Test::HasFatalFailure()) return;
     }
+  }
+}
+
+// A bank's estimate and μ against a one-track filter's (`mean`, `covariance`, `mu`), each entry to
+// `tolerance` of its scale in the state's units: a mean's 1 + its σ, a covariance entry's
+// √((1 + P_aa)(1 + P_cc)) — off-diagonal entries may pass near zero, and an acceleration's
+// variance is μ of its mode times the mode's, 1e-266 where that μ is — and μ's 1.
+template <int N, class Mean, class Covariance>
+void expect_estimate_close(const GaussianState<N>& estimate, const Mean& mean,
+                           const Covariance& covariance, const ModeVector& bank_mu,
+                           const ModeVector& mu, const std::string& at, double tolerance = 1e-9) {
+  auto expect_close = [&](double value, double reference, double scale, const char* what) {
+    EXPECT_LE(std::abs(value - reference), tolerance * (scale + std::abs(reference)))
+        << at << " " << what;
+  };
+  for (int a = 0; a < N; ++a) {
+    expect_close(estimate.mean(a), mean(a), std::sqrt(1.0 + covariance(a, a)), "mean");
+    for (int c = 0; c < N; ++c) {
+      expect_close(estimate.covariance(a, c), covariance(a, c),
+                   std::sqrt((1.0 + covariance(a, a)) * (1.0 + covariance(c, c))), "covariance");
+    }
+  }
+  EXPECT_EQ(bank_mu.size(), mu.size()) << at;
+  for (Eigen::Index j = 0; j < std::min(bank_mu.size(), mu.size()); ++j) {
+    expect_close(bank_mu(j), mu(j), 1.0, "μ");
   }
 }
 
