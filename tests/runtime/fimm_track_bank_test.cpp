@@ -19,34 +19,16 @@
 #include "imm/io/tsk_sensor_file.hpp"
 #include "testing/axis_lane_bank_checks.hpp"
 #include "testing/regimes.hpp"
+#include "testing/tsk_sensors.hpp"
 
 namespace imm {
 namespace {
 
-TskRule rule(double m_xi, double s_xi, double m_eta, double s_eta, double a0, double a_xi,
-             double a_eta) {
-  TskRule r;
-  r.center << m_xi, m_eta;
-  r.width << s_xi, s_eta;
-  r.consequent << a0, a_xi, a_eta;
-  return r;
-}
-
-// Three rules per output, shaped like a fitted range-sensor model (saturating, so that the
-// iterated EKF relinearizes); the cut-in's first scans lie outside its box (η < 1).
+// The test sensor (testing/tsk_sensors.hpp; saturating, so that the iterated EKF relinearizes);
+// the cut-in's first scans lie outside its box (η < 1).
 std::shared_ptr<const TskSensorModel> sensor_like_model(TNorm t_norm,
                                                         OutsideBox outside = OutsideBox::kLinear) {
-  std::array<TskOutput, 2> outputs;
-  outputs[0].rules = {rule(-3.0, 2.5, 15.0, 12.0, 0.1, 0.98, 0.002),
-                      rule(0.5, 3.0, 50.0, 15.0, -0.2, 0.8, 0.01),
-                      rule(2.0, 2.0, 85.0, 20.0, 0.3, 0.55, -0.004)};
-  outputs[0].sigma = 0.05;
-  outputs[1].rules = {rule(0.0, 4.0, 20.0, 14.0, 0.0, 0.01, 1.0),
-                      rule(-1.0, 3.5, 55.0, 11.0, 9.0, -0.02, 0.7),
-                      rule(1.0, 5.0, 90.0, 18.0, 38.0, 0.03, 0.25)};
-  outputs[1].sigma = 0.07;
-  return std::make_shared<const TskSensorModel>(outputs, t_norm, Eigen::Vector2d(-6.0, 1.0),
-                                                Eigen::Vector2d(6.0, 100.0), outside);
+  return std::make_shared<const TskSensorModel>(testing::sensor_like_model(t_norm, outside));
 }
 
 // Track t's plots: test track t of the cut-in regime (two lane changes, 200 scans of 0.1 s), a

@@ -21,6 +21,7 @@
 #include "imm/models/measurement/tsk_sensor_measurement.hpp"
 #include "testing/regimes.hpp"
 #include "testing/temp_dir.hpp"
+#include "testing/tsk_sensors.hpp"
 
 namespace imm {
 namespace {
@@ -28,39 +29,15 @@ namespace {
 const std::vector<std::string> kRuleColumns = {"center_xi", "width_xi", "center_eta", "width_eta",
                                                "a0",        "a_xi",     "a_eta"};
 
-TskRule rule(double m_xi, double s_xi, double m_eta, double s_eta, double a0, double a_xi,
-             double a_eta) {
-  TskRule r;
-  r.center << m_xi, m_eta;
-  r.width << s_xi, s_eta;
-  r.consequent << a0, a_xi, a_eta;
-  return r;
-}
-
-/// Three rules per output, shaped like a fitted range-sensor model.
-std::array<TskOutput, 2> sensor_like_outputs() {
-  std::array<TskOutput, 2> outputs;
-  outputs[0].rules = {rule(-3.0, 2.5, 15.0, 12.0, 0.1, 0.98, 0.002),
-                      rule(0.5, 3.0, 50.0, 15.0, -0.2, 0.8, 0.01),
-                      rule(2.0, 2.0, 85.0, 20.0, 0.3, 0.55, -0.004)};
-  outputs[0].sigma = 0.05;
-  outputs[1].rules = {rule(0.0, 4.0, 20.0, 14.0, 0.0, 0.01, 1.0),
-                      rule(-1.0, 3.5, 55.0, 11.0, 9.0, -0.02, 0.7),
-                      rule(1.0, 5.0, 90.0, 18.0, 38.0, 0.03, 0.25)};
-  outputs[1].sigma = 0.07;
-  return outputs;
-}
-
-TskSensorModel sensor_like_model(TNorm t_norm, OutsideBox outside = OutsideBox::kLinear) {
-  return TskSensorModel(sensor_like_outputs(), t_norm, Eigen::Vector2d(-6.0, 1.0),
-                        Eigen::Vector2d(6.0, 100.0), outside);
-}
+using testing::sensor_like_model;
+using testing::sensor_like_outputs;
+using testing::tsk_rule;
 
 /// An exact identity sensor: one rule per output, z₁ = ξ, z₂ = η, σ = 0, a box nothing leaves.
 std::shared_ptr<const TskSensorModel> identity_sensor() {
   std::array<TskOutput, 2> outputs;
-  outputs[0].rules = {rule(0.0, 1e3, 0.0, 1e3, 0.0, 1.0, 0.0)};
-  outputs[1].rules = {rule(0.0, 1e3, 0.0, 1e3, 0.0, 0.0, 1.0)};
+  outputs[0].rules = {tsk_rule(0.0, 1e3, 0.0, 1e3, 0.0, 1.0, 0.0)};
+  outputs[1].rules = {tsk_rule(0.0, 1e3, 0.0, 1e3, 0.0, 0.0, 1.0)};
   return std::make_shared<const TskSensorModel>(
       outputs, TNorm::kMin, Eigen::Vector2d::Constant(-1e6), Eigen::Vector2d::Constant(1e6));
 }
@@ -81,8 +58,8 @@ double smallest_tie_gap(const TskSensorModel& model, const Eigen::Vector2d& x) {
 
 TEST(TskSensorModel, OneRuleIsItsHyperplane) {
   std::array<TskOutput, 2> outputs;
-  outputs[0].rules = {rule(1.0, 2.0, 3.0, 4.0, 0.5, 2.0, -1.0)};
-  outputs[1].rules = {rule(-1.0, 1.0, 30.0, 9.0, -3.0, 0.25, 0.75)};
+  outputs[0].rules = {tsk_rule(1.0, 2.0, 3.0, 4.0, 0.5, 2.0, -1.0)};
+  outputs[1].rules = {tsk_rule(-1.0, 1.0, 30.0, 9.0, -3.0, 0.25, 0.75)};
   const TskSensorModel model(outputs, TNorm::kProduct, Eigen::Vector2d(-10, -10),
                              Eigen::Vector2d(10, 100));
   const TskEvaluation e = model.evaluate(Eigen::Vector2d(2.0, 7.0));
@@ -100,8 +77,8 @@ TEST(TskSensorModel, TwoRulesByHand) {
   // A_ξ = e^{−1/2} for both, A_η = e^{−1/8} for both. Product and min both give equal weights,
   // so h = (z¹ + z²)/2 with z¹ = 1 + 1·1 = 2, z² = 3 · 0.5 = 1.5 → 1.75.
   std::array<TskOutput, 2> outputs;
-  outputs[0].rules = {rule(0.0, 1.0, 0.0, 1.0, 1.0, 1.0, 0.0),
-                      rule(2.0, 1.0, 0.0, 1.0, 0.0, 0.0, 3.0)};
+  outputs[0].rules = {tsk_rule(0.0, 1.0, 0.0, 1.0, 1.0, 1.0, 0.0),
+                      tsk_rule(2.0, 1.0, 0.0, 1.0, 0.0, 0.0, 3.0)};
   outputs[1] = outputs[0];
   for (TNorm t : {TNorm::kProduct, TNorm::kMin}) {
     const TskSensorModel model(outputs, t, Eigen::Vector2d(-5, -5), Eigen::Vector2d(5, 5));
@@ -149,8 +126,8 @@ TEST(TskSensorModel, FarFromEveryCenterTheWeightsDoNotUnderflow) {
   // 40 widths from every center every exp(−u²/2) underflows in linear space; the log-space
   // weights keep h the consequent of the nearest rule (in units of its widths).
   std::array<TskOutput, 2> outputs;
-  outputs[0].rules = {rule(0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0),
-                      rule(10.0, 1.0, 0.0, 1.0, 2.0, 0.0, 0.0)};
+  outputs[0].rules = {tsk_rule(0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0),
+                      tsk_rule(10.0, 1.0, 0.0, 1.0, 2.0, 0.0, 0.0)};
   outputs[1] = outputs[0];
   const TskSensorModel model(outputs, TNorm::kProduct, Eigen::Vector2d(-1e3, -1e3),
                              Eigen::Vector2d(1e3, 1e3));
