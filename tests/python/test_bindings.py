@@ -167,31 +167,18 @@ def test_bad_plots_raise_invalid_parameter_or_are_rejected():
         tracker.process(3, [1.0, 2.0, 3.0])
 
 
-@pytest.mark.parametrize("name,kind", [("cv3_imm.h5", "plain_imm"),
-                                       ("ga_fuzzy_imm.h5", "ga_fuzzy_imm"),
-                                       ("mlp_input_estimator_ground_vehicle.h5",
-                                        "mlp_input_estimator"),
-                                       ("fcm_imm.h5", "fcm_imm")])
-def test_the_track_bank_equals_single_tracks(name, kind):
-    model = os.path.join(MODELS, name)
-    bank = immtrain.TrackBank(model, 3)
-    assert bank.kind == kind
-    rng = np.random.default_rng(3)
-    starts = [np.array([100.0 * t, 10.0, 50.0 * t, -5.0]) for t in range(3)]
-    P0 = np.diag([100.0, 25.0, 100.0, 25.0])
-    for t in range(3):
-        bank.initialize(t, starts[t], P0)
-    truth = np.array([s.copy() for s in starts])
-    plots = []
-    for k in range(30):
-        truth[:, 0] += truth[:, 1]
-        truth[:, 2] += truth[:, 3]
-        z = truth[:, [0, 2]] + rng.normal(0.0, 5.0, (3, 2))
-        plots.append(z)
-        assert bank.step(z) == ["ok", "ok", "ok"]
-    for t in range(3):
+def bank_equal_to_banks_of_one(model, starts, P0, plots):
+    """A bank of len(starts) tracks stepped through `plots` (each an (N, 2) array, every step ok)
+    against each track in a bank of its own: the same estimates and μ to the bit. Returns the
+    bank."""
+    bank = immtrain.TrackBank(model, len(starts))
+    for t, start in enumerate(starts):
+        bank.initialize(t, start, P0)
+    for z in plots:
+        assert bank.step(z) == ["ok"] * len(starts)
+    for t, start in enumerate(starts):
         one = immtrain.TrackBank(model, 1)
-        one.initialize(0, starts[t], P0)
+        one.initialize(0, start, P0)
         for z in plots:
             one.step(z[t:t + 1])
         mean, cov = bank.estimate(t)
@@ -199,37 +186,46 @@ def test_the_track_bank_equals_single_tracks(name, kind):
         assert mean.tolist() == mean1.tolist()
         assert cov.tolist() == cov1.tolist()
         assert bank.mode_probabilities(t).tolist() == one.mode_probabilities(0).tolist()
+    return bank
+
+
+@pytest.mark.parametrize("name,kind", [("cv3_imm.h5", "plain_imm"),
+                                       ("ga_fuzzy_imm.h5", "ga_fuzzy_imm"),
+                                       ("mlp_input_estimator_ground_vehicle.h5",
+                                        "mlp_input_estimator"),
+                                       ("fcm_imm.h5", "fcm_imm")])
+def test_the_track_bank_equals_single_tracks(name, kind):
+    rng = np.random.default_rng(3)
+    starts = [np.array([100.0 * t, 10.0, 50.0 * t, -5.0]) for t in range(3)]
+    truth = np.array([s.copy() for s in starts])
+    plots = []
+    for k in range(30):
+        truth[:, 0] += truth[:, 1]
+        truth[:, 2] += truth[:, 3]
+        plots.append(truth[:, [0, 2]] + rng.normal(0.0, 5.0, (3, 2)))
+    bank = bank_equal_to_banks_of_one(os.path.join(MODELS, name), starts,
+                                      np.diag([100.0, 25.0, 100.0, 25.0]), plots)
+    assert bank.kind == kind
     with pytest.raises(ValueError):
         bank.step(np.zeros((3, 3)))
 
 
 def test_the_weighted_imms_bank_equals_single_tracks():
     # Polar plots (range, azimuth) of three targets 30-50 km out, with the 6-state start.
-    bank = immtrain.TrackBank(os.path.join(MODELS, "wimm.h5"), 3)
-    assert bank.kind == "wimm" and bank.state_dimension == 6
     rng = np.random.default_rng(4)
     starts = [np.array([30e3 + 5e3 * t, -150.0, 0.0, 20e3, 100.0, 0.0]) for t in range(3)]
-    P0 = np.diag([2500.0, 400.0, 25.0, 2500.0, 400.0, 25.0])
-    for t in range(3):
-        bank.initialize(t, starts[t], P0)
     plots = []
     for k in range(1, 31):
         x = np.array([s[0] + 2.0 * k * s[1] for s in starts])
         y = np.array([s[3] + 2.0 * k * s[4] for s in starts])
-        z = np.column_stack([np.hypot(x, y) + rng.normal(0.0, 50.0, 3),
-                             np.arctan2(x, y) + rng.normal(0.0, 0.005, 3)])
-        plots.append(z)
-        assert bank.step(z) == ["ok", "ok", "ok"]
+        plots.append(np.column_stack([np.hypot(x, y) + rng.normal(0.0, 50.0, 3),
+                                      np.arctan2(x, y) + rng.normal(0.0, 0.005, 3)]))
+    bank = bank_equal_to_banks_of_one(os.path.join(MODELS, "wimm.h5"), starts,
+                                      np.diag([2500.0, 400.0, 25.0, 2500.0, 400.0, 25.0]), plots)
+    assert bank.kind == "wimm" and bank.state_dimension == 6
     for t in range(3):
-        one = immtrain.TrackBank(os.path.join(MODELS, "wimm.h5"), 1)
-        one.initialize(0, starts[t], P0)
-        for z in plots:
-            one.step(z[t:t + 1])
         mean, cov = bank.estimate(t)
-        mean1, cov1 = one.estimate(0)
         assert mean.shape == (6,) and cov.shape == (6, 6)
-        assert mean.tolist() == mean1.tolist()
-        assert cov.tolist() == cov1.tolist()
         assert abs(mean[0] - (starts[t][0] + 60.0 * starts[t][1])) < 300.0
     with pytest.raises(immtrain.InvalidParameter, match="mean: expected 6 entries"):
         bank.initialize(0, np.zeros(4), np.eye(4))
@@ -237,27 +233,13 @@ def test_the_weighted_imms_bank_equals_single_tracks():
 
 def test_the_fimms_bank_equals_single_tracks():
     # The sensor's plots (z1, z2) of three vehicles 3 m/s ahead, with the 6-state start.
-    model = os.path.join(MODELS, "tsk_range_sensor.h5")
-    bank = immtrain.TrackBank(model, 3)
-    assert bank.kind == "tsk_sensor" and bank.state_dimension == 6
     rng = np.random.default_rng(5)
     starts = [np.array([3.5 - 1.0 * t, 0.0, 0.0, 5.0 + 10.0 * t, 3.0, 0.0]) for t in range(3)]
-    P0 = np.eye(6)
-    for t in range(3):
-        bank.initialize(t, starts[t], P0)
-    plots = []
-    for k in range(1, 41):
-        z = np.array([[s[0], s[3] + 0.3 * k] for s in starts]) + rng.normal(0.0, 0.5, (3, 2))
-        plots.append(z)
-        assert bank.step(z) == ["ok", "ok", "ok"]
-    for t in range(3):
-        one = immtrain.TrackBank(model, 1)
-        one.initialize(0, starts[t], P0)
-        for z in plots:
-            one.step(z[t:t + 1])
-        assert bank.estimate(t)[0].tolist() == one.estimate(0)[0].tolist()
-        assert bank.estimate(t)[1].tolist() == one.estimate(0)[1].tolist()
-        assert bank.mode_probabilities(t).tolist() == one.mode_probabilities(0).tolist()
+    plots = [np.array([[s[0], s[3] + 0.3 * k] for s in starts]) + rng.normal(0.0, 0.5, (3, 2))
+             for k in range(1, 41)]
+    bank = bank_equal_to_banks_of_one(os.path.join(MODELS, "tsk_range_sensor.h5"), starts,
+                                      np.eye(6), plots)
+    assert bank.kind == "tsk_sensor" and bank.state_dimension == 6
 
 
 @pytest.mark.parametrize("name,kind,dimension", [("cv3_imm.h5", "plain_imm", 4),
