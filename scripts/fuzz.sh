@@ -16,7 +16,8 @@ budget=${2:?usage: scripts/fuzz.sh BUILD_DIR SECONDS [TARGET ...]}
 shift 2
 targets=("$@")
 if [[ ${#targets[@]} -eq 0 ]]; then
-  targets=(container_fuzzer model_file_fuzzer dataset_file_fuzzer config_fuzzer csv_fuzzer)
+  targets=(container_fuzzer model_file_fuzzer dataset_file_fuzzer config_fuzzer csv_fuzzer
+    manifest_fuzzer)
 fi
 
 if ! grep -q '^IMM_FUZZERS:BOOL=ON' "$build_dir/CMakeCache.txt" 2>/dev/null; then

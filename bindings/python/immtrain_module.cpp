@@ -220,8 +220,7 @@ class PyTracker {
   [[nodiscard]] int state_dimension() const { return tracker_->state_dimension(); }
   [[nodiscard]] int mode_count() const { return tracker_->mode_count(); }
   [[nodiscard]] std::vector<std::string> state_names() const {
-    if (state_dimension() == 4) return {"x", "vx", "y", "vy"};
-    return {"x", "vx", "ax", "y", "vy", "ay"};
+    return imm::state_variable_names(state_dimension());
   }
   [[nodiscard]] const std::vector<std::string>& mode_names() const { return modes_; }
   [[nodiscard]] bool initialized() const { return tracker_->initialized(); }

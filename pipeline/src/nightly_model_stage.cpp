@@ -164,7 +164,6 @@ void Night::run_model(const NightlyStage& stage) {
     }
   }
   const bool had_entry = registry_.find(stage.name) != nullptr;
-  const fs::path shipped_file = stage.out;
   if (!options_.force) {
     if (auto cached = cache_.find(key, inputs, digests_)) {
       cached->kind = "model", cached->name = stage.name;
@@ -219,9 +218,18 @@ void Night::run_model(const NightlyStage& stage) {
     return conclude(model);
   }
   // The candidate's own evaluations (its quality gates), then the shipped model's on the same
-  // tracks and the regression comparison.
-  const bool comparable_shipped = fs::exists(shipped_file);
+  // tracks and the regression comparison. The shipped model is what the manifest says now, copied
+  // aside so that a promotion or a rollback by hand meanwhile cannot change what is compared; the
+  // promotion is then refused unless that model is still the one shipped (PromotionTerms).
+  registry_.reload();
+  const ShippedSnapshot shipped = snapshot_shipped(stage);
+  const bool comparable_shipped = !shipped.file.empty();
+  const fs::path& shipped_file = shipped.file;
   std::vector<std::string> regressions, uncompared, gate_failures, comparisons, findings;
+  if (shipped.unavailable) {
+    uncompared.push_back("the shipped model " + shipped.sha256.substr(0, 12) +
+                         " is neither in models/ nor in the archive as the manifest says");
+  }
   for (const NightlyStage* e : evaluations) {
     StageOutcome o = outcome_of("evaluation", e->name);
     o.report = e->out;
@@ -308,12 +316,21 @@ void Night::run_model(const NightlyStage& stage) {
                                std::to_string(verdict) + ": " +
                                tail_of(compare_log.string() + ".err", 2) + ")");
         }
-      } else {
+      } else if (shipped_code == support::exit_code::kBadInput &&
+                 !out_of_room(tail_of(shipped_log.string() + ".err")) &&
+                 trained_for_another_regime(staging, shipped_file)) {
+        // The one comparison that cannot be made by its nature: the shipped model refuses the
+        // candidate's regime (a new regime for the name). Anything else is no evidence.
         comparisons.push_back(e->name +
-                              ": the shipped model could not be evaluated on the "
-                              "candidate's regime (" +
+                              ": the shipped model, trained for another regime, could not be "
+                              "evaluated on the candidate's (" +
                               tail_of(shipped_log.string() + ".err", 2) +
                               "): promoted on its own gates");
+      } else {
+        // Killed, out of room, a tool that failed: the gate fails closed.
+        uncompared.push_back(e->name + ": the evaluation of the shipped model failed (exit " +
+                             std::to_string(shipped_code) + ": " +
+                             tail_of(shipped_log.string() + ".err", 2) + ")");
       }
     }
     evaluation_outcomes.push_back(o);
@@ -371,10 +388,26 @@ void Night::run_model(const NightlyStage& stage) {
     entry.file = stage.out.lexically_relative(plan_.registry).generic_string();
     entry.inputs_digest = inputs;
     entry.metrics = headline_metrics(evaluations);
-    registry_.promote(entry, staging, trainer::metrics_path(staging));
+    registry_.promote(entry, staging, trainer::metrics_path(staging),
+                      PromotionTerms{shipped.sha256, !options_.force});
     model.status = had_entry ? "promoted" : "promoted (first in the manifest)";
     if (!findings.empty()) comparisons.push_back("with findings (" + join(findings) + ")");
     model.message = comparisons.empty() ? "" : join(comparisons);
+    fs::remove(staging);
+    fs::remove(trainer::metrics_path(staging));
+  } catch (const PromotionRefused& refused) {
+    // The manifest changed under the night: decided on what is shipped now.
+    if (refused.why() == PromotionRefused::Why::kRolledBack) {
+      model.status = "not promoted (rolled back)";
+      model.message = std::string(refused.what()) +
+                      " while the night ran; `imm-train all --force` (or `imm-train promote`) "
+                      "ships it again";
+    } else {
+      model.held_back = true;
+      model.transient = true;  // the next night compares with what is shipped then
+      model.status = "held back";
+      model.message = refused.what();
+    }
     fs::remove(staging);
     fs::remove(trainer::metrics_path(staging));
   } catch (const std::exception& error) {
@@ -384,84 +417,6 @@ void Night::run_model(const NightlyStage& stage) {
     model.transient = true;
   }
   conclude(model);
-}
-
-std::optional<std::string> Night::no_news(const NightlyStage& stage, const fs::path& staging,
-                                          const std::vector<const NightlyStage*>& evaluations) {
-  const RegistryEntry* shipped = registry_.find(stage.name);
-  if (shipped == nullptr || !fs::exists(stage.out) ||
-      datasets::file_sha256_hex(stage.out) != shipped->sha256) {
-    return std::nullopt;
-  }
-  ModelDifference difference;
-  RegistryEntry candidate;
-  try {
-    difference = model_difference(staging, stage.out);
-    candidate = describe_model(staging, plan_.registry, stage.name);
-  } catch (const std::exception& error) {
-    return std::nullopt;  // a file that does not read is no tie; the promotion says why
-  }
-  // A candidate that holds what the shipped file lacks (or the reverse) is news: a new field of
-  // the file's content (its calibrated envelope, say), whatever its metrics.
-  if (difference.kind == ModelDifference::Kind::kStructure) return std::nullopt;
-  if (difference.same()) {
-    return "the candidate is the shipped model (the same parameters to rounding; only its build "
-           "and training date differ): " +
-           stage.out.filename().string() + " stays byte for byte";
-  }
-  // A tie on every metric is no news when the model is trained from the same definition; a new
-  // config, regime or schema is (the shipped file would no longer say how it was made).
-  if (evaluations.empty() || candidate.kind != shipped->kind ||
-      candidate.config_digest != shipped->config_digest ||
-      candidate.regime_digest != shipped->regime_digest ||
-      candidate.schema_version != shipped->schema_version) {
-    return std::nullopt;
-  }
-  std::size_t metrics = 0;
-  for (const NightlyStage* e : evaluations) {
-    const fs::path regression = e->out / "regression.json";
-    if (!fs::exists(regression)) return std::nullopt;  // not compared: no evidence of a tie
-    const auto document = nlohmann::json::parse(trainer::read_text_file(regression));
-    for (const auto& m : document.at("metrics")) {
-      if (m.at("verdict").get<std::string>() != "tie") return std::nullopt;
-      ++metrics;
-    }
-  }
-  return "ties the shipped model in all " + std::to_string(metrics) +
-         " headline metrics (within the interval or the plan's margin) and is trained from the "
-         "same config and regime (" +
-         difference.what + "): " + stage.out.filename().string() + " stays byte for byte";
-}
-
-nlohmann::json Night::headline_metrics(const std::vector<const NightlyStage*>& evaluations) {
-  nlohmann::json metrics = nlohmann::json::object();
-  for (const NightlyStage* e : evaluations) {
-    const fs::path headline = e->out / "headline.json";
-    if (!fs::exists(headline)) continue;
-    const auto document = nlohmann::json::parse(trainer::read_text_file(headline));
-    std::map<std::string, nlohmann::json> versus;
-    if (fs::exists(e->out / "regression.json")) {
-      const auto regression =
-          nlohmann::json::parse(trainer::read_text_file(e->out / "regression.json"));
-      for (const auto& m : regression.at("metrics")) versus[m.at("name")] = m;
-    }
-    for (const auto& m : document.at("metrics")) {
-      const std::string name = e->name + ": " + m.at("name").get<std::string>();
-      nlohmann::json entry = {{"value", m.at("value")},
-                              {"interval", m.value("interval", nlohmann::json::array())}};
-      const auto it = versus.find(m.at("name").get<std::string>());
-      if (it != versus.end()) {
-        std::ostringstream text;
-        text.precision(4);
-        text << std::showpos << it->second.at("difference").get<double>() << " ["
-             << it->second.at("lower").get<double>() << ", " << it->second.at("upper").get<double>()
-             << "]";
-        entry["versus_previous"] = text.str();
-      }
-      metrics[name] = entry;
-    }
-  }
-  return metrics;
 }
 
 }  // namespace imm::pipeline

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "imm/io/temporary_files.hpp"
 #include "imm/pipeline/nightly.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "nightly_trends.hpp"
@@ -352,22 +353,23 @@ void write_morning_report(const fs::path& folder, const NightlyPlan& plan,
   write_benchmarks(folder.parent_path().parent_path() / "bench" / "latest.json", md, html);
   html << "</body></html>\n";
 
-  auto write = [&](const fs::path& path, const std::string& text) {
-    std::string temp_name = ".";
-    temp_name.append(path.filename().string()).append(".tmp");
-    const fs::path temp = path.parent_path() / temp_name;
-    std::ofstream(temp, std::ios::trunc) << text;
-    fs::rename(temp, path);
-  };
-  write(folder / "index.md", md.str());
-  write(folder / "index.html", html.str());
+  // Durable writes through temporaries that carry their writer (pid@host), so that only a dead
+  // writer's are ever removed (imm/io/temporary_files.hpp).
+  trainer::write_text_atomically(folder / "index.md", md.str());
+  trainer::write_text_atomically(folder / "index.html", html.str());
   // `latest` → this night.
   const fs::path latest = folder.parent_path() / "latest";
-  const fs::path temp_link = folder.parent_path() / ".latest.tmp";
+  const fs::path temp_link = io::temporary_beside(latest);
   std::error_code ignored;
   fs::remove(temp_link, ignored);
   fs::create_directory_symlink(folder.filename(), temp_link);
-  fs::rename(temp_link, latest);
+  try {
+    fs::rename(temp_link, latest);
+  } catch (...) {
+    fs::remove(temp_link, ignored);
+    throw;
+  }
+  trainer::sync_folder(latest.parent_path());
 }
 
 void write_evaluations_page(const fs::path& page, const NightlyPlan& plan,

@@ -104,6 +104,16 @@ class Night {
 
   // Why the candidate is no news against the shipped model of its stage (the same model, or a
   // tie on every metric from the same definition: see nightly.hpp), or nothing when it is news.
+  /// The shipped model a candidate is compared with: a copy of the manifest's model (from models/
+  /// or the archive), its SHA-256 ("" when nothing is recorded under the name), or unavailable.
+  struct ShippedSnapshot {
+    fs::path file;  ///< the copy evaluated (empty: nothing to evaluate)
+    std::string sha256;
+    bool unavailable = false;  ///< recorded, but no copy with its SHA-256 exists
+  };
+  ShippedSnapshot snapshot_shipped(const NightlyStage& stage);
+  /// Whether two model files were trained for different regimes (false when either does not read).
+  static bool trained_for_another_regime(const fs::path& candidate, const fs::path& shipped);
   std::optional<std::string> no_news(const NightlyStage& stage, const fs::path& staging,
                                      const std::vector<const NightlyStage*>& evaluations);
 

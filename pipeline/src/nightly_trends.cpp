@@ -6,11 +6,18 @@
 
 #include "nightly_trends.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 
 #include "imm/pipeline/registry.hpp"
 #include "imm/trainer/provenance.hpp"
@@ -202,8 +209,35 @@ void record_night(const fs::path& history, const std::string& night, const Night
                                {"exit_code", result.exit_code},
                                {"wall_seconds", result.wall_seconds},
                                {"stages", stages}};
-  fs::create_directories(history.parent_path());
-  std::ofstream(history, std::ios::app) << line.dump() << '\n';
+  trainer::create_folders_durably(history.parent_path());
+  append_line(history, line.dump());
+}
+
+void append_line(const fs::path& file, const std::string& line) {
+  const int fd = ::open(file.c_str(), O_RDWR | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error(file.string() + ": cannot append: " + std::strerror(errno));
+  std::string text = line + '\n';
+  // A line cut short by a kill or a full disk ends without its newline: it is closed first, so
+  // that it stays one unreadable line and this one reads whole.
+  struct stat info {};
+  if (::fstat(fd, &info) == 0 && info.st_size > 0) {
+    char last = '\n';
+    if (::pread(fd, &last, 1, info.st_size - 1) == 1 && last != '\n') text.insert(0, 1, '\n');
+  }
+  std::size_t written = 0;
+  while (written < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const std::string why = std::strerror(errno);
+      ::close(fd);
+      throw std::runtime_error(file.string() + ": cannot append: " + why);
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  const bool synced = ::fsync(fd) == 0;
+  ::close(fd);
+  if (!synced) throw std::runtime_error(file.string() + ": fsync: " + std::strerror(errno));
 }
 
 void write_first_screen(const NightlyResult& result, const fs::path& registry,

@@ -22,6 +22,9 @@ namespace fs = std::filesystem;
 /// Appends the night's line to `history` (JSON lines: night, exit code, wall time, each stage that
 /// ran and its seconds).
 void record_night(const fs::path& history, const std::string& night, const NightlyResult& result);
+/// Appends one line to an append-only history and fsyncs it; a line a torn append left without its
+/// newline is closed first, so it never swallows this one.
+void append_line(const fs::path& file, const std::string& line);
 /// What changed last night (promoted, held back, failed, known failures, tracker changes), per
 /// regime, with what to do about each; whether anything shipped got worse.
 void write_first_screen(const NightlyResult& result, const fs::path& registry,

@@ -3,6 +3,7 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -12,99 +13,12 @@
 
 #include "imm/datasets/sha256.hpp"
 #include "imm/io/model_file.hpp"
+#include "imm/io/temporary_files.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "registry_manifest.hpp"
 
 namespace imm::pipeline {
 namespace {
-
-constexpr int kManifestVersion = 1;
-// metrics_sha256 of a model shipped without a metrics file.
-constexpr std::string_view kNoMetrics = "none";
-
-nlohmann::json to_json(const RegistryEntry& e) {
-  nlohmann::json j = {{"name", e.name},
-                      {"kind", e.kind},
-                      {"regime", {{"name", e.regime_name}, {"digest", e.regime_digest}}},
-                      {"file", e.file},
-                      {"sha256", e.sha256},
-                      {"schema_version", e.schema_version},
-                      {"trainer_version", e.trainer_version},
-                      {"config_digest", e.config_digest},
-                      {"trained_utc", e.trained_utc},
-                      {"inputs_digest", e.inputs_digest},
-                      {"promoted_utc", e.promoted_utc},
-                      {"metrics", e.metrics}};
-  if (!e.promotion_reason.empty()) j["promotion_reason"] = e.promotion_reason;
-  if (!e.metrics_sha256.empty()) j["metrics_sha256"] = e.metrics_sha256;
-  if (!e.learned_part.empty()) j["learned_part"] = e.learned_part;
-  if (!e.history.empty()) {
-    j["history"] = nlohmann::json::array();
-    for (const RegistryEntry& h : e.history) j["history"].push_back(to_json(h));
-  }
-  if (!e.rejected.empty()) {
-    j["rejected"] = nlohmann::json::array();
-    for (const RegistryEntry& r : e.rejected) j["rejected"].push_back(to_json(r));
-  }
-  if (!e.rolled_back_utc.empty()) j["rolled_back_utc"] = e.rolled_back_utc;
-  return j;
-}
-
-RegistryEntry from_json(const nlohmann::json& j, const std::string& where) {
-  try {
-    RegistryEntry e;
-    e.name = j.at("name").get<std::string>();
-    e.kind = j.at("kind").get<std::string>();
-    e.regime_name = j.at("regime").at("name").get<std::string>();
-    e.regime_digest = j.at("regime").at("digest").get<std::string>();
-    e.file = j.at("file").get<std::string>();
-    e.sha256 = j.at("sha256").get<std::string>();
-    e.schema_version = j.at("schema_version").get<int>();
-    e.trainer_version = j.at("trainer_version").get<std::string>();
-    e.config_digest = j.at("config_digest").get<std::string>();
-    e.trained_utc = j.at("trained_utc").get<std::string>();
-    e.inputs_digest = j.value("inputs_digest", "");
-    e.promoted_utc = j.value("promoted_utc", "");
-    e.metrics = j.value("metrics", nlohmann::json::object());
-    e.promotion_reason = j.value("promotion_reason", "");
-    e.metrics_sha256 = j.value("metrics_sha256", "");
-    e.learned_part = j.value("learned_part", "");
-    if (!e.learned_part.empty() && e.learned_part != "on" && e.learned_part != "off" &&
-        e.learned_part != "none") {
-      throw std::runtime_error("learned_part: '" + e.learned_part +
-                               "' is not \"on\", \"off\" or \"none\"");
-    }
-    if (j.contains("history")) {
-      for (const auto& h : j.at("history")) e.history.push_back(from_json(h, where + ".history"));
-    }
-    if (j.contains("rejected")) {
-      for (const auto& r : j.at("rejected")) {
-        e.rejected.push_back(from_json(r, where + ".rejected"));
-      }
-    }
-    e.rolled_back_utc = j.value("rolled_back_utc", "");
-    const std::filesystem::path file(e.file);
-    if (e.file.empty() || file.is_absolute() ||
-        std::any_of(file.begin(), file.end(), [](const auto& part) { return part == ".."; })) {
-      throw std::runtime_error("file '" + e.file + "' must be a path inside the models folder");
-    }
-    if (const std::string problem = model_name_problem(e.name); !problem.empty()) {
-      throw std::runtime_error("name: " + problem);
-    }
-    if (const std::string problem = sha256_problem(e.sha256); !problem.empty()) {
-      throw std::runtime_error("sha256: " + problem);
-    }
-    if (!e.metrics_sha256.empty() && e.metrics_sha256 != kNoMetrics) {
-      if (const std::string problem = sha256_problem(e.metrics_sha256); !problem.empty()) {
-        throw std::runtime_error("metrics_sha256: " + problem + " or \"none\"");
-      }
-    }
-    return e;
-  } catch (const nlohmann::json::exception& error) {
-    throw std::runtime_error(where + ": " + error.what());
-  } catch (const std::runtime_error& error) {
-    throw std::runtime_error(where + ": " + error.what());
-  }
-}
 
 using trainer::copy_atomically;
 
@@ -113,10 +27,11 @@ using trainer::copy_atomically;
 // or a promotion by hand) never write from a stale copy. The lock dies with its process.
 class RegistryLock {
  public:
-  explicit RegistryLock(const std::filesystem::path& folder) {
-    const auto path = folder / ".registry" / "lock";
-    std::filesystem::create_directories(path.parent_path());
-    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  // `path`: the lock file, its folder checked by Registry::inside (no symbolic link on the way);
+  // the file itself is never followed through a link either.
+  explicit RegistryLock(const std::filesystem::path& path) {
+    trainer::create_folders_durably(path.parent_path());
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
     if (fd_ < 0) {
       throw std::runtime_error(path.string() +
                                ": cannot open the registry's lock: " + std::strerror(errno));
@@ -140,6 +55,14 @@ std::filesystem::path metrics_beside(const std::filesystem::path& model) {
   return trainer::metrics_path(model);
 }
 
+// Whether `path` is a regular file (not followed through a link) whose bytes have that SHA-256.
+bool holds(const std::filesystem::path& path, const std::string& sha256) {
+  std::error_code error;
+  return std::filesystem::symlink_status(path, error).type() ==
+             std::filesystem::file_type::regular &&
+         datasets::file_sha256_hex(path) == sha256;
+}
+
 }  // namespace
 
 namespace {
@@ -154,29 +77,6 @@ std::string learned_part_of(const io::Provenance& p) {
 
 bool from_uncommitted_code(const RegistryEntry& entry) {
   return entry.trainer_version.ends_with("-dirty");
-}
-
-std::string model_name_problem(std::string_view name) {
-  std::string quoted(1, '\'');
-  quoted.append(name).push_back('\'');
-  if (name.empty() || name.size() > 128) return quoted + " must have 1 to 128 characters";
-  if (name.front() == '.') return quoted + " must not start with '.'";
-  for (const char c : name) {
-    const bool allowed = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
-                         (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.';
-    if (!allowed) {
-      return quoted + " must be one path component of letters, digits, '_', '-' and '.'";
-    }
-  }
-  return "";
-}
-
-std::string sha256_problem(std::string_view digest) {
-  const bool hex = std::all_of(digest.begin(), digest.end(), [](char c) {
-    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f');
-  });
-  if (digest.size() != 64 || !hex) return "is not a SHA-256 digest (64 lowercase hex digits)";
-  return "";
 }
 
 RegistryEntry describe_model(const std::filesystem::path& file,
@@ -208,6 +108,32 @@ std::filesystem::path Registry::archive_path(const std::string& sha256) const {
   return folder_ / ".registry" / "archive" / (sha256 + ".h5");
 }
 
+std::filesystem::path Registry::metrics_archive_path(const std::string& sha256) const {
+  return folder_ / ".registry" / "archive" / (sha256 + ".metrics.json");
+}
+
+std::filesystem::path Registry::inside(const std::filesystem::path& relative,
+                                       bool final_may_be_link) const {
+  std::filesystem::path at = folder_;
+  if (relative.empty()) return at;
+  const auto last = std::prev(relative.end());
+  for (auto part = relative.begin(); part != relative.end(); ++part) {
+    at /= *part;
+    std::error_code error;
+    const auto type = std::filesystem::symlink_status(at, error).type();
+    if (type == std::filesystem::file_type::symlink && !(final_may_be_link && part == last)) {
+      throw std::runtime_error(at.string() +
+                               ": is a symbolic link; the registry reads and writes only inside " +
+                               folder_.string());
+    }
+    if (part != last && type != std::filesystem::file_type::not_found &&
+        type != std::filesystem::file_type::directory) {
+      throw std::runtime_error(at.string() + ": is not a folder");
+    }
+  }
+  return at;
+}
+
 const RegistryEntry* Registry::find(const std::string& name) const {
   for (const RegistryEntry& e : entries_) {
     if (e.name == name) return &e;
@@ -228,62 +154,73 @@ std::vector<const RegistryEntry*> Registry::find(const std::string& kind,
 
 void Registry::load() {
   entries_.clear();
-  const auto path = manifest_path();
-  if (!std::filesystem::exists(path)) return;
-  nlohmann::json document;
-  try {
-    document = nlohmann::json::parse(trainer::read_text_file(path));
-  } catch (const nlohmann::json::exception& error) {
-    throw std::runtime_error(path.string() + ": not JSON (" + error.what() + ")");
-  }
-  if (!document.is_object() || document.value("manifest_version", 0) != kManifestVersion ||
-      !document.contains("models") || !document.at("models").is_array()) {
-    throw std::runtime_error(path.string() + ": manifest_version: expected " +
-                             std::to_string(kManifestVersion) + " with a 'models' array");
-  }
-  for (std::size_t i = 0; i < document.at("models").size(); ++i) {
-    entries_.push_back(
-        from_json(document.at("models")[i], path.string() + ": models[" + std::to_string(i) + "]"));
-    if (std::count_if(entries_.begin(), entries_.end(),
-                      [&](const RegistryEntry& e) { return e.name == entries_.back().name; }) > 1) {
-      throw std::runtime_error(path.string() + ": models[" + std::to_string(i) + "].name '" +
-                               entries_.back().name + "' appears twice");
-    }
-  }
+  const auto path = inside("manifest.json");
+  if (const auto text = read_manifest_text(path)) entries_ = parse_manifest(*text, path.string());
 }
 
 void Registry::commit(std::vector<RegistryEntry> entries) {
-  nlohmann::json document = {{"manifest_version", kManifestVersion},
-                             {"models", nlohmann::json::array()}};
-  for (const RegistryEntry& e : entries) document["models"].push_back(to_json(e));
-  trainer::write_json_atomically(manifest_path(), document);
+  trainer::write_text_atomically(inside("manifest.json", true), manifest_text(entries));
   entries_ = std::move(entries);
 }
 
-std::filesystem::path Registry::metrics_archive_path(const std::string& sha256) const {
-  return folder_ / ".registry" / "archive" / (sha256 + ".metrics.json");
+void Registry::remove_stale_temporaries() const {
+  std::vector<std::filesystem::path> folders = {folder_, inside(".registry"),
+                                                inside(".registry/archive")};
+  for (const RegistryEntry& e : entries_) {
+    folders.push_back(inside(std::filesystem::path(e.file).parent_path()));
+  }
+  for (const auto& folder : folders) {
+    std::error_code error;
+    if (!std::filesystem::is_directory(folder, error)) continue;
+    bool removed = false;
+    for (const auto& f : std::filesystem::directory_iterator(folder, error)) {
+      if (io::is_stale_temporary(f.path().filename().string()) &&
+          std::filesystem::remove(f.path(), error)) {
+        removed = true;
+      }
+    }
+    if (removed) trainer::sync_folder(folder);
+  }
 }
 
 std::string Registry::archive_metrics(const std::optional<std::filesystem::path>& file) const {
   if (!file || !std::filesystem::exists(*file)) return std::string(kNoMetrics);
   std::string sha256 = datasets::file_sha256_hex(*file);
-  const auto target = metrics_archive_path(sha256);
-  if (!std::filesystem::exists(target) || datasets::file_sha256_hex(target) != sha256) {
-    copy_atomically(*file, target);
-  }
+  const auto target =
+      inside(std::filesystem::path(".registry/archive") / (sha256 + ".metrics.json"));
+  if (!holds(target, sha256)) copy_atomically(*file, target);
   return sha256;
 }
 
 void Registry::archive(const std::filesystem::path& file, const std::string& sha256) const {
-  const auto target = archive_path(sha256);
-  if (std::filesystem::exists(target) && datasets::file_sha256_hex(target) == sha256) return;
+  const auto target = inside(std::filesystem::path(".registry/archive") / (sha256 + ".h5"));
+  if (holds(target, sha256)) return;
   copy_atomically(file, target);
 }
 
+void Registry::require_materializable(const std::vector<RegistryEntry>& entries) const {
+  for (const RegistryEntry& e : entries) {
+    const auto target = inside(e.file, true);
+    if (!holds(target, e.sha256) && !holds(archive_path(e.sha256), e.sha256)) {
+      throw std::runtime_error("'" + e.name + "': neither " + target.string() +
+                               " nor its archive copy has the sha256 " + e.sha256.substr(0, 12) +
+                               "; the manifest is left as it was");
+    }
+    if (e.metrics_sha256.empty() || e.metrics_sha256 == kNoMetrics) continue;
+    const auto beside = inside(metrics_file_of(e.file), true);
+    if (!holds(beside, e.metrics_sha256) &&
+        !holds(metrics_archive_path(e.metrics_sha256), e.metrics_sha256)) {
+      throw std::runtime_error("'" + e.name + "': neither " + beside.string() +
+                               " nor its archive copy has the metrics_sha256 " +
+                               e.metrics_sha256.substr(0, 12) + "; the manifest is left as it was");
+    }
+  }
+}
+
 bool Registry::materialize(const RegistryEntry& entry) const {
-  const auto target = folder_ / entry.file;
+  const auto target = inside(entry.file, true);
   bool rewritten = false;
-  if (!std::filesystem::exists(target) || datasets::file_sha256_hex(target) != entry.sha256) {
+  if (!holds(target, entry.sha256)) {
     const auto source = archive_path(entry.sha256);
     if (!std::filesystem::exists(source)) {
       throw std::runtime_error(target.string() + ": differs from the manifest's sha256 " +
@@ -291,7 +228,7 @@ bool Registry::materialize(const RegistryEntry& entry) const {
     }
     // What is shipped is checked first: a damaged archive copy (a write cut short) is never
     // "restored" into models/.
-    if (datasets::file_sha256_hex(source) != entry.sha256) {
+    if (!holds(source, entry.sha256)) {
       throw std::runtime_error(source.string() + ": the archive copy of " + entry.file +
                                " does not match its sha256 " + entry.sha256.substr(0, 12) +
                                "; nothing shipped");
@@ -300,18 +237,18 @@ bool Registry::materialize(const RegistryEntry& entry) const {
     rewritten = true;
   }
   // The metrics file beside a model is its own or none: never the one of the model it replaced.
-  const auto beside = metrics_beside(target);
+  const auto beside = inside(metrics_file_of(entry.file), true);
+  std::error_code error;
+  const bool beside_exists = std::filesystem::symlink_status(beside, error).type() !=
+                             std::filesystem::file_type::not_found;
   if (entry.metrics_sha256 == kNoMetrics) {
-    if (std::filesystem::exists(beside)) {
-      std::filesystem::remove(beside);
+    if (beside_exists) {
+      trainer::remove_durably(beside);
       rewritten = true;
     }
-  } else if (!entry.metrics_sha256.empty() &&
-             (!std::filesystem::exists(beside) ||
-              datasets::file_sha256_hex(beside) != entry.metrics_sha256)) {
+  } else if (!entry.metrics_sha256.empty() && !holds(beside, entry.metrics_sha256)) {
     const auto source = metrics_archive_path(entry.metrics_sha256);
-    if (!std::filesystem::exists(source) ||
-        datasets::file_sha256_hex(source) != entry.metrics_sha256) {
+    if (!holds(source, entry.metrics_sha256)) {
       throw std::runtime_error(beside.string() + ": differs from the manifest's metrics_sha256 " +
                                entry.metrics_sha256.substr(0, 12) +
                                " and the archive has no matching copy");
@@ -322,11 +259,24 @@ bool Registry::materialize(const RegistryEntry& entry) const {
   return rewritten;
 }
 
+// Archives what is shipped as the manifest says (a fresh clone's registry has no archive yet), so
+// that a later rollback or repair finds every file it needs.
+void Registry::archive_shipped(const RegistryEntry& e) const {
+  const auto shipped = inside(e.file, true);
+  if (holds(shipped, e.sha256)) archive(shipped, e.sha256);
+  if (!e.metrics_sha256.empty() && e.metrics_sha256 != kNoMetrics) {
+    const auto beside = inside(metrics_file_of(e.file), true);
+    if (holds(beside, e.metrics_sha256)) (void)archive_metrics(beside);
+  }
+}
+
 std::vector<std::string> Registry::repair() {
-  const RegistryLock lock(folder_);
+  const RegistryLock lock(inside(".registry/lock"));
   load();
+  remove_stale_temporaries();
   std::vector<std::string> rewritten;
   for (const RegistryEntry& e : entries_) {
+    archive_shipped(e);
     if (materialize(e)) rewritten.push_back(e.file);
   }
   // Entries written before `learned_part` was recorded get it from the file they ship (once).
@@ -335,7 +285,7 @@ std::vector<std::string> Registry::repair() {
   for (RegistryEntry& e : described) {
     if (!e.learned_part.empty()) continue;
     try {
-      e.learned_part = learned_part_of(io::ModelFileReader(folder_ / e.file).provenance());
+      e.learned_part = learned_part_of(io::ModelFileReader(inside(e.file)).provenance());
       changed = true;
     } catch (const std::exception&) {
       // A file that does not read says nothing here; its own stage reports it.
@@ -346,9 +296,15 @@ std::vector<std::string> Registry::repair() {
 }
 
 void Registry::adopt(const RegistryEntry& entry) {
-  const RegistryLock lock(folder_);
+  const RegistryLock lock(inside(".registry/lock"));
   load();
-  const auto file = folder_ / entry.file;
+  if (const std::string problem = model_name_problem(entry.name); !problem.empty()) {
+    throw std::runtime_error("adopt: name " + problem);
+  }
+  if (const std::string problem = model_file_problem(entry.file); !problem.empty()) {
+    throw std::runtime_error("adopt: file " + problem);
+  }
+  const auto file = inside(entry.file, true);
   archive(file, entry.sha256);
   RegistryEntry adopted = entry;
   adopted.metrics_sha256 = archive_metrics(metrics_beside(file));
@@ -356,33 +312,72 @@ void Registry::adopt(const RegistryEntry& entry) {
   auto it = std::find_if(next.begin(), next.end(),
                          [&](const RegistryEntry& e) { return e.name == entry.name; });
   if (it != next.end()) {
+    adopted.history = std::move(it->history);
+    adopted.rejected = std::move(it->rejected);
     *it = std::move(adopted);
   } else {
     next.push_back(std::move(adopted));
   }
+  (void)parse_manifest(manifest_text(next), "adopt");  // the state it commits reads back
+  require_materializable(next);
   commit(std::move(next));
 }
 
 void Registry::promote(RegistryEntry entry, const std::filesystem::path& candidate,
-                       const std::optional<std::filesystem::path>& metrics_file) {
+                       const std::optional<std::filesystem::path>& metrics_file,
+                       const PromotionTerms& terms) {
   // Under the lock, from the manifest as it is now (another command may have changed it).
-  const RegistryLock lock(folder_);
+  const RegistryLock lock(inside(".registry/lock"));
   load();
+  remove_stale_temporaries();
+  if (const std::string problem = model_name_problem(entry.name); !problem.empty()) {
+    throw std::runtime_error("promote: name " + problem);
+  }
+  if (const std::string problem = model_file_problem(entry.file); !problem.empty()) {
+    throw std::runtime_error("promote: file " + problem);
+  }
   entry.sha256 = datasets::file_sha256_hex(candidate);
   entry.promoted_utc = io::utc_now();
   const std::string name = entry.name;
-  // 1. Both the candidate and the model it replaces are in the archive.
+  const RegistryEntry* current = find(name);
+  // The terms, decided on the manifest as it is now.
+  if (terms.compared_with) {
+    const std::string now = current != nullptr ? current->sha256 : "";
+    if (now != *terms.compared_with) {
+      const auto shown = [](const std::string& sha) {
+        return sha.empty() ? std::string("none") : sha.substr(0, 12);
+      };
+      throw PromotionRefused(PromotionRefused::Why::kShippedModelChanged,
+                             "'" + name +
+                                 "': the shipped model changed while the candidate was "
+                                 "evaluated (compared with " +
+                                 shown(*terms.compared_with) + ", shipped now " + shown(now) +
+                                 "); the candidate is compared with it first");
+    }
+  }
+  if (terms.honour_rejections && current != nullptr) {
+    for (const RegistryEntry& r : current->rejected) {
+      if (is_rejected(r, candidate, entry.sha256, entry.inputs_digest)) {
+        throw PromotionRefused(PromotionRefused::Why::kRolledBack,
+                               "'" + name + "': the candidate is the model " +
+                                   r.sha256.substr(0, 12) + " that was rolled back on " +
+                                   r.rolled_back_utc,
+                               r);
+      }
+    }
+  }
+  // 1. Both the candidate and the model it replaces (with their metrics files) are archived.
   archive(candidate, entry.sha256);
   entry.metrics_sha256 = archive_metrics(metrics_file);
   std::vector<RegistryEntry> next = entries_;
   auto it = std::find_if(next.begin(), next.end(),
                          [&](const RegistryEntry& e) { return e.name == entry.name; });
   if (it != next.end()) {
-    const auto shipped = folder_ / it->file;
-    if (std::filesystem::exists(shipped) && datasets::file_sha256_hex(shipped) == it->sha256) {
-      archive(shipped, it->sha256);
-      // An entry from before metrics were recorded gets the metrics shipped beside it now.
-      if (it->metrics_sha256.empty()) it->metrics_sha256 = archive_metrics(metrics_beside(shipped));
+    archive_shipped(*it);
+    // An entry from before metrics were recorded gets the metrics shipped beside it now.
+    const auto shipped = inside(it->file, true);
+    if (it->metrics_sha256.empty() && holds(shipped, it->sha256)) {
+      it->metrics_sha256 = archive_metrics(metrics_beside(shipped));
     }
     RegistryEntry previous = *it;
     entry.history = std::move(previous.history);
@@ -399,10 +394,18 @@ void Registry::promote(RegistryEntry entry, const std::filesystem::path& candida
   } else {
     // A file under the name that the manifest does not know (one that could not be adopted) is
     // never overwritten without an archive copy.
-    const auto existing = folder_ / entry.file;
-    if (std::filesystem::exists(existing)) archive(existing, datasets::file_sha256_hex(existing));
+    const auto existing = inside(entry.file, true);
+    std::error_code error;
+    if (std::filesystem::symlink_status(existing, error).type() ==
+        std::filesystem::file_type::regular) {
+      archive(existing, datasets::file_sha256_hex(existing));
+    }
     next.push_back(std::move(entry));
   }
+  // The state it commits reads back (another entry's file is refused), and every file it ships
+  // is at hand.
+  (void)parse_manifest(manifest_text(next), "promote '" + name + "'");
+  require_materializable(next);
   // 2. The commit point: one rename of the manifest (the entries change only when it is done).
   commit(std::move(next));
   // 3. The shipped file follows the manifest.
@@ -410,19 +413,19 @@ void Registry::promote(RegistryEntry entry, const std::filesystem::path& candida
 }
 
 RegistryEntry Registry::rollback(const std::string& name) {
-  const RegistryLock lock(folder_);
+  const RegistryLock lock(inside(".registry/lock"));
   load();
+  remove_stale_temporaries();
   auto it = std::find_if(entries_.begin(), entries_.end(),
                          [&](const RegistryEntry& e) { return e.name == name; });
-  if (it == entries_.end()) throw std::runtime_error("rollback: no shipped model '" + name + "'");
+  if (it == entries_.end()) {
+    throw std::runtime_error("rollback: no shipped model " + quoted_for_message(name, 64));
+  }
   if (it->history.empty()) {
     throw std::runtime_error("rollback: '" + name + "' has no earlier model to restore");
   }
+  archive_shipped(*it);
   RegistryEntry restored = it->history.front();
-  if (!std::filesystem::exists(archive_path(restored.sha256))) {
-    throw std::runtime_error("rollback: the archive has no copy of " + name + " " +
-                             restored.sha256.substr(0, 12));
-  }
   restored.history.assign(it->history.begin() + 1, it->history.end());
   // The rolled-back model is recorded, so that the next night does not promote it again.
   RegistryEntry rejected = *it;
@@ -433,6 +436,11 @@ RegistryEntry Registry::rollback(const std::string& name) {
   restored.rejected.insert(restored.rejected.begin(), std::move(rejected));
   std::vector<RegistryEntry> next = entries_;
   next[static_cast<std::size_t>(it - entries_.begin())] = restored;
+  try {
+    require_materializable({restored});
+  } catch (const std::runtime_error& error) {
+    throw std::runtime_error("rollback: " + std::string(error.what()));
+  }
   commit(std::move(next));
   materialize(restored);
   return restored;
@@ -442,7 +450,7 @@ bool Registry::is_rejected(const RegistryEntry& r, const std::filesystem::path& 
                            const std::string& sha256, const std::string& inputs) const {
   if (r.sha256 == sha256 || (!inputs.empty() && r.inputs_digest == inputs)) return true;
   const auto archived = archive_path(r.sha256);
-  if (!std::filesystem::exists(archived)) return false;
+  if (!holds(archived, r.sha256)) return false;
   try {
     return model_difference(candidate, archived).same();
   } catch (const std::exception&) {

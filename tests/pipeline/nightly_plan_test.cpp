@@ -5,9 +5,13 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include "imm/pipeline/nightly.hpp"
 #include "imm/support/config.hpp"
+#include "nightly_trends.hpp"
 #include "stage_cache.hpp"
 #include "testing/config_error.hpp"
 #include "testing/temp_dir.hpp"
@@ -274,6 +278,26 @@ TEST(Nightly, MorningReportShowsBenchmarksAndFlagsSlowdowns) {
   const std::string md((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(md.find("| BM_W1_PlainImmStep | 560 ns | 500 ns | +12 % ⚠ |"), std::string::npos) << md;
   EXPECT_NE(md.find("| BM_W3_FuzzyCMeans1d | 0.57 ms | 0.58 ms | -2 % |"), std::string::npos) << md;
+}
+
+// An append-only history survives a torn line: a night killed while appending leaves a line
+// without its newline, which the next append closes first instead of running into it.
+TEST(NightlyHistory, ATornAppendDoesNotSwallowTheNextLine) {
+  const testing::TempDir dir;
+  const auto file = dir / "nights.jsonl";
+  const auto lines_of = [](const std::string& text) {
+    std::vector<std::string> lines;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+    return lines;
+  };
+  testing::write_text(file, "{\"night\": \"a\"}\n{\"night\": \"b\", \"sta");
+  pipeline::append_line(file, "{\"night\": \"c\"}");
+  const auto lines = lines_of(testing::slurp_text(file));
+  ASSERT_EQ(lines.size(), 3U);
+  EXPECT_EQ(lines[2], "{\"night\": \"c\"}");
+  pipeline::append_line(file, "{\"night\": \"d\"}");
+  EXPECT_EQ(lines_of(testing::slurp_text(file)).size(), 4U);
 }
 
 }  // namespace

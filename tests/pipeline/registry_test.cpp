@@ -237,7 +237,7 @@ TEST(Registry, AHostileManifestIsRefusedNamingTheField) {
     Registry registry(dir.path());
     FAIL();
   } catch (const std::runtime_error& error) {
-    EXPECT_NE(std::string(error.what()).find("models[0]: file"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("models[0].file"), std::string::npos) << error.what();
   }
 }
 
@@ -265,11 +265,11 @@ TEST(Registry, NamesAndDigestsThatCouldLeaveTheRegistryAreRefused) {
     }
   };
   for (const std::string name : {"../x", "/elsewhere/x", "a/b", ".hidden", "", "a name"}) {
-    refused(manifest(name, good), "models[0]: name");
+    refused(manifest(name, good), "models[0].name");
   }
-  refused(manifest("a", std::string(60, 'a') + "/../"), "models[0]: sha256");
-  refused(manifest("a", std::string(64, 'g')), "models[0]: sha256");
-  refused(manifest("a", std::string(64, 'A')), "models[0]: sha256");
+  refused(manifest("a", std::string(60, 'a') + "/../"), "models[0].sha256");
+  refused(manifest("a", std::string(64, 'g')), "models[0].sha256");
+  refused(manifest("a", std::string(64, 'A')), "models[0].sha256");
   testing::write_text(dir / "manifest.json", manifest("a", good));
   EXPECT_NO_THROW(Registry registry(dir.path()));
 

@@ -21,6 +21,7 @@
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
+#include "imm/tracking/envelope.hpp"
 #include "testing/hostile_hdf5.hpp"
 #include "testing/shipped_models.hpp"
 #include "testing/temp_dir.hpp"
@@ -116,6 +117,94 @@ TEST(HostileModelFile, HardLinkCycleIsRefusedNamingTheLink) {
     EXPECT_EQ(error.field(), "/imm/modes/up");
     EXPECT_NE(std::string(error.what()).find("links to '/imm' again"), std::string::npos)
         << error.what();
+  }
+}
+
+// The refusal of a mutated copy of `model`, or "" when it loads and its tracker (built as
+// load_tracker builds it, envelope included) runs.
+std::string refusal_of(const std::filesystem::path& model, const testing::TempDir& dir,
+                       const std::function<void(hid_t)>& edit) {
+  const auto path = dir / "mutant.h5";
+  testing::write_bytes(path, testing::read_bytes(model));
+  testing::edit_and_reseal(path, edit);
+  try {
+    const ModelFileReader reader(path);
+    read_model(path);
+    (void)EnvelopeMonitor(reader.envelope());
+    return "";
+  } catch (const FileError& error) {
+    return error.what();
+  }
+}
+
+// Every real is checked against its meaning: an envelope whose χ² quantiles cannot be computed
+// (significance 5e-324 halves to 0; dof 1e-310 took 10 s) and a count written as a real (−1.0 or
+// 2.5 generations) are refused naming the field, not loaded and then thrown on by the tracker.
+TEST(HostileModelFile, EveryNumberIsCheckedAgainstItsMeaning) {
+  const testing::TempDir dir;
+  const std::filesystem::path tracker = "models/baseline_imm_agile_air.h5";
+  for (const auto& [name, value] :
+       {std::pair{"significance", 5e-324}, std::pair{"significance", 1e-320},
+        std::pair{"dof", 1e-310}, std::pair{"dof", 5e-324}, std::pair{"dof", 1e7}}) {
+    SCOPED_TRACE(std::string(name) + " = " + std::to_string(value));
+    const std::string refused = refusal_of(tracker, dir, [&, name = name, value = value](hid_t f) {
+      testing::set_attribute(f, "/envelope", name, H5T_NATIVE_DOUBLE, &value);
+    });
+    EXPECT_NE(refused.find("/envelope@" + std::string(name)), std::string::npos) << refused;
+  }
+  const std::filesystem::path ga = "models/ga_fuzzy_imm_agile_air.h5";
+  for (const double value : {-1.0, 2.5, 100.0}) {
+    SCOPED_TRACE(value);
+    const std::string refused = refusal_of(ga, dir, [value](hid_t f) {
+      testing::set_attribute(f, "/ga_fuzzy_imm/level0", "generations", H5T_NATIVE_DOUBLE, &value);
+    });
+    // Named by its group's units (a real needs one) or by itself (a count must be an integer).
+    EXPECT_NE(refused.find("/ga_fuzzy_imm/level0@"), std::string::npos) << refused;
+    EXPECT_NE(refused.find("generations"), std::string::npos) << refused;
+  }
+  const std::int64_t too_many = 1000;
+  EXPECT_NE(refusal_of(ga, dir,
+                       [&](hid_t f) {
+                         testing::set_attribute(f, "/ga_fuzzy_imm/level0", "rules",
+                                                H5T_NATIVE_INT64, &too_many);
+                       })
+                .find("@rules"),
+            std::string::npos);
+  // The unmutated files load (the checks refuse the mutation, not the model).
+  EXPECT_EQ(refusal_of(tracker, dir, [](hid_t) {}), "");
+  EXPECT_EQ(refusal_of(ga, dir, [](hid_t) {}), "");
+}
+
+// Text is text: control bytes (newline, CR, ESC) in the provenance's one-line texts, and in group
+// or attribute names, are refused with a one-line message that shows them escaped; a name longer
+// than the documented 256 bytes is refused too.
+TEST(HostileModelFile, TextHoldsNoControlBytesAndNamesKeepTheirLimit) {
+  const testing::TempDir dir;
+  const std::filesystem::path model = "models/cv3_imm.h5";
+  for (const char* attribute :
+       {"model_kind", "length_unit", "created_utc", "trainer_version", "dataset_digest"}) {
+    for (const std::string bad : {"m\nx", "m\rx", "m\x1b[31mx"}) {
+      SCOPED_TRACE(std::string(attribute) + " = " + bad);
+      const std::string refused = refusal_of(
+          model, dir, [&](hid_t f) { testing::set_text_attribute(f, "/", attribute, bad); });
+      EXPECT_NE(refused.find(std::string("/@") + attribute), std::string::npos) << refused;
+      EXPECT_EQ(refused.find_first_of("\n\r\x1b"), std::string::npos) << refused;
+    }
+  }
+  const double value = 1.0;
+  for (const std::string name :
+       {std::string("bad\nname"), std::string("esc\x1b"), std::string(300, 'a')}) {
+    SCOPED_TRACE(name.size());
+    const std::string refused = refusal_of(model, dir, [&](hid_t f) {
+      testing::set_attribute(f, "/imm", name, H5T_NATIVE_DOUBLE, &value);
+    });
+    EXPECT_NE(refused.find("attribute name"), std::string::npos) << refused;
+    EXPECT_EQ(refused.find_first_of("\n\r\x1b"), std::string::npos) << refused;
+    const std::string group = refusal_of(model, dir, [&](hid_t f) {
+      H5Gclose(H5Gcreate2(f, ("/imm/" + name).c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+    });
+    EXPECT_NE(group.find("name"), std::string::npos) << group;
+    EXPECT_EQ(group.find_first_of("\n\r\x1b"), std::string::npos) << group;
   }
 }
 

@@ -158,6 +158,7 @@ inline std::vector<Mutation> mutations_of(const Layout& layout) {
                         const double values[2] = {1.0, 2.0};
                         set_attribute(f, object, name, H5T_NATIVE_DOUBLE, values, 2);
                       }});
+    // (The smallest subnormal and counts written as reals: HostileModelFile.EveryNumberIs…)
     for (const double value : {0.0, -1.0, 1e-320, 1e308, std::numeric_limits<double>::quiet_NaN(),
                                std::numeric_limits<double>::infinity()}) {
       drills.push_back(

@@ -87,6 +87,9 @@ inline KindFilter make_kind_filter(const io::ModelFileReader& reader) {
   } else {
     throw io::FileError(reader.file(), "/@model_kind", "unknown kind '" + made.kind + "'");
   }
+  // The envelope test the file holds, as load_tracker hands it to the Tracker (whose constructor
+  // builds its monitor: the χ² quantiles of the file's significance and dof).
+  made.options.envelope = reader.envelope();
   const double variance = made.options.measurement_covariance.diagonal().maxCoeff();
   start(made.filter->state_dimension(), variance > 0.0 ? variance : 1.0);
   return made;

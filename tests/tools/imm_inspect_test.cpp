@@ -74,5 +74,22 @@ TEST_F(Tools, ImmInspectShowsRuleTablesLikeTable2) {
       << text.out;
 }
 
+// The committed manifest prints (a tracker's metrics hold its ranking, an array, beside the
+// headline metrics); a hostile one is refused on one line with exit code 2, never a crash.
+TEST_F(Tools, ImmInspectPrintsTheCommittedManifestAndRefusesAHostileOne) {
+  const auto shipped = run_tool("imm-inspect", {"--manifest", "models/manifest.json"}, root_);
+  ASSERT_EQ(shipped.exit_code, 0) << shipped.err;
+  EXPECT_NE(shipped.out.find("| agile_air | "), std::string::npos) << shipped.out.substr(0, 2000);
+  EXPECT_NE(shipped.out.find("| agile_air | 'ranking' | '[{"), std::string::npos);
+  const std::string deep(200000, '[');
+  testing::write_text(dir_ / "manifest.json", R"({"manifest_version": 1, "models": [{"metrics": )" +
+                                                  deep + std::string(200000, ']') + "}]}");
+  const auto hostile =
+      run_tool("imm-inspect", {"--manifest", (dir_ / "manifest.json").string()}, root_);
+  EXPECT_EQ(hostile.exit_code, 2) << hostile.err;
+  EXPECT_EQ(lines_of(hostile.err).size(), 1U) << hostile.err;
+  EXPECT_NE(hostile.err.find("nested"), std::string::npos) << hostile.err;
+}
+
 }  // namespace
 }  // namespace imm

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <utility>
 
+#include "testing/hdf5_edit.hpp"
 #include "testing/regime_files.hpp"
 #include "testing/run_tool.hpp"
 #include "testing/temp_dir.hpp"
@@ -305,6 +306,67 @@ TEST(NightlyProduct, AComparisonThatCannotBeMadeHoldsTheCandidateBack) {
     EXPECT_NE(report.find("the comparison with the shipped model failed"), std::string::npos)
         << report;
   }
+  // The shipped model's own evaluation killed (it runs on the copy in staging/shipped/): no
+  // evidence either, so the candidate is held back and the night is not green.
+  tools.plant("imm-eval", "case \"$*\" in *staging/shipped/*) kill -9 $$ ;; esac\n");
+  write_cv3(dir / "cv3.toml", 1.0, "# round " + std::to_string(++round) + "\n");
+  const auto run = tools.night(p);
+  EXPECT_EQ(run.exit_code, 6) << run.err;
+  EXPECT_EQ(sha256_of(shipped), first);
+  const std::string report = slurp(p.reports / "latest" / "index.md");
+  EXPECT_NE(report.find("the evaluation of the shipped model failed"), std::string::npos) << report;
+  EXPECT_EQ(report.find("promoted on its own gates"), std::string::npos) << report;
+}
+
+// A change a person makes while the night runs stands. The planted imm-eval makes it, as a real
+// process, when the night starts it on the shipped model: a rollback, then a promotion by hand of
+// another file. The night's candidate, compared with a model that is no longer shipped, is held
+// back (and compared with what is shipped on the next night); the person's change is not undone.
+TEST(NightlyProduct, AChangeMadeWhileTheNightEvaluatesStands) {
+  const testing::TempDir dir;
+  const auto [p, night, shipped] = first_night(dir);
+  ASSERT_EQ(night.exit_code, 0) << night.err;
+  const std::string a = sha256_of(shipped);
+  write_cv3(dir / "cv3.toml", 1.0, "# b\n");
+  ASSERT_EQ(nightly(p).exit_code, 0);
+  const std::string b = sha256_of(shipped);
+  ASSERT_NE(a, b);
+  const std::string imm_train = fs::absolute(testing::tool_path("imm-train")).string();
+  const PlantedTools tools(dir / "bin");
+  const auto during_the_shipped_evaluation = [&](const std::string& command) {
+    tools.plant("imm-eval", "case \"$*\" in *staging/shipped/*) " + imm_train + " " + command +
+                                " --registry " + p.registry.string() + " >&2 ;; esac\n");
+  };
+
+  // 1. A rollback: b → a. The night's candidate c is not shipped over a, and b stays rejected.
+  during_the_shipped_evaluation("rollback cv3");
+  write_cv3(dir / "cv3.toml", 1.0, "# c\n");
+  auto run = tools.night(p);
+  EXPECT_EQ(run.exit_code, 6) << run.err;
+  EXPECT_EQ(sha256_of(shipped), a);
+  auto m = manifest(p);
+  EXPECT_EQ(m["models"][0]["sha256"], a);
+  ASSERT_EQ(m["models"][0]["rejected"].size(), 1U) << m.dump(2);
+  EXPECT_EQ(m["models"][0]["rejected"][0]["sha256"], b);
+  std::string report = slurp(p.reports / "latest" / "index.md");
+  EXPECT_NE(report.find("the shipped model changed while the candidate was evaluated"),
+            std::string::npos)
+      << report;
+
+  // 2. A promotion by hand of another file (the same filter, written by a committed build).
+  const fs::path by_hand = dir / "by_hand.h5";
+  fs::copy_file(shipped, by_hand);
+  testing::edit_and_reseal(
+      by_hand, [](hid_t f) { testing::set_text_attribute(f, "/", "trainer_version", "f92683f"); });
+  const std::string d = sha256_of(by_hand);
+  during_the_shipped_evaluation("promote " + by_hand.string() + " --name cv3 --reason better");
+  write_cv3(dir / "cv3.toml", 1.0, "# e\n");
+  run = tools.night(p);
+  EXPECT_EQ(run.exit_code, 6) << run.err;
+  EXPECT_EQ(sha256_of(shipped), d);
+  m = manifest(p);
+  EXPECT_EQ(m["models"][0]["sha256"], d);
+  EXPECT_EQ(m["models"][0]["promotion_reason"], "better");
 }
 
 // A full disk, as a file-size limit (`ulimit -f`, SIGXFSZ ignored so that writes fail with EFBIG):

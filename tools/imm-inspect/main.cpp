@@ -30,6 +30,7 @@
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "imm/load.hpp"
+#include "imm/pipeline/registry.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/support/exit_codes.hpp"
 
@@ -209,71 +210,81 @@ struct Inspector {
   }
 };
 
+// A manifest's metric for a table cell: a headline metric's value and interval, else its JSON text
+// (a tracker's ranking, rule and reason), one line, its control bytes escaped.
+std::string metric_cell(const json& value) {
+  if (value.is_object() && value.contains("value") && value.at("value").is_number()) {
+    std::ostringstream text;
+    text << value.at("value").get<double>();
+    const json* interval = value.contains("interval") ? &value.at("interval") : nullptr;
+    if (interval != nullptr && interval->is_array() && interval->size() == 2 &&
+        (*interval)[0].is_number() && (*interval)[1].is_number()) {
+      text << " [" << (*interval)[0].get<double>() << ", " << (*interval)[1].get<double>() << "]";
+    }
+    return text.str();
+  }
+  const std::string text = value.is_string() ? value.get<std::string>() : value.dump();
+  return imm::pipeline::quoted_for_message(text, 240);
+}
+
 // models/manifest.json (imm/pipeline/registry.hpp) as tables: what is shipped, and its metrics.
+// The manifest is read as the registry reads it (bounded, every field checked); a refusal names
+// the field.
 int print_manifest(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) {
-    std::cerr << "imm-inspect: " << path << ": cannot open\n";
+  using imm::pipeline::quoted_for_message;
+  std::vector<imm::pipeline::RegistryEntry> entries;
+  try {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error(path + ": cannot open");
+    std::string text(imm::pipeline::kMaxManifestBytes + 1, '\0');
+    in.read(text.data(), static_cast<std::streamsize>(text.size()));
+    text.resize(static_cast<std::size_t>(in.gcount()));
+    entries = imm::pipeline::parse_manifest(text, path);
+  } catch (const std::exception& error) {
+    std::cerr << "imm-inspect: " << error.what() << '\n';
     return 2;
   }
-  json manifest;
-  try {
-    manifest = json::parse(in);
-    std::cout << "| name | kind | regime | file | sha256 | schema | trainer | trained | promoted | "
-                 "earlier | learned part |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
-    for (const json& e : manifest.at("models")) {
-      const std::string promoted = e.value("promoted_utc", "");
-      std::cout << "| " << e.at("name").get<std::string>() << " | "
-                << e.at("kind").get<std::string>() << " | "
-                << e.at("regime").at("name").get<std::string>() << " | "
-                << e.at("file").get<std::string>() << " | "
-                << e.at("sha256").get<std::string>().substr(0, 12) << " | "
-                << e.at("schema_version").get<int>() << " | "
-                << e.at("trainer_version").get<std::string>() << " | "
-                << e.at("trained_utc").get<std::string>() << " | "
-                << (promoted.empty() ? "–" : promoted) << " | "
-                << (e.contains("history") ? e.at("history").size() : 0) << " | "
-                << e.value("learned_part", std::string("–")) << " |\n";
+  std::cout << "| name | kind | regime | file | sha256 | schema | trainer | trained | promoted | "
+               "earlier | learned part |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& e : entries) {
+    std::cout << "| " << e.name << " | " << e.kind << " | " << e.regime_name << " | " << e.file
+              << " | " << e.sha256.substr(0, 12) << " | " << e.schema_version << " | "
+              << e.trainer_version << " | " << e.trained_utc << " | "
+              << (e.promoted_utc.empty() ? "–" : e.promoted_utc) << " | " << e.history.size()
+              << " | " << (e.learned_part.empty() ? "–" : e.learned_part) << " |\n";
+  }
+  std::cout << "\n| name | metric | value [95 %] | vs the model it replaced [95 %] "
+               "|\n|---|---|---|---|\n";
+  for (const auto& e : entries) {
+    for (const auto& [metric, value] : e.metrics.items()) {
+      const bool headline = value.is_object() && value.contains("versus_previous") &&
+                            value.at("versus_previous").is_string();
+      std::cout << "| " << e.name << " | " << quoted_for_message(metric, 120) << " | "
+                << metric_cell(value) << " | "
+                << (headline ? quoted_for_message(value.at("versus_previous").get<std::string>())
+                             : std::string("–"))
+                << " |\n";
     }
-    std::cout << "\n| name | metric | value [95 %] | vs the model it replaced [95 %] "
-                 "|\n|---|---|---|---|\n";
-    for (const json& e : manifest.at("models")) {
-      if (!e.contains("metrics")) continue;
-      for (const auto& [metric, value] : e.at("metrics").items()) {
-        std::cout << "| " << e.at("name").get<std::string>() << " | " << metric << " | "
-                  << value.value("value", 0.0);
-        if (value.contains("interval") && value.at("interval").size() == 2) {
-          std::cout << " [" << value.at("interval")[0].get<double>() << ", "
-                    << value.at("interval")[1].get<double>() << "]";
-        }
-        std::cout << " | " << value.value("versus_previous", std::string("–")) << " |\n";
-      }
+  }
+  bool header = false;
+  for (const auto& e : entries) {
+    if (e.promotion_reason.empty()) continue;
+    if (!header) std::cout << "\nPromoted by hand, past the nightly's gates:\n";
+    header = true;
+    std::cout << "- " << e.name << ": " << quoted_for_message(e.promotion_reason, 400) << '\n';
+  }
+  header = false;
+  for (const auto& e : entries) {
+    if (e.rejected.empty()) continue;
+    if (!header) {
+      std::cout << "\nRolled back (not promoted again until --force or imm-train promote):\n";
     }
-    bool header = false;
-    for (const json& e : manifest.at("models")) {
-      const std::string reason = e.value("promotion_reason", "");
-      if (reason.empty()) continue;
-      if (!header) std::cout << "\nPromoted by hand, past the nightly's gates:\n";
-      header = true;
-      std::cout << "- " << e.at("name").get<std::string>() << ": " << reason << '\n';
+    header = true;
+    for (const auto& r : e.rejected) {
+      std::cout << "- " << e.name << ": " << r.sha256.substr(0, 12) << ", trained " << r.trained_utc
+                << ", rolled back " << (r.rolled_back_utc.empty() ? "–" : r.rolled_back_utc)
+                << '\n';
     }
-    header = false;
-    for (const json& e : manifest.at("models")) {
-      if (!e.contains("rejected")) continue;
-      if (!header) {
-        std::cout << "\nRolled back (not promoted again until --force or imm-train promote):\n";
-      }
-      header = true;
-      for (const json& r : e.at("rejected")) {
-        std::cout << "- " << e.at("name").get<std::string>() << ": "
-                  << r.at("sha256").get<std::string>().substr(0, 12) << ", trained "
-                  << r.at("trained_utc").get<std::string>() << ", rolled back "
-                  << r.value("rolled_back_utc", std::string("–")) << '\n';
-      }
-    }
-  } catch (const json::exception& error) {
-    std::cerr << "imm-inspect: " << path << ": not a model manifest (" << error.what() << ")\n";
-    return 2;
   }
   return 0;
 }

@@ -21,6 +21,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "imm/io/container_file.hpp"
@@ -81,11 +82,6 @@ std::string column_name(std::string name) {
   return name;
 }
 
-std::vector<std::string> state_names(int dimension) {
-  if (dimension == 4) return {"x", "vx", "y", "vy"};
-  return {"x", "vx", "ax", "y", "vy", "ay"};
-}
-
 // The shortest text that reads back to the same double (std::to_chars).
 void write_number(std::ostream& out, double value) {
   char buffer[32];
@@ -117,8 +113,17 @@ int main(int argc, char** argv) {
 
   imm::LoadedFilter loaded;
   imm::support::MeasurementCsv csv;
+  std::vector<std::string> modes;
+  std::optional<imm::Tracker> built;
   try {
     loaded = load_filter(filter_path, max_gap);
+    // The tracker is built here, inside the error handling: settings the file holds (its
+    // envelope's) are checked again by the tracker's own constructor.
+    modes.reserve(static_cast<std::size_t>(loaded.filter->mode_count()));
+    for (int j = 0; j < loaded.filter->mode_count(); ++j) {
+      modes.push_back(column_name(loaded.filter->mode_name(j)));
+    }
+    built.emplace(std::move(loaded.filter), loaded.options);
     std::ifstream in(measurements_path);
     if (!in) throw std::runtime_error(measurements_path + ": cannot open");
     csv = imm::support::read_measurement_csv(in, measurements_path);
@@ -133,7 +138,7 @@ int main(int argc, char** argv) {
     }
     imm::support::scans_from_times(csv, loaded.options.sample_period, measurements_path);
   } catch (const std::exception& error) {
-    std::cerr << "imm-track: " << error.what() << '\n';
+    std::cerr << "imm-track: " << imm::support::one_line(error.what()) << '\n';
     return imm::support::exit_code::kBadInput;
   } catch (...) {
     std::cerr << "imm-track: unexpected error\n";
@@ -150,13 +155,9 @@ int main(int argc, char** argv) {
   }
   std::ostream& out = out_path.empty() ? std::cout : file_out;
 
-  const imm::TrackFilter& filter = *loaded.filter;
-  std::vector<std::string> modes;
-  modes.reserve(static_cast<std::size_t>(filter.mode_count()));
-  for (int j = 0; j < filter.mode_count(); ++j) modes.push_back(column_name(filter.mode_name(j)));
-  imm::Tracker tracker(std::move(loaded.filter), loaded.options);
+  imm::Tracker& tracker = *built;
   const int n = tracker.state_dimension();
-  const auto names = state_names(n);
+  const auto names = imm::state_variable_names(n);
   out << "k,status";
   for (const auto& name : names) out << ',' << name;
   for (const auto& name : names) out << ",var_" << name;

@@ -119,17 +119,19 @@ int run_rollback(const std::string& kind, const std::string& regime,
   auto found = registry.find(kind, regime);
   if (const auto* named = registry.find(kind); named != nullptr && regime.empty()) found = {named};
   if (found.empty()) {
-    spdlog::error("rollback: no shipped {} model for regime '{}' in {}", kind, regime,
-                  registry.manifest_path().string());
+    spdlog::error("rollback: no shipped {} model for regime {} in {}",
+                  imm::pipeline::quoted_for_message(kind, 64),
+                  imm::pipeline::quoted_for_message(regime, 64), registry.manifest_path().string());
     return exit_code::kBadInput;
   }
   if (found.size() > 1) {
     std::string names;
     for (const auto* e : found) names += " " + e->name;
     spdlog::error(
-        "rollback: {} models of kind {} for regime '{}':{}; name one: imm-train rollback "
+        "rollback: {} models of kind {} for regime {}:{}; name one: imm-train rollback "
         "NAME",
-        found.size(), kind, regime, names);
+        found.size(), imm::pipeline::quoted_for_message(kind, 64),
+        imm::pipeline::quoted_for_message(regime, 64), names);
     return exit_code::kBadInput;
   }
   const std::string name = found.front()->name;
@@ -244,13 +246,13 @@ int run(int argc, char** argv) {
       return 0;
     }
   } catch (const imm::support::ConfigError& error) {
-    spdlog::error("{}", error.what());
+    spdlog::error("{}", imm::support::one_line(error.what()));
     return exit_code::kBadInput;
   } catch (const imm::io::FileError& error) {
-    spdlog::error("{}", error.what());
+    spdlog::error("{}", imm::support::one_line(error.what()));
     return exit_code::kBadInput;
   } catch (const std::exception& error) {
-    spdlog::error("{}", error.what());
+    spdlog::error("{}", imm::support::one_line(error.what()));
     return exit_code::kBadInput;
   } catch (...) {
     spdlog::error("unexpected error");

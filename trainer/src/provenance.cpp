@@ -48,7 +48,7 @@ std::filesystem::path metrics_path(const std::filesystem::path& model_path) {
 
 void ensure_parent_folder(const std::filesystem::path& path) {
   const auto folder = path.parent_path();
-  if (!folder.empty()) std::filesystem::create_directories(folder);
+  if (!folder.empty()) create_folders_durably(folder);
 }
 
 namespace {
@@ -87,24 +87,59 @@ void rename_durably(const std::filesystem::path& temp, const std::filesystem::pa
   sync(directory.fd, folder);
 }
 
+// Removes the temporary of a write that failed (a full disk, a file-size limit), then rethrows.
+template <typename Write>
+void removing_temporary_on_failure(const std::filesystem::path& temp, Write&& write) {
+  try {
+    write();
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove(temp, ignored);
+    throw;
+  }
+}
+
 }  // namespace
+
+void sync_folder(const std::filesystem::path& folder) {
+  const std::filesystem::path at = folder.empty() ? std::filesystem::path(".") : folder;
+  const Descriptor directory(::open(at.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (directory.fd < 0) throw std::runtime_error(at.string() + ": open: " + errno_text());
+  sync(directory.fd, at);
+}
+
+void create_folders_durably(const std::filesystem::path& folder) {
+  if (folder.empty() || std::filesystem::is_directory(folder)) return;
+  const auto parent = folder.parent_path();
+  if (!parent.empty() && parent != folder) create_folders_durably(parent);
+  std::error_code error;
+  if (std::filesystem::create_directory(folder, error)) {
+    sync_folder(parent);
+  } else if (error) {
+    throw std::runtime_error(folder.string() + ": cannot create the folder: " + error.message());
+  }
+}
+
+void remove_durably(const std::filesystem::path& path) {
+  if (std::filesystem::remove(path)) sync_folder(path.parent_path());
+}
 
 void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to) {
   ensure_parent_folder(to);
   const auto temp = io::temporary_beside(to);
-  std::filesystem::copy_file(from, temp, std::filesystem::copy_options::overwrite_existing);
-  {
+  removing_temporary_on_failure(temp, [&] {
+    std::filesystem::copy_file(from, temp, std::filesystem::copy_options::overwrite_existing);
     const Descriptor copy(::open(temp.c_str(), O_RDONLY | O_CLOEXEC));
     if (copy.fd < 0) throw std::runtime_error(temp.string() + ": open: " + errno_text());
     sync(copy.fd, temp);
-  }
+  });
   rename_durably(temp, to);
 }
 
 void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
   ensure_parent_folder(path);
   const auto temp = io::temporary_beside(path);
-  {
+  removing_temporary_on_failure(temp, [&] {
     const Descriptor out(::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
     if (out.fd < 0) throw std::runtime_error(temp.string() + ": cannot write: " + errno_text());
     std::size_t written = 0;
@@ -115,7 +150,7 @@ void write_text_atomically(const std::filesystem::path& path, const std::string&
       written += static_cast<std::size_t>(n);
     }
     sync(out.fd, temp);
-  }
+  });
   rename_durably(temp, path);
 }
 

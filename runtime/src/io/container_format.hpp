@@ -46,6 +46,33 @@ inline constexpr std::size_t kMaxObjects = 10000;
 inline constexpr std::size_t kMaxDepth = 16;
 inline constexpr std::size_t kMaxLinksPerGroup = 4096;
 inline constexpr std::size_t kMaxNameBytes = 256;
+
+/// Whether a name (of a member or an attribute) is one a schema can hold: 1 to kMaxNameBytes bytes,
+/// no control byte (a newline or an ESC would reach every message that names the field).
+inline bool usable_name(std::string_view name) {
+  return !name.empty() && name.size() <= kMaxNameBytes &&
+         std::none_of(name.begin(), name.end(), [](char c) {
+           const auto u = static_cast<unsigned char>(c);
+           return u < 0x20 || u == 0x7f;
+         });
+}
+
+/// A name for a message: its control bytes as \\xNN, at most 64 bytes of it.
+inline std::string escaped_name(std::string_view name) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string out;
+  for (const char c : name.substr(0, 64)) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7f) {
+      out.append("\\x").push_back(kHex[u >> 4U]);
+      out.push_back(kHex[u & 0xfU]);
+    } else {
+      out.push_back(c);
+    }
+  }
+  if (name.size() > 64) out += "… (" + std::to_string(name.size()) + " bytes)";
+  return out;
+}
 inline constexpr std::size_t kMaxAttributesPerObject = 256;
 
 // CRC-32 tables for slicing by 8: [0] the byte-wise table (reflected 0xEDB88320), [k][n] the CRC of

@@ -93,8 +93,11 @@ void ContainerReader::Impl::index_objects() {
       child.resize(static_cast<std::size_t>(length));
       std::string child_path = group_path == "/" ? std::string() : group_path;
       child_path.append("/").append(child);
-      if (child.find('\0') != std::string::npos || child == "." || child == "..") {
-        throw FileError(file_name, child_path, "invalid member name");
+      if (child.find('\0') != std::string::npos || child == "." || child == ".." ||
+          !usable_name(child)) {
+        throw FileError(file_name, group_path,
+                        "member name '" + escaped_name(child) +
+                            "' is not a name (1 to 256 bytes, no control characters)");
       }
       H5L_info_t link{};
       if (H5Lget_info_by_idx(group.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, &link, H5P_DEFAULT) <
@@ -424,6 +427,13 @@ std::vector<std::string> ContainerReader::attribute_names(std::string_view objec
     throw FileError(impl_->name(), path,
                     "the attribute index lists " + std::to_string(names.size()) + " of " +
                         std::to_string(info.num_attrs) + " attributes");
+  }
+  for (const std::string& name : names) {
+    if (!usable_name(name)) {
+      throw FileError(impl_->name(), path,
+                      "attribute name '" + escaped_name(name) +
+                          "' is not a name (1 to 256 bytes, no control characters)");
+    }
   }
   return names;
 }

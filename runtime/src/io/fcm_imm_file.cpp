@@ -70,6 +70,7 @@ FcmImmSpec read_fcm_imm(const ModelFileReader& reader) {
     reader.fail_spec(kGroup, error,
                      {"transition", "initial_probabilities", "mean_memberships", "process_noise"});
   }
+  reader.require_units_of_reals();
   return spec;
 }
 

@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 
+#include <cmath>
+#include <variant>
+
 #include "imm/core/invalid_parameter.hpp"
 
 namespace imm::io {
@@ -97,6 +100,24 @@ GaFuzzyImmSpec read_ga_fuzzy_imm(const ModelFileReader& reader) {
     FuzzyLevel level;
     level.name = reader.text(group, "name");
     level.maneuver_level = reader.real(group, "maneuver_level", ValueRule::kNonNegative);
+    // The training's counts (metadata no filter reads) are counts all the same: integers in range.
+    // (Schema version 1 wrote them as reals: an integral value in range is a count there too.)
+    for (const auto& [count, most] :
+         {std::pair{"generations", std::int64_t{100'000'000}},
+          std::pair{"rules", std::int64_t{FuzzyRuleTable::kMaxRules}}}) {
+      const auto value = reader.container().attribute(group, count);
+      if (!value) continue;
+      const auto* real = std::get_if<double>(&*value);
+      if (real != nullptr && reader.schema_version() == 1) {
+        if (!(*real >= 0.0 && *real <= static_cast<double>(most) && std::floor(*real) == *real)) {
+          reader.fail(group + "@" + count, "value " + std::to_string(*real) +
+                                               " is not a count in [0, " + std::to_string(most) +
+                                               "]");
+        }
+      } else {
+        (void)reader.integer(group, count, 0, most);
+      }
+    }
     const Eigen::MatrixXd rules = reader.matrix(group + "/rules", -1, 5);
     if (rules.rows() < 1 || rules.rows() > static_cast<Eigen::Index>(FuzzyRuleTable::kMaxRules)) {
       reader.fail(group + "/rules", "needs 1 to 50 rules, found " + std::to_string(rules.rows()));
@@ -113,6 +134,7 @@ GaFuzzyImmSpec read_ga_fuzzy_imm(const ModelFileReader& reader) {
   } catch (const InvalidParameter& error) {
     reader.fail(std::string(kRoot) + "@" + error.field(), error.what());
   }
+  reader.require_units_of_reals();
   return spec;
 }
 

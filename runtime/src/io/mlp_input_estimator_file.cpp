@@ -111,6 +111,7 @@ MlpInputEstimatorModel read_mlp_input_estimator(const ModelFileReader& reader) {
     reader.fail("/mlp@output_bias",
                 "magnitude must be in " + limits::describe(limits::kAcceleration));
   }
+  reader.require_units_of_reals();
   return model;
 }
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <ctime>
+#include <tuple>
 
 #include "imm/core/invalid_parameter.hpp"
 
@@ -102,7 +103,8 @@ std::string units_problem(const std::vector<std::string>& units, std::size_t ent
 }
 
 std::string length_unit_problem(const std::string& unit) {
-  return valid_length_unit(unit) ? std::string() : "must be \"m\" or \"km\", got \"" + unit + "\"";
+  return valid_length_unit(unit) ? std::string()
+                                 : "must be \"m\" or \"km\", got \"" + printable(unit) + "\"";
 }
 
 }  // namespace
@@ -264,7 +266,7 @@ ModelFileReader::ModelFileReader(const std::filesystem::path& path, std::string_
 
   provenance_.model_kind = text("/", "model_kind");
   if (!expected_kind.empty() && provenance_.model_kind != expected_kind) {
-    fail("/@model_kind", "holds a '" + provenance_.model_kind + "' model, expected '" +
+    fail("/@model_kind", "holds a '" + printable(provenance_.model_kind) + "' model, expected '" +
                              std::string(expected_kind) + "'");
   }
   provenance_.created_utc = text("/", "created_utc");
@@ -292,6 +294,29 @@ ModelFileReader::ModelFileReader(const std::filesystem::path& path, std::string_
       if (name.starts_with(prefix)) {
         (*metrics)[name.substr(prefix.size())] = real("/", name);
       }
+    }
+  }
+  // Texts are text: the one-line ones hold no control byte, the TOML texts none but tab and line
+  // breaks (a newline or an ESC would reach every message and table that shows them).
+  for (const auto& [field, value, lines] :
+       {std::tuple{"/@model_kind", &provenance_.model_kind, false},
+        std::tuple{"/@created_utc", &provenance_.created_utc, false},
+        std::tuple{"/@trainer_version", &provenance_.trainer_version, false},
+        std::tuple{"/@dataset_digest", &provenance_.dataset_digest, false},
+        std::tuple{"/@regime_name", &provenance_.regime_name, false},
+        std::tuple{"/@regime_digest", &provenance_.regime_digest, false},
+        std::tuple{"/@config_toml", &provenance_.config_toml, true},
+        std::tuple{"/@regime_toml", &provenance_.regime_toml, true}}) {
+    const auto bad = std::find_if(value->begin(), value->end(), [lines = lines](char c) {
+      const auto u = static_cast<unsigned char>(c);
+      if (lines && (c == '\t' || c == '\n' || c == '\r')) return false;
+      return u < 0x20 || u == 0x7f;
+    });
+    if (bad != value->end()) {
+      fail(field, "holds the control character \\x" +
+                      std::string(1, "0123456789abcdef"[static_cast<unsigned char>(*bad) >> 4U]) +
+                      std::string(1, "0123456789abcdef"[static_cast<unsigned char>(*bad) & 0xfU]) +
+                      " at byte " + std::to_string(bad - value->begin()));
     }
   }
   check_values();
@@ -384,6 +409,28 @@ void ModelFileReader::check_self_description() const {
             !valid_unit(entry.substr(equals + 1))) {
           fail(field_path(object, "units"), "entry '" + printable(entry) + "' is not name=unit");
         }
+      }
+    }
+  }
+}
+
+void ModelFileReader::require_units_of_reals() const {
+  if (schema_version_ < 2) return;
+  // Every real attribute of a group has its unit (and so a meaning), whether a loader reads it or
+  // not: a count written as a real (2.5 generations) is refused here, after the kind's reader has
+  // refused what it reads with its own, more precise words.
+  for (const auto& object : container().objects()) {
+    if (object == "/" || container().kind(object) == ObjectKind::kDataset) continue;
+    const auto attributes = container().attribute_names(object);
+    const bool has_units =
+        std::find(attributes.begin(), attributes.end(), "units") != attributes.end();
+    const auto units_list = has_units ? "," + text(object, "units") : std::string();
+    for (const auto& name : attributes) {
+      const auto value = container().attribute(object, name);
+      if (value && std::holds_alternative<double>(*value) &&
+          units_list.find("," + name + "=") == std::string::npos) {
+        fail(field_path(object, "units"), "does not give the units of the real '" + name +
+                                              "' (a count is an integer; a quantity has a unit)");
       }
     }
   }

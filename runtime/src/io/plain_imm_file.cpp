@@ -20,7 +20,10 @@ std::string file_field(const std::string& spec_field) {
   if (spec_field == "sample_period") return "/imm@sample_period";
   if (spec_field.rfind("measurement.", 0) == 0) return "/measurement/covariance";
   if (spec_field.rfind("initialization.", 0) == 0) {
-    return "/initialization/" + spec_field.substr(15);
+    const std::string key = spec_field.substr(15);
+    // The state and its covariance are datasets; the variances attributes.
+    return key == "state" || key == "covariance" ? "/initialization/" + key
+                                                 : "/initialization@" + key;
   }
   return "/" + spec_field;
 }
@@ -124,6 +127,7 @@ PlainImmSpec read_plain_imm(const ModelFileReader& reader) {
   } catch (const InvalidParameter& error) {
     reader.fail(file_field(error.field()), error.what());
   }
+  reader.require_units_of_reals();
   return spec;
 }
 

@@ -84,6 +84,7 @@ TskSensorModel read_tsk_sensor(const ModelFileReader& reader) {
     outputs[static_cast<std::size_t>(i)].sigma =
         reader.real(output_group(i), "sigma", ValueRule::kNonNegative);
   }
+  reader.require_units_of_reals();
   try {
     return TskSensorModel(std::move(outputs), t_norm, box.row(0).transpose(),
                           box.row(1).transpose());
@@ -141,6 +142,7 @@ std::optional<FimmSpec> read_fimm_settings(const ModelFileReader& reader) {
     reader.fail_spec(kFimmGroup, error,
                      {"transition", "initial_probabilities", "measurement_covariance"});
   }
+  reader.require_units_of_reals();
   return spec;
 }
 

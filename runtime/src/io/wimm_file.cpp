@@ -53,6 +53,7 @@ WimmSpec read_wimm(const ModelFileReader& reader) {
   } catch (const InvalidParameter& error) {
     reader.fail_spec(kGroup, error, {"transition", "initial_probabilities"});
   }
+  reader.require_units_of_reals();
   return spec;
 }
 

@@ -15,14 +15,16 @@ void EnvelopeSettings::validate() const {
     throw InvalidParameter("envelope.window", "must be in [1, " + std::to_string(kMaxWindow) +
                                                   "], got " + std::to_string(window));
   }
-  if (!(significance > 0.0 && significance < 1.0)) {
-    throw InvalidParameter("envelope.significance", "must be in (0, 1)");
+  // The bounds' χ² quantiles at significance / 2 and 1 − significance / 2 must be computable:
+  // a significance below kMinSignificance (1e-10) is no test anyone runs, and 5e-324 / 2 is 0.
+  if (!(significance >= kMinSignificance && significance < 1.0)) {
+    throw InvalidParameter("envelope.significance", "must be in [1e-10, 1)");
   }
   if (!(scale > 0.0) || !std::isfinite(scale)) {
     throw InvalidParameter("envelope.scale", "must be a finite number > 0");
   }
-  if (!(dof >= 0.0) || !std::isfinite(dof) || dof > 1e6) {
-    throw InvalidParameter("envelope.dof", "must be 0 (the window's m · window) or in (0, 1e6]");
+  if (!(dof == 0.0 || (dof >= kMinDof && dof <= kMaxDof))) {
+    throw InvalidParameter("envelope.dof", "must be 0 (the window's m · window) or in [0.01, 1e6]");
   }
 }
 

@@ -18,8 +18,20 @@
 /// Every change (repair, promote, rollback, adopt) holds the registry's one lock
 /// (`.registry/lock`, flock) and re-reads the manifest under it before writing it, so commands
 /// that run at the same time (a nightly, a rollback, a promotion by hand) never write from a stale
-/// copy; a pointer from find() does not outlive the next change.
+/// copy, and decides on the manifest as it is then: a nightly's promotion states which model it was
+/// compared with and is refused when another is shipped by then, or when the candidate was rolled
+/// back meanwhile (PromotionTerms). A pointer from find() does not outlive the next change.
+///
+/// No change commits a manifest it cannot materialize: every file the new state ships (the model
+/// and its metrics file) is checked first, shipped or archived with its SHA-256.
+///
+/// A manifest can arrive by `git pull`, so it is validated before use: a regular file of at most
+/// kMaxManifestBytes nested at most kMaxManifestDepth deep, every field of its type (the refusal
+/// names the field), names and files confined to their own places (a file is never the registry's
+/// own, another entry's or its metrics file), and nothing is written through a symbolic link
+/// under the models folder.
 
+#include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -72,6 +84,54 @@ struct RegistryEntry {
 /// when it is): a digest names the archive copy a repair ships.
 [[nodiscard]] std::string sha256_problem(std::string_view digest);
 
+/// Why `file` cannot be where a model ships (empty when it can): a relative path of components that
+/// are names (model_name_problem's characters, none starting with '.'), ending in ".h5" but not
+/// in ".metrics.json" — never the manifest, the registry's own folder or a path out of the models
+/// folder.
+[[nodiscard]] std::string model_file_problem(std::string_view file);
+
+/// The largest manifest read (bytes) and its deepest nesting of JSON arrays and objects.
+inline constexpr std::uintmax_t kMaxManifestBytes = std::uintmax_t{16} << 20U;
+inline constexpr int kMaxManifestDepth = 24;
+
+/// The entries of a manifest's text, validated as described above; `where` prefixes every
+/// refusal (std::runtime_error naming the field: "models[2].regime.name: expected a string").
+[[nodiscard]] std::vector<RegistryEntry> parse_manifest(std::string_view text,
+                                                        const std::string& where);
+
+/// `text` for a one-line message: control and non-ASCII bytes as \xNN (\n, \r, \t by name),
+/// and at most `limit` bytes of it, the rest counted.
+[[nodiscard]] std::string quoted_for_message(std::string_view text, std::size_t limit = 160);
+
+/// What a promotion requires of the manifest as it is under the lock.
+struct PromotionTerms {
+  /// The SHA-256 of the shipped model the candidate was compared with ("" when none was shipped
+  /// under the name): when another is shipped by then, the promotion is refused. Nothing: no such
+  /// condition (a promotion by hand).
+  std::optional<std::string> compared_with;
+  /// Refuse a candidate that a person rolled back under the name (Registry::rejection), as the
+  /// manifest says then.
+  bool honour_rejections = false;
+};
+
+/// A promotion refused by its terms; the registry is unchanged.
+class PromotionRefused : public std::runtime_error {
+ public:
+  enum class Why {
+    kShippedModelChanged,  ///< another model is shipped than the one compared with
+    kRolledBack,           ///< the candidate is a model a person rolled back
+  };
+  PromotionRefused(Why why, const std::string& message, std::optional<RegistryEntry> rejected = {})
+      : std::runtime_error(message), why_(why), rejected_(std::move(rejected)) {}
+  [[nodiscard]] Why why() const { return why_; }
+  /// The rejection record (kRolledBack).
+  [[nodiscard]] const std::optional<RegistryEntry>& rejected() const { return rejected_; }
+
+ private:
+  Why why_;
+  std::optional<RegistryEntry> rejected_;
+};
+
 /// How the models in two files differ (model_difference).
 struct ModelDifference {
   enum class Kind {
@@ -121,8 +181,10 @@ class Registry {
 
   /// Ships `candidate` (a model file) as `entry.name` at `entry.file`, with its metrics file
   /// (optional) beside it; the entry it replaces goes to the history. Atomic as described above.
+  /// Throws PromotionRefused (changing nothing) when the manifest under the lock breaks `terms`.
   void promote(RegistryEntry entry, const std::filesystem::path& candidate,
-               const std::optional<std::filesystem::path>& metrics_file = std::nullopt);
+               const std::optional<std::filesystem::path>& metrics_file = std::nullopt,
+               const PromotionTerms& terms = {});
 
   /// Restores the entry before the current one of `name` and records the current one as rejected
   /// (in the restored entry's `rejected`, with the time); returns the restored entry. Throws
@@ -137,11 +199,26 @@ class Registry {
                                                        const std::filesystem::path& candidate,
                                                        const std::string& inputs_digest) const;
 
-  /// Records an existing shipped file without promotion (a manifest started from models/).
+  /// Records an existing shipped file without promotion (a manifest started from models/); an
+  /// entry of that name keeps its history and rejections.
   void adopt(const RegistryEntry& entry);
+
+  /// Reads the manifest again (outside any change: what another command committed since).
+  void reload() { load(); }
 
  private:
   void load();
+  /// Refuses (std::runtime_error naming the entry and the file) a state whose files cannot all be
+  /// shipped: each entry's model and metrics file is shipped or archived with its SHA-256.
+  void require_materializable(const std::vector<RegistryEntry>& entries) const;
+  /// Archives the entry's shipped model and metrics file where they match the manifest.
+  void archive_shipped(const RegistryEntry& entry) const;
+  /// Removes this host's temporaries of dead processes from the registry's folders.
+  void remove_stale_temporaries() const;
+  /// `folder_ / relative`, refused when a component under the models folder is a symbolic link
+  /// (the last one may be a link only where `final_may_be_link`: it is replaced, never followed).
+  [[nodiscard]] std::filesystem::path inside(const std::filesystem::path& relative,
+                                             bool final_may_be_link = false) const;
   /// Writes `entries` as the manifest (the commit point), then makes them the registry's: a save
   /// that throws leaves the registry's entries as they were, so a failed step is never committed
   /// by the next one.

@@ -171,6 +171,10 @@ class IMM_RUNTIME_EXPORT ModelFileReader : public SchemaReader {
   [[nodiscard]] int schema_version() const { return schema_version_; }
   /// The envelope test stored in the file (`/envelope`), or the defaults for a file without one.
   [[nodiscard]] const EnvelopeSettings& envelope() const { return envelope_; }
+  /// Schema version ≥ 2: refuses a real attribute of a group that its group's `units` do not name
+  /// (a count written as a real, or a quantity without its unit). Every kind's reader calls it
+  /// after its own reads, whose refusals name the field more precisely.
+  void require_units_of_reals() const;
 
  private:
   void check_self_description() const;

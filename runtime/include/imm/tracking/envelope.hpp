@@ -25,14 +25,21 @@ struct IMM_RUNTIME_EXPORT EnvelopeSettings {
   static constexpr int kMaxWindow = 500;
   /// Updates per window (1 … kMaxWindow).
   int window = 20;
-  /// The test's two-sided false-alarm probability for one full window (0 < significance < 1).
+  /// The smallest significance: the bounds' χ² quantiles at significance / 2 are computable.
+  static constexpr double kMinSignificance = 1e-10;
+  /// The smallest calibrated dof (a smaller one makes the quantiles slow and meaningless).
+  static constexpr double kMinDof = 0.01;
+  /// The largest calibrated dof.
+  static constexpr double kMaxDof = 1e6;
+  /// The test's two-sided false-alarm probability for one full window (kMinSignificance ≤
+  /// significance < 1).
   double significance = 0.01;
   /// The NIS sum of a full window is taken as scale · χ²(dof); dof 0 means m · window, the
   /// distribution of a consistent filter. An IMM on manoeuvring targets is not exactly consistent,
   /// so the trainer calibrates both on tracks of the model's regime (moment matching: the window
   /// sums' mean and variance), and the false-alarm rate is then the significance on that regime.
   double scale = 1.0;
-  double dof = 0.0;  ///< (see scale)
+  double dof = 0.0;  ///< (see scale); 0, or in [kMinDof, kMaxDof]
   /// Throws InvalidParameter naming "envelope.window", "envelope.significance", "envelope.scale" or
   /// "envelope.dof".
   void validate() const;

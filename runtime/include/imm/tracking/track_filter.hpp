@@ -7,12 +7,22 @@
 #include <Eigen/Core>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "imm/estimation/step_status.hpp"
 #include "imm/math/linear_algebra.hpp"
 #include "imm/runtime_export.hpp"
 
 namespace imm {
+
+/// The names of a track state's entries: [x, vx, y, vy] (4), [x, vx, ax, y, vy, ay] (6), and a
+/// coordinated-turn mode's turn rate "omega" last when the dimension is odd (5, 7).
+[[nodiscard]] inline std::vector<std::string> state_variable_names(int dimension) {
+  std::vector<std::string> names = {"x", "vx", "y", "vy"};
+  if (dimension >= 6) names = {"x", "vx", "ax", "y", "vy", "ay"};
+  if (dimension % 2 == 1) names.emplace_back("omega");
+  return names;
+}
 
 /// A filter that tracks one target in two dimensions: what Tracker drives and load_filter returns,
 /// for every model kind.
@@ -23,7 +33,7 @@ class IMM_RUNTIME_EXPORT TrackFilter {
   TrackFilter& operator=(const TrackFilter&) = delete;
   virtual ~TrackFilter() = default;
 
-  /// The length of the state (4 or 6).
+  /// The length of the state (4 to 7: state_variable_names).
   [[nodiscard]] virtual int state_dimension() const = 0;
   /// The number of modes (1 for a single-model filter).
   [[nodiscard]] virtual int mode_count() const = 0;

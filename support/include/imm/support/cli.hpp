@@ -30,6 +30,31 @@
 namespace imm::support {
 
 /// "imm-track 0.1.0 (model schema 1, git 3773557)".
+/// An error message as one line: control bytes (a newline or an ESC that came with a name or a
+/// file's text) written as \n, \r, \t or \xNN; other bytes, UTF-8 included, as they are.
+[[nodiscard]] inline std::string one_line(std::string_view message) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string out;
+  out.reserve(message.size());
+  for (const char c : message) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u == '\n') {
+      out += "\\n";
+    } else if (u == '\r') {
+      out += "\\r";
+    } else if (u == '\t') {
+      out += "\\t";
+    } else if (u < 0x20 || u == 0x7f) {
+      out += "\\x";
+      out.push_back(kHex[u >> 4U]);
+      out.push_back(kHex[u & 0xfU]);
+    } else {
+      out.push_back(c);
+    }
+  }
+  return out;
+}
+
 [[nodiscard]] inline std::string version_text(std::string_view tool) {
   return std::string(tool) + ' ' + kVersion + " (model schema " +
          std::to_string(kModelSchemaVersion) + ", git " + kBuildVersion + ')';

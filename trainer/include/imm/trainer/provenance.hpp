@@ -27,7 +27,7 @@ void set_regime(io::Provenance& provenance, const datasets::Regime& regime);
 
 /// Writes `text` to `path` durably: a temporary beside it, fsynced, renamed over `path`, then the
 /// folder fsynced — a reader sees the old file or the new one, never a part, and after a power
-/// loss the folder holds one of them whole.
+/// loss the folder holds one of them whole. A write that fails removes its temporary.
 void write_text_atomically(const std::filesystem::path& path, const std::string& text);
 
 /// Copies `from` to `to` the same way: a temporary beside `to`, fsynced, a rename, the folder
@@ -37,8 +37,18 @@ void copy_atomically(const std::filesystem::path& from, const std::filesystem::p
 /// Writes JSON atomically (temporary file in the same folder, then rename).
 void write_json_atomically(const std::filesystem::path& path, const nlohmann::json& document);
 
-/// Creates the parent folder of `path` if needed.
+/// Creates the parent folder of `path` if needed (create_folders_durably).
 void ensure_parent_folder(const std::filesystem::path& path);
+
+/// Creates `folder` and its missing parents, each new entry made durable (the folder that gained it
+/// fsynced).
+void create_folders_durably(const std::filesystem::path& folder);
+
+/// Removes a file (or an empty folder) and fsyncs the folder that lost it; nothing when absent.
+void remove_durably(const std::filesystem::path& path);
+
+/// fsyncs a folder (after it gained or lost an entry).
+void sync_folder(const std::filesystem::path& folder);
 
 /// Reads a whole text file; throws std::runtime_error naming the file.
 [[nodiscard]] std::string read_text_file(const std::filesystem::path& path);
