@@ -6,6 +6,7 @@
 // interval. A plain IMM is written from a TOML, not trained: its regime is --regime, or
 // configs/regimes/paper/ga_imm_table3.toml (the seed-000 scenario) by default.
 
+#include <algorithm>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
@@ -36,13 +37,20 @@ PlainImmSpec single_mode(const PlainImmSpec& spec, std::size_t j) {
   single.initial_probabilities = Eigen::VectorXd::Ones(1);
   if (single.initialization.method == InitializationMethod::kExplicit &&
       single.mixing_dimension() != spec.mixing_dimension()) {
-    // A CV mode alone lives in the 4-state space: keep its part of the explicit prior.
-    const std::array<int, 4> indices{0, 1, 3, 4};
-    Eigen::VectorXd state(4);
-    Eigen::MatrixXd covariance(4, 4);
-    for (int a = 0; a < 4; ++a) {
+    // A mode alone lives in its own space (CV in 4 states, CT in 5, …): keep its part of the
+    // explicit prior, entry by entry by name.
+    const auto full = state_variable_names(spec.mixing_dimension());
+    const auto own = state_variable_names(single.mixing_dimension());
+    std::vector<Eigen::Index> indices;
+    for (const std::string& name : own) {
+      indices.push_back(std::find(full.begin(), full.end(), name) - full.begin());
+    }
+    const auto n = static_cast<Eigen::Index>(own.size());
+    Eigen::VectorXd state(n);
+    Eigen::MatrixXd covariance(n, n);
+    for (Eigen::Index a = 0; a < n; ++a) {
       state(a) = spec.initialization.state(indices[static_cast<std::size_t>(a)]);
-      for (int b = 0; b < 4; ++b) {
+      for (Eigen::Index b = 0; b < n; ++b) {
         covariance(a, b) = spec.initialization.covariance(indices[static_cast<std::size_t>(a)],
                                                           indices[static_cast<std::size_t>(b)]);
       }

@@ -35,6 +35,8 @@ PlainImmSpec plain_imm_from(const ConfigTable& table) {
       if (mode_table.has("noise_form")) {
         mode.noise_form = parse_name(mode_table, "noise_form", noise_form_from);
       }
+      if (mode.motion == MotionKind::kCoordinatedTurn)
+        mode.turn_noise = mode_table.real("turn_noise");
     }
     spec.modes.push_back(std::move(mode));
   }
@@ -57,6 +59,7 @@ PlainImmSpec plain_imm_from(const ConfigTable& table) {
   if (const auto init = table.table("initialization")) {
     spec.initialization.method = parse_name(*init, "method", initialization_method_from);
     spec.initialization.acceleration_variance = init->real_or("acceleration_variance", 0.0);
+    spec.initialization.turn_rate_variance = init->real_or("turn_rate_variance", 0.0);
     if (spec.initialization.method == InitializationMethod::kExplicit) {
       spec.initialization.state = init->reals("state");
       spec.initialization.covariance = init->matrix("covariance");

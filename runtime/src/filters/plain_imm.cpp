@@ -2,6 +2,7 @@
 #include "imm/filters/plain_imm.hpp"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
@@ -12,10 +13,12 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/kalman_mode.hpp"
+#include "imm/estimation/turn_mode.hpp"
 #include "imm/models/measurement/polar_measurement.hpp"
 #include "imm/models/measurement/position_measurement.hpp"
 #include "imm/models/motion/constant_acceleration.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
+#include "imm/models/motion/coordinated_turn.hpp"
 #include "imm/models/motion/singer.hpp"
 
 namespace imm {
@@ -23,7 +26,8 @@ namespace {
 
 constexpr std::array kMotionKindNames{EnumName<MotionKind>{MotionKind::kConstantVelocity, "cv"},
                                       EnumName<MotionKind>{MotionKind::kConstantAcceleration, "ca"},
-                                      EnumName<MotionKind>{MotionKind::kSinger, "singer"}};
+                                      EnumName<MotionKind>{MotionKind::kSinger, "singer"},
+                                      EnumName<MotionKind>{MotionKind::kCoordinatedTurn, "ct"}};
 constexpr std::array kNoiseFormNames{
     EnumName<NoiseForm>{NoiseForm::kPiecewiseConstant, "piecewise"},
     EnumName<NoiseForm>{NoiseForm::kContinuous, "continuous"}};
@@ -38,15 +42,43 @@ std::string mode_field(std::size_t index, const char* key) {
   return "modes[" + std::to_string(index) + "]." + key;
 }
 
-// The mixing-space indices of [x, vx, (ax), y, vy, (ay)] for a mode of dimension N.
+// The mixing-space indices of a mode of dimension N — CV [x, vx, y, vy], CA [x, vx, ax, y, vy,
+// ay], CT [x, vx, y, vy, ω] — in the NX-state space: [x, vx, y, vy] (4), [x, vx, y, vy, ω] (5),
+// [x, vx, ax, y, vy, ay] (6) or [x, vx, ax, y, vy, ay, ω] (7).
 template <int N, int NX>
 StateEmbedding<N, NX> embedding_for() {
   if constexpr (N == NX) {
     return StateEmbedding<N, NX>();
-  } else {
-    static_assert(N == 4 && NX == 6, "only CV modes are embedded in the 6-state space");
+  } else if constexpr (N == 4 && NX == 5) {
+    return StateEmbedding<N, NX>(std::array<int, 4>{0, 1, 2, 3});
+  } else if constexpr (N == 4) {
+    static_assert(NX == 6 || NX == 7);
     return StateEmbedding<N, NX>(std::array<int, 4>{0, 1, 3, 4});
+  } else if constexpr (N == 6) {
+    static_assert(NX == 7);
+    return StateEmbedding<N, NX>(std::array<int, 6>{0, 1, 2, 3, 4, 5});
+  } else {
+    static_assert(N == kCoordinatedTurnDim && NX == 7, "no such embedding");
+    return StateEmbedding<N, NX>(std::array<int, 5>{0, 1, 3, 4, 6});
   }
+}
+
+// The coordinated-turn mode of a spec's mode, with the spec's measurement.
+template <int NX>
+std::unique_ptr<ImmMode<NX, 2>> make_turn_mode(const ModeSpec& mode, double T,
+                                               const MeasurementSpec& measurement) {
+  constexpr int N = kCoordinatedTurnDim;
+  const auto embedding = embedding_for<N, NX>();
+  const SquareMatrix<N> Q =
+      coordinated_turn_noise(T, mode.process_noise, mode.turn_noise, mode.noise_form);
+  if (measurement.kind == MeasurementKind::kCartesian) {
+    using Model = PositionMeasurement<N, 2>;
+    return std::make_unique<CoordinatedTurnMode<NX, Model>>(
+        mode.name, T, Q, Model({0, 2}, measurement.covariance), embedding);
+  }
+  using Model = PolarMeasurement<N>;
+  return std::make_unique<CoordinatedTurnMode<NX, Model>>(
+      mode.name, T, Q, Model(0, 2, measurement.covariance), embedding);
 }
 
 template <int NX, int N>
@@ -99,11 +131,16 @@ InitializationMethod initialization_method_from(std::string_view name, const std
   return value_named(kInitializationMethodNames, name, field, "initialization");
 }
 
+bool PlainImmSpec::has_turn_rate() const {
+  return std::any_of(modes.begin(), modes.end(),
+                     [](const ModeSpec& m) { return m.motion == MotionKind::kCoordinatedTurn; });
+}
+
 int PlainImmSpec::mixing_dimension() const {
-  for (const auto& mode : modes) {
-    if (mode.motion != MotionKind::kConstantVelocity) return 6;
-  }
-  return 4;
+  const bool accelerations = std::any_of(modes.begin(), modes.end(), [](const ModeSpec& m) {
+    return m.motion == MotionKind::kConstantAcceleration || m.motion == MotionKind::kSinger;
+  });
+  return (accelerations ? 6 : 4) + (has_turn_rate() ? 1 : 0);
 }
 
 void PlainImmSpec::validate() const {
@@ -121,6 +158,9 @@ void PlainImmSpec::validate() const {
       limits::require_in(mode.singer_sigma, limits::kAcceleration, mode_field(i, "sigma_a"));
     } else {
       limits::require_in(mode.process_noise, limits::kVariance, mode_field(i, "process_noise"));
+    }
+    if (mode.motion == MotionKind::kCoordinatedTurn) {
+      limits::require_in(mode.turn_noise, limits::kTurnRateNoise, mode_field(i, "turn_noise"));
     }
   }
   const auto n = static_cast<Eigen::Index>(modes.size());
@@ -143,6 +183,12 @@ void PlainImmSpec::validate() const {
   } else {
     limits::require_in(initialization.acceleration_variance, limits::kVariance,
                        "initialization.acceleration_variance");
+    limits::require_in(initialization.turn_rate_variance, limits::kTurnRateVariance,
+                       "initialization.turn_rate_variance");
+    // A turn rate that starts certain at 0 is learned only through Q: a CT mode needs its prior.
+    require(!has_turn_rate() || initialization.turn_rate_variance > 0.0,
+            "initialization.turn_rate_variance",
+            "must be positive with a coordinated-turn mode (the prior variance of ω, rad²/s²)");
   }
 }
 
@@ -159,7 +205,10 @@ ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec) {
     if (mode.motion == MotionKind::kConstantVelocity) {
       modes.push_back(make_mode<NX, 4>(
           mode, constant_velocity<2>(T, mode.process_noise, mode.noise_form), spec.measurement));
-    } else if constexpr (NX == 6) {  // CA and Singer need the 6-state space (checked above)
+    } else if (mode.motion == MotionKind::kCoordinatedTurn) {
+      if constexpr (NX == 5 || NX == 7)
+        modes.push_back(make_turn_mode<NX>(mode, T, spec.measurement));
+    } else if constexpr (NX >= 6) {  // CA and Singer need the 6- or 7-state space (checked above)
       const LinearMotionModel<6> motion =
           mode.motion == MotionKind::kSinger
               ? singer<2>(T, mode.singer_tau, mode.singer_sigma)
@@ -172,12 +221,21 @@ ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec) {
 
 template ImmEstimator<4, 2> build_plain_imm<4>(const PlainImmSpec&);
 template ImmEstimator<6, 2> build_plain_imm<6>(const PlainImmSpec&);
+template ImmEstimator<5, 2> build_plain_imm<5>(const PlainImmSpec&);
+template ImmEstimator<7, 2> build_plain_imm<7>(const PlainImmSpec&);
 
 PlainImm build_plain_imm(const PlainImmSpec& spec) {
   spec.validate();
-  if (spec.mixing_dimension() == 4)
-    return PlainImm(std::in_place_index<0>, build_plain_imm<4>(spec));
-  return PlainImm(std::in_place_index<1>, build_plain_imm<6>(spec));
+  switch (spec.mixing_dimension()) {
+    case 4:
+      return PlainImm(std::in_place_index<0>, build_plain_imm<4>(spec));
+    case 6:
+      return PlainImm(std::in_place_index<1>, build_plain_imm<6>(spec));
+    case 5:
+      return PlainImm(std::in_place_index<2>, build_plain_imm<5>(spec));
+    default:
+      return PlainImm(std::in_place_index<3>, build_plain_imm<7>(spec));
+  }
 }
 
 }  // namespace imm

@@ -55,6 +55,12 @@ void write_plain_imm(ModelFileWriter& writer, const PlainImmSpec& spec) {
       q_units = u.length + "^2/s^5";
     }
     writer.set_quantity(group, "process_noise", mode.process_noise, q_units);
+    if (mode.motion == MotionKind::kCoordinatedTurn) {
+      // ω's noise in the same form: rad²/s⁴ per period, or the PSD in rad²/s³.
+      writer.set_quantity(
+          group, "turn_noise", mode.turn_noise,
+          mode.noise_form == NoiseForm::kPiecewiseConstant ? "rad^2/s^4" : "rad^2/s^3");
+    }
     writer.set_quantity(group, "tau", mode.singer_tau, "s");
     writer.set_quantity(group, "sigma_a", mode.singer_sigma, u.acceleration());
   }
@@ -70,13 +76,21 @@ void write_plain_imm(ModelFileWriter& writer, const PlainImmSpec& spec) {
                        std::string(to_string(spec.initialization.method)));
   writer.set_quantity("/initialization", "acceleration_variance",
                       spec.initialization.acceleration_variance, u.acceleration_variance());
+  if (spec.has_turn_rate()) {
+    writer.set_quantity("/initialization", "turn_rate_variance",
+                        spec.initialization.turn_rate_variance, "rad^2/s^2");
+  }
   if (spec.initialization.method == InitializationMethod::kExplicit) {
     std::vector<std::string> variables = {"x", "vx", "y", "vy"};
     std::string units = u.length + "," + u.speed() + "," + u.length + "," + u.speed();
-    if (spec.initialization.state.size() == 6) {
+    if (spec.mixing_dimension() >= 6) {
       variables = {"x", "vx", "ax", "y", "vy", "ay"};
       units = u.length + "," + u.speed() + "," + u.acceleration() + "," + u.length + "," +
               u.speed() + "," + u.acceleration();
+    }
+    if (spec.has_turn_rate()) {
+      variables.emplace_back("omega");
+      units += ",rad/s";
     }
     writer.write_vector("/initialization/state", spec.initialization.state, units);
     writer.write_covariance("/initialization/covariance", spec.initialization.covariance, variables,
@@ -102,6 +116,9 @@ PlainImmSpec read_plain_imm(const ModelFileReader& reader) {
       reader.fail(group + "@" + error.field(), error.what());
     }
     mode.process_noise = reader.real(group, "process_noise", ValueRule::kNonNegative);
+    if (mode.motion == MotionKind::kCoordinatedTurn) {
+      mode.turn_noise = reader.real(group, "turn_noise", ValueRule::kNonNegative);
+    }
     mode.singer_tau = reader.real(group, "tau", ValueRule::kPositive);
     mode.singer_sigma = reader.real(group, "sigma_a", ValueRule::kNonNegative);
     spec.modes.push_back(std::move(mode));
@@ -117,6 +134,10 @@ PlainImmSpec read_plain_imm(const ModelFileReader& reader) {
   spec.measurement.covariance = reader.matrix("/measurement/covariance", 2, 2);
   spec.initialization.acceleration_variance =
       reader.real("/initialization", "acceleration_variance", ValueRule::kNonNegative);
+  if (spec.has_turn_rate()) {
+    spec.initialization.turn_rate_variance =
+        reader.real("/initialization", "turn_rate_variance", ValueRule::kNonNegative);
+  }
   if (spec.initialization.method == InitializationMethod::kExplicit) {
     const int nx = spec.mixing_dimension();
     spec.initialization.state = reader.vector("/initialization/state", nx);

@@ -153,6 +153,7 @@ Tracker::Plot Tracker::cartesian_plot(std::int64_t scan, const Eigen::Vector2d& 
 void Tracker::start_track(const Plot& first, const Plot& second) {
   const double dt = static_cast<double>(second.scan - first.scan) * options_.sample_period;
   const int n = filter_->state_dimension();
+  // [x, vx, (ax), y, vy, (ay)], then ω when the state has an odd dimension (a CT mode's).
   const int per_axis = n / 2;
   Eigen::VectorXd mean = Eigen::VectorXd::Zero(n);
   Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(n, n);
@@ -170,6 +171,7 @@ void Tracker::start_track(const Plot& first, const Plot& second) {
     }
     if (per_axis == 3) covariance(p + 2, p + 2) = options_.initialization.acceleration_variance;
   }
+  if (n % 2 == 1) covariance(n - 1, n - 1) = options_.initialization.turn_rate_variance;
   filter_->initialize(mean, covariance);
 }
 

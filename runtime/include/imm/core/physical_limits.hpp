@@ -53,6 +53,10 @@ inline constexpr Interval kSpeed{0.0, 1e6, ""};
 inline constexpr Interval kAcceleration{0.0, 1e6, ""};
 /// Turn rates, rad/s or deg/s.
 inline constexpr Interval kTurnRate{0.0, 1e3, ""};
+/// A coordinated-turn mode's turn-rate noise: rad²/s⁴ per period (piecewise) or rad²/s³ (PSD).
+inline constexpr Interval kTurnRateNoise{0.0, 1e2, ""};
+/// The prior variance of a turn rate, rad²/s² (10 rad/s, 570 °/s, as one standard deviation).
+inline constexpr Interval kTurnRateVariance{0.0, 1e2, "rad^2/s^2"};
 /// Dimensionless positive factors and ratios (scales, separations, fuzzifiers).
 inline constexpr Interval kFactor{0.0, 1e6, ""};
 

@@ -1,13 +1,16 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 /// @file
-/// A plain IMM described by parameters: 2-D motion models with fixed process noise per mode, a
+/// A plain IMM described by parameters: 2-D motion models with fixed process noise per mode — CV,
+/// CA, Singer and the coordinated turn (CT, an EKF mode: imm/estimation/turn_mode.hpp) — a
 /// Cartesian or polar measurement, a transition matrix, initial mode probabilities and a track
-/// initialization. This is the filter `imm-track` runs from a TOML file or a "plain_imm" model
-/// file, and the reference IMM of the benchmarks and evaluations.
+/// initialization. This is the classical IMM family: the filter `imm-track` runs from a TOML file
+/// or a "plain_imm" model file, and the reference IMM of the benchmarks and evaluations.
 ///
-/// State layout (mixing space): [x, vx, y, vy] when every mode is CV, otherwise
-/// [x, vx, ax, y, vy, ay]; CV modes are then embedded zero-padded (state_embedding.hpp).
+/// State layout (mixing space): [x, vx, y, vy] when every mode is CV; [x, vx, ax, y, vy, ay] with
+/// a CA or Singer mode; a CT mode adds the turn rate ω last: [x, vx, y, vy, ω] (CV and CT) or
+/// [x, vx, ax, y, vy, ay, ω]. Lower-dimensional modes are embedded zero-padded
+/// (state_embedding.hpp).
 
 #include <Eigen/Core>
 #include <string>
@@ -22,10 +25,10 @@
 namespace imm {
 
 /// The motion model of a mode.
-enum class MotionKind { kConstantVelocity, kConstantAcceleration, kSinger };
+enum class MotionKind { kConstantVelocity, kConstantAcceleration, kSinger, kCoordinatedTurn };
 
 [[nodiscard]] IMM_RUNTIME_EXPORT std::string_view to_string(
-    MotionKind kind);  ///< "cv", "ca", "singer"
+    MotionKind kind);  ///< "cv", "ca", "singer", "ct"
 [[nodiscard]] IMM_RUNTIME_EXPORT std::string_view to_string(
     NoiseForm form);  ///< "piecewise", "continuous"
 /// Inverse of to_string; throw InvalidParameter naming `field` for unknown names.
@@ -41,13 +44,15 @@ struct IMM_RUNTIME_EXPORT ModeSpec {
   std::string name;
   /// CV, CA or Singer.
   MotionKind motion = MotionKind::kConstantVelocity;
-  /// CV/CA: q of the noise form (variance per period for piecewise-constant noise, PSD for
-  /// continuous). Unused by Singer.
+  /// CV/CA/CT: q of the noise form (variance per period for piecewise-constant noise, PSD for
+  /// continuous); for CT that of each axis's linear acceleration. Unused by Singer.
   double process_noise = 0.0;
   /// How q enters Q (CV, CA).
   NoiseForm noise_form = NoiseForm::kPiecewiseConstant;
   double singer_tau = 20.0;   ///< Singer: maneuver time constant τ, s
   double singer_sigma = 0.0;  ///< Singer: acceleration standard deviation σ_a
+  /// CT: the turn rate's noise in the form of `noise_form` (rad²/s⁴ per period, or rad²/s³).
+  double turn_noise = 0.0;
 };
 
 /// The plots a plain IMM takes.
@@ -72,15 +77,17 @@ struct IMM_RUNTIME_EXPORT PlainImmSpec {
   /// How a track starts.
   InitializationSpec initialization;
 
-  /// 4 when every mode is CV, else 6.
+  /// 4 when every mode is CV, 6 with a CA or Singer mode; one more with a CT mode (its ω).
   [[nodiscard]] int mixing_dimension() const;
+  /// Whether a mode is a coordinated turn (the state then ends with ω).
+  [[nodiscard]] bool has_turn_rate() const;
   /// Throws InvalidParameter naming the first offending field.
   void validate() const;
   /// The measurement and initialization of the spec, as a Tracker takes them.
   [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
-/// Builds the IMM of a validated spec in its mixing space NX (4 or 6; must equal
+/// Builds the IMM of a validated spec in its mixing space NX (4 to 7; must equal
 /// spec.mixing_dimension()).
 template <int NX>
 [[nodiscard]] ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec);
@@ -89,9 +96,14 @@ template <int NX>
 extern template IMM_RUNTIME_EXPORT ImmEstimator<4, 2> build_plain_imm<4>(const PlainImmSpec&);
 /// The 6-state instantiation.
 extern template IMM_RUNTIME_EXPORT ImmEstimator<6, 2> build_plain_imm<6>(const PlainImmSpec&);
+/// The 5-state instantiation (CV and CT modes).
+extern template IMM_RUNTIME_EXPORT ImmEstimator<5, 2> build_plain_imm<5>(const PlainImmSpec&);
+/// The 7-state instantiation (CT beside CA or Singer).
+extern template IMM_RUNTIME_EXPORT ImmEstimator<7, 2> build_plain_imm<7>(const PlainImmSpec&);
 
 /// The IMM of a spec, whichever its mixing dimension.
-using PlainImm = std::variant<ImmEstimator<4, 2>, ImmEstimator<6, 2>>;
+using PlainImm =
+    std::variant<ImmEstimator<4, 2>, ImmEstimator<6, 2>, ImmEstimator<5, 2>, ImmEstimator<7, 2>>;
 /// Builds the IMM of a validated spec in its own mixing dimension.
 [[nodiscard]] IMM_RUNTIME_EXPORT PlainImm build_plain_imm(const PlainImmSpec& spec);
 

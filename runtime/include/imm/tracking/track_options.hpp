@@ -40,6 +40,8 @@ struct IMM_RUNTIME_EXPORT InitializationSpec {
   Eigen::VectorXd state;               ///< explicit: the filter's state layout
   Eigen::MatrixXd covariance;          ///< explicit: the filter's state layout
   double acceleration_variance = 0.0;  ///< two-point, 6-state: variance of ax and ay
+  /// Two-point, a state with a turn rate (a CT mode): the variance of ω (rad²/s²) about 0.
+  double turn_rate_variance = 0.0;
 };
 
 /// Gaps longer than this many scans end a track unless the options say otherwise.
