@@ -13,6 +13,7 @@
 #include "imm/support/cli.hpp"
 #include "imm/support/config.hpp"
 #include "imm/support/exit_codes.hpp"
+#include "imm/trainer/classical/classical_imm.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/ga/tuned_baseline_file.hpp"
@@ -289,6 +290,25 @@ bool is_wimm_config(const std::filesystem::path& path) {
 }
 
 int run_baseline(const TrainCommand& command) {
+  if (trainer::classical::is_classical_config(command.config)) {
+    namespace classical = trainer::classical;
+    classical::ClassicalImmConfig config =
+        classical::load_classical_config(command.config, command.regime);
+    if (command.seed) config.seed = *command.seed;
+    const classical::ClassicalImmResult result =
+        classical::write_classical_imm(config, command.out);
+    const classical::TunedClassicalImm& tuned = result.tuned;
+    std::string tried;
+    for (const auto& [set, value] : tuned.tried) {
+      tried += (tried.empty() ? "" : ", ") + set + fmt::format(" {:.4f}", value);
+    }
+    spdlog::info(
+        "baseline: the classical IMM tuned on the training split: modes {} (of {}), stay {:.4f}, "
+        "{} {:.4f} ({} evaluations); wrote {} ({:.1f} s)",
+        classical::to_string(tuned.modes), tried, tuned.spec.transition(0, 0), tuned.criterion,
+        tuned.score.objective, tuned.evaluations, command.out.string(), result.wall_seconds);
+    return 0;
+  }
   if (is_wimm_config(command.config)) {
     trainer::wimm::WimmTrainingConfig config =
         trainer::wimm::load_wimm_config(command.config, command.regime);
@@ -364,7 +384,8 @@ TrainingCommands::TrainingCommands(CLI::App& app) {
       app, "baseline",
       "write the regime's tuned classical filter, tuned on the training split: with a GA config "
       "the constant-q IMM per axis (its levels and stay; the config's level count and budget), "
-      "with a wIMM config (a polar regime) the normal IMM (q1 and P(CV->CV), fusion off)",
+      "with a wIMM config (a polar regime) the normal IMM (q1 and P(CV->CV), fusion off), with a "
+      "[classical] config the CV/CA/CT IMM (modes, intensities, stay)",
       baseline_command_);
   baseline_->get_option("--out")->required();
   tsk_ = add_train_command(
