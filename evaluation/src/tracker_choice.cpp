@@ -17,7 +17,7 @@ std::string verdict_against_baseline(const RankedFilter& filter) {
 }
 
 std::string inconsistency_finding(const RankedFilter& filter) {
-  if (filter.baseline || filter.consistency == "consistent" ||
+  if (filter.baseline || filter.classical || filter.consistency == "consistent" ||
       verdict_against_baseline(filter) != "beats") {
     return "";
   }
@@ -26,7 +26,7 @@ std::string inconsistency_finding(const RankedFilter& filter) {
   std::snprintf(numbers, sizeof numbers, "%s %.2f, %.1f %% of the scans inside",
                 filter.criteria[0] == "ζ_p" ? "position NEES" : "NIS", filter.position_nees,
                 100.0 * filter.scans_inside);
-  return filter.name + " beats the tuned baseline but is " + filter.consistency + " (" + numbers +
+  return filter.name + " beats the classical bar but is " + filter.consistency + " (" + numbers +
          " the 95 % bounds): its covariance does not match its " +
          (filter.criteria[0] == "ζ_p" ? "errors" : "innovations");
 }
@@ -54,7 +54,7 @@ TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
   choice.winner = baseline;
   std::vector<std::string> beaten_by, not_earned;
   for (std::size_t i : choice.order) {
-    if (i == baseline) continue;
+    if (i == baseline || filters[i].classical) continue;
     const std::string v = verdict_against_baseline(filters[i]);
     if (v == "beats") {
       if (choice.winner == baseline) choice.winner = i;
@@ -72,12 +72,12 @@ TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
   };
   const RankedFilter& w = filters[choice.winner];
   if (choice.winner == baseline) {
-    choice.reason = "no learned model beats the tuned baseline beyond the 95 % interval" +
+    choice.reason = "no learned model beats the classical bar beyond the 95 % interval" +
                     (not_earned.empty() ? std::string() : " (" + joined(not_earned) + ")") +
-                    ", so the baseline " + w.name + " is the regime's tracker";
+                    ", so the bar " + w.name + " is the regime's tracker";
   } else {
     choice.reason =
-        w.name + " beats the tuned baseline (" + w.criteria[0] + " " + w.versus_baseline_p.text() +
+        w.name + " beats the classical bar (" + w.criteria[0] + " " + w.versus_baseline_p.text() +
         ", " + w.criteria[1] + " " + w.versus_baseline_v.text() + ")" +
         (beaten_by.size() > 1
              ? " and has the lowest " +

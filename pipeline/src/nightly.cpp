@@ -220,8 +220,19 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     require_inside_registry(entry, out, plan.registry, "tracker");
     const auto candidates = entry.texts("candidates");
     if (candidates.empty()) entry.fail("candidates", "lists no learned model");
-    stage.arguments = {"rank", "--baseline", model_out("baseline", entry.text("baseline")),
-                       "--candidates"};
+    // The regime's tuned classical filters: `baseline` (one) and/or `baselines` (several); the
+    // best of them on the test tracks is the bar every candidate faces.
+    std::vector<std::string> baselines;
+    if (entry.has("baseline")) baselines.push_back(entry.text("baseline"));
+    if (entry.has("baselines")) {
+      for (const auto& b : entry.texts("baselines")) baselines.push_back(b);
+    }
+    if (baselines.empty()) entry.fail("baselines", "names no tuned classical filter");
+    stage.arguments = {"rank", "--baseline"};
+    for (const auto& b : baselines) {
+      stage.arguments.push_back(model_out(entry.has("baselines") ? "baselines" : "baseline", b));
+    }
+    stage.arguments.push_back("--candidates");
     for (const auto& candidate : candidates) {
       stage.arguments.push_back(model_out("candidates", candidate));
     }

@@ -123,18 +123,19 @@ void write_benchmarks(const fs::path& latest, std::ostringstream& md, std::ostri
 }
 
 // Per regime, the filter to use (the tracker stages): the winner, why, and the ranking with the
-// intervals against the tuned baseline.
+// intervals against the classical bar (the best of the regime's tuned classical filters).
 void write_trackers(const NightlyResult& result, std::ostringstream& md, std::ostringstream& html) {
   bool any = false;
   for (const auto& o : result.stages) {
     if (o.kind != "tracker") continue;
     if (!any) {
       md << "## The regime's trackers\n\nThe filter to use for each regime (`models/<regime>/"
-            "tracker.h5`): a learned model only when it beats the regime's tuned baseline beyond "
-            "the 95 % interval.\n\n";
+            "tracker.h5`): a learned model only when it beats the regime's classical bar — the "
+            "best "
+            "of its tuned classical filters — beyond the 95 % interval.\n\n";
       html << "<h2>The regime's trackers</h2>\n<p>The filter to use for each regime: a learned "
-              "model only when it beats the regime's tuned baseline beyond the 95 % "
-              "interval.</p>\n";
+              "model only when it beats the regime's classical bar — the best of its tuned "
+              "classical filters — beyond the 95 % interval.</p>\n";
       any = true;
     }
     md << "### " << o.name << " — " << o.status << "\n\n" << o.message << "\n\n";
@@ -175,7 +176,9 @@ void write_trackers(const NightlyResult& result, std::ostringstream& md, std::os
       p << std::fixed << row.value(keys[0], 0.0);
       v << std::fixed << row.value(keys[1], 0.0);
       const std::string name =
-          row.value("filter", "?") + (row.value("baseline", false) ? " (tuned baseline)" : "");
+          row.value("filter", "?") + (row.value("baseline", false)    ? " (the classical bar)"
+                                      : row.value("classical", false) ? " (classical)"
+                                                                      : "");
       md << "| " << row.value("place", 0) << " | " << name << " | " << p.str() << " | " << v.str()
          << " | " << difference(keys[0]) << " | " << difference(keys[1]) << " | "
          << row.value("verdict", "") << " |\n";

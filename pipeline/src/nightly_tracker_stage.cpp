@@ -17,16 +17,17 @@ void Night::run_tracker(const NightlyStage& stage) {
   // The stage ranks what is shipped now: a candidate never shipped is left out (its training
   // failed on a clean registry); without the baseline there is nothing to rank against.
   std::vector<std::string> arguments, left_out;
-  std::size_t candidates = 0;
-  bool in_candidates = false;
+  std::size_t candidates = 0, baselines = 0;
+  std::string section;
   for (const std::string& a : stage.arguments) {
-    if (a.starts_with("--")) in_candidates = a == "--candidates";
-    if (in_candidates && !a.starts_with("--")) {
+    if (a.starts_with("--")) section = a;
+    const bool listed = section == "--candidates" || section == "--baseline";
+    if (listed && !a.starts_with("--")) {
       if (!fs::exists(a)) {
         left_out.push_back(a);
         continue;
       }
-      ++candidates;
+      ++(section == "--candidates" ? candidates : baselines);
     }
     arguments.push_back(a);
   }
@@ -43,13 +44,11 @@ void Night::run_tracker(const NightlyStage& stage) {
   }
   StageOutcome o = outcome_of("tracker", stage.name);
   o.report = stage.report;
-  const std::string baseline = arguments.at(2);
-  const bool baseline_shipped = fs::exists(baseline);
-  if (!baseline_shipped || candidates == 0) {
+  if (baselines == 0 || candidates == 0) {
     o.failed = true;
     o.status = "failed";
-    o.message = !baseline_shipped ? "the regime's tuned baseline " + baseline + " is not shipped"
-                                  : "no learned model of the regime is shipped";
+    o.message = baselines == 0 ? "none of the regime's tuned classical filters is shipped"
+                               : "no learned model of the regime is shipped";
     o.command = command_line(tool(ranked), arguments);
     return finish(o);
   }

@@ -66,7 +66,7 @@ std::string what_to_do(const StageOutcome& o) {
   if (o.kind == "tracker" && !o.status.starts_with("unchanged"))
     return "Nothing: the regime's tracker changed to the better filter.";
   if (o.finding)
-    return "Nothing unless it surprises: the regime ships its tuned baseline where a learned model "
+    return "Nothing unless it surprises: the regime ships its classical bar where a learned model "
            "does not beat it.";
   return "";
 }

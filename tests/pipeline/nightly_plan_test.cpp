@@ -261,6 +261,23 @@ TEST(Nightly, EveryShippedRegimeHasATracker) {
   EXPECT_GE(regimes, 3);
 }
 
+// Every regime's tracker faces the classical bar: its rank lists the regime's CV/CA/CT IMM
+// (imm-train baseline with a [classical] config) among its baselines, before the candidates.
+TEST(Nightly, EveryTrackerRanksTheClassicalImmAmongItsBaselines) {
+  const NightlyPlan plan = load_nightly_plan("configs/nightly.toml");
+  for (const auto& stage : plan.stages) {
+    if (stage.kind != "tracker") continue;
+    SCOPED_TRACE(stage.name);
+    const auto& a = stage.arguments;
+    const auto baseline = std::find(a.begin(), a.end(), "--baseline");
+    const auto candidates = std::find(a.begin(), a.end(), "--candidates");
+    ASSERT_LT(baseline, candidates);
+    EXPECT_GE(candidates - baseline - 1, 2);
+    EXPECT_NE(std::find(baseline, candidates, "models/classical_imm_" + stage.name + ".h5"),
+              candidates);
+  }
+}
+
 // The morning report shows the last `make bench` medians and flags the ones > 10 % slower.
 TEST(Nightly, MorningReportShowsBenchmarksAndFlagsSlowdowns) {
   testing::TempDir dir;

@@ -654,9 +654,9 @@ TEST(NightlyProduct, ANightWhoseOnlyNewsIsATieWithTheBaselineIsGreenAndShipsTheB
   EXPECT_EQ(tracker["metrics"]["ranking"][1]["verdict"], "ties");
   const std::string report = slurp(p.reports / "latest" / "index.md");
   EXPECT_NE(report.find("## The regime's trackers"), std::string::npos) << report;
-  EXPECT_NE(report.find("no learned model beats the tuned baseline"), std::string::npos) << report;
+  EXPECT_NE(report.find("no learned model beats the classical bar"), std::string::npos) << report;
   EXPECT_NE(report.find("1 with findings"), std::string::npos) << report;
-  EXPECT_NE(report.find("again ties the tuned baseline"), std::string::npos) << report;
+  EXPECT_NE(report.find("again ties the classical bar"), std::string::npos) << report;
   // Three entries share the kind and the regime (the baseline, the other model, the tracker): a
   // rollback by kind and regime is ambiguous and says how to name one; by name it finds the one.
   const auto ambiguous = run_tool(

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "testing/regime_files.hpp"
@@ -258,7 +259,7 @@ TEST_F(Tools, TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest) {
       root_);
   ASSERT_TRUE(ranked.exit_code == 0 || ranked.exit_code == 7) << ranked.err;
   EXPECT_NE(ranked.out.find("regime ga_times_three test split"), std::string::npos) << ranked.out;
-  EXPECT_NE(ranked.out.find("| baseline (tuned baseline) "), std::string::npos) << ranked.out;
+  EXPECT_NE(ranked.out.find("| baseline (the classical bar) "), std::string::npos) << ranked.out;
   const auto choice = nlohmann::json::parse(testing::slurp(dir_ / "rank" / "tracker.json"));
   ASSERT_EQ(choice["ranking"].size(), 2u);
   // The stated rule, checked from the reported intervals: the GA model is the tracker exactly when
@@ -289,6 +290,34 @@ TEST_F(Tools, TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest) {
       root_);
   EXPECT_EQ(other.exit_code, 2);
   EXPECT_NE(other.err.find("ga_fuzzy_imm.h5"), std::string::npos) << other.err;
+
+  // The classical CV/CA/CT IMM of the same regime, with no code for it: tuned by imm-train
+  // baseline from its [classical] config; ranked beside the constant-q baseline, the better of the
+  // two on the test tracks is the bar the GA model faces, and the other is never the tracker.
+  const auto classical =
+      run_tool("imm-train",
+               {"baseline", "--config", config("configs/classical_imm.toml").string(), "--regime",
+                regime.string(), "--out", (models / "classical.h5").string()},
+               root_);
+  ASSERT_EQ(classical.exit_code, 0) << classical.err;
+  EXPECT_NE(classical.err.find("the classical IMM tuned on the training split"), std::string::npos)
+      << classical.err;
+  const auto both = run_tool(
+      "imm-eval",
+      {"rank", "--baseline", (models / "baseline.h5").string(), (models / "classical.h5").string(),
+       "--candidates", (models / "ga.h5").string(), "--out", (dir_ / "rank-two").string()},
+      root_);
+  ASSERT_TRUE(both.exit_code == 0 || both.exit_code == 7) << both.err;
+  const auto two = nlohmann::json::parse(testing::slurp(dir_ / "rank-two" / "tracker.json"));
+  ASSERT_EQ(two["ranking"].size(), 3u);
+  std::map<std::string, double> sums;
+  for (const auto& row : two["ranking"]) {
+    sums[row["filter"]] = row["zeta_p"].get<double>() + row["zeta_v"].get<double>();
+  }
+  const std::string bar = sums["classical"] < sums["baseline"] ? "classical" : "baseline";
+  EXPECT_EQ(two["bar"], bar) << two.dump();
+  EXPECT_NE(both.out.find("The classical bar: " + bar), std::string::npos) << both.out;
+  EXPECT_NE(two["tracker"], bar == "classical" ? "baseline" : "classical") << two.dump();
 }
 
 // A polar regime's tracker (a regime written in the test: air_surveillance, small, its sensor away

@@ -7,8 +7,10 @@
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <numbers>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/math/log_sum_exp.hpp"
@@ -55,7 +57,9 @@ Scales scales_of(const datasets::Regime& regime) {
   if (!(s.a > 0.0)) s.a = 1.0;
   s.v = regime.max_speed();
   if (!(s.v > 0.0)) s.v = s.a * s.T;
-  s.omega = s.a / s.v;
+  // A turn rate beyond a quarter revolution per period is not a turn a filter can follow from
+  // one plot to the next (nor one of 2π rad/s a target flies): the scale stops there.
+  s.omega = std::min({s.a / s.v, 0.5 * std::numbers::pi / s.T, 2.0 * std::numbers::pi});
   return s;
 }
 
@@ -111,7 +115,9 @@ SearchBox search_box(const datasets::Regime& regime, const ModeSet& modes) {
       add((s.a / s.T) * (s.a / s.T), 6.0);
     } else {
       add(s.a * s.a, 6.0);
-      if (m == MotionKind::kCoordinatedTurn) add((s.omega / s.T) * (s.omega / s.T), 8.0);
+      if (m == MotionKind::kCoordinatedTurn) {
+        add(std::min((s.omega / s.T) * (s.omega / s.T), limits::kTurnRateNoise.max), 8.0);
+      }
     }
   }
   box.lower.push_back(kLogLeaveLow);
@@ -156,7 +162,8 @@ PlainImmSpec classical_spec(const datasets::Regime& regime, const ModeSet& modes
   spec.measurement.covariance = regime.sensor.noise.covariance();
   spec.initialization.method = InitializationMethod::kTwoPoint;
   spec.initialization.acceleration_variance = s.a * s.a;
-  spec.initialization.turn_rate_variance = s.omega * s.omega;
+  spec.initialization.turn_rate_variance =
+      std::min(s.omega * s.omega, limits::kTurnRateVariance.max);
   spec.validate();
   return spec;
 }

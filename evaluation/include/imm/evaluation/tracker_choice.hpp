@@ -4,7 +4,9 @@
 /// among the learned models trained for it and the tuned classical baseline, on the same test
 /// tracks (`imm-eval rank`).
 ///
-/// The rule: a learned model is eligible only when it *beats* the baseline (verdict() over ζ_p
+/// The baseline is the classical bar: the best of the regime's tuned classical filters on the
+/// same tracks (the others are ranked beside it, never chosen). The rule: a learned model is
+/// eligible only when it *beats* the bar (verdict() over ζ_p
 /// and ζ_v: better beyond the 95 % paired-bootstrap interval in at least one, worse in neither).
 /// Among the eligible ones the lowest ζ_p + ζ_v wins (without truth: the two criteria are the
 /// predictive NLL per plot and the innovation RMS, and the lowest NLL wins); when none is eligible
@@ -24,7 +26,10 @@ namespace imm::evaluation {
 struct RankedFilter {
   std::string name;  ///< the model file's stem
   std::string kind;  ///< its model_kind
+  /// The classical bar: the best of the regime's tuned classical filters (exactly one).
   bool baseline = false;
+  /// Another tuned classical filter, ranked but never the tracker in the bar's place.
+  bool classical = false;
   /// The two criteria of the verdict, lower is better: ζ_p and ζ_v, or — on recorded plots without
   /// truth — the predictive NLL per plot and the innovation RMS (`criteria` names them).
   double zeta_p = 0.0, zeta_v = 0.0;

@@ -31,13 +31,15 @@
 ///                    max(relative_margin × |value|, absolute_margin)
 ///   [[regression.margins]]  metric (a part of the metric names it applies to), [relative_margin],
 ///                    [absolute_margin], reason — the margin of some metrics
-///   [[trackers]]     name, baseline (a [[models]] name: `imm-train baseline`), candidates (the
-///                    [[models]] names of the learned models of the same regime), out (the
-///                    regime's tracker file, in the registry), report, [runs], [seed]
+///   [[trackers]]     name, baseline and/or baselines (the [[models]] names of the regime's tuned
+///                    classical filters: `imm-train baseline`), candidates (the [[models]] names
+///                    of the learned models of the same regime), out (the regime's tracker file,
+///                    in the registry), report, [runs], [seed]
 ///
 /// A tracker stage runs after every model stage: `imm-eval rank` over the *shipped* files of its
-/// baseline and candidates (a candidate never shipped is left out), and the winner is promoted
-/// as the regime's tracker under the stage's name, its ranking in the manifest entry's metrics.
+/// baselines and candidates (one never shipped is left out), the best classical filter is the bar
+/// every candidate faces, and the winner is promoted as the regime's tracker under the stage's
+/// name, its ranking in the manifest entry's metrics.
 ///
 /// With `sweep`, the candidates that are not cached are all trained first, in one `imm-train sweep`
 /// (under `launcher`: `mpirun -np 8`, `srun`), into the staging folder; then each model stage

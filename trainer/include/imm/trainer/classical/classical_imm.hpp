@@ -16,9 +16,10 @@
 /// the box (log intensities, log(1 − p)), then Subplex from its best point
 /// (imm/support/bounded_search.hpp). The boxes scale with the regime — its largest commanded
 /// acceleration a, its largest speed v and period T — never with its tracks:
-///   q_CV, q_CT ∈ [10⁻⁶, 1] a²;  q_CA ∈ [10⁻⁶, 1] (a/T)²;  q_ω ∈ [10⁻⁸, 1] (ω_a/T)², ω_a = a/v;
+///   q_CV, q_CT ∈ [10⁻⁶, 1] a²;  q_CA ∈ [10⁻⁶, 1] (a/T)²;  q_ω ∈ [10⁻⁸, 1] (ω_a/T)², with
+///   ω_a = min(a/v, π/(2T), 2π rad/s) (no filter follows a quarter turn per period);
 ///   p ∈ [0.5, 1 − 10⁻⁴]; the turn rate starts at 0 with variance ω_a², the CA mode's
-///   acceleration at 0 with variance a².
+///   acceleration at 0 with variance a² (each within the runtime's limits).
 
 #include <filesystem>
 #include <string>
