@@ -52,8 +52,7 @@ const Sandbox& sandbox() {
     fs::create_directories(s.models);
     fs::create_directories(s.outside);
     s.model = s.root / "fixture.h5";
-    fs::copy_file(fs::path(IMM_SOURCE_DIR) / "models" / "cv3_imm.h5", s.model,
-                  fs::copy_options::overwrite_existing);
+    write_file(s.model, read_file(fs::path(IMM_SOURCE_DIR) / "models" / "cv3_imm.h5"));
     s.metrics = s.root / "fixture.metrics.json";
     write_file(s.metrics, "{\"fixture\": true}\n");
     s.model_sha = imm::datasets::file_sha256_hex(s.model);
@@ -71,10 +70,12 @@ void reset(const Sandbox& s) {
   fs::remove_all(s.outside, error);
   fs::create_directories(s.models / ".registry" / "archive");
   fs::create_directories(s.outside);
-  fs::copy_file(s.model, s.models / "a.h5");
-  fs::copy_file(s.metrics, s.models / "a.metrics.json");
-  fs::copy_file(s.model, s.models / ".registry" / "archive" / (s.model_sha + ".h5"));
-  fs::copy_file(s.metrics, s.models / ".registry" / "archive" / (s.metrics_sha + ".metrics.json"));
+  // (Copied through read/write: libFuzzer's timer signal interrupts copy_file's sendfile.)
+  const std::string model = read_file(s.model), metrics = read_file(s.metrics);
+  write_file(s.models / "a.h5", model);
+  write_file(s.models / "a.metrics.json", metrics);
+  write_file(s.models / ".registry" / "archive" / (s.model_sha + ".h5"), model);
+  write_file(s.models / ".registry" / "archive" / (s.metrics_sha + ".metrics.json"), metrics);
   fs::create_directory_symlink(s.outside, s.models / "out");
 }
 

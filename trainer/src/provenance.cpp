@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -128,10 +129,28 @@ void copy_atomically(const std::filesystem::path& from, const std::filesystem::p
   ensure_parent_folder(to);
   const auto temp = io::temporary_beside(to);
   removing_temporary_on_failure(temp, [&] {
-    std::filesystem::copy_file(from, temp, std::filesystem::copy_options::overwrite_existing);
-    const Descriptor copy(::open(temp.c_str(), O_RDONLY | O_CLOEXEC));
-    if (copy.fd < 0) throw std::runtime_error(temp.string() + ": open: " + errno_text());
-    sync(copy.fd, temp);
+    // read/write loops that resume after a signal (EINTR), where std::filesystem::copy_file gives
+    // up on an interrupted sendfile.
+    const Descriptor in(::open(from.c_str(), O_RDONLY | O_CLOEXEC));
+    if (in.fd < 0) throw std::runtime_error(from.string() + ": cannot read: " + errno_text());
+    const Descriptor out(::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
+    if (out.fd < 0) throw std::runtime_error(temp.string() + ": cannot write: " + errno_text());
+    std::array<char, 1 << 16> buffer{};
+    for (;;) {
+      const ssize_t n = ::read(in.fd, buffer.data(), buffer.size());
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) throw std::runtime_error(from.string() + ": cannot read: " + errno_text());
+      if (n == 0) break;
+      std::size_t written = 0;
+      while (written < static_cast<std::size_t>(n)) {
+        const ssize_t w =
+            ::write(out.fd, buffer.data() + written, static_cast<std::size_t>(n) - written);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) throw std::runtime_error(temp.string() + ": cannot write: " + errno_text());
+        written += static_cast<std::size_t>(w);
+      }
+    }
+    sync(out.fd, temp);
   });
   rename_durably(temp, to);
 }

@@ -21,6 +21,12 @@ struct GaussianState {
 
   /// Whether the mean and the covariance are free of NaN and Inf.
   [[nodiscard]] bool all_finite() const { return mean.allFinite() && covariance.allFinite(); }
+  /// all_finite(), and no negative variance: what an update or a prediction may leave. A filter
+  /// driven far beyond its model (variances of 10²⁰ collapsing to 10⁴ in one update) can lose the
+  /// covariance's definiteness to rounding even in Joseph form; such a step is refused.
+  [[nodiscard]] bool usable() const {
+    return all_finite() && (covariance.diagonal().array() >= 0.0).all();
+  }
 };
 
 }  // namespace imm

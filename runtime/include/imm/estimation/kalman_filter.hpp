@@ -155,7 +155,7 @@ UpdateReport<M> update_with_innovation(GaussianState<N>& state, const Vector<M>&
   updated.covariance.noalias() -= CHt * K.transpose();
   updated.covariance.noalias() += KR * K.transpose();
   symmetrize(updated.covariance);
-  if (!updated.all_finite()) {
+  if (!updated.usable()) {
     report.status = StepStatus::kNonFiniteResult;
     return report;
   }
@@ -204,7 +204,7 @@ UpdateReport<M> update_with_gain(GaussianState<N>& state, const Vector<M>& innov
   updated.covariance.noalias() = A * state.covariance * A.transpose();
   updated.covariance.noalias() += K * R * K.transpose();
   symmetrize(updated.covariance);
-  if (!updated.all_finite()) {
+  if (!updated.usable()) {
     report.status = StepStatus::kNonFiniteResult;
     return report;
   }

@@ -17,7 +17,7 @@ enum class StepStatus {
   kInvalidMeasurement,    ///< the measurement holds NaN, ±Inf or a value beyond ±1e9
   kSingularInnovation,    ///< S = H P Hᵀ + R is not positive definite
   kUndefinedMeasurement,  ///< h(x) or its Jacobian is undefined at the prediction (range 0)
-  kNonFiniteResult,       ///< the update would produce NaN or ±Inf
+  kNonFiniteResult,       ///< the update would produce NaN, ±Inf or a negative variance
   kProbabilityUnderflow,  ///< every mode's likelihood is zero even in log space
 };
 

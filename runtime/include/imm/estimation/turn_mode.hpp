@@ -65,7 +65,7 @@ class CoordinatedTurnMode final : public ImmMode<NX, MeasurementModel::kDim> {
   [[gnu::flatten]] ModeStep propose(const GaussianState<NX>& mixed,
                                     const Vector<kMeasurementDim>& z) override {
     pending_ = predict_turn(embedding_.project(mixed), sample_period_, process_noise_);
-    if (!pending_.all_finite()) return {StepStatus::kNonFiniteResult, 0.0};
+    if (!pending_.usable()) return {StepStatus::kNonFiniteResult, 0.0};
     const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
                                         : update(pending_, z, measurement_);
     this->keep_innovation(report.innovation, report.innovation_covariance);
@@ -75,7 +75,7 @@ class CoordinatedTurnMode final : public ImmMode<NX, MeasurementModel::kDim> {
   /// The EKF prediction alone (a missed plot); pending until commit().
   ModeStep propose_prediction(const GaussianState<NX>& mixed) override {
     pending_ = predict_turn(embedding_.project(mixed), sample_period_, process_noise_);
-    return {pending_.all_finite() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
+    return {pending_.usable() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
   }
 
   /// The mean the turn predicts from the mixed estimate, zero-padded; nothing changes.
