@@ -106,7 +106,9 @@ void check_model(const ModelRequirements& model, const EvaluationRegimes& regime
                  const std::filesystem::path& path) {
   const datasets::Regime& r = regimes.evaluated.regime;
   const datasets::Regime& own = regimes.trained.regime;
-  const std::string where = "model " + path.string() + " on regime " + r.name + ": ";
+  // Both files named: the model's, and the regime's (a file, or the regime the model records).
+  const std::string where = "model " + path.string() + " on regime " + r.name + " (" +
+                            (r.file.empty() ? "recorded in the model" : r.file) + "): ";
   if (!close(model.sample_period, r.sample_period)) {
     throw std::runtime_error(
         where + "sample_period: the model is built for T = " + number(model.sample_period) +

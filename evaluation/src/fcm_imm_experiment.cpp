@@ -13,6 +13,8 @@
 // all there is): off the seed's scenarios a figure where it only ties the KF or the AIMM, and
 // beating IMM-tuned in fewer than two of the four. The ablation is reported, not gated.
 
+#include <algorithm>
+#include <cmath>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <span>
@@ -287,9 +289,21 @@ int run(const CommonOptions& options) {
   for (const auto& [name, value] : parameters) std::cout << "  " << name << ": " << value << "\n";
   std::vector<std::vector<std::string>> rows;
   nlohmann::json metrics, details;
+  // Four significant digits for the figures, whatever the length unit (0.1 km would hide the
+  // differences the table below reports).
+  int figure_decimals = 1;
+  for (const auto& f : filters) {
+    for (int i = 0; i < 4; ++i) {
+      if (f.figures[i] > 0.0 && std::isfinite(f.figures[i])) {
+        figure_decimals =
+            std::max(figure_decimals, 3 - static_cast<int>(std::floor(std::log10(f.figures[i]))));
+      }
+    }
+  }
+  figure_decimals = std::min(figure_decimals, 6);
   for (const auto& f : filters) {
     std::vector<std::string> row = {f.name};
-    for (int i = 0; i < 4; ++i) row.push_back(cell(f.figures[i], 1));
+    for (int i = 0; i < 4; ++i) row.push_back(cell(f.figures[i], figure_decimals));
     row.push_back(cell(f.fraction_straight, 3));
     row.push_back(cell(f.fraction_maneuver, 3));
     row.push_back(cell(training_objective.at(f.name), 4));

@@ -98,9 +98,18 @@ int run(const RankOptions& options) {
     const FilterMaker maker = load_filter_maker(file);
     const EvaluationRegimes regimes = evaluation_regimes(regime, maker.provenance, file);
     if (regimes.off_training()) {
-      throw std::runtime_error("model " + file.string() + ": trained for regime " +
-                               regimes.trained.regime.name + ", not " + regime.regime.name +
-                               ": a regime's tracker is chosen among its own models");
+      const datasets::Regime& own = regimes.trained.regime;
+      const datasets::Regime& here = regime.regime;
+      const std::string where =
+          here.file.empty() ? std::string("the regime recorded in ") + files.front().string()
+                            : here.file;
+      throw std::runtime_error(
+          "model " + file.string() + ": " +
+          (own.name == here.name
+               ? "trained for another text of regime " + own.name + " than " + where + " (digest " +
+                     own.digest.substr(0, 12) + " against " + here.digest.substr(0, 12) + ")"
+               : "trained for regime " + own.name + ", not " + here.name + " (" + where + ")") +
+          ": a regime's tracker is chosen among its own models");
     }
     outcomes.push_back(run_monte_carlo(file.stem().string(), maker.make, maker.options, data, {},
                                        regime.regime.sensor.position));

@@ -16,7 +16,15 @@ std::string Difference::text(int decimals) const {
   // A difference too small for the decimals would read "+0.0000 [+0.0000, +0.0000]", which says
   // nothing: it is given to three significant digits instead.
   const double largest = std::max({std::abs(estimate), std::abs(lower), std::abs(upper)});
-  if (largest > 0.0 && largest < 0.5 * std::pow(10.0, -decimals)) {
+  const bool tiny = largest > 0.0 && largest < 0.5 * std::pow(10.0, -decimals);
+  // An interval narrower than the decimals show would read "+0.0 [+0.0, +0.1]" beside a gate that
+  // says +0.04: the decimals grow until the interval's width has two significant digits.
+  const double width = upper - lower;
+  if (!tiny && width > 0.0 && std::isfinite(width)) {
+    const int needed = static_cast<int>(std::ceil(-std::log10(width))) + 1;
+    decimals = std::clamp(std::max(decimals, needed), 0, 8);
+  }
+  if (tiny) {
     std::snprintf(buffer, sizeof buffer, "%+.3g [%+.3g, %+.3g]", estimate, lower, upper);
   } else {
     std::snprintf(buffer, sizeof buffer, "%+.*f [%+.*f, %+.*f]", decimals, estimate, decimals,

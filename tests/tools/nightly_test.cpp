@@ -262,12 +262,16 @@ TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
   EXPECT_FALSE(m["models"][0].contains("rejected")) << m.dump(2);
 
   // 6. No news, no churn: retrained from the same config (another training date), the candidate
-  //    is the shipped model; the shipped file and the manifest stay byte for byte.
+  //    is the shipped model; the shipped file, the manifest and the evaluations page (which
+  //    describes what is shipped: its stamps are the promotion's, not the night's) stay byte for
+  //    byte, so a checkout stays clean.
   const std::string manifest_bytes = slurp(p.registry / "manifest.json");
+  const std::string page_bytes = slurp(dir / "docs" / "evaluations.md");
   run = nightly(p, {"--force"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_EQ(sha256_of(shipped), third);
   EXPECT_EQ(slurp(p.registry / "manifest.json"), manifest_bytes);
+  EXPECT_EQ(slurp(dir / "docs" / "evaluations.md"), page_bytes);
   EXPECT_NE(slurp(p.reports / "latest" / "index.md").find("kept (ties the shipped model)"),
             std::string::npos);
 

@@ -174,6 +174,9 @@ TEST_F(Tools, GaAndInputEstimatorTrainAndEvaluateOnARegimeWrittenInTheTest) {
                                 root_);
   EXPECT_EQ(refused.exit_code, 2);
   EXPECT_NE(refused.err.find("sample_period"), std::string::npos) << refused.err;
+  // Both files named: the model's and the regime's.
+  EXPECT_NE(refused.err.find("ga.h5"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find(kTable3), std::string::npos) << refused.err;
 
   const auto mlp_regime = testing::write_preset_variant(
       dir_, "input_estimator_training",
@@ -290,6 +293,19 @@ TEST_F(Tools, TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest) {
       root_);
   EXPECT_EQ(other.exit_code, 2);
   EXPECT_NE(other.err.find("ga_fuzzy_imm.h5"), std::string::npos) << other.err;
+  // An edited copy of the regime that keeps its name: the refusal says the text differs, and
+  // which file.
+  testing::write_text(dir_ / "edited.toml", "# edited\n" + testing::slurp(regime));
+  const auto edited =
+      run_tool("imm-eval",
+               {"rank", "--baseline", (models / "baseline.h5").string(), "--candidates",
+                (models / "ga.h5").string(), "--regime", (dir_ / "edited.toml").string(), "--out",
+                (dir_ / "rank-edited").string()},
+               root_);
+  EXPECT_EQ(edited.exit_code, 2);
+  EXPECT_NE(edited.err.find("another text of regime ga_times_three"), std::string::npos)
+      << edited.err;
+  EXPECT_NE(edited.err.find("edited.toml"), std::string::npos) << edited.err;
 
   // The classical CV/CA/CT IMM of the same regime, with no code for it: tuned by imm-train
   // baseline from its [classical] config; ranked beside the constant-q baseline, the better of the

@@ -45,7 +45,12 @@ TEST(PairedDifference, ATinyDifferenceShowsItsDigits) {
   EXPECT_EQ((Difference{3.2e-6, 1.1e-6, 5.04e-6}).text(), "+3.2e-06 [+1.1e-06, +5.04e-06]");
   EXPECT_EQ((Difference{0.0, 0.0, 0.0}).text(), "+0.0000 [+0.0000, +0.0000]");
   EXPECT_EQ((Difference{0.03, 0.01, 0.04}).text(1), "+0.03 [+0.01, +0.04]");
-  EXPECT_EQ((Difference{0.4, 0.01, 0.6}).text(1), "+0.4 [+0.0, +0.6]");
+  // Decimals grow until the interval's width shows two significant digits: a kilometre RMSE's
+  // difference of +0.04 [+0.002, +0.082] no longer reads "+0.0 [+0.0, +0.1]".
+  EXPECT_EQ((Difference{0.4, 0.01, 0.6}).text(1), "+0.40 [+0.01, +0.60]");
+  EXPECT_EQ((Difference{0.04, 0.002, 0.082}).text(1), "+0.040 [+0.002, +0.082]");
+  EXPECT_EQ((Difference{1.1, 0.6, 1.5}).text(1), "+1.10 [+0.60, +1.50]");
+  EXPECT_EQ((Difference{12.0, 3.0, 21.0}).text(1), "+12.0 [+3.0, +21.0]");
 }
 
 TEST(PairedDifference, RoundingLevelDifferencesTieAndRealOnesCount) {
