@@ -439,7 +439,11 @@ void write_evaluations_page(const fs::path& page, const NightlyPlan& plan,
         stage.kind == "tracker" ? outcome : outcome_of_stage(result, "model", stage.model);
     const bool promoted = shipping != nullptr && shipping->status.starts_with("promoted");
     if (const auto kept = before.find(heading); kept != before.end() && !promoted) {
-      md << kept->second;
+      // Its text without the blank lines that separated it from the next heading (written again
+      // below), so that keeping a section is idempotent.
+      std::string text = kept->second;
+      while (text.size() > 1 && text.ends_with("\n\n")) text.pop_back();
+      md << text;
       continue;
     }
     md << '\n';

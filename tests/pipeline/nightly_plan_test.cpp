@@ -317,5 +317,62 @@ TEST(NightlyHistory, ATornAppendDoesNotSwallowTheNextLine) {
   EXPECT_EQ(lines_of(testing::slurp_text(file)).size(), 4U);
 }
 
+// The evaluations page describes what is shipped: a section whose model was promoted is
+// rewritten from its report; a section whose model was kept stays byte for byte, night after
+// night (no date, no blank lines that grow), so a night that ships nothing leaves the checkout
+// clean.
+TEST(NightlyEvaluationsPage, OnlyPromotionsRewriteTheirSections) {
+  testing::TempDir dir;
+  const auto page = dir.path() / "evaluations.md";
+  NightlyPlan plan;
+  NightlyResult result;
+  for (const std::string name : {"a", "b"}) {
+    NightlyStage model;
+    model.kind = "model";
+    model.name = name;
+    NightlyStage evaluation;
+    evaluation.kind = "evaluation";
+    evaluation.name = "eval " + name;
+    evaluation.model = name;
+    evaluation.out = dir.path() / ("report_" + name);
+    std::filesystem::create_directories(evaluation.out);
+    testing::write_text(evaluation.out / "report.md",
+                        "# imm-eval " + name + "\n\n- Written: night 1\n\n| x |\n|---|\n| 1 |\n");
+    plan.stages.push_back(model);
+    plan.stages.push_back(evaluation);
+    StageOutcome promoted;
+    promoted.kind = "model";
+    promoted.name = name;
+    promoted.status = "promoted";
+    result.stages.push_back(promoted);
+    StageOutcome evaluated;
+    evaluated.kind = "evaluation";
+    evaluated.name = "eval " + name;
+    evaluated.status = "ok";
+    result.stages.push_back(evaluated);
+  }
+  write_evaluations_page(page, plan, result);
+  const std::string first = testing::slurp_text(page);
+  EXPECT_NE(first.find("- Written: night 1"), std::string::npos) << first;
+  // Night 2: both reports say night 2, both models kept; then night 3, model b promoted.
+  for (const std::string name : {"a", "b"}) {
+    testing::write_text(dir.path() / ("report_" + name) / "report.md",
+                        "# imm-eval " + name + "\n\n- Written: night 2\n\n| x |\n|---|\n| 2 |\n");
+  }
+  for (auto& o : result.stages) {
+    if (o.kind == "model") o.status = "kept (ties the shipped model)";
+  }
+  write_evaluations_page(page, plan, result);
+  write_evaluations_page(page, plan, result);
+  EXPECT_EQ(testing::slurp_text(page), first);
+  result.stages[2].status = "promoted";  // model b
+  write_evaluations_page(page, plan, result);
+  const std::string third = testing::slurp_text(page);
+  const auto b = third.find("## eval b");
+  ASSERT_NE(b, std::string::npos) << third;
+  EXPECT_NE(third.find("night 2", b), std::string::npos) << third;
+  EXPECT_EQ(third.substr(0, b), first.substr(0, first.find("## eval b")));
+}
+
 }  // namespace
 }  // namespace imm::pipeline

@@ -115,7 +115,7 @@ struct NightlyPlan {
   /// "…-dirty"). Off: shipped models come only from committed code. For trying a plan on
   /// uncommitted code (the nightly's own tests), never in the shipped plan.
   bool allow_dirty_trainer = false;
-  /// The page of the latest evaluations, rewritten after every night (write_evaluations_page).
+  /// The page of the evaluations of what is shipped (write_evaluations_page).
   std::optional<std::filesystem::path> evaluations_page;
   /// The regression gate's practical margins (none: the interval alone decides).
   std::vector<RegressionMargin> margins;
@@ -186,9 +186,12 @@ NightlyResult run_nightly(const NightlyPlan& plan, const NightlyOptions& options
 void write_morning_report(const std::filesystem::path& folder, const NightlyPlan& plan,
                           const NightlyResult& result);
 
-/// Writes `page` (Markdown, atomically): every evaluation stage of the plan, in plan order, with
-/// the command that reproduces it, its outcome, and its report.md (the tables and gates imm-eval
-/// printed), its headings one level down. A stage without a report says why.
+/// Writes `page` (Markdown, atomically, only when it changes): every evaluation and tracker stage of
+/// the plan, in plan order, with the command that reproduces it, its outcome, and its report.md
+/// (the tables and gates imm-eval printed), its headings one level down. A section is rewritten
+/// only when the night promoted its model (or its tracker) or the page has none: the page
+/// describes what is shipped, and a night that ships nothing leaves it byte for byte. A stage
+/// without a report says why.
 void write_evaluations_page(const std::filesystem::path& page, const NightlyPlan& plan,
                             const NightlyResult& result);
 
