@@ -159,7 +159,11 @@ void Registry::load() {
 }
 
 void Registry::commit(std::vector<RegistryEntry> entries) {
-  trainer::write_text_atomically(inside("manifest.json", true), manifest_text(entries));
+  // The text it writes is the text a later load reads: refused here (another entry's file, say)
+  // rather than committed and refused by every command after.
+  const std::string text = manifest_text(entries);
+  (void)parse_manifest(text, "the manifest a change would write");
+  trainer::write_text_atomically(inside("manifest.json", true), text);
   entries_ = std::move(entries);
 }
 
@@ -207,7 +211,7 @@ void Registry::require_materializable(const std::vector<RegistryEntry>& entries)
                                "; the manifest is left as it was");
     }
     if (e.metrics_sha256.empty() || e.metrics_sha256 == kNoMetrics) continue;
-    const auto beside = inside(metrics_file_of(e.file), true);
+    const auto beside = inside(trainer::metrics_path(e.file), true);
     if (!holds(beside, e.metrics_sha256) &&
         !holds(metrics_archive_path(e.metrics_sha256), e.metrics_sha256)) {
       throw std::runtime_error("'" + e.name + "': neither " + beside.string() +
@@ -237,7 +241,7 @@ bool Registry::materialize(const RegistryEntry& entry) const {
     rewritten = true;
   }
   // The metrics file beside a model is its own or none: never the one of the model it replaced.
-  const auto beside = inside(metrics_file_of(entry.file), true);
+  const auto beside = inside(trainer::metrics_path(entry.file), true);
   std::error_code error;
   const bool beside_exists = std::filesystem::symlink_status(beside, error).type() !=
                              std::filesystem::file_type::not_found;
@@ -265,7 +269,7 @@ void Registry::archive_shipped(const RegistryEntry& e) const {
   const auto shipped = inside(e.file, true);
   if (holds(shipped, e.sha256)) archive(shipped, e.sha256);
   if (!e.metrics_sha256.empty() && e.metrics_sha256 != kNoMetrics) {
-    const auto beside = inside(metrics_file_of(e.file), true);
+    const auto beside = inside(trainer::metrics_path(e.file), true);
     if (holds(beside, e.metrics_sha256)) (void)archive_metrics(beside);
   }
 }
@@ -318,7 +322,6 @@ void Registry::adopt(const RegistryEntry& entry) {
   } else {
     next.push_back(std::move(adopted));
   }
-  (void)parse_manifest(manifest_text(next), "adopt");  // the state it commits reads back
   require_materializable(next);
   commit(std::move(next));
 }
@@ -402,9 +405,7 @@ void Registry::promote(RegistryEntry entry, const std::filesystem::path& candida
     }
     next.push_back(std::move(entry));
   }
-  // The state it commits reads back (another entry's file is refused), and every file it ships
-  // is at hand.
-  (void)parse_manifest(manifest_text(next), "promote '" + name + "'");
+  // Every file it ships is at hand (commit() checks that the state reads back).
   require_materializable(next);
   // 2. The commit point: one rename of the manifest (the entries change only when it is done).
   commit(std::move(next));

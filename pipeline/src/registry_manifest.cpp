@@ -14,6 +14,8 @@
 #include <map>
 #include <stdexcept>
 
+#include "imm/trainer/provenance.hpp"
+
 namespace imm::pipeline {
 namespace {
 
@@ -369,7 +371,7 @@ std::vector<RegistryEntry> parse_manifest(std::string_view text, const std::stri
     }();
     for (const RegistryEntry* v : versions) {
       claim(v->file, e.name, at + ".file");
-      claim(metrics_file_of(v->file), e.name, at + ".file");
+      claim(trainer::metrics_path(v->file).generic_string(), e.name, at + ".file");
     }
   }
   return entries;
@@ -411,11 +413,6 @@ std::optional<std::string> read_manifest_text(const std::filesystem::path& path)
   }
   ::close(fd);
   return text;
-}
-
-std::string metrics_file_of(std::string_view file) {
-  std::string stem(file.substr(0, file.size() - std::string_view(".h5").size()));
-  return stem + ".metrics.json";
 }
 
 }  // namespace imm::pipeline

@@ -23,7 +23,4 @@ inline constexpr std::string_view kNoMetrics = "none";
 /// kMaxManifestBytes, or nothing when there is none; std::runtime_error naming the file otherwise.
 [[nodiscard]] std::optional<std::string> read_manifest_text(const std::filesystem::path& path);
 
-/// The metrics file shipped beside a model file ("a/b.h5" → "a/b.metrics.json").
-[[nodiscard]] std::string metrics_file_of(std::string_view file);
-
 }  // namespace imm::pipeline

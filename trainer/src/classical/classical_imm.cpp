@@ -28,20 +28,6 @@ namespace {
 constexpr double kLogLeaveLow = -4.0;                   // p = 1 − 10⁻⁴
 constexpr double kLogLeaveHigh = -0.30102999566398120;  // p = 0.5
 
-std::string_view mode_name(MotionKind kind) {
-  switch (kind) {
-    case MotionKind::kConstantVelocity:
-      return "cv";
-    case MotionKind::kConstantAcceleration:
-      return "ca";
-    case MotionKind::kCoordinatedTurn:
-      return "ct";
-    case MotionKind::kSinger:
-      break;
-  }
-  return "singer";
-}
-
 // The regime's scales: the largest commanded acceleration a (for a regime that never manoeuvres,
 // the plots' σ over T²), the largest speed v (without one, a T) and ω_a = a/v, the turn rate at
 // which the fastest target turns with a.
@@ -98,7 +84,7 @@ std::string to_string(const ModeSet& modes) {
   std::string text;
   for (const MotionKind m : modes) {
     if (!text.empty()) text += ',';
-    text += mode_name(m);
+    text += imm::to_string(m);
   }
   return text;
 }
@@ -138,7 +124,7 @@ PlainImmSpec classical_spec(const datasets::Regime& regime, const ModeSet& modes
   std::size_t at = 0;
   for (const MotionKind m : modes) {
     ModeSpec mode;
-    mode.name = std::string(mode_name(m));
+    mode.name = std::string(imm::to_string(m));
     mode.motion = m;
     mode.process_noise = std::pow(10.0, x[at++]);
     if (m == MotionKind::kCoordinatedTurn) mode.turn_noise = std::pow(10.0, x[at++]);
