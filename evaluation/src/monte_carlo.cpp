@@ -24,6 +24,12 @@ std::vector<HeadlineMetric> FilterOutcome::zeta_headline() const {
       {"zeta_v", HeadlineMetric::Form::kScanZeta, run_velocity, run_velocity_plot, run_counted}};
 }
 
+HeadlineMetric FilterOutcome::maneuver_position_rmse() const {
+  const Eigen::MatrixXd counted = run_counted.cwiseProduct(run_maneuvering);
+  return rms_metric("position_rmse_maneuvering", run_position.cwiseProduct(counted).rowwise().sum(),
+                    counted.rowwise().sum());
+}
+
 std::vector<HeadlineMetric> FilterOutcome::plot_headline() const {
   const Eigen::Index runs = run_log_likelihood.rows();
   Eigen::VectorXd nll = Eigen::VectorXd::Zero(runs), squares = nll, plots = nll;
@@ -151,6 +157,13 @@ FilterOutcome run_monte_carlo(const std::string& name, const FilterFactory& make
   outcome.run_innovation_x = outcome.run_position_nees;
   outcome.run_innovation_y = outcome.run_position_nees;
   outcome.has_truth = data.has_truth;
+  outcome.run_maneuvering = Eigen::MatrixXd::Zero(runs, steps);
+  for (Eigen::Index run = 0; run < runs; ++run) {
+    const std::vector<bool>& maneuvering = data.tracks[static_cast<std::size_t>(run)].maneuvering;
+    for (int k = 0; k < steps && k < static_cast<int>(maneuvering.size()); ++k) {
+      outcome.run_maneuvering(run, k) = maneuvering[static_cast<std::size_t>(k)] ? 1.0 : 0.0;
+    }
+  }
   outcome.mean_mode_probabilities = Eigen::MatrixXd::Zero(steps, modes);
   Eigen::VectorXi probability_samples = Eigen::VectorXi::Zero(steps);
   outcome.recorded.assign(static_cast<std::size_t>(runs * steps * extra), nan);

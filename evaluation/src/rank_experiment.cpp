@@ -6,11 +6,17 @@
 // chosen by the rule of tracker_choice.hpp (a learned model must beat the baseline beyond the
 // interval) and, with --ship, written as the regime's tracker file. A learned model that does not
 // beat the baseline is a finding (exit 7), not a failure: the baseline is shipped in its place.
+// A learned model is eligible only when an evaluation of that very file (--evaluations: report
+// folders of `imm-eval <experiment>`) passed its own experiment's gates; one that failed them, or
+// that no evaluation given checked, is ranked but held out (a finding).
 
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "imm/datasets/sha256.hpp"
+#include "imm/evaluation/evaluation_gates.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
@@ -27,6 +33,8 @@ struct RankOptions {
   /// The regime's tuned classical filters; the best on the test tracks is the bar.
   std::vector<std::filesystem::path> baselines;
   std::vector<std::filesystem::path> candidates;
+  /// Report folders of the candidates' own experiments (imm-eval <experiment> --out).
+  std::vector<std::filesystem::path> evaluations;
   std::optional<std::filesystem::path> regime;
   std::optional<int> runs;
   std::uint64_t seed = 1;
@@ -92,6 +100,10 @@ int run(const RankOptions& options) {
   std::vector<std::filesystem::path> files = options.baselines;
   files.insert(files.end(), options.candidates.begin(), options.candidates.end());
   const std::size_t classical = options.baselines.size();
+  std::vector<EvaluationGates> evaluations;
+  for (const auto& folder : options.evaluations) {
+    evaluations.push_back(read_evaluation_gates(folder));
+  }
   std::vector<FilterOutcome> outcomes;
   std::vector<std::string> kinds;
   for (const auto& file : files) {
@@ -125,7 +137,27 @@ int run(const RankOptions& options) {
     ranked.push_back(ranked_filter(files[i], kinds[i], outcomes[i], outcomes[bar], i == bar,
                                    i < classical, runs));
   }
+  std::vector<GateStanding> standings(files.size());
+  for (std::size_t i = classical; i < files.size(); ++i) {
+    standings[i] = gate_standing(datasets::file_sha256_hex(files[i]), evaluations);
+    if (standings[i].state != GateStanding::State::kPassed) {
+      ranked[i].held_out = standings[i].text;
+    }
+  }
   const TrackerChoice choice = choose_tracker(ranked);
+  // Where the motion models are put to the test: the position RMSE over the scans where the truth
+  // manoeuvres, with each filter's difference from the bar (reported; the verdict is over ζ).
+  std::vector<double> maneuver_rmse(files.size());
+  std::vector<Difference> maneuver_versus_bar(files.size());
+  const HeadlineMetric bar_maneuver = outcomes[bar].maneuver_position_rmse();
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const HeadlineMetric own = outcomes[i].maneuver_position_rmse();
+    maneuver_rmse[i] = own.value();
+    if (i != bar && data.has_truth) {
+      maneuver_versus_bar[i] = paired_difference(runs, own.statistic(), bar_maneuver.statistic());
+    }
+  }
+  const bool maneuvers = data.has_truth && std::isfinite(maneuver_rmse[bar]);
 
   const std::string length(datasets::to_string(regime.regime.units));
   const std::array<std::string, 2>& criteria = ranked.front().criteria;
@@ -133,28 +165,46 @@ int run(const RankOptions& options) {
   for (std::size_t place = 0; place < choice.order.size(); ++place) {
     const RankedFilter& f = ranked[choice.order[place]];
     rows.push_back({std::to_string(place + 1),
-                    f.name + (f.baseline    ? " (the classical bar)"
-                              : f.classical ? " (classical)"
-                                            : ""),
+                    f.name + (f.baseline            ? " (the classical bar)"
+                              : f.classical         ? " (classical)"
+                              : !f.held_out.empty() ? " (held out)"
+                                                    : ""),
                     f.kind, cell(f.zeta_p), cell(f.zeta_v),
                     f.baseline ? "–" : f.versus_baseline_p.text(),
                     f.baseline ? "–" : f.versus_baseline_v.text(), verdict_against_baseline(f),
                     data.has_truth ? cell(f.position_rmse) : "–",
                     data.has_truth ? cell(f.velocity_rmse, 5) : "–"});
+    if (maneuvers) {
+      const std::size_t i = choice.order[place];
+      rows.back().push_back(cell(maneuver_rmse[i]));
+      rows.back().push_back(i == bar ? "–" : maneuver_versus_bar[i].text(2));
+    }
+  }
+  std::vector<std::string> headers{"place",
+                                   "filter",
+                                   "kind",
+                                   criteria[0],
+                                   criteria[1],
+                                   "this − bar " + criteria[0] + " [95 %]",
+                                   "this − bar " + criteria[1] + " [95 %]",
+                                   "against the bar",
+                                   "position RMSE (" + length + ")",
+                                   "velocity RMSE (" + length + "/s)"};
+  if (maneuvers) {
+    headers.push_back("position RMSE in manoeuvres (" + length + ")");
+    headers.push_back("this − bar in manoeuvres [95 %]");
   }
   std::cout << "rank: regime " << regime.regime.name << " test split, seed " << options.seed << ", "
             << runs << " tracks x " << data.scans << " scans\n\n"
-            << markdown_table(
-                   {"place", "filter", "kind", criteria[0], criteria[1],
-                    "this − bar " + criteria[0] + " [95 %]",
-                    "this − bar " + criteria[1] + " [95 %]", "against the bar",
-                    "position RMSE (" + length + ")", "velocity RMSE (" + length + "/s)"},
-                   rows)
-            << '\n'
+            << markdown_table(headers, rows) << '\n'
             << kDifferenceConvention << ' ' << kVerdictRule
             << "\nThe classical bar: " << ranked[bar].name << " (" << ranked[bar].kind
             << "), the best of the regime's tuned classical filters on these tracks (" << classical
             << " given)."
+            << (maneuvers ? "\nIn manoeuvres: the position RMSE over the scans where the truth "
+                            "manoeuvres (a commanded acceleration or a turn acts), and its "
+                            "difference from the bar; reported beside the verdict, not in it."
+                          : "")
             << (data.has_truth
                     ? "\nThe rule: a learned model is the tracker only when it beats the "
                       "classical bar; among those that do, the lowest ζ_p + ζ_v.\n\n"
@@ -179,7 +229,16 @@ int run(const RankOptions& options) {
       findings.push_back(std::move(flag));
     }
   }
-  std::cout << "\nGates: none (every model here passed its own experiment's gates)\n";
+  std::cout << "\nThe learned models' own experiments' gates (eligible only when an evaluation of "
+               "that very file passed them; "
+            << evaluations.size() << " evaluation folder(s) given):\n";
+  for (std::size_t i = classical; i < files.size(); ++i) {
+    std::cout << "  - " << ranked[i].name << ": " << standings[i].text << '\n';
+    if (!ranked[i].held_out.empty()) {
+      findings.push_back(ranked[i].name +
+                         " is held out of the choice (own gates: " + ranked[i].held_out + ")");
+    }
+  }
   print_findings(findings);
 
   const std::filesystem::path& out = options.out;
@@ -213,6 +272,8 @@ int run(const RankOptions& options) {
                           {"position_rmse", f.position_rmse},
                           {"velocity_rmse", f.velocity_rmse},
                           {"verdict", verdict_against_baseline(f)},
+                          {"own_gates", i < classical ? "—" : standings[i].text},
+                          {"eligible", i >= classical && f.held_out.empty()},
                           {"predictive_nll", plots[0].value()},
                           {"innovation_rms", plots[2].value()},
                           {"position_nees", outcomes[i].position_consistency.average},
@@ -227,6 +288,13 @@ int run(const RankOptions& options) {
            {f.versus_baseline_v.estimate, f.versus_baseline_v.lower, f.versus_baseline_v.upper}}};
     }
     if (data.has_truth) row["zeta_p"] = f.zeta_p, row["zeta_v"] = f.zeta_v;
+    if (maneuvers) {
+      row["position_rmse_maneuvering"] = maneuver_rmse[i];
+      if (i != bar) {
+        const Difference& d = maneuver_versus_bar[i];
+        row["versus_baseline"]["position_rmse_maneuvering"] = {d.estimate, d.lower, d.upper};
+      }
+    }
     results["ranking"].push_back(row);
   }
   results["findings"] = findings;
@@ -265,6 +333,11 @@ void add_rank_command(CLI::App& app, ExitCode& exit_code) {
       ->add_option("--candidates", options->candidates,
                    "learned model files trained for the same regime")
       ->required();
+  command->add_option(
+      "--evaluations", options->evaluations,
+      "report folders of the learned models' own experiments (imm-eval <experiment> --out): a "
+      "learned model is eligible only when one of them evaluated that very file and passed its "
+      "gates");
   command->add_option("--regime", options->regime,
                       "regime TOML (default: the one recorded in the first baseline)");
   command->add_option("--runs", options->runs, "test tracks (default: the regime's test split)")

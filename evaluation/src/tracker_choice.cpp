@@ -52,11 +52,14 @@ TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
       std::find_if(filters.begin(), filters.end(), [](const auto& f) { return f.baseline; }) -
       filters.begin());
   choice.winner = baseline;
-  std::vector<std::string> beaten_by, not_earned;
+  std::vector<std::string> beaten_by, not_earned, held_out;
   for (std::size_t i : choice.order) {
     if (i == baseline || filters[i].classical) continue;
     const std::string v = verdict_against_baseline(filters[i]);
-    if (v == "beats") {
+    if (!filters[i].held_out.empty()) {
+      held_out.push_back(filters[i].name + " " + v +
+                         " it but is held out (own gates: " + filters[i].held_out + ")");
+    } else if (v == "beats") {
       if (choice.winner == baseline) choice.winner = i;
       beaten_by.push_back(filters[i].name);
     } else {
@@ -72,8 +75,10 @@ TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
   };
   const RankedFilter& w = filters[choice.winner];
   if (choice.winner == baseline) {
-    choice.reason = "no learned model beats the classical bar beyond the 95 % interval" +
+    choice.reason = std::string(held_out.empty() ? "no" : "no eligible") +
+                    " learned model beats the classical bar beyond the 95 % interval" +
                     (not_earned.empty() ? std::string() : " (" + joined(not_earned) + ")") +
+                    (held_out.empty() ? std::string() : " (" + joined(held_out) + ")") +
                     ", so the bar " + w.name + " is the regime's tracker";
   } else {
     choice.reason =

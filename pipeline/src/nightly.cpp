@@ -236,6 +236,21 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     for (const auto& candidate : candidates) {
       stage.arguments.push_back(model_out("candidates", candidate));
     }
+    // The candidates' own evaluations: rank holds out a model whose gates failed there, or that
+    // none of them evaluated (the night evaluates candidates, so a shipped model that was not
+    // tonight's or an earlier night's candidate has none).
+    std::vector<std::string> evaluated;
+    for (const auto& candidate : candidates) {
+      for (const NightlyStage* e : plan.evaluations_of(candidate)) {
+        evaluated.push_back(e->out.string());
+        // The shipped model's evaluation when the night's candidate did not replace it.
+        evaluated.push_back((e->out / "shipped").string());
+      }
+    }
+    if (!evaluated.empty()) {
+      stage.arguments.push_back("--evaluations");
+      stage.arguments.insert(stage.arguments.end(), evaluated.begin(), evaluated.end());
+    }
     const std::string report = entry.text("report");
     stage.arguments.insert(stage.arguments.end(), {"--out", report});
     add_optional(entry, "runs", "--runs", stage);

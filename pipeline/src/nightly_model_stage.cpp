@@ -196,7 +196,29 @@ void Night::run_model(const NightlyStage& stage) {
     model.exit_code = spawn(tool(stage), arguments, model.log, model.wall_seconds);
   }
   std::vector<StageOutcome> evaluation_outcomes;
+  // Each evaluation's report folder and where tonight's evaluation of the shipped model went.
+  std::vector<std::pair<fs::path, fs::path>> shipped_reports;
   auto conclude = [&](const StageOutcome& m) {
+    // `<report>/shipped/`: the evaluation of the model that stays shipped (its metrics.json and
+    // report.md), kept beside the
+    // candidate's, so that its gates are on record for the tracker stage (imm-eval rank holds out
+    // a model no evaluation of which passed its gates). Gone when the candidate is shipped.
+    const bool promoted = m.status.starts_with("promoted");
+    for (const auto& [report, shipped_out] : shipped_reports) {
+      std::error_code error;
+      fs::remove_all(report / "shipped", error);
+      if (!promoted && fs::is_regular_file(shipped_out / "report.md", error) &&
+          fs::is_regular_file(shipped_out / "metrics.json", error)) {
+        try {
+          fs::create_directories(report / "shipped");
+          for (const char* name : {"metrics.json", "report.md"}) {
+            trainer::copy_atomically(shipped_out / name, report / "shipped" / name);
+          }
+        } catch (const std::exception&) {
+          fs::remove_all(report / "shipped", error);  // no record: rank holds the model out
+        }
+      }
+    }
     cache_.store(key, inputs, m, {stage.out}, digests_);
     finish(m);
     for (auto& e : evaluation_outcomes) {
@@ -294,6 +316,7 @@ void Night::run_model(const NightlyStage& stage) {
                                    (stage.name + "_" + std::to_string(evaluation_outcomes.size()));
       fs::create_directories(shipped_out);
       const auto shipped_arguments = evaluation_arguments(*e, shipped_file, shipped_out, staging);
+      shipped_reports.emplace_back(e->out, shipped_out);
       const fs::path shipped_log = o.log.string() + "_shipped";
       const int shipped_code = spawn(tool(*e), shipped_arguments, shipped_log, o.wall_seconds);
       if (shipped_code == 0 || shipped_code == support::exit_code::kEvaluationGateFailed ||

@@ -22,6 +22,11 @@ void Night::run_tracker(const NightlyStage& stage) {
   for (const std::string& a : stage.arguments) {
     if (a.starts_with("--")) section = a;
     const bool listed = section == "--candidates" || section == "--baseline";
+    if (section == "--evaluations" && !a.starts_with("--") &&
+        !(fs::is_regular_file(fs::path(a) / "metrics.json") &&
+          fs::is_regular_file(fs::path(a) / "report.md"))) {
+      continue;  // not evaluated (its model stage failed first): no evidence for its model
+    }
     if (listed && !a.starts_with("--")) {
       if (!fs::exists(a)) {
         left_out.push_back(a);
@@ -30,6 +35,11 @@ void Night::run_tracker(const NightlyStage& stage) {
       ++(section == "--candidates" ? candidates : baselines);
     }
     arguments.push_back(a);
+  }
+  // No evaluation folder left: the option goes too (rank then holds every candidate out).
+  if (const auto at = std::find(arguments.begin(), arguments.end(), "--evaluations");
+      at != arguments.end() && (at + 1 == arguments.end() || (at + 1)->starts_with("--"))) {
+    arguments.erase(at);
   }
   NightlyStage ranked = stage;
   ranked.arguments = arguments;

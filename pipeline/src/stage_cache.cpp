@@ -100,6 +100,15 @@ std::string inputs_digest(const NightlyStage& stage, const fs::path& tool, Diges
         line.append("=").append(digest).append("\n");
         hash.update(line);
       }
+    } else if (fs::is_directory(a, error) && stage.kind == "tracker") {
+      // A candidate's evaluation folder: its verdict on its gates, written earlier tonight (so
+      // read afresh, never from the digests taken before it was written).
+      for (const char* name : {"metrics.json", "report.md"}) {
+        const fs::path file = fs::path(a) / name;
+        if (fs::is_regular_file(file, error)) {
+          hash.update(file.string() + '=' + datasets::file_sha256_hex(file) + '\n');
+        }
+      }
     } else if (fs::is_directory(a, error) && stage.kind == "evaluation") {
       const std::string folder = normal_path(a);
       const std::string evaluated =

@@ -66,7 +66,8 @@ TEST(Nightly, ATrackerRanksItsModelsFilesAndShipsIntoTheRegistry) {
   const std::string models =
       "[[models]]\nname = \"base\"\ncommand = \"baseline\"\nconfig = \"c\"\n"
       "out = \"models/base.h5\"\n[[models]]\nname = \"ga\"\ncommand = \"ga\"\nconfig = \"c\"\n"
-      "out = \"models/ga.h5\"\n";
+      "out = \"models/ga.h5\"\n[[evaluations]]\nexperiment = \"ga-imm\"\nmodel = \"ga\"\n"
+      "out = \"reports/ga/\"\n";
   testing::write_text(dir / "n.toml", models +
                                           "[[trackers]]\nname = \"r\"\nbaseline = \"base\"\n"
                                           "candidates = [\"ga\"]\nout = \"models/r/tracker.h5\"\n"
@@ -77,7 +78,8 @@ TEST(Nightly, ATrackerRanksItsModelsFilesAndShipsIntoTheRegistry) {
   EXPECT_EQ(tracker.executable, "imm-eval");
   EXPECT_EQ(tracker.arguments,
             (std::vector<std::string>{"rank", "--baseline", "models/base.h5", "--candidates",
-                                      "models/ga.h5", "--out", "reports/r/", "--runs", "20",
+                                      "models/ga.h5", "--evaluations", "reports/ga/",
+                                      "reports/ga/shipped", "--out", "reports/r/", "--runs", "20",
                                       "--ship", "models/r/tracker.h5"}));
   EXPECT_EQ(tracker.out_argument, tracker.arguments.size() - 1);
 

@@ -61,6 +61,27 @@ TEST(TrackerChoice, ALearnedModelThatBeatsTheBaselineIsShipped) {
   EXPECT_NE(choice.reason.find("ga beats the classical bar"), std::string::npos) << choice.reason;
 }
 
+// A learned model that beats the bar but failed its own experiment's gates (or was never checked
+// against them) is held out: the next eligible one wins, and the reason says why.
+TEST(TrackerChoice, AModelHeldOutByItsOwnGatesIsNeverTheTracker) {
+  RankedFilter failed = learned("fcm_failed", 0.40, 0.50, kBetter, kBetter);
+  failed.held_out = "FAILED in reports/fcm/: pos_rmse_maneuver is above KF's";
+  std::vector<RankedFilter> filters{baseline(), failed, learned("ga", 0.45, 0.58, kBetter, kTied)};
+  TrackerChoice choice = choose_tracker(filters);
+  EXPECT_EQ(choice.winner, 2u);
+  filters[2].held_out = "unchecked: no evaluation of this file given (--evaluations)";
+  choice = choose_tracker(filters);
+  EXPECT_EQ(choice.winner, 0u);
+  EXPECT_NE(choice.reason.find("no eligible learned model beats"), std::string::npos)
+      << choice.reason;
+  EXPECT_NE(choice.reason.find("fcm_failed beats it but is held out (own gates: FAILED in "
+                               "reports/fcm/"),
+            std::string::npos)
+      << choice.reason;
+  // The ranking itself still shows it first.
+  EXPECT_EQ(choice.order.front(), 1u);
+}
+
 // A second tuned classical filter (worse than the bar on these tracks) is ranked, and "beats"
 // nothing: it is never the tracker in the bar's place, and a learned model faces the bar.
 TEST(TrackerChoice, AnotherClassicalFilterIsRankedButNeverChosen) {

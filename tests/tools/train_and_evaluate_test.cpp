@@ -254,12 +254,22 @@ TEST_F(Tools, TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest) {
                                 root_);
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
 
+  // The GA model's own experiment, whose gates decide whether it may be the tracker at all.
+  const auto evaluated = run_tool("imm-eval",
+                                  {"ga-imm", "--models", models.string(), "--model", "ga", "--out",
+                                   (dir_ / "ga-eval").string()},
+                                  root_);
+  ASSERT_TRUE(evaluated.exit_code == 0 || evaluated.exit_code == 5 || evaluated.exit_code == 7)
+      << evaluated.err;
+  const bool gates_passed = evaluated.exit_code != 5;
+
   const auto tracker = dir_ / "shipped" / "ga_times_three" / "tracker.h5";
-  const auto ranked = run_tool(
-      "imm-eval",
-      {"rank", "--baseline", (models / "baseline.h5").string(), "--candidates",
-       (models / "ga.h5").string(), "--out", (dir_ / "rank").string(), "--ship", tracker.string()},
-      root_);
+  const auto ranked =
+      run_tool("imm-eval",
+               {"rank", "--baseline", (models / "baseline.h5").string(), "--candidates",
+                (models / "ga.h5").string(), "--evaluations", (dir_ / "ga-eval").string(), "--out",
+                (dir_ / "rank").string(), "--ship", tracker.string()},
+               root_);
   ASSERT_TRUE(ranked.exit_code == 0 || ranked.exit_code == 7) << ranked.err;
   EXPECT_NE(ranked.out.find("regime ga_times_three test split"), std::string::npos) << ranked.out;
   EXPECT_NE(ranked.out.find("| baseline (the classical bar) "), std::string::npos) << ranked.out;
@@ -276,14 +286,54 @@ TEST_F(Tools, TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest) {
   const auto& v = ga_row["versus_baseline"]["zeta_v"];
   const bool better = p[2].get<double>() < 0 || v[2].get<double>() < 0;
   const bool worse = p[1].get<double>() > 0 || v[1].get<double>() > 0;
-  EXPECT_EQ(choice["tracker"], better && !worse ? "ga" : "baseline") << choice.dump();
-  EXPECT_EQ(ranked.exit_code == 7, !(better && !worse)) << ranked.out;  // a finding otherwise
+  EXPECT_EQ(choice["tracker"], better && !worse && gates_passed ? "ga" : "baseline")
+      << choice.dump();
+  EXPECT_EQ(ranked.exit_code == 7, !(better && !worse && gates_passed))
+      << ranked.out;  // a finding otherwise
+  EXPECT_EQ(ga_row["eligible"], gates_passed) << choice.dump();
   EXPECT_FALSE(choice["reason"].get<std::string>().empty());
   // The tracker file is the winner's, byte for byte, and runs as any model file does.
   EXPECT_EQ(testing::slurp(tracker),
             testing::slurp(models / (choice["tracker"].get<std::string>() + ".h5")));
   const auto inspected = run_tool("imm-inspect", {tracker.string()}, root_);
   EXPECT_EQ(inspected.exit_code, 0) << inspected.err;
+
+  // Its own experiment's gates failed (the same evaluation, its verdict turned to FAILED): it is
+  // held out whatever its figures, with the failure named; and with no evaluation of the file
+  // given, it is held out as unchecked.
+  std::filesystem::copy(dir_ / "ga-eval", dir_ / "ga-failed",
+                        std::filesystem::copy_options::recursive);
+  std::string report = testing::slurp(dir_ / "ga-failed" / "report.md");
+  const auto gates = report.find("\nGates");
+  ASSERT_NE(gates, std::string::npos) << report;
+  const auto end = report.find('\n', gates + 1);
+  const auto colon = report.rfind(": ", end);
+  report.replace(colon, end - colon, ": FAILED\n  - GA-IMM is worse than AIMM3 (planted)");
+  testing::write_text(dir_ / "ga-failed" / "report.md", report);
+  for (const auto& [evaluations, standing] :
+       std::vector<std::pair<std::vector<std::string>, std::string>>{
+           {{"--evaluations", (dir_ / "ga-failed").string()}, "FAILED in "},
+           {{}, "unchecked: no evaluation of this file given"}}) {
+    std::vector<std::string> arguments{"rank",
+                                       "--baseline",
+                                       (models / "baseline.h5").string(),
+                                       "--candidates",
+                                       (models / "ga.h5").string(),
+                                       "--out",
+                                       (dir_ / "rank-held").string()};
+    arguments.insert(arguments.end(), evaluations.begin(), evaluations.end());
+    const auto held = run_tool("imm-eval", arguments, root_);
+    EXPECT_EQ(held.exit_code, 7) << held.err;
+    const auto json = nlohmann::json::parse(testing::slurp(dir_ / "rank-held" / "tracker.json"));
+    EXPECT_EQ(json["tracker"], "baseline") << json.dump();
+    for (const auto& row : json["ranking"]) {
+      if (row["filter"] != "ga") continue;
+      EXPECT_FALSE(row["eligible"].get<bool>());
+      EXPECT_TRUE(row["own_gates"].get<std::string>().starts_with(standing)) << row.dump();
+    }
+    EXPECT_NE(held.out.find("ga is held out of the choice"), std::string::npos) << held.out;
+  }
+  EXPECT_NE(testing::slurp(dir_ / "rank" / "report.md").find("ga: "), std::string::npos);
 
   // A model of another regime is refused, naming it.
   const auto other = run_tool(

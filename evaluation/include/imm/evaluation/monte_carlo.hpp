@@ -44,6 +44,9 @@ struct FilterOutcome {
   /// (TrackFilter::log_predictive_likelihood) and the squares of its innovation's two components
   /// (in the filter's plot coordinates) — what a recorded regime without truth is scored by.
   Eigen::MatrixXd run_log_likelihood, run_innovation_x, run_innovation_y;
+  /// runs × scans: 1 where the truth manoeuvres (a commanded acceleration or a turn acts on the
+  /// transition that starts at the scan, datasets::Track::maneuvering), 0 elsewhere.
+  Eigen::MatrixXd run_maneuvering;
   /// Whether the tracks had their truth (the errors above are all zero without it).
   bool has_truth = true;
   ConsistencySummary position_consistency;
@@ -63,6 +66,9 @@ struct FilterOutcome {
   /// nees_log_ratio, lower is better) as headline metrics: what the regression gate compares.
   /// Without truth, plot_headline().
   [[nodiscard]] std::vector<HeadlineMetric> headline() const;
+  /// The position RMSE over the scans where the truth manoeuvres (`position_rmse_maneuvering`,
+  /// lengths in the regime's unit): where a filter's motion models are put to the test.
+  [[nodiscard]] HeadlineMetric maneuver_position_rmse() const;
   /// What needs no truth, each lower-is-better: `predictive_nll` (−log p(z | Z^(k−1)) per plot),
   /// `nis_log_ratio` (the NIS's consistency, as position_nees_log_ratio) and `innovation_rms`
   /// (√ of the mean ‖ν‖² per plot, in the plot's coordinates).

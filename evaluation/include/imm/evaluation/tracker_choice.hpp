@@ -8,6 +8,8 @@
 /// same tracks (the others are ranked beside it, never chosen). The rule: a learned model is
 /// eligible only when it *beats* the bar (verdict() over ζ_p
 /// and ζ_v: better beyond the 95 % paired-bootstrap interval in at least one, worse in neither).
+/// A learned model is also held out when its own experiment failed its gates, or when no
+/// evaluation of that very file says it passed them (RankedFilter::held_out).
 /// Among the eligible ones the lowest ζ_p + ζ_v wins (without truth: the two criteria are the
 /// predictive NLL per plot and the innovation RMS, and the lowest NLL wins); when none is eligible
 /// the baseline is shipped — a learned model that only ties it has not earned its extra parts.
@@ -44,6 +46,9 @@ struct RankedFilter {
   /// of scans inside.
   std::string consistency = "consistent";
   double position_nees = 0.0, scans_inside = 1.0;
+  /// Why a learned model may not be the tracker whatever its figures (its own experiment's gates
+  /// failed, or no evaluation of it was given); empty: eligible.
+  std::string held_out;
 };
 
 struct TrackerChoice {
