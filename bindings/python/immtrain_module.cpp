@@ -17,6 +17,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <string>
@@ -39,6 +40,7 @@
 #include "imm/tracking/fimm_track_bank.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
+#include "imm/tracking/plain_imm_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "imm/tracking/tracker.hpp"
 #include "imm/tracking/wimm_track_bank.hpp"
@@ -259,7 +261,8 @@ class PyTracker {
   std::vector<std::string> modes_;
 };
 
-// A model's bank: many tracks stepped by one call — TrackBank for a plain IMM, GaFuzzyTrackBank
+// A model's bank: many tracks stepped by one call — TrackBank or PlainImmTrackBank for a plain
+// IMM (open_plain), GaFuzzyTrackBank
 // for a GA-fuzzy IMM, InputEstimatorTrackBank for an input estimator, WimmTrackBank for a weighted
 // IMM, FimmTrackBank for a TSK sensor's FIMM, FcmImmTrackBank for an FCM-IMM: every kind
 // load_tracker reads.
@@ -333,21 +336,45 @@ class PyTrackBank {
   }
   [[nodiscard]] std::string kind() const {
     // In the order of the Bank variant's alternatives.
-    constexpr std::array<std::string_view, 6> kKinds{
+    constexpr std::array<std::string_view, 10> kKinds{
         imm::io::kPlainImmKind, imm::io::kGaFuzzyImmKind, imm::io::kMlpInputEstimatorKind,
-        imm::io::kWimmKind,     imm::io::kTskSensorKind,  imm::io::kFcmImmKind};
+        imm::io::kWimmKind,     imm::io::kTskSensorKind,  imm::io::kFcmImmKind,
+        imm::io::kPlainImmKind, imm::io::kPlainImmKind,   imm::io::kPlainImmKind,
+        imm::io::kPlainImmKind};
     static_assert(kKinds.size() == std::variant_size_v<Bank>);
     return std::string(kKinds[bank_.index()]);
   }
 
  private:
   using Bank = std::variant<imm::TrackBank, imm::GaFuzzyTrackBank, imm::InputEstimatorTrackBank,
-                            imm::WimmTrackBank, imm::FimmTrackBank, imm::FcmImmTrackBank>;
+                            imm::WimmTrackBank, imm::FimmTrackBank, imm::FcmImmTrackBank,
+                            imm::PlainImmTrackBank<4>, imm::PlainImmTrackBank<5>,
+                            imm::PlainImmTrackBank<6>, imm::PlainImmTrackBank<7>>;
+  // A plain IMM: TrackBank's vectorized kernel for CV modes with Cartesian plots, the general
+  // bank of its mixing dimension otherwise (CA, Singer and turn modes, polar plots).
+  static Bank open_plain(const imm::PlainImmSpec& spec, std::size_t capacity) {
+    const bool cv_cartesian =
+        spec.measurement.kind == imm::MeasurementKind::kCartesian &&
+        std::all_of(spec.modes.begin(), spec.modes.end(), [](const imm::ModeSpec& m) {
+          return m.motion == imm::MotionKind::kConstantVelocity;
+        });
+    if (cv_cartesian) return Bank(std::in_place_type<imm::TrackBank>, spec, capacity);
+    switch (spec.mixing_dimension()) {
+      case 4:
+        return Bank(std::in_place_type<imm::PlainImmTrackBank<4>>, spec, capacity);
+      case 5:
+        return Bank(std::in_place_type<imm::PlainImmTrackBank<5>>, spec, capacity);
+      case 6:
+        return Bank(std::in_place_type<imm::PlainImmTrackBank<6>>, spec, capacity);
+      default:
+        return Bank(std::in_place_type<imm::PlainImmTrackBank<7>>, spec, capacity);
+    }
+  }
   static Bank open(const fs::path& path, std::size_t capacity) {
     const imm::io::ModelFileReader reader(path);
     const std::string& kind = reader.provenance().model_kind;
     if (kind == imm::io::kPlainImmKind) {
-      return Bank(std::in_place_type<imm::TrackBank>, imm::io::read_plain_imm(path), capacity);
+      return open_plain(imm::io::read_plain_imm(path), capacity);
     }
     if (kind == imm::io::kGaFuzzyImmKind) {
       return Bank(std::in_place_type<imm::GaFuzzyTrackBank>, imm::io::read_ga_fuzzy_imm(reader),

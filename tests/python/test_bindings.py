@@ -242,7 +242,39 @@ def test_the_fimms_bank_equals_single_tracks():
     assert bank.kind == "tsk_sensor" and bank.state_dimension == 6
 
 
+def test_the_classical_turn_imms_bank_equals_single_tracks():
+    # The tuned CV + CT IMM of air_surveillance (polar plots, 5 states [x, vx, y, vy, w]): three
+    # targets in turns of different rates, 30-50 km out, started at w = 0.
+    rng = np.random.default_rng(6)
+    rates = [0.02, -0.01, 0.0]
+    starts = [np.array([30e3 + 10e3 * t, -150.0, 20e3, 100.0, 0.0]) for t in range(3)]
+    truth = [s.copy() for s in starts]
+    plots = []
+    for k in range(40):
+        rows = []
+        for t, w in enumerate(rates):
+            x, vx, y, vy, _ = truth[t]
+            c, s = np.cos(5.0 * w), np.sin(5.0 * w)
+            if w == 0.0:
+                x, y = x + 5.0 * vx, y + 5.0 * vy
+            else:
+                x, y = x + (s * vx - (1.0 - c) * vy) / w, y + ((1.0 - c) * vx + s * vy) / w
+            vx, vy = c * vx - s * vy, s * vx + c * vy
+            truth[t] = np.array([x, vx, y, vy, w])
+            rows.append([np.hypot(x, y) + rng.normal(0.0, 100.0),
+                         np.arctan2(x, y) + rng.normal(0.0, 0.0035)])
+        plots.append(np.array(rows))
+    bank = bank_equal_to_banks_of_one(os.path.join(MODELS, "classical_imm_air_surveillance.h5"),
+                                      starts, np.diag([1e4, 400.0, 1e4, 400.0, 1e-4]), plots)
+    assert bank.kind == "plain_imm" and bank.state_dimension == 5
+    for t in range(3):
+        mean, _ = bank.estimate(t)
+        assert abs(mean[0] - truth[t][0]) < 500.0 and abs(mean[2] - truth[t][2]) < 500.0
+
+
 @pytest.mark.parametrize("name,kind,dimension", [("cv3_imm.h5", "plain_imm", 4),
+                                                 ("classical_imm_air_surveillance.h5",
+                                                  "plain_imm", 5),
                                                  ("ga_fuzzy_imm.h5", "ga_fuzzy_imm", 4),
                                                  ("mlp_input_estimator.h5",
                                                   "mlp_input_estimator", 4),

@@ -30,6 +30,7 @@
 #include "imm/tracking/fimm_track_bank.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
+#include "imm/tracking/plain_imm_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "imm/tracking/tracker.hpp"
 #include "imm/tracking/wimm_track_bank.hpp"
@@ -138,6 +139,35 @@ TEST(AllocationFreeStep, TrackBankStep) {
   }
   EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
   EXPECT_EQ(status[8], StepStatus::kOk);
+  EXPECT_EQ(allocations(), before);
+}
+
+// The bank of any plain IMM, here CV + CA + CT modes in 7 states: 300 tracks, a bad plot included.
+TEST(AllocationFreeStep, PlainImmTrackBankStep) {
+  PlainImmSpec spec = testing::cv3_spec();
+  spec.modes[1].motion = MotionKind::kConstantAcceleration;
+  spec.modes[2].motion = MotionKind::kCoordinatedTurn;
+  spec.modes[2].turn_noise = 1e-4;
+  spec.initialization.turn_rate_variance = 0.01;
+  ASSERT_EQ(spec.mixing_dimension(), 7);
+  const std::size_t tracks = 300;
+  PlainImmTrackBank<7> bank(spec, tracks);
+  GaussianState<7> start;
+  start.mean.setZero();
+  start.covariance = SquareMatrix<7>::Identity();
+  for (std::size_t t = 0; t < tracks; ++t) bank.initialize(t, start);
+  std::vector<Eigen::Vector2d> plots(tracks);
+  std::vector<StepStatus> status(tracks);
+  const long before = allocations();
+  for (int k = 0; k < 100; ++k) {
+    for (std::size_t t = 0; t < tracks; ++t)
+      plots[t] = Eigen::Vector2d(0.5 * k + static_cast<double>(t), -0.2 * k);
+    plots[7] = Eigen::Vector2d(std::nan(""), 0.0);
+    bank.step(plots, status);
+    (void)bank.log_mode_probabilities(3);
+  }
+  EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
+  EXPECT_EQ(status[tracks - 1], StepStatus::kOk);
   EXPECT_EQ(allocations(), before);
 }
 

@@ -33,11 +33,14 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
     if (spec.modes[i].motion != MotionKind::kConstantVelocity) {
       throw InvalidParameter(mode_field(i, "motion"),
                              "the track bank runs constant-velocity modes only, got '" +
-                                 std::string(to_string(spec.modes[i].motion)) + "'");
+                                 std::string(to_string(spec.modes[i].motion)) +
+                                 "' (PlainImmTrackBank runs every plain IMM)");
     }
   }
   if (spec.measurement.kind != MeasurementKind::kCartesian) {
-    throw InvalidParameter("measurement.kind", "the track bank needs a Cartesian measurement");
+    throw InvalidParameter("measurement.kind",
+                           "the track bank needs a Cartesian measurement (PlainImmTrackBank runs "
+                           "every plain IMM)");
   }
   bank::require_capacity(capacity);
   modes_ = static_cast<int>(spec.modes.size());

@@ -1,0 +1,73 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/tracking/plain_imm_track_bank.hpp"
+
+#include <string>
+
+#include "bank_checks.hpp"
+#include "imm/core/invalid_parameter.hpp"
+
+namespace imm {
+
+template <int NX>
+PlainImmTrackBank<NX>::PlainImmTrackBank(const PlainImmSpec& spec, std::size_t capacity) {
+  bank::require_capacity(capacity);
+  spec.validate();
+  if (spec.mixing_dimension() != NX) {
+    throw InvalidParameter("modes", "their mixing space has " +
+                                        std::to_string(spec.mixing_dimension()) +
+                                        " states, not the bank's " + std::to_string(NX));
+  }
+  tracks_.reserve(capacity);
+  for (std::size_t t = 0; t < capacity; ++t) tracks_.push_back(build_plain_imm<NX>(spec));
+  initialized_.assign(capacity, 0);
+}
+
+template <int NX>
+std::size_t PlainImmTrackBank<NX>::checked(std::size_t track) const {
+  return bank::checked_track(track, tracks_.size());
+}
+
+template <int NX>
+void PlainImmTrackBank<NX>::initialize(std::size_t track, const GaussianState<NX>& state) {
+  const std::size_t t = checked(track);
+  if (!state.usable()) {
+    throw InvalidParameter("state",
+                           "the mean and covariance must be finite, with no negative variance");
+  }
+  tracks_[t].initialize(state);
+  initialized_[t] = 1;
+}
+
+template <int NX>
+void PlainImmTrackBank<NX>::step(std::span<const Eigen::Vector2d> plots,
+                                 std::span<StepStatus> status) {
+  bank::check_step("PlainImmTrackBank", plots.size(), status.size(), initialized_);
+  for (std::size_t t = 0; t < plots.size(); ++t) status[t] = tracks_[t].step(plots[t]);
+}
+
+template <int NX>
+bool PlainImmTrackBank<NX>::initialized(std::size_t track) const {
+  return initialized_[checked(track)] != 0;
+}
+
+template <int NX>
+GaussianState<NX> PlainImmTrackBank<NX>::estimate(std::size_t track) const {
+  return tracks_[checked(track)].estimate();
+}
+
+template <int NX>
+ModeVector PlainImmTrackBank<NX>::mode_probabilities(std::size_t track) const {
+  return tracks_[checked(track)].mode_probabilities();
+}
+
+template <int NX>
+ModeVector PlainImmTrackBank<NX>::log_mode_probabilities(std::size_t track) const {
+  return tracks_[checked(track)].log_mode_probabilities();
+}
+
+template class PlainImmTrackBank<4>;
+template class PlainImmTrackBank<5>;
+template class PlainImmTrackBank<6>;
+template class PlainImmTrackBank<7>;
+
+}  // namespace imm
