@@ -54,6 +54,13 @@ void add_common_options(CLI::App& command, CommonOptions& options, const std::st
                    "recordings), judged by their errors");
 }
 
+void add_classical_option(CLI::App& command, CommonOptions& options) {
+  command.add_option("--classical", options.classical,
+                     "the regime's tuned CV/CA/CT IMM (imm-train baseline --config "
+                     "configs/classical_imm.toml) to list as the classical bar (default: tuned "
+                     "here on the model's training split, the same search)");
+}
+
 std::string EvaluationRegimes::describe() const {
   std::string text = "regime " + evaluated.regime.name;
   if (!evaluated.regime.file.empty()) text += " (" + evaluated.regime.file + ")";

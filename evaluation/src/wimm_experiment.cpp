@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "imm/evaluation/classical_bar.hpp"
 #include "imm/evaluation/consistency.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
@@ -305,6 +306,10 @@ int run(const CommonOptions& options) {
                  "ratios.\n";
   }
   print_recorded_prediction(data, plot_outcomes, "wIMM");
+  // The 2-D filter a tracking engineer would set for the regime, on the same plots.
+  details["versus_classical_bar"] = compare_with_classical_bar(
+      "wIMM", [&] { return std::make_unique<WimmFilter>(trained); }, trained.track_options(),
+      regimes.trained.regime, data, sensor, findings, options.classical);
   std::cout << "\nGates (settled azimuth "
             << (paper_scenario(regime) ? "below the nIMM's (the seed's scenario)"
                                        : "not above the nIMM's (a regime beyond the seed)")
@@ -336,6 +341,7 @@ void add_wimm_command(CLI::App& app, ExitCode& exit_code) {
   auto* command = app.add_subcommand(
       "wimm", "seed 004 Table 2: weighted IMM vs normal IMM and a tuned normal IMM");
   add_common_options(*command, *options, "wimm", "reports/wimm");
+  add_classical_option(*command, *options);
   command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
 }
 

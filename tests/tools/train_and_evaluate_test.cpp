@@ -214,8 +214,13 @@ TEST_F(Tools, GaAndInputEstimatorTrainAndEvaluateOnARegimeWrittenInTheTest) {
   const auto& interval = row.at("corrected_minus_imm_tuned").at("position_mse");
   EXPECT_LE(interval.at(1).get<double>(), interval.at(0).get<double>());
   EXPECT_LE(interval.at(0).get<double>(), interval.at(2).get<double>());
+  // Beside it, the 2-D classical bar (the regime's tuned CV/CA/CT IMM) on the same tracks.
+  EXPECT_NE(mlp_report.out.find("Against CT-IMM-tuned (the classical bar"), std::string::npos)
+      << mlp_report.out;
+  const std::string bar_verdict = metrics.at("results").at("versus_classical_bar").at("verdict");
   if (mlp_report.exit_code != 5) {  // gates passed: exit 7 exactly when there is a finding
-    EXPECT_EQ(mlp_report.exit_code == 7, verdict != "beats") << mlp_report.out;
+    EXPECT_EQ(mlp_report.exit_code == 7, verdict != "beats" || bar_verdict != "beats")
+        << mlp_report.out;
   }
   // The regression gate also holds back a less consistent candidate: one NEES figure per case.
   EXPECT_EQ(consistency_headlines(dir_ / "mlp-report"),
@@ -560,6 +565,31 @@ TEST_F(Tools, FcmTrainingAndEvaluationEndToEnd) {
   }
   EXPECT_TRUE(std::filesystem::exists(out / "position_rmse.csv"));
   EXPECT_NE(evaluated.out.find("the model's own"), std::string::npos) << evaluated.out;
+
+  // Its learned part off (λ held at 0), the model is the IMM its trainer tuned, and the
+  // experiment's IMM-tuned is that same IMM (one objective, one search, one baseline): the two
+  // rows agree in every figure, to rounding.
+  replace("compensation_gain = [0.0, 1.0]", "compensation_gain = [0.0, 0.0]");
+  testing::write_text(dir_ / "fcm_off.toml", config);
+  const auto off = run_tool("imm-train",
+                            {"fcm", "--config", (dir_ / "fcm_off.toml").string(), "--regime",
+                             (dir_ / "fcm_imm_training.toml").string(), "--out",
+                             (models / "fcm_off.h5").string(), "--seed", "4"},
+                            root_);
+  ASSERT_EQ(off.exit_code, 0) << off.err;
+  EXPECT_NE(off.err.find("learned part switched off"), std::string::npos) << off.err;
+  const auto off_evaluated = run_tool("imm-eval",
+                                      {"fcm-imm", "--models", models.string(), "--model", "fcm_off",
+                                       "--runs", "4", "--out", (dir_ / "off-report").string()},
+                                      root_);
+  ASSERT_TRUE(off_evaluated.exit_code == 0 || off_evaluated.exit_code == 5 ||
+              off_evaluated.exit_code == 7)
+      << off_evaluated.err;
+  const auto off_metrics = evaluation_results(dir_ / "off-report");
+  for (const char* key : {"pos_rmse", "vel_rmse", "pos_rmse_maneuver", "vel_rmse_maneuver"}) {
+    const double tuned = off_metrics["IMM-tuned"][key].get<double>();
+    EXPECT_NEAR(off_metrics["FCM-IMM"][key].get<double>(), tuned, 1e-9 * tuned) << key;
+  }
 
   // A model that is not an fcm_imm file is refused with exit code 2.
   std::filesystem::create_directories(dir_ / "wrong");

@@ -149,6 +149,18 @@ void FcmTrainingConfig::validate() const {
           "gate.max_validation_ratio", "must be positive");
 }
 
+FcmTrainingConfig fcm_config_from_text(const std::string& text, const std::string& name,
+                                       const datasets::Regime& regime) {
+  const auto document = support::ConfigDocument::parse(text, name);
+  FcmTrainingConfig config = document->load_checked([&] {
+    if (document->root().has("regime")) (void)document->root().text("regime");  // recorded apart
+    return config_from(document->root(), regime);
+  });
+  config.text = text;
+  config.name = name;
+  return config;
+}
+
 FcmTrainingConfig load_fcm_config(const std::filesystem::path& path,
                                   const std::optional<std::filesystem::path>& regime) {
   return load_training_config<FcmTrainingConfig>(path, config_from, regime);

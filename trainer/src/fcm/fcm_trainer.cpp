@@ -14,13 +14,13 @@
 #include "imm/core/physical_limits.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/io/fcm_imm_file.hpp"
+#include "imm/math/log_sum_exp.hpp"
 #include "imm/support/bounded_search.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/parallel_for.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
-#include "imm/math/log_sum_exp.hpp"
 
 using imm::support::grid_then_subplex;
 using imm::support::SearchOptions;
@@ -349,7 +349,9 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
         window, search.value, fitted.compensation_gain, fitted.clustering.fuzzifier,
         fitted.separation, fitted.transition(0, 0), fitted.process_noise.front(), n,
         fitted.process_noise.back(), search.evaluations, seconds);
-    if (search.value < best_objective) {
+    // Only a fit that compensates is the learned part: one that ends at λ = 0 is a constant-q
+    // IMM tuned further, which the model would then claim to be "that IMM" without being it.
+    if (search.value < best_objective && fitted.compensation_gain > 0.0) {
       best_objective = search.value;
       best = fitted;
     }

@@ -39,6 +39,9 @@ struct CommonOptions {
   /// --truth-tracks: only the test tracks that carry truth (a recorded set with truth for some
   /// recordings), judged by their errors.
   bool truth_tracks = false;
+  /// --classical: the regime's tuned CV/CA/CT IMM (classical_bar.hpp) as `imm-train baseline`
+  /// wrote it; without it the experiment tunes that filter itself.
+  std::optional<std::filesystem::path> classical;
 
   /// The model file: `model` if it names an existing path, else models/model(.h5).
   [[nodiscard]] std::filesystem::path model_path() const;
@@ -47,6 +50,9 @@ struct CommonOptions {
 /// Adds the shared options to a subcommand; `model` and `out` are the defaults.
 void add_common_options(CLI::App& command, CommonOptions& options, const std::string& model,
                         const std::filesystem::path& out);
+
+/// Adds --classical (CommonOptions::classical), for the experiments that list the classical bar.
+void add_classical_option(CLI::App& command, CommonOptions& options);
 
 /// A --regime value: a regime TOML, or a model file (.h5) whose recorded regime is meant (so a
 /// candidate and the shipped model are evaluated on the same tracks).

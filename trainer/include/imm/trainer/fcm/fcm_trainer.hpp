@@ -66,6 +66,12 @@ struct FcmTrainingConfig {
     const std::filesystem::path& path,
     const std::optional<std::filesystem::path>& regime = std::nullopt);
 
+/// The config a model was trained from, from the text it recorded (`name` for messages) on the
+/// regime it recorded (its own `regime` key is not followed). ConfigError naming the key.
+[[nodiscard]] FcmTrainingConfig fcm_config_from_text(const std::string& text,
+                                                     const std::string& name,
+                                                     const datasets::Regime& regime);
+
 /// Tracks to score on: a split of a regime.
 using TrackingData = datasets::TrackSet;
 

@@ -1,0 +1,53 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// The bar a tracking engineer would set, in every experiment: the regime's classical IMM of CV,
+/// CA and coordinated-turn modes (trainer/classical/classical_imm.hpp), tuned on the training
+/// split of the model's regime with the search and budget of `imm-train baseline --config
+/// configs/classical_imm.toml` — so it is the very filter that command ships for the regime —
+/// and run on the experiment's test tracks beside its IMM-tuned, with NEES and NIS.
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "imm/datasets/regime.hpp"
+#include "imm/datasets/track.hpp"
+#include "imm/evaluation/monte_carlo.hpp"
+#include "imm/filters/plain_imm.hpp"
+
+namespace imm::evaluation {
+
+/// Its name in the experiments' tables.
+inline constexpr std::string_view kClassicalBarName = "CT-IMM-tuned";
+
+struct ClassicalBar {
+  PlainImmSpec spec;
+  /// Which modes, their intensities, the stay probability and the search's evaluations.
+  std::string parameters;
+  double training_objective = 0.0;  ///< ζ_p + ζ_v (or the excess NLL) on the training split
+};
+
+/// The classical bar of `own` (the model's regime), or nothing when its plots are neither
+/// Cartesian nor polar (a range sensor's). With `file` (--classical), that model instead of a
+/// search: a classical `plain_imm` file trained for `own` (std::runtime_error naming the file and
+/// what differs otherwise).
+[[nodiscard]] std::optional<ClassicalBar> tune_classical_bar(
+    const datasets::Regime& own, const std::optional<std::filesystem::path>& file = std::nullopt);
+
+/// For an experiment whose own tables are not 2-D tracks (per axis, per case): `learned` and the
+/// classical bar of `own`, each run on the test tracks `data` (plots around `sensor`), printed as
+/// "Against CT-IMM-tuned (the classical bar)" — ζ_p, ζ_v, the position RMSE overall and in
+/// manoeuvres, the differences with their 95 % intervals, the verdict and both consistencies
+/// (without truth: the predictive NLL and the innovation RMS). A learned model that does not beat
+/// the bar adds a finding. Returns the comparison for details.json (null without a bar).
+[[nodiscard]] nlohmann::json compare_with_classical_bar(
+    const std::string& learned_name, const FilterFactory& learned, const TrackOptions& options,
+    const datasets::Regime& own, const datasets::TrackSet& data, const Eigen::Vector2d& sensor,
+    std::vector<std::string>& findings,
+    const std::optional<std::filesystem::path>& file = std::nullopt);
+
+}  // namespace imm::evaluation
