@@ -17,6 +17,7 @@
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/ga/tuned_baseline_file.hpp"
+#include "imm/trainer/learning_curve.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/model_files/envelope.hpp"
 #include "imm/trainer/provenance.hpp"
@@ -121,6 +122,11 @@ int run_ga(const GaCommand& command) {
           "validation split: the learned tables do not beat the tuned IMM (error {:.4f} against "
           "{:.4f}{}): learned part switched off, the model is the tuned constant-q IMM",
           c.learned.error, c.baseline.error, rms);
+      if (const std::string small =
+              trainer::small_split_warning("ga", config.regime.splits.training, config.regime.name);
+          !small.empty()) {
+        spdlog::warn("{}", small);
+      }
     }
   }
   if (!result.gate_passed) {
@@ -252,6 +258,13 @@ int train_fcm(const TrainCommand& command) {
       datasets::to_string(config.regime.units), result.training.objective,
       result.validation.objective, result.imm_validation.objective, result.kf_validation.objective,
       result.evaluations, result.wall_seconds);
+  if (!result.learned_part_on) {
+    if (const std::string small =
+            trainer::small_split_warning("fcm", config.regime.splits.training, config.regime.name);
+        !small.empty()) {
+      spdlog::warn("{}", small);
+    }
+  }
   if (!result.gate_passed) {
     spdlog::error(
         "quality gate failed: validation J {:.4f} exceeds {:.3f} x the tuned KF's "
