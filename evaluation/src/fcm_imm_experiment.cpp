@@ -208,21 +208,11 @@ int run(const CommonOptions& options) {
   // from the training config the model recorded: IMM-tuned is then the very IMM the trainer
   // started from (its λ = 0 member), so a model whose learned part is off ties it. A model that
   // recorded no such config gets the search from its own settings.
-  trainer::fcm::FcmTrainingConfig tuning;
-  try {
-    tuning = trainer::fcm::fcm_config_from_text(reader.provenance().config_toml,
-                                                model_path.string() + " (/@config_toml)",
-                                                regimes.trained.regime);
-  } catch (const std::exception& error) {
-    std::cerr << "fcm-imm: " << model_path.string()
-              << ": its recorded training config does not load here (" << error.what()
-              << "); the baselines are searched from its own settings\n";
-    tuning = {};
-    tuning.regime = regimes.trained.regime;
-    tuning.filter = fitted;
-    tuning.initial_first_probability = fitted.initial_probabilities(0);
-    tuning.tuning.set_automatic_log_q(tuning.regime);
-  }
+  std::string note;
+  const trainer::fcm::FcmTrainingConfig tuning = trainer::fcm::model_training_config(
+      reader.provenance().config_toml, model_path.string() + " (/@config_toml)",
+      regimes.trained.regime, fitted, note);
+  if (!note.empty()) std::cerr << "fcm-imm: " << model_path.string() << ": " << note << '\n';
   const datasets::TrackSet training =
       datasets::draw_split(tuning.regime, datasets::Split::kTraining, 0);
   const auto kf = trainer::fcm::tune_kf(tuning, training);

@@ -18,6 +18,7 @@
 #include "testing/hdf5_edit.hpp"
 #include "testing/regime_files.hpp"
 #include "testing/run_tool.hpp"
+#include "testing/study.hpp"
 #include "testing/temp_dir.hpp"
 #include "testing/tools_fixture.hpp"
 
@@ -931,7 +932,8 @@ TEST(NightlyProduct, KillNineDuringPromotionLeavesTheOldOrTheNewState) {
   const auto [p, night, shipped] = first_night(dir);
   ASSERT_EQ(night.exit_code, 0) << night.err;
   std::uint64_t state = 12345;
-  for (int round = 0; round < 20; ++round) {
+  const int rounds = testing::quick_or_study(8, 20);  // make test-long: 20
+  for (int round = 0; round < rounds; ++round) {
     // Each round a new config text, so that every run trains, evaluates and promotes.
     write_cv3(dir / "cv3.toml", 1.0, "# round " + std::to_string(round) + "\n");
     const std::string out = (dir / "out.txt").string(), err = (dir / "err.txt").string();

@@ -161,6 +161,23 @@ FcmTrainingConfig fcm_config_from_text(const std::string& text, const std::strin
   return config;
 }
 
+FcmTrainingConfig model_training_config(const std::string& text, const std::string& name,
+                                        const datasets::Regime& regime, const FcmImmSpec& spec,
+                                        std::string& note) {
+  try {
+    return fcm_config_from_text(text, name, regime);
+  } catch (const std::exception& error) {
+    note = std::string("its recorded training config does not load here (") + error.what() +
+           "); the baselines are searched from its own settings";
+  }
+  FcmTrainingConfig config;
+  config.regime = regime;
+  config.filter = spec;
+  config.initial_first_probability = spec.initial_probabilities(0);
+  config.tuning.set_automatic_log_q(config.regime);
+  return config;
+}
+
 FcmTrainingConfig load_fcm_config(const std::filesystem::path& path,
                                   const std::optional<std::filesystem::path>& regime) {
   return load_training_config<FcmTrainingConfig>(path, config_from, regime);

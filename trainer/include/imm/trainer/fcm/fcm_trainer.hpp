@@ -72,6 +72,13 @@ struct FcmTrainingConfig {
                                                      const std::string& name,
                                                      const datasets::Regime& regime);
 
+/// The training config of a model: the one it recorded (fcm_config_from_text), or, when that text
+/// does not load here, one from its own spec with the automatic q range; `note` then says why.
+[[nodiscard]] FcmTrainingConfig model_training_config(const std::string& text,
+                                                      const std::string& name,
+                                                      const datasets::Regime& regime,
+                                                      const FcmImmSpec& spec, std::string& note);
+
 /// Tracks to score on: a split of a regime.
 using TrackingData = datasets::TrackSet;
 
