@@ -35,10 +35,6 @@ struct DrillTarget {
   /// regime files are drilled as targets of their own).
   std::string regime = "";
   std::vector<std::pair<std::string, double>> regime_quick = {};
-  /// Each run is a whole evaluation (its baselines tuned afresh): the default suite drills every
-  /// key at two of the absurd values (key l at values l and l + 3, so each value is met across the
-  /// keys), `make test-long` at all of them.
-  bool sampled = false;
   /// The model's regime: its classical IMM is tuned once into {dir}/classical.h5, which the
   /// arguments pass as --classical (every run would tune it again otherwise).
   std::string classical_regime = "";
@@ -158,7 +154,9 @@ TEST_P(ConfigDrill, EveryNumericKeyAtEveryAbsurdValueIsRefusedNamingTheKeyOrRuns
       0.0, -1.0, 1e-320, 1e308, std::numeric_limits<double>::quiet_NaN(), kInf};
   std::size_t runs = 0, refused = 0;
   std::vector<std::string> failures;
-  const bool every_value = !target.sampled || testing::running_as_study();
+  // The default suite drills every key at two of the absurd values (key l at values l and l + 3,
+  // so each value is met across the keys); `make test-long` at all of them.
+  const bool every_value = testing::running_as_study();
   for (std::size_t l = 0; l < leaves.size(); ++l) {
     for (std::size_t v = 0; v < values.size(); ++v) {
       if (!every_value && v != l % values.size() && v != (l + 3) % values.size()) continue;
@@ -309,7 +307,6 @@ INSTANTIATE_TEST_SUITE_P(
                      "{dir}/report", "--classical", "{dir}/classical.h5"},
                     "",
                     {},
-                    true,
                     "configs/regimes/paper/ga_imm_training.toml"},
         DrillTarget{"wimm_evaluation",
                     "configs/regimes/paper/wimm_table2.toml",
@@ -319,17 +316,13 @@ INSTANTIATE_TEST_SUITE_P(
                      "{dir}/report", "--classical", "{dir}/classical.h5"},
                     "",
                     {},
-                    true,
                     "configs/regimes/paper/wimm_training.toml"},
         DrillTarget{"fimm_evaluation",
                     "configs/tsk_range_sensor.toml",
                     {},
                     "imm-eval",
                     {"fimm", "--config", "{config}", "--models", "models", "--runs", "4", "--out",
-                     "{dir}/report"},
-                    "",
-                    {},
-                    true},
+                     "{dir}/report"}},
         DrillTarget{"track",
                     "configs/track/cv3_imm.toml",
                     {},
