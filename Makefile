@@ -65,11 +65,16 @@ sanitize-build: deps
 # sanitized suite's 894 s; the same experiment runs here on a small regime in
 # Tools.GaAndInputEstimatorTrainAndEvaluateOnARegimeWrittenInTheTest), the fast-turn regime's
 # classical bar end to end (206 s sanitized; its tuner, experiments and rank run here in
-# Tools.TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest) and the studies (long). The
+# Tools.TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest), the FCM-IMM's training and
+# evaluation end to end (232 s sanitized: two trainings, each experiment tuning its classical bar;
+# the FCM trainer and filter run sanitized in FcmTraining.* and FcmImm.*, its experiment on
+# recorded plots in Tools.RecordingsExported…), the partial-truth recordings (192 s; their import
+# and judgement run sanitized in Tools.RecordingsExported… and RecordedTracks.*) and the studies
+# (long). The
 # config drills of the trainers, the tools and the regime files do run here: an absurd value must
 # not reach undefined behaviour.
 SANITIZE_EXCLUDE_LABELS ?= ^(drill|nightly|mpi|long)$$
-SANITIZE_EXCLUDE ?= ConfigDrill.*_evaluation|Tools.GaImmEvaluationReportsTable3ForEveryFilter|Tools.AFastTurnRegime.*
+SANITIZE_EXCLUDE ?= ConfigDrill.*_evaluation|Tools.GaImmEvaluationReportsTable3ForEveryFilter|Tools.AFastTurnRegime.*|Tools.FcmTrainingAndEvaluationEndToEnd|Tools.PartialTruthJudges.*
 test-sanitize: sanitize-build
 	@export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1 \
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
