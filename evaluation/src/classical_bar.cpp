@@ -115,16 +115,17 @@ nlohmann::json compare_with_classical_bar(
   std::vector<std::vector<std::string>> rows;
   nlohmann::json json = {{"bar", bar->parameters}, {"verdict", verdict_text}};
   std::optional<Difference> maneuvers;
-  if (data.has_truth) {
-    const HeadlineMetric a = ours.maneuver_position_rmse(), b = theirs.maneuver_position_rmse();
-    if (std::isfinite(b.value())) maneuvers = paired_difference(runs, a.statistic(), b.statistic());
+  const std::array<HeadlineMetric, 2> in_maneuvers{ours.maneuver_position_rmse(),
+                                                   theirs.maneuver_position_rmse()};
+  if (data.has_truth && std::isfinite(in_maneuvers[1].value())) {
+    maneuvers = paired_difference(runs, in_maneuvers[0].statistic(), in_maneuvers[1].statistic());
   }
   for (std::size_t i = 0; i < 2; ++i) {
     const FilterOutcome& f = outcomes[i];
     const std::vector<HeadlineMetric>& m = i == 0 ? ours_metrics : bar_metrics;
     rows.push_back({f.name, cell(m[0].value()), cell(m[second].value()),
                     data.has_truth ? cell(f.position_rmse) : "–",
-                    maneuvers ? cell(f.maneuver_position_rmse().value()) : "–",
+                    maneuvers ? cell(in_maneuvers[i].value()) : "–",
                     cell(f.position_consistency.average, 2), cell(f.nis_consistency.average, 2)});
     json["filters"][f.name] = {{"criteria", {m[0].value(), m[second].value()}},
                                {"position_rmse", f.position_rmse},
