@@ -351,12 +351,13 @@ class PyTrackBank {
                             imm::PlainImmTrackBank<4>, imm::PlainImmTrackBank<5>,
                             imm::PlainImmTrackBank<6>, imm::PlainImmTrackBank<7>>;
   // A plain IMM: TrackBank's vectorized kernel for CV modes with Cartesian plots, the general
-  // bank of its mixing dimension otherwise (CA, Singer and turn modes, polar plots).
+  // bank of its mixing dimension otherwise (CA, Singer and turn modes, scheduled noise, polar
+  // plots).
   static Bank open_plain(const imm::PlainImmSpec& spec, std::size_t capacity) {
     const bool cv_cartesian =
         spec.measurement.kind == imm::MeasurementKind::kCartesian &&
         std::all_of(spec.modes.begin(), spec.modes.end(), [](const imm::ModeSpec& m) {
-          return m.motion == imm::MotionKind::kConstantVelocity;
+          return m.motion == imm::MotionKind::kConstantVelocity && !m.noise_schedule;
         });
     if (cv_cartesian) return Bank(std::in_place_type<imm::TrackBank>, spec, capacity);
     switch (spec.mixing_dimension()) {

@@ -13,6 +13,7 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/kalman_mode.hpp"
+#include "imm/estimation/scheduled_noise_mode.hpp"
 #include "imm/estimation/turn_mode.hpp"
 #include "imm/models/measurement/polar_measurement.hpp"
 #include "imm/models/measurement/position_measurement.hpp"
@@ -71,6 +72,18 @@ std::unique_ptr<ImmMode<NX, 2>> make_turn_mode(const ModeSpec& mode, double T,
   const auto embedding = embedding_for<N, NX>();
   const SquareMatrix<N> Q =
       coordinated_turn_noise(T, mode.process_noise, mode.turn_noise, mode.noise_form);
+  if (mode.noise_schedule) {
+    const TurnMotionStep motion{T, Q};
+    if (measurement.kind == MeasurementKind::kCartesian) {
+      using Model = PositionMeasurement<N, 2>;
+      return std::make_unique<ScheduledNoiseMode<NX, TurnMotionStep, Model>>(
+          mode.name, motion, *mode.noise_schedule, Model({0, 2}, measurement.covariance),
+          embedding);
+    }
+    using Model = PolarMeasurement<N>;
+    return std::make_unique<ScheduledNoiseMode<NX, TurnMotionStep, Model>>(
+        mode.name, motion, *mode.noise_schedule, Model(0, 2, measurement.covariance), embedding);
+  }
   if (measurement.kind == MeasurementKind::kCartesian) {
     using Model = PositionMeasurement<N, 2>;
     return std::make_unique<CoordinatedTurnMode<NX, Model>>(
@@ -86,6 +99,17 @@ std::unique_ptr<ImmMode<NX, 2>> make_mode(const ModeSpec& mode, const LinearMoti
                                           const MeasurementSpec& measurement) {
   constexpr int kY = N / 2;  // index of y: 2 in [x, vx, y, vy], 3 in [x, vx, ax, y, vy, ay]
   const auto embedding = embedding_for<N, NX>();
+  if (mode.noise_schedule) {
+    const LinearMotionStep<N> step{motion};
+    if (measurement.kind == MeasurementKind::kCartesian) {
+      using Model = PositionMeasurement<N, 2>;
+      return std::make_unique<ScheduledNoiseMode<NX, LinearMotionStep<N>, Model>>(
+          mode.name, step, *mode.noise_schedule, Model({0, kY}, measurement.covariance), embedding);
+    }
+    using Model = PolarMeasurement<N>;
+    return std::make_unique<ScheduledNoiseMode<NX, LinearMotionStep<N>, Model>>(
+        mode.name, step, *mode.noise_schedule, Model(0, kY, measurement.covariance), embedding);
+  }
   if constexpr (NX == 4 && N == 4) {
     if (measurement.kind == MeasurementKind::kCartesian) {
       // The written-out algebra of the common case (cv_position_mode.hpp).
@@ -131,6 +155,11 @@ InitializationMethod initialization_method_from(std::string_view name, const std
   return value_named(kInitializationMethodNames, name, field, "initialization");
 }
 
+bool PlainImmSpec::has_noise_schedule() const {
+  return std::any_of(modes.begin(), modes.end(),
+                     [](const ModeSpec& m) { return m.noise_schedule.has_value(); });
+}
+
 bool PlainImmSpec::has_turn_rate() const {
   return std::any_of(modes.begin(), modes.end(),
                      [](const ModeSpec& m) { return m.motion == MotionKind::kCoordinatedTurn; });
@@ -153,6 +182,9 @@ void PlainImmSpec::validate() const {
     for (std::size_t j = 0; j < i; ++j) {
       require(modes[j].name != mode.name, mode_field(i, "name"), "'" + mode.name + "' is repeated");
     }
+    require(!mode.noise_schedule || mode.motion != MotionKind::kSinger,
+            mode_field(i, "noise_schedule"),
+            "a Singer mode's noise is set by τ and σ_a, not scheduled");
     if (mode.motion == MotionKind::kSinger) {
       limits::require_in(mode.singer_tau, limits::kTimeConstant, mode_field(i, "tau"));
       limits::require_in(mode.singer_sigma, limits::kAcceleration, mode_field(i, "sigma_a"));

@@ -2,6 +2,7 @@
 #include "imm/io/plain_imm_file.hpp"
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/io/ga_fuzzy_imm_file.hpp"
 
 namespace imm::io {
 namespace {
@@ -63,6 +64,14 @@ void write_plain_imm(ModelFileWriter& writer, const PlainImmSpec& spec) {
     }
     writer.set_quantity(group, "tau", mode.singer_tau, "s");
     writer.set_quantity(group, "sigma_a", mode.singer_sigma, u.acceleration());
+    if (mode.noise_schedule) {
+      // A reader of version 2 would ignore the table and run the fixed Q: version 3.
+      writer.require_schema_version(3);
+      writer.set_attribute(group, "noise_schedule_rules",
+                           static_cast<std::int64_t>(mode.noise_schedule->size()));
+      writer.write_matrix(group + "/noise_schedule", rules_matrix(*mode.noise_schedule),
+                          {"c1", "sigma1", "c2", "sigma2", "w"}, "1,1,1,1,1");
+    }
   }
   writer.set_attribute("/measurement", "kind", std::string(to_string(spec.measurement.kind)));
   if (spec.measurement.kind == MeasurementKind::kPolar) {
@@ -121,6 +130,19 @@ PlainImmSpec read_plain_imm(const ModelFileReader& reader) {
     }
     mode.singer_tau = reader.real(group, "tau", ValueRule::kPositive);
     mode.singer_sigma = reader.real(group, "sigma_a", ValueRule::kNonNegative);
+    if (reader.container().attribute(group, "noise_schedule_rules")) {
+      if (reader.schema_version() < 3) {
+        reader.fail(group + "@noise_schedule_rules", "needs schema version 3");
+      }
+      const auto rules = reader.integer(group, "noise_schedule_rules", 1,
+                                        static_cast<std::int64_t>(FuzzyRuleTable::kMaxRules));
+      const std::string dataset = group + "/noise_schedule";
+      try {
+        mode.noise_schedule = table_from_matrix(reader.matrix(dataset, static_cast<int>(rules), 5));
+      } catch (const std::invalid_argument& error) {
+        reader.fail(dataset, error.what());
+      }
+    }
     spec.modes.push_back(std::move(mode));
   }
   try {

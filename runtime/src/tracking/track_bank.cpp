@@ -36,6 +36,11 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
                                  std::string(to_string(spec.modes[i].motion)) +
                                  "' (PlainImmTrackBank runs every plain IMM)");
     }
+    if (spec.modes[i].noise_schedule) {
+      throw InvalidParameter(mode_field(i, "noise_schedule"),
+                             "the track bank runs fixed process noise only (PlainImmTrackBank "
+                             "runs every plain IMM)");
+    }
   }
   if (spec.measurement.kind != MeasurementKind::kCartesian) {
     throw InvalidParameter("measurement.kind",

@@ -13,11 +13,13 @@
 /// (state_embedding.hpp).
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <variant>
 #include <vector>
 
 #include "imm/estimation/imm_estimator.hpp"
+#include "imm/models/learned/fuzzy_rule_table.hpp"
 #include "imm/models/motion/motion_model.hpp"
 #include "imm/runtime_export.hpp"
 #include "imm/tracking/track_options.hpp"
@@ -53,6 +55,10 @@ struct IMM_RUNTIME_EXPORT ModeSpec {
   double singer_sigma = 0.0;  ///< Singer: acceleration standard deviation σ_a
   /// CT: the turn rate's noise in the form of `noise_form` (rad²/s⁴ per period, or rad²/s³).
   double turn_noise = 0.0;
+  /// A learned schedule of the mode's Q (imm/estimation/scheduled_noise_mode.hpp): a rule table
+  /// from the mode's normalized innovation d and its change Δd to a dimensionless multiplier of Q.
+  /// None: Q is fixed (the classical mode). Not for Singer modes.
+  std::optional<FuzzyRuleTable> noise_schedule;
 };
 
 /// The plots a plain IMM takes.
@@ -79,6 +85,8 @@ struct IMM_RUNTIME_EXPORT PlainImmSpec {
 
   /// 4 when every mode is CV, 6 with a CA or Singer mode; one more with a CT mode (its ω).
   [[nodiscard]] int mixing_dimension() const;
+  /// Whether a mode's Q is scheduled by a learned table (a learned model, not a classical one).
+  [[nodiscard]] bool has_noise_schedule() const;
   /// Whether a mode is a coordinated turn (the state then ends with ω).
   [[nodiscard]] bool has_turn_rate() const;
   /// Throws InvalidParameter naming the first offending field.

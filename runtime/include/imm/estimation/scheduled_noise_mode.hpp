@@ -1,0 +1,180 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// An IMM mode whose process noise a fuzzy rule table schedules: the idea of the GA-fuzzy IMM
+/// (seed 000 §3.2, imm/filters/fuzzy_noise_filter.hpp) carried over to the modes of the classical
+/// CV/CA/CT IMM. Each step
+///   x̂⁻ = f(x̂₀),  P̄ = F P₀ Fᵀ                          (F the Jacobian of f at x̂₀)
+///   ν̄ = z − h(x̂⁻),  S̄ = H P̄ Hᵀ + R                      (before this step's process noise)
+///   d(k) = √(ν̄ᵀ S̄⁻¹ ν̄),  Δd(k) = d(k) − d(k−1)
+///   s(k) = table(d, Δd),  P⁻ = P̄ + s(k) Q
+///   then the Joseph-form (or iterated) update with z, as every mode's.
+/// d is the 2-D form of the GA's normalized innovation: dimensionless, about χ with 2 degrees of
+/// freedom while the mode fits the target, so one table reads alike at any plot σ, unit and period.
+/// The table's consequents are dimensionless multipliers of the mode's tuned Q (both the linear
+/// acceleration and, for a CT mode, the turn-rate intensity); a table whose every consequent is 1
+/// gives exactly the unscheduled mode. A missed plot predicts with the last step's multiplier.
+/// A new track starts with d(−1) = 0 and the table's mean multiplier.
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <utility>
+
+#include "imm/estimation/imm_mode.hpp"
+#include "imm/estimation/kalman_filter.hpp"
+#include "imm/estimation/state_embedding.hpp"
+#include "imm/models/learned/fuzzy_rule_table.hpp"
+#include "imm/models/motion/coordinated_turn.hpp"
+#include "imm/models/motion/motion_model.hpp"
+
+namespace imm {
+
+/// The motion of a linear mode (CV, CA, Singer) for ScheduledNoiseMode.
+template <int N>
+struct LinearMotionStep {
+  static constexpr int kDim = N;
+  LinearMotionModel<N> model;
+  [[nodiscard]] Vector<N> mean(const Vector<N>& x) const { return model.transition * x; }
+  [[nodiscard]] const SquareMatrix<N>& jacobian(const Vector<N>& /*x*/) const {
+    return model.transition;
+  }
+  [[nodiscard]] const SquareMatrix<N>& noise() const { return model.process_noise; }
+};
+
+/// The motion of a coordinated-turn mode (imm/models/motion/coordinated_turn.hpp).
+struct TurnMotionStep {
+  static constexpr int kDim = kCoordinatedTurnDim;
+  double sample_period = 1.0;
+  SquareMatrix<kDim> process_noise = SquareMatrix<kDim>::Zero();
+  [[nodiscard]] Vector<kDim> mean(const Vector<kDim>& x) const {
+    return coordinated_turn_step(x, sample_period);
+  }
+  [[nodiscard]] SquareMatrix<kDim> jacobian(const Vector<kDim>& x) const {
+    return coordinated_turn_jacobian(x, sample_period);
+  }
+  [[nodiscard]] const SquareMatrix<kDim>& noise() const { return process_noise; }
+};
+
+/// A mode of an NX-state mixing space whose Q a rule table scales (see the file comment).
+template <int NX, class Motion, class MeasurementModel>
+class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
+ public:
+  /// The mode's own state dimension.
+  static constexpr int kDim = Motion::kDim;
+  using ImmMode<NX, MeasurementModel::kDim>::kMeasurementDim;
+
+  /// `iterations` > 1: the iterated EKF update.
+  ScheduledNoiseMode(std::string name, const Motion& motion, FuzzyRuleTable schedule,
+                     const MeasurementModel& measurement, const StateEmbedding<kDim, NX>& embedding,
+                     int iterations = 1)
+      : name_(std::move(name)),
+        motion_(motion),
+        schedule_(std::move(schedule)),
+        measurement_(measurement),
+        embedding_(embedding),
+        iterations_(iterations) {}
+
+  [[nodiscard]] std::string_view name() const override { return name_; }
+
+  void embedded_estimate(Vector<NX>& mean, SquareMatrix<NX>& covariance) const override {
+    embedding_.embed(estimate_, mean, covariance);
+  }
+
+  /// Takes its components of a mixing-space Gaussian and starts the schedule afresh.
+  void reset(const GaussianState<NX>& state) override {
+    estimate_ = embedding_.project(state);
+    distance_ = 0.0;
+    multiplier_ = schedule_.mean_w();
+  }
+
+  /// The scheduled prediction from the mixed estimate, then the update with z; pending until
+  /// commit().
+  [[gnu::flatten]] ModeStep propose(const GaussianState<NX>& mixed,
+                                    const Vector<kMeasurementDim>& z) override {
+    predict_without_noise(mixed);
+    pending_distance_ = normalized_distance(z);
+    // A plot the model cannot score (NaN, undefined polar point) leaves d unknown: the table's
+    // mean multiplier, and the update below reports the plot's status.
+    pending_multiplier_ =
+        std::isfinite(pending_distance_)
+            ? schedule_.process_noise(pending_distance_, pending_distance_ - distance_)
+            : schedule_.mean_w();
+    if (!std::isfinite(pending_distance_)) pending_distance_ = distance_;
+    pending_.covariance += pending_multiplier_ * motion_.noise();
+    symmetrize(pending_.covariance);
+    if (!pending_.usable()) return {StepStatus::kNonFiniteResult, 0.0};
+    const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
+                                        : update(pending_, z, measurement_);
+    this->keep_innovation(report.innovation, report.innovation_covariance);
+    return {report.status, report.log_likelihood};
+  }
+
+  /// The prediction alone (a missed plot), with the last step's multiplier.
+  ModeStep propose_prediction(const GaussianState<NX>& mixed) override {
+    predict_without_noise(mixed);
+    pending_distance_ = distance_;
+    pending_multiplier_ = multiplier_;
+    pending_.covariance += multiplier_ * motion_.noise();
+    symmetrize(pending_.covariance);
+    return {pending_.usable() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
+  }
+
+  void predicted_mean(const GaussianState<NX>& mixed, Vector<NX>& mean) const override {
+    GaussianState<kDim> predicted = embedding_.project(mixed);
+    predicted.mean = motion_.mean(predicted.mean);
+    SquareMatrix<NX> unused;
+    embedding_.embed(predicted, mean, unused);
+  }
+
+  void commit() override {
+    estimate_ = pending_;
+    distance_ = pending_distance_;
+    multiplier_ = pending_multiplier_;
+  }
+
+  /// The mode's current estimate in its own states.
+  [[nodiscard]] const GaussianState<kDim>& estimate() const { return estimate_; }
+  /// s(k) of the last committed step: how far the schedule moved Q.
+  [[nodiscard]] double multiplier() const { return multiplier_; }
+  /// The table that sets s(k).
+  [[nodiscard]] const FuzzyRuleTable& schedule() const { return schedule_; }
+
+ private:
+  // pending_ = (f(x̂₀), F P₀ Fᵀ) from the mixed estimate.
+  void predict_without_noise(const GaussianState<NX>& mixed) {
+    const GaussianState<kDim> prior = embedding_.project(mixed);
+    const auto F = motion_.jacobian(prior.mean);
+    pending_.mean = motion_.mean(prior.mean);
+    pending_.covariance.noalias() = F * prior.covariance * F.transpose();
+  }
+
+  // d = √(ν̄ᵀ S̄⁻¹ ν̄) at pending_; NaN when the plot or the prediction cannot be scored.
+  [[nodiscard]] double normalized_distance(const Vector<kMeasurementDim>& z) const {
+    if (!limits::usable_measurement(z) || !measurement_.defined_at(pending_.mean))
+      return std::numeric_limits<double>::quiet_NaN();
+    const Vector<kMeasurementDim> nu =
+        measurement_.residual(z, measurement_.predict(pending_.mean));
+    const Matrix<kMeasurementDim, kDim> H = measurement_.jacobian(pending_.mean);
+    SquareMatrix<kMeasurementDim> S = H * pending_.covariance * H.transpose();
+    S += measurement_.covariance();
+    const Eigen::LLT<SquareMatrix<kMeasurementDim>> llt(S);
+    if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
+    return llt.matrixL().solve(nu).norm();
+  }
+
+  std::string name_;
+  Motion motion_;
+  FuzzyRuleTable schedule_;
+  MeasurementModel measurement_;
+  StateEmbedding<kDim, NX> embedding_;
+  int iterations_ = 1;
+  GaussianState<kDim> estimate_;
+  GaussianState<kDim> pending_;
+  double distance_ = 0.0, pending_distance_ = 0.0;
+  double multiplier_ = 1.0, pending_multiplier_ = 1.0;
+};
+
+}  // namespace imm
