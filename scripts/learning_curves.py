@@ -10,11 +10,13 @@ its base's:
   ga    configs/ga_fuzzy_imm_tuned.toml: validation ζ_p + ζ_v of the learned tables against the
         tuned constant-q IMM (against_baseline);
   fcm   configs/fcm_imm.toml: validation objective against the λ = 0 IMM;
-  wimm  configs/wimm_tuned.toml: validation objective as a ratio to the tuned nIMM.
+  wimm  configs/wimm_tuned.toml: validation objective as a ratio to the tuned nIMM;
+  schedule  configs/scheduled_ct_imm.toml: validation ζ_p + ζ_v of the noise schedules against
+        the tuned CV/CA/CT IMM they are learned on.
 The gain is (learned − base) / base on the validation split: below 0 the learned part helps.
 Writes <out>/learning_curves.csv and .md.
 
-  scripts/learning_curves.py [--kinds ga,fcm,wimm] [--sizes 6,12,24,48] [--validation 30]
+  scripts/learning_curves.py [--kinds ga,fcm,wimm,schedule] [--sizes 6,12,24,48] [--validation 30]
                              [--out reports/learning_curves] [--bin build/bin]
 """
 import argparse
@@ -31,6 +33,8 @@ KINDS = {
     "ga": ("ga", "configs/ga_fuzzy_imm_tuned.toml", ["agile_air", "ground_vehicle"]),
     "fcm": ("fcm", "configs/fcm_imm.toml", ["agile_air", "ground_vehicle"]),
     "wimm": ("wimm", "configs/wimm_tuned.toml", ["air_surveillance"]),
+    "schedule": ("schedule", "configs/scheduled_ct_imm.toml",
+                 ["agile_air", "air_surveillance", "ground_vehicle"]),
 }
 
 
@@ -43,6 +47,10 @@ def gain(kind, metrics):
     if kind == "fcm":
         base = metrics["imm_lambda0_validation"]["objective"]
         return (metrics["validation"]["objective"] - base) / base, bool(metrics["learned_part_on"])
+    if kind == "schedule":
+        s = metrics["noise_schedule"]
+        base = s["validation_base"]
+        return (s["validation"] - base) / base, bool(metrics["learned_part_on"])
     return metrics["validation_objective"] - 1.0, bool(metrics["learned_part_on"])
 
 

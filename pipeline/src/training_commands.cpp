@@ -14,6 +14,7 @@
 #include "imm/support/config.hpp"
 #include "imm/support/exit_codes.hpp"
 #include "imm/trainer/classical/classical_imm.hpp"
+#include "imm/trainer/classical/noise_schedule.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
 #include "imm/trainer/ga/tuned_baseline_file.hpp"
@@ -302,11 +303,39 @@ bool is_wimm_config(const std::filesystem::path& path) {
   return filter && filter->has("singer_tau");
 }
 
+// `imm-train schedule`: noise schedules learned on the tuned CV/CA/CT IMM of the config's
+// [classical] search (the same IMM `imm-train baseline` writes from the config).
+int run_schedule(const TrainCommand& command) {
+  namespace classical = trainer::classical;
+  classical::ClassicalImmConfig config =
+      classical::load_classical_config(command.config, command.regime);
+  if (!config.schedule_evaluations) {
+    throw support::ConfigError(command.config.string(), "schedule",
+                               "missing (the schedule's search; see "
+                               "configs/scheduled_ct_imm.toml)");
+  }
+  if (command.seed) config.seed = *command.seed;
+  const classical::ClassicalImmResult result = classical::write_classical_imm(config, command.out);
+  const classical::LearnedSchedule& schedule = *result.schedule;
+  spdlog::info(
+      "schedule: noise schedules on the tuned IMM (modes {}): {} {:.4f} -> {:.4f} on the training "
+      "split, {:.4f} -> {:.4f} on the validation split ({} evaluations): learned part {}; wrote {} "
+      "({:.1f} s)",
+      classical::to_string(result.tuned.modes), result.tuned.criterion,
+      schedule.training_base.objective, schedule.training.objective,
+      schedule.validation_base.objective, schedule.validation.objective, schedule.evaluations,
+      schedule.on ? "on" : "off (the file is the tuned IMM itself)", command.out.string(),
+      result.wall_seconds);
+  if (!result.small_split_warning.empty()) spdlog::warn("{}", result.small_split_warning);
+  return 0;
+}
+
 int run_baseline(const TrainCommand& command) {
   if (trainer::classical::is_classical_config(command.config)) {
     namespace classical = trainer::classical;
     classical::ClassicalImmConfig config =
         classical::load_classical_config(command.config, command.regime);
+    config.schedule_evaluations.reset();  // the baseline is the classical IMM alone
     if (command.seed) config.seed = *command.seed;
     const classical::ClassicalImmResult result =
         classical::write_classical_imm(config, command.out);
@@ -401,6 +430,13 @@ TrainingCommands::TrainingCommands(CLI::App& app) {
       "[classical] config the CV/CA/CT IMM (modes, intensities, stay)",
       baseline_command_);
   baseline_->get_option("--out")->required();
+  schedule_ = add_train_command(
+      app, "schedule",
+      "learn fuzzy noise schedules (seed 000's idea) on the regime's tuned CV/CA/CT IMM: every "
+      "mode's Q scaled by a rule table of its normalized innovation, kept when it improves the "
+      "validation split",
+      schedule_command_);
+  schedule_->get_option("--out")->required();
   tsk_ = add_train_command(
       app, "tsk", "fit the probabilistic TSK model of a range sensor (seed 002): FCRM, then Ceres",
       tsk_command_);
@@ -431,14 +467,20 @@ int TrainingCommands::dispatch() const {
   if (*fcm_) return train_fcm(fcm_command_);
   if (*import_) return run_import_rules(import_options_);
   if (*baseline_) return run_baseline(baseline_command_);
+  if (*schedule_) return run_schedule(schedule_command_);
   throw std::logic_error("no training subcommand was chosen");
 }
 
 std::vector<std::pair<const CLI::App*, std::filesystem::path>> TrainingCommands::outputs() const {
-  return {{ga_, ga_command_.out},         {freeze_, freeze_options_.out},
-          {mlp_, mlp_command_.out},       {wimm_, wimm_command_.out},
-          {fcm_, fcm_command_.out},       {tsk_, tsk_command_.out},
-          {import_, import_options_.out}, {baseline_, baseline_command_.out}};
+  return {{ga_, ga_command_.out},
+          {freeze_, freeze_options_.out},
+          {mlp_, mlp_command_.out},
+          {wimm_, wimm_command_.out},
+          {fcm_, fcm_command_.out},
+          {tsk_, tsk_command_.out},
+          {import_, import_options_.out},
+          {baseline_, baseline_command_.out},
+          {schedule_, schedule_command_.out}};
 }
 
 }  // namespace imm::pipeline

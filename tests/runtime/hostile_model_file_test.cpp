@@ -214,7 +214,7 @@ TEST(HostileModelFile, TextHoldsNoControlBytesAndNamesKeepTheirLimit) {
     }
   }
   const double value = 1.0;
-  for (const std::string name :
+  for (const std::string& name :
        {std::string("bad\nname"), std::string("esc\x1b"), std::string(300, 'a')}) {
     SCOPED_TRACE(name.size());
     const std::string refused = refusal_of(model, dir, [&](hid_t f) {

@@ -13,6 +13,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "imm/io/model_file.hpp"
+#include "imm/io/plain_imm_file.hpp"
 #include "testing/tools_fixture.hpp"
 
 namespace imm::testing {
@@ -122,6 +124,59 @@ TEST_F(Tools, AFastTurnRegimeWrittenInTheTestGetsTheClassicalBarEndToEnd) {
     EXPECT_GE(row["versus_baseline"]["zeta_p"][2].get<double>(), 0.0) << row.dump();
     EXPECT_GE(row["versus_baseline"]["zeta_v"][2].get<double>(), 0.0) << row.dump();
   }
+}
+
+// `imm-train schedule` on the same regime: the config's [classical] gives the base, which
+// `imm-train baseline` writes from the same file (it ignores [schedule]). A schedule that does not
+// improve the training and validation splits (here: a budget of one evaluation, the identity) is
+// switched off, the file is exactly that baseline with the learned part recorded as off, and the
+// trainer says that the split is smaller than where the schedule's learning curve flattens.
+TEST_F(Tools, AScheduleThatSwitchesOffIsTheClassicalBarItself) {
+  const auto regime = dir_ / "fast_turns.toml";
+  write_text(regime, kFastTurns);
+  std::string text = slurp(config("configs/scheduled_ct_imm.toml"));
+  text.replace(text.find("evaluations = 400"), 17, "evaluations = 1");
+  write_text(dir_ / "schedule.toml", text);
+  const auto base = dir_ / "base.h5";
+  const auto scheduled = dir_ / "scheduled.h5";
+  const auto tuned = run_tool("imm-train",
+                              {"baseline", "--config", (dir_ / "schedule.toml").string(),
+                               "--regime", regime.string(), "--out", base.string()},
+                              root_);
+  ASSERT_EQ(tuned.exit_code, 0) << tuned.err;
+  const auto learned = run_tool("imm-train",
+                                {"schedule", "--config", (dir_ / "schedule.toml").string(),
+                                 "--regime", regime.string(), "--out", scheduled.string()},
+                                root_);
+  ASSERT_EQ(learned.exit_code, 0) << learned.err;
+  EXPECT_NE(learned.err.find("learned part off"), std::string::npos) << learned.err;
+  EXPECT_NE(learned.err.find("splits.training = 6"), std::string::npos) << learned.err;
+
+  const io::ModelFileReader base_file(base, io::kPlainImmKind);
+  const io::ModelFileReader scheduled_file(scheduled, io::kPlainImmKind);
+  EXPECT_EQ(base_file.provenance().training_metrics.at("classical_baseline"), 1.0);
+  const auto& metrics = scheduled_file.provenance().training_metrics;
+  EXPECT_EQ(metrics.at("classical_baseline"), 0.0);
+  EXPECT_EQ(metrics.at("noise_schedule"), 1.0);
+  EXPECT_EQ(metrics.at("learned_part_on"), 0.0);
+  const PlainImmSpec a = io::read_plain_imm(base_file);
+  const PlainImmSpec b = io::read_plain_imm(scheduled_file);
+  EXPECT_FALSE(b.has_noise_schedule());
+  ASSERT_EQ(a.modes.size(), b.modes.size());
+  for (std::size_t j = 0; j < a.modes.size(); ++j) {
+    EXPECT_EQ(a.modes[j].process_noise, b.modes[j].process_noise);
+    EXPECT_EQ(a.modes[j].turn_noise, b.modes[j].turn_noise);
+  }
+  EXPECT_EQ(a.transition, b.transition);
+
+  // Without a [schedule] table the command refuses, naming it.
+  const auto refused =
+      run_tool("imm-train",
+               {"schedule", "--config", config("configs/classical_imm.toml").string(), "--regime",
+                regime.string(), "--out", (dir_ / "x.h5").string()},
+               root_);
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.err.find("schedule"), std::string::npos) << refused.err;
 }
 
 }  // namespace

@@ -17,6 +17,8 @@
 #include "imm/models/measurement/polar_measurement.hpp"
 #include "imm/support/bounded_search.hpp"
 #include "imm/tracking/tracker.hpp"
+#include "imm/trainer/classical/noise_schedule.hpp"
+#include "imm/trainer/learning_curve.hpp"
 #include "imm/trainer/normalized_errors.hpp"
 #include "imm/trainer/parallel_for.hpp"
 #include "imm/trainer/provenance.hpp"
@@ -296,6 +298,13 @@ ClassicalImmConfig load_classical_config(const std::filesystem::path& path,
         if (config.polish_evaluations > 10000) {
           table->fail("polish_evaluations", "must be at most 10000");
         }
+        if (const auto schedule = root.table("schedule")) {
+          const int evaluations = schedule->count_or("evaluations", 400);
+          if (evaluations < 1 || evaluations > 20000) {
+            schedule->fail("evaluations", "must be 1 to 20000 (Subplex's budget)");
+          }
+          config.schedule_evaluations = evaluations;
+        }
         if (config.regime.sensor.kind == datasets::SensorKind::kRangeSensor) {
           root.fail("regime",
                     "the classical IMM tracks Cartesian or polar plots, not a range "
@@ -311,7 +320,8 @@ ClassicalImmResult write_classical_imm(const ClassicalImmConfig& config,
   const auto start = std::chrono::steady_clock::now();
   const datasets::TrackSet training =
       datasets::draw_split(config.regime, datasets::Split::kTraining, config.regime.splits.seed);
-  ClassicalImmResult result{tune_classical_imm(config, training), 0.0};
+  ClassicalImmResult result;
+  result.tuned = tune_classical_imm(config, training);
   const TunedClassicalImm& tuned = result.tuned;
   io::Provenance provenance =
       make_provenance(std::string(io::kPlainImmKind), config.text,
@@ -320,9 +330,27 @@ ClassicalImmResult write_classical_imm(const ClassicalImmConfig& config,
   provenance.training_metrics["learned_part_on"] = 0.0;
   provenance.training_metrics[tuned.criterion] = tuned.score.objective;
   if (!training.has_truth) provenance.training_metrics["trained_without_truth"] = 1.0;
+  const PlainImmSpec* written = &tuned.spec;
+  if (config.schedule_evaluations) {
+    const datasets::TrackSet validation = datasets::draw_split(
+        config.regime, datasets::Split::kValidation, config.regime.splits.seed);
+    result.schedule = std::make_shared<const LearnedSchedule>(
+        learn_noise_schedule(tuned.spec, training, validation, *config.schedule_evaluations));
+    const LearnedSchedule& schedule = *result.schedule;
+    written = &schedule.spec;
+    provenance.training_metrics["classical_baseline"] = 0.0;
+    provenance.training_metrics["noise_schedule"] = 1.0;
+    provenance.training_metrics["learned_part_on"] = schedule.on ? 1.0 : 0.0;
+    provenance.training_metrics[tuned.criterion] =
+        schedule.on ? schedule.training.objective : tuned.score.objective;
+    if (!schedule.on) {
+      result.small_split_warning = small_split_warning(
+          "schedule", static_cast<int>(training.tracks.size()), config.regime.name);
+    }
+  }
   ensure_parent_folder(out);
   io::ModelFileWriter writer(out, provenance);
-  io::write_plain_imm(writer, tuned.spec);
+  io::write_plain_imm(writer, *written);
   writer.commit();
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -350,6 +378,27 @@ ClassicalImmResult write_classical_imm(const ClassicalImmConfig& config,
                          {"training_criterion", tuned.criterion},
                          {"training_objective", tuned.score.objective},
                          {"evaluations", tuned.evaluations}};
+  if (result.schedule) {
+    const LearnedSchedule& schedule = *result.schedule;
+    metrics["classical_baseline"] = false;
+    metrics["learned_part"] =
+        "fuzzy noise schedules of every mode's Q, learned on top of the tuned IMM above";
+    metrics["learned_part_on"] = schedule.on;
+    metrics["noise_schedule"] = {{"evaluations", schedule.evaluations},
+                                 {"training_base", schedule.training_base.objective},
+                                 {"training", schedule.training.objective},
+                                 {"validation_base", schedule.validation_base.objective},
+                                 {"validation", schedule.validation.objective}};
+    nlohmann::json tables = nlohmann::json::object();
+    for (const ModeSpec& m : schedule.spec.modes) {
+      if (!m.noise_schedule) continue;
+      nlohmann::json w = nlohmann::json::array();
+      for (const FuzzyRule& rule : m.noise_schedule->rules()) w.push_back(rule.w);
+      tables[m.name] = w;
+    }
+    metrics["noise_schedule"]["multipliers"] = tables;
+    if (!result.small_split_warning.empty()) metrics["warning"] = result.small_split_warning;
+  }
   metrics["training_tracks"] = training.tracks.size();
   metrics["wall_seconds"] = result.wall_seconds;
   write_json_atomically(metrics_path(out), metrics);

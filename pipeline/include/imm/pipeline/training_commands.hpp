@@ -68,9 +68,11 @@ class TrainingCommands {
   TrainCommand fcm_command_{"configs/fcm_imm.toml", "models/fcm_imm.h5", {}, {}};
   TrainCommand baseline_command_{"configs/ga_fuzzy_imm_tuned.toml", {}, {}, {}};
   TrainCommand tsk_command_{"configs/tsk_range_sensor.toml", "models/tsk_range_sensor.h5", {}, {}};
+  TrainCommand schedule_command_{"configs/scheduled_ct_imm.toml", {}, {}, {}};
   std::filesystem::path tsk_data_;
   CLI::App *freeze_ = nullptr, *ga_ = nullptr, *import_ = nullptr, *mlp_ = nullptr,
-           *wimm_ = nullptr, *fcm_ = nullptr, *tsk_ = nullptr, *baseline_ = nullptr;
+           *wimm_ = nullptr, *fcm_ = nullptr, *tsk_ = nullptr, *baseline_ = nullptr,
+           *schedule_ = nullptr;
 };
 
 /// A sweep job's arguments parsed as its subcommand's command line; a CLI::ParseError when they

@@ -58,7 +58,7 @@ struct IMM_RUNTIME_EXPORT ModeSpec {
   /// A learned schedule of the mode's Q (imm/estimation/scheduled_noise_mode.hpp): a rule table
   /// from the mode's normalized innovation d and its change Δd to a dimensionless multiplier of Q.
   /// None: Q is fixed (the classical mode). Not for Singer modes.
-  std::optional<FuzzyRuleTable> noise_schedule;
+  std::optional<FuzzyRuleTable> noise_schedule{};
 };
 
 /// The plots a plain IMM takes.

@@ -22,6 +22,8 @@
 ///   acceleration at 0 with variance a² (each within the runtime's limits).
 
 #include <filesystem>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -49,7 +51,10 @@ struct ClassicalImmConfig {
        MotionKind::kCoordinatedTurn}};
   int grid_points = 3;           ///< per searched dimension
   int polish_evaluations = 120;  ///< Subplex's budget after the grid, per mode set
-  std::string text, name;        ///< the config's text and file (provenance)
+  /// With a `[schedule]` table: learn noise schedules on the tuned IMM (noise_schedule.hpp) with
+  /// this Subplex budget (`imm-train schedule`); `imm-train baseline` ignores it.
+  std::optional<int> schedule_evaluations;
+  std::string text, name;  ///< the config's text and file (provenance)
 };
 
 /// Loads a config with a `[classical]` table (configs/classical_imm.toml); `regime_override` is the
@@ -98,14 +103,22 @@ struct TunedClassicalImm {
 [[nodiscard]] TunedClassicalImm tune_classical_imm(const ClassicalImmConfig& config,
                                                    const datasets::TrackSet& training);
 
+struct LearnedSchedule;
+
 struct ClassicalImmResult {
   TunedClassicalImm tuned;
+  /// With config.schedule_evaluations: the schedule's learning (on or off) and, when it switched
+  /// off on a small split, the warning that says so (learning_curve.hpp).
+  std::shared_ptr<const LearnedSchedule> schedule;
+  std::string small_split_warning;
   double wall_seconds = 0.0;
 };
 
 /// Draws the regime's training split, tunes, and writes the plain_imm model file `out` (with
 /// `classical_baseline` = 1 and `learned_part_on` = 0 in its training metrics) and its metrics
-/// file beside it.
+/// file beside it. With config.schedule_evaluations it then learns the noise schedules on top
+/// (validated on the validation split) and writes a learned model instead: `classical_baseline`
+/// = 0, `noise_schedule` = 1, `learned_part_on` 1 or 0 (off: exactly the tuned IMM).
 ClassicalImmResult write_classical_imm(const ClassicalImmConfig& config,
                                        const std::filesystem::path& out);
 
