@@ -3,14 +3,20 @@
 // configs/track/cv3_imm.toml) on a regime's test tracks, against each of its modes run alone as a
 // single Kalman filter, on identical plots. Metrics: seed 000's normalized errors ζ_p, ζ_v
 // (normalized_errors.hpp) and RMSEs, with the IMM's gain over each mode and its paired-bootstrap
-// interval. A plain IMM is written from a TOML, not trained: its regime is --regime, or
+// interval. A plain IMM written from a TOML is not trained: its regime is --regime, or
 // configs/regimes/paper/ga_imm_table3.toml (the seed-000 scenario) by default.
+//
+// A plain IMM with learned noise schedules (`imm-train schedule`) is evaluated on its own regime
+// (or --regime) and also against CT-IMM-tuned, the regime's CV/CA/CT IMM its schedules were
+// learned on (classical_bar.hpp; --classical for the shipped file). Gate: not worse than it in
+// ζ_p or ζ_v beyond the 95 % interval; not beating it is a finding.
 
 #include <algorithm>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "imm/datasets/dataset_file.hpp"
+#include "imm/evaluation/classical_bar.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
@@ -61,13 +67,42 @@ PlainImmSpec single_mode(const PlainImmSpec& spec, std::size_t j) {
   return single;
 }
 
+// Whether the file is a scheduled IMM written by `imm-train schedule` (its schedule on or off).
+bool learned_schedule(const io::Provenance& provenance) {
+  const auto it = provenance.training_metrics.find("noise_schedule");
+  return it != provenance.training_metrics.end() && it->second == 1.0;
+}
+
+// The gate of a scheduled IMM against the bar's comparison (compare_with_classical_bar).
+std::vector<std::string> schedule_gate(const nlohmann::json& versus_bar) {
+  std::vector<std::string> failures;
+  if (versus_bar.is_null()) return failures;
+  for (const auto& [criterion, d] : versus_bar["differences"].items()) {
+    if (d[1].get<double>() > 0.0) {
+      failures.push_back(criterion + " above " + std::string(kClassicalBarName) + "'s by " +
+                         cell(d[0].get<double>()) + " [" + cell(d[1].get<double>()) + ", " +
+                         cell(d[2].get<double>()) + "]");
+    }
+  }
+  return failures;
+}
+
 int run(const PlainImmOptions& options) {
   const std::filesystem::path model = options.common.model_path();
-  const PlainImmSpec spec = io::read_plain_imm(model);
+  const io::ModelFileReader reader(model, io::kPlainImmKind);
+  const PlainImmSpec spec = io::read_plain_imm(reader);
+  const bool scheduled = learned_schedule(reader.provenance());
+  std::optional<EvaluationRegimes> regimes;
   datasets::TrackSet data;
   std::string source;
   std::string length = "the data set's length unit";
-  if (!options.data.empty()) {
+  if (scheduled && options.data.empty()) {
+    regimes = evaluation_regimes(options.common, reader.provenance(), model);
+    const datasets::Regime& regime = regimes->evaluated.regime;
+    data = test_tracks(regime, options.common);
+    length = std::string(datasets::to_string(regime.units));
+    source = regimes->describe() + ", test split, seed " + std::to_string(options.common.seed);
+  } else if (!options.data.empty()) {
     datasets::TrackSetFile stored = datasets::read_track_set(options.data);
     data = std::move(stored.set);
     source =
@@ -125,9 +160,31 @@ int run(const PlainImmOptions& options) {
             << consistency_table(filters);
   print_recorded_prediction(data, filters, filters.front().name);
 
+  std::vector<std::string> findings, failures;
+  nlohmann::json versus_bar;
+  if (regimes) {
+    versus_bar = compare_with_classical_bar(
+        model.stem().string(), [&] { return make_plain_imm_filter(spec); }, spec.track_options(),
+        regimes->trained.regime, data, regimes->evaluated.regime.sensor.position, findings,
+        options.common.classical);
+    failures = schedule_gate(versus_bar);
+    std::cout << "\nGates (not worse than " << kClassicalBarName
+              << ", the IMM the schedules were learned on, in ζ_p or ζ_v beyond the 95 % "
+                 "interval): "
+              << (failures.empty() ? "passed" : "FAILED") << '\n';
+    for (const auto& failure : failures) std::cout << "  - " << failure << '\n';
+    if (learned_part_off(reader.provenance())) {
+      findings.push_back(model.stem().string() +
+                         ": the trainer switched its schedules off (the file is the tuned "
+                         "CV/CA/CT IMM itself)");
+    }
+    print_findings(findings);
+  }
+
   const std::filesystem::path& out = options.common.out;
   std::filesystem::create_directories(out);
   nlohmann::json metrics;
+  if (regimes) metrics["versus_classical_bar"] = versus_bar;
   metrics["experiment"] = "plain-imm";
   metrics["data"] = source;
   metrics["runs"] = runs;
@@ -149,6 +206,17 @@ int run(const PlainImmOptions& options) {
   write_headline(out, evaluated, filters.front().headline());
   bool plotted = write_error_series(filters, data.scans, out);
   plotted &= write_mode_probabilities(filters.front(), out, "mode_probabilities");
+  if (regimes) {
+    trainer::write_json_atomically(out / "details.json",
+                                   {{"versus_classical_bar", versus_bar},
+                                    {"regime",
+                                     {{"name", regimes->evaluated.regime.name},
+                                      {"model_regime", regimes->trained.regime.name},
+                                      {"off_training", regimes->off_training()}}},
+                                    {"gate_failures", failures},
+                                    {"findings", findings}});
+    return finish_report(out, plotted, failures, /*failures_printed=*/true, findings);
+  }
   std::cout << "\nwrote " << (out / "metrics.json").string() << ", CSV series"
             << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
             << " in " << out.string() << '\n';
@@ -162,6 +230,7 @@ void add_plain_imm_command(CLI::App& app, ExitCode& exit_code) {
   auto* command = app.add_subcommand(
       "plain-imm", "a plain IMM model on a regime's test tracks vs. its modes alone");
   add_common_options(*command, options->common, "cv3_imm", "reports/plain-imm");
+  add_classical_option(*command, options->common);
   command->add_option("--data", options->data,
                       "evaluate a stored data-set file (imm-data tracks) instead");
   command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
