@@ -1,8 +1,9 @@
 # SPDX-License-Identifier: Apache-2.0
 """Every shipped model file read by h5py, as a user with no immtrain code reads it.
 
-Checks, for each models/*.h5: schema version 2 (3 for a GA-fuzzy IMM with normalized antecedents,
-the one version-3 field); every text attribute comes back as str (variable length UTF-8), never
+Checks, for each models/*.h5: schema version 2 (3 for a file with a version-3 field: a GA-fuzzy
+IMM with normalized antecedents, an input estimator with its input's error variance, a plain IMM
+with a learned noise schedule); every text attribute comes back as str (variable length UTF-8), never
 bytes; every dataset has `units`, every matrix `columns` naming each of its columns; every group
 with real-valued attributes a `units` entry for each of them; the counts are integers; the
 datasets' values are finite. Exits 77 (skipped) where h5py is absent.
@@ -34,12 +35,15 @@ def check(path):
 
     with h5py.File(path, "r") as f:
         # Version 3 only for a file with a version-3 field (a GA-fuzzy IMM with normalized
-        # antecedents, an input estimator with its input's error variance); every other file is
-        # written as version 2.
+        # antecedents, an input estimator with its input's error variance, a plain IMM mode with a
+        # noise schedule); every other file is written as version 2.
         group = f.get("ga_fuzzy_imm")
         mlp = f.get("mlp")
+        modes = f.get("imm/modes")
+        scheduled = modes is not None and any(
+            "noise_schedule_rules" in mode.attrs for mode in modes.values())
         newer = (group is not None and "antecedents" in group.attrs) or (
-            mlp is not None and "input_variance" in mlp.attrs)
+            mlp is not None and "input_variance" in mlp.attrs) or scheduled
         expected = 3 if newer else 2
         if f.attrs.get("schema_version") != expected:
             problem("/@schema_version",
