@@ -242,9 +242,12 @@ def test_the_fimms_bank_equals_single_tracks():
     assert bank.kind == "tsk_sensor" and bank.state_dimension == 6
 
 
-def test_the_classical_turn_imms_bank_equals_single_tracks():
-    # The tuned CV + CT IMM of air_surveillance (polar plots, 5 states [x, vx, y, vy, w]): three
-    # targets in turns of different rates, 30-50 km out, started at w = 0.
+@pytest.mark.parametrize("name", ["classical_imm_air_surveillance.h5",
+                                  "scheduled_ct_imm_air_surveillance.h5"])
+def test_the_classical_turn_imms_bank_equals_single_tracks(name):
+    # The tuned CV + CT IMM of air_surveillance (polar plots, 5 states [x, vx, y, vy, w]), and the
+    # same with its learned noise schedules: three targets in turns of different rates, 30-50 km
+    # out, started at w = 0.
     rng = np.random.default_rng(6)
     rates = [0.02, -0.01, 0.0]
     starts = [np.array([30e3 + 10e3 * t, -150.0, 20e3, 100.0, 0.0]) for t in range(3)]
@@ -264,8 +267,8 @@ def test_the_classical_turn_imms_bank_equals_single_tracks():
             rows.append([np.hypot(x, y) + rng.normal(0.0, 100.0),
                          np.arctan2(x, y) + rng.normal(0.0, 0.0035)])
         plots.append(np.array(rows))
-    bank = bank_equal_to_banks_of_one(os.path.join(MODELS, "classical_imm_air_surveillance.h5"),
-                                      starts, np.diag([1e4, 400.0, 1e4, 400.0, 1e-4]), plots)
+    bank = bank_equal_to_banks_of_one(os.path.join(MODELS, name), starts,
+                                      np.diag([1e4, 400.0, 1e4, 400.0, 1e-4]), plots)
     assert bank.kind == "plain_imm" and bank.state_dimension == 5
     for t in range(3):
         mean, _ = bank.estimate(t)

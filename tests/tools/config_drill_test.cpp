@@ -265,6 +265,16 @@ INSTANTIATE_TEST_SUITE_P(
                     "configs/regimes/paper/fcm_imm_training.toml",
                     {{"scans", 100}, {"splits.training", 2}, {"splits.validation", 1}}},
         DrillTarget{
+            "schedule",
+            "configs/scheduled_ct_imm.toml",
+            {{"classical.grid_points", 2},
+             {"classical.polish_evaluations", 4},
+             {"schedule.evaluations", 4}},
+            "imm-train",
+            {"schedule", "--config", "{config}", "--regime", "{regime}", "--out", "{dir}/m.h5"},
+            "configs/regimes/agile_air.toml",
+            {{"scans", 40}, {"splits.training", 2}, {"splits.validation", 1}}},
+        DrillTarget{
             "tsk",
             "configs/tsk_range_sensor.toml",
             {{"fit.restarts", 2}, {"fit.max_iterations", 30}, {"fit.fine_tuning_iterations", 10}},

@@ -35,26 +35,37 @@ namespace imm {
 /// The motion of a linear mode (CV, CA, Singer) for ScheduledNoiseMode.
 template <int N>
 struct LinearMotionStep {
+  /// The state dimension.
   static constexpr int kDim = N;
+  /// F and the tuned Q.
   LinearMotionModel<N> model;
+  /// F x.
   [[nodiscard]] Vector<N> mean(const Vector<N>& x) const { return model.transition * x; }
+  /// F (the same at every x).
   [[nodiscard]] const SquareMatrix<N>& jacobian(const Vector<N>& /*x*/) const {
     return model.transition;
   }
+  /// The tuned Q the schedule scales.
   [[nodiscard]] const SquareMatrix<N>& noise() const { return model.process_noise; }
 };
 
 /// The motion of a coordinated-turn mode (imm/models/motion/coordinated_turn.hpp).
 struct TurnMotionStep {
+  /// [x, vx, y, vy, ω].
   static constexpr int kDim = kCoordinatedTurnDim;
+  /// T, s.
   double sample_period = 1.0;
+  /// The tuned Q (coordinated_turn_noise) the schedule scales.
   SquareMatrix<kDim> process_noise = SquareMatrix<kDim>::Zero();
+  /// The exact turn over T.
   [[nodiscard]] Vector<kDim> mean(const Vector<kDim>& x) const {
     return coordinated_turn_step(x, sample_period);
   }
+  /// The turn's Jacobian at x.
   [[nodiscard]] SquareMatrix<kDim> jacobian(const Vector<kDim>& x) const {
     return coordinated_turn_jacobian(x, sample_period);
   }
+  /// The tuned Q.
   [[nodiscard]] const SquareMatrix<kDim>& noise() const { return process_noise; }
 };
 
@@ -77,8 +88,10 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
         embedding_(embedding),
         iterations_(iterations) {}
 
+  /// The mode's name.
   [[nodiscard]] std::string_view name() const override { return name_; }
 
+  /// The estimate in the mixing space, zero-padded.
   void embedded_estimate(Vector<NX>& mean, SquareMatrix<NX>& covariance) const override {
     embedding_.embed(estimate_, mean, covariance);
   }
@@ -122,6 +135,7 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
     return {pending_.usable() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
   }
 
+  /// The mean the motion predicts from the mixed estimate, zero-padded; nothing changes.
   void predicted_mean(const GaussianState<NX>& mixed, Vector<NX>& mean) const override {
     GaussianState<kDim> predicted = embedding_.project(mixed);
     predicted.mean = motion_.mean(predicted.mean);
@@ -129,6 +143,7 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
     embedding_.embed(predicted, mean, unused);
   }
 
+  /// Makes the pending estimate, d and s current.
   void commit() override {
     estimate_ = pending_;
     distance_ = pending_distance_;
