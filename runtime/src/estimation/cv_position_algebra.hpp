@@ -75,26 +75,28 @@ struct UpdateOutcome {
 template <class In, class Out>
 [[gnu::always_inline]] inline UpdateOutcome update(In&& in, Out&& out, double zx, double zy,
                                                    double r00, double r01, double r11) {
-  UpdateOutcome o;
+  // Locals, not the struct's fields, inside the unrolled lambdas: a field written through the
+  // captured struct keeps it in memory, and the bank's lane loop would stay scalar.
   double p[kN][kN];
   each<kN>([&](auto a) { each<kN>([&](auto c) { p[a][c] = in(kN + sym(a, c)); }); });
-  o.s00 = p[0][0] + r00;
-  o.s01 = p[0][2] + r01;
-  o.s11 = p[2][2] + r11;
-  o.det = o.s00 * o.s11 - o.s01 * o.s01;
-  const double inverse_det = 1.0 / o.det;
-  const double i00 = o.s11 * inverse_det, i01 = -o.s01 * inverse_det, i11 = o.s00 * inverse_det;
+  const double s00 = p[0][0] + r00;
+  const double s01 = p[0][2] + r01;
+  const double s11 = p[2][2] + r11;
+  const double det = s00 * s11 - s01 * s01;
+  const double inverse_det = 1.0 / det;
+  const double i00 = s11 * inverse_det, i01 = -s01 * inverse_det, i11 = s00 * inverse_det;
   double k[kN][2];
   each<kN>([&](auto a) {
     k[a][0] = p[a][0] * i00 + p[a][2] * i01;
     k[a][1] = p[a][0] * i01 + p[a][2] * i11;
   });
-  o.nu0 = zx - in(0);
-  o.nu1 = zy - in(2);
+  const double nu0 = zx - in(0);
+  const double nu1 = zy - in(2);
+  double finite = 0.0;
   each<kN>([&](auto a) {
-    const double mean = in(a) + (k[a][0] * o.nu0 + k[a][1] * o.nu1);
+    const double mean = in(a) + (k[a][0] * nu0 + k[a][1] * nu1);
     out(a) = mean;
-    o.finite += mean - mean;
+    finite += mean - mean;
   });
   double cc[kN][kN];
   each<kN>([&](auto a) {
@@ -108,12 +110,20 @@ template <class In, class Out>
         const double value = (cc[a][c] - (cc[a][0] * k[c][0] + cc[a][2] * k[c][1])) +
                              (kr0 * k[c][0] + kr1 * k[c][1]);
         out(kN + sym(a, c)) = value;
-        o.finite += value - value;
+        finite += value - value;
       }
     });
   });
-  o.mahalanobis = o.nu0 * (i00 * o.nu0 + i01 * o.nu1) + o.nu1 * (i01 * o.nu0 + i11 * o.nu1);
-  o.threshold = 1e-14 * o.s00 * o.s11;
+  UpdateOutcome o;
+  o.nu0 = nu0;
+  o.nu1 = nu1;
+  o.s00 = s00;
+  o.s01 = s01;
+  o.s11 = s11;
+  o.det = det;
+  o.mahalanobis = nu0 * (i00 * nu0 + i01 * nu1) + nu1 * (i01 * nu0 + i11 * nu1);
+  o.threshold = 1e-14 * s00 * s11;
+  o.finite = finite;
   return o;
 }
 

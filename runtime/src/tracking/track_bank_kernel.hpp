@@ -41,7 +41,7 @@ struct Block {
 // Scratch layout, in slots of kB values.
 struct ScratchLayout {
   int weights, log_predicted, predicted, mixed, updated, determinant, mahalanobis, s00, threshold,
-      finite, zx, zy, posterior, new_log_mu, new_scaled_mu, ok, total;
+      finite, zx, zy, posterior, new_log_mu, new_scaled_mu, ok, shift, total;
   explicit ScratchLayout(int n)
       : weights(0),
         log_predicted(n * n),
@@ -59,7 +59,8 @@ struct ScratchLayout {
         new_log_mu(posterior + n),
         new_scaled_mu(new_log_mu + n),
         ok(new_scaled_mu + n),
-        total(ok + 1) {}
+        shift(ok + 1),
+        total(shift + 1) {}
 };
 
 /// One IMM step (seed 000 eq. 4–11) of the tracks of block `b`; a track whose plot is unusable or
