@@ -48,6 +48,7 @@ PlainImmSpec single_mode(const PlainImmSpec& spec, std::size_t j) {
     const auto full = state_variable_names(spec.mixing_dimension());
     const auto own = state_variable_names(single.mixing_dimension());
     std::vector<Eigen::Index> indices;
+    indices.reserve(own.size());
     for (const std::string& name : own) {
       indices.push_back(std::find(full.begin(), full.end(), name) - full.begin());
     }
