@@ -3,7 +3,8 @@
 # `make bench`: runs the benchmarks (5 repetitions, medians; the trainer's on one thread) and
 # writes their medians to reports/bench/latest.json beside the previous run's, flagging any
 # benchmark more than 10 % slower; the last nightly's stage wall times (reports/nightly/nights.jsonl)
-# go beside them. Usage: scripts/bench.sh BUILD_DIR [FILTER]
+# go beside them, and the machine (CPU model, clock, threads, BLAS). Usage: scripts/bench.sh
+# BUILD_DIR [FILTER]
 set -euo pipefail
 build=${1:-build}
 filter=${2:-.}
@@ -25,4 +26,5 @@ fi
 # The last nightly's wall time per stage beside them (the trainings' cost), when there was one.
 nightly=()
 if [[ -s reports/nightly/nights.jsonl ]]; then nightly=(--nightly reports/nightly/nights.jsonl); fi
-"$build/bin/imm-bench-report" --out reports/bench/latest.json "${nightly[@]}" "${outputs[@]}"
+"$build/bin/imm-bench-report" --out reports/bench/latest.json "${nightly[@]}" \
+  --threads imm-bench=1 --threads imm-train-bench=1 "${outputs[@]}"

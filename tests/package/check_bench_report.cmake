@@ -1,11 +1,13 @@
 # SPDX-License-Identifier: Apache-2.0
 # imm-bench-report with --nightly: the last night's stages (≥ 1 s) go beside the benchmark medians
-# as "nightly: <stage>" in s, and one 20 % slower than the run before is flagged.
+# as "nightly: <stage>" in s, and one 20 % slower than the run before is flagged; the machine is
+# recorded (the benchmark context's CPUs and clock, the CPU model, the threads given, the BLAS).
 #   cmake -DTOOL=<imm-bench-report> -DWORK_DIR=<dir> -P check_bench_report.cmake
 file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR})
 file(WRITE ${WORK_DIR}/runtime.json [=[
-{"benchmarks": [{"name": "BM_Step_median", "run_name": "BM_Step", "run_type": "aggregate",
+{"context": {"num_cpus": 3, "mhz_per_cpu": 3470, "cpu_scaling_enabled": false},
+ "benchmarks": [{"name": "BM_Step_median", "run_name": "BM_Step", "run_type": "aggregate",
   "aggregate_name": "median", "real_time": 400.0, "time_unit": "ns"}]}
 ]=])
 function(night seconds)
@@ -14,7 +16,7 @@ function(night seconds)
 endfunction()
 function(report)
   execute_process(COMMAND ${TOOL} --out ${WORK_DIR}/latest.json --nightly ${WORK_DIR}/nights.jsonl
-                          ${WORK_DIR}/runtime.json
+                          --threads imm-bench=1 ${WORK_DIR}/runtime.json
                   RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT status EQUAL 0)
     message(FATAL_ERROR "imm-bench-report failed (${status}): ${out}${err}")
@@ -45,6 +47,17 @@ row("nightly: evaluation quick" quick)
 row("BM_Step" step)
 if(NOT ga MATCHES "^80(\\.0*)? s" OR NOT quick STREQUAL "absent" OR NOT step MATCHES "^400")
   message(FATAL_ERROR "first run: ga '${ga}', quick '${quick}', step '${step}'")
+endif()
+file(READ ${WORK_DIR}/latest.json doc)
+string(JSON cpus GET "${doc}" machine logical_cpus)
+string(JSON mhz GET "${doc}" machine mhz_per_cpu)
+string(JSON threads GET "${doc}" machine threads imm-bench)
+string(JSON model GET "${doc}" machine cpu_model)
+string(JSON blas GET "${doc}" machine blas)
+if(NOT cpus EQUAL 3 OR NOT mhz MATCHES "^3470" OR NOT threads EQUAL 1 OR model STREQUAL ""
+   OR blas STREQUAL "")
+  message(FATAL_ERROR "machine: cpus '${cpus}', MHz '${mhz}', threads '${threads}', model "
+                      "'${model}', BLAS '${blas}'")
 endif()
 night(96)  # 20 % slower
 report()

@@ -5,8 +5,13 @@
 // night's wall time of every stage that ran at least a second (reports/nightly/nights.jsonl: the
 // trainings, the GA's among them, and the evaluations) is collected beside them as
 // "nightly: <stage>" in s, so a slower training is flagged like a slower filter step. Run by
-// `make bench`:
-//   imm-bench-report --out reports/bench/latest.json [--nightly NIGHTS.jsonl] RUNTIME.json …
+// `make bench`. The report records what it ran on ("machine"): the CPU model (/proc/cpuinfo), its
+// clock and logical CPU count as Google Benchmark measured them, its library's build type, the
+// threads of each program (--threads NAME=N, as scripts/bench.sh ran it) and the BLAS that
+// libblas.so.3 resolves to (the trainer links it through LAPACK and Ceres; the MLP's products are
+// Eigen's own kernels, which do not call it):
+//   imm-bench-report --out reports/bench/latest.json [--nightly NIGHTS.jsonl]
+//                    [--threads NAME=N]… RUNTIME.json …
 
 #include <chrono>
 #include <cmath>
@@ -72,6 +77,45 @@ std::map<std::string, std::pair<double, std::string>> last_night(const fs::path&
   return out;
 }
 
+// The first "model name" of /proc/cpuinfo, or "unknown".
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("model name", 0) == 0) {
+      const std::size_t colon = line.find(':');
+      if (colon != std::string::npos) return line.substr(line.find_first_not_of(' ', colon + 1));
+    }
+  }
+  return "unknown";
+}
+
+// Where libblas.so.3 leads (Debian's alternatives: ATLAS, OpenBLAS, the reference BLAS), or
+// "none found".
+std::string blas_library() {
+  for (const char* dir : {"/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib"}) {
+    const fs::path candidate = fs::path(dir) / "libblas.so.3";
+    std::error_code error;
+    const fs::path resolved = fs::canonical(candidate, error);
+    if (!error) return resolved.string();
+  }
+  return "none found";
+}
+
+// The machine of a run: the first benchmark output's context beside what only this host knows.
+json machine_of(const fs::path& first_output, const json& threads) {
+  std::ifstream in(first_output);
+  const json doc = json::parse(in);
+  const json context = doc.value("context", json::object());
+  json machine = {{"cpu_model", cpu_model()},
+                  {"logical_cpus", context.value("num_cpus", 0)},
+                  {"mhz_per_cpu", context.value("mhz_per_cpu", 0.0)},
+                  {"cpu_scaling_enabled", context.value("cpu_scaling_enabled", false)},
+                  {"benchmark_library_build", context.value("library_build_type", "")},
+                  {"blas", blas_library()},
+                  {"threads", threads}};
+  return machine;
+}
+
 std::string utc_now() {
   const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
   char text[32];
@@ -85,15 +129,21 @@ int main(int argc, char** argv) {
   try {
     fs::path out, nights;
     std::vector<fs::path> inputs;
+    json threads = json::object();
     for (int i = 1; i < argc; ++i) {
       const std::string arg = argv[i];
       if (arg == "--out" && i + 1 < argc) {
         out = argv[++i];
       } else if (arg == "--nightly" && i + 1 < argc) {
         nights = argv[++i];
+      } else if (arg == "--threads" && i + 1 < argc) {
+        const std::string value = argv[++i];
+        const std::size_t equals = value.find('=');
+        if (equals == std::string::npos) throw std::runtime_error("--threads needs NAME=N");
+        threads[value.substr(0, equals)] = std::stoi(value.substr(equals + 1));
       } else if (arg == "--help" || arg == "-h") {
         std::cout << "usage: imm-bench-report --out LATEST.json [--nightly NIGHTS.jsonl] "
-                     "BENCHMARK_OUTPUT.json...\n";
+                     "[--threads NAME=N]... BENCHMARK_OUTPUT.json...\n";
         return 0;
       } else {
         inputs.emplace_back(arg);
@@ -115,6 +165,12 @@ int main(int argc, char** argv) {
     doc["generated"] = utc_now();
     doc["previous_run"] = previous_date;
     doc["slowdown_threshold"] = kSlowdown;
+    doc["machine"] = machine_of(inputs.front(), threads);
+    const json& m = doc["machine"];
+    std::printf("machine: %s, %d logical CPUs at %.0f MHz, BLAS %s, threads %s\n",
+                m["cpu_model"].get<std::string>().c_str(), m["logical_cpus"].get<int>(),
+                m["mhz_per_cpu"].get<double>(), m["blas"].get<std::string>().c_str(),
+                threads.dump().c_str());
     doc["benchmarks"] = json::array();
     int flagged = 0;
     std::printf("%-48s %14s %14s %9s\n", "benchmark (median)", "now", "before", "change");
