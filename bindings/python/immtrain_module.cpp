@@ -44,6 +44,7 @@
 #include "imm/tracking/track_bank.hpp"
 #include "imm/tracking/tracker.hpp"
 #include "imm/tracking/wimm_track_bank.hpp"
+#include "imm/version.hpp"
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
@@ -412,6 +413,8 @@ class PyTrackBank {
 
 PYBIND11_MODULE(immtrain, m) {
   m.doc() = "immtrain's runtime: load a model file's tracker and run it over plots";
+  m.attr("__version__") = imm::kVersion;
+  m.attr("model_schema_version") = imm::kModelSchemaVersion;
   static py::exception<imm::io::FileError> file_error(m, "FileError", PyExc_RuntimeError);
   static py::exception<imm::InvalidParameter> invalid(m, "InvalidParameter", PyExc_ValueError);
   // pybind11's translator type takes the pointer by value.
