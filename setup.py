@@ -49,6 +49,8 @@ class CMakeBuild(build_ext):
         target = pathlib.Path(self.get_ext_fullpath(ext.name))
         target.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(modules[0], target)
+        shutil.copyfile(ROOT / "bindings" / "python" / "immtrain.pyi",
+                        target.parent / "immtrain.pyi")
         libs = target.parent / "immtrain.libs"
         libs.mkdir(exist_ok=True)
         # The runtime under the name the module asks for (its soname, from readelf).

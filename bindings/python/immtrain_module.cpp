@@ -189,26 +189,35 @@ class PyTracker {
     auto mean_out = mean.mutable_unchecked<2>();
     auto cov_out = covariance.mutable_unchecked<3>();
     auto mu_out = mu.mutable_unchecked<2>();
+    auto nis_out = nis.mutable_unchecked<1>();
+    auto outside_out = outside.mutable_unchecked<1>();
     Eigen::VectorXd x(n), variance(n);
     Eigen::MatrixXd P(n, n);
-    for (py::ssize_t i = 0; i < rows; ++i) {
-      const imm::TrackStepResult r =
-          tracker_->process(static_cast<std::int64_t>(p(i, 0)), Eigen::Vector2d(p(i, 1), p(i, 2)));
-      events.append(std::string(imm::to_string(r.event)));
-      const bool on = tracker_->initialized();
-      if (on) {
-        tracker_->state(x, variance);
-        tracker_->covariance(P);
+    std::vector<imm::TrackEvent> event_of(static_cast<std::size_t>(rows));
+    {
+      // The filter runs without the GIL (other Python threads go on); it touches only the arrays'
+      // memory and C++ objects. A Tracker is not to be shared between threads.
+      const py::gil_scoped_release release;
+      for (py::ssize_t i = 0; i < rows; ++i) {
+        const imm::TrackStepResult r = tracker_->process(static_cast<std::int64_t>(p(i, 0)),
+                                                         Eigen::Vector2d(p(i, 1), p(i, 2)));
+        event_of[static_cast<std::size_t>(i)] = r.event;
+        const bool on = tracker_->initialized();
+        if (on) {
+          tracker_->state(x, variance);
+          tracker_->covariance(P);
+        }
+        const imm::ModeVector probabilities = tracker_->mode_probabilities();
+        for (py::ssize_t a = 0; a < n; ++a) {
+          mean_out(i, a) = on ? x(a) : NAN;
+          for (py::ssize_t b = 0; b < n; ++b) cov_out(i, a, b) = on ? P(a, b) : NAN;
+        }
+        for (py::ssize_t j = 0; j < m; ++j) mu_out(i, j) = on ? probabilities(j) : NAN;
+        nis_out(i) = r.envelope_nis;
+        outside_out(i) = r.outside_envelope;
       }
-      const imm::ModeVector probabilities = tracker_->mode_probabilities();
-      for (py::ssize_t a = 0; a < n; ++a) {
-        mean_out(i, a) = on ? x(a) : NAN;
-        for (py::ssize_t b = 0; b < n; ++b) cov_out(i, a, b) = on ? P(a, b) : NAN;
-      }
-      for (py::ssize_t j = 0; j < m; ++j) mu_out(i, j) = on ? probabilities(j) : NAN;
-      nis.mutable_at(i) = r.envelope_nis;
-      outside.mutable_at(i) = r.outside_envelope;
     }
+    for (const imm::TrackEvent event : event_of) events.append(std::string(imm::to_string(event)));
     py::dict d;
     d["k"] = plots[py::make_tuple(py::slice(0, rows, 1), 0)];
     d["event"] = events;
@@ -306,7 +315,10 @@ class PyTrackBank {
       plots_[t] =
           Eigen::Vector2d(p(static_cast<py::ssize_t>(t), 0), p(static_cast<py::ssize_t>(t), 1));
     }
-    std::visit([&](auto& bank) { bank.step(plots_, status_); }, bank_);
+    {
+      const py::gil_scoped_release release;  // the bank's step touches no Python object
+      std::visit([&](auto& bank) { bank.step(plots_, status_); }, bank_);
+    }
     std::vector<std::string> out;
     out.reserve(rows);
     for (const imm::StepStatus s : status_) out.emplace_back(imm::to_string(s));

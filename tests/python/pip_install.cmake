@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: Apache-2.0
 # `pip install` as a Python user runs it: the package installs into a fresh virtual environment
 # (python3 -m venv --system-site-packages, so that Debian's setuptools, wheel and numpy are there)
-# and imports outside the source tree with its version and the runtime library of its own wheel;
+# and imports outside the source tree with its version, the runtime library of its own wheel and
+# its type stubs;
 # `pip wheel` writes a wheel that installs into a second environment. The build reuses this
 # build's configured tree (IMMTRAIN_CMAKE_BUILD_DIR), so that the test does not compile the
 # runtime again; setup.py configures build/python-wheel itself without it.
@@ -46,7 +47,11 @@ function(expect_installed venv)
   if(NOT inside EQUAL 0)
     message(FATAL_ERROR "${venv}: libimmruntime loaded from '${library}', not from the package")
   endif()
-  message(STATUS "${venv}: immtrain ${got}, runtime ${library}")
+  file(GLOB stubs ${venv}/lib/python3*/site-packages/immtrain.pyi)
+  if(NOT stubs)
+    message(FATAL_ERROR "${venv}: no immtrain.pyi beside the module (the type stubs)")
+  endif()
+  message(STATUS "${venv}: immtrain ${got}, runtime ${library}, stubs ${stubs}")
 endfunction()
 
 run(${PYTHON} -m venv --system-site-packages ${WORK_DIR}/venv)

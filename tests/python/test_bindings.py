@@ -307,3 +307,62 @@ def test_nothing_grows_when_trackers_are_made_and_run_again_and_again():
     after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     # A leak of one tracker (its filter, > 10 kB) per cycle would add > 3 MB.
     assert after - before < 3000, (before, after)
+
+
+def test_the_type_stubs_name_every_public_name_and_nothing_else():
+    # bindings/python/immtrain.pyi against the compiled module: the same top-level names, and per
+    # class the same public methods and properties.
+    import ast
+    tree = ast.parse(open(os.path.join("bindings", "python", "immtrain.pyi")).read())
+    stubbed, classes = set(), {}
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+            stubbed.add(node.name)
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            stubbed.add(node.target.id)
+        if isinstance(node, ast.ClassDef):
+            classes[node.name] = {n.name for n in node.body if isinstance(n, ast.FunctionDef)
+                                  and (not n.name.startswith("_") or n.name == "__init__")}
+    public = {n for n in dir(immtrain) if not n.startswith("_") or n == "__version__"}
+    assert stubbed - {"_Path", "_Array"} == public
+    for name, members in classes.items():
+        cls = getattr(immtrain, name)
+        if name in ("FileError", "InvalidParameter"):
+            continue
+        actual = {n for n in vars(cls) if not n.startswith("_")}
+        assert members - {"__init__"} == actual, name
+
+
+def test_a_long_run_lets_other_python_threads_go_on():
+    # The filter runs without the GIL: while one thread runs 200 000 plots, this one keeps going.
+    # Its time stamps (one per 256 turns of its loop) are counted over the middle half of the run:
+    # were the GIL held through the call, none could fall there.
+    import threading
+    import time
+    tracker = immtrain.load_tracker(os.path.join(MODELS, "cv3_imm.h5"))
+    rows = 200_000
+    k = np.arange(rows, dtype=float)
+    plots = np.column_stack([k, 10.0 * k, 5.0 * k])
+    started, done = threading.Event(), threading.Event()
+    span = []
+
+    def work():
+        started.set()
+        begin = time.perf_counter()
+        tracker.run(plots)
+        span.extend([begin, time.perf_counter()])
+        done.set()
+
+    worker = threading.Thread(target=work)
+    worker.start()
+    started.wait()
+    stamps, turns = [], 0
+    while not done.is_set():
+        turns += 1
+        if turns % 256 == 0:
+            stamps.append(time.perf_counter())
+    worker.join()
+    begin, end = span
+    quarter = 0.25 * (end - begin)
+    inside = sum(begin + quarter < t < end - quarter for t in stamps)
+    assert inside > 20, (inside, end - begin)

@@ -1,0 +1,112 @@
+# SPDX-License-Identifier: Apache-2.0
+"""immtrain's runtime: load a model file's tracker and run it over plots.
+
+Type stubs of the compiled module (bindings/python/immtrain_module.cpp). Units: lengths in the
+model's length unit (Tracker.length_unit, "m" or "km"), angles in radians, times in seconds; a scan
+k is a whole number and one scan is the model's sample period.
+"""
+import os
+from typing import Any, Dict, List, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+"""The project's version, "MAJOR.MINOR.PATCH"."""
+model_schema_version: int
+"""The newest model-file schema version this module reads."""
+
+_Path = Union[str, os.PathLike]
+_Array = npt.NDArray[np.float64]
+
+class FileError(RuntimeError):
+    """A model file that cannot be read: the message names the file and the field."""
+
+class InvalidParameter(ValueError):
+    """A bad argument (shape, value): the message names the field, e.g. "plots[3, 0]"."""
+
+class Tracker:
+    """A model file's filter driven over scan-indexed plots (two-point start, gaps predicted)."""
+
+    def process(self, k: int, z: npt.ArrayLike) -> Dict[str, Any]:
+        """Feeds the plot z = (z1, z2) of scan k — Cartesian (x, y) in the length unit, or polar
+        (range, azimuth in rad), as the model's measurement_kind says. Returns "event", "status",
+        "envelope_nis" and "outside_envelope"."""
+    def run(self, plots: npt.ArrayLike) -> Dict[str, Any]:
+        """Runs an (N, 3) array of k, z1, z2 (the GIL released while it runs). Returns per row:
+        "k", "event" (list of str), "mean" (N, n), "covariance" (N, n, n), "mode_probabilities"
+        (N, m), "envelope_nis" (N,) and "outside_envelope" (N,); NaN before the track starts."""
+    def state(self) -> Tuple[_Array, _Array]:
+        """The combined mean (n,) and covariance (n, n), in state_names' order and units."""
+    def mode_probabilities(self) -> _Array:
+        """The mode probabilities (m,), in mode_names' order."""
+    @property
+    def initialized(self) -> bool:
+        """Whether the track has started (after its second plot)."""
+    @property
+    def kind(self) -> str:
+        """The model kind, e.g. "plain_imm"."""
+    @property
+    def length_unit(self) -> str:
+        """The model's length unit, "m" or "km"."""
+    @property
+    def measurement_covariance(self) -> _Array:
+        """R (2, 2): Cartesian in length², polar in (length, rad)²."""
+    @property
+    def measurement_kind(self) -> str:
+        """"cartesian" or "polar"."""
+    @property
+    def mode_count(self) -> int:
+        """The number of modes m."""
+    @property
+    def mode_names(self) -> List[str]:
+        """The modes' names."""
+    @property
+    def regime(self) -> str:
+        """The regime the model was trained for."""
+    @property
+    def sample_period(self) -> float:
+        """T, s: one scan."""
+    @property
+    def state_dimension(self) -> int:
+        """The state dimension n."""
+    @property
+    def state_names(self) -> List[str]:
+        """The state's entries, e.g. ["x", "vx", "y", "vy"] (lengths, length/s, length/s², rad/s)."""
+
+class TrackBank:
+    """Many tracks of one model stepped by one call (every kind load_tracker reads)."""
+
+    def __init__(self, path: _Path, capacity: int) -> None:
+        """A bank of `capacity` tracks of the model file at `path`; raises FileError."""
+    def initialize(self, track: int, mean: npt.ArrayLike, covariance: npt.ArrayLike) -> None:
+        """Starts track `track` at mean (n,) with covariance (n, n); InvalidParameter otherwise."""
+    def step(self, plots: npt.ArrayLike) -> List[str]:
+        """One scan of every track: plots (capacity, 2), one row per track (NaN: no plot). Returns
+        each track's status ("ok" or why its state was left unchanged); the GIL is released."""
+    def estimate(self, track: int) -> Tuple[_Array, _Array]:
+        """Track `track`'s combined mean (n,) and covariance (n, n)."""
+    def mode_probabilities(self, track: int) -> _Array:
+        """Track `track`'s mode probabilities (m,)."""
+    @property
+    def capacity(self) -> int:
+        """The number of tracks."""
+    @property
+    def kind(self) -> str:
+        """The model kind."""
+    @property
+    def state_dimension(self) -> int:
+        """The state dimension n."""
+
+def load_tracker(path: _Path, max_gap: int = 50) -> Tracker:
+    """A model file of any kind the runtime reads, as a Tracker; a track not updated for more
+    than max_gap scans is dropped. Raises FileError naming the field."""
+
+def inspect(path: _Path) -> Dict[str, Any]:
+    """The model's kind, regime, provenance, units and every parameter."""
+
+def loadable_kinds() -> List[str]:
+    """The model kinds load_tracker reads."""
+
+def verify(path: _Path) -> Dict[str, Any]:
+    """Checks a model file (every field and the filter it builds); raises FileError."""
