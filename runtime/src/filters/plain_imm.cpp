@@ -64,34 +64,23 @@ StateEmbedding<N, NX> embedding_for() {
   }
 }
 
-// The coordinated-turn mode of a spec's mode, with the spec's measurement.
+// The coordinated-turn mode of a spec's mode (with its noise schedule, if any), with the spec's
+// measurement.
 template <int NX>
 std::unique_ptr<ImmMode<NX, 2>> make_turn_mode(const ModeSpec& mode, double T,
                                                const MeasurementSpec& measurement) {
   constexpr int N = kCoordinatedTurnDim;
   const auto embedding = embedding_for<N, NX>();
-  const SquareMatrix<N> Q =
-      coordinated_turn_noise(T, mode.process_noise, mode.turn_noise, mode.noise_form);
-  if (mode.noise_schedule) {
-    const TurnMotionStep motion{T, Q};
-    if (measurement.kind == MeasurementKind::kCartesian) {
-      using Model = PositionMeasurement<N, 2>;
-      return std::make_unique<ScheduledNoiseMode<NX, TurnMotionStep, Model>>(
-          mode.name, motion, *mode.noise_schedule, Model({0, 2}, measurement.covariance),
-          embedding);
-    }
-    using Model = PolarMeasurement<N>;
-    return std::make_unique<ScheduledNoiseMode<NX, TurnMotionStep, Model>>(
-        mode.name, motion, *mode.noise_schedule, Model(0, 2, measurement.covariance), embedding);
-  }
+  const TurnMotionStep motion{
+      T, coordinated_turn_noise(T, mode.process_noise, mode.turn_noise, mode.noise_form)};
   if (measurement.kind == MeasurementKind::kCartesian) {
     using Model = PositionMeasurement<N, 2>;
     return std::make_unique<CoordinatedTurnMode<NX, Model>>(
-        mode.name, T, Q, Model({0, 2}, measurement.covariance), embedding);
+        mode.name, motion, mode.noise_schedule, Model({0, 2}, measurement.covariance), embedding);
   }
   using Model = PolarMeasurement<N>;
   return std::make_unique<CoordinatedTurnMode<NX, Model>>(
-      mode.name, T, Q, Model(0, 2, measurement.covariance), embedding);
+      mode.name, motion, mode.noise_schedule, Model(0, 2, measurement.covariance), embedding);
 }
 
 template <int NX, int N>

@@ -15,10 +15,14 @@
 /// acceleration and, for a CT mode, the turn-rate intensity); a table whose every consequent is 1
 /// gives exactly the unscheduled mode. A missed plot predicts with the last step's multiplier.
 /// A new track starts with d(−1) = 0 and the table's mean multiplier.
+///
+/// Without a table the mode's Q is fixed (P⁻ = F P₀ Fᵀ + Q, d is not computed): that is the
+/// coordinated-turn EKF mode of the classical IMM (turn_mode.hpp).
 
 #include <Eigen/Cholesky>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -77,8 +81,8 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
   static constexpr int kDim = Motion::kDim;
   using ImmMode<NX, MeasurementModel::kDim>::kMeasurementDim;
 
-  /// `iterations` > 1: the iterated EKF update.
-  ScheduledNoiseMode(std::string name, const Motion& motion, FuzzyRuleTable schedule,
+  /// `iterations` > 1: the iterated EKF update; no `schedule`: a fixed Q.
+  ScheduledNoiseMode(std::string name, const Motion& motion, std::optional<FuzzyRuleTable> schedule,
                      const MeasurementModel& measurement, const StateEmbedding<kDim, NX>& embedding,
                      int iterations = 1)
       : name_(std::move(name)),
@@ -100,7 +104,7 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
   void reset(const GaussianState<NX>& state) override {
     estimate_ = embedding_.project(state);
     distance_ = 0.0;
-    multiplier_ = schedule_.mean_w();
+    multiplier_ = schedule_ ? schedule_->mean_w() : 1.0;
   }
 
   /// The scheduled prediction from the mixed estimate, then the update with z; pending until
@@ -108,16 +112,17 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
   [[gnu::flatten]] ModeStep propose(const GaussianState<NX>& mixed,
                                     const Vector<kMeasurementDim>& z) override {
     predict_without_noise(mixed);
-    pending_distance_ = normalized_distance(z);
-    // A plot the model cannot score (NaN, undefined polar point) leaves d unknown: the table's
-    // mean multiplier, and the update below reports the plot's status.
-    pending_multiplier_ =
-        std::isfinite(pending_distance_)
-            ? schedule_.process_noise(pending_distance_, pending_distance_ - distance_)
-            : schedule_.mean_w();
-    if (!std::isfinite(pending_distance_)) pending_distance_ = distance_;
-    pending_.covariance += pending_multiplier_ * motion_.noise();
-    symmetrize(pending_.covariance);
+    if (schedule_) {
+      pending_distance_ = normalized_distance(z);
+      // A plot the model cannot score (NaN, undefined polar point) leaves d unknown: the table's
+      // mean multiplier, and the update below reports the plot's status.
+      pending_multiplier_ =
+          std::isfinite(pending_distance_)
+              ? schedule_->process_noise(pending_distance_, pending_distance_ - distance_)
+              : schedule_->mean_w();
+      if (!std::isfinite(pending_distance_)) pending_distance_ = distance_;
+    }
+    add_process_noise(pending_multiplier_);
     if (!pending_.usable()) return {StepStatus::kNonFiniteResult, 0.0};
     const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
                                         : update(pending_, z, measurement_);
@@ -130,8 +135,7 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
     predict_without_noise(mixed);
     pending_distance_ = distance_;
     pending_multiplier_ = multiplier_;
-    pending_.covariance += multiplier_ * motion_.noise();
-    symmetrize(pending_.covariance);
+    add_process_noise(multiplier_);
     return {pending_.usable() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
   }
 
@@ -152,10 +156,12 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
 
   /// The mode's current estimate in its own states.
   [[nodiscard]] const GaussianState<kDim>& estimate() const { return estimate_; }
-  /// s(k) of the last committed step: how far the schedule moved Q.
+  /// s(k) of the last committed step: how far the schedule moved Q (1 without a schedule).
   [[nodiscard]] double multiplier() const { return multiplier_; }
-  /// The table that sets s(k).
-  [[nodiscard]] const FuzzyRuleTable& schedule() const { return schedule_; }
+  /// The table that sets s(k), if any.
+  [[nodiscard]] const std::optional<FuzzyRuleTable>& schedule() const { return schedule_; }
+  /// The mode's measurement model.
+  [[nodiscard]] const MeasurementModel& measurement() const { return measurement_; }
 
  private:
   // pending_ = (f(x̂₀), F P₀ Fᵀ) from the mixed estimate.
@@ -164,6 +170,16 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
     const auto F = motion_.jacobian(prior.mean);
     pending_.mean = motion_.mean(prior.mean);
     pending_.covariance.noalias() = F * prior.covariance * F.transpose();
+  }
+
+  // P⁻ = P̄ + s Q (the fixed Q itself without a schedule), symmetrized.
+  void add_process_noise(double s) {
+    if (schedule_) {
+      pending_.covariance += s * motion_.noise();
+    } else {
+      pending_.covariance += motion_.noise();
+    }
+    symmetrize(pending_.covariance);
   }
 
   // d = √(ν̄ᵀ S̄⁻¹ ν̄) at pending_; NaN when the plot or the prediction cannot be scored.
@@ -182,7 +198,7 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
 
   std::string name_;
   Motion motion_;
-  FuzzyRuleTable schedule_;
+  std::optional<FuzzyRuleTable> schedule_;
   MeasurementModel measurement_;
   StateEmbedding<kDim, NX> embedding_;
   int iterations_ = 1;
