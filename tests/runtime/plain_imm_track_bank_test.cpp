@@ -18,34 +18,17 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/models/motion/coordinated_turn.hpp"
 #include "imm/tracking/track_bank.hpp"
+#include "testing/specs.hpp"
 
 namespace imm {
 namespace {
 
 constexpr double kT = 1.0;
 
-ModeSpec mode(const std::string& name, MotionKind motion, double q, double q_omega = 0.0) {
-  ModeSpec m;
-  m.name = name;
-  m.motion = motion;
-  m.process_noise = q;
-  m.turn_noise = q_omega;
-  return m;
-}
+using testing::mode_spec;
 
 PlainImmSpec spec_of(std::vector<ModeSpec> modes, MeasurementKind kind, Eigen::Matrix2d R) {
-  PlainImmSpec spec;
-  spec.sample_period = kT;
-  const auto n = static_cast<Eigen::Index>(modes.size());
-  spec.modes = std::move(modes);
-  spec.transition = Eigen::MatrixXd::Constant(n, n, 0.05 / static_cast<double>(n - 1));
-  spec.transition.diagonal().setConstant(0.95);
-  spec.initial_probabilities = Eigen::VectorXd::Constant(n, 1.0 / static_cast<double>(n));
-  spec.measurement.kind = kind;
-  spec.measurement.covariance = R;
-  spec.initialization.turn_rate_variance = 0.01;
-  spec.initialization.acceleration_variance = 4.0;
-  return spec;
+  return testing::switching_spec(std::move(modes), kT, 0.05, kind, R);
 }
 
 // [x, vx, y, vy, ω] → the bank's mixing space of NX states.
@@ -103,9 +86,9 @@ void expect_each_track_learns_its_turn(const PlainImmSpec& spec, double noise,
 }
 
 TEST(PlainImmTrackBank, EveryTrackOfACvCaCtBankLearnsItsOwnTurnRate) {
-  const PlainImmSpec spec = spec_of({mode("cv", MotionKind::kConstantVelocity, 0.1),
-                                     mode("ca", MotionKind::kConstantAcceleration, 1.0),
-                                     mode("ct", MotionKind::kCoordinatedTurn, 0.1, 1e-6)},
+  const PlainImmSpec spec = spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
+                                     mode_spec("ca", MotionKind::kConstantAcceleration, 1.0),
+                                     mode_spec("ct", MotionKind::kCoordinatedTurn, 0.1, 1e-6)},
                                     MeasurementKind::kCartesian, Eigen::Matrix2d::Identity());
   ASSERT_EQ(spec.mixing_dimension(), 7);
   expect_each_track_learns_its_turn<7>(spec, 1.0, Eigen::Vector2d::Zero());
@@ -116,8 +99,8 @@ TEST(PlainImmTrackBank, PolarPlotsOfTurnsAroundTheSensor) {
   Eigen::Matrix2d R = Eigen::Matrix2d::Zero();
   R(0, 0) = 1.0;
   R(1, 1) = 1e-8;
-  const PlainImmSpec spec = spec_of({mode("cv", MotionKind::kConstantVelocity, 0.1),
-                                     mode("ct", MotionKind::kCoordinatedTurn, 0.1, 1e-6)},
+  const PlainImmSpec spec = spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
+                                     mode_spec("ct", MotionKind::kCoordinatedTurn, 0.1, 1e-6)},
                                     MeasurementKind::kPolar, R);
   ASSERT_EQ(spec.mixing_dimension(), 5);
   expect_each_track_learns_its_turn<5>(spec, 1.0, Eigen::Vector2d::Zero());
@@ -128,8 +111,8 @@ TEST(PlainImmTrackBank, PolarPlotsOfTurnsAroundTheSensor) {
 // with its status, and the other tracks step.
 TEST(PlainImmTrackBank, ATrackIsTheOneTrackImmAndAFailedStepChangesOnlyItsTrack) {
   const PlainImmSpec spec =
-      spec_of({mode("cv", MotionKind::kConstantVelocity, 0.1),
-               mode("ct", MotionKind::kCoordinatedTurn, 1.0, 1e-4)},
+      spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
+               mode_spec("ct", MotionKind::kCoordinatedTurn, 1.0, 1e-4)},
               MeasurementKind::kCartesian, 25.0 * Eigen::Matrix2d::Identity());
   PlainImmTrackBank<5> bank(spec, 3);
   auto single = build_plain_imm<5>(spec);
@@ -161,8 +144,8 @@ TEST(PlainImmTrackBank, ATrackIsTheOneTrackImmAndAFailedStepChangesOnlyItsTrack)
 }
 
 TEST(PlainImmTrackBank, BadArgumentsAreRefusedNamingTheField) {
-  const PlainImmSpec spec = spec_of({mode("cv", MotionKind::kConstantVelocity, 0.1),
-                                     mode("ct", MotionKind::kCoordinatedTurn, 1.0, 1e-4)},
+  const PlainImmSpec spec = spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
+                                     mode_spec("ct", MotionKind::kCoordinatedTurn, 1.0, 1e-4)},
                                     MeasurementKind::kCartesian, Eigen::Matrix2d::Identity());
   const auto field_of = [](auto&& make) {
     try {

@@ -17,6 +17,7 @@
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/models/motion/coordinated_turn.hpp"
 #include "imm/tracking/track_bank.hpp"
+#include "testing/specs.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm {
@@ -27,30 +28,13 @@ using Eigen::VectorXd;
 
 constexpr double kT = 1.5;
 
-ModeSpec mode(const std::string& name, MotionKind motion, double q, double q_omega = 0.0) {
-  ModeSpec m;
-  m.name = name;
-  m.motion = motion;
-  m.process_noise = q;
-  m.turn_noise = q_omega;
-  return m;
-}
+using testing::mode_spec;
 
 PlainImmSpec spec_of(std::vector<ModeSpec> modes, MeasurementKind kind) {
-  PlainImmSpec spec;
-  spec.sample_period = kT;
-  const auto n = static_cast<Eigen::Index>(modes.size());
-  spec.modes = std::move(modes);
-  spec.transition = MatrixXd::Constant(n, n, n == 1 ? 1.0 : 0.04 / static_cast<double>(n - 1));
-  spec.transition.diagonal().setConstant(n == 1 ? 1.0 : 0.96);
-  spec.initial_probabilities = VectorXd::Constant(n, 1.0 / static_cast<double>(n));
-  spec.measurement.kind = kind;
-  spec.measurement.covariance = kind == MeasurementKind::kCartesian
-                                    ? Eigen::Matrix2d(25.0 * Eigen::Matrix2d::Identity())
-                                    : Eigen::Matrix2d(Eigen::Vector2d(25.0, 1e-6).asDiagonal());
-  spec.initialization.turn_rate_variance = 0.01;
-  spec.initialization.acceleration_variance = 4.0;
-  return spec;
+  const Eigen::Matrix2d R = kind == MeasurementKind::kCartesian
+                                ? Eigen::Matrix2d(25.0 * Eigen::Matrix2d::Identity())
+                                : Eigen::Matrix2d(Eigen::Vector2d(25.0, 1e-6).asDiagonal());
+  return testing::switching_spec(std::move(modes), kT, 0.04, kind, R);
 }
 
 // A 3 × 3 table over (d, Δd) whose consequents are all `w`.
@@ -123,11 +107,12 @@ TEST(ScheduledNoise, AConstantScheduleScalesEveryIntensity) {
   for (const double c : {1.0, 2.5, 0.3}) {
     for (const MeasurementKind kind : {MeasurementKind::kCartesian, MeasurementKind::kPolar}) {
       SCOPED_TRACE(std::to_string(c) + (kind == MeasurementKind::kPolar ? " polar" : " cartesian"));
-      const std::vector<ModeSpec> five = {mode("cv", MotionKind::kConstantVelocity, 0.05),
-                                          mode("ct", MotionKind::kCoordinatedTurn, 0.5, 1e-4)};
-      const std::vector<ModeSpec> seven = {mode("cv", MotionKind::kConstantVelocity, 0.05),
-                                           mode("ca", MotionKind::kConstantAcceleration, 0.2),
-                                           mode("ct", MotionKind::kCoordinatedTurn, 0.5, 1e-4)};
+      const std::vector<ModeSpec> five = {mode_spec("cv", MotionKind::kConstantVelocity, 0.05),
+                                          mode_spec("ct", MotionKind::kCoordinatedTurn, 0.5, 1e-4)};
+      const std::vector<ModeSpec> seven = {
+          mode_spec("cv", MotionKind::kConstantVelocity, 0.05),
+          mode_spec("ca", MotionKind::kConstantAcceleration, 0.2),
+          mode_spec("ct", MotionKind::kCoordinatedTurn, 0.5, 1e-4)};
       for (const auto& modes : {five, seven}) {
         PlainImmSpec scheduled = spec_of(modes, kind);
         PlainImmSpec scaled = scheduled;
@@ -153,7 +138,7 @@ TEST(ScheduledNoise, OneStepIsTheHandWrittenStep) {
   const double q = 0.3;
   const std::vector<FuzzyRule> rules = {{0.0, 1.0, 0.0, 1.5, 0.2}, {3.0, 1.0, 1.0, 1.5, 9.0}};
   PlainImmSpec spec =
-      spec_of({mode("cv", MotionKind::kConstantVelocity, q)}, MeasurementKind::kCartesian);
+      spec_of({mode_spec("cv", MotionKind::kConstantVelocity, q)}, MeasurementKind::kCartesian);
   spec.modes[0].noise_schedule = FuzzyRuleTable(rules);
   auto imm = build_plain_imm<4>(spec);
   GaussianState<4> start;
@@ -203,8 +188,8 @@ TEST(ScheduledNoise, OneStepIsTheHandWrittenStep) {
 // The file keeps each table (a version-3 field: an older reader would run the fixed Q); a mode
 // without one stays unscheduled; a Singer mode cannot take one.
 TEST(ScheduledNoise, TheFileCarriesTheScheduleAndRefusalsNameTheField) {
-  PlainImmSpec spec = spec_of({mode("cv", MotionKind::kConstantVelocity, 0.05),
-                               mode("ct", MotionKind::kCoordinatedTurn, 0.5, 1e-4)},
+  PlainImmSpec spec = spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.05),
+                               mode_spec("ct", MotionKind::kCoordinatedTurn, 0.5, 1e-4)},
                               MeasurementKind::kPolar);
   spec.modes[1].noise_schedule =
       FuzzyRuleTable({{0.5, 0.8, -2.0, 1.0, 0.7}, {4.0, 0.8, 2.0, 1.0, 6.0}});
@@ -228,7 +213,8 @@ TEST(ScheduledNoise, TheFileCarriesTheScheduleAndRefusalsNameTheField) {
   EXPECT_EQ(read.modes[1].noise_schedule->rules()[1].w, 6.0);
   EXPECT_EQ(read.modes[1].noise_schedule->rules()[0].c2, -2.0);
 
-  PlainImmSpec singer = spec_of({mode("s", MotionKind::kSinger, 0.0)}, MeasurementKind::kCartesian);
+  PlainImmSpec singer =
+      spec_of({mode_spec("s", MotionKind::kSinger, 0.0)}, MeasurementKind::kCartesian);
   singer.modes[0].singer_sigma = 1.0;
   singer.modes[0].noise_schedule = constant_table(1.0);
   try {
@@ -239,7 +225,7 @@ TEST(ScheduledNoise, TheFileCarriesTheScheduleAndRefusalsNameTheField) {
   }
   // The CV bank's kernel has a fixed Q: it refuses, naming the field.
   PlainImmSpec cv =
-      spec_of({mode("cv", MotionKind::kConstantVelocity, 0.05)}, MeasurementKind::kCartesian);
+      spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.05)}, MeasurementKind::kCartesian);
   cv.modes[0].noise_schedule = constant_table(1.0);
   try {
     const TrackBank bank(cv, 4);

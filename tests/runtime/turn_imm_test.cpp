@@ -21,6 +21,7 @@
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/models/motion/coordinated_turn.hpp"
 #include "imm/tracking/tracker.hpp"
+#include "testing/specs.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm {
@@ -32,36 +33,18 @@ using Eigen::VectorXd;
 constexpr double kT = 2.0;
 
 ModeSpec cv(const std::string& name, double q) {
-  ModeSpec m;
-  m.name = name;
-  m.motion = MotionKind::kConstantVelocity;
-  m.process_noise = q;
-  return m;
+  return testing::mode_spec(name, MotionKind::kConstantVelocity, q);
 }
 ModeSpec ca(const std::string& name, double q) {
-  ModeSpec m = cv(name, q);
-  m.motion = MotionKind::kConstantAcceleration;
-  return m;
+  return testing::mode_spec(name, MotionKind::kConstantAcceleration, q);
 }
 ModeSpec ct(const std::string& name, double q, double q_omega) {
-  ModeSpec m = cv(name, q);
-  m.motion = MotionKind::kCoordinatedTurn;
-  m.turn_noise = q_omega;
-  return m;
+  return testing::mode_spec(name, MotionKind::kCoordinatedTurn, q, q_omega);
 }
 
 PlainImmSpec spec_of(std::vector<ModeSpec> modes, double sigma) {
-  PlainImmSpec spec;
-  spec.sample_period = kT;
-  const auto n = static_cast<Eigen::Index>(modes.size());
-  spec.modes = std::move(modes);
-  spec.transition = MatrixXd::Constant(n, n, n == 1 ? 1.0 : 0.05 / static_cast<double>(n - 1));
-  spec.transition.diagonal().setConstant(n == 1 ? 1.0 : 0.95);
-  spec.initial_probabilities = VectorXd::Constant(n, 1.0 / static_cast<double>(n));
-  spec.measurement.covariance = sigma * sigma * Eigen::Matrix2d::Identity();
-  spec.initialization.turn_rate_variance = 0.01;
-  spec.initialization.acceleration_variance = 4.0;
-  return spec;
+  return testing::switching_spec(std::move(modes), kT, 0.05, MeasurementKind::kCartesian,
+                                 sigma * sigma * Eigen::Matrix2d::Identity());
 }
 
 // A CT EKF alone, started at rest on the turn rate (ω = 0 ± 0.1 rad/s), learns the turn rate of a
