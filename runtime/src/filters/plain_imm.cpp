@@ -214,7 +214,7 @@ void PlainImmSpec::validate() const {
 }
 
 template <int NX>
-ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec) {
+std::vector<std::unique_ptr<ImmMode<NX, 2>>> build_plain_imm_modes(const PlainImmSpec& spec) {
   spec.validate();
   if (spec.mixing_dimension() != NX) {
     throw InvalidParameter("modes", "spec needs a " + std::to_string(spec.mixing_dimension()) +
@@ -237,9 +237,19 @@ ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec) {
       modes.push_back(make_mode<NX, 6>(mode, motion, spec.measurement));
     }
   }
-  return ImmEstimator<NX, 2>(std::move(modes), spec.transition, spec.initial_probabilities);
+  return modes;
 }
 
+template <int NX>
+ImmEstimator<NX, 2> build_plain_imm(const PlainImmSpec& spec) {
+  return ImmEstimator<NX, 2>(build_plain_imm_modes<NX>(spec), spec.transition,
+                             spec.initial_probabilities);
+}
+
+template std::vector<std::unique_ptr<ImmMode<4, 2>>> build_plain_imm_modes<4>(const PlainImmSpec&);
+template std::vector<std::unique_ptr<ImmMode<6, 2>>> build_plain_imm_modes<6>(const PlainImmSpec&);
+template std::vector<std::unique_ptr<ImmMode<5, 2>>> build_plain_imm_modes<5>(const PlainImmSpec&);
+template std::vector<std::unique_ptr<ImmMode<7, 2>>> build_plain_imm_modes<7>(const PlainImmSpec&);
 template ImmEstimator<4, 2> build_plain_imm<4>(const PlainImmSpec&);
 template ImmEstimator<6, 2> build_plain_imm<6>(const PlainImmSpec&);
 template ImmEstimator<5, 2> build_plain_imm<5>(const PlainImmSpec&);

@@ -13,6 +13,7 @@
 /// (state_embedding.hpp).
 
 #include <Eigen/Core>
+#include <memory>
 #include <optional>
 #include <string>
 #include <variant>
@@ -94,6 +95,25 @@ struct IMM_RUNTIME_EXPORT PlainImmSpec {
   /// The measurement and initialization of the spec, as a Tracker takes them.
   [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
+
+/// The modes of a spec in its mixing space NX (4 to 7; must equal spec.mixing_dimension()), in
+/// the spec's order: what build_plain_imm assembles, for an IMM that adds modes of its own to them.
+template <int NX>
+[[nodiscard]] std::vector<std::unique_ptr<ImmMode<NX, 2>>> build_plain_imm_modes(
+    const PlainImmSpec& spec);
+
+/// The 4-state modes.
+extern template IMM_RUNTIME_EXPORT std::vector<std::unique_ptr<ImmMode<4, 2>>>
+build_plain_imm_modes<4>(const PlainImmSpec&);
+/// The 6-state modes.
+extern template IMM_RUNTIME_EXPORT std::vector<std::unique_ptr<ImmMode<6, 2>>>
+build_plain_imm_modes<6>(const PlainImmSpec&);
+/// The 5-state modes.
+extern template IMM_RUNTIME_EXPORT std::vector<std::unique_ptr<ImmMode<5, 2>>>
+build_plain_imm_modes<5>(const PlainImmSpec&);
+/// The 7-state modes.
+extern template IMM_RUNTIME_EXPORT std::vector<std::unique_ptr<ImmMode<7, 2>>>
+build_plain_imm_modes<7>(const PlainImmSpec&);
 
 /// Builds the IMM of a validated spec in its mixing space NX (4 to 7; must equal
 /// spec.mixing_dimension()).
