@@ -3,11 +3,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
 
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/math/lane_math.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/specs.hpp"
@@ -97,44 +99,70 @@ TEST(TrackBank, ManyTracksEqualOneTrackBanksToTheBit) {
   EXPECT_GT(invalid, 100);  // the NaN plots were there and were refused
 }
 
-// Against the deliberately plain textbook IMM (dynamic sizes, linear probabilities, standard
-// covariance update) and the runtime's generic ImmEstimator, on a manoeuvring track.
-TEST(TrackBank, MatchesTheTextbookImmAndImmEstimator) {
-  const PlainImmSpec spec = bank_spec();
-  TrackBank bank(spec, 3);
-  auto reference_imm = build_plain_imm<4>(spec);
-  const GaussianState<4> initial = start_for(0);
-  for (std::size_t t = 0; t < 3; ++t) bank.initialize(t, initial);
-  reference_imm.initialize(initial);
-  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(2, 4);
-  H(0, 0) = H(1, 2) = 1.0;
-  std::vector<testing::TextbookMode> modes;
-  for (const ModeSpec& mode : spec.modes) {
-    const auto cv = constant_velocity<2>(1.0, mode.process_noise, mode.noise_form);
-    modes.push_back({Eigen::MatrixXd::Identity(4, 4), cv.transition, cv.process_noise, H,
-                     spec.measurement.covariance, initial.mean, initial.covariance});
+// n CV modes with noise levels 10⁻⁶ … 10⁻², the one of bank_spec() for n = 3.
+PlainImmSpec spec_with_modes(int n) {
+  if (n == 3) return bank_spec();
+  std::vector<ModeSpec> modes;
+  for (int j = 0; j < n; ++j) {
+    const double q = std::pow(10.0, -6.0 + 4.0 * j / std::max(n - 1, 1));
+    std::string name = "q";
+    name += std::to_string(j);
+    modes.push_back(testing::mode_spec(name, MotionKind::kConstantVelocity, q));
   }
-  testing::TextbookImm textbook(modes, spec.transition, spec.initial_probabilities);
-  std::mt19937_64 rng(99);
-  std::normal_distribution<double> noise(0.0, 0.5);
-  std::array<Eigen::Vector2d, 3> plots;
-  std::array<StepStatus, 3> status{};
-  for (int k = 1; k <= 160; ++k) {
-    const double ax = (k >= 40 && k < 60) ? 0.01 : 0.0;
-    const Vector<2> z(10.0 + 0.1 * k + 0.5 * ax * k * k + noise(rng), -5.0 + 0.2 * k + noise(rng));
-    plots.fill(z);
-    bank.step(plots, status);
-    ASSERT_EQ(status[1], StepStatus::kOk);
-    textbook.step(z);
-    ASSERT_EQ(reference_imm.step(z), StepStatus::kOk);
-    const auto estimate = bank.estimate(1);
-    ASSERT_TRUE(testing::matrices_near(estimate.mean, textbook.mean(), 1e-9)) << "scan " << k;
-    ASSERT_TRUE(testing::matrices_near(estimate.covariance, textbook.covariance(), 1e-9));
-    ASSERT_TRUE(testing::matrices_near(bank.mode_probabilities(1), textbook.probabilities(), 1e-9));
-    ASSERT_TRUE(testing::matrices_near(estimate.mean, reference_imm.estimate().mean, 1e-10));
-    ASSERT_TRUE(
-        testing::matrices_near(estimate.covariance, reference_imm.estimate().covariance, 1e-10));
-    ASSERT_EQ(estimate.covariance, estimate.covariance.transpose());  // stored as a triangle
+  Eigen::Matrix2d R;
+  R << 0.25, 0.02, 0.02, 0.3;
+  return testing::switching_spec(std::move(modes), 1.0, 0.04, MeasurementKind::kCartesian, R);
+}
+
+// Against the deliberately plain textbook IMM (dynamic sizes, linear probabilities, standard
+// covariance update) and the runtime's generic ImmEstimator, on a manoeuvring track: with 1, 3
+// (unrolled) and 6 modes (the general loop), for a track alone (the step's double instance) and in
+// a pack of lanes (its LanePack instance).
+TEST(TrackBank, MatchesTheTextbookImmAndImmEstimator) {
+  for (const int n : {1, 3, 6}) {
+    for (const std::size_t tracks : {std::size_t{1}, std::size_t{kLanePackWidth + 1}}) {
+      SCOPED_TRACE(::testing::Message() << n << " modes, " << tracks << " tracks");
+      const PlainImmSpec spec = spec_with_modes(n);
+      TrackBank bank(spec, tracks);
+      auto reference_imm = build_plain_imm<4>(spec);
+      const GaussianState<4> initial = start_for(0);
+      for (std::size_t t = 0; t < tracks; ++t) bank.initialize(t, initial);
+      reference_imm.initialize(initial);
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(2, 4);
+      H(0, 0) = H(1, 2) = 1.0;
+      std::vector<testing::TextbookMode> modes;
+      for (const ModeSpec& mode : spec.modes) {
+        const auto cv = constant_velocity<2>(1.0, mode.process_noise, mode.noise_form);
+        modes.push_back({Eigen::MatrixXd::Identity(4, 4), cv.transition, cv.process_noise, H,
+                         spec.measurement.covariance, initial.mean, initial.covariance});
+      }
+      testing::TextbookImm textbook(modes, spec.transition, spec.initial_probabilities);
+      std::mt19937_64 rng(99);
+      std::normal_distribution<double> noise(0.0, 0.5);
+      std::vector<Eigen::Vector2d> plots(tracks);
+      std::vector<StepStatus> status(tracks);
+      for (int k = 1; k <= 160; ++k) {
+        const double ax = (k >= 40 && k < 60) ? 0.01 : 0.0;
+        const Vector<2> z(10.0 + 0.1 * k + 0.5 * ax * k * k + noise(rng),
+                          -5.0 + 0.2 * k + noise(rng));
+        std::fill(plots.begin(), plots.end(), z);
+        bank.step(plots, status);
+        textbook.step(z);
+        ASSERT_EQ(reference_imm.step(z), StepStatus::kOk);
+        for (std::size_t t = 0; t < tracks; ++t) {
+          ASSERT_EQ(status[t], StepStatus::kOk);
+          const auto estimate = bank.estimate(t);
+          ASSERT_TRUE(testing::matrices_near(estimate.mean, textbook.mean(), 1e-9)) << k;
+          ASSERT_TRUE(testing::matrices_near(estimate.covariance, textbook.covariance(), 1e-9));
+          ASSERT_TRUE(
+              testing::matrices_near(bank.mode_probabilities(t), textbook.probabilities(), 1e-9));
+          ASSERT_TRUE(testing::matrices_near(estimate.mean, reference_imm.estimate().mean, 1e-10));
+          ASSERT_TRUE(testing::matrices_near(estimate.covariance,
+                                             reference_imm.estimate().covariance, 1e-10));
+          ASSERT_EQ(estimate.covariance, estimate.covariance.transpose());  // a triangle
+        }
+      }
+    }
   }
 }
 

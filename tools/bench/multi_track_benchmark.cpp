@@ -111,7 +111,13 @@ void BM_MultiTrack(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(tracks));
   state.SetLabel(bank_api ? "TrackBank" : "separate ImmEstimators");
 }
-BENCHMARK(BM_MultiTrack)->Args({1000, 0})->Args({1000, 1})->Args({16, 1})->Args({10000, 1});
+BENCHMARK(BM_MultiTrack)
+    ->Args({1000, 0})
+    ->Args({1000, 1})
+    ->Args({4, 0})
+    ->Args({4, 1})
+    ->Args({16, 1})
+    ->Args({10000, 1});
 
 // The benchmark loop of a bank against one-track filters: N tracks, track t fed the plots of
 // `source` (from its second row) shifted by t · offset, restarted from start(t) at the end of

@@ -7,9 +7,10 @@
 // by the one-track CvPositionMode (cv_position_mode.hpp): both compute the same IEEE operations
 // in the same order. Not installed.
 //
-// Entries are read and written through accessors (at(e) returning double&), so a lane of a
-// structure-of-arrays block and a plain array take the same code; everything is inline and
-// branch-free, which the bank's vectorized lane loops need.
+// Entries are read and written through accessors (at(e) returning S&), so a plain array and a
+// pack of lanes take the same code: S is the number type, a double for one track or a vector of
+// doubles for one lane per track (lane_pack.hpp); the model's constants (T, Q, R) are doubles.
+// Everything is inline and branch-free.
 
 #include <cstddef>
 #include <type_traits>
@@ -37,9 +38,10 @@ template <int N, class F>
 // Prediction in place: x⁻ = F x, P⁻ = F P Fᵀ + Q (q: Q's upper triangle, row by row).
 template <class At>
 [[gnu::always_inline]] inline void predict(At&& at, double T, const double* q) {
-  double p[kN][kN];
+  using S = std::remove_cvref_t<decltype(at(0))>;
+  S p[kN][kN];
   each<kN>([&](auto a) { each<kN>([&](auto c) { p[a][c] = at(kN + sym(a, c)); }); });
-  double fp[kN][kN];  // F P
+  S fp[kN][kN];  // F P
   each<kN>([&](auto c) {
     fp[0][c] = p[0][c] + T * p[1][c];
     fp[1][c] = p[1][c];
@@ -47,7 +49,7 @@ template <class At>
     fp[3][c] = p[3][c];
   });
   each<kN>([&](auto a) {
-    const double row[kN] = {fp[a][0] + T * fp[a][1], fp[a][1], fp[a][2] + T * fp[a][3], fp[a][3]};
+    const S row[kN] = {fp[a][0] + T * fp[a][1], fp[a][1], fp[a][2] + T * fp[a][3], fp[a][3]};
     each<kN>([&](auto c) {
       if constexpr (c >= a) at(kN + sym(a, c)) = row[c] + q[sym(a, c)];
     });
@@ -60,61 +62,62 @@ template <class At>
 // comparison in the bank's lane loop would keep it scalar): S is positive definite when
 // s00 > 0 and det > threshold (Sylvester, with kalman_filter.hpp's relative guard), and the
 // result is finite when `finite` is 0 (it sums v − v over every output).
+template <class S>
 struct UpdateOutcome {
-  double nu0 = 0.0, nu1 = 0.0;             // ν = z − H x⁻
-  double s00 = 0.0, s01 = 0.0, s11 = 0.0;  // S = H P⁻ Hᵀ + R
-  double det = 0.0;                        // |S|
-  double mahalanobis = 0.0;                // νᵀ S⁻¹ ν
-  double threshold = 0.0;                  // 1e-14 s00 s11
-  double finite = 0.0;
+  S nu0{}, nu1{};         // ν = z − H x⁻
+  S s00{}, s01{}, s11{};  // S = H P⁻ Hᵀ + R
+  S det{};                // |S|
+  S mahalanobis{};        // νᵀ S⁻¹ ν
+  S threshold{};          // 1e-14 s00 s11
+  S finite{};
 };
 
 // Joseph-form update (kalman_filter.hpp written out for the position-selecting H) of the
 // predicted Gaussian `in` into `out`: S = H P Hᵀ + R, K = P Hᵀ S⁻¹, C = P − K (P Hᵀ)ᵀ,
 // P⁺ = C − (C Hᵀ) Kᵀ + K R Kᵀ.
-template <class In, class Out>
-[[gnu::always_inline]] inline UpdateOutcome update(In&& in, Out&& out, double zx, double zy,
-                                                   double r00, double r01, double r11) {
+template <class In, class Out, class S = std::remove_cvref_t<std::invoke_result_t<In, int>>>
+[[gnu::always_inline]] inline UpdateOutcome<S> update(In&& in, Out&& out, S zx, S zy, double r00,
+                                                      double r01, double r11) {
   // Locals, not the struct's fields, inside the unrolled lambdas: a field written through the
   // captured struct keeps it in memory, and the bank's lane loop would stay scalar.
-  double p[kN][kN];
+  S p[kN][kN];
   each<kN>([&](auto a) { each<kN>([&](auto c) { p[a][c] = in(kN + sym(a, c)); }); });
-  const double s00 = p[0][0] + r00;
-  const double s01 = p[0][2] + r01;
-  const double s11 = p[2][2] + r11;
-  const double det = s00 * s11 - s01 * s01;
-  const double inverse_det = 1.0 / det;
-  const double i00 = s11 * inverse_det, i01 = -s01 * inverse_det, i11 = s00 * inverse_det;
-  double k[kN][2];
+  const S s00 = p[0][0] + r00;
+  const S s01 = p[0][2] + r01;
+  const S s11 = p[2][2] + r11;
+  const S det = s00 * s11 - s01 * s01;
+  const S inverse_det = 1.0 / det;
+  const S i00 = s11 * inverse_det, i01 = -s01 * inverse_det, i11 = s00 * inverse_det;
+  S k[kN][2];
   each<kN>([&](auto a) {
     k[a][0] = p[a][0] * i00 + p[a][2] * i01;
     k[a][1] = p[a][0] * i01 + p[a][2] * i11;
   });
-  const double nu0 = zx - in(0);
-  const double nu1 = zy - in(2);
-  double finite = 0.0;
+  const S nu0 = zx - in(0);
+  const S nu1 = zy - in(2);
+  S finite{};
   each<kN>([&](auto a) {
-    const double mean = in(a) + (k[a][0] * nu0 + k[a][1] * nu1);
+    const S mean = in(a) + (k[a][0] * nu0 + k[a][1] * nu1);
     out(a) = mean;
     finite += mean - mean;
   });
-  double cc[kN][kN];
+  S cc[kN][kN];
   each<kN>([&](auto a) {
     each<kN>([&](auto c) { cc[a][c] = p[a][c] - (k[a][0] * p[c][0] + k[a][1] * p[c][2]); });
   });
   each<kN>([&](auto a) {
-    const double kr0 = k[a][0] * r00 + k[a][1] * r01;
-    const double kr1 = k[a][0] * r01 + k[a][1] * r11;
+    const S kr0 = k[a][0] * r00 + k[a][1] * r01;
+    const S kr1 = k[a][0] * r01 + k[a][1] * r11;
     each<kN>([&](auto c) {
       if constexpr (c >= a) {
-        const double value = (cc[a][c] - (cc[a][0] * k[c][0] + cc[a][2] * k[c][1])) +
-                             (kr0 * k[c][0] + kr1 * k[c][1]);
+        const S value = (cc[a][c] - (cc[a][0] * k[c][0] + cc[a][2] * k[c][1])) +
+                        (kr0 * k[c][0] + kr1 * k[c][1]);
         out(kN + sym(a, c)) = value;
         finite += value - value;
       }
     });
   });
-  UpdateOutcome o;
+  UpdateOutcome<S> o;
   o.nu0 = nu0;
   o.nu1 = nu1;
   o.s00 = s00;

@@ -57,7 +57,7 @@ void CvPositionMode::reset(const GaussianState<4>& state) { load(state, estimate
   cv_position::predict([&](int e) -> double& { return predicted[static_cast<std::size_t>(e)]; },
                        period_, noise_.data());
   Entries updated;
-  const cv_position::UpdateOutcome o =
+  const auto o =
       cv_position::update([&](int e) { return predicted[static_cast<std::size_t>(e)]; },
                           [&](int e) -> double& { return updated[static_cast<std::size_t>(e)]; },
                           z(0), z(1), r00_, r01_, r11_);

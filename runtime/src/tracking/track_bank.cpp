@@ -73,7 +73,6 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
   r11_ = spec.measurement.covariance(1, 1);
   state_.assign(static_cast<std::size_t>((modes_ * kModeSlots + kEntries) * stride_), 0.0);
   initialized_.assign(capacity, 0);
-  scratch_.assign(static_cast<std::size_t>(ScratchLayout(modes_).total) * kBlock, 0.0);
 }
 
 std::size_t TrackBank::checked(std::size_t track) const {
@@ -135,7 +134,6 @@ void TrackBank::step_block(std::size_t first, int lanes, const Eigen::Vector2d* 
   block.r11 = r11_;
   block.state = state_.data() + first;
   block.stride = stride_;
-  block.scratch = scratch_.data();
   block.plots = plots;
   block.status = status;
   step_tracks(block);

@@ -57,72 +57,129 @@ namespace imm {
                                (std::bit_cast<std::uint64_t>(b) & ~mask));
 }
 
+// Passing a 64-byte vector by value: GCC and Clang note that its ABI differs without AVX-512. These
+// functions are inline and never cross a library boundary.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+/// Eight doubles operated on element by element (the GCC and Clang vector extension): the number
+/// type of a pack of lanes, one per track, in code templated on its number type (lane_exp,
+/// lane_log, the banks' steps). Arithmetic with a double applies it to every element.
+using LanePack = double __attribute__((vector_size(64)));
+/// The bit patterns of a LanePack.
+using LanePackBits = std::uint64_t __attribute__((vector_size(64)));
+/// What comparing two LanePacks gives: all ones where true, 0 where false.
+using LanePackMask = std::int64_t __attribute__((vector_size(64)));
+
+/// The elements of a LanePack.
+inline constexpr int kLanePackWidth = 8;
+
+/// `use` ? a : b element by element.
+[[nodiscard]] inline LanePack pick(LanePackMask use, LanePack a, LanePack b) {
+  const auto mask = std::bit_cast<LanePackBits>(use);
+  return std::bit_cast<LanePack>((std::bit_cast<LanePackBits>(a) & mask) |
+                                 (std::bit_cast<LanePackBits>(b) & ~mask));
+}
+/// `use` ? a : b for every element, a and b the same for all.
+[[nodiscard]] inline LanePack pick(LanePackMask use, double a, double b) {
+  return pick(use, LanePack{} + a, LanePack{} + b);
+}
+/// `use` ? a : b with a the same for all elements.
+[[nodiscard]] inline LanePack pick(LanePackMask use, double a, LanePack b) {
+  return pick(use, LanePack{} + a, b);
+}
+/// `use` ? a : b with b the same for all elements.
+[[nodiscard]] inline LanePack pick(LanePackMask use, LanePack a, double b) {
+  return pick(use, a, LanePack{} + b);
+}
+
+/// The bit types of a number type: a double's, or a LanePack's.
+template <class S>
+struct LaneBits {
+  using Unsigned = std::uint64_t;  ///< the bit pattern
+  using Signed = std::int64_t;     ///< a signed integer of the same width
+};
+/// A LanePack's bit types.
+template <>
+struct LaneBits<LanePack> {
+  using Unsigned = LanePackBits;  ///< the bit patterns
+  using Signed = LanePackMask;    ///< signed integers of the same width
+};
+
 /// eˣ within 2 ulp for x in [−708, 709]; 0 below −708 (libm's subnormal results are flushed),
 /// +∞ above 709, NaN for NaN. Cody–Waite reduction x = n ln 2 + r, |r| ≤ ½ ln 2, a degree-13
 /// Taylor polynomial of eʳ (truncation below 10⁻¹⁷), and 2ⁿ assembled in the exponent bits.
-[[nodiscard]] inline double lane_exp(double x) {
+/// S: double, or LanePack (element by element, the same bits as the double).
+template <class S>
+[[nodiscard]] inline S lane_exp(S x) {
+  using Signed = typename LaneBits<S>::Signed;
+  using Unsigned = typename LaneBits<S>::Unsigned;
   constexpr double kLog2e = 1.4426950408889634074;
   constexpr double kLn2High = 6.93147180369123816490e-01;  // ln 2 with 32 trailing zero bits
   constexpr double kLn2Low = 1.90821492927058770002e-10;   // ln 2 − kLn2High
   constexpr double kRound = 0x1.8p52;                      // adding it rounds to an integer
-  const bool underflow = x < -708.0;
-  const bool overflow = x > 709.0;
+  const auto underflow = x < -708.0;
+  const auto overflow = x > 709.0;
   // Clamped (NaN stays NaN: both comparisons are false), so that n fits the exponent field.
-  const double clamped = pick(underflow, -708.0, pick(overflow, 709.0, x));
-  const double shifted = clamped * kLog2e + kRound;
-  const double n = shifted - kRound;
-  const double r = (clamped - n * kLn2High) - n * kLn2Low;
+  const S clamped = pick(underflow, -708.0, pick(overflow, 709.0, x));
+  const S shifted = clamped * kLog2e + kRound;
+  const S n = shifted - kRound;
+  const S r = (clamped - n * kLn2High) - n * kLn2Low;
   // eʳ = Σ rᵏ/k!, k ≤ 13, by Estrin's scheme: pairs, then pairs of pairs, so that the longest
   // chain of dependent operations is 8 long instead of Horner's 26 (the loops that call this are
   // bound by that latency, not by the operation count).
-  const double r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
-  const double a0 = 1.0 + r, a1 = 1.0 / 2.0 + r * (1.0 / 6.0);
-  const double a2 = 1.0 / 24.0 + r * (1.0 / 120.0), a3 = 1.0 / 720.0 + r * (1.0 / 5040.0);
-  const double a4 = 1.0 / 40320.0 + r * (1.0 / 362880.0);
-  const double a5 = 1.0 / 3628800.0 + r * (1.0 / 39916800.0);
-  const double a6 = 1.0 / 479001600.0 + r * (1.0 / 6227020800.0);
-  const double b0 = a0 + r2 * a1, b1 = a2 + r2 * a3, b2 = a4 + r2 * a5;
-  const double p = (b0 + r4 * b1) + r8 * (b2 + r4 * a6);
+  const S r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
+  const S a0 = 1.0 + r, a1 = 1.0 / 2.0 + r * (1.0 / 6.0);
+  const S a2 = 1.0 / 24.0 + r * (1.0 / 120.0), a3 = 1.0 / 720.0 + r * (1.0 / 5040.0);
+  const S a4 = 1.0 / 40320.0 + r * (1.0 / 362880.0);
+  const S a5 = 1.0 / 3628800.0 + r * (1.0 / 39916800.0);
+  const S a6 = 1.0 / 479001600.0 + r * (1.0 / 6227020800.0);
+  const S b0 = a0 + r2 * a1, b1 = a2 + r2 * a3, b2 = a4 + r2 * a5;
+  const S p = (b0 + r4 * b1) + r8 * (b2 + r4 * a6);
   // n is in [−1022, 1023]: it sits in the low bits of `shifted`'s mantissa.
-  const std::int64_t k = std::bit_cast<std::int64_t>(shifted) - std::bit_cast<std::int64_t>(kRound);
-  const double scale = std::bit_cast<double>(static_cast<std::uint64_t>(k + 1023) << 52U);
-  const double result = p * scale;
+  const Signed k = std::bit_cast<Signed>(shifted) - std::bit_cast<std::int64_t>(kRound);
+  const S scale = std::bit_cast<S>(std::bit_cast<Unsigned>(k + 1023) << 52U);
+  const S result = p * scale;
   return pick(underflow, 0.0, pick(overflow, std::numeric_limits<double>::infinity(), result));
 }
 
 /// ln x within 2 ulp for every positive x, subnormal ones included; −∞ for 0, +∞ for +∞, NaN for
 /// a negative x or NaN. x = m 2ᵉ with m in [√½, √2), ln m = 2 atanh f with f = (m − 1)/(m + 1),
 /// |f| ≤ 0.172, by its odd series to f²¹ (truncation below 10⁻¹⁸).
-[[nodiscard]] inline double lane_log(double x) {
+/// S: double, or LanePack (element by element, the same bits as the double).
+template <class S>
+[[nodiscard]] inline S lane_log(S x) {
+  using Unsigned = typename LaneBits<S>::Unsigned;
   constexpr double kLn2High = 6.93147180369123816490e-01;
   constexpr double kLn2Low = 1.90821492927058770002e-10;
   constexpr double kSqrtHalf = 0.70710678118654752440;
-  const bool subnormal = x < std::numeric_limits<double>::min();
-  const double scaled = pick(subnormal, x * 0x1p54, x);
-  const auto bits = std::bit_cast<std::uint64_t>(scaled);
+  const auto subnormal = x < std::numeric_limits<double>::min();
+  const S scaled = pick(subnormal, x * 0x1p54, x);
+  const auto bits = std::bit_cast<Unsigned>(scaled);
   // The biased exponent as a double (the 2⁵² trick: an integer below 2⁵² in the low mantissa).
-  const double biased =
-      std::bit_cast<double>(((bits >> 52U) & 0x7ffU) | 0x4330000000000000ULL) - 0x1p52;
-  const double m1 = std::bit_cast<double>((bits & 0x000fffffffffffffULL) | 0x3ff0000000000000ULL);
+  const S biased = std::bit_cast<S>(((bits >> 52U) & 0x7ffU) | 0x4330000000000000ULL) - 0x1p52;
+  const S m1 = std::bit_cast<S>((bits & 0x000fffffffffffffULL) | 0x3ff0000000000000ULL);
   // m in [1, 2) → [√½, √2): halve it (exactly) above √2 and count one more in the exponent.
-  const bool high = m1 > 2.0 * kSqrtHalf;
-  const double m = pick(high, m1 * 0.5, m1);
-  const double e = biased - 1023.0 + pick(high, 1.0, 0.0) - pick(subnormal, 54.0, 0.0);
-  const double f = (m - 1.0) / (m + 1.0);
-  const double f2 = f * f;
+  const auto high = m1 > 2.0 * kSqrtHalf;
+  const S m = pick(high, m1 * 0.5, m1);
+  const S e = biased - 1023.0 + pick(high, 1.0, 0.0) - pick(subnormal, 54.0, 0.0);
+  const S f = (m - 1.0) / (m + 1.0);
+  const S f2 = f * f;
   // Σ f²ᵏ/(2k + 1), k ≤ 10, by Estrin's scheme (see lane_exp).
-  const double f4 = f2 * f2, f8 = f4 * f4;
-  const double t0 = 1.0 / 3.0 + f2 * (1.0 / 5.0), t1 = 1.0 / 7.0 + f2 * (1.0 / 9.0);
-  const double t2 = 1.0 / 11.0 + f2 * (1.0 / 13.0), t3 = 1.0 / 15.0 + f2 * (1.0 / 17.0);
-  const double t4 = 1.0 / 19.0 + f2 * (1.0 / 21.0);
-  const double s = (t0 + f4 * t1) + f8 * ((t2 + f4 * t3) + f8 * t4);
-  const double log_m = 2.0 * f + 2.0 * f * (f2 * s);
-  const double result = e * kLn2High + (log_m + e * kLn2Low);
+  const S f4 = f2 * f2, f8 = f4 * f4;
+  const S t0 = 1.0 / 3.0 + f2 * (1.0 / 5.0), t1 = 1.0 / 7.0 + f2 * (1.0 / 9.0);
+  const S t2 = 1.0 / 11.0 + f2 * (1.0 / 13.0), t3 = 1.0 / 15.0 + f2 * (1.0 / 17.0);
+  const S t4 = 1.0 / 19.0 + f2 * (1.0 / 21.0);
+  const S s = (t0 + f4 * t1) + f8 * ((t2 + f4 * t3) + f8 * t4);
+  const S log_m = 2.0 * f + 2.0 * f * (f2 * s);
+  const S result = e * kLn2High + (log_m + e * kLn2Low);
   constexpr double kInf = std::numeric_limits<double>::infinity();
-  const double special =
+  const S special =
       pick(x == 0.0, -kInf, pick(x == kInf, kInf, std::numeric_limits<double>::quiet_NaN()));
   return pick((x > 0.0) & (x < kInf), result, special);
 }
+
+#pragma GCC diagnostic pop
 
 /// atan2(y, x) within 2 ulp of libm's (tested) for finite (y, x) not both 0 (both 0 gives ±0 or ±π
 /// with y's and x's signs, as libm); NaN for a NaN. The ratio t = min(|x|, |y|) / max(|x|, |y|) in

@@ -7,14 +7,16 @@
 /// common case of air and ground surveillance: state [x, vx, y, vy], z = [x, y] + v.
 ///
 /// Layout, and why: the tracks are stored as structure of arrays — entry e of mode j of track t
-/// at slot(j, e)[t] — and one step runs in phases over blocks of kBlock tracks (mode-probability
-/// prediction, mixing, prediction, Joseph update, posterior, combination). Each arithmetic phase
-/// is a loop over tracks with no branches and no calls, which the compiler vectorizes (AVX-512 or
-/// AVX2 where the CPU has it, chosen at run time; SSE2 otherwise); the transcendental functions run
-/// in their own scalar phases. Tracks never interact, and a track's arithmetic is the same sequence
-/// of IEEE operations in every lane and in the scalar remainder (no fused multiply-add, no
-/// reassociation), so a track's result does not depend on its position, on the number of tracks
-/// or on the instruction set: a bank of N tracks equals N banks of one track to the bit.
+/// at slot(j, e)[t] — and one step is one function templated on its number type
+/// (track_bank_kernel.cpp): a LanePack (imm/math/lane_math.hpp) steps eight consecutive tracks at
+/// once, one per vector element, through the whole IMM cycle (mode-probability prediction,
+/// mixing, prediction, Joseph update, posterior, combination) with lane_log and lane_exp; a double
+/// steps the tracks left over, one at a time, through the same statements. The instruction set
+/// (AVX-512 or AVX2 where the CPU has it, chosen at run time; SSE2 otherwise) changes how many
+/// instructions an element operation takes, not its result: a track's arithmetic is the same
+/// sequence of IEEE operations in every lane and alone (no fused multiply-add, no reassociation),
+/// so a track's result does not depend on its position, on the number of tracks or on the
+/// instruction set: a bank of N tracks equals N banks of one track to the bit.
 ///
 /// Numerics are those of ImmEstimator: log-space mode probabilities (the scaled linear μ̃ of the
 /// class comment there, kept from the previous posterior instead of recomputed), the Joseph-form
@@ -44,7 +46,7 @@ class IMM_RUNTIME_EXPORT TrackBank {
  public:
   /// The state dimension: [x, vx, y, vy].
   static constexpr int kDim = 4;
-  /// Tracks per phase block: its scratch (≈ 30 values per mode and track) stays in L1.
+  /// Tracks per call of the kernel; the state is padded to a multiple of it.
   static constexpr int kBlock = 64;
 
   /// Room for `capacity` tracks of the IMM of `spec`. Throws InvalidParameter naming the field
@@ -99,7 +101,6 @@ class IMM_RUNTIME_EXPORT TrackBank {
 
   std::vector<double> state_;
   std::vector<unsigned char> initialized_;
-  std::vector<double> scratch_;  // one block's phase values, kBlock per slot
 };
 
 }  // namespace imm
