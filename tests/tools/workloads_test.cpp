@@ -23,7 +23,7 @@ namespace {
 std::filesystem::path folder() { return input_folder(); }
 
 // W1: the plain IMM of configs/track/cv3_imm.toml on the workload's plots equals the textbook IMM
-// built from the workload's own description (README of ../shared/bench).
+// built from the workload's own description (docs/performance.md, "The four reference workloads").
 TEST(Workloads, W1PlainImmMatchesTheTextbookImm) {
   const W1Input input = load_w1(folder());
   ASSERT_EQ(input.plots.rows(), 10000);

@@ -296,7 +296,8 @@ void BM_FimmStep(benchmark::State& state) {
 }
 BENCHMARK(BM_FimmStep)->Args({0, 0})->Args({1, 0})->Args({5, 0})->Args({1, 1})->Args({5, 1});
 
-// --- The reference workloads of ../shared/bench (tools/workloads) --------------------------------
+// --- The reference workloads (tools/workloads)
+// ------------------------------------------------------
 
 // W1: one IMM step (predict and update) of the plain IMM built from configs/track/cv3_imm.toml,
 // over the workload's 10 000 plots from the W1 start, restarting after the last. Checks the

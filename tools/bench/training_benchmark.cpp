@@ -97,7 +97,8 @@ void BM_TskFit(benchmark::State& state) {
 }
 BENCHMARK(BM_TskFit)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
-// --- The reference workloads of ../shared/bench (tools/workloads) --------------------------------
+// --- The reference workloads (tools/workloads)
+// ------------------------------------------------------
 
 // W2a: 6000 full-batch epochs of the 2-10-10-1 network from the given weights; the final MSE is
 // deterministic and checked against the README figure.

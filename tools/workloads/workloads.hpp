@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-/// The four reference workloads of ../shared/bench (README there): their inputs, and each run
-/// through our own code with the figure that checks it. The benchmarks (imm-bench,
-/// imm-train-bench) time these functions; tests/tools/workloads_test.cpp checks their results
-/// against independent references at small sizes.
+/// The four reference workloads (docs/performance.md; inputs in tools/workloads/inputs): their
+/// inputs, and each run through our own code with the figure that checks it. The benchmarks
+/// (imm-bench, imm-train-bench) time these functions; tests/tools/workloads_test.cpp checks their
+/// results against independent references at small sizes.
 ///
 ///   W1  the plain IMM of configs/track/cv3_imm.toml (= the workload's filter) on 10 000 plots
 ///   W2a full-batch back-propagation of a 2-10-10-1 network, 6000 epochs, from given weights
