@@ -9,6 +9,7 @@ packages=(
   libeigen3-dev libhdf5-dev
   libceres-dev libnlopt-cxx-dev libspdlog-dev
   libtomlplusplus-dev libcli11-dev nlohmann-json3-dev
+  libssl-dev              # libcrypto's SHA-256 (datasets/src/sha256.cpp)
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
   doxygen python3-h5py    # the API documentation test; the h5py reading test

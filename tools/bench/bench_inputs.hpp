@@ -24,7 +24,7 @@ inline const Eigen::MatrixXd& table3_plots() {
   return plots;
 }
 
-// The W1 workload's plots and truth (../shared/bench, copied to tools/workloads/inputs).
+// The W1 workload's plots and truth (tools/workloads/inputs).
 inline const imm::workloads::W1Input& w1_input() {
   static const imm::workloads::W1Input input =
       imm::workloads::load_w1(imm::workloads::input_folder());

@@ -75,24 +75,6 @@ inline std::string escaped_name(std::string_view name) {
 }
 inline constexpr std::size_t kMaxAttributesPerObject = 256;
 
-// CRC-32 tables for slicing by 8: [0] the byte-wise table (reflected 0xEDB88320), [k][n] the CRC of
-// byte n followed by k zero bytes.
-inline std::array<std::array<std::uint32_t, 256>, 8> make_crc_tables() {
-  std::array<std::array<std::uint32_t, 256>, 8> tables{};
-  for (std::uint32_t i = 0; i < 256; ++i) {
-    std::uint32_t c = i;
-    for (int k = 0; k < 8; ++k) c = (c & 1U) ? 0xEDB88320U ^ (c >> 1U) : c >> 1U;
-    tables[0][i] = c;
-  }
-  for (std::size_t k = 1; k < 8; ++k) {
-    for (std::size_t i = 0; i < 256; ++i) {
-      const std::uint32_t previous = tables[k - 1][i];
-      tables[k][i] = (previous >> 8U) ^ tables[0][previous & 0xFFU];
-    }
-  }
-  return tables;
-}
-
 inline std::string hex32(std::uint32_t value) {
   char buffer[9];
   std::snprintf(buffer, sizeof buffer, "%08x", value);

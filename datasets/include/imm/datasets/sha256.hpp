@@ -3,30 +3,38 @@
 /// SHA-256 (FIPS 180-4), for the dataset digests recorded in model files.
 
 #include <Eigen/Core>
-#include <array>
 #include <cstddef>
-#include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <string_view>
 
+// OpenSSL's digest context (EVP_MD_CTX), kept out of this header.
+struct evp_md_ctx_st;
+
 namespace imm::datasets {
 
+/// SHA-256 by OpenSSL's libcrypto (its EVP digest interface). Movable, not copyable.
 class Sha256 {
  public:
+  /// Throws std::runtime_error when libcrypto cannot start a digest.
   Sha256();
+  ~Sha256();
+  Sha256(Sha256&&) noexcept;
+  Sha256& operator=(Sha256&&) noexcept;
+  Sha256(const Sha256&) = delete;
+  Sha256& operator=(const Sha256&) = delete;
+
   void update(const void* data, std::size_t size);
   void update(std::string_view text) { update(text.data(), text.size()); }
   /// Finishes and returns the lowercase hex digest; the object is then spent.
   [[nodiscard]] std::string hex_digest();
 
  private:
-  void compress(const unsigned char* block);
-
-  std::array<std::uint32_t, 8> state_{};
-  std::array<unsigned char, 64> buffer_{};
-  std::size_t buffered_ = 0;
-  std::uint64_t total_bytes_ = 0;
+  struct Free {
+    void operator()(evp_md_ctx_st* context) const;
+  };
+  std::unique_ptr<evp_md_ctx_st, Free> context_;
 };
 
 [[nodiscard]] std::string sha256_hex(std::string_view text);
