@@ -17,7 +17,10 @@ namespace fs = std::filesystem;
 /// Text for HTML (&, <, >, " escaped).
 [[nodiscard]] std::string html_text(const std::string& text);
 /// A note as HTML: its Markdown table rows as a table, its "- " lines as a list, its other lines
-/// as paragraphs.
+/// as paragraphs, every text escaped. The notes are the product's own text in exactly these three
+/// forms, so a Markdown library is not used: CommonMark's cmark (libcmark-dev) has no tables, and
+/// cmark-gfm's table extension would render the same three forms through an extension registry
+/// and a raw-HTML policy to configure.
 [[nodiscard]] std::string markdown_to_html(const std::string& text);
 /// Appends the night's line to `history` (JSON lines: night, exit code, wall time, each stage that
 /// ran and its seconds).
