@@ -31,17 +31,17 @@
 #include "imm/evaluation/report.hpp"
 #include "imm/filters/fuzzy_noise_filter.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
-#include "imm/trainer/ga/baseline_tuning.hpp"
-#include "imm/trainer/ga/training_set.hpp"
+#include "imm/trainer/baseline_tuning.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/regime_checks.hpp"
+#include "imm/trainer/training_set.hpp"
 
 namespace imm::evaluation {
 namespace {
 
-using trainer::ga::axis_score;
-using trainer::ga::AxisFilterFactory;
-using trainer::ga::Tuned;
+using trainer::axis_score;
+using trainer::AxisFilterFactory;
+using trainer::Tuned;
 
 struct GaImmOptions {
   CommonOptions common;
@@ -99,8 +99,8 @@ int run(const GaImmOptions& options) {
 
   // Baselines tuned on the model's training split, scaled to its regime.
   const double a = trainer::acceleration_scale(own);
-  const std::vector<trainer::ga::TrainingSet> training = {
-      trainer::ga::make_training_set(own, datasets::Split::kTraining)};
+  const std::vector<trainer::TrainingSet> training = {
+      trainer::make_training_set(own, datasets::Split::kTraining)};
   AimmSpec aimm3;
   aimm3.settings = learned.settings;
   aimm3.process_noise_sigma = own.process_noise_sigma > 0.0 ? own.process_noise_sigma : 0.01 * a;
@@ -109,10 +109,9 @@ int run(const GaImmOptions& options) {
   aimm3.intervals = {0.4 * a};
   AimmSpec aimm5 = aimm3;
   aimm5.intervals = {0.2 * a, 0.4 * a};
-  const Tuned<AimmSpec> aimm_tuned = trainer::ga::tune_aimm(aimm3, training, a, 2);
+  const Tuned<AimmSpec> aimm_tuned = trainer::tune_aimm(aimm3, training, a, 2);
   // Three noise levels and the stay probability, as a GA trainer with tuned levels starts.
-  const Tuned<AxisCvImmSpec> imm_tuned =
-      trainer::ga::tune_imm_baseline(learned.settings, training, a);
+  const Tuned<AxisCvImmSpec> imm_tuned = trainer::tune_imm_baseline(learned.settings, training, a);
   const std::string unit = std::string(datasets::to_string(own.units));
   std::map<std::string, std::string> tuned;
   tuned["AIMM-tuned"] = "intervals [" + comma_list(aimm_tuned.spec.intervals) + "] " + unit +

@@ -33,7 +33,7 @@
 #include "imm/filters/axis_cv_imm.hpp"
 #include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
-#include "imm/trainer/ga/baseline_tuning.hpp"
+#include "imm/trainer/baseline_tuning.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/ranks.hpp"
 #include "imm/trainer/regime_checks.hpp"
@@ -130,8 +130,8 @@ int run(const CommonOptions& options) {
   AxisImmSettings imm_settings;
   imm_settings.sample_period = T;
   imm_settings.measurement_sigma = std::sqrt(R);
-  const trainer::ga::Tuned<AxisCvImmSpec> imm_tuned = trainer::ga::tune_imm_baseline(
-      imm_settings, {trainer::ga::make_training_set(own, datasets::Split::kTraining)},
+  const trainer::Tuned<AxisCvImmSpec> imm_tuned = trainer::tune_imm_baseline(
+      imm_settings, {trainer::make_training_set(own, datasets::Split::kTraining)},
       trainer::acceleration_scale(own));
 
   // How well every filter predicts the plots (the judgement without truth, where the true-input

@@ -48,8 +48,8 @@ int run_ga(const GaCommand& command) {
   if (command.seed) config.seed = *command.seed;
   if (command.threads > 0) omp_set_num_threads(command.threads);
   if (config.tuned_levels) {
-    const ga::TrainingSet training =
-        ga::make_training_set(config.regime, datasets::Split::kTraining);
+    const trainer::TrainingSet training =
+        trainer::make_training_set(config.regime, datasets::Split::kTraining);
     config = ga::resolve_levels(std::move(config), training);
     spdlog::info(
         "ga: starting from the constant-q IMM tuned on the training split: q [{}], stay {:.4f}, "
@@ -59,7 +59,7 @@ int run_ga(const GaCommand& command) {
   }
   if (!config.tuned_levels) {
     const auto warning = ga::unreachable_quiet_level(
-        config, ga::make_training_set(config.regime, datasets::Split::kTraining));
+        config, trainer::make_training_set(config.regime, datasets::Split::kTraining));
     if (warning) spdlog::warn("ga: levels: {}", *warning);
   }
   const std::size_t levels = config.levels.size();

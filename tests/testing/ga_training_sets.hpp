@@ -5,21 +5,21 @@
 #include <filesystem>
 
 #include "imm/datasets/regime_file.hpp"
-#include "imm/trainer/ga/training_set.hpp"
+#include "imm/trainer/training_set.hpp"
 #include "testing/regime_files.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::testing {
 
 // The one-axis trajectories of the training split of the regime file `regime`.
-inline trainer::ga::TrainingSet training_split(const std::filesystem::path& regime) {
-  return trainer::ga::make_training_set(datasets::load_regime(regime).regime,
-                                        datasets::Split::kTraining);
+inline trainer::TrainingSet training_split(const std::filesystem::path& regime) {
+  return trainer::make_training_set(datasets::load_regime(regime).regime,
+                                    datasets::Split::kTraining);
 }
 
 // The training split of write_ga_regime(dir, scans, training, validation), written and read in a
 // folder of its own.
-inline trainer::ga::TrainingSet ga_training_set(int scans, int training, int validation) {
+inline trainer::TrainingSet ga_training_set(int scans, int training, int validation) {
   const TempDir dir;
   return training_split(write_ga_regime(dir, scans, training, validation));
 }

@@ -2,7 +2,7 @@
 // The GA-fuzzy IMM contains its tuned baseline: one constant rule per level is the constant-q IMM,
 // a tuned-levels run starts from that IMM and never ends below it, and the joint tuning of the
 // stay probability never scores worse than the levels alone.
-#include "imm/trainer/ga/baseline_tuning.hpp"
+#include "imm/trainer/baseline_tuning.hpp"
 
 #include <gtest/gtest.h>
 

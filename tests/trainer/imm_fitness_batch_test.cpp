@@ -10,7 +10,7 @@
 #include <limits>
 
 #include "imm/datasets/random.hpp"
-#include "imm/trainer/ga/baseline_tuning.hpp"
+#include "imm/trainer/baseline_tuning.hpp"
 #include "imm/trainer/ga/fuzzy_table_problem.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
 #include "testing/ga_fuzzy_specs.hpp"

@@ -145,6 +145,8 @@ BENCHMARK(BM_W4_GaGeneration)->Unit(benchmark::kMicrosecond);
 // state.range(0) rules in each of the three levels' tables.
 void ga_fitness(benchmark::State& state, bool batched) {
   using namespace imm::trainer::ga;
+  using imm::trainer::make_training_set;
+  using imm::trainer::TrainingSet;
   const GaTrainingConfig config =
       load_ga_config(IMM_SOURCE_DIR "/configs/ga_fuzzy_imm.toml", preset("ga_imm_training"));
   const TrainingSet set = make_training_set(config.regime, imm::datasets::Split::kTraining);

@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "imm/filters/fuzzy_noise_filter.hpp"
-#include "imm/trainer/ga/baseline_tuning.hpp"
+#include "imm/trainer/baseline_tuning.hpp"
 
 namespace imm::trainer::ga {
 namespace {

@@ -6,9 +6,9 @@
 
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/model_file.hpp"
-#include "imm/trainer/ga/training_set.hpp"
 #include "imm/trainer/ga/tuned_levels.hpp"
 #include "imm/trainer/provenance.hpp"
+#include "imm/trainer/training_set.hpp"
 
 namespace imm::trainer::ga {
 

@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "imm/support/bounded_search.hpp"
-#include "imm/trainer/ga/baseline_tuning.hpp"
+#include "imm/trainer/baseline_tuning.hpp"
 #include "imm/trainer/regime_checks.hpp"
 
 using imm::support::grid_then_subplex;

@@ -12,12 +12,12 @@
 #include "imm/datasets/track.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/support/config.hpp"
-#include "imm/trainer/ga/baseline_tuning.hpp"
-#include "imm/trainer/ga/training_set.hpp"
+#include "imm/trainer/baseline_tuning.hpp"
 #include "imm/trainer/mlp/smoothed_labels.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
+#include "imm/trainer/training_set.hpp"
 
 namespace imm::trainer::mlp {
 namespace {
@@ -257,9 +257,9 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
     AxisImmSettings settings;
     settings.sample_period = regime.sample_period;
     settings.measurement_sigma = regime.sensor.noise.sigma(0);
-    const ga::TrainingSet plots = ga::make_training_set(regime, datasets::Split::kTraining);
-    const ga::Tuned<AxisCvImmSpec> smoother =
-        ga::tune_imm_baseline(settings, {plots}, acceleration_scale(regime));
+    const TrainingSet plots = make_training_set(regime, datasets::Split::kTraining);
+    const Tuned<AxisCvImmSpec> smoother =
+        tune_imm_baseline(settings, {plots}, acceleration_scale(regime));
     result.smoother = smoother.spec;
     training_tracks = smoothed_truth(training_tracks, smoother.spec);
     validation_tracks = smoothed_truth(validation_tracks, smoother.spec);

@@ -34,7 +34,7 @@
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/models/learned/fuzzy_rule_table.hpp"
 #include "imm/trainer/ga/imm_fitness_batch.hpp"
-#include "imm/trainer/ga/training_set.hpp"
+#include "imm/trainer/training_set.hpp"
 
 namespace imm::trainer::ga {
 

@@ -16,7 +16,7 @@
 #include "imm/trainer/ga/fuzzy_table_problem.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
 #include "imm/trainer/ga/memetic.hpp"
-#include "imm/trainer/ga/training_set.hpp"
+#include "imm/trainer/training_set.hpp"
 
 namespace imm::trainer::ga {
 

@@ -23,7 +23,7 @@
 
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/math/lane_math.hpp"
-#include "imm/trainer/ga/training_set.hpp"
+#include "imm/trainer/training_set.hpp"
 
 namespace imm::trainer::ga {
 

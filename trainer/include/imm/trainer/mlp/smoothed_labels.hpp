@@ -4,7 +4,7 @@
 /// for training): the acceleration a fixed-interval smoother finds in the plots.
 ///
 /// The smoother: the constant-q CV IMM per axis tuned on the training split by its predictive
-/// likelihood (ga::tune_imm_baseline on a plots-only set), run forward over every window, then a
+/// likelihood (tune_imm_baseline on a plots-only set), run forward over every window, then a
 /// Rauch–Tung–Striebel pass backward over its moment-matched estimates — x(k|k), P(k|k) and the
 /// prediction F x(k|k), F P(k|k) Fᵀ + Q̄(k) with Q̄(k) = Σ_j c_j(k+1) q_j G Gᵀ, the process noise
 /// the predicted mode probabilities expect. The label of scan k is the smoothed velocity's forward

@@ -13,9 +13,9 @@
 
 #include "imm/filters/aimm.hpp"
 #include "imm/filters/axis_cv_imm.hpp"
-#include "imm/trainer/ga/training_set.hpp"
+#include "imm/trainer/training_set.hpp"
 
-namespace imm::trainer::ga {
+namespace imm::trainer {
 
 using AxisFilterFactory = std::function<std::unique_ptr<AxisFilter>()>;
 
@@ -77,4 +77,4 @@ enum class TransitionTuning {
                                                      const std::vector<TrainingSet>& sets,
                                                      double a);
 
-}  // namespace imm::trainer::ga
+}  // namespace imm::trainer

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/trainer/ga/baseline_tuning.hpp"
+#include "imm/trainer/baseline_tuning.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +15,7 @@ using imm::support::SearchOptions;
 using imm::support::SearchResult;
 using imm::support::subplex;
 
-namespace imm::trainer::ga {
+namespace imm::trainer {
 namespace {
 
 std::vector<double> exponentials(const std::vector<double>& logs) {
@@ -191,4 +191,4 @@ Tuned<AxisCvImmSpec> tune_imm_baseline(AxisImmSettings settings,
   return tune_axis_cv_imm(base, sets, a, 3, TransitionTuning::kJointly);
 }
 
-}  // namespace imm::trainer::ga
+}  // namespace imm::trainer

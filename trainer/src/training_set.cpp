@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "imm/trainer/ga/training_set.hpp"
+#include "imm/trainer/training_set.hpp"
 
 #include "imm/datasets/sha256.hpp"
 #include "imm/datasets/track.hpp"
 #include "imm/trainer/regime_checks.hpp"
 
-namespace imm::trainer::ga {
+namespace imm::trainer {
 
 std::string TrainingSet::digest() const {
   datasets::Sha256 hash;
@@ -35,4 +35,4 @@ TrainingSet make_training_set(const datasets::Regime& regime, datasets::Split sp
   return set;
 }
 
-}  // namespace imm::trainer::ga
+}  // namespace imm::trainer

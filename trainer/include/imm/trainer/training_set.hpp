@@ -13,7 +13,7 @@
 #include "imm/datasets/regime.hpp"
 #include "imm/math/log_sum_exp.hpp"
 
-namespace imm::trainer::ga {
+namespace imm::trainer {
 
 using datasets::AxisTrajectory;
 
@@ -46,4 +46,4 @@ struct TrainingSet {
 /// windows must be free of gaps (std::runtime_error naming the recording otherwise).
 [[nodiscard]] TrainingSet make_training_set(const datasets::Regime& regime, datasets::Split split);
 
-}  // namespace imm::trainer::ga
+}  // namespace imm::trainer
