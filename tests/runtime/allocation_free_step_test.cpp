@@ -187,6 +187,7 @@ TEST(AllocationFreeStep, PlainImmTrackBankStep) {
 // included.
 TEST(AllocationFreeStep, GaFuzzyTrackBankStep) {
   GaFuzzyImmSpec spec;
+  spec.settings.sample_period = 1.0;
   spec.levels = {
       {"u0.001", 0.001, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 4e-6}, {1.0, 0.5, 0.5, 2.0, 2e-6}})},
       {"u0.1", 0.1, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1e-2}})}};
@@ -222,17 +223,20 @@ TEST(AllocationFreeStep, MixedDimensionPolarImmStep) {
 // weighted IMM.
 TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
   GaFuzzyImmSpec fuzzy;
+  fuzzy.settings.sample_period = 1.0;
   fuzzy.levels = {
       {"u0.001", 0.001, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 4e-6}, {1.0, 0.5, 0.5, 2.0, 2e-6}})},
       {"u0.01", 0.01, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1.2e-4}})},
       {"u0.1", 0.1, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1e-2}})}};
   AimmSpec aimm;
+  aimm.settings.sample_period = 1.0;
   aimm.intervals = {0.02, 0.04};
   std::vector<std::unique_ptr<TrackFilter>> filters;
   filters.push_back(make_ga_fuzzy_imm_filter(fuzzy));
   filters.push_back(make_aimm_filter(aimm));
   for (auto scale : {MembershipScale::kSeed, MembershipScale::kInnovation}) {
     FcmImmSpec fcm;  // seed 003's FCM-IMM, with both membership scales
+    fcm.sample_period = 1.0;
     fcm.scale = scale;
     fcm.measurement_sigma = 0.3;
     fcm.clustering.fuzzifier = 2.5;
@@ -240,6 +244,7 @@ TEST(AllocationFreeStep, GaFuzzyImmAndAimmSteps) {
   }
   for (auto fusion : {FusionVariant::kSeed, FusionVariant::kCorrelated}) {
     WimmSpec wimm;
+    wimm.sample_period = 2.0;
     wimm.fusion = fusion;
     wimm.range_sigma = 0.05;  // km-scale plots of this loop
     wimm.azimuth_sigma = 0.01;
@@ -267,6 +272,7 @@ MlpInputEstimatorModel small_input_estimator() {
   MlpLayer output{Eigen::MatrixXd::Constant(1, 10, 0.2), Eigen::VectorXd::Constant(1, -1.0),
                   Activation::kSigmoid};
   model.network = Mlp({hidden, output}, 12.0);
+  model.settings.sample_period = 1.0;
   return model;
 }
 
@@ -295,6 +301,7 @@ TEST(AllocationFreeStep, WimmTrackBankStep) {
   for (const MeasurementUpdate update :
        {MeasurementUpdate::kExtended, MeasurementUpdate::kConverted}) {
     WimmSpec spec;
+    spec.sample_period = 2.0;
     spec.threshold = 0.0;
     spec.update = update;
     WimmTrackBank bank(spec, kBankTracks);
@@ -338,6 +345,7 @@ TEST(AllocationFreeStep, FimmStepThroughTheTskSensor) {
       outputs, TNorm::kMin, Eigen::Vector2d(-6.0, 1.0), Eigen::Vector2d(6.0, 100.0));
   for (int iterations : {1, 5}) {
     FimmSpec spec;
+    spec.sample_period = 0.1;
     spec.iterations = iterations;
     FimmFilter filter(spec, sensor);
     Eigen::VectorXd start = Eigen::VectorXd::Zero(6);
@@ -378,7 +386,9 @@ TEST(AllocationFreeStep, FimmStepThroughTheTskSensor) {
 // The FCM-IMM's bank: kBankTracks tracks, bad plots included (the clustering's windows are the
 // bank's own slots and scratch).
 TEST(AllocationFreeStep, FcmImmTrackBankStep) {
-  FcmImmTrackBank bank(FcmImmSpec(), kBankTracks);
+  FcmImmSpec fcm;
+  fcm.sample_period = 1.0;
+  FcmImmTrackBank bank(fcm, kBankTracks);
   expect_bank_steps_allocate_nothing(bank, 100.0, -20.0);
 }
 

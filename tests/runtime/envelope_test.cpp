@@ -80,6 +80,7 @@ struct Simulation {
 PlainImmSpec kalman_filter(const Simulation& s) {
   PlainImmSpec spec;
   spec.sample_period = 1.0;
+  spec.sample_period = 1.0;
   spec.modes = {{"cv", MotionKind::kConstantVelocity, s.q}};
   spec.transition = Eigen::MatrixXd::Ones(1, 1);
   spec.initial_probabilities = Eigen::VectorXd::Ones(1);

@@ -293,6 +293,7 @@ GaussianState<2> exact_start(double p, double v, double variance) {
 
 TEST(FcmImm, CompensationGainZeroIsThePlainImm) {
   FcmImmSpec spec;
+  spec.sample_period = 1.0;
   spec.compensation_gain = 0.0;
   spec.process_noise = {0.5, 40.0, 900.0};
   spec.transition = FcmImmSpec::switching_transition(3, 0.9);
@@ -331,6 +332,7 @@ TEST(FcmImm, CompensationGainZeroIsThePlainImm) {
 TEST(FcmImm, NoiseFreeConstantVelocityIsNotCompensated) {
   for (auto scale : {MembershipScale::kInnovation, MembershipScale::kSeed}) {
     FcmImmSpec spec;
+    spec.sample_period = 1.0;
     spec.scale = scale;
     FcmImmAxisFilter filter(spec);
     filter.initialize(exact_start(1000.0, -450.0, 1e4));
@@ -382,6 +384,7 @@ TEST(FcmImm, FullCompensationIsTheMarginallyStableAlphaBetaFilter) {
   // Its exact error covariance follows Σ_k = A Σ_{k−1} Aᵀ + ĝ σ² ĝᵀ with A = (I − ĝ H) F, whose
   // eigenvalues are 0 and −1: E ṽ² grows without bound, by 16 σ²/T² per step.
   FcmImmSpec spec;
+  spec.sample_period = 1.0;
   spec.process_noise = {0.0};
   spec.transition = Eigen::MatrixXd::Ones(1, 1);
   spec.initial_probabilities = Eigen::VectorXd::Ones(1);
@@ -407,6 +410,7 @@ TEST(FcmImm, ScaleFreeMembershipsCompensateNoiseAndInflateTheVelocityError) {
   // The seed's memberships on pure noise: about half of every error is "manoeuvre", and at full
   // strength (λ = 1) the velocity error is far above the plain KF's.
   FcmImmSpec seed;
+  seed.sample_period = 1.0;
   seed.process_noise = {0.01};
   seed.transition = Eigen::MatrixXd::Ones(1, 1);
   seed.initial_probabilities = Eigen::VectorXd::Ones(1);
@@ -438,6 +442,7 @@ TEST(FcmImm, ScaleFreeMembershipsCompensateNoiseAndInflateTheVelocityError) {
 
 TEST(FcmImm, TracksAConstantAccelerationTargetWithBoundedError) {
   FcmImmSpec spec;  // σ_z = 100 m, q = 1, 100, 2500 (m/s²)²
+  spec.sample_period = 1.0;
   for (auto scale : {MembershipScale::kInnovation, MembershipScale::kSeed}) {
     spec.scale = scale;
     spec.compensation_gain = 0.1;
@@ -462,6 +467,7 @@ TEST(FcmImm, TracksAConstantAccelerationTargetWithBoundedError) {
 
 TEST(FcmImm, FailedStepLeavesTheFilterUntouched) {
   FcmImmSpec spec;
+  spec.sample_period = 1.0;
   FcmImmAxisFilter filter(spec);
   filter.initialize(exact_start(0.0, 10.0, 100.0));
   for (int k = 1; k <= 20; ++k) ASSERT_EQ(filter.step(10.0 * k + std::sin(k)), StepStatus::kOk);
@@ -489,19 +495,24 @@ TEST(FcmImmSpec, ValidationNamesTheField) {
     return std::string("(valid)");
   };
   FcmImmSpec spec;
+  spec.sample_period = 1.0;
   EXPECT_EQ(field_of(spec), "(valid)");
   spec.compensation_gain = 1.5;
   EXPECT_EQ(field_of(spec), "compensation_gain");
   spec = FcmImmSpec{};
+  spec.sample_period = 1.0;
   spec.process_noise = {10.0, 1.0, 100.0};
   EXPECT_EQ(field_of(spec), "process_noise[1]");
   spec = FcmImmSpec{};
+  spec.sample_period = 1.0;
   spec.window = 2;
   EXPECT_EQ(field_of(spec), "window");
   spec = FcmImmSpec{};
+  spec.sample_period = 1.0;
   spec.clustering.fuzzifier = 0.9;
   EXPECT_EQ(field_of(spec), "clustering.fuzzifier");
   spec = FcmImmSpec{};
+  spec.sample_period = 1.0;
   spec.constant_memberships = true;
   EXPECT_EQ(field_of(spec), "mean_memberships");
   spec.mean_memberships = Eigen::MatrixXd::Constant(3, 3, 0.5);
@@ -513,6 +524,7 @@ TEST(FcmImmSpec, ValidationNamesTheField) {
 
 FcmImmSpec fitted_spec() {
   FcmImmSpec spec;
+  spec.sample_period = 1.0;
   spec.process_noise = {0.7, 55.0, 1800.0};
   spec.transition = FcmImmSpec::switching_transition(3, 0.93);
   spec.initial_probabilities = Eigen::Vector3d(0.5, 0.3, 0.2);

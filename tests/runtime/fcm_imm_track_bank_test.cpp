@@ -198,13 +198,17 @@ TEST(FcmImmTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasWindowsIncluded) {
 
 TEST(FcmImmTrackBank, RefusesWhatItCannotRun) {
   FcmImmSpec spec;
+  spec.sample_period = 1.0;
   EXPECT_EQ(testing::refused_field<FcmImmTrackBank>(spec, 0), "capacity");
   spec.transition = FcmImmSpec::switching_transition(3, 1.0);  // no switching at all
   EXPECT_EQ(testing::refused_field<FcmImmTrackBank>(spec, 4), "transition");
   spec = FcmImmSpec();
+  spec.sample_period = 1.0;
   spec.window = 2;
   EXPECT_EQ(testing::refused_field<FcmImmTrackBank>(spec, 4), "window");
-  FcmImmTrackBank bank(FcmImmSpec(), 3);
+  spec = FcmImmSpec();
+  spec.sample_period = 1.0;
+  FcmImmTrackBank bank(spec, 3);
   GaussianState<4> bad = start_of(0);
   bad.mean(1) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "state");

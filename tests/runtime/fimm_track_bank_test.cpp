@@ -103,6 +103,7 @@ TEST(FimmTrackBank, EqualsTheOneTrackFilterToRounding) {
     for (const TNorm t_norm : {TNorm::kProduct, TNorm::kMin}) {
       for (const OutsideBox outside : {OutsideBox::kLinear, OutsideBox::kHold}) {
         FimmSpec spec;
+        spec.sample_period = 0.1;
         spec.measurement_covariance << 0.25, 0.05, 0.05, 0.3;
         spec.iterations = iterations;
         spec.transition << 0.95, 0.05, 0.1, 0.9;
@@ -115,6 +116,7 @@ TEST(FimmTrackBank, EqualsTheOneTrackFilterToRounding) {
     }
   }
   FimmSpec spec;
+  spec.sample_period = 0.1;
   spec.measurement_covariance = 0.25 * Eigen::Matrix2d::Identity();
   refused += expect_equals_one_track_filters(spec, nullptr, data, "identity");
   EXPECT_GT(refused, 100);  // the NaN and out-of-range plots were refused, by both
@@ -145,6 +147,7 @@ TEST(FimmTrackBank, EqualsTheOneTrackFilterWithTheShippedSensors) {
 TEST(FimmTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
   const Plots data = cut_in_plots(11);
   FimmSpec spec;
+  spec.sample_period = 0.1;
   spec.iterations = 4;
   const auto sensor = sensor_like_model(TNorm::kProduct);
   testing::expect_tracks_independent_of_their_neighbours(
@@ -161,6 +164,7 @@ TEST(FimmTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
 TEST(FimmTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWas) {
   const Plots data = cut_in_plots(5);
   FimmSpec spec;
+  spec.sample_period = 0.1;
   spec.iterations = 3;
   FimmTrackBank bank(spec, sensor_like_model(TNorm::kMin), 5);
   for (std::size_t t = 0; t < 5; ++t) bank.initialize(t, data.starts[t]);
@@ -187,13 +191,17 @@ TEST(FimmTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWas) {
 
 TEST(FimmTrackBank, RefusesWhatItCannotRun) {
   FimmSpec spec;
+  spec.sample_period = 0.1;
   EXPECT_EQ(testing::refused_field<FimmTrackBank>(spec, nullptr, 0), "capacity");
   spec.transition << 1.0, 0.0, 0.03, 0.97;  // cruise absorbing
   EXPECT_EQ(testing::refused_field<FimmTrackBank>(spec, nullptr, 4), "transition");
   spec = FimmSpec();
+  spec.sample_period = 0.1;
   spec.iterations = 0;
   EXPECT_EQ(testing::refused_field<FimmTrackBank>(spec, nullptr, 4), "iterations");
-  FimmTrackBank bank(FimmSpec(), nullptr, 3);
+  spec = FimmSpec();
+  spec.sample_period = 0.1;
+  FimmTrackBank bank(spec, nullptr, 3);
   GaussianState<6> bad;
   bad.mean.setZero();
   bad.covariance.setIdentity();

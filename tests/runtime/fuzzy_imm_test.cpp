@@ -166,7 +166,8 @@ TEST(FuzzyNoiseFilter, NormalizedTableMeansTheSameAtAnyScale) {
 }
 
 TEST(AxisImmSettings, TransitionAndInitialProbabilitiesFollowEquations20And21) {
-  const AxisImmSettings s;
+  AxisImmSettings s;
+  s.sample_period = 1.0;
   const Eigen::MatrixXd pi = s.transition(3);
   EXPECT_DOUBLE_EQ(pi(0, 0), 0.97);
   EXPECT_NEAR(pi(0, 1), 0.015, 1e-15);
@@ -209,6 +210,7 @@ TEST(InputKalmanMode, PredictsWithTheInput) {
 // acceleration the zero-offset mode ends up most probable and the estimate unbiased.
 TEST(AimmAxisFilter, TracksAConstantAccelerationWithItsCentralModel) {
   AimmSpec spec;
+  spec.settings.sample_period = 1.0;
   spec.intervals = {0.02, 0.04};
   AimmAxisFilter filter(spec);
   GaussianState<2> start;
@@ -227,6 +229,7 @@ TEST(AimmAxisFilter, TracksAConstantAccelerationWithItsCentralModel) {
 
 TEST(TwoAxisFilter, AxesAreIndependent) {
   AxisCvImmSpec spec;
+  spec.settings.sample_period = 1.0;
   auto two = make_axis_cv_imm_filter(spec);
   ImmAxisFilter x_alone(build_axis_cv_imm(spec)), y_alone(build_axis_cv_imm(spec));
   Eigen::VectorXd mean(4);
@@ -260,6 +263,7 @@ TEST(TwoAxisFilter, AxesAreIndependent) {
 
 GaFuzzyImmSpec example_fuzzy_spec() {
   GaFuzzyImmSpec spec;
+  spec.settings.sample_period = 1.0;
   spec.levels = {{"u0.001", 0.001, FuzzyRuleTable({{2.33, 0.376, 0.254, 2.591, 0.215e-5}})},
                  {"u0.01", 0.01,
                   FuzzyRuleTable({{0.29, 2.588, -0.311, 3.965, 0.12e-3},

@@ -311,7 +311,8 @@ std::string load_error(const std::filesystem::path& path) {
 
 TEST(FimmSettings, InvalidOrMissingSettingsAreRefusedNamingTheField) {
   testing::TempDir dir;
-  const FimmSpec spec;
+  FimmSpec spec;
+  spec.sample_period = 0.1;
   const auto path = write_tsk_file(dir.path() / "sensor.h5", &spec);
   testing::edit_and_reseal(path, [](hid_t file) {
     testing::replace_dataset(file, "/fimm/transition", {2, 2}, {0.5, 0.4, 0.03, 0.97});

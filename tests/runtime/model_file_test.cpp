@@ -224,6 +224,7 @@ TEST(GaFuzzyImmModelFile, HostileRuleTablesAreRefusedNamingTheField) {
   const testing::TempDir dir;
   const auto path = dir / "fuzzy.h5";
   GaFuzzyImmSpec spec;
+  spec.settings.sample_period = 1.0;
   spec.levels = {
       {"u0.01", 0.01, FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 1e-4}, {0.5, 0.3, 0.1, 2.0, 2e-4}})}};
   {

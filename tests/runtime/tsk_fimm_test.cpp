@@ -340,6 +340,7 @@ TEST(Fimm, WithAnIdentitySensorItIsThePlainImm) {
   const datasets::Track data = testing::test_track(testing::cut_in_regime(0.5), 1, 1);
   for (int iterations : {1, 4}) {
     FimmSpec spec;
+    spec.sample_period = 0.1;
     spec.measurement_covariance = 0.25 * Eigen::Matrix2d::Identity();
     spec.iterations = iterations;
     FimmFilter fimm(spec, identity_sensor());
@@ -363,6 +364,7 @@ TEST(Fimm, WithAnIdentitySensorItIsThePlainImm) {
 
 TEST(Fimm, NoiseScaleKeepsTheSeedsRatio) {
   FimmSpec spec;
+  spec.sample_period = 0.1;
   EXPECT_DOUBLE_EQ(spec.process_noise(0), std::pow(100.0 * 9.81e-4, 2));
   EXPECT_DOUBLE_EQ(spec.process_noise(1) / spec.process_noise(0), 25.0);
   spec.noise_scale = 1.0;
@@ -372,6 +374,7 @@ TEST(Fimm, NoiseScaleKeepsTheSeedsRatio) {
 TEST(Fimm, InvalidSpecsAreRefusedByName) {
   auto refused = [](const std::function<void(FimmSpec&)>& change, const std::string& field) {
     FimmSpec spec;
+    spec.sample_period = 0.1;
     change(spec);
     try {
       spec.validate();
@@ -387,7 +390,9 @@ TEST(Fimm, InvalidSpecsAreRefusedByName) {
 }
 
 TEST(Fimm, InvalidInitialStatesAreRefusedByName) {
-  FimmFilter fimm(FimmSpec{}, nullptr);
+  FimmSpec spec;
+  spec.sample_period = 0.1;
+  FimmFilter fimm(spec, nullptr);
   auto field_of = [&](const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
     try {
       fimm.initialize(mean, covariance);
@@ -412,6 +417,7 @@ TEST(Fimm, InvalidInitialStatesAreRefusedByName) {
 
 TEST(Fimm, ABadPlotLeavesTheFilterUnchanged) {
   FimmSpec spec;
+  spec.sample_period = 0.1;
   FimmFilter fimm(spec, std::make_shared<const TskSensorModel>(sensor_like_model(TNorm::kMin)));
   Eigen::VectorXd start(6);
   start << 3.5, 0.0, 0.0, 20.0, 3.0, 0.0;

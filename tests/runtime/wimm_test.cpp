@@ -53,6 +53,7 @@ datasets::Track scenario_run(int number, std::uint64_t seed = 3) {
 
 WimmSpec with_fusion(FusionVariant fusion) {
   WimmSpec spec;
+  spec.sample_period = 2.0;
   spec.fusion = fusion;
   return spec;
 }
@@ -192,6 +193,7 @@ TEST(Wimm, FusionAcrossTheSouthSeamTracksTheTarget) {
 TEST(WimmFile, RoundTrip) {
   const testing::TempDir dir;
   WimmSpec spec;
+  spec.sample_period = 2.0;
   spec.threshold = 0.83;
   spec.alpha = 0.41;
   spec.fusion = FusionVariant::kCorrelated;
@@ -214,9 +216,11 @@ TEST(WimmFile, RoundTrip) {
 
 TEST(WimmSpec, ValidationNamesTheField) {
   WimmSpec spec;
+  spec.sample_period = 2.0;
   spec.alpha = 0.0;
   EXPECT_THROW(spec.validate(), std::invalid_argument);
   spec = WimmSpec{};
+  spec.sample_period = 2.0;
   spec.fusion = FusionVariant::kCorrelated;
   spec.update = MeasurementUpdate::kConverted;
   try {

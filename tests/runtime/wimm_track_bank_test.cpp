@@ -165,6 +165,7 @@ TEST(WimmTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
 
 TEST(WimmTrackBank, ARefusedPlotOrAFailedModeLeavesTheTrackExactlyAsItWas) {
   WimmSpec spec;
+  spec.sample_period = 2.0;
   spec.threshold = 0.0;
   WimmTrackBank bank(spec, 5);
   for (std::size_t t = 0; t < 5; ++t) bank.initialize(t, start_of(static_cast<int>(t)));
@@ -208,13 +209,16 @@ TEST(WimmTrackBank, ARefusedPlotOrAFailedModeLeavesTheTrackExactlyAsItWas) {
 
 TEST(WimmTrackBank, RefusesWhatItCannotRun) {
   WimmSpec spec;
+  spec.sample_period = 2.0;
   EXPECT_EQ(testing::refused_field<WimmTrackBank>(spec, 0), "capacity");
   spec.transition << 1.0, 0.0, 0.05, 0.95;  // CV absorbing: the Singer mode could be unreachable
   EXPECT_EQ(testing::refused_field<WimmTrackBank>(spec, 4), "transition");
   spec = WimmSpec();
+  spec.sample_period = 2.0;
   spec.alpha = 0.0;
   EXPECT_EQ(testing::refused_field<WimmTrackBank>(spec, 4), "alpha");
   spec = WimmSpec();
+  spec.sample_period = 2.0;
   WimmTrackBank bank(spec, 3);
   GaussianState<6> bad = start_of(0);
   bad.mean(4) = std::numeric_limits<double>::quiet_NaN();

@@ -71,6 +71,7 @@ TEST(Csv, RuleTablesRefuseTrailingGarbage) {
       "level,c1,sigma1,c2,sigma2,w\n";
   AxisImmSettings settings;
   settings.sample_period = 1.0;
+  settings.sample_period = 1.0;
   settings.measurement_sigma = 0.5;
   { std::ofstream(path) << head << "0.001,1.0oops,0.4,0.2,2.5,0.2e-5\n"; }
   try {

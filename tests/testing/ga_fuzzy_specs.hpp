@@ -31,6 +31,7 @@ inline GaFuzzyImmSpec random_ga_fuzzy_spec(datasets::Rng& rng, int levels,
                                            FuzzyAntecedents antecedents) {
   GaFuzzyImmSpec spec;
   spec.settings.sample_period = 1.0;
+  spec.settings.sample_period = 1.0;
   spec.settings.measurement_sigma = 0.5;
   spec.settings.transition_stay = rng.uniform(0.8, 0.99);
   spec.settings.initial_first_probability = rng.uniform(0.2, 0.9);

@@ -16,6 +16,7 @@
 #include <optional>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -76,8 +77,10 @@ inline KindFilter make_kind_filter(const io::ModelFileReader& reader) {
         Eigen::Matrix2d::Identity() * spec.measurement_sigma * spec.measurement_sigma;
   } else if (made.kind == io::kTskSensorKind) {
     auto sensor = std::make_shared<const TskSensorModel>(io::read_tsk_sensor(reader));
-    made.filter = std::make_unique<FimmFilter>(FimmSpec{}, std::move(sensor));
-    made.options.sample_period = FimmSpec{}.sample_period;
+    const std::optional<FimmSpec> spec = io::read_fimm_settings(reader);
+    if (!spec) throw std::runtime_error("the TSK model stores no FIMM settings (/fimm)");
+    made.filter = std::make_unique<FimmFilter>(*spec, std::move(sensor));
+    made.options.sample_period = spec->sample_period;
   } else if (made.kind == io::kMlpInputEstimatorKind) {
     MlpInputEstimatorModel model = io::read_mlp_input_estimator(reader);
     const CvKfSettings settings = model.settings;

@@ -50,6 +50,7 @@ TEST(TrainingWithoutTruth, RecoversThePlantedProcessNoiseAndPlotSigma) {
   }
   AxisCvImmSpec base;
   base.settings.sample_period = 1.0;
+  base.settings.sample_period = 1.0;
   base.settings.measurement_sigma = 20.0;
   const Tuned<AxisCvImmSpec> tuned =
       tune_axis_cv_imm(base, {set}, 10.0, 1, TransitionTuning::kFixed);
@@ -83,10 +84,12 @@ class OneConstantRulePerLevel : public ::testing::TestWithParam<FuzzyAntecedents
 TEST_P(OneConstantRulePerLevel, IsTheConstantNoiseImm) {
   AxisCvImmSpec imm;
   imm.settings.sample_period = 1.0;
+  imm.settings.sample_period = 1.0;
   imm.settings.measurement_sigma = 0.5;
   imm.settings.transition_stay = 0.931;
   imm.process_noise = {1e-7, 3e-5, 2e-3};
   GaFuzzyImmSpec fuzzy;
+  fuzzy.settings.sample_period = 1.0;
   fuzzy.settings = imm.settings;
   fuzzy.antecedents = GetParam();
   for (double q : imm.process_noise) {
@@ -125,6 +128,7 @@ TEST(TunedBaseline, JointStayTuningIsNeverWorseThanTheLevelsAlone) {
   const testing::TempDir dir;
   const TrainingSet training = testing::training_split(testing::write_ga_regime(dir, 60, 2, 1));
   AxisCvImmSpec base;
+  base.settings.sample_period = 1.0;
   base.settings.measurement_sigma = 0.5;
   base.settings.transition_stay = 0.97;
   const Tuned<AxisCvImmSpec> fixed =
@@ -226,10 +230,12 @@ TEST(GaTrainer, TunedLevelsStartFromTheTunedImmAndNeverEndBelowIt) {
   EXPECT_EQ(resolved.filter.transition_stay, resolved.baseline->transition_stay);
 
   AxisCvImmSpec baseline;
+  baseline.settings.sample_period = 1.0;
   baseline.settings = resolved.filter;
   baseline.process_noise = resolved.baseline->process_noise;
   const Evaluation baseline_error = [&] {
     GaFuzzyImmSpec spec;
+    spec.settings.sample_period = 1.0;
     spec.settings = resolved.filter;
     for (double q : baseline.process_noise) {
       spec.levels.push_back({"q", std::sqrt(q), FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, q}})});

@@ -135,6 +135,7 @@ TEST(FcmTraining, LambdaZeroIsTheConstantNoiseImm) {
   const auto data = datasets::draw_split(config.regime, datasets::Split::kTraining, 0);
   AxisCvImmSpec imm;
   imm.settings.sample_period = 1.0;
+  imm.settings.sample_period = 1.0;
   imm.settings.measurement_sigma = 100.0;
   imm.settings.transition_stay = 0.93;
   imm.settings.initial_first_probability = config.initial_first_probability;

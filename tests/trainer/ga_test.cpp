@@ -423,8 +423,9 @@ TEST(ShippedConfig, TunedPresetStartsFromTheTunedImm) {
 }
 
 TEST(ImportRules, ReadsThePublishedTables) {
-  const auto spec =
-      read_rules_csv("configs/reference/ga_fuzzy_imm_paper_rules.csv", AxisImmSettings{}, "km");
+  AxisImmSettings seed;  // seed 000's, for which the tables were learned
+  seed.sample_period = 1.0;
+  const auto spec = read_rules_csv("configs/reference/ga_fuzzy_imm_paper_rules.csv", seed, "km");
   ASSERT_EQ(spec.levels.size(), 3u);
   EXPECT_EQ(spec.levels[0].table.size(), 9u);  // Table 2.1
   EXPECT_EQ(spec.levels[1].table.size(), 8u);  // Table 2.2
@@ -435,10 +436,10 @@ TEST(ImportRules, ReadsThePublishedTables) {
   const testing::TempDir dir;
   testing::write_text(dir / "bad.csv",
                       "level,c1,sigma1,c2,sigma2,w\n0.01,0,1,0,1,1e-4\n0.01,0,-1,0,1,1e-4\n");
-  EXPECT_THROW((void)read_rules_csv(dir / "bad.csv", AxisImmSettings{}, "km"), std::runtime_error);
+  EXPECT_THROW((void)read_rules_csv(dir / "bad.csv", seed, "km"), std::runtime_error);
   testing::write_text(dir / "nan.csv", "level,c1,sigma1,c2,sigma2,w\n0.01,0,1,nan,1,1e-4\n");
   try {
-    (void)read_rules_csv(dir / "nan.csv", AxisImmSettings{}, "km");
+    (void)read_rules_csv(dir / "nan.csv", seed, "km");
     FAIL();
   } catch (const std::runtime_error& error) {
     EXPECT_NE(std::string(error.what()).find("nan.csv:2"), std::string::npos) << error.what();

@@ -50,6 +50,7 @@ namespace {
 TEST(StepConsistency, IsTheHandComputedNeesAndNisOfAKalmanStep) {
   AxisCvImmSpec spec;
   spec.settings.sample_period = 1.0;
+  spec.settings.sample_period = 1.0;
   spec.settings.measurement_sigma = 0.5;
   spec.process_noise = {0.01};
   const std::unique_ptr<TwoAxisFilter> filter = make_axis_cv_imm_filter(spec);

@@ -33,7 +33,7 @@ void validate_generator(const Eigen::MatrixXd& generator) {
 
 Eigen::MatrixXd transition_matrix(const Eigen::MatrixXd& generator, double sample_period) {
   validate_generator(generator);
-  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_sample_period(sample_period, "sample_period");
   Eigen::MatrixXd transition = (generator * sample_period).exp();
   // exp keeps the rows summing to one up to rounding; clamp rounding below zero and renormalize
   // so that the result passes the IMM's own check.

@@ -11,7 +11,7 @@
 namespace imm {
 
 void AxisImmSettings::validate() const {
-  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_sample_period(sample_period, "sample_period");
   limits::require_in(measurement_sigma, limits::kSigma, "measurement_sigma");
   if (!(transition_stay > 0.0 && transition_stay <= 1.0)) {
     throw InvalidParameter("transition_stay", "must be in (0, 1]");

@@ -50,7 +50,7 @@ TrackOptions FcmImmSpec::track_options(std::int64_t max_gap) const {
 }
 
 void FcmImmSpec::validate() const {
-  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_sample_period(sample_period, "sample_period");
   limits::require_in(measurement_sigma, limits::kSigma, "measurement_sigma");
   const int n = mode_count();
   if (n < 1 || n > 8) throw InvalidParameter("process_noise", "need 1 to 8 modes");

@@ -20,7 +20,7 @@ constexpr const char* kModeNames[2] = {"cruise", "lane change"};
 }  // namespace
 
 void FimmSpec::validate() const {
-  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_sample_period(sample_period, "sample_period");
   limits::require_in(cruise_sigma, limits::kSigma, "cruise_sigma");
   limits::require_in(lane_change_ratio, {1.0, limits::kFactor.max, ""}, "lane_change_ratio");
   limits::require_in(noise_scale, {1e-9, limits::kFactor.max, ""}, "noise_scale");

@@ -10,7 +10,7 @@
 namespace imm {
 
 void CvKfSettings::validate() const {
-  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_sample_period(sample_period, "sample_period");
   limits::require_in(process_noise, limits::kVariance, "process_noise");
   limits::require_in(measurement_variance, {1e-18, limits::kVariance.max, ""},
                      "measurement_variance");

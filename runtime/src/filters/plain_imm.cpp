@@ -162,7 +162,7 @@ int PlainImmSpec::mixing_dimension() const {
 }
 
 void PlainImmSpec::validate() const {
-  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_sample_period(sample_period, "sample_period");
   require(!modes.empty() && static_cast<int>(modes.size()) <= kMaxModes, "modes",
           "need 1 to " + std::to_string(kMaxModes) + " modes");
   for (std::size_t i = 0; i < modes.size(); ++i) {

@@ -57,7 +57,7 @@ MeasurementUpdate measurement_update_from(std::string_view name, const std::stri
 }
 
 void WimmSpec::validate() const {
-  limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_sample_period(sample_period, "sample_period");
   limits::require_in(cv_process_noise, limits::kVariance, "cv_process_noise");
   limits::require_in(singer_tau, limits::kTimeConstant, "singer_tau");
   limits::require_in(singer_sigma, limits::kAcceleration, "singer_sigma");

@@ -123,7 +123,7 @@ Tracker::Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options)
     : filter_(std::move(filter)), options_(std::move(options)), envelope_(options_.envelope) {
   if (!filter_) throw InvalidParameter("filter", "must not be null");
   if (options_.max_gap < 1) throw InvalidParameter("max_gap", "must be at least 1");
-  limits::require_in(options_.sample_period, limits::kSamplePeriod, "sample_period");
+  limits::require_sample_period(options_.sample_period, "sample_period");
   const int n = filter_->state_dimension();
   if (options_.initialization.method == InitializationMethod::kExplicit &&
       (options_.initialization.state.size() != n ||

@@ -5,6 +5,7 @@
 
 int main() {
   imm::PlainImmSpec spec;
+  spec.sample_period = 1.0;  // the sensor's scan period, s
   spec.modes = {{"quiet", imm::MotionKind::kConstantVelocity, 1e-6},
                 {"agile", imm::MotionKind::kConstantVelocity, 1e-2}};
   spec.transition = Eigen::Matrix2d{{0.97, 0.03}, {0.03, 0.97}};

@@ -94,6 +94,14 @@ inline void require_in(double value, const Interval& interval, const std::string
   require(contains(interval, value), field, "must be in " + describe(interval));
 }
 
+/// The sample period T of a spec: unset (0, every spec's default) is refused as such, since a
+/// spec's period comes from its regime or its model file, never from a default; otherwise as
+/// require_in with kSamplePeriod.
+inline void require_sample_period(double value, const std::string& field) {
+  require(value != 0.0, field, "is not set: it comes from the regime or the model file");
+  require_in(value, kSamplePeriod, field);
+}
+
 /// The same for |value| (signed positions, velocities, accelerations).
 inline void require_magnitude(double value, const Interval& interval, const std::string& field) {
   require(std::isfinite(value) && std::abs(value) <= interval.max, field,

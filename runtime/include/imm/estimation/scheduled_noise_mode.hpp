@@ -57,8 +57,8 @@ struct LinearMotionStep {
 struct TurnMotionStep {
   /// [x, vx, y, vy, ω].
   static constexpr int kDim = kCoordinatedTurnDim;
-  /// T, s.
-  double sample_period = 1.0;
+  /// T, s (unset: from the spec).
+  double sample_period = 0.0;
   /// The tuned Q (coordinated_turn_noise) the schedule scales.
   SquareMatrix<kDim> process_noise = SquareMatrix<kDim>::Zero();
   /// The exact turn over T.

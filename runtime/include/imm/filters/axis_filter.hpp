@@ -19,7 +19,7 @@ namespace imm {
 
 /// Settings shared by seed 000's per-axis IMMs (eq. 20–21 and the sensor).
 struct IMM_RUNTIME_EXPORT AxisImmSettings {
-  double sample_period = 1.0;              ///< T, s
+  double sample_period = 0.0;              ///< T, s (unset: from the regime or the model file)
   double measurement_sigma = 0.5;          ///< σ_z per axis (km in seed 000)
   double transition_stay = 0.97;           ///< p_jj of eq. (20); the rest spread evenly
   double initial_first_probability = 0.6;  ///< μ₁(0) of eq. (21); the rest spread evenly

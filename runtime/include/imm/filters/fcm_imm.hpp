@@ -80,7 +80,7 @@ enum class MembershipScale {
 /// The FCM-IMM of one axis (seed 003): CV Kalman filters at ascending process-noise levels,
 /// compensated by fuzzy c-means memberships of the recent innovation errors.
 struct IMM_RUNTIME_EXPORT FcmImmSpec {
-  double sample_period = 1.0;        ///< T, s
+  double sample_period = 0.0;        ///< T, s (unset: from the regime or the model file)
   double measurement_sigma = 100.0;  ///< σ_z per axis
   /// q_j of Q_j = q_j G Gᵀ per mode, (unit/s²)², ascending; 1 to 8 modes.
   std::vector<double> process_noise = {1.0, 100.0, 2500.0};

@@ -30,7 +30,7 @@ namespace imm {
 /// The fuzzy-sensor IMM of seed 002: two CA modes (cruise, lane change) with an EKF through the TSK
 /// sensor model (see the file comment).
 struct IMM_RUNTIME_EXPORT FimmSpec {
-  double sample_period = 0.1;      ///< T, s
+  double sample_period = 0.0;      ///< T, s (unset: from the regime or the model file)
   double cruise_sigma = 9.81e-4;   ///< the seed's √q₁ (eq. 11)
   double lane_change_ratio = 5.0;  ///< √q₂ / √q₁
   double noise_scale = 100.0;      ///< multiplies √q₁ and √q₂ (see above)

@@ -60,7 +60,7 @@ class IMM_RUNTIME_EXPORT InnovationFeatures {
 
 /// The CV-KF settings the features assume.
 struct IMM_RUNTIME_EXPORT CvKfSettings {
-  double sample_period = 1.0;          ///< T, s
+  double sample_period = 0.0;          ///< T, s (unset: from the regime or the model file)
   double process_noise = 1.0;          ///< q, Q = q [[T⁴/4, T³/2], [T³/2, T²]]
   double measurement_variance = 2500;  ///< R, m²
 

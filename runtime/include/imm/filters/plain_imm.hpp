@@ -72,8 +72,8 @@ struct IMM_RUNTIME_EXPORT MeasurementSpec {
 
 /// A plain IMM of linear motion modes with a common measurement (frozen by imm-train freeze).
 struct IMM_RUNTIME_EXPORT PlainImmSpec {
-  /// T, s.
-  double sample_period = 1.0;
+  /// T, s (unset: from the regime or the model file).
+  double sample_period = 0.0;
   /// The modes, 1 to 16.
   std::vector<ModeSpec> modes;
   Eigen::MatrixXd transition;  ///< transition(i, j) = P(mode j at k | mode i at k−1)

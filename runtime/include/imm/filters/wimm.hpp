@@ -49,11 +49,11 @@ measurement_update_from(std::string_view name, const std::string& field);
 /// The weighted IMM of seed 004: a CV and a Singer mode on polar plots, with azimuth fusion when
 /// the CV mode dominates.
 struct IMM_RUNTIME_EXPORT WimmSpec {
-  double sample_period = 2.0;                                   ///< T, s
-  double cv_process_noise = 2.0;                                ///< q₁, (m/s²)²
-  double singer_tau = 20.0;                                     ///< τ, s
-  double singer_sigma = 5.0;                                    ///< σ_a, m/s²
-  double range_sigma = 50.0;                                    ///< σ_R, m
+  double sample_period = 0.0;     ///< T, s (unset: from the regime or the model file)
+  double cv_process_noise = 2.0;  ///< q₁, (m/s²)²
+  double singer_tau = 20.0;       ///< τ, s
+  double singer_sigma = 5.0;      ///< σ_a, m/s²
+  double range_sigma = 50.0;      ///< σ_R, m
   double azimuth_sigma = 0.5 * 3.14159265358979323846 / 180.0;  ///< σ_θ, rad
   /// Mode switching (CV, Singer), rows sum to 1.
   Eigen::Matrix2d transition = (Eigen::Matrix2d() << 0.95, 0.05, 0.05, 0.95).finished();

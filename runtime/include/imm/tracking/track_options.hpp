@@ -50,7 +50,7 @@ inline constexpr std::int64_t kDefaultMaxGap = 50;
 /// How a Tracker runs a filter: the scan period, the plots' kind and R, the start and the longest
 /// gap.
 struct IMM_RUNTIME_EXPORT TrackOptions {
-  double sample_period = 1.0;  ///< T, s: one scan
+  double sample_period = 0.0;  ///< T, s: one scan (unset: from the model or the regime)
   /// Cartesian or polar plots.
   MeasurementKind measurement_kind = MeasurementKind::kCartesian;
   /// R of one plot: Cartesian [x, y] or polar [range, azimuth (rad)].

@@ -19,7 +19,7 @@ using datasets::AxisTrajectory;
 
 struct TrainingSet {
   std::vector<AxisTrajectory> trajectories;
-  double sample_period = 1.0;
+  double sample_period = 0.0;  ///< T, s: the regime's
   double measurement_variance = 0.25;
   /// No truth to learn from (a recorded regime without truth for training): the trajectories'
   /// positions and velocities are NaN, and every score is the plots' predictive NLL instead of
