@@ -13,6 +13,11 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/estimation/kalman_mode.hpp"
+#include "imm/filters/axis_filter.hpp"
+#include "imm/filters/fcm_imm.hpp"
+#include "imm/filters/fimm.hpp"
+#include "imm/filters/mlp_input_estimator.hpp"
+#include "imm/filters/wimm.hpp"
 #include "imm/models/measurement/position_measurement.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/tracking/tracker.hpp"
@@ -235,6 +240,35 @@ TEST(PlainImmTracker, ExplicitInitializationUsesTheGivenPrior) {
   tracker.state(mean, variance);
   EXPECT_NEAR(mean(0), 1.0, 1e-3);
   EXPECT_NEAR(mean(1), 1.0, 1e-3);
+}
+
+// A spec built in code gets its sample period from its regime or model file, never from a default:
+// left unset, every kind's spec is refused naming the field, and so is a tracker's.
+TEST(SamplePeriod, AnUnsetPeriodIsRefusedByNameInEverySpec) {
+  const auto refusal = [](auto&& call) -> std::string {
+    try {
+      call();
+    } catch (const InvalidParameter& error) {
+      return error.field() + ": " + error.what();
+    }
+    return "accepted";
+  };
+  const auto expect_unset = [&](auto&& call) {
+    const std::string text = refusal(call);
+    EXPECT_EQ(text.rfind("sample_period: ", 0), 0U) << text;
+    EXPECT_NE(text.find("not set"), std::string::npos) << text;
+  };
+  PlainImmSpec plain = testing::cv3_spec();
+  plain.sample_period = 0.0;
+  expect_unset([&] { plain.validate(); });
+  expect_unset([] { AxisImmSettings{}.validate(); });
+  expect_unset([] { CvKfSettings{}.validate(); });
+  expect_unset([] { FcmImmSpec{}.validate(); });
+  expect_unset([] { FimmSpec{}.validate(); });
+  expect_unset([] { WimmSpec{}.validate(); });
+  TrackOptions options = testing::cv3_spec().track_options();
+  options.sample_period = 0.0;
+  expect_unset([&] { Tracker(make_plain_imm_filter(testing::cv3_spec()), options); });
 }
 
 }  // namespace
