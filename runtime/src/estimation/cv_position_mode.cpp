@@ -4,6 +4,7 @@
 #include <cmath>
 #include <utility>
 
+#include "imm/core/physical_limits.hpp"
 #include "imm/math/log_sum_exp.hpp"
 
 namespace imm {
@@ -12,7 +13,6 @@ namespace {
 using cv_position::kEntries;
 using cv_position::kN;
 using cv_position::sym;
-
 
 }  // namespace
 
@@ -50,15 +50,24 @@ void CvPositionMode::embedded_estimate(Vector<4>& mean, SquareMatrix<4>& covaria
 
 void CvPositionMode::reset(const GaussianState<4>& state) { load(state, estimate_); }
 
+void CvPositionMode::predict_mixed(const GaussianState<4>& mixed) {
+  load(mixed, predicted_);
+  cv_position::predict([&](int e) -> double& { return predicted_[static_cast<std::size_t>(e)]; },
+                       period_, noise_.data());
+}
+
 [[gnu::flatten]] ModeStep CvPositionMode::propose(const GaussianState<4>& mixed,
                                                   const Vector<2>& z) {
-  Entries predicted;
-  load(mixed, predicted);
-  cv_position::predict([&](int e) -> double& { return predicted[static_cast<std::size_t>(e)]; },
-                       period_, noise_.data());
+  predict_mixed(mixed);
+  return update_predicted(z);
+}
+
+ModeStep CvPositionMode::propose_update(const Vector<2>& z) { return update_predicted(z); }
+
+[[gnu::flatten]] ModeStep CvPositionMode::update_predicted(const Vector<2>& z) {
   Entries updated;
   const auto o =
-      cv_position::update([&](int e) { return predicted[static_cast<std::size_t>(e)]; },
+      cv_position::update([&](int e) { return predicted_[static_cast<std::size_t>(e)]; },
                           [&](int e) -> double& { return updated[static_cast<std::size_t>(e)]; },
                           z(0), z(1), r00_, r01_, r11_);
   // Element by element: a 2-vector built on the stack and copied stalls on store forwarding.
@@ -81,12 +90,28 @@ void CvPositionMode::reset(const GaussianState<4>& state) { load(state, estimate
 }
 
 ModeStep CvPositionMode::propose_prediction(const GaussianState<4>& mixed) {
-  load(mixed, pending_);
-  cv_position::predict([&](int e) -> double& { return pending_[static_cast<std::size_t>(e)]; },
-                       period_, noise_.data());
+  predict_mixed(mixed);
+  pending_ = predicted_;
   bool finite = true;
   for (const double value : pending_) finite = finite && std::isfinite(value);
   return {finite ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
+}
+
+bool CvPositionMode::predicted_plot(Vector<2>& z_hat, SquareMatrix<2>& S) const {
+  const auto at = [&](int e) { return predicted_[static_cast<std::size_t>(e)]; };
+  z_hat << at(0), at(2);
+  S << at(kN + sym(0, 0)) + r00_, at(kN + sym(0, 2)) + r01_, at(kN + sym(0, 2)) + r01_,
+      at(kN + sym(2, 2)) + r11_;
+  return true;
+}
+
+bool CvPositionMode::candidate_innovation(const Vector<2>& z, Vector<2>& nu,
+                                          SquareMatrix<2>& S) const {
+  if (!limits::usable_measurement(z)) return false;
+  Vector<2> z_hat;
+  (void)predicted_plot(z_hat, S);
+  nu = z - z_hat;
+  return true;
 }
 
 void CvPositionMode::predicted_mean(const GaussianState<4>& mixed, Vector<4>& mean) const {

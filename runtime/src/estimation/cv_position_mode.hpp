@@ -31,6 +31,11 @@ class CvPositionMode final : public ImmMode<4, 2> {
   ModeStep propose_prediction(const GaussianState<4>& mixed) override;
   void predicted_mean(const GaussianState<4>& mixed, Vector<4>& mean) const override;
   void commit() override { estimate_ = pending_; }
+  /// True: the prediction does not depend on the plot.
+  [[nodiscard]] bool predicts_before_the_plot() const override { return true; }
+  bool candidate_innovation(const Vector<2>& z, Vector<2>& nu, SquareMatrix<2>& S) const override;
+  bool predicted_plot(Vector<2>& z_hat, SquareMatrix<2>& S) const override;
+  ModeStep propose_update(const Vector<2>& z) override;
 
  private:
   using Entries = std::array<double, cv_position::kEntries>;
@@ -40,8 +45,13 @@ class CvPositionMode final : public ImmMode<4, 2> {
   double period_ = 1.0;
   std::array<double, cv_position::kTriangle> noise_{};  // Q's upper triangle
   double r00_ = 0.0, r01_ = 0.0, r11_ = 0.0;
+  // Predicts the mixed estimate into predicted_; updates predicted_ with z into pending_.
+  void predict_mixed(const GaussianState<4>& mixed);
+  ModeStep update_predicted(const Vector<2>& z);
+
   Entries estimate_{};
   Entries pending_{};
+  Entries predicted_{};
 };
 
 }  // namespace imm

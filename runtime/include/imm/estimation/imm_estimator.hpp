@@ -24,6 +24,7 @@
 /// they were. Nothing is allocated per step: mode-indexed arrays have a fixed maximum size
 /// (kMaxModes) and modes are allocation-free by contract.
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <array>
 #include <cmath>
@@ -93,6 +94,7 @@ class ImmEstimator {
   /// probabilities return to their initial values.
   void initialize(const GaussianState<NX>& state) {
     updated_ = false;
+    predicted_ = false;
     for (auto& mode : modes_) mode->reset(state);
     log_probabilities_ = initial_log_probabilities_;
     combine();
@@ -104,6 +106,7 @@ class ImmEstimator {
   [[gnu::flatten]] StepStatus step(const Vector<NZ>& z) {
     require_initialized();
     updated_ = false;
+    predicted_ = false;
     if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
     predict_mode_probabilities();
     mix_and_propose(
@@ -116,6 +119,7 @@ class ImmEstimator {
   StepStatus predict_only() {
     require_initialized();
     updated_ = false;
+    predicted_ = false;
     predict_mode_probabilities();
     mix_and_propose(
         [](Mode& mode, const GaussianState<NX>& mixed) { return mode.propose_prediction(mixed); });
@@ -131,6 +135,7 @@ class ImmEstimator {
   StepStatus step_with(const Vector<NZ>& z, Choose&& choose) {
     require_initialized();
     updated_ = false;
+    predicted_ = false;
     if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
     predict_mode_probabilities();
     const int n = mode_count();
@@ -150,6 +155,60 @@ class ImmEstimator {
     }
     return finish_update();
   }
+
+  // --- A cycle in two halves, for a tracker that gates and assigns plots -----------------------
+  // predict(); then, without changing the track, predicted_plot() and, for every candidate plot,
+  // candidate_log_likelihood() and candidate_distance(); then update(z) with the plot chosen, or
+  // miss(). In that order the numbers are exactly those of step(z) and predict_only().
+
+  /// Whether every mode predicts without the plot (see ImmMode::predicts_before_the_plot): what
+  /// predict() needs.
+  [[nodiscard]] bool predicts_before_the_plot() const {
+    for (const auto& mode : modes_) {
+      if (!mode->predicts_before_the_plot()) return false;
+    }
+    return true;
+  }
+
+  /// The first half of a cycle: the predicted mode probabilities, the mixing and every mode's
+  /// prediction, held until update() or miss(); the track does not change. kOk, or the failing
+  /// mode's status (nothing is then held). Throws std::logic_error when a mode's prediction
+  /// depends on the plot (predicts_before_the_plot() is false).
+  StepStatus predict();
+
+  /// Whether predict() holds a prediction (until update() succeeds or miss()).
+  [[nodiscard]] bool predicted() const { return predicted_; }
+
+  /// After predict(): log p(z | Z^(k−1)) = log Σ_j c_j N(z; ẑ_j, S_j) of a candidate plot, what
+  /// log_predictive_likelihood() would be after update(z); nothing changes. NaN without a held
+  /// prediction, for an unusable plot, or where a mode cannot score it.
+  [[nodiscard]] double candidate_log_likelihood(const Vector<NZ>& z) const;
+
+  /// After predict(): the normalized distance d² = νᵀ S⁻¹ ν of a candidate plot under the IMM's
+  /// predicted plot density collapsed to its two moments (ν = Σ_j c_j ν_j, S as innovation()):
+  /// the gate's statistic, χ² with NZ degrees of freedom where the filter is consistent. Nothing
+  /// changes; NaN where candidate_log_likelihood() is NaN or S is not positive definite.
+  [[nodiscard]] double candidate_distance(const Vector<NZ>& z) const;
+
+  /// After predict(): mode j's predicted plot ẑ_j and its covariance S_j; false without a held
+  /// prediction or where the mode's h is undefined at its prediction.
+  bool predicted_plot(int j, Vector<NZ>& z_hat, SquareMatrix<NZ>& S) const {
+    return predicted_ && modes_[index(j)]->predicted_plot(z_hat, S);
+  }
+
+  /// After predict(): the IMM's predicted plot and covariance, the two moments of
+  /// Σ_j c_j N(ẑ_j, S_j), in the plot coordinates of the most probable mode's ẑ (angles are not
+  /// averaged across the ±π seam); false as predicted_plot(j, …).
+  bool predicted_plot(Vector<NZ>& z_hat, SquareMatrix<NZ>& S) const;
+
+  /// The second half, with the chosen plot: the same numbers as step(z) after the same predict().
+  /// On any status other than kOk nothing changes and the prediction is still held, for another
+  /// plot or miss().
+  StepStatus update(const Vector<NZ>& z);
+
+  /// The second half without a plot (a miss, or every candidate gated out): the same numbers as
+  /// predict_only() after the same predict().
+  StepStatus miss();
 
   /// Whether initialize() has been called.
   [[nodiscard]] bool initialized() const { return initialized_; }
@@ -248,6 +307,13 @@ class ImmEstimator {
   void require_initialized() const {
     if (!initialized_) throw std::logic_error("ImmEstimator used before initialize()");
   }
+  void require_predicted() const {
+    if (!predicted_) throw std::logic_error("ImmEstimator: update() or miss() without predict()");
+  }
+
+  // A candidate plot's innovation ν = Σ_j c_j ν_j and S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ)
+  // under the held prediction (c_j normalized); false where a mode cannot score it.
+  bool candidate_moments(const Vector<NZ>& z, Vector<NZ>& nu, SquareMatrix<NZ>& S) const;
 
   // log c_j = log Σ_i p_ij μ_i (eq. 8's inner sum), through the scaled μ̃ (see the class comment).
   void predict_mode_probabilities() {
@@ -393,7 +459,11 @@ class ImmEstimator {
   GaussianState<NX> combined_;
   StepStatus status_ = StepStatus::kOk;
   bool initialized_ = false;
-  bool updated_ = false;  // the last call was a successful update (innovation())
+  bool updated_ = false;    // the last call was a successful update (innovation())
+  bool predicted_ = false;  // predict() holds a prediction (mixed_states_, the modes' pending)
 };
 
 }  // namespace imm
+
+// The two halves of a cycle (predict … update / miss), defined apart.
+#include "imm/estimation/imm_estimator_split.hpp"

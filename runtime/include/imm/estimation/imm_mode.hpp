@@ -65,6 +65,29 @@ class ImmMode {
   /// Makes the pending estimate of the last successful propose*() current.
   virtual void commit() = 0;
 
+  /// Whether the mode's prediction does not depend on the plot, so that the IMM can predict
+  /// first and score candidate plots before it updates (ImmEstimator::predict). A mode whose
+  /// process noise or compensation is set by the plot's own innovation cannot.
+  [[nodiscard]] virtual bool predicts_before_the_plot() const { return false; }
+  /// After propose_prediction(): the innovation ν = z − ẑ of a candidate plot (in the mode's plot
+  /// coordinates, angles wrapped) and its covariance S = H P⁻ Hᵀ + R at the pending prediction
+  /// (the first linearization, for an EKF); nothing changes. False where z or the prediction
+  /// cannot be scored.
+  virtual bool candidate_innovation(const Vector<NZ>& /*z*/, Vector<NZ>& /*nu*/,
+                                    SquareMatrix<NZ>& /*S*/) const {
+    return false;
+  }
+  /// After propose_prediction(): the predicted plot ẑ = h(x⁻) and S; false where h is undefined.
+  virtual bool predicted_plot(Vector<NZ>& /*z_hat*/, SquareMatrix<NZ>& /*S*/) const {
+    return false;
+  }
+  /// After propose_prediction(): the update of that prediction with z, pending until commit() —
+  /// the same numbers as propose() of the same mixed estimate and z. It may be called again with
+  /// another plot; the prediction stays.
+  virtual ModeStep propose_update(const Vector<NZ>& /*z*/) {
+    return {StepStatus::kInvalidMeasurement, 0.0};
+  }
+
   /// The innovation ν = z − ẑ of the last propose() with a measurement, in the coordinates the
   /// mode updated in (wrapped where angular), and its covariance S: what the IMM's normalized
   /// innovation squared is built from (ImmEstimator::innovation). Zero before the first one.

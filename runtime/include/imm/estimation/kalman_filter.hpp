@@ -263,6 +263,30 @@ UpdateReport<Model::kDim> update(GaussianState<N>& state, const Vector<Model::kD
   }
 }
 
+/// The predicted plot ẑ = h(x⁻) of a prediction and its covariance S = H P⁻ Hᵀ + R; false, and
+/// nothing written, where h is undefined there.
+template <int N, class Model>
+bool predict_plot(const GaussianState<N>& predicted, const Model& model, Vector<Model::kDim>& z_hat,
+                  SquareMatrix<Model::kDim>& S) {
+  if (!model.defined_at(predicted.mean)) return false;
+  const Matrix<Model::kDim, N>& H = model.jacobian(predicted.mean);
+  z_hat = model.predict(predicted.mean);
+  S = H * predicted.covariance * H.transpose() + model.covariance();
+  return true;
+}
+
+/// The innovation ν = z − h(x⁻) of a candidate plot (wrapped by the model's residual) and S, as
+/// update() would form them; false, and nothing written, for an unusable plot or an undefined h.
+template <int N, class Model>
+bool score_candidate(const GaussianState<N>& predicted, const Vector<Model::kDim>& z,
+                     const Model& model, Vector<Model::kDim>& nu, SquareMatrix<Model::kDim>& S) {
+  if (!limits::usable_measurement(z)) return false;
+  Vector<Model::kDim> z_hat;
+  if (!predict_plot(predicted, model, z_hat, S)) return false;
+  nu = model.residual(z, z_hat);
+  return true;
+}
+
 /// The default step tolerance of iterated_update, relative to the prior's standard deviations.
 inline constexpr double kIteratedUpdateTolerance = 1e-6;
 

@@ -47,15 +47,31 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
   [[gnu::flatten]] ModeStep propose(const GaussianState<NX>& mixed,
                                     const Vector<kMeasurementDim>& z) override {
     pending_ = predict(embedding_.project(mixed), motion_.transition, motion_.process_noise);
-    const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
-                                        : update(pending_, z, measurement_);
-    this->keep_innovation(report.innovation, report.innovation_covariance);
-    return {report.status, report.log_likelihood};
+    return update_pending(z);
   }
 
   ModeStep propose_prediction(const GaussianState<NX>& mixed) override {
     pending_ = predict(embedding_.project(mixed), motion_.transition, motion_.process_noise);
+    predicted_ = pending_;
     return {pending_.all_finite() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
+  }
+
+  /// True: the prediction does not depend on the plot.
+  [[nodiscard]] bool predicts_before_the_plot() const override { return true; }
+  /// ν and S of a candidate plot at the held prediction (ImmMode::candidate_innovation).
+  bool candidate_innovation(const Vector<kMeasurementDim>& z, Vector<kMeasurementDim>& nu,
+                            SquareMatrix<kMeasurementDim>& S) const override {
+    return score_candidate(predicted_, z, measurement_, nu, S);
+  }
+  /// ẑ and S at the held prediction (ImmMode::predicted_plot).
+  bool predicted_plot(Vector<kMeasurementDim>& z_hat,
+                      SquareMatrix<kMeasurementDim>& S) const override {
+    return predict_plot(predicted_, measurement_, z_hat, S);
+  }
+  /// The held prediction updated with z (ImmMode::propose_update).
+  ModeStep propose_update(const Vector<kMeasurementDim>& z) override {
+    pending_ = predicted_;
+    return update_pending(z);
   }
 
   void predicted_mean(const GaussianState<NX>& mixed, Vector<NX>& mean) const override {
@@ -75,6 +91,14 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
   [[nodiscard]] const MeasurementModel& measurement() const { return measurement_; }
 
  private:
+  // The update of pending_ (a prediction) with z.
+  ModeStep update_pending(const Vector<kMeasurementDim>& z) {
+    const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
+                                        : update(pending_, z, measurement_);
+    this->keep_innovation(report.innovation, report.innovation_covariance);
+    return {report.status, report.log_likelihood};
+  }
+
   std::string name_;
   LinearMotionModel<N> motion_;
   MeasurementModel measurement_;
@@ -82,6 +106,7 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
   int iterations_ = 1;
   GaussianState<N> estimate_;
   GaussianState<N> pending_;
+  GaussianState<N> predicted_;  // propose_prediction()'s, for propose_update()
 };
 
 }  // namespace imm

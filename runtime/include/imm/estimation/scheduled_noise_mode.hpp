@@ -123,11 +123,7 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
       if (!std::isfinite(pending_distance_)) pending_distance_ = distance_;
     }
     add_process_noise(pending_multiplier_);
-    if (!pending_.usable()) return {StepStatus::kNonFiniteResult, 0.0};
-    const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
-                                        : update(pending_, z, measurement_);
-    this->keep_innovation(report.innovation, report.innovation_covariance);
-    return {report.status, report.log_likelihood};
+    return update_pending(z);
   }
 
   /// The prediction alone (a missed plot), with the last step's multiplier.
@@ -136,7 +132,28 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
     pending_distance_ = distance_;
     pending_multiplier_ = multiplier_;
     add_process_noise(multiplier_);
+    predicted_ = pending_;
     return {pending_.usable() ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
+  }
+
+  /// Without a schedule: the prediction does not depend on the plot. With one it does (Q is
+  /// scaled by the plot's own normalized innovation).
+  [[nodiscard]] bool predicts_before_the_plot() const override { return !schedule_; }
+  /// ν and S of a candidate plot at the held prediction (ImmMode::candidate_innovation).
+  bool candidate_innovation(const Vector<kMeasurementDim>& z, Vector<kMeasurementDim>& nu,
+                            SquareMatrix<kMeasurementDim>& S) const override {
+    return !schedule_ && score_candidate(predicted_, z, measurement_, nu, S);
+  }
+  /// ẑ and S at the held prediction (ImmMode::predicted_plot).
+  bool predicted_plot(Vector<kMeasurementDim>& z_hat,
+                      SquareMatrix<kMeasurementDim>& S) const override {
+    return !schedule_ && predict_plot(predicted_, measurement_, z_hat, S);
+  }
+  /// The held prediction updated with z (ImmMode::propose_update).
+  ModeStep propose_update(const Vector<kMeasurementDim>& z) override {
+    if (schedule_) return {StepStatus::kInvalidMeasurement, 0.0};
+    pending_ = predicted_;
+    return update_pending(z);
   }
 
   /// The mean the motion predicts from the mixed estimate, zero-padded; nothing changes.
@@ -164,6 +181,15 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
   [[nodiscard]] const MeasurementModel& measurement() const { return measurement_; }
 
  private:
+  // The update of pending_ (a prediction with its noise) with z.
+  ModeStep update_pending(const Vector<kMeasurementDim>& z) {
+    if (!pending_.usable()) return {StepStatus::kNonFiniteResult, 0.0};
+    const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
+                                        : update(pending_, z, measurement_);
+    this->keep_innovation(report.innovation, report.innovation_covariance);
+    return {report.status, report.log_likelihood};
+  }
+
   // pending_ = (f(x̂₀), F P₀ Fᵀ) from the mixed estimate.
   void predict_without_noise(const GaussianState<NX>& mixed) {
     const GaussianState<kDim> prior = embedding_.project(mixed);
@@ -204,6 +230,7 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
   int iterations_ = 1;
   GaussianState<kDim> estimate_;
   GaussianState<kDim> pending_;
+  GaussianState<kDim> predicted_;  // propose_prediction()'s, for propose_update()
   double distance_ = 0.0, pending_distance_ = 0.0;
   double multiplier_ = 1.0, pending_multiplier_ = 1.0;
 };
