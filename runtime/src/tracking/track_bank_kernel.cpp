@@ -55,6 +55,16 @@ template <class S>
   }
 }
 
+// a and b of two comparisons: bools for a double, masks for a LanePack.
+template <class Mask>
+[[gnu::always_inline]] inline Mask both(Mask a, Mask b) {
+  if constexpr (std::is_same_v<Mask, bool>) {
+    return a && b;
+  } else {
+    return a & b;
+  }
+}
+
 // The lanes of a value, as doubles (for the few scalar decisions per step).
 template <class S>
 using Lanes = std::array<double, kWidth<S>>;
@@ -214,7 +224,7 @@ template <class S, int N>
   // output finite, some likelihood that did not underflow; lane by lane only where one fails.
   S failed = splat<S>(0.0);
   for (int j = 0; j < n; ++j) {
-    failed += pick((s00[j] > 0.0) & (det[j] > threshold[j]), 0.0, 1.0) + finite[j];
+    failed += pick(both(s00[j] > 0.0, det[j] > threshold[j]), 0.0, 1.0) + finite[j];
   }
   failed += top - top;  // NaN where every likelihood underflowed (top = −∞)
   const Lanes<S> failed_lanes = lanes_of(failed);
