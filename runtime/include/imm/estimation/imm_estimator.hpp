@@ -256,32 +256,7 @@ class ImmEstimator {
   /// weighted IMM updates with a fused azimuth and reports the plot's).
   template <class ToPlot>
   bool innovation(Vector<NZ>& nu, SquareMatrix<NZ>& S, ToPlot&& to_plot) const {
-    if (!updated_) return false;
-    const int n = mode_count();
-    std::array<Vector<NZ>, kMaxModes> nus;
-    std::array<SquareMatrix<NZ>, kMaxModes> covariances;
-    for (int j = 0; j < n; ++j) {
-      nus[index(j)] = modes_[index(j)]->innovation();
-      covariances[index(j)] = modes_[index(j)]->innovation_covariance();
-      to_plot(nus[index(j)], covariances[index(j)]);
-    }
-    // c_j, normalized over the modes (predict_mode_probabilities keeps them in log space).
-    const double shift = log_predicted_.maxCoeff();
-    double total = 0.0;
-    for (int j = 0; j < n; ++j) total += std::exp(log_predicted_(j) - shift);
-    nu.setZero();
-    for (int j = 0; j < n; ++j) {
-      const double c = std::exp(log_predicted_(j) - shift) / total;
-      if (c != 0.0) nu += c * nus[index(j)];
-    }
-    S.setZero();
-    for (int j = 0; j < n; ++j) {
-      const double c = std::exp(log_predicted_(j) - shift) / total;
-      if (c == 0.0) continue;
-      const Vector<NZ> d = nus[index(j)] - nu;
-      S += c * (covariances[index(j)] + d * d.transpose());
-    }
-    return true;
+    return updated_ && collapse(innovations_of_the_update(to_plot), nu, S);
   }
 
   /// log_predictive_likelihood() of another measurement than the one the modes updated with
@@ -291,16 +266,7 @@ class ImmEstimator {
   template <class ToPlot>
   [[nodiscard]] double log_predictive_likelihood(ToPlot&& to_plot) const {
     if (!updated_) return std::numeric_limits<double>::quiet_NaN();
-    const int n = mode_count();
-    ModeVector terms(n);
-    for (int j = 0; j < n; ++j) {
-      Vector<NZ> nu = modes_[index(j)]->innovation();
-      SquareMatrix<NZ> S = modes_[index(j)]->innovation_covariance();
-      to_plot(nu, S);
-      terms(j) = log_predicted_(j) + log_normal_density(nu, S);
-      if (std::isnan(terms(j))) return terms(j);
-    }
-    return log_sum_exp(terms);
+    return mixture_log_density(innovations_of_the_update(to_plot));
   }
 
  private:
@@ -311,9 +277,31 @@ class ImmEstimator {
     if (!predicted_) throw std::logic_error("ImmEstimator: update() or miss() without predict()");
   }
 
-  // A candidate plot's innovation ν = Σ_j c_j ν_j and S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ)
-  // under the held prediction (c_j normalized); false where a mode cannot score it.
-  bool candidate_moments(const Vector<NZ>& z, Vector<NZ>& nu, SquareMatrix<NZ>& S) const;
+  // The IMM's plot density Σ_j c_j N(ν_j; 0, S_j) (c_j the predicted mode probabilities) from
+  // every mode's innovation, which `of(j, ν_j, S_j)` writes (false: that mode cannot give one).
+  // collapse(): its two moments ν = Σ_j c_j ν_j and S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ),
+  // c_j normalized; false where a mode gave none. mixture_log_density(): log Σ_j c_j N(ν_j; 0,
+  // S_j); NaN where a mode gave none or an S_j is not positive definite.
+  template <class Of>
+  bool collapse(Of&& of, Vector<NZ>& nu, SquareMatrix<NZ>& S) const;
+  template <class Of>
+  [[nodiscard]] double mixture_log_density(Of&& of) const;
+  // `of` for the innovations of the last update, rewritten by `to_plot` (see innovation()).
+  template <class ToPlot>
+  auto innovations_of_the_update(ToPlot& to_plot) const {
+    return [this, &to_plot](int j, Vector<NZ>& nu, SquareMatrix<NZ>& S) {
+      nu = modes_[index(j)]->innovation();
+      S = modes_[index(j)]->innovation_covariance();
+      to_plot(nu, S);
+      return true;
+    };
+  }
+  // `of` for a candidate plot under the held prediction.
+  auto innovations_of_candidate(const Vector<NZ>& z) const {
+    return [this, &z](int j, Vector<NZ>& nu, SquareMatrix<NZ>& S) {
+      return modes_[index(j)]->candidate_innovation(z, nu, S);
+    };
+  }
 
   // log c_j = log Σ_i p_ij μ_i (eq. 8's inner sum), through the scaled μ̃ (see the class comment).
   void predict_mode_probabilities() {
@@ -461,6 +449,7 @@ class ImmEstimator {
   bool initialized_ = false;
   bool updated_ = false;    // the last call was a successful update (innovation())
   bool predicted_ = false;  // predict() holds a prediction (mixed_states_, the modes' pending)
+  bool prediction_intact_ = false;  // and no update() has been tried on it since
 };
 
 }  // namespace imm

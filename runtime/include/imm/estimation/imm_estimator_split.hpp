@@ -27,30 +27,23 @@ StepStatus ImmEstimator<NX, NZ>::predict() {
     if (!record(j, mode_at(j).propose_prediction(mixed_states_[index(j)]))) return status_;
   }
   predicted_ = true;
+  prediction_intact_ = true;
   return StepStatus::kOk;
 }
 
 template <int NX, int NZ>
 double ImmEstimator<NX, NZ>::candidate_log_likelihood(const Vector<NZ>& z) const {
   if (!predicted_) return std::numeric_limits<double>::quiet_NaN();
-  ModeVector terms(mode_count());
-  for (int j = 0; j < mode_count(); ++j) {
-    Vector<NZ> nu;
-    SquareMatrix<NZ> S;
-    if (!modes_[index(j)]->candidate_innovation(z, nu, S)) {
-      return std::numeric_limits<double>::quiet_NaN();
-    }
-    terms(j) = log_predicted_(j) + log_normal_density(nu, S);
-    if (std::isnan(terms(j))) return terms(j);
-  }
-  return log_sum_exp(terms);
+  return mixture_log_density(innovations_of_candidate(z));
 }
 
 template <int NX, int NZ>
 double ImmEstimator<NX, NZ>::candidate_distance(const Vector<NZ>& z) const {
   Vector<NZ> nu;
   SquareMatrix<NZ> S;
-  if (!candidate_moments(z, nu, S)) return std::numeric_limits<double>::quiet_NaN();
+  if (!predicted_ || !collapse(innovations_of_candidate(z), nu, S)) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
   const Eigen::LLT<SquareMatrix<NZ>> llt(S);
   if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
   return nu.dot(llt.solve(nu));
@@ -67,7 +60,7 @@ bool ImmEstimator<NX, NZ>::predicted_plot(Vector<NZ>& z_hat, SquareMatrix<NZ>& S
   SquareMatrix<NZ> unused;
   if (!modes_[index(top)]->predicted_plot(reference, unused)) return false;
   Vector<NZ> nu;
-  if (!candidate_moments(reference, nu, S)) return false;
+  if (!collapse(innovations_of_candidate(reference), nu, S)) return false;
   z_hat = reference - nu;
   return true;
 }
@@ -77,6 +70,7 @@ StepStatus ImmEstimator<NX, NZ>::update(const Vector<NZ>& z) {
   require_predicted();
   updated_ = false;
   if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
+  prediction_intact_ = false;
   status_ = StepStatus::kOk;
   for (int j = 0; j < mode_count(); ++j) {
     if (!record(j, mode_at(j).propose_update(z))) break;
@@ -91,38 +85,58 @@ StepStatus ImmEstimator<NX, NZ>::miss() {
   require_predicted();
   updated_ = false;
   status_ = StepStatus::kOk;
-  for (int j = 0; j < mode_count(); ++j) {
-    // Again from the held mixed estimate: an update tried before may have left its result
-    // pending.
+  // An update tried since predict() left its results pending in the modes and in the posterior:
+  // predict again from the held mixed estimates.
+  for (int j = 0; !prediction_intact_ && j < mode_count(); ++j) {
     if (!record(j, mode_at(j).propose_prediction(mixed_states_[index(j)]))) return status_;
   }
+  prediction_intact_ = true;
   const StepStatus status = finish_cycle();
   if (status == StepStatus::kOk) predicted_ = false;
   return status;
 }
 
 template <int NX, int NZ>
-bool ImmEstimator<NX, NZ>::candidate_moments(const Vector<NZ>& z, Vector<NZ>& nu,
-                                             SquareMatrix<NZ>& S) const {
+template <class Of>
+bool ImmEstimator<NX, NZ>::collapse(Of&& of, Vector<NZ>& nu, SquareMatrix<NZ>& S) const {
   const int n = mode_count();
   std::array<Vector<NZ>, kMaxModes> nus;
   std::array<SquareMatrix<NZ>, kMaxModes> covariances;
   for (int j = 0; j < n; ++j) {
-    if (!modes_[index(j)]->candidate_innovation(z, nus[index(j)], covariances[index(j)])) {
-      return false;
-    }
+    if (!of(j, nus[index(j)], covariances[index(j)])) return false;
   }
+  // c_j, normalized over the modes (predict_mode_probabilities keeps them in log space).
   const double shift = log_predicted_.maxCoeff();
   double total = 0.0;
   for (int j = 0; j < n; ++j) total += std::exp(log_predicted_(j) - shift);
   nu.setZero();
-  for (int j = 0; j < n; ++j) nu += std::exp(log_predicted_(j) - shift) / total * nus[index(j)];
+  for (int j = 0; j < n; ++j) {
+    const double c = std::exp(log_predicted_(j) - shift) / total;
+    if (c != 0.0) nu += c * nus[index(j)];
+  }
   S.setZero();
   for (int j = 0; j < n; ++j) {
+    const double c = std::exp(log_predicted_(j) - shift) / total;
+    if (c == 0.0) continue;
     const Vector<NZ> d = nus[index(j)] - nu;
-    S += std::exp(log_predicted_(j) - shift) / total * (covariances[index(j)] + d * d.transpose());
+    S += c * (covariances[index(j)] + d * d.transpose());
   }
   return true;
+}
+
+template <int NX, int NZ>
+template <class Of>
+double ImmEstimator<NX, NZ>::mixture_log_density(Of&& of) const {
+  const int n = mode_count();
+  ModeVector terms(n);
+  for (int j = 0; j < n; ++j) {
+    Vector<NZ> nu;
+    SquareMatrix<NZ> S;
+    if (!of(j, nu, S)) return std::numeric_limits<double>::quiet_NaN();
+    terms(j) = log_predicted_(j) + log_normal_density(nu, S);
+    if (std::isnan(terms(j))) return terms(j);
+  }
+  return log_sum_exp(terms);
 }
 
 }  // namespace imm
