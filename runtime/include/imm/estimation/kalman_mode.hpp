@@ -93,8 +93,7 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
  private:
   // The update of pending_ (a prediction) with z.
   ModeStep update_pending(const Vector<kMeasurementDim>& z) {
-    const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
-                                        : update(pending_, z, measurement_);
+    const auto report = iterated_update(pending_, z, measurement_, iterations_);
     this->keep_innovation(report.innovation, report.innovation_covariance);
     return {report.status, report.log_likelihood};
   }

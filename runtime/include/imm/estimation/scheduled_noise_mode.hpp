@@ -184,8 +184,7 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
   // The update of pending_ (a prediction with its noise) with z.
   ModeStep update_pending(const Vector<kMeasurementDim>& z) {
     if (!pending_.usable()) return {StepStatus::kNonFiniteResult, 0.0};
-    const auto report = iterations_ > 1 ? iterated_update(pending_, z, measurement_, iterations_)
-                                        : update(pending_, z, measurement_);
+    const auto report = iterated_update(pending_, z, measurement_, iterations_);
     this->keep_innovation(report.innovation, report.innovation_covariance);
     return {report.status, report.log_likelihood};
   }
