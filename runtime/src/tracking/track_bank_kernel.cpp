@@ -26,24 +26,16 @@ constexpr int kWidth = 1;
 template <>
 constexpr int kWidth<LanePack> = kLanePackWidth;
 
+// A value's kWidth<S> doubles read from, or written to, consecutive memory (unaligned).
 template <class S>
 [[gnu::always_inline]] inline S load(const double* from) {
-  if constexpr (std::is_same_v<S, double>) {
-    return *from;
-  } else {
-    S value;
-    std::memcpy(&value, from, sizeof value);
-    return value;
-  }
+  S value;
+  std::memcpy(&value, from, sizeof value);
+  return value;
 }
-
 template <class S>
 [[gnu::always_inline]] inline void store(double* to, const S& value) {
-  if constexpr (std::is_same_v<S, double>) {
-    *to = value;
-  } else {
-    std::memcpy(to, &value, sizeof value);
-  }
+  std::memcpy(to, &value, sizeof value);
 }
 
 template <class S>
@@ -71,14 +63,12 @@ using Lanes = std::array<double, kWidth<S>>;
 template <class S>
 [[gnu::always_inline]] inline Lanes<S> lanes_of(const S& value) {
   Lanes<S> out;
-  std::memcpy(out.data(), &value, sizeof value);
+  store(out.data(), value);
   return out;
 }
 template <class S>
 [[gnu::always_inline]] inline S from_lanes(const Lanes<S>& lanes) {
-  S value;
-  std::memcpy(&value, lanes.data(), sizeof value);
-  return value;
+  return load<S>(lanes.data());
 }
 
 // A Gaussian of one mode: mean, then the covariance's upper triangle (cv_position_algebra.hpp).
@@ -267,10 +257,6 @@ template <class S, int N>
     store(combined(e), pick(commit, estimate[e], load<S>(combined(e))));
   }
 }
-
-}  // namespace
-
-namespace {
 
 // The fewest tracks left over after the whole packs that are stepped as a pack padded with copies
 // of their last track rather than one by one: a pack costs about as much as two single tracks.
