@@ -88,6 +88,15 @@ class TrackBank:
         """Track `track`'s combined mean (n,) and covariance (n, n)."""
     def mode_probabilities(self, track: int) -> _Array:
         """Track `track`'s mode probabilities (m,)."""
+    def candidate_log_likelihoods(
+        self, plots: npt.ArrayLike, tracks: int, gate: float = ...
+    ) -> _Array:
+        """The gating matrix (tracks, M): log p(z | track) of each candidate plot (M, 2) under
+        tracks 0 … tracks − 1's one-scan predictions, -inf where the squared distance to the
+        collapsed prediction exceeds `gate` (a χ² quantile: 9.21 is 99 % for 2-D plots; the
+        default inf scores every pair), NaN for an unusable plot. Changes no track; the GIL is
+        released. The plain IMM's constant-velocity bank answers it; other kinds raise
+        RuntimeError."""
     @property
     def capacity(self) -> int:
         """The number of tracks."""

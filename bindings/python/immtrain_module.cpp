@@ -36,14 +36,8 @@
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "imm/load.hpp"
-#include "imm/tracking/fcm_imm_track_bank.hpp"
-#include "imm/tracking/fimm_track_bank.hpp"
-#include "imm/tracking/ga_fuzzy_track_bank.hpp"
-#include "imm/tracking/input_estimator_track_bank.hpp"
-#include "imm/tracking/plain_imm_track_bank.hpp"
-#include "imm/tracking/track_bank.hpp"
+#include "imm/model_kinds.hpp"
 #include "imm/tracking/tracker.hpp"
-#include "imm/tracking/wimm_track_bank.hpp"
 #include "imm/version.hpp"
 
 namespace py = pybind11;
@@ -271,34 +265,17 @@ class PyTracker {
   std::vector<std::string> modes_;
 };
 
-// A model's bank: many tracks stepped by one call — TrackBank or PlainImmTrackBank for a plain
-// IMM (open_plain), GaFuzzyTrackBank
-// for a GA-fuzzy IMM, InputEstimatorTrackBank for an input estimator, WimmTrackBank for a weighted
-// IMM, FimmTrackBank for a TSK sensor's FIMM, FcmImmTrackBank for an FCM-IMM: every kind
-// load_tracker reads.
+// A model's bank: many tracks stepped by one call, of whatever kind the file holds
+// (imm::open_track_bank: the kind's own bank behind imm::AnyTrackBank).
 class PyTrackBank {
  public:
-  PyTrackBank(const fs::path& path, std::size_t capacity) : bank_(open(path, capacity)) {}
+  PyTrackBank(const fs::path& path, std::size_t capacity)
+      : bank_(imm::open_track_bank(path, capacity)),
+        kind_(imm::io::ModelFileReader(path).provenance().model_kind) {}
 
   // Starts track `track` from a mean and covariance of the bank's state dimension.
   void initialize(std::size_t track, const Eigen::VectorXd& mean, const Eigen::MatrixXd& P) {
-    std::visit(
-        [&](auto& bank) {
-          using State = decltype(bank.estimate(0));
-          constexpr int kDimension = decltype(State::mean)::RowsAtCompileTime;
-          const std::string n = std::to_string(kDimension);
-          if (mean.size() != kDimension) {
-            throw imm::InvalidParameter("mean", "expected " + n + " entries");
-          }
-          if (P.rows() != kDimension || P.cols() != kDimension) {
-            throw imm::InvalidParameter("covariance", "expected " + n + "×" + n);
-          }
-          State state;
-          state.mean = mean;
-          state.covariance = P;
-          bank.initialize(track, state);
-        },
-        bank_);
+    bank_->initialize(track, mean, P);
   }
 
   // One cycle of tracks 0 … N − 1 with plots (N, 2); returns each track's status.
@@ -317,7 +294,7 @@ class PyTrackBank {
     }
     {
       const py::gil_scoped_release release;  // the bank's step touches no Python object
-      std::visit([&](auto& bank) { bank.step(plots_, status_); }, bank_);
+      bank_->step(plots_, status_);
     }
     std::vector<std::string> out;
     out.reserve(rows);
@@ -326,97 +303,44 @@ class PyTrackBank {
   }
 
   [[nodiscard]] py::tuple estimate(std::size_t track) const {
-    return std::visit(
-        [&](const auto& bank) {
-          const auto e = bank.estimate(track);
-          return py::make_tuple(Eigen::VectorXd(e.mean), Eigen::MatrixXd(e.covariance));
-        },
-        bank_);
+    Eigen::VectorXd mean;
+    Eigen::MatrixXd covariance;
+    bank_->estimate(track, mean, covariance);
+    return py::make_tuple(mean, covariance);
   }
-  [[nodiscard]] int state_dimension() const {
-    return std::visit(
-        [](const auto& bank) {
-          return static_cast<int>(decltype(bank.estimate(0).mean)::RowsAtCompileTime);
-        },
-        bank_);
-  }
+  [[nodiscard]] int state_dimension() const { return bank_->state_dimension(); }
   [[nodiscard]] Eigen::VectorXd mode_probabilities(std::size_t track) const {
-    return std::visit(
-        [&](const auto& bank) -> Eigen::VectorXd { return bank.mode_probabilities(track); }, bank_);
+    return bank_->mode_probabilities(track);
   }
-  [[nodiscard]] std::size_t capacity() const {
-    return std::visit([](const auto& bank) { return bank.capacity(); }, bank_);
-  }
-  [[nodiscard]] std::string kind() const {
-    // In the order of the Bank variant's alternatives.
-    constexpr std::array<std::string_view, 10> kKinds{
-        imm::io::kPlainImmKind, imm::io::kGaFuzzyImmKind, imm::io::kMlpInputEstimatorKind,
-        imm::io::kWimmKind,     imm::io::kTskSensorKind,  imm::io::kFcmImmKind,
-        imm::io::kPlainImmKind, imm::io::kPlainImmKind,   imm::io::kPlainImmKind,
-        imm::io::kPlainImmKind};
-    static_assert(kKinds.size() == std::variant_size_v<Bank>);
-    return std::string(kKinds[bank_.index()]);
+  [[nodiscard]] std::size_t capacity() const { return bank_->capacity(); }
+  [[nodiscard]] std::string kind() const { return kind_; }
+
+  // The (tracks, plots) log-likelihoods of candidate plots (M, 2) for tracks 0 … tracks − 1; −inf
+  // outside the gate.
+  [[nodiscard]] Eigen::MatrixXd candidate_log_likelihoods(
+      const py::array_t<double, py::array::c_style | py::array::forcecast>& plots,
+      std::size_t tracks, double gate) {
+    if (plots.ndim() != 2 || plots.shape(1) != 2) {
+      throw imm::InvalidParameter("plots", "expected an (M, 2) array of plots");
+    }
+    const auto rows = static_cast<std::size_t>(plots.shape(0));
+    std::vector<Eigen::Vector2d> candidates(rows);
+    const auto p = plots.unchecked<2>();
+    for (std::size_t q = 0; q < rows; ++q) {
+      candidates[q] =
+          Eigen::Vector2d(p(static_cast<py::ssize_t>(q), 0), p(static_cast<py::ssize_t>(q), 1));
+    }
+    Eigen::MatrixXd out(static_cast<Eigen::Index>(tracks), static_cast<Eigen::Index>(rows));
+    {
+      const py::gil_scoped_release release;
+      bank_->candidate_log_likelihoods(candidates, gate, out);
+    }
+    return out;
   }
 
  private:
-  using Bank = std::variant<imm::TrackBank, imm::GaFuzzyTrackBank, imm::InputEstimatorTrackBank,
-                            imm::WimmTrackBank, imm::FimmTrackBank, imm::FcmImmTrackBank,
-                            imm::PlainImmTrackBank<4>, imm::PlainImmTrackBank<5>,
-                            imm::PlainImmTrackBank<6>, imm::PlainImmTrackBank<7>>;
-  // A plain IMM: TrackBank's vectorized kernel for CV modes with Cartesian plots, the general
-  // bank of its mixing dimension otherwise (CA, Singer and turn modes, scheduled noise, polar
-  // plots).
-  static Bank open_plain(const imm::PlainImmSpec& spec, std::size_t capacity) {
-    const bool cv_cartesian =
-        spec.measurement.kind == imm::MeasurementKind::kCartesian &&
-        std::all_of(spec.modes.begin(), spec.modes.end(), [](const imm::ModeSpec& m) {
-          return m.motion == imm::MotionKind::kConstantVelocity && !m.noise_schedule;
-        });
-    if (cv_cartesian) return Bank(std::in_place_type<imm::TrackBank>, spec, capacity);
-    switch (spec.mixing_dimension()) {
-      case 4:
-        return Bank(std::in_place_type<imm::PlainImmTrackBank<4>>, spec, capacity);
-      case 5:
-        return Bank(std::in_place_type<imm::PlainImmTrackBank<5>>, spec, capacity);
-      case 6:
-        return Bank(std::in_place_type<imm::PlainImmTrackBank<6>>, spec, capacity);
-      default:
-        return Bank(std::in_place_type<imm::PlainImmTrackBank<7>>, spec, capacity);
-    }
-  }
-  static Bank open(const fs::path& path, std::size_t capacity) {
-    const imm::io::ModelFileReader reader(path);
-    const std::string& kind = reader.provenance().model_kind;
-    if (kind == imm::io::kPlainImmKind) {
-      return open_plain(imm::io::read_plain_imm(path), capacity);
-    }
-    if (kind == imm::io::kGaFuzzyImmKind) {
-      return Bank(std::in_place_type<imm::GaFuzzyTrackBank>, imm::io::read_ga_fuzzy_imm(reader),
-                  capacity);
-    }
-    if (kind == imm::io::kMlpInputEstimatorKind) {
-      return Bank(std::in_place_type<imm::InputEstimatorTrackBank>,
-                  imm::io::read_mlp_input_estimator(reader), capacity);
-    }
-    if (kind == imm::io::kWimmKind) {
-      return Bank(std::in_place_type<imm::WimmTrackBank>, imm::io::read_wimm(reader), capacity);
-    }
-    if (kind == imm::io::kTskSensorKind) {
-      const std::optional<imm::FimmSpec> fimm = imm::io::read_fimm_settings(reader);
-      if (!fimm) reader.fail("/fimm", "missing: the file predates stored FIMM settings");
-      return Bank(std::in_place_type<imm::FimmTrackBank>, *fimm,
-                  std::make_shared<const imm::TskSensorModel>(imm::io::read_tsk_sensor(reader)),
-                  capacity);
-    }
-    if (kind == imm::io::kFcmImmKind) {
-      return Bank(std::in_place_type<imm::FcmImmTrackBank>, imm::io::read_fcm_imm(reader),
-                  capacity);
-    }
-    throw imm::InvalidParameter(
-        "path", path.string() + " is a " + kind + " model, a kind this runtime has no bank for");
-  }
-
-  Bank bank_;
+  std::unique_ptr<imm::AnyTrackBank> bank_;
+  std::string kind_;
   std::vector<Eigen::Vector2d> plots_;
   std::vector<imm::StepStatus> status_;
 };
@@ -469,6 +393,11 @@ PYBIND11_MODULE(immtrain, m) {
       .def("step", &PyTrackBank::step, py::arg("plots"))
       .def("estimate", &PyTrackBank::estimate, py::arg("track"))
       .def("mode_probabilities", &PyTrackBank::mode_probabilities, py::arg("track"))
+      .def("candidate_log_likelihoods", &PyTrackBank::candidate_log_likelihoods, py::arg("plots"),
+           py::arg("tracks"), py::arg("gate") = INFINITY,
+           "The (tracks, plots) matrix of log p(z | track) of candidate plots (M, 2) under tracks "
+           "0 … tracks − 1's predictions, -inf where the collapsed squared distance exceeds "
+           "`gate` (a χ² quantile, e.g. 9.21 for 99 % with 2-D plots). Changes no track.")
       .def_property_readonly("capacity", &PyTrackBank::capacity)
       .def_property_readonly("state_dimension", &PyTrackBank::state_dimension)
       .def_property_readonly("kind", &PyTrackBank::kind);

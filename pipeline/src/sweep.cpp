@@ -14,8 +14,10 @@
 #include <iostream>
 #include <iterator>
 #include <map>
+#include <optional>
 #include <sstream>
 
+#include "imm/model_kinds.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/ranks.hpp"
 
@@ -25,6 +27,16 @@ namespace {
 const std::vector<std::string>& kinds() {
   static const std::vector<std::string> names{"ga", "mlp", "wimm", "fcm", "tsk"};
   return names;
+}
+
+// The training command of `kind`: a command's own name, or any name of the model kind it writes
+// (imm/model_kinds.hpp: "ga_fuzzy_imm" and "ga-imm" are "ga").
+std::optional<std::string> training_command(const std::string& kind) {
+  for (const std::string& command : kinds()) {
+    const ModelKind* written = find_model_kind(command);
+    if (command == kind || (written != nullptr && written->answers_to(kind))) return command;
+  }
+  return std::nullopt;
 }
 
 std::string replaced(std::string text, const std::string& field, const std::string& value) {
@@ -101,10 +113,13 @@ class OutputToLog {
 
 // A [[jobs]] entry of the kind × regimes × seeds form: one job for each regime and seed.
 std::vector<SweepJob> expand_jobs(const support::ConfigTable& entry) {
-  const std::string kind = entry.text("kind");
-  if (std::find(kinds().begin(), kinds().end(), kind) == kinds().end()) {
-    entry.fail("kind", "'" + kind + "' is not a training kind (ga, mlp, wimm, fcm, tsk)");
+  const std::optional<std::string> command = training_command(entry.text("kind"));
+  if (!command) {
+    entry.fail("kind", "'" + entry.text("kind") +
+                           "' is not a training kind (ga, mlp, wimm, fcm, tsk, or their model "
+                           "kinds' names)");
   }
+  const std::string& kind = *command;
   const std::filesystem::path config = entry.text("config");
   if (!std::filesystem::is_regular_file(config)) {
     entry.fail("config", "no such config file: " + config.string());

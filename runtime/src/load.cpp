@@ -4,61 +4,28 @@
 #include <system_error>
 
 #include "imm/core/invalid_parameter.hpp"
-#include "imm/filters/fcm_imm.hpp"
-#include "imm/filters/fimm.hpp"
-#include "imm/filters/ga_fuzzy_imm.hpp"
-#include "imm/filters/mlp_input_estimator.hpp"
-#include "imm/filters/wimm.hpp"
-#include "imm/io/fcm_imm_file.hpp"
-#include "imm/io/ga_fuzzy_imm_file.hpp"
-#include "imm/io/mlp_input_estimator_file.hpp"
-#include "imm/io/plain_imm_file.hpp"
-#include "imm/io/tsk_sensor_file.hpp"
-#include "imm/io/wimm_file.hpp"
+#include "imm/model_kinds.hpp"
 
 namespace imm {
 namespace {
 
-// The spec read once, shared by every filter the maker builds.
-template <class Spec, class Make>
-void build(FilterMaker& loaded, Spec spec, std::int64_t max_gap, Make make) {
-  loaded.options = spec.track_options(max_gap);
-  auto shared = std::make_shared<const Spec>(std::move(spec));
-  loaded.make = [shared = std::move(shared), make = std::move(make)] { return make(*shared); };
+// The kind a file says it is: its model_kind exactly (an alias is a name for commands, not for
+// files).
+const ModelKind& kind_of(const io::ModelFileReader& reader) {
+  const std::string& name = reader.provenance().model_kind;
+  const ModelKind* kind = find_model_kind(name);
+  if (kind == nullptr || kind->name != name) {
+    std::string known;
+    for (const ModelKind* k : model_kinds()) known += (known.empty() ? "" : ", ") + k->name;
+    reader.fail("/@model_kind",
+                "unknown model kind '" + name + "' (this runtime reads " + known + ")");
+  }
+  return *kind;
 }
 
 FilterMaker load(const io::ModelFileReader& reader, std::int64_t max_gap) {
-  FilterMaker loaded;
+  FilterMaker loaded = kind_of(reader).load(reader, max_gap);
   loaded.provenance = reader.provenance();
-  const std::string& kind = loaded.provenance.model_kind;
-  if (kind == io::kPlainImmKind) {
-    build(loaded, io::read_plain_imm(reader), max_gap, make_plain_imm_filter);
-  } else if (kind == io::kGaFuzzyImmKind) {
-    build(loaded, io::read_ga_fuzzy_imm(reader), max_gap, make_ga_fuzzy_imm_filter);
-  } else if (kind == io::kMlpInputEstimatorKind) {
-    build(loaded, io::read_mlp_input_estimator(reader), max_gap, make_mlp_input_estimator_filter);
-  } else if (kind == io::kFcmImmKind) {
-    build(loaded, io::read_fcm_imm(reader), max_gap, make_fcm_imm_filter);
-  } else if (kind == io::kWimmKind) {
-    build(loaded, io::read_wimm(reader), max_gap,
-          [](const WimmSpec& spec) { return std::make_unique<WimmFilter>(spec); });
-  } else if (kind == io::kTskSensorKind) {
-    auto sensor = std::make_shared<const TskSensorModel>(io::read_tsk_sensor(reader));
-    const std::optional<FimmSpec> fimm = io::read_fimm_settings(reader);
-    if (!fimm) {
-      reader.fail("/fimm",
-                  "missing: the file predates stored FIMM settings (retrain it with imm-train tsk; "
-                  "until then build FimmFilter with the [fimm] settings of its training config)");
-    }
-    build(loaded, *fimm, max_gap,
-          [sensor](const FimmSpec& spec) { return std::make_unique<FimmFilter>(spec, sensor); });
-  } else {
-    std::string known;
-    for (std::string_view k : loadable_model_kinds())
-      known += (known.empty() ? "" : ", ") + std::string(k);
-    reader.fail("/@model_kind",
-                "unknown model kind '" + kind + "' (this runtime reads " + known + ")");
-  }
   loaded.options.envelope = reader.envelope();
   return loaded;
 }
@@ -74,11 +41,10 @@ io::ModelFileReader open_model(const std::filesystem::path& path) {
 
 }  // namespace
 
-const std::vector<std::string_view>& loadable_model_kinds() {
-  static const std::vector<std::string_view> kinds = {
-      io::kPlainImmKind, io::kGaFuzzyImmKind, io::kMlpInputEstimatorKind,
-      io::kFcmImmKind,   io::kTskSensorKind,  io::kWimmKind};
-  return kinds;
+std::vector<std::string_view> loadable_model_kinds() {
+  std::vector<std::string_view> names;
+  for (const ModelKind* kind : model_kinds()) names.emplace_back(kind->name);
+  return names;
 }
 
 LoadedFilter load_filter(const std::filesystem::path& path, std::int64_t max_gap) {
@@ -111,6 +77,22 @@ LoadedFilter load_filter(const io::ModelFileReader& reader, std::int64_t max_gap
 Tracker load_tracker(const std::filesystem::path& path, std::int64_t max_gap) {
   LoadedFilter loaded = load_filter(path, max_gap);
   return Tracker(std::move(loaded.filter), std::move(loaded.options));
+}
+
+std::unique_ptr<AnyTrackBank> open_track_bank(const std::filesystem::path& path,
+                                              std::size_t capacity) {
+  const io::ModelFileReader reader = open_model(path);
+  const ModelKind& kind = kind_of(reader);
+  if (!kind.open_bank) {
+    throw InvalidParameter("path", path.string() + " is a " + kind.name +
+                                       " model, a kind this runtime has no bank for");
+  }
+  try {
+    return kind.open_bank(reader, capacity);
+  } catch (const InvalidParameter& invalid) {
+    if (invalid.field() == "capacity") throw;
+    reader.fail(invalid.field(), invalid.what());
+  }
 }
 
 }  // namespace imm

@@ -291,6 +291,34 @@ def test_every_kind_load_tracker_reads_has_a_bank(name, kind, dimension):
         bank.initialize(0, np.zeros(dimension + 1), np.eye(dimension + 1))
 
 
+def test_the_bank_scores_candidate_plots_without_changing_a_track():
+    """The gating matrix of a CV-mode bank: a plot at a track's predicted position scores higher
+    for it than for a track far away, which the gate cuts to -inf; an unusable plot is NaN; asking
+    leaves the next step's numbers as they would be; a kind without the question raises."""
+    model = os.path.join(MODELS, "cv3_imm.h5")
+    P0 = np.diag([100.0, 25.0, 100.0, 25.0])
+    starts = [np.array([0.0, 10.0, 0.0, 0.0]), np.array([5000.0, 0.0, 5000.0, 0.0])]
+    asked, quiet = immtrain.TrackBank(model, 2), immtrain.TrackBank(model, 2)
+    for bank in (asked, quiet):
+        for t, start in enumerate(starts):
+            bank.initialize(t, start, P0)
+    T = immtrain.load_tracker(model).sample_period
+    plots = np.array([[10.0 * T, 0.0], [5000.0, 5000.0], [np.nan, 1.0]])
+    everything = asked.candidate_log_likelihoods(plots, 2)
+    gated = asked.candidate_log_likelihoods(plots, 2, gate=9.21)
+    assert everything.shape == (2, 3)
+    assert everything[0, 0] > everything[1, 0] and everything[1, 1] > everything[0, 1]
+    assert np.isfinite(gated[0, 0]) and gated[1, 0] == -np.inf and gated[0, 1] == -np.inf
+    assert np.isnan(everything[:, 2]).all()
+    step = np.array([[10.0 * T, 0.0], [5000.0, 5000.0]])
+    assert asked.step(step) == quiet.step(step) == ["ok", "ok"]
+    assert asked.estimate(0)[0].tolist() == quiet.estimate(0)[0].tolist()
+    fuzzy = immtrain.TrackBank(os.path.join(MODELS, "ga_fuzzy_imm.h5"), 1)
+    fuzzy.initialize(0, starts[0], P0)
+    with pytest.raises(RuntimeError, match="does not score candidate plots"):
+        fuzzy.candidate_log_likelihoods(plots, 1)
+
+
 def test_nothing_grows_when_trackers_are_made_and_run_again_and_again():
     model = os.path.join(MODELS, "cv3_imm.h5")
     plots = np.array([[k, 10.0 * k, 5.0 * k] for k in range(200)], dtype=float)

@@ -78,6 +78,26 @@ TEST(CommandLine, HelpShowsTheDefaults) {
       << tsk.out;
 }
 
+// A command named after a model kind answers to the kind's own name (imm/model_kinds.hpp), with the
+// same options; a name no kind or command has is still a usage error.
+TEST(CommandLine, KindCommandsAnswerToTheirModelKindsNames) {
+  const std::pair<const char*, std::vector<std::string>> cases[] = {
+      {"imm-train", {"ga_fuzzy_imm", "--help"}},  {"imm-train", {"mlp_input_estimator", "--help"}},
+      {"imm-train", {"fcm_imm", "--help"}},       {"imm-train", {"tsk_sensor", "--help"}},
+      {"imm-eval", {"ga_fuzzy_imm", "--help"}},   {"imm-eval", {"tsk_sensor", "--help"}},
+      {"imm-eval", {"plain_imm", "--help"}},      {"imm-eval", {"mlp_input_estimator", "--help"}}};
+  for (const auto& [tool, arguments] : cases) {
+    const auto result = run_tool(tool, arguments, testing::source_root());
+    EXPECT_EQ(result.exit_code, 0) << tool << " " << arguments[0] << ": " << result.err;
+    EXPECT_NE(result.out.find("--"), std::string::npos) << result.out;
+  }
+  const auto short_name = run_tool("imm-train", {"tsk", "--help"}, testing::source_root());
+  const auto kind_name = run_tool("imm-train", {"tsk_sensor", "--help"}, testing::source_root());
+  EXPECT_EQ(short_name.out.substr(short_name.out.find('\n')),
+            kind_name.out.substr(kind_name.out.find('\n')));  // the same options
+  EXPECT_EQ(run_tool("imm-train", {"no_such_kind"}, testing::source_root()).exit_code, 1);
+}
+
 TEST(CommandLine, ImmTrackNamesAMissingModelFile) {
   const auto result =
       run_tool("imm-track", {"--filter", "models/no_such.h5", "--measurements", "m"},

@@ -37,6 +37,7 @@
 #include "imm/evaluation/headline.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/support/cli.hpp"
+#include "imm/support/kind_aliases.hpp"
 #include "imm/trainer/ranks.hpp"
 
 namespace {
@@ -88,6 +89,7 @@ int run(int argc, char** argv) {
   imm::evaluation::add_fimm_command(app, exit_code);
   imm::evaluation::add_rank_command(app, exit_code);
   imm::evaluation::add_regression_command(app, exit_code);
+  imm::support::alias_model_kinds(app);
   // Everything an experiment prints also goes into its folder's report.md.
   imm::evaluation::ReportRecorder recorder(argc, argv);
   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;

@@ -30,6 +30,7 @@
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "imm/load.hpp"
+#include "imm/model_kinds.hpp"
 #include "imm/pipeline/registry.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/support/exit_codes.hpp"
@@ -43,26 +44,6 @@ using imm::io::ObjectKind;
 using nlohmann::json;
 
 constexpr std::size_t kRowsShown = 12;
-
-// Runtime validators of the model kinds this build knows; each throws FileError when the file
-// would not load.
-const std::map<std::string, std::function<void(const std::string&)>>& validators() {
-  static const std::map<std::string, std::function<void(const std::string&)>> table = {
-      {std::string(imm::io::kPlainImmKind),
-       [](const std::string& path) { (void)imm::io::read_plain_imm(path); }},
-      {std::string(imm::io::kGaFuzzyImmKind),
-       [](const std::string& path) { (void)imm::io::read_ga_fuzzy_imm(path); }},
-      {std::string(imm::io::kMlpInputEstimatorKind),
-       [](const std::string& path) { (void)imm::io::read_mlp_input_estimator(path); }},
-      {std::string(imm::io::kWimmKind),
-       [](const std::string& path) { (void)imm::io::read_wimm(path); }},
-      {std::string(imm::io::kFcmImmKind),
-       [](const std::string& path) { (void)imm::io::read_fcm_imm(path); }},
-      {std::string(imm::io::kTskSensorKind),
-       [](const std::string& path) { (void)imm::io::read_tsk_sensor(path); }},
-  };
-  return table;
-}
 
 std::string number(double value) {
   char buffer[32];
@@ -322,10 +303,10 @@ int main(int argc, char** argv) {
       const imm::io::ModelFileReader model(path);  // validates format, version and provenance
       kind = model.provenance().model_kind;
       schema_version = model.schema_version();
-      if (const auto it = validators().find(kind); it != validators().end()) it->second(path);
-      const auto& loadable = imm::loadable_model_kinds();
-      if (verify && std::find(loadable.begin(), loadable.end(), kind) != loadable.end()) {
-        (void)imm::load_filter(model);  // and the filter it builds
+      const imm::ModelKind* known = imm::find_model_kind(kind);
+      if (known != nullptr && known->name == kind) {
+        known->validate(model);
+        if (verify) (void)imm::load_filter(model);  // and the filter it builds
       }
     } else if (file.format() == imm::datasets::kDatasetFormat) {
       const auto stored_kind = file.attribute("/", "dataset_kind");
@@ -342,7 +323,9 @@ int main(int argc, char** argv) {
     } else {
       throw imm::io::FileError(path, "", "unknown container format '" + file.format() + "'");
     }
-    const bool validated = file.format() != imm::io::kModelFormat || validators().count(kind) > 0;
+    const imm::ModelKind* known = imm::find_model_kind(kind);
+    const bool validated =
+        file.format() != imm::io::kModelFormat || (known != nullptr && known->name == kind);
     if (verify) {
       std::cout << path << ": ok (" << file.format() << ", schema " << schema_version << ", "
                 << (kind.empty() ? "-" : kind)

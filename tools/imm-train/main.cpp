@@ -48,6 +48,7 @@
 #include "imm/support/cli.hpp"
 #include "imm/support/config.hpp"
 #include "imm/support/exit_codes.hpp"
+#include "imm/support/kind_aliases.hpp"
 #include "imm/support/process.hpp"
 #include "imm/trainer/model_files/seal.hpp"
 #include "imm/trainer/ranks.hpp"
@@ -205,6 +206,7 @@ int run(int argc, char** argv) {
                                "regime name (omitted: a model trained for no regime)");
   rollback_command->add_option("--registry", rollback_registry, "registry folder (models)");
 
+  imm::support::alias_model_kinds(app);
   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
   if (ranks.size() > 1) {
     if (!*training.ga() && !*sweep_command) {

@@ -14,6 +14,7 @@
 ///   fcm_imm              the FCM-compensated IMM, per axis (Cartesian plots)
 ///   tsk_sensor           the FIMM through the learned sensor model (plots in the sensor's space)
 ///   wimm                 the weighted IMM with azimuth fusion (polar plots)
+/// and every kind added by register_model_kind (model_kinds.hpp).
 
 #include <cstdint>
 #include <filesystem>
@@ -45,8 +46,8 @@ struct IMM_RUNTIME_EXPORT FilterMaker {
   io::Provenance provenance;                           ///< model_kind, trainer version, regime, …
 };
 
-/// The model kinds load_filter reads.
-[[nodiscard]] IMM_RUNTIME_EXPORT const std::vector<std::string_view>& loadable_model_kinds();
+/// The model kinds load_filter reads: the names of model_kinds() (model_kinds.hpp).
+[[nodiscard]] IMM_RUNTIME_EXPORT std::vector<std::string_view> loadable_model_kinds();
 
 /// Reads a model file of any kind and builds its filter. Throws io::FileError naming the file and
 /// the field: no such model file, not a model file, a kind this runtime does not know, a schema

@@ -72,6 +72,8 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
   r01_ = spec.measurement.covariance(0, 1);
   r11_ = spec.measurement.covariance(1, 1);
   state_.assign(static_cast<std::size_t>((modes_ * kModeSlots + kEntries) * stride_), 0.0);
+  prediction_.assign(static_cast<std::size_t>((modes_ * kPlotSlots + kCollapsedSlots) * stride_),
+                     0.0);
   initialized_.assign(capacity, 0);
 }
 
@@ -116,12 +118,40 @@ void TrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatu
   bank::check_step("TrackBank", plots.size(), status.size(), initialized_);
   for (std::size_t first = 0; first < plots.size(); first += kBlock) {
     const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
-    step_block(first, lanes, plots.data() + first, status.data() + first);
+    run_block(first, lanes, plots.data() + first, status.data() + first, nullptr);
   }
 }
 
-void TrackBank::step_block(std::size_t first, int lanes, const Eigen::Vector2d* plots,
-                           StepStatus* status) {
+void TrackBank::candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                          Eigen::Ref<Eigen::MatrixXd> out) {
+  const auto tracks = static_cast<std::size_t>(out.rows());
+  if (static_cast<std::size_t>(out.cols()) != plots.size() || tracks > capacity_) {
+    throw std::invalid_argument("TrackBank::candidate_log_likelihoods: a " +
+                                std::to_string(out.rows()) + " × " + std::to_string(out.cols()) +
+                                " matrix for " + std::to_string(plots.size()) +
+                                " plots and a bank of " + std::to_string(capacity_));
+  }
+  if (!(gate > 0.0)) throw InvalidParameter("gate", "must be positive (+∞ scores every pair)");
+  bank::check_step("TrackBank", tracks, tracks, initialized_);
+  for (std::size_t first = 0; first < tracks; first += kBlock) {
+    const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, tracks - first));
+    run_block(first, lanes, nullptr, nullptr, prediction_.data() + first);
+  }
+  Scoring scoring;
+  scoring.modes = modes_;
+  scoring.tracks = static_cast<int>(tracks);
+  scoring.prediction = prediction_.data();
+  scoring.stride = stride_;
+  scoring.plots = plots.data();
+  scoring.plot_count = static_cast<int>(plots.size());
+  scoring.gate = gate;
+  scoring.out = out.data();
+  scoring.out_stride = out.outerStride();
+  score_plots(scoring);
+}
+
+void TrackBank::run_block(std::size_t first, int lanes, const Eigen::Vector2d* plots,
+                          StepStatus* status, double* prediction) {
   Block block;
   block.modes = modes_;
   block.lanes = lanes;
@@ -136,6 +166,7 @@ void TrackBank::step_block(std::size_t first, int lanes, const Eigen::Vector2d* 
   block.stride = stride_;
   block.plots = plots;
   block.status = status;
+  if (prediction != nullptr) return predict_plots(block, prediction);
   step_tracks(block);
 }
 

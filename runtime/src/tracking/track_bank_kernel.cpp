@@ -134,17 +134,27 @@ void exact_predicted(const Block& b, const S* log_mu, const S* predicted, S* log
   }
 }
 
-// One IMM step (seed 000 eq. 4–11) of the kWidth<S> tracks that start at lane `t` of block `b`,
-// whose IMM has N modes (N = kMaxModes: b.modes ≤ N, the loops then run to b.modes).
+// The first half of an IMM cycle (seed 000 eq. 4–6 and each mode's prediction) of the kWidth<S>
+// tracks that start at lane `t` of block `b`, whose IMM has N modes (N = kMaxModes: b.modes ≤ N,
+// the loops then run to b.modes): the modes' and μ's stored state, log c_j, and each mode's
+// prediction from its mixed initial condition.
 template <class S, int N>
-[[gnu::always_inline]] inline void step(const Block& b, int t) {
+struct Predicted {
+  std::array<Entries<S>, N> modes, mixed;
+  std::array<S, N> log_mu, scaled_mu, log_c;
+};
+
+template <class S, int N>
+[[gnu::always_inline]] inline void predict(const Block& b, int t, Predicted<S, N>& p) {
   const int n = N == kMaxModes ? b.modes : N;
   auto st = [&](int j, int entry) { return b.state + (j * kModeSlots + entry) * b.stride + t; };
-  auto combined = [&](int entry) { return b.state + (n * kModeSlots + entry) * b.stride + t; };
   constexpr double kInf = std::numeric_limits<double>::infinity();
-
-  std::array<Entries<S>, N> modes, mixed, updated;
-  std::array<S, N> log_mu, scaled_mu, predicted, log_c;
+  auto& modes = p.modes;
+  auto& mixed = p.mixed;
+  auto& log_mu = p.log_mu;
+  auto& scaled_mu = p.scaled_mu;
+  auto& log_c = p.log_c;
+  std::array<S, N> predicted;
   std::array<S, N * N> weights;
   for (int i = 0; i < n; ++i) {
     for (int e = 0; e < kEntries; ++e) modes[i][e] = load<S>(st(i, e));
@@ -167,6 +177,30 @@ template <class S, int N>
   }
   exact_predicted(b, log_mu.data(), predicted.data(), log_c.data(), weights.data());
 
+  // Mixed initial conditions (eq. 4–5) and the prediction x⁻ = F x, P⁻ = F P Fᵀ + Q.
+  for (int j = 0; j < n; ++j) {
+    moment_match(n, weights.data() + j * n, modes.data(), mixed[j]);
+    cv_position::predict([&](int e) -> S& { return mixed[j][e]; }, b.period,
+                         b.noise + static_cast<std::ptrdiff_t>(j) * kTriangle);
+  }
+}
+
+// One IMM step (seed 000 eq. 4–11) of the kWidth<S> tracks that start at lane `t` of block `b`.
+template <class S, int N>
+[[gnu::always_inline]] inline void step(const Block& b, int t) {
+  const int n = N == kMaxModes ? b.modes : N;
+  auto st = [&](int j, int entry) { return b.state + (j * kModeSlots + entry) * b.stride + t; };
+  auto combined = [&](int entry) { return b.state + (n * kModeSlots + entry) * b.stride + t; };
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  Predicted<S, N> p;
+  predict<S, N>(b, t, p);
+  const auto& modes = p.modes;
+  const auto& mixed = p.mixed;
+  const auto& log_mu = p.log_mu;
+  const auto& scaled_mu = p.scaled_mu;
+  const auto& log_c = p.log_c;
+  std::array<Entries<S>, N> updated;
+
   // The plots: a lane whose plot is unusable computes on zeros and keeps its state.
   Lanes<S> zx{}, zy{}, ok{};
   for (std::size_t l = 0; l < ok.size(); ++l) {
@@ -177,13 +211,9 @@ template <class S, int N>
     ok[l] = usable ? 1.0 : 0.0;
   }
 
-  // Mixed initial conditions (eq. 4–5), prediction x⁻ = F x, P⁻ = F P Fᵀ + Q, and the Joseph-form
-  // update with H selecting [x, y] (cv_position_algebra.hpp).
+  // The Joseph-form update with H selecting [x, y] (cv_position_algebra.hpp).
   std::array<S, N> s00, det, mahalanobis, threshold, finite;
   for (int j = 0; j < n; ++j) {
-    moment_match(n, weights.data() + j * n, modes.data(), mixed[j]);
-    cv_position::predict([&](int e) -> S& { return mixed[j][e]; }, b.period,
-                         b.noise + static_cast<std::ptrdiff_t>(j) * kTriangle);
     const auto o = cv_position::update([&](int e) { return mixed[j][e]; },
                                        [&](int e) -> S& { return updated[j][e]; },
                                        from_lanes<S>(zx), from_lanes<S>(zy), b.r00, b.r01, b.r11);
@@ -300,6 +330,126 @@ template <int N>
   for (; t < b.lanes; ++t) step<double, N>(b, t);
 }
 
+// The predicted plot density of the kWidth<S> tracks at lane `t`: per mode j the constant of its
+// log-density, ẑ_j and S_j⁻¹ (S_j = H P⁻_j Hᵀ + R), then the collapsed ẑ and S̄⁻¹ with
+// S̄ = Σ_j c_j (S_j + (ẑ_j − ẑ)(ẑ_j − ẑ)ᵀ), c_j normalized (ImmEstimator::collapse), into the
+// prediction slots of `out` (kPlotSlots per mode, then kCollapsedSlots; `b.stride` apart).
+template <class S, int N>
+[[gnu::always_inline]] inline void predict_plot(const Block& b, int t, double* out) {
+  const int n = N == kMaxModes ? b.modes : N;
+  Predicted<S, N> p;
+  predict<S, N>(b, t, p);
+  auto slot = [&](int index) { return out + index * b.stride + t; };
+  std::array<S, N> zx, zy, s00, s01, s11, c;
+  S top = splat<S>(-std::numeric_limits<double>::infinity());
+  for (int j = 0; j < n; ++j) top = pick(top < p.log_c[j], p.log_c[j], top);
+  S total = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) {
+    const Entries<S>& m = p.mixed[j];
+    zx[j] = m[0];
+    zy[j] = m[2];
+    s00[j] = m[kN + sym(0, 0)] + b.r00;
+    s01[j] = m[kN + sym(0, 2)] + b.r01;
+    s11[j] = m[kN + sym(2, 2)] + b.r11;
+    const S det = s00[j] * s11[j] - s01[j] * s01[j];
+    const S inverse_det = 1.0 / det;
+    double* mode = out + (j * kPlotSlots) * b.stride + t;
+    store(mode, p.log_c[j] - 0.5 * lane_log(det) - kLogTwoPi);
+    store(mode + b.stride, zx[j]);
+    store(mode + 2 * b.stride, zy[j]);
+    store(mode + 3 * b.stride, s11[j] * inverse_det);
+    store(mode + 4 * b.stride, -s01[j] * inverse_det);
+    store(mode + 5 * b.stride, s00[j] * inverse_det);
+    c[j] = lane_exp(p.log_c[j] - top);
+    total += c[j];
+  }
+  S cx = splat<S>(0.0), cy = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) {
+    c[j] = c[j] / total;
+    cx += c[j] * zx[j];
+    cy += c[j] * zy[j];
+  }
+  S t00 = splat<S>(0.0), t01 = splat<S>(0.0), t11 = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) {
+    const S dx = zx[j] - cx, dy = zy[j] - cy;
+    t00 += c[j] * (s00[j] + dx * dx);
+    t01 += c[j] * (s01[j] + dx * dy);
+    t11 += c[j] * (s11[j] + dy * dy);
+  }
+  const S inverse_det = 1.0 / (t00 * t11 - t01 * t01);
+  const int collapsed = n * kPlotSlots;
+  store(slot(collapsed), cx);
+  store(slot(collapsed + 1), cy);
+  store(slot(collapsed + 2), t11 * inverse_det);
+  store(slot(collapsed + 3), -t01 * inverse_det);
+  store(slot(collapsed + 4), t00 * inverse_det);
+}
+
+// Every plot of `s` against the kWidth<S> tracks at lane `t`: the pack's prediction is read once,
+// then each plot's gate statistic, and its mixture log-density unless every track of the pack is
+// outside the gate.
+template <class S, int N>
+[[gnu::always_inline]] inline void score_plots(const Scoring& s, int t) {
+  const int n = N == kMaxModes ? s.modes : N;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  auto slot = [&](int index) { return load<S>(s.prediction + index * s.stride + t); };
+  std::array<S, N> constant, zx, zy, i00, i01, i11;
+  for (int j = 0; j < n; ++j) {
+    constant[j] = slot(j * kPlotSlots);
+    zx[j] = slot(j * kPlotSlots + 1);
+    zy[j] = slot(j * kPlotSlots + 2);
+    i00[j] = slot(j * kPlotSlots + 3);
+    i01[j] = slot(j * kPlotSlots + 4);
+    i11[j] = slot(j * kPlotSlots + 5);
+  }
+  const int collapsed = n * kPlotSlots;
+  const S cx = slot(collapsed), cy = slot(collapsed + 1);
+  const S c00 = slot(collapsed + 2), c01 = slot(collapsed + 3), c11 = slot(collapsed + 4);
+  for (int q = 0; q < s.plot_count; ++q) {
+    const Eigen::Vector2d& z = s.plots[q];
+    double* to = s.out + q * s.out_stride + t;
+    if (!limits::usable_measurement(z.x()) || !limits::usable_measurement(z.y())) {
+      store(to, splat<S>(std::numeric_limits<double>::quiet_NaN()));
+      continue;
+    }
+    const S dx = z.x() - cx, dy = z.y() - cy;
+    const S d2 = c00 * (dx * dx) + 2.0 * (c01 * (dx * dy)) + c11 * (dy * dy);
+    const auto outside = d2 > s.gate;
+    const Lanes<S> outside_lanes = lanes_of(pick(outside, splat<S>(1.0), splat<S>(0.0)));
+    if (std::all_of(outside_lanes.begin(), outside_lanes.end(),
+                    [](double v) { return v != 0.0; })) {
+      store(to, splat<S>(-kInf));
+      continue;
+    }
+    std::array<S, N> terms;
+    S top = splat<S>(-kInf);
+    for (int j = 0; j < n; ++j) {
+      const S ex = z.x() - zx[j], ey = z.y() - zy[j];
+      const S m = i00[j] * (ex * ex) + 2.0 * (i01[j] * (ex * ey)) + i11[j] * (ey * ey);
+      terms[j] = constant[j] - 0.5 * m;
+      top = pick(top < terms[j], terms[j], top);
+    }
+    S sum = splat<S>(0.0);
+    for (int j = 0; j < n; ++j) sum += lane_exp(terms[j] - top);
+    const S log_likelihood = pick(top == -kInf, top, top + lane_log(sum));
+    store(to, pick(outside, splat<S>(-kInf), log_likelihood));
+  }
+}
+
+template <int N>
+[[gnu::always_inline]] inline void predict_plot_block(const Block& b, double* out) {
+  int t = 0;
+  for (; t + kLanePackWidth <= b.lanes; t += kLanePackWidth) predict_plot<LanePack, N>(b, t, out);
+  for (; t < b.lanes; ++t) predict_plot<double, N>(b, t, out);
+}
+
+template <int N>
+[[gnu::always_inline]] inline void score_plot_block(const Scoring& s) {
+  int t = 0;
+  for (; t + kLanePackWidth <= s.tracks; t += kLanePackWidth) score_plots<LanePack, N>(s, t);
+  for (; t < s.tracks; ++t) score_plots<double, N>(s, t);
+}
+
 }  // namespace
 
 [[gnu::flatten]] IMM_VECTOR_CLONES void step_tracks(const Block& b) {
@@ -315,6 +465,36 @@ template <int N>
       return step_block<4>(b);
     default:
       return step_block<kMaxModes>(b);
+  }
+}
+
+}  // namespace imm::bank
+
+namespace imm::bank {
+
+[[gnu::flatten]] IMM_VECTOR_CLONES void predict_plots(const Block& b, double* prediction) {
+  switch (b.modes) {
+    case 1:
+      return predict_plot_block<1>(b, prediction);
+    case 2:
+      return predict_plot_block<2>(b, prediction);
+    case 3:
+      return predict_plot_block<3>(b, prediction);
+    default:
+      return predict_plot_block<kMaxModes>(b, prediction);
+  }
+}
+
+[[gnu::flatten]] IMM_VECTOR_CLONES void score_plots(const Scoring& s) {
+  switch (s.modes) {
+    case 1:
+      return score_plot_block<1>(s);
+    case 2:
+      return score_plot_block<2>(s);
+    case 3:
+      return score_plot_block<3>(s);
+    default:
+      return score_plot_block<kMaxModes>(s);
   }
 }
 

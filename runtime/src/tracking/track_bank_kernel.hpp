@@ -42,4 +42,31 @@ struct Block {
 /// whose step fails keeps its state and gets its StepStatus.
 void step_tracks(const Block& b);
 
+// The predicted plot density of a track, for candidate plots: per mode j the constant
+// log c_j − ½ log|S_j| − log 2π, ẑ_j and S_j⁻¹'s triangle (kPlotSlots), then the collapsed
+// prediction's ẑ and S̄⁻¹'s triangle (kCollapsedSlots).
+constexpr int kPlotSlots = 6, kCollapsedSlots = 5;
+
+/// The first half of the cycle of block `b`'s tracks (mixing and prediction; `b.plots` and
+/// `b.status` unused): their predicted plot densities into `prediction` (slots `b.stride` apart,
+/// offset to the block's first track). The state is not changed.
+void predict_plots(const Block& b, double* prediction);
+
+// Candidate plots against tracks [0, tracks) whose predictions predict_plots wrote.
+struct Scoring {
+  int modes = 0;
+  int tracks = 0;
+  const double* prediction = nullptr;
+  std::ptrdiff_t stride = 0;
+  const Eigen::Vector2d* plots = nullptr;
+  int plot_count = 0;
+  double gate = 0.0;
+  double* out = nullptr;  // plot q of track t at out[q * out_stride + t]
+  std::ptrdiff_t out_stride = 0;
+};
+
+/// Every (track, plot) log-likelihood log Σ_j c_j N(z; ẑ_j, S_j), −∞ where the collapsed
+/// distance exceeds the gate.
+void score_plots(const Scoring& s);
+
 }  // namespace imm::bank

@@ -69,6 +69,21 @@ class IMM_RUNTIME_EXPORT TrackBank {
   /// std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
+  /// The gating question for many tracks and plots in one call, without changing any track:
+  /// out(t, q) = log p(z_q | Z_t), the log-likelihood of candidate plot q under track t's
+  /// prediction — the mixture Σ_j c_j N(z_q; ẑ_j, S_j) of ImmEstimator::candidate_log_likelihood
+  /// — for tracks 0 … out.rows() − 1, or −∞ where the plot is outside the gate: its squared
+  /// distance to the collapsed prediction (ImmEstimator::candidate_distance) above `gate` (e.g.
+  /// chi_square_quantile(0.99, 2); +∞ scores every pair, and pairs outside are skipped eight
+  /// tracks at a time). NaN for an unusable plot or a track whose prediction has no positive
+  /// definite S. Then step() with the plots chosen (an unusable plot where a track gets none)
+  /// gives the same numbers as without this call. Throws std::invalid_argument when out.cols()
+  /// differs from plots.size() or out.rows() exceeds capacity(), InvalidParameter("gate") for a
+  /// gate that is NaN or not positive, std::logic_error for a track never initialized. Nothing is
+  /// allocated.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
+
   /// Whether track `track` has been initialized.
   [[nodiscard]] bool initialized(std::size_t track) const;
   /// The combined estimate of a track (eq. 10–11).
@@ -87,7 +102,10 @@ class IMM_RUNTIME_EXPORT TrackBank {
   [[nodiscard]] int mode_slot(int j, int entry) const;
   [[nodiscard]] int combined_slot(int entry) const;
   [[nodiscard]] std::size_t checked(std::size_t track) const;
-  void step_block(std::size_t first, int lanes, const Eigen::Vector2d* plots, StepStatus* status);
+  // The kernel on tracks [first, first + lanes), lanes ≤ kBlock: their step with `plots`, or,
+  // with a `prediction`, their predicted plot densities into it.
+  void run_block(std::size_t first, int lanes, const Eigen::Vector2d* plots, StepStatus* status,
+                 double* prediction);
 
   int modes_ = 0;
   std::size_t capacity_ = 0;
@@ -100,6 +118,7 @@ class IMM_RUNTIME_EXPORT TrackBank {
   double r00_ = 0.0, r01_ = 0.0, r11_ = 0.0;
 
   std::vector<double> state_;
+  std::vector<double> prediction_;  // candidate_log_likelihoods' predicted plot densities
   std::vector<unsigned char> initialized_;
 };
 

@@ -1,0 +1,176 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// Every model kind described once. A ModelKind says what a model file of that kind is called
+/// (its model_kind attribute and the older or shorter names still accepted), how its contents are
+/// checked, how its filter is built and how a bank of many tracks is opened. load_filter,
+/// load_tracker, imm-inspect, imm-track and the Python module find a kind here and nowhere else,
+/// so a new kind is one register_model_kind call beside its own reader and filter:
+///
+///   imm::register_model_kind({
+///       .name = "my_kind",
+///       .aliases = {"mine"},
+///       .summary = "what it is, in one line",
+///       .validate = [](const imm::io::ModelFileReader& r) { (void)read_my_kind(r); },
+///       .load = [](const imm::io::ModelFileReader& r, std::int64_t max_gap) { … },
+///   });
+///
+/// The six kinds of this runtime are registered before the first lookup. Lookups and
+/// registrations may come from any thread.
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/step_status.hpp"
+#include "imm/io/model_file.hpp"
+#include "imm/load.hpp"
+#include "imm/runtime_export.hpp"
+
+namespace imm {
+
+/// The calls every track bank has (TrackBank, PlainImmTrackBank, GaFuzzyTrackBank, …) behind one
+/// interface, for code that opens a bank of whatever kind a model file holds. One virtual call
+/// per bank step; the step itself is the bank's own.
+class IMM_RUNTIME_EXPORT AnyTrackBank {
+ public:
+  virtual ~AnyTrackBank() = default;
+  /// The number of tracks it holds.
+  [[nodiscard]] virtual std::size_t capacity() const = 0;
+  /// The state dimension of an estimate (4 or 6, the mixing dimension of a plain IMM).
+  [[nodiscard]] virtual int state_dimension() const = 0;
+  /// Starts (or restarts) a track. Throws InvalidParameter("mean" / "covariance") for a wrong
+  /// size, and what the bank's own initialize throws.
+  virtual void initialize(std::size_t track, const Eigen::VectorXd& mean,
+                          const Eigen::MatrixXd& covariance) = 0;
+  /// One cycle of tracks 0 … plots.size() − 1 (the bank's step).
+  virtual void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) = 0;
+  /// Whether track `track` has been initialized.
+  [[nodiscard]] virtual bool initialized(std::size_t track) const = 0;
+  /// The combined estimate of a track: mean and covariance of state_dimension().
+  virtual void estimate(std::size_t track, Eigen::VectorXd& mean,
+                        Eigen::MatrixXd& covariance) const = 0;
+  /// μ_j of a track.
+  [[nodiscard]] virtual ModeVector mode_probabilities(std::size_t track) const = 0;
+  /// The gating matrix of tracks 0 … out.rows() − 1 against `plots`, as
+  /// TrackBank::candidate_log_likelihoods, where the kind's bank answers it; std::logic_error
+  /// otherwise.
+  virtual void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                         Eigen::Ref<Eigen::MatrixXd> out);
+};
+
+/// A concrete bank behind AnyTrackBank.
+template <class Bank>
+class TrackBankAdapter final : public AnyTrackBank {
+ public:
+  /// The bank built from `arguments`.
+  template <class... Arguments>
+  explicit TrackBankAdapter(Arguments&&... arguments)
+      : bank_(std::forward<Arguments>(arguments)...) {}
+
+  [[nodiscard]] std::size_t capacity() const override { return bank_.capacity(); }
+  [[nodiscard]] int state_dimension() const override { return kDim; }
+  void initialize(std::size_t track, const Eigen::VectorXd& mean,
+                  const Eigen::MatrixXd& covariance) override {
+    check_sizes(mean, covariance);
+    State state;
+    state.mean = mean;
+    state.covariance = covariance;
+    bank_.initialize(track, state);
+  }
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) override {
+    bank_.step(plots, status);
+  }
+  [[nodiscard]] bool initialized(std::size_t track) const override {
+    return bank_.initialized(track);
+  }
+  void estimate(std::size_t track, Eigen::VectorXd& mean,
+                Eigen::MatrixXd& covariance) const override {
+    const State e = bank_.estimate(track);
+    mean = e.mean;
+    covariance = e.covariance;
+  }
+  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const override {
+    return bank_.mode_probabilities(track);
+  }
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 Eigen::Ref<Eigen::MatrixXd> out) override {
+    if constexpr (requires { bank_.candidate_log_likelihoods(plots, gate, out); }) {
+      bank_.candidate_log_likelihoods(plots, gate, out);
+    } else {
+      AnyTrackBank::candidate_log_likelihoods(plots, gate, out);
+    }
+  }
+  /// The bank itself.
+  [[nodiscard]] Bank& bank() { return bank_; }
+
+ private:
+  using State = decltype(std::declval<const Bank&>().estimate(0));
+  static constexpr int kDim = decltype(State::mean)::RowsAtCompileTime;
+  static void check_sizes(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance);
+
+  Bank bank_;
+};
+
+/// One model kind (see the file comment).
+struct IMM_RUNTIME_EXPORT ModelKind {
+  /// The model_kind attribute of its files, e.g. "ga_fuzzy_imm".
+  std::string name{};
+  /// Other names it is known by (command names, older spellings), e.g. "ga", "ga-imm".
+  std::vector<std::string> aliases{};
+  /// One line for listings.
+  std::string summary{};
+  /// Reads and checks a file's contents without building a filter; throws io::FileError naming
+  /// the field.
+  std::function<void(const io::ModelFileReader&)> validate{};
+  /// Reads a file of this kind once and returns what builds its filters (load_filter_maker).
+  std::function<FilterMaker(const io::ModelFileReader&, std::int64_t max_gap)> load{};
+  /// Opens a bank of `capacity` tracks of the file's filter; empty when the kind has no bank.
+  std::function<std::unique_ptr<AnyTrackBank>(const io::ModelFileReader&, std::size_t capacity)>
+      open_bank{};
+
+  /// Whether `name_or_alias` is its name or one of its aliases.
+  [[nodiscard]] bool answers_to(std::string_view name_or_alias) const;
+};
+
+/// Adds a kind. Throws InvalidParameter naming the field: an empty name ("name"), no `validate`
+/// or `load` function, or a name or alias another kind already answers to ("aliases[i]").
+IMM_RUNTIME_EXPORT void register_model_kind(ModelKind kind);
+
+/// The kind answering to `name_or_alias`, or nullptr. The pointer stays valid for the program.
+[[nodiscard]] IMM_RUNTIME_EXPORT const ModelKind* find_model_kind(std::string_view name_or_alias);
+
+/// The kind answering to `name_or_alias`; throws InvalidParameter(field) listing the known names.
+[[nodiscard]] IMM_RUNTIME_EXPORT const ModelKind& model_kind(std::string_view name_or_alias,
+                                                             const std::string& field);
+
+/// Every registered kind, in registration order (the six of this runtime first).
+[[nodiscard]] IMM_RUNTIME_EXPORT std::vector<const ModelKind*> model_kinds();
+
+/// Opens a bank of `capacity` tracks for the model file at `path`, of whatever kind it is.
+/// Throws io::FileError naming the file and field as load_filter does, InvalidParameter("path")
+/// for a kind without a bank.
+[[nodiscard]] IMM_RUNTIME_EXPORT std::unique_ptr<AnyTrackBank> open_track_bank(
+    const std::filesystem::path& path, std::size_t capacity);
+
+template <class Bank>
+void TrackBankAdapter<Bank>::check_sizes(const Eigen::VectorXd& mean,
+                                         const Eigen::MatrixXd& covariance) {
+  const std::string n = std::to_string(kDim);
+  if (mean.size() != kDim) throw InvalidParameter("mean", "expected " + n + " entries");
+  if (covariance.rows() != kDim || covariance.cols() != kDim) {
+    throw InvalidParameter("covariance", "expected " + n + "×" + n);
+  }
+}
+
+}  // namespace imm
