@@ -229,8 +229,9 @@ Registry& registry() {
 
 }  // namespace
 
-void AnyTrackBank::candidate_log_likelihoods(std::span<const Eigen::Vector2d> /*plots*/,
-                                             double /*gate*/, Eigen::Ref<Eigen::MatrixXd> /*out*/) {
+void AnyTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> /*plots*/, double /*gate*/,
+    Eigen::Ref<Eigen::MatrixXd> /*out*/) {  // NOLINT(performance-unnecessary-value-param)
   throw std::logic_error(
       "candidate_log_likelihoods: this kind's bank does not score candidate plots yet (the plain "
       "IMM's TrackBank does)");
