@@ -32,8 +32,29 @@ EnvelopeCalibration calibrate_envelope(const std::filesystem::path& model_file, 
     tracks = std::min(tracks, datasets::split_size(regime, datasets::Split::kValidation));
     c.recorded = true;
   }
+  // The plots the model is built for: those whose noise is its R. A regime with one case per
+  // plot noise (seed 002's Table 1) holds others, which the envelope must flag, not learn.
+  const Eigen::Matrix2d R = load_filter(reader).options.measurement_covariance;
+  const auto built_for = [&](const datasets::Track& track) {
+    return (track.noise.covariance() - R).cwiseAbs().maxCoeff() <= 1e-9 * R.cwiseAbs().maxCoeff();
+  };
+  const int cases = std::max<int>(1, static_cast<int>(regime.cases.size()));
+  const int draws = regime.recorded ? tracks : tracks * cases;
+  std::vector<int> chosen;
+  int examined = 0;
+  for (; examined < draws && static_cast<int>(chosen.size()) < tracks; ++examined) {
+    if (built_for(datasets::draw_track(regime, datasets::Split::kValidation, examined, 0))) {
+      chosen.push_back(examined);
+    }
+  }
+  c.noise_mismatch = chosen.empty();
+  c.other_noise = examined - static_cast<int>(chosen.size());
+  if (c.noise_mismatch) {
+    c.other_noise = 0;
+    for (int i = 0; i < std::min(tracks, draws); ++i) chosen.push_back(i);
+  }
   std::vector<double> sums;
-  for (int i = 0; i < tracks; ++i) {
+  for (const int i : chosen) {
     const datasets::Track track = datasets::draw_track(regime, datasets::Split::kValidation, i, 0);
     Tracker tracker = load_tracker(model_file);
     for (int k = 0; k < track.plots.rows(); ++k) {
@@ -45,7 +66,7 @@ EnvelopeCalibration calibrate_envelope(const std::filesystem::path& model_file, 
       }
     }
   }
-  c.tracks = tracks;
+  c.tracks = static_cast<int>(chosen.size());
   c.windows = static_cast<int>(sums.size());
   if (c.windows < 30) return c;  // too few to fit: the χ² defaults stay
   for (const double s : sums) c.mean += s;
@@ -111,6 +132,10 @@ std::string describe(const EnvelopeCalibration& c) {
        << c.windows << " windows of " << c.tracks
        << (c.recorded ? " validation recordings" : " fresh tracks") << " of the regime (mean "
        << c.mean << ", a consistent filter's " << 2 * c.settings.window << ")";
+  if (c.other_noise > 0) {
+    text << "; " << c.other_noise << " tracks of other plot noise than the model's R left out";
+  }
+  if (c.noise_mismatch) text << "; no track of the regime has the model's R: all were run";
   return text.str();
 }
 

@@ -24,10 +24,18 @@ struct EnvelopeCalibration {
   double mean = 0.0, variance = 0.0;  ///< of the window sums
   bool calibrated = false;  ///< false: no regime, or too few windows (the χ² defaults stay)
   bool recorded = false;    ///< the tracks were a recorded regime's validation windows
+  /// Tracks drawn but not run: their plot noise is not the R the model's tracker assumes (a
+  /// regime with one case per plot noise: the model is built for one of them).
+  int other_noise = 0;
+  /// No track of the regime has the model's R: all were run, and the fit includes the mismatch.
+  bool noise_mismatch = false;
 };
 
 /// Runs the model's tracker over `tracks` tracks of the regime recorded in `model_file` and fits
-/// scale and dof to its window sums. Throws io::FileError naming the file when it does not read.
+/// scale and dof to its window sums. Only tracks whose plots have the noise covariance the tracker
+/// assumes (its R) are run: the envelope measures the model on the plots it was built for, as an
+/// evaluation does, and flags plots noisier than that. Throws io::FileError naming the file when
+/// it does not read.
 [[nodiscard]] EnvelopeCalibration calibrate_envelope(const std::filesystem::path& model_file,
                                                      int tracks = 200);
 
