@@ -62,10 +62,16 @@ MlpTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
     c.init_range = n->real_or("init_range", c.init_range);
     if (n->has("input_noise")) {
       const std::string noise = n->text("input_noise");
-      if (noise != "none" && noise != "validation") {
-        n->fail("input_noise", "unknown input noise '" + noise + "' (expected none or validation)");
+      if (noise == "none") {
+        c.input_noise = MlpTrainingConfig::InputNoise::kNone;
+      } else if (noise == "validation") {
+        c.input_noise = MlpTrainingConfig::InputNoise::kValidation;
+      } else if (noise == "consistent") {
+        c.input_noise = MlpTrainingConfig::InputNoise::kConsistent;
+      } else {
+        n->fail("input_noise",
+                "unknown input noise '" + noise + "' (expected none, validation or consistent)");
       }
-      c.input_noise_from_validation = noise == "validation";
     }
     if (n->has("sign")) {
       try {
@@ -206,6 +212,52 @@ double signed_input_mse(const MlpInputEstimatorModel& model, const datasets::Tra
   return count > 0 ? sum / static_cast<double>(count) : 0.0;
 }
 
+/// The primary KF's mean normalized innovation squared ν²/S over the tracks' axis runs with the
+/// model as it is (its input_variance included): 1 for a consistent 1-D filter. Plots only.
+double mean_nis(const MlpInputEstimatorModel& model, const datasets::TrackSet& tracks) {
+  const double T = model.settings.sample_period;
+  const double R = model.settings.measurement_variance;
+  double sum = 0.0;
+  std::size_t count = 0;
+  for (const datasets::AxisTrajectory& axis : datasets::axis_trajectories(tracks)) {
+    MlpInputEstimatorFilter filter(model, model.settings);
+    filter.initialize(datasets::two_point_start(axis, T, R));
+    for (Eigen::Index k = 2; k < axis.measurement.size(); ++k) {
+      double nu = 0.0, variance = 0.0;
+      if (filter.step(axis.measurement(k)) != StepStatus::kOk || !filter.innovation(nu, variance) ||
+          !(variance > 0.0)) {
+        continue;
+      }
+      sum += nu * nu / variance;
+      ++count;
+    }
+  }
+  return count > 0 ? sum / static_cast<double>(count) : 1.0;
+}
+
+/// The input variance σ_û² ≥ 0 at which the primary KF's mean NIS over `tracks` is 1 (its
+/// dimension): the NIS falls as σ_û² grows, so a bracket by quadrupling and then bisection.
+/// σ_û² = E[(û − a)²] takes the input's errors as white; they are not (the network reads ten
+/// scans, so an error lasts as long as a manoeuvre's onset), and the filter stays optimistic.
+double consistent_input_variance(MlpInputEstimatorModel model, const datasets::TrackSet& tracks) {
+  const auto nis_at = [&](double variance) {
+    model.input_variance = variance;
+    return mean_nis(model, tracks);
+  };
+  if (nis_at(0.0) <= 1.0) return 0.0;
+  double low = 0.0;
+  double high = std::max(model.settings.process_noise, 1e-12);
+  for (int i = 0; i < 80 && nis_at(high) > 1.0; ++i) {
+    low = high;
+    high *= 4.0;
+  }
+  for (int i = 0; i < 50; ++i) {
+    const double middle = 0.5 * (low + high);
+    (nis_at(middle) > 1.0 ? low : high) = middle;
+  }
+  return high;
+}
+
 /// The regime without maneuvers: its start (the first case's for a scripted one), its sensor. A
 /// recorded regime has no start: a target at rest at the origin (the features of a CV KF on a
 /// target without manoeuvre depend on the plot noise alone).
@@ -312,9 +364,15 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
   model.output_bias = mean_output(model, quiet.samples, false);
   result.bias_before = mean_output(model, quiet_check.samples, false);
   result.bias_after = mean_output(model, quiet_check.samples, true);
-  if (config.input_noise_from_validation) {
+  if (config.input_noise == MlpTrainingConfig::InputNoise::kValidation) {
     // The whole model as the filter runs it (network, bias, sign) on the validation split.
     model.input_variance = signed_input_mse(model, validation_tracks);
+  } else if (config.input_noise == MlpTrainingConfig::InputNoise::kConsistent) {
+    // The calibration that makes the primary KF's NIS average 1 on the tracks it may see.
+    datasets::TrackSet seen = training_tracks;
+    seen.tracks.insert(seen.tracks.end(), validation_tracks.tracks.begin(),
+                       validation_tracks.tracks.end());
+    model.input_variance = consistent_input_variance(model, seen);
   }
   datasets::Sha256 digest;
   digest.update(training.digest);

@@ -42,11 +42,19 @@ struct MlpTrainingConfig {
   double output_scale = 12.0;  ///< by default 1.2 a
   double init_range = 0.5;
   InputSign sign = InputSign::kInnovation;
-  /// [network] input_noise = "validation": the model's input_variance is the mean squared error of
-  /// the filter's signed û against the true acceleration over the validation split (sign and lag
-  /// included), so that the primary KF's covariance accounts for the input's error (beyond the
-  /// seed, whose filter takes û as exact: "none", the default).
-  bool input_noise_from_validation = false;
+  /// How the model's input_variance σ_û² (the primary KF's q becomes q + σ_û²) is set.
+  enum class InputNoise : std::uint8_t {
+    kNone,  ///< "none" (the default): 0, the seed's filter, which takes û as exact
+    /// "validation": the mean squared error of the filter's signed û against the true
+    /// acceleration over the validation split (sign and lag included)
+    kValidation,
+    /// "consistent": the σ_û² at which the primary KF's mean NIS over the training split is 1,
+    /// its dimension (plots only; the input's errors are not white, so the mean squared error
+    /// leaves the filter optimistic)
+    kConsistent,
+  };
+  /// [network] input_noise.
+  InputNoise input_noise = InputNoise::kNone;
   TrainingOptions training;
   double max_validation_rmse = 3.0;  ///< quality gate (config: × a), regime units
 
