@@ -12,6 +12,15 @@ namespace {
 
 constexpr int kLanes = 8;  // one AVX-512 or two AVX2 vectors of samples
 
+// The multiply-adds are fused (std::fma: one rounding, the same bits on every machine); the
+// clones are the instruction sets that fuse them in hardware (x86-64-v3 is AVX2 with FMA), and
+// the default clone computes the same fused results in software.
+#if IMM_HAS_VECTOR_CLONES
+#define IMM_FMA_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define IMM_FMA_CLONES
+#endif
+
 // Every lane's running share of the gradient (layouts as the layers': column-major weights).
 template <int I, int H1, int H2>
 struct LaneSums {
@@ -61,7 +70,7 @@ template <int R, int C>
   for (int r = 0; r < R; ++r) {
     IMM_LANES {
       double s = b[r];
-      for (int c = 0; c < C; ++c) s += w[c * R + r] * in[c][l];
+      for (int c = 0; c < C; ++c) s = std::fma(w[c * R + r], in[c][l], s);
       out[r][l] = s;
     }
   }
@@ -93,7 +102,7 @@ template <int I, int H1, int H2>
   sigmoid_layer<H2, H1>(w2, b2, a1, a2);
   IMM_LANES {
     double s = b3;
-    for (int c = 0; c < H2; ++c) s += w3[c] * a2[c][l];
+    for (int c = 0; c < H2; ++c) s = std::fma(w3[c], a2[c][l], s);
     const double sigmoid = 1.0 / (1.0 + lane_exp(-s));
     a3[l] = pick(sigmoid_output, sigmoid, s);
     const double slope = pick(sigmoid_output, a3[l] * (1.0 - a3[l]), 1.0);
@@ -102,7 +111,7 @@ template <int I, int H1, int H2>
   }
   for (int c = 0; c < H2; ++c) {
     IMM_LANES {
-      g.w3[c][l] += d3[l] * a2[c][l];
+      g.w3[c][l] = std::fma(d3[l], a2[c][l], g.w3[c][l]);
       d2[c][l] = w3[c] * d3[l] * (a2[c][l] * (1.0 - a2[c][l]));
       g.b2[c][l] += d2[c][l];
     }
@@ -111,22 +120,22 @@ template <int I, int H1, int H2>
     IMM_LANES {
       double sum = 0.0;
       for (int r = 0; r < H2; ++r) {
-        g.w2[c * H2 + r][l] += d2[r][l] * a1[c][l];
-        sum += w2[c * H2 + r] * d2[r][l];
+        g.w2[c * H2 + r][l] = std::fma(d2[r][l], a1[c][l], g.w2[c * H2 + r][l]);
+        sum = std::fma(w2[c * H2 + r], d2[r][l], sum);
       }
       const double d1 = sum * (a1[c][l] * (1.0 - a1[c][l]));
       g.b1[c][l] += d1;
-      for (int i = 0; i < I; ++i) g.w1[i * H1 + c][l] += d1 * x[i][l];
+      for (int i = 0; i < I; ++i) g.w1[i * H1 + c][l] = std::fma(d1, x[i][l], g.w1[i * H1 + c][l]);
     }
   }
 }
 
 // The blocks from `begin` to `end` (sample indices, `begin` a multiple of kLanes).
 template <int I, int H1, int H2>
-[[gnu::flatten]] IMM_VECTOR_CLONES void blocks(const std::vector<MlpLayer>& layers,
-                                               double output_scale, const Eigen::MatrixXd& inputs,
-                                               const Eigen::VectorXd& targets, Eigen::Index begin,
-                                               Eigen::Index end, LaneSums<I, H1, H2>& g) {
+[[gnu::flatten]] IMM_FMA_CLONES void blocks(const std::vector<MlpLayer>& layers,
+                                            double output_scale, const Eigen::MatrixXd& inputs,
+                                            const Eigen::VectorXd& targets, Eigen::Index begin,
+                                            Eigen::Index end, LaneSums<I, H1, H2>& g) {
   const double inverse_n = 1.0 / static_cast<double>(inputs.rows());
   const bool sigmoid_output = layers[2].activation == Activation::kSigmoid;
   for (Eigen::Index first = begin; first < end; first += kLanes) {
