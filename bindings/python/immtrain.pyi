@@ -95,7 +95,7 @@ class TrackBank:
         tracks 0 … tracks − 1's one-scan predictions, -inf where the squared distance to the
         collapsed prediction exceeds `gate` (a χ² quantile: 9.21 is 99 % for 2-D plots; the
         default inf scores every pair), NaN for an unusable plot. Changes no track; the GIL is
-        released. The plain IMM's constant-velocity bank answers it; other kinds raise
+        released. Every plain IMM without a noise schedule answers it; other kinds raise
         RuntimeError."""
     @property
     def capacity(self) -> int:

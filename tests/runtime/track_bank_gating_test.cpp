@@ -9,13 +9,16 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 #include <random>
 #include <stdexcept>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/filters/plain_imm.hpp"
+#include "imm/io/plain_imm_file.hpp"
 #include "imm/math/chi_square.hpp"
+#include "imm/tracking/plain_imm_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "testing/specs.hpp"
 
@@ -171,6 +174,106 @@ TEST(TrackBankGating, RefusesAWrongShapeABadGateAndAnUninitializedTrack) {
   EXPECT_THROW(bank.candidate_log_likelihoods(plots, 9.0, four), std::logic_error);
   bank.candidate_log_likelihoods(plots, 9.0, out);
   EXPECT_TRUE((out.array() == out.array()).all());  // no NaN: a number or −∞
+}
+
+// A start of the general bank's state layout: [x, vx, y, vy, ω] (CV + CT) or
+// [x, vx, ax, y, vy, ay, ω] (CV + CA + CT).
+template <int NX>
+GaussianState<NX> turn_imm_start(double x, double y) {
+  GaussianState<NX> s;
+  s.mean.setZero();
+  s.covariance.setZero();
+  const int per_axis = NX == 7 ? 3 : 2;
+  const double values[2][3] = {{x, -150.0, 0.0}, {y, 60.0, 0.0}};
+  const double variances[3] = {400.0, 100.0, 1.0};
+  for (int axis = 0; axis < 2; ++axis) {
+    for (int d = 0; d < per_axis; ++d) {
+      s.mean(axis * per_axis + d) = values[axis][d];
+      s.covariance(axis * per_axis + d, axis * per_axis + d) = variances[d];
+    }
+  }
+  s.covariance(NX - 1, NX - 1) = 1e-4;
+  return s;
+}
+
+// The general bank for one spec of mixing dimension NX: each entry is its track's own split
+// cycle (the bank's tracks are one-track IMMs), the gate cuts by candidate_distance, and asking
+// leaves the next step's numbers exactly as they would be.
+template <int NX>
+void check_general_bank(const PlainImmSpec& spec) {
+  PlainImmTrackBank<NX> asked(spec, 3), quiet(spec, 3);
+  std::vector<ImmEstimator<NX, 2>> alone;
+  for (std::size_t t = 0; t < 3; ++t) {
+    const GaussianState<NX> s =
+        turn_imm_start<NX>(20000.0 + 500.0 * static_cast<double>(t), 15000.0);
+    asked.initialize(t, s);
+    quiet.initialize(t, s);
+    alone.push_back(build_plain_imm<NX>(spec));
+    alone.back().initialize(s);
+  }
+  for (ImmEstimator<NX, 2>& imm : alone) ASSERT_EQ(imm.predict(), StepStatus::kOk);
+  // Track 0's predicted plot, one 2σ away, one far from every track, one unusable.
+  Vector<2> z_hat;
+  SquareMatrix<2> S;
+  ASSERT_TRUE(alone[0].predicted_plot(z_hat, S));
+  const Eigen::Vector2d sigma = S.diagonal().cwiseSqrt();
+  const std::vector<Eigen::Vector2d> plots = {z_hat, z_hat + 2.0 * sigma, z_hat + 1e3 * sigma,
+                                              Eigen::Vector2d(std::nan(""), 1.0)};
+  Eigen::MatrixXd out(3, 4);
+  const double gate = chi_square_quantile(0.99, 2);
+  asked.candidate_log_likelihoods(plots, gate, out);
+  for (std::size_t t = 0; t < 3; ++t) {
+    const auto r = static_cast<Eigen::Index>(t);
+    for (std::size_t q = 0; q < 3; ++q) {
+      const auto c = static_cast<Eigen::Index>(q);
+      if (alone[t].candidate_distance(plots[q]) > gate) {
+        EXPECT_EQ(out(r, c), -std::numeric_limits<double>::infinity()) << t << " " << q;
+      } else {
+        EXPECT_EQ(out(r, c), alone[t].candidate_log_likelihood(plots[q])) << t << " " << q;
+      }
+    }
+    EXPECT_TRUE(std::isnan(out(r, 3)));
+  }
+  EXPECT_TRUE(std::isfinite(out(0, 0)));  // the plot where track 0 goes
+  EXPECT_EQ(out(0, 2), -std::numeric_limits<double>::infinity());
+  const std::vector<Eigen::Vector2d> next(3, plots[0]);
+  std::vector<StepStatus> a(3), b(3);
+  asked.step(next, a);
+  quiet.step(next, b);
+  for (std::size_t t = 0; t < 3; ++t) {
+    EXPECT_EQ(a[t], b[t]);
+    const auto x = asked.estimate(t), y = quiet.estimate(t);
+    EXPECT_EQ(std::memcmp(x.mean.data(), y.mean.data(), sizeof(double) * NX), 0);
+    EXPECT_EQ(std::memcmp(x.covariance.data(), y.covariance.data(), sizeof(double) * NX * NX), 0);
+  }
+}
+
+// The general bank (CA and turn modes, polar plots) answers for every shipped classical IMM; a
+// scheduled IMM cannot predict before its plot and says so.
+TEST(TrackBankGating, TheGeneralBankAnswersForEveryPlainImmWithoutASchedule) {
+  int answered = 0;
+  for (const char* name :
+       {"models/classical_imm_agile_air.h5", "models/classical_imm_ground_vehicle.h5",
+        "models/classical_imm_air_surveillance.h5"}) {
+    SCOPED_TRACE(name);
+    const PlainImmSpec spec = io::read_plain_imm(std::filesystem::path(name));
+    if (spec.mixing_dimension() == 5) {
+      check_general_bank<5>(spec);
+      ++answered;
+    } else if (spec.mixing_dimension() == 7) {
+      check_general_bank<7>(spec);
+      ++answered;
+    }
+  }
+  EXPECT_EQ(answered, 3);
+  const PlainImmSpec scheduled =
+      io::read_plain_imm(std::filesystem::path("models/scheduled_ct_imm_air_surveillance.h5"));
+  ASSERT_EQ(scheduled.mixing_dimension(), 5);
+  PlainImmTrackBank<5> bank(scheduled, 1);
+  bank.initialize(0, turn_imm_start<5>(20000.0, 15000.0));
+  Eigen::MatrixXd out(1, 1);
+  const std::vector<Eigen::Vector2d> one(1, Eigen::Vector2d(25000.0, 0.6));
+  EXPECT_THROW(bank.candidate_log_likelihoods(one, 9.0, out), std::logic_error);
 }
 
 }  // namespace

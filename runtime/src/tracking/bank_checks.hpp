@@ -58,4 +58,22 @@ inline void check_step(std::string_view bank, std::size_t plots, std::size_t sta
   }
 }
 
+/// Before `bank`'s candidate_log_likelihoods of `plots` plots into a rows × cols matrix:
+/// std::invalid_argument when cols differs from plots or rows exceeds the capacity,
+/// InvalidParameter("gate") for a gate that is NaN or not positive, std::logic_error naming the
+/// first track never initialized.
+inline void check_candidates(std::string_view bank, std::size_t plots, double gate,
+                             Eigen::Index rows, Eigen::Index cols,
+                             const std::vector<unsigned char>& initialized) {
+  const auto tracks = static_cast<std::size_t>(rows);
+  if (static_cast<std::size_t>(cols) != plots || tracks > initialized.size()) {
+    throw std::invalid_argument(std::string(bank) + "::candidate_log_likelihoods: a " +
+                                std::to_string(rows) + " × " + std::to_string(cols) +
+                                " matrix for " + std::to_string(plots) + " plots and a bank of " +
+                                std::to_string(initialized.size()));
+  }
+  if (!(gate > 0.0)) throw InvalidParameter("gate", "must be positive (+∞ scores every pair)");
+  check_step(bank, tracks, tracks, initialized);
+}
+
 }  // namespace imm::bank

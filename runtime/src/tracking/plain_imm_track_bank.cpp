@@ -1,10 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/tracking/plain_imm_track_bank.hpp"
 
+#include <limits>
 #include <string>
 
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 
 namespace imm {
 
@@ -43,6 +45,30 @@ void PlainImmTrackBank<NX>::step(std::span<const Eigen::Vector2d> plots,
                                  std::span<StepStatus> status) {
   bank::check_step("PlainImmTrackBank", plots.size(), status.size(), initialized_);
   for (std::size_t t = 0; t < plots.size(); ++t) status[t] = tracks_[t].step(plots[t]);
+}
+
+template <int NX>
+void PlainImmTrackBank<NX>::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  const auto tracks = static_cast<std::size_t>(out.rows());
+  bank::check_candidates("PlainImmTrackBank", plots.size(), gate, out.rows(), out.cols(),
+                         initialized_);
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t t = 0; t < tracks; ++t) {
+    ImmEstimator<NX, 2>& track = tracks_[t];
+    const bool predicted = track.predict() == StepStatus::kOk;
+    for (std::size_t q = 0; q < plots.size(); ++q) {
+      double& entry = out(static_cast<Eigen::Index>(t), static_cast<Eigen::Index>(q));
+      if (!predicted || !limits::usable_measurement(plots[q])) {
+        entry = kNaN;
+      } else if (track.candidate_distance(plots[q]) > gate) {
+        entry = -std::numeric_limits<double>::infinity();
+      } else {
+        entry = track.candidate_log_likelihood(plots[q]);
+      }
+    }
+  }
 }
 
 template <int NX>

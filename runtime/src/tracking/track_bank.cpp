@@ -125,14 +125,7 @@ void TrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatu
 void TrackBank::candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
                                           Eigen::Ref<Eigen::MatrixXd> out) {
   const auto tracks = static_cast<std::size_t>(out.rows());
-  if (static_cast<std::size_t>(out.cols()) != plots.size() || tracks > capacity_) {
-    throw std::invalid_argument("TrackBank::candidate_log_likelihoods: a " +
-                                std::to_string(out.rows()) + " × " + std::to_string(out.cols()) +
-                                " matrix for " + std::to_string(plots.size()) +
-                                " plots and a bank of " + std::to_string(capacity_));
-  }
-  if (!(gate > 0.0)) throw InvalidParameter("gate", "must be positive (+∞ scores every pair)");
-  bank::check_step("TrackBank", tracks, tracks, initialized_);
+  bank::check_candidates("TrackBank", plots.size(), gate, out.rows(), out.cols(), initialized_);
   for (std::size_t first = 0; first < tracks; first += kBlock) {
     const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, tracks - first));
     run_block(first, lanes, nullptr, nullptr, prediction_.data() + first);

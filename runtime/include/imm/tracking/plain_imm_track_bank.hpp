@@ -53,6 +53,17 @@ class PlainImmTrackBank {
   /// initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
+  /// The gating matrix of tracks 0 … out.rows() − 1 against `plots` without changing a track's
+  /// estimate (TrackBank::candidate_log_likelihoods): out(t, q) = the track's
+  /// ImmEstimator::candidate_log_likelihood of plot q, or −∞ where its candidate_distance exceeds
+  /// `gate`; NaN for an unusable plot or a track whose prediction failed. A track is predicted
+  /// (ImmEstimator::predict) and each plot scored; the next step() is the full cycle, with the
+  /// same numbers as without this call. Throws as TrackBank's does, and std::logic_error for a
+  /// spec with a mode whose prediction depends on the plot (a noise schedule). Nothing is
+  /// allocated.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
+
   /// Whether track `track` has been initialized.
   [[nodiscard]] bool initialized(std::size_t track) const;
   /// The combined estimate of a track.
