@@ -73,6 +73,37 @@ class PlainImmFilter final : public TrackFilter {
     return std::visit([](const auto& imm) { return imm.log_predictive_likelihood(); }, imm_);
   }
 
+  [[nodiscard]] bool predicts_before_the_plot() const override {
+    return std::visit([](const auto& imm) { return imm.predicts_before_the_plot(); }, imm_);
+  }
+  StepStatus predict() override {
+    return std::visit([](auto& imm) { return imm.predict(); }, imm_);
+  }
+  [[nodiscard]] double candidate_log_likelihood(const Eigen::Vector2d& z) const override {
+    return std::visit([&](const auto& imm) { return imm.candidate_log_likelihood(z); }, imm_);
+  }
+  [[nodiscard]] double candidate_distance(const Eigen::Vector2d& z) const override {
+    return std::visit([&](const auto& imm) { return imm.candidate_distance(z); }, imm_);
+  }
+  bool predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const override {
+    return std::visit(
+        [&](const auto& imm) {
+          Vector<2> mean;
+          SquareMatrix<2> covariance;
+          if (!imm.predicted_plot(mean, covariance)) return false;
+          z_hat = mean;
+          S = covariance;
+          return true;
+        },
+        imm_);
+  }
+  StepStatus update(const Eigen::Vector2d& z) override {
+    return std::visit([&](auto& imm) { return imm.update(z); }, imm_);
+  }
+  StepStatus miss() override {
+    return std::visit([](auto& imm) { return imm.miss(); }, imm_);
+  }
+
  private:
   PlainImmSpec spec_;
   PlainImm imm_;
@@ -111,6 +142,32 @@ std::optional<double> last_step_nis(const TrackFilter& filter) {
   if (llt.info() != Eigen::Success) return std::nullopt;
   return nu.dot(llt.solve(nu));
 }
+
+namespace {
+[[noreturn]] void no_split_cycle(const char* call) {
+  throw std::logic_error(std::string("TrackFilter::") + call +
+                         ": this filter's prediction depends on the plot (a learned kind or a "
+                         "noise schedule); use step() and predict_only()");
+}
+}  // namespace
+
+StepStatus TrackFilter::predict() { no_split_cycle("predict"); }
+
+double TrackFilter::candidate_log_likelihood(const Eigen::Vector2d& /*z*/) const {
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+double TrackFilter::candidate_distance(const Eigen::Vector2d& /*z*/) const {
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+bool TrackFilter::predicted_plot(Eigen::Vector2d& /*z_hat*/, Eigen::Matrix2d& /*S*/) const {
+  return false;
+}
+
+StepStatus TrackFilter::update(const Eigen::Vector2d& /*z*/) { no_split_cycle("update"); }
+
+StepStatus TrackFilter::miss() { no_split_cycle("miss"); }
 
 double TrackFilter::log_predictive_likelihood() const {
   Eigen::Vector2d nu;

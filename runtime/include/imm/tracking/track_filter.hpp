@@ -67,6 +67,33 @@ class IMM_RUNTIME_EXPORT TrackFilter {
   /// evaluation on recorded plots reports. NaN unless the last call was a successful step(). The
   /// default is the Gaussian of innovation(); every IMM family overrides it with its mixture.
   [[nodiscard]] virtual double log_predictive_likelihood() const;
+
+  // The cycle in two halves, for a tracker that gates and assigns (ImmEstimator::predict and what
+  // follows it): predict(), then any number of candidate_* questions that change nothing, then
+  // update(z) with the plot chosen or miss(). In that order the numbers are exactly those of
+  // step(z) and predict_only(). A filter whose prediction depends on the plot (the learned
+  // kinds, a noise schedule) does not split its cycle: predicts_before_the_plot() is false and
+  // predict(), update() and miss() throw std::logic_error.
+
+  /// Whether this filter splits its cycle (false unless the family implements it).
+  [[nodiscard]] virtual bool predicts_before_the_plot() const { return false; }
+  /// The first half: the prediction to the next scan, held until update() or miss(). A status
+  /// other than kOk holds none.
+  virtual StepStatus predict();
+  /// After predict(): log p(z | past plots) of a candidate plot; NaN without a held prediction or
+  /// for an unusable plot.
+  [[nodiscard]] virtual double candidate_log_likelihood(const Eigen::Vector2d& z) const;
+  /// After predict(): the candidate's squared distance to the collapsed predicted plot (the
+  /// gate's χ²(2) statistic); NaN as candidate_log_likelihood.
+  [[nodiscard]] virtual double candidate_distance(const Eigen::Vector2d& z) const;
+  /// After predict(): the predicted plot and its covariance (the modes' mixture collapsed); false
+  /// without a held prediction.
+  virtual bool predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const;
+  /// The second half with plot z (step(z)'s numbers); on a status other than kOk the prediction
+  /// stays held for another plot or miss().
+  virtual StepStatus update(const Eigen::Vector2d& z);
+  /// The second half without a plot (predict_only()'s numbers).
+  virtual StepStatus miss();
 };
 
 /// The normalized innovation squared νᵀ S⁻¹ ν of the filter's last step (TrackFilter::innovation),
