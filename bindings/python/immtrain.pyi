@@ -6,7 +6,7 @@ model's length unit (Tracker.length_unit, "m" or "km"), angles in radians, times
 k is a whole number and one scan is the model's sample period.
 """
 import os
-from typing import Any, Dict, List, Tuple, Union
+from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -106,6 +106,60 @@ class TrackBank:
     @property
     def state_dimension(self) -> int:
         """The state dimension n."""
+
+class Filter:
+    """One track's filter of a model file, driven by hand (imm::TrackFilter): initialize it, then
+    per scan step(z) — or, for gating and assignment, predict(), any candidate questions (which
+    change nothing), then update(z) with the plot chosen or miss(). In that order the numbers are
+    step()'s and predict_only()'s to the bit. A filter whose prediction reads the plot (the learned
+    kinds, a noise schedule) has predicts_before_the_plot False and raises RuntimeError from
+    predict(), update() and miss(). Plots are in the model's measurement space (Cartesian x, y or
+    polar range, azimuth; measurement_kind), in the model's length unit."""
+
+    def __init__(self, path: _Path) -> None:
+        """The filter of the model file at `path`; raises FileError naming the field."""
+    def initialize(self, mean: npt.ArrayLike, covariance: npt.ArrayLike) -> None:
+        """Starts the track at mean (n,) with covariance (n, n); InvalidParameter otherwise."""
+    def step(self, z: npt.ArrayLike) -> str:
+        """One whole cycle with plot z (2,); its status ("ok" or why nothing changed)."""
+    def predict_only(self) -> str:
+        """One whole cycle without a plot."""
+    def predict(self) -> str:
+        """The first half: the prediction to the next scan, held until update() or miss()."""
+    def candidate_log_likelihood(self, z: npt.ArrayLike) -> float:
+        """log p(z | past plots) of a candidate plot under the held prediction (NaN without one)."""
+    def candidate_distance(self, z: npt.ArrayLike) -> float:
+        """The candidate's squared distance to the collapsed predicted plot: the gate's χ²(2)."""
+    def candidates(self, plots: npt.ArrayLike) -> Tuple[_Array, _Array]:
+        """Both questions for plots (M, 2): log-likelihoods (M,) and squared distances (M,)."""
+    def predicted_plot(self) -> Optional[Tuple[_Array, _Array]]:
+        """The held prediction's plot (2,) and covariance (2, 2), or None."""
+    def update(self, z: npt.ArrayLike) -> str:
+        """The second half with plot z; on a status other than "ok" the prediction stays held."""
+    def miss(self) -> str:
+        """The second half without a plot (a missed detection)."""
+    def state(self) -> Tuple[_Array, _Array]:
+        """The combined mean (n,) and covariance (n, n)."""
+    def mode_probabilities(self) -> _Array:
+        """The mode probabilities (m,)."""
+    @property
+    def predicts_before_the_plot(self) -> bool:
+        """Whether the filter splits its cycle (the plain IMM without a noise schedule)."""
+    @property
+    def state_dimension(self) -> int:
+        """The state dimension n."""
+    @property
+    def kind(self) -> str:
+        """The model kind."""
+    @property
+    def sample_period(self) -> float:
+        """T, s: the interval of one scan."""
+    @property
+    def measurement_kind(self) -> str:
+        """ "cartesian" or "polar"."""
+    @property
+    def measurement_covariance(self) -> _Array:
+        """R (2, 2) of the plots."""
 
 def load_tracker(path: _Path, max_gap: int = 50) -> Tracker:
     """A model file of any kind the runtime reads, as a Tracker; a track not updated for more

@@ -25,6 +25,7 @@
 #include <variant>
 #include <vector>
 
+#include "filter_binding.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/io/fcm_imm_file.hpp"
@@ -411,6 +412,7 @@ PYBIND11_MODULE(immtrain, m) {
         "The model's kind, regime, provenance, units and every parameter");
   m.def("verify", &verify, py::arg("path"),
         "Checks a model file (every field and the filter it builds); raises FileError");
+  add_filter_binding(m);
   m.def("loadable_kinds", [] {
     std::vector<std::string> kinds;
     for (const auto kind : imm::loadable_model_kinds()) kinds.emplace_back(kind);

@@ -319,6 +319,45 @@ def test_the_bank_scores_candidate_plots_without_changing_a_track():
         fuzzy.candidate_log_likelihoods(plots, 1)
 
 
+def test_a_filter_split_into_predict_candidates_and_update_equals_its_step():
+    """immtrain.Filter: predict(), candidate questions, then update(z) or miss() give step()'s and
+    predict_only()'s numbers to the bit on a plain IMM (here the CV/CA/CT IMM of agile_air); a
+    learned kind's filter, whose prediction reads the plot, refuses the split."""
+    model = os.path.join(MODELS, "classical_imm_agile_air.h5")
+    whole, halves = immtrain.Filter(model), immtrain.Filter(model)
+    assert halves.predicts_before_the_plot and halves.kind == "plain_imm"
+    n, T = whole.state_dimension, whole.sample_period
+    mean = np.zeros(n)
+    mean[1] = 200.0  # vx
+    P = np.eye(n) * 400.0
+    P[-1, -1] = 1e-4
+    for f in (whole, halves):
+        f.initialize(mean, P)
+    rng = np.random.default_rng(9)
+    sigma = np.sqrt(whole.measurement_covariance[0, 0])
+    for k in range(1, 60):
+        z = np.array([200.0 * T * k, 0.0]) + sigma * rng.standard_normal(2)
+        assert halves.predict() == "ok"
+        far = z + 1e3 * sigma
+        ll, d2 = halves.candidates(np.array([z, far, [np.nan, 0.0]]))
+        assert ll[0] > ll[1] and d2[0] < d2[1] and np.isnan(ll[2])
+        z_hat, S = halves.predicted_plot()
+        assert z_hat.shape == (2,) and S.shape == (2, 2)
+        if k % 7 == 0:
+            assert halves.miss() == whole.predict_only() == "ok"
+        else:
+            assert halves.update(z) == whole.step(z) == "ok"
+        for a, b in zip(whole.state(), halves.state()):
+            assert a.tolist() == b.tolist()
+    learned = immtrain.Filter(os.path.join(MODELS, "ga_fuzzy_imm.h5"))
+    learned.initialize(np.zeros(4), np.eye(4))
+    assert not learned.predicts_before_the_plot
+    with pytest.raises(RuntimeError, match="depends on the plot"):
+        learned.predict()
+    with pytest.raises(immtrain.InvalidParameter, match="mean: expected 4"):
+        learned.initialize(np.zeros(5), np.eye(4))
+
+
 def test_nothing_grows_when_trackers_are_made_and_run_again_and_again():
     model = os.path.join(MODELS, "cv3_imm.h5")
     plots = np.array([[k, 10.0 * k, 5.0 * k] for k in range(200)], dtype=float)
