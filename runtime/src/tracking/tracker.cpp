@@ -191,45 +191,65 @@ Tracker::Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options)
   }
 }
 
-Tracker::Plot Tracker::cartesian_plot(std::int64_t scan, const Eigen::Vector2d& z) const {
-  Plot plot;
-  plot.scan = scan;
-  if (options_.measurement_kind == MeasurementKind::kCartesian) {
-    plot.position = z;
-    plot.covariance = options_.measurement_covariance;
-  } else {
-    const CartesianPlot converted = polar_to_cartesian(z, options_.measurement_covariance);
-    plot.position = converted.position;
-    plot.covariance = converted.covariance;
-  }
-  return plot;
-}
+namespace {
 
 // Two-point initialization: position from the second plot, velocity from the difference;
 // cov(p) = R₂, cov(v) = (R₁ + R₂)/Δt², cov(p, v) = R₂/Δt (Bar-Shalom, Li & Kirubarajan §5.5.3).
-void Tracker::start_track(const Plot& first, const Plot& second) {
-  const double dt = static_cast<double>(second.scan - first.scan) * options_.sample_period;
-  const int n = filter_->state_dimension();
+TrackStart start_from(const TrackOptions& options, int n, double dt, const Eigen::Vector2d& p1,
+                      const Eigen::Matrix2d& r1, const Eigen::Vector2d& p2,
+                      const Eigen::Matrix2d& r2) {
   // [x, vx, (ax), y, vy, (ay)], then ω when the state has an odd dimension (a CT mode's).
   const int per_axis = n / 2;
-  Eigen::VectorXd mean = Eigen::VectorXd::Zero(n);
-  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(n, n);
+  TrackStart start{Eigen::VectorXd::Zero(n), Eigen::MatrixXd::Zero(n, n)};
   for (int axis = 0; axis < 2; ++axis) {
     const int p = axis * per_axis;
-    mean(p) = second.position(axis);
-    mean(p + 1) = (second.position(axis) - first.position(axis)) / dt;
+    start.mean(p) = p2(axis);
+    start.mean(p + 1) = (p2(axis) - p1(axis)) / dt;
     for (int other = 0; other < 2; ++other) {
       const int q = other * per_axis;
-      const double r1 = first.covariance(axis, other), r2 = second.covariance(axis, other);
-      covariance(p, q) = r2;
-      covariance(p, q + 1) = r2 / dt;
-      covariance(p + 1, q) = r2 / dt;
-      covariance(p + 1, q + 1) = (r1 + r2) / (dt * dt);
+      start.covariance(p, q) = r2(axis, other);
+      start.covariance(p, q + 1) = r2(axis, other) / dt;
+      start.covariance(p + 1, q) = r2(axis, other) / dt;
+      start.covariance(p + 1, q + 1) = (r1(axis, other) + r2(axis, other)) / (dt * dt);
     }
-    if (per_axis == 3) covariance(p + 2, p + 2) = options_.initialization.acceleration_variance;
+    if (per_axis == 3)
+      start.covariance(p + 2, p + 2) = options.initialization.acceleration_variance;
   }
-  if (n % 2 == 1) covariance(n - 1, n - 1) = options_.initialization.turn_rate_variance;
-  filter_->initialize(mean, covariance);
+  if (n % 2 == 1) start.covariance(n - 1, n - 1) = options.initialization.turn_rate_variance;
+  return start;
+}
+
+CartesianPlot cartesian(const TrackOptions& options, const Eigen::Vector2d& z) {
+  if (options.measurement_kind == MeasurementKind::kCartesian) {
+    return {z, options.measurement_covariance};
+  }
+  return polar_to_cartesian(z, options.measurement_covariance);
+}
+
+}  // namespace
+
+std::optional<TrackStart> two_point_start(const TrackOptions& options, int state_dimension,
+                                          std::int64_t first_scan, const Eigen::Vector2d& first,
+                                          std::int64_t second_scan, const Eigen::Vector2d& second) {
+  if (second_scan <= first_scan || state_dimension < 4) return std::nullopt;
+  const CartesianPlot a = cartesian(options, first), b = cartesian(options, second);
+  if (!a.position.allFinite() || !b.position.allFinite()) return std::nullopt;
+  const double dt = static_cast<double>(second_scan - first_scan) * options.sample_period;
+  return start_from(options, state_dimension, dt, a.position, a.covariance, b.position,
+                    b.covariance);
+}
+
+Tracker::Plot Tracker::cartesian_plot(std::int64_t scan, const Eigen::Vector2d& z) const {
+  const CartesianPlot converted = cartesian(options_, z);
+  return {scan, converted.position, converted.covariance};
+}
+
+void Tracker::start_track(const Plot& first, const Plot& second) {
+  const int n = filter_->state_dimension();
+  const double dt = static_cast<double>(second.scan - first.scan) * options_.sample_period;
+  const TrackStart start = start_from(options_, n, dt, first.position, first.covariance,
+                                      second.position, second.covariance);
+  filter_->initialize(start.mean, start.covariance);
 }
 
 TrackStepResult Tracker::reject(StepStatus status, std::string_view reason) const {

@@ -104,6 +104,23 @@ class IMM_RUNTIME_EXPORT Tracker {
   bool initialized_ = false;
 };
 
+/// A track's start: the mean and covariance a filter is initialized with.
+struct IMM_RUNTIME_EXPORT TrackStart {
+  Eigen::VectorXd mean;        ///< the filter's state layout (state_variable_names)
+  Eigen::MatrixXd covariance;  ///< its covariance
+};
+
+/// The two-point start of a track (Bar-Shalom, Li & Kirubarajan §5.5.3) from plot `first` at scan
+/// `first_scan` and `second` at a later `second_scan`, in the options' measurement space (polar
+/// plots converted with their covariance): position from the second plot, velocity from the
+/// difference over the scans' interval; cov(p) = R₂, cov(v) = (R₁ + R₂)/Δt², cov(p, v) = R₂/Δt;
+/// the options' acceleration and turn-rate variances for a 6- or odd-dimensional state. What
+/// Tracker does with its first two plots. Nothing when a plot has no finite position or the
+/// scans do not increase.
+[[nodiscard]] IMM_RUNTIME_EXPORT std::optional<TrackStart> two_point_start(
+    const TrackOptions& options, int state_dimension, std::int64_t first_scan,
+    const Eigen::Vector2d& first, std::int64_t second_scan, const Eigen::Vector2d& second);
+
 /// A plain IMM as a TrackFilter.
 [[nodiscard]] IMM_RUNTIME_EXPORT std::unique_ptr<TrackFilter> make_plain_imm_filter(
     const PlainImmSpec& spec);
