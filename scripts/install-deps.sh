@@ -20,6 +20,7 @@ packages=(
   strace                  # the registry's durable writes, observed (tests/tools/nightly_test.cpp)
   pybind11-dev python3-dev python3-numpy  # the Python module (bindings/python)
   python3-pytest python3-matplotlib       # its tests and its example (tests/python, docs/examples)
+  python3-scipy                           # the multi-target example's assignment (docs/examples)
   python3-venv python3-pip python3-setuptools python3-wheel  # pip install . (pyproject.toml)
 )
 

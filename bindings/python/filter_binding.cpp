@@ -18,6 +18,7 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/load.hpp"
+#include "imm/tracking/tracker.hpp"
 
 namespace py = pybind11;
 
@@ -46,6 +47,18 @@ class PyFilter {
     }
     filter_->initialize(mean, covariance);
     initialized_ = true;
+  }
+
+  // Starts the track from two plots (imm::two_point_start, the start imm::Tracker makes); false
+  // when they give none (a plot without a finite position, scans that do not increase).
+  bool start(std::int64_t first_scan, const Eigen::Vector2d& first, std::int64_t second_scan,
+             const Eigen::Vector2d& second) {
+    const std::optional<imm::TrackStart> s = imm::two_point_start(
+        options_, filter_->state_dimension(), first_scan, first, second_scan, second);
+    if (!s) return false;
+    filter_->initialize(s->mean, s->covariance);
+    initialized_ = true;
+    return true;
   }
 
   std::string step(const Eigen::Vector2d& z) { return name(started().step(z)); }
@@ -127,6 +140,8 @@ void add_filter_binding(py::module_& m) {
                        "predict(), candidate questions, then update(z) or miss()")
       .def(py::init<const std::filesystem::path&>(), py::arg("path"))
       .def("initialize", &PyFilter::initialize, py::arg("mean"), py::arg("covariance"))
+      .def("start", &PyFilter::start, py::arg("first_scan"), py::arg("first"),
+           py::arg("second_scan"), py::arg("second"))
       .def("step", &PyFilter::step, py::arg("z"))
       .def("predict_only", &PyFilter::predict_only)
       .def("predict", &PyFilter::predict)

@@ -120,6 +120,10 @@ class Filter:
         """The filter of the model file at `path`; raises FileError naming the field."""
     def initialize(self, mean: npt.ArrayLike, covariance: npt.ArrayLike) -> None:
         """Starts the track at mean (n,) with covariance (n, n); InvalidParameter otherwise."""
+    def start(self, first_scan: int, first: npt.ArrayLike, second_scan: int,
+              second: npt.ArrayLike) -> bool:
+        """Starts the track from two plots (the two-point start load_tracker's Tracker makes:
+        position from the second, velocity from the difference); False when they give none."""
     def step(self, z: npt.ArrayLike) -> str:
         """One whole cycle with plot z (2,); its status ("ok" or why nothing changed)."""
     def predict_only(self) -> str:

@@ -1,10 +1,15 @@
 # SPDX-License-Identifier: Apache-2.0
-# Runs docs/examples/track_a_regime.py and checks its PNG: a PNG file, at least 800 px wide, and
-# more than a blank canvas (its size; matplotlib's empty figure of that size is under 10 kB).
-#   cmake -DPYTHON=python3 -DSOURCE_DIR=<root> -DOUT=<png> -P run_example.cmake
+# Runs an example of docs/examples (track_a_regime.py unless -DSCRIPT names another, with
+# -DARGS, a ;-list) and checks its PNG: a PNG file, at least 800 px wide, and more than a blank
+# canvas (its size; matplotlib's empty figure of that size is under 10 kB).
+#   cmake -DPYTHON=python3 -DSOURCE_DIR=<root> -DOUT=<png> [-DSCRIPT=x.py -DARGS=a;b] -P run_example.cmake
 file(REMOVE "${OUT}")
+if(NOT SCRIPT)
+  set(SCRIPT track_a_regime.py)
+  set(ARGS --bin $ENV{IMM_BIN})
+endif()
 execute_process(
-  COMMAND ${PYTHON} ${SOURCE_DIR}/docs/examples/track_a_regime.py --bin $ENV{IMM_BIN} --out ${OUT}
+  COMMAND ${PYTHON} ${SOURCE_DIR}/docs/examples/${SCRIPT} ${ARGS} --out ${OUT}
   RESULT_VARIABLE status OUTPUT_VARIABLE output ERROR_VARIABLE errors)
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "the example failed (${status}):\n${output}${errors}")
