@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 
+#include "exp_nonpositive.hpp"
 #include "imm/math/lane_math.hpp"
 
 namespace imm::trainer::mlp {
@@ -45,7 +46,7 @@ template <int H>
   for (int r = 0; r + 1 < H; r += 2) {
     IMM_LANES {
       const double s0 = a[r][l], s1 = a[r + 1][l];
-      const double t0 = lane_exp(-std::abs(s0)), t1 = lane_exp(-std::abs(s1));
+      const double t0 = exp_nonpositive(-std::abs(s0)), t1 = exp_nonpositive(-std::abs(s1));
       const double d0 = 1.0 + t0, d1 = 1.0 + t1;
       const double q = 1.0 / (d0 * d1);
       a[r][l] = pick(s0 >= 0.0, 1.0, t0) * (d1 * q);
@@ -54,7 +55,7 @@ template <int H>
   }
   if constexpr (H % 2 == 1) {
     IMM_LANES {
-      const double s = a[H - 1][l], t = lane_exp(-std::abs(s));
+      const double s = a[H - 1][l], t = exp_nonpositive(-std::abs(s));
       a[H - 1][l] = pick(s >= 0.0, 1.0, t) / (1.0 + t);
     }
   }
