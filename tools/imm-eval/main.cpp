@@ -35,6 +35,7 @@
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
 #include "imm/evaluation/headline.hpp"
+#include "imm/evaluation/multi_target.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/support/kind_aliases.hpp"
@@ -89,6 +90,7 @@ int run(int argc, char** argv) {
   imm::evaluation::add_fimm_command(app, exit_code);
   imm::evaluation::add_rank_command(app, exit_code);
   imm::evaluation::add_regression_command(app, exit_code);
+  imm::evaluation::add_multi_target_command(app, exit_code);
   imm::support::alias_model_kinds(app);
   // Everything an experiment prints also goes into its folder's report.md.
   imm::evaluation::ReportRecorder recorder(argc, argv);

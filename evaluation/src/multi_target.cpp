@@ -1,0 +1,243 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/evaluation/multi_target.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
+#include "imm/datasets/random.hpp"
+#include "imm/datasets/track.hpp"
+#include "imm/evaluation/gospa.hpp"
+#include "imm/evaluation/report.hpp"
+#include "imm/trainer/provenance.hpp"
+
+namespace imm::evaluation {
+namespace {
+
+// A scene: its targets' tracks and, per scan, the plots (detections and clutter, shuffled).
+struct Scene {
+  std::vector<datasets::Track> targets;
+  std::vector<std::vector<Eigen::Vector2d>> plots;
+};
+
+// Poisson(λ) by counting uniform arrivals (λ is a few tens at most here).
+int poisson(datasets::Rng& rng, double mean) {
+  const double limit = std::exp(-mean);
+  int count = 0;
+  for (double product = rng.uniform(); product > limit; product *= rng.uniform()) ++count;
+  return count;
+}
+
+Scene draw_scene(const datasets::Regime& regime, const MultiTargetSettings& s, int run) {
+  Scene scene;
+  for (int j = 0; j < s.targets; ++j) {
+    scene.targets.push_back(
+        datasets::draw_track(regime, datasets::Split::kTest, run * s.targets + j, s.seed));
+  }
+  const Eigen::Index scans = scene.targets.front().plots.rows();
+  // The region: the box of every target's plots, widened by a tenth on each side.
+  Eigen::Vector2d low = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d high = -low;
+  for (const datasets::Track& t : scene.targets) {
+    for (Eigen::Index k = 0; k < t.plots.rows(); ++k) {
+      if (!t.plots.row(k).allFinite()) continue;
+      low = low.cwiseMin(t.plots.row(k).transpose());
+      high = high.cwiseMax(t.plots.row(k).transpose());
+    }
+  }
+  const Eigen::Vector2d margin = 0.1 * (high - low);
+  low -= margin;
+  high += margin;
+  datasets::Rng rng(datasets::derive_seed(s.seed, 1000003ULL + static_cast<std::uint64_t>(run)));
+  scene.plots.resize(static_cast<std::size_t>(scans));
+  for (Eigen::Index k = 0; k < scans; ++k) {
+    std::vector<Eigen::Vector2d>& plots = scene.plots[static_cast<std::size_t>(k)];
+    for (const datasets::Track& t : scene.targets) {
+      const Eigen::Vector2d z = t.plots.row(k).transpose();
+      if (z.allFinite() && rng.uniform() < s.detection_probability) plots.push_back(z);
+    }
+    for (int c = poisson(rng, s.clutter_per_scan); c > 0; --c) {
+      plots.emplace_back(rng.uniform(low(0), high(0)), rng.uniform(low(1), high(1)));
+    }
+    for (std::size_t i = plots.size(); i > 1; --i) {  // Fisher–Yates: the order tells nothing
+      std::swap(plots[i - 1],
+                plots[static_cast<std::size_t>(rng.uniform() * static_cast<double>(i))]);
+    }
+  }
+  return scene;
+}
+
+}  // namespace
+
+void MultiTargetSettings::validate() const {
+  if (targets < 1) throw InvalidParameter("targets", "must be ≥ 1");
+  if (!(detection_probability > 0.0) || detection_probability > 1.0) {
+    throw InvalidParameter("detection_probability", "must be in (0, 1]");
+  }
+  if (!(clutter_per_scan >= 0.0) || clutter_per_scan > 1000.0) {
+    throw InvalidParameter("clutter_per_scan", "must be in [0, 1000]");
+  }
+  if (runs < 2) throw InvalidParameter("runs", "must be ≥ 2 (the interval needs scenes)");
+  if (warm_up < 0) throw InvalidParameter("warm_up", "must be ≥ 0");
+  if (!(cutoff >= 0.0) || !std::isfinite(cutoff)) throw InvalidParameter("cutoff", "must be ≥ 0");
+}
+
+MultiTargetResult run_multi_target(const datasets::Regime& regime,
+                                   const std::vector<std::filesystem::path>& models,
+                                   MultiTargetSettings settings) {
+  settings.validate();
+  if (models.empty()) throw InvalidParameter("models", "name at least one model file");
+  if (regime.recorded) throw InvalidParameter("regime", "a drawn regime: scenes need truth");
+  if (settings.gnn.max_speed == 0.0) settings.gnn.max_speed = 1.5 * regime.max_speed();
+  MultiTargetResult result;
+  result.cutoff = settings.cutoff > 0.0 ? settings.cutoff : 10.0 * regime.position_sigma();
+  std::vector<Scene> scenes;
+  for (int run = 0; run < settings.runs; ++run) scenes.push_back(draw_scene(regime, settings, run));
+  for (const std::filesystem::path& path : models) {
+    const FilterMaker maker = load_filter_maker(path);
+    MultiTargetFigures figures;
+    figures.model = path.string();
+    figures.per_run = Eigen::VectorXd::Zero(settings.runs);
+    if (!maker.make()->predicts_before_the_plot()) {
+      if (result.models.empty()) {
+        throw InvalidParameter("models",
+                               path.string() +
+                                   " (the reference) cannot gate on its "
+                                   "prediction: name a plain IMM without a schedule first");
+      }
+      figures.refused = "its prediction reads the plot (" + maker.provenance.model_kind +
+                        "): the GNN tracker gates on the prediction";
+      result.models.push_back(std::move(figures));
+      continue;
+    }
+    double scored = 0.0;
+    for (int run = 0; run < settings.runs; ++run) {
+      const Scene& scene = scenes[static_cast<std::size_t>(run)];
+      GnnTracker tracker(maker, settings.gnn);
+      double run_sum = 0.0;
+      int run_scans = 0;
+      for (std::size_t k = 0; k < scene.plots.size(); ++k) {
+        tracker.process(static_cast<std::int64_t>(k), scene.plots[k]);
+        if (static_cast<int>(k) < settings.warm_up) continue;
+        Eigen::Matrix2Xd truth(2, static_cast<Eigen::Index>(scene.targets.size()));
+        for (std::size_t j = 0; j < scene.targets.size(); ++j) {
+          truth.col(static_cast<Eigen::Index>(j)) =
+              datasets::position_at(scene.targets[j], static_cast<Eigen::Index>(k));
+        }
+        const std::vector<GnnEstimate> confirmed = tracker.estimates();
+        Eigen::Matrix2Xd estimates(2, static_cast<Eigen::Index>(confirmed.size()));
+        for (std::size_t e = 0; e < confirmed.size(); ++e) {
+          estimates.col(static_cast<Eigen::Index>(e)) = confirmed[e].position;
+        }
+        const Gospa g = gospa(truth, estimates, result.cutoff);
+        run_sum += g.distance;
+        ++run_scans;
+        figures.localization += g.localization;
+        figures.missed += g.missed;
+        figures.false_tracks += g.false_tracks;
+      }
+      figures.per_run(run) = run_sum / std::max(run_scans, 1);
+      figures.tracks_started += tracker.tracks_started();
+      scored += run_scans;
+    }
+    figures.gospa = figures.per_run.mean();
+    figures.localization /= std::max(scored, 1.0);
+    figures.missed /= std::max(scored, 1.0);
+    figures.false_tracks /= std::max(scored, 1.0);
+    figures.tracks_started /= settings.runs;
+    result.models.push_back(std::move(figures));
+  }
+  for (MultiTargetFigures& f : result.models) {
+    if (!f.refused.empty()) continue;
+    f.versus_first = paired_difference(settings.runs, mean_of(f.per_run),
+                                       mean_of(result.models.front().per_run), settings.seed);
+  }
+  return result;
+}
+
+namespace {
+
+struct MultiTargetOptions {
+  std::vector<std::filesystem::path> models;
+  std::optional<std::filesystem::path> regime;
+  MultiTargetSettings settings;
+  std::filesystem::path out = "reports/multi-target";
+};
+
+int run(const MultiTargetOptions& options) {
+  const std::filesystem::path regime_path = options.regime.value_or(options.models.front());
+  const datasets::RegimeFile regime = load_regime_option(regime_path);
+  const MultiTargetResult result =
+      run_multi_target(regime.regime, options.models, options.settings);
+  const MultiTargetSettings& s = options.settings;
+  std::cout << "Multi-target scenes of " << regime.regime.name << ": " << s.runs << " scenes of "
+            << s.targets << " targets, Pd " << s.detection_probability << ", " << s.clutter_per_scan
+            << " false plots per scan; GOSPA (p = 2, c = " << result.cutoff
+            << ") per scan from scan " << s.warm_up << ", GNN tracker\n\n";
+  std::vector<std::vector<std::string>> rows;
+  nlohmann::json models = nlohmann::json::array();
+  for (const MultiTargetFigures& f : result.models) {
+    if (!f.refused.empty()) {
+      rows.push_back({f.model, "—", "—", "—", "—", "—", "not run: " + f.refused});
+      models.push_back({{"model", f.model}, {"refused", f.refused}});
+      continue;
+    }
+    rows.push_back({f.model, cell(f.gospa, 2), cell(f.localization, 2), cell(f.missed, 2),
+                    cell(f.false_tracks, 2), cell(f.tracks_started, 2),
+                    &f == &result.models.front() ? "—" : f.versus_first.text(2)});
+    models.push_back({{"model", f.model},
+                      {"gospa", f.gospa},
+                      {"localization", f.localization},
+                      {"missed", f.missed},
+                      {"false", f.false_tracks},
+                      {"tracks_started_per_scene", f.tracks_started},
+                      {"gospa_minus_first",
+                       {f.versus_first.estimate, f.versus_first.lower, f.versus_first.upper}}});
+  }
+  std::cout << markdown_table({"model", "GOSPA", "localization", "missed", "false",
+                               "tracks started per scene", "GOSPA − first [95 %]"},
+                              rows)
+            << '\n'
+            << kDifferenceConvention << '\n';
+  std::filesystem::create_directories(options.out);
+  trainer::write_json_atomically(options.out / "metrics.json",
+                                 {{"experiment", "multi-target"},
+                                  {"regime", regime.regime.name},
+                                  {"runs", s.runs},
+                                  {"targets", s.targets},
+                                  {"detection_probability", s.detection_probability},
+                                  {"clutter_per_scan", s.clutter_per_scan},
+                                  {"cutoff", result.cutoff},
+                                  {"models", models}});
+  return 0;
+}
+
+}  // namespace
+
+void add_multi_target_command(CLI::App& app, ExitCode& exit_code) {
+  auto options = std::make_shared<MultiTargetOptions>();
+  auto* command = app.add_subcommand(
+      "multi-target",
+      "several targets of a regime at once in clutter, tracked by the reference GNN tracker with "
+      "each model, judged by GOSPA");
+  command
+      ->add_option("--models", options->models,
+                   "plain IMM model files (the first: the "
+                   "reference of the differences)")
+      ->required();
+  command->add_option("--regime", options->regime,
+                      "regime TOML (default: the one recorded in the first model)");
+  command->add_option("--targets", options->settings.targets, "targets per scene");
+  command->add_option("--pd", options->settings.detection_probability, "detection probability");
+  command->add_option("--clutter", options->settings.clutter_per_scan,
+                      "mean false plots per scan over the scene's region");
+  command->add_option("--runs", options->settings.runs, "scenes");
+  command->add_option("--seed", options->settings.seed, "the scenes' seed");
+  command->add_option("--out", options->out, "report folder (metrics.json)");
+  command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
+}
+
+}  // namespace imm::evaluation
