@@ -63,7 +63,7 @@ void GnnTracker::process(std::int64_t scan, std::span<const Eigen::Vector2d> plo
   Eigen::MatrixXd cost = Eigen::MatrixXd::Constant(n, m, kInf);
   for (Eigen::Index t = 0; t < n; ++t) {
     Track& track = tracks_[static_cast<std::size_t>(t)];
-    predicted[static_cast<std::size_t>(t)] = track.filter->predict() == StepStatus::kOk;
+    predicted[static_cast<std::size_t>(t)] = track.filter->predict() == StepStatus::kOk ? 1 : 0;
     if (!predicted[static_cast<std::size_t>(t)]) continue;
     for (Eigen::Index q = 0; q < m; ++q) {
       const Eigen::Vector2d& z = plots[static_cast<std::size_t>(q)];

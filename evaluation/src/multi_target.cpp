@@ -95,6 +95,7 @@ MultiTargetResult run_multi_target(const datasets::Regime& regime,
   MultiTargetResult result;
   result.cutoff = settings.cutoff > 0.0 ? settings.cutoff : 10.0 * regime.position_sigma();
   std::vector<Scene> scenes;
+  scenes.reserve(static_cast<std::size_t>(settings.runs));
   for (int run = 0; run < settings.runs; ++run) scenes.push_back(draw_scene(regime, settings, run));
   for (const std::filesystem::path& path : models) {
     const FilterMaker maker = load_filter_maker(path);
