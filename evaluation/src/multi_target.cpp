@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "imm/core/invalid_parameter.hpp"
@@ -120,6 +121,9 @@ MultiTargetResult run_multi_target(const datasets::Regime& regime,
       GnnTracker tracker(maker, settings.gnn);
       double run_sum = 0.0;
       int run_scans = 0;
+      // Track continuity: each target's last track id, and the target each id last followed.
+      std::vector<int> last_id(scene.targets.size(), -1);
+      std::map<int, std::size_t> followed;
       for (std::size_t k = 0; k < scene.plots.size(); ++k) {
         tracker.process(static_cast<std::int64_t>(k), scene.plots[k]);
         if (static_cast<int>(k) < settings.warm_up) continue;
@@ -134,6 +138,20 @@ MultiTargetResult run_multi_target(const datasets::Regime& regime,
           estimates.col(static_cast<Eigen::Index>(e)) = confirmed[e].position;
         }
         const Gospa g = gospa(truth, estimates, result.cutoff);
+        for (std::size_t j = 0; j < scene.targets.size(); ++j) {
+          const int e = g.estimate_of[j];
+          if (e < 0) continue;
+          const int id = confirmed[static_cast<std::size_t>(e)].id;
+          if (last_id[j] >= 0 && id != last_id[j]) {
+            // Another track now follows target j: one that followed another target (a swap) or
+            // a new one (a break).
+            const auto before = followed.find(id);
+            (before != followed.end() && before->second != j ? figures.swaps : figures.breaks) +=
+                1.0;
+          }
+          last_id[j] = id;
+          followed[id] = j;
+        }
         run_sum += g.distance;
         ++run_scans;
         figures.localization += g.localization;
@@ -149,6 +167,8 @@ MultiTargetResult run_multi_target(const datasets::Regime& regime,
     figures.missed /= std::max(scored, 1.0);
     figures.false_tracks /= std::max(scored, 1.0);
     figures.tracks_started /= settings.runs;
+    figures.breaks /= settings.runs;
+    figures.swaps /= settings.runs;
     result.models.push_back(std::move(figures));
   }
   for (MultiTargetFigures& f : result.models) {
@@ -182,25 +202,28 @@ int run(const MultiTargetOptions& options) {
   nlohmann::json models = nlohmann::json::array();
   for (const MultiTargetFigures& f : result.models) {
     if (!f.refused.empty()) {
-      rows.push_back({f.model, "—", "—", "—", "—", "—", "not run: " + f.refused});
+      rows.push_back({f.model, "—", "—", "—", "—", "—", "—", "—", "not run: " + f.refused});
       models.push_back({{"model", f.model}, {"refused", f.refused}});
       continue;
     }
     rows.push_back({f.model, cell(f.gospa, 2), cell(f.localization, 2), cell(f.missed, 2),
-                    cell(f.false_tracks, 2), cell(f.tracks_started, 2),
-                    &f == &result.models.front() ? "—" : f.versus_first.text(2)});
+                    cell(f.false_tracks, 2), cell(f.tracks_started, 2), cell(f.breaks, 2),
+                    cell(f.swaps, 2), &f == &result.models.front() ? "—" : f.versus_first.text(2)});
     models.push_back({{"model", f.model},
                       {"gospa", f.gospa},
                       {"localization", f.localization},
                       {"missed", f.missed},
                       {"false", f.false_tracks},
                       {"tracks_started_per_scene", f.tracks_started},
+                      {"breaks_per_scene", f.breaks},
+                      {"swaps_per_scene", f.swaps},
                       {"gospa_minus_first",
                        {f.versus_first.estimate, f.versus_first.lower, f.versus_first.upper}}});
   }
-  std::cout << markdown_table({"model", "GOSPA", "localization", "missed", "false",
-                               "tracks started per scene", "GOSPA − first [95 %]"},
-                              rows)
+  std::cout << markdown_table(
+                   {"model", "GOSPA", "localization", "missed", "false", "tracks started per scene",
+                    "breaks per scene", "swaps per scene", "GOSPA − first [95 %]"},
+                   rows)
             << '\n'
             << kDifferenceConvention << '\n';
   std::filesystem::create_directories(options.out);

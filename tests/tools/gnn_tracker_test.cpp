@@ -128,6 +128,12 @@ TEST(MultiTarget, ScenesAreReproducibleAndCleanScenesScoreBetter) {
   const MultiTargetResult c = run_multi_target(regime, {models[0]}, clean);
   EXPECT_LT(c.models[0].gospa, a.models[0].gospa);
   EXPECT_THROW((void)run_multi_target(regime, {models[2]}, clean), InvalidParameter);
+  // One target per scene cannot be swapped with another.
+  MultiTargetSettings single = cluttered;
+  single.targets = 1;
+  const MultiTargetResult d = run_multi_target(regime, {models[0]}, single);
+  EXPECT_EQ(d.models[0].swaps, 0.0);
+  EXPECT_GE(d.models[0].breaks, 0.0);
 }
 
 }  // namespace

@@ -4,7 +4,8 @@
 /// a probability, among Poisson clutter uniform over the scene's region; every model given tracks
 /// them with the reference GNN tracker (gnn_tracker.hpp) on the same scenes and is judged by GOSPA
 /// (gospa.hpp) against the truth, with the paired-bootstrap interval of its difference to the
-/// first model's. A scene's targets are test tracks of the regime (independent draws from
+/// first model's, and by its tracks' continuity (breaks and swaps). A scene's targets are test
+/// tracks of the regime (independent draws from
 /// --seed), its detections and clutter drawn from the same seed.
 ///
 /// `imm-eval multi-target --models A.h5 B.h5 … [--regime R] [--targets 3] [--pd 0.9]
@@ -47,8 +48,11 @@ struct MultiTargetFigures {
   double missed = 0.0;          ///< mean of the missed part (p-th power)
   double false_tracks = 0.0;    ///< mean of the false part (p-th power)
   double tracks_started = 0.0;  ///< per scene
-  Eigen::VectorXd per_run;      ///< each scene's mean GOSPA
-  Difference versus_first;      ///< GOSPA − the first model's, paired over the scenes
+  /// Per scene: scored scans at which another track than before follows a target — one that
+  /// followed another target (a swap) or a new one (a break, after a lost or duplicated track).
+  double breaks = 0.0, swaps = 0.0;
+  Eigen::VectorXd per_run;  ///< each scene's mean GOSPA
+  Difference versus_first;  ///< GOSPA − the first model's, paired over the scenes
   /// Why the model was not run (its filter cannot gate on its prediction); empty when it ran.
   std::string refused;
 };
