@@ -22,6 +22,7 @@
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
 #include "imm/math/linear_algebra.hpp"
+#include "testing/refused_field.hpp"
 
 namespace imm::testing {
 
@@ -128,17 +129,6 @@ void expect_estimate_close(const GaussianState<N>& estimate, const Mean& mean,
   for (Eigen::Index j = 0; j < std::min(bank_mu.size(), mu.size()); ++j) {
     expect_close(bank_mu(j), mu(j), 1.0, "μ");
   }
-}
-
-// The field of the InvalidParameter that `call()` throws; "" when it throws none.
-template <class Call>
-std::string refused_field_of(Call&& call) {
-  try {
-    call();
-  } catch (const InvalidParameter& error) {
-    return error.field();
-  }
-  return "";
 }
 
 // The field a Bank(args…) construction is refused by; "" when it is built.

@@ -16,6 +16,7 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/evaluation/gospa.hpp"
+#include "testing/refused_field.hpp"
 
 namespace imm::evaluation {
 namespace {
@@ -187,17 +188,13 @@ TEST(Gospa, EqualsItsDefinitionByBruteForce) {
 }
 
 TEST(Gospa, RefusesABadCutoffOrderOrPosition) {
-  const auto field = [](auto&& call) {
-    try {
-      call();
-    } catch (const InvalidParameter& error) {
-      return error.field();
-    }
-    return std::string("none");
-  };
-  EXPECT_EQ(field([] { (void)gospa(points({}), points({}), 0.0); }), "cutoff");
-  EXPECT_EQ(field([] { (void)gospa(points({}), points({}), 1.0, 0.5); }), "order");
-  EXPECT_EQ(field([] { (void)gospa(points({{std::nan(""), 0}}), points({}), 1.0); }), "targets");
+  EXPECT_EQ(testing::refused_field_of([] { (void)gospa(points({}), points({}), 0.0); }), "cutoff");
+  EXPECT_EQ(testing::refused_field_of([] { (void)gospa(points({}), points({}), 1.0, 0.5); }),
+            "order");
+  EXPECT_EQ(testing::refused_field_of([] {
+              (void)gospa(points({{std::nan(""), 0}}), points({}), 1.0);
+            }),
+            "targets");
 }
 
 }  // namespace

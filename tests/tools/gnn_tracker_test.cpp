@@ -19,6 +19,7 @@
 #include "imm/evaluation/gospa.hpp"
 #include "imm/evaluation/multi_target.hpp"
 #include "imm/tracking/tracker.hpp"
+#include "testing/refused_field.hpp"
 #include "testing/specs.hpp"
 
 namespace imm::evaluation {
@@ -82,22 +83,17 @@ TEST(GnnTracker, HoldsTwoCrossingTargetsInClutterByGospa) {
 }
 
 TEST(GnnTracker, RefusesAFilterThatCannotGateAndBadSettingsByField) {
-  const auto field = [](auto&& call) {
-    try {
-      call();
-    } catch (const InvalidParameter& error) {
-      return error.field();
-    }
-    return std::string("none");
-  };
-  EXPECT_EQ(field([] { (void)GnnTracker(cv_ca_maker(), GnnSettings{}); }), "max_speed");
+  EXPECT_EQ(testing::refused_field_of([] { (void)GnnTracker(cv_ca_maker(), GnnSettings{}); }),
+            "max_speed");
   GnnSettings bad;
   bad.max_speed = 10.0;
   bad.confirm_scans = 1;
-  EXPECT_EQ(field([&] { (void)GnnTracker(cv_ca_maker(), bad); }), "confirm_scans");
+  EXPECT_EQ(testing::refused_field_of([&] { (void)GnnTracker(cv_ca_maker(), bad); }),
+            "confirm_scans");
   GnnSettings ok;
   ok.max_speed = 10.0;
-  EXPECT_EQ(field([&] { (void)GnnTracker(load_filter_maker("models/ga_fuzzy_imm.h5"), ok); }),
+  EXPECT_EQ(testing::refused_field_of(
+                [&] { (void)GnnTracker(load_filter_maker("models/ga_fuzzy_imm.h5"), ok); }),
             "model");
   GnnTracker tracker(cv_ca_maker(), ok);
   tracker.process(3, {});
