@@ -76,64 +76,53 @@ FimmSpec stored_fimm_settings(const io::ModelFileReader& reader) {
   return *std::move(fimm);
 }
 
+// A kind whose file holds one spec: `read` it from the file, `make` a filter of it, `open` a
+// bank of it (spec, capacity).
+template <class Read, class Make, class Open>
+ModelKind spec_kind(std::string_view name, std::vector<std::string> aliases, std::string summary,
+                    Read read, Make make, Open open) {
+  return {
+      .name = std::string(name),
+      .aliases = std::move(aliases),
+      .summary = std::move(summary),
+      .validate = [read](const io::ModelFileReader& r) { (void)read(r); },
+      .load = [read, make](const io::ModelFileReader& r,
+                           std::int64_t max_gap) { return build(read(r), max_gap, make); },
+      .open_bank = [read, open](const io::ModelFileReader& r,
+                                std::size_t capacity) { return open(read(r), capacity); },
+  };
+}
+
+// open for spec_kind: a Bank(spec, capacity).
+template <class Bank, class Spec>
+std::unique_ptr<AnyTrackBank> open_bank_of(const Spec& spec, std::size_t capacity) {
+  return bank_of<Bank>(spec, capacity);
+}
+
 std::vector<ModelKind> built_in_kinds() {
   std::vector<ModelKind> kinds;
-  kinds.push_back({
-      .name = std::string(io::kPlainImmKind),
-      .aliases = {"plain-imm", "plain"},
-      .summary = "the plain IMM: CV, CA, Singer and turn modes, Cartesian or polar plots",
-      .validate = [](const io::ModelFileReader& r) { (void)io::read_plain_imm(r); },
-      .load =
-          [](const io::ModelFileReader& r, std::int64_t max_gap) {
-            return build(io::read_plain_imm(r), max_gap, make_plain_imm_filter);
-          },
-      .open_bank =
-          [](const io::ModelFileReader& r, std::size_t capacity) {
-            return plain_imm_bank(io::read_plain_imm(r), capacity);
-          },
-  });
-  kinds.push_back({
-      .name = std::string(io::kGaFuzzyImmKind),
-      .aliases = {"ga", "ga-imm", "ga-fuzzy-imm"},
-      .summary = "the GA-fuzzy IMM of seed 000, per axis (Cartesian plots)",
-      .validate = [](const io::ModelFileReader& r) { (void)io::read_ga_fuzzy_imm(r); },
-      .load =
-          [](const io::ModelFileReader& r, std::int64_t max_gap) {
-            return build(io::read_ga_fuzzy_imm(r), max_gap, make_ga_fuzzy_imm_filter);
-          },
-      .open_bank =
-          [](const io::ModelFileReader& r, std::size_t capacity) {
-            return bank_of<GaFuzzyTrackBank>(io::read_ga_fuzzy_imm(r), capacity);
-          },
-  });
-  kinds.push_back({
-      .name = std::string(io::kMlpInputEstimatorKind),
-      .aliases = {"mlp", "input-estimator", "mlp-input-estimator"},
-      .summary = "the neural input estimator of seed 001, per axis (Cartesian plots)",
-      .validate = [](const io::ModelFileReader& r) { (void)io::read_mlp_input_estimator(r); },
-      .load =
-          [](const io::ModelFileReader& r, std::int64_t max_gap) {
-            return build(io::read_mlp_input_estimator(r), max_gap, make_mlp_input_estimator_filter);
-          },
-      .open_bank =
-          [](const io::ModelFileReader& r, std::size_t capacity) {
-            return bank_of<InputEstimatorTrackBank>(io::read_mlp_input_estimator(r), capacity);
-          },
-  });
-  kinds.push_back({
-      .name = std::string(io::kFcmImmKind),
-      .aliases = {"fcm", "fcm-imm"},
-      .summary = "the FCM-compensated IMM of seed 003, per axis (Cartesian plots)",
-      .validate = [](const io::ModelFileReader& r) { (void)io::read_fcm_imm(r); },
-      .load =
-          [](const io::ModelFileReader& r, std::int64_t max_gap) {
-            return build(io::read_fcm_imm(r), max_gap, make_fcm_imm_filter);
-          },
-      .open_bank =
-          [](const io::ModelFileReader& r, std::size_t capacity) {
-            return bank_of<FcmImmTrackBank>(io::read_fcm_imm(r), capacity);
-          },
-  });
+  kinds.push_back(spec_kind(
+      io::kPlainImmKind, {"plain-imm", "plain"},
+      "the plain IMM: CV, CA, Singer and turn modes, Cartesian or polar plots",
+      [](const io::ModelFileReader& r) { return io::read_plain_imm(r); }, make_plain_imm_filter,
+      plain_imm_bank));
+  kinds.push_back(spec_kind(
+      io::kGaFuzzyImmKind, {"ga", "ga-imm", "ga-fuzzy-imm"},
+      "the GA-fuzzy IMM of seed 000, per axis (Cartesian plots)",
+      [](const io::ModelFileReader& r) { return io::read_ga_fuzzy_imm(r); },
+      make_ga_fuzzy_imm_filter, open_bank_of<GaFuzzyTrackBank, GaFuzzyImmSpec>));
+  kinds.push_back(spec_kind(
+      io::kMlpInputEstimatorKind, {"mlp", "input-estimator", "mlp-input-estimator"},
+      "the neural input estimator of seed 001, per axis (Cartesian plots)",
+      [](const io::ModelFileReader& r) { return io::read_mlp_input_estimator(r); },
+      make_mlp_input_estimator_filter,
+      open_bank_of<InputEstimatorTrackBank, MlpInputEstimatorModel>));
+  kinds.push_back(spec_kind(
+      io::kFcmImmKind, {"fcm", "fcm-imm"},
+      "the FCM-compensated IMM of seed 003, per axis (Cartesian plots)",
+      [](const io::ModelFileReader& r) { return io::read_fcm_imm(r); }, make_fcm_imm_filter,
+      open_bank_of<FcmImmTrackBank, FcmImmSpec>));
+  // The TSK sensor model's file holds the sensor model and the FIMM settings beside it.
   kinds.push_back({
       .name = std::string(io::kTskSensorKind),
       .aliases = {"tsk", "fimm", "tsk-sensor"},
@@ -152,21 +141,11 @@ std::vector<ModelKind> built_in_kinds() {
             return bank_of<FimmTrackBank>(stored_fimm_settings(r), std::move(sensor), capacity);
           },
   });
-  kinds.push_back({
-      .name = std::string(io::kWimmKind),
-      .aliases = {},
-      .summary = "the weighted IMM of seed 004 with azimuth fusion (polar plots)",
-      .validate = [](const io::ModelFileReader& r) { (void)io::read_wimm(r); },
-      .load =
-          [](const io::ModelFileReader& r, std::int64_t max_gap) {
-            return build(io::read_wimm(r), max_gap,
-                         [](const WimmSpec& spec) { return std::make_unique<WimmFilter>(spec); });
-          },
-      .open_bank =
-          [](const io::ModelFileReader& r, std::size_t capacity) {
-            return bank_of<WimmTrackBank>(io::read_wimm(r), capacity);
-          },
-  });
+  kinds.push_back(spec_kind(
+      io::kWimmKind, {}, "the weighted IMM of seed 004 with azimuth fusion (polar plots)",
+      [](const io::ModelFileReader& r) { return io::read_wimm(r); },
+      [](const WimmSpec& spec) { return std::make_unique<WimmFilter>(spec); },
+      open_bank_of<WimmTrackBank, WimmSpec>));
   return kinds;
 }
 
