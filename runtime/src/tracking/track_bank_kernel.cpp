@@ -450,52 +450,36 @@ template <int N>
   for (; t < s.tracks; ++t) score_plots<double, N>(s, t);
 }
 
+// f(std::integral_constant<int, N>{}) with N = `modes` for the common sizes (their loops
+// unrolled), kMaxModes for any other (the loops then run to the block's mode count).
+template <class F>
+[[gnu::always_inline]] inline void with_mode_count(int modes, F&& f) {
+  switch (modes) {
+    case 1:
+      return f(std::integral_constant<int, 1>{});
+    case 2:
+      return f(std::integral_constant<int, 2>{});
+    case 3:
+      return f(std::integral_constant<int, 3>{});
+    case 4:
+      return f(std::integral_constant<int, 4>{});
+    default:
+      return f(std::integral_constant<int, kMaxModes>{});
+  }
+}
+
 }  // namespace
 
 [[gnu::flatten]] IMM_VECTOR_CLONES void step_tracks(const Block& b) {
-  // The common sizes with their loops unrolled; any other through the general one.
-  switch (b.modes) {
-    case 1:
-      return step_block<1>(b);
-    case 2:
-      return step_block<2>(b);
-    case 3:
-      return step_block<3>(b);
-    case 4:
-      return step_block<4>(b);
-    default:
-      return step_block<kMaxModes>(b);
-  }
+  with_mode_count(b.modes, [&](auto n) { step_block<decltype(n)::value>(b); });
 }
 
-}  // namespace imm::bank
-
-namespace imm::bank {
-
 [[gnu::flatten]] IMM_VECTOR_CLONES void predict_plots(const Block& b, double* prediction) {
-  switch (b.modes) {
-    case 1:
-      return predict_plot_block<1>(b, prediction);
-    case 2:
-      return predict_plot_block<2>(b, prediction);
-    case 3:
-      return predict_plot_block<3>(b, prediction);
-    default:
-      return predict_plot_block<kMaxModes>(b, prediction);
-  }
+  with_mode_count(b.modes, [&](auto n) { predict_plot_block<decltype(n)::value>(b, prediction); });
 }
 
 [[gnu::flatten]] IMM_VECTOR_CLONES void score_plots(const Scoring& s) {
-  switch (s.modes) {
-    case 1:
-      return score_plot_block<1>(s);
-    case 2:
-      return score_plot_block<2>(s);
-    case 3:
-      return score_plot_block<3>(s);
-    default:
-      return score_plot_block<kMaxModes>(s);
-  }
+  with_mode_count(s.modes, [&](auto n) { score_plot_block<decltype(n)::value>(s); });
 }
 
 }  // namespace imm::bank
