@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
@@ -191,48 +192,57 @@ FeatureSet make_features(const MlpTrainingConfig& config, const datasets::TrackS
 
 namespace {
 
+/// The mean of term(filter, axis, k) over the model's filter run on each axis (two-point start),
+/// over the steps k ≥ 2 before the last `skip_last` scans that succeed and whose term is not
+/// empty; `none` when there is no such step.
+template <class Term>
+double mean_over_steps(const MlpInputEstimatorModel& model,
+                       const std::vector<datasets::AxisTrajectory>& axes, Eigen::Index skip_last,
+                       double none, Term&& term) {
+  const double T = model.settings.sample_period;
+  const double R = model.settings.measurement_variance;
+  double sum = 0.0;
+  std::size_t count = 0;
+  for (const datasets::AxisTrajectory& axis : axes) {
+    MlpInputEstimatorFilter filter(model, model.settings);
+    filter.initialize(datasets::two_point_start(axis, T, R));
+    for (Eigen::Index k = 2; k + skip_last < axis.measurement.size(); ++k) {
+      if (filter.step(axis.measurement(k)) != StepStatus::kOk) continue;
+      if (const std::optional<double> value = term(filter, axis, k)) {
+        sum += *value;
+        ++count;
+      }
+    }
+  }
+  return count > 0 ? sum / static_cast<double>(count) : none;
+}
+
 /// E[(û(k) − a(k))²] of the filter over the tracks: its signed input estimate against the
 /// acceleration that acts over the transition it is used for (the sign's and the lag's errors
 /// included), per axis.
 double signed_input_mse(const MlpInputEstimatorModel& model, const datasets::TrackSet& tracks) {
-  const double T = model.settings.sample_period;
-  const double R = model.settings.measurement_variance;
-  double sum = 0.0;
-  std::size_t count = 0;
-  for (const datasets::AxisTrajectory& truth : datasets::axis_trajectories(tracks)) {
-    MlpInputEstimatorFilter filter(model, model.settings);
-    filter.initialize(datasets::two_point_start(truth, T, R));
-    for (Eigen::Index k = 2; k + 1 < truth.measurement.size(); ++k) {
-      if (filter.step(truth.measurement(k)) != StepStatus::kOk) continue;
-      const double error = filter.acceleration() - truth.acceleration_input(k);
-      sum += error * error;
-      ++count;
-    }
-  }
-  return count > 0 ? sum / static_cast<double>(count) : 0.0;
+  return mean_over_steps(
+      model, datasets::axis_trajectories(tracks), 1, 0.0,
+      [](const MlpInputEstimatorFilter& filter, const datasets::AxisTrajectory& truth,
+         Eigen::Index k) -> std::optional<double> {
+        const double error = filter.acceleration() - truth.acceleration_input(k);
+        return error * error;
+      });
 }
 
 /// The primary KF's mean normalized innovation squared ν²/S over the tracks' axis runs with the
 /// model as it is (its input_variance included): 1 for a consistent 1-D filter. Plots only.
-double mean_nis(const MlpInputEstimatorModel& model, const datasets::TrackSet& tracks) {
-  const double T = model.settings.sample_period;
-  const double R = model.settings.measurement_variance;
-  double sum = 0.0;
-  std::size_t count = 0;
-  for (const datasets::AxisTrajectory& axis : datasets::axis_trajectories(tracks)) {
-    MlpInputEstimatorFilter filter(model, model.settings);
-    filter.initialize(datasets::two_point_start(axis, T, R));
-    for (Eigen::Index k = 2; k < axis.measurement.size(); ++k) {
-      double nu = 0.0, variance = 0.0;
-      if (filter.step(axis.measurement(k)) != StepStatus::kOk || !filter.innovation(nu, variance) ||
-          !(variance > 0.0)) {
-        continue;
-      }
-      sum += nu * nu / variance;
-      ++count;
-    }
-  }
-  return count > 0 ? sum / static_cast<double>(count) : 1.0;
+double mean_nis(const MlpInputEstimatorModel& model,
+                const std::vector<datasets::AxisTrajectory>& axes) {
+  return mean_over_steps(model, axes, 0, 1.0,
+                         [](const MlpInputEstimatorFilter& filter, const datasets::AxisTrajectory&,
+                            Eigen::Index) -> std::optional<double> {
+                           double nu = 0.0, variance = 0.0;
+                           if (!filter.innovation(nu, variance) || !(variance > 0.0)) {
+                             return std::nullopt;
+                           }
+                           return nu * nu / variance;
+                         });
 }
 
 /// The input variance σ_û² ≥ 0 at which the primary KF's mean NIS over `tracks` is 1 (its
@@ -240,9 +250,10 @@ double mean_nis(const MlpInputEstimatorModel& model, const datasets::TrackSet& t
 /// σ_û² = E[(û − a)²] takes the input's errors as white; they are not (the network reads ten
 /// scans, so an error lasts as long as a manoeuvre's onset), and the filter stays optimistic.
 double consistent_input_variance(MlpInputEstimatorModel model, const datasets::TrackSet& tracks) {
+  const std::vector<datasets::AxisTrajectory> axes = datasets::axis_trajectories(tracks);
   const auto nis_at = [&](double variance) {
     model.input_variance = variance;
-    return mean_nis(model, tracks);
+    return mean_nis(model, axes);
   };
   if (nis_at(0.0) <= 1.0) return 0.0;
   double low = 0.0;
