@@ -34,29 +34,30 @@ EnvelopeCalibration calibrate_envelope(const std::filesystem::path& model_file, 
   }
   // The plots the model is built for: those whose noise is its R. A regime with one case per
   // plot noise (seed 002's Table 1) holds others, which the envelope must flag, not learn.
-  const Eigen::Matrix2d R = load_filter(reader).options.measurement_covariance;
+  const FilterMaker maker = load_filter_maker(reader);  // read once for every track
+  const Eigen::Matrix2d R = maker.options.measurement_covariance;
   const auto built_for = [&](const datasets::Track& track) {
     return (track.noise.covariance() - R).cwiseAbs().maxCoeff() <= 1e-9 * R.cwiseAbs().maxCoeff();
   };
   const int cases = std::max<int>(1, static_cast<int>(regime.cases.size()));
   const int draws = regime.recorded ? tracks : tracks * cases;
-  std::vector<int> chosen;
+  std::vector<datasets::Track> chosen;
   int examined = 0;
   for (; examined < draws && static_cast<int>(chosen.size()) < tracks; ++examined) {
-    if (built_for(datasets::draw_track(regime, datasets::Split::kValidation, examined, 0))) {
-      chosen.push_back(examined);
-    }
+    datasets::Track track = datasets::draw_track(regime, datasets::Split::kValidation, examined, 0);
+    if (built_for(track)) chosen.push_back(std::move(track));
   }
   c.noise_mismatch = chosen.empty();
   c.other_noise = examined - static_cast<int>(chosen.size());
   if (c.noise_mismatch) {
     c.other_noise = 0;
-    for (int i = 0; i < std::min(tracks, draws); ++i) chosen.push_back(i);
+    for (int i = 0; i < std::min(tracks, draws); ++i) {
+      chosen.push_back(datasets::draw_track(regime, datasets::Split::kValidation, i, 0));
+    }
   }
   std::vector<double> sums;
-  for (const int i : chosen) {
-    const datasets::Track track = datasets::draw_track(regime, datasets::Split::kValidation, i, 0);
-    Tracker tracker = load_tracker(model_file);
+  for (const datasets::Track& track : chosen) {
+    Tracker tracker(maker.make(), maker.options);
     for (int k = 0; k < track.plots.rows(); ++k) {
       (void)tracker.process(k, track.plots.row(k).transpose());
       // Disjoint full windows after the start has settled (two windows).
