@@ -79,12 +79,12 @@ FimmSpec stored_fimm_settings(const io::ModelFileReader& reader) {
 // A kind whose file holds one spec: `read` it from the file, `make` a filter of it, `open` a
 // bank of it (spec, capacity).
 template <class Read, class Make, class Open>
-ModelKind spec_kind(std::string_view name, std::vector<std::string> aliases, std::string summary,
-                    Read read, Make make, Open open) {
+ModelKind spec_kind(std::string_view name, const std::vector<std::string>& aliases,
+                    std::string_view summary, Read read, Make make, Open open) {
   return {
       .name = std::string(name),
-      .aliases = std::move(aliases),
-      .summary = std::move(summary),
+      .aliases = aliases,
+      .summary = std::string(summary),
       .validate = [read](const io::ModelFileReader& r) { (void)read(r); },
       .load = [read, make](const io::ModelFileReader& r,
                            std::int64_t max_gap) { return build(read(r), max_gap, make); },
