@@ -19,6 +19,10 @@ void add_folder_of(NightlyStage& stage, const std::string& path, bool path_is_fo
   if (!folder.empty()) stage.output_folders.push_back(folder);
 }
 
+void add_input(NightlyStage& stage, StageInput::Kind kind, std::filesystem::path path) {
+  stage.inputs.push_back(StageInput{kind, std::move(path)});
+}
+
 void add_optional(const support::ConfigTable& table, std::string_view key, const char* flag,
                   NightlyStage& stage) {
   if (table.has(key)) {
@@ -35,9 +39,19 @@ void add_optional_text(const support::ConfigTable& table, std::string_view key, 
   }
 }
 
+// A stage's `regime = …`, when given: --regime and the file as an input.
+void add_regime(const support::ConfigTable& table, NightlyStage& stage) {
+  if (!table.has("regime")) return;
+  add_optional_text(table, "regime", "--regime", stage);
+  add_input(stage, StageInput::Kind::kFile, table.text("regime"));
+}
+
 void add_passthrough(const support::ConfigTable& table, NightlyStage& stage) {
   if (table.has("arguments")) {
-    for (auto& argument : table.texts("arguments")) stage.arguments.push_back(std::move(argument));
+    for (auto& argument : table.texts("arguments")) {
+      add_input(stage, StageInput::Kind::kFile, argument);  // digested when it names a file
+      stage.arguments.push_back(std::move(argument));
+    }
   }
 }
 
@@ -100,9 +114,11 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     if (command == "export" || command == "import") {  // a recorded regime's recordings
       stage.arguments = {command, command == "export" ? "--out-dir" : "--out", out};
       stage.out = out;
+      stage.outputs = {out};
       add_folder_of(stage, out, command == "export");
       if (command == "export") {
         stage.arguments.insert(stage.arguments.end(), {"--regime", entry.text("regime")});
+        add_input(stage, StageInput::Kind::kFile, entry.text("regime"));
         add_optional_text(entry, "split", "--split", stage);
         add_optional(entry, "count", "--count", stage);
         add_optional(entry, "seed", "--seed", stage);
@@ -111,18 +127,24 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
         add_optional_text(entry, "units", "--units", stage);
         add_optional_text(entry, "sensor", "--sensor", stage);
         add_optional_text(entry, "set_name", "--name", stage);
-        for (auto& input : entry.texts("inputs")) stage.arguments.push_back(std::move(input));
+        for (auto& input : entry.texts("inputs")) {
+          add_input(stage, StageInput::Kind::kRecordings, input);
+          stage.arguments.push_back(std::move(input));
+        }
       }
       plan.stages.push_back(std::move(stage));
       continue;
     }
     stage.arguments = {command, "--regime", entry.text("regime"), "--out", out};
     stage.out = out;
+    stage.outputs = {out};
+    add_input(stage, StageInput::Kind::kFile, entry.text("regime"));
     add_folder_of(stage, out);
     add_optional_text(entry, "split", "--split", stage);
     if (entry.has("csv")) {
       const std::string csv = entry.text("csv");
       stage.arguments.insert(stage.arguments.end(), {"--csv", csv});
+      stage.outputs.emplace_back(csv);
       add_folder_of(stage, csv);
     }
     add_optional(entry, "count", "--count", stage);
@@ -140,7 +162,9 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     const std::string out = entry.text("out");
     stage.arguments = {entry.text("command"), "--config", entry.text("config"), "--out", out};
     stage.out = out;
+    stage.outputs = {out};
     stage.out_argument = 4;
+    add_input(stage, StageInput::Kind::kTrainerConfig, entry.text("config"));
     require_inside_registry(entry, out, plan.registry, "model");
     for (const auto& other : plan.stages) {
       if (other.kind == "model" && other.name == stage.name) {
@@ -148,7 +172,7 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
       }
     }
     add_folder_of(stage, out);
-    add_optional_text(entry, "regime", "--regime", stage);
+    add_regime(entry, stage);
     add_optional(entry, "seed", "--seed", stage);
     add_passthrough(entry, stage);
     plan.stages.push_back(std::move(stage));
@@ -160,6 +184,9 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
                        "--measurements", entry.text("measurements"),
                        "--out",          out};
     stage.out = out;
+    stage.outputs = {out};
+    add_input(stage, StageInput::Kind::kFile, entry.text("filter"));
+    add_input(stage, StageInput::Kind::kFile, entry.text("measurements"));
     add_folder_of(stage, out);
     plan.stages.push_back(std::move(stage));
   }
@@ -184,9 +211,11 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
                        linked->out.string()};
     stage.out_argument = 4;
     stage.model_argument = 6;
+    stage.outputs = {out};
+    add_input(stage, StageInput::Kind::kModelFolder, stage.arguments[2]);
     add_folder_of(stage, out, true);
     stage.has_regime = entry.has("regime");
-    add_optional_text(entry, "regime", "--regime", stage);
+    add_regime(entry, stage);
     add_optional(entry, "runs", "--runs", stage);
     add_optional(entry, "seed", "--seed", stage);
     add_passthrough(entry, stage);
@@ -231,10 +260,12 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     stage.arguments = {"rank", "--baseline"};
     for (const auto& b : baselines) {
       stage.arguments.push_back(model_out(entry.has("baselines") ? "baselines" : "baseline", b));
+      add_input(stage, StageInput::Kind::kFile, stage.arguments.back());
     }
     stage.arguments.push_back("--candidates");
     for (const auto& candidate : candidates) {
       stage.arguments.push_back(model_out("candidates", candidate));
+      add_input(stage, StageInput::Kind::kFile, stage.arguments.back());
     }
     // The candidates' own evaluations: rank holds out a model whose gates failed there, or that
     // none of them evaluated (the night evaluates candidates, so a shipped model that was not
@@ -245,6 +276,8 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
         evaluated.push_back(e->out.string());
         // The shipped model's evaluation when the night's candidate did not replace it.
         evaluated.push_back((e->out / "shipped").string());
+        add_input(stage, StageInput::Kind::kVerdicts, e->out);
+        add_input(stage, StageInput::Kind::kVerdicts, e->out / "shipped");
       }
     }
     if (!evaluated.empty()) {
@@ -258,6 +291,7 @@ NightlyPlan plan_from(const support::ConfigTable& root) {
     stage.arguments.insert(stage.arguments.end(), {"--ship", out});
     stage.out_argument = stage.arguments.size() - 1;
     stage.out = out;
+    stage.outputs = {out};
     stage.report = report;
     add_folder_of(stage, out);
     add_folder_of(stage, report, true);

@@ -276,13 +276,13 @@ void Night::run_plain(const NightlyStage& stage) {
         "exit code " + std::to_string(o.exit_code) + ": " + tail_of(o.log.string() + ".err");
     o.transient = out_of_room(o.message);
   }
-  std::vector<fs::path> outputs = {stage.out};
+  std::vector<fs::path> outputs;
   std::error_code error;
-  if (fs::is_directory(stage.out, error)) {  // an export's recordings
-    for (const auto& f : fs::directory_iterator(stage.out, error)) outputs.push_back(f.path());
-  }
-  for (std::size_t i = 1; i < stage.arguments.size(); ++i) {
-    if (stage.arguments[i - 1] == "--csv") outputs.emplace_back(stage.arguments[i]);
+  for (const fs::path& output : stage.outputs) {
+    outputs.push_back(output);
+    if (fs::is_directory(output, error)) {  // an export's recordings
+      for (const auto& f : fs::directory_iterator(output, error)) outputs.push_back(f.path());
+    }
   }
   cache_.store(key, inputs, o, outputs, digests_);
   finish(o);

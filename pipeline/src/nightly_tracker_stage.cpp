@@ -44,6 +44,10 @@ void Night::run_tracker(const NightlyStage& stage) {
   NightlyStage ranked = stage;
   ranked.arguments = arguments;
   ranked.out_argument = arguments.size() - 1;
+  // What it no longer names, it no longer reads.
+  std::erase_if(ranked.inputs, [&](const StageInput& input) {
+    return std::find(arguments.begin(), arguments.end(), input.path.string()) == arguments.end();
+  });
   const std::string key = "tracker:" + stage.name;
   const std::string inputs = inputs_digest(ranked, tool(ranked), digests_);
   if (!options_.force) {

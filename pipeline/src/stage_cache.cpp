@@ -56,6 +56,19 @@ std::string normal_path(const fs::path& path) {
   return fs::absolute(path).lexically_normal().string();
 }
 
+namespace {
+
+// A sorted list of "name=digest" lines.
+void hash_lines(datasets::Sha256& hash, const std::map<std::string, std::string>& files) {
+  for (const auto& [name, digest] : files) {
+    std::string line = name;
+    line.append("=").append(digest).append("\n");
+    hash.update(line);
+  }
+}
+
+}  // namespace
+
 std::string inputs_digest(const NightlyStage& stage, const fs::path& tool, Digests& digests,
                           const std::vector<std::string>& extra, const PlanOutputs& plan_outputs) {
   datasets::Sha256 hash;
@@ -66,71 +79,71 @@ std::string inputs_digest(const NightlyStage& stage, const fs::path& tool, Diges
   for (const fs::path& library : libraries) {
     hash.update(library.filename().string() + '=' + digests.of_file(library) + '\n');
   }
+  for (const std::string& a : stage.arguments) hash.update(a + '\n');
+  std::error_code error;
   auto add_file = [&](const fs::path& path) {
+    if (!fs::is_regular_file(path, error)) return false;
     hash.update(path.string() + '=' + digests.of_file(path) + '\n');
-  };
-  for (std::size_t i = 0; i < stage.arguments.size(); ++i) {
-    const std::string& a = stage.arguments[i];
-    hash.update(a + '\n');
-    // What it writes, and an evaluation's model (the model stage's output, digested there).
-    if (stage.out_argument && i == *stage.out_argument) continue;
-    if (i > 0 && (stage.arguments[i - 1] == "--out" || stage.arguments[i - 1] == "--out-dir" ||
-                  (stage.kind == "data" && stage.arguments[i - 1] == "--csv"))) {
-      continue;  // what the stage writes
+    // A recorded regime's track set is an input of whatever names the regime.
+    if (auto set = recorded_set(path); set && fs::is_regular_file(*set, error)) {
+      hash.update(*set + '=' + digests.of_file(*set) + '\n');
     }
-    if (stage.model_argument && i == *stage.model_argument) continue;
-    std::error_code error;
-    if (fs::is_regular_file(a, error)) {
-      add_file(a);
-      if (i > 0 && stage.arguments[i - 1] == "--config") {
-        if (auto regime = config_regime(a); regime && fs::is_regular_file(*regime)) {
-          add_file(*regime);
-          if (auto set = recorded_set(*regime); set && fs::is_regular_file(*set)) add_file(*set);
+    return true;
+  };
+  for (const StageInput& input : stage.inputs) {
+    const fs::path& path = input.path;
+    hash.update(std::to_string(static_cast<int>(input.kind)) + ' ' + path.string() + '\n');
+    switch (input.kind) {
+      case StageInput::Kind::kFile:
+        add_file(path);
+        break;
+      case StageInput::Kind::kTrainerConfig:
+        if (add_file(path)) {
+          if (auto regime = config_regime(path)) add_file(*regime);
         }
-      }
-      // A recorded regime's track set is an input of whatever names the regime.
-      if (auto set = recorded_set(a); set && fs::is_regular_file(*set)) add_file(*set);
-    } else if (fs::is_directory(a, error) && stage.kind == "data") {
-      std::map<std::string, std::string> files;  // an import's recordings, in name order
-      for (const auto& f : fs::directory_iterator(a)) {
-        if (f.is_regular_file()) files[f.path().filename().string()] = digests.of_file(f.path());
-      }
-      for (const auto& [name, digest] : files) {
-        std::string line = name;
-        line.append("=").append(digest).append("\n");
-        hash.update(line);
-      }
-    } else if (fs::is_directory(a, error) && stage.kind == "tracker") {
-      // A candidate's evaluation folder: its verdict on its gates, written earlier tonight (so
-      // read afresh, never from the digests taken before it was written).
-      for (const char* name : {"metrics.json", "report.md"}) {
-        const fs::path file = fs::path(a) / name;
-        if (fs::is_regular_file(file, error)) {
-          hash.update(file.string() + '=' + datasets::file_sha256_hex(file) + '\n');
+        break;
+      case StageInput::Kind::kRecordings:
+        if (fs::is_directory(path, error)) {
+          std::map<std::string, std::string> files;  // the recordings, in name order
+          for (const auto& f : fs::directory_iterator(path)) {
+            if (f.is_regular_file())
+              files[f.path().filename().string()] = digests.of_file(f.path());
+          }
+          hash_lines(hash, files);
+        } else {
+          add_file(path);
         }
-      }
-    } else if (fs::is_directory(a, error) && stage.kind == "evaluation") {
-      const std::string folder = normal_path(a);
-      const std::string evaluated =
-          stage.model_argument ? normal_path(stage.arguments[*stage.model_argument]) : "";
-      std::map<std::string, std::string> files;  // path relative to the folder → digest
-      for (const auto& [file, digest] : plan_outputs) {
-        const fs::path relative = fs::path(file).lexically_relative(folder);
-        if (!relative.empty() && *relative.begin() != ".." && file != evaluated) {
-          files[relative.generic_string()] = "stage " + digest;
+        break;
+      case StageInput::Kind::kVerdicts:
+        // Written earlier tonight: read afresh, never from the digests taken before it was written.
+        for (const char* name : {"metrics.json", "report.md"}) {
+          const fs::path file = path / name;
+          if (fs::is_regular_file(file, error)) {
+            hash.update(file.string() + '=' + datasets::file_sha256_hex(file) + '\n');
+          }
         }
-      }
-      for (const auto& f : fs::recursive_directory_iterator(a)) {
-        const auto relative = f.path().lexically_relative(a).generic_string();
-        if (f.is_regular_file() && f.path().extension() == ".h5" && relative[0] != '.' &&
-            normal_path(f.path()) != evaluated && !files.contains(relative)) {
-          files[relative] = digests.of_file(f.path());
+        break;
+      case StageInput::Kind::kModelFolder: {
+        if (!fs::is_directory(path, error)) break;
+        const std::string folder = normal_path(path);
+        const std::string evaluated =
+            stage.model_argument ? normal_path(stage.arguments[*stage.model_argument]) : "";
+        std::map<std::string, std::string> files;  // path relative to the folder → digest
+        for (const auto& [file, digest] : plan_outputs) {
+          const fs::path relative = fs::path(file).lexically_relative(folder);
+          if (!relative.empty() && *relative.begin() != ".." && file != evaluated) {
+            files[relative.generic_string()] = "stage " + digest;
+          }
         }
-      }
-      for (const auto& [relative, digest] : files) {
-        std::string line = relative;
-        line.append("=").append(digest).append("\n");
-        hash.update(line);
+        for (const auto& f : fs::recursive_directory_iterator(path)) {
+          const auto relative = f.path().lexically_relative(path).generic_string();
+          if (f.is_regular_file() && f.path().extension() == ".h5" && relative[0] != '.' &&
+              normal_path(f.path()) != evaluated && !files.contains(relative)) {
+            files[relative] = digests.of_file(f.path());
+          }
+        }
+        hash_lines(hash, files);
+        break;
       }
     }
   }

@@ -38,8 +38,10 @@ class Digests {
   std::map<std::string, std::string> cache_;
 };
 
-// Everything a stage reads: its tool, its arguments, and the bytes of every file they name (a
-// folder: its model files; a trainer config: the regime it names).
+// Everything a stage reads: its tool, the project's libraries, the texts of its arguments and the
+// inputs the plan declared for it (NightlyStage::inputs, StageInput: a file's bytes, a trainer
+// config's and its regime's, an import's recordings, an evaluation's model folder, a candidate's
+// verdict).
 // A model file that a stage of the plan produces stands for that stage's inputs in another
 // stage's digest (its bytes change with every retraining: the training date is in them), and
 // counts whether or not it exists yet, so that the first night a new model appears does not

@@ -189,7 +189,7 @@ TEST(Nightly, TheStageDigestIncludesTheSharedRuntime) {
 // The recorded regime's data: an export without truth, then an import of its folder, both imm-data
 // command lines; and the digests that decide whether a stage reruns follow the recordings an import
 // reads and the track set a recorded regime names.
-TEST(Nightly, RecordedDataStagesExportThenImportAndTheirInputsAreDigested) {
+TEST(Nightly, RecordedDataStagesExportThenImportAndTheirDeclaredInputsAreDigested) {
   const NightlyPlan plan = load_nightly_plan("configs/nightly.toml");
   const NightlyStage* exported = nullptr;
   const NightlyStage* imported = nullptr;
@@ -212,8 +212,21 @@ TEST(Nightly, RecordedDataStagesExportThenImportAndTheirInputsAreDigested) {
   const auto folder = dir.path() / "recordings";
   std::filesystem::create_directories(folder);
   std::ofstream(folder / "a.csv") << "t,zx,zy\n0,1,2\n";
+  // The plan declares what each stage reads: the import its recordings, the export its regime.
+  const auto declares = [](const NightlyStage& s, StageInput::Kind kind, const std::string& path) {
+    return std::any_of(s.inputs.begin(), s.inputs.end(), [&](const StageInput& input) {
+      return input.kind == kind && input.path == path;
+    });
+  };
+  EXPECT_TRUE(declares(*imported, StageInput::Kind::kRecordings, exported->out.string()));
+  const auto regime = std::find(exported->arguments.begin(), exported->arguments.end(), "--regime");
+  ASSERT_NE(regime, exported->arguments.end());
+  EXPECT_TRUE(declares(*exported, StageInput::Kind::kFile, *(regime + 1)));
+  EXPECT_EQ(imported->outputs, std::vector<std::filesystem::path>{imported->out});
+
   NightlyStage import = *imported;
   import.arguments = {"import", "--out", (dir.path() / "set.h5").string(), folder.string()};
+  import.inputs = {{ StageInput::Kind::kRecordings, folder }};
   const auto tool = std::filesystem::path("configs/nightly.toml");  // any file stands for the tool
   Digests digests;
   const std::string before = inputs_digest(import, tool, digests);
@@ -228,11 +241,22 @@ TEST(Nightly, RecordedDataStagesExportThenImportAndTheirInputsAreDigested) {
   NightlyStage model;
   model.kind = "model";
   model.arguments = {"baseline", "--regime", (dir.path() / "recorded.toml").string()};
+  model.inputs = {{StageInput::Kind::kFile, dir.path() / "recorded.toml"}};
   Digests first;
   const std::string with_one = inputs_digest(model, tool, first);
   std::ofstream(dir.path() / "set.h5") << "two";
   Digests second;
-  EXPECT_NE(inputs_digest(model, tool, second), with_one);
+  const std::string with_two = inputs_digest(model, tool, second);
+  EXPECT_NE(with_two, with_one);
+
+  // Only what is declared is read: a file an argument names but no input declares is a text.
+  std::ofstream(dir.path() / "notes.txt") << "one";
+  model.arguments.push_back((dir.path() / "notes.txt").string());
+  Digests third;
+  const std::string with_notes = inputs_digest(model, tool, third);
+  std::ofstream(dir.path() / "notes.txt") << "two";
+  Digests fourth;
+  EXPECT_EQ(inputs_digest(model, tool, fourth), with_notes);
 }
 
 TEST(Nightly, EvaluationsFollowTheirModel) {

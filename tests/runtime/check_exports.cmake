@@ -35,9 +35,11 @@ foreach(api "imm::load_filter(" "imm::io::ModelFileReader::ModelFileReader("
     message(FATAL_ERROR "the runtime does not export ${api}: is IMM_RUNTIME_EXPORT defined empty?")
   endif()
 endforeach()
-# Hidden by default: the same sources built with default visibility export 671 symbols of
-# namespace imm (every inline function and template instance the library compiles), the API 284
-# (303 in the sanitizer build: its instrumented inline functions and vtables).
-if(count GREATER 450)
+# Hidden by default: the same sources built with default visibility (CXX_VISIBILITY_PRESET default,
+# VISIBILITY_INLINES_HIDDEN off) export 4698 symbols of namespace imm (every inline function and
+# template instance the library compiles), the API 442 (467 in the sanitizer build: its
+# instrumented inline functions and vtables). The bound sits between, with room for the API to
+# grow: a count near it is a reason to look at what the API exports, not to raise it blindly.
+if(count GREATER 600)
   message(FATAL_ERROR "${count} exported symbols: is the runtime built with hidden visibility?")
 endif()

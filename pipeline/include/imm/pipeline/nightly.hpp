@@ -84,6 +84,26 @@ struct KnownFailure {
   }
 };
 
+/// A file or folder a stage reads besides its tool and the texts of its arguments, declared where
+/// the plan builds the stage: the stage cache digests exactly these (stage_cache.hpp).
+struct StageInput {
+  enum class Kind {
+    /// A file's bytes, when it exists (a recorded regime's: and those of its track set).
+    kFile,
+    /// A trainer config's bytes and those of the regime it names (and of that regime's set).
+    kTrainerConfig,
+    /// An import's recordings: a folder's files by name, or one file.
+    kRecordings,
+    /// An evaluation's model folder: its model files other than the one it evaluates (a model
+    /// of the plan by the digest of the stage that writes it).
+    kModelFolder,
+    /// A candidate's evaluation folder: its verdict (metrics.json, report.md), read afresh.
+    kVerdicts,
+  };
+  Kind kind = Kind::kFile;
+  std::filesystem::path path;
+};
+
 struct NightlyStage {
   std::string kind;        ///< "data", "model", "track", "evaluation", "tracker"
   std::string name;        ///< for the log and the report
@@ -97,6 +117,10 @@ struct NightlyStage {
   std::vector<KnownFailure> known_failures;  ///< evaluation: its accepted gate failures
   /// The `--out` / `--model` value's index in `arguments` (replaced for candidates).
   std::optional<std::size_t> out_argument, model_argument;
+  /// What the stage reads (the stage cache's inputs besides the tool and the argument texts).
+  std::vector<StageInput> inputs;
+  /// What the stage writes: `out` (a folder: its files) and any further file (a data set's CSV).
+  std::vector<std::filesystem::path> outputs;
 };
 
 /// A practical margin of the regression gate, with the reason it is no news (nightly.toml's
@@ -186,8 +210,8 @@ NightlyResult run_nightly(const NightlyPlan& plan, const NightlyOptions& options
 void write_morning_report(const std::filesystem::path& folder, const NightlyPlan& plan,
                           const NightlyResult& result);
 
-/// Writes `page` (Markdown, atomically, only when it changes): every evaluation and tracker stage of
-/// the plan, in plan order, with the command that reproduces it, its outcome, and its report.md
+/// Writes `page` (Markdown, atomically, only when it changes): every evaluation and tracker stage
+/// of the plan, in plan order, with the command that reproduces it, its outcome, and its report.md
 /// (the tables and gates imm-eval printed), its headings one level down. A section is rewritten
 /// only when the night promoted its model (or its tracker) or the page has none: the page
 /// describes what is shipped, and a night that ships nothing leaves it byte for byte. A stage
