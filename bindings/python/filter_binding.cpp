@@ -61,9 +61,20 @@ class PyFilter {
     return true;
   }
 
-  std::string step(const Eigen::Vector2d& z) { return name(started().step(z)); }
-  std::string predict_only() { return name(started().predict_only()); }
-  std::string predict() { return name(started().predict()); }
+  // Without dt one cycle spans the filter's interval (its sample period, or the last dt given);
+  // with dt, dt seconds after the last cycle (imm::step_over and its siblings).
+  std::string step(const Eigen::Vector2d& z, std::optional<double> dt) {
+    imm::TrackFilter& f = started();
+    return name(dt ? imm::step_over(f, options_.sample_period, *dt, z) : f.step(z));
+  }
+  std::string predict_only(std::optional<double> dt) {
+    imm::TrackFilter& f = started();
+    return name(dt ? imm::predict_only_over(f, options_.sample_period, *dt) : f.predict_only());
+  }
+  std::string predict(std::optional<double> dt) {
+    imm::TrackFilter& f = started();
+    return name(dt ? imm::predict_over(f, options_.sample_period, *dt) : f.predict());
+  }
   std::string update(const Eigen::Vector2d& z) { return name(started().update(z)); }
   std::string miss() { return name(started().miss()); }
 
@@ -109,6 +120,7 @@ class PyFilter {
   [[nodiscard]] bool predicts_before_the_plot() const {
     return filter_->predicts_before_the_plot();
   }
+  [[nodiscard]] bool takes_any_interval() const { return filter_->takes_any_interval(); }
   [[nodiscard]] int state_dimension() const { return filter_->state_dimension(); }
   [[nodiscard]] std::string kind() const { return kind_; }
   [[nodiscard]] double sample_period() const { return options_.sample_period; }
@@ -142,9 +154,13 @@ void add_filter_binding(py::module_& m) {
       .def("initialize", &PyFilter::initialize, py::arg("mean"), py::arg("covariance"))
       .def("start", &PyFilter::start, py::arg("first_scan"), py::arg("first"),
            py::arg("second_scan"), py::arg("second"))
-      .def("step", &PyFilter::step, py::arg("z"))
-      .def("predict_only", &PyFilter::predict_only)
-      .def("predict", &PyFilter::predict)
+      .def("step", &PyFilter::step, py::arg("z"), py::arg("dt") = py::none(),
+           "One cycle with plot z (dt: s since the last cycle; a model of one sample period "
+           "takes whole periods only); returns the status")
+      .def("predict_only", &PyFilter::predict_only, py::arg("dt") = py::none(),
+           "One cycle without a plot (dt as for step)")
+      .def("predict", &PyFilter::predict, py::arg("dt") = py::none(),
+           "The first half of a cycle (dt as for step), held until update(z) or miss()")
       .def("candidate_log_likelihood", &PyFilter::candidate_log_likelihood, py::arg("z"))
       .def("candidate_distance", &PyFilter::candidate_distance, py::arg("z"))
       .def("candidates", &PyFilter::candidates, py::arg("plots"))
@@ -154,6 +170,8 @@ void add_filter_binding(py::module_& m) {
       .def("state", &PyFilter::state)
       .def("mode_probabilities", &PyFilter::mode_probabilities)
       .def_property_readonly("predicts_before_the_plot", &PyFilter::predicts_before_the_plot)
+      .def_property_readonly("takes_any_interval", &PyFilter::takes_any_interval,
+                             "Whether dt may be any positive interval (else whole sample periods)")
       .def_property_readonly("state_dimension", &PyFilter::state_dimension)
       .def_property_readonly("kind", &PyFilter::kind)
       .def_property_readonly("sample_period", &PyFilter::sample_period)

@@ -26,12 +26,18 @@ class InvalidParameter(ValueError):
     """A bad argument (shape, value): the message names the field, e.g. "plots[3, 0]"."""
 
 class Tracker:
-    """A model file's filter driven over scan-indexed plots (two-point start, gaps predicted)."""
+    """A model file's filter driven over scan-indexed or timed plots (two-point start, gaps
+    predicted). A tracker is fed either scans (process) or times (process_at)."""
 
     def process(self, k: int, z: npt.ArrayLike) -> Dict[str, Any]:
         """Feeds the plot z = (z1, z2) of scan k — Cartesian (x, y) in the length unit, or polar
         (range, azimuth in rad), as the model's measurement_kind says. Returns "event", "status",
         "envelope_nis" and "outside_envelope"."""
+    def process_at(self, t: float, z: npt.ArrayLike) -> Dict[str, Any]:
+        """Feeds the plot z taken at time t (s; times must increase), as process(). A plain IMM
+        without a learned schedule predicts over any interval; a model of one sample period takes
+        times a whole number of periods after the last plot (within 1 %), refusing others with
+        status "interval not positive or not a whole number of the model's sample periods"."""
     def run(self, plots: npt.ArrayLike) -> Dict[str, Any]:
         """Runs an (N, 3) array of k, z1, z2 (the GIL released while it runs). Returns per row:
         "k", "event" (list of str), "mean" (N, n), "covariance" (N, n, n), "mode_probabilities"
@@ -124,12 +130,16 @@ class Filter:
               second: npt.ArrayLike) -> bool:
         """Starts the track from two plots (the two-point start load_tracker's Tracker makes:
         position from the second, velocity from the difference); False when they give none."""
-    def step(self, z: npt.ArrayLike) -> str:
-        """One whole cycle with plot z (2,); its status ("ok" or why nothing changed)."""
-    def predict_only(self) -> str:
-        """One whole cycle without a plot."""
-    def predict(self) -> str:
-        """The first half: the prediction to the next scan, held until update() or miss()."""
+    def step(self, z: npt.ArrayLike, dt: Optional[float] = None) -> str:
+        """One whole cycle with plot z (2,); its status ("ok" or why nothing changed). dt: the
+        seconds since the last cycle (any positive interval where takes_any_interval, else a whole
+        number of sample periods within 1 %); None: the filter's interval (its sample period, or
+        the last dt given)."""
+    def predict_only(self, dt: Optional[float] = None) -> str:
+        """One whole cycle without a plot (dt as for step)."""
+    def predict(self, dt: Optional[float] = None) -> str:
+        """The first half: the prediction dt seconds on (as for step), held until update() or
+        miss()."""
     def candidate_log_likelihood(self, z: npt.ArrayLike) -> float:
         """log p(z | past plots) of a candidate plot under the held prediction (NaN without one)."""
     def candidate_distance(self, z: npt.ArrayLike) -> float:
@@ -149,6 +159,10 @@ class Filter:
     @property
     def predicts_before_the_plot(self) -> bool:
         """Whether the filter splits its cycle (the plain IMM without a noise schedule)."""
+    @property
+    def takes_any_interval(self) -> bool:
+        """Whether dt may be any positive interval (the plain IMM without a noise schedule), not
+        only whole sample periods."""
     @property
     def state_dimension(self) -> int:
         """The state dimension n."""

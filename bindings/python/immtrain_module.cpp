@@ -148,7 +148,13 @@ class PyTracker {
   }
 
   py::dict process(std::int64_t scan, const Eigen::Vector2d& z) {
-    const imm::TrackStepResult r = tracker_->process(scan, z);
+    return result_dict(tracker_->process(scan, z));
+  }
+  py::dict process_at(double time, const Eigen::Vector2d& z) {
+    return result_dict(tracker_->process_at(time, z));
+  }
+
+  static py::dict result_dict(const imm::TrackStepResult& r) {
     py::dict d;
     d["event"] = std::string(imm::to_string(r.event));
     d["status"] = std::string(imm::to_string(r.status));
@@ -366,9 +372,13 @@ PYBIND11_MODULE(immtrain, m) {
         }
       });
 
-  py::class_<PyTracker>(m, "Tracker", "A model file's filter driven over scan-indexed plots")
+  py::class_<PyTracker>(m, "Tracker",
+                        "A model file's filter driven over scan-indexed or timed plots")
       .def("process", &PyTracker::process, py::arg("k"), py::arg("z"),
            "Feeds the plot z = (z1, z2) of scan k; returns what happened")
+      .def("process_at", &PyTracker::process_at, py::arg("t"), py::arg("z"),
+           "Feeds the plot z taken at time t (s); a model of one sample period takes whole "
+           "periods only. A tracker is fed either scans or times")
       .def("run", &PyTracker::run, py::arg("plots"),
            "Runs an (N, 3) array of k, z1, z2; returns numpy arrays of every row")
       .def("state", &PyTracker::state, "The combined mean and covariance")

@@ -185,16 +185,15 @@ struct MultiTargetOptions {
   std::vector<std::filesystem::path> models;
   std::optional<std::filesystem::path> regime;
   MultiTargetSettings settings;
+  // The conditions: every detection probability with every clutter density.
+  std::vector<double> detection_probabilities{0.9}, clutter_densities{10.0};
   std::filesystem::path out = "reports/multi-target";
 };
 
-int run(const MultiTargetOptions& options) {
-  const std::filesystem::path regime_path = options.regime.value_or(options.models.front());
-  const datasets::RegimeFile regime = load_regime_option(regime_path);
-  const MultiTargetResult result =
-      run_multi_target(regime.regime, options.models, options.settings);
-  const MultiTargetSettings& s = options.settings;
-  std::cout << "Multi-target scenes of " << regime.regime.name << ": " << s.runs << " scenes of "
+// One condition's table on stdout and its entry of metrics.json.
+nlohmann::json report_condition(const datasets::Regime& regime, const MultiTargetSettings& s,
+                                const MultiTargetResult& result) {
+  std::cout << "Multi-target scenes of " << regime.name << ": " << s.runs << " scenes of "
             << s.targets << " targets, Pd " << s.detection_probability << ", " << s.clutter_per_scan
             << " false plots per scan; GOSPA (p = 2, c = " << result.cutoff
             << ") per scan from scan " << s.warm_up << ", GNN tracker\n\n";
@@ -225,17 +224,41 @@ int run(const MultiTargetOptions& options) {
                     "breaks per scene", "swaps per scene", "GOSPA − first [95 %]"},
                    rows)
             << '\n'
-            << kDifferenceConvention << '\n';
+            << kDifferenceConvention << "\n\n";
+  return {{"detection_probability", s.detection_probability},
+          {"clutter_per_scan", s.clutter_per_scan},
+          {"models", models}};
+}
+
+int run(const MultiTargetOptions& options) {
+  const std::filesystem::path regime_path = options.regime.value_or(options.models.front());
+  const datasets::RegimeFile regime = load_regime_option(regime_path);
+  std::vector<MultiTargetSettings> grid;  // checked before any scene is run
+  for (const double pd : options.detection_probabilities) {
+    for (const double clutter : options.clutter_densities) {
+      MultiTargetSettings s = options.settings;
+      s.detection_probability = pd;
+      s.clutter_per_scan = clutter;
+      s.validate();
+      grid.push_back(s);
+    }
+  }
+  nlohmann::json conditions = nlohmann::json::array();
+  double cutoff = 0.0;
+  for (const MultiTargetSettings& s : grid) {
+    const MultiTargetResult result = run_multi_target(regime.regime, options.models, s);
+    cutoff = result.cutoff;
+    conditions.push_back(report_condition(regime.regime, s, result));
+  }
+  const MultiTargetSettings& s = options.settings;
   std::filesystem::create_directories(options.out);
-  trainer::write_json_atomically(options.out / "metrics.json",
-                                 {{"experiment", "multi-target"},
-                                  {"regime", regime.regime.name},
-                                  {"runs", s.runs},
-                                  {"targets", s.targets},
-                                  {"detection_probability", s.detection_probability},
-                                  {"clutter_per_scan", s.clutter_per_scan},
-                                  {"cutoff", result.cutoff},
-                                  {"models", models}});
+  trainer::write_json_atomically(options.out / "metrics.json", {{"experiment", "multi-target"},
+                                                                {"regime", regime.regime.name},
+                                                                {"runs", s.runs},
+                                                                {"targets", s.targets},
+                                                                {"seed", s.seed},
+                                                                {"cutoff", cutoff},
+                                                                {"conditions", conditions}});
   return 0;
 }
 
@@ -255,9 +278,14 @@ void add_multi_target_command(CLI::App& app, ExitCode& exit_code) {
   command->add_option("--regime", options->regime,
                       "regime TOML (default: the one recorded in the first model)");
   command->add_option("--targets", options->settings.targets, "targets per scene");
-  command->add_option("--pd", options->settings.detection_probability, "detection probability");
-  command->add_option("--clutter", options->settings.clutter_per_scan,
-                      "mean false plots per scan over the scene's region");
+  command
+      ->add_option("--pd", options->detection_probabilities,
+                   "detection probabilities (one or more: every one with every clutter density)")
+      ->delimiter(',');
+  command
+      ->add_option("--clutter", options->clutter_densities,
+                   "mean false plots per scan over the scene's region (one or more)")
+      ->delimiter(',');
   command->add_option("--runs", options->settings.runs, "scenes");
   command->add_option("--seed", options->settings.seed, "the scenes' seed");
   command->add_option("--out", options->out, "report folder (metrics.json)");

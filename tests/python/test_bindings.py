@@ -358,6 +358,49 @@ def test_a_filter_split_into_predict_candidates_and_update_equals_its_step():
         learned.initialize(np.zeros(5), np.eye(4))
 
 
+def test_time_stamps_any_interval_for_a_plain_imm_whole_periods_for_a_learned_model():
+    """dt through Filter.step and Tracker.process_at: a plain IMM (agile_air's CV/CA/CT) at one
+    sample period gives step()'s bits and takes any other interval; a learned model takes two
+    periods as predict_only() then step(), and refuses one and a half without moving."""
+    model = os.path.join(MODELS, "classical_imm_agile_air.h5")
+    by_scan, by_time = immtrain.Filter(model), immtrain.Filter(model)
+    assert by_time.takes_any_interval
+    n, T = by_scan.state_dimension, by_scan.sample_period
+    P = np.eye(n) * 400.0
+    P[-1, -1] = 1e-4
+    for f in (by_scan, by_time):
+        f.initialize(np.zeros(n), P)
+    rng = np.random.default_rng(4)
+    for k in range(1, 30):
+        z = np.array([200.0 * T * k, 0.0]) + 30.0 * rng.standard_normal(2)
+        assert by_scan.step(z) == by_time.step(z, dt=T) == "ok"
+        for a, b in zip(by_scan.state(), by_time.state()):
+            assert a.tolist() == b.tolist()
+    assert by_time.step(np.array([200.0 * T * 30.7, 0.0]), dt=0.7 * T) == "ok"
+    assert by_time.step(np.array([200.0 * T * 31.0, 0.0]), dt=-1.0) != "ok"
+
+    learned, twin = (immtrain.Filter(os.path.join(MODELS, "ga_fuzzy_imm.h5")) for _ in range(2))
+    assert not learned.takes_any_interval
+    for f in (learned, twin):
+        f.initialize(np.zeros(4), np.eye(4) * 1e4)
+    T = learned.sample_period
+    before = [a.tolist() for a in learned.state()]
+    assert "whole number" in learned.step(np.array([1.0, 1.0]), dt=1.5 * T)
+    assert [a.tolist() for a in learned.state()] == before
+    assert learned.step(np.array([1.0, 1.0]), dt=2.0 * T) == "ok"
+    assert twin.predict_only() == twin.step(np.array([1.0, 1.0])) == "ok"
+    for a, b in zip(learned.state(), twin.state()):
+        assert a.tolist() == b.tolist()
+
+    tracker = immtrain.load_tracker(model)
+    t = 1000.0
+    for k in range(40):
+        t += rng.uniform(0.3, 2.5)
+        r = tracker.process_at(t, np.array([150.0 * t, 50.0 * t]) + 30.0 * rng.standard_normal(2))
+        assert r["event"] != "rejected", r
+    assert tracker.process(41, np.zeros(2))["event"] == "rejected"
+
+
 def test_nothing_grows_when_trackers_are_made_and_run_again_and_again():
     model = os.path.join(MODELS, "cv3_imm.h5")
     plots = np.array([[k, 10.0 * k, 5.0 * k] for k in range(200)], dtype=float)

@@ -195,6 +195,26 @@ TEST(AllocationFreeStep, GaFuzzyTrackBankStep) {
   expect_bank_steps_allocate_nothing(bank, 0.01, -0.02);
 }
 
+// Fed times at irregular intervals, a CV/CA/CT IMM remakes every mode's F and Q and its mode
+// transitions each cycle without allocating.
+TEST(AllocationFreeStep, TrackerCycleAtIrregularTimes) {
+  PlainImmSpec spec = testing::cv3_spec();
+  Tracker tracker(make_plain_imm_filter(spec), spec.track_options(kDefaultMaxGap));
+  ASSERT_TRUE(tracker.filter().takes_any_interval());
+  (void)tracker.process_at(0.0, Eigen::Vector2d(0.0, 0.0));
+  (void)tracker.process_at(1.0, Eigen::Vector2d(1.0, 0.5));
+  const long before = allocations();
+  double t = 1.0;
+  int updated = 0;
+  for (int k = 2; k < 2000; ++k) {
+    t += 0.25 + 0.5 * (k % 5);
+    const TrackStepResult r = tracker.process_at(t, Eigen::Vector2d(1.0 * t, 0.5 * t));
+    updated += r.event == TrackEvent::kUpdated ? 1 : 0;
+  }
+  EXPECT_EQ(allocations(), before);
+  EXPECT_EQ(updated, 1998);
+}
+
 TEST(AllocationFreeStep, MixedDimensionPolarImmStep) {
   SquareMatrix<2> R;
   R << 50.0 * 50.0, 0.0, 0.0, std::pow(0.5 * 3.14159265358979 / 180.0, 2);

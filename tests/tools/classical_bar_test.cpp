@@ -179,5 +179,43 @@ TEST_F(Tools, AScheduleThatSwitchesOffIsTheClassicalBarItself) {
   EXPECT_NE(refused.err.find("schedule"), std::string::npos) << refused.err;
 }
 
+// imm-eval multi-target across conditions: every detection probability with every clutter
+// density, one table each, and metrics.json's conditions in that order. With every target
+// detected and no clutter the GOSPA is lower than at Pd 0.7 among clutter, on the same targets.
+TEST_F(Tools, MultiTargetRunsEveryDetectionProbabilityWithEveryClutterDensity) {
+  const auto out = dir_ / "multi";
+  const auto result =
+      run_tool("imm-eval",
+               {"multi-target", "--models", config("models/classical_imm_agile_air.h5").string(),
+                "--regime", config("configs/regimes/agile_air.toml").string(), "--targets", "2",
+                "--runs", "3", "--pd", "1,0.7", "--clutter", "0,30", "--out", out.string()},
+               root_);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  std::size_t tables = 0;
+  for (std::size_t at = 0; (at = result.out.find("Multi-target scenes", at)) != std::string::npos;
+       ++at) {
+    ++tables;
+  }
+  EXPECT_EQ(tables, 4U);
+  const auto metrics = nlohmann::json::parse(slurp(out / "metrics.json"));
+  const auto& conditions = metrics.at("conditions");
+  ASSERT_EQ(conditions.size(), 4U);
+  const double expected[4][2] = {{1.0, 0.0}, {1.0, 30.0}, {0.7, 0.0}, {0.7, 30.0}};
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_EQ(conditions[i].at("detection_probability").get<double>(), expected[i][0]);
+    EXPECT_EQ(conditions[i].at("clutter_per_scan").get<double>(), expected[i][1]);
+    EXPECT_GT(conditions[i].at("models").at(0).at("gospa").get<double>(), 0.0);
+  }
+  EXPECT_LT(conditions[0].at("models").at(0).at("gospa").get<double>(),
+            conditions[3].at("models").at(0).at("gospa").get<double>());
+  const auto refused =
+      run_tool("imm-eval",
+               {"multi-target", "--models", config("models/classical_imm_agile_air.h5").string(),
+                "--pd", "0.9,1.5", "--runs", "2", "--out", (dir_ / "refused").string()},
+               root_);
+  EXPECT_EQ(refused.exit_code, 2) << refused.out;
+  EXPECT_NE(refused.err.find("detection_probability"), std::string::npos) << refused.err;
+}
+
 }  // namespace
 }  // namespace imm::testing

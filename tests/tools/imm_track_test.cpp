@@ -94,10 +94,12 @@ TEST_F(Tools, ImmTrackRefusesMismatchedMeasurements) {
   EXPECT_NE(result.err.find("polar"), std::string::npos) << result.err;
 }
 
-// A CSV with a time column: t = 100 + k T gives the k file's track; times recorded at another
-// period are refused naming the column, the line and the model's sample period, which stderr
-// always states with the units (a CSV cannot say its own).
-TEST_F(Tools, ImmTrackHoldsATimeColumnToTheModelsSamplePeriod) {
+// A CSV with a time column. The plain IMM takes times as they come: t = 100 + k T gives the k
+// file's track to the bit (its first column t), and times 2.5 T apart a track of their own. A model
+// of one sample period (the GA-fuzzy IMM's, 1 s) refuses times recorded at another period, naming
+// the column, the line and its period, which stderr always states with the units (a CSV cannot say
+// its own).
+TEST_F(Tools, ImmTrackTakesATimeColumnAsTheModelAllows) {
   const auto model = dir_ / "cv3.h5";
   freeze_cv3(model);
   const auto lines = lines_of(testing::slurp(dir_ / "plots.csv"));
@@ -111,18 +113,32 @@ TEST_F(Tools, ImmTrackHoldsATimeColumnToTheModelsSamplePeriod) {
   }
   testing::write_text(dir_ / "timed.csv", timed);
   testing::write_text(dir_ / "stretched.csv", stretched);
-  const auto run = [&](const std::string& csv) {
-    return run_tool("imm-track", {"--filter", model.string(), "--measurements", csv}, root_);
+  const auto run = [&](const std::filesystem::path& filter, const std::string& csv) {
+    return run_tool("imm-track", {"--filter", filter.string(), "--measurements", csv}, root_);
   };
-  const auto by_scan = run((dir_ / "plots.csv").string());
-  const auto by_time = run((dir_ / "timed.csv").string());
+  // Every output line but its first column.
+  const auto without_first_column = [&](const std::string& out) {
+    std::vector<std::string> rest;
+    for (const auto& line : lines_of(out)) rest.push_back(line.substr(line.find(',')));
+    return rest;
+  };
+  const auto by_scan = run(model, (dir_ / "plots.csv").string());
+  const auto by_time = run(model, (dir_ / "timed.csv").string());
   ASSERT_EQ(by_time.exit_code, 0) << by_time.err;
-  EXPECT_EQ(by_time.out, by_scan.out);
+  EXPECT_EQ(by_time.out.substr(0, 2), "t,");
+  EXPECT_EQ(lines_of(by_time.out)[1].substr(0, 4), "100,") << by_time.out.substr(0, 200);
+  EXPECT_EQ(without_first_column(by_time.out), without_first_column(by_scan.out));
   EXPECT_NE(
       by_scan.err.find("sample period 1 s, lengths in km, Cartesian plots with σ = 0.5 km, 0.5 km"),
       std::string::npos)
       << by_scan.err;
-  const auto refused = run((dir_ / "stretched.csv").string());
+  const auto slower = run(model, (dir_ / "stretched.csv").string());
+  ASSERT_EQ(slower.exit_code, 0) << slower.err;
+  EXPECT_EQ(lines_of(slower.out).size(), lines_of(by_scan.out).size());
+  EXPECT_NE(slower.out, by_time.out);
+
+  const auto learned = root_ / "models" / "ga_fuzzy_imm.h5";
+  const auto refused = run(learned, (dir_ / "stretched.csv").string());
   EXPECT_EQ(refused.exit_code, 2);
   EXPECT_NE(refused.err.find("stretched.csv:3: column 't': 2.5 s is 2.5 s after the first plot"),
             std::string::npos)

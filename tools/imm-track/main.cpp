@@ -5,11 +5,13 @@
 //   imm-track --filter configs/track/cv3_imm.toml --measurements plots.csv [--out track.csv]
 //   imm-track --filter models/ga_fuzzy_imm.h5 --measurements plots.csv
 //
-// The CSV's first column is the scan k, or the time t in s (held to the model's sample period: a
-// file recorded at another period is refused naming the column). The model's sample period, length
-// unit and plot noise are printed on stderr, since a CSV cannot say its units.
-// Writes per input row: k, status (waiting|initialized|updated|rejected), the combined state,
-// its covariance diagonal and the mode probabilities, every number in its shortest form that
+// The CSV's first column is the scan k, or the time t in s. A filter that predicts over any
+// interval (a plain IMM without a learned schedule) takes the times as they come; a model of one
+// sample period holds them to it (a file recorded at another period is refused naming the column).
+// The model's sample period, length unit and plot noise are printed on stderr, since a CSV cannot
+// say its units.
+// Writes per input row: k (or t), status (waiting|initialized|updated|rejected), the combined
+// state, its covariance diagonal and the mode probabilities, every number in its shortest form that
 // reads back to the same double. Rows that cannot be used are reported on stderr with their line
 // number and leave the filter untouched.
 // Exit codes: 0 success, 1 usage, 2 unreadable or invalid filter or measurement file.
@@ -115,6 +117,7 @@ int main(int argc, char** argv) {
   imm::support::MeasurementCsv csv;
   std::vector<std::string> modes;
   std::optional<imm::Tracker> built;
+  bool by_time = false;  // a t column fed as times (process_at)
   try {
     loaded = load_filter(filter_path, max_gap);
     // The tracker is built here, inside the error handling: settings the file holds (its
@@ -136,7 +139,11 @@ int main(int argc, char** argv) {
                                " measurements but the filter expects " +
                                std::string(imm::to_string(loaded.options.measurement_kind)));
     }
-    imm::support::scans_from_times(csv, loaded.options.sample_period, measurements_path);
+    // Times as they come where the filter takes any interval; whole periods otherwise.
+    by_time = csv.timed && built->filter().takes_any_interval();
+    if (!by_time) {
+      imm::support::scans_from_times(csv, loaded.options.sample_period, measurements_path);
+    }
   } catch (const std::exception& error) {
     std::cerr << "imm-track: " << imm::support::one_line(error.what()) << '\n';
     return imm::support::exit_code::kBadInput;
@@ -158,7 +165,7 @@ int main(int argc, char** argv) {
   imm::Tracker& tracker = *built;
   const int n = tracker.state_dimension();
   const auto names = imm::state_variable_names(n);
-  out << "k,status";
+  out << (by_time ? "t" : "k") << ",status";
   for (const auto& name : names) out << ',' << name;
   for (const auto& name : names) out << ",var_" << name;
   for (const auto& mode : modes) out << ",mu_" << mode;
@@ -171,11 +178,12 @@ int main(int argc, char** argv) {
       std::cerr << measurements_path << ':' << row.line << ": " << row.problem
                 << "; row not used\n";
     }
-    if (!row.scan) {
+    if (by_time ? !row.time : !row.scan) {
       ++rejected;
       continue;
     }
-    const imm::TrackStepResult result = tracker.process(*row.scan, row.z);
+    const imm::TrackStepResult result =
+        by_time ? tracker.process_at(*row.time, row.z) : tracker.process(*row.scan, row.z);
     if (result.event == imm::TrackEvent::kRejected) {
       ++rejected;
       if (row.problem.empty()) {
@@ -183,7 +191,12 @@ int main(int argc, char** argv) {
                   << "; row not used\n";
       }
     }
-    out << *row.scan << ',' << imm::to_string(result.event);
+    if (by_time) {
+      write_number(out, *row.time);
+    } else {
+      out << *row.scan;
+    }
+    out << ',' << imm::to_string(result.event);
     if (tracker.initialized()) {
       tracker.state(mean, variance);
       for (int i = 0; i < n; ++i) out << ',', write_number(out, mean(i));

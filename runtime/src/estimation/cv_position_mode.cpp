@@ -18,14 +18,32 @@ using cv_position::sym;
 
 CvPositionMode::CvPositionMode(std::string name, double sample_period,
                                const SquareMatrix<4>& process_noise,
-                               const SquareMatrix<2>& measurement_covariance)
+                               const SquareMatrix<2>& measurement_covariance,
+                               MotionMaker<LinearMotionModel<4>> maker)
     : name_(std::move(name)),
       period_(sample_period),
       r00_(measurement_covariance(0, 0)),
       r01_(measurement_covariance(0, 1)),
-      r11_(measurement_covariance(1, 1)) {
+      r11_(measurement_covariance(1, 1)),
+      maker_(maker) {
+  set_noise(process_noise);
+}
+
+void CvPositionMode::set_noise(const SquareMatrix<4>& process_noise) {
   for (int a = 0; a < kN; ++a)
     for (int c = a; c < kN; ++c) noise_[static_cast<std::size_t>(sym(a, c))] = process_noise(a, c);
+}
+
+bool CvPositionMode::set_interval(double interval) {
+  if (!maker_ || !(interval > 0.0) || !std::isfinite(interval)) return false;
+  if (interval != interval_) {
+    const LinearMotionModel<4> motion = maker_(interval);
+    if (!motion.process_noise.allFinite()) return false;
+    period_ = motion.transition(0, 1);
+    set_noise(motion.process_noise);
+    interval_ = interval;
+  }
+  return true;
 }
 
 void CvPositionMode::load(const GaussianState<4>& state, Entries& entries) {

@@ -21,8 +21,15 @@ namespace imm {
 class CvPositionMode final : public ImmMode<4, 2> {
  public:
   /// `process_noise` is the Q of constant_velocity<2>(sample_period, …); R the plots' covariance.
+  /// `maker`, when given, remakes T and Q for other intervals (set_interval).
   CvPositionMode(std::string name, double sample_period, const SquareMatrix<4>& process_noise,
-                 const SquareMatrix<2>& measurement_covariance);
+                 const SquareMatrix<2>& measurement_covariance,
+                 MotionMaker<LinearMotionModel<4>> maker = {});
+
+  /// Whether a maker was given.
+  [[nodiscard]] bool takes_any_interval() const override { return static_cast<bool>(maker_); }
+  /// T and Q over `interval` (ImmMode::set_interval).
+  bool set_interval(double interval) override;
 
   [[nodiscard]] std::string_view name() const override { return name_; }
   void embedded_estimate(Vector<4>& mean, SquareMatrix<4>& covariance) const override;
@@ -45,6 +52,9 @@ class CvPositionMode final : public ImmMode<4, 2> {
   double period_ = 1.0;
   std::array<double, cv_position::kTriangle> noise_{};  // Q's upper triangle
   double r00_ = 0.0, r01_ = 0.0, r11_ = 0.0;
+  MotionMaker<LinearMotionModel<4>> maker_;
+  double interval_ = 0.0;  // the interval period_ and noise_ were last remade for (0: as built)
+  void set_noise(const SquareMatrix<4>& process_noise);
   // Predicts the mixed estimate into predicted_; updates predicted_ with z into pending_.
   void predict_mixed(const GaussianState<4>& mixed);
   ModeStep update_predicted(const Vector<2>& z);

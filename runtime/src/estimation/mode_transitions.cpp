@@ -54,4 +54,20 @@ Eigen::MatrixXd two_mode_generator(double first, double second) {
   return q;
 }
 
+void transition_over(const ModeMatrix& per_period, double periods, ModeMatrix& out) {
+  const Eigen::Index n = per_period.rows();
+  out.resize(n, n);
+  if (periods == 1.0) {
+    out = per_period;
+    return;
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double stay = per_period(i, i);
+    const double kept = std::pow(stay, periods);
+    // The share of the per-period switching probability this interval switches (1 at Δt = T).
+    const double share = stay < 1.0 ? (1.0 - kept) / (1.0 - stay) : 0.0;
+    for (Eigen::Index j = 0; j < n; ++j) out(i, j) = i == j ? kept : per_period(i, j) * share;
+  }
+}
+
 }  // namespace imm

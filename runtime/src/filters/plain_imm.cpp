@@ -64,6 +64,36 @@ StateEmbedding<N, NX> embedding_for() {
   }
 }
 
+// The parameters of a mode's motion besides the interval (MotionParameters).
+MotionParameters motion_parameters(const ModeSpec& mode) {
+  return {mode.process_noise, mode.noise_form, mode.singer_tau, mode.singer_sigma, mode.turn_noise};
+}
+
+// Each motion over any interval Δt, from the same functions the spec's period is made with (so
+// that Δt = T gives the same bits).
+LinearMotionModel<4> cv_over(double dt, const MotionParameters& p) {
+  return constant_velocity<2>(dt, p.process_noise, p.form);
+}
+LinearMotionModel<6> ca_over(double dt, const MotionParameters& p) {
+  return constant_acceleration<2>(dt, p.process_noise, p.form);
+}
+LinearMotionModel<6> singer_over(double dt, const MotionParameters& p) {
+  return singer<2>(dt, p.tau, p.sigma);
+}
+TurnMotionStep turn_over(double dt, const MotionParameters& p) {
+  return {dt, coordinated_turn_noise(dt, p.process_noise, p.turn_noise, p.form)};
+}
+
+// The maker of a mode's linear motion over any interval (N = 4: CV; N = 6: CA or Singer).
+template <int N>
+MotionMaker<LinearMotionModel<N>> linear_maker(const ModeSpec& mode) {
+  if constexpr (N == 4) {
+    return {&cv_over, motion_parameters(mode)};
+  } else {
+    return {mode.motion == MotionKind::kSinger ? &singer_over : &ca_over, motion_parameters(mode)};
+  }
+}
+
 // The coordinated-turn mode of a spec's mode (with its noise schedule, if any), with the spec's
 // measurement.
 template <int NX>
@@ -71,16 +101,18 @@ std::unique_ptr<ImmMode<NX, 2>> make_turn_mode(const ModeSpec& mode, double T,
                                                const MeasurementSpec& measurement) {
   constexpr int N = kCoordinatedTurnDim;
   const auto embedding = embedding_for<N, NX>();
-  const TurnMotionStep motion{
-      T, coordinated_turn_noise(T, mode.process_noise, mode.turn_noise, mode.noise_form)};
+  const MotionMaker<TurnMotionStep> maker{&turn_over, motion_parameters(mode)};
+  const TurnMotionStep motion = maker(T);
   if (measurement.kind == MeasurementKind::kCartesian) {
     using Model = PositionMeasurement<N, 2>;
-    return std::make_unique<CoordinatedTurnMode<NX, Model>>(
-        mode.name, motion, mode.noise_schedule, Model({0, 2}, measurement.covariance), embedding);
+    return std::make_unique<CoordinatedTurnMode<NX, Model>>(mode.name, motion, mode.noise_schedule,
+                                                            Model({0, 2}, measurement.covariance),
+                                                            embedding, 1, maker);
   }
   using Model = PolarMeasurement<N>;
-  return std::make_unique<CoordinatedTurnMode<NX, Model>>(
-      mode.name, motion, mode.noise_schedule, Model(0, 2, measurement.covariance), embedding);
+  return std::make_unique<CoordinatedTurnMode<NX, Model>>(mode.name, motion, mode.noise_schedule,
+                                                          Model(0, 2, measurement.covariance),
+                                                          embedding, 1, maker);
 }
 
 template <int NX, int N>
@@ -103,17 +135,19 @@ std::unique_ptr<ImmMode<NX, 2>> make_mode(const ModeSpec& mode, const LinearMoti
     if (measurement.kind == MeasurementKind::kCartesian) {
       // The written-out algebra of the common case (cv_position_mode.hpp).
       return std::make_unique<CvPositionMode>(mode.name, motion.transition(0, 1),
-                                              motion.process_noise, measurement.covariance);
+                                              motion.process_noise, measurement.covariance,
+                                              linear_maker<N>(mode));
     }
   }
   if (measurement.kind == MeasurementKind::kCartesian) {
     using Model = PositionMeasurement<N, 2>;
-    return std::make_unique<KalmanMode<NX, N, Model>>(
-        mode.name, motion, Model({0, kY}, measurement.covariance), embedding);
+    return std::make_unique<KalmanMode<NX, N, Model>>(mode.name, motion,
+                                                      Model({0, kY}, measurement.covariance),
+                                                      embedding, 1, linear_maker<N>(mode));
   }
   using Model = PolarMeasurement<N>;
   return std::make_unique<KalmanMode<NX, N, Model>>(
-      mode.name, motion, Model(0, kY, measurement.covariance), embedding);
+      mode.name, motion, Model(0, kY, measurement.covariance), embedding, 1, linear_maker<N>(mode));
 }
 
 }  // namespace
@@ -224,17 +258,12 @@ std::vector<std::unique_ptr<ImmMode<NX, 2>>> build_plain_imm_modes(const PlainIm
   std::vector<std::unique_ptr<ImmMode<NX, 2>>> modes;
   for (const ModeSpec& mode : spec.modes) {
     if (mode.motion == MotionKind::kConstantVelocity) {
-      modes.push_back(make_mode<NX, 4>(
-          mode, constant_velocity<2>(T, mode.process_noise, mode.noise_form), spec.measurement));
+      modes.push_back(make_mode<NX, 4>(mode, linear_maker<4>(mode)(T), spec.measurement));
     } else if (mode.motion == MotionKind::kCoordinatedTurn) {
       if constexpr (NX == 5 || NX == 7)
         modes.push_back(make_turn_mode<NX>(mode, T, spec.measurement));
     } else if constexpr (NX >= 6) {  // CA and Singer need the 6- or 7-state space (checked above)
-      const LinearMotionModel<6> motion =
-          mode.motion == MotionKind::kSinger
-              ? singer<2>(T, mode.singer_tau, mode.singer_sigma)
-              : constant_acceleration<2>(T, mode.process_noise, mode.noise_form);
-      modes.push_back(make_mode<NX, 6>(mode, motion, spec.measurement));
+      modes.push_back(make_mode<NX, 6>(mode, linear_maker<6>(mode)(T), spec.measurement));
     }
   }
   return modes;

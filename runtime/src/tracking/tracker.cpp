@@ -100,6 +100,13 @@ class PlainImmFilter final : public TrackFilter {
   StepStatus update(const Eigen::Vector2d& z) override {
     return std::visit([&](auto& imm) { return imm.update(z); }, imm_);
   }
+  [[nodiscard]] bool takes_any_interval() const override {
+    return std::visit([](const auto& imm) { return imm.takes_any_interval(); }, imm_);
+  }
+  bool set_interval(double interval) override {
+    const double periods = interval / spec_.sample_period;
+    return std::visit([&](auto& imm) { return imm.set_interval(interval, periods); }, imm_);
+  }
   StepStatus miss() override {
     return std::visit([](auto& imm) { return imm.miss(); }, imm_);
   }
@@ -239,14 +246,17 @@ std::optional<TrackStart> two_point_start(const TrackOptions& options, int state
                     b.covariance);
 }
 
-Tracker::Plot Tracker::cartesian_plot(std::int64_t scan, const Eigen::Vector2d& z) const {
+Tracker::Plot Tracker::cartesian_plot(std::int64_t scan, double time,
+                                      const Eigen::Vector2d& z) const {
   const CartesianPlot converted = cartesian(options_, z);
-  return {scan, converted.position, converted.covariance};
+  return {scan, time, converted.position, converted.covariance};
 }
 
 void Tracker::start_track(const Plot& first, const Plot& second) {
   const int n = filter_->state_dimension();
-  const double dt = static_cast<double>(second.scan - first.scan) * options_.sample_period;
+  const double dt = clock_ == Clock::kTimes
+                        ? second.time - first.time
+                        : static_cast<double>(second.scan - first.scan) * options_.sample_period;
   const TrackStart start = start_from(options_, n, dt, first.position, first.covariance,
                                       second.position, second.covariance);
   filter_->initialize(start.mean, start.covariance);
@@ -266,53 +276,70 @@ TrackStepResult Tracker::with_envelope(TrackStepResult result) const {
   return result;
 }
 
-TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
-  if (last_scan_ && scan <= *last_scan_) {
-    return reject(StepStatus::kInvalidMeasurement, "scan index does not increase");
-  }
+std::optional<TrackStepResult> Tracker::unusable(const Eigen::Vector2d& z) const {
   if (!limits::usable_measurement(z)) {
     return reject(StepStatus::kInvalidMeasurement,
                   "measurement is NaN, infinite or beyond the physical range (|z| > 1e9)");
   }
+  return std::nullopt;
+}
+
+TrackStepResult Tracker::start_at(std::int64_t scan, double time, const Eigen::Vector2d& z) {
+  envelope_.reset();  // a new track, a new window
+  TrackStepResult result;
+  if (options_.initialization.method == InitializationMethod::kExplicit) {
+    filter_->initialize(options_.initialization.state, options_.initialization.covariance);
+    const StepStatus status = filter_->step(z);
+    if (status != StepStatus::kOk) return reject(status, to_string(status));
+    initialized_ = true;
+    last_scan_ = scan, last_time_ = time;
+    result.event = TrackEvent::kInitialized;
+    return with_envelope(result);
+  }
+  const Plot plot = cartesian_plot(scan, time, z);
+  if (!plot.position.allFinite()) {
+    return reject(StepStatus::kInvalidMeasurement, "measurement is not convertible to a position");
+  }
+  const bool too_late = clock_ == Clock::kTimes
+                            ? time - first_plot_.value_or(plot).time > longest_gap()
+                            : scan - first_plot_.value_or(plot).scan > options_.max_gap;
+  if (!first_plot_ || too_late) {
+    first_plot_ = plot;
+    last_scan_ = scan, last_time_ = time;
+    result.event = TrackEvent::kWaiting;
+    return with_envelope(result);
+  }
+  start_track(*first_plot_, plot);
+  first_plot_.reset();
+  initialized_ = true;
+  last_scan_ = scan, last_time_ = time;
+  result.event = TrackEvent::kInitialized;
+  return with_envelope(result);
+}
+
+TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
+  if (clock_ == Clock::kTimes) {
+    return reject(StepStatus::kInvalidMeasurement, "this tracker is fed times (process_at)");
+  }
+  clock_ = Clock::kScans;
+  return process_scan(scan, 0.0, z);
+}
+
+TrackStepResult Tracker::process_scan(std::int64_t scan, double time, const Eigen::Vector2d& z) {
+  if (last_scan_ && scan <= *last_scan_) {
+    return reject(StepStatus::kInvalidMeasurement, "scan index does not increase");
+  }
+  if (auto bad = unusable(z)) return *bad;
 
   if (initialized_ && scan - *last_scan_ > options_.max_gap) {
     initialized_ = false;  // track lost: start again from this plot
     first_plot_.reset();
   }
-  if (!initialized_) envelope_.reset();  // a new track, a new window
-
-  TrackStepResult result;
-  if (!initialized_) {
-    if (options_.initialization.method == InitializationMethod::kExplicit) {
-      filter_->initialize(options_.initialization.state, options_.initialization.covariance);
-      const StepStatus status = filter_->step(z);
-      if (status != StepStatus::kOk) return reject(status, to_string(status));
-      initialized_ = true;
-      last_scan_ = scan;
-      result.event = TrackEvent::kInitialized;
-      return with_envelope(result);
-    }
-    const Plot plot = cartesian_plot(scan, z);
-    if (!plot.position.allFinite()) {
-      return reject(StepStatus::kInvalidMeasurement,
-                    "measurement is not convertible to a position");
-    }
-    if (!first_plot_ || scan - first_plot_->scan > options_.max_gap) {
-      first_plot_ = plot;
-      last_scan_ = scan;
-      result.event = TrackEvent::kWaiting;
-      return with_envelope(result);
-    }
-    start_track(*first_plot_, plot);
-    first_plot_.reset();
-    initialized_ = true;
-    last_scan_ = scan;
-    result.event = TrackEvent::kInitialized;
-    return with_envelope(result);
-  }
+  if (!initialized_) return start_at(scan, time, z);
 
   // Predict through the skipped scans, then update. If the update fails, the predictions stay:
   // the track then stands at the scan before this plot.
+  TrackStepResult result;
   const std::int64_t gap = scan - *last_scan_ - 1;
   for (std::int64_t i = 0; i < gap; ++i) {
     const StepStatus status = filter_->predict_only();
@@ -333,6 +360,57 @@ TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
   }
   result.event = TrackEvent::kUpdated;
   // The envelope test: this update's NIS into the window (fixed storage, no allocation).
+  if (const auto nis = last_step_nis(*filter_)) (void)envelope_.add(*nis);
+  return with_envelope(result);
+}
+
+TrackStepResult Tracker::process_at(double time, const Eigen::Vector2d& z) {
+  if (clock_ == Clock::kScans) {
+    return reject(StepStatus::kInvalidMeasurement, "this tracker is fed scans (process)");
+  }
+  if (!std::isfinite(time) || std::abs(time) > 1e12) {
+    return reject(StepStatus::kInvalidMeasurement, "time is NaN, infinite or beyond ±1e12 s");
+  }
+  if (last_time_ && !(time > *last_time_)) {
+    return reject(StepStatus::kInvalidMeasurement, "time does not increase");
+  }
+  clock_ = Clock::kTimes;
+  if (filter_->takes_any_interval()) return process_interval(time, z);
+  // A filter of one sample period: the plot's scan counted from the last one.
+  const double period = options_.sample_period;
+  std::int64_t scan = 0;
+  if (last_time_) {
+    const std::int64_t periods = whole_periods(time - *last_time_, period);
+    if (periods == 0) {
+      return reject(StepStatus::kUnsupportedInterval,
+                    "time is not a whole number of the model's sample periods after the last plot");
+    }
+    scan = *last_scan_ + periods;
+  }
+  const std::int64_t scan_before = last_scan_.value_or(0);
+  const double time_before = last_time_.value_or(time);
+  TrackStepResult result = process_scan(scan, time, z);
+  // The time the track stands at: the plot's, or that of the last period predicted through.
+  if (result.event != TrackEvent::kRejected) {
+    last_time_ = time;
+  } else if (last_scan_) {
+    last_time_ = time_before + static_cast<double>(*last_scan_ - scan_before) * period;
+  }
+  return result;
+}
+
+TrackStepResult Tracker::process_interval(double time, const Eigen::Vector2d& z) {
+  if (auto bad = unusable(z)) return *bad;
+  if (initialized_ && time - *last_time_ > longest_gap()) {
+    initialized_ = false;  // track lost: start again from this plot
+    first_plot_.reset();
+  }
+  if (!initialized_) return start_at(0, time, z);
+  TrackStepResult result;
+  const StepStatus status = step_over(*filter_, options_.sample_period, time - *last_time_, z);
+  if (status != StepStatus::kOk) return reject(status, to_string(status));
+  last_time_ = time;
+  result.event = TrackEvent::kUpdated;
   if (const auto nis = last_step_nis(*filter_)) (void)envelope_.add(*nis);
   return with_envelope(result);
 }

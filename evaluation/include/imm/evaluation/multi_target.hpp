@@ -8,8 +8,10 @@
 /// tracks of the regime (independent draws from
 /// --seed), its detections and clutter drawn from the same seed.
 ///
-/// `imm-eval multi-target --models A.h5 B.h5 … [--regime R] [--targets 3] [--pd 0.9]
-/// [--clutter 10] [--runs 20]` prints the table and writes metrics.json.
+/// `imm-eval multi-target --models A.h5 B.h5 … [--regime R] [--targets 3] [--pd 0.9[,0.7…]]
+/// [--clutter 10[,30…]] [--runs 20]` runs every detection probability with every clutter density
+/// on the same scenes' targets, prints a table per condition and writes metrics.json (its
+/// "conditions", each with its models' figures).
 
 #include <CLI/CLI.hpp>
 #include <cstdint>

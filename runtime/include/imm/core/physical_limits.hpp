@@ -30,6 +30,8 @@ struct IMM_RUNTIME_EXPORT Interval {
   double max;
   /// Unit printed after the interval ("" when it depends on the config).
   std::string_view unit;
+  /// Whether min ≤ value ≤ max (false for NaN).
+  [[nodiscard]] constexpr bool contains(double value) const { return value >= min && value <= max; }
 };
 
 /// Sample periods, time constants, durations: a microsecond to ten hours.

@@ -38,6 +38,7 @@
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/imm_mode.hpp"
+#include "imm/estimation/mode_transitions.hpp"
 #include "imm/estimation/step_status.hpp"
 #include "imm/math/linear_algebra.hpp"
 #include "imm/math/log_sum_exp.hpp"
@@ -71,6 +72,7 @@ class ImmEstimator {
     }
     validate_mode_probabilities(transition, initial_probabilities, n);
     transition_ = transition;
+    per_period_transition_ = transition;
     log_transition_.resize(n, n);
     initial_log_probabilities_.resize(n);
     for (int i = 0; i < n; ++i) {
@@ -160,6 +162,39 @@ class ImmEstimator {
   // predict(); then, without changing the track, predicted_plot() and, for every candidate plot,
   // candidate_log_likelihood() and candidate_distance(); then update(z) with the plot chosen, or
   // miss(). In that order the numbers are exactly those of step(z) and predict_only().
+
+  /// Whether every mode predicts over any positive interval (ImmMode::takes_any_interval).
+  [[nodiscard]] bool takes_any_interval() const {
+    for (const auto& mode : modes_) {
+      if (!mode->takes_any_interval()) return false;
+    }
+    return true;
+  }
+  /// Makes the following cycles span `interval` s, which is `periods` of the sample period Π is
+  /// given for: every mode's F and Q remade (ImmMode::set_interval) and Π over the interval
+  /// (transition_over). Allocation-free. False, and nothing changed, unless takes_any_interval(),
+  /// the interval is within the limits of a sample period (limits::kSamplePeriod: 1 µs to 10 h)
+  /// and `periods` is positive and finite; a held prediction (predict()) is dropped.
+  bool set_interval(double interval, double periods) {
+    if (!takes_any_interval() || !limits::kSamplePeriod.contains(interval) || !(periods > 0.0) ||
+        !std::isfinite(periods)) {
+      return false;
+    }
+    // Within those limits every mode's F and Q are finite: no mode refuses after another took it.
+    for (auto& mode : modes_) {
+      if (!mode->set_interval(interval)) return false;
+    }
+    if (periods != periods_) {
+      transition_over(per_period_transition_, periods, transition_);
+      const int n = mode_count();
+      for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j) log_transition_(i, j) = safe_log(transition_(i, j));
+      }
+      periods_ = periods;
+    }
+    predicted_ = false;
+    return true;
+  }
 
   /// Whether every mode predicts without the plot (see ImmMode::predicts_before_the_plot): what
   /// predict() needs.
@@ -430,7 +465,9 @@ class ImmEstimator {
   Mode& mode_at(int i) { return *modes_[index(i)]; }
 
   std::vector<std::unique_ptr<Mode>> modes_;
-  ModeMatrix transition_;
+  ModeMatrix transition_;             // Π over the current interval
+  ModeMatrix per_period_transition_;  // Π over one sample period, as given
+  double periods_ = 1.0;              // the current interval in sample periods
   ModeMatrix log_transition_;
   ModeVector initial_log_probabilities_;
   ModeVector log_probabilities_;

@@ -65,6 +65,14 @@ class ImmMode {
   /// Makes the pending estimate of the last successful propose*() current.
   virtual void commit() = 0;
 
+  /// Whether the mode predicts over any positive interval (set_interval), not only over the one
+  /// sample period it was built for.
+  [[nodiscard]] virtual bool takes_any_interval() const { return false; }
+  /// Makes the following predictions span `interval` s (positive, finite) until the next call:
+  /// F and Q remade for it without allocating. Only where takes_any_interval(); otherwise, or for
+  /// an interval the model cannot take, false and nothing changes.
+  virtual bool set_interval(double /*interval*/) { return false; }
+
   /// Whether the mode's prediction does not depend on the plot, so that the IMM can predict
   /// first and score candidate plots before it updates (ImmEstimator::predict). A mode whose
   /// process noise or compensation is set by the plot's own innovation cannot.

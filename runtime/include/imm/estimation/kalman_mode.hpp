@@ -4,6 +4,7 @@
 /// The plain IMM mode: a Kalman filter with a fixed linear motion model and a measurement model
 /// (linear or, through its Jacobian, extended).
 
+#include <cmath>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -25,14 +26,30 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
   using ImmMode<NX, MeasurementModel::kDim>::kMeasurementDim;
 
   /// `iterations` > 1: the iterated EKF update (kalman_filter.hpp) for nonlinear measurements.
+  /// `maker`, when given, remakes the motion for other intervals (set_interval).
   KalmanMode(std::string name, const LinearMotionModel<N>& motion,
              const MeasurementModel& measurement, const StateEmbedding<N, NX>& embedding,
-             int iterations = 1)
+             int iterations = 1, MotionMaker<LinearMotionModel<N>> maker = {})
       : name_(std::move(name)),
         motion_(motion),
         measurement_(measurement),
         embedding_(embedding),
-        iterations_(iterations) {}
+        iterations_(iterations),
+        maker_(maker) {}
+
+  /// Whether a maker was given.
+  [[nodiscard]] bool takes_any_interval() const override { return static_cast<bool>(maker_); }
+  /// F and Q over `interval` (ImmMode::set_interval).
+  bool set_interval(double interval) override {
+    if (!maker_ || !(interval > 0.0) || !std::isfinite(interval)) return false;
+    if (interval != interval_) {
+      const LinearMotionModel<N> motion = maker_(interval);
+      if (!motion.transition.allFinite() || !motion.process_noise.allFinite()) return false;
+      motion_ = motion;
+      interval_ = interval;
+    }
+    return true;
+  }
 
   [[nodiscard]] std::string_view name() const override { return name_; }
 
@@ -103,6 +120,8 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
   MeasurementModel measurement_;
   StateEmbedding<N, NX> embedding_;
   int iterations_ = 1;
+  MotionMaker<LinearMotionModel<N>> maker_;
+  double interval_ = 0.0;  // the interval motion_ was last remade for (0: as built)
   GaussianState<N> estimate_;
   GaussianState<N> pending_;
   GaussianState<N> predicted_;  // propose_prediction()'s, for propose_update()

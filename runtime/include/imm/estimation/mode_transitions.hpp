@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "imm/math/linear_algebra.hpp"
 #include "imm/runtime_export.hpp"
 
 namespace imm {
@@ -20,6 +21,17 @@ IMM_RUNTIME_EXPORT void validate_generator(const Eigen::MatrixXd& generator);
 /// Π(T) = exp(Q T) for a valid generator and a sample period T > 0: a row-stochastic matrix.
 [[nodiscard]] IMM_RUNTIME_EXPORT Eigen::MatrixXd transition_matrix(const Eigen::MatrixXd& generator,
                                                                    double sample_period);
+
+/// Π over an interval of `periods` sample periods (Δt / T, positive and finite) from the
+/// per-period Π, keeping each mode's mean sojourn time and where a switch goes: mode i is left at
+/// the rate −ln p_ii / T for the modes Π sends it to, so
+///   p_ii(Δt) = p_ii^(Δt/T),   p_ij(Δt) = p_ij (1 − p_ii(Δt)) / (1 − p_ii)   (j ≠ i),
+/// a row-stochastic matrix; a mode that is never left (p_ii = 1) stays so. Π itself, to the bit, at
+/// Δt = T. What a plain IMM fed time stamps uses (a model that stores a generator uses
+/// transition_matrix, exact at any interval). `out` is resized to Π's size, within ModeMatrix's
+/// inline storage: no allocation.
+IMM_RUNTIME_EXPORT void transition_over(const ModeMatrix& per_period, double periods,
+                                        ModeMatrix& out);
 
 /// The generator of the two-mode chain whose mean sojourn times are `first` and `second` seconds
 /// (each mode left only for the other).

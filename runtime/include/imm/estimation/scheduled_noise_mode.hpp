@@ -81,16 +81,35 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
   static constexpr int kDim = Motion::kDim;
   using ImmMode<NX, MeasurementModel::kDim>::kMeasurementDim;
 
-  /// `iterations` > 1: the iterated EKF update; no `schedule`: a fixed Q.
+  /// `iterations` > 1: the iterated EKF update; no `schedule`: a fixed Q. `maker`, when given,
+  /// remakes the motion for other intervals (set_interval) — only without a schedule, whose
+  /// table was learned at the sample period it was built for.
   ScheduledNoiseMode(std::string name, const Motion& motion, std::optional<FuzzyRuleTable> schedule,
                      const MeasurementModel& measurement, const StateEmbedding<kDim, NX>& embedding,
-                     int iterations = 1)
+                     int iterations = 1, MotionMaker<Motion> maker = {})
       : name_(std::move(name)),
         motion_(motion),
         schedule_(std::move(schedule)),
         measurement_(measurement),
         embedding_(embedding),
-        iterations_(iterations) {}
+        iterations_(iterations),
+        maker_(maker) {}
+
+  /// Without a schedule, whether a maker was given.
+  [[nodiscard]] bool takes_any_interval() const override {
+    return !schedule_ && static_cast<bool>(maker_);
+  }
+  /// The motion over `interval` (ImmMode::set_interval).
+  bool set_interval(double interval) override {
+    if (!takes_any_interval() || !(interval > 0.0) || !std::isfinite(interval)) return false;
+    if (interval != interval_) {
+      const Motion motion = maker_(interval);
+      if (!motion.noise().allFinite()) return false;
+      motion_ = motion;
+      interval_ = interval;
+    }
+    return true;
+  }
 
   /// The mode's name.
   [[nodiscard]] std::string_view name() const override { return name_; }
@@ -227,6 +246,8 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
   MeasurementModel measurement_;
   StateEmbedding<kDim, NX> embedding_;
   int iterations_ = 1;
+  MotionMaker<Motion> maker_;
+  double interval_ = 0.0;  // the interval motion_ was last remade for (0: as built)
   GaussianState<kDim> estimate_;
   GaussianState<kDim> pending_;
   GaussianState<kDim> predicted_;  // propose_prediction()'s, for propose_update()

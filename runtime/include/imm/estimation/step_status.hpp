@@ -19,6 +19,10 @@ enum class StepStatus {
   kUndefinedMeasurement,  ///< h(x) or its Jacobian is undefined at the prediction (range 0)
   kNonFiniteResult,       ///< the update would produce NaN, ±Inf or a negative variance
   kProbabilityUnderflow,  ///< every mode's likelihood is zero even in log space
+  /// The interval since the last cycle is not one the model predicts over: not positive, or, for
+  /// a model built for one sample period (a learned one), not within kIntervalTolerance of a whole
+  /// number of periods (TrackFilter::step_over).
+  kUnsupportedInterval,
 };
 
 /// Each status with its description (core/enum_names.hpp).
@@ -31,7 +35,10 @@ inline constexpr std::array kStepStatusNames{
     EnumName<StepStatus>{StepStatus::kUndefinedMeasurement,
                          "measurement function undefined at the prediction"},
     EnumName<StepStatus>{StepStatus::kNonFiniteResult, "update produced a non-finite estimate"},
-    EnumName<StepStatus>{StepStatus::kProbabilityUnderflow, "every mode likelihood is zero"}};
+    EnumName<StepStatus>{StepStatus::kProbabilityUnderflow, "every mode likelihood is zero"},
+    EnumName<StepStatus>{StepStatus::kUnsupportedInterval,
+                         "interval not positive or not a whole number of the model's sample "
+                         "periods"}};
 
 /// A human-readable description of a status.
 [[nodiscard]] constexpr std::string_view to_string(StepStatus status) {

@@ -5,6 +5,7 @@
 /// State layout: one block per axis, [x, vx, y, vy] or [x, vx, ax, y, vy, ay].
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -94,7 +95,41 @@ class IMM_RUNTIME_EXPORT TrackFilter {
   virtual StepStatus update(const Eigen::Vector2d& z);
   /// The second half without a plot (predict_only()'s numbers).
   virtual StepStatus miss();
+
+  // Time stamps. step(), predict_only() and predict() span the filter's interval: one sample
+  // period, or the last one set_interval() took. Driven by times, use step_over() and its siblings
+  // below: a filter whose model does not depend on the period (takes_any_interval(): a plain IMM
+  // without a learned schedule) predicts over any interval; any other one takes intervals within
+  // kIntervalTolerance of a whole number k ≥ 1 of its sample period, as k − 1 cycles without a plot
+  // first.
+
+  /// Whether the filter predicts over any interval (false unless the family implements it).
+  [[nodiscard]] virtual bool takes_any_interval() const { return false; }
+  /// Makes the following cycles span `interval` s: F, Q and the mode transitions remade for it,
+  /// without allocating; a held prediction is dropped. False, and nothing changed, unless
+  /// takes_any_interval() and the interval is within limits::kSamplePeriod (1 µs to 10 h).
+  virtual bool set_interval(double /*interval*/) { return false; }
 };
+
+/// How far from a whole number of sample periods an interval may be, as a fraction of the period,
+/// for a filter built for one period (1 %: time stamps of a sensor with a little jitter).
+inline constexpr double kIntervalTolerance = 0.01;
+
+/// The whole number k ≥ 1 of `period`s that `interval` spans within kIntervalTolerance, or 0.
+[[nodiscard]] IMM_RUNTIME_EXPORT std::int64_t whole_periods(double interval, double period);
+
+/// One cycle with plot z, `interval` s after the filter's last one, for a filter built for sample
+/// period `period` (see above). kUnsupportedInterval, and nothing changed, for an interval the
+/// filter does not take; a failure of one of the k − 1 cycles without a plot is returned with the
+/// cycles before it kept.
+IMM_RUNTIME_EXPORT StepStatus step_over(TrackFilter& filter, double period, double interval,
+                                        const Eigen::Vector2d& z);
+/// One cycle without a plot, `interval` s after the last (step_over without z).
+IMM_RUNTIME_EXPORT StepStatus predict_only_over(TrackFilter& filter, double period,
+                                                double interval);
+/// The split cycle's first half (TrackFilter::predict) `interval` s after the last cycle; for a
+/// filter of one period the k − 1 cycles between are predicted and kept first.
+IMM_RUNTIME_EXPORT StepStatus predict_over(TrackFilter& filter, double period, double interval);
 
 /// The normalized innovation squared νᵀ S⁻¹ ν of the filter's last step (TrackFilter::innovation),
 /// or nothing when there is none or S is not positive definite. Allocation-free.

@@ -61,6 +61,15 @@ class IMM_RUNTIME_EXPORT Tracker {
   /// plot the filter cannot use (singular S) is rejected after the skipped scans were predicted.
   TrackStepResult process(std::int64_t scan, const Eigen::Vector2d& z);
 
+  /// Feeds the plot taken at `time` s; times must increase, and a tracker is fed either scans or
+  /// times. A filter that takes any interval (TrackFilter::takes_any_interval: a plain IMM without
+  /// a learned schedule) predicts over the time since the last plot; any other one takes a time a
+  /// whole number of sample periods after the last plot (within kIntervalTolerance), the periods
+  /// between predicted through as skipped scans, and rejects another with kUnsupportedInterval,
+  /// leaving the track unchanged. A gap of more than max_gap sample periods ends the track; the
+  /// two-point start takes its velocity over the two plots' time difference.
+  TrackStepResult process_at(double time, const Eigen::Vector2d& z);
+
   /// Whether a track is running.
   [[nodiscard]] bool initialized() const { return initialized_; }
   /// The filter's state dimension.
@@ -71,8 +80,13 @@ class IMM_RUNTIME_EXPORT Tracker {
   [[nodiscard]] const TrackFilter& filter() const { return *filter_; }
   /// The filter being driven (mutable).
   [[nodiscard]] TrackFilter& filter() { return *filter_; }
-  /// The scan of the last accepted plot (none before the first).
-  [[nodiscard]] std::optional<std::int64_t> last_scan() const { return last_scan_; }
+  /// The scan of the last accepted plot (none before the first; process() only).
+  [[nodiscard]] std::optional<std::int64_t> last_scan() const {
+    return clock_ == Clock::kTimes ? std::nullopt : last_scan_;
+  }
+  /// The time the track stands at: the last accepted plot's, or later when the periods after it
+  /// were predicted through (none before the first; process_at() only).
+  [[nodiscard]] std::optional<double> last_time() const { return last_time_; }
 
   /// Combined mean and covariance diagonal, state_dimension() entries each (initialized only).
   void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const;
@@ -86,12 +100,29 @@ class IMM_RUNTIME_EXPORT Tracker {
  private:
   struct Plot {
     std::int64_t scan = 0;
+    double time = 0.0;  // s since the first plot (process_at) or the scan's (process)
     Eigen::Vector2d position = Eigen::Vector2d::Zero();
     Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
   };
+  // Whether the tracker is fed scans or times (fixed by the first plot).
+  enum class Clock { kNone, kScans, kTimes };
 
-  [[nodiscard]] Plot cartesian_plot(std::int64_t scan, const Eigen::Vector2d& z) const;
+  [[nodiscard]] Plot cartesian_plot(std::int64_t scan, double time, const Eigen::Vector2d& z) const;
   void start_track(const Plot& first, const Plot& second);
+  // process() without the clock check (process_at of a filter of one sample period uses it, with
+  // the plot's time for a two-point start).
+  TrackStepResult process_scan(std::int64_t scan, double time, const Eigen::Vector2d& z);
+  // process_at() of a filter that takes any interval.
+  TrackStepResult process_interval(double time, const Eigen::Vector2d& z);
+  // max_gap sample periods, s.
+  [[nodiscard]] double longest_gap() const {
+    return static_cast<double>(options_.max_gap) * options_.sample_period;
+  }
+  // A plot's check common to both clocks; nothing when it is usable.
+  [[nodiscard]] std::optional<TrackStepResult> unusable(const Eigen::Vector2d& z) const;
+  // The start of a track at this plot: an explicit start, or the first or second plot of a
+  // two-point one.
+  TrackStepResult start_at(std::int64_t scan, double time, const Eigen::Vector2d& z);
   TrackStepResult reject(StepStatus status, std::string_view reason) const;
   // The result with the envelope test's state.
   TrackStepResult with_envelope(TrackStepResult result) const;
@@ -101,6 +132,8 @@ class IMM_RUNTIME_EXPORT Tracker {
   EnvelopeMonitor envelope_;
   std::optional<Plot> first_plot_;
   std::optional<std::int64_t> last_scan_;
+  std::optional<double> last_time_;
+  Clock clock_ = Clock::kNone;
   bool initialized_ = false;
 };
 

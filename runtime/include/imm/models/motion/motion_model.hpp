@@ -35,6 +35,32 @@ enum class NoiseForm {
   kContinuous,
 };
 
+/// What a mode's motion is made from besides the interval: a filter fed time stamps remakes its
+/// F and Q for each interval from these (filters/plain_imm.cpp fills them for CV, CA, Singer and CT
+/// modes). Over an interval Δt the piecewise-constant form draws one value of the highest
+/// derivative per interval (q its variance, whatever Δt); the continuous form integrates q over Δt.
+struct MotionParameters {
+  double process_noise = 0.0;                      ///< q (CV, CA, CT's linear acceleration)
+  NoiseForm form = NoiseForm::kPiecewiseConstant;  ///< how q enters Q
+  double tau = 0.0;                                ///< Singer τ, s
+  double sigma = 0.0;                              ///< Singer σ_a
+  double turn_noise = 0.0;                         ///< CT: the turn rate's noise
+};
+
+/// Makes a mode's motion `Motion` (a LinearMotionModel, a ScheduledNoiseMode's step) over any
+/// interval; empty (no `make`) for a mode built for one sample period only.
+template <class Motion>
+struct MotionMaker {
+  /// The motion over an interval (s) from the parameters; none: the mode has one period only.
+  Motion (*make)(double interval, const MotionParameters& parameters) = nullptr;
+  /// What `make` reads besides the interval.
+  MotionParameters parameters;
+  /// Whether there is a `make`.
+  [[nodiscard]] explicit operator bool() const { return make != nullptr; }
+  /// The motion over `interval` s.
+  [[nodiscard]] Motion operator()(double interval) const { return make(interval, parameters); }
+};
+
 /// Places `block` D times on the diagonal: the per-axis model becomes a D-axis model.
 template <int D, int K>
 [[nodiscard]] SquareMatrix<D * K> block_diagonal(const SquareMatrix<K>& block) {
