@@ -90,6 +90,11 @@ class TrackBank:
     def step(self, plots: npt.ArrayLike) -> List[str]:
         """One scan of every track: plots (capacity, 2), one row per track (NaN: no plot). Returns
         each track's status ("ok" or why its state was left unchanged); the GIL is released."""
+    def set_interval(self, dt: float) -> bool:
+        """Makes the following steps of every track span dt seconds (a plain IMM without a noise
+        schedule: F, Q and mode transitions of the interval). False, and nothing changed, for a
+        model of one sample period (step it once per period, with NaN plots between) or a dt
+        outside 1 µs to 10 h."""
     def estimate(self, track: int) -> Tuple[_Array, _Array]:
         """Track `track`'s combined mean (n,) and covariance (n, n)."""
     def mode_probabilities(self, track: int) -> _Array:

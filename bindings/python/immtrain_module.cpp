@@ -286,6 +286,8 @@ class PyTrackBank {
   }
 
   // One cycle of tracks 0 … N − 1 with plots (N, 2); returns each track's status.
+  bool set_interval(double interval) { return bank_->set_interval(interval); }
+
   std::vector<std::string> step(
       const py::array_t<double, py::array::c_style | py::array::forcecast>& plots) {
     if (plots.ndim() != 2 || plots.shape(1) != 2) {
@@ -402,6 +404,9 @@ PYBIND11_MODULE(immtrain, m) {
       .def("initialize", &PyTrackBank::initialize, py::arg("track"), py::arg("mean"),
            py::arg("covariance"))
       .def("step", &PyTrackBank::step, py::arg("plots"))
+      .def("set_interval", &PyTrackBank::set_interval, py::arg("dt"),
+           "The following steps span dt s (a plain IMM without a schedule); False and nothing "
+           "changed for a model of one sample period or dt outside 1 µs to 10 h")
       .def("estimate", &PyTrackBank::estimate, py::arg("track"))
       .def("mode_probabilities", &PyTrackBank::mode_probabilities, py::arg("track"))
       .def("candidate_log_likelihoods", &PyTrackBank::candidate_log_likelihoods, py::arg("plots"),

@@ -400,6 +400,11 @@ def test_time_stamps_any_interval_for_a_plain_imm_whole_periods_for_a_learned_mo
         assert r["event"] != "rejected", r
     assert tracker.process(41, np.zeros(2))["event"] == "rejected"
 
+    # A bank takes a scan's interval for every track where the model takes any interval.
+    assert immtrain.TrackBank(model, 3).set_interval(0.4 * T)
+    fixed = immtrain.TrackBank(os.path.join(MODELS, "ga_fuzzy_imm.h5"), 3)
+    assert not fixed.set_interval(0.4 * T)
+
 
 def test_nothing_grows_when_trackers_are_made_and_run_again_and_again():
     model = os.path.join(MODELS, "cv3_imm.h5")

@@ -7,10 +7,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "imm/estimation/mode_transitions.hpp"
 #include "imm/load.hpp"
+#include "imm/model_kinds.hpp"
+#include "imm/tracking/plain_imm_track_bank.hpp"
+#include "imm/tracking/track_bank.hpp"
 #include "imm/tracking/tracker.hpp"
 #include "testing/filter_snapshot.hpp"
 #include "testing/kind_filters.hpp"
@@ -224,6 +228,77 @@ TEST(TimeStamps, ATrackerFedIrregularTimesTracksWhatScansCannot) {
   EXPECT_LT(mean_nis, 2.6);
   EXPECT_LT(std::sqrt(squared_error / updates), 10.0 * std::sqrt(2.0));
   EXPECT_GT(nis_scan / updates, 10.0 * mean_nis);
+}
+
+// The banks take a scan's interval for all their tracks: TrackBank equals one-track IMMs given
+// the same intervals (to rounding, as at one period), PlainImmTrackBank to the bit; a bank of a
+// model of one period refuses.
+TEST(TimeStamps, BanksTakeTheIntervalOfAScanForEveryTrack) {
+  PlainImmSpec cv2 = one_cv_mode(NoiseForm::kContinuous);
+  ModeSpec fast = cv2.modes.front();
+  fast.name = "fast";
+  fast.process_noise = 400.0;
+  fast.noise_form = NoiseForm::kPiecewiseConstant;
+  cv2.modes.push_back(fast);
+  cv2.transition.resize(2, 2);
+  cv2.transition << 0.9, 0.1, 0.2, 0.8;
+  cv2.initial_probabilities = Eigen::Vector2d(0.7, 0.3);
+  constexpr std::size_t kTracks = 9;
+  TrackBank bank(cv2, kTracks);
+  PlainImmTrackBank<4> plain_bank(cv2, kTracks);
+  std::vector<ImmEstimator<4, 2>> alone;
+  GaussianState<4> start;
+  start.covariance *= 400.0;
+  for (std::size_t t = 0; t < kTracks; ++t) {
+    start.mean << 10.0 * t, 20.0, -5.0 * t, 3.0;
+    bank.initialize(t, start);
+    plain_bank.initialize(t, start);
+    alone.push_back(build_plain_imm<4>(cv2));
+    alone.back().initialize(start);
+  }
+  EXPECT_FALSE(bank.set_interval(0.0));
+  EXPECT_FALSE(plain_bank.set_interval(std::nan("")));
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> gap(0.1, 4.0);
+  std::normal_distribution<double> noise(0.0, 10.0);
+  std::vector<Eigen::Vector2d> plots(kTracks);
+  std::vector<StepStatus> status(kTracks), plain_status(kTracks);
+  double t_now = 0.0;
+  for (int k = 0; k < 60; ++k) {
+    const double dt = k % 10 == 0 ? 1.0 : gap(rng);
+    t_now += dt;
+    ASSERT_TRUE(bank.set_interval(dt));
+    ASSERT_TRUE(plain_bank.set_interval(dt));
+    for (std::size_t t = 0; t < kTracks; ++t) {
+      plots[t] = Eigen::Vector2d(10.0 * t + 20.0 * t_now, -5.0 * t + 3.0 * t_now) +
+                 Eigen::Vector2d(noise(rng), noise(rng));
+    }
+    bank.step(plots, status);
+    plain_bank.step(plots, plain_status);
+    for (std::size_t t = 0; t < kTracks; ++t) {
+      ASSERT_TRUE(alone[t].set_interval(dt, dt / cv2.sample_period));
+      ASSERT_EQ(alone[t].step(plots[t]), StepStatus::kOk);
+      ASSERT_EQ(status[t], StepStatus::kOk);
+      ASSERT_EQ(plain_status[t], StepStatus::kOk);
+      const GaussianState<4> a = alone[t].estimate(), b = bank.estimate(t);
+      const GaussianState<4> c = plain_bank.estimate(t);
+      EXPECT_EQ(std::memcmp(a.mean.data(), c.mean.data(), sizeof(double) * 4), 0);
+      EXPECT_EQ(std::memcmp(a.covariance.data(), c.covariance.data(), sizeof(double) * 16), 0);
+      for (int i = 0; i < 4; ++i) {
+        EXPECT_NEAR(b.mean(i), a.mean(i), 1e-9 * std::max(1.0, std::abs(a.mean(i))));
+        EXPECT_NEAR(b.covariance(i, i), a.covariance(i, i), 1e-9 * a.covariance(i, i));
+      }
+      EXPECT_NEAR(bank.mode_probabilities(t)(1), alone[t].mode_probabilities()(1), 1e-9);
+    }
+  }
+  // Any kind's bank behind one interface: a model of one period refuses an interval.
+  for (const auto& path : testing::shipped_models()) {
+    const LoadedFilter loaded = load_filter(path);
+    std::unique_ptr<AnyTrackBank> any = open_track_bank(path, 2);
+    EXPECT_EQ(any->set_interval(0.5 * loaded.options.sample_period),
+              loaded.filter->takes_any_interval())
+        << path;
+  }
 }
 
 TEST(TimeStamps, ATrackerRefusesTimesThatDoNotIncreaseMixedClocksAndOddIntervals) {

@@ -323,6 +323,31 @@ void BM_W1_PlainImmStep(benchmark::State& state) {
 }
 BENCHMARK(BM_W1_PlainImmStep);
 
+// W1's step fed time stamps whose interval changes at every step (0.95 T and 1.05 T in turn): the
+// same cycle after every mode's F and Q and the mode transitions are remade for the interval
+// (ImmEstimator::set_interval) — the price of irregular time stamps over BM_W1_PlainImmStep.
+void BM_W1_PlainImmStepAtChangingIntervals(benchmark::State& state) {
+  const auto& input = w1_input();
+  const imm::PlainImmSpec spec = imm::workloads::w1_spec();
+  auto imm = imm::build_plain_imm<4>(spec);
+  imm.initialize(imm::workloads::w1_start());
+  const double T = spec.sample_period;
+  Eigen::Index k = 0;
+  for (auto _ : state) {
+    const double dt = (k % 2 == 0 ? 0.95 : 1.05) * T;
+    benchmark::DoNotOptimize(imm.set_interval(dt, dt / T));
+    const imm::Vector<2> z = input.plots.row(k).transpose();
+    benchmark::DoNotOptimize(imm.step(z));
+    benchmark::DoNotOptimize(imm.estimate().mean.data());
+    if (++k == input.plots.rows()) {
+      k = 0;
+      imm.initialize(imm::workloads::w1_start());
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_W1_PlainImmStepAtChangingIntervals);
+
 // W3: fuzzy c-means of the 4000 scalars from the given memberships (c = 3, m = 2, 1e-6).
 void BM_W3_FuzzyCMeans1d(benchmark::State& state) {
   const auto input = imm::workloads::load_w3_1d(imm::workloads::input_folder());

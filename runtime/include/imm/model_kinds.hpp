@@ -67,6 +67,10 @@ class IMM_RUNTIME_EXPORT AnyTrackBank {
   /// otherwise.
   virtual void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
                                          Eigen::Ref<Eigen::MatrixXd> out);
+  /// Makes the following cycles of every track span `interval` s, where the kind's bank predicts
+  /// over any interval (TrackBank::set_interval); false, and nothing changed, otherwise (a model of
+  /// one sample period: step with unusable plots for the periods between).
+  virtual bool set_interval(double /*interval*/) { return false; }
 };
 
 /// A concrete bank behind AnyTrackBank.
@@ -109,6 +113,13 @@ class TrackBankAdapter final : public AnyTrackBank {
       bank_.candidate_log_likelihoods(plots, gate, out);
     } else {
       AnyTrackBank::candidate_log_likelihoods(plots, gate, out);
+    }
+  }
+  bool set_interval(double interval) override {
+    if constexpr (requires { bank_.set_interval(interval); }) {
+      return bank_.set_interval(interval);
+    } else {
+      return false;
     }
   }
   /// The bank itself.

@@ -19,6 +19,7 @@ PlainImmTrackBank<NX>::PlainImmTrackBank(const PlainImmSpec& spec, std::size_t c
                                         std::to_string(spec.mixing_dimension()) +
                                         " states, not the bank's " + std::to_string(NX));
   }
+  sample_period_ = spec.sample_period;
   tracks_.reserve(capacity);
   for (std::size_t t = 0; t < capacity; ++t) tracks_.push_back(build_plain_imm<NX>(spec));
   initialized_.assign(capacity, 0);
@@ -69,6 +70,16 @@ void PlainImmTrackBank<NX>::candidate_log_likelihoods(
       }
     }
   }
+}
+
+template <int NX>
+bool PlainImmTrackBank<NX>::set_interval(double interval) {
+  const double periods = interval / sample_period_;
+  // Every track has the same modes: the first refuses what every one would, before any changes.
+  for (ImmEstimator<NX, 2>& track : tracks_) {
+    if (!track.set_interval(interval, periods)) return false;
+  }
+  return true;
 }
 
 template <int NX>

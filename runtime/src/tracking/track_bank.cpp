@@ -12,6 +12,7 @@
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
+#include "imm/estimation/mode_transitions.hpp"
 #include "imm/math/log_sum_exp.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
 #include "track_bank_kernel.hpp"
@@ -51,23 +52,19 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
   modes_ = static_cast<int>(spec.modes.size());
   capacity_ = capacity;
   stride_ = static_cast<std::ptrdiff_t>((capacity + kBlock - 1) / kBlock * kBlock);
-  period_ = spec.sample_period;
+  sample_period_ = spec.sample_period;
+  per_period_ = spec.transition;
   const auto n = static_cast<std::size_t>(modes_);
   transition_.resize(n * n);
   log_transition_.resize(n * n);
   for (int i = 0; i < modes_; ++i) {
-    for (int j = 0; j < modes_; ++j) {
-      const std::size_t at = static_cast<std::size_t>(i) * n + static_cast<std::size_t>(j);
-      transition_[at] = spec.transition(i, j);
-      log_transition_[at] = safe_log(spec.transition(i, j));
-    }
     initial_log_mu_.push_back(safe_log(spec.initial_probabilities(i)));
   }
   for (const ModeSpec& mode : spec.modes) {
-    const auto cv = constant_velocity<2>(period_, mode.process_noise, mode.noise_form);
-    for (int a = 0; a < kDim; ++a)
-      for (int c = a; c < kDim; ++c) noise_.push_back(cv.process_noise(a, c));
+    motion_.push_back({mode.process_noise, mode.noise_form});
   }
+  noise_.resize(n * static_cast<std::size_t>(kTriangle));
+  remake(spec.sample_period, spec.transition);
   r00_ = spec.measurement.covariance(0, 0);
   r01_ = spec.measurement.covariance(0, 1);
   r11_ = spec.measurement.covariance(1, 1);
@@ -141,6 +138,33 @@ void TrackBank::candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots
   scoring.out = out.data();
   scoring.out_stride = out.outerStride();
   score_plots(scoring);
+}
+
+void TrackBank::remake(double interval, const ModeMatrix& transition) {
+  period_ = interval;
+  const auto n = static_cast<std::size_t>(modes_);
+  for (int i = 0; i < modes_; ++i) {
+    for (int j = 0; j < modes_; ++j) {
+      const std::size_t at = static_cast<std::size_t>(i) * n + static_cast<std::size_t>(j);
+      transition_[at] = transition(i, j);
+      log_transition_[at] = safe_log(transition(i, j));
+    }
+  }
+  std::size_t at = 0;
+  for (const MotionParameters& mode : motion_) {
+    const auto cv = constant_velocity<2>(interval, mode.process_noise, mode.form);
+    for (int a = 0; a < kDim; ++a)
+      for (int c = a; c < kDim; ++c) noise_[at++] = cv.process_noise(a, c);
+  }
+}
+
+bool TrackBank::set_interval(double interval) {
+  if (!limits::kSamplePeriod.contains(interval)) return false;
+  if (interval == period_) return true;
+  ModeMatrix transition;
+  transition_over(per_period_, interval / sample_period_, transition);
+  remake(interval, transition);
+  return true;
 }
 
 void TrackBank::run_block(std::size_t first, int lanes, const Eigen::Vector2d* plots,

@@ -64,6 +64,12 @@ class PlainImmTrackBank {
   void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
                                  Eigen::Ref<Eigen::MatrixXd> out);
 
+  /// Makes the following cycles of every track span `interval` s (ImmEstimator::set_interval: F, Q
+  /// and the mode transitions of the interval; one sample period: the spec's own numbers). False,
+  /// and nothing changed, for a spec with a noise schedule or an interval outside
+  /// limits::kSamplePeriod. Nothing is allocated.
+  bool set_interval(double interval);
+
   /// Whether track `track` has been initialized.
   [[nodiscard]] bool initialized(std::size_t track) const;
   /// The combined estimate of a track.
@@ -77,6 +83,7 @@ class PlainImmTrackBank {
   [[nodiscard]] std::size_t checked(std::size_t track) const;
   std::vector<ImmEstimator<NX, 2>> tracks_;
   std::vector<unsigned char> initialized_;
+  double sample_period_ = 0.0;
 };
 
 extern template class IMM_RUNTIME_EXPORT PlainImmTrackBank<4>;

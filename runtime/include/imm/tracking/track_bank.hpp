@@ -84,6 +84,13 @@ class IMM_RUNTIME_EXPORT TrackBank {
   void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
                                  Eigen::Ref<Eigen::MatrixXd> out);
 
+  /// Makes the following cycles of every track (step, candidate_log_likelihoods) span `interval`
+  /// s: each mode's F and Q and the mode transitions of the interval, as for one track
+  /// (TrackFilter::set_interval, transition_over; one sample period: the spec's own numbers).
+  /// False, and nothing changed, for an interval outside limits::kSamplePeriod. Nothing is
+  /// allocated.
+  bool set_interval(double interval);
+
   /// Whether track `track` has been initialized.
   [[nodiscard]] bool initialized(std::size_t track) const;
   /// The combined estimate of a track (eq. 10–11).
@@ -102,6 +109,8 @@ class IMM_RUNTIME_EXPORT TrackBank {
   [[nodiscard]] int mode_slot(int j, int entry) const;
   [[nodiscard]] int combined_slot(int entry) const;
   [[nodiscard]] std::size_t checked(std::size_t track) const;
+  // The constants of a cycle of `interval` s with mode transitions `transition` (no allocation).
+  void remake(double interval, const ModeMatrix& transition);
   // The kernel on tracks [first, first + lanes), lanes ≤ kBlock: their step with `plots`, or,
   // with a `prediction`, their predicted plot densities into it.
   void run_block(std::size_t first, int lanes, const Eigen::Vector2d* plots, StepStatus* status,
@@ -109,9 +118,12 @@ class IMM_RUNTIME_EXPORT TrackBank {
 
   int modes_ = 0;
   std::size_t capacity_ = 0;
-  std::ptrdiff_t stride_ = 0;  // capacity rounded up to whole blocks
-  double period_ = 1.0;
-  std::vector<double> transition_;  // π_ij at i * modes + j
+  std::ptrdiff_t stride_ = 0;   // capacity rounded up to whole blocks
+  double period_ = 1.0;         // the interval of a cycle (the sample period until set_interval)
+  double sample_period_ = 1.0;  // the spec's
+  ModeMatrix per_period_;       // Π over one sample period
+  std::vector<MotionParameters> motion_;  // per mode, what F and Q are made from
+  std::vector<double> transition_;        // π_ij at i * modes + j
   std::vector<double> log_transition_;
   std::vector<double> initial_log_mu_;
   std::vector<double> noise_;  // per mode, Q's upper triangle (10)
