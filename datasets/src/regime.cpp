@@ -224,8 +224,17 @@ double Regime::position_sigma() const {
   return sigma;
 }
 
+void SceneSpec::validate() const {
+  require(targets >= 1 && targets <= 100, "scene.targets", "must be in [1, 100]");
+  require(detection_probability > 0.0 && detection_probability <= 1.0,
+          "scene.detection_probability", "must be in (0, 1]");
+  require(clutter_per_scan >= 0.0 && clutter_per_scan <= 1e4, "scene.clutter_per_scan",
+          "must be in [0, 10⁴] false plots per scan");
+}
+
 void Regime::validate() const {
   require(!name.empty(), "name", "must not be empty");
+  scene.validate();
   limits::require_in(sample_period, limits::kSamplePeriod, "sample_period");
   require(scans >= 3 && scans <= 1'000'000, "scans", "must be in [3, 10⁶]");
   limits::require_in(process_noise_sigma, limits::kAcceleration, "process_noise_sigma");

@@ -127,8 +127,9 @@ datasets::Sensor sensor_from(const ConfigTable& table) {
     table.fail("sigma", "\"estimate\" is for a Cartesian or polar sensor's plots");
   }
   if (sensor.estimate_sigma && (table.has("range_sigma") || table.has("azimuth_sigma_deg"))) {
-    table.fail("sigma", "\"estimate\" learns both σ_r and σ_θ; range_sigma and "
-                        "azimuth_sigma_deg go without it");
+    table.fail("sigma",
+               "\"estimate\" learns both σ_r and σ_θ; range_sigma and "
+               "azimuth_sigma_deg go without it");
   }
   if (sensor.kind == SensorKind::kPolar) {
     if (table.has("position")) sensor.position = table.reals("position", 2);
@@ -244,6 +245,18 @@ Units units_from(const ConfigTable& root) {
   return units == "m" ? datasets::Units::kMetres : datasets::Units::kKilometres;
 }
 
+/// [scene], each key defaulting to SceneSpec's.
+datasets::SceneSpec scene_from(const ConfigTable& root) {
+  datasets::SceneSpec scene;
+  if (const auto table = root.table("scene")) {
+    scene.targets = table->count_or("targets", scene.targets);
+    scene.detection_probability =
+        table->real_or("detection_probability", scene.detection_probability);
+    scene.clutter_per_scan = table->real_or("clutter_per_scan", scene.clutter_per_scan);
+  }
+  return scene;
+}
+
 /// [splits], each key defaulting to `defaults`'.
 Splits splits_from(const ConfigTable& root, Splits defaults) {
   if (const auto splits = root.table("splits")) {
@@ -326,6 +339,7 @@ RegimeFile regime_from(const ConfigTable& root, const std::string& text) {
     }
   }
   r.splits = splits_from(root, r.splits);
+  r.scene = scene_from(root);
   published_from(root, file);
   finish(r, text);
   return file;
@@ -393,6 +407,7 @@ RegimeFile recorded_regime_from(const ConfigTable& root, const ConfigTable& tabl
   r.splits.validation = std::max(1, recordings / 5);
   r.splits.test = std::max(1, recordings - r.splits.training - r.splits.validation);
   r.splits = splits_from(root, r.splits);
+  r.scene = scene_from(root);
   if (r.splits.training + r.splits.validation + r.splits.test > recordings) {
     root.fail("splits",
               "training + validation + test = " +

@@ -6,10 +6,11 @@
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
-#include "imm/datasets/random.hpp"
+#include "imm/datasets/scene.hpp"
 #include "imm/datasets/track.hpp"
 #include "imm/evaluation/gospa.hpp"
 #include "imm/evaluation/report.hpp"
@@ -18,57 +19,10 @@
 namespace imm::evaluation {
 namespace {
 
-// A scene: its targets' tracks and, per scan, the plots (detections and clutter, shuffled).
-struct Scene {
-  std::vector<datasets::Track> targets;
-  std::vector<std::vector<Eigen::Vector2d>> plots;
-};
-
-// Poisson(λ) by counting uniform arrivals (λ is a few tens at most here).
-int poisson(datasets::Rng& rng, double mean) {
-  const double limit = std::exp(-mean);
-  int count = 0;
-  for (double product = rng.uniform(); product > limit; product *= rng.uniform()) ++count;
-  return count;
-}
-
-Scene draw_scene(const datasets::Regime& regime, const MultiTargetSettings& s, int run) {
-  Scene scene;
-  for (int j = 0; j < s.targets; ++j) {
-    scene.targets.push_back(
-        datasets::draw_track(regime, datasets::Split::kTest, run * s.targets + j, s.seed));
-  }
-  const Eigen::Index scans = scene.targets.front().plots.rows();
-  // The region: the box of every target's plots, widened by a tenth on each side.
-  Eigen::Vector2d low = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector2d high = -low;
-  for (const datasets::Track& t : scene.targets) {
-    for (Eigen::Index k = 0; k < t.plots.rows(); ++k) {
-      if (!t.plots.row(k).allFinite()) continue;
-      low = low.cwiseMin(t.plots.row(k).transpose());
-      high = high.cwiseMax(t.plots.row(k).transpose());
-    }
-  }
-  const Eigen::Vector2d margin = 0.1 * (high - low);
-  low -= margin;
-  high += margin;
-  datasets::Rng rng(datasets::derive_seed(s.seed, 1000003ULL + static_cast<std::uint64_t>(run)));
-  scene.plots.resize(static_cast<std::size_t>(scans));
-  for (Eigen::Index k = 0; k < scans; ++k) {
-    std::vector<Eigen::Vector2d>& plots = scene.plots[static_cast<std::size_t>(k)];
-    for (const datasets::Track& t : scene.targets) {
-      const Eigen::Vector2d z = t.plots.row(k).transpose();
-      if (z.allFinite() && rng.uniform() < s.detection_probability) plots.push_back(z);
-    }
-    for (int c = poisson(rng, s.clutter_per_scan); c > 0; --c) {
-      plots.emplace_back(rng.uniform(low(0), high(0)), rng.uniform(low(1), high(1)));
-    }
-    for (std::size_t i = plots.size(); i > 1; --i) {  // Fisher–Yates: the order tells nothing
-      std::swap(plots[i - 1],
-                plots[static_cast<std::size_t>(rng.uniform() * static_cast<double>(i))]);
-    }
-  }
-  return scene;
+// The scenes of the settings (datasets/scene.hpp): test tracks of the regime.
+datasets::Scene draw_scene(const datasets::Regime& regime, const MultiTargetSettings& s, int run) {
+  const datasets::SceneSpec spec{s.targets, s.detection_probability, s.clutter_per_scan};
+  return datasets::draw_scene(regime, spec, datasets::Split::kTest, run, s.seed);
 }
 
 }  // namespace
@@ -95,7 +49,7 @@ MultiTargetResult run_multi_target(const datasets::Regime& regime,
   if (settings.gnn.max_speed == 0.0) settings.gnn.max_speed = 1.5 * regime.max_speed();
   MultiTargetResult result;
   result.cutoff = settings.cutoff > 0.0 ? settings.cutoff : 10.0 * regime.position_sigma();
-  std::vector<Scene> scenes;
+  std::vector<datasets::Scene> scenes;
   scenes.reserve(static_cast<std::size_t>(settings.runs));
   for (int run = 0; run < settings.runs; ++run) scenes.push_back(draw_scene(regime, settings, run));
   for (const std::filesystem::path& path : models) {
@@ -117,7 +71,7 @@ MultiTargetResult run_multi_target(const datasets::Regime& regime,
     }
     double scored = 0.0;
     for (int run = 0; run < settings.runs; ++run) {
-      const Scene& scene = scenes[static_cast<std::size_t>(run)];
+      const datasets::Scene& scene = scenes[static_cast<std::size_t>(run)];
       GnnTracker tracker(maker, settings.gnn);
       double run_sum = 0.0;
       int run_scans = 0;
@@ -185,8 +139,10 @@ struct MultiTargetOptions {
   std::vector<std::filesystem::path> models;
   std::optional<std::filesystem::path> regime;
   MultiTargetSettings settings;
-  // The conditions: every detection probability with every clutter density.
-  std::vector<double> detection_probabilities{0.9}, clutter_densities{10.0};
+  // The conditions: every detection probability with every clutter density (none given: the
+  // regime's [scene]), and the targets per scene (likewise).
+  std::vector<double> detection_probabilities, clutter_densities;
+  std::optional<int> targets;
   std::filesystem::path out = "reports/multi-target";
 };
 
@@ -233,10 +189,18 @@ nlohmann::json report_condition(const datasets::Regime& regime, const MultiTarge
 int run(const MultiTargetOptions& options) {
   const std::filesystem::path regime_path = options.regime.value_or(options.models.front());
   const datasets::RegimeFile regime = load_regime_option(regime_path);
+  const datasets::SceneSpec& scene = regime.regime.scene;
+  const std::vector<double> pds = options.detection_probabilities.empty()
+                                      ? std::vector<double>{scene.detection_probability}
+                                      : options.detection_probabilities;
+  const std::vector<double> clutters = options.clutter_densities.empty()
+                                           ? std::vector<double>{scene.clutter_per_scan}
+                                           : options.clutter_densities;
   std::vector<MultiTargetSettings> grid;  // checked before any scene is run
-  for (const double pd : options.detection_probabilities) {
-    for (const double clutter : options.clutter_densities) {
+  for (const double pd : pds) {
+    for (const double clutter : clutters) {
       MultiTargetSettings s = options.settings;
+      s.targets = options.targets.value_or(scene.targets);
       s.detection_probability = pd;
       s.clutter_per_scan = clutter;
       s.validate();
@@ -250,7 +214,7 @@ int run(const MultiTargetOptions& options) {
     cutoff = result.cutoff;
     conditions.push_back(report_condition(regime.regime, s, result));
   }
-  const MultiTargetSettings& s = options.settings;
+  const MultiTargetSettings& s = grid.front();
   std::filesystem::create_directories(options.out);
   trainer::write_json_atomically(options.out / "metrics.json", {{"experiment", "multi-target"},
                                                                 {"regime", regime.regime.name},
@@ -277,14 +241,18 @@ void add_multi_target_command(CLI::App& app, ExitCode& exit_code) {
       ->required();
   command->add_option("--regime", options->regime,
                       "regime TOML (default: the one recorded in the first model)");
-  command->add_option("--targets", options->settings.targets, "targets per scene");
+  command->add_option("--targets", options->targets,
+                      "targets per scene (default: the regime's [scene], else 3)");
   command
-      ->add_option("--pd", options->detection_probabilities,
-                   "detection probabilities (one or more: every one with every clutter density)")
+      ->add_option(
+          "--pd", options->detection_probabilities,
+          "detection probabilities (one or more: every one with every clutter density; default: "
+          "the regime's [scene], else 0.9)")
       ->delimiter(',');
   command
       ->add_option("--clutter", options->clutter_densities,
-                   "mean false plots per scan over the scene's region (one or more)")
+                   "mean false plots per scan over the scene's region (one or more; default: the "
+                   "regime's [scene], else 10)")
       ->delimiter(',');
   command->add_option("--runs", options->settings.runs, "scenes");
   command->add_option("--seed", options->settings.seed, "the scenes' seed");

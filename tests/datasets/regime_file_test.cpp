@@ -97,6 +97,13 @@ TEST(RegimeConfig, ErrorsNameTheKey) {
   EXPECT_EQ(key_of(with(kMinimal, "test = 4", "test = 0")), "splits.test");
   EXPECT_EQ(key_of(with(kMinimal, "[start]", "[start]\nposition = [0.0, 0.0]")), "start.velocity");
   EXPECT_EQ(key_of(with(kMinimal, "kind = \"cartesian\"", "kind = \"sonar\"")), "sensor.kind");
+  // [scene]: several targets at once.
+  const std::string scene = std::string(kMinimal) + "[scene]\ntargets = 4\n";
+  EXPECT_EQ(key_of(scene), "");
+  EXPECT_EQ(key_of(scene + "detection_probability = 1.5\n"), "scene.detection_probability");
+  EXPECT_EQ(key_of(scene + "clutter_per_scan = -1.0\n"), "scene.clutter_per_scan");
+  EXPECT_EQ(key_of(with(scene, "targets = 4", "targets = 0")), "scene.targets");
+  EXPECT_EQ(key_of(scene + "pd = 0.9\n"), "scene.pd");  // unknown key
   // A scripted segment that ends before it starts; a case without a start.
   const std::string scripted = R"(
 name = "s"

@@ -70,5 +70,45 @@ TEST_F(Tools, ImmDataWritesSensorSamplesAndTrackSplits) {
   EXPECT_FALSE(std::filesystem::exists(dir_ / "bad.h5"));
 }
 
+// Scenes: a regime's [scene] by default, every plot with its origin, every target's truth at
+// every scan; the same seed writes the same files, and the options override the regime.
+TEST_F(Tools, ImmDataWritesScenesOfSeveralTargetsAmongClutter) {
+  auto regime_text = testing::slurp(root_ / "configs/regimes/agile_air.toml");
+  regime_text += "\n[scene]\ntargets = 2\ndetection_probability = 1.0\nclutter_per_scan = 0.0\n";
+  testing::write_text(dir_ / "scene_regime.toml", regime_text);
+  const auto scenes = [&](const std::string& out, std::vector<std::string> extra) {
+    std::vector<std::string> arguments = {
+        "scenes",    "--regime",           (dir_ / "scene_regime.toml").string(), "--count", "2",
+        "--out-dir", (dir_ / out).string()};
+    arguments.insert(arguments.end(), extra.begin(), extra.end());
+    return run_tool("imm-data", arguments, root_);
+  };
+  const auto clean = scenes("clean", {});
+  ASSERT_EQ(clean.exit_code, 0) << clean.err;
+  const auto plots = testing::lines_of(testing::slurp(dir_ / "clean/scene_001.csv"));
+  const auto truth = testing::lines_of(testing::slurp(dir_ / "clean/scene_001_truth.csv"));
+  EXPECT_EQ(plots.front(), "k,t,zx,zy,origin");
+  EXPECT_EQ(truth.front(), "k,t,target,x,vx,y,vy");
+  // Every target detected, no clutter: one plot per target and scan, as many as truth rows.
+  EXPECT_EQ(plots.size(), truth.size());
+  for (std::size_t i = 1; i < plots.size(); ++i) {
+    EXPECT_TRUE(plots[i].ends_with(",0") || plots[i].ends_with(",1")) << plots[i];
+  }
+  const auto cluttered = scenes("cluttered", {"--pd", "0.5", "--clutter", "4", "--targets", "3"});
+  const auto again = scenes("again", {"--pd", "0.5", "--clutter", "4", "--targets", "3"});
+  ASSERT_EQ(cluttered.exit_code, 0) << cluttered.err;
+  EXPECT_EQ(testing::slurp(dir_ / "cluttered/scene_000.csv"),
+            testing::slurp(dir_ / "again/scene_000.csv"));
+  const auto noisy = testing::lines_of(testing::slurp(dir_ / "cluttered/scene_000.csv"));
+  std::size_t false_plots = 0;
+  for (const auto& line : noisy) false_plots += line.ends_with(",-1") ? 1 : 0;
+  EXPECT_GT(false_plots, 0U);
+  EXPECT_NE(cluttered.out.find("3 targets, Pd 0.5, 4 false plots per scan"), std::string::npos)
+      << cluttered.out;
+  const auto refused = scenes("refused", {"--pd", "0"});
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("scene.detection_probability"), std::string::npos) << refused.err;
+}
+
 }  // namespace
 }  // namespace imm

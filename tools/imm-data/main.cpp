@@ -11,6 +11,13 @@
 //                   [--sample-period T] [--tolerance F] [--scans N] FILE.csv…
 //   imm-data export (--regime R [--split S] [--seed N] [--count N] | --data set.h5)
 //                   --out-dir DIR [--no-truth]
+//   imm-data scenes --regime R --out-dir DIR [--count N] [--split S] [--seed N] [--targets N]
+//                   [--pd P] [--clutter L]
+//
+// `scenes` writes several targets at once among clutter (imm/datasets/scene.hpp; the regime's
+// [scene] unless --targets, --pd or --clutter say otherwise): per scene scene_000.csv, one row per
+// plot (k, t, the plot, origin: the target's index or −1 for clutter), and scene_000_truth.csv
+// (k, t, target, x, vx, y, vy).
 //
 // `import` reads recorded tracks (imm/datasets/recorded.hpp: one CSV per track or a `track`
 // column, checked line by line) into a track set that a recorded regime names; `export` writes a
@@ -29,6 +36,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
 
 #include "imm/build_info.hpp"
 #include "imm/datasets/dataset_file.hpp"
@@ -36,6 +44,7 @@
 #include "imm/datasets/range_sensor_file.hpp"
 #include "imm/datasets/recorded.hpp"
 #include "imm/datasets/regime_file.hpp"
+#include "imm/datasets/scene.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/support/exit_codes.hpp"
@@ -163,6 +172,57 @@ int export_recordings(const std::string& regime_path, const std::string& data_pa
   return 0;
 }
 
+// The scenes of a regime as CSV files (see the file comment); numbers that read back exactly.
+int write_scenes(const std::string& regime_path, const std::string& split_name, std::uint64_t seed,
+                 int count, const imm::datasets::SceneSpec& spec, const std::string& out_dir) {
+  const imm::datasets::Regime regime = imm::datasets::load_regime(regime_path).regime;
+  if (regime.recorded) throw std::runtime_error(regime_path + ": scenes need a drawn regime");
+  spec.validate();
+  const imm::datasets::Split split = split_names().at(split_name);
+  if (count < 0) count = 1;
+  std::filesystem::create_directories(out_dir);
+  const char* plot_columns =
+      regime.sensor.kind == imm::datasets::SensorKind::kPolar
+          ? "range,azimuth"
+          : (regime.sensor.kind == imm::datasets::SensorKind::kCartesian ? "zx,zy" : "z1,z2");
+  long plots = 0, clutter = 0;
+  for (int i = 0; i < count; ++i) {
+    const imm::datasets::Scene scene = imm::datasets::draw_scene(regime, spec, split, i, seed);
+    char name[48];
+    std::snprintf(name, sizeof name, "scene_%03d.csv", i);
+    std::ofstream out(std::filesystem::path(out_dir) / name);
+    std::snprintf(name, sizeof name, "scene_%03d_truth.csv", i);
+    std::ofstream truth(std::filesystem::path(out_dir) / name);
+    if (!out || !truth) throw std::runtime_error(out_dir + ": cannot write the scene files");
+    out << "k,t," << plot_columns << ",origin\n";
+    truth << "k,t,target,x,vx,y,vy\n";
+    char line[256];
+    for (std::size_t k = 0; k < scene.plots.size(); ++k) {
+      const double t = static_cast<double>(k) * regime.sample_period;
+      for (std::size_t p = 0; p < scene.plots[k].size(); ++p) {
+        const Eigen::Vector2d& z = scene.plots[k][p];
+        std::snprintf(line, sizeof line, "%zu,%.17g,%.17g,%.17g,%d\n", k, t, z(0), z(1),
+                      scene.origins[k][p]);
+        out << line;
+        ++plots;
+        clutter += scene.origins[k][p] < 0 ? 1 : 0;
+      }
+      for (std::size_t j = 0; j < scene.targets.size(); ++j) {
+        const auto x = scene.targets[j].truth.row(static_cast<Eigen::Index>(k));
+        std::snprintf(line, sizeof line, "%zu,%.17g,%zu,%.17g,%.17g,%.17g,%.17g\n", k, t, j, x(0),
+                      x(1), x(3), x(4));
+        truth << line;
+      }
+    }
+    if (!out || !truth) throw std::runtime_error(out_dir + ": write failed");
+  }
+  std::cout << "imm-data: " << regime.name << ", " << count << " scenes of " << spec.targets
+            << " targets, Pd " << spec.detection_probability << ", " << spec.clutter_per_scan
+            << " false plots per scan (" << plots << " plots, " << clutter << " false) -> "
+            << out_dir << "/scene_*.csv\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -226,9 +286,27 @@ int main(int argc, char** argv) {
   exporter->add_option("--count", count, "tracks")->check(imm::support::at_least(1));
   exporter->add_option("--out-dir", out_dir, "folder for track_000.csv, …")->required();
   exporter->add_flag("--no-truth", no_truth, "plots only (drop the truth columns)");
+  auto* scenes = app.add_subcommand("scenes", "several targets at once among clutter (CSV)");
+  std::optional<int> scene_targets;
+  std::optional<double> scene_pd, scene_clutter;
+  scenes->add_option("--regime", regime_path, "regime TOML (its [scene] by default)")->required();
+  scenes->add_option("--out-dir", out_dir, "folder for scene_000.csv, …")->required();
+  scenes->add_option("--count", count, "scenes (default 1)")->check(imm::support::at_least(1));
+  scenes->add_option("--split", split_name, "test | training | validation");
+  scenes->add_option("--seed", seed, "test seed");
+  scenes->add_option("--targets", scene_targets, "targets per scene");
+  scenes->add_option("--pd", scene_pd, "detection probability");
+  scenes->add_option("--clutter", scene_clutter, "mean false plots per scan");
   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
 
   try {
+    if (*scenes) {
+      imm::datasets::SceneSpec spec = imm::datasets::load_regime(regime_path).regime.scene;
+      spec.targets = scene_targets.value_or(spec.targets);
+      spec.detection_probability = scene_pd.value_or(spec.detection_probability);
+      spec.clutter_per_scan = scene_clutter.value_or(spec.clutter_per_scan);
+      return write_scenes(regime_path, split_name, seed, count, spec, out_dir);
+    }
     if (*import)
       return import_recordings(inputs, out_path, name, sensor_name, units_name, import_options);
     if (*exporter) {

@@ -171,6 +171,16 @@ struct Splits {
 enum class Split { kTraining, kValidation, kTest };
 [[nodiscard]] std::string_view to_string(Split split);
 
+/// Several targets at once ([scene]): what imm-data scenes and imm-eval multi-target draw
+/// (scene.hpp) unless told otherwise.
+struct SceneSpec {
+  int targets = 3;                     ///< targets per scene, 1 to 100
+  double detection_probability = 0.9;  ///< Pd of every target at every scan, (0, 1]
+  double clutter_per_scan = 10.0;      ///< mean false plots per scan over the region, [0, 10⁴]
+  /// Throws InvalidParameter naming the key ("scene.targets").
+  void validate() const;
+};
+
 struct Regime {
   std::string name;
   Units units = Units::kMetres;
@@ -182,6 +192,8 @@ struct Regime {
   std::vector<MenuEntry> menu;      ///< random maneuvers (when there are no cases)
   std::vector<ScriptedCase> cases;  ///< scripted maneuvers
   Splits splits;
+  /// Several targets at once ([scene]); the defaults of SceneSpec when the file has none.
+  SceneSpec scene;
   /// Set for a recorded regime: its tracks come from a recording instead of a generator (there is
   /// no start, maneuver or process noise then).
   std::shared_ptr<const Recorded> recorded;

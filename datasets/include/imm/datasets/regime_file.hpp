@@ -25,6 +25,9 @@
 ///              ca: acceleration = [ax, ay]; turn: rate_deg; zigzag: quarter, amplitudes = [...];
 ///              lane_change: offset
 ///   [splits]  training = 12  validation = 6  test = 100  seed = 1
+///   [scene]  targets = 3  detection_probability = 0.9  clutter_per_scan = 10.0
+///            several targets at once among Poisson clutter (scene.hpp): what imm-data scenes
+///            and imm-eval multi-target draw by default (these values when absent)
 ///   [recorded]  set = "data/recorded/x.h5"       a recorded regime (imm/datasets/recorded.hpp):
 ///               truth = "evaluation" | "training"  its tracks come from an imported set instead
 ///               acceleration = [min, max]          of start/maneuvers/cases/process_noise_sigma
