@@ -109,7 +109,9 @@ int main(int argc, char** argv) {
          "times in s")
       ->required();
   app.add_option("--out", out_path, "output CSV (default: standard output)");
-  app.add_option("--max-gap", max_gap, "scans without a plot before the track is restarted")
+  app.add_option(
+         "--max-gap", max_gap,
+         "scans (sample periods, for a t column) without a plot before the track is restarted")
       ->check(imm::support::at_least(1));
   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
 
