@@ -302,14 +302,16 @@ BENCHMARK(BM_FimmStep)->Args({0, 0})->Args({1, 0})->Args({5, 0})->Args({1, 1})->
 // W1: one IMM step (predict and update) of the plain IMM built from configs/track/cv3_imm.toml,
 // over the workload's 10 000 plots from the W1 start, restarting after the last. Checks the
 // filter against the truth column once (position RMSE of the whole run).
-void BM_W1_PlainImmStep(benchmark::State& state) {
+// W1's loop over the workload's plots with `before_step(imm, k)` ahead of each step: one loop for
+// both W1 benchmarks, so that they differ only in that call.
+template <class BeforeStep>
+void run_w1_steps(benchmark::State& state, BeforeStep&& before_step) {
   const auto& input = w1_input();
-  const auto check = imm::workloads::run_w1(input, static_cast<int>(input.plots.rows()));
-  if (!(check.position_rmse < 0.5)) state.SkipWithError("W1: position RMSE above σ_z");
   auto imm = imm::build_plain_imm<4>(imm::workloads::w1_spec());
   imm.initialize(imm::workloads::w1_start());
   Eigen::Index k = 0;
   for (auto _ : state) {
+    before_step(imm, k);
     const imm::Vector<2> z = input.plots.row(k).transpose();
     benchmark::DoNotOptimize(imm.step(z));
     benchmark::DoNotOptimize(imm.estimate().mean.data());
@@ -319,6 +321,13 @@ void BM_W1_PlainImmStep(benchmark::State& state) {
     }
   }
   state.SetItemsProcessed(state.iterations());
+}
+
+void BM_W1_PlainImmStep(benchmark::State& state) {
+  const auto& input = w1_input();
+  const auto check = imm::workloads::run_w1(input, static_cast<int>(input.plots.rows()));
+  if (!(check.position_rmse < 0.5)) state.SkipWithError("W1: position RMSE above σ_z");
+  run_w1_steps(state, [](imm::ImmEstimator<4, 2>& /*imm*/, Eigen::Index /*k*/) {});
   state.counters["rmse_km"] = check.position_rmse;
 }
 BENCHMARK(BM_W1_PlainImmStep);
@@ -327,24 +336,11 @@ BENCHMARK(BM_W1_PlainImmStep);
 // same cycle after every mode's F and Q and the mode transitions are remade for the interval
 // (ImmEstimator::set_interval) — the price of irregular time stamps over BM_W1_PlainImmStep.
 void BM_W1_PlainImmStepAtChangingIntervals(benchmark::State& state) {
-  const auto& input = w1_input();
-  const imm::PlainImmSpec spec = imm::workloads::w1_spec();
-  auto imm = imm::build_plain_imm<4>(spec);
-  imm.initialize(imm::workloads::w1_start());
-  const double T = spec.sample_period;
-  Eigen::Index k = 0;
-  for (auto _ : state) {
+  const double T = imm::workloads::w1_spec().sample_period;
+  run_w1_steps(state, [T](imm::ImmEstimator<4, 2>& imm, Eigen::Index k) {
     const double dt = (k % 2 == 0 ? 0.95 : 1.05) * T;
     benchmark::DoNotOptimize(imm.set_interval(dt, dt / T));
-    const imm::Vector<2> z = input.plots.row(k).transpose();
-    benchmark::DoNotOptimize(imm.step(z));
-    benchmark::DoNotOptimize(imm.estimate().mean.data());
-    if (++k == input.plots.rows()) {
-      k = 0;
-      imm.initialize(imm::workloads::w1_start());
-    }
-  }
-  state.SetItemsProcessed(state.iterations());
+  });
 }
 BENCHMARK(BM_W1_PlainImmStepAtChangingIntervals);
 

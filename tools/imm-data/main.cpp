@@ -172,10 +172,11 @@ int export_recordings(const std::string& regime_path, const std::string& data_pa
   return 0;
 }
 
-// The scenes of a regime as CSV files (see the file comment); numbers that read back exactly.
-int write_scenes(const std::string& regime_path, const std::string& split_name, std::uint64_t seed,
-                 int count, const imm::datasets::SceneSpec& spec, const std::string& out_dir) {
-  const imm::datasets::Regime regime = imm::datasets::load_regime(regime_path).regime;
+// The scenes of a regime (read from `regime_path`) as CSV files (see the file comment); numbers
+// that read back exactly.
+int write_scenes(const imm::datasets::Regime& regime, const std::string& regime_path,
+                 const std::string& split_name, std::uint64_t seed, int count,
+                 const imm::datasets::SceneSpec& spec, const std::string& out_dir) {
   if (regime.recorded) throw std::runtime_error(regime_path + ": scenes need a drawn regime");
   spec.validate();
   const imm::datasets::Split split = split_names().at(split_name);
@@ -301,11 +302,12 @@ int main(int argc, char** argv) {
 
   try {
     if (*scenes) {
-      imm::datasets::SceneSpec spec = imm::datasets::load_regime(regime_path).regime.scene;
+      const imm::datasets::Regime regime = imm::datasets::load_regime(regime_path).regime;
+      imm::datasets::SceneSpec spec = regime.scene;
       spec.targets = scene_targets.value_or(spec.targets);
       spec.detection_probability = scene_pd.value_or(spec.detection_probability);
       spec.clutter_per_scan = scene_clutter.value_or(spec.clutter_per_scan);
-      return write_scenes(regime_path, split_name, seed, count, spec, out_dir);
+      return write_scenes(regime, regime_path, split_name, seed, count, spec, out_dir);
     }
     if (*import)
       return import_recordings(inputs, out_path, name, sensor_name, units_name, import_options);

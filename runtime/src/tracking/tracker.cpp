@@ -300,10 +300,11 @@ TrackStepResult Tracker::start_at(std::int64_t scan, double time, const Eigen::V
   if (!plot.position.allFinite()) {
     return reject(StepStatus::kInvalidMeasurement, "measurement is not convertible to a position");
   }
-  const bool too_late = clock_ == Clock::kTimes
-                            ? time - first_plot_.value_or(plot).time > longest_gap()
-                            : scan - first_plot_.value_or(plot).scan > options_.max_gap;
-  if (!first_plot_ || too_late) {
+  // No first plot yet, or one too long ago: this plot is the first.
+  const bool first =
+      !first_plot_ || (clock_ == Clock::kTimes ? time - first_plot_->time > longest_gap()
+                                               : scan - first_plot_->scan > options_.max_gap);
+  if (first) {
     first_plot_ = plot;
     last_scan_ = scan, last_time_ = time;
     result.event = TrackEvent::kWaiting;
