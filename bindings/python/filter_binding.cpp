@@ -120,6 +120,7 @@ class PyFilter {
   [[nodiscard]] bool predicts_before_the_plot() const {
     return filter_->predicts_before_the_plot();
   }
+  [[nodiscard]] bool has_split_cycle() const { return filter_->has_split_cycle(); }
   [[nodiscard]] bool takes_any_interval() const { return filter_->takes_any_interval(); }
   [[nodiscard]] int state_dimension() const { return filter_->state_dimension(); }
   [[nodiscard]] std::string kind() const { return kind_; }
@@ -169,7 +170,12 @@ void add_filter_binding(py::module_& m) {
       .def("miss", &PyFilter::miss)
       .def("state", &PyFilter::state)
       .def("mode_probabilities", &PyFilter::mode_probabilities)
-      .def_property_readonly("predicts_before_the_plot", &PyFilter::predicts_before_the_plot)
+      .def_property_readonly("has_split_cycle", &PyFilter::has_split_cycle,
+                             "Whether predict(), update() and miss() work (every kind but the "
+                             "wIMM)")
+      .def_property_readonly("predicts_before_the_plot", &PyFilter::predicts_before_the_plot,
+                             "Whether the prediction does not read the plot (else a candidate's "
+                             "likelihood is a trial update)")
       .def_property_readonly("takes_any_interval", &PyFilter::takes_any_interval,
                              "Whether dt may be any positive interval (else whole sample periods)")
       .def_property_readonly("state_dimension", &PyFilter::state_dimension)

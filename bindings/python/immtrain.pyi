@@ -122,9 +122,11 @@ class Filter:
     """One track's filter of a model file, driven by hand (imm::TrackFilter): initialize it, then
     per scan step(z) — or, for gating and assignment, predict(), any candidate questions (which
     change nothing), then update(z) with the plot chosen or miss(). In that order the numbers are
-    step()'s and predict_only()'s to the bit. A filter whose prediction reads the plot (the learned
-    kinds, a noise schedule) has predicts_before_the_plot False and raises RuntimeError from
-    predict(), update() and miss(). Plots are in the model's measurement space (Cartesian x, y or
+    step()'s and predict_only()'s to the bit. Where the prediction reads the plot (the learned
+    kinds, a noise schedule: predicts_before_the_plot False) a candidate's likelihood is a trial
+    update that is not kept, and its distance and predicted_plot() are those of the prediction
+    without a plot. The wIMM does not split its cycle (has_split_cycle False) and raises
+    RuntimeError from predict(), update() and miss(). Plots are in the model's measurement space (Cartesian x, y or
     polar range, azimuth; measurement_kind), in the model's length unit."""
 
     def __init__(self, path: _Path) -> None:
@@ -162,8 +164,12 @@ class Filter:
     def mode_probabilities(self) -> _Array:
         """The mode probabilities (m,)."""
     @property
+    def has_split_cycle(self) -> bool:
+        """Whether predict(), update() and miss() work (every kind but the wIMM)."""
+    @property
     def predicts_before_the_plot(self) -> bool:
-        """Whether the filter splits its cycle (the plain IMM without a noise schedule)."""
+        """Whether the prediction does not read the plot (the plain IMM without a noise schedule,
+        the input estimator); else a candidate's likelihood is a trial update."""
     @property
     def takes_any_interval(self) -> bool:
         """Whether dt may be any positive interval (the plain IMM without a noise schedule), not

@@ -7,7 +7,7 @@ GOSPA per scan against the truth and draws tracks, plots and clutter.
 
     PYTHONPATH=build/python /usr/bin/python3 docs/examples/multi_target.py --out scene.png
 
-The model is any plain IMM without a noise schedule (default: agile_air's tuned CV/CA/CT IMM); the
+The model is any kind that splits its cycle, with Cartesian plots (default: agile_air's tuned CV/CA/CT IMM); the
 scene uses its sample period and plot noise. --check exits 1 unless both targets are held (GOSPA's
 missed part zero) on at least 90 % of the scans after the tenth and the median GOSPA is below
 three plot σ.
@@ -123,8 +123,8 @@ def main():
     args = parser.parse_args()
 
     probe = immtrain.Filter(args.model)
-    if not probe.predicts_before_the_plot or probe.measurement_kind != "cartesian":
-        sys.exit(f"{args.model}: needs a plain IMM without a noise schedule, with Cartesian plots")
+    if not probe.has_split_cycle or probe.measurement_kind != "cartesian":
+        sys.exit(f"{args.model}: needs a kind that splits its cycle, with Cartesian plots")
     rng = np.random.default_rng(args.seed)
     truth, plots, (low, high) = scene(probe, args.scans, rng, args.clutter)
     T, sigma = probe.sample_period, np.sqrt(probe.measurement_covariance[0, 0])

@@ -29,10 +29,10 @@ void GnnSettings::validate() const {
 GnnTracker::GnnTracker(FilterMaker maker, GnnSettings settings)
     : maker_(std::move(maker)), settings_(settings) {
   settings_.validate();
-  if (!maker_.make || !maker_.make()->predicts_before_the_plot()) {
+  if (!maker_.make || !maker_.make()->has_split_cycle()) {
     throw InvalidParameter("model",
-                           "its filter does not predict before the plot (a learned kind or a "
-                           "noise schedule): the tracker gates on the prediction");
+                           "its filter does not split its cycle (the wIMM's update fuses the "
+                           "plot with the prediction): the tracker gates on the prediction");
   }
 }
 

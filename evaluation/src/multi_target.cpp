@@ -57,14 +57,13 @@ MultiTargetResult run_multi_target(const datasets::Regime& regime,
     MultiTargetFigures figures;
     figures.model = path.string();
     figures.per_run = Eigen::VectorXd::Zero(settings.runs);
-    if (!maker.make()->predicts_before_the_plot()) {
+    if (!maker.make()->has_split_cycle()) {
       if (result.models.empty()) {
-        throw InvalidParameter("models",
-                               path.string() +
-                                   " (the reference) cannot gate on its "
-                                   "prediction: name a plain IMM without a schedule first");
+        throw InvalidParameter("models", path.string() +
+                                             " (the reference) does not split its cycle: name "
+                                             "another kind first");
       }
-      figures.refused = "its prediction reads the plot (" + maker.provenance.model_kind +
+      figures.refused = "its filter does not split its cycle (" + maker.provenance.model_kind +
                         "): the GNN tracker gates on the prediction";
       result.models.push_back(std::move(figures));
       continue;

@@ -322,7 +322,8 @@ def test_the_bank_scores_candidate_plots_without_changing_a_track():
 def test_a_filter_split_into_predict_candidates_and_update_equals_its_step():
     """immtrain.Filter: predict(), candidate questions, then update(z) or miss() give step()'s and
     predict_only()'s numbers to the bit on a plain IMM (here the CV/CA/CT IMM of agile_air); a
-    learned kind's filter, whose prediction reads the plot, refuses the split."""
+    learned kind's filter, whose prediction reads the plot, scores candidates by trial updates;
+    the wIMM refuses the split."""
     model = os.path.join(MODELS, "classical_imm_agile_air.h5")
     whole, halves = immtrain.Filter(model), immtrain.Filter(model)
     assert halves.predicts_before_the_plot and halves.kind == "plain_imm"
@@ -349,13 +350,26 @@ def test_a_filter_split_into_predict_candidates_and_update_equals_its_step():
             assert halves.update(z) == whole.step(z) == "ok"
         for a, b in zip(whole.state(), halves.state()):
             assert a.tolist() == b.tolist()
-    learned = immtrain.Filter(os.path.join(MODELS, "ga_fuzzy_imm.h5"))
-    learned.initialize(np.zeros(4), np.eye(4))
-    assert not learned.predicts_before_the_plot
-    with pytest.raises(RuntimeError, match="depends on the plot"):
-        learned.predict()
+    # A learned kind scores a candidate by a trial update: the likelihood update() then reports.
+    learned, twin = (immtrain.Filter(os.path.join(MODELS, "ga_fuzzy_imm.h5")) for _ in range(2))
+    for f in (learned, twin):
+        f.initialize(np.array([0.0, 0.2, 0.0, -0.1]), np.eye(4))
+    assert learned.has_split_cycle and not learned.predicts_before_the_plot
+    for k in range(1, 20):
+        z = np.array([0.2 * k, -0.1 * k]) + 0.3 * rng.standard_normal(2)
+        assert learned.predict() == "ok"
+        learned.candidate_log_likelihood(z + 50.0)  # another candidate first: nothing is kept
+        likelihood = learned.candidate_log_likelihood(z)
+        assert learned.update(z) == twin.step(z) == "ok"
+        assert learned.state()[0].tolist() == twin.state()[0].tolist()
+        assert np.isfinite(likelihood)
     with pytest.raises(immtrain.InvalidParameter, match="mean: expected 4"):
         learned.initialize(np.zeros(5), np.eye(4))
+    wimm = immtrain.Filter(os.path.join(MODELS, "wimm.h5"))
+    wimm.initialize(np.zeros(6), np.eye(6))
+    assert not wimm.has_split_cycle
+    with pytest.raises(RuntimeError, match="does not split its cycle"):
+        wimm.predict()
 
 
 def test_time_stamps_any_interval_for_a_plain_imm_whole_periods_for_a_learned_model():

@@ -2,7 +2,8 @@
 // The IMM cycle in two halves (ImmEstimator::predict, candidate_*, update, miss): on every shipped
 // plain-IMM model, the same numbers as step() and predict_only() to the bit; candidate queries
 // change nothing; the candidate likelihood is the one the update then reports; the gate's
-// distance against a hand-computed mixture; a model whose prediction needs the plot refuses.
+// distance against a hand-computed mixture; a model whose prediction needs the plot scores its
+// candidates by trial updates.
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
@@ -168,16 +169,65 @@ TEST(SplitCycle, CandidateDistanceIsTheCollapsedMixturesNis) {
   EXPECT_TRUE(whole.isApprox(S, 1e-12));
 }
 
-// A scheduled mode scales Q by the plot's own innovation: it cannot predict first.
-TEST(SplitCycle, AScheduleRefuses) {
+// A scheduled mode scales Q by the plot's own innovation, so candidates are trial updates. With
+// s ≡ 2 on every mode the scheduled IMM is the unscheduled one at twice every intensity (the
+// closed form ScheduledNoise.AConstantScheduleScalesEveryIntensity checks): the trial's
+// likelihood (a trial update), its distance and the predicted plot (both of the prediction without
+// the plot) must be that IMM's held ones, and update() must be step() to the bit after candidates
+// elsewhere were tried.
+TEST(SplitCycle, AScheduleScoresCandidatesByTrialUpdates) {
   PlainImmSpec spec = testing::cv3_spec();
-  spec.modes[0].noise_schedule = FuzzyRuleTable({FuzzyRule{0.0, 1.0, 0.0, 1.0, 2.0}});  // s = 2
-  ImmEstimator<4, 2> imm = build_plain_imm<4>(spec);
-  EXPECT_FALSE(imm.predicts_before_the_plot());
-  imm.initialize(GaussianState<4>{Vector<4>::Zero(), SquareMatrix<4>::Identity()});
-  EXPECT_THROW((void)imm.predict(), std::logic_error);
-  EXPECT_THROW((void)imm.update(Vector<2>(0.0, 0.0)), std::logic_error);
-  EXPECT_TRUE(std::isnan(imm.candidate_log_likelihood(Vector<2>(0.0, 0.0))));
+  PlainImmSpec doubled = spec;
+  for (std::size_t j = 0; j < spec.modes.size(); ++j) {
+    spec.modes[j].noise_schedule = FuzzyRuleTable({FuzzyRule{0.0, 1.0, 0.0, 1.0, 2.0}});
+    doubled.modes[j].process_noise *= 2.0;
+  }
+  ImmEstimator<4, 2> split = build_plain_imm<4>(spec), whole = build_plain_imm<4>(spec);
+  ImmEstimator<4, 2> reference = build_plain_imm<4>(doubled);
+  EXPECT_FALSE(split.predicts_before_the_plot());
+  ASSERT_TRUE(reference.predicts_before_the_plot());
+  std::mt19937_64 rng(5);
+  const GaussianState<4> start{Vector<4>(400.0, 3.0, 200.0, 1.5),
+                               Vector<4>(1.0, 0.5, 1.0, 0.5).asDiagonal()};
+  split.initialize(start);
+  whole.initialize(start);
+  reference.initialize(start);
+  const Vector<2> elsewhere(1e3, -1e3), unusable(std::nan(""), 0.0);
+  for (int k = 1; k < 40; ++k) {
+    const Vector<2> z = plot_of(spec, k, rng);
+    ASSERT_EQ(split.predict(), StepStatus::kOk);
+    ASSERT_EQ(reference.predict(), StepStatus::kOk);
+    const GaussianState<4> before = split.estimate();
+    EXPECT_TRUE(std::isnan(split.candidate_log_likelihood(unusable)));
+    (void)split.candidate_distance(elsewhere);
+    const double likelihood = split.candidate_log_likelihood(z);
+    const double distance = split.candidate_distance(z);
+    Vector<2> z_hat, z_ref;
+    SquareMatrix<2> S, S_ref;
+    ASSERT_TRUE(split.predicted_plot(z_hat, S));
+    EXPECT_TRUE(same_bits(split.estimate(), before)) << "a candidate moved the track";
+    // The gate is the predicted plot's (the prediction without the plot).
+    const Vector<2> nu = z - z_hat;
+    EXPECT_NEAR(distance, nu.dot(S.inverse() * nu), 1e-12 * distance);
+    if (k > 1) {  // s of the last step is 2 from the first step on
+      ASSERT_TRUE(reference.predicted_plot(z_ref, S_ref));
+      EXPECT_TRUE(z_hat.isApprox(z_ref, 1e-12)) << k;
+      EXPECT_TRUE(S.isApprox(S_ref, 1e-12)) << k;
+      EXPECT_NEAR(likelihood, reference.candidate_log_likelihood(z), 1e-9 * std::abs(likelihood));
+      EXPECT_NEAR(distance, reference.candidate_distance(z), 1e-9 * distance);
+    }
+    if (k % 7 == 3) {  // a missed scan
+      ASSERT_EQ(split.miss(), whole.predict_only());
+      ASSERT_EQ(reference.miss(), StepStatus::kOk);
+    } else {
+      ASSERT_EQ(split.update(unusable), StepStatus::kInvalidMeasurement);
+      ASSERT_EQ(split.update(z), whole.step(z));
+      ASSERT_EQ(reference.update(z), StepStatus::kOk);
+      EXPECT_EQ(likelihood, whole.log_predictive_likelihood()) << k;
+    }
+    ASSERT_TRUE(same_bits(split.estimate(), whole.estimate())) << k;
+    ASSERT_EQ(split.log_mode_probabilities(), whole.log_mode_probabilities());
+  }
 }
 
 }  // namespace

@@ -3,6 +3,8 @@
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
@@ -42,12 +44,43 @@ TrackOptions AxisImmSettings::track_options(std::int64_t max_gap) const {
       measurement_sigma * measurement_sigma * Eigen::Matrix2d::Identity(), max_gap);
 }
 
+double axis_log_density(double nu, double variance) {
+  if (!(variance > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  return -0.5 * (nu * nu / variance + std::log(variance) + kLogTwoPi);
+}
+
 double AxisFilter::log_predictive_likelihood() const {
   double nu = 0.0, variance = 0.0;
-  if (!innovation(nu, variance) || !(variance > 0.0)) {
-    return std::numeric_limits<double>::quiet_NaN();
-  }
-  return -0.5 * (nu * nu / variance + std::log(variance) + kLogTwoPi);
+  if (!innovation(nu, variance)) return std::numeric_limits<double>::quiet_NaN();
+  return axis_log_density(nu, variance);
+}
+
+namespace {
+[[noreturn]] void no_axis_split(const char* call) {
+  throw std::logic_error(std::string("AxisFilter::") + call +
+                         ": this axis filter does not split its cycle; use step() and "
+                         "predict_only()");
+}
+}  // namespace
+
+StepStatus AxisFilter::predict() { no_axis_split("predict"); }
+double AxisFilter::candidate_log_likelihood(double /*z*/) const {
+  return std::numeric_limits<double>::quiet_NaN();
+}
+double AxisFilter::candidate_distance(double /*z*/) const {
+  return std::numeric_limits<double>::quiet_NaN();
+}
+bool AxisFilter::predicted_plot(double& /*z_hat*/, double& /*variance*/) const { return false; }
+StepStatus AxisFilter::update(double /*z*/) { no_axis_split("update"); }
+StepStatus AxisFilter::miss() { no_axis_split("miss"); }
+
+bool ImmAxisFilter::predicted_plot(double& z_hat, double& variance) const {
+  Vector<1> mean;
+  SquareMatrix<1> covariance;
+  if (!imm_.predicted_plot(mean, covariance)) return false;
+  z_hat = mean(0);
+  variance = covariance(0, 0);
+  return true;
 }
 
 TwoAxisFilter::TwoAxisFilter(std::unique_ptr<AxisFilter> x, std::unique_ptr<AxisFilter> y)
@@ -80,6 +113,33 @@ StepStatus TwoAxisFilter::predict_only() {
   const StepStatus status = x_->predict_only();
   if (status != StepStatus::kOk) return status;
   return y_->predict_only();
+}
+
+StepStatus TwoAxisFilter::predict() {
+  const StepStatus status = x_->predict();
+  if (status != StepStatus::kOk) return status;
+  return y_->predict();
+}
+
+bool TwoAxisFilter::predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const {
+  double zx = 0.0, sx = 0.0, zy = 0.0, sy = 0.0;
+  if (!x_->predicted_plot(zx, sx) || !y_->predicted_plot(zy, sy)) return false;
+  z_hat << zx, zy;
+  S << sx, 0.0, 0.0, sy;
+  return true;
+}
+
+StepStatus TwoAxisFilter::update(const Eigen::Vector2d& z) {
+  if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
+  const StepStatus status = x_->update(z(0));
+  if (status != StepStatus::kOk) return status;
+  return y_->update(z(1));
+}
+
+StepStatus TwoAxisFilter::miss() {
+  const StepStatus status = x_->miss();
+  if (status != StepStatus::kOk) return status;
+  return y_->miss();
 }
 
 void TwoAxisFilter::state(Eigen::Ref<Eigen::VectorXd> mean,

@@ -95,6 +95,31 @@ StepStatus FimmFilter::step(const Eigen::Vector2d& z) { return imm_->step(z); }
 
 StepStatus FimmFilter::predict_only() { return imm_->predict_only(); }
 
+bool FimmFilter::predicts_before_the_plot() const { return imm_->predicts_before_the_plot(); }
+
+StepStatus FimmFilter::predict() { return imm_->predict(); }
+
+double FimmFilter::candidate_log_likelihood(const Eigen::Vector2d& z) const {
+  return imm_->candidate_log_likelihood(z);
+}
+
+double FimmFilter::candidate_distance(const Eigen::Vector2d& z) const {
+  return imm_->candidate_distance(z);
+}
+
+bool FimmFilter::predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const {
+  Vector<2> mean;
+  SquareMatrix<2> covariance;
+  if (!imm_->predicted_plot(mean, covariance)) return false;
+  z_hat = mean;
+  S = covariance;
+  return true;
+}
+
+StepStatus FimmFilter::update(const Eigen::Vector2d& z) { return imm_->update(z); }
+
+StepStatus FimmFilter::miss() { return imm_->miss(); }
+
 void FimmFilter::state(Eigen::Ref<Eigen::VectorXd> mean,
                        Eigen::Ref<Eigen::VectorXd> variance) const {
   mean = imm_->estimate().mean;

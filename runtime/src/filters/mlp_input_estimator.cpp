@@ -2,6 +2,9 @@
 #include "imm/filters/mlp_input_estimator.hpp"
 
 #include <algorithm>
+#include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
@@ -104,10 +107,11 @@ void MlpInputEstimatorFilter::initialize(const GaussianState<2>& state) {
 
 StepStatus MlpInputEstimatorFilter::step(double z) {
   updated_ = false;
+  predicted_ = false;
   if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
   // The primary KF with the input estimated at k − 1 (eq. 10).
-  GaussianState<2> primary =
-      predict(primary_, motion_.transition, motion_.process_noise, G_, Vector<1>(acceleration_));
+  GaussianState<2> primary = imm::predict(primary_, motion_.transition, motion_.process_noise, G_,
+                                          Vector<1>(acceleration_));
   const auto primary_report = update(primary, Vector<1>(z), H_, R_);
   if (!primary_report.ok()) return primary_report.status;
   // The plain CV KF and its features (eq. 4–9, 11–14), then û(k).
@@ -129,9 +133,80 @@ StepStatus MlpInputEstimatorFilter::step(double z) {
 
 void MlpInputEstimatorFilter::predict_only() {
   updated_ = false;
-  primary_ =
-      predict(primary_, motion_.transition, motion_.process_noise, G_, Vector<1>(acceleration_));
+  predicted_ = false;
+  primary_ = imm::predict(primary_, motion_.transition, motion_.process_noise, G_,
+                          Vector<1>(acceleration_));
   features_.predict_only();
+}
+
+void MlpInputEstimatorFilter::predict() {
+  updated_ = false;
+  held_ = imm::predict(primary_, motion_.transition, motion_.process_noise, G_,
+                       Vector<1>(acceleration_));
+  predicted_ = true;
+}
+
+bool MlpInputEstimatorFilter::candidate_innovation(double z, double& nu, double& variance) const {
+  Vector<1> innovation;
+  SquareMatrix<1> covariance;
+  if (!predicted_ || !score_candidate(held_, Vector<1>(z), H_, R_, innovation, covariance)) {
+    return false;
+  }
+  nu = innovation(0);
+  variance = covariance(0, 0);
+  return true;
+}
+
+bool MlpInputEstimatorFilter::predicted_plot(double& z_hat, double& variance) const {
+  Vector<1> mean;
+  SquareMatrix<1> covariance;
+  if (!predicted_ || !imm::predict_plot(held_, H_, R_, mean, covariance)) return false;
+  z_hat = mean(0);
+  variance = covariance(0, 0);
+  return true;
+}
+
+namespace {
+void require_held(const MlpInputEstimatorFilter& filter, const char* call) {
+  if (!filter.predicted()) {
+    throw std::logic_error(std::string("MlpInputEstimatorAxis::") + call + " without predict()");
+  }
+}
+}  // namespace
+
+StepStatus MlpInputEstimatorAxis::predict() {
+  filter_.predict();
+  return StepStatus::kOk;
+}
+
+double MlpInputEstimatorAxis::candidate_log_likelihood(double z) const {
+  double nu = 0.0, variance = 0.0;
+  if (!filter_.candidate_innovation(z, nu, variance)) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  return axis_log_density(nu, variance);
+}
+
+double MlpInputEstimatorAxis::candidate_distance(double z) const {
+  double nu = 0.0, variance = 0.0;
+  if (!filter_.candidate_innovation(z, nu, variance) || !(variance > 0.0)) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  return nu * nu / variance;
+}
+
+StepStatus MlpInputEstimatorAxis::update(double z) {
+  require_held(filter_, "update");
+  const StepStatus status = filter_.step(z);
+  // A refused plot leaves the prediction held, for another plot or miss().
+  if (status != StepStatus::kOk) filter_.predict();
+  return status;
+}
+
+StepStatus MlpInputEstimatorAxis::miss() {
+  require_held(filter_, "miss");
+  filter_.predict_only();
+  return StepStatus::kOk;
 }
 
 TrackOptions MlpInputEstimatorModel::track_options(std::int64_t max_gap) const {

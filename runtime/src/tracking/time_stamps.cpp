@@ -51,7 +51,7 @@ StepStatus predict_only_over(TrackFilter& filter, double period, double interval
 
 StepStatus predict_over(TrackFilter& filter, double period, double interval) {
   // A filter that does not split its cycle refuses (TrackFilter::predict) before anything moves.
-  if (!filter.predicts_before_the_plot()) return filter.predict();
+  if (!filter.has_split_cycle()) return filter.predict();
   const StepStatus status = advance_to_last_cycle(filter, period, interval);
   return status == StepStatus::kOk ? filter.predict() : status;
 }

@@ -73,6 +73,7 @@ class PlainImmFilter final : public TrackFilter {
     return std::visit([](const auto& imm) { return imm.log_predictive_likelihood(); }, imm_);
   }
 
+  [[nodiscard]] bool has_split_cycle() const override { return true; }
   [[nodiscard]] bool predicts_before_the_plot() const override {
     return std::visit([](const auto& imm) { return imm.predicts_before_the_plot(); }, imm_);
   }
@@ -153,8 +154,8 @@ std::optional<double> last_step_nis(const TrackFilter& filter) {
 namespace {
 [[noreturn]] void no_split_cycle(const char* call) {
   throw std::logic_error(std::string("TrackFilter::") + call +
-                         ": this filter's prediction depends on the plot (a learned kind or a "
-                         "noise schedule); use step() and predict_only()");
+                         ": this filter does not split its cycle (has_split_cycle() is false); "
+                         "use step() and predict_only()");
 }
 }  // namespace
 

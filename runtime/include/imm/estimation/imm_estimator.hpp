@@ -161,7 +161,13 @@ class ImmEstimator {
   // --- A cycle in two halves, for a tracker that gates and assigns plots -----------------------
   // predict(); then, without changing the track, predicted_plot() and, for every candidate plot,
   // candidate_log_likelihood() and candidate_distance(); then update(z) with the plot chosen, or
-  // miss(). In that order the numbers are exactly those of step(z) and predict_only().
+  // miss(). In that order the numbers are exactly those of step(z) and predict_only(). Where
+  // every mode predicts before the plot (predicts_before_the_plot()), predict() holds the modes'
+  // predictions and a candidate costs one innovation per mode. Where a mode's prediction depends
+  // on the plot (a learned noise or compensation), predict() holds the mixing; a candidate's
+  // likelihood is a trial update (each mode's propose() of it into its pending slot, which
+  // commit() alone would make current, so the track does not change), and its distance and the
+  // predicted plot are those of the prediction without a plot (what miss() predicts).
 
   /// Whether every mode predicts over any positive interval (ImmMode::takes_any_interval).
   [[nodiscard]] bool takes_any_interval() const {
@@ -196,8 +202,8 @@ class ImmEstimator {
     return true;
   }
 
-  /// Whether every mode predicts without the plot (see ImmMode::predicts_before_the_plot): what
-  /// predict() needs.
+  /// Whether every mode predicts without the plot (see ImmMode::predicts_before_the_plot): a
+  /// candidate is then scored against one held prediction; otherwise by a trial update.
   [[nodiscard]] bool predicts_before_the_plot() const {
     for (const auto& mode : modes_) {
       if (!mode->predicts_before_the_plot()) return false;
@@ -206,29 +212,35 @@ class ImmEstimator {
   }
 
   /// The first half of a cycle: the predicted mode probabilities, the mixing and every mode's
-  /// prediction, held until update() or miss(); the track does not change. kOk, or the failing
-  /// mode's status (nothing is then held). Throws std::logic_error when a mode's prediction
-  /// depends on the plot (predicts_before_the_plot() is false).
+  /// prediction (the mixing alone where predicts_before_the_plot() is false), held until update()
+  /// or miss(); the track does not change. kOk, or the failing mode's status (nothing is then
+  /// held).
   StepStatus predict();
 
   /// Whether predict() holds a prediction (until update() succeeds or miss()).
   [[nodiscard]] bool predicted() const { return predicted_; }
 
   /// After predict(): log p(z | Z^(k−1)) = log Σ_j c_j N(z; ẑ_j, S_j) of a candidate plot, what
-  /// log_predictive_likelihood() would be after update(z); nothing changes. NaN without a held
-  /// prediction, for an unusable plot, or where a mode cannot score it.
+  /// log_predictive_likelihood() would be after update(z); nothing changes (a trial update writes
+  /// only the modes' pending slots). NaN without a held prediction, for an unusable plot, or
+  /// where a mode cannot score it.
   [[nodiscard]] double candidate_log_likelihood(const Vector<NZ>& z) const;
 
   /// After predict(): the normalized distance d² = νᵀ S⁻¹ ν of a candidate plot under the IMM's
   /// predicted plot density collapsed to its two moments (ν = Σ_j c_j ν_j, S as innovation()):
-  /// the gate's statistic, χ² with NZ degrees of freedom where the filter is consistent. Nothing
-  /// changes; NaN where candidate_log_likelihood() is NaN or S is not positive definite.
+  /// the gate's statistic, χ² with NZ degrees of freedom where the filter is consistent. Where
+  /// candidates are trial updates, under the prediction without the plot (predicted_plot()'s):
+  /// a learned noise that grows with the plot's own innovation would otherwise widen the gate for
+  /// every far plot. Nothing changes; NaN for an unusable plot or where S is not positive
+  /// definite.
   [[nodiscard]] double candidate_distance(const Vector<NZ>& z) const;
 
   /// After predict(): mode j's predicted plot ẑ_j and its covariance S_j; false without a held
-  /// prediction or where the mode's h is undefined at its prediction.
+  /// prediction or where the mode's h is undefined at its prediction. Where a mode's prediction
+  /// depends on the plot, the prediction without it (what miss() predicts); false where the mode
+  /// cannot state it.
   bool predicted_plot(int j, Vector<NZ>& z_hat, SquareMatrix<NZ>& S) const {
-    return predicted_ && modes_[index(j)]->predicted_plot(z_hat, S);
+    return predicted_ && predict_without_the_plot() && modes_[index(j)]->predicted_plot(z_hat, S);
   }
 
   /// After predict(): the IMM's predicted plot and covariance, the two moments of
@@ -336,6 +348,28 @@ class ImmEstimator {
     return [this, &z](int j, Vector<NZ>& nu, SquareMatrix<NZ>& S) {
       return modes_[index(j)]->candidate_innovation(z, nu, S);
     };
+  }
+  // A trial update of every mode with z from the held mixing, into the modes' pending slots (the
+  // modes are reached through their pointers: a pending slot is scratch until commit()). False
+  // where a mode refused z; `log_likelihoods` gets each mode's ℓ_j.
+  bool trial_update(const Vector<NZ>& z, ModeVector& log_likelihoods) const {
+    if (!limits::usable_measurement(z)) return false;
+    for (int j = 0; j < mode_count(); ++j) {
+      const ModeStep result = modes_[index(j)]->propose(mixed_states_[index(j)], z);
+      if (result.status != StepStatus::kOk) return false;
+      log_likelihoods(j) = result.log_likelihood;
+    }
+    return true;
+  }
+  // Where the held mixing is a trial's: every mode's prediction without a plot into its pending
+  // slot, for predicted_plot(). True where every mode predicted (always, for a held prediction).
+  bool predict_without_the_plot() const {
+    if (!trial_) return true;
+    for (int j = 0; j < mode_count(); ++j) {
+      const ModeStep result = modes_[index(j)]->propose_prediction(mixed_states_[index(j)]);
+      if (result.status != StepStatus::kOk) return false;
+    }
+    return true;
   }
 
   // log c_j = log Σ_i p_ij μ_i (eq. 8's inner sum), through the scaled μ̃ (see the class comment).
@@ -487,6 +521,7 @@ class ImmEstimator {
   bool updated_ = false;    // the last call was a successful update (innovation())
   bool predicted_ = false;  // predict() holds a prediction (mixed_states_, the modes' pending)
   bool prediction_intact_ = false;  // and no update() has been tried on it since
+  bool trial_ = false;              // predict() held the mixing alone: candidates are trial updates
 };
 
 }  // namespace imm

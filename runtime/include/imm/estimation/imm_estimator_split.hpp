@@ -15,33 +15,41 @@ namespace imm {
 template <int NX, int NZ>
 StepStatus ImmEstimator<NX, NZ>::predict() {
   require_initialized();
-  if (!predicts_before_the_plot()) {
-    throw std::logic_error("ImmEstimator::predict: a mode's prediction depends on the plot");
-  }
   updated_ = false;
   predicted_ = false;
+  trial_ = !predicts_before_the_plot();
   predict_mode_probabilities();
   status_ = StepStatus::kOk;
   for (int j = 0; j < mode_count(); ++j) {
     mix(j, mixed_states_[index(j)]);
-    if (!record(j, mode_at(j).propose_prediction(mixed_states_[index(j)]))) return status_;
+    if (!trial_ && !record(j, mode_at(j).propose_prediction(mixed_states_[index(j)]))) {
+      return status_;
+    }
   }
   predicted_ = true;
-  prediction_intact_ = true;
+  // A trial's modes hold no prediction: miss() makes it.
+  prediction_intact_ = !trial_;
   return StepStatus::kOk;
 }
 
 template <int NX, int NZ>
 double ImmEstimator<NX, NZ>::candidate_log_likelihood(const Vector<NZ>& z) const {
-  if (!predicted_) return std::numeric_limits<double>::quiet_NaN();
-  return mixture_log_density(innovations_of_candidate(z));
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  if (!predicted_) return kNaN;
+  if (!trial_) return mixture_log_density(innovations_of_candidate(z));
+  // record()'s ℓ_j + log c_j and log_predictive_likelihood()'s sum, in their order.
+  ModeVector terms(mode_count());
+  if (!trial_update(z, terms)) return kNaN;
+  for (int j = 0; j < mode_count(); ++j) terms(j) = terms(j) + log_predicted_(j);
+  return log_sum_exp(terms);
 }
 
 template <int NX, int NZ>
 double ImmEstimator<NX, NZ>::candidate_distance(const Vector<NZ>& z) const {
   Vector<NZ> nu;
   SquareMatrix<NZ> S;
-  if (!predicted_ || !collapse(innovations_of_candidate(z), nu, S)) {
+  // Under a trial, the gate is the prediction stated before the plot (predicted_plot()'s).
+  if (!predicted_ || !predict_without_the_plot() || !collapse(innovations_of_candidate(z), nu, S)) {
     return std::numeric_limits<double>::quiet_NaN();
   }
   const Eigen::LLT<SquareMatrix<NZ>> llt(S);
@@ -51,7 +59,7 @@ double ImmEstimator<NX, NZ>::candidate_distance(const Vector<NZ>& z) const {
 
 template <int NX, int NZ>
 bool ImmEstimator<NX, NZ>::predicted_plot(Vector<NZ>& z_hat, SquareMatrix<NZ>& S) const {
-  if (!predicted_) return false;
+  if (!predicted_ || !predict_without_the_plot()) return false;
   int top = 0;
   for (int j = 1; j < mode_count(); ++j) {
     if (log_predicted_(j) > log_predicted_(top)) top = j;
@@ -73,7 +81,10 @@ StepStatus ImmEstimator<NX, NZ>::update(const Vector<NZ>& z) {
   prediction_intact_ = false;
   status_ = StepStatus::kOk;
   for (int j = 0; j < mode_count(); ++j) {
-    if (!record(j, mode_at(j).propose_update(z))) break;
+    // step()'s propose() from the same mixing where the prediction depends on the plot.
+    const ModeStep result =
+        trial_ ? mode_at(j).propose(mixed_states_[index(j)], z) : mode_at(j).propose_update(z);
+    if (!record(j, result)) break;
   }
   const StepStatus status = finish_update();
   if (status == StepStatus::kOk) predicted_ = false;

@@ -287,6 +287,27 @@ bool score_candidate(const GaussianState<N>& predicted, const Vector<Model::kDim
   return true;
 }
 
+/// predict_plot() of a linear measurement z = H x + v, v ~ N(0, R); false where ẑ or S is not
+/// finite.
+template <int N, int M>
+bool predict_plot(const GaussianState<N>& predicted, const Matrix<M, N>& H,
+                  const SquareMatrix<M>& R, Vector<M>& z_hat, SquareMatrix<M>& S) {
+  z_hat = H * predicted.mean;
+  S = H * predicted.covariance * H.transpose() + R;
+  return z_hat.allFinite() && S.allFinite();
+}
+
+/// score_candidate() of a linear measurement (see predict_plot above): ν = z − H x⁻.
+template <int N, int M>
+bool score_candidate(const GaussianState<N>& predicted, const Vector<M>& z, const Matrix<M, N>& H,
+                     const SquareMatrix<M>& R, Vector<M>& nu, SquareMatrix<M>& S) {
+  if (!limits::usable_measurement(z)) return false;
+  Vector<M> z_hat;
+  if (!predict_plot(predicted, H, R, z_hat, S)) return false;
+  nu = z - z_hat;
+  return true;
+}
+
 /// The default step tolerance of iterated_update, relative to the prior's standard deviations.
 inline constexpr double kIteratedUpdateTolerance = 1e-6;
 

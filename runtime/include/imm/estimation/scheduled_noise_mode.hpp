@@ -158,15 +158,18 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
   /// Without a schedule: the prediction does not depend on the plot. With one it does (Q is
   /// scaled by the plot's own normalized innovation).
   [[nodiscard]] bool predicts_before_the_plot() const override { return !schedule_; }
-  /// ν and S of a candidate plot at the held prediction (ImmMode::candidate_innovation).
+  /// ν and S of a candidate plot at the held prediction (ImmMode::candidate_innovation); with a
+  /// schedule, at the prediction without a plot (the last s), for the gate's predicted plot: the
+  /// IMM scores candidates by trial updates then.
   bool candidate_innovation(const Vector<kMeasurementDim>& z, Vector<kMeasurementDim>& nu,
                             SquareMatrix<kMeasurementDim>& S) const override {
-    return !schedule_ && score_candidate(predicted_, z, measurement_, nu, S);
+    return score_candidate(predicted_, z, measurement_, nu, S);
   }
-  /// ẑ and S at the held prediction (ImmMode::predicted_plot).
+  /// ẑ and S at the held prediction (ImmMode::predicted_plot); with a schedule, as
+  /// candidate_innovation.
   bool predicted_plot(Vector<kMeasurementDim>& z_hat,
                       SquareMatrix<kMeasurementDim>& S) const override {
-    return !schedule_ && predict_plot(predicted_, measurement_, z_hat, S);
+    return predict_plot(predicted_, measurement_, z_hat, S);
   }
   /// The held prediction updated with z (ImmMode::propose_update).
   ModeStep propose_update(const Vector<kMeasurementDim>& z) override {

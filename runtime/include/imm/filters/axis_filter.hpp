@@ -34,6 +34,9 @@ struct IMM_RUNTIME_EXPORT AxisImmSettings {
   [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
+/// log N(ν; 0, S) of a scalar innovation; NaN unless S > 0.
+[[nodiscard]] IMM_RUNTIME_EXPORT double axis_log_density(double nu, double variance);
+
 /// ImmEstimator::innovation of a one-axis IMM as scalars.
 inline bool axis_innovation(const ImmEstimator<2, 1>& imm, double& nu, double& variance) {
   Vector<1> v;
@@ -73,6 +76,27 @@ class IMM_RUNTIME_EXPORT AxisFilter {
   /// log p(z | Z^(k−1)) of the last step's plot (TrackFilter::log_predictive_likelihood, one
   /// axis); the default is log N(ν; 0, S) of innovation(), NaN without one.
   [[nodiscard]] virtual double log_predictive_likelihood() const;
+
+  // The cycle in two halves, one axis (TrackFilter::predict and what follows it). The defaults:
+  // no split (has_split_cycle() false; predict(), update() and miss() throw std::logic_error,
+  // the candidate questions answer NaN or false).
+
+  /// Whether predict(), update() and miss() work.
+  [[nodiscard]] virtual bool has_split_cycle() const { return false; }
+  /// Whether the prediction does not depend on the measurement.
+  [[nodiscard]] virtual bool predicts_before_the_plot() const { return false; }
+  /// The first half: the prediction held until update() or miss().
+  virtual StepStatus predict();
+  /// After predict(): log p(z | past) of a candidate axis measurement; nothing changes.
+  [[nodiscard]] virtual double candidate_log_likelihood(double z) const;
+  /// After predict(): ν²/S of a candidate (the collapsed mixture's, for an IMM); nothing changes.
+  [[nodiscard]] virtual double candidate_distance(double z) const;
+  /// After predict(): the predicted measurement and its variance.
+  virtual bool predicted_plot(double& z_hat, double& variance) const;
+  /// The second half with z: step(z)'s numbers.
+  virtual StepStatus update(double z);
+  /// The second half without a measurement: predict_only()'s numbers.
+  virtual StepStatus miss();
 };
 
 /// An IMM over per-axis modes (filters with per-mode extras derive from it).
@@ -104,6 +128,28 @@ class IMM_RUNTIME_EXPORT ImmAxisFilter : public AxisFilter {
   [[nodiscard]] double log_predictive_likelihood() const override {
     return imm_.log_predictive_likelihood();
   }
+  /// The IMM's split cycle (ImmEstimator::predict and what follows it).
+  [[nodiscard]] bool has_split_cycle() const override { return true; }
+  /// Whether every mode predicts before the plot (no trial updates).
+  [[nodiscard]] bool predicts_before_the_plot() const override {
+    return imm_.predicts_before_the_plot();
+  }
+  /// ImmEstimator::predict.
+  StepStatus predict() override { return imm_.predict(); }
+  /// ImmEstimator::candidate_log_likelihood.
+  [[nodiscard]] double candidate_log_likelihood(double z) const override {
+    return imm_.candidate_log_likelihood(Vector<1>(z));
+  }
+  /// ImmEstimator::candidate_distance.
+  [[nodiscard]] double candidate_distance(double z) const override {
+    return imm_.candidate_distance(Vector<1>(z));
+  }
+  /// ImmEstimator::predicted_plot.
+  bool predicted_plot(double& z_hat, double& variance) const override;
+  /// ImmEstimator::update.
+  StepStatus update(double z) override { return imm_.update(Vector<1>(z)); }
+  /// ImmEstimator::miss.
+  StepStatus miss() override { return imm_.miss(); }
   /// The underlying IMM.
   [[nodiscard]] const ImmEstimator<2, 1>& imm() const { return imm_; }
 
@@ -138,6 +184,30 @@ class IMM_RUNTIME_EXPORT TwoAxisFilter final : public TrackFilter {
   [[nodiscard]] double log_predictive_likelihood() const override {
     return x_->log_predictive_likelihood() + y_->log_predictive_likelihood();
   }
+  /// Where both axes split theirs (AxisFilter::has_split_cycle).
+  [[nodiscard]] bool has_split_cycle() const override {
+    return x_->has_split_cycle() && y_->has_split_cycle();
+  }
+  /// Where both axes predict before the plot.
+  [[nodiscard]] bool predicts_before_the_plot() const override {
+    return x_->predicts_before_the_plot() && y_->predicts_before_the_plot();
+  }
+  /// Both axes predict (x first; a failure of y leaves x's prediction held).
+  StepStatus predict() override;
+  /// The sum of the axes' (independent filters).
+  [[nodiscard]] double candidate_log_likelihood(const Eigen::Vector2d& z) const override {
+    return x_->candidate_log_likelihood(z(0)) + y_->candidate_log_likelihood(z(1));
+  }
+  /// The sum of the axes' ν²/S: νᵀ S⁻¹ ν with S = diag(S_x, S_y), as innovation().
+  [[nodiscard]] double candidate_distance(const Eigen::Vector2d& z) const override {
+    return x_->candidate_distance(z(0)) + y_->candidate_distance(z(1));
+  }
+  /// [ẑ_x, ẑ_y] and diag(S_x, S_y).
+  bool predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const override;
+  /// The plot is validated first, then x and y update, as step().
+  StepStatus update(const Eigen::Vector2d& z) override;
+  /// Both axes without a plot.
+  StepStatus miss() override;
 
   /// Axis 0 (x) or 1 (y).
   [[nodiscard]] const AxisFilter& axis(int i) const { return i == 0 ? *x_ : *y_; }

@@ -133,6 +133,16 @@ class IMM_RUNTIME_EXPORT FcmCompensatedMode final : public ImmMode<2, 1> {
   void predicted_mean(const GaussianState<2>& mixed, Vector<2>& mean) const override {
     mean.noalias() = F_ * mixed.mean;
   }
+  /// After propose_prediction(): ν and S of a candidate plot at the prediction without a plot
+  /// (no compensation); the IMM scores candidates by trial updates, this is for the gate's
+  /// predicted plot.
+  bool candidate_innovation(const Vector<1>& z, Vector<1>& nu, SquareMatrix<1>& S) const override {
+    return score_candidate(pending_, z, H_, R_, nu, S);
+  }
+  /// After propose_prediction(): ẑ and S of the prediction without a plot.
+  bool predicted_plot(Vector<1>& z_hat, SquareMatrix<1>& S) const override {
+    return predict_plot(pending_, H_, R_, z_hat, S);
+  }
   void commit() override;
 
   /// Memberships [dec, noise, acc] of the last committed error ([0, 1, 0] before any).

@@ -78,6 +78,23 @@ class IMM_RUNTIME_EXPORT FimmFilter final : public TrackFilter {
     return imm_->log_predictive_likelihood();
   }
 
+  /// The IMM's split cycle (ImmEstimator::predict and what follows it).
+  [[nodiscard]] bool has_split_cycle() const override { return true; }
+  /// Whether every mode predicts before the plot.
+  [[nodiscard]] bool predicts_before_the_plot() const override;
+  /// ImmEstimator::predict.
+  StepStatus predict() override;
+  /// ImmEstimator::candidate_log_likelihood.
+  [[nodiscard]] double candidate_log_likelihood(const Eigen::Vector2d& z) const override;
+  /// ImmEstimator::candidate_distance.
+  [[nodiscard]] double candidate_distance(const Eigen::Vector2d& z) const override;
+  /// ImmEstimator::predicted_plot.
+  bool predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const override;
+  /// ImmEstimator::update.
+  StepStatus update(const Eigen::Vector2d& z) override;
+  /// ImmEstimator::miss.
+  StepStatus miss() override;
+
   /// The combined estimate with its full covariance.
   [[nodiscard]] const GaussianState<6>& estimate() const;
   /// Whether the last combined estimate lies outside the sensor model's trained box.

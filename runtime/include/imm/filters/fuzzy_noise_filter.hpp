@@ -116,6 +116,10 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
   [[nodiscard]] FuzzyAntecedents antecedents() const { return antecedents_; }
   /// F of the CV model.
   [[nodiscard]] const SquareMatrix<2>& transition() const { return F_; }
+  /// H = [1, 0].
+  [[nodiscard]] const Matrix<1, 2>& measurement_matrix() const { return H_; }
+  /// R = σ_z².
+  [[nodiscard]] const SquareMatrix<1>& measurement_noise() const { return R_; }
 
  private:
   FuzzyRuleTable table_;
@@ -170,6 +174,19 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseMode final : public ImmMode<2, 1> {
   /// F times the mixed mean.
   void predicted_mean(const GaussianState<2>& mixed, Vector<2>& mean) const override {
     mean = filter_.transition() * mixed.mean;
+  }
+
+  /// After propose_prediction(): ν and S of a candidate plot at the prediction without a plot
+  /// (the table's mean w); the IMM scores candidates by trial updates, this is for the gate's
+  /// predicted plot.
+  bool candidate_innovation(const Vector<1>& z, Vector<1>& nu, SquareMatrix<1>& S) const override {
+    return score_candidate(pending_, z, filter_.measurement_matrix(), filter_.measurement_noise(),
+                           nu, S);
+  }
+  /// After propose_prediction(): ẑ and S of the prediction without a plot.
+  bool predicted_plot(Vector<1>& z_hat, SquareMatrix<1>& S) const override {
+    return predict_plot(pending_, filter_.measurement_matrix(), filter_.measurement_noise(), z_hat,
+                        S);
   }
 
   void commit() override {

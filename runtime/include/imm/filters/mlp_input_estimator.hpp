@@ -155,6 +155,18 @@ class IMM_RUNTIME_EXPORT MlpInputEstimatorFilter {
   /// One scan without a measurement: both KFs predict, the primary with the last û, which is held.
   void predict_only();
 
+  /// The primary KF's prediction with û(k − 1), held for candidate plots: it does not depend on
+  /// the plot (the network reads the plot only after the update). step() and predict_only() drop
+  /// it.
+  void predict();
+  /// After predict(): the candidate's innovation and its variance under the held prediction, as
+  /// step(z) forms them; false without a held prediction or for an unusable z.
+  bool candidate_innovation(double z, double& nu, double& variance) const;
+  /// After predict(): the predicted measurement H x⁻ and its variance H P⁻ Hᵀ + R.
+  bool predicted_plot(double& z_hat, double& variance) const;
+  /// Whether predict() holds a prediction.
+  [[nodiscard]] bool predicted() const { return predicted_; }
+
   [[nodiscard]] const GaussianState<2>& estimate() const { return primary_; }  ///< corrected
   /// The feature KF's estimate (uncorrected).
   [[nodiscard]] const GaussianState<2>& cv_estimate() const { return features_.estimate(); }
@@ -194,7 +206,9 @@ class IMM_RUNTIME_EXPORT MlpInputEstimatorFilter {
   double raw_output_ = 0.0;
   double innovation_ = 0.0;
   double innovation_variance_ = 0.0;
-  bool updated_ = false;  // the last call was a successful step()
+  bool updated_ = false;   // the last call was a successful step()
+  GaussianState<2> held_;  // predict()'s prediction of the primary KF
+  bool predicted_ = false;
 };
 
 /// The input-estimation filter as one axis of a TwoAxisFilter: one mode ("input estimation"),
@@ -225,6 +239,24 @@ class IMM_RUNTIME_EXPORT MlpInputEstimatorAxis final : public AxisFilter {
   bool innovation(double& nu, double& variance) const override {
     return filter_.innovation(nu, variance);
   }
+  /// The split cycle: the primary KF's prediction does not depend on the plot.
+  [[nodiscard]] bool has_split_cycle() const override { return true; }
+  /// True: û(k − 1) is known before the plot.
+  [[nodiscard]] bool predicts_before_the_plot() const override { return true; }
+  /// MlpInputEstimatorFilter::predict.
+  StepStatus predict() override;
+  /// log N(ν; 0, S) of the candidate under the held prediction.
+  [[nodiscard]] double candidate_log_likelihood(double z) const override;
+  /// ν²/S of the candidate under the held prediction.
+  [[nodiscard]] double candidate_distance(double z) const override;
+  /// MlpInputEstimatorFilter::predicted_plot.
+  bool predicted_plot(double& z_hat, double& variance) const override {
+    return filter_.predicted_plot(z_hat, variance);
+  }
+  /// step(z) after predict() (the prediction is made again, to the same numbers).
+  StepStatus update(double z) override;
+  /// predict_only() after predict().
+  StepStatus miss() override;
   /// The underlying filter (û and the features).
   [[nodiscard]] const MlpInputEstimatorFilter& filter() const { return filter_; }
 

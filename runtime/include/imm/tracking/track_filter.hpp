@@ -72,11 +72,17 @@ class IMM_RUNTIME_EXPORT TrackFilter {
   // The cycle in two halves, for a tracker that gates and assigns (ImmEstimator::predict and what
   // follows it): predict(), then any number of candidate_* questions that change nothing, then
   // update(z) with the plot chosen or miss(). In that order the numbers are exactly those of
-  // step(z) and predict_only(). A filter whose prediction depends on the plot (the learned
-  // kinds, a noise schedule) does not split its cycle: predicts_before_the_plot() is false and
-  // predict(), update() and miss() throw std::logic_error.
+  // step(z) and predict_only(). Where the prediction depends on the plot (the learned kinds, a
+  // noise schedule: predicts_before_the_plot() is false), a candidate's likelihood is a trial
+  // update that is not kept, while its distance (the gate) and predicted_plot() are those of the
+  // prediction without a plot (what miss() predicts). A family without the split (has_split_cycle()
+  // false: the wIMM, whose update fuses the plot's azimuth with the prediction's) throws
+  // std::logic_error from predict(), update() and miss().
 
-  /// Whether this filter splits its cycle (false unless the family implements it).
+  /// Whether predict(), update() and miss() work (false unless the family implements them).
+  [[nodiscard]] virtual bool has_split_cycle() const { return false; }
+  /// Whether the prediction does not depend on the plot, so that candidates are scored against
+  /// one held prediction rather than by trial updates (false unless the family says so).
   [[nodiscard]] virtual bool predicts_before_the_plot() const { return false; }
   /// The first half: the prediction to the next scan, held until update() or miss(). A status
   /// other than kOk holds none.
