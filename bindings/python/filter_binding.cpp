@@ -171,8 +171,8 @@ void add_filter_binding(py::module_& m) {
       .def("state", &PyFilter::state)
       .def("mode_probabilities", &PyFilter::mode_probabilities)
       .def_property_readonly("has_split_cycle", &PyFilter::has_split_cycle,
-                             "Whether predict(), update() and miss() work (every kind but the "
-                             "wIMM)")
+                             "Whether predict(), update() and miss() work (every kind but a "
+                             "wIMM that fuses the azimuth)")
       .def_property_readonly("predicts_before_the_plot", &PyFilter::predicts_before_the_plot,
                              "Whether the prediction does not read the plot (else a candidate's "
                              "likelihood is a trial update)")

@@ -106,8 +106,8 @@ class TrackBank:
         tracks 0 … tracks − 1's one-scan predictions, -inf where the squared distance to the
         collapsed prediction exceeds `gate` (a χ² quantile: 9.21 is 99 % for 2-D plots; the
         default inf scores every pair), NaN for an unusable plot. Changes no track; the GIL is
-        released. Every plain IMM without a noise schedule answers it; other kinds raise
-        RuntimeError."""
+        released. Every plain IMM answers it (one with noise schedules by trial updates); the
+        learned kinds' banks raise RuntimeError (score through immtrain.Filter instead)."""
     @property
     def capacity(self) -> int:
         """The number of tracks."""
@@ -125,7 +125,8 @@ class Filter:
     step()'s and predict_only()'s to the bit. Where the prediction reads the plot (the learned
     kinds, a noise schedule: predicts_before_the_plot False) a candidate's likelihood is a trial
     update that is not kept, and its distance and predicted_plot() are those of the prediction
-    without a plot. The wIMM does not split its cycle (has_split_cycle False) and raises
+    without a plot. A wIMM that fuses the azimuth does not split its cycle (has_split_cycle False)
+    and raises
     RuntimeError from predict(), update() and miss(). Plots are in the model's measurement space (Cartesian x, y or
     polar range, azimuth; measurement_kind), in the model's length unit."""
 
@@ -165,7 +166,7 @@ class Filter:
         """The mode probabilities (m,)."""
     @property
     def has_split_cycle(self) -> bool:
-        """Whether predict(), update() and miss() work (every kind but the wIMM)."""
+        """Whether predict(), update() and miss() work (every kind but a wIMM that fuses the azimuth)."""
     @property
     def predicts_before_the_plot(self) -> bool:
         """Whether the prediction does not read the plot (the plain IMM without a noise schedule,

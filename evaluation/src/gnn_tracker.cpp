@@ -31,7 +31,7 @@ GnnTracker::GnnTracker(FilterMaker maker, GnnSettings settings)
   settings_.validate();
   if (!maker_.make || !maker_.make()->has_split_cycle()) {
     throw InvalidParameter("model",
-                           "its filter does not split its cycle (the wIMM's update fuses the "
+                           "its filter does not split its cycle (a wIMM's update fuses the "
                            "plot with the prediction): the tracker gates on the prediction");
   }
 }

@@ -61,6 +61,7 @@ RankedFilter ranked_filter(const std::filesystem::path& file, const std::string&
   r.consistency = consistency.verdict();
   r.position_nees = consistency.average;
   r.scans_inside = consistency.inside;
+  r.nis_inside = own.nis_consistency.inside;
   if (own.has_truth) {
     r.zeta_p = own.zeta_p;
     r.zeta_v = own.zeta_v;
@@ -145,6 +146,11 @@ int run(const RankOptions& options) {
     }
   }
   const TrackerChoice choice = choose_tracker(ranked);
+  // Held out of the choice: by its own gates, or by its consistency (choose_tracker's rule).
+  const auto held = [&](std::size_t i) {
+    return i >= classical &&
+           (!ranked[i].held_out.empty() || !consistency_hold(ranked[i], ranked[bar]).empty());
+  };
   // Where the motion models are put to the test: the position RMSE over the scans where the truth
   // manoeuvres, with each filter's difference from the bar (reported; the verdict is over ζ).
   std::vector<double> maneuver_rmse(files.size());
@@ -165,10 +171,10 @@ int run(const RankOptions& options) {
   for (std::size_t place = 0; place < choice.order.size(); ++place) {
     const RankedFilter& f = ranked[choice.order[place]];
     rows.push_back({std::to_string(place + 1),
-                    f.name + (f.baseline            ? " (the classical bar)"
-                              : f.classical         ? " (classical)"
-                              : !f.held_out.empty() ? " (held out)"
-                                                    : ""),
+                    f.name + (f.baseline                  ? " (the classical bar)"
+                              : f.classical               ? " (classical)"
+                              : held(choice.order[place]) ? " (held out)"
+                                                          : ""),
                     f.kind, cell(f.zeta_p), cell(f.zeta_v),
                     f.baseline ? "–" : f.versus_baseline_p.text(),
                     f.baseline ? "–" : f.versus_baseline_v.text(), verdict_against_baseline(f),
@@ -237,6 +243,8 @@ int run(const RankOptions& options) {
     if (!ranked[i].held_out.empty()) {
       findings.push_back(ranked[i].name +
                          " is held out of the choice (own gates: " + ranked[i].held_out + ")");
+    } else if (std::string hold = consistency_hold(ranked[i], ranked[bar]); !hold.empty()) {
+      findings.push_back(ranked[i].name + " is held out of the choice (" + hold + ")");
     }
   }
   print_findings(findings);
@@ -273,7 +281,8 @@ int run(const RankOptions& options) {
                           {"velocity_rmse", f.velocity_rmse},
                           {"verdict", verdict_against_baseline(f)},
                           {"own_gates", i < classical ? "—" : standings[i].text},
-                          {"eligible", i >= classical && f.held_out.empty()},
+                          {"eligible", i >= classical && !held(i)},
+                          {"nis_inside", f.nis_inside},
                           {"predictive_nll", plots[0].value()},
                           {"innovation_rms", plots[2].value()},
                           {"position_nees", outcomes[i].position_consistency.average},

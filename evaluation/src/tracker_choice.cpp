@@ -31,6 +31,30 @@ std::string inconsistency_finding(const RankedFilter& filter) {
          (filter.criteria[0] == "ζ_p" ? "errors" : "innovations");
 }
 
+std::string consistency_hold(const RankedFilter& filter, const RankedFilter& bar) {
+  const bool truth = filter.criteria[0] == "ζ_p";
+  struct Share {
+    const char* name;
+    double own, bar;
+  };
+  const std::array<Share, 2> shares{
+      Share{truth ? "position NEES" : "NIS", filter.scans_inside, bar.scans_inside},
+      Share{"NIS", filter.nis_inside, bar.nis_inside}};
+  std::string text;
+  for (std::size_t i = 0; i < (truth ? 2U : 1U); ++i) {
+    const Share& s = shares[i];
+    const double required = std::min(kConsistentShare, s.bar);
+    if (!(s.own < required)) continue;
+    char numbers[160];
+    std::snprintf(numbers, sizeof numbers,
+                  "%s inside its 95 %% bounds on %.1f %% of the scans, below the %.1f %% %s",
+                  s.name, 100.0 * s.own, 100.0 * required,
+                  s.bar < kConsistentShare ? "the bar reaches" : "of a consistent filter");
+    text += (text.empty() ? "" : "; ") + std::string(numbers);
+  }
+  return text.empty() ? text : "consistency: " + text;
+}
+
 TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
   const auto baselines =
       std::count_if(filters.begin(), filters.end(), [](const auto& f) { return f.baseline; });
@@ -56,9 +80,11 @@ TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
   for (std::size_t i : choice.order) {
     if (i == baseline || filters[i].classical) continue;
     const std::string v = verdict_against_baseline(filters[i]);
-    if (!filters[i].held_out.empty()) {
-      held_out.push_back(filters[i].name + " " + v +
-                         " it but is held out (own gates: " + filters[i].held_out + ")");
+    const std::string hold = filters[i].held_out.empty()
+                                 ? consistency_hold(filters[i], filters[baseline])
+                                 : "own gates: " + filters[i].held_out;
+    if (!hold.empty()) {
+      held_out.push_back(filters[i].name + " " + v + " it but is held out (" + hold + ")");
     } else if (v == "beats") {
       if (choice.winner == baseline) choice.winner = i;
       beaten_by.push_back(filters[i].name);

@@ -138,6 +138,48 @@ StepStatus WimmFilter::step(const Eigen::Vector2d& z) {
 
 StepStatus WimmFilter::predict_only() { return imm_.predict_only(); }
 
+StepStatus WimmFilter::predict() {
+  if (!has_split_cycle()) return TrackFilter::predict();  // throws
+  fusion_->use = AzimuthUse::kPlot;  // what step()'s choice sets without fusion
+  return imm_.predict();
+}
+
+double WimmFilter::candidate_log_likelihood(const Eigen::Vector2d& z) const {
+  if (!has_split_cycle()) return TrackFilter::candidate_log_likelihood(z);
+  return imm_.candidate_log_likelihood(z);
+}
+
+double WimmFilter::candidate_distance(const Eigen::Vector2d& z) const {
+  if (!has_split_cycle()) return TrackFilter::candidate_distance(z);
+  return imm_.candidate_distance(z);
+}
+
+bool WimmFilter::predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const {
+  Vector<2> mean;
+  SquareMatrix<2> covariance;
+  if (!has_split_cycle() || !imm_.predicted_plot(mean, covariance)) return false;
+  z_hat = mean;
+  S = covariance;
+  return true;
+}
+
+StepStatus WimmFilter::update(const Eigen::Vector2d& z) {
+  if (!has_split_cycle()) return TrackFilter::update(z);  // throws
+  const StepStatus status = imm_.update(z);
+  if (status == StepStatus::kOk) {  // step()'s bookkeeping of an unfused cycle
+    fused_ = false;
+    plot_ = z;
+    chosen_ = z;
+    use_ = AzimuthUse::kPlot;
+  }
+  return status;
+}
+
+StepStatus WimmFilter::miss() {
+  if (!has_split_cycle()) return TrackFilter::miss();  // throws
+  return imm_.miss();
+}
+
 void WimmFilter::to_plot(Vector<2>& nu, SquareMatrix<2>& S) const {
   if (!fused_) return;
   switch (use_) {

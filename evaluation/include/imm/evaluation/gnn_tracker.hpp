@@ -14,9 +14,9 @@
 ///   5. each plot left over is paired with the nearest plot left over from the scan before within
 ///      the reach of `max_speed` — a new tentative track (imm::two_point_start) — or waits for
 ///      the next scan.
-/// The filter must split its cycle (TrackFilter::has_split_cycle: every kind but the wIMM); the
-/// gate is the prediction without the plot, and a learned kind's candidate is scored by its trial
-/// update.
+/// The filter must split its cycle (TrackFilter::has_split_cycle: every kind but a wIMM that fuses
+/// the azimuth); the gate is the prediction without the plot, and a learned kind's candidate is
+/// scored by its trial update.
 
 #include <Eigen/Core>
 #include <cstdint>

@@ -66,8 +66,8 @@ struct MultiTargetResult {
 };
 
 /// Runs the scenes. Throws InvalidParameter naming the field, or io::FileError for a model file
-/// that does not load. A model whose filter does not split its cycle (the wIMM) is listed with
-/// the reason and not run; the first model must run.
+/// that does not load. A model whose filter does not split its cycle (a wIMM that fuses the
+/// azimuth) is listed with the reason and not run; the first model must run.
 [[nodiscard]] MultiTargetResult run_multi_target(const datasets::Regime& regime,
                                                  const std::vector<std::filesystem::path>& models,
                                                  MultiTargetSettings settings);

@@ -9,7 +9,9 @@
 /// eligible only when it *beats* the bar (verdict() over ζ_p
 /// and ζ_v: better beyond the 95 % paired-bootstrap interval in at least one, worse in neither).
 /// A learned model is also held out when its own experiment failed its gates, or when no
-/// evaluation of that very file says it passed them (RankedFilter::held_out).
+/// evaluation of that very file says it passed them (RankedFilter::held_out), and when its
+/// covariance is less consistent than both a consistent filter and the bar
+/// (consistency_hold()): a tracking application gates on it.
 /// Among the eligible ones the lowest ζ_p + ζ_v wins (without truth: the two criteria are the
 /// predictive NLL per plot and the innovation RMS, and the lowest NLL wins); when none is eligible
 /// the baseline is shipped — a learned model that only ties it has not earned its extra parts.
@@ -46,6 +48,9 @@ struct RankedFilter {
   /// of scans inside.
   std::string consistency = "consistent";
   double position_nees = 0.0, scans_inside = 1.0;
+  /// The share of scans whose NIS lies inside its 95 % bounds (with truth scans_inside is the
+  /// NEES's; without, the two are the same).
+  double nis_inside = 1.0;
   /// Why a learned model may not be the tracker whatever its figures (its own experiment's gates
   /// failed, or no evaluation of it was given); empty: eligible.
   std::string held_out;
@@ -63,6 +68,15 @@ struct TrackerChoice {
 /// The verdict of a filter against the baseline ("beats", "ties", "loses to", "mixed"; "—" for the
 /// baseline itself).
 [[nodiscard]] std::string verdict_against_baseline(const RankedFilter& filter);
+
+/// The share of scans inside the 95 % bounds a consistent filter reaches (ConsistencySummary).
+inline constexpr double kConsistentShare = 0.9;
+
+/// Why `filter`'s covariance holds it back from being the tracker, or empty: its position NEES
+/// (with truth) or its NIS lies inside the per-scan 95 % bounds on fewer scans than both
+/// kConsistentShare and `bar` does. A learned model must be consistent, or at least as consistent
+/// as the classical filter it would replace where that one is not.
+[[nodiscard]] std::string consistency_hold(const RankedFilter& filter, const RankedFilter& bar);
 
 /// A learned model that beats the baseline in accuracy but whose covariance does not match its
 /// errors (its position NEES outside the 95 % bounds on more than a tenth of the scans) is flagged:

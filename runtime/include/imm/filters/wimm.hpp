@@ -106,6 +106,27 @@ class IMM_RUNTIME_EXPORT WimmFilter final : public TrackFilter {
   /// plot and filters of either update compare.
   [[nodiscard]] double log_predictive_likelihood() const override;
 
+  /// The split cycle, without fusion and with the extended update only (the nIMM: the plot is
+  /// then the measurement, whatever the prediction); a fusing wIMM chooses its measurement from
+  /// the prediction and the plot together and does not split.
+  [[nodiscard]] bool has_split_cycle() const override {
+    return spec_.fusion == FusionVariant::kNone && spec_.update == MeasurementUpdate::kExtended;
+  }
+  /// As has_split_cycle() (both modes are Kalman modes).
+  [[nodiscard]] bool predicts_before_the_plot() const override { return has_split_cycle(); }
+  /// ImmEstimator::predict where has_split_cycle(); else std::logic_error.
+  StepStatus predict() override;
+  /// ImmEstimator::candidate_log_likelihood (NaN without a split cycle).
+  [[nodiscard]] double candidate_log_likelihood(const Eigen::Vector2d& z) const override;
+  /// ImmEstimator::candidate_distance (NaN without a split cycle).
+  [[nodiscard]] double candidate_distance(const Eigen::Vector2d& z) const override;
+  /// ImmEstimator::predicted_plot (false without a split cycle).
+  bool predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const override;
+  /// ImmEstimator::update where has_split_cycle(); else std::logic_error.
+  StepStatus update(const Eigen::Vector2d& z) override;
+  /// ImmEstimator::miss where has_split_cycle(); else std::logic_error.
+  StepStatus miss() override;
+
   /// The combined estimate (6 states) and whether the last cycle fused the azimuth.
   [[nodiscard]] const GaussianState<6>& estimate() const { return imm_.estimate(); }
   /// Whether the last cycle fused the azimuth.

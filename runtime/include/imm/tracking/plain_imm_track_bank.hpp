@@ -58,9 +58,9 @@ class PlainImmTrackBank {
   /// ImmEstimator::candidate_log_likelihood of plot q, or −∞ where its candidate_distance exceeds
   /// `gate`; NaN for an unusable plot or a track whose prediction failed. A track is predicted
   /// (ImmEstimator::predict) and each plot scored; the next step() is the full cycle, with the
-  /// same numbers as without this call. Throws as TrackBank's does, and std::logic_error for a
-  /// spec with a mode whose prediction depends on the plot (a noise schedule). Nothing is
-  /// allocated.
+  /// same numbers as without this call. A spec with a noise schedule scores each pair by a trial
+  /// update and gates on the prediction without the plot (ImmEstimator::predict). Throws as
+  /// TrackBank's does. Nothing is allocated.
   void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
                                  Eigen::Ref<Eigen::MatrixXd> out);
 

@@ -74,9 +74,10 @@ class IMM_RUNTIME_EXPORT TrackFilter {
   // update(z) with the plot chosen or miss(). In that order the numbers are exactly those of
   // step(z) and predict_only(). Where the prediction depends on the plot (the learned kinds, a
   // noise schedule: predicts_before_the_plot() is false), a candidate's likelihood is a trial
-  // update that is not kept, while its distance (the gate) and predicted_plot() are those of the
-  // prediction without a plot (what miss() predicts). A family without the split (has_split_cycle()
-  // false: the wIMM, whose update fuses the plot's azimuth with the prediction's) throws
+  // update that is not kept (it writes the filter's scratch: ask one filter from one thread at a
+  // time), while its distance (the gate) and predicted_plot() are those of the prediction without
+  // a plot (what miss() predicts). A filter without the split (has_split_cycle()
+  // false: a wIMM whose update fuses the plot's azimuth with the prediction's) throws
   // std::logic_error from predict(), update() and miss().
 
   /// Whether predict(), update() and miss() work (false unless the family implements them).
