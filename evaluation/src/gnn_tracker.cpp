@@ -24,6 +24,18 @@ void GnnSettings::validate() const {
   if (!(max_speed > 0.0) || !std::isfinite(max_speed)) {
     throw InvalidParameter("max_speed", "must be > 0");
   }
+  if (!(clutter_density >= 0.0) || !std::isfinite(clutter_density)) {
+    throw InvalidParameter("clutter_density", "must be ≥ 0 and finite");
+  }
+  if (!(detection_probability > 0.0 && detection_probability <= 1.0)) {
+    throw InvalidParameter("detection_probability", "must be in (0, 1]");
+  }
+  if (!(false_track_rate > 0.0 && false_track_rate < 0.5)) {
+    throw InvalidParameter("false_track_rate", "must be in (0, 0.5)");
+  }
+  if (!(true_track_loss > 0.0 && true_track_loss < 0.5)) {
+    throw InvalidParameter("true_track_loss", "must be in (0, 0.5)");
+  }
 }
 
 GnnTracker::GnnTracker(FilterMaker maker, GnnSettings settings)
@@ -73,13 +85,29 @@ void GnnTracker::process(std::int64_t scan, std::span<const Eigen::Vector2d> plo
     }
   }
   const std::vector<int> chosen = gated_assignment(cost, 0.5 * settings_.gate);
+  // The sequential test's terms (with a clutter density): per plot log(Pd) − log β, per miss
+  // log(1 − Pd·P_G) with P_G = 1 − e^(−gate/2), the χ²(2) gate's probability.
+  const bool ratio = settings_.clutter_density > 0.0;
+  const double pd = settings_.detection_probability;
+  const double log_detection = std::log(pd);
+  const double log_clutter = ratio ? std::log(settings_.clutter_density) : 0.0;
+  const double log_miss = std::log1p(-pd * -std::expm1(-0.5 * settings_.gate));
+  const double confirm_above =
+      std::log((1.0 - settings_.true_track_loss) / settings_.false_track_rate);
+  const double delete_below =
+      std::log(settings_.true_track_loss / (1.0 - settings_.false_track_rate));
   std::vector<char> used(plots.size(), 0);
   for (Eigen::Index t = 0; t < n; ++t) {
     Track& track = tracks_[static_cast<std::size_t>(t)];
     const int q = chosen[static_cast<std::size_t>(t)];
     bool hit = false;
+    double log_likelihood = 0.0;
     if (predicted[static_cast<std::size_t>(t)]) {
-      if (q >= 0 && track.filter->update(plots[static_cast<std::size_t>(q)]) == StepStatus::kOk) {
+      const Eigen::Vector2d* z = q >= 0 ? &plots[static_cast<std::size_t>(q)] : nullptr;
+      if (z != nullptr && ratio && !track.confirmed) {
+        log_likelihood = track.filter->candidate_log_likelihood(*z);
+      }
+      if (z != nullptr && track.filter->update(*z) == StepStatus::kOk) {
         hit = true;
         used[static_cast<std::size_t>(q)] = 1;
       } else {
@@ -89,14 +117,21 @@ void GnnTracker::process(std::int64_t scan, std::span<const Eigen::Vector2d> plo
     ++track.age;
     track.hits += hit ? 1 : 0;
     track.misses = hit ? 0 : track.misses + 1;
-    if (!track.confirmed && track.hits >= settings_.confirm_hits &&
-        track.age <= settings_.confirm_scans) {
+    if (ratio && !track.confirmed) {
+      track.score += hit && std::isfinite(log_likelihood)
+                         ? log_detection + log_likelihood - log_clutter
+                         : log_miss;
+      track.confirmed = track.score >= confirm_above;
+    } else if (!track.confirmed && track.hits >= settings_.confirm_hits &&
+               track.age <= settings_.confirm_scans) {
       track.confirmed = true;
     }
   }
-  // Deletion: a tentative track that can no longer reach M of N, a confirmed one after its misses.
+  // Deletion: a tentative track that can no longer reach M of N (or whose ratio fell below its
+  // threshold), a confirmed one after its misses.
   std::erase_if(tracks_, [&](const Track& track) {
     if (track.confirmed) return track.misses >= settings_.misses_to_delete;
+    if (ratio) return track.score <= delete_below;
     const int left = settings_.confirm_scans - track.age;
     return track.hits + std::max(left, 0) < settings_.confirm_hits;
   });
@@ -142,7 +177,9 @@ void GnnTracker::start_tracks(std::int64_t scan, std::span<const Eigen::Vector2d
     track.id = next_id_++;
     track.hits = 2;
     track.age = 2;
-    track.confirmed = track.hits >= settings_.confirm_hits;
+    // With a clutter density the two starting plots carry no evidence yet (the start is fitted to
+    // them); the ratio starts at 0.
+    track.confirmed = settings_.clutter_density == 0.0 && track.hits >= settings_.confirm_hits;
     tracks_.push_back(std::move(track));
   }
   seeds_ = std::move(next);

@@ -71,7 +71,14 @@ MultiTargetResult run_multi_target(const datasets::Regime& regime,
     double scored = 0.0;
     for (int run = 0; run < settings.runs; ++run) {
       const datasets::Scene& scene = scenes[static_cast<std::size_t>(run)];
-      GnnTracker tracker(maker, settings.gnn);
+      // Where there is clutter, the tracker confirms by the likelihood ratio against its density
+      // (uniform over the scene's plot-space box), which charges a wide prediction for its width.
+      GnnSettings gnn = settings.gnn;
+      if (settings.clutter_per_scan > 0.0 && gnn.clutter_density == 0.0) {
+        gnn.clutter_density = settings.clutter_per_scan / (scene.high - scene.low).prod();
+        gnn.detection_probability = settings.detection_probability;
+      }
+      GnnTracker tracker(maker, gnn);
       double run_sum = 0.0;
       int run_scans = 0;
       // Track continuity: each target's last track id, and the target each id last followed.

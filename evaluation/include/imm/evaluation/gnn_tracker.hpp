@@ -2,7 +2,8 @@
 #pragma once
 /// A reference multi-target tracker built only on the runtime's public API: one filter per track
 /// from a model file (imm::FilterMaker), global nearest neighbour association with a χ² gate,
-/// two-point initiation, M-of-N confirmation and deletion after misses. Per scan:
+/// two-point initiation, confirmation (M of N, or the track's likelihood ratio against the clutter
+/// density) and deletion after misses. Per scan:
 ///   1. every track predicts (TrackFilter::predict: the first half of its cycle);
 ///   2. each (track, plot) pair inside the gate costs its squared distance d² to the track's
 ///      collapsed predicted plot (TrackFilter::candidate_distance); leaving a track or a plot out
@@ -10,7 +11,14 @@
 ///      (gated_assignment);
 ///   3. an assigned track updates with its plot, the others miss;
 ///   4. a tentative track with M hits within its first N scans is confirmed, one that cannot get
-///      there is deleted; a track that misses `misses_to_delete` scans in a row is deleted;
+///      there is deleted; a track that misses `misses_to_delete` scans in a row is deleted. With a
+///      clutter density β > 0 a tentative track is instead scored by a sequential probability
+///      ratio test (Blackman & Popoli, "Design and Analysis of Modern Tracking Systems", 1999,
+///      §6.2): its log-likelihood ratio gains log(Pd) + log p(z | track) − log β per plot, with
+///      p(z | track) the filter's own predictive density of the plot
+///      (TrackFilter::candidate_log_likelihood), and log(1 − Pd·P_G) per miss; it is confirmed
+///      above log((1 − β_T)/α_T) and deleted below log(β_T/(1 − α_T)). A filter that predicts
+///      widely is charged for it: more clutter falls in its gate, but each plot weighs less;
 ///   5. each plot left over is paired with the nearest plot left over from the scan before within
 ///      the reach of `max_speed` — a new tentative track (imm::two_point_start) — or waits for
 ///      the next scan.
@@ -35,6 +43,12 @@ struct GnnSettings {
   int confirm_scans = 4;     ///< … within a tentative track's first N scans
   int misses_to_delete = 3;  ///< consecutive misses that end a confirmed track
   double max_speed = 0.0;    ///< a new target's largest speed (length/s); must be > 0
+  /// False plots per unit of plot space per scan (per m² for Cartesian plots, per m·rad for polar
+  /// ones); > 0: confirm by the likelihood ratio (above) instead of M of N.
+  double clutter_density = 0.0;
+  double detection_probability = 0.9;  ///< Pd in the likelihood ratio
+  double false_track_rate = 1e-3;      ///< α_T: a false track's chance to be confirmed
+  double true_track_loss = 0.1;        ///< β_T: a true track's chance to be deleted tentative
   /// Throws InvalidParameter naming the field.
   void validate() const;
 };
@@ -69,6 +83,7 @@ class GnnTracker {
     int id = 0;
     std::unique_ptr<TrackFilter> filter;
     int hits = 0, age = 0, misses = 0;
+    double score = 0.0;  // the log-likelihood ratio (with a clutter density)
     bool confirmed = false;
   };
   struct Seed {
