@@ -38,9 +38,9 @@ FilterMaker cv_ca_maker() {
 
 // Two targets crossing among uniform clutter (λ per scan over a 1 600 × 1 000 m box), σ = 5 m.
 struct CrossingRun {
-  double median = 0.0;        // median GOSPA (c = 50 m) from scan 10
+  double median = 0.0;  // median GOSPA (c = 50 m) from scan 10
   int scored = 0, both_held = 0;
-  int extra = 0;              // scans with more confirmed tracks than targets
+  int extra = 0;  // scans with more confirmed tracks than targets
   std::size_t last_confirmed = 0;
   int started = 0;
 };
