@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <numeric>
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 namespace imm::evaluation {
 
@@ -84,7 +86,11 @@ TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
                                  ? consistency_hold(filters[i], filters[baseline])
                                  : "own gates: " + filters[i].held_out;
     if (!hold.empty()) {
-      held_out.push_back(filters[i].name + " " + v + " it but is held out (" + hold + ")");
+      std::string text = filters[i].name;
+      text += " " + v;
+      text += " it but is held out (" + hold;
+      text += ")";
+      held_out.push_back(std::move(text));
     } else if (v == "beats") {
       if (choice.winner == baseline) choice.winner = i;
       beaten_by.push_back(filters[i].name);
