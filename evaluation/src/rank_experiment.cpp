@@ -147,10 +147,7 @@ int run(const RankOptions& options) {
   }
   const TrackerChoice choice = choose_tracker(ranked);
   // Held out of the choice: by its own gates, or by its consistency (choose_tracker's rule).
-  const auto held = [&](std::size_t i) {
-    return i >= classical &&
-           (!ranked[i].held_out.empty() || !consistency_hold(ranked[i], ranked[bar]).empty());
-  };
+  const auto held = [&](std::size_t i) { return !choice.held[i].empty(); };
   // Where the motion models are put to the test: the position RMSE over the scans where the truth
   // manoeuvres, with each filter's difference from the bar (reported; the verdict is over ζ).
   std::vector<double> maneuver_rmse(files.size());
@@ -240,11 +237,8 @@ int run(const RankOptions& options) {
             << evaluations.size() << " evaluation folder(s) given):\n";
   for (std::size_t i = classical; i < files.size(); ++i) {
     std::cout << "  - " << ranked[i].name << ": " << standings[i].text << '\n';
-    if (!ranked[i].held_out.empty()) {
-      findings.push_back(ranked[i].name +
-                         " is held out of the choice (own gates: " + ranked[i].held_out + ")");
-    } else if (std::string hold = consistency_hold(ranked[i], ranked[bar]); !hold.empty()) {
-      findings.push_back(ranked[i].name + " is held out of the choice (" + hold + ")");
+    if (held(i)) {
+      findings.push_back(ranked[i].name + " is held out of the choice (" + choice.held[i] + ")");
     }
   }
   print_findings(findings);

@@ -79,12 +79,13 @@ TrackerChoice choose_tracker(std::span<const RankedFilter> filters) {
       filters.begin());
   choice.winner = baseline;
   std::vector<std::string> beaten_by, not_earned, held_out;
+  choice.held.resize(filters.size());
   for (std::size_t i : choice.order) {
     if (i == baseline || filters[i].classical) continue;
     const std::string v = verdict_against_baseline(filters[i]);
-    const std::string hold = filters[i].held_out.empty()
-                                 ? consistency_hold(filters[i], filters[baseline])
-                                 : "own gates: " + filters[i].held_out;
+    std::string& hold = choice.held[i];
+    hold = filters[i].held_out.empty() ? consistency_hold(filters[i], filters[baseline])
+                                       : "own gates: " + filters[i].held_out;
     if (!hold.empty()) {
       std::string text = filters[i].name;
       text += " " + v;

@@ -104,21 +104,15 @@ void TwoAxisFilter::initialize(const Eigen::VectorXd& mean, const Eigen::MatrixX
 
 StepStatus TwoAxisFilter::step(const Eigen::Vector2d& z) {
   if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
-  const StepStatus status = x_->step(z(0));
-  if (status != StepStatus::kOk) return status;
-  return y_->step(z(1));
+  return x_then_y([&](AxisFilter& axis, Eigen::Index i) { return axis.step(z(i)); });
 }
 
 StepStatus TwoAxisFilter::predict_only() {
-  const StepStatus status = x_->predict_only();
-  if (status != StepStatus::kOk) return status;
-  return y_->predict_only();
+  return x_then_y([](AxisFilter& axis, Eigen::Index) { return axis.predict_only(); });
 }
 
 StepStatus TwoAxisFilter::predict() {
-  const StepStatus status = x_->predict();
-  if (status != StepStatus::kOk) return status;
-  return y_->predict();
+  return x_then_y([](AxisFilter& axis, Eigen::Index) { return axis.predict(); });
 }
 
 bool TwoAxisFilter::predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const {
@@ -131,15 +125,11 @@ bool TwoAxisFilter::predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) c
 
 StepStatus TwoAxisFilter::update(const Eigen::Vector2d& z) {
   if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
-  const StepStatus status = x_->update(z(0));
-  if (status != StepStatus::kOk) return status;
-  return y_->update(z(1));
+  return x_then_y([&](AxisFilter& axis, Eigen::Index i) { return axis.update(z(i)); });
 }
 
 StepStatus TwoAxisFilter::miss() {
-  const StepStatus status = x_->miss();
-  if (status != StepStatus::kOk) return status;
-  return y_->miss();
+  return x_then_y([](AxisFilter& axis, Eigen::Index) { return axis.miss(); });
 }
 
 void TwoAxisFilter::state(Eigen::Ref<Eigen::VectorXd> mean,

@@ -108,12 +108,7 @@ double FimmFilter::candidate_distance(const Eigen::Vector2d& z) const {
 }
 
 bool FimmFilter::predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const {
-  Vector<2> mean;
-  SquareMatrix<2> covariance;
-  if (!imm_->predicted_plot(mean, covariance)) return false;
-  z_hat = mean;
-  S = covariance;
-  return true;
+  return imm_->predicted_plot(z_hat, S);
 }
 
 StepStatus FimmFilter::update(const Eigen::Vector2d& z) { return imm_->update(z); }

@@ -155,12 +155,7 @@ double WimmFilter::candidate_distance(const Eigen::Vector2d& z) const {
 }
 
 bool WimmFilter::predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const {
-  Vector<2> mean;
-  SquareMatrix<2> covariance;
-  if (!has_split_cycle() || !imm_.predicted_plot(mean, covariance)) return false;
-  z_hat = mean;
-  S = covariance;
-  return true;
+  return has_split_cycle() && imm_.predicted_plot(z_hat, S);
 }
 
 StepStatus WimmFilter::update(const Eigen::Vector2d& z) {

@@ -87,16 +87,7 @@ class PlainImmFilter final : public TrackFilter {
     return std::visit([&](const auto& imm) { return imm.candidate_distance(z); }, imm_);
   }
   bool predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const override {
-    return std::visit(
-        [&](const auto& imm) {
-          Vector<2> mean;
-          SquareMatrix<2> covariance;
-          if (!imm.predicted_plot(mean, covariance)) return false;
-          z_hat = mean;
-          S = covariance;
-          return true;
-        },
-        imm_);
+    return std::visit([&](const auto& imm) { return imm.predicted_plot(z_hat, S); }, imm_);
   }
   StepStatus update(const Eigen::Vector2d& z) override {
     return std::visit([&](auto& imm) { return imm.update(z); }, imm_);

@@ -60,6 +60,9 @@ struct TrackerChoice {
   std::size_t winner = 0;          ///< index into the filters
   std::vector<std::size_t> order;  ///< every filter by ζ_p + ζ_v, lowest first
   std::string reason;              ///< why the winner won, in one sentence with its numbers
+  /// Per filter, why it is held out of the choice ("own gates: …" from RankedFilter::held_out, or
+  /// consistency_hold()'s "consistency: …"); empty where it is not (and for classical filters).
+  std::vector<std::string> held;
 };
 
 /// Applies the rule above. Throws std::invalid_argument unless exactly one filter is the baseline.

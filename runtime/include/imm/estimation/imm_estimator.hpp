@@ -354,6 +354,7 @@ class ImmEstimator {
   // where a mode refused z; `log_likelihoods` gets each mode's ℓ_j.
   bool trial_update(const Vector<NZ>& z, ModeVector& log_likelihoods) const {
     if (!limits::usable_measurement(z)) return false;
+    plot_free_pending_ = false;
     for (int j = 0; j < mode_count(); ++j) {
       const ModeStep result = modes_[index(j)]->propose(mixed_states_[index(j)], z);
       if (result.status != StepStatus::kOk) return false;
@@ -362,13 +363,15 @@ class ImmEstimator {
     return true;
   }
   // Where the held mixing is a trial's: every mode's prediction without a plot into its pending
-  // slot, for predicted_plot(). True where every mode predicted (always, for a held prediction).
+  // slot, for predicted_plot() and candidate_distance() — made once, until a trial or an update
+  // writes the slots. True where every mode predicted (always, for a held prediction).
   bool predict_without_the_plot() const {
-    if (!trial_) return true;
+    if (!trial_ || plot_free_pending_) return true;
     for (int j = 0; j < mode_count(); ++j) {
       const ModeStep result = modes_[index(j)]->propose_prediction(mixed_states_[index(j)]);
       if (result.status != StepStatus::kOk) return false;
     }
+    plot_free_pending_ = true;
     return true;
   }
 
@@ -522,6 +525,8 @@ class ImmEstimator {
   bool predicted_ = false;  // predict() holds a prediction (mixed_states_, the modes' pending)
   bool prediction_intact_ = false;  // and no update() has been tried on it since
   bool trial_ = false;              // predict() held the mixing alone: candidates are trial updates
+  // Under a trial, the modes' pending slots hold their predictions without a plot (scratch).
+  mutable bool plot_free_pending_ = false;
 };
 
 }  // namespace imm

@@ -18,6 +18,7 @@ StepStatus ImmEstimator<NX, NZ>::predict() {
   updated_ = false;
   predicted_ = false;
   trial_ = !predicts_before_the_plot();
+  plot_free_pending_ = false;
   predict_mode_probabilities();
   status_ = StepStatus::kOk;
   for (int j = 0; j < mode_count(); ++j) {
@@ -79,6 +80,7 @@ StepStatus ImmEstimator<NX, NZ>::update(const Vector<NZ>& z) {
   updated_ = false;
   if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
   prediction_intact_ = false;
+  plot_free_pending_ = false;
   status_ = StepStatus::kOk;
   for (int j = 0; j < mode_count(); ++j) {
     // step()'s propose() from the same mixing where the prediction depends on the plot.

@@ -213,6 +213,14 @@ class IMM_RUNTIME_EXPORT TwoAxisFilter final : public TrackFilter {
   [[nodiscard]] const AxisFilter& axis(int i) const { return i == 0 ? *x_ : *y_; }
 
  private:
+  // `call(axis, index)` on x, then on y unless x's status was not kOk (which is returned, x
+  // already moved: see the class comment).
+  template <class Call>
+  StepStatus x_then_y(Call&& call) {
+    const StepStatus status = call(*x_, Eigen::Index{0});
+    return status == StepStatus::kOk ? call(*y_, Eigen::Index{1}) : status;
+  }
+
   std::unique_ptr<AxisFilter> x_;
   std::unique_ptr<AxisFilter> y_;
 };
