@@ -24,6 +24,8 @@
 #include "imm/evaluation/tracker_choice.hpp"
 #include "imm/load.hpp"
 #include "imm/support/cli.hpp"
+#include "imm/trainer/model_files/calibration.hpp"
+#include "imm/trainer/model_files/envelope.hpp"
 #include "imm/trainer/provenance.hpp"
 
 namespace imm::evaluation {
@@ -40,7 +42,41 @@ struct RankOptions {
   std::uint64_t seed = 1;
   std::filesystem::path out = "reports/rank";
   std::optional<std::filesystem::path> ship;
+  /// Ship the winner as it is, without the covariance calibration fitted on its training split.
+  bool raw_ship = false;
 };
+
+// The shipped file's consistency on the test tracks, for tracker.json.
+nlohmann::json consistency_of(const FilterOutcome& outcome) {
+  nlohmann::json c = {{"nis", outcome.nis_consistency.average},
+                      {"nis_inside", outcome.nis_consistency.inside}};
+  if (outcome.has_truth) {
+    c["position_nees"] = outcome.position_consistency.average;
+    c["position_nees_inside"] = outcome.position_consistency.inside;
+  }
+  return c;
+}
+
+// Writes the winner to `ship`: with its covariance calibration (fitted on the regime's training
+// split, calibrated_filter.hpp) and the envelope recalibrated for the calibrated NIS, unless
+// `raw`. Returns what tracker.json records of it: the calibration and its test-split consistency.
+nlohmann::json ship_winner(const std::filesystem::path& winner, const std::filesystem::path& ship,
+                           bool raw, const FilterOutcome& as_ranked,
+                           const datasets::TrackSet& data, const Eigen::Vector2d& sensor) {
+  trainer::copy_atomically(winner, ship);
+  nlohmann::json shipped = {{"file", ship.string()}, {"uncalibrated", consistency_of(as_ranked)}};
+  if (raw) return shipped;
+  const trainer::CalibrationFit fit = trainer::fit_calibration(winner);
+  shipped["calibration"] = trainer::describe(fit);
+  std::cout << "  " << trainer::describe(fit) << '\n';
+  if (!fit.fitted) return shipped;
+  trainer::store_calibration(ship, fit.calibration);
+  std::cout << "  " << trainer::describe(trainer::calibrate_and_store_envelope(ship)) << '\n';
+  const FilterMaker maker = load_filter_maker(ship);
+  shipped["calibrated"] = consistency_of(
+      run_monte_carlo(ship.stem().string(), maker.make, maker.options, data, {}, sensor));
+  return shipped;
+}
 
 // The criteria of the verdict: ζ_p and ζ_v against truth, or — on recorded plots without it —
 // the predictive NLL per plot and the innovation RMS (FilterOutcome::plot_headline), of `own`
@@ -309,12 +345,13 @@ int run(const RankOptions& options) {
       "rank", options.baselines.front(), regime.regime.name, data.digest(), options.seed, runs};
   write_metrics(out, evaluated, normalized_error_definitions(length, "baseline", true), results,
                 more);
-  trainer::write_json_atomically(out / "tracker.json", results);
   if (options.ship) {
-    trainer::copy_atomically(files[choice.winner], *options.ship);
-    std::cout << "shipped " << files[choice.winner].string() << " as " << options.ship->string()
+    std::cout << "shipping " << files[choice.winner].string() << " as " << options.ship->string()
               << '\n';
+    results["shipped"] = ship_winner(files[choice.winner], *options.ship, options.raw_ship,
+                                     outcomes[choice.winner], data, regime.regime.sensor.position);
   }
+  trainer::write_json_atomically(out / "tracker.json", results);
   std::cout << "\nwrote metrics.json and tracker.json in " << out.string() << '\n';
   return findings.empty() ? 0 : support::exit_code::kFindings;
 }
@@ -347,7 +384,11 @@ void add_rank_command(CLI::App& app, ExitCode& exit_code) {
       ->check(support::at_least(1));
   command->add_option("--seed", options->seed, "seed of the test tracks");
   command->add_option("--out", options->out, "report folder");
-  command->add_option("--ship", options->ship, "write the winning model file here (atomically)");
+  command->add_option("--ship", options->ship,
+                      "write the winning model file here (atomically), with a covariance "
+                      "calibration fitted on the regime's training split");
+  command->add_flag("--raw-ship", options->raw_ship,
+                    "ship the winner without the covariance calibration");
   command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
 }
 

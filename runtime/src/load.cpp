@@ -5,6 +5,7 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/model_kinds.hpp"
+#include "imm/tracking/calibrated_filter.hpp"
 
 namespace imm {
 namespace {
@@ -27,6 +28,12 @@ FilterMaker load(const io::ModelFileReader& reader, std::int64_t max_gap) {
   FilterMaker loaded = kind_of(reader).load(reader, max_gap);
   loaded.provenance = reader.provenance();
   loaded.options.envelope = reader.envelope();
+  // A file with a covariance calibration (calibrated_filter.hpp) builds calibrated filters.
+  if (auto calibration = read_calibration(reader)) {
+    loaded.make = [make = std::move(loaded.make), calibration = std::move(calibration)] {
+      return std::unique_ptr<TrackFilter>(std::make_unique<CalibratedFilter>(make(), calibration));
+    };
+  }
   return loaded;
 }
 
@@ -83,6 +90,11 @@ std::unique_ptr<AnyTrackBank> open_track_bank(const std::filesystem::path& path,
                                               std::size_t capacity) {
   const io::ModelFileReader reader = open_model(path);
   const ModelKind& kind = kind_of(reader);
+  if (read_calibration(reader)) {
+    throw InvalidParameter("path", path.string() +
+                                       " carries a covariance calibration (/calibration), which "
+                                       "the banks do not apply: use load_filter_maker's filters");
+  }
   if (!kind.open_bank) {
     throw InvalidParameter("path", path.string() + " is a " + kind.name +
                                        " model, a kind this runtime has no bank for");

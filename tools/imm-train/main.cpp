@@ -21,6 +21,7 @@
 //   imm-train rollback KIND [REGIME] [--registry models]   (or NAME, a manifest entry's name)
 //   imm-train promote FILE --name NAME --reason TEXT [--registry models]
 //   imm-train seal FILE
+//   imm-train calibrate FILE [--tracks N]   (the covariance calibration, on its training split)
 //   [mpirun -np N] imm-train sweep --config sweep.toml [--summary F]   (many trainings; sweep.hpp)
 //   mpirun -np N imm-train ga …   (each generation's fitness evaluations spread over the ranks)
 //
@@ -50,6 +51,8 @@
 #include "imm/support/exit_codes.hpp"
 #include "imm/support/kind_aliases.hpp"
 #include "imm/support/process.hpp"
+#include "imm/trainer/model_files/calibration.hpp"
+#include "imm/trainer/model_files/envelope.hpp"
 #include "imm/trainer/model_files/seal.hpp"
 #include "imm/trainer/ranks.hpp"
 #include "imm/trainer/temporaries_guard.hpp"
@@ -185,6 +188,16 @@ int run(int argc, char** argv) {
       "re-seal a model file edited with other tools (h5py), after checking that it still reads");
   seal_command->add_option("file", seal_path, "model file")->required();
 
+  std::filesystem::path calibrate_path;
+  imm::trainer::CalibrationSettings calibration_settings;
+  auto* calibrate_command = app.add_subcommand(
+      "calibrate",
+      "fit a model file's covariance calibration on its regime's training split and store it "
+      "(the envelope refitted to the calibrated NIS)");
+  calibrate_command->add_option("file", calibrate_path, "model file")->required();
+  calibrate_command->add_option("--tracks", calibration_settings.tracks, "training tracks run")
+      ->check(imm::support::at_least(1));
+
   imm::pipeline::PromoteOptions promote_options;
   auto* promote_command = app.add_subcommand(
       "promote",
@@ -238,6 +251,15 @@ int run(int argc, char** argv) {
       const auto entry = imm::pipeline::promote_by_hand(promote_options);
       spdlog::info("promoted {} as {} ({}, sha256 {}): {}", promote_options.file.string(),
                    entry.name, entry.file, entry.sha256.substr(0, 12), entry.promotion_reason);
+      return 0;
+    }
+    if (*calibrate_command) {
+      const auto fit = imm::trainer::fit_calibration(calibrate_path, calibration_settings);
+      spdlog::info("{}", imm::trainer::describe(fit));
+      if (!fit.fitted) return exit_code::kBadInput;
+      imm::trainer::store_calibration(calibrate_path, fit.calibration);
+      spdlog::info("{}", imm::trainer::describe(
+                             imm::trainer::calibrate_and_store_envelope(calibrate_path)));
       return 0;
     }
     if (*seal_command) {
