@@ -61,8 +61,8 @@ nlohmann::json consistency_of(const FilterOutcome& outcome) {
 // split, calibrated_filter.hpp) and the envelope recalibrated for the calibrated NIS, unless
 // `raw`. Returns what tracker.json records of it: the calibration and its test-split consistency.
 nlohmann::json ship_winner(const std::filesystem::path& winner, const std::filesystem::path& ship,
-                           bool raw, const FilterOutcome& as_ranked,
-                           const datasets::TrackSet& data, const Eigen::Vector2d& sensor) {
+                           bool raw, const FilterOutcome& as_ranked, const datasets::TrackSet& data,
+                           const Eigen::Vector2d& sensor) {
   trainer::copy_atomically(winner, ship);
   nlohmann::json shipped = {{"file", ship.string()}, {"uncalibrated", consistency_of(as_ranked)}};
   if (raw) return shipped;

@@ -3,6 +3,8 @@
 // set by hand scale S, the gate's distance and P exactly as stated, from the plots used since the
 // start and the NIS level computed by hand; the likelihoods and the estimate stay the model's; an
 // invalid calibration is refused naming its field.
+#include "imm/tracking/calibrated_filter.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
@@ -12,7 +14,6 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/load.hpp"
-#include "imm/tracking/calibrated_filter.hpp"
 
 namespace imm {
 namespace {
@@ -87,11 +88,11 @@ TEST(CalibratedFilter, ScalesByThePlotsUsedAndTheLevelComputedByHand) {
   double level = 2.0;  // the level a track starts with
   Scene scene;
   for (int k = 1; k <= 25; ++k) {
-    const Eigen::Vector2d z = scene.plot(k) + (k == 12 ? Eigen::Vector2d(400.0, 0.0)
-                                                       : Eigen::Vector2d::Zero());
+    const Eigen::Vector2d z =
+        scene.plot(k) + (k == 12 ? Eigen::Vector2d(400.0, 0.0) : Eigen::Vector2d::Zero());
     const int used = k - 1;
-    const double c_s = table->start_innovation[std::min(used, 2)] *
-                       level_factor(table->level_innovation, level);
+    const double c_s =
+        table->start_innovation[std::min(used, 2)] * level_factor(table->level_innovation, level);
     ASSERT_EQ(reference->predict(), StepStatus::kOk);
     ASSERT_EQ(calibrated.predict(), StepStatus::kOk);
     EXPECT_EQ(calibrated.plots_used(), used);

@@ -130,10 +130,9 @@ TEST(CovarianceCalibration, AnInvalidOneInAFileIsRefusedNamingTheField) {
     out.set_attribute("/calibration", "memory", 0.7);
     out.set_attribute("/calibration", "nis_cap", 50.0);
     out.set_attribute("/calibration", "units", std::string("memory=1,nis_cap=1"));
-    for (const auto& [name, value] : {std::pair{"start_innovation", -1.0},
-                                      std::pair{"start_state", 1.0},
-                                      std::pair{"level_innovation", 1.0},
-                                      std::pair{"level_state", 1.0}}) {
+    for (const auto& [name, value] :
+         {std::pair{"start_innovation", -1.0}, std::pair{"start_state", 1.0},
+          std::pair{"level_innovation", 1.0}, std::pair{"level_state", 1.0}}) {
       const std::string dataset = std::string("/calibration/") + name;
       out.write(dataset, io::Array::from_vector(Eigen::VectorXd::Constant(1, value)));
       out.set_attribute(dataset, "units", std::string("1"));
@@ -144,8 +143,7 @@ TEST(CovarianceCalibration, AnInvalidOneInAFileIsRefusedNamingTheField) {
     (void)load_filter(file);
     FAIL() << "an invalid calibration was read";
   } catch (const io::FileError& error) {
-    EXPECT_NE(std::string(error.what()).find("/calibration/start_innovation[0]"),
-              std::string::npos)
+    EXPECT_NE(std::string(error.what()).find("/calibration/start_innovation[0]"), std::string::npos)
         << error.what();
   }
 }

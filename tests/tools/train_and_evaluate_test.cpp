@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "testing/regime_files.hpp"
+#include "testing/shipped_tracker.hpp"
 #include "testing/tools_fixture.hpp"
 
 namespace imm {
@@ -297,9 +298,9 @@ TEST_F(Tools, TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest) {
       << ranked.out;  // a finding otherwise
   EXPECT_EQ(ga_row["eligible"], gates_passed) << choice.dump();
   EXPECT_FALSE(choice["reason"].get<std::string>().empty());
-  // The tracker file is the winner's, byte for byte, and runs as any model file does.
-  EXPECT_EQ(testing::slurp(tracker),
-            testing::slurp(models / (choice["tracker"].get<std::string>() + ".h5")));
+  // The tracker file is the winner's with its calibration, and runs as any model file does.
+  testing::expect_winner_with_calibration(tracker,
+                                          models / (choice["tracker"].get<std::string>() + ".h5"));
   const auto inspected = run_tool("imm-inspect", {tracker.string()}, root_);
   EXPECT_EQ(inspected.exit_code, 0) << inspected.err;
 
@@ -443,8 +444,8 @@ TEST_F(Tools, APolarRegimesTrackerIsChosenAmongItsWimmAndItsTunedNormalImm) {
     EXPECT_LT(row["zeta_v"].get<double>(), 1.0) << row.dump();
     EXPECT_TRUE(std::isfinite(row["position_nees"].get<double>())) << row.dump();
   }
-  EXPECT_EQ(testing::slurp(tracker),
-            testing::slurp(models / (choice["tracker"].get<std::string>() + ".h5")));
+  testing::expect_winner_with_calibration(tracker,
+                                          models / (choice["tracker"].get<std::string>() + ".h5"));
   // A wIMM whose fusion is off is its tuned normal IMM: the same figures, to the bit.
   const auto wimm_metrics = nlohmann::json::parse(testing::slurp(models / "wimm.metrics.json"));
   if (!wimm_metrics.at("learned_part_on").get<bool>()) {

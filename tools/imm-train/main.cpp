@@ -258,8 +258,8 @@ int run(int argc, char** argv) {
       spdlog::info("{}", imm::trainer::describe(fit));
       if (!fit.fitted) return exit_code::kBadInput;
       imm::trainer::store_calibration(calibrate_path, fit.calibration);
-      spdlog::info("{}", imm::trainer::describe(
-                             imm::trainer::calibrate_and_store_envelope(calibrate_path)));
+      spdlog::info(
+          "{}", imm::trainer::describe(imm::trainer::calibrate_and_store_envelope(calibrate_path)));
       return 0;
     }
     if (*seal_command) {

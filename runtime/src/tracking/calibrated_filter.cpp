@@ -13,9 +13,9 @@ namespace {
 
 void check_factors(const std::vector<double>& factors, const std::string& name, std::size_t size) {
   if (factors.size() != size) {
-    throw InvalidParameter("calibration." + name,
-                           "expected " + std::to_string(size) + " entries, got " +
-                               std::to_string(factors.size()));
+    throw InvalidParameter(
+        "calibration." + name,
+        "expected " + std::to_string(size) + " entries, got " + std::to_string(factors.size()));
   }
   for (std::size_t i = 0; i < factors.size(); ++i) {
     if (!(factors[i] > 0.0) || !std::isfinite(factors[i])) {
@@ -66,8 +66,8 @@ double CovarianceCalibration::innovation_scale(long used, double level) const no
 }
 
 double CovarianceCalibration::state_scale(long used, double level) const noexcept {
-  const auto at =
-      static_cast<std::size_t>(std::clamp<long>(used, 0, static_cast<long>(start_state.size()) - 1));
+  const auto at = static_cast<std::size_t>(
+      std::clamp<long>(used, 0, static_cast<long>(start_state.size()) - 1));
   return start_state[at] * level_state[static_cast<std::size_t>(bin(level))];
 }
 
@@ -92,9 +92,9 @@ std::shared_ptr<const CovarianceCalibration> read_calibration(const io::ModelFil
     calibration->validate();
   } catch (const InvalidParameter& invalid) {
     const std::string& field = invalid.field();  // "calibration.<name>"
-    reader.fail_spec(group, InvalidParameter(field.substr(field.find('.') + 1), invalid.what()),
-                     {"start_innovation", "start_state", "edges", "level_innovation",
-                      "level_state"});
+    reader.fail_spec(
+        group, InvalidParameter(field.substr(field.find('.') + 1), invalid.what()),
+        {"start_innovation", "start_state", "edges", "level_innovation", "level_state"});
   }
   return calibration;
 }

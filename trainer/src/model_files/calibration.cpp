@@ -97,9 +97,8 @@ CalibrationFit fit_calibration(const std::filesystem::path& model_file,
       const TrackStepResult result = tracker.process(k, track.plots.row(k).transpose());
       if (!started || result.event != TrackEvent::kUpdated) continue;
       const Eigen::Vector2d truth = datasets::position_at(track, k);
-      const StepConsistency c =
-          step_consistency(filter, truth.allFinite() ? Eigen::Vector2d(truth - origin)
-                                                     : Eigen::Vector2d::Zero());
+      const StepConsistency c = step_consistency(
+          filter, truth.allFinite() ? Eigen::Vector2d(truth - origin) : Eigen::Vector2d::Zero());
       if (std::isfinite(c.nis)) nis.push_back({before.used, before.level, c.nis});
       if (truth.allFinite() && std::isfinite(c.position_nees)) {
         nees.push_back({filter.plots_used(), filter.nis_level(), c.position_nees});
@@ -128,8 +127,8 @@ CalibrationFit fit_calibration(const std::filesystem::path& model_file,
   fit.fitted = true;
   const auto one = [](const Sample&) { return 1.0; };
   fit.nis_before = calibrated_mean(nis, one);
-  fit.nis_after = calibrated_mean(
-      nis, [&](const Sample& s) { return cal.innovation_scale(s.used, s.level); });
+  fit.nis_after =
+      calibrated_mean(nis, [&](const Sample& s) { return cal.innovation_scale(s.used, s.level); });
   fit.nees_before = calibrated_mean(nees, one);
   fit.nees_after =
       calibrated_mean(nees, [&](const Sample& s) { return cal.state_scale(s.used, s.level); });

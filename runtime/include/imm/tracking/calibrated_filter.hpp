@@ -40,12 +40,16 @@ struct IMM_RUNTIME_EXPORT CovarianceCalibration {
   double memory = 0.7;
   /// The largest NIS one plot adds to the level (> 0).
   double nis_cap = 50.0;
-  /// Factors of S and of P by plots used since the start; the last one holds on. Non-empty.
-  std::vector<double> start_innovation{1.0}, start_state{1.0};
+  /// Factors of S by plots used since the start; the last one holds on. Non-empty.
+  std::vector<double> start_innovation{1.0};
+  /// Factors of P likewise (as many as start_innovation).
+  std::vector<double> start_state{1.0};
   /// Ascending bin edges of the NIS level (may be empty: one bin).
   std::vector<double> edges{};
-  /// Factors of S and of P per bin of the level: edges.size() + 1 each.
-  std::vector<double> level_innovation{1.0}, level_state{1.0};
+  /// Factors of S per bin of the level: edges.size() + 1.
+  std::vector<double> level_innovation{1.0};
+  /// Factors of P per bin of the level: edges.size() + 1.
+  std::vector<double> level_state{1.0};
 
   /// Throws InvalidParameter naming "calibration.<field>" (or an entry of it) for sizes that do not
   /// fit, factors not finite and > 0, edges not finite and strictly ascending.
@@ -88,8 +92,7 @@ class IMM_RUNTIME_EXPORT CalibratedFilter final : public TrackFilter {
   void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override;
   StepStatus step(const Eigen::Vector2d& z) override;
   StepStatus predict_only() override;
-  void state(Eigen::Ref<Eigen::VectorXd> mean,
-             Eigen::Ref<Eigen::VectorXd> variance) const override;
+  void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override;
   void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const override;
   [[nodiscard]] ModeVector mode_probabilities() const override {
     return filter_->mode_probabilities();

@@ -19,21 +19,21 @@ namespace imm::trainer {
 
 /// How the calibration is fitted.
 struct CalibrationSettings {
-  int tracks = 300;       ///< training tracks run (a recorded regime: at most its split's)
-  int start_entries = 12; ///< plots since the start with their own factor (the last holds on)
-  int level_bins = 6;     ///< bins of the NIS level (quantiles)
-  double memory = 0.7;    ///< λ of the level
-  double nis_cap = 50.0;  ///< the most one plot adds to the level
-  int min_samples = 200;  ///< fewer plots (or truths) in a cell than this: its factor stays 1
+  int tracks = 300;        ///< training tracks run (a recorded regime: at most its split's)
+  int start_entries = 12;  ///< plots since the start with their own factor (the last holds on)
+  int level_bins = 6;      ///< bins of the NIS level (quantiles)
+  double memory = 0.7;     ///< λ of the level
+  double nis_cap = 50.0;   ///< the most one plot adds to the level
+  int min_samples = 200;   ///< fewer plots (or truths) in a cell than this: its factor stays 1
 };
 
 /// What fit_calibration found.
 struct CalibrationFit {
   CovarianceCalibration calibration;
-  int tracks = 0;        ///< tracks run
-  long plots = 0;        ///< NIS samples
-  long truths = 0;       ///< NEES samples (0: no truth, the state factors stay 1)
-  bool fitted = false;   ///< false: no regime recorded in the file, or too few plots
+  int tracks = 0;       ///< tracks run
+  long plots = 0;       ///< NIS samples
+  long truths = 0;      ///< NEES samples (0: no truth, the state factors stay 1)
+  bool fitted = false;  ///< false: no regime recorded in the file, or too few plots
   double nis_before = 0.0, nis_after = 0.0;    ///< mean NIS over the samples, raw and calibrated
   double nees_before = 0.0, nees_after = 0.0;  ///< likewise the position NEES
 };
