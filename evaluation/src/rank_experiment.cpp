@@ -22,6 +22,7 @@
 #include "imm/evaluation/monte_carlo.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/evaluation/tracker_choice.hpp"
+#include "imm/io/temporary_files.hpp"
 #include "imm/load.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/trainer/model_files/calibration.hpp"
@@ -63,15 +64,25 @@ nlohmann::json consistency_of(const FilterOutcome& outcome) {
 nlohmann::json ship_winner(const std::filesystem::path& winner, const std::filesystem::path& ship,
                            bool raw, const FilterOutcome& as_ranked, const datasets::TrackSet& data,
                            const Eigen::Vector2d& sensor) {
-  trainer::copy_atomically(winner, ship);
   nlohmann::json shipped = {{"file", ship.string()}, {"uncalibrated", consistency_of(as_ranked)}};
-  if (raw) return shipped;
+  if (raw) {
+    trainer::copy_atomically(winner, ship);
+    return shipped;
+  }
+  // Calibrated in a temporary beside the target and then copied over it in one rename: under the
+  // tracker's name there is the old file or the whole new one, never one without its calibration.
+  const std::filesystem::path work = io::temporary_beside(ship, 1U);
+  trainer::copy_atomically(winner, work);
   const trainer::CalibrationFit fit = trainer::fit_calibration(winner);
   shipped["calibration"] = trainer::describe(fit);
   std::cout << "  " << trainer::describe(fit) << '\n';
+  if (fit.fitted) {
+    trainer::store_calibration(work, fit.calibration);
+    std::cout << "  " << trainer::describe(trainer::calibrate_and_store_envelope(work)) << '\n';
+  }
+  trainer::copy_atomically(work, ship);
+  std::filesystem::remove(work);
   if (!fit.fitted) return shipped;
-  trainer::store_calibration(ship, fit.calibration);
-  std::cout << "  " << trainer::describe(trainer::calibrate_and_store_envelope(ship)) << '\n';
   const FilterMaker maker = load_filter_maker(ship);
   shipped["calibrated"] = consistency_of(
       run_monte_carlo(ship.stem().string(), maker.make, maker.options, data, {}, sensor));

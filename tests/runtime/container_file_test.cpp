@@ -8,6 +8,8 @@
 
 #include <cmath>
 #include <cstdint>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -106,6 +108,29 @@ TEST(ContainerFile, NothingAppearsUnderTheFinalNameBeforeCommit) {
   }
   EXPECT_FALSE(std::filesystem::exists(path));
   EXPECT_TRUE(std::filesystem::is_empty(dir.path())) << "temporary file left behind";
+}
+
+// The same content written a second later gives the same bytes (no object times): a model file
+// rewritten with nothing new keeps its SHA-256.
+TEST(ContainerFile, TheSameContentGivesTheSameBytes) {
+  const testing::TempDir dir;
+  const auto write = [&](const std::filesystem::path& path) {
+    ContainerWriter writer(path, "test-format");
+    writer.create_group("/group/inner");
+    writer.write("/group/inner/x", Eigen::MatrixXd::Ones(3, 2));
+    writer.write("/implicit/y", Array::from_vector(Eigen::VectorXd::LinSpaced(4, 0.0, 1.0)));
+    writer.set_attribute("/group", "name", std::string("g"));
+    writer.set_attribute("/", "value", 2.5);
+    writer.commit();
+  };
+  write(dir / "a.h5");
+  ::sleep(2);  // object times have a resolution of one second
+  write(dir / "b.h5");
+  const auto bytes = [](const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_EQ(bytes(dir / "a.h5"), bytes(dir / "b.h5"));
 }
 
 TEST(ContainerFile, AnExistingFileIsReplacedOnlyAtCommit) {

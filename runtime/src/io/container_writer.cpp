@@ -113,6 +113,9 @@ ContainerWriter::ContainerWriter(const std::filesystem::path& path, std::string_
 
   Handle create_list(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
   H5Pset_userblock(create_list.get(), kHeaderSize);
+  // No object times (HDF5 records them by default): the same content gives the same bytes, so a
+  // file rewritten with nothing new keeps its SHA-256 (the registry's "unchanged").
+  H5Pset_obj_track_times(create_list.get(), 0);
   Handle access_list(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   H5Pset_libver_bounds(access_list.get(), H5F_LIBVER_V18, H5F_LIBVER_LATEST);
   impl_->file = Handle(
@@ -145,13 +148,21 @@ void ContainerWriter::create_group(std::string_view group) {
   const ErrorSilencer silencer;
   const std::string name = normalized(group);
   if (link_exists(impl_->file.get(), name)) return;
-  Handle link_list(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
-  H5Pset_create_intermediate_group(link_list.get(), 1);
-  Handle created(
-      H5Gcreate2(impl_->file.get(), name.c_str(), link_list.get(), H5P_DEFAULT, H5P_DEFAULT),
-      H5Gclose);
-  if (!created.valid())
-    throw FileError(impl_->name(), name, "cannot create group: " + hdf5_cause());
+  // Each missing ancestor in turn, every one without object times (see the constructor).
+  Handle group_list(H5Pcreate(H5P_GROUP_CREATE), H5Pclose);
+  H5Pset_obj_track_times(group_list.get(), 0);
+  for (std::size_t end = name.find('/', 1);; end = name.find('/', end + 1)) {
+    const std::string prefix = name.substr(0, end);
+    if (!link_exists(impl_->file.get(), prefix)) {
+      Handle created(
+          H5Gcreate2(impl_->file.get(), prefix.c_str(), H5P_DEFAULT, group_list.get(), H5P_DEFAULT),
+          H5Gclose);
+      if (!created.valid()) {
+        throw FileError(impl_->name(), prefix, "cannot create group: " + hdf5_cause());
+      }
+    }
+    if (end == std::string::npos) break;
+  }
 }
 
 void ContainerWriter::write(std::string_view dataset, const Eigen::MatrixXd& matrix) {
@@ -181,6 +192,7 @@ void ContainerWriter::write(std::string_view dataset, const Array& array, Values
   std::vector<hsize_t> dims(array.shape.begin(), array.shape.end());
   Handle space(H5Screate_simple(rank, dims.data(), nullptr), H5Sclose);
   Handle create_list(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  H5Pset_obj_track_times(create_list.get(), 0);
   if (!array.values.empty()) {
     // One chunk per dataset up to 2²⁰ elements, then split along the leading dimensions.
     std::vector<hsize_t> chunk = dims;
@@ -195,6 +207,9 @@ void ContainerWriter::write(std::string_view dataset, const Array& array, Values
     }
     H5Pset_chunk(create_list.get(), rank, chunk.data());
     H5Pset_fletcher32(create_list.get());
+  }
+  if (const std::size_t slash = name.rfind('/'); slash > 0 && slash != std::string::npos) {
+    create_group(name.substr(0, slash));
   }
   // A later write of the same dataset replaces the earlier one, as set_attribute does.
   if (link_exists(impl_->file.get(), name) &&
