@@ -20,7 +20,7 @@
 #include "imm/trainer/ga/tuned_baseline_file.hpp"
 #include "imm/trainer/learning_curve.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
-#include "imm/trainer/model_files/envelope.hpp"
+#include "imm/trainer/model_files/write_model.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/ranks.hpp"
 #include "imm/trainer/temporaries_guard.hpp"
@@ -453,9 +453,10 @@ std::optional<std::filesystem::path> TrainingCommands::chosen_out() const {
 }
 
 int TrainingCommands::run() const {
-  const int code = dispatch();
-  if (code == 0 && trainer::Ranks::world().root()) trainer::calibrate_written_model(chosen_out());
-  return code;
+  // Every model file a training command writes appears under its name calibrated (its covariance
+  // and its envelope, fitted on the written model before the rename: write_model.hpp).
+  const trainer::ModelFinishScope finish(trainer::calibrate_model_file);
+  return dispatch();
 }
 
 int TrainingCommands::dispatch() const {

@@ -113,39 +113,57 @@ TEST(CovarianceCalibration, FittedOnTheTrainingSplitMakesTheTestSplitConsistent)
   EXPECT_GE(shipped.nees, 0.9);
 }
 
-TEST(CovarianceCalibration, AnInvalidOneInAFileIsRefusedNamingTheField) {
-  const testing::TempDir dir;
-  const std::filesystem::path file = dir.path() / "hostile.h5";
-  {
-    io::ContainerReader in(kModel, io::kModelFormat);
-    io::ContainerWriter out(file, io::kModelFormat);
-    for (const std::string& object : in.objects()) {
-      if (object != "/" && in.kind(object) == io::ObjectKind::kGroup) out.create_group(object);
-      if (in.kind(object) == io::ObjectKind::kDataset) out.write(object, in.read(object));
-      for (const std::string& name : in.attribute_names(object)) {
-        out.set_attribute(object, name, *in.attribute(object, name));
-      }
+// A copy of the model with a calibration group whose start_innovation[0] is `first`, stated as
+// schema `version`.
+void write_with_calibration(const std::filesystem::path& file, double first, std::int64_t version) {
+  io::ContainerReader in(kModel, io::kModelFormat);
+  io::ContainerWriter out(file, io::kModelFormat);
+  for (const std::string& object : in.objects()) {
+    if (object != "/" && in.kind(object) == io::ObjectKind::kGroup) out.create_group(object);
+    if (in.kind(object) == io::ObjectKind::kDataset) out.write(object, in.read(object));
+    for (const std::string& name : in.attribute_names(object)) {
+      out.set_attribute(object, name, *in.attribute(object, name));
     }
-    out.create_group("/calibration");
-    out.set_attribute("/calibration", "memory", 0.7);
-    out.set_attribute("/calibration", "nis_cap", 50.0);
-    out.set_attribute("/calibration", "units", std::string("memory=1,nis_cap=1"));
-    for (const auto& [name, value] :
-         {std::pair{"start_innovation", -1.0}, std::pair{"start_state", 1.0},
-          std::pair{"level_innovation", 1.0}, std::pair{"level_state", 1.0}}) {
-      const std::string dataset = std::string("/calibration/") + name;
-      out.write(dataset, io::Array::from_vector(Eigen::VectorXd::Constant(1, value)));
-      out.set_attribute(dataset, "units", std::string("1"));
-    }
-    out.commit();
   }
+  out.set_attribute("/", "schema_version", version);
+  out.create_group("/calibration");
+  out.set_attribute("/calibration", "memory", 0.7);
+  out.set_attribute("/calibration", "nis_cap", 50.0);
+  out.set_attribute("/calibration", "units", std::string("memory=1,nis_cap=1"));
+  for (const auto& [name, value] :
+       {std::pair{"start_innovation", first}, std::pair{"start_state", 1.0},
+        std::pair{"level_innovation", 1.0}, std::pair{"level_state", 1.0}}) {
+    const std::string dataset = std::string("/calibration/") + name;
+    out.write(dataset, io::Array::from_vector(Eigen::VectorXd::Constant(1, value)));
+    out.set_attribute(dataset, "units", std::string("1"));
+  }
+  out.commit();
+}
+
+// What load_filter throws for `file`, or "read".
+std::string refusal(const std::filesystem::path& file) {
   try {
     (void)load_filter(file);
-    FAIL() << "an invalid calibration was read";
   } catch (const io::FileError& error) {
-    EXPECT_NE(std::string(error.what()).find("/calibration/start_innovation[0]"), std::string::npos)
-        << error.what();
+    return error.what();
   }
+  return "read";
+}
+
+TEST(CovarianceCalibration, AnInvalidOneInAFileIsRefusedNamingTheField) {
+  const testing::TempDir dir;
+  write_with_calibration(dir.path() / "hostile.h5", -1.0, kCalibrationSchemaVersion);
+  EXPECT_NE(refusal(dir.path() / "hostile.h5").find("/calibration/start_innovation[0]"),
+            std::string::npos)
+      << refusal(dir.path() / "hostile.h5");
+  // A file of an older schema that holds the group is refused naming it: a reader of that
+  // version would ignore it and state uncalibrated covariances.
+  write_with_calibration(dir.path() / "older.h5", 1.0, kCalibrationSchemaVersion - 1);
+  EXPECT_NE(refusal(dir.path() / "older.h5").find("field '/calibration': a version-4 group"),
+            std::string::npos)
+      << refusal(dir.path() / "older.h5");
+  write_with_calibration(dir.path() / "valid.h5", 1.0, kCalibrationSchemaVersion);
+  EXPECT_EQ(refusal(dir.path() / "valid.h5"), "read");
 }
 
 }  // namespace

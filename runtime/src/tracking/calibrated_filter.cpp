@@ -74,6 +74,13 @@ double CovarianceCalibration::state_scale(long used, double level) const noexcep
 std::shared_ptr<const CovarianceCalibration> read_calibration(const io::ModelFileReader& reader) {
   const std::string group = "/calibration";
   if (reader.container().kind(group) == io::ObjectKind::kMissing) return nullptr;
+  // A reader before version 4 would ignore the group and state the model's uncalibrated
+  // covariances: such a file is version 4, and an older one that holds the group is refused.
+  if (reader.schema_version() < kCalibrationSchemaVersion) {
+    reader.fail(group, "a version-" + std::to_string(kCalibrationSchemaVersion) +
+                           " group in a file of schema version " +
+                           std::to_string(reader.schema_version()));
+  }
   auto calibration = std::make_shared<CovarianceCalibration>();
   calibration->memory = reader.real(group, "memory", io::ValueRule::kProbability);
   calibration->nis_cap = reader.real(group, "nis_cap", io::ValueRule::kPositive);

@@ -19,6 +19,7 @@
 #include "imm/tracking/tracker.hpp"
 #include "imm/trainer/classical/noise_schedule.hpp"
 #include "imm/trainer/learning_curve.hpp"
+#include "imm/trainer/model_files/write_model.hpp"
 #include "imm/trainer/normalized_errors.hpp"
 #include "imm/trainer/parallel_for.hpp"
 #include "imm/trainer/provenance.hpp"
@@ -348,10 +349,8 @@ ClassicalImmResult write_classical_imm(const ClassicalImmConfig& config,
           "schedule", static_cast<int>(training.tracks.size()), config.regime.name);
     }
   }
-  ensure_parent_folder(out);
-  io::ModelFileWriter writer(out, provenance);
-  io::write_plain_imm(writer, *written);
-  writer.commit();
+  write_model_file(out, provenance,
+                   [&](io::ModelFileWriter& writer) { io::write_plain_imm(writer, *written); });
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 

@@ -17,6 +17,7 @@
 #include "imm/math/log_sum_exp.hpp"
 #include "imm/support/bounded_search.hpp"
 #include "imm/support/config.hpp"
+#include "imm/trainer/model_files/write_model.hpp"
 #include "imm/trainer/parallel_for.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/regime_checks.hpp"
@@ -444,9 +445,8 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
     provenance.validation_metrics["vel_rmse"] = result.validation.velocity_rmse;
   }
   provenance.validation_metrics["kf_objective"] = result.kf_validation.objective;
-  io::ModelFileWriter writer(out, provenance);
-  io::write_fcm_imm(writer, result.spec);
-  writer.commit();
+  write_model_file(out, provenance,
+                   [&](io::ModelFileWriter& writer) { io::write_fcm_imm(writer, result.spec); });
   return result;
 }
 

@@ -12,6 +12,7 @@
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/schema_reader.hpp"
 #include "imm/trainer/ga/tuned_levels.hpp"
+#include "imm/trainer/model_files/write_model.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/ranks.hpp"
 
@@ -226,10 +227,9 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
     provenance.validation_metrics["error_learned"] = c.learned.error;
     provenance.validation_metrics["error_tuned_baseline"] = c.baseline.error;
   }
-  ensure_parent_folder(options.out);
-  io::ModelFileWriter writer(options.out, provenance);
-  io::write_ga_fuzzy_imm(writer, spec_from(config, result.levels), level_metrics);
-  writer.commit();
+  write_model_file(options.out, provenance, [&](io::ModelFileWriter& writer) {
+    io::write_ga_fuzzy_imm(writer, spec_from(config, result.levels), level_metrics);
+  });
 
   nlohmann::json metrics;
   metrics["model_kind"] = io::kGaFuzzyImmKind;
@@ -244,9 +244,8 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
     metrics["baseline"] = {
         {"process_noise", config.baseline->process_noise},
         {"transition_stay", config.baseline->transition_stay},
-        {"training_criterion", !config.regime.trains_from_truth()
-                                   ? "excess NLL per plot"
-                                   : "ζ_p + ζ_v"},
+        {"training_criterion",
+         !config.regime.trains_from_truth() ? "excess NLL per plot" : "ζ_p + ζ_v"},
         {"training_zeta_p_plus_zeta_v", config.baseline->score},
         {"evaluations", config.baseline->evaluations}};
   }

@@ -7,6 +7,7 @@
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/trainer/ga/tuned_levels.hpp"
+#include "imm/trainer/model_files/write_model.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/training_set.hpp"
 
@@ -29,10 +30,9 @@ TunedBaselineResult write_tuned_baseline(GaTrainingConfig config,
   provenance.training_metrics[training.plots_only ? "excess_nll" : "zeta_p_plus_zeta_v"] =
       baseline.score;
   if (training.plots_only) provenance.training_metrics["trained_without_truth"] = 1.0;
-  ensure_parent_folder(out);
-  io::ModelFileWriter writer(out, provenance);
-  io::write_ga_fuzzy_imm(writer, tuned_baseline_spec(config));
-  writer.commit();
+  write_model_file(out, provenance, [&](io::ModelFileWriter& writer) {
+    io::write_ga_fuzzy_imm(writer, tuned_baseline_spec(config));
+  });
 
   TunedBaselineResult result{
       baseline, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),

@@ -15,6 +15,7 @@
 #include "imm/support/config.hpp"
 #include "imm/trainer/baseline_tuning.hpp"
 #include "imm/trainer/mlp/smoothed_labels.hpp"
+#include "imm/trainer/model_files/write_model.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
@@ -407,10 +408,9 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
     curve.row(static_cast<Eigen::Index>(i)) << result.loss[i].epoch, result.loss[i].training,
         result.loss[i].validation;
   }
-  ensure_parent_folder(out);
-  io::ModelFileWriter writer(out, provenance);
-  io::write_mlp_input_estimator(writer, model, curve);
-  writer.commit();
+  write_model_file(out, provenance, [&](io::ModelFileWriter& writer) {
+    io::write_mlp_input_estimator(writer, model, curve);
+  });
 
   nlohmann::json metrics;
   metrics["model_kind"] = io::kMlpInputEstimatorKind;

@@ -138,6 +138,7 @@ CalibrationFit fit_calibration(const std::filesystem::path& model_file,
 void store_calibration(const std::filesystem::path& model_file,
                        const CovarianceCalibration& calibration) {
   calibration.validate();
+  const std::int64_t reader_version = io::ModelFileReader(model_file).schema_version();
   {
     auto in = std::make_unique<io::ContainerReader>(model_file, io::kModelFormat);
     io::ContainerWriter out(model_file, io::kModelFormat);
@@ -150,6 +151,9 @@ void store_calibration(const std::filesystem::path& model_file,
       }
     }
     in.reset();
+    // A file with a calibration is at least version 4 (calibrated_filter.hpp).
+    out.set_attribute("/", "schema_version",
+                      std::max<std::int64_t>(reader_version, kCalibrationSchemaVersion));
     out.create_group("/calibration");
     out.set_attribute("/calibration", "memory", calibration.memory);
     out.set_attribute("/calibration", "nis_cap", calibration.nis_cap);

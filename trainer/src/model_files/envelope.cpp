@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/model_files/envelope.hpp"
 
-#include <spdlog/spdlog.h>
-
 #include <algorithm>
 #include <memory>
 #include <sstream>
@@ -112,11 +110,6 @@ EnvelopeCalibration calibrate_and_store_envelope(const std::filesystem::path& mo
   EnvelopeCalibration c = calibrate_envelope(model_file, tracks);
   if (c.calibrated) store_envelope(model_file, c.settings);
   return c;
-}
-
-void calibrate_written_model(const std::optional<std::filesystem::path>& model_file) {
-  if (!model_file || !std::filesystem::exists(*model_file)) return;
-  spdlog::info("{}", describe(calibrate_and_store_envelope(*model_file)));
 }
 
 std::string describe(const EnvelopeCalibration& c) {

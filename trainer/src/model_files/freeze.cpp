@@ -7,6 +7,7 @@
 #include "imm/datasets/regime_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/support/plain_imm_config.hpp"
+#include "imm/trainer/model_files/write_model.hpp"
 #include "imm/trainer/provenance.hpp"
 
 namespace imm::trainer {
@@ -48,10 +49,8 @@ FreezeSummary freeze_plain_imm(const FreezeOptions& options) {
     }
     set_regime(provenance, regime);
   }
-  ensure_parent_folder(options.out);
-  io::ModelFileWriter writer(options.out, provenance);
-  io::write_plain_imm(writer, spec);
-  writer.commit();
+  write_model_file(options.out, provenance,
+                   [&](io::ModelFileWriter& writer) { io::write_plain_imm(writer, spec); });
 
   FreezeSummary summary;
   summary.modes = static_cast<int>(spec.modes.size());

@@ -12,6 +12,7 @@
 #include "imm/support/csv.hpp"
 #include "imm/trainer/ga/ga_config.hpp"
 #include "imm/trainer/ga/ga_trainer.hpp"
+#include "imm/trainer/model_files/write_model.hpp"
 #include "imm/trainer/provenance.hpp"
 
 namespace imm::trainer {
@@ -98,15 +99,13 @@ GaFuzzyImmSpec import_rules(const ImportRulesOptions& options) {
   GaFuzzyImmSpec spec = read_rules_csv(options.csv, config.filter,
                                        std::string(datasets::to_string(config.regime.units)));
   const std::string csv_text = read_text_file(options.csv);
-  ensure_parent_folder(options.out);
-  io::ModelFileWriter writer(
+  write_model_file(
       options.out,
       make_provenance(std::string(io::kGaFuzzyImmKind),
                       "# filter settings: " + options.config.string() + "\n" + config.text +
                           "\n# rules: " + options.csv.string() + "\n" + csv_text,
-                      0, datasets::sha256_hex(csv_text), config.regime));
-  io::write_ga_fuzzy_imm(writer, spec);
-  writer.commit();
+                      0, datasets::sha256_hex(csv_text), config.regime),
+      [&](io::ModelFileWriter& writer) { io::write_ga_fuzzy_imm(writer, spec); });
   return spec;
 }
 

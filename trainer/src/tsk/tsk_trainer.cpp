@@ -20,6 +20,7 @@
 #include "imm/io/file_error.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/support/config.hpp"
+#include "imm/trainer/model_files/write_model.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
@@ -165,8 +166,9 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples
   // their positions; a recorded regime's tracks need no truth for it. The sojourns are read from
   // the training tracks' truth.
   if (config.transitions_from_sojourns) {
-    require_training_truth(config.regime, "the FIMM's mode transitions from the training tracks' "
-                                          "sojourns (fimm.transition = \"sojourns\")");
+    require_training_truth(config.regime,
+                           "the FIMM's mode transitions from the training tracks' "
+                           "sojourns (fimm.transition = \"sojourns\")");
   }
   const auto start = std::chrono::steady_clock::now();
   const datasets::RangeSensorData& data = samples.data;
@@ -294,10 +296,10 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples
     provenance.training_metrics["cruise_sojourn_s"] = result.sojourns->mean_sojourn(0);
     provenance.training_metrics["lane_change_sojourn_s"] = result.sojourns->mean_sojourn(1);
   }
-  io::ModelFileWriter writer(out, provenance);
-  io::write_tsk_sensor(writer, result.model);
-  io::write_fimm_settings(writer, result.fimm);
-  writer.commit();
+  write_model_file(out, provenance, [&](io::ModelFileWriter& writer) {
+    io::write_tsk_sensor(writer, result.model);
+    io::write_fimm_settings(writer, result.fimm);
+  });
   return result;
 }
 

@@ -14,6 +14,7 @@
 #include "imm/io/wimm_file.hpp"
 #include "imm/support/bounded_search.hpp"
 #include "imm/support/config.hpp"
+#include "imm/trainer/model_files/write_model.hpp"
 #include "imm/trainer/provenance.hpp"
 #include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
@@ -229,10 +230,8 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
     provenance.training_metrics["learned_part_on"] = result.learned_part_on ? 1.0 : 0.0;
     provenance.validation_metrics["objective"] = result.validation_objective;
   }
-  ensure_parent_folder(out);
-  io::ModelFileWriter writer(out, provenance);
-  io::write_wimm(writer, result.tuned.spec);
-  writer.commit();
+  write_model_file(out, provenance,
+                   [&](io::ModelFileWriter& writer) { io::write_wimm(writer, result.tuned.spec); });
 
   nlohmann::json metrics;
   metrics["model_kind"] = io::kWimmKind;
@@ -282,10 +281,8 @@ NormalImmBaselineResult write_tuned_normal_imm_baseline(const WimmTrainingConfig
   provenance.training_metrics["learned_part_on"] = 0.0;
   provenance.training_metrics["classical_baseline"] = 1.0;
   if (!data.has_truth) provenance.training_metrics["trained_without_truth"] = 1.0;
-  ensure_parent_folder(out);
-  io::ModelFileWriter writer(out, provenance);
-  io::write_wimm(writer, base.spec);
-  writer.commit();
+  write_model_file(out, provenance,
+                   [&](io::ModelFileWriter& writer) { io::write_wimm(writer, base.spec); });
 
   nlohmann::json metrics;
   metrics["model_kind"] = io::kWimmKind;

@@ -32,6 +32,9 @@ namespace io {
 class ModelFileReader;
 }
 
+/// The model-file schema version that holds `/calibration` (docs/model-schema.md).
+inline constexpr int kCalibrationSchemaVersion = 4;
+
 /// The calibration's tables (see the file comment).
 struct IMM_RUNTIME_EXPORT CovarianceCalibration {
   /// The most entries a table may have.

@@ -9,7 +9,6 @@
 /// tracks' count: never the test split).
 
 #include <filesystem>
-#include <optional>
 #include <string>
 
 #include "imm/tracking/envelope.hpp"
@@ -46,10 +45,6 @@ void store_envelope(const std::filesystem::path& model_file, const EnvelopeSetti
 /// calibrate_envelope, then store_envelope when it calibrated; returns what it measured.
 EnvelopeCalibration calibrate_and_store_envelope(const std::filesystem::path& model_file,
                                                  int tracks = 200);
-
-/// calibrate_and_store_envelope for a file a training command wrote (nothing when there is none),
-/// with describe()'s line in the log.
-void calibrate_written_model(const std::optional<std::filesystem::path>& model_file);
 
 /// One line for the log: what was calibrated, on what.
 [[nodiscard]] std::string describe(const EnvelopeCalibration& calibration);

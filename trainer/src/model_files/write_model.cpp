@@ -1,0 +1,67 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/trainer/model_files/write_model.hpp"
+
+#include <fcntl.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <stdexcept>
+#include <system_error>
+#include <utility>
+
+#include "imm/io/temporary_files.hpp"
+#include "imm/trainer/model_files/calibration.hpp"
+#include "imm/trainer/model_files/envelope.hpp"
+#include "imm/trainer/provenance.hpp"
+
+namespace imm::trainer {
+namespace {
+
+thread_local ModelFinish
+    current_finish;  // NOLINT(cppcoreguidelines-avoid-non-const-global-variables)
+
+}  // namespace
+
+ModelFinishScope::ModelFinishScope(ModelFinish finish) : previous_(std::move(current_finish)) {
+  current_finish = std::move(finish);
+}
+
+ModelFinishScope::~ModelFinishScope() { current_finish = std::move(previous_); }
+
+void write_model_file(const std::filesystem::path& out, io::Provenance provenance,
+                      const std::function<void(io::ModelFileWriter&)>& write) {
+  ensure_parent_folder(out);
+  if (!current_finish) {  // nothing to finish: the writer's own commit is the one rename
+    io::ModelFileWriter writer(out, std::move(provenance));
+    write(writer);
+    writer.commit();
+    return;
+  }
+  const std::filesystem::path staged = io::temporary_beside(out, 2U);
+  try {
+    io::ModelFileWriter writer(staged, std::move(provenance));
+    write(writer);
+    writer.commit();
+    current_finish(staged);
+    // The finished file is on disk before its name is (the rename is durable only then).
+    const int fd = ::open(staged.c_str(), O_RDONLY | O_CLOEXEC);
+    const bool synced = fd >= 0 && ::fsync(fd) == 0;
+    if (fd >= 0) ::close(fd);
+    if (!synced) throw std::runtime_error(staged.string() + ": cannot fsync the finished model");
+    std::filesystem::rename(staged, out);
+    sync_folder(out.parent_path().empty() ? std::filesystem::path(".") : out.parent_path());
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove(staged, ignored);
+    throw;
+  }
+}
+
+void calibrate_model_file(const std::filesystem::path& committed) {
+  const CalibrationFit fit = fit_calibration(committed);
+  spdlog::info("{}", describe(fit));
+  if (fit.fitted) store_calibration(committed, fit.calibration);
+  spdlog::info("{}", describe(calibrate_and_store_envelope(committed)));
+}
+
+}  // namespace imm::trainer
