@@ -109,6 +109,8 @@ RankedFilter ranked_filter(const std::filesystem::path& file, const std::string&
   r.position_nees = consistency.average;
   r.scans_inside = consistency.inside;
   r.nis_inside = own.nis_consistency.inside;
+  r.scans = consistency.scans;
+  r.nis_scans = own.nis_consistency.scans;
   if (own.has_truth) {
     r.zeta_p = own.zeta_p;
     r.zeta_v = own.zeta_v;

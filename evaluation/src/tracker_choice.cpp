@@ -38,21 +38,30 @@ std::string consistency_hold(const RankedFilter& filter, const RankedFilter& bar
   struct Share {
     const char* name;
     double own, bar;
+    long scans;
   };
   const std::array<Share, 2> shares{
-      Share{truth ? "position NEES" : "NIS", filter.scans_inside, bar.scans_inside},
-      Share{"NIS", filter.nis_inside, bar.nis_inside}};
+      Share{truth ? "position NEES" : "NIS", filter.scans_inside, bar.scans_inside, filter.scans},
+      Share{"NIS", filter.nis_inside, bar.nis_inside, filter.nis_scans}};
   std::string text;
   for (std::size_t i = 0; i < (truth ? 2U : 1U); ++i) {
     const Share& s = shares[i];
     const double required = std::min(kConsistentShare, s.bar);
-    if (!(s.own < required)) continue;
+    const double uncertainty =
+        s.scans > 0 ? 1.96 * std::sqrt(required * (1.0 - required) / static_cast<double>(s.scans))
+                    : 0.0;
+    if (!(s.own < required - uncertainty)) continue;
     char numbers[160];
     std::snprintf(numbers, sizeof numbers,
                   "%s inside its 95 %% bounds on %.1f %% of the scans, below the %.1f %% %s",
                   s.name, 100.0 * s.own, 100.0 * required,
                   s.bar < kConsistentShare ? "the bar reaches" : "of a consistent filter");
-    text += (text.empty() ? "" : "; ") + std::string(numbers);
+    char beyond[96] = "";
+    if (s.scans > 0) {
+      std::snprintf(beyond, sizeof beyond, " beyond the uncertainty of %ld scans (%.1f %%)",
+                    s.scans, 100.0 * uncertainty);
+    }
+    text += (text.empty() ? "" : "; ") + std::string(numbers) + beyond;
   }
   return text.empty() ? text : "consistency: " + text;
 }

@@ -113,6 +113,31 @@ TEST(TrackerChoice, ALearnedModelLessConsistentThanTheBarIsHeldOut) {
       << choice.reason;
 }
 
+// Over a known number of scans, a share below the required one by less than its Monte Carlo
+// uncertainty (1.96 binomial standard errors) holds nothing back: one scan of 118 is 0.8 %, and
+// 1.96 · √(0.881 · 0.119 / 118) = 5.8 %.
+TEST(TrackerChoice, AShortfallWithinTheUncertaintyOfTheScansHoldsNothing) {
+  RankedFilter bar = baseline();
+  bar.scans_inside = 0.94;
+  bar.nis_inside = 0.881;
+  RankedFilter scheduled = learned("scheduled", 0.40, 0.50, kBetter, kBetter);
+  scheduled.scans_inside = 0.93;
+  scheduled.scans = 118;
+  scheduled.nis_scans = 118;
+  scheduled.nis_inside = 0.873;
+  EXPECT_EQ(consistency_hold(scheduled, bar), "");
+  scheduled.nis_inside = 0.824;  // 0.881 − 0.0584 = 0.8226: still within
+  EXPECT_EQ(consistency_hold(scheduled, bar), "");
+  scheduled.nis_inside = 0.82;
+  EXPECT_EQ(consistency_hold(scheduled, bar),
+            "consistency: NIS inside its 95 % bounds on 82.0 % of the scans, below the 88.1 % the "
+            "bar reaches beyond the uncertainty of 118 scans (5.8 %)");
+  // Without the scan count the shares are taken as exact.
+  scheduled.nis_inside = 0.873;
+  scheduled.nis_scans = 0;
+  EXPECT_NE(consistency_hold(scheduled, bar), "");
+}
+
 // A second tuned classical filter (worse than the bar on these tracks) is ranked, and "beats"
 // nothing: it is never the tracker in the bar's place, and a learned model faces the bar.
 TEST(TrackerChoice, AnotherClassicalFilterIsRankedButNeverChosen) {

@@ -51,6 +51,8 @@ struct RankedFilter {
   /// The share of scans whose NIS lies inside its 95 % bounds (with truth scans_inside is the
   /// NEES's; without, the two are the same).
   double nis_inside = 1.0;
+  /// The scans each share is over (0: not known, the shares taken as exact).
+  long scans = 0, nis_scans = 0;
   /// Why a learned model may not be the tracker whatever its figures (its own experiment's gates
   /// failed, or no evaluation of it was given); empty: eligible.
   std::string held_out;
@@ -77,8 +79,10 @@ inline constexpr double kConsistentShare = 0.9;
 
 /// Why `filter`'s covariance holds it back from being the tracker, or empty: its position NEES
 /// (with truth) or its NIS lies inside the per-scan 95 % bounds on fewer scans than both
-/// kConsistentShare and `bar` does. A learned model must be consistent, or at least as consistent
-/// as the classical filter it would replace where that one is not.
+/// kConsistentShare and `bar` does, beyond the Monte Carlo uncertainty of a share over its scans
+/// (1.96 binomial standard errors of the required share: on 118 scans one scan is 0.8 % and
+/// decides nothing). A learned model must be consistent, or at least as consistent as the
+/// classical filter it would replace where that one is not.
 [[nodiscard]] std::string consistency_hold(const RankedFilter& filter, const RankedFilter& bar);
 
 /// A learned model that beats the baseline in accuracy but whose covariance does not match its
