@@ -90,11 +90,6 @@ std::unique_ptr<AnyTrackBank> open_track_bank(const std::filesystem::path& path,
                                               std::size_t capacity) {
   const io::ModelFileReader reader = open_model(path);
   const ModelKind& kind = kind_of(reader);
-  if (read_calibration(reader)) {
-    throw InvalidParameter("path", path.string() +
-                                       " carries a covariance calibration (/calibration), which "
-                                       "the banks do not apply: use load_filter_maker's filters");
-  }
   if (!kind.open_bank) {
     throw InvalidParameter("path", path.string() + " is a " + kind.name +
                                        " model, a kind this runtime has no bank for");

@@ -44,7 +44,8 @@ def check(path):
             "noise_schedule_rules" in mode.attrs for mode in modes.values())
         newer = (group is not None and "antecedents" in group.attrs) or (
             mlp is not None and "input_variance" in mlp.attrs) or scheduled
-        expected = 3 if newer else 2
+        # Version 4 for a file with a covariance calibration (every trained model's).
+        expected = 4 if "calibration" in f else 3 if newer else 2
         if f.attrs.get("schema_version") != expected:
             problem("/@schema_version",
                     f"is {f.attrs.get('schema_version')!r}, expected {expected}")

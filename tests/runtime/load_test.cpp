@@ -10,10 +10,12 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <random>
 
 #include "imm/io/file_error.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
+#include "imm/tracking/calibrated_filter.hpp"
 #include "testing/hdf5_edit.hpp"
 #include "testing/kind_filters.hpp"
 #include "testing/shipped_models.hpp"
@@ -23,6 +25,22 @@ namespace imm {
 namespace {
 
 constexpr int kScans = 80;
+
+// `filter` with the file's covariance calibration around it, as load_filter applies it
+// (calibrated_filter.hpp; the calibration itself is tested in calibrated_filter_test.cpp).
+std::unique_ptr<TrackFilter> as_loaded(std::unique_ptr<TrackFilter> filter,
+                                       const io::ModelFileReader& reader) {
+  if (auto calibration = read_calibration(reader)) {
+    return std::make_unique<CalibratedFilter>(std::move(filter), std::move(calibration));
+  }
+  return filter;
+}
+
+// The factor of P the tracker's filter states its covariance with (1 without a calibration).
+double state_scale(const Tracker& tracker) {
+  const auto* calibrated = dynamic_cast<const CalibratedFilter*>(&tracker.filter());
+  return calibrated != nullptr ? calibrated->state_scale() : 1.0;
+}
 
 struct Estimate {
   Eigen::VectorXd mean, variance;
@@ -54,7 +72,7 @@ TEST(LoadTracker, EveryShippedTrackFilterEqualsItsKindSpecificRecipe) {
     EXPECT_EQ(loaded.provenance.model_kind, made.kind);
     expect_same_options(loaded.options, made.options, path.string());
     ASSERT_EQ(loaded.filter->mode_count(), made.filter->mode_count());
-    Tracker expected(std::move(made.filter), made.options);
+    Tracker expected(as_loaded(std::move(made.filter), reader), made.options);
     Tracker tracker = load_tracker(path);
     for (const auto& [k, z] : testing::seeded_plots(made.options, 7, kScans)) {
       const TrackStepResult a = tracker.process(k, z), b = expected.process(k, z);
@@ -146,8 +164,8 @@ TEST(LoadTracker, InputEstimatorTracksAsTwoIndependentAxisFilters) {
         const GaussianState<2>& e = axes[static_cast<std::size_t>(a)].estimate();
         ASSERT_EQ(x.mean(2 * a), e.mean(0)) << "scan " << k;
         ASSERT_EQ(x.mean(2 * a + 1), e.mean(1)) << "scan " << k;
-        ASSERT_EQ(x.variance(2 * a), e.covariance(0, 0)) << "scan " << k;
-        ASSERT_EQ(x.variance(2 * a + 1), e.covariance(1, 1)) << "scan " << k;
+        ASSERT_EQ(x.variance(2 * a), e.covariance(0, 0) * state_scale(tracker)) << "scan " << k;
+        ASSERT_EQ(x.variance(2 * a + 1), e.covariance(1, 1) * state_scale(tracker)) << "scan " << k;
       }
     }
     ++compared;
@@ -204,7 +222,7 @@ TEST(LoadTracker, TskSensorModelRunsTheFimmWithTheSettingsItCarries) {
     const std::optional<FimmSpec> spec = io::read_fimm_settings(reader);
     ASSERT_TRUE(spec) << "a shipped sensor model without its FIMM settings";
     const auto sensor = std::make_shared<const TskSensorModel>(io::read_tsk_sensor(reader));
-    FimmFilter expected(*spec, sensor);
+    const auto expected = as_loaded(std::make_unique<FimmFilter>(*spec, sensor), reader);
     Tracker tracker = load_tracker(path);
     const TrackOptions options = spec->track_options();
     const double T = spec->sample_period;
@@ -228,13 +246,13 @@ TEST(LoadTracker, TskSensorModelRunsTheFimmWithTheSettingsItCarries) {
           covariance.block<3, 3>(3 * a, 3 * a) << r, r / T, 0.0, r / T, 2.0 * r / (T * T), 0.0, 0.0,
               0.0, spec->acceleration_variance;
         }
-        expected.initialize(mean, covariance);
+        expected->initialize(mean, covariance);
       } else {
         ASSERT_EQ(result.event, TrackEvent::kUpdated);
-        ASSERT_EQ(expected.step(z), StepStatus::kOk);
+        ASSERT_EQ(expected->step(z), StepStatus::kOk);
       }
       Eigen::VectorXd mean(6), variance(6);
-      expected.state(mean, variance);
+      expected->state(mean, variance);
       const Estimate x(tracker);
       ASSERT_TRUE((x.mean.array() == mean.array()).all()) << "scan " << k;
       ASSERT_TRUE((x.variance.array() == variance.array()).all()) << "scan " << k;

@@ -168,9 +168,12 @@ IMM_RUNTIME_EXPORT void register_model_kind(ModelKind kind);
 /// Every registered kind, in registration order (the six of this runtime first).
 [[nodiscard]] IMM_RUNTIME_EXPORT std::vector<const ModelKind*> model_kinds();
 
-/// Opens a bank of `capacity` tracks for the model file at `path`, of whatever kind it is.
-/// Throws io::FileError naming the file and field as load_filter does, InvalidParameter("path")
-/// for a kind without a bank.
+/// Opens a bank of `capacity` tracks for the model file at `path`, of whatever kind it is. The bank
+/// runs the model as trained: a file's covariance calibration (calibrated_filter.hpp: per-track
+/// features the lane banks do not keep) is not applied, so its estimates equal the one-track
+/// filter's and its covariances, likelihoods and gate are the model's own. Throws io::FileError
+/// naming the file and field as load_filter does, InvalidParameter("path") for a kind without a
+/// bank.
 [[nodiscard]] IMM_RUNTIME_EXPORT std::unique_ptr<AnyTrackBank> open_track_bank(
     const std::filesystem::path& path, std::size_t capacity);
 

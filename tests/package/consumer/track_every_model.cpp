@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // A tracking application that loads trained models: every model file given on the command line
-// through imm::load_tracker, and again through its kind's own reader and filter, tracking the
+// through imm::load_tracker, and again through its kind's own reader and filter (with the file's
+// covariance calibration, imm::read_calibration), tracking the
 // same seeded plots; the two must agree to the bit at every scan. Links imm::runtime only.
 #include <cmath>
 #include <cstdio>
@@ -16,6 +17,7 @@
 #include <imm/io/tsk_sensor_file.hpp>
 #include <imm/io/wimm_file.hpp>
 #include <imm/load.hpp>
+#include <imm/tracking/calibrated_filter.hpp>
 #include <imm/version.hpp>
 #include <random>
 
@@ -25,7 +27,12 @@ namespace {
 imm::Tracker kind_specific(const char* path) {
   const imm::io::ModelFileReader reader(path);
   const std::string& kind = reader.provenance().model_kind;
-  auto make = [](std::unique_ptr<imm::TrackFilter> filter, const auto& spec) {
+  // The calibration the file carries, as load_tracker applies it.
+  const auto calibration = imm::read_calibration(reader);
+  auto make = [&calibration](std::unique_ptr<imm::TrackFilter> filter, const auto& spec) {
+    if (calibration) {
+      filter = std::make_unique<imm::CalibratedFilter>(std::move(filter), calibration);
+    }
     return imm::Tracker(std::move(filter), spec.track_options());
   };
   if (kind == imm::io::kPlainImmKind) {
