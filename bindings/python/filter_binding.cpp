@@ -18,6 +18,7 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/load.hpp"
+#include "imm/tracking/calibrated_filter.hpp"
 #include "imm/tracking/tracker.hpp"
 
 namespace py = pybind11;
@@ -131,6 +132,25 @@ class PyFilter {
   [[nodiscard]] Eigen::Matrix2d measurement_covariance() const {
     return options_.measurement_covariance;
   }
+  // The covariance calibration the model file carries and where the track stands in it, or None.
+  [[nodiscard]] py::object calibration() const {
+    const auto* calibrated = dynamic_cast<const imm::CalibratedFilter*>(filter_.get());
+    if (calibrated == nullptr) return py::none();
+    const imm::CovarianceCalibration& c = calibrated->calibration();
+    py::dict d;
+    d["memory"] = c.memory;
+    d["nis_cap"] = c.nis_cap;
+    d["start_innovation"] = c.start_innovation;
+    d["start_state"] = c.start_state;
+    d["edges"] = c.edges;
+    d["level_innovation"] = c.level_innovation;
+    d["level_state"] = c.level_state;
+    d["plots_used"] = calibrated->plots_used();
+    d["nis_level"] = calibrated->nis_level();
+    d["innovation_scale"] = calibrated->innovation_scale();
+    d["state_scale"] = calibrated->state_scale();
+    return d;
+  }
 
  private:
   static std::string name(imm::StepStatus status) { return std::string(imm::to_string(status)); }
@@ -182,5 +202,9 @@ void add_filter_binding(py::module_& m) {
       .def_property_readonly("kind", &PyFilter::kind)
       .def_property_readonly("sample_period", &PyFilter::sample_period)
       .def_property_readonly("measurement_kind", &PyFilter::measurement_kind)
-      .def_property_readonly("measurement_covariance", &PyFilter::measurement_covariance);
+      .def_property_readonly("measurement_covariance", &PyFilter::measurement_covariance)
+      .def_property_readonly("calibration", &PyFilter::calibration,
+                             "the model file's covariance calibration (tables) and the track's "
+                             "place in it (plots_used, nis_level, innovation_scale, state_scale), "
+                             "or None");
 }

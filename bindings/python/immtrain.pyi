@@ -190,6 +190,14 @@ class Filter:
     @property
     def measurement_covariance(self) -> _Array:
         """R (2, 2) of the plots."""
+    @property
+    def calibration(self) -> Optional[Dict[str, Any]]:
+        """The covariance calibration the model file carries (docs/model-schema.md): memory,
+        nis_cap, start_innovation, start_state, edges, level_innovation, level_state (the tables;
+        factors are dimensionless), and where this track stands: plots_used, nis_level (its
+        weighted mean NIS), innovation_scale and state_scale (the factors of S and P now). None
+        for a file without one. S (predicted_plot, candidate_distance) and P (state) are
+        reported calibrated; the likelihoods are the model's own."""
 
 def load_tracker(path: _Path, max_gap: int = 50) -> Tracker:
     """A model file of any kind the runtime reads, as a Tracker; a track not updated for more

@@ -372,6 +372,36 @@ def test_a_filter_split_into_predict_candidates_and_update_equals_its_step():
         wimm.predict()
 
 
+def test_a_filter_states_its_calibration_and_the_factors_it_applies():
+    """Filter.calibration: the tables of the model file's covariance calibration, and the track's
+    place in them; the factor of S it reports is the tables' at the plots used and the NIS level
+    (recomputed here from the tables: start[min(u, n - 1)] times level[bin]), and the level follows
+    the model's own NIS with the stated memory."""
+    import bisect
+    f = immtrain.Filter(os.path.join(MODELS, "agile_air", "tracker.h5"))
+    c = f.calibration
+    assert c is not None and c["plots_used"] == 0 and c["nis_level"] == 2.0
+    assert len(c["edges"]) + 1 == len(c["level_innovation"]) == len(c["level_state"])
+    assert len(c["start_innovation"]) == len(c["start_state"]) >= 1
+
+    def factor(start, level, c):
+        u = min(c["plots_used"], len(start) - 1)
+        return start[u] * level[bisect.bisect_right(c["edges"], c["nis_level"])]
+
+    sigma = np.sqrt(f.measurement_covariance[0, 0])
+    rng = np.random.default_rng(4)
+    assert f.start(0, np.array([0.0, 0.0]), 1, np.array([200.0, 0.0]) + sigma * rng.standard_normal(2))
+    for k in range(2, 30):
+        assert f.predict() == "ok"
+        c = f.calibration
+        assert c["innovation_scale"] == factor(c["start_innovation"], c["level_innovation"], c)
+        assert f.update(np.array([200.0 * k, 0.0]) + sigma * rng.standard_normal(2)) == "ok"
+        after = f.calibration
+        assert after["plots_used"] == c["plots_used"] + 1
+        assert after["state_scale"] == factor(after["start_state"], after["level_state"], after)
+    assert immtrain.Filter(os.path.join(MODELS, "cv3_imm.h5")).calibration is None
+
+
 def test_time_stamps_any_interval_for_a_plain_imm_whole_periods_for_a_learned_model():
     """dt through Filter.step and Tracker.process_at: a plain IMM (agile_air's CV/CA/CT) at one
     sample period gives step()'s bits and takes any other interval; a learned model takes two
