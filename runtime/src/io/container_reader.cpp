@@ -313,6 +313,30 @@ Array ContainerReader::read(std::string_view dataset) const {
         chunk_bytes > static_cast<long double>(impl_->file_bytes)) {
       throw FileError(file, path, "declares chunks larger than the file");
     }
+    // Every chunk as the index records it: HDF5's Fletcher-32 filter reads the checksum from the
+    // chunk's last 4 bytes without checking that the chunk has them (a chunk recorded as shorter
+    // reads before its buffer), and no chunk can hold more than the file.
+    const Handle space(H5Dget_space(data.get()), H5Sclose);
+    hsize_t chunks = 0;
+    if (!space.valid() || H5Dget_num_chunks(data.get(), space.get(), &chunks) < 0) {
+      throw FileError(file, path, "cannot index its chunks: " + hdf5_cause());
+    }
+    for (hsize_t i = 0; i < chunks; ++i) {
+      std::array<hsize_t, kMaxRank> offset{};
+      unsigned filter_mask = 0;
+      haddr_t address = 0;
+      hsize_t stored = 0;
+      if (H5Dget_chunk_info(data.get(), space.get(), i, offset.data(), &filter_mask, &address,
+                            &stored) < 0) {
+        throw FileError(file, path, "cannot read chunk " + std::to_string(i) + "'s index entry");
+      }
+      if (stored < 4 || stored > impl_->file_bytes) {
+        throw FileError(file, path,
+                        "chunk " + std::to_string(i) + " is recorded as " + std::to_string(stored) +
+                            " bytes (at least its 4-byte checksum, at "
+                            "most the file)");
+      }
+    }
   }
   // The stored size (for chunks: the sum the chunk index records, which HDF5 allocates per chunk
   // before it checks the data) cannot exceed the file either.
