@@ -69,7 +69,7 @@ nlohmann::json ship_winner(const std::filesystem::path& winner, const std::files
     trainer::copy_atomically(winner, ship);
     return shipped;
   }
-  // Calibrated in a temporary beside the target and then copied over it in one rename: under the
+  // Calibrated in a temporary beside the target and then moved over it in one rename: under the
   // tracker's name there is the old file or the whole new one, never one without its calibration.
   const std::filesystem::path work = io::temporary_beside(ship, 1U);
   trainer::copy_atomically(winner, work);
@@ -80,8 +80,7 @@ nlohmann::json ship_winner(const std::filesystem::path& winner, const std::files
     trainer::store_calibration(work, fit.calibration);
     std::cout << "  " << trainer::describe(trainer::calibrate_and_store_envelope(work)) << '\n';
   }
-  trainer::copy_atomically(work, ship);
-  std::filesystem::remove(work);
+  trainer::move_atomically(work, ship);
   if (!fit.fitted) return shipped;
   const FilterMaker maker = load_filter_maker(ship);
   shipped["calibrated"] = consistency_of(

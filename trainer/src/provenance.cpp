@@ -125,6 +125,15 @@ void remove_durably(const std::filesystem::path& path) {
   if (std::filesystem::remove(path)) sync_folder(path.parent_path());
 }
 
+void move_atomically(const std::filesystem::path& temp, const std::filesystem::path& path) {
+  removing_temporary_on_failure(temp, [&] {
+    const Descriptor file(::open(temp.c_str(), O_RDONLY | O_CLOEXEC));
+    if (file.fd < 0) throw std::runtime_error(temp.string() + ": open: " + errno_text());
+    sync(file.fd, temp);
+  });
+  rename_durably(temp, path);
+}
+
 void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to) {
   ensure_parent_folder(to);
   const auto temp = io::temporary_beside(to);

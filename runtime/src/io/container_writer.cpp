@@ -216,10 +216,8 @@ void ContainerWriter::write(std::string_view dataset, const Array& array, Values
       H5Ldelete(impl_->file.get(), name.c_str(), H5P_DEFAULT) < 0) {
     throw FileError(file, name, "cannot replace dataset: " + hdf5_cause());
   }
-  Handle link_list(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
-  H5Pset_create_intermediate_group(link_list.get(), 1);
-  Handle data(H5Dcreate2(impl_->file.get(), name.c_str(), H5T_IEEE_F64LE, space.get(),
-                         link_list.get(), create_list.get(), H5P_DEFAULT),
+  Handle data(H5Dcreate2(impl_->file.get(), name.c_str(), H5T_IEEE_F64LE, space.get(), H5P_DEFAULT,
+                         create_list.get(), H5P_DEFAULT),
               H5Dclose);
   if (!data.valid()) throw FileError(file, name, "cannot create dataset: " + hdf5_cause());
   if (!array.values.empty() && H5Dwrite(data.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL,

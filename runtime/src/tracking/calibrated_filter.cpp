@@ -25,6 +25,12 @@ void check_factors(const std::vector<double>& factors, const std::string& name, 
   }
 }
 
+// The start table's factor after `used` plots: the last entry holds on.
+double factor(const std::vector<double>& start, long used) noexcept {
+  return start[static_cast<std::size_t>(
+      std::clamp<long>(used, 0, static_cast<long>(start.size()) - 1))];
+}
+
 }  // namespace
 
 void CovarianceCalibration::validate() const {
@@ -60,15 +66,11 @@ int CovarianceCalibration::bin(double level) const noexcept {
 }
 
 double CovarianceCalibration::innovation_scale(long used, double level) const noexcept {
-  const auto at = static_cast<std::size_t>(
-      std::clamp<long>(used, 0, static_cast<long>(start_innovation.size()) - 1));
-  return start_innovation[at] * level_innovation[static_cast<std::size_t>(bin(level))];
+  return factor(start_innovation, used) * level_innovation[static_cast<std::size_t>(bin(level))];
 }
 
 double CovarianceCalibration::state_scale(long used, double level) const noexcept {
-  const auto at = static_cast<std::size_t>(
-      std::clamp<long>(used, 0, static_cast<long>(start_state.size()) - 1));
-  return start_state[at] * level_state[static_cast<std::size_t>(bin(level))];
+  return factor(start_state, used) * level_state[static_cast<std::size_t>(bin(level))];
 }
 
 std::shared_ptr<const CovarianceCalibration> read_calibration(const io::ModelFileReader& reader) {

@@ -28,11 +28,11 @@ struct Sample {
 
 // c_start(u) · c_level(b) moment-matched to value / dimension (see the header), for samples of
 // `dimension` 2. Cells with fewer than `min_samples` keep 1.
-void fit_tables(const std::vector<Sample>& samples, const std::vector<double>& edges,
-                const CalibrationSettings& settings, const CovarianceCalibration& shape,
-                std::vector<double>& start, std::vector<double>& level) {
+void fit_tables(const std::vector<Sample>& samples, const CalibrationSettings& settings,
+                const CovarianceCalibration& shape, std::vector<double>& start,
+                std::vector<double>& level) {
   start.assign(static_cast<std::size_t>(settings.start_entries), 1.0);
-  level.assign(edges.size() + 1, 1.0);
+  level.assign(shape.edges.size() + 1, 1.0);
   if (samples.empty()) return;
   const auto start_of = [&](const Sample& s) {
     return static_cast<std::size_t>(std::clamp<long>(s.used, 0, settings.start_entries - 1));
@@ -121,8 +121,8 @@ CalibrationFit fit_calibration(const std::filesystem::path& model_file,
                                static_cast<std::size_t>(settings.level_bins)];
     if (cal.edges.empty() || edge > cal.edges.back()) cal.edges.push_back(edge);
   }
-  fit_tables(nis, cal.edges, settings, cal, cal.start_innovation, cal.level_innovation);
-  fit_tables(nees, cal.edges, settings, cal, cal.start_state, cal.level_state);
+  fit_tables(nis, settings, cal, cal.start_innovation, cal.level_innovation);
+  fit_tables(nees, settings, cal, cal.start_state, cal.level_state);
   cal.validate();
   fit.fitted = true;
   const auto one = [](const Sample&) { return 1.0; };

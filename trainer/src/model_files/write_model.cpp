@@ -1,11 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/trainer/model_files/write_model.hpp"
 
-#include <fcntl.h>
 #include <spdlog/spdlog.h>
-#include <unistd.h>
 
-#include <stdexcept>
 #include <system_error>
 #include <utility>
 
@@ -43,18 +40,12 @@ void write_model_file(const std::filesystem::path& out, io::Provenance provenanc
     write(writer);
     writer.commit();
     current_finish(staged);
-    // The finished file is on disk before its name is (the rename is durable only then).
-    const int fd = ::open(staged.c_str(), O_RDONLY | O_CLOEXEC);
-    const bool synced = fd >= 0 && ::fsync(fd) == 0;
-    if (fd >= 0) ::close(fd);
-    if (!synced) throw std::runtime_error(staged.string() + ": cannot fsync the finished model");
-    std::filesystem::rename(staged, out);
-    sync_folder(out.parent_path().empty() ? std::filesystem::path(".") : out.parent_path());
   } catch (...) {
     std::error_code ignored;
     std::filesystem::remove(staged, ignored);
     throw;
   }
+  move_atomically(staged, out);  // the finished file on disk before its name is
 }
 
 void calibrate_model_file(const std::filesystem::path& committed) {

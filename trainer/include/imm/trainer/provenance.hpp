@@ -34,6 +34,10 @@ void write_text_atomically(const std::filesystem::path& path, const std::string&
 /// fsynced.
 void copy_atomically(const std::filesystem::path& from, const std::filesystem::path& to);
 
+/// Moves a finished file `temp` (beside `path`, in the same folder) over `path` the same way: it
+/// is fsynced, renamed, and the folder fsynced; on failure `temp` is removed.
+void move_atomically(const std::filesystem::path& temp, const std::filesystem::path& path);
+
 /// Writes JSON atomically (temporary file in the same folder, then rename).
 void write_json_atomically(const std::filesystem::path& path, const nlohmann::json& document);
 
