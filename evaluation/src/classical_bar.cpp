@@ -83,72 +83,95 @@ std::optional<ClassicalBar> tune_classical_bar(const datasets::Regime& own,
                       tuned.score.objective};
 }
 
-nlohmann::json compare_with_classical_bar(
+std::optional<BarComparison> compare_with_bar(
     const std::string& learned_name, const FilterFactory& learned, const TrackOptions& options,
     const datasets::Regime& own, const datasets::TrackSet& data, const Eigen::Vector2d& sensor,
-    std::vector<std::string>& findings, const std::optional<std::filesystem::path>& file) {
+    const std::optional<std::filesystem::path>& file) {
   const std::optional<ClassicalBar> bar = tune_classical_bar(own, file);
-  if (!bar) return nullptr;
-  const std::string bar_name(kClassicalBarName);
-  const std::vector<FilterOutcome> outcomes{
-      run_monte_carlo(learned_name, learned, options, data, {}, sensor),
-      run_monte_carlo(
-          bar_name, [&] { return make_plain_imm_filter(bar->spec); }, bar->spec.track_options(),
-          data, {}, sensor)};
+  if (!bar) return std::nullopt;
+  BarComparison c;
+  c.parameters = bar->parameters;
+  c.length = std::string(datasets::to_string(own.units));
+  c.outcomes.push_back(run_monte_carlo(learned_name, learned, options, data, {}, sensor));
+  c.outcomes.push_back(run_monte_carlo(
+      std::string(kClassicalBarName), [&] { return make_plain_imm_filter(bar->spec); },
+      bar->spec.track_options(), data, {}, sensor));
   const int runs = static_cast<int>(data.tracks.size());
-  const FilterOutcome& ours = outcomes[0];
-  const FilterOutcome& theirs = outcomes[1];
-  // The verdict's two criteria: ζ_p and ζ_v, or without truth the NLL and the innovation RMS.
+  const FilterOutcome& ours = c.outcomes[0];
+  const FilterOutcome& theirs = c.outcomes[1];
   const std::vector<HeadlineMetric> ours_metrics =
       data.has_truth ? ours.zeta_headline() : ours.plot_headline();
   const std::vector<HeadlineMetric> bar_metrics =
       data.has_truth ? theirs.zeta_headline() : theirs.plot_headline();
   const std::size_t second = data.has_truth ? 1 : 2;
-  const std::array<std::string, 2> criteria =
-      data.has_truth ? std::array<std::string, 2>{"ζ_p", "ζ_v"}
-                     : std::array<std::string, 2>{"predictive NLL", "innovation RMS"};
-  const std::array<Difference, 2> differences{
+  c.criteria = data.has_truth ? std::array<std::string, 2>{"ζ_p", "ζ_v"}
+                              : std::array<std::string, 2>{"predictive NLL", "innovation RMS"};
+  c.values = {{{ours_metrics[0].value(), ours_metrics[second].value()},
+               {bar_metrics[0].value(), bar_metrics[second].value()}}};
+  c.differences = {
       paired_difference(runs, ours_metrics[0].statistic(), bar_metrics[0].statistic()),
       paired_difference(runs, ours_metrics[second].statistic(), bar_metrics[second].statistic())};
-  const std::string verdict_text(verdict(differences));
-  const std::string length(datasets::to_string(own.units));
-  std::vector<std::vector<std::string>> rows;
-  nlohmann::json json = {{"bar", bar->parameters}, {"verdict", verdict_text}};
-  std::optional<Difference> maneuvers;
+  c.verdict = std::string(verdict(c.differences));
   const std::array<HeadlineMetric, 2> in_maneuvers{ours.maneuver_position_rmse(),
                                                    theirs.maneuver_position_rmse()};
+  c.maneuver_rmse = {in_maneuvers[0].value(), in_maneuvers[1].value()};
   if (data.has_truth && std::isfinite(in_maneuvers[1].value())) {
-    maneuvers = paired_difference(runs, in_maneuvers[0].statistic(), in_maneuvers[1].statistic());
+    c.maneuvers = paired_difference(runs, in_maneuvers[0].statistic(), in_maneuvers[1].statistic());
   }
+  std::ostringstream line;
+  line << learned_name << " " << c.verdict << " " << kClassicalBarName << " (" << c.criteria[0]
+       << " " << c.differences[0].text() << ", " << c.criteria[1] << " " << c.differences[1].text()
+       << (c.maneuvers ? ", position RMSE in manoeuvres " + c.maneuvers->text(2) + " " + c.length
+                       : "")
+       << ")";
+  c.summary = line.str();
+  return c;
+}
+
+nlohmann::json BarComparison::json() const {
+  nlohmann::json json = {{"bar", parameters}, {"verdict", verdict}};
   for (std::size_t i = 0; i < 2; ++i) {
     const FilterOutcome& f = outcomes[i];
-    const std::vector<HeadlineMetric>& m = i == 0 ? ours_metrics : bar_metrics;
-    rows.push_back({f.name, cell(m[0].value()), cell(m[second].value()),
-                    data.has_truth ? cell(f.position_rmse) : "–",
-                    maneuvers ? cell(in_maneuvers[i].value()) : "–",
-                    cell(f.position_consistency.average, 2), cell(f.nis_consistency.average, 2)});
-    json["filters"][f.name] = {{"criteria", {m[0].value(), m[second].value()}},
+    json["filters"][f.name] = {{"criteria", {values[i][0], values[i][1]}},
                                {"position_rmse", f.position_rmse},
                                {"position_nees", f.position_consistency.average},
                                {"nis", f.nis_consistency.average}};
   }
-  std::ostringstream line;
-  line << learned_name << " " << verdict_text << " " << bar_name << " (" << criteria[0] << " "
-       << differences[0].text() << ", " << criteria[1] << " " << differences[1].text()
-       << (maneuvers ? ", position RMSE in manoeuvres " + maneuvers->text(2) + " " + length : "")
-       << ")";
-  std::cout << "\nAgainst " << bar_name << " (the classical bar: " << bar->parameters
-            << "), on the same 2-D test tracks:\n\n"
-            << markdown_table({"filter", criteria[0], criteria[1], "position RMSE (" + length + ")",
-                               "in manoeuvres (" + length + ")", "position NEES", "NIS"},
-                              rows)
-            << '\n'
-            << line.str() << '\n';
   json["differences"] = {
       {criteria[0], {differences[0].estimate, differences[0].lower, differences[0].upper}},
       {criteria[1], {differences[1].estimate, differences[1].lower, differences[1].upper}}};
-  if (verdict_text != "beats") findings.push_back(line.str());
   return json;
+}
+
+void print_bar_comparison(const BarComparison& c) {
+  std::vector<std::vector<std::string>> rows;
+  for (std::size_t i = 0; i < 2; ++i) {
+    const FilterOutcome& f = c.outcomes[i];
+    rows.push_back({f.name, cell(c.values[i][0]), cell(c.values[i][1]),
+                    f.has_truth ? cell(f.position_rmse) : "–",
+                    c.maneuvers ? cell(c.maneuver_rmse[i]) : "–",
+                    cell(f.position_consistency.average, 2), cell(f.nis_consistency.average, 2)});
+  }
+  std::cout << "\nAgainst " << kClassicalBarName << " (the classical bar: " << c.parameters
+            << "), on the same 2-D test tracks:\n\n"
+            << markdown_table(
+                   {"filter", c.criteria[0], c.criteria[1], "position RMSE (" + c.length + ")",
+                    "in manoeuvres (" + c.length + ")", "position NEES", "NIS"},
+                   rows)
+            << '\n'
+            << c.summary << '\n';
+}
+
+nlohmann::json compare_with_classical_bar(
+    const std::string& learned_name, const FilterFactory& learned, const TrackOptions& options,
+    const datasets::Regime& own, const datasets::TrackSet& data, const Eigen::Vector2d& sensor,
+    std::vector<std::string>& findings, const std::optional<std::filesystem::path>& file) {
+  const std::optional<BarComparison> c =
+      compare_with_bar(learned_name, learned, options, own, data, sensor, file);
+  if (!c) return nullptr;
+  print_bar_comparison(*c);
+  if (c->verdict != "beats") findings.push_back(c->summary);
+  return c->json();
 }
 
 }  // namespace imm::evaluation

@@ -8,8 +8,9 @@
 #include <sstream>
 #include <stdexcept>
 #include <string_view>
+#include <utility>
 
-#include "imm/support/cli.hpp"
+#include "imm/evaluation/experiments.hpp"
 
 namespace imm::evaluation {
 namespace {
@@ -35,30 +36,22 @@ std::filesystem::path CommonOptions::model_path() const {
   return models / (model + ".h5");
 }
 
-void add_common_options(CLI::App& command, CommonOptions& options, const std::string& model,
-                        const std::filesystem::path& out) {
-  options.model = model;
-  options.out = out;
-  command.add_option("--models", options.models, "folder of model files");
-  command.add_option("--model", options.model,
-                     "model file: a name in --models (default " + model + ") or a path");
-  command.add_option("--regime", options.regime,
-                     "regime TOML to evaluate on, or a model file whose recorded regime to use "
-                     "(default: the one recorded in the model)");
-  command.add_option("--runs", options.runs, "test tracks (default: the regime's test split)")
-      ->check(support::at_least(1));
-  command.add_option("--seed", options.seed, "seed of the test tracks");
-  command.add_option("--out", options.out, "report folder");
-  command.add_flag("--truth-tracks", options.truth_tracks,
-                   "only the test tracks with truth (a recorded set with truth for some "
-                   "recordings), judged by their errors");
+void ExperimentResult::start(std::string name, const CommonOptions& common) {
+  experiment = std::move(name);
+  model = common.model_path();
+  seed = common.seed;
 }
 
-void add_classical_option(CLI::App& command, CommonOptions& options) {
-  command.add_option("--classical", options.classical,
-                     "the regime's tuned CV/CA/CT IMM (imm-train baseline --config "
-                     "configs/classical_imm.toml) to list as the classical bar (default: tuned "
-                     "here on the model's training split, the same search)");
+const FilterOutcome& ExperimentResult::filter(const std::string& name) const {
+  for (const FilterOutcome& f : filters) {
+    if (f.name == name) return f;
+  }
+  throw std::out_of_range(experiment + ": no filter named '" + name + "'");
+}
+
+int ExperimentResult::exit_code() const {
+  if (!failures.empty()) return support::exit_code::kEvaluationGateFailed;
+  return findings.empty() ? 0 : support::exit_code::kFindings;
 }
 
 std::string EvaluationRegimes::describe() const {
@@ -266,17 +259,6 @@ int finish_report(const std::filesystem::path& out, bool plotted,
   }
   if (!failures.empty()) return support::exit_code::kEvaluationGateFailed;
   return findings.empty() ? 0 : support::exit_code::kFindings;
-}
-
-int guarded(const std::function<int()>& body) {
-  try {
-    return body();
-  } catch (const std::exception& error) {
-    std::cerr << "imm-eval: " << error.what() << '\n';
-  } catch (...) {
-    std::cerr << "imm-eval: unexpected error\n";
-  }
-  return support::exit_code::kBadInput;
 }
 
 }  // namespace imm::evaluation

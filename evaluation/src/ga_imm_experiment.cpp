@@ -25,6 +25,7 @@
 #include "imm/evaluation/classical_bar.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/experiments.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
 #include "imm/evaluation/plot_metrics.hpp"
@@ -43,16 +44,6 @@ using trainer::axis_score;
 using trainer::AxisFilterFactory;
 using trainer::Tuned;
 
-struct GaImmOptions {
-  CommonOptions common;
-  std::string paper_model = "reference/ga_fuzzy_imm_paper.h5";
-};
-
-struct ProcessNoiseSpread {
-  std::string filter, mode;
-  double p01 = 0.0, p50 = 0.0, p99 = 0.0;
-};
-
 double percentile(std::vector<double>& values, double p) {
   if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
   const auto k = static_cast<std::size_t>(std::lround(p * static_cast<double>(values.size() - 1)));
@@ -60,42 +51,97 @@ double percentile(std::vector<double>& values, double p) {
   return values[k];
 }
 
-int run(const GaImmOptions& options) {
-  const std::filesystem::path model_path = options.common.model_path();
-  const io::ModelFileReader reader(model_path, io::kGaFuzzyImmKind);
-  const GaFuzzyImmSpec learned = io::read_ga_fuzzy_imm(model_path);
-  const EvaluationRegimes regimes =
-      evaluation_regimes(options.common, reader.provenance(), model_path);
+// The paper's tables where the seed's filter applies (km, its T and σ); else why not.
+std::optional<GaFuzzyImmSpec> paper_tables(const GaImmResult& result) {
+  std::optional<GaFuzzyImmSpec> paper;
+  if (!result.paper_file) return paper;
+  const io::ModelFileReader paper_reader(result.paper_path, io::kGaFuzzyImmKind);
+  GaFuzzyImmSpec spec = io::read_ga_fuzzy_imm(result.paper_path);
+  const EvaluationRegimes paper_regimes =
+      evaluation_regimes(result.regimes.evaluated, paper_reader.provenance(), result.paper_path);
+  check_model({spec.settings.sample_period, datasets::SensorKind::kCartesian,
+               spec.settings.measurement_sigma, std::nullopt},
+              paper_regimes, result.paper_path);
+  paper = std::move(spec);
+  return paper;
+}
+
+// The gates and findings of the comparisons (the file comment), and the verdicts.
+void judge(GaImmResult& r) {
+  for (const char* baseline : {"AIMM3", "AIMM5", "AIMM-tuned"}) {
+    const ZetaDifference& d = r.ga_imm_minus.at(baseline);
+    const Difference& p = d.zeta_p;
+    const Difference& v = d.zeta_v;
+    if (!(p.below() && v.below())) {
+      const bool tuned_baseline = std::string_view(baseline) == "AIMM-tuned";
+      const bool worse = p.above() || v.above();
+      ((!tuned_baseline && (r.paper_scenario || worse)) ? r.failures : r.findings)
+          .push_back(std::string("GA-IMM ") + (worse ? "is worse than " : "does not beat ") +
+                     baseline + " beyond the uncertainty in both ζ_p (" + p.text() + ") and ζ_v (" +
+                     v.text() + ")");
+    }
+  }
+  if (r.paper) {
+    const ZetaDifference& d = r.ga_imm_minus.at("GA-IMM-paper");
+    if (d.zeta_p.lower > 0.005 || d.zeta_v.lower > 0.005) {
+      r.failures.push_back(
+          "GA-IMM is more than 0.005 above GA-IMM-paper beyond the uncertainty (ζ_p " +
+          d.zeta_p.text() + ", ζ_v " + d.zeta_v.text() + ")");
+    }
+  }
+  const ZetaDifference& imm = r.ga_imm_minus.at("IMM-tuned");
+  const std::array against_imm_terms{imm.zeta_p, imm.zeta_v};
+  r.against_imm_tuned = std::string(verdict(against_imm_terms));
+  if (r.against_imm_tuned != "beats") {
+    r.findings.push_back("GA-IMM " + r.against_imm_tuned + " IMM-tuned (ζ_p " + imm.zeta_p.text() +
+                         ", ζ_v " + imm.zeta_v.text() + ")" +
+                         (r.learned_part_on ? "" : ": its learned part is switched off"));
+  }
+  const std::string bar_name(kClassicalBarName);
+  const auto bar = r.ga_imm_minus.find(bar_name);
+  if (bar != r.ga_imm_minus.end()) {
+    const std::array bar_terms{bar->second.zeta_p, bar->second.zeta_v};
+    const std::string v(verdict(bar_terms));
+    const std::string figures =
+        "(ζ_p " + bar->second.zeta_p.text() + ", ζ_v " + bar->second.zeta_v.text() + ")";
+    r.against_bar = v + " it " + figures;
+    if (v != "beats") r.findings.push_back("GA-IMM " + v + " " + bar_name + " " + figures);
+  }
+}
+
+}  // namespace
+
+GaImmResult evaluate_ga_imm(const GaImmOptions& options) {
+  GaImmResult r;
+  r.start("ga-imm", options.common);
+  const io::ModelFileReader reader(r.model, io::kGaFuzzyImmKind);
+  const GaFuzzyImmSpec learned = io::read_ga_fuzzy_imm(r.model);
+  r.regimes = evaluation_regimes(options.common, reader.provenance(), r.model);
   const ModelRequirements requirements{learned.settings.sample_period,
                                        datasets::SensorKind::kCartesian,
                                        learned.settings.measurement_sigma, std::nullopt};
-  check_model(requirements, regimes, model_path);
-  const datasets::Regime& regime = regimes.evaluated.regime;
-  const datasets::Regime& own = regimes.trained.regime;
+  check_model(requirements, r.regimes, r.model);
+  const datasets::Regime& regime = r.regimes.evaluated.regime;
+  const datasets::Regime& own = r.regimes.trained.regime;
+  r.paper_scenario = paper_scenario(regime);
+  r.learned_part_on = !learned_part_off(reader.provenance());
 
-  // The paper's tables apply where the seed's filter does (km, its T and σ).
+  r.paper_path = options.common.models / options.paper_model;
+  r.paper_file = std::filesystem::exists(r.paper_path);
   std::optional<GaFuzzyImmSpec> paper;
-  std::string paper_note;
-  const std::filesystem::path paper_path = options.common.models / options.paper_model;
-  if (std::filesystem::exists(paper_path)) {
-    const io::ModelFileReader paper_reader(paper_path, io::kGaFuzzyImmKind);
-    GaFuzzyImmSpec spec = io::read_ga_fuzzy_imm(paper_path);
+  if (r.paper_file) {
     try {
-      const EvaluationRegimes paper_regimes =
-          evaluation_regimes(regimes.evaluated, paper_reader.provenance(), paper_path);
-      check_model({spec.settings.sample_period, datasets::SensorKind::kCartesian,
-                   spec.settings.measurement_sigma, std::nullopt},
-                  paper_regimes, paper_path);
-      paper = std::move(spec);
+      paper = paper_tables(r);
     } catch (const std::exception& error) {
-      paper_note = std::string("GA-IMM-paper left out: ") + error.what();
+      r.paper_note = std::string("GA-IMM-paper left out: ") + error.what();
     }
   } else {
-    paper_note = "GA-IMM-paper left out: " + paper_path.string() + " is missing";
+    r.paper_note = "GA-IMM-paper left out: " + r.paper_path.string() + " is missing";
   }
+  r.paper = paper.has_value();
 
-  const datasets::TrackSet data = test_tracks(regime, options.common);
-  const int runs = static_cast<int>(data.tracks.size());
+  r.tracks = test_tracks(regime, options.common);
+  const datasets::TrackSet& data = r.tracks;
 
   // Baselines tuned on the model's training split, scaled to its regime.
   const double a = trainer::acceleration_scale(own);
@@ -113,33 +159,31 @@ int run(const GaImmOptions& options) {
   // Three noise levels and the stay probability, as a GA trainer with tuned levels starts.
   const Tuned<AxisCvImmSpec> imm_tuned = trainer::tune_imm_baseline(learned.settings, training, a);
   const std::string unit = std::string(datasets::to_string(own.units));
-  std::map<std::string, std::string> tuned;
-  tuned["AIMM-tuned"] = "intervals [" + comma_list(aimm_tuned.spec.intervals) + "] " + unit +
-                        "/s² (" + std::to_string(aimm_tuned.evaluations) + " evaluations)";
-  tuned["IMM-tuned"] = "q [" + comma_list(imm_tuned.spec.process_noise) + "] (" + unit +
-                       "/s²)², stay " + std::to_string(imm_tuned.spec.settings.transition_stay) +
-                       " (" + std::to_string(imm_tuned.evaluations) + " evaluations)";
+  r.tuned["AIMM-tuned"] = "intervals [" + comma_list(aimm_tuned.spec.intervals) + "] " + unit +
+                          "/s² (" + std::to_string(aimm_tuned.evaluations) + " evaluations)";
+  r.tuned["IMM-tuned"] = "q [" + comma_list(imm_tuned.spec.process_noise) + "] (" + unit +
+                         "/s²)², stay " + std::to_string(imm_tuned.spec.settings.transition_stay) +
+                         " (" + std::to_string(imm_tuned.evaluations) + " evaluations)";
   // The bar a tracking engineer would set: the regime's tuned CV/CA/CT IMM.
   const std::optional<ClassicalBar> bar = tune_classical_bar(own, options.common.classical);
   const std::string bar_name(kClassicalBarName);
-  if (bar) tuned[bar_name] = bar->parameters;
+  if (bar) r.tuned[bar_name] = bar->parameters;
   auto fuzzy_axis = [](const GaFuzzyImmSpec& spec) -> AxisFilterFactory {
     return [&spec] { return std::make_unique<ImmAxisFilter>(build_ga_fuzzy_axis_imm(spec)); };
   };
-  std::map<std::string, double> training_scores;
-  training_scores["AIMM3"] =
+  r.training_scores["AIMM3"] =
       axis_score([&] { return std::make_unique<AimmAxisFilter>(aimm3); }, training);
-  training_scores["AIMM5"] =
+  r.training_scores["AIMM5"] =
       axis_score([&] { return std::make_unique<AimmAxisFilter>(aimm5); }, training);
-  training_scores["AIMM-tuned"] = aimm_tuned.score;
-  training_scores["IMM-tuned"] = imm_tuned.score;
-  if (bar) training_scores[bar_name] = bar->training_objective;
-  if (paper) training_scores["GA-IMM-paper"] = axis_score(fuzzy_axis(*paper), training);
-  training_scores["GA-IMM"] = axis_score(fuzzy_axis(learned), training);
+  r.training_scores["AIMM-tuned"] = aimm_tuned.score;
+  r.training_scores["IMM-tuned"] = imm_tuned.score;
+  if (bar) r.training_scores[bar_name] = bar->training_objective;
+  if (paper) r.training_scores["GA-IMM-paper"] = axis_score(fuzzy_axis(*paper), training);
+  r.training_scores["GA-IMM"] = axis_score(fuzzy_axis(learned), training);
 
   const TrackOptions track = learned.track_options();
-  std::vector<FilterOutcome> filters;
-  filters.reserve(6);
+  std::vector<FilterOutcome>& filters = r.filters;
+  filters.reserve(7);
   filters.push_back(run_monte_carlo(
       "AIMM3", [&] { return make_aimm_filter(aimm3); }, track, data));
   filters.push_back(run_monte_carlo(
@@ -153,7 +197,6 @@ int run(const GaImmOptions& options) {
         bar_name, [&] { return make_plain_imm_filter(bar->spec); }, bar->spec.track_options(), data,
         {}, regime.sensor.position));
   }
-  std::vector<ProcessNoiseSpread> spreads;
   std::vector<std::pair<std::string, const GaFuzzyImmSpec*>> fuzzy;
   if (paper) fuzzy.emplace_back("GA-IMM-paper", &*paper);
   fuzzy.emplace_back("GA-IMM", &learned);
@@ -187,130 +230,107 @@ int run(const GaImmOptions& options) {
       }
     }
     for (std::size_t j = 0; j < q.size(); ++j) {
-      spreads.push_back({name, spec->levels[j].name, percentile(q[j], 0.01), percentile(q[j], 0.50),
-                         percentile(q[j], 0.99)});
+      r.spreads.push_back({name, spec->levels[j].name, percentile(q[j], 0.01),
+                           percentile(q[j], 0.50), percentile(q[j], 0.99)});
     }
   }
+  if (!data.has_truth) return r;  // judged by the plots' prediction in the report
 
+  // GA-IMM − each filter, with its uncertainty; then the gates.
+  const FilterOutcome& ours = r.filter("GA-IMM");
+  for (const auto& f : filters) {
+    if (f.name == ours.name) continue;
+    r.ga_imm_minus[f.name] = {
+        paired_difference(r.runs(), ours.zeta_p_statistic(), f.zeta_p_statistic()),
+        paired_difference(r.runs(), ours.zeta_v_statistic(), f.zeta_v_statistic())};
+  }
+  judge(r);
+  return r;
+}
+
+int report_ga_imm(const GaImmResult& r, const GaImmOptions& options) {
+  const datasets::Regime& regime = r.regimes.evaluated.regime;
+  const datasets::Regime& own = r.regimes.trained.regime;
+  const datasets::TrackSet& data = r.tracks;
+  const std::vector<FilterOutcome>& filters = r.filters;
+  const int runs = r.runs();
+  const std::string bar_name(kClassicalBarName);
+  const bool bar = r.ga_imm_minus.contains(bar_name) || r.tuned.contains(bar_name);
+  std::vector<ModelUse> more_models;
+  if (r.paper_file) more_models.push_back({"paper rules", r.paper_path});
+  const std::filesystem::path& out = options.common.out;
   if (!data.has_truth) {  // recorded plots without truth: judged by their prediction
-    std::cout << "ga-imm: " << regimes.describe() << "\n  test split: " << runs << " tracks x "
+    std::cout << "ga-imm: " << r.regimes.describe() << "\n  test split: " << runs << " tracks x "
               << data.scans << " scans; baselines tuned on the training split of " << own.name
               << "\n\n";
-    std::vector<ModelUse> more;
-    if (std::filesystem::exists(paper_path)) more.push_back({"paper rules", paper_path});
-    return plots_only_report(
-        "ga-imm", filters, "GA-IMM",
-        bar ? std::vector<std::string>{"IMM-tuned", "AIMM-tuned", bar_name}
-            : std::vector<std::string>{"IMM-tuned", "AIMM-tuned"},
-        {"ga-imm", model_path, regime.name, regime.digest, options.common.seed, runs},
-        options.common.out, more);
+    return plots_only_report("ga-imm", filters, "GA-IMM",
+                             bar ? std::vector<std::string>{"IMM-tuned", "AIMM-tuned", bar_name}
+                                 : std::vector<std::string>{"IMM-tuned", "AIMM-tuned"},
+                             {"ga-imm", r.model, regime.name, regime.digest, r.seed, runs}, out,
+                             more_models);
   }
 
   // Table, with ours − each filter and its uncertainty.
-  const FilterOutcome& ours = find_filter(filters, "GA-IMM");
-  std::map<std::string, std::pair<Difference, Difference>> versus;
-  for (const auto& f : filters) {
-    if (f.name == ours.name) continue;
-    versus[f.name] = {paired_difference(runs, ours.zeta_p_statistic(), f.zeta_p_statistic()),
-                      paired_difference(runs, ours.zeta_v_statistic(), f.zeta_v_statistic())};
-  }
+  const FilterOutcome& ours = r.filter("GA-IMM");
   auto published = [&](const std::string& filter, const char* metric) -> std::string {
-    const auto* figure = regimes.evaluated.find(filter, "", metric);
+    const auto* figure = r.regimes.evaluated.find(filter, "", metric);
     return figure ? cell(figure->value) : "–";
   };
   std::vector<std::vector<std::string>> rows;
   for (const auto& f : filters) {
-    const auto v = versus.find(f.name);
+    const auto v = r.ga_imm_minus.find(f.name);
+    const bool compared = v != r.ga_imm_minus.end();
     // The axis filters count their modes on both axes; the classical bar's are 2-D modes.
     const int sub_models = f.name == bar_name ? f.modes : f.modes / 2;
     rows.push_back({f.name, std::to_string(sub_models), cell(f.zeta_p), cell(f.zeta_v),
-                    v != versus.end() ? v->second.first.text() : "–",
-                    v != versus.end() ? v->second.second.text() : "–", published(f.name, "zeta_p"),
-                    published(f.name, "zeta_v"), cell(training_scores.at(f.name))});
+                    compared ? v->second.zeta_p.text() : "–",
+                    compared ? v->second.zeta_v.text() : "–", published(f.name, "zeta_p"),
+                    published(f.name, "zeta_v"), cell(r.training_scores.at(f.name))});
   }
-  std::cout << "ga-imm: " << regimes.describe() << "\n  test split: " << runs << " tracks x "
-            << data.scans << " scans, seed " << options.common.seed
+  std::cout << "ga-imm: " << r.regimes.describe() << "\n  test split: " << runs << " tracks x "
+            << data.scans << " scans, seed " << r.seed
             << "; baselines tuned on the training split of " << own.name << "\n\n"
             << markdown_table(
                    {"configuration", "sub-models", "ζ_p", "ζ_v", "GA-IMM − this ζ_p [95 %]",
                     "GA-IMM − this ζ_v [95 %]", "paper ζ_p", "paper ζ_v", "train ζ_p+ζ_v"},
                    rows)
             << "\nTuned on the training split:\n";
-  for (const auto& [name, text] : tuned) std::cout << "  " << name << ": " << text << '\n';
-  if (!paper_note.empty()) std::cout << "  " << paper_note << '\n';
+  for (const auto& [name, text] : r.tuned) std::cout << "  " << name << ": " << text << '\n';
+  if (!r.paper_note.empty()) std::cout << "  " << r.paper_note << '\n';
   std::vector<std::vector<std::string>> spread_rows;
-  spread_rows.reserve(spreads.size());
-  for (const auto& s : spreads) {
+  spread_rows.reserve(r.spreads.size());
+  for (const auto& s : r.spreads) {
     spread_rows.push_back(
         {s.filter, s.mode, scientific(s.p01), scientific(s.p50), scientific(s.p99)});
   }
+  const std::string unit = std::string(datasets::to_string(own.units));
   std::cout << "\nq_j(k) over scans, runs and axes, (" << unit << "/s²)²:\n\n"
             << markdown_table({"filter", "sub-model", "p1", "p50", "p99"}, spread_rows);
   print_recorded_prediction(data, filters, "GA-IMM");
 
-  std::vector<std::string> failures, findings;
-  // The seed's claim (beat AIMM3 and AIMM5) is a gate on its own scenarios; elsewhere the gate is
-  // only "not worse", and not beating a baseline is a finding.
-  const bool seed_scenario = paper_scenario(regime);
-  for (const char* baseline : {"AIMM3", "AIMM5", "AIMM-tuned"}) {
-    const auto& [p, v] = versus.at(baseline);
-    if (!(p.below() && v.below())) {
-      const bool tuned_baseline = std::string_view(baseline) == "AIMM-tuned";
-      const bool worse = p.above() || v.above();
-      ((!tuned_baseline && (seed_scenario || worse)) ? failures : findings)
-          .push_back(std::string("GA-IMM ") + (worse ? "is worse than " : "does not beat ") +
-                     baseline + " beyond the uncertainty in both ζ_p (" + p.text() + ") and ζ_v (" +
-                     v.text() + ")");
-    }
-  }
-  if (paper) {
-    const auto& [p, v] = versus.at("GA-IMM-paper");
-    if (p.lower > 0.005 || v.lower > 0.005) {
-      failures.push_back(
-          "GA-IMM is more than 0.005 above GA-IMM-paper beyond the uncertainty (ζ_p " + p.text() +
-          ", ζ_v " + v.text() + ")");
-    }
-  }
-  const auto& [imm_p, imm_v] = versus.at("IMM-tuned");
-  const std::array against_imm_terms{imm_p, imm_v};
-  const std::string_view against_imm = verdict(against_imm_terms);
-  // A tuned-levels model whose tables did not beat the tuned IMM on its validation split ships
-  // as that IMM (ga_trainer.hpp, BaselineCheck): say so beside the verdict.
-  const bool part_off = learned_part_off(reader.provenance());
-  if (part_off) {
+  if (!r.learned_part_on) {
+    // A tuned-levels model whose tables did not beat the tuned IMM on its validation split ships
+    // as that IMM (ga_trainer.hpp, BaselineCheck): say so beside the verdict.
     std::cout << "\nGA-IMM's learned part is switched off: its tables did not beat the tuned "
                  "constant-q IMM on its validation split, so the model is that IMM (one constant "
                  "rule per level).\n";
   }
-  if (against_imm != "beats") {
-    findings.push_back(std::string("GA-IMM ") + std::string(against_imm) + " IMM-tuned (ζ_p " +
-                       imm_p.text() + ", ζ_v " + imm_v.text() + ")" +
-                       (part_off ? ": its learned part is switched off" : ""));
-  }
-  std::string against_bar;  // "loses to it (ζ_p …, ζ_v …)"
-  if (bar) {
-    const auto& [bar_p, bar_v] = versus.at(bar_name);
-    const std::array bar_terms{bar_p, bar_v};
-    const std::string v(verdict(bar_terms));
-    const std::string figures = "(ζ_p " + bar_p.text() + ", ζ_v " + bar_v.text() + ")";
-    against_bar = v + " it " + figures;
-    if (v != "beats") findings.push_back("GA-IMM " + v + " " + bar_name + " " + figures);
-  }
+  const ZetaDifference& imm = r.ga_imm_minus.at("IMM-tuned");
   std::cout << "\nGates (GA-IMM "
-            << (seed_scenario ? "beats AIMM3, AIMM5" : "is not worse than AIMM3, AIMM5")
-            << " beyond the 95 % interval" << (paper ? "; within 0.005 of GA-IMM-paper" : "")
-            << "): " << (failures.empty() ? "passed" : "FAILED") << '\n';
-  for (const auto& failure : failures) std::cout << "  - " << failure << '\n';
-  print_findings(findings);
-  std::cout << "Against IMM-tuned: GA-IMM " << against_imm << " it (ζ_p " << imm_p.text()
-            << ", ζ_v " << imm_v.text() << ")\n"
-            << (bar ? "Against " + bar_name + " (the classical bar): GA-IMM " + against_bar + "\n"
-                    : std::string())
+            << (r.paper_scenario ? "beats AIMM3, AIMM5" : "is not worse than AIMM3, AIMM5")
+            << " beyond the 95 % interval" << (r.paper ? "; within 0.005 of GA-IMM-paper" : "")
+            << "): " << (r.failures.empty() ? "passed" : "FAILED") << '\n';
+  for (const auto& failure : r.failures) std::cout << "  - " << failure << '\n';
+  print_findings(r.findings);
+  std::cout << "Against IMM-tuned: GA-IMM " << r.against_imm_tuned << " it (ζ_p "
+            << imm.zeta_p.text() << ", ζ_v " << imm.zeta_v.text() << ")\n"
+            << (r.against_bar.empty() ? std::string()
+                                      : "Against " + bar_name + " (the classical bar): GA-IMM " +
+                                            r.against_bar + "\n")
             << '\n'
             << kDifferenceConvention << ' ' << kVerdictRule << "\n\nConsistency:\n\n"
             << consistency_table(filters);
 
-  const std::filesystem::path& out = options.common.out;
   std::filesystem::create_directories(out);
   nlohmann::json metrics;
   for (const auto& f : filters) {
@@ -323,10 +343,7 @@ int run(const GaImmOptions& options) {
                        {"consistency", f.position_consistency.verdict()},
                        {"nis_consistency", f.nis_consistency.verdict()}};
   }
-  const HeadlineRuns evaluated{"ga-imm",      model_path,          regime.name,
-                               regime.digest, options.common.seed, runs};
-  std::vector<ModelUse> more_models;
-  if (std::filesystem::exists(paper_path)) more_models.push_back({"paper rules", paper_path});
+  const HeadlineRuns evaluated{"ga-imm", r.model, regime.name, regime.digest, r.seed, runs};
   write_metrics(
       out, evaluated,
       normalized_error_definitions(std::string(datasets::to_string(regime.units)), "GA-IMM", false),
@@ -336,17 +353,17 @@ int run(const GaImmOptions& options) {
   details["regime"] = {{"name", regime.name},
                        {"digest", regime.digest},
                        {"model_regime", own.name},
-                       {"off_training", regimes.off_training()}};
+                       {"off_training", r.regimes.off_training()}};
   details["runs"] = runs;
-  details["seed"] = options.common.seed;
+  details["seed"] = r.seed;
   details["dataset_digest"] = data.digest();
-  details["tuned"] = tuned;
-  details["training_scores"] = training_scores;
-  details["gates_passed"] = failures.empty();
-  details["gate_failures"] = failures;
-  details["findings"] = findings;
-  details["against_imm_tuned"] = against_imm;
-  details["learned_part_on"] = !part_off;
+  details["tuned"] = r.tuned;
+  details["training_scores"] = r.training_scores;
+  details["gates_passed"] = r.failures.empty();
+  details["gate_failures"] = r.failures;
+  details["findings"] = r.findings;
+  details["against_imm_tuned"] = r.against_imm_tuned;
+  details["learned_part_on"] = r.learned_part_on;
   for (const auto& f : filters) {
     details["filters"][f.name] = {{"zeta_p", f.zeta_p},
                                   {"zeta_v", f.zeta_v},
@@ -354,37 +371,27 @@ int run(const GaImmOptions& options) {
                                   {"velocity_rmse", f.velocity_rmse},
                                   {"rejected_steps", f.rejected_steps}};
   }
-  for (const auto& [name, d] : versus) {
+  for (const auto& [name, d] : r.ga_imm_minus) {
     details["ga_imm_minus"][name] = {
-        {"zeta_p", {d.first.estimate, d.first.lower, d.first.upper}},
-        {"zeta_v", {d.second.estimate, d.second.lower, d.second.upper}}};
+        {"zeta_p", {d.zeta_p.estimate, d.zeta_p.lower, d.zeta_p.upper}},
+        {"zeta_v", {d.zeta_v.estimate, d.zeta_v.lower, d.zeta_v.upper}}};
   }
-  for (const auto& s : spreads) {
+  for (const auto& s : r.spreads) {
     details["process_noise_spread"][s.filter][s.mode] = {
         {"p01", s.p01}, {"p50", s.p50}, {"p99", s.p99}};
   }
   trainer::write_json_atomically(out / "details.json", details);
   bool plotted = write_error_series(filters, data.scans, out);
   plotted &= write_mode_probabilities(ours, out, "mode_probabilities_ga_imm");
-  if (paper) {
-    plotted &= write_mode_probabilities(find_filter(filters, "GA-IMM-paper"), out,
-                                        "mode_probabilities_ga_imm_paper");
+  if (r.paper) {
+    plotted &=
+        write_mode_probabilities(r.filter("GA-IMM-paper"), out, "mode_probabilities_ga_imm_paper");
   }
-  return finish_report(out, plotted, failures, /*failures_printed=*/true, findings);
+  return finish_report(out, plotted, r.failures, /*failures_printed=*/true, r.findings);
 }
 
-}  // namespace
-
-void add_ga_imm_command(CLI::App& app, ExitCode& exit_code) {
-  auto options = std::make_shared<GaImmOptions>();
-  auto* command = app.add_subcommand(
-      "ga-imm",
-      "seed 000 Table 3: GA-fuzzy IMM vs AIMM3/5, tuned AIMM, tuned IMM, the paper's tables");
-  add_common_options(*command, options->common, "ga_fuzzy_imm", "reports/ga-imm");
-  add_classical_option(*command, options->common);
-  command->add_option("--paper-model", options->paper_model,
-                      "the paper's tables, in --models (imm-train import-rules)");
-  command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
+int run_ga_imm(const GaImmOptions& options) {
+  return report_ga_imm(evaluate_ga_imm(options), options);
 }
 
 }  // namespace imm::evaluation

@@ -9,6 +9,7 @@
 
 #include "imm/datasets/sha256.hpp"
 #include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/experiments.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/trainer/provenance.hpp"
 
@@ -290,10 +291,10 @@ std::vector<Regression> compare_headlines(const HeadlineFile& candidate,
 
 namespace {
 
-int run_regression(const std::filesystem::path& candidate_path,
-                   const std::filesystem::path& shipped_path,
-                   const std::optional<std::filesystem::path>& out,
-                   const std::vector<MarginRule>& margins) {
+int regression(const std::filesystem::path& candidate_path,
+               const std::filesystem::path& shipped_path,
+               const std::optional<std::filesystem::path>& out,
+               const std::vector<MarginRule>& margins) {
   const HeadlineFile candidate = read_headline(candidate_path);
   const HeadlineFile shipped = read_headline(shipped_path);
   const std::vector<Regression> regressions = compare_headlines(candidate, shipped, margins);
@@ -345,31 +346,8 @@ int run_regression(const std::filesystem::path& candidate_path,
 
 }  // namespace
 
-void add_regression_command(CLI::App& app, ExitCode& exit_code) {
-  struct Options {
-    std::filesystem::path candidate, shipped;
-    std::optional<std::filesystem::path> out;
-    std::vector<std::string> relative, absolute;
-  };
-  auto options = std::make_shared<Options>();
-  auto* command = app.add_subcommand(
-      "regression", "a candidate model's headline metrics vs the shipped model's, same test runs");
-  command->add_option("--candidate", options->candidate, "headline.json (or its folder)")
-      ->required();
-  command->add_option("--shipped", options->shipped, "headline.json (or its folder)")->required();
-  command->add_option("--out", options->out, "folder for regression.json");
-  command->add_option("--relative-margin", options->relative,
-                      "[METRIC=]R: a difference below R × |value| is a tie (repeatable)");
-  command->add_option("--absolute-margin", options->absolute,
-                      "[METRIC=]A: a difference below A is a tie (repeatable)");
-  command->callback([options, &exit_code] {
-    exit_code = guarded([&] {
-      std::vector<MarginRule> margins;
-      for (const auto& r : options->relative) margins.push_back(parse_margin(r, true));
-      for (const auto& a : options->absolute) margins.push_back(parse_margin(a, false));
-      return run_regression(options->candidate, options->shipped, options->out, margins);
-    });
-  });
+int run_regression(const RegressionOptions& options) {
+  return regression(options.candidate, options.shipped, options.out, options.margins);
 }
 
 }  // namespace imm::evaluation

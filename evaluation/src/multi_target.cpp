@@ -12,6 +12,7 @@
 #include "imm/core/physical_limits.hpp"
 #include "imm/datasets/scene.hpp"
 #include "imm/datasets/track.hpp"
+#include "imm/evaluation/experiments.hpp"
 #include "imm/evaluation/gospa.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/trainer/provenance.hpp"
@@ -141,17 +142,6 @@ MultiTargetResult run_multi_target(const datasets::Regime& regime,
 
 namespace {
 
-struct MultiTargetOptions {
-  std::vector<std::filesystem::path> models;
-  std::optional<std::filesystem::path> regime;
-  MultiTargetSettings settings;
-  // The conditions: every detection probability with every clutter density (none given: the
-  // regime's [scene]), and the targets per scene (likewise).
-  std::vector<double> detection_probabilities, clutter_densities;
-  std::optional<int> targets;
-  std::filesystem::path out = "reports/multi-target";
-};
-
 // One condition's table on stdout and its entry of metrics.json.
 nlohmann::json report_condition(const datasets::Regime& regime, const MultiTargetSettings& s,
                                 const MultiTargetResult& result) {
@@ -234,36 +224,6 @@ int run(const MultiTargetOptions& options) {
 
 }  // namespace
 
-void add_multi_target_command(CLI::App& app, ExitCode& exit_code) {
-  auto options = std::make_shared<MultiTargetOptions>();
-  auto* command = app.add_subcommand(
-      "multi-target",
-      "several targets of a regime at once in clutter, tracked by the reference GNN tracker with "
-      "each model, judged by GOSPA");
-  command
-      ->add_option("--models", options->models,
-                   "plain IMM model files (the first: the "
-                   "reference of the differences)")
-      ->required();
-  command->add_option("--regime", options->regime,
-                      "regime TOML (default: the one recorded in the first model)");
-  command->add_option("--targets", options->targets,
-                      "targets per scene (default: the regime's [scene], else 3)");
-  command
-      ->add_option(
-          "--pd", options->detection_probabilities,
-          "detection probabilities (one or more: every one with every clutter density; default: "
-          "the regime's [scene], else 0.9)")
-      ->delimiter(',');
-  command
-      ->add_option("--clutter", options->clutter_densities,
-                   "mean false plots per scan over the scene's region (one or more; default: the "
-                   "regime's [scene], else 10)")
-      ->delimiter(',');
-  command->add_option("--runs", options->settings.runs, "scenes");
-  command->add_option("--seed", options->settings.seed, "the scenes' seed");
-  command->add_option("--out", options->out, "report folder (metrics.json)");
-  command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
-}
+int run_multi_target_experiment(const MultiTargetOptions& options) { return run(options); }
 
 }  // namespace imm::evaluation

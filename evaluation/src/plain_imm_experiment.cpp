@@ -19,6 +19,7 @@
 #include "imm/evaluation/classical_bar.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/experiments.hpp"
 #include "imm/evaluation/headline.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
 #include "imm/evaluation/plot_metrics.hpp"
@@ -29,11 +30,6 @@
 
 namespace imm::evaluation {
 namespace {
-
-struct PlainImmOptions {
-  CommonOptions common;
-  std::string data;  ///< a stored data-set file instead of drawing the test split
-};
 
 // The IMM's mode j as a filter of its own.
 PlainImmSpec single_mode(const PlainImmSpec& spec, std::size_t j) {
@@ -74,86 +70,113 @@ bool learned_schedule(const io::Provenance& provenance) {
   return it != provenance.training_metrics.end() && it->second == 1.0;
 }
 
-// The gate of a scheduled IMM against the bar's comparison (compare_with_classical_bar).
-std::vector<std::string> schedule_gate(const nlohmann::json& versus_bar) {
+// The gate of a scheduled IMM against the bar's comparison: not worse in either criterion.
+std::vector<std::string> schedule_gate(const BarComparison& versus_bar) {
   std::vector<std::string> failures;
-  if (versus_bar.is_null()) return failures;
-  for (const auto& [criterion, d] : versus_bar["differences"].items()) {
-    if (d[1].get<double>() > 0.0) {
-      failures.push_back(criterion + " above " + std::string(kClassicalBarName) + "'s by " +
-                         cell(d[0].get<double>()) + " [" + cell(d[1].get<double>()) + ", " +
-                         cell(d[2].get<double>()) + "]");
+  for (std::size_t k = 0; k < 2; ++k) {
+    const Difference& d = versus_bar.differences[k];
+    if (d.lower > 0.0) {
+      failures.push_back(versus_bar.criteria[k] + " above " + std::string(kClassicalBarName) +
+                         "'s by " + cell(d.estimate) + " [" + cell(d.lower) + ", " + cell(d.upper) +
+                         "]");
     }
   }
   return failures;
 }
 
-int run(const PlainImmOptions& options) {
-  const std::filesystem::path model = options.common.model_path();
-  const io::ModelFileReader reader(model, io::kPlainImmKind);
+}  // namespace
+
+PlainImmResult evaluate_plain_imm(const PlainImmOptions& options) {
+  PlainImmResult r;
+  r.start("plain-imm", options.common);
+  const io::ModelFileReader reader(r.model, io::kPlainImmKind);
   const PlainImmSpec spec = io::read_plain_imm(reader);
-  const bool scheduled = learned_schedule(reader.provenance());
-  std::optional<EvaluationRegimes> regimes;
-  datasets::TrackSet data;
-  std::string source;
-  std::string length = "the data set's length unit";
-  if (scheduled && options.data.empty()) {
-    regimes = evaluation_regimes(options.common, reader.provenance(), model);
-    const datasets::Regime& regime = regimes->evaluated.regime;
+  r.scheduled = learned_schedule(reader.provenance()) && options.data.empty();
+  datasets::TrackSet& data = r.tracks;
+  r.length = "the data set's length unit";
+  if (r.scheduled) {
+    r.regimes = evaluation_regimes(options.common, reader.provenance(), r.model);
+    const datasets::Regime& regime = r.regimes.evaluated.regime;
     data = test_tracks(regime, options.common);
-    length = std::string(datasets::to_string(regime.units));
-    source = regimes->describe() + ", test split, seed " + std::to_string(options.common.seed);
+    r.length = std::string(datasets::to_string(regime.units));
+    r.source = r.regimes.describe() + ", test split, seed " + std::to_string(options.common.seed);
   } else if (!options.data.empty()) {
     datasets::TrackSetFile stored = datasets::read_track_set(options.data);
     data = std::move(stored.set);
-    source =
+    r.source =
         options.data + " (regime " + data.regime + ", sha256 " + stored.digest.substr(0, 16) + ")";
   } else {
     const datasets::RegimeFile regime = load_regime_option(
         options.common.regime.value_or("configs/regimes/paper/ga_imm_table3.toml"));
     data = test_tracks(regime.regime, options.common);
-    length = std::string(datasets::to_string(regime.regime.units));
-    source =
+    r.length = std::string(datasets::to_string(regime.regime.units));
+    r.source =
         "regime " + regime.regime.name + " test split, seed " + std::to_string(options.common.seed);
   }
   if (std::abs(data.sample_period - spec.sample_period) > 1e-12 * spec.sample_period) {
-    throw std::runtime_error("model " + model.string() + ": sample_period " +
+    throw std::runtime_error("model " + r.model.string() + ": sample_period " +
                              std::to_string(spec.sample_period) + " s differs from the tracks' " +
                              std::to_string(data.sample_period) + " s");
   }
-  std::vector<FilterOutcome> filters;
   auto evaluate = [&](const std::string& name, const PlainImmSpec& s) {
-    filters.push_back(run_monte_carlo(
+    r.filters.push_back(run_monte_carlo(
         name, [&] { return make_plain_imm_filter(s); }, s.track_options(), data));
   };
-  evaluate(model.stem().string(), spec);
+  evaluate(r.model.stem().string(), spec);
   for (std::size_t j = 0; j < spec.modes.size() && spec.modes.size() > 1; ++j) {
     evaluate("KF " + spec.modes[j].name, single_mode(spec, j));
   }
+  if (!data.has_truth) return r;  // judged by the plots' prediction in the report
 
-  const int runs = static_cast<int>(data.tracks.size());
+  const FilterOutcome& imm = r.filters.front();
+  for (std::size_t f = 1; f < r.filters.size(); ++f) {
+    r.imm_minus[r.filters[f].name] = {
+        paired_difference(r.runs(), imm.zeta_p_statistic(), r.filters[f].zeta_p_statistic()),
+        paired_difference(r.runs(), imm.zeta_v_statistic(), r.filters[f].zeta_v_statistic())};
+  }
+  if (r.scheduled) {
+    r.versus_bar = compare_with_bar(
+        imm.name, [&] { return make_plain_imm_filter(spec); }, spec.track_options(),
+        r.regimes.trained.regime, data, r.regimes.evaluated.regime.sensor.position,
+        options.common.classical);
+    if (r.versus_bar) {
+      if (r.versus_bar->verdict != "beats") r.findings.push_back(r.versus_bar->summary);
+      r.failures = schedule_gate(*r.versus_bar);
+    }
+    if (learned_part_off(reader.provenance())) {
+      r.findings.push_back(imm.name +
+                           ": the trainer switched its schedules off (the file is the tuned "
+                           "CV/CA/CT IMM itself)");
+    }
+  }
+  return r;
+}
+
+int report_plain_imm(const PlainImmResult& r, const PlainImmOptions& options) {
+  const datasets::TrackSet& data = r.tracks;
+  const std::vector<FilterOutcome>& filters = r.filters;
+  const int runs = r.runs();
+  const std::filesystem::path& out = options.common.out;
   if (!data.has_truth) {  // recorded plots without truth: judged by their prediction
-    std::cout << "plain-imm: " << source << ", " << runs << " tracks x " << data.scans
+    std::cout << "plain-imm: " << r.source << ", " << runs << " tracks x " << data.scans
               << " scans\n\n";
     std::vector<std::string> modes;
     for (std::size_t f = 1; f < filters.size(); ++f) modes.push_back(filters[f].name);
     return plots_only_report("plain-imm", filters, filters.front().name, modes,
-                             {"plain-imm", model, data.regime, data.digest(), data.seed, runs},
-                             options.common.out);
+                             {"plain-imm", r.model, data.regime, data.digest(), data.seed, runs},
+                             out);
   }
   std::vector<std::vector<std::string>> rows;
   for (const auto& f : filters) {
-    std::string versus_p = "–", versus_v = "–";
-    if (&f != &filters.front()) {
-      versus_p =
-          paired_difference(runs, filters.front().zeta_p_statistic(), f.zeta_p_statistic()).text();
-      versus_v =
-          paired_difference(runs, filters.front().zeta_v_statistic(), f.zeta_v_statistic()).text();
-    }
-    rows.push_back({f.name, std::to_string(f.modes), cell(f.zeta_p), cell(f.zeta_v), versus_p,
-                    versus_v, cell(f.position_rmse), cell(f.velocity_rmse, 5)});
+    const auto v = r.imm_minus.find(f.name);
+    const bool compared = v != r.imm_minus.end();
+    rows.push_back({f.name, std::to_string(f.modes), cell(f.zeta_p), cell(f.zeta_v),
+                    compared ? v->second.zeta_p.text() : "–",
+                    compared ? v->second.zeta_v.text() : "–", cell(f.position_rmse),
+                    cell(f.velocity_rmse, 5)});
   }
-  std::cout << "plain-imm: " << source << ", " << runs << " tracks x " << data.scans << " scans\n\n"
+  std::cout << "plain-imm: " << r.source << ", " << runs << " tracks x " << data.scans
+            << " scans\n\n"
             << markdown_table({"filter", "modes", "ζ_p", "ζ_v", "IMM − this ζ_p [95 %]",
                                "IMM − this ζ_v [95 %]", "position RMSE", "velocity RMSE"},
                               rows)
@@ -161,33 +184,25 @@ int run(const PlainImmOptions& options) {
             << consistency_table(filters);
   print_recorded_prediction(data, filters, filters.front().name);
 
-  std::vector<std::string> findings, failures;
   nlohmann::json versus_bar;
-  if (regimes) {
-    versus_bar = compare_with_classical_bar(
-        model.stem().string(), [&] { return make_plain_imm_filter(spec); }, spec.track_options(),
-        regimes->trained.regime, data, regimes->evaluated.regime.sensor.position, findings,
-        options.common.classical);
-    failures = schedule_gate(versus_bar);
+  if (r.versus_bar) {
+    print_bar_comparison(*r.versus_bar);
+    versus_bar = r.versus_bar->json();
+  }
+  if (r.scheduled) {
     std::cout << "\nGates (not worse than " << kClassicalBarName
               << ", the IMM the schedules were learned on, in ζ_p or ζ_v beyond the 95 % "
                  "interval): "
-              << (failures.empty() ? "passed" : "FAILED") << '\n';
-    for (const auto& failure : failures) std::cout << "  - " << failure << '\n';
-    if (learned_part_off(reader.provenance())) {
-      findings.push_back(model.stem().string() +
-                         ": the trainer switched its schedules off (the file is the tuned "
-                         "CV/CA/CT IMM itself)");
-    }
-    print_findings(findings);
+              << (r.failures.empty() ? "passed" : "FAILED") << '\n';
+    for (const auto& failure : r.failures) std::cout << "  - " << failure << '\n';
+    print_findings(r.findings);
   }
 
-  const std::filesystem::path& out = options.common.out;
   std::filesystem::create_directories(out);
   nlohmann::json metrics;
-  if (regimes) metrics["versus_classical_bar"] = versus_bar;
+  if (r.scheduled) metrics["versus_classical_bar"] = versus_bar;
   metrics["experiment"] = "plain-imm";
-  metrics["data"] = source;
+  metrics["data"] = r.source;
   metrics["runs"] = runs;
   metrics["steps"] = data.scans;
   metrics["dataset_digest"] = data.digest();
@@ -202,21 +217,21 @@ int run(const PlainImmOptions& options) {
                                {"nis", f.nis_consistency.average},
                                {"rejected_steps", f.rejected_steps}});
   }
-  const HeadlineRuns evaluated{"plain-imm", model, data.regime, data.digest(), data.seed, runs};
-  write_metrics(out, evaluated, normalized_error_definitions(length, "IMM", true), metrics);
+  const HeadlineRuns evaluated{"plain-imm", r.model, data.regime, data.digest(), data.seed, runs};
+  write_metrics(out, evaluated, normalized_error_definitions(r.length, "IMM", true), metrics);
   write_headline(out, evaluated, filters.front().headline());
   bool plotted = write_error_series(filters, data.scans, out);
   plotted &= write_mode_probabilities(filters.front(), out, "mode_probabilities");
-  if (regimes) {
+  if (r.scheduled) {
     trainer::write_json_atomically(out / "details.json",
                                    {{"versus_classical_bar", versus_bar},
                                     {"regime",
-                                     {{"name", regimes->evaluated.regime.name},
-                                      {"model_regime", regimes->trained.regime.name},
-                                      {"off_training", regimes->off_training()}}},
-                                    {"gate_failures", failures},
-                                    {"findings", findings}});
-    return finish_report(out, plotted, failures, /*failures_printed=*/true, findings);
+                                     {{"name", r.regimes.evaluated.regime.name},
+                                      {"model_regime", r.regimes.trained.regime.name},
+                                      {"off_training", r.regimes.off_training()}}},
+                                    {"gate_failures", r.failures},
+                                    {"findings", r.findings}});
+    return finish_report(out, plotted, r.failures, /*failures_printed=*/true, r.findings);
   }
   std::cout << "\nwrote " << (out / "metrics.json").string() << ", CSV series"
             << (plotted ? " and PNG plots" : " (plots skipped: gnuplot unavailable or failed)")
@@ -224,17 +239,8 @@ int run(const PlainImmOptions& options) {
   return 0;
 }
 
-}  // namespace
-
-void add_plain_imm_command(CLI::App& app, ExitCode& exit_code) {
-  auto options = std::make_shared<PlainImmOptions>();
-  auto* command = app.add_subcommand(
-      "plain-imm", "a plain IMM model on a regime's test tracks vs. its modes alone");
-  add_common_options(*command, options->common, "cv3_imm", "reports/plain-imm");
-  add_classical_option(*command, options->common);
-  command->add_option("--data", options->data,
-                      "evaluate a stored data-set file (imm-data tracks) instead");
-  command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
+int run_plain_imm(const PlainImmOptions& options) {
+  return report_plain_imm(evaluate_plain_imm(options), options);
 }
 
 }  // namespace imm::evaluation

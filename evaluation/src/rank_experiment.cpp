@@ -19,33 +19,18 @@
 #include "imm/evaluation/evaluation_gates.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiment.hpp"
+#include "imm/evaluation/experiments.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
 #include "imm/evaluation/report.hpp"
 #include "imm/evaluation/tracker_choice.hpp"
 #include "imm/io/temporary_files.hpp"
 #include "imm/load.hpp"
-#include "imm/support/cli.hpp"
 #include "imm/trainer/model_files/calibration.hpp"
 #include "imm/trainer/model_files/envelope.hpp"
 #include "imm/trainer/provenance.hpp"
 
 namespace imm::evaluation {
 namespace {
-
-struct RankOptions {
-  /// The regime's tuned classical filters; the best on the test tracks is the bar.
-  std::vector<std::filesystem::path> baselines;
-  std::vector<std::filesystem::path> candidates;
-  /// Report folders of the candidates' own experiments (imm-eval <experiment> --out).
-  std::vector<std::filesystem::path> evaluations;
-  std::optional<std::filesystem::path> regime;
-  std::optional<int> runs;
-  std::uint64_t seed = 1;
-  std::filesystem::path out = "reports/rank";
-  std::optional<std::filesystem::path> ship;
-  /// Ship the winner as it is, without the covariance calibration fitted on its training split.
-  bool raw_ship = false;
-};
 
 // The shipped file's consistency on the test tracks, for tracker.json.
 nlohmann::json consistency_of(const FilterOutcome& outcome) {
@@ -137,98 +122,30 @@ double order_score(const FilterOutcome& outcome) {
   return outcome.has_truth ? outcome.zeta_p + outcome.zeta_v : outcome.plot_headline()[0].value();
 }
 
-int run(const RankOptions& options) {
-  const datasets::RegimeFile regime =
-      load_regime_option(options.regime.value_or(options.baselines.front()));
-  CommonOptions common;
-  common.runs = options.runs;
-  common.seed = options.seed;
-  const datasets::TrackSet data = test_tracks(regime.regime, common);
-  const int runs = static_cast<int>(data.tracks.size());
-
-  std::vector<std::filesystem::path> files = options.baselines;
-  files.insert(files.end(), options.candidates.begin(), options.candidates.end());
-  const std::size_t classical = options.baselines.size();
-  std::vector<EvaluationGates> evaluations;
-  for (const auto& folder : options.evaluations) {
-    evaluations.push_back(read_evaluation_gates(folder));
-  }
-  std::vector<FilterOutcome> outcomes;
-  std::vector<std::string> kinds;
-  for (const auto& file : files) {
-    const FilterMaker maker = load_filter_maker(file);
-    const EvaluationRegimes regimes = evaluation_regimes(regime, maker.provenance, file);
-    if (regimes.off_training()) {
-      const datasets::Regime& own = regimes.trained.regime;
-      const datasets::Regime& here = regime.regime;
-      const std::string where =
-          here.file.empty() ? std::string("the regime recorded in ") + files.front().string()
-                            : here.file;
-      throw std::runtime_error(
-          "model " + file.string() + ": " +
-          (own.name == here.name
-               ? "trained for another text of regime " + own.name + " than " + where + " (digest " +
-                     own.digest.substr(0, 12) + " against " + here.digest.substr(0, 12) + ")"
-               : "trained for regime " + own.name + ", not " + here.name + " (" + where + ")") +
-          ": a regime's tracker is chosen among its own models");
-    }
-    outcomes.push_back(run_monte_carlo(file.stem().string(), maker.make, maker.options, data, {},
-                                       regime.regime.sensor.position));
-    kinds.push_back(maker.provenance.model_kind);
-  }
-  // The bar: the best of the classical filters on these tracks. Every learned model faces it.
-  std::size_t bar = 0;
-  for (std::size_t i = 1; i < classical; ++i) {
-    if (order_score(outcomes[i]) < order_score(outcomes[bar])) bar = i;
-  }
-  std::vector<RankedFilter> ranked;
-  for (std::size_t i = 0; i < files.size(); ++i) {
-    ranked.push_back(ranked_filter(files[i], kinds[i], outcomes[i], outcomes[bar], i == bar,
-                                   i < classical, runs));
-  }
-  std::vector<GateStanding> standings(files.size());
-  for (std::size_t i = classical; i < files.size(); ++i) {
-    standings[i] = gate_standing(datasets::file_sha256_hex(files[i]), evaluations);
-    if (standings[i].state != GateStanding::State::kPassed) {
-      ranked[i].held_out = standings[i].text;
-    }
-  }
-  const TrackerChoice choice = choose_tracker(ranked);
-  // Held out of the choice: by its own gates, or by its consistency (choose_tracker's rule).
-  const auto held = [&](std::size_t i) { return !choice.held[i].empty(); };
-  // Where the motion models are put to the test: the position RMSE over the scans where the truth
-  // manoeuvres, with each filter's difference from the bar (reported; the verdict is over ζ).
-  std::vector<double> maneuver_rmse(files.size());
-  std::vector<Difference> maneuver_versus_bar(files.size());
-  const HeadlineMetric bar_maneuver = outcomes[bar].maneuver_position_rmse();
-  for (std::size_t i = 0; i < files.size(); ++i) {
-    const HeadlineMetric own = outcomes[i].maneuver_position_rmse();
-    maneuver_rmse[i] = own.value();
-    if (i != bar && data.has_truth) {
-      maneuver_versus_bar[i] = paired_difference(runs, own.statistic(), bar_maneuver.statistic());
-    }
-  }
-  const bool maneuvers = data.has_truth && std::isfinite(maneuver_rmse[bar]);
-
-  const std::string length(datasets::to_string(regime.regime.units));
+// The ranking's table on stdout.
+void print_ranking(const RankResult& r) {
+  const std::vector<RankedFilter>& ranked = r.ranked;
+  const TrackerChoice& choice = r.choice;
+  const datasets::TrackSet& data = r.tracks;
+  const std::string length(datasets::to_string(r.regime.units));
   const std::array<std::string, 2>& criteria = ranked.front().criteria;
   std::vector<std::vector<std::string>> rows;
   for (std::size_t place = 0; place < choice.order.size(); ++place) {
-    const RankedFilter& f = ranked[choice.order[place]];
+    const std::size_t i = choice.order[place];
+    const RankedFilter& f = ranked[i];
     rows.push_back({std::to_string(place + 1),
-                    f.name + (f.baseline                  ? " (the classical bar)"
-                              : f.classical               ? " (classical)"
-                              : held(choice.order[place]) ? " (held out)"
-                                                          : ""),
+                    f.name + (f.baseline                           ? " (the classical bar)"
+                              : f.classical                        ? " (classical)"
+                              : !r.eligible(i) && i >= r.classical ? " (held out)"
+                                                                   : ""),
                     f.kind, cell(f.zeta_p), cell(f.zeta_v),
                     f.baseline ? "–" : f.versus_baseline_p.text(),
                     f.baseline ? "–" : f.versus_baseline_v.text(), verdict_against_baseline(f),
                     data.has_truth ? cell(f.position_rmse) : "–",
                     data.has_truth ? cell(f.velocity_rmse, 5) : "–"});
-    if (maneuvers) {
-      const std::size_t i = choice.order[place];
-      rows.back().push_back(cell(maneuver_rmse[i]));
-      rows.back().push_back(i == bar ? "–" : maneuver_versus_bar[i].text(2));
+    if (r.maneuvers) {
+      rows.back().push_back(cell(r.maneuver_rmse[i]));
+      rows.back().push_back(i == r.bar ? "–" : r.maneuver_versus_bar[i].text(2));
     }
   }
   std::vector<std::string> headers{"place",
@@ -241,21 +158,21 @@ int run(const RankOptions& options) {
                                    "against the bar",
                                    "position RMSE (" + length + ")",
                                    "velocity RMSE (" + length + "/s)"};
-  if (maneuvers) {
+  if (r.maneuvers) {
     headers.push_back("position RMSE in manoeuvres (" + length + ")");
     headers.push_back("this − bar in manoeuvres [95 %]");
   }
-  std::cout << "rank: regime " << regime.regime.name << " test split, seed " << options.seed << ", "
-            << runs << " tracks x " << data.scans << " scans\n\n"
+  std::cout << "rank: regime " << r.regime.name << " test split, seed " << r.seed << ", "
+            << r.runs() << " tracks x " << data.scans << " scans\n\n"
             << markdown_table(headers, rows) << '\n'
             << kDifferenceConvention << ' ' << kVerdictRule
-            << "\nThe classical bar: " << ranked[bar].name << " (" << ranked[bar].kind
-            << "), the best of the regime's tuned classical filters on these tracks (" << classical
-            << " given)."
-            << (maneuvers ? "\nIn manoeuvres: the position RMSE over the scans where the truth "
-                            "manoeuvres (a commanded acceleration or a turn acts), and its "
-                            "difference from the bar; reported beside the verdict, not in it."
-                          : "")
+            << "\nThe classical bar: " << ranked[r.bar].name << " (" << ranked[r.bar].kind
+            << "), the best of the regime's tuned classical filters on these tracks ("
+            << r.classical << " given)."
+            << (r.maneuvers ? "\nIn manoeuvres: the position RMSE over the scans where the truth "
+                              "manoeuvres (a commanded acceleration or a turn acts), and its "
+                              "difference from the bar; reported beside the verdict, not in it."
+                            : "")
             << (data.has_truth
                     ? "\nThe rule: a learned model is the tracker only when it beats the "
                       "classical bar; among those that do, the lowest ζ_p + ζ_v.\n\n"
@@ -266,37 +183,18 @@ int run(const RankOptions& options) {
                       "columns are 0). The rule: a learned model is the tracker only when it "
                       "beats the classical bar; among those that do, the lowest NLL.\n\n"
                       "Consistency (NIS only):\n\n")
-            << consistency_table(outcomes) << "\nTracker: " << ranked[choice.winner].name << " — "
+            << consistency_table(r.filters) << "\nTracker: " << ranked[choice.winner].name << " — "
             << choice.reason << '\n';
+}
 
-  std::vector<std::string> findings;
-  for (const RankedFilter& f : ranked) {
-    if (!f.baseline && !f.classical && verdict_against_baseline(f) != "beats") {
-      findings.push_back(f.name + " " + verdict_against_baseline(f) + " the classical bar " +
-                         ranked[bar].name + " (" + criteria[0] + " " + f.versus_baseline_p.text() +
-                         ", " + criteria[1] + " " + f.versus_baseline_v.text() + ")");
-    }
-    if (std::string flag = inconsistency_finding(f); !flag.empty()) {
-      findings.push_back(std::move(flag));
-    }
-  }
-  std::cout << "\nThe learned models' own experiments' gates (eligible only when an evaluation of "
-               "that very file passed them; "
-            << evaluations.size() << " evaluation folder(s) given):\n";
-  for (std::size_t i = classical; i < files.size(); ++i) {
-    std::cout << "  - " << ranked[i].name << ": " << standings[i].text << '\n';
-    if (held(i)) {
-      findings.push_back(ranked[i].name + " is held out of the choice (" + choice.held[i] + ")");
-    }
-  }
-  print_findings(findings);
-
-  const std::filesystem::path& out = options.out;
-  std::filesystem::create_directories(out);
+// tracker.json's content (metrics.json's results) without the shipping.
+nlohmann::json tracker_json(const RankResult& r) {
+  const std::vector<RankedFilter>& ranked = r.ranked;
+  const datasets::TrackSet& data = r.tracks;
   nlohmann::json results;
-  results["tracker"] = ranked[choice.winner].name;
-  results["tracker_file"] = files[choice.winner].string();
-  results["reason"] = choice.reason;
+  results["tracker"] = ranked[r.choice.winner].name;
+  results["tracker_file"] = r.files[r.choice.winner].string();
+  results["reason"] = r.choice.reason;
   results["rule"] =
       data.has_truth
           ? "a learned model is the tracker only when it beats the classical bar — the best of "
@@ -305,30 +203,30 @@ int run(const RankOptions& options) {
           : "no truth: a learned model is the tracker only when it beats the classical bar — the "
             "best of the regime's tuned classical filters (verdict over the predictive NLL per "
             "plot and the innovation RMS); among those that do, the lowest NLL; otherwise the bar";
-  results["bar"] = ranked[bar].name;
-  results["bar_file"] = files[bar].string();
-  for (std::size_t i = 0; i < classical; ++i) results["classical"].push_back(ranked[i].name);
+  results["bar"] = ranked[r.bar].name;
+  results["bar_file"] = r.files[r.bar].string();
+  for (std::size_t i = 0; i < r.classical; ++i) results["classical"].push_back(ranked[i].name);
   results["truth"] = data.has_truth;
-  for (std::size_t place = 0; place < choice.order.size(); ++place) {
-    const std::size_t i = choice.order[place];
+  for (std::size_t place = 0; place < r.choice.order.size(); ++place) {
+    const std::size_t i = r.choice.order[place];
     const RankedFilter& f = ranked[i];
-    const std::vector<HeadlineMetric> plots = outcomes[i].plot_headline();
+    const std::vector<HeadlineMetric> plots = r.filters[i].plot_headline();
     nlohmann::json row = {{"place", place + 1},
                           {"filter", f.name},
-                          {"file", files[i].string()},
+                          {"file", r.files[i].string()},
                           {"kind", f.kind},
                           {"baseline", f.baseline},
-                          {"classical", i < classical},
+                          {"classical", i < r.classical},
                           {"position_rmse", f.position_rmse},
                           {"velocity_rmse", f.velocity_rmse},
                           {"verdict", verdict_against_baseline(f)},
-                          {"own_gates", i < classical ? "—" : standings[i].text},
-                          {"eligible", i >= classical && !held(i)},
+                          {"own_gates", i < r.classical ? "—" : r.standings[i].text},
+                          {"eligible", r.eligible(i)},
                           {"nis_inside", f.nis_inside},
                           {"predictive_nll", plots[0].value()},
                           {"innovation_rms", plots[2].value()},
-                          {"position_nees", outcomes[i].position_consistency.average},
-                          {"nis", outcomes[i].nis_consistency.average}};
+                          {"position_nees", r.filters[i].position_consistency.average},
+                          {"nis", r.filters[i].nis_consistency.average}};
     if (!f.baseline) {
       const char* first = data.has_truth ? "zeta_p" : "predictive_nll";
       const char* second = data.has_truth ? "zeta_v" : "innovation_rms";
@@ -339,69 +237,152 @@ int run(const RankOptions& options) {
            {f.versus_baseline_v.estimate, f.versus_baseline_v.lower, f.versus_baseline_v.upper}}};
     }
     if (data.has_truth) row["zeta_p"] = f.zeta_p, row["zeta_v"] = f.zeta_v;
-    if (maneuvers) {
-      row["position_rmse_maneuvering"] = maneuver_rmse[i];
-      if (i != bar) {
-        const Difference& d = maneuver_versus_bar[i];
+    if (r.maneuvers) {
+      row["position_rmse_maneuvering"] = r.maneuver_rmse[i];
+      if (i != r.bar) {
+        const Difference& d = r.maneuver_versus_bar[i];
         row["versus_baseline"]["position_rmse_maneuvering"] = {d.estimate, d.lower, d.upper};
       }
     }
     results["ranking"].push_back(row);
   }
-  results["findings"] = findings;
-  std::vector<ModelUse> more;
-  for (std::size_t i = 1; i < files.size(); ++i) {
-    more.push_back({i < classical ? "classical" : "candidate", files[i]});
-  }
-  const HeadlineRuns evaluated{
-      "rank", options.baselines.front(), regime.regime.name, data.digest(), options.seed, runs};
-  write_metrics(out, evaluated, normalized_error_definitions(length, "baseline", true), results,
-                more);
-  if (options.ship) {
-    std::cout << "shipping " << files[choice.winner].string() << " as " << options.ship->string()
-              << '\n';
-    results["shipped"] = ship_winner(files[choice.winner], *options.ship, options.raw_ship,
-                                     outcomes[choice.winner], data, regime.regime.sensor.position);
-  }
-  trainer::write_json_atomically(out / "tracker.json", results);
-  std::cout << "\nwrote metrics.json and tracker.json in " << out.string() << '\n';
-  return findings.empty() ? 0 : support::exit_code::kFindings;
+  results["findings"] = r.findings;
+  return results;
 }
 
 }  // namespace
 
-void add_rank_command(CLI::App& app, ExitCode& exit_code) {
-  auto options = std::make_shared<RankOptions>();
-  auto* command = app.add_subcommand(
-      "rank",
-      "the regime's tracker: the tuned baseline and the learned models of one regime ranked on "
-      "its test split, the winner written with --ship");
-  command
-      ->add_option("--baseline", options->baselines,
-                   "the regime's tuned classical filters (imm-train baseline), one or more: the "
-                   "best on the test tracks is the bar every learned model faces")
-      ->required();
-  command
-      ->add_option("--candidates", options->candidates,
-                   "learned model files trained for the same regime")
-      ->required();
-  command->add_option(
-      "--evaluations", options->evaluations,
-      "report folders of the learned models' own experiments (imm-eval <experiment> --out): a "
-      "learned model is eligible only when one of them evaluated that very file and passed its "
-      "gates");
-  command->add_option("--regime", options->regime,
-                      "regime TOML (default: the one recorded in the first baseline)");
-  command->add_option("--runs", options->runs, "test tracks (default: the regime's test split)")
-      ->check(support::at_least(1));
-  command->add_option("--seed", options->seed, "seed of the test tracks");
-  command->add_option("--out", options->out, "report folder");
-  command->add_option("--ship", options->ship,
-                      "write the winning model file here (atomically), with a covariance "
-                      "calibration fitted on the regime's training split");
-  command->add_flag("--raw-ship", options->raw_ship,
-                    "ship the winner without the covariance calibration");
-  command->callback([options, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
+bool RankResult::eligible(std::size_t i) const { return i >= classical && choice.held[i].empty(); }
+
+RankResult evaluate_rank(const RankOptions& options) {
+  RankResult r;
+  r.experiment = "rank";
+  r.seed = options.seed;
+  const datasets::RegimeFile regime =
+      load_regime_option(options.regime.value_or(options.baselines.front()));
+  r.regime = regime.regime;
+  r.model = options.baselines.front();
+  CommonOptions common;
+  common.runs = options.runs;
+  common.seed = options.seed;
+  r.tracks = test_tracks(regime.regime, common);
+  const datasets::TrackSet& data = r.tracks;
+  const int runs = r.runs();
+
+  r.files = options.baselines;
+  r.files.insert(r.files.end(), options.candidates.begin(), options.candidates.end());
+  r.classical = options.baselines.size();
+  std::vector<EvaluationGates> evaluations;
+  for (const auto& folder : options.evaluations) {
+    evaluations.push_back(read_evaluation_gates(folder));
+  }
+  r.evaluations = evaluations.size();
+  for (const auto& file : r.files) {
+    const FilterMaker maker = load_filter_maker(file);
+    const EvaluationRegimes regimes = evaluation_regimes(regime, maker.provenance, file);
+    if (regimes.off_training()) {
+      const datasets::Regime& own = regimes.trained.regime;
+      const datasets::Regime& here = regime.regime;
+      const std::string where =
+          here.file.empty() ? std::string("the regime recorded in ") + r.files.front().string()
+                            : here.file;
+      throw std::runtime_error(
+          "model " + file.string() + ": " +
+          (own.name == here.name
+               ? "trained for another text of regime " + own.name + " than " + where + " (digest " +
+                     own.digest.substr(0, 12) + " against " + here.digest.substr(0, 12) + ")"
+               : "trained for regime " + own.name + ", not " + here.name + " (" + where + ")") +
+          ": a regime's tracker is chosen among its own models");
+    }
+    r.filters.push_back(run_monte_carlo(file.stem().string(), maker.make, maker.options, data, {},
+                                        regime.regime.sensor.position));
+    r.kinds.push_back(maker.provenance.model_kind);
+  }
+  // The bar: the best of the classical filters on these tracks. Every learned model faces it.
+  for (std::size_t i = 1; i < r.classical; ++i) {
+    if (order_score(r.filters[i]) < order_score(r.filters[r.bar])) r.bar = i;
+  }
+  for (std::size_t i = 0; i < r.files.size(); ++i) {
+    r.ranked.push_back(ranked_filter(r.files[i], r.kinds[i], r.filters[i], r.filters[r.bar],
+                                     i == r.bar, i < r.classical, runs));
+  }
+  r.standings.resize(r.files.size());
+  for (std::size_t i = r.classical; i < r.files.size(); ++i) {
+    r.standings[i] = gate_standing(datasets::file_sha256_hex(r.files[i]), evaluations);
+    if (r.standings[i].state != GateStanding::State::kPassed) {
+      r.ranked[i].held_out = r.standings[i].text;
+    }
+  }
+  r.choice = choose_tracker(r.ranked);
+  // Where the motion models are put to the test: the position RMSE over the scans where the truth
+  // manoeuvres, with each filter's difference from the bar (reported; the verdict is over ζ).
+  r.maneuver_rmse.resize(r.files.size());
+  r.maneuver_versus_bar.resize(r.files.size());
+  const HeadlineMetric bar_maneuver = r.filters[r.bar].maneuver_position_rmse();
+  for (std::size_t i = 0; i < r.files.size(); ++i) {
+    const HeadlineMetric own = r.filters[i].maneuver_position_rmse();
+    r.maneuver_rmse[i] = own.value();
+    if (i != r.bar && data.has_truth) {
+      r.maneuver_versus_bar[i] = paired_difference(runs, own.statistic(), bar_maneuver.statistic());
+    }
+  }
+  r.maneuvers = data.has_truth && std::isfinite(r.maneuver_rmse[r.bar]);
+
+  const std::array<std::string, 2>& criteria = r.ranked.front().criteria;
+  for (const RankedFilter& f : r.ranked) {
+    if (!f.baseline && !f.classical && verdict_against_baseline(f) != "beats") {
+      r.findings.push_back(f.name + " " + verdict_against_baseline(f) + " the classical bar " +
+                           r.ranked[r.bar].name + " (" + criteria[0] + " " +
+                           f.versus_baseline_p.text() + ", " + criteria[1] + " " +
+                           f.versus_baseline_v.text() + ")");
+    }
+    if (std::string flag = inconsistency_finding(f); !flag.empty()) {
+      r.findings.push_back(std::move(flag));
+    }
+  }
+  for (std::size_t i = r.classical; i < r.files.size(); ++i) {
+    if (!r.eligible(i)) {
+      r.findings.push_back(r.ranked[i].name + " is held out of the choice (" + r.choice.held[i] +
+                           ")");
+    }
+  }
+  return r;
 }
+
+int report_rank(const RankResult& r, const RankOptions& options) {
+  print_ranking(r);
+  std::cout << "\nThe learned models' own experiments' gates (eligible only when an evaluation of "
+               "that very file passed them; "
+            << r.evaluations << " evaluation folder(s) given):\n";
+  for (std::size_t i = r.classical; i < r.files.size(); ++i) {
+    std::cout << "  - " << r.ranked[i].name << ": " << r.standings[i].text << '\n';
+  }
+  print_findings(r.findings);
+
+  const std::filesystem::path& out = options.out;
+  std::filesystem::create_directories(out);
+  nlohmann::json results = tracker_json(r);
+  std::vector<ModelUse> more;
+  for (std::size_t i = 1; i < r.files.size(); ++i) {
+    more.push_back({i < r.classical ? "classical" : "candidate", r.files[i]});
+  }
+  const HeadlineRuns evaluated{"rank", r.model, r.regime.name, r.tracks.digest(), r.seed, r.runs()};
+  write_metrics(out, evaluated,
+                normalized_error_definitions(std::string(datasets::to_string(r.regime.units)),
+                                             "baseline", true),
+                results, more);
+  if (options.ship) {
+    const std::size_t winner = r.choice.winner;
+    std::cout << "shipping " << r.files[winner].string() << " as " << options.ship->string()
+              << '\n';
+    results["shipped"] = ship_winner(r.files[winner], *options.ship, options.raw_ship,
+                                     r.filters[winner], r.tracks, r.regime.sensor.position);
+  }
+  trainer::write_json_atomically(out / "tracker.json", results);
+  std::cout << "\nwrote metrics.json and tracker.json in " << out.string() << '\n';
+  return r.exit_code();
+}
+
+int run_rank(const RankOptions& options) { return report_rank(evaluate_rank(options), options); }
 
 }  // namespace imm::evaluation

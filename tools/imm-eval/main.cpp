@@ -7,8 +7,9 @@
 //                         [--seed N] [--out reports/<experiment>/]
 //
 // experiments: plain-imm, ga-imm, input-estimator, wimm, fcm-imm, fimm (one file each under
-// evaluation/src/; `imm-eval <experiment> --help` lists its own options). Without --regime the
-// model is evaluated on the regime recorded in it.
+// evaluation/src/, their options and entry points in imm/evaluation/experiments.hpp; the
+// commands in commands.cpp; `imm-eval <experiment> --help` lists its own options). Without --regime
+// the model is evaluated on the regime recorded in it.
 //
 // Every experiment writes metrics.json in one shape and report.md (evaluation_report.hpp), and
 // headline.json: its headline metrics with their per-run terms.
@@ -32,10 +33,8 @@
 #include <string>
 #include <vector>
 
+#include "commands.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
-#include "imm/evaluation/experiment.hpp"
-#include "imm/evaluation/headline.hpp"
-#include "imm/evaluation/multi_target.hpp"
 #include "imm/io/container_file.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/support/kind_aliases.hpp"
@@ -82,15 +81,7 @@ int run(int argc, char** argv) {
   imm::support::standard_options(app, "imm-eval");
   app.require_subcommand(1);
   int exit_code = 1;
-  imm::evaluation::add_plain_imm_command(app, exit_code);
-  imm::evaluation::add_ga_imm_command(app, exit_code);
-  imm::evaluation::add_input_estimator_command(app, exit_code);
-  imm::evaluation::add_wimm_command(app, exit_code);
-  imm::evaluation::add_fcm_imm_command(app, exit_code);
-  imm::evaluation::add_fimm_command(app, exit_code);
-  imm::evaluation::add_rank_command(app, exit_code);
-  imm::evaluation::add_regression_command(app, exit_code);
-  imm::evaluation::add_multi_target_command(app, exit_code);
+  imm::eval_tool::add_commands(app, exit_code);
   imm::support::alias_model_kinds(app);
   // Everything an experiment prints also goes into its folder's report.md.
   imm::evaluation::ReportRecorder recorder(argc, argv);

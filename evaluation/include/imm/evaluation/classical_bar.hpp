@@ -7,6 +7,7 @@
 /// and run on the experiment's test tracks beside its IMM-tuned, with NEES and NIS.
 
 #include <Eigen/Core>
+#include <array>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -17,6 +18,7 @@
 #include "imm/datasets/regime.hpp"
 #include "imm/datasets/track.hpp"
 #include "imm/evaluation/monte_carlo.hpp"
+#include "imm/evaluation/uncertainty.hpp"
 #include "imm/filters/plain_imm.hpp"
 
 namespace imm::evaluation {
@@ -38,12 +40,41 @@ struct ClassicalBar {
 [[nodiscard]] std::optional<ClassicalBar> tune_classical_bar(
     const datasets::Regime& own, const std::optional<std::filesystem::path>& file = std::nullopt);
 
-/// For an experiment whose own tables are not 2-D tracks (per axis, per case): `learned` and the
-/// classical bar of `own`, each run on the test tracks `data` (plots around `sensor`), printed as
-/// "Against CT-IMM-tuned (the classical bar)" — ζ_p, ζ_v, the position RMSE overall and in
-/// manoeuvres, the differences with their 95 % intervals, the verdict and both consistencies
-/// (without truth: the predictive NLL and the innovation RMS). A learned model that does not beat
-/// the bar adds a finding. Returns the comparison for details.json (null without a bar).
+/// `learned` and the classical bar of `own`, each run on the same test tracks: what an
+/// experiment whose own tables are not 2-D tracks (per axis, per case) reports about the bar.
+struct BarComparison {
+  std::string parameters;               ///< the bar's (ClassicalBar::parameters)
+  std::string length;                   ///< the regime's length unit
+  std::vector<FilterOutcome> outcomes;  ///< the learned filter, then the bar
+  /// The verdict's two criteria: ζ_p and ζ_v, or without truth the predictive NLL and the
+  /// innovation RMS; each filter's values of them.
+  std::array<std::string, 2> criteria;
+  std::array<std::array<double, 2>, 2> values{};  ///< [filter][criterion]
+  std::array<Difference, 2> differences;          ///< learned − bar, per criterion
+  /// The position RMSE where the truth manoeuvres, each filter's, and its difference (with truth
+  /// and manoeuvres only).
+  std::array<double, 2> maneuver_rmse{};
+  std::optional<Difference> maneuvers;
+  std::string verdict;  ///< "beats", "ties" or "loses to"
+  std::string summary;  ///< "<learned> <verdict> CT-IMM-tuned (ζ_p …, ζ_v …[, …])"
+
+  /// The comparison as details.json records it ("versus_classical_bar").
+  [[nodiscard]] nlohmann::json json() const;
+};
+
+/// The comparison of `learned` (run on `data`, plots around `sensor`) with the classical bar of
+/// `own` (ClassicalBar; `file` as in tune_classical_bar); nothing when the regime has no bar.
+[[nodiscard]] std::optional<BarComparison> compare_with_bar(
+    const std::string& learned_name, const FilterFactory& learned, const TrackOptions& options,
+    const datasets::Regime& own, const datasets::TrackSet& data, const Eigen::Vector2d& sensor,
+    const std::optional<std::filesystem::path>& file = std::nullopt);
+
+/// Prints `comparison` as "Against CT-IMM-tuned (the classical bar: …)": the two filters' criteria,
+/// position RMSE overall and in manoeuvres, both consistencies, and the summary line.
+void print_bar_comparison(const BarComparison& comparison);
+
+/// compare_with_bar, printed; a learned model that does not beat the bar adds its summary to
+/// `findings`. Returns BarComparison::json() (null without a bar).
 [[nodiscard]] nlohmann::json compare_with_classical_bar(
     const std::string& learned_name, const FilterFactory& learned, const TrackOptions& options,
     const datasets::Regime& own, const datasets::TrackSet& data, const Eigen::Vector2d& sensor,

@@ -11,15 +11,15 @@
 /// split is drawn from --seed; the baselines are tuned on the training split of the model's own
 /// regime — the tracks the learned model saw — never on the test tracks.
 ///
-/// Each experiment is one file: its run, its report and its command (add_*_command below).
+/// Each experiment is one file: its run and its report (experiments.hpp); the commands are in
+/// tools/imm-eval.
 
-#include <CLI/CLI.hpp>
 #include <cstdint>
 #include <filesystem>
-#include <functional>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "imm/datasets/regime_file.hpp"
@@ -45,14 +45,14 @@ struct CommonOptions {
 
   /// The model file: `model` if it names an existing path, else models/model(.h5).
   [[nodiscard]] std::filesystem::path model_path() const;
+  /// Options whose model and report folder are `model` and `out` (an experiment's defaults).
+  [[nodiscard]] static CommonOptions defaults(std::string model, std::filesystem::path out) {
+    CommonOptions options;
+    options.model = std::move(model);
+    options.out = std::move(out);
+    return options;
+  }
 };
-
-/// Adds the shared options to a subcommand; `model` and `out` are the defaults.
-void add_common_options(CLI::App& command, CommonOptions& options, const std::string& model,
-                        const std::filesystem::path& out);
-
-/// Adds --classical (CommonOptions::classical), for the experiments that list the classical bar.
-void add_classical_option(CLI::App& command, CommonOptions& options);
 
 /// A --regime value: a regime TOML, or a model file (.h5) whose recorded regime is meant (so a
 /// candidate and the shipped model are evaluated on the same tracks).
@@ -145,18 +145,5 @@ int finish_report(const std::filesystem::path& out, bool plotted,
 
 /// Prints the findings block of a report ("Findings (…): none" or one line each), after the gates.
 void print_findings(const std::vector<std::string>& findings);
-
-/// Runs an experiment's body, turning exceptions into a message and support::exit_code::kBadInput.
-int guarded(const std::function<int()>& body);
-
-// --- The experiments -----------------------------------------------------------------------
-using ExitCode = int;
-void add_plain_imm_command(CLI::App& app, ExitCode& exit_code);
-void add_ga_imm_command(CLI::App& app, ExitCode& exit_code);
-void add_input_estimator_command(CLI::App& app, ExitCode& exit_code);
-void add_wimm_command(CLI::App& app, ExitCode& exit_code);
-void add_fcm_imm_command(CLI::App& app, ExitCode& exit_code);
-void add_fimm_command(CLI::App& app, ExitCode& exit_code);
-void add_rank_command(CLI::App& app, ExitCode& exit_code);
 
 }  // namespace imm::evaluation

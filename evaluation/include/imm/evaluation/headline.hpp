@@ -10,7 +10,6 @@
 ///    "metrics": [{"name", "form", "value", "interval", "numerator", "denominator", ["counted"]}]}
 /// with the per-run terms as arrays (runs) or arrays of arrays (runs × scans, for ζ).
 
-#include <CLI/CLI.hpp>
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
@@ -121,10 +120,5 @@ struct Regression {
 [[nodiscard]] std::vector<Regression> compare_headlines(
     const HeadlineFile& candidate, const HeadlineFile& shipped,
     const std::vector<MarginRule>& margins = {});
-
-/// `imm-eval regression --candidate DIR|FILE --shipped DIR|FILE [--out DIR]
-///  [--relative-margin [METRIC=]R]… [--absolute-margin [METRIC=]A]…`.
-using ExitCode = int;
-void add_regression_command(CLI::App& app, ExitCode& exit_code);
 
 }  // namespace imm::evaluation

@@ -13,7 +13,6 @@
 /// on the same scenes' targets, prints a table per condition and writes metrics.json (its
 /// "conditions", each with its models' figures).
 
-#include <CLI/CLI.hpp>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -71,8 +70,5 @@ struct MultiTargetResult {
 [[nodiscard]] MultiTargetResult run_multi_target(const datasets::Regime& regime,
                                                  const std::vector<std::filesystem::path>& models,
                                                  MultiTargetSettings settings);
-
-/// The `multi-target` command of imm-eval.
-void add_multi_target_command(CLI::App& app, ExitCode& exit_code);
 
 }  // namespace imm::evaluation

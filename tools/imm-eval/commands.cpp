@@ -1,0 +1,223 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "commands.hpp"
+
+#include <exception>
+#include <functional>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "imm/evaluation/experiments.hpp"
+#include "imm/support/cli.hpp"
+#include "imm/support/exit_codes.hpp"
+
+namespace imm::eval_tool {
+namespace {
+
+using evaluation::CommonOptions;
+
+// Runs an experiment, turning exceptions into a message and support::exit_code::kBadInput.
+int guarded(const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const std::exception& error) {
+    std::cerr << "imm-eval: " << error.what() << '\n';
+  } catch (...) {
+    std::cerr << "imm-eval: unexpected error\n";
+  }
+  return support::exit_code::kBadInput;
+}
+
+// The options every model experiment shares; their defaults are the options struct's.
+void add_common_options(CLI::App& command, CommonOptions& options) {
+  command.add_option("--models", options.models, "folder of model files");
+  command.add_option("--model", options.model,
+                     "model file: a name in --models (default " + options.model + ") or a path");
+  command.add_option("--regime", options.regime,
+                     "regime TOML to evaluate on, or a model file whose recorded regime to use "
+                     "(default: the one recorded in the model)");
+  command.add_option("--runs", options.runs, "test tracks (default: the regime's test split)")
+      ->check(support::at_least(1));
+  command.add_option("--seed", options.seed, "seed of the test tracks");
+  command.add_option("--out", options.out, "report folder");
+  command.add_flag("--truth-tracks", options.truth_tracks,
+                   "only the test tracks with truth (a recorded set with truth for some "
+                   "recordings), judged by their errors");
+}
+
+void add_classical_option(CLI::App& command, CommonOptions& options) {
+  command.add_option("--classical", options.classical,
+                     "the regime's tuned CV/CA/CT IMM (imm-train baseline --config "
+                     "configs/classical_imm.toml) to list as the classical bar (default: tuned "
+                     "here on the model's training split, the same search)");
+}
+
+// A subcommand whose options live as long as the app; `run` gets them when it is chosen.
+template <class Options>
+std::pair<CLI::App*, std::shared_ptr<Options>> subcommand(CLI::App& app, const std::string& name,
+                                                          const std::string& description,
+                                                          int& exit_code,
+                                                          int (*run)(const Options&)) {
+  auto options = std::make_shared<Options>();
+  CLI::App* command = app.add_subcommand(name, description);
+  command->callback(
+      [options, run, &exit_code] { exit_code = guarded([&] { return run(*options); }); });
+  return {command, options};
+}
+
+// An experiment of one model file with the shared options and the classical bar.
+template <class Options>
+std::pair<CLI::App*, std::shared_ptr<Options>> model_experiment(CLI::App& app,
+                                                                const std::string& name,
+                                                                const std::string& description,
+                                                                int& exit_code,
+                                                                int (*run)(const Options&)) {
+  auto made = subcommand<Options>(app, name, description, exit_code, run);
+  add_common_options(*made.first, made.second->common);
+  add_classical_option(*made.first, made.second->common);
+  return made;
+}
+
+void add_rank(CLI::App& app, int& exit_code) {
+  auto [command, options] = subcommand<evaluation::RankOptions>(
+      app, "rank",
+      "the regime's tracker: the tuned baseline and the learned models of one regime ranked on "
+      "its test split, the winner written with --ship",
+      exit_code, evaluation::run_rank);
+  command
+      ->add_option("--baseline", options->baselines,
+                   "the regime's tuned classical filters (imm-train baseline), one or more: the "
+                   "best on the test tracks is the bar every learned model faces")
+      ->required();
+  command
+      ->add_option("--candidates", options->candidates,
+                   "learned model files trained for the same regime")
+      ->required();
+  command->add_option(
+      "--evaluations", options->evaluations,
+      "report folders of the learned models' own experiments (imm-eval <experiment> --out): a "
+      "learned model is eligible only when one of them evaluated that very file and passed its "
+      "gates");
+  command->add_option("--regime", options->regime,
+                      "regime TOML (default: the one recorded in the first baseline)");
+  command->add_option("--runs", options->runs, "test tracks (default: the regime's test split)")
+      ->check(support::at_least(1));
+  command->add_option("--seed", options->seed, "seed of the test tracks");
+  command->add_option("--out", options->out, "report folder");
+  command->add_option("--ship", options->ship,
+                      "write the winning model file here (atomically), with a covariance "
+                      "calibration fitted on the regime's training split");
+  command->add_flag("--raw-ship", options->raw_ship,
+                    "ship the winner without the covariance calibration");
+}
+
+void add_multi_target(CLI::App& app, int& exit_code) {
+  auto [command, options] = subcommand<evaluation::MultiTargetOptions>(
+      app, "multi-target",
+      "several targets of a regime at once in clutter, tracked by the reference GNN tracker with "
+      "each model, judged by GOSPA",
+      exit_code, evaluation::run_multi_target_experiment);
+  command
+      ->add_option("--models", options->models,
+                   "plain IMM model files (the first: the "
+                   "reference of the differences)")
+      ->required();
+  command->add_option("--regime", options->regime,
+                      "regime TOML (default: the one recorded in the first model)");
+  command->add_option("--targets", options->targets,
+                      "targets per scene (default: the regime's [scene], else 3)");
+  command
+      ->add_option(
+          "--pd", options->detection_probabilities,
+          "detection probabilities (one or more: every one with every clutter density; default: "
+          "the regime's [scene], else 0.9)")
+      ->delimiter(',');
+  command
+      ->add_option("--clutter", options->clutter_densities,
+                   "mean false plots per scan over the scene's region (one or more; default: the "
+                   "regime's [scene], else 10)")
+      ->delimiter(',');
+  command->add_option("--runs", options->settings.runs, "scenes");
+  command->add_option("--seed", options->settings.seed, "the scenes' seed");
+  command->add_option("--out", options->out, "report folder (metrics.json)");
+}
+
+void add_regression(CLI::App& app, int& exit_code) {
+  struct Options {
+    evaluation::RegressionOptions regression;
+    std::vector<std::string> relative, absolute;
+  };
+  auto options = std::make_shared<Options>();
+  auto* command = app.add_subcommand(
+      "regression", "a candidate model's headline metrics vs the shipped model's, same test runs");
+  command->add_option("--candidate", options->regression.candidate, "headline.json (or its folder)")
+      ->required();
+  command->add_option("--shipped", options->regression.shipped, "headline.json (or its folder)")
+      ->required();
+  command->add_option("--out", options->regression.out, "folder for regression.json");
+  command->add_option("--relative-margin", options->relative,
+                      "[METRIC=]R: a difference below R × |value| is a tie (repeatable)");
+  command->add_option("--absolute-margin", options->absolute,
+                      "[METRIC=]A: a difference below A is a tie (repeatable)");
+  command->callback([options, &exit_code] {
+    exit_code = guarded([&] {
+      evaluation::RegressionOptions regression = options->regression;
+      for (const auto& r : options->relative) {
+        regression.margins.push_back(evaluation::parse_margin(r, true));
+      }
+      for (const auto& a : options->absolute) {
+        regression.margins.push_back(evaluation::parse_margin(a, false));
+      }
+      return evaluation::run_regression(regression);
+    });
+  });
+}
+
+}  // namespace
+
+void add_commands(CLI::App& app, int& exit_code) {
+  {
+    auto [command, options] = model_experiment<evaluation::PlainImmOptions>(
+        app, "plain-imm", "a plain IMM model on a regime's test tracks vs. its modes alone",
+        exit_code, evaluation::run_plain_imm);
+    command->add_option("--data", options->data,
+                        "evaluate a stored data-set file (imm-data tracks) instead");
+  }
+  {
+    auto [command, options] = model_experiment<evaluation::GaImmOptions>(
+        app, "ga-imm",
+        "seed 000 Table 3: GA-fuzzy IMM vs AIMM3/5, tuned AIMM, tuned IMM, the paper's tables",
+        exit_code, evaluation::run_ga_imm);
+    command->add_option("--paper-model", options->paper_model,
+                        "the paper's tables, in --models (imm-train import-rules)");
+  }
+  (void)model_experiment<evaluation::InputEstimatorOptions>(
+      app, "input-estimator",
+      "seed 001 Tables 1-2: neural input estimator vs the constant-velocity KF", exit_code,
+      evaluation::run_input_estimator);
+  (void)model_experiment<evaluation::WimmOptions>(
+      app, "wimm", "seed 004 Table 2: weighted IMM vs normal IMM and a tuned normal IMM", exit_code,
+      evaluation::run_wimm);
+  (void)model_experiment<evaluation::FcmImmOptions>(
+      app, "fcm-imm",
+      "seed 003 Fig. 5-8: FCM-IMM vs KF, AIMM, tuned IMM and the constant-membership ablation",
+      exit_code, evaluation::run_fcm_imm);
+  {
+    // The FIMM's bar is run by its own experiment: no --classical.
+    auto [command, options] = subcommand<evaluation::FimmOptions>(
+        app, "fimm", "seed 002 Table 1: FIMM (TSK sensor model, EKF and IEKF) vs the IMM",
+        exit_code, evaluation::run_fimm);
+    add_common_options(*command, options->common);
+    command->add_option("--config", options->config, "TSK config: the FIMM's settings ([fimm])");
+    command
+        ->add_option("--gate-on", options->gate_on,
+                     "ekf: gate the FIMM (EKF); best: the better of EKF and IEKF")
+        ->check(CLI::IsMember({"ekf", "best"}));
+  }
+  add_rank(app, exit_code);
+  add_regression(app, exit_code);
+  add_multi_target(app, exit_code);
+}
+
+}  // namespace imm::eval_tool
