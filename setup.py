@@ -3,8 +3,9 @@
 
 The extension is the CMake target `immtrain_python` (bindings/python), built in build/python-wheel
 (or, with IMMTRAIN_CMAKE_BUILD_DIR, in an existing configured build, which is only brought up to
-date); the wheel holds the module and the runtime library it links, libimmruntime, in
-immtrain.libs/ beside it (the module's RPATH looks there). The version is the CMake project's.
+date); the wheel holds the module, the trainer's side `immtrain_lab` beside it (where the build has
+the trainer) and the runtime library both link, libimmruntime, in immtrain.libs/ (the modules'
+RPATH looks there). The version is the CMake project's.
 """
 import os
 import pathlib
@@ -34,21 +35,25 @@ class CMakeBuild(build_ext):
             build = pathlib.Path(build).resolve()
         else:
             build = ROOT / "build" / "python-wheel"
-            # The runtime and the module only: no trainer, tests or benchmarks.
+            # The runtime, the trainer and the two modules: no tests or benchmarks.
             subprocess.run(["cmake", "-S", str(ROOT), "-B", str(build),
-                            "-DCMAKE_BUILD_TYPE=Release", "-DIMM_BUILD_TRAINER=OFF",
+                            "-DCMAKE_BUILD_TYPE=Release",
                             "-DIMM_BUILD_TESTS=OFF", "-DIMM_BUILD_BENCHMARKS=OFF",
                             "-DIMM_BUILD_PYTHON=ON",
                             f"-DPython3_EXECUTABLE={sys.executable}"], check=True)
         jobs = str(os.cpu_count() or 1)
         subprocess.run(["cmake", "--build", str(build), "--target", "immtrain_python", "-j", jobs],
                        check=True)
-        modules = sorted((build / "python").glob("immtrain*.so"))
+        modules = sorted((build / "python").glob("immtrain.*.so"))
         if not modules:
             raise RuntimeError(f"{build}/python: the build wrote no immtrain module")
         target = pathlib.Path(self.get_ext_fullpath(ext.name))
         target.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(modules[0], target)
+        # The trainer's side, immtrain_lab, beside it (absent from a build without the trainer:
+        # immtrain then says so when one of its names is used).
+        for lab in sorted((build / "python").glob("immtrain_lab.*.so")):
+            shutil.copyfile(lab, target.parent / lab.name)
         shutil.copyfile(ROOT / "bindings" / "python" / "immtrain.pyi",
                         target.parent / "immtrain.pyi")
         libs = target.parent / "immtrain.libs"

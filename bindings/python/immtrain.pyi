@@ -211,3 +211,72 @@ def loadable_kinds() -> List[str]:
 
 def verify(path: _Path) -> Dict[str, Any]:
     """Checks a model file (every field and the filter it builds); raises FileError."""
+
+# --- The trainer's side (the module immtrain_lab, imported on first use of these names) --------
+
+class Regime:
+    """A regime: what a filter is trained and judged for (docs/regimes.md). Lengths in its units,
+    times in seconds."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def units(self) -> str:
+        """The length unit: "m" or "km"."""
+    @property
+    def sample_period(self) -> float:
+        """T, s."""
+    @property
+    def scans(self) -> int:
+        """Scans per track."""
+    @property
+    def digest(self) -> str:
+        """SHA-256 of the regime's text (what model files record)."""
+    @property
+    def splits(self) -> Dict[str, int]:
+        """Tracks per split (training, validation, test) and the seed of the first two."""
+    @property
+    def cases(self) -> List[str]:
+        """The scripted cases' names (one empty name for a random regime)."""
+    @property
+    def toml(self) -> str:
+        """The regime's TOML text: written to a file, the tools read the same regime."""
+    def draw(self, split: str = "test", seed: Optional[int] = None,
+             runs: Optional[int] = None) -> Dict[str, Any]:
+        """A split's tracks as imm-data draws them: truth (tracks, scans, 6: x, vx, ax, y, vy, ay),
+        plots (tracks, scans, 2), times (scans,) in s, maneuvering (tracks, scans), case
+        (tracks,), with the set's regime, split, seed, sample_period, has_truth and digest.
+        seed: the test split's seed (default the regime's splits.seed); runs: how many tracks
+        (default the split's size). The GIL is released while drawing."""
+
+def load_regime(path: _Path) -> Regime:
+    """Reads and validates a regime file; ValueError naming the file and the key when invalid."""
+
+def regime_from_dict(table: Dict[str, Any], name: str = "<dict>") -> Regime:
+    """A regime from a dict shaped like a regime file: nested dicts for its tables ([sensor],
+    [splits], …), a list of dicts for [[maneuvers]]. Validated as a file is: ValueError naming
+    `name` and the key."""
+
+def evaluate(experiment: str, *, model: Optional[_Path] = None, models: _Path = "models",
+             regime: Optional[_Path] = None, runs: Optional[int] = None, seed: int = 1,
+             classical: Optional[_Path] = None, truth_tracks: bool = False,
+             out: Optional[_Path] = None, **options: Any) -> Dict[str, Any]:
+    """Runs an imm-eval experiment — plain-imm, ga-imm, input-estimator, wimm, fcm-imm, fimm —
+    with the command's options and defaults, and returns its result: experiment, model, regime,
+    runs, seed, dataset_digest, filters (each filter's zeta_p, zeta_v, RMSEs in the regime's
+    units, position_nees, nis, the shares of scans inside their 95 % bounds, per-scan errors and
+    mode probabilities as arrays), the experiment's paired differences as [estimate, lower,
+    upper] (the 95 % paired-bootstrap interval; below 0 the first-named filter is better),
+    failures (gates), findings and exit_code (imm-eval's). With `out`, also writes the report's
+    files there as imm-eval does, the same numbers as its metrics.json. Own options by keyword:
+    data (plain-imm), paper_model (ga-imm), config and gate_on (fimm). The GIL is released while
+    it runs. ValueError for an unknown experiment or an invalid option value, TypeError for an
+    option the experiment does not have, RuntimeError naming the file and field for a bad model."""
+
+def rank(baselines: List[_Path], candidates: List[_Path], *, evaluations: List[_Path] = ...,
+         regime: Optional[_Path] = None, runs: Optional[int] = None, seed: int = 1,
+         out: Optional[_Path] = None, ship: Optional[_Path] = None,
+         raw_ship: bool = False) -> Dict[str, Any]:
+    """The regime's tracker, as imm-eval rank: tracker, tracker_file, bar, reason, ranking (place,
+    filter, file, kind, classical, eligible, zeta_p, zeta_v, verdict, versus_bar), findings and
+    exit_code. With `out`, writes tracker.json there; with `ship` (and `out`), writes the winner
+    there, calibrated unless raw_ship."""

@@ -374,6 +374,36 @@ PYBIND11_MODULE(immtrain, m) {
         }
       });
 
+  // The trainer's side (the module immtrain_lab), imported on first use of one of its names, so
+  // that a program that only tracks loads the runtime alone; dir(immtrain) lists them where the
+  // module is installed.
+  static constexpr std::array<std::string_view, 5> kLabNames = {
+      "Regime", "load_regime", "regime_from_dict", "evaluate", "rank"};
+  m.def("__dir__", [m]() {
+    py::list names = py::module_::import("builtins").attr("list")(m.attr("__dict__"));
+    const py::object spec = py::module_::import("importlib.util").attr("find_spec")("immtrain_lab");
+    if (!spec.is_none()) {
+      for (const std::string_view name : kLabNames) names.append(py::str(std::string(name)));
+    }
+    return names;
+  });
+  m.def("__getattr__", [](const std::string& name) -> py::object {
+    if (std::find(kLabNames.begin(), kLabNames.end(), name) == kLabNames.end()) {
+      throw py::attribute_error("module 'immtrain' has no attribute '" + name + "'");
+    }
+    py::module_ lab;
+    try {
+      lab = py::module_::import("immtrain_lab");
+    } catch (py::error_already_set& error) {
+      if (!error.matches(PyExc_ImportError)) throw;
+      throw py::import_error("immtrain." + name +
+                             " is the trainer's side (the module immtrain_lab), which this "
+                             "installation does not have: it was built without the trainer "
+                             "(IMM_BUILD_TRAINER=OFF)");
+    }
+    return lab.attr(name.c_str());
+  });
+
   py::class_<PyTracker>(m, "Tracker",
                         "A model file's filter driven over scan-indexed or timed plots")
       .def("process", &PyTracker::process, py::arg("k"), py::arg("z"),

@@ -10,7 +10,7 @@ endif()
 # The Python module installed with the package (IMM_BUILD_PYTHON) imports from the prefix alone
 # and reads a shipped model (not under sanitizers: the interpreter would need their runtime).
 if(PYTHON AND NOT SANITIZERS)
-  file(GLOB_RECURSE module ${WORK_DIR}/prefix/immtrain*.so)
+  file(GLOB_RECURSE module ${WORK_DIR}/prefix/immtrain.*.so)
   if(NOT module)
     message(FATAL_ERROR "cmake --install put no Python module immtrain under ${WORK_DIR}/prefix")
   endif()

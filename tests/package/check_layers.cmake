@@ -10,6 +10,8 @@
 # Layer of a source file, from its folder (first match wins).
 set(layer_folders
   "runtime/"            runtime
+  # The trainer's side of Python (immtrain_lab) is a front end over the evaluation, like a tool.
+  "bindings/python/lab_" tools
   "bindings/"           bindings
   "support/"            support
   "datasets/"           datasets

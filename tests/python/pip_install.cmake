@@ -28,11 +28,12 @@ file(READ ${SOURCE_DIR}/CMakeLists.txt text)
 string(REGEX MATCH "project\\(immtrain VERSION ([0-9.]+)" _ "${text}")
 set(version ${CMAKE_MATCH_1})
 
-# Imports from outside the source tree: prints the version and where libimmruntime came from.
+# Imports from outside the source tree: prints the version, where libimmruntime came from and where
+# the trainer's side (immtrain.evaluate) comes from.
 set(check [=[
 import immtrain
 runtime = [line.split()[-1] for line in open("/proc/self/maps") if "libimmruntime" in line]
-print(immtrain.__version__, runtime[0] if runtime else "none")
+print(immtrain.__version__, runtime[0] if runtime else "none", immtrain.evaluate.__module__)
 ]=])
 function(expect_installed venv)
   run(${venv}/bin/python -c "${check}")
@@ -40,6 +41,11 @@ function(expect_installed venv)
   separate_arguments(fields UNIX_COMMAND "${output}")
   list(GET fields 0 got)
   list(GET fields 1 library)
+  list(GET fields 2 lab)
+  if(NOT lab STREQUAL "immtrain_lab")
+    message(FATAL_ERROR "${venv}: immtrain.evaluate comes from '${lab}', not the trainer's side "
+                        "(immtrain_lab) of the package")
+  endif()
   if(NOT got STREQUAL version)
     message(FATAL_ERROR "${venv}: immtrain.__version__ is '${got}', the project's is ${version}")
   endif()

@@ -1,0 +1,223 @@
+// SPDX-License-Identifier: Apache-2.0
+// The Python module `immtrain_lab`: the trainer's side of immtrain — regimes, their tracks and the
+// experiments of imm-eval — as Python calls into the C++ libraries (never the command-line tools).
+// `immtrain` imports it on first use of one of its names (immtrain.load_regime, immtrain.evaluate,
+// …), so that a program that only tracks loads the runtime alone.
+//
+//   import immtrain
+//   regime = immtrain.load_regime("configs/regimes/agile_air.toml")
+//   tracks = regime.draw("test", runs=20)          # numpy arrays: truth, plots, times, …
+//   result = immtrain.evaluate("ga-imm", model="models/ga_fuzzy_imm_agile_air.h5", runs=20)
+//   result["filters"]["GA-IMM"]["zeta_p"], result["findings"], result["exit_code"]
+
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <cstdint>
+#include <fstream>
+#include <iterator>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/datasets/regime_file.hpp"
+#include "imm/datasets/track.hpp"
+#include "imm/evaluation/experiments.hpp"
+#include "imm/io/file_error.hpp"
+#include "imm/support/config.hpp"
+#include "lab_results.hpp"
+
+namespace py = pybind11;
+namespace fs = std::filesystem;
+
+namespace {
+
+using imm::datasets::RegimeFile;
+
+// A value of a regime dict as TOML: numbers, booleans, strings and arrays of them.
+std::string toml_value(const py::handle& value, const std::string& key) {
+  if (py::isinstance<py::bool_>(value)) return value.cast<bool>() ? "true" : "false";
+  if (py::isinstance<py::int_>(value)) return std::to_string(value.cast<long long>());
+  if (py::isinstance<py::float_>(value)) return py::repr(value).cast<std::string>();
+  if (py::isinstance<py::str>(value)) {
+    std::string text = "\"";
+    for (const char c : value.cast<std::string>()) {
+      if (c == '"' || c == '\\') text.push_back('\\');
+      text.push_back(c);
+    }
+    return text + "\"";
+  }
+  if (py::isinstance<py::list>(value) || py::isinstance<py::tuple>(value)) {
+    std::string text = "[";
+    std::size_t i = 0;
+    for (const py::handle item : value) {
+      text += (i == 0 ? "" : ", ") + toml_value(item, key + "[" + std::to_string(i) + "]");
+      ++i;
+    }
+    return text + "]";
+  }
+  throw py::value_error(key +
+                        ": a regime value is a number, a boolean, a string or a list of them");
+}
+
+bool is_table_array(const py::handle& value) {
+  if (!py::isinstance<py::list>(value) && !py::isinstance<py::tuple>(value)) return false;
+  if (py::len(value) == 0) return false;
+  for (const py::handle item : value) {
+    if (!py::isinstance<py::dict>(item)) return false;
+  }
+  return true;
+}
+
+// A dict as a TOML document: its values, then its tables ([name]) and arrays of tables
+// ([[name]]), nested under `prefix`.
+void toml_table(const py::dict& table, const std::string& prefix, std::string& text) {
+  for (const auto& [key, value] : table) {
+    if (py::isinstance<py::dict>(value) || is_table_array(value)) continue;
+    const std::string name = py::str(key).cast<std::string>();
+    text += name + " = " + toml_value(value, prefix + name) + "\n";
+  }
+  for (const auto& [key, value] : table) {
+    const std::string name = prefix + py::str(key).cast<std::string>();
+    if (py::isinstance<py::dict>(value)) {
+      text += "\n[" + name + "]\n";
+      toml_table(value.cast<py::dict>(), name + ".", text);
+    } else if (is_table_array(value)) {
+      for (const py::handle item : value) {
+        text += "\n[[" + name + "]]\n";
+        toml_table(item.cast<py::dict>(), name + ".", text);
+      }
+    }
+  }
+}
+
+imm::datasets::Split split_named(const std::string& name) {
+  if (name == "training") return imm::datasets::Split::kTraining;
+  if (name == "validation") return imm::datasets::Split::kValidation;
+  if (name == "test") return imm::datasets::Split::kTest;
+  throw py::value_error("split: '" + name + "' is none of training, validation, test");
+}
+
+// A regime and the text it was read from.
+struct PyRegime {
+  RegimeFile file;
+  std::string text;
+
+  [[nodiscard]] py::dict draw(const std::string& split_name, std::optional<std::uint64_t> seed,
+                              std::optional<int> runs) const {
+    const imm::datasets::Regime& regime = file.regime;
+    const imm::datasets::Split split = split_named(split_name);
+    if (runs && *runs < 1)
+      throw py::value_error("runs: must be ≥ 1 (got " + std::to_string(*runs) + ")");
+    imm::datasets::TrackSet set;
+    {
+      const py::gil_scoped_release release;
+      set = imm::datasets::draw_split(regime, split, seed.value_or(regime.splits.seed),
+                                      runs.value_or(-1));
+    }
+    return track_arrays(set);
+  }
+};
+
+PyRegime regime_from_text(std::string text, const std::string& name) {
+  return {imm::datasets::parse_regime(text, name), std::move(text)};
+}
+
+}  // namespace
+
+PYBIND11_MODULE(immtrain_lab, m) {
+  m.doc() =
+      "immtrain's trainer side: regimes, their tracks and the experiments of imm-eval (imported by "
+      "immtrain on first use)";
+  py::register_exception_translator(
+      [](std::exception_ptr p) {  // NOLINT(performance-unnecessary-value-param)
+        try {
+          if (p) std::rethrow_exception(p);
+        } catch (const imm::support::ConfigError& e) {
+          PyErr_SetString(PyExc_ValueError, e.what());
+        } catch (const imm::InvalidParameter& e) {
+          PyErr_SetString(PyExc_ValueError, e.what());
+        } catch (const imm::io::FileError& e) {
+          PyErr_SetString(PyExc_RuntimeError, e.what());
+        }
+      });
+
+  py::class_<PyRegime>(m, "Regime", "A regime: what a filter is trained and judged for")
+      .def_property_readonly("name", [](const PyRegime& r) { return r.file.regime.name; })
+      .def_property_readonly(
+          "units",
+          [](const PyRegime& r) {
+            return std::string(imm::datasets::to_string(r.file.regime.units));
+          },
+          "the length unit: m or km")
+      .def_property_readonly(
+          "sample_period", [](const PyRegime& r) { return r.file.regime.sample_period; }, "T, s")
+      .def_property_readonly(
+          "scans", [](const PyRegime& r) { return r.file.regime.scans; }, "scans per track")
+      .def_property_readonly(
+          "digest", [](const PyRegime& r) { return r.file.regime.digest; },
+          "SHA-256 of the regime's text")
+      .def_property_readonly(
+          "splits",
+          [](const PyRegime& r) {
+            const imm::datasets::Splits& s = r.file.regime.splits;
+            py::dict splits;
+            splits["training"] = s.training;
+            splits["validation"] = s.validation;
+            splits["test"] = s.test;
+            splits["seed"] = s.seed;
+            return splits;
+          },
+          "tracks per split and the seed of the training and validation splits")
+      .def_property_readonly(
+          "cases",
+          [](const PyRegime& r) {
+            std::vector<std::string> names;
+            names.reserve(static_cast<std::size_t>(r.file.regime.case_count()));
+            for (int c = 0; c < r.file.regime.case_count(); ++c) {
+              names.push_back(r.file.regime.case_name(c));
+            }
+            return names;
+          },
+          "the scripted cases' names (one empty name for a random regime)")
+      .def_property_readonly(
+          "toml", [](const PyRegime& r) { return r.text; },
+          "the regime's TOML text (write it to a file to use it with the tools)")
+      .def("draw", &PyRegime::draw, py::arg("split") = "test", py::arg("seed") = py::none(),
+           py::arg("runs") = py::none(),
+           "Draws a split's tracks as imm-data does (seed: the test split's seed, default the "
+           "regime's splits.seed; runs: how many, default the split's size). Returns numpy "
+           "arrays: truth (tracks × scans × 6: x, vx, ax, y, vy, ay), plots (tracks × scans × 2), "
+           "times (scans, s), maneuvering (tracks × scans), case (tracks)")
+      .def("__repr__", [](const PyRegime& r) {
+        return "<immtrain.Regime " + r.file.regime.name + " (" +
+               std::string(imm::datasets::to_string(r.file.regime.units)) + ", T " +
+               py::repr(py::float_(r.file.regime.sample_period)).cast<std::string>() + " s)>";
+      });
+
+  m.def(
+      "load_regime",
+      [](const fs::path& path) {
+        PyRegime regime{imm::datasets::load_regime(path), {}};
+        std::ifstream in(path);
+        regime.text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+        return regime;
+      },
+      py::arg("path"),
+      "Reads and validates a regime file; ValueError naming the file and the key when invalid");
+  m.def(
+      "regime_from_dict",
+      [](const py::dict& table, const std::string& name) {
+        std::string text;
+        toml_table(table, "", text);
+        return regime_from_text(std::move(text), name);
+      },
+      py::arg("table"), py::arg("name") = "<dict>",
+      "A regime from a dict shaped like a regime file (nested dicts for its tables, lists of dicts "
+      "for [[maneuvers]]), validated as a file is: ValueError naming the key");
+  add_experiments(m);
+}

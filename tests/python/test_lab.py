@@ -1,0 +1,119 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The trainer's side from Python (immtrain_lab through immtrain): regimes read from files and
+built from dicts with the tools' validation errors; tracks drawn as imm-data draws them (the same
+digest); experiments and the ranking with the numbers imm-eval writes into metrics.json and
+tracker.json.
+
+Run by ctest (python.TheTrainersSide…) with PYTHONPATH=<build>/python and IMM_BIN=<build>/bin,
+from the source root."""
+
+import json
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+import immtrain
+
+BIN = os.environ.get("IMM_BIN", "build/bin")
+TOOL_ENV = {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
+
+SMALL = {
+    "name": "small_turns",
+    "units": "m",
+    "sample_period": 1.0,
+    "scans": 40,
+    "process_noise_sigma": 0.5,
+    "sensor": {"kind": "cartesian", "sigma": [20.0, 20.0]},
+    "start": {"range": [10000.0, 30000.0], "bearing_deg": [0.0, 360.0], "heading": "inbound",
+              "heading_offset_deg": [-60.0, 60.0], "speed": [150.0, 250.0]},
+    "maneuvers": [{"kind": "cv", "probability": 0.5, "duration": [8.0, 20.0]},
+                  {"kind": "turn", "probability": 0.5, "duration": [6.0, 15.0],
+                   "rate_deg": [3.0, 6.0]}],
+    "splits": {"training": 4, "validation": 2, "test": 10, "seed": 3},
+}
+
+
+def test_the_lab_is_reached_through_immtrain_and_unknown_names_are_not():
+    assert immtrain.load_regime.__module__ == "immtrain_lab"
+    with pytest.raises(AttributeError):
+        immtrain.no_such_function  # noqa: B018
+
+
+def test_a_regime_from_a_dict_draws_what_imm_data_draws_from_its_text(tmp_path):
+    regime = immtrain.regime_from_dict(SMALL, name="small")
+    assert (regime.name, regime.units, regime.sample_period, regime.scans) == \
+        ("small_turns", "m", 1.0, 40)
+    assert regime.splits["test"] == 10
+    tracks = regime.draw("test", seed=5)
+    assert tracks["truth"].shape == (10, 40, 6)
+    assert tracks["plots"].shape == (10, 40, 2)
+    np.testing.assert_array_equal(tracks["times"], np.arange(40.0))
+    # The plots are the truth's positions plus noise of the regime's σ.
+    noise = tracks["plots"] - tracks["truth"][:, :, [0, 3]]
+    assert 15.0 < noise.std() < 25.0
+    # Its text, written out, is the same regime for the tools: the same tracks, to the digest.
+    (tmp_path / "small.toml").write_text(regime.toml)
+    again = immtrain.load_regime(tmp_path / "small.toml")
+    assert again.digest == regime.digest
+    # imm-data's CSV of track 2 of the same split and seed: the same plots (10 significant digits).
+    subprocess.run([os.path.join(BIN, "imm-data"), "tracks", "--regime", str(tmp_path / "small.toml"),
+                    "--split", "test", "--seed", "5", "--out", str(tmp_path / "test.h5"),
+                    "--csv", str(tmp_path / "track2.csv"), "--csv-track", "2"],
+                   check=True, env=TOOL_ENV, capture_output=True)
+    csv = np.loadtxt(tmp_path / "track2.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(csv[:, 1:], tracks["plots"][2], rtol=1e-9, atol=1e-9)
+
+
+def test_an_invalid_regime_is_a_value_error_naming_the_key():
+    bad = dict(SMALL)
+    del bad["scans"]
+    with pytest.raises(ValueError, match="scans"):
+        immtrain.regime_from_dict(bad)
+    worse = dict(SMALL, sensor={"kind": "sonar", "sigma": [1.0, 1.0]})
+    with pytest.raises(ValueError, match="sensor.kind"):
+        immtrain.regime_from_dict(worse)
+    with pytest.raises(ValueError, match="split"):
+        immtrain.regime_from_dict(SMALL).draw("tests")
+
+
+def test_an_experiment_returns_the_numbers_of_its_metrics_json(tmp_path):
+    result = immtrain.evaluate("ga-imm", model="models/ga_fuzzy_imm.h5", runs=6,
+                               out=tmp_path / "ga")
+    metrics = json.loads((tmp_path / "ga" / "metrics.json").read_text())["results"]
+    assert set(result["filters"]) == set(metrics)
+    for name, figures in result["filters"].items():
+        assert figures["zeta_p"] == metrics[name]["zeta_p"]
+        assert figures["zeta_v"] == metrics[name]["zeta_v"]
+        assert figures["nis"] == metrics[name]["nis"]
+    details = json.loads((tmp_path / "ga" / "details.json").read_text())
+    for name, d in result["ga_imm_minus"].items():
+        assert d["zeta_p"] == details["ga_imm_minus"][name]["zeta_p"]
+    assert result["findings"] == details["findings"]
+    assert result["exit_code"] in (0, 5, 7)
+    # Without `out` nothing is written, and the figures are the same.
+    again = immtrain.evaluate("ga-imm", model="models/ga_fuzzy_imm.h5", runs=6)
+    assert again["filters"]["GA-IMM"]["zeta_p"] == result["filters"]["GA-IMM"]["zeta_p"]
+
+
+def test_experiment_options_are_checked():
+    with pytest.raises(ValueError, match="experiment"):
+        immtrain.evaluate("ga_imm")
+    with pytest.raises(TypeError, match="gate_on"):
+        immtrain.evaluate("ga-imm", gate_on="best")
+    with pytest.raises(ValueError, match="runs"):
+        immtrain.evaluate("plain-imm", runs=0)
+    with pytest.raises(RuntimeError, match="no_such_model"):
+        immtrain.evaluate("plain-imm", model="models/no_such_model.h5")
+
+
+def test_rank_chooses_what_tracker_json_records(tmp_path):
+    result = immtrain.rank(["models/baseline_imm_agile_air.h5", "models/classical_imm_agile_air.h5"],
+                           ["models/ga_fuzzy_imm_agile_air.h5"], runs=5, out=tmp_path / "rank")
+    tracker = json.loads((tmp_path / "rank" / "tracker.json").read_text())
+    assert result["tracker"] == tracker["tracker"]
+    assert result["bar"] == tracker["bar"]
+    assert [row["filter"] for row in result["ranking"]] == \
+        [row["filter"] for row in tracker["ranking"]]
+    assert result["findings"] == tracker["findings"]
