@@ -6,7 +6,7 @@ model's length unit (Tracker.length_unit, "m" or "km"), angles in radians, times
 k is a whole number and one scan is the model's sample period.
 """
 import os
-from typing import Any, Dict, List, Optional, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -280,3 +280,14 @@ def rank(baselines: List[_Path], candidates: List[_Path], *, evaluations: List[_
     filter, file, kind, classical, eligible, zeta_p, zeta_v, verdict, versus_bar), findings and
     exit_code. With `out`, writes tracker.json there; with `ship` (and `out`), writes the winner
     there, calibrated unless raw_ship."""
+
+def train(kind: str, *, config: Optional[_Path] = None, regime: Optional[_Path] = None,
+          seed: Optional[int] = None, out: Optional[_Path] = None, threads: Optional[int] = None,
+          progress: Optional[Callable[[str, str], None]] = None) -> Dict[str, Any]:
+    """Trains one model exactly as `imm-train <kind>` does — ga, mlp, wimm, fcm, tsk, baseline,
+    schedule, or the kind's own name (ga_fuzzy_imm, …) — with the command's defaults for what is
+    not given: the same parameters for the same seed. progress(level, message) receives every log
+    line while it trains; the GIL is released otherwise. Returns model (the file, None when a
+    quality gate kept it from being written), exit_code (imm-train's) and metrics (the training
+    metrics written beside the model). ValueError for an unknown kind or an invalid config, naming
+    the key."""

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// The Python module `immtrain_lab`: the trainer's side of immtrain — regimes, their tracks and the
-// experiments of imm-eval — as Python calls into the C++ libraries (never the command-line tools).
+// The Python module `immtrain_lab`: the trainer's side of immtrain — regimes, their tracks, the
+// experiments of imm-eval and the trainings of imm-train — as Python calls into the C++ libraries
+// (never the command-line tools).
 // `immtrain` imports it on first use of one of its names (immtrain.load_regime, immtrain.evaluate,
 // …), so that a program that only tracks loads the runtime alone.
 //
@@ -9,6 +10,7 @@
 //   tracks = regime.draw("test", runs=20)          # numpy arrays: truth, plots, times, …
 //   result = immtrain.evaluate("ga-imm", model="models/ga_fuzzy_imm_agile_air.h5", runs=20)
 //   result["filters"]["GA-IMM"]["zeta_p"], result["findings"], result["exit_code"]
+//   trained = immtrain.train("ga", config="configs/ga_fuzzy_imm.toml", seed=3, out="mine.h5")
 
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
@@ -30,6 +32,7 @@
 #include "imm/io/file_error.hpp"
 #include "imm/support/config.hpp"
 #include "lab_results.hpp"
+#include "lab_training.hpp"
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
@@ -131,8 +134,8 @@ PyRegime regime_from_text(std::string text, const std::string& name) {
 
 PYBIND11_MODULE(immtrain_lab, m) {
   m.doc() =
-      "immtrain's trainer side: regimes, their tracks and the experiments of imm-eval (imported by "
-      "immtrain on first use)";
+      "immtrain's trainer side: regimes, their tracks, the experiments of imm-eval and the "
+      "trainings of imm-train (imported by immtrain on first use)";
   py::register_exception_translator(
       [](std::exception_ptr p) {  // NOLINT(performance-unnecessary-value-param)
         try {
@@ -220,4 +223,5 @@ PYBIND11_MODULE(immtrain_lab, m) {
       "A regime from a dict shaped like a regime file (nested dicts for its tables, lists of dicts "
       "for [[maneuvers]]), validated as a file is: ValueError naming the key");
   add_experiments(m);
+  add_training(m);
 }

@@ -117,3 +117,61 @@ def test_rank_chooses_what_tracker_json_records(tmp_path):
     assert [row["filter"] for row in result["ranking"]] == \
         [row["filter"] for row in tracker["ranking"]]
     assert result["findings"] == tracker["findings"]
+
+
+def small_ga_config(tmp_path):
+    text = open("configs/ga_fuzzy_imm.toml").read()
+    text = text.replace("population = 500", "population = 16").replace(
+        "generations = 100", "generations = 2")
+    path = tmp_path / "ga.toml"
+    path.write_text(text)
+    return path
+
+
+def test_training_gives_what_imm_train_gives_with_the_same_seed(tmp_path):
+    config = small_ga_config(tmp_path)
+    lines = []
+    result = immtrain.train("ga", config=config, seed=7, out=tmp_path / "py.h5", threads=1,
+                            progress=lambda level, message: lines.append((level, message)))
+    assert result["exit_code"] == 0
+    assert result["model"] == tmp_path / "py.h5"
+    assert result["metrics"]["seed"] == 7
+    assert lines and all(isinstance(m, str) for _, m in lines)
+    subprocess.run([os.path.join(BIN, "imm-train"), "ga", "--config", str(config), "--seed", "7",
+                    "--out", str(tmp_path / "cli.h5"), "--threads", "1"],
+                   check=True, env=TOOL_ENV, capture_output=True)
+    ours = immtrain.inspect(tmp_path / "py.h5")
+    theirs = immtrain.inspect(tmp_path / "cli.h5")
+    # Every parameter the same (provenance and the levels' wall times aside).
+    assert ours["parameters"].keys() == theirs["parameters"].keys()
+    for name, value in ours["parameters"].items():
+        other = theirs["parameters"][name]
+        timeless = [{k: v for k, v in p["attributes"].items() if k != "wall_seconds"}
+                    for p in (value, other)]
+        assert timeless[0] == timeless[1], name
+        assert ("values" in value) == ("values" in other), name
+        if "values" in value:
+            np.testing.assert_array_equal(value["values"], other["values"], err_msg=name)
+    # The kind's own name is accepted as imm-train accepts it.
+    again = immtrain.train("ga_fuzzy_imm", config=config, seed=7, out=tmp_path / "kind.h5",
+                           threads=1)
+    assert again["exit_code"] == 0
+
+
+def test_training_refuses_what_imm_train_refuses(tmp_path):
+    with pytest.raises(ValueError, match="no_such_kind"):
+        immtrain.train("no_such_kind")
+    bad = tmp_path / "bad.toml"
+    bad.write_text(open("configs/ga_fuzzy_imm.toml").read().replace(
+        "population = 500", "population = -3"))
+    with pytest.raises(ValueError, match="population"):
+        immtrain.train("ga", config=bad, out=tmp_path / "never.h5")
+    assert not (tmp_path / "never.h5").exists()
+
+
+def test_a_progress_callback_that_raises_stops_nothing_but_raises_after(tmp_path):
+    def fail(level, message):
+        raise RuntimeError("callback says no")
+    with pytest.raises(RuntimeError, match="callback says no"):
+        immtrain.train("ga", config=small_ga_config(tmp_path), seed=3, out=tmp_path / "m.h5",
+                       threads=1, progress=fail)

@@ -1,0 +1,151 @@
+// SPDX-License-Identifier: Apache-2.0
+// train(kind, …): one training exactly as its imm-train subcommand runs it — the same parser and
+// the same code (pipeline/training_commands.hpp, as a sweep's job), in this process — so a model
+// trained here with a seed has the same parameters as `imm-train <kind> --seed` gives. The
+// training's log lines also go to a Python callback while it runs.
+#include "lab_training.hpp"
+
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+#include <spdlog/sinks/base_sink.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "imm/pipeline/training_commands.hpp"
+#include "imm/support/kind_aliases.hpp"
+
+namespace py = pybind11;
+namespace fs = std::filesystem;
+
+namespace {
+
+// Hands every log line to a Python callable (level, message), with the GIL; a callable that raises
+// is not called again and its exception is raised when the training ends.
+class CallbackSink final : public spdlog::sinks::base_sink<std::mutex> {
+ public:
+  explicit CallbackSink(py::function callback) : callback_(std::move(callback)) {}
+  CallbackSink(const CallbackSink&) = delete;
+  CallbackSink& operator=(const CallbackSink&) = delete;
+  ~CallbackSink() override {
+    const py::gil_scoped_acquire gil;
+    callback_ = py::function();
+  }
+
+  // The callable's exception, if it raised one.
+  void rethrow() {
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ protected:
+  void sink_it_(const spdlog::details::log_msg& message) override {
+    if (error_) return;
+    const std::string level(spdlog::level::to_string_view(message.level).data(),
+                            spdlog::level::to_string_view(message.level).size());
+    const std::string text(message.payload.data(), message.payload.size());
+    const py::gil_scoped_acquire gil;
+    try {
+      callback_(level, text);
+    } catch (py::error_already_set&) {
+      error_ = std::current_exception();
+    }
+  }
+  void flush_() override {}
+
+ private:
+  py::function callback_;
+  std::exception_ptr error_;
+};
+
+// The callback's sink on the default logger while it lives.
+class ProgressScope {
+ public:
+  explicit ProgressScope(std::shared_ptr<CallbackSink> sink) : sink_(std::move(sink)) {
+    if (sink_) spdlog::default_logger()->sinks().push_back(sink_);
+  }
+  ~ProgressScope() {
+    if (!sink_) return;
+    auto& sinks = spdlog::default_logger()->sinks();
+    sinks.erase(std::remove(sinks.begin(), sinks.end(), sink_), sinks.end());
+  }
+  ProgressScope(const ProgressScope&) = delete;
+  ProgressScope& operator=(const ProgressScope&) = delete;
+
+ private:
+  std::shared_ptr<CallbackSink> sink_;
+};
+
+py::dict train(const std::string& kind, const std::optional<fs::path>& config,
+               const std::optional<fs::path>& regime, std::optional<std::uint64_t> seed,
+               const std::optional<fs::path>& out, std::optional<int> threads,
+               const std::optional<py::function>& progress) {
+  imm::pipeline::SweepJob job;
+  job.name = "immtrain.train('" + kind + "')";
+  job.kind = kind;
+  job.arguments = {kind};
+  const auto add = [&](const char* option, const std::string& value) {
+    job.arguments.emplace_back(option);
+    job.arguments.push_back(value);
+  };
+  if (config) add("--config", config->string());
+  if (regime) add("--regime", regime->string());
+  if (seed) add("--seed", std::to_string(*seed));
+  if (out) add("--out", out->string());
+  if (threads) add("--threads", std::to_string(*threads));
+  CLI::App app{"imm-train"};
+  const imm::pipeline::TrainingCommands training(app);
+  imm::support::alias_model_kinds(app);
+  try {
+    imm::pipeline::parse_job(app, job);
+  } catch (const CLI::ParseError& error) {
+    throw py::value_error("train('" + kind + "'): " + error.what());
+  }
+  const std::optional<fs::path> model = training.chosen_out();
+  if (!model) throw py::value_error("train: '" + kind + "' is no training of imm-train");
+  std::shared_ptr<CallbackSink> sink;
+  if (progress) sink = std::make_shared<CallbackSink>(*progress);
+  int code = 0;
+  {
+    const ProgressScope scope(sink);
+    const py::gil_scoped_release release;
+    code = training.run();
+  }
+  if (sink) sink->rethrow();
+  py::dict result;
+  result["exit_code"] = code;
+  const bool written = fs::exists(*model);
+  result["model"] = written ? py::cast(*model) : py::none();
+  fs::path metrics = *model;
+  metrics.replace_extension(".metrics.json");
+  if (written && fs::exists(metrics)) {
+    std::ifstream in(metrics);
+    result["metrics"] = py::module_::import("json").attr("loads")(
+        std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()));
+  } else {
+    result["metrics"] = py::none();
+  }
+  return result;
+}
+
+}  // namespace
+
+void add_training(py::module_& m) {
+  m.def("train", &train, py::arg("kind"), py::kw_only(), py::arg("config") = py::none(),
+        py::arg("regime") = py::none(), py::arg("seed") = py::none(), py::arg("out") = py::none(),
+        py::arg("threads") = py::none(), py::arg("progress") = py::none(),
+        "Trains one model exactly as `imm-train <kind>` does (ga, mlp, wimm, fcm, tsk, baseline, "
+        "schedule, or the kind's own name), with its defaults for what is not given: config, "
+        "regime (replaces the config's), seed, out (the model file), threads (ga). progress(level, "
+        "message) receives every log line while it trains (the GIL is released otherwise). "
+        "Returns the model file (None when a quality gate kept it from being written), the exit "
+        "code imm-train would give and the training metrics it wrote beside the model");
+}
