@@ -40,7 +40,7 @@ REGIME = {
     "maneuvers": [{"kind": "cv", "probability": 0.5, "duration": [8.0, 20.0]},
                   {"kind": "turn", "probability": 0.5, "duration": [6.0, 15.0],
                    "rate_deg": [3.0, 8.0]}],
-    "splits": {"training": 6, "validation": 3, "test": 30, "seed": 1},
+    "splits": {"training": 24, "validation": 8, "test": 30, "seed": 1},
 }
 
 

@@ -92,6 +92,11 @@ def test_an_experiment_returns_the_numbers_of_its_metrics_json(tmp_path):
         assert d["zeta_p"] == details["ga_imm_minus"][name]["zeta_p"]
     assert result["findings"] == details["findings"]
     assert result["exit_code"] in (0, 5, 7)
+    # report.md as imm-eval writes it, with the command line that gives the same result.
+    report = open(result["report"]).read()
+    assert "- Command: `imm-eval ga-imm --models models --model models/ga_fuzzy_imm.h5 --runs 6" \
+        in report
+    assert "| GA-IMM " in report
     # Without `out` nothing is written, and the figures are the same.
     again = immtrain.evaluate("ga-imm", model="models/ga_fuzzy_imm.h5", runs=6)
     assert again["filters"]["GA-IMM"]["zeta_p"] == result["filters"]["GA-IMM"]["zeta_p"]
@@ -117,6 +122,7 @@ def test_rank_chooses_what_tracker_json_records(tmp_path):
     assert [row["filter"] for row in result["ranking"]] == \
         [row["filter"] for row in tracker["ranking"]]
     assert result["findings"] == tracker["findings"]
+    assert os.path.exists(result["report"])
 
 
 def small_ga_config(tmp_path):
