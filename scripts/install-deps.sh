@@ -22,6 +22,7 @@ packages=(
   python3-pytest python3-matplotlib       # its tests and its example (tests/python, docs/examples)
   python3-scipy                           # the multi-target example's assignment (docs/examples)
   python3-venv python3-pip python3-setuptools python3-wheel  # pip install . (pyproject.toml)
+  python3-pandas python3-tqdm             # evaluate()'s DataFrame, train()'s progress bar
 )
 
 missing=()

@@ -265,7 +265,9 @@ def evaluate(experiment: str, *, model: Optional[_Path] = None, models: _Path = 
     runs, seed, dataset_digest, filters (each filter's zeta_p, zeta_v, RMSEs in the regime's
     units, position_nees, nis, the shares of scans inside their 95 % bounds, per-scan errors and
     mode probabilities as arrays), the experiment's paired differences as [estimate, lower,
-    upper] (the 95 % paired-bootstrap interval; below 0 the first-named filter is better),
+    upper] (the 95 % paired-bootstrap interval; below 0 the first-named filter is better), table
+    (the filters' figures a row each: a pandas.DataFrame where pandas is installed, else a dict
+    of columns),
     failures (gates), findings and exit_code (imm-eval's). With `out`, also writes the report's
     files there as imm-eval does, the same numbers as its metrics.json. Own options by keyword:
     data (plain-imm), paper_model (ga-imm), config and gate_on (fimm). The GIL is released while
@@ -283,11 +285,23 @@ def rank(baselines: List[_Path], candidates: List[_Path], *, evaluations: List[_
 
 def train(kind: str, *, config: Optional[_Path] = None, regime: Optional[_Path] = None,
           seed: Optional[int] = None, out: Optional[_Path] = None, threads: Optional[int] = None,
-          progress: Optional[Callable[[str, str], None]] = None) -> Dict[str, Any]:
+          progress: Union[None, bool, Callable[[str, str], None]] = None) -> Dict[str, Any]:
     """Trains one model exactly as `imm-train <kind>` does — ga, mlp, wimm, fcm, tsk, baseline,
     schedule, or the kind's own name (ga_fuzzy_imm, …) — with the command's defaults for what is
     not given: the same parameters for the same seed. progress(level, message) receives every log
-    line while it trains; the GIL is released otherwise. Returns model (the file, None when a
+    line while it trains (progress=True: a tqdm bar of them, where tqdm is installed); the GIL is
+    released otherwise. Returns model (the file, None when a
     quality gate kept it from being written), exit_code (imm-train's) and metrics (the training
     metrics written beside the model). ValueError for an unknown kind or an invalid config, naming
     the key."""
+
+def import_recordings(files: List[_Path], *, out: _Path, name: str = "recorded",
+                      sensor: str = "cartesian", units: str = "m", sample_period: float = 0.0,
+                      tolerance: float = 0.05, scans: int = 0) -> Dict[str, Any]:
+    """Imports recorded tracks — CSV files, or folders of them (t in s, the plots, optional truth;
+    docs/regimes.md) — into the track set file `out`, as imm-data import does: file, digest,
+    recordings, windows, scans, sample_period (s), gap_scans, dropped_scans and the tracks as
+    numpy arrays (Regime.draw's keys). sensor: cartesian, polar or range_sensor; units: m or km;
+    sample_period: 0 takes the first track's median step; tolerance: of a sample period, for each
+    time's place on the grid; scans: per window, 0 the shortest track. ValueError naming a bad
+    option, RuntimeError naming the file, line and column of a bad recording."""

@@ -18,6 +18,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <cmath>
 #include <cstdint>
 #include <fstream>
 #include <iterator>
@@ -25,12 +26,16 @@
 #include <string>
 #include <vector>
 
+#include "imm/build_info.hpp"
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/datasets/dataset_file.hpp"
+#include "imm/datasets/recorded.hpp"
 #include "imm/datasets/regime_file.hpp"
 #include "imm/datasets/track.hpp"
 #include "imm/evaluation/experiments.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/support/config.hpp"
+#include "lab_experiments.hpp"
 #include "lab_results.hpp"
 #include "lab_training.hpp"
 
@@ -114,8 +119,7 @@ struct PyRegime {
                               std::optional<int> runs) const {
     const imm::datasets::Regime& regime = file.regime;
     const imm::datasets::Split split = split_named(split_name);
-    if (runs && *runs < 1)
-      throw py::value_error("runs: must be ≥ 1 (got " + std::to_string(*runs) + ")");
+    require_runs(runs);
     imm::datasets::TrackSet set;
     {
       const py::gil_scoped_release release;
@@ -222,6 +226,67 @@ PYBIND11_MODULE(immtrain_lab, m) {
       py::arg("table"), py::arg("name") = "<dict>",
       "A regime from a dict shaped like a regime file (nested dicts for its tables, lists of dicts "
       "for [[maneuvers]]), validated as a file is: ValueError naming the key");
+  m.def(
+      "import_recordings",
+      [](const std::vector<fs::path>& files, const fs::path& out, const std::string& name,
+         const std::string& sensor, const std::string& units, double sample_period,
+         double tolerance, int scans) {
+        using imm::datasets::SensorKind;
+        imm::datasets::ImportOptions options;
+        options.name = name;
+        if (sensor != "cartesian" && sensor != "polar" && sensor != "range_sensor") {
+          throw py::value_error("sensor: '" + sensor +
+                                "' is none of cartesian, polar, range_sensor");
+        }
+        options.kind = sensor == "polar"          ? SensorKind::kPolar
+                       : sensor == "range_sensor" ? SensorKind::kRangeSensor
+                                                  : SensorKind::kCartesian;
+        if (units != "m" && units != "km") {
+          throw py::value_error("units: '" + units + "' is neither m nor km");
+        }
+        options.units =
+            units == "km" ? imm::datasets::Units::kKilometres : imm::datasets::Units::kMetres;
+        if (!(sample_period >= 0.0) || !std::isfinite(sample_period)) {
+          throw py::value_error("sample_period: must be ≥ 0 s (0: the first track's median step)");
+        }
+        if (!(tolerance >= 1e-9 && tolerance <= 0.49)) {
+          throw py::value_error("tolerance: must lie in [1e-9, 0.49] of a sample period");
+        }
+        if (scans != 0 && scans < 3) throw py::value_error("scans: must be ≥ 3 (0: the shortest)");
+        if (files.empty()) throw py::value_error("files: at least one recording is needed");
+        options.sample_period = sample_period;
+        options.tolerance = tolerance;
+        options.scans = scans;
+        imm::datasets::ImportReport report;
+        imm::datasets::TrackSet set;
+        std::string digest;
+        {
+          const py::gil_scoped_release release;
+          set = imm::datasets::import_recording_files(files, options, &report);
+          if (out.has_parent_path()) fs::create_directories(out.parent_path());
+          digest = imm::datasets::write_track_set(
+              out, imm::datasets::recording_header(options, set), set, imm::kBuildVersion);
+        }
+        py::dict result;
+        result["file"] = out;
+        result["digest"] = digest;
+        result["recordings"] = report.recordings;
+        result["windows"] = report.windows;
+        result["scans"] = report.scans;
+        result["sample_period"] = report.sample_period;
+        result["gap_scans"] = report.gap_scans;
+        result["dropped_scans"] = report.dropped_scans;
+        result["tracks"] = track_arrays(set);
+        return result;
+      },
+      py::arg("files"), py::kw_only(), py::arg("out"), py::arg("name") = "recorded",
+      py::arg("sensor") = "cartesian", py::arg("units") = "m", py::arg("sample_period") = 0.0,
+      py::arg("tolerance") = 0.05, py::arg("scans") = 0,
+      "Imports recorded tracks (CSV files, or folders of them: t, the plots, optional truth; "
+      "docs/regimes.md) into a track set file `out`, as imm-data import does, and returns what it "
+      "did and the tracks as numpy arrays. sample_period in s (0: the first track's median step), "
+      "tolerance in sample periods, scans per window (0: the shortest track). A bad file is a "
+      "RuntimeError naming the file, line and column");
   add_experiments(m);
   add_training(m);
 }

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Every experiment's typed result as a dict: what it shares (ExperimentResult) under the same keys
 // for every experiment, and its own tables under theirs. Differences are [estimate, lower, upper]
-// (the 95 % paired-bootstrap interval), as in metrics.json.
+// (the 95 % paired-bootstrap interval), as in metrics.json. And a data set's tracks as arrays.
 #include "lab_results.hpp"
 
 #include <pybind11/eigen.h>
@@ -9,17 +9,11 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
-#include <algorithm>
 #include <filesystem>
-#include <iostream>
 #include <map>
-#include <optional>
-#include <streambuf>
 #include <string>
-#include <type_traits>
 #include <vector>
 
-#include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiments.hpp"
 
 namespace py = pybind11;
@@ -76,6 +70,40 @@ py::dict outcome(const ev::FilterOutcome& f) {
   return out;
 }
 
+// The filters' figures as one table, a row per filter: a pandas.DataFrame where pandas is
+// installed, else a dict of columns with the names under "filter".
+py::object table(const std::vector<ev::FilterOutcome>& filters) {
+  std::vector<std::string> names;
+  std::vector<double> zeta_p, zeta_v, position_rmse, velocity_rmse, nees, nis, nees_in, nis_in;
+  for (const ev::FilterOutcome& f : filters) {
+    names.push_back(f.name);
+    zeta_p.push_back(f.zeta_p);
+    zeta_v.push_back(f.zeta_v);
+    position_rmse.push_back(f.position_rmse);
+    velocity_rmse.push_back(f.velocity_rmse);
+    nees.push_back(f.position_consistency.average);
+    nis.push_back(f.nis_consistency.average);
+    nees_in.push_back(f.position_consistency.inside);
+    nis_in.push_back(f.nis_consistency.inside);
+  }
+  py::dict columns;
+  columns["zeta_p"] = zeta_p;
+  columns["zeta_v"] = zeta_v;
+  columns["position_rmse"] = position_rmse;
+  columns["velocity_rmse"] = velocity_rmse;
+  columns["position_nees"] = nees;
+  columns["nis"] = nis;
+  columns["position_nees_scans_inside"] = nees_in;
+  columns["nis_scans_inside"] = nis_in;
+  try {
+    return py::module_::import("pandas").attr("DataFrame")(columns, py::arg("index") = names);
+  } catch (py::error_already_set& error) {
+    if (!error.matches(PyExc_ImportError)) throw;
+  }
+  columns["filter"] = names;
+  return columns;
+}
+
 // What every experiment's result holds.
 py::dict common(const ev::ExperimentResult& r) {
   py::dict out;
@@ -92,6 +120,7 @@ py::dict common(const ev::ExperimentResult& r) {
   py::dict filters;
   for (const ev::FilterOutcome& f : r.filters) filters[py::str(f.name)] = outcome(f);
   out["filters"] = filters;
+  out["table"] = table(r.filters);
   out["failures"] = r.failures;
   out["findings"] = r.findings;
   out["exit_code"] = r.exit_code();
@@ -111,6 +140,8 @@ py::object bar(const std::optional<ev::BarComparison>& c) {
   out["filters"] = filters;
   return out;
 }
+
+}  // namespace
 
 py::dict to_dict(const ev::PlainImmResult& r) {
   py::dict out = common(r);
@@ -295,154 +326,11 @@ py::dict to_dict(const ev::RankResult& r) {
   return out;
 }
 
-// Takes what is written to it and keeps nothing.
-class NullBuffer final : public std::streambuf {
- protected:
-  int overflow(int c) override { return traits_type::not_eof(c); }
-  std::streamsize xsputn(const char* /*text*/, std::streamsize count) override { return count; }
-};
-
-// Runs `evaluate` with the GIL released; with a `command` (the imm-eval command line that gives the
-// same result), then the report into the options' folder as imm-eval writes it, report.md
-// included, without printing it. The result's "report" is report.md's path (None without).
-template <class Options, class Result>
-py::dict run(Options options, Result (*evaluate)(const Options&),
-             int (*report)(const Result&, const Options&),
-             const std::vector<std::string>& command) {
-  Result result;
-  fs::path written;
-  {
-    const py::gil_scoped_release release;
-    result = evaluate(options);
-    if (!command.empty()) {
-      NullBuffer quiet;
-      std::streambuf* console = std::cout.rdbuf(&quiet);
-      try {
-        std::vector<const char*> argv;
-        argv.reserve(command.size());
-        for (const std::string& argument : command) argv.push_back(argument.c_str());
-        ev::ReportRecorder recorder(static_cast<int>(argv.size()), argv.data());
-        (void)report(result, options);
-        written = recorder.finish();
-      } catch (...) {
-        std::cout.rdbuf(console);
-        throw;
-      }
-      std::cout.rdbuf(console);
-    }
-  }
-  py::dict out = to_dict(result);
-  out["report"] = written.empty() ? py::none() : py::cast(written);
-  return out;
-}
-
-// The imm-eval command line of an experiment's options: what report.md says ran.
-std::vector<std::string> command_of(const std::string& experiment, const ev::CommonOptions& c,
-                                    const std::vector<std::string>& more) {
-  std::vector<std::string> command = {"imm-eval",        experiment, "--models",
-                                      c.models.string(), "--model",  c.model};
-  if (c.regime) command.insert(command.end(), {"--regime", c.regime->string()});
-  if (c.runs) command.insert(command.end(), {"--runs", std::to_string(*c.runs)});
-  command.insert(command.end(), {"--seed", std::to_string(c.seed)});
-  if (c.classical) command.insert(command.end(), {"--classical", c.classical->string()});
-  if (c.truth_tracks) command.emplace_back("--truth-tracks");
-  command.insert(command.end(), more.begin(), more.end());
-  command.insert(command.end(), {"--out", c.out.string()});
-  return command;
-}
-
-py::dict evaluate(const std::string& experiment, const std::optional<fs::path>& model,
-                  const fs::path& models, const std::optional<fs::path>& regime,
-                  std::optional<int> runs, std::uint64_t seed,
-                  const std::optional<fs::path>& classical, bool truth_tracks,
-                  const std::optional<fs::path>& out, const py::kwargs& extra) {
-  if (runs && *runs < 1)
+void require_runs(const std::optional<int>& runs) {
+  if (runs && *runs < 1) {
     throw py::value_error("runs: must be ≥ 1 (got " + std::to_string(*runs) + ")");
-  const auto fill = [&](ev::CommonOptions& c) {
-    if (model) c.model = model->string();
-    c.models = models;
-    c.regime = regime;
-    c.runs = runs;
-    c.seed = seed;
-    c.classical = classical;
-    c.truth_tracks = truth_tracks;
-    if (out) c.out = *out;
-  };
-  std::vector<std::string> allowed;
-  const auto take = [&](const char* key, auto& target) {
-    allowed.emplace_back(key);
-    if (extra.contains(key)) target = extra[key].cast<std::remove_reference_t<decltype(target)>>();
-  };
-  const auto check_extra = [&] {
-    for (const auto& [key, value] : extra) {
-      const std::string name = py::str(key).cast<std::string>();
-      if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
-        std::string message = "evaluate('" + experiment + "'): no option '";
-        message.append(name).append("'");
-        throw py::type_error(message);
-      }
-    }
-  };
-  const bool write = out.has_value();
-  const auto command = [&](const std::string& name, const ev::CommonOptions& c,
-                           const std::vector<std::string>& more = {}) {
-    return write ? command_of(name, c, more) : std::vector<std::string>{};
-  };
-  if (experiment == "plain-imm") {
-    ev::PlainImmOptions o;
-    fill(o.common);
-    take("data", o.data);
-    check_extra();
-    return run(o, ev::evaluate_plain_imm, ev::report_plain_imm,
-               command(experiment, o.common,
-                       o.data.empty() ? std::vector<std::string>{}
-                                      : std::vector<std::string>{"--data", o.data}));
   }
-  if (experiment == "ga-imm") {
-    ev::GaImmOptions o;
-    fill(o.common);
-    take("paper_model", o.paper_model);
-    check_extra();
-    return run(o, ev::evaluate_ga_imm, ev::report_ga_imm,
-               command(experiment, o.common, {"--paper-model", o.paper_model}));
-  }
-  if (experiment == "input-estimator") {
-    ev::InputEstimatorOptions o;
-    fill(o.common);
-    check_extra();
-    return run(o, ev::evaluate_input_estimator, ev::report_input_estimator,
-               command(experiment, o.common));
-  }
-  if (experiment == "wimm") {
-    ev::WimmOptions o;
-    fill(o.common);
-    check_extra();
-    return run(o, ev::evaluate_wimm, ev::report_wimm, command(experiment, o.common));
-  }
-  if (experiment == "fcm-imm") {
-    ev::FcmImmOptions o;
-    fill(o.common);
-    check_extra();
-    return run(o, ev::evaluate_fcm_imm, ev::report_fcm_imm, command(experiment, o.common));
-  }
-  if (experiment == "fimm") {
-    ev::FimmOptions o;
-    fill(o.common);
-    take("config", o.config);
-    take("gate_on", o.gate_on);
-    check_extra();
-    if (o.gate_on != "ekf" && o.gate_on != "best") {
-      throw py::value_error("gate_on: '" + o.gate_on + "' is neither ekf nor best");
-    }
-    return run(
-        o, ev::evaluate_fimm, ev::report_fimm,
-        command(experiment, o.common, {"--config", o.config.string(), "--gate-on", o.gate_on}));
-  }
-  throw py::value_error("experiment: '" + experiment +
-                        "' is none of plain-imm, ga-imm, input-estimator, wimm, fcm-imm, fimm");
 }
-
-}  // namespace
 
 py::dict track_arrays(const imm::datasets::TrackSet& set) {
   const auto tracks = static_cast<py::ssize_t>(set.tracks.size());
@@ -481,62 +369,4 @@ py::dict track_arrays(const imm::datasets::TrackSet& set) {
   out["maneuvering"] = maneuvering;
   out["case"] = cases;
   return out;
-}
-
-void add_experiments(py::module_& m) {
-  m.def("evaluate", &evaluate, py::arg("experiment"), py::kw_only(), py::arg("model") = py::none(),
-        py::arg("models") = fs::path("models"), py::arg("regime") = py::none(),
-        py::arg("runs") = py::none(), py::arg("seed") = 1, py::arg("classical") = py::none(),
-        py::arg("truth_tracks") = false, py::arg("out") = py::none(),
-        "Runs an imm-eval experiment (plain-imm, ga-imm, input-estimator, wimm, fcm-imm, fimm) "
-        "with the command's options and returns its result: every filter's figures, the paired "
-        "differences [estimate, lower, upper], the gates' failures, the findings and the exit "
-        "code imm-eval would give. With `out`, also writes the report there as imm-eval does, "
-        "report.md included (its path in \"report\"), without printing it. Its own options by "
-        "keyword: data (plain-imm), paper_model (ga-imm), "
-        "config and gate_on (fimm)");
-  m.def(
-      "rank",
-      [](const std::vector<fs::path>& baselines, const std::vector<fs::path>& candidates,
-         const std::vector<fs::path>& evaluations, const std::optional<fs::path>& regime,
-         std::optional<int> runs, std::uint64_t seed, const std::optional<fs::path>& out,
-         const std::optional<fs::path>& ship, bool raw_ship) {
-        if (baselines.empty()) throw py::value_error("baselines: at least one is needed");
-        if (runs && *runs < 1) {
-          throw py::value_error("runs: must be ≥ 1 (got " + std::to_string(*runs) + ")");
-        }
-        if (ship && !out) throw py::value_error("ship: needs out (tracker.json records it)");
-        ev::RankOptions o;
-        o.baselines = baselines;
-        o.candidates = candidates;
-        o.evaluations = evaluations;
-        o.regime = regime;
-        o.runs = runs;
-        o.seed = seed;
-        if (out) o.out = *out;
-        o.ship = ship;
-        o.raw_ship = raw_ship;
-        std::vector<std::string> command;
-        if (out) {
-          command = {"imm-eval", "rank", "--baseline"};
-          for (const fs::path& b : baselines) command.push_back(b.string());
-          command.emplace_back("--candidates");
-          for (const fs::path& c : candidates) command.push_back(c.string());
-          if (!evaluations.empty()) command.emplace_back("--evaluations");
-          for (const fs::path& e : evaluations) command.push_back(e.string());
-          if (regime) command.insert(command.end(), {"--regime", regime->string()});
-          if (runs) command.insert(command.end(), {"--runs", std::to_string(*runs)});
-          command.insert(command.end(), {"--seed", std::to_string(seed), "--out", out->string()});
-          if (ship) command.insert(command.end(), {"--ship", ship->string()});
-          if (raw_ship) command.emplace_back("--raw-ship");
-        }
-        return run(o, ev::evaluate_rank, ev::report_rank, command);
-      },
-      py::arg("baselines"), py::arg("candidates"), py::kw_only(),
-      py::arg("evaluations") = std::vector<fs::path>{}, py::arg("regime") = py::none(),
-      py::arg("runs") = py::none(), py::arg("seed") = 1, py::arg("out") = py::none(),
-      py::arg("ship") = py::none(), py::arg("raw_ship") = false,
-      "The regime's tracker, as imm-eval rank: the baselines and the candidates ranked on the "
-      "test split; with `out`, tracker.json there, and with `ship` the winner written (with its "
-      "covariance calibration unless raw_ship)");
 }

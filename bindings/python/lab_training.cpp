@@ -84,10 +84,17 @@ class ProgressScope {
   std::shared_ptr<CallbackSink> sink_;
 };
 
+// At most `bytes` bytes of `text`, not cutting a UTF-8 character.
+std::string head(const std::string& text, std::size_t bytes) {
+  if (text.size() <= bytes) return text;
+  while (bytes > 0 && (static_cast<unsigned char>(text[bytes]) & 0xC0U) == 0x80U) --bytes;
+  return text.substr(0, bytes);
+}
+
 py::dict train(const std::string& kind, const std::optional<fs::path>& config,
                const std::optional<fs::path>& regime, std::optional<std::uint64_t> seed,
                const std::optional<fs::path>& out, std::optional<int> threads,
-               const std::optional<py::function>& progress) {
+               const std::optional<py::object>& progress) {
   imm::pipeline::SweepJob job;
   job.name = "immtrain.train('" + kind + "')";
   job.kind = kind;
@@ -111,14 +118,36 @@ py::dict train(const std::string& kind, const std::optional<fs::path>& config,
   }
   const std::optional<fs::path> model = training.chosen_out();
   if (!model) throw py::value_error("train: '" + kind + "' is no training of imm-train");
+  // progress=True: a tqdm bar of the log lines, the last one beside it (a print of each line
+  // where tqdm is not installed).
+  py::object bar = py::none();
+  py::function callback;
+  if (progress && py::isinstance<py::bool_>(*progress)) {
+    if (progress->cast<bool>()) {
+      try {
+        bar = py::module_::import("tqdm").attr("tqdm")(py::arg("desc") = "train " + kind,
+                                                       py::arg("unit") = " lines");
+        callback = py::cpp_function([bar](const std::string& /*level*/, const std::string& text) {
+          bar.attr("set_postfix_str")(head(text, 70), py::arg("refresh") = false);
+          bar.attr("update")(1);
+        });
+      } catch (py::error_already_set& error) {
+        if (!error.matches(PyExc_ImportError)) throw;
+        callback = py::module_::import("builtins").attr("print").cast<py::function>();
+      }
+    }
+  } else if (progress) {
+    callback = progress->cast<py::function>();
+  }
   std::shared_ptr<CallbackSink> sink;
-  if (progress) sink = std::make_shared<CallbackSink>(*progress);
+  if (callback) sink = std::make_shared<CallbackSink>(callback);
   int code = 0;
   {
     const ProgressScope scope(sink);
     const py::gil_scoped_release release;
     code = training.run();
   }
+  if (!bar.is_none()) bar.attr("close")();
   if (sink) sink->rethrow();
   py::dict result;
   result["exit_code"] = code;
@@ -145,7 +174,8 @@ void add_training(py::module_& m) {
         "Trains one model exactly as `imm-train <kind>` does (ga, mlp, wimm, fcm, tsk, baseline, "
         "schedule, or the kind's own name), with its defaults for what is not given: config, "
         "regime (replaces the config's), seed, out (the model file), threads (ga). progress(level, "
-        "message) receives every log line while it trains (the GIL is released otherwise). "
+        "message) receives every log line while it trains (the GIL is released otherwise); "
+        "progress=True shows a tqdm bar of them where tqdm is installed. "
         "Returns the model file (None when a quality gate kept it from being written), the exit "
         "code imm-train would give and the training metrics it wrote beside the model");
 }

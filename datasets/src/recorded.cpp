@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -317,6 +318,32 @@ void write_recording_csv(const std::filesystem::path& path, const TrackSet& set,
     out << '\n';
   }
   if (!out.flush()) throw std::runtime_error(path.string() + ": write failed");
+}
+
+TrackSet import_recording_files(const std::vector<std::filesystem::path>& inputs,
+                                const ImportOptions& options, ImportReport* report) {
+  // A folder stands for its *.csv files, in name order.
+  std::vector<std::filesystem::path> files;
+  for (const std::filesystem::path& input : inputs) {
+    if (!std::filesystem::is_directory(input)) {
+      files.push_back(input);
+      continue;
+    }
+    std::vector<std::filesystem::path> inside;
+    for (const auto& entry : std::filesystem::directory_iterator(input)) {
+      if (entry.is_regular_file() && entry.path().extension() == ".csv") {
+        inside.push_back(entry.path());
+      }
+    }
+    if (inside.empty()) throw std::runtime_error(input.string() + ": no .csv files in the folder");
+    std::sort(inside.begin(), inside.end());
+    files.insert(files.end(), inside.begin(), inside.end());
+  }
+  std::vector<RecordedTrack> tracks;
+  for (const auto& file : files) {
+    for (auto& track : read_recording(file, {options.kind})) tracks.push_back(std::move(track));
+  }
+  return import_recordings(tracks, options, report);
 }
 
 }  // namespace imm::datasets

@@ -97,6 +97,16 @@ def test_an_experiment_returns_the_numbers_of_its_metrics_json(tmp_path):
     assert "- Command: `imm-eval ga-imm --models models --model models/ga_fuzzy_imm.h5 --runs 6" \
         in report
     assert "| GA-IMM " in report
+    # One table of the filters' figures: a DataFrame where pandas is installed (it is a Debian
+    # package scripts/install-deps.sh installs), else a dict of columns.
+    table = result["table"]
+    try:
+        import pandas
+        assert isinstance(table, pandas.DataFrame)
+        assert table.loc["GA-IMM", "zeta_p"] == metrics["GA-IMM"]["zeta_p"]
+    except ImportError:
+        row = table["filter"].index("GA-IMM")
+        assert table["zeta_p"][row] == metrics["GA-IMM"]["zeta_p"]
     # Without `out` nothing is written, and the figures are the same.
     again = immtrain.evaluate("ga-imm", model="models/ga_fuzzy_imm.h5", runs=6)
     assert again["filters"]["GA-IMM"]["zeta_p"] == result["filters"]["GA-IMM"]["zeta_p"]
@@ -164,6 +174,15 @@ def test_training_gives_what_imm_train_gives_with_the_same_seed(tmp_path):
     assert again["exit_code"] == 0
 
 
+def test_progress_true_shows_a_bar_of_the_log_lines(tmp_path, capsys):
+    result = immtrain.train("ga", config=small_ga_config(tmp_path), seed=5,
+                            out=tmp_path / "bar.h5", threads=1, progress=True)
+    assert result["exit_code"] == 0
+    shown = capsys.readouterr()
+    # tqdm draws on stderr; without tqdm each line is printed.
+    assert "train ga" in shown.err or "generation" in shown.out
+
+
 def test_training_refuses_what_imm_train_refuses(tmp_path):
     with pytest.raises(ValueError, match="no_such_kind"):
         immtrain.train("no_such_kind")
@@ -181,3 +200,31 @@ def test_a_progress_callback_that_raises_stops_nothing_but_raises_after(tmp_path
     with pytest.raises(RuntimeError, match="callback says no"):
         immtrain.train("ga", config=small_ga_config(tmp_path), seed=3, out=tmp_path / "m.h5",
                        threads=1, progress=fail)
+
+
+def test_recordings_import_as_imm_data_imports_them(tmp_path):
+    # Three recorded tracks, one CSV each, at T = 2 s with a gap of one plot in the second.
+    rng = np.random.default_rng(4)
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    for n in range(3):
+        t = np.arange(0.0, 80.0, 2.0)
+        if n == 1:
+            t = np.delete(t, 7)
+        x = 1000.0 * n + 120.0 * t + rng.normal(0.0, 15.0, t.size)
+        y = -500.0 + 40.0 * t + rng.normal(0.0, 15.0, t.size)
+        rows = "\n".join(f"{a!r},{b!r},{c!r}" for a, b, c in zip(t, x, y))
+        (folder / f"track{n}.csv").write_text("t,zx,zy\n" + rows + "\n")
+    ours = immtrain.import_recordings([folder], out=tmp_path / "py.h5", name="mine")
+    assert (ours["recordings"], ours["sample_period"], ours["gap_scans"]) == (3, 2.0, 1)
+    assert ours["tracks"]["plots"].shape == (ours["windows"], ours["scans"], 2)
+    assert np.isnan(ours["tracks"]["plots"][1, 7]).all()  # the gap: a scan without a plot
+    listing = subprocess.run([os.path.join(BIN, "imm-data"), "import", str(folder), "--out",
+                              str(tmp_path / "cli.h5"), "--name", "mine"],
+                             check=True, env=TOOL_ENV, capture_output=True, text=True)
+    assert f"sha256 {ours['digest'][:16]}" in listing.stdout
+    with pytest.raises(ValueError, match="sensor"):
+        immtrain.import_recordings([folder], out=tmp_path / "x.h5", sensor="sonar")
+    (folder / "bad.csv").write_text("t,zx,zy\n0,1,2\n1,nan,3\n")
+    with pytest.raises(RuntimeError, match="bad.csv"):
+        immtrain.import_recordings([folder], out=tmp_path / "y.h5")

@@ -101,31 +101,9 @@ int import_recordings(const std::vector<std::string>& inputs, const std::string&
                                                  : SensorKind::kCartesian;
   options.units =
       units_name == "km" ? imm::datasets::Units::kKilometres : imm::datasets::Units::kMetres;
-  // A folder stands for its *.csv files, in name order.
-  std::vector<std::filesystem::path> files;
-  for (const std::string& input : inputs) {
-    if (!std::filesystem::is_directory(input)) {
-      files.emplace_back(input);
-      continue;
-    }
-    std::vector<std::filesystem::path> inside;
-    for (const auto& entry : std::filesystem::directory_iterator(input)) {
-      if (entry.is_regular_file() && entry.path().extension() == ".csv") {
-        inside.push_back(entry.path());
-      }
-    }
-    if (inside.empty()) throw std::runtime_error(input + ": no .csv files in the folder");
-    std::sort(inside.begin(), inside.end());
-    files.insert(files.end(), inside.begin(), inside.end());
-  }
-  std::vector<imm::datasets::RecordedTrack> tracks;
-  for (const auto& file : files) {
-    for (auto& track : imm::datasets::read_recording(file, {options.kind})) {
-      tracks.push_back(std::move(track));
-    }
-  }
   imm::datasets::ImportReport report;
-  const imm::datasets::TrackSet set = imm::datasets::import_recordings(tracks, options, &report);
+  const imm::datasets::TrackSet set = imm::datasets::import_recording_files(
+      std::vector<std::filesystem::path>(inputs.begin(), inputs.end()), options, &report);
   const std::filesystem::path folder = std::filesystem::path(out_path).parent_path();
   if (!folder.empty()) std::filesystem::create_directories(folder);
   const std::string digest = imm::datasets::write_track_set(

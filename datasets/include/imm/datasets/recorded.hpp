@@ -77,6 +77,12 @@ struct ImportReport {
 [[nodiscard]] TrackSet import_recordings(const std::vector<RecordedTrack>& recordings,
                                          const ImportOptions& options, ImportReport* report);
 
+/// read_recording of every file of `inputs` (a folder stands for its *.csv files, in name order),
+/// then import_recordings: what `imm-data import` and Python's immtrain.import_recordings do.
+/// Throws std::runtime_error naming the file (a folder without CSV files, a bad line).
+[[nodiscard]] TrackSet import_recording_files(const std::vector<std::filesystem::path>& inputs,
+                                              const ImportOptions& options, ImportReport* report);
+
 /// The regime header an imported set is written with: name, units, sample period, scans and the
 /// sensor kind, as TOML (what the data-set file's @config_toml records).
 [[nodiscard]] Regime recording_header(const ImportOptions& options, const TrackSet& set);
