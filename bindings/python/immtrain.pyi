@@ -290,7 +290,8 @@ def train(kind: str, *, config: Optional[_Path] = None, regime: Optional[_Path] 
     schedule, or the kind's own name (ga_fuzzy_imm, …) — with the command's defaults for what is
     not given: the same parameters for the same seed. progress(level, message) receives every log
     line while it trains (progress=True: a tqdm bar of them, where tqdm is installed); the GIL is
-    released otherwise. Returns model (the file, None when a
+    released otherwise. Ctrl-C stops the training at its next log line with KeyboardInterrupt, and
+    a callback that raises stops it with its exception; no model file is written then. Returns model (the file, None when a
     quality gate kept it from being written), exit_code (imm-train's) and metrics (the training
     metrics written beside the model). ValueError for an unknown kind or an invalid config, naming
     the key."""

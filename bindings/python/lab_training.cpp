@@ -2,7 +2,8 @@
 // train(kind, …): one training exactly as its imm-train subcommand runs it — the same parser and
 // the same code (pipeline/training_commands.hpp, as a sweep's job), in this process — so a model
 // trained here with a seed has the same parameters as `imm-train <kind> --seed` gives. The
-// training's log lines also go to a Python callback while it runs.
+// training's log lines also go to a Python callback while it runs, and Ctrl-C stops it at the
+// next line.
 #include "lab_training.hpp"
 
 #include <pybind11/stl.h>
@@ -11,6 +12,8 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -18,6 +21,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -29,35 +33,48 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Hands every log line to a Python callable (level, message), with the GIL; a callable that raises
-// is not called again and its exception is raised when the training ends.
-class CallbackSink final : public spdlog::sinks::base_sink<std::mutex> {
+// Thrown from the sink to stop a training; not a std::exception, so that spdlog rethrows it
+// (SPDLOG_LOGGER_CATCH) and no handler of the trainer's mistakes it for a failure of its own.
+struct Stop {};
+
+// During a training from Python, at every log line (with the GIL): hands the line to the progress
+// callable, if any, and handles the signals Python has pending — Ctrl-C's KeyboardInterrupt. A
+// callable that raises, or a pending KeyboardInterrupt, stops the training at that line (Stop
+// unwinds it; every model file is written whole or not at all) and is raised when it has stopped.
+class ProgressSink final : public spdlog::sinks::base_sink<std::mutex> {
  public:
-  explicit CallbackSink(py::function callback) : callback_(std::move(callback)) {}
-  CallbackSink(const CallbackSink&) = delete;
-  CallbackSink& operator=(const CallbackSink&) = delete;
-  ~CallbackSink() override {
+  explicit ProgressSink(py::function callback) : callback_(std::move(callback)) {}
+  ProgressSink(const ProgressSink&) = delete;
+  ProgressSink& operator=(const ProgressSink&) = delete;
+  ~ProgressSink() override {
     const py::gil_scoped_acquire gil;
     callback_ = py::function();
   }
 
-  // The callable's exception, if it raised one.
+  // The Python exception that stopped the training, if one did.
   void rethrow() {
     if (error_) std::rethrow_exception(error_);
   }
 
  protected:
   void sink_it_(const spdlog::details::log_msg& message) override {
-    if (error_) return;
+    if (error_) {
+      if (std::uncaught_exceptions() == 0) throw Stop{};
+      return;
+    }
     const std::string level(spdlog::level::to_string_view(message.level).data(),
                             spdlog::level::to_string_view(message.level).size());
     const std::string text(message.payload.data(), message.payload.size());
     const py::gil_scoped_acquire gil;
     try {
-      callback_(level, text);
+      if (callback_) callback_(level, text);
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
     } catch (py::error_already_set&) {
       error_ = std::current_exception();
     }
+    // Not while an exception unwinds the stack (a second one would terminate): the next line
+    // stops it then.
+    if (error_ && std::uncaught_exceptions() == 0) throw Stop{};
   }
   void flush_() override {}
 
@@ -66,22 +83,29 @@ class CallbackSink final : public spdlog::sinks::base_sink<std::mutex> {
   std::exception_ptr error_;
 };
 
-// The callback's sink on the default logger while it lives.
+// The sink on the default logger while it lives, and an error handler that does not report the
+// Stop spdlog rethrows; the default logger's usual report afterwards.
 class ProgressScope {
  public:
-  explicit ProgressScope(std::shared_ptr<CallbackSink> sink) : sink_(std::move(sink)) {
-    if (sink_) spdlog::default_logger()->sinks().push_back(sink_);
+  explicit ProgressScope(std::shared_ptr<ProgressSink> sink) : sink_(std::move(sink)) {
+    spdlog::default_logger()->sinks().push_back(sink_);
+    spdlog::default_logger()->set_error_handler([](const std::string& message) {
+      if (message != "Rethrowing unknown exception in logger") report(message);
+    });
   }
   ~ProgressScope() {
-    if (!sink_) return;
     auto& sinks = spdlog::default_logger()->sinks();
     sinks.erase(std::remove(sinks.begin(), sinks.end(), sink_), sinks.end());
+    spdlog::default_logger()->set_error_handler(report);
   }
   ProgressScope(const ProgressScope&) = delete;
   ProgressScope& operator=(const ProgressScope&) = delete;
 
  private:
-  std::shared_ptr<CallbackSink> sink_;
+  static void report(const std::string& message) {
+    std::fprintf(stderr, "[*** LOG ERROR ***] %s\n", message.c_str());
+  }
+  std::shared_ptr<ProgressSink> sink_;
 };
 
 // At most `bytes` bytes of `text`, not cutting a UTF-8 character.
@@ -139,16 +163,21 @@ py::dict train(const std::string& kind, const std::optional<fs::path>& config,
   } else if (progress) {
     callback = progress->cast<py::function>();
   }
-  std::shared_ptr<CallbackSink> sink;
-  if (callback) sink = std::make_shared<CallbackSink>(callback);
+  const auto sink = std::make_shared<ProgressSink>(callback);
   int code = 0;
+  bool stopped = false;
   {
     const ProgressScope scope(sink);
     const py::gil_scoped_release release;
-    code = training.run();
+    try {
+      code = training.run();
+    } catch (const Stop&) {
+      stopped = true;
+    }
   }
   if (!bar.is_none()) bar.attr("close")();
-  if (sink) sink->rethrow();
+  sink->rethrow();
+  if (stopped) throw std::logic_error("train: stopped without a Python exception");
   py::dict result;
   result["exit_code"] = code;
   const bool written = fs::exists(*model);
@@ -168,14 +197,16 @@ py::dict train(const std::string& kind, const std::optional<fs::path>& config,
 }  // namespace
 
 void add_training(py::module_& m) {
-  m.def("train", &train, py::arg("kind"), py::kw_only(), py::arg("config") = py::none(),
-        py::arg("regime") = py::none(), py::arg("seed") = py::none(), py::arg("out") = py::none(),
-        py::arg("threads") = py::none(), py::arg("progress") = py::none(),
-        "Trains one model exactly as `imm-train <kind>` does (ga, mlp, wimm, fcm, tsk, baseline, "
-        "schedule, or the kind's own name), with its defaults for what is not given: config, "
-        "regime (replaces the config's), seed, out (the model file), threads (ga). progress(level, "
-        "message) receives every log line while it trains (the GIL is released otherwise); "
-        "progress=True shows a tqdm bar of them where tqdm is installed. "
-        "Returns the model file (None when a quality gate kept it from being written), the exit "
-        "code imm-train would give and the training metrics it wrote beside the model");
+  m.def(
+      "train", &train, py::arg("kind"), py::kw_only(), py::arg("config") = py::none(),
+      py::arg("regime") = py::none(), py::arg("seed") = py::none(), py::arg("out") = py::none(),
+      py::arg("threads") = py::none(), py::arg("progress") = py::none(),
+      "Trains one model exactly as `imm-train <kind>` does (ga, mlp, wimm, fcm, tsk, baseline, "
+      "schedule, or the kind's own name), with its defaults for what is not given: config, "
+      "regime (replaces the config's), seed, out (the model file), threads (ga). progress(level, "
+      "message) receives every log line while it trains (the GIL is released otherwise); "
+      "progress=True shows a tqdm bar of them where tqdm is installed. Ctrl-C (or a callback that "
+      "raises) stops it at the next log line, and no model file is written. "
+      "Returns the model file (None when a quality gate kept it from being written), the exit "
+      "code imm-train would give and the training metrics it wrote beside the model");
 }

@@ -194,12 +194,35 @@ def test_training_refuses_what_imm_train_refuses(tmp_path):
     assert not (tmp_path / "never.h5").exists()
 
 
-def test_a_progress_callback_that_raises_stops_nothing_but_raises_after(tmp_path):
+def test_a_progress_callback_that_raises_stops_the_training_and_leaves_no_model(tmp_path):
     def fail(level, message):
         raise RuntimeError("callback says no")
     with pytest.raises(RuntimeError, match="callback says no"):
         immtrain.train("ga", config=small_ga_config(tmp_path), seed=3, out=tmp_path / "m.h5",
                        threads=1, progress=fail)
+    assert not (tmp_path / "m.h5").exists()
+
+
+def test_ctrl_c_stops_a_training_cleanly(tmp_path):
+    # SIGINT arrives while the GA runs (raised at its third log line): the training stops there,
+    # KeyboardInterrupt is raised, and neither the model nor a temporary is left behind.
+    import signal
+    out = tmp_path / "models"
+    out.mkdir()
+    lines = []
+
+    def interrupt(level, message):
+        lines.append(message)
+        if len(lines) == 3:
+            signal.raise_signal(signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt):
+        immtrain.train("ga", config=small_ga_config(tmp_path), seed=3, out=out / "m.h5",
+                       threads=1, progress=interrupt)
+    assert len(lines) == 3
+    assert sorted(os.listdir(out)) == []
+    # The module goes on working: the same training runs to its end afterwards.
+    assert immtrain.train("ga", config=small_ga_config(tmp_path), seed=3, out=out / "m.h5",
+                          threads=1)["exit_code"] == 0
 
 
 def test_recordings_import_as_imm_data_imports_them(tmp_path):
