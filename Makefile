@@ -12,7 +12,7 @@ SANITIZE_DIR ?= build-sanitize
 SANITIZERS   ?= address,undefined
 SECONDS      ?= 60
 
-.PHONY: all deps configure build train test test-long bench format clean sanitize-build test-sanitize fuzz
+.PHONY: all deps configure build train test test-long bench format clean sanitize-build test-sanitize fuzz wheel
 
 all: build
 
@@ -29,6 +29,13 @@ build: configure
 
 train: build
 	$(BUILD_DIR)/bin/imm-train all --config $(NIGHTLY)
+
+# The Python package's wheel (both modules and the runtime library) into dist/, built from this
+# build's tree: `pip install dist/immtrain-*.whl` in any environment of Debian's Python
+# (the interpreter the build is for).
+PYTHON ?= /usr/bin/python3
+wheel: build
+	IMMTRAIN_CMAKE_BUILD_DIR=$(BUILD_DIR) $(PYTHON) -m pip wheel --no-build-isolation --no-deps -w dist .
 
 # $(call ctest_and_summary,BUILD_DIR,CTEST_ARGS): ctest with a JUnit file, then the build's test
 # count and ten slowest tests (scripts/test-summary.py); fails when either does.
