@@ -306,3 +306,17 @@ def import_recordings(files: List[_Path], *, out: _Path, name: str = "recorded",
     sample_period: 0 takes the first track's median step; tolerance: of a sample period, for each
     time's place on the grid; scans: per window, 0 the shortest track. ValueError naming a bad
     option, RuntimeError naming the file, line and column of a bad recording."""
+
+def multi_target(models: List[_Path], *, regime: Optional[_Path] = None,
+                 targets: Optional[int] = None, pd: List[float] = ..., clutter: List[float] = ...,
+                 runs: int = 20, seed: int = 1,
+                 out: Optional[_Path] = None) -> List[Dict[str, Any]]:
+    """imm-eval multi-target: scenes of several targets of the regime (default: the first
+    model's) among Poisson clutter, tracked by the reference GNN tracker with each model on the
+    same scenes, every detection probability `pd` with every clutter density `clutter` (mean
+    false plots per scan over the region; none given: the regime's [scene]). A dict per
+    condition (regime, targets, detection_probability, clutter_per_scan, runs, seed, cutoff,
+    models): each model's gospa, localization, missed and false parts (the regime's length
+    unit), tracks_started_per_scene, breaks_per_scene, swaps_per_scene, gospa_minus_first
+    ([estimate, lower, upper], 95 % paired bootstrap over scenes) and per_scene, or `refused`
+    with the reason. With `out`, writes metrics.json there as imm-eval does."""

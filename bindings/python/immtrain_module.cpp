@@ -377,9 +377,9 @@ PYBIND11_MODULE(immtrain, m) {
   // The trainer's side (the module immtrain_lab), imported on first use of one of its names, so
   // that a program that only tracks loads the runtime alone; dir(immtrain) lists them where the
   // module is installed.
-  static constexpr std::array<std::string_view, 7> kLabNames = {
-      "Regime", "load_regime", "regime_from_dict", "evaluate",
-      "rank",   "train",       "import_recordings"};
+  static constexpr std::array<std::string_view, 8> kLabNames = {
+      "Regime", "load_regime", "regime_from_dict",  "evaluate",
+      "rank",   "train",       "import_recordings", "multi_target"};
   m.def("__dir__", [m]() {
     py::list names = py::module_::import("builtins").attr("list")(m.attr("__dict__"));
     const py::object spec = py::module_::import("importlib.util").attr("find_spec")("immtrain_lab");

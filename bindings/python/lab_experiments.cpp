@@ -33,6 +33,20 @@ class NullBuffer final : public std::streambuf {
   std::streamsize xsputn(const char* /*text*/, std::streamsize count) override { return count; }
 };
 
+// Runs `body` with std::cout writing nowhere (a report's text, which the files hold).
+template <class Body>
+void quietly(Body&& body) {
+  NullBuffer quiet;
+  std::streambuf* console = std::cout.rdbuf(&quiet);
+  try {
+    body();
+  } catch (...) {
+    std::cout.rdbuf(console);
+    throw;
+  }
+  std::cout.rdbuf(console);
+}
+
 // Runs `evaluate` with the GIL released; with a `command` (the imm-eval command line that gives the
 // same result), then the report into the options' folder as imm-eval writes it, report.md
 // included, without printing it. The result's "report" is report.md's path (None without).
@@ -46,20 +60,14 @@ py::dict run(Options options, Result (*evaluate)(const Options&),
     const py::gil_scoped_release release;
     result = evaluate(options);
     if (!command.empty()) {
-      NullBuffer quiet;
-      std::streambuf* console = std::cout.rdbuf(&quiet);
-      try {
+      quietly([&] {
         std::vector<const char*> argv;
         argv.reserve(command.size());
         for (const std::string& argument : command) argv.push_back(argument.c_str());
         ev::ReportRecorder recorder(static_cast<int>(argv.size()), argv.data());
         (void)report(result, options);
         written = recorder.finish();
-      } catch (...) {
-        std::cout.rdbuf(console);
-        throw;
-      }
-      std::cout.rdbuf(console);
+      });
     }
   }
   py::dict out = to_dict(result);
@@ -186,6 +194,42 @@ void add_experiments(py::module_& m) {
         "report.md included (its path in \"report\"), without printing it. Its own options by "
         "keyword: data (plain-imm), paper_model (ga-imm), "
         "config and gate_on (fimm)");
+  m.def(
+      "multi_target",
+      [](const std::vector<fs::path>& models, const std::optional<fs::path>& regime,
+         std::optional<int> targets, const std::vector<double>& pd,
+         const std::vector<double>& clutter, int runs, std::uint64_t seed,
+         const std::optional<fs::path>& out) {
+        if (models.empty()) throw py::value_error("models: at least one model file is needed");
+        require_runs(runs);
+        ev::MultiTargetOptions o;
+        o.models = models;
+        o.regime = regime;
+        o.targets = targets;
+        o.detection_probabilities = pd;
+        o.clutter_densities = clutter;
+        o.settings.runs = runs;
+        o.settings.seed = seed;
+        if (out) o.out = *out;
+        ev::MultiTargetConditions result;
+        {
+          const py::gil_scoped_release release;
+          result = ev::evaluate_multi_target(o);
+          if (out) quietly([&] { (void)ev::report_multi_target(result, o); });
+        }
+        return to_list(result);
+      },
+      py::arg("models"), py::kw_only(), py::arg("regime") = py::none(),
+      py::arg("targets") = py::none(), py::arg("pd") = std::vector<double>{},
+      py::arg("clutter") = std::vector<double>{}, py::arg("runs") = 20, py::arg("seed") = 1,
+      py::arg("out") = py::none(),
+      "imm-eval multi-target: scenes of several targets of the regime among Poisson clutter, "
+      "tracked by the reference GNN tracker with each model, on the same scenes; every detection "
+      "probability (pd) with every clutter density (clutter: mean false plots per scan over the "
+      "region; none given: the regime's [scene]). A dict per condition: each model's GOSPA "
+      "(lengths in the regime's unit) with its localization, missed and false parts, tracks "
+      "started, breaks and swaps per scene, and its GOSPA − the first model's [estimate, lower, "
+      "upper]. With `out`, metrics.json there");
   m.def(
       "rank",
       [](const std::vector<fs::path>& baselines, const std::vector<fs::path>& candidates,

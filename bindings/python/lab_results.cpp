@@ -326,6 +326,43 @@ py::dict to_dict(const ev::RankResult& r) {
   return out;
 }
 
+py::list to_list(const ev::MultiTargetConditions& r) {
+  py::list conditions;
+  for (const auto& [settings, figures] : r.conditions) {
+    py::dict condition;
+    condition["regime"] = r.regime.name;
+    condition["targets"] = settings.targets;
+    condition["detection_probability"] = settings.detection_probability;
+    condition["clutter_per_scan"] = settings.clutter_per_scan;
+    condition["runs"] = settings.runs;
+    condition["seed"] = settings.seed;
+    condition["cutoff"] = figures.cutoff;
+    py::list models;
+    for (const ev::MultiTargetFigures& f : figures.models) {
+      py::dict m;
+      m["model"] = f.model;
+      if (!f.refused.empty()) {
+        m["refused"] = f.refused;
+        models.append(m);
+        continue;
+      }
+      m["gospa"] = f.gospa;
+      m["localization"] = f.localization;
+      m["missed"] = f.missed;
+      m["false"] = f.false_tracks;
+      m["tracks_started_per_scene"] = f.tracks_started;
+      m["breaks_per_scene"] = f.breaks;
+      m["swaps_per_scene"] = f.swaps;
+      m["gospa_minus_first"] = interval(f.versus_first);
+      m["per_scene"] = f.per_run;
+      models.append(m);
+    }
+    condition["models"] = models;
+    conditions.append(condition);
+  }
+  return conditions;
+}
+
 void require_runs(const std::optional<int>& runs) {
   if (runs && *runs < 1) {
     throw py::value_error("runs: must be ≥ 1 (got " + std::to_string(*runs) + ")");

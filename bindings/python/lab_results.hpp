@@ -26,3 +26,5 @@ pybind11::dict to_dict(const imm::evaluation::FcmImmResult& r);
 pybind11::dict to_dict(const imm::evaluation::FimmResult& r);
 pybind11::dict to_dict(const imm::evaluation::InputEstimatorResult& r);
 pybind11::dict to_dict(const imm::evaluation::RankResult& r);
+/// The conditions of the multi-target experiment, a dict each.
+pybind11::list to_list(const imm::evaluation::MultiTargetConditions& r);

@@ -182,7 +182,10 @@ nlohmann::json report_condition(const datasets::Regime& regime, const MultiTarge
           {"models", models}};
 }
 
-int run(const MultiTargetOptions& options) {
+}  // namespace
+
+MultiTargetConditions evaluate_multi_target(const MultiTargetOptions& options) {
+  if (options.models.empty()) throw InvalidParameter("models", "at least one model file is needed");
   const std::filesystem::path regime_path = options.regime.value_or(options.models.front());
   const datasets::RegimeFile regime = load_regime_option(regime_path);
   const datasets::SceneSpec& scene = regime.regime.scene;
@@ -192,6 +195,8 @@ int run(const MultiTargetOptions& options) {
   const std::vector<double> clutters = options.clutter_densities.empty()
                                            ? std::vector<double>{scene.clutter_per_scan}
                                            : options.clutter_densities;
+  MultiTargetConditions out;
+  out.regime = regime.regime;
   std::vector<MultiTargetSettings> grid;  // checked before any scene is run
   for (const double pd : pds) {
     for (const double clutter : clutters) {
@@ -203,17 +208,23 @@ int run(const MultiTargetOptions& options) {
       grid.push_back(s);
     }
   }
+  for (const MultiTargetSettings& s : grid) {
+    out.conditions.push_back({s, run_multi_target(regime.regime, options.models, s)});
+  }
+  return out;
+}
+
+int report_multi_target(const MultiTargetConditions& result, const MultiTargetOptions& options) {
   nlohmann::json conditions = nlohmann::json::array();
   double cutoff = 0.0;
-  for (const MultiTargetSettings& s : grid) {
-    const MultiTargetResult result = run_multi_target(regime.regime, options.models, s);
-    cutoff = result.cutoff;
-    conditions.push_back(report_condition(regime.regime, s, result));
+  for (const auto& [settings, figures] : result.conditions) {
+    cutoff = figures.cutoff;
+    conditions.push_back(report_condition(result.regime, settings, figures));
   }
-  const MultiTargetSettings& s = grid.front();
+  const MultiTargetSettings& s = result.conditions.front().settings;
   std::filesystem::create_directories(options.out);
   trainer::write_json_atomically(options.out / "metrics.json", {{"experiment", "multi-target"},
-                                                                {"regime", regime.regime.name},
+                                                                {"regime", result.regime.name},
                                                                 {"runs", s.runs},
                                                                 {"targets", s.targets},
                                                                 {"seed", s.seed},
@@ -222,8 +233,8 @@ int run(const MultiTargetOptions& options) {
   return 0;
 }
 
-}  // namespace
-
-int run_multi_target_experiment(const MultiTargetOptions& options) { return run(options); }
+int run_multi_target_experiment(const MultiTargetOptions& options) {
+  return report_multi_target(evaluate_multi_target(options), options);
+}
 
 }  // namespace imm::evaluation

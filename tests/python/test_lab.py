@@ -251,3 +251,20 @@ def test_recordings_import_as_imm_data_imports_them(tmp_path):
     (folder / "bad.csv").write_text("t,zx,zy\n0,1,2\n1,nan,3\n")
     with pytest.raises(RuntimeError, match="bad.csv"):
         immtrain.import_recordings([folder], out=tmp_path / "y.h5")
+
+
+def test_multi_target_gives_the_figures_of_imm_evals_metrics_json(tmp_path):
+    models = ["models/classical_imm_agile_air.h5", "models/baseline_imm_agile_air.h5"]
+    ours = immtrain.multi_target(models, pd=[0.9], clutter=[0.0, 20.0], runs=3)
+    assert [c["clutter_per_scan"] for c in ours] == [0.0, 20.0]
+    subprocess.run([os.path.join(BIN, "imm-eval"), "multi-target", "--models", *models, "--pd",
+                    "0.9", "--clutter", "0,20", "--runs", "3", "--out", str(tmp_path / "mt")],
+                   check=True, env=TOOL_ENV, capture_output=True)
+    metrics = json.loads((tmp_path / "mt" / "metrics.json").read_text())
+    for condition, written in zip(ours, metrics["conditions"]):
+        for model, figures in zip(condition["models"], written["models"]):
+            assert model["gospa"] == figures["gospa"]
+            assert model["breaks_per_scene"] == figures["breaks_per_scene"]
+            assert model["gospa_minus_first"] == figures["gospa_minus_first"]
+    with pytest.raises(ValueError, match="detection_probability"):
+        immtrain.multi_target(models, pd=[1.5], runs=2)

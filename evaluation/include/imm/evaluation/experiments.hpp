@@ -2,12 +2,12 @@
 #pragma once
 /// @file
 /// The experiments of `imm-eval`, callable from any program: each is an options struct (its
-/// defaults are the command's) and a function that runs it. Experiments that return a typed
-/// result (every one but multi-target, whose run_multi_target already does, and regression) are
-/// split in two: `evaluate_*` computes every figure and writes nothing; `report_*` prints the
-/// report (which `imm-eval` keeps as report.md) and writes metrics.json, details.json,
-/// headline.json and the plots into the options' `out`. `run_*` is the two in turn, and returns the
-/// command's exit code (support/exit_codes.hpp). The command line itself lives in tools/imm-eval.
+/// defaults are the command's) and a function that runs it. Every experiment but regression is
+/// split in two: `evaluate_*` computes every figure and writes nothing, returning a typed result;
+/// `report_*` prints the report (which `imm-eval` keeps as report.md) and writes metrics.json,
+/// details.json, headline.json and the plots into the options' `out`. `run_*` is the two in turn,
+/// and returns the command's exit code (support/exit_codes.hpp). The command line itself lives in
+/// tools/imm-eval.
 ///
 ///   imm::evaluation::GaImmOptions options;
 ///   options.common.model = "models/ga_fuzzy_imm.h5";
@@ -329,6 +329,23 @@ struct MultiTargetOptions {
   std::optional<int> targets;
   std::filesystem::path out = "reports/multi-target";
 };
+
+/// The multi-target experiment's figures: every condition (detection probability × clutter
+/// density) with its settings and the models' figures on the same scenes.
+struct MultiTargetConditions {
+  datasets::Regime regime;
+  struct Condition {
+    MultiTargetSettings settings;
+    MultiTargetResult figures;
+  };
+  std::vector<Condition> conditions;
+};
+
+/// Every condition's scenes, run (InvalidParameter naming the field for a bad setting, before
+/// any scene runs).
+[[nodiscard]] MultiTargetConditions evaluate_multi_target(const MultiTargetOptions& options);
+/// A table per condition on stdout and metrics.json ("conditions") in options.out.
+int report_multi_target(const MultiTargetConditions& result, const MultiTargetOptions& options);
 int run_multi_target_experiment(const MultiTargetOptions& options);
 
 /// `imm-eval regression`: a candidate's headline metrics against the shipped model's.
