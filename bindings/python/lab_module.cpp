@@ -103,13 +103,6 @@ void toml_table(const py::dict& table, const std::string& prefix, std::string& t
   }
 }
 
-imm::datasets::Split split_named(const std::string& name) {
-  if (name == "training") return imm::datasets::Split::kTraining;
-  if (name == "validation") return imm::datasets::Split::kValidation;
-  if (name == "test") return imm::datasets::Split::kTest;
-  throw py::value_error("split: '" + name + "' is none of training, validation, test");
-}
-
 // A regime and the text it was read from.
 struct PyRegime {
   RegimeFile file;
@@ -118,7 +111,7 @@ struct PyRegime {
   [[nodiscard]] py::dict draw(const std::string& split_name, std::optional<std::uint64_t> seed,
                               std::optional<int> runs) const {
     const imm::datasets::Regime& regime = file.regime;
-    const imm::datasets::Split split = split_named(split_name);
+    const imm::datasets::Split split = imm::datasets::split_named(split_name, "split");
     require_runs(runs);
     imm::datasets::TrackSet set;
     {
@@ -231,21 +224,10 @@ PYBIND11_MODULE(immtrain_lab, m) {
       [](const std::vector<fs::path>& files, const fs::path& out, const std::string& name,
          const std::string& sensor, const std::string& units, double sample_period,
          double tolerance, int scans) {
-        using imm::datasets::SensorKind;
         imm::datasets::ImportOptions options;
         options.name = name;
-        if (sensor != "cartesian" && sensor != "polar" && sensor != "range_sensor") {
-          throw py::value_error("sensor: '" + sensor +
-                                "' is none of cartesian, polar, range_sensor");
-        }
-        options.kind = sensor == "polar"          ? SensorKind::kPolar
-                       : sensor == "range_sensor" ? SensorKind::kRangeSensor
-                                                  : SensorKind::kCartesian;
-        if (units != "m" && units != "km") {
-          throw py::value_error("units: '" + units + "' is neither m nor km");
-        }
-        options.units =
-            units == "km" ? imm::datasets::Units::kKilometres : imm::datasets::Units::kMetres;
+        options.kind = imm::datasets::sensor_kind_named(sensor, "sensor");
+        options.units = imm::datasets::units_named(units, "units");
         if (!(sample_period >= 0.0) || !std::isfinite(sample_period)) {
           throw py::value_error("sample_period: must be ≥ 0 s (0: the first track's median step)");
         }

@@ -89,6 +89,18 @@ std::string_view to_string(Direction direction) { return name_of(kDirectionNames
 
 std::string_view to_string(Split split) { return name_of(kSplitNames, split); }
 
+Split split_named(std::string_view name, const std::string& field) {
+  return value_named(kSplitNames, name, field, "split");
+}
+
+Units units_named(std::string_view name, const std::string& field) {
+  return value_named(kUnitsNames, name, field, "unit");
+}
+
+SensorKind sensor_kind_named(std::string_view name, const std::string& field) {
+  return value_named(kSensorKindNames, name, field, "sensor kind");
+}
+
 double Interval::draw(Rng& rng) const {
   if (min == max) return min;
   if (log) return std::exp(rng.uniform(std::log(min), std::log(max)));

@@ -35,7 +35,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <map>
 #include <optional>
 
 #include "imm/build_info.hpp"
@@ -75,14 +74,6 @@ void write_csv(const std::string& path, const imm::datasets::Regime& regime,
   if (!out) throw std::runtime_error(path + ": write failed");
 }
 
-const std::map<std::string, imm::datasets::Split>& split_names() {
-  static const std::map<std::string, imm::datasets::Split> splits = {
-      {"test", imm::datasets::Split::kTest},
-      {"training", imm::datasets::Split::kTraining},
-      {"validation", imm::datasets::Split::kValidation}};
-  return splits;
-}
-
 // "with truth", "without truth" or "with truth for N of M recordings".
 std::string truth_text(const imm::datasets::TrackSet& set) {
   if (set.recording_truth.empty()) return set.has_truth ? "with truth" : "without truth";
@@ -94,13 +85,9 @@ std::string truth_text(const imm::datasets::TrackSet& set) {
 int import_recordings(const std::vector<std::string>& inputs, const std::string& out_path,
                       const std::string& name, const std::string& sensor_name,
                       const std::string& units_name, imm::datasets::ImportOptions options) {
-  using imm::datasets::SensorKind;
   options.name = name;
-  options.kind = sensor_name == "polar"          ? SensorKind::kPolar
-                 : sensor_name == "range_sensor" ? SensorKind::kRangeSensor
-                                                 : SensorKind::kCartesian;
-  options.units =
-      units_name == "km" ? imm::datasets::Units::kKilometres : imm::datasets::Units::kMetres;
+  options.kind = imm::datasets::sensor_kind_named(sensor_name, "--sensor");
+  options.units = imm::datasets::units_named(units_name, "--units");
   imm::datasets::ImportReport report;
   const imm::datasets::TrackSet set = imm::datasets::import_recording_files(
       std::vector<std::filesystem::path>(inputs.begin(), inputs.end()), options, &report);
@@ -133,7 +120,8 @@ int export_recordings(const std::string& regime_path, const std::string& data_pa
   } else if (!regime_path.empty()) {
     const imm::datasets::Regime regime = imm::datasets::load_regime(regime_path).regime;
     kind = regime.sensor.kind;
-    set = imm::datasets::draw_split(regime, split_names().at(split_name), seed, count);
+    set = imm::datasets::draw_split(regime, imm::datasets::split_named(split_name, "--split"), seed,
+                                    count);
   } else {
     throw std::runtime_error("export: --regime or --data names the tracks");
   }
@@ -157,7 +145,7 @@ int write_scenes(const imm::datasets::Regime& regime, const std::string& regime_
                  const imm::datasets::SceneSpec& spec, const std::string& out_dir) {
   if (regime.recorded) throw std::runtime_error(regime_path + ": scenes need a drawn regime");
   spec.validate();
-  const imm::datasets::Split split = split_names().at(split_name);
+  const imm::datasets::Split split = imm::datasets::split_named(split_name, "--split");
   if (count < 0) count = 1;
   std::filesystem::create_directories(out_dir);
   const char* plot_columns =
@@ -310,7 +298,7 @@ int main(int argc, char** argv) {
                 << digest.substr(0, 16) << ")\n";
       return 0;
     }
-    const imm::datasets::Split split = split_names().at(split_name);
+    const imm::datasets::Split split = imm::datasets::split_named(split_name, "--split");
     const imm::datasets::TrackSet set = imm::datasets::draw_split(regime, split, seed, count);
     if (set.tracks.empty()) throw std::runtime_error(regime_path + ": the split holds no tracks");
     if (csv_track >= static_cast<int>(set.tracks.size())) {

@@ -170,6 +170,10 @@ struct Splits {
 
 enum class Split { kTraining, kValidation, kTest };
 [[nodiscard]] std::string_view to_string(Split split);
+/// The value whose to_string is `name`; InvalidParameter(field) listing the names otherwise.
+[[nodiscard]] Split split_named(std::string_view name, const std::string& field);
+[[nodiscard]] Units units_named(std::string_view name, const std::string& field);
+[[nodiscard]] SensorKind sensor_kind_named(std::string_view name, const std::string& field);
 
 /// Several targets at once ([scene]): what imm-data scenes and imm-eval multi-target draw
 /// (scene.hpp) unless told otherwise.
