@@ -134,10 +134,10 @@ void print_ranking(const RankResult& r) {
     const std::size_t i = choice.order[place];
     const RankedFilter& f = ranked[i];
     rows.push_back({std::to_string(place + 1),
-                    f.name + (f.baseline                           ? " (the classical bar)"
-                              : f.classical                        ? " (classical)"
-                              : !r.eligible(i) && i >= r.classical ? " (held out)"
-                                                                   : ""),
+                    f.name + (f.baseline                  ? " (the classical bar)"
+                              : f.classical               ? " (classical)"
+                              : !r.choice.held[i].empty() ? " (held out)"
+                                                          : ""),
                     f.kind, cell(f.zeta_p), cell(f.zeta_v),
                     f.baseline ? "–" : f.versus_baseline_p.text(),
                     f.baseline ? "–" : f.versus_baseline_v.text(), verdict_against_baseline(f),
