@@ -14,7 +14,7 @@
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/estimation/cv_axis_lanes.hpp"
-#include "imm/filters/fuzzy_noise_lanes.hpp"
+#include "imm/filters/fuzzy_noise_step.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
 #include "imm/models/motion/constant_velocity.hpp"

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The GA-fuzzy IMM bank: axis filters as lanes, blocks of kBlock lanes stepped in vector loops
 // (see the header). The order of operations follows ImmEstimator (mode-probability prediction,
-// mixing, the modes' steps, the log-space posterior, the combination) and fuzzy_noise_lanes.hpp.
+// mixing, the modes' steps, the log-space posterior, the combination) and fuzzy_noise_step.hpp.
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 
 #include <algorithm>
@@ -86,12 +86,11 @@ template <int W>
     }
     Lanes m0, m1, c00, c01, c11;
     lanes::mix<W>(n, weight, now, m0, m1, c00, c01, c11);
-    // Every lane of every field is written by fuzzy_noise_step; zeroing it first would cost.
-    lanes::FuzzyStep<W> s;  // NOLINT(cppcoreguidelines-pro-type-member-init)
-    lanes::fuzzy_noise_step<W>(*b.axis, b.levels[j], z, now.previous[j], m0, m1, c00, c01, c11, j,
-                               next, s);
+    // Every lane of every field is written by fuzzy_noise_lanes; zeroing it first would cost.
+    lanes::FuzzyLaneSteps<W> s;  // NOLINT(cppcoreguidelines-pro-type-member-init)
+    lanes::fuzzy_noise_lanes<W>(*b.axis, b.levels[j], z, m0, m1, c00, c01, c11, j, now, next, s);
     IMM_LANES {
-      const double log_likelihood = -0.5 * (-2.0 * s.exponent[l] + lane_log(s.s[l]) + kLogTwoPi);
+      const double log_likelihood = -0.5 * (s.mahalanobis[l] + lane_log(s.s[l]) + kLogTwoPi);
       posterior[j][l] = log_likelihood + log_predicted[j][l];
       // The first mode that fails decides the status (ImmEstimator stops there).
       const double mode_outcome =

@@ -11,7 +11,7 @@
 #include <utility>
 
 #include "imm/core/physical_limits.hpp"
-#include "imm/filters/fuzzy_noise_lanes.hpp"
+#include "imm/filters/fuzzy_noise_step.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
 #include "imm/trainer/normalized_errors.hpp"
@@ -92,19 +92,19 @@ template <int W, bool kLikelihood>
       IMM_LANES inverse_predicted[j][l] = 1.0 / predicted[j][l];
     }
     for (int j = 0; j < n; ++j) {
-      // Mixing (eq. 4–6), then the mode's fuzzy-noise step (fuzzy_noise_lanes.hpp).
+      // Mixing (eq. 4–6), then the mode's fuzzy-noise step (fuzzy_noise_step.hpp).
       for (int i = 0; i < n; ++i) {
         IMM_LANES weight[i][l] = m.transition[i][j] * mu[i][l] * inverse_predicted[j][l];
       }
       Lanes m0, m1, c00, c01, c11;
       lanes::mix<W>(n, weight, *now, m0, m1, c00, c01, c11);
-      // Every lane of every field is written by fuzzy_noise_step; zeroing it first would cost.
-      lanes::FuzzyStep<W> step;  // NOLINT(cppcoreguidelines-pro-type-member-init)
-      lanes::fuzzy_noise_step<W>(m.axis, m.levels[j], z, now->previous[j], m0, m1, c00, c01, c11, j,
-                                 *next, step);
+      // Every lane of every field is written by fuzzy_noise_lanes; zeroing it first would cost.
+      lanes::FuzzyLaneSteps<W> step;  // NOLINT(cppcoreguidelines-pro-type-member-init)
+      lanes::fuzzy_noise_lanes<W>(m.axis, m.levels[j], z, m0, m1, c00, c01, c11, j, *now, *next,
+                                  step);
       IMM_LANES {
         // N(r; 0, S) c_j = exp(−½ r²/S) · c_j/√S · (2π)^−½; the constant cancels below.
-        exponent[j][l] = step.exponent[l];
+        exponent[j][l] = -0.5 * step.mahalanobis[l];
         scale[j][l] = predicted[j][l] * std::sqrt(step.s_inverse[l]);
         // A plot the runtime refuses (limits::usable_measurement) fails its step there too.
         const bool plot = std::abs(z[l]) <= limits::kMaxMeasurement;

@@ -27,17 +27,12 @@
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/imm_mode.hpp"
 #include "imm/estimation/kalman_filter.hpp"
+#include "imm/filters/fuzzy_noise_step.hpp"
 #include "imm/models/learned/fuzzy_rule_table.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/runtime_export.hpp"
 
 namespace imm {
-
-/// What a rule table's two inputs are (see the file comment).
-enum class FuzzyAntecedents : std::uint8_t {
-  kResidual,              ///< r and Δr in measurement units (seed 000's literal form)
-  kNormalizedInnovation,  ///< r/√S̄ and its change: dimensionless
-};
 
 /// "residual" or "normalized_innovation" (configs and model files).
 [[nodiscard]] IMM_RUNTIME_EXPORT std::string_view to_string(FuzzyAntecedents antecedents);
@@ -75,33 +70,40 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
     require_positive(measurement_variance, "measurement_variance");
     GGt_ = G_ * G_.transpose();
     H_ << 1.0, 0.0;
+    axis_ = lanes::FuzzyAxisConstants(sample_period, std::sqrt(measurement_variance), antecedents);
+    axis_.R = measurement_variance;
+    level_ = lanes::FuzzyLevelConstants(table_);
   }
 
   /// Predicts `state` one period and updates it with z; on failure `state` is unchanged.
-  /// `previous` is the last step's Step::antecedent (0 on a new track).
+  /// `previous` is the last step's Step::antecedent (0 on a new track). The step is
+  /// lanes::fuzzy_noise_step for a double, the one the banks and the GA fitness batch run over
+  /// packs.
   Step step(GaussianState<2>& state, double previous, double z) const {
     Step result;
     if (!limits::usable_measurement(z)) {
       result.status = StepStatus::kInvalidMeasurement;
       return result;
     }
-    GaussianState<2> predicted;
-    predicted.mean.noalias() = F_ * state.mean;
-    result.residual = z - predicted.mean(0);
-    predicted.covariance.noalias() = F_ * state.covariance * F_.transpose();
-    result.antecedent = result.residual;
-    if (antecedents_ == FuzzyAntecedents::kNormalizedInnovation) {
-      // S̄ ≥ R > 0 for a PSD covariance; a non-finite S̄ propagates to a failed update below.
-      result.antecedent = result.residual / std::sqrt(predicted.covariance(0, 0) + R_(0, 0));
+    const lanes::FuzzyNoiseStep<double> s =
+        lanes::fuzzy_noise_step<double>(axis_, level_, z, previous,
+                                        {state.mean(0), state.mean(1), state.covariance(0, 0),
+                                         state.covariance(0, 1), state.covariance(1, 1)});
+    result.antecedent = s.antecedent;
+    result.residual = s.residual;
+    result.process_noise = s.process_noise;
+    result.innovation_variance = s.s;
+    if (!s.usable) {
+      result.status = StepStatus::kSingularInnovation;
+      return result;
     }
-    result.process_noise = table_.process_noise(result.antecedent, result.antecedent - previous);
-    predicted.covariance += result.process_noise * GGt_;
-    symmetrize(predicted.covariance);
-    const auto report = update_with_innovation(predicted, Vector<1>(result.residual), H_, R_);
-    result.status = report.status;
-    result.innovation_variance = report.innovation_covariance(0, 0);
-    result.log_likelihood = report.log_likelihood;
-    if (report.ok()) state = predicted;
+    if (!s.finite) {
+      result.status = StepStatus::kNonFiniteResult;
+      return result;
+    }
+    result.log_likelihood = -0.5 * (s.mahalanobis + std::log(s.s) + kLogTwoPi);
+    state.mean << s.estimate.x0, s.estimate.x1;
+    state.covariance << s.estimate.p00, s.estimate.p01, s.estimate.p01, s.estimate.p11;
     return result;
   }
 
@@ -129,6 +131,8 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
   SquareMatrix<2> GGt_;
   Matrix<1, 2> H_;
   SquareMatrix<1> R_;
+  lanes::FuzzyAxisConstants axis_;    // T, R, G Gᵀ and the antecedents, for the step
+  lanes::FuzzyLevelConstants level_;  // the table's rules, for the step
 };
 
 /// The fuzzy-noise KF as an IMM mode (seed 000's sub-model m_j, eq. 18–19).

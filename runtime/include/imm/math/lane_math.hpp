@@ -11,8 +11,12 @@
 /// results must equal the runtime filters' to the bit keeps std::exp and std::log.
 
 #include <bit>
+#include <cmath>
+#include <concepts>
 #include <cstdint>
+#include <cstring>
 #include <limits>
+#include <type_traits>
 
 /// On a function of lane loops: AVX-512 or AVX2 chosen at run time where GCC can (ifunc on x86-64
 /// Linux), SSE2 otherwise. The project compiles with -ffp-contract=off, so the AVX-512 clone (where
@@ -62,49 +66,113 @@ namespace imm {
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wpsabi"
 
-/// Eight doubles operated on element by element (the GCC and Clang vector extension): the number
-/// type of a pack of lanes, one per track, in code templated on its number type (lane_exp,
-/// lane_log, the banks' steps). Arithmetic with a double applies it to every element.
-using LanePack = double __attribute__((vector_size(64)));
-/// The bit patterns of a LanePack.
-using LanePackBits = std::uint64_t __attribute__((vector_size(64)));
-/// What comparing two LanePacks gives: all ones where true, 0 where false.
-using LanePackMask = std::int64_t __attribute__((vector_size(64)));
+/// W doubles operated on element by element (the GCC and Clang vector extension; W a power of two):
+/// the number type of a pack of lanes, one per track or trajectory, in code templated on its
+/// number type (lane_exp, lane_log, the banks' and the GA fitness batch's steps). Arithmetic with a
+/// double applies it to every element; comparing two packs gives a LanePackMaskOf<W>, all ones
+/// where true.
+template <int W>
+struct LanePackTypes {
+  static_assert(W >= 2 && (W & (W - 1)) == 0, "a pack holds a power of two of doubles");
+  typedef double Value __attribute__((vector_size(8 * W)));        ///< the doubles
+  typedef std::uint64_t Bits __attribute__((vector_size(8 * W)));  ///< their bit patterns
+  typedef std::int64_t Mask __attribute__((vector_size(8 * W)));   ///< a comparison's result
+};
+/// A pack of W doubles.
+template <int W>
+using LanePackOf = typename LanePackTypes<W>::Value;
+/// What comparing two LanePackOf<W> gives.
+template <int W>
+using LanePackMaskOf = typename LanePackTypes<W>::Mask;
 
 /// The elements of a LanePack.
 inline constexpr int kLanePackWidth = 8;
+/// Eight doubles: the pack of the track banks (one 512-bit vector).
+using LanePack = LanePackOf<kLanePackWidth>;
+/// The bit patterns of a LanePack.
+using LanePackBits = typename LanePackTypes<kLanePackWidth>::Bits;
+/// What comparing two LanePacks gives: all ones where true, 0 where false.
+using LanePackMask = LanePackMaskOf<kLanePackWidth>;
 
-/// `use` ? a : b element by element.
-[[nodiscard]] inline LanePack pick(LanePackMask use, LanePack a, LanePack b) {
-  const auto mask = std::bit_cast<LanePackBits>(use);
-  return std::bit_cast<LanePack>((std::bit_cast<LanePackBits>(a) & mask) |
-                                 (std::bit_cast<LanePackBits>(b) & ~mask));
-}
-/// `use` ? a : b for every element, a and b the same for all.
-[[nodiscard]] inline LanePack pick(LanePackMask use, double a, double b) {
-  return pick(use, LanePack{} + a, LanePack{} + b);
-}
-/// `use` ? a : b with a the same for all elements.
-[[nodiscard]] inline LanePack pick(LanePackMask use, double a, LanePack b) {
-  return pick(use, LanePack{} + a, b);
-}
-/// `use` ? a : b with b the same for all elements.
-[[nodiscard]] inline LanePack pick(LanePackMask use, LanePack a, double b) {
-  return pick(use, a, LanePack{} + b);
-}
+/// The number of lanes of a number type: 1 for a double, W for a LanePackOf<W>.
+template <class S>
+inline constexpr int kLanesOf = static_cast<int>(sizeof(S) / sizeof(double));
 
-/// The bit types of a number type: a double's, or a LanePack's.
+/// The bit types of a number type: a double's, or a pack's (element by element).
 template <class S>
 struct LaneBits {
+  typedef std::uint64_t Unsigned __attribute__((vector_size(sizeof(S))));  ///< the bit patterns
+  typedef std::int64_t Signed __attribute__((vector_size(sizeof(S))));     ///< signed integers
+};
+/// A double's bit types.
+template <>
+struct LaneBits<double> {
   using Unsigned = std::uint64_t;  ///< the bit pattern
   using Signed = std::int64_t;     ///< a signed integer of the same width
 };
-/// A LanePack's bit types.
-template <>
-struct LaneBits<LanePack> {
-  using Unsigned = LanePackBits;  ///< the bit patterns
-  using Signed = LanePackMask;    ///< signed integers of the same width
+
+/// A pack's mask type: what comparing two packs gives (not a double's bool).
+template <class M>
+concept LaneMask = !std::is_same_v<M, bool> && requires(M m) {
+  { m[0] } -> std::convertible_to<std::int64_t>;
 };
+
+/// `use` ? a : b element by element; a and b each a pack of the mask's width or a double (the
+/// same for every element).
+template <LaneMask M, class A, class B>
+[[nodiscard]] inline auto pick(M use, A a, B b) {
+  using Pack = LanePackOf<kLanesOf<M>>;
+  using Bits = typename LaneBits<Pack>::Unsigned;
+  const auto mask = std::bit_cast<Bits>(use);
+  // x − (+0) is x for every x, −0 included (x + 0 would turn −0 into +0).
+  return std::bit_cast<Pack>((std::bit_cast<Bits>(a - Pack{}) & mask) |
+                             (std::bit_cast<Bits>(b - Pack{}) & ~mask));
+}
+
+/// A number type's value `value`: the double itself, or a pack of it in every element.
+template <class S>
+[[nodiscard]] inline S splat(double value) {
+  if constexpr (std::is_same_v<S, double>) {
+    return value;
+  } else {
+    return value - S{};  // x − (+0) is x, −0 included
+  }
+}
+
+/// A number type's doubles (kLanesOf\<S\>) read from consecutive memory (unaligned).
+template <class S>
+[[nodiscard, gnu::always_inline]] inline S lane_load(const double* from) {
+  S value;
+  std::memcpy(&value, from, sizeof value);
+  return value;
+}
+/// A number type's doubles (kLanesOf\<S\>) written to consecutive memory (unaligned).
+template <class S>
+[[gnu::always_inline]] inline void lane_store(double* to, const S& value) {
+  std::memcpy(to, &value, sizeof value);
+}
+
+/// √x element by element (libm's, correctly rounded: the same bits in a pack and alone).
+template <class S>
+[[nodiscard]] inline S lane_sqrt(S x) {
+  if constexpr (std::is_same_v<S, double>) {
+    return std::sqrt(x);
+  } else {
+    // Through an array: GCC vectorizes this loop (with -fno-math-errno), not one over a pack's
+    // elements.
+    double lanes[kLanesOf<S>];
+    lane_store(lanes, x);
+    for (double& lane : lanes) lane = std::sqrt(lane);
+    return lane_load<S>(lanes);
+  }
+}
+
+/// Where x is finite: x − x is 0 for a finite x and NaN for ±∞ and NaN (a bool for a double, a
+/// mask for a pack).
+template <class S>
+[[nodiscard]] inline auto lane_finite(S x) {
+  return x - x == 0.0;
+}
 
 /// eˣ within 2 ulp for x in [−708, 709]; 0 below −708 (libm's subnormal results are flushed),
 /// +∞ above 709, NaN for NaN. Cody–Waite reduction x = n ln 2 + r, |r| ≤ ½ ln 2, a degree-13

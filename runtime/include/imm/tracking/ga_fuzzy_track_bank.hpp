@@ -6,7 +6,7 @@
 ///
 /// Layout: every track is two axis filters (x, then y), and every axis filter is a lane. Lanes
 /// are stored structure of arrays and stepped 16 or 8 at a time (eight or four tracks) in loops
-/// over lanes with no branches and no calls (fuzzy_noise_lanes.hpp, the arithmetic the trainer's GA
+/// over lanes with no branches and no calls (fuzzy_noise_step.hpp, the arithmetic the trainer's GA
 /// fitness runs too), which the compiler vectorizes: AVX-512 or AVX2 where the CPU has it, chosen
 /// at run time, without fused multiply-add, so a track's result does not depend on the instruction
 /// set, on its position or on the number of tracks.
@@ -30,7 +30,7 @@
 
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
-#include "imm/filters/fuzzy_noise_lanes.hpp"
+#include "imm/filters/fuzzy_noise_step.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/runtime_export.hpp"
