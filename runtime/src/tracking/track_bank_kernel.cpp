@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <type_traits>
 
@@ -20,33 +19,8 @@ namespace {
 
 // The number types of one step: S is a double (one track) or a LanePack (kLanePackWidth tracks,
 // one per element). Every statement below is the same IEEE operation for both, so a track gives
-// the same bits in a pack and alone (the project compiles with -ffp-contract=off).
-template <class S>
-constexpr int kWidth = 1;
-template <>
-constexpr int kWidth<LanePack> = kLanePackWidth;
-
-// A value's kWidth<S> doubles read from, or written to, consecutive memory (unaligned).
-template <class S>
-[[gnu::always_inline]] inline S load(const double* from) {
-  S value;
-  std::memcpy(&value, from, sizeof value);
-  return value;
-}
-template <class S>
-[[gnu::always_inline]] inline void store(double* to, const S& value) {
-  std::memcpy(to, &value, sizeof value);
-}
-
-template <class S>
-[[gnu::always_inline]] inline S splat(double value) {
-  if constexpr (std::is_same_v<S, double>) {
-    return value;
-  } else {
-    return S{} + value;
-  }
-}
-
+// the same bits in a pack and alone (the project compiles with -ffp-contract=off). Loads, stores
+// and splats are lane_math.hpp's.
 // a and b of two comparisons: bools for a double, masks for a LanePack.
 template <class Mask>
 [[gnu::always_inline]] inline Mask both(Mask a, Mask b) {
@@ -59,16 +33,16 @@ template <class Mask>
 
 // The lanes of a value, as doubles (for the few scalar decisions per step).
 template <class S>
-using Lanes = std::array<double, kWidth<S>>;
+using Lanes = std::array<double, kLanesOf<S>>;
 template <class S>
 [[gnu::always_inline]] inline Lanes<S> lanes_of(const S& value) {
   Lanes<S> out;
-  store(out.data(), value);
+  lane_store(out.data(), value);
   return out;
 }
 template <class S>
 [[gnu::always_inline]] inline S from_lanes(const Lanes<S>& lanes) {
-  return load<S>(lanes.data());
+  return lane_load<S>(lanes.data());
 }
 
 // A Gaussian of one mode: mean, then the covariance's upper triangle (cv_position_algebra.hpp).
@@ -134,7 +108,7 @@ void exact_predicted(const Block& b, const S* log_mu, const S* predicted, S* log
   }
 }
 
-// The first half of an IMM cycle (seed 000 eq. 4–6 and each mode's prediction) of the kWidth<S>
+// The first half of an IMM cycle (seed 000 eq. 4–6 and each mode's prediction) of the kLanesOf<S>
 // tracks that start at lane `t` of block `b`, whose IMM has N modes (N = kMaxModes: b.modes ≤ N,
 // the loops then run to b.modes): the modes' and μ's stored state, log c_j, and each mode's
 // prediction from its mixed initial condition.
@@ -157,9 +131,9 @@ template <class S, int N>
   std::array<S, N> predicted;
   std::array<S, N * N> weights;
   for (int i = 0; i < n; ++i) {
-    for (int e = 0; e < kEntries; ++e) modes[i][e] = load<S>(st(i, e));
-    log_mu[i] = load<S>(st(i, kLogMu));
-    scaled_mu[i] = load<S>(st(i, kScaledMu));
+    for (int e = 0; e < kEntries; ++e) modes[i][e] = lane_load<S>(st(i, e));
+    log_mu[i] = lane_load<S>(st(i, kLogMu));
+    scaled_mu[i] = lane_load<S>(st(i, kScaledMu));
   }
 
   // Predicted mode probabilities c̃_j = Σ_i p_ij μ̃_i with μ̃ = μ / max μ (as ImmEstimator does),
@@ -185,7 +159,7 @@ template <class S, int N>
   }
 }
 
-// One IMM step (seed 000 eq. 4–11) of the kWidth<S> tracks that start at lane `t` of block `b`.
+// One IMM step (seed 000 eq. 4–11) of the kLanesOf<S> tracks that start at lane `t` of block `b`.
 template <class S, int N>
 [[gnu::always_inline]] inline void step(const Block& b, int t) {
   const int n = N == kMaxModes ? b.modes : N;
@@ -277,14 +251,15 @@ template <class S, int N>
   const S inverse_sum = 1.0 / sum;
   for (int j = 0; j < n; ++j) {
     posterior[j] = scaled[j] * inverse_sum;
-    store(st(j, kLogMu), pick(commit, centered[j] - log_sum, log_mu[j]));
-    store(st(j, kScaledMu), pick(commit, scaled[j], scaled_mu[j]));
-    for (int e = 0; e < kEntries; ++e) store(st(j, e), pick(commit, updated[j][e], modes[j][e]));
+    lane_store(st(j, kLogMu), pick(commit, centered[j] - log_sum, log_mu[j]));
+    lane_store(st(j, kScaledMu), pick(commit, scaled[j], scaled_mu[j]));
+    for (int e = 0; e < kEntries; ++e)
+      lane_store(st(j, e), pick(commit, updated[j][e], modes[j][e]));
   }
   Entries<S> estimate;
   moment_match(n, posterior.data(), updated.data(), estimate);
   for (int e = 0; e < kEntries; ++e) {
-    store(combined(e), pick(commit, estimate[e], load<S>(combined(e))));
+    lane_store(combined(e), pick(commit, estimate[e], lane_load<S>(combined(e))));
   }
 }
 
@@ -330,7 +305,7 @@ template <int N>
   for (; t < b.lanes; ++t) step<double, N>(b, t);
 }
 
-// The predicted plot density of the kWidth<S> tracks at lane `t`: per mode j the constant of its
+// The predicted plot density of the kLanesOf<S> tracks at lane `t`: per mode j the constant of its
 // log-density, ẑ_j and S_j⁻¹ (S_j = H P⁻_j Hᵀ + R), then the collapsed ẑ and S̄⁻¹ with
 // S̄ = Σ_j c_j (S_j + (ẑ_j − ẑ)(ẑ_j − ẑ)ᵀ), c_j normalized (ImmEstimator::collapse), into the
 // prediction slots of `out` (kPlotSlots per mode, then kCollapsedSlots; `b.stride` apart).
@@ -354,12 +329,12 @@ template <class S, int N>
     const S det = s00[j] * s11[j] - s01[j] * s01[j];
     const S inverse_det = 1.0 / det;
     double* mode = out + (j * kPlotSlots) * b.stride + t;
-    store(mode, p.log_c[j] - 0.5 * lane_log(det) - kLogTwoPi);
-    store(mode + b.stride, zx[j]);
-    store(mode + 2 * b.stride, zy[j]);
-    store(mode + 3 * b.stride, s11[j] * inverse_det);
-    store(mode + 4 * b.stride, -s01[j] * inverse_det);
-    store(mode + 5 * b.stride, s00[j] * inverse_det);
+    lane_store(mode, p.log_c[j] - 0.5 * lane_log(det) - kLogTwoPi);
+    lane_store(mode + b.stride, zx[j]);
+    lane_store(mode + 2 * b.stride, zy[j]);
+    lane_store(mode + 3 * b.stride, s11[j] * inverse_det);
+    lane_store(mode + 4 * b.stride, -s01[j] * inverse_det);
+    lane_store(mode + 5 * b.stride, s00[j] * inverse_det);
     c[j] = lane_exp(p.log_c[j] - top);
     total += c[j];
   }
@@ -378,21 +353,21 @@ template <class S, int N>
   }
   const S inverse_det = 1.0 / (t00 * t11 - t01 * t01);
   const int collapsed = n * kPlotSlots;
-  store(slot(collapsed), cx);
-  store(slot(collapsed + 1), cy);
-  store(slot(collapsed + 2), t11 * inverse_det);
-  store(slot(collapsed + 3), -t01 * inverse_det);
-  store(slot(collapsed + 4), t00 * inverse_det);
+  lane_store(slot(collapsed), cx);
+  lane_store(slot(collapsed + 1), cy);
+  lane_store(slot(collapsed + 2), t11 * inverse_det);
+  lane_store(slot(collapsed + 3), -t01 * inverse_det);
+  lane_store(slot(collapsed + 4), t00 * inverse_det);
 }
 
-// Every plot of `s` against the kWidth<S> tracks at lane `t`: the pack's prediction is read once,
+// Every plot of `s` against the kLanesOf<S> tracks at lane `t`: the pack's prediction is read once,
 // then each plot's gate statistic, and its mixture log-density unless every track of the pack is
 // outside the gate.
 template <class S, int N>
 [[gnu::always_inline]] inline void score_plots(const Scoring& s, int t) {
   const int n = N == kMaxModes ? s.modes : N;
   constexpr double kInf = std::numeric_limits<double>::infinity();
-  auto slot = [&](int index) { return load<S>(s.prediction + index * s.stride + t); };
+  auto slot = [&](int index) { return lane_load<S>(s.prediction + index * s.stride + t); };
   std::array<S, N> constant, zx, zy, i00, i01, i11;
   for (int j = 0; j < n; ++j) {
     constant[j] = slot(j * kPlotSlots);
@@ -409,7 +384,7 @@ template <class S, int N>
     const Eigen::Vector2d& z = s.plots[q];
     double* to = s.out + q * s.out_stride + t;
     if (!limits::usable_measurement(z.x()) || !limits::usable_measurement(z.y())) {
-      store(to, splat<S>(std::numeric_limits<double>::quiet_NaN()));
+      lane_store(to, splat<S>(std::numeric_limits<double>::quiet_NaN()));
       continue;
     }
     const S dx = z.x() - cx, dy = z.y() - cy;
@@ -418,7 +393,7 @@ template <class S, int N>
     const Lanes<S> outside_lanes = lanes_of(pick(outside, splat<S>(1.0), splat<S>(0.0)));
     if (std::all_of(outside_lanes.begin(), outside_lanes.end(),
                     [](double v) { return v != 0.0; })) {
-      store(to, splat<S>(-kInf));
+      lane_store(to, splat<S>(-kInf));
       continue;
     }
     std::array<S, N> terms;
@@ -432,7 +407,7 @@ template <class S, int N>
     S sum = splat<S>(0.0);
     for (int j = 0; j < n; ++j) sum += lane_exp(terms[j] - top);
     const S log_likelihood = pick(top == -kInf, top, top + lane_log(sum));
-    store(to, pick(outside, splat<S>(-kInf), log_likelihood));
+    lane_store(to, pick(outside, splat<S>(-kInf), log_likelihood));
   }
 }
 
