@@ -76,7 +76,7 @@ TEST(FuzzyNoiseStep, TheDoubleInstanceIsTheKalmanStepOfTheRuleTableToTheBit) {
     const Case c = random_case(rng);
     const double R = c.sigma * c.sigma;
     const lanes::FuzzyNoiseStep<double> step = lanes::fuzzy_noise_step<double>(
-        lanes::FuzzyAxisConstants(c.T, c.sigma, c.antecedents), lanes::FuzzyLevelConstants(c.table),
+        lanes::FuzzyAxisConstants(c.T, c.sigma, c.antecedents), lanes::FuzzyTableRules(c.table),
         c.z, c.previous, entries(c.mixed));
     // Eq. (19) from the general functions: F x̂ and F P Fᵀ, the table's q, + q G Gᵀ, the Joseph
     // update of kalman_filter.hpp.
@@ -120,7 +120,8 @@ TEST(FuzzyNoiseStep, EveryPackElementIsTheDoubleInstanceWithinItsPrimitivesRound
   for (int trial = 0; trial < 500; ++trial) {
     const Case c = random_case(rng);
     const lanes::FuzzyAxisConstants axis(c.T, c.sigma, c.antecedents);
-    const lanes::FuzzyLevelConstants level(c.table);
+    const lanes::FuzzyLevelConstants level(c.table);  // a pack reads 1/σ
+    const lanes::FuzzyTableRules rules(c.table);      // a double reads σ
     LanePack z, previous, x0, x1, p00, p01, p11;
     std::vector<Case> lanes_of_case;
     lanes_of_case.reserve(kW);
@@ -137,7 +138,7 @@ TEST(FuzzyNoiseStep, EveryPackElementIsTheDoubleInstanceWithinItsPrimitivesRound
     for (int l = 0; l < kW; ++l) {
       const Case& lane = lanes_of_case[static_cast<std::size_t>(l)];
       const lanes::FuzzyNoiseStep<double> one =
-          lanes::fuzzy_noise_step<double>(axis, level, lane.z, lane.previous, entries(lane.mixed));
+          lanes::fuzzy_noise_step<double>(axis, rules, lane.z, lane.previous, entries(lane.mixed));
       // Before the table: the same operations.
       EXPECT_TRUE(same(pack.residual[l], one.residual));
       EXPECT_TRUE(same(pack.antecedent[l], one.antecedent));
@@ -163,7 +164,7 @@ TEST(FuzzyNoiseStep, StepsTakenTogetherEqualStepsTakenAloneToTheBit) {
   for (int trial = 0; trial < 300; ++trial) {
     const Case c = random_case(rng);
     const lanes::FuzzyAxisConstants axis(c.T, c.sigma, c.antecedents);
-    const lanes::FuzzyLevelConstants level(c.table);
+    const lanes::FuzzyTableRules level(c.table);
     double z[kK], previous[kK];
     lanes::AxisEstimate mixed[kK];
     for (int k = 0; k < kK; ++k) {
@@ -183,7 +184,8 @@ TEST(FuzzyNoiseStep, StepsTakenTogetherEqualStepsTakenAloneToTheBit) {
 
 TEST(FuzzyNoiseStep, RefusesAnUnusableVarianceAsTheKalmanUpdateDoes) {
   const lanes::FuzzyAxisConstants axis(1.0, 0.5, FuzzyAntecedents::kResidual);
-  const lanes::FuzzyLevelConstants level(FuzzyRuleTable({{0.0, 1.0, 0.0, 1.0, 0.1}}));
+  const FuzzyRuleTable table({{0.0, 1.0, 0.0, 1.0, 0.1}});
+  const lanes::FuzzyTableRules level(table);
   // A negative position variance beyond R: S < 0, the innovation is singular.
   const auto singular =
       lanes::fuzzy_noise_step<double>(axis, level, 1.0, 0.0, {0.0, 0.0, -5.0, 0.0, 1.0});

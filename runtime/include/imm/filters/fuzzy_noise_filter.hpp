@@ -72,7 +72,6 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
     H_ << 1.0, 0.0;
     axis_ = lanes::FuzzyAxisConstants(sample_period, std::sqrt(measurement_variance), antecedents);
     axis_.R = measurement_variance;
-    level_ = lanes::FuzzyLevelConstants(table_);
   }
 
   /// Predicts `state` one period and updates it with z; on failure `state` is unchanged.
@@ -86,7 +85,7 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
       return result;
     }
     const lanes::FuzzyNoiseStep<double> s =
-        lanes::fuzzy_noise_step<double>(axis_, level_, z, previous,
+        lanes::fuzzy_noise_step<double>(axis_, lanes::FuzzyTableRules(table_), z, previous,
                                         {state.mean(0), state.mean(1), state.covariance(0, 0),
                                          state.covariance(0, 1), state.covariance(1, 1)});
     result.antecedent = s.antecedent;
@@ -131,8 +130,7 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
   SquareMatrix<2> GGt_;
   Matrix<1, 2> H_;
   SquareMatrix<1> R_;
-  lanes::FuzzyAxisConstants axis_;    // T, R, G Gᵀ and the antecedents, for the step
-  lanes::FuzzyLevelConstants level_;  // the table's rules, for the step
+  lanes::FuzzyAxisConstants axis_;  // T, R, G Gᵀ and the antecedents, for the step
 };
 
 /// The fuzzy-noise KF as an IMM mode (seed 000's sub-model m_j, eq. 18–19).

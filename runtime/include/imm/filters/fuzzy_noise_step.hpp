@@ -61,16 +61,14 @@ struct FuzzyAxisConstants {
   }
 };
 
-/// One level's rule table, with its spreads inverted for the packs (a multiplication per rule
+/// One level's rule table as a pack reads it: its spreads inverted (a multiplication per rule
 /// instead of a division).
 struct FuzzyLevelConstants {
-  /// One rule (FuzzyRule) with 1/σ beside σ.
+  /// One rule (FuzzyRule) with 1/σ in place of σ.
   struct Rule {
     double c1;              ///< centre of the first input
-    double sigma1;          ///< σ₁
     double inverse_sigma1;  ///< 1/σ₁
     double c2;              ///< centre of the second input
-    double sigma2;          ///< σ₂
     double inverse_sigma2;  ///< 1/σ₂
     double w;               ///< consequent q
   };
@@ -85,10 +83,22 @@ struct FuzzyLevelConstants {
       : rule_count(static_cast<int>(table.size())), mean_w(table.mean_w()) {
     for (std::size_t k = 0; k < table.size(); ++k) {
       const FuzzyRule& rule = table.rules()[k];
-      rules[k] = {rule.c1,           rule.sigma1, 1.0 / rule.sigma1, rule.c2, rule.sigma2,
-                  1.0 / rule.sigma2, rule.w};
+      rules[k] = {rule.c1, 1.0 / rule.sigma1, rule.c2, 1.0 / rule.sigma2, rule.w};
     }
   }
+};
+
+/// One level's rule table as a double reads it: the table's own rules (FuzzyRule, with σ).
+struct FuzzyTableRules {
+  const FuzzyRule* rules = nullptr;  ///< the table's rules
+  int rule_count = 0;                ///< how many
+  double mean_w = 0.0;               ///< q where no rule fires
+
+  /// The rules of `table`, which must outlive this.
+  explicit FuzzyTableRules(const FuzzyRuleTable& table)
+      : rules(table.rules().data()),
+        rule_count(static_cast<int>(table.size())),
+        mean_w(table.mean_w()) {}
 };
 
 /// The most levels (modes per axis) a GA-fuzzy IMM has (GaFuzzyImmSpec::validate).
@@ -133,14 +143,17 @@ template <int W>
   }
 }
 
-/// A rule's scaled distance (x − c)/σ: a double divides (as fuzzy_inference), a pack multiplies
-/// by 1/σ (see the file comment).
-template <class S>
-[[gnu::always_inline]] inline S over_sigma(S offset, double sigma, double inverse_sigma) {
+/// A rule's scaled distances (r − c₁)/σ₁ and (Δr − c₂)/σ₂: a double divides by σ (as
+/// fuzzy_inference, reading FuzzyTableRules), a pack multiplies by 1/σ (reading
+/// FuzzyLevelConstants; see the file comment).
+template <class S, class Rule>
+[[gnu::always_inline]] inline void scaled_inputs(const Rule& f, S r, S dr, S& u, S& v) {
   if constexpr (std::is_same_v<S, double>) {
-    return offset / sigma;
+    u = (r - f.c1) / f.sigma1;
+    v = (dr - f.c2) / f.sigma2;
   } else {
-    return offset * inverse_sigma;
+    u = (r - f.c1) * f.inverse_sigma1;
+    v = (dr - f.c2) * f.inverse_sigma2;
   }
 }
 
@@ -178,11 +191,12 @@ struct FuzzyNoiseStep {
 /// where the total firing strength is below the smallest normal double, as fuzzy_inference), P⁻
 /// += q G Gᵀ, the update with innovation r. The K steps advance phase by phase and rule by rule
 /// together: their chains of operations are independent, and a core overlaps them (K packs of
-/// lanes for a wide block; K = 1 for one filter).
-template <class S, int K>
+/// lanes for a wide block; K = 1 for one filter). `level`: FuzzyTableRules for a double,
+/// FuzzyLevelConstants for a pack.
+template <class S, int K, class Level>
 [[gnu::always_inline]] inline void fuzzy_noise_steps(const FuzzyAxisConstants& a,
-                                                     const FuzzyLevelConstants& level,
-                                                     const S (&z)[K], const S (&previous)[K],
+                                                     const Level& level, const S (&z)[K],
+                                                     const S (&previous)[K],
                                                      const AxisEstimateOf<S> (&mixed)[K],
                                                      FuzzyNoiseStep<S> (&out)[K]) {
   AxisEstimateOf<S> predicted[K];
@@ -201,10 +215,10 @@ template <class S, int K>
   }
   for (int k = 0; k < K; ++k) change[k] = out[k].antecedent - previous[k];
   for (int rule = 0; rule < level.rule_count; ++rule) {
-    const FuzzyLevelConstants::Rule& f = level.rules[rule];
+    const auto& f = level.rules[rule];
     for (int k = 0; k < K; ++k) {
-      const S u = over_sigma(out[k].antecedent - f.c1, f.sigma1, f.inverse_sigma1);
-      const S v = over_sigma(change[k] - f.c2, f.sigma2, f.inverse_sigma2);
+      S u, v;
+      scaled_inputs(f, out[k].antecedent, change[k], u, v);
       const S firing = fuzzy_exp<S>(-0.5 * (u * u + v * v));  // μ₁ μ₂ in one exponential
       numerator[k] += f.w * firing;
       denominator[k] += firing;
@@ -230,10 +244,10 @@ template <class S, int K>
 }
 
 /// One fuzzy-noise step (fuzzy_noise_steps with K = 1).
-template <class S>
+template <class S, class Level>
 [[gnu::always_inline]] inline FuzzyNoiseStep<S> fuzzy_noise_step(const FuzzyAxisConstants& a,
-                                                                 const FuzzyLevelConstants& level,
-                                                                 S z, S previous,
+                                                                 const Level& level, S z,
+                                                                 S previous,
                                                                  const AxisEstimateOf<S>& mixed) {
   const S zs[1] = {z}, previous_s[1] = {previous};
   const AxisEstimateOf<S> mixed_s[1] = {mixed};
