@@ -18,6 +18,8 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <fstream>
@@ -46,19 +48,49 @@ namespace {
 
 using imm::datasets::RegimeFile;
 
+// `text` as a TOML basic string: quoted, with ", \ and every control character escaped (TOML
+// allows none raw but tab; a newline would end the line).
+std::string toml_string(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (c == '"' || c == '\\') {
+      out.push_back('\\');
+      out.push_back(c);
+    } else if (byte < 0x20 || byte == 0x7f) {
+      constexpr char kHex[] = "0123456789ABCDEF";
+      out += "\\u00";
+      out.push_back(kHex[byte >> 4U]);
+      out.push_back(kHex[byte & 0xfU]);
+    } else {
+      out.push_back(c);
+    }
+  }
+  return out + "\"";
+}
+
+// A dict key as a TOML key: bare where TOML allows it (letters, digits, _ and -), quoted
+// otherwise, so that a key with a dot, a space or an = stays one key.
+std::string toml_key(const py::handle& key) {
+  const std::string name = py::str(key).cast<std::string>();
+  const bool bare = !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '-';
+  });
+  return bare ? name : toml_string(name);
+}
+
 // A value of a regime dict as TOML: numbers, booleans, strings and arrays of them.
 std::string toml_value(const py::handle& value, const std::string& key) {
   if (py::isinstance<py::bool_>(value)) return value.cast<bool>() ? "true" : "false";
-  if (py::isinstance<py::int_>(value)) return std::to_string(value.cast<long long>());
-  if (py::isinstance<py::float_>(value)) return py::repr(value).cast<std::string>();
-  if (py::isinstance<py::str>(value)) {
-    std::string text = "\"";
-    for (const char c : value.cast<std::string>()) {
-      if (c == '"' || c == '\\') text.push_back('\\');
-      text.push_back(c);
+  if (py::isinstance<py::int_>(value)) {
+    try {
+      return std::to_string(value.cast<long long>());
+    } catch (const py::cast_error&) {
+      throw py::value_error(key + ": an integer beyond 64 bits");
     }
-    return text + "\"";
   }
+  if (py::isinstance<py::float_>(value)) return py::repr(value).cast<std::string>();
+  if (py::isinstance<py::str>(value)) return toml_string(value.cast<std::string>());
   if (py::isinstance<py::list>(value) || py::isinstance<py::tuple>(value)) {
     std::string text = "[";
     std::size_t i = 0;
@@ -86,11 +118,11 @@ bool is_table_array(const py::handle& value) {
 void toml_table(const py::dict& table, const std::string& prefix, std::string& text) {
   for (const auto& [key, value] : table) {
     if (py::isinstance<py::dict>(value) || is_table_array(value)) continue;
-    const std::string name = py::str(key).cast<std::string>();
-    text += name + " = " + toml_value(value, prefix + name) + "\n";
+    text +=
+        toml_key(key) + " = " + toml_value(value, prefix + py::str(key).cast<std::string>()) + "\n";
   }
   for (const auto& [key, value] : table) {
-    const std::string name = prefix + py::str(key).cast<std::string>();
+    const std::string name = prefix + toml_key(key);
     if (py::isinstance<py::dict>(value)) {
       text += "\n[" + name + "]\n";
       toml_table(value.cast<py::dict>(), name + ".", text);

@@ -78,6 +78,18 @@ def test_an_invalid_regime_is_a_value_error_naming_the_key():
         immtrain.regime_from_dict(SMALL).draw("tests")
 
 
+def test_a_dicts_strings_and_keys_reach_the_regime_as_they_are_written():
+    # Quotes, backslashes and control characters are escaped in the TOML the dict becomes.
+    odd = dict(SMALL, name='turns "A"\\B\x01C\nD')
+    assert immtrain.regime_from_dict(odd).name == 'turns "A"\\B\x01C\nD'
+    # A key with a space stays one key: refused as unknown, naming it.
+    with pytest.raises(ValueError, match="'scan count': unknown key"):
+        immtrain.regime_from_dict(dict(SMALL, **{"scan count": 3}))
+    # An integer beyond 64 bits is refused naming its key.
+    with pytest.raises(ValueError, match="scans"):
+        immtrain.regime_from_dict(dict(SMALL, scans=2**70))
+
+
 def test_an_experiment_returns_the_numbers_of_its_metrics_json(tmp_path):
     result = immtrain.evaluate("ga-imm", model="models/ga_fuzzy_imm.h5", runs=6,
                                out=tmp_path / "ga")
