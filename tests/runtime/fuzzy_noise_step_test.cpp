@@ -76,8 +76,8 @@ TEST(FuzzyNoiseStep, TheDoubleInstanceIsTheKalmanStepOfTheRuleTableToTheBit) {
     const Case c = random_case(rng);
     const double R = c.sigma * c.sigma;
     const lanes::FuzzyNoiseStep<double> step = lanes::fuzzy_noise_step<double>(
-        lanes::FuzzyAxisConstants(c.T, c.sigma, c.antecedents), lanes::FuzzyTableRules(c.table),
-        c.z, c.previous, entries(c.mixed));
+        lanes::FuzzyAxisConstants(c.T, R, c.antecedents), lanes::FuzzyTableRules(c.table), c.z,
+        c.previous, entries(c.mixed));
     // Eq. (19) from the general functions: F x̂ and F P Fᵀ, the table's q, + q G Gᵀ, the Joseph
     // update of kalman_filter.hpp.
     const SquareMatrix<2> F = cv_axis_transition(c.T), no_noise = SquareMatrix<2>::Zero();
@@ -119,7 +119,7 @@ TEST(FuzzyNoiseStep, EveryPackElementIsTheDoubleInstanceWithinItsPrimitivesRound
   constexpr int kW = kLanePackWidth;
   for (int trial = 0; trial < 500; ++trial) {
     const Case c = random_case(rng);
-    const lanes::FuzzyAxisConstants axis(c.T, c.sigma, c.antecedents);
+    const lanes::FuzzyAxisConstants axis(c.T, c.sigma * c.sigma, c.antecedents);
     const lanes::FuzzyLevelConstants level(c.table);  // a pack reads 1/σ
     const lanes::FuzzyTableRules rules(c.table);      // a double reads σ
     LanePack z, previous, x0, x1, p00, p01, p11;
@@ -163,7 +163,7 @@ TEST(FuzzyNoiseStep, StepsTakenTogetherEqualStepsTakenAloneToTheBit) {
   constexpr int kK = 3;
   for (int trial = 0; trial < 300; ++trial) {
     const Case c = random_case(rng);
-    const lanes::FuzzyAxisConstants axis(c.T, c.sigma, c.antecedents);
+    const lanes::FuzzyAxisConstants axis(c.T, c.sigma * c.sigma, c.antecedents);
     const lanes::FuzzyTableRules level(c.table);
     double z[kK], previous[kK];
     lanes::AxisEstimate mixed[kK];
@@ -183,7 +183,7 @@ TEST(FuzzyNoiseStep, StepsTakenTogetherEqualStepsTakenAloneToTheBit) {
 }
 
 TEST(FuzzyNoiseStep, RefusesAnUnusableVarianceAsTheKalmanUpdateDoes) {
-  const lanes::FuzzyAxisConstants axis(1.0, 0.5, FuzzyAntecedents::kResidual);
+  const lanes::FuzzyAxisConstants axis(1.0, 0.25, FuzzyAntecedents::kResidual);
   const FuzzyRuleTable table({{0.0, 1.0, 0.0, 1.0, 0.1}});
   const lanes::FuzzyTableRules level(table);
   // A negative position variance beyond R: S < 0, the innovation is singular.

@@ -172,8 +172,9 @@ GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capac
     initial_log_mu_.push_back(safe_log(initial(i)));
     levels_.emplace_back(spec.levels[static_cast<std::size_t>(i)].table);
   }
-  axis_ = lanes::FuzzyAxisConstants(spec.settings.sample_period, spec.settings.measurement_sigma,
-                                    spec.antecedents);
+  axis_ = lanes::FuzzyAxisConstants(
+      spec.settings.sample_period,
+      spec.settings.measurement_sigma * spec.settings.measurement_sigma, spec.antecedents);
   state_.assign(static_cast<std::size_t>((modes_ * kModeSlots + 5) * stride_), 0.0);
   scratch_.assign(std::size_t{3} * kBlock, 0.0);
   initialized_.assign(capacity, 0);

@@ -293,8 +293,9 @@ ImmRunErrors ImmFitnessBatch::run(const GaFuzzyImmSpec& spec) const {
     for (int j = 0; j < m.modes; ++j) m.transition[i][j] = transition(i, j);
     m.levels[i] = lanes::FuzzyLevelConstants(spec.levels[static_cast<std::size_t>(i)].table);
   }
-  m.axis = lanes::FuzzyAxisConstants(spec.settings.sample_period, spec.settings.measurement_sigma,
-                                     spec.antecedents);
+  m.axis = lanes::FuzzyAxisConstants(
+      spec.settings.sample_period,
+      spec.settings.measurement_sigma * spec.settings.measurement_sigma, spec.antecedents);
   m.start_variance = start_variance_;
 
   std::vector<double>& buffer = workspace();

@@ -18,7 +18,6 @@
 /// one table reads alike at any σ, unit and sample period; only its consequents w carry units.
 
 #include <cmath>
-#include <cstdint>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -70,8 +69,7 @@ class IMM_RUNTIME_EXPORT FuzzyNoiseFilter {
     require_positive(measurement_variance, "measurement_variance");
     GGt_ = G_ * G_.transpose();
     H_ << 1.0, 0.0;
-    axis_ = lanes::FuzzyAxisConstants(sample_period, std::sqrt(measurement_variance), antecedents);
-    axis_.R = measurement_variance;
+    axis_ = lanes::FuzzyAxisConstants(sample_period, measurement_variance, antecedents);
   }
 
   /// Predicts `state` one period and updates it with z; on failure `state` is unchanged.

@@ -49,10 +49,11 @@ struct FuzzyAxisConstants {
 
   /// T = 1, R = 1, no process noise.
   FuzzyAxisConstants() = default;
-  /// The constants of an axis with sample period T, plot σ and antecedents.
-  FuzzyAxisConstants(double sample_period, double measurement_sigma, FuzzyAntecedents antecedents)
+  /// The constants of an axis with sample period T, plot variance R = σ_z² and antecedents.
+  FuzzyAxisConstants(double sample_period, double measurement_variance,
+                     FuzzyAntecedents antecedents)
       : T(sample_period),
-        R(measurement_sigma * measurement_sigma),
+        R(measurement_variance),
         normalized(antecedents == FuzzyAntecedents::kNormalizedInnovation) {
     const Vector<2> G = cv_axis_input_gain(T);
     g00 = G(0) * G(0);

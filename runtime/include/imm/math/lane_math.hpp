@@ -167,13 +167,6 @@ template <class S>
   }
 }
 
-/// Where x is finite: x − x is 0 for a finite x and NaN for ±∞ and NaN (a bool for a double, a
-/// mask for a pack).
-template <class S>
-[[nodiscard]] inline auto lane_finite(S x) {
-  return x - x == 0.0;
-}
-
 /// eˣ within 2 ulp for x in [−708, 709]; 0 below −708 (libm's subnormal results are flushed),
 /// +∞ above 709, NaN for NaN. Cody–Waite reduction x = n ln 2 + r, |r| ≤ ½ ln 2, a degree-13
 /// Taylor polynomial of eʳ (truncation below 10⁻¹⁷), and 2ⁿ assembled in the exponent bits.
