@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// The GA-fuzzy IMM bank: axis filters as lanes, blocks of kBlock lanes stepped in vector loops
-// (see the header). The order of operations follows ImmEstimator (mode-probability prediction,
-// mixing, the modes' steps, the log-space posterior, the combination) and fuzzy_noise_step.hpp.
+// The GA-fuzzy IMM bank: axis filters as lanes, blocks of kBlock lanes stepped as packs (see the
+// header): imm_cycle.hpp's IMM cycle with fuzzy_noise_step.hpp's step as the family's.
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 
 #include <algorithm>
@@ -17,137 +16,103 @@
 #include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
+#include "imm_cycle.hpp"
 
 namespace imm {
 namespace {
 
-using lanes::kMaxLevels;
-// State slots of mode j at j * kModeSlots + entry; the combined estimate after the modes.
-constexpr int kX0 = 0, kX1 = 1, kP00 = 2, kP01 = 3, kP11 = 4, kLogMu = 5, kScaledMu = 6,
-              kPrevious = 7, kModeSlots = 8;
-using bank::kNonFinite, bank::kOk, bank::kSingular, bank::kUnderflow;
+using bank::kNonFinite, bank::kOk, bank::kSingular;
 
-struct BankConstants {
-  int modes = 0;
-  const double* transition = nullptr;  // π_ij at i * modes + j
+// The GA-fuzzy IMM's fuzzy-noise modes of one axis as imm_cycle.hpp's family: a mode holds its
+// estimate [x0, x1, p00, p01, p11] and its table's last first input; its step is
+// fuzzy_noise_steps over packs (FuzzyLevelConstants); a track is two lanes, x then y.
+struct FuzzyNoiseFamily {
+  static constexpr int kEntries = 6, kCombined = 5, kPrevious = 5;
+  template <class S>
+  using Plot = S;
+  template <class S>
+  using Mode = std::array<S, kEntries>;
+  template <class S>
+  using Estimate = std::array<S, kCombined>;
   const lanes::FuzzyAxisConstants* axis = nullptr;
   const lanes::FuzzyLevelConstants* levels = nullptr;
+
+  // Σ_i w_i N(x_i, P_i) (eq. 4–5 and 10–11); a zero weight contributes nothing, as in
+  // ImmEstimator.
+  template <class S, class Entries>
+  [[gnu::always_inline]] inline void mix(int n, const S* weight, const Entries* modes,
+                                         Estimate<S>& out) const {
+    S m0 = splat<S>(0.0), m1 = splat<S>(0.0);
+    for (int i = 0; i < n; ++i) {
+      m0 += weight[i] * modes[i][0];
+      m1 += weight[i] * modes[i][1];
+    }
+    S c00 = splat<S>(0.0), c01 = splat<S>(0.0), c11 = splat<S>(0.0);
+    for (int i = 0; i < n; ++i) {
+      const S w = weight[i];
+      const S d0 = modes[i][0] - m0, d1 = modes[i][1] - m1;
+      c00 += pick(w == 0.0, 0.0, w * (modes[i][2] + d0 * d0));
+      c01 += pick(w == 0.0, 0.0, w * (modes[i][3] + d0 * d1));
+      c11 += pick(w == 0.0, 0.0, w * (modes[i][4] + d1 * d1));
+    }
+    out = {m0, m1, c00, c01, c11};
+  }
+
+  // Mode j's fuzzy-noise steps of K packs together; ℓ_j = log N(r; 0, S).
+  template <class S, int K>
+  [[gnu::always_inline]] inline void steps(int j, const Estimate<S> (&mixed)[K],
+                                           const Mode<S> (&current)[K], const S (&z)[K],
+                                           Mode<S> (&updated)[K], S (&log_likelihood)[K],
+                                           S (&code)[K]) const {
+    S previous[K];
+    lanes::AxisEstimateOf<S> start[K];
+    for (int k = 0; k < K; ++k) {
+      previous[k] = current[k][kPrevious];
+      start[k] = {mixed[k][0], mixed[k][1], mixed[k][2], mixed[k][3], mixed[k][4]};
+    }
+    lanes::FuzzyNoiseStep<S> s[K];
+    lanes::fuzzy_noise_steps<S, K>(*axis, levels[j], z, previous, start, s);
+    for (int k = 0; k < K; ++k) {
+      const lanes::AxisEstimateOf<S>& e = s[k].estimate;
+      updated[k] = {e.x0, e.x1, e.p00, e.p01, e.p11, s[k].antecedent};
+      log_likelihood[k] = -0.5 * (s[k].mahalanobis + lane_log(s[k].s) + kLogTwoPi);
+      code[k] = pick(s[k].usable, pick(s[k].finite, kOk, kNonFinite), kSingular);
+    }
+  }
+
+  // A track's code, in both its lanes: that of the first axis that failed.
+  template <class S>
+  [[gnu::always_inline]] inline S track_code(S code) const {
+    bank::Lanes<S> lanes = bank::lanes_of(code);
+    for (std::size_t l = 0; l < lanes.size(); l += 2) {
+      lanes[l] = lanes[l + 1] = lanes[l] != kOk ? lanes[l] : lanes[l + 1];
+    }
+    return bank::from_lanes<S>(lanes);
+  }
 };
+using Slots = bank::CycleSlots<FuzzyNoiseFamily>;
+constexpr int kLogMu = Slots::kLogMu, kScaledMu = Slots::kScaledMu, kModeSlots = Slots::kModeSlots;
 
-// One IMM cycle of one block's W lanes. `state` points at the block's first lane of slot 0; `z`
-// the lanes' plots; `stepped` 1 for a lane to step; `code` receives each lane's outcome.
+// One IMM cycle of one block's W lanes (packs of eight) from lane `first`: `z` the lanes' plots
+// (NaN for an unusable plot), `stepped` 1 for a lane to step; `code` receives each lane's outcome.
 template <int W>
-[[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const BankConstants& b, double* state,
-                                                   std::ptrdiff_t stride, const double* z,
-                                                   const double* stepped, double* code) {
-  using Lanes = double[W];
-  const int n = b.modes;
-  auto st = [&](int j, int entry) { return state + (j * kModeSlots + entry) * stride; };
-  auto combined = [&](int entry) { return state + (n * kModeSlots + entry) * stride; };
-
-  // The modes' current states, as the mixing reads them, and the states the step gives: the n
-  // modes' fields are written before they are read, the others never read.
-  lanes::AxisModes<W> now, next;  // NOLINT(cppcoreguidelines-pro-type-member-init)
-  for (int i = 0; i < n; ++i) {
-    IMM_LANES {
-      now.x0[i][l] = st(i, kX0)[l];
-      now.x1[i][l] = st(i, kX1)[l];
-      now.p00[i][l] = st(i, kP00)[l];
-      now.p01[i][l] = st(i, kP01)[l];
-      now.p11[i][l] = st(i, kP11)[l];
-      now.previous[i][l] = st(i, kPrevious)[l];
-    }
+[[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const FuzzyNoiseFamily& family,
+                                                   const bank::CycleBlock& b, std::ptrdiff_t first,
+                                                   const double* z, const double* stepped,
+                                                   double* code) {
+  using Pack = LanePack;
+  constexpr int kPack = kLanesOf<Pack>, K = W / kPack;
+  static_assert(K * kPack == W, "a block is whole packs");
+  Pack plot[K], usable[K], step[K];
+  for (int k = 0; k < K; ++k) {
+    plot[k] = lane_load<Pack>(z + k * kPack);
+    usable[k] = pick(plot[k] == plot[k], 1.0, 0.0);
+    step[k] = lane_load<Pack>(stepped + k * kPack);
   }
-  // log c_j = log Σ_i p_ij μ̃_i + max log μ (ImmEstimator::predict_mode_probabilities).
-  Lanes shift, predicted[kMaxLevels], log_predicted[kMaxLevels];
-  IMM_LANES shift[l] = st(0, kLogMu)[l];
-  for (int i = 1; i < n; ++i) {
-    IMM_LANES shift[l] = std::max(shift[l], st(i, kLogMu)[l]);
-  }
-  for (int j = 0; j < n; ++j) {
-    IMM_LANES predicted[j][l] = 0.0;
-    for (int i = 0; i < n; ++i) {
-      const double p = b.transition[i * n + j];
-      const double* mu = st(i, kScaledMu);
-      IMM_LANES predicted[j][l] += p * mu[l];
-    }
-    IMM_LANES log_predicted[j][l] = lane_log(predicted[j][l]) + shift[l];
-  }
-
-  // Each mode: mixing (eq. 4–6), its fuzzy-noise step, ℓ_j = log N(r; 0, S) + log c_j.
-  Lanes posterior[kMaxLevels], outcome;
-  IMM_LANES outcome[l] = kOk;
-  for (int j = 0; j < n; ++j) {
-    Lanes weight[kMaxLevels];
-    for (int i = 0; i < n; ++i) {
-      const double p = b.transition[i * n + j];
-      const double* mu = st(i, kScaledMu);
-      IMM_LANES weight[i][l] = p * mu[l] / predicted[j][l];
-    }
-    Lanes m0, m1, c00, c01, c11;
-    lanes::mix<W>(n, weight, now, m0, m1, c00, c01, c11);
-    // Every lane of every field is written by fuzzy_noise_lanes; zeroing it first would cost.
-    lanes::FuzzyLaneSteps<W> s;  // NOLINT(cppcoreguidelines-pro-type-member-init)
-    lanes::fuzzy_noise_lanes<W>(*b.axis, b.levels[j], z, m0, m1, c00, c01, c11, j, now, next, s);
-    IMM_LANES {
-      const double log_likelihood = -0.5 * (s.mahalanobis[l] + lane_log(s.s[l]) + kLogTwoPi);
-      posterior[j][l] = log_likelihood + log_predicted[j][l];
-      // The first mode that fails decides the status (ImmEstimator stops there).
-      const double mode_outcome =
-          pick(s.usable[l] != 0.0, pick(s.finite[l] != 0.0, kOk, kNonFinite), kSingular);
-      outcome[l] = pick(outcome[l] != kOk, outcome[l], mode_outcome);
-    }
-  }
-
-  // The posterior in log space (ImmEstimator::finish_cycle): μ̃_j = exp(ℓ_j − max ℓ),
-  // log μ_j = (ℓ_j − max ℓ) − log Σ μ̃, μ_j = μ̃_j / Σ μ̃.
-  Lanes top, sum, log_sum, scaled[kMaxLevels], mu[kMaxLevels];
-  IMM_LANES top[l] = -std::numeric_limits<double>::infinity();
-  for (int j = 0; j < n; ++j) {
-    IMM_LANES top[l] = std::max(top[l], posterior[j][l]);
-  }
-  IMM_LANES sum[l] = 0.0;
-  for (int j = 0; j < n; ++j) {
-    IMM_LANES {
-      posterior[j][l] -= top[l];
-      scaled[j][l] = lane_exp(posterior[j][l]);
-      sum[l] += scaled[j][l];
-    }
-  }
-  IMM_LANES {
-    // A non-finite max ℓ: every likelihood underflowed (or a NaN got through).
-    const bool finite_top = std::abs(top[l]) < std::numeric_limits<double>::infinity();
-    outcome[l] = pick((outcome[l] == kOk) & !finite_top, kUnderflow, outcome[l]);
-    log_sum[l] = lane_log(sum[l]);
-  }
-  for (int j = 0; j < n; ++j) {
-    IMM_LANES {
-      mu[j][l] = scaled[j][l] / sum[l];
-      posterior[j][l] -= log_sum[l];  // log μ_j
-    }
-  }
-  // The combination (eq. 10–11) of the new estimates.
-  Lanes e0, e1, e00, e01, e11;
-  lanes::mix<W>(n, mu, next, e0, e1, e00, e01, e11);
-
-  // A track commits when both its lanes (x at an even lane, y after it) succeeded.
-  bank::track_codes<W>(outcome, z, code);
-  Lanes commit;
-  IMM_LANES commit[l] = pick((stepped[l] != 0.0) & (code[l] == kOk), 1.0, 0.0);
-  for (int j = 0; j < n; ++j) {
-    const double* values[kModeSlots] = {next.x0[j],  next.x1[j],   next.p00[j], next.p01[j],
-                                        next.p11[j], posterior[j], scaled[j],   next.previous[j]};
-    for (int e = 0; e < kModeSlots; ++e) {
-      double* target = st(j, e);
-      const double* value = values[e];
-      IMM_LANES target[l] = pick(commit[l] != 0.0, value[l], target[l]);
-    }
-  }
-  const double* estimate[5] = {e0, e1, e00, e01, e11};
-  for (int e = 0; e < 5; ++e) {
-    double* target = combined(e);
-    IMM_LANES target[l] = pick(commit[l] != 0.0, estimate[e][l], target[l]);
-  }
+  const auto t = static_cast<int>(first);
+  bank::with_mode_count(b.modes, [&](auto n) {
+    bank::imm_cycle<Pack, decltype(n)::value, K>(family, b, t, plot, usable, step, code);
+  });
 }
 
 }  // namespace
@@ -168,7 +133,10 @@ GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capac
   stride_ = static_cast<std::ptrdiff_t>((2 * capacity + kBlock - 1) / kBlock * kBlock);
   const Eigen::VectorXd initial = spec.settings.initial_probabilities(modes_);
   for (int i = 0; i < modes_; ++i) {
-    for (int j = 0; j < modes_; ++j) transition_.push_back(transition(i, j));
+    for (int j = 0; j < modes_; ++j) {
+      transition_.push_back(transition(i, j));
+      log_transition_.push_back(safe_log(transition(i, j)));
+    }
     initial_log_mu_.push_back(safe_log(initial(i)));
     levels_.emplace_back(spec.levels[static_cast<std::size_t>(i)].table);
   }
@@ -202,7 +170,7 @@ void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& sta
       for (int e = 0; e < 5; ++e) slot(j * kModeSlots + e)[lane] = values[e];
       slot(j * kModeSlots + kLogMu)[lane] = log_mu;
       slot(j * kModeSlots + kScaledMu)[lane] = std::exp(log_mu - top);
-      slot(j * kModeSlots + kPrevious)[lane] = 0.0;
+      slot(j * kModeSlots + FuzzyNoiseFamily::kPrevious)[lane] = 0.0;
       const double mu = std::exp(log_mu);
       sum[0] += mu * values[0];
       sum[1] += mu * values[1];
@@ -222,12 +190,14 @@ void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& sta
 
 void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
   bank::check_step("GaFuzzyTrackBank", plots.size(), status.size(), initialized_);
-  const BankConstants constants{modes_, transition_.data(), &axis_, levels_.data()};
+  const FuzzyNoiseFamily family{&axis_, levels_.data()};
+  const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), state_.data(),
+                               stride_};
   bank::step_blocks<kBlock>(
       plots, status, wide_blocks_, scratch_.data(),
       [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
-        step_block<decltype(width)::value>(constants, state_.data() + first, stride_, z, stepped,
-                                           code);
+        step_block<decltype(width)::value>(family, cycle, static_cast<std::ptrdiff_t>(first), z,
+                                           stepped, code);
       });
 }
 

@@ -13,170 +13,97 @@
 #include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
+#include "imm_cycle.hpp"
 
 namespace imm::bank {
 namespace {
-
-// The number types of one step: S is a double (one track) or a LanePack (kLanePackWidth tracks,
-// one per element). Every statement below is the same IEEE operation for both, so a track gives
-// the same bits in a pack and alone (the project compiles with -ffp-contract=off). Loads, stores
-// and splats are lane_math.hpp's.
-// a and b of two comparisons: bools for a double, masks for a LanePack.
-template <class Mask>
-[[gnu::always_inline]] inline Mask both(Mask a, Mask b) {
-  if constexpr (std::is_same_v<Mask, bool>) {
-    return a && b;
-  } else {
-    return a & b;
-  }
-}
-
-// The lanes of a value, as doubles (for the few scalar decisions per step).
-template <class S>
-using Lanes = std::array<double, kLanesOf<S>>;
-template <class S>
-[[gnu::always_inline]] inline Lanes<S> lanes_of(const S& value) {
-  Lanes<S> out;
-  lane_store(out.data(), value);
-  return out;
-}
-template <class S>
-[[gnu::always_inline]] inline S from_lanes(const Lanes<S>& lanes) {
-  return lane_load<S>(lanes.data());
-}
 
 // A Gaussian of one mode: mean, then the covariance's upper triangle (cv_position_algebra.hpp).
 template <class S>
 using Entries = std::array<S, kEntries>;
 
-// Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian (eq. 4–5 and 10–11), each sum over i = 0, 1, …
-template <class S>
-[[gnu::always_inline]] inline void moment_match(int components, const S* weights,
-                                                const Entries<S>* modes, Entries<S>& out) {
-  for (int a = 0; a < kN; ++a) {
-    S sum = splat<S>(0.0);
-    for (int i = 0; i < components; ++i) sum += weights[i] * modes[i][a];
-    out[a] = sum;
-  }
-  for (int a = 0; a < kN; ++a) {
-    for (int c = a; c < kN; ++c) {
+// The plain IMM's constant-velocity modes with a Cartesian plot as imm_cycle.hpp's family: a
+// mode holds its Gaussian; its step is cv_position_algebra.hpp's prediction and Joseph update.
+struct CvPositionFamily {
+  static constexpr int kEntries = cv_position::kEntries, kCombined = cv_position::kEntries;
+  template <class S>
+  struct Plot {
+    S x, y;
+  };
+  double period = 1.0;
+  const double* noise = nullptr;  // mode j's Q triangle at j * kTriangle
+  double r00 = 0.0, r01 = 0.0, r11 = 0.0;
+
+  // Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian (eq. 4–5 and 10–11), each sum over i = 0, 1, …
+  template <class S>
+  [[gnu::always_inline]] inline void mix(int components, const S* weights,
+                                         const Entries<S>* modes, Entries<S>& out) const {
+    for (int a = 0; a < kN; ++a) {
       S sum = splat<S>(0.0);
-      for (int i = 0; i < components; ++i) {
-        sum += weights[i] *
-               (modes[i][kN + sym(a, c)] + (modes[i][a] - out[a]) * (modes[i][c] - out[c]));
+      for (int i = 0; i < components; ++i) sum += weights[i] * modes[i][a];
+      out[a] = sum;
+    }
+    for (int a = 0; a < kN; ++a) {
+      for (int c = a; c < kN; ++c) {
+        S sum = splat<S>(0.0);
+        for (int i = 0; i < components; ++i) {
+          sum += weights[i] *
+                 (modes[i][kN + sym(a, c)] + (modes[i][a] - out[a]) * (modes[i][c] - out[c]));
+        }
+        out[kN + sym(a, c)] = sum;
       }
-      out[kN + sym(a, c)] = sum;
     }
   }
-}
 
-// Where c̃_j = Σ_i p_ij μ̃_i underflowed to 0 (possible only with zero transition entries): the
-// exact log-sum-exp of log c_j and the weights from it, lane by lane (ImmEstimator's fallback).
-template <class S>
-void exact_predicted(const Block& b, const S* log_mu, const S* predicted, S* log_c, S* weights) {
-  const int n = b.modes;
-  for (int j = 0; j < n; ++j) {
-    const Lanes<S> c = lanes_of(predicted[j]);
-    if (std::none_of(c.begin(), c.end(), [](double v) { return !(v > 0.0); })) continue;
-    Lanes<S> out = lanes_of(log_c[j]);
-    std::array<Lanes<S>, kMaxModes> w{};  // n ≤ kMaxModes
-    for (int i = 0; i < n; ++i) w[static_cast<std::size_t>(i)] = lanes_of(weights[j * n + i]);
-    for (std::size_t l = 0; l < c.size(); ++l) {
-      if (c[l] > 0.0) continue;
-      double largest = -std::numeric_limits<double>::infinity();
-      for (int i = 0; i < n; ++i)
-        largest = std::max(largest, b.log_transition[i * n + j] + lanes_of(log_mu[i])[l]);
-      double value = largest;
-      if (std::isfinite(largest)) {
-        double sum = 0.0;
-        for (int i = 0; i < n; ++i)
-          sum += std::exp(b.log_transition[i * n + j] + lanes_of(log_mu[i])[l] - largest);
-        // sum ≥ 1: the largest term is exp(0).
-        value = largest + std::log(sum);  // cppcheck-suppress invalidFunctionArg
-      }
-      out[l] = value;
-      for (int i = 0; i < n; ++i) {
-        // Unreachable mode: it keeps its own estimate as the initial condition.
-        w[static_cast<std::size_t>(i)][l] =
-            !std::isfinite(value)
-                ? (i == j ? 1.0 : 0.0)
-                : std::exp(b.log_transition[i * n + j] + lanes_of(log_mu[i])[l] - value);
-      }
-    }
-    log_c[j] = from_lanes<S>(out);
-    for (int i = 0; i < n; ++i) weights[j * n + i] = from_lanes<S>(w[static_cast<std::size_t>(i)]);
+  // Mode j's prediction in place: x⁻ = F x, P⁻ = F P Fᵀ + Q.
+  template <class S>
+  [[gnu::always_inline]] inline void predict(int j, Entries<S>& e) const {
+    cv_position::predict([&](int i) -> S& { return e[i]; }, period,
+                         noise + static_cast<std::ptrdiff_t>(j) * kTriangle);
   }
-}
 
-// The first half of an IMM cycle (seed 000 eq. 4–6 and each mode's prediction) of the kLanesOf<S>
-// tracks that start at lane `t` of block `b`, whose IMM has N modes (N = kMaxModes: b.modes ≤ N,
-// the loops then run to b.modes): the modes' and μ's stored state, log c_j, and each mode's
-// prediction from its mixed initial condition.
-template <class S, int N>
-struct Predicted {
-  std::array<Entries<S>, N> modes, mixed;
-  std::array<S, N> log_mu, scaled_mu, log_c;
+  // Mode j's prediction and Joseph-form update with H selecting [x, y]; S positive definite by
+  // Sylvester with kalman_filter.hpp's relative guard, every output finite.
+  template <class S, int K>
+  [[gnu::always_inline]] inline void steps(int j, const Entries<S> (&mixed)[K],
+                                           const Entries<S> (& /*current*/)[K],
+                                           const Plot<S> (&z)[K], Entries<S> (&updated)[K],
+                                           S (&log_likelihood)[K], S (&code)[K]) const {
+    for (int k = 0; k < K; ++k) {
+      Entries<S> predicted = mixed[k];
+      predict(j, predicted);
+      const auto o = cv_position::update([&](int e) { return predicted[e]; },
+                                         [&](int e) -> S& { return updated[k][e]; }, z[k].x,
+                                         z[k].y, r00, r01, r11);
+      log_likelihood[k] = -0.5 * (o.mahalanobis + lane_log(o.det) + 2 * kLogTwoPi);
+      code[k] = pick(both(o.s00 > 0.0, o.det > o.threshold),
+                     pick(o.finite == 0.0, kOk, kNonFinite), kSingular);
+    }
+  }
+
+  // A track is one lane.
+  template <class S>
+  [[gnu::always_inline]] inline S track_code(S code) const {
+    return code;
+  }
 };
 
-template <class S, int N>
-[[gnu::always_inline]] inline void predict(const Block& b, int t, Predicted<S, N>& p) {
-  const int n = N == kMaxModes ? b.modes : N;
-  auto st = [&](int j, int entry) { return b.state + (j * kModeSlots + entry) * b.stride + t; };
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  auto& modes = p.modes;
-  auto& mixed = p.mixed;
-  auto& log_mu = p.log_mu;
-  auto& scaled_mu = p.scaled_mu;
-  auto& log_c = p.log_c;
-  std::array<S, N> predicted;
-  std::array<S, N * N> weights;
-  for (int i = 0; i < n; ++i) {
-    for (int e = 0; e < kEntries; ++e) modes[i][e] = lane_load<S>(st(i, e));
-    log_mu[i] = lane_load<S>(st(i, kLogMu));
-    scaled_mu[i] = lane_load<S>(st(i, kScaledMu));
-  }
+static_assert(CycleSlots<CvPositionFamily>::kLogMu == kLogMu &&
+              CycleSlots<CvPositionFamily>::kScaledMu == kScaledMu &&
+              CycleSlots<CvPositionFamily>::kModeSlots == kModeSlots);
 
-  // Predicted mode probabilities c̃_j = Σ_i p_ij μ̃_i with μ̃ = μ / max μ (as ImmEstimator does),
-  // mixing weights μ_ij = p_ij μ̃_i / c̃_j (eq. 6) and log c_j = log c̃_j + max_i log μ_i.
-  S shift = splat<S>(-kInf);
-  for (int i = 0; i < n; ++i) shift = pick(shift < log_mu[i], log_mu[i], shift);
-  for (int j = 0; j < n; ++j) {
-    S c = splat<S>(0.0);
-    for (int i = 0; i < n; ++i) c += b.transition[i * n + j] * scaled_mu[i];
-    predicted[j] = c;
-    const S inverse = 1.0 / c;
-    for (int i = 0; i < n; ++i)
-      weights[j * n + i] = b.transition[i * n + j] * scaled_mu[i] * inverse;
-    log_c[j] = lane_log(c) + shift;
-  }
-  exact_predicted(b, log_mu.data(), predicted.data(), log_c.data(), weights.data());
-
-  // Mixed initial conditions (eq. 4–5) and the prediction x⁻ = F x, P⁻ = F P Fᵀ + Q.
-  for (int j = 0; j < n; ++j) {
-    moment_match(n, weights.data() + j * n, modes.data(), mixed[j]);
-    cv_position::predict([&](int e) -> S& { return mixed[j][e]; }, b.period,
-                         b.noise + static_cast<std::ptrdiff_t>(j) * kTriangle);
-  }
+CvPositionFamily family_of(const Block& b) {
+  return {b.period, b.noise, b.r00, b.r01, b.r11};
+}
+CycleBlock cycle_of(const Block& b) {
+  return {b.modes, b.transition, b.log_transition, b.state, b.stride};
 }
 
-// One IMM step (seed 000 eq. 4–11) of the kLanesOf<S> tracks that start at lane `t` of block `b`.
+// One IMM step (seed 000 eq. 4–11) of the kLanesOf<S> tracks that start at lane `t` of block `b`
+// (imm_cycle.hpp); a lane whose plot is unusable computes on zeros and keeps its state.
 template <class S, int N>
 [[gnu::always_inline]] inline void step(const Block& b, int t) {
-  const int n = N == kMaxModes ? b.modes : N;
-  auto st = [&](int j, int entry) { return b.state + (j * kModeSlots + entry) * b.stride + t; };
-  auto combined = [&](int entry) { return b.state + (n * kModeSlots + entry) * b.stride + t; };
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  Predicted<S, N> p;
-  predict<S, N>(b, t, p);
-  const auto& modes = p.modes;
-  const auto& mixed = p.mixed;
-  const auto& log_mu = p.log_mu;
-  const auto& scaled_mu = p.scaled_mu;
-  const auto& log_c = p.log_c;
-  std::array<Entries<S>, N> updated;
-
-  // The plots: a lane whose plot is unusable computes on zeros and keeps its state.
-  Lanes<S> zx{}, zy{}, ok{};
+  Lanes<S> zx{}, zy{}, ok{}, codes{};
   for (std::size_t l = 0; l < ok.size(); ++l) {
     const Eigen::Vector2d& z = b.plots[static_cast<std::size_t>(t) + l];
     const bool usable = limits::usable_measurement(z.x()) && limits::usable_measurement(z.y());
@@ -184,82 +111,11 @@ template <class S, int N>
     zy[l] = usable ? z.y() : 0.0;
     ok[l] = usable ? 1.0 : 0.0;
   }
-
-  // The Joseph-form update with H selecting [x, y] (cv_position_algebra.hpp).
-  std::array<S, N> s00, det, mahalanobis, threshold, finite;
-  for (int j = 0; j < n; ++j) {
-    const auto o = cv_position::update([&](int e) { return mixed[j][e]; },
-                                       [&](int e) -> S& { return updated[j][e]; },
-                                       from_lanes<S>(zx), from_lanes<S>(zy), b.r00, b.r01, b.r11);
-    s00[j] = o.s00;
-    det[j] = o.det;
-    mahalanobis[j] = o.mahalanobis;
-    threshold[j] = o.threshold;
-    finite[j] = o.finite;
-  }
-
-  // The posterior mode probabilities in log space (eq. 8–9); a lane that fails computes them too
-  // and drops them below.
-  std::array<S, N> centered, scaled;
-  S top = splat<S>(-kInf);
-  for (int j = 0; j < n; ++j) {
-    centered[j] = -0.5 * (mahalanobis[j] + lane_log(det[j]) + 2 * kLogTwoPi) + log_c[j];
-    top = pick(top < centered[j], centered[j], top);
-  }
-  S sum = splat<S>(0.0);
-  for (int j = 0; j < n; ++j) {
-    centered[j] = centered[j] - top;
-    scaled[j] = lane_exp(centered[j]);
-    sum += scaled[j];
-  }
-  const S log_sum = lane_log(sum);
-
-  // Statuses: S positive definite (Sylvester, with kalman_filter.hpp's relative guard), every
-  // output finite, some likelihood that did not underflow; lane by lane only where one fails.
-  S failed = splat<S>(0.0);
-  for (int j = 0; j < n; ++j) {
-    failed += pick(both(s00[j] > 0.0, det[j] > threshold[j]), 0.0, 1.0) + finite[j];
-  }
-  failed += top - top;  // NaN where every likelihood underflowed (top = −∞)
-  const Lanes<S> failed_lanes = lanes_of(failed);
-  const Lanes<S> top_lanes = lanes_of(top);
-  for (std::size_t l = 0; l < ok.size(); ++l) {
-    StepStatus& status = b.status[static_cast<std::size_t>(t) + l];
-    if (ok[l] == 0.0) {
-      status = StepStatus::kInvalidMeasurement;
-      continue;
-    }
-    status = StepStatus::kOk;
-    if (failed_lanes[l] == 0.0) continue;
-    for (int j = 0; j < n && status == StepStatus::kOk; ++j) {
-      if (!(lanes_of(s00[j])[l] > 0.0) || !(lanes_of(det[j])[l] > lanes_of(threshold[j])[l])) {
-        status = StepStatus::kSingularInnovation;
-      } else if (lanes_of(finite[j])[l] != 0.0) {
-        status = StepStatus::kNonFiniteResult;
-      }
-    }
-    if (status == StepStatus::kOk && !std::isfinite(top_lanes[l])) {
-      status = StepStatus::kProbabilityUnderflow;  // every likelihood underflowed
-    }
-    if (status != StepStatus::kOk) ok[l] = 0.0;
-  }
-  const auto commit = from_lanes<S>(ok) != 0.0;
-
-  // Commit the tracks that succeeded: log μ_j = (ℓ_j − top) − log Σ, μ̃_j, the modes and their
-  // combination (eq. 10–11).
-  std::array<S, N> posterior;
-  const S inverse_sum = 1.0 / sum;
-  for (int j = 0; j < n; ++j) {
-    posterior[j] = scaled[j] * inverse_sum;
-    lane_store(st(j, kLogMu), pick(commit, centered[j] - log_sum, log_mu[j]));
-    lane_store(st(j, kScaledMu), pick(commit, scaled[j], scaled_mu[j]));
-    for (int e = 0; e < kEntries; ++e)
-      lane_store(st(j, e), pick(commit, updated[j][e], modes[j][e]));
-  }
-  Entries<S> estimate;
-  moment_match(n, posterior.data(), updated.data(), estimate);
-  for (int e = 0; e < kEntries; ++e) {
-    lane_store(combined(e), pick(commit, estimate[e], lane_load<S>(combined(e))));
+  const CvPositionFamily::Plot<S> plot[1] = {{from_lanes<S>(zx), from_lanes<S>(zy)}};
+  const S usable[1] = {from_lanes<S>(ok)}, stepped[1] = {splat<S>(1.0)};
+  imm_cycle<S, N, 1>(family_of(b), cycle_of(b), t, plot, usable, stepped, codes.data());
+  for (std::size_t l = 0; l < codes.size(); ++l) {
+    b.status[static_cast<std::size_t>(t) + l] = status_of(codes[l]);
   }
 }
 
@@ -312,15 +168,17 @@ template <int N>
 template <class S, int N>
 [[gnu::always_inline]] inline void predict_plot(const Block& b, int t, double* out) {
   const int n = N == kMaxModes ? b.modes : N;
-  Predicted<S, N> p;
-  predict<S, N>(b, t, p);
+  const CvPositionFamily family = family_of(b);
+  CycleMixing<S, N, 1, CvPositionFamily> p;
+  mix_modes<S, N, 1>(family, cycle_of(b), t, p);
+  for (int j = 0; j < n; ++j) family.predict(j, p.mixed[0][j]);
   auto slot = [&](int index) { return out + index * b.stride + t; };
   std::array<S, N> zx, zy, s00, s01, s11, c;
   S top = splat<S>(-std::numeric_limits<double>::infinity());
-  for (int j = 0; j < n; ++j) top = pick(top < p.log_c[j], p.log_c[j], top);
+  for (int j = 0; j < n; ++j) top = pick(top < p.log_c[0][j], p.log_c[0][j], top);
   S total = splat<S>(0.0);
   for (int j = 0; j < n; ++j) {
-    const Entries<S>& m = p.mixed[j];
+    const Entries<S>& m = p.mixed[0][j];
     zx[j] = m[0];
     zy[j] = m[2];
     s00[j] = m[kN + sym(0, 0)] + b.r00;
@@ -329,13 +187,13 @@ template <class S, int N>
     const S det = s00[j] * s11[j] - s01[j] * s01[j];
     const S inverse_det = 1.0 / det;
     double* mode = out + (j * kPlotSlots) * b.stride + t;
-    lane_store(mode, p.log_c[j] - 0.5 * lane_log(det) - kLogTwoPi);
+    lane_store(mode, p.log_c[0][j] - 0.5 * lane_log(det) - kLogTwoPi);
     lane_store(mode + b.stride, zx[j]);
     lane_store(mode + 2 * b.stride, zy[j]);
     lane_store(mode + 3 * b.stride, s11[j] * inverse_det);
     lane_store(mode + 4 * b.stride, -s01[j] * inverse_det);
     lane_store(mode + 5 * b.stride, s00[j] * inverse_det);
-    c[j] = lane_exp(p.log_c[j] - top);
+    c[j] = lane_exp(p.log_c[0][j] - top);
     total += c[j];
   }
   S cx = splat<S>(0.0), cy = splat<S>(0.0);
@@ -423,24 +281,6 @@ template <int N>
   int t = 0;
   for (; t + kLanePackWidth <= s.tracks; t += kLanePackWidth) score_plots<LanePack, N>(s, t);
   for (; t < s.tracks; ++t) score_plots<double, N>(s, t);
-}
-
-// f(std::integral_constant<int, N>{}) with N = `modes` for the common sizes (their loops
-// unrolled), kMaxModes for any other (the loops then run to the block's mode count).
-template <class F>
-[[gnu::always_inline]] inline void with_mode_count(int modes, F&& f) {
-  switch (modes) {
-    case 1:
-      return f(std::integral_constant<int, 1>{});
-    case 2:
-      return f(std::integral_constant<int, 2>{});
-    case 3:
-      return f(std::integral_constant<int, 3>{});
-    case 4:
-      return f(std::integral_constant<int, 4>{});
-    default:
-      return f(std::integral_constant<int, kMaxModes>{});
-  }
 }
 
 }  // namespace

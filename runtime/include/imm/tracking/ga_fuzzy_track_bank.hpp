@@ -85,7 +85,8 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank {
   int modes_ = 0;
   std::size_t capacity_ = 0;
   std::ptrdiff_t stride_ = 0;       // axis lanes, rounded up to whole blocks
-  std::vector<double> transition_;  // π_ij at i * modes + j
+  std::vector<double> transition_;      // π_ij at i * modes + j
+  std::vector<double> log_transition_;  // log π_ij
   std::vector<double> initial_log_mu_;
   lanes::FuzzyAxisConstants axis_;
   std::vector<lanes::FuzzyLevelConstants> levels_;

@@ -1,0 +1,278 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+// The IMM cycle of a track bank (seed 000 eq. 4–11: the predicted mode probabilities, the mixing,
+// each mode's step, the posterior in log space, the combination, the commit), written once over a
+// number type S — a double for one lane, a LanePack for one lane per element — and a filter
+// family F that says what a mode holds and how it steps. The TrackBank's kernel and the GA-fuzzy
+// bank are its instances. Every statement is the same IEEE operation for a double and for each
+// element of a pack (the project compiles with -ffp-contract=off), so a lane gives the same bits
+// in a pack and alone, whatever its neighbours. Not installed.
+//
+// A family F provides:
+//   kEntries, kCombined    a mode's stored entries; the combined estimate's (the first kCombined
+//                          of a mode's entries are its estimate, any others its own state)
+//   Plot<S>                what a lane's plot is
+//   mix(n, w, modes, out)  Σ_i w_i modes_i collapsed to one Gaussian (eq. 4–5 and 10–11)
+//   steps<S, K>(j, mixed, current, z, updated, log_likelihood, code)
+//                          mode j's step of K packs from their mixed conditions: the updated
+//                          entries, log N(ν; 0, S) and a code (kOk, kSingular or kNonFinite)
+//   track_code(code)       the code a lane commits under (a track of several lanes fails as one)
+//
+// The state: slots `stride` apart, mode j's entries at j · (kEntries + 2) + e, then its log μ and
+// μ̃ = μ / max μ; after the modes the combined estimate.
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <type_traits>
+
+#include "axis_lane_bank.hpp"
+#include "imm/math/lane_math.hpp"
+#include "imm/math/log_sum_exp.hpp"
+
+// Arrays of N modes are filled to b.modes and read no further; GCC cannot see that for N =
+// kMaxModes.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+namespace imm::bank {
+
+/// The slots of a family's state: per mode, then the combined estimate.
+template <class F>
+struct CycleSlots {
+  static constexpr int kLogMu = F::kEntries, kScaledMu = F::kEntries + 1,
+                       kModeSlots = F::kEntries + 2;
+};
+
+/// What a cycle reads and writes besides the family: Π (and log Π) at i · modes + j, the state
+/// slots (`stride` apart, offset to the block's first lane).
+struct CycleBlock {
+  int modes = 0;
+  const double* transition = nullptr;
+  const double* log_transition = nullptr;
+  double* state = nullptr;
+  std::ptrdiff_t stride = 0;
+};
+
+/// a and b of two comparisons: bools for a double, masks for a pack.
+template <class Mask>
+[[gnu::always_inline]] inline Mask both(Mask a, Mask b) {
+  if constexpr (std::is_same_v<Mask, bool>) {
+    return a && b;
+  } else {
+    return a & b;
+  }
+}
+
+/// The lanes of a value, as doubles (for the few decisions taken lane by lane).
+template <class S>
+using Lanes = std::array<double, kLanesOf<S>>;
+template <class S>
+[[gnu::always_inline]] inline Lanes<S> lanes_of(const S& value) {
+  Lanes<S> out;
+  lane_store(out.data(), value);
+  return out;
+}
+template <class S>
+[[gnu::always_inline]] inline S from_lanes(const Lanes<S>& lanes) {
+  return lane_load<S>(lanes.data());
+}
+
+/// The first half of a cycle of K packs of N modes (N ≥ b.modes; the loops run to b.modes): the
+/// modes' stored entries, log μ, μ̃, log c_j and each mode's mixed initial condition.
+template <class S, int N, int K, class F>
+struct CycleMixing {
+  using Mode = std::array<S, F::kEntries>;
+  using Estimate = std::array<S, F::kCombined>;
+  std::array<Mode, N> modes[K];
+  std::array<Estimate, N> mixed[K];
+  std::array<S, N> log_mu[K], scaled_mu[K], log_c[K];
+};
+
+/// Where c̃_j = Σ_i p_ij μ̃_i underflowed to 0 (possible only with zero transition entries): the
+/// exact log-sum-exp of log c_j and the weights from it, lane by lane (ImmEstimator's fallback).
+template <class S>
+void exact_predicted(const CycleBlock& b, const S* log_mu, const S* predicted, S* log_c,
+                     S* weights) {
+  const int n = b.modes;
+  for (int j = 0; j < n; ++j) {
+    const Lanes<S> c = lanes_of(predicted[j]);
+    if (std::none_of(c.begin(), c.end(), [](double v) { return !(v > 0.0); })) continue;
+    Lanes<S> out = lanes_of(log_c[j]);
+    std::array<Lanes<S>, kMaxModes> w{};  // n ≤ kMaxModes
+    for (int i = 0; i < n; ++i) w[static_cast<std::size_t>(i)] = lanes_of(weights[j * n + i]);
+    for (std::size_t l = 0; l < c.size(); ++l) {
+      if (c[l] > 0.0) continue;
+      double largest = -std::numeric_limits<double>::infinity();
+      for (int i = 0; i < n; ++i)
+        largest = std::max(largest, b.log_transition[i * n + j] + lanes_of(log_mu[i])[l]);
+      double value = largest;
+      if (std::isfinite(largest)) {
+        double sum = 0.0;
+        for (int i = 0; i < n; ++i)
+          sum += std::exp(b.log_transition[i * n + j] + lanes_of(log_mu[i])[l] - largest);
+        // sum ≥ 1: the largest term is exp(0).
+        value = largest + std::log(sum);  // cppcheck-suppress invalidFunctionArg
+      }
+      out[l] = value;
+      for (int i = 0; i < n; ++i) {
+        // Unreachable mode: it keeps its own estimate as the initial condition.
+        w[static_cast<std::size_t>(i)][l] =
+            !std::isfinite(value)
+                ? (i == j ? 1.0 : 0.0)
+                : std::exp(b.log_transition[i * n + j] + lanes_of(log_mu[i])[l] - value);
+      }
+    }
+    log_c[j] = from_lanes<S>(out);
+    for (int i = 0; i < n; ++i) weights[j * n + i] = from_lanes<S>(w[static_cast<std::size_t>(i)]);
+  }
+}
+
+/// The mixing (eq. 4–6) of the K packs of lanes from lane `t`: predicted mode probabilities
+/// c̃_j = Σ_i p_ij μ̃_i with μ̃ = μ / max μ (as ImmEstimator), weights μ_ij = p_ij μ̃_i / c̃_j,
+/// log c_j = log c̃_j + max_i log μ_i, and the mixed initial conditions. The state is not changed.
+template <class S, int N, int K, class F>
+[[gnu::always_inline]] inline void mix_modes(const F& family, const CycleBlock& b, int t,
+                                             CycleMixing<S, N, K, F>& m) {
+  using Slots = CycleSlots<F>;
+  constexpr int kLanes = kLanesOf<S>;
+  const int n = N == kMaxModes ? b.modes : N;
+  for (int k = 0; k < K; ++k) {
+    auto st = [&](int j, int entry) {
+      return b.state + (j * Slots::kModeSlots + entry) * b.stride + t + k * kLanes;
+    };
+    for (int i = 0; i < n; ++i) {
+      for (int e = 0; e < F::kEntries; ++e) m.modes[k][i][e] = lane_load<S>(st(i, e));
+      m.log_mu[k][i] = lane_load<S>(st(i, Slots::kLogMu));
+      m.scaled_mu[k][i] = lane_load<S>(st(i, Slots::kScaledMu));
+    }
+  }
+  for (int k = 0; k < K; ++k) {
+    std::array<S, N> predicted;
+    std::array<S, N * N> weights;
+    const auto& scaled_mu = m.scaled_mu[k];
+    S shift = splat<S>(-std::numeric_limits<double>::infinity());
+    for (int i = 0; i < n; ++i) shift = pick(shift < m.log_mu[k][i], m.log_mu[k][i], shift);
+    for (int j = 0; j < n; ++j) {
+      S c = splat<S>(0.0);
+      for (int i = 0; i < n; ++i) c += b.transition[i * n + j] * scaled_mu[i];
+      predicted[j] = c;
+      const S inverse = 1.0 / c;
+      for (int i = 0; i < n; ++i)
+        weights[j * n + i] = b.transition[i * n + j] * scaled_mu[i] * inverse;
+      m.log_c[k][j] = lane_log(c) + shift;
+    }
+    exact_predicted(b, m.log_mu[k].data(), predicted.data(), m.log_c[k].data(), weights.data());
+    for (int j = 0; j < n; ++j) {
+      family.mix(n, weights.data() + j * n, m.modes[k].data(), m.mixed[k][j]);
+    }
+  }
+}
+
+/// One IMM cycle of the K packs of lanes from lane `t`, with plots `z`, `usable` 1 where a lane's
+/// plot is usable and `stepped` 1 where a lane is to step (0: a padding lane). Each lane's code
+/// (kOk, kBadPlot, the first failing mode's, kUnderflow, as F::track_code makes it) goes to
+/// `code` (K packs); a lane commits its new state where `stepped` and kOk.
+template <class S, int N, int K, class F>
+[[gnu::always_inline]] inline void imm_cycle(const F& family, const CycleBlock& b, int t,
+                                             const typename F::template Plot<S> (&z)[K],
+                                             const S (&usable)[K], const S (&stepped)[K],
+                                             double* code) {
+  using Slots = CycleSlots<F>;
+  using Mode = std::array<S, F::kEntries>;
+  constexpr int kLanes = kLanesOf<S>;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const int n = N == kMaxModes ? b.modes : N;
+  CycleMixing<S, N, K, F> m;
+  mix_modes<S, N, K>(family, b, t, m);
+
+  // Each mode's step, ℓ_j + log c_j; the first mode that fails decides a lane's outcome.
+  std::array<Mode, N> updated[K];
+  std::array<S, N> centered[K];
+  S outcome[K];
+  for (int k = 0; k < K; ++k) outcome[k] = splat<S>(kOk);
+  for (int j = 0; j < n; ++j) {
+    Mode next[K];
+    S log_likelihood[K], mode_code[K];
+    typename CycleMixing<S, N, K, F>::Estimate mixed[K];
+    Mode current[K];
+    for (int k = 0; k < K; ++k) {
+      mixed[k] = m.mixed[k][j];
+      current[k] = m.modes[k][j];
+    }
+    family.template steps<S, K>(j, mixed, current, z, next, log_likelihood, mode_code);
+    for (int k = 0; k < K; ++k) {
+      updated[k][j] = next[k];
+      centered[k][j] = log_likelihood[k] + m.log_c[k][j];
+      outcome[k] = pick(outcome[k] != kOk, outcome[k], mode_code[k]);
+    }
+  }
+
+  for (int k = 0; k < K; ++k) {
+    auto st = [&](int j, int entry) {
+      return b.state + (j * Slots::kModeSlots + entry) * b.stride + t + k * kLanes;
+    };
+    auto combined = [&](int entry) {
+      return b.state + (n * Slots::kModeSlots + entry) * b.stride + t + k * kLanes;
+    };
+    // The posterior in log space (eq. 8–9; ImmEstimator::finish_cycle): μ̃_j = exp(ℓ_j − max ℓ),
+    // log μ_j = (ℓ_j − max ℓ) − log Σ μ̃, μ_j = μ̃_j / Σ μ̃. A lane that fails computes them too.
+    std::array<S, N> scaled, posterior;
+    S top = splat<S>(-kInf);
+    for (int j = 0; j < n; ++j) top = pick(top < centered[k][j], centered[k][j], top);
+    S sum = splat<S>(0.0);
+    for (int j = 0; j < n; ++j) {
+      centered[k][j] = centered[k][j] - top;
+      scaled[j] = lane_exp(centered[k][j]);
+      sum += scaled[j];
+    }
+    const S log_sum = lane_log(sum);
+    // A max ℓ that is not finite: every likelihood underflowed (or a NaN got through).
+    const auto finite_top = both(top > -kInf, top < kInf);
+    const S lane_code = pick(usable[k] != 0.0,
+                             pick(outcome[k] != kOk, outcome[k], pick(finite_top, kOk, kUnderflow)),
+                             kBadPlot);
+    const S track = family.track_code(lane_code);
+    lane_store(code + k * kLanes, track);
+    const auto commit = both(stepped[k] != 0.0, track == kOk);
+
+    const S inverse_sum = 1.0 / sum;
+    for (int j = 0; j < n; ++j) {
+      posterior[j] = scaled[j] * inverse_sum;
+      lane_store(st(j, Slots::kLogMu), pick(commit, centered[k][j] - log_sum, m.log_mu[k][j]));
+      lane_store(st(j, Slots::kScaledMu), pick(commit, scaled[j], m.scaled_mu[k][j]));
+      for (int e = 0; e < F::kEntries; ++e)
+        lane_store(st(j, e), pick(commit, updated[k][j][e], m.modes[k][j][e]));
+    }
+    // The combination (eq. 10–11).
+    typename CycleMixing<S, N, K, F>::Estimate estimate;
+    family.mix(n, posterior.data(), updated[k].data(), estimate);
+    for (int e = 0; e < F::kCombined; ++e) {
+      lane_store(combined(e), pick(commit, estimate[e], lane_load<S>(combined(e))));
+    }
+  }
+}
+
+/// f(std::integral_constant<int, N>{}) with N = `modes` for the common sizes (their loops
+/// unrolled), kMaxModes for any other (the loops then run to the block's mode count).
+template <class Fn>
+[[gnu::always_inline]] inline void with_mode_count(int modes, Fn&& f) {
+  switch (modes) {
+    case 1:
+      return f(std::integral_constant<int, 1>{});
+    case 2:
+      return f(std::integral_constant<int, 2>{});
+    case 3:
+      return f(std::integral_constant<int, 3>{});
+    case 4:
+      return f(std::integral_constant<int, 4>{});
+    default:
+      return f(std::integral_constant<int, kMaxModes>{});
+  }
+}
+
+}  // namespace imm::bank
+
+#pragma GCC diagnostic pop
