@@ -39,21 +39,21 @@ struct FuzzyNoiseFamily {
 
   // Σ_i w_i N(x_i, P_i) (eq. 4–5 and 10–11); a zero weight contributes nothing, as in
   // ImmEstimator.
-  template <class S, class Entries>
-  [[gnu::always_inline]] inline void mix(int n, const S* weight, const Entries* modes,
+  template <class S, class Modes>
+  [[gnu::always_inline]] inline void mix(int n, const S* weight, Modes&& mode,
                                          Estimate<S>& out) const {
     S m0 = splat<S>(0.0), m1 = splat<S>(0.0);
     for (int i = 0; i < n; ++i) {
-      m0 += weight[i] * modes[i][0];
-      m1 += weight[i] * modes[i][1];
+      m0 += weight[i] * mode(i)[0];
+      m1 += weight[i] * mode(i)[1];
     }
     S c00 = splat<S>(0.0), c01 = splat<S>(0.0), c11 = splat<S>(0.0);
     for (int i = 0; i < n; ++i) {
       const S w = weight[i];
-      const S d0 = modes[i][0] - m0, d1 = modes[i][1] - m1;
-      c00 += pick(w == 0.0, 0.0, w * (modes[i][2] + d0 * d0));
-      c01 += pick(w == 0.0, 0.0, w * (modes[i][3] + d0 * d1));
-      c11 += pick(w == 0.0, 0.0, w * (modes[i][4] + d1 * d1));
+      const S d0 = mode(i)[0] - m0, d1 = mode(i)[1] - m1;
+      c00 += pick(w == 0.0, 0.0, w * (mode(i)[2] + d0 * d0));
+      c01 += pick(w == 0.0, 0.0, w * (mode(i)[3] + d0 * d1));
+      c11 += pick(w == 0.0, 0.0, w * (mode(i)[4] + d1 * d1));
     }
     out = {m0, m1, c00, c01, c11};
   }
@@ -81,21 +81,20 @@ struct FuzzyNoiseFamily {
   }
 
   // A track's code, in both its lanes: that of the first axis that failed.
-  template <class S>
-  [[gnu::always_inline]] inline S track_code(S code) const {
-    bank::Lanes<S> lanes = bank::lanes_of(code);
-    for (std::size_t l = 0; l < lanes.size(); l += 2) {
-      lanes[l] = lanes[l + 1] = lanes[l] != kOk ? lanes[l] : lanes[l + 1];
-    }
-    return bank::from_lanes<S>(lanes);
+  [[gnu::always_inline]] inline LanePack track_code(LanePack code) const {
+    using Index = LanePackTypes<kLanePackWidth>::Mask;
+    const LanePack x = __builtin_shuffle(code, Index{0, 0, 2, 2, 4, 4, 6, 6});
+    const LanePack y = __builtin_shuffle(code, Index{1, 1, 3, 3, 5, 5, 7, 7});
+    return pick(x != kOk, x, y);
   }
 };
 using Slots = bank::CycleSlots<FuzzyNoiseFamily>;
 constexpr int kLogMu = Slots::kLogMu, kScaledMu = Slots::kScaledMu, kModeSlots = Slots::kModeSlots;
 
-// One IMM cycle of one block's W lanes (packs of eight) from lane `first`: `z` the lanes' plots
-// (NaN for an unusable plot), `stepped` 1 for a lane to step; `code` receives each lane's outcome.
-template <int W>
+// One IMM cycle of one block's W lanes (packs of eight) of an IMM of N modes (imm_cycle.hpp)
+// from lane `first`: `z` the lanes' plots (NaN for an unusable plot), `stepped` 1 for a lane to
+// step; `code` receives each lane's outcome.
+template <int W, int N>
 [[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const FuzzyNoiseFamily& family,
                                                    const bank::CycleBlock& b, std::ptrdiff_t first,
                                                    const double* z, const double* stepped,
@@ -109,10 +108,7 @@ template <int W>
     usable[k] = pick(plot[k] == plot[k], 1.0, 0.0);
     step[k] = lane_load<Pack>(stepped + k * kPack);
   }
-  const auto t = static_cast<int>(first);
-  bank::with_mode_count(b.modes, [&](auto n) {
-    bank::imm_cycle<Pack, decltype(n)::value, K>(family, b, t, plot, usable, step, code);
-  });
+  bank::imm_cycle<Pack, N, K>(family, b, static_cast<int>(first), plot, usable, step, code);
 }
 
 }  // namespace
@@ -193,12 +189,16 @@ void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<St
   const FuzzyNoiseFamily family{&axis_, levels_.data()};
   const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), state_.data(),
                                stride_};
-  bank::step_blocks<kBlock>(
-      plots, status, wide_blocks_, scratch_.data(),
-      [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
-        step_block<decltype(width)::value>(family, cycle, static_cast<std::ptrdiff_t>(first), z,
-                                           stepped, code);
-      });
+  // The mode count is a template argument outside the vector clones: a lambda inside one would
+  // be compiled for the baseline target.
+  bank::with_mode_count(modes_, [&](auto n) {
+    bank::step_blocks<kBlock>(
+        plots, status, wide_blocks_, scratch_.data(),
+        [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
+          step_block<decltype(width)::value, decltype(n)::value>(
+              family, cycle, static_cast<std::ptrdiff_t>(first), z, stepped, code);
+        });
+  });
 }
 
 GaussianState<4> GaFuzzyTrackBank::estimate(std::size_t track) const {

@@ -12,7 +12,7 @@
 //   kEntries, kCombined    a mode's stored entries; the combined estimate's (the first kCombined
 //                          of a mode's entries are its estimate, any others its own state)
 //   Plot<S>                what a lane's plot is
-//   mix(n, w, modes, out)  Σ_i w_i modes_i collapsed to one Gaussian (eq. 4–5 and 10–11)
+//   mix(n, w, mode, out)   Σ_i w_i mode(i) collapsed to one Gaussian (eq. 4–5 and 10–11)
 //   steps<S, K>(j, mixed, current, z, updated, log_likelihood, code)
 //                          mode j's step of K packs from their mixed conditions: the updated
 //                          entries, log N(ν; 0, S) and a code (kOk, kSingular or kNonFinite)
@@ -27,6 +27,7 @@
 #include <cstddef>
 #include <limits>
 #include <type_traits>
+#include <utility>
 
 #include "axis_lane_bank.hpp"
 #include "imm/math/lane_math.hpp"
@@ -86,16 +87,25 @@ template <class S, int N, int K, class F>
 struct CycleMixing {
   using Mode = std::array<S, F::kEntries>;
   using Estimate = std::array<S, F::kCombined>;
-  std::array<Mode, N> modes[K];
-  std::array<Estimate, N> mixed[K];
+  Mode modes[N][K];  // mode j's K packs together: the step takes them as they are
+  Estimate mixed[N][K];
   std::array<S, N> log_mu[K], scaled_mu[K], log_c[K];
 };
+
+/// Whether every lane of values[0 … n) is positive: one decision per pack.
+template <class S, std::size_t N>
+[[gnu::always_inline]] inline bool all_positive(const std::array<S, N>& values, int n) {
+  S bad = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) bad += pick(values[j] > 0.0, 0.0, 1.0);
+  const Lanes<S> lanes = lanes_of(bad);
+  return std::all_of(lanes.begin(), lanes.end(), [](double v) { return v == 0.0; });
+}
 
 /// Where c̃_j = Σ_i p_ij μ̃_i underflowed to 0 (possible only with zero transition entries): the
 /// exact log-sum-exp of log c_j and the weights from it, lane by lane (ImmEstimator's fallback).
 template <class S>
-void exact_predicted(const CycleBlock& b, const S* log_mu, const S* predicted, S* log_c,
-                     S* weights) {
+[[gnu::noinline, gnu::cold]] void exact_predicted(const CycleBlock& b, const S* log_mu,
+                                                  const S* predicted, S* log_c, S* weights) {
   const int n = b.modes;
   for (int j = 0; j < n; ++j) {
     const Lanes<S> c = lanes_of(predicted[j]);
@@ -144,29 +154,43 @@ template <class S, int N, int K, class F>
       return b.state + (j * Slots::kModeSlots + entry) * b.stride + t + k * kLanes;
     };
     for (int i = 0; i < n; ++i) {
-      for (int e = 0; e < F::kEntries; ++e) m.modes[k][i][e] = lane_load<S>(st(i, e));
+      for (int e = 0; e < F::kEntries; ++e) m.modes[i][k][e] = lane_load<S>(st(i, e));
       m.log_mu[k][i] = lane_load<S>(st(i, Slots::kLogMu));
       m.scaled_mu[k][i] = lane_load<S>(st(i, Slots::kScaledMu));
     }
   }
-  for (int k = 0; k < K; ++k) {
-    std::array<S, N> predicted;
-    std::array<S, N * N> weights;
-    const auto& scaled_mu = m.scaled_mu[k];
-    S shift = splat<S>(-std::numeric_limits<double>::infinity());
-    for (int i = 0; i < n; ++i) shift = pick(shift < m.log_mu[k][i], m.log_mu[k][i], shift);
-    for (int j = 0; j < n; ++j) {
+  // The K packs advance phase by phase: their chains (lane_log's, lane_exp's) are independent,
+  // and a core overlaps them.
+  std::array<S, N> predicted[K];
+  std::array<S, N * N> weights[K];
+  S shift[K];
+  for (int k = 0; k < K; ++k) shift[k] = splat<S>(-std::numeric_limits<double>::infinity());
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < K; ++k)
+      shift[k] = pick(shift[k] < m.log_mu[k][i], m.log_mu[k][i], shift[k]);
+  }
+  for (int j = 0; j < n; ++j) {
+    for (int k = 0; k < K; ++k) {
       S c = splat<S>(0.0);
-      for (int i = 0; i < n; ++i) c += b.transition[i * n + j] * scaled_mu[i];
-      predicted[j] = c;
+      for (int i = 0; i < n; ++i) c += b.transition[i * n + j] * m.scaled_mu[k][i];
+      predicted[k][j] = c;
       const S inverse = 1.0 / c;
       for (int i = 0; i < n; ++i)
-        weights[j * n + i] = b.transition[i * n + j] * scaled_mu[i] * inverse;
-      m.log_c[k][j] = lane_log(c) + shift;
+        weights[k][j * n + i] = b.transition[i * n + j] * m.scaled_mu[k][i] * inverse;
     }
-    exact_predicted(b, m.log_mu[k].data(), predicted.data(), m.log_c[k].data(), weights.data());
-    for (int j = 0; j < n; ++j) {
-      family.mix(n, weights.data() + j * n, m.modes[k].data(), m.mixed[k][j]);
+    for (int k = 0; k < K; ++k) m.log_c[k][j] = lane_log(predicted[k][j]) + shift[k];
+  }
+  for (int k = 0; k < K; ++k) {
+    if (!all_positive(predicted[k], n)) [[unlikely]] {
+      exact_predicted(b, m.log_mu[k].data(), predicted[k].data(), m.log_c[k].data(),
+                      weights[k].data());
+    }
+  }
+  for (int j = 0; j < n; ++j) {
+    for (int k = 0; k < K; ++k) {
+      family.mix(
+          n, weights[k].data() + j * n, [&](int i) -> const auto& { return m.modes[i][k]; },
+          m.mixed[j][k]);
     }
   }
 }
@@ -189,68 +213,73 @@ template <class S, int N, int K, class F>
   mix_modes<S, N, K>(family, b, t, m);
 
   // Each mode's step, ℓ_j + log c_j; the first mode that fails decides a lane's outcome.
-  std::array<Mode, N> updated[K];
+  Mode updated[N][K];
   std::array<S, N> centered[K];
   S outcome[K];
   for (int k = 0; k < K; ++k) outcome[k] = splat<S>(kOk);
   for (int j = 0; j < n; ++j) {
-    Mode next[K];
     S log_likelihood[K], mode_code[K];
-    typename CycleMixing<S, N, K, F>::Estimate mixed[K];
-    Mode current[K];
+    family.template steps<S, K>(j, m.mixed[j], m.modes[j], z, updated[j], log_likelihood,
+                                mode_code);
     for (int k = 0; k < K; ++k) {
-      mixed[k] = m.mixed[k][j];
-      current[k] = m.modes[k][j];
-    }
-    family.template steps<S, K>(j, mixed, current, z, next, log_likelihood, mode_code);
-    for (int k = 0; k < K; ++k) {
-      updated[k][j] = next[k];
       centered[k][j] = log_likelihood[k] + m.log_c[k][j];
       outcome[k] = pick(outcome[k] != kOk, outcome[k], mode_code[k]);
     }
   }
 
+  // The posterior in log space (eq. 8–9; ImmEstimator::finish_cycle): μ̃_j = exp(ℓ_j − max ℓ),
+  // log μ_j = (ℓ_j − max ℓ) − log Σ μ̃, μ_j = μ̃_j / Σ μ̃. A lane that fails computes them too.
+  std::array<S, N> scaled[K];
+  S top[K], sum[K], log_sum[K];
   for (int k = 0; k < K; ++k) {
-    auto st = [&](int j, int entry) {
-      return b.state + (j * Slots::kModeSlots + entry) * b.stride + t + k * kLanes;
-    };
-    auto combined = [&](int entry) {
-      return b.state + (n * Slots::kModeSlots + entry) * b.stride + t + k * kLanes;
-    };
-    // The posterior in log space (eq. 8–9; ImmEstimator::finish_cycle): μ̃_j = exp(ℓ_j − max ℓ),
-    // log μ_j = (ℓ_j − max ℓ) − log Σ μ̃, μ_j = μ̃_j / Σ μ̃. A lane that fails computes them too.
-    std::array<S, N> scaled, posterior;
-    S top = splat<S>(-kInf);
-    for (int j = 0; j < n; ++j) top = pick(top < centered[k][j], centered[k][j], top);
-    S sum = splat<S>(0.0);
-    for (int j = 0; j < n; ++j) {
-      centered[k][j] = centered[k][j] - top;
-      scaled[j] = lane_exp(centered[k][j]);
-      sum += scaled[j];
+    top[k] = splat<S>(-kInf);
+    for (int j = 0; j < n; ++j) top[k] = pick(top[k] < centered[k][j], centered[k][j], top[k]);
+    sum[k] = splat<S>(0.0);
+  }
+  for (int j = 0; j < n; ++j) {
+    for (int k = 0; k < K; ++k) {
+      centered[k][j] = centered[k][j] - top[k];
+      scaled[k][j] = lane_exp(centered[k][j]);
+      sum[k] += scaled[k][j];
     }
-    const S log_sum = lane_log(sum);
+  }
+  for (int k = 0; k < K; ++k) log_sum[k] = lane_log(sum[k]);
+
+  auto st = [&](int j, int entry, int k) {
+    return b.state + (j * Slots::kModeSlots + entry) * b.stride + t + k * kLanes;
+  };
+  using Commit = decltype(std::declval<S>() == 0.0);
+  Commit commit[K];
+  std::array<S, N> posterior[K];
+  for (int k = 0; k < K; ++k) {
     // A max ℓ that is not finite: every likelihood underflowed (or a NaN got through).
-    const auto finite_top = both(top > -kInf, top < kInf);
-    const S lane_code = pick(usable[k] != 0.0,
-                             pick(outcome[k] != kOk, outcome[k], pick(finite_top, kOk, kUnderflow)),
-                             kBadPlot);
+    const auto finite_top = both(top[k] > -kInf, top[k] < kInf);
+    const S lane_code =
+        pick(usable[k] != 0.0,
+             pick(outcome[k] != kOk, outcome[k], pick(finite_top, kOk, kUnderflow)), kBadPlot);
     const S track = family.track_code(lane_code);
     lane_store(code + k * kLanes, track);
-    const auto commit = both(stepped[k] != 0.0, track == kOk);
-
-    const S inverse_sum = 1.0 / sum;
-    for (int j = 0; j < n; ++j) {
-      posterior[j] = scaled[j] * inverse_sum;
-      lane_store(st(j, Slots::kLogMu), pick(commit, centered[k][j] - log_sum, m.log_mu[k][j]));
-      lane_store(st(j, Slots::kScaledMu), pick(commit, scaled[j], m.scaled_mu[k][j]));
+    commit[k] = both(stepped[k] != 0.0, track == kOk);
+    const S inverse_sum = 1.0 / sum[k];
+    for (int j = 0; j < n; ++j) posterior[k][j] = scaled[k][j] * inverse_sum;
+  }
+  for (int j = 0; j < n; ++j) {
+    for (int k = 0; k < K; ++k) {
+      lane_store(st(j, Slots::kLogMu, k),
+                 pick(commit[k], centered[k][j] - log_sum[k], m.log_mu[k][j]));
+      lane_store(st(j, Slots::kScaledMu, k), pick(commit[k], scaled[k][j], m.scaled_mu[k][j]));
       for (int e = 0; e < F::kEntries; ++e)
-        lane_store(st(j, e), pick(commit, updated[k][j][e], m.modes[k][j][e]));
+        lane_store(st(j, e, k), pick(commit[k], updated[j][k][e], m.modes[j][k][e]));
     }
-    // The combination (eq. 10–11).
+  }
+  // The combination (eq. 10–11).
+  for (int k = 0; k < K; ++k) {
     typename CycleMixing<S, N, K, F>::Estimate estimate;
-    family.mix(n, posterior.data(), updated[k].data(), estimate);
+    family.mix(
+        n, posterior[k].data(), [&](int i) -> const auto& { return updated[i][k]; }, estimate);
     for (int e = 0; e < F::kCombined; ++e) {
-      lane_store(combined(e), pick(commit, estimate[e], lane_load<S>(combined(e))));
+      double* combined = st(n, e, k);
+      lane_store(combined, pick(commit[k], estimate[e], lane_load<S>(combined)));
     }
   }
 }

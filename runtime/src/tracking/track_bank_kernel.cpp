@@ -35,12 +35,12 @@ struct CvPositionFamily {
   double r00 = 0.0, r01 = 0.0, r11 = 0.0;
 
   // Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian (eq. 4–5 and 10–11), each sum over i = 0, 1, …
-  template <class S>
-  [[gnu::always_inline]] inline void mix(int components, const S* weights,
-                                         const Entries<S>* modes, Entries<S>& out) const {
+  template <class S, class Modes>
+  [[gnu::always_inline]] inline void mix(int components, const S* weights, Modes&& mode,
+                                         Entries<S>& out) const {
     for (int a = 0; a < kN; ++a) {
       S sum = splat<S>(0.0);
-      for (int i = 0; i < components; ++i) sum += weights[i] * modes[i][a];
+      for (int i = 0; i < components; ++i) sum += weights[i] * mode(i)[a];
       out[a] = sum;
     }
     for (int a = 0; a < kN; ++a) {
@@ -48,7 +48,7 @@ struct CvPositionFamily {
         S sum = splat<S>(0.0);
         for (int i = 0; i < components; ++i) {
           sum += weights[i] *
-                 (modes[i][kN + sym(a, c)] + (modes[i][a] - out[a]) * (modes[i][c] - out[c]));
+                 (mode(i)[kN + sym(a, c)] + (mode(i)[a] - out[a]) * (mode(i)[c] - out[c]));
         }
         out[kN + sym(a, c)] = sum;
       }
@@ -66,18 +66,18 @@ struct CvPositionFamily {
   // Sylvester with kalman_filter.hpp's relative guard, every output finite.
   template <class S, int K>
   [[gnu::always_inline]] inline void steps(int j, const Entries<S> (&mixed)[K],
-                                           const Entries<S> (& /*current*/)[K],
+                                           const Entries<S> (&/*current*/)[K],
                                            const Plot<S> (&z)[K], Entries<S> (&updated)[K],
                                            S (&log_likelihood)[K], S (&code)[K]) const {
     for (int k = 0; k < K; ++k) {
       Entries<S> predicted = mixed[k];
       predict(j, predicted);
       const auto o = cv_position::update([&](int e) { return predicted[e]; },
-                                         [&](int e) -> S& { return updated[k][e]; }, z[k].x,
-                                         z[k].y, r00, r01, r11);
+                                         [&](int e) -> S& { return updated[k][e]; }, z[k].x, z[k].y,
+                                         r00, r01, r11);
       log_likelihood[k] = -0.5 * (o.mahalanobis + lane_log(o.det) + 2 * kLogTwoPi);
-      code[k] = pick(both(o.s00 > 0.0, o.det > o.threshold),
-                     pick(o.finite == 0.0, kOk, kNonFinite), kSingular);
+      code[k] = pick(both(o.s00 > 0.0, o.det > o.threshold), pick(o.finite == 0.0, kOk, kNonFinite),
+                     kSingular);
     }
   }
 
@@ -92,9 +92,7 @@ static_assert(CycleSlots<CvPositionFamily>::kLogMu == kLogMu &&
               CycleSlots<CvPositionFamily>::kScaledMu == kScaledMu &&
               CycleSlots<CvPositionFamily>::kModeSlots == kModeSlots);
 
-CvPositionFamily family_of(const Block& b) {
-  return {b.period, b.noise, b.r00, b.r01, b.r11};
-}
+CvPositionFamily family_of(const Block& b) { return {b.period, b.noise, b.r00, b.r01, b.r11}; }
 CycleBlock cycle_of(const Block& b) {
   return {b.modes, b.transition, b.log_transition, b.state, b.stride};
 }
@@ -171,14 +169,14 @@ template <class S, int N>
   const CvPositionFamily family = family_of(b);
   CycleMixing<S, N, 1, CvPositionFamily> p;
   mix_modes<S, N, 1>(family, cycle_of(b), t, p);
-  for (int j = 0; j < n; ++j) family.predict(j, p.mixed[0][j]);
+  for (int j = 0; j < n; ++j) family.predict(j, p.mixed[j][0]);
   auto slot = [&](int index) { return out + index * b.stride + t; };
   std::array<S, N> zx, zy, s00, s01, s11, c;
   S top = splat<S>(-std::numeric_limits<double>::infinity());
   for (int j = 0; j < n; ++j) top = pick(top < p.log_c[0][j], p.log_c[0][j], top);
   S total = splat<S>(0.0);
   for (int j = 0; j < n; ++j) {
-    const Entries<S>& m = p.mixed[0][j];
+    const Entries<S>& m = p.mixed[j][0];
     zx[j] = m[0];
     zy[j] = m[2];
     s00[j] = m[kN + sym(0, 0)] + b.r00;
