@@ -57,16 +57,6 @@ struct CycleBlock {
   std::ptrdiff_t stride = 0;
 };
 
-/// a and b of two comparisons: bools for a double, masks for a pack.
-template <class Mask>
-[[gnu::always_inline]] inline Mask both(Mask a, Mask b) {
-  if constexpr (std::is_same_v<Mask, bool>) {
-    return a && b;
-  } else {
-    return a & b;
-  }
-}
-
 /// The lanes of a value, as doubles (for the few decisions taken lane by lane).
 template <class S>
 using Lanes = std::array<double, kLanesOf<S>>;
@@ -253,13 +243,13 @@ template <class S, int N, int K, class F>
   std::array<S, N> posterior[K];
   for (int k = 0; k < K; ++k) {
     // A max ℓ that is not finite: every likelihood underflowed (or a NaN got through).
-    const auto finite_top = both(top[k] > -kInf, top[k] < kInf);
+    const auto finite_top = top[k] - top[k] == 0.0;
     const S lane_code =
         pick(usable[k] != 0.0,
              pick(outcome[k] != kOk, outcome[k], pick(finite_top, kOk, kUnderflow)), kBadPlot);
     const S track = family.track_code(lane_code);
     lane_store(code + k * kLanes, track);
-    commit[k] = both(stepped[k] != 0.0, track == kOk);
+    commit[k] = pick(stepped[k] != 0.0, track, kBadPlot) == kOk;
     const S inverse_sum = 1.0 / sum[k];
     for (int j = 0; j < n; ++j) posterior[k][j] = scaled[k][j] * inverse_sum;
   }

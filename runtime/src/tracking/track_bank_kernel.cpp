@@ -76,7 +76,8 @@ struct CvPositionFamily {
                                          [&](int e) -> S& { return updated[k][e]; }, z[k].x, z[k].y,
                                          r00, r01, r11);
       log_likelihood[k] = -0.5 * (o.mahalanobis + lane_log(o.det) + 2 * kLogTwoPi);
-      code[k] = pick(both(o.s00 > 0.0, o.det > o.threshold), pick(o.finite == 0.0, kOk, kNonFinite),
+      code[k] = pick(o.s00 > 0.0,
+                     pick(o.det > o.threshold, pick(o.finite == 0.0, kOk, kNonFinite), kSingular),
                      kSingular);
     }
   }

@@ -235,7 +235,9 @@ template <class S, int K, class Level>
     out[k].estimate =
         position_update<S>(predicted[k], a.R, out[k].residual, out[k].s, out[k].s_inverse);
     out[k].mahalanobis = out[k].residual * (out[k].s_inverse * out[k].residual);
-    out[k].usable = (out[k].s > 0.0) & (out[k].s < std::numeric_limits<double>::infinity());
+    // 0 < S < ∞ as one comparison (lane_log says why not two joined by &).
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    out[k].usable = pick(out[k].s > 0.0, out[k].s, kInf) < kInf;
     const AxisEstimateOf<S>& e = out[k].estimate;
     // Every entry finite (x·0 is 0 for a finite x, NaN otherwise; the sum of zeros cannot
     // overflow) and no negative variance: GaussianState::usable.

@@ -55,7 +55,7 @@ namespace imm {
 
 /// `use` ? a : b by bit masks: a select the vectorizer keeps as one (a `?:` on a stored value
 /// becomes a conditional store, which stops it).
-[[nodiscard]] inline double pick(bool use, double a, double b) {
+[[nodiscard, gnu::always_inline]] inline double pick(bool use, double a, double b) {
   const std::uint64_t mask = std::uint64_t{0} - static_cast<std::uint64_t>(use);
   return std::bit_cast<double>((std::bit_cast<std::uint64_t>(a) & mask) |
                                (std::bit_cast<std::uint64_t>(b) & ~mask));
@@ -120,7 +120,7 @@ concept LaneMask = !std::is_same_v<M, bool> && requires(M m) {
 /// `use` ? a : b element by element; a and b each a pack of the mask's width or a double (the
 /// same for every element).
 template <LaneMask M, class A, class B>
-[[nodiscard]] inline auto pick(M use, A a, B b) {
+[[nodiscard, gnu::always_inline]] inline auto pick(M use, A a, B b) {
   using Pack = LanePackOf<kLanesOf<M>>;
   using Bits = typename LaneBits<Pack>::Unsigned;
   const auto mask = std::bit_cast<Bits>(use);
@@ -131,7 +131,7 @@ template <LaneMask M, class A, class B>
 
 /// A number type's value `value`: the double itself, or a pack of it in every element.
 template <class S>
-[[nodiscard]] inline S splat(double value) {
+[[nodiscard, gnu::always_inline]] inline S splat(double value) {
   if constexpr (std::is_same_v<S, double>) {
     return value;
   } else {
@@ -154,7 +154,7 @@ template <class S>
 
 /// √x element by element (libm's, correctly rounded: the same bits in a pack and alone).
 template <class S>
-[[nodiscard]] inline S lane_sqrt(S x) {
+[[nodiscard, gnu::always_inline]] inline S lane_sqrt(S x) {
   if constexpr (std::is_same_v<S, double>) {
     return std::sqrt(x);
   } else {
@@ -172,7 +172,7 @@ template <class S>
 /// Taylor polynomial of eʳ (truncation below 10⁻¹⁷), and 2ⁿ assembled in the exponent bits.
 /// S: double, or LanePack (element by element, the same bits as the double).
 template <class S>
-[[nodiscard]] inline S lane_exp(S x) {
+[[nodiscard, gnu::always_inline]] inline S lane_exp(S x) {
   using Signed = typename LaneBits<S>::Signed;
   using Unsigned = typename LaneBits<S>::Unsigned;
   constexpr double kLog2e = 1.4426950408889634074;
@@ -209,7 +209,7 @@ template <class S>
 /// |f| ≤ 0.172, by its odd series to f²¹ (truncation below 10⁻¹⁸).
 /// S: double, or LanePack (element by element, the same bits as the double).
 template <class S>
-[[nodiscard]] inline S lane_log(S x) {
+[[nodiscard, gnu::always_inline]] inline S lane_log(S x) {
   using Unsigned = typename LaneBits<S>::Unsigned;
   constexpr double kLn2High = 6.93147180369123816490e-01;
   constexpr double kLn2Low = 1.90821492927058770002e-10;
@@ -237,7 +237,9 @@ template <class S>
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const S special =
       pick(x == 0.0, -kInf, pick(x == kInf, kInf, std::numeric_limits<double>::quiet_NaN()));
-  return pick((x > 0.0) & (x < kInf), result, special);
+  // Nested picks rather than a mask of two comparisons: GCC 12 turns the & of two pack
+  // comparisons into element-by-element scalar code inside a target_clones function.
+  return pick(x > 0.0, pick(x < kInf, result, special), special);
 }
 
 #pragma GCC diagnostic pop
