@@ -153,7 +153,7 @@ template <int N>
 }
 
 template <int N>
-[[gnu::always_inline]] inline void step_block(const Block& b) {
+[[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const Block& b) {
   int t = 0;
   for (; t + kLanePackWidth <= b.lanes; t += kLanePackWidth) step<LanePack, N>(b, t);
   if (b.lanes - t >= kPaddedPack) return step_padded<N>(b, t);
@@ -269,14 +269,14 @@ template <class S, int N>
 }
 
 template <int N>
-[[gnu::always_inline]] inline void predict_plot_block(const Block& b, double* out) {
+[[gnu::flatten]] IMM_VECTOR_CLONES void predict_plot_block(const Block& b, double* out) {
   int t = 0;
   for (; t + kLanePackWidth <= b.lanes; t += kLanePackWidth) predict_plot<LanePack, N>(b, t, out);
   for (; t < b.lanes; ++t) predict_plot<double, N>(b, t, out);
 }
 
 template <int N>
-[[gnu::always_inline]] inline void score_plot_block(const Scoring& s) {
+[[gnu::flatten]] IMM_VECTOR_CLONES void score_plot_block(const Scoring& s) {
   int t = 0;
   for (; t + kLanePackWidth <= s.tracks; t += kLanePackWidth) score_plots<LanePack, N>(s, t);
   for (; t < s.tracks; ++t) score_plots<double, N>(s, t);
@@ -284,15 +284,18 @@ template <int N>
 
 }  // namespace
 
-[[gnu::flatten]] IMM_VECTOR_CLONES void step_tracks(const Block& b) {
+// The mode count is a template argument chosen outside the vector clones: the clones are the
+// blocks' functions, each with its cycle inlined (a lambda inside a clone would be compiled for the
+// baseline target, SSE2).
+void step_tracks(const Block& b) {
   with_mode_count(b.modes, [&](auto n) { step_block<decltype(n)::value>(b); });
 }
 
-[[gnu::flatten]] IMM_VECTOR_CLONES void predict_plots(const Block& b, double* prediction) {
+void predict_plots(const Block& b, double* prediction) {
   with_mode_count(b.modes, [&](auto n) { predict_plot_block<decltype(n)::value>(b, prediction); });
 }
 
-[[gnu::flatten]] IMM_VECTOR_CLONES void score_plots(const Scoring& s) {
+void score_plots(const Scoring& s) {
   with_mode_count(s.modes, [&](auto n) { score_plot_block<decltype(n)::value>(s); });
 }
 
