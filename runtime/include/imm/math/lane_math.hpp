@@ -71,6 +71,12 @@ namespace imm {
 /// number type (lane_exp, lane_log, the banks' and the GA fitness batch's steps). Arithmetic with a
 /// double applies it to every element; comparing two packs gives a LanePackMaskOf<W>, all ones
 /// where true.
+///
+/// Inside a target_clones (IMM_VECTOR_CLONES) or target function GCC 12 compiles two things on
+/// packs element by element, with scalar code: the & or | of two comparisons' masks (nest picks,
+/// or compare once, instead), and any comparison of a pack wider than the clone's vectors (eight
+/// doubles in the AVX2 clone). And a lambda called inside a clone is compiled for the baseline
+/// target: dispatch on template arguments outside the clones.
 template <int W>
 struct LanePackTypes {
   static_assert(W >= 2 && (W & (W - 1)) == 0, "a pack holds a power of two of doubles");
