@@ -130,6 +130,18 @@ TEST(GaFuzzyTrackBank, TheWideAndNarrowBlocksGiveTheSameBits) {
       [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_mu);
 }
 
+// Packs of 8 (AVX-512), 4 (AVX2) and 2 give the same bits, wide blocks and narrow ones.
+TEST(GaFuzzyTrackBank, EveryInstructionSetGivesTheSameBits) {
+  datasets::Rng specs(23);
+  std::mt19937_64 rng(23);
+  const GaFuzzyImmSpec spec = random_spec(specs, 3, FuzzyAntecedents::kNormalizedInnovation);
+  for (const bool wide : {true, false}) {
+    testing::expect_instruction_sets_agree(
+        13, 60, [&](std::size_t n) { return GaFuzzyTrackBank(spec, n, wide); }, start_of,
+        [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_mu);
+  }
+}
+
 TEST(GaFuzzyTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTracksUntouched) {
   datasets::Rng specs(11);
   const GaFuzzyImmSpec spec = random_spec(specs, 2, FuzzyAntecedents::kResidual);

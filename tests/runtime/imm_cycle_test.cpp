@@ -60,8 +60,8 @@ struct RandomWalkFamily {
                     current[k][2] + 1.0};
       log_likelihood[k] = -0.5 * (nu * nu / s + lane_log(s) + kLogTwoPi);
       const S zeros = updated[k][0] * 0.0 + updated[k][1] * 0.0;
-      code[k] = pick(s > 0.0, pick(s < kInf, pick(zeros == 0.0, kOk, kNonFinite), kSingular),
-                     kSingular);
+      code[k] =
+          pick(s > 0.0, pick(s < kInf, pick(zeros == 0.0, kOk, kNonFinite), kSingular), kSingular);
     }
   }
 

@@ -11,6 +11,7 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
+#include "testing/axis_lane_bank_checks.hpp"
 #include "testing/matrix_checks.hpp"
 #include "testing/specs.hpp"
 #include "testing/textbook_imm.hpp"
@@ -97,6 +98,24 @@ TEST(TrackBank, ManyTracksEqualOneTrackBanksToTheBit) {
     }
   }
   EXPECT_GT(invalid, 100);  // the NaN plots were there and were refused
+}
+
+// Packs of 8 (AVX-512), 4 (AVX2) and 2 give the same bits: 21 tracks are whole packs and a
+// remainder of each kind (a padded pack, a track alone).
+TEST(TrackBank, EveryInstructionSetGivesTheSameBits) {
+  const PlainImmSpec spec = bank_spec();
+  Scenario scenario(21);
+  testing::expect_instruction_sets_agree(
+      21, 80, [&](std::size_t n) { return TrackBank(spec, n); },
+      [](int t) { return start_for(static_cast<std::size_t>(t)); },
+      [&](int t, int k) { return scenario.plot(static_cast<std::size_t>(t), k); },
+      [](const TrackBank& a, std::size_t t, const TrackBank& b, std::size_t u) {
+        testing::expect_same_bits(a.log_mode_probabilities(t), b.log_mode_probabilities(u));
+        for (int j = 0; j < a.mode_count(); ++j) {
+          testing::expect_same_bits(a.mode_estimate(t, j).covariance,
+                                    b.mode_estimate(u, j).covariance);
+        }
+      });
 }
 
 // n CV modes with noise levels 10⁻⁶ … 10⁻², the one of bank_spec() for n = 3.

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Properties of the multi-track banks, checked the same way: a track's result does not depend on
-// its neighbours, and, in the banks of two-axis-lane tracks, blocks of 16 lanes give what blocks of
-// 8 give — to the bit; what every bank refuses, naming the field or by the exception's type.
+// its neighbours, every instruction set's kernel gives the same, and, in the banks of two-axis-lane
+// tracks, blocks of 16 lanes give what blocks of 8 give — to the bit; what every bank refuses,
+// naming the field or by the exception's type.
 
 #include <gtest/gtest.h>
 
@@ -21,6 +22,7 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
+#include "imm/math/lane_isa.hpp"
 #include "imm/math/linear_algebra.hpp"
 #include "testing/refused_field.hpp"
 
@@ -102,6 +104,39 @@ void expect_wide_blocks_as_narrow_ones(int tracks, int scans, Make&& make, Start
     for (std::size_t t = 0; t < n; ++t) {
       expect_same_track(wide, t, narrow, t, same_rest);
       if (::testing::Test::HasFatalFailure()) return;
+    }
+  }
+}
+
+// The pack kernels of every instruction set (lane_isa.hpp: AVX-512, AVX2, the baseline; those this
+// CPU runs) give the same bits: one bank per instruction set, stepped side by side.
+template <class Make, class Start, class Plot, class SameRest>
+void expect_instruction_sets_agree(int tracks, int scans, Make&& make, Start&& start_of,
+                                   Plot&& plot_of, SameRest&& same_rest) {
+  struct Uncap {
+    ~Uncap() { cap_lane_isa(LaneIsa::kAvx512); }
+  } uncap;
+  const auto n = static_cast<std::size_t>(tracks);
+  const LaneIsa isas[] = {LaneIsa::kAvx512, LaneIsa::kAvx2, LaneIsa::kBaseline};
+  std::vector<decltype(make(n))> banks;
+  for (std::size_t i = 0; i < 3; ++i) {
+    banks.push_back(make(n));
+    for (std::size_t t = 0; t < n; ++t) banks[i].initialize(t, start_of(static_cast<int>(t)));
+  }
+  std::vector<Eigen::Vector2d> plots(n);
+  std::vector<std::vector<StepStatus>> status(3, std::vector<StepStatus>(n));
+  for (int k = 0; k < scans; ++k) {
+    for (std::size_t t = 0; t < n; ++t) plots[t] = plot_of(static_cast<int>(t), k);
+    for (std::size_t i = 0; i < 3; ++i) {
+      cap_lane_isa(isas[i]);
+      banks[i].step(plots, status[i]);
+    }
+    for (std::size_t i = 1; i < 3; ++i) {
+      ASSERT_EQ(status[0], status[i]);
+      for (std::size_t t = 0; t < n; ++t) {
+        expect_same_track(banks[0], t, banks[i], t, same_rest);
+        if (::testing::Test::HasFatalFailure()) return;
+      }
     }
   }
 }

@@ -9,11 +9,13 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "axis_lane_bank.hpp"
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
+#include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
 #include "imm_cycle.hpp"
@@ -81,25 +83,32 @@ struct FuzzyNoiseFamily {
   }
 
   // A track's code, in both its lanes: that of the first axis that failed.
-  [[gnu::always_inline]] inline LanePack track_code(LanePack code) const {
-    using Index = LanePackTypes<kLanePackWidth>::Mask;
-    const LanePack x = __builtin_shuffle(code, Index{0, 0, 2, 2, 4, 4, 6, 6});
-    const LanePack y = __builtin_shuffle(code, Index{1, 1, 3, 3, 5, 5, 7, 7});
+  template <class S>
+  [[gnu::always_inline]] inline S track_code(S code) const {
+    using Index = typename LaneBits<S>::Signed;
+    constexpr auto kLanes = static_cast<std::size_t>(kLanesOf<S>);
+    constexpr Index kX = lane_indices<Index>(std::make_index_sequence<kLanes>{}, 0);
+    constexpr Index kY = lane_indices<Index>(std::make_index_sequence<kLanes>{}, 1);
+    const S x = __builtin_shuffle(code, kX), y = __builtin_shuffle(code, kY);
     return pick(x != kOk, x, y);
+  }
+  // The lane of each element's track on axis `axis` (0: x at the even lane, 1: y).
+  template <class Index, std::size_t... L>
+  static constexpr Index lane_indices(std::index_sequence<L...> /*lanes*/, std::int64_t axis) {
+    return Index{static_cast<std::int64_t>(L & ~std::size_t{1}) + axis...};
   }
 };
 using Slots = bank::CycleSlots<FuzzyNoiseFamily>;
 constexpr int kLogMu = Slots::kLogMu, kScaledMu = Slots::kScaledMu, kModeSlots = Slots::kModeSlots;
 
-// One IMM cycle of one block's W lanes (packs of eight) of an IMM of N modes (imm_cycle.hpp)
-// from lane `first`: `z` the lanes' plots (NaN for an unusable plot), `stepped` 1 for a lane to
-// step; `code` receives each lane's outcome.
-template <int W, int N>
-[[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const FuzzyNoiseFamily& family,
-                                                   const bank::CycleBlock& b, std::ptrdiff_t first,
-                                                   const double* z, const double* stepped,
-                                                   double* code) {
-  using Pack = LanePack;
+// One IMM cycle of one block's W lanes (whole packs) of an IMM of N modes (imm_cycle.hpp) from
+// lane `first`: `z` the lanes' plots (NaN for an unusable plot), `stepped` 1 for a lane to step;
+// `code` receives each lane's outcome.
+template <class Pack, int W, int N>
+[[gnu::always_inline]] inline void step_block(const FuzzyNoiseFamily& family,
+                                              const bank::CycleBlock& b, std::ptrdiff_t first,
+                                              const double* z, const double* stepped,
+                                              double* code) {
   constexpr int kPack = kLanesOf<Pack>, K = W / kPack;
   static_assert(K * kPack == W, "a block is whole packs");
   Pack plot[K], usable[K], step[K];
@@ -110,6 +119,19 @@ template <int W, int N>
   }
   bank::imm_cycle<Pack, N, K>(family, b, static_cast<int>(first), plot, usable, step, code);
 }
+
+// step_block for each instruction set, its pack one vector of it (lane_isa.hpp).
+#define IMM_BLOCK_FOR(isa, target, width)                                              \
+  template <int W, int N>                                                              \
+  [[gnu::flatten]] target void step_block_##isa(                                       \
+      const FuzzyNoiseFamily& family, const bank::CycleBlock& b, std::ptrdiff_t first, \
+      const double* z, const double* stepped, double* code) {                          \
+    step_block<LanePackOf<width>, W, N>(family, b, first, z, stepped, code);           \
+  }
+IMM_BLOCK_FOR(avx512, IMM_TARGET_AVX512, 8)
+IMM_BLOCK_FOR(avx2, IMM_TARGET_AVX2, 4)
+IMM_BLOCK_FOR(baseline, , 2)
+#undef IMM_BLOCK_FOR
 
 }  // namespace
 
@@ -189,13 +211,14 @@ void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<St
   const FuzzyNoiseFamily family{&axis_, levels_.data()};
   const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), state_.data(),
                                stride_};
-  // The mode count is a template argument outside the vector clones: a lambda inside one would
-  // be compiled for the baseline target.
+  // The instruction set's function for the mode count and block width, chosen outside it (a
+  // lambda inside a function compiled for an instruction set is compiled for the baseline).
   bank::with_mode_count(modes_, [&](auto n) {
     bank::step_blocks<kBlock>(
         plots, status, wide_blocks_, scratch_.data(),
         [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
-          step_block<decltype(width)::value, decltype(n)::value>(
+          constexpr int W = decltype(width)::value, N = decltype(n)::value;
+          for_lane_isa(step_block_avx512<W, N>, step_block_avx2<W, N>, step_block_baseline<W, N>)(
               family, cycle, static_cast<std::ptrdiff_t>(first), z, stepped, code);
         });
   });

@@ -11,6 +11,7 @@
 #include <type_traits>
 
 #include "imm/core/physical_limits.hpp"
+#include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
 #include "imm_cycle.hpp"
@@ -125,9 +126,9 @@ constexpr int kPaddedPack = 3;
 // Steps `b`'s lanes [t, b.lanes), fewer than a pack, as one pack: copies them into a pack-wide
 // block, the missing lanes repeating the last one, and copies the real lanes back. A lane's
 // arithmetic does not depend on its neighbours, so the real lanes get their own bits.
-template <int N>
+template <class Pack, int N>
 [[gnu::always_inline]] inline void step_padded(const Block& b, int t) {
-  constexpr int kW = kLanePackWidth;
+  constexpr int kW = kLanesOf<Pack>;
   const int n = N == kMaxModes ? b.modes : N;
   const int slots = n * kModeSlots + kEntries;
   const int real = b.lanes - t;
@@ -145,18 +146,19 @@ template <int N>
   pack.stride = kW;
   pack.plots = plots.data();
   pack.status = status.data();
-  step<LanePack, N>(pack, 0);
+  step<Pack, N>(pack, 0);
   for (int e = 0; e < slots; ++e) {
     for (int l = 0; l < real; ++l) b.state[e * b.stride + t + l] = state[e * kW + l];
   }
   for (int l = 0; l < real; ++l) b.status[t + l] = status[l];
 }
 
-template <int N>
-[[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const Block& b) {
+template <class Pack, int N>
+[[gnu::always_inline]] inline void step_block(const Block& b) {
+  constexpr int kW = kLanesOf<Pack>;
   int t = 0;
-  for (; t + kLanePackWidth <= b.lanes; t += kLanePackWidth) step<LanePack, N>(b, t);
-  if (b.lanes - t >= kPaddedPack) return step_padded<N>(b, t);
+  for (; t + kW <= b.lanes; t += kW) step<Pack, N>(b, t);
+  if (b.lanes - t >= kPaddedPack) return step_padded<Pack, N>(b, t);
   for (; t < b.lanes; ++t) step<double, N>(b, t);
 }
 
@@ -268,35 +270,68 @@ template <class S, int N>
   }
 }
 
-template <int N>
-[[gnu::flatten]] IMM_VECTOR_CLONES void predict_plot_block(const Block& b, double* out) {
+template <class Pack, int N>
+[[gnu::always_inline]] inline void predict_plot_block(const Block& b, double* out) {
+  constexpr int kW = kLanesOf<Pack>;
   int t = 0;
-  for (; t + kLanePackWidth <= b.lanes; t += kLanePackWidth) predict_plot<LanePack, N>(b, t, out);
+  for (; t + kW <= b.lanes; t += kW) predict_plot<Pack, N>(b, t, out);
   for (; t < b.lanes; ++t) predict_plot<double, N>(b, t, out);
 }
 
-template <int N>
-[[gnu::flatten]] IMM_VECTOR_CLONES void score_plot_block(const Scoring& s) {
+template <class Pack, int N>
+[[gnu::always_inline]] inline void score_plot_block(const Scoring& s) {
+  constexpr int kW = kLanesOf<Pack>;
   int t = 0;
-  for (; t + kLanePackWidth <= s.tracks; t += kLanePackWidth) score_plots<LanePack, N>(s, t);
+  for (; t + kW <= s.tracks; t += kW) score_plots<Pack, N>(s, t);
   for (; t < s.tracks; ++t) score_plots<double, N>(s, t);
 }
 
+// Each block function for each instruction set, its pack one vector of it (lane_isa.hpp), the
+// cycle inlined. They are chosen outside, with the mode count: a lambda inside a function compiled
+// for an instruction set is compiled for the baseline.
+#define IMM_KERNEL_FOR_EACH_ISA(name, kernel, Args, args)      \
+  template <int N>                                             \
+  [[gnu::flatten]] IMM_TARGET_AVX512 void name##_avx512 Args { \
+    kernel<LanePackOf<8>, N> args;                             \
+  }                                                            \
+  template <int N>                                             \
+  [[gnu::flatten]] IMM_TARGET_AVX2 void name##_avx2 Args {     \
+    kernel<LanePackOf<4>, N> args;                             \
+  }                                                            \
+  template <int N>                                             \
+  [[gnu::flatten]] void name##_baseline Args {                 \
+    kernel<LanePackOf<2>, N> args;                             \
+  }
+IMM_KERNEL_FOR_EACH_ISA(step_tracks_for, step_block, (const Block& b), (b))
+IMM_KERNEL_FOR_EACH_ISA(predict_plots_for, predict_plot_block, (const Block& b, double* out),
+                        (b, out))
+IMM_KERNEL_FOR_EACH_ISA(score_plots_for, score_plot_block, (const Scoring& s), (s))
+#undef IMM_KERNEL_FOR_EACH_ISA
+
 }  // namespace
 
-// The mode count is a template argument chosen outside the vector clones: the clones are the
-// blocks' functions, each with its cycle inlined (a lambda inside a clone would be compiled for the
-// baseline target, SSE2).
 void step_tracks(const Block& b) {
-  with_mode_count(b.modes, [&](auto n) { step_block<decltype(n)::value>(b); });
+  with_mode_count(b.modes, [&](auto n) {
+    constexpr int N = decltype(n)::value;
+    for_lane_isa(step_tracks_for_avx512<N>, step_tracks_for_avx2<N>,
+                 step_tracks_for_baseline<N>)(b);
+  });
 }
 
 void predict_plots(const Block& b, double* prediction) {
-  with_mode_count(b.modes, [&](auto n) { predict_plot_block<decltype(n)::value>(b, prediction); });
+  with_mode_count(b.modes, [&](auto n) {
+    constexpr int N = decltype(n)::value;
+    for_lane_isa(predict_plots_for_avx512<N>, predict_plots_for_avx2<N>,
+                 predict_plots_for_baseline<N>)(b, prediction);
+  });
 }
 
 void score_plots(const Scoring& s) {
-  with_mode_count(s.modes, [&](auto n) { score_plot_block<decltype(n)::value>(s); });
+  with_mode_count(s.modes, [&](auto n) {
+    constexpr int N = decltype(n)::value;
+    for_lane_isa(score_plots_for_avx512<N>, score_plots_for_avx2<N>,
+                 score_plots_for_baseline<N>)(s);
+  });
 }
 
 }  // namespace imm::bank

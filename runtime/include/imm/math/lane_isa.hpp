@@ -1,0 +1,62 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// The vector instruction set the pack kernels run on (the TrackBank's and the GA-fuzzy bank's
+/// IMM cycle): each is compiled three times, for AVX-512 with packs of eight doubles, for AVX2
+/// with packs of four and for the baseline with packs of two, so that a pack is one vector of
+/// the instruction set that runs it (GCC compiles the comparisons of a wider pack element by
+/// element; lane_math.hpp). Every instruction set gives the same bits: a lane's operations do
+/// not depend on the pack's width.
+
+#include <cstdint>
+
+#include "imm/math/lane_math.hpp"
+#include "imm/runtime_export.hpp"
+
+#if IMM_HAS_VECTOR_CLONES
+/// Compiles a function for AVX-512 (where GCC can; empty elsewhere).
+#define IMM_TARGET_AVX512 __attribute__((target_clones("avx512f", "default")))
+/// Compiles a function for AVX2 (where GCC can; empty elsewhere).
+#define IMM_TARGET_AVX2 __attribute__((target_clones("avx2", "default")))
+#else
+#define IMM_TARGET_AVX512
+#define IMM_TARGET_AVX2
+#endif
+
+namespace imm {
+
+/// An instruction set of the pack kernels, from the narrowest.
+enum class LaneIsa : std::uint8_t {
+  kBaseline,  ///< x86-64's SSE2 (or any other CPU): packs of 2
+  kAvx2,      ///< AVX2: packs of 4
+  kAvx512,    ///< AVX-512F: packs of 8
+};
+
+/// The doubles in a pack of `isa`.
+[[nodiscard]] constexpr int lane_pack_width(LaneIsa isa) {
+  return isa == LaneIsa::kAvx512 ? 8 : isa == LaneIsa::kAvx2 ? 4 : 2;
+}
+
+/// The instruction set the pack kernels run on: the widest this CPU has (kBaseline where the
+/// kernels are not compiled for more), at most the cap.
+[[nodiscard]] IMM_RUNTIME_EXPORT LaneIsa lane_isa();
+
+/// Caps lane_isa() at `isa` (kAvx512: no cap), so that tests and benchmarks can run the narrower
+/// instruction sets on one machine. The results do not depend on it. Not to be changed while a
+/// bank steps in another thread.
+IMM_RUNTIME_EXPORT void cap_lane_isa(LaneIsa isa);
+
+/// The one of a kernel's three functions (or anything else) that lane_isa() names.
+template <class F>
+[[nodiscard]] F for_lane_isa(F avx512, F avx2, F baseline) {
+  switch (lane_isa()) {
+    case LaneIsa::kAvx512:
+      return avx512;
+    case LaneIsa::kAvx2:
+      return avx2;
+    default:
+      return baseline;
+  }
+}
+
+}  // namespace imm
