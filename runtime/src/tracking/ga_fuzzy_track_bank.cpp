@@ -85,17 +85,14 @@ struct FuzzyNoiseFamily {
   // A track's code, in both its lanes: that of the first axis that failed.
   template <class S>
   [[gnu::always_inline]] inline S track_code(S code) const {
-    using Index = typename LaneBits<S>::Signed;
-    constexpr auto kLanes = static_cast<std::size_t>(kLanesOf<S>);
-    constexpr Index kX = lane_indices<Index>(std::make_index_sequence<kLanes>{}, 0);
-    constexpr Index kY = lane_indices<Index>(std::make_index_sequence<kLanes>{}, 1);
-    const S x = __builtin_shuffle(code, kX), y = __builtin_shuffle(code, kY);
-    return pick(x != kOk, x, y);
+    return paired(code, std::make_index_sequence<static_cast<std::size_t>(kLanesOf<S>)>{});
   }
-  // The lane of each element's track on axis `axis` (0: x at the even lane, 1: y).
-  template <class Index, std::size_t... L>
-  static constexpr Index lane_indices(std::index_sequence<L...> /*lanes*/, std::int64_t axis) {
-    return Index{static_cast<std::int64_t>(L & ~std::size_t{1}) + axis...};
+  // Each element's track's x code (its even lane) and y code (the odd one after it).
+  template <class S, std::size_t... L>
+  [[gnu::always_inline]] static S paired(S code, std::index_sequence<L...> /*lanes*/) {
+    const S x = __builtin_shufflevector(code, code, static_cast<int>(L & ~std::size_t{1})...);
+    const S y = __builtin_shufflevector(code, code, static_cast<int>(L | 1U)...);
+    return pick(x != kOk, x, y);
   }
 };
 using Slots = bank::CycleSlots<FuzzyNoiseFamily>;
@@ -113,14 +110,16 @@ template <class Pack, int W, int N>
   static_assert(K * kPack == W, "a block is whole packs");
   Pack plot[K], usable[K], step[K];
   for (int k = 0; k < K; ++k) {
-    plot[k] = lane_load<Pack>(z + k * kPack);
+    const std::ptrdiff_t offset = static_cast<std::ptrdiff_t>(k) * kPack;
+    plot[k] = lane_load<Pack>(z + offset);
     usable[k] = pick(plot[k] == plot[k], 1.0, 0.0);
-    step[k] = lane_load<Pack>(stepped + k * kPack);
+    step[k] = lane_load<Pack>(stepped + offset);
   }
   bank::imm_cycle<Pack, N, K>(family, b, static_cast<int>(first), plot, usable, step, code);
 }
 
 // step_block for each instruction set, its pack one vector of it (lane_isa.hpp).
+// NOLINTBEGIN(bugprone-macro-parentheses): `target` is an attribute.
 #define IMM_BLOCK_FOR(isa, target, width)                                              \
   template <int W, int N>                                                              \
   [[gnu::flatten]] target void step_block_##isa(                                       \
@@ -132,6 +131,7 @@ IMM_BLOCK_FOR(avx512, IMM_TARGET_AVX512, 8)
 IMM_BLOCK_FOR(avx2, IMM_TARGET_AVX2, 4)
 IMM_BLOCK_FOR(baseline, , 2)
 #undef IMM_BLOCK_FOR
+// NOLINTEND(bugprone-macro-parentheses)
 
 }  // namespace
 

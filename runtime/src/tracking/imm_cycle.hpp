@@ -152,7 +152,7 @@ template <class S, int N, int K, class F>
   // The K packs advance phase by phase: their chains (lane_log's, lane_exp's) are independent,
   // and a core overlaps them.
   std::array<S, N> predicted[K];
-  std::array<S, N * N> weights[K];
+  std::array<S, static_cast<std::size_t>(N) * N> weights[K];
   S shift[K];
   for (int k = 0; k < K; ++k) shift[k] = splat<S>(-std::numeric_limits<double>::infinity());
   for (int i = 0; i < n; ++i) {
@@ -199,7 +199,7 @@ template <class S, int N, int K, class F>
   constexpr int kLanes = kLanesOf<S>;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const int n = N == kMaxModes ? b.modes : N;
-  CycleMixing<S, N, K, F> m;
+  CycleMixing<S, N, K, F> m;  // NOLINT(cppcoreguidelines-pro-type-member-init): mix_modes fills it
   mix_modes<S, N, K>(family, b, t, m);
 
   // Each mode's step, ℓ_j + log c_j; the first mode that fails decides a lane's outcome.
@@ -248,7 +248,7 @@ template <class S, int N, int K, class F>
         pick(usable[k] != 0.0,
              pick(outcome[k] != kOk, outcome[k], pick(finite_top, kOk, kUnderflow)), kBadPlot);
     const S track = family.track_code(lane_code);
-    lane_store(code + k * kLanes, track);
+    lane_store(code + static_cast<std::ptrdiff_t>(k) * kLanes, track);
     commit[k] = pick(stepped[k] != 0.0, track, kBadPlot) == kOk;
     const S inverse_sum = 1.0 / sum[k];
     for (int j = 0; j < n; ++j) posterior[k][j] = scaled[k][j] * inverse_sum;

@@ -132,7 +132,9 @@ template <class Pack, int N>
   const int n = N == kMaxModes ? b.modes : N;
   const int slots = n * kModeSlots + kEntries;
   const int real = b.lanes - t;
-  std::array<double, (kMaxModes * kModeSlots + kEntries) * kW> state;
+  // Every slot the step reads is copied in first.
+  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init)
+  std::array<double, static_cast<std::size_t>(kMaxModes * kModeSlots + kEntries) * kW> state;
   std::array<Eigen::Vector2d, kW> plots;
   std::array<StepStatus, kW> status{};
   const auto source = [&](int l) { return t + std::min(l, real - 1); };
@@ -170,11 +172,12 @@ template <class S, int N>
 [[gnu::always_inline]] inline void predict_plot(const Block& b, int t, double* out) {
   const int n = N == kMaxModes ? b.modes : N;
   const CvPositionFamily family = family_of(b);
-  CycleMixing<S, N, 1, CvPositionFamily> p;
+  CycleMixing<S, N, 1, CvPositionFamily> p;  // NOLINT(cppcoreguidelines-pro-type-member-init)
   mix_modes<S, N, 1>(family, cycle_of(b), t, p);
   for (int j = 0; j < n; ++j) family.predict(j, p.mixed[j][0]);
   auto slot = [&](int index) { return out + index * b.stride + t; };
-  std::array<S, N> zx, zy, s00, s01, s11, c;
+  // Written for the n modes before they are read.
+  std::array<S, N> zx, zy, s00, s01, s11, c;  // NOLINT(cppcoreguidelines-pro-type-member-init)
   S top = splat<S>(-std::numeric_limits<double>::infinity());
   for (int j = 0; j < n; ++j) top = pick(top < p.log_c[0][j], p.log_c[0][j], top);
   S total = splat<S>(0.0);
@@ -187,7 +190,7 @@ template <class S, int N>
     s11[j] = m[kN + sym(2, 2)] + b.r11;
     const S det = s00[j] * s11[j] - s01[j] * s01[j];
     const S inverse_det = 1.0 / det;
-    double* mode = out + (j * kPlotSlots) * b.stride + t;
+    double* mode = out + static_cast<std::ptrdiff_t>(j * kPlotSlots) * b.stride + t;
     lane_store(mode, p.log_c[0][j] - 0.5 * lane_log(det) - kLogTwoPi);
     lane_store(mode + b.stride, zx[j]);
     lane_store(mode + 2 * b.stride, zy[j]);
@@ -227,7 +230,9 @@ template <class S, int N>
   const int n = N == kMaxModes ? s.modes : N;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   auto slot = [&](int index) { return lane_load<S>(s.prediction + index * s.stride + t); };
-  std::array<S, N> constant, zx, zy, i00, i01, i11;
+  // Read for the n modes they are written for.
+  std::array<S, N> constant, zx, zy, i00, i01,
+      i11;  // NOLINT(cppcoreguidelines-pro-type-member-init)
   for (int j = 0; j < n; ++j) {
     constant[j] = slot(j * kPlotSlots);
     zx[j] = slot(j * kPlotSlots + 1);
@@ -255,7 +260,7 @@ template <class S, int N>
       lane_store(to, splat<S>(-kInf));
       continue;
     }
-    std::array<S, N> terms;
+    std::array<S, N> terms;  // NOLINT(cppcoreguidelines-pro-type-member-init): the n written
     S top = splat<S>(-kInf);
     for (int j = 0; j < n; ++j) {
       const S ex = z.x() - zx[j], ey = z.y() - zy[j];
@@ -289,6 +294,7 @@ template <class Pack, int N>
 // Each block function for each instruction set, its pack one vector of it (lane_isa.hpp), the
 // cycle inlined. They are chosen outside, with the mode count: a lambda inside a function compiled
 // for an instruction set is compiled for the baseline.
+// NOLINTBEGIN(bugprone-macro-parentheses): `Args` and `args` are parenthesized lists.
 #define IMM_KERNEL_FOR_EACH_ISA(name, kernel, Args, args)      \
   template <int N>                                             \
   [[gnu::flatten]] IMM_TARGET_AVX512 void name##_avx512 Args { \
@@ -307,6 +313,7 @@ IMM_KERNEL_FOR_EACH_ISA(predict_plots_for, predict_plot_block, (const Block& b, 
                         (b, out))
 IMM_KERNEL_FOR_EACH_ISA(score_plots_for, score_plot_block, (const Scoring& s), (s))
 #undef IMM_KERNEL_FOR_EACH_ISA
+// NOLINTEND(bugprone-macro-parentheses)
 
 }  // namespace
 
