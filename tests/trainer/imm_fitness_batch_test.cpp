@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "imm/datasets/random.hpp"
+#include "imm/math/lane_isa.hpp"
 #include "imm/trainer/baseline_tuning.hpp"
 #include "imm/trainer/ga/fuzzy_table_problem.hpp"
 #include "imm/trainer/ga/genetic_algorithm.hpp"
@@ -119,6 +120,39 @@ TEST(ImmFitnessBatch, ItsPredictiveNllIsTheRuntimeFiltersWithoutTruth) {
 // elsewhere) give the same bits, with and without truth: 26 trajectories are 24 + 4 (two empty
 // lanes) in one and 8 + 8 + 8 + 4 in the other, two of them shorter (masked scans). The sums run in
 // trajectory order in both. Both layouts run here whatever the CPU (the clone does not).
+// The step's packs of 8 (AVX-512), 4 (AVX2) and 2 (lane_isa.hpp) give the same bits, both layouts,
+// with and without truth: each instruction set this CPU runs, side by side.
+TEST(ImmFitnessBatch, EveryInstructionSetGivesTheSameBits) {
+  struct Uncap {
+    ~Uncap() { cap_lane_isa(LaneIsa::kAvx512); }
+  } uncap;
+  TrainingSet set = testing::ga_training_set(40, 13, 2);
+  TrainingSet plots = set;
+  plots.plots_only = true;
+  datasets::Rng rng(12);
+  for (const TrainingSet* data : {&set, &plots}) {
+    for (const bool wide : {true, false}) {
+      const ImmFitnessBatch batch(*data, wide);
+      for (int trial = 0; trial < 4; ++trial) {
+        const GaFuzzyImmSpec spec = random_ga_fuzzy_spec(
+            rng, 1 + trial % 4,
+            trial % 2 == 0 ? FuzzyAntecedents::kResidual : FuzzyAntecedents::kNormalizedInnovation);
+        cap_lane_isa(LaneIsa::kAvx512);
+        const ImmRunErrors a = batch.run(spec);
+        for (const LaneIsa isa : {LaneIsa::kAvx2, LaneIsa::kBaseline}) {
+          cap_lane_isa(isa);
+          const ImmRunErrors b = batch.run(spec);
+          EXPECT_EQ(a.failed, b.failed);
+          EXPECT_EQ(a.count, b.count);
+          EXPECT_EQ(a.position_abs_sum, b.position_abs_sum) << trial;
+          EXPECT_EQ(a.velocity_abs_sum, b.velocity_abs_sum) << trial;
+          EXPECT_EQ(a.predictive_nll, b.predictive_nll) << trial;
+        }
+      }
+    }
+  }
+}
+
 TEST(ImmFitnessBatch, TheWideAndNarrowLayoutsGiveTheSameBits) {
   TrainingSet set = testing::ga_training_set(60, 13, 2);
   ASSERT_EQ(set.trajectories.size(), 26u);

@@ -7,12 +7,11 @@
 
 #include <benchmark/benchmark.h>
 
-#include <cstdio>
 #include <memory>
-#include <string_view>
 #include <vector>
 
 #include "bench_inputs.hpp"
+#include "bench_main.hpp"
 #include "imm/estimation/imm_estimator.hpp"
 #include "imm/estimation/kalman_mode.hpp"
 #include "imm/filters/aimm.hpp"
@@ -28,7 +27,6 @@
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
-#include "imm/math/lane_isa.hpp"
 #include "imm/models/measurement/polar_measurement.hpp"
 #include "imm/models/measurement/position_measurement.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
@@ -367,39 +365,4 @@ BENCHMARK(BM_W3_FuzzyCMeans1d)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
-// --lane_isa=avx512|avx2|baseline caps the instruction set of the pack kernels (TrackBank,
-// GaFuzzyTrackBank; imm/math/lane_isa.hpp), so that one machine measures the narrower ones; the
-// context of every report names the one that ran.
-int main(int argc, char** argv) {
-  std::vector<char*> kept;
-  for (int i = 0; i < argc; ++i) {
-    const std::string_view arg = argv[i];
-    constexpr std::string_view kFlag = "--lane_isa=";
-    if (!arg.starts_with(kFlag)) {
-      kept.push_back(argv[i]);
-      continue;
-    }
-    const std::string_view isa = arg.substr(kFlag.size());
-    if (isa == "avx512") {
-      imm::cap_lane_isa(imm::LaneIsa::kAvx512);
-    } else if (isa == "avx2") {
-      imm::cap_lane_isa(imm::LaneIsa::kAvx2);
-    } else if (isa == "baseline") {
-      imm::cap_lane_isa(imm::LaneIsa::kBaseline);
-    } else {
-      std::fprintf(stderr, "--lane_isa: '%.*s' is not avx512, avx2 or baseline\n",
-                   static_cast<int>(isa.size()), isa.data());
-      return 2;
-    }
-  }
-  int count = static_cast<int>(kept.size());
-  const imm::LaneIsa running = imm::lane_isa();
-  benchmark::AddCustomContext("lane_isa", running == imm::LaneIsa::kAvx512 ? "avx512"
-                                          : running == imm::LaneIsa::kAvx2 ? "avx2"
-                                                                           : "baseline");
-  benchmark::Initialize(&count, kept.data());
-  if (benchmark::ReportUnrecognizedArguments(count, kept.data())) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+int main(int argc, char** argv) { return imm::bench::main_with_lane_isa(argc, argv); }

@@ -6,6 +6,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "bench_main.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/track.hpp"
 #include "imm/trainer/fcm/fcm_trainer.hpp"
@@ -187,4 +188,4 @@ BENCHMARK(BM_GaFitnessRuntimeFilter)->Arg(1)->Arg(5)->Arg(25)->Unit(benchmark::k
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) { return imm::bench::main_with_lane_isa(argc, argv); }

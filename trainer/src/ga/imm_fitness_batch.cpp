@@ -12,6 +12,7 @@
 
 #include "imm/core/physical_limits.hpp"
 #include "imm/filters/fuzzy_noise_step.hpp"
+#include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
 #include "imm/trainer/normalized_errors.hpp"
@@ -55,7 +56,7 @@ struct Sums {
 // One block of W lanes (W = 24, 16, 8 or 4: see the constructor's comment in the header).
 // kLikelihood: also sum the plots' predictive log-likelihood (a training set without truth); a
 // lane_log per plot that the truth's runs do not pay.
-template <int W, bool kLikelihood>
+template <int W, bool kLikelihood, class Pack>
 [[gnu::always_inline]] inline void run_lanes(const Model& m, const BlockData& d, Sums& sums) {
   using Lanes = double[W];
   const int n = m.modes;
@@ -100,8 +101,8 @@ template <int W, bool kLikelihood>
       lanes::mix<W>(n, weight, *now, m0, m1, c00, c01, c11);
       // Every lane of every field is written by fuzzy_noise_lanes; zeroing it first would cost.
       lanes::FuzzyLaneSteps<W> step;  // NOLINT(cppcoreguidelines-pro-type-member-init)
-      lanes::fuzzy_noise_lanes<W>(m.axis, m.levels[j], z, m0, m1, c00, c01, c11, j, *now, *next,
-                                  step);
+      lanes::fuzzy_noise_lanes<W, Pack>(m.axis, m.levels[j], z, m0, m1, c00, c01, c11, j, *now,
+                                        *next, step);
       IMM_LANES {
         // N(r; 0, S) c_j = exp(−½ r²/S) · c_j/√S · (2π)^−½; the constant cancels below.
         exponent[j][l] = -0.5 * step.mahalanobis[l];
@@ -192,28 +193,37 @@ template <int W, bool kLikelihood>
   }
 }
 
-template <int W>
-[[gnu::flatten]] IMM_VECTOR_CLONES void run_block(const Model& m, const BlockData& d, Sums& sums) {
-  run_lanes<W, false>(m, d, sums);
-}
+// A block's function for each instruction set, the step's packs one vector of it (lane_isa.hpp):
+// with or without the plots' likelihood.
+// NOLINTBEGIN(bugprone-macro-parentheses): `target` is an attribute.
+#define IMM_BLOCK_FOR(isa, target, width)                                                    \
+  template <int W, bool kLikelihood>                                                         \
+  [[gnu::flatten]] target void block_##isa(const Model& m, const BlockData& d, Sums& sums) { \
+    run_lanes<W, kLikelihood, LanePackOf<(W < (width) ? W : (width))>>(m, d, sums);          \
+  }
+IMM_BLOCK_FOR(avx512, IMM_TARGET_AVX512, 8)
+IMM_BLOCK_FOR(avx2, IMM_TARGET_AVX2, 4)
+IMM_BLOCK_FOR(baseline, , 2)
+#undef IMM_BLOCK_FOR
+// NOLINTEND(bugprone-macro-parentheses)
 
-template <int W>
-[[gnu::flatten]] IMM_VECTOR_CLONES void likelihood_block(const Model& m, const BlockData& d,
-                                                         Sums& sums) {
-  run_lanes<W, true>(m, d, sums);
+template <int W, bool kLikelihood>
+void run_block(const Model& m, const BlockData& d, Sums& sums) {
+  for_lane_isa(block_avx512<W, kLikelihood>, block_avx2<W, kLikelihood>,
+               block_baseline<W, kLikelihood>)(m, d, sums);
 }
 
 // The block of `width` lanes: with or without the plots' likelihood.
 void run_width(int width, bool likelihood, const Model& m, const BlockData& d, Sums& sums) {
   switch (width) {
     case 24:
-      return (likelihood ? likelihood_block<24> : run_block<24>)(m, d, sums);
+      return (likelihood ? run_block<24, true> : run_block<24, false>)(m, d, sums);
     case 16:
-      return (likelihood ? likelihood_block<16> : run_block<16>)(m, d, sums);
+      return (likelihood ? run_block<16, true> : run_block<16, false>)(m, d, sums);
     case 8:
-      return (likelihood ? likelihood_block<8> : run_block<8>)(m, d, sums);
+      return (likelihood ? run_block<8, true> : run_block<8, false>)(m, d, sums);
     default:
-      return (likelihood ? likelihood_block<4> : run_block<4>)(m, d, sums);
+      return (likelihood ? run_block<4, true> : run_block<4, false>)(m, d, sums);
   }
 }
 

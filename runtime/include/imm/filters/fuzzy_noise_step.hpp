@@ -269,12 +269,13 @@ struct FuzzyLaneSteps {
   double finite[W];       ///< 1 where the estimate is usable (else kNonFiniteResult)
 };
 
-/// Mode j's fuzzy-noise steps over W lanes (W = 4 or a multiple of 8) from its mixed conditions
-/// [m0, m1], [[c00, c01], [c01, c11]] with plots z and the mode's previous antecedents in `now`:
-/// fuzzy_noise_steps over packs of 8 (one AVX-512 vector each: a wider pack has no register and
-/// would live on the stack) or one of 4, all stepped together. Mode j of `next` receives the new
-/// states and antecedents, `out` the rest.
-template <int W>
+/// Mode j's fuzzy-noise steps over W lanes (whole packs) from its mixed conditions [m0, m1],
+/// [[c00, c01], [c01, c11]] with plots z and the mode's previous antecedents in `now`:
+/// fuzzy_noise_steps over packs of `Pack` (one vector of the instruction set that runs it,
+/// lane_isa.hpp: a wider pack has no register and its comparisons become scalar code; by default
+/// 8, or W below 8), all stepped together. Mode j of `next` receives the new states and
+/// antecedents, `out` the rest.
+template <int W, class Pack = LanePackOf<(W < kLanePackWidth ? W : kLanePackWidth)>>
 [[gnu::always_inline]] inline void fuzzy_noise_lanes(const FuzzyAxisConstants& a,
                                                      const FuzzyLevelConstants& level,
                                                      const double* z, const double (&m0)[W],
@@ -282,9 +283,8 @@ template <int W>
                                                      const double (&c01)[W], const double (&c11)[W],
                                                      int j, const AxisModes<W>& now,
                                                      AxisModes<W>& next, FuzzyLaneSteps<W>& out) {
-  using Pack = LanePackOf<(W < kLanePackWidth ? W : kLanePackWidth)>;
   constexpr int kPack = kLanesOf<Pack>, K = W / kPack;
-  static_assert(K * kPack == W, "W is 4 or a multiple of 8");
+  static_assert(K * kPack == W, "W is whole packs");
   Pack zs[K], previous[K];
   AxisEstimateOf<Pack> mixed[K];
   FuzzyNoiseStep<Pack> step[K];

@@ -46,6 +46,10 @@ enum class LaneIsa : std::uint8_t {
 /// bank steps in another thread.
 IMM_RUNTIME_EXPORT void cap_lane_isa(LaneIsa isa);
 
+/// Whether the AVX-512 kernels run (lane_isa()): a kernel bound by the latency of one block's chain
+/// of operations takes wider blocks there (its results do not depend on it).
+[[nodiscard]] inline bool wide_vector_clones() { return lane_isa() == LaneIsa::kAvx512; }
+
 /// The one of a kernel's three functions (or anything else) that lane_isa() names.
 template <class F>
 [[nodiscard]] F for_lane_isa(F avx512, F avx2, F baseline) {

@@ -43,16 +43,6 @@
 
 namespace imm {
 
-/// Whether IMM_VECTOR_CLONES runs its AVX-512 clone on this CPU: a kernel bound by the latency of
-/// one block's chain of operations takes wider blocks there (its results do not depend on it).
-[[nodiscard]] inline bool wide_vector_clones() {
-#if IMM_HAS_VECTOR_CLONES
-  return __builtin_cpu_supports("avx512f") != 0;
-#else
-  return false;
-#endif
-}
-
 /// `use` ? a : b by bit masks: a select the vectorizer keeps as one (a `?:` on a stored value
 /// becomes a conditional store, which stops it).
 [[nodiscard, gnu::always_inline]] inline double pick(bool use, double a, double b) {

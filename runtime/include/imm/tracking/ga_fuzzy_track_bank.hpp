@@ -32,6 +32,7 @@
 #include "imm/estimation/step_status.hpp"
 #include "imm/filters/fuzzy_noise_step.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/runtime_export.hpp"
 
@@ -84,7 +85,7 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank {
   bool wide_blocks_ = false;
   int modes_ = 0;
   std::size_t capacity_ = 0;
-  std::ptrdiff_t stride_ = 0;       // axis lanes, rounded up to whole blocks
+  std::ptrdiff_t stride_ = 0;           // axis lanes, rounded up to whole blocks
   std::vector<double> transition_;      // π_ij at i * modes + j
   std::vector<double> log_transition_;  // log π_ij
   std::vector<double> initial_log_mu_;

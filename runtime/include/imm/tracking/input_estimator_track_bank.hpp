@@ -27,6 +27,7 @@
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
 #include "imm/filters/mlp_input_estimator.hpp"
+#include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/runtime_export.hpp"
 

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/trainer/training_set.hpp"
 
