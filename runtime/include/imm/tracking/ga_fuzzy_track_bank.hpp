@@ -5,11 +5,12 @@
 /// multi-track form of make_ga_fuzzy_imm_filter, as TrackBank is of the plain IMM.
 ///
 /// Layout: every track is two axis filters (x, then y), and every axis filter is a lane. Lanes
-/// are stored structure of arrays and stepped 16 or 8 at a time (eight or four tracks) in loops
-/// over lanes with no branches and no calls (fuzzy_noise_step.hpp, the arithmetic the trainer's GA
-/// fitness runs too), which the compiler vectorizes: AVX-512 or AVX2 where the CPU has it, chosen
-/// at run time, without fused multiply-add, so a track's result does not depend on the instruction
-/// set, on its position or on the number of tracks.
+/// are stored structure of arrays and stepped 16 or 8 at a time (eight or four tracks) through
+/// the banks' IMM cycle (imm_cycle.hpp) with the fuzzy-noise step (fuzzy_noise_step.hpp, the
+/// arithmetic the trainer's GA fitness runs too), on packs of lanes with no branches and no calls:
+/// AVX-512, AVX2 or the baseline, chosen at run time (lane_isa.hpp), without fused multiply-add,
+/// so a track's result does not depend on the instruction set, on its position or on the number
+/// of tracks.
 ///
 /// Numerics are those of ImmEstimator: log-space mode probabilities (log μ stored, μ̃ = μ / max μ
 /// kept from the last posterior for the prediction), likelihoods N(r; 0, S) in log space. The
@@ -41,8 +42,9 @@ namespace imm {
 /// N tracks of one GA-fuzzy IMM with Cartesian plots, stepped together (see the file comment).
 class IMM_RUNTIME_EXPORT GaFuzzyTrackBank {
  public:
-  /// Axis lanes per block of the layout: stepped as one block (two AVX-512 vectors: two
-  /// independent chains per loop) where the AVX-512 clone runs, as two blocks of 8 otherwise.
+  /// Axis lanes per block of the layout: stepped as one block (two AVX-512 packs: two independent
+  /// chains) where the AVX-512 kernels run (lane_isa.hpp), as two blocks of 8 otherwise (packs
+  /// of 4 under AVX2, of 2 on the baseline).
   static constexpr int kBlock = 16;
 
   /// Room for `capacity` tracks of the IMM of `spec`. Throws InvalidParameter naming the field
