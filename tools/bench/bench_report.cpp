@@ -7,7 +7,8 @@
 // "nightly: <stage>" in s, so a slower training is flagged like a slower filter step. Run by
 // `make bench`. The report records what it ran on ("machine"): the CPU model (/proc/cpuinfo), its
 // clock and logical CPU count as Google Benchmark measured them, its library's build type, the
-// threads of each program (--threads NAME=N, as scripts/bench.sh ran it) and the BLAS that
+// threads of each program (--threads NAME=N, as scripts/bench.sh ran it), the vector instruction
+// set of the pack kernels (imm/math/lane_isa.hpp, as the benchmarks report it) and the BLAS that
 // libblas.so.3 resolves to (the trainer links it through LAPACK and Ceres; the MLP's products are
 // Eigen's own kernels, which do not call it):
 //   imm-bench-report --out reports/bench/latest.json [--nightly NIGHTS.jsonl]
@@ -112,6 +113,8 @@ json machine_of(const fs::path& first_output, const json& threads) {
                   {"cpu_scaling_enabled", context.value("cpu_scaling_enabled", false)},
                   {"benchmark_library_build", context.value("library_build_type", "")},
                   {"blas", blas_library()},
+                  // The vector instruction set the pack kernels ran on (imm-bench --lane_isa).
+                  {"lane_isa", context.value("lane_isa", std::string("unrecorded"))},
                   {"threads", threads}};
   return machine;
 }
@@ -167,10 +170,10 @@ int main(int argc, char** argv) {
     doc["slowdown_threshold"] = kSlowdown;
     doc["machine"] = machine_of(inputs.front(), threads);
     const json& m = doc["machine"];
-    std::printf("machine: %s, %d logical CPUs at %.0f MHz, BLAS %s, threads %s\n",
+    std::printf("machine: %s, %d logical CPUs at %.0f MHz, BLAS %s, pack kernels %s, threads %s\n",
                 m["cpu_model"].get<std::string>().c_str(), m["logical_cpus"].get<int>(),
                 m["mhz_per_cpu"].get<double>(), m["blas"].get<std::string>().c_str(),
-                threads.dump().c_str());
+                m["lane_isa"].get<std::string>().c_str(), threads.dump().c_str());
     doc["benchmarks"] = json::array();
     int flagged = 0;
     std::printf("%-48s %14s %14s %9s\n", "benchmark (median)", "now", "before", "change");
