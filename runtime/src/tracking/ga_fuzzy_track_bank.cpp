@@ -127,9 +127,7 @@ template <class Pack, int W, int N>
       const double* z, const double* stepped, double* code) {                          \
     step_block<LanePackOf<width>, W, N>(family, b, first, z, stepped, code);           \
   }
-IMM_BLOCK_FOR(avx512, IMM_TARGET_AVX512, 8)
-IMM_BLOCK_FOR(avx2, IMM_TARGET_AVX2, 4)
-IMM_BLOCK_FOR(baseline, , 2)
+IMM_FOR_EACH_LANE_ISA(IMM_BLOCK_FOR)
 #undef IMM_BLOCK_FOR
 // NOLINTEND(bugprone-macro-parentheses)
 
@@ -161,7 +159,8 @@ GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capac
   axis_ = lanes::FuzzyAxisConstants(
       spec.settings.sample_period,
       spec.settings.measurement_sigma * spec.settings.measurement_sigma, spec.antecedents);
-  state_.assign(static_cast<std::size_t>((modes_ * kModeSlots + 5) * stride_), 0.0);
+  state_.assign(
+      static_cast<std::size_t>((modes_ * kModeSlots + FuzzyNoiseFamily::kCombined) * stride_), 0.0);
   scratch_.assign(std::size_t{3} * kBlock, 0.0);
   initialized_.assign(capacity, 0);
 }

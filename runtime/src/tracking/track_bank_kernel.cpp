@@ -231,8 +231,8 @@ template <class S, int N>
   constexpr double kInf = std::numeric_limits<double>::infinity();
   auto slot = [&](int index) { return lane_load<S>(s.prediction + index * s.stride + t); };
   // Read for the n modes they are written for.
-  std::array<S, N> constant, zx, zy, i00, i01,
-      i11;  // NOLINT(cppcoreguidelines-pro-type-member-init)
+  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init)
+  std::array<S, N> constant, zx, zy, i00, i01, i11;
   for (int j = 0; j < n; ++j) {
     constant[j] = slot(j * kPlotSlots);
     zx[j] = slot(j * kPlotSlots + 1);
@@ -294,25 +294,22 @@ template <class Pack, int N>
 // Each block function for each instruction set, its pack one vector of it (lane_isa.hpp), the
 // cycle inlined. They are chosen outside, with the mode count: a lambda inside a function compiled
 // for an instruction set is compiled for the baseline.
-// NOLINTBEGIN(bugprone-macro-parentheses): `Args` and `args` are parenthesized lists.
-#define IMM_KERNEL_FOR_EACH_ISA(name, kernel, Args, args)      \
-  template <int N>                                             \
-  [[gnu::flatten]] IMM_TARGET_AVX512 void name##_avx512 Args { \
-    kernel<LanePackOf<8>, N> args;                             \
-  }                                                            \
-  template <int N>                                             \
-  [[gnu::flatten]] IMM_TARGET_AVX2 void name##_avx2 Args {     \
-    kernel<LanePackOf<4>, N> args;                             \
-  }                                                            \
-  template <int N>                                             \
-  [[gnu::flatten]] void name##_baseline Args {                 \
-    kernel<LanePackOf<2>, N> args;                             \
+// NOLINTBEGIN(bugprone-macro-parentheses): `target` is an attribute.
+#define IMM_KERNELS_FOR(isa, target, width)                                           \
+  template <int N>                                                                    \
+  [[gnu::flatten]] target void step_tracks_for_##isa(const Block& b) {                \
+    step_block<LanePackOf<width>, N>(b);                                              \
+  }                                                                                   \
+  template <int N>                                                                    \
+  [[gnu::flatten]] target void predict_plots_for_##isa(const Block& b, double* out) { \
+    predict_plot_block<LanePackOf<width>, N>(b, out);                                 \
+  }                                                                                   \
+  template <int N>                                                                    \
+  [[gnu::flatten]] target void score_plots_for_##isa(const Scoring& s) {              \
+    score_plot_block<LanePackOf<width>, N>(s);                                        \
   }
-IMM_KERNEL_FOR_EACH_ISA(step_tracks_for, step_block, (const Block& b), (b))
-IMM_KERNEL_FOR_EACH_ISA(predict_plots_for, predict_plot_block, (const Block& b, double* out),
-                        (b, out))
-IMM_KERNEL_FOR_EACH_ISA(score_plots_for, score_plot_block, (const Scoring& s), (s))
-#undef IMM_KERNEL_FOR_EACH_ISA
+IMM_FOR_EACH_LANE_ISA(IMM_KERNELS_FOR)
+#undef IMM_KERNELS_FOR
 // NOLINTEND(bugprone-macro-parentheses)
 
 }  // namespace

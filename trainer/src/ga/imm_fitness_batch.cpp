@@ -201,9 +201,7 @@ template <int W, bool kLikelihood, class Pack>
   [[gnu::flatten]] target void block_##isa(const Model& m, const BlockData& d, Sums& sums) { \
     run_lanes<W, kLikelihood, LanePackOf<(W < (width) ? W : (width))>>(m, d, sums);          \
   }
-IMM_BLOCK_FOR(avx512, IMM_TARGET_AVX512, 8)
-IMM_BLOCK_FOR(avx2, IMM_TARGET_AVX2, 4)
-IMM_BLOCK_FOR(baseline, , 2)
+IMM_FOR_EACH_LANE_ISA(IMM_BLOCK_FOR)
 #undef IMM_BLOCK_FOR
 // NOLINTEND(bugprone-macro-parentheses)
 
