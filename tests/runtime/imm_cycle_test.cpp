@@ -11,16 +11,19 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <initializer_list>
 #include <limits>
 #include <numbers>
 #include <random>
 #include <vector>
 
 #include "imm/math/lane_math.hpp"
+#include "imm/math/log_sum_exp.hpp"
 
 namespace imm::bank {
 namespace {
@@ -120,15 +123,16 @@ bool same(double a, double b) {
   return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
 }
 
-// Three modes, noise from 10⁻⁴ to 10 per scan; Π with strong diagonal.
-RandomWalkFamily three_modes() {
+// Modes of noise q (per scan), plots of variance r.
+RandomWalkFamily random_walks(std::initializer_list<double> q, double r) {
   RandomWalkFamily f;
-  f.q[0] = 1e-4;
-  f.q[1] = 0.1;
-  f.q[2] = 10.0;
-  f.r = 0.5;
+  std::copy(q.begin(), q.end(), f.q.begin());
+  f.r = r;
   return f;
 }
+
+// Three modes, noise from 10⁻⁴ to 10 per scan; Π with strong diagonal.
+RandomWalkFamily three_modes() { return random_walks({1e-4, 0.1, 10.0}, 0.5); }
 const std::vector<double> kPi3 = {0.90, 0.07, 0.03, 0.05, 0.90, 0.05, 0.02, 0.08, 0.90};
 
 // A bank of `lanes` lanes in random states: log μ, means and variances far apart now and then.
@@ -309,21 +313,13 @@ void expect_textbook(const RandomWalkFamily& f, const std::vector<double>& pi,
 
 TEST(ImmCycle, EqualsTheTextbookImm) {
   expect_textbook(three_modes(), kPi3, {0.6, 0.3, 0.1});
-  RandomWalkFamily two;
-  two.q[0] = 0.01;
-  two.q[1] = 4.0;
-  two.r = 2.0;
-  expect_textbook(two, {0.95, 0.05, 0.10, 0.90}, {1.0, 0.0});
+  expect_textbook(random_walks({0.01, 4.0}, 2.0), {0.95, 0.05, 0.10, 0.90}, {1.0, 0.0});
 }
 
 // Π with zeros and a mode of probability 0 that no mode can reach: c̃_j underflows to 0, the exact
 // fallback gives log c_j = −∞, and the mode keeps its own estimate with μ_j = 0 (ImmEstimator).
 TEST(ImmCycle, AnUnreachableModeKeepsItsOwnEstimateAndProbabilityZero) {
-  RandomWalkFamily f;
-  f.q[0] = 0.01;
-  f.q[1] = 1.0;
-  f.r = 1.0;
-  expect_textbook(f, {1.0, 0.0, 0.3, 0.7}, {1.0, 0.0});
+  expect_textbook(random_walks({0.01, 1.0}, 1.0), {1.0, 0.0, 0.3, 0.7}, {1.0, 0.0});
 }
 
 TEST(ImmCycle, ALaneThatFailsKeepsItsStateAndSaysWhy) {

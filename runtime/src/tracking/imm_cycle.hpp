@@ -31,7 +31,7 @@
 
 #include "axis_lane_bank.hpp"
 #include "imm/math/lane_math.hpp"
-#include "imm/math/log_sum_exp.hpp"
+#include "imm/math/linear_algebra.hpp"
 
 // Arrays of N modes are filled to b.modes and read no further; GCC cannot see that for N =
 // kMaxModes.
@@ -39,13 +39,6 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 
 namespace imm::bank {
-
-/// The slots of a family's state: per mode, then the combined estimate.
-template <class F>
-struct CycleSlots {
-  static constexpr int kLogMu = F::kEntries, kScaledMu = F::kEntries + 1,
-                       kModeSlots = F::kEntries + 2;
-};
 
 /// What a cycle reads and writes besides the family: Π (and log Π) at i · modes + j, the state
 /// slots (`stride` apart, offset to the block's first lane).
@@ -55,6 +48,17 @@ struct CycleBlock {
   const double* log_transition = nullptr;
   double* state = nullptr;
   std::ptrdiff_t stride = 0;
+};
+
+/// The slots of a family's state: per mode, then the combined estimate.
+template <class F>
+struct CycleSlots {
+  static constexpr int kLogMu = F::kEntries, kScaledMu = F::kEntries + 1,
+                       kModeSlots = F::kEntries + 2;
+  /// Entry `entry` of mode j (j = the mode count: of the combined estimate) at lane `lane`.
+  static double* at(const CycleBlock& b, int j, int entry, int lane) {
+    return b.state + (j * kModeSlots + entry) * b.stride + lane;
+  }
 };
 
 /// The lanes of a value, as doubles (for the few decisions taken lane by lane).
@@ -140,9 +144,7 @@ template <class S, int N, int K, class F>
   constexpr int kLanes = kLanesOf<S>;
   const int n = N == kMaxModes ? b.modes : N;
   for (int k = 0; k < K; ++k) {
-    auto st = [&](int j, int entry) {
-      return b.state + (j * Slots::kModeSlots + entry) * b.stride + t + k * kLanes;
-    };
+    auto st = [&](int j, int entry) { return Slots::at(b, j, entry, t + k * kLanes); };
     for (int i = 0; i < n; ++i) {
       for (int e = 0; e < F::kEntries; ++e) m.modes[i][k][e] = lane_load<S>(st(i, e));
       m.log_mu[k][i] = lane_load<S>(st(i, Slots::kLogMu));
@@ -235,9 +237,7 @@ template <class S, int N, int K, class F>
   }
   for (int k = 0; k < K; ++k) log_sum[k] = lane_log(sum[k]);
 
-  auto st = [&](int j, int entry, int k) {
-    return b.state + (j * Slots::kModeSlots + entry) * b.stride + t + k * kLanes;
-  };
+  auto st = [&](int j, int entry, int k) { return Slots::at(b, j, entry, t + k * kLanes); };
   using Commit = decltype(std::declval<S>() == 0.0);
   Commit commit[K];
   std::array<S, N> posterior[K];
