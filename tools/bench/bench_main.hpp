@@ -5,9 +5,11 @@
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
+#include <string>
 #include <string_view>
 #include <vector>
 
+#include "imm/core/invalid_parameter.hpp"
 #include "imm/math/lane_isa.hpp"
 
 namespace imm::bench {
@@ -24,24 +26,16 @@ inline int main_with_lane_isa(int argc, char** argv) {
       kept.push_back(argv[i]);
       continue;
     }
-    const std::string_view isa = arg.substr(kFlag.size());
-    if (isa == "avx512") {
-      imm::cap_lane_isa(imm::LaneIsa::kAvx512);
-    } else if (isa == "avx2") {
-      imm::cap_lane_isa(imm::LaneIsa::kAvx2);
-    } else if (isa == "baseline") {
-      imm::cap_lane_isa(imm::LaneIsa::kBaseline);
-    } else {
-      std::fprintf(stderr, "--lane_isa: '%.*s' is not avx512, avx2 or baseline\n",
-                   static_cast<int>(isa.size()), isa.data());
+    try {
+      imm::cap_lane_isa(imm::value_named(imm::kLaneIsaNames, arg.substr(kFlag.size()), "--lane_isa",
+                                         "instruction set"));
+    } catch (const imm::InvalidParameter& e) {
+      std::fprintf(stderr, "%s\n", e.what());
       return 2;
     }
   }
   int count = static_cast<int>(kept.size());
-  const imm::LaneIsa running = imm::lane_isa();
-  benchmark::AddCustomContext("lane_isa", running == imm::LaneIsa::kAvx512 ? "avx512"
-                                          : running == imm::LaneIsa::kAvx2 ? "avx2"
-                                                                           : "baseline");
+  benchmark::AddCustomContext("lane_isa", std::string(imm::to_string(imm::lane_isa())));
   benchmark::Initialize(&count, kept.data());
   if (benchmark::ReportUnrecognizedArguments(count, kept.data())) return 1;
   benchmark::RunSpecifiedBenchmarks();

@@ -8,8 +8,11 @@
 /// element; lane_math.hpp). Every instruction set gives the same bits: a lane's operations do
 /// not depend on the pack's width.
 
+#include <array>
 #include <cstdint>
+#include <string_view>
 
+#include "imm/core/enum_names.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/runtime_export.hpp"
 
@@ -43,6 +46,17 @@ enum class LaneIsa : std::uint8_t {
   kAvx2,      ///< AVX2: packs of 4
   kAvx512,    ///< AVX-512F: packs of 8
 };
+
+/// Each instruction set with its name (core/enum_names.hpp), as imm-bench's --lane_isa and the
+/// benchmark reports spell it.
+inline constexpr std::array kLaneIsaNames{EnumName<LaneIsa>{LaneIsa::kAvx512, "avx512"},
+                                          EnumName<LaneIsa>{LaneIsa::kAvx2, "avx2"},
+                                          EnumName<LaneIsa>{LaneIsa::kBaseline, "baseline"}};
+
+/// The name of an instruction set.
+[[nodiscard]] constexpr std::string_view to_string(LaneIsa isa) {
+  return name_of(kLaneIsaNames, isa);
+}
 
 /// The doubles in a pack of `isa`.
 [[nodiscard]] constexpr int lane_pack_width(LaneIsa isa) {
