@@ -212,13 +212,15 @@ void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<St
                                stride_};
   // The instruction set's function for the mode count and block width, chosen outside it (a
   // lambda inside a function compiled for an instruction set is compiled for the baseline).
+  const LaneIsa isa = lane_isa();
   bank::with_mode_count(modes_, [&](auto n) {
     bank::step_blocks<kBlock>(
         plots, status, wide_blocks_, scratch_.data(),
         [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
           constexpr int W = decltype(width)::value, N = decltype(n)::value;
-          for_lane_isa(step_block_avx512<W, N>, step_block_avx2<W, N>, step_block_baseline<W, N>)(
-              family, cycle, static_cast<std::ptrdiff_t>(first), z, stepped, code);
+          for_lane_isa(isa, step_block_avx512<W, N>, step_block_avx2<W, N>,
+                       step_block_baseline<W, N>)(family, cycle, static_cast<std::ptrdiff_t>(first),
+                                                  z, stepped, code);
         });
   });
 }

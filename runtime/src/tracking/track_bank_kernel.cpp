@@ -317,7 +317,7 @@ IMM_FOR_EACH_LANE_ISA(IMM_KERNELS_FOR)
 void step_tracks(const Block& b) {
   with_mode_count(b.modes, [&](auto n) {
     constexpr int N = decltype(n)::value;
-    for_lane_isa(step_tracks_for_avx512<N>, step_tracks_for_avx2<N>,
+    for_lane_isa(lane_isa(), step_tracks_for_avx512<N>, step_tracks_for_avx2<N>,
                  step_tracks_for_baseline<N>)(b);
   });
 }
@@ -325,7 +325,7 @@ void step_tracks(const Block& b) {
 void predict_plots(const Block& b, double* prediction) {
   with_mode_count(b.modes, [&](auto n) {
     constexpr int N = decltype(n)::value;
-    for_lane_isa(predict_plots_for_avx512<N>, predict_plots_for_avx2<N>,
+    for_lane_isa(lane_isa(), predict_plots_for_avx512<N>, predict_plots_for_avx2<N>,
                  predict_plots_for_baseline<N>)(b, prediction);
   });
 }
@@ -333,7 +333,7 @@ void predict_plots(const Block& b, double* prediction) {
 void score_plots(const Scoring& s) {
   with_mode_count(s.modes, [&](auto n) {
     constexpr int N = decltype(n)::value;
-    for_lane_isa(score_plots_for_avx512<N>, score_plots_for_avx2<N>,
+    for_lane_isa(lane_isa(), score_plots_for_avx512<N>, score_plots_for_avx2<N>,
                  score_plots_for_baseline<N>)(s);
   });
 }

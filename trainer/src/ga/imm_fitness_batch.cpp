@@ -206,22 +206,23 @@ IMM_FOR_EACH_LANE_ISA(IMM_BLOCK_FOR)
 // NOLINTEND(bugprone-macro-parentheses)
 
 template <int W, bool kLikelihood>
-void run_block(const Model& m, const BlockData& d, Sums& sums) {
-  for_lane_isa(block_avx512<W, kLikelihood>, block_avx2<W, kLikelihood>,
+void run_block(LaneIsa isa, const Model& m, const BlockData& d, Sums& sums) {
+  for_lane_isa(isa, block_avx512<W, kLikelihood>, block_avx2<W, kLikelihood>,
                block_baseline<W, kLikelihood>)(m, d, sums);
 }
 
 // The block of `width` lanes: with or without the plots' likelihood.
-void run_width(int width, bool likelihood, const Model& m, const BlockData& d, Sums& sums) {
+void run_width(LaneIsa isa, int width, bool likelihood, const Model& m, const BlockData& d,
+               Sums& sums) {
   switch (width) {
     case 24:
-      return (likelihood ? run_block<24, true> : run_block<24, false>)(m, d, sums);
+      return (likelihood ? run_block<24, true> : run_block<24, false>)(isa, m, d, sums);
     case 16:
-      return (likelihood ? run_block<16, true> : run_block<16, false>)(m, d, sums);
+      return (likelihood ? run_block<16, true> : run_block<16, false>)(isa, m, d, sums);
     case 8:
-      return (likelihood ? run_block<8, true> : run_block<8, false>)(m, d, sums);
+      return (likelihood ? run_block<8, true> : run_block<8, false>)(isa, m, d, sums);
     default:
-      return (likelihood ? run_block<4, true> : run_block<4, false>)(m, d, sums);
+      return (likelihood ? run_block<4, true> : run_block<4, false>)(isa, m, d, sums);
   }
 }
 
@@ -316,10 +317,11 @@ ImmRunErrors ImmFitnessBatch::run(const GaFuzzyImmSpec& spec) const {
   sums.vm = sums.ve + scans;
   sums.samples = sums.vm + scans;
   std::size_t at = 0;
+  const LaneIsa isa = lane_isa();
   for (std::size_t b = 0; b < widths_.size() && !sums.failed; ++b) {
     const BlockData block{measurement_.data() + at, position_.data() + at, velocity_.data() + at,
                           mask_.data() + at, scans_};
-    run_width(widths_[b], plots_only_, m, block, sums);
+    run_width(isa, widths_[b], plots_only_, m, block, sums);
     at += static_cast<std::size_t>(widths_[b]) * scans;
   }
   ImmRunErrors errors;

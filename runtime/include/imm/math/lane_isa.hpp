@@ -76,10 +76,11 @@ IMM_RUNTIME_EXPORT void cap_lane_isa(LaneIsa isa);
 /// of operations takes wider blocks there (its results do not depend on it).
 [[nodiscard]] inline bool wide_vector_clones() { return lane_isa() == LaneIsa::kAvx512; }
 
-/// The one of a kernel's three functions (or anything else) that lane_isa() names.
+/// The one of a kernel's three functions (or anything else) for instruction set `isa` (read
+/// lane_isa() once per call of the kernel, not once per block).
 template <class F>
-[[nodiscard]] F for_lane_isa(F avx512, F avx2, F baseline) {
-  switch (lane_isa()) {
+[[nodiscard]] F for_lane_isa(LaneIsa isa, F avx512, F avx2, F baseline) {
+  switch (isa) {
     case LaneIsa::kAvx512:
       return avx512;
     case LaneIsa::kAvx2:
