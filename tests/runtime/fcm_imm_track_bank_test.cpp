@@ -86,36 +86,13 @@ int expect_equals_one_track_filters(const FcmImmSpec& spec, int scans, std::mt19
                                     const std::string& name, double scale = 1.0) {
   constexpr int kTracks = 13;  // three whole blocks of four tracks and one track more
   FcmImmTrackBank bank(spec, kTracks);
-  std::vector<std::unique_ptr<TwoAxisFilter>> single;
-  for (int t = 0; t < kTracks; ++t) {
-    const GaussianState<4> start = start_of(t, scale);
-    bank.initialize(static_cast<std::size_t>(t), start);
-    single.push_back(make_fcm_imm_filter(spec));
-    single.back()->initialize(start.mean, start.covariance);
-  }
-  int refused = 0;
-  std::vector<Eigen::Vector2d> plots(kTracks);
-  std::vector<StepStatus> status(kTracks);
-  for (int k = 1; k <= scans; ++k) {
-    for (int t = 0; t < kTracks; ++t) {
-      plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng, scale);
-    }
-    bank.step(plots, status);
-    for (int t = 0; t < kTracks; ++t) {
-      const auto u = static_cast<std::size_t>(t);
-      const std::string at = name + " scan " + std::to_string(k) + " track " + std::to_string(t);
-      EXPECT_EQ(status[u], single[u]->step(plots[u])) << at;
-      if (status[u] != StepStatus::kOk) ++refused;
-      Eigen::Vector4d mean, variance;
-      single[u]->state(mean, variance);
-      Eigen::Matrix4d covariance;
-      single[u]->covariance(covariance);
-      testing::expect_estimate_close(bank.estimate(u), mean, covariance, bank.mode_probabilities(u),
-                                     single[u]->mode_probabilities(), at);
-      if (::testing::Test::HasFailure()) return refused;
-    }
-  }
-  return refused;
+  auto single = testing::one_track_filters(kTracks, [&] { return make_fcm_imm_filter(spec); });
+  return testing::follow_one_track_filters(
+      bank, single, name, 1, scans, [&](int t) { return start_of(t, scale); },
+      [&](int t, int k) { return plot_of(t, k, rng, scale); },
+      [&](std::size_t t, const std::string& at) {
+        testing::expect_two_axis_close(bank, t, *single[t], at);
+      });
 }
 
 TEST(FcmImmTrackBank, EqualsTheOneTrackFilterToRounding) {
@@ -145,9 +122,7 @@ TEST(FcmImmTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
   testing::expect_tracks_independent_of_their_neighbours(
       11, 80, [&](std::size_t n) { return FcmImmTrackBank(spec, n); },
       [](int t) { return start_of(t); }, [&](int t, int k) { return plot_of(t, k + 1, rng); },
-      [](const FcmImmTrackBank& a, std::size_t t, const FcmImmTrackBank& b, std::size_t u) {
-        testing::expect_same_bits(a.mode_probabilities(t), b.mode_probabilities(u));
-      });
+      testing::expect_same_mu<FcmImmTrackBank>);
 }
 
 TEST(FcmImmTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasWindowsIncluded) {
@@ -164,18 +139,10 @@ TEST(FcmImmTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasWindowsIncluded) {
     advance(plots, k);
     bank.step(plots, status);
   }
-  const GaussianState<4> before = bank.estimate(1);
-  const ModeVector mu_before = bank.mode_probabilities(1);
-  const GaussianState<4> untouched = bank.estimate(4);
   std::vector<Eigen::Vector2d> bad = plots;
   bad[1].y() = std::numeric_limits<double>::infinity();
-  bank.step(bad, status);
-  EXPECT_EQ(status[1], StepStatus::kInvalidMeasurement);
-  EXPECT_EQ(bank.estimate(1).mean, before.mean);
-  EXPECT_EQ(bank.estimate(1).covariance, before.covariance);
-  EXPECT_EQ(bank.mode_probabilities(1), mu_before);
-  EXPECT_EQ(bank.estimate(4).mean, untouched.mean);
-  EXPECT_EQ(bank.estimate(4).covariance, untouched.covariance);
+  testing::expect_refused_plot_keeps_the_track(bank, bad, 4,
+                                               testing::expect_same_mu<FcmImmTrackBank>);
   // The windows did not move either: the next scans equal a bank that never saw the bad plot.
   FcmImmTrackBank twin(spec, 1);
   twin.initialize(0, start_of(1));

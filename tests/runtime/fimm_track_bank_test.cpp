@@ -64,36 +64,22 @@ int expect_equals_one_track_filters(const FimmSpec& spec,
                                     const std::shared_ptr<const TskSensorModel>& sensor,
                                     const Plots& data, const std::string& name,
                                     Eigen::Index last_scan = 199, double tolerance = 1e-9) {
-  const auto tracks = static_cast<int>(data.tracks.size());
-  FimmTrackBank bank(spec, sensor, static_cast<std::size_t>(tracks));
-  std::vector<std::unique_ptr<FimmFilter>> single;
-  for (int t = 0; t < tracks; ++t) {
-    const GaussianState<6>& start = data.starts[static_cast<std::size_t>(t)];
-    bank.initialize(static_cast<std::size_t>(t), start);
-    single.push_back(std::make_unique<FimmFilter>(spec, sensor));
-    single.back()->initialize(start.mean, start.covariance);
-  }
-  int refused = 0;
-  std::vector<Eigen::Vector2d> plots(static_cast<std::size_t>(tracks));
-  std::vector<StepStatus> status(static_cast<std::size_t>(tracks));
-  for (Eigen::Index k = 1; k <= std::min(last_scan, data.tracks[0].rows() - 1); ++k) {
-    for (int t = 0; t < tracks; ++t) {
-      plots[static_cast<std::size_t>(t)] = data.tracks[static_cast<std::size_t>(t)].row(k);
-    }
-    bank.step(plots, status);
-    for (int t = 0; t < tracks; ++t) {
-      const auto u = static_cast<std::size_t>(t);
-      const std::string at = name + " scan " + std::to_string(k) + " track " + std::to_string(t);
-      EXPECT_EQ(status[u], single[u]->step(plots[u])) << at;
-      if (status[u] != StepStatus::kOk) ++refused;
-      const GaussianState<6>& reference = single[u]->estimate();
-      testing::expect_estimate_close(bank.estimate(u), reference.mean, reference.covariance,
-                                     bank.mode_probabilities(u), single[u]->mode_probabilities(),
-                                     at, tolerance);
-      if (::testing::Test::HasFailure()) return refused;
-    }
-  }
-  return refused;
+  const std::size_t tracks = data.tracks.size();
+  FimmTrackBank bank(spec, sensor, tracks);
+  auto single = testing::one_track_filters(
+      tracks, [&] { return std::make_unique<FimmFilter>(spec, sensor); });
+  const auto last = static_cast<int>(std::min(last_scan, data.tracks[0].rows() - 1));
+  return testing::follow_one_track_filters(
+      bank, single, name, 1, last, [&](int t) { return data.starts[static_cast<std::size_t>(t)]; },
+      [&](int t, int k) -> Eigen::Vector2d {
+        return data.tracks[static_cast<std::size_t>(t)].row(k).transpose();
+      },
+      [&](std::size_t t, const std::string& at) {
+        const GaussianState<6>& reference = single[t]->estimate();
+        testing::expect_estimate_close(bank.estimate(t), reference.mean, reference.covariance,
+                                       bank.mode_probabilities(t), single[t]->mode_probabilities(),
+                                       at, tolerance);
+      });
 }
 
 TEST(FimmTrackBank, EqualsTheOneTrackFilterToRounding) {
@@ -156,9 +142,7 @@ TEST(FimmTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
       [&](int t, int k) {
         return Eigen::Vector2d(data.tracks[static_cast<std::size_t>(t)].row(k + 1));
       },
-      [](const FimmTrackBank& a, std::size_t t, const FimmTrackBank& b, std::size_t u) {
-        testing::expect_same_bits(a.mode_probabilities(t), b.mode_probabilities(u));
-      });
+      testing::expect_same_mu<FimmTrackBank>);
 }
 
 TEST(FimmTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWas) {
@@ -174,19 +158,10 @@ TEST(FimmTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWas) {
     for (std::size_t t = 0; t < 3; ++t) plots[t] = data.tracks[t].row(k);
     bank.step(plots, status);
   }
-  const GaussianState<6> before = bank.estimate(1);
-  const ModeVector mu_before = bank.mode_probabilities(1);
-  const GaussianState<6> untouched = bank.estimate(4);
   plots[0] = data.tracks[0].row(11);
   plots[1].x() = std::numeric_limits<double>::infinity();
-  bank.step(plots, status);
-  EXPECT_EQ(status[0], StepStatus::kOk);
-  EXPECT_EQ(status[1], StepStatus::kInvalidMeasurement);
-  EXPECT_EQ(bank.estimate(1).mean, before.mean);
-  EXPECT_EQ(bank.estimate(1).covariance, before.covariance);
-  EXPECT_EQ(bank.mode_probabilities(1), mu_before);
-  EXPECT_EQ(bank.estimate(4).mean, untouched.mean);
-  EXPECT_EQ(bank.estimate(4).covariance, untouched.covariance);
+  testing::expect_refused_plot_keeps_the_track(bank, plots, 4,
+                                               testing::expect_same_mu<FimmTrackBank>);
 }
 
 TEST(FimmTrackBank, RefusesWhatItCannotRun) {

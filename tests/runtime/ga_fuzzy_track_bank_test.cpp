@@ -51,10 +51,6 @@ Eigen::Vector2d plot_of(int track, int k, std::mt19937_64& rng) {
   return z;
 }
 
-void expect_close(double value, double reference, const std::string& what) {
-  EXPECT_LE(std::abs(value - reference), 1e-9 * (1.0 + std::abs(reference))) << what;
-}
-
 TEST(GaFuzzyTrackBank, EqualsTheOneTrackFilterToRounding) {
   datasets::Rng specs(26112026);
   std::mt19937_64 rng(26112026);
@@ -65,49 +61,17 @@ TEST(GaFuzzyTrackBank, EqualsTheOneTrackFilterToRounding) {
     const GaFuzzyImmSpec spec = random_spec(specs, 1 + trial % 4, antecedents);
     constexpr int kTracks = 13;  // three whole blocks of four tracks and one track more
     GaFuzzyTrackBank bank(spec, kTracks);
-    std::vector<std::unique_ptr<TwoAxisFilter>> single;
-    for (int t = 0; t < kTracks; ++t) {
-      bank.initialize(static_cast<std::size_t>(t), start_of(t));
-      single.push_back(make_ga_fuzzy_imm_filter(spec));
-      single.back()->initialize(start_of(t).mean, start_of(t).covariance);
-    }
-    std::vector<Eigen::Vector2d> plots(kTracks);
-    std::vector<StepStatus> status(kTracks);
-    for (int k = 0; k < 120; ++k) {
-      for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng);
-      bank.step(plots, status);
-      for (int t = 0; t < kTracks; ++t) {
-        const auto u = static_cast<std::size_t>(t);
-        const std::string at = "trial " + std::to_string(trial) + " scan " + std::to_string(k) +
-                               " track " + std::to_string(t);
-        ASSERT_EQ(status[u], single[u]->step(plots[u])) << at;
-        if (status[u] != StepStatus::kOk) ++refused;
-        Eigen::Vector4d mean, variance;
-        single[u]->state(mean, variance);
-        Eigen::Matrix4d covariance;
-        single[u]->covariance(covariance);
-        const GaussianState<4> estimate = bank.estimate(u);
-        for (int a = 0; a < 4; ++a) {
-          expect_close(estimate.mean(a), mean(a), at + " mean");
-          for (int c = 0; c < 4; ++c) {
-            expect_close(estimate.covariance(a, c), covariance(a, c), at + " covariance");
-          }
-        }
-        const ModeVector mu = bank.mode_probabilities(u);
-        const ModeVector reference = single[u]->mode_probabilities();
-        ASSERT_EQ(mu.size(), reference.size());
-        for (Eigen::Index j = 0; j < mu.size(); ++j) expect_close(mu(j), reference(j), at + " mu");
-        if (::testing::Test::HasFailure()) return;
-      }
-    }
+    auto single =
+        testing::one_track_filters(kTracks, [&] { return make_ga_fuzzy_imm_filter(spec); });
+    refused += testing::follow_one_track_filters(
+        bank, single, "trial " + std::to_string(trial), 0, 119, start_of,
+        [&](int t, int k) { return plot_of(t, k, rng); },
+        [&](std::size_t t, const std::string& at) {
+          testing::expect_two_axis_close(bank, t, *single[t], at);
+        });
+    if (HasFailure()) return;
   }
   EXPECT_GT(refused, 100);  // the NaN and out-of-range plots were refused, by both
-}
-
-// The mode probabilities of track t of `a` and track u of `b`, to the bit.
-void expect_same_mu(const GaFuzzyTrackBank& a, std::size_t t, const GaFuzzyTrackBank& b,
-                    std::size_t u) {
-  testing::expect_same_bits(a.mode_probabilities(t), b.mode_probabilities(u));
 }
 
 TEST(GaFuzzyTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
@@ -116,7 +80,7 @@ TEST(GaFuzzyTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
   const GaFuzzyImmSpec spec = random_spec(specs, 3, FuzzyAntecedents::kNormalizedInnovation);
   testing::expect_tracks_independent_of_their_neighbours(
       11, 80, [&](std::size_t n) { return GaFuzzyTrackBank(spec, n); }, start_of,
-      [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_mu);
+      [&](int t, int k) { return plot_of(t, k, rng); }, testing::expect_same_mu<GaFuzzyTrackBank>);
 }
 
 // Blocks of 16 lanes (where the AVX-512 clone runs) and of 8 give the same bits: both run here
@@ -127,7 +91,7 @@ TEST(GaFuzzyTrackBank, TheWideAndNarrowBlocksGiveTheSameBits) {
   const GaFuzzyImmSpec spec = random_spec(specs, 3, FuzzyAntecedents::kResidual);
   testing::expect_wide_blocks_as_narrow_ones(
       13, 80, [&](std::size_t n, bool wide) { return GaFuzzyTrackBank(spec, n, wide); }, start_of,
-      [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_mu);
+      [&](int t, int k) { return plot_of(t, k, rng); }, testing::expect_same_mu<GaFuzzyTrackBank>);
 }
 
 // Packs of 8 (AVX-512), 4 (AVX2) and 2 give the same bits, wide blocks and narrow ones.
@@ -138,7 +102,8 @@ TEST(GaFuzzyTrackBank, EveryInstructionSetGivesTheSameBits) {
   for (const bool wide : {true, false}) {
     testing::expect_instruction_sets_agree(
         13, 60, [&](std::size_t n) { return GaFuzzyTrackBank(spec, n, wide); }, start_of,
-        [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_mu);
+        [&](int t, int k) { return plot_of(t, k, rng); },
+        testing::expect_same_mu<GaFuzzyTrackBank>);
   }
 }
 
@@ -150,18 +115,9 @@ TEST(GaFuzzyTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTracksUnt
   std::vector<Eigen::Vector2d> plots{{10.2, -4.1}, {11.0, -3.4}, {12.1, -3.1}};
   std::vector<StepStatus> status(3);
   bank.step(plots, status);
-  const GaussianState<4> before = bank.estimate(1);
-  const ModeVector mu_before = bank.mode_probabilities(1);
-  const GaussianState<4> untouched = bank.estimate(4);
   plots[1].y() = std::numeric_limits<double>::infinity();
-  bank.step(plots, status);
-  EXPECT_EQ(status[0], StepStatus::kOk);
-  EXPECT_EQ(status[1], StepStatus::kInvalidMeasurement);
-  EXPECT_EQ(bank.estimate(1).mean, before.mean);
-  EXPECT_EQ(bank.estimate(1).covariance, before.covariance);
-  EXPECT_EQ(bank.mode_probabilities(1), mu_before);
-  EXPECT_EQ(bank.estimate(4).mean, untouched.mean);
-  EXPECT_EQ(bank.estimate(4).covariance, untouched.covariance);
+  testing::expect_refused_plot_keeps_the_track(bank, plots, 4,
+                                               testing::expect_same_mu<GaFuzzyTrackBank>);
 }
 
 TEST(GaFuzzyTrackBank, RefusesWhatItCannotRun) {

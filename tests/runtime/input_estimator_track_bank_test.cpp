@@ -78,57 +78,38 @@ Eigen::Vector2d plot_of(int track, int k, std::mt19937_64& rng) {
   return z;
 }
 
-void expect_close(double value, double reference, const std::string& what) {
-  EXPECT_LE(std::abs(value - reference), 1e-9 * (1.0 + std::abs(reference))) << what;
-}
-
-// Every track of the bank beside its own one-track filter, scan by scan.
-void expect_equals_one_track_filters(const MlpInputEstimatorModel& model, int scans,
-                                     std::mt19937_64& rng, const std::string& name, int& refused) {
+// Every track of the bank beside its own one-track filter, scan by scan, the input estimates
+// too; returns the refusals.
+int expect_equals_one_track_filters(const MlpInputEstimatorModel& model, int scans,
+                                    std::mt19937_64& rng, const std::string& name) {
   constexpr int kTracks = 13;  // three whole blocks of four tracks and one track more
   InputEstimatorTrackBank bank(model, kTracks);
-  std::vector<std::unique_ptr<TwoAxisFilter>> single;
-  for (int t = 0; t < kTracks; ++t) {
-    bank.initialize(static_cast<std::size_t>(t), start_of(t));
-    single.push_back(make_mlp_input_estimator_filter(model));
-    single.back()->initialize(start_of(t).mean, start_of(t).covariance);
-  }
-  std::vector<Eigen::Vector2d> plots(kTracks);
-  std::vector<StepStatus> status(kTracks);
-  for (int k = 0; k < scans; ++k) {
-    for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, rng);
-    bank.step(plots, status);
-    for (int t = 0; t < kTracks; ++t) {
-      const auto u = static_cast<std::size_t>(t);
-      const std::string at = name + " scan " + std::to_string(k) + " track " + std::to_string(t);
-      ASSERT_EQ(status[u], single[u]->step(plots[u])) << at;
-      if (status[u] != StepStatus::kOk) ++refused;
-      Eigen::Vector4d mean, variance;
-      single[u]->state(mean, variance);
-      Eigen::Matrix4d covariance;
-      single[u]->covariance(covariance);
-      const GaussianState<4> estimate = bank.estimate(u);
-      for (int a = 0; a < 4; ++a) {
-        expect_close(estimate.mean(a), mean(a), at + " mean");
-        for (int c = 0; c < 4; ++c) {
-          expect_close(estimate.covariance(a, c), covariance(a, c), at + " covariance");
+  auto single =
+      testing::one_track_filters(kTracks, [&] { return make_mlp_input_estimator_filter(model); });
+  return testing::follow_one_track_filters(
+      bank, single, name, 0, scans - 1, start_of, [&](int t, int k) { return plot_of(t, k, rng); },
+      [&](std::size_t t, const std::string& at) {
+        testing::expect_two_axis_close(bank, t, *single[t], at);
+        const auto input = [&](int axis) {
+          return dynamic_cast<const MlpInputEstimatorAxis&>(single[t]->axis(axis))
+              .filter()
+              .acceleration();
+        };
+        const Eigen::Vector2d reference(input(0), input(1));
+        for (int a = 0; a < 2; ++a) {
+          EXPECT_LE(std::abs(bank.acceleration(t)(a) - reference(a)),
+                    1e-9 * (1.0 + std::abs(reference(a))))
+              << at << " input " << a;
         }
-      }
-      const auto& x = dynamic_cast<const MlpInputEstimatorAxis&>(single[u]->axis(0)).filter();
-      const auto& y = dynamic_cast<const MlpInputEstimatorAxis&>(single[u]->axis(1)).filter();
-      expect_close(bank.acceleration(u).x(), x.acceleration(), at + " û_x");
-      expect_close(bank.acceleration(u).y(), y.acceleration(), at + " û_y");
-      if (::testing::Test::HasFailure()) return;
-    }
-  }
+      });
 }
 
 TEST(InputEstimatorTrackBank, EqualsTheOneTrackFilterToRounding) {
   std::mt19937_64 rng(26112026);
   int refused = 0;
   for (int trial = 0; trial < 8; ++trial) {
-    expect_equals_one_track_filters(random_model(rng, trial), 150, rng,
-                                    "trial " + std::to_string(trial), refused);
+    refused += expect_equals_one_track_filters(random_model(rng, trial), 150, rng,
+                                               "trial " + std::to_string(trial));
     if (HasFailure()) return;
   }
   EXPECT_GT(refused, 100);  // the NaN and out-of-range plots were refused, by both
@@ -136,10 +117,9 @@ TEST(InputEstimatorTrackBank, EqualsTheOneTrackFilterToRounding) {
 
 TEST(InputEstimatorTrackBank, EqualsTheOneTrackFilterWithTheShippedModels) {
   std::mt19937_64 rng(5);
-  int refused = 0;
   for (const char* name : {"mlp_input_estimator.h5", "mlp_input_estimator_ground_vehicle.h5"}) {
     expect_equals_one_track_filters(io::read_mlp_input_estimator(std::string("models/") + name),
-                                    150, rng, name, refused);
+                                    150, rng, name);
   }
 }
 
@@ -178,18 +158,8 @@ TEST(InputEstimatorTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTr
     for (auto& z : plots) z += Eigen::Vector2d(3.0 + 0.5 * k, -2.0);
     bank.step(plots, status);
   }
-  const GaussianState<4> before = bank.estimate(1);
-  const Eigen::Vector2d input_before = bank.acceleration(1);
-  const GaussianState<4> untouched = bank.estimate(4);
   plots[1].y() = std::numeric_limits<double>::infinity();
-  bank.step(plots, status);
-  EXPECT_EQ(status[0], StepStatus::kOk);
-  EXPECT_EQ(status[1], StepStatus::kInvalidMeasurement);
-  EXPECT_EQ(bank.estimate(1).mean, before.mean);
-  EXPECT_EQ(bank.estimate(1).covariance, before.covariance);
-  EXPECT_EQ(bank.acceleration(1), input_before);
-  EXPECT_EQ(bank.estimate(4).mean, untouched.mean);
-  EXPECT_EQ(bank.estimate(4).covariance, untouched.covariance);
+  testing::expect_refused_plot_keeps_the_track(bank, plots, 4, expect_same_input);
   // The windows did not move either: the next scans equal a bank that never saw the bad plot.
   InputEstimatorTrackBank twin(model, 1);
   twin.initialize(0, start_of(1));

@@ -96,31 +96,19 @@ void expect_equals_one_track_filters(const WimmSpec& spec, int scans, std::mt199
                                      const std::string& name, int& refused, int& fused) {
   constexpr int kTracks = 13;  // one whole block of eight tracks and a partial one
   WimmTrackBank bank(spec, kTracks);
-  std::vector<std::unique_ptr<WimmFilter>> single;
-  for (int t = 0; t < kTracks; ++t) {
-    bank.initialize(static_cast<std::size_t>(t), start_of(t));
-    single.push_back(std::make_unique<WimmFilter>(spec));
-    single.back()->initialize(start_of(t).mean, start_of(t).covariance);
-  }
-  std::vector<Eigen::Vector2d> plots(kTracks);
-  std::vector<StepStatus> status(kTracks);
-  for (int k = 1; k <= scans; ++k) {
-    for (int t = 0; t < kTracks; ++t) plots[static_cast<std::size_t>(t)] = plot_of(spec, t, k, rng);
-    bank.step(plots, status);
-    for (int t = 0; t < kTracks; ++t) {
-      const auto u = static_cast<std::size_t>(t);
-      const std::string at = name + " scan " + std::to_string(k) + " track " + std::to_string(t);
-      ASSERT_EQ(status[u], single[u]->step(plots[u])) << at;
-      if (status[u] != StepStatus::kOk) ++refused;
-      const GaussianState<6>& reference = single[u]->estimate();
-      testing::expect_estimate_close(bank.estimate(u), reference.mean, reference.covariance,
-                                     bank.mode_probabilities(u), single[u]->mode_probabilities(),
-                                     at);
-      EXPECT_EQ(bank.fused(u), single[u]->fused()) << at;
-      fused += bank.fused(u) ? 1 : 0;
-      if (::testing::Test::HasFailure()) return;
-    }
-  }
+  auto single =
+      testing::one_track_filters(kTracks, [&] { return std::make_unique<WimmFilter>(spec); });
+  refused += testing::follow_one_track_filters(
+      bank, single, name, 1, scans, start_of,
+      [&](int t, int k) { return plot_of(spec, t, k, rng); },
+      [&](std::size_t t, const std::string& at) {
+        const GaussianState<6>& reference = single[t]->estimate();
+        testing::expect_estimate_close(bank.estimate(t), reference.mean, reference.covariance,
+                                       bank.mode_probabilities(t), single[t]->mode_probabilities(),
+                                       at);
+        EXPECT_EQ(bank.fused(t), single[t]->fused()) << at;
+        fused += bank.fused(t) ? 1 : 0;
+      });
 }
 
 TEST(WimmTrackBank, EqualsTheOneTrackFilterToRounding) {
@@ -150,17 +138,20 @@ TEST(WimmTrackBank, EqualsTheOneTrackFilterWithTheShippedModels) {
   EXPECT_GT(fused, 100);
 }
 
+// μ and whether the last step fused, of track t of `a` and track u of `b`, to the bit.
+void expect_same_mu_and_fusion(const WimmTrackBank& a, std::size_t t, const WimmTrackBank& b,
+                               std::size_t u) {
+  testing::expect_same_mu(a, t, b, u);
+  EXPECT_EQ(a.fused(t), b.fused(u));
+}
+
 TEST(WimmTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
   std::mt19937_64 specs(7);
   const WimmSpec spec = random_spec(specs, 1);
   std::mt19937_64 rng(8);
   testing::expect_tracks_independent_of_their_neighbours(
       11, 80, [&](std::size_t n) { return WimmTrackBank(spec, n); }, start_of,
-      [&](int t, int k) { return plot_of(spec, t, k + 1, rng); },
-      [](const WimmTrackBank& a, std::size_t t, const WimmTrackBank& b, std::size_t u) {
-        testing::expect_same_bits(a.mode_probabilities(t), b.mode_probabilities(u));
-        EXPECT_EQ(a.fused(t), b.fused(u));
-      });
+      [&](int t, int k) { return plot_of(spec, t, k + 1, rng); }, expect_same_mu_and_fusion);
 }
 
 TEST(WimmTrackBank, ARefusedPlotOrAFailedModeLeavesTheTrackExactlyAsItWas) {
@@ -180,19 +171,9 @@ TEST(WimmTrackBank, ARefusedPlotOrAFailedModeLeavesTheTrackExactlyAsItWas) {
     bank.step(plots, status);
   }
   ASSERT_EQ(status, std::vector<StepStatus>(3, StepStatus::kOk));
-  const GaussianState<6> before = bank.estimate(1);
-  const ModeVector mu_before = bank.mode_probabilities(1);
-  const GaussianState<6> untouched = bank.estimate(4);
   plots[1].y() = std::numeric_limits<double>::infinity();
-  bank.step(plots, status);
-  EXPECT_EQ(status[0], StepStatus::kOk);
-  EXPECT_EQ(status[1], StepStatus::kInvalidMeasurement);
-  EXPECT_EQ(bank.estimate(1).mean, before.mean);
-  EXPECT_EQ(bank.estimate(1).covariance, before.covariance);
-  EXPECT_EQ(bank.mode_probabilities(1), mu_before);
+  testing::expect_refused_plot_keeps_the_track(bank, plots, 4, expect_same_mu_and_fusion);
   EXPECT_TRUE(bank.fused(1));  // from the last successful step
-  EXPECT_EQ(bank.estimate(4).mean, untouched.mean);
-  EXPECT_EQ(bank.estimate(4).covariance, untouched.covariance);
 
   // A track at the radar with no velocity: the range and azimuth are undefined at its
   // prediction, as the one-track filter says, and it stays where it was.

@@ -22,6 +22,7 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
+#include "imm/filters/axis_filter.hpp"
 #include "imm/math/lane_isa.hpp"
 #include "imm/math/linear_algebra.hpp"
 #include "testing/refused_field.hpp"
@@ -51,6 +52,12 @@ void expect_same_track(const Bank& a, std::size_t t, const Bank& b, std::size_t 
   expect_same_bits(x.mean, y.mean);
   expect_same_bits(x.covariance, y.covariance);
   same_rest(a, t, b, u);
+}
+
+// The mode probabilities of track t of `a` and track u of `b`, to the bit.
+template <class Bank>
+void expect_same_mu(const Bank& a, std::size_t t, const Bank& b, std::size_t u) {
+  expect_same_bits(a.mode_probabilities(t), b.mode_probabilities(u));
 }
 
 // `tracks` tracks stepped in one bank (make(tracks)) and each in a bank of its own (make(1)),
@@ -141,6 +148,22 @@ void expect_instruction_sets_agree(int tracks, int scans, Make&& make, Start&& s
   }
 }
 
+// A step of `plots` (three tracks or more) in which track 1's plot is unusable: track 0 steps
+// (kOk), track 1 is refused (kInvalidMeasurement) and stays exactly as it was, and track
+// `untouched`, past the stepped ones, is not touched — to the bit, `same_rest(a, t, b, u)`
+// checking what else the bank reports.
+template <class Bank, class SameRest>
+void expect_refused_plot_keeps_the_track(Bank& bank, const std::vector<Eigen::Vector2d>& plots,
+                                         std::size_t untouched, SameRest&& same_rest) {
+  const Bank before = bank;
+  std::vector<StepStatus> status(plots.size());
+  bank.step(plots, status);
+  EXPECT_EQ(status[0], StepStatus::kOk);
+  EXPECT_EQ(status[1], StepStatus::kInvalidMeasurement);
+  expect_same_track(bank, 1, before, 1, same_rest);
+  expect_same_track(bank, untouched, before, untouched, same_rest);
+}
+
 // A bank's estimate and μ against a one-track filter's (`mean`, `covariance`, `mu`), each entry to
 // `tolerance` of its scale in the state's units: a mean's 1 + its σ, a covariance entry's
 // √((1 + P_aa)(1 + P_cc)) — off-diagonal entries may pass near zero, and an acceleration's
@@ -164,6 +187,63 @@ void expect_estimate_close(const GaussianState<N>& estimate, const Mean& mean,
   for (Eigen::Index j = 0; j < std::min(bank_mu.size(), mu.size()); ++j) {
     expect_close(bank_mu(j), mu(j), 1.0, "μ");
   }
+}
+
+// `n` one-track filters, each make()'s.
+template <class Make>
+auto one_track_filters(std::size_t n, Make&& make) {
+  std::vector<decltype(make())> out;
+  out.reserve(n);
+  for (std::size_t t = 0; t < n; ++t) out.push_back(make());
+  return out;
+}
+
+// Tracks 0 … n − 1 of `bank` (n = single.size()) beside one-track filters (pointers to them),
+// each pair started from start_of(t), then scans first … last of plot_of(t, k): the same status
+// scan by scan, and compare(t, at) checks the rest (`at` names the case, scan and track). Stops at
+// the first failure. Returns the number of steps refused.
+template <class Bank, class Filters, class Start, class Plot, class Compare>
+int follow_one_track_filters(Bank& bank, Filters& single, const std::string& name, int first,
+                             int last, Start&& start_of, Plot&& plot_of, Compare&& compare) {
+  const std::size_t n = single.size();
+  for (std::size_t t = 0; t < n; ++t) {
+    const auto start = start_of(static_cast<int>(t));
+    bank.initialize(t, start);
+    single[t]->initialize(start.mean, start.covariance);
+  }
+  std::vector<Eigen::Vector2d> plots(n);
+  std::vector<StepStatus> status(n);
+  int refused = 0;
+  for (int k = first; k <= last; ++k) {
+    for (std::size_t t = 0; t < n; ++t) plots[t] = plot_of(static_cast<int>(t), k);
+    bank.step(plots, status);
+    for (std::size_t t = 0; t < n; ++t) {
+      const std::string at = name + " scan " + std::to_string(k) + " track " + std::to_string(t);
+      EXPECT_EQ(status[t], single[t]->step(plots[t])) << at;
+      if (status[t] != StepStatus::kOk) ++refused;
+      compare(t, at);
+      if (::testing::Test::HasFailure()) return refused;
+    }
+  }
+  return refused;
+}
+
+// A two-axis filter's combined estimate [x, vx, y, vy] (its state and covariance).
+inline GaussianState<4> two_axis_estimate(const TwoAxisFilter& filter) {
+  GaussianState<4> out;
+  Eigen::Vector4d variance;
+  filter.state(out.mean, variance);
+  filter.covariance(out.covariance);
+  return out;
+}
+
+// Track t of a two-axis bank against its one-track filter (expect_estimate_close).
+template <class Bank>
+void expect_two_axis_close(const Bank& bank, std::size_t t, const TwoAxisFilter& filter,
+                           const std::string& at, double tolerance = 1e-9) {
+  const GaussianState<4> reference = two_axis_estimate(filter);
+  expect_estimate_close(bank.estimate(t), reference.mean, reference.covariance,
+                        bank.mode_probabilities(t), filter.mode_probabilities(), at, tolerance);
 }
 
 // The field a Bank(args…) construction is refused by; "" when it is built.

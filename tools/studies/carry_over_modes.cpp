@@ -38,6 +38,7 @@
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/io/plain_imm_file.hpp"
 #include "imm/tracking/tracker.hpp"
+#include "study_main.hpp"
 
 namespace {
 
@@ -375,10 +376,5 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& error) {
-    std::cerr << "imm-study-carry-over: " << error.what() << '\n';
-    return 1;
-  }
+  return imm::studies::study_main("imm-study-carry-over", run, argc, argv);
 }

@@ -246,32 +246,19 @@ template <int W>
 FcmImmTrackBank::FcmImmTrackBank(const FcmImmSpec& spec, std::size_t capacity) : spec_(spec) {
   spec.validate();
   bank::require_positive_transitions(spec.transition);
-  bank::require_capacity(capacity);
-  capacity_ = capacity;
-  stride_ = static_cast<std::ptrdiff_t>((2 * capacity + kBlock - 1) / kBlock * kBlock);
   mode_slots_ = kRing + spec.window;
   const int n = spec.mode_count();
+  allocate(capacity, 2, kBlock,
+           static_cast<std::size_t>(n) * static_cast<std::size_t>(mode_slots_));
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < n; ++j) transition_.push_back(spec.transition(i, j));
   }
-  state_.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(mode_slots_) *
-                    static_cast<std::size_t>(stride_),
-                0.0);
   scratch_.assign(
       static_cast<std::size_t>(1 + kFcmClusters) * static_cast<std::size_t>(spec.window), 0.0);
-  initialized_.assign(capacity, 0);
-}
-
-std::size_t FcmImmTrackBank::checked(std::size_t track) const {
-  return bank::checked_track(track, capacity_);
-}
-
-bool FcmImmTrackBank::initialized(std::size_t track) const {
-  return initialized_[checked(track)] != 0;
 }
 
 void FcmImmTrackBank::initialize(std::size_t track, const GaussianState<4>& state) {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   if (!state.all_finite()) throw InvalidParameter("state", "must be finite");
   for (int axis = 0; axis < 2; ++axis) {
     const std::ptrdiff_t lane = 2 * t + axis;
@@ -284,11 +271,11 @@ void FcmImmTrackBank::initialize(std::size_t track, const GaussianState<4>& stat
       for (int c = 0; c < kFcmClusters; ++c) at(kCenters + c) = 0.0;
     }
   }
-  initialized_[static_cast<std::size_t>(t)] = 1;
+  mark_initialized(t);
 }
 
 void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
-  bank::check_step("FcmImmTrackBank", plots.size(), status.size(), initialized_);
+  check_step("FcmImmTrackBank", plots.size(), status.size());
   BankConstants b{};
   b.modes = spec_.mode_count();
   b.mode_slots = mode_slots_;
@@ -322,12 +309,12 @@ void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<Ste
   bank::step_blocks<kBlock>(
       plots, status, true, lanes,
       [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
-        step_block<decltype(width)::value>(b, state_.data() + first, stride_, z, stepped, code);
+        step_block<decltype(width)::value>(b, slot(0) + first, stride(), z, stepped, code);
       });
 }
 
 GaussianState<4> FcmImmTrackBank::estimate(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   const int n = spec_.mode_count();
   // Per axis, the modes moment-matched with μ = exp(log μ) (ImmEstimator::combine).
   std::array<std::array<double, 5>, 2> axes{};
@@ -357,7 +344,7 @@ GaussianState<4> FcmImmTrackBank::estimate(std::size_t track) const {
 }
 
 ModeVector FcmImmTrackBank::mode_probabilities(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   const int n = spec_.mode_count();
   ModeVector mu(2 * n);
   for (int axis = 0; axis < 2; ++axis) {

@@ -301,47 +301,34 @@ FimmTrackBank::FimmTrackBank(const FimmSpec& spec, std::shared_ptr<const TskSens
     : spec_(spec), sensor_(std::move(sensor)) {
   spec.validate();
   bank::require_positive_transitions(spec.transition);
-  bank::require_capacity(capacity);
+  allocate(capacity, 1, kBlock, kSlots);
   constants_ = std::make_shared<const Constants>(Constants{constants_of(spec, sensor_.get())});
-  capacity_ = capacity;
-  stride_ = static_cast<std::ptrdiff_t>((capacity + kBlock - 1) / kBlock * kBlock);
-  state_.assign(static_cast<std::size_t>(kSlots * stride_), 0.0);
-  initialized_.assign(capacity, 0);
-}
-
-std::size_t FimmTrackBank::checked(std::size_t track) const {
-  return bank::checked_track(track, capacity_);
-}
-
-bool FimmTrackBank::initialized(std::size_t track) const {
-  return initialized_[checked(track)] != 0;
 }
 
 void FimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state) {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   bank::start_track([&](int entry) { return slot(entry); }, kModes, kLogMu, t, state,
                     spec_.initial_probabilities);
-  initialized_[static_cast<std::size_t>(t)] = 1;
+  mark_initialized(t);
 }
 
 void FimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
-  bank::check_step("FimmTrackBank", plots.size(), status.size(), initialized_);
+  check_step("FimmTrackBank", plots.size(), status.size());
   bank::step_blocks<kBlock>(plots, status, Eigen::Vector2d::Zero(),
                             [&](std::size_t first, const double* z0, const double* z1,
                                 const double* stepped, double* code) {
-                              step_block<kBlock>(constants_->b, state_.data() + first, stride_, z0,
-                                                 z1, stepped, code);
+                              step_block<kBlock>(constants_->b, slot(0) + first, stride(), z0, z1,
+                                                 stepped, code);
                             });
 }
 
 GaussianState<6> FimmTrackBank::estimate(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   return bank::combined_estimate([&](int entry) { return slot(entry); }, kModes, kLogMu, t);
 }
 
 ModeVector FimmTrackBank::mode_probabilities(std::size_t track) const {
-  return bank::mode_probabilities([&](int entry) { return slot(entry); }, kLogMu,
-                                  static_cast<std::ptrdiff_t>(checked(track)));
+  return bank::mode_probabilities([&](int entry) { return slot(entry); }, kLogMu, checked(track));
 }
 
 }  // namespace imm

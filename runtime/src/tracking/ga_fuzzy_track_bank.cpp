@@ -144,9 +144,8 @@ GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capac
                            "the GA-fuzzy track bank needs every transition probability positive "
                            "(transition_stay below 1 with more than one level)");
   }
-  bank::require_capacity(capacity);
-  capacity_ = capacity;
-  stride_ = static_cast<std::ptrdiff_t>((2 * capacity + kBlock - 1) / kBlock * kBlock);
+  allocate(capacity, 2, kBlock,
+           static_cast<std::size_t>(modes_ * kModeSlots + FuzzyNoiseFamily::kCombined));
   const Eigen::VectorXd initial = spec.settings.initial_probabilities(modes_);
   for (int i = 0; i < modes_; ++i) {
     for (int j = 0; j < modes_; ++j) {
@@ -159,22 +158,11 @@ GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capac
   axis_ = lanes::FuzzyAxisConstants(
       spec.settings.sample_period,
       spec.settings.measurement_sigma * spec.settings.measurement_sigma, spec.antecedents);
-  state_.assign(
-      static_cast<std::size_t>((modes_ * kModeSlots + FuzzyNoiseFamily::kCombined) * stride_), 0.0);
   scratch_.assign(std::size_t{3} * kBlock, 0.0);
-  initialized_.assign(capacity, 0);
-}
-
-std::size_t GaFuzzyTrackBank::checked(std::size_t track) const {
-  return bank::checked_track(track, capacity_);
-}
-
-bool GaFuzzyTrackBank::initialized(std::size_t track) const {
-  return initialized_[checked(track)] != 0;
 }
 
 void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& state) {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   const double top = *std::max_element(initial_log_mu_.begin(), initial_log_mu_.end());
   for (int axis = 0; axis < 2; ++axis) {
     const std::ptrdiff_t lane = 2 * t + axis;
@@ -202,14 +190,14 @@ void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& sta
     }
     for (int e = 0; e < 5; ++e) slot(modes_ * kModeSlots + e)[lane] = sum[e];
   }
-  initialized_[static_cast<std::size_t>(t)] = 1;
+  mark_initialized(t);
 }
 
 void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
-  bank::check_step("GaFuzzyTrackBank", plots.size(), status.size(), initialized_);
+  check_step("GaFuzzyTrackBank", plots.size(), status.size());
   const FuzzyNoiseFamily family{&axis_, levels_.data()};
-  const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), state_.data(),
-                               stride_};
+  const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), slot(0),
+                               stride()};
   // The instruction set's function for the mode count and block width, chosen outside it (a
   // lambda inside a function compiled for an instruction set is compiled for the baseline).
   const LaneIsa isa = lane_isa();
@@ -226,13 +214,13 @@ void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<St
 }
 
 GaussianState<4> GaFuzzyTrackBank::estimate(std::size_t track) const {
-  return bank::two_axis_estimate(
-      static_cast<std::ptrdiff_t>(checked(track)),
-      [&](int e, std::ptrdiff_t lane) { return slot(modes_ * kModeSlots + e)[lane]; });
+  return bank::two_axis_estimate(checked(track), [&](int e, std::ptrdiff_t lane) {
+    return slot(modes_ * kModeSlots + e)[lane];
+  });
 }
 
 ModeVector GaFuzzyTrackBank::mode_probabilities(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   ModeVector mu(2 * modes_);
   for (int axis = 0; axis < 2; ++axis) {
     for (int j = 0; j < modes_; ++j)

@@ -155,9 +155,7 @@ InputEstimatorTrackBank::InputEstimatorTrackBank(const MlpInputEstimatorModel& m
   // The one-track filter's checks, with its wording.
   const MlpInputEstimatorFilter check(model, model.settings);
   (void)check;
-  bank::require_capacity(capacity);
-  capacity_ = capacity;
-  stride_ = static_cast<std::ptrdiff_t>((2 * capacity + kBlock - 1) / kBlock * kBlock);
+  allocate(capacity, 2, kBlock, kSlots);
   for (const MlpLayer& layer : model.network.layers()) {
     const auto outputs = static_cast<int>(layer.weights.rows());
     const auto inputs = static_cast<int>(layer.weights.cols());
@@ -168,21 +166,11 @@ InputEstimatorTrackBank::InputEstimatorTrackBank(const MlpInputEstimatorModel& m
     network_.insert(network_.end(), layer.bias.data(), layer.bias.data() + outputs);
     widest_ = std::max({widest_, outputs, inputs});
   }
-  state_.assign(static_cast<std::size_t>(kSlots * stride_), 0.0);
   scratch_.assign((3 + 2 * static_cast<std::size_t>(widest_)) * kBlock, 0.0);
-  initialized_.assign(capacity, 0);
-}
-
-std::size_t InputEstimatorTrackBank::checked(std::size_t track) const {
-  return bank::checked_track(track, capacity_);
-}
-
-bool InputEstimatorTrackBank::initialized(std::size_t track) const {
-  return initialized_[checked(track)] != 0;
 }
 
 void InputEstimatorTrackBank::initialize(std::size_t track, const GaussianState<4>& state) {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   for (int axis = 0; axis < 2; ++axis) {
     const std::ptrdiff_t lane = 2 * t + axis;
     const std::array<double, 5> values = bank::axis_entries(state, axis);
@@ -192,12 +180,12 @@ void InputEstimatorTrackBank::initialize(std::size_t track, const GaussianState<
     for (int i = 0; i < kWindow; ++i) slot(kNu + i)[lane] = 0.0;
     slot(kHead)[lane] = 0.0;
   }
-  initialized_[static_cast<std::size_t>(t)] = 1;
+  mark_initialized(t);
 }
 
 void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
                                    std::span<StepStatus> status) {
-  bank::check_step("InputEstimatorTrackBank", plots.size(), status.size(), initialized_);
+  check_step("InputEstimatorTrackBank", plots.size(), status.size());
   const CvKfSettings& s = model_.settings;
   const LinearMotionModel<2> motion = constant_velocity<1>(s.sample_period, s.process_noise);
   const Vector<2> G = cv_axis_input_gain(s.sample_period);
@@ -227,19 +215,18 @@ void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
   bank::step_blocks<kBlock>(
       plots, status, wide_blocks_, scratch_.data(),
       [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
-        step_block<decltype(width)::value>(b, state_.data() + first, stride_, z, stepped, code,
-                                           work, widest_);
+        step_block<decltype(width)::value>(b, slot(0) + first, stride(), z, stepped, code, work,
+                                           widest_);
       });
 }
 
 GaussianState<4> InputEstimatorTrackBank::estimate(std::size_t track) const {
   return bank::two_axis_estimate(
-      static_cast<std::ptrdiff_t>(checked(track)),
-      [&](int e, std::ptrdiff_t lane) { return slot(kPrimary + e)[lane]; });
+      checked(track), [&](int e, std::ptrdiff_t lane) { return slot(kPrimary + e)[lane]; });
 }
 
 Eigen::Vector2d InputEstimatorTrackBank::acceleration(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   return {slot(kInput)[2 * t], slot(kInput)[2 * t + 1]};
 }
 

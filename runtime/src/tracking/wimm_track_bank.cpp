@@ -168,53 +168,38 @@ struct WimmTrackBank::Constants {
 WimmTrackBank::WimmTrackBank(const WimmSpec& spec, std::size_t capacity) : spec_(spec) {
   spec.validate();
   bank::require_positive_transitions(spec.transition);
-  bank::require_capacity(capacity);
+  allocate(capacity, 1, kBlock, kSlots);
   constants_ = std::make_shared<const Constants>(Constants{constants_of(spec)});
-  capacity_ = capacity;
-  stride_ = static_cast<std::ptrdiff_t>((capacity + kBlock - 1) / kBlock * kBlock);
-  state_.assign(static_cast<std::size_t>(kSlots * stride_), 0.0);
-  initialized_.assign(capacity, 0);
-}
-
-std::size_t WimmTrackBank::checked(std::size_t track) const {
-  return bank::checked_track(track, capacity_);
-}
-
-bool WimmTrackBank::initialized(std::size_t track) const {
-  return initialized_[checked(track)] != 0;
 }
 
 void WimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state) {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   bank::start_track([&](int entry) { return slot(entry); }, kModes, kLogMu, t, state,
                     spec_.initial_probabilities);
   slot(kFused)[t] = 0.0;
-  initialized_[static_cast<std::size_t>(t)] = 1;
+  mark_initialized(t);
 }
 
 void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
-  bank::check_step("WimmTrackBank", plots.size(), status.size(), initialized_);
+  check_step("WimmTrackBank", plots.size(), status.size());
   // Lanes past the last track get a plot 1 away from the radar (their results are not kept).
   bank::step_blocks<kBlock>(plots, status, Eigen::Vector2d(1.0, 0.0),
                             [&](std::size_t first, const double* range, const double* azimuth,
                                 const double* stepped, double* code) {
-                              step_block<kBlock>(constants_->b, state_.data() + first, stride_,
-                                                 range, azimuth, stepped, code);
+                              step_block<kBlock>(constants_->b, slot(0) + first, stride(), range,
+                                                 azimuth, stepped, code);
                             });
 }
 
 GaussianState<6> WimmTrackBank::estimate(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   return bank::combined_estimate([&](int entry) { return slot(entry); }, kModes, kLogMu, t);
 }
 
 ModeVector WimmTrackBank::mode_probabilities(std::size_t track) const {
-  return bank::mode_probabilities([&](int entry) { return slot(entry); }, kLogMu,
-                                  static_cast<std::ptrdiff_t>(checked(track)));
+  return bank::mode_probabilities([&](int entry) { return slot(entry); }, kLogMu, checked(track));
 }
 
-bool WimmTrackBank::fused(std::size_t track) const {
-  return slot(kFused)[static_cast<std::ptrdiff_t>(checked(track))] != 0.0;
-}
+bool WimmTrackBank::fused(std::size_t track) const { return slot(kFused)[checked(track)] != 0.0; }
 
 }  // namespace imm

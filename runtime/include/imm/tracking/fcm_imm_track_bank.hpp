@@ -40,11 +40,12 @@
 #include "imm/estimation/step_status.hpp"
 #include "imm/filters/fcm_imm.hpp"
 #include "imm/runtime_export.hpp"
+#include "imm/tracking/lane_storage.hpp"
 
 namespace imm {
 
 /// N tracks of one FCM-IMM with Cartesian plots, stepped together (see the file comment).
-class IMM_RUNTIME_EXPORT FcmImmTrackBank {
+class IMM_RUNTIME_EXPORT FcmImmTrackBank : public LaneStorage {
  public:
   /// Axis lanes per block of the layout (four tracks).
   static constexpr int kBlock = 8;
@@ -53,9 +54,6 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank {
   /// spec (FcmImmSpec::validate), a transition probability that is not positive ("transition") or
   /// a capacity outside [1, 2^26].
   FcmImmTrackBank(const FcmImmSpec& spec, std::size_t capacity);
-
-  /// The number of tracks it holds.
-  [[nodiscard]] std::size_t capacity() const { return capacity_; }
 
   /// Starts (or restarts) track `track` from [x, vx, y, vy] (the covariance's two axis blocks):
   /// every mode of each axis takes the state, μ its initial value, the clusterings empty windows
@@ -69,9 +67,6 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank {
   /// std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
-  /// Whether track `track` has been initialized.
-  [[nodiscard]] bool initialized(std::size_t track) const;
-
   /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
 
@@ -79,18 +74,10 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank {
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
  private:
-  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
-  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
-  [[nodiscard]] std::size_t checked(std::size_t track) const;
-
   FcmImmSpec spec_;
-  std::size_t capacity_ = 0;
-  std::ptrdiff_t stride_ = 0;       // axis lanes, rounded up to whole blocks
   int mode_slots_ = 0;              // slots per mode
   std::vector<double> transition_;  // π_ij at i * modes + j
-  std::vector<double> state_;       // slots × stride (see fcm_imm_track_bank.cpp)
   std::vector<double> scratch_;     // one lane's window and memberships for the clustering
-  std::vector<unsigned char> initialized_;
 };
 
 }  // namespace imm

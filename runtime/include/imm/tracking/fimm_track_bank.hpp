@@ -37,12 +37,13 @@
 #include "imm/filters/fimm.hpp"
 #include "imm/models/learned/tsk_sensor_model.hpp"
 #include "imm/runtime_export.hpp"
+#include "imm/tracking/lane_storage.hpp"
 
 namespace imm {
 
 /// N tracks of one FIMM with plots in the sensor's (z1, z2), stepped together (see the file
 /// comment).
-class IMM_RUNTIME_EXPORT FimmTrackBank {
+class IMM_RUNTIME_EXPORT FimmTrackBank : public LaneStorage {
  public:
   /// Tracks per block of the layout.
   static constexpr int kBlock = 8;
@@ -53,9 +54,6 @@ class IMM_RUNTIME_EXPORT FimmTrackBank {
   /// capacity outside [1, 2^26].
   FimmTrackBank(const FimmSpec& spec, std::shared_ptr<const TskSensorModel> sensor,
                 std::size_t capacity);
-
-  /// The number of tracks it holds.
-  [[nodiscard]] std::size_t capacity() const { return capacity_; }
 
   /// Starts (or restarts) track `track` from `state` ([ξ, ξ̇, ξ̈, η, η̇, η̈]): both modes take it, μ
   /// its initial value (FimmFilter::initialize). Throws std::out_of_range for a track ≥
@@ -68,9 +66,6 @@ class IMM_RUNTIME_EXPORT FimmTrackBank {
   /// or exceed capacity(), std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
-  /// Whether track `track` has been initialized.
-  [[nodiscard]] bool initialized(std::size_t track) const;
-
   /// The combined estimate [ξ, ξ̇, ξ̈, η, η̇, η̈] (FimmFilter::estimate).
   [[nodiscard]] GaussianState<6> estimate(std::size_t track) const;
 
@@ -78,18 +73,10 @@ class IMM_RUNTIME_EXPORT FimmTrackBank {
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
  private:
-  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
-  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
-  [[nodiscard]] std::size_t checked(std::size_t track) const;
-
   struct Constants;
   FimmSpec spec_;
   std::shared_ptr<const TskSensorModel> sensor_;
   std::shared_ptr<const Constants> constants_;  // the kernel's, made from spec_ and sensor_ once
-  std::size_t capacity_ = 0;
-  std::ptrdiff_t stride_ = 0;  // tracks, rounded up to whole blocks
-  std::vector<double> state_;  // slots × stride (see fimm_track_bank.cpp)
-  std::vector<unsigned char> initialized_;
 };
 
 }  // namespace imm

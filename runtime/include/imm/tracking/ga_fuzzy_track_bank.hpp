@@ -36,11 +36,12 @@
 #include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/runtime_export.hpp"
+#include "imm/tracking/lane_storage.hpp"
 
 namespace imm {
 
 /// N tracks of one GA-fuzzy IMM with Cartesian plots, stepped together (see the file comment).
-class IMM_RUNTIME_EXPORT GaFuzzyTrackBank {
+class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public LaneStorage {
  public:
   /// Axis lanes per block of the layout: stepped as one block (two AVX-512 packs: two independent
   /// chains) where the AVX-512 kernels run (lane_isa.hpp), as two blocks of 8 otherwise (packs
@@ -54,8 +55,6 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank {
   GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capacity,
                    bool wide_blocks = wide_vector_clones());
 
-  /// The number of tracks it holds.
-  [[nodiscard]] std::size_t capacity() const { return capacity_; }
   /// Modes per axis (the levels).
   [[nodiscard]] int mode_count() const { return modes_; }
 
@@ -71,31 +70,20 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank {
   /// std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
-  /// Whether track `track` has been initialized.
-  [[nodiscard]] bool initialized(std::size_t track) const;
   /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
   /// μ of the x modes, then of the y modes (as TwoAxisFilter::mode_probabilities).
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
  private:
-  // State slot of entry `entry` of mode j (entries in ga_fuzzy_track_bank.cpp).
-  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
-  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
-  [[nodiscard]] std::size_t checked(std::size_t track) const;
-
   bool wide_blocks_ = false;
   int modes_ = 0;
-  std::size_t capacity_ = 0;
-  std::ptrdiff_t stride_ = 0;           // axis lanes, rounded up to whole blocks
   std::vector<double> transition_;      // π_ij at i * modes + j
   std::vector<double> log_transition_;  // log π_ij
   std::vector<double> initial_log_mu_;
   lanes::FuzzyAxisConstants axis_;
   std::vector<lanes::FuzzyLevelConstants> levels_;
-  std::vector<double> state_;
   std::vector<double> scratch_;  // one block's plots, step flags and codes
-  std::vector<unsigned char> initialized_;
 };
 
 }  // namespace imm

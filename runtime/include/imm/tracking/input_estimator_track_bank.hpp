@@ -30,12 +30,13 @@
 #include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/runtime_export.hpp"
+#include "imm/tracking/lane_storage.hpp"
 
 namespace imm {
 
 /// N tracks of one input-estimation model with Cartesian plots, stepped together (see the file
 /// comment).
-class IMM_RUNTIME_EXPORT InputEstimatorTrackBank {
+class IMM_RUNTIME_EXPORT InputEstimatorTrackBank : public LaneStorage {
  public:
   /// Axis lanes per block of the layout: stepped as one block (two AVX-512 vectors) where the
   /// AVX-512 clone runs, as two blocks of 8 otherwise.
@@ -47,9 +48,6 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank {
   /// at once (the default where the AVX-512 clone runs) or of 8; the results do not depend on it.
   InputEstimatorTrackBank(const MlpInputEstimatorModel& model, std::size_t capacity,
                           bool wide_blocks = wide_vector_clones());
-
-  /// The number of tracks it holds.
-  [[nodiscard]] std::size_t capacity() const { return capacity_; }
 
   /// Starts (or restarts) track `track` from [x, vx, y, vy] (the covariance's two axis blocks):
   /// both Kalman filters of each axis take the state, the input estimate 0, the windows their
@@ -63,9 +61,6 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank {
   /// std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
-  /// Whether track `track` has been initialized.
-  [[nodiscard]] bool initialized(std::size_t track) const;
-
   /// The corrected estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
 
@@ -76,20 +71,12 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank {
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
  private:
-  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
-  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
-  [[nodiscard]] std::size_t checked(std::size_t track) const;
-
   MlpInputEstimatorModel model_;
   bool wide_blocks_ = false;
-  std::size_t capacity_ = 0;
-  std::ptrdiff_t stride_ = 0;    // axis lanes, rounded up to whole blocks
   std::vector<double> network_;  // the layers' weights (row-major) and biases, in order
   std::vector<int> shape_;       // per layer: outputs, inputs, activation (1 = sigmoid)
   int widest_ = 0;               // the most units of a layer
-  std::vector<double> state_;    // slots × stride (see input_estimator_track_bank.cpp)
   std::vector<double> scratch_;  // one block's plots, flags, codes and two layers' activations
-  std::vector<unsigned char> initialized_;
 };
 
 }  // namespace imm

@@ -38,11 +38,12 @@
 #include "imm/estimation/step_status.hpp"
 #include "imm/filters/wimm.hpp"
 #include "imm/runtime_export.hpp"
+#include "imm/tracking/lane_storage.hpp"
 
 namespace imm {
 
 /// N tracks of one weighted IMM with polar plots, stepped together (see the file comment).
-class IMM_RUNTIME_EXPORT WimmTrackBank {
+class IMM_RUNTIME_EXPORT WimmTrackBank : public LaneStorage {
  public:
   /// Tracks per block of the layout.
   static constexpr int kBlock = 8;
@@ -51,9 +52,6 @@ class IMM_RUNTIME_EXPORT WimmTrackBank {
   /// spec (WimmSpec::validate), a transition probability that is not positive ("transition") or a
   /// capacity outside [1, 2^26].
   WimmTrackBank(const WimmSpec& spec, std::size_t capacity);
-
-  /// The number of tracks it holds.
-  [[nodiscard]] std::size_t capacity() const { return capacity_; }
 
   /// Starts (or restarts) track `track` from `state` ([x, vx, ax, y, vy, ay]): both modes take
   /// their components of it, μ its initial value (WimmFilter::initialize). Throws
@@ -67,9 +65,6 @@ class IMM_RUNTIME_EXPORT WimmTrackBank {
   /// initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
-  /// Whether track `track` has been initialized.
-  [[nodiscard]] bool initialized(std::size_t track) const;
-
   /// The combined estimate [x, vx, ax, y, vy, ay] (WimmFilter::estimate).
   [[nodiscard]] GaussianState<6> estimate(std::size_t track) const;
 
@@ -80,17 +75,9 @@ class IMM_RUNTIME_EXPORT WimmTrackBank {
   [[nodiscard]] bool fused(std::size_t track) const;
 
  private:
-  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
-  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
-  [[nodiscard]] std::size_t checked(std::size_t track) const;
-
   struct Constants;
   WimmSpec spec_;
   std::shared_ptr<const Constants> constants_;  // the kernel's, made from spec_ once
-  std::size_t capacity_ = 0;
-  std::ptrdiff_t stride_ = 0;  // tracks, rounded up to whole blocks
-  std::vector<double> state_;  // slots × stride (see wimm_track_bank.cpp)
-  std::vector<unsigned char> initialized_;
 };
 
 }  // namespace imm

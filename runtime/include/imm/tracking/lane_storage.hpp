@@ -1,0 +1,59 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// The storage the banks of the learned kinds share: a structure of arrays of state slots, one
+/// lane per track (or per track axis), the lanes padded to whole blocks so that a block's kernel
+/// reads and writes whole vectors, and which tracks have been started. GaFuzzyTrackBank,
+/// InputEstimatorTrackBank, WimmTrackBank, FimmTrackBank and FcmImmTrackBank derive from it; what
+/// a slot holds is each bank's own.
+
+#include <cstddef>
+#include <string_view>
+#include <vector>
+
+#include "imm/runtime_export.hpp"
+
+namespace imm {
+
+/// Tracks as lanes of a structure of arrays (see the file comment).
+class IMM_RUNTIME_EXPORT LaneStorage {
+ public:
+  /// The number of tracks it holds.
+  [[nodiscard]] std::size_t capacity() const { return initialized_.size(); }
+
+  /// Whether track `track` has been initialized. Throws std::out_of_range for a track ≥
+  /// capacity().
+  [[nodiscard]] bool initialized(std::size_t track) const;
+
+ protected:
+  LaneStorage() = default;
+
+  /// Room for `capacity` tracks of `lanes_per_track` lanes each, `slots` slots of a lane, the
+  /// lanes rounded up to whole blocks of `block`: every slot 0, no track initialized. Throws
+  /// InvalidParameter("capacity") for a capacity outside [1, 2^26].
+  void allocate(std::size_t capacity, int lanes_per_track, int block, std::size_t slots);
+
+  /// Slot `index`'s first lane; the slots are stride() lanes apart.
+  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
+  /// Slot `index`'s first lane.
+  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
+  /// Lanes per slot: the tracks' lanes rounded up to whole blocks.
+  [[nodiscard]] std::ptrdiff_t stride() const { return stride_; }
+
+  /// `track` as an index, or std::out_of_range when it is not below capacity().
+  [[nodiscard]] std::ptrdiff_t checked(std::size_t track) const;
+  /// Marks track `track` (an index checked() gave) as initialized.
+  void mark_initialized(std::ptrdiff_t track) { initialized_[static_cast<std::size_t>(track)] = 1; }
+
+  /// Before the step of bank `name` over `plots` tracks with `statuses` statuses:
+  /// std::invalid_argument when the counts differ or exceed capacity(), std::logic_error naming
+  /// the first stepped track never initialized.
+  void check_step(std::string_view name, std::size_t plots, std::size_t statuses) const;
+
+ private:
+  std::ptrdiff_t stride_ = 0;
+  std::vector<double> state_;  // slots × stride
+  std::vector<unsigned char> initialized_;
+};
+
+}  // namespace imm

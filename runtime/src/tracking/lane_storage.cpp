@@ -1,0 +1,30 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "imm/tracking/lane_storage.hpp"
+
+#include "bank_checks.hpp"
+
+namespace imm {
+
+void LaneStorage::allocate(std::size_t capacity, int lanes_per_track, int block,
+                           std::size_t slots) {
+  bank::require_capacity(capacity);
+  const auto lanes = static_cast<std::size_t>(lanes_per_track) * capacity;
+  const auto whole = static_cast<std::size_t>(block);
+  stride_ = static_cast<std::ptrdiff_t>((lanes + whole - 1) / whole * whole);
+  state_.assign(slots * static_cast<std::size_t>(stride_), 0.0);
+  initialized_.assign(capacity, 0);
+}
+
+bool LaneStorage::initialized(std::size_t track) const {
+  return initialized_[static_cast<std::size_t>(checked(track))] != 0;
+}
+
+std::ptrdiff_t LaneStorage::checked(std::size_t track) const {
+  return static_cast<std::ptrdiff_t>(bank::checked_track(track, capacity()));
+}
+
+void LaneStorage::check_step(std::string_view name, std::size_t plots, std::size_t statuses) const {
+  bank::check_step(name, plots, statuses, initialized_);
+}
+
+}  // namespace imm
