@@ -205,6 +205,42 @@ TEST(TrackBank, ModeProbabilitiesSurviveLikelihoodUnderflow) {
 }
 
 // A refused plot leaves its track exactly as it was and does not disturb its neighbours.
+// A step of fewer tracks than a pack holds runs them in a pack whose other lanes are tracks not
+// stepped (and lanes past the capacity): those keep their state to the bit, and the stepped ones
+// equal banks of one track.
+TEST(TrackBank, TracksPastTheSteppedOnesAreNotTouched) {
+  for (std::size_t stepped = 2; stepped <= 7; ++stepped) {
+    TrackBank bank(testing::cv3_spec(), 9);
+    std::vector<TrackBank> singles;
+    for (std::size_t t = 0; t < 9; ++t) {
+      bank.initialize(t, start_for(t));
+      singles.emplace_back(testing::cv3_spec(), 1);
+      singles.back().initialize(0, start_for(t));
+    }
+    const TrackBank before = bank;
+    Scenario scenario(stepped);
+    std::vector<Eigen::Vector2d> plots(stepped);
+    std::vector<StepStatus> status(stepped);
+    for (int k = 1; k <= 20; ++k) {
+      for (std::size_t t = 0; t < stepped; ++t) plots[t] = scenario.plot(t, k);
+      bank.step(plots, status);
+      for (std::size_t t = 0; t < stepped; ++t) {
+        StepStatus single_status{};
+        singles[t].step({&plots[t], 1}, {&single_status, 1});
+        ASSERT_EQ(status[t], single_status) << stepped << " stepped, track " << t;
+        ASSERT_TRUE(same_bits(bank.estimate(t).mean, singles[t].estimate(0).mean));
+        ASSERT_TRUE(
+            same_bits(bank.log_mode_probabilities(t), singles[t].log_mode_probabilities(0)));
+      }
+    }
+    for (std::size_t t = stepped; t < 9; ++t) {
+      EXPECT_TRUE(same_bits(bank.estimate(t).mean, before.estimate(t).mean)) << t;
+      EXPECT_TRUE(same_bits(bank.estimate(t).covariance, before.estimate(t).covariance)) << t;
+      EXPECT_TRUE(same_bits(bank.log_mode_probabilities(t), before.log_mode_probabilities(t))) << t;
+    }
+  }
+}
+
 TEST(TrackBank, RefusedPlotLeavesTheTrackUnchanged) {
   TrackBank bank(testing::cv3_spec(), 2);
   bank.initialize(0, start_for(0));

@@ -86,11 +86,12 @@ struct CycleMixing {
   std::array<S, N> log_mu[K], scaled_mu[K], log_c[K];
 };
 
-/// Whether every lane of values[0 … n) is positive: one decision per pack.
+/// Whether every lane of values[0 … n) where `active` is 1 is positive: one decision per pack.
 template <class S, std::size_t N>
-[[gnu::always_inline]] inline bool all_positive(const std::array<S, N>& values, int n) {
+[[gnu::always_inline]] inline bool all_positive(const std::array<S, N>& values, int n,
+                                                const S& active) {
   S bad = splat<S>(0.0);
-  for (int j = 0; j < n; ++j) bad += pick(values[j] > 0.0, 0.0, 1.0);
+  for (int j = 0; j < n; ++j) bad += pick(values[j] > 0.0, splat<S>(0.0), active);
   const Lanes<S> lanes = lanes_of(bad);
   return std::all_of(lanes.begin(), lanes.end(), [](double v) { return v == 0.0; });
 }
@@ -137,9 +138,11 @@ template <class S>
 /// The mixing (eq. 4–6) of the K packs of lanes from lane `t`: predicted mode probabilities
 /// c̃_j = Σ_i p_ij μ̃_i with μ̃ = μ / max μ (as ImmEstimator), weights μ_ij = p_ij μ̃_i / c̃_j,
 /// log c_j = log c̃_j + max_i log μ_i, and the mixed initial conditions. The state is not changed.
+/// `active` is 1 in the lanes whose results count (0: a lane past the tracks stepped, whatever its
+/// state: it does not send the pack to the exact fallback).
 template <class S, int N, int K, class F>
 [[gnu::always_inline]] inline void mix_modes(const F& family, const CycleBlock& b, int t,
-                                             CycleMixing<S, N, K, F>& m) {
+                                             const S (&active)[K], CycleMixing<S, N, K, F>& m) {
   using Slots = CycleSlots<F>;
   constexpr int kLanes = kLanesOf<S>;
   const int n = N == kMaxModes ? b.modes : N;
@@ -173,7 +176,7 @@ template <class S, int N, int K, class F>
     for (int k = 0; k < K; ++k) m.log_c[k][j] = lane_log(predicted[k][j]) + shift[k];
   }
   for (int k = 0; k < K; ++k) {
-    if (!all_positive(predicted[k], n)) [[unlikely]] {
+    if (!all_positive(predicted[k], n, active[k])) [[unlikely]] {
       exact_predicted(b, m.log_mu[k].data(), predicted[k].data(), m.log_c[k].data(),
                       weights[k].data());
     }
@@ -202,7 +205,7 @@ template <class S, int N, int K, class F>
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const int n = N == kMaxModes ? b.modes : N;
   CycleMixing<S, N, K, F> m;  // NOLINT(cppcoreguidelines-pro-type-member-init): mix_modes fills it
-  mix_modes<S, N, K>(family, b, t, m);
+  mix_modes<S, N, K>(family, b, t, stepped, m);
 
   // Each mode's step, ℓ_j + log c_j; the first mode that fails decides a lane's outcome.
   Mode updated[N][K];

@@ -99,60 +99,27 @@ CycleBlock cycle_of(const Block& b) {
   return {b.modes, b.transition, b.log_transition, b.state, b.stride};
 }
 
-// One IMM step (seed 000 eq. 4–11) of the kLanesOf<S> tracks that start at lane `t` of block `b`
-// (imm_cycle.hpp); a lane whose plot is unusable computes on zeros and keeps its state.
+// One IMM step (seed 000 eq. 4–11) of the `real` tracks that start at lane `t` of block `b`
+// (imm_cycle.hpp) in a pack of kLanesOf<S> lanes; a lane whose plot is unusable computes on zeros
+// and keeps its state. The lanes past the real ones (there is room for them: a block's lanes are
+// whole packs) compute on whatever they hold, a plot at 0, and keep it to the bit.
 template <class S, int N>
-[[gnu::always_inline]] inline void step(const Block& b, int t) {
-  Lanes<S> zx{}, zy{}, ok{}, codes{};
-  for (std::size_t l = 0; l < ok.size(); ++l) {
+[[gnu::always_inline]] inline void step(const Block& b, int t, int real = kLanesOf<S>) {
+  Lanes<S> zx{}, zy{}, ok{}, active{}, codes{};
+  for (std::size_t l = 0; l < static_cast<std::size_t>(real); ++l) {
     const Eigen::Vector2d& z = b.plots[static_cast<std::size_t>(t) + l];
     const bool usable = limits::usable_measurement(z.x()) && limits::usable_measurement(z.y());
     zx[l] = usable ? z.x() : 0.0;
     zy[l] = usable ? z.y() : 0.0;
     ok[l] = usable ? 1.0 : 0.0;
+    active[l] = 1.0;
   }
   const CvPositionFamily::Plot<S> plot[1] = {{from_lanes<S>(zx), from_lanes<S>(zy)}};
-  const S usable[1] = {from_lanes<S>(ok)}, stepped[1] = {splat<S>(1.0)};
+  const S usable[1] = {from_lanes<S>(ok)}, stepped[1] = {from_lanes<S>(active)};
   imm_cycle<S, N, 1>(family_of(b), cycle_of(b), t, plot, usable, stepped, codes.data());
-  for (std::size_t l = 0; l < codes.size(); ++l) {
+  for (std::size_t l = 0; l < static_cast<std::size_t>(real); ++l) {
     b.status[static_cast<std::size_t>(t) + l] = status_of(codes[l]);
   }
-}
-
-// The fewest tracks left over after the whole packs that are stepped as a pack padded with copies
-// of their last track rather than one by one: a pack costs about as much as two single tracks.
-constexpr int kPaddedPack = 3;
-
-// Steps `b`'s lanes [t, b.lanes), fewer than a pack, as one pack: copies them into a pack-wide
-// block, the missing lanes repeating the last one, and copies the real lanes back. A lane's
-// arithmetic does not depend on its neighbours, so the real lanes get their own bits.
-template <class Pack, int N>
-[[gnu::always_inline]] inline void step_padded(const Block& b, int t) {
-  constexpr int kW = kLanesOf<Pack>;
-  const int n = N == kMaxModes ? b.modes : N;
-  const int slots = n * kModeSlots + kEntries;
-  const int real = b.lanes - t;
-  // Every slot the step reads is copied in first.
-  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init)
-  std::array<double, static_cast<std::size_t>(kMaxModes * kModeSlots + kEntries) * kW> state;
-  std::array<Eigen::Vector2d, kW> plots;
-  std::array<StepStatus, kW> status{};
-  const auto source = [&](int l) { return t + std::min(l, real - 1); };
-  for (int e = 0; e < slots; ++e) {
-    for (int l = 0; l < kW; ++l) state[e * kW + l] = b.state[e * b.stride + source(l)];
-  }
-  for (int l = 0; l < kW; ++l) plots[l] = b.plots[source(l)];
-  Block pack = b;
-  pack.lanes = kW;
-  pack.state = state.data();
-  pack.stride = kW;
-  pack.plots = plots.data();
-  pack.status = status.data();
-  step<Pack, N>(pack, 0);
-  for (int e = 0; e < slots; ++e) {
-    for (int l = 0; l < real; ++l) b.state[e * b.stride + t + l] = state[e * kW + l];
-  }
-  for (int l = 0; l < real; ++l) b.status[t + l] = status[l];
 }
 
 template <class Pack, int N>
@@ -160,8 +127,10 @@ template <class Pack, int N>
   constexpr int kW = kLanesOf<Pack>;
   int t = 0;
   for (; t + kW <= b.lanes; t += kW) step<Pack, N>(b, t);
-  if (b.lanes - t >= kPaddedPack) return step_padded<Pack, N>(b, t);
-  for (; t < b.lanes; ++t) step<double, N>(b, t);
+  // The rest: one track alone, more in a pack of which they fill a part (a pack costs about as
+  // much as one track alone).
+  if (b.lanes - t == 1) step<double, N>(b, t);
+  if (b.lanes - t > 1) step<Pack, N>(b, t, b.lanes - t);
 }
 
 // The predicted plot density of the kLanesOf<S> tracks at lane `t`: per mode j the constant of its
@@ -173,7 +142,8 @@ template <class S, int N>
   const int n = N == kMaxModes ? b.modes : N;
   const CvPositionFamily family = family_of(b);
   CycleMixing<S, N, 1, CvPositionFamily> p;  // NOLINT(cppcoreguidelines-pro-type-member-init)
-  mix_modes<S, N, 1>(family, cycle_of(b), t, p);
+  const S active[1] = {splat<S>(1.0)};
+  mix_modes<S, N, 1>(family, cycle_of(b), t, active, p);
   for (int j = 0; j < n; ++j) family.predict(j, p.mixed[j][0]);
   auto slot = [&](int index) { return out + index * b.stride + t; };
   // Written for the n modes before they are read.
