@@ -204,7 +204,6 @@ TEST(TrackBank, ModeProbabilitiesSurviveLikelihoodUnderflow) {
   EXPECT_NEAR(bank.mode_probabilities(0).sum(), 1.0, 1e-12);
 }
 
-// A refused plot leaves its track exactly as it was and does not disturb its neighbours.
 // A step of fewer tracks than a pack holds runs them in a pack whose other lanes are tracks not
 // stepped (and lanes past the capacity): those keep their state to the bit, and the stepped ones
 // equal banks of one track.
@@ -241,6 +240,7 @@ TEST(TrackBank, TracksPastTheSteppedOnesAreNotTouched) {
   }
 }
 
+// A refused plot leaves its track exactly as it was and does not disturb its neighbours.
 TEST(TrackBank, RefusedPlotLeavesTheTrackUnchanged) {
   TrackBank bank(testing::cv3_spec(), 2);
   bank.initialize(0, start_for(0));
