@@ -129,8 +129,12 @@ template <class Pack, int N>
   for (; t + kW <= b.lanes; t += kW) step<Pack, N>(b, t);
   // The rest: one track alone, more in a pack of which they fill a part (a pack costs about as
   // much as one track alone).
-  if (b.lanes - t == 1) step<double, N>(b, t);
-  if (b.lanes - t > 1) step<Pack, N>(b, t, b.lanes - t);
+  const int rest = b.lanes - t;
+  if (rest == 1) {
+    step<double, N>(b, t);
+  } else if (rest > 1) {
+    step<Pack, N>(b, t, rest);
+  }
 }
 
 // The predicted plot density of the kLanesOf<S> tracks at lane `t`: per mode j the constant of its
