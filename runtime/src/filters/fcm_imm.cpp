@@ -15,6 +15,17 @@ namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
+lanes::AxisEstimate axis_estimate(const GaussianState<2>& s) {
+  return {s.mean(0), s.mean(1), s.covariance(0, 0), s.covariance(0, 1), s.covariance(1, 1)};
+}
+
+GaussianState<2> gaussian_state(const lanes::AxisEstimate& e) {
+  GaussianState<2> s;
+  s.mean << e.x0, e.x1;
+  s.covariance << e.p00, e.p01, e.p01, e.p11;
+  return s;
+}
+
 std::string mode_name(double q) {
   char buffer[48];
   std::snprintf(buffer, sizeof buffer, "q=%.4g", q);
@@ -92,22 +103,35 @@ void FcmImmSpec::validate() const {
   }
 }
 
+lanes::FcmModeConstants fcm_mode_constants(const FcmImmSpec& spec, int mode) {
+  const double T = spec.sample_period;
+  const SquareMatrix<2> Q = cv_axis_noise(T, spec.process_noise[static_cast<std::size_t>(mode)],
+                                          NoiseForm::kPiecewiseConstant);
+  lanes::FcmModeConstants c;
+  c.T = T;
+  c.R = spec.measurement_sigma * spec.measurement_sigma;
+  c.q00 = Q(0, 0);
+  c.q01 = Q(0, 1);
+  c.q10 = Q(1, 0);
+  c.q11 = Q(1, 1);
+  c.gain = mode > 0 || spec.compensate_lowest ? spec.compensation_gain : 0.0;
+  c.g_hat1 = 2.0 / T;
+  c.innovation_scale = spec.scale == MembershipScale::kInnovation;
+  return c;
+}
+
 FcmCompensatedMode::FcmCompensatedMode(const FcmImmSpec& spec, int mode)
     : name_(mode_name(spec.process_noise[static_cast<std::size_t>(mode)])),
+      constants_(fcm_mode_constants(spec, mode)),
       F_(cv_axis_transition(spec.sample_period)),
-      Q_(cv_axis_noise(spec.sample_period, spec.process_noise[static_cast<std::size_t>(mode)],
-                       NoiseForm::kPiecewiseConstant)),
       R_(SquareMatrix<1>::Constant(spec.measurement_sigma * spec.measurement_sigma)),
-      g_hat_(1.0, 2.0 / spec.sample_period),
-      gain_(spec.compensation_gain),
       compensated_(mode > 0 || spec.compensate_lowest),
-      scale_(spec.scale),
       constant_(spec.constant_memberships) {
   H_ << 1.0, 0.0;
   if (constant_) constant_memberships_ = spec.mean_memberships.row(mode).transpose();
   ClusterVector lower = ClusterVector::Constant(-kInfinity);
   ClusterVector upper = ClusterVector::Constant(kInfinity);
-  if (scale_ == MembershipScale::kInnovation) {
+  if (constants_.innovation_scale) {
     upper(0) = -spec.separation;
     lower(1) = upper(1) = 0.0;
     lower(2) = spec.separation;
@@ -125,34 +149,30 @@ void FcmCompensatedMode::reset(const GaussianState<2>& state) {
 
 ModeStep FcmCompensatedMode::propose(const GaussianState<2>& mixed, const Vector<1>& z) {
   if (!limits::usable_measurement(z)) return {StepStatus::kInvalidMeasurement, 0.0};
-  pending_ = predict(mixed, F_, Q_);
-  const double S = pending_.covariance(0, 0) + R_(0, 0);
-  if (!(S > 0.0) || !std::isfinite(S)) return {StepStatus::kSingularInnovation, 0.0};
-  const double error = z(0) - pending_.mean(0);  // e(k), eq. (13)
-  pending_error_ = error;
+  // lanes::fcm_predict and fcm_update for a double, with the clustering between them.
+  const lanes::FcmPrediction<double> p = lanes::fcm_predict(constants_, axis_estimate(mixed), z(0));
+  pending_ = gaussian_state(p.predicted);
+  if (!p.usable) return {StepStatus::kSingularInnovation, 0.0};
+  pending_error_ = p.error;  // e(k), eq. (13)
 
   pending_clustered_ = !constant_;
-  if (constant_) {
-    pending_memberships_ = constant_memberships_;
-  } else {
-    // The window holds errors in innovation standard deviations (kInnovation) or as they are
-    // (kSeed; the memberships are scale-free there, so dividing would change nothing but the
-    // centers' units).
-    const double scaled = scale_ == MembershipScale::kInnovation ? error / std::sqrt(S) : error;
-    pending_memberships_ = clustering_.propose(scaled);
-  }
-  pending_compensation_ = compensated_ ? gain_ * (1.0 - pending_memberships_(1)) : 0.0;
+  // The window holds errors in innovation standard deviations (kInnovation) or as they are
+  // (kSeed; the memberships are scale-free there, so dividing would change nothing but the
+  // centers' units).
+  pending_memberships_ = constant_ ? constant_memberships_ : clustering_.propose(p.clustered);
+  pending_compensation_ = compensated_ ? constants_.gain * (1.0 - pending_memberships_(1)) : 0.0;
 
   // K_c = K + c (ĝ − K) (derivation, step 4), then the Joseph-form update with K_c.
-  const Vector<2> K = pending_.covariance.col(0) / S;
-  const Matrix<2, 1> gain = K + pending_compensation_ * (g_hat_ - K);
-  const auto report = update_with_gain(pending_, Vector<1>(error), H_, R_, gain);
-  keep_innovation(report.innovation, report.innovation_covariance);
-  return {report.status, report.log_likelihood};
+  const lanes::FcmUpdate<double> u = lanes::fcm_update(constants_, p, pending_compensation_);
+  keep_innovation(Vector<1>(p.error), SquareMatrix<1>(p.s));
+  if (!u.factored) return {StepStatus::kSingularInnovation, 0.0};
+  if (!u.finite) return {StepStatus::kNonFiniteResult, 0.0};
+  pending_ = gaussian_state(u.updated);
+  return {StepStatus::kOk, u.log_likelihood};
 }
 
 ModeStep FcmCompensatedMode::propose_prediction(const GaussianState<2>& mixed) {
-  pending_ = predict(mixed, F_, Q_);
+  pending_ = gaussian_state(lanes::fcm_prior(constants_, axis_estimate(mixed)));
   pending_clustered_ = false;
   pending_memberships_ = memberships_;
   pending_compensation_ = 0.0;

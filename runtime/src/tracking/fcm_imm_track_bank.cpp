@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
-// The FCM-IMM's bank: axis filters as lanes, blocks of kBlock lanes (see the header). The order of
-// operations follows FcmImmAxisFilter's IMM cycle (ImmEstimator::step) and
-// FcmCompensatedMode::propose: the CV prediction, e and S, the memberships, the compensated gain
-// and update_with_gain's Joseph update.
+// The FCM-IMM's bank: axis filters as lanes, blocks of kBlock lanes (see the header). The IMM
+// cycle follows FcmImmAxisFilter's (ImmEstimator::step) in its order of operations; each mode's
+// step is fcm_mode_step.hpp's over a pack, the one FcmCompensatedMode::propose runs for a double,
+// with the memberships between its halves.
 #include "imm/tracking/fcm_imm_track_bank.hpp"
 
 #include <algorithm>
@@ -14,10 +14,10 @@
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/estimation/cv_axis_lanes.hpp"
+#include "imm/filters/fcm_mode_step.hpp"
 #include "imm/filters/fuzzy_noise_step.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
-#include "imm/models/motion/constant_velocity.hpp"
 
 namespace imm {
 namespace {
@@ -31,24 +31,22 @@ constexpr int kX0 = 0, kX1 = 1, kP00 = 2, kP01 = 3, kP11 = 4, kLogMu = 5, kHead 
 
 struct BankConstants {
   int modes, mode_slots, window;
-  const double* transition;  // π_ij at i * modes + j
-  double T, R, g1;           // g1 = 2/T: ĝ = [1, g1]
-  double q00[kMaxLevels], q01[kMaxLevels], q11[kMaxLevels], gain[kMaxLevels];  // Q_j, λ or 0
-  bool innovation_scale, constant;
+  const double* transition;                  // π_ij at i * modes + j
+  lanes::FcmModeConstants mode[kMaxLevels];  // each mode's step
+  bool constant;
   ClusterVector constant_u[kMaxLevels];
   ClusterVector lower, upper;
   FuzzyCMeansSettings clustering;
   double* window_scratch;  // window doubles, then 3 window memberships
 };
 
-// A mode of a block after its prediction: x⁻, P⁻, the error e = z − x̂⁻₀, S and the clustered
-// value (e / √S or e); then its update.
+// A mode of a block: its prediction (e, S, the value the window takes), the memberships' u_noise,
+// the pending clustering.
 template <int W>
 struct ModeStep {
-  double x0[W], x1[W], p00[W], p01[W], p11[W], e[W], s[W], x[W];
+  lanes::FcmPrediction<LanePackOf<W>> predicted;
   double u1[W];                        // u_noise of the memberships
   double centers[3][W], clustered[W];  // the pending clustering
-  double log_likelihood[W], code[W];
 };
 
 // One IMM cycle of one block's W lanes. `state` points at the block's first lane of slot 0; `z`
@@ -59,6 +57,7 @@ template <int W>
                                                    std::ptrdiff_t stride, const double* z,
                                                    const double* stepped, double* code) {
   using Lanes = double[W];
+  using Pack = LanePackOf<W>;
   const int n = b.modes;
   auto st = [&](int j, int entry) { return state + (j * b.mode_slots + entry) * stride; };
 
@@ -92,8 +91,9 @@ template <int W>
     }
     IMM_LANES log_predicted[j][l] = std::log(predicted[j][l]) + shift[l];
   }
-  // Each mode: its mixed initial condition (eq. 4–6), the CV prediction, e and S.
+  // Each mode: its mixed initial condition (eq. 4–6) and fcm_predict.
   ModeStep<W> m[kMaxLevels];  // NOLINT(cppcoreguidelines-pro-type-member-init)
+  const Pack plots = lane_load<Pack>(z);
   for (int j = 0; j < n; ++j) {
     Lanes weight[kMaxLevels];
     for (int i = 0; i < n; ++i) {
@@ -102,18 +102,11 @@ template <int W>
     }
     Lanes m0, m1, c00, c01, c11;
     lanes::mix<W>(n, weight, now, m0, m1, c00, c01, c11);
-    ModeStep<W>& s = m[j];
-    IMM_LANES {
-      const lanes::AxisEstimate p = lanes::cv_predict(b.T, {m0[l], m1[l], c00[l], c01[l], c11[l]});
-      s.x0[l] = p.x0;
-      s.x1[l] = p.x1;
-      s.p00[l] = p.p00 + b.q00[j];
-      s.p01[l] = p.p01 + b.q01[j];
-      s.p11[l] = p.p11 + b.q11[j];
-      s.s[l] = s.p00[l] + b.R;
-      s.e[l] = z[l] - s.x0[l];
-      s.x[l] = b.innovation_scale ? s.e[l] / std::sqrt(s.s[l]) : s.e[l];
-    }
+    m[j].predicted =
+        lanes::fcm_predict<Pack>(b.mode[j],
+                                 {lane_load<Pack>(m0), lane_load<Pack>(m1), lane_load<Pack>(c00),
+                                  lane_load<Pack>(c01), lane_load<Pack>(c11)},
+                                 plots);
   }
   // The memberships of every lane's new error in its window (SlidingFuzzyCMeans::propose), one
   // lane and mode at a time; none where the step cannot succeed (an unusable plot or S).
@@ -126,15 +119,15 @@ template <int W>
         s.u1[l] = b.constant_u[j](1);
         continue;
       }
-      const bool usable =
-          stepped[l] != 0.0 && std::isfinite(s.x[l]) && s.s[l] > 0.0 && std::isfinite(s.s[l]);
+      const double x = s.predicted.clustered[l], S = s.predicted.s[l];
+      const bool usable = stepped[l] != 0.0 && std::isfinite(x) && S > 0.0 && std::isfinite(S);
       const int size = static_cast<int>(st(j, kSize)[l]);
       const int kept = std::min(size, b.window - 1);
       if (!usable || kept + 1 < kFcmClusters) continue;
       const int head = static_cast<int>(st(j, kHead)[l]), skip = size - kept;
       double* window = b.window_scratch;
       for (int i = 0; i < kept; ++i) window[i] = st(j, kRing + (head + skip + i) % b.window)[l];
-      window[kept] = s.x[l];
+      window[kept] = x;
       const auto points = static_cast<std::size_t>(kept) + 1;
       const ClusterVector previous(st(j, kCenters)[l], st(j, kCenters + 1)[l],
                                    st(j, kCenters + 2)[l]);
@@ -149,43 +142,20 @@ template <int W>
       s.clustered[l] = 1.0;
     }
   }
-  // Each mode's update with the compensated gain K_c = K + c (ĝ − K), c = λ (1 − u_noise), in the
-  // Joseph form (update_with_gain), and ℓ_j = log N(e; 0, S) + log c_j.
+  // Each mode's fcm_update with c = λ (1 − u_noise) and ℓ_j + log c_j.
   Lanes posterior[kMaxLevels], outcome;
+  lanes::AxisEstimateOf<Pack> updated[kMaxLevels];
   IMM_LANES outcome[l] = kOk;
   for (int j = 0; j < n; ++j) {
-    ModeStep<W>& s = m[j];
-    IMM_LANES {
-      const double S = s.s[l];
-      const double c = b.gain[j] * (1.0 - s.u1[l]);
-      const double k0 = s.p00[l] / S, k1 = s.p01[l] / S;
-      const double g0 = k0 + c * (1.0 - k0), g1 = k1 + c * (b.g1 - k1);
-      // A = I − K_c H = [[1 − g0, 0], [−g1, 1]]; P = A P⁻ Aᵀ + K_c R K_cᵀ, symmetrized.
-      const double a = 1.0 - g0, d = -g1;
-      const double ap00 = a * s.p00[l], ap01 = a * s.p01[l];
-      const double ap10 = d * s.p00[l] + s.p01[l], ap11 = d * s.p01[l] + s.p11[l];
-      const double r0 = g0 * b.R, r1 = g1 * b.R;
-      const double p00 = ap00 * a + r0 * g0;
-      const double p01 = (ap00 * d + ap01) + r0 * g1;
-      const double p10 = ap10 * a + r1 * g0;
-      const double p11 = (ap10 * d + ap11) + r1 * g1;
-      s.p00[l] = p00;
-      s.p01[l] = 0.5 * (p01 + p10);
-      s.p11[l] = p11;
-      s.x0[l] += g0 * s.e[l];
-      s.x1[l] += g1 * s.e[l];
-      const double L = std::sqrt(S);
-      const double whitened = s.e[l] / L;
-      s.log_likelihood[l] = -0.5 * (whitened * whitened + 2.0 * std::log(L) + kLogTwoPi);
-      const bool factored =
-          (S > 0.0) & (S < std::numeric_limits<double>::infinity()) & std::isfinite(g0 + g1);
-      const bool finite =
-          std::isfinite(s.x0[l] + s.x1[l] + s.p00[l] + s.p01[l] + s.p11[l] + s.log_likelihood[l]);
-      s.code[l] = pick(factored, pick(finite, kOk, kNonFinite), kSingular);
-      posterior[j][l] = s.log_likelihood[l] + log_predicted[j][l];
-      // The first mode that fails decides the status (ImmEstimator stops there).
-      outcome[l] = pick(outcome[l] != kOk, outcome[l], s.code[l]);
-    }
+    const Pack compensation = b.mode[j].gain * (1.0 - lane_load<Pack>(m[j].u1));
+    const lanes::FcmUpdate<Pack> u =
+        lanes::fcm_update<Pack>(b.mode[j], m[j].predicted, compensation);
+    updated[j] = u.updated;
+    const Pack mode_code = pick(u.factored, pick(u.finite, kOk, kNonFinite), kSingular);
+    lane_store(posterior[j], u.log_likelihood + lane_load<Pack>(log_predicted[j]));
+    // The first mode that fails decides the status (ImmEstimator stops there).
+    const Pack before = lane_load<Pack>(outcome);
+    lane_store(outcome, pick(before != kOk, before, mode_code));
   }
   // The posterior in log space (ImmEstimator::finish_cycle).
   Lanes top, sum, log_sum;
@@ -209,13 +179,14 @@ template <int W>
   bank::track_codes<W>(outcome, z, code);
   Lanes commit;
   IMM_LANES commit[l] = pick((stepped[l] != 0.0) & (code[l] == kOk), 1.0, 0.0);
+  const auto committed = lane_load<Pack>(commit) != 0.0;
   for (int j = 0; j < n; ++j) {
     IMM_LANES posterior[j][l] -= log_sum[l];  // log μ_j
-    const double* values[6] = {m[j].x0, m[j].x1, m[j].p00, m[j].p01, m[j].p11, posterior[j]};
-    for (int e = 0; e < 6; ++e) {
-      double* target = st(j, e);
-      const double* value = values[e];
-      IMM_LANES target[l] = pick(commit[l] != 0.0, value[l], target[l]);
+    const lanes::AxisEstimateOf<Pack>& e = updated[j];
+    const Pack values[6] = {e.x0, e.x1, e.p00, e.p01, e.p11, lane_load<Pack>(posterior[j])};
+    for (int entry = 0; entry < 6; ++entry) {
+      double* target = st(j, entry);
+      lane_store(target, pick(committed, values[entry], lane_load<Pack>(target)));
     }
   }
   // The committed lanes' windows take the new error, their centers the clustering's
@@ -227,10 +198,10 @@ template <int W>
       const int size = static_cast<int>(st(j, kSize)[l]);
       const int head = static_cast<int>(st(j, kHead)[l]);
       if (size < b.window) {
-        st(j, kRing + (head + size) % b.window)[l] = m[j].x[l];
+        st(j, kRing + (head + size) % b.window)[l] = m[j].predicted.clustered[l];
         st(j, kSize)[l] = size + 1;
       } else {
-        st(j, kRing + head)[l] = m[j].x[l];
+        st(j, kRing + head)[l] = m[j].predicted.clustered[l];
         st(j, kHead)[l] = (head + 1) % b.window;
       }
       if (m[j].clustered[l] != 0.0) {
@@ -281,24 +252,15 @@ void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<Ste
   b.mode_slots = mode_slots_;
   b.window = spec_.window;
   b.transition = transition_.data();
-  b.T = spec_.sample_period;
-  b.R = spec_.measurement_sigma * spec_.measurement_sigma;
-  b.g1 = 2.0 / spec_.sample_period;
   for (int j = 0; j < b.modes; ++j) {
-    const SquareMatrix<2> Q = cv_axis_noise(b.T, spec_.process_noise[static_cast<std::size_t>(j)],
-                                            NoiseForm::kPiecewiseConstant);
-    b.q00[j] = Q(0, 0);
-    b.q01[j] = Q(0, 1);
-    b.q11[j] = Q(1, 1);
-    b.gain[j] = j > 0 || spec_.compensate_lowest ? spec_.compensation_gain : 0.0;
+    b.mode[j] = fcm_mode_constants(spec_, j);
     if (spec_.constant_memberships) b.constant_u[j] = spec_.mean_memberships.row(j).transpose();
   }
-  b.innovation_scale = spec_.scale == MembershipScale::kInnovation;
   b.constant = spec_.constant_memberships;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   b.lower = ClusterVector::Constant(-kInf);
   b.upper = ClusterVector::Constant(kInf);
-  if (b.innovation_scale) {
+  if (spec_.scale == MembershipScale::kInnovation) {
     b.upper(0) = -spec_.separation;
     b.lower(1) = b.upper(1) = 0.0;
     b.lower(2) = spec_.separation;

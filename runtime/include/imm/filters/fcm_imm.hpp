@@ -59,6 +59,7 @@
 #include "imm/estimation/imm_mode.hpp"
 #include "imm/estimation/kalman_filter.hpp"
 #include "imm/filters/axis_filter.hpp"
+#include "imm/filters/fcm_mode_step.hpp"
 #include "imm/models/learned/fuzzy_c_means.hpp"
 #include "imm/runtime_export.hpp"
 #include "imm/tracking/track_options.hpp"
@@ -110,7 +111,14 @@ struct IMM_RUNTIME_EXPORT FcmImmSpec {
   [[nodiscard]] static Eigen::MatrixXd switching_transition(int n, double stay);
 };
 
-/// One FCM-compensated CV Kalman filter, one axis (derivation above).
+/// What mode `mode` of `spec` steps with (fcm_mode_step.hpp): T, σ_z², its Q, its compensation
+/// gain (λ, 0 for an uncompensated lowest mode), ĝ₁ = 2/T and the clustering's scale. The spec must
+/// be valid.
+[[nodiscard]] IMM_RUNTIME_EXPORT lanes::FcmModeConstants fcm_mode_constants(const FcmImmSpec& spec,
+                                                                            int mode);
+
+/// One FCM-compensated CV Kalman filter, one axis (derivation above); its step is
+/// fcm_mode_step.hpp's for a double, the one FcmImmTrackBank runs over packs.
 class IMM_RUNTIME_EXPORT FcmCompensatedMode final : public ImmMode<2, 1> {
  public:
   /// `mode` indexes spec's process_noise and mean_memberships.
@@ -156,14 +164,11 @@ class IMM_RUNTIME_EXPORT FcmCompensatedMode final : public ImmMode<2, 1> {
 
  private:
   std::string name_;
+  lanes::FcmModeConstants constants_;
   SquareMatrix<2> F_;
-  SquareMatrix<2> Q_;
   Matrix<1, 2> H_;
   SquareMatrix<1> R_;
-  Vector<2> g_hat_;  // [1, 2/T]
-  double gain_ = 0.0;
   bool compensated_ = true;
-  MembershipScale scale_ = MembershipScale::kInnovation;
   bool constant_ = false;
   ClusterVector constant_memberships_ = ClusterVector(0.0, 1.0, 0.0);
   SlidingFuzzyCMeans clustering_;

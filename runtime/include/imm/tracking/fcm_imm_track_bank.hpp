@@ -7,13 +7,15 @@
 /// Layout: every track is two axis filters (x, then y), every axis filter a lane; lanes are
 /// stored structure of arrays (each mode's estimate, log μ and its clustering's window, head,
 /// size and centers) and stepped 8 at a time. A step runs per block:
-///   1. vector loops: the predicted mode probabilities, every mode's mixing and CV prediction,
-///      its error e and S;
+///   1. vector loops: the predicted mode probabilities, every mode's mixing, and its
+///      lanes::fcm_predict over a pack of the block's lanes (fcm_mode_step.hpp, the step
+///      FcmCompensatedMode runs for a double): the CV prediction, the error e and S;
 ///   2. one scalar loop over lanes and modes: the sliding fuzzy c-means of the errors
 ///      (cluster_window, the clustering SlidingFuzzyCMeans runs, on the bank's windows: the same
 ///      memberships to the bit);
-///   3. vector loops: every mode's compensated-gain Joseph update, its likelihood, the posterior
-///      μ and the commit; then the committed lanes' windows and centers.
+///   3. vector loops: every mode's lanes::fcm_update (the compensated-gain Joseph update and its
+///      likelihood), the posterior μ and the commit; then the committed lanes' windows and
+///      centers.
 /// The vector loops have no branches and no calls, and the compiler vectorizes them: AVX-512 or
 /// AVX2 where the CPU has it, chosen at run time, without fused multiply-add, so a track's result
 /// does not depend on the instruction set, on its position or on the number of tracks.
