@@ -97,7 +97,7 @@ template <class S>
 [[nodiscard, gnu::always_inline]] inline FcmPrediction<S> fcm_predict(
     const FcmModeConstants& c, const AxisEstimateOf<S>& mixed, S z) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
-  FcmPrediction<S> out;
+  FcmPrediction<S> out{};
   out.predicted = fcm_prior<S>(c, mixed);
   out.s = out.predicted.p00 + c.R;
   out.error = z - out.predicted.x0;
@@ -123,7 +123,7 @@ template <class S>
   const S r0 = g0 * c.R, r1 = g1 * c.R;
   const S p01 = (ap00 * d + ap01) + r0 * g1;
   const S p10 = ap10 * a + r1 * g0;
-  FcmUpdate<S> out;
+  FcmUpdate<S> out{};
   out.updated = {q.x0 + g0 * p.error, q.x1 + g1 * p.error, ap00 * a + r0 * g0, 0.5 * (p01 + p10),
                  (ap10 * d + ap11) + r1 * g1};
   const S root = lane_sqrt(p.s);
