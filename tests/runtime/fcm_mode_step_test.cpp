@@ -10,21 +10,18 @@
 
 #include <gtest/gtest.h>
 
-#include <bit>
 #include <cmath>
-#include <cstdint>
 #include <limits>
 #include <random>
 
 #include "imm/estimation/kalman_filter.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
+#include "testing/matrix_checks.hpp"
 
 namespace imm {
 namespace {
 
-bool same(double a, double b) {
-  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
-}
+using testing::same_bits;
 
 // One random mode, mixed condition, plot and noise membership; a plot now and then far from the
 // prediction.
@@ -73,14 +70,15 @@ TEST(FcmModeStep, TheDoubleInstanceIsTheCompensatedKalmanStepToTheBit) {
     SquareMatrix<2> Q;  // as cv_axis_noise gives it, Q₀₁ and Q₁₀ rounded apart
     Q << k.c.q00, k.c.q01, k.c.q10, k.c.q11;
     GaussianState<2> state = predict(k.mixed, cv_axis_transition(k.c.T), Q);
-    EXPECT_TRUE(same(p.predicted.x0, state.mean(0)) && same(p.predicted.x1, state.mean(1)) &&
-                same(p.predicted.p00, state.covariance(0, 0)) &&
-                same(p.predicted.p01, state.covariance(0, 1)) &&
-                same(p.predicted.p11, state.covariance(1, 1)))
+    EXPECT_TRUE(same_bits(p.predicted.x0, state.mean(0)) &&
+                same_bits(p.predicted.x1, state.mean(1)) &&
+                same_bits(p.predicted.p00, state.covariance(0, 0)) &&
+                same_bits(p.predicted.p01, state.covariance(0, 1)) &&
+                same_bits(p.predicted.p11, state.covariance(1, 1)))
         << trial;
     const double S = state.covariance(0, 0) + k.c.R, e = k.z - state.mean(0);
-    EXPECT_TRUE(same(p.s, S) && same(p.error, e)) << trial;
-    EXPECT_TRUE(same(p.clustered, k.c.innovation_scale ? e / std::sqrt(S) : e)) << trial;
+    EXPECT_TRUE(same_bits(p.s, S) && same_bits(p.error, e)) << trial;
+    EXPECT_TRUE(same_bits(p.clustered, k.c.innovation_scale ? e / std::sqrt(S) : e)) << trial;
     const Vector<2> K = state.covariance.col(0) / S;
     const Matrix<2, 1> gain = K + compensation * (Vector<2>(1.0, k.c.g_hat1) - K);
     Matrix<1, 2> H;
@@ -89,11 +87,12 @@ TEST(FcmModeStep, TheDoubleInstanceIsTheCompensatedKalmanStepToTheBit) {
                                          SquareMatrix<1>(SquareMatrix<1>::Constant(k.c.R)), gain);
     ASSERT_TRUE(report.ok()) << trial;
     ASSERT_TRUE(p.usable && step.factored && step.finite) << trial;
-    EXPECT_TRUE(same(step.log_likelihood, report.log_likelihood)) << trial;
+    EXPECT_TRUE(same_bits(step.log_likelihood, report.log_likelihood)) << trial;
     const lanes::AxisEstimate& x = step.updated;
-    EXPECT_TRUE(same(x.x0, state.mean(0)) && same(x.x1, state.mean(1))) << trial;
-    EXPECT_TRUE(same(x.p00, state.covariance(0, 0)) && same(x.p01, state.covariance(0, 1)) &&
-                same(x.p01, state.covariance(1, 0)) && same(x.p11, state.covariance(1, 1)))
+    EXPECT_TRUE(same_bits(x.x0, state.mean(0)) && same_bits(x.x1, state.mean(1))) << trial;
+    EXPECT_TRUE(
+        same_bits(x.p00, state.covariance(0, 0)) && same_bits(x.p01, state.covariance(0, 1)) &&
+        same_bits(x.p01, state.covariance(1, 0)) && same_bits(x.p11, state.covariance(1, 1)))
         << trial;
   }
 }
@@ -119,16 +118,17 @@ TEST(FcmModeStep, EveryPackElementIsTheDoubleInstanceToTheBit) {
     for (int l = 0; l < kW; ++l) {
       const auto p1 = lanes::fcm_predict<double>(mode.c, entries(lane[l].mixed), lane[l].z);
       const auto one = lanes::fcm_update<double>(mode.c, p1, compensation[l]);
-      EXPECT_TRUE(same(p.s[l], p1.s) && same(p.error[l], p1.error) &&
-                  same(p.clustered[l], p1.clustered));
+      EXPECT_TRUE(same_bits(p.s[l], p1.s) && same_bits(p.error[l], p1.error) &&
+                  same_bits(p.clustered[l], p1.clustered));
       EXPECT_EQ(p.usable[l] != 0, p1.usable);
       EXPECT_EQ(pack.factored[l] != 0, one.factored);
       EXPECT_EQ(pack.finite[l] != 0, one.finite);
-      EXPECT_TRUE(same(pack.log_likelihood[l], one.log_likelihood));
-      EXPECT_TRUE(
-          same(pack.updated.x0[l], one.updated.x0) && same(pack.updated.x1[l], one.updated.x1) &&
-          same(pack.updated.p00[l], one.updated.p00) &&
-          same(pack.updated.p01[l], one.updated.p01) && same(pack.updated.p11[l], one.updated.p11))
+      EXPECT_TRUE(same_bits(pack.log_likelihood[l], one.log_likelihood));
+      EXPECT_TRUE(same_bits(pack.updated.x0[l], one.updated.x0) &&
+                  same_bits(pack.updated.x1[l], one.updated.x1) &&
+                  same_bits(pack.updated.p00[l], one.updated.p00) &&
+                  same_bits(pack.updated.p01[l], one.updated.p01) &&
+                  same_bits(pack.updated.p11[l], one.updated.p11))
           << trial << " lane " << l;
     }
   }

@@ -10,9 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include <bit>
 #include <cmath>
-#include <cstdint>
 #include <random>
 #include <vector>
 
@@ -20,13 +18,12 @@
 #include "imm/filters/fuzzy_noise_filter.hpp"
 #include "imm/models/learned/fuzzy_rule_table.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
+#include "testing/matrix_checks.hpp"
 
 namespace imm {
 namespace {
 
-bool same(double a, double b) {
-  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
-}
+using testing::same_bits;
 
 // One random axis, table and mixed condition; a plot now and then far from the prediction, and
 // now and then an unusable variance.
@@ -96,18 +93,19 @@ TEST(FuzzyNoiseStep, TheDoubleInstanceIsTheKalmanStepOfTheRuleTableToTheBit) {
                                                SquareMatrix<1>(SquareMatrix<1>::Constant(R)));
     ASSERT_TRUE(report.ok()) << trial;
     ASSERT_TRUE(step.usable && step.finite) << trial;
-    EXPECT_TRUE(same(step.residual, residual)) << trial;
-    EXPECT_TRUE(same(step.antecedent, antecedent)) << trial;
-    EXPECT_TRUE(same(step.process_noise, q)) << trial;
-    EXPECT_TRUE(same(step.s, report.innovation_covariance(0, 0))) << trial;
+    EXPECT_TRUE(same_bits(step.residual, residual)) << trial;
+    EXPECT_TRUE(same_bits(step.antecedent, antecedent)) << trial;
+    EXPECT_TRUE(same_bits(step.process_noise, q)) << trial;
+    EXPECT_TRUE(same_bits(step.s, report.innovation_covariance(0, 0))) << trial;
     EXPECT_TRUE(
-        same(-0.5 * (step.mahalanobis + std::log(step.s) + kLogTwoPi), report.log_likelihood))
+        same_bits(-0.5 * (step.mahalanobis + std::log(step.s) + kLogTwoPi), report.log_likelihood))
         << trial;
     const lanes::AxisEstimate e = step.estimate;
-    EXPECT_TRUE(same(e.x0, predicted.mean(0)) && same(e.x1, predicted.mean(1))) << trial;
-    EXPECT_TRUE(same(e.p00, predicted.covariance(0, 0)) &&
-                same(e.p01, predicted.covariance(0, 1)) &&
-                same(e.p01, predicted.covariance(1, 0)) && same(e.p11, predicted.covariance(1, 1)))
+    EXPECT_TRUE(same_bits(e.x0, predicted.mean(0)) && same_bits(e.x1, predicted.mean(1))) << trial;
+    EXPECT_TRUE(same_bits(e.p00, predicted.covariance(0, 0)) &&
+                same_bits(e.p01, predicted.covariance(0, 1)) &&
+                same_bits(e.p01, predicted.covariance(1, 0)) &&
+                same_bits(e.p11, predicted.covariance(1, 1)))
         << trial;
   }
 }
@@ -140,8 +138,8 @@ TEST(FuzzyNoiseStep, EveryPackElementIsTheDoubleInstanceWithinItsPrimitivesRound
       const lanes::FuzzyNoiseStep<double> one =
           lanes::fuzzy_noise_step<double>(axis, rules, lane.z, lane.previous, entries(lane.mixed));
       // Before the table: the same operations.
-      EXPECT_TRUE(same(pack.residual[l], one.residual));
-      EXPECT_TRUE(same(pack.antecedent[l], one.antecedent));
+      EXPECT_TRUE(same_bits(pack.residual[l], one.residual));
+      EXPECT_TRUE(same_bits(pack.antecedent[l], one.antecedent));
       EXPECT_EQ(pack.usable[l] != 0, one.usable);
       EXPECT_EQ(pack.finite[l] != 0, one.finite);
       auto near = [](double a, double b) { return std::abs(a - b) <= 1e-12 * (1.0 + std::abs(b)); };
@@ -175,9 +173,9 @@ TEST(FuzzyNoiseStep, StepsTakenTogetherEqualStepsTakenAloneToTheBit) {
     lanes::fuzzy_noise_steps<double, kK>(axis, level, z, previous, mixed, together);
     for (int k = 0; k < kK; ++k) {
       const auto alone = lanes::fuzzy_noise_step<double>(axis, level, z[k], previous[k], mixed[k]);
-      EXPECT_TRUE(same(together[k].process_noise, alone.process_noise));
-      EXPECT_TRUE(same(together[k].estimate.p01, alone.estimate.p01));
-      EXPECT_TRUE(same(together[k].mahalanobis, alone.mahalanobis));
+      EXPECT_TRUE(same_bits(together[k].process_noise, alone.process_noise));
+      EXPECT_TRUE(same_bits(together[k].estimate.p01, alone.estimate.p01));
+      EXPECT_TRUE(same_bits(together[k].mahalanobis, alone.mahalanobis));
     }
   }
 }

@@ -8,9 +8,16 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
+#include <bit>
+#include <cstdint>
 #include <sstream>
 
 namespace imm::testing {
+
+/// Whether two doubles have the same bits (−0 and +0 differ, a NaN equals only its own bits).
+[[nodiscard]] inline bool same_bits(double a, double b) {
+  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+}
 
 /// |a − b| ≤ tolerance · max(1, |b|) entry-wise.
 template <class A, class B>
