@@ -134,6 +134,19 @@ TEST(FcmModeStep, EveryPackElementIsTheDoubleInstanceToTheBit) {
   }
 }
 
+TEST(FcmModeStep, TheCompensationIsLambdaTimesTheManoeuvreShareAndZeroWithoutLambda) {
+  lanes::FcmModeConstants c;
+  c.gain = 0.25;
+  EXPECT_EQ(lanes::fcm_compensation(c, 0.5), 0.125);
+  EXPECT_EQ(lanes::fcm_compensation(c, 1.0), 0.0);
+  // An uncompensated mode: 0 whatever its memberships, as FcmCompensatedMode has always given.
+  c.gain = 0.0;
+  EXPECT_TRUE(same_bits(lanes::fcm_compensation(c, std::numeric_limits<double>::quiet_NaN()), 0.0));
+  const LanePack u = splat<LanePack>(0.3);
+  const LanePack zero = lanes::fcm_compensation(c, u);
+  for (int l = 0; l < kLanePackWidth; ++l) EXPECT_TRUE(same_bits(zero[l], 0.0));
+}
+
 TEST(FcmModeStep, RefusesWhatTheKalmanUpdateRefuses) {
   lanes::FcmModeConstants c;
   c.T = 1.0, c.R = 0.25, c.gain = 0.5, c.g_hat1 = 2.0;

@@ -125,7 +125,6 @@ FcmCompensatedMode::FcmCompensatedMode(const FcmImmSpec& spec, int mode)
       constants_(fcm_mode_constants(spec, mode)),
       F_(cv_axis_transition(spec.sample_period)),
       R_(SquareMatrix<1>::Constant(spec.measurement_sigma * spec.measurement_sigma)),
-      compensated_(mode > 0 || spec.compensate_lowest),
       constant_(spec.constant_memberships) {
   H_ << 1.0, 0.0;
   if (constant_) constant_memberships_ = spec.mean_memberships.row(mode).transpose();
@@ -160,7 +159,7 @@ ModeStep FcmCompensatedMode::propose(const GaussianState<2>& mixed, const Vector
   // (kSeed; the memberships are scale-free there, so dividing would change nothing but the
   // centers' units).
   pending_memberships_ = constant_ ? constant_memberships_ : clustering_.propose(p.clustered);
-  pending_compensation_ = compensated_ ? constants_.gain * (1.0 - pending_memberships_(1)) : 0.0;
+  pending_compensation_ = lanes::fcm_compensation(constants_, pending_memberships_(1));
 
   // K_c = K + c (ĝ − K) (derivation, step 4), then the Joseph-form update with K_c.
   const lanes::FcmUpdate<double> u = lanes::fcm_update(constants_, p, pending_compensation_);

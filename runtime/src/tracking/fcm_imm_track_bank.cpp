@@ -119,8 +119,8 @@ template <int W>
         s.u1[l] = b.constant_u[j](1);
         continue;
       }
-      const double x = s.predicted.clustered[l], S = s.predicted.s[l];
-      const bool usable = stepped[l] != 0.0 && std::isfinite(x) && S > 0.0 && std::isfinite(S);
+      const double x = s.predicted.clustered[l];
+      const bool usable = stepped[l] != 0.0 && std::isfinite(x) && s.predicted.usable[l] != 0;
       const int size = static_cast<int>(st(j, kSize)[l]);
       const int kept = std::min(size, b.window - 1);
       if (!usable || kept + 1 < kFcmClusters) continue;
@@ -142,12 +142,12 @@ template <int W>
       s.clustered[l] = 1.0;
     }
   }
-  // Each mode's fcm_update with c = λ (1 − u_noise) and ℓ_j + log c_j.
+  // Each mode's fcm_update with c = fcm_compensation (λ (1 − u_noise)) and ℓ_j + log c_j.
   Lanes posterior[kMaxLevels], outcome;
   lanes::AxisEstimateOf<Pack> updated[kMaxLevels];
   IMM_LANES outcome[l] = kOk;
   for (int j = 0; j < n; ++j) {
-    const Pack compensation = b.mode[j].gain * (1.0 - lane_load<Pack>(m[j].u1));
+    const Pack compensation = lanes::fcm_compensation(b.mode[j], lane_load<Pack>(m[j].u1));
     const lanes::FcmUpdate<Pack> u =
         lanes::fcm_update<Pack>(b.mode[j], m[j].predicted, compensation);
     updated[j] = u.updated;

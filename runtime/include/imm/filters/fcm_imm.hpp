@@ -168,7 +168,6 @@ class IMM_RUNTIME_EXPORT FcmCompensatedMode final : public ImmMode<2, 1> {
   SquareMatrix<2> F_;
   Matrix<1, 2> H_;
   SquareMatrix<1> R_;
-  bool compensated_ = true;
   bool constant_ = false;
   ClusterVector constant_memberships_ = ClusterVector(0.0, 1.0, 0.0);
   SlidingFuzzyCMeans clustering_;

@@ -107,7 +107,14 @@ template <class S>
   return out;
 }
 
-/// The second half with the compensation `compensation` = λ (1 − u_noise) (0 uncompensated).
+/// The compensation c = λ (1 − u_noise) of a mode whose memberships gave u_noise; exactly 0 for
+/// an uncompensated mode (λ = 0), whatever u_noise.
+template <class S>
+[[nodiscard, gnu::always_inline]] inline S fcm_compensation(const FcmModeConstants& c, S u_noise) {
+  return c.gain == 0.0 ? splat<S>(0.0) : c.gain * (1.0 - u_noise);
+}
+
+/// The second half with the compensation `compensation` (fcm_compensation).
 template <class S>
 [[nodiscard, gnu::always_inline]] inline FcmUpdate<S> fcm_update(const FcmModeConstants& c,
                                                                  const FcmPrediction<S>& p,
