@@ -5,9 +5,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <random>
+#include <vector>
 
+#include "imm/core/aligned_allocator.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
@@ -60,9 +63,9 @@ struct Scenario {
 };
 
 // The contract: a bank of N tracks equals N banks of one track to the bit, whatever a track's
-// position in its block (3 whole blocks and a partial one here).
+// position in its tile (24 whole tiles and a partial one here).
 TEST(TrackBank, ManyTracksEqualOneTrackBanksToTheBit) {
-  const std::size_t tracks = 3 * TrackBank::kBlock + 5;
+  const std::size_t tracks = 24 * TrackBank::kBlock + 5;
   const PlainImmSpec spec = bank_spec();
   TrackBank bank(spec, tracks);
   std::vector<TrackBank> singles;
@@ -134,7 +137,8 @@ PlainImmSpec spec_with_modes(int n) {
 }
 
 // Against the deliberately plain textbook IMM (dynamic sizes, linear probabilities, standard
-// covariance update) and the runtime's generic ImmEstimator, on a manoeuvring track: with 1, 3
+// covariance update; to 1e-9) and the runtime's generic ImmEstimator (to 1e-12 relative, the
+// one-track filter's rounding), on a manoeuvring track: with 1, 3
 // (unrolled) and 6 modes (the general loop), for a track alone (the step's double instance) and in
 // a pack of lanes (its LanePack instance).
 TEST(TrackBank, MatchesTheTextbookImmAndImmEstimator) {
@@ -175,9 +179,11 @@ TEST(TrackBank, MatchesTheTextbookImmAndImmEstimator) {
           ASSERT_TRUE(testing::matrices_near(estimate.covariance, textbook.covariance(), 1e-9));
           ASSERT_TRUE(
               testing::matrices_near(bank.mode_probabilities(t), textbook.probabilities(), 1e-9));
-          ASSERT_TRUE(testing::matrices_near(estimate.mean, reference_imm.estimate().mean, 1e-10));
+          ASSERT_TRUE(testing::matrices_near(estimate.mean, reference_imm.estimate().mean, 1e-12));
           ASSERT_TRUE(testing::matrices_near(estimate.covariance,
-                                             reference_imm.estimate().covariance, 1e-10));
+                                             reference_imm.estimate().covariance, 1e-12));
+          ASSERT_TRUE(testing::matrices_near(bank.mode_probabilities(t),
+                                             reference_imm.mode_probabilities(), 1e-12));
           ASSERT_EQ(estimate.covariance, estimate.covariance.transpose());  // a triangle
         }
       }
@@ -258,6 +264,20 @@ TEST(TrackBank, RefusedPlotLeavesTheTrackUnchanged) {
     EXPECT_TRUE(same_bits(bank.estimate(0).covariance, before.covariance));
     EXPECT_TRUE(same_bits(bank.log_mode_probabilities(0), mu_before));
   }
+}
+
+// The banks' storage starts on a cache line whatever its size, and behaves as a vector.
+TEST(AlignedAllocator, EveryBlockStartsOnTheBoundary) {
+  for (std::size_t n = 1; n < 300; n += 7) {
+    std::vector<double, AlignedAllocator<double>> v(n, 1.5);
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(v.data()) % 64, 0U) << n;
+    v.resize(3 * n + 1, 2.5);  // reallocates
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(v.data()) % 64, 0U) << n;
+    EXPECT_EQ(v[n - 1], 1.5);
+    EXPECT_EQ(v[3 * n], 2.5);
+  }
+  std::vector<char, AlignedAllocator<char, 256>> bytes(3);
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(bytes.data()) % 256, 0U);
 }
 
 TEST(TrackBank, RefusesWhatItCannotRun) {

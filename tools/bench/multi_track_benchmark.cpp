@@ -118,6 +118,7 @@ BENCHMARK(BM_MultiTrack)
     ->Args({1000, 0})
     ->Args({1000, 1})
     ->Args({16, 1})
+    ->Args({1024, 1})  // a power of two: the state in tiles keeps a pack's slots in one run
     ->Args({10000, 1});
 
 // The benchmark loop of a bank against one-track filters: N tracks, track t fed the plots of
@@ -196,7 +197,9 @@ BENCHMARK(BM_GaFuzzyMultiTrack)
     ->Args({1000, 0, 0})
     ->Args({1000, 1, 0})
     ->Args({1000, 0, 1})
-    ->Args({1000, 1, 1});
+    ->Args({1000, 1, 1})
+    // A power of two: LaneStorage's stride keeps a pack's slots in different cache sets.
+    ->Args({1024, 1, 0});
 
 // N tracks of the shipped input estimator (seed 001's model, R = 50² m²), each a target at
 // 300 m/s that turns at 20 m/s² for 20 of every 60 scans, the same noise per scan shifted by the
@@ -269,7 +272,8 @@ BENCHMARK(BM_WimmMultiTrack)
     ->Args({1000, 0, 0})
     ->Args({1000, 1, 0})
     ->Args({1000, 0, 1})
-    ->Args({1000, 1, 1});
+    ->Args({1000, 1, 1})
+    ->Args({1024, 1, 0});
 
 // N tracks of seed 002's FIMM with the shipped sensor (models/tsk_range_sensor.h5) on the cut-in
 // plots (R = 0.5² I, the presets' case 1), shifted by 1 mm along and 2 cm ahead per track:

@@ -51,7 +51,9 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
   bank::require_capacity(capacity);
   modes_ = static_cast<int>(spec.modes.size());
   capacity_ = capacity;
-  stride_ = static_cast<std::ptrdiff_t>((capacity + kBlock - 1) / kBlock * kBlock);
+  const auto tiles = (capacity + kBlock - 1) / kBlock;
+  tile_ = static_cast<std::ptrdiff_t>(modes_ * kModeSlots + kEntries) * kBlock;
+  prediction_tile_ = static_cast<std::ptrdiff_t>(modes_ * kPlotSlots + kCollapsedSlots) * kBlock;
   sample_period_ = spec.sample_period;
   per_period_ = spec.transition;
   const auto n = static_cast<std::size_t>(modes_);
@@ -68,9 +70,8 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
   r00_ = spec.measurement.covariance(0, 0);
   r01_ = spec.measurement.covariance(0, 1);
   r11_ = spec.measurement.covariance(1, 1);
-  state_.assign(static_cast<std::size_t>((modes_ * kModeSlots + kEntries) * stride_), 0.0);
-  prediction_.assign(static_cast<std::size_t>((modes_ * kPlotSlots + kCollapsedSlots) * stride_),
-                     0.0);
+  state_.assign(tiles * static_cast<std::size_t>(tile_), 0.0);
+  prediction_.assign(tiles * static_cast<std::size_t>(prediction_tile_), 0.0);
   initialized_.assign(capacity, 0);
 }
 
@@ -84,13 +85,12 @@ void TrackBank::initialize(std::size_t track, const GaussianState<kDim>& state) 
   for (double v : initial_log_mu_) shift = std::max(shift, v);
   for (int j = 0; j < modes_; ++j) {
     for (int a = 0; a < kDim; ++a) {
-      slot(mode_slot(j, kMean + a))[t] = state.mean(a);
-      for (int c = a; c < kDim; ++c)
-        slot(mode_slot(j, kCov + sym(a, c)))[t] = state.covariance(a, c);
+      at(mode_slot(j, kMean + a), t) = state.mean(a);
+      for (int c = a; c < kDim; ++c) at(mode_slot(j, kCov + sym(a, c)), t) = state.covariance(a, c);
     }
     const double log_mu = initial_log_mu_[static_cast<std::size_t>(j)];
-    slot(mode_slot(j, kLogMu))[t] = log_mu;
-    slot(mode_slot(j, kScaledMu))[t] = std::exp(log_mu - shift);
+    at(mode_slot(j, kLogMu), t) = log_mu;
+    at(mode_slot(j, kScaledMu), t) = std::exp(log_mu - shift);
   }
   // The combination with μ₀, as ImmEstimator::initialize does.
   Vector<kDim> mean = Vector<kDim>::Zero();
@@ -105,8 +105,8 @@ void TrackBank::initialize(std::size_t track, const GaussianState<kDim>& state) 
     covariance += w * (mode.covariance + d * d.transpose());
   }
   for (int a = 0; a < kDim; ++a) {
-    slot(combined_slot(kMean + a))[t] = mean(a);
-    for (int c = a; c < kDim; ++c) slot(combined_slot(kCov + sym(a, c)))[t] = covariance(a, c);
+    at(combined_slot(kMean + a), t) = mean(a);
+    for (int c = a; c < kDim; ++c) at(combined_slot(kCov + sym(a, c)), t) = covariance(a, c);
   }
   initialized_[track] = 1;
 }
@@ -115,7 +115,7 @@ void TrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatu
   bank::check_step("TrackBank", plots.size(), status.size(), initialized_);
   for (std::size_t first = 0; first < plots.size(); first += kBlock) {
     const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
-    run_block(first, lanes, plots.data() + first, status.data() + first, nullptr);
+    run_block(first, lanes, plots.data() + first, status.data() + first, false);
   }
 }
 
@@ -123,21 +123,21 @@ void TrackBank::candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots
                                           Eigen::Ref<Eigen::MatrixXd> out) {
   const auto tracks = static_cast<std::size_t>(out.rows());
   bank::check_candidates("TrackBank", plots.size(), gate, out.rows(), out.cols(), initialized_);
-  for (std::size_t first = 0; first < tracks; first += kBlock) {
-    const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, tracks - first));
-    run_block(first, lanes, nullptr, nullptr, prediction_.data() + first);
-  }
   Scoring scoring;
   scoring.modes = modes_;
-  scoring.tracks = static_cast<int>(tracks);
-  scoring.prediction = prediction_.data();
-  scoring.stride = stride_;
+  scoring.stride = kBlock;
   scoring.plots = plots.data();
   scoring.plot_count = static_cast<int>(plots.size());
   scoring.gate = gate;
-  scoring.out = out.data();
   scoring.out_stride = out.outerStride();
-  score_plots(scoring);
+  for (std::size_t first = 0; first < tracks; first += kBlock) {
+    const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, tracks - first));
+    run_block(first, lanes, nullptr, nullptr, true);
+    scoring.tracks = lanes;
+    scoring.prediction = prediction_.data() + first / kBlock * prediction_tile_;
+    scoring.out = out.data() + first;
+    score_plots(scoring);
+  }
 }
 
 void TrackBank::remake(double interval, const ModeMatrix& transition) {
@@ -168,7 +168,7 @@ bool TrackBank::set_interval(double interval) {
 }
 
 void TrackBank::run_block(std::size_t first, int lanes, const Eigen::Vector2d* plots,
-                          StepStatus* status, double* prediction) {
+                          StepStatus* status, bool predict) {
   Block block;
   block.modes = modes_;
   block.lanes = lanes;
@@ -179,11 +179,12 @@ void TrackBank::run_block(std::size_t first, int lanes, const Eigen::Vector2d* p
   block.r00 = r00_;
   block.r01 = r01_;
   block.r11 = r11_;
-  block.state = state_.data() + first;
-  block.stride = stride_;
+  const auto tile = static_cast<std::ptrdiff_t>(first / kBlock);
+  block.state = state_.data() + tile * tile_;
+  block.stride = kBlock;
   block.plots = plots;
   block.status = status;
-  if (prediction != nullptr) return predict_plots(block, prediction);
+  if (predict) return predict_plots(block, prediction_.data() + tile * prediction_tile_);
   step_tracks(block);
 }
 
@@ -198,8 +199,8 @@ GaussianState<TrackBank::kDim> TrackBank::mode_estimate(std::size_t track, int j
   if (j < 0 || j >= modes_) throw std::out_of_range("mode " + std::to_string(j));
   GaussianState<kDim> out;
   for (int a = 0; a < kDim; ++a) {
-    out.mean(a) = slot(mode_slot(j, kMean + a))[t];
-    for (int c = 0; c < kDim; ++c) out.covariance(a, c) = slot(mode_slot(j, kCov + sym(a, c)))[t];
+    out.mean(a) = at(mode_slot(j, kMean + a), t);
+    for (int c = 0; c < kDim; ++c) out.covariance(a, c) = at(mode_slot(j, kCov + sym(a, c)), t);
   }
   return out;
 }
@@ -208,8 +209,8 @@ GaussianState<TrackBank::kDim> TrackBank::estimate(std::size_t track) const {
   const auto t = static_cast<std::ptrdiff_t>(checked(track));
   GaussianState<kDim> out;
   for (int a = 0; a < kDim; ++a) {
-    out.mean(a) = slot(combined_slot(kMean + a))[t];
-    for (int c = 0; c < kDim; ++c) out.covariance(a, c) = slot(combined_slot(kCov + sym(a, c)))[t];
+    out.mean(a) = at(combined_slot(kMean + a), t);
+    for (int c = 0; c < kDim; ++c) out.covariance(a, c) = at(combined_slot(kCov + sym(a, c)), t);
   }
   return out;
 }
@@ -217,7 +218,7 @@ GaussianState<TrackBank::kDim> TrackBank::estimate(std::size_t track) const {
 ModeVector TrackBank::log_mode_probabilities(std::size_t track) const {
   const auto t = static_cast<std::ptrdiff_t>(checked(track));
   ModeVector out(modes_);
-  for (int j = 0; j < modes_; ++j) out(j) = slot(mode_slot(j, kLogMu))[t];
+  for (int j = 0; j < modes_; ++j) out(j) = at(mode_slot(j, kLogMu), t);
   return out;
 }
 

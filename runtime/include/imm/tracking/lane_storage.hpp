@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "imm/core/aligned_allocator.hpp"
 #include "imm/runtime_export.hpp"
 
 namespace imm {
@@ -29,7 +30,8 @@ class IMM_RUNTIME_EXPORT LaneStorage {
   LaneStorage() = default;
 
   /// Room for `capacity` tracks of `lanes_per_track` lanes each, `slots` slots of a lane, the
-  /// lanes rounded up to whole blocks of `block`: every slot 0, no track initialized. Throws
+  /// lanes rounded up to whole blocks of `block` (and to stride()): every slot 0, no track
+  /// initialized. Throws
   /// InvalidParameter("capacity") for a capacity outside [1, 2^26].
   void allocate(std::size_t capacity, int lanes_per_track, int block, std::size_t slots);
 
@@ -37,7 +39,8 @@ class IMM_RUNTIME_EXPORT LaneStorage {
   [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
   /// Slot `index`'s first lane.
   [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
-  /// Lanes per slot: the tracks' lanes rounded up to whole blocks.
+  /// Lanes per slot: the tracks' lanes rounded up to whole blocks, and to an odd number of
+  /// cache lines.
   [[nodiscard]] std::ptrdiff_t stride() const { return stride_; }
 
   /// `track` as an index, or std::out_of_range when it is not below capacity().
@@ -52,7 +55,7 @@ class IMM_RUNTIME_EXPORT LaneStorage {
 
  private:
   std::ptrdiff_t stride_ = 0;
-  std::vector<double> state_;  // slots × stride
+  std::vector<double, AlignedAllocator<double>> state_;  // slots × stride, slot 0 on a line
   std::vector<unsigned char> initialized_;
 };
 

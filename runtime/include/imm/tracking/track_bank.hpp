@@ -6,17 +6,21 @@
 /// IMM (plain_imm.hpp) when every mode is constant-velocity and the measurement Cartesian, the
 /// common case of air and ground surveillance: state [x, vx, y, vy], z = [x, y] + v.
 ///
-/// Layout, and why: the tracks are stored as structure of arrays — entry e of mode j of track t
-/// at slot(j, e)[t] — and one step is one function templated on its number type
-/// (track_bank_kernel.cpp): a LanePack (imm/math/lane_math.hpp) steps eight consecutive tracks at
-/// once, one per vector element, through the whole IMM cycle (mode-probability prediction,
-/// mixing, prediction, Joseph update, posterior, combination) with lane_log and lane_exp; a double
-/// steps the tracks left over, one at a time, through the same statements. The instruction set
-/// (AVX-512 or AVX2 where the CPU has it, chosen at run time; SSE2 otherwise) changes how many
-/// instructions an element operation takes, not its result: a track's arithmetic is the same
-/// sequence of IEEE operations in every lane and alone (no fused multiply-add, no reassociation),
-/// so a track's result does not depend on its position, on the number of tracks or on the
-/// instruction set: a bank of N tracks equals N banks of one track to the bit.
+/// Layout, and why: the tracks are stored in tiles of kBlock = 8 (a structure of arrays per
+/// tile): entry e of mode j of the tile's lane l at slot (j, e) · 8 + l, so that a tile's state is
+/// one contiguous run of whole, aligned cache lines. (A structure of arrays over the whole bank
+/// puts a pack's 60-odd slots one capacity apart; at a capacity of 1 024 that is 8 KiB, and every
+/// slot falls into the same set of the first-level cache.) One step is one function templated on
+/// its number type (track_bank_kernel.cpp): a LanePack (imm/math/lane_math.hpp) steps eight
+/// consecutive tracks at once, one per vector element, through the whole IMM cycle
+/// (mode-probability prediction, mixing, prediction, Joseph update, posterior, combination) with
+/// lane_log and lane_exp; a double steps the tracks left over, one at a time, through the same
+/// statements. The instruction set (AVX-512 or AVX2 where the CPU has it, chosen at run time; SSE2
+/// otherwise) changes how many instructions an element operation takes, not its result: a track's
+/// arithmetic is the same sequence of IEEE operations in every lane and alone (no fused
+/// multiply-add, no reassociation), so a track's result does not depend on its position, on the
+/// number of tracks or on the instruction set: a bank of N tracks equals N banks of one track to
+/// the bit.
 ///
 /// Numerics are those of ImmEstimator: log-space mode probabilities (the scaled linear μ̃ of the
 /// class comment there, kept from the previous posterior instead of recomputed), the Joseph-form
@@ -33,6 +37,7 @@
 #include <span>
 #include <vector>
 
+#include "imm/core/aligned_allocator.hpp"
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
 #include "imm/filters/plain_imm.hpp"
@@ -46,8 +51,8 @@ class IMM_RUNTIME_EXPORT TrackBank {
  public:
   /// The state dimension: [x, vx, y, vy].
   static constexpr int kDim = 4;
-  /// Tracks per call of the kernel; the state is padded to a multiple of it.
-  static constexpr int kBlock = 64;
+  /// Tracks per tile of the state (the widest pack); the state is padded to whole tiles.
+  static constexpr int kBlock = 8;
 
   /// Room for `capacity` tracks of the IMM of `spec`. Throws InvalidParameter naming the field
   /// for an invalid spec, a mode that is not CV ("modes[i].motion") or a polar measurement
@@ -103,22 +108,28 @@ class IMM_RUNTIME_EXPORT TrackBank {
   [[nodiscard]] ModeVector log_mode_probabilities(std::size_t track) const;
 
  private:
-  [[nodiscard]] double* slot(int index) { return state_.data() + index * stride_; }
-  [[nodiscard]] const double* slot(int index) const { return state_.data() + index * stride_; }
+  // Where slot `index` of track t (an index checked() gave) is in state_.
+  [[nodiscard]] std::size_t offset(int index, std::ptrdiff_t t) const {
+    return static_cast<std::size_t>(t / kBlock * tile_ + std::ptrdiff_t{index} * kBlock +
+                                    t % kBlock);
+  }
+  [[nodiscard]] double& at(int index, std::ptrdiff_t t) { return state_[offset(index, t)]; }
+  [[nodiscard]] double at(int index, std::ptrdiff_t t) const { return state_[offset(index, t)]; }
   // The state slot of entry `entry` of mode j / of the combined estimate (layout in the .cpp).
   [[nodiscard]] int mode_slot(int j, int entry) const;
   [[nodiscard]] int combined_slot(int entry) const;
   [[nodiscard]] std::size_t checked(std::size_t track) const;
   // The constants of a cycle of `interval` s with mode transitions `transition` (no allocation).
   void remake(double interval, const ModeMatrix& transition);
-  // The kernel on tracks [first, first + lanes), lanes ≤ kBlock: their step with `plots`, or,
-  // with a `prediction`, their predicted plot densities into it.
+  // The kernel on the tile of tracks [first, first + lanes), lanes ≤ kBlock: their step with
+  // `plots`, or, with `predict`, their predicted plot densities into prediction_.
   void run_block(std::size_t first, int lanes, const Eigen::Vector2d* plots, StepStatus* status,
-                 double* prediction);
+                 bool predict);
 
   int modes_ = 0;
   std::size_t capacity_ = 0;
-  std::ptrdiff_t stride_ = 0;   // capacity rounded up to whole blocks
+  std::ptrdiff_t tile_ = 0;             // doubles per tile of the state (slots × kBlock)
+  std::ptrdiff_t prediction_tile_ = 0;  // of prediction_
   double period_ = 1.0;         // the interval of a cycle (the sample period until set_interval)
   double sample_period_ = 1.0;  // the spec's
   ModeMatrix per_period_;       // Π over one sample period
@@ -129,8 +140,9 @@ class IMM_RUNTIME_EXPORT TrackBank {
   std::vector<double> noise_;  // per mode, Q's upper triangle (10)
   double r00_ = 0.0, r01_ = 0.0, r11_ = 0.0;
 
-  std::vector<double> state_;
-  std::vector<double> prediction_;  // candidate_log_likelihoods' predicted plot densities
+  std::vector<double, AlignedAllocator<double>> state_;  // whole tiles
+  // candidate_log_likelihoods' predicted plot densities, in tiles as the state
+  std::vector<double, AlignedAllocator<double>> prediction_;
   std::vector<unsigned char> initialized_;
 };
 
