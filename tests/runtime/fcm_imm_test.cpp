@@ -19,6 +19,7 @@
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/models/measurement/position_measurement.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
+#include "testing/model_files.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm {
@@ -543,12 +544,10 @@ FcmImmSpec fitted_spec() {
 
 void write(const std::filesystem::path& path, const FcmImmSpec& spec,
            const std::function<void(io::ModelFileWriter&)>& tamper = {}) {
-  io::Provenance provenance;
-  provenance.model_kind = std::string(io::kFcmImmKind);
-  io::ModelFileWriter writer(path, provenance);
-  io::write_fcm_imm(writer, spec);
-  if (tamper) tamper(writer);
-  writer.commit();
+  testing::write_model(path, io::kFcmImmKind, [&](io::ModelFileWriter& writer) {
+    io::write_fcm_imm(writer, spec);
+    if (tamper) tamper(writer);
+  });
 }
 
 TEST(FcmImmFile, RoundTrip) {

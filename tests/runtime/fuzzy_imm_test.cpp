@@ -13,6 +13,7 @@
 #include "imm/models/motion/constant_velocity.hpp"
 #include "testing/hdf5_edit.hpp"
 #include "testing/matrix_checks.hpp"
+#include "testing/model_files.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm {
@@ -274,13 +275,9 @@ GaFuzzyImmSpec example_fuzzy_spec() {
 TEST(GaFuzzyImmFile, RoundTripKeepsEveryRule) {
   const testing::TempDir dir;
   const auto path = dir / "fuzzy.h5";
-  {
-    io::Provenance provenance;
-    provenance.model_kind = std::string(io::kGaFuzzyImmKind);
-    io::ModelFileWriter writer(path, provenance);
+  testing::write_model(path, io::kGaFuzzyImmKind, [](io::ModelFileWriter& writer) {
     io::write_ga_fuzzy_imm(writer, example_fuzzy_spec(), {{{"fitness", 0.7}}, {}});
-    writer.commit();
-  }
+  });
   const GaFuzzyImmSpec back = io::read_ga_fuzzy_imm(path);
   const GaFuzzyImmSpec original = example_fuzzy_spec();
   ASSERT_EQ(back.levels.size(), 2u);
@@ -297,13 +294,11 @@ TEST(GaFuzzyImmFile, RoundTripKeepsEveryRule) {
 TEST(GaFuzzyImmFile, NormalizedAntecedentsRoundTripAsVersion3) {
   const testing::TempDir dir;
   auto write = [&](const std::filesystem::path& path, FuzzyAntecedents antecedents) {
-    io::Provenance provenance;
-    provenance.model_kind = std::string(io::kGaFuzzyImmKind);
-    io::ModelFileWriter writer(path, provenance);
     GaFuzzyImmSpec spec = example_fuzzy_spec();
     spec.antecedents = antecedents;
-    io::write_ga_fuzzy_imm(writer, spec, {});
-    writer.commit();
+    testing::write_model(path, io::kGaFuzzyImmKind, [&](io::ModelFileWriter& writer) {
+      io::write_ga_fuzzy_imm(writer, spec, {});
+    });
   };
   write(dir / "residual.h5", FuzzyAntecedents::kResidual);
   write(dir / "normalized.h5", FuzzyAntecedents::kNormalizedInnovation);

@@ -18,6 +18,7 @@
 #include "imm/tracking/calibrated_filter.hpp"
 #include "testing/hdf5_edit.hpp"
 #include "testing/kind_filters.hpp"
+#include "testing/model_files.hpp"
 #include "testing/shipped_models.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -277,13 +278,13 @@ std::shared_ptr<const TskSensorModel> identity_sensor() {
 }
 
 std::filesystem::path write_tsk_file(const std::filesystem::path& path, const FimmSpec* fimm) {
-  io::Provenance provenance;
-  provenance.model_kind = std::string(io::kTskSensorKind);
-  provenance.trainer_version = "test";
-  io::ModelFileWriter writer(path, provenance);
-  io::write_tsk_sensor(writer, *identity_sensor());
-  if (fimm != nullptr) io::write_fimm_settings(writer, *fimm);
-  writer.commit();
+  testing::write_model(
+      path, io::kTskSensorKind,
+      [&](io::ModelFileWriter& writer) {
+        io::write_tsk_sensor(writer, *identity_sensor());
+        if (fimm != nullptr) io::write_fimm_settings(writer, *fimm);
+      },
+      "test");
   return path;
 }
 

@@ -17,6 +17,7 @@
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/models/motion/coordinated_turn.hpp"
 #include "imm/tracking/track_bank.hpp"
+#include "testing/model_files.hpp"
 #include "testing/specs.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -196,14 +197,8 @@ TEST(ScheduledNoise, TheFileCarriesTheScheduleAndRefusalsNameTheField) {
   EXPECT_TRUE(spec.has_noise_schedule());
   const testing::TempDir dir;
   const auto path = dir / "scheduled.h5";
-  {
-    io::Provenance provenance;
-    provenance.model_kind = std::string(io::kPlainImmKind);
-    provenance.length_unit = "m";
-    io::ModelFileWriter writer(path, provenance);
-    io::write_plain_imm(writer, spec);
-    writer.commit();
-  }
+  testing::write_model(path, io::kPlainImmKind,
+                       [&](io::ModelFileWriter& writer) { io::write_plain_imm(writer, spec); });
   const io::ModelFileReader reader(path, io::kPlainImmKind);
   EXPECT_EQ(reader.schema_version(), 3);
   const PlainImmSpec read = io::read_plain_imm(reader);

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <functional>
+#include <initializer_list>
 #include <memory>
 #include <string>
 
@@ -15,10 +16,12 @@
 #include "imm/datasets/range_sensor.hpp"
 #include "imm/estimation/kalman_filter.hpp"
 #include "imm/filters/fimm.hpp"
+#include "imm/filters/wimm.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/models/learned/tsk_sensor_model.hpp"
 #include "imm/models/measurement/tsk_sensor_measurement.hpp"
+#include "testing/model_files.hpp"
 #include "testing/regimes.hpp"
 #include "testing/temp_dir.hpp"
 #include "testing/tsk_sensors.hpp"
@@ -389,30 +392,38 @@ TEST(Fimm, InvalidSpecsAreRefusedByName) {
   refused([](FimmSpec& s) { s.sample_period = std::nan(""); }, "sample_period");
 }
 
-TEST(Fimm, InvalidInitialStatesAreRefusedByName) {
+// Both filters of ImmTrackFilter<6> (the FIMM, the wIMM; a wrong-sized start used to reach the
+// wIMM's fixed-size state unchecked) refuse a start they cannot take, by the field's name.
+TEST(ImmTrackFilter, InvalidInitialStatesAreRefusedByName) {
   FimmSpec spec;
   spec.sample_period = 0.1;
+  WimmSpec wimm_spec;
+  wimm_spec.sample_period = 1.0;
   FimmFilter fimm(spec, nullptr);
-  auto field_of = [&](const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
-    try {
-      fimm.initialize(mean, covariance);
-    } catch (const InvalidParameter& error) {
-      return error.field();
-    }
-    return std::string();
-  };
-  const Eigen::VectorXd good = Eigen::VectorXd::Zero(6);
-  EXPECT_EQ(field_of(good, start_covariance()), "");
-  EXPECT_EQ(field_of(Eigen::VectorXd::Zero(4), start_covariance()), "initial_state");
-  Eigen::VectorXd nan_mean = good;
-  nan_mean(3) = std::nan("");
-  EXPECT_EQ(field_of(nan_mean, start_covariance()), "initial_state");
-  Eigen::MatrixXd skew = start_covariance();
-  skew(0, 1) = 0.5;
-  EXPECT_EQ(field_of(good, skew), "initial_covariance");
-  Eigen::MatrixXd negative = start_covariance();
-  negative(2, 2) = -1.0;
-  EXPECT_EQ(field_of(good, negative), "initial_covariance");
+  WimmFilter wimm(wimm_spec);
+  for (TrackFilter* filter : std::initializer_list<TrackFilter*>{&fimm, &wimm}) {
+    auto field_of = [&](const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
+      try {
+        filter->initialize(mean, covariance);
+      } catch (const InvalidParameter& error) {
+        return error.field();
+      }
+      return std::string();
+    };
+    const Eigen::VectorXd good = Eigen::VectorXd::Zero(6);
+    EXPECT_EQ(field_of(good, start_covariance()), "");
+    EXPECT_EQ(field_of(Eigen::VectorXd::Zero(4), start_covariance()), "initial_state");
+    Eigen::VectorXd nan_mean = good;
+    nan_mean(3) = std::nan("");
+    EXPECT_EQ(field_of(nan_mean, start_covariance()), "initial_state");
+    EXPECT_EQ(field_of(good, Eigen::MatrixXd::Identity(4, 4)), "initial_covariance");
+    Eigen::MatrixXd skew = start_covariance();
+    skew(0, 1) = 0.5;
+    EXPECT_EQ(field_of(good, skew), "initial_covariance");
+    Eigen::MatrixXd negative = start_covariance();
+    negative(2, 2) = -1.0;
+    EXPECT_EQ(field_of(good, negative), "initial_covariance");
+  }
 }
 
 TEST(Fimm, ABadPlotLeavesTheFilterUnchanged) {
@@ -435,12 +446,10 @@ TEST(Fimm, ABadPlotLeavesTheFilterUnchanged) {
 
 void write(const std::filesystem::path& path, const TskSensorModel& model,
            const std::function<void(io::ModelFileWriter&)>& tamper = {}) {
-  io::Provenance provenance;
-  provenance.model_kind = std::string(io::kTskSensorKind);
-  io::ModelFileWriter writer(path, provenance);
-  io::write_tsk_sensor(writer, model);
-  if (tamper) tamper(writer);
-  writer.commit();
+  testing::write_model(path, io::kTskSensorKind, [&](io::ModelFileWriter& writer) {
+    io::write_tsk_sensor(writer, model);
+    if (tamper) tamper(writer);
+  });
 }
 
 TEST(TskSensorFile, RoundTrip) {

@@ -21,6 +21,7 @@
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/models/motion/coordinated_turn.hpp"
 #include "imm/tracking/tracker.hpp"
+#include "testing/model_files.hpp"
 #include "testing/specs.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -286,14 +287,8 @@ TEST(TurnImm, TheSpecTheFileAndTheTrackerCarryTheTurnMode) {
 
   const testing::TempDir dir;
   const auto path = dir / "ct.h5";
-  {
-    io::Provenance provenance;
-    provenance.model_kind = std::string(io::kPlainImmKind);
-    provenance.length_unit = "m";
-    io::ModelFileWriter writer(path, provenance);
-    io::write_plain_imm(writer, spec);
-    writer.commit();
-  }
+  testing::write_model(path, io::kPlainImmKind,
+                       [&](io::ModelFileWriter& writer) { io::write_plain_imm(writer, spec); });
   const PlainImmSpec read = io::read_plain_imm(path);
   ASSERT_EQ(read.modes.size(), 2U);
   EXPECT_EQ(read.modes[1].motion, MotionKind::kCoordinatedTurn);

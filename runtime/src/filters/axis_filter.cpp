@@ -77,7 +77,7 @@ StepStatus AxisFilter::miss() { no_axis_split("miss"); }
 bool ImmAxisFilter::predicted_plot(double& z_hat, double& variance) const {
   Vector<1> mean;
   SquareMatrix<1> covariance;
-  if (!imm_.predicted_plot(mean, covariance)) return false;
+  if (!imm().predicted_plot(mean, covariance)) return false;
   z_hat = mean(0);
   variance = covariance(0, 0);
   return true;

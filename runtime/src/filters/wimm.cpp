@@ -83,13 +83,13 @@ TrackOptions WimmSpec::track_options(std::int64_t max_gap) const {
 }
 
 WimmFilter::WimmFilter(const WimmSpec& spec)
-    : spec_(spec), fusion_(std::make_shared<AzimuthFusion>()), imm_(build_imm(spec, fusion_)) {}
+    : WimmFilter(spec, std::make_shared<AzimuthFusion>()) {}
+
+WimmFilter::WimmFilter(const WimmSpec& spec, std::shared_ptr<AzimuthFusion> fusion)
+    : ImmTrackFilter<6>(build_imm(spec, fusion)), spec_(spec), fusion_(std::move(fusion)) {}
 
 void WimmFilter::initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
-  GaussianState<6> state;
-  state.mean = mean;
-  state.covariance = covariance;
-  imm_.initialize(state);
+  ImmTrackFilter<6>::initialize(mean, covariance);
   fused_ = false;
 }
 
@@ -97,37 +97,36 @@ StepStatus WimmFilter::step(const Eigen::Vector2d& z) {
   bool fused = false;
   const AzimuthUse plain =
       spec_.update == MeasurementUpdate::kConverted ? AzimuthUse::kConverted : AzimuthUse::kPlot;
-  const StepStatus status =
-      imm_.step_with(z,
-                     [&](const ModeVector& predicted, const std::array<Vector<6>, kMaxModes>& means,
-                         const Vector<2>& plot) -> Vector<2> {
-                       Vector<2> chosen = plot;
-                       fusion_->use = plain;
-                       if (spec_.fusion != FusionVariant::kNone && predicted(0) > spec_.threshold) {
-                         // θ̄: the μ̄-weighted circular mean of the modes' predicted azimuths (eq.
-                         // 9–11).
-                         double s = 0.0, c = 0.0;
-                         for (int j = 0; j < 2; ++j) {
-                           const double theta = azimuth_of(means[static_cast<std::size_t>(j)](0),
-                                                           means[static_cast<std::size_t>(j)](3));
-                           s += predicted(j) * std::sin(theta);
-                           c += predicted(j) * std::cos(theta);
-                         }
-                         const double theta_bar = std::atan2(s, c);
-                         chosen(1) = blend_angles(plot(1), theta_bar, spec_.alpha);
-                         fusion_->alpha = spec_.alpha;
-                         fusion_->predicted_azimuth = theta_bar;
-                         if (spec_.fusion == FusionVariant::kCorrelated)
-                           fusion_->use = AzimuthUse::kCorrelated;
-                         fused = true;
-                       }
-                       if (fusion_->use == AzimuthUse::kConverted) {
-                         fusion_->converted_covariance =
-                             polar_to_cartesian(chosen, spec_.measurement_covariance()).covariance;
-                       }
-                       chosen_ = chosen;
-                       return chosen;
-                     });
+  const StepStatus status = estimator().step_with(
+      z,
+      [&](const ModeVector& predicted, const std::array<Vector<6>, kMaxModes>& means,
+          const Vector<2>& plot) -> Vector<2> {
+        Vector<2> chosen = plot;
+        fusion_->use = plain;
+        if (spec_.fusion != FusionVariant::kNone && predicted(0) > spec_.threshold) {
+          // θ̄: the μ̄-weighted circular mean of the modes' predicted azimuths (eq.
+          // 9–11).
+          double s = 0.0, c = 0.0;
+          for (int j = 0; j < 2; ++j) {
+            const double theta = azimuth_of(means[static_cast<std::size_t>(j)](0),
+                                            means[static_cast<std::size_t>(j)](3));
+            s += predicted(j) * std::sin(theta);
+            c += predicted(j) * std::cos(theta);
+          }
+          const double theta_bar = std::atan2(s, c);
+          chosen(1) = blend_angles(plot(1), theta_bar, spec_.alpha);
+          fusion_->alpha = spec_.alpha;
+          fusion_->predicted_azimuth = theta_bar;
+          if (spec_.fusion == FusionVariant::kCorrelated) fusion_->use = AzimuthUse::kCorrelated;
+          fused = true;
+        }
+        if (fusion_->use == AzimuthUse::kConverted) {
+          fusion_->converted_covariance =
+              polar_to_cartesian(chosen, spec_.measurement_covariance()).covariance;
+        }
+        chosen_ = chosen;
+        return chosen;
+      });
   if (status == StepStatus::kOk) {
     fused_ = fused;
     plot_ = z;
@@ -136,31 +135,32 @@ StepStatus WimmFilter::step(const Eigen::Vector2d& z) {
   return status;
 }
 
-StepStatus WimmFilter::predict_only() { return imm_.predict_only(); }
-
+// Without a split cycle each call below is the interface's own answer (it throws, or answers NaN),
+// not the IMM's that ImmTrackFilter would give.
+// NOLINTBEGIN(bugprone-parent-virtual-call)
 StepStatus WimmFilter::predict() {
   if (!has_split_cycle()) return TrackFilter::predict();  // throws
   fusion_->use = AzimuthUse::kPlot;  // what step()'s choice sets without fusion
-  return imm_.predict();
+  return estimator().predict();
 }
 
 double WimmFilter::candidate_log_likelihood(const Eigen::Vector2d& z) const {
   if (!has_split_cycle()) return TrackFilter::candidate_log_likelihood(z);
-  return imm_.candidate_log_likelihood(z);
+  return imm().candidate_log_likelihood(z);
 }
 
 double WimmFilter::candidate_distance(const Eigen::Vector2d& z) const {
   if (!has_split_cycle()) return TrackFilter::candidate_distance(z);
-  return imm_.candidate_distance(z);
+  return imm().candidate_distance(z);
 }
 
 bool WimmFilter::predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const {
-  return has_split_cycle() && imm_.predicted_plot(z_hat, S);
+  return has_split_cycle() && imm().predicted_plot(z_hat, S);
 }
 
 StepStatus WimmFilter::update(const Eigen::Vector2d& z) {
   if (!has_split_cycle()) return TrackFilter::update(z);  // throws
-  const StepStatus status = imm_.update(z);
+  const StepStatus status = estimator().update(z);
   if (status == StepStatus::kOk) {  // step()'s bookkeeping of an unfused cycle
     fused_ = false;
     plot_ = z;
@@ -172,8 +172,9 @@ StepStatus WimmFilter::update(const Eigen::Vector2d& z) {
 
 StepStatus WimmFilter::miss() {
   if (!has_split_cycle()) return TrackFilter::miss();  // throws
-  return imm_.miss();
+  return estimator().miss();
 }
+// NOLINTEND(bugprone-parent-virtual-call)
 
 void WimmFilter::to_plot(Vector<2>& nu, SquareMatrix<2>& S) const {
   if (!fused_) return;
@@ -203,7 +204,7 @@ void WimmFilter::to_plot(Vector<2>& nu, SquareMatrix<2>& S) const {
 bool WimmFilter::innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const {
   Vector<2> n;
   SquareMatrix<2> s;
-  if (!imm_.innovation(n, s, [this](Vector<2>& v, SquareMatrix<2>& c) { to_plot(v, c); }))
+  if (!imm().innovation(n, s, [this](Vector<2>& v, SquareMatrix<2>& c) { to_plot(v, c); }))
     return false;
   nu = n;
   S = s;
@@ -212,21 +213,9 @@ bool WimmFilter::innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const {
 
 double WimmFilter::log_predictive_likelihood() const {
   const double density =
-      imm_.log_predictive_likelihood([this](Vector<2>& v, SquareMatrix<2>& c) { to_plot(v, c); });
+      imm().log_predictive_likelihood([this](Vector<2>& v, SquareMatrix<2>& c) { to_plot(v, c); });
   // p(r, θ) = p(x, y) · r under the converted update.
   return use_ == AzimuthUse::kConverted ? density + std::log(plot_(0)) : density;
-}
-
-void WimmFilter::state(
-    Eigen::Ref<Eigen::VectorXd> mean,              // NOLINT(performance-unnecessary-value-param)
-    Eigen::Ref<Eigen::VectorXd> variance) const {  // NOLINT(performance-unnecessary-value-param)
-  mean = imm_.estimate().mean;
-  variance = imm_.estimate().covariance.diagonal();
-}
-
-void WimmFilter::covariance(
-    Eigen::Ref<Eigen::MatrixXd> covariance) const {  // NOLINT(performance-unnecessary-value-param)
-  covariance = imm_.estimate().covariance;
 }
 
 }  // namespace imm

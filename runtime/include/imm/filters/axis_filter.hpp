@@ -12,6 +12,7 @@
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/imm_estimator.hpp"
 #include "imm/runtime_export.hpp"
+#include "imm/tracking/imm_track_filter.hpp"
 #include "imm/tracking/track_filter.hpp"
 #include "imm/tracking/track_options.hpp"
 
@@ -99,62 +100,38 @@ class IMM_RUNTIME_EXPORT AxisFilter {
   virtual StepStatus miss();
 };
 
-/// An IMM over per-axis modes (filters with per-mode extras derive from it).
-class IMM_RUNTIME_EXPORT ImmAxisFilter : public AxisFilter {
+/// An IMM over per-axis modes (filters with per-mode extras derive from it); what does not depend
+/// on the plot's type is ImmForwarding's (imm_track_filter.hpp).
+class IMM_RUNTIME_EXPORT ImmAxisFilter : public ImmForwarding<AxisFilter, 2, 1> {
  public:
   /// Takes an IMM of axis modes.
-  explicit ImmAxisFilter(ImmEstimator<2, 1> imm) : imm_(std::move(imm)) {}
+  explicit ImmAxisFilter(ImmEstimator<2, 1> imm) : ImmForwarding(std::move(imm)) {}
 
   /// Starts every mode from `state`; the mode probabilities restart at the initial ones.
-  void initialize(const GaussianState<2>& state) override { imm_.initialize(state); }
-  StepStatus step(double z) override { return imm_.step(Vector<1>(z)); }
-  /// One IMM cycle without a measurement.
-  StepStatus predict_only() override { return imm_.predict_only(); }
+  void initialize(const GaussianState<2>& state) override { estimator().initialize(state); }
+  StepStatus step(double z) override { return estimator().step(Vector<1>(z)); }
   /// The IMM's combined estimate.
-  [[nodiscard]] const GaussianState<2>& estimate() const override { return imm_.estimate(); }
-  /// The IMM's mode probabilities.
-  [[nodiscard]] ModeVector mode_probabilities() const override { return imm_.mode_probabilities(); }
-  /// The number of IMM modes.
-  [[nodiscard]] int mode_count() const override { return imm_.mode_count(); }
+  [[nodiscard]] const GaussianState<2>& estimate() const override { return imm().estimate(); }
   /// The name of IMM mode j.
   [[nodiscard]] std::string mode_name(int j) const override {
-    return std::string(imm_.mode(j).name());
+    return std::string(imm().mode(j).name());
   }
   /// The IMM's combined innovation.
   bool innovation(double& nu, double& variance) const override {
-    return axis_innovation(imm_, nu, variance);
+    return axis_innovation(imm(), nu, variance);
   }
-  /// The IMM's mixture log Σ_j c_j N(ν_j; 0, S_j).
-  [[nodiscard]] double log_predictive_likelihood() const override {
-    return imm_.log_predictive_likelihood();
-  }
-  /// The IMM's split cycle (ImmEstimator::predict and what follows it).
-  [[nodiscard]] bool has_split_cycle() const override { return true; }
-  /// Whether every mode predicts before the plot (no trial updates).
-  [[nodiscard]] bool predicts_before_the_plot() const override {
-    return imm_.predicts_before_the_plot();
-  }
-  /// ImmEstimator::predict.
-  StepStatus predict() override { return imm_.predict(); }
   /// ImmEstimator::candidate_log_likelihood.
   [[nodiscard]] double candidate_log_likelihood(double z) const override {
-    return imm_.candidate_log_likelihood(Vector<1>(z));
+    return imm().candidate_log_likelihood(Vector<1>(z));
   }
   /// ImmEstimator::candidate_distance.
   [[nodiscard]] double candidate_distance(double z) const override {
-    return imm_.candidate_distance(Vector<1>(z));
+    return imm().candidate_distance(Vector<1>(z));
   }
   /// ImmEstimator::predicted_plot.
   bool predicted_plot(double& z_hat, double& variance) const override;
   /// ImmEstimator::update.
-  StepStatus update(double z) override { return imm_.update(Vector<1>(z)); }
-  /// ImmEstimator::miss.
-  StepStatus miss() override { return imm_.miss(); }
-  /// The underlying IMM.
-  [[nodiscard]] const ImmEstimator<2, 1>& imm() const { return imm_; }
-
- private:
-  ImmEstimator<2, 1> imm_;
+  StepStatus update(double z) override { return estimator().update(Vector<1>(z)); }
 };
 
 /// Two axis filters as one 2-D filter. A plot is validated before either axis moves; a numerical

@@ -22,7 +22,7 @@
 #include "imm/estimation/imm_estimator.hpp"
 #include "imm/models/learned/tsk_sensor_model.hpp"
 #include "imm/runtime_export.hpp"
-#include "imm/tracking/track_filter.hpp"
+#include "imm/tracking/imm_track_filter.hpp"
 #include "imm/tracking/track_options.hpp"
 
 namespace imm {
@@ -51,58 +51,21 @@ struct IMM_RUNTIME_EXPORT FimmSpec {
   [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
-/// The FIMM as a TrackFilter: state [ξ, ξ̇, ξ̈, η, η̇, η̈], plots (z1, z2) of the sensor.
-class IMM_RUNTIME_EXPORT FimmFilter final : public TrackFilter {
+/// The FIMM as a TrackFilter: state [ξ, ξ̇, ξ̈, η, η̇, η̈], plots (z1, z2) of the sensor; every
+/// answer the IMM's (ImmTrackFilter), in the sensor's (z1, z2).
+class IMM_RUNTIME_EXPORT FimmFilter final : public ImmTrackFilter<6> {
  public:
-  /// `sensor` null: h = identity (the baseline IMM).
+  /// `sensor` null: h = identity (the baseline IMM). Throws InvalidParameter naming the field of
+  /// an invalid spec.
   FimmFilter(const FimmSpec& spec, std::shared_ptr<const TskSensorModel> sensor);
-  ~FimmFilter() override;
 
-  /// 6: [ξ, ξ̇, ξ̈, η, η̇, η̈].
-  [[nodiscard]] int state_dimension() const override { return 6; }
-  /// 2: cruise and lane change.
-  [[nodiscard]] int mode_count() const override { return 2; }
   /// "cruise" or "lane change".
   [[nodiscard]] std::string mode_name(int j) const override;
-  void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override;
-  StepStatus step(const Eigen::Vector2d& z) override;
-  StepStatus predict_only() override;
-  void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override;
-  void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const override;
-  /// (cruise, lane change).
-  [[nodiscard]] ModeVector mode_probabilities() const override;
-  /// The IMM's combined innovation in the sensor's (z1, z2).
-  bool innovation(Eigen::Vector2d& nu, Eigen::Matrix2d& S) const override;
-  /// The IMM's mixture log Σ_j c_j N(ν_j; 0, S_j) in the sensor's (z1, z2).
-  [[nodiscard]] double log_predictive_likelihood() const override {
-    return imm_->log_predictive_likelihood();
-  }
-
-  /// The IMM's split cycle (ImmEstimator::predict and what follows it).
-  [[nodiscard]] bool has_split_cycle() const override { return true; }
-  /// Whether every mode predicts before the plot.
-  [[nodiscard]] bool predicts_before_the_plot() const override;
-  /// ImmEstimator::predict.
-  StepStatus predict() override;
-  /// ImmEstimator::candidate_log_likelihood.
-  [[nodiscard]] double candidate_log_likelihood(const Eigen::Vector2d& z) const override;
-  /// ImmEstimator::candidate_distance.
-  [[nodiscard]] double candidate_distance(const Eigen::Vector2d& z) const override;
-  /// ImmEstimator::predicted_plot.
-  bool predicted_plot(Eigen::Vector2d& z_hat, Eigen::Matrix2d& S) const override;
-  /// ImmEstimator::update.
-  StepStatus update(const Eigen::Vector2d& z) override;
-  /// ImmEstimator::miss.
-  StepStatus miss() override;
-
-  /// The combined estimate with its full covariance.
-  [[nodiscard]] const GaussianState<6>& estimate() const;
   /// Whether the last combined estimate lies outside the sensor model's trained box.
   [[nodiscard]] bool outside_sensor_box() const;
 
  private:
   std::shared_ptr<const TskSensorModel> sensor_;
-  std::unique_ptr<ImmEstimator<6, 2>> imm_;
 };
 
 }  // namespace imm

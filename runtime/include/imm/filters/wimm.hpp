@@ -24,7 +24,7 @@
 #include "imm/estimation/imm_estimator.hpp"
 #include "imm/models/measurement/fused_polar_measurement.hpp"
 #include "imm/runtime_export.hpp"
-#include "imm/tracking/track_filter.hpp"
+#include "imm/tracking/imm_track_filter.hpp"
 #include "imm/tracking/track_options.hpp"
 
 namespace imm {
@@ -74,25 +74,19 @@ struct IMM_RUNTIME_EXPORT WimmSpec {
   [[nodiscard]] TrackOptions track_options(std::int64_t max_gap = kDefaultMaxGap) const;
 };
 
-/// The WIMM as a TrackFilter: state [x, vx, ax, y, vy, ay], polar plots.
-class IMM_RUNTIME_EXPORT WimmFilter final : public TrackFilter {
+/// The WIMM as a TrackFilter: state [x, vx, ax, y, vy, ay], polar plots. What it does not
+/// override is the IMM's own answer (ImmTrackFilter).
+class IMM_RUNTIME_EXPORT WimmFilter final : public ImmTrackFilter<6> {
  public:
   /// Throws InvalidParameter naming the field of an invalid spec.
   explicit WimmFilter(const WimmSpec& spec);
 
-  /// 6: [x, vx, ax, y, vy, ay].
-  [[nodiscard]] int state_dimension() const override { return 6; }
-  /// 2: CV and Singer.
-  [[nodiscard]] int mode_count() const override { return 2; }
   /// "cv" or "singer".
   [[nodiscard]] std::string mode_name(int j) const override { return j == 0 ? "cv" : "singer"; }
+  /// ImmTrackFilter::initialize; the next cycle has not fused yet.
   void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override;
+  /// One cycle, the azimuth fused where the CV mode dominates (see the file comment).
   StepStatus step(const Eigen::Vector2d& z) override;
-  StepStatus predict_only() override;
-  void state(Eigen::Ref<Eigen::VectorXd> mean, Eigen::Ref<Eigen::VectorXd> variance) const override;
-  void covariance(Eigen::Ref<Eigen::MatrixXd> covariance) const override;
-  /// (CV, Singer).
-  [[nodiscard]] ModeVector mode_probabilities() const override { return imm_.mode_probabilities(); }
   /// The innovation of the plot, combined over the modes (ImmEstimator::innovation): [range,
   /// azimuth], or the converted Cartesian plot under MeasurementUpdate::kConverted. A cycle that
   /// fused updated with the fused azimuth; the plot's innovation and S are still reported, the
@@ -127,17 +121,16 @@ class IMM_RUNTIME_EXPORT WimmFilter final : public TrackFilter {
   /// ImmEstimator::miss where has_split_cycle(); else std::logic_error.
   StepStatus miss() override;
 
-  /// The combined estimate (6 states) and whether the last cycle fused the azimuth.
-  [[nodiscard]] const GaussianState<6>& estimate() const { return imm_.estimate(); }
   /// Whether the last cycle fused the azimuth.
   [[nodiscard]] bool fused() const { return fused_; }
   /// The spec the filter runs.
   [[nodiscard]] const WimmSpec& spec() const { return spec_; }
 
  private:
+  WimmFilter(const WimmSpec& spec, std::shared_ptr<AzimuthFusion> fusion);
+
   WimmSpec spec_;
   std::shared_ptr<AzimuthFusion> fusion_;
-  ImmEstimator<6, 2> imm_;
   bool fused_ = false;
   Vector<2> plot_ = Vector<2>::Zero();    // the last cycle's plot
   Vector<2> chosen_ = Vector<2>::Zero();  // and the measurement it updated with
