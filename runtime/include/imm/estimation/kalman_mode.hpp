@@ -11,6 +11,7 @@
 
 #include "imm/estimation/imm_mode.hpp"
 #include "imm/estimation/kalman_filter.hpp"
+#include "imm/estimation/kalman_mode_base.hpp"
 #include "imm/estimation/state_embedding.hpp"
 #include "imm/models/motion/motion_model.hpp"
 
@@ -19,21 +20,25 @@ namespace imm {
 /// A linear-motion Kalman mode of N states inside an NX-state mixing space, with any measurement
 /// model (Joseph-form update).
 template <int NX, int N, class MeasurementModel>
-class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
+class KalmanMode final : public KalmanModeBase<NX, N, MeasurementModel> {
+  using Base = KalmanModeBase<NX, N, MeasurementModel>;
+  using Base::embedding_;
+  using Base::estimate_;
+  using Base::measurement_;
+  using Base::predicted_;
+
  public:
   /// The mode's own state dimension.
   static constexpr int kDim = N;
-  using ImmMode<NX, MeasurementModel::kDim>::kMeasurementDim;
+  using Base::kMeasurementDim;
 
   /// `iterations` > 1: the iterated EKF update (kalman_filter.hpp) for nonlinear measurements.
   /// `maker`, when given, remakes the motion for other intervals (set_interval).
   KalmanMode(std::string name, const LinearMotionModel<N>& motion,
              const MeasurementModel& measurement, const StateEmbedding<N, NX>& embedding,
              int iterations = 1, MotionMaker<LinearMotionModel<N>> maker = {})
-      : name_(std::move(name)),
+      : Base(std::move(name), measurement, embedding),
         motion_(motion),
-        measurement_(measurement),
-        embedding_(embedding),
         iterations_(iterations),
         maker_(maker) {}
 
@@ -49,12 +54,6 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
       interval_ = interval;
     }
     return true;
-  }
-
-  [[nodiscard]] std::string_view name() const override { return name_; }
-
-  void embedded_estimate(Vector<NX>& mean, SquareMatrix<NX>& covariance) const override {
-    embedding_.embed(estimate_, mean, covariance);
   }
 
   void reset(const GaussianState<NX>& state) override { estimate_ = embedding_.project(state); }
@@ -75,16 +74,6 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
 
   /// True: the prediction does not depend on the plot.
   [[nodiscard]] bool predicts_before_the_plot() const override { return true; }
-  /// ν and S of a candidate plot at the held prediction (ImmMode::candidate_innovation).
-  bool candidate_innovation(const Vector<kMeasurementDim>& z, Vector<kMeasurementDim>& nu,
-                            SquareMatrix<kMeasurementDim>& S) const override {
-    return score_candidate(predicted_, z, measurement_, nu, S);
-  }
-  /// ẑ and S at the held prediction (ImmMode::predicted_plot).
-  bool predicted_plot(Vector<kMeasurementDim>& z_hat,
-                      SquareMatrix<kMeasurementDim>& S) const override {
-    return predict_plot(predicted_, measurement_, z_hat, S);
-  }
   /// The held prediction updated with z (ImmMode::propose_update).
   ModeStep propose_update(const Vector<kMeasurementDim>& z) override {
     pending_ = predicted_;
@@ -100,12 +89,8 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
 
   void commit() override { estimate_ = pending_; }
 
-  /// The mode's current estimate in its own states.
-  [[nodiscard]] const GaussianState<N>& estimate() const { return estimate_; }
   /// The mode's motion model.
   [[nodiscard]] const LinearMotionModel<N>& motion() const { return motion_; }
-  /// The mode's measurement model.
-  [[nodiscard]] const MeasurementModel& measurement() const { return measurement_; }
 
  private:
   // The update of pending_ (a prediction) with z.
@@ -115,16 +100,11 @@ class KalmanMode final : public ImmMode<NX, MeasurementModel::kDim> {
     return {report.status, report.log_likelihood};
   }
 
-  std::string name_;
   LinearMotionModel<N> motion_;
-  MeasurementModel measurement_;
-  StateEmbedding<N, NX> embedding_;
   int iterations_ = 1;
   MotionMaker<LinearMotionModel<N>> maker_;
   double interval_ = 0.0;  // the interval motion_ was last remade for (0: as built)
-  GaussianState<N> estimate_;
   GaussianState<N> pending_;
-  GaussianState<N> predicted_;  // propose_prediction()'s, for propose_update()
 };
 
 }  // namespace imm

@@ -29,6 +29,7 @@
 
 #include "imm/estimation/imm_mode.hpp"
 #include "imm/estimation/kalman_filter.hpp"
+#include "imm/estimation/kalman_mode_base.hpp"
 #include "imm/estimation/state_embedding.hpp"
 #include "imm/models/learned/fuzzy_rule_table.hpp"
 #include "imm/models/motion/coordinated_turn.hpp"
@@ -75,11 +76,17 @@ struct TurnMotionStep {
 
 /// A mode of an NX-state mixing space whose Q a rule table scales (see the file comment).
 template <int NX, class Motion, class MeasurementModel>
-class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
+class ScheduledNoiseMode final : public KalmanModeBase<NX, Motion::kDim, MeasurementModel> {
+  using Base = KalmanModeBase<NX, Motion::kDim, MeasurementModel>;
+  using Base::embedding_;
+  using Base::estimate_;
+  using Base::measurement_;
+  using Base::predicted_;
+
  public:
   /// The mode's own state dimension.
   static constexpr int kDim = Motion::kDim;
-  using ImmMode<NX, MeasurementModel::kDim>::kMeasurementDim;
+  using Base::kMeasurementDim;
 
   /// `iterations` > 1: the iterated EKF update; no `schedule`: a fixed Q. `maker`, when given,
   /// remakes the motion for other intervals (set_interval) — only without a schedule, whose
@@ -87,11 +94,9 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
   ScheduledNoiseMode(std::string name, const Motion& motion, std::optional<FuzzyRuleTable> schedule,
                      const MeasurementModel& measurement, const StateEmbedding<kDim, NX>& embedding,
                      int iterations = 1, MotionMaker<Motion> maker = {})
-      : name_(std::move(name)),
+      : Base(std::move(name), measurement, embedding),
         motion_(motion),
         schedule_(std::move(schedule)),
-        measurement_(measurement),
-        embedding_(embedding),
         iterations_(iterations),
         maker_(maker) {}
 
@@ -109,14 +114,6 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
       interval_ = interval;
     }
     return true;
-  }
-
-  /// The mode's name.
-  [[nodiscard]] std::string_view name() const override { return name_; }
-
-  /// The estimate in the mixing space, zero-padded.
-  void embedded_estimate(Vector<NX>& mean, SquareMatrix<NX>& covariance) const override {
-    embedding_.embed(estimate_, mean, covariance);
   }
 
   /// Takes its components of a mixing-space Gaussian and starts the schedule afresh.
@@ -158,19 +155,9 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
   /// Without a schedule: the prediction does not depend on the plot. With one it does (Q is
   /// scaled by the plot's own normalized innovation).
   [[nodiscard]] bool predicts_before_the_plot() const override { return !schedule_; }
-  /// ν and S of a candidate plot at the held prediction (ImmMode::candidate_innovation); with a
-  /// schedule, at the prediction without a plot (the last s), for the gate's predicted plot: the
-  /// IMM scores candidates by trial updates then.
-  bool candidate_innovation(const Vector<kMeasurementDim>& z, Vector<kMeasurementDim>& nu,
-                            SquareMatrix<kMeasurementDim>& S) const override {
-    return score_candidate(predicted_, z, measurement_, nu, S);
-  }
-  /// ẑ and S at the held prediction (ImmMode::predicted_plot); with a schedule, as
-  /// candidate_innovation.
-  bool predicted_plot(Vector<kMeasurementDim>& z_hat,
-                      SquareMatrix<kMeasurementDim>& S) const override {
-    return predict_plot(predicted_, measurement_, z_hat, S);
-  }
+  // candidate_innovation and predicted_plot (HeldPredictionMode): with a schedule, at the
+  // prediction without a plot (the last s), for the gate's predicted plot: the IMM scores
+  // candidates by trial updates then.
   /// The held prediction updated with z (ImmMode::propose_update).
   ModeStep propose_update(const Vector<kMeasurementDim>& z) override {
     if (schedule_) return {StepStatus::kInvalidMeasurement, 0.0};
@@ -193,14 +180,10 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
     multiplier_ = pending_multiplier_;
   }
 
-  /// The mode's current estimate in its own states.
-  [[nodiscard]] const GaussianState<kDim>& estimate() const { return estimate_; }
   /// s(k) of the last committed step: how far the schedule moved Q (1 without a schedule).
   [[nodiscard]] double multiplier() const { return multiplier_; }
   /// The table that sets s(k), if any.
   [[nodiscard]] const std::optional<FuzzyRuleTable>& schedule() const { return schedule_; }
-  /// The mode's measurement model.
-  [[nodiscard]] const MeasurementModel& measurement() const { return measurement_; }
 
  private:
   // The update of pending_ (a prediction with its noise) with z.
@@ -243,17 +226,12 @@ class ScheduledNoiseMode final : public ImmMode<NX, MeasurementModel::kDim> {
     return llt.matrixL().solve(nu).norm();
   }
 
-  std::string name_;
   Motion motion_;
   std::optional<FuzzyRuleTable> schedule_;
-  MeasurementModel measurement_;
-  StateEmbedding<kDim, NX> embedding_;
   int iterations_ = 1;
   MotionMaker<Motion> maker_;
   double interval_ = 0.0;  // the interval motion_ was last remade for (0: as built)
-  GaussianState<kDim> estimate_;
   GaussianState<kDim> pending_;
-  GaussianState<kDim> predicted_;  // propose_prediction()'s, for propose_update()
   double distance_ = 0.0, pending_distance_ = 0.0;
   double multiplier_ = 1.0, pending_multiplier_ = 1.0;
 };
