@@ -105,7 +105,7 @@ class IMM_RUNTIME_EXPORT AxisFilter {
 class IMM_RUNTIME_EXPORT ImmAxisFilter : public ImmForwarding<AxisFilter, 2, 1> {
  public:
   /// Takes an IMM of axis modes.
-  explicit ImmAxisFilter(ImmEstimator<2, 1> imm) : ImmForwarding(std::move(imm)) {}
+  explicit ImmAxisFilter(ImmEstimator<2, 1> from) : ImmForwarding(std::move(from)) {}
 
   /// Starts every mode from `state`; the mode probabilities restart at the initial ones.
   void initialize(const GaussianState<2>& state) override { estimator().initialize(state); }

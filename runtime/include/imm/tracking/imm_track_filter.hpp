@@ -49,8 +49,8 @@ class ImmForwarding : public Interface {
   [[nodiscard]] const ImmEstimator<NX, NZ>& imm() const { return imm_; }
 
  protected:
-  /// A filter that is `imm`.
-  explicit ImmForwarding(ImmEstimator<NX, NZ> imm) : imm_(std::move(imm)) {}
+  /// A filter that is the IMM `from`.
+  explicit ImmForwarding(ImmEstimator<NX, NZ> from) : imm_(std::move(from)) {}
 
   /// The IMM to change, for what a family does besides.
   [[nodiscard]] ImmEstimator<NX, NZ>& estimator() { return imm_; }
@@ -127,8 +127,8 @@ class ImmTrackFilter : public ImmForwarding<TrackFilter, NX, 2> {
   [[nodiscard]] const GaussianState<NX>& estimate() const { return imm().estimate(); }
 
  protected:
-  /// A filter that is `imm`.
-  explicit ImmTrackFilter(ImmEstimator<NX, 2> imm) : Base(std::move(imm)) {}
+  /// A filter that is the IMM `from`.
+  explicit ImmTrackFilter(ImmEstimator<NX, 2> from) : Base(std::move(from)) {}
 };
 
 }  // namespace imm
