@@ -4,3 +4,14 @@ function(imm_target_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor
                                            -Wold-style-cast -Wcast-align -Woverloaded-virtual)
 endfunction()
+
+# imm_library(<name> <source>...): the static library imm_<name> of the project's own code, used
+# as imm::<name>: position-independent (the Python modules link it, bindings/python), its
+# include/ folder public, the project's warnings. Each layer adds its links and options after.
+function(imm_library name)
+  add_library(imm_${name} STATIC ${ARGN})
+  add_library(imm::${name} ALIAS imm_${name})
+  set_target_properties(imm_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  target_include_directories(imm_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+  imm_target_warnings(imm_${name})
+endfunction()

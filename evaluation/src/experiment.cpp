@@ -42,6 +42,12 @@ void ExperimentResult::start(std::string name, const CommonOptions& common) {
   seed = common.seed;
 }
 
+void ExperimentResult::start(std::string name, const CommonOptions& common,
+                             const io::Provenance& recorded) {
+  start(std::move(name), common);
+  regimes = evaluation_regimes(common, recorded, model);
+}
+
 const FilterOutcome& ExperimentResult::filter(const std::string& name) const {
   for (const FilterOutcome& f : filters) {
     if (f.name == name) return f;

@@ -146,10 +146,9 @@ const FcmImmOutcome& FcmImmResult::outcome(const std::string& name) const {
 
 FcmImmResult evaluate_fcm_imm(const FcmImmOptions& options) {
   FcmImmResult r;
-  r.start("fcm-imm", options.common);
-  const io::ModelFileReader reader(r.model, io::kFcmImmKind);
+  const io::ModelFileReader reader(options.common.model_path(), io::kFcmImmKind);
+  r.start("fcm-imm", options.common, reader.provenance());
   const FcmImmSpec fitted = io::read_fcm_imm(r.model);
-  r.regimes = evaluation_regimes(options.common, reader.provenance(), r.model);
   check_model({fitted.sample_period, datasets::SensorKind::kCartesian, fitted.measurement_sigma,
                std::nullopt},
               r.regimes, r.model);

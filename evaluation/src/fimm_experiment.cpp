@@ -94,11 +94,10 @@ struct Tables {
 
 FimmResult evaluate_fimm(const FimmOptions& options) {
   FimmResult r;
-  r.start("fimm", options.common);
+  const io::ModelFileReader reader(options.common.model_path(), io::kTskSensorKind);
+  r.start("fimm", options.common, reader.provenance());
   r.gate_on = options.gate_on;
-  const io::ModelFileReader reader(r.model, io::kTskSensorKind);
   const auto sensor_model = std::make_shared<const TskSensorModel>(io::read_tsk_sensor(r.model));
-  r.regimes = evaluation_regimes(options.common, reader.provenance(), r.model);
   const datasets::Regime& regime = r.regimes.evaluated.regime;
   check_model(
       {regime.sample_period, datasets::SensorKind::kRangeSensor, std::nullopt, std::nullopt},

@@ -113,10 +113,9 @@ void judge(GaImmResult& r) {
 
 GaImmResult evaluate_ga_imm(const GaImmOptions& options) {
   GaImmResult r;
-  r.start("ga-imm", options.common);
-  const io::ModelFileReader reader(r.model, io::kGaFuzzyImmKind);
+  const io::ModelFileReader reader(options.common.model_path(), io::kGaFuzzyImmKind);
+  r.start("ga-imm", options.common, reader.provenance());
   const GaFuzzyImmSpec learned = io::read_ga_fuzzy_imm(r.model);
-  r.regimes = evaluation_regimes(options.common, reader.provenance(), r.model);
   const ModelRequirements requirements{learned.settings.sample_period,
                                        datasets::SensorKind::kCartesian,
                                        learned.settings.measurement_sigma, std::nullopt};

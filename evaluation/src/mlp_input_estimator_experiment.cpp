@@ -234,10 +234,9 @@ void write_series(const InputEstimatorResult& result, const std::filesystem::pat
 
 InputEstimatorResult evaluate_input_estimator(const InputEstimatorOptions& options) {
   InputEstimatorResult r;
-  r.start("input-estimator", options.common);
-  const io::ModelFileReader reader(r.model, io::kMlpInputEstimatorKind);
+  const io::ModelFileReader reader(options.common.model_path(), io::kMlpInputEstimatorKind);
+  r.start("input-estimator", options.common, reader.provenance());
   const MlpInputEstimatorModel model = io::read_mlp_input_estimator(r.model);
-  r.regimes = evaluation_regimes(options.common, reader.provenance(), r.model);
   const CvKfSettings& settings = model.settings;
   check_model({settings.sample_period, datasets::SensorKind::kCartesian,
                std::sqrt(settings.measurement_variance), std::nullopt},

@@ -204,10 +204,9 @@ bool report_case(const WimmResult& r, const WimmCase& c, nlohmann::json& metrics
 
 WimmResult evaluate_wimm(const WimmOptions& options) {
   WimmResult r;
-  r.start("wimm", options.common);
-  const io::ModelFileReader reader(r.model, io::kWimmKind);
+  const io::ModelFileReader reader(options.common.model_path(), io::kWimmKind);
+  r.start("wimm", options.common, reader.provenance());
   const WimmSpec trained = io::read_wimm(r.model);
-  r.regimes = evaluation_regimes(options.common, reader.provenance(), r.model);
   check_model({trained.sample_period, datasets::SensorKind::kPolar, trained.range_sigma,
                trained.azimuth_sigma},
               r.regimes, r.model);

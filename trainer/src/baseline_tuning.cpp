@@ -10,11 +10,6 @@
 #include "imm/support/bounded_search.hpp"
 #include "imm/trainer/normalized_errors.hpp"
 
-using imm::support::grid_then_subplex;
-using imm::support::SearchOptions;
-using imm::support::SearchResult;
-using imm::support::subplex;
-
 namespace imm::trainer {
 namespace {
 
@@ -120,13 +115,13 @@ Tuned<AimmSpec> tune_aimm(const AimmSpec& base, const std::vector<TrainingSet>& 
       for (double e : log_epsilon) spec.intervals.push_back(std::pow(10.0, e));
       return axis_score([&] { return std::make_unique<AimmAxisFilter>(spec); }, sets);
     };
-    const SearchResult result =
-        grid_then_subplex(score, std::vector<double>(n, std::log10(0.01 * a)),
-                          std::vector<double>(n, std::log10(3.0 * a)),
-                          {.grid_points = n == 1 ? 16 : 10,
-                           .polish_evaluations = 60,
-                           .ordered = true,
-                           .xtol_abs = 1e-3});
+    const support::SearchResult result =
+        support::grid_then_subplex(score, std::vector<double>(n, std::log10(0.01 * a)),
+                                   std::vector<double>(n, std::log10(3.0 * a)),
+                                   {.grid_points = n == 1 ? 16 : 10,
+                                    .polish_evaluations = 60,
+                                    .ordered = true,
+                                    .xtol_abs = 1e-3});
     best.evaluations += result.evaluations;
     if (result.value < best.score) {
       best.score = result.value;
@@ -151,7 +146,7 @@ Tuned<AxisCvImmSpec> tune_axis_cv_imm(const AxisCvImmSpec& base,
     return score_of(spec);
   };
   const double log_low = std::log10(1e-8 * a * a), log_high = std::log10(10.0 * a * a);
-  const SearchResult result = grid_then_subplex(
+  const support::SearchResult result = support::grid_then_subplex(
       score, std::vector<double>(levels, log_low), std::vector<double>(levels, log_high),
       {.grid_points = 8, .polish_evaluations = 150, .ordered = true, .xtol_abs = 1e-3});
   Tuned<AxisCvImmSpec> tuned;
@@ -173,7 +168,7 @@ Tuned<AxisCvImmSpec> tune_axis_cv_imm(const AxisCvImmSpec& base,
       std::clamp(std::log10(1.0 - base.settings.transition_stay), kLogLeaveLow, kLogLeaveHigh));
   lower.push_back(kLogLeaveLow);
   upper.push_back(kLogLeaveHigh);
-  const SearchResult refined = subplex(joint, x0, lower, upper, 150, 1e-4);
+  const support::SearchResult refined = support::subplex(joint, x0, lower, upper, 150, 1e-4);
   tuned.evaluations += refined.evaluations;
   if (refined.value < tuned.score) {
     tuned.score = refined.value;

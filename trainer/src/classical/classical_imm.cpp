@@ -273,10 +273,7 @@ ClassicalImmConfig load_classical_config(const std::filesystem::path& path,
                                          const std::optional<std::filesystem::path>& regime) {
   return load_training_config<ClassicalImmConfig>(
       path,
-      [](const support::ConfigTable& root, datasets::Regime r) {
-        ClassicalImmConfig config;
-        config.regime = std::move(r);
-        config.seed = root.seed_or("seed", 0);
+      [](const support::ConfigTable& root, ClassicalImmConfig& config) {
         const auto table = root.table("classical");
         if (!table) root.fail("classical", "missing");
         if (table->has("mode_sets")) {
@@ -311,7 +308,6 @@ ClassicalImmConfig load_classical_config(const std::filesystem::path& path,
                     "the classical IMM tracks Cartesian or polar plots, not a range "
                     "sensor's");
         }
-        return config;
       },
       regime);
 }
@@ -324,9 +320,7 @@ ClassicalImmResult write_classical_imm(const ClassicalImmConfig& config,
   ClassicalImmResult result;
   result.tuned = tune_classical_imm(config, training);
   const TunedClassicalImm& tuned = result.tuned;
-  io::Provenance provenance =
-      make_provenance(std::string(io::kPlainImmKind), config.text,
-                      static_cast<std::int64_t>(config.seed), training.digest(), config.regime);
+  io::Provenance provenance = provenance_of(io::kPlainImmKind, config, training.digest());
   provenance.training_metrics["classical_baseline"] = 1.0;
   provenance.training_metrics["learned_part_on"] = 0.0;
   provenance.training_metrics[tuned.criterion] = tuned.score.objective;

@@ -20,10 +20,8 @@ std::pair<double, double> range(const support::ConfigTable& t, std::string_view 
   return {r(0), r(1)};
 }
 
-FcmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
-  FcmTrainingConfig c;
-  c.seed = root.seed_or("seed", 1);
-  c.regime = std::move(regime);
+// The config's own keys (config_on has read its regime and seed).
+void fill(const support::ConfigTable& root, FcmTrainingConfig& c) {
   const double a = acceleration_scale(c.regime);
   FcmImmSpec& s = c.filter;
   s.sample_period = c.regime.sample_period;
@@ -101,7 +99,6 @@ FcmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
     c.max_validation_ratio = g->real_or("max_validation_ratio", c.max_validation_ratio);
   }
   c.validate();
-  return c;
 }
 
 }  // namespace
@@ -154,7 +151,9 @@ FcmTrainingConfig fcm_config_from_text(const std::string& text, const std::strin
   const auto document = support::ConfigDocument::parse(text, name);
   FcmTrainingConfig config = document->load_checked([&] {
     if (document->root().has("regime")) (void)document->root().text("regime");  // recorded apart
-    return config_from(document->root(), regime);
+    FcmTrainingConfig c = config_on<FcmTrainingConfig>(document->root(), regime);
+    fill(document->root(), c);
+    return c;
   });
   config.text = text;
   config.name = name;
@@ -180,7 +179,7 @@ FcmTrainingConfig model_training_config(const std::string& text, const std::stri
 
 FcmTrainingConfig load_fcm_config(const std::filesystem::path& path,
                                   const std::optional<std::filesystem::path>& regime) {
-  return load_training_config<FcmTrainingConfig>(path, config_from, regime);
+  return load_training_config<FcmTrainingConfig>(path, fill, regime);
 }
 
 }  // namespace imm::trainer::fcm

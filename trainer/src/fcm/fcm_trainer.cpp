@@ -23,11 +23,6 @@
 #include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
 
-using imm::support::grid_then_subplex;
-using imm::support::SearchOptions;
-using imm::support::SearchResult;
-using imm::support::subplex;
-
 namespace imm::trainer::fcm {
 namespace {
 
@@ -151,7 +146,7 @@ Tuned<AxisCvImmSpec> tune_kf(const FcmTrainingConfig& config, const TrackingData
   auto make = [&](const std::vector<double>& x) {
     return cv_imm_spec(config, {std::pow(10.0, x[0])}, 1.0);
   };
-  const SearchResult search = grid_then_subplex(
+  const support::SearchResult search = support::grid_then_subplex(
       [&](const std::vector<double>& x) {
         const AxisCvImmSpec spec = make(x);
         return score_filter([&] { return make_axis_cv_imm_filter(spec); }, data,
@@ -174,7 +169,7 @@ Tuned<AxisCvImmSpec> tune_cv_imm(const FcmTrainingConfig& config, const Tracking
   const double sigma = config.filter.measurement_sigma;
   // Stage 1: an ordered grid over the log q_j at the config's stay probability.
   const double stay = config.filter.transition(0, 0);
-  const SearchResult grid = grid_then_subplex(
+  const support::SearchResult grid = support::grid_then_subplex(
       [&](const std::vector<double>& log_q) {
         std::vector<double> q;
         q.reserve(log_q.size());
@@ -197,7 +192,7 @@ Tuned<AxisCvImmSpec> tune_cv_imm(const FcmTrainingConfig& config, const Tracking
   auto make = [&](const std::vector<double>& x) {
     return cv_imm_spec(config, noise_levels(x, n, g.max_log_q), x.back());
   };
-  const SearchResult polished = subplex(
+  const support::SearchResult polished = support::subplex(
       [&](const std::vector<double>& x) {
         const AxisCvImmSpec spec = make(x);
         return score_filter([&] { return make_axis_cv_imm_filter(spec); }, data, sigma).objective;
@@ -225,7 +220,7 @@ Tuned<AimmSpec> tune_aimm(const FcmTrainingConfig& config, const TrackingData& d
     spec.acceleration_variance = std::pow(10.0, 2.0 * (1.0 + log_a));
     return spec;
   };
-  const SearchResult search = grid_then_subplex(
+  const support::SearchResult search = support::grid_then_subplex(
       [&](const std::vector<double>& x) {
         const AimmSpec spec = make(x);
         return score_filter([&] { return make_aimm_filter(spec); }, data, sigma).objective;
@@ -333,7 +328,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
   double best_objective = imm.score.objective;
   for (int window : g.windows) {
     const auto window_start = std::chrono::steady_clock::now();
-    const SearchResult search = subplex(
+    const support::SearchResult search = support::subplex(
         [&](const std::vector<double>& x) {
           const FcmImmSpec spec = make(x, window);
           return score_filter([&] { return make_fcm_imm_filter(spec); }, training, sigma).objective;
@@ -430,9 +425,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
   write_json_atomically(metrics_path(out), metrics);
   if (!result.gate_passed) return result;
 
-  io::Provenance provenance =
-      make_provenance(std::string(io::kFcmImmKind), config.text,
-                      static_cast<std::int64_t>(config.seed), result.digest, config.regime);
+  io::Provenance provenance = provenance_of(io::kFcmImmKind, config, result.digest);
   provenance.training_metrics["objective"] = result.training.objective;
   provenance.training_metrics["learned_part_on"] = result.learned_part_on ? 1.0 : 0.0;
   provenance.validation_metrics["objective"] = result.validation.objective;

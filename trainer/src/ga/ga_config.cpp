@@ -17,10 +17,8 @@ namespace {
 
 bool finite_positive(double x) { return std::isfinite(x) && x > 0.0; }
 
-GaTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
-  GaTrainingConfig c;
-  c.seed = root.seed_or("seed", 1);
-  c.regime = std::move(regime);
+// The config's own keys (config_on has read its regime and seed).
+void fill(const support::ConfigTable& root, GaTrainingConfig& c) {
   c.filter.sample_period = c.regime.sample_period;
   c.filter.measurement_sigma = c.regime.sensor.noise.sigma(0);
   if (const auto f = root.table("filter")) {
@@ -101,7 +99,6 @@ GaTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime 
     c.max_validation_error = gate->real_or("max_validation_error", c.max_validation_error);
   }
   c.validate();
-  return c;
 }
 
 }  // namespace
@@ -157,7 +154,7 @@ void GaTrainingConfig::validate() const {
 
 GaTrainingConfig load_ga_config(const std::filesystem::path& path,
                                 const std::optional<std::filesystem::path>& regime) {
-  return load_training_config<GaTrainingConfig>(path, config_from, regime);
+  return load_training_config<GaTrainingConfig>(path, fill, regime);
 }
 
 }  // namespace imm::trainer::ga

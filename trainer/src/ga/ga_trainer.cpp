@@ -204,9 +204,7 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
                    const GaTrainingResult& result) {
   datasets::Sha256 digest;
   for (const auto& level : result.levels) digest.update(level.training_digest);
-  io::Provenance provenance =
-      make_provenance(std::string(io::kGaFuzzyImmKind), config.text,
-                      static_cast<std::int64_t>(config.seed), digest.hex_digest(), config.regime);
+  io::Provenance provenance = provenance_of(io::kGaFuzzyImmKind, config, digest.hex_digest());
   std::vector<std::vector<io::LevelMetric>> level_metrics;
   for (std::size_t i = 0; i < result.levels.size(); ++i) {
     const LevelResult& r = result.levels[i];

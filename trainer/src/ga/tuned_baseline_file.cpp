@@ -22,9 +22,7 @@ TunedBaselineResult write_tuned_baseline(GaTrainingConfig config,
   config = resolve_levels(std::move(config), training);
   const TunedBaseline& baseline = *config.baseline;
 
-  io::Provenance provenance =
-      make_provenance(std::string(io::kGaFuzzyImmKind), config.text,
-                      static_cast<std::int64_t>(config.seed), training.digest(), config.regime);
+  io::Provenance provenance = provenance_of(io::kGaFuzzyImmKind, config, training.digest());
   provenance.training_metrics["learned_part_on"] = 0.0;
   provenance.training_metrics["classical_baseline"] = 1.0;
   provenance.training_metrics[training.plots_only ? "excess_nll" : "zeta_p_plus_zeta_v"] =

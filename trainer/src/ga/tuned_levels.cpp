@@ -10,11 +10,6 @@
 #include "imm/trainer/baseline_tuning.hpp"
 #include "imm/trainer/regime_checks.hpp"
 
-using imm::support::grid_then_subplex;
-using imm::support::SearchOptions;
-using imm::support::SearchResult;
-using imm::support::subplex;
-
 namespace imm::trainer::ga {
 namespace {
 
@@ -89,7 +84,7 @@ LevelRefinement refine_levels(GaFuzzyImmSpec& spec, const GaTrainingConfig& conf
   upper.push_back(kLogLeaveHigh);
   LevelRefinement refinement;
   refinement.before = evaluate_imm(spec, training, options, rules);
-  const SearchResult found = subplex(
+  const support::SearchResult found = support::subplex(
       [&](const std::vector<double>& x) {
         return evaluate_imm(spec_at(x), training, options, rules).error;
       },

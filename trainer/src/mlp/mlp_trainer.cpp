@@ -24,10 +24,8 @@
 namespace imm::trainer::mlp {
 namespace {
 
-MlpTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
-  MlpTrainingConfig c;
-  c.seed = root.seed_or("seed", 1);
-  c.regime = std::move(regime);
+// The config's own keys (config_on has read its regime and seed).
+void fill(const support::ConfigTable& root, MlpTrainingConfig& c) {
   const double a = acceleration_scale(c.regime);
   c.cv_kf.sample_period = c.regime.sample_period;
   c.cv_kf.measurement_variance = c.regime.sensor.noise.sigma(0) * c.regime.sensor.noise.sigma(0);
@@ -121,7 +119,6 @@ MlpTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
   c.max_validation_rmse = gate * a;
   c.training.seed = datasets::derive_seed(c.seed, 3);
   c.validate();
-  return c;
 }
 
 double mean_output(const MlpInputEstimatorModel& model, const Samples& features, bool corrected) {
@@ -161,7 +158,7 @@ void MlpTrainingConfig::validate() const {
 
 MlpTrainingConfig load_mlp_config(const std::filesystem::path& path,
                                   const std::optional<std::filesystem::path>& regime) {
-  return load_training_config<MlpTrainingConfig>(path, config_from, regime);
+  return load_training_config<MlpTrainingConfig>(path, fill, regime);
 }
 
 FeatureSet make_features(const MlpTrainingConfig& config, const datasets::TrackSet& tracks) {
@@ -395,9 +392,7 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
   result.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   if (!result.gate_passed) return result;
 
-  io::Provenance provenance =
-      make_provenance(std::string(io::kMlpInputEstimatorKind), config.text,
-                      static_cast<std::int64_t>(config.seed), result.digest, config.regime);
+  io::Provenance provenance = provenance_of(io::kMlpInputEstimatorKind, config, result.digest);
   provenance.training_metrics["rmse"] = result.training_rmse;
   if (plots_only) provenance.training_metrics["labels_rts_smoother"] = 1.0;
   provenance.validation_metrics["rmse"] = result.validation_rmse;

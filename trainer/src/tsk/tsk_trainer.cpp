@@ -28,10 +28,8 @@
 namespace imm::trainer::tsk {
 namespace {
 
-TskTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
-  TskTrainingConfig c;
-  c.seed = root.seed_or("seed", 1);
-  c.regime = std::move(regime);
+// The config's own keys (config_on has read its regime and seed).
+void fill(const support::ConfigTable& root, TskTrainingConfig& c) {
   require_sensor(c.regime, datasets::SensorKind::kRangeSensor, "a TSK sensor model");
   if (const auto f = root.table("fit")) {
     c.fcrm.clusters = f->count_or("rules", c.fcrm.clusters);
@@ -72,7 +70,6 @@ TskTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime
     c.iekf_iterations = f->count_or("iekf_iterations", c.iekf_iterations);
   }
   c.validate();
-  return c;
 }
 
 // "z1", "z2" (appended, not "z" + …: GCC 12 warns falsely on that form, bug 105329).
@@ -99,7 +96,7 @@ void TskTrainingConfig::validate() const {
 
 TskTrainingConfig load_tsk_config(const std::filesystem::path& path,
                                   const std::optional<std::filesystem::path>& regime) {
-  return load_training_config<TskTrainingConfig>(path, config_from, regime);
+  return load_training_config<TskTrainingConfig>(path, fill, regime);
 }
 
 SplitData split(const datasets::RangeSensorData& data, double validation_fraction,
@@ -282,9 +279,7 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples
   write_json_atomically(metrics_path(out), metrics);
   if (!result.gate_passed) return result;
 
-  io::Provenance provenance =
-      make_provenance(std::string(io::kTskSensorKind), config.text,
-                      static_cast<std::int64_t>(config.seed), result.digest, config.regime);
+  io::Provenance provenance = provenance_of(io::kTskSensorKind, config, result.digest);
   for (int i = 0; i < 2; ++i) {
     const std::string key = output_key(i);
     provenance.training_metrics[key + "_rmse"] = result.outputs[i].training_rmse;

@@ -19,18 +19,11 @@
 #include "imm/trainer/regime_checks.hpp"
 #include "imm/trainer/training_config.hpp"
 
-using imm::support::grid_then_subplex;
-using imm::support::SearchOptions;
-using imm::support::SearchResult;
-using imm::support::subplex;
-
 namespace imm::trainer::wimm {
 namespace {
 
-WimmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regime regime) {
-  WimmTrainingConfig c;
-  c.seed = root.seed_or("seed", 1);
-  c.regime = std::move(regime);
+// The config's own keys (config_on has read its regime and seed).
+void fill(const support::ConfigTable& root, WimmTrainingConfig& c) {
   WimmSpec& s = c.filter;
   s.sample_period = c.regime.sample_period;
   s.range_sigma = c.regime.sensor.noise.sigma(0);
@@ -69,7 +62,6 @@ WimmTrainingConfig config_from(const support::ConfigTable& root, datasets::Regim
     }
   }
   c.validate();
-  return c;
 }
 
 Tuned tune(const WimmTrainingConfig& config, const TrainingScenarios& data,
@@ -86,11 +78,11 @@ Tuned tune(const WimmTrainingConfig& config, const TrainingScenarios& data,
     return objective(score_tracking(make(x), data, sensor), *reference, config.position_penalty);
   };
   const int grid = 6;
-  const SearchResult search =
-      grid_then_subplex(f, lower, upper,
-                        {.grid_points = grid,
-                         .polish_evaluations = std::max(0, config.max_evaluations - grid * grid),
-                         .xtol_rel = 1e-3});
+  const support::SearchResult search = support::grid_then_subplex(
+      f, lower, upper,
+      {.grid_points = grid,
+       .polish_evaluations = std::max(0, config.max_evaluations - grid * grid),
+       .xtol_rel = 1e-3});
   Tuned tuned;
   tuned.spec = make(search.x);
   tuned.objective = search.value;
@@ -129,7 +121,7 @@ void WimmTrainingConfig::validate() const {
 
 WimmTrainingConfig load_wimm_config(const std::filesystem::path& path,
                                     const std::optional<std::filesystem::path>& regime) {
-  return load_training_config<WimmTrainingConfig>(path, config_from, regime);
+  return load_training_config<WimmTrainingConfig>(path, fill, regime);
 }
 
 double objective(const TrackingScore& score, const TrackingScore& reference,
@@ -213,9 +205,7 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  io::Provenance provenance =
-      make_provenance(std::string(io::kWimmKind), config.text,
-                      static_cast<std::int64_t>(config.seed), result.digest, config.regime);
+  io::Provenance provenance = provenance_of(io::kWimmKind, config, result.digest);
   provenance.training_metrics["objective"] = result.tuned.objective;
   if (data.has_truth) {
     provenance.training_metrics["azimuth_ratio"] = result.tuned.azimuth_ratio;
@@ -274,9 +264,7 @@ NormalImmBaselineResult write_tuned_normal_imm_baseline(const WimmTrainingConfig
       datasets::draw_split(config.regime, datasets::Split::kTraining, config.regime.splits.seed);
   NormalImmBaselineResult result{tune_normal_imm(config, data), 0.0};
   const Tuned& base = result.base;
-  io::Provenance provenance =
-      make_provenance(std::string(io::kWimmKind), config.text,
-                      static_cast<std::int64_t>(config.seed), data.digest(), config.regime);
+  io::Provenance provenance = provenance_of(io::kWimmKind, config, data.digest());
   provenance.training_metrics["on_tuned_nimm"] = 1.0;
   provenance.training_metrics["learned_part_on"] = 0.0;
   provenance.training_metrics["classical_baseline"] = 1.0;

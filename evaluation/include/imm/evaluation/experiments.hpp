@@ -57,6 +57,9 @@ struct ExperimentResult {
 
   /// Sets the experiment's name, its model file (common.model_path()) and the seed.
   void start(std::string name, const CommonOptions& common);
+  /// start(), and the regimes: the one the model was trained on (recorded in `model`, the model
+  /// file's provenance) and the one it is evaluated on (--regime, else the same).
+  void start(std::string name, const CommonOptions& common, const io::Provenance& model);
   /// The number of test tracks.
   [[nodiscard]] int runs() const { return static_cast<int>(tracks.tracks.size()); }
   /// The outcome of the filter named `name`; std::out_of_range naming it otherwise.

@@ -3,9 +3,12 @@
 /// What every trainer stamps into its outputs: provenance for model files and the
 /// `<model>.metrics.json` written beside them.
 
+#include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include "imm/datasets/regime.hpp"
 #include "imm/io/model_file.hpp"
@@ -19,6 +22,16 @@ namespace imm::trainer {
 [[nodiscard]] io::Provenance make_provenance(std::string model_kind, std::string config_toml,
                                              std::int64_t seed, std::string dataset_digest,
                                              const datasets::Regime& regime);
+/// The provenance of a model a trainer's config made: its kind, the config's text, seed and regime,
+/// and the digest of the data it was trained on.
+template <class TrainingConfig>
+[[nodiscard]] io::Provenance provenance_of(std::string_view model_kind,
+                                           const TrainingConfig& config,
+                                           std::string dataset_digest) {
+  return make_provenance(std::string(model_kind), config.text,
+                         static_cast<std::int64_t>(config.seed), std::move(dataset_digest),
+                         config.regime);
+}
 /// Records the regime in a provenance.
 void set_regime(io::Provenance& provenance, const datasets::Regime& regime);
 

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-/// Loading a trainer's TOML config: `from(root, regime)` builds it; the document refuses unknown
-/// keys and turns a spec's InvalidParameter into a ConfigError naming the key; the config keeps its
-/// text and file name (`text`, `name`) for the model's provenance.
+/// Loading a trainer's TOML config: the loader reads what every config has (its regime and its
+/// `seed`, by default the config type's), then `fill(root, config)` the rest; the document refuses
+/// unknown keys and turns a spec's InvalidParameter into a ConfigError naming the key; the config
+/// keeps its text and file name (`text`, `name`) for the model's provenance.
 ///
 /// Every trainer config names the regime it trains for (`regime = "configs/regimes/…toml"`, a path
 /// relative to the working directory); `regime_override` (the command line's `--regime`) replaces
@@ -21,14 +22,26 @@ namespace imm::trainer {
 [[nodiscard]] datasets::RegimeFile regime_of(const support::ConfigTable& root,
                                              const std::optional<std::filesystem::path>& override);
 
-template <class Config, class From>
+/// A config of type Config on `regime` with the `seed` of `root` (the type's default without one):
+/// where every trainer's config starts.
+template <class Config>
+[[nodiscard]] Config config_on(const support::ConfigTable& root, datasets::Regime regime) {
+  Config config;
+  config.regime = std::move(regime);
+  config.seed = root.seed_or("seed", config.seed);
+  return config;
+}
+
+template <class Config, class Fill>
 [[nodiscard]] Config load_training_config(
-    const std::filesystem::path& path, From&& from,
+    const std::filesystem::path& path, Fill&& fill,
     const std::optional<std::filesystem::path>& regime_override = std::nullopt) {
   const auto document = support::ConfigDocument::load(path);
   Config config = document->load_checked([&] {
-    datasets::RegimeFile regime = regime_of(document->root(), regime_override);
-    return from(document->root(), std::move(regime.regime));
+    Config c =
+        config_on<Config>(document->root(), regime_of(document->root(), regime_override).regime);
+    fill(document->root(), c);
+    return c;
   });
   config.text = document->text();
   config.name = path.string();
