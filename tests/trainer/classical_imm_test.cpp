@@ -18,6 +18,7 @@
 #include "imm/datasets/regime_file.hpp"
 #include "imm/models/motion/coordinated_turn.hpp"
 #include "imm/support/config.hpp"
+#include "testing/planted_scan.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::trainer::classical {
@@ -94,12 +95,7 @@ datasets::TrackSet planted_tracks(double q_a, double q_omega, int tracks, int sc
       Vector<5> w;
       for (int i = 0; i < 5; ++i) w(i) = normal(rng);
       x = coordinated_turn_step(x, kT) + root.matrixL() * w;
-      track.truth(k, 0) = x(0);
-      track.truth(k, 1) = x(1);
-      track.truth(k, 3) = x(2);
-      track.truth(k, 4) = x(3);
-      track.plots(k, 0) = x(0) + kSigma * normal(rng);
-      track.plots(k, 1) = x(2) + kSigma * normal(rng);
+      testing::record_scan(track, k, x.head<4>(), kSigma, rng, normal);
     }
     if (!truth) track.truth.setConstant(std::nan(""));
     set.tracks.push_back(std::move(track));

@@ -14,6 +14,7 @@
 
 #include "imm/models/motion/constant_velocity.hpp"
 #include "imm/support/config.hpp"
+#include "testing/planted_scan.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::trainer::classical {
@@ -44,12 +45,7 @@ datasets::TrackSet bursting_tracks(int tracks, std::uint64_t seed) {
         x(axis) += x(axis + 1) * kT + 0.5 * kT * kT * a;
         x(axis + 1) += kT * a;
       }
-      track.truth(k, 0) = x(0);
-      track.truth(k, 1) = x(1);
-      track.truth(k, 3) = x(2);
-      track.truth(k, 4) = x(3);
-      track.plots(k, 0) = x(0) + kSigma * normal(rng);
-      track.plots(k, 1) = x(2) + kSigma * normal(rng);
+      testing::record_scan(track, k, x, kSigma, rng, normal);
     }
     set.tracks.push_back(std::move(track));
   }
