@@ -79,9 +79,11 @@ template <int R, int C>
 }
 
 // One block of kLanes samples from `first` (`valid` of them real; the rest weigh nothing).
-template <int I, int H1, int H2>
+// kSigmoidOutput: the output unit's activation (otherwise linear), a template argument so that a
+// linear output computes no exponential.
+template <int I, int H1, int H2, bool kSigmoidOutput>
 [[gnu::always_inline]] inline void block(const std::vector<MlpLayer>& layers, double inverse_scale,
-                                         bool sigmoid_output, const Eigen::MatrixXd& inputs,
+                                         const Eigen::MatrixXd& inputs,
                                          const Eigen::VectorXd& targets, Eigen::Index first,
                                          int valid, double inverse_n, LaneSums<I, H1, H2>& g) {
   constexpr int W = kLanes;
@@ -104,10 +106,13 @@ template <int I, int H1, int H2>
   IMM_LANES {
     double s = b3;
     for (int c = 0; c < H2; ++c) s = std::fma(w3[c], a2[c][l], s);
-    const double sigmoid = 1.0 / (1.0 + lane_exp(-s));
-    a3[l] = pick(sigmoid_output, sigmoid, s);
-    const double slope = pick(sigmoid_output, a3[l] * (1.0 - a3[l]), 1.0);
-    d3[l] = (a3[l] - t[l]) * slope * weight[l];
+    if constexpr (kSigmoidOutput) {
+      a3[l] = 1.0 / (1.0 + lane_exp(-s));
+      d3[l] = (a3[l] - t[l]) * (a3[l] * (1.0 - a3[l])) * weight[l];
+    } else {
+      a3[l] = s;
+      d3[l] = (a3[l] - t[l]) * 1.0 * weight[l];
+    }
     g.b3[0][l] += d3[l];
   }
   for (int c = 0; c < H2; ++c) {
@@ -132,17 +137,16 @@ template <int I, int H1, int H2>
 }
 
 // The blocks from `begin` to `end` (sample indices, `begin` a multiple of kLanes).
-template <int I, int H1, int H2>
+template <int I, int H1, int H2, bool kSigmoidOutput>
 [[gnu::flatten]] IMM_FMA_CLONES void blocks(const std::vector<MlpLayer>& layers,
                                             double output_scale, const Eigen::MatrixXd& inputs,
                                             const Eigen::VectorXd& targets, Eigen::Index begin,
                                             Eigen::Index end, LaneSums<I, H1, H2>& g) {
   const double inverse_n = 1.0 / static_cast<double>(inputs.rows());
-  const bool sigmoid_output = layers[2].activation == Activation::kSigmoid;
   for (Eigen::Index first = begin; first < end; first += kLanes) {
     const int valid = static_cast<int>(std::min<Eigen::Index>(kLanes, end - first));
-    block<I, H1, H2>(layers, 1.0 / output_scale, sigmoid_output, inputs, targets, first, valid,
-                     inverse_n, g);
+    block<I, H1, H2, kSigmoidOutput>(layers, 1.0 / output_scale, inputs, targets, first, valid,
+                                     inverse_n, g);
   }
 }
 
@@ -237,7 +241,11 @@ void fused_gradients_2_10_10(const std::vector<MlpLayer>& layers, double output_
       const Eigen::Index end = std::min(n, (c + 1) * blocks_per_chunk * kLanes);
       LaneSums<I, H1, H2>& mine = sums[static_cast<std::size_t>(c)];
       mine = LaneSums<I, H1, H2>{};
-      blocks<I, H1, H2>(layers, output_scale, inputs, targets, begin, end, mine);
+      if (layers[2].activation == Activation::kSigmoid) {
+        blocks<I, H1, H2, true>(layers, output_scale, inputs, targets, begin, end, mine);
+      } else {
+        blocks<I, H1, H2, false>(layers, output_scale, inputs, targets, begin, end, mine);
+      }
     }
 #pragma omp for schedule(static)
     for (int k = 0; k < R::kRows; ++k) R::out(weights, biases, k) = reduce_row(sums, k);
