@@ -13,6 +13,7 @@
 #include <memory>
 #include <random>
 
+#include "imm/core/invalid_parameter.hpp"
 #include "imm/io/file_error.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/tracking/calibrated_filter.hpp"
@@ -119,6 +120,51 @@ TEST(LoadFilterMaker, EveryShippedKindMakesIndependentFiltersEqualToLoadTrackers
   }
   EXPECT_GE(compared, 6);
   EXPECT_THROW((void)load_filter_maker("no/such/model.h5"), io::FileError);
+}
+
+// Every shipped model's filter refuses a start of the wrong shape, not finite, not symmetric or
+// with a negative variance, naming the field, and is left as the valid start before made it.
+TEST(LoadFilter, EveryShippedKindRefusesAnInvalidStartByName) {
+  int drilled = 0;
+  for (const auto& path : testing::shipped_models()) {
+    SCOPED_TRACE(path.string());
+    const std::unique_ptr<TrackFilter> filter = load_filter(path).filter;
+    const int n = filter->state_dimension();
+    const auto field_of = [&](const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
+      try {
+        filter->initialize(mean, covariance);
+      } catch (const InvalidParameter& error) {
+        return error.field();
+      }
+      return std::string();
+    };
+    const Eigen::VectorXd mean = Eigen::VectorXd::LinSpaced(n, 100.0, 200.0);
+    const Eigen::MatrixXd covariance = 4.0 * Eigen::MatrixXd::Identity(n, n);
+    ASSERT_EQ(field_of(mean, covariance), "");
+    Eigen::VectorXd before(n), after(n);
+    Eigen::VectorXd variance(n);
+    filter->state(before, variance);
+    EXPECT_EQ(field_of(Eigen::VectorXd::Zero(n + 1), covariance), "initial_state");
+    EXPECT_EQ(field_of(Eigen::VectorXd::Zero(n - 1), covariance), "initial_state");
+    Eigen::VectorXd nan_mean = mean;
+    nan_mean(1) = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_EQ(field_of(nan_mean, covariance), "initial_state");
+    EXPECT_EQ(field_of(mean, Eigen::MatrixXd::Identity(n + 1, n + 1)), "initial_covariance");
+    EXPECT_EQ(field_of(mean, Eigen::MatrixXd::Identity(n, n - 1)), "initial_covariance");
+    Eigen::MatrixXd skew = covariance;
+    skew(0, 1) = 0.5;
+    EXPECT_EQ(field_of(mean, skew), "initial_covariance");
+    Eigen::MatrixXd negative = covariance;
+    negative(n - 1, n - 1) = -1.0;
+    EXPECT_EQ(field_of(mean, negative), "initial_covariance");
+    Eigen::MatrixXd infinite = covariance;
+    infinite(0, 0) = std::numeric_limits<double>::infinity();
+    EXPECT_EQ(field_of(mean, infinite), "initial_covariance");
+    filter->state(after, variance);
+    EXPECT_TRUE((before.array() == after.array()).all());
+    ++drilled;
+  }
+  EXPECT_GE(drilled, 6);
 }
 
 TEST(LoadTracker, InputEstimatorTracksAsTwoIndependentAxisFilters) {

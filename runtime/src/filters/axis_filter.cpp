@@ -94,6 +94,7 @@ std::string TwoAxisFilter::mode_name(int j) const {
 }
 
 void TwoAxisFilter::initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
+  require_initial_state(mean, covariance, 4);
   for (Eigen::Index axis = 0; axis < 2; ++axis) {
     GaussianState<2> state;
     state.mean = mean.segment<2>(2 * axis);

@@ -28,6 +28,7 @@ class PlainImmFilter final : public TrackFilter {
   }
 
   void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override {
+    require_initial_state(mean, covariance, state_dimension());
     std::visit(
         [&](auto& imm) {
           constexpr int kNx = std::decay_t<decltype(imm)>::kDim;

@@ -73,17 +73,7 @@ class ImmTrackFilter : public ImmForwarding<TrackFilter, NX, 2> {
   /// mean that is not NX finite numbers, ("initial_covariance") for a covariance that is not NX ×
   /// NX, finite and symmetric with a non-negative diagonal.
   void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) override {
-    if (mean.size() != NX || !mean.allFinite()) {
-      throw InvalidParameter("initial_state",
-                             "must be " + std::to_string(NX) + " finite numbers, one per state");
-    }
-    if (covariance.rows() != NX || covariance.cols() != NX || !covariance.allFinite() ||
-        !covariance.isApprox(covariance.transpose(), 1e-12) ||
-        (covariance.diagonal().array() < 0.0).any()) {
-      throw InvalidParameter("initial_covariance",
-                             "must be " + std::to_string(NX) + " × " + std::to_string(NX) +
-                                 ", finite and symmetric with a non-negative diagonal");
-    }
+    require_initial_state(mean, covariance, NX);
     GaussianState<NX> state;
     state.mean = mean;
     state.covariance = covariance;

@@ -25,6 +25,13 @@ namespace imm {
   return names;
 }
 
+/// The check every TrackFilter::initialize makes before it touches its state: throws
+/// InvalidParameter("initial_state") for a mean that is not `dimension` finite numbers,
+/// ("initial_covariance") for a covariance that is not `dimension` × `dimension`, finite and
+/// symmetric with a non-negative diagonal.
+IMM_RUNTIME_EXPORT void require_initial_state(const Eigen::VectorXd& mean,
+                                              const Eigen::MatrixXd& covariance, int dimension);
+
 /// A filter that tracks one target in two dimensions: what Tracker drives and load_filter returns,
 /// for every model kind.
 class IMM_RUNTIME_EXPORT TrackFilter {
@@ -41,7 +48,8 @@ class IMM_RUNTIME_EXPORT TrackFilter {
   /// The name of mode j (0-based).
   [[nodiscard]] virtual std::string mode_name(int j) const = 0;
 
-  /// Starts the filter from a Gaussian in its layout (state_dimension() entries).
+  /// Starts the filter from a Gaussian in its layout (state_dimension() entries). Throws
+  /// InvalidParameter as require_initial_state does, and changes nothing then.
   virtual void initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) = 0;
   /// One cycle with plot z; any status other than kOk means z was not used.
   virtual StepStatus step(const Eigen::Vector2d& z) = 0;
