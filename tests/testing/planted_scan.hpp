@@ -2,9 +2,8 @@
 #pragma once
 /// Scans of tracks planted by a test: the truth's state and a plot of it.
 
-#include <random>
-
 #include <Eigen/Dense>
+#include <random>
 
 #include "imm/datasets/track.hpp"
 

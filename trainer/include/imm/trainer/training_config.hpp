@@ -25,9 +25,9 @@ namespace imm::trainer {
 /// A config of type Config on `regime` with the `seed` of `root` (the type's default without one):
 /// where every trainer's config starts.
 template <class Config>
-[[nodiscard]] Config config_on(const support::ConfigTable& root, datasets::Regime regime) {
+[[nodiscard]] Config config_on(const support::ConfigTable& root, const datasets::Regime& regime) {
   Config config;
-  config.regime = std::move(regime);
+  config.regime = regime;
   config.seed = root.seed_or("seed", config.seed);
   return config;
 }
