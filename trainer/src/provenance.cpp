@@ -36,6 +36,15 @@ io::Provenance make_provenance(std::string model_kind, std::string config_toml, 
   return provenance;
 }
 
+nlohmann::json metrics_of(std::string_view model_kind, const std::filesystem::path& model,
+                          const std::string& config) {
+  nlohmann::json metrics;
+  metrics["model_kind"] = model_kind;
+  metrics["model"] = model.string();
+  metrics["config"] = config;
+  return metrics;
+}
+
 void set_regime(io::Provenance& provenance, const datasets::Regime& regime) {
   provenance.regime_name = regime.name;
   provenance.regime_toml = regime.text;

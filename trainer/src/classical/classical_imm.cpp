@@ -348,13 +348,10 @@ ClassicalImmResult write_classical_imm(const ClassicalImmConfig& config,
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  nlohmann::json metrics;
-  metrics["model_kind"] = io::kPlainImmKind;
+  nlohmann::json metrics = metrics_of(io::kPlainImmKind, out, config.name);
   metrics["classical_baseline"] =
       "the CV/CA/CT IMM (coordinated turn as an EKF) tuned on the training split: modes, noise "
       "intensities and stay probability";
-  metrics["model"] = out.string();
-  metrics["config"] = config.name;
   metrics["regime"] = config.regime.name;
   metrics["modes"] = to_string(tuned.modes);
   nlohmann::json tried = nlohmann::json::object();

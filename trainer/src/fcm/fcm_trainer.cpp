@@ -377,10 +377,7 @@ FcmTrainingResult train_fcm(const FcmTrainingConfig& config, const std::filesyst
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  nlohmann::json metrics;
-  metrics["model_kind"] = io::kFcmImmKind;
-  metrics["model"] = out.string();
-  metrics["config"] = config.name;
+  nlohmann::json metrics = metrics_of(io::kFcmImmKind, out, config.name);
   metrics["seed"] = config.seed;
   auto score_json = [](const TrackingScore& s) {
     return nlohmann::json{

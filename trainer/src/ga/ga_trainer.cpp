@@ -229,10 +229,7 @@ void write_outputs(const GaTrainingConfig& config, const GaRunOptions& options,
     io::write_ga_fuzzy_imm(writer, spec_from(config, result.levels), level_metrics);
   });
 
-  nlohmann::json metrics;
-  metrics["model_kind"] = io::kGaFuzzyImmKind;
-  metrics["model"] = options.out.string();
-  metrics["config"] = config.name;
+  nlohmann::json metrics = metrics_of(io::kGaFuzzyImmKind, options.out, config.name);
   metrics["seed"] = config.seed;
   metrics["regime"] = config.regime.name;
   metrics["fitness"] = std::string(to_string(config.fuzzy.fitness));

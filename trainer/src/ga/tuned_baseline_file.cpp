@@ -35,13 +35,10 @@ TunedBaselineResult write_tuned_baseline(GaTrainingConfig config,
   TunedBaselineResult result{
       baseline, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
       training.criterion()};
-  nlohmann::json metrics;
-  metrics["model_kind"] = io::kGaFuzzyImmKind;
+  nlohmann::json metrics = metrics_of(io::kGaFuzzyImmKind, out, config.name);
   metrics["classical_baseline"] =
       "the constant-q IMM tuned on the training split (one constant rule per level, no learned "
       "part)";
-  metrics["model"] = out.string();
-  metrics["config"] = config.name;
   metrics["regime"] = config.regime.name;
   metrics["baseline"] = {{"process_noise", baseline.process_noise},
                          {"transition_stay", baseline.transition_stay},

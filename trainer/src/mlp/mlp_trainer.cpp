@@ -407,10 +407,7 @@ MlpTrainingResult train_mlp(const MlpTrainingConfig& config, const std::filesyst
     io::write_mlp_input_estimator(writer, model, curve);
   });
 
-  nlohmann::json metrics;
-  metrics["model_kind"] = io::kMlpInputEstimatorKind;
-  metrics["model"] = out.string();
-  metrics["config"] = config.name;
+  nlohmann::json metrics = metrics_of(io::kMlpInputEstimatorKind, out, config.name);
   metrics["seed"] = config.seed;
   metrics["regime"] = config.regime.name;
   metrics["training_samples"] = train_set.inputs.rows();

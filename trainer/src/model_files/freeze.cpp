@@ -57,10 +57,7 @@ FreezeSummary freeze_plain_imm(const FreezeOptions& options) {
   summary.state_dimension = spec.mixing_dimension();
   summary.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  nlohmann::json metrics;
-  metrics["model_kind"] = io::kPlainImmKind;
-  metrics["model"] = options.out.string();
-  metrics["config"] = options.config.string();
+  nlohmann::json metrics = metrics_of(io::kPlainImmKind, options.out, options.config.string());
   metrics["modes"] = summary.modes;
   metrics["state_dimension"] = summary.state_dimension;
   metrics["wall_seconds"] = summary.wall_seconds;

@@ -241,10 +241,7 @@ TskTrainingResult train_tsk(const TskTrainingConfig& config, const SensorSamples
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  nlohmann::json metrics;
-  metrics["model_kind"] = io::kTskSensorKind;
-  metrics["model"] = out.string();
-  metrics["config"] = config.name;
+  nlohmann::json metrics = metrics_of(io::kTskSensorKind, out, config.name);
   metrics["regime"] = {{"name", config.regime.name}, {"digest", config.regime.digest}};
   metrics["data"] = samples.source;
   metrics["seed"] = config.seed;

@@ -223,10 +223,7 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
   write_model_file(out, provenance,
                    [&](io::ModelFileWriter& writer) { io::write_wimm(writer, result.tuned.spec); });
 
-  nlohmann::json metrics;
-  metrics["model_kind"] = io::kWimmKind;
-  metrics["model"] = out.string();
-  metrics["config"] = config.name;
+  nlohmann::json metrics = metrics_of(io::kWimmKind, out, config.name);
   metrics["seed"] = config.seed;
   metrics["threshold"] = result.tuned.spec.threshold;
   metrics["alpha"] = result.tuned.spec.alpha;
@@ -272,12 +269,9 @@ NormalImmBaselineResult write_tuned_normal_imm_baseline(const WimmTrainingConfig
   write_model_file(out, provenance,
                    [&](io::ModelFileWriter& writer) { io::write_wimm(writer, base.spec); });
 
-  nlohmann::json metrics;
-  metrics["model_kind"] = io::kWimmKind;
+  nlohmann::json metrics = metrics_of(io::kWimmKind, out, config.name);
   metrics["classical_baseline"] =
       "the normal IMM with q1 and P(CV->CV) tuned on the training split (fusion off)";
-  metrics["model"] = out.string();
-  metrics["config"] = config.name;
   metrics["regime"] = config.regime.name;
   metrics["baseline"] = {{"cv_process_noise", base.spec.cv_process_noise},
                          {"stay", base.spec.transition(0, 0)},

@@ -35,6 +35,11 @@ template <class TrainingConfig>
 /// Records the regime in a provenance.
 void set_regime(io::Provenance& provenance, const datasets::Regime& regime);
 
+/// The start of a model's metrics file (metrics_path): its kind, the model file and the config
+/// that made it; each trainer adds its figures.
+[[nodiscard]] nlohmann::json metrics_of(std::string_view model_kind,
+                                        const std::filesystem::path& model,
+                                        const std::string& config);
 /// `<folder>/<stem>.metrics.json` for a model file path.
 [[nodiscard]] std::filesystem::path metrics_path(const std::filesystem::path& model_path);
 
