@@ -45,6 +45,13 @@ Models write_models(const testing::TempDir& dir) {
   return m;
 }
 
+// The registry's folder of a test: `models` in its temporary folder, created.
+fs::path models_folder(const testing::TempDir& dir) {
+  const fs::path models = dir / "models";
+  fs::create_directories(models);
+  return models;
+}
+
 RegistryEntry entry_of(const fs::path& file, const fs::path& models, const std::string& name) {
   RegistryEntry e = describe_model(file, models, name);
   e.file = name + ".h5";
@@ -90,8 +97,7 @@ std::string manifest_with(const std::string& fields) {
 // candidate that was rolled back meanwhile; the registry is unchanged by either refusal.
 TEST(RegistryTerms, APromotionIsDecidedOnTheManifestAsItIsThen) {
   const testing::TempDir dir;
-  const auto models = dir / "models";
-  fs::create_directories(models);
+  const fs::path models = models_folder(dir);
   const Models m = write_models(dir);
   Registry setup(models);
   promote(setup, m.a, "x");
@@ -139,8 +145,7 @@ TEST(RegistryTerms, APromotionIsDecidedOnTheManifestAsItIsThen) {
 // changes, and every command still works after it.
 TEST(RegistryWedge, AFreshClonesFirstRollbackFindsEveryFileItNeeds) {
   const testing::TempDir dir;
-  const auto models = dir / "models";
-  fs::create_directories(models);
+  const fs::path models = models_folder(dir);
   const Models m = write_models(dir);
   {
     Registry registry(models);
@@ -173,8 +178,7 @@ TEST(RegistryWedge, AFreshClonesFirstRollbackFindsEveryFileItNeeds) {
 // its type, the refusal naming the key, on one line, without a 10 kB value in it.
 TEST(RegistryHostile, AManifestEntryIsConfinedToItsOwnFiles) {
   const testing::TempDir dir;
-  const auto models = dir / "models";
-  fs::create_directories(models);
+  const fs::path models = models_folder(dir);
   const auto refused_with = [&](const std::string& text, const std::string& field) {
     write_text(models / "manifest.json", text);
     const std::string what = refusal([&] { (void)Registry(models).repair(); });
@@ -245,8 +249,7 @@ TEST(RegistryHostile, NothingIsWrittenThroughASymbolicLink) {
 // more than 16 MiB, and a FIFO in its place are each refused at once (no stack overflow, no hang).
 TEST(RegistryHostile, AManifestIsBoundedInSizeAndDepthAndIsARegularFile) {
   const testing::TempDir dir;
-  const auto models = dir / "models";
-  fs::create_directories(models);
+  const fs::path models = models_folder(dir);
   const auto refused_with = [&](const std::string& text, const std::string& what) {
     write_text(models / "manifest.json", text);
     const auto start = std::chrono::steady_clock::now();
@@ -281,8 +284,7 @@ TEST(RegistryHostile, AManifestIsBoundedInSizeAndDepthAndIsARegularFile) {
 // writer's temporaries (a kill -9) are removed by the next change of the registry.
 TEST(RegistryLeftovers, TemporariesOfFailedAndKilledCommandsAreRemoved) {
   const testing::TempDir dir;
-  const auto models = dir / "models";
-  fs::create_directories(models);
+  const fs::path models = models_folder(dir);
   const Models m = write_models(dir);
   Registry registry(models);
   promote(registry, m.a, "x");
