@@ -104,8 +104,7 @@ StepStatus WimmFilter::step(const Eigen::Vector2d& z) {
         Vector<2> chosen = plot;
         fusion_->use = plain;
         if (spec_.fusion != FusionVariant::kNone && predicted(0) > spec_.threshold) {
-          // θ̄: the μ̄-weighted circular mean of the modes' predicted azimuths (eq.
-          // 9–11).
+          // θ̄: the μ̄-weighted circular mean of the modes' predicted azimuths (eq. 9–11).
           double s = 0.0, c = 0.0;
           for (int j = 0; j < 2; ++j) {
             const double theta = azimuth_of(means[static_cast<std::size_t>(j)](0),

@@ -151,9 +151,7 @@ FcmTrainingConfig fcm_config_from_text(const std::string& text, const std::strin
   const auto document = support::ConfigDocument::parse(text, name);
   FcmTrainingConfig config = document->load_checked([&] {
     if (document->root().has("regime")) (void)document->root().text("regime");  // recorded apart
-    FcmTrainingConfig c = config_on<FcmTrainingConfig>(document->root(), regime);
-    fill(document->root(), c);
-    return c;
+    return config_on<FcmTrainingConfig>(document->root(), regime, fill);
   });
   config.text = text;
   config.name = name;

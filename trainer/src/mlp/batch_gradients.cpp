@@ -100,18 +100,17 @@ template <int I, int H1, int H2, bool kSigmoidOutput>
     t[l] = targets(s) * inverse_scale;
     weight[l] = l < valid ? inverse_n : 0.0;
   }
-  alignas(64) double a1[H1][W], a2[H2][W], a3[W], d3[W], d2[H2][W];
+  alignas(64) double a1[H1][W], a2[H2][W], d3[W], d2[H2][W];
   sigmoid_layer<H1, I>(w1, b1, x, a1);
   sigmoid_layer<H2, H1>(w2, b2, a1, a2);
   IMM_LANES {
     double s = b3;
     for (int c = 0; c < H2; ++c) s = std::fma(w3[c], a2[c][l], s);
     if constexpr (kSigmoidOutput) {
-      a3[l] = 1.0 / (1.0 + lane_exp(-s));
-      d3[l] = (a3[l] - t[l]) * (a3[l] * (1.0 - a3[l])) * weight[l];
+      const double a3 = 1.0 / (1.0 + lane_exp(-s));
+      d3[l] = (a3 - t[l]) * (a3 * (1.0 - a3)) * weight[l];
     } else {
-      a3[l] = s;
-      d3[l] = (a3[l] - t[l]) * 1.0 * weight[l];
+      d3[l] = (s - t[l]) * weight[l];
     }
     g.b3[0][l] += d3[l];
   }

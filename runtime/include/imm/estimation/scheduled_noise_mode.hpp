@@ -155,7 +155,7 @@ class ScheduledNoiseMode final : public KalmanModeBase<NX, Motion::kDim, Measure
   /// Without a schedule: the prediction does not depend on the plot. With one it does (Q is
   /// scaled by the plot's own normalized innovation).
   [[nodiscard]] bool predicts_before_the_plot() const override { return !schedule_; }
-  // candidate_innovation and predicted_plot (HeldPredictionMode): with a schedule, at the
+  // candidate_innovation and predicted_plot (KalmanModeBase): with a schedule, at the
   // prediction without a plot (the last s), for the gate's predicted plot: the IMM scores
   // candidates by trial updates then.
   /// The held prediction updated with z (ImmMode::propose_update).

@@ -8,10 +8,8 @@
 /// which the one-axis IMM (ImmAxisFilter, axis_filter.hpp) shares.
 
 #include <Eigen/Core>
-#include <string>
 #include <utility>
 
-#include "imm/core/invalid_parameter.hpp"
 #include "imm/estimation/imm_estimator.hpp"
 #include "imm/tracking/track_filter.hpp"
 

@@ -22,13 +22,15 @@ namespace imm::trainer {
 [[nodiscard]] datasets::RegimeFile regime_of(const support::ConfigTable& root,
                                              const std::optional<std::filesystem::path>& override);
 
-/// A config of type Config on `regime` with the `seed` of `root` (the type's default without one):
-/// where every trainer's config starts.
-template <class Config>
-[[nodiscard]] Config config_on(const support::ConfigTable& root, const datasets::Regime& regime) {
+/// A config of type Config on `regime` with the `seed` of `root` (the type's default without one),
+/// then `fill(root, config)` its own keys: every trainer's config is made so.
+template <class Config, class Fill>
+[[nodiscard]] Config config_on(const support::ConfigTable& root, const datasets::Regime& regime,
+                               Fill&& fill) {
   Config config;
   config.regime = regime;
   config.seed = root.seed_or("seed", config.seed);
+  fill(root, config);
   return config;
 }
 
@@ -38,10 +40,8 @@ template <class Config, class Fill>
     const std::optional<std::filesystem::path>& regime_override = std::nullopt) {
   const auto document = support::ConfigDocument::load(path);
   Config config = document->load_checked([&] {
-    Config c =
-        config_on<Config>(document->root(), regime_of(document->root(), regime_override).regime);
-    fill(document->root(), c);
-    return c;
+    return config_on<Config>(document->root(), regime_of(document->root(), regime_override).regime,
+                             fill);
   });
   config.text = document->text();
   config.name = path.string();
