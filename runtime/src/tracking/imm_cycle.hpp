@@ -61,6 +61,38 @@ struct CycleSlots {
   }
 };
 
+/// lane_log (kLog) or lane_exp of the first `n` values of `v`. For one track (S a double) with a
+/// mode count N ≤ 8 known at compile time they go through one pack together: one evaluation of
+/// the function instead of N, each value the same bits as alone (lane_math.hpp). A pack of tracks
+/// evaluates them one by one (each already a vector operation).
+enum class LaneFunction { kLog, kExp };
+template <LaneFunction kF, class S, std::size_t N>
+[[gnu::always_inline]] inline void each_mode(std::array<S, N>& v, int n) {
+  if constexpr (std::is_same_v<S, double> && N >= 2 && N <= 8) {
+    constexpr int W = N <= 2 ? 2 : N <= 4 ? 4 : 8;
+    using Pack = LanePackOf<W>;
+    // The lanes past the modes hold 1: a finite value for both functions.
+    double lanes[W];
+    for (int j = 0; j < W; ++j) lanes[j] = j < static_cast<int>(N) ? v[j] : 1.0;
+    Pack pack = lane_load<Pack>(lanes);
+    if constexpr (kF == LaneFunction::kLog) {
+      pack = lane_log(pack);
+    } else {
+      pack = lane_exp(pack);
+    }
+    lane_store(lanes, pack);
+    for (std::size_t j = 0; j < N; ++j) v[j] = lanes[j];
+  } else {
+    for (int j = 0; j < n; ++j) {
+      if constexpr (kF == LaneFunction::kLog) {
+        v[j] = lane_log(v[j]);
+      } else {
+        v[j] = lane_exp(v[j]);
+      }
+    }
+  }
+}
+
 /// The lanes of a value, as doubles (for the few decisions taken lane by lane).
 template <class S>
 using Lanes = std::array<double, kLanesOf<S>>;
@@ -173,7 +205,11 @@ template <class S, int N, int K, class F>
       for (int i = 0; i < n; ++i)
         weights[k][j * n + i] = b.transition[i * n + j] * m.scaled_mu[k][i] * inverse;
     }
-    for (int k = 0; k < K; ++k) m.log_c[k][j] = lane_log(predicted[k][j]) + shift[k];
+  }
+  for (int k = 0; k < K; ++k) {
+    std::array<S, N> log_predicted = predicted[k];
+    each_mode<LaneFunction::kLog>(log_predicted, n);
+    for (int j = 0; j < n; ++j) m.log_c[k][j] = log_predicted[j] + shift[k];
   }
   for (int k = 0; k < K; ++k) {
     if (!all_positive(predicted[k], n, active[k])) [[unlikely]] {
@@ -231,12 +267,11 @@ template <class S, int N, int K, class F>
     for (int j = 0; j < n; ++j) top[k] = pick(top[k] < centered[k][j], centered[k][j], top[k]);
     sum[k] = splat<S>(0.0);
   }
-  for (int j = 0; j < n; ++j) {
-    for (int k = 0; k < K; ++k) {
-      centered[k][j] = centered[k][j] - top[k];
-      scaled[k][j] = lane_exp(centered[k][j]);
-      sum[k] += scaled[k][j];
-    }
+  for (int k = 0; k < K; ++k) {
+    for (int j = 0; j < n; ++j) centered[k][j] = centered[k][j] - top[k];
+    scaled[k] = centered[k];
+    each_mode<LaneFunction::kExp>(scaled[k], n);
+    for (int j = 0; j < n; ++j) sum[k] += scaled[k][j];
   }
   for (int k = 0; k < K; ++k) log_sum[k] = lane_log(sum[k]);
 
