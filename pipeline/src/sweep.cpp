@@ -17,26 +17,26 @@
 #include <optional>
 #include <sstream>
 
-#include "imm/model_kinds.hpp"
+#include "imm/pipeline/training_commands.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/ranks.hpp"
 
 namespace imm::pipeline {
 namespace {
 
-const std::vector<std::string>& kinds() {
-  static const std::vector<std::string> names{"ga", "mlp", "wimm", "fcm", "tsk"};
+// The commands of training_kinds(): those taking a training's options, or all of them.
+std::vector<std::string> training_commands(bool training_options_only) {
+  std::vector<std::string> names;
+  for (const TrainingKind& kind : training_kinds()) {
+    if (kind.training_options || !training_options_only) names.push_back(kind.command);
+  }
   return names;
 }
 
-// The training command of `kind`: a command's own name, or any name of the model kind it writes
-// (imm/model_kinds.hpp: "ga_fuzzy_imm" and "ga-imm" are "ga").
-std::optional<std::string> training_command(const std::string& kind) {
-  for (const std::string& command : kinds()) {
-    const ModelKind* written = find_model_kind(command);
-    if (command == kind || (written != nullptr && written->answers_to(kind))) return command;
-  }
-  return std::nullopt;
+std::string listed(const std::vector<std::string>& names) {
+  std::string text;
+  for (const std::string& name : names) text += (text.empty() ? "" : ", ") + name;
+  return text;
 }
 
 std::string replaced(std::string text, const std::string& field, const std::string& value) {
@@ -113,13 +113,12 @@ class OutputToLog {
 
 // A [[jobs]] entry of the kind × regimes × seeds form: one job for each regime and seed.
 std::vector<SweepJob> expand_jobs(const support::ConfigTable& entry) {
-  const std::optional<std::string> command = training_command(entry.text("kind"));
-  if (!command) {
-    entry.fail("kind", "'" + entry.text("kind") +
-                           "' is not a training kind (ga, mlp, wimm, fcm, tsk, or their model "
-                           "kinds' names)");
+  const TrainingKind* training = find_training_kind(entry.text("kind"));
+  if (training == nullptr) {
+    entry.fail("kind", "'" + entry.text("kind") + "' is not a training kind (" +
+                           listed(training_commands(true)) + ", or their model kinds' names)");
   }
-  const std::string& kind = *command;
+  const std::string& kind = training->command;
   const std::filesystem::path config = entry.text("config");
   if (!std::filesystem::is_regular_file(config)) {
     entry.fail("config", "no such config file: " + config.string());
@@ -189,9 +188,8 @@ SweepJob command_job(const support::ConfigTable& entry) {
   job.kind = job.arguments.front();
   const auto& allowed = sweep_subcommands();
   if (std::find(allowed.begin(), allowed.end(), job.kind) == allowed.end()) {
-    entry.fail("command", "'" + job.kind +
-                              "' is not a subcommand that writes a model file (ga, mlp, wimm, "
-                              "fcm, tsk, freeze, import-rules)");
+    entry.fail("command", "'" + job.kind + "' is not a subcommand that writes a model file (" +
+                              listed(allowed) + ")");
   }
   const auto out = std::find(job.arguments.begin(), job.arguments.end(), "--out");
   if (out == job.arguments.end() || std::next(out) == job.arguments.end()) {
@@ -206,8 +204,7 @@ SweepJob command_job(const support::ConfigTable& entry) {
 }  // namespace
 
 const std::vector<std::string>& sweep_subcommands() {
-  static const std::vector<std::string> names{"ga",  "mlp",    "wimm",        "fcm",
-                                              "tsk", "freeze", "import-rules"};
+  static const std::vector<std::string> names = training_commands(false);
   return names;
 }
 

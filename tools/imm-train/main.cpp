@@ -222,11 +222,16 @@ int run(int argc, char** argv) {
   imm::support::alias_model_kinds(app);
   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
   if (ranks.size() > 1) {
-    if (!*training.ga() && !*sweep_command) {
+    const imm::pipeline::TrainingKind* chosen = training.chosen();
+    if (!(chosen != nullptr && chosen->distributed) && !*sweep_command) {
+      std::string spreading;
+      for (const auto& kind : imm::pipeline::training_kinds()) {
+        if (kind.distributed) spreading += (spreading.empty() ? "'" : ", '") + kind.command + "'";
+      }
       spdlog::error(
-          "imm-train {} runs as one process: under mpirun only 'ga' spreads its work over the "
+          "imm-train {} runs as one process: under mpirun only {} spreads its work over the "
           "ranks (and 'sweep' hands out whole trainings)",
-          app.get_subcommands().front()->get_name());
+          app.get_subcommands().front()->get_name(), spreading);
       return 1;
     }
     // Each rank's OpenMP threads: OMP_NUM_THREADS when set (a Slurm script's cpus-per-task), the

@@ -9,7 +9,7 @@
 /// The plan (TOML):
 ///
 ///     [[jobs]]
-///     kind = "ga"                         # ga | mlp | wimm | fcm | tsk
+///     kind = "ga"                         # ga | mlp | wimm | fcm | tsk | baseline | schedule
 ///     config = "configs/ga_fuzzy_imm.toml"
 ///     regimes = ["configs/regimes/…", …]  # optional: the config's own regime when absent
 ///     seeds = [1, 2, 3]                   # optional: the config's seed when absent
@@ -23,8 +23,8 @@
 ///     name = "ga_fuzzy_imm"               # optional: how the summary names it
 ///     command = ["ga", "--config", "configs/ga_fuzzy_imm.toml", "--out", "models/x.h5"]
 ///
-/// `command` starts with a subcommand that writes one model file (ga, mlp, wimm, fcm, tsk, freeze,
-/// import-rules) and gives its `--out`. Either form may add
+/// `command` starts with a subcommand that writes one model file (training_commands.hpp: the
+/// training kinds above, freeze, import-rules) and gives its `--out`. Either form may add
 ///
 ///     log = "logs/{kind}_{regime}_{seed}"  # the training's stdout and stderr go to LOG.out and
 ///                                          # LOG.err instead of the job's

@@ -1,50 +1,71 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-/// The job language of imm-train: the subcommands that write one model file (ga, mlp, wimm, fcm,
-/// tsk, freeze, import-rules), their command lines and how each runs. imm-train parses its own
+/// The job language of imm-train: the subcommands that write one model file (training_kinds():
+/// ga, mlp, wimm, fcm, tsk, baseline, schedule, freeze, import-rules), their command lines and how
+/// each runs. imm-train parses its own
 /// command line with them, and a sweep (sweep.hpp) parses each job's arguments with the same
 /// parser, so a job runs exactly as its subcommand would.
 
 #include <CLI/CLI.hpp>
-#include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
-#include <utility>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "imm/pipeline/sweep.hpp"
-#include "imm/trainer/model_files/freeze.hpp"
-#include "imm/trainer/model_files/import_rules.hpp"
 
 namespace imm::pipeline {
-
-struct GaCommand {
-  std::filesystem::path config = "configs/ga_fuzzy_imm.toml";
-  std::filesystem::path out = "models/ga_fuzzy_imm.h5";
-  std::optional<std::filesystem::path> regime;
-  std::optional<std::uint64_t> seed;
-  int threads = 0;
-  bool resume = false;
-};
-
-/// The --config, --regime, --out and --seed of a training subcommand.
-struct TrainCommand {
-  std::filesystem::path config, out;
-  std::optional<std::filesystem::path> regime;
-  std::optional<std::uint64_t> seed;
-};
 
 /// The log of rank `rank`: the root reports progress; the other ranks only what goes wrong on
 /// them, their lines marked with their rank.
 void log_as(int rank);
 
-/// The subcommands that write one model file (sweep_subcommands()), added to `app`: on the
-/// command line, and as a sweep's jobs, which run exactly them.
+/// A training subcommand once added to a command line: what runs it with the options parsed
+/// there, and the model file it then writes.
+struct TrainingRun {
+  std::function<int()> run{};
+  std::function<std::filesystem::path()> out{};
+};
+
+/// One subcommand of imm-train that writes one model file, described once. imm-train's command
+/// line, a sweep's jobs (sweep.hpp) and the Python module's train() find it in training_kinds().
+struct TrainingKind {
+  /// Its subcommand, e.g. "ga". The model kind's own name (and its other aliases) also name it
+  /// where the command is one of the kind's aliases (imm/model_kinds.hpp): "ga_fuzzy_imm".
+  std::string command{};
+  /// The model kind of the files it writes, e.g. "ga_fuzzy_imm"; empty where the config decides.
+  std::string model_kind{};
+  /// Its help line.
+  std::string about{};
+  /// Whether it takes a training's options (--config, --regime, --seed, --out), so that a sweep's
+  /// `kind =` job (config × regimes × seeds) can name it.
+  bool training_options = true;
+  /// Whether it spreads its own work over the ranks of an mpirun (only the GA's generations).
+  bool distributed = false;
+  /// Adds its options to `command` (its subcommand, already added) and returns what runs it.
+  std::function<TrainingRun(CLI::App& command)> add{};
+};
+
+/// Every training subcommand, in the order imm-train lists them.
+[[nodiscard]] const std::vector<TrainingKind>& training_kinds();
+
+/// The training kind taking a training's options that `name` names: its command, or the name or
+/// an alias of the model kind its command is an alias of ("ga_fuzzy_imm", "ga-imm" → ga);
+/// nullptr for none.
+[[nodiscard]] const TrainingKind* find_training_kind(std::string_view name);
+
+/// The subcommands of training_kinds(), added to `app`: on the command line, and as a sweep's
+/// jobs, which run exactly them.
 class TrainingCommands {
  public:
   explicit TrainingCommands(CLI::App& app);
   TrainingCommands(const TrainingCommands&) = delete;
   TrainingCommands& operator=(const TrainingCommands&) = delete;
+
+  /// The training the command line chose, if it chose one of these.
+  [[nodiscard]] const TrainingKind* chosen() const;
 
   /// The model file of the subcommand the command line chose, if it chose one of these.
   [[nodiscard]] std::optional<std::filesystem::path> chosen_out() const;
@@ -53,26 +74,15 @@ class TrainingCommands {
   /// (imm/trainer/model_files/envelope.hpp); its exit code (support/exit_codes.hpp).
   [[nodiscard]] int run() const;
 
-  [[nodiscard]] const CLI::App* ga() const { return ga_; }
-
  private:
-  [[nodiscard]] int dispatch() const;
-  [[nodiscard]] std::vector<std::pair<const CLI::App*, std::filesystem::path>> outputs() const;
+  struct Added {
+    const TrainingKind* kind;
+    const CLI::App* command;
+    TrainingRun run;
+  };
+  [[nodiscard]] const Added* chosen_added() const;
 
-  GaCommand ga_command_;
-  trainer::FreezeOptions freeze_options_;
-  trainer::ImportRulesOptions import_options_;
-  TrainCommand mlp_command_{
-      "configs/mlp_input_estimator.toml", "models/mlp_input_estimator.h5", {}, {}};
-  TrainCommand wimm_command_{"configs/wimm.toml", "models/wimm.h5", {}, {}};
-  TrainCommand fcm_command_{"configs/fcm_imm.toml", "models/fcm_imm.h5", {}, {}};
-  TrainCommand baseline_command_{"configs/ga_fuzzy_imm_tuned.toml", {}, {}, {}};
-  TrainCommand tsk_command_{"configs/tsk_range_sensor.toml", "models/tsk_range_sensor.h5", {}, {}};
-  TrainCommand schedule_command_{"configs/scheduled_ct_imm.toml", {}, {}, {}};
-  std::filesystem::path tsk_data_;
-  CLI::App *freeze_ = nullptr, *ga_ = nullptr, *import_ = nullptr, *mlp_ = nullptr,
-           *wimm_ = nullptr, *fcm_ = nullptr, *tsk_ = nullptr, *baseline_ = nullptr,
-           *schedule_ = nullptr;
+  std::vector<Added> added_;
 };
 
 /// A sweep job's arguments parsed as its subcommand's command line; a CLI::ParseError when they
