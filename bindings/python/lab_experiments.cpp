@@ -18,6 +18,7 @@
 
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiments.hpp"
+#include "imm/evaluation/model_experiments.hpp"
 #include "lab_results.hpp"
 
 namespace py = pybind11;
@@ -90,13 +91,70 @@ std::vector<std::string> command_of(const std::string& experiment, const ev::Com
   return command;
 }
 
+// An experiment's own options as keywords of evaluate(): each one given is cast to its type and
+// checked against its choices (a TypeError or ValueError naming the keyword); the keys it declares
+// are the ones allowed.
+class KeywordOptions final : public ev::OptionDeclarer {
+ public:
+  KeywordOptions(const std::string& experiment, const py::kwargs& given)
+      : experiment_(experiment), given_(given) {}
+  void text(const char* /*flag*/, const char* key, const char* /*help*/, std::string& value,
+            const std::vector<std::string>& choices) override {
+    take(key, value);
+    if (!choices.empty() && std::find(choices.begin(), choices.end(), value) == choices.end()) {
+      std::string allowed;
+      for (const std::string& choice : choices) allowed += (allowed.empty() ? "" : ", ") + choice;
+      throw py::value_error(std::string(key) + ": '" + value + "' is none of " + allowed);
+    }
+  }
+  void path(const char* /*flag*/, const char* key, const char* /*help*/, fs::path& value) override {
+    take(key, value);
+  }
+  // A TypeError for a keyword the experiment does not declare.
+  void check_given() const {
+    for (const auto& [key, value] : given_) {
+      const std::string name = py::str(key).cast<std::string>();
+      if (std::find(allowed_.begin(), allowed_.end(), name) == allowed_.end()) {
+        throw py::type_error("evaluate('" + experiment_ + "'): no option '" + name + "'");
+      }
+    }
+  }
+
+ private:
+  template <class T>
+  void take(const char* key, T& target) {
+    allowed_.emplace_back(key);
+    if (given_.contains(key)) target = given_[key].cast<T>();
+  }
+  std::string experiment_;
+  const py::kwargs& given_;
+  std::vector<std::string> allowed_;
+};
+
+// An experiment's own options as the imm-eval arguments that give them (an empty text: left out).
+class CommandLineArguments final : public ev::OptionDeclarer {
+ public:
+  void text(const char* flag, const char* /*key*/, const char* /*help*/, std::string& value,
+            const std::vector<std::string>& /*choices*/) override {
+    if (!value.empty()) arguments.insert(arguments.end(), {flag, value});
+  }
+  void path(const char* flag, const char* /*key*/, const char* /*help*/, fs::path& value) override {
+    if (!value.empty()) arguments.insert(arguments.end(), {flag, value.string()});
+  }
+  std::vector<std::string> arguments;
+};
+
 py::dict evaluate(const std::string& experiment, const std::optional<fs::path>& model,
                   const fs::path& models, const std::optional<fs::path>& regime,
                   std::optional<int> runs, std::uint64_t seed,
                   const std::optional<fs::path>& classical, bool truth_tracks,
                   const std::optional<fs::path>& out, const py::kwargs& extra) {
   require_runs(runs);
-  const auto fill = [&](ev::CommonOptions& c) {
+  std::optional<py::dict> result;
+  ev::for_each_model_experiment([&](const auto& e) {
+    if (result || experiment != e.name) return;
+    typename std::remove_cvref_t<decltype(e)>::Options o;
+    ev::CommonOptions& c = o.common;
     if (model) c.model = model->string();
     c.models = models;
     c.regime = regime;
@@ -105,79 +163,54 @@ py::dict evaluate(const std::string& experiment, const std::optional<fs::path>& 
     c.classical = classical;
     c.truth_tracks = truth_tracks;
     if (out) c.out = *out;
-  };
-  std::vector<std::string> allowed;
-  const auto take = [&](const char* key, auto& target) {
-    allowed.emplace_back(key);
-    if (extra.contains(key)) target = extra[key].cast<std::remove_reference_t<decltype(target)>>();
-  };
-  const auto check_extra = [&] {
-    for (const auto& [key, value] : extra) {
-      const std::string name = py::str(key).cast<std::string>();
-      if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
-        std::string message = "evaluate('" + experiment + "'): no option '";
-        message.append(name).append("'");
-        throw py::type_error(message);
+    KeywordOptions keywords(experiment, extra);
+    CommandLineArguments arguments;
+    if (e.declare != nullptr) {
+      e.declare(keywords, o);
+      e.declare(arguments, o);
+    }
+    keywords.check_given();
+    result = run(o, e.evaluate, e.report,
+                 out ? command_of(experiment, c, arguments.arguments) : std::vector<std::string>{});
+  });
+  if (!result) {
+    std::string names;
+    for (const std::string& name : ev::model_experiment_names())
+      names += (names.empty() ? "" : ", ") + name;
+    throw py::value_error("experiment: '" + experiment + "' is none of " + names);
+  }
+  return *result;
+}
+
+// evaluate()'s help: its experiments and each one's own keywords, from the experiments' list.
+std::string evaluate_help() {
+  std::string names, keywords;
+  ev::for_each_model_experiment([&](const auto& e) {
+    names += (names.empty() ? "" : ", ") + std::string(e.name);
+    struct Keys final : ev::OptionDeclarer {
+      void text(const char* /*flag*/, const char* key, const char* /*help*/, std::string&,
+                const std::vector<std::string>& /*choices*/) override {
+        add(key);
       }
+      void path(const char* /*flag*/, const char* key, const char* /*help*/, fs::path&) override {
+        add(key);
+      }
+      void add(const char* key) { listed += (listed.empty() ? "" : " and ") + std::string(key); }
+      std::string listed;
+    } keys;
+    typename std::remove_cvref_t<decltype(e)>::Options o;
+    if (e.declare != nullptr) e.declare(keys, o);
+    if (!keys.listed.empty()) {
+      keywords += (keywords.empty() ? "" : ", ") + keys.listed + " (" + e.name + ")";
     }
-  };
-  const bool write = out.has_value();
-  const auto command = [&](const std::string& name, const ev::CommonOptions& c,
-                           const std::vector<std::string>& more = {}) {
-    return write ? command_of(name, c, more) : std::vector<std::string>{};
-  };
-  if (experiment == "plain-imm") {
-    ev::PlainImmOptions o;
-    fill(o.common);
-    take("data", o.data);
-    check_extra();
-    return run(o, ev::evaluate_plain_imm, ev::report_plain_imm,
-               command(experiment, o.common,
-                       o.data.empty() ? std::vector<std::string>{}
-                                      : std::vector<std::string>{"--data", o.data}));
-  }
-  if (experiment == "ga-imm") {
-    ev::GaImmOptions o;
-    fill(o.common);
-    take("paper_model", o.paper_model);
-    check_extra();
-    return run(o, ev::evaluate_ga_imm, ev::report_ga_imm,
-               command(experiment, o.common, {"--paper-model", o.paper_model}));
-  }
-  if (experiment == "input-estimator") {
-    ev::InputEstimatorOptions o;
-    fill(o.common);
-    check_extra();
-    return run(o, ev::evaluate_input_estimator, ev::report_input_estimator,
-               command(experiment, o.common));
-  }
-  if (experiment == "wimm") {
-    ev::WimmOptions o;
-    fill(o.common);
-    check_extra();
-    return run(o, ev::evaluate_wimm, ev::report_wimm, command(experiment, o.common));
-  }
-  if (experiment == "fcm-imm") {
-    ev::FcmImmOptions o;
-    fill(o.common);
-    check_extra();
-    return run(o, ev::evaluate_fcm_imm, ev::report_fcm_imm, command(experiment, o.common));
-  }
-  if (experiment == "fimm") {
-    ev::FimmOptions o;
-    fill(o.common);
-    take("config", o.config);
-    take("gate_on", o.gate_on);
-    check_extra();
-    if (o.gate_on != "ekf" && o.gate_on != "best") {
-      throw py::value_error("gate_on: '" + o.gate_on + "' is neither ekf nor best");
-    }
-    return run(
-        o, ev::evaluate_fimm, ev::report_fimm,
-        command(experiment, o.common, {"--config", o.config.string(), "--gate-on", o.gate_on}));
-  }
-  throw py::value_error("experiment: '" + experiment +
-                        "' is none of plain-imm, ga-imm, input-estimator, wimm, fcm-imm, fimm");
+  });
+  return "Runs an imm-eval experiment (" + names +
+         ") with the command's options and returns its result: every filter's figures, the "
+         "paired differences [estimate, lower, upper], the gates' failures, the findings and the "
+         "exit code imm-eval would give. With `out`, also writes the report there as imm-eval "
+         "does, report.md included (its path in \"report\"), without printing it. Its own options "
+         "by keyword: " +
+         keywords;
 }
 
 }  // namespace
@@ -186,14 +219,7 @@ void add_experiments(py::module_& m) {
   m.def("evaluate", &evaluate, py::arg("experiment"), py::kw_only(), py::arg("model") = py::none(),
         py::arg("models") = fs::path("models"), py::arg("regime") = py::none(),
         py::arg("runs") = py::none(), py::arg("seed") = 1, py::arg("classical") = py::none(),
-        py::arg("truth_tracks") = false, py::arg("out") = py::none(),
-        "Runs an imm-eval experiment (plain-imm, ga-imm, input-estimator, wimm, fcm-imm, fimm) "
-        "with the command's options and returns its result: every filter's figures, the paired "
-        "differences [estimate, lower, upper], the gates' failures, the findings and the exit "
-        "code imm-eval would give. With `out`, also writes the report there as imm-eval does, "
-        "report.md included (its path in \"report\"), without printing it. Its own options by "
-        "keyword: data (plain-imm), paper_model (ga-imm), "
-        "config and gate_on (fimm)");
+        py::arg("truth_tracks") = false, py::arg("out") = py::none(), evaluate_help().c_str());
   m.def(
       "multi_target",
       [](const std::vector<fs::path>& models, const std::optional<fs::path>& regime,

@@ -2,6 +2,7 @@
 #include "commands.hpp"
 
 #include <exception>
+#include <filesystem>
 #include <functional>
 #include <iostream>
 #include <memory>
@@ -9,6 +10,7 @@
 #include <vector>
 
 #include "imm/evaluation/experiments.hpp"
+#include "imm/evaluation/model_experiments.hpp"
 #include "imm/support/cli.hpp"
 #include "imm/support/exit_codes.hpp"
 
@@ -66,17 +68,40 @@ std::pair<CLI::App*, std::shared_ptr<Options>> subcommand(CLI::App& app, const s
   return {command, options};
 }
 
-// An experiment of one model file with the shared options and the classical bar.
-template <class Options>
-std::pair<CLI::App*, std::shared_ptr<Options>> model_experiment(CLI::App& app,
-                                                                const std::string& name,
-                                                                const std::string& description,
-                                                                int& exit_code,
-                                                                int (*run)(const Options&)) {
-  auto made = subcommand<Options>(app, name, description, exit_code, run);
-  add_common_options(*made.first, made.second->common);
-  add_classical_option(*made.first, made.second->common);
-  return made;
+// An experiment's own options as command-line options.
+class CommandLineOptions final : public evaluation::OptionDeclarer {
+ public:
+  explicit CommandLineOptions(CLI::App& command) : command_(command) {}
+  void text(const char* flag, const char* /*key*/, const char* help, std::string& value,
+            const std::vector<std::string>& choices) override {
+    CLI::Option* option = command_.add_option(flag, value, help);
+    if (!choices.empty()) option->check(CLI::IsMember(choices));
+  }
+  void path(const char* flag, const char* /*key*/, const char* help,
+            std::filesystem::path& value) override {
+    command_.add_option(flag, value, help);
+  }
+
+ private:
+  CLI::App& command_;
+};
+
+// An experiment of one model file (model_experiments.hpp): the shared options, the classical bar
+// where it takes one, and its own.
+template <class Options, class Result>
+void add_model_experiment(CLI::App& app, int& exit_code,
+                          const evaluation::ModelExperiment<Options, Result>& experiment) {
+  auto options = std::make_shared<Options>();
+  CLI::App* command = app.add_subcommand(experiment.name, experiment.about);
+  add_common_options(*command, options->common);
+  if (experiment.classical_bar) add_classical_option(*command, options->common);
+  if (experiment.declare != nullptr) {
+    CommandLineOptions declarer(*command);
+    experiment.declare(declarer, *options);
+  }
+  command->callback([options, experiment, &exit_code] {
+    exit_code = guarded([&] { return experiment.report(experiment.evaluate(*options), *options); });
+  });
 }
 
 void add_rank(CLI::App& app, int& exit_code) {
@@ -177,44 +202,8 @@ void add_regression(CLI::App& app, int& exit_code) {
 }  // namespace
 
 void add_commands(CLI::App& app, int& exit_code) {
-  {
-    auto [command, options] = model_experiment<evaluation::PlainImmOptions>(
-        app, "plain-imm", "a plain IMM model on a regime's test tracks vs. its modes alone",
-        exit_code, evaluation::run_plain_imm);
-    command->add_option("--data", options->data,
-                        "evaluate a stored data-set file (imm-data tracks) instead");
-  }
-  {
-    auto [command, options] = model_experiment<evaluation::GaImmOptions>(
-        app, "ga-imm",
-        "seed 000 Table 3: GA-fuzzy IMM vs AIMM3/5, tuned AIMM, tuned IMM, the paper's tables",
-        exit_code, evaluation::run_ga_imm);
-    command->add_option("--paper-model", options->paper_model,
-                        "the paper's tables, in --models (imm-train import-rules)");
-  }
-  (void)model_experiment<evaluation::InputEstimatorOptions>(
-      app, "input-estimator",
-      "seed 001 Tables 1-2: neural input estimator vs the constant-velocity KF", exit_code,
-      evaluation::run_input_estimator);
-  (void)model_experiment<evaluation::WimmOptions>(
-      app, "wimm", "seed 004 Table 2: weighted IMM vs normal IMM and a tuned normal IMM", exit_code,
-      evaluation::run_wimm);
-  (void)model_experiment<evaluation::FcmImmOptions>(
-      app, "fcm-imm",
-      "seed 003 Fig. 5-8: FCM-IMM vs KF, AIMM, tuned IMM and the constant-membership ablation",
-      exit_code, evaluation::run_fcm_imm);
-  {
-    // The FIMM's bar is run by its own experiment: no --classical.
-    auto [command, options] = subcommand<evaluation::FimmOptions>(
-        app, "fimm", "seed 002 Table 1: FIMM (TSK sensor model, EKF and IEKF) vs the IMM",
-        exit_code, evaluation::run_fimm);
-    add_common_options(*command, options->common);
-    command->add_option("--config", options->config, "TSK config: the FIMM's settings ([fimm])");
-    command
-        ->add_option("--gate-on", options->gate_on,
-                     "ekf: gate the FIMM (EKF); best: the better of EKF and IEKF")
-        ->check(CLI::IsMember({"ekf", "best"}));
-  }
+  evaluation::for_each_model_experiment(
+      [&](const auto& experiment) { add_model_experiment(app, exit_code, experiment); });
   add_rank(app, exit_code);
   add_regression(app, exit_code);
   add_multi_target(app, exit_code);

@@ -76,9 +76,9 @@ class TrainingCommands {
 
  private:
   struct Added {
-    const TrainingKind* kind;
-    const CLI::App* command;
-    TrainingRun run;
+    const TrainingKind* kind = nullptr;
+    const CLI::App* command = nullptr;
+    TrainingRun run{};
   };
   [[nodiscard]] const Added* chosen_added() const;
 
