@@ -14,6 +14,12 @@
 namespace imm::pipeline {
 namespace {
 
+// What runs `run` with the options parsed into `options`, and their --out.
+template <class Options>
+TrainingRun runner(std::shared_ptr<Options> options, int (*run)(const Options&)) {
+  return {[options, run] { return run(*options); }, [options] { return options->out; }};
+}
+
 // A training's options (--config, --regime, --out, --seed) on `command`, their defaults
 // `defaults`; `run` trains with them.
 template <class Command = TrainCommand>
@@ -28,7 +34,7 @@ TrainingRun training(CLI::App& command, Command defaults, int (*run)(const Comma
   if (out_required) out->required();
   command.add_option("--seed", options->seed, "override the config's seed");
   if (more) more(command, *options);
-  return {[options, run] { return run(*options); }, [options] { return options->out; }};
+  return runner(options, run);
 }
 
 TrainCommand defaults(const char* config, const char* out = "") { return {config, out, {}, {}}; }
@@ -45,8 +51,7 @@ std::vector<TrainingKind> make_training_kinds() {
             auto options = std::make_shared<trainer::FreezeOptions>();
             command.add_option("--config", options->config, "plain-IMM TOML")->required();
             command.add_option("--out", options->out, "model file to write")->required();
-            return TrainingRun{[options] { return run_freeze(*options); },
-                               [options] { return options->out; }};
+            return runner(options, run_freeze);
           },
   });
   kinds.push_back({
@@ -82,8 +87,7 @@ std::vector<TrainingKind> make_training_kinds() {
                 ->required();
             command.add_option("--regime", options->regime, "regime TOML (replaces the config's)");
             command.add_option("--out", options->out, "model file to write")->required();
-            return TrainingRun{[options] { return run_import_rules(*options); },
-                               [options] { return options->out; }};
+            return runner(options, run_import_rules);
           },
   });
   kinds.push_back({
