@@ -2,9 +2,8 @@
 #pragma once
 /// The job language of imm-train: the subcommands that write one model file (training_kinds():
 /// ga, mlp, wimm, fcm, tsk, baseline, schedule, freeze, import-rules), their command lines and how
-/// each runs. imm-train parses its own
-/// command line with them, and a sweep (sweep.hpp) parses each job's arguments with the same
-/// parser, so a job runs exactly as its subcommand would.
+/// each runs. imm-train parses its own command line with them, and a sweep (sweep.hpp) parses each
+/// job's arguments with the same parser, so a job runs exactly as its subcommand would.
 
 #include <CLI/CLI.hpp>
 #include <filesystem>
