@@ -6,6 +6,7 @@
 
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
+#include <spdlog/fmt/ranges.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -102,9 +103,8 @@ class KeywordOptions final : public ev::OptionDeclarer {
             const std::vector<std::string>& choices) override {
     take(key, value);
     if (!choices.empty() && std::find(choices.begin(), choices.end(), value) == choices.end()) {
-      std::string allowed;
-      for (const std::string& choice : choices) allowed += (allowed.empty() ? "" : ", ") + choice;
-      throw py::value_error(std::string(key) + ": '" + value + "' is none of " + allowed);
+      throw py::value_error(
+          fmt::format("{}: '{}' is none of {}", key, value, fmt::join(choices, ", ")));
     }
   }
   void path(const char* /*flag*/, const char* key, const char* /*help*/, fs::path& value) override {
@@ -174,43 +174,42 @@ py::dict evaluate(const std::string& experiment, const std::optional<fs::path>& 
                  out ? command_of(experiment, c, arguments.arguments) : std::vector<std::string>{});
   });
   if (!result) {
-    std::string names;
-    for (const std::string& name : ev::model_experiment_names())
-      names += (names.empty() ? "" : ", ") + name;
-    throw py::value_error("experiment: '" + experiment + "' is none of " + names);
+    throw py::value_error(fmt::format("experiment: '{}' is none of {}", experiment,
+                                      fmt::join(ev::model_experiment_names(), ", ")));
   }
   return *result;
 }
 
 // evaluate()'s help: its experiments and each one's own keywords, from the experiments' list.
 std::string evaluate_help() {
-  std::string names, keywords;
+  // Each option's keyword, as an experiment declares it.
+  struct Keys final : ev::OptionDeclarer {
+    void text(const char* /*flag*/, const char* key, const char* /*help*/, std::string&,
+              const std::vector<std::string>& /*choices*/) override {
+      keys.emplace_back(key);
+    }
+    void path(const char* /*flag*/, const char* key, const char* /*help*/, fs::path&) override {
+      keys.emplace_back(key);
+    }
+    std::vector<std::string> keys;
+  };
+  std::vector<std::string> keywords;
   ev::for_each_model_experiment([&](const auto& e) {
-    names += (names.empty() ? "" : ", ") + std::string(e.name);
-    struct Keys final : ev::OptionDeclarer {
-      void text(const char* /*flag*/, const char* key, const char* /*help*/, std::string&,
-                const std::vector<std::string>& /*choices*/) override {
-        add(key);
-      }
-      void path(const char* /*flag*/, const char* key, const char* /*help*/, fs::path&) override {
-        add(key);
-      }
-      void add(const char* key) { listed += (listed.empty() ? "" : " and ") + std::string(key); }
-      std::string listed;
-    } keys;
+    Keys declared;
     typename std::remove_cvref_t<decltype(e)>::Options o;
-    if (e.declare != nullptr) e.declare(keys, o);
-    if (!keys.listed.empty()) {
-      keywords += (keywords.empty() ? "" : ", ") + keys.listed + " (" + e.name + ")";
+    if (e.declare != nullptr) e.declare(declared, o);
+    if (!declared.keys.empty()) {
+      keywords.push_back(fmt::format("{} ({})", fmt::join(declared.keys, " and "), e.name));
     }
   });
+  const std::string names = fmt::format("{}", fmt::join(ev::model_experiment_names(), ", "));
   return "Runs an imm-eval experiment (" + names +
          ") with the command's options and returns its result: every filter's figures, the "
          "paired differences [estimate, lower, upper], the gates' failures, the findings and the "
          "exit code imm-eval would give. With `out`, also writes the report there as imm-eval "
          "does, report.md included (its path in \"report\"), without printing it. Its own options "
          "by keyword: " +
-         keywords;
+         fmt::format("{}", fmt::join(keywords, ", "));
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 #include "imm/pipeline/sweep.hpp"
 
 #include <fcntl.h>
+#include <spdlog/fmt/ranges.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -31,12 +32,6 @@ std::vector<std::string> training_commands(bool training_options_only) {
     if (kind.training_options || !training_options_only) names.push_back(kind.command);
   }
   return names;
-}
-
-std::string listed(const std::vector<std::string>& names) {
-  std::string text;
-  for (const std::string& name : names) text += (text.empty() ? "" : ", ") + name;
-  return text;
 }
 
 std::string replaced(std::string text, const std::string& field, const std::string& value) {
@@ -115,8 +110,8 @@ class OutputToLog {
 std::vector<SweepJob> expand_jobs(const support::ConfigTable& entry) {
   const TrainingKind* training = find_training_kind(entry.text("kind"));
   if (training == nullptr) {
-    entry.fail("kind", "'" + entry.text("kind") + "' is not a training kind (" +
-                           listed(training_commands(true)) + ", or their model kinds' names)");
+    entry.fail("kind", fmt::format("'{}' is not a training kind ({}, or their model kinds' names)",
+                                   entry.text("kind"), fmt::join(training_commands(true), ", ")));
   }
   const std::string& kind = training->command;
   const std::filesystem::path config = entry.text("config");
@@ -188,8 +183,8 @@ SweepJob command_job(const support::ConfigTable& entry) {
   job.kind = job.arguments.front();
   const auto& allowed = sweep_subcommands();
   if (std::find(allowed.begin(), allowed.end(), job.kind) == allowed.end()) {
-    entry.fail("command", "'" + job.kind + "' is not a subcommand that writes a model file (" +
-                              listed(allowed) + ")");
+    entry.fail("command", fmt::format("'{}' is not a subcommand that writes a model file ({})",
+                                      job.kind, fmt::join(allowed, ", ")));
   }
   const auto out = std::find(job.arguments.begin(), job.arguments.end(), "--out");
   if (out == job.arguments.end() || std::next(out) == job.arguments.end()) {

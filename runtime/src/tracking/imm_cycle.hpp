@@ -207,9 +207,9 @@ template <class S, int N, int K, class F>
     }
   }
   for (int k = 0; k < K; ++k) {
-    std::array<S, N> log_predicted = predicted[k];
-    each_mode<LaneFunction::kLog>(log_predicted, n);
-    for (int j = 0; j < n; ++j) m.log_c[k][j] = log_predicted[j] + shift[k];
+    m.log_c[k] = predicted[k];
+    each_mode<LaneFunction::kLog>(m.log_c[k], n);
+    for (int j = 0; j < n; ++j) m.log_c[k][j] += shift[k];
   }
   for (int k = 0; k < K; ++k) {
     if (!all_positive(predicted[k], n, active[k])) [[unlikely]] {
