@@ -66,6 +66,7 @@ std::vector<TrainingKind> make_training_kinds() {
             ga.out = "models/ga_fuzzy_imm.h5";
             return training<GaCommand>(
                 command, ga, run_ga, false, [](CLI::App& c, GaCommand& options) {
+                  c.get_option("--config")->description("GA config TOML");
                   c.add_option("--threads", options.threads, "OpenMP threads (default: all cores)")
                       ->check(support::at_least(1));
                   c.add_flag("--resume", options.resume,
