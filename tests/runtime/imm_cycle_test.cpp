@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The banks' IMM cycle written once over a number type and a filter family (imm_cycle.hpp), with
 // a small family of its own here (one coordinate, a random walk per mode): its pack instance
-// against its double instance, lane by lane, to the bit; K packs together against K alone and the
+// against its double instance, lane by lane, to the bit; one track's modes in one pack against the
+// mode loop, to the bit; K packs together against K alone and the
 // unrolled mode count against the general loop, to the bit; against a textbook IMM in linear
 // probabilities (eq. 4–11 of seed 000) written out below; what a lane that fails keeps and says.
 #include "tracking/imm_cycle.hpp"
@@ -56,16 +57,32 @@ struct RandomWalkFamily {
              const std::array<S, kEntries> (&current)[K], const S (&z)[K],
              std::array<S, kEntries> (&updated)[K], S (&log_likelihood)[K], S (&code)[K]) const {
     for (int k = 0; k < K; ++k) {
-      const S p = mixed[k][1] + q[static_cast<std::size_t>(j)];
-      const S s = p + r;
-      const S gain = p / s, nu = z[k] - mixed[k][0], rest = 1.0 - gain;
-      updated[k] = {mixed[k][0] + gain * nu, rest * rest * p + gain * gain * r,
-                    current[k][2] + 1.0};
-      log_likelihood[k] = -0.5 * (nu * nu / s + lane_log(s) + kLogTwoPi);
-      const S zeros = updated[k][0] * 0.0 + updated[k][1] * 0.0;
-      code[k] =
-          pick(s > 0.0, pick(s < kInf, pick(zeros == 0.0, kOk, kNonFinite), kSingular), kSingular);
+      step(q[static_cast<std::size_t>(j)], mixed[k], current[k], z[k], updated[k],
+           log_likelihood[k], code[k]);
     }
+  }
+
+  // The n modes of one track at once, mode j in lane j (the cycle's one-track path).
+  template <class P>
+  void steps_across_modes(int n, const std::array<P, kCombined>& mixed,
+                          const std::array<P, kEntries>& current, const double& z,
+                          std::array<P, kEntries>& updated, P& log_likelihood, P& code) const {
+    double lanes[kLanesOf<P>];
+    for (int j = 0; j < kLanesOf<P>; ++j) lanes[j] = q[static_cast<std::size_t>(j < n ? j : 0)];
+    step(lane_load<P>(lanes), mixed, current, splat<P>(z), updated, log_likelihood, code);
+  }
+
+  template <class S, class Q>
+  void step(const Q& noise, const std::array<S, kCombined>& mixed,
+            const std::array<S, kEntries>& current, const S& z, std::array<S, kEntries>& updated,
+            S& log_likelihood, S& code) const {
+    const S p = mixed[1] + noise;
+    const S s = p + r;
+    const S gain = p / s, nu = z - mixed[0], rest = 1.0 - gain;
+    updated = {mixed[0] + gain * nu, rest * rest * p + gain * gain * r, current[2] + 1.0};
+    log_likelihood = -0.5 * (nu * nu / s + lane_log(s) + kLogTwoPi);
+    const S zeros = updated[0] * 0.0 + updated[1] * 0.0;
+    code = pick(s > 0.0, pick(s < kInf, pick(zeros == 0.0, kOk, kNonFinite), kSingular), kSingular);
   }
 
   template <class S>
@@ -233,6 +250,72 @@ TEST(ImmCycle, PacksTakenTogetherAndTheGeneralModeLoopGiveTheSameBits) {
           << "scan " << scan << " value " << i;
     }
   }
+}
+
+// One track's modes in the lanes of one pack (the double instance with 2 to 8 modes known at
+// compile time: steps_across_modes) against the general mode loop (kMaxModes), to the bit: through
+// a mode that fails, refused plots, plots so far that every likelihood underflows, and a Π whose
+// zeros leave a mode unreachable (c̃_j = 0: the exact fallback).
+template <int N>
+void expect_modes_in_lanes_to_equal_the_mode_loop(std::uint64_t seed, std::vector<double>& seen) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, 3.0);
+  for (int trial = 0; trial < 40; ++trial) {
+    RandomWalkFamily f;
+    for (std::size_t j = 0; j < N; ++j) f.q[j] = std::pow(10.0, 4.0 * u(rng) - 3.0);
+    if (trial % 5 == 1) f.q[N - 1] = kInf;  // S not finite: singular
+    f.r = 0.5;
+    const bool unreachable = trial % 3 == 2;  // mode N − 1: no mode moves to it, μ = 0
+    const int reachable = unreachable ? N - 1 : N;
+    std::vector<double> pi(static_cast<std::size_t>(N * N), 0.0);
+    for (int i = 0; i < N; ++i) {
+      double* row = pi.data() + static_cast<std::ptrdiff_t>(i) * N;
+      double total = 0.0;
+      for (int j = 0; j < reachable; ++j) total += row[j] = u(rng);
+      for (int j = 0; j < reachable; ++j) row[j] /= total;
+    }
+    if (unreachable) pi[static_cast<std::size_t>(N * N - 1)] = 1.0;
+    std::vector<double> log_mu(N), x(N), p(N);
+    for (std::size_t j = 0; j < N; ++j) {
+      log_mu[j] = 30.0 * (u(rng) - 1.0);
+      x[j] = 10.0 * u(rng) - 5.0;
+      p[j] = std::pow(10.0, 6.0 * u(rng) - 3.0);
+    }
+    if (unreachable) log_mu[N - 1] = -kInf;
+    const double top = *std::max_element(log_mu.begin(), log_mu.end());
+    double sum = 0.0;
+    for (double v : log_mu) sum += std::exp(v - top);
+    for (double& v : log_mu) v = (v - top) - std::log(sum);
+    Bank lanes(N, 1, pi);
+    lanes.start(0, log_mu, x, p);
+    Bank loop = lanes;
+    for (int scan = 0; scan < 8; ++scan) {
+      const double z = scan == 5 ? 1e200 : noise(rng) * (trial % 7 == 0 ? 1e3 : 1.0);
+      const double usable = (trial + scan) % 6 == 0 ? 0.0 : 1.0, stepped = 1.0;
+      const auto a = run<double, N, 1>(f, lanes, 0, &z, &usable, &stepped);
+      const auto b = run<double, kMaxModes, 1>(f, loop, 0, &z, &usable, &stepped);
+      ASSERT_TRUE(same(a[0], b[0])) << N << " modes, trial " << trial << " scan " << scan;
+      seen.push_back(a[0]);
+      for (std::size_t i = 0; i < lanes.state.size(); ++i) {
+        ASSERT_TRUE(same(lanes.state[i], loop.state[i]))
+            << N << " modes, trial " << trial << " scan " << scan << " value " << i;
+      }
+    }
+  }
+}
+
+TEST(ImmCycle, OneTracksModesInOnePackEqualTheModeLoopToTheBit) {
+  std::vector<double> seen;
+  seen.reserve(1600);  // five mode counts, 40 trials, 8 scans
+  expect_modes_in_lanes_to_equal_the_mode_loop<2>(21, seen);
+  expect_modes_in_lanes_to_equal_the_mode_loop<3>(22, seen);
+  expect_modes_in_lanes_to_equal_the_mode_loop<4>(23, seen);
+  expect_modes_in_lanes_to_equal_the_mode_loop<5>(24, seen);
+  expect_modes_in_lanes_to_equal_the_mode_loop<8>(25, seen);
+  // Every outcome was there.
+  for (double code : {kOk, kSingular, kUnderflow, kBadPlot})
+    EXPECT_NE(std::find(seen.begin(), seen.end(), code), seen.end()) << code;
 }
 
 // The textbook IMM of the same family, linear probabilities, in plain loops.

@@ -35,9 +35,10 @@ template <int N, class F>
   (std::make_integer_sequence<int, N>{});
 }
 
-// Prediction in place: x⁻ = F x, P⁻ = F P Fᵀ + Q (q: Q's upper triangle, row by row).
-template <class At>
-[[gnu::always_inline]] inline void predict(At&& at, double T, const double* q) {
+// Prediction in place: x⁻ = F x, P⁻ = F P Fᵀ + Q (q: Q's upper triangle, row by row, q[i] a
+// double or an S: one Q for every lane, or each lane its own).
+template <class At, class Q>
+[[gnu::always_inline]] inline void predict(At&& at, double T, const Q& q) {
   using S = std::remove_cvref_t<decltype(at(0))>;
   S p[kN][kN];
   each<kN>([&](auto a) { each<kN>([&](auto c) { p[a][c] = at(kN + sym(a, c)); }); });

@@ -17,6 +17,11 @@
 //                          mode j's step of K packs from their mixed conditions: the updated
 //                          entries, log N(ν; 0, S) and a code (kOk, kSingular or kNonFinite)
 //   track_code(code)       the code a lane commits under (a track of several lanes fails as one)
+// and may provide
+//   steps_across_modes<P>(n, mixed, current, z, updated, log_likelihood, code)
+//                          the step of modes 0 … n − 1 of one track at once, mode j in lane j of
+//                          a pack P (n ≤ 8; the lanes past n compute on copies and are not
+//                          read), each lane the same operations as steps<double, 1>(j, …)
 //
 // The state: slots `stride` apart, mode j's entries at j · (kEntries + 2) + e, then its log μ and
 // μ̃ = μ / max μ; after the modes the combined estimate.
@@ -66,11 +71,17 @@ struct CycleSlots {
 /// the function instead of N, each value the same bits as alone (lane_math.hpp). A pack of tracks
 /// evaluates them one by one (each already a vector operation).
 enum class LaneFunction { kLog, kExp };
+/// The pack that holds one lane per mode of N ≤ 8 modes: 2, 4 or 8 lanes.
+template <std::size_t N>
+using ModePack = LanePackOf<(N <= 2   ? 2
+                             : N <= 4 ? 4
+                                      : 8)>;
+
 template <LaneFunction kF, class S, std::size_t N>
 [[gnu::always_inline]] inline void each_mode(std::array<S, N>& v, int n) {
   if constexpr (std::is_same_v<S, double> && N >= 2 && N <= 8) {
-    constexpr int W = N <= 2 ? 2 : N <= 4 ? 4 : 8;
-    using Pack = LanePackOf<W>;
+    using Pack = ModePack<N>;
+    constexpr int W = kLanesOf<Pack>;
     // The lanes past the modes hold 1: a finite value for both functions.
     double lanes[W];
     for (int j = 0; j < W; ++j) lanes[j] = j < static_cast<int>(N) ? v[j] : 1.0;
@@ -226,6 +237,90 @@ template <class S, int N, int K, class F>
   }
 }
 
+/// Whether family F steps the modes of one track in the lanes of a pack P.
+template <class F, class P>
+concept StepsAcrossModes = requires(const F& f, const std::array<P, F::kCombined>& mixed,
+                                    const std::array<P, F::kEntries>& current,
+                                    const typename F::template Plot<double>& z,
+                                    std::array<P, F::kEntries>& updated, P& value) {
+  f.template steps_across_modes<P>(1, mixed, current, z, updated, value, value);
+};
+
+/// The mixing and the modes' steps of one track (N ≤ 8 modes known at compile time) with mode j in
+/// lane j of one pack (F::steps_across_modes): per mode the same IEEE operations as mix_modes and
+/// F::steps give a double, so the same bits, in one pass over the modes instead of N. False, with
+/// nothing written, where some c̃_j is not positive (the general path then takes the exact
+/// fallback).
+template <int N, class F>
+[[gnu::always_inline]] inline bool mix_and_step_across_modes(
+    const F& family, const CycleBlock& b, int t, const typename F::template Plot<double>& z,
+    CycleMixing<double, N, 1, F>& m, std::array<double, F::kEntries> (&updated)[N][1],
+    std::array<double, N>& centered, double& outcome) {
+  using Slots = CycleSlots<F>;
+  using P = ModePack<N>;
+  constexpr int W = kLanesOf<P>;
+  // Mode j's value in lane j; the lanes past the modes hold 1 (finite, never read).
+  auto in_lanes = [&](auto&& value) {
+    double lanes[W];
+    for (int j = 0; j < W; ++j) lanes[j] = j < N ? value(j) : 1.0;
+    return lane_load<P>(lanes);
+  };
+  for (int i = 0; i < N; ++i) {
+    for (int e = 0; e < F::kEntries; ++e) m.modes[i][0][e] = *Slots::at(b, i, e, t);
+    m.log_mu[0][i] = *Slots::at(b, i, Slots::kLogMu, t);
+    m.scaled_mu[0][i] = *Slots::at(b, i, Slots::kScaledMu, t);
+  }
+  double shift = -std::numeric_limits<double>::infinity();
+  for (int i = 0; i < N; ++i) shift = pick(shift < m.log_mu[0][i], m.log_mu[0][i], shift);
+  // c̃_j = Σ_i p_ij μ̃_i in lane j, and the weights μ_ij (row i: lane j's).
+  P row[N];
+  P predicted = splat<P>(0.0);
+  for (int i = 0; i < N; ++i) {
+    row[i] = in_lanes([&](int j) { return b.transition[i * N + j]; });
+    predicted += row[i] * m.scaled_mu[0][i];
+  }
+  double c[W];
+  lane_store(c, predicted);
+  for (int j = 0; j < N; ++j) {
+    if (!(c[j] > 0.0)) return false;
+  }
+  const P inverse = 1.0 / predicted;
+  P weights[N];
+  for (int i = 0; i < N; ++i) weights[i] = row[i] * m.scaled_mu[0][i] * inverse;
+  const P log_c = lane_log(predicted) + shift;
+  // Every mode's initial condition, mode j's in lane j, from the modes' entries in every lane.
+  std::array<P, F::kEntries> spread[N];
+  for (int i = 0; i < N; ++i) {
+    for (int e = 0; e < F::kEntries; ++e) spread[i][e] = splat<P>(m.modes[i][0][e]);
+  }
+  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): mix fills it
+  std::array<P, F::kCombined> mixed;
+  family.mix(
+      N, weights, [&](int i) -> const auto& { return spread[i]; }, mixed);
+  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): filled below and by the step
+  std::array<P, F::kEntries> current, next;
+  for (int e = 0; e < F::kEntries; ++e)
+    current[e] = in_lanes([&](int j) { return m.modes[j][0][e]; });
+  P log_likelihood, code;
+  family.template steps_across_modes<P>(N, mixed, current, z, next, log_likelihood, code);
+
+  double lanes[W], codes[W];
+  lane_store(lanes, log_likelihood + log_c);
+  lane_store(codes, code);
+  outcome = kOk;
+  for (int j = 0; j < N; ++j) {
+    centered[j] = lanes[j];
+    outcome = pick(outcome != kOk, outcome, codes[j]);
+  }
+  lane_store(lanes, log_c);
+  for (int j = 0; j < N; ++j) m.log_c[0][j] = lanes[j];
+  for (int e = 0; e < F::kEntries; ++e) {
+    lane_store(lanes, next[e]);
+    for (int j = 0; j < N; ++j) updated[j][0][e] = lanes[j];
+  }
+  return true;
+}
+
 /// One IMM cycle of the K packs of lanes from lane `t`, with plots `z`, `usable` 1 where a lane's
 /// plot is usable and `stepped` 1 where a lane is to step (0: a padding lane). Each lane's code
 /// (kOk, kBadPlot, the first failing mode's, kUnderflow, as F::track_code makes it) goes to
@@ -240,21 +335,29 @@ template <class S, int N, int K, class F>
   constexpr int kLanes = kLanesOf<S>;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const int n = N == kMaxModes ? b.modes : N;
-  CycleMixing<S, N, K, F> m;  // NOLINT(cppcoreguidelines-pro-type-member-init): mix_modes fills it
-  mix_modes<S, N, K>(family, b, t, stepped, m);
-
-  // Each mode's step, ℓ_j + log c_j; the first mode that fails decides a lane's outcome.
+  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): the mixing fills it
+  CycleMixing<S, N, K, F> m;
   Mode updated[N][K];
   std::array<S, N> centered[K];
   S outcome[K];
-  for (int k = 0; k < K; ++k) outcome[k] = splat<S>(kOk);
-  for (int j = 0; j < n; ++j) {
-    S log_likelihood[K], mode_code[K];
-    family.template steps<S, K>(j, m.mixed[j], m.modes[j], z, updated[j], log_likelihood,
-                                mode_code);
-    for (int k = 0; k < K; ++k) {
-      centered[k][j] = log_likelihood[k] + m.log_c[k][j];
-      outcome[k] = pick(outcome[k] != kOk, outcome[k], mode_code[k]);
+  bool across_modes = false;
+  if constexpr (std::is_same_v<S, double> && K == 1 && N >= 2 && N <= 8 &&
+                StepsAcrossModes<F, ModePack<N>>) {
+    across_modes =
+        mix_and_step_across_modes<N>(family, b, t, z[0], m, updated, centered[0], outcome[0]);
+  }
+  if (!across_modes) {
+    mix_modes<S, N, K>(family, b, t, stepped, m);
+    // Each mode's step, ℓ_j + log c_j; the first mode that fails decides a lane's outcome.
+    for (int k = 0; k < K; ++k) outcome[k] = splat<S>(kOk);
+    for (int j = 0; j < n; ++j) {
+      S log_likelihood[K], mode_code[K];
+      family.template steps<S, K>(j, m.mixed[j], m.modes[j], z, updated[j], log_likelihood,
+                                  mode_code);
+      for (int k = 0; k < K; ++k) {
+        centered[k][j] = log_likelihood[k] + m.log_c[k][j];
+        outcome[k] = pick(outcome[k] != kOk, outcome[k], mode_code[k]);
+      }
     }
   }
 

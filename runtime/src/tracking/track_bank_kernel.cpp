@@ -63,24 +63,48 @@ struct CvPositionFamily {
                          noise + static_cast<std::ptrdiff_t>(j) * kTriangle);
   }
 
-  // Mode j's prediction and Joseph-form update with H selecting [x, y]; S positive definite by
-  // Sylvester with kalman_filter.hpp's relative guard, every output finite.
+  // Mode j's prediction and Joseph-form update with H selecting [x, y] (step) for K packs.
   template <class S, int K>
   [[gnu::always_inline]] inline void steps(int j, const Entries<S> (&mixed)[K],
                                            const Entries<S> (&/*current*/)[K],
                                            const Plot<S> (&z)[K], Entries<S> (&updated)[K],
                                            S (&log_likelihood)[K], S (&code)[K]) const {
     for (int k = 0; k < K; ++k) {
-      Entries<S> predicted = mixed[k];
-      predict(j, predicted);
-      const auto o = cv_position::update([&](int e) { return predicted[e]; },
-                                         [&](int e) -> S& { return updated[k][e]; }, z[k].x, z[k].y,
-                                         r00, r01, r11);
-      log_likelihood[k] = -0.5 * (o.mahalanobis + lane_log(o.det) + 2 * kLogTwoPi);
-      code[k] = pick(o.s00 > 0.0,
-                     pick(o.det > o.threshold, pick(o.finite == 0.0, kOk, kNonFinite), kSingular),
-                     kSingular);
+      step(noise + static_cast<std::ptrdiff_t>(j) * kTriangle, mixed[k], z[k], updated[k],
+           log_likelihood[k], code[k]);
     }
+  }
+
+  // The n modes of one track at once, mode j in lane j of P: each lane its own Q.
+  template <class P>
+  [[gnu::always_inline]] inline void steps_across_modes(int n, const Entries<P>& mixed,
+                                                        const Entries<P>& /*current*/,
+                                                        const Plot<double>& z, Entries<P>& updated,
+                                                        P& log_likelihood, P& code) const {
+    constexpr int W = kLanesOf<P>;
+    P q[kTriangle];
+    for (int e = 0; e < kTriangle; ++e) {
+      double lanes[W];
+      for (int j = 0; j < W; ++j) lanes[j] = noise[(j < n ? j : 0) * kTriangle + e];
+      q[e] = lane_load<P>(lanes);
+    }
+    step(q, mixed, Plot<P>{splat<P>(z.x), splat<P>(z.y)}, updated, log_likelihood, code);
+  }
+
+  // The prediction with Q's triangle q (q[i] a double or an S) and the Joseph-form update; S
+  // positive definite by Sylvester with kalman_filter.hpp's relative guard, every output finite.
+  template <class S, class Q>
+  [[gnu::always_inline]] inline void step(const Q& q, const Entries<S>& mixed, const Plot<S>& z,
+                                          Entries<S>& updated, S& log_likelihood, S& code) const {
+    Entries<S> predicted = mixed;
+    cv_position::predict([&](int i) -> S& { return predicted[i]; }, period, q);
+    const auto o =
+        cv_position::update([&](int e) { return predicted[e]; },
+                            [&](int e) -> S& { return updated[e]; }, z.x, z.y, r00, r01, r11);
+    log_likelihood = -0.5 * (o.mahalanobis + lane_log(o.det) + 2 * kLogTwoPi);
+    code = pick(o.s00 > 0.0,
+                pick(o.det > o.threshold, pick(o.finite == 0.0, kOk, kNonFinite), kSingular),
+                kSingular);
   }
 
   // A track is one lane.
