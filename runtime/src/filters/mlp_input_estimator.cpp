@@ -9,6 +9,7 @@
 #include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
+#include "input_estimator_step.hpp"
 
 namespace imm {
 
@@ -19,11 +20,41 @@ void CvKfSettings::validate() const {
                      "measurement_variance");
 }
 
-InnovationFeatureExtractor::InnovationFeatureExtractor(const CvKfSettings& settings)
-    : motion_(constant_velocity<1>(settings.sample_period, settings.process_noise)),
-      R_(SquareMatrix<1>::Constant(settings.measurement_variance)) {
+namespace {
+namespace scan = input_estimator;
+
+// [x0, x1] and [[p00, p01], [p01, p11]] of the estimate in `slots` from `first`.
+GaussianState<2> estimate_in(const std::array<double, scan::kSlots>& slots, int first) {
+  GaussianState<2> e;
+  e.mean << slots[first], slots[first + 1];
+  e.covariance << slots[first + 2], slots[first + 3], slots[first + 3], slots[first + 4];
+  return e;
+}
+
+std::array<double, 5> entries_of(const GaussianState<2>& state) {
+  return {state.mean(0), state.mean(1), state.covariance(0, 0), state.covariance(0, 1),
+          state.covariance(1, 1)};
+}
+
+// One filter's scan (a block of one lane), its network over the units in the widest vectors the
+// CPU has.
+[[gnu::flatten]] IMM_VECTOR_CLONES void scan_one(const scan::Constants& b, double* slots, double z,
+                                                 double& code, double* work,
+                                                 scan::ScanReport<1>& report) {
+  const double stepped = 1.0;
+  scan::scan<1, false>(b, slots, 1, &z, &stepped, &code, work, &report);
+}
+
+// A slot of `slots` by index, as the scan's functions read them.
+auto slot_of(std::array<double, scan::kSlots>& slots) {
+  return [&slots](int entry) -> double& { return slots[static_cast<std::size_t>(entry)]; };
+}
+}  // namespace
+
+InnovationFeatureExtractor::InnovationFeatureExtractor(const CvKfSettings& settings) {
   settings.validate();
-  H_ << 1.0, 0.0;
+  const scan::FeatureConstants c = scan::feature_constants(settings);
+  constants_ = {c.T, c.R, c.q00, c.q01, c.q11};
 }
 
 namespace {
@@ -38,10 +69,8 @@ InputSign input_sign_from(std::string_view name, const std::string& field) {
 }
 
 void InnovationFeatureExtractor::initialize(const GaussianState<2>& state) {
-  cv_ = state;
-  features_.reset();
-  innovations_.fill(0.0);
-  innovation_head_ = 0;
+  scan::start(slot_of(slots_), entries_of(state));
+  cv_ = estimate_in(slots_, scan::kCv);
   innovation_sum_ = 0.0;
   ino_ = 0.0;
   innovation_ = 0.0;
@@ -49,31 +78,32 @@ void InnovationFeatureExtractor::initialize(const GaussianState<2>& state) {
 
 StepStatus InnovationFeatureExtractor::step(double z, Eigen::Vector2d& features) {
   if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
-  GaussianState<2> cv = predict(cv_, motion_.transition, motion_.process_noise);
-  const auto report = update(cv, Vector<1>(z), H_, R_);
-  if (!report.ok()) return report.status;
-  innovation_ = report.innovation(0);
-  ino_ = innovation_ * innovation_ / report.innovation_covariance(0, 0);
-  features = features_.push(ino_);
-  innovation_head_ = (innovation_head_ + 1) % innovations_.size();
-  innovations_[innovation_head_] = innovation_;
-  innovation_sum_ = 0.0;
-  for (double nu : innovations_) innovation_sum_ += nu;
-  cv_ = cv;
+  const scan::FeatureConstants c{constants_[0], constants_[1], constants_[2], constants_[3],
+                                 constants_[4]};
+  auto at = slot_of(slots_);
+  const scan::FeatureScan f = scan::feature_scan(c, at, z);
+  if (f.cv.code != scan::kOk) return bank::status_of(f.cv.code);
+  const double cv[5] = {f.cv.e.x0, f.cv.e.x1, f.cv.e.p00, f.cv.e.p01, f.cv.e.p11};
+  scan::keep_features(at, cv, f.ino, f.head, f.cv.nu, true);
+  features = {f.sum, f.diff};
+  innovation_ = f.cv.nu;
+  ino_ = f.ino;
+  innovation_sum_ = f.nu_sum;
+  cv_ = estimate_in(slots_, scan::kCv);
   return StepStatus::kOk;
 }
 
 void InnovationFeatureExtractor::predict_only() {
-  cv_ = predict(cv_, motion_.transition, motion_.process_noise);
+  const scan::FeatureConstants c{constants_[0], constants_[1], constants_[2], constants_[3],
+                                 constants_[4]};
+  scan::coast_features(c, slot_of(slots_));
+  cv_ = estimate_in(slots_, scan::kCv);
 }
 
 MlpInputEstimatorFilter::MlpInputEstimatorFilter(MlpInputEstimatorModel model,
                                                  const CvKfSettings& settings)
-    : model_(std::move(model)),
-      motion_(constant_velocity<1>(settings.sample_period, settings.process_noise)),
-      G_(cv_axis_input_gain(settings.sample_period)),
-      R_(SquareMatrix<1>::Constant(settings.measurement_variance)),
-      features_(settings) {
+    : model_(std::move(model)), R_(SquareMatrix<1>::Constant(settings.measurement_variance)) {
+  settings.validate();
   if (!(settings == model_.settings)) {
     throw InvalidParameter(
         "cv_kf",
@@ -90,43 +120,45 @@ MlpInputEstimatorFilter::MlpInputEstimatorFilter(MlpInputEstimatorModel model,
   if (model_.input_variance != 0.0) {
     limits::require_in(model_.input_variance, limits::kVariance, "input_variance");
   }
-  // The input's error as process noise of the primary KF: σ_û² G Gᵀ (0: the seed's filter, the
-  // same numbers as without it).
-  motion_.process_noise.noalias() += model_.input_variance * G_ * G_.transpose();
+  // The scan's constants: among them the input's error as process noise of the primary KF,
+  // σ_û² G Gᵀ (0: the seed's filter, the same numbers as without it).
+  constants_ = std::make_shared<const scan::Constants>(model_);
+  work_.assign(2 * static_cast<std::size_t>(constants_->widest), 0.0);
   H_ << 1.0, 0.0;
 }
 
+void MlpInputEstimatorFilter::mirror() {
+  primary_ = estimate_in(slots_, scan::kPrimary);
+  cv_ = estimate_in(slots_, scan::kCv);
+  acceleration_ = slots_[scan::kInput];
+}
+
 void MlpInputEstimatorFilter::initialize(const GaussianState<2>& state) {
-  features_.initialize(state);
-  primary_ = state;
-  acceleration_ = 0.0;
+  scan::start(slot_of(slots_), entries_of(state));
+  mirror();
   raw_output_ = 0.0;
+  cv_innovation_ = 0.0;
   innovation_ = 0.0;
   updated_ = false;
+  predicted_ = false;
 }
 
 StepStatus MlpInputEstimatorFilter::step(double z) {
   updated_ = false;
   predicted_ = false;
   if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
-  // The primary KF with the input estimated at k − 1 (eq. 10).
-  GaussianState<2> primary = imm::predict(primary_, motion_.transition, motion_.process_noise, G_,
-                                          Vector<1>(acceleration_));
-  const auto primary_report = update(primary, Vector<1>(z), H_, R_);
-  if (!primary_report.ok()) return primary_report.status;
-  // The plain CV KF and its features (eq. 4–9, 11–14), then û(k).
-  Eigen::Vector2d features;
-  const StepStatus status = features_.step(z, features);
-  if (status != StepStatus::kOk) return status;
-  input_ = standardize(model_, features);
-  raw_output_ = model_.network.forward(input_);
-  const double magnitude = std::max(0.0, raw_output_ - model_.output_bias);
-  acceleration_ = model_.sign == InputSign::kInnovation && features_.innovation_sum() < 0.0
-                      ? -magnitude
-                      : magnitude;
-  innovation_ = primary_report.innovation(0);
-  innovation_variance_ = primary_report.innovation_covariance(0, 0);
-  primary_ = primary;
+  // The scan of one lane (input_estimator_step.hpp): the primary KF with û(k − 1) (eq. 10), the
+  // plain CV KF and its features (eq. 4–9, 11–14), the network, û(k); committed only where kOk.
+  double code = scan::kOk;
+  scan::ScanReport<1> report{};
+  scan_one(*constants_, slots_.data(), z, code, work_.data(), report);
+  if (code != scan::kOk) return bank::status_of(code);
+  mirror();
+  input_ << report.input[0][0], report.input[1][0];
+  raw_output_ = report.raw[0];
+  cv_innovation_ = report.cv_nu[0];
+  innovation_ = report.nu[0];
+  innovation_variance_ = report.s[0];
   updated_ = true;
   return StepStatus::kOk;
 }
@@ -134,15 +166,19 @@ StepStatus MlpInputEstimatorFilter::step(double z) {
 void MlpInputEstimatorFilter::predict_only() {
   updated_ = false;
   predicted_ = false;
-  primary_ = imm::predict(primary_, motion_.transition, motion_.process_noise, G_,
-                          Vector<1>(acceleration_));
-  features_.predict_only();
+  auto at = slot_of(slots_);
+  const lanes::AxisEstimate p = scan::primary_prediction(*constants_, at);
+  const double primary[5] = {p.x0, p.x1, p.p00, p.p01, p.p11};
+  for (int e = 0; e < 5; ++e) at(scan::kPrimary + e) = primary[e];
+  scan::coast_features(constants_->cv, at);
+  mirror();
 }
 
 void MlpInputEstimatorFilter::predict() {
   updated_ = false;
-  held_ = imm::predict(primary_, motion_.transition, motion_.process_noise, G_,
-                       Vector<1>(acceleration_));
+  const lanes::AxisEstimate p = scan::primary_prediction(*constants_, slot_of(slots_));
+  held_.mean << p.x0, p.x1;
+  held_.covariance << p.p00, p.p01, p.p01, p.p11;
   predicted_ = true;
 }
 

@@ -18,6 +18,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "imm/estimation/kalman_filter.hpp"
 #include "imm/filters/axis_filter.hpp"
@@ -70,8 +71,15 @@ struct IMM_RUNTIME_EXPORT CvKfSettings {
   void validate() const;
 };
 
+namespace input_estimator {
+struct Constants;
+/// An axis filter's slots in the scan both the one-track filter and the bank run.
+inline constexpr int kScanSlots = 33;
+}  // namespace input_estimator
+
 /// The constant-velocity KF and the features of its normalized innovations: what the network
-/// sees. The trainer computes its training inputs with this very class.
+/// sees. The trainer computes its training inputs with this very class; it runs the feature half
+/// of the filter's own scan (the same operations, so the same bits).
 class IMM_RUNTIME_EXPORT InnovationFeatureExtractor {
  public:
   /// Throws InvalidParameter naming the field of invalid settings.
@@ -95,14 +103,10 @@ class IMM_RUNTIME_EXPORT InnovationFeatureExtractor {
   [[nodiscard]] double innovation_sum() const { return innovation_sum_; }
 
  private:
-  LinearMotionModel<2> motion_;
-  Matrix<1, 2> H_;
-  SquareMatrix<1> R_;
-  InnovationFeatures features_;
-  std::array<double, InnovationFeatures::kWindow> innovations_{};  ///< ring of the last ν
-  std::size_t innovation_head_ = 0;
-  double innovation_sum_ = 0.0;
+  std::array<double, 5> constants_{};  // T, R, Q's three entries
+  std::array<double, input_estimator::kScanSlots> slots_{};
   GaussianState<2> cv_;
+  double innovation_sum_ = 0.0;
   double ino_ = 0.0;
   double innovation_ = 0.0;
 };
@@ -169,12 +173,12 @@ class IMM_RUNTIME_EXPORT MlpInputEstimatorFilter {
 
   [[nodiscard]] const GaussianState<2>& estimate() const { return primary_; }  ///< corrected
   /// The feature KF's estimate (uncorrected).
-  [[nodiscard]] const GaussianState<2>& cv_estimate() const { return features_.estimate(); }
+  [[nodiscard]] const GaussianState<2>& cv_estimate() const { return cv_; }
   [[nodiscard]] double acceleration() const { return acceleration_; }  ///< û(k)
   /// The network's output before scaling, bias and sign.
   [[nodiscard]] double raw_network_output() const { return raw_output_; }
   /// The feature KF's ν(k).
-  [[nodiscard]] double cv_innovation() const { return features_.innovation(); }
+  [[nodiscard]] double cv_innovation() const { return cv_innovation_; }
   [[nodiscard]] double innovation() const { return innovation_; }  ///< primary KF's ν(k)
   /// The primary KF's ν(k) and its variance S(k); false unless the last call was a successful
   /// step().
@@ -194,16 +198,20 @@ class IMM_RUNTIME_EXPORT MlpInputEstimatorFilter {
   }
 
  private:
+  // The estimates of the slots (after a scan, a start or a coast).
+  void mirror();
+
   MlpInputEstimatorModel model_;
-  LinearMotionModel<2> motion_;
-  Matrix<2, 1> G_;
   Matrix<1, 2> H_;
   SquareMatrix<1> R_;
-  InnovationFeatureExtractor features_;
-  GaussianState<2> primary_;
+  std::shared_ptr<const input_estimator::Constants> constants_;  // the scan's
+  std::array<double, input_estimator::kScanSlots> slots_{};      // the axis filter's state
+  std::vector<double> work_;  // the network's activations (two layers)
+  GaussianState<2> primary_, cv_;
   Eigen::VectorXd input_ = Eigen::VectorXd::Zero(2);
   double acceleration_ = 0.0;  // û(k), used by the next prediction
   double raw_output_ = 0.0;
+  double cv_innovation_ = 0.0;
   double innovation_ = 0.0;
   double innovation_variance_ = 0.0;
   bool updated_ = false;   // the last call was a successful step()

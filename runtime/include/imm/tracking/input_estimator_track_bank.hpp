@@ -13,14 +13,14 @@
 /// on the number of tracks. The ten-innovation windows are shift registers and rings whose
 /// position is per lane, selected by masks.
 ///
-/// The differences to the one-track filter are rounding only: the sigmoid's exp is lane_exp
-/// (lane_math.hpp, within 2 ulp of libm's), and a layer's products are summed input by input
-/// where Eigen's matrix-vector product may block them. A track whose plot is unusable, or whose x
+/// Each lane runs the scan MlpInputEstimatorFilter runs for one axis (one source), so a track's
+/// estimates equal the one-track filter's to the bit. A track whose plot is unusable, or whose x
 /// or y step fails, is left exactly as it was, both axes, with the status of the first axis that
 /// failed (the one-track TwoAxisFilter advances x when only y fails, which cannot happen for
 /// finite estimates with R > 0). Nothing is allocated after construction.
 #include <Eigen/Core>
 #include <cstddef>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -71,11 +71,9 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank : public LaneStorage {
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
  private:
-  MlpInputEstimatorModel model_;
+  struct Constants;
   bool wide_blocks_ = false;
-  std::vector<double> network_;  // the layers' weights (row-major) and biases, in order
-  std::vector<int> shape_;       // per layer: outputs, inputs, activation (1 = sigmoid)
-  int widest_ = 0;               // the most units of a layer
+  std::shared_ptr<const Constants> constants_;  // the scan's, made from the model once
   std::vector<double> scratch_;  // one block's plots, flags, codes and two layers' activations
 };
 
