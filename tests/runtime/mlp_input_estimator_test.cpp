@@ -3,7 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
+#include <vector>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/datasets/axis_trajectory.hpp"
@@ -53,6 +56,65 @@ GaussianState<2> start_of(const datasets::AxisTrajectory& t) {
   s.mean << t.measurement(1), t.measurement(1) - t.measurement(0);
   s.covariance << 2500.0, 2500.0, 2500.0, 5000.0;
   return s;
+}
+
+// The trainer's features (InnovationFeatureExtractor, the filter scan's feature half) against a
+// textbook CV KF written out here: ν, ν²/S, sum and diff over the padded window, Σ ν over the last
+// ten scans and the estimate, through NaN plots (refused, nothing moves) and scans without a plot
+// (the KF predicts, the windows stay).
+TEST(InnovationFeatureExtractor, AreTheWindowedInnovationsOfATextbookCvKf) {
+  const auto truth = maneuvering_truth();
+  const double R = 2500.0;
+  InnovationFeatureExtractor extractor({1.0, 1.0, R});
+  const GaussianState<2> start = start_of(truth);
+  extractor.initialize(start);
+  Eigen::Vector2d x = start.mean;
+  Eigen::Matrix2d P = start.covariance;
+  Eigen::Matrix2d F;
+  F << 1.0, 1.0, 0.0, 1.0;
+  Eigen::Matrix2d Q;  // q [[T⁴/4, T³/2], [T³/2, T²]] with T = q = 1
+  Q << 0.25, 0.5, 0.5, 1.0;
+  std::vector<double> ino, nu;
+  for (Eigen::Index k = 2; k < truth.measurement.size(); ++k) {
+    if (k % 17 == 0) {
+      Eigen::Vector2d unused;
+      EXPECT_EQ(extractor.step(std::numeric_limits<double>::quiet_NaN(), unused),
+                StepStatus::kInvalidMeasurement);
+    }
+    x = F * x;
+    P = F * P * F.transpose() + Q;
+    if (k % 23 == 0) {  // a scan without a plot
+      extractor.predict_only();
+    } else {
+      const double z = truth.measurement(k), s = P(0, 0) + R, v = z - x(0);
+      const Eigen::Vector2d gain = P.col(0) / s;
+      x += gain * v;
+      Eigen::Matrix2d I_KH = Eigen::Matrix2d::Identity();
+      I_KH.col(0) -= gain;
+      P = I_KH * P * I_KH.transpose() + gain * R * gain.transpose();
+      ino.push_back(v * v / s);
+      nu.push_back(v);
+      Eigen::Vector2d features;
+      ASSERT_EQ(extractor.step(z, features), StepStatus::kOk) << "k=" << k;
+      const auto n = static_cast<long>(ino.size());
+      auto padded = [&](long j) { return j < 0 ? 1.0 : ino[static_cast<std::size_t>(j)]; };
+      double sum = 0.0, nu_sum = 0.0;
+      for (long i = 0; i < 10; ++i) {
+        sum += padded(n - 1 - i);
+        nu_sum += n - 1 - i < 0 ? 0.0 : nu[static_cast<std::size_t>(n - 1 - i)];
+      }
+      const auto close = [](double a, double b) {
+        return std::abs(a - b) <= 1e-9 * std::max(1.0, std::abs(b));
+      };
+      EXPECT_TRUE(close(extractor.innovation(), v)) << "k=" << k;
+      EXPECT_TRUE(close(extractor.normalized_innovation(), ino.back())) << "k=" << k;
+      EXPECT_TRUE(close(features(0), 0.1 * sum)) << "k=" << k;
+      EXPECT_TRUE(close(features(1), ino.back() - padded(n - 11))) << "k=" << k;
+      EXPECT_TRUE(close(extractor.innovation_sum(), nu_sum)) << "k=" << k;
+    }
+    EXPECT_TRUE(testing::matrices_near(extractor.estimate().mean, x, 1e-9)) << "k=" << k;
+    EXPECT_TRUE(testing::matrices_near(extractor.estimate().covariance, P, 1e-9)) << "k=" << k;
+  }
 }
 
 TEST(MlpInputEstimatorFilter, WithZeroInputThePrimaryKfIsTheCvKf) {
