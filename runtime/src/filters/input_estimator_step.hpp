@@ -243,11 +243,10 @@ template <class Slot>
 // What a scan reports of each lane besides its slots (the one-track filter's accessors).
 template <int W>
 struct ScanReport {
-  double nu[W], s[W];        // the primary KF's ν(k) and S(k)
-  double raw[W];             // the network's output before the bias and the sign
-  double input[2][W];        // the standardized features
-  double cv_nu[W];           // the feature KF's ν(k)
-  double ino[W], nu_sum[W];  // ino(k) and Σ ν over the last ten scans
+  double nu[W], s[W];  // the primary KF's ν(k) and S(k)
+  double raw[W];       // the network's output before the bias and the sign
+  double input[2][W];  // the standardized features
+  double cv_nu[W];     // the feature KF's ν(k)
 };
 
 // One scan of W axis filters. `state` points at the first lane's slot 0; `z` the lanes' plots
@@ -338,8 +337,6 @@ template <int W, bool kPairedAxes>
       report->input[0][l] = x[0][l];
       report->input[1][l] = x[1][l];
       report->cv_nu[l] = cv_nu[l];
-      report->ino[l] = ino[l];
-      report->nu_sum[l] = nu_sum[l];
     }
   }
 }

@@ -45,6 +45,11 @@ std::array<double, 5> entries_of(const GaussianState<2>& state) {
   scan::scan<1, false>(b, slots, 1, &z, &stepped, &code, work, &report);
 }
 
+// The feature KF's constants as the extractor keeps them (T, R, Q's three entries).
+scan::FeatureConstants features_of(const std::array<double, 5>& c) {
+  return {c[0], c[1], c[2], c[3], c[4]};
+}
+
 // A slot of `slots` by index, as the scan's functions read them.
 auto slot_of(std::array<double, scan::kSlots>& slots) {
   return [&slots](int entry) -> double& { return slots[static_cast<std::size_t>(entry)]; };
@@ -78,10 +83,8 @@ void InnovationFeatureExtractor::initialize(const GaussianState<2>& state) {
 
 StepStatus InnovationFeatureExtractor::step(double z, Eigen::Vector2d& features) {
   if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
-  const scan::FeatureConstants c{constants_[0], constants_[1], constants_[2], constants_[3],
-                                 constants_[4]};
   auto at = slot_of(slots_);
-  const scan::FeatureScan f = scan::feature_scan(c, at, z);
+  const scan::FeatureScan f = scan::feature_scan(features_of(constants_), at, z);
   if (f.cv.code != scan::kOk) return bank::status_of(f.cv.code);
   const double cv[5] = {f.cv.e.x0, f.cv.e.x1, f.cv.e.p00, f.cv.e.p01, f.cv.e.p11};
   scan::keep_features(at, cv, f.ino, f.head, f.cv.nu, true);
@@ -94,9 +97,7 @@ StepStatus InnovationFeatureExtractor::step(double z, Eigen::Vector2d& features)
 }
 
 void InnovationFeatureExtractor::predict_only() {
-  const scan::FeatureConstants c{constants_[0], constants_[1], constants_[2], constants_[3],
-                                 constants_[4]};
-  scan::coast_features(c, slot_of(slots_));
+  scan::coast_features(features_of(constants_), slot_of(slots_));
   cv_ = estimate_in(slots_, scan::kCv);
 }
 
