@@ -136,7 +136,7 @@ TEST_P(KillDrill, KillsLeaveNothingPartial) {
       ++finished;
       ASSERT_EQ(WEXITSTATUS(status), 0);
       // It ran faster than the references (they ran beside other tests, this one alone): the
-      // later kill moments are drawn within its time.
+      // later kill moments are drawn within the time by which it had finished.
       seconds = std::min(
           seconds, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     }

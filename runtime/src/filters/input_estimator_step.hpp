@@ -33,11 +33,7 @@ inline constexpr int kPrimary = 0, kInput = 5, kCv = 6, kIno = 11, kNu = kIno + 
 static_assert(kSlots == kScanSlots);
 using bank::kBadPlot, bank::kNonFinite, bank::kOk, bank::kSingular;
 
-// The feature KF's constants: T, R and Q of CvKfSettings.
-struct FeatureConstants {
-  double T = 0.0, R = 0.0;
-  double q00 = 0.0, q01 = 0.0, q11 = 0.0;
-};
+// The feature KF's constants (FeatureConstants, mlp_input_estimator.hpp) of CvKfSettings.
 inline FeatureConstants feature_constants(const CvKfSettings& s) {
   const LinearMotionModel<2> motion = constant_velocity<1>(s.sample_period, s.process_noise);
   return {s.sample_period, s.measurement_variance, motion.process_noise(0, 0),
@@ -49,7 +45,7 @@ inline constexpr int kUnitChunk = 8;
 inline constexpr int chunks(int units) { return (units + kUnitChunk - 1) / kUnitChunk; }
 
 // A model's constants as the scan reads them: the primary KF's G and Q (with σ_û² G Gᵀ), the
-// standardization, and the network flattened (per layer its weights row-major, then its biases).
+// standardization, and the network flattened.
 struct Constants {
   FeatureConstants cv;
   double g0 = 0.0, g1 = 0.0;
@@ -57,10 +53,9 @@ struct Constants {
   double mean0 = 0.0, mean1 = 0.0, scale0 = 1.0, scale1 = 1.0;
   double output_scale = 1.0, output_bias = 0.0;
   bool innovation_sign = false;
-  std::vector<int> shape;       // per layer: outputs, inputs, sigmoid
-  std::vector<double> network;  // per layer: weights row-major, then the biases
-  // The same for one filter's scan: per layer the weights column by column, then the biases,
-  // each column padded with zeros to whole chunks of kUnitChunk units.
+  std::vector<int> shape;  // per layer: outputs, inputs, sigmoid
+  // Per layer the weights column by column, then the biases, each column padded with zeros to
+  // whole chunks of kUnitChunk units (one filter's scan reads a chunk of units at once).
   std::vector<double> columns;
   int widest = 0;  // the most units of a layer (rounded up to whole chunks)
 
@@ -87,14 +82,10 @@ struct Constants {
       const auto outputs = static_cast<int>(layer.weights.rows());
       const auto inputs = static_cast<int>(layer.weights.cols());
       shape.insert(shape.end(), {outputs, inputs, layer.activation == Activation::kSigmoid});
-      for (int r = 0; r < outputs; ++r) {
-        for (int c = 0; c < inputs; ++c) network.push_back(layer.weights(r, c));
-      }
       const int padded = chunks(outputs) * kUnitChunk;
       for (int c = 0; c < inputs; ++c) {
         for (int r = 0; r < padded; ++r) columns.push_back(r < outputs ? layer.weights(r, c) : 0.0);
       }
-      network.insert(network.end(), layer.bias.data(), layer.bias.data() + outputs);
       for (int r = 0; r < padded; ++r) columns.push_back(r < outputs ? layer.bias(r) : 0.0);
       widest = std::max({widest, padded, inputs});
     }
@@ -152,6 +143,14 @@ template <class Slot>
   return {at(first), at(first + 1), at(first + 2), at(first + 3), at(first + 4)};
 }
 
+// Writes an estimate into its five slots from `first`.
+template <class Slot>
+[[gnu::always_inline]] inline void put_estimate(Slot&& at, int first,
+                                                const lanes::AxisEstimate& e) {
+  const double values[5] = {e.x0, e.x1, e.p00, e.p01, e.p11};
+  for (int k = 0; k < 5; ++k) at(first + k) = values[k];
+}
+
 // The feature half of a scan (eq. 3–9, 11–14): the feature KF, ino(k) = ν²/S, the raw features
 // sum(k) = 0.1 Σ_{i<10} ino(k − i) and diff(k) = ino(k) − ino(k − 10), the ν ring's next head and
 // its sum in ring order with ν(k). Nothing is written.
@@ -192,9 +191,7 @@ template <class Slot>
 // The feature KF's prediction alone (a scan without a plot): the windows do not move.
 template <class Slot>
 [[gnu::always_inline]] inline void coast_features(const FeatureConstants& c, Slot&& at) {
-  const lanes::AxisEstimate p = predicted(c.T, estimate_at(at, kCv), c.q00, c.q01, c.q11, 0.0, 0.0);
-  const double cv[5] = {p.x0, p.x1, p.p00, p.p01, p.p11};
-  for (int e = 0; e < 5; ++e) at(kCv + e) = cv[e];
+  put_estimate(at, kCv, predicted(c.T, estimate_at(at, kCv), c.q00, c.q01, c.q11, 0.0, 0.0));
 }
 
 // The primary KF's prediction with û(k − 1) (eq. 10).
@@ -289,19 +286,20 @@ template <int W, bool kPairedAxes>
   if constexpr (W == 1) {
     in = network_of_one(b, in, work);
   } else {
-    const double* layer = b.network.data();
+    const double* layer = b.columns.data();
     for (int k = 0; k < b.layers(); ++k) {
       const auto u = static_cast<std::size_t>(k);
       const std::ptrdiff_t outputs = b.shape[3 * u], inputs = b.shape[3 * u + 1];
+      const auto padded = static_cast<std::ptrdiff_t>(chunks(b.shape[3 * u])) * kUnitChunk;
       const bool sigmoid = b.shape[3 * u + 2] != 0;
       double* out = work + static_cast<std::ptrdiff_t>(k % 2) * b.widest * W;
-      const double* bias = layer + outputs * inputs;
+      const double* bias = layer + padded * inputs;
       for (std::ptrdiff_t r = 0; r < outputs; ++r) {
-        const double* weights = layer + r * inputs;
         double sum[W];
         IMM_LANES sum[l] = 0.0;
         for (std::ptrdiff_t c = 0; c < inputs; ++c) {
-          IMM_LANES sum[l] += weights[c] * in[c * W + l];
+          const double weight = layer[c * padded + r];
+          IMM_LANES sum[l] += weight * in[c * W + l];
         }
         IMM_LANES {
           const double a = sum[l] + bias[r];
@@ -309,7 +307,7 @@ template <int W, bool kPairedAxes>
         }
       }
       in = out;
-      layer = bias + outputs;
+      layer = bias + padded;
     }
   }
   // û(k): the scaled output less the bias, clipped at 0, signed; then the commit.

@@ -45,11 +45,6 @@ std::array<double, 5> entries_of(const GaussianState<2>& state) {
   scan::scan<1, false>(b, slots, 1, &z, &stepped, &code, work, &report);
 }
 
-// The feature KF's constants as the extractor keeps them (T, R, Q's three entries).
-scan::FeatureConstants features_of(const std::array<double, 5>& c) {
-  return {c[0], c[1], c[2], c[3], c[4]};
-}
-
 // A slot of `slots` by index, as the scan's functions read them.
 auto slot_of(std::array<double, scan::kSlots>& slots) {
   return [&slots](int entry) -> double& { return slots[static_cast<std::size_t>(entry)]; };
@@ -58,8 +53,7 @@ auto slot_of(std::array<double, scan::kSlots>& slots) {
 
 InnovationFeatureExtractor::InnovationFeatureExtractor(const CvKfSettings& settings) {
   settings.validate();
-  const scan::FeatureConstants c = scan::feature_constants(settings);
-  constants_ = {c.T, c.R, c.q00, c.q01, c.q11};
+  constants_ = scan::feature_constants(settings);
 }
 
 namespace {
@@ -84,7 +78,7 @@ void InnovationFeatureExtractor::initialize(const GaussianState<2>& state) {
 StepStatus InnovationFeatureExtractor::step(double z, Eigen::Vector2d& features) {
   if (!limits::usable_measurement(z)) return StepStatus::kInvalidMeasurement;
   auto at = slot_of(slots_);
-  const scan::FeatureScan f = scan::feature_scan(features_of(constants_), at, z);
+  const scan::FeatureScan f = scan::feature_scan(constants_, at, z);
   if (f.cv.code != scan::kOk) return bank::status_of(f.cv.code);
   const double cv[5] = {f.cv.e.x0, f.cv.e.x1, f.cv.e.p00, f.cv.e.p01, f.cv.e.p11};
   scan::keep_features(at, cv, f.ino, f.head, f.cv.nu, true);
@@ -97,7 +91,7 @@ StepStatus InnovationFeatureExtractor::step(double z, Eigen::Vector2d& features)
 }
 
 void InnovationFeatureExtractor::predict_only() {
-  scan::coast_features(features_of(constants_), slot_of(slots_));
+  scan::coast_features(constants_, slot_of(slots_));
   cv_ = estimate_in(slots_, scan::kCv);
 }
 
@@ -168,9 +162,7 @@ void MlpInputEstimatorFilter::predict_only() {
   updated_ = false;
   predicted_ = false;
   auto at = slot_of(slots_);
-  const lanes::AxisEstimate p = scan::primary_prediction(*constants_, at);
-  const double primary[5] = {p.x0, p.x1, p.p00, p.p01, p.p11};
-  for (int e = 0; e < 5; ++e) at(scan::kPrimary + e) = primary[e];
+  scan::put_estimate(at, scan::kPrimary, scan::primary_prediction(*constants_, at));
   scan::coast_features(constants_->cv, at);
   mirror();
 }

@@ -178,14 +178,10 @@ template <class S>
   }
 }
 
-/// The mixing (eq. 4–6) of the K packs of lanes from lane `t`: predicted mode probabilities
-/// c̃_j = Σ_i p_ij μ̃_i with μ̃ = μ / max μ (as ImmEstimator), weights μ_ij = p_ij μ̃_i / c̃_j,
-/// log c_j = log c̃_j + max_i log μ_i, and the mixed initial conditions. The state is not changed.
-/// `active` is 1 in the lanes whose results count (0: a lane past the tracks stepped, whatever its
-/// state: it does not send the pack to the exact fallback).
+/// The modes' stored entries, log μ and μ̃ of the K packs of lanes from lane `t` into `m`.
 template <class S, int N, int K, class F>
-[[gnu::always_inline]] inline void mix_modes(const F& family, const CycleBlock& b, int t,
-                                             const S (&active)[K], CycleMixing<S, N, K, F>& m) {
+[[gnu::always_inline]] inline void load_modes(const CycleBlock& b, int t,
+                                              CycleMixing<S, N, K, F>& m) {
   using Slots = CycleSlots<F>;
   constexpr int kLanes = kLanesOf<S>;
   const int n = N == kMaxModes ? b.modes : N;
@@ -197,6 +193,18 @@ template <class S, int N, int K, class F>
       m.scaled_mu[k][i] = lane_load<S>(st(i, Slots::kScaledMu));
     }
   }
+}
+
+/// The mixing (eq. 4–6) of the K packs of lanes from lane `t`: predicted mode probabilities
+/// c̃_j = Σ_i p_ij μ̃_i with μ̃ = μ / max μ (as ImmEstimator), weights μ_ij = p_ij μ̃_i / c̃_j,
+/// log c_j = log c̃_j + max_i log μ_i, and the mixed initial conditions. The state is not changed.
+/// `active` is 1 in the lanes whose results count (0: a lane past the tracks stepped, whatever its
+/// state: it does not send the pack to the exact fallback).
+template <class S, int N, int K, class F>
+[[gnu::always_inline]] inline void mix_modes(const F& family, const CycleBlock& b, int t,
+                                             const S (&active)[K], CycleMixing<S, N, K, F>& m) {
+  const int n = N == kMaxModes ? b.modes : N;
+  load_modes(b, t, m);
   // The K packs advance phase by phase: their chains (lane_log's, lane_exp's) are independent,
   // and a core overlaps them.
   std::array<S, N> predicted[K];
@@ -248,15 +256,15 @@ concept StepsAcrossModes = requires(const F& f, const std::array<P, F::kCombined
 
 /// The mixing and the modes' steps of one track (N ≤ 8 modes known at compile time) with mode j in
 /// lane j of one pack (F::steps_across_modes): per mode the same IEEE operations as mix_modes and
-/// F::steps give a double, so the same bits, in one pass over the modes instead of N. False, with
-/// nothing written, where some c̃_j is not positive (the general path then takes the exact
-/// fallback).
+/// F::steps give a double, so the same bits, in one pass over the modes instead of N. Of `m` it
+/// fills what the rest of the cycle reads (the modes, log μ, μ̃), not log c_j or the mixed
+/// conditions, which go into `centered` and the step. False, with the state untouched, where some
+/// c̃_j is not positive (the general path then takes the exact fallback).
 template <int N, class F>
 [[gnu::always_inline]] inline bool mix_and_step_across_modes(
     const F& family, const CycleBlock& b, int t, const typename F::template Plot<double>& z,
     CycleMixing<double, N, 1, F>& m, std::array<double, F::kEntries> (&updated)[N][1],
     std::array<double, N>& centered, double& outcome) {
-  using Slots = CycleSlots<F>;
   using P = ModePack<N>;
   constexpr int W = kLanesOf<P>;
   // Mode j's value in lane j; the lanes past the modes hold 1 (finite, never read).
@@ -265,11 +273,7 @@ template <int N, class F>
     for (int j = 0; j < W; ++j) lanes[j] = j < N ? value(j) : 1.0;
     return lane_load<P>(lanes);
   };
-  for (int i = 0; i < N; ++i) {
-    for (int e = 0; e < F::kEntries; ++e) m.modes[i][0][e] = *Slots::at(b, i, e, t);
-    m.log_mu[0][i] = *Slots::at(b, i, Slots::kLogMu, t);
-    m.scaled_mu[0][i] = *Slots::at(b, i, Slots::kScaledMu, t);
-  }
+  load_modes(b, t, m);
   double shift = -std::numeric_limits<double>::infinity();
   for (int i = 0; i < N; ++i) shift = pick(shift < m.log_mu[0][i], m.log_mu[0][i], shift);
   // c̃_j = Σ_i p_ij μ̃_i in lane j, and the weights μ_ij (row i: lane j's).
@@ -312,8 +316,6 @@ template <int N, class F>
     centered[j] = lanes[j];
     outcome = pick(outcome != kOk, outcome, codes[j]);
   }
-  lane_store(lanes, log_c);
-  for (int j = 0; j < N; ++j) m.log_c[0][j] = lanes[j];
   for (int e = 0; e < F::kEntries; ++e) {
     lane_store(lanes, next[e]);
     for (int j = 0; j < N; ++j) updated[j][0][e] = lanes[j];

@@ -75,6 +75,14 @@ namespace input_estimator {
 struct Constants;
 /// An axis filter's slots in the scan both the one-track filter and the bank run.
 inline constexpr int kScanSlots = 33;
+/// The feature KF's constants: T, R and Q's three entries (of CvKfSettings).
+struct FeatureConstants {
+  double T = 0.0;    ///< sample period, s
+  double R = 0.0;    ///< plot variance
+  double q00 = 0.0;  ///< Q(0, 0)
+  double q01 = 0.0;  ///< Q(0, 1)
+  double q11 = 0.0;  ///< Q(1, 1)
+};
 }  // namespace input_estimator
 
 /// The constant-velocity KF and the features of its normalized innovations: what the network
@@ -103,7 +111,7 @@ class IMM_RUNTIME_EXPORT InnovationFeatureExtractor {
   [[nodiscard]] double innovation_sum() const { return innovation_sum_; }
 
  private:
-  std::array<double, 5> constants_{};  // T, R, Q's three entries
+  input_estimator::FeatureConstants constants_;
   std::array<double, input_estimator::kScanSlots> slots_{};
   GaussianState<2> cv_;
   double innovation_sum_ = 0.0;
