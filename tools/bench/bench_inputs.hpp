@@ -19,6 +19,13 @@ inline imm::datasets::Track preset_track(const std::string& name, int index = 0)
   return imm::datasets::draw_track(file.regime, imm::datasets::Split::kTest, index, 1);
 }
 
+/// The sample period of a paper preset's regime.
+inline double preset_sample_period(const std::string& name) {
+  return imm::datasets::load_regime(std::string(IMM_SOURCE_DIR "/configs/regimes/paper/") + name +
+                                    ".toml")
+      .regime.sample_period;
+}
+
 inline const Eigen::MatrixXd& table3_plots() {
   static const Eigen::MatrixXd plots = preset_track("ga_imm_table3").plots;
   return plots;

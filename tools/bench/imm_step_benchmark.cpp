@@ -286,6 +286,7 @@ void BM_FimmStep(benchmark::State& state) {
         std::make_shared<const imm::TskSensorModel>(imm::io::read_tsk_sensor(tsk_model_path(hard)));
   }
   imm::FimmSpec spec;
+  spec.sample_period = imm::bench::preset_sample_period("fimm_table1");
   spec.measurement_covariance = track.noise.covariance();
   spec.iterations = std::max(1, iterations);
   imm::FimmFilter filter(spec, sensor);

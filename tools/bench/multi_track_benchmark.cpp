@@ -286,6 +286,7 @@ void BM_FimmMultiTrack(benchmark::State& state) {
   const auto sensor = std::make_shared<const imm::TskSensorModel>(
       imm::io::read_tsk_sensor(IMM_SOURCE_DIR "/models/tsk_range_sensor.h5"));
   imm::FimmSpec spec;
+  spec.sample_period = imm::bench::preset_sample_period("fimm_table1");
   spec.measurement_covariance = track.noise.covariance();
   spec.iterations = static_cast<int>(state.range(2));
   const Eigen::Vector2d offset(0.001, 0.02);
