@@ -15,6 +15,22 @@ inline bool running_as_study() {
   return value != nullptr && std::string_view(value) == "1";
 }
 
+/// True in a build with AddressSanitizer (make test-sanitize), where every instruction costs
+/// several times its Release time.
+constexpr bool running_sanitized() {
+#if defined(__SANITIZE_ADDRESS__)
+  return true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+  return true;
+#else
+  return false;
+#endif
+#else
+  return false;
+#endif
+}
+
 /// `quick` in the default suite, `study` under make test-long.
 template <class T>
 T quick_or_study(T quick, T study) {
