@@ -3,18 +3,15 @@
 
 #include <cmath>
 
+#include "fimm_step.hpp"
 #include "imm/core/checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
-#include "imm/estimation/kalman_mode.hpp"
-#include "imm/models/measurement/position_measurement.hpp"
-#include "imm/models/measurement/tsk_sensor_measurement.hpp"
-#include "imm/models/motion/constant_acceleration.hpp"
+#include "position_kalman_mode.hpp"
 
 namespace imm {
 namespace {
 
-constexpr std::array<int, 2> kPositions = {0, 3};  // ξ, η in [ξ, ξ̇, ξ̈, η, η̇, η̈]
 constexpr const char* kModeNames[2] = {"cruise", "lane change"};
 
 }  // namespace
@@ -52,23 +49,29 @@ double FimmSpec::process_noise(int mode) const {
 
 namespace {
 
+// How a FIMM mode measures: fimm_step.hpp's linearization and update over one lane.
+struct FimmMeasure {
+  std::shared_ptr<const fimm::Constants> constants;
+
+  void linearize(const Vector<2>& z, const fimm::Mode<1>& mode, bank::Linearization<1>& g) const {
+    double point[6][1];
+    for (int a = 0; a < 6; ++a) point[a][0] = mode.x[a][0];
+    fimm::linearize<1>(*constants, z.data(), z.data() + 1, mode, point, g);
+  }
+  void update(const Vector<2>& z, fimm::Mode<1>& mode) const {
+    fimm::update<1>(*constants, z.data(), z.data() + 1, mode);
+  }
+};
+
 // The two CA modes through the sensor (or h = identity), after the spec is checked.
 ImmEstimator<6, 2> build_fimm(const FimmSpec& spec,
                               const std::shared_ptr<const TskSensorModel>& sensor) {
   spec.validate();
+  auto constants = std::make_shared<const fimm::Constants>(fimm::constants_of(spec, sensor.get()));
   std::vector<std::unique_ptr<ImmMode<6, 2>>> modes;
-  for (int j = 0; j < 2; ++j) {
-    const auto motion = constant_acceleration<2>(spec.sample_period, spec.process_noise(j));
-    if (sensor) {
-      modes.push_back(std::make_unique<KalmanMode<6, 6, TskSensorMeasurement<6>>>(
-          kModeNames[j], motion,
-          TskSensorMeasurement<6>(sensor, kPositions, spec.measurement_covariance),
-          StateEmbedding<6, 6>(), spec.iterations));
-    } else {
-      modes.push_back(std::make_unique<KalmanMode<6, 6, PositionMeasurement<6, 2>>>(
-          kModeNames[j], motion, PositionMeasurement<6, 2>(kPositions, spec.measurement_covariance),
-          StateEmbedding<6, 6>()));
-    }
+  for (std::size_t j = 0; j < 2; ++j) {
+    modes.push_back(std::make_unique<PositionKalmanMode<fimm::kAxis, FimmMeasure>>(
+        kModeNames[j], constants->modes[j], FimmMeasure{constants}));
   }
   return {std::move(modes), spec.transition, spec.initial_probabilities};
 }

@@ -8,25 +8,50 @@
 #include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
-#include "imm/estimation/kalman_mode.hpp"
-#include "imm/models/motion/constant_velocity.hpp"
-#include "imm/models/motion/singer.hpp"
+#include "position_kalman_mode.hpp"
+#include "wimm_step.hpp"
 
 namespace imm {
+
+// The constants of the filter's spec and what the current cycle chose, which both modes read.
+struct wimm::Cycle {
+  Constants constants;
+  bool fuse = false;       // whether this cycle fuses the azimuth
+  double theta_bar = 0.0;  // θ̄ (read by the correlated fusion)
+};
+
 namespace {
 
-ImmEstimator<6, 2> build_imm(const WimmSpec& spec,
-                             const std::shared_ptr<const AzimuthFusion>& fusion) {
+// How a wIMM mode of D states per axis measures: wimm_step.hpp's linearization over one lane, at
+// the cycle's choice; z is the plot with the chosen azimuth.
+template <int D>
+struct WimmMeasure {
+  std::shared_ptr<const wimm::Cycle> cycle;
+
+  void linearize(const Vector<2>& z, const bank::ModeLanes<D, 1>& mode,
+                 bank::Linearization<1>& g) const {
+    const wimm::Constants& b = cycle->constants;
+    double r[1], azimuth[1];
+    wimm::range_and_azimuth<1>(mode.x[0], mode.x[D], r, azimuth);
+    wimm::linearize_lane<1>(b, cycle->fuse, z(0), z(1), cycle->theta_bar, mode.x[0][0],
+                            mode.x[D][0], r[0], azimuth[0], g, 0);
+  }
+  void update(const Vector<2>& z, bank::ModeLanes<D, 1>& mode) const {
+    bank::Linearization<1> g;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
+    linearize(z, mode, g);
+    bank::update_mode<D, 1>(g, mode);
+  }
+};
+
+ImmEstimator<6, 2> build_imm(const WimmSpec& spec, const std::shared_ptr<wimm::Cycle>& cycle) {
   spec.validate();
-  const Eigen::Matrix2d R = spec.measurement_covariance();
+  cycle->constants = wimm::constants_of(spec);
   std::vector<std::unique_ptr<ImmMode<6, 2>>> modes;
-  modes.push_back(std::make_unique<KalmanMode<6, 4, FusedPolarMeasurement<4>>>(
-      "cv", constant_velocity<2>(spec.sample_period, spec.cv_process_noise),
-      FusedPolarMeasurement<4>(0, 2, R, fusion),
-      StateEmbedding<4, 6>(std::array<int, 4>{0, 1, 3, 4})));
-  modes.push_back(std::make_unique<KalmanMode<6, 6, FusedPolarMeasurement<6>>>(
-      "singer", singer<2>(spec.sample_period, spec.singer_tau, spec.singer_sigma),
-      FusedPolarMeasurement<6>(0, 3, R, fusion), StateEmbedding<6, 6>()));
+  modes.push_back(std::make_unique<PositionKalmanMode<wimm::kCvAxis, WimmMeasure<wimm::kCvAxis>>>(
+      "cv", cycle->constants.cv, WimmMeasure<wimm::kCvAxis>{cycle}));
+  modes.push_back(
+      std::make_unique<PositionKalmanMode<wimm::kSingerAxis, WimmMeasure<wimm::kSingerAxis>>>(
+          "singer", cycle->constants.singer, WimmMeasure<wimm::kSingerAxis>{cycle}));
   return {std::move(modes), spec.transition, spec.initial_probabilities};
 }
 
@@ -82,11 +107,10 @@ TrackOptions WimmSpec::track_options(std::int64_t max_gap) const {
                                  max_gap, acceleration_variance);
 }
 
-WimmFilter::WimmFilter(const WimmSpec& spec)
-    : WimmFilter(spec, std::make_shared<AzimuthFusion>()) {}
+WimmFilter::WimmFilter(const WimmSpec& spec) : WimmFilter(spec, std::make_shared<wimm::Cycle>()) {}
 
-WimmFilter::WimmFilter(const WimmSpec& spec, std::shared_ptr<AzimuthFusion> fusion)
-    : ImmTrackFilter<6>(build_imm(spec, fusion)), spec_(spec), fusion_(std::move(fusion)) {}
+WimmFilter::WimmFilter(const WimmSpec& spec, std::shared_ptr<wimm::Cycle> cycle)
+    : ImmTrackFilter<6>(build_imm(spec, cycle)), spec_(spec), cycle_(std::move(cycle)) {}
 
 void WimmFilter::initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance) {
   ImmTrackFilter<6>::initialize(mean, covariance);
@@ -94,42 +118,37 @@ void WimmFilter::initialize(const Eigen::VectorXd& mean, const Eigen::MatrixXd& 
 }
 
 StepStatus WimmFilter::step(const Eigen::Vector2d& z) {
-  bool fused = false;
-  const AzimuthUse plain =
+  AzimuthUse use =
       spec_.update == MeasurementUpdate::kConverted ? AzimuthUse::kConverted : AzimuthUse::kPlot;
+  Vector<2> chosen = z;
   const StepStatus status = estimator().step_with(
       z,
       [&](const ModeVector& predicted, const std::array<Vector<6>, kMaxModes>& means,
           const Vector<2>& plot) -> Vector<2> {
-        Vector<2> chosen = plot;
-        fusion_->use = plain;
-        if (spec_.fusion != FusionVariant::kNone && predicted(0) > spec_.threshold) {
-          // θ̄: the μ̄-weighted circular mean of the modes' predicted azimuths (eq. 9–11).
-          double s = 0.0, c = 0.0;
-          for (int j = 0; j < 2; ++j) {
-            const double theta = azimuth_of(means[static_cast<std::size_t>(j)](0),
-                                            means[static_cast<std::size_t>(j)](3));
-            s += predicted(j) * std::sin(theta);
-            c += predicted(j) * std::cos(theta);
-          }
-          const double theta_bar = std::atan2(s, c);
-          chosen(1) = blend_angles(plot(1), theta_bar, spec_.alpha);
-          fusion_->alpha = spec_.alpha;
-          fusion_->predicted_azimuth = theta_bar;
-          if (spec_.fusion == FusionVariant::kCorrelated) fusion_->use = AzimuthUse::kCorrelated;
-          fused = true;
+        // θ̄ of the modes' predicted positions (eq. 9–11) and the choice (eq. 8), as a bank's lane.
+        double mu[2][1], x[2][1], y[2][1], r[2][1], azimuth[2][1], theta_bar[1];
+        for (std::size_t j = 0; j < 2; ++j) {
+          mu[j][0] = predicted(static_cast<Eigen::Index>(j));
+          x[j][0] = means[j](0);
+          y[j][0] = means[j](3);
+          wimm::range_and_azimuth<1>(x[j], y[j], r[j], azimuth[j]);
         }
-        if (fusion_->use == AzimuthUse::kConverted) {
-          fusion_->converted_covariance =
-              polar_to_cartesian(chosen, spec_.measurement_covariance()).covariance;
+        wimm::theta_bar<1>(mu, x, y, r, theta_bar);
+        const wimm::Choice choice =
+            wimm::choose(cycle_->constants, predicted(0), plot(1), theta_bar[0]);
+        cycle_->fuse = choice.fuse;
+        cycle_->theta_bar = theta_bar[0];
+        if (choice.fuse && spec_.fusion == FusionVariant::kCorrelated) {
+          use = AzimuthUse::kCorrelated;
         }
-        chosen_ = chosen;
+        chosen = Vector<2>(plot(0), choice.azimuth);
         return chosen;
       });
   if (status == StepStatus::kOk) {
-    fused_ = fused;
+    fused_ = cycle_->fuse;
     plot_ = z;
-    use_ = fusion_->use;
+    chosen_ = chosen;
+    use_ = use;
   }
   return status;
 }
@@ -139,7 +158,7 @@ StepStatus WimmFilter::step(const Eigen::Vector2d& z) {
 // NOLINTBEGIN(bugprone-parent-virtual-call)
 StepStatus WimmFilter::predict() {
   if (!has_split_cycle()) return TrackFilter::predict();  // throws
-  fusion_->use = AzimuthUse::kPlot;  // what step()'s choice sets without fusion
+  cycle_->fuse = false;                                   // what step()'s choice is without fusion
   return estimator().predict();
 }
 

@@ -4,11 +4,10 @@
 // WimmTrackBank (CV and Singer, polar plots) and FimmTrackBank (two CA modes, a learned sensor):
 // a track is a lane; its modes' means and covariances' upper triangles, and log μ, are slots of
 // the bank's structure of arrays. Per block of W tracks: the predicted mode probabilities and
-// the mixing (ImmEstimator::predict_mode_probabilities and mix), each mode's prediction
-// (KalmanMode::propose), its Joseph-form update from a linearization the bank computes
-// (update_with_innovation with H non-zero in the position columns), the posterior μ
-// (ImmEstimator::finish_cycle) and the commit. Every statement of the vector parts is a loop over
-// the lanes, with no branch and no call, which the compiler vectorizes. Not installed.
+// the mixing (ImmEstimator::predict_mode_probabilities and mix), the posterior μ
+// (ImmEstimator::finish_cycle) and the commit; each mode's prediction and update are the
+// one-track mode's (filters/position_kalman_step.hpp). Every statement of the vector parts is a
+// loop over the lanes, with no branch and no call, which the compiler vectorizes. Not installed.
 
 #include <Eigen/Core>
 #include <array>
@@ -18,6 +17,7 @@
 #include <span>
 
 #include "axis_lane_bank.hpp"
+#include "filters/position_kalman_step.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"
@@ -54,54 +54,10 @@ void step_blocks(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> s
   }
 }
 
-/// Entry (i, j), i ≤ j, of an n × n upper triangle stored row by row.
-constexpr int packed(int n, int i, int j) { return i * n - i * (i - 1) / 2 + (j - i); }
-/// The mixing-space index of state i of a mode with d states per axis ([p, v] or [p, v, a]).
-constexpr int mixing_index(int d, int i) { return (i / d) * 3 + i % d; }
-
-/// One axis block of a mode's F and Q (the first d × d entries used; both are block-diagonal
-/// over the axes).
-struct AxisModel {
-  double F[3][3] = {};
-  double Q[3][3] = {};
-};
-
-/// The axis block of a one-axis motion model.
-template <int D>
-AxisModel axis_model(const LinearMotionModel<D>& model) {
-  AxisModel axis;
-  for (int i = 0; i < D; ++i) {
-    for (int j = 0; j < D; ++j) {
-      axis.F[i][j] = model.transition(i, j);
-      axis.Q[i][j] = model.process_noise(i, j);
-    }
-  }
-  return axis;
-}
-
 /// Where a mode's state sits in a track's slots: its d states per axis, its mean (2d slots) and
 /// its covariance's upper triangle (d(2d + 1) slots).
 struct ModeSlots {
   int d, mean, covariance;
-};
-
-/// One mode of a block: its mixed then predicted mean and covariance, its update.
-template <int D, int W>
-struct ModeLanes {
-  static constexpr int N = 2 * D;
-  double x[N][W];     // mixed mean, then predicted
-  double P[N][N][W];  // mixed covariance, then predicted
-  double xu[N][W];    // updated mean
-  double U[N][N][W];  // updated covariance
-  double log_likelihood[W], code[W];
-};
-
-/// A mode's linearization at a point: H's two columns at the position (x, y), R, the innovation,
-/// and whether h is defined there.
-template <int W>
-struct Linearization {
-  double h[2][2][W];
-  double r00[W], r01[W], r11[W], nu0[W], nu1[W], defined[W];
 };
 
 /// The mixing of a block: the predicted mode probabilities (log c_j and c_j) and the mixing
@@ -185,132 +141,7 @@ template <int D, int W>
       }
     }
   }
-  // Per axis block (F and Q are block-diagonal).
-  for (int i = 0; i < N; ++i) {
-    const int axis = i / D, r = i % D;
-    IMM_LANES {
-      double sum = 0.0;
-      for (int c = 0; c < D; ++c) sum += model.F[r][c] * mean[axis * D + c][l];
-      mode.x[i][l] = sum;
-    }
-  }
-  double fp[N][N][W];
-  for (int i = 0; i < N; ++i) {
-    for (int k = 0; k < N; ++k) {
-      const int axis = i / D, r = i % D;
-      IMM_LANES {
-        double sum = 0.0;
-        for (int c = 0; c < D; ++c) sum += model.F[r][c] * mixed[axis * D + c][k][l];
-        fp[i][k][l] = sum;
-      }
-    }
-  }
-  double predicted[N][N][W];
-  for (int i = 0; i < N; ++i) {
-    for (int k = 0; k < N; ++k) {
-      const int axis = k / D, r = k % D;
-      const double q = i / D == axis ? model.Q[i % D][r] : 0.0;
-      IMM_LANES {
-        double sum = 0.0;
-        for (int c = 0; c < D; ++c) sum += fp[i][axis * D + c][l] * model.F[r][c];
-        predicted[i][k][l] = sum + q;
-      }
-    }
-  }
-  for (int i = 0; i < N; ++i) {
-    IMM_LANES mode.P[i][i][l] = predicted[i][i][l];
-    for (int k = i + 1; k < N; ++k) {
-      IMM_LANES mode.P[i][k][l] = mode.P[k][i][l] = 0.5 * (predicted[i][k][l] + predicted[k][i][l]);
-    }
-  }
-}
-
-/// The Joseph-form update of one mode's prediction with its linearization (update_with_innovation
-/// with H's non-zero columns 0 and D) into xu and U, its log-likelihood and outcome code.
-template <int D, int W>
-[[gnu::always_inline]] inline void update_mode(const Linearization<W>& g, ModeLanes<D, W>& mode) {
-  constexpr int N = 2 * D;
-  const auto& h = g.h;
-  double pht[N][2][W];
-  for (int a = 0; a < N; ++a) {
-    for (int m = 0; m < 2; ++m) {
-      IMM_LANES pht[a][m][l] = mode.P[a][0][l] * h[m][0][l] + mode.P[a][D][l] * h[m][1][l];
-    }
-  }
-  double si[2][2][W], log_det[W], valid[W];
-  IMM_LANES {
-    const double s00 = (h[0][0][l] * pht[0][0][l] + h[0][1][l] * pht[D][0][l]) + g.r00[l];
-    const double s01 = (h[0][0][l] * pht[0][1][l] + h[0][1][l] * pht[D][1][l]) + g.r01[l];
-    const double s10 = (h[1][0][l] * pht[0][0][l] + h[1][1][l] * pht[D][0][l]) + g.r01[l];
-    const double s11 = (h[1][0][l] * pht[0][1][l] + h[1][1][l] * pht[D][1][l]) + g.r11[l];
-    const double S[2][2] = {{s00, 0.5 * (s01 + s10)}, {0.5 * (s01 + s10), s11}};
-    const bool finite = std::isfinite(S[0][0] + S[0][1] + S[1][1]);
-    const double det = S[0][0] * S[1][1] - S[0][1] * S[1][0];
-    valid[l] = pick(finite & (S[0][0] > 0.0) & (det > 1e-14 * S[0][0] * S[1][1]), 1.0, 0.0);
-    log_det[l] = lane_log(det);
-    // S⁻¹ in closed form (as Eigen's 2 × 2 inverse), symmetrized.
-    const double inverse_det = 1.0 / (S[0][0] * S[1][1] - S[1][0] * S[0][1]);
-    si[0][0][l] = S[1][1] * inverse_det;
-    si[0][1][l] = si[1][0][l] = 0.5 * (-S[0][1] * inverse_det + -S[1][0] * inverse_det);
-    si[1][1][l] = S[0][0] * inverse_det;
-  }
-  double K[N][2][W];
-  for (int a = 0; a < N; ++a) {
-    for (int m = 0; m < 2; ++m) {
-      IMM_LANES K[a][m][l] = pht[a][0][l] * si[0][m][l] + pht[a][1][l] * si[1][m][l];
-    }
-  }
-  // C = P − K (P Hᵀ)ᵀ, C Hᵀ, K R; then P⁺ = C − (C Hᵀ) Kᵀ + (K R) Kᵀ.
-  double C[N][N][W];
-  for (int a = 0; a < N; ++a) {
-    for (int b = 0; b < N; ++b) {
-      IMM_LANES C[a][b][l] =
-          mode.P[a][b][l] - (K[a][0][l] * pht[b][0][l] + K[a][1][l] * pht[b][1][l]);
-    }
-  }
-  double cht[N][2][W], kr[N][2][W];
-  for (int a = 0; a < N; ++a) {
-    for (int m = 0; m < 2; ++m) {
-      IMM_LANES {
-        const double r0 = m == 0 ? g.r00[l] : g.r01[l], r1 = m == 0 ? g.r01[l] : g.r11[l];
-        cht[a][m][l] = C[a][0][l] * h[m][0][l] + C[a][D][l] * h[m][1][l];
-        kr[a][m][l] = K[a][0][l] * r0 + K[a][1][l] * r1;
-      }
-    }
-  }
-  double updated[N][N][W];
-  for (int a = 0; a < N; ++a) {
-    for (int b = 0; b < N; ++b) {
-      IMM_LANES updated[a][b][l] =
-          (C[a][b][l] - (cht[a][0][l] * K[b][0][l] + cht[a][1][l] * K[b][1][l])) +
-          (kr[a][0][l] * K[b][0][l] + kr[a][1][l] * K[b][1][l]);
-    }
-  }
-  // x * 0 is 0 for a finite x and NaN otherwise: the sum is 0 exactly when every entry is finite.
-  double zero[W];
-  IMM_LANES zero[l] = 0.0;
-  for (int a = 0; a < N; ++a) {
-    IMM_LANES {
-      mode.xu[a][l] = mode.x[a][l] + (K[a][0][l] * g.nu0[l] + K[a][1][l] * g.nu1[l]);
-      mode.U[a][a][l] = updated[a][a][l];
-      zero[l] += mode.xu[a][l] * 0.0 + updated[a][a][l] * 0.0;
-    }
-    for (int b = a + 1; b < N; ++b) {
-      IMM_LANES {
-        const double mean = 0.5 * (updated[a][b][l] + updated[b][a][l]);
-        mode.U[a][b][l] = mode.U[b][a][l] = mean;
-        zero[l] += mean * 0.0;
-      }
-    }
-  }
-  IMM_LANES {
-    const double n0 = g.nu0[l], n1 = g.nu1[l];
-    const double mahalanobis =
-        n0 * (si[0][0][l] * n0 + si[0][1][l] * n1) + n1 * (si[1][0][l] * n0 + si[1][1][l] * n1);
-    mode.log_likelihood[l] = -0.5 * (mahalanobis + log_det[l] + 2.0 * kLogTwoPi);
-    mode.code[l] = pick(g.defined[l] == 0.0, kUndefined,
-                        pick(valid[l] != 0.0, pick(zero[l] == 0.0, kOk, kNonFinite), kSingular));
-  }
+  predict<D, W>(model, mean, mixed, mode);
 }
 
 /// The posterior μ of the two updated modes (ImmEstimator::finish_cycle), each track's outcome

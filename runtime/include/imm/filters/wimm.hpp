@@ -9,9 +9,12 @@
 ///   μ̄ = Πᵀ μ (the seed's eq. 6–7, read as μ̄_CV = π₁₁ μ_CV + π₂₁ μ_Singer);
 ///   θ̄ = circular mean of the modes' predicted azimuths weighted by μ̄ (eq. 9–11);
 ///   if μ̄_CV > threshold: the plot azimuth becomes θ̄ + α (θ_plot − θ̄) on the circle (eq. 8).
-/// The fused plot is then used as FusionVariant says (see fused_polar_measurement.hpp): kNone is
-/// the normal IMM, kSeed the seed's (R unchanged), kCorrelated the fused plot with its correlation
-/// to the prediction modelled, which makes the update exactly the normal IMM's.
+/// The fused plot is then used as FusionVariant says: kNone is the normal IMM; kSeed the seed's
+/// reading, the fused azimuth an ordinary plot with R unchanged (linearized for one mode the
+/// innovation becomes α ν_θ: the state moves by α K ν while P shrinks as if by K ν); kCorrelated
+/// the fused plot with its correlation to the prediction modelled (A = diag(1, α): h_f = A h +
+/// (I − A) [·, θ̄], Jacobian A H, covariance A R Aᵀ), whose gain K A⁻¹ makes the update exactly the
+/// normal IMM's — fusing the prediction into the plot adds no information.
 /// Measurement update: EKF with a wrapped azimuth innovation (default; exact Jacobian, no
 /// conversion bias, and the seed's fusion acts on the azimuth it measures) or converted
 /// measurements (the plot as a Cartesian position with linearized covariance; kept as an option
@@ -22,12 +25,20 @@
 #include <string>
 
 #include "imm/estimation/imm_estimator.hpp"
-#include "imm/models/measurement/fused_polar_measurement.hpp"
+#include "imm/models/measurement/polar_measurement.hpp"
 #include "imm/runtime_export.hpp"
 #include "imm/tracking/imm_track_filter.hpp"
 #include "imm/tracking/track_options.hpp"
 
 namespace imm {
+
+namespace wimm {
+struct Cycle;  ///< what a WimmFilter's cycle chose, shared with its modes (wimm.cpp)
+}  // namespace wimm
+
+/// Which measurement a wIMM cycle updated with: the plot's azimuth, the seed's fused one, the
+/// correlated fusion, or the converted Cartesian plot.
+enum class AzimuthUse { kPlot, kSeed, kCorrelated, kConverted };
 
 /// Whether and how the WIMM fuses the plot azimuth with the estimate's (seed 004; see the file
 /// comment).
@@ -127,10 +138,10 @@ class IMM_RUNTIME_EXPORT WimmFilter final : public ImmTrackFilter<6> {
   [[nodiscard]] const WimmSpec& spec() const { return spec_; }
 
  private:
-  WimmFilter(const WimmSpec& spec, std::shared_ptr<AzimuthFusion> fusion);
+  WimmFilter(const WimmSpec& spec, std::shared_ptr<wimm::Cycle> cycle);
 
   WimmSpec spec_;
-  std::shared_ptr<AzimuthFusion> fusion_;
+  std::shared_ptr<wimm::Cycle> cycle_;
   bool fused_ = false;
   Vector<2> plot_ = Vector<2>::Zero();    // the last cycle's plot
   Vector<2> chosen_ = Vector<2>::Zero();  // and the measurement it updated with
