@@ -164,6 +164,32 @@ TEST(FimmTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWas) {
                                                testing::expect_same_mu<FimmTrackBank>);
 }
 
+// A start whose prediction overflows (variances near the largest double): S is not finite, so
+// the bank's lane and the one-track filter both refuse the step as a singular innovation, and
+// keep the start.
+TEST(FimmTrackBank, AnOverflowingPredictionIsASingularInnovationInBoth) {
+  FimmSpec spec;
+  spec.sample_period = 0.1;
+  spec.measurement_covariance = 0.25 * Eigen::Matrix2d::Identity();
+  GaussianState<6> start;
+  start.mean << 1.0, 0.0, 0.0, 2.0, 0.0, 0.0;
+  start.covariance = 1.79e308 * SquareMatrix<6>::Identity();
+  for (const bool sensor : {false, true}) {
+    const auto model = sensor ? sensor_like_model(TNorm::kProduct) : nullptr;
+    FimmTrackBank bank(spec, model, 1);
+    bank.initialize(0, start);
+    FimmFilter single(spec, model);
+    single.initialize(start.mean, start.covariance);
+    std::vector<StepStatus> status(1);
+    const std::vector<Eigen::Vector2d> plots = {Eigen::Vector2d(1.0, 2.0)};
+    bank.step(plots, status);
+    EXPECT_EQ(status[0], StepStatus::kSingularInnovation) << sensor;
+    EXPECT_EQ(single.step(plots[0]), StepStatus::kSingularInnovation) << sensor;
+    EXPECT_EQ(bank.estimate(0).mean, start.mean) << sensor;
+    EXPECT_EQ(single.estimate().mean, start.mean) << sensor;
+  }
+}
+
 TEST(FimmTrackBank, RefusesWhatItCannotRun) {
   FimmSpec spec;
   spec.sample_period = 0.1;
