@@ -111,10 +111,11 @@ TEST(FimmTrackBank, EqualsTheOneTrackFilterToRounding) {
 // The bank's mode step is the one-track filter's (fimm_step.hpp), so they differ only by the
 // rounding of the IMM cycle around it (the bank's mixing and posterior by lane_exp and lane_log):
 // below 1e-13 of an entry's scale on the test sensor (1e-12 above). With the shipped sensors the
-// lane changes swing μ and that rounding grows to a few 1e-11 (GCC): 1e-9 here. The hard
-// sensor's tracks also leave its trained box in their last scans, where the outside-box
-// continuation has a kink and the one-track filter itself moves by up to 7e-8 of an entry's scale
-// when its start is perturbed by 1e-15 (track 6, scan 196): its comparison ends at scan 150.
+// lane changes swing μ and that rounding grows to a few 1e-11 with GCC, 3.2e-9 under Clang's
+// sanitizer build (scan 163): 1e-8 here. The hard sensor's tracks also leave its trained box in
+// their last scans, where the outside-box continuation has a kink and the one-track filter itself
+// moves by up to 7e-8 of an entry's scale when its start is perturbed by 1e-15 (track 6, scan
+// 196): its comparison ends at scan 150.
 TEST(FimmTrackBank, EqualsTheOneTrackFilterWithTheShippedSensors) {
   const Plots data = cut_in_plots(9);
   for (const char* name : {"tsk_range_sensor.h5", "tsk_range_sensor_hard.h5"}) {
@@ -123,11 +124,11 @@ TEST(FimmTrackBank, EqualsTheOneTrackFilterWithTheShippedSensors) {
     const std::optional<FimmSpec> spec = io::read_fimm_settings(reader);
     ASSERT_TRUE(spec.has_value()) << name;
     const Eigen::Index last = std::string(name) == "tsk_range_sensor.h5" ? 199 : 150;
-    expect_equals_one_track_filters(*spec, sensor, data, name, last, 1e-9);
+    expect_equals_one_track_filters(*spec, sensor, data, name, last, 1e-8);
     FimmSpec iterated = *spec;
     iterated.iterations = 5;
     expect_equals_one_track_filters(iterated, sensor, data, std::string(name) + " iterated", last,
-                                    1e-9);
+                                    1e-8);
   }
 }
 
