@@ -206,6 +206,23 @@ template <int W>
       scale[a][l] = pick(s > 1e-300, s, 1e-300);
     }
   }
+  if constexpr (W == 1) {
+    // One lane stops where it stops: the iteration it keeps is the last one run, already in
+    // `mode` (the lanes below keep it by copies, since their neighbours may go on).
+    for (int i = 0; i < iterations; ++i) {
+      linearize<1>(b, z0, z1, mode, point, g);
+      update_mode<kAxis, 1>(g, mode);
+      if (mode.code[0] != kOk) return;
+      double step = 0.0;
+      for (int a = 0; a < 6; ++a) {
+        const double s = std::abs(mode.xu[a][0] - point[a][0]) / scale[a][0];
+        step = pick(s > step, s, step);
+        point[a][0] = mode.xu[a][0];
+      }
+      if (step < kIteratedUpdateTolerance) return;
+    }
+    return;
+  }
   double xu[6][W] = {}, U[6][6][W] = {}, nu[2][W] = {}, innovation_covariance[3][W] = {};
   double log_likelihood[W] = {}, code[W] = {};
   for (int i = 0; i < iterations; ++i) {
