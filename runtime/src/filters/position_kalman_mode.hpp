@@ -56,13 +56,20 @@ class PositionKalmanMode final : public ImmMode<6, 2> {
   /// The prediction updated with z; a prediction that is not finite fails in the update (an S
   /// that is not finite), as a bank's lane does.
   ModeStep propose(const GaussianState<6>& mixed, const Vector<2>& z) override {
-    (void)predict_from(mixed);
+    predict_from(mixed);
     return propose_update(z);
   }
 
   /// The prediction, held for propose_update() and committed as it is by a cycle without a plot.
   ModeStep propose_prediction(const GaussianState<6>& mixed) override {
-    return {predict_from(mixed) ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
+    predict_from(mixed);
+    restore_prediction();
+    double zero = 0.0;  // x * 0 is 0 for a finite x and NaN otherwise
+    for (int i = 0; i < kDim; ++i) {
+      zero += step_.x[i][0] * 0.0;
+      for (int k = 0; k < kDim; ++k) zero += step_.P[i][k][0] * 0.0;
+    }
+    return {zero == 0.0 ? StepStatus::kOk : StepStatus::kNonFiniteResult, 0.0};
   }
 
   /// True: the prediction does not depend on the plot.
@@ -127,19 +134,11 @@ class PositionKalmanMode final : public ImmMode<6, 2> {
     }
   }
 
-  // Predicts from a mixed condition into the held prediction (the pending estimate until an
-  // update); whether it is finite.
-  bool predict_from(const GaussianState<6>& mixed) {
+  // Predicts from a mixed condition into the held prediction.
+  void predict_from(const GaussianState<6>& mixed) {
     double mean[kDim][1], covariance[kDim][kDim][1];
     project(mixed, mean, covariance);
     bank::predict<D, 1>(model_, mean, covariance, step_);
-    restore_prediction();
-    double zero = 0.0;  // x * 0 is 0 for a finite x and NaN otherwise
-    for (int i = 0; i < kDim; ++i) {
-      zero += step_.x[i][0] * 0.0;
-      for (int k = 0; k < kDim; ++k) zero += step_.P[i][k][0] * 0.0;
-    }
-    return zero == 0.0;
   }
 
   // The linearization at the held prediction and S there; false where h is undefined.
@@ -152,6 +151,7 @@ class PositionKalmanMode final : public ImmMode<6, 2> {
     return true;
   }
 
+  // The pending estimate becomes the held prediction.
   void restore_prediction() {
     for (int i = 0; i < kDim; ++i) {
       step_.xu[i][0] = step_.x[i][0];
