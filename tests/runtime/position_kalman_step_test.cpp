@@ -386,8 +386,8 @@ TEST(WimmStep, ALinearizationIsThePolarModelsAndLanesAreOneLaneToTheBit) {
       state(3) = y[1][l];
       const Vector<2> z(uniform(rng, 1e3, 3e5), uniform(rng, -3.2, 3.2));
       bank::Linearization<1> g{};
-      wimm::linearize_lane<1>(b, false, z(0), z(1), theta[l], x[1][l], y[1][l], r[1][l],
-                              azimuth[1][l], g, 0);
+      wimm::polar_lane<1>(b, false, z(0), z(1), theta[l], x[1][l], y[1][l], r[1][l], azimuth[1][l],
+                          g, 0);
       const Matrix<2, 6> H = polar.jacobian(state);
       const Vector<2> nu = polar.residual(z, polar.predict(state));
       EXPECT_NEAR(g.h[0][0][0], H(0, 0), 1e-15);

@@ -31,10 +31,15 @@ struct WimmMeasure {
   void linearize(const Vector<2>& z, const bank::ModeLanes<D, 1>& mode,
                  bank::Linearization<1>& g) const {
     const wimm::Constants& b = cycle->constants;
+    if (b.converted) {
+      wimm::converted_lane<1>(wimm::converted_plot(b, z(0), z(1)), mode.x[0][0], mode.x[D][0], g,
+                              0);
+      return;
+    }
     double r[1], azimuth[1];
     wimm::range_and_azimuth<1>(mode.x[0], mode.x[D], r, azimuth);
-    wimm::linearize_lane<1>(b, cycle->fuse, z(0), z(1), cycle->theta_bar, mode.x[0][0],
-                            mode.x[D][0], r[0], azimuth[0], g, 0);
+    wimm::polar_lane<1>(b, cycle->fuse, z(0), z(1), cycle->theta_bar, mode.x[0][0], mode.x[D][0],
+                        r[0], azimuth[0], g, 0);
   }
   void update(const Vector<2>& z, bank::ModeLanes<D, 1>& mode) const {
     bank::Linearization<1> g;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first

@@ -106,28 +106,32 @@ inline CartesianPlot converted_plot(const Constants& b, double range, double azi
                             Vector<2>(b.range_variance, b.azimuth_variance).asDiagonal());
 }
 
-/// Lane l of a mode's linearization at its predicted position (x, y), range r and azimuth
-/// `predicted_azimuth`, for plot range `range` and the chosen azimuth.
+/// Lane l of a mode's linearization under the converted update: the chosen plot `plot`
+/// (converted_plot, made once for a track's modes) as a Cartesian position, H selecting the
+/// mode's predicted position (x, y), R = J R Jᵀ.
 template <int W>
-[[gnu::always_inline]] inline void linearize_lane(const Constants& b, bool fuse, double range,
-                                                  double azimuth, double theta_bar, double x,
-                                                  double y, double r, double predicted_azimuth,
+[[gnu::always_inline]] inline void converted_lane(const CartesianPlot& plot, double x, double y,
                                                   Linearization<W>& g, int l) {
-  if (b.converted) {
-    // The plot as a Cartesian position: H selects it, R = J R Jᵀ.
-    const CartesianPlot plot = converted_plot(b, range, azimuth);
-    g.h[0][0][l] = g.h[1][1][l] = 1.0;
-    g.h[0][1][l] = g.h[1][0][l] = 0.0;
-    g.r00[l] = plot.covariance(0, 0);
-    g.r01[l] = plot.covariance(0, 1);
-    g.r11[l] = plot.covariance(1, 1);
-    g.z_hat0[l] = x;
-    g.z_hat1[l] = y;
-    g.nu0[l] = plot.position(0) - x;
-    g.nu1[l] = plot.position(1) - y;
-    g.defined[l] = 1.0;
-    return;
-  }
+  g.h[0][0][l] = g.h[1][1][l] = 1.0;
+  g.h[0][1][l] = g.h[1][0][l] = 0.0;
+  g.r00[l] = plot.covariance(0, 0);
+  g.r01[l] = plot.covariance(0, 1);
+  g.r11[l] = plot.covariance(1, 1);
+  g.z_hat0[l] = x;
+  g.z_hat1[l] = y;
+  g.nu0[l] = plot.position(0) - x;
+  g.nu1[l] = plot.position(1) - y;
+  g.defined[l] = 1.0;
+}
+
+/// Lane l of a mode's linearization under the polar (extended) update, at its predicted position
+/// (x, y), range r and azimuth `predicted_azimuth`, for plot range `range` and the chosen
+/// azimuth; the correlated fusion's where this cycle fuses.
+template <int W>
+[[gnu::always_inline]] inline void polar_lane(const Constants& b, bool fuse, double range,
+                                              double azimuth, double theta_bar, double x, double y,
+                                              double r, double predicted_azimuth,
+                                              Linearization<W>& g, int l) {
   const bool correlated = fuse && b.correlated;
   const double r2 = x * x + y * y;
   const double a = correlated ? b.alpha : 1.0;

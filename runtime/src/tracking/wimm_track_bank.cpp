@@ -68,9 +68,14 @@ template <int W>
   for (int l = 0; l < W; ++l) {
     const wimm::Choice choice = wimm::choose(b, predicted[0][l], azimuth[l], theta_bar[l]);
     fused[l] = choice.fuse ? 1.0 : 0.0;
+    if (b.converted) {
+      const CartesianPlot plot = wimm::converted_plot(b, range[l], choice.azimuth);
+      for (int j = 0; j < 2; ++j) wimm::converted_lane<W>(plot, px[j][l], py[j][l], lin[j], l);
+      continue;
+    }
     for (int j = 0; j < 2; ++j) {
-      wimm::linearize_lane<W>(b, choice.fuse, range[l], choice.azimuth, theta_bar[l], px[j][l],
-                              py[j][l], r[j][l], predicted_azimuth[j][l], lin[j], l);
+      wimm::polar_lane<W>(b, choice.fuse, range[l], choice.azimuth, theta_bar[l], px[j][l],
+                          py[j][l], r[j][l], predicted_azimuth[j][l], lin[j], l);
     }
   }
 
