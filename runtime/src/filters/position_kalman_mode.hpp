@@ -9,7 +9,6 @@
 //                          linearize, or an iterated update)
 // Not installed.
 
-#include <cstddef>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -90,8 +89,8 @@ class PositionKalmanMode final : public ImmMode<6, 2> {
   }
 
   void predicted_mean(const GaussianState<6>& mixed, Vector<6>& mean) const override {
-    double own[kDim][1], covariance[kDim][kDim][1], predicted[kDim][1];
-    project(mixed, own, covariance);
+    double own[kDim][1], predicted[kDim][1];
+    for (int i = 0; i < kDim; ++i) own[i][0] = mixed.mean(bank::mixing_index(D, i));
     bank::predict_mean<D, 1>(model_, own, predicted);
     mean.setZero();
     for (int i = 0; i < kDim; ++i) mean(bank::mixing_index(D, i)) = predicted[i][0];
