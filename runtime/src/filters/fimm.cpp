@@ -54,9 +54,7 @@ struct FimmMeasure {
   std::shared_ptr<const fimm::Constants> constants;
 
   void linearize(const Vector<2>& z, const fimm::Mode<1>& mode, bank::Linearization<1>& g) const {
-    double point[6][1];
-    for (int a = 0; a < 6; ++a) point[a][0] = mode.x[a][0];
-    fimm::linearize<1>(*constants, z.data(), z.data() + 1, mode, point, g);
+    fimm::linearize<1>(*constants, z.data(), z.data() + 1, mode, mode.x, g);  // at x⁻: the EKF
   }
   void update(const Vector<2>& z, fimm::Mode<1>& mode) const {
     fimm::update<1>(*constants, z.data(), z.data() + 1, mode);
