@@ -11,6 +11,7 @@
 #include <limits>
 #include <span>
 #include <type_traits>
+#include <utility>
 
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"
@@ -79,6 +80,41 @@ void step_blocks(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> s
       status[(first + l) / 2] = status_of(code[l]);
     }
   }
+}
+
+/// Σ_i w_i N(x_i, P_i) of n one-axis Gaussians [x0, x1, p00, p01, p11] (the first five entries of
+/// mode(i)) collapsed to one (seed 000 eq. 4–5 and 10–11); a zero weight contributes nothing, as in
+/// ImmEstimator.
+template <class S, class Modes>
+[[gnu::always_inline]] inline void collapse_axis(int n, const S* weight, Modes&& mode,
+                                                 std::array<S, 5>& out) {
+  S m0 = splat<S>(0.0), m1 = splat<S>(0.0);
+  for (int i = 0; i < n; ++i) {
+    m0 += weight[i] * mode(i)[0];
+    m1 += weight[i] * mode(i)[1];
+  }
+  S c00 = splat<S>(0.0), c01 = splat<S>(0.0), c11 = splat<S>(0.0);
+  for (int i = 0; i < n; ++i) {
+    const S w = weight[i];
+    const S d0 = mode(i)[0] - m0, d1 = mode(i)[1] - m1;
+    c00 += pick(w == 0.0, 0.0, w * (mode(i)[2] + d0 * d0));
+    c01 += pick(w == 0.0, 0.0, w * (mode(i)[3] + d0 * d1));
+    c11 += pick(w == 0.0, 0.0, w * (mode(i)[4] + d1 * d1));
+  }
+  out = {m0, m1, c00, c01, c11};
+}
+
+/// A track's code in both its lanes (x at an even lane, y after it) from a pack of lane codes:
+/// that of the first axis that failed.
+template <class S, std::size_t... L>
+[[gnu::always_inline]] inline S paired_codes(S code, std::index_sequence<L...> /*lanes*/) {
+  const S x = __builtin_shufflevector(code, code, static_cast<int>(L & ~std::size_t{1})...);
+  const S y = __builtin_shufflevector(code, code, static_cast<int>(L | 1U)...);
+  return pick(x != kOk, x, y);
+}
+template <class S>
+[[gnu::always_inline]] inline S paired_codes(S code) {
+  return paired_codes(code, std::make_index_sequence<static_cast<std::size_t>(kLanesOf<S>)>{});
 }
 
 /// Axis `axis` (0: x, 1: y) of a [x, vx, y, vy] state: x0, x1, p00, p01, p11 (the cross-axis

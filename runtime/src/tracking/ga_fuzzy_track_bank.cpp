@@ -39,25 +39,11 @@ struct FuzzyNoiseFamily {
   const lanes::FuzzyAxisConstants* axis = nullptr;
   const lanes::FuzzyLevelConstants* levels = nullptr;
 
-  // Σ_i w_i N(x_i, P_i) (eq. 4–5 and 10–11); a zero weight contributes nothing, as in
-  // ImmEstimator.
+  // Σ_i w_i N(x_i, P_i) (eq. 4–5 and 10–11).
   template <class S, class Modes>
   [[gnu::always_inline]] inline void mix(int n, const S* weight, Modes&& mode,
                                          Estimate<S>& out) const {
-    S m0 = splat<S>(0.0), m1 = splat<S>(0.0);
-    for (int i = 0; i < n; ++i) {
-      m0 += weight[i] * mode(i)[0];
-      m1 += weight[i] * mode(i)[1];
-    }
-    S c00 = splat<S>(0.0), c01 = splat<S>(0.0), c11 = splat<S>(0.0);
-    for (int i = 0; i < n; ++i) {
-      const S w = weight[i];
-      const S d0 = mode(i)[0] - m0, d1 = mode(i)[1] - m1;
-      c00 += pick(w == 0.0, 0.0, w * (mode(i)[2] + d0 * d0));
-      c01 += pick(w == 0.0, 0.0, w * (mode(i)[3] + d0 * d1));
-      c11 += pick(w == 0.0, 0.0, w * (mode(i)[4] + d1 * d1));
-    }
-    out = {m0, m1, c00, c01, c11};
+    bank::collapse_axis(n, weight, mode, out);
   }
 
   // Mode j's fuzzy-noise steps of K packs together; ℓ_j = log N(r; 0, S).
@@ -85,14 +71,7 @@ struct FuzzyNoiseFamily {
   // A track's code, in both its lanes: that of the first axis that failed.
   template <class S>
   [[gnu::always_inline]] inline S track_code(S code) const {
-    return paired(code, std::make_index_sequence<static_cast<std::size_t>(kLanesOf<S>)>{});
-  }
-  // Each element's track's x code (its even lane) and y code (the odd one after it).
-  template <class S, std::size_t... L>
-  [[gnu::always_inline]] static S paired(S code, std::index_sequence<L...> /*lanes*/) {
-    const S x = __builtin_shufflevector(code, code, static_cast<int>(L & ~std::size_t{1})...);
-    const S y = __builtin_shufflevector(code, code, static_cast<int>(L | 1U)...);
-    return pick(x != kOk, x, y);
+    return bank::paired_codes(code);
   }
 };
 using Slots = bank::CycleSlots<FuzzyNoiseFamily>;
@@ -145,7 +124,7 @@ GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capac
                            "(transition_stay below 1 with more than one level)");
   }
   allocate(capacity, 2, kBlock,
-           static_cast<std::size_t>(modes_ * kModeSlots + FuzzyNoiseFamily::kCombined));
+           static_cast<std::size_t>(modes_) * kModeSlots + FuzzyNoiseFamily::kCombined);
   const Eigen::VectorXd initial = spec.settings.initial_probabilities(modes_);
   for (int i = 0; i < modes_; ++i) {
     for (int j = 0; j < modes_; ++j) {

@@ -18,6 +18,13 @@
 //                          entries, log N(ν; 0, S) and a code (kOk, kSingular or kNonFinite)
 //   track_code(code)       the code a lane commits under (a track of several lanes fails as one)
 // and may provide
+//   kLibmProbabilities     true where the mode probabilities are ImmEstimator's arithmetic: μ̃
+//                          from log μ, the weights divided by c̃, libm's exp and log lane by lane
+//                          (a family whose step is a discontinuous function of the mixed
+//                          condition, as the FCM-IMM's window clustering with its stopping rule,
+//                          stays with its one-track filter only so)
+//   kStoresCombined        false where the combined estimate is not kept in the state (the bank
+//                          combines a track's modes when it is asked for its estimate)
 //   steps_across_modes<P>(n, mixed, current, z, updated, log_likelihood, code)
 //                          the step of modes 0 … n − 1 of one track at once, mode j in lane j of
 //                          a pack P (n ≤ 8; the lanes past n compute on copies and are not
@@ -55,6 +62,16 @@ struct CycleBlock {
   std::ptrdiff_t stride = 0;
 };
 
+/// Whether a cycle of family F writes the combined estimate into the state.
+template <class F>
+constexpr bool kStoresCombined = [] {
+  if constexpr (requires { F::kStoresCombined; }) {
+    return F::kStoresCombined;
+  } else {
+    return true;
+  }
+}();
+
 /// The slots of a family's state: per mode, then the combined estimate.
 template <class F>
 struct CycleSlots {
@@ -77,9 +94,42 @@ using ModePack = LanePackOf<(N <= 2   ? 2
                              : N <= 4 ? 4
                                       : 8)>;
 
-template <LaneFunction kF, class S, std::size_t N>
+/// Whether family F's mode probabilities take libm's exp and log (see the file comment).
+template <class F>
+constexpr bool kLibmProbabilities = [] {
+  if constexpr (requires { F::kLibmProbabilities; }) {
+    return F::kLibmProbabilities;
+  } else {
+    return false;
+  }
+}();
+
+/// libm's exp (kExp) or log, lane by lane.
+template <LaneFunction kF, class S>
+[[gnu::always_inline]] inline S libm_function(S x) {
+  double lanes[kLanesOf<S>];
+  lane_store(lanes, x);
+  for (double& lane : lanes) lane = kF == LaneFunction::kLog ? std::log(lane) : std::exp(lane);
+  return lane_load<S>(lanes);
+}
+
+/// The mode probabilities' function kF of family F.
+template <LaneFunction kF, class F, class S>
+[[gnu::always_inline]] inline S probability_function(S x) {
+  if constexpr (kLibmProbabilities<F>) {
+    return libm_function<kF>(x);
+  } else if constexpr (kF == LaneFunction::kLog) {
+    return lane_log(x);
+  } else {
+    return lane_exp(x);
+  }
+}
+
+template <LaneFunction kF, class S, std::size_t N, class F = void>
 [[gnu::always_inline]] inline void each_mode(std::array<S, N>& v, int n) {
-  if constexpr (std::is_same_v<S, double> && N >= 2 && N <= 8) {
+  if constexpr (!std::is_void_v<F> && kLibmProbabilities<F>) {
+    for (int j = 0; j < n; ++j) v[j] = libm_function<kF>(v[j]);
+  } else if constexpr (std::is_same_v<S, double> && N >= 2 && N <= 8) {
     using Pack = ModePack<N>;
     constexpr int W = kLanesOf<Pack>;
     // The lanes past the modes hold 1: a finite value for both functions.
@@ -215,19 +265,31 @@ template <class S, int N, int K, class F>
     for (int k = 0; k < K; ++k)
       shift[k] = pick(shift[k] < m.log_mu[k][i], m.log_mu[k][i], shift[k]);
   }
+  if constexpr (kLibmProbabilities<F>) {
+    // μ̃ from log μ as ImmEstimator::predict_mode_probabilities makes it.
+    for (int i = 0; i < n; ++i) {
+      for (int k = 0; k < K; ++k)
+        m.scaled_mu[k][i] = libm_function<LaneFunction::kExp>(m.log_mu[k][i] - shift[k]);
+    }
+  }
   for (int j = 0; j < n; ++j) {
     for (int k = 0; k < K; ++k) {
       S c = splat<S>(0.0);
       for (int i = 0; i < n; ++i) c += b.transition[i * n + j] * m.scaled_mu[k][i];
       predicted[k][j] = c;
-      const S inverse = 1.0 / c;
-      for (int i = 0; i < n; ++i)
-        weights[k][j * n + i] = b.transition[i * n + j] * m.scaled_mu[k][i] * inverse;
+      if constexpr (kLibmProbabilities<F>) {
+        for (int i = 0; i < n; ++i)
+          weights[k][j * n + i] = b.transition[i * n + j] * m.scaled_mu[k][i] / c;
+      } else {
+        const S inverse = 1.0 / c;
+        for (int i = 0; i < n; ++i)
+          weights[k][j * n + i] = b.transition[i * n + j] * m.scaled_mu[k][i] * inverse;
+      }
     }
   }
   for (int k = 0; k < K; ++k) {
     m.log_c[k] = predicted[k];
-    each_mode<LaneFunction::kLog>(m.log_c[k], n);
+    each_mode<LaneFunction::kLog, S, N, F>(m.log_c[k], n);
     for (int j = 0; j < n; ++j) m.log_c[k][j] += shift[k];
   }
   for (int k = 0; k < K; ++k) {
@@ -375,10 +437,10 @@ template <class S, int N, int K, class F>
   for (int k = 0; k < K; ++k) {
     for (int j = 0; j < n; ++j) centered[k][j] = centered[k][j] - top[k];
     scaled[k] = centered[k];
-    each_mode<LaneFunction::kExp>(scaled[k], n);
+    each_mode<LaneFunction::kExp, S, N, F>(scaled[k], n);
     for (int j = 0; j < n; ++j) sum[k] += scaled[k][j];
   }
-  for (int k = 0; k < K; ++k) log_sum[k] = lane_log(sum[k]);
+  for (int k = 0; k < K; ++k) log_sum[k] = probability_function<LaneFunction::kLog, F>(sum[k]);
 
   auto st = [&](int j, int entry, int k) { return Slots::at(b, j, entry, t + k * kLanes); };
   using Commit = decltype(std::declval<S>() == 0.0);
@@ -406,6 +468,7 @@ template <class S, int N, int K, class F>
     }
   }
   // The combination (eq. 10–11).
+  if constexpr (!kStoresCombined<F>) return;
   for (int k = 0; k < K; ++k) {
     typename CycleMixing<S, N, K, F>::Estimate estimate;
     family.mix(

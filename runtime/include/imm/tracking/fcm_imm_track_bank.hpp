@@ -5,30 +5,32 @@
 /// form of make_fcm_imm_filter, as TrackBank is of the plain IMM.
 ///
 /// Layout: every track is two axis filters (x, then y), every axis filter a lane; lanes are
-/// stored structure of arrays (each mode's estimate, log μ and its clustering's window, head,
-/// size and centers) and stepped 8 at a time. A step runs per block:
-///   1. vector loops: the predicted mode probabilities, every mode's mixing, and its
-///      lanes::fcm_predict over a pack of the block's lanes (fcm_mode_step.hpp, the step
+/// stored structure of arrays (each mode's estimate and log μ, then each mode's clustering window,
+/// head, size and centers) and stepped 8 at a time. A step runs per block the IMM cycle every bank
+/// runs (runtime/src/tracking/imm_cycle.hpp: the predicted mode probabilities, the mixing, each
+/// mode's step, the posterior μ and the commit over packs of lanes), with this family's mode step:
+///   1. lanes::fcm_predict over a pack of the block's lanes (fcm_mode_step.hpp, the step
 ///      FcmCompensatedMode runs for a double): the CV prediction, the error e and S;
-///   2. one scalar loop over lanes and modes: the sliding fuzzy c-means of the errors
-///      (cluster_window, the clustering SlidingFuzzyCMeans runs, on the bank's windows: the same
-///      memberships to the bit);
-///   3. vector loops: every mode's lanes::fcm_update (the compensated-gain Joseph update and its
-///      likelihood), the posterior μ and the commit; then the committed lanes' windows and
-///      centers.
-/// The vector loops have no branches and no calls, and the compiler vectorizes them: AVX-512 or
-/// AVX2 where the CPU has it, chosen at run time, without fused multiply-add, so a track's result
-/// does not depend on the instruction set, on its position or on the number of tracks.
+///   2. one scalar loop over the lanes: the sliding fuzzy c-means of the errors (cluster_window,
+///      the clustering SlidingFuzzyCMeans runs, on the bank's windows: the same memberships to the
+///      bit);
+///   3. lanes::fcm_update over the pack (the compensated-gain Joseph update and its likelihood);
+/// then the committed lanes' windows and centers. The vector parts have no branches, and the
+/// compiler vectorizes them: AVX-512 or AVX2 where the CPU has it, chosen at run time, without
+/// fused multiply-add, so a track's result does not depend on the instruction set, on its
+/// position or on the number of tracks.
 ///
 /// The clustering iterates to its tolerance per lane and mode, so it keeps its one-track cost;
 /// the bank speeds up the rest of the step (fcm_imm's profile: about 56 % of a one-track step is
 /// the clustering). The clustering stops where max |ΔU| first falls below the tolerance, a rule a
 /// change in the last bit of an error can move by an iteration (and the memberships by up to the
 /// tolerance); so the bank computes the errors with the one-track filter's operations in its
-/// order, libm's exp and log included, not lane_exp and lane_log, and its results differ from the
-/// one-track filter's by rounding only (the tests hold them to 1e-9; the mixing's Eigen products
-/// may round differently). A track whose plot is unusable, or whose x or y step fails, is left
-/// exactly as it was, both axes, with the status of the first axis that failed.
+/// order — the mode probabilities with ImmEstimator's arithmetic (imm_cycle.hpp's
+/// kLibmProbabilities: libm's exp and log, μ̃ from log μ) rather than lane_exp and lane_log — and
+/// its results differ from the one-track filter's by rounding only (the tests hold them to 1e-9;
+/// the mixing's Eigen products may round differently). A track whose plot is unusable, or whose x
+/// or y step fails, is left exactly as it was, both axes, with the status of the first axis that
+/// failed.
 ///
 /// Every transition probability must be positive: c_j then never vanishes, so no mode is ever
 /// unreachable. Nothing is allocated after construction.
@@ -76,10 +78,14 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank : public LaneStorage {
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
  private:
+  // Slot of entry `entry` of mode `mode`'s window (after every mode's cycle slots).
+  [[nodiscard]] int window_slot(int mode, int entry) const;
+
   FcmImmSpec spec_;
-  int mode_slots_ = 0;              // slots per mode
-  std::vector<double> transition_;  // π_ij at i * modes + j
-  std::vector<double> scratch_;     // one lane's window and memberships for the clustering
+  int window_slots_ = 0;                // window slots per mode
+  std::vector<double> transition_;      // π_ij at i * modes + j
+  std::vector<double> log_transition_;  // log π_ij likewise
+  std::vector<double> scratch_;         // one lane's window and memberships for the clustering
 };
 
 }  // namespace imm
