@@ -12,6 +12,7 @@
 #include <limits>
 
 #include "axis_lane_bank.hpp"
+#include "axis_lane_cycle.hpp"
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/filters/fcm_mode_step.hpp"
@@ -19,7 +20,6 @@
 #include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
-#include "imm_cycle.hpp"
 
 namespace imm {
 namespace {
@@ -51,16 +51,14 @@ struct Pending {
 // The FCM-IMM's modes of one axis as imm_cycle.hpp's family, for one block of lanes: a mode holds
 // its estimate [x0, x1, p00, p01, p11]; its step is fcm_predict, the memberships of its new error
 // in its window (lane by lane) and fcm_update; a track is two lanes, x then y.
-struct FcmFamily {
-  static constexpr int kEntries = 5, kCombined = 5;
+struct FcmFamily : bank::AxisLaneFamily {
+  static constexpr int kEntries = 5;
   static constexpr bool kStoresCombined = false;  // estimate() combines the modes
   // The window clustering's stopping rule makes a mode's step discontinuous in its mixed
   // condition: μ's exp and log are the one-track filter's (libm's).
   static constexpr bool kLibmProbabilities = true;
   template <class S>
   using Plot = S;
-  template <class S>
-  using Estimate = std::array<S, kCombined>;
   const BankConstants* b = nullptr;
   const double* stepped = nullptr;  // the block's lanes: 1 for a lane to step
   double* windows = nullptr;        // the block's first lane of mode 0's first window slot
@@ -70,12 +68,6 @@ struct FcmFamily {
   // Window slot `entry` of mode j, at the block's first lane.
   [[nodiscard]] double* at(int j, int entry) const {
     return windows + (j * window_slots + entry) * stride;
-  }
-
-  template <class S, class Modes>
-  [[gnu::always_inline]] inline void mix(int n, const S* weight, Modes&& mode,
-                                         Estimate<S>& out) const {
-    bank::collapse_axis(n, weight, mode, out);
   }
 
   // Mode j's step of K packs: fcm_predict, the memberships (SlidingFuzzyCMeans::propose; none
@@ -136,34 +128,18 @@ struct FcmFamily {
       code[k] = pick(u.factored, pick(u.finite, kOk, kNonFinite), kSingular);
     }
   }
-
-  // A track's code, in both its lanes: that of the first axis that failed.
-  template <class S>
-  [[gnu::always_inline]] inline S track_code(S code) const {
-    return bank::paired_codes(code);
-  }
 };
 using Slots = bank::CycleSlots<FcmFamily>;
 constexpr int kLogMu = Slots::kLogMu, kScaledMu = Slots::kScaledMu, kModeSlots = Slots::kModeSlots;
 
-// One IMM cycle of one block's W lanes (whole packs) of an FCM-IMM of N modes from lane `first`:
-// `z` the lanes' plots (NaN: unusable), `stepped` 1 for a lane to step; `code` receives each
-// lane's outcome. Then the committed lanes' windows take the new error, their centers the
+// One IMM cycle of one block's W lanes (whole packs) of an FCM-IMM of N modes from lane `first`
+// (axis_lane_cycle.hpp). Then the committed lanes' windows take the new error, their centers the
 // clustering's (SlidingFuzzyCMeans::commit); the ablation's constant memberships keep no window.
 template <class Pack, int W, int N>
 [[gnu::always_inline]] inline void step_block(const FcmFamily& family, const bank::CycleBlock& b,
                                               std::ptrdiff_t first, const double* z,
                                               const double* stepped, double* code) {
-  constexpr int kPack = kLanesOf<Pack>, K = W / kPack;
-  static_assert(K * kPack == W, "a block is whole packs");
-  Pack plot[K], usable[K], step[K];
-  for (int k = 0; k < K; ++k) {
-    const std::ptrdiff_t offset = static_cast<std::ptrdiff_t>(k) * kPack;
-    plot[k] = lane_load<Pack>(z + offset);
-    usable[k] = pick(plot[k] == plot[k], 1.0, 0.0);
-    step[k] = lane_load<Pack>(stepped + offset);
-  }
-  bank::imm_cycle<Pack, N, K>(family, b, static_cast<int>(first), plot, usable, step, code);
+  bank::axis_lane_cycle<Pack, W, N>(family, b, first, z, stepped, code);
   const BankConstants& c = *family.b;
   if (c.constant) return;
   for (int j = 0; j < b.modes; ++j) {
@@ -277,15 +253,15 @@ void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<Ste
     constexpr int N = decltype(n)::value;
     const auto block = for_lane_isa(isa, step_block_avx512<kBlock, N>, step_block_avx2<kBlock, N>,
                                     step_block_baseline<kBlock, N>);
-    bank::step_blocks<kBlock>(plots, status, true, lanes,
-                              [&](auto /*width*/, std::size_t first, const double* z,
-                                  const double* stepped, double* code) {
-                                const auto lane = static_cast<std::ptrdiff_t>(first);
-                                const FcmFamily family{
-                                    &b,       stepped,       slot(window_slot(0, 0)) + lane,
-                                    stride(), window_slots_, &pending};
-                                block(family, cycle, lane, z, stepped, code);
-                              });
+    bank::step_blocks<kBlock>(
+        plots, status, true, lanes,
+        [&](auto /*width*/, std::size_t first, const double* z, const double* stepped,
+            double* code) {
+          const auto lane = static_cast<std::ptrdiff_t>(first);
+          const FcmFamily family{
+              {}, &b, stepped, slot(window_slot(0, 0)) + lane, stride(), window_slots_, &pending};
+          block(family, cycle, lane, z, stepped, code);
+        });
   });
 }
 

@@ -12,13 +12,13 @@
 #include <utility>
 
 #include "axis_lane_bank.hpp"
+#include "axis_lane_cycle.hpp"
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
-#include "imm_cycle.hpp"
 
 namespace imm {
 namespace {
@@ -28,23 +28,14 @@ using bank::kNonFinite, bank::kOk, bank::kSingular;
 // The GA-fuzzy IMM's fuzzy-noise modes of one axis as imm_cycle.hpp's family: a mode holds its
 // estimate [x0, x1, p00, p01, p11] and its table's last first input; its step is
 // fuzzy_noise_steps over packs (FuzzyLevelConstants); a track is two lanes, x then y.
-struct FuzzyNoiseFamily {
-  static constexpr int kEntries = 6, kCombined = 5, kPrevious = 5;
+struct FuzzyNoiseFamily : bank::AxisLaneFamily {
+  static constexpr int kEntries = 6, kPrevious = 5;
   template <class S>
   using Plot = S;
   template <class S>
   using Mode = std::array<S, kEntries>;
-  template <class S>
-  using Estimate = std::array<S, kCombined>;
   const lanes::FuzzyAxisConstants* axis = nullptr;
   const lanes::FuzzyLevelConstants* levels = nullptr;
-
-  // Σ_i w_i N(x_i, P_i) (eq. 4–5 and 10–11).
-  template <class S, class Modes>
-  [[gnu::always_inline]] inline void mix(int n, const S* weight, Modes&& mode,
-                                         Estimate<S>& out) const {
-    bank::collapse_axis(n, weight, mode, out);
-  }
 
   // Mode j's fuzzy-noise steps of K packs together; ℓ_j = log N(r; 0, S).
   template <class S, int K>
@@ -67,44 +58,18 @@ struct FuzzyNoiseFamily {
       code[k] = pick(s[k].usable, pick(s[k].finite, kOk, kNonFinite), kSingular);
     }
   }
-
-  // A track's code, in both its lanes: that of the first axis that failed.
-  template <class S>
-  [[gnu::always_inline]] inline S track_code(S code) const {
-    return bank::paired_codes(code);
-  }
 };
 using Slots = bank::CycleSlots<FuzzyNoiseFamily>;
 constexpr int kLogMu = Slots::kLogMu, kScaledMu = Slots::kScaledMu, kModeSlots = Slots::kModeSlots;
 
-// One IMM cycle of one block's W lanes (whole packs) of an IMM of N modes (imm_cycle.hpp) from
-// lane `first`: `z` the lanes' plots (NaN for an unusable plot), `stepped` 1 for a lane to step;
-// `code` receives each lane's outcome.
-template <class Pack, int W, int N>
-[[gnu::always_inline]] inline void step_block(const FuzzyNoiseFamily& family,
-                                              const bank::CycleBlock& b, std::ptrdiff_t first,
-                                              const double* z, const double* stepped,
-                                              double* code) {
-  constexpr int kPack = kLanesOf<Pack>, K = W / kPack;
-  static_assert(K * kPack == W, "a block is whole packs");
-  Pack plot[K], usable[K], step[K];
-  for (int k = 0; k < K; ++k) {
-    const std::ptrdiff_t offset = static_cast<std::ptrdiff_t>(k) * kPack;
-    plot[k] = lane_load<Pack>(z + offset);
-    usable[k] = pick(plot[k] == plot[k], 1.0, 0.0);
-    step[k] = lane_load<Pack>(stepped + offset);
-  }
-  bank::imm_cycle<Pack, N, K>(family, b, static_cast<int>(first), plot, usable, step, code);
-}
-
 // step_block for each instruction set, its pack one vector of it (lane_isa.hpp).
 // NOLINTBEGIN(bugprone-macro-parentheses): `target` is an attribute.
-#define IMM_BLOCK_FOR(isa, target, width)                                              \
-  template <int W, int N>                                                              \
-  [[gnu::flatten]] target void step_block_##isa(                                       \
-      const FuzzyNoiseFamily& family, const bank::CycleBlock& b, std::ptrdiff_t first, \
-      const double* z, const double* stepped, double* code) {                          \
-    step_block<LanePackOf<width>, W, N>(family, b, first, z, stepped, code);           \
+#define IMM_BLOCK_FOR(isa, target, width)                                               \
+  template <int W, int N>                                                               \
+  [[gnu::flatten]] target void step_block_##isa(                                        \
+      const FuzzyNoiseFamily& family, const bank::CycleBlock& b, std::ptrdiff_t first,  \
+      const double* z, const double* stepped, double* code) {                           \
+    bank::axis_lane_cycle<LanePackOf<width>, W, N>(family, b, first, z, stepped, code); \
   }
 IMM_FOR_EACH_LANE_ISA(IMM_BLOCK_FOR)
 #undef IMM_BLOCK_FOR
@@ -174,7 +139,7 @@ void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& sta
 
 void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
   check_step("GaFuzzyTrackBank", plots.size(), status.size());
-  const FuzzyNoiseFamily family{&axis_, levels_.data()};
+  const FuzzyNoiseFamily family{{}, &axis_, levels_.data()};
   const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), slot(0),
                                stride()};
   // The instruction set's function for the mode count and block width, chosen outside it (a
