@@ -202,7 +202,6 @@ StepStatus WimmFilter::miss() {
 void WimmFilter::to_plot(Vector<2>& nu, SquareMatrix<2>& S) const {
   if (!fused_) return;
   switch (use_) {
-    case AzimuthUse::kSeed:
     case AzimuthUse::kPlot:
       // ν_θ = θ_f − ĥ_θ: the plot's is θ_p − ĥ_θ, and S does not depend on the azimuth.
       nu(1) = wrap_angle(nu(1) + wrap_angle(plot_(1) - chosen_(1)));

@@ -36,9 +36,9 @@ namespace wimm {
 struct Cycle;  ///< what a WimmFilter's cycle chose, shared with its modes (wimm.cpp)
 }  // namespace wimm
 
-/// Which measurement a wIMM cycle updated with: the plot's azimuth, the seed's fused one, the
-/// correlated fusion, or the converted Cartesian plot.
-enum class AzimuthUse { kPlot, kSeed, kCorrelated, kConverted };
+/// Which measurement a wIMM cycle updated with: a polar plot with the chosen azimuth (the plot's
+/// own, or the seed's fused one), the correlated fusion, or the converted Cartesian plot.
+enum class AzimuthUse { kPlot, kCorrelated, kConverted };
 
 /// Whether and how the WIMM fuses the plot azimuth with the estimate's (seed 004; see the file
 /// comment).
