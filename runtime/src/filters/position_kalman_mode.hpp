@@ -44,12 +44,9 @@ class PositionKalmanMode final : public ImmMode<6, 2> {
   }
 
   void reset(const GaussianState<6>& state) override {
-    for (int i = 0; i < kDim; ++i) {
-      const int a = bank::mixing_index(D, i);
-      estimate_.mean(i) = state.mean(a);
-      for (int k = 0; k < kDim; ++k)
-        estimate_.covariance(i, k) = state.covariance(a, bank::mixing_index(D, k));
-    }
+    project(
+        state, [&](int i) -> double& { return estimate_.mean(i); },
+        [&](int i, int k) -> double& { return estimate_.covariance(i, k); });
   }
 
   /// The prediction updated with z; a prediction that is not finite fails in the update (an S
@@ -122,21 +119,23 @@ class PositionKalmanMode final : public ImmMode<6, 2> {
   [[nodiscard]] const GaussianState<kDim>& estimate() const { return estimate_; }
 
  private:
-  // The mode's states of a mixing-space Gaussian, as one lane.
-  static void project(const GaussianState<6>& state, double (&mean)[kDim][1],
-                      double (&covariance)[kDim][kDim][1]) {
+  // The mode's states of a mixing-space Gaussian: mean(i) and covariance(i, k) take them.
+  template <class Mean, class Covariance>
+  static void project(const GaussianState<6>& state, Mean&& mean, Covariance&& covariance) {
     for (int i = 0; i < kDim; ++i) {
       const int a = bank::mixing_index(D, i);
-      mean[i][0] = state.mean(a);
+      mean(i) = state.mean(a);
       for (int k = 0; k < kDim; ++k)
-        covariance[i][k][0] = state.covariance(a, bank::mixing_index(D, k));
+        covariance(i, k) = state.covariance(a, bank::mixing_index(D, k));
     }
   }
 
   // Predicts from a mixed condition into the held prediction.
   void predict_from(const GaussianState<6>& mixed) {
     double mean[kDim][1], covariance[kDim][kDim][1];
-    project(mixed, mean, covariance);
+    project(
+        mixed, [&](int i) -> double& { return mean[i][0]; },
+        [&](int i, int k) -> double& { return covariance[i][k][0]; });
     bank::predict<D, 1>(model_, mean, covariance, step_);
   }
 
