@@ -36,6 +36,7 @@
 namespace {
 
 using imm::TrackFilter;
+using imm::bench::preset_sample_period;
 using imm::bench::preset_track;
 using imm::bench::table3_plots;
 using imm::bench::w1_input;
@@ -165,6 +166,7 @@ BENCHMARK(BM_GaFuzzyImmPaperTablesStep);
 void run_polar(benchmark::State& state, imm::FusionVariant fusion) {
   static const Eigen::MatrixXd plots = preset_track("wimm_table2", 0).plots;
   imm::WimmSpec spec;
+  spec.sample_period = preset_sample_period("wimm_table2");
   spec.fusion = fusion;
   imm::WimmFilter filter(spec);
   Eigen::VectorXd mean(6), variance(6);
@@ -217,6 +219,7 @@ BENCHMARK(BM_InputEstimationFilterStep);
 
 void BM_Aimm5Step(benchmark::State& state) {
   imm::AimmSpec spec;
+  spec.settings.sample_period = preset_sample_period("ga_imm_table3");  // run_two_axis's plots
   spec.intervals = {0.02, 0.04};
   auto filter = imm::make_aimm_filter(spec);
   run_two_axis(state, *filter);
@@ -241,6 +244,7 @@ BENCHMARK(BM_FcmImmStep)->Arg(0)->Arg(1)->Arg(2);
 void BM_CvImm3ZigzagStep(benchmark::State& state) {
   const auto fitted = imm::io::read_fcm_imm(IMM_SOURCE_DIR "/models/fcm_imm.h5");
   imm::AxisCvImmSpec spec;
+  spec.settings.sample_period = preset_sample_period("fcm_imm_zigzag");
   spec.settings.measurement_sigma = 100.0;
   spec.process_noise = fitted.process_noise;
   auto filter = imm::make_axis_cv_imm_filter(spec);
@@ -286,7 +290,7 @@ void BM_FimmStep(benchmark::State& state) {
         std::make_shared<const imm::TskSensorModel>(imm::io::read_tsk_sensor(tsk_model_path(hard)));
   }
   imm::FimmSpec spec;
-  spec.sample_period = imm::bench::preset_sample_period("fimm_table1");
+  spec.sample_period = preset_sample_period("fimm_table1");
   spec.measurement_covariance = track.noise.covariance();
   spec.iterations = std::max(1, iterations);
   imm::FimmFilter filter(spec, sensor);
