@@ -22,7 +22,8 @@
 //                          from log μ, the weights divided by c̃, libm's exp and log lane by lane
 //                          (a family whose step is a discontinuous function of the mixed
 //                          condition, as the FCM-IMM's window clustering with its stopping rule,
-//                          stays with its one-track filter only so)
+//                          stays with its one-track filter only so); such a family's one track
+//                          does not take the steps_across_modes path
 //   kStoresCombined        false where the combined estimate is not kept in the state (the bank
 //                          combines a track's modes when it is asked for its estimate)
 //   steps_across_modes<P>(n, mixed, current, z, updated, log_likelihood, code)
@@ -406,7 +407,7 @@ template <class S, int N, int K, class F>
   S outcome[K];
   bool across_modes = false;
   if constexpr (std::is_same_v<S, double> && K == 1 && N >= 2 && N <= 8 &&
-                StepsAcrossModes<F, ModePack<N>>) {
+                StepsAcrossModes<F, ModePack<N>> && !kLibmProbabilities<F>) {
     across_modes =
         mix_and_step_across_modes<N>(family, b, t, z[0], m, updated, centered[0], outcome[0]);
   }
