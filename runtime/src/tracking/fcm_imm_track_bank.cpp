@@ -272,17 +272,17 @@ GaussianState<4> FcmImmTrackBank::estimate(std::size_t track) const {
   std::array<std::array<double, 5>, 2> axes{};
   for (int axis = 0; axis < 2; ++axis) {
     const std::ptrdiff_t lane = 2 * t + axis;
-    std::array<double, kMaxLevels> mu{};
-    for (int j = 0; j < n; ++j)
-      mu[static_cast<std::size_t>(j)] = std::exp(slot(j * kModeSlots + kLogMu)[lane]);
+    ModeVector mu(n);
+    std::array<std::array<double, 5>, kMaxLevels> modes{};
+    for (int j = 0; j < n; ++j) {
+      mu(j) = std::exp(slot(j * kModeSlots + kLogMu)[lane]);
+      for (int e = 0; e < 5; ++e)
+        modes[static_cast<std::size_t>(j)][static_cast<std::size_t>(e)] =
+            slot(j * kModeSlots + e)[lane];
+    }
     bank::collapse_axis(
         n, mu.data(),
-        [&](int j) {
-          std::array<double, 5> e{};
-          for (int k = 0; k < 5; ++k)
-            e[static_cast<std::size_t>(k)] = slot(j * kModeSlots + k)[lane];
-          return e;
-        },
+        [&](int j) -> const std::array<double, 5>& { return modes[static_cast<std::size_t>(j)]; },
         axes[static_cast<std::size_t>(axis)]);
   }
   return bank::two_axis_estimate(t, [&](int e, std::ptrdiff_t lane) {

@@ -113,26 +113,20 @@ void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& sta
     const std::array<double, 5> values = bank::axis_entries(state, axis);
     // ImmEstimator::initialize: every mode takes the state, then the combination with
     // μ_j = exp(log μ_j(0)).
-    double sum[5] = {};
+    ModeVector mu(modes_);
     for (int j = 0; j < modes_; ++j) {
       const double log_mu = initial_log_mu_[static_cast<std::size_t>(j)];
       for (int e = 0; e < 5; ++e) slot(j * kModeSlots + e)[lane] = values[e];
       slot(j * kModeSlots + kLogMu)[lane] = log_mu;
       slot(j * kModeSlots + kScaledMu)[lane] = std::exp(log_mu - top);
       slot(j * kModeSlots + FuzzyNoiseFamily::kPrevious)[lane] = 0.0;
-      const double mu = std::exp(log_mu);
-      sum[0] += mu * values[0];
-      sum[1] += mu * values[1];
+      mu(j) = std::exp(log_mu);
     }
-    for (int j = 0; j < modes_; ++j) {
-      const double mu = std::exp(initial_log_mu_[static_cast<std::size_t>(j)]);
-      if (mu == 0.0) continue;
-      const double d0 = values[0] - sum[0], d1 = values[1] - sum[1];
-      sum[2] += mu * (values[2] + d0 * d0);
-      sum[3] += mu * (values[3] + d0 * d1);
-      sum[4] += mu * (values[4] + d1 * d1);
-    }
-    for (int e = 0; e < 5; ++e) slot(modes_ * kModeSlots + e)[lane] = sum[e];
+    std::array<double, 5> combined{};
+    bank::collapse_axis(
+        modes_, mu.data(), [&](int /*j*/) -> const std::array<double, 5>& { return values; },
+        combined);
+    for (int e = 0; e < 5; ++e) slot(modes_ * kModeSlots + e)[lane] = combined[e];
   }
   mark_initialized(t);
 }
