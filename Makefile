@@ -89,8 +89,9 @@ sanitize-build: deps
 # of the trainers, the tools and the regime files do run here, each key at one absurd value (two
 # in the Release suite): an absurd value must not reach undefined behaviour. Two more checks of
 # figures, not of memory, run in Release only (62 s and 27 s sanitized): GA-IMM's result against
-# the files its reporters write (the experiment itself runs here in Tools.GaAndInputEstimator…)
-# and W2a's 6000 epochs against plain loops (the fused batch gradient runs here in Backpropagation.*).
+# the files its reporters write (the experiment itself runs here in
+# Tools.GaAndInputEstimator…) and W2a's 6000 epochs against plain loops (the fused batch
+# gradient runs here in Backpropagation.*).
 SANITIZE_EXCLUDE_LABELS ?= ^(drill|nightly|mpi|long)$$
 SANITIZE_EXCLUDE ?= ConfigDrill.*_evaluation|Tools.GaImmEvaluationReportsTable3ForEveryFilter|Tools.AFastTurnRegime.*|Tools.FcmTrainingAndEvaluationEndToEnd|Tools.PartialTruthJudges.*|python.TheTrainersSide.*|python.TheTutorial.*|HostileModelFile.EveryMutationOfEveryShippedModelIsRefusedOrLoads|package.ConsumerProjectBuildsAgainstTheInstalledRuntime|PlotSigma.*|EnvelopeOnRegimes.*|Tools.PolarRecordingsTrainAndEvaluateTheWimmWithoutTruth|Tools.AScheduleThatSwitchesOffIsTheClassicalBarItself|Tools.WimmTrainingAndEvaluationEndToEnd|Tools.TskTrainingFromStoredSamples|Tools.TskTrainingAndFimmEvaluationEndToEnd|Experiments.GaImmResultIsWhatItsReportWrites|Workloads.W2aFullBatchMatchesPlainLoops
 test-sanitize: sanitize-build
