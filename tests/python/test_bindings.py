@@ -317,6 +317,14 @@ def test_the_bank_scores_candidate_plots_without_changing_a_track():
     fuzzy.initialize(0, starts[0], P0)
     with pytest.raises(RuntimeError, match="does not score candidate plots"):
         fuzzy.candidate_log_likelihoods(plots, 1)
+    # The input estimator's bank answers: its own plot inside, the far one cut, NaN unusable.
+    path = os.path.join(MODELS, "mlp_input_estimator.h5")
+    estimator = immtrain.TrackBank(path, 1)
+    estimator.initialize(0, starts[0], P0)
+    T = immtrain.load_tracker(path).sample_period
+    own = np.array([[10.0 * T, 0.0], [5000.0, 5000.0], [np.nan, 1.0]])
+    scores = estimator.candidate_log_likelihoods(own, 1, gate=9.21)
+    assert np.isfinite(scores[0, 0]) and scores[0, 1] == -np.inf and np.isnan(scores[0, 2])
 
 
 def test_a_filter_split_into_predict_candidates_and_update_equals_its_step():

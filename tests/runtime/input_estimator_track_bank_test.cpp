@@ -9,12 +9,15 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <numbers>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
+#include "imm/math/chi_square.hpp"
 #include "testing/axis_lane_bank_checks.hpp"
 
 namespace imm {
@@ -177,6 +180,126 @@ TEST(InputEstimatorTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTr
   EXPECT_EQ(bank.acceleration(1), twin.acceleration(0));
 }
 
+// The gating matrix of tracks followed for `scans` scans beside their one-track filters: every
+// entry is the one-track filter's answer after predict() (−∞ past the gate by its
+// candidate_distance, else its candidate_log_likelihood) to the bit, a plot at a track's
+// prediction scores the closed form log N(z; ẑ, S) of its predicted plot, and asking changes no
+// track (the next step equals the one-track filters' update to the bit).
+void expect_gating_as_the_one_track_filters(const MlpInputEstimatorModel& model, int scans,
+                                            std::mt19937_64& rng, const std::string& name) {
+  constexpr int kTracks = 13;
+  InputEstimatorTrackBank bank(model, kTracks);
+  auto single =
+      testing::one_track_filters(kTracks, [&] { return make_mlp_input_estimator_filter(model); });
+  testing::follow_one_track_filters(
+      bank, single, name, 0, scans - 1, start_of, [&](int t, int k) { return plot_of(t, k, rng); },
+      [](std::size_t, const std::string&) {});
+  ASSERT_FALSE(::testing::Test::HasFailure()) << name;
+  // Candidates: at tracks 0, 5 and 12's predicted plots, 2σ and 1000σ from them, and unusable.
+  std::vector<Eigen::Vector2d> plots;
+  for (std::size_t t : {0, 5, 12}) {
+    ASSERT_EQ(single[t]->predict(), StepStatus::kOk);
+    Eigen::Vector2d z_hat;
+    Eigen::Matrix2d S;
+    ASSERT_TRUE(single[t]->predicted_plot(z_hat, S));
+    const Eigen::Vector2d sigma = S.diagonal().cwiseSqrt();
+    plots.insert(plots.end(), {z_hat, z_hat + 2.0 * sigma, z_hat - 1e3 * sigma});
+    // The closed form, from the one-track filter's ẑ and S (diagonal: independent axes).
+    const std::vector<Eigen::Vector2d> at{z_hat + Eigen::Vector2d(sigma.x(), -0.5 * sigma.y())};
+    Eigen::MatrixXd all(kTracks, 1);
+    bank.candidate_log_likelihoods(at, std::numeric_limits<double>::infinity(), all);
+    const double closed =
+        -std::log(2.0 * std::numbers::pi) - 0.5 * std::log(S(0, 0) * S(1, 1)) - 0.5 * (1.0 + 0.25);
+    EXPECT_NEAR(all(static_cast<Eigen::Index>(t), 0), closed, 1e-12 * std::abs(closed)) << name;
+  }
+  plots.emplace_back(std::numeric_limits<double>::quiet_NaN(), 1.0);
+  plots.emplace_back(1.0, 1e300);
+  for (const double gate :
+       {chi_square_quantile(0.99, 2), 1e6, std::numeric_limits<double>::infinity()}) {
+    Eigen::MatrixXd out(kTracks, static_cast<Eigen::Index>(plots.size()));
+    bank.candidate_log_likelihoods(plots, gate, out);
+    int inside = 0;
+    for (std::size_t t = 0; t < kTracks; ++t) {
+      ASSERT_EQ(single[t]->predict(), StepStatus::kOk);
+      for (std::size_t q = 0; q < plots.size(); ++q) {
+        const double entry = out(static_cast<Eigen::Index>(t), static_cast<Eigen::Index>(q));
+        SCOPED_TRACE(name + ", track " + std::to_string(t) + ", plot " + std::to_string(q));
+        if (q + 2 >= plots.size()) {
+          EXPECT_TRUE(std::isnan(entry));
+        } else if (single[t]->candidate_distance(plots[q]) > gate) {
+          EXPECT_EQ(entry, -std::numeric_limits<double>::infinity());
+        } else {
+          EXPECT_EQ(entry, single[t]->candidate_log_likelihood(plots[q]));
+          inside += std::isfinite(entry) ? 1 : 0;
+        }
+      }
+    }
+    // Each track's own plot is inside the 99 % gate; every usable pair inside an infinite one.
+    EXPECT_GE(inside, std::isinf(gate) ? kTracks * static_cast<int>(plots.size() - 2) : 3)
+        << name << ", gate " << gate;
+  }
+  // Asking changed nothing: the next scan equals the one-track filters' update to the bit.
+  std::vector<Eigen::Vector2d> next(kTracks);
+  std::vector<StepStatus> status(kTracks);
+  for (std::size_t t = 0; t < kTracks; ++t) next[t] = plot_of(static_cast<int>(t), scans, rng);
+  bank.step(next, status);
+  for (std::size_t t = 0; t < kTracks; ++t) {
+    EXPECT_EQ(status[t], single[t]->update(next[t])) << name << ", track " << t;
+    const GaussianState<4> reference = testing::two_axis_estimate(*single[t]);
+    testing::expect_same_bits(bank.estimate(t).mean, reference.mean);
+    testing::expect_same_bits(bank.estimate(t).covariance, reference.covariance);
+  }
+}
+
+TEST(InputEstimatorTrackBank, ScoresCandidatePlotsAsTheOneTrackFilterWithoutChangingATrack) {
+  std::mt19937_64 rng(3122026);
+  for (int trial = 0; trial < 6; ++trial) {
+    expect_gating_as_the_one_track_filters(random_model(rng, trial), 40, rng,
+                                           "trial " + std::to_string(trial));
+    if (HasFailure()) return;
+  }
+  for (const char* name : {"mlp_input_estimator.h5", "mlp_input_estimator_ground_vehicle.h5"}) {
+    expect_gating_as_the_one_track_filters(
+        io::read_mlp_input_estimator(std::string("models/") + name), 60, rng, name);
+  }
+}
+
+// Tracks past the first few hundred (the matrix is filled in chunks of tracks) and a submatrix of
+// a larger matrix (a column stride other than the rows) give the one-track filters' answers too.
+TEST(InputEstimatorTrackBank, ScoresEveryTrackOfALargeBankIntoAnyColumnStride) {
+  std::mt19937_64 rng(8);
+  const MlpInputEstimatorModel model = random_model(rng, 3);
+  constexpr int kTracks = 600;
+  InputEstimatorTrackBank bank(model, kTracks);
+  std::vector<std::unique_ptr<TwoAxisFilter>> single;
+  std::vector<Eigen::Vector2d> plots;
+  for (int t = 0; t < kTracks; ++t) {
+    bank.initialize(static_cast<std::size_t>(t), start_of(t));
+    single.push_back(make_mlp_input_estimator_filter(model));
+    single.back()->initialize(start_of(t).mean, start_of(t).covariance);
+    ASSERT_EQ(single.back()->predict(), StepStatus::kOk);
+    if (t % 150 == 149) plots.push_back(start_of(t).mean(Eigen::seq(0, 2, 2)));
+  }
+  Eigen::MatrixXd larger(kTracks + 7, static_cast<Eigen::Index>(plots.size()) + 1);
+  auto out = larger.block(0, 1, kTracks, static_cast<Eigen::Index>(plots.size()));
+  bank.candidate_log_likelihoods(plots, chi_square_quantile(0.99, 2), out);
+  int inside = 0;
+  for (int t = 0; t < kTracks; ++t) {
+    for (std::size_t q = 0; q < plots.size(); ++q) {
+      const double entry = out(t, static_cast<Eigen::Index>(q));
+      if (single[static_cast<std::size_t>(t)]->candidate_distance(plots[q]) >
+          chi_square_quantile(0.99, 2)) {
+        EXPECT_EQ(entry, -std::numeric_limits<double>::infinity()) << t << " " << q;
+      } else {
+        EXPECT_EQ(entry, single[static_cast<std::size_t>(t)]->candidate_log_likelihood(plots[q]))
+            << t << " " << q;
+        ++inside;
+      }
+    }
+  }
+  EXPECT_GE(inside, static_cast<int>(plots.size()));  // each plot at least by its own track
+}
+
 TEST(InputEstimatorTrackBank, RefusesWhatItCannotRun) {
   std::mt19937_64 rng(3);
   const MlpInputEstimatorModel model = random_model(rng, 1);
@@ -191,6 +314,20 @@ TEST(InputEstimatorTrackBank, RefusesWhatItCannotRun) {
   EXPECT_EQ(testing::refused_field<InputEstimatorTrackBank>(bad, 4), "input_variance");
   InputEstimatorTrackBank bank(model, 3);
   testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(1.0, 2.0));
+  // The gating matrix's arguments (only track 0 was started).
+  const std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(1.0, 2.0));
+  Eigen::MatrixXd wrong(2, 3), too_many(4, 2), two(2, 2), three(3, 2);
+  EXPECT_THROW(bank.candidate_log_likelihoods(plots, 9.0, wrong), std::invalid_argument);
+  EXPECT_THROW(bank.candidate_log_likelihoods(plots, 9.0, too_many), std::invalid_argument);
+  for (const double gate : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()}) {
+    try {
+      bank.candidate_log_likelihoods(plots, gate, two);
+      ADD_FAILURE() << "gate " << gate << " accepted";
+    } catch (const InvalidParameter& e) {
+      EXPECT_EQ(e.field(), "gate");
+    }
+  }
+  EXPECT_THROW(bank.candidate_log_likelihoods(plots, 9.0, three), std::logic_error);
 }
 
 }  // namespace

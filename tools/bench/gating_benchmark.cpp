@@ -1,18 +1,23 @@
 // SPDX-License-Identifier: Apache-2.0
 // The gating question of a multi-target tracker — every track's log-likelihood of every plot of a
-// scan — for 1 000 tracks of the W1 IMM and 100 plots: TrackBank::candidate_log_likelihoods in
-// one call against a loop over one-track ImmEstimators (predict(), then per pair
-// candidate_distance and, inside the gate, candidate_log_likelihood). Items: (track, plot) pairs.
+// scan — for 1 000 tracks and 100 plots: a bank's candidate_log_likelihoods in one call against a
+// loop over one-track filters (predict(), then per pair candidate_distance and, inside the gate,
+// candidate_log_likelihood). The W1 IMM (TrackBank) and the shipped input estimator
+// (InputEstimatorTrackBank). Items: (track, plot) pairs.
 
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <random>
 #include <vector>
 
+#include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/filters/plain_imm.hpp"
+#include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/math/chi_square.hpp"
+#include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "workloads.hpp"
 
@@ -23,16 +28,17 @@ namespace {
 struct Scene {
   std::vector<imm::GaussianState<4>> starts;
   std::vector<Eigen::Vector2d> plots;
-  Scene(std::size_t tracks, std::size_t plot_count) {
+  // T: the sample period the plots are predicted over.
+  Scene(std::size_t tracks, std::size_t plot_count, double T) {
     std::mt19937_64 rng(5);
     std::normal_distribution<double> noise(0.0, 1.0);
     for (std::size_t t = 0; t < tracks; ++t) {
       imm::GaussianState<4> s = imm::workloads::w1_start();
-      s.mean(0) += 50.0 * static_cast<double>(t % 40);
-      s.mean(2) += 50.0 * static_cast<double>(t / 40);
+      const std::size_t column = t % 40, row = t / 40;  // the grid's cell
+      s.mean(0) += 50.0 * static_cast<double>(column);
+      s.mean(2) += 50.0 * static_cast<double>(row);
       starts.push_back(s);
     }
-    const double T = imm::workloads::w1_spec().sample_period;
     for (std::size_t q = 0; q < plot_count; ++q) {
       const imm::GaussianState<4>& s = starts[(q * 7919) % tracks];
       plots.emplace_back(s.mean(0) + T * s.mean(1) + noise(rng),
@@ -41,35 +47,45 @@ struct Scene {
   }
 };
 
-// range(0): 0 one-track ImmEstimators, 1 TrackBank; range(1): 1 with the 99 % χ² gate, 0 every
-// pair scored.
-void BM_GatingMatrix(benchmark::State& state) {
-  constexpr std::size_t kTracks = 1000, kPlots = 100;
+// A one-track filter, held by value or by pointer, started from `s`.
+void start(imm::ImmEstimator<4, 2>& track, const imm::GaussianState<4>& s) { track.initialize(s); }
+imm::TwoAxisFilter& start(std::unique_ptr<imm::TwoAxisFilter>& track,
+                          const imm::GaussianState<4>& s) {
+  track->initialize(s.mean, s.covariance);
+  return *track;
+}
+imm::ImmEstimator<4, 2>& held(imm::ImmEstimator<4, 2>& track) { return track; }
+imm::TwoAxisFilter& held(std::unique_ptr<imm::TwoAxisFilter>& track) { return *track; }
+
+// range(0): 0 a loop over one-track filters (make_track()), 1 a bank (make_bank()); range(1): 1
+// with the 99 % χ² gate, 0 every pair scored.
+template <class MakeBank, class MakeTrack>
+void gating_matrix(benchmark::State& state, const Scene& scene, MakeBank&& make_bank,
+                   MakeTrack&& make_track, const char* bank_label, const char* loop_label) {
   const bool bank_api = state.range(0) == 1;
   const double gate = state.range(1) == 1 ? imm::chi_square_quantile(0.99, 2)
                                           : std::numeric_limits<double>::infinity();
-  const Scene scene(kTracks, kPlots);
-  const auto spec = imm::workloads::w1_spec();
-  Eigen::MatrixXd out(kTracks, kPlots);
+  const std::size_t tracks = scene.starts.size(), plots = scene.plots.size();
+  Eigen::MatrixXd out(static_cast<Eigen::Index>(tracks), static_cast<Eigen::Index>(plots));
   if (bank_api) {
-    imm::TrackBank bank(spec, kTracks);
-    for (std::size_t t = 0; t < kTracks; ++t) bank.initialize(t, scene.starts[t]);
+    auto bank = make_bank();
+    for (std::size_t t = 0; t < tracks; ++t) bank.initialize(t, scene.starts[t]);
     for (auto _ : state) {
       bank.candidate_log_likelihoods(scene.plots, gate, out);
       benchmark::DoNotOptimize(out.data());
     }
   } else {
-    std::vector<imm::ImmEstimator<4, 2>> tracks;
-    tracks.reserve(kTracks);
-    for (std::size_t t = 0; t < kTracks; ++t) {
-      tracks.push_back(imm::build_plain_imm<4>(spec));
-      tracks.back().initialize(scene.starts[t]);
+    std::vector<decltype(make_track())> one;
+    one.reserve(tracks);
+    for (std::size_t t = 0; t < tracks; ++t) {
+      one.push_back(make_track());
+      start(one.back(), scene.starts[t]);
     }
     for (auto _ : state) {
-      for (std::size_t t = 0; t < kTracks; ++t) {
-        imm::ImmEstimator<4, 2>& track = tracks[t];
-        track.predict();
-        for (std::size_t q = 0; q < kPlots; ++q) {
+      for (std::size_t t = 0; t < tracks; ++t) {
+        auto& track = held(one[t]);
+        (void)track.predict();
+        for (std::size_t q = 0; q < plots; ++q) {
           const auto& z = scene.plots[q];
           const bool inside = !(track.candidate_distance(z) > gate);
           out(static_cast<Eigen::Index>(t), static_cast<Eigen::Index>(q)) =
@@ -82,9 +98,33 @@ void BM_GatingMatrix(benchmark::State& state) {
   std::size_t inside = 0;
   for (Eigen::Index i = 0; i < out.size(); ++i) inside += std::isfinite(out.data()[i]) ? 1 : 0;
   state.counters["inside_gate"] = static_cast<double>(inside);
-  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(kTracks * kPlots));
-  state.SetLabel(bank_api ? "TrackBank" : "one-track ImmEstimators");
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(tracks * plots));
+  state.SetLabel(bank_api ? bank_label : loop_label);
+}
+
+constexpr std::size_t kTracks = 1000, kPlots = 100;
+
+// The W1 IMM: TrackBank against one-track ImmEstimators.
+void BM_GatingMatrix(benchmark::State& state) {
+  const auto spec = imm::workloads::w1_spec();
+  gating_matrix(
+      state, Scene(kTracks, kPlots, spec.sample_period),
+      [&] { return imm::TrackBank(spec, kTracks); }, [&] { return imm::build_plain_imm<4>(spec); },
+      "TrackBank", "one-track ImmEstimators");
 }
 BENCHMARK(BM_GatingMatrix)->Args({0, 1})->Args({1, 1})->Args({0, 0})->Args({1, 0});
+
+// The shipped input estimator (models/mlp_input_estimator.h5): InputEstimatorTrackBank against
+// one-track filters (make_mlp_input_estimator_filter).
+void BM_InputEstimatorGatingMatrix(benchmark::State& state) {
+  const imm::MlpInputEstimatorModel model =
+      imm::io::read_mlp_input_estimator(IMM_SOURCE_DIR "/models/mlp_input_estimator.h5");
+  gating_matrix(
+      state, Scene(kTracks, kPlots, model.settings.sample_period),
+      [&] { return imm::InputEstimatorTrackBank(model, kTracks); },
+      [&] { return imm::make_mlp_input_estimator_filter(model); }, "InputEstimatorTrackBank",
+      "one-track input estimators");
+}
+BENCHMARK(BM_InputEstimatorGatingMatrix)->Args({0, 1})->Args({1, 1})->Args({0, 0})->Args({1, 0});
 
 }  // namespace

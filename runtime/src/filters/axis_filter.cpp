@@ -46,7 +46,7 @@ TrackOptions AxisImmSettings::track_options(std::int64_t max_gap) const {
 
 double axis_log_density(double nu, double variance) {
   if (!(variance > 0.0)) return std::numeric_limits<double>::quiet_NaN();
-  return -0.5 * (nu * nu / variance + std::log(variance) + kLogTwoPi);
+  return axis_log_density_of(nu * nu / variance, std::log(variance));
 }
 
 double AxisFilter::log_predictive_likelihood() const {

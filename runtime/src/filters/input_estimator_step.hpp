@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "imm/estimation/cv_axis_lanes.hpp"
+#include "imm/estimation/gaussian_state.hpp"
 #include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
@@ -200,6 +201,17 @@ template <class Slot>
                                                                      Slot&& at) {
   const double u = at(kInput);
   return predicted(b.cv.T, estimate_at(at, kPrimary), b.qp00, b.qp01, b.qp11, b.g0 * u, b.g1 * u);
+}
+
+// The primary KF's prediction as a Gaussian: what MlpInputEstimatorFilter::predict() holds for
+// candidate plots (it does not depend on the plot) and the bank scores its candidates against.
+template <class Slot>
+[[nodiscard]] inline GaussianState<2> held_prediction(const Constants& b, Slot&& at) {
+  const lanes::AxisEstimate p = primary_prediction(b, at);
+  GaussianState<2> held;
+  held.mean << p.x0, p.x1;
+  held.covariance << p.p00, p.p01, p.p01, p.p11;
+  return held;
 }
 
 // The network of one lane from its inputs `x` (two): each layer's units a chunk at a time, the

@@ -169,9 +169,7 @@ void MlpInputEstimatorFilter::predict_only() {
 
 void MlpInputEstimatorFilter::predict() {
   updated_ = false;
-  const lanes::AxisEstimate p = scan::primary_prediction(*constants_, slot_of(slots_));
-  held_.mean << p.x0, p.x1;
-  held_.covariance << p.p00, p.p01, p.p01, p.p11;
+  held_ = scan::held_prediction(*constants_, slot_of(slots_));
   predicted_ = true;
 }
 

@@ -3,12 +3,18 @@
 // (see the header) by the scan MlpInputEstimatorFilter runs for one (input_estimator_step.hpp).
 #include "imm/tracking/input_estimator_track_bank.hpp"
 
+#include <algorithm>
 #include <array>
+#include <cmath>
+#include <limits>
 #include <memory>
 
 #include "axis_lane_bank.hpp"
 #include "bank_checks.hpp"
 #include "filters/input_estimator_step.hpp"
+#include "imm/core/physical_limits.hpp"
+#include "imm/estimation/kalman_filter.hpp"
+#include "imm/filters/axis_filter.hpp"
 #include "imm/math/lane_math.hpp"
 
 namespace imm {
@@ -23,6 +29,32 @@ template <int W>
                                                    const double* stepped, double* code,
                                                    double* work) {
   step::scan<W, true>(b, state, stride, z, stepped, code, work, nullptr);
+}
+
+// The gating matrix's tracks in chunks: per axis ẑ, S and log S of each track's prediction, and
+// whether it cannot be scored (1) or can (0).
+constexpr int kGatingChunk = 256;
+struct GatingChunk {
+  alignas(64) double z_hat[2][kGatingChunk];
+  alignas(64) double variance[2][kGatingChunk];
+  alignas(64) double log_variance[2][kGatingChunk];
+  alignas(64) double unscored[kGatingChunk];
+};
+
+// One usable plot (x, y) against the first n tracks of a chunk, into column[0 … n): the axes'
+// ν²/S and log N(ν; 0, S) (axis_log_density's arithmetic, the one-track filter's bits), −∞ past
+// the gate, NaN for a track that cannot be scored. One loop over the tracks without branches.
+[[gnu::flatten]] IMM_VECTOR_CLONES void score_chunk(const GatingChunk& c, int n, double x, double y,
+                                                    double gate, double* column) {
+  for (int i = 0; i < n; ++i) {
+    const double nu_x = x - c.z_hat[0][i], nu_y = y - c.z_hat[1][i];
+    const double d_x = nu_x * nu_x / c.variance[0][i], d_y = nu_y * nu_y / c.variance[1][i];
+    const double log_likelihood = axis_log_density_of(d_x, c.log_variance[0][i]) +
+                                  axis_log_density_of(d_y, c.log_variance[1][i]);
+    const double gated =
+        pick(d_x + d_y > gate, -std::numeric_limits<double>::infinity(), log_likelihood);
+    column[i] = pick(c.unscored[i] != 0.0, std::numeric_limits<double>::quiet_NaN(), gated);
+  }
 }
 
 }  // namespace
@@ -63,6 +95,45 @@ void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
         step_block<decltype(width)::value>(constants_->b, slot(0) + first, stride(), z, stepped,
                                            code, work);
       });
+}
+
+void InputEstimatorTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate,
+    Eigen::Ref<Eigen::MatrixXd> out) const {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates("InputEstimatorTrackBank", plots.size(), gate, out.rows(), out.cols());
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  const Matrix<1, 2> H{{1.0, 0.0}};
+  const SquareMatrix<1> R = SquareMatrix<1>::Constant(constants_->b.cv.R);
+  for (Eigen::Index first = 0; first < out.rows(); first += kGatingChunk) {
+    const int n = static_cast<int>(std::min<Eigen::Index>(kGatingChunk, out.rows() - first));
+    // The first n entries of each row are written before they are read.
+    GatingChunk chunk;  // NOLINT(cppcoreguidelines-pro-type-member-init)
+    for (int i = 0; i < n; ++i) {
+      // Per axis ẑ and S of the held prediction (predict_plot, as score_candidate forms them for
+      // the one-track filter), and log S for every candidate's density.
+      bool scored = true;
+      for (int axis = 0; axis < 2; ++axis) {
+        const std::ptrdiff_t lane = 2 * (first + i) + axis;
+        const GaussianState<2> held =
+            step::held_prediction(constants_->b, [&](int entry) { return slot(entry)[lane]; });
+        Vector<1> mean = Vector<1>::Zero();  // an axis not scored leaves them so
+        SquareMatrix<1> S = SquareMatrix<1>::Zero();
+        scored = scored && predict_plot(held, H, R, mean, S) && S(0, 0) > 0.0;
+        chunk.z_hat[axis][i] = mean(0);
+        chunk.variance[axis][i] = S(0, 0);
+        chunk.log_variance[axis][i] = std::log(S(0, 0));
+      }
+      chunk.unscored[i] = scored ? 0.0 : 1.0;
+    }
+    for (std::size_t q = 0; q < plots.size(); ++q) {
+      double* column = &out(first, static_cast<Eigen::Index>(q));
+      if (!limits::usable_measurement(plots[q])) {
+        std::fill(column, column + n, kNaN);
+      } else {
+        score_chunk(chunk, n, plots[q](0), plots[q](1), gate, column);
+      }
+    }
+  }
 }
 
 GaussianState<4> InputEstimatorTrackBank::estimate(std::size_t track) const {

@@ -34,4 +34,9 @@ void LaneStorage::check_step(std::string_view name, std::size_t plots, std::size
   bank::check_step(name, plots, statuses, initialized_);
 }
 
+void LaneStorage::check_candidates(std::string_view name, std::size_t plots, double gate,
+                                   std::ptrdiff_t rows, std::ptrdiff_t cols) const {
+  bank::check_candidates(name, plots, gate, rows, cols, initialized_);
+}
+
 }  // namespace imm

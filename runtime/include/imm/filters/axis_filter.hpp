@@ -11,6 +11,7 @@
 
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/imm_estimator.hpp"
+#include "imm/math/log_sum_exp.hpp"
 #include "imm/runtime_export.hpp"
 #include "imm/tracking/imm_track_filter.hpp"
 #include "imm/tracking/track_filter.hpp"
@@ -37,6 +38,11 @@ struct IMM_RUNTIME_EXPORT AxisImmSettings {
 
 /// log N(ν; 0, S) of a scalar innovation; NaN unless S > 0.
 [[nodiscard]] IMM_RUNTIME_EXPORT double axis_log_density(double nu, double variance);
+/// log N(ν; 0, S) from ν²/S and log S, axis_log_density's arithmetic (the same bits), for a caller
+/// that scores many innovations under one S.
+[[nodiscard]] inline double axis_log_density_of(double distance, double log_variance) {
+  return -0.5 * (distance + log_variance + kLogTwoPi);
+}
 
 /// ImmEstimator::innovation of a one-axis IMM as scalars.
 inline bool axis_innovation(const ImmEstimator<2, 1>& imm, double& nu, double& variance) {

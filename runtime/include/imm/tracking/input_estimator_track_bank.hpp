@@ -61,6 +61,19 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank : public LaneStorage {
   /// std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
+  /// The gating question for many tracks and plots in one call, without changing any track:
+  /// out(t, q) = log p(z_q | Z_t), the log-likelihood of candidate plot q under track t's primary
+  /// KF's prediction with its last input estimate (the sum of the axes' log N(ν; 0, S), as the
+  /// one-track filter's candidate_log_likelihood after predict(), to the bit), for tracks 0 …
+  /// out.rows() − 1; −∞ where the plot's squared distance Σ ν²/S (candidate_distance) is above
+  /// `gate` (e.g. chi_square_quantile(0.99, 2); +∞ scores every pair); NaN for an unusable plot or
+  /// a prediction without a finite positive S. Then step() with the plots chosen gives the same
+  /// numbers as without this call. Throws std::invalid_argument when out.cols() differs from
+  /// plots.size() or out.rows() exceeds capacity(), InvalidParameter("gate") for a gate that is
+  /// NaN or not positive, std::logic_error for a track never initialized. Nothing is allocated.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 Eigen::Ref<Eigen::MatrixXd> out) const;
+
   /// The corrected estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
 

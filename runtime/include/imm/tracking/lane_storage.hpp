@@ -52,6 +52,12 @@ class IMM_RUNTIME_EXPORT LaneStorage {
   /// std::invalid_argument when the counts differ or exceed capacity(), std::logic_error naming
   /// the first stepped track never initialized.
   void check_step(std::string_view name, std::size_t plots, std::size_t statuses) const;
+  /// Before the gating matrix of bank `name` of `plots` plots into a rows × cols matrix:
+  /// std::invalid_argument when cols differs from plots or rows exceeds capacity(),
+  /// InvalidParameter("gate") for a gate that is NaN or not positive, std::logic_error naming the
+  /// first track never initialized.
+  void check_candidates(std::string_view name, std::size_t plots, double gate, std::ptrdiff_t rows,
+                        std::ptrdiff_t cols) const;
 
  private:
   std::ptrdiff_t stride_ = 0;
