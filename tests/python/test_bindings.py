@@ -313,18 +313,21 @@ def test_the_bank_scores_candidate_plots_without_changing_a_track():
     step = np.array([[10.0 * T, 0.0], [5000.0, 5000.0]])
     assert asked.step(step) == quiet.step(step) == ["ok", "ok"]
     assert asked.estimate(0)[0].tolist() == quiet.estimate(0)[0].tolist()
-    fuzzy = immtrain.TrackBank(os.path.join(MODELS, "ga_fuzzy_imm.h5"), 1)
-    fuzzy.initialize(0, starts[0], P0)
+    fcm = immtrain.TrackBank(os.path.join(MODELS, "fcm_imm.h5"), 1)
+    fcm.initialize(0, starts[0], P0)
     with pytest.raises(RuntimeError, match="does not score candidate plots"):
-        fuzzy.candidate_log_likelihoods(plots, 1)
-    # The input estimator's bank answers: its own plot inside, the far one cut, NaN unusable.
-    path = os.path.join(MODELS, "mlp_input_estimator.h5")
-    estimator = immtrain.TrackBank(path, 1)
-    estimator.initialize(0, starts[0], P0)
-    T = immtrain.load_tracker(path).sample_period
-    own = np.array([[10.0 * T, 0.0], [5000.0, 5000.0], [np.nan, 1.0]])
-    scores = estimator.candidate_log_likelihoods(own, 1, gate=9.21)
-    assert np.isfinite(scores[0, 0]) and scores[0, 1] == -np.inf and np.isnan(scores[0, 2])
+        fcm.candidate_log_likelihoods(plots, 1)
+    # The input estimator's and the GA-fuzzy IMM's banks answer: the plot where the track goes
+    # inside, the far one cut, NaN for the unusable one.
+    for name in ("mlp_input_estimator.h5", "ga_fuzzy_imm.h5"):
+        path = os.path.join(MODELS, name)
+        learned = immtrain.TrackBank(path, 1)
+        learned.initialize(0, starts[0], P0)
+        T = immtrain.load_tracker(path).sample_period
+        own = np.array([[10.0 * T, 0.0], [5000.0, 5000.0], [np.nan, 1.0]])
+        scores = learned.candidate_log_likelihoods(own, 1, gate=9.21)
+        assert np.isfinite(scores[0, 0]) and scores[0, 1] == -np.inf, name
+        assert np.isnan(scores[0, 2]), name
 
 
 def test_a_filter_split_into_predict_candidates_and_update_equals_its_step():

@@ -15,6 +15,7 @@
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
+#include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "testing/axis_lane_bank_checks.hpp"
 #include "testing/ga_fuzzy_specs.hpp"
 
@@ -120,6 +121,48 @@ TEST(GaFuzzyTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTracksUnt
                                                testing::expect_same_mu<GaFuzzyTrackBank>);
 }
 
+// The gating matrix of tracks followed for `scans` scans beside their one-track filters equals
+// the filters' candidate questions after predict() (trial updates: the modes' noise reads the
+// plot) to 1e-12 relative, and asking changes no track: the next step still follows the filters'
+// update.
+void expect_gating_as_the_one_track_filters(const GaFuzzyImmSpec& spec, int scans,
+                                            std::mt19937_64& rng, const std::string& name) {
+  constexpr int kTracks = 13;
+  GaFuzzyTrackBank bank(spec, kTracks);
+  auto single = testing::one_track_filters(kTracks, [&] { return make_ga_fuzzy_imm_filter(spec); });
+  testing::follow_one_track_filters(
+      bank, single, name, 0, scans - 1, start_of, [&](int t, int k) { return plot_of(t, k, rng); },
+      [&](std::size_t t, const std::string& at) {
+        testing::expect_two_axis_close(bank, t, *single[t], at);
+      });
+  ASSERT_FALSE(::testing::Test::HasFailure()) << name;
+  testing::expect_gating_as_one_track_filters(bank, single, 1e-12, name);
+  std::vector<Eigen::Vector2d> next(kTracks);
+  std::vector<StepStatus> status(kTracks);
+  for (std::size_t t = 0; t < kTracks; ++t) next[t] = plot_of(static_cast<int>(t), scans, rng);
+  bank.step(next, status);
+  for (std::size_t t = 0; t < kTracks; ++t) {
+    EXPECT_EQ(status[t], single[t]->update(next[t])) << name << ", track " << t;
+    testing::expect_two_axis_close(bank, t, *single[t], name + ", the step after asking");
+  }
+}
+
+TEST(GaFuzzyTrackBank, ScoresCandidatePlotsAsTheOneTrackFilterWithoutChangingATrack) {
+  datasets::Rng specs(3122026);
+  std::mt19937_64 rng(3122026);
+  for (int trial = 0; trial < 10; ++trial) {  // 1 to 5 levels: every unrolled count and the rest
+    const auto antecedents =
+        trial % 2 == 0 ? FuzzyAntecedents::kResidual : FuzzyAntecedents::kNormalizedInnovation;
+    expect_gating_as_the_one_track_filters(random_spec(specs, 1 + trial % 5, antecedents), 40, rng,
+                                           "trial " + std::to_string(trial));
+    if (HasFailure()) return;
+  }
+  for (const char* name : {"ga_fuzzy_imm.h5", "ga_fuzzy_imm_agile_air.h5"}) {
+    expect_gating_as_the_one_track_filters(io::read_ga_fuzzy_imm(std::string("models/") + name), 60,
+                                           rng, name);
+  }
+}
+
 TEST(GaFuzzyTrackBank, RefusesWhatItCannotRun) {
   datasets::Rng specs(3);
   GaFuzzyImmSpec spec = random_spec(specs, 2, FuzzyAntecedents::kResidual);
@@ -132,6 +175,7 @@ TEST(GaFuzzyTrackBank, RefusesWhatItCannotRun) {
   spec.settings.transition_stay = 1.0;  // one level: [[1]] is fine
   GaFuzzyTrackBank bank(spec, 3);
   testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(1.0, 2.0));
+  testing::expect_refused_gating(bank);
 }
 
 }  // namespace

@@ -195,49 +195,21 @@ void expect_gating_as_the_one_track_filters(const MlpInputEstimatorModel& model,
       bank, single, name, 0, scans - 1, start_of, [&](int t, int k) { return plot_of(t, k, rng); },
       [](std::size_t, const std::string&) {});
   ASSERT_FALSE(::testing::Test::HasFailure()) << name;
-  // Candidates: at tracks 0, 5 and 12's predicted plots, 2σ and 1000σ from them, and unusable.
-  std::vector<Eigen::Vector2d> plots;
-  for (std::size_t t : {0, 5, 12}) {
-    ASSERT_EQ(single[t]->predict(), StepStatus::kOk);
-    Eigen::Vector2d z_hat;
-    Eigen::Matrix2d S;
-    ASSERT_TRUE(single[t]->predicted_plot(z_hat, S));
-    const Eigen::Vector2d sigma = S.diagonal().cwiseSqrt();
-    plots.insert(plots.end(), {z_hat, z_hat + 2.0 * sigma, z_hat - 1e3 * sigma});
-    // The closed form, from the one-track filter's ẑ and S (diagonal: independent axes).
-    const std::vector<Eigen::Vector2d> at{z_hat + Eigen::Vector2d(sigma.x(), -0.5 * sigma.y())};
-    Eigen::MatrixXd all(kTracks, 1);
-    bank.candidate_log_likelihoods(at, std::numeric_limits<double>::infinity(), all);
-    const double closed =
-        -std::log(2.0 * std::numbers::pi) - 0.5 * std::log(S(0, 0) * S(1, 1)) - 0.5 * (1.0 + 0.25);
-    EXPECT_NEAR(all(static_cast<Eigen::Index>(t), 0), closed, 1e-12 * std::abs(closed)) << name;
-  }
-  plots.emplace_back(std::numeric_limits<double>::quiet_NaN(), 1.0);
-  plots.emplace_back(1.0, 1e300);
-  for (const double gate :
-       {chi_square_quantile(0.99, 2), 1e6, std::numeric_limits<double>::infinity()}) {
-    Eigen::MatrixXd out(kTracks, static_cast<Eigen::Index>(plots.size()));
-    bank.candidate_log_likelihoods(plots, gate, out);
-    int inside = 0;
-    for (std::size_t t = 0; t < kTracks; ++t) {
-      ASSERT_EQ(single[t]->predict(), StepStatus::kOk);
-      for (std::size_t q = 0; q < plots.size(); ++q) {
-        const double entry = out(static_cast<Eigen::Index>(t), static_cast<Eigen::Index>(q));
-        SCOPED_TRACE(name + ", track " + std::to_string(t) + ", plot " + std::to_string(q));
-        if (q + 2 >= plots.size()) {
-          EXPECT_TRUE(std::isnan(entry));
-        } else if (single[t]->candidate_distance(plots[q]) > gate) {
-          EXPECT_EQ(entry, -std::numeric_limits<double>::infinity());
-        } else {
-          EXPECT_EQ(entry, single[t]->candidate_log_likelihood(plots[q]));
-          inside += std::isfinite(entry) ? 1 : 0;
-        }
-      }
-    }
-    // Each track's own plot is inside the 99 % gate; every usable pair inside an infinite one.
-    EXPECT_GE(inside, std::isinf(gate) ? kTracks * static_cast<int>(plots.size() - 2) : 3)
-        << name << ", gate " << gate;
-  }
+  // The closed form log N(z; ẑ, S), from the one-track filter's ẑ and S (diagonal: independent
+  // axes), at a plot 1σ and −0.5σ from track 5's prediction.
+  ASSERT_EQ(single[5]->predict(), StepStatus::kOk);
+  Eigen::Vector2d z_hat;
+  Eigen::Matrix2d S;
+  ASSERT_TRUE(single[5]->predicted_plot(z_hat, S));
+  const Eigen::Vector2d sigma = S.diagonal().cwiseSqrt();
+  const std::vector<Eigen::Vector2d> at{z_hat + Eigen::Vector2d(sigma.x(), -0.5 * sigma.y())};
+  Eigen::MatrixXd all(kTracks, 1);
+  bank.candidate_log_likelihoods(at, std::numeric_limits<double>::infinity(), all);
+  const double closed =
+      -std::log(2.0 * std::numbers::pi) - 0.5 * std::log(S(0, 0) * S(1, 1)) - 0.5 * (1.0 + 0.25);
+  EXPECT_NEAR(all(5, 0), closed, 1e-12 * std::abs(closed)) << name;
+  // Every entry is the one-track filter's, to the bit.
+  testing::expect_gating_as_one_track_filters(bank, single, 0.0, name);
   // Asking changed nothing: the next scan equals the one-track filters' update to the bit.
   std::vector<Eigen::Vector2d> next(kTracks);
   std::vector<StepStatus> status(kTracks);
@@ -314,20 +286,7 @@ TEST(InputEstimatorTrackBank, RefusesWhatItCannotRun) {
   EXPECT_EQ(testing::refused_field<InputEstimatorTrackBank>(bad, 4), "input_variance");
   InputEstimatorTrackBank bank(model, 3);
   testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(1.0, 2.0));
-  // The gating matrix's arguments (only track 0 was started).
-  const std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(1.0, 2.0));
-  Eigen::MatrixXd wrong(2, 3), too_many(4, 2), two(2, 2), three(3, 2);
-  EXPECT_THROW(bank.candidate_log_likelihoods(plots, 9.0, wrong), std::invalid_argument);
-  EXPECT_THROW(bank.candidate_log_likelihoods(plots, 9.0, too_many), std::invalid_argument);
-  for (const double gate : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()}) {
-    try {
-      bank.candidate_log_likelihoods(plots, gate, two);
-      ADD_FAILURE() << "gate " << gate << " accepted";
-    } catch (const InvalidParameter& e) {
-      EXPECT_EQ(e.field(), "gate");
-    }
-  }
-  EXPECT_THROW(bank.candidate_log_likelihoods(plots, 9.0, three), std::logic_error);
+  testing::expect_refused_gating(bank);
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -23,6 +24,7 @@
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
 #include "imm/filters/axis_filter.hpp"
+#include "imm/math/chi_square.hpp"
 #include "imm/math/lane_isa.hpp"
 #include "imm/math/linear_algebra.hpp"
 #include "testing/refused_field.hpp"
@@ -267,6 +269,96 @@ void expect_refused_misuse(Bank& bank, const State& start, const Eigen::Vector2d
   EXPECT_THROW(bank.step(plots, more), std::invalid_argument);
   EXPECT_THROW(bank.initialize(3, start), std::out_of_range);
   EXPECT_THROW((void)bank.estimate(3), std::out_of_range);
+}
+
+// The gating matrix of `bank` against its tracks' one-track filters `single` (followed beside it
+// until now; n = single.size() tracks): candidates at tracks 0, n / 2 and n − 1's predicted plots,
+// 2σ and 1000σ from them and at 0.99 and 1.01 times the 99 % gate, an unusable and an
+// out-of-range one; at a 99 % gate, a gate of 1e6 and
+// none. Each entry is −∞ where the filter's candidate_distance after predict() exceeds the gate,
+// else its candidate_log_likelihood, within `tolerance` relative (0: the same number), and NaN
+// for the two unusable plots; a pair within 1e-9 relative of the gate is not judged (rounding may
+// put it either side). Every track scores its own predicted plot. Leaves the filters predicted
+// (update() or miss() next).
+template <class Bank, class Filters>
+void expect_gating_as_one_track_filters(Bank& bank, Filters& single, double tolerance,
+                                        const std::string& name) {
+  const std::size_t n = single.size();
+  std::vector<Eigen::Vector2d> plots;
+  for (const std::size_t t : {std::size_t{0}, n / 2, n - 1}) {
+    ASSERT_EQ(single[t]->predict(), StepStatus::kOk) << name;
+    Eigen::Vector2d z_hat;
+    Eigen::Matrix2d S;
+    ASSERT_TRUE(single[t]->predicted_plot(z_hat, S)) << name;
+    const Eigen::Vector2d sigma = S.diagonal().cwiseSqrt();
+    plots.insert(plots.end(), {z_hat, z_hat + 2.0 * sigma, z_hat - 1e3 * sigma});
+    // Just inside and just outside the 99 % gate (bisection on the filter's own distance): a
+    // distance 1 % off would put one of them on the wrong side.
+    for (const double edge : {0.99, 1.01}) {
+      double low = 0.0, high = 100.0;
+      for (int i = 0; i < 60; ++i) {
+        const double mid = 0.5 * (low + high);
+        const bool beyond =
+            single[t]->candidate_distance(z_hat + mid * Eigen::Vector2d(sigma.x(), -sigma.y())) >
+            edge * chi_square_quantile(0.99, 2);
+        (beyond ? high : low) = mid;
+      }
+      plots.push_back(z_hat + low * Eigen::Vector2d(sigma.x(), -sigma.y()));
+    }
+  }
+  plots.emplace_back(std::numeric_limits<double>::quiet_NaN(), 1.0);
+  plots.emplace_back(1.0, 1e300);
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const double gate : {chi_square_quantile(0.99, 2), 1e6, inf}) {
+    Eigen::MatrixXd out(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(plots.size()));
+    bank.candidate_log_likelihoods(plots, gate, out);
+    int inside = 0;
+    for (std::size_t t = 0; t < n; ++t) {
+      ASSERT_EQ(single[t]->predict(), StepStatus::kOk) << name;
+      for (std::size_t q = 0; q < plots.size(); ++q) {
+        const double entry = out(static_cast<Eigen::Index>(t), static_cast<Eigen::Index>(q));
+        SCOPED_TRACE(name + ", track " + std::to_string(t) + ", plot " + std::to_string(q) +
+                     ", gate " + std::to_string(gate));
+        if (q + 2 >= plots.size()) {
+          EXPECT_TRUE(std::isnan(entry)) << entry;
+          continue;
+        }
+        const double distance = single[t]->candidate_distance(plots[q]);
+        if (std::isfinite(gate) && std::abs(distance - gate) <= 1e-9 * gate) continue;
+        if (distance > gate) {
+          EXPECT_EQ(entry, -inf);
+          continue;
+        }
+        const double reference = single[t]->candidate_log_likelihood(plots[q]);
+        if (tolerance == 0.0) {
+          EXPECT_EQ(entry, reference);
+        } else {
+          EXPECT_NEAR(entry, reference, tolerance * std::max(1.0, std::abs(reference)));
+        }
+        inside += std::isfinite(entry) ? 1 : 0;
+      }
+    }
+    EXPECT_GE(inside, gate == inf ? static_cast<int>(n * (plots.size() - 2)) : 3)
+        << name << ", gate " << gate;
+  }
+}
+
+// What a bank's gating matrix refuses, after expect_refused_misuse (only track 0 started): a
+// matrix of another column count than the plots or more rows than tracks (std::invalid_argument),
+// a gate that is not positive (InvalidParameter("gate")), a never started track (std::logic_error).
+template <class Bank>
+void expect_refused_gating(Bank& bank) {
+  const std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d(1.0, 2.0));
+  Eigen::MatrixXd wrong(2, 3), too_many(4, 2), two(2, 2), one(1, 2);
+  EXPECT_THROW(bank.candidate_log_likelihoods(plots, 9.0, wrong), std::invalid_argument);
+  EXPECT_THROW(bank.candidate_log_likelihoods(plots, 9.0, too_many), std::invalid_argument);
+  for (const double gate : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()}) {
+    EXPECT_EQ(refused_field_of([&] { bank.candidate_log_likelihoods(plots, gate, one); }), "gate")
+        << gate;
+  }
+  EXPECT_THROW(bank.candidate_log_likelihoods(plots, 9.0, two), std::logic_error);
+  bank.candidate_log_likelihoods(plots, 9.0, one);  // track 0 alone is asked: it answers
+  EXPECT_FALSE(std::isnan(one(0, 0)));
 }
 
 }  // namespace imm::testing

@@ -2,8 +2,8 @@
 // The gating question of a multi-target tracker — every track's log-likelihood of every plot of a
 // scan — for 1 000 tracks and 100 plots: a bank's candidate_log_likelihoods in one call against a
 // loop over one-track filters (predict(), then per pair candidate_distance and, inside the gate,
-// candidate_log_likelihood). The W1 IMM (TrackBank) and the shipped input estimator
-// (InputEstimatorTrackBank). Items: (track, plot) pairs.
+// candidate_log_likelihood). The W1 IMM (TrackBank), the shipped input estimator
+// (InputEstimatorTrackBank) and GA-fuzzy IMM (GaFuzzyTrackBank). Items: (track, plot) pairs.
 
 #include <benchmark/benchmark.h>
 
@@ -13,10 +13,13 @@
 #include <random>
 #include <vector>
 
+#include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/filters/plain_imm.hpp"
+#include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/math/chi_square.hpp"
+#include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "workloads.hpp"
@@ -126,5 +129,18 @@ void BM_InputEstimatorGatingMatrix(benchmark::State& state) {
       "one-track input estimators");
 }
 BENCHMARK(BM_InputEstimatorGatingMatrix)->Args({0, 1})->Args({1, 1})->Args({0, 0})->Args({1, 0});
+
+// The shipped GA-fuzzy IMM (models/ga_fuzzy_imm.h5): GaFuzzyTrackBank against one-track filters
+// (make_ga_fuzzy_imm_filter), both scoring a candidate by a trial step of every mode.
+void BM_GaFuzzyGatingMatrix(benchmark::State& state) {
+  const imm::GaFuzzyImmSpec spec =
+      imm::io::read_ga_fuzzy_imm(IMM_SOURCE_DIR "/models/ga_fuzzy_imm.h5");
+  gating_matrix(
+      state, Scene(kTracks, kPlots, spec.settings.sample_period),
+      [&] { return imm::GaFuzzyTrackBank(spec, kTracks); },
+      [&] { return imm::make_ga_fuzzy_imm_filter(spec); }, "GaFuzzyTrackBank",
+      "one-track GA-fuzzy IMMs");
+}
+BENCHMARK(BM_GaFuzzyGatingMatrix)->Args({0, 1})->Args({1, 1})->Args({0, 0})->Args({1, 0});
 
 }  // namespace

@@ -13,6 +13,7 @@
 
 #include "axis_lane_bank.hpp"
 #include "axis_lane_cycle.hpp"
+#include "axis_lane_gating.hpp"
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
@@ -57,6 +58,15 @@ struct FuzzyNoiseFamily : bank::AxisLaneFamily {
       log_likelihood[k] = -0.5 * (s[k].mahalanobis + lane_log(s[k].s) + kLogTwoPi);
       code[k] = pick(s[k].usable, pick(s[k].finite, kOk, kNonFinite), kSingular);
     }
+  }
+
+  // Mode j's prediction without a plot (FuzzyNoiseFilter::predict_only: the table's mean w as q):
+  // ẑ_j and S_j = P⁻₀₀ + R (axis_lane_gating.hpp).
+  void predicted_plot(int j, const Estimate<double>& mixed, double& z_hat, double& variance) const {
+    const lanes::AxisEstimate p =
+        lanes::cv_predict(axis->T, {mixed[0], mixed[1], mixed[2], mixed[3], mixed[4]});
+    z_hat = p.x0;
+    variance = p.p00 + levels[j].mean_w * axis->g00 + axis->R;
   }
 };
 using Slots = bank::CycleSlots<FuzzyNoiseFamily>;
@@ -148,6 +158,33 @@ void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<St
                        step_block_baseline<W, N>)(family, cycle, static_cast<std::ptrdiff_t>(first),
                                                   z, stepped, code);
         });
+  });
+}
+
+void GaFuzzyTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates("GaFuzzyTrackBank", plots.size(), gate, out.rows(), out.cols());
+  const FuzzyNoiseFamily family{{}, &axis_, levels_.data()};
+  const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), slot(0),
+                               stride()};
+  bank::with_mode_count(modes_, [&](auto n) {
+    constexpr int N = decltype(n)::value;
+    bank::HeldTrack<FuzzyNoiseFamily, N> held;
+    for (Eigen::Index t = 0; t < out.rows(); ++t) {
+      bank::hold_track<N>(family, cycle, static_cast<int>(t), held);
+      for (std::size_t q = 0; q < plots.size(); ++q) {
+        const Eigen::Vector2d& z = plots[q];
+        double& entry = out(t, static_cast<Eigen::Index>(q));
+        if (!limits::usable_measurement(z)) {
+          entry = std::numeric_limits<double>::quiet_NaN();
+        } else if (bank::track_distance(held, z) > gate) {
+          entry = -std::numeric_limits<double>::infinity();
+        } else {
+          entry = bank::track_log_likelihood(family, held, z);
+        }
+      }
+    }
   });
 }
 

@@ -72,6 +72,21 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public LaneStorage {
 
   /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
+  /// The gating question for many tracks and plots in one call, without changing any track:
+  /// out(t, q) = log p(z_q | Z_t), the log-likelihood of candidate plot q under track t (each
+  /// axis's log Σ_j c_j N_j of a trial step of every mode, the modes' noise being read from the
+  /// plot), for tracks 0 … out.rows() − 1; −∞ where the plot's squared distance to the
+  /// prediction without a plot (the modes' mean q, collapsed) is above `gate`; NaN for an
+  /// unusable plot or a prediction that cannot score it — the one-track filter's
+  /// candidate_log_likelihood and candidate_distance after predict(), to 1e-12 relative (its
+  /// exponentials are libm's; the bank's state is the filter's to rounding). Then step() with the
+  /// plots chosen gives the same numbers as without this call. Throws std::invalid_argument when
+  /// out.cols() differs from plots.size() or out.rows() exceeds capacity(),
+  /// InvalidParameter("gate") for a gate that is NaN or not positive, std::logic_error for a track
+  /// never initialized. Nothing is allocated.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
+
   /// μ of the x modes, then of the y modes (as TwoAxisFilter::mode_probabilities).
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
