@@ -107,9 +107,9 @@ class TrackBank:
         collapsed prediction exceeds `gate` (a χ² quantile: 9.21 is 99 % for 2-D plots; the
         default inf scores every pair), NaN for an unusable plot. Changes no track; the GIL is
         released. Every plain IMM answers it (one with noise schedules by trial updates), the input
-        estimator and the GA-fuzzy IMM (by trial updates), each with its model's own S (the bank
-        runs the model uncalibrated); the FCM-IMM's, wIMM's and FIMM's banks raise RuntimeError
-        (score through immtrain.Filter instead)."""
+        estimator, the GA-fuzzy IMM and the FCM-IMM (these two by trial updates), each with its
+        model's own S (the bank runs the model uncalibrated); the wIMM's and FIMM's banks raise
+        RuntimeError (score through immtrain.Filter instead)."""
     @property
     def capacity(self) -> int:
         """The number of tracks."""

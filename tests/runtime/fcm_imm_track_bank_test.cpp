@@ -115,6 +115,50 @@ TEST(FcmImmTrackBank, EqualsTheOneTrackFilterWithTheShippedModels) {
   }
 }
 
+// The gating matrix of tracks followed for `scans` scans beside their one-track filters equals
+// the filters' candidate questions after predict() (trial updates: the window's clustering reads
+// the plot's error) to 1e-12 relative, and asking changes no track or window: the next steps
+// still follow the filters'.
+void expect_gating_as_the_one_track_filters(const FcmImmSpec& spec, int scans, std::mt19937_64& rng,
+                                            const std::string& name, double scale = 1.0) {
+  constexpr int kTracks = 13;
+  FcmImmTrackBank bank(spec, kTracks);
+  auto single = testing::one_track_filters(kTracks, [&] { return make_fcm_imm_filter(spec); });
+  testing::follow_one_track_filters(
+      bank, single, name, 1, scans, [&](int t) { return start_of(t, scale); },
+      [&](int t, int k) { return plot_of(t, k, rng, scale); },
+      [&](std::size_t t, const std::string& at) {
+        testing::expect_two_axis_close(bank, t, *single[t], at);
+      });
+  ASSERT_FALSE(::testing::Test::HasFailure()) << name;
+  testing::expect_gating_as_one_track_filters(bank, single, 1e-12, name);
+  std::vector<Eigen::Vector2d> next(kTracks);
+  std::vector<StepStatus> status(kTracks);
+  for (int k = scans + 1; k <= scans + 3; ++k) {  // the windows took nothing from the trials
+    for (std::size_t t = 0; t < kTracks; ++t) next[t] = plot_of(static_cast<int>(t), k, rng, scale);
+    bank.step(next, status);
+    for (std::size_t t = 0; t < kTracks; ++t) {
+      const StepStatus alone =
+          k == scans + 1 ? single[t]->update(next[t]) : single[t]->step(next[t]);
+      EXPECT_EQ(status[t], alone) << name << ", track " << t;
+      testing::expect_two_axis_close(bank, t, *single[t], name + ", a step after asking");
+    }
+  }
+}
+
+TEST(FcmImmTrackBank, ScoresCandidatePlotsAsTheOneTrackFilterWithoutChangingATrack) {
+  std::mt19937_64 rng(3122026);
+  for (int trial = 0; trial < 8; ++trial) {
+    expect_gating_as_the_one_track_filters(random_spec(rng, trial), 40, rng,
+                                           "trial " + std::to_string(trial));
+    if (HasFailure()) return;
+  }
+  for (const char* name : {"fcm_imm.h5", "fcm_imm_agile_air.h5"}) {
+    const FcmImmSpec spec = io::read_fcm_imm(std::string("models/") + name);
+    expect_gating_as_the_one_track_filters(spec, 60, rng, name, spec.measurement_sigma / 10.0);
+  }
+}
+
 TEST(FcmImmTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
   std::mt19937_64 specs(7);
   const FcmImmSpec spec = random_spec(specs, 1);
@@ -180,6 +224,7 @@ TEST(FcmImmTrackBank, RefusesWhatItCannotRun) {
   bad.mean(1) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "state");
   testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(1.0, 2.0));
+  testing::expect_refused_gating(bank);
 }
 
 }  // namespace

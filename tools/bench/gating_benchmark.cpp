@@ -3,7 +3,8 @@
 // scan — for 1 000 tracks and 100 plots: a bank's candidate_log_likelihoods in one call against a
 // loop over one-track filters (predict(), then per pair candidate_distance and, inside the gate,
 // candidate_log_likelihood). The W1 IMM (TrackBank), the shipped input estimator
-// (InputEstimatorTrackBank) and GA-fuzzy IMM (GaFuzzyTrackBank). Items: (track, plot) pairs.
+// (InputEstimatorTrackBank), GA-fuzzy IMM (GaFuzzyTrackBank) and FCM-IMM (FcmImmTrackBank).
+// Items: (track, plot) pairs.
 
 #include <benchmark/benchmark.h>
 
@@ -13,12 +14,15 @@
 #include <random>
 #include <vector>
 
+#include "imm/filters/fcm_imm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/filters/plain_imm.hpp"
+#include "imm/io/fcm_imm_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
 #include "imm/math/chi_square.hpp"
+#include "imm/tracking/fcm_imm_track_bank.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
@@ -142,5 +146,17 @@ void BM_GaFuzzyGatingMatrix(benchmark::State& state) {
       "one-track GA-fuzzy IMMs");
 }
 BENCHMARK(BM_GaFuzzyGatingMatrix)->Args({0, 1})->Args({1, 1})->Args({0, 0})->Args({1, 0});
+
+// The shipped FCM-IMM (models/fcm_imm.h5): FcmImmTrackBank against one-track filters
+// (make_fcm_imm_filter), both scoring a candidate by a trial step of every mode (the window's
+// clustering of the candidate's error included).
+void BM_FcmImmGatingMatrix(benchmark::State& state) {
+  const imm::FcmImmSpec spec = imm::io::read_fcm_imm(IMM_SOURCE_DIR "/models/fcm_imm.h5");
+  gating_matrix(
+      state, Scene(kTracks, kPlots, spec.sample_period),
+      [&] { return imm::FcmImmTrackBank(spec, kTracks); },
+      [&] { return imm::make_fcm_imm_filter(spec); }, "FcmImmTrackBank", "one-track FCM-IMMs");
+}
+BENCHMARK(BM_FcmImmGatingMatrix)->Args({0, 1})->Args({1, 1})->Args({0, 0})->Args({1, 0});
 
 }  // namespace

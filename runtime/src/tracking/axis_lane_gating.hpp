@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The gating question of a bank of axis lanes (axis_lane_cycle.hpp) whose modes' predictions read
-// the plot, the GA-fuzzy IMM's: for a track and a candidate plot, the answers of its one-track
+// the plot, the GA-fuzzy IMM's and the FCM-IMM's: for a track and a candidate plot, the answers of its one-track
 // filter after predict() (TwoAxisFilter over two ImmEstimator<2, 1> that score candidates by trial
 // updates). Per axis:
 //   log-likelihood  log Σ_j c_j N_j, each N_j a trial step of mode j (the family's step) from its
@@ -20,6 +20,7 @@
 //                                               condition (doubles): ẑ_j and S_j = P⁻₀₀ + R
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -112,7 +113,7 @@ double track_log_likelihood(const F& family, const HeldTrack<F, N>& h, const Eig
   ModeVector terms[2] = {ModeVector(h.modes), ModeVector(h.modes)};
   const TrackPack plot[1] = {lane_load<TrackPack>(z.data())};
   for (int j = 0; j < h.modes; ++j) {
-    typename F::template Mode<TrackPack> updated[1];
+    std::array<TrackPack, F::kEntries> updated[1];
     TrackPack log_likelihood[1], code[1];
     family.template steps<TrackPack, 1>(j, h.mixing.mixed[j], h.mixing.modes[j], plot, updated,
                                         log_likelihood, code);

@@ -13,8 +13,10 @@
 
 #include "axis_lane_bank.hpp"
 #include "axis_lane_cycle.hpp"
+#include "axis_lane_gating.hpp"
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/filters/fcm_mode_step.hpp"
 #include "imm/filters/fuzzy_noise_step.hpp"
 #include "imm/math/lane_isa.hpp"
@@ -39,6 +41,29 @@ struct BankConstants {
   FuzzyCMeansSettings clustering;
   double* window_scratch;  // window doubles, then 3 window memberships
 };
+
+// The constants of a spec's cycle; `window_scratch` the bank's scratch.
+BankConstants bank_constants(const FcmImmSpec& spec, double* window_scratch) {
+  BankConstants b{};
+  b.modes = spec.mode_count();
+  b.window = spec.window;
+  for (int j = 0; j < b.modes; ++j) {
+    b.mode[j] = fcm_mode_constants(spec, j);
+    if (spec.constant_memberships) b.constant_u[j] = spec.mean_memberships.row(j).transpose();
+  }
+  b.constant = spec.constant_memberships;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  b.lower = ClusterVector::Constant(-kInf);
+  b.upper = ClusterVector::Constant(kInf);
+  if (spec.scale == MembershipScale::kInnovation) {
+    b.upper(0) = -spec.separation;
+    b.lower(1) = b.upper(1) = 0.0;
+    b.lower(2) = spec.separation;
+  }
+  b.clustering = spec.clustering;
+  b.window_scratch = window_scratch;
+  return b;
+}
 
 // What a block's cycle leaves for the windows' commit, per mode and lane: the error the window
 // takes and the pending clustering.
@@ -127,6 +152,15 @@ struct FcmFamily : bank::AxisLaneFamily {
       log_likelihood[k] = u.log_likelihood;
       code[k] = pick(u.factored, pick(u.finite, kOk, kNonFinite), kSingular);
     }
+  }
+
+  // Mode j's prediction without a plot (FcmCompensatedMode::propose_prediction: no compensation,
+  // the window left alone): ẑ_j and S_j = P⁻₀₀ + R (axis_lane_gating.hpp).
+  void predicted_plot(int j, const Estimate<double>& mixed, double& z_hat, double& variance) const {
+    const lanes::AxisEstimate p =
+        lanes::fcm_prior<double>(b->mode[j], {mixed[0], mixed[1], mixed[2], mixed[3], mixed[4]});
+    z_hat = p.x0;
+    variance = p.p00 + b->mode[j].R;
   }
 };
 using Slots = bank::CycleSlots<FcmFamily>;
@@ -224,24 +258,7 @@ int FcmImmTrackBank::window_slot(int mode, int entry) const {
 
 void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
   check_step("FcmImmTrackBank", plots.size(), status.size());
-  BankConstants b{};
-  b.modes = spec_.mode_count();
-  b.window = spec_.window;
-  for (int j = 0; j < b.modes; ++j) {
-    b.mode[j] = fcm_mode_constants(spec_, j);
-    if (spec_.constant_memberships) b.constant_u[j] = spec_.mean_memberships.row(j).transpose();
-  }
-  b.constant = spec_.constant_memberships;
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  b.lower = ClusterVector::Constant(-kInf);
-  b.upper = ClusterVector::Constant(kInf);
-  if (spec_.scale == MembershipScale::kInnovation) {
-    b.upper(0) = -spec_.separation;
-    b.lower(1) = b.upper(1) = 0.0;
-    b.lower(2) = spec_.separation;
-  }
-  b.clustering = spec_.clustering;
-  b.window_scratch = scratch_.data();
+  const BankConstants b = bank_constants(spec_, scratch_.data());
   const bank::CycleBlock cycle{b.modes, transition_.data(), log_transition_.data(), slot(0),
                                stride()};
   Pending pending;  // NOLINT(cppcoreguidelines-pro-type-member-init): each step writes its lanes'
@@ -262,6 +279,38 @@ void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<Ste
               {}, &b, stepped, slot(window_slot(0, 0)) + lane, stride(), window_slots_, &pending};
           block(family, cycle, lane, z, stepped, code);
         });
+  });
+}
+
+void FcmImmTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates("FcmImmTrackBank", plots.size(), gate, out.rows(), out.cols());
+  const BankConstants b = bank_constants(spec_, scratch_.data());
+  const bank::CycleBlock cycle{b.modes, transition_.data(), log_transition_.data(), slot(0),
+                               stride()};
+  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): a trial writes its two lanes first
+  Pending pending;
+  const double stepped[2] = {1.0, 1.0};  // a track's two lanes
+  bank::with_mode_count(b.modes, [&](auto n) {
+    constexpr int N = decltype(n)::value;
+    bank::HeldTrack<FcmFamily, N> held;
+    for (Eigen::Index t = 0; t < out.rows(); ++t) {
+      const FcmFamily family{
+          {}, &b, stepped, slot(window_slot(0, 0)) + 2 * t, stride(), window_slots_, &pending};
+      bank::hold_track<N>(family, cycle, static_cast<int>(t), held);
+      for (std::size_t q = 0; q < plots.size(); ++q) {
+        const Eigen::Vector2d& z = plots[q];
+        double& entry = out(t, static_cast<Eigen::Index>(q));
+        if (!limits::usable_measurement(z)) {
+          entry = std::numeric_limits<double>::quiet_NaN();
+        } else if (bank::track_distance(held, z) > gate) {
+          entry = -std::numeric_limits<double>::infinity();
+        } else {
+          entry = bank::track_log_likelihood(family, held, z);
+        }
+      }
+    }
   });
 }
 

@@ -71,6 +71,18 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank : public LaneStorage {
   /// std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
+  /// The gating question for many tracks and plots in one call, without changing any track:
+  /// out(t, q) = log p(z_q | Z_t) of candidate plot q under track t (each axis's
+  /// log Σ_j c_j N_j of a trial step of every mode: the window's clustering reads the plot's
+  /// error), for tracks 0 … out.rows() − 1; −∞ where the plot's squared distance to the
+  /// prediction without a plot (uncompensated, collapsed) is above `gate`; NaN for an unusable
+  /// plot or a prediction that cannot score it — the one-track filter's candidate_log_likelihood
+  /// and candidate_distance after predict(), as closely as the bank follows the filter. The
+  /// windows are not changed: step() with the plots chosen gives the same numbers as without this
+  /// call. Throws as GaFuzzyTrackBank::candidate_log_likelihoods. Nothing is allocated.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
+
   /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
 
