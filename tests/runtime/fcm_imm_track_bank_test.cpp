@@ -124,26 +124,13 @@ void expect_gating_as_the_one_track_filters(const FcmImmSpec& spec, int scans, s
   constexpr int kTracks = 13;
   FcmImmTrackBank bank(spec, kTracks);
   auto single = testing::one_track_filters(kTracks, [&] { return make_fcm_imm_filter(spec); });
-  testing::follow_one_track_filters(
+  testing::expect_gating_without_changing_a_track(
       bank, single, name, 1, scans, [&](int t) { return start_of(t, scale); },
       [&](int t, int k) { return plot_of(t, k, rng, scale); },
       [&](std::size_t t, const std::string& at) {
         testing::expect_two_axis_close(bank, t, *single[t], at);
-      });
-  ASSERT_FALSE(::testing::Test::HasFailure()) << name;
-  testing::expect_gating_as_one_track_filters(bank, single, 1e-12, name);
-  std::vector<Eigen::Vector2d> next(kTracks);
-  std::vector<StepStatus> status(kTracks);
-  for (int k = scans + 1; k <= scans + 3; ++k) {  // the windows took nothing from the trials
-    for (std::size_t t = 0; t < kTracks; ++t) next[t] = plot_of(static_cast<int>(t), k, rng, scale);
-    bank.step(next, status);
-    for (std::size_t t = 0; t < kTracks; ++t) {
-      const StepStatus alone =
-          k == scans + 1 ? single[t]->update(next[t]) : single[t]->step(next[t]);
-      EXPECT_EQ(status[t], alone) << name << ", track " << t;
-      testing::expect_two_axis_close(bank, t, *single[t], name + ", a step after asking");
-    }
-  }
+      },
+      1e-12, 3);  // three scans: the windows took nothing from the trials
 }
 
 TEST(FcmImmTrackBank, ScoresCandidatePlotsAsTheOneTrackFilterWithoutChangingATrack) {

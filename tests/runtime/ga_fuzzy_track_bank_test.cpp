@@ -130,21 +130,12 @@ void expect_gating_as_the_one_track_filters(const GaFuzzyImmSpec& spec, int scan
   constexpr int kTracks = 13;
   GaFuzzyTrackBank bank(spec, kTracks);
   auto single = testing::one_track_filters(kTracks, [&] { return make_ga_fuzzy_imm_filter(spec); });
-  testing::follow_one_track_filters(
+  testing::expect_gating_without_changing_a_track(
       bank, single, name, 0, scans - 1, start_of, [&](int t, int k) { return plot_of(t, k, rng); },
       [&](std::size_t t, const std::string& at) {
         testing::expect_two_axis_close(bank, t, *single[t], at);
-      });
-  ASSERT_FALSE(::testing::Test::HasFailure()) << name;
-  testing::expect_gating_as_one_track_filters(bank, single, 1e-12, name);
-  std::vector<Eigen::Vector2d> next(kTracks);
-  std::vector<StepStatus> status(kTracks);
-  for (std::size_t t = 0; t < kTracks; ++t) next[t] = plot_of(static_cast<int>(t), scans, rng);
-  bank.step(next, status);
-  for (std::size_t t = 0; t < kTracks; ++t) {
-    EXPECT_EQ(status[t], single[t]->update(next[t])) << name << ", track " << t;
-    testing::expect_two_axis_close(bank, t, *single[t], name + ", the step after asking");
-  }
+      },
+      1e-12, 2);
 }
 
 TEST(GaFuzzyTrackBank, ScoresCandidatePlotsAsTheOneTrackFilterWithoutChangingATrack) {

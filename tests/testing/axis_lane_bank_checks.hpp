@@ -361,4 +361,31 @@ void expect_refused_gating(Bank& bank) {
   EXPECT_FALSE(std::isnan(one(0, 0)));
 }
 
+// `bank` beside its one-track filters `single` for scans first … last
+// (follow_one_track_filters, compare(t, at) after each), then its gating matrix against theirs
+// (expect_gating_as_one_track_filters, within `tolerance`), then `after` more scans in which the
+// bank still follows the filters, the first through update() with the prediction the questions
+// held: asking changed no track.
+template <class Bank, class Filters, class Start, class Plot, class Compare>
+void expect_gating_without_changing_a_track(Bank& bank, Filters& single, const std::string& name,
+                                            int first, int last, Start&& start_of, Plot&& plot_of,
+                                            Compare&& compare, double tolerance, int after) {
+  follow_one_track_filters(bank, single, name, first, last, start_of, plot_of, compare);
+  ASSERT_FALSE(::testing::Test::HasFailure()) << name;
+  expect_gating_as_one_track_filters(bank, single, tolerance, name);
+  const std::size_t n = single.size();
+  std::vector<Eigen::Vector2d> next(n);
+  std::vector<StepStatus> status(n);
+  for (int k = last + 1; k <= last + after; ++k) {
+    for (std::size_t t = 0; t < n; ++t) next[t] = plot_of(static_cast<int>(t), k);
+    bank.step(next, status);
+    for (std::size_t t = 0; t < n; ++t) {
+      const StepStatus alone =
+          k == last + 1 ? single[t]->update(next[t]) : single[t]->step(next[t]);
+      EXPECT_EQ(status[t], alone) << name << ", track " << t << ", scan " << k;
+      compare(t, name + ", scan " + std::to_string(k) + " after asking");
+    }
+  }
+}
+
 }  // namespace imm::testing

@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 // The gating question of a bank of axis lanes (axis_lane_cycle.hpp) whose modes' predictions read
-// the plot, the GA-fuzzy IMM's and the FCM-IMM's: for a track and a candidate plot, the answers of its one-track
-// filter after predict() (TwoAxisFilter over two ImmEstimator<2, 1> that score candidates by trial
-// updates). Per axis:
+// the plot, the GA-fuzzy IMM's and the FCM-IMM's: for a track and a candidate plot, the answers of
+// its one-track filter after predict() (TwoAxisFilter over two ImmEstimator<2, 1> that score
+// candidates by trial updates). Per axis:
 //   log-likelihood  log Σ_j c_j N_j, each N_j a trial step of mode j (the family's step) from its
 //                   mixed condition, nothing written (ImmEstimator::candidate_log_likelihood);
 //   distance        ν²/S under the prediction without a plot, each mode's (the family's
@@ -19,11 +19,14 @@
 //   predicted_plot(j, mixed, z_hat, variance)   mode j's prediction without a plot from its mixed
 //                                               condition (doubles): ẑ_j and S_j = P⁻₀₀ + R
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
+#include <span>
 
+#include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/linear_algebra.hpp"
 #include "imm/math/log_sum_exp.hpp"
@@ -125,6 +128,31 @@ double track_log_likelihood(const F& family, const HeldTrack<F, N>& h, const Eig
     }
   }
   return log_sum_exp(terms[0]) + log_sum_exp(terms[1]);
+}
+
+/// The gating matrix of tracks 0 … out.rows() − 1 of block `b` (the state at its first lane)
+/// against `plots`: each track held in turn with family_of(t), the family of track t (a family may
+/// point at its track's own slots), then every plot scored (see the file comment): NaN for an
+/// unusable plot, −∞ past the gate, else the log-likelihood. The state is not changed.
+template <int N, class F, class FamilyOf>
+void score_tracks(const CycleBlock& b, FamilyOf&& family_of, std::span<const Eigen::Vector2d> plots,
+                  double gate, Eigen::Ref<Eigen::MatrixXd> out) {
+  HeldTrack<F, N> held;
+  for (Eigen::Index t = 0; t < out.rows(); ++t) {
+    const F family = family_of(t);
+    hold_track<N>(family, b, static_cast<int>(t), held);
+    for (std::size_t q = 0; q < plots.size(); ++q) {
+      const Eigen::Vector2d& z = plots[q];
+      double& entry = out(t, static_cast<Eigen::Index>(q));
+      if (!limits::usable_measurement(z)) {
+        entry = std::numeric_limits<double>::quiet_NaN();
+      } else if (track_distance(held, z) > gate) {
+        entry = -std::numeric_limits<double>::infinity();
+      } else {
+        entry = track_log_likelihood(family, held, z);
+      }
+    }
+  }
 }
 
 }  // namespace imm::bank

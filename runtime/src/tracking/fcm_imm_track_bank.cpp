@@ -293,24 +293,13 @@ void FcmImmTrackBank::candidate_log_likelihoods(
   Pending pending;
   const double stepped[2] = {1.0, 1.0};  // a track's two lanes
   bank::with_mode_count(b.modes, [&](auto n) {
-    constexpr int N = decltype(n)::value;
-    bank::HeldTrack<FcmFamily, N> held;
-    for (Eigen::Index t = 0; t < out.rows(); ++t) {
-      const FcmFamily family{
-          {}, &b, stepped, slot(window_slot(0, 0)) + 2 * t, stride(), window_slots_, &pending};
-      bank::hold_track<N>(family, cycle, static_cast<int>(t), held);
-      for (std::size_t q = 0; q < plots.size(); ++q) {
-        const Eigen::Vector2d& z = plots[q];
-        double& entry = out(t, static_cast<Eigen::Index>(q));
-        if (!limits::usable_measurement(z)) {
-          entry = std::numeric_limits<double>::quiet_NaN();
-        } else if (bank::track_distance(held, z) > gate) {
-          entry = -std::numeric_limits<double>::infinity();
-        } else {
-          entry = bank::track_log_likelihood(family, held, z);
-        }
-      }
-    }
+    bank::score_tracks<decltype(n)::value, FcmFamily>(
+        cycle,
+        [&](Eigen::Index t) {
+          return FcmFamily{
+              {}, &b, stepped, slot(window_slot(0, 0)) + 2 * t, stride(), window_slots_, &pending};
+        },
+        plots, gate, out);
   });
 }
 

@@ -169,22 +169,8 @@ void GaFuzzyTrackBank::candidate_log_likelihoods(
   const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), slot(0),
                                stride()};
   bank::with_mode_count(modes_, [&](auto n) {
-    constexpr int N = decltype(n)::value;
-    bank::HeldTrack<FuzzyNoiseFamily, N> held;
-    for (Eigen::Index t = 0; t < out.rows(); ++t) {
-      bank::hold_track<N>(family, cycle, static_cast<int>(t), held);
-      for (std::size_t q = 0; q < plots.size(); ++q) {
-        const Eigen::Vector2d& z = plots[q];
-        double& entry = out(t, static_cast<Eigen::Index>(q));
-        if (!limits::usable_measurement(z)) {
-          entry = std::numeric_limits<double>::quiet_NaN();
-        } else if (bank::track_distance(held, z) > gate) {
-          entry = -std::numeric_limits<double>::infinity();
-        } else {
-          entry = bank::track_log_likelihood(family, held, z);
-        }
-      }
-    }
+    bank::score_tracks<decltype(n)::value, FuzzyNoiseFamily>(
+        cycle, [&](Eigen::Index /*track*/) { return family; }, plots, gate, out);
   });
 }
 
