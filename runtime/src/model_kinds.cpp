@@ -213,7 +213,8 @@ void AnyTrackBank::candidate_log_likelihoods(
     Eigen::Ref<Eigen::MatrixXd> /*out*/) {  // NOLINT(performance-unnecessary-value-param)
   throw std::logic_error(
       "candidate_log_likelihoods: this kind's bank does not score candidate plots yet (the plain "
-      "IMM's, the input estimator's, the GA-fuzzy IMM's and the FCM-IMM's banks do)");
+      "IMM's, the input estimator's, the GA-fuzzy IMM's, the FCM-IMM's and the nIMM's banks "
+      "do)");
 }
 
 bool ModelKind::answers_to(std::string_view name_or_alias) const {

@@ -92,6 +92,14 @@ Eigen::Vector2d plot_of(const WimmSpec& spec, int track, int k, std::mt19937_64&
 // which also moves θ̄ and the fusion's threshold test by an ulp): below 1e-11 here, within
 // testing::expect_estimate_close's 1e-9; an error in the cycle shows many orders above.
 
+// Track t's estimate and μ against its one-track filter's, to rounding.
+void expect_close(const WimmTrackBank& bank, std::size_t t, const WimmFilter& filter,
+                  const std::string& at) {
+  const GaussianState<6>& reference = filter.estimate();
+  testing::expect_estimate_close(bank.estimate(t), reference.mean, reference.covariance,
+                                 bank.mode_probabilities(t), filter.mode_probabilities(), at);
+}
+
 // Every track of the bank beside its own one-track filter, scan by scan.
 void expect_equals_one_track_filters(const WimmSpec& spec, int scans, std::mt19937_64& rng,
                                      const std::string& name, int& refused, int& fused) {
@@ -103,10 +111,7 @@ void expect_equals_one_track_filters(const WimmSpec& spec, int scans, std::mt199
       bank, single, name, 1, scans, start_of,
       [&](int t, int k) { return plot_of(spec, t, k, rng); },
       [&](std::size_t t, const std::string& at) {
-        const GaussianState<6>& reference = single[t]->estimate();
-        testing::expect_estimate_close(bank.estimate(t), reference.mean, reference.covariance,
-                                       bank.mode_probabilities(t), single[t]->mode_probabilities(),
-                                       at);
+        expect_close(bank, t, *single[t], at);
         EXPECT_EQ(bank.fused(t), single[t]->fused()) << at;
         fused += bank.fused(t) ? 1 : 0;
       });
@@ -189,6 +194,51 @@ TEST(WimmTrackBank, ARefusedPlotOrAFailedModeLeavesTheTrackExactlyAsItWas) {
   EXPECT_EQ(bank.estimate(2).mean, Vector<6>::Zero());
 }
 
+// The nIMM's gating matrix (no fusion, the extended update: the split cycle), of tracks followed
+// for `scans` scans beside their one-track filters, equals the filters' candidate questions after
+// predict() to 1e-11 relative (the bank follows the filter to rounding), and asking changes no
+// track.
+void expect_gating_as_the_one_track_filters(const WimmSpec& spec, int scans, std::mt19937_64& rng,
+                                            const std::string& name) {
+  constexpr int kTracks = 13;
+  WimmTrackBank bank(spec, kTracks);
+  auto single =
+      testing::one_track_filters(kTracks, [&] { return std::make_unique<WimmFilter>(spec); });
+  testing::expect_gating_without_changing_a_track(
+      bank, single, name, 1, scans, start_of,
+      [&](int t, int k) { return plot_of(spec, t, k, rng); },
+      [&](std::size_t t, const std::string& at) { expect_close(bank, t, *single[t], at); }, 1e-11,
+      2);
+}
+
+TEST(WimmTrackBank, AnNimmScoresCandidatePlotsAsTheOneTrackFilterWithoutChangingATrack) {
+  std::mt19937_64 rng(3122026);
+  for (int trial = 0; trial < 6; ++trial) {
+    WimmSpec spec = random_spec(rng, 3 * trial);  // fusion kNone, the extended update
+    ASSERT_EQ(spec.fusion, FusionVariant::kNone);
+    spec.update = MeasurementUpdate::kExtended;
+    expect_gating_as_the_one_track_filters(spec, 60, rng, "trial " + std::to_string(trial));
+    if (HasFailure()) return;
+  }
+  expect_gating_as_the_one_track_filters(io::read_wimm("models/baseline_nimm_air_surveillance.h5"),
+                                         80, rng, "baseline nIMM");
+}
+
+// A wIMM that fuses the azimuth or converts the plot has no split cycle: no gating matrix.
+TEST(WimmTrackBank, AFusingOrConvertingWimmRefusesTheGatingQuestion) {
+  std::mt19937_64 rng(4);
+  for (int trial : {1, 2, 3}) {  // seed fusion; correlated fusion; no fusion, converted plots
+    const WimmSpec spec = random_spec(rng, trial);
+    ASSERT_FALSE(spec.fusion == FusionVariant::kNone &&
+                 spec.update == MeasurementUpdate::kExtended);
+    WimmTrackBank bank(spec, 2);
+    bank.initialize(0, start_of(0));
+    const std::vector<Eigen::Vector2d> plots(1, Eigen::Vector2d(3e4, 0.5));
+    Eigen::MatrixXd out(1, 1);
+    EXPECT_THROW(bank.candidate_log_likelihoods(plots, 9.0, out), std::logic_error) << trial;
+  }
+}
+
 TEST(WimmTrackBank, RefusesWhatItCannotRun) {
   WimmSpec spec;
   spec.sample_period = 2.0;
@@ -206,6 +256,10 @@ TEST(WimmTrackBank, RefusesWhatItCannotRun) {
   bad.mean(4) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "state");
   testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(3e4, 0.5));
+  spec.fusion = FusionVariant::kNone;  // the nIMM answers the gating question
+  WimmTrackBank nimm(spec, 3);
+  testing::expect_refused_misuse(nimm, start_of(0), Eigen::Vector2d(3e4, 0.5));
+  testing::expect_refused_gating(nimm);
 }
 
 }  // namespace

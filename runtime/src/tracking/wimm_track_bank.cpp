@@ -5,12 +5,19 @@
 // follow ImmEstimator::step_with (two_mode_lanes.hpp).
 #include "imm/tracking/wimm_track_bank.hpp"
 
+#include <Eigen/Cholesky>
+#include <algorithm>
 #include <array>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
 #include <utility>
 
 #include "bank_checks.hpp"
 #include "filters/wimm_step.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_math.hpp"
+#include "imm/math/log_sum_exp.hpp"
 #include "imm/models/measurement/polar_measurement.hpp"
 #include "two_mode_lanes.hpp"
 
@@ -26,6 +33,37 @@ constexpr bank::ModeSlots kCv{kCvAxis, 0, 4}, kSinger{kSingerAxis, 14, 20};
 constexpr std::array<bank::ModeSlots, 2> kModes{kCv, kSinger};
 constexpr int kLogMu = 41, kFused = 43, kSlots = 44;
 
+// The first phase of a block's cycle: the mixing, both modes' predictions and their predicted
+// ranges and azimuths (per mode j: the predicted position px, py, r and its azimuth).
+template <int W>
+struct Predicted {
+  bank::Mixing<W> mixing;
+  // Every field is written before it is read; zeroing them first would cost.
+  bank::ModeLanes<kCvAxis, W> cv;
+  bank::ModeLanes<kSingerAxis, W> singer;
+  double px[2][W], py[2][W], r[2][W], predicted_azimuth[2][W];
+};
+
+template <int W, class Slot>
+[[gnu::always_inline]] inline void predict_block(const double (&p)[2][2], const wimm::Constants& b,
+                                                 Slot&& st, Predicted<W>& m) {
+  double embedded[2][6][W], covariance[2][6][6][W];
+  bank::load_and_weigh<W>(p, kModes, kLogMu, st, m.mixing, embedded, covariance);
+  const auto& weight = m.mixing.weight;
+  bank::mix_and_predict<kCvAxis, W>(b.cv, weight[0][0], weight[1][0], embedded, covariance, m.cv);
+  bank::mix_and_predict<kSingerAxis, W>(b.singer, weight[0][1], weight[1][1], embedded, covariance,
+                                        m.singer);
+  for (int j = 0; j < 2; ++j) {
+    const double* x = j == 0 ? m.cv.x[0] : m.singer.x[0];
+    const double* y = j == 0 ? m.cv.x[wimm::kCvAxis] : m.singer.x[wimm::kSingerAxis];
+    IMM_LANES {
+      m.px[j][l] = x[l];
+      m.py[j][l] = y[l];
+    }
+    wimm::range_and_azimuth<W>(x, y, m.r[j], m.predicted_azimuth[j]);
+  }
+}
+
 // One scan of one block's W tracks. `state` points at the block's first track of slot 0; `range`
 // and `azimuth` the plots (NaN: unusable); `stepped` 1 for a track to step; `code` receives each
 // track's outcome.
@@ -36,31 +74,19 @@ template <int W>
                                                    const double* azimuth, const double* stepped,
                                                    double* code) {
   auto st = [&](int entry) { return state + entry * stride; };
-  // 1. The mixing and both modes' predictions.
-  bank::Mixing<W> mixing;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
-  double embedded[2][6][W], covariance[2][6][6][W];
-  bank::load_and_weigh<W>(p, kModes, kLogMu, st, mixing, embedded, covariance);
-  // Every field is written before it is read; zeroing them first would cost.
-  bank::ModeLanes<kCvAxis, W> cv;          // NOLINT(cppcoreguidelines-pro-type-member-init)
-  bank::ModeLanes<kSingerAxis, W> singer;  // NOLINT(cppcoreguidelines-pro-type-member-init)
-  const auto& weight = mixing.weight;
-  const auto& predicted = mixing.predicted;
-  bank::mix_and_predict<kCvAxis, W>(b.cv, weight[0][0], weight[1][0], embedded, covariance, cv);
-  bank::mix_and_predict<kSingerAxis, W>(b.singer, weight[0][1], weight[1][1], embedded, covariance,
-                                        singer);
+  // 1. The mixing and both modes' predictions, and their predicted ranges and azimuths.
+  Predicted<W> m;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
+  predict_block<W>(p, b, st, m);
+  const auto& predicted = m.mixing.predicted;
+  auto& cv = m.cv;
+  auto& singer = m.singer;
+  auto& px = m.px;
+  auto& py = m.py;
+  auto& r = m.r;
+  auto& predicted_azimuth = m.predicted_azimuth;
 
-  // 2. The predicted ranges and azimuths, θ̄, the choice and the modes' linearizations
-  // (wimm_step.hpp, as the one-track filter's).
-  double px[2][W], py[2][W], r[2][W], predicted_azimuth[2][W], theta_bar[W];
-  for (int j = 0; j < 2; ++j) {
-    const double* x = j == 0 ? cv.x[0] : singer.x[0];
-    const double* y = j == 0 ? cv.x[wimm::kCvAxis] : singer.x[wimm::kSingerAxis];
-    IMM_LANES {
-      px[j][l] = x[l];
-      py[j][l] = y[l];
-    }
-    wimm::range_and_azimuth<W>(x, y, r[j], predicted_azimuth[j]);
-  }
+  // 2. θ̄, the choice and the modes' linearizations (wimm_step.hpp, as the one-track filter's).
+  double theta_bar[W];
   wimm::theta_bar<W>(predicted, px, py, r, theta_bar);
   // One lane at a time: the wraps (exact remainders) and the converted plot's sin and cos.
   bank::Linearization<W> lin[2];
@@ -84,12 +110,85 @@ template <int W>
   bank::update_mode<kSingerAxis, W>(lin[1], singer);
   double usable[W], commit[W], log_mu[2][W];
   IMM_LANES usable[l] = pick((range[l] == range[l]) & (azimuth[l] == azimuth[l]), 1.0, 0.0);
-  bank::finish<kCvAxis, kSingerAxis, W>(mixing, cv, singer, usable, stepped, log_mu, code, commit);
+  bank::finish<kCvAxis, kSingerAxis, W>(m.mixing, cv, singer, usable, stepped, log_mu, code,
+                                        commit);
   bank::keep<W>(st, kLogMu, log_mu[0], commit);
   bank::keep<W>(st, kLogMu + 1, log_mu[1], commit);
   bank::keep<W>(st, kFused, fused, commit);
   bank::keep_mode<kCvAxis, W>(st, kCv, cv, commit);
   bank::keep_mode<kSingerAxis, W>(st, kSinger, singer, commit);
+}
+
+// One candidate's answer for lane l of a block whose modes were updated with it (nothing kept):
+// log Σ_j c_j N(ν_j; 0, S_j), −∞ where the distance to the collapsed predicted plot is above
+// `gate`, NaN where a mode could not score it (ImmEstimator's candidate questions: the modes'
+// densities summed in log space, ν = Σ_j c_j ν_j and S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ) with
+// c_j normalized).
+template <int W>
+double candidate_answer(const bank::Mixing<W>& mixing, const bank::ModeLanes<kCvAxis, W>& cv,
+                        const bank::ModeLanes<kSingerAxis, W>& singer, int l, double gate) {
+  const double* nu[2][2] = {{cv.nu[0], cv.nu[1]}, {singer.nu[0], singer.nu[1]}};
+  const double* s[2][3] = {{cv.s[0], cv.s[1], cv.s[2]}, {singer.s[0], singer.s[1], singer.s[2]}};
+  if (cv.code[l] != bank::kOk || singer.code[l] != bank::kOk) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  const double log_c[2] = {mixing.log_c[0][l], mixing.log_c[1][l]};
+  const double shift = std::max(log_c[0], log_c[1]);
+  const double total = std::exp(log_c[0] - shift) + std::exp(log_c[1] - shift);
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
+  for (int j = 0; j < 2; ++j) {
+    const double c = std::exp(log_c[j] - shift) / total;
+    if (c != 0.0) mean += c * Eigen::Vector2d(nu[j][0][l], nu[j][1][l]);
+  }
+  for (int j = 0; j < 2; ++j) {
+    const double c = std::exp(log_c[j] - shift) / total;
+    if (c == 0.0) continue;
+    const Eigen::Vector2d d = Eigen::Vector2d(nu[j][0][l], nu[j][1][l]) - mean;
+    Eigen::Matrix2d Sj;
+    Sj << s[j][0][l], s[j][1][l], s[j][1][l], s[j][2][l];
+    S += c * (Sj + d * d.transpose());
+  }
+  const Eigen::LLT<Eigen::Matrix2d> llt(S);
+  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
+  if (mean.dot(llt.solve(mean)) > gate) return -std::numeric_limits<double>::infinity();
+  ModeVector terms(2);
+  terms << cv.log_likelihood[l] + log_c[0], singer.log_likelihood[l] + log_c[1];
+  return log_sum_exp(terms);
+}
+
+// The gating matrix of one block's `lanes` tracks (an nIMM: no fusion, the extended update): the
+// mixing and both predictions once, then per plot both modes' polar linearizations and updates,
+// which are not kept, and each track's answer into `out` (column q at out + q · out_stride).
+template <int W>
+[[gnu::flatten]] IMM_VECTOR_CLONES void score_block(const double (&p)[2][2],
+                                                    const wimm::Constants& b, double* state,
+                                                    std::ptrdiff_t stride, int lanes,
+                                                    std::span<const Eigen::Vector2d> plots,
+                                                    double gate, double* out,
+                                                    std::ptrdiff_t out_stride) {
+  auto st = [&](int entry) { return state + entry * stride; };
+  Predicted<W> m;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
+  predict_block<W>(p, b, st, m);
+  for (std::size_t q = 0; q < plots.size(); ++q) {
+    double* column = out + static_cast<std::ptrdiff_t>(q) * out_stride;
+    const Eigen::Vector2d& z = plots[q];
+    if (!limits::usable_measurement(z)) {
+      std::fill(column, column + lanes, std::numeric_limits<double>::quiet_NaN());
+      continue;
+    }
+    bank::Linearization<W> lin[2];  // NOLINT(cppcoreguidelines-pro-type-member-init)
+    for (int l = 0; l < W; ++l) {
+      for (int j = 0; j < 2; ++j) {
+        wimm::polar_lane<W>(b, false, z(0), z(1), 0.0, m.px[j][l], m.py[j][l], m.r[j][l],
+                            m.predicted_azimuth[j][l], lin[j], l);
+      }
+    }
+    bank::update_mode<kCvAxis, W>(lin[0], m.cv);
+    bank::update_mode<kSingerAxis, W>(lin[1], m.singer);
+    for (int l = 0; l < lanes; ++l)
+      column[l] = candidate_answer<W>(m.mixing, m.cv, m.singer, l, gate);
+  }
 }
 
 }  // namespace
@@ -127,6 +226,23 @@ void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepS
                               step_block<kBlock>(constants_->p, constants_->b, slot(0) + first,
                                                  stride(), range, azimuth, stepped, code);
                             });
+}
+
+void WimmTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates("WimmTrackBank", plots.size(), gate, out.rows(), out.cols());
+  if (spec_.fusion != FusionVariant::kNone || spec_.update != MeasurementUpdate::kExtended) {
+    throw std::logic_error(
+        "WimmTrackBank::candidate_log_likelihoods: a wIMM that fuses the azimuth or converts the "
+        "plot does not score candidate plots (it chooses its measurement from the prediction and "
+        "the plot together: WimmFilter::has_split_cycle is false)");
+  }
+  for (Eigen::Index first = 0; first < out.rows(); first += kBlock) {
+    const int lanes = static_cast<int>(std::min<Eigen::Index>(kBlock, out.rows() - first));
+    score_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), lanes, plots, gate,
+                        &out(first, 0), out.outerStride());
+  }
 }
 
 GaussianState<6> WimmTrackBank::estimate(std::size_t track) const {

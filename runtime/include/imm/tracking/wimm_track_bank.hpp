@@ -71,6 +71,17 @@ class IMM_RUNTIME_EXPORT WimmTrackBank : public LaneStorage {
   /// μ = (CV, Singer).
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
+  /// The gating question for many tracks and plots in one call, without changing any track, for
+  /// the split cycle's configuration (no fusion, the extended update: the nIMM): out(t, q) =
+  /// log Σ_j c_j N(ν_j; 0, S_j) of candidate plot q (polar) under track t's prediction, −∞ where
+  /// its squared distance to the collapsed predicted plot is above `gate`, NaN for an unusable
+  /// plot or a mode that cannot score it — the one-track WimmFilter's candidate_log_likelihood and
+  /// candidate_distance after predict(), to rounding. Throws std::logic_error for a wIMM that
+  /// fuses the azimuth or converts the plot (it has no split cycle), and as
+  /// TrackBank::candidate_log_likelihoods for the arguments. Nothing is allocated.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
+
   /// Whether the track's last successful step fused the azimuth (WimmFilter::fused).
   [[nodiscard]] bool fused(std::size_t track) const;
 
