@@ -108,9 +108,9 @@ class TrackBank:
         default inf scores every pair), NaN for an unusable plot. Changes no track; the GIL is
         released. Every plain IMM answers it (one with noise schedules by trial updates), the input
         estimator, the GA-fuzzy IMM and the FCM-IMM (these two by trial updates), each with its
-        model's own S (the bank runs the model uncalibrated), and the wIMM without fusion and
-        with the extended update (the nIMM); a fusing or converting wIMM's bank and the FIMM's
-        raise RuntimeError (score through immtrain.Filter instead)."""
+        model's own S (the bank runs the model uncalibrated), the FIMM and the wIMM without
+        fusion and with the extended update (the nIMM); a fusing or converting wIMM's bank raises
+        RuntimeError, as its filter has no split cycle."""
     @property
     def capacity(self) -> int:
         """The number of tracks."""

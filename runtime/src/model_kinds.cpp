@@ -212,9 +212,9 @@ void AnyTrackBank::candidate_log_likelihoods(
     std::span<const Eigen::Vector2d> /*plots*/, double /*gate*/,
     Eigen::Ref<Eigen::MatrixXd> /*out*/) {  // NOLINT(performance-unnecessary-value-param)
   throw std::logic_error(
-      "candidate_log_likelihoods: this kind's bank does not score candidate plots yet (the plain "
-      "IMM's, the input estimator's, the GA-fuzzy IMM's, the FCM-IMM's and the nIMM's banks "
-      "do)");
+      "candidate_log_likelihoods: this kind's bank does not score candidate plots (every bank "
+      "of this runtime's kinds does, but a wIMM's that fuses the azimuth or converts the "
+      "plot)");
 }
 
 bool ModelKind::answers_to(std::string_view name_or_alias) const {

@@ -317,10 +317,6 @@ def test_the_bank_scores_candidate_plots_without_changing_a_track():
     wimm.initialize(0, np.array([3e4, 0.0, 0.0, 4e4, 0.0, 0.0]), np.eye(6))
     with pytest.raises(RuntimeError, match="does not score candidate plots"):
         wimm.candidate_log_likelihoods(plots, 1)
-    fimm = immtrain.TrackBank(os.path.join(MODELS, "tsk_range_sensor.h5"), 1)
-    fimm.initialize(0, np.array([3e4, 0.0, 0.0, 4e4, 0.0, 0.0]), np.eye(6))
-    with pytest.raises(RuntimeError, match="does not score candidate plots"):
-        fimm.candidate_log_likelihoods(plots, 1)
     # The input estimator's, the GA-fuzzy IMM's and the FCM-IMM's banks answer: the plot where
     # the track goes inside, the far one cut, NaN for the unusable one.
     for name in ("mlp_input_estimator.h5", "ga_fuzzy_imm.h5", "fcm_imm.h5"):

@@ -58,6 +58,15 @@ Plots cut_in_plots(int tracks) {
   return out;
 }
 
+// Track t's estimate and μ against its one-track filter's, to `tolerance` of each entry's scale.
+void expect_close(const FimmTrackBank& bank, std::size_t t, const FimmFilter& filter,
+                  const std::string& at, double tolerance) {
+  const GaussianState<6>& reference = filter.estimate();
+  testing::expect_estimate_close(bank.estimate(t), reference.mean, reference.covariance,
+                                 bank.mode_probabilities(t), filter.mode_probabilities(), at,
+                                 tolerance);
+}
+
 // Every track of the bank beside its own one-track filter, scan by scan up to `last_scan`, to
 // `tolerance` of each entry's scale; returns the refusals.
 int expect_equals_one_track_filters(const FimmSpec& spec,
@@ -75,10 +84,7 @@ int expect_equals_one_track_filters(const FimmSpec& spec,
         return data.tracks[static_cast<std::size_t>(t)].row(k).transpose();
       },
       [&](std::size_t t, const std::string& at) {
-        const GaussianState<6>& reference = single[t]->estimate();
-        testing::expect_estimate_close(bank.estimate(t), reference.mean, reference.covariance,
-                                       bank.mode_probabilities(t), single[t]->mode_probabilities(),
-                                       at, tolerance);
+        expect_close(bank, t, *single[t], at, tolerance);
       });
 }
 
@@ -130,6 +136,52 @@ TEST(FimmTrackBank, EqualsTheOneTrackFilterWithTheShippedSensors) {
     expect_equals_one_track_filters(iterated, sensor, data, std::string(name) + " iterated", last,
                                     1e-8);
   }
+}
+
+// The gating matrix of tracks followed to scan `last` beside their one-track filters equals the
+// filters' candidate questions after predict() to `tolerance` of an entry's scale (the bank
+// follows the filter to rounding, see above), and asking changes no track.
+void expect_gating_as_the_one_track_filters(const FimmSpec& spec,
+                                            const std::shared_ptr<const TskSensorModel>& sensor,
+                                            const Plots& data, const std::string& name, int last,
+                                            double tolerance) {
+  const std::size_t tracks = data.tracks.size();
+  FimmTrackBank bank(spec, sensor, tracks);
+  auto single = testing::one_track_filters(
+      tracks, [&] { return std::make_unique<FimmFilter>(spec, sensor); });
+  testing::expect_gating_without_changing_a_track(
+      bank, single, name, 1, last, [&](int t) { return data.starts[static_cast<std::size_t>(t)]; },
+      [&](int t, int k) -> Eigen::Vector2d {
+        return data.tracks[static_cast<std::size_t>(t)].row(k).transpose();
+      },
+      [&](std::size_t t, const std::string& at) {
+        expect_close(bank, t, *single[t], at, tolerance);
+      },
+      tolerance, 2);
+}
+
+TEST(FimmTrackBank, ScoresCandidatePlotsAsTheOneTrackFilterWithoutChangingATrack) {
+  const Plots data = cut_in_plots(11);
+  for (const int iterations : {1, 3}) {
+    FimmSpec spec;
+    spec.sample_period = 0.1;
+    spec.measurement_covariance << 0.25, 0.05, 0.05, 0.3;
+    spec.iterations = iterations;
+    spec.transition << 0.95, 0.05, 0.1, 0.9;
+    expect_gating_as_the_one_track_filters(spec, sensor_like_model(TNorm::kProduct), data,
+                                           "iterations " + std::to_string(iterations), 120, 1e-11);
+    if (HasFailure()) return;
+  }
+  FimmSpec spec;
+  spec.sample_period = 0.1;
+  spec.measurement_covariance = 0.25 * Eigen::Matrix2d::Identity();
+  expect_gating_as_the_one_track_filters(spec, nullptr, data, "identity", 120, 1e-11);
+  const io::ModelFileReader reader("models/tsk_range_sensor.h5");
+  const std::optional<FimmSpec> shipped = io::read_fimm_settings(reader);
+  ASSERT_TRUE(shipped.has_value());
+  expect_gating_as_the_one_track_filters(
+      *shipped, std::make_shared<const TskSensorModel>(io::read_tsk_sensor(reader)), data,
+      "tsk_range_sensor.h5", 120, 1e-8);
 }
 
 TEST(FimmTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
@@ -212,6 +264,7 @@ TEST(FimmTrackBank, RefusesWhatItCannotRun) {
   EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "state");
   bad.covariance(2, 2) = 1.0;
   testing::expect_refused_misuse(bank, bad, Eigen::Vector2d(3.0, 1.0));
+  testing::expect_refused_gating(bank);
 }
 
 }  // namespace

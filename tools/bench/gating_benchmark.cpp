@@ -3,8 +3,8 @@
 // scan — for 1 000 tracks and 100 plots: a bank's candidate_log_likelihoods in one call against a
 // loop over one-track filters (predict(), then per pair candidate_distance and, inside the gate,
 // candidate_log_likelihood). The W1 IMM (TrackBank), the shipped input estimator
-// (InputEstimatorTrackBank), GA-fuzzy IMM (GaFuzzyTrackBank), FCM-IMM (FcmImmTrackBank) and
-// nIMM (WimmTrackBank). Items: (track, plot) pairs.
+// (InputEstimatorTrackBank), GA-fuzzy IMM (GaFuzzyTrackBank), FCM-IMM (FcmImmTrackBank), nIMM
+// (WimmTrackBank) and FIMM (FimmTrackBank). Items: (track, plot) pairs.
 
 #include <benchmark/benchmark.h>
 
@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "imm/filters/fcm_imm.hpp"
+#include "imm/filters/fimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
 #include "imm/filters/mlp_input_estimator.hpp"
 #include "imm/filters/plain_imm.hpp"
@@ -22,9 +23,11 @@
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
+#include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "imm/math/chi_square.hpp"
 #include "imm/tracking/fcm_imm_track_bank.hpp"
+#include "imm/tracking/fimm_track_bank.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
@@ -197,5 +200,38 @@ void BM_NimmGatingMatrix(benchmark::State& state) {
       "one-track WimmFilters");
 }
 BENCHMARK(BM_NimmGatingMatrix)->Args({0, 1})->Args({1, 1})->Args({0, 0})->Args({1, 0});
+
+// The shipped FIMM (models/tsk_range_sensor.h5: its TSK sensor model and FIMM settings):
+// FimmTrackBank against one-track FimmFilters. The scene's tracks and plots in the sensor's
+// plane.
+void BM_FimmGatingMatrix(benchmark::State& state) {
+  const imm::io::ModelFileReader reader(IMM_SOURCE_DIR "/models/tsk_range_sensor.h5");
+  const auto sensor = std::make_shared<const imm::TskSensorModel>(imm::io::read_tsk_sensor(reader));
+  const imm::FimmSpec spec = imm::io::read_fimm_settings(reader).value();
+  // Tracks on a 40 × 25 grid over the sensor's trained box, still; each plot the sensor's
+  // reading of one track's position.
+  const Eigen::Vector2d lower = sensor->input_lower(), upper = sensor->input_upper();
+  std::vector<imm::GaussianState<6>> starts;
+  for (std::size_t t = 0; t < kTracks; ++t) {
+    const double u = (static_cast<double>(t % 40) + 0.5) / 40.0;
+    const double v =
+        (static_cast<double>(t / 40) + 0.5) / 25.0;  // NOLINT(bugprone-integer-division)
+    imm::GaussianState<6> s;
+    s.mean << lower(0) + u * (upper(0) - lower(0)), 0.0, 0.0, lower(1) + v * (upper(1) - lower(1)),
+        0.0, 0.0;
+    s.covariance = imm::Vector<6>(1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4).asDiagonal();
+    starts.push_back(s);
+  }
+  std::vector<Eigen::Vector2d> plots;
+  for (std::size_t q = 0; q < kPlots; ++q) {
+    const imm::GaussianState<6>& s = starts[(q * 7919) % kTracks];
+    plots.push_back(sensor->evaluate(Eigen::Vector2d(s.mean(0), s.mean(3))).value);
+  }
+  gating_matrix(
+      state, plots, starts, [&] { return imm::FimmTrackBank(spec, sensor, kTracks); },
+      [&] { return std::make_unique<imm::FimmFilter>(spec, sensor); }, "FimmTrackBank",
+      "one-track FimmFilters");
+}
+BENCHMARK(BM_FimmGatingMatrix)->Args({0, 1})->Args({1, 1})->Args({0, 0})->Args({1, 0});
 
 }  // namespace

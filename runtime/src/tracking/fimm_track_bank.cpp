@@ -4,11 +4,14 @@
 // posterior and the commit follow ImmEstimator::step (two_mode_lanes.hpp).
 #include "imm/tracking/fimm_track_bank.hpp"
 
+#include <algorithm>
 #include <array>
+#include <limits>
 #include <utility>
 
 #include "bank_checks.hpp"
 #include "filters/fimm_step.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_math.hpp"
 #include "two_mode_lanes.hpp"
 
@@ -22,6 +25,20 @@ constexpr std::array<bank::ModeSlots, 2> kModes{bank::ModeSlots{kAxis, 0, 6},
                                                 bank::ModeSlots{kAxis, 27, 33}};
 constexpr int kLogMu = 54, kSlots = 56;
 
+// The mixing and both modes' predictions of a block (each mode's prediction reads only the
+// mixing, so both are made before either updates).
+template <int W, class Slot>
+[[gnu::always_inline]] inline void predict_block(const double (&p)[2][2], const fimm::Constants& b,
+                                                 Slot&& st, bank::Mixing<W>& mixing,
+                                                 fimm::Mode<W> (&modes)[2]) {
+  double embedded[2][6][W], covariance[2][6][6][W];
+  bank::load_and_weigh<W>(p, kModes, kLogMu, st, mixing, embedded, covariance);
+  for (int j = 0; j < 2; ++j) {
+    bank::mix_and_predict<kAxis, W>(b.modes[static_cast<std::size_t>(j)], mixing.weight[0][j],
+                                    mixing.weight[1][j], embedded, covariance, modes[j]);
+  }
+}
+
 // One scan of one block's W tracks. `state` points at the block's first track of slot 0; `z0`
 // and `z1` the plots (NaN: unusable); `stepped` 1 for a track to step; `code` receives each
 // track's outcome.
@@ -33,14 +50,9 @@ template <int W>
                                                    double* code) {
   auto st = [&](int entry) { return state + entry * stride; };
   bank::Mixing<W> mixing;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
-  double embedded[2][6][W], covariance[2][6][6][W];
-  bank::load_and_weigh<W>(p, kModes, kLogMu, st, mixing, embedded, covariance);
   fimm::Mode<W> modes[2];
-  for (int j = 0; j < 2; ++j) {
-    bank::mix_and_predict<kAxis, W>(b.modes[static_cast<std::size_t>(j)], mixing.weight[0][j],
-                                    mixing.weight[1][j], embedded, covariance, modes[j]);
-    fimm::update<W>(b, z0, z1, modes[j]);
-  }
+  predict_block<W>(p, b, st, mixing, modes);
+  for (int j = 0; j < 2; ++j) fimm::update<W>(b, z0, z1, modes[j]);
   double usable[W], commit[W], log_mu[2][W];
   IMM_LANES usable[l] = pick((z0[l] == z0[l]) & (z1[l] == z1[l]), 1.0, 0.0);
   bank::finish<kAxis, kAxis, W>(mixing, modes[0], modes[1], usable, stepped, log_mu, code, commit);
@@ -48,6 +60,41 @@ template <int W>
   bank::keep<W>(st, kLogMu + 1, log_mu[1], commit);
   for (int j = 0; j < 2; ++j) {
     bank::keep_mode<kAxis, W>(st, kModes[static_cast<std::size_t>(j)], modes[j], commit);
+  }
+}
+
+// The gating matrix of one block's tracks (`g`): the mixing and both predictions once, then per
+// plot both modes' first linearization at the prediction and update over the block (nothing
+// kept: the candidate questions of PositionKalmanMode, whose prediction does not read the plot),
+// and each track's answer into g's columns.
+template <int W>
+[[gnu::flatten]] IMM_VECTOR_CLONES void score_block(const double (&p)[2][2],
+                                                    const fimm::Constants& b, double* state,
+                                                    std::ptrdiff_t stride,
+                                                    const bank::GatingBlock& g) {
+  auto st = [&](int entry) { return state + entry * stride; };
+  bank::Mixing<W> mixing;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
+  fimm::Mode<W> modes[2];
+  predict_block<W>(p, b, st, mixing, modes);
+  for (std::size_t q = 0; q < g.plots.size(); ++q) {
+    double* column = g.out + static_cast<std::ptrdiff_t>(q) * g.out_stride;
+    const Eigen::Vector2d& z = g.plots[q];
+    if (!limits::usable_measurement(z)) {
+      std::fill(column, column + g.lanes, std::numeric_limits<double>::quiet_NaN());
+      continue;
+    }
+    double z0[W], z1[W];
+    IMM_LANES {
+      z0[l] = z(0);
+      z1[l] = z(1);
+    }
+    for (int j = 0; j < 2; ++j) {
+      bank::Linearization<W> lin;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
+      fimm::linearize<W>(b, z0, z1, modes[j], modes[j].x, lin);
+      bank::update_mode<kAxis, W>(lin, modes[j]);
+    }
+    for (int l = 0; l < g.lanes; ++l)
+      column[l] = bank::candidate_answer<kAxis, kAxis, W>(mixing, modes[0], modes[1], l, g.gate);
   }
 }
 
@@ -86,6 +133,16 @@ void FimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepS
                               step_block<kBlock>(constants_->p, constants_->b, slot(0) + first,
                                                  stride(), z0, z1, stepped, code);
                             });
+}
+
+void FimmTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates("FimmTrackBank", plots.size(), gate, out.rows(), out.cols());
+  bank::score_in_blocks<kBlock>(
+      plots, gate, out, [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
+        score_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), block);
+      });
 }
 
 GaussianState<6> FimmTrackBank::estimate(std::size_t track) const {

@@ -9,7 +9,9 @@
 // one-track mode's (filters/position_kalman_step.hpp). Every statement of the vector parts is a
 // loop over the lanes, with no branch and no call, which the compiler vectorizes. Not installed.
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstddef>
@@ -261,6 +263,67 @@ GaussianState<6> combined_estimate(Slot&& slot, const std::array<ModeSlots, 2>& 
     out.covariance += mu[m] * (covariances[m] + d * d.transpose());
   }
   return out;
+}
+
+/// One block's share of a gating matrix: its first `lanes` tracks against `plots`, column q of the
+/// block's rows at out + q · out_stride.
+struct GatingBlock {
+  std::span<const Eigen::Vector2d> plots;
+  double gate = 0.0;
+  double* out = nullptr;
+  std::ptrdiff_t out_stride = 0;
+  int lanes = 0;
+};
+
+/// The gating matrix `out` of `plots` in blocks of kBlock tracks: score(first, block) per block.
+template <int kBlock, class Score>
+void score_in_blocks(std::span<const Eigen::Vector2d> plots, double gate,
+                     Eigen::Ref<Eigen::MatrixXd> out, Score&& score) {
+  for (Eigen::Index first = 0; first < out.rows(); first += kBlock) {
+    const GatingBlock block{plots, gate, out.data() + first, out.outerStride(),
+                            static_cast<int>(std::min<Eigen::Index>(kBlock, out.rows() - first))};
+    score(static_cast<std::ptrdiff_t>(first), block);
+  }
+}
+
+// The gating question's answer for lane l of a block whose two modes were updated with one
+// candidate plot (nothing kept; the modes' first linearization at the prediction):
+// log Σ_j c_j N(ν_j; 0, S_j), −∞ where the distance to the collapsed predicted plot is above
+// `gate`, NaN where a mode could not score it (ImmEstimator's candidate questions: the modes'
+// densities summed in log space, ν = Σ_j c_j ν_j and S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ) with
+// c_j normalized).
+template <int D0, int D1, int W>
+double candidate_answer(const Mixing<W>& mixing, const ModeLanes<D0, W>& mode0,
+                        const ModeLanes<D1, W>& mode1, int l, double gate) {
+  const double* nu[2][2] = {{mode0.nu[0], mode0.nu[1]}, {mode1.nu[0], mode1.nu[1]}};
+  const double* s[2][3] = {{mode0.s[0], mode0.s[1], mode0.s[2]},
+                           {mode1.s[0], mode1.s[1], mode1.s[2]}};
+  if (mode0.code[l] != kOk || mode1.code[l] != kOk) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  const double log_c[2] = {mixing.log_c[0][l], mixing.log_c[1][l]};
+  const double shift = std::max(log_c[0], log_c[1]);
+  const double total = std::exp(log_c[0] - shift) + std::exp(log_c[1] - shift);
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
+  for (int j = 0; j < 2; ++j) {
+    const double c = std::exp(log_c[j] - shift) / total;
+    if (c != 0.0) mean += c * Eigen::Vector2d(nu[j][0][l], nu[j][1][l]);
+  }
+  for (int j = 0; j < 2; ++j) {
+    const double c = std::exp(log_c[j] - shift) / total;
+    if (c == 0.0) continue;
+    const Eigen::Vector2d d = Eigen::Vector2d(nu[j][0][l], nu[j][1][l]) - mean;
+    Eigen::Matrix2d Sj;
+    Sj << s[j][0][l], s[j][1][l], s[j][1][l], s[j][2][l];
+    S += c * (Sj + d * d.transpose());
+  }
+  const Eigen::LLT<Eigen::Matrix2d> llt(S);
+  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
+  if (mean.dot(llt.solve(mean)) > gate) return -std::numeric_limits<double>::infinity();
+  ModeVector terms(2);
+  terms << mode0.log_likelihood[l] + log_c[0], mode1.log_likelihood[l] + log_c[1];
+  return log_sum_exp(terms);
 }
 
 }  // namespace imm::bank

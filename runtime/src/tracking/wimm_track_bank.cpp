@@ -5,7 +5,6 @@
 // follow ImmEstimator::step_with (two_mode_lanes.hpp).
 #include "imm/tracking/wimm_track_bank.hpp"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -17,7 +16,6 @@
 #include "filters/wimm_step.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_math.hpp"
-#include "imm/math/log_sum_exp.hpp"
 #include "imm/models/measurement/polar_measurement.hpp"
 #include "two_mode_lanes.hpp"
 
@@ -119,62 +117,22 @@ template <int W>
   bank::keep_mode<kSingerAxis, W>(st, kSinger, singer, commit);
 }
 
-// One candidate's answer for lane l of a block whose modes were updated with it (nothing kept):
-// log Σ_j c_j N(ν_j; 0, S_j), −∞ where the distance to the collapsed predicted plot is above
-// `gate`, NaN where a mode could not score it (ImmEstimator's candidate questions: the modes'
-// densities summed in log space, ν = Σ_j c_j ν_j and S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ) with
-// c_j normalized).
-template <int W>
-double candidate_answer(const bank::Mixing<W>& mixing, const bank::ModeLanes<kCvAxis, W>& cv,
-                        const bank::ModeLanes<kSingerAxis, W>& singer, int l, double gate) {
-  const double* nu[2][2] = {{cv.nu[0], cv.nu[1]}, {singer.nu[0], singer.nu[1]}};
-  const double* s[2][3] = {{cv.s[0], cv.s[1], cv.s[2]}, {singer.s[0], singer.s[1], singer.s[2]}};
-  if (cv.code[l] != bank::kOk || singer.code[l] != bank::kOk) {
-    return std::numeric_limits<double>::quiet_NaN();
-  }
-  const double log_c[2] = {mixing.log_c[0][l], mixing.log_c[1][l]};
-  const double shift = std::max(log_c[0], log_c[1]);
-  const double total = std::exp(log_c[0] - shift) + std::exp(log_c[1] - shift);
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
-  for (int j = 0; j < 2; ++j) {
-    const double c = std::exp(log_c[j] - shift) / total;
-    if (c != 0.0) mean += c * Eigen::Vector2d(nu[j][0][l], nu[j][1][l]);
-  }
-  for (int j = 0; j < 2; ++j) {
-    const double c = std::exp(log_c[j] - shift) / total;
-    if (c == 0.0) continue;
-    const Eigen::Vector2d d = Eigen::Vector2d(nu[j][0][l], nu[j][1][l]) - mean;
-    Eigen::Matrix2d Sj;
-    Sj << s[j][0][l], s[j][1][l], s[j][1][l], s[j][2][l];
-    S += c * (Sj + d * d.transpose());
-  }
-  const Eigen::LLT<Eigen::Matrix2d> llt(S);
-  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
-  if (mean.dot(llt.solve(mean)) > gate) return -std::numeric_limits<double>::infinity();
-  ModeVector terms(2);
-  terms << cv.log_likelihood[l] + log_c[0], singer.log_likelihood[l] + log_c[1];
-  return log_sum_exp(terms);
-}
-
-// The gating matrix of one block's `lanes` tracks (an nIMM: no fusion, the extended update): the
+// The gating matrix of one block's tracks (`g`) (an nIMM: no fusion, the extended update): the
 // mixing and both predictions once, then per plot both modes' polar linearizations and updates,
-// which are not kept, and each track's answer into `out` (column q at out + q · out_stride).
+// which are not kept, and each track's answer into g's columns.
 template <int W>
 [[gnu::flatten]] IMM_VECTOR_CLONES void score_block(const double (&p)[2][2],
                                                     const wimm::Constants& b, double* state,
-                                                    std::ptrdiff_t stride, int lanes,
-                                                    std::span<const Eigen::Vector2d> plots,
-                                                    double gate, double* out,
-                                                    std::ptrdiff_t out_stride) {
+                                                    std::ptrdiff_t stride,
+                                                    const bank::GatingBlock& g) {
   auto st = [&](int entry) { return state + entry * stride; };
   Predicted<W> m;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   predict_block<W>(p, b, st, m);
-  for (std::size_t q = 0; q < plots.size(); ++q) {
-    double* column = out + static_cast<std::ptrdiff_t>(q) * out_stride;
-    const Eigen::Vector2d& z = plots[q];
+  for (std::size_t q = 0; q < g.plots.size(); ++q) {
+    double* column = g.out + static_cast<std::ptrdiff_t>(q) * g.out_stride;
+    const Eigen::Vector2d& z = g.plots[q];
     if (!limits::usable_measurement(z)) {
-      std::fill(column, column + lanes, std::numeric_limits<double>::quiet_NaN());
+      std::fill(column, column + g.lanes, std::numeric_limits<double>::quiet_NaN());
       continue;
     }
     bank::Linearization<W> lin[2];  // NOLINT(cppcoreguidelines-pro-type-member-init)
@@ -186,8 +144,9 @@ template <int W>
     }
     bank::update_mode<kCvAxis, W>(lin[0], m.cv);
     bank::update_mode<kSingerAxis, W>(lin[1], m.singer);
-    for (int l = 0; l < lanes; ++l)
-      column[l] = candidate_answer<W>(m.mixing, m.cv, m.singer, l, gate);
+    for (int l = 0; l < g.lanes; ++l)
+      column[l] =
+          bank::candidate_answer<kCvAxis, kSingerAxis, W>(m.mixing, m.cv, m.singer, l, g.gate);
   }
 }
 
@@ -238,11 +197,10 @@ void WimmTrackBank::candidate_log_likelihoods(
         "plot does not score candidate plots (it chooses its measurement from the prediction and "
         "the plot together: WimmFilter::has_split_cycle is false)");
   }
-  for (Eigen::Index first = 0; first < out.rows(); first += kBlock) {
-    const int lanes = static_cast<int>(std::min<Eigen::Index>(kBlock, out.rows() - first));
-    score_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), lanes, plots, gate,
-                        &out(first, 0), out.outerStride());
-  }
+  bank::score_in_blocks<kBlock>(
+      plots, gate, out, [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
+        score_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), block);
+      });
 }
 
 GaussianState<6> WimmTrackBank::estimate(std::size_t track) const {

@@ -72,6 +72,16 @@ class IMM_RUNTIME_EXPORT FimmTrackBank : public LaneStorage {
   /// μ = (cruise, lane change).
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
+  /// The gating question for many tracks and plots in one call, without changing any track:
+  /// out(t, q) = log Σ_j c_j N(ν_j; 0, S_j) of candidate plot q under track t's prediction (each
+  /// mode's first linearization of the sensor model there), −∞ where its squared distance to the
+  /// collapsed predicted plot is above `gate`, NaN for an unusable plot or a mode that cannot
+  /// score it — the one-track FIMM's candidate_log_likelihood and candidate_distance after
+  /// predict(), to rounding. Throws as TrackBank::candidate_log_likelihoods. Nothing is
+  /// allocated.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
+
  private:
   struct Constants;
   FimmSpec spec_;
