@@ -76,6 +76,8 @@ template <int W>
   bank::Mixing<W> mixing;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   fimm::Mode<W> modes[2];
   predict_block<W>(p, b, st, mixing, modes);
+  double c[2][W];
+  bank::normalized_predicted<W>(mixing, c);
   for (std::size_t q = 0; q < g.plots.size(); ++q) {
     double* column = g.out + static_cast<std::ptrdiff_t>(q) * g.out_stride;
     const Eigen::Vector2d& z = g.plots[q];
@@ -88,13 +90,17 @@ template <int W>
       z0[l] = z(0);
       z1[l] = z(1);
     }
-    for (int j = 0; j < 2; ++j) {
-      bank::Linearization<W> lin;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
-      fimm::linearize<W>(b, z0, z1, modes[j], modes[j].x, lin);
-      bank::update_mode<kAxis, W>(lin, modes[j]);
+    bank::Linearization<W> lin[2];  // NOLINT(cppcoreguidelines-pro-type-member-init)
+    for (int j = 0; j < 2; ++j) fimm::linearize<W>(b, z0, z1, modes[j], modes[j].x, lin[j]);
+    if (bank::all_outside_the_gate<kAxis, kAxis, W>(c, lin[0], modes[0], lin[1], modes[1], g.lanes,
+                                                    g.gate)) {
+      std::fill(column, column + g.lanes, -std::numeric_limits<double>::infinity());
+      continue;
     }
-    for (int l = 0; l < g.lanes; ++l)
-      column[l] = bank::candidate_answer<kAxis, kAxis, W>(mixing, modes[0], modes[1], l, g.gate);
+    for (int j = 0; j < 2; ++j) bank::update_mode<kAxis, W>(lin[j], modes[j]);
+    for (int l = 0; l < g.lanes; ++l) {
+      column[l] = bank::candidate_answer<kAxis, kAxis, W>(mixing, c, modes[0], modes[1], l, g.gate);
+    }
   }
 }
 

@@ -286,43 +286,83 @@ void score_in_blocks(std::span<const Eigen::Vector2d> plots, double gate,
   }
 }
 
-// The gating question's answer for lane l of a block whose two modes were updated with one
-// candidate plot (nothing kept; the modes' first linearization at the prediction):
-// log Σ_j c_j N(ν_j; 0, S_j), −∞ where the distance to the collapsed predicted plot is above
-// `gate`, NaN where a mode could not score it (ImmEstimator's candidate questions: the modes'
-// densities summed in log space, ν = Σ_j c_j ν_j and S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ) with
-// c_j normalized).
-template <int D0, int D1, int W>
-double candidate_answer(const Mixing<W>& mixing, const ModeLanes<D0, W>& mode0,
-                        const ModeLanes<D1, W>& mode1, int l, double gate) {
-  const double* nu[2][2] = {{mode0.nu[0], mode0.nu[1]}, {mode1.nu[0], mode1.nu[1]}};
-  const double* s[2][3] = {{mode0.s[0], mode0.s[1], mode0.s[2]},
-                           {mode1.s[0], mode1.s[1], mode1.s[2]}};
-  if (mode0.code[l] != kOk || mode1.code[l] != kOk) {
-    return std::numeric_limits<double>::quiet_NaN();
+/// The normalized predicted mode probabilities c_j of a block's lanes (ImmEstimator::collapse's
+/// weights: exp(log c_j − max) over their sum), which a candidate's collapse reads.
+template <int W>
+void normalized_predicted(const Mixing<W>& mixing, double (&c)[2][W]) {
+  for (int l = 0; l < W; ++l) {
+    const double log_c[2] = {mixing.log_c[0][l], mixing.log_c[1][l]};
+    const double shift = std::max(log_c[0], log_c[1]);
+    const double total = std::exp(log_c[0] - shift) + std::exp(log_c[1] - shift);
+    for (int j = 0; j < 2; ++j) c[j][l] = std::exp(log_c[j] - shift) / total;
   }
-  const double log_c[2] = {mixing.log_c[0][l], mixing.log_c[1][l]};
-  const double shift = std::max(log_c[0], log_c[1]);
-  const double total = std::exp(log_c[0] - shift) + std::exp(log_c[1] - shift);
+}
+
+/// The squared distance νᵀ S⁻¹ ν of lane l's candidate to the collapsed predicted plot, from the
+/// modes' innovations ν_j (nu[j][0 or 1]) and S_j (s[j][0 … 2]): ν = Σ_j c_j ν_j and
+/// S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ) (ImmEstimator::collapse); NaN where S is not positive
+/// definite.
+template <int W>
+double collapsed_distance(const double (&c)[2][W], const double* const (&nu)[2][2],
+                          const double* const (&s)[2][3], int l) {
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
   Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
   for (int j = 0; j < 2; ++j) {
-    const double c = std::exp(log_c[j] - shift) / total;
-    if (c != 0.0) mean += c * Eigen::Vector2d(nu[j][0][l], nu[j][1][l]);
+    if (c[j][l] != 0.0) mean += c[j][l] * Eigen::Vector2d(nu[j][0][l], nu[j][1][l]);
   }
   for (int j = 0; j < 2; ++j) {
-    const double c = std::exp(log_c[j] - shift) / total;
-    if (c == 0.0) continue;
+    if (c[j][l] == 0.0) continue;
     const Eigen::Vector2d d = Eigen::Vector2d(nu[j][0][l], nu[j][1][l]) - mean;
     Eigen::Matrix2d Sj;
     Sj << s[j][0][l], s[j][1][l], s[j][1][l], s[j][2][l];
-    S += c * (Sj + d * d.transpose());
+    S += c[j][l] * (Sj + d * d.transpose());
   }
   const Eigen::LLT<Eigen::Matrix2d> llt(S);
   if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
-  if (mean.dot(llt.solve(mean)) > gate) return -std::numeric_limits<double>::infinity();
+  return mean.dot(llt.solve(mean));
+}
+
+/// Whether a block's first `lanes` lanes all lie outside the gate for one candidate plot, from the
+/// two modes' linearizations at their predictions and S_j = H P⁻ Hᵀ + R (update_mode's), before
+/// any update: then no lane needs one. A lane whose h is undefined there or whose S is not
+/// positive definite counts as inside (the update decides its answer).
+template <int D0, int D1, int W>
+bool all_outside_the_gate(const double (&c)[2][W], const Linearization<W>& lin0,
+                          const ModeLanes<D0, W>& mode0, const Linearization<W>& lin1,
+                          const ModeLanes<D1, W>& mode1, int lanes, double gate) {
+  double pht0[2 * D0][2][W], pht1[2 * D1][2][W], s0[3][W], s1[3][W];
+  innovation_covariance<D0, W>(lin0, mode0.P, pht0, s0);
+  innovation_covariance<D1, W>(lin1, mode1.P, pht1, s1);
+  const double* const nu[2][2] = {{lin0.nu0, lin0.nu1}, {lin1.nu0, lin1.nu1}};
+  const double* const s[2][3] = {{s0[0], s0[1], s0[2]}, {s1[0], s1[1], s1[2]}};
+  for (int l = 0; l < lanes; ++l) {
+    if (lin0.defined[l] == 0.0 || lin1.defined[l] == 0.0) return false;
+    if (!(collapsed_distance<W>(c, nu, s, l) > gate)) return false;
+  }
+  return true;
+}
+
+/// The gating question's answer for lane l of a block whose two modes were updated with one
+/// candidate plot (nothing kept; the modes' first linearization at the prediction):
+/// log Σ_j c_j N(ν_j; 0, S_j), −∞ where the distance to the collapsed predicted plot is above
+/// `gate`, NaN where a mode could not score it (ImmEstimator's candidate questions: the modes'
+/// densities summed in log space, the distance collapsed_distance's). `c`: normalized_predicted.
+template <int D0, int D1, int W>
+double candidate_answer(const Mixing<W>& mixing, const double (&c)[2][W],
+                        const ModeLanes<D0, W>& mode0, const ModeLanes<D1, W>& mode1, int l,
+                        double gate) {
+  if (mode0.code[l] != kOk || mode1.code[l] != kOk) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  const double* const nu[2][2] = {{mode0.nu[0], mode0.nu[1]}, {mode1.nu[0], mode1.nu[1]}};
+  const double* const s[2][3] = {{mode0.s[0], mode0.s[1], mode0.s[2]},
+                                 {mode1.s[0], mode1.s[1], mode1.s[2]}};
+  const double distance = collapsed_distance<W>(c, nu, s, l);
+  if (std::isnan(distance)) return std::numeric_limits<double>::quiet_NaN();
+  if (distance > gate) return -std::numeric_limits<double>::infinity();
   ModeVector terms(2);
-  terms << mode0.log_likelihood[l] + log_c[0], mode1.log_likelihood[l] + log_c[1];
+  terms << mode0.log_likelihood[l] + mixing.log_c[0][l],
+      mode1.log_likelihood[l] + mixing.log_c[1][l];
   return log_sum_exp(terms);
 }
 

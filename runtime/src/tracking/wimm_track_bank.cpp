@@ -128,6 +128,8 @@ template <int W>
   auto st = [&](int entry) { return state + entry * stride; };
   Predicted<W> m;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   predict_block<W>(p, b, st, m);
+  double c[2][W];
+  bank::normalized_predicted<W>(m.mixing, c);
   for (std::size_t q = 0; q < g.plots.size(); ++q) {
     double* column = g.out + static_cast<std::ptrdiff_t>(q) * g.out_stride;
     const Eigen::Vector2d& z = g.plots[q];
@@ -142,11 +144,17 @@ template <int W>
                             m.predicted_azimuth[j][l], lin[j], l);
       }
     }
+    if (bank::all_outside_the_gate<kCvAxis, kSingerAxis, W>(c, lin[0], m.cv, lin[1], m.singer,
+                                                            g.lanes, g.gate)) {
+      std::fill(column, column + g.lanes, -std::numeric_limits<double>::infinity());
+      continue;
+    }
     bank::update_mode<kCvAxis, W>(lin[0], m.cv);
     bank::update_mode<kSingerAxis, W>(lin[1], m.singer);
-    for (int l = 0; l < g.lanes; ++l)
+    for (int l = 0; l < g.lanes; ++l) {
       column[l] =
-          bank::candidate_answer<kCvAxis, kSingerAxis, W>(m.mixing, m.cv, m.singer, l, g.gate);
+          bank::candidate_answer<kCvAxis, kSingerAxis, W>(m.mixing, c, m.cv, m.singer, l, g.gate);
+    }
   }
 }
 
