@@ -31,12 +31,8 @@ template <int W, class Slot>
 [[gnu::always_inline]] inline void predict_block(const double (&p)[2][2], const fimm::Constants& b,
                                                  Slot&& st, bank::Mixing<W>& mixing,
                                                  fimm::Mode<W> (&modes)[2]) {
-  double embedded[2][6][W], covariance[2][6][6][W];
-  bank::load_and_weigh<W>(p, kModes, kLogMu, st, mixing, embedded, covariance);
-  for (int j = 0; j < 2; ++j) {
-    bank::mix_and_predict<kAxis, W>(b.modes[static_cast<std::size_t>(j)], mixing.weight[0][j],
-                                    mixing.weight[1][j], embedded, covariance, modes[j]);
-  }
+  bank::mix_and_predict_both<kAxis, kAxis, W>(p, kModes, kLogMu, st, b.modes[0], b.modes[1], mixing,
+                                              modes[0], modes[1]);
 }
 
 // One scan of one block's W tracks. `state` points at the block's first track of slot 0; `z0`

@@ -146,6 +146,21 @@ template <int D, int W>
   predict<D, W>(model, mean, mixed, mode);
 }
 
+/// The first half of a block's cycle: the mixing (load_and_weigh) and both modes' mixed initial
+/// conditions and predictions (mix_and_predict), mode 0 under `model0`, mode 1 under `model1`.
+template <int D0, int D1, int W, class Slot>
+[[gnu::always_inline]] inline void mix_and_predict_both(
+    const double (&p)[2][2], const std::array<ModeSlots, 2>& modes, int log_mu, Slot&& st,
+    const AxisModel& model0, const AxisModel& model1, Mixing<W>& mixing, ModeLanes<D0, W>& mode0,
+    ModeLanes<D1, W>& mode1) {
+  double embedded[2][6][W], covariance[2][6][6][W];
+  load_and_weigh<W>(p, modes, log_mu, st, mixing, embedded, covariance);
+  mix_and_predict<D0, W>(model0, mixing.weight[0][0], mixing.weight[1][0], embedded, covariance,
+                         mode0);
+  mix_and_predict<D1, W>(model1, mixing.weight[0][1], mixing.weight[1][1], embedded, covariance,
+                         mode1);
+}
+
 /// The posterior μ of the two updated modes (ImmEstimator::finish_cycle), each track's outcome
 /// code (kBadPlot where `usable` is 0; else the first mode's failure, the second's, or an
 /// underflow) and whether it commits (`stepped` and kOk).

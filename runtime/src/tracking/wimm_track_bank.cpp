@@ -45,12 +45,8 @@ struct Predicted {
 template <int W, class Slot>
 [[gnu::always_inline]] inline void predict_block(const double (&p)[2][2], const wimm::Constants& b,
                                                  Slot&& st, Predicted<W>& m) {
-  double embedded[2][6][W], covariance[2][6][6][W];
-  bank::load_and_weigh<W>(p, kModes, kLogMu, st, m.mixing, embedded, covariance);
-  const auto& weight = m.mixing.weight;
-  bank::mix_and_predict<kCvAxis, W>(b.cv, weight[0][0], weight[1][0], embedded, covariance, m.cv);
-  bank::mix_and_predict<kSingerAxis, W>(b.singer, weight[0][1], weight[1][1], embedded, covariance,
-                                        m.singer);
+  bank::mix_and_predict_both<kCvAxis, kSingerAxis, W>(p, kModes, kLogMu, st, b.cv, b.singer,
+                                                      m.mixing, m.cv, m.singer);
   for (int j = 0; j < 2; ++j) {
     const double* x = j == 0 ? m.cv.x[0] : m.singer.x[0];
     const double* y = j == 0 ? m.cv.x[wimm::kCvAxis] : m.singer.x[wimm::kSingerAxis];
@@ -195,6 +191,17 @@ void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepS
                             });
 }
 
+GaussianState<6> WimmTrackBank::estimate(std::size_t track) const {
+  const std::ptrdiff_t t = checked(track);
+  return bank::combined_estimate([&](int entry) { return slot(entry); }, kModes, kLogMu, t);
+}
+
+ModeVector WimmTrackBank::mode_probabilities(std::size_t track) const {
+  return bank::mode_probabilities([&](int entry) { return slot(entry); }, kLogMu, checked(track));
+}
+
+bool WimmTrackBank::fused(std::size_t track) const { return slot(kFused)[checked(track)] != 0.0; }
+
 void WimmTrackBank::candidate_log_likelihoods(
     std::span<const Eigen::Vector2d> plots, double gate,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
@@ -210,16 +217,5 @@ void WimmTrackBank::candidate_log_likelihoods(
         score_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), block);
       });
 }
-
-GaussianState<6> WimmTrackBank::estimate(std::size_t track) const {
-  const std::ptrdiff_t t = checked(track);
-  return bank::combined_estimate([&](int entry) { return slot(entry); }, kModes, kLogMu, t);
-}
-
-ModeVector WimmTrackBank::mode_probabilities(std::size_t track) const {
-  return bank::mode_probabilities([&](int entry) { return slot(entry); }, kLogMu, checked(track));
-}
-
-bool WimmTrackBank::fused(std::size_t track) const { return slot(kFused)[checked(track)] != 0.0; }
 
 }  // namespace imm

@@ -66,12 +66,6 @@ class IMM_RUNTIME_EXPORT FimmTrackBank : public LaneStorage {
   /// or exceed capacity(), std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
-  /// The combined estimate [ξ, ξ̇, ξ̈, η, η̇, η̈] (FimmFilter::estimate).
-  [[nodiscard]] GaussianState<6> estimate(std::size_t track) const;
-
-  /// μ = (cruise, lane change).
-  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
-
   /// The gating question for many tracks and plots in one call, without changing any track:
   /// out(t, q) = log Σ_j c_j N(ν_j; 0, S_j) of candidate plot q under track t's prediction (each
   /// mode's first linearization of the sensor model there), −∞ where its squared distance to the
@@ -81,6 +75,12 @@ class IMM_RUNTIME_EXPORT FimmTrackBank : public LaneStorage {
   /// allocated.
   void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
                                  Eigen::Ref<Eigen::MatrixXd> out);
+
+  /// The combined estimate [ξ, ξ̇, ξ̈, η, η̇, η̈] (FimmFilter::estimate).
+  [[nodiscard]] GaussianState<6> estimate(std::size_t track) const;
+
+  /// μ = (cruise, lane change).
+  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
  private:
   struct Constants;
