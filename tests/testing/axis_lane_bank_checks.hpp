@@ -274,12 +274,11 @@ void expect_refused_misuse(Bank& bank, const State& start, const Eigen::Vector2d
 // The gating matrix of `bank` against its tracks' one-track filters `single` (followed beside it
 // until now; n = single.size() tracks): candidates at tracks 0, n / 2 and n − 1's predicted plots,
 // 2σ and 1000σ from them and at 0.99 and 1.01 times the 99 % gate, an unusable and an
-// out-of-range one; at a 99 % gate, a gate of 1e6 and
-// none. Each entry is −∞ where the filter's candidate_distance after predict() exceeds the gate,
-// else its candidate_log_likelihood, within `tolerance` relative (0: the same number), and NaN
-// for the two unusable plots; a pair within 1e-9 relative of the gate is not judged (rounding may
-// put it either side). Every track scores its own predicted plot. Leaves the filters predicted
-// (update() or miss() next).
+// out-of-range one; at a 99 % gate, a gate of 1e6 and none. Each entry is −∞ where the filter's
+// candidate_distance after predict() exceeds the gate, else its candidate_log_likelihood, within
+// `tolerance` relative (0: the same number), and NaN for the two unusable plots; a pair within
+// 1e-9 relative of the gate is not judged (rounding may put it either side). Every track scores
+// its own predicted plot. Leaves the filters predicted (update() or miss() next).
 template <class Bank, class Filters>
 void expect_gating_as_one_track_filters(Bank& bank, Filters& single, double tolerance,
                                         const std::string& name) {

@@ -6,7 +6,9 @@
 // its lanes' slots. Not installed.
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <limits>
 #include <span>
@@ -102,6 +104,16 @@ template <class S, class Modes>
     c11 += pick(w == 0.0, 0.0, w * (mode(i)[4] + d1 * d1));
   }
   out = {m0, m1, c00, c01, c11};
+}
+
+/// The normalized weights exp(v_j − max v) / Σ_k exp(v_k − max v) of n log-weights v into `out`:
+/// ImmEstimator::collapse's c_j from log c_j.
+inline void normalized_weights(const double* log_weights, int n, double* out) {
+  double shift = -std::numeric_limits<double>::infinity();
+  for (int j = 0; j < n; ++j) shift = std::max(shift, log_weights[j]);
+  double total = 0.0;
+  for (int j = 0; j < n; ++j) total += std::exp(log_weights[j] - shift);
+  for (int j = 0; j < n; ++j) out[j] = std::exp(log_weights[j] - shift) / total;
 }
 
 /// A track's code in both its lanes (x at an even lane, y after it) from a pack of lane codes:

@@ -37,18 +37,16 @@ namespace imm::bank {
 /// A track's two axis lanes, x then y.
 using TrackPack = LanePackOf<2>;
 
-/// One track held for candidate plots: its mixing (N ≥ the mode count; the loops run to `modes`)
-/// and per axis the c_j normalized over the modes and each mode's plot predicted without a plot.
+/// One track held for candidate plots: its mixing (N ≥ the mode count; the loops run to `modes`),
+/// per axis log c_j and the modes' predictions without a plot collapsed: ẑ = Σ_j c_j ẑ_j and
+/// S = Σ_j c_j (S_j + (ẑ_j − ẑ)²) with c_j normalized, ẑ NaN where a mode did not predict.
 /// hold_track fills it (the mixing as the cycle's: mix_modes writes what it reads).
 template <class F, int N>
 // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): hold_track fills the mixing
 struct HeldTrack {
   CycleMixing<TrackPack, N, 1, F> mixing;
   int modes = 0;
-  double log_c[2][N] = {}, c[2][N] = {};
-  double z_hat[2][N] = {}, variance[2][N] = {};
-  // Per axis the collapsed prediction without a plot: ẑ = Σ_j c_j ẑ_j and
-  // S = Σ_j c_j (S_j + (ẑ_j − ẑ)²), NaN where a mode did not predict.
+  double log_c[2][N] = {};
   double collapsed[2] = {}, collapsed_variance[2] = {};
 };
 
@@ -64,32 +62,26 @@ void hold_track(const F& family, const CycleBlock& b, int track, HeldTrack<F, N>
     for (int axis = 0; axis < 2; ++axis) h.log_c[axis][j] = log_c[static_cast<std::size_t>(axis)];
   }
   for (int axis = 0; axis < 2; ++axis) {
-    // c_j normalized over the modes, as ImmEstimator::collapse forms them.
-    double shift = -std::numeric_limits<double>::infinity();
-    for (int j = 0; j < h.modes; ++j) shift = std::max(shift, h.log_c[axis][j]);
-    double total = 0.0;
-    for (int j = 0; j < h.modes; ++j) total += std::exp(h.log_c[axis][j] - shift);
+    double c[N], z_hat[N], variance[N];
+    normalized_weights(h.log_c[axis], h.modes, c);
     bool predicted = true;
-    const double* c = h.c[axis];
     for (int j = 0; j < h.modes; ++j) {
-      h.c[axis][j] = std::exp(h.log_c[axis][j] - shift) / total;
       typename F::template Estimate<double> mixed;
       for (std::size_t e = 0; e < mixed.size(); ++e)
         mixed[e] = lanes_of(h.mixing.mixed[j][0][e])[static_cast<std::size_t>(axis)];
-      family.predicted_plot(j, mixed, h.z_hat[axis][j], h.variance[axis][j]);
-      predicted =
-          predicted && std::isfinite(h.z_hat[axis][j]) && std::isfinite(h.variance[axis][j]);
+      family.predicted_plot(j, mixed, z_hat[j], variance[j]);
+      predicted = predicted && std::isfinite(z_hat[j]) && std::isfinite(variance[j]);
     }
-    double z_hat = 0.0, S = 0.0;
+    double mean = 0.0, S = 0.0;
     for (int j = 0; j < h.modes; ++j) {
-      if (c[j] != 0.0) z_hat += c[j] * h.z_hat[axis][j];
+      if (c[j] != 0.0) mean += c[j] * z_hat[j];
     }
     for (int j = 0; j < h.modes; ++j) {
       if (c[j] == 0.0) continue;
-      const double d = h.z_hat[axis][j] - z_hat;
-      S += c[j] * (h.variance[axis][j] + d * d);
+      const double d = z_hat[j] - mean;
+      S += c[j] * (variance[j] + d * d);
     }
-    h.collapsed[axis] = predicted ? z_hat : std::numeric_limits<double>::quiet_NaN();
+    h.collapsed[axis] = predicted ? mean : std::numeric_limits<double>::quiet_NaN();
     h.collapsed_variance[axis] = S;
   }
 }

@@ -307,9 +307,9 @@ template <int W>
 void normalized_predicted(const Mixing<W>& mixing, double (&c)[2][W]) {
   for (int l = 0; l < W; ++l) {
     const double log_c[2] = {mixing.log_c[0][l], mixing.log_c[1][l]};
-    const double shift = std::max(log_c[0], log_c[1]);
-    const double total = std::exp(log_c[0] - shift) + std::exp(log_c[1] - shift);
-    for (int j = 0; j < 2; ++j) c[j][l] = std::exp(log_c[j] - shift) / total;
+    double lane[2];
+    normalized_weights(log_c, 2, lane);
+    for (int j = 0; j < 2; ++j) c[j][l] = lane[j];
   }
 }
 
