@@ -110,7 +110,10 @@ struct FimmTrackBank::Constants {
 
 FimmTrackBank::FimmTrackBank(const FimmSpec& spec, std::shared_ptr<const TskSensorModel> sensor,
                              std::size_t capacity)
-    : spec_(spec), sensor_(std::move(sensor)) {
+    : TwoModeLaneStorage({kModes[0].d, kModes[0].mean, kModes[0].covariance},
+                         {kModes[1].d, kModes[1].mean, kModes[1].covariance}, kLogMu),
+      spec_(spec),
+      sensor_(std::move(sensor)) {
   spec.validate();
   bank::require_positive_transitions(spec.transition);
   allocate(capacity, 1, kBlock, kSlots);
@@ -121,10 +124,7 @@ FimmTrackBank::FimmTrackBank(const FimmSpec& spec, std::shared_ptr<const TskSens
 }
 
 void FimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state) {
-  const std::ptrdiff_t t = checked(track);
-  bank::start_track([&](int entry) { return slot(entry); }, kModes, kLogMu, t, state,
-                    spec_.initial_probabilities);
-  mark_initialized(t);
+  mark_initialized(start(track, state, spec_.initial_probabilities));
 }
 
 void FimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
@@ -145,15 +145,6 @@ void FimmTrackBank::candidate_log_likelihoods(
       plots, gate, out, [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
         score_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), block);
       });
-}
-
-GaussianState<6> FimmTrackBank::estimate(std::size_t track) const {
-  const std::ptrdiff_t t = checked(track);
-  return bank::combined_estimate([&](int entry) { return slot(entry); }, kModes, kLogMu, t);
-}
-
-ModeVector FimmTrackBank::mode_probabilities(std::size_t track) const {
-  return bank::mode_probabilities([&](int entry) { return slot(entry); }, kLogMu, checked(track));
 }
 
 }  // namespace imm

@@ -162,7 +162,10 @@ struct WimmTrackBank::Constants {
   wimm::Constants b;
 };
 
-WimmTrackBank::WimmTrackBank(const WimmSpec& spec, std::size_t capacity) : spec_(spec) {
+WimmTrackBank::WimmTrackBank(const WimmSpec& spec, std::size_t capacity)
+    : TwoModeLaneStorage({kCv.d, kCv.mean, kCv.covariance},
+                         {kSinger.d, kSinger.mean, kSinger.covariance}, kLogMu),
+      spec_(spec) {
   spec.validate();
   bank::require_positive_transitions(spec.transition);
   allocate(capacity, 1, kBlock, kSlots);
@@ -173,9 +176,7 @@ WimmTrackBank::WimmTrackBank(const WimmSpec& spec, std::size_t capacity) : spec_
 }
 
 void WimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state) {
-  const std::ptrdiff_t t = checked(track);
-  bank::start_track([&](int entry) { return slot(entry); }, kModes, kLogMu, t, state,
-                    spec_.initial_probabilities);
+  const std::ptrdiff_t t = start(track, state, spec_.initial_probabilities);
   slot(kFused)[t] = 0.0;
   mark_initialized(t);
 }
@@ -189,15 +190,6 @@ void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepS
                               step_block<kBlock>(constants_->p, constants_->b, slot(0) + first,
                                                  stride(), range, azimuth, stepped, code);
                             });
-}
-
-GaussianState<6> WimmTrackBank::estimate(std::size_t track) const {
-  const std::ptrdiff_t t = checked(track);
-  return bank::combined_estimate([&](int entry) { return slot(entry); }, kModes, kLogMu, t);
-}
-
-ModeVector WimmTrackBank::mode_probabilities(std::size_t track) const {
-  return bank::mode_probabilities([&](int entry) { return slot(entry); }, kLogMu, checked(track));
 }
 
 bool WimmTrackBank::fused(std::size_t track) const { return slot(kFused)[checked(track)] != 0.0; }

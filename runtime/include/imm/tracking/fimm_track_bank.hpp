@@ -37,13 +37,13 @@
 #include "imm/filters/fimm.hpp"
 #include "imm/models/learned/tsk_sensor_model.hpp"
 #include "imm/runtime_export.hpp"
-#include "imm/tracking/lane_storage.hpp"
+#include "imm/tracking/two_mode_lane_storage.hpp"
 
 namespace imm {
 
 /// N tracks of one FIMM with plots in the sensor's (z1, z2), stepped together (see the file
 /// comment).
-class IMM_RUNTIME_EXPORT FimmTrackBank : public LaneStorage {
+class IMM_RUNTIME_EXPORT FimmTrackBank : public TwoModeLaneStorage {
  public:
   /// Tracks per block of the layout.
   static constexpr int kBlock = 8;
@@ -76,11 +76,8 @@ class IMM_RUNTIME_EXPORT FimmTrackBank : public LaneStorage {
   void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
                                  Eigen::Ref<Eigen::MatrixXd> out);
 
-  /// The combined estimate [ξ, ξ̇, ξ̈, η, η̇, η̈] (FimmFilter::estimate).
-  [[nodiscard]] GaussianState<6> estimate(std::size_t track) const;
-
-  /// μ = (cruise, lane change).
-  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
+  // estimate(track) is [ξ, ξ̇, ξ̈, η, η̇, η̈] (FimmFilter::estimate), mode_probabilities(track)
+  // μ = (cruise, lane change): TwoModeLaneStorage's.
 
  private:
   struct Constants;

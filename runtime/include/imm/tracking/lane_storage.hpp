@@ -4,8 +4,8 @@
 /// The storage the banks of the learned kinds share: a structure of arrays of state slots, one
 /// lane per track (or per track axis), the lanes padded to whole blocks so that a block's kernel
 /// reads and writes whole vectors, and which tracks have been started. GaFuzzyTrackBank,
-/// InputEstimatorTrackBank, WimmTrackBank, FimmTrackBank and FcmImmTrackBank derive from it; what
-/// a slot holds is each bank's own.
+/// InputEstimatorTrackBank and FcmImmTrackBank derive from it, WimmTrackBank and FimmTrackBank
+/// through TwoModeLaneStorage (two_mode_lane_storage.hpp); what a slot holds is each bank's own.
 
 #include <cstddef>
 #include <string_view>

@@ -38,12 +38,12 @@
 #include "imm/estimation/step_status.hpp"
 #include "imm/filters/wimm.hpp"
 #include "imm/runtime_export.hpp"
-#include "imm/tracking/lane_storage.hpp"
+#include "imm/tracking/two_mode_lane_storage.hpp"
 
 namespace imm {
 
 /// N tracks of one weighted IMM with polar plots, stepped together (see the file comment).
-class IMM_RUNTIME_EXPORT WimmTrackBank : public LaneStorage {
+class IMM_RUNTIME_EXPORT WimmTrackBank : public TwoModeLaneStorage {
  public:
   /// Tracks per block of the layout.
   static constexpr int kBlock = 8;
@@ -65,11 +65,8 @@ class IMM_RUNTIME_EXPORT WimmTrackBank : public LaneStorage {
   /// initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
-  /// The combined estimate [x, vx, ax, y, vy, ay] (WimmFilter::estimate).
-  [[nodiscard]] GaussianState<6> estimate(std::size_t track) const;
-
-  /// μ = (CV, Singer).
-  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
+  // estimate(track) is [x, vx, ax, y, vy, ay] (WimmFilter::estimate), mode_probabilities(track)
+  // μ = (CV, Singer): TwoModeLaneStorage's.
 
   /// The gating question for many tracks and plots in one call, without changing any track, for
   /// the split cycle's configuration (no fusion, the extended update: the nIMM): out(t, q) =
