@@ -107,16 +107,24 @@ class TrackBank:
         collapsed prediction exceeds `gate` (a χ² quantile: 9.21 is 99 % for 2-D plots; the
         default inf scores every pair), NaN for an unusable plot. Changes no track; the GIL is
         released. Every plain IMM answers it (one with noise schedules by trial updates), the input
-        estimator, the GA-fuzzy IMM and the FCM-IMM (these two by trial updates), each with its
-        model's own S (the bank runs the model uncalibrated), the FIMM and the wIMM without
+        estimator, the GA-fuzzy IMM and the FCM-IMM (these two by trial updates), the FIMM and
+        the wIMM without
         fusion and with the extended update (the nIMM); a fusing or converting wIMM's bank raises
-        RuntimeError, as its filter has no split cycle."""
+        RuntimeError, as its filter has no split cycle. A plain IMM whose file carries a
+        covariance calibration gates each track at `gate` times its calibrated factor, as its
+        one-track filter's candidate_distance does; the learned kinds' banks gate on the model's
+        own S."""
     @property
     def capacity(self) -> int:
         """The number of tracks."""
     @property
     def kind(self) -> str:
         """The model kind."""
+    @property
+    def calibrated(self) -> bool:
+        """True where the bank states its covariances and gate through the model file's
+        covariance calibration, as the file's Filter does (a plain IMM); False: the model's own
+        (a learned kind, or a file without a calibration)."""
     @property
     def state_dimension(self) -> int:
         """The state dimension n."""

@@ -347,6 +347,9 @@ class PyTrackBank {
     return out;
   }
 
+  // Whether the bank states its covariances and gate through the file's calibration.
+  [[nodiscard]] bool calibrated() const { return bank_->calibration() != nullptr; }
+
  private:
   std::unique_ptr<imm::AnyTrackBank> bank_;
   std::string kind_;
@@ -447,7 +450,12 @@ PYBIND11_MODULE(immtrain, m) {
            "`gate` (a χ² quantile, e.g. 9.21 for 99 % with 2-D plots). Changes no track.")
       .def_property_readonly("capacity", &PyTrackBank::capacity)
       .def_property_readonly("state_dimension", &PyTrackBank::state_dimension)
-      .def_property_readonly("kind", &PyTrackBank::kind);
+      .def_property_readonly("kind", &PyTrackBank::kind)
+      .def_property_readonly("calibrated", &PyTrackBank::calibrated,
+                             "True where the bank states its covariances and gate through the "
+                             "model file's covariance calibration, as the file's Filter does (a "
+                             "plain IMM); False: the model's own (a learned kind, or no "
+                             "calibration)");
 
   m.def(
       "load_tracker",

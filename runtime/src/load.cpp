@@ -3,6 +3,7 @@
 
 #include <system_error>
 
+#include "imm/calibrated_track_bank.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/model_kinds.hpp"
 #include "imm/tracking/calibrated_filter.hpp"
@@ -95,7 +96,14 @@ std::unique_ptr<AnyTrackBank> open_track_bank(const std::filesystem::path& path,
                                        " model, a kind this runtime has no bank for");
   }
   try {
-    return kind.open_bank(reader, capacity);
+    std::unique_ptr<AnyTrackBank> bank = kind.open_bank(reader, capacity);
+    // As load_filter: a file's covariance calibration, where the kind's bank states what it needs.
+    if (bank->states_step_nis()) {
+      if (auto calibration = read_calibration(reader)) {
+        bank = std::make_unique<CalibratedTrackBank>(std::move(bank), std::move(calibration));
+      }
+    }
+    return bank;
   } catch (const InvalidParameter& invalid) {
     if (invalid.field() == "capacity") throw;
     reader.fail(invalid.field(), invalid.what());

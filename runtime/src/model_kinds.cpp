@@ -217,6 +217,22 @@ void AnyTrackBank::candidate_log_likelihoods(
       "plot)");
 }
 
+void AnyTrackBank::step(std::span<const Eigen::Vector2d> /*plots*/,
+                        std::span<StepStatus> /*status*/, std::span<double> /*nis*/) {
+  throw std::logic_error(
+      "step with NIS: this kind's bank does not state its steps' NIS (states_step_nis() is "
+      "false)");
+}
+
+void AnyTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> /*plots*/, double /*gate*/,
+    std::span<const double> /*gate_scale*/,
+    Eigen::Ref<Eigen::MatrixXd> /*out*/) {  // NOLINT(performance-unnecessary-value-param)
+  throw std::logic_error(
+      "candidate_log_likelihoods with a gate per track: this kind's bank does not gate per track "
+      "(states_step_nis() is false)");
+}
+
 bool ModelKind::answers_to(std::string_view name_or_alias) const {
   return name == name_or_alias ||
          std::find(aliases.begin(), aliases.end(), name_or_alias) != aliases.end();

@@ -536,3 +536,38 @@ def test_a_long_run_lets_other_python_threads_go_on():
     quarter = 0.25 * (end - begin)
     inside = sum(begin + quarter < t < end - quarter for t in stamps)
     assert inside > 20, (inside, end - begin)
+
+
+def test_a_calibrated_plain_imms_bank_states_and_gates_as_its_filter():
+    """A plain IMM whose file carries a covariance calibration: its bank's covariance and gate are
+    the calibrated Filter's, scan by scan; a learned kind's bank keeps the model's own."""
+    model = os.path.join(MODELS, "classical_imm_agile_air.h5")
+    bank, alone = immtrain.TrackBank(model, 1), immtrain.Filter(model)
+    assert bank.calibrated and alone.calibration is not None
+    n = bank.state_dimension
+    mean, P0 = np.zeros(n), np.eye(n) * 2500.0
+    mean[1] = 200.0
+    bank.initialize(0, mean, P0)
+    alone.initialize(mean, P0)
+    rng = np.random.default_rng(4)
+    for k in range(1, 25):
+        z = np.array([200.0 * k, 0.0]) + 40.0 * rng.standard_normal(2)
+        assert bank.step(z[None, :]) == [alone.step(z)]
+        # The general bank is the one-track IMM itself: the same numbers.
+        np.testing.assert_array_equal(bank.estimate(0)[0], alone.state()[0])
+        np.testing.assert_array_equal(bank.estimate(0)[1], alone.state()[1])
+    # The gate: a plot just inside the filter's calibrated distance scores, just outside is cut.
+    alone.predict()
+    z_hat, S = alone.predicted_plot()
+    direction = np.array([1.0, 0.0]) * np.sqrt(S[0, 0])
+    for factor, inside in ((0.99, True), (1.01, False)):
+        low, high = 0.0, 100.0
+        for _ in range(60):
+            mid = 0.5 * (low + high)
+            if alone.candidate_distance(z_hat + mid * direction) > factor * 9.21:
+                high = mid
+            else:
+                low = mid
+        entry = bank.candidate_log_likelihoods((z_hat + low * direction)[None, :], 1, gate=9.21)
+        assert np.isfinite(entry[0, 0]) == inside
+    assert not immtrain.TrackBank(os.path.join(MODELS, "ga_fuzzy_imm.h5"), 1).calibrated

@@ -39,6 +39,8 @@
 
 namespace imm {
 
+struct CovarianceCalibration;
+
 /// The calls every track bank has (TrackBank, PlainImmTrackBank, GaFuzzyTrackBank, …) behind one
 /// interface, for code that opens a bank of whatever kind a model file holds. One virtual call
 /// per bank step; the step itself is the bank's own.
@@ -71,6 +73,23 @@ class IMM_RUNTIME_EXPORT AnyTrackBank {
   /// over any interval (TrackBank::set_interval); false, and nothing changed, otherwise (a model of
   /// one sample period: step with unusable plots for the periods between).
   virtual bool set_interval(double /*interval*/) { return false; }
+
+  /// Whether the kind's bank states each step's NIS and gates each track at its own gate (the two
+  /// calls below), what a covariance calibration needs (CalibratedTrackBank).
+  [[nodiscard]] virtual bool states_step_nis() const { return false; }
+  /// step(), with each stepped track's normalized innovation squared into nis[t]: the NIS
+  /// last_step_nis gives the one-track filter after the same step (TrackBank::step with `nis`),
+  /// NaN where status[t] is not kOk. std::logic_error where the kind's bank does not state it.
+  virtual void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                    std::span<double> nis);
+  /// The gating matrix with track t gated at gate × gate_scale[t] (TrackBank's overload);
+  /// std::logic_error where the kind's bank does not gate per track.
+  virtual void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                         std::span<const double> gate_scale,
+                                         Eigen::Ref<Eigen::MatrixXd> out);
+  /// The covariance calibration the bank applies (CalibratedTrackBank), or null: the model's own
+  /// covariances.
+  [[nodiscard]] virtual const CovarianceCalibration* calibration() const { return nullptr; }
 };
 
 /// A concrete bank behind AnyTrackBank.
@@ -122,12 +141,36 @@ class TrackBankAdapter final : public AnyTrackBank {
       return false;
     }
   }
+  [[nodiscard]] bool states_step_nis() const override { return kStatesNis; }
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+            std::span<double> nis) override {
+    if constexpr (kStatesNis) {
+      bank_.step(plots, status, nis);
+    } else {
+      AnyTrackBank::step(plots, status, nis);
+    }
+  }
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 std::span<const double> gate_scale,
+                                 Eigen::Ref<Eigen::MatrixXd> out) override {
+    if constexpr (kStatesNis) {
+      bank_.candidate_log_likelihoods(plots, gate, gate_scale, out);
+    } else {
+      AnyTrackBank::candidate_log_likelihoods(plots, gate, gate_scale, out);
+    }
+  }
   /// The bank itself.
   [[nodiscard]] Bank& bank() { return bank_; }
 
  private:
   using State = decltype(std::declval<const Bank&>().estimate(0));
   static constexpr int kDim = decltype(State::mean)::RowsAtCompileTime;
+  static constexpr bool kStatesNis =
+      requires(Bank & b, std::span<const Eigen::Vector2d> z, std::span<StepStatus> s,
+               std::span<double> n, std::span<const double> g, Eigen::Ref<Eigen::MatrixXd> o) {
+    b.step(z, s, n);
+    b.candidate_log_likelihoods(z, 1.0, g, o);
+  };
   static void check_sizes(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance);
 
   Bank bank_;
@@ -168,12 +211,13 @@ IMM_RUNTIME_EXPORT void register_model_kind(ModelKind kind);
 /// Every registered kind, in registration order (the six of this runtime first).
 [[nodiscard]] IMM_RUNTIME_EXPORT std::vector<const ModelKind*> model_kinds();
 
-/// Opens a bank of `capacity` tracks for the model file at `path`, of whatever kind it is. The bank
-/// runs the model as trained: a file's covariance calibration (calibrated_filter.hpp: per-track
-/// features the lane banks do not keep) is not applied, so its estimates equal the one-track
-/// filter's and its covariances, likelihoods and gate are the model's own. Throws io::FileError
-/// naming the file and field as load_filter does, InvalidParameter("path") for a kind without a
-/// bank.
+/// Opens a bank of `capacity` tracks for the model file at `path`, of whatever kind it is. Where
+/// the file carries a covariance calibration and the kind's bank states its steps' NIS (the plain
+/// IMM's banks), the bank is a CalibratedTrackBank (calibrated_track_bank.hpp): it gates and
+/// states its covariances as load_filter's calibrated filters do. The banks of the learned kinds
+/// run the model as trained: their covariances and gate are the model's own, and calibration()
+/// is null. Throws io::FileError naming the file and field as load_filter does,
+/// InvalidParameter("path") for a kind without a bank.
 [[nodiscard]] IMM_RUNTIME_EXPORT std::unique_ptr<AnyTrackBank> open_track_bank(
     const std::filesystem::path& path, std::size_t capacity);
 

@@ -3,7 +3,9 @@
 // The argument checks every multi-track bank makes, with one wording. Not installed.
 
 #include <Eigen/Core>
+#include <cmath>
 #include <cstddef>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -74,6 +76,28 @@ inline void check_candidates(std::string_view bank, std::size_t plots, double ga
   }
   if (!(gate > 0.0)) throw InvalidParameter("gate", "must be positive (+∞ scores every pair)");
   check_step(bank, tracks, tracks, initialized);
+}
+
+/// Per-track gate factors of a gating matrix of `rows` tracks: one per row, each finite and
+/// positive; InvalidParameter("gate_scale") or ("gate_scale[t]") otherwise.
+inline void check_gate_scale(std::span<const double> gate_scale, Eigen::Index rows) {
+  if (gate_scale.size() != static_cast<std::size_t>(rows)) {
+    throw InvalidParameter("gate_scale", "needs one factor per track (" + std::to_string(rows) +
+                                             "), has " + std::to_string(gate_scale.size()));
+  }
+  for (std::size_t t = 0; t < gate_scale.size(); ++t) {
+    if (!(std::isfinite(gate_scale[t]) && gate_scale[t] > 0.0)) {
+      throw InvalidParameter("gate_scale[" + std::to_string(t) + "]", "must be finite and > 0");
+    }
+  }
+}
+
+/// A step's NIS output for `plots` tracks: as many entries; std::invalid_argument otherwise.
+inline void check_nis(std::string_view bank, std::size_t plots, std::size_t nis) {
+  if (nis != plots) {
+    throw std::invalid_argument(std::string(bank) + "::step: " + std::to_string(nis) +
+                                " NIS entries for " + std::to_string(plots) + " plots");
+  }
 }
 
 }  // namespace imm::bank

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/tracking/plain_imm_track_bank.hpp"
 
+#include <Eigen/Cholesky>
 #include <limits>
 #include <string>
 
@@ -49,21 +50,55 @@ void PlainImmTrackBank<NX>::step(std::span<const Eigen::Vector2d> plots,
 }
 
 template <int NX>
+void PlainImmTrackBank<NX>::step(std::span<const Eigen::Vector2d> plots,
+                                 std::span<StepStatus> status, std::span<double> nis) {
+  bank::check_nis("PlainImmTrackBank", plots.size(), nis.size());
+  step(plots, status);
+  for (std::size_t t = 0; t < plots.size(); ++t) {
+    nis[t] = std::numeric_limits<double>::quiet_NaN();
+    Vector<2> nu;
+    SquareMatrix<2> S;
+    if (status[t] != StepStatus::kOk || !tracks_[t].innovation(nu, S)) continue;
+    // last_step_nis's arithmetic.
+    const Eigen::LLT<SquareMatrix<2>> llt(S);
+    if (llt.info() == Eigen::Success) nis[t] = nu.dot(llt.solve(nu));
+  }
+}
+
+template <int NX>
 void PlainImmTrackBank<NX>::candidate_log_likelihoods(
     std::span<const Eigen::Vector2d> plots, double gate,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  const auto tracks = static_cast<std::size_t>(out.rows());
   bank::check_candidates("PlainImmTrackBank", plots.size(), gate, out.rows(), out.cols(),
                          initialized_);
+  score(plots, gate, nullptr, out);
+}
+
+template <int NX>
+void PlainImmTrackBank<NX>::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  bank::check_candidates("PlainImmTrackBank", plots.size(), gate, out.rows(), out.cols(),
+                         initialized_);
+  bank::check_gate_scale(gate_scale, out.rows());
+  score(plots, gate, gate_scale.data(), out);
+}
+
+template <int NX>
+void PlainImmTrackBank<NX>::score(
+    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  const auto tracks = static_cast<std::size_t>(out.rows());
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t t = 0; t < tracks; ++t) {
     ImmEstimator<NX, 2>& track = tracks_[t];
     const bool predicted = track.predict() == StepStatus::kOk;
+    const double track_gate = gate_scale == nullptr ? gate : gate * gate_scale[t];
     for (std::size_t q = 0; q < plots.size(); ++q) {
       double& entry = out(static_cast<Eigen::Index>(t), static_cast<Eigen::Index>(q));
       if (!predicted || !limits::usable_measurement(plots[q])) {
         entry = kNaN;
-      } else if (track.candidate_distance(plots[q]) > gate) {
+      } else if (track.candidate_distance(plots[q]) > track_gate) {
         entry = -std::numeric_limits<double>::infinity();
       } else {
         entry = track.candidate_log_likelihood(plots[q]);

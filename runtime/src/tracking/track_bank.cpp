@@ -119,10 +119,42 @@ void TrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatu
   }
 }
 
-void TrackBank::candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                          Eigen::Ref<Eigen::MatrixXd> out) {
-  const auto tracks = static_cast<std::size_t>(out.rows());
+void TrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                     std::span<double> nis) {
+  bank::check_step("TrackBank", plots.size(), status.size(), initialized_);
+  bank::check_nis("TrackBank", plots.size(), nis.size());
+  for (std::size_t first = 0; first < plots.size(); first += kBlock) {
+    const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
+    run_block(first, lanes, nullptr, nullptr, true);
+    bank::plot_distances(prediction_.data() + first / kBlock * prediction_tile_, kBlock, modes_,
+                         lanes, plots.data() + first, nis.data() + first);
+    run_block(first, lanes, plots.data() + first, status.data() + first, false);
+    for (int t = 0; t < lanes; ++t) {
+      const std::size_t at = first + static_cast<std::size_t>(t);
+      if (status[at] != StepStatus::kOk) nis[at] = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+}
+
+void TrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param): a view
   bank::check_candidates("TrackBank", plots.size(), gate, out.rows(), out.cols(), initialized_);
+  score(plots, gate, nullptr, out);
+}
+
+void TrackBank::candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                          std::span<const double> gate_scale,
+                                          // NOLINTNEXTLINE(performance-unnecessary-value-param)
+                                          Eigen::Ref<Eigen::MatrixXd> out) {
+  bank::check_candidates("TrackBank", plots.size(), gate, out.rows(), out.cols(), initialized_);
+  bank::check_gate_scale(gate_scale, out.rows());
+  score(plots, gate, gate_scale.data(), out);
+}
+
+void TrackBank::score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+                      Eigen::Ref<Eigen::MatrixXd> out) {
+  const auto tracks = static_cast<std::size_t>(out.rows());
   Scoring scoring;
   scoring.modes = modes_;
   scoring.stride = kBlock;
@@ -136,6 +168,7 @@ void TrackBank::candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots
     scoring.tracks = lanes;
     scoring.prediction = prediction_.data() + first / kBlock * prediction_tile_;
     scoring.out = out.data() + first;
+    scoring.gate_scale = gate_scale == nullptr ? nullptr : gate_scale + first;
     score_plots(scoring);
   }
 }

@@ -242,6 +242,8 @@ template <class S, int N>
   const int collapsed = n * kPlotSlots;
   const S cx = slot(collapsed), cy = slot(collapsed + 1);
   const S c00 = slot(collapsed + 2), c01 = slot(collapsed + 3), c11 = slot(collapsed + 4);
+  const S gate =
+      s.gate_scale == nullptr ? splat<S>(s.gate) : s.gate * lane_load<S>(s.gate_scale + t);
   for (int q = 0; q < s.plot_count; ++q) {
     const Eigen::Vector2d& z = s.plots[q];
     double* to = s.out + q * s.out_stride + t;
@@ -251,7 +253,7 @@ template <class S, int N>
     }
     const S dx = z.x() - cx, dy = z.y() - cy;
     const S d2 = c00 * (dx * dx) + 2.0 * (c01 * (dx * dy)) + c11 * (dy * dy);
-    const auto outside = d2 > s.gate;
+    const auto outside = d2 > gate;
     const Lanes<S> outside_lanes = lanes_of(pick(outside, splat<S>(1.0), splat<S>(0.0)));
     if (std::all_of(outside_lanes.begin(), outside_lanes.end(),
                     [](double v) { return v != 0.0; })) {
@@ -334,6 +336,24 @@ void score_plots(const Scoring& s) {
     for_lane_isa(lane_isa(), score_plots_for_avx512<N>, score_plots_for_avx2<N>,
                  score_plots_for_baseline<N>)(s);
   });
+}
+
+void plot_distances(const double* prediction, std::ptrdiff_t stride, int modes, int tracks,
+                    const Eigen::Vector2d* plots, double* nis) {
+  const int collapsed = modes * kPlotSlots;
+  for (int t = 0; t < tracks; ++t) {
+    auto slot = [&](int index) { return prediction[index * stride + t]; };
+    const double c00 = slot(collapsed + 2), c01 = slot(collapsed + 3), c11 = slot(collapsed + 4);
+    const Eigen::Vector2d& z = plots[t];
+    // S̄⁻¹ is positive definite exactly where S̄ is.
+    const bool definite = c00 > 0.0 && c00 * c11 - c01 * c01 > 0.0;
+    if (!definite || !limits::usable_measurement(z.x()) || !limits::usable_measurement(z.y())) {
+      nis[t] = std::numeric_limits<double>::quiet_NaN();
+      continue;
+    }
+    const double dx = z.x() - slot(collapsed), dy = z.y() - slot(collapsed + 1);
+    nis[t] = c00 * (dx * dx) + 2.0 * (c01 * (dx * dy)) + c11 * (dy * dy);
+  }
 }
 
 }  // namespace imm::bank

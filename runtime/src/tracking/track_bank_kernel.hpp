@@ -61,12 +61,19 @@ struct Scoring {
   const Eigen::Vector2d* plots = nullptr;
   int plot_count = 0;
   double gate = 0.0;
-  double* out = nullptr;  // plot q of track t at out[q * out_stride + t]
+  const double* gate_scale = nullptr;  // per track, offset to the first; null: every factor 1
+  double* out = nullptr;               // plot q of track t at out[q * out_stride + t]
   std::ptrdiff_t out_stride = 0;
 };
 
 /// Every (track, plot) log-likelihood log Σ_j c_j N(z; ẑ_j, S_j), −∞ where the collapsed
 /// distance exceeds the gate.
 void score_plots(const Scoring& s);
+
+/// Each track's own plot against its prediction (predict_plots'): nis[t] = the collapsed
+/// distance of plots[t] (ImmEstimator::innovation's νᵀ S⁻¹ ν after a step with it), NaN for an
+/// unusable plot or an S that is not positive definite. One lane at a time.
+void plot_distances(const double* prediction, std::ptrdiff_t stride, int modes, int tracks,
+                    const Eigen::Vector2d* plots, double* nis);
 
 }  // namespace imm::bank

@@ -52,6 +52,12 @@ class PlainImmTrackBank {
   /// differ in size or exceed capacity(), std::logic_error when a stepped track was never
   /// initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
+  /// step(), stating each stepped track's normalized innovation squared (TrackBank::step with
+  /// `nis`): the NIS last_step_nis gives its one-track filter after the same step, NaN where
+  /// status[t] is not kOk or none. Throws as step(), and std::invalid_argument when `nis` differs
+  /// in size from `plots`.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+            std::span<double> nis);
 
   /// The gating matrix of tracks 0 … out.rows() − 1 against `plots` without changing a track's
   /// estimate (TrackBank::candidate_log_likelihoods): out(t, q) = the track's
@@ -62,6 +68,10 @@ class PlainImmTrackBank {
   /// update and gates on the prediction without the plot (ImmEstimator::predict). Throws as
   /// TrackBank's does. Nothing is allocated.
   void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
+  /// The same with a gate per track, gate × gate_scale[t] (TrackBank's overload).
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 std::span<const double> gate_scale,
                                  Eigen::Ref<Eigen::MatrixXd> out);
 
   /// Makes the following cycles of every track span `interval` s (ImmEstimator::set_interval: F, Q
@@ -81,6 +91,9 @@ class PlainImmTrackBank {
 
  private:
   [[nodiscard]] std::size_t checked(std::size_t track) const;
+  // The gating matrix once the arguments are checked; gate_scale: a factor per track, or null.
+  void score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+             Eigen::Ref<Eigen::MatrixXd> out);
   std::vector<ImmEstimator<NX, 2>> tracks_;
   std::vector<unsigned char> initialized_;
   double sample_period_ = 0.0;

@@ -74,6 +74,14 @@ class IMM_RUNTIME_EXPORT TrackBank {
   /// std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
+  /// step(), stating each stepped track's normalized innovation squared: nis[t] = νᵀ S⁻¹ ν of
+  /// track t's cycle, ν = z − ẑ and S the moment-matched predicted plot covariance (the NIS
+  /// last_step_nis gives its one-track filter after the same step), NaN where status[t] is not
+  /// kOk or S is not positive definite. Costs a second prediction of every block. Throws as
+  /// step(), and std::invalid_argument when `nis` differs in size from `plots`.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+            std::span<double> nis);
+
   /// The gating question for many tracks and plots in one call, without changing any track:
   /// out(t, q) = log p(z_q | Z_t), the log-likelihood of candidate plot q under track t's
   /// prediction — the mixture Σ_j c_j N(z_q; ẑ_j, S_j) of ImmEstimator::candidate_log_likelihood
@@ -87,6 +95,14 @@ class IMM_RUNTIME_EXPORT TrackBank {
   /// gate that is NaN or not positive, std::logic_error for a track never initialized. Nothing is
   /// allocated.
   void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
+
+  /// The same with a gate per track: track t's pairs are outside where their distance is above
+  /// gate × gate_scale[t] (a calibrated S scaled by gate_scale[t]: CalibratedTrackBank). Throws
+  /// as above, and InvalidParameter("gate_scale…") unless `gate_scale` holds out.rows() factors,
+  /// each finite and positive.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 std::span<const double> gate_scale,
                                  Eigen::Ref<Eigen::MatrixXd> out);
 
   /// Makes the following cycles of every track (step, candidate_log_likelihoods) span `interval`
@@ -125,6 +141,9 @@ class IMM_RUNTIME_EXPORT TrackBank {
   // `plots`, or, with `predict`, their predicted plot densities into prediction_.
   void run_block(std::size_t first, int lanes, const Eigen::Vector2d* plots, StepStatus* status,
                  bool predict);
+  // The gating matrix once the arguments are checked; gate_scale: a factor per track, or null.
+  void score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+             Eigen::Ref<Eigen::MatrixXd> out);
 
   int modes_ = 0;
   std::size_t capacity_ = 0;
