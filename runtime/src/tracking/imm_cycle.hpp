@@ -482,9 +482,14 @@ template <class S, int N, int K, class F>
 }
 
 /// f(std::integral_constant<int, N>{}) with N = `modes` for the common sizes (their loops
-/// unrolled), kMaxModes for any other (the loops then run to the block's mode count).
+/// unrolled), kMaxModes for any other (the loops then run to the block's mode count); always
+/// kMaxModes with IMM_GENERIC_MODE_COUNT (the sanitizer build: cmake/ImmBuildSpeed.cmake).
 template <class Fn>
 [[gnu::always_inline]] inline void with_mode_count(int modes, Fn&& f) {
+#ifdef IMM_GENERIC_MODE_COUNT
+  (void)modes;
+  return f(std::integral_constant<int, kMaxModes>{});
+#else
   switch (modes) {
     case 1:
       return f(std::integral_constant<int, 1>{});
@@ -497,6 +502,7 @@ template <class Fn>
     default:
       return f(std::integral_constant<int, kMaxModes>{});
   }
+#endif
 }
 
 }  // namespace imm::bank
