@@ -55,7 +55,9 @@ test-long: build
 
 # ASan + UBSan (+ LeakSanitizer) build of the whole suite, fuzz targets included. Without MPI:
 # LeakSanitizer reports what OpenMPI itself keeps until exit, so the sanitized suite checks the
-# single-process path (test-sanitize leaves out the MPI tests; they run in `make test`).
+# single-process path (test-sanitize leaves out the MPI tests; they run in `make test`). The banks'
+# IMM cycle as its generic kernel alone (IMM_MODE_COUNT_KERNELS=OFF, cmake/ImmBuildSpeed.cmake:
+# the same statements; their per-mode-count copies were 5–10× their files' sanitized compile).
 sanitize-build: deps
 	@if command -v clang++ >/dev/null; then compilers="-DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DIMM_FUZZERS=ON"; \
 	 else compilers="-DIMM_FUZZERS=OFF"; fi; \
