@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "bench_inputs.hpp"
+#include "imm/calibrated_track_bank.hpp"
 #include "imm/filters/fcm_imm.hpp"
 #include "imm/filters/fimm.hpp"
 #include "imm/filters/ga_fuzzy_imm.hpp"
@@ -21,12 +22,15 @@
 #include "imm/io/fcm_imm_file.hpp"
 #include "imm/io/ga_fuzzy_imm_file.hpp"
 #include "imm/io/mlp_input_estimator_file.hpp"
+#include "imm/io/model_file.hpp"
+#include "imm/io/plain_imm_file.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
 #include "imm/io/wimm_file.hpp"
 #include "imm/tracking/fcm_imm_track_bank.hpp"
 #include "imm/tracking/fimm_track_bank.hpp"
 #include "imm/tracking/ga_fuzzy_track_bank.hpp"
 #include "imm/tracking/input_estimator_track_bank.hpp"
+#include "imm/tracking/plain_imm_track_bank.hpp"
 #include "imm/tracking/track_bank.hpp"
 #include "imm/tracking/wimm_track_bank.hpp"
 
@@ -111,6 +115,68 @@ void BM_MultiTrack(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(tracks));
   state.SetLabel(bank_api ? "TrackBank" : "separate ImmEstimators");
 }
+// What a covariance calibration costs a bank's step (imm/calibrated_track_bank.hpp): 1 000 tracks
+// of W1 fed the W1 plots shifted per track, through TrackBank (kind 0; the calibration of
+// classical_imm_agile_air.h5) or of the shipped classical_imm_agile_air.h5 through its general
+// bank (kind 1), each plain (calibrated 0) or calibrated (1: the per-step NIS and features).
+void BM_CalibratedBankStep(benchmark::State& state) {
+  constexpr std::size_t kTracks = 1000;
+  const bool calibrated = state.range(1) == 1;
+  const std::string model = IMM_SOURCE_DIR "/models/classical_imm_agile_air.h5";
+  std::unique_ptr<imm::AnyTrackBank> bank;
+  if (state.range(0) == 0) {
+    bank =
+        std::make_unique<imm::TrackBankAdapter<imm::TrackBank>>(imm::workloads::w1_spec(), kTracks);
+    if (calibrated) {
+      auto table = imm::read_calibration(imm::io::ModelFileReader(model));
+      bank = std::make_unique<imm::CalibratedTrackBank>(std::move(bank), std::move(table));
+    }
+  } else {
+    bank = calibrated ? imm::open_track_bank(model, kTracks)
+                      : std::make_unique<imm::TrackBankAdapter<imm::PlainImmTrackBank<7>>>(
+                            imm::io::read_plain_imm(model), kTracks);
+  }
+  const auto& input = w1_input();
+  const int n = bank->state_dimension();
+  const auto start = [&](std::size_t t) {
+    const imm::GaussianState<4> w1 = imm::workloads::w1_start();
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(n);
+    Eigen::MatrixXd covariance = Eigen::MatrixXd::Identity(n, n);
+    const int y = n == 4 || n == 5 ? 2 : 3;  // plain_imm.hpp's layouts
+    for (int a = 0; a < 2; ++a) {
+      mean(a) = w1.mean(a);
+      mean(y + a) = w1.mean(2 + a);
+      for (int c = 0; c < 2; ++c) {
+        covariance(a, c) = w1.covariance(a, c);
+        covariance(y + a, y + c) = w1.covariance(2 + a, 2 + c);
+      }
+    }
+    mean(0) += 0.37 * static_cast<double>(t);
+    mean(y) -= 0.21 * static_cast<double>(t);
+    bank->initialize(t, mean, covariance);
+  };
+  for (std::size_t t = 0; t < kTracks; ++t) start(t);
+  std::vector<Eigen::Vector2d> plots(kTracks);
+  std::vector<imm::StepStatus> status(kTracks);
+  Eigen::Index k = 0;
+  for (auto _ : state) {
+    const Eigen::Vector2d z = input.plots.row(k).transpose();
+    for (std::size_t t = 0; t < kTracks; ++t) {
+      plots[t] = z + Eigen::Vector2d(0.37 * static_cast<double>(t), -0.21 * static_cast<double>(t));
+    }
+    bank->step(plots, status);
+    benchmark::DoNotOptimize(status.data());
+    if (++k == input.plots.rows()) {
+      k = 0;
+      for (std::size_t t = 0; t < kTracks; ++t) start(t);
+    }
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(kTracks));
+  state.SetLabel(std::string(state.range(0) == 0 ? "TrackBank (W1)" : "PlainImmTrackBank<7>") +
+                 (calibrated ? ", calibrated" : ""));
+}
+BENCHMARK(BM_CalibratedBankStep)->ArgsProduct({{0, 1}, {0, 1}});
+
 // The small banks (1 to 8 tracks: fewer than a block's packs, the tail's own code) beside as many
 // separate filters, then the large ones.
 BENCHMARK(BM_MultiTrack)
