@@ -13,6 +13,7 @@
 #include <memory>
 #include <new>
 
+#include "imm/calibrated_track_bank.hpp"
 #include "imm/estimation/imm_estimator.hpp"
 #include "imm/estimation/kalman_mode.hpp"
 #include "imm/filters/aimm.hpp"
@@ -181,6 +182,46 @@ TEST(AllocationFreeStep, PlainImmTrackBankStep) {
   const long before = allocations();
   (void)bank.log_mode_probabilities(3);
   EXPECT_EQ(allocations(), before);
+}
+
+// A calibrated bank (CalibratedTrackBank) over TrackBank's kernel and over the general bank of a
+// shipped calibrated CV/CA/CT IMM: its steps (features from the NIS each states) and its gating
+// matrix with a gate per track, bad plots included.
+TEST(AllocationFreeStep, CalibratedTrackBankStepAndGating) {
+  auto calibration = std::make_shared<CovarianceCalibration>();
+  calibration->start_innovation = {2.0, 1.0};
+  calibration->start_state = {3.0, 1.0};
+  calibration->edges = {1.0, 3.0};
+  calibration->level_innovation = {0.8, 1.0, 1.5};
+  calibration->level_state = {0.7, 1.0, 2.0};
+  std::vector<std::unique_ptr<AnyTrackBank>> banks;
+  banks.push_back(std::make_unique<CalibratedTrackBank>(
+      std::make_unique<TrackBankAdapter<TrackBank>>(testing::cv3_spec(), kBankTracks),
+      calibration));
+  banks.push_back(open_track_bank("models/classical_imm_agile_air.h5", kBankTracks));
+  for (auto& bank : banks) {
+    ASSERT_NE(bank->calibration(), nullptr);
+    const int n = bank->state_dimension();
+    for (std::size_t t = 0; t < kBankTracks; ++t) {
+      bank->initialize(t, Eigen::VectorXd::Zero(n), Eigen::MatrixXd::Identity(n, n));
+    }
+    std::vector<Eigen::Vector2d> plots(kBankTracks);
+    std::vector<StepStatus> status(kBankTracks);
+    Eigen::MatrixXd scores(static_cast<Eigen::Index>(kBankTracks), 4);
+    const std::vector<Eigen::Vector2d> candidates{{1.0, 0.0}, {0.0, 1.0}, {50.0, -3.0}, {0.0, 0.0}};
+    const long before = allocations();
+    for (int k = 0; k < 50; ++k) {
+      for (std::size_t t = 0; t < kBankTracks; ++t) {
+        plots[t] = Eigen::Vector2d(0.5 * k + static_cast<double>(t), -0.2 * k);
+      }
+      plots[7] = Eigen::Vector2d(std::nan(""), 0.0);
+      bank->step(plots, status);
+      bank->candidate_log_likelihoods(candidates, 9.21, scores);
+    }
+    EXPECT_EQ(allocations(), before);
+    EXPECT_EQ(status[7], StepStatus::kInvalidMeasurement);
+    EXPECT_EQ(status[kBankTracks - 1], StepStatus::kOk);
+  }
 }
 
 // The GA-fuzzy IMM's bank: kBankTracks tracks, bad plots
