@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <utility>
 
 #include "imm/core/invalid_parameter.hpp"
@@ -56,12 +55,9 @@ void CalibratedTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span
 
 void CalibratedTrackBank::follow(std::span<const StepStatus> status, std::span<const double> nis) {
   // CalibratedFilter::after_update: the level follows the model's own NIS, then one plot more.
-  const double memory = calibration_->memory;
   for (std::size_t t = 0; t < status.size(); ++t) {
     if (status[t] != StepStatus::kOk) continue;
-    if (!std::isnan(nis[t])) {
-      level_[t] = memory * level_[t] + (1.0 - memory) * std::min(nis[t], calibration_->nis_cap);
-    }
+    if (!std::isnan(nis[t])) level_[t] = calibration_->next_level(level_[t], nis[t]);
     ++used_[t];
   }
 }

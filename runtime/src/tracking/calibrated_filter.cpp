@@ -65,6 +65,10 @@ int CovarianceCalibration::bin(double level) const noexcept {
   return static_cast<int>(std::upper_bound(edges.begin(), edges.end(), level) - edges.begin());
 }
 
+double CovarianceCalibration::next_level(double level, double nis) const noexcept {
+  return memory * level + (1.0 - memory) * std::min(nis, nis_cap);
+}
+
 double CovarianceCalibration::innovation_scale(long used, double level) const noexcept {
   return factor(start_innovation, used) * level_innovation[static_cast<std::size_t>(bin(level))];
 }
@@ -125,8 +129,7 @@ void CalibratedFilter::hold_scales() noexcept {
 void CalibratedFilter::after_update() noexcept {
   // The level follows the model's own NIS, not the calibrated one: the factors never feed back.
   if (const auto nis = last_step_nis(*filter_)) {
-    level_ = calibration_->memory * level_ +
-             (1.0 - calibration_->memory) * std::min(*nis, calibration_->nis_cap);
+    level_ = calibration_->next_level(level_, *nis);
   }
   ++used_;
   state_scale_ = calibration_->state_scale(used_, level_);  // the innovation's stays the step's

@@ -1,13 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "imm/tracking/plain_imm_track_bank.hpp"
 
-#include <Eigen/Cholesky>
 #include <limits>
 #include <string>
 
 #include "bank_checks.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
+#include "imm/tracking/track_filter.hpp"
 
 namespace imm {
 
@@ -59,9 +59,8 @@ void PlainImmTrackBank<NX>::step(std::span<const Eigen::Vector2d> plots,
     Vector<2> nu;
     SquareMatrix<2> S;
     if (status[t] != StepStatus::kOk || !tracks_[t].innovation(nu, S)) continue;
-    // last_step_nis's arithmetic.
-    const Eigen::LLT<SquareMatrix<2>> llt(S);
-    if (llt.info() == Eigen::Success) nis[t] = nu.dot(llt.solve(nu));
+    // As last_step_nis of the one-track filter.
+    nis[t] = normalized_innovation_squared(nu, S).value_or(nis[t]);
   }
 }
 

@@ -134,13 +134,18 @@ TrackOptions PlainImmSpec::track_options(std::int64_t max_gap) const {
   return options;
 }
 
+std::optional<double> normalized_innovation_squared(const Eigen::Vector2d& nu,
+                                                    const Eigen::Matrix2d& S) {
+  const Eigen::LLT<Eigen::Matrix2d> llt(S);
+  if (llt.info() != Eigen::Success) return std::nullopt;
+  return nu.dot(llt.solve(nu));
+}
+
 std::optional<double> last_step_nis(const TrackFilter& filter) {
   Eigen::Vector2d nu;
   Eigen::Matrix2d S;
   if (!filter.innovation(nu, S)) return std::nullopt;
-  const Eigen::LLT<Eigen::Matrix2d> llt(S);
-  if (llt.info() != Eigen::Success) return std::nullopt;
-  return nu.dot(llt.solve(nu));
+  return normalized_innovation_squared(nu, S);
 }
 
 namespace {

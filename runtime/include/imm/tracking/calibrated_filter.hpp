@@ -63,6 +63,8 @@ struct IMM_RUNTIME_EXPORT CovarianceCalibration {
   [[nodiscard]] double state_scale(long used, double level) const noexcept;
   /// The bin of `level` (0 … edges.size()).
   [[nodiscard]] int bin(double level) const noexcept;
+  /// The NIS level after a step of NIS `nis`: memory · level + (1 − memory) · min(nis, nis_cap).
+  [[nodiscard]] double next_level(double level, double nis) const noexcept;
 };
 
 /// The calibration a model file carries (`/calibration`), or nothing. Throws io::FileError naming

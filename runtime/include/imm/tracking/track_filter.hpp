@@ -146,8 +146,14 @@ IMM_RUNTIME_EXPORT StepStatus predict_only_over(TrackFilter& filter, double peri
 /// filter of one period the k − 1 cycles between are predicted and kept first.
 IMM_RUNTIME_EXPORT StepStatus predict_over(TrackFilter& filter, double period, double interval);
 
-/// The normalized innovation squared νᵀ S⁻¹ ν of the filter's last step (TrackFilter::innovation),
-/// or nothing when there is none or S is not positive definite. Allocation-free.
+/// The normalized innovation squared νᵀ S⁻¹ ν (by S's Cholesky factor), or nothing when S is not
+/// positive definite. Allocation-free.
+[[nodiscard]] IMM_RUNTIME_EXPORT std::optional<double> normalized_innovation_squared(
+    const Eigen::Vector2d& nu, const Eigen::Matrix2d& S);
+
+/// The normalized innovation squared of the filter's last step (TrackFilter::innovation,
+/// normalized_innovation_squared), or nothing when there is none or S is not positive definite.
+/// Allocation-free.
 [[nodiscard]] IMM_RUNTIME_EXPORT std::optional<double> last_step_nis(const TrackFilter& filter);
 
 }  // namespace imm
