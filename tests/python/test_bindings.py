@@ -538,10 +538,12 @@ def test_a_long_run_lets_other_python_threads_go_on():
     assert inside > 20, (inside, end - begin)
 
 
-def test_a_calibrated_plain_imms_bank_states_and_gates_as_its_filter():
-    """A plain IMM whose file carries a covariance calibration: its bank's covariance and gate are
-    the calibrated Filter's, scan by scan; a learned kind's bank keeps the model's own."""
-    model = os.path.join(MODELS, "classical_imm_agile_air.h5")
+@pytest.mark.parametrize("name", ["classical_imm_agile_air", "mlp_input_estimator_agile_air"])
+def test_a_calibrated_models_bank_states_and_gates_as_its_filter(name):
+    """A plain IMM or an input estimator whose file carries a covariance calibration: its bank's
+    covariance and gate are the calibrated Filter's, scan by scan; the GA-fuzzy IMM's bank keeps
+    the model's own."""
+    model = os.path.join(MODELS, name + ".h5")
     bank, alone = immtrain.TrackBank(model, 1), immtrain.Filter(model)
     assert bank.calibrated and alone.calibration is not None
     n = bank.state_dimension
@@ -553,7 +555,7 @@ def test_a_calibrated_plain_imms_bank_states_and_gates_as_its_filter():
     for k in range(1, 25):
         z = np.array([200.0 * k, 0.0]) + 40.0 * rng.standard_normal(2)
         assert bank.step(z[None, :]) == [alone.step(z)]
-        # The general bank is the one-track IMM itself: the same numbers.
+        # Each bank runs its one-track filter's arithmetic: the same numbers.
         np.testing.assert_array_equal(bank.estimate(0)[0], alone.state()[0])
         np.testing.assert_array_equal(bank.estimate(0)[1], alone.state()[1])
     # The gate: a plot just inside the filter's calibrated distance scores, just outside is cut.

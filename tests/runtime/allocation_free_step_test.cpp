@@ -184,9 +184,10 @@ TEST(AllocationFreeStep, PlainImmTrackBankStep) {
   EXPECT_EQ(allocations(), before);
 }
 
-// A calibrated bank (CalibratedTrackBank) over TrackBank's kernel and over the general bank of a
-// shipped calibrated CV/CA/CT IMM: its steps (features from the NIS each states) and its gating
-// matrix with a gate per track, bad plots included.
+// A calibrated bank (CalibratedTrackBank) over TrackBank's kernel, over the general bank of a
+// shipped calibrated CV/CA/CT IMM and over a shipped input estimator's lane bank: its steps
+// (features from the NIS each states) and its gating matrix with a gate per track, bad plots
+// included.
 TEST(AllocationFreeStep, CalibratedTrackBankStepAndGating) {
   auto calibration = std::make_shared<CovarianceCalibration>();
   calibration->start_innovation = {2.0, 1.0};
@@ -199,6 +200,7 @@ TEST(AllocationFreeStep, CalibratedTrackBankStepAndGating) {
       std::make_unique<TrackBankAdapter<TrackBank>>(testing::cv3_spec(), kBankTracks),
       calibration));
   banks.push_back(open_track_bank("models/classical_imm_agile_air.h5", kBankTracks));
+  banks.push_back(open_track_bank("models/mlp_input_estimator_agile_air.h5", kBankTracks));
   for (auto& bank : banks) {
     ASSERT_NE(bank->calibration(), nullptr);
     const int n = bank->state_dimension();

@@ -2,10 +2,10 @@
 // CalibratedTrackBank: a bank opened from a calibrated model follows the calibrated one-track
 // filters load_filter builds — the same features (plots used, NIS level), covariances scaled alike,
 // and a gating matrix whose gate is the calibrated distance's, judged at 0.99 and 1.01 of the
-// gate — on the shipped plain IMMs (the general bank, Cartesian and polar plots) and on TrackBank's
-// vectorized kernel under a calibration of many bins set by hand; the NIS each bank states equals
-// last_step_nis of its filter; what it refuses; and the kinds whose banks keep the model's own
-// covariances say so.
+// gate — on the shipped plain IMMs (the general bank, Cartesian and polar plots), on the shipped
+// input estimators (their lane bank), and on TrackBank's vectorized kernel under a calibration of
+// many bins set by hand; the NIS each bank states equals last_step_nis of its filter; what it
+// refuses; and the kinds whose banks keep the model's own covariances say so.
 #include "imm/calibrated_track_bank.hpp"
 
 #include <gtest/gtest.h>
@@ -149,6 +149,20 @@ TEST(CalibratedTrackBank, OpenedFromTheShippedPlainImmsItGatesAndStatesAsTheirFi
   }
 }
 
+TEST(CalibratedTrackBank, OpenedFromTheShippedInputEstimatorsItGatesAndStatesAsTheirFilters) {
+  // The input estimator's bank runs its one-track filter's scan per lane: the same numbers.
+  for (const char* model : {"mlp_input_estimator_agile_air", "mlp_input_estimator_ground_vehicle",
+                            "mlp_input_estimator"}) {
+    const std::string path = std::string("models/") + model + ".h5";
+    const double period = load_filter(path).options.sample_period;
+    auto single = calibrated_filters(path, 11);  // a block of 8 tracks and three more
+    auto bank = open_track_bank(path, 11);
+    ASSERT_NE(bank->calibration(), nullptr) << model;
+    ASSERT_NE(dynamic_cast<CalibratedTrackBank*>(bank.get()), nullptr) << model;
+    expect_bank_follows_calibrated_filters(*bank, single, period, false, 0.0, model);
+  }
+}
+
 // A calibration of five start entries and four level bins with factors far from 1, so that a track
 // crosses bins and each factor shows.
 std::shared_ptr<CovarianceCalibration> many_bins() {
@@ -184,15 +198,18 @@ TEST(CalibratedTrackBank, OnTrackBanksKernelItGatesAndStatesAsTheCalibratedFilte
   expect_bank_follows_calibrated_filters(bank, single, 1.0, false, 1e-9, "TrackBank");
 }
 
-TEST(CalibratedTrackBank, TheNisABankStatesIsItsFiltersLastStepNis) {
-  const std::string path = "models/classical_imm_agile_air.h5";
+class TheNisABankStates : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(TheNisABankStates, IsItsFiltersLastStepNis) {
+  const std::string path = std::string("models/") + GetParam() + ".h5";
+  const double period = load_filter(path).options.sample_period;
   auto bank = open_track_bank(path, 3);
   auto& inner = dynamic_cast<CalibratedTrackBank&>(*bank).inner();
   ASSERT_TRUE(inner.states_step_nis());
   auto single = testing::one_track_filters(3, [&] { return load_filter(path).filter; });
   const int n = bank->state_dimension();
   for (std::size_t t = 0; t < 3; ++t) {
-    const Start s = start_of(static_cast<int>(t), n, 1.0);
+    const Start s = start_of(static_cast<int>(t), n, period);
     inner.initialize(t, s.mean, s.covariance);
     single[t]->initialize(s.mean, s.covariance);
   }
@@ -201,7 +218,8 @@ TEST(CalibratedTrackBank, TheNisABankStatesIsItsFiltersLastStepNis) {
   std::vector<StepStatus> status(3);
   std::vector<double> nis(3);
   for (int k = 1; k <= 20; ++k) {
-    for (int t = 0; t < 3; ++t) plots[static_cast<std::size_t>(t)] = plot_of(t, k, 1.0, false, rng);
+    for (int t = 0; t < 3; ++t)
+      plots[static_cast<std::size_t>(t)] = plot_of(t, k, period, false, rng);
     inner.step(plots, status, nis);
     for (std::size_t t = 0; t < 3; ++t) {
       ASSERT_EQ(status[t], single[t]->step(plots[t]));
@@ -216,6 +234,10 @@ TEST(CalibratedTrackBank, TheNisABankStatesIsItsFiltersLastStepNis) {
     }
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(Banks, TheNisABankStates,
+                         ::testing::Values("classical_imm_agile_air",
+                                           "mlp_input_estimator_agile_air"));
 
 TEST(CalibratedTrackBank, RefusesWhatItCannotCalibrateAndNamesTheField) {
   const auto calibration = many_bins();

@@ -16,19 +16,21 @@
 #include "imm/estimation/kalman_filter.hpp"
 #include "imm/filters/axis_filter.hpp"
 #include "imm/math/lane_math.hpp"
+#include "imm/tracking/track_filter.hpp"
 
 namespace imm {
 namespace {
 
 namespace step = input_estimator;
 
-// One scan of one block's W lanes, a track's two lanes failing as one.
+// One scan of one block's W lanes, a track's two lanes failing as one; the lanes' ν and S into
+// `report` where it is not null.
 template <int W>
 [[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const step::Constants& b, double* state,
                                                    std::ptrdiff_t stride, const double* z,
                                                    const double* stepped, double* code,
-                                                   double* work) {
-  step::scan<W, true>(b, state, stride, z, stepped, code, work, nullptr);
+                                                   double* work, step::ScanReport<W>* report) {
+  step::scan<W, true>(b, state, stride, z, stepped, code, work, report);
 }
 
 // The gating matrix's tracks in chunks: per axis ẑ, S and log S of each track's prediction, and
@@ -39,14 +41,17 @@ struct GatingChunk {
   alignas(64) double variance[2][kGatingChunk];
   alignas(64) double log_variance[2][kGatingChunk];
   alignas(64) double unscored[kGatingChunk];
+  alignas(64) double gate[kGatingChunk];  // the track's gate
 };
 
 // One usable plot (x, y) against the first n tracks of a chunk, into column[0 … n): the axes'
 // ν²/S and log N(ν; 0, S) (axis_log_density's arithmetic, the one-track filter's bits), −∞ past
-// the gate, NaN for a track that cannot be scored. One loop over the tracks without branches.
+// the track's gate, NaN for a track that cannot be scored. One loop over the tracks without
+// branches.
 [[gnu::flatten]] IMM_VECTOR_CLONES void score_chunk(const GatingChunk& c, int n, double x, double y,
-                                                    double gate, double* column) {
+                                                    double* column) {
   for (int i = 0; i < n; ++i) {
+    const double gate = c.gate[i];
     const double nu_x = x - c.z_hat[0][i], nu_y = y - c.z_hat[1][i];
     const double d_x = nu_x * nu_x / c.variance[0][i], d_y = nu_y * nu_y / c.variance[1][i];
     const double log_likelihood = axis_log_density_of(d_x, c.log_variance[0][i]) +
@@ -87,13 +92,39 @@ void InputEstimatorTrackBank::initialize(std::size_t track, const GaussianState<
 
 void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
                                    std::span<StepStatus> status) {
+  step(plots, status, nullptr);
+}
+
+void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
+                                   std::span<StepStatus> status, std::span<double> nis) {
+  bank::check_nis("InputEstimatorTrackBank", plots.size(), nis.size());
+  step(plots, status, nis.data());
+}
+
+void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
+                                   std::span<StepStatus> status, double* nis) {
   check_step("InputEstimatorTrackBank", plots.size(), status.size());
   double* work = scratch_.data() + std::ptrdiff_t{3} * kBlock;
   bank::step_blocks<kBlock>(
       plots, status, wide_blocks_, scratch_.data(),
       [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
-        step_block<decltype(width)::value>(constants_->b, slot(0) + first, stride(), z, stepped,
-                                           code, work);
+        constexpr int W = decltype(width)::value;
+        if (nis == nullptr) {
+          step_block<W>(constants_->b, slot(0) + first, stride(), z, stepped, code, work, nullptr);
+          return;
+        }
+        step::ScanReport<W> report;  // NOLINT(cppcoreguidelines-pro-type-member-init): written
+        step_block<W>(constants_->b, slot(0) + first, stride(), z, stepped, code, work, &report);
+        // The one-track filter's innovation (TwoAxisFilter: diag(S_x, S_y)) and last_step_nis's
+        // arithmetic on it.
+        for (int l = 0; l < W && first / 2 + l / 2 < plots.size(); l += 2) {
+          const std::size_t track = first / 2 + static_cast<std::size_t>(l / 2);
+          const Eigen::Vector2d nu(report.nu[l], report.nu[l + 1]);
+          const Eigen::Matrix2d S{{report.s[l], 0.0}, {0.0, report.s[l + 1]}};
+          const auto value = normalized_innovation_squared(nu, S);
+          nis[track] =
+              code[l] == step::kOk && value ? *value : std::numeric_limits<double>::quiet_NaN();
+        }
       });
 }
 
@@ -101,6 +132,20 @@ void InputEstimatorTrackBank::candidate_log_likelihoods(
     std::span<const Eigen::Vector2d> plots, double gate,
     Eigen::Ref<Eigen::MatrixXd> out) const {  // NOLINT(performance-unnecessary-value-param)
   check_candidates("InputEstimatorTrackBank", plots.size(), gate, out.rows(), out.cols());
+  score(plots, gate, nullptr, out);
+}
+
+void InputEstimatorTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) const {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates("InputEstimatorTrackBank", plots.size(), gate, out.rows(), out.cols());
+  bank::check_gate_scale(gate_scale, out.rows());
+  score(plots, gate, gate_scale.data(), out);
+}
+
+void InputEstimatorTrackBank::score(
+    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) const {  // NOLINT(performance-unnecessary-value-param)
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   const Matrix<1, 2> H{{1.0, 0.0}};
   const SquareMatrix<1> R = SquareMatrix<1>::Constant(constants_->b.cv.R);
@@ -124,13 +169,14 @@ void InputEstimatorTrackBank::candidate_log_likelihoods(
         chunk.log_variance[axis][i] = std::log(S(0, 0));
       }
       chunk.unscored[i] = scored ? 0.0 : 1.0;
+      chunk.gate[i] = gate_scale == nullptr ? gate : gate * gate_scale[first + i];
     }
     for (std::size_t q = 0; q < plots.size(); ++q) {
       double* column = &out(first, static_cast<Eigen::Index>(q));
       if (!limits::usable_measurement(plots[q])) {
         std::fill(column, column + n, kNaN);
       } else {
-        score_chunk(chunk, n, plots[q](0), plots[q](1), gate, column);
+        score_chunk(chunk, n, plots[q](0), plots[q](1), column);
       }
     }
   }

@@ -61,6 +61,14 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank : public LaneStorage {
   /// std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
+  /// step(), stating each stepped track's normalized innovation squared: nis[t] = ν_x²/S_x +
+  /// ν_y²/S_y of the primary KFs' update (what last_step_nis gives the one-track filter after the
+  /// same step, to the bit), NaN where status[t] is not kOk. What a covariance calibration follows
+  /// (CalibratedTrackBank). Throws as step(), and std::invalid_argument when `nis` differs in
+  /// size from `plots`.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+            std::span<double> nis);
+
   /// The gating question for many tracks and plots in one call, without changing any track:
   /// out(t, q) = log p(z_q | Z_t), the log-likelihood of candidate plot q under track t's primary
   /// KF's prediction with its last input estimate (the sum of the axes' log N(ν; 0, S), as the
@@ -74,6 +82,13 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank : public LaneStorage {
   void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
                                  Eigen::Ref<Eigen::MatrixXd> out) const;
 
+  /// The same with track t gated at gate × gate_scale[t] (a calibrated S scaled by gate_scale[t]:
+  /// CalibratedTrackBank). Throws as above, and InvalidParameter("gate_scale…") unless
+  /// `gate_scale` holds out.rows() factors, each finite and positive.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 std::span<const double> gate_scale,
+                                 Eigen::Ref<Eigen::MatrixXd> out) const;
+
   /// The corrected estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
 
@@ -85,6 +100,11 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank : public LaneStorage {
 
  private:
   struct Constants;
+  // step(), with the NIS where `nis` is not null.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status, double* nis);
+  // The gating matrix once the arguments are checked; gate_scale: a factor per track, or null.
+  void score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+             Eigen::Ref<Eigen::MatrixXd> out) const;
   bool wide_blocks_ = false;
   std::shared_ptr<const Constants> constants_;  // the scan's, made from the model once
   std::vector<double> scratch_;  // one block's plots, flags, codes and two layers' activations
