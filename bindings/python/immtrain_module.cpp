@@ -453,9 +453,8 @@ PYBIND11_MODULE(immtrain, m) {
       .def_property_readonly("kind", &PyTrackBank::kind)
       .def_property_readonly("calibrated", &PyTrackBank::calibrated,
                              "True where the bank states its covariances and gate through the "
-                             "model file's covariance calibration, as the file's Filter does (a "
-                             "plain IMM, an input estimator); False: the model's own (the other "
-                             "learned kinds, or no calibration)");
+                             "model file's covariance calibration, as the file's Filter does; "
+                             "False: the model's own (a wIMM or a FIMM, or no calibration)");
 
   m.def(
       "load_tracker",

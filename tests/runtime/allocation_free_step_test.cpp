@@ -185,7 +185,8 @@ TEST(AllocationFreeStep, PlainImmTrackBankStep) {
 }
 
 // A calibrated bank (CalibratedTrackBank) over TrackBank's kernel, over the general bank of a
-// shipped calibrated CV/CA/CT IMM and over a shipped input estimator's lane bank: its steps
+// shipped calibrated CV/CA/CT IMM and over the lane banks of a shipped input estimator, GA-fuzzy
+// IMM and FCM-IMM: its steps
 // (features from the NIS each states) and its gating matrix with a gate per track, bad plots
 // included.
 TEST(AllocationFreeStep, CalibratedTrackBankStepAndGating) {
@@ -200,7 +201,10 @@ TEST(AllocationFreeStep, CalibratedTrackBankStepAndGating) {
       std::make_unique<TrackBankAdapter<TrackBank>>(testing::cv3_spec(), kBankTracks),
       calibration));
   banks.push_back(open_track_bank("models/classical_imm_agile_air.h5", kBankTracks));
-  banks.push_back(open_track_bank("models/mlp_input_estimator_agile_air.h5", kBankTracks));
+  for (const char* model :
+       {"mlp_input_estimator_agile_air", "ga_fuzzy_imm_agile_air", "fcm_imm_agile_air"}) {
+    banks.push_back(open_track_bank(std::string("models/") + model + ".h5", kBankTracks));
+  }
   for (auto& bank : banks) {
     ASSERT_NE(bank->calibration(), nullptr);
     const int n = bank->state_dimension();

@@ -117,25 +117,34 @@ void BM_MultiTrack(benchmark::State& state) {
 }
 // What a covariance calibration costs a bank's step (imm/calibrated_track_bank.hpp): 1 000 tracks
 // of W1 fed the W1 plots shifted per track, through TrackBank (kind 0; the calibration of
-// classical_imm_agile_air.h5) or of the shipped classical_imm_agile_air.h5 through its general
-// bank (kind 1), each plain (calibrated 0) or calibrated (1: the per-step NIS and features).
+// classical_imm_agile_air.h5), or a shipped agile_air model through its bank: the CV/CA/CT IMM's
+// general bank (1), the input estimator's (2), the GA-fuzzy IMM's (3) and the FCM-IMM's (4) lane
+// banks; each plain (calibrated 0) or calibrated (1: the per-step NIS and features).
 void BM_CalibratedBankStep(benchmark::State& state) {
   constexpr std::size_t kTracks = 1000;
   const bool calibrated = state.range(1) == 1;
-  const std::string model = IMM_SOURCE_DIR "/models/classical_imm_agile_air.h5";
-  std::unique_ptr<imm::AnyTrackBank> bank;
-  if (state.range(0) == 0) {
-    bank =
+  static constexpr std::array<const char*, 5> kModels = {
+      "classical_imm_agile_air", "classical_imm_agile_air", "mlp_input_estimator_agile_air",
+      "ga_fuzzy_imm_agile_air", "fcm_imm_agile_air"};
+  static constexpr std::array<const char*, 5> kLabels = {"TrackBank (W1)", "PlainImmTrackBank<7>",
+                                                         "InputEstimatorTrackBank",
+                                                         "GaFuzzyTrackBank", "FcmImmTrackBank"};
+  const auto kind = static_cast<std::size_t>(state.range(0));
+  const std::string model = std::string(IMM_SOURCE_DIR "/models/") + kModels.at(kind) + ".h5";
+  std::unique_ptr<imm::AnyTrackBank> owner;
+  if (kind == 0) {
+    owner =
         std::make_unique<imm::TrackBankAdapter<imm::TrackBank>>(imm::workloads::w1_spec(), kTracks);
     if (calibrated) {
       auto table = imm::read_calibration(imm::io::ModelFileReader(model));
-      bank = std::make_unique<imm::CalibratedTrackBank>(std::move(bank), std::move(table));
+      owner = std::make_unique<imm::CalibratedTrackBank>(std::move(owner), std::move(table));
     }
   } else {
-    bank = calibrated ? imm::open_track_bank(model, kTracks)
-                      : std::make_unique<imm::TrackBankAdapter<imm::PlainImmTrackBank<7>>>(
-                            imm::io::read_plain_imm(model), kTracks);
+    owner = imm::open_track_bank(model, kTracks);  // calibrated: the file carries a calibration
   }
+  // The plain rows step the bank the calibration wraps.
+  imm::AnyTrackBank* bank = owner.get();
+  if (!calibrated && kind != 0) bank = &dynamic_cast<imm::CalibratedTrackBank&>(*owner).inner();
   const auto& input = w1_input();
   const int n = bank->state_dimension();
   const auto start = [&](std::size_t t) {
@@ -172,10 +181,9 @@ void BM_CalibratedBankStep(benchmark::State& state) {
     }
   }
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(kTracks));
-  state.SetLabel(std::string(state.range(0) == 0 ? "TrackBank (W1)" : "PlainImmTrackBank<7>") +
-                 (calibrated ? ", calibrated" : ""));
+  state.SetLabel(std::string(kLabels.at(kind)) + (calibrated ? ", calibrated" : ""));
 }
-BENCHMARK(BM_CalibratedBankStep)->ArgsProduct({{0, 1}, {0, 1}});
+BENCHMARK(BM_CalibratedBankStep)->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}});
 
 // The small banks (1 to 8 tracks: fewer than a block's packs, the tail's own code) beside as many
 // separate filters, then the large ones.

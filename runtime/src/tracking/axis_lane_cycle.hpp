@@ -1,17 +1,37 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 // One IMM cycle (imm_cycle.hpp) of a block of axis lanes — the banks whose track is two lanes of
-// one axis each, x then y, a plot one number per lane: GaFuzzyTrackBank and FcmImmTrackBank. Not
-// installed.
+// one axis each, x then y, a plot one number per lane: GaFuzzyTrackBank and FcmImmTrackBank —
+// and the NIS such a bank states for a step (step_nis). Not installed.
 
+#include <Eigen/Core>
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstddef>
+#include <limits>
 
 #include "axis_lane_bank.hpp"
 #include "imm/math/lane_math.hpp"
+#include "imm/math/log_sum_exp.hpp"
+#include "imm/tracking/track_filter.hpp"
 #include "imm_cycle.hpp"
 
 namespace imm::bank {
+
+/// What a step that states its NIS keeps of one kernel call's lanes (at most kLanes), in a buffer
+/// of kSize doubles the bank owns: per mode j and lane l, at j · kLanes + l, the predicted log c_j
+/// (before the step) and the mode's ν_j and S_j of the update (its family's steps record them).
+struct ModeInnovations {
+  static constexpr int kLanes = 16;
+  static constexpr std::size_t kEach = static_cast<std::size_t>(kMaxModes) * kLanes,
+                               kSize = 3 * kEach;
+  explicit ModeInnovations(double* buffer)
+      : log_c(buffer), nu(buffer + kEach), s(buffer + 2 * kEach) {}
+  double* log_c;
+  double* nu;
+  double* s;
+};
 
 /// What the imm_cycle.hpp families of axis lanes share: a mode's estimate is its first five
 /// entries [x0, x1, p00, p01, p11], mixed by collapse_axis, and a track's code is that of the first
@@ -33,7 +53,79 @@ struct AxisLaneFamily {
   [[gnu::always_inline]] inline S track_code(S code) const {
     return paired_codes(code);
   }
+
+  // Where not null, mode j's steps of K packs (the call's lanes from its first) record ν_j and S_j.
+  const ModeInnovations* record = nullptr;
+  template <class S, int K>
+  [[gnu::always_inline]] inline void record_innovations(int j, const S (&nu)[K],
+                                                        const S (&s)[K]) const {
+    if (record == nullptr) return;
+    for (int k = 0; k < K; ++k) {
+      const std::ptrdiff_t at = static_cast<std::ptrdiff_t>(j) * ModeInnovations::kLanes +
+                                static_cast<std::ptrdiff_t>(k) * kLanesOf<S>;
+      lane_store(record->nu + at, nu[k]);
+      lane_store(record->s + at, s[k]);
+    }
+  }
 };
+
+/// log c_j = log Σ_i p_ij μ_i of lanes [0, lanes) into r.log_c, each lane's log μ_i read by
+/// log_mu(i, l): ImmEstimator::predict_mode_probabilities, lane by lane.
+template <class LogMu>
+void predict_log_c(const CycleBlock& b, int lanes, LogMu&& log_mu, const ModeInnovations& r) {
+  const int n = b.modes;
+  for (int l = 0; l < lanes; ++l) {
+    double log_p[kMaxModes], scaled[kMaxModes];
+    double shift = -std::numeric_limits<double>::infinity();
+    for (int i = 0; i < n; ++i) {
+      log_p[i] = log_mu(i, l);
+      shift = std::max(shift, log_p[i]);
+    }
+    for (int i = 0; i < n; ++i) scaled[i] = std::exp(log_p[i] - shift);
+    for (int j = 0; j < n; ++j) {
+      double c = 0.0;
+      for (int i = 0; i < n; ++i) c += b.transition[i * n + j] * scaled[i];
+      double& out = r.log_c[j * ModeInnovations::kLanes + l];
+      if (c > 0.0) {
+        out = std::log(c) + shift;
+      } else {
+        ModeVector terms(n);
+        for (int i = 0; i < n; ++i) terms(i) = b.log_transition[i * n + j] + log_p[i];
+        out = log_sum_exp(terms);
+      }
+    }
+  }
+}
+
+/// The NIS of the track whose x lane is `lane` (its y lane the next) after a successful step, as
+/// last_step_nis gives its one-track filter (a TwoAxisFilter of two ImmEstimator<2, 1>): per axis
+/// ImmEstimator::collapse of the modes' ν_j and S_j with the normalized c_j, then νᵀ S⁻¹ ν with
+/// S = diag(S_x, S_y). NaN where S is not positive definite.
+inline double step_nis(const ModeInnovations& r, int n, int lane) {
+  double nu[2], S[2];
+  for (int axis = 0; axis < 2; ++axis) {
+    auto at = [&](int j) { return j * ModeInnovations::kLanes + lane + axis; };
+    double shift = -std::numeric_limits<double>::infinity();
+    for (int j = 0; j < n; ++j) shift = std::max(shift, r.log_c[at(j)]);
+    double total = 0.0;
+    for (int j = 0; j < n; ++j) total += std::exp(r.log_c[at(j)] - shift);
+    nu[axis] = 0.0;
+    for (int j = 0; j < n; ++j) {
+      const double c = std::exp(r.log_c[at(j)] - shift) / total;
+      if (c != 0.0) nu[axis] += c * r.nu[at(j)];
+    }
+    S[axis] = 0.0;
+    for (int j = 0; j < n; ++j) {
+      const double c = std::exp(r.log_c[at(j)] - shift) / total;
+      if (c == 0.0) continue;
+      const double d = r.nu[at(j)] - nu[axis];
+      S[axis] += c * (r.s[at(j)] + d * d);
+    }
+  }
+  const auto value = normalized_innovation_squared(Eigen::Vector2d(nu[0], nu[1]),
+                                                   Eigen::Matrix2d{{S[0], 0.0}, {0.0, S[1]}});
+  return value ? *value : std::numeric_limits<double>::quiet_NaN();
+}
 
 /// One IMM cycle of family `family` over one block's W lanes (whole packs of Pack) of N modes from
 /// lane `first`: `z` the lanes' plots (NaN for an unusable plot), `stepped` 1 for a lane to step;

@@ -125,20 +125,22 @@ double track_log_likelihood(const F& family, const HeldTrack<F, N>& h, const Eig
 /// The gating matrix of tracks 0 … out.rows() − 1 of block `b` (the state at its first lane)
 /// against `plots`: each track held in turn with family_of(t), the family of track t (a family may
 /// point at its track's own slots), then every plot scored (see the file comment): NaN for an
-/// unusable plot, −∞ past the gate, else the log-likelihood. The state is not changed.
+/// unusable plot, −∞ past the track's gate (gate × gate_scale[t], or gate where gate_scale is
+/// null), else the log-likelihood. The state is not changed.
 template <int N, class F, class FamilyOf>
 void score_tracks(const CycleBlock& b, FamilyOf&& family_of, std::span<const Eigen::Vector2d> plots,
-                  double gate, Eigen::Ref<Eigen::MatrixXd> out) {
+                  double gate, const double* gate_scale, Eigen::Ref<Eigen::MatrixXd> out) {
   HeldTrack<F, N> held;
   for (Eigen::Index t = 0; t < out.rows(); ++t) {
     const F family = family_of(t);
+    const double track_gate = gate_scale == nullptr ? gate : gate * gate_scale[t];
     hold_track<N>(family, b, static_cast<int>(t), held);
     for (std::size_t q = 0; q < plots.size(); ++q) {
       const Eigen::Vector2d& z = plots[q];
       double& entry = out(t, static_cast<Eigen::Index>(q));
       if (!limits::usable_measurement(z)) {
         entry = std::numeric_limits<double>::quiet_NaN();
-      } else if (track_distance(held, z) > gate) {
+      } else if (track_distance(held, z) > track_gate) {
         entry = -std::numeric_limits<double>::infinity();
       } else {
         entry = track_log_likelihood(family, held, z);

@@ -113,6 +113,14 @@ struct FcmFamily : bank::AxisLaneFamily {
       lane_store(pending->error[j] + lane, predicted[k].clustered);
       lane_store(usable + lane, pick(predicted[k].usable, splat<S>(1.0), splat<S>(0.0)));
     }
+    if (record != nullptr) {  // the mode's kept innovation (FcmCompensatedMode: e and S)
+      S error[K], variance[K];
+      for (int k = 0; k < K; ++k) {
+        error[k] = predicted[k].error;
+        variance[k] = predicted[k].s;
+      }
+      record_innovations<S, K>(j, error, variance);
+    }
     for (int l = 0; l < W; ++l) {
       pending->clustered[j][l] = 0.0;
       u1[l] = 1.0;
@@ -227,6 +235,7 @@ FcmImmTrackBank::FcmImmTrackBank(const FcmImmSpec& spec, std::size_t capacity) :
   }
   scratch_.assign(
       static_cast<std::size_t>(1 + kFcmClusters) * static_cast<std::size_t>(spec.window), 0.0);
+  innovations_.assign(bank::ModeInnovations::kSize, 0.0);
 }
 
 void FcmImmTrackBank::initialize(std::size_t track, const GaussianState<4>& state) {
@@ -257,7 +266,19 @@ int FcmImmTrackBank::window_slot(int mode, int entry) const {
 }
 
 void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
+  step(plots, status, nullptr);
+}
+
+void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                           std::span<double> nis) {
+  bank::check_nis("FcmImmTrackBank", plots.size(), nis.size());
+  step(plots, status, nis.data());
+}
+
+void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                           double* nis) {
   check_step("FcmImmTrackBank", plots.size(), status.size());
+  const bank::ModeInnovations innovations(innovations_.data());
   const BankConstants b = bank_constants(spec_, scratch_.data());
   const bank::CycleBlock cycle{b.modes, transition_.data(), log_transition_.data(), slot(0),
                                stride()};
@@ -275,9 +296,21 @@ void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<Ste
         [&](auto /*width*/, std::size_t first, const double* z, const double* stepped,
             double* code) {
           const auto lane = static_cast<std::ptrdiff_t>(first);
-          const FcmFamily family{
+          FcmFamily family{
               {}, &b, stepped, slot(window_slot(0, 0)) + lane, stride(), window_slots_, &pending};
+          if (nis != nullptr) {
+            family.record = &innovations;
+            bank::predict_log_c(
+                cycle, kBlock,
+                [&](int i, int l) { return slot(i * kModeSlots + kLogMu)[lane + l]; }, innovations);
+          }
           block(family, cycle, lane, z, stepped, code);
+          if (nis == nullptr) return;
+          for (int l = 0; l < kBlock && first / 2 + l / 2 < plots.size(); l += 2) {
+            nis[first / 2 + static_cast<std::size_t>(l / 2)] =
+                code[l] == kOk ? bank::step_nis(innovations, b.modes, l)
+                               : std::numeric_limits<double>::quiet_NaN();
+          }
         });
   });
 }
@@ -286,6 +319,20 @@ void FcmImmTrackBank::candidate_log_likelihoods(
     std::span<const Eigen::Vector2d> plots, double gate,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   check_candidates("FcmImmTrackBank", plots.size(), gate, out.rows(), out.cols());
+  score(plots, gate, nullptr, out);
+}
+
+void FcmImmTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates("FcmImmTrackBank", plots.size(), gate, out.rows(), out.cols());
+  bank::check_gate_scale(gate_scale, out.rows());
+  score(plots, gate, gate_scale.data(), out);
+}
+
+void FcmImmTrackBank::score(
+    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   const BankConstants b = bank_constants(spec_, scratch_.data());
   const bank::CycleBlock cycle{b.modes, transition_.data(), log_transition_.data(), slot(0),
                                stride()};
@@ -299,7 +346,7 @@ void FcmImmTrackBank::candidate_log_likelihoods(
           return FcmFamily{
               {}, &b, stepped, slot(window_slot(0, 0)) + 2 * t, stride(), window_slots_, &pending};
         },
-        plots, gate, out);
+        plots, gate, gate_scale, out);
   });
 }
 

@@ -52,6 +52,14 @@ struct FuzzyNoiseFamily : bank::AxisLaneFamily {
     }
     lanes::FuzzyNoiseStep<S> s[K];
     lanes::fuzzy_noise_steps<S, K>(*axis, levels[j], z, previous, start, s);
+    if (record != nullptr) {  // the mode's kept innovation (FuzzyNoiseFilter: r and S)
+      S residual[K], variance[K];
+      for (int k = 0; k < K; ++k) {
+        residual[k] = s[k].residual;
+        variance[k] = s[k].s;
+      }
+      record_innovations<S, K>(j, residual, variance);
+    }
     for (int k = 0; k < K; ++k) {
       const lanes::AxisEstimateOf<S>& e = s[k].estimate;
       updated[k] = {e.x0, e.x1, e.p00, e.p01, e.p11, s[k].antecedent};
@@ -113,6 +121,7 @@ GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capac
       spec.settings.sample_period,
       spec.settings.measurement_sigma * spec.settings.measurement_sigma, spec.antecedents);
   scratch_.assign(std::size_t{3} * kBlock, 0.0);
+  innovations_.assign(bank::ModeInnovations::kSize, 0.0);
 }
 
 void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& state) {
@@ -142,10 +151,23 @@ void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& sta
 }
 
 void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
+  step(plots, status, nullptr);
+}
+
+void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                            std::span<double> nis) {
+  bank::check_nis("GaFuzzyTrackBank", plots.size(), nis.size());
+  step(plots, status, nis.data());
+}
+
+void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                            double* nis) {
   check_step("GaFuzzyTrackBank", plots.size(), status.size());
-  const FuzzyNoiseFamily family{{}, &axis_, levels_.data()};
+  FuzzyNoiseFamily family{{}, &axis_, levels_.data()};
   const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), slot(0),
                                stride()};
+  const bank::ModeInnovations innovations(innovations_.data());
+  if (nis != nullptr) family.record = &innovations;
   // The instruction set's function for the mode count and block width, chosen outside it (a
   // lambda inside a function compiled for an instruction set is compiled for the baseline).
   const LaneIsa isa = lane_isa();
@@ -154,9 +176,23 @@ void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<St
         plots, status, wide_blocks_, scratch_.data(),
         [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
           constexpr int W = decltype(width)::value, N = decltype(n)::value;
+          if (nis != nullptr) {
+            bank::predict_log_c(
+                cycle, W,
+                [&](int i, int l) {
+                  return slot(i * kModeSlots + kLogMu)[static_cast<std::ptrdiff_t>(first) + l];
+                },
+                innovations);
+          }
           for_lane_isa(isa, step_block_avx512<W, N>, step_block_avx2<W, N>,
                        step_block_baseline<W, N>)(family, cycle, static_cast<std::ptrdiff_t>(first),
                                                   z, stepped, code);
+          if (nis == nullptr) return;
+          for (int l = 0; l < W && first / 2 + l / 2 < plots.size(); l += 2) {
+            nis[first / 2 + static_cast<std::size_t>(l / 2)] =
+                code[l] == kOk ? bank::step_nis(innovations, modes_, l)
+                               : std::numeric_limits<double>::quiet_NaN();
+          }
         });
   });
 }
@@ -165,12 +201,26 @@ void GaFuzzyTrackBank::candidate_log_likelihoods(
     std::span<const Eigen::Vector2d> plots, double gate,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   check_candidates("GaFuzzyTrackBank", plots.size(), gate, out.rows(), out.cols());
+  score(plots, gate, nullptr, out);
+}
+
+void GaFuzzyTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates("GaFuzzyTrackBank", plots.size(), gate, out.rows(), out.cols());
+  bank::check_gate_scale(gate_scale, out.rows());
+  score(plots, gate, gate_scale.data(), out);
+}
+
+void GaFuzzyTrackBank::score(
+    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   const FuzzyNoiseFamily family{{}, &axis_, levels_.data()};
   const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), slot(0),
                                stride()};
   bank::with_mode_count(modes_, [&](auto n) {
     bank::score_tracks<decltype(n)::value, FuzzyNoiseFamily>(
-        cycle, [&](Eigen::Index /*track*/) { return family; }, plots, gate, out);
+        cycle, [&](Eigen::Index /*track*/) { return family; }, plots, gate, gate_scale, out);
   });
 }
 

@@ -71,6 +71,13 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank : public LaneStorage {
   /// std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
+  /// step(), stating each stepped track's normalized innovation squared into nis[t] as
+  /// GaFuzzyTrackBank::step with `nis` does (each mode's ν_j = e and S_j of its update), what
+  /// last_step_nis gives the one-track filter after the same step; NaN where status[t] is not kOk.
+  /// Throws as step(), and std::invalid_argument when `nis` differs in size from `plots`.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+            std::span<double> nis);
+
   /// The gating question for many tracks and plots in one call, without changing any track:
   /// out(t, q) = log p(z_q | Z_t) of candidate plot q under track t (each axis's
   /// log Σ_j c_j N_j of a trial step of every mode: the window's clustering reads the plot's
@@ -82,6 +89,11 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank : public LaneStorage {
   /// call. Throws as GaFuzzyTrackBank::candidate_log_likelihoods. Nothing is allocated.
   void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
                                  Eigen::Ref<Eigen::MatrixXd> out);
+  /// The same with track t gated at gate × gate_scale[t] (CalibratedTrackBank); throws as
+  /// GaFuzzyTrackBank's.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 std::span<const double> gate_scale,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
 
   /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
@@ -90,6 +102,11 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank : public LaneStorage {
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
  private:
+  // step(), with the NIS where `nis` is not null.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status, double* nis);
+  // The gating matrix once the arguments are checked; gate_scale: a factor per track, or null.
+  void score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+             Eigen::Ref<Eigen::MatrixXd> out);
   // Slot of entry `entry` of mode `mode`'s window (after every mode's cycle slots).
   [[nodiscard]] int window_slot(int mode, int entry) const;
 
@@ -98,6 +115,7 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank : public LaneStorage {
   std::vector<double> transition_;      // π_ij at i * modes + j
   std::vector<double> log_transition_;  // log π_ij likewise
   std::vector<double> scratch_;         // one lane's window and memberships for the clustering
+  std::vector<double> innovations_;     // a step's modes' innovations where it states its NIS
 };
 
 }  // namespace imm

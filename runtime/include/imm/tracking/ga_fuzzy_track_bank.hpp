@@ -70,6 +70,15 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public LaneStorage {
   /// std::logic_error when a stepped track was never initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
+  /// step(), stating each stepped track's normalized innovation squared into nis[t]: per axis the
+  /// modes' ν_j and S_j of the update collapsed with the predicted c_j, then νᵀ S⁻¹ ν — what
+  /// last_step_nis gives the one-track filter after the same step, to 1e-12 relative (the bank's
+  /// state is the filter's to rounding) — NaN where status[t] is not kOk. What a covariance
+  /// calibration follows (CalibratedTrackBank). Throws as step(), and std::invalid_argument when
+  /// `nis` differs in size from `plots`.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+            std::span<double> nis);
+
   /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
   /// The gating question for many tracks and plots in one call, without changing any track:
@@ -86,11 +95,22 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public LaneStorage {
   /// never initialized. Nothing is allocated.
   void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
                                  Eigen::Ref<Eigen::MatrixXd> out);
+  /// The same with track t gated at gate × gate_scale[t] (a calibrated S scaled by gate_scale[t]:
+  /// CalibratedTrackBank). Throws as above, and InvalidParameter("gate_scale…") unless
+  /// `gate_scale` holds out.rows() factors, each finite and positive.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 std::span<const double> gate_scale,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
 
   /// μ of the x modes, then of the y modes (as TwoAxisFilter::mode_probabilities).
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
  private:
+  // step(), with the NIS where `nis` is not null.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status, double* nis);
+  // The gating matrix once the arguments are checked; gate_scale: a factor per track, or null.
+  void score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+             Eigen::Ref<Eigen::MatrixXd> out);
   bool wide_blocks_ = false;
   int modes_ = 0;
   std::vector<double> transition_;      // π_ij at i * modes + j
@@ -98,7 +118,8 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public LaneStorage {
   std::vector<double> initial_log_mu_;
   lanes::FuzzyAxisConstants axis_;
   std::vector<lanes::FuzzyLevelConstants> levels_;
-  std::vector<double> scratch_;  // one block's plots, step flags and codes
+  std::vector<double> scratch_;      // one block's plots, step flags and codes
+  std::vector<double> innovations_;  // a step's modes' innovations where it states its NIS
 };
 
 }  // namespace imm
