@@ -107,16 +107,19 @@ inline double step_nis(const ModeInnovations& r, int n, int lane) {
     auto at = [&](int j) { return j * ModeInnovations::kLanes + lane + axis; };
     double shift = -std::numeric_limits<double>::infinity();
     for (int j = 0; j < n; ++j) shift = std::max(shift, r.log_c[at(j)]);
-    double total = 0.0;
-    for (int j = 0; j < n; ++j) total += std::exp(r.log_c[at(j)] - shift);
+    double scaled[kMaxModes], total = 0.0;
+    for (int j = 0; j < n; ++j) {
+      scaled[j] = std::exp(r.log_c[at(j)] - shift);
+      total += scaled[j];
+    }
     nu[axis] = 0.0;
     for (int j = 0; j < n; ++j) {
-      const double c = std::exp(r.log_c[at(j)] - shift) / total;
+      const double c = scaled[j] / total;
       if (c != 0.0) nu[axis] += c * r.nu[at(j)];
     }
     S[axis] = 0.0;
     for (int j = 0; j < n; ++j) {
-      const double c = std::exp(r.log_c[at(j)] - shift) / total;
+      const double c = scaled[j] / total;
       if (c == 0.0) continue;
       const double d = r.nu[at(j)] - nu[axis];
       S[axis] += c * (r.s[at(j)] + d * d);
