@@ -112,8 +112,7 @@ class TrackBank:
         fusion and with the extended update (the nIMM); a fusing or converting wIMM's bank raises
         RuntimeError, as its filter has no split cycle. A plain IMM whose file carries a
         covariance calibration gates each track at `gate` times its calibrated factor, as its
-        one-track filter's candidate_distance does, except the wIMM's and the FIMM's banks, which
-        gate on the model's own S."""
+        one-track filter's candidate_distance does."""
     @property
     def capacity(self) -> int:
         """The number of tracks."""
@@ -123,8 +122,8 @@ class TrackBank:
     @property
     def calibrated(self) -> bool:
         """True where the bank states its covariances and gate through the model file's
-        covariance calibration, as the file's Filter does; False: the model's own (a wIMM or a
-        FIMM, or a file without a calibration)."""
+        covariance calibration, as the file's Filter does; False: the model's own (a file without
+        a calibration)."""
     @property
     def state_dimension(self) -> int:
         """The state dimension n."""

@@ -454,7 +454,7 @@ PYBIND11_MODULE(immtrain, m) {
       .def_property_readonly("calibrated", &PyTrackBank::calibrated,
                              "True where the bank states its covariances and gate through the "
                              "model file's covariance calibration, as the file's Filter does; "
-                             "False: the model's own (a wIMM or a FIMM, or no calibration)");
+                             "False: the model's own (a file without a calibration)");
 
   m.def(
       "load_tracker",

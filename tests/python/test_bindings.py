@@ -541,8 +541,8 @@ def test_a_long_run_lets_other_python_threads_go_on():
 @pytest.mark.parametrize("name", ["classical_imm_agile_air", "mlp_input_estimator_agile_air"])
 def test_a_calibrated_models_bank_states_and_gates_as_its_filter(name):
     """A plain IMM or an input estimator whose file carries a covariance calibration: its bank's
-    covariance and gate are the calibrated Filter's, scan by scan; the wIMM's bank keeps the
-    model's own."""
+    covariance and gate are the calibrated Filter's, scan by scan; every kind's bank is calibrated
+    where its file is, and a file without a calibration keeps the model's own."""
     model = os.path.join(MODELS, name + ".h5")
     bank, alone = immtrain.TrackBank(model, 1), immtrain.Filter(model)
     assert bank.calibrated and alone.calibration is not None
@@ -572,4 +572,5 @@ def test_a_calibrated_models_bank_states_and_gates_as_its_filter(name):
                 low = mid
         entry = bank.candidate_log_likelihoods((z_hat + low * direction)[None, :], 1, gate=9.21)
         assert np.isfinite(entry[0, 0]) == inside
-    assert not immtrain.TrackBank(os.path.join(MODELS, "wimm.h5"), 1).calibrated
+    assert immtrain.TrackBank(os.path.join(MODELS, "wimm.h5"), 1).calibrated
+    assert not immtrain.TrackBank(os.path.join(MODELS, "cv3_imm.h5"), 1).calibrated

@@ -186,7 +186,7 @@ TEST(AllocationFreeStep, PlainImmTrackBankStep) {
 
 // A calibrated bank (CalibratedTrackBank) over TrackBank's kernel, over the general bank of a
 // shipped calibrated CV/CA/CT IMM and over the lane banks of a shipped input estimator, GA-fuzzy
-// IMM and FCM-IMM: its steps
+// IMM, FCM-IMM, nIMM and FIMM: its steps
 // (features from the NIS each states) and its gating matrix with a gate per track, bad plots
 // included.
 TEST(AllocationFreeStep, CalibratedTrackBankStepAndGating) {
@@ -201,24 +201,32 @@ TEST(AllocationFreeStep, CalibratedTrackBankStepAndGating) {
       std::make_unique<TrackBankAdapter<TrackBank>>(testing::cv3_spec(), kBankTracks),
       calibration));
   banks.push_back(open_track_bank("models/classical_imm_agile_air.h5", kBankTracks));
-  for (const char* model :
-       {"mlp_input_estimator_agile_air", "ga_fuzzy_imm_agile_air", "fcm_imm_agile_air"}) {
+  for (const char* model : {"mlp_input_estimator_agile_air", "ga_fuzzy_imm_agile_air",
+                            "fcm_imm_agile_air", "tsk_range_sensor", "wimm_air_surveillance"}) {
     banks.push_back(open_track_bank(std::string("models/") + model + ".h5", kBankTracks));
   }
-  for (auto& bank : banks) {
+  for (std::size_t b = 0; b < banks.size(); ++b) {
+    AnyTrackBank* bank = banks[b].get();
     ASSERT_NE(bank->calibration(), nullptr);
+    // The last, the nIMM, takes polar plots (range, azimuth from north) of a target 28 km out.
+    const bool polar = b + 1 == banks.size();
     const int n = bank->state_dimension();
+    Eigen::VectorXd start = Eigen::VectorXd::Zero(n);
+    if (polar) start(0) = start(3) = 2e4;  // [x, vx, ax, y, vy, ay]
     for (std::size_t t = 0; t < kBankTracks; ++t) {
-      bank->initialize(t, Eigen::VectorXd::Zero(n), Eigen::MatrixXd::Identity(n, n));
+      bank->initialize(t, start, 1e4 * Eigen::MatrixXd::Identity(n, n));
     }
     std::vector<Eigen::Vector2d> plots(kBankTracks);
     std::vector<StepStatus> status(kBankTracks);
     Eigen::MatrixXd scores(static_cast<Eigen::Index>(kBankTracks), 4);
-    const std::vector<Eigen::Vector2d> candidates{{1.0, 0.0}, {0.0, 1.0}, {50.0, -3.0}, {0.0, 0.0}};
+    std::vector<Eigen::Vector2d> candidates{{1.0, 0.0}, {0.0, 1.0}, {50.0, -3.0}, {0.0, 0.0}};
+    if (polar) candidates = {{28284.0, 0.785}, {28000.0, 0.8}, {5e4, -3.0}, {28300.0, 0.78}};
     const long before = allocations();
     for (int k = 0; k < 50; ++k) {
       for (std::size_t t = 0; t < kBankTracks; ++t) {
-        plots[t] = Eigen::Vector2d(0.5 * k + static_cast<double>(t), -0.2 * k);
+        plots[t] =
+            polar ? Eigen::Vector2d(28284.27 + 0.5 * k + static_cast<double>(t), 0.7854 + 1e-4 * k)
+                  : Eigen::Vector2d(0.5 * k + static_cast<double>(t), -0.2 * k);
       }
       plots[7] = Eigen::Vector2d(std::nan(""), 0.0);
       bank->step(plots, status);

@@ -3,14 +3,15 @@
 // filters load_filter builds — the same features (plots used, NIS level), covariances scaled alike,
 // and a gating matrix whose gate is the calibrated distance's, judged at 0.99 and 1.01 of the
 // gate — on the shipped plain IMMs (the general bank, Cartesian and polar plots), on the shipped
-// input estimators, GA-fuzzy IMMs and FCM-IMMs (their lane banks), and on TrackBank's vectorized
-// kernel under a calibration of many bins set by hand; the NIS each bank states equals
-// last_step_nis of its filter; what it refuses; and the kinds whose banks keep the model's own
-// covariances say so.
+// input estimators, GA-fuzzy IMMs, FCM-IMMs and nIMMs (their lane banks; the FIMM's in
+// fimm_track_bank_test.cpp), and on TrackBank's vectorized kernel under a calibration of many bins
+// set by hand; the NIS each bank states equals last_step_nis of its filter, the fusing wIMM's
+// too; and what it refuses.
 #include "imm/calibrated_track_bank.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -181,6 +182,19 @@ TEST(CalibratedTrackBank, OpenedFromTheShippedGaFuzzyAndFcmImmsItGatesAndStatesA
   }
 }
 
+TEST(CalibratedTrackBank, OpenedFromTheShippedNimmItGatesAndStatesAsItsFilters) {
+  // The wIMM's bank in the nIMM's configuration (no fusion, the extended update; polar plots)
+  // follows its filter to rounding.
+  for (const char* model : {"baseline_nimm_air_surveillance", "wimm_air_surveillance"}) {
+    const std::string path = std::string("models/") + model + ".h5";
+    const double period = load_filter(path).options.sample_period;
+    auto single = calibrated_filters(path, 5);
+    auto bank = open_track_bank(path, 5);
+    ASSERT_NE(bank->calibration(), nullptr) << model;
+    expect_bank_follows_calibrated_filters(*bank, single, period, true, 1e-9, model);
+  }
+}
+
 // A calibration of five start entries and four level bins with factors far from 1, so that a track
 // crosses bins and each factor shows.
 std::shared_ptr<CovarianceCalibration> many_bins() {
@@ -218,14 +232,21 @@ TEST(CalibratedTrackBank, OnTrackBanksKernelItGatesAndStatesAsTheCalibratedFilte
 
 class TheNisABankStates : public ::testing::TestWithParam<const char*> {
  protected:
+  // The same arithmetic where the bank's state is the filter's bits; to rounding where its mode
+  // probabilities take lane exponentials (the GA-fuzzy IMM) or its modes' steps are written over
+  // lanes of tracks (the wIMM).
   static double tolerance() {
-    return std::string(GetParam()).starts_with("ga_fuzzy") ? 1e-12 : 0.0;
+    const std::string model = GetParam();
+    if (model.starts_with("ga_fuzzy")) return 1e-12;
+    return model.starts_with("wimm") ? 1e-9 : 0.0;
   }
 };
 
 TEST_P(TheNisABankStates, IsItsFiltersLastStepNis) {
   const std::string path = std::string("models/") + GetParam() + ".h5";
-  const double period = load_filter(path).options.sample_period;
+  const TrackOptions options = load_filter(path).options;
+  const double period = options.sample_period;
+  const bool polar = options.measurement_kind == MeasurementKind::kPolar;
   auto bank = open_track_bank(path, 3);
   auto& inner = dynamic_cast<CalibratedTrackBank&>(*bank).inner();
   ASSERT_TRUE(inner.states_step_nis());
@@ -242,7 +263,7 @@ TEST_P(TheNisABankStates, IsItsFiltersLastStepNis) {
   std::vector<double> nis(3);
   for (int k = 1; k <= 20; ++k) {
     for (int t = 0; t < 3; ++t)
-      plots[static_cast<std::size_t>(t)] = plot_of(t, k, period, false, rng);
+      plots[static_cast<std::size_t>(t)] = plot_of(t, k, period, polar, rng);
     inner.step(plots, status, nis);
     for (std::size_t t = 0; t < 3; ++t) {
       ASSERT_EQ(status[t], single[t]->step(plots[t]));
@@ -252,8 +273,6 @@ TEST_P(TheNisABankStates, IsItsFiltersLastStepNis) {
         EXPECT_TRUE(std::isnan(nis[t])) << k;
       } else {
         ASSERT_TRUE(reference.has_value());
-        // The same arithmetic where the bank's state is the filter's bits; to rounding where its
-        // mode probabilities take lane exponentials (the GA-fuzzy IMM).
         EXPECT_NEAR(nis[t], *reference, tolerance() * *reference) << k << " " << t;
       }
     }
@@ -263,18 +282,41 @@ TEST_P(TheNisABankStates, IsItsFiltersLastStepNis) {
 INSTANTIATE_TEST_SUITE_P(Banks, TheNisABankStates,
                          ::testing::Values("classical_imm_agile_air",
                                            "mlp_input_estimator_agile_air",
-                                           "ga_fuzzy_imm_agile_air", "fcm_imm_agile_air"));
+                                           "ga_fuzzy_imm_agile_air", "fcm_imm_agile_air", "wimm",
+                                           "wimm_air_surveillance"));
+
+// A bank of one track that states no NIS: AnyTrackBank's required calls only.
+class SilentBank final : public AnyTrackBank {
+ public:
+  using AnyTrackBank::step;
+  [[nodiscard]] std::size_t capacity() const override { return 1; }
+  [[nodiscard]] int state_dimension() const override { return 4; }
+  void initialize(std::size_t /*track*/, const Eigen::VectorXd& /*mean*/,
+                  const Eigen::MatrixXd& /*covariance*/) override {}
+  void step(std::span<const Eigen::Vector2d> /*plots*/, std::span<StepStatus> status) override {
+    std::fill(status.begin(), status.end(), StepStatus::kOk);
+  }
+  [[nodiscard]] bool initialized(std::size_t /*track*/) const override { return true; }
+  void estimate(std::size_t /*track*/, Eigen::VectorXd& mean,
+                Eigen::MatrixXd& covariance) const override {
+    mean = Eigen::VectorXd::Zero(4);
+    covariance = Eigen::MatrixXd::Identity(4, 4);
+  }
+  [[nodiscard]] ModeVector mode_probabilities(std::size_t /*track*/) const override {
+    return ModeVector::Ones(1);
+  }
+};
 
 TEST(CalibratedTrackBank, RefusesWhatItCannotCalibrateAndNamesTheField) {
   const auto calibration = many_bins();
   EXPECT_EQ(testing::refused_field_of([&] { CalibratedTrackBank bank(nullptr, calibration); }),
             "bank");
-  // The wIMM's bank keeps the model's covariances: it states no NIS, and is refused here.
-  auto wimm = open_track_bank("models/wimm_air_surveillance.h5", 2);
-  EXPECT_FALSE(wimm->states_step_nis());
-  EXPECT_EQ(wimm->calibration(), nullptr);
+  // A bank that states no NIS (every bank of this runtime does; a kind registered elsewhere need
+  // not) cannot be calibrated.
+  auto silent = std::make_unique<SilentBank>();
+  EXPECT_FALSE(silent->states_step_nis());
   EXPECT_EQ(
-      testing::refused_field_of([&] { CalibratedTrackBank bank(std::move(wimm), calibration); }),
+      testing::refused_field_of([&] { CalibratedTrackBank bank(std::move(silent), calibration); }),
       "bank");
   EXPECT_EQ(testing::refused_field_of([&] {
               CalibratedTrackBank bank(open_track_bank("models/cv3_imm.h5", 2), nullptr);

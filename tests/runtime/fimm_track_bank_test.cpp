@@ -14,9 +14,11 @@
 #include <string>
 #include <vector>
 
+#include "imm/calibrated_track_bank.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/io/tsk_sensor_file.hpp"
+#include "imm/load.hpp"
 #include "testing/axis_lane_bank_checks.hpp"
 #include "testing/regimes.hpp"
 #include "testing/tsk_sensors.hpp"
@@ -241,6 +243,87 @@ TEST(FimmTrackBank, AnOverflowingPredictionIsASingularInnovationInBoth) {
     EXPECT_EQ(single.step(plots[0]), StepStatus::kSingularInnovation) << sensor;
     EXPECT_EQ(bank.estimate(0).mean, start.mean) << sensor;
     EXPECT_EQ(single.estimate().mean, start.mean) << sensor;
+  }
+}
+
+// The shipped FIMM's file carries a covariance calibration: open_track_bank wraps its bank in a
+// CalibratedTrackBank, which follows the calibrated one-track filters load_filter builds. The NIS
+// the bank states each step is the filter's last_step_nis (the modes' innovations of the update
+// collapsed with c_j), to the rounding by which the bank follows the filter (1e-8 with this
+// sensor, above), so the features, the factors and the calibrated gate are the filter's.
+TEST(FimmTrackBank, OpenedFromTheShippedFileItIsCalibratedAsItsFilters) {
+  const std::string path = "models/tsk_range_sensor.h5";
+  const Plots data = cut_in_plots(9);
+  const std::size_t tracks = data.tracks.size();
+  auto bank = open_track_bank(path, tracks);
+  ASSERT_NE(bank->calibration(), nullptr);
+  auto& calibrated = dynamic_cast<CalibratedTrackBank&>(*bank);
+  auto single = testing::one_track_filters(tracks, [&] { return load_filter(path).filter; });
+  for (std::size_t t = 0; t < tracks; ++t) {
+    bank->initialize(t, data.starts[t].mean, data.starts[t].covariance);
+    single[t]->initialize(data.starts[t].mean, data.starts[t].covariance);
+  }
+  std::vector<Eigen::Vector2d> plots(tracks);
+  std::vector<StepStatus> status(tracks);
+  std::vector<double> nis(tracks);
+  for (int k = 1; k <= 120; ++k) {
+    for (std::size_t t = 0; t < tracks; ++t) plots[t] = data.tracks[t].row(k).transpose();
+    // The NIS the wrapped bank states, as the one-track filter's own (unscaled) NIS.
+    calibrated.step(plots, status, nis);
+    for (std::size_t t = 0; t < tracks; ++t) {
+      const std::string at = "scan " + std::to_string(k) + " track " + std::to_string(t);
+      ASSERT_EQ(status[t], single[t]->step(plots[t])) << at;
+      const auto& filter = dynamic_cast<const CalibratedFilter&>(*single[t]);
+      if (status[t] == StepStatus::kOk) {
+        const auto reference = last_step_nis(filter.inner());
+        ASSERT_TRUE(reference.has_value()) << at;
+        EXPECT_NEAR(nis[t], *reference, 1e-7 * *reference) << at;
+      } else {
+        EXPECT_TRUE(std::isnan(nis[t])) << at;
+      }
+      EXPECT_EQ(calibrated.plots_used(t), filter.plots_used()) << at;
+      EXPECT_NEAR(calibrated.nis_level(t), filter.nis_level(), 1e-7 * filter.nis_level()) << at;
+      EXPECT_EQ(calibrated.state_scale(t), filter.state_scale()) << at;
+      Eigen::VectorXd mean, variance(6);
+      Eigen::MatrixXd covariance, reference(6, 6);
+      bank->estimate(t, mean, covariance);
+      single[t]->covariance(reference);
+      for (int a = 0; a < 6; ++a) {
+        for (int c = 0; c < 6; ++c) {
+          const double scale = std::sqrt(std::abs(reference(a, a) * reference(c, c)));
+          EXPECT_NEAR(covariance(a, c), reference(a, c), 1e-8 * scale) << at;
+        }
+      }
+    }
+    if (HasFailure()) return;
+  }
+  // The calibrated gate: each track's next plot and plots along its first axis at 0.99 and 1.01
+  // of the calibrated filter's gate distance, found by bisection.
+  for (std::size_t t = 0; t < tracks; ++t) ASSERT_EQ(single[t]->predict(), StepStatus::kOk);
+  constexpr double kGate = 9.21;
+  for (std::size_t t = 0; t < tracks; ++t) {
+    Eigen::Vector2d z_hat;
+    Eigen::Matrix2d S;
+    ASSERT_TRUE(single[t]->predicted_plot(z_hat, S));
+    const Eigen::Vector2d direction(std::sqrt(S(0, 0)), 0.0);
+    std::vector<Eigen::Vector2d> candidates;
+    for (const double factor : {0.99, 1.01}) {
+      double low = 0.0, high = 100.0;
+      for (int i = 0; i < 80; ++i) {
+        const double mid = 0.5 * (low + high);
+        (single[t]->candidate_distance(z_hat + mid * direction) > factor * kGate ? high : low) =
+            mid;
+      }
+      candidates.emplace_back(z_hat + low * direction);
+    }
+    Eigen::MatrixXd out(static_cast<Eigen::Index>(tracks), 2);
+    bank->candidate_log_likelihoods(candidates, kGate, out);
+    const auto row = static_cast<Eigen::Index>(t);
+    EXPECT_TRUE(std::isfinite(out(row, 0))) << t;
+    EXPECT_EQ(out(row, 1), -std::numeric_limits<double>::infinity()) << t;
+    EXPECT_NEAR(out(row, 0), single[t]->candidate_log_likelihood(candidates[0]),
+                1e-8 * std::abs(out(row, 0)))
+        << t;
   }
 }
 

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <random>
@@ -131,6 +132,53 @@ TEST(WimmTrackBank, EqualsTheOneTrackFilterToRounding) {
   }
   EXPECT_GT(refused, 100);  // the NaN and out-of-range plots were refused, by both
   EXPECT_GT(fused, 1000);   // and the fusion ran
+}
+
+// The NIS a step states (what a covariance calibration follows) is the one-track filter's
+// last_step_nis in every configuration: where a track fused, the modes' innovations are rewritten
+// into the plot's as WimmFilter::innovation does (the wrapped azimuth, the correlated fusion's
+// scaling, the converted plot's difference). To rounding, as the estimates.
+TEST(WimmTrackBank, StatesTheOneTrackFiltersNisInEveryConfiguration) {
+  std::mt19937_64 rng(3122026);
+  std::map<std::string, int> fused_steps;
+  for (int trial = 0; trial < 12; ++trial) {
+    const WimmSpec spec = random_spec(rng, trial);
+    const std::string name =
+        std::string(to_string(spec.fusion)) + ", " + std::string(to_string(spec.update));
+    constexpr int kTracks = 13;
+    WimmTrackBank bank(spec, kTracks);
+    auto single =
+        testing::one_track_filters(kTracks, [&] { return std::make_unique<WimmFilter>(spec); });
+    for (int t = 0; t < kTracks; ++t) {
+      bank.initialize(static_cast<std::size_t>(t), start_of(t));
+      single[static_cast<std::size_t>(t)]->initialize(start_of(t).mean, start_of(t).covariance);
+    }
+    std::vector<Eigen::Vector2d> plots(kTracks);
+    std::vector<StepStatus> status(kTracks);
+    std::vector<double> nis(kTracks);
+    for (int k = 1; k <= 60; ++k) {
+      for (int t = 0; t < kTracks; ++t)
+        plots[static_cast<std::size_t>(t)] = plot_of(spec, t, k, rng);
+      bank.step(plots, status, nis);
+      for (std::size_t t = 0; t < kTracks; ++t) {
+        const std::string at = name + " scan " + std::to_string(k) + " track " + std::to_string(t);
+        ASSERT_EQ(status[t], single[t]->step(plots[t])) << at;
+        if (status[t] != StepStatus::kOk) {
+          EXPECT_TRUE(std::isnan(nis[t])) << at;
+          continue;
+        }
+        const auto reference = last_step_nis(*single[t]);
+        ASSERT_TRUE(reference.has_value()) << at;
+        EXPECT_NEAR(nis[t], *reference, 1e-8 * (1.0 + *reference)) << at;
+        fused_steps[name] += single[t]->fused() ? 1 : 0;
+      }
+      if (HasFailure()) return;
+    }
+  }
+  // Every rewriting ran.
+  EXPECT_GT(fused_steps["seed, extended"], 100);
+  EXPECT_GT(fused_steps["seed, converted"], 100);
+  EXPECT_GT(fused_steps["correlated, extended"], 100);
 }
 
 TEST(WimmTrackBank, EqualsTheOneTrackFilterWithTheShippedModels) {

@@ -212,11 +212,10 @@ IMM_RUNTIME_EXPORT void register_model_kind(ModelKind kind);
 [[nodiscard]] IMM_RUNTIME_EXPORT std::vector<const ModelKind*> model_kinds();
 
 /// Opens a bank of `capacity` tracks for the model file at `path`, of whatever kind it is. Where
-/// the file carries a covariance calibration and the kind's bank states its steps' NIS (the plain
-/// IMM's banks, the input estimator's, the GA-fuzzy IMM's and the FCM-IMM's), the bank is a
-/// CalibratedTrackBank (calibrated_track_bank.hpp): it gates and states its covariances as
-/// load_filter's calibrated filters do. The wIMM's and the FIMM's banks run the model as trained:
-/// their covariances and gate are the model's own, and calibration() is null. Throws io::FileError naming the file and field as load_filter does,
+/// the file carries a covariance calibration and the kind's bank states its steps' NIS (every
+/// bank of this runtime), the bank is a CalibratedTrackBank (calibrated_track_bank.hpp): it gates
+/// and states its covariances as load_filter's calibrated filters do. A bank that states no NIS
+/// (a kind registered elsewhere) runs the model as trained, calibration() null. Throws io::FileError naming the file and field as load_filter does,
 /// InvalidParameter("path") for a kind without a bank.
 [[nodiscard]] IMM_RUNTIME_EXPORT std::unique_ptr<AnyTrackBank> open_track_bank(
     const std::filesystem::path& path, std::size_t capacity);

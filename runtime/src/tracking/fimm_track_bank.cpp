@@ -37,13 +37,13 @@ template <int W, class Slot>
 
 // One scan of one block's W tracks. `state` points at the block's first track of slot 0; `z0`
 // and `z1` the plots (NaN: unusable); `stepped` 1 for a track to step; `code` receives each
-// track's outcome.
+// track's outcome; where `nis` is not null, its first `lanes` entries the tracks' NIS.
 template <int W>
 [[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const double (&p)[2][2],
                                                    const fimm::Constants& b, double* state,
                                                    std::ptrdiff_t stride, const double* z0,
                                                    const double* z1, const double* stepped,
-                                                   double* code) {
+                                                   double* code, double* nis, int lanes) {
   auto st = [&](int entry) { return state + entry * stride; };
   bank::Mixing<W> mixing;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   fimm::Mode<W> modes[2];
@@ -52,6 +52,11 @@ template <int W>
   double usable[W], commit[W], log_mu[2][W];
   IMM_LANES usable[l] = pick((z0[l] == z0[l]) & (z1[l] == z1[l]), 1.0, 0.0);
   bank::finish<kAxis, kAxis, W>(mixing, modes[0], modes[1], usable, stepped, log_mu, code, commit);
+  if (nis != nullptr) {  // the plot is the measurement the modes updated with
+    bank::step_nis<kAxis, kAxis, W>(
+        mixing, modes[0], modes[1], code, lanes,
+        [](int /*l*/, Eigen::Vector2d& /*nu*/, Eigen::Matrix2d& /*S*/) {}, nis);
+  }
   bank::keep<W>(st, kLogMu, log_mu[0], commit);
   bank::keep<W>(st, kLogMu + 1, log_mu[1], commit);
   for (int j = 0; j < 2; ++j) {
@@ -88,14 +93,14 @@ template <int W>
     }
     bank::Linearization<W> lin[2];  // NOLINT(cppcoreguidelines-pro-type-member-init)
     for (int j = 0; j < 2; ++j) fimm::linearize<W>(b, z0, z1, modes[j], modes[j].x, lin[j]);
-    if (bank::all_outside_the_gate<kAxis, kAxis, W>(c, lin[0], modes[0], lin[1], modes[1], g.lanes,
-                                                    g.gate)) {
+    if (bank::all_outside_the_gate<kAxis, kAxis, W>(c, lin[0], modes[0], lin[1], modes[1], g)) {
       std::fill(column, column + g.lanes, -std::numeric_limits<double>::infinity());
       continue;
     }
     for (int j = 0; j < 2; ++j) bank::update_mode<kAxis, W>(lin[j], modes[j]);
     for (int l = 0; l < g.lanes; ++l) {
-      column[l] = bank::candidate_answer<kAxis, kAxis, W>(mixing, c, modes[0], modes[1], l, g.gate);
+      column[l] =
+          bank::candidate_answer<kAxis, kAxis, W>(mixing, c, modes[0], modes[1], l, g.gate_of(l));
     }
   }
 }
@@ -128,21 +133,48 @@ void FimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state)
 }
 
 void FimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
+  step(plots, status, nullptr);
+}
+
+void FimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                         std::span<double> nis) {
+  bank::check_nis("FimmTrackBank", plots.size(), nis.size());
+  step(plots, status, nis.data());
+}
+
+void FimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                         double* nis) {
   check_step("FimmTrackBank", plots.size(), status.size());
-  bank::step_blocks<kBlock>(plots, status, Eigen::Vector2d::Zero(),
-                            [&](std::size_t first, const double* z0, const double* z1,
-                                const double* stepped, double* code) {
-                              step_block<kBlock>(constants_->p, constants_->b, slot(0) + first,
-                                                 stride(), z0, z1, stepped, code);
-                            });
+  bank::step_blocks<kBlock>(
+      plots, status, Eigen::Vector2d::Zero(),
+      [&](std::size_t first, const double* z0, const double* z1, const double* stepped,
+          double* code) {
+        const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
+        step_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), z0, z1, stepped,
+                           code, nis == nullptr ? nullptr : nis + first, lanes);
+      });
 }
 
 void FimmTrackBank::candidate_log_likelihoods(
     std::span<const Eigen::Vector2d> plots, double gate,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   check_candidates("FimmTrackBank", plots.size(), gate, out.rows(), out.cols());
+  score(plots, gate, nullptr, out);
+}
+
+void FimmTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates("FimmTrackBank", plots.size(), gate, out.rows(), out.cols());
+  bank::check_gate_scale(gate_scale, out.rows());
+  score(plots, gate, gate_scale.data(), out);
+}
+
+void FimmTrackBank::score(
+    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   bank::score_in_blocks<kBlock>(
-      plots, gate, out, [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
+      plots, gate, gate_scale, out, [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
         score_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), block);
       });
 }

@@ -288,15 +288,26 @@ struct GatingBlock {
   double* out = nullptr;
   std::ptrdiff_t out_stride = 0;
   int lanes = 0;
+  const double* gate_scale = nullptr;  // per lane from the block's first, or null: every factor 1
+
+  /// Lane l's gate: gate × gate_scale[l].
+  [[nodiscard]] double gate_of(int l) const {
+    return gate_scale == nullptr ? gate : gate * gate_scale[l];
+  }
 };
 
-/// The gating matrix `out` of `plots` in blocks of kBlock tracks: score(first, block) per block.
+/// The gating matrix `out` of `plots` in blocks of kBlock tracks: score(first, block) per block;
+/// gate_scale: a factor per track, or null.
 template <int kBlock, class Score>
-void score_in_blocks(std::span<const Eigen::Vector2d> plots, double gate,
+void score_in_blocks(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
                      Eigen::Ref<Eigen::MatrixXd> out, Score&& score) {
   for (Eigen::Index first = 0; first < out.rows(); first += kBlock) {
-    const GatingBlock block{plots, gate, out.data() + first, out.outerStride(),
-                            static_cast<int>(std::min<Eigen::Index>(kBlock, out.rows() - first))};
+    const GatingBlock block{plots,
+                            gate,
+                            out.data() + first,
+                            out.outerStride(),
+                            static_cast<int>(std::min<Eigen::Index>(kBlock, out.rows() - first)),
+                            gate_scale == nullptr ? nullptr : gate_scale + first};
     score(static_cast<std::ptrdiff_t>(first), block);
   }
 }
@@ -313,46 +324,89 @@ void normalized_predicted(const Mixing<W>& mixing, double (&c)[2][W]) {
   }
 }
 
-/// The squared distance νᵀ S⁻¹ ν of lane l's candidate to the collapsed predicted plot, from the
-/// modes' innovations ν_j (nu[j][0 or 1]) and S_j (s[j][0 … 2]): ν = Σ_j c_j ν_j and
+/// νᵀ S⁻¹ ν of two modes' innovations ν_j and S_j collapsed with weights c_j: ν = Σ_j c_j ν_j and
 /// S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ) (ImmEstimator::collapse); NaN where S is not positive
 /// definite.
-template <int W>
-double collapsed_distance(const double (&c)[2][W], const double* const (&nu)[2][2],
-                          const double* const (&s)[2][3], int l) {
+inline double collapsed_distance(const double (&c)[2], const Eigen::Vector2d (&nu)[2],
+                                 const Eigen::Matrix2d (&Sj)[2]) {
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
   Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
   for (int j = 0; j < 2; ++j) {
-    if (c[j][l] != 0.0) mean += c[j][l] * Eigen::Vector2d(nu[j][0][l], nu[j][1][l]);
+    if (c[j] != 0.0) mean += c[j] * nu[j];
   }
   for (int j = 0; j < 2; ++j) {
-    if (c[j][l] == 0.0) continue;
-    const Eigen::Vector2d d = Eigen::Vector2d(nu[j][0][l], nu[j][1][l]) - mean;
-    Eigen::Matrix2d Sj;
-    Sj << s[j][0][l], s[j][1][l], s[j][1][l], s[j][2][l];
-    S += c[j][l] * (Sj + d * d.transpose());
+    if (c[j] == 0.0) continue;
+    const Eigen::Vector2d d = nu[j] - mean;
+    S += c[j] * (Sj[j] + d * d.transpose());
   }
   const Eigen::LLT<Eigen::Matrix2d> llt(S);
   if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
   return mean.dot(llt.solve(mean));
 }
 
-/// Whether a block's first `lanes` lanes all lie outside the gate for one candidate plot, from the
-/// two modes' linearizations at their predictions and S_j = H P⁻ Hᵀ + R (update_mode's), before
+/// Lane l's ν_j and S_j of the modes' arrays.
+template <int W>
+void lane_innovations(const double* const (&nu)[2][2], const double* const (&s)[2][3], int l,
+                      Eigen::Vector2d (&nu_l)[2], Eigen::Matrix2d (&s_l)[2]) {
+  for (int j = 0; j < 2; ++j) {
+    nu_l[j] = Eigen::Vector2d(nu[j][0][l], nu[j][1][l]);
+    s_l[j] << s[j][0][l], s[j][1][l], s[j][1][l], s[j][2][l];
+  }
+}
+
+/// The squared distance of lane l's candidate to the collapsed predicted plot, from the modes'
+/// innovations ν_j (nu[j][0 or 1]) and S_j (s[j][0 … 2]) and c (normalized_predicted).
+template <int W>
+double collapsed_distance(const double (&c)[2][W], const double* const (&nu)[2][2],
+                          const double* const (&s)[2][3], int l) {
+  Eigen::Vector2d nu_l[2];
+  Eigen::Matrix2d s_l[2];
+  lane_innovations<W>(nu, s, l, nu_l, s_l);
+  return collapsed_distance({c[0][l], c[1][l]}, nu_l, s_l);
+}
+
+/// The NIS each of a block's first `lanes` lanes states after its step (nis[l], NaN where code[l]
+/// is not kOk): what last_step_nis gives the one-track filter, ImmEstimator::innovation of the
+/// modes' ν_j and S_j of the update — each first rewritten by to_plot(l, ν_j, S_j) into the
+/// plot's measurement where the filter reports another's (the wIMM's fused azimuth) — collapsed
+/// with the predicted c_j.
+template <int D0, int D1, int W, class ToPlot>
+void step_nis(const Mixing<W>& mixing, const ModeLanes<D0, W>& mode0, const ModeLanes<D1, W>& mode1,
+              const double* code, int lanes, ToPlot&& to_plot, double* nis) {
+  double c[2][W];
+  normalized_predicted<W>(mixing, c);
+  const double* const nu[2][2] = {{mode0.nu[0], mode0.nu[1]}, {mode1.nu[0], mode1.nu[1]}};
+  const double* const s[2][3] = {{mode0.s[0], mode0.s[1], mode0.s[2]},
+                                 {mode1.s[0], mode1.s[1], mode1.s[2]}};
+  for (int l = 0; l < lanes; ++l) {
+    if (code[l] != kOk) {
+      nis[l] = std::numeric_limits<double>::quiet_NaN();
+      continue;
+    }
+    Eigen::Vector2d nu_l[2];
+    Eigen::Matrix2d s_l[2];
+    lane_innovations<W>(nu, s, l, nu_l, s_l);
+    for (int j = 0; j < 2; ++j) to_plot(l, nu_l[j], s_l[j]);
+    nis[l] = collapsed_distance({c[0][l], c[1][l]}, nu_l, s_l);
+  }
+}
+
+/// Whether a block's first g.lanes lanes all lie outside their gates for one candidate plot, from
+/// the two modes' linearizations at their predictions and S_j = H P⁻ Hᵀ + R (update_mode's), before
 /// any update: then no lane needs one. A lane whose h is undefined there or whose S is not
 /// positive definite counts as inside (the update decides its answer).
 template <int D0, int D1, int W>
 bool all_outside_the_gate(const double (&c)[2][W], const Linearization<W>& lin0,
                           const ModeLanes<D0, W>& mode0, const Linearization<W>& lin1,
-                          const ModeLanes<D1, W>& mode1, int lanes, double gate) {
+                          const ModeLanes<D1, W>& mode1, const GatingBlock& g) {
   double pht0[2 * D0][2][W], pht1[2 * D1][2][W], s0[3][W], s1[3][W];
   innovation_covariance<D0, W>(lin0, mode0.P, pht0, s0);
   innovation_covariance<D1, W>(lin1, mode1.P, pht1, s1);
   const double* const nu[2][2] = {{lin0.nu0, lin0.nu1}, {lin1.nu0, lin1.nu1}};
   const double* const s[2][3] = {{s0[0], s0[1], s0[2]}, {s1[0], s1[1], s1[2]}};
-  for (int l = 0; l < lanes; ++l) {
+  for (int l = 0; l < g.lanes; ++l) {
     if (lin0.defined[l] == 0.0 || lin1.defined[l] == 0.0) return false;
-    if (!(collapsed_distance<W>(c, nu, s, l) > gate)) return false;
+    if (!(collapsed_distance<W>(c, nu, s, l) > g.gate_of(l))) return false;
   }
   return true;
 }

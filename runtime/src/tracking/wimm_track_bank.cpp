@@ -15,6 +15,7 @@
 #include "bank_checks.hpp"
 #include "filters/wimm_step.hpp"
 #include "imm/core/physical_limits.hpp"
+#include "imm/math/angle.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/models/measurement/polar_measurement.hpp"
 #include "two_mode_lanes.hpp"
@@ -58,15 +59,35 @@ template <int W, class Slot>
   }
 }
 
+// A mode's innovation ν and S of the update with the fused azimuth `chosen` rewritten into the
+// plot's (range, azimuth), as WimmFilter::to_plot does; unchanged where the track did not fuse.
+void to_plot(const wimm::Constants& b, bool fused, double range, double azimuth, double chosen,
+             Eigen::Vector2d& nu, Eigen::Matrix2d& S) {
+  if (!fused) return;
+  if (b.converted) {
+    const Eigen::Matrix2d R = Eigen::Vector2d(b.range_variance, b.azimuth_variance).asDiagonal();
+    const CartesianPlot plot = polar_to_cartesian(Vector<2>(range, azimuth), R);
+    const CartesianPlot fused_plot = polar_to_cartesian(Vector<2>(range, chosen), R);
+    nu += plot.position - fused_plot.position;
+    S += plot.covariance - fused_plot.covariance;
+  } else if (b.correlated) {
+    nu(1) /= b.alpha;
+    S.row(1) /= b.alpha;
+    S.col(1) /= b.alpha;
+  } else {
+    nu(1) = wrap_angle(nu(1) + wrap_angle(azimuth - chosen));
+  }
+}
+
 // One scan of one block's W tracks. `state` points at the block's first track of slot 0; `range`
 // and `azimuth` the plots (NaN: unusable); `stepped` 1 for a track to step; `code` receives each
-// track's outcome.
+// track's outcome; where `nis` is not null, its first `lanes` entries the tracks' NIS.
 template <int W>
 [[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const double (&p)[2][2],
                                                    const wimm::Constants& b, double* state,
                                                    std::ptrdiff_t stride, const double* range,
                                                    const double* azimuth, const double* stepped,
-                                                   double* code) {
+                                                   double* code, double* nis, int lanes) {
   auto st = [&](int entry) { return state + entry * stride; };
   // 1. The mixing and both modes' predictions, and their predicted ranges and azimuths.
   Predicted<W> m;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
@@ -84,10 +105,11 @@ template <int W>
   wimm::theta_bar<W>(predicted, px, py, r, theta_bar);
   // One lane at a time: the wraps (exact remainders) and the converted plot's sin and cos.
   bank::Linearization<W> lin[2];
-  double fused[W];
+  double fused[W], chosen[W];
   for (int l = 0; l < W; ++l) {
     const wimm::Choice choice = wimm::choose(b, predicted[0][l], azimuth[l], theta_bar[l]);
     fused[l] = choice.fuse ? 1.0 : 0.0;
+    chosen[l] = choice.azimuth;
     if (b.converted) {
       const CartesianPlot plot = wimm::converted_plot(b, range[l], choice.azimuth);
       for (int j = 0; j < 2; ++j) wimm::converted_lane<W>(plot, px[j][l], py[j][l], lin[j], l);
@@ -106,6 +128,14 @@ template <int W>
   IMM_LANES usable[l] = pick((range[l] == range[l]) & (azimuth[l] == azimuth[l]), 1.0, 0.0);
   bank::finish<kCvAxis, kSingerAxis, W>(m.mixing, cv, singer, usable, stepped, log_mu, code,
                                         commit);
+  if (nis != nullptr) {
+    bank::step_nis<kCvAxis, kSingerAxis, W>(
+        m.mixing, cv, singer, code, lanes,
+        [&](int l, Eigen::Vector2d& nu, Eigen::Matrix2d& S) {
+          to_plot(b, fused[l] != 0.0, range[l], azimuth[l], chosen[l], nu, S);
+        },
+        nis);
+  }
   bank::keep<W>(st, kLogMu, log_mu[0], commit);
   bank::keep<W>(st, kLogMu + 1, log_mu[1], commit);
   bank::keep<W>(st, kFused, fused, commit);
@@ -140,16 +170,15 @@ template <int W>
                             m.predicted_azimuth[j][l], lin[j], l);
       }
     }
-    if (bank::all_outside_the_gate<kCvAxis, kSingerAxis, W>(c, lin[0], m.cv, lin[1], m.singer,
-                                                            g.lanes, g.gate)) {
+    if (bank::all_outside_the_gate<kCvAxis, kSingerAxis, W>(c, lin[0], m.cv, lin[1], m.singer, g)) {
       std::fill(column, column + g.lanes, -std::numeric_limits<double>::infinity());
       continue;
     }
     bank::update_mode<kCvAxis, W>(lin[0], m.cv);
     bank::update_mode<kSingerAxis, W>(lin[1], m.singer);
     for (int l = 0; l < g.lanes; ++l) {
-      column[l] =
-          bank::candidate_answer<kCvAxis, kSingerAxis, W>(m.mixing, c, m.cv, m.singer, l, g.gate);
+      column[l] = bank::candidate_answer<kCvAxis, kSingerAxis, W>(m.mixing, c, m.cv, m.singer, l,
+                                                                  g.gate_of(l));
     }
   }
 }
@@ -182,14 +211,27 @@ void WimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state)
 }
 
 void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
+  step(plots, status, nullptr);
+}
+
+void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                         std::span<double> nis) {
+  bank::check_nis("WimmTrackBank", plots.size(), nis.size());
+  step(plots, status, nis.data());
+}
+
+void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                         double* nis) {
   check_step("WimmTrackBank", plots.size(), status.size());
   // Lanes past the last track get a plot 1 away from the radar (their results are not kept).
-  bank::step_blocks<kBlock>(plots, status, Eigen::Vector2d(1.0, 0.0),
-                            [&](std::size_t first, const double* range, const double* azimuth,
-                                const double* stepped, double* code) {
-                              step_block<kBlock>(constants_->p, constants_->b, slot(0) + first,
-                                                 stride(), range, azimuth, stepped, code);
-                            });
+  bank::step_blocks<kBlock>(
+      plots, status, Eigen::Vector2d(1.0, 0.0),
+      [&](std::size_t first, const double* range, const double* azimuth, const double* stepped,
+          double* code) {
+        const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
+        step_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), range, azimuth,
+                           stepped, code, nis == nullptr ? nullptr : nis + first, lanes);
+      });
 }
 
 bool WimmTrackBank::fused(std::size_t track) const { return slot(kFused)[checked(track)] != 0.0; }
@@ -198,6 +240,20 @@ void WimmTrackBank::candidate_log_likelihoods(
     std::span<const Eigen::Vector2d> plots, double gate,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   check_candidates("WimmTrackBank", plots.size(), gate, out.rows(), out.cols());
+  score(plots, gate, nullptr, out);
+}
+
+void WimmTrackBank::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates("WimmTrackBank", plots.size(), gate, out.rows(), out.cols());
+  bank::check_gate_scale(gate_scale, out.rows());
+  score(plots, gate, gate_scale.data(), out);
+}
+
+void WimmTrackBank::score(
+    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   if (spec_.fusion != FusionVariant::kNone || spec_.update != MeasurementUpdate::kExtended) {
     throw std::logic_error(
         "WimmTrackBank::candidate_log_likelihoods: a wIMM that fuses the azimuth or converts the "
@@ -205,7 +261,7 @@ void WimmTrackBank::candidate_log_likelihoods(
         "the plot together: WimmFilter::has_split_cycle is false)");
   }
   bank::score_in_blocks<kBlock>(
-      plots, gate, out, [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
+      plots, gate, gate_scale, out, [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
         score_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), block);
       });
 }

@@ -65,6 +65,16 @@ class IMM_RUNTIME_EXPORT WimmTrackBank : public TwoModeLaneStorage {
   /// initialized.
   void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
 
+  /// step(), stating each stepped track's normalized innovation squared into nis[t]: the modes'
+  /// ν_j and S_j of the update, rewritten into the plot's where the track fused the azimuth
+  /// (WimmFilter::innovation), collapsed with the predicted c_j, then νᵀ S⁻¹ ν — what
+  /// last_step_nis gives the one-track wIMM after the same step, to rounding, in every
+  /// configuration — NaN where status[t] is not kOk. What a covariance calibration follows
+  /// (CalibratedTrackBank). Throws as step(), and std::invalid_argument when `nis` differs in
+  /// size from `plots`.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+            std::span<double> nis);
+
   // estimate(track) is [x, vx, ax, y, vy, ay] (WimmFilter::estimate), mode_probabilities(track)
   // μ = (CV, Singer): TwoModeLaneStorage's.
 
@@ -78,12 +88,23 @@ class IMM_RUNTIME_EXPORT WimmTrackBank : public TwoModeLaneStorage {
   /// TrackBank::candidate_log_likelihoods for the arguments. Nothing is allocated.
   void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
                                  Eigen::Ref<Eigen::MatrixXd> out);
+  /// The same with track t gated at gate × gate_scale[t] (CalibratedTrackBank). Throws as above,
+  /// and InvalidParameter("gate_scale…") unless `gate_scale` holds out.rows() factors, each finite
+  /// and positive.
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 std::span<const double> gate_scale,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
 
   /// Whether the track's last successful step fused the azimuth (WimmFilter::fused).
   [[nodiscard]] bool fused(std::size_t track) const;
 
  private:
   struct Constants;
+  // step(), with the NIS where `nis` is not null.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status, double* nis);
+  // The gating matrix once the arguments are checked; gate_scale: a factor per track, or null.
+  void score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+             Eigen::Ref<Eigen::MatrixXd> out);
   WimmSpec spec_;
   std::shared_ptr<const Constants> constants_;  // the kernel's, made from spec_ once
 };
