@@ -29,16 +29,18 @@
 
 namespace imm::lanes {
 
-/// What one mode's step reads besides its state.
+/// What one mode's step reads besides its state (fcm_mode_constants makes them of a spec). The
+/// period, the plot variance and ĝ₁ come from the spec: unset, they are NaN, so a step from
+/// constants never built from one gives NaN, not a filter of some default period.
 struct FcmModeConstants {
-  double T = 1.0;                ///< sample period, s
-  double R = 1.0;                ///< σ_z²
-  double q00 = 0.0;              ///< Q₀₀ of the mode's Q = q G Gᵀ
-  double q01 = 0.0;              ///< Q₀₁
-  double q10 = 0.0;              ///< Q₁₀ (q G Gᵀ rounds its two off-diagonal products apart)
-  double q11 = 0.0;              ///< Q₁₁
-  double gain = 0.0;             ///< λ, or 0 for an uncompensated mode
-  double g_hat1 = 2.0;           ///< ĝ₁ = 2/T of ĝ = [1, 2/T]ᵀ
+  double T = std::numeric_limits<double>::quiet_NaN();  ///< sample period, s
+  double R = std::numeric_limits<double>::quiet_NaN();  ///< σ_z²
+  double q00 = 0.0;                                     ///< Q₀₀ of the mode's Q = q G Gᵀ
+  double q01 = 0.0;                                     ///< Q₀₁
+  double q10 = 0.0;   ///< Q₁₀ (q G Gᵀ rounds its two off-diagonal products apart)
+  double q11 = 0.0;   ///< Q₁₁
+  double gain = 0.0;  ///< λ, or 0 for an uncompensated mode
+  double g_hat1 = std::numeric_limits<double>::quiet_NaN();  ///< ĝ₁ = 2/T of ĝ = [1, 2/T]ᵀ
   bool innovation_scale = true;  ///< the window takes e / √S (MembershipScale::kInnovation)
 };
 

@@ -38,16 +38,18 @@ enum class FuzzyAntecedents : std::uint8_t {
 
 namespace imm::lanes {
 
-/// What every mode of an axis shares: T, R = σ_z², G Gᵀ, and what the tables read.
+/// What every mode of an axis shares: T, R = σ_z², G Gᵀ, and what the tables read. The period and
+/// the plot variance come from the spec (the regime or the model file): unset, they are NaN, so a
+/// step from constants never built from one gives NaN, not a filter of some default period.
 struct FuzzyAxisConstants {
-  double T = 1.0;           ///< sample period, s
-  double R = 1.0;           ///< σ_z²
-  double g00 = 0.0;         ///< (G Gᵀ)₀₀ of cv_axis_input_gain
-  double g01 = 0.0;         ///< (G Gᵀ)₀₁
-  double g11 = 0.0;         ///< (G Gᵀ)₁₁
-  bool normalized = false;  ///< FuzzyAntecedents::kNormalizedInnovation
+  double T = std::numeric_limits<double>::quiet_NaN();  ///< sample period, s
+  double R = std::numeric_limits<double>::quiet_NaN();  ///< σ_z²
+  double g00 = 0.0;                                     ///< (G Gᵀ)₀₀ of cv_axis_input_gain
+  double g01 = 0.0;                                     ///< (G Gᵀ)₀₁
+  double g11 = 0.0;                                     ///< (G Gᵀ)₁₁
+  bool normalized = false;                              ///< FuzzyAntecedents::kNormalizedInnovation
 
-  /// T = 1, R = 1, no process noise.
+  /// Unset: T and R NaN, no process noise.
   FuzzyAxisConstants() = default;
   /// The constants of an axis with sample period T, plot variance R = σ_z² and antecedents.
   FuzzyAxisConstants(double sample_period, double measurement_variance,
