@@ -136,62 +136,51 @@ std::vector<std::unique_ptr<TrackFilter>> calibrated_filters(const std::string& 
   return testing::one_track_filters(n, [&] { return load_filter(path).filter; });
 }
 
+// A shipped model, the plots its scene takes, and how closely its bank follows its filter.
+struct Shipped {
+  const char* model;
+  bool polar;
+  double tolerance;
+};
+
+// Opens `m`'s bank of `tracks` tracks and its calibrated filters, and steps them side by side.
+void expect_shipped_bank_follows_its_filters(const Shipped& m, std::size_t tracks) {
+  const std::string path = std::string("models/") + m.model + ".h5";
+  const double period = load_filter(path).options.sample_period;
+  auto single = calibrated_filters(path, tracks);
+  auto bank = open_track_bank(path, tracks);
+  ASSERT_NE(bank->calibration(), nullptr) << m.model;
+  ASSERT_NE(dynamic_cast<CalibratedTrackBank*>(bank.get()), nullptr) << m.model;
+  expect_bank_follows_calibrated_filters(*bank, single, period, m.polar, m.tolerance, m.model);
+}
+
 TEST(CalibratedTrackBank, OpenedFromTheShippedPlainImmsItGatesAndStatesAsTheirFilters) {
-  for (const auto& [model, polar] : {std::pair{"classical_imm_agile_air", false},
-                                     std::pair{"classical_imm_ground_vehicle", false},
-                                     std::pair{"classical_imm_air_surveillance", true}}) {
-    const std::string path = std::string("models/") + model + ".h5";
-    const double period = load_filter(path).options.sample_period;
-    auto single = calibrated_filters(path, 5);
-    auto bank = open_track_bank(path, 5);
-    ASSERT_NE(bank->calibration(), nullptr) << model;
-    ASSERT_NE(dynamic_cast<CalibratedTrackBank*>(bank.get()), nullptr) << model;
-    // The general bank is the one-track IMM itself: the same numbers.
-    expect_bank_follows_calibrated_filters(*bank, single, period, polar, 0.0, model);
+  // The general bank is the one-track IMM itself: the same numbers.
+  for (const Shipped& m : {Shipped{"classical_imm_agile_air", false, 0.0},
+                           Shipped{"classical_imm_ground_vehicle", false, 0.0},
+                           Shipped{"classical_imm_air_surveillance", true, 0.0}}) {
+    expect_shipped_bank_follows_its_filters(m, 5);
   }
 }
 
-TEST(CalibratedTrackBank, OpenedFromTheShippedInputEstimatorsItGatesAndStatesAsTheirFilters) {
-  // The input estimator's bank runs its one-track filter's scan per lane: the same numbers.
-  for (const char* model : {"mlp_input_estimator_agile_air", "mlp_input_estimator_ground_vehicle",
-                            "mlp_input_estimator"}) {
-    const std::string path = std::string("models/") + model + ".h5";
-    const double period = load_filter(path).options.sample_period;
-    auto single = calibrated_filters(path, 11);  // a block of 8 tracks and three more
-    auto bank = open_track_bank(path, 11);
-    ASSERT_NE(bank->calibration(), nullptr) << model;
-    ASSERT_NE(dynamic_cast<CalibratedTrackBank*>(bank.get()), nullptr) << model;
-    expect_bank_follows_calibrated_filters(*bank, single, period, false, 0.0, model);
-  }
-}
-
-TEST(CalibratedTrackBank, OpenedFromTheShippedGaFuzzyAndFcmImmsItGatesAndStatesAsTheirFilters) {
-  // Their banks follow the one-track filters to rounding (lane exponentials, the mixing's order):
-  // the NIS each step states is the modes' innovations of the update collapsed as
-  // ImmEstimator::innovation does, so the features, the factors and the gate are the filters'.
-  // The scene is an aircraft's (200 m/s, 40 m plots): the air regimes' models.
-  for (const char* model : {"ga_fuzzy_imm_agile_air", "ga_fuzzy_imm_agile_air_recorded",
-                            "fcm_imm_agile_air", "fcm_imm_agile_air_recorded"}) {
-    const std::string path = std::string("models/") + model + ".h5";
-    const double period = load_filter(path).options.sample_period;
-    auto single = calibrated_filters(path, 11);
-    auto bank = open_track_bank(path, 11);
-    ASSERT_NE(bank->calibration(), nullptr) << model;
-    ASSERT_NE(dynamic_cast<CalibratedTrackBank*>(bank.get()), nullptr) << model;
-    expect_bank_follows_calibrated_filters(*bank, single, period, false, 1e-9, model);
-  }
-}
-
-TEST(CalibratedTrackBank, OpenedFromTheShippedNimmItGatesAndStatesAsItsFilters) {
-  // The wIMM's bank in the nIMM's configuration (no fusion, the extended update; polar plots)
-  // follows its filter to rounding.
-  for (const char* model : {"baseline_nimm_air_surveillance", "wimm_air_surveillance"}) {
-    const std::string path = std::string("models/") + model + ".h5";
-    const double period = load_filter(path).options.sample_period;
-    auto single = calibrated_filters(path, 5);
-    auto bank = open_track_bank(path, 5);
-    ASSERT_NE(bank->calibration(), nullptr) << model;
-    expect_bank_follows_calibrated_filters(*bank, single, period, true, 1e-9, model);
+TEST(CalibratedTrackBank, OpenedFromTheShippedLearnedModelsItGatesAndStatesAsTheirFilters) {
+  // 11 tracks: a block of 8 (16 axis lanes) and three more. The input estimator's bank runs its
+  // one-track filter's scan per lane: the same numbers. The GA-fuzzy IMM's, the FCM-IMM's and the
+  // nIMM's (the wIMM without fusion, polar plots) follow their filters to rounding (lane
+  // exponentials, the mixing's order): the NIS each step states is the modes' innovations of the
+  // update collapsed as ImmEstimator::innovation does, so the features, the factors and the gate
+  // are the filters'. The scene is an aircraft's (200 m/s, 40 m plots): the air regimes' models
+  // (the FIMM's, of a road scene, in fimm_track_bank_test.cpp).
+  for (const Shipped& m :
+       {Shipped{"mlp_input_estimator_agile_air", false, 0.0},
+        Shipped{"mlp_input_estimator_ground_vehicle", false, 0.0},
+        Shipped{"mlp_input_estimator", false, 0.0}, Shipped{"ga_fuzzy_imm_agile_air", false, 1e-9},
+        Shipped{"ga_fuzzy_imm_agile_air_recorded", false, 1e-9},
+        Shipped{"fcm_imm_agile_air", false, 1e-9},
+        Shipped{"fcm_imm_agile_air_recorded", false, 1e-9},
+        Shipped{"baseline_nimm_air_surveillance", true, 1e-9},
+        Shipped{"wimm_air_surveillance", true, 1e-9}}) {
+    expect_shipped_bank_follows_its_filters(m, 11);
   }
 }
 
