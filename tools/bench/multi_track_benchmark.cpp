@@ -9,6 +9,7 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "bench_inputs.hpp"
@@ -195,6 +196,13 @@ BENCHMARK(BM_MultiTrack)
     ->Args({1024, 1})  // a power of two: the state in tiles keeps a pack's slots in one run
     ->Args({10000, 1});
 
+// `bank` through the covariance calibration of the model file at `path`.
+std::unique_ptr<imm::AnyTrackBank> calibrated(std::unique_ptr<imm::AnyTrackBank> bank,
+                                              const std::string& path) {
+  return std::make_unique<imm::CalibratedTrackBank>(
+      std::move(bank), imm::read_calibration(imm::io::ModelFileReader(path)));
+}
+
 // The benchmark loop of a bank against one-track filters: N tracks, track t fed the plots of
 // `source` (from its second row) shifted by t · offset, restarted from start(t) at the end of
 // `source`; `bank` null runs N filters from make_filter() instead. Items: track steps; the counter
@@ -210,9 +218,12 @@ void step_tracks(benchmark::State& state, std::size_t tracks, std::unique_ptr<Ba
   }
   auto restart = [&] {
     for (std::size_t t = 0; t < tracks; ++t) {
-      if (bank) {
+      if constexpr (std::is_same_v<Bank, imm::AnyTrackBank>) {
+        if (bank) bank->initialize(t, start(t).mean, start(t).covariance);
+      } else if (bank) {
         bank->initialize(t, start(t));
-      } else {
+      }
+      if (!bank) {
         separate[t]->initialize(start(t).mean, start(t).covariance);
       }
     }
@@ -316,11 +327,12 @@ BENCHMARK(BM_InputEstimatorMultiTrack)->Args({1000, 0})->Args({1000, 1});
 
 // N tracks of seed 004's weighted IMM on its scenario-1 plots (a target 140 km out, T = 2 s), the
 // range shifted by 3.7 m and the azimuth by 10 µrad per track: range(1) = 0 as N WimmFilters, 1 as
-// one WimmTrackBank; range(2) = 0 the shipped model (models/wimm.h5: the seed's fusion), 1 the
-// same spec with the correlated fusion fusing on every scan. Items: track steps.
+// one WimmTrackBank, 2 as that bank through the file's covariance calibration (CalibratedTrackBank:
+// each step's NIS and features); range(2) = 0 the shipped model (models/wimm.h5: the seed's
+// fusion), 1 the same spec with the correlated fusion fusing on every scan. Items: track steps.
 void BM_WimmMultiTrack(benchmark::State& state) {
   const auto tracks = static_cast<std::size_t>(state.range(0));
-  const bool bank_api = state.range(1) == 1;
+  const bool bank_api = state.range(1) >= 1;
   imm::WimmSpec spec = imm::io::read_wimm(IMM_SOURCE_DIR "/models/wimm.h5");
   if (state.range(2) == 1) {
     spec.fusion = imm::FusionVariant::kCorrelated;
@@ -336,26 +348,38 @@ void BM_WimmMultiTrack(benchmark::State& state) {
                        .asDiagonal();
     return s;
   };
-  step_tracks(
-      state, tracks, bank_api ? std::make_unique<imm::WimmTrackBank>(spec, tracks) : nullptr,
-      [&] { return std::make_unique<imm::WimmFilter>(spec); }, source, offset, start);
+  const auto make_filter = [&] { return std::make_unique<imm::WimmFilter>(spec); };
+  if (state.range(1) == 2) {
+    step_tracks(
+        state, tracks,
+        calibrated(std::make_unique<imm::TrackBankAdapter<imm::WimmTrackBank>>(spec, tracks),
+                   IMM_SOURCE_DIR "/models/wimm.h5"),
+        make_filter, source, offset, start);
+  } else {
+    step_tracks(state, tracks,
+                bank_api ? std::make_unique<imm::WimmTrackBank>(spec, tracks) : nullptr,
+                make_filter, source, offset, start);
+  }
   state.SetLabel(std::string(bank_api ? "WimmTrackBank" : "separate filters") +
-                 (state.range(2) == 0 ? ", shipped model" : ", correlated fusion"));
+                 (state.range(2) == 0 ? ", shipped model" : ", correlated fusion") +
+                 (state.range(1) == 2 ? ", calibrated" : ""));
 }
 BENCHMARK(BM_WimmMultiTrack)
     ->Args({1000, 0, 0})
     ->Args({1000, 1, 0})
+    ->Args({1000, 2, 0})
     ->Args({1000, 0, 1})
     ->Args({1000, 1, 1})
     ->Args({1024, 1, 0});
 
 // N tracks of seed 002's FIMM with the shipped sensor (models/tsk_range_sensor.h5) on the cut-in
 // plots (R = 0.5² I, the presets' case 1), shifted by 1 mm along and 2 cm ahead per track:
-// range(1) = 0 as N FimmFilters, 1 as one FimmTrackBank; range(2) = linearizations per update
-// (1: EKF, 5: IEKF). Items: track steps.
+// range(1) = 0 as N FimmFilters, 1 as one FimmTrackBank, 2 as that bank through the sensor file's
+// covariance calibration; range(2) = linearizations per update (1: EKF, 5: IEKF). Items: track
+// steps.
 void BM_FimmMultiTrack(benchmark::State& state) {
   const auto tracks = static_cast<std::size_t>(state.range(0));
-  const bool bank_api = state.range(1) == 1;
+  const bool bank_api = state.range(1) >= 1;
   static const imm::datasets::Track track = imm::bench::preset_track("fimm_table1", 1);
   const auto sensor = std::make_shared<const imm::TskSensorModel>(
       imm::io::read_tsk_sensor(IMM_SOURCE_DIR "/models/tsk_range_sensor.h5"));
@@ -372,16 +396,26 @@ void BM_FimmMultiTrack(benchmark::State& state) {
     s.covariance.setIdentity();
     return s;
   };
-  step_tracks(
-      state, tracks,
-      bank_api ? std::make_unique<imm::FimmTrackBank>(spec, sensor, tracks) : nullptr,
-      [&] { return std::make_unique<imm::FimmFilter>(spec, sensor); }, track.plots, offset, start);
+  const auto make_filter = [&] { return std::make_unique<imm::FimmFilter>(spec, sensor); };
+  if (state.range(1) == 2) {
+    step_tracks(state, tracks,
+                calibrated(std::make_unique<imm::TrackBankAdapter<imm::FimmTrackBank>>(spec, sensor,
+                                                                                       tracks),
+                           IMM_SOURCE_DIR "/models/tsk_range_sensor.h5"),
+                make_filter, track.plots, offset, start);
+  } else {
+    step_tracks(state, tracks,
+                bank_api ? std::make_unique<imm::FimmTrackBank>(spec, sensor, tracks) : nullptr,
+                make_filter, track.plots, offset, start);
+  }
   state.SetLabel(std::string(bank_api ? "FimmTrackBank" : "separate filters") +
-                 (spec.iterations == 1 ? ", EKF" : ", IEKF ≤ 5"));
+                 (spec.iterations == 1 ? ", EKF" : ", IEKF ≤ 5") +
+                 (state.range(1) == 2 ? ", calibrated" : ""));
 }
 BENCHMARK(BM_FimmMultiTrack)
     ->Args({1000, 0, 1})
     ->Args({1000, 1, 1})
+    ->Args({1000, 2, 1})
     ->Args({1000, 0, 5})
     ->Args({1000, 1, 5});
 
