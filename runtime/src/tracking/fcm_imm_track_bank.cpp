@@ -221,7 +221,8 @@ IMM_FOR_EACH_LANE_ISA(IMM_BLOCK_FOR)
 
 }  // namespace
 
-FcmImmTrackBank::FcmImmTrackBank(const FcmImmSpec& spec, std::size_t capacity) : spec_(spec) {
+FcmImmTrackBank::FcmImmTrackBank(const FcmImmSpec& spec, std::size_t capacity)
+    : LaneStorage("FcmImmTrackBank"), spec_(spec) {
   spec.validate();
   bank::require_positive_transitions(spec.transition);
   window_slots_ = kRing + spec.window;
@@ -265,19 +266,8 @@ int FcmImmTrackBank::window_slot(int mode, int entry) const {
   return spec_.mode_count() * kModeSlots + mode * window_slots_ + entry;
 }
 
-void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
-  step(plots, status, nullptr);
-}
-
-void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                           std::span<double> nis) {
-  bank::check_nis("FcmImmTrackBank", plots.size(), nis.size());
-  step(plots, status, nis.data());
-}
-
-void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                           double* nis) {
-  check_step("FcmImmTrackBank", plots.size(), status.size());
+void FcmImmTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
+                                 std::span<StepStatus> status, double* nis) {
   const bank::ModeInnovations innovations(innovations_.data());
   const BankConstants b = bank_constants(spec_, scratch_.data());
   const bank::CycleBlock cycle{b.modes, transition_.data(), log_transition_.data(), slot(0),
@@ -315,22 +305,7 @@ void FcmImmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<Ste
   });
 }
 
-void FcmImmTrackBank::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  check_candidates("FcmImmTrackBank", plots.size(), gate, out.rows(), out.cols());
-  score(plots, gate, nullptr, out);
-}
-
-void FcmImmTrackBank::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  check_candidates("FcmImmTrackBank", plots.size(), gate, out.rows(), out.cols());
-  bank::check_gate_scale(gate_scale, out.rows());
-  score(plots, gate, gate_scale.data(), out);
-}
-
-void FcmImmTrackBank::score(
+void FcmImmTrackBank::score_lanes(
     std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   const BankConstants b = bank_constants(spec_, scratch_.data());

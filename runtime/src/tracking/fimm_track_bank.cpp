@@ -115,7 +115,7 @@ struct FimmTrackBank::Constants {
 
 FimmTrackBank::FimmTrackBank(const FimmSpec& spec, std::shared_ptr<const TskSensorModel> sensor,
                              std::size_t capacity)
-    : TwoModeLaneStorage({kModes[0].d, kModes[0].mean, kModes[0].covariance},
+    : TwoModeLaneStorage("FimmTrackBank", {kModes[0].d, kModes[0].mean, kModes[0].covariance},
                          {kModes[1].d, kModes[1].mean, kModes[1].covariance}, kLogMu),
       spec_(spec),
       sensor_(std::move(sensor)) {
@@ -132,19 +132,8 @@ void FimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state)
   mark_initialized(start(track, state, spec_.initial_probabilities));
 }
 
-void FimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
-  step(plots, status, nullptr);
-}
-
-void FimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                         std::span<double> nis) {
-  bank::check_nis("FimmTrackBank", plots.size(), nis.size());
-  step(plots, status, nis.data());
-}
-
-void FimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                         double* nis) {
-  check_step("FimmTrackBank", plots.size(), status.size());
+void FimmTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                               double* nis) {
   bank::step_blocks<kBlock>(
       plots, status, Eigen::Vector2d::Zero(),
       [&](std::size_t first, const double* z0, const double* z1, const double* stepped,
@@ -155,22 +144,7 @@ void FimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepS
       });
 }
 
-void FimmTrackBank::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  check_candidates("FimmTrackBank", plots.size(), gate, out.rows(), out.cols());
-  score(plots, gate, nullptr, out);
-}
-
-void FimmTrackBank::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  check_candidates("FimmTrackBank", plots.size(), gate, out.rows(), out.cols());
-  bank::check_gate_scale(gate_scale, out.rows());
-  score(plots, gate, gate_scale.data(), out);
-}
-
-void FimmTrackBank::score(
+void FimmTrackBank::score_lanes(
     std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   bank::score_in_blocks<kBlock>(

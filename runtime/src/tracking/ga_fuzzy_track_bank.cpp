@@ -97,7 +97,7 @@ IMM_FOR_EACH_LANE_ISA(IMM_BLOCK_FOR)
 
 GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capacity,
                                    bool wide_blocks)
-    : wide_blocks_(wide_blocks) {
+    : LaneStorage("GaFuzzyTrackBank"), wide_blocks_(wide_blocks) {
   spec.validate();
   modes_ = static_cast<int>(spec.levels.size());
   const Eigen::MatrixXd transition = spec.settings.transition(modes_);
@@ -150,19 +150,8 @@ void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& sta
   mark_initialized(t);
 }
 
-void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
-  step(plots, status, nullptr);
-}
-
-void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                            std::span<double> nis) {
-  bank::check_nis("GaFuzzyTrackBank", plots.size(), nis.size());
-  step(plots, status, nis.data());
-}
-
-void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                            double* nis) {
-  check_step("GaFuzzyTrackBank", plots.size(), status.size());
+void GaFuzzyTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
+                                  std::span<StepStatus> status, double* nis) {
   FuzzyNoiseFamily family{{}, &axis_, levels_.data()};
   const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), slot(0),
                                stride()};
@@ -197,22 +186,7 @@ void GaFuzzyTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<St
   });
 }
 
-void GaFuzzyTrackBank::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  check_candidates("GaFuzzyTrackBank", plots.size(), gate, out.rows(), out.cols());
-  score(plots, gate, nullptr, out);
-}
-
-void GaFuzzyTrackBank::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  check_candidates("GaFuzzyTrackBank", plots.size(), gate, out.rows(), out.cols());
-  bank::check_gate_scale(gate_scale, out.rows());
-  score(plots, gate, gate_scale.data(), out);
-}
-
-void GaFuzzyTrackBank::score(
+void GaFuzzyTrackBank::score_lanes(
     std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   const FuzzyNoiseFamily family{{}, &axis_, levels_.data()};

@@ -71,7 +71,7 @@ struct InputEstimatorTrackBank::Constants {
 
 InputEstimatorTrackBank::InputEstimatorTrackBank(const MlpInputEstimatorModel& model,
                                                  std::size_t capacity, bool wide_blocks)
-    : wide_blocks_(wide_blocks) {
+    : LaneStorage("InputEstimatorTrackBank"), wide_blocks_(wide_blocks) {
   // The one-track filter's checks, with its wording.
   const MlpInputEstimatorFilter check(model, model.settings);
   (void)check;
@@ -90,20 +90,8 @@ void InputEstimatorTrackBank::initialize(std::size_t track, const GaussianState<
   mark_initialized(t);
 }
 
-void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
-                                   std::span<StepStatus> status) {
-  step(plots, status, nullptr);
-}
-
-void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
-                                   std::span<StepStatus> status, std::span<double> nis) {
-  bank::check_nis("InputEstimatorTrackBank", plots.size(), nis.size());
-  step(plots, status, nis.data());
-}
-
-void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
-                                   std::span<StepStatus> status, double* nis) {
-  check_step("InputEstimatorTrackBank", plots.size(), status.size());
+void InputEstimatorTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
+                                         std::span<StepStatus> status, double* nis) {
   double* work = scratch_.data() + std::ptrdiff_t{3} * kBlock;
   bank::step_blocks<kBlock>(
       plots, status, wide_blocks_, scratch_.data(),
@@ -128,24 +116,9 @@ void InputEstimatorTrackBank::step(std::span<const Eigen::Vector2d> plots,
       });
 }
 
-void InputEstimatorTrackBank::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate,
-    Eigen::Ref<Eigen::MatrixXd> out) const {  // NOLINT(performance-unnecessary-value-param)
-  check_candidates("InputEstimatorTrackBank", plots.size(), gate, out.rows(), out.cols());
-  score(plots, gate, nullptr, out);
-}
-
-void InputEstimatorTrackBank::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) const {  // NOLINT(performance-unnecessary-value-param)
-  check_candidates("InputEstimatorTrackBank", plots.size(), gate, out.rows(), out.cols());
-  bank::check_gate_scale(gate_scale, out.rows());
-  score(plots, gate, gate_scale.data(), out);
-}
-
-void InputEstimatorTrackBank::score(
+void InputEstimatorTrackBank::score_lanes(
     std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) const {  // NOLINT(performance-unnecessary-value-param)
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   const Matrix<1, 2> H{{1.0, 0.0}};
   const SquareMatrix<1> R = SquareMatrix<1>::Constant(constants_->b.cv.R);

@@ -39,4 +39,31 @@ void LaneStorage::check_candidates(std::string_view name, std::size_t plots, dou
   bank::check_candidates(name, plots, gate, rows, cols, initialized_);
 }
 
+void LaneStorage::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
+  check_step(name_, plots.size(), status.size());
+  step_lanes(plots, status, nullptr);
+}
+
+void LaneStorage::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                       std::span<double> nis) {
+  bank::check_nis(name_, plots.size(), nis.size());
+  check_step(name_, plots.size(), status.size());
+  step_lanes(plots, status, nis.data());
+}
+
+void LaneStorage::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates(name_, plots.size(), gate, out.rows(), out.cols());
+  score_lanes(plots, gate, nullptr, out);
+}
+
+void LaneStorage::candidate_log_likelihoods(
+    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
+    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+  check_candidates(name_, plots.size(), gate, out.rows(), out.cols());
+  bank::check_gate_scale(gate_scale, out.rows());
+  score_lanes(plots, gate, gate_scale.data(), out);
+}
+
 }  // namespace imm

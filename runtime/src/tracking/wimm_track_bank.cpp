@@ -192,7 +192,7 @@ struct WimmTrackBank::Constants {
 };
 
 WimmTrackBank::WimmTrackBank(const WimmSpec& spec, std::size_t capacity)
-    : TwoModeLaneStorage({kCv.d, kCv.mean, kCv.covariance},
+    : TwoModeLaneStorage("WimmTrackBank", {kCv.d, kCv.mean, kCv.covariance},
                          {kSinger.d, kSinger.mean, kSinger.covariance}, kLogMu),
       spec_(spec) {
   spec.validate();
@@ -210,19 +210,8 @@ void WimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state)
   mark_initialized(t);
 }
 
-void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
-  step(plots, status, nullptr);
-}
-
-void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                         std::span<double> nis) {
-  bank::check_nis("WimmTrackBank", plots.size(), nis.size());
-  step(plots, status, nis.data());
-}
-
-void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                         double* nis) {
-  check_step("WimmTrackBank", plots.size(), status.size());
+void WimmTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                               double* nis) {
   // Lanes past the last track get a plot 1 away from the radar (their results are not kept).
   bank::step_blocks<kBlock>(
       plots, status, Eigen::Vector2d(1.0, 0.0),
@@ -236,22 +225,7 @@ void WimmTrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepS
 
 bool WimmTrackBank::fused(std::size_t track) const { return slot(kFused)[checked(track)] != 0.0; }
 
-void WimmTrackBank::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  check_candidates("WimmTrackBank", plots.size(), gate, out.rows(), out.cols());
-  score(plots, gate, nullptr, out);
-}
-
-void WimmTrackBank::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  check_candidates("WimmTrackBank", plots.size(), gate, out.rows(), out.cols());
-  bank::check_gate_scale(gate_scale, out.rows());
-  score(plots, gate, gate_scale.data(), out);
-}
-
-void WimmTrackBank::score(
+void WimmTrackBank::score_lanes(
     std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   if (spec_.fusion != FusionVariant::kNone || spec_.update != MeasurementUpdate::kExtended) {

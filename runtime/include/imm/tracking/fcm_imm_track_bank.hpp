@@ -65,48 +65,25 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank : public LaneStorage {
   /// InvalidParameter("state") for a non-finite state.
   void initialize(std::size_t track, const GaussianState<4>& state);
 
-  /// One scan of tracks 0 … plots.size() − 1, track t with plots[t]; status[t] receives its
-  /// outcome (a track whose status is not kOk is unchanged). Tracks from plots.size() on are not
-  /// touched. Throws std::invalid_argument when the spans differ in size or exceed capacity(),
-  /// std::logic_error when a stepped track was never initialized.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
-
-  /// step(), stating each stepped track's normalized innovation squared into nis[t] as
-  /// GaFuzzyTrackBank::step with `nis` does (each mode's ν_j = e and S_j of its update), what
-  /// last_step_nis gives the one-track filter after the same step; NaN where status[t] is not kOk.
-  /// Throws as step(), and std::invalid_argument when `nis` differs in size from `plots`.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-            std::span<double> nis);
-
-  /// The gating question for many tracks and plots in one call, without changing any track:
-  /// out(t, q) = log p(z_q | Z_t) of candidate plot q under track t (each axis's
-  /// log Σ_j c_j N_j of a trial step of every mode: the window's clustering reads the plot's
-  /// error), for tracks 0 … out.rows() − 1; −∞ where the plot's squared distance to the
-  /// prediction without a plot (uncompensated, collapsed) is above `gate`; NaN for an unusable
-  /// plot or a prediction that cannot score it — the one-track filter's candidate_log_likelihood
-  /// and candidate_distance after predict(), as closely as the bank follows the filter. The
-  /// windows are not changed: step() with the plots chosen gives the same numbers as without this
-  /// call. Throws as GaFuzzyTrackBank::candidate_log_likelihoods. Nothing is allocated.
-  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                 Eigen::Ref<Eigen::MatrixXd> out);
-  /// The same with track t gated at gate × gate_scale[t] (CalibratedTrackBank); throws as
-  /// GaFuzzyTrackBank's.
-  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                 std::span<const double> gate_scale,
-                                 Eigen::Ref<Eigen::MatrixXd> out);
-
   /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
 
   /// μ of the x axis's IMM, then the y axis's (TwoAxisFilter::mode_probabilities).
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
+  // step(), step() with the NIS and candidate_log_likelihoods() are LaneStorage's.
+
  private:
-  // step(), with the NIS where `nis` is not null.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status, double* nis);
-  // The gating matrix once the arguments are checked; gate_scale: a factor per track, or null.
-  void score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-             Eigen::Ref<Eigen::MatrixXd> out);
+  // One scan of the tracks; with `nis`, each mode's ν_j = e and S_j of its update collapsed with
+  // the predicted c_j (the one-track filter's last_step_nis, to the bit).
+  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                  double* nis) override;
+  // Each axis's log Σ_j c_j N_j of a trial step of every mode (the window's clustering reads the
+  // plot's error), gated by the squared distance to the prediction without a plot
+  // (uncompensated, collapsed): the one-track filter's candidate questions after predict(), as
+  // closely as the bank follows the filter. The windows are not changed.
+  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+                   Eigen::Ref<Eigen::MatrixXd> out) override;
   // Slot of entry `entry` of mode `mode`'s window (after every mode's cycle slots).
   [[nodiscard]] int window_slot(int mode, int entry) const;
 

@@ -64,53 +64,25 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public LaneStorage {
   /// std::out_of_range for a track ≥ capacity().
   void initialize(std::size_t track, const GaussianState<4>& state);
 
-  /// One IMM cycle of tracks 0 … plots.size() − 1, track t with plots[t]; status[t] receives its
-  /// outcome (a track whose status is not kOk is unchanged). Tracks from plots.size() on are not
-  /// touched. Throws std::invalid_argument when the spans differ in size or exceed capacity(),
-  /// std::logic_error when a stepped track was never initialized.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
-
-  /// step(), stating each stepped track's normalized innovation squared into nis[t]: per axis the
-  /// modes' ν_j and S_j of the update collapsed with the predicted c_j, then νᵀ S⁻¹ ν — what
-  /// last_step_nis gives the one-track filter after the same step, to 1e-12 relative (the bank's
-  /// state is the filter's to rounding) — NaN where status[t] is not kOk. What a covariance
-  /// calibration follows (CalibratedTrackBank). Throws as step(), and std::invalid_argument when
-  /// `nis` differs in size from `plots`.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-            std::span<double> nis);
-
   /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
-  /// The gating question for many tracks and plots in one call, without changing any track:
-  /// out(t, q) = log p(z_q | Z_t), the log-likelihood of candidate plot q under track t (each
-  /// axis's log Σ_j c_j N_j of a trial step of every mode, the modes' noise being read from the
-  /// plot), for tracks 0 … out.rows() − 1; −∞ where the plot's squared distance to the
-  /// prediction without a plot (the modes' mean q, collapsed) is above `gate`; NaN for an
-  /// unusable plot or a prediction that cannot score it — the one-track filter's
-  /// candidate_log_likelihood and candidate_distance after predict(), to 1e-12 relative (its
-  /// exponentials are libm's; the bank's state is the filter's to rounding). Then step() with the
-  /// plots chosen gives the same numbers as without this call. Throws std::invalid_argument when
-  /// out.cols() differs from plots.size() or out.rows() exceeds capacity(),
-  /// InvalidParameter("gate") for a gate that is NaN or not positive, std::logic_error for a track
-  /// never initialized. Nothing is allocated.
-  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                 Eigen::Ref<Eigen::MatrixXd> out);
-  /// The same with track t gated at gate × gate_scale[t] (a calibrated S scaled by gate_scale[t]:
-  /// CalibratedTrackBank). Throws as above, and InvalidParameter("gate_scale…") unless
-  /// `gate_scale` holds out.rows() factors, each finite and positive.
-  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                 std::span<const double> gate_scale,
-                                 Eigen::Ref<Eigen::MatrixXd> out);
-
   /// μ of the x modes, then of the y modes (as TwoAxisFilter::mode_probabilities).
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
+  // step(), step() with the NIS and candidate_log_likelihoods() are LaneStorage's.
+
  private:
-  // step(), with the NIS where `nis` is not null.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status, double* nis);
-  // The gating matrix once the arguments are checked; gate_scale: a factor per track, or null.
-  void score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-             Eigen::Ref<Eigen::MatrixXd> out);
+  // One IMM cycle of the tracks; with `nis`, per axis the modes' ν_j and S_j of the update
+  // collapsed with the predicted c_j, then νᵀ S⁻¹ ν: the one-track filter's last_step_nis to
+  // 1e-12 relative (the bank's state is the filter's to rounding).
+  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                  double* nis) override;
+  // Each axis's log Σ_j c_j N_j of a trial step of every mode (the modes' noise is read from the
+  // plot), gated by the squared distance to the prediction without a plot (the modes' mean q,
+  // collapsed): the one-track filter's candidate_log_likelihood and candidate_distance after
+  // predict(), to 1e-12 relative (its exponentials are libm's).
+  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+                   Eigen::Ref<Eigen::MatrixXd> out) override;
   bool wide_blocks_ = false;
   int modes_ = 0;
   std::vector<double> transition_;      // π_ij at i * modes + j

@@ -55,40 +55,6 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank : public LaneStorage {
   /// capacity().
   void initialize(std::size_t track, const GaussianState<4>& state);
 
-  /// One scan of tracks 0 … plots.size() − 1, track t with plots[t]; status[t] receives its
-  /// outcome (a track whose status is not kOk is unchanged). Tracks from plots.size() on are not
-  /// touched. Throws std::invalid_argument when the spans differ in size or exceed capacity(),
-  /// std::logic_error when a stepped track was never initialized.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
-
-  /// step(), stating each stepped track's normalized innovation squared: nis[t] = ν_x²/S_x +
-  /// ν_y²/S_y of the primary KFs' update (what last_step_nis gives the one-track filter after the
-  /// same step, to the bit), NaN where status[t] is not kOk. What a covariance calibration follows
-  /// (CalibratedTrackBank). Throws as step(), and std::invalid_argument when `nis` differs in
-  /// size from `plots`.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-            std::span<double> nis);
-
-  /// The gating question for many tracks and plots in one call, without changing any track:
-  /// out(t, q) = log p(z_q | Z_t), the log-likelihood of candidate plot q under track t's primary
-  /// KF's prediction with its last input estimate (the sum of the axes' log N(ν; 0, S), as the
-  /// one-track filter's candidate_log_likelihood after predict(), to the bit), for tracks 0 …
-  /// out.rows() − 1; −∞ where the plot's squared distance Σ ν²/S (candidate_distance) is above
-  /// `gate` (e.g. chi_square_quantile(0.99, 2); +∞ scores every pair); NaN for an unusable plot or
-  /// a prediction without a finite positive S. Then step() with the plots chosen gives the same
-  /// numbers as without this call. Throws std::invalid_argument when out.cols() differs from
-  /// plots.size() or out.rows() exceeds capacity(), InvalidParameter("gate") for a gate that is
-  /// NaN or not positive, std::logic_error for a track never initialized. Nothing is allocated.
-  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                 Eigen::Ref<Eigen::MatrixXd> out) const;
-
-  /// The same with track t gated at gate × gate_scale[t] (a calibrated S scaled by gate_scale[t]:
-  /// CalibratedTrackBank). Throws as above, and InvalidParameter("gate_scale…") unless
-  /// `gate_scale` holds out.rows() factors, each finite and positive.
-  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                 std::span<const double> gate_scale,
-                                 Eigen::Ref<Eigen::MatrixXd> out) const;
-
   /// The corrected estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
 
@@ -98,13 +64,19 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank : public LaneStorage {
   /// [1, 1]: one mode per axis (as TwoAxisFilter::mode_probabilities of the one-track filter).
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
+  // step(), step() with the NIS and candidate_log_likelihoods() are LaneStorage's.
+
  private:
   struct Constants;
-  // step(), with the NIS where `nis` is not null.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status, double* nis);
-  // The gating matrix once the arguments are checked; gate_scale: a factor per track, or null.
-  void score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-             Eigen::Ref<Eigen::MatrixXd> out) const;
+  // One scan of the tracks; with `nis`, ν_x²/S_x + ν_y²/S_y of the primary KFs' update (the
+  // one-track filter's last_step_nis, to the bit).
+  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                  double* nis) override;
+  // The sum of the axes' log N(ν; 0, S) under the primary KF's prediction with the last input
+  // estimate, gated by Σ ν²/S: the one-track filter's candidate_log_likelihood and
+  // candidate_distance after predict(), to the bit.
+  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+                   Eigen::Ref<Eigen::MatrixXd> out) override;
   bool wide_blocks_ = false;
   std::shared_ptr<const Constants> constants_;  // the scan's, made from the model once
   std::vector<double> scratch_;  // one block's plots, flags, codes and two layers' activations

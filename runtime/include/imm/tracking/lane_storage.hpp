@@ -6,12 +6,18 @@
 /// reads and writes whole vectors, and which tracks have been started. GaFuzzyTrackBank,
 /// InputEstimatorTrackBank and FcmImmTrackBank derive from it, WimmTrackBank and FimmTrackBank
 /// through TwoModeLaneStorage (two_mode_lane_storage.hpp); what a slot holds is each bank's own.
+/// So do the calls every such bank answers — a step, a step that states each track's NIS, and the
+/// gating matrix with one gate or a gate per track — checked here once, then run by the bank's
+/// step_lanes and score_lanes.
 
+#include <Eigen/Core>
 #include <cstddef>
+#include <span>
 #include <string_view>
 #include <vector>
 
 #include "imm/core/aligned_allocator.hpp"
+#include "imm/estimation/step_status.hpp"
 #include "imm/runtime_export.hpp"
 
 namespace imm {
@@ -26,8 +32,44 @@ class IMM_RUNTIME_EXPORT LaneStorage {
   /// capacity().
   [[nodiscard]] bool initialized(std::size_t track) const;
 
+  /// The calls below are TrackBank's (imm/tracking/track_bank.hpp), with each bank's own step
+  /// and candidate questions (its class comment and step_lanes / score_lanes); they check their
+  /// arguments as TrackBank does, naming the bank, and allocate nothing.
+  ///
+  /// One cycle of the tracks with plots: track t with plots[t], status[t] its outcome.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
+  /// A cycle stating each stepped track's NIS, its one-track filter's last_step_nis (ν and S of
+  /// the update, over the modes collapsed with the predicted c_j), as closely as the bank follows
+  /// the filter; NaN for a track whose step failed. A covariance calibration follows it.
+  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+            std::span<double> nis);
+  /// The gating matrix: out(t, q) the log-likelihood of plot q under track t's prediction, −∞ past
+  /// `gate`, NaN for a plot that cannot be scored; no track changes. std::logic_error from a bank
+  /// that answers no gating question (a wIMM that fuses the azimuth or converts the plot).
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
+  /// The gating matrix with a gate per track, gate × gate_scale[t] (CalibratedTrackBank).
+  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
+                                 std::span<const double> gate_scale,
+                                 Eigen::Ref<Eigen::MatrixXd> out);
+
+  virtual ~LaneStorage() = default;
+
  protected:
-  LaneStorage() = default;
+  /// A bank named `name` (in the messages of its refusals).
+  explicit LaneStorage(std::string_view name) : name_(name) {}
+  LaneStorage(const LaneStorage&) = default;
+  LaneStorage(LaneStorage&&) = default;
+  LaneStorage& operator=(const LaneStorage&) = default;
+  LaneStorage& operator=(LaneStorage&&) = default;
+
+  /// The bank's step once the arguments are checked: `nis` null, or plots.size() entries.
+  virtual void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                          double* nis) = 0;
+  /// The bank's gating matrix once the arguments are checked: `gate_scale` null (every factor
+  /// 1), or out.rows() factors.
+  virtual void score_lanes(std::span<const Eigen::Vector2d> plots, double gate,
+                           const double* gate_scale, Eigen::Ref<Eigen::MatrixXd> out) = 0;
 
   /// Room for `capacity` tracks of `lanes_per_track` lanes each, `slots` slots of a lane, the
   /// lanes rounded up to whole blocks of `block` (and to stride()): every slot 0, no track
@@ -60,6 +102,7 @@ class IMM_RUNTIME_EXPORT LaneStorage {
                         std::ptrdiff_t cols) const;
 
  private:
+  std::string_view name_;
   std::ptrdiff_t stride_ = 0;
   std::vector<double, AlignedAllocator<double>> state_;  // slots × stride, slot 0 on a line
   std::vector<unsigned char> initialized_;

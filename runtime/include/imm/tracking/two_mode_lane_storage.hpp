@@ -34,9 +34,9 @@ class IMM_RUNTIME_EXPORT TwoModeLaneStorage : public LaneStorage {
   };
 
  protected:
-  /// The layout of both modes and of log μ (slots `log_mu` and `log_mu` + 1).
-  TwoModeLaneStorage(ModeLayout first, ModeLayout second, int log_mu)
-      : first_(first), second_(second), log_mu_(log_mu) {}
+  /// Bank `name`'s layout of both modes and of log μ (slots `log_mu` and `log_mu` + 1).
+  TwoModeLaneStorage(std::string_view name, ModeLayout first, ModeLayout second, int log_mu)
+      : LaneStorage(name), first_(first), second_(second), log_mu_(log_mu) {}
 
   /// Starts track `track` (ImmEstimator::initialize): both modes take their components of
   /// `state`, log μ the log of `initial`; returns the track's lane. Throws std::out_of_range for a

@@ -58,53 +58,29 @@ class IMM_RUNTIME_EXPORT WimmTrackBank : public TwoModeLaneStorage {
   /// std::out_of_range for a track ≥ capacity(), InvalidParameter("state") for a non-finite state.
   void initialize(std::size_t track, const GaussianState<6>& state);
 
-  /// One scan of tracks 0 … plots.size() − 1, track t with the polar plot plots[t] = (range,
-  /// azimuth); status[t] receives its outcome (a track whose status is not kOk is unchanged).
-  /// Tracks from plots.size() on are not touched. Throws std::invalid_argument when the spans
-  /// differ in size or exceed capacity(), std::logic_error when a stepped track was never
-  /// initialized.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
-
-  /// step(), stating each stepped track's normalized innovation squared into nis[t]: the modes'
-  /// ν_j and S_j of the update, rewritten into the plot's where the track fused the azimuth
-  /// (WimmFilter::innovation), collapsed with the predicted c_j, then νᵀ S⁻¹ ν — what
-  /// last_step_nis gives the one-track wIMM after the same step, to rounding, in every
-  /// configuration — NaN where status[t] is not kOk. What a covariance calibration follows
-  /// (CalibratedTrackBank). Throws as step(), and std::invalid_argument when `nis` differs in
-  /// size from `plots`.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-            std::span<double> nis);
-
   // estimate(track) is [x, vx, ax, y, vy, ay] (WimmFilter::estimate), mode_probabilities(track)
   // μ = (CV, Singer): TwoModeLaneStorage's.
-
-  /// The gating question for many tracks and plots in one call, without changing any track, for
-  /// the split cycle's configuration (no fusion, the extended update: the nIMM): out(t, q) =
-  /// log Σ_j c_j N(ν_j; 0, S_j) of candidate plot q (polar) under track t's prediction, −∞ where
-  /// its squared distance to the collapsed predicted plot is above `gate`, NaN for an unusable
-  /// plot or a mode that cannot score it — the one-track WimmFilter's candidate_log_likelihood and
-  /// candidate_distance after predict(), to rounding. Throws std::logic_error for a wIMM that
-  /// fuses the azimuth or converts the plot (it has no split cycle), and as
-  /// TrackBank::candidate_log_likelihoods for the arguments. Nothing is allocated.
-  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                 Eigen::Ref<Eigen::MatrixXd> out);
-  /// The same with track t gated at gate × gate_scale[t] (CalibratedTrackBank). Throws as above,
-  /// and InvalidParameter("gate_scale…") unless `gate_scale` holds out.rows() factors, each finite
-  /// and positive.
-  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                 std::span<const double> gate_scale,
-                                 Eigen::Ref<Eigen::MatrixXd> out);
 
   /// Whether the track's last successful step fused the azimuth (WimmFilter::fused).
   [[nodiscard]] bool fused(std::size_t track) const;
 
+  // step(), step() with the NIS and candidate_log_likelihoods() are LaneStorage's.
+
  private:
   struct Constants;
-  // step(), with the NIS where `nis` is not null.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status, double* nis);
-  // The gating matrix once the arguments are checked; gate_scale: a factor per track, or null.
-  void score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-             Eigen::Ref<Eigen::MatrixXd> out);
+  // One scan of the tracks (polar plots); with `nis`, the modes' ν_j and S_j of the update,
+  // rewritten into the plot's where the track fused the azimuth (WimmFilter::innovation),
+  // collapsed with the predicted c_j: the one-track wIMM's last_step_nis to rounding, in every
+  // configuration.
+  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                  double* nis) override;
+  // For the split cycle's configuration (no fusion, the extended update: the nIMM): log Σ_j c_j
+  // N(ν_j; 0, S_j) of the candidate under the prediction, gated by its squared distance to the
+  // collapsed predicted plot — the one-track WimmFilter's candidate questions after predict(), to
+  // rounding. std::logic_error for a wIMM that fuses the azimuth or converts the plot (it has no
+  // split cycle).
+  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+                   Eigen::Ref<Eigen::MatrixXd> out) override;
   WimmSpec spec_;
   std::shared_ptr<const Constants> constants_;  // the kernel's, made from spec_ once
 };
