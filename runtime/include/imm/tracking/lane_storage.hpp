@@ -53,14 +53,19 @@ class IMM_RUNTIME_EXPORT LaneStorage {
                                  std::span<const double> gate_scale,
                                  Eigen::Ref<Eigen::MatrixXd> out);
 
+  /// A bank is destroyed through its own type or this one.
   virtual ~LaneStorage() = default;
 
  protected:
   /// A bank named `name` (in the messages of its refusals).
   explicit LaneStorage(std::string_view name) : name_(name) {}
+  /// A copy of the storage (a bank's copy).
   LaneStorage(const LaneStorage&) = default;
+  /// The storage moved (a bank's move).
   LaneStorage(LaneStorage&&) = default;
+  /// A copy of the storage (a bank's copy).
   LaneStorage& operator=(const LaneStorage&) = default;
+  /// The storage moved (a bank's move).
   LaneStorage& operator=(LaneStorage&&) = default;
 
   /// The bank's step once the arguments are checked: `nis` null, or plots.size() entries.
