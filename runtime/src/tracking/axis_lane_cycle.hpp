@@ -54,17 +54,17 @@ struct AxisLaneFamily {
     return paired_codes(code);
   }
 
-  // Where not null, mode j's steps of K packs (the call's lanes from its first) record ν_j and S_j.
+  // Where not null, mode j's steps of K packs (the call's lanes from its first) record ν_j and S_j:
+  // nu(k) and s(k) of pack k.
   const ModeInnovations* record = nullptr;
-  template <class S, int K>
-  [[gnu::always_inline]] inline void record_innovations(int j, const S (&nu)[K],
-                                                        const S (&s)[K]) const {
+  template <class S, int K, class Nu, class Variance>
+  [[gnu::always_inline]] inline void record_innovations(int j, Nu&& nu, Variance&& s) const {
     if (record == nullptr) return;
     for (int k = 0; k < K; ++k) {
       const std::ptrdiff_t at = static_cast<std::ptrdiff_t>(j) * ModeInnovations::kLanes +
                                 static_cast<std::ptrdiff_t>(k) * kLanesOf<S>;
-      lane_store(record->nu + at, nu[k]);
-      lane_store(record->s + at, s[k]);
+      lane_store(record->nu + at, S(nu(k)));
+      lane_store(record->s + at, S(s(k)));
     }
   }
 };
@@ -96,6 +96,14 @@ void predict_log_c(const CycleBlock& b, int lanes, LogMu&& log_mu, const ModeInn
     }
   }
 }
+
+/// step() of one kernel call's `lanes` lanes, stating its tracks' NIS where `nis` is not null (then
+/// `nis` points at the call's first track and `tracks` tracks from it are stepped): c_j predicted
+/// from each lane's log μ (log_mu(i, l)) before the step, whose family records the modes'
+/// innovations into `r`, then step_nis of each track whose code is kOk, NaN for the others.
+template <class LogMu, class Step>
+void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes, std::size_t tracks,
+                      LogMu&& log_mu, const double* code, double* nis, Step&& step);
 
 /// The NIS of the track whose x lane is `lane` (its y lane the next) after a successful step, as
 /// last_step_nis gives its one-track filter (a TwoAxisFilter of two ImmEstimator<2, 1>): per axis
@@ -147,6 +155,21 @@ template <class Pack, int W, int N, class F>
     step[k] = lane_load<Pack>(stepped + offset);
   }
   imm_cycle<Pack, N, K>(family, b, static_cast<int>(first), plot, usable, step, code);
+}
+
+template <class LogMu, class Step>
+void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes, std::size_t tracks,
+                      LogMu&& log_mu, const double* code, double* nis, Step&& step) {
+  if (nis == nullptr) {
+    step();
+    return;
+  }
+  predict_log_c(b, lanes, log_mu, r);
+  step();
+  for (int l = 0; l < lanes && static_cast<std::size_t>(l / 2) < tracks; l += 2) {
+    nis[l / 2] =
+        code[l] == kOk ? step_nis(r, b.modes, l) : std::numeric_limits<double>::quiet_NaN();
+  }
 }
 
 }  // namespace imm::bank

@@ -113,14 +113,9 @@ struct FcmFamily : bank::AxisLaneFamily {
       lane_store(pending->error[j] + lane, predicted[k].clustered);
       lane_store(usable + lane, pick(predicted[k].usable, splat<S>(1.0), splat<S>(0.0)));
     }
-    if (record != nullptr) {  // the mode's kept innovation (FcmCompensatedMode: e and S)
-      S error[K], variance[K];
-      for (int k = 0; k < K; ++k) {
-        error[k] = predicted[k].error;
-        variance[k] = predicted[k].s;
-      }
-      record_innovations<S, K>(j, error, variance);
-    }
+    // The mode's kept innovation (FcmCompensatedMode: e and S).
+    record_innovations<S, K>(
+        j, [&](int k) { return predicted[k].error; }, [&](int k) { return predicted[k].s; });
     for (int l = 0; l < W; ++l) {
       pending->clustered[j][l] = 0.0;
       u1[l] = 1.0;
@@ -288,19 +283,12 @@ void FcmImmTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
           const auto lane = static_cast<std::ptrdiff_t>(first);
           FcmFamily family{
               {}, &b, stepped, slot(window_slot(0, 0)) + lane, stride(), window_slots_, &pending};
-          if (nis != nullptr) {
-            family.record = &innovations;
-            bank::predict_log_c(
-                cycle, kBlock,
-                [&](int i, int l) { return slot(i * kModeSlots + kLogMu)[lane + l]; }, innovations);
-          }
-          block(family, cycle, lane, z, stepped, code);
-          if (nis == nullptr) return;
-          for (int l = 0; l < kBlock && first / 2 + l / 2 < plots.size(); l += 2) {
-            nis[first / 2 + static_cast<std::size_t>(l / 2)] =
-                code[l] == kOk ? bank::step_nis(innovations, b.modes, l)
-                               : std::numeric_limits<double>::quiet_NaN();
-          }
+          if (nis != nullptr) family.record = &innovations;
+          bank::step_stating_nis(
+              cycle, innovations, kBlock, plots.size() - first / 2,
+              [&](int i, int l) { return slot(i * kModeSlots + kLogMu)[lane + l]; }, code,
+              nis == nullptr ? nullptr : nis + first / 2,
+              [&] { block(family, cycle, lane, z, stepped, code); });
         });
   });
 }

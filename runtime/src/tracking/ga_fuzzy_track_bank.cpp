@@ -52,14 +52,9 @@ struct FuzzyNoiseFamily : bank::AxisLaneFamily {
     }
     lanes::FuzzyNoiseStep<S> s[K];
     lanes::fuzzy_noise_steps<S, K>(*axis, levels[j], z, previous, start, s);
-    if (record != nullptr) {  // the mode's kept innovation (FuzzyNoiseFilter: r and S)
-      S residual[K], variance[K];
-      for (int k = 0; k < K; ++k) {
-        residual[k] = s[k].residual;
-        variance[k] = s[k].s;
-      }
-      record_innovations<S, K>(j, residual, variance);
-    }
+    // The mode's kept innovation (FuzzyNoiseFilter: r and S).
+    record_innovations<S, K>(
+        j, [&](int k) { return s[k].residual; }, [&](int k) { return s[k].s; });
     for (int k = 0; k < K; ++k) {
       const lanes::AxisEstimateOf<S>& e = s[k].estimate;
       updated[k] = {e.x0, e.x1, e.p00, e.p01, e.p11, s[k].antecedent};
@@ -165,23 +160,15 @@ void GaFuzzyTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
         plots, status, wide_blocks_, scratch_.data(),
         [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
           constexpr int W = decltype(width)::value, N = decltype(n)::value;
-          if (nis != nullptr) {
-            bank::predict_log_c(
-                cycle, W,
-                [&](int i, int l) {
-                  return slot(i * kModeSlots + kLogMu)[static_cast<std::ptrdiff_t>(first) + l];
-                },
-                innovations);
-          }
-          for_lane_isa(isa, step_block_avx512<W, N>, step_block_avx2<W, N>,
-                       step_block_baseline<W, N>)(family, cycle, static_cast<std::ptrdiff_t>(first),
-                                                  z, stepped, code);
-          if (nis == nullptr) return;
-          for (int l = 0; l < W && first / 2 + l / 2 < plots.size(); l += 2) {
-            nis[first / 2 + static_cast<std::size_t>(l / 2)] =
-                code[l] == kOk ? bank::step_nis(innovations, modes_, l)
-                               : std::numeric_limits<double>::quiet_NaN();
-          }
+          const auto lane = static_cast<std::ptrdiff_t>(first);
+          bank::step_stating_nis(
+              cycle, innovations, W, plots.size() - first / 2,
+              [&](int i, int l) { return slot(i * kModeSlots + kLogMu)[lane + l]; }, code,
+              nis == nullptr ? nullptr : nis + first / 2,
+              [&] {
+                for_lane_isa(isa, step_block_avx512<W, N>, step_block_avx2<W, N>,
+                             step_block_baseline<W, N>)(family, cycle, lane, z, stepped, code);
+              });
         });
   });
 }
