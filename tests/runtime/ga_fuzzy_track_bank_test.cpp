@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -151,6 +152,36 @@ TEST(GaFuzzyTrackBank, ScoresCandidatePlotsAsTheOneTrackFilterWithoutChangingATr
   for (const char* name : {"ga_fuzzy_imm.h5", "ga_fuzzy_imm_agile_air.h5"}) {
     expect_gating_as_the_one_track_filters(io::read_ga_fuzzy_imm(std::string("models/") + name), 60,
                                            rng, name);
+  }
+}
+
+// A step that states its NIS writes one NIS per stepped track and nothing past them, whatever the
+// count of stepped tracks in the last block, in wide blocks and in narrow ones (whose second half
+// may hold no track at all).
+TEST(GaFuzzyTrackBank, StatingTheNisWritesEachSteppedTrackAndNothingPastThem) {
+  datasets::Rng specs(5);
+  const GaFuzzyImmSpec spec = random_spec(specs, 3, FuzzyAntecedents::kResidual);
+  constexpr std::size_t kCapacity = 19;
+  constexpr double kUntouched = -12345.0;
+  for (const bool wide : {true, false}) {
+    GaFuzzyTrackBank bank(spec, kCapacity, wide);
+    for (std::size_t t = 0; t < kCapacity; ++t) bank.initialize(t, start_of(static_cast<int>(t)));
+    for (std::size_t n = 1; n <= kCapacity; ++n) {
+      std::vector<Eigen::Vector2d> plots;
+      for (std::size_t t = 0; t < n; ++t) {
+        plots.push_back(start_of(static_cast<int>(t)).mean({0, 2}));
+      }
+      std::vector<StepStatus> status(n);
+      std::vector<double> nis(n + 16, kUntouched);
+      bank.step(plots, status, std::span<double>(nis.data(), n));
+      for (std::size_t t = 0; t < n; ++t) {
+        ASSERT_EQ(status[t], StepStatus::kOk) << n << " tracks, track " << t;
+        EXPECT_TRUE(std::isfinite(nis[t]) && nis[t] >= 0.0) << n << " tracks, track " << t;
+      }
+      for (std::size_t i = n; i < nis.size(); ++i) {
+        ASSERT_EQ(nis[i], kUntouched) << (wide ? "wide" : "narrow") << ", " << n << " tracks";
+      }
+    }
   }
 }
 

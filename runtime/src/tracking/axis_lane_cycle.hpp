@@ -98,12 +98,14 @@ void predict_log_c(const CycleBlock& b, int lanes, LogMu&& log_mu, const ModeInn
 }
 
 /// step() of one kernel call's `lanes` lanes, stating its tracks' NIS where `nis` is not null (then
-/// `nis` points at the call's first track and `tracks` tracks from it are stepped): c_j predicted
+/// `nis` holds the step's `tracks` tracks, and the call's first lane is the x lane of track
+/// `first_track`, which may be past the last: a bank's last block is padded): c_j predicted
 /// from each lane's log μ (log_mu(i, l)) before the step, whose family records the modes'
 /// innovations into `r`, then step_nis of each track whose code is kOk, NaN for the others.
 template <class LogMu, class Step>
-void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes, std::size_t tracks,
-                      LogMu&& log_mu, const double* code, double* nis, Step&& step);
+void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes,
+                      std::size_t first_track, std::size_t tracks, LogMu&& log_mu,
+                      const double* code, double* nis, Step&& step);
 
 /// The NIS of the track whose x lane is `lane` (its y lane the next) after a successful step, as
 /// last_step_nis gives its one-track filter (a TwoAxisFilter of two ImmEstimator<2, 1>): per axis
@@ -158,16 +160,17 @@ template <class Pack, int W, int N, class F>
 }
 
 template <class LogMu, class Step>
-void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes, std::size_t tracks,
-                      LogMu&& log_mu, const double* code, double* nis, Step&& step) {
+void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes,
+                      std::size_t first_track, std::size_t tracks, LogMu&& log_mu,
+                      const double* code, double* nis, Step&& step) {
   if (nis == nullptr) {
     step();
     return;
   }
   predict_log_c(b, lanes, log_mu, r);
   step();
-  for (int l = 0; l < lanes && static_cast<std::size_t>(l / 2) < tracks; l += 2) {
-    nis[l / 2] =
+  for (int l = 0; l < lanes && first_track + static_cast<std::size_t>(l / 2) < tracks; l += 2) {
+    nis[first_track + static_cast<std::size_t>(l / 2)] =
         code[l] == kOk ? step_nis(r, b.modes, l) : std::numeric_limits<double>::quiet_NaN();
   }
 }
