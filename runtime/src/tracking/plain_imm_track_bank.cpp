@@ -12,8 +12,9 @@
 namespace imm {
 
 template <int NX>
-PlainImmTrackBank<NX>::PlainImmTrackBank(const PlainImmSpec& spec, std::size_t capacity) {
-  bank::require_capacity(capacity);
+PlainImmTrackBank<NX>::PlainImmTrackBank(const PlainImmSpec& spec, std::size_t capacity)
+    : TrackBankCalls("PlainImmTrackBank") {
+  hold_tracks(capacity);
   spec.validate();
   if (spec.mixing_dimension() != NX) {
     throw InvalidParameter("modes", "their mixing space has " +
@@ -23,38 +24,25 @@ PlainImmTrackBank<NX>::PlainImmTrackBank(const PlainImmSpec& spec, std::size_t c
   sample_period_ = spec.sample_period;
   tracks_.reserve(capacity);
   for (std::size_t t = 0; t < capacity; ++t) tracks_.push_back(build_plain_imm<NX>(spec));
-  initialized_.assign(capacity, 0);
-}
-
-template <int NX>
-std::size_t PlainImmTrackBank<NX>::checked(std::size_t track) const {
-  return bank::checked_track(track, tracks_.size());
 }
 
 template <int NX>
 void PlainImmTrackBank<NX>::initialize(std::size_t track, const GaussianState<NX>& state) {
-  const std::size_t t = checked(track);
+  const auto t = static_cast<std::size_t>(checked(track));
   if (!state.usable()) {
     throw InvalidParameter("state",
                            "the mean and covariance must be finite, with no negative variance");
   }
   tracks_[t].initialize(state);
-  initialized_[t] = 1;
+  mark_initialized(checked(track));
 }
 
 template <int NX>
-void PlainImmTrackBank<NX>::step(std::span<const Eigen::Vector2d> plots,
-                                 std::span<StepStatus> status) {
-  bank::check_step("PlainImmTrackBank", plots.size(), status.size(), initialized_);
-  for (std::size_t t = 0; t < plots.size(); ++t) status[t] = tracks_[t].step(plots[t]);
-}
-
-template <int NX>
-void PlainImmTrackBank<NX>::step(std::span<const Eigen::Vector2d> plots,
-                                 std::span<StepStatus> status, std::span<double> nis) {
-  bank::check_nis("PlainImmTrackBank", plots.size(), nis.size());
-  step(plots, status);
+void PlainImmTrackBank<NX>::step_lanes(std::span<const Eigen::Vector2d> plots,
+                                       std::span<StepStatus> status, double* nis) {
   for (std::size_t t = 0; t < plots.size(); ++t) {
+    status[t] = tracks_[t].step(plots[t]);
+    if (nis == nullptr) continue;
     nis[t] = std::numeric_limits<double>::quiet_NaN();
     Vector<2> nu;
     SquareMatrix<2> S;
@@ -65,26 +53,7 @@ void PlainImmTrackBank<NX>::step(std::span<const Eigen::Vector2d> plots,
 }
 
 template <int NX>
-void PlainImmTrackBank<NX>::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  bank::check_candidates("PlainImmTrackBank", plots.size(), gate, out.rows(), out.cols(),
-                         initialized_);
-  score(plots, gate, nullptr, out);
-}
-
-template <int NX>
-void PlainImmTrackBank<NX>::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate, std::span<const double> gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  bank::check_candidates("PlainImmTrackBank", plots.size(), gate, out.rows(), out.cols(),
-                         initialized_);
-  bank::check_gate_scale(gate_scale, out.rows());
-  score(plots, gate, gate_scale.data(), out);
-}
-
-template <int NX>
-void PlainImmTrackBank<NX>::score(
+void PlainImmTrackBank<NX>::score_lanes(
     std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
   const auto tracks = static_cast<std::size_t>(out.rows());
@@ -117,23 +86,18 @@ bool PlainImmTrackBank<NX>::set_interval(double interval) {
 }
 
 template <int NX>
-bool PlainImmTrackBank<NX>::initialized(std::size_t track) const {
-  return initialized_[checked(track)] != 0;
-}
-
-template <int NX>
 GaussianState<NX> PlainImmTrackBank<NX>::estimate(std::size_t track) const {
-  return tracks_[checked(track)].estimate();
+  return tracks_[static_cast<std::size_t>(checked(track))].estimate();
 }
 
 template <int NX>
 ModeVector PlainImmTrackBank<NX>::mode_probabilities(std::size_t track) const {
-  return tracks_[checked(track)].mode_probabilities();
+  return tracks_[static_cast<std::size_t>(checked(track))].mode_probabilities();
 }
 
 template <int NX>
 ModeVector PlainImmTrackBank<NX>::log_mode_probabilities(std::size_t track) const {
-  return tracks_[checked(track)].log_mode_probabilities();
+  return tracks_[static_cast<std::size_t>(checked(track))].log_mode_probabilities();
 }
 
 template class PlainImmTrackBank<4>;

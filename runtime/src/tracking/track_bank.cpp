@@ -28,7 +28,7 @@ std::string mode_field(std::size_t index, const char* key) {
 
 }  // namespace
 
-TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
+TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) : TrackBankCalls("TrackBank") {
   spec.validate();
   for (std::size_t i = 0; i < spec.modes.size(); ++i) {
     if (spec.modes[i].motion != MotionKind::kConstantVelocity) {
@@ -48,9 +48,8 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
                            "the track bank needs a Cartesian measurement (PlainImmTrackBank runs "
                            "every plain IMM)");
   }
-  bank::require_capacity(capacity);
+  hold_tracks(capacity);
   modes_ = static_cast<int>(spec.modes.size());
-  capacity_ = capacity;
   const auto tiles = (capacity + kBlock - 1) / kBlock;
   tile_ = static_cast<std::ptrdiff_t>(modes_ * kModeSlots + kEntries) * kBlock;
   prediction_tile_ = static_cast<std::ptrdiff_t>(modes_ * kPlotSlots + kCollapsedSlots) * kBlock;
@@ -72,15 +71,10 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) {
   r11_ = spec.measurement.covariance(1, 1);
   state_.assign(tiles * static_cast<std::size_t>(tile_), 0.0);
   prediction_.assign(tiles * static_cast<std::size_t>(prediction_tile_), 0.0);
-  initialized_.assign(capacity, 0);
-}
-
-std::size_t TrackBank::checked(std::size_t track) const {
-  return bank::checked_track(track, capacity_);
 }
 
 void TrackBank::initialize(std::size_t track, const GaussianState<kDim>& state) {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   double shift = -std::numeric_limits<double>::infinity();
   for (double v : initial_log_mu_) shift = std::max(shift, v);
   for (int j = 0; j < modes_; ++j) {
@@ -108,27 +102,20 @@ void TrackBank::initialize(std::size_t track, const GaussianState<kDim>& state) 
     at(combined_slot(kMean + a), t) = mean(a);
     for (int c = a; c < kDim; ++c) at(combined_slot(kCov + sym(a, c)), t) = covariance(a, c);
   }
-  initialized_[track] = 1;
+  mark_initialized(t);
 }
 
-void TrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
-  bank::check_step("TrackBank", plots.size(), status.size(), initialized_);
+void TrackBank::step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                           double* nis) {
   for (std::size_t first = 0; first < plots.size(); first += kBlock) {
     const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
+    if (nis != nullptr) {
+      run_block(first, lanes, nullptr, nullptr, true);
+      bank::plot_distances(prediction_.data() + first / kBlock * prediction_tile_, kBlock, modes_,
+                           lanes, plots.data() + first, nis + first);
+    }
     run_block(first, lanes, plots.data() + first, status.data() + first, false);
-  }
-}
-
-void TrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                     std::span<double> nis) {
-  bank::check_step("TrackBank", plots.size(), status.size(), initialized_);
-  bank::check_nis("TrackBank", plots.size(), nis.size());
-  for (std::size_t first = 0; first < plots.size(); first += kBlock) {
-    const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
-    run_block(first, lanes, nullptr, nullptr, true);
-    bank::plot_distances(prediction_.data() + first / kBlock * prediction_tile_, kBlock, modes_,
-                         lanes, plots.data() + first, nis.data() + first);
-    run_block(first, lanes, plots.data() + first, status.data() + first, false);
+    if (nis == nullptr) continue;
     for (int t = 0; t < lanes; ++t) {
       const std::size_t at = first + static_cast<std::size_t>(t);
       if (status[at] != StepStatus::kOk) nis[at] = std::numeric_limits<double>::quiet_NaN();
@@ -136,24 +123,9 @@ void TrackBank::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatu
   }
 }
 
-void TrackBank::candidate_log_likelihoods(
-    std::span<const Eigen::Vector2d> plots, double gate,
+void TrackBank::score_lanes(
+    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param): a view
-  bank::check_candidates("TrackBank", plots.size(), gate, out.rows(), out.cols(), initialized_);
-  score(plots, gate, nullptr, out);
-}
-
-void TrackBank::candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                          std::span<const double> gate_scale,
-                                          // NOLINTNEXTLINE(performance-unnecessary-value-param)
-                                          Eigen::Ref<Eigen::MatrixXd> out) {
-  bank::check_candidates("TrackBank", plots.size(), gate, out.rows(), out.cols(), initialized_);
-  bank::check_gate_scale(gate_scale, out.rows());
-  score(plots, gate, gate_scale.data(), out);
-}
-
-void TrackBank::score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-                      Eigen::Ref<Eigen::MatrixXd> out) {
   const auto tracks = static_cast<std::size_t>(out.rows());
   Scoring scoring;
   scoring.modes = modes_;
@@ -225,10 +197,8 @@ int TrackBank::mode_slot(int j, int entry) const { return j * kModeSlots + entry
 
 int TrackBank::combined_slot(int entry) const { return modes_ * kModeSlots + entry; }
 
-bool TrackBank::initialized(std::size_t track) const { return initialized_[checked(track)] != 0; }
-
 GaussianState<TrackBank::kDim> TrackBank::mode_estimate(std::size_t track, int j) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   if (j < 0 || j >= modes_) throw std::out_of_range("mode " + std::to_string(j));
   GaussianState<kDim> out;
   for (int a = 0; a < kDim; ++a) {
@@ -239,7 +209,7 @@ GaussianState<TrackBank::kDim> TrackBank::mode_estimate(std::size_t track, int j
 }
 
 GaussianState<TrackBank::kDim> TrackBank::estimate(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   GaussianState<kDim> out;
   for (int a = 0; a < kDim; ++a) {
     out.mean(a) = at(combined_slot(kMean + a), t);
@@ -249,7 +219,7 @@ GaussianState<TrackBank::kDim> TrackBank::estimate(std::size_t track) const {
 }
 
 ModeVector TrackBank::log_mode_probabilities(std::size_t track) const {
-  const auto t = static_cast<std::ptrdiff_t>(checked(track));
+  const std::ptrdiff_t t = checked(track);
   ModeVector out(modes_);
   for (int j = 0; j < modes_; ++j) out(j) = at(mode_slot(j, kLogMu), t);
   return out;

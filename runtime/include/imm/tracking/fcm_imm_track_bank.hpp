@@ -71,7 +71,7 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank : public LaneStorage {
   /// μ of the x axis's IMM, then the y axis's (TwoAxisFilter::mode_probabilities).
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
-  // step(), step() with the NIS and candidate_log_likelihoods() are LaneStorage's.
+  // step(), step() with the NIS and candidate_log_likelihoods() are TrackBankCalls'.
 
  private:
   // One scan of the tracks; with `nis`, each mode's ν_j = e and S_j of its update collapsed with

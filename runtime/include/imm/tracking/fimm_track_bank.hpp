@@ -63,7 +63,7 @@ class IMM_RUNTIME_EXPORT FimmTrackBank : public TwoModeLaneStorage {
   // estimate(track) is [ξ, ξ̇, ξ̈, η, η̇, η̈] (FimmFilter::estimate), mode_probabilities(track)
   // μ = (cruise, lane change): TwoModeLaneStorage's.
 
-  // step(), step() with the NIS and candidate_log_likelihoods() are LaneStorage's.
+  // step(), step() with the NIS and candidate_log_likelihoods() are TrackBankCalls'.
 
  private:
   struct Constants;

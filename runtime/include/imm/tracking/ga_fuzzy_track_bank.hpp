@@ -69,7 +69,7 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public LaneStorage {
   /// μ of the x modes, then of the y modes (as TwoAxisFilter::mode_probabilities).
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
-  // step(), step() with the NIS and candidate_log_likelihoods() are LaneStorage's.
+  // step(), step() with the NIS and candidate_log_likelihoods() are TrackBankCalls'.
 
  private:
   // One IMM cycle of the tracks; with `nis`, per axis the modes' ν_j and S_j of the update

@@ -64,7 +64,7 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank : public LaneStorage {
   /// [1, 1]: one mode per axis (as TwoAxisFilter::mode_probabilities of the one-track filter).
   [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
-  // step(), step() with the NIS and candidate_log_likelihoods() are LaneStorage's.
+  // step(), step() with the NIS and candidate_log_likelihoods() are TrackBankCalls'.
 
  private:
   struct Constants;

@@ -30,7 +30,9 @@
 /// symmetric. Differences to ImmEstimator are rounding only (its fixed-size Eigen products sum in
 /// another order); tests bound them against the textbook IMM.
 ///
-/// Nothing is allocated after construction.
+/// Its step, gating and NIS calls are TrackBankCalls' (track_bank_calls.hpp). The step that states
+/// each track's NIS costs a second prediction of every block; the gating matrix skips the pairs
+/// outside the gate eight tracks at a time. Nothing is allocated after construction.
 
 #include <Eigen/Core>
 #include <cstddef>
@@ -42,12 +44,13 @@
 #include "imm/estimation/step_status.hpp"
 #include "imm/filters/plain_imm.hpp"
 #include "imm/runtime_export.hpp"
+#include "imm/tracking/track_bank_calls.hpp"
 
 namespace imm {
 
 /// N tracks of one plain IMM of CV modes with Cartesian plots, stepped together (structure of
 /// arrays; see the file comment).
-class IMM_RUNTIME_EXPORT TrackBank {
+class IMM_RUNTIME_EXPORT TrackBank : public TrackBankCalls {
  public:
   /// The state dimension: [x, vx, y, vy].
   static constexpr int kDim = 4;
@@ -59,51 +62,12 @@ class IMM_RUNTIME_EXPORT TrackBank {
   /// ("measurement.kind").
   TrackBank(const PlainImmSpec& spec, std::size_t capacity);
 
-  /// The number of tracks it holds.
-  [[nodiscard]] std::size_t capacity() const { return capacity_; }
   /// The number of IMM modes.
   [[nodiscard]] int mode_count() const { return modes_; }
 
   /// Starts (or restarts) track `track`: every mode takes `state`, the mode probabilities their
   /// initial values. Throws std::out_of_range for a track ≥ capacity().
   void initialize(std::size_t track, const GaussianState<kDim>& state);
-
-  /// One IMM cycle of tracks 0 … plots.size() − 1, track t with plots[t]; status[t] receives its
-  /// outcome (a track whose status is not kOk is unchanged). Tracks from plots.size() on are not
-  /// touched. Throws std::invalid_argument when the spans differ in size or exceed capacity(),
-  /// std::logic_error when a stepped track was never initialized.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status);
-
-  /// step(), stating each stepped track's normalized innovation squared: nis[t] = νᵀ S⁻¹ ν of
-  /// track t's cycle, ν = z − ẑ and S the moment-matched predicted plot covariance (the NIS
-  /// last_step_nis gives its one-track filter after the same step), NaN where status[t] is not
-  /// kOk or S is not positive definite. Costs a second prediction of every block. Throws as
-  /// step(), and std::invalid_argument when `nis` differs in size from `plots`.
-  void step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-            std::span<double> nis);
-
-  /// The gating question for many tracks and plots in one call, without changing any track:
-  /// out(t, q) = log p(z_q | Z_t), the log-likelihood of candidate plot q under track t's
-  /// prediction — the mixture Σ_j c_j N(z_q; ẑ_j, S_j) of ImmEstimator::candidate_log_likelihood
-  /// — for tracks 0 … out.rows() − 1, or −∞ where the plot is outside the gate: its squared
-  /// distance to the collapsed prediction (ImmEstimator::candidate_distance) above `gate` (e.g.
-  /// chi_square_quantile(0.99, 2); +∞ scores every pair, and pairs outside are skipped eight
-  /// tracks at a time). NaN for an unusable plot or a track whose prediction has no positive
-  /// definite S. Then step() with the plots chosen (an unusable plot where a track gets none)
-  /// gives the same numbers as without this call. Throws std::invalid_argument when out.cols()
-  /// differs from plots.size() or out.rows() exceeds capacity(), InvalidParameter("gate") for a
-  /// gate that is NaN or not positive, std::logic_error for a track never initialized. Nothing is
-  /// allocated.
-  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                 Eigen::Ref<Eigen::MatrixXd> out);
-
-  /// The same with a gate per track: track t's pairs are outside where their distance is above
-  /// gate × gate_scale[t] (a calibrated S scaled by gate_scale[t]: CalibratedTrackBank). Throws
-  /// as above, and InvalidParameter("gate_scale…") unless `gate_scale` holds out.rows() factors,
-  /// each finite and positive.
-  void candidate_log_likelihoods(std::span<const Eigen::Vector2d> plots, double gate,
-                                 std::span<const double> gate_scale,
-                                 Eigen::Ref<Eigen::MatrixXd> out);
 
   /// Makes the following cycles of every track (step, candidate_log_likelihoods) span `interval`
   /// s: each mode's F and Q and the mode transitions of the interval, as for one track
@@ -112,8 +76,6 @@ class IMM_RUNTIME_EXPORT TrackBank {
   /// allocated.
   bool set_interval(double interval);
 
-  /// Whether track `track` has been initialized.
-  [[nodiscard]] bool initialized(std::size_t track) const;
   /// The combined estimate of a track (eq. 10–11).
   [[nodiscard]] GaussianState<kDim> estimate(std::size_t track) const;
   /// Mode j's own estimate of a track.
@@ -134,19 +96,20 @@ class IMM_RUNTIME_EXPORT TrackBank {
   // The state slot of entry `entry` of mode j / of the combined estimate (layout in the .cpp).
   [[nodiscard]] int mode_slot(int j, int entry) const;
   [[nodiscard]] int combined_slot(int entry) const;
-  [[nodiscard]] std::size_t checked(std::size_t track) const;
   // The constants of a cycle of `interval` s with mode transitions `transition` (no allocation).
   void remake(double interval, const ModeMatrix& transition);
   // The kernel on the tile of tracks [first, first + lanes), lanes ≤ kBlock: their step with
   // `plots`, or, with `predict`, their predicted plot densities into prediction_.
   void run_block(std::size_t first, int lanes, const Eigen::Vector2d* plots, StepStatus* status,
                  bool predict);
-  // The gating matrix once the arguments are checked; gate_scale: a factor per track, or null.
-  void score(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-             Eigen::Ref<Eigen::MatrixXd> out);
+  // TrackBankCalls' step (with `nis`, a prediction of each block first, for its plot densities)
+  // and gating matrix (pairs outside the gate skipped eight tracks at a time).
+  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
+                  double* nis) override;
+  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
+                   Eigen::Ref<Eigen::MatrixXd> out) override;
 
   int modes_ = 0;
-  std::size_t capacity_ = 0;
   std::ptrdiff_t tile_ = 0;             // doubles per tile of the state (slots × kBlock)
   std::ptrdiff_t prediction_tile_ = 0;  // of prediction_
   double period_ = 1.0;         // the interval of a cycle (the sample period until set_interval)
@@ -162,7 +125,6 @@ class IMM_RUNTIME_EXPORT TrackBank {
   std::vector<double, AlignedAllocator<double>> state_;  // whole tiles
   // candidate_log_likelihoods' predicted plot densities, in tiles as the state
   std::vector<double, AlignedAllocator<double>> prediction_;
-  std::vector<unsigned char> initialized_;
 };
 
 }  // namespace imm

@@ -64,7 +64,7 @@ class IMM_RUNTIME_EXPORT WimmTrackBank : public TwoModeLaneStorage {
   /// Whether the track's last successful step fused the azimuth (WimmFilter::fused).
   [[nodiscard]] bool fused(std::size_t track) const;
 
-  // step(), step() with the NIS and candidate_log_likelihoods() are LaneStorage's.
+  // step(), step() with the NIS and candidate_log_likelihoods() are TrackBankCalls'.
 
  private:
   struct Constants;
