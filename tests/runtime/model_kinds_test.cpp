@@ -12,10 +12,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
 
 #include "imm/io/file_error.hpp"
 #include "imm/io/model_file.hpp"
 #include "imm/load.hpp"
+#include "imm/math/lane_isa.hpp"
 #include "imm/tracking/track_filter.hpp"
 #include "testing/shipped_models.hpp"
 #include "testing/temp_dir.hpp"
@@ -287,6 +292,56 @@ TEST(ModelKinds, EveryShippedModelOpensABankBehindOneInterface) {
     ++opened;
   }
   EXPECT_GE(opened, 6);
+}
+
+// A step that states its NIS through the bank of the model at `path` (false: it states none): for
+// every count of stepped tracks from 1 to past two blocks, one NIS per stepped track (finite where
+// the step succeeded) and nothing written past them.
+bool expect_one_nis_per_stepped_track(const std::filesystem::path& path) {
+  constexpr std::size_t kCapacity = 19;
+  constexpr double kUntouched = -12345.0;
+  const std::unique_ptr<AnyTrackBank> bank = open_track_bank(path, kCapacity);
+  if (!bank->states_step_nis()) return false;
+  const int n = bank->state_dimension();
+  const bool polar = load_filter_maker(path).options.measurement_kind == MeasurementKind::kPolar;
+  const int per_axis = n >= 6 ? 3 : 2;
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(n);
+  mean(0) = polar ? 20000.0 : 100.0;
+  mean(per_axis) = polar ? 15000.0 : 50.0;
+  const Eigen::MatrixXd P = Eigen::MatrixXd::Identity(n, n) * 100.0;
+  for (std::size_t t = 0; t < kCapacity; ++t) bank->initialize(t, mean, P);
+  const Eigen::Vector2d z = polar ? Eigen::Vector2d(25000.0, 0.6) : Eigen::Vector2d(101.0, 49.0);
+  for (std::size_t count = 1; count <= kCapacity; ++count) {
+    std::vector<Eigen::Vector2d> plots(count, z);
+    std::vector<StepStatus> status(count);
+    std::vector<double> nis(count + 16, kUntouched);
+    bank->step(plots, status, std::span<double>(nis.data(), count));
+    for (std::size_t t = 0; t < count; ++t) {
+      EXPECT_EQ(status[t], StepStatus::kOk) << count << " tracks, track " << t;
+      EXPECT_TRUE(std::isfinite(nis[t]) && nis[t] >= 0.0) << count << " tracks, track " << t;
+    }
+    for (std::size_t i = count; i < nis.size(); ++i) {
+      EXPECT_EQ(nis[i], kUntouched) << count << " tracks: entry " << i << " written";
+    }
+  }
+  return true;
+}
+
+// Every shipped model's bank under each instruction set (the widest steps wide blocks, the others
+// narrow ones, whose last half may hold no track).
+TEST(ModelKinds, EveryShippedModelsBankStatesOneNisPerSteppedTrackAndWritesNothingPast) {
+  int checked = 0;
+  for (const LaneIsa isa : {LaneIsa::kAvx512, LaneIsa::kAvx2, LaneIsa::kBaseline}) {
+    cap_lane_isa(isa);
+    for (const auto& path : testing::shipped_models()) {
+      SCOPED_TRACE(path.string() + ", instruction sets up to " +
+                   std::to_string(static_cast<int>(isa)));
+      checked += expect_one_nis_per_stepped_track(path) ? 1 : 0;
+      if (HasFailure()) break;
+    }
+  }
+  cap_lane_isa(LaneIsa::kAvx512);
+  EXPECT_GE(checked, 18);
 }
 
 }  // namespace
