@@ -21,7 +21,7 @@ namespace imm::bank {
 
 /// What a step that states its NIS keeps of one kernel call's lanes (at most kLanes), in a buffer
 /// of kSize doubles the bank owns: per mode j and lane l, at j · kLanes + l, the predicted log c_j
-/// (before the step) and the mode's ν_j and S_j of the update (its family's steps record them).
+/// of the step's mixing and the mode's ν_j and S_j of the update (the family records them).
 struct ModeInnovations {
   static constexpr int kLanes = 16;
   static constexpr std::size_t kEach = static_cast<std::size_t>(kMaxModes) * kLanes,
@@ -54,9 +54,21 @@ struct AxisLaneFamily {
     return paired_codes(code);
   }
 
-  // Where not null, mode j's steps of K packs (the call's lanes from its first) record ν_j and S_j:
-  // nu(k) and s(k) of pack k.
+  // Where not null, the cycle of K packs (the call's lanes from its first) records the predicted
+  // log c_j of its mixing (imm_cycle.hpp), and mode j's steps their ν_j and S_j: nu(k) and s(k)
+  // of pack k.
   const ModeInnovations* record = nullptr;
+  template <class S, int N, int K>
+  [[gnu::always_inline]] inline void record_log_c(int n, const std::array<S, N> (&log_c)[K]) const {
+    if (record == nullptr) return;
+    for (int j = 0; j < n; ++j) {
+      for (int k = 0; k < K; ++k) {
+        lane_store(record->log_c + static_cast<std::ptrdiff_t>(j) * ModeInnovations::kLanes +
+                       static_cast<std::ptrdiff_t>(k) * kLanesOf<S>,
+                   log_c[k][j]);
+      }
+    }
+  }
   template <class S, int K, class Nu, class Variance>
   [[gnu::always_inline]] inline void record_innovations(int j, Nu&& nu, Variance&& s) const {
     if (record == nullptr) return;
@@ -69,43 +81,15 @@ struct AxisLaneFamily {
   }
 };
 
-/// log c_j = log Σ_i p_ij μ_i of lanes [0, lanes) into r.log_c, each lane's log μ_i read by
-/// log_mu(i, l): ImmEstimator::predict_mode_probabilities, lane by lane.
-template <class LogMu>
-void predict_log_c(const CycleBlock& b, int lanes, LogMu&& log_mu, const ModeInnovations& r) {
-  const int n = b.modes;
-  for (int l = 0; l < lanes; ++l) {
-    double log_p[kMaxModes], scaled[kMaxModes];
-    double shift = -std::numeric_limits<double>::infinity();
-    for (int i = 0; i < n; ++i) {
-      log_p[i] = log_mu(i, l);
-      shift = std::max(shift, log_p[i]);
-    }
-    for (int i = 0; i < n; ++i) scaled[i] = std::exp(log_p[i] - shift);
-    for (int j = 0; j < n; ++j) {
-      double c = 0.0;
-      for (int i = 0; i < n; ++i) c += b.transition[i * n + j] * scaled[i];
-      double& out = r.log_c[j * ModeInnovations::kLanes + l];
-      if (c > 0.0) {
-        out = std::log(c) + shift;
-      } else {
-        ModeVector terms(n);
-        for (int i = 0; i < n; ++i) terms(i) = b.log_transition[i * n + j] + log_p[i];
-        out = log_sum_exp(terms);
-      }
-    }
-  }
-}
-
 /// step() of one kernel call's `lanes` lanes, stating its tracks' NIS where `nis` is not null (then
 /// `nis` holds the step's `tracks` tracks, and the call's first lane is the x lane of track
-/// `first_track`, which may be past the last: a bank's last block is padded): c_j predicted
-/// from each lane's log μ (log_mu(i, l)) before the step, whose family records the modes'
-/// innovations into `r`, then step_nis of each track whose code is kOk, NaN for the others.
-template <class LogMu, class Step>
+/// `first_track`, which may be past the last: a bank's last block is padded): the step's family
+/// records the predicted log c_j and the modes' innovations into `r`, then step_nis of each track
+/// whose code is kOk, NaN for the others.
+template <class Step>
 void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes,
-                      std::size_t first_track, std::size_t tracks, LogMu&& log_mu,
-                      const double* code, double* nis, Step&& step);
+                      std::size_t first_track, std::size_t tracks, const double* code, double* nis,
+                      Step&& step);
 
 /// The NIS of the track whose x lane is `lane` (its y lane the next) after a successful step, as
 /// last_step_nis gives its one-track filter (a TwoAxisFilter of two ImmEstimator<2, 1>): per axis
@@ -159,16 +143,12 @@ template <class Pack, int W, int N, class F>
   imm_cycle<Pack, N, K>(family, b, static_cast<int>(first), plot, usable, step, code);
 }
 
-template <class LogMu, class Step>
+template <class Step>
 void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes,
-                      std::size_t first_track, std::size_t tracks, LogMu&& log_mu,
-                      const double* code, double* nis, Step&& step) {
-  if (nis == nullptr) {
-    step();
-    return;
-  }
-  predict_log_c(b, lanes, log_mu, r);
+                      std::size_t first_track, std::size_t tracks, const double* code, double* nis,
+                      Step&& step) {
   step();
+  if (nis == nullptr) return;
   for (int l = 0; l < lanes && first_track + static_cast<std::size_t>(l / 2) < tracks; l += 2) {
     nis[first_track + static_cast<std::size_t>(l / 2)] =
         code[l] == kOk ? step_nis(r, b.modes, l) : std::numeric_limits<double>::quiet_NaN();

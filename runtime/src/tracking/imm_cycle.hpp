@@ -26,6 +26,8 @@
 //                          does not take the steps_across_modes path
 //   kStoresCombined        false where the combined estimate is not kept in the state (the bank
 //                          combines a track's modes when it is asked for its estimate)
+//   record_log_c<S, N, K>(n, log_c)
+//                          is given the predicted log c_j of the K packs after the mixing
 //   steps_across_modes<P>(n, mixed, current, z, updated, log_likelihood, code)
 //                          the step of modes 0 … n − 1 of one track at once, mode j in lane j of
 //                          a pack P (n ≤ 8; the lanes past n compute on copies and are not
@@ -413,6 +415,8 @@ template <class S, int N, int K, class F>
   }
   if (!across_modes) {
     mix_modes<S, N, K>(family, b, t, stepped, m);
+    if constexpr (requires { family.template record_log_c<S, N, K>(n, m.log_c); })
+      family.template record_log_c<S, N, K>(n, m.log_c);
     // Each mode's step, ℓ_j + log c_j; the first mode that fails decides a lane's outcome.
     for (int k = 0; k < K; ++k) outcome[k] = splat<S>(kOk);
     for (int j = 0; j < n; ++j) {
