@@ -12,6 +12,7 @@
 
 #include "imm/core/aligned_allocator.hpp"
 #include "imm/core/invalid_parameter.hpp"
+#include "imm/estimation/imm_estimator.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
 #include "testing/axis_lane_bank_checks.hpp"
@@ -187,6 +188,54 @@ TEST(TrackBank, MatchesTheTextbookImmAndImmEstimator) {
           ASSERT_EQ(estimate.covariance, estimate.covariance.transpose());  // a triangle
         }
       }
+    }
+  }
+}
+
+// The step that states the NIS: each track's NIS is its ImmEstimator's νᵀ S⁻¹ ν after the same step
+// (ImmEstimator::innovation; 1e-9 relative, the kernel's rounding), NaN where the step failed, and
+// stating it changes no bit of any track (a bank stepped without it stays equal), with 1, 3 and 6
+// modes, for a track alone, a block and a partial one.
+TEST(TrackBank, TheNisItStatesIsImmEstimatorsAndChangesNoTrack) {
+  for (const int n : {1, 3, 6}) {
+    for (const std::size_t tracks : {std::size_t{1}, std::size_t{9}, std::size_t{13}}) {
+      SCOPED_TRACE(::testing::Message() << n << " modes, " << tracks << " tracks");
+      const PlainImmSpec spec = spec_with_modes(n);
+      TrackBank bank(spec, tracks), silent(spec, tracks);
+      std::vector<ImmEstimator<4, 2>> references;
+      for (std::size_t t = 0; t < tracks; ++t) {
+        bank.initialize(t, start_for(t));
+        silent.initialize(t, start_for(t));
+        references.push_back(build_plain_imm<4>(spec));
+        references.back().initialize(start_for(t));
+      }
+      Scenario scenario(tracks);
+      std::vector<Eigen::Vector2d> plots(tracks);
+      std::vector<StepStatus> status(tracks), silent_status(tracks);
+      std::vector<double> nis(tracks);
+      int failed = 0;
+      for (int k = 1; k <= 100; ++k) {
+        for (std::size_t t = 0; t < tracks; ++t) plots[t] = scenario.plot(t, k);
+        bank.step(plots, status, nis);
+        silent.step(plots, silent_status);
+        for (std::size_t t = 0; t < tracks; ++t) {
+          ASSERT_EQ(status[t], silent_status[t]);
+          ASSERT_EQ(status[t], references[t].step(plots[t])) << k;
+          ASSERT_TRUE(same_bits(bank.estimate(t).covariance, silent.estimate(t).covariance));
+          ASSERT_TRUE(same_bits(bank.log_mode_probabilities(t), silent.log_mode_probabilities(t)));
+          if (status[t] != StepStatus::kOk) {
+            EXPECT_TRUE(std::isnan(nis[t])) << k;
+            ++failed;
+            continue;
+          }
+          Vector<2> nu;
+          SquareMatrix<2> S;
+          ASSERT_TRUE(references[t].innovation(nu, S));
+          const double expected = nu.dot(S.ldlt().solve(nu));
+          ASSERT_NEAR(nis[t], expected, 1e-9 * expected) << k << " track " << t;
+        }
+      }
+      EXPECT_GT(failed, 0);  // the NaN plots
     }
   }
 }

@@ -71,6 +71,7 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) : TrackBank
   r11_ = spec.measurement.covariance(1, 1);
   state_.assign(tiles * static_cast<std::size_t>(tile_), 0.0);
   prediction_.assign(tiles * static_cast<std::size_t>(prediction_tile_), 0.0);
+  innovations_.assign(static_cast<std::size_t>(bank::kInnovationDoubles), 0.0);
 }
 
 void TrackBank::initialize(std::size_t track, const GaussianState<kDim>& state) {
@@ -109,17 +110,8 @@ void TrackBank::step_lanes(std::span<const Eigen::Vector2d> plots, std::span<Ste
                            double* nis) {
   for (std::size_t first = 0; first < plots.size(); first += kBlock) {
     const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
-    if (nis != nullptr) {
-      run_block(first, lanes, nullptr, nullptr, true);
-      bank::plot_distances(prediction_.data() + first / kBlock * prediction_tile_, kBlock, modes_,
-                           lanes, plots.data() + first, nis + first);
-    }
-    run_block(first, lanes, plots.data() + first, status.data() + first, false);
-    if (nis == nullptr) continue;
-    for (int t = 0; t < lanes; ++t) {
-      const std::size_t at = first + static_cast<std::size_t>(t);
-      if (status[at] != StepStatus::kOk) nis[at] = std::numeric_limits<double>::quiet_NaN();
-    }
+    run_block(first, lanes, plots.data() + first, status.data() + first,
+              nis == nullptr ? nullptr : nis + first);
   }
 }
 
@@ -136,7 +128,7 @@ void TrackBank::score_lanes(
   scoring.out_stride = out.outerStride();
   for (std::size_t first = 0; first < tracks; first += kBlock) {
     const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, tracks - first));
-    run_block(first, lanes, nullptr, nullptr, true);
+    run_block(first, lanes, nullptr, nullptr, nullptr, true);
     scoring.tracks = lanes;
     scoring.prediction = prediction_.data() + first / kBlock * prediction_tile_;
     scoring.out = out.data() + first;
@@ -173,7 +165,7 @@ bool TrackBank::set_interval(double interval) {
 }
 
 void TrackBank::run_block(std::size_t first, int lanes, const Eigen::Vector2d* plots,
-                          StepStatus* status, bool predict) {
+                          StepStatus* status, double* nis, bool predict) {
   Block block;
   block.modes = modes_;
   block.lanes = lanes;
@@ -189,6 +181,8 @@ void TrackBank::run_block(std::size_t first, int lanes, const Eigen::Vector2d* p
   block.stride = kBlock;
   block.plots = plots;
   block.status = status;
+  block.nis = nis;
+  block.innovations = innovations_.data();
   if (predict) return predict_plots(block, prediction_.data() + tile * prediction_tile_);
   step_tracks(block);
 }

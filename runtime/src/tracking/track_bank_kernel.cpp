@@ -23,6 +23,28 @@ namespace {
 template <class S>
 using Entries = std::array<S, kEntries>;
 
+// What a step that states its NIS keeps of one pack's lanes, in the bank's buffer
+// (Block::innovations): per mode j and lane l, at j · kPackLanes + l, the predicted log c_j of the
+// mixing and the mode's ν_j and S_j of the update.
+struct PackInnovations {
+  static constexpr int kPackLanes = 8;
+  static constexpr std::ptrdiff_t kEach = std::ptrdiff_t{kMaxModes} * kPackLanes;
+  static_assert(kInnovationDoubles == 6 * kEach);
+  explicit PackInnovations(double* buffer)
+      : log_c(buffer),
+        nu0(buffer + kEach),
+        nu1(buffer + 2 * kEach),
+        s00(buffer + 3 * kEach),
+        s01(buffer + 4 * kEach),
+        s11(buffer + 5 * kEach) {}
+  double* log_c;
+  double* nu0;
+  double* nu1;
+  double* s00;
+  double* s01;
+  double* s11;
+};
+
 // The plain IMM's constant-velocity modes with a Cartesian plot as imm_cycle.hpp's family: a
 // mode holds its Gaussian; its step is cv_position_algebra.hpp's prediction and Joseph update.
 struct CvPositionFamily {
@@ -34,6 +56,16 @@ struct CvPositionFamily {
   double period = 1.0;
   const double* noise = nullptr;  // mode j's Q triangle at j * kTriangle
   double r00 = 0.0, r01 = 0.0, r11 = 0.0;
+  // Where not null, the cycle of one pack records its log c_j and the modes' ν_j and S_j here.
+  PackInnovations* record = nullptr;
+
+  template <class S, int N, int K>
+  [[gnu::always_inline]] inline void record_log_c(int n, const std::array<S, N> (&log_c)[K]) const {
+    static_assert(K == 1, "the TrackBank's kernel steps one pack at a time");
+    if (record == nullptr) return;
+    for (int j = 0; j < n; ++j)
+      lane_store(record->log_c + j * PackInnovations::kPackLanes, log_c[0][j]);
+  }
 
   // Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian (eq. 4–5 and 10–11), each sum over i = 0, 1, …
   template <class S, class Modes>
@@ -70,8 +102,17 @@ struct CvPositionFamily {
                                            const Plot<S> (&z)[K], Entries<S> (&updated)[K],
                                            S (&log_likelihood)[K], S (&code)[K]) const {
     for (int k = 0; k < K; ++k) {
-      step(noise + static_cast<std::ptrdiff_t>(j) * kTriangle, mixed[k], z[k], updated[k],
-           log_likelihood[k], code[k]);
+      const cv_position::UpdateOutcome<S> o =
+          step(noise + static_cast<std::ptrdiff_t>(j) * kTriangle, mixed[k], z[k], updated[k],
+               log_likelihood[k], code[k]);
+      if (record == nullptr) continue;
+      const std::ptrdiff_t at = static_cast<std::ptrdiff_t>(j) * PackInnovations::kPackLanes +
+                                static_cast<std::ptrdiff_t>(k) * kLanesOf<S>;
+      lane_store(record->nu0 + at, o.nu0);
+      lane_store(record->nu1 + at, o.nu1);
+      lane_store(record->s00 + at, o.s00);
+      lane_store(record->s01 + at, o.s01);
+      lane_store(record->s11 + at, o.s11);
     }
   }
 
@@ -94,8 +135,9 @@ struct CvPositionFamily {
   // The prediction with Q's triangle q (q[i] a double or an S) and the Joseph-form update; S
   // positive definite by Sylvester with kalman_filter.hpp's relative guard, every output finite.
   template <class S, class Q>
-  [[gnu::always_inline]] inline void step(const Q& q, const Entries<S>& mixed, const Plot<S>& z,
-                                          Entries<S>& updated, S& log_likelihood, S& code) const {
+  [[gnu::always_inline]] inline cv_position::UpdateOutcome<S> step(
+      const Q& q, const Entries<S>& mixed, const Plot<S>& z, Entries<S>& updated, S& log_likelihood,
+      S& code) const {
     Entries<S> predicted = mixed;
     cv_position::predict([&](int i) -> S& { return predicted[i]; }, period, q);
     const auto o =
@@ -105,6 +147,7 @@ struct CvPositionFamily {
     code = pick(o.s00 > 0.0,
                 pick(o.det > o.threshold, pick(o.finite == 0.0, kOk, kNonFinite), kSingular),
                 kSingular);
+    return o;
   }
 
   // A track is one lane.
@@ -121,6 +164,51 @@ static_assert(CycleSlots<CvPositionFamily>::kLogMu == kLogMu &&
 CvPositionFamily family_of(const Block& b) { return {b.period, b.noise, b.r00, b.r01, b.r11}; }
 CycleBlock cycle_of(const Block& b) {
   return {b.modes, b.transition, b.log_transition, b.state, b.stride};
+}
+
+// The NIS of the `real` tracks of a pack after its step (track_bank_kernel.hpp: step_tracks) from
+// what the cycle recorded: c_j = exp(log c_j − max) / Σ, ν̄ = Σ c_j ν_j,
+// S̄ = Σ c_j (S_j + (ν_j − ν̄)(ν_j − ν̄)ᵀ), then ν̄ᵀ S̄⁻¹ ν̄; NaN where a track's code is not kOk
+// or S̄ is not positive definite.
+template <class S, int N>
+[[gnu::always_inline]] inline void state_nis(int modes, const PackInnovations& r,
+                                             const Lanes<S>& codes, int real, double* nis) {
+  const int n = N == kMaxModes ? modes : N;
+  auto at = [](const double* v, int j) {
+    return lane_load<S>(v + j * PackInnovations::kPackLanes);
+  };
+  S top = splat<S>(-std::numeric_limits<double>::infinity());
+  for (int j = 0; j < n; ++j) top = pick(top < at(r.log_c, j), at(r.log_c, j), top);
+  std::array<S, N> c;  // NOLINT(cppcoreguidelines-pro-type-member-init): the n written
+  S total = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) {
+    c[j] = lane_exp(at(r.log_c, j) - top);
+    total += c[j];
+  }
+  S nu0 = splat<S>(0.0), nu1 = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) {
+    c[j] = c[j] / total;
+    nu0 += c[j] * at(r.nu0, j);
+    nu1 += c[j] * at(r.nu1, j);
+  }
+  S t00 = splat<S>(0.0), t01 = splat<S>(0.0), t11 = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) {
+    const S d0 = at(r.nu0, j) - nu0, d1 = at(r.nu1, j) - nu1;
+    t00 += c[j] * (at(r.s00, j) + d0 * d0);
+    t01 += c[j] * (at(r.s01, j) + d0 * d1);
+    t11 += c[j] * (at(r.s11, j) + d1 * d1);
+  }
+  const S det = t00 * t11 - t01 * t01;
+  const S inverse_det = 1.0 / det;
+  const S distance = (t11 * inverse_det) * (nu0 * nu0) +
+                     2.0 * ((-t01 * inverse_det) * (nu0 * nu1)) + (t00 * inverse_det) * (nu1 * nu1);
+  const S value =
+      pick((t00 > 0.0) & (det > 0.0), distance, splat<S>(std::numeric_limits<double>::quiet_NaN()));
+  const Lanes<S> lanes = lanes_of(value);
+  for (int l = 0; l < real; ++l) {
+    const auto u = static_cast<std::size_t>(l);
+    nis[l] = codes[u] == kOk ? lanes[u] : std::numeric_limits<double>::quiet_NaN();
+  }
 }
 
 // One IMM step (seed 000 eq. 4–11) of the `real` tracks that start at lane `t` of block `b`
@@ -140,10 +228,14 @@ template <class S, int N>
   }
   const CvPositionFamily::Plot<S> plot[1] = {{from_lanes<S>(zx), from_lanes<S>(zy)}};
   const S usable[1] = {from_lanes<S>(ok)}, stepped[1] = {from_lanes<S>(active)};
-  imm_cycle<S, N, 1>(family_of(b), cycle_of(b), t, plot, usable, stepped, codes.data());
+  CvPositionFamily family = family_of(b);
+  PackInnovations recorded(b.innovations);
+  if (b.nis != nullptr) family.record = &recorded;
+  imm_cycle<S, N, 1>(family, cycle_of(b), t, plot, usable, stepped, codes.data());
   for (std::size_t l = 0; l < static_cast<std::size_t>(real); ++l) {
     b.status[static_cast<std::size_t>(t) + l] = status_of(codes[l]);
   }
+  if (b.nis != nullptr) state_nis<S, N>(b.modes, recorded, codes, real, b.nis + t);
 }
 
 template <class Pack, int N>
@@ -152,11 +244,12 @@ template <class Pack, int N>
   int t = 0;
   for (; t + kW <= b.lanes; t += kW) step<Pack, N>(b, t);
   // The rest: one track alone, more in a pack of which they fill a part (a pack costs about as
-  // much as one track alone).
+  // much as one track alone). A step that states the NIS steps one track in a pack too: alone, its
+  // modes step across a pack's lanes (imm_cycle.hpp) and record nothing. The same bits either way.
   const int rest = b.lanes - t;
-  if (rest == 1) {
+  if (rest == 1 && b.nis == nullptr) {
     step<double, N>(b, t);
-  } else if (rest > 1) {
+  } else if (rest > 0) {
     step<Pack, N>(b, t, rest);
   }
 }
@@ -336,24 +429,6 @@ void score_plots(const Scoring& s) {
     for_lane_isa(lane_isa(), score_plots_for_avx512<N>, score_plots_for_avx2<N>,
                  score_plots_for_baseline<N>)(s);
   });
-}
-
-void plot_distances(const double* prediction, std::ptrdiff_t stride, int modes, int tracks,
-                    const Eigen::Vector2d* plots, double* nis) {
-  const int collapsed = modes * kPlotSlots;
-  for (int t = 0; t < tracks; ++t) {
-    auto slot = [&](int index) { return prediction[index * stride + t]; };
-    const double c00 = slot(collapsed + 2), c01 = slot(collapsed + 3), c11 = slot(collapsed + 4);
-    const Eigen::Vector2d& z = plots[t];
-    // S̄⁻¹ is positive definite exactly where S̄ is.
-    const bool definite = c00 > 0.0 && c00 * c11 - c01 * c01 > 0.0;
-    if (!definite || !limits::usable_measurement(z.x()) || !limits::usable_measurement(z.y())) {
-      nis[t] = std::numeric_limits<double>::quiet_NaN();
-      continue;
-    }
-    const double dx = z.x() - slot(collapsed), dy = z.y() - slot(collapsed + 1);
-    nis[t] = c00 * (dx * dx) + 2.0 * (c01 * (dx * dy)) + c11 * (dy * dy);
-  }
 }
 
 }  // namespace imm::bank

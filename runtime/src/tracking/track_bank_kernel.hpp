@@ -22,6 +22,8 @@ static_assert(kN == TrackBank::kDim);
 // estimate (mean, triangle) follows the modes.
 constexpr int kMean = 0, kCov = kN, kLogMu = kEntries, kScaledMu = kEntries + 1,
               kModeSlots = kEntries + 2;
+// The doubles a step that states the NIS keeps of one pack (track_bank_kernel.cpp).
+constexpr std::ptrdiff_t kInnovationDoubles = std::ptrdiff_t{6} * kMaxModes * 8;
 // What one block's step reads and writes: the bank's constants and its state slots (stride apart,
 // already offset to the block's first track).
 struct Block {
@@ -36,10 +38,15 @@ struct Block {
   std::ptrdiff_t stride = 0;
   const Eigen::Vector2d* plots = nullptr;
   StepStatus* status = nullptr;
+  double* nis = nullptr;  // where not null, each track's NIS of the step (offset to the first)
+  double* innovations = nullptr;  // with `nis`: kInnovationDoubles for the packs' innovations
 };
 
 /// One IMM step (seed 000 eq. 4–11) of the tracks of block `b`; a track whose plot is unusable or
-/// whose step fails keeps its state and gets its StepStatus.
+/// whose step fails keeps its state and gets its StepStatus. Where `b.nis` is not null, each
+/// track's NIS: ν̄ᵀ S̄⁻¹ ν̄ of the modes' ν_j and S_j of the update collapsed with the normalized
+/// predicted c_j (ImmEstimator::innovation after the step), NaN where the step failed or S̄ is not
+/// positive definite.
 void step_tracks(const Block& b);
 
 // The predicted plot density of a track, for candidate plots: per mode j the constant
@@ -69,11 +76,5 @@ struct Scoring {
 /// Every (track, plot) log-likelihood log Σ_j c_j N(z; ẑ_j, S_j), −∞ where the collapsed
 /// distance exceeds the gate.
 void score_plots(const Scoring& s);
-
-/// Each track's own plot against its prediction (predict_plots'): nis[t] = the collapsed
-/// distance of plots[t] (ImmEstimator::innovation's νᵀ S⁻¹ ν after a step with it), NaN for an
-/// unusable plot or an S that is not positive definite. One lane at a time.
-void plot_distances(const double* prediction, std::ptrdiff_t stride, int modes, int tracks,
-                    const Eigen::Vector2d* plots, double* nis);
 
 }  // namespace imm::bank

@@ -31,8 +31,9 @@
 /// another order); tests bound them against the textbook IMM.
 ///
 /// Its step, gating and NIS calls are TrackBankCalls' (track_bank_calls.hpp). The step that states
-/// each track's NIS costs a second prediction of every block; the gating matrix skips the pairs
-/// outside the gate eight tracks at a time. Nothing is allocated after construction.
+/// each track's NIS collapses the modes' innovations of each pack in the kernel, after its cycle;
+/// the gating matrix skips the pairs outside the gate eight tracks at a time. Nothing is allocated
+/// after construction.
 
 #include <Eigen/Core>
 #include <cstddef>
@@ -99,11 +100,12 @@ class IMM_RUNTIME_EXPORT TrackBank : public TrackBankCalls {
   // The constants of a cycle of `interval` s with mode transitions `transition` (no allocation).
   void remake(double interval, const ModeMatrix& transition);
   // The kernel on the tile of tracks [first, first + lanes), lanes ≤ kBlock: their step with
-  // `plots`, or, with `predict`, their predicted plot densities into prediction_.
+  // `plots` (and, where `nis` is not null, their NIS), or, with `predict`, their predicted plot
+  // densities into prediction_.
   void run_block(std::size_t first, int lanes, const Eigen::Vector2d* plots, StepStatus* status,
-                 bool predict);
-  // TrackBankCalls' step (with `nis`, a prediction of each block first, for its plot densities)
-  // and gating matrix (pairs outside the gate skipped eight tracks at a time).
+                 double* nis, bool predict = false);
+  // TrackBankCalls' step (with `nis`, the kernel collapses each pack's recorded innovations after
+  // its cycle) and gating matrix (pairs outside the gate skipped eight tracks at a time).
   void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
                   double* nis) override;
   void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
@@ -125,6 +127,8 @@ class IMM_RUNTIME_EXPORT TrackBank : public TrackBankCalls {
   std::vector<double, AlignedAllocator<double>> state_;  // whole tiles
   // candidate_log_likelihoods' predicted plot densities, in tiles as the state
   std::vector<double, AlignedAllocator<double>> prediction_;
+  // A step that states the NIS: one pack's predicted log c_j and the modes' innovations
+  std::vector<double> innovations_;
 };
 
 }  // namespace imm
