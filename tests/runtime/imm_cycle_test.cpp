@@ -4,7 +4,8 @@
 // against its double instance, lane by lane, to the bit; one track's modes in one pack against the
 // mode loop, to the bit; K packs together against K alone and the
 // unrolled mode count against the general loop, to the bit; against a textbook IMM in linear
-// probabilities (eq. 4–11 of seed 000) written out below; what a lane that fails keeps and says.
+// probabilities (eq. 4–11 of seed 000) written out below; what a lane that fails keeps and says;
+// the banks' NIS of a diagonal S against normalized_innovation_squared, to the bit.
 #include "tracking/imm_cycle.hpp"
 
 // 64-byte vectors by value in the test (lane_math.hpp says why that is harmless).
@@ -25,6 +26,7 @@
 
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
+#include "imm/tracking/track_filter.hpp"
 
 namespace imm::bank {
 namespace {
@@ -436,6 +438,38 @@ TEST(ImmCycle, ALaneThatFailsKeepsItsStateAndSaysWhy) {
     const bool changed = b.at(0, l) != before.state[static_cast<std::size_t>(l)];
     EXPECT_EQ(changed, stepped[l] != 0.0) << l;
   }
+}
+
+// diagonal_nis (axis_lane_bank.hpp), the NIS the axis banks state, is what
+// normalized_innovation_squared gives for S = diag(s_x, s_y) to the bit: over magnitudes from
+// 1e-12 to 1e12, and NaN where that refuses S (a variance ≤ 0) or gives NaN.
+TEST(ImmCycle, TheNisOfADiagonalSIsNormalizedInnovationSquaredToTheBit) {
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> exponent(-12.0, 12.0), sign(-1.0, 1.0);
+  auto draw = [&] { return std::copysign(std::pow(10.0, exponent(rng)), sign(rng)); };
+  auto expect_same = [](double nx, double ny, double sx, double sy) {
+    const auto reference = normalized_innovation_squared(Eigen::Vector2d(nx, ny),
+                                                         Eigen::Matrix2d{{sx, 0.0}, {0.0, sy}});
+    const double value = diagonal_nis(nx, ny, sx, sy);
+    if (!reference || std::isnan(*reference)) {
+      EXPECT_TRUE(std::isnan(value)) << nx << " " << ny << " " << sx << " " << sy;
+    } else {
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(value), std::bit_cast<std::uint64_t>(*reference))
+          << nx << " " << ny << " " << sx << " " << sy;
+    }
+  };
+  for (int i = 0; i < 100000; ++i) {
+    expect_same(draw(), draw(), std::abs(draw()), std::abs(draw()));
+    if (HasFailure()) return;
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const double s : {0.0, -1.0, -0.0, nan, kInf}) {
+    expect_same(1.5, -2.0, s, 2.0);
+    expect_same(1.5, -2.0, 2.0, s);
+  }
+  expect_same(0.0, 0.0, 1.0, 1.0);
+  expect_same(kInf, 1.0, 1.0, 1.0);
+  expect_same(nan, 1.0, 1.0, 1.0);
 }
 
 }  // namespace

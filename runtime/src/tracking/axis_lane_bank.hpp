@@ -106,6 +106,21 @@ template <class S, class Modes>
   out = {m0, m1, c00, c01, c11};
 }
 
+/// νᵀ S⁻¹ ν with S = diag(s_x, s_y), as normalized_innovation_squared (track_filter.hpp) computes
+/// it to the bit: S's Cholesky factor is L = diag(√s_x, √s_y) with an off-diagonal 0, solved
+/// forward (L y = ν) and back (Lᵀ w = y), the zero's products kept (0 · ∞ is NaN there too), then
+/// ν · w. NaN unless both variances are > 0.
+inline double diagonal_nis(double nu_x, double nu_y, double s_x, double s_y) {
+  if (!(s_x > 0.0 && s_y > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  const double root_x = std::sqrt(s_x), root_y = std::sqrt(s_y);
+  constexpr double kOffDiagonal = 0.0;
+  const double y_x = nu_x / root_x;
+  const double y_y = (nu_y - kOffDiagonal * y_x) / root_y;
+  const double w_y = y_y / root_y;
+  const double w_x = (y_x - kOffDiagonal * w_y) / root_x;
+  return nu_x * w_x + nu_y * w_y;
+}
+
 /// The normalized weights exp(v_j − max v) / Σ_k exp(v_k − max v) of n log-weights v into `out`:
 /// ImmEstimator::collapse's c_j from log c_j.
 inline void normalized_weights(const double* log_weights, int n, double* out) {

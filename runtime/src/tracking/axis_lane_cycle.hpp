@@ -4,7 +4,6 @@
 // one axis each, x then y, a plot one number per lane: GaFuzzyTrackBank and FcmImmTrackBank —
 // and the NIS such a bank states for a step (step_nis). Not installed.
 
-#include <Eigen/Core>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -14,7 +13,6 @@
 #include "axis_lane_bank.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
-#include "imm/tracking/track_filter.hpp"
 #include "imm_cycle.hpp"
 
 namespace imm::bank {
@@ -119,9 +117,7 @@ inline double step_nis(const ModeInnovations& r, int n, int lane) {
       S[axis] += c * (r.s[at(j)] + d * d);
     }
   }
-  const auto value = normalized_innovation_squared(Eigen::Vector2d(nu[0], nu[1]),
-                                                   Eigen::Matrix2d{{S[0], 0.0}, {0.0, S[1]}});
-  return value ? *value : std::numeric_limits<double>::quiet_NaN();
+  return diagonal_nis(nu[0], nu[1], S[0], S[1]);
 }
 
 /// One IMM cycle of family `family` over one block's W lanes (whole packs of Pack) of N modes from

@@ -107,11 +107,9 @@ void InputEstimatorTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
         // arithmetic on it.
         for (int l = 0; l < W && first / 2 + l / 2 < plots.size(); l += 2) {
           const std::size_t track = first / 2 + static_cast<std::size_t>(l / 2);
-          const Eigen::Vector2d nu(report.nu[l], report.nu[l + 1]);
-          const Eigen::Matrix2d S{{report.s[l], 0.0}, {0.0, report.s[l + 1]}};
-          const auto value = normalized_innovation_squared(nu, S);
-          nis[track] =
-              code[l] == step::kOk && value ? *value : std::numeric_limits<double>::quiet_NaN();
+          nis[track] = code[l] == step::kOk ? bank::diagonal_nis(report.nu[l], report.nu[l + 1],
+                                                                 report.s[l], report.s[l + 1])
+                                            : std::numeric_limits<double>::quiet_NaN();
         }
       });
 }
