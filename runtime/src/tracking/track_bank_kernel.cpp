@@ -64,7 +64,7 @@ struct CvPositionFamily {
     static_assert(K == 1, "the TrackBank's kernel steps one pack at a time");
     if (record == nullptr) return;
     for (int j = 0; j < n; ++j)
-      lane_store(record->log_c + j * PackInnovations::kPackLanes, log_c[0][j]);
+      lane_store(record->log_c + std::ptrdiff_t{j} * PackInnovations::kPackLanes, log_c[0][j]);
   }
 
   // Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian (eq. 4–5 and 10–11), each sum over i = 0, 1, …
@@ -175,7 +175,7 @@ template <class S, int N>
                                              const Lanes<S>& codes, int real, double* nis) {
   const int n = N == kMaxModes ? modes : N;
   auto at = [](const double* v, int j) {
-    return lane_load<S>(v + j * PackInnovations::kPackLanes);
+    return lane_load<S>(v + std::ptrdiff_t{j} * PackInnovations::kPackLanes);
   };
   S top = splat<S>(-std::numeric_limits<double>::infinity());
   for (int j = 0; j < n; ++j) top = pick(top < at(r.log_c, j), at(r.log_c, j), top);
