@@ -23,12 +23,19 @@ namespace imm::bank {
 struct ModeInnovations {
   static constexpr int kLanes = 16;
   static constexpr std::size_t kEach = static_cast<std::size_t>(kMaxModes) * kLanes,
-                               kSize = 3 * kEach;
+                               kSize = 3 * kEach + 2 * kLanes;
   explicit ModeInnovations(double* buffer)
-      : log_c(buffer), nu(buffer + kEach), s(buffer + 2 * kEach) {}
+      : log_c(buffer),
+        nu(buffer + kEach),
+        s(buffer + 2 * kEach),
+        collapsed_nu(buffer + 3 * kEach),
+        collapsed_s(buffer + 3 * kEach + kLanes) {}
   double* log_c;
   double* nu;
   double* s;
+  // Per lane, the modes' ν_j and S_j collapsed with the normalized c_j (collapse_in_lanes).
+  double* collapsed_nu;
+  double* collapsed_s;
 };
 
 /// What the imm_cycle.hpp families of axis lanes share: a mode's estimate is its first five
@@ -83,8 +90,9 @@ struct AxisLaneFamily {
 /// `nis` holds the step's `tracks` tracks, and the call's first lane is the x lane of track
 /// `first_track`, which may be past the last: a bank's last block is padded): the step's family
 /// records the predicted log c_j and the modes' innovations into `r`, then step_nis of each track
-/// whose code is kOk, NaN for the others.
-template <class Step>
+/// whose code is kOk, NaN for the others; with kCollapsedInLanes, the step has collapsed each
+/// lane's innovations already (collapse_in_lanes) and only νᵀ S⁻¹ ν is left per track.
+template <bool kCollapsedInLanes, class Step>
 void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes,
                       std::size_t first_track, std::size_t tracks, const double* code, double* nis,
                       Step&& step);
@@ -120,9 +128,44 @@ inline double step_nis(const ModeInnovations& r, int n, int lane) {
   return diagonal_nis(nu[0], nu[1], S[0], S[1]);
 }
 
+/// Each lane's ν_j and S_j of the K packs from the call's first lane collapsed with the
+/// normalized c_j into r.collapsed_nu and r.collapsed_s: step_nis' per-axis collapse in the packs'
+/// lanes, c_j from lane_exp (for a family whose mode probabilities are not libm's).
+template <class S, int N, int K>
+[[gnu::always_inline]] inline void collapse_in_lanes(const ModeInnovations& r, int n) {
+  constexpr int kPack = kLanesOf<S>;
+  for (int k = 0; k < K; ++k) {
+    const std::ptrdiff_t lane = static_cast<std::ptrdiff_t>(k) * kPack;
+    auto at = [&](const double* v, int j) {
+      return lane_load<S>(v + static_cast<std::ptrdiff_t>(j) * ModeInnovations::kLanes + lane);
+    };
+    S top = splat<S>(-std::numeric_limits<double>::infinity());
+    for (int j = 0; j < n; ++j) top = pick(top < at(r.log_c, j), at(r.log_c, j), top);
+    std::array<S, N> c;  // NOLINT(cppcoreguidelines-pro-type-member-init): the n written
+    S total = splat<S>(0.0);
+    for (int j = 0; j < n; ++j) {
+      c[j] = lane_exp(at(r.log_c, j) - top);
+      total += c[j];
+    }
+    S nu = splat<S>(0.0);
+    for (int j = 0; j < n; ++j) {
+      c[j] = c[j] / total;
+      nu += pick(c[j] != 0.0, c[j] * at(r.nu, j), splat<S>(0.0));
+    }
+    S variance = splat<S>(0.0);
+    for (int j = 0; j < n; ++j) {
+      const S d = at(r.nu, j) - nu;
+      variance += pick(c[j] != 0.0, c[j] * (at(r.s, j) + d * d), splat<S>(0.0));
+    }
+    lane_store(r.collapsed_nu + lane, nu);
+    lane_store(r.collapsed_s + lane, variance);
+  }
+}
+
 /// One IMM cycle of family `family` over one block's W lanes (whole packs of Pack) of N modes from
 /// lane `first`: `z` the lanes' plots (NaN for an unusable plot), `stepped` 1 for a lane to step;
-/// `code` receives each lane's outcome.
+/// `code` receives each lane's outcome. Where the family records its innovations and its mode
+/// probabilities are not libm's, each lane's collapse too (collapse_in_lanes).
 template <class Pack, int W, int N, class F>
 [[gnu::always_inline]] inline void axis_lane_cycle(const F& family, const CycleBlock& b,
                                                    std::ptrdiff_t first, const double* z,
@@ -137,17 +180,28 @@ template <class Pack, int W, int N, class F>
     step[k] = lane_load<Pack>(stepped + offset);
   }
   imm_cycle<Pack, N, K>(family, b, static_cast<int>(first), plot, usable, step, code);
+  if constexpr (!kLibmProbabilities<F>) {
+    if (family.record != nullptr) {
+      collapse_in_lanes<Pack, N, K>(*family.record, N == kMaxModes ? b.modes : N);
+    }
+  }
 }
 
-template <class Step>
+template <bool kCollapsedInLanes, class Step>
 void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes,
                       std::size_t first_track, std::size_t tracks, const double* code, double* nis,
                       Step&& step) {
   step();
   if (nis == nullptr) return;
   for (int l = 0; l < lanes && first_track + static_cast<std::size_t>(l / 2) < tracks; l += 2) {
-    nis[first_track + static_cast<std::size_t>(l / 2)] =
-        code[l] == kOk ? step_nis(r, b.modes, l) : std::numeric_limits<double>::quiet_NaN();
+    double value = std::numeric_limits<double>::quiet_NaN();
+    if (code[l] == kOk && kCollapsedInLanes) {
+      value = diagonal_nis(r.collapsed_nu[l], r.collapsed_nu[l + 1], r.collapsed_s[l],
+                           r.collapsed_s[l + 1]);
+    } else if (code[l] == kOk) {
+      value = step_nis(r, b.modes, l);
+    }
+    nis[first_track + static_cast<std::size_t>(l / 2)] = value;
   }
 }
 
