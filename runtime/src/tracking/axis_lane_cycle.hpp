@@ -23,7 +23,7 @@ namespace imm::bank {
 struct ModeInnovations {
   static constexpr int kLanes = 16;
   static constexpr std::size_t kEach = static_cast<std::size_t>(kMaxModes) * kLanes,
-                               kSize = 3 * kEach + 2 * kLanes;
+                               kSize = 3 * kEach + std::size_t{2} * kLanes;
   explicit ModeInnovations(double* buffer)
       : log_c(buffer),
         nu(buffer + kEach),

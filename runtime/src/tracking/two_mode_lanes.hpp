@@ -339,9 +339,12 @@ inline double collapsed_distance(const double (&c)[2], const Eigen::Vector2d (&n
     const Eigen::Vector2d d = nu[j] - mean;
     S += c[j] * (Sj[j] + d * d.transpose());
   }
-  const Eigen::LLT<Eigen::Matrix2d> llt(S);
-  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
-  return mean.dot(llt.solve(mean));
+  // νᵀ S⁻¹ ν of the 2 × 2 S written out; NaN unless S is positive definite (Sylvester).
+  const double det = S(0, 0) * S(1, 1) - S(0, 1) * S(0, 1);
+  if (!(S(0, 0) > 0.0 && det > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  return (S(1, 1) * (mean(0) * mean(0)) - 2.0 * (S(0, 1) * (mean(0) * mean(1))) +
+          S(0, 0) * (mean(1) * mean(1))) /
+         det;
 }
 
 /// Lane l's ν_j and S_j of the modes' arrays.
