@@ -106,6 +106,21 @@ template <class S, class Modes>
   out = {m0, m1, c00, c01, c11};
 }
 
+/// normalized_weights (below) of a pack of lanes each, with lane_exp: c_j = exp(v_j − max v) /
+/// Σ_k exp(v_k − max v) of the n log-weights v_j = log_weight(j), into `c`.
+template <class S, std::size_t N, class LogWeight>
+[[gnu::always_inline]] inline void normalized_lane_weights(int n, LogWeight&& log_weight,
+                                                           std::array<S, N>& c) {
+  S top = splat<S>(-std::numeric_limits<double>::infinity());
+  for (int j = 0; j < n; ++j) top = pick(top < log_weight(j), log_weight(j), top);
+  S total = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) {
+    c[j] = lane_exp(log_weight(j) - top);
+    total += c[j];
+  }
+  for (int j = 0; j < n; ++j) c[j] = c[j] / total;
+}
+
 /// νᵀ S⁻¹ ν with S = diag(s_x, s_y), as normalized_innovation_squared (track_filter.hpp) computes
 /// it to the bit: S's Cholesky factor is L = diag(√s_x, √s_y) with an off-diagonal 0, solved
 /// forward (L y = ν) and back (Lᵀ w = y), the zero's products kept (0 · ∞ is NaN there too), then

@@ -139,19 +139,11 @@ template <class S, int N, int K>
     auto at = [&](const double* v, int j) {
       return lane_load<S>(v + static_cast<std::ptrdiff_t>(j) * ModeInnovations::kLanes + lane);
     };
-    S top = splat<S>(-std::numeric_limits<double>::infinity());
-    for (int j = 0; j < n; ++j) top = pick(top < at(r.log_c, j), at(r.log_c, j), top);
     std::array<S, N> c;  // NOLINT(cppcoreguidelines-pro-type-member-init): the n written
-    S total = splat<S>(0.0);
-    for (int j = 0; j < n; ++j) {
-      c[j] = lane_exp(at(r.log_c, j) - top);
-      total += c[j];
-    }
+    normalized_lane_weights(
+        n, [&](int j) { return at(r.log_c, j); }, c);
     S nu = splat<S>(0.0);
-    for (int j = 0; j < n; ++j) {
-      c[j] = c[j] / total;
-      nu += pick(c[j] != 0.0, c[j] * at(r.nu, j), splat<S>(0.0));
-    }
+    for (int j = 0; j < n; ++j) nu += pick(c[j] != 0.0, c[j] * at(r.nu, j), splat<S>(0.0));
     S variance = splat<S>(0.0);
     for (int j = 0; j < n; ++j) {
       const S d = at(r.nu, j) - nu;

@@ -177,17 +177,11 @@ template <class S, int N>
   auto at = [](const double* v, int j) {
     return lane_load<S>(v + std::ptrdiff_t{j} * PackInnovations::kPackLanes);
   };
-  S top = splat<S>(-std::numeric_limits<double>::infinity());
-  for (int j = 0; j < n; ++j) top = pick(top < at(r.log_c, j), at(r.log_c, j), top);
   std::array<S, N> c;  // NOLINT(cppcoreguidelines-pro-type-member-init): the n written
-  S total = splat<S>(0.0);
-  for (int j = 0; j < n; ++j) {
-    c[j] = lane_exp(at(r.log_c, j) - top);
-    total += c[j];
-  }
+  normalized_lane_weights(
+      n, [&](int j) { return at(r.log_c, j); }, c);
   S nu0 = splat<S>(0.0), nu1 = splat<S>(0.0);
   for (int j = 0; j < n; ++j) {
-    c[j] = c[j] / total;
     nu0 += c[j] * at(r.nu0, j);
     nu1 += c[j] * at(r.nu1, j);
   }
