@@ -121,6 +121,15 @@ template <class S, std::size_t N, class LogWeight>
   for (int j = 0; j < n; ++j) c[j] = c[j] / total;
 }
 
+/// xᵀ S⁻¹ x of the 2 × 2 S = [[s00, s01], [s01, s11]] written out, for a double or a pack of
+/// lanes each; NaN unless S is positive definite (Sylvester: s00 > 0 and |S| > 0).
+template <class S>
+[[gnu::always_inline]] inline S quadratic_form_2x2(S s00, S s01, S s11, S x0, S x1) {
+  const S det = s00 * s11 - s01 * s01;
+  const S value = (s11 * (x0 * x0) - 2.0 * (s01 * (x0 * x1)) + s00 * (x1 * x1)) / det;
+  return pick((s00 > 0.0) & (det > 0.0), value, splat<S>(std::numeric_limits<double>::quiet_NaN()));
+}
+
 /// νᵀ S⁻¹ ν with S = diag(s_x, s_y), as normalized_innovation_squared (track_filter.hpp) computes
 /// it to the bit: S's Cholesky factor is L = diag(√s_x, √s_y) with an off-diagonal 0, solved
 /// forward (L y = ν) and back (Lᵀ w = y), the zero's products kept (0 · ∞ is NaN there too), then

@@ -86,17 +86,6 @@ struct AxisLaneFamily {
   }
 };
 
-/// step() of one kernel call's `lanes` lanes, stating its tracks' NIS where `nis` is not null (then
-/// `nis` holds the step's `tracks` tracks, and the call's first lane is the x lane of track
-/// `first_track`, which may be past the last: a bank's last block is padded): the step's family
-/// records the predicted log c_j and the modes' innovations into `r`, then step_nis of each track
-/// whose code is kOk, NaN for the others; with kCollapsedInLanes, the step has collapsed each
-/// lane's innovations already (collapse_in_lanes) and only νᵀ S⁻¹ ν is left per track.
-template <bool kCollapsedInLanes, class Step>
-void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes,
-                      std::size_t first_track, std::size_t tracks, const double* code, double* nis,
-                      Step&& step);
-
 /// The NIS of the track whose x lane is `lane` (its y lane the next) after a successful step, as
 /// last_step_nis gives its one-track filter (a TwoAxisFilter of two ImmEstimator<2, 1>): per axis
 /// ImmEstimator::collapse of the modes' ν_j and S_j with the normalized c_j, then νᵀ S⁻¹ ν with
@@ -179,7 +168,13 @@ template <class Pack, int W, int N, class F>
   }
 }
 
-template <bool kCollapsedInLanes, class Step>
+/// step() of one kernel call's `lanes` lanes of family F, stating its tracks' NIS where `nis` is
+/// not null (then `nis` holds the step's `tracks` tracks, and the call's first lane is the x lane
+/// of track `first_track`, which may be past the last: a bank's last block is padded): the step's
+/// family records the predicted log c_j and the modes' innovations into `r`; a family whose mode
+/// probabilities are not libm's has collapsed each lane's already (axis_lane_cycle), so only
+/// νᵀ S⁻¹ ν is left per track, the others take step_nis. NaN for a track whose code is not kOk.
+template <class F, class Step>
 void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes,
                       std::size_t first_track, std::size_t tracks, const double* code, double* nis,
                       Step&& step) {
@@ -187,11 +182,13 @@ void step_stating_nis(const CycleBlock& b, const ModeInnovations& r, int lanes,
   if (nis == nullptr) return;
   for (int l = 0; l < lanes && first_track + static_cast<std::size_t>(l / 2) < tracks; l += 2) {
     double value = std::numeric_limits<double>::quiet_NaN();
-    if (code[l] == kOk && kCollapsedInLanes) {
-      value = diagonal_nis(r.collapsed_nu[l], r.collapsed_nu[l + 1], r.collapsed_s[l],
-                           r.collapsed_s[l + 1]);
-    } else if (code[l] == kOk) {
-      value = step_nis(r, b.modes, l);
+    if (code[l] == kOk) {
+      if constexpr (kLibmProbabilities<F>) {
+        value = step_nis(r, b.modes, l);
+      } else {
+        value = diagonal_nis(r.collapsed_nu[l], r.collapsed_nu[l + 1], r.collapsed_s[l],
+                             r.collapsed_s[l + 1]);
+      }
     }
     nis[first_track + static_cast<std::size_t>(l / 2)] = value;
   }

@@ -284,8 +284,9 @@ void FcmImmTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
           FcmFamily family{
               {}, &b, stepped, slot(window_slot(0, 0)) + lane, stride(), window_slots_, &pending};
           if (nis != nullptr) family.record = &innovations;
-          bank::step_stating_nis<false>(cycle, innovations, kBlock, first / 2, plots.size(), code,
-                                        nis, [&] { block(family, cycle, lane, z, stepped, code); });
+          bank::step_stating_nis<FcmFamily>(cycle, innovations, kBlock, first / 2, plots.size(),
+                                            code, nis,
+                                            [&] { block(family, cycle, lane, z, stepped, code); });
         });
   });
 }

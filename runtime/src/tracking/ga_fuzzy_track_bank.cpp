@@ -161,7 +161,7 @@ void GaFuzzyTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
         [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
           constexpr int W = decltype(width)::value, N = decltype(n)::value;
           const auto lane = static_cast<std::ptrdiff_t>(first);
-          bank::step_stating_nis<true>(
+          bank::step_stating_nis<FuzzyNoiseFamily>(
               cycle, innovations, W, first / 2, plots.size(), code, nis, [&] {
                 for_lane_isa(isa, step_block_avx512<W, N>, step_block_avx2<W, N>,
                              step_block_baseline<W, N>)(family, cycle, lane, z, stepped, code);

@@ -192,13 +192,7 @@ template <class S, int N>
     t01 += c[j] * (at(r.s01, j) + d0 * d1);
     t11 += c[j] * (at(r.s11, j) + d1 * d1);
   }
-  const S det = t00 * t11 - t01 * t01;
-  const S inverse_det = 1.0 / det;
-  const S distance = (t11 * inverse_det) * (nu0 * nu0) +
-                     2.0 * ((-t01 * inverse_det) * (nu0 * nu1)) + (t00 * inverse_det) * (nu1 * nu1);
-  const S value =
-      pick((t00 > 0.0) & (det > 0.0), distance, splat<S>(std::numeric_limits<double>::quiet_NaN()));
-  const Lanes<S> lanes = lanes_of(value);
+  const Lanes<S> lanes = lanes_of(quadratic_form_2x2(t00, t01, t11, nu0, nu1));
   for (int l = 0; l < real; ++l) {
     const auto u = static_cast<std::size_t>(l);
     nis[l] = codes[u] == kOk ? lanes[u] : std::numeric_limits<double>::quiet_NaN();

@@ -9,7 +9,6 @@
 // one-track mode's (filters/position_kalman_step.hpp). Every statement of the vector parts is a
 // loop over the lanes, with no branch and no call, which the compiler vectorizes. Not installed.
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <algorithm>
 #include <array>
@@ -339,12 +338,7 @@ inline double collapsed_distance(const double (&c)[2], const Eigen::Vector2d (&n
     const Eigen::Vector2d d = nu[j] - mean;
     S += c[j] * (Sj[j] + d * d.transpose());
   }
-  // νᵀ S⁻¹ ν of the 2 × 2 S written out; NaN unless S is positive definite (Sylvester).
-  const double det = S(0, 0) * S(1, 1) - S(0, 1) * S(0, 1);
-  if (!(S(0, 0) > 0.0 && det > 0.0)) return std::numeric_limits<double>::quiet_NaN();
-  return (S(1, 1) * (mean(0) * mean(0)) - 2.0 * (S(0, 1) * (mean(0) * mean(1))) +
-          S(0, 0) * (mean(1) * mean(1))) /
-         det;
+  return quadratic_form_2x2(S(0, 0), S(0, 1), S(1, 1), mean(0), mean(1));
 }
 
 /// Lane l's ν_j and S_j of the modes' arrays.
