@@ -166,8 +166,6 @@ struct FcmFamily : bank::AxisLaneFamily {
     variance = p.p00 + b->mode[j].R;
   }
 };
-using Slots = bank::CycleSlots<FcmFamily>;
-constexpr int kLogMu = Slots::kLogMu, kScaledMu = Slots::kScaledMu, kModeSlots = Slots::kModeSlots;
 
 // One IMM cycle of one block's W lanes (whole packs) of an FCM-IMM of N modes from lane `first`
 // (axis_lane_cycle.hpp). Then the committed lanes' windows take the new error, their centers the
@@ -201,6 +199,13 @@ template <class Pack, int W, int N>
   }
 }
 
+// The spec's Π, once the spec is valid and every entry is positive (see the header).
+const Eigen::MatrixXd& checked_transition(const FcmImmSpec& spec) {
+  spec.validate();
+  bank::require_positive_transitions(spec.transition);
+  return spec.transition;
+}
+
 // step_block for each instruction set, its pack one vector of it (lane_isa.hpp).
 // NOLINTBEGIN(bugprone-macro-parentheses): `target` is an attribute.
 #define IMM_BLOCK_FOR(isa, target, width)                                                        \
@@ -217,39 +222,24 @@ IMM_FOR_EACH_LANE_ISA(IMM_BLOCK_FOR)
 }  // namespace
 
 FcmImmTrackBank::FcmImmTrackBank(const FcmImmSpec& spec, std::size_t capacity)
-    : LaneStorage("FcmImmTrackBank"), spec_(spec) {
-  spec.validate();
-  bank::require_positive_transitions(spec.transition);
-  window_slots_ = kRing + spec.window;
-  const int n = spec.mode_count();
-  allocate(capacity, 2, kBlock, static_cast<std::size_t>(n) * (kModeSlots + window_slots_));
-  for (int i = 0; i < n; ++i) {
-    for (int j = 0; j < n; ++j) {
-      transition_.push_back(spec.transition(i, j));
-      log_transition_.push_back(safe_log(spec.transition(i, j)));
-    }
-  }
+    // The braces evaluate in order: the spec is checked before its probabilities are read.
+    : AxisImmLaneStorage("FcmImmTrackBank", {checked_transition(spec), spec.initial_probabilities},
+                         FcmFamily::kEntries),
+      spec_(spec),
+      window_slots_(kRing + spec.window) {
+  allocate_modes(capacity, kBlock, static_cast<std::size_t>(spec.mode_count()) * window_slots_);
   scratch_.assign(
       static_cast<std::size_t>(1 + kFcmClusters) * static_cast<std::size_t>(spec.window), 0.0);
   innovations_.assign(bank::ModeInnovations::kSize, 0.0);
 }
 
 void FcmImmTrackBank::initialize(std::size_t track, const GaussianState<4>& state) {
-  const std::ptrdiff_t t = checked(track);
   if (!state.all_finite()) throw InvalidParameter("state", "must be finite");
-  const int n = spec_.mode_count();
-  double top = -std::numeric_limits<double>::infinity();
-  for (int j = 0; j < n; ++j) top = std::max(top, safe_log(spec_.initial_probabilities(j)));
+  // Every mode takes the state, μ its initial value, the clusterings empty windows.
+  const std::ptrdiff_t t = start_modes(track, state);
   for (int axis = 0; axis < 2; ++axis) {
-    const std::ptrdiff_t lane = 2 * t + axis;
-    const std::array<double, 5> values = bank::axis_entries(state, axis);
-    for (int j = 0; j < n; ++j) {
-      auto mode = [&](int entry) -> double& { return slot(j * kModeSlots + entry)[lane]; };
-      for (int e = 0; e < 5; ++e) mode(e) = values[static_cast<std::size_t>(e)];
-      const double log_mu = safe_log(spec_.initial_probabilities(j));
-      mode(kLogMu) = log_mu;
-      mode(kScaledMu) = std::exp(log_mu - top);
-      auto window = [&](int entry) -> double& { return slot(window_slot(j, entry))[lane]; };
+    for (int j = 0; j < mode_count(); ++j) {
+      auto window = [&](int entry) -> double& { return slot(window_slot(j, entry))[2 * t + axis]; };
       window(kHead) = window(kSize) = window(kHasCenters) = 0.0;
       for (int c = 0; c < kFcmClusters; ++c) window(kCenters + c) = 0.0;
     }
@@ -258,15 +248,13 @@ void FcmImmTrackBank::initialize(std::size_t track, const GaussianState<4>& stat
 }
 
 int FcmImmTrackBank::window_slot(int mode, int entry) const {
-  return spec_.mode_count() * kModeSlots + mode * window_slots_ + entry;
+  return slots_after_modes() + mode * window_slots_ + entry;
 }
 
-void FcmImmTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
-                                 std::span<StepStatus> status, double* nis) {
+void FcmImmTrackBank::step_lanes(const LaneStep& call) {
   const bank::ModeInnovations innovations(innovations_.data());
   const BankConstants b = bank_constants(spec_, scratch_.data());
-  const bank::CycleBlock cycle{b.modes, transition_.data(), log_transition_.data(), slot(0),
-                               stride()};
+  const bank::CycleBlock cycle{b.modes, transition(), log_transition(), slot(0), stride()};
   Pending pending;  // NOLINT(cppcoreguidelines-pro-type-member-init): each step writes its lanes'
   double lanes[3 * kBlock];  // one block's plots, flags and codes
   // The instruction set's function for the mode count, chosen outside it (a lambda inside a
@@ -277,26 +265,23 @@ void FcmImmTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
     const auto block = for_lane_isa(isa, step_block_avx512<kBlock, N>, step_block_avx2<kBlock, N>,
                                     step_block_baseline<kBlock, N>);
     bank::step_blocks<kBlock>(
-        plots, status, true, lanes,
+        call.plots, call.status, true, lanes,
         [&](auto /*width*/, std::size_t first, const double* z, const double* stepped,
             double* code) {
           const auto lane = static_cast<std::ptrdiff_t>(first);
           FcmFamily family{
               {}, &b, stepped, slot(window_slot(0, 0)) + lane, stride(), window_slots_, &pending};
-          if (nis != nullptr) family.record = &innovations;
-          bank::step_stating_nis<FcmFamily>(cycle, innovations, kBlock, first / 2, plots.size(),
-                                            code, nis,
+          if (call.nis != nullptr) family.record = &innovations;
+          bank::step_stating_nis<FcmFamily>(cycle, innovations, kBlock, first / 2,
+                                            call.plots.size(), code, call.nis,
                                             [&] { block(family, cycle, lane, z, stepped, code); });
         });
   });
 }
 
-void FcmImmTrackBank::score_lanes(
-    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+void FcmImmTrackBank::score_lanes(const LaneScore& call) {
   const BankConstants b = bank_constants(spec_, scratch_.data());
-  const bank::CycleBlock cycle{b.modes, transition_.data(), log_transition_.data(), slot(0),
-                               stride()};
+  const bank::CycleBlock cycle{b.modes, transition(), log_transition(), slot(0), stride()};
   // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): a trial writes its two lanes first
   Pending pending;
   const double stepped[2] = {1.0, 1.0};  // a track's two lanes
@@ -307,45 +292,29 @@ void FcmImmTrackBank::score_lanes(
           return FcmFamily{
               {}, &b, stepped, slot(window_slot(0, 0)) + 2 * t, stride(), window_slots_, &pending};
         },
-        plots, gate, gate_scale, out);
+        call.plots, call.gate, call.gate_scale, call.out);
   });
 }
 
 GaussianState<4> FcmImmTrackBank::estimate(std::size_t track) const {
-  const std::ptrdiff_t t = checked(track);
-  const int n = spec_.mode_count();
   // Per axis, the modes moment-matched with μ = exp(log μ) (ImmEstimator::combine).
+  const ModeVector mu = mode_probabilities(track);
+  const auto t = static_cast<std::ptrdiff_t>(track);
+  const int n = mode_count();
   std::array<std::array<double, 5>, 2> axes{};
   for (int axis = 0; axis < 2; ++axis) {
-    const std::ptrdiff_t lane = 2 * t + axis;
-    ModeVector mu(n);
-    std::array<std::array<double, 5>, kMaxLevels> modes{};
-    for (int j = 0; j < n; ++j) {
-      mu(j) = std::exp(slot(j * kModeSlots + kLogMu)[lane]);
+    auto mode = [&](int j) {
+      std::array<double, 5> entries{};
       for (int e = 0; e < 5; ++e)
-        modes[static_cast<std::size_t>(j)][static_cast<std::size_t>(e)] =
-            slot(j * kModeSlots + e)[lane];
-    }
-    bank::collapse_axis(
-        n, mu.data(),
-        [&](int j) -> const std::array<double, 5>& { return modes[static_cast<std::size_t>(j)]; },
-        axes[static_cast<std::size_t>(axis)]);
+        entries[static_cast<std::size_t>(e)] = slot(mode_slot(j, e))[2 * t + axis];
+      return entries;
+    };
+    const double* weights = mu.data() + static_cast<std::ptrdiff_t>(axis) * n;
+    bank::collapse_axis(n, weights, mode, axes[static_cast<std::size_t>(axis)]);
   }
   return bank::two_axis_estimate(t, [&](int e, std::ptrdiff_t lane) {
     return axes[static_cast<std::size_t>(lane - 2 * t)][static_cast<std::size_t>(e)];
   });
-}
-
-ModeVector FcmImmTrackBank::mode_probabilities(std::size_t track) const {
-  const std::ptrdiff_t t = checked(track);
-  const int n = spec_.mode_count();
-  ModeVector mu(2 * n);
-  for (int axis = 0; axis < 2; ++axis) {
-    for (int j = 0; j < n; ++j) {
-      mu(axis * n + j) = std::exp(slot(j * kModeSlots + kLogMu)[2 * t + axis]);
-    }
-  }
-  return mu;
 }
 
 }  // namespace imm

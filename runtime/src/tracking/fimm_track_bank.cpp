@@ -13,6 +13,7 @@
 #include "filters/fimm_step.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_math.hpp"
+#include "two_mode_innovations.hpp"
 #include "two_mode_lanes.hpp"
 
 namespace imm {
@@ -35,33 +36,21 @@ template <int W, class Slot>
                                               modes[0], modes[1]);
 }
 
-// One scan of one block's W tracks. `state` points at the block's first track of slot 0; `z0`
-// and `z1` the plots (NaN: unusable); `stepped` 1 for a track to step; `code` receives each
-// track's outcome; where `nis` is not null, its first `lanes` entries the tracks' NIS.
+// One scan of one block's W tracks (bank::BlockStep: the plots in the sensor's (z1, z2)).
 template <int W>
 [[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const double (&p)[2][2],
-                                                   const fimm::Constants& b, double* state,
-                                                   std::ptrdiff_t stride, const double* z0,
-                                                   const double* z1, const double* stepped,
-                                                   double* code, double* nis, int lanes) {
-  auto st = [&](int entry) { return state + entry * stride; };
+                                                   const fimm::Constants& b,
+                                                   const bank::BlockStep& block) {
+  auto st = [&](int entry) { return block.slot(entry); };
   bank::Mixing<W> mixing;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   fimm::Mode<W> modes[2];
   predict_block<W>(p, b, st, mixing, modes);
-  for (int j = 0; j < 2; ++j) fimm::update<W>(b, z0, z1, modes[j]);
-  double usable[W], commit[W], log_mu[2][W];
-  IMM_LANES usable[l] = pick((z0[l] == z0[l]) & (z1[l] == z1[l]), 1.0, 0.0);
-  bank::finish<kAxis, kAxis, W>(mixing, modes[0], modes[1], usable, stepped, log_mu, code, commit);
-  if (nis != nullptr) {  // the plot is the measurement the modes updated with
-    bank::step_nis<kAxis, kAxis, W>(
-        mixing, modes[0], modes[1], code, lanes,
-        [](int /*l*/, Eigen::Vector2d& /*nu*/, Eigen::Matrix2d& /*S*/) {}, nis);
-  }
-  bank::keep<W>(st, kLogMu, log_mu[0], commit);
-  bank::keep<W>(st, kLogMu + 1, log_mu[1], commit);
-  for (int j = 0; j < 2; ++j) {
-    bank::keep_mode<kAxis, W>(st, kModes[static_cast<std::size_t>(j)], modes[j], commit);
-  }
+  for (int j = 0; j < 2; ++j) fimm::update<W>(b, block.z0, block.z1, modes[j]);
+  double commit[W];
+  // The plot is the measurement the modes updated with: no rewrite for the NIS.
+  bank::finish_and_keep<kAxis, kAxis, W>(
+      mixing, kModes, kLogMu, modes[0], modes[1], block,
+      [](int /*l*/, Eigen::Vector2d& /*nu*/, Eigen::Matrix2d& /*S*/) {}, commit);
 }
 
 // The gating matrix of one block's tracks (`g`): the mixing and both predictions once, then per
@@ -77,32 +66,16 @@ template <int W>
   bank::Mixing<W> mixing;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   fimm::Mode<W> modes[2];
   predict_block<W>(p, b, st, mixing, modes);
-  double c[2][W];
-  bank::normalized_predicted<W>(mixing, c);
-  for (std::size_t q = 0; q < g.plots.size(); ++q) {
-    double* column = g.out + static_cast<std::ptrdiff_t>(q) * g.out_stride;
-    const Eigen::Vector2d& z = g.plots[q];
-    if (!limits::usable_measurement(z)) {
-      std::fill(column, column + g.lanes, std::numeric_limits<double>::quiet_NaN());
-      continue;
-    }
-    double z0[W], z1[W];
-    IMM_LANES {
-      z0[l] = z(0);
-      z1[l] = z(1);
-    }
-    bank::Linearization<W> lin[2];  // NOLINT(cppcoreguidelines-pro-type-member-init)
-    for (int j = 0; j < 2; ++j) fimm::linearize<W>(b, z0, z1, modes[j], modes[j].x, lin[j]);
-    if (bank::all_outside_the_gate<kAxis, kAxis, W>(c, lin[0], modes[0], lin[1], modes[1], g)) {
-      std::fill(column, column + g.lanes, -std::numeric_limits<double>::infinity());
-      continue;
-    }
-    for (int j = 0; j < 2; ++j) bank::update_mode<kAxis, W>(lin[j], modes[j]);
-    for (int l = 0; l < g.lanes; ++l) {
-      column[l] =
-          bank::candidate_answer<kAxis, kAxis, W>(mixing, c, modes[0], modes[1], l, g.gate_of(l));
-    }
-  }
+  bank::score_plots<kAxis, kAxis, W>(
+      mixing, modes[0], modes[1], g,
+      [&](const Eigen::Vector2d& z, bank::Linearization<W>(&lin)[2]) {
+        double z0[W], z1[W];
+        IMM_LANES {
+          z0[l] = z(0);
+          z1[l] = z(1);
+        }
+        for (int j = 0; j < 2; ++j) fimm::linearize<W>(b, z0, z1, modes[j], modes[j].x, lin[j]);
+      });
 }
 
 }  // namespace
@@ -132,25 +105,19 @@ void FimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state)
   mark_initialized(start(track, state, spec_.initial_probabilities));
 }
 
-void FimmTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                               double* nis) {
-  bank::step_blocks<kBlock>(
-      plots, status, Eigen::Vector2d::Zero(),
-      [&](std::size_t first, const double* z0, const double* z1, const double* stepped,
-          double* code) {
-        const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
-        step_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), z0, z1, stepped,
-                           code, nis == nullptr ? nullptr : nis + first, lanes);
-      });
+void FimmTrackBank::step_lanes(const LaneStep& call) {
+  bank::step_blocks<kBlock>(call.plots, call.status, Eigen::Vector2d::Zero(), slot(0), stride(),
+                            call.nis, [&](const bank::BlockStep& block) {
+                              step_block<kBlock>(constants_->p, constants_->b, block);
+                            });
 }
 
-void FimmTrackBank::score_lanes(
-    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  bank::score_in_blocks<kBlock>(
-      plots, gate, gate_scale, out, [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
-        score_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), block);
-      });
+void FimmTrackBank::score_lanes(const LaneScore& call) {
+  bank::score_in_blocks<kBlock>(call.plots, call.gate, call.gate_scale, call.out,
+                                [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
+                                  score_block<kBlock>(constants_->p, constants_->b, slot(0) + first,
+                                                      stride(), block);
+                                });
 }
 
 }  // namespace imm

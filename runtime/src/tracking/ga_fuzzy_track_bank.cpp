@@ -72,8 +72,6 @@ struct FuzzyNoiseFamily : bank::AxisLaneFamily {
     variance = p.p00 + levels[j].mean_w * axis->g00 + axis->R;
   }
 };
-using Slots = bank::CycleSlots<FuzzyNoiseFamily>;
-constexpr int kLogMu = Slots::kLogMu, kScaledMu = Slots::kScaledMu, kModeSlots = Slots::kModeSlots;
 
 // step_block for each instruction set, its pack one vector of it (lane_isa.hpp).
 // NOLINTBEGIN(bugprone-macro-parentheses): `target` is an attribute.
@@ -88,30 +86,30 @@ IMM_FOR_EACH_LANE_ISA(IMM_BLOCK_FOR)
 #undef IMM_BLOCK_FOR
 // NOLINTEND(bugprone-macro-parentheses)
 
-}  // namespace
-
-GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capacity,
-                                   bool wide_blocks)
-    : LaneStorage("GaFuzzyTrackBank"), wide_blocks_(wide_blocks) {
+// The spec's Π, once the spec is valid and every entry is positive (see the header).
+Eigen::MatrixXd checked_transition(const GaFuzzyImmSpec& spec) {
   spec.validate();
-  modes_ = static_cast<int>(spec.levels.size());
-  const Eigen::MatrixXd transition = spec.settings.transition(modes_);
+  Eigen::MatrixXd transition = spec.settings.transition(static_cast<int>(spec.levels.size()));
   if (!(transition.array() > 0.0).all()) {
     throw InvalidParameter("settings.transition_stay",
                            "the GA-fuzzy track bank needs every transition probability positive "
                            "(transition_stay below 1 with more than one level)");
   }
-  allocate(capacity, 2, kBlock,
-           static_cast<std::size_t>(modes_) * kModeSlots + FuzzyNoiseFamily::kCombined);
-  const Eigen::VectorXd initial = spec.settings.initial_probabilities(modes_);
-  for (int i = 0; i < modes_; ++i) {
-    for (int j = 0; j < modes_; ++j) {
-      transition_.push_back(transition(i, j));
-      log_transition_.push_back(safe_log(transition(i, j)));
-    }
-    initial_log_mu_.push_back(safe_log(initial(i)));
-    levels_.emplace_back(spec.levels[static_cast<std::size_t>(i)].table);
-  }
+  return transition;
+}
+
+}  // namespace
+
+GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capacity,
+                                   bool wide_blocks)
+    // The braces evaluate in order: the spec is checked before its probabilities are read.
+    : AxisImmLaneStorage("GaFuzzyTrackBank",
+                         {checked_transition(spec), spec.settings.initial_probabilities(
+                                                        static_cast<int>(spec.levels.size()))},
+                         FuzzyNoiseFamily::kEntries),
+      wide_blocks_(wide_blocks) {
+  allocate_modes(capacity, kBlock, FuzzyNoiseFamily::kCombined);
+  for (const FuzzyLevel& level : spec.levels) levels_.emplace_back(level.table);
   axis_ = lanes::FuzzyAxisConstants(
       spec.settings.sample_period,
       spec.settings.measurement_sigma * spec.settings.measurement_sigma, spec.antecedents);
@@ -120,49 +118,37 @@ GaFuzzyTrackBank::GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capac
 }
 
 void GaFuzzyTrackBank::initialize(std::size_t track, const GaussianState<4>& state) {
-  const std::ptrdiff_t t = checked(track);
-  const double top = *std::max_element(initial_log_mu_.begin(), initial_log_mu_.end());
+  // ImmEstimator::initialize: every mode takes the state (the tables' previous input 0), then
+  // the combination with μ_j(0).
+  const std::ptrdiff_t t = start_modes(track, state);
+  const ModeVector mu = initial_probabilities();
   for (int axis = 0; axis < 2; ++axis) {
-    const std::ptrdiff_t lane = 2 * t + axis;
     const std::array<double, 5> values = bank::axis_entries(state, axis);
-    // ImmEstimator::initialize: every mode takes the state, then the combination with
-    // μ_j = exp(log μ_j(0)).
-    ModeVector mu(modes_);
-    for (int j = 0; j < modes_; ++j) {
-      const double log_mu = initial_log_mu_[static_cast<std::size_t>(j)];
-      for (int e = 0; e < 5; ++e) slot(j * kModeSlots + e)[lane] = values[e];
-      slot(j * kModeSlots + kLogMu)[lane] = log_mu;
-      slot(j * kModeSlots + kScaledMu)[lane] = std::exp(log_mu - top);
-      slot(j * kModeSlots + FuzzyNoiseFamily::kPrevious)[lane] = 0.0;
-      mu(j) = std::exp(log_mu);
-    }
     std::array<double, 5> combined{};
     bank::collapse_axis(
-        modes_, mu.data(), [&](int /*j*/) -> const std::array<double, 5>& { return values; },
+        mode_count(), mu.data(), [&](int /*j*/) -> const std::array<double, 5>& { return values; },
         combined);
-    for (int e = 0; e < 5; ++e) slot(modes_ * kModeSlots + e)[lane] = combined[e];
+    for (int e = 0; e < 5; ++e) slot(slots_after_modes() + e)[2 * t + axis] = combined[e];
   }
   mark_initialized(t);
 }
 
-void GaFuzzyTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
-                                  std::span<StepStatus> status, double* nis) {
+void GaFuzzyTrackBank::step_lanes(const LaneStep& call) {
   FuzzyNoiseFamily family{{}, &axis_, levels_.data()};
-  const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), slot(0),
-                               stride()};
+  const bank::CycleBlock cycle{mode_count(), transition(), log_transition(), slot(0), stride()};
   const bank::ModeInnovations innovations(innovations_.data());
-  if (nis != nullptr) family.record = &innovations;
+  if (call.nis != nullptr) family.record = &innovations;
   // The instruction set's function for the mode count and block width, chosen outside it (a
   // lambda inside a function compiled for an instruction set is compiled for the baseline).
   const LaneIsa isa = lane_isa();
-  bank::with_mode_count(modes_, [&](auto n) {
+  bank::with_mode_count(mode_count(), [&](auto n) {
     bank::step_blocks<kBlock>(
-        plots, status, wide_blocks_, scratch_.data(),
+        call.plots, call.status, wide_blocks_, scratch_.data(),
         [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
           constexpr int W = decltype(width)::value, N = decltype(n)::value;
           const auto lane = static_cast<std::ptrdiff_t>(first);
           bank::step_stating_nis<FuzzyNoiseFamily>(
-              cycle, innovations, W, first / 2, plots.size(), code, nis, [&] {
+              cycle, innovations, W, first / 2, call.plots.size(), code, call.nis, [&] {
                 for_lane_isa(isa, step_block_avx512<W, N>, step_block_avx2<W, N>,
                              step_block_baseline<W, N>)(family, cycle, lane, z, stepped, code);
               });
@@ -170,32 +156,20 @@ void GaFuzzyTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
   });
 }
 
-void GaFuzzyTrackBank::score_lanes(
-    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+void GaFuzzyTrackBank::score_lanes(const LaneScore& call) {
   const FuzzyNoiseFamily family{{}, &axis_, levels_.data()};
-  const bank::CycleBlock cycle{modes_, transition_.data(), log_transition_.data(), slot(0),
-                               stride()};
-  bank::with_mode_count(modes_, [&](auto n) {
+  const bank::CycleBlock cycle{mode_count(), transition(), log_transition(), slot(0), stride()};
+  bank::with_mode_count(mode_count(), [&](auto n) {
     bank::score_tracks<decltype(n)::value, FuzzyNoiseFamily>(
-        cycle, [&](Eigen::Index /*track*/) { return family; }, plots, gate, gate_scale, out);
+        cycle, [&](Eigen::Index /*track*/) { return family; }, call.plots, call.gate,
+        call.gate_scale, call.out);
   });
 }
 
 GaussianState<4> GaFuzzyTrackBank::estimate(std::size_t track) const {
   return bank::two_axis_estimate(checked(track), [&](int e, std::ptrdiff_t lane) {
-    return slot(modes_ * kModeSlots + e)[lane];
+    return slot(slots_after_modes() + e)[lane];
   });
-}
-
-ModeVector GaFuzzyTrackBank::mode_probabilities(std::size_t track) const {
-  const std::ptrdiff_t t = checked(track);
-  ModeVector mu(2 * modes_);
-  for (int axis = 0; axis < 2; ++axis) {
-    for (int j = 0; j < modes_; ++j)
-      mu(axis * modes_ + j) = std::exp(slot(j * kModeSlots + kLogMu)[2 * t + axis]);
-  }
-  return mu;
 }
 
 }  // namespace imm

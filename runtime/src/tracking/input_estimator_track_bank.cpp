@@ -90,14 +90,13 @@ void InputEstimatorTrackBank::initialize(std::size_t track, const GaussianState<
   mark_initialized(t);
 }
 
-void InputEstimatorTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
-                                         std::span<StepStatus> status, double* nis) {
+void InputEstimatorTrackBank::step_lanes(const LaneStep& call) {
   double* work = scratch_.data() + std::ptrdiff_t{3} * kBlock;
   bank::step_blocks<kBlock>(
-      plots, status, wide_blocks_, scratch_.data(),
+      call.plots, call.status, wide_blocks_, scratch_.data(),
       [&](auto width, std::size_t first, const double* z, const double* stepped, double* code) {
         constexpr int W = decltype(width)::value;
-        if (nis == nullptr) {
+        if (call.nis == nullptr) {
           step_block<W>(constants_->b, slot(0) + first, stride(), z, stepped, code, work, nullptr);
           return;
         }
@@ -105,23 +104,22 @@ void InputEstimatorTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots,
         step_block<W>(constants_->b, slot(0) + first, stride(), z, stepped, code, work, &report);
         // The one-track filter's innovation (TwoAxisFilter: diag(S_x, S_y)) and last_step_nis's
         // arithmetic on it.
-        for (int l = 0; l < W && first / 2 + l / 2 < plots.size(); l += 2) {
+        for (int l = 0; l < W && first / 2 + l / 2 < call.plots.size(); l += 2) {
           const std::size_t track = first / 2 + static_cast<std::size_t>(l / 2);
-          nis[track] = code[l] == step::kOk ? bank::diagonal_nis(report.nu[l], report.nu[l + 1],
-                                                                 report.s[l], report.s[l + 1])
-                                            : std::numeric_limits<double>::quiet_NaN();
+          call.nis[track] =
+              code[l] == step::kOk
+                  ? bank::diagonal_nis(report.nu[l], report.nu[l + 1], report.s[l], report.s[l + 1])
+                  : std::numeric_limits<double>::quiet_NaN();
         }
       });
 }
 
-void InputEstimatorTrackBank::score_lanes(
-    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+void InputEstimatorTrackBank::score_lanes(const LaneScore& call) {
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   const Matrix<1, 2> H{{1.0, 0.0}};
   const SquareMatrix<1> R = SquareMatrix<1>::Constant(constants_->b.cv.R);
-  for (Eigen::Index first = 0; first < out.rows(); first += kGatingChunk) {
-    const int n = static_cast<int>(std::min<Eigen::Index>(kGatingChunk, out.rows() - first));
+  for (Eigen::Index first = 0; first < call.out.rows(); first += kGatingChunk) {
+    const int n = static_cast<int>(std::min<Eigen::Index>(kGatingChunk, call.out.rows() - first));
     // The first n entries of each row are written before they are read.
     GatingChunk chunk;  // NOLINT(cppcoreguidelines-pro-type-member-init)
     for (int i = 0; i < n; ++i) {
@@ -140,14 +138,15 @@ void InputEstimatorTrackBank::score_lanes(
         chunk.log_variance[axis][i] = std::log(S(0, 0));
       }
       chunk.unscored[i] = scored ? 0.0 : 1.0;
-      chunk.gate[i] = gate_scale == nullptr ? gate : gate * gate_scale[first + i];
+      chunk.gate[i] =
+          call.gate_scale == nullptr ? call.gate : call.gate * call.gate_scale[first + i];
     }
-    for (std::size_t q = 0; q < plots.size(); ++q) {
-      double* column = &out(first, static_cast<Eigen::Index>(q));
-      if (!limits::usable_measurement(plots[q])) {
+    for (std::size_t q = 0; q < call.plots.size(); ++q) {
+      double* column = &call.out(first, static_cast<Eigen::Index>(q));
+      if (!limits::usable_measurement(call.plots[q])) {
         std::fill(column, column + n, kNaN);
       } else {
-        score_chunk(chunk, n, plots[q](0), plots[q](1), column);
+        score_chunk(chunk, n, call.plots[q](0), call.plots[q](1), column);
       }
     }
   }

@@ -38,38 +38,36 @@ void PlainImmTrackBank<NX>::initialize(std::size_t track, const GaussianState<NX
 }
 
 template <int NX>
-void PlainImmTrackBank<NX>::step_lanes(std::span<const Eigen::Vector2d> plots,
-                                       std::span<StepStatus> status, double* nis) {
-  for (std::size_t t = 0; t < plots.size(); ++t) {
-    status[t] = tracks_[t].step(plots[t]);
-    if (nis == nullptr) continue;
-    nis[t] = std::numeric_limits<double>::quiet_NaN();
+void PlainImmTrackBank<NX>::step_lanes(const LaneStep& call) {
+  for (std::size_t t = 0; t < call.plots.size(); ++t) {
+    call.status[t] = tracks_[t].step(call.plots[t]);
+    if (call.nis == nullptr) continue;
+    call.nis[t] = std::numeric_limits<double>::quiet_NaN();
     Vector<2> nu;
     SquareMatrix<2> S;
-    if (status[t] != StepStatus::kOk || !tracks_[t].innovation(nu, S)) continue;
+    if (call.status[t] != StepStatus::kOk || !tracks_[t].innovation(nu, S)) continue;
     // As last_step_nis of the one-track filter.
-    nis[t] = normalized_innovation_squared(nu, S).value_or(nis[t]);
+    call.nis[t] = normalized_innovation_squared(nu, S).value_or(call.nis[t]);
   }
 }
 
 template <int NX>
-void PlainImmTrackBank<NX>::score_lanes(
-    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
-  const auto tracks = static_cast<std::size_t>(out.rows());
+void PlainImmTrackBank<NX>::score_lanes(const LaneScore& call) {
+  const auto tracks = static_cast<std::size_t>(call.out.rows());
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t t = 0; t < tracks; ++t) {
     ImmEstimator<NX, 2>& track = tracks_[t];
     const bool predicted = track.predict() == StepStatus::kOk;
-    const double track_gate = gate_scale == nullptr ? gate : gate * gate_scale[t];
-    for (std::size_t q = 0; q < plots.size(); ++q) {
-      double& entry = out(static_cast<Eigen::Index>(t), static_cast<Eigen::Index>(q));
-      if (!predicted || !limits::usable_measurement(plots[q])) {
+    const double track_gate =
+        call.gate_scale == nullptr ? call.gate : call.gate * call.gate_scale[t];
+    for (std::size_t q = 0; q < call.plots.size(); ++q) {
+      double& entry = call.out(static_cast<Eigen::Index>(t), static_cast<Eigen::Index>(q));
+      if (!predicted || !limits::usable_measurement(call.plots[q])) {
         entry = kNaN;
-      } else if (track.candidate_distance(plots[q]) > track_gate) {
+      } else if (track.candidate_distance(call.plots[q]) > track_gate) {
         entry = -std::numeric_limits<double>::infinity();
       } else {
-        entry = track.candidate_log_likelihood(plots[q]);
+        entry = track.candidate_log_likelihood(call.plots[q]);
       }
     }
   }

@@ -106,33 +106,30 @@ void TrackBank::initialize(std::size_t track, const GaussianState<kDim>& state) 
   mark_initialized(t);
 }
 
-void TrackBank::step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                           double* nis) {
-  for (std::size_t first = 0; first < plots.size(); first += kBlock) {
-    const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
-    run_block(first, lanes, plots.data() + first, status.data() + first,
-              nis == nullptr ? nullptr : nis + first);
+void TrackBank::step_lanes(const LaneStep& call) {
+  for (std::size_t first = 0; first < call.plots.size(); first += kBlock) {
+    const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, call.plots.size() - first));
+    run_block(first, lanes, call.plots.data() + first, call.status.data() + first,
+              call.nis == nullptr ? nullptr : call.nis + first);
   }
 }
 
-void TrackBank::score_lanes(
-    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param): a view
-  const auto tracks = static_cast<std::size_t>(out.rows());
+void TrackBank::score_lanes(const LaneScore& call) {
+  const auto tracks = static_cast<std::size_t>(call.out.rows());
   Scoring scoring;
   scoring.modes = modes_;
   scoring.stride = kBlock;
-  scoring.plots = plots.data();
-  scoring.plot_count = static_cast<int>(plots.size());
-  scoring.gate = gate;
-  scoring.out_stride = out.outerStride();
+  scoring.plots = call.plots.data();
+  scoring.plot_count = static_cast<int>(call.plots.size());
+  scoring.gate = call.gate;
+  scoring.out_stride = call.out.outerStride();
   for (std::size_t first = 0; first < tracks; first += kBlock) {
     const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, tracks - first));
     run_block(first, lanes, nullptr, nullptr, nullptr, true);
     scoring.tracks = lanes;
     scoring.prediction = prediction_.data() + first / kBlock * prediction_tile_;
-    scoring.out = out.data() + first;
-    scoring.gate_scale = gate_scale == nullptr ? nullptr : gate_scale + first;
+    scoring.out = call.out.data() + first;
+    scoring.gate_scale = call.gate_scale == nullptr ? nullptr : call.gate_scale + first;
     score_plots(scoring);
   }
 }

@@ -20,21 +20,21 @@ std::ptrdiff_t TrackBankCalls::checked(std::size_t track) const {
 
 void TrackBankCalls::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status) {
   bank::check_step(name_, plots.size(), status.size(), initialized_);
-  step_lanes(plots, status, nullptr);
+  step_lanes({plots, status, nullptr});
 }
 
 void TrackBankCalls::step(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
                           std::span<double> nis) {
   bank::check_nis(name_, plots.size(), nis.size());
   bank::check_step(name_, plots.size(), status.size(), initialized_);
-  step_lanes(plots, status, nis.data());
+  step_lanes({plots, status, nis.data()});
 }
 
 void TrackBankCalls::candidate_log_likelihoods(
     std::span<const Eigen::Vector2d> plots, double gate,
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param): a view
   bank::check_candidates(name_, plots.size(), gate, out.rows(), out.cols(), initialized_);
-  score_lanes(plots, gate, nullptr, out);
+  score_lanes({plots, gate, nullptr, out});
 }
 
 void TrackBankCalls::candidate_log_likelihoods(
@@ -42,7 +42,7 @@ void TrackBankCalls::candidate_log_likelihoods(
     Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param): a view
   bank::check_candidates(name_, plots.size(), gate, out.rows(), out.cols(), initialized_);
   bank::check_gate_scale(gate_scale, out.rows());
-  score_lanes(plots, gate, gate_scale.data(), out);
+  score_lanes({plots, gate, gate_scale.data(), out});
 }
 
 }  // namespace imm

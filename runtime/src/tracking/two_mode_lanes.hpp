@@ -7,7 +7,9 @@
 // the mixing (ImmEstimator::predict_mode_probabilities and mix), the posterior μ
 // (ImmEstimator::finish_cycle) and the commit; each mode's prediction and update are the
 // one-track mode's (filters/position_kalman_step.hpp). Every statement of the vector parts is a
-// loop over the lanes, with no branch and no call, which the compiler vectorizes. Not installed.
+// loop over the lanes, with no branch and no call, which the compiler vectorizes. What the modes'
+// innovations answer (the NIS, the gate, the gating matrix) is two_mode_innovations.hpp's. Not
+// installed.
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -29,12 +31,31 @@
 
 namespace imm::bank {
 
-/// One step of tracks 0 … plots.size() − 1 over blocks of kBlock tracks, one lane each. Per block:
-/// the plots' two components (NaN for an unusable plot; `pad` for a lane past the last track)
-/// and step flags, kernel(first, z0, z1, stepped, code), then every track's status.
+/// One block's step as a two-mode bank's kernel reads it: the block's first lane of slot 0 (the
+/// slots `stride` apart), the plots' two components (NaN: unusable), 1 for a lane to step, the
+/// lanes' codes to write, and where `nis` is not null its first `lanes` entries (the block's
+/// tracks) to state.
+struct BlockStep {
+  double* state;
+  std::ptrdiff_t stride;
+  const double* z0;
+  const double* z1;
+  const double* stepped;
+  double* code;
+  double* nis;
+  int lanes;
+  /// Slot `entry` at the block's first lane.
+  [[nodiscard]] double* slot(int entry) const { return state + entry * stride; }
+};
+
+/// One step of tracks 0 … plots.size() − 1 over blocks of kBlock tracks, one lane each, of a bank
+/// whose slot 0 starts at `state`: per block the plots' two components (NaN for an unusable plot;
+/// `pad` for a lane past the last track) and step flags, kernel(BlockStep) (`nis` null, or an
+/// entry per track), then every track's status.
 template <int kBlock, class Kernel>
 void step_blocks(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                 const Eigen::Vector2d& pad, Kernel&& kernel) {
+                 const Eigen::Vector2d& pad, double* state, std::ptrdiff_t stride, double* nis,
+                 Kernel&& kernel) {
   const std::size_t n = plots.size();
   constexpr auto kLanes = static_cast<std::size_t>(kBlock);
   for (std::size_t first = 0; first < n; first += kLanes) {
@@ -48,7 +69,9 @@ void step_blocks(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> s
       z1[l] = usable ? plots[track](1) : (real ? nan : pad(1));
       stepped[l] = real ? 1.0 : 0.0;
     }
-    kernel(first, z0, z1, stepped, code);
+    kernel(BlockStep{state + first, stride, z0, z1, stepped, code,
+                     nis == nullptr ? nullptr : nis + first,
+                     static_cast<int>(std::min(kLanes, n - first))});
     for (std::size_t l = 0; l < kLanes && first + l < n; ++l) {
       status[first + l] = status_of(code[l]);
     }
@@ -277,159 +300,6 @@ GaussianState<6> combined_estimate(Slot&& slot, const std::array<ModeSlots, 2>& 
     out.covariance += mu[m] * (covariances[m] + d * d.transpose());
   }
   return out;
-}
-
-/// One block's share of a gating matrix: its first `lanes` tracks against `plots`, column q of the
-/// block's rows at out + q · out_stride.
-struct GatingBlock {
-  std::span<const Eigen::Vector2d> plots;
-  double gate = 0.0;
-  double* out = nullptr;
-  std::ptrdiff_t out_stride = 0;
-  int lanes = 0;
-  const double* gate_scale = nullptr;  // per lane from the block's first, or null: every factor 1
-
-  /// Lane l's gate: gate × gate_scale[l].
-  [[nodiscard]] double gate_of(int l) const {
-    return gate_scale == nullptr ? gate : gate * gate_scale[l];
-  }
-};
-
-/// The gating matrix `out` of `plots` in blocks of kBlock tracks: score(first, block) per block;
-/// gate_scale: a factor per track, or null.
-template <int kBlock, class Score>
-void score_in_blocks(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-                     Eigen::Ref<Eigen::MatrixXd> out, Score&& score) {
-  for (Eigen::Index first = 0; first < out.rows(); first += kBlock) {
-    const GatingBlock block{plots,
-                            gate,
-                            out.data() + first,
-                            out.outerStride(),
-                            static_cast<int>(std::min<Eigen::Index>(kBlock, out.rows() - first)),
-                            gate_scale == nullptr ? nullptr : gate_scale + first};
-    score(static_cast<std::ptrdiff_t>(first), block);
-  }
-}
-
-/// The normalized predicted mode probabilities c_j of a block's lanes (ImmEstimator::collapse's
-/// weights: exp(log c_j − max) over their sum), which a candidate's collapse reads.
-template <int W>
-void normalized_predicted(const Mixing<W>& mixing, double (&c)[2][W]) {
-  for (int l = 0; l < W; ++l) {
-    const double log_c[2] = {mixing.log_c[0][l], mixing.log_c[1][l]};
-    double lane[2];
-    normalized_weights(log_c, 2, lane);
-    for (int j = 0; j < 2; ++j) c[j][l] = lane[j];
-  }
-}
-
-/// νᵀ S⁻¹ ν of two modes' innovations ν_j and S_j collapsed with weights c_j: ν = Σ_j c_j ν_j and
-/// S = Σ_j c_j (S_j + (ν_j − ν)(ν_j − ν)ᵀ) (ImmEstimator::collapse); NaN where S is not positive
-/// definite.
-inline double collapsed_distance(const double (&c)[2], const Eigen::Vector2d (&nu)[2],
-                                 const Eigen::Matrix2d (&Sj)[2]) {
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
-  for (int j = 0; j < 2; ++j) {
-    if (c[j] != 0.0) mean += c[j] * nu[j];
-  }
-  for (int j = 0; j < 2; ++j) {
-    if (c[j] == 0.0) continue;
-    const Eigen::Vector2d d = nu[j] - mean;
-    S += c[j] * (Sj[j] + d * d.transpose());
-  }
-  return quadratic_form_2x2(S(0, 0), S(0, 1), S(1, 1), mean(0), mean(1));
-}
-
-/// Lane l's ν_j and S_j of the modes' arrays.
-template <int W>
-void lane_innovations(const double* const (&nu)[2][2], const double* const (&s)[2][3], int l,
-                      Eigen::Vector2d (&nu_l)[2], Eigen::Matrix2d (&s_l)[2]) {
-  for (int j = 0; j < 2; ++j) {
-    nu_l[j] = Eigen::Vector2d(nu[j][0][l], nu[j][1][l]);
-    s_l[j] << s[j][0][l], s[j][1][l], s[j][1][l], s[j][2][l];
-  }
-}
-
-/// The squared distance of lane l's candidate to the collapsed predicted plot, from the modes'
-/// innovations ν_j (nu[j][0 or 1]) and S_j (s[j][0 … 2]) and c (normalized_predicted).
-template <int W>
-double collapsed_distance(const double (&c)[2][W], const double* const (&nu)[2][2],
-                          const double* const (&s)[2][3], int l) {
-  Eigen::Vector2d nu_l[2];
-  Eigen::Matrix2d s_l[2];
-  lane_innovations<W>(nu, s, l, nu_l, s_l);
-  return collapsed_distance({c[0][l], c[1][l]}, nu_l, s_l);
-}
-
-/// The NIS each of a block's first `lanes` lanes states after its step (nis[l], NaN where code[l]
-/// is not kOk): what last_step_nis gives the one-track filter, ImmEstimator::innovation of the
-/// modes' ν_j and S_j of the update — each first rewritten by to_plot(l, ν_j, S_j) into the
-/// plot's measurement where the filter reports another's (the wIMM's fused azimuth) — collapsed
-/// with the predicted c_j.
-template <int D0, int D1, int W, class ToPlot>
-void step_nis(const Mixing<W>& mixing, const ModeLanes<D0, W>& mode0, const ModeLanes<D1, W>& mode1,
-              const double* code, int lanes, ToPlot&& to_plot, double* nis) {
-  double c[2][W];
-  normalized_predicted<W>(mixing, c);
-  const double* const nu[2][2] = {{mode0.nu[0], mode0.nu[1]}, {mode1.nu[0], mode1.nu[1]}};
-  const double* const s[2][3] = {{mode0.s[0], mode0.s[1], mode0.s[2]},
-                                 {mode1.s[0], mode1.s[1], mode1.s[2]}};
-  for (int l = 0; l < lanes; ++l) {
-    if (code[l] != kOk) {
-      nis[l] = std::numeric_limits<double>::quiet_NaN();
-      continue;
-    }
-    Eigen::Vector2d nu_l[2];
-    Eigen::Matrix2d s_l[2];
-    lane_innovations<W>(nu, s, l, nu_l, s_l);
-    for (int j = 0; j < 2; ++j) to_plot(l, nu_l[j], s_l[j]);
-    nis[l] = collapsed_distance({c[0][l], c[1][l]}, nu_l, s_l);
-  }
-}
-
-/// Whether a block's first g.lanes lanes all lie outside their gates for one candidate plot, from
-/// the two modes' linearizations at their predictions and S_j = H P⁻ Hᵀ + R (update_mode's), before
-/// any update: then no lane needs one. A lane whose h is undefined there or whose S is not
-/// positive definite counts as inside (the update decides its answer).
-template <int D0, int D1, int W>
-bool all_outside_the_gate(const double (&c)[2][W], const Linearization<W>& lin0,
-                          const ModeLanes<D0, W>& mode0, const Linearization<W>& lin1,
-                          const ModeLanes<D1, W>& mode1, const GatingBlock& g) {
-  double pht0[2 * D0][2][W], pht1[2 * D1][2][W], s0[3][W], s1[3][W];
-  innovation_covariance<D0, W>(lin0, mode0.P, pht0, s0);
-  innovation_covariance<D1, W>(lin1, mode1.P, pht1, s1);
-  const double* const nu[2][2] = {{lin0.nu0, lin0.nu1}, {lin1.nu0, lin1.nu1}};
-  const double* const s[2][3] = {{s0[0], s0[1], s0[2]}, {s1[0], s1[1], s1[2]}};
-  for (int l = 0; l < g.lanes; ++l) {
-    if (lin0.defined[l] == 0.0 || lin1.defined[l] == 0.0) return false;
-    if (!(collapsed_distance<W>(c, nu, s, l) > g.gate_of(l))) return false;
-  }
-  return true;
-}
-
-/// The gating question's answer for lane l of a block whose two modes were updated with one
-/// candidate plot (nothing kept; the modes' first linearization at the prediction):
-/// log Σ_j c_j N(ν_j; 0, S_j), −∞ where the distance to the collapsed predicted plot is above
-/// `gate`, NaN where a mode could not score it (ImmEstimator's candidate questions: the modes'
-/// densities summed in log space, the distance collapsed_distance's). `c`: normalized_predicted.
-template <int D0, int D1, int W>
-double candidate_answer(const Mixing<W>& mixing, const double (&c)[2][W],
-                        const ModeLanes<D0, W>& mode0, const ModeLanes<D1, W>& mode1, int l,
-                        double gate) {
-  if (mode0.code[l] != kOk || mode1.code[l] != kOk) {
-    return std::numeric_limits<double>::quiet_NaN();
-  }
-  const double* const nu[2][2] = {{mode0.nu[0], mode0.nu[1]}, {mode1.nu[0], mode1.nu[1]}};
-  const double* const s[2][3] = {{mode0.s[0], mode0.s[1], mode0.s[2]},
-                                 {mode1.s[0], mode1.s[1], mode1.s[2]}};
-  const double distance = collapsed_distance<W>(c, nu, s, l);
-  if (std::isnan(distance)) return std::numeric_limits<double>::quiet_NaN();
-  if (distance > gate) return -std::numeric_limits<double>::infinity();
-  ModeVector terms(2);
-  terms << mode0.log_likelihood[l] + mixing.log_c[0][l],
-      mode1.log_likelihood[l] + mixing.log_c[1][l];
-  return log_sum_exp(terms);
 }
 
 }  // namespace imm::bank

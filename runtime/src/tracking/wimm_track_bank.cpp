@@ -18,6 +18,7 @@
 #include "imm/math/angle.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/models/measurement/polar_measurement.hpp"
+#include "two_mode_innovations.hpp"
 #include "two_mode_lanes.hpp"
 
 namespace imm {
@@ -79,16 +80,14 @@ void to_plot(const wimm::Constants& b, bool fused, double range, double azimuth,
   }
 }
 
-// One scan of one block's W tracks. `state` points at the block's first track of slot 0; `range`
-// and `azimuth` the plots (NaN: unusable); `stepped` 1 for a track to step; `code` receives each
-// track's outcome; where `nis` is not null, its first `lanes` entries the tracks' NIS.
+// One scan of one block's W tracks (bank::BlockStep: the plots' range and azimuth).
 template <int W>
 [[gnu::flatten]] IMM_VECTOR_CLONES void step_block(const double (&p)[2][2],
-                                                   const wimm::Constants& b, double* state,
-                                                   std::ptrdiff_t stride, const double* range,
-                                                   const double* azimuth, const double* stepped,
-                                                   double* code, double* nis, int lanes) {
-  auto st = [&](int entry) { return state + entry * stride; };
+                                                   const wimm::Constants& b,
+                                                   const bank::BlockStep& block) {
+  auto st = [&](int entry) { return block.slot(entry); };
+  const double* range = block.z0;
+  const double* azimuth = block.z1;
   // 1. The mixing and both modes' predictions, and their predicted ranges and azimuths.
   Predicted<W> m;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   predict_block<W>(p, b, st, m);
@@ -124,23 +123,14 @@ template <int W>
   // 3. The updates, the posterior μ and the commit.
   bank::update_mode<kCvAxis, W>(lin[0], cv);
   bank::update_mode<kSingerAxis, W>(lin[1], singer);
-  double usable[W], commit[W], log_mu[2][W];
-  IMM_LANES usable[l] = pick((range[l] == range[l]) & (azimuth[l] == azimuth[l]), 1.0, 0.0);
-  bank::finish<kCvAxis, kSingerAxis, W>(m.mixing, cv, singer, usable, stepped, log_mu, code,
-                                        commit);
-  if (nis != nullptr) {
-    bank::step_nis<kCvAxis, kSingerAxis, W>(
-        m.mixing, cv, singer, code, lanes,
-        [&](int l, Eigen::Vector2d& nu, Eigen::Matrix2d& S) {
-          to_plot(b, fused[l] != 0.0, range[l], azimuth[l], chosen[l], nu, S);
-        },
-        nis);
-  }
-  bank::keep<W>(st, kLogMu, log_mu[0], commit);
-  bank::keep<W>(st, kLogMu + 1, log_mu[1], commit);
+  double commit[W];
+  bank::finish_and_keep<kCvAxis, kSingerAxis, W>(
+      m.mixing, kModes, kLogMu, cv, singer, block,
+      [&](int l, Eigen::Vector2d& nu, Eigen::Matrix2d& S) {
+        to_plot(b, fused[l] != 0.0, range[l], azimuth[l], chosen[l], nu, S);
+      },
+      commit);
   bank::keep<W>(st, kFused, fused, commit);
-  bank::keep_mode<kCvAxis, W>(st, kCv, cv, commit);
-  bank::keep_mode<kSingerAxis, W>(st, kSinger, singer, commit);
 }
 
 // The gating matrix of one block's tracks (`g`) (an nIMM: no fusion, the extended update): the
@@ -154,33 +144,15 @@ template <int W>
   auto st = [&](int entry) { return state + entry * stride; };
   Predicted<W> m;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   predict_block<W>(p, b, st, m);
-  double c[2][W];
-  bank::normalized_predicted<W>(m.mixing, c);
-  for (std::size_t q = 0; q < g.plots.size(); ++q) {
-    double* column = g.out + static_cast<std::ptrdiff_t>(q) * g.out_stride;
-    const Eigen::Vector2d& z = g.plots[q];
-    if (!limits::usable_measurement(z)) {
-      std::fill(column, column + g.lanes, std::numeric_limits<double>::quiet_NaN());
-      continue;
-    }
-    bank::Linearization<W> lin[2];  // NOLINT(cppcoreguidelines-pro-type-member-init)
-    for (int l = 0; l < W; ++l) {
-      for (int j = 0; j < 2; ++j) {
-        wimm::polar_lane<W>(b, false, z(0), z(1), 0.0, m.px[j][l], m.py[j][l], m.r[j][l],
-                            m.predicted_azimuth[j][l], lin[j], l);
-      }
-    }
-    if (bank::all_outside_the_gate<kCvAxis, kSingerAxis, W>(c, lin[0], m.cv, lin[1], m.singer, g)) {
-      std::fill(column, column + g.lanes, -std::numeric_limits<double>::infinity());
-      continue;
-    }
-    bank::update_mode<kCvAxis, W>(lin[0], m.cv);
-    bank::update_mode<kSingerAxis, W>(lin[1], m.singer);
-    for (int l = 0; l < g.lanes; ++l) {
-      column[l] = bank::candidate_answer<kCvAxis, kSingerAxis, W>(m.mixing, c, m.cv, m.singer, l,
-                                                                  g.gate_of(l));
-    }
-  }
+  bank::score_plots<kCvAxis, kSingerAxis, W>(
+      m.mixing, m.cv, m.singer, g, [&](const Eigen::Vector2d& z, bank::Linearization<W>(&lin)[2]) {
+        for (int l = 0; l < W; ++l) {
+          for (int j = 0; j < 2; ++j) {
+            wimm::polar_lane<W>(b, false, z(0), z(1), 0.0, m.px[j][l], m.py[j][l], m.r[j][l],
+                                m.predicted_azimuth[j][l], lin[j], l);
+          }
+        }
+      });
 }
 
 }  // namespace
@@ -210,34 +182,29 @@ void WimmTrackBank::initialize(std::size_t track, const GaussianState<6>& state)
   mark_initialized(t);
 }
 
-void WimmTrackBank::step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                               double* nis) {
+void WimmTrackBank::step_lanes(const LaneStep& call) {
   // Lanes past the last track get a plot 1 away from the radar (their results are not kept).
-  bank::step_blocks<kBlock>(
-      plots, status, Eigen::Vector2d(1.0, 0.0),
-      [&](std::size_t first, const double* range, const double* azimuth, const double* stepped,
-          double* code) {
-        const int lanes = static_cast<int>(std::min<std::size_t>(kBlock, plots.size() - first));
-        step_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), range, azimuth,
-                           stepped, code, nis == nullptr ? nullptr : nis + first, lanes);
-      });
+  bank::step_blocks<kBlock>(call.plots, call.status, Eigen::Vector2d(1.0, 0.0), slot(0), stride(),
+                            call.nis, [&](const bank::BlockStep& block) {
+                              step_block<kBlock>(constants_->p, constants_->b, block);
+                            });
 }
 
 bool WimmTrackBank::fused(std::size_t track) const { return slot(kFused)[checked(track)] != 0.0; }
 
-void WimmTrackBank::score_lanes(
-    std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-    Eigen::Ref<Eigen::MatrixXd> out) {  // NOLINT(performance-unnecessary-value-param)
+void WimmTrackBank::score_lanes(const LaneScore& call) {
   if (spec_.fusion != FusionVariant::kNone || spec_.update != MeasurementUpdate::kExtended) {
     throw std::logic_error(
         "WimmTrackBank::candidate_log_likelihoods: a wIMM that fuses the azimuth or converts the "
-        "plot does not score candidate plots (it chooses its measurement from the prediction and "
+        "plot does not score candidate plots (it chooses its measurement from the prediction "
+        "and "
         "the plot together: WimmFilter::has_split_cycle is false)");
   }
-  bank::score_in_blocks<kBlock>(
-      plots, gate, gate_scale, out, [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
-        score_block<kBlock>(constants_->p, constants_->b, slot(0) + first, stride(), block);
-      });
+  bank::score_in_blocks<kBlock>(call.plots, call.gate, call.gate_scale, call.out,
+                                [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
+                                  score_block<kBlock>(constants_->p, constants_->b, slot(0) + first,
+                                                      stride(), block);
+                                });
 }
 
 }  // namespace imm

@@ -44,12 +44,12 @@
 #include "imm/estimation/step_status.hpp"
 #include "imm/filters/fcm_imm.hpp"
 #include "imm/runtime_export.hpp"
-#include "imm/tracking/lane_storage.hpp"
+#include "imm/tracking/axis_imm_lane_storage.hpp"
 
 namespace imm {
 
 /// N tracks of one FCM-IMM with Cartesian plots, stepped together (see the file comment).
-class IMM_RUNTIME_EXPORT FcmImmTrackBank : public LaneStorage {
+class IMM_RUNTIME_EXPORT FcmImmTrackBank : public AxisImmLaneStorage {
  public:
   /// Axis lanes per block of the layout (four tracks).
   static constexpr int kBlock = 8;
@@ -65,34 +65,28 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank : public LaneStorage {
   /// InvalidParameter("state") for a non-finite state.
   void initialize(std::size_t track, const GaussianState<4>& state);
 
-  /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
+  /// The modes of each axis moment-matched with μ [x, vx, y, vy] (block-diagonal covariance).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
 
-  /// μ of the x axis's IMM, then the y axis's (TwoAxisFilter::mode_probabilities).
-  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
-
-  // step(), step() with the NIS and candidate_log_likelihoods() are TrackBankCalls'.
+  // mode_count() and mode_probabilities() are AxisImmLaneStorage's; step(), step() with the NIS
+  // and candidate_log_likelihoods() TrackBankCalls'.
 
  private:
   // One scan of the tracks; with `nis`, each mode's ν_j = e and S_j of its update collapsed with
   // the predicted c_j (the one-track filter's last_step_nis, to the bit).
-  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                  double* nis) override;
+  void step_lanes(const LaneStep& call) override;
   // Each axis's log Σ_j c_j N_j of a trial step of every mode (the window's clustering reads the
   // plot's error), gated by the squared distance to the prediction without a plot
   // (uncompensated, collapsed): the one-track filter's candidate questions after predict(), as
   // closely as the bank follows the filter. The windows are not changed.
-  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-                   Eigen::Ref<Eigen::MatrixXd> out) override;
+  void score_lanes(const LaneScore& call) override;
   // Slot of entry `entry` of mode `mode`'s window (after every mode's cycle slots).
   [[nodiscard]] int window_slot(int mode, int entry) const;
 
   FcmImmSpec spec_;
-  int window_slots_ = 0;                // window slots per mode
-  std::vector<double> transition_;      // π_ij at i * modes + j
-  std::vector<double> log_transition_;  // log π_ij likewise
-  std::vector<double> scratch_;         // one lane's window and memberships for the clustering
-  std::vector<double> innovations_;     // a step's modes' innovations where it states its NIS
+  int window_slots_ = 0;             // window slots per mode
+  std::vector<double> scratch_;      // one lane's window and memberships for the clustering
+  std::vector<double> innovations_;  // a step's modes' innovations where it states its NIS
 };
 
 }  // namespace imm

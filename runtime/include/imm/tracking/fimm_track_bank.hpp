@@ -70,13 +70,11 @@ class IMM_RUNTIME_EXPORT FimmTrackBank : public TwoModeLaneStorage {
   // One scan of the tracks (plots in the sensor's (z1, z2)); with `nis`, the modes' ν_j and S_j
   // of the update collapsed with the predicted c_j: the one-track FIMM's last_step_nis to
   // rounding.
-  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                  double* nis) override;
+  void step_lanes(const LaneStep& call) override;
   // log Σ_j c_j N(ν_j; 0, S_j) of the candidate under the prediction (each mode's first
   // linearization of the sensor model there), gated by its squared distance to the collapsed
   // predicted plot: the one-track FIMM's candidate questions after predict(), to rounding.
-  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-                   Eigen::Ref<Eigen::MatrixXd> out) override;
+  void score_lanes(const LaneScore& call) override;
   FimmSpec spec_;
   std::shared_ptr<const TskSensorModel> sensor_;
   std::shared_ptr<const Constants> constants_;  // the kernel's, made from spec_ and sensor_ once

@@ -36,12 +36,12 @@
 #include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/runtime_export.hpp"
-#include "imm/tracking/lane_storage.hpp"
+#include "imm/tracking/axis_imm_lane_storage.hpp"
 
 namespace imm {
 
 /// N tracks of one GA-fuzzy IMM with Cartesian plots, stepped together (see the file comment).
-class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public LaneStorage {
+class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public AxisImmLaneStorage {
  public:
   /// Axis lanes per block of the layout: stepped as one block (two AVX-512 packs: two independent
   /// chains) where the AVX-512 kernels run (lane_isa.hpp), as two blocks of 8 otherwise (packs
@@ -55,9 +55,6 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public LaneStorage {
   GaFuzzyTrackBank(const GaFuzzyImmSpec& spec, std::size_t capacity,
                    bool wide_blocks = wide_vector_clones());
 
-  /// Modes per axis (the levels).
-  [[nodiscard]] int mode_count() const { return modes_; }
-
   /// Starts (or restarts) track `track` from [x, vx, y, vy] (the covariance's two axis blocks;
   /// the cross terms are not used, as by the one-track filter): every mode takes the state, the
   /// mode probabilities their initial values, the tables' previous input 0. Throws
@@ -66,28 +63,21 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public LaneStorage {
 
   /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).
   [[nodiscard]] GaussianState<4> estimate(std::size_t track) const;
-  /// μ of the x modes, then of the y modes (as TwoAxisFilter::mode_probabilities).
-  [[nodiscard]] ModeVector mode_probabilities(std::size_t track) const;
 
-  // step(), step() with the NIS and candidate_log_likelihoods() are TrackBankCalls'.
+  // mode_count() (the levels) and mode_probabilities() are AxisImmLaneStorage's; step(), step()
+  // with the NIS and candidate_log_likelihoods() TrackBankCalls'.
 
  private:
   // One IMM cycle of the tracks; with `nis`, per axis the modes' ν_j and S_j of the update
   // collapsed with the predicted c_j, then νᵀ S⁻¹ ν: the one-track filter's last_step_nis to
   // 1e-12 relative (the bank's state is the filter's to rounding).
-  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                  double* nis) override;
+  void step_lanes(const LaneStep& call) override;
   // Each axis's log Σ_j c_j N_j of a trial step of every mode (the modes' noise is read from the
   // plot), gated by the squared distance to the prediction without a plot (the modes' mean q,
   // collapsed): the one-track filter's candidate_log_likelihood and candidate_distance after
   // predict(), to 1e-12 relative (its exponentials are libm's).
-  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-                   Eigen::Ref<Eigen::MatrixXd> out) override;
+  void score_lanes(const LaneScore& call) override;
   bool wide_blocks_ = false;
-  int modes_ = 0;
-  std::vector<double> transition_;      // π_ij at i * modes + j
-  std::vector<double> log_transition_;  // log π_ij
-  std::vector<double> initial_log_mu_;
   lanes::FuzzyAxisConstants axis_;
   std::vector<lanes::FuzzyLevelConstants> levels_;
   std::vector<double> scratch_;      // one block's plots, step flags and codes

@@ -70,13 +70,11 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank : public LaneStorage {
   struct Constants;
   // One scan of the tracks; with `nis`, ν_x²/S_x + ν_y²/S_y of the primary KFs' update (the
   // one-track filter's last_step_nis, to the bit).
-  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                  double* nis) override;
+  void step_lanes(const LaneStep& call) override;
   // The sum of the axes' log N(ν; 0, S) under the primary KF's prediction with the last input
   // estimate, gated by Σ ν²/S: the one-track filter's candidate_log_likelihood and
   // candidate_distance after predict(), to the bit.
-  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-                   Eigen::Ref<Eigen::MatrixXd> out) override;
+  void score_lanes(const LaneScore& call) override;
   bool wide_blocks_ = false;
   std::shared_ptr<const Constants> constants_;  // the scan's, made from the model once
   std::vector<double> scratch_;  // one block's plots, flags, codes and two layers' activations

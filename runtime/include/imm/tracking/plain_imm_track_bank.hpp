@@ -61,13 +61,11 @@ class PlainImmTrackBank : public TrackBankCalls {
 
  private:
   // TrackBankCalls' step: each track's ImmEstimator::step, its NIS that of last_step_nis.
-  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                  double* nis) override;
+  void step_lanes(const LaneStep& call) override;
   // TrackBankCalls' gating matrix: each track predicted (ImmEstimator::predict), each plot scored
   // by its candidate_distance and candidate_log_likelihood; a spec with a noise schedule scores a
   // pair by a trial update and gates on the prediction without the plot.
-  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-                   Eigen::Ref<Eigen::MatrixXd> out) override;
+  void score_lanes(const LaneScore& call) override;
   std::vector<ImmEstimator<NX, 2>> tracks_;
   double sample_period_ = 0.0;
 };

@@ -106,10 +106,8 @@ class IMM_RUNTIME_EXPORT TrackBank : public TrackBankCalls {
                  double* nis, bool predict = false);
   // TrackBankCalls' step (with `nis`, the kernel collapses each pack's recorded innovations after
   // its cycle) and gating matrix (pairs outside the gate skipped eight tracks at a time).
-  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                  double* nis) override;
-  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-                   Eigen::Ref<Eigen::MatrixXd> out) override;
+  void step_lanes(const LaneStep& call) override;
+  void score_lanes(const LaneScore& call) override;
 
   int modes_ = 0;
   std::ptrdiff_t tile_ = 0;             // doubles per tile of the state (slots × kBlock)

@@ -82,13 +82,24 @@ class IMM_RUNTIME_EXPORT TrackBankCalls {
   /// The calls' state moved (a bank's move).
   TrackBankCalls& operator=(TrackBankCalls&&) = default;
 
-  /// The bank's step once the arguments are checked: `nis` null, or plots.size() entries.
-  virtual void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                          double* nis) = 0;
-  /// The bank's gating matrix once the arguments are checked: `gate_scale` null (every factor
-  /// 1), or out.rows() factors.
-  virtual void score_lanes(std::span<const Eigen::Vector2d> plots, double gate,
-                           const double* gate_scale, Eigen::Ref<Eigen::MatrixXd> out) = 0;
+  /// A step once its arguments are checked: `nis` null, or plots.size() entries.
+  struct LaneStep {
+    std::span<const Eigen::Vector2d> plots;  ///< a plot per stepped track
+    std::span<StepStatus> status;            ///< a status per stepped track, to write
+    double* nis;                             ///< null, or an NIS per stepped track to write
+  };
+  /// A gating matrix once its arguments are checked: `gate_scale` null (every factor 1), or
+  /// out.rows() factors.
+  struct LaneScore {
+    std::span<const Eigen::Vector2d> plots;   ///< the candidate plots, a column each
+    double gate;                              ///< the gate on the squared distance
+    const double* gate_scale;                 ///< null, or a factor of the gate per track
+    mutable Eigen::Ref<Eigen::MatrixXd> out;  ///< a view: what it points at is the answer
+  };
+  /// The bank's step.
+  virtual void step_lanes(const LaneStep& call) = 0;
+  /// The bank's gating matrix.
+  virtual void score_lanes(const LaneScore& call) = 0;
 
   /// Room for `capacity` tracks, none initialized. Throws InvalidParameter("capacity") for a
   /// capacity outside [1, 2^26].

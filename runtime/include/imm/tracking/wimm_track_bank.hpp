@@ -72,15 +72,13 @@ class IMM_RUNTIME_EXPORT WimmTrackBank : public TwoModeLaneStorage {
   // rewritten into the plot's where the track fused the azimuth (WimmFilter::innovation),
   // collapsed with the predicted c_j: the one-track wIMM's last_step_nis to rounding, in every
   // configuration.
-  void step_lanes(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> status,
-                  double* nis) override;
+  void step_lanes(const LaneStep& call) override;
   // For the split cycle's configuration (no fusion, the extended update: the nIMM): log Σ_j c_j
   // N(ν_j; 0, S_j) of the candidate under the prediction, gated by its squared distance to the
   // collapsed predicted plot — the one-track WimmFilter's candidate questions after predict(), to
   // rounding. std::logic_error for a wIMM that fuses the azimuth or converts the plot (it has no
   // split cycle).
-  void score_lanes(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-                   Eigen::Ref<Eigen::MatrixXd> out) override;
+  void score_lanes(const LaneScore& call) override;
   WimmSpec spec_;
   std::shared_ptr<const Constants> constants_;  // the kernel's, made from spec_ once
 };
