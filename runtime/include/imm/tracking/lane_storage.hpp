@@ -3,9 +3,10 @@
 /// @file
 /// The storage the banks of the learned kinds share: a structure of arrays of state slots, one
 /// lane per track (or per track axis), the lanes padded to whole blocks so that a block's kernel
-/// reads and writes whole vectors, and which tracks have been started. GaFuzzyTrackBank,
-/// InputEstimatorTrackBank and FcmImmTrackBank derive from it, WimmTrackBank and FimmTrackBank
-/// through TwoModeLaneStorage (two_mode_lane_storage.hpp); what a slot holds is each bank's own.
+/// reads and writes whole vectors, and which tracks have been started. InputEstimatorTrackBank
+/// derives from it, GaFuzzyTrackBank and FcmImmTrackBank through AxisImmLaneStorage
+/// (axis_imm_lane_storage.hpp), WimmTrackBank and FimmTrackBank through TwoModeLaneStorage
+/// (two_mode_lane_storage.hpp); what a slot holds is each bank's own.
 /// The calls every bank answers are TrackBankCalls' (track_bank_calls.hpp).
 
 #include <cstddef>
