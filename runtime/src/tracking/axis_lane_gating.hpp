@@ -24,7 +24,6 @@
 #include <array>
 #include <cmath>
 #include <limits>
-#include <span>
 
 #include "imm/core/physical_limits.hpp"
 #include "imm/math/lane_math.hpp"
@@ -122,22 +121,21 @@ double track_log_likelihood(const F& family, const HeldTrack<F, N>& h, const Eig
   return log_sum_exp(terms[0]) + log_sum_exp(terms[1]);
 }
 
-/// The gating matrix of tracks 0 … out.rows() − 1 of block `b` (the state at its first lane)
-/// against `plots`: each track held in turn with family_of(t), the family of track t (a family may
-/// point at its track's own slots), then every plot scored (see the file comment): NaN for an
-/// unusable plot, −∞ past the track's gate (gate × gate_scale[t], or gate where gate_scale is
-/// null), else the log-likelihood. The state is not changed.
-template <int N, class F, class FamilyOf>
-void score_tracks(const CycleBlock& b, FamilyOf&& family_of, std::span<const Eigen::Vector2d> plots,
-                  double gate, const double* gate_scale, Eigen::Ref<Eigen::MatrixXd> out) {
+/// The gating matrix of a bank's call (TrackBankCalls::LaneScore: tracks 0 … out.rows() − 1 of
+/// block `b`, the state at its first lane, against its plots): each track held in turn with
+/// family_of(t), the family of track t (a family may point at its track's own slots), then every
+/// plot scored (see the file comment): NaN for an unusable plot, −∞ past the track's gate
+/// (call.gate_of(t)), else the log-likelihood. The state is not changed.
+template <int N, class F, class FamilyOf, class Call>
+void score_tracks(const CycleBlock& b, FamilyOf&& family_of, const Call& call) {
   HeldTrack<F, N> held;
-  for (Eigen::Index t = 0; t < out.rows(); ++t) {
+  for (Eigen::Index t = 0; t < call.out.rows(); ++t) {
     const F family = family_of(t);
-    const double track_gate = gate_scale == nullptr ? gate : gate * gate_scale[t];
+    const double track_gate = call.gate_of(static_cast<std::size_t>(t));
     hold_track<N>(family, b, static_cast<int>(t), held);
-    for (std::size_t q = 0; q < plots.size(); ++q) {
-      const Eigen::Vector2d& z = plots[q];
-      double& entry = out(t, static_cast<Eigen::Index>(q));
+    for (std::size_t q = 0; q < call.plots.size(); ++q) {
+      const Eigen::Vector2d& z = call.plots[q];
+      double& entry = call.out(t, static_cast<Eigen::Index>(q));
       if (!limits::usable_measurement(z)) {
         entry = std::numeric_limits<double>::quiet_NaN();
       } else if (track_distance(held, z) > track_gate) {

@@ -292,7 +292,7 @@ void FcmImmTrackBank::score_lanes(const LaneScore& call) {
           return FcmFamily{
               {}, &b, stepped, slot(window_slot(0, 0)) + 2 * t, stride(), window_slots_, &pending};
         },
-        call.plots, call.gate, call.gate_scale, call.out);
+        call);
   });
 }
 
@@ -303,14 +303,17 @@ GaussianState<4> FcmImmTrackBank::estimate(std::size_t track) const {
   const int n = mode_count();
   std::array<std::array<double, 5>, 2> axes{};
   for (int axis = 0; axis < 2; ++axis) {
-    auto mode = [&](int j) {
-      std::array<double, 5> entries{};
+    std::array<std::array<double, 5>, kMaxLevels> modes{};
+    for (int j = 0; j < n; ++j) {
       for (int e = 0; e < 5; ++e)
-        entries[static_cast<std::size_t>(e)] = slot(mode_slot(j, e))[2 * t + axis];
-      return entries;
-    };
+        modes[static_cast<std::size_t>(j)][static_cast<std::size_t>(e)] =
+            slot(mode_slot(j, e))[2 * t + axis];
+    }
     const double* weights = mu.data() + static_cast<std::ptrdiff_t>(axis) * n;
-    bank::collapse_axis(n, weights, mode, axes[static_cast<std::size_t>(axis)]);
+    bank::collapse_axis(
+        n, weights,
+        [&](int j) -> const std::array<double, 5>& { return modes[static_cast<std::size_t>(j)]; },
+        axes[static_cast<std::size_t>(axis)]);
   }
   return bank::two_axis_estimate(t, [&](int e, std::ptrdiff_t lane) {
     return axes[static_cast<std::size_t>(lane - 2 * t)][static_cast<std::size_t>(e)];

@@ -161,8 +161,7 @@ void GaFuzzyTrackBank::score_lanes(const LaneScore& call) {
   const bank::CycleBlock cycle{mode_count(), transition(), log_transition(), slot(0), stride()};
   bank::with_mode_count(mode_count(), [&](auto n) {
     bank::score_tracks<decltype(n)::value, FuzzyNoiseFamily>(
-        cycle, [&](Eigen::Index /*track*/) { return family; }, call.plots, call.gate,
-        call.gate_scale, call.out);
+        cycle, [&](Eigen::Index /*track*/) { return family; }, call);
   });
 }
 

@@ -138,8 +138,7 @@ void InputEstimatorTrackBank::score_lanes(const LaneScore& call) {
         chunk.log_variance[axis][i] = std::log(S(0, 0));
       }
       chunk.unscored[i] = scored ? 0.0 : 1.0;
-      chunk.gate[i] =
-          call.gate_scale == nullptr ? call.gate : call.gate * call.gate_scale[first + i];
+      chunk.gate[i] = call.gate_of(static_cast<std::size_t>(first + i));
     }
     for (std::size_t q = 0; q < call.plots.size(); ++q) {
       double* column = &call.out(first, static_cast<Eigen::Index>(q));

@@ -58,8 +58,7 @@ void PlainImmTrackBank<NX>::score_lanes(const LaneScore& call) {
   for (std::size_t t = 0; t < tracks; ++t) {
     ImmEstimator<NX, 2>& track = tracks_[t];
     const bool predicted = track.predict() == StepStatus::kOk;
-    const double track_gate =
-        call.gate_scale == nullptr ? call.gate : call.gate * call.gate_scale[t];
+    const double track_gate = call.gate_of(t);
     for (std::size_t q = 0; q < call.plots.size(); ++q) {
       double& entry = call.out(static_cast<Eigen::Index>(t), static_cast<Eigen::Index>(q));
       if (!predicted || !limits::usable_measurement(call.plots[q])) {

@@ -196,8 +196,7 @@ void WimmTrackBank::score_lanes(const LaneScore& call) {
   if (spec_.fusion != FusionVariant::kNone || spec_.update != MeasurementUpdate::kExtended) {
     throw std::logic_error(
         "WimmTrackBank::candidate_log_likelihoods: a wIMM that fuses the azimuth or converts the "
-        "plot does not score candidate plots (it chooses its measurement from the prediction "
-        "and "
+        "plot does not score candidate plots (it chooses its measurement from the prediction and "
         "the plot together: WimmFilter::has_split_cycle is false)");
   }
   bank::score_in_blocks<kBlock>(call.plots, call.gate, call.gate_scale, call.out,

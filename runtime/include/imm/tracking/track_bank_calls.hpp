@@ -95,6 +95,10 @@ class IMM_RUNTIME_EXPORT TrackBankCalls {
     double gate;                              ///< the gate on the squared distance
     const double* gate_scale;                 ///< null, or a factor of the gate per track
     mutable Eigen::Ref<Eigen::MatrixXd> out;  ///< a view: what it points at is the answer
+    /// Track `track`'s gate: gate × gate_scale[track], or gate where gate_scale is null.
+    [[nodiscard]] double gate_of(std::size_t track) const {
+      return gate_scale == nullptr ? gate : gate * gate_scale[track];
+    }
   };
   /// The bank's step.
   virtual void step_lanes(const LaneStep& call) = 0;
