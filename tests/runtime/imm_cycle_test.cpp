@@ -192,6 +192,20 @@ std::vector<double> run(const RandomWalkFamily& f, Bank& b, int first, const dou
   return code;
 }
 
+// A mode's slots, as the cycle reads them: mode j's three entries, its log μ and μ̃, then mode
+// j + 1's; the combined estimate after the last mode.
+TEST(ImmCycle, AModesSlotsAreItsEntriesThenLogMuAndScaledMu) {
+  Bank bank(3, 1, std::vector<double>(9, 1.0 / 3.0));
+  const CycleBlock b = bank.block();
+  EXPECT_EQ(imm_mode_slot(0, 3, 0), 0);
+  EXPECT_EQ(imm_mode_slot(1, 3, 0), 5);
+  EXPECT_EQ(imm_mode_slot(2, 3, 4), 14);
+  EXPECT_EQ(Slots::kModeSlots, 5);
+  EXPECT_EQ(Slots::at(b, 1, Slots::kLogMu, 0), &bank.at(8, 0));
+  EXPECT_EQ(Slots::at(b, 2, Slots::kScaledMu, 0), &bank.at(14, 0));
+  EXPECT_EQ(Slots::at(b, 3, 1, 0), &bank.at(16, 0));
+}
+
 TEST(ImmCycle, EveryLaneOfAPackEqualsTheDoubleInstanceToTheBit) {
   std::mt19937_64 rng(11);
   std::normal_distribution<double> noise(0.0, 3.0);

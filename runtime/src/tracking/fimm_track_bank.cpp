@@ -59,10 +59,9 @@ template <int W>
 // and each track's answer into g's columns.
 template <int W>
 [[gnu::flatten]] IMM_VECTOR_CLONES void score_block(const double (&p)[2][2],
-                                                    const fimm::Constants& b, double* state,
-                                                    std::ptrdiff_t stride,
+                                                    const fimm::Constants& b,
                                                     const bank::GatingBlock& g) {
-  auto st = [&](int entry) { return state + entry * stride; };
+  auto st = [&](int entry) { return g.slot(entry); };
   bank::Mixing<W> mixing;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   fimm::Mode<W> modes[2];
   predict_block<W>(p, b, st, mixing, modes);
@@ -113,10 +112,9 @@ void FimmTrackBank::step_lanes(const LaneStep& call) {
 }
 
 void FimmTrackBank::score_lanes(const LaneScore& call) {
-  bank::score_in_blocks<kBlock>(call.plots, call.gate, call.gate_scale, call.out,
-                                [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
-                                  score_block<kBlock>(constants_->p, constants_->b, slot(0) + first,
-                                                      stride(), block);
+  bank::score_in_blocks<kBlock>(call.plots, call.gate, call.gate_scale, slot(0), stride(), call.out,
+                                [&](const bank::GatingBlock& block) {
+                                  score_block<kBlock>(constants_->p, constants_->b, block);
                                 });
 }
 

@@ -47,6 +47,7 @@
 #include "axis_lane_bank.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/linear_algebra.hpp"
+#include "imm/tracking/lane_storage.hpp"
 
 // Arrays of N modes are filled to b.modes and read no further; GCC cannot see that for N =
 // kMaxModes.
@@ -79,10 +80,10 @@ constexpr bool kStoresCombined = [] {
 template <class F>
 struct CycleSlots {
   static constexpr int kLogMu = F::kEntries, kScaledMu = F::kEntries + 1,
-                       kModeSlots = F::kEntries + 2;
+                       kModeSlots = imm_mode_slot(1, F::kEntries, 0);
   /// Entry `entry` of mode j (j = the mode count: of the combined estimate) at lane `lane`.
   static double* at(const CycleBlock& b, int j, int entry, int lane) {
-    return b.state + (j * kModeSlots + entry) * b.stride + lane;
+    return b.state + imm_mode_slot(j, F::kEntries, entry) * b.stride + lane;
   }
 };
 

@@ -184,9 +184,9 @@ void TrackBank::run_block(std::size_t first, int lanes, const Eigen::Vector2d* p
   step_tracks(block);
 }
 
-int TrackBank::mode_slot(int j, int entry) const { return j * kModeSlots + entry; }
+int TrackBank::mode_slot(int j, int entry) const { return imm_mode_slot(j, kEntries, entry); }
 
-int TrackBank::combined_slot(int entry) const { return modes_ * kModeSlots + entry; }
+int TrackBank::combined_slot(int entry) const { return imm_mode_slot(modes_, kEntries, entry); }
 
 GaussianState<TrackBank::kDim> TrackBank::mode_estimate(std::size_t track, int j) const {
   const std::ptrdiff_t t = checked(track);

@@ -9,6 +9,7 @@
 
 #include "estimation/cv_position_algebra.hpp"
 #include "imm/math/linear_algebra.hpp"
+#include "imm/tracking/lane_storage.hpp"
 #include "imm/tracking/track_bank.hpp"
 
 namespace imm::bank {
@@ -21,7 +22,7 @@ static_assert(kN == TrackBank::kDim);
 // State slots per mode: mean, covariance upper triangle, log μ, μ̃ = μ / max μ; the combined
 // estimate (mean, triangle) follows the modes.
 constexpr int kMean = 0, kCov = kN, kLogMu = kEntries, kScaledMu = kEntries + 1,
-              kModeSlots = kEntries + 2;
+              kModeSlots = imm_mode_slot(1, kEntries, 0);
 // The doubles a step that states the NIS keeps of one pack (track_bank_kernel.cpp).
 constexpr std::ptrdiff_t kInnovationDoubles = std::ptrdiff_t{6} * kMaxModes * 8;
 // What one block's step reads and writes: the bank's constants and its state slots (stride apart,

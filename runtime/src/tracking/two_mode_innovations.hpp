@@ -19,9 +19,11 @@
 
 namespace imm::bank {
 
-/// One block's share of a gating matrix: its first `lanes` tracks against `plots`, column q of the
-/// block's rows at out + q · out_stride.
+/// One block's share of a gating matrix: its first `lanes` tracks (their slots `stride` apart from
+/// `state`, as BlockStep's) against `plots`, column q of the block's rows at out + q · out_stride.
 struct GatingBlock {
+  double* state = nullptr;  // slot 0 at the block's first lane
+  std::ptrdiff_t stride = 0;
   std::span<const Eigen::Vector2d> plots;
   double gate = 0.0;
   double* out = nullptr;
@@ -29,25 +31,30 @@ struct GatingBlock {
   int lanes = 0;
   const double* gate_scale = nullptr;  // per lane from the block's first, or null: every factor 1
 
+  /// Slot `entry` at the block's first lane.
+  [[nodiscard]] double* slot(int entry) const { return state + entry * stride; }
   /// Lane l's gate: gate × gate_scale[l].
   [[nodiscard]] double gate_of(int l) const {
     return gate_scale == nullptr ? gate : gate * gate_scale[l];
   }
 };
 
-/// The gating matrix `out` of `plots` in blocks of kBlock tracks: score(first, block) per block;
-/// gate_scale: a factor per track, or null.
+/// The gating matrix `out` of `plots` in blocks of kBlock tracks of a bank whose slot 0 starts at
+/// `state`: score(block) per block; gate_scale: a factor per track, or null.
 template <int kBlock, class Score>
 void score_in_blocks(std::span<const Eigen::Vector2d> plots, double gate, const double* gate_scale,
-                     Eigen::Ref<Eigen::MatrixXd> out, Score&& score) {
+                     double* state, std::ptrdiff_t stride, Eigen::Ref<Eigen::MatrixXd> out,
+                     Score&& score) {
   for (Eigen::Index first = 0; first < out.rows(); first += kBlock) {
-    const GatingBlock block{plots,
+    const GatingBlock block{state + first,
+                            stride,
+                            plots,
                             gate,
                             out.data() + first,
                             out.outerStride(),
                             static_cast<int>(std::min<Eigen::Index>(kBlock, out.rows() - first)),
                             gate_scale == nullptr ? nullptr : gate_scale + first};
-    score(static_cast<std::ptrdiff_t>(first), block);
+    score(block);
   }
 }
 

@@ -138,10 +138,9 @@ template <int W>
 // which are not kept, and each track's answer into g's columns.
 template <int W>
 [[gnu::flatten]] IMM_VECTOR_CLONES void score_block(const double (&p)[2][2],
-                                                    const wimm::Constants& b, double* state,
-                                                    std::ptrdiff_t stride,
+                                                    const wimm::Constants& b,
                                                     const bank::GatingBlock& g) {
-  auto st = [&](int entry) { return state + entry * stride; };
+  auto st = [&](int entry) { return g.slot(entry); };
   Predicted<W> m;  // NOLINT(cppcoreguidelines-pro-type-member-init): written first
   predict_block<W>(p, b, st, m);
   bank::score_plots<kCvAxis, kSingerAxis, W>(
@@ -199,10 +198,9 @@ void WimmTrackBank::score_lanes(const LaneScore& call) {
         "plot does not score candidate plots (it chooses its measurement from the prediction and "
         "the plot together: WimmFilter::has_split_cycle is false)");
   }
-  bank::score_in_blocks<kBlock>(call.plots, call.gate, call.gate_scale, call.out,
-                                [&](std::ptrdiff_t first, const bank::GatingBlock& block) {
-                                  score_block<kBlock>(constants_->p, constants_->b, slot(0) + first,
-                                                      stride(), block);
+  bank::score_in_blocks<kBlock>(call.plots, call.gate, call.gate_scale, slot(0), stride(), call.out,
+                                [&](const bank::GatingBlock& block) {
+                                  score_block<kBlock>(constants_->p, constants_->b, block);
                                 });
 }
 

@@ -43,8 +43,8 @@ class IMM_RUNTIME_EXPORT AxisImmLaneStorage : public LaneStorage {
   /// of the bank's own. Throws InvalidParameter("capacity") for a capacity outside [1, 2^26].
   void allocate_modes(std::size_t capacity, int block, std::size_t extra);
 
-  /// Slot `entry` of mode j (entries, then log μ and μ̃, as imm_cycle.hpp's CycleSlots).
-  [[nodiscard]] int mode_slot(int j, int entry) const { return j * (entries_ + 2) + entry; }
+  /// Slot `entry` of mode j (imm_mode_slot: its entries, then log μ and μ̃).
+  [[nodiscard]] int mode_slot(int j, int entry) const { return imm_mode_slot(j, entries_, entry); }
   /// The first slot after the modes'.
   [[nodiscard]] int slots_after_modes() const { return mode_slot(modes_, 0); }
 

@@ -19,6 +19,14 @@
 
 namespace imm {
 
+/// The slot of entry `entry` of IMM mode j in a bank's lanes, where each mode holds `entries`
+/// entries followed by its log μ and its μ̃ = μ / max μ: j · (entries + 2) + entry. The layout of
+/// the banks' IMM cycle, which the plain IMM's, the GA-fuzzy and the FCM-IMM banks store their
+/// modes in; entry = entries and entries + 1 are the mode's log μ and μ̃.
+[[nodiscard]] constexpr int imm_mode_slot(int j, int entries, int entry) {
+  return j * (entries + 2) + entry;
+}
+
 /// Tracks as lanes of a structure of arrays (see the file comment).
 class IMM_RUNTIME_EXPORT LaneStorage : public TrackBankCalls {
  protected:
