@@ -10,6 +10,7 @@
 #include "imm/datasets/axis_trajectory.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/track.hpp"
+#include "imm/math/lane_isa.hpp"
 #include "imm/support/config.hpp"
 #include "imm/trainer/mlp/mlp_trainer.hpp"
 #include "imm/trainer/mlp/network_training.hpp"
@@ -97,6 +98,26 @@ TEST(Backpropagation, TheFusedBatchGradientIsTheMatrixProductsOneAtAnyThreadCoun
       EXPECT_LT((fused_b[l] - general_b[l]).cwiseAbs().maxCoeff(), 1e-13 * scale) << "layer " << l;
       EXPECT_EQ(one_w[l], two_w[l]) << "layer " << l;
       EXPECT_EQ(one_b[l], two_b[l]) << "layer " << l;
+    }
+  }
+}
+
+// Where the CPU has AVX-512, the linear output's batch gradient runs a kernel of its own (two
+// blocks at a time); it gives the lane kernel's bits, with a last block of one sample and odd
+// block counts per chunk. (Elsewhere both runs take the lane kernel.)
+TEST(Backpropagation, TheFusedBatchGradientHasTheSameBitsOnEveryInstructionSet) {
+  for (const int n : {1033, 7, 17, 520, 1000}) {
+    const Network network({2, 10, 10, 1}, Activation::kLinear, 12.0, 0.8, 13);
+    const Samples samples = random_samples(n, 6);
+    std::vector<Eigen::MatrixXd> wide_w, lane_w;
+    std::vector<Eigen::VectorXd> wide_b, lane_b;
+    network.gradients(samples, wide_w, wide_b);
+    cap_lane_isa(LaneIsa::kAvx2);
+    network.gradients(samples, lane_w, lane_b);
+    cap_lane_isa(LaneIsa::kAvx512);
+    for (std::size_t l = 0; l < 3; ++l) {
+      EXPECT_EQ(wide_w[l], lane_w[l]) << "n " << n << ", layer " << l;
+      EXPECT_EQ(wide_b[l], lane_b[l]) << "n " << n << ", layer " << l;
     }
   }
 }

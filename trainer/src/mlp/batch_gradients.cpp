@@ -4,9 +4,15 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 
 #include "exp_nonpositive.hpp"
+#include "imm/math/lane_isa.hpp"
 #include "imm/math/lane_math.hpp"
+
+#if IMM_HAS_VECTOR_CLONES
+#include <immintrin.h>
+#endif
 
 namespace imm::trainer::mlp {
 namespace {
@@ -78,6 +84,20 @@ template <int R, int C>
   sigmoids<R>(out);
 }
 
+// A network's weights and biases as the kernels read them (column-major weights).
+struct Parameters {
+  const double* w1;
+  const double* w2;
+  const double* w3;
+  const double* b1;
+  const double* b2;
+  double b3;
+};
+[[gnu::always_inline]] inline Parameters parameters_of(const std::vector<MlpLayer>& layers) {
+  return {layers[0].weights.data(), layers[1].weights.data(), layers[2].weights.data(),
+          layers[0].bias.data(),    layers[1].bias.data(),    layers[2].bias(0)};
+}
+
 // One block of kLanes samples from `first` (`valid` of them real; the rest weigh nothing).
 // kSigmoidOutput: the output unit's activation (otherwise linear), a template argument so that a
 // linear output computes no exponential.
@@ -87,12 +107,7 @@ template <int I, int H1, int H2, bool kSigmoidOutput>
                                          const Eigen::VectorXd& targets, Eigen::Index first,
                                          int valid, double inverse_n, LaneSums<I, H1, H2>& g) {
   constexpr int W = kLanes;
-  const double* w1 = layers[0].weights.data();
-  const double* w2 = layers[1].weights.data();
-  const double* w3 = layers[2].weights.data();
-  const double* b1 = layers[0].bias.data();
-  const double* b2 = layers[1].bias.data();
-  const double b3 = layers[2].bias(0);
+  const auto [w1, w2, w3, b1, b2, b3] = parameters_of(layers);
   alignas(64) double x[I][W], t[W], weight[W];
   for (int l = 0; l < W; ++l) {
     const Eigen::Index s = first + (l < valid ? l : 0);
@@ -148,6 +163,184 @@ template <int I, int H1, int H2, bool kSigmoidOutput>
                                      inverse_n, g);
   }
 }
+
+#if IMM_HAS_VECTOR_CLONES
+// --- The AVX-512 kernel: two blocks at a time, in explicit vectors of eight doubles ------------
+// The lane loops above give GCC 12 one block's chains of dependent operations at a time (forward
+// through both layers' exponentials, back through the sums). Written over vectors, two blocks
+// interleave statement by statement and the core overlaps their chains. Every lane sees the lane
+// kernel's operations in the same order, the multiply-adds the same fused instruction, and every
+// sum gets the first block's term before the second's: the bits are the lane kernel's
+// (tests/trainer/mlp_test.cpp compares them). For a linear output (W2a's, the input estimator's).
+namespace wide {
+
+#define IMM_AVX512_INLINE __attribute__((target("avx512f,fma"), always_inline)) inline
+using Vec = double __attribute__((vector_size(64)));
+using Bits = std::int64_t __attribute__((vector_size(64)));
+constexpr int kBlocks = 2;  // blocks per pass
+
+IMM_AVX512_INLINE Vec splat(double x) { return Vec{x, x, x, x, x, x, x, x}; }
+IMM_AVX512_INLINE Vec fused(Vec a, Vec b, Vec c) { return _mm512_fmadd_pd(a, b, c); }
+IMM_AVX512_INLINE Vec pick(Bits use, Vec a, Vec b) {
+  return reinterpret_cast<Vec>((use & reinterpret_cast<Bits>(a)) |
+                               (~use & reinterpret_cast<Bits>(b)));
+}
+IMM_AVX512_INLINE Vec load(const std::array<double, kLanes>& a) {
+  return _mm512_loadu_pd(a.data());
+}
+IMM_AVX512_INLINE void store(std::array<double, kLanes>& a, Vec v) {
+  _mm512_storeu_pd(a.data(), v);
+}
+
+// exp_nonpositive (exp_nonpositive.hpp) of eight values, operation for operation.
+IMM_AVX512_INLINE Vec exp_nonpositive(Vec x) {
+  constexpr double kLog2e = 1.4426950408889634074;
+  constexpr double kLn2High = 6.93147180369123816490e-01;
+  constexpr double kLn2Low = 1.90821492927058770002e-10;
+  constexpr double kRound = 0x1.8p52;
+  const Bits underflow = x < -708.0;
+  const Vec clamped = pick(underflow, splat(-708.0), x);
+  const Vec shifted = fused(clamped, splat(kLog2e), splat(kRound));
+  const Vec n = shifted - kRound;
+  const Vec r = fused(-n, splat(kLn2Low), fused(-n, splat(kLn2High), clamped));
+  const Vec r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
+  const Vec a0 = 1.0 + r, a1 = fused(r, splat(1.0 / 6.0), splat(1.0 / 2.0));
+  const Vec a2 = fused(r, splat(1.0 / 120.0), splat(1.0 / 24.0));
+  const Vec a3 = fused(r, splat(1.0 / 5040.0), splat(1.0 / 720.0));
+  const Vec a4 = fused(r, splat(1.0 / 362880.0), splat(1.0 / 40320.0));
+  const Vec a5 = fused(r, splat(1.0 / 39916800.0), splat(1.0 / 3628800.0));
+  const Vec a6 = fused(r, splat(1.0 / 6227020800.0), splat(1.0 / 479001600.0));
+  const Vec b0 = fused(r2, a1, a0), b1 = fused(r2, a3, a2), b2 = fused(r2, a5, a4);
+  const Vec p = fused(r8, fused(r4, a6, b2), fused(r4, b1, b0));
+  const Bits k = reinterpret_cast<Bits>(shifted) - reinterpret_cast<Bits>(splat(kRound));
+  const Vec scale = reinterpret_cast<Vec>((k + 1023) << 52);
+  return pick(underflow, splat(0.0), p * scale);
+}
+
+// sigmoids (above) of a layer's H pre-activations of both blocks, in place.
+template <int H>
+IMM_AVX512_INLINE void sigmoids(Vec (&a)[H][kBlocks]) {
+  static_assert(H % 2 == 0);
+  const Bits sign = reinterpret_cast<Bits>(splat(-0.0));
+  for (int r = 0; r < H; r += 2) {
+    Vec t0[kBlocks], t1[kBlocks];
+    for (int h = 0; h < kBlocks; ++h) {
+      t0[h] = exp_nonpositive(reinterpret_cast<Vec>(reinterpret_cast<Bits>(a[r][h]) | sign));
+      t1[h] = exp_nonpositive(reinterpret_cast<Vec>(reinterpret_cast<Bits>(a[r + 1][h]) | sign));
+    }
+    for (int h = 0; h < kBlocks; ++h) {
+      const Vec d0 = 1.0 + t0[h], d1 = 1.0 + t1[h];
+      const Vec q = 1.0 / (d0 * d1);
+      a[r][h] = pick(a[r][h] >= 0.0, splat(1.0), t0[h]) * (d1 * q);
+      a[r + 1][h] = pick(a[r + 1][h] >= 0.0, splat(1.0), t1[h]) * (d0 * q);
+    }
+  }
+}
+
+// Two blocks of kLanes samples from first[h] (valid[h] of them real; a block with none weighs
+// nothing and adds exact zeros) forward and back into g.
+template <int I, int H1, int H2>
+IMM_AVX512_INLINE void blocks_of_two(const std::vector<MlpLayer>& layers, double inverse_scale,
+                                     const Eigen::MatrixXd& inputs, const Eigen::VectorXd& targets,
+                                     const Eigen::Index (&first)[kBlocks],
+                                     const int (&valid)[kBlocks], double inverse_n,
+                                     LaneSums<I, H1, H2>& g) {
+  const auto [w1, w2, w3, b1, b2, b3] = parameters_of(layers);
+  Vec x[I][kBlocks], t[kBlocks], weight[kBlocks];
+  for (int h = 0; h < kBlocks; ++h) {
+    for (int l = 0; l < kLanes; ++l) {
+      const Eigen::Index s = first[h] + (l < valid[h] ? l : 0);
+      for (int c = 0; c < I; ++c) x[c][h][l] = inputs(s, c);
+      t[h][l] = targets(s) * inverse_scale;
+      weight[h][l] = l < valid[h] ? inverse_n : 0.0;
+    }
+  }
+  Vec a1[H1][kBlocks], a2[H2][kBlocks], d2[H2][kBlocks], d3[kBlocks];
+  for (int r = 0; r < H1; ++r) {
+    for (int h = 0; h < kBlocks; ++h) {
+      Vec s = splat(b1[r]);
+      for (int c = 0; c < I; ++c) s = fused(splat(w1[c * H1 + r]), x[c][h], s);
+      a1[r][h] = s;
+    }
+  }
+  sigmoids(a1);
+  for (int r = 0; r < H2; ++r) {
+    Vec s[kBlocks];
+    for (int h = 0; h < kBlocks; ++h) s[h] = splat(b2[r]);
+    for (int c = 0; c < H1; ++c) {
+      for (int h = 0; h < kBlocks; ++h) s[h] = fused(splat(w2[c * H2 + r]), a1[c][h], s[h]);
+    }
+    for (int h = 0; h < kBlocks; ++h) a2[r][h] = s[h];
+  }
+  sigmoids(a2);
+  for (int h = 0; h < kBlocks; ++h) {
+    Vec s = splat(b3);
+    for (int c = 0; c < H2; ++c) s = fused(splat(w3[c]), a2[c][h], s);
+    d3[h] = (s - t[h]) * weight[h];
+  }
+  Vec sum3 = load(g.b3[0]);
+  for (int h = 0; h < kBlocks; ++h) sum3 += d3[h];
+  store(g.b3[0], sum3);
+  for (int c = 0; c < H2; ++c) {
+    Vec w = load(g.w3[c]), b = load(g.b2[c]);
+    for (int h = 0; h < kBlocks; ++h) {
+      w = fused(d3[h], a2[c][h], w);
+      d2[c][h] = splat(w3[c]) * d3[h] * (a2[c][h] * (1.0 - a2[c][h]));
+      b += d2[c][h];
+    }
+    store(g.w3[c], w);
+    store(g.b2[c], b);
+  }
+  for (int c = 0; c < H1; ++c) {
+    Vec sum[kBlocks];
+    for (int h = 0; h < kBlocks; ++h) sum[h] = splat(0.0);
+    for (int r = 0; r < H2; ++r) {
+      auto& row = g.w2[static_cast<std::size_t>(c * H2 + r)];
+      Vec w = load(row);
+      for (int h = 0; h < kBlocks; ++h) {
+        w = fused(d2[r][h], a1[c][h], w);
+        sum[h] = fused(splat(w2[c * H2 + r]), d2[r][h], sum[h]);
+      }
+      store(row, w);
+    }
+    Vec b = load(g.b1[c]);
+    Vec d1[kBlocks];
+    for (int h = 0; h < kBlocks; ++h) {
+      d1[h] = sum[h] * (a1[c][h] * (1.0 - a1[c][h]));
+      b += d1[h];
+    }
+    store(g.b1[c], b);
+    for (int i = 0; i < I; ++i) {
+      auto& row = g.w1[static_cast<std::size_t>(i * H1 + c)];
+      Vec w = load(row);
+      for (int h = 0; h < kBlocks; ++h) w = fused(d1[h], x[i][h], w);
+      store(row, w);
+    }
+  }
+}
+
+// The blocks from `begin` to `end` (sample indices, `begin` a multiple of kLanes), two at a time.
+template <int I, int H1, int H2>
+__attribute__((target("avx512f,fma"), flatten)) void blocks(
+    const std::vector<MlpLayer>& layers, double output_scale, const Eigen::MatrixXd& inputs,
+    const Eigen::VectorXd& targets, Eigen::Index begin, Eigen::Index end, LaneSums<I, H1, H2>& g) {
+  const double inverse_n = 1.0 / static_cast<double>(inputs.rows());
+  for (Eigen::Index first = begin; first < end; first += kBlocks * kLanes) {
+    Eigen::Index starts[kBlocks];
+    int valid[kBlocks];
+    for (int h = 0; h < kBlocks; ++h) {
+      const Eigen::Index start = first + h * kLanes;
+      valid[h] = static_cast<int>(std::clamp<Eigen::Index>(end - start, 0, kLanes));
+      starts[h] = valid[h] > 0 ? start : first;  // a block past the end reads a real sample
+    }
+    blocks_of_two<I, H1, H2>(layers, 1.0 / output_scale, inputs, targets, starts, valid, inverse_n,
+                             g);
+  }
+}
+
+#undef IMM_AVX512_INLINE
+}  // namespace wide
+#endif
 
 // Gradient row k of a chunk's lane shares: w1, b1, w2, b2, w3, b3 in turn (kRows rows).
 template <int I, int H1, int H2>
@@ -230,6 +423,8 @@ void fused_gradients_2_10_10(const std::vector<MlpLayer>& layers, double output_
   biases[1].resize(H2);
   biases[2].resize(1);
   using R = Rows<I, H1, H2>;
+  // The linear output's two-block kernel where the CPU has AVX-512 (and cap_lane_isa allows it).
+  const bool wide_kernel = IMM_HAS_VECTOR_CLONES != 0 && lane_isa() == LaneIsa::kAvx512;
   // One team for both loops: each chunk zeroed and summed by its thread, then the rows reduced
   // over the threads (the implicit barrier between the loops waits for every chunk).
 #pragma omp parallel if (chunks > 1)
@@ -242,6 +437,10 @@ void fused_gradients_2_10_10(const std::vector<MlpLayer>& layers, double output_
       mine = LaneSums<I, H1, H2>{};
       if (layers[2].activation == Activation::kSigmoid) {
         blocks<I, H1, H2, true>(layers, output_scale, inputs, targets, begin, end, mine);
+      } else if (wide_kernel) {
+#if IMM_HAS_VECTOR_CLONES
+        wide::blocks<I, H1, H2>(layers, output_scale, inputs, targets, begin, end, mine);
+#endif
       } else {
         blocks<I, H1, H2, false>(layers, output_scale, inputs, targets, begin, end, mine);
       }

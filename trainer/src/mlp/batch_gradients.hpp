@@ -5,8 +5,8 @@
 // go forward and back through the whole network in registers and L1 (no n × units matrices), the
 // sigmoid by lane_exp (lane_math.hpp), and every lane accumulates its own share of the gradient;
 // the lanes are summed in lane order at the end. So the result does not depend on the instruction
-// set (AVX-512 or AVX2 chosen at run time, no FMA) and differs from the matrix-product path by
-// rounding only.
+// set (AVX-512 or AVX2 chosen at run time, no FMA; with AVX-512 a linear output takes two blocks at
+// a time, with the same bits) and differs from the matrix-product path by rounding only.
 
 #include <Eigen/Core>
 #include <vector>
