@@ -107,7 +107,9 @@ template <int I, int H1, int H2, bool kSigmoidOutput>
                                          const Eigen::VectorXd& targets, Eigen::Index first,
                                          int valid, double inverse_n, LaneSums<I, H1, H2>& g) {
   constexpr int W = kLanes;
-  const auto [w1, w2, w3, b1, b2, b3] = parameters_of(layers);
+  // (Named copies, not a structured binding: Clang 14 cannot capture one in an OpenMP simd loop.)
+  const Parameters p = parameters_of(layers);
+  const double *w1 = p.w1, *w2 = p.w2, *w3 = p.w3, *b1 = p.b1, *b2 = p.b2, b3 = p.b3;
   alignas(64) double x[I][W], t[W], weight[W];
   for (int l = 0; l < W; ++l) {
     const Eigen::Index s = first + (l < valid ? l : 0);
@@ -245,7 +247,8 @@ IMM_AVX512_INLINE void blocks_of_two(const std::vector<MlpLayer>& layers, double
                                      const Eigen::Index (&first)[kBlocks],
                                      const int (&valid)[kBlocks], double inverse_n,
                                      LaneSums<I, H1, H2>& g) {
-  const auto [w1, w2, w3, b1, b2, b3] = parameters_of(layers);
+  const Parameters p = parameters_of(layers);
+  const double *w1 = p.w1, *w2 = p.w2, *w3 = p.w3, *b1 = p.b1, *b2 = p.b2, b3 = p.b3;
   Vec x[I][kBlocks], t[kBlocks], weight[kBlocks];
   for (int h = 0; h < kBlocks; ++h) {
     for (int l = 0; l < kLanes; ++l) {
