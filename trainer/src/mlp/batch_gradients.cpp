@@ -194,7 +194,10 @@ IMM_AVX512_INLINE void store(std::array<double, kLanes>& a, Vec v) {
   _mm512_storeu_pd(a.data(), v);
 }
 
-// exp_nonpositive (exp_nonpositive.hpp) of eight values, operation for operation.
+// exp_nonpositive (exp_nonpositive.hpp) of eight values, operation for operation. A second copy,
+// not a template over both: GCC will not inline the AVX-512 multiply-add into a function compiled
+// without that target, which a template shared with the lane kernel would be. The bit-equality
+// test holds the two together.
 IMM_AVX512_INLINE Vec exp_nonpositive(Vec x) {
   constexpr double kLog2e = 1.4426950408889634074;
   constexpr double kLn2High = 6.93147180369123816490e-01;
