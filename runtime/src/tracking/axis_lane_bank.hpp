@@ -18,6 +18,7 @@
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
+#include "imm/estimation/imm_algebra.hpp"
 #include "imm/math/lane_math.hpp"
 
 namespace imm::bank {
@@ -90,35 +91,24 @@ void step_blocks(std::span<const Eigen::Vector2d> plots, std::span<StepStatus> s
 template <class S, class Modes>
 [[gnu::always_inline]] inline void collapse_axis(int n, const S* weight, Modes&& mode,
                                                  std::array<S, 5>& out) {
-  S m0 = splat<S>(0.0), m1 = splat<S>(0.0);
-  for (int i = 0; i < n; ++i) {
-    m0 += weight[i] * mode(i)[0];
-    m1 += weight[i] * mode(i)[1];
-  }
-  S c00 = splat<S>(0.0), c01 = splat<S>(0.0), c11 = splat<S>(0.0);
-  for (int i = 0; i < n; ++i) {
-    const S w = weight[i];
-    const S d0 = mode(i)[0] - m0, d1 = mode(i)[1] - m1;
-    c00 += pick(w == 0.0, 0.0, w * (mode(i)[2] + d0 * d0));
-    c01 += pick(w == 0.0, 0.0, w * (mode(i)[3] + d0 * d1));
-    c11 += pick(w == 0.0, 0.0, w * (mode(i)[4] + d1 * d1));
-  }
-  out = {m0, m1, c00, c01, c11};
+  // The covariance's entry (a, c), a ≤ c, at 2 + a + c.
+  algebra::collapse<2, S>(
+      n, [weight](int i) -> const S& { return weight[i]; },
+      [&mode](int i, int a) -> const S& { return mode(i)[a]; },
+      [&mode](int i, int a, int c) -> const S& { return mode(i)[2 + a + c]; },
+      [&out](int a) -> S& { return out[a]; }, [&out](int a, int c) -> S& { return out[2 + a + c]; });
 }
 
-/// normalized_weights (below) of a pack of lanes each, with lane_exp: c_j = exp(v_j − max v) /
-/// Σ_k exp(v_k − max v) of the n log-weights v_j = log_weight(j), into `c`.
-template <class S, std::size_t N, class LogWeight>
-[[gnu::always_inline]] inline void normalized_lane_weights(int n, LogWeight&& log_weight,
-                                                           std::array<S, N>& c) {
-  S top = splat<S>(-std::numeric_limits<double>::infinity());
-  for (int j = 0; j < n; ++j) top = pick(top < log_weight(j), log_weight(j), top);
-  S total = splat<S>(0.0);
-  for (int j = 0; j < n; ++j) {
-    c[j] = lane_exp(log_weight(j) - top);
-    total += c[j];
-  }
-  for (int j = 0; j < n; ++j) c[j] = c[j] / total;
+/// One axis's innovations ν_j and variances S_j of n modes (nu(j), s(j)) collapsed with weights
+/// c_j to their mixture's two moments (imm_algebra.hpp's collapse; ImmEstimator::collapse).
+template <class S, class C, class Nu, class Variance>
+[[gnu::always_inline]] inline void collapse_innovations(int n, const C& c, Nu&& nu, Variance&& s,
+                                                        S& mean, S& variance) {
+  algebra::collapse<1, S>(
+      n, [&c](int j) { return S(c[j]); }, [&nu](int j, int /*a*/) { return S(nu(j)); },
+      [&s](int j, int /*a*/, int /*b*/) { return S(s(j)); },
+      [&mean](int /*a*/) -> S& { return mean; },
+      [&variance](int /*a*/, int /*b*/) -> S& { return variance; });
 }
 
 /// xᵀ S⁻¹ x of the 2 × 2 S = [[s00, s01], [s01, s11]] written out, for a double or a pack of
@@ -145,14 +135,11 @@ inline double diagonal_nis(double nu_x, double nu_y, double s_x, double s_y) {
   return nu_x * w_x + nu_y * w_y;
 }
 
-/// The normalized weights exp(v_j − max v) / Σ_k exp(v_k − max v) of n log-weights v into `out`:
-/// ImmEstimator::collapse's c_j from log c_j.
+/// The normalized weights exp(v_j − max v) / Σ_k exp(v_k − max v) of n log-weights v into `out`,
+/// with libm's exp: ImmEstimator::collapse's c_j from log c_j.
 inline void normalized_weights(const double* log_weights, int n, double* out) {
-  double shift = -std::numeric_limits<double>::infinity();
-  for (int j = 0; j < n; ++j) shift = std::max(shift, log_weights[j]);
-  double total = 0.0;
-  for (int j = 0; j < n; ++j) total += std::exp(log_weights[j] - shift);
-  for (int j = 0; j < n; ++j) out[j] = std::exp(log_weights[j] - shift) / total;
+  algebra::normalized<algebra::LibmFunctions, double>(
+      n, [log_weights](int j) { return log_weights[j]; }, out);
 }
 
 /// A track's code in both its lanes (x at an even lane, y after it) from a pack of lane codes:

@@ -94,25 +94,12 @@ inline double step_nis(const ModeInnovations& r, int n, int lane) {
   double nu[2], S[2];
   for (int axis = 0; axis < 2; ++axis) {
     auto at = [&](int j) { return j * ModeInnovations::kLanes + lane + axis; };
-    double shift = -std::numeric_limits<double>::infinity();
-    for (int j = 0; j < n; ++j) shift = std::max(shift, r.log_c[at(j)]);
-    double scaled[kMaxModes], total = 0.0;
-    for (int j = 0; j < n; ++j) {
-      scaled[j] = std::exp(r.log_c[at(j)] - shift);
-      total += scaled[j];
-    }
-    nu[axis] = 0.0;
-    for (int j = 0; j < n; ++j) {
-      const double c = scaled[j] / total;
-      if (c != 0.0) nu[axis] += c * r.nu[at(j)];
-    }
-    S[axis] = 0.0;
-    for (int j = 0; j < n; ++j) {
-      const double c = scaled[j] / total;
-      if (c == 0.0) continue;
-      const double d = r.nu[at(j)] - nu[axis];
-      S[axis] += c * (r.s[at(j)] + d * d);
-    }
+    double c[kMaxModes];
+    algebra::normalized<algebra::LibmFunctions, double>(
+        n, [&](int j) { return r.log_c[at(j)]; }, c);
+    collapse_innovations<double>(
+        n, c, [&](int j) { return r.nu[at(j)]; }, [&](int j) { return r.s[at(j)]; }, nu[axis],
+        S[axis]);
   }
   return diagonal_nis(nu[0], nu[1], S[0], S[1]);
 }
@@ -129,15 +116,12 @@ template <class S, int N, int K>
       return lane_load<S>(v + static_cast<std::ptrdiff_t>(j) * ModeInnovations::kLanes + lane);
     };
     std::array<S, N> c;  // NOLINT(cppcoreguidelines-pro-type-member-init): the n written
-    normalized_lane_weights(
+    algebra::normalized<algebra::LaneFunctions, S>(
         n, [&](int j) { return at(r.log_c, j); }, c);
-    S nu = splat<S>(0.0);
-    for (int j = 0; j < n; ++j) nu += pick(c[j] != 0.0, c[j] * at(r.nu, j), splat<S>(0.0));
-    S variance = splat<S>(0.0);
-    for (int j = 0; j < n; ++j) {
-      const S d = at(r.nu, j) - nu;
-      variance += pick(c[j] != 0.0, c[j] * (at(r.s, j) + d * d), splat<S>(0.0));
-    }
+    S nu, variance;
+    collapse_innovations<S>(
+        n, c, [&](int j) { return at(r.nu, j); }, [&](int j) { return at(r.s, j); }, nu,
+        variance);
     lane_store(r.collapsed_nu + lane, nu);
     lane_store(r.collapsed_s + lane, variance);
   }

@@ -72,14 +72,9 @@ void hold_track(const F& family, const CycleBlock& b, int track, HeldTrack<F, N>
       predicted = predicted && std::isfinite(z_hat[j]) && std::isfinite(variance[j]);
     }
     double mean = 0.0, S = 0.0;
-    for (int j = 0; j < h.modes; ++j) {
-      if (c[j] != 0.0) mean += c[j] * z_hat[j];
-    }
-    for (int j = 0; j < h.modes; ++j) {
-      if (c[j] == 0.0) continue;
-      const double d = z_hat[j] - mean;
-      S += c[j] * (variance[j] + d * d);
-    }
+    collapse_innovations<double>(
+        h.modes, c, [&z_hat](int j) { return z_hat[j]; },
+        [&variance](int j) { return variance[j]; }, mean, S);
     h.collapsed[axis] = predicted ? mean : std::numeric_limits<double>::quiet_NaN();
     h.collapsed_variance[axis] = S;
   }

@@ -45,6 +45,7 @@
 #include <utility>
 
 #include "axis_lane_bank.hpp"
+#include "imm/estimation/imm_algebra.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/linear_algebra.hpp"
 #include "imm/tracking/lane_storage.hpp"
@@ -87,17 +88,6 @@ struct CycleSlots {
   }
 };
 
-/// lane_log (kLog) or lane_exp of the first `n` values of `v`. For one track (S a double) with a
-/// mode count N ≤ 8 known at compile time they go through one pack together: one evaluation of
-/// the function instead of N, each value the same bits as alone (lane_math.hpp). A pack of tracks
-/// evaluates them one by one (each already a vector operation).
-enum class LaneFunction { kLog, kExp };
-/// The pack that holds one lane per mode of N ≤ 8 modes: 2, 4 or 8 lanes.
-template <std::size_t N>
-using ModePack = LanePackOf<(N <= 2   ? 2
-                             : N <= 4 ? 4
-                                      : 8)>;
-
 /// Whether family F's mode probabilities take libm's exp and log (see the file comment).
 template <class F>
 constexpr bool kLibmProbabilities = [] {
@@ -108,55 +98,19 @@ constexpr bool kLibmProbabilities = [] {
   }
 }();
 
-/// libm's exp (kExp) or log, lane by lane.
-template <LaneFunction kF, class S>
-[[gnu::always_inline]] inline S libm_function(S x) {
-  double lanes[kLanesOf<S>];
-  lane_store(lanes, x);
-  for (double& lane : lanes) lane = kF == LaneFunction::kLog ? std::log(lane) : std::exp(lane);
-  return lane_load<S>(lanes);
-}
-
-/// The mode probabilities' function kF of family F.
-template <LaneFunction kF, class F, class S>
-[[gnu::always_inline]] inline S probability_function(S x) {
-  if constexpr (kLibmProbabilities<F>) {
-    return libm_function<kF>(x);
-  } else if constexpr (kF == LaneFunction::kLog) {
-    return lane_log(x);
-  } else {
-    return lane_exp(x);
-  }
-}
-
-template <LaneFunction kF, class S, std::size_t N, class F = void>
-[[gnu::always_inline]] inline void each_mode(std::array<S, N>& v, int n) {
-  if constexpr (!std::is_void_v<F> && kLibmProbabilities<F>) {
-    for (int j = 0; j < n; ++j) v[j] = libm_function<kF>(v[j]);
-  } else if constexpr (std::is_same_v<S, double> && N >= 2 && N <= 8) {
-    using Pack = ModePack<N>;
-    constexpr int W = kLanesOf<Pack>;
-    // The lanes past the modes hold 1: a finite value for both functions.
-    double lanes[W];
-    for (int j = 0; j < W; ++j) lanes[j] = j < static_cast<int>(N) ? v[j] : 1.0;
-    Pack pack = lane_load<Pack>(lanes);
-    if constexpr (kF == LaneFunction::kLog) {
-      pack = lane_log(pack);
-    } else {
-      pack = lane_exp(pack);
-    }
-    lane_store(lanes, pack);
-    for (std::size_t j = 0; j < N; ++j) v[j] = lanes[j];
-  } else {
-    for (int j = 0; j < n; ++j) {
-      if constexpr (kF == LaneFunction::kLog) {
-        v[j] = lane_log(v[j]);
-      } else {
-        v[j] = lane_exp(v[j]);
-      }
-    }
-  }
-}
+/// The exp and log of family F's mode probabilities (imm_algebra.hpp): libm's, lane by lane, where
+/// kLibmProbabilities, else lane_exp and lane_log.
+template <class F>
+using ProbabilityFunctions =
+    std::conditional_t<kLibmProbabilities<F>, algebra::LibmFunctions, algebra::LaneFunctions>;
+/// How family F's weights divide by their sum: as ImmEstimator where kLibmProbabilities, else by
+/// the sum's inverse.
+template <class F>
+constexpr algebra::Division kDivision =
+    kLibmProbabilities<F> ? algebra::Division::kDivide : algebra::Division::kInverse;
+/// The pack that holds one lane per mode of N ≤ 8 modes: 2, 4 or 8 lanes.
+template <std::size_t N>
+using ModePack = algebra::LaneFunctions::ModePack<N>;
 
 /// The lanes of a value, as doubles (for the few decisions taken lane by lane).
 template <class S>
@@ -183,55 +137,6 @@ struct CycleMixing {
   std::array<S, N> log_mu[K], scaled_mu[K], log_c[K];
 };
 
-/// Whether every lane of values[0 … n) where `active` is 1 is positive: one decision per pack.
-template <class S, std::size_t N>
-[[gnu::always_inline]] inline bool all_positive(const std::array<S, N>& values, int n,
-                                                const S& active) {
-  S bad = splat<S>(0.0);
-  for (int j = 0; j < n; ++j) bad += pick(values[j] > 0.0, splat<S>(0.0), active);
-  const Lanes<S> lanes = lanes_of(bad);
-  return std::all_of(lanes.begin(), lanes.end(), [](double v) { return v == 0.0; });
-}
-
-/// Where c̃_j = Σ_i p_ij μ̃_i underflowed to 0 (possible only with zero transition entries): the
-/// exact log-sum-exp of log c_j and the weights from it, lane by lane (ImmEstimator's fallback).
-template <class S>
-[[gnu::noinline, gnu::cold]] void exact_predicted(const CycleBlock& b, const S* log_mu,
-                                                  const S* predicted, S* log_c, S* weights) {
-  const int n = b.modes;
-  for (int j = 0; j < n; ++j) {
-    const Lanes<S> c = lanes_of(predicted[j]);
-    if (std::none_of(c.begin(), c.end(), [](double v) { return !(v > 0.0); })) continue;
-    Lanes<S> out = lanes_of(log_c[j]);
-    std::array<Lanes<S>, kMaxModes> w{};  // n ≤ kMaxModes
-    for (int i = 0; i < n; ++i) w[static_cast<std::size_t>(i)] = lanes_of(weights[j * n + i]);
-    for (std::size_t l = 0; l < c.size(); ++l) {
-      if (c[l] > 0.0) continue;
-      double largest = -std::numeric_limits<double>::infinity();
-      for (int i = 0; i < n; ++i)
-        largest = std::max(largest, b.log_transition[i * n + j] + lanes_of(log_mu[i])[l]);
-      double value = largest;
-      if (std::isfinite(largest)) {
-        double sum = 0.0;
-        for (int i = 0; i < n; ++i)
-          sum += std::exp(b.log_transition[i * n + j] + lanes_of(log_mu[i])[l] - largest);
-        // sum ≥ 1: the largest term is exp(0).
-        value = largest + std::log(sum);  // cppcheck-suppress invalidFunctionArg
-      }
-      out[l] = value;
-      for (int i = 0; i < n; ++i) {
-        // Unreachable mode: it keeps its own estimate as the initial condition.
-        w[static_cast<std::size_t>(i)][l] =
-            !std::isfinite(value)
-                ? (i == j ? 1.0 : 0.0)
-                : std::exp(b.log_transition[i * n + j] + lanes_of(log_mu[i])[l] - value);
-      }
-    }
-    log_c[j] = from_lanes<S>(out);
-    for (int i = 0; i < n; ++i) weights[j * n + i] = from_lanes<S>(w[static_cast<std::size_t>(i)]);
-  }
-}
-
 /// The modes' stored entries, log μ and μ̃ of the K packs of lanes from lane `t` into `m`.
 template <class S, int N, int K, class F>
 [[gnu::always_inline]] inline void load_modes(const CycleBlock& b, int t,
@@ -249,57 +154,36 @@ template <class S, int N, int K, class F>
   }
 }
 
-/// The mixing (eq. 4–6) of the K packs of lanes from lane `t`: predicted mode probabilities
-/// c̃_j = Σ_i p_ij μ̃_i with μ̃ = μ / max μ (as ImmEstimator), weights μ_ij = p_ij μ̃_i / c̃_j,
+/// The mixing (eq. 4–6) of the K packs of lanes from lane `t` (imm_algebra.hpp): predicted mode
+/// probabilities c̃_j = Σ_i p_ij μ̃_i with μ̃ = μ / max μ (as ImmEstimator; recomputed from log μ
+/// where kLibmProbabilities, else as stored), weights μ_ij = p_ij μ̃_i / c̃_j,
 /// log c_j = log c̃_j + max_i log μ_i, and the mixed initial conditions. The state is not changed.
 /// `active` is 1 in the lanes whose results count (0: a lane past the tracks stepped, whatever its
 /// state: it does not send the pack to the exact fallback).
 template <class S, int N, int K, class F>
 [[gnu::always_inline]] inline void mix_modes(const F& family, const CycleBlock& b, int t,
                                              const S (&active)[K], CycleMixing<S, N, K, F>& m) {
+  using Fn = ProbabilityFunctions<F>;
   const int n = N == kMaxModes ? b.modes : N;
   load_modes(b, t, m);
-  // The K packs advance phase by phase: their chains (lane_log's, lane_exp's) are independent,
-  // and a core overlaps them.
   std::array<S, N> predicted[K];
   std::array<S, static_cast<std::size_t>(N) * N> weights[K];
-  S shift[K];
-  for (int k = 0; k < K; ++k) shift[k] = splat<S>(-std::numeric_limits<double>::infinity());
-  for (int i = 0; i < n; ++i) {
-    for (int k = 0; k < K; ++k)
-      shift[k] = pick(shift[k] < m.log_mu[k][i], m.log_mu[k][i], shift[k]);
-  }
-  if constexpr (kLibmProbabilities<F>) {
-    // μ̃ from log μ as ImmEstimator::predict_mode_probabilities makes it.
-    for (int i = 0; i < n; ++i) {
-      for (int k = 0; k < K; ++k)
-        m.scaled_mu[k][i] = libm_function<LaneFunction::kExp>(m.log_mu[k][i] - shift[k]);
+  const auto p = [&b, n](int i, int j) { return b.transition[i * n + j]; };
+  for (int k = 0; k < K; ++k) {
+    S shift;
+    if constexpr (kLibmProbabilities<F>) {
+      shift = algebra::scaled_probabilities<Fn>(n, m.log_mu[k], m.scaled_mu[k]);
+    } else {
+      shift = algebra::largest<S>(n, m.log_mu[k]);
     }
-  }
-  for (int j = 0; j < n; ++j) {
-    for (int k = 0; k < K; ++k) {
-      S c = splat<S>(0.0);
-      for (int i = 0; i < n; ++i) c += b.transition[i * n + j] * m.scaled_mu[k][i];
-      predicted[k][j] = c;
-      if constexpr (kLibmProbabilities<F>) {
-        for (int i = 0; i < n; ++i)
-          weights[k][j * n + i] = b.transition[i * n + j] * m.scaled_mu[k][i] / c;
-      } else {
-        const S inverse = 1.0 / c;
-        for (int i = 0; i < n; ++i)
-          weights[k][j * n + i] = b.transition[i * n + j] * m.scaled_mu[k][i] * inverse;
-      }
-    }
+    algebra::predict_probabilities<Fn, kDivision<F>>(n, p, m.scaled_mu[k], shift, predicted[k],
+                                                      m.log_c[k], weights[k].data());
   }
   for (int k = 0; k < K; ++k) {
-    m.log_c[k] = predicted[k];
-    each_mode<LaneFunction::kLog, S, N, F>(m.log_c[k], n);
-    for (int j = 0; j < n; ++j) m.log_c[k][j] += shift[k];
-  }
-  for (int k = 0; k < K; ++k) {
-    if (!all_positive(predicted[k], n, active[k])) [[unlikely]] {
-      exact_predicted(b, m.log_mu[k].data(), predicted[k].data(), m.log_c[k].data(),
-                      weights[k].data());
+    if (algebra::needs_exact_prediction(n, predicted[k], active[k])) [[unlikely]] {
+      algebra::exact_prediction(
+          n, [&b, n](int i, int j) { return b.log_transition[i * n + j]; }, m.log_mu[k],
+          predicted[k], m.log_c[k], weights[k].data());
     }
   }
   for (int j = 0; j < n; ++j) {
@@ -431,22 +315,14 @@ template <class S, int N, int K, class F>
     }
   }
 
-  // The posterior in log space (eq. 8–9; ImmEstimator::finish_cycle): μ̃_j = exp(ℓ_j − max ℓ),
+  // The posterior in log space (eq. 8–9; imm_algebra.hpp): μ̃_j = exp(ℓ_j − max ℓ),
   // log μ_j = (ℓ_j − max ℓ) − log Σ μ̃, μ_j = μ̃_j / Σ μ̃. A lane that fails computes them too.
   std::array<S, N> scaled[K];
   S top[K], sum[K], log_sum[K];
   for (int k = 0; k < K; ++k) {
-    top[k] = splat<S>(-kInf);
-    for (int j = 0; j < n; ++j) top[k] = pick(top[k] < centered[k][j], centered[k][j], top[k]);
-    sum[k] = splat<S>(0.0);
+    top[k] = algebra::posterior<ProbabilityFunctions<F>>(n, centered[k], scaled[k], sum[k],
+                                                         log_sum[k]);
   }
-  for (int k = 0; k < K; ++k) {
-    for (int j = 0; j < n; ++j) centered[k][j] = centered[k][j] - top[k];
-    scaled[k] = centered[k];
-    each_mode<LaneFunction::kExp, S, N, F>(scaled[k], n);
-    for (int j = 0; j < n; ++j) sum[k] += scaled[k][j];
-  }
-  for (int k = 0; k < K; ++k) log_sum[k] = probability_function<LaneFunction::kLog, F>(sum[k]);
 
   auto st = [&](int j, int entry, int k) { return Slots::at(b, j, entry, t + k * kLanes); };
   using Commit = decltype(std::declval<S>() == 0.0);
@@ -461,8 +337,9 @@ template <class S, int N, int K, class F>
     const S track = family.track_code(lane_code);
     lane_store(code + static_cast<std::ptrdiff_t>(k) * kLanes, track);
     commit[k] = pick(stepped[k] != 0.0, track, kBadPlot) == kOk;
-    const S inverse_sum = 1.0 / sum[k];
-    for (int j = 0; j < n; ++j) posterior[k][j] = scaled[k][j] * inverse_sum;
+    const S inverse_sum = algebra::inverse_of<kDivision<F>>(sum[k]);
+    for (int j = 0; j < n; ++j)
+      posterior[k][j] = algebra::divided<kDivision<F>>(scaled[k][j], sum[k], inverse_sum);
   }
   for (int j = 0; j < n; ++j) {
     for (int k = 0; k < K; ++k) {

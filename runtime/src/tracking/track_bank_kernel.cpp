@@ -67,25 +67,16 @@ struct CvPositionFamily {
       lane_store(record->log_c + std::ptrdiff_t{j} * PackInnovations::kPackLanes, log_c[0][j]);
   }
 
-  // Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian (eq. 4–5 and 10–11), each sum over i = 0, 1, …
+  // Σ_i w_i N(mean_i, P_i) collapsed to one Gaussian (eq. 4–5 and 10–11; imm_algebra.hpp).
   template <class S, class Modes>
   [[gnu::always_inline]] inline void mix(int components, const S* weights, Modes&& mode,
                                          Entries<S>& out) const {
-    for (int a = 0; a < kN; ++a) {
-      S sum = splat<S>(0.0);
-      for (int i = 0; i < components; ++i) sum += weights[i] * mode(i)[a];
-      out[a] = sum;
-    }
-    for (int a = 0; a < kN; ++a) {
-      for (int c = a; c < kN; ++c) {
-        S sum = splat<S>(0.0);
-        for (int i = 0; i < components; ++i) {
-          sum += weights[i] *
-                 (mode(i)[kN + sym(a, c)] + (mode(i)[a] - out[a]) * (mode(i)[c] - out[c]));
-        }
-        out[kN + sym(a, c)] = sum;
-      }
-    }
+    algebra::collapse<kN, S>(
+        components, [weights](int i) -> const S& { return weights[i]; },
+        [&mode](int i, int a) -> const S& { return mode(i)[a]; },
+        [&mode](int i, int a, int c) -> const S& { return mode(i)[kN + sym(a, c)]; },
+        [&out](int a) -> S& { return out[a]; },
+        [&out](int a, int c) -> S& { return out[kN + sym(a, c)]; });
   }
 
   // Mode j's prediction in place: x⁻ = F x, P⁻ = F P Fᵀ + Q.
@@ -178,20 +169,20 @@ template <class S, int N>
     return lane_load<S>(v + std::ptrdiff_t{j} * PackInnovations::kPackLanes);
   };
   std::array<S, N> c;  // NOLINT(cppcoreguidelines-pro-type-member-init): the n written
-  normalized_lane_weights(
+  algebra::normalized<algebra::LaneFunctions, S>(
       n, [&](int j) { return at(r.log_c, j); }, c);
-  S nu0 = splat<S>(0.0), nu1 = splat<S>(0.0);
-  for (int j = 0; j < n; ++j) {
-    nu0 += c[j] * at(r.nu0, j);
-    nu1 += c[j] * at(r.nu1, j);
-  }
-  S t00 = splat<S>(0.0), t01 = splat<S>(0.0), t11 = splat<S>(0.0);
-  for (int j = 0; j < n; ++j) {
-    const S d0 = at(r.nu0, j) - nu0, d1 = at(r.nu1, j) - nu1;
-    t00 += c[j] * (at(r.s00, j) + d0 * d0);
-    t01 += c[j] * (at(r.s01, j) + d0 * d1);
-    t11 += c[j] * (at(r.s11, j) + d1 * d1);
-  }
+  // The modes' ν_j = [nu0, nu1] and S_j = [[s00, s01], [s01, s11]] collapsed (imm_algebra.hpp).
+  const double* const nu[2] = {r.nu0, r.nu1};
+  const double* const s[3] = {r.s00, r.s01, r.s11};
+  S nu0, nu1, t00, t01, t11;
+  S* const mean[2] = {&nu0, &nu1};
+  S* const covariance[3] = {&t00, &t01, &t11};
+  algebra::collapse<2, S>(
+      n, [&c](int j) -> const S& { return c[j]; },
+      [&](int j, int a) { return at(nu[a], j); },
+      [&](int j, int a, int b) { return at(s[a + b], j); },
+      [&mean](int a) -> S& { return *mean[a]; },
+      [&covariance](int a, int b) -> S& { return *covariance[a + b]; });
   const Lanes<S> lanes = lanes_of(quadratic_form_2x2(t00, t01, t11, nu0, nu1));
   for (int l = 0; l < real; ++l) {
     const auto u = static_cast<std::size_t>(l);

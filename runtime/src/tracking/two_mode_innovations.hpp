@@ -75,16 +75,12 @@ void normalized_predicted(const Mixing<W>& mixing, double (&c)[2][W]) {
 /// definite.
 inline double collapsed_distance(const double (&c)[2], const Eigen::Vector2d (&nu)[2],
                                  const Eigen::Matrix2d (&Sj)[2]) {
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
-  for (int j = 0; j < 2; ++j) {
-    if (c[j] != 0.0) mean += c[j] * nu[j];
-  }
-  for (int j = 0; j < 2; ++j) {
-    if (c[j] == 0.0) continue;
-    const Eigen::Vector2d d = nu[j] - mean;
-    S += c[j] * (Sj[j] + d * d.transpose());
-  }
+  Eigen::Vector2d mean;
+  Eigen::Matrix2d S;
+  algebra::collapse<2, double>(
+      2, [&c](int j) { return c[j]; }, [&nu](int j, int a) { return nu[j](a); },
+      [&Sj](int j, int a, int b) { return Sj[j](a, b); },
+      [&mean](int a) -> double& { return mean(a); }, [&S](int a, int b) -> double& { return S(a, b); });
   return quadratic_form_2x2(S(0, 0), S(0, 1), S(1, 1), mean(0), mean(1));
 }
 

@@ -1,0 +1,332 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+/// @file
+/// The IMM's own arithmetic (Blom & Bar-Shalom; seed 000 eq. 4–11), written once over a number
+/// type S — a double for one track, a pack of lanes (lane_math.hpp) for one track per element —
+/// for every filter that runs an IMM cycle: ImmEstimator, the banks' cycle (imm_cycle.hpp) and
+/// the two-mode banks' (two_mode_lanes.hpp). What a mode holds and how it steps is the family's;
+/// what is here is the same for every family:
+///   - predict_probabilities: the predicted mode probabilities c_j = Σ_i p_ij μ_i and the mixing
+///     weights μ_ij = p_ij μ_i / c_j (eq. 6), through μ̃ = μ / max μ, with exact_prediction for a
+///     c̃_j that underflowed to zero;
+///   - posterior: the mode probabilities after the modes' updates (eq. 8–9) in log space;
+///   - normalized: weights exp(v_j) / Σ exp(v_k) from log-weights;
+///   - collapse: a Gaussian mixture collapsed to its two moments (eq. 4–5 and 10–11).
+///
+/// Every statement is the same IEEE operation for a double and for each element of a pack (the
+/// project compiles with -ffp-contract=off), so a lane gives the same bits in a pack and alone. A
+/// policy says which exp and log the mode probabilities take (LibmFunctions: ImmEstimator's;
+/// LaneFunctions: lane_exp and lane_log, branch-free) and whether a weight divides by its sum or
+/// multiplies by the sum's inverse (Division).
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <type_traits>
+
+#include "imm/math/lane_math.hpp"
+
+namespace imm::algebra {
+
+/// libm's exp and log, lane by lane: ImmEstimator's mode probabilities, and a bank's that must
+/// give its one-track filter's bits.
+struct LibmFunctions {
+  /// eˣ of every lane.
+  template <class S>
+  [[nodiscard, gnu::always_inline]] static S exp(S x) {
+    return each(x, [](double v) { return std::exp(v); });
+  }
+  /// log x of every lane.
+  template <class S>
+  [[nodiscard, gnu::always_inline]] static S log(S x) {
+    return each(x, [](double v) { return std::log(v); });
+  }
+  /// exp of the first n values.
+  template <class S, std::size_t N>
+  [[gnu::always_inline]] static void exp_each(std::array<S, N>& v, int n) {
+    for (int j = 0; j < n; ++j) v[j] = exp(v[j]);
+  }
+  /// log of the first n values.
+  template <class S, std::size_t N>
+  [[gnu::always_inline]] static void log_each(std::array<S, N>& v, int n) {
+    for (int j = 0; j < n; ++j) v[j] = log(v[j]);
+  }
+
+ private:
+  template <class S, class F>
+  [[gnu::always_inline]] static S each(S x, F&& f) {
+    if constexpr (std::is_same_v<S, double>) {
+      return f(x);
+    } else {
+      double lanes[kLanesOf<S>];
+      lane_store(lanes, x);
+      for (double& lane : lanes) lane = f(lane);
+      return lane_load<S>(lanes);
+    }
+  }
+};
+
+/// lane_exp and lane_log (within 2 ulp of libm's; branch-free): a bank's mode probabilities. For
+/// one track (S a double) the values of N ≤ 8 modes go through one pack together: one evaluation
+/// of the function instead of N, each value the same bits as alone.
+struct LaneFunctions {
+  /// lane_exp of every lane.
+  template <class S>
+  [[nodiscard, gnu::always_inline]] static S exp(S x) {
+    return lane_exp(x);
+  }
+  /// lane_log of every lane.
+  template <class S>
+  [[nodiscard, gnu::always_inline]] static S log(S x) {
+    return lane_log(x);
+  }
+  /// lane_exp of the first n values.
+  template <class S, std::size_t N>
+  [[gnu::always_inline]] static void exp_each(std::array<S, N>& v, int n) {
+    each<false>(v, n);
+  }
+  /// lane_log of the first n values.
+  template <class S, std::size_t N>
+  [[gnu::always_inline]] static void log_each(std::array<S, N>& v, int n) {
+    each<true>(v, n);
+  }
+
+  /// The pack that holds one lane per mode of N ≤ 8 modes: 2, 4 or 8 lanes.
+  template <std::size_t N>
+  using ModePack = LanePackOf<(N <= 2   ? 2
+                               : N <= 4 ? 4
+                                        : 8)>;
+
+ private:
+  template <bool kLog, class S, std::size_t N>
+  [[gnu::always_inline]] static void each(std::array<S, N>& v, int n) {
+    if constexpr (std::is_same_v<S, double> && N >= 2 && N <= 8) {
+      using Pack = ModePack<N>;
+      constexpr int W = kLanesOf<Pack>;
+      // The lanes past the modes hold 1: a finite value for both functions.
+      double lanes[W];
+      for (int j = 0; j < W; ++j) lanes[j] = j < static_cast<int>(N) ? v[j] : 1.0;
+      Pack pack = lane_load<Pack>(lanes);
+      pack = kLog ? lane_log(pack) : lane_exp(pack);
+      lane_store(lanes, pack);
+      for (std::size_t j = 0; j < N; ++j) v[j] = lanes[j];
+    } else {
+      for (int j = 0; j < n; ++j) v[j] = kLog ? lane_log(v[j]) : lane_exp(v[j]);
+    }
+  }
+};
+
+/// How a weight w_i = a_i / Σ is formed: a_i / Σ (ImmEstimator's), or a_i · (1 / Σ) (one division
+/// per sum instead of one per weight).
+enum class Division { kDivide, kInverse };
+
+/// a / sum, or a · inverse where `inverse` = 1 / sum.
+template <Division kDivision, class S>
+[[nodiscard, gnu::always_inline]] inline S divided(S a, S sum, S inverse) {
+  if constexpr (kDivision == Division::kDivide) {
+    return a / sum;
+  } else {
+    (void)sum;
+    return a * inverse;
+  }
+}
+/// 1 / sum where kDivision needs it (kInverse); anything otherwise.
+template <Division kDivision, class S>
+[[nodiscard, gnu::always_inline]] inline S inverse_of(S sum) {
+  if constexpr (kDivision == Division::kInverse) {
+    return 1.0 / sum;
+  } else {
+    return sum;
+  }
+}
+
+/// max_j v_j of the first n values, from −∞: a NaN is passed over.
+template <class S, class V>
+[[nodiscard, gnu::always_inline]] inline S largest(int n, const V& v) {
+  S top = splat<S>(-std::numeric_limits<double>::infinity());
+  for (int j = 0; j < n; ++j) top = pick(top < v[j], v[j], top);
+  return top;
+}
+
+/// μ̃_i = exp(log μ_i − shift) of the n modes, with shift = max_i log μ_i (returned): μ scaled by
+/// its largest entry, exact, one exponential per mode.
+template <class Fn, class S, std::size_t N, class LogMu>
+[[gnu::always_inline]] inline S scaled_probabilities(int n, const LogMu& log_mu,
+                                                     std::array<S, N>& scaled) {
+  const S shift = largest<S>(n, log_mu);
+  for (int i = 0; i < n; ++i) scaled[i] = Fn::exp(S(log_mu[i] - shift));
+  return shift;
+}
+
+/// The predicted mode probabilities and the mixing weights (eq. 6 and 8's inner sum) of n modes
+/// from μ̃ = μ / max μ (`scaled`, with `shift` = max log μ) and Π (p(i, j) = p_ij): the scaled
+/// c̃_j = Σ_i p_ij μ̃_i (`predicted`), log c_j = log c̃_j + shift and μ_ij = p_ij μ̃_i / c̃_j
+/// (weights[j · n + i]). Where a c̃_j is not positive (an underflow, possible only with zero
+/// transition entries) log c_j and the weights are wrong: exact_prediction repairs them.
+template <class Fn, Division kDivision, class S, std::size_t N, class P>
+[[gnu::always_inline]] inline void predict_probabilities(int n, P&& p,
+                                                         const std::array<S, N>& scaled, S shift,
+                                                         std::array<S, N>& predicted,
+                                                         std::array<S, N>& log_c, S* weights) {
+  for (int j = 0; j < n; ++j) {
+    S c = splat<S>(0.0);
+    for (int i = 0; i < n; ++i) c += p(i, j) * scaled[i];
+    predicted[j] = c;
+    const S inverse = inverse_of<kDivision>(c);
+    for (int i = 0; i < n; ++i) weights[j * n + i] = divided<kDivision>(p(i, j) * scaled[i], c, inverse);
+  }
+  log_c = predicted;
+  Fn::log_each(log_c, n);
+  for (int j = 0; j < n; ++j) log_c[j] += shift;
+}
+
+/// Whether a lane of predict_probabilities' c̃ needs exact_prediction: some c̃_j not positive in a
+/// lane where `active` is not 0 (a lane whose result is not read does not count).
+template <class S, std::size_t N>
+[[nodiscard, gnu::always_inline]] inline bool needs_exact_prediction(
+    int n, const std::array<S, N>& predicted, S active = splat<S>(1.0)) {
+  S bad = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) bad += pick(predicted[j] > 0.0, splat<S>(0.0), active);
+  double lanes[kLanesOf<S>];
+  lane_store(lanes, bad);
+  return std::any_of(std::begin(lanes), std::end(lanes), [](double v) { return v != 0.0; });
+}
+
+/// Where predict_probabilities' c̃_j is not positive, lane by lane with libm: log c_j as the exact
+/// log-sum-exp of log p_ij + log μ_i (log_p(i, j) = log p_ij), and the weights from it; a mode
+/// that cannot be reached (log c_j = −∞) gets the weights δ_ij, so that it keeps its own
+/// estimate as its initial condition.
+template <class S, std::size_t N, class LogP, class LogMu>
+[[gnu::noinline, gnu::cold]] void exact_prediction(int n, LogP&& log_p, const LogMu& log_mu,
+                                                   const std::array<S, N>& predicted,
+                                                   std::array<S, N>& log_c, S* weights) {
+  constexpr int W = kLanesOf<S>;
+  auto lane = [](const S& value, int l) {
+    double lanes[W];
+    lane_store(lanes, value);
+    return lanes[l];
+  };
+  auto set_lane = [](S& value, int l, double v) {
+    double lanes[W];
+    lane_store(lanes, value);
+    lanes[l] = v;
+    value = lane_load<S>(lanes);
+  };
+  for (int j = 0; j < n; ++j) {
+    for (int l = 0; l < W; ++l) {
+      if (lane(predicted[j], l) > 0.0) continue;
+      double top = -std::numeric_limits<double>::infinity();
+      for (int i = 0; i < n; ++i) top = std::max(top, log_p(i, j) + lane(log_mu[i], l));
+      double value = top;
+      if (std::isfinite(top)) {
+        double sum = 0.0;
+        for (int i = 0; i < n; ++i) sum += std::exp(log_p(i, j) + lane(log_mu[i], l) - top);
+        // sum ≥ 1: the largest term is exp(0).
+        value = top + std::log(sum);  // cppcheck-suppress invalidFunctionArg
+      }
+      set_lane(log_c[j], l, value);
+      for (int i = 0; i < n; ++i) {
+        set_lane(weights[j * n + i], l,
+                 !std::isfinite(value) ? (i == j ? 1.0 : 0.0)
+                                       : std::exp(log_p(i, j) + lane(log_mu[i], l) - value));
+      }
+    }
+  }
+}
+
+/// The posterior mode probabilities (eq. 8–9) in log space from the n values ℓ_j + log c_j in
+/// `centered` (ℓ_j the modes' log-likelihoods): top = max_j (returned; not finite where every
+/// likelihood underflowed), centered_j − top in `centered`, μ̃_j = exp(centered_j) in `scaled`,
+/// their sum Σ ≥ 1 and log Σ. Then log μ_j = centered_j − log Σ, in that order (with ℓ far from
+/// zero, top + log Σ would round to top and give two modes log μ = 0), and μ_j = μ̃_j / Σ.
+template <class Fn, class S, std::size_t N>
+[[gnu::always_inline]] inline S posterior(int n, std::array<S, N>& centered,
+                                          std::array<S, N>& scaled, S& sum, S& log_sum) {
+  const S top = largest<S>(n, centered);
+  for (int j = 0; j < n; ++j) centered[j] = centered[j] - top;
+  scaled = centered;
+  Fn::exp_each(scaled, n);
+  sum = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) sum += scaled[j];
+  log_sum = Fn::log(sum);
+  return top;
+}
+
+/// c_j = exp(v_j − max v) / Σ_k exp(v_k − max v) of the n log-weights v_j = log_weight(j), into
+/// `c` (c[j] = …).
+template <class Fn, class S, class LogWeight, class Out>
+[[gnu::always_inline]] inline void normalized(int n, LogWeight&& log_weight, Out&& c) {
+  S top = splat<S>(-std::numeric_limits<double>::infinity());
+  for (int j = 0; j < n; ++j) top = pick(top < log_weight(j), log_weight(j), top);
+  S total = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) {
+    c[j] = Fn::exp(S(log_weight(j) - top));
+    total += c[j];
+  }
+  for (int j = 0; j < n; ++j) c[j] = c[j] / total;
+}
+
+/// A component's term of collapse()'s sums: `value`, or 0 where its weight w is 0 (a double's
+/// caller has skipped it already).
+template <class S>
+[[nodiscard, gnu::always_inline]] inline S weighted_term(const S& w, const S& value) {
+  if constexpr (std::is_same_v<S, double>) {
+    return value;
+  } else {
+    return pick(w == 0.0, 0.0, value);
+  }
+}
+
+/// Which entries of a covariance collapse() reads and writes: (a, c) with a ≤ c, or all of them
+/// (where the components' covariances are not known to be exactly symmetric).
+enum class Entries { kUpper, kAll };
+
+/// Σ_i w_i N(m_i, P_i) over n components collapsed to one Gaussian N(m, P) of dimension D (eq. 4–5
+/// and 10–11): m = Σ_i w_i m_i and P = Σ_i w_i (P_i + (m_i − m)(m_i − m)ᵀ), each entry's sum over
+/// i = 0, 1, … from +0, a zero weight adding nothing (its component may hold anything; for finite
+/// components the same bits as adding its ±0). weight(i), mean(i, a) and covariance(i, a, c) read
+/// the components; out_mean(a) and out_covariance(a, c) receive the result. kEntries: the
+/// covariances' upper triangle (a ≤ c; P is then symmetric by construction) or every entry.
+template <int D, class S, Entries kEntries = Entries::kUpper, class Weight, class Mean,
+          class Covariance, class OutMean, class OutCovariance>
+[[gnu::always_inline]] inline void collapse(int n, Weight&& weight, Mean&& mean,
+                                            Covariance&& covariance, OutMean&& out_mean,
+                                            OutCovariance&& out_covariance) {
+  constexpr int kCount = kEntries == Entries::kUpper ? D * (D + 1) / 2 : D * D;
+  auto first = [](int a) { return kEntries == Entries::kUpper ? a : 0; };
+  S m[D];
+  for (int a = 0; a < D; ++a) m[a] = splat<S>(0.0);
+  // One track (S a double) skips a zero weight with a branch, a pack of lanes with a select.
+  constexpr bool kBranches = std::is_same_v<S, double>;
+  for (int i = 0; i < n; ++i) {
+    const S w = weight(i);
+    if constexpr (kBranches) {
+      if (w == 0.0) continue;
+    }
+    for (int a = 0; a < D; ++a) m[a] += weighted_term(w, w * mean(i, a));
+  }
+  S p[kCount];
+  for (int k = 0; k < kCount; ++k) p[k] = splat<S>(0.0);
+  for (int i = 0; i < n; ++i) {
+    const S w = weight(i);
+    if constexpr (kBranches) {
+      if (w == 0.0) continue;
+    }
+    S d[D];
+    for (int a = 0; a < D; ++a) d[a] = mean(i, a) - m[a];
+    int k = 0;
+    for (int a = 0; a < D; ++a) {
+      for (int c = first(a); c < D; ++c, ++k)
+        p[k] += weighted_term(w, w * (covariance(i, a, c) + d[a] * d[c]));
+    }
+  }
+  int k = 0;
+  for (int a = 0; a < D; ++a) {
+    out_mean(a) = m[a];
+    for (int c = first(a); c < D; ++c, ++k) out_covariance(a, c) = p[k];
+  }
+}
+
+}  // namespace imm::algebra
