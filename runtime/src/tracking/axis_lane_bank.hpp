@@ -15,10 +15,10 @@
 #include <type_traits>
 #include <utility>
 
+#include "estimation/imm_algebra.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
-#include "imm/estimation/imm_algebra.hpp"
 #include "imm/math/lane_math.hpp"
 
 namespace imm::bank {
@@ -96,7 +96,8 @@ template <class S, class Modes>
       n, [weight](int i) -> const S& { return weight[i]; },
       [&mode](int i, int a) -> const S& { return mode(i)[a]; },
       [&mode](int i, int a, int c) -> const S& { return mode(i)[2 + a + c]; },
-      [&out](int a) -> S& { return out[a]; }, [&out](int a, int c) -> S& { return out[2 + a + c]; });
+      [&out](int a) -> S& { return out[a]; },
+      [&out](int a, int c) -> S& { return out[2 + a + c]; });
 }
 
 /// One axis's innovations ν_j and variances S_j of n modes (nu(j), s(j)) collapsed with weights

@@ -120,8 +120,7 @@ template <class S, int N, int K>
         n, [&](int j) { return at(r.log_c, j); }, c);
     S nu, variance;
     collapse_innovations<S>(
-        n, c, [&](int j) { return at(r.nu, j); }, [&](int j) { return at(r.s, j); }, nu,
-        variance);
+        n, c, [&](int j) { return at(r.nu, j); }, [&](int j) { return at(r.s, j); }, nu, variance);
     lane_store(r.collapsed_nu + lane, nu);
     lane_store(r.collapsed_s + lane, variance);
   }

@@ -45,7 +45,7 @@
 #include <utility>
 
 #include "axis_lane_bank.hpp"
-#include "imm/estimation/imm_algebra.hpp"
+#include "estimation/imm_algebra.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/linear_algebra.hpp"
 #include "imm/tracking/lane_storage.hpp"
@@ -177,7 +177,7 @@ template <class S, int N, int K, class F>
       shift = algebra::largest<S>(n, m.log_mu[k]);
     }
     algebra::predict_probabilities<Fn, kDivision<F>>(n, p, m.scaled_mu[k], shift, predicted[k],
-                                                      m.log_c[k], weights[k].data());
+                                                     m.log_c[k], weights[k].data());
   }
   for (int k = 0; k < K; ++k) {
     if (algebra::needs_exact_prediction(n, predicted[k], active[k])) [[unlikely]] {
@@ -285,7 +285,6 @@ template <class S, int N, int K, class F>
   using Slots = CycleSlots<F>;
   using Mode = std::array<S, F::kEntries>;
   constexpr int kLanes = kLanesOf<S>;
-  constexpr double kInf = std::numeric_limits<double>::infinity();
   const int n = N == kMaxModes ? b.modes : N;
   // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): the mixing fills it
   CycleMixing<S, N, K, F> m;
@@ -320,8 +319,8 @@ template <class S, int N, int K, class F>
   std::array<S, N> scaled[K];
   S top[K], sum[K], log_sum[K];
   for (int k = 0; k < K; ++k) {
-    top[k] = algebra::posterior<ProbabilityFunctions<F>>(n, centered[k], scaled[k], sum[k],
-                                                         log_sum[k]);
+    top[k] =
+        algebra::posterior<ProbabilityFunctions<F>>(n, centered[k], scaled[k], sum[k], log_sum[k]);
   }
 
   auto st = [&](int j, int entry, int k) { return Slots::at(b, j, entry, t + k * kLanes); };

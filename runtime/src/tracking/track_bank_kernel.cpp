@@ -178,8 +178,7 @@ template <class S, int N>
   S* const mean[2] = {&nu0, &nu1};
   S* const covariance[3] = {&t00, &t01, &t11};
   algebra::collapse<2, S>(
-      n, [&c](int j) -> const S& { return c[j]; },
-      [&](int j, int a) { return at(nu[a], j); },
+      n, [&c](int j) -> const S& { return c[j]; }, [&](int j, int a) { return at(nu[a], j); },
       [&](int j, int a, int b) { return at(s[a + b], j); },
       [&mean](int a) -> S& { return *mean[a]; },
       [&covariance](int a, int b) -> S& { return *covariance[a + b]; });

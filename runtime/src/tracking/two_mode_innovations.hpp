@@ -80,7 +80,8 @@ inline double collapsed_distance(const double (&c)[2], const Eigen::Vector2d (&n
   algebra::collapse<2, double>(
       2, [&c](int j) { return c[j]; }, [&nu](int j, int a) { return nu[j](a); },
       [&Sj](int j, int a, int b) { return Sj[j](a, b); },
-      [&mean](int a) -> double& { return mean(a); }, [&S](int a, int b) -> double& { return S(a, b); });
+      [&mean](int a) -> double& { return mean(a); },
+      [&S](int a, int b) -> double& { return S(a, b); });
   return quadratic_form_2x2(S(0, 0), S(0, 1), S(1, 1), mean(0), mean(1));
 }
 

@@ -37,7 +37,6 @@
 #include "imm/core/checks.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"
-#include "imm/estimation/imm_algebra.hpp"
 #include "imm/estimation/imm_mode.hpp"
 #include "imm/estimation/mode_transitions.hpp"
 #include "imm/estimation/step_status.hpp"
@@ -81,6 +80,11 @@ class ImmEstimator {
       for (int j = 0; j < n; ++j) log_transition_(i, j) = safe_log(transition(i, j));
     }
     log_probabilities_ = initial_log_probabilities_;
+    log_predicted_.resize(n);
+    predicted_scaled_.resize(n);
+    log_posterior_.resize(n);
+    scaled_.resize(n);
+    scratch_.resize(n);
   }
 
   /// Movable, not copyable (it owns its modes).
@@ -139,7 +143,7 @@ class ImmEstimator {
     const int n = mode_count();
     ModeVector predicted(n);
     for (int j = 0; j < n; ++j) {
-      predicted(j) = std::exp(log_predicted_[index(j)]);
+      predicted(j) = std::exp(log_predicted_(j));
       mix(j, mixed_states_[index(j)]);
       mode_at(j).predicted_mean(mixed_states_[index(j)], predicted_means_[index(j)]);
     }
@@ -279,7 +283,7 @@ class ImmEstimator {
   /// filter step pays nothing for it.
   [[nodiscard]] double log_predictive_likelihood() const {
     if (!updated_) return std::numeric_limits<double>::quiet_NaN();
-    return log_sum_exp(Eigen::Map<const Eigen::VectorXd>(log_posterior_.data(), mode_count()));
+    return log_sum_exp(log_posterior_);
   }
 
   /// The innovation of the last cycle and its covariance, as the moments of the IMM's predicted
@@ -371,34 +375,45 @@ class ImmEstimator {
     return true;
   }
 
-  // log c_j = log Σ_i p_ij μ_i (eq. 8's inner sum) and the mixing weights μ_ij, through the scaled
-  // μ̃ (see the class comment; imm_algebra.hpp).
+  // log c_j = log Σ_i p_ij μ_i (eq. 8's inner sum), through the scaled μ̃ (see the class comment).
   void predict_mode_probabilities() {
     const int n = mode_count();
-    using algebra::LibmFunctions;
-    const double shift = algebra::scaled_probabilities<LibmFunctions>(n, log_probabilities_, scaled_);
-    algebra::predict_probabilities<LibmFunctions, algebra::Division::kDivide>(
-        n, [this](int i, int j) { return transition_(i, j); }, scaled_, shift, predicted_scaled_,
-        log_predicted_, weights_.data());
-    if (algebra::needs_exact_prediction(n, predicted_scaled_)) [[unlikely]] {
-      algebra::exact_prediction(
-          n, [this](int i, int j) { return log_transition_(i, j); }, log_probabilities_,
-          predicted_scaled_, log_predicted_, weights_.data());
+    const double shift = log_probabilities_.maxCoeff();
+    for (int i = 0; i < n; ++i) scaled_(i) = std::exp(log_probabilities_(i) - shift);
+    for (int j = 0; j < n; ++j) {
+      double c = 0.0;
+      for (int i = 0; i < n; ++i) c += transition_(i, j) * scaled_(i);
+      predicted_scaled_(j) = c;
+      if (c > 0.0) {
+        log_predicted_(j) = std::log(c) + shift;
+      } else {
+        for (int i = 0; i < n; ++i) scratch_(i) = log_transition_(i, j) + log_probabilities_(i);
+        log_predicted_(j) = log_sum_exp(scratch_);
+      }
     }
   }
 
   // The mixed initial condition of mode j (eq. 4–6).
   [[gnu::always_inline]] inline void mix(int j, GaussianState<NX>& mixed) {
+    const int n = mode_count();
     // means_/covariances_ hold every mode's current estimate (see combine()).
-    if (log_predicted_[index(j)] == -std::numeric_limits<double>::infinity()) {
+    if (log_predicted_(j) == -std::numeric_limits<double>::infinity()) {
       // Mode j is unreachable under Π and μ: its weights are undefined; it keeps its own
       // estimate as the initial condition and its probability stays zero.
       mixed.mean = means_[index(j)];
       mixed.covariance = covariances_[index(j)];
       return;
     }
-    const double* weights = weights_.data() + static_cast<std::ptrdiff_t>(j) * mode_count();
-    moment_match([weights](int i) { return weights[i]; }, mixed);
+    if (predicted_scaled_(j) > 0.0) {
+      for (int i = 0; i < n; ++i) {
+        scratch_(i) = transition_(i, j) * scaled_(i) / predicted_scaled_(j);
+      }
+    } else {
+      for (int i = 0; i < n; ++i) {
+        scratch_(i) = std::exp(log_transition_(i, j) + log_probabilities_(i) - log_predicted_(j));
+      }
+    }
+    moment_match(scratch_, mixed);
   }
 
   // Mixing and the modes' predict/update. Stops at the first failing mode.
@@ -417,7 +432,7 @@ class ImmEstimator {
       status_ = result.status;
       return false;
     }
-    log_posterior_[index(j)] = result.log_likelihood + log_predicted_[index(j)];
+    log_posterior_(j) = result.log_likelihood + log_predicted_(j);
     return true;
   }
 
@@ -428,20 +443,24 @@ class ImmEstimator {
     return status;
   }
 
-  // Normalizes the posterior in log space (imm_algebra.hpp), commits the modes and combines.
+  // Normalizes the posterior in log space, commits the modes and combines.
   StepStatus finish_cycle() {
     if (status_ != StepStatus::kOk) return status_;
     const int n = mode_count();
-    std::array<double, kMaxModes> centered = log_posterior_;
-    double sum = 0.0, log_sum = 0.0;
-    const double top =
-        algebra::posterior<algebra::LibmFunctions>(n, centered, scaled_, sum, log_sum);
-    if (!std::isfinite(top)) return StepStatus::kProbabilityUnderflow;
-    for (auto& mode : modes_) mode->commit();
+    const double shift = log_posterior_.maxCoeff();
+    if (!std::isfinite(shift)) return StepStatus::kProbabilityUnderflow;
+    double sum = 0.0;
     for (int j = 0; j < n; ++j) {
-      log_probabilities_(j) = centered[index(j)] - log_sum;
-      scaled_[index(j)] = scaled_[index(j)] / sum;
+      scaled_(j) = std::exp(log_posterior_(j) - shift);
+      sum += scaled_(j);
     }
+    // sum ≥ 1: the largest entry contributes exp(0). log μ_j = (ℓ_j − shift) − log sum, in that
+    // order: with log-likelihoods far from zero (a plot many σ away gives ℓ ≈ −1e30) the sum
+    // shift + log sum rounds to shift, and ℓ_j − (shift + log sum) would give two modes log μ = 0.
+    const double log_sum = std::log(sum);  // cppcheck-suppress invalidFunctionArg
+    for (auto& mode : modes_) mode->commit();
+    log_probabilities_ = (log_posterior_.array() - shift) - log_sum;
+    scaled_ /= sum;
     combine(scaled_);
     return StepStatus::kOk;
   }
@@ -449,29 +468,34 @@ class ImmEstimator {
   // Combination (eq. 10–11) with mode probabilities `mu` (linear, summing to 1). Refreshes
   // means_/covariances_ with the modes' current estimates, which the next mixing reuses: they
   // change only in initialize() and finish_cycle(), both of which end here.
-  void combine(const std::array<double, kMaxModes>& mu) {
+  void combine(const ModeVector& mu) {
     const int n = mode_count();
     for (int j = 0; j < n; ++j)
       mode_at(j).embedded_estimate(means_[index(j)], covariances_[index(j)]);
-    moment_match([&mu](int i) { return mu[index(i)]; }, combined_);
+    moment_match(mu, combined_);
   }
 
   void combine() {
     const int n = mode_count();
-    for (int j = 0; j < n; ++j) scaled_[index(j)] = std::exp(log_probabilities_(j));
+    for (int j = 0; j < n; ++j) scaled_(j) = std::exp(log_probabilities_(j));
     combine(scaled_);
   }
 
-  // Σ w_i N(means_i, covariances_i) collapsed to one Gaussian (weights sum to 1; imm_algebra.hpp).
-  // Every entry: a mode's covariance need not be exactly symmetric. The result is when the inputs
-  // are: entries (a, b) and (b, a) see the same operations.
-  template <class Weight>
-  [[gnu::always_inline]] inline void moment_match(Weight&& weight, GaussianState<NX>& out) const {
-    algebra::collapse<NX, double, algebra::Entries::kAll>(
-        mode_count(), weight, [this](int i, int a) { return means_[index(i)](a); },
-        [this](int i, int a, int c) { return covariances_[index(i)](a, c); },
-        [&out](int a) -> double& { return out.mean(a); },
-        [&out](int a, int c) -> double& { return out.covariance(a, c); });
+  // Σ w_i N(means_i, covariances_i) collapsed to one Gaussian (weights sum to 1). The result is
+  // exactly symmetric when the inputs are: entries (a, b) and (b, a) see the same operations.
+  void moment_match(const ModeVector& weights, GaussianState<NX>& out) const {
+    const int n = mode_count();
+    // Summed in locals, which stay in registers, and stored once.
+    Vector<NX> mean = Vector<NX>::Zero();
+    for (int i = 0; i < n; ++i) mean += weights(i) * means_[index(i)];
+    SquareMatrix<NX> covariance = SquareMatrix<NX>::Zero();
+    for (int i = 0; i < n; ++i) {
+      if (weights(i) == 0.0) continue;
+      const Vector<NX> d = means_[index(i)] - mean;
+      covariance += weights(i) * (covariances_[index(i)] + d * d.transpose());
+    }
+    out.mean = mean;
+    out.covariance = covariance;
   }
 
   static std::size_t index(int i) { return static_cast<std::size_t>(i); }
@@ -484,11 +508,11 @@ class ImmEstimator {
   ModeMatrix log_transition_;
   ModeVector initial_log_probabilities_;
   ModeVector log_probabilities_;
-  std::array<double, kMaxModes> log_predicted_{};
-  std::array<double, kMaxModes> predicted_scaled_{};  // c̃_j = c_j / max μ
-  std::array<double, kMaxModes * kMaxModes> weights_{};  // μ_ij at j · n + i
-  std::array<double, kMaxModes> log_posterior_{};
-  std::array<double, kMaxModes> scaled_{};  // μ̃ (prediction) or posterior weights (combination)
+  ModeVector log_predicted_;
+  ModeVector predicted_scaled_;  // c̃_j = c_j / max μ
+  ModeVector log_posterior_;
+  ModeVector scaled_;  // μ̃ (prediction) or posterior weights (combination)
+  ModeVector scratch_;
   std::array<Vector<NX>, kMaxModes> means_{};  // embedded current mode estimates
   std::array<SquareMatrix<NX>, kMaxModes> covariances_{};
   GaussianState<NX> mixed_;

@@ -41,7 +41,7 @@ double ImmEstimator<NX, NZ>::candidate_log_likelihood(const Vector<NZ>& z) const
   // record()'s ℓ_j + log c_j and log_predictive_likelihood()'s sum, in their order.
   ModeVector terms(mode_count());
   if (!trial_update(z, terms)) return kNaN;
-  for (int j = 0; j < mode_count(); ++j) terms(j) = terms(j) + log_predicted_[index(j)];
+  for (int j = 0; j < mode_count(); ++j) terms(j) = terms(j) + log_predicted_(j);
   return log_sum_exp(terms);
 }
 
@@ -63,7 +63,7 @@ bool ImmEstimator<NX, NZ>::predicted_plot(Vector<NZ>& z_hat, SquareMatrix<NZ>& S
   if (!predicted_ || !predict_without_the_plot()) return false;
   int top = 0;
   for (int j = 1; j < mode_count(); ++j) {
-    if (log_predicted_[index(j)] > log_predicted_[index(top)]) top = j;
+    if (log_predicted_(j) > log_predicted_(top)) top = j;
   }
   Vector<NZ> reference;
   SquareMatrix<NZ> unused;
@@ -118,15 +118,22 @@ bool ImmEstimator<NX, NZ>::collapse(Of&& of, Vector<NZ>& nu, SquareMatrix<NZ>& S
   for (int j = 0; j < n; ++j) {
     if (!of(j, nus[index(j)], covariances[index(j)])) return false;
   }
-  // c_j, normalized over the modes (predict_mode_probabilities keeps them in log space), and the
-  // mixture's two moments (imm_algebra.hpp).
-  std::array<double, kMaxModes> c;
-  algebra::normalized<algebra::LibmFunctions, double>(
-      n, [this](int j) { return log_predicted_[index(j)]; }, c);
-  algebra::collapse<NZ, double, algebra::Entries::kAll>(
-      n, [&c](int j) { return c[index(j)]; }, [&nus](int j, int a) { return nus[index(j)](a); },
-      [&covariances](int j, int a, int b) { return covariances[index(j)](a, b); },
-      [&nu](int a) -> double& { return nu(a); }, [&S](int a, int b) -> double& { return S(a, b); });
+  // c_j, normalized over the modes (predict_mode_probabilities keeps them in log space).
+  const double shift = log_predicted_.maxCoeff();
+  double total = 0.0;
+  for (int j = 0; j < n; ++j) total += std::exp(log_predicted_(j) - shift);
+  nu.setZero();
+  for (int j = 0; j < n; ++j) {
+    const double c = std::exp(log_predicted_(j) - shift) / total;
+    if (c != 0.0) nu += c * nus[index(j)];
+  }
+  S.setZero();
+  for (int j = 0; j < n; ++j) {
+    const double c = std::exp(log_predicted_(j) - shift) / total;
+    if (c == 0.0) continue;
+    const Vector<NZ> d = nus[index(j)] - nu;
+    S += c * (covariances[index(j)] + d * d.transpose());
+  }
   return true;
 }
 
@@ -139,7 +146,7 @@ double ImmEstimator<NX, NZ>::mixture_log_density(Of&& of) const {
     Vector<NZ> nu;
     SquareMatrix<NZ> S;
     if (!of(j, nu, S)) return std::numeric_limits<double>::quiet_NaN();
-    terms(j) = log_predicted_[index(j)] + log_normal_density(nu, S);
+    terms(j) = log_predicted_(j) + log_normal_density(nu, S);
     if (std::isnan(terms(j))) return terms(j);
   }
   return log_sum_exp(terms);

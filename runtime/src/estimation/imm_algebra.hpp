@@ -1,23 +1,26 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-/// @file
-/// The IMM's own arithmetic (Blom & Bar-Shalom; seed 000 eq. 4–11), written once over a number
-/// type S — a double for one track, a pack of lanes (lane_math.hpp) for one track per element —
-/// for every filter that runs an IMM cycle: ImmEstimator, the banks' cycle (imm_cycle.hpp) and
-/// the two-mode banks' (two_mode_lanes.hpp). What a mode holds and how it steps is the family's;
-/// what is here is the same for every family:
-///   - predict_probabilities: the predicted mode probabilities c_j = Σ_i p_ij μ_i and the mixing
-///     weights μ_ij = p_ij μ_i / c_j (eq. 6), through μ̃ = μ / max μ, with exact_prediction for a
-///     c̃_j that underflowed to zero;
-///   - posterior: the mode probabilities after the modes' updates (eq. 8–9) in log space;
-///   - normalized: weights exp(v_j) / Σ exp(v_k) from log-weights;
-///   - collapse: a Gaussian mixture collapsed to its two moments (eq. 4–5 and 10–11).
-///
-/// Every statement is the same IEEE operation for a double and for each element of a pack (the
-/// project compiles with -ffp-contract=off), so a lane gives the same bits in a pack and alone. A
-/// policy says which exp and log the mode probabilities take (LibmFunctions: ImmEstimator's;
-/// LaneFunctions: lane_exp and lane_log, branch-free) and whether a weight divides by its sum or
-/// multiplies by the sum's inverse (Division).
+// The IMM's own arithmetic (Blom & Bar-Shalom; seed 000 eq. 4–11), written once over a number type
+// S — a double for one track, a pack of lanes (lane_math.hpp) for one track per element — for the
+// banks: their IMM cycle (tracking/imm_cycle.hpp), the families' mixes and the NIS and gating
+// collapses. What a mode holds and how it steps is the family's; what is here is the same for
+// every family:
+//   - predict_probabilities: the predicted mode probabilities c_j = Σ_i p_ij μ_i and the mixing
+//     weights μ_ij = p_ij μ_i / c_j (eq. 6), through μ̃ = μ / max μ, with exact_prediction for a
+//     c̃_j that underflowed to zero;
+//   - posterior: the mode probabilities after the modes' updates (eq. 8–9) in log space;
+//   - normalized: weights exp(v_j) / Σ exp(v_k) from log-weights;
+//   - collapse: a Gaussian mixture collapsed to its two moments (eq. 4–5 and 10–11).
+// Each is ImmEstimator's arithmetic in the same order of operations (LibmFunctions, Division::
+// kDivide): a family whose bank must give its one-track filter's bits takes that policy.
+// ImmEstimator keeps its own Eigen form: on this template the W1 step measured 10–20 % slower
+// (docs/performance.md).
+//
+// Every statement is the same IEEE operation for a double and for each element of a pack (the
+// project compiles with -ffp-contract=off), so a lane gives the same bits in a pack and alone. A
+// policy says which exp and log the mode probabilities take (LibmFunctions: libm's;
+// LaneFunctions: lane_exp and lane_log, branch-free) and whether a weight divides by its sum or
+// multiplies by the sum's inverse (Division). Not installed.
 
 #include <algorithm>
 #include <array>
@@ -175,7 +178,8 @@ template <class Fn, Division kDivision, class S, std::size_t N, class P>
     for (int i = 0; i < n; ++i) c += p(i, j) * scaled[i];
     predicted[j] = c;
     const S inverse = inverse_of<kDivision>(c);
-    for (int i = 0; i < n; ++i) weights[j * n + i] = divided<kDivision>(p(i, j) * scaled[i], c, inverse);
+    for (int i = 0; i < n; ++i)
+      weights[j * n + i] = divided<kDivision>(p(i, j) * scaled[i], c, inverse);
   }
   log_c = predicted;
   Fn::log_each(log_c, n);
@@ -295,7 +299,7 @@ template <int D, class S, Entries kEntries = Entries::kUpper, class Weight, clas
                                             Covariance&& covariance, OutMean&& out_mean,
                                             OutCovariance&& out_covariance) {
   constexpr int kCount = kEntries == Entries::kUpper ? D * (D + 1) / 2 : D * D;
-  auto first = [](int a) { return kEntries == Entries::kUpper ? a : 0; };
+  auto last = [](int c) { return kEntries == Entries::kUpper ? c : D - 1; };
   S m[D];
   for (int a = 0; a < D; ++a) m[a] = splat<S>(0.0);
   // One track (S a double) skips a zero weight with a branch, a pack of lanes with a select.
@@ -316,16 +320,17 @@ template <int D, class S, Entries kEntries = Entries::kUpper, class Weight, clas
     }
     S d[D];
     for (int a = 0; a < D; ++a) d[a] = mean(i, a) - m[a];
+    // Column by column, (a, c) for a ≤ last(c): a column-major matrix's order.
     int k = 0;
-    for (int a = 0; a < D; ++a) {
-      for (int c = first(a); c < D; ++c, ++k)
+    for (int c = 0; c < D; ++c) {
+      for (int a = 0; a <= last(c); ++a, ++k)
         p[k] += weighted_term(w, w * (covariance(i, a, c) + d[a] * d[c]));
     }
   }
+  for (int a = 0; a < D; ++a) out_mean(a) = m[a];
   int k = 0;
-  for (int a = 0; a < D; ++a) {
-    out_mean(a) = m[a];
-    for (int c = first(a); c < D; ++c, ++k) out_covariance(a, c) = p[k];
+  for (int c = 0; c < D; ++c) {
+    for (int a = 0; a <= last(c); ++a, ++k) out_covariance(a, c) = p[k];
   }
 }
 
