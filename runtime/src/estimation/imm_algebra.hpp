@@ -13,7 +13,7 @@
 //   - collapse: a Gaussian mixture collapsed to its two moments (eq. 4–5 and 10–11).
 // Each is ImmEstimator's arithmetic in the same order of operations (LibmFunctions, Division::
 // kDivide): a family whose bank must give its one-track filter's bits takes that policy.
-// ImmEstimator keeps its own Eigen form: on this template the W1 step measured 10–20 % slower
+// ImmEstimator keeps its own Eigen form: on this template the W1 step measured 6–28 % slower
 // (docs/performance.md).
 //
 // Every statement is the same IEEE operation for a double and for each element of a pack (the
@@ -32,6 +32,22 @@
 #include "imm/math/lane_math.hpp"
 
 namespace imm::algebra {
+
+/// The lanes of a value, as doubles (for the few decisions taken lane by lane).
+template <class S>
+using Lanes = std::array<double, kLanesOf<S>>;
+/// A value's lanes.
+template <class S>
+[[nodiscard, gnu::always_inline]] inline Lanes<S> lanes_of(const S& value) {
+  Lanes<S> out;
+  lane_store(out.data(), value);
+  return out;
+}
+/// The value of the given lanes.
+template <class S>
+[[nodiscard, gnu::always_inline]] inline S from_lanes(const Lanes<S>& lanes) {
+  return lane_load<S>(lanes.data());
+}
 
 /// libm's exp and log, lane by lane: ImmEstimator's mode probabilities, and a bank's that must
 /// give its one-track filter's bits.
@@ -145,12 +161,17 @@ template <Division kDivision, class S>
   }
 }
 
-/// max_j v_j of the first n values, from −∞: a NaN is passed over.
+/// max_j value(j) of the first n values, from −∞: a NaN is passed over.
+template <class S, class Value>
+[[nodiscard, gnu::always_inline]] inline S largest_of(int n, Value&& value) {
+  S top = splat<S>(-std::numeric_limits<double>::infinity());
+  for (int j = 0; j < n; ++j) top = pick(top < value(j), value(j), top);
+  return top;
+}
+/// max_j v_j of the first n entries of v.
 template <class S, class V>
 [[nodiscard, gnu::always_inline]] inline S largest(int n, const V& v) {
-  S top = splat<S>(-std::numeric_limits<double>::infinity());
-  for (int j = 0; j < n; ++j) top = pick(top < v[j], v[j], top);
-  return top;
+  return largest_of<S>(n, [&v](int j) { return v[j]; });
 }
 
 /// μ̃_i = exp(log μ_i − shift) of the n modes, with shift = max_i log μ_i (returned): μ scaled by
@@ -193,9 +214,8 @@ template <class S, std::size_t N>
     int n, const std::array<S, N>& predicted, S active = splat<S>(1.0)) {
   S bad = splat<S>(0.0);
   for (int j = 0; j < n; ++j) bad += pick(predicted[j] > 0.0, splat<S>(0.0), active);
-  double lanes[kLanesOf<S>];
-  lane_store(lanes, bad);
-  return std::any_of(std::begin(lanes), std::end(lanes), [](double v) { return v != 0.0; });
+  const Lanes<S> lanes = lanes_of(bad);
+  return std::any_of(lanes.begin(), lanes.end(), [](double v) { return v != 0.0; });
 }
 
 /// Where predict_probabilities' c̃_j is not positive, lane by lane with libm: log c_j as the exact
@@ -206,37 +226,34 @@ template <class S, std::size_t N, class LogP, class LogMu>
 [[gnu::noinline, gnu::cold]] void exact_prediction(int n, LogP&& log_p, const LogMu& log_mu,
                                                    const std::array<S, N>& predicted,
                                                    std::array<S, N>& log_c, S* weights) {
-  constexpr int W = kLanesOf<S>;
-  auto lane = [](const S& value, int l) {
-    double lanes[W];
-    lane_store(lanes, value);
-    return lanes[l];
-  };
-  auto set_lane = [](S& value, int l, double v) {
-    double lanes[W];
-    lane_store(lanes, value);
-    lanes[l] = v;
-    value = lane_load<S>(lanes);
-  };
   for (int j = 0; j < n; ++j) {
-    for (int l = 0; l < W; ++l) {
-      if (lane(predicted[j], l) > 0.0) continue;
+    const Lanes<S> c = lanes_of(predicted[j]);
+    if (std::none_of(c.begin(), c.end(), [](double v) { return !(v > 0.0); })) continue;
+    Lanes<S> out = lanes_of(log_c[j]);
+    std::array<Lanes<S>, N> mu{}, w{};  // n ≤ N
+    for (int i = 0; i < n; ++i) {
+      mu[i] = lanes_of(S(log_mu[i]));
+      w[i] = lanes_of(weights[j * n + i]);
+    }
+    for (std::size_t l = 0; l < c.size(); ++l) {
+      if (c[l] > 0.0) continue;
       double top = -std::numeric_limits<double>::infinity();
-      for (int i = 0; i < n; ++i) top = std::max(top, log_p(i, j) + lane(log_mu[i], l));
+      for (int i = 0; i < n; ++i) top = std::max(top, log_p(i, j) + mu[i][l]);
       double value = top;
       if (std::isfinite(top)) {
         double sum = 0.0;
-        for (int i = 0; i < n; ++i) sum += std::exp(log_p(i, j) + lane(log_mu[i], l) - top);
+        for (int i = 0; i < n; ++i) sum += std::exp(log_p(i, j) + mu[i][l] - top);
         // sum ≥ 1: the largest term is exp(0).
         value = top + std::log(sum);  // cppcheck-suppress invalidFunctionArg
       }
-      set_lane(log_c[j], l, value);
+      out[l] = value;
       for (int i = 0; i < n; ++i) {
-        set_lane(weights[j * n + i], l,
-                 !std::isfinite(value) ? (i == j ? 1.0 : 0.0)
-                                       : std::exp(log_p(i, j) + lane(log_mu[i], l) - value));
+        w[i][l] =
+            !std::isfinite(value) ? (i == j ? 1.0 : 0.0) : std::exp(log_p(i, j) + mu[i][l] - value);
       }
     }
+    log_c[j] = from_lanes<S>(out);
+    for (int i = 0; i < n; ++i) weights[j * n + i] = from_lanes<S>(w[i]);
   }
 }
 
@@ -262,8 +279,7 @@ template <class Fn, class S, std::size_t N>
 /// `c` (c[j] = …).
 template <class Fn, class S, class LogWeight, class Out>
 [[gnu::always_inline]] inline void normalized(int n, LogWeight&& log_weight, Out&& c) {
-  S top = splat<S>(-std::numeric_limits<double>::infinity());
-  for (int j = 0; j < n; ++j) top = pick(top < log_weight(j), log_weight(j), top);
+  const S top = largest_of<S>(n, log_weight);
   S total = splat<S>(0.0);
   for (int j = 0; j < n; ++j) {
     c[j] = Fn::exp(S(log_weight(j) - top));

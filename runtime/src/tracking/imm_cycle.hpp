@@ -112,19 +112,10 @@ constexpr algebra::Division kDivision =
 template <std::size_t N>
 using ModePack = algebra::LaneFunctions::ModePack<N>;
 
-/// The lanes of a value, as doubles (for the few decisions taken lane by lane).
-template <class S>
-using Lanes = std::array<double, kLanesOf<S>>;
-template <class S>
-[[gnu::always_inline]] inline Lanes<S> lanes_of(const S& value) {
-  Lanes<S> out;
-  lane_store(out.data(), value);
-  return out;
-}
-template <class S>
-[[gnu::always_inline]] inline S from_lanes(const Lanes<S>& lanes) {
-  return lane_load<S>(lanes.data());
-}
+/// The lanes of a value, as doubles (imm_algebra.hpp).
+using algebra::from_lanes;
+using algebra::Lanes;
+using algebra::lanes_of;
 
 /// The first half of a cycle of K packs of N modes (N ≥ b.modes; the loops run to b.modes): the
 /// modes' stored entries, log μ, μ̃, log c_j and each mode's mixed initial condition.
