@@ -184,6 +184,58 @@ TEST(FuzzyCMeans, BoundedCentersStayInTheirBounds) {
   EXPECT_EQ(result.centers(2), 3.0);  // clamped: the unconstrained optimum lies inside the bound
 }
 
+// A data set's centers (fuzzy_c_means_from_memberships) are eq. (8) with its sums over the points
+// taken in eight partial sums, point k into sum k mod 8, added pairwise at the end: written out
+// here for sizes around multiples of eight and for the fuzzifiers with products and with pow, to
+// the bit; and within rounding of the sums in long double.
+TEST(FuzzyCMeans, ADataSetsCentersAreItsSumsInEightPartialSums) {
+  datasets::Rng rng(23);
+  for (const std::size_t n : {3U, 7U, 8U, 9U, 16U, 21U, 64U, 101U}) {
+    for (const double m : {2.0, 2.5, 3.0, 4.0}) {
+      std::vector<double> data(n), u(3 * n);
+      for (double& x : data) x = rng.normal(0.0, 5.0);
+      for (std::size_t k = 0; k < n; ++k) {
+        const double a = rng.uniform(0.05, 1.0), b = rng.uniform(0.05, 1.0);
+        const double c = rng.uniform(0.05, 1.0);
+        u[3 * k] = a / (a + b + c);
+        u[3 * k + 1] = b / (a + b + c);
+        u[3 * k + 2] = c / (a + b + c);
+      }
+      ClusterVector expected, accurate;
+      for (int i = 0; i < 3; ++i) {
+        double numerator[8] = {}, denominator[8] = {};
+        long double exact_numerator = 0.0L, exact_denominator = 0.0L;
+        for (std::size_t k = 0; k < n; ++k) {
+          const double w = std::pow(u[3 * k + static_cast<std::size_t>(i)], m);
+          numerator[k % 8] += w * data[k];
+          denominator[k % 8] += w;
+          exact_numerator += static_cast<long double>(w) * data[k];
+          exact_denominator += w;
+        }
+        const auto pairwise = [](const double(&s)[8]) {
+          return ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]));
+        };
+        expected(i) = pairwise(numerator) / pairwise(denominator);
+        accurate(i) = static_cast<double>(exact_numerator / exact_denominator);
+      }
+      FuzzyCMeansSettings settings;
+      settings.fuzzifier = m;
+      settings.max_iterations = 1;
+      const FcmResult result = fuzzy_c_means_from_memberships(data, u, settings);
+      for (int i = 0; i < 3; ++i) {
+        // pow(u, m) and weight_power's products agree for m = 2 (one rounding each); for 3 and 4
+        // the products round twice, so those compare within rounding.
+        if (m == 2.0 || m == 2.5) {
+          EXPECT_EQ(result.centers(i), expected(i)) << "n " << n << ", m " << m << ", " << i;
+        } else {
+          EXPECT_NEAR(result.centers(i), expected(i), 1e-13 * (1.0 + std::abs(expected(i))));
+        }
+        EXPECT_NEAR(result.centers(i), accurate(i), 1e-13 * (1.0 + std::abs(accurate(i))))
+            << "n " << n << ", m " << m << ", " << i;
+      }
+    }
+  }
+}
 TEST(SlidingFuzzyCMeans, ProposeCommitAndTheWindow) {
   SlidingFuzzyCMeans fcm(5, FuzzyCMeansSettings{}, -kFree, kFree);
   // Fewer than three points: noise.

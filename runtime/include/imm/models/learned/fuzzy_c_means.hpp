@@ -73,6 +73,9 @@ IMM_RUNTIME_EXPORT FcmResult fuzzy_c_means(std::span<const double> data,
 
 /// Clusters `data` from given memberships (row k: the memberships of data[k]) with free centers:
 /// the first step computes the centers from them (eq. 8). `memberships` holds the final ones.
+/// Eq. (8)'s sums over a data set are taken in eight partial sums (point k into sum k mod 8, added
+/// pairwise at the end): vector additions instead of chains of dependent ones, and a rounding
+/// error that grows with n/8. fuzzy_c_means (a window's clustering) adds in point order.
 IMM_RUNTIME_EXPORT FcmResult fuzzy_c_means_from_memberships(std::span<const double> data,
                                                             std::span<double> memberships,
                                                             const FuzzyCMeansSettings& settings);
