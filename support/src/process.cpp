@@ -11,7 +11,22 @@
 #include <cstring>
 #include <stdexcept>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 namespace imm::support {
+
+void keep_freed_memory() {
+#if defined(__GLIBC__)
+  // 32 MB is the largest mapping threshold glibc takes on a 64-bit system; setting either value
+  // also stops glibc from adjusting the threshold itself.
+  constexpr int kHeapBelow = 32 << 20;
+  constexpr int kTrimAbove = 128 << 20;
+  (void)::mallopt(M_MMAP_THRESHOLD, kHeapBelow);
+  (void)::mallopt(M_TRIM_THRESHOLD, kTrimAbove);
+#endif
+}
 
 int run_process(const std::filesystem::path& executable, const std::vector<std::string>& arguments,
                 const std::optional<std::filesystem::path>& log) {

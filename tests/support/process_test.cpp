@@ -1,14 +1,22 @@
 // SPDX-License-Identifier: Apache-2.0
-// Child processes: exit codes, signals, PATH lookup, and a tool that cannot be started.
+// Child processes: exit codes, signals, PATH lookup, and a tool that cannot be started; the
+// process's memory policy.
 
 #include "imm/support/process.hpp"
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <string>
+
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
+#include "testing/study.hpp"
 
 namespace imm::support {
 namespace {
@@ -36,6 +44,23 @@ TEST(Process, LogGoesToItsTwoFiles) {
 
 TEST(Process, ExecutableFolderHoldsThisTest) {
   EXPECT_TRUE(std::filesystem::exists(executable_folder() / "support_process_test"));
+}
+
+// glibc gives a block of 4 MB a mapping of its own by default, and unmaps it when it is freed;
+// after keep_freed_memory it comes from the heap, which keeps it once freed.
+TEST(Process, FreedMemoryIsKeptForTheNextAllocations) {
+#if defined(__GLIBC__)
+  if (testing::running_sanitized()) GTEST_SKIP() << "the sanitizer's allocator replaces glibc's";
+  keep_freed_memory();
+  const struct mallinfo2 before = ::mallinfo2();
+  void* block = std::malloc(std::size_t{4} << 20U);  // NOLINT(cppcoreguidelines-no-malloc)
+  ASSERT_NE(block, nullptr);
+  EXPECT_EQ(::mallinfo2().hblks, before.hblks);           // no mapping of its own
+  std::free(block);                                       // NOLINT(cppcoreguidelines-no-malloc)
+  EXPECT_GE(::mallinfo2().arena, std::size_t{4} << 20U);  // still the process's
+#else
+  GTEST_SKIP() << "keep_freed_memory does nothing here";
+#endif
 }
 
 }  // namespace

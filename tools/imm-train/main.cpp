@@ -292,6 +292,7 @@ int run(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   imm::io::skip_hdf5_shutdown_at_exit();  // before any HDF5 call (container_file.hpp)
+  imm::support::keep_freed_memory();      // buffers rebuilt every generation: no page faults
   const imm::trainer::Ranks::Session session(argc, argv);
   const int code = run(argc, argv);
   // A rank that fails (a file it cannot write, an error only it saw) must not leave the others
