@@ -4,10 +4,10 @@
 /// memetic polish), checkpointed after every generation, written as one "ga_fuzzy_imm" model file
 /// with `<model>.metrics.json` beside it.
 ///
-/// Checkpoints (`<model>.checkpoint`, written atomically) hold the finished levels and the current
-/// level's evaluated population; `--resume` continues from them to the same final model as an
-/// uninterrupted run (the GA draws its random numbers per generation, see genetic_algorithm.hpp).
-/// A checkpoint of another config or seed is refused.
+/// Checkpoints (`<model>.checkpoint`, written atomically, each while the next generation runs)
+/// hold the finished levels and the current level's evaluated population; `--resume` continues from
+/// them to the same final model as an uninterrupted run (the GA draws its random numbers per
+/// generation, see genetic_algorithm.hpp). A checkpoint of another config or seed is refused.
 
 #include <filesystem>
 #include <functional>
