@@ -180,8 +180,18 @@ SumOfSquares::SumOfSquares(int genes)
 }
 
 trainer::ga::Evaluation SumOfSquares::evaluate(const trainer::ga::Genome& genome) const {
-  double sum = 0.0;
-  for (double x : genome.genes) sum += x * x;
+  // Σ x² in eight partial sums (gene g into sum g mod 8) added pairwise at the end, as numpy's
+  // sum does: vector additions instead of one chain of 250 dependent ones.
+  constexpr std::size_t kLanes = 8;
+  const std::vector<double>& x = genome.genes;
+  double lanes[kLanes] = {};
+  std::size_t g = 0;
+  for (; g + kLanes <= x.size(); g += kLanes) {
+    for (std::size_t l = 0; l < kLanes; ++l) lanes[l] += x[g + l] * x[g + l];
+  }
+  for (std::size_t l = 0; g + l < x.size(); ++l) lanes[l] += x[g + l] * x[g + l];
+  const double sum = ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) +
+                     ((lanes[4] + lanes[5]) + (lanes[6] + lanes[7]));
   trainer::ga::Evaluation evaluation;
   evaluation.fitness = -sum;
   evaluation.error = sum;
