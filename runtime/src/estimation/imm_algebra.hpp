@@ -79,10 +79,9 @@ struct LibmFunctions {
     if constexpr (std::is_same_v<S, double>) {
       return f(x);
     } else {
-      double lanes[kLanesOf<S>];
-      lane_store(lanes, x);
+      Lanes<S> lanes = lanes_of(x);
       for (double& lane : lanes) lane = f(lane);
-      return lane_load<S>(lanes);
+      return from_lanes<S>(lanes);
     }
   }
 };

@@ -123,6 +123,11 @@ namespace {
 // block (a floating-point max reduction inside the loop stops the vectorizer).
 constexpr std::size_t kUpdateBlock = 64;
 
+// Lanes of the reductions over points: the largest change's running maxima and a data set's
+// partial sums (SumOrder::kInLanes), point k in lane k mod kLanes. A divisor of kUpdateBlock.
+constexpr std::size_t kLanes = 8;
+static_assert(kUpdateBlock % kLanes == 0, "a block's changes pad to whole lanes within it");
+
 // New memberships of points [first, first + count) for centers v, the old ones replaced where the
 // new ones are usable; writes each point's max |ΔU| (0 where unusable) to `change` and returns the
 // number of unusable points. m = 2: w_i = d²_min / d²_i; m = 4: ∛ of it (a ratio of 1 selects 1
@@ -172,11 +177,9 @@ IMM_VECTOR_CLONES int update_block(const double* __restrict data, std::size_t co
 template <int M>
 double update_memberships(const double* data, std::size_t n, const ClusterVector& v,
                           double* memberships) {
-  // The largest change in kMaxLanes running maxima, point k in lane k mod kMaxLanes (a maximum
-  // does not depend on the order it is taken in; one chain of scalar maxima cost a sixth of a
-  // data set's iteration).
-  constexpr std::size_t kMaxLanes = 8;
-  double lane_change[kMaxLanes] = {};
+  // The largest change in kLanes running maxima (a maximum does not depend on the order it is
+  // taken in; one chain of scalar maxima cost a sixth of a data set's iteration).
+  double lane_change[kLanes] = {};
   int unusable = 0;
   double block_change[kUpdateBlock];
   for (std::size_t first = 0; first < n; first += kUpdateBlock) {
@@ -184,10 +187,10 @@ double update_memberships(const double* data, std::size_t n, const ClusterVector
     unusable += update_block<M>(data + first, count, v(0), v(1), v(2),
                                 memberships + kFcmClusters * first, block_change);
     // A short last block's changes padded with zeros (no change is below zero).
-    const std::size_t padded = (count + kMaxLanes - 1) / kMaxLanes * kMaxLanes;
+    const std::size_t padded = (count + kLanes - 1) / kLanes * kLanes;
     std::fill(block_change + count, block_change + padded, 0.0);
-    for (std::size_t k = 0; k < padded; k += kMaxLanes) {
-      for (std::size_t l = 0; l < kMaxLanes; ++l) {
+    for (std::size_t k = 0; k < padded; k += kLanes) {
+      for (std::size_t l = 0; l < kLanes; ++l) {
         lane_change[l] = std::max(lane_change[l], block_change[k + l]);
       }
     }
@@ -217,28 +220,26 @@ double update_memberships(const double* data, std::size_t n, const ClusterVector
 }
 
 // How eq. (8)'s sums over the points are added: in point order (a window's; the FCM-IMM's
-// numbers depend on it to the bit), or point k into partial sum k mod kSumLanes, the partial sums
+// numbers depend on it to the bit), or point k into partial sum k mod kLanes, the partial sums
 // added pairwise at the end (a data set's: one vector of sums, not six chains of dependent
 // additions, and a rounding error that grows with n/8 instead of n).
-enum class SumOrder { kPointOrder, kLanes };
+enum class SumOrder { kPointOrder, kInLanes };
 
-constexpr std::size_t kSumLanes = 8;
-
-// The kSumLanes partial sums added pairwise: ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7)).
-inline double pairwise_total(double (&sums)[kSumLanes]) {
-  for (std::size_t width = kSumLanes / 2; width > 0; width /= 2) {
+// The kLanes partial sums added pairwise: ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7)).
+inline double pairwise_total(double (&sums)[kLanes]) {
+  for (std::size_t width = kLanes / 2; width > 0; width /= 2) {
     for (std::size_t l = 0; l < width; ++l) sums[l] = sums[2 * l] + sums[2 * l + 1];
   }
   return sums[0];
 }
 
-// Σ_k u_ik^m x_k and Σ_k u_ik^m by SumOrder::kLanes, u^m for the fuzzifier M (weight_power's
+// Σ_k u_ik^m x_k and Σ_k u_ik^m by SumOrder::kInLanes, u^m for the fuzzifier M (weight_power's
 // products; 0: any m, by pow). The partial sums are local, so that they stay in registers.
 template <int M>
 IMM_VECTOR_CLONES void center_sums_in_lanes(const double* __restrict data, std::size_t n,
                                             const double* __restrict memberships, double m,
                                             double* numerator, double* denominator) {
-  double num[kFcmClusters][kSumLanes] = {}, den[kFcmClusters][kSumLanes] = {};
+  double num[kFcmClusters][kLanes] = {}, den[kFcmClusters][kLanes] = {};
   const auto add = [&](std::size_t k, std::size_t l) {
     for (int i = 0; i < kFcmClusters; ++i) {
       const double u = memberships[kFcmClusters * k + static_cast<std::size_t>(i)];
@@ -248,8 +249,8 @@ IMM_VECTOR_CLONES void center_sums_in_lanes(const double* __restrict data, std::
     }
   };
   std::size_t first = 0;
-  for (; first + kSumLanes <= n; first += kSumLanes) {
-    for (std::size_t l = 0; l < kSumLanes; ++l) add(first + l, l);
+  for (; first + kLanes <= n; first += kLanes) {
+    for (std::size_t l = 0; l < kLanes; ++l) add(first + l, l);
   }
   for (std::size_t l = 0; first + l < n; ++l) add(first + l, l);
   for (int i = 0; i < kFcmClusters; ++i) {
@@ -261,9 +262,7 @@ IMM_VECTOR_CLONES void center_sums_in_lanes(const double* __restrict data, std::
 // Eq. (8)'s sums for every cluster, in the given order.
 void center_sums(std::span<const double> data, std::span<const double> memberships, double m,
                  SumOrder order, ClusterVector& numerator, ClusterVector& denominator) {
-  numerator.setZero();
-  denominator.setZero();
-  if (order == SumOrder::kLanes) {
+  if (order == SumOrder::kInLanes) {
     const auto sums = m == 2.0   ? center_sums_in_lanes<2>
                       : m == 3.0 ? center_sums_in_lanes<3>
                       : m == 4.0 ? center_sums_in_lanes<4>
@@ -271,6 +270,8 @@ void center_sums(std::span<const double> data, std::span<const double> membershi
     sums(data.data(), data.size(), memberships.data(), m, numerator.data(), denominator.data());
     return;
   }
+  numerator.setZero();
+  denominator.setZero();
   for (std::size_t k = 0; k < data.size(); ++k) {
     for (int i = 0; i < kFcmClusters; ++i) {
       const double w = weight_power(memberships[kFcmClusters * k + static_cast<std::size_t>(i)], m);
@@ -361,7 +362,7 @@ FcmResult fuzzy_c_means_from_memberships(std::span<const double> data,
   settings.validate();
   constexpr double kInf = std::numeric_limits<double>::infinity();
   return iterate(data, ClusterVector::Zero(), ClusterVector::Constant(-kInf),
-                 ClusterVector::Constant(kInf), settings, memberships, SumOrder::kLanes);
+                 ClusterVector::Constant(kInf), settings, memberships, SumOrder::kInLanes);
 }
 
 double fcm_objective(std::span<const double> data, const ClusterVector& centers,
