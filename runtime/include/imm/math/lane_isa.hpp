@@ -19,7 +19,8 @@
 #if IMM_HAS_VECTOR_CLONES
 /// Compiles a function for AVX-512 (where GCC can; empty elsewhere): a clone of that set beside the
 /// default, which GCC 12 compiles better than a target("avx512f") function (the GA bank took a
-/// third more time for code of the same length).
+/// third more time for code of the same length). Like IMM_VECTOR_CLONES, it must not throw
+/// (lane_math.hpp).
 #define IMM_TARGET_AVX512 __attribute__((target_clones("avx512f", "default")))
 /// Compiles a function for AVX2 (where GCC can; empty elsewhere).
 #define IMM_TARGET_AVX2 __attribute__((target_clones("avx2", "default")))

@@ -21,6 +21,9 @@
 /// On a function of lane loops: AVX-512 or AVX2 chosen at run time where GCC can (ifunc on x86-64
 /// Linux), SSE2 otherwise. The project compiles with -ffp-contract=off, so the AVX-512 clone (where
 /// FMA exists) contracts nothing either, and every instruction set computes the same bits.
+/// Such a function, and whatever it calls, must not throw: GCC 12 compiles a call through the
+/// clones' dispatcher as one that cannot throw, so an exception leaving a clone ends the program
+/// (std::terminate) instead of reaching the caller's handler. Check arguments before the call.
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
 #define IMM_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 /// 1 where IMM_VECTOR_CLONES makes clones (GCC on x86-64 Linux), 0 where it is empty.
