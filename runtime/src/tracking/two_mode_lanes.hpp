@@ -3,13 +3,14 @@
 // What the banks of two-mode IMMs in the 6-state space [x, vx, ax, y, vy, ay] share —
 // WimmTrackBank (CV and Singer, polar plots) and FimmTrackBank (two CA modes, a learned sensor):
 // a track is a lane; its modes' means and covariances' upper triangles, and log μ, are slots of
-// the bank's structure of arrays. Per block of W tracks: the predicted mode probabilities and
-// the mixing (ImmEstimator::predict_mode_probabilities and mix), the posterior μ
-// (ImmEstimator::finish_cycle) and the commit; each mode's prediction and update are the
-// one-track mode's (filters/position_kalman_step.hpp). Every statement of the vector parts is a
-// loop over the lanes, with no branch and no call, which the compiler vectorizes. What the modes'
-// innovations answer (the NIS, the gate, the gating matrix) is two_mode_innovations.hpp's. Not
-// installed.
+// the bank's structure of arrays. Per block of W tracks: the predicted mode probabilities, the
+// mixing weights and the posterior μ (imm_algebra.hpp's, every family's, over the block's lanes
+// as one pack), the mixing (ImmEstimator::mix) and the commit; each mode's prediction and update
+// are the one-track mode's (filters/position_kalman_step.hpp). The other vector parts are loops
+// over the lanes, with no branch and no call, which the compiler vectorizes (the mixing through
+// imm_algebra.hpp's collapse on packs measured 3–4 % slower: docs/performance.md). What the
+// modes' innovations answer (the NIS, the gate, the gating matrix) is two_mode_innovations.hpp's.
+// Not installed.
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -20,6 +21,7 @@
 #include <span>
 
 #include "axis_lane_bank.hpp"
+#include "estimation/imm_algebra.hpp"
 #include "filters/position_kalman_step.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
@@ -99,22 +101,23 @@ template <int W, class Slot>
                                                   Slot&& st, Mixing<W>& mixing,
                                                   double (&embedded)[2][6][W],
                                                   double (&covariance)[2][6][6][W]) {
-  const double* log_mu0 = st(log_mu);
-  const double* log_mu1 = st(log_mu + 1);
-  IMM_LANES {
-    const double a = log_mu0[l], c = log_mu1[l];
-    const double shift = pick(c > a, c, a);
-    const double scaled0 = lane_exp(a - shift), scaled1 = lane_exp(c - shift);
-    const double sum0 = 0.0 + p[0][0] * scaled0 + p[1][0] * scaled1;
-    const double sum1 = 0.0 + p[0][1] * scaled0 + p[1][1] * scaled1;
-    mixing.log_c[0][l] = lane_log(sum0) + shift;
-    mixing.log_c[1][l] = lane_log(sum1) + shift;
-    mixing.predicted[0][l] = lane_exp(mixing.log_c[0][l]);
-    mixing.predicted[1][l] = lane_exp(mixing.log_c[1][l]);
-    mixing.weight[0][0][l] = p[0][0] * scaled0 / sum0;
-    mixing.weight[1][0][l] = p[1][0] * scaled1 / sum0;
-    mixing.weight[0][1][l] = p[0][1] * scaled0 / sum1;
-    mixing.weight[1][1][l] = p[1][1] * scaled1 / sum1;
+  // The predicted mode probabilities and the mixing weights (imm_algebra.hpp) over the block's
+  // lanes as one pack. The bank's Π has no zero entry (checked where it is built), so no c̃_j
+  // underflows and exact_prediction is never needed.
+  using Pack = LanePackOf<W>;
+  using Fn = algebra::LaneFunctions;
+  const std::array<Pack, 2> log_mu_now{lane_load<Pack>(st(log_mu)),
+                                       lane_load<Pack>(st(log_mu + 1))};
+  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): the two calls below fill them
+  std::array<Pack, 2> scaled, predicted, log_c;
+  Pack weights[4];  // weights[j · 2 + i]: μ_ij
+  const Pack shift = algebra::scaled_probabilities<Fn>(2, log_mu_now, scaled);
+  algebra::predict_probabilities<Fn, algebra::Division::kDivide>(
+      2, [&p](int i, int j) { return p[i][j]; }, scaled, shift, predicted, log_c, weights);
+  for (int j = 0; j < 2; ++j) {
+    lane_store(mixing.log_c[j], log_c[j]);
+    lane_store(mixing.predicted[j], Fn::exp(log_c[j]));
+    for (int i = 0; i < 2; ++i) lane_store(mixing.weight[i][j], weights[j * 2 + i]);
   }
   for (int m = 0; m < 2; ++m) {
     const ModeSlots& mode = modes[static_cast<std::size_t>(m)];
@@ -191,20 +194,26 @@ template <int D0, int D1, int W>
                                           const ModeLanes<D1, W>& mode1, const double* usable,
                                           const double* stepped, double (&log_mu)[2][W],
                                           double* code, double* commit) {
-  IMM_LANES {
-    const double posterior0 = mode0.log_likelihood[l] + mixing.log_c[0][l];
-    const double posterior1 = mode1.log_likelihood[l] + mixing.log_c[1][l];
-    const double shift = pick(posterior1 > posterior0, posterior1, posterior0);
-    const double sum = 0.0 + lane_exp(posterior0 - shift) + lane_exp(posterior1 - shift);
-    const double log_sum = lane_log(sum);
-    log_mu[0][l] = (posterior0 - shift) - log_sum;
-    log_mu[1][l] = (posterior1 - shift) - log_sum;
-    const double mode_code = pick(mode0.code[l] != kOk, mode0.code[l], mode1.code[l]);
-    const double outcome =
-        pick(mode_code != kOk, mode_code, pick(std::isfinite(shift), kOk, kUnderflow));
-    code[l] = pick(usable[l] != 0.0, outcome, kBadPlot);
-    commit[l] = pick((stepped[l] != 0.0) & (code[l] == kOk), 1.0, 0.0);
-  }
+  // The posterior in log space (imm_algebra.hpp) over the block's lanes as one pack.
+  using Pack = LanePackOf<W>;
+  using Fn = algebra::LaneFunctions;
+  std::array<Pack, 2> centered{
+      lane_load<Pack>(mode0.log_likelihood) + lane_load<Pack>(mixing.log_c[0]),
+      lane_load<Pack>(mode1.log_likelihood) + lane_load<Pack>(mixing.log_c[1])};
+  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): posterior fills them
+  std::array<Pack, 2> scaled;
+  Pack sum, log_sum;
+  const Pack top = algebra::posterior<Fn>(2, centered, scaled, sum, log_sum);
+  lane_store(log_mu[0], centered[0] - log_sum);
+  lane_store(log_mu[1], centered[1] - log_sum);
+  // The outcome: the first mode's failure, the second's, or an underflow (no finite top:
+  // top − top is 0 for a finite top only).
+  const Pack code0 = lane_load<Pack>(mode0.code), code1 = lane_load<Pack>(mode1.code);
+  const Pack mode_code = pick(code0 != kOk, code0, code1);
+  const Pack outcome = pick(mode_code != kOk, mode_code, pick(top - top == 0.0, kOk, kUnderflow));
+  const Pack codes = pick(lane_load<Pack>(usable) != 0.0, outcome, kBadPlot);
+  lane_store(code, codes);
+  lane_store(commit, pick(lane_load<Pack>(stepped) != 0.0, pick(codes == kOk, 1.0, 0.0), 0.0));
 }
 
 /// Slot `slot` takes `value` in the lanes that commit.
