@@ -277,8 +277,8 @@ ModeVector mode_probabilities(Slot&& slot, int log_mu, std::ptrdiff_t lane) {
   return mu;
 }
 
-/// The combined estimate of lane `lane`: the modes embedded in the 6-state space, moment-matched
-/// with μ = exp(log μ) (ImmEstimator::combine).
+/// The combined estimate of lane `lane`: the modes embedded in the 6-state space (zero where a mode
+/// has no acceleration), collapsed with μ = exp(log μ) (imm_algebra.hpp; ImmEstimator::combine).
 template <class Slot>
 GaussianState<6> combined_estimate(Slot&& slot, const std::array<ModeSlots, 2>& modes, int log_mu,
                                    std::ptrdiff_t lane) {
@@ -301,13 +301,12 @@ GaussianState<6> combined_estimate(Slot&& slot, const std::array<ModeSlots, 2>& 
     mu[m] = std::exp(slot(log_mu + static_cast<int>(m))[lane]);
   }
   GaussianState<6> out;
-  out.mean = mu[0] * means[0] + mu[1] * means[1];
-  out.covariance.setZero();
-  for (std::size_t m = 0; m < 2; ++m) {
-    if (mu[m] == 0.0) continue;
-    const Vector<6> d = means[m] - out.mean;
-    out.covariance += mu[m] * (covariances[m] + d * d.transpose());
-  }
+  algebra::collapse<6, double>(
+      2, [&mu](int m) { return mu[m]; }, [&means](int m, int a) { return means[m](a); },
+      [&covariances](int m, int a, int c) { return covariances[m](a, c); },
+      [&out](int a) -> double& { return out.mean(a); },
+      [&out](int a, int c) -> double& { return out.covariance(a, c); });
+  out.covariance.triangularView<Eigen::StrictlyLower>() = out.covariance.transpose();
   return out;
 }
 
