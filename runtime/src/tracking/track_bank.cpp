@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "bank_checks.hpp"
+#include "estimation/imm_algebra.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/mode_transitions.hpp"
@@ -87,22 +88,14 @@ void TrackBank::initialize(std::size_t track, const GaussianState<kDim>& state) 
     at(mode_slot(j, kLogMu), t) = log_mu;
     at(mode_slot(j, kScaledMu), t) = std::exp(log_mu - shift);
   }
-  // The combination with μ₀, as ImmEstimator::initialize does.
-  Vector<kDim> mean = Vector<kDim>::Zero();
-  for (int j = 0; j < modes_; ++j)
-    mean += std::exp(initial_log_mu_[static_cast<std::size_t>(j)]) * mode_estimate(track, j).mean;
-  SquareMatrix<kDim> covariance = SquareMatrix<kDim>::Zero();
-  for (int j = 0; j < modes_; ++j) {
-    const double w = std::exp(initial_log_mu_[static_cast<std::size_t>(j)]);
-    if (w == 0.0) continue;
-    const GaussianState<kDim> mode = mode_estimate(track, j);
-    const Vector<kDim> d = mode.mean - mean;
-    covariance += w * (mode.covariance + d * d.transpose());
-  }
-  for (int a = 0; a < kDim; ++a) {
-    at(combined_slot(kMean + a), t) = mean(a);
-    for (int c = a; c < kDim; ++c) at(combined_slot(kCov + sym(a, c)), t) = covariance(a, c);
-  }
+  // The combination with μ₀, as ImmEstimator::initialize combines (imm_algebra.hpp's collapse):
+  // every mode starts at `state`, as stored (the covariance's upper triangle).
+  algebra::collapse<kDim, double>(
+      modes_, [this](int j) { return std::exp(initial_log_mu_[static_cast<std::size_t>(j)]); },
+      [&state](int /*j*/, int a) { return state.mean(a); },
+      [&state](int /*j*/, int a, int c) { return state.covariance(a, c); },
+      [&](int a) -> double& { return at(combined_slot(kMean + a), t); },
+      [&](int a, int c) -> double& { return at(combined_slot(kCov + sym(a, c)), t); });
   mark_initialized(t);
 }
 
