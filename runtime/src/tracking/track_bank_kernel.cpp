@@ -247,9 +247,6 @@ template <class S, int N>
   auto slot = [&](int index) { return out + index * b.stride + t; };
   // Written for the n modes before they are read.
   std::array<S, N> zx, zy, s00, s01, s11, c;  // NOLINT(cppcoreguidelines-pro-type-member-init)
-  S top = splat<S>(-std::numeric_limits<double>::infinity());
-  for (int j = 0; j < n; ++j) top = pick(top < p.log_c[0][j], p.log_c[0][j], top);
-  S total = splat<S>(0.0);
   for (int j = 0; j < n; ++j) {
     const Entries<S>& m = p.mixed[j][0];
     zx[j] = m[0];
@@ -266,22 +263,21 @@ template <class S, int N>
     lane_store(mode + 3 * b.stride, s11[j] * inverse_det);
     lane_store(mode + 4 * b.stride, -s01[j] * inverse_det);
     lane_store(mode + 5 * b.stride, s00[j] * inverse_det);
-    c[j] = lane_exp(p.log_c[0][j] - top);
-    total += c[j];
   }
-  S cx = splat<S>(0.0), cy = splat<S>(0.0);
-  for (int j = 0; j < n; ++j) {
-    c[j] = c[j] / total;
-    cx += c[j] * zx[j];
-    cy += c[j] * zy[j];
-  }
-  S t00 = splat<S>(0.0), t01 = splat<S>(0.0), t11 = splat<S>(0.0);
-  for (int j = 0; j < n; ++j) {
-    const S dx = zx[j] - cx, dy = zy[j] - cy;
-    t00 += c[j] * (s00[j] + dx * dx);
-    t01 += c[j] * (s01[j] + dx * dy);
-    t11 += c[j] * (s11[j] + dy * dy);
-  }
+  // c_j normalized from log c_j, and the modes' predicted plots collapsed with them.
+  algebra::normalized<algebra::LaneFunctions, S>(
+      n, [&p](int j) { return p.log_c[0][j]; }, c);
+  S cx, cy, t00, t01, t11;
+  S* const mean[2] = {&cx, &cy};
+  S* const covariance[3] = {&t00, &t01, &t11};
+  const std::array<S, N>* const plot[2] = {&zx, &zy};
+  const std::array<S, N>* const spread[3] = {&s00, &s01, &s11};
+  algebra::collapse<2, S>(
+      n, [&c](int j) -> const S& { return c[j]; },
+      [&plot](int j, int a) -> const S& { return (*plot[a])[j]; },
+      [&spread](int j, int a, int e) -> const S& { return (*spread[a + e])[j]; },
+      [&mean](int a) -> S& { return *mean[a]; },
+      [&covariance](int a, int e) -> S& { return *covariance[a + e]; });
   const S inverse_det = 1.0 / (t00 * t11 - t01 * t01);
   const int collapsed = n * kPlotSlots;
   lane_store(slot(collapsed), cx);
