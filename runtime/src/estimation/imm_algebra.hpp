@@ -338,8 +338,10 @@ template <int D, class S, Entries kEntries = Entries::kUpper, class Weight, clas
     // Column by column, (a, c) for a ≤ last(c): a column-major matrix's order.
     int k = 0;
     for (int c = 0; c < D; ++c) {
-      for (int a = 0; a <= last(c); ++a, ++k)
+      for (int a = 0; a <= last(c); ++a, ++k) {
+        // cppcheck-suppress uninitvar ; d[0 … D) is written above
         p[k] += weighted_term(w, w * (covariance(i, a, c) + d[a] * d[c]));
+      }
     }
   }
   for (int a = 0; a < D; ++a) out_mean(a) = m[a];
