@@ -27,6 +27,17 @@ namespace imm::bank {
 inline constexpr double kOk = 0.0, kBadPlot = 1.0, kSingular = 2.0, kNonFinite = 3.0,
                         kUnderflow = 4.0, kUndefined = 5.0;
 
+/// A lane's code after the posterior (ImmEstimator's checks, in their order): kBadPlot where its
+/// plot is unusable (`usable` 0), else the first failing mode's code (`mode_code`, kOk where none
+/// failed), else kUnderflow where max_j ℓ_j + log c_j (`top`) is not finite (every likelihood
+/// underflowed, or a NaN got through: top − top is 0 for a finite top only). S: a double or a pack.
+template <class S>
+[[nodiscard, gnu::always_inline]] inline S lane_outcome(const S& usable, const S& mode_code,
+                                                        const S& top) {
+  return pick(usable != 0.0,
+              pick(mode_code != kOk, mode_code, pick(top - top == 0.0, kOk, kUnderflow)), kBadPlot);
+}
+
 /// Each track's code from its lanes' outcomes: that of the first axis that failed, or kBadPlot
 /// where the step gave the lanes a NaN plot (an unusable one). Both lanes get it.
 template <int W>

@@ -319,12 +319,7 @@ template <class S, int N, int K, class F>
   Commit commit[K];
   std::array<S, N> posterior[K];
   for (int k = 0; k < K; ++k) {
-    // A max ℓ that is not finite: every likelihood underflowed (or a NaN got through).
-    const auto finite_top = top[k] - top[k] == 0.0;
-    const S lane_code =
-        pick(usable[k] != 0.0,
-             pick(outcome[k] != kOk, outcome[k], pick(finite_top, kOk, kUnderflow)), kBadPlot);
-    const S track = family.track_code(lane_code);
+    const S track = family.track_code(lane_outcome(usable[k], outcome[k], top[k]));
     lane_store(code + static_cast<std::ptrdiff_t>(k) * kLanes, track);
     commit[k] = pick(stepped[k] != 0.0, track, kBadPlot) == kOk;
     const S inverse_sum = algebra::inverse_of<kDivision<F>>(sum[k]);

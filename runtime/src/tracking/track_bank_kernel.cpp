@@ -157,6 +157,21 @@ CycleBlock cycle_of(const Block& b) {
   return {b.modes, b.transition, b.log_transition, b.state, b.stride};
 }
 
+// The modes' 2-vectors v_j = [v(j, 0), v(j, 1)] and 2 × 2 spreads S_j (upper triangle s(j, 0 … 2):
+// s00, s01, s11) collapsed with c_j = exp(log c_j − max) / Σ (log_c(j)), by imm_algebra.hpp's
+// normalized and collapse: v̄ = Σ c_j v_j into mean, and the upper triangle of
+// Σ c_j (S_j + (v_j − v̄)(v_j − v̄)ᵀ) into t. The NIS's and the predicted plot's collapse.
+template <class S, int N, class LogC, class V, class Spread>
+[[gnu::always_inline]] inline void collapse_plots(int n, LogC&& log_c, V&& v, Spread&& s,
+                                                  S (&mean)[2], S (&t)[3]) {
+  std::array<S, N> c;  // NOLINT(cppcoreguidelines-pro-type-member-init): the n written
+  algebra::normalized<algebra::LaneFunctions, S>(n, log_c, c);
+  algebra::collapse<2, S>(
+      n, [&c](int j) -> const S& { return c[j]; }, v,
+      [&s](int j, int a, int b) { return s(j, a + b); }, [&mean](int a) -> S& { return mean[a]; },
+      [&t](int a, int b) -> S& { return t[a + b]; });
+}
+
 // The NIS of the `real` tracks of a pack after its step (track_bank_kernel.hpp: step_tracks) from
 // what the cycle recorded: c_j = exp(log c_j − max) / Σ, ν̄ = Σ c_j ν_j,
 // S̄ = Σ c_j (S_j + (ν_j − ν̄)(ν_j − ν̄)ᵀ), then ν̄ᵀ S̄⁻¹ ν̄; NaN where a track's code is not kOk
@@ -168,21 +183,15 @@ template <class S, int N>
   auto at = [](const double* v, int j) {
     return lane_load<S>(v + std::ptrdiff_t{j} * PackInnovations::kPackLanes);
   };
-  std::array<S, N> c;  // NOLINT(cppcoreguidelines-pro-type-member-init): the n written
-  algebra::normalized<algebra::LaneFunctions, S>(
-      n, [&](int j) { return at(r.log_c, j); }, c);
-  // The modes' ν_j = [nu0, nu1] and S_j = [[s00, s01], [s01, s11]] collapsed (imm_algebra.hpp).
+  // The modes' ν_j = [nu0, nu1] and S_j = [[s00, s01], [s01, s11]].
   const double* const nu[2] = {r.nu0, r.nu1};
   const double* const s[3] = {r.s00, r.s01, r.s11};
-  S nu0, nu1, t00, t01, t11;
-  S* const mean[2] = {&nu0, &nu1};
-  S* const covariance[3] = {&t00, &t01, &t11};
-  algebra::collapse<2, S>(
-      n, [&c](int j) -> const S& { return c[j]; }, [&](int j, int a) { return at(nu[a], j); },
-      [&](int j, int a, int b) { return at(s[a + b], j); },
-      [&mean](int a) -> S& { return *mean[a]; },
-      [&covariance](int a, int b) -> S& { return *covariance[a + b]; });
-  const Lanes<S> lanes = lanes_of(quadratic_form_2x2(t00, t01, t11, nu0, nu1));
+  S nu_bar[2], s_bar[3];
+  collapse_plots<S, N>(
+      n, [&](int j) { return at(r.log_c, j); }, [&](int j, int a) { return at(nu[a], j); },
+      [&](int j, int e) { return at(s[e], j); }, nu_bar, s_bar);
+  const Lanes<S> lanes =
+      lanes_of(quadratic_form_2x2(s_bar[0], s_bar[1], s_bar[2], nu_bar[0], nu_bar[1]));
   for (int l = 0; l < real; ++l) {
     const auto u = static_cast<std::size_t>(l);
     nis[l] = codes[u] == kOk ? lanes[u] : std::numeric_limits<double>::quiet_NaN();
@@ -246,7 +255,7 @@ template <class S, int N>
   for (int j = 0; j < n; ++j) family.predict(j, p.mixed[j][0]);
   auto slot = [&](int index) { return out + index * b.stride + t; };
   // Written for the n modes before they are read.
-  std::array<S, N> zx, zy, s00, s01, s11, c;  // NOLINT(cppcoreguidelines-pro-type-member-init)
+  std::array<S, N> zx, zy, s00, s01, s11;  // NOLINT(cppcoreguidelines-pro-type-member-init)
   for (int j = 0; j < n; ++j) {
     const Entries<S>& m = p.mixed[j][0];
     zx[j] = m[0];
@@ -264,27 +273,20 @@ template <class S, int N>
     lane_store(mode + 4 * b.stride, -s01[j] * inverse_det);
     lane_store(mode + 5 * b.stride, s00[j] * inverse_det);
   }
-  // c_j normalized from log c_j, and the modes' predicted plots collapsed with them.
-  algebra::normalized<algebra::LaneFunctions, S>(
-      n, [&p](int j) { return p.log_c[0][j]; }, c);
-  S cx, cy, t00, t01, t11;
-  S* const mean[2] = {&cx, &cy};
-  S* const covariance[3] = {&t00, &t01, &t11};
+  // The collapsed prediction: ẑ and S̄.
   const std::array<S, N>* const plot[2] = {&zx, &zy};
   const std::array<S, N>* const spread[3] = {&s00, &s01, &s11};
-  algebra::collapse<2, S>(
-      n, [&c](int j) -> const S& { return c[j]; },
-      [&plot](int j, int a) -> const S& { return (*plot[a])[j]; },
-      [&spread](int j, int a, int e) -> const S& { return (*spread[a + e])[j]; },
-      [&mean](int a) -> S& { return *mean[a]; },
-      [&covariance](int a, int e) -> S& { return *covariance[a + e]; });
-  const S inverse_det = 1.0 / (t00 * t11 - t01 * t01);
+  S z_hat[2], s_bar[3];
+  collapse_plots<S, N>(
+      n, [&p](int j) { return p.log_c[0][j]; }, [&plot](int j, int a) { return (*plot[a])[j]; },
+      [&spread](int j, int e) { return (*spread[e])[j]; }, z_hat, s_bar);
+  const S inverse_det = 1.0 / (s_bar[0] * s_bar[2] - s_bar[1] * s_bar[1]);
   const int collapsed = n * kPlotSlots;
-  lane_store(slot(collapsed), cx);
-  lane_store(slot(collapsed + 1), cy);
-  lane_store(slot(collapsed + 2), t11 * inverse_det);
-  lane_store(slot(collapsed + 3), -t01 * inverse_det);
-  lane_store(slot(collapsed + 4), t00 * inverse_det);
+  lane_store(slot(collapsed), z_hat[0]);
+  lane_store(slot(collapsed + 1), z_hat[1]);
+  lane_store(slot(collapsed + 2), s_bar[2] * inverse_det);
+  lane_store(slot(collapsed + 3), -s_bar[1] * inverse_det);
+  lane_store(slot(collapsed + 4), s_bar[0] * inverse_det);
 }
 
 // Every plot of `s` against the kLanesOf<S> tracks at lane `t`: the pack's prediction is read once,

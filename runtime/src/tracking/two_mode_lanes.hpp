@@ -206,12 +206,9 @@ template <int D0, int D1, int W>
   const Pack top = algebra::posterior<Fn>(2, centered, scaled, sum, log_sum);
   lane_store(log_mu[0], centered[0] - log_sum);
   lane_store(log_mu[1], centered[1] - log_sum);
-  // The outcome: the first mode's failure, the second's, or an underflow (no finite top:
-  // top − top is 0 for a finite top only).
+  // The outcome: the first mode's failure, the second's, or an underflow.
   const Pack code0 = lane_load<Pack>(mode0.code), code1 = lane_load<Pack>(mode1.code);
-  const Pack mode_code = pick(code0 != kOk, code0, code1);
-  const Pack outcome = pick(mode_code != kOk, mode_code, pick(top - top == 0.0, kOk, kUnderflow));
-  const Pack codes = pick(lane_load<Pack>(usable) != 0.0, outcome, kBadPlot);
+  const Pack codes = lane_outcome(lane_load<Pack>(usable), pick(code0 != kOk, code0, code1), top);
   lane_store(code, codes);
   lane_store(commit, pick(lane_load<Pack>(stepped) != 0.0, pick(codes == kOk, 1.0, 0.0), 0.0));
 }
@@ -278,7 +275,8 @@ ModeVector mode_probabilities(Slot&& slot, int log_mu, std::ptrdiff_t lane) {
 }
 
 /// The combined estimate of lane `lane`: the modes embedded in the 6-state space (zero where a mode
-/// has no acceleration), collapsed with μ = exp(log μ) (imm_algebra.hpp; ImmEstimator::combine).
+/// has no acceleration; their covariances' upper triangles, all collapse reads), collapsed with
+/// μ = exp(log μ) (imm_algebra.hpp; ImmEstimator::combine).
 template <class Slot>
 GaussianState<6> combined_estimate(Slot&& slot, const std::array<ModeSlots, 2>& modes, int log_mu,
                                    std::ptrdiff_t lane) {
@@ -295,7 +293,7 @@ GaussianState<6> combined_estimate(Slot&& slot, const std::array<ModeSlots, 2>& 
       means[m](a) = slot(mode.mean + i)[lane];
       for (int k = i; k < n; ++k) {
         const int c = mixing_index(mode.d, k);
-        covariances[m](a, c) = covariances[m](c, a) = slot(mode.covariance + packed(n, i, k))[lane];
+        covariances[m](a, c) = slot(mode.covariance + packed(n, i, k))[lane];  // a ≤ c
       }
     }
     mu[m] = std::exp(slot(log_mu + static_cast<int>(m))[lane]);
