@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "batch_gradients.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -222,22 +224,27 @@ IMM_AVX512_INLINE Vec exp_nonpositive(Vec x) {
   return pick(underflow, splat(0.0), p * scale);
 }
 
-// sigmoids (above) of a layer's H pre-activations of both blocks, in place.
+// sigmoids (above) of a layer's H pre-activations of both blocks, in place: every exponential
+// first, then every division, then the products, so that the divisions issue back to back and
+// their latency overlaps (each lane's operations are the lane kernel's).
 template <int H>
 IMM_AVX512_INLINE void sigmoids(Vec (&a)[H][kBlocks]) {
   static_assert(H % 2 == 0);
   const Bits sign = reinterpret_cast<Bits>(splat(-0.0));
-  for (int r = 0; r < H; r += 2) {
-    Vec t0[kBlocks], t1[kBlocks];
+  Vec t[H][kBlocks], q[H / 2][kBlocks];
+  for (int r = 0; r < H; ++r) {
     for (int h = 0; h < kBlocks; ++h) {
-      t0[h] = exp_nonpositive(reinterpret_cast<Vec>(reinterpret_cast<Bits>(a[r][h]) | sign));
-      t1[h] = exp_nonpositive(reinterpret_cast<Vec>(reinterpret_cast<Bits>(a[r + 1][h]) | sign));
+      t[r][h] = exp_nonpositive(reinterpret_cast<Vec>(reinterpret_cast<Bits>(a[r][h]) | sign));
     }
+  }
+  for (int r = 0; r < H; r += 2) {
+    for (int h = 0; h < kBlocks; ++h) q[r / 2][h] = 1.0 / ((1.0 + t[r][h]) * (1.0 + t[r + 1][h]));
+  }
+  for (int r = 0; r < H; r += 2) {
     for (int h = 0; h < kBlocks; ++h) {
-      const Vec d0 = 1.0 + t0[h], d1 = 1.0 + t1[h];
-      const Vec q = 1.0 / (d0 * d1);
-      a[r][h] = pick(a[r][h] >= 0.0, splat(1.0), t0[h]) * (d1 * q);
-      a[r + 1][h] = pick(a[r + 1][h] >= 0.0, splat(1.0), t1[h]) * (d0 * q);
+      const Vec d0 = 1.0 + t[r][h], d1 = 1.0 + t[r + 1][h];
+      a[r][h] = pick(a[r][h] >= 0.0, splat(1.0), t[r][h]) * (d1 * q[r / 2][h]);
+      a[r + 1][h] = pick(a[r + 1][h] >= 0.0, splat(1.0), t[r + 1][h]) * (d0 * q[r / 2][h]);
     }
   }
 }
@@ -254,6 +261,12 @@ IMM_AVX512_INLINE void blocks_of_two(const std::vector<MlpLayer>& layers, double
   const double *w1 = p.w1, *w2 = p.w2, *w3 = p.w3, *b1 = p.b1, *b2 = p.b2, b3 = p.b3;
   Vec x[I][kBlocks], t[kBlocks], weight[kBlocks];
   for (int h = 0; h < kBlocks; ++h) {
+    if (valid[h] == kLanes) {  // a full block: each column's eight samples in one load
+      for (int c = 0; c < I; ++c) x[c][h] = _mm512_loadu_pd(&inputs(first[h], c));
+      t[h] = _mm512_loadu_pd(&targets(first[h])) * inverse_scale;
+      weight[h] = splat(inverse_n);
+      continue;
+    }
     for (int l = 0; l < kLanes; ++l) {
       const Eigen::Index s = first[h] + (l < valid[h] ? l : 0);
       for (int c = 0; c < I; ++c) x[c][h][l] = inputs(s, c);
@@ -348,47 +361,24 @@ __attribute__((target("avx512f,fma"), flatten)) void blocks(
 }  // namespace wide
 #endif
 
-// Gradient row k of a chunk's lane shares: w1, b1, w2, b2, w3, b3 in turn (kRows rows).
-template <int I, int H1, int H2>
-struct Rows {
-  static constexpr int kW1 = H1 * I, kB1 = kW1 + H1, kW2 = kB1 + H2 * H1, kB2 = kW2 + H2,
-                       kW3 = kB2 + H2, kRows = kW3 + 1;
-  static const std::array<double, kLanes>& row(const LaneSums<I, H1, H2>& g, int k) {
-    const auto at = [](int i) { return static_cast<std::size_t>(i); };
-    if (k < kW1) return g.w1[at(k)];
-    if (k < kB1) return g.b1[at(k - kW1)];
-    if (k < kW2) return g.w2[at(k - kB1)];
-    if (k < kB2) return g.b2[at(k - kW2)];
-    if (k < kW3) return g.w3[at(k - kB2)];
-    return g.b3[0];
+// Entry i of one gradient part (`part`: w1, b1, w2, b2, w3 or b3) summed over the chunks' lane
+// shares, into out[i]: over the chunks in order, lane by lane, then over the lanes by halves (lane
+// l + lane l + w, w = 4, 2, 1): a fixed order, so the same bits at any thread count.
+template <typename Sums, std::size_t N>
+IMM_FMA_CLONES void reduce_part(const std::vector<Sums>& chunks,
+                                std::array<std::array<double, kLanes>, N> Sums::*part,
+                                double* out) {
+  for (std::size_t i = 0; i < N; ++i) {
+    std::array<double, kLanes> acc = (chunks.front().*part)[i];
+    for (std::size_t c = 1; c < chunks.size(); ++c) {
+      const auto& share = (chunks[c].*part)[i];
+      for (std::size_t l = 0; l < kLanes; ++l) acc[l] += share[l];
+    }
+    for (std::size_t w = kLanes / 2; w >= 1; w /= 2) {
+      for (std::size_t l = 0; l < w; ++l) acc[l] += acc[l + w];
+    }
+    out[i] = acc[0];
   }
-  // Where row k of the gradient goes.
-  static double& out(std::vector<Eigen::MatrixXd>& weights, std::vector<Eigen::VectorXd>& biases,
-                     int k) {
-    if (k < kW1) return weights[0].data()[k];
-    if (k < kB1) return biases[0].data()[k - kW1];
-    if (k < kW2) return weights[1].data()[k - kB1];
-    if (k < kB2) return biases[1].data()[k - kW2];
-    if (k < kW3) return weights[2].data()[k - kB2];
-    return biases[2].data()[0];
-  }
-};
-
-// Row k of the chunks' lane shares: summed over the chunks in order, lane by lane, then over the
-// lanes by halves (lane l + lane l + w, w = 4, 2, 1): a fixed order, so the same bits at any
-// thread count.
-template <int I, int H1, int H2>
-double reduce_row(const std::vector<LaneSums<I, H1, H2>>& chunks, int k) {
-  using R = Rows<I, H1, H2>;
-  std::array<double, kLanes> acc = R::row(chunks.front(), k);
-  for (std::size_t c = 1; c < chunks.size(); ++c) {
-    const auto& share = R::row(chunks[c], k);
-    for (std::size_t l = 0; l < acc.size(); ++l) acc[l] += share[l];
-  }
-  for (std::size_t w = acc.size() / 2; w >= 1; w /= 2) {
-    for (std::size_t l = 0; l < w; ++l) acc[l] += acc[l + w];
-  }
-  return acc[0];
 }
 
 // Samples per chunk, at least: below it one chunk (and one thread) does the whole batch.
@@ -428,32 +418,39 @@ void fused_gradients_2_10_10(const std::vector<MlpLayer>& layers, double output_
   biases[0].resize(H1);
   biases[1].resize(H2);
   biases[2].resize(1);
-  using R = Rows<I, H1, H2>;
+  using Sums = LaneSums<I, H1, H2>;
   // The linear output's two-block kernel where the CPU has AVX-512 (and cap_lane_isa allows it).
   const bool wide_kernel = IMM_HAS_VECTOR_CLONES != 0 && lane_isa() == LaneIsa::kAvx512;
-  // One team for both loops: each chunk zeroed and summed by its thread, then the rows reduced
-  // over the threads (the implicit barrier between the loops waits for every chunk).
-#pragma omp parallel if (chunks > 1)
-  {
-#pragma omp for schedule(static)
-    for (Eigen::Index c = 0; c < chunks; ++c) {
-      const Eigen::Index begin = std::min(n, c * blocks_per_chunk * kLanes);
-      const Eigen::Index end = std::min(n, (c + 1) * blocks_per_chunk * kLanes);
-      LaneSums<I, H1, H2>& mine = sums[static_cast<std::size_t>(c)];
-      mine = LaneSums<I, H1, H2>{};
-      if (layers[2].activation == Activation::kSigmoid) {
-        blocks<I, H1, H2, true>(layers, output_scale, inputs, targets, begin, end, mine);
-      } else if (wide_kernel) {
+  // Chunk c zeroed and summed into its own lanes.
+  const auto sum_chunk = [&](Eigen::Index c) {
+    const Eigen::Index begin = std::min(n, c * blocks_per_chunk * kLanes);
+    const Eigen::Index end = std::min(n, (c + 1) * blocks_per_chunk * kLanes);
+    Sums& mine = sums[static_cast<std::size_t>(c)];
+    mine = Sums{};
+    if (layers[2].activation == Activation::kSigmoid) {
+      blocks<I, H1, H2, true>(layers, output_scale, inputs, targets, begin, end, mine);
+    } else if (wide_kernel) {
 #if IMM_HAS_VECTOR_CLONES
-        wide::blocks<I, H1, H2>(layers, output_scale, inputs, targets, begin, end, mine);
+      wide::blocks<I, H1, H2>(layers, output_scale, inputs, targets, begin, end, mine);
 #endif
-      } else {
-        blocks<I, H1, H2, false>(layers, output_scale, inputs, targets, begin, end, mine);
-      }
+    } else {
+      blocks<I, H1, H2, false>(layers, output_scale, inputs, targets, begin, end, mine);
     }
-#pragma omp for schedule(static)
-    for (int k = 0; k < R::kRows; ++k) R::out(weights, biases, k) = reduce_row(sums, k);
+  };
+  // One thread sums the chunks in turn without the OpenMP runtime: a team of one still pays a
+  // futex call at each barrier, a system call per gradient that cost W2a a sixth of its time.
+  if (chunks == 1 || omp_get_max_threads() == 1) {
+    for (Eigen::Index c = 0; c < chunks; ++c) sum_chunk(c);
+  } else {
+#pragma omp parallel for schedule(static)
+    for (Eigen::Index c = 0; c < chunks; ++c) sum_chunk(c);
   }
+  reduce_part(sums, &Sums::w1, weights[0].data());
+  reduce_part(sums, &Sums::b1, biases[0].data());
+  reduce_part(sums, &Sums::w2, weights[1].data());
+  reduce_part(sums, &Sums::b2, biases[1].data());
+  reduce_part(sums, &Sums::w3, weights[2].data());
+  reduce_part(sums, &Sums::b3, biases[2].data());
 }
 
 }  // namespace imm::trainer::mlp
