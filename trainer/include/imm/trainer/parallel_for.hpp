@@ -6,15 +6,30 @@
 /// error a user can act on. parallel_for catches every item's exception, lets the loop finish, and
 /// rethrows the exception of the lowest failing index: the same error at any thread count.
 
+#include <omp.h>
+
 #include <exception>
 
 namespace imm::trainer {
 
 /// Calls body(i) for every i in [0, count), items handed out dynamically in chunks of `chunk`.
+/// On one thread (or a single item) the loop runs without the OpenMP runtime, whose team of one
+/// still makes a system call at each barrier.
 template <class Body>
 void parallel_for(long count, int chunk, Body&& body) {
   std::exception_ptr first_error;
   long first_index = count;
+  if (count <= 1 || omp_get_max_threads() == 1) {
+    for (long i = 0; i < count; ++i) {
+      try {
+        body(i);
+      } catch (...) {
+        if (!first_error) first_error = std::current_exception();
+      }
+    }
+    if (first_error) std::rethrow_exception(first_error);
+    return;
+  }
 #pragma omp parallel for schedule(dynamic, chunk)
   for (long i = 0; i < count; ++i) {
     try {
