@@ -97,6 +97,25 @@ TEST(ImmAlgebra, ThePosteriorIsBayesRuleInLogSpaceAndSurvivesFarOffLikelihoods) 
   EXPECT_FALSE(std::isfinite(posterior<LibmFunctions>(2, none, none_scaled, sum, log_sum)));
 }
 
+TEST(ImmAlgebra, LogSumExpIsAMixturesLogDensityAndSurvivesFarOffComponents) {
+  // log(e^a + e^b + e^c) by the closed form.
+  const std::array<double, 3> v = {-2.5, -0.25, -7.0};
+  const double expected = std::log(std::exp(-2.5) + std::exp(-0.25) + std::exp(-7.0));
+  EXPECT_NEAR(log_sum_exp<LibmFunctions>(3, v), expected, 1e-15);
+  EXPECT_NEAR(log_sum_exp<LaneFunctions>(3, v), expected, 1e-15);
+  // Only the first n entries count.
+  EXPECT_NEAR(log_sum_exp<LibmFunctions>(2, v), std::log(std::exp(-2.5) + std::exp(-0.25)), 1e-15);
+  // Components far out in the tail (where exp of each underflows): the largest plus log 1 + e^−Δ.
+  const std::array<double, 2> far = {-1e3, -1e3 - std::log(3.0)};
+  EXPECT_NEAR(log_sum_exp<LaneFunctions>(2, far), -1e3 + std::log(4.0 / 3.0), 1e-12);
+  // A component of −∞ contributes nothing; every component −∞ gives −∞, not NaN.
+  const std::array<double, 2> one = {-kInf, -4.0};
+  EXPECT_EQ(log_sum_exp<LaneFunctions>(2, one), -4.0);
+  const std::array<double, 2> none = {-kInf, -kInf};
+  EXPECT_EQ(log_sum_exp<LibmFunctions>(2, none), -kInf);
+  EXPECT_EQ(log_sum_exp<LaneFunctions>(2, none), -kInf);
+}
+
 TEST(ImmAlgebra, TheExactFallbackTakesAnUnderflowedPredictionAndAnUnreachableMode) {
   // Mode 1 is reached only from itself, and its μ is e^−800: c̃_1 = p_11 μ̃_1 underflows to 0 in
   // the scaled sum, while log c_1 = log p_11 − 800 is finite. Mode 3 is reached from nowhere.
@@ -196,7 +215,8 @@ double lane(const P& pack, int l) {
 }
 
 // Every function of the file over a pack P and over each of its lanes as a double, on inputs
-// that differ per lane (some with underflowing and far-off values), compared to the bit.
+// that differ per lane (some with underflowing and far-off values, one lane with every centered
+// value −∞), compared to the bit.
 template <class P, class Fn, Division kDivision>
 void expect_lanes_equal_doubles(std::mt19937_64& rng) {
   constexpr int W = kLanesOf<P>, N = 5, D = 3;
@@ -208,7 +228,7 @@ void expect_lanes_equal_doubles(std::mt19937_64& rng) {
   for (int i = 0; i < n; ++i) {
     for (int l = 0; l < W; ++l) {
       log_mu[i][l] = u(rng);
-      centered[i][l] = l == 3 && i == 2 ? -1e30 : 40.0 * u(rng);
+      centered[i][l] = l == 3 && i == 2 ? -1e30 : l == 5 ? -kInf : 40.0 * u(rng);
       w[i][l] = l == 1 && i == 0 ? 0.0 : -u(rng);
       for (int a = 0; a < D; ++a) {
         m[i][a][l] = 100.0 * g(rng);
@@ -229,6 +249,7 @@ void expect_lanes_equal_doubles(std::mt19937_64& rng) {
   }
   const P pshift = scaled_probabilities<Fn>(n, plog_mu, pscaled);
   predict_probabilities<Fn, kDivision>(n, pt, pscaled, pshift, ppredicted, plog_c, pweights.data());
+  const P pmixture = log_sum_exp<Fn>(n, pcentered);
   P psum, plog_sum;
   const P ptop = posterior<Fn>(n, pcentered, pposterior, psum, plog_sum);
   normalized<Fn, P>(
@@ -251,6 +272,7 @@ void expect_lanes_equal_doubles(std::mt19937_64& rng) {
     const double dshift = scaled_probabilities<Fn>(n, dlog_mu, dscaled);
     predict_probabilities<Fn, kDivision>(n, pt, dscaled, dshift, dpredicted, dlog_c,
                                          dweights.data());
+    const double dmixture = log_sum_exp<Fn>(n, dcentered);
     double dsum = 0.0, dlog_sum = 0.0;
     const double dtop = posterior<Fn>(n, dcentered, dposterior, dsum, dlog_sum);
     normalized<Fn, double>(
@@ -262,6 +284,7 @@ void expect_lanes_equal_doubles(std::mt19937_64& rng) {
         [&](int a) -> double& { return dmean[a]; },
         [&](int a, int c) -> double& { return dcov[a][c]; });
 
+    EXPECT_EQ(bits(dmixture), bits(lane(pmixture, l)));
     EXPECT_EQ(bits(dtop), bits(lane(ptop, l)));
     EXPECT_EQ(bits(dsum), bits(lane(psum, l)));
     EXPECT_EQ(bits(dlog_sum), bits(lane(plog_sum, l)));

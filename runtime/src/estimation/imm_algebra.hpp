@@ -274,6 +274,17 @@ template <class Fn, class S, std::size_t N>
   return top;
 }
 
+/// log Σ_j exp(v_j) of the first n entries of v (a Gaussian mixture's log-density from its
+/// components' log-weighted densities): top + log Σ_j exp(v_j − top), top = max_j v_j, and −∞
+/// where every v_j is −∞.
+template <class Fn, class S, std::size_t N>
+[[nodiscard, gnu::always_inline]] inline S log_sum_exp(int n, const std::array<S, N>& v) {
+  const S top = largest<S>(n, v);
+  S sum = splat<S>(0.0);
+  for (int j = 0; j < n; ++j) sum += Fn::exp(S(v[j] - top));
+  return pick(top == -std::numeric_limits<double>::infinity(), top, S(top + Fn::log(sum)));
+}
+
 /// c_j = exp(v_j − max v) / Σ_k exp(v_k − max v) of the n log-weights v_j = log_weight(j), into
 /// `c` (c[j] = …).
 template <class Fn, class S, class LogWeight, class Out>

@@ -330,16 +330,12 @@ template <class S, int N>
       continue;
     }
     std::array<S, N> terms;  // NOLINT(cppcoreguidelines-pro-type-member-init): the n written
-    S top = splat<S>(-kInf);
     for (int j = 0; j < n; ++j) {
       const S ex = z.x() - zx[j], ey = z.y() - zy[j];
       const S m = i00[j] * (ex * ex) + 2.0 * (i01[j] * (ex * ey)) + i11[j] * (ey * ey);
       terms[j] = constant[j] - 0.5 * m;
-      top = pick(top < terms[j], terms[j], top);
     }
-    S sum = splat<S>(0.0);
-    for (int j = 0; j < n; ++j) sum += lane_exp(terms[j] - top);
-    const S log_likelihood = pick(top == -kInf, top, top + lane_log(sum));
+    const S log_likelihood = algebra::log_sum_exp<algebra::LaneFunctions, S>(n, terms);
     lane_store(to, pick(outside, splat<S>(-kInf), log_likelihood));
   }
 }
