@@ -439,6 +439,9 @@ void fused_gradients_2_10_10(const std::vector<MlpLayer>& layers, double output_
   };
   // One thread sums the chunks in turn without the OpenMP runtime: a team of one still pays a
   // futex call at each barrier, a system call per gradient that cost W2a a sixth of its time.
+  // parallel_for does the same, but hands its items out dynamically: here each thread keeps the
+  // same chunks, and their sums in its cache, every call (W2a on two threads: 105 ms static, 143
+  // ms through parallel_for).
   if (chunks == 1 || omp_get_max_threads() == 1) {
     for (Eigen::Index c = 0; c < chunks; ++c) sum_chunk(c);
   } else {

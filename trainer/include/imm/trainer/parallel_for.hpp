@@ -19,19 +19,8 @@ template <class Body>
 void parallel_for(long count, int chunk, Body&& body) {
   std::exception_ptr first_error;
   long first_index = count;
-  if (count <= 1 || omp_get_max_threads() == 1) {
-    for (long i = 0; i < count; ++i) {
-      try {
-        body(i);
-      } catch (...) {
-        if (!first_error) first_error = std::current_exception();
-      }
-    }
-    if (first_error) std::rethrow_exception(first_error);
-    return;
-  }
-#pragma omp parallel for schedule(dynamic, chunk)
-  for (long i = 0; i < count; ++i) {
+  // Item i, its exception kept where i is the lowest failing index so far.
+  const auto run = [&](long i) {
     try {
       body(i);
     } catch (...) {
@@ -41,6 +30,12 @@ void parallel_for(long count, int chunk, Body&& body) {
         first_error = std::current_exception();
       }
     }
+  };
+  if (count <= 1 || omp_get_max_threads() == 1) {
+    for (long i = 0; i < count; ++i) run(i);
+  } else {
+#pragma omp parallel for schedule(dynamic, chunk)
+    for (long i = 0; i < count; ++i) run(i);
   }
   if (first_error) std::rethrow_exception(first_error);
 }
