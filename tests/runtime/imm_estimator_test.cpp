@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -366,6 +367,54 @@ TEST(ImmEstimator, ZeroTransitionEntriesStayExactlyZero) {
   for (int k = 0; k < 10; ++k) ASSERT_EQ(imm.step(Vector<2>(10.0 + k, -5.0)), StepStatus::kOk);
   EXPECT_EQ(imm.mode_probabilities()(1), 0.0);
   EXPECT_TRUE(imm.estimate().all_finite());
+}
+
+// A mode that no mode moves to and that starts at μ = 0 cannot be reached: c_j = 0, log c_j = −∞.
+// Its mixed initial condition is its own estimate (weights δ_ij), so it runs as a Kalman filter
+// alone, and its probability stays exactly 0 while the others mix among themselves.
+TEST(ImmEstimator, AnUnreachableModeRunsAsAKalmanFilterAloneAtProbabilityZero) {
+  const auto quiet = constant_velocity<2>(1.0, 1e-4);
+  const auto agile = constant_velocity<2>(1.0, 1e-1);
+  const Cartesian4 measurement({0, 2}, measurement_covariance());
+  std::vector<std::unique_ptr<ImmMode<4, 2>>> modes;
+  modes.push_back(std::make_unique<KalmanMode<4, 4, Cartesian4>>("quiet", quiet, measurement,
+                                                                 StateEmbedding<4, 4>()));
+  modes.push_back(std::make_unique<KalmanMode<4, 4, Cartesian4>>("agile", agile, measurement,
+                                                                 StateEmbedding<4, 4>()));
+  modes.push_back(std::make_unique<KalmanMode<4, 4, Cartesian4>>("alone", agile, measurement,
+                                                                 StateEmbedding<4, 4>()));
+  Eigen::Matrix3d pi;
+  pi << 0.9, 0.1, 0.0,  //
+      0.2, 0.8, 0.0,    //
+      0.3, 0.3, 0.4;
+  ImmEstimator<4, 2> imm(std::move(modes), pi, Eigen::Vector3d(0.5, 0.5, 0.0));
+  imm.initialize(initial_cv_state());
+  GaussianState<4> kf = initial_cv_state();
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.5);
+  double most_agile = 0.0, least_agile = 1.0;
+  for (int k = 1; k <= 60; ++k) {
+    const double turn = k > 20 ? 0.3 * (k - 20) * (k - 20) : 0.0;
+    const Vector<2> z(10.0 + 0.1 * k + turn + noise(rng), -5.0 + 0.2 * k + noise(rng));
+    ASSERT_EQ(k % 7 == 0 ? imm.predict_only() : imm.step(z), StepStatus::kOk) << k;
+    kf = predict(kf, agile.transition, agile.process_noise);
+    if (k % 7 != 0) {
+      ASSERT_TRUE(update(kf, z, measurement).ok());
+    }
+    EXPECT_EQ(imm.mode_probabilities()(2), 0.0) << k;
+    EXPECT_EQ(imm.log_mode_probabilities()(2), -std::numeric_limits<double>::infinity()) << k;
+    Vector<4> mean;
+    SquareMatrix<4> covariance;
+    imm.mode(2).embedded_estimate(mean, covariance);
+    ASSERT_TRUE(testing::matrices_near(mean, kf.mean, 1e-12)) << "step " << k;
+    ASSERT_TRUE(testing::matrices_near(covariance, kf.covariance, 1e-12)) << "step " << k;
+    most_agile = std::max(most_agile, imm.mode_probabilities()(1));
+    least_agile = std::min(least_agile, imm.mode_probabilities()(1));
+  }
+  // The two reachable modes did mix: the quiet one led on the straight, the agile one in the turn.
+  EXPECT_LT(least_agile, 0.2);
+  EXPECT_GT(most_agile, 0.8);
+  EXPECT_NEAR(imm.mode_probabilities().sum(), 1.0, 1e-12);
 }
 
 TEST(ImmEstimator, RejectsInvalidConstruction) {

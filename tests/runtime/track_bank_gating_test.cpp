@@ -13,6 +13,7 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <string>
 
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/filters/plain_imm.hpp"
@@ -30,7 +31,9 @@ PlainImmSpec spec_with_modes(int n) {
   std::vector<ModeSpec> modes;
   for (int j = 0; j < n; ++j) {
     const double q = std::pow(10.0, -6.0 + 4.0 * j / std::max(n - 1, 1));
-    modes.push_back(testing::mode_spec("q" + std::to_string(j), MotionKind::kConstantVelocity, q));
+    std::string name = "q";  // appended, not "q" + …: GCC 12's -Wrestrict misreads the latter
+    name += std::to_string(j);
+    modes.push_back(testing::mode_spec(name, MotionKind::kConstantVelocity, q));
   }
   Eigen::Matrix2d R;
   R << 0.25, 0.02, 0.02, 0.3;
@@ -81,7 +84,7 @@ std::vector<Eigen::Vector2d> candidates(const std::vector<ImmEstimator<4, 2>>& p
   std::normal_distribution<double> spread(0.0, 2.0), close(0.0, 0.3);
   std::vector<Eigen::Vector2d> plots;
   for (std::size_t t = 0; t < predicted.size(); t += 2) {
-    Vector<2> z_hat;
+    Vector<2> z_hat = Vector<2>::Zero();
     SquareMatrix<2> S;
     EXPECT_TRUE(predicted[t].predicted_plot(z_hat, S));
     plots.push_back(z_hat + Eigen::Vector2d(close(rng), close(rng)));
