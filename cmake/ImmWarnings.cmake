@@ -15,3 +15,14 @@ function(imm_library name)
   target_include_directories(imm_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
   imm_target_warnings(imm_${name})
 endfunction()
+
+# imm_pressure_scheduling(<source>...): GCC's scheduling before register allocation (off by default
+# on x86), pressure-aware so that it does not spill more, for sources of this directory where it
+# was measured faster. Scheduling changes no operation, so not the bits; other compilers get
+# nothing. clang-tidy does not know -fsched-pressure: run it on these files with a compile
+# database that leaves the flag out.
+function(imm_pressure_scheduling)
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+    set_property(SOURCE ${ARGN} APPEND PROPERTY COMPILE_OPTIONS -fschedule-insns -fsched-pressure)
+  endif()
+endfunction()
