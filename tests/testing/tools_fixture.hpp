@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -75,5 +76,21 @@ class Tools : public ::testing::Test {
   TempDir dir_;
   std::filesystem::path root_;
 };
+
+// How many of an evaluation's headline metrics (what `imm-eval regression` compares) measure
+// consistency (the position NEES log ratio), each finite and ≥ 0.
+inline int consistency_headlines(const std::filesystem::path& out) {
+  const auto headline = nlohmann::json::parse(slurp(out / "headline.json"));
+  int count = 0;
+  for (const auto& m : headline.at("metrics")) {
+    if (m.at("name").get<std::string>().find("position_nees_log_ratio") == std::string::npos) {
+      continue;
+    }
+    const double value = m.at("value");
+    EXPECT_TRUE(std::isfinite(value) && value >= 0.0) << m.dump();
+    ++count;
+  }
+  return count;
+}
 
 }  // namespace imm::testing

@@ -376,45 +376,10 @@ class ImmEstimator {
   }
 
   // log c_j = log Σ_i p_ij μ_i (eq. 8's inner sum), through the scaled μ̃ (see the class comment).
-  void predict_mode_probabilities() {
-    const int n = mode_count();
-    const double shift = log_probabilities_.maxCoeff();
-    for (int i = 0; i < n; ++i) scaled_(i) = std::exp(log_probabilities_(i) - shift);
-    for (int j = 0; j < n; ++j) {
-      double c = 0.0;
-      for (int i = 0; i < n; ++i) c += transition_(i, j) * scaled_(i);
-      predicted_scaled_(j) = c;
-      if (c > 0.0) {
-        log_predicted_(j) = std::log(c) + shift;
-      } else {
-        for (int i = 0; i < n; ++i) scratch_(i) = log_transition_(i, j) + log_probabilities_(i);
-        log_predicted_(j) = log_sum_exp(scratch_);
-      }
-    }
-  }
+  void predict_mode_probabilities();
 
   // The mixed initial condition of mode j (eq. 4–6).
-  [[gnu::always_inline]] inline void mix(int j, GaussianState<NX>& mixed) {
-    const int n = mode_count();
-    // means_/covariances_ hold every mode's current estimate (see combine()).
-    if (log_predicted_(j) == -std::numeric_limits<double>::infinity()) {
-      // Mode j is unreachable under Π and μ: its weights are undefined; it keeps its own
-      // estimate as the initial condition and its probability stays zero.
-      mixed.mean = means_[index(j)];
-      mixed.covariance = covariances_[index(j)];
-      return;
-    }
-    if (predicted_scaled_(j) > 0.0) {
-      for (int i = 0; i < n; ++i) {
-        scratch_(i) = transition_(i, j) * scaled_(i) / predicted_scaled_(j);
-      }
-    } else {
-      for (int i = 0; i < n; ++i) {
-        scratch_(i) = std::exp(log_transition_(i, j) + log_probabilities_(i) - log_predicted_(j));
-      }
-    }
-    moment_match(scratch_, mixed);
-  }
+  [[gnu::always_inline]] inline void mix(int j, GaussianState<NX>& mixed);
 
   // Mixing and the modes' predict/update. Stops at the first failing mode.
   template <class Propose>
@@ -444,59 +409,18 @@ class ImmEstimator {
   }
 
   // Normalizes the posterior in log space, commits the modes and combines.
-  StepStatus finish_cycle() {
-    if (status_ != StepStatus::kOk) return status_;
-    const int n = mode_count();
-    const double shift = log_posterior_.maxCoeff();
-    if (!std::isfinite(shift)) return StepStatus::kProbabilityUnderflow;
-    double sum = 0.0;
-    for (int j = 0; j < n; ++j) {
-      scaled_(j) = std::exp(log_posterior_(j) - shift);
-      sum += scaled_(j);
-    }
-    // sum ≥ 1: the largest entry contributes exp(0). log μ_j = (ℓ_j − shift) − log sum, in that
-    // order: with log-likelihoods far from zero (a plot many σ away gives ℓ ≈ −1e30) the sum
-    // shift + log sum rounds to shift, and ℓ_j − (shift + log sum) would give two modes log μ = 0.
-    const double log_sum = std::log(sum);  // cppcheck-suppress invalidFunctionArg
-    for (auto& mode : modes_) mode->commit();
-    log_probabilities_ = (log_posterior_.array() - shift) - log_sum;
-    scaled_ /= sum;
-    combine(scaled_);
-    return StepStatus::kOk;
-  }
+  StepStatus finish_cycle();
 
   // Combination (eq. 10–11) with mode probabilities `mu` (linear, summing to 1). Refreshes
   // means_/covariances_ with the modes' current estimates, which the next mixing reuses: they
   // change only in initialize() and finish_cycle(), both of which end here.
-  void combine(const ModeVector& mu) {
-    const int n = mode_count();
-    for (int j = 0; j < n; ++j)
-      mode_at(j).embedded_estimate(means_[index(j)], covariances_[index(j)]);
-    moment_match(mu, combined_);
-  }
-
-  void combine() {
-    const int n = mode_count();
-    for (int j = 0; j < n; ++j) scaled_(j) = std::exp(log_probabilities_(j));
-    combine(scaled_);
-  }
+  void combine(const ModeVector& mu);
+  // Combination with the current μ (initialize()).
+  void combine();
 
   // Σ w_i N(means_i, covariances_i) collapsed to one Gaussian (weights sum to 1). The result is
   // exactly symmetric when the inputs are: entries (a, b) and (b, a) see the same operations.
-  void moment_match(const ModeVector& weights, GaussianState<NX>& out) const {
-    const int n = mode_count();
-    // Summed in locals, which stay in registers, and stored once.
-    Vector<NX> mean = Vector<NX>::Zero();
-    for (int i = 0; i < n; ++i) mean += weights(i) * means_[index(i)];
-    SquareMatrix<NX> covariance = SquareMatrix<NX>::Zero();
-    for (int i = 0; i < n; ++i) {
-      if (weights(i) == 0.0) continue;
-      const Vector<NX> d = means_[index(i)] - mean;
-      covariance += weights(i) * (covariances_[index(i)] + d * d.transpose());
-    }
-    out.mean = mean;
-    out.covariance = covariance;
-  }
+  void moment_match(const ModeVector& weights, GaussianState<NX>& out) const;
 
   static std::size_t index(int i) { return static_cast<std::size_t>(i); }
   Mode& mode_at(int i) { return *modes_[index(i)]; }
@@ -531,5 +455,6 @@ class ImmEstimator {
 
 }  // namespace imm
 
-// The two halves of a cycle (predict … update / miss), defined apart.
+// The arithmetic of the cycle and its two halves (predict … update / miss), defined apart.
+#include "imm/estimation/imm_estimator_arithmetic.hpp"
 #include "imm/estimation/imm_estimator_split.hpp"
