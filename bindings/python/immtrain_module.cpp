@@ -365,8 +365,9 @@ PYBIND11_MODULE(immtrain, m) {
   m.attr("model_schema_version") = imm::kModelSchemaVersion;
   static py::exception<imm::io::FileError> file_error(m, "FileError", PyExc_RuntimeError);
   static py::exception<imm::InvalidParameter> invalid(m, "InvalidParameter", PyExc_ValueError);
-  // pybind11's translator type takes the pointer by value.
-  py::register_exception_translator(
+  // pybind11's translator type takes the pointer by value. This module's functions alone (the
+  // lab module has its own, which raises these same classes).
+  py::register_local_exception_translator(
       [](std::exception_ptr p) {  // NOLINT(performance-unnecessary-value-param)
         try {
           if (p) std::rethrow_exception(p);

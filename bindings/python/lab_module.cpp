@@ -165,16 +165,25 @@ PYBIND11_MODULE(immtrain_lab, m) {
   m.doc() =
       "immtrain's trainer side: regimes, their tracks, the experiments of imm-eval and the "
       "trainings of imm-train (imported by immtrain on first use)";
-  py::register_exception_translator(
+  // The runtime's errors raise immtrain's own classes here too (immtrain.InvalidParameter, a
+  // ValueError; immtrain.FileError, a RuntimeError). The translator is this module's alone: a
+  // process-wide one, registered on first use of a lab name, would come before immtrain's and
+  // turn immtrain's own errors into plain ValueErrors from then on. The classes outlive the
+  // interpreter's teardown on purpose (released, never decremented).
+  static const py::handle invalid_parameter =
+      py::object(py::module_::import("immtrain").attr("InvalidParameter")).release();
+  static const py::handle file_error =
+      py::object(py::module_::import("immtrain").attr("FileError")).release();
+  py::register_local_exception_translator(
       [](std::exception_ptr p) {  // NOLINT(performance-unnecessary-value-param)
         try {
           if (p) std::rethrow_exception(p);
         } catch (const imm::support::ConfigError& e) {
           PyErr_SetString(PyExc_ValueError, e.what());
         } catch (const imm::InvalidParameter& e) {
-          PyErr_SetString(PyExc_ValueError, e.what());
+          PyErr_SetString(invalid_parameter.ptr(), e.what());
         } catch (const imm::io::FileError& e) {
-          PyErr_SetString(PyExc_RuntimeError, e.what());
+          PyErr_SetString(file_error.ptr(), e.what());
         }
       });
 

@@ -124,6 +124,20 @@ def test_an_experiment_returns_the_numbers_of_its_metrics_json(tmp_path):
     assert again["filters"]["GA-IMM"]["zeta_p"] == result["filters"]["GA-IMM"]["zeta_p"]
 
 
+def test_the_lab_raises_immtrains_errors_and_leaves_immtrains_own_as_documented(tmp_path):
+    """Once the trainer's side is loaded (here by the first lab name used), the runtime's errors
+    are still immtrain.InvalidParameter and immtrain.FileError, from immtrain's functions and from
+    the lab's alike."""
+    immtrain.regime_from_dict(SMALL)
+    bank = immtrain.TrackBank("models/cv3_imm.h5", 1)
+    with pytest.raises(immtrain.InvalidParameter, match="mean: expected 4 entries"):
+        bank.initialize(0, np.zeros(5), np.eye(5))
+    with pytest.raises(immtrain.FileError, match="no_such_model"):
+        immtrain.load_tracker(str(tmp_path / "no_such_model.h5"))
+    with pytest.raises(immtrain.FileError, match="no_such_model"):
+        immtrain.evaluate("plain-imm", model=str(tmp_path / "no_such_model.h5"))
+
+
 def test_experiment_options_are_checked():
     with pytest.raises(ValueError, match="experiment"):
         immtrain.evaluate("ga_imm")
