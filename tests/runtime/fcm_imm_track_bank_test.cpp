@@ -209,7 +209,7 @@ TEST(FcmImmTrackBank, RefusesWhatItCannotRun) {
   FcmImmTrackBank bank(spec, 3);
   GaussianState<4> bad = start_of(0);
   bad.mean(1) = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "state");
+  EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "initial_state");
   testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(1.0, 2.0));
   testing::expect_refused_gating(bank);
 }

@@ -344,7 +344,7 @@ TEST(FimmTrackBank, RefusesWhatItCannotRun) {
   bad.mean.setZero();
   bad.covariance.setIdentity();
   bad.covariance(2, 2) = std::numeric_limits<double>::infinity();
-  EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "state");
+  EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "initial_covariance");
   bad.covariance(2, 2) = 1.0;
   testing::expect_refused_misuse(bank, bad, Eigen::Vector2d(3.0, 1.0));
   testing::expect_refused_gating(bank);

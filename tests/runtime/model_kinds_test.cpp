@@ -4,7 +4,8 @@
 // load_filter, load_tracker, load_filter_maker and loadable_model_kinds know it; the six kinds of
 // the runtime answer to their command names; a name or alias already taken, or a kind without a
 // reader, is refused naming the field; open_track_bank opens every shipped model's bank behind
-// one interface, equal to that kind's bank stepped directly.
+// one interface, equal to that kind's bank stepped directly, and refusing the starts its
+// one-track filter refuses.
 
 #include "imm/model_kinds.hpp"
 
@@ -13,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -22,6 +24,7 @@
 #include "imm/load.hpp"
 #include "imm/math/lane_isa.hpp"
 #include "imm/tracking/track_filter.hpp"
+#include "testing/refused_field.hpp"
 #include "testing/shipped_models.hpp"
 #include "testing/temp_dir.hpp"
 
@@ -292,6 +295,63 @@ TEST(ModelKinds, EveryShippedModelOpensABankBehindOneInterface) {
     ++opened;
   }
   EXPECT_GE(opened, 6);
+}
+
+// Every shipped model's bank starts a track only from what its one-track filter starts from: a
+// start the filter refuses (a NaN mean, an infinite, asymmetric or negative variance) is refused
+// with the filter's field, and neither a running track nor one never started changes.
+TEST(ModelKinds, EveryShippedModelsBankRefusesTheStartsItsFilterRefuses) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  int checked = 0;
+  for (const auto& path : testing::shipped_models()) {
+    SCOPED_TRACE(path.string());
+    const std::unique_ptr<AnyTrackBank> bank = open_track_bank(path, 2);
+    const int n = bank->state_dimension();
+    const Eigen::VectorXd mean = Eigen::VectorXd::Constant(n, 1.0);
+    const Eigen::MatrixXd P = Eigen::MatrixXd::Identity(n, n) * 100.0;
+    bank->initialize(0, mean, P);
+    Eigen::VectorXd running_mean;
+    Eigen::MatrixXd running_covariance;
+    bank->estimate(0, running_mean, running_covariance);
+    const ModeVector running_mu = bank->mode_probabilities(0);
+    struct Start {
+      const char* what;
+      Eigen::VectorXd mean;
+      Eigen::MatrixXd covariance;
+    };
+    std::vector<Start> starts(4, Start{"", mean, P});
+    starts[0].what = "a NaN mean";
+    starts[0].mean(n - 1) = kNaN;
+    starts[1].what = "an infinite variance";
+    starts[1].covariance(1, 1) = kInf;
+    starts[2].what = "an asymmetric covariance";
+    starts[2].covariance(0, 1) = 2.0;
+    starts[3].what = "a negative variance";
+    starts[3].covariance(n - 1, n - 1) = -1.0;
+    for (const Start& start : starts) {
+      SCOPED_TRACE(start.what);
+      const std::unique_ptr<TrackFilter> filter = load_filter(path).filter;
+      const std::string field =
+          testing::refused_field_of([&] { filter->initialize(start.mean, start.covariance); });
+      ASSERT_FALSE(field.empty()) << "the one-track filter starts from it";
+      for (const std::size_t track : {std::size_t{0}, std::size_t{1}}) {
+        EXPECT_EQ(testing::refused_field_of(
+                      [&] { bank->initialize(track, start.mean, start.covariance); }),
+                  field)
+            << "track " << track;
+      }
+      Eigen::VectorXd m;
+      Eigen::MatrixXd c;
+      bank->estimate(0, m, c);
+      EXPECT_EQ(m, running_mean);
+      EXPECT_EQ(c, running_covariance);
+      EXPECT_EQ(bank->mode_probabilities(0), running_mu);
+      EXPECT_FALSE(bank->initialized(1));
+    }
+    ++checked;
+  }
+  EXPECT_GE(checked, 18);
 }
 
 // A step that states its NIS through the bank of the model at `path` (false: it states none): for

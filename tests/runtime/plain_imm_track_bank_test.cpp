@@ -163,7 +163,7 @@ TEST(PlainImmTrackBank, BadArgumentsAreRefusedNamingTheField) {
   bad.mean.setZero();
   bad.covariance = SquareMatrix<5>::Identity();
   bad.covariance(2, 2) = -1.0;
-  EXPECT_EQ(field_of([&] { bank.initialize(0, bad); }), "state");
+  EXPECT_EQ(field_of([&] { bank.initialize(0, bad); }), "initial_covariance");
   EXPECT_THROW(bank.initialize(2, GaussianState<5>{}), std::out_of_range);
   std::vector<Eigen::Vector2d> plots(2, Eigen::Vector2d::Zero());
   std::vector<StepStatus> status(2);

@@ -302,7 +302,7 @@ TEST(WimmTrackBank, RefusesWhatItCannotRun) {
   WimmTrackBank bank(spec, 3);
   GaussianState<6> bad = start_of(0);
   bad.mean(4) = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "state");
+  EXPECT_EQ(testing::refused_field_of([&] { bank.initialize(0, bad); }), "initial_state");
   testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(3e4, 0.5));
   spec.fusion = FusionVariant::kNone;  // the nIMM answers the gating question
   WimmTrackBank nimm(spec, 3);

@@ -7,6 +7,7 @@
 
 #include "axis_lane_bank.hpp"
 #include "imm/math/log_sum_exp.hpp"
+#include "initial_state_check.hpp"
 
 namespace imm {
 
@@ -36,6 +37,7 @@ ModeVector AxisImmLaneStorage::initial_probabilities() const {
 
 std::ptrdiff_t AxisImmLaneStorage::start_modes(std::size_t track, const GaussianState<4>& state) {
   const std::ptrdiff_t t = checked(track);
+  detail::check_initial_state(state);
   const double top = *std::max_element(initial_log_mu_.begin(), initial_log_mu_.end());
   for (int axis = 0; axis < 2; ++axis) {
     const std::ptrdiff_t lane = 2 * t + axis;

@@ -15,7 +15,6 @@
 #include "axis_lane_cycle.hpp"
 #include "axis_lane_gating.hpp"
 #include "bank_checks.hpp"
-#include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/filters/fcm_mode_step.hpp"
 #include "imm/filters/fuzzy_noise_step.hpp"
@@ -234,7 +233,6 @@ FcmImmTrackBank::FcmImmTrackBank(const FcmImmSpec& spec, std::size_t capacity)
 }
 
 void FcmImmTrackBank::initialize(std::size_t track, const GaussianState<4>& state) {
-  if (!state.all_finite()) throw InvalidParameter("state", "must be finite");
   // Every mode takes the state, μ its initial value, the clusterings empty windows.
   const std::ptrdiff_t t = start_modes(track, state);
   for (int axis = 0; axis < 2; ++axis) {

@@ -17,6 +17,7 @@
 #include "imm/filters/axis_filter.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/tracking/track_filter.hpp"
+#include "initial_state_check.hpp"
 
 namespace imm {
 namespace {
@@ -82,6 +83,7 @@ InputEstimatorTrackBank::InputEstimatorTrackBank(const MlpInputEstimatorModel& m
 
 void InputEstimatorTrackBank::initialize(std::size_t track, const GaussianState<4>& state) {
   const std::ptrdiff_t t = checked(track);
+  detail::check_initial_state(state);
   for (int axis = 0; axis < 2; ++axis) {
     const std::ptrdiff_t lane = 2 * t + axis;
     step::start([&](int entry) -> double& { return slot(entry)[lane]; },

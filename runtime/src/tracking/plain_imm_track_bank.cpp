@@ -8,6 +8,7 @@
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/tracking/track_filter.hpp"
+#include "initial_state_check.hpp"
 
 namespace imm {
 
@@ -29,10 +30,7 @@ PlainImmTrackBank<NX>::PlainImmTrackBank(const PlainImmSpec& spec, std::size_t c
 template <int NX>
 void PlainImmTrackBank<NX>::initialize(std::size_t track, const GaussianState<NX>& state) {
   const auto t = static_cast<std::size_t>(checked(track));
-  if (!state.usable()) {
-    throw InvalidParameter("state",
-                           "the mean and covariance must be finite, with no negative variance");
-  }
+  detail::check_initial_state(state);
   tracks_[t].initialize(state);
   mark_initialized(checked(track));
 }

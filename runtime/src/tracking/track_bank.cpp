@@ -16,6 +16,7 @@
 #include "imm/estimation/mode_transitions.hpp"
 #include "imm/math/log_sum_exp.hpp"
 #include "imm/models/motion/constant_velocity.hpp"
+#include "initial_state_check.hpp"
 #include "track_bank_kernel.hpp"
 
 namespace imm {
@@ -77,6 +78,7 @@ TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) : TrackBank
 
 void TrackBank::initialize(std::size_t track, const GaussianState<kDim>& state) {
   const std::ptrdiff_t t = checked(track);
+  detail::check_initial_state(state);
   double shift = -std::numeric_limits<double>::infinity();
   for (double v : initial_log_mu_) shift = std::max(shift, v);
   for (int j = 0; j < modes_; ++j) {

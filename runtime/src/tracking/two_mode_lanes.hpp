@@ -23,13 +23,13 @@
 #include "axis_lane_bank.hpp"
 #include "estimation/imm_algebra.hpp"
 #include "filters/position_kalman_step.hpp"
-#include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"
 #include "imm/estimation/step_status.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
 #include "imm/models/motion/motion_model.hpp"
+#include "initial_state_check.hpp"
 
 namespace imm::bank {
 
@@ -255,13 +255,13 @@ void start_mode(Slot&& slot, const ModeSlots& mode, std::ptrdiff_t lane,
 }
 
 /// Starts lane `lane` (ImmEstimator::initialize): both modes take their components of `state`,
-/// log μ (slots `log_mu`, `log_mu` + 1) the log of `initial`. InvalidParameter("state") for a
-/// state that is not finite.
+/// log μ (slots `log_mu`, `log_mu` + 1) the log of `initial`. InvalidParameter as
+/// detail::check_initial_state (the one-track filters' check), before anything changes.
 template <class Slot>
 void start_track(Slot&& slot, const std::array<ModeSlots, 2>& modes, int log_mu,
                  std::ptrdiff_t lane, const GaussianState<6>& state,
                  const Eigen::Vector2d& initial) {
-  if (!state.all_finite()) throw InvalidParameter("state", "must be finite");
+  detail::check_initial_state(state);
   for (const ModeSlots& mode : modes) start_mode(slot, mode, lane, state);
   for (int j = 0; j < 2; ++j) slot(log_mu + j)[lane] = safe_log(initial(j));
 }

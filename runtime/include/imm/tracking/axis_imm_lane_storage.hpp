@@ -52,7 +52,8 @@ class IMM_RUNTIME_EXPORT AxisImmLaneStorage : public LaneStorage {
   /// five entries take the axis's [x0, x1, p00, p01, p11] of `state`, its other entries 0, log μ
   /// and μ̃ = μ / max μ their initial values. Returns the track's index; the bank then sets its
   /// own slots and marks the track initialized. Throws std::out_of_range for a track ≥
-  /// capacity().
+  /// capacity(), InvalidParameter("initial_state" / "initial_covariance") for a start the
+  /// one-track filter refuses (require_initial_state).
   std::ptrdiff_t start_modes(std::size_t track, const GaussianState<4>& state);
 
   /// Π at i · modes + j, as the cycle reads it.

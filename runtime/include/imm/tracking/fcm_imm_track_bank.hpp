@@ -62,7 +62,8 @@ class IMM_RUNTIME_EXPORT FcmImmTrackBank : public AxisImmLaneStorage {
   /// Starts (or restarts) track `track` from [x, vx, y, vy] (the covariance's two axis blocks):
   /// every mode of each axis takes the state, μ its initial value, the clusterings empty windows
   /// (make_fcm_imm_filter's initialize). Throws std::out_of_range for a track ≥ capacity(),
-  /// InvalidParameter("state") for a non-finite state.
+  /// InvalidParameter("initial_state" / "initial_covariance") for a start the one-track filter
+  /// refuses (require_initial_state).
   void initialize(std::size_t track, const GaussianState<4>& state);
 
   /// The modes of each axis moment-matched with μ [x, vx, y, vy] (block-diagonal covariance).

@@ -57,7 +57,8 @@ class IMM_RUNTIME_EXPORT FimmTrackBank : public TwoModeLaneStorage {
 
   /// Starts (or restarts) track `track` from `state` ([ξ, ξ̇, ξ̈, η, η̇, η̈]): both modes take it, μ
   /// its initial value (FimmFilter::initialize). Throws std::out_of_range for a track ≥
-  /// capacity(), InvalidParameter("state") for a non-finite state.
+  /// capacity(), InvalidParameter("initial_state" / "initial_covariance") for a start the
+  /// one-track filter refuses (require_initial_state).
   void initialize(std::size_t track, const GaussianState<6>& state);
 
   // estimate(track) is [ξ, ξ̇, ξ̈, η, η̇, η̈] (FimmFilter::estimate), mode_probabilities(track)

@@ -58,7 +58,8 @@ class IMM_RUNTIME_EXPORT GaFuzzyTrackBank : public AxisImmLaneStorage {
   /// Starts (or restarts) track `track` from [x, vx, y, vy] (the covariance's two axis blocks;
   /// the cross terms are not used, as by the one-track filter): every mode takes the state, the
   /// mode probabilities their initial values, the tables' previous input 0. Throws
-  /// std::out_of_range for a track ≥ capacity().
+  /// std::out_of_range for a track ≥ capacity(), InvalidParameter("initial_state" /
+  /// "initial_covariance") for a start the one-track filter refuses (require_initial_state).
   void initialize(std::size_t track, const GaussianState<4>& state);
 
   /// The combined estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).

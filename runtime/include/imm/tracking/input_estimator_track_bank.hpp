@@ -52,7 +52,8 @@ class IMM_RUNTIME_EXPORT InputEstimatorTrackBank : public LaneStorage {
   /// Starts (or restarts) track `track` from [x, vx, y, vy] (the covariance's two axis blocks):
   /// both Kalman filters of each axis take the state, the input estimate 0, the windows their
   /// start (MlpInputEstimatorFilter::initialize). Throws std::out_of_range for a track ≥
-  /// capacity().
+  /// capacity(), InvalidParameter("initial_state" / "initial_covariance") for a start the
+  /// one-track filter refuses (require_initial_state).
   void initialize(std::size_t track, const GaussianState<4>& state);
 
   /// The corrected estimate [x, vx, y, vy] (block-diagonal covariance: the axes are independent).

@@ -42,8 +42,8 @@ class PlainImmTrackBank : public TrackBankCalls {
   [[nodiscard]] int mode_count() const { return tracks_.front().mode_count(); }
 
   /// Starts (or restarts) track `track` from `state` (ImmEstimator::initialize). Throws
-  /// std::out_of_range for a track ≥ capacity(), InvalidParameter("state") for a mean or
-  /// covariance with NaN or ±Inf or a negative variance.
+  /// std::out_of_range for a track ≥ capacity(), InvalidParameter("initial_state" /
+  /// "initial_covariance") for a start the one-track filter refuses (require_initial_state).
   void initialize(std::size_t track, const GaussianState<NX>& state);
 
   /// Makes the following cycles of every track span `interval` s (ImmEstimator::set_interval: F, Q

@@ -67,7 +67,10 @@ class IMM_RUNTIME_EXPORT TrackBank : public TrackBankCalls {
   [[nodiscard]] int mode_count() const { return modes_; }
 
   /// Starts (or restarts) track `track`: every mode takes `state`, the mode probabilities their
-  /// initial values. Throws std::out_of_range for a track ≥ capacity().
+  /// initial values. Throws std::out_of_range for a track ≥ capacity(), InvalidParameter
+  /// ("initial_state" / "initial_covariance") for a start the one-track filter refuses
+  /// (require_initial_state: a non-finite mean, a covariance not finite and symmetric with a
+  /// non-negative diagonal); nothing changes then.
   void initialize(std::size_t track, const GaussianState<kDim>& state);
 
   /// Makes the following cycles of every track (step, candidate_log_likelihoods) span `interval`

@@ -40,7 +40,8 @@ class IMM_RUNTIME_EXPORT TwoModeLaneStorage : public LaneStorage {
 
   /// Starts track `track` (ImmEstimator::initialize): both modes take their components of
   /// `state`, log μ the log of `initial`; returns the track's lane. Throws std::out_of_range for a
-  /// track ≥ capacity(), InvalidParameter("state") for a state that is not finite. The caller
+  /// track ≥ capacity(), InvalidParameter("initial_state" / "initial_covariance") for a start the
+  /// one-track filter refuses (require_initial_state). The caller
   /// sets its own slots and then marks the track initialized.
   std::ptrdiff_t start(std::size_t track, const GaussianState<6>& state,
                        const Eigen::Vector2d& initial);

@@ -55,7 +55,8 @@ class IMM_RUNTIME_EXPORT WimmTrackBank : public TwoModeLaneStorage {
 
   /// Starts (or restarts) track `track` from `state` ([x, vx, ax, y, vy, ay]): both modes take
   /// their components of it, μ its initial value (WimmFilter::initialize). Throws
-  /// std::out_of_range for a track ≥ capacity(), InvalidParameter("state") for a non-finite state.
+  /// std::out_of_range for a track ≥ capacity(), InvalidParameter("initial_state" /
+  /// "initial_covariance") for a start the one-track filter refuses (require_initial_state).
   void initialize(std::size_t track, const GaussianState<6>& state);
 
   // estimate(track) is [x, vx, ax, y, vy, ay] (WimmFilter::estimate), mode_probabilities(track)
