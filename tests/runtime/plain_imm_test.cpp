@@ -4,8 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <typeinfo>
@@ -195,6 +197,36 @@ TEST(PlainImmTracker, TwoPointInitializationByHand) {
   tracker.state(mean, variance);
   EXPECT_TRUE(testing::matrices_near(mean, Eigen::Vector4d(2.0, 2.0, -1.0, -1.0), 1e-15));
   EXPECT_TRUE(testing::matrices_near(variance, Eigen::Vector4d(0.25, 0.5, 0.25, 0.5), 1e-15));
+}
+
+// Scans up to 2⁶⁴ − 1 apart (a recording whose scans start near −2⁶³): every gap is counted
+// exactly, never wrapped into a negative one. A plot more than max_gap scans after the first is a
+// new first plot; one that far after a running track starts it again; the start's velocity is
+// that of the true span.
+TEST(PlainImmTracker, ScansFurtherApartThanASignedDifferenceReachesAreCountedExactly) {
+  constexpr std::int64_t kFirst = std::numeric_limits<std::int64_t>::min();
+  constexpr std::int64_t kLast = std::numeric_limits<std::int64_t>::max();
+  auto spec = cv3_spec();
+  spec.sample_period = 0.5;
+  PlainImmTracker tracker(spec);
+  EXPECT_EQ(tracker.process(kFirst, Eigen::Vector2d(0.0, 0.0)).event, TrackEvent::kWaiting);
+  EXPECT_EQ(tracker.process(kLast - 3, Eigen::Vector2d(2.0, -1.0)).event, TrackEvent::kWaiting);
+  EXPECT_EQ(tracker.process(kLast - 2, Eigen::Vector2d(3.0, -1.5)).event, TrackEvent::kInitialized);
+  Eigen::VectorXd mean(4), variance(4);
+  tracker.state(mean, variance);
+  EXPECT_TRUE(testing::matrices_near(mean, Eigen::Vector4d(3.0, 2.0, -1.5, -1.0), 1e-15));
+  PlainImmTracker running(spec);
+  (void)running.process(kFirst, Eigen::Vector2d(0.0, 0.0));
+  ASSERT_EQ(running.process(kFirst + 1, Eigen::Vector2d(1.0, 0.0)).event, TrackEvent::kInitialized);
+  EXPECT_EQ(running.process(kLast, Eigen::Vector2d(5.0, 5.0)).event, TrackEvent::kWaiting);
+  EXPECT_FALSE(running.initialized());
+  const std::optional<TrackStart> start =
+      two_point_start(spec.track_options(50), 4, kFirst, Eigen::Vector2d(0.0, 0.0), kLast,
+                      Eigen::Vector2d(1e3, -1e3));
+  ASSERT_TRUE(start.has_value());
+  EXPECT_GT(start->mean(1), 0.0);  // 1e3 over 2⁶⁴ − 1 scans: positive, about 1e-16
+  EXPECT_LT(start->mean(1), 1e-15);
+  EXPECT_LT(start->mean(3), 0.0);
 }
 
 TEST(PlainImmTracker, BadPlotsAreRejectedAndGapsPredicted) {

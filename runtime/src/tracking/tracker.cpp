@@ -3,6 +3,7 @@
 
 #include <Eigen/Cholesky>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -112,6 +113,17 @@ class PlainImmFilter final : public TrackFilter {
 }  // namespace
 
 namespace {
+// later − earlier, for later > earlier: exact in unsigned arithmetic, where the signed difference
+// overflows for scans more than 2⁶³ apart (a recording's first scan near −2⁶³, say).
+std::uint64_t scans_between(std::int64_t earlier, std::int64_t later) {
+  return static_cast<std::uint64_t>(later) - static_cast<std::uint64_t>(earlier);
+}
+
+// Whether `later` is more than `max_gap` (≥ 1) scans after `earlier`.
+bool more_than(std::int64_t max_gap, std::int64_t earlier, std::int64_t later) {
+  return scans_between(earlier, later) > static_cast<std::uint64_t>(max_gap);
+}
+
 constexpr std::array kTrackEventNames{EnumName<TrackEvent>{TrackEvent::kWaiting, "waiting"},
                                       EnumName<TrackEvent>{TrackEvent::kInitialized, "initialized"},
                                       EnumName<TrackEvent>{TrackEvent::kUpdated, "updated"},
@@ -239,7 +251,8 @@ std::optional<TrackStart> two_point_start(const TrackOptions& options, int state
   if (second_scan <= first_scan || state_dimension < 4) return std::nullopt;
   const CartesianPlot a = cartesian(options, first), b = cartesian(options, second);
   if (!a.position.allFinite() || !b.position.allFinite()) return std::nullopt;
-  const double dt = static_cast<double>(second_scan - first_scan) * options.sample_period;
+  const double dt =
+      static_cast<double>(scans_between(first_scan, second_scan)) * options.sample_period;
   return start_from(options, state_dimension, dt, a.position, a.covariance, b.position,
                     b.covariance);
 }
@@ -252,9 +265,10 @@ Tracker::Plot Tracker::cartesian_plot(std::int64_t scan, double time,
 
 void Tracker::start_track(const Plot& first, const Plot& second) {
   const int n = filter_->state_dimension();
-  const double dt = clock_ == Clock::kTimes
-                        ? second.time - first.time
-                        : static_cast<double>(second.scan - first.scan) * options_.sample_period;
+  const double dt =
+      clock_ == Clock::kTimes
+          ? second.time - first.time
+          : static_cast<double>(scans_between(first.scan, second.scan)) * options_.sample_period;
   const TrackStart start = start_from(options_, n, dt, first.position, first.covariance,
                                       second.position, second.covariance);
   filter_->initialize(start.mean, start.covariance);
@@ -299,9 +313,9 @@ TrackStepResult Tracker::start_at(std::int64_t scan, double time, const Eigen::V
     return reject(StepStatus::kInvalidMeasurement, "measurement is not convertible to a position");
   }
   // No first plot yet, or one too long ago: this plot is the first.
-  const bool first =
-      !first_plot_ || (clock_ == Clock::kTimes ? time - first_plot_->time > longest_gap()
-                                               : scan - first_plot_->scan > options_.max_gap);
+  const bool first = !first_plot_ || (clock_ == Clock::kTimes
+                                          ? time - first_plot_->time > longest_gap()
+                                          : more_than(options_.max_gap, first_plot_->scan, scan));
   if (first) {
     first_plot_ = plot;
     last_scan_ = scan, last_time_ = time;
@@ -330,14 +344,14 @@ TrackStepResult Tracker::process_scan(std::int64_t scan, double time, const Eige
   }
   if (auto bad = unusable(z)) return *bad;
 
-  if (initialized_ && scan - *last_scan_ > options_.max_gap) {
+  if (initialized_ && more_than(options_.max_gap, *last_scan_, scan)) {
     initialized_ = false;  // track lost: start again from this plot
     first_plot_.reset();
   }
   if (!initialized_) return start_at(scan, time, z);
 
-  // Predict through the skipped scans, then update. If the update fails, the predictions stay:
-  // the track then stands at the scan before this plot.
+  // Predict through the skipped scans (fewer than max_gap), then update. If the update fails, the
+  // predictions stay: the track then stands at the scan before this plot.
   TrackStepResult result;
   const std::int64_t gap = scan - *last_scan_ - 1;
   for (std::int64_t i = 0; i < gap; ++i) {
