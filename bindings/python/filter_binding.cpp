@@ -43,9 +43,8 @@ class PyFilter {
     if (covariance.rows() != n || covariance.cols() != n) {
       throw imm::InvalidParameter("covariance", "expected " + size + "×" + size);
     }
-    if (!mean.allFinite() || !covariance.allFinite()) {
-      throw imm::InvalidParameter("mean", "the mean and covariance must be finite");
-    }
+    // The filter's own check (imm::require_initial_state) names "initial_state" or
+    // "initial_covariance", as a bank's initialize does.
     filter_->initialize(mean, covariance);
     initialized_ = true;
   }
@@ -109,15 +108,19 @@ class PyFilter {
     return std::make_pair(z_hat, S);
   }
 
+  // Before initialize() or start() there is no state to report (the filter holds placeholders).
   [[nodiscard]] std::pair<Eigen::VectorXd, Eigen::MatrixXd> state() const {
-    const int n = filter_->state_dimension();
+    const imm::TrackFilter& f = started();
+    const int n = f.state_dimension();
     Eigen::VectorXd mean(n), variance(n);
     Eigen::MatrixXd covariance(n, n);
-    filter_->state(mean, variance);
-    filter_->covariance(covariance);
+    f.state(mean, variance);
+    f.covariance(covariance);
     return {mean, covariance};
   }
-  [[nodiscard]] Eigen::VectorXd mode_probabilities() const { return filter_->mode_probabilities(); }
+  [[nodiscard]] Eigen::VectorXd mode_probabilities() const {
+    return started().mode_probabilities();
+  }
   [[nodiscard]] bool predicts_before_the_plot() const {
     return filter_->predicts_before_the_plot();
   }
@@ -155,6 +158,10 @@ class PyFilter {
  private:
   static std::string name(imm::StepStatus status) { return std::string(imm::to_string(status)); }
   imm::TrackFilter& started() {
+    if (!initialized_) throw std::logic_error("Filter: initialize() it first");
+    return *filter_;
+  }
+  [[nodiscard]] const imm::TrackFilter& started() const {
     if (!initialized_) throw std::logic_error("Filter: initialize() it first");
     return *filter_;
   }

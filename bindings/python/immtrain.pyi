@@ -86,10 +86,13 @@ class TrackBank:
     def __init__(self, path: _Path, capacity: int) -> None:
         """A bank of `capacity` tracks of the model file at `path`; raises FileError."""
     def initialize(self, track: int, mean: npt.ArrayLike, covariance: npt.ArrayLike) -> None:
-        """Starts track `track` at mean (n,) with covariance (n, n); InvalidParameter otherwise."""
+        """Starts track `track` at mean (n,) with covariance (n, n), finite, the covariance
+        symmetric with a non-negative diagonal: what Filter.initialize takes; InvalidParameter
+        naming the field otherwise, and nothing changes."""
     def step(self, plots: npt.ArrayLike) -> List[str]:
-        """One scan of every track: plots (capacity, 2), one row per track (NaN: no plot). Returns
-        each track's status ("ok" or why its state was left unchanged); the GIL is released."""
+        """One scan of tracks 0 … N − 1: plots (N, 2), N ≤ capacity, one row per track (NaN: no
+        plot). Returns each track's status ("ok" or why its state was left unchanged); the GIL is
+        released. InvalidParameter for more rows than tracks."""
     def set_interval(self, dt: float) -> bool:
         """Makes the following steps of every track span dt seconds (a plain IMM without a noise
         schedule: F, Q and mode transitions of the interval). False, and nothing changed, for a
@@ -143,7 +146,9 @@ class Filter:
     def __init__(self, path: _Path) -> None:
         """The filter of the model file at `path`; raises FileError naming the field."""
     def initialize(self, mean: npt.ArrayLike, covariance: npt.ArrayLike) -> None:
-        """Starts the track at mean (n,) with covariance (n, n); InvalidParameter otherwise."""
+        """Starts the track at mean (n,) with covariance (n, n), finite, the covariance symmetric
+        with a non-negative diagonal; InvalidParameter naming the field ("initial_state",
+        "initial_covariance") otherwise."""
     def start(self, first_scan: int, first: npt.ArrayLike, second_scan: int,
               second: npt.ArrayLike) -> bool:
         """Starts the track from two plots (the two-point start load_tracker's Tracker makes:
@@ -171,9 +176,9 @@ class Filter:
     def miss(self) -> str:
         """The second half without a plot (a missed detection)."""
     def state(self) -> Tuple[_Array, _Array]:
-        """The combined mean (n,) and covariance (n, n)."""
+        """The combined mean (n,) and covariance (n, n); RuntimeError before initialize()."""
     def mode_probabilities(self) -> _Array:
-        """The mode probabilities (m,)."""
+        """The mode probabilities (m,); RuntimeError before initialize()."""
     @property
     def has_split_cycle(self) -> bool:
         """Whether predict(), update() and miss() work (every kind but a wIMM that fuses the azimuth)."""

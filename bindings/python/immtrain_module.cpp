@@ -294,6 +294,10 @@ class PyTrackBank {
       throw imm::InvalidParameter("plots", "expected an (N, 2) array of plots");
     }
     const auto rows = static_cast<std::size_t>(plots.shape(0));
+    if (rows > bank_->capacity()) {
+      throw imm::InvalidParameter("plots", "expected at most " + std::to_string(bank_->capacity()) +
+                                               " rows, one per track, got " + std::to_string(rows));
+    }
     plots_.resize(rows);
     status_.resize(rows);
     const auto p = plots.unchecked<2>();
@@ -331,6 +335,11 @@ class PyTrackBank {
       std::size_t tracks, double gate) {
     if (plots.ndim() != 2 || plots.shape(1) != 2) {
       throw imm::InvalidParameter("plots", "expected an (M, 2) array of plots");
+    }
+    if (tracks > bank_->capacity()) {
+      throw imm::InvalidParameter("tracks", "must be at most the bank's " +
+                                                std::to_string(bank_->capacity()) +
+                                                " tracks, got " + std::to_string(tracks));
     }
     const auto rows = static_cast<std::size_t>(plots.shape(0));
     std::vector<Eigen::Vector2d> candidates(rows);

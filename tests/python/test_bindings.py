@@ -167,6 +167,15 @@ def test_bad_plots_raise_invalid_parameter_or_are_rejected():
         tracker.process(3, [1.0, 2.0, 3.0])
 
 
+def test_a_filter_reports_no_state_before_it_starts():
+    f = immtrain.Filter(os.path.join(MODELS, "cv3_imm.h5"))
+    for question in (f.state, f.mode_probabilities):
+        with pytest.raises(RuntimeError, match="initialize"):
+            question()
+    f.initialize(np.zeros(4), np.eye(4))
+    assert f.state()[0].tolist() == [0.0] * 4 and f.mode_probabilities().sum() == pytest.approx(1)
+
+
 def test_a_filter_split_into_predict_candidates_and_update_equals_its_step():
     """immtrain.Filter: predict(), candidate questions, then update(z) or miss() give step()'s and
     predict_only()'s numbers to the bit on a plain IMM (here the CV/CA/CT IMM of agile_air); a

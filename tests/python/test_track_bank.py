@@ -215,3 +215,34 @@ def test_a_calibrated_models_bank_states_and_gates_as_its_filter(name):
         assert np.isfinite(entry[0, 0]) == inside
     assert immtrain.TrackBank(os.path.join(MODELS, "wimm.h5"), 1).calibrated
     assert not immtrain.TrackBank(os.path.join(MODELS, "cv3_imm.h5"), 1).calibrated
+
+
+def test_a_bank_refuses_bad_starts_and_more_rows_or_tracks_than_it_holds_naming_the_field():
+    """A start its one-track Filter refuses (NaN, an infinite, asymmetric or negative variance),
+    more plot rows than tracks and a gating question for more tracks than the bank holds raise
+    immtrain.InvalidParameter naming the field; a track already running is left as it was."""
+    model = os.path.join(MODELS, "cv3_imm.h5")
+    bank = immtrain.TrackBank(model, 2)
+    P0 = np.diag([100.0, 25.0, 100.0, 25.0])
+    bank.initialize(0, np.array([0.0, 10.0, 0.0, 0.0]), P0)
+    before = bank.estimate(0)
+    asymmetric = P0.copy()
+    asymmetric[0, 1] = 5.0
+    negative = P0.copy()
+    negative[3, 3] = -1.0
+    for mean, P, field in ((np.array([np.nan, 0.0, 0.0, 0.0]), P0, "initial_state"),
+                           (np.zeros(4), P0 * np.inf, "initial_covariance"),
+                           (np.zeros(4), asymmetric, "initial_covariance"),
+                           (np.zeros(4), negative, "initial_covariance")):
+        for track in (0, 1):
+            with pytest.raises(immtrain.InvalidParameter, match=field):
+                bank.initialize(track, mean, P)
+            with pytest.raises(immtrain.InvalidParameter, match=field):
+                immtrain.Filter(model).initialize(mean, P)
+    assert bank.estimate(0)[0].tolist() == before[0].tolist()
+    assert bank.estimate(0)[1].tolist() == before[1].tolist()
+    bank.initialize(1, np.zeros(4), P0)
+    with pytest.raises(immtrain.InvalidParameter, match="plots: expected at most 2 rows"):
+        bank.step(np.zeros((3, 2)))
+    with pytest.raises(immtrain.InvalidParameter, match="tracks: must be at most the bank's 2"):
+        bank.candidate_log_likelihoods(np.zeros((1, 2)), 3)
