@@ -310,6 +310,22 @@ TEST(TimeStamps, ATrackerRefusesTimesThatDoNotIncreaseMixedClocksAndOddIntervals
   EXPECT_EQ(plain.process_at(10.4, {1.0, 0.0}).event, TrackEvent::kInitialized);
   EXPECT_FALSE(plain.last_scan().has_value());
 
+  // Two plots too close in time for a finite velocity (1e-300 s apart): the later one is the first
+  // plot now, and the next plot starts the track from it.
+  PlainImmTracker close(one_cv_mode(NoiseForm::kPiecewiseConstant));
+  EXPECT_EQ(close.process_at(0.0, {0.0, 0.0}).event, TrackEvent::kWaiting);
+  EXPECT_EQ(close.process_at(1e-300, {1.0, 1.0}).event, TrackEvent::kWaiting);
+  EXPECT_FALSE(close.initialized());
+  EXPECT_EQ(close.process_at(2.0, {3.0, 0.0}).event, TrackEvent::kInitialized);
+  Eigen::VectorXd mean(4), variance(4);
+  close.state(mean, variance);
+  EXPECT_EQ(mean(1), 1.0);   // (3 − 1) / (2 − 1e-300)
+  EXPECT_EQ(mean(3), -0.5);  // (0 − 1) / 2
+  const TrackOptions options = one_cv_mode(NoiseForm::kPiecewiseConstant).track_options(50);
+  // A velocity beyond the doubles (plots ±1e308 apart): no start.
+  EXPECT_FALSE(two_point_start(options, 4, 0, {-1e308, 0.0}, 1, {1e308, 0.0}).has_value());
+  EXPECT_TRUE(two_point_start(options, 4, 0, {-1e3, 0.0}, 1, {1e3, 0.0}).has_value());
+
   // A learned model (of one period) fed times: whole periods only.
   for (const auto& path : testing::shipped_models()) {
     LoadedFilter loaded = load_filter(path);

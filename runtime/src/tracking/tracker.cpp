@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -212,9 +213,11 @@ namespace {
 
 // Two-point initialization: position from the second plot, velocity from the difference;
 // cov(p) = R₂, cov(v) = (R₁ + R₂)/Δt², cov(p, v) = R₂/Δt (Bar-Shalom, Li & Kirubarajan §5.5.3).
-TrackStart start_from(const TrackOptions& options, int n, double dt, const Eigen::Vector2d& p1,
-                      const Eigen::Matrix2d& r1, const Eigen::Vector2d& p2,
-                      const Eigen::Matrix2d& r2) {
+// Nothing where that start is not finite: plots too close in time (Δt → 0 overflows the velocity
+// and its variance).
+std::optional<TrackStart> start_from(const TrackOptions& options, int n, double dt,
+                                     const Eigen::Vector2d& p1, const Eigen::Matrix2d& r1,
+                                     const Eigen::Vector2d& p2, const Eigen::Matrix2d& r2) {
   // [x, vx, (ax), y, vy, (ay)], then ω when the state has an odd dimension (a CT mode's).
   const int per_axis = n / 2;
   TrackStart start{Eigen::VectorXd::Zero(n), Eigen::MatrixXd::Zero(n, n)};
@@ -233,6 +236,7 @@ TrackStart start_from(const TrackOptions& options, int n, double dt, const Eigen
       start.covariance(p + 2, p + 2) = options.initialization.acceleration_variance;
   }
   if (n % 2 == 1) start.covariance(n - 1, n - 1) = options.initialization.turn_rate_variance;
+  if (!(dt > 0.0) || !start.mean.allFinite() || !start.covariance.allFinite()) return std::nullopt;
   return start;
 }
 
@@ -263,15 +267,17 @@ Tracker::Plot Tracker::cartesian_plot(std::int64_t scan, double time,
   return {scan, time, converted.position, converted.covariance};
 }
 
-void Tracker::start_track(const Plot& first, const Plot& second) {
+bool Tracker::start_track(const Plot& first, const Plot& second) {
   const int n = filter_->state_dimension();
   const double dt =
       clock_ == Clock::kTimes
           ? second.time - first.time
           : static_cast<double>(scans_between(first.scan, second.scan)) * options_.sample_period;
-  const TrackStart start = start_from(options_, n, dt, first.position, first.covariance,
-                                      second.position, second.covariance);
-  filter_->initialize(start.mean, start.covariance);
+  const std::optional<TrackStart> start = start_from(
+      options_, n, dt, first.position, first.covariance, second.position, second.covariance);
+  if (!start) return false;
+  filter_->initialize(start->mean, start->covariance);
+  return true;
 }
 
 TrackStepResult Tracker::reject(StepStatus status, std::string_view reason) const {
@@ -312,17 +318,17 @@ TrackStepResult Tracker::start_at(std::int64_t scan, double time, const Eigen::V
   if (!plot.position.allFinite()) {
     return reject(StepStatus::kInvalidMeasurement, "measurement is not convertible to a position");
   }
-  // No first plot yet, or one too long ago: this plot is the first.
+  // No first plot yet, one too long ago, or one too close in time for a finite start: this plot
+  // is the first.
   const bool first = !first_plot_ || (clock_ == Clock::kTimes
                                           ? time - first_plot_->time > longest_gap()
                                           : more_than(options_.max_gap, first_plot_->scan, scan));
-  if (first) {
+  if (first || !start_track(*first_plot_, plot)) {
     first_plot_ = plot;
     last_scan_ = scan, last_time_ = time;
     result.event = TrackEvent::kWaiting;
     return with_envelope(result);
   }
-  start_track(*first_plot_, plot);
   first_plot_.reset();
   initialized_ = true;
   last_scan_ = scan, last_time_ = time;

@@ -108,7 +108,9 @@ class IMM_RUNTIME_EXPORT Tracker {
   enum class Clock { kNone, kScans, kTimes };
 
   [[nodiscard]] Plot cartesian_plot(std::int64_t scan, double time, const Eigen::Vector2d& z) const;
-  void start_track(const Plot& first, const Plot& second);
+  // Starts the filter from the two plots (two_point_start); false, and nothing changed, where they
+  // give no finite start (plots too close in time).
+  [[nodiscard]] bool start_track(const Plot& first, const Plot& second);
   // process() without the clock check (process_at of a filter of one sample period uses it, with
   // the plot's time for a two-point start).
   TrackStepResult process_scan(std::int64_t scan, double time, const Eigen::Vector2d& z);
@@ -148,8 +150,8 @@ struct IMM_RUNTIME_EXPORT TrackStart {
 /// plots converted with their covariance): position from the second plot, velocity from the
 /// difference over the scans' interval; cov(p) = R₂, cov(v) = (R₁ + R₂)/Δt², cov(p, v) = R₂/Δt;
 /// the options' acceleration and turn-rate variances for a 6- or odd-dimensional state. What
-/// Tracker does with its first two plots. Nothing when a plot has no finite position or the
-/// scans do not increase.
+/// Tracker does with its first two plots. Nothing when a plot has no finite position, the
+/// scans do not increase or the start is not finite.
 [[nodiscard]] IMM_RUNTIME_EXPORT std::optional<TrackStart> two_point_start(
     const TrackOptions& options, int state_dimension, std::int64_t first_scan,
     const Eigen::Vector2d& first, std::int64_t second_scan, const Eigen::Vector2d& second);
