@@ -69,6 +69,31 @@ MultiTargetResult run_multi_target(const datasets::Regime& regime,
       result.models.push_back(std::move(figures));
       continue;
     }
+    // A model of another length unit, sample period or plot space would read the scenes' plots
+    // 1000 times off, step once a scan over the wrong interval or take ranges for x: silently
+    // wrong figures (a model listed as not run above is not run on them).
+    const std::string units(datasets::to_string(regime.units));
+    const std::string& model_units = maker.provenance.length_unit;
+    if (!model_units.empty() && model_units != units) {
+      throw InvalidParameter("models", path.string() + " works in " + model_units + ", regime " +
+                                           regime.name + " in " + units);
+    }
+    const double period = maker.options.sample_period;
+    if (!(std::abs(period - regime.sample_period) <= 1e-9 * regime.sample_period)) {
+      throw InvalidParameter("models", path.string() +
+                                           " is built for T = " + std::to_string(period) +
+                                           " s, regime " + regime.name + " plots every " +
+                                           std::to_string(regime.sample_period) + " s");
+    }
+    const bool polar = maker.options.measurement_kind == MeasurementKind::kPolar;
+    if ((regime.sensor.kind == datasets::SensorKind::kCartesian && polar) ||
+        (regime.sensor.kind == datasets::SensorKind::kPolar && !polar)) {
+      throw InvalidParameter("models", path.string() + " takes " +
+                                           std::string(to_string(maker.options.measurement_kind)) +
+                                           " plots, regime " + regime.name + " has a " +
+                                           std::string(datasets::to_string(regime.sensor.kind)) +
+                                           " sensor");
+    }
     double scored = 0.0;
     for (int run = 0; run < settings.runs; ++run) {
       const datasets::Scene& scene = scenes[static_cast<std::size_t>(run)];

@@ -94,24 +94,32 @@ PlainImmResult evaluate_plain_imm(const PlainImmOptions& options) {
   r.scheduled = learned_schedule(reader.provenance()) && options.data.empty();
   datasets::TrackSet& data = r.tracks;
   r.length = "the data set's length unit";
+  std::string units;  // the tracks' length unit ("" where a stored set does not say)
   if (r.scheduled) {
     r.regimes = evaluation_regimes(options.common, reader.provenance(), r.model);
     const datasets::Regime& regime = r.regimes.evaluated.regime;
     data = test_tracks(regime, options.common);
-    r.length = std::string(datasets::to_string(regime.units));
+    r.length = units = std::string(datasets::to_string(regime.units));
     r.source = r.regimes.describe() + ", test split, seed " + std::to_string(options.common.seed);
   } else if (!options.data.empty()) {
     datasets::TrackSetFile stored = datasets::read_track_set(options.data);
     data = std::move(stored.set);
+    units = stored.units;
     r.source =
         options.data + " (regime " + data.regime + ", sha256 " + stored.digest.substr(0, 16) + ")";
   } else {
     const datasets::RegimeFile regime = load_regime_option(
         options.common.regime.value_or("configs/regimes/paper/ga_imm_table3.toml"));
     data = test_tracks(regime.regime, options.common);
-    r.length = std::string(datasets::to_string(regime.regime.units));
+    r.length = units = std::string(datasets::to_string(regime.regime.units));
     r.source =
         "regime " + regime.regime.name + " test split, seed " + std::to_string(options.common.seed);
+  }
+  // A model's lengths read in another unit would be 1000 times off (R, Q, the gate), silently.
+  const std::string& model_units = reader.provenance().length_unit;
+  if (!model_units.empty() && !units.empty() && model_units != units) {
+    throw std::runtime_error("model " + r.model.string() + ": length_unit: the model works in " +
+                             model_units + ", the tracks (" + r.source + ") in " + units);
   }
   if (std::abs(data.sample_period - spec.sample_period) > 1e-12 * spec.sample_period) {
     throw std::runtime_error("model " + r.model.string() + ": sample_period " +

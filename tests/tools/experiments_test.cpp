@@ -69,6 +69,24 @@ TEST(Experiments, PlainImmResultIsWhatItsReportWritesAndWhatTheLoopGives) {
   EXPECT_EQ(metrics["results"]["dataset_digest"], result.tracks.digest());
 }
 
+// A model is never evaluated on tracks of another length unit (its R and Q would be read 1000
+// times off): cv3_imm works in km, agile_air in m.
+TEST(Experiments, PlainImmRefusesTracksOfAnotherLengthUnitNamingBoth) {
+  evaluation::PlainImmOptions options;
+  options.common.runs = 2;
+  options.common.regime = "configs/regimes/agile_air.toml";
+  options.common.model = "models/cv3_imm.h5";
+  try {
+    (void)evaluation::evaluate_plain_imm(options);
+    ADD_FAILURE() << "evaluated a km model on a regime in m";
+  } catch (const std::runtime_error& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("length_unit: the model works in km"), std::string::npos) << message;
+    EXPECT_NE(message.find("agile_air"), std::string::npos) << message;
+    EXPECT_NE(message.find(" in m"), std::string::npos) << message;
+  }
+}
+
 TEST(Experiments, GaImmResultIsWhatItsReportWrites) {
   const TempDir dir;
   evaluation::GaImmOptions options;

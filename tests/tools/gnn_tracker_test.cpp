@@ -181,6 +181,26 @@ TEST(MultiTarget, ScenesAreReproducibleAndCleanScenesScoreBetter) {
   const MultiTargetResult d = run_multi_target(regime, {models[0]}, single);
   EXPECT_EQ(d.models[0].swaps, 0.0);
   EXPECT_GE(d.models[0].breaks, 0.0);
+  // A model of another length unit (cv3_imm: km), sample period (air_surveillance's: 5 s) or plot
+  // space (agile_air's Cartesian model on the same regime seen by a radar) is refused naming it,
+  // not run on plots it would read wrongly.
+  datasets::Regime radar = regime;
+  radar.sensor.kind = datasets::SensorKind::kPolar;
+  radar.sensor.noise.sigma = Eigen::Vector2d(30.0, 1e-3);
+  radar.sensor.position = Eigen::Vector2d(-50e3, 0.0);
+  const std::vector<std::pair<datasets::Regime, std::filesystem::path>> mismatched = {
+      {regime, "models/cv3_imm.h5"},
+      {regime, "models/classical_imm_air_surveillance.h5"},
+      {radar, models[0]}};
+  for (const auto& [seen_by, model] : mismatched) {
+    try {
+      (void)run_multi_target(seen_by, {model}, single);
+      ADD_FAILURE() << model << " was run on scenes it reads wrongly";
+    } catch (const InvalidParameter& error) {
+      EXPECT_EQ(error.field(), "models");
+      EXPECT_NE(std::string(error.what()).find(model.string()), std::string::npos) << error.what();
+    }
+  }
 }
 
 }  // namespace
