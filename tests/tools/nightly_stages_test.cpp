@@ -17,20 +17,9 @@
 #include "testing/study.hpp"
 #include "testing/temp_dir.hpp"
 
-namespace imm {
+// The plans, the tools and run_tool are imm::testing's (testing/nightly_plans.hpp).
+namespace imm::testing {
 namespace {
-
-namespace fs = std::filesystem;
-using testing::first_night;
-using testing::manifest;
-using testing::nightly;
-using testing::Plan;
-using testing::PlantedTools;
-using testing::run_tool;
-using testing::sha256_of;
-using testing::slurp;
-using testing::write_cv3;
-using testing::write_plan;
 
 Plan write_plan_with_a_broken_model(const testing::TempDir& dir) {
   write_cv3(dir / "cv3.toml", 1.0);
@@ -468,4 +457,4 @@ TEST(NightlyProduct, KillNineDuringPromotionLeavesTheOldOrTheNewState) {
 }
 
 }  // namespace
-}  // namespace imm
+}  // namespace imm::testing

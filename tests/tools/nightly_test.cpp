@@ -19,20 +19,9 @@
 #include "testing/temp_dir.hpp"
 #include "testing/tools_fixture.hpp"
 
-namespace imm {
+// The plans, the tools and run_tool are imm::testing's (testing/nightly_plans.hpp).
+namespace imm::testing {
 namespace {
-
-namespace fs = std::filesystem;
-using testing::first_night;
-using testing::manifest;
-using testing::nightly;
-using testing::Plan;
-using testing::PlantedTools;
-using testing::run_tool;
-using testing::sha256_of;
-using testing::slurp;
-using testing::write_cv3;
-using testing::write_plan;
 
 TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
   const testing::TempDir dir;
@@ -423,4 +412,4 @@ TEST(NightlyProduct, ACandidateTrainedFromUncommittedCodeIsNotPromoted) {
 }
 
 }  // namespace
-}  // namespace imm
+}  // namespace imm::testing
