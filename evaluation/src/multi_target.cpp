@@ -41,6 +41,35 @@ void MultiTargetSettings::validate() const {
   if (!(cutoff >= 0.0) || !std::isfinite(cutoff)) throw InvalidParameter("cutoff", "must be ≥ 0");
 }
 
+namespace {
+
+// InvalidParameter("models") for a model of another length unit, sample period or plot space
+// than the regime's: it would read the scenes' plots 1000 times off, step once a scan over the
+// wrong interval or take ranges for x — silently wrong figures.
+void require_the_regimes_plots(const datasets::Regime& regime, const std::filesystem::path& path,
+                               const FilterMaker& maker) {
+  std::string why;
+  const std::string units(datasets::to_string(regime.units));
+  const std::string& model_units = maker.provenance.length_unit;
+  const double period = maker.options.sample_period;
+  const bool polar = maker.options.measurement_kind == MeasurementKind::kPolar;
+  if (!model_units.empty() && model_units != units) {
+    why = " works in " + model_units + ", regime " + regime.name;
+    why += " in " + units;
+  } else if (!(std::abs(period - regime.sample_period) <= 1e-9 * regime.sample_period)) {
+    why = " is built for T = " + std::to_string(period) + " s, regime " + regime.name;
+    why += " plots every " + std::to_string(regime.sample_period) + " s";
+  } else if ((regime.sensor.kind == datasets::SensorKind::kCartesian && polar) ||
+             (regime.sensor.kind == datasets::SensorKind::kPolar && !polar)) {
+    why = " takes " + std::string(to_string(maker.options.measurement_kind)) + " plots, regime ";
+    why += regime.name + " has a " + std::string(datasets::to_string(regime.sensor.kind));
+    why += " sensor";
+  }
+  if (!why.empty()) throw InvalidParameter("models", path.string() + why);
+}
+
+}  // namespace
+
 MultiTargetResult run_multi_target(const datasets::Regime& regime,
                                    const std::vector<std::filesystem::path>& models,
                                    MultiTargetSettings settings) {
@@ -69,31 +98,8 @@ MultiTargetResult run_multi_target(const datasets::Regime& regime,
       result.models.push_back(std::move(figures));
       continue;
     }
-    // A model of another length unit, sample period or plot space would read the scenes' plots
-    // 1000 times off, step once a scan over the wrong interval or take ranges for x: silently
-    // wrong figures (a model listed as not run above is not run on them).
-    const std::string units(datasets::to_string(regime.units));
-    const std::string& model_units = maker.provenance.length_unit;
-    if (!model_units.empty() && model_units != units) {
-      throw InvalidParameter("models", path.string() + " works in " + model_units + ", regime " +
-                                           regime.name + " in " + units);
-    }
-    const double period = maker.options.sample_period;
-    if (!(std::abs(period - regime.sample_period) <= 1e-9 * regime.sample_period)) {
-      throw InvalidParameter("models", path.string() +
-                                           " is built for T = " + std::to_string(period) +
-                                           " s, regime " + regime.name + " plots every " +
-                                           std::to_string(regime.sample_period) + " s");
-    }
-    const bool polar = maker.options.measurement_kind == MeasurementKind::kPolar;
-    if ((regime.sensor.kind == datasets::SensorKind::kCartesian && polar) ||
-        (regime.sensor.kind == datasets::SensorKind::kPolar && !polar)) {
-      throw InvalidParameter("models", path.string() + " takes " +
-                                           std::string(to_string(maker.options.measurement_kind)) +
-                                           " plots, regime " + regime.name + " has a " +
-                                           std::string(datasets::to_string(regime.sensor.kind)) +
-                                           " sensor");
-    }
+    // A model listed as not run above is not run on plots it would read wrongly either.
+    require_the_regimes_plots(regime, path, maker);
     double scored = 0.0;
     for (int run = 0; run < settings.runs; ++run) {
       const datasets::Scene& scene = scenes[static_cast<std::size_t>(run)];
