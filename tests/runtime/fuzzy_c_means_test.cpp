@@ -19,7 +19,7 @@ namespace imm {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-const ClusterVector kFree = ClusterVector::Constant(kInf);
+const ClusterVector unbounded = ClusterVector::Constant(kInf);
 
 // --- Fuzzy c-means --------------------------------------------------------------------------
 
@@ -153,7 +153,7 @@ TEST(FuzzyCMeans, RecoversThreeWellSeparatedClusters) {
   FuzzyCMeansSettings settings;
   settings.tolerance = 1e-9;
   const FcmResult result =
-      fuzzy_c_means(data, ClusterVector(-1.0, 0.0, 1.0), -kFree, kFree, settings, u);
+      fuzzy_c_means(data, ClusterVector(-1.0, 0.0, 1.0), -unbounded, unbounded, settings, u);
   EXPECT_TRUE(result.converged);
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(result.centers(i), truth[i], 0.2) << i;
   for (std::size_t k = 0; k < data.size(); ++k) {
@@ -230,7 +230,7 @@ TEST(FuzzyCMeans, ADataSetsCentersAreItsSumsInEightPartialSums) {
   }
 }
 TEST(SlidingFuzzyCMeans, ProposeCommitAndTheWindow) {
-  SlidingFuzzyCMeans fcm(5, FuzzyCMeansSettings{}, -kFree, kFree);
+  SlidingFuzzyCMeans fcm(5, FuzzyCMeansSettings{}, -unbounded, unbounded);
   // Fewer than three points: noise.
   EXPECT_EQ(fcm.propose(4.0), ClusterVector(0.0, 1.0, 0.0));
   fcm.commit();
@@ -258,7 +258,7 @@ TEST(SlidingFuzzyCMeans, WarmStartAgreesWithABatchRunOnTheWindow) {
   FuzzyCMeansSettings settings;
   settings.tolerance = 1e-10;
   settings.max_iterations = 10000;
-  SlidingFuzzyCMeans online(window, settings, -kFree, kFree);
+  SlidingFuzzyCMeans online(window, settings, -unbounded, unbounded);
   datasets::Rng rng(5);
   std::vector<double> history;
   ClusterVector last;
@@ -275,7 +275,7 @@ TEST(SlidingFuzzyCMeans, WarmStartAgreesWithABatchRunOnTheWindow) {
   double mean = 0.0;
   for (double x : tail) mean += x / window;
   FcmResult batch =
-      fuzzy_c_means(tail, ClusterVector(lowest, mean, highest), -kFree, kFree, settings, u);
+      fuzzy_c_means(tail, ClusterVector(lowest, mean, highest), -unbounded, unbounded, settings, u);
   std::sort(batch.centers.data(), batch.centers.data() + 3);
   EXPECT_NEAR((batch.centers - online.centers()).cwiseAbs().maxCoeff(), 0.0, 1e-6);
   EXPECT_NEAR((fcm_memberships(history.back(), batch.centers, 2.0) - last).cwiseAbs().maxCoeff(),
@@ -283,10 +283,11 @@ TEST(SlidingFuzzyCMeans, WarmStartAgreesWithABatchRunOnTheWindow) {
 }
 
 TEST(SlidingFuzzyCMeans, RejectsBadSettings) {
-  EXPECT_THROW(SlidingFuzzyCMeans(2, FuzzyCMeansSettings{}, -kFree, kFree), InvalidParameter);
+  EXPECT_THROW(SlidingFuzzyCMeans(2, FuzzyCMeansSettings{}, -unbounded, unbounded),
+               InvalidParameter);
   FuzzyCMeansSettings bad;
   bad.fuzzifier = 1.0;
-  EXPECT_THROW(SlidingFuzzyCMeans(8, bad, -kFree, kFree), InvalidParameter);
+  EXPECT_THROW(SlidingFuzzyCMeans(8, bad, -unbounded, unbounded), InvalidParameter);
   EXPECT_THROW(SlidingFuzzyCMeans(8, FuzzyCMeansSettings{}, ClusterVector(0.0, 1.0, 2.0),
                                   ClusterVector(0.0, 0.0, 2.0)),
                InvalidParameter);
