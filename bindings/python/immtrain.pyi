@@ -216,7 +216,8 @@ class Filter:
 
 def load_tracker(path: _Path, max_gap: int = 50) -> Tracker:
     """A model file of any kind the runtime reads, as a Tracker; a track not updated for more
-    than max_gap scans is dropped. Raises FileError naming the field."""
+    than max_gap scans (1 to 1 000 000) is dropped. Raises FileError naming the field,
+    InvalidParameter for a max_gap outside its range."""
 
 def inspect(path: _Path) -> Dict[str, Any]:
     """The model's kind, regime, provenance, units and every parameter."""

@@ -229,6 +229,25 @@ TEST(PlainImmTracker, ScansFurtherApartThanASignedDifferenceReachesAreCountedExa
   EXPECT_LT(start->mean(3), 0.0);
 }
 
+// A gap is predicted through scan by scan, so max_gap is bounded (a million scans): a plot 10¹⁵
+// scans on with the largest max_gap restarts the track at once instead of predicting for days.
+TEST(PlainImmTracker, MaxGapIsBoundedSoThatNoPlotCostsMoreThanAMillionPredictions) {
+  const auto spec = cv3_spec();
+  for (const std::int64_t bad : {std::int64_t{0}, std::int64_t{1'000'001}}) {
+    try {
+      PlainImmTracker refused(spec, bad);
+      ADD_FAILURE() << "max_gap " << bad << " taken";
+    } catch (const InvalidParameter& error) {
+      EXPECT_EQ(error.field(), "max_gap");
+    }
+  }
+  PlainImmTracker tracker(spec, 1'000'000);
+  (void)tracker.process(0, Eigen::Vector2d(0.0, 0.0));
+  ASSERT_EQ(tracker.process(1, Eigen::Vector2d(1.0, 0.0)).event, TrackEvent::kInitialized);
+  EXPECT_EQ(tracker.process(1'000'000'000'000'000, Eigen::Vector2d(2.0, 0.0)).event,
+            TrackEvent::kWaiting);
+}
+
 TEST(PlainImmTracker, BadPlotsAreRejectedAndGapsPredicted) {
   PlainImmTracker tracker(cv3_spec());
   ASSERT_EQ(tracker.process(0, Eigen::Vector2d(0.0, 0.0)).event, TrackEvent::kWaiting);

@@ -111,7 +111,8 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_path, "output CSV (default: standard output)");
   app.add_option(
          "--max-gap", max_gap,
-         "scans (sample periods, for a t column) without a plot before the track is restarted")
+         "scans (sample periods, for a t column) without a plot before the track is restarted "
+         "(at most 1000000)")
       ->check(imm::support::at_least(1));
   if (const auto exit = imm::support::parse(app, argc, argv)) return *exit;
 

@@ -197,7 +197,13 @@ double TrackFilter::log_predictive_likelihood() const {
 Tracker::Tracker(std::unique_ptr<TrackFilter> filter, TrackOptions options)
     : filter_(std::move(filter)), options_(std::move(options)), envelope_(options_.envelope) {
   if (!filter_) throw InvalidParameter("filter", "must not be null");
-  if (options_.max_gap < 1) throw InvalidParameter("max_gap", "must be at least 1");
+  // A gap is predicted through scan by scan: a bound keeps one plot's cost bounded (a million
+  // predictions is about a second), whatever scans a hostile input names.
+  constexpr std::int64_t kLongestMaxGap = 1'000'000;
+  if (options_.max_gap < 1 || options_.max_gap > kLongestMaxGap) {
+    throw InvalidParameter("max_gap", "must be in [1, " + std::to_string(kLongestMaxGap) +
+                                          "] scans, got " + std::to_string(options_.max_gap));
+  }
   limits::require_sample_period(options_.sample_period, "sample_period");
   const int n = filter_->state_dimension();
   if (options_.initialization.method == InitializationMethod::kExplicit &&
