@@ -135,11 +135,11 @@ const SensorNoise& Regime::noise_of(int case_index) const {
 namespace {
 
 void validate_splits(const Splits& splits) {
-  require(splits.training >= 1 && splits.training <= 1'000'000, "splits.training",
+  require(splits.training >= 1 && splits.training <= kMaxSplitTracks, "splits.training",
           "must be in [1, 10⁶]");
-  require(splits.validation >= 1 && splits.validation <= 1'000'000, "splits.validation",
+  require(splits.validation >= 1 && splits.validation <= kMaxSplitTracks, "splits.validation",
           "must be in [1, 10⁶]");
-  require(splits.test >= 1 && splits.test <= 1'000'000, "splits.test", "must be in [1, 10⁶]");
+  require(splits.test >= 1 && splits.test <= kMaxSplitTracks, "splits.test", "must be in [1, 10⁶]");
 }
 
 }  // namespace

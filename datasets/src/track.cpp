@@ -4,7 +4,9 @@
 #include <Eigen/Cholesky>
 #include <cmath>
 #include <numbers>
+#include <string>
 
+#include "imm/core/invalid_parameter.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/recorded.hpp"
 #include "imm/datasets/sha256.hpp"
@@ -309,6 +311,10 @@ Track draw_track(const Regime& regime, Split split, int index, std::uint64_t see
 }
 
 TrackSet draw_split(const Regime& regime, Split split, std::uint64_t seed, int count) {
+  // A count the caller names (imm-data --count, imm-eval --runs, Regime.draw's runs) is held to
+  // what a split may hold, not left to run out of memory.
+  require(count <= kMaxSplitTracks, "count",
+          "at most 10⁶ tracks are drawn at once, got " + std::to_string(count));
   if (regime.recorded) return recorded_split(regime, split, count);
   TrackSet set;
   set.regime = regime.name;

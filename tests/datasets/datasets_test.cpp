@@ -195,6 +195,19 @@ TEST(Track, DrawsAreReproduciblePerSeedAndTrackAndSplitsAreDisjoint) {
   EXPECT_EQ(draw_split(r, Split::kTest, 1, 2).digest(), draw_split(r, Split::kTest, 1, 2).digest());
 }
 
+// A draw holds no more tracks than a split may (10⁶): a count beyond it (imm-data --count 2e9 ran
+// out of memory) is refused naming it, before anything is drawn.
+TEST(Track, ADrawOfMoreTracksThanASplitHoldsIsRefused) {
+  const Regime r = random_regime();
+  try {
+    (void)draw_split(r, Split::kTest, 1, kMaxSplitTracks + 1);
+    ADD_FAILURE() << "drew more tracks than a split holds";
+  } catch (const InvalidParameter& error) {
+    EXPECT_EQ(error.field(), "count");
+  }
+  EXPECT_EQ(draw_split(r, Split::kTest, 1, 1).tracks.size(), 1U);
+}
+
 TEST(Track, RandomSegmentsStayWithinTheirMenu) {
   const Regime r = random_regime();
   for (const Track& t : draw_split(r, Split::kTraining, 0, 20).tracks) {

@@ -161,6 +161,9 @@ struct Recorded {
   bool training_has_truth = false;
 };
 
+/// The most tracks a split holds (a regime's [splits]) and a draw makes at once.
+inline constexpr int kMaxSplitTracks = 1'000'000;
+
 struct Splits {
   int training = 12;
   int validation = 6;

@@ -67,7 +67,8 @@ struct TrackSet {
 /// Track `index` of a split (test: of the test seed `seed`).
 [[nodiscard]] Track draw_track(const Regime& regime, Split split, int index, std::uint64_t seed);
 
-/// `count` tracks of a split (−1: the regime's split size).
+/// `count` tracks of a split (−1: the regime's split size); InvalidParameter("count") above
+/// kMaxSplitTracks.
 [[nodiscard]] TrackSet draw_split(const Regime& regime, Split split, std::uint64_t seed,
                                   int count = -1);
 
