@@ -73,6 +73,18 @@ class Tools : public ::testing::Test {
     ASSERT_EQ(result.exit_code, 0) << result.err;
   }
 
+  /// `imm-train <command> --config <config_file> --regime <regime> --out <out>`, from the
+  /// source root.
+  [[nodiscard]] ToolResult train(const std::string& command,
+                                 const std::filesystem::path& config_file,
+                                 const std::filesystem::path& regime,
+                                 const std::filesystem::path& out) const {
+    return run_tool("imm-train",
+                    {command, "--config", config_file.string(), "--regime", regime.string(),
+                     "--out", out.string()},
+                    root_);
+  }
+
   TempDir dir_;
   std::filesystem::path root_;
 };

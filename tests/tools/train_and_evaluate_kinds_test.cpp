@@ -37,17 +37,11 @@ TEST_F(Tools, APolarRegimesTrackerIsChosenAmongItsWimmAndItsTunedNormalImm) {
   testing::write_text(regime, text);
   const auto models = dir_ / "models";
   const std::string wimm_config = config("configs/wimm_tuned.toml").string();
-  const auto baseline = run_tool("imm-train",
-                                 {"baseline", "--config", wimm_config, "--regime", regime.string(),
-                                  "--out", (models / "baseline.h5").string()},
-                                 root_);
+  const auto baseline = train("baseline", wimm_config, regime, models / "baseline.h5");
   ASSERT_EQ(baseline.exit_code, 0) << baseline.err;
   EXPECT_NE(baseline.err.find("the normal IMM tuned on the training split"), std::string::npos)
       << baseline.err;
-  const auto trained = run_tool("imm-train",
-                                {"wimm", "--config", wimm_config, "--regime", regime.string(),
-                                 "--out", (models / "wimm.h5").string()},
-                                root_);
+  const auto trained = train("wimm", wimm_config, regime, models / "wimm.h5");
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
 
   const auto tracker = dir_ / "shipped" / "polar_small" / "tracker.h5";
@@ -87,10 +81,7 @@ TEST_F(Tools, WimmTrainingAndEvaluationEndToEnd) {
   config.replace(config.find("max_evaluations = 150"), 21, "max_evaluations = 40");
   testing::write_text(dir_ / "wimm.toml", config);
   const auto models = dir_ / "models";
-  const auto trained = run_tool("imm-train",
-                                {"wimm", "--config", (dir_ / "wimm.toml").string(), "--regime",
-                                 regime.string(), "--out", (models / "wimm.h5").string()},
-                                root_);
+  const auto trained = train("wimm", dir_ / "wimm.toml", regime, models / "wimm.h5");
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
   EXPECT_NE(trained.err.find("threshold"), std::string::npos) << trained.err;
   const auto inspected = run_tool("imm-inspect", {(models / "wimm.h5").string()}, root_);

@@ -133,10 +133,7 @@ TEST_F(Tools, GaAndInputEstimatorTrainAndEvaluateOnARegimeWrittenInTheTest) {
   ga.replace(ga.find("generations = 100"), 17, "generations = 3");
   testing::write_text(dir_ / "ga.toml", ga);
   const auto models = dir_ / "models";
-  const auto trained = run_tool("imm-train",
-                                {"ga", "--config", (dir_ / "ga.toml").string(), "--regime",
-                                 ga_regime.string(), "--out", (models / "ga.h5").string()},
-                                root_);
+  const auto trained = train("ga", dir_ / "ga.toml", ga_regime, models / "ga.h5");
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
   EXPECT_NE(trained.err.find("levels [0.003, 0.03, 0.3]"), std::string::npos) << trained.err;
   const auto ga_report = run_tool("imm-eval",
@@ -173,10 +170,7 @@ TEST_F(Tools, GaAndInputEstimatorTrainAndEvaluateOnARegimeWrittenInTheTest) {
   }
   mlp.replace(mlp.find("max_validation_rmse = 0.3"), 25, "max_validation_rmse = 5.0");
   testing::write_text(dir_ / "mlp.toml", mlp);
-  const auto mlp_trained = run_tool("imm-train",
-                                    {"mlp", "--config", (dir_ / "mlp.toml").string(), "--regime",
-                                     mlp_regime.string(), "--out", (models / "mlp.h5").string()},
-                                    root_);
+  const auto mlp_trained = train("mlp", dir_ / "mlp.toml", mlp_regime, models / "mlp.h5");
   ASSERT_EQ(mlp_trained.exit_code, 0) << mlp_trained.err;
   const auto mlp_report = run_tool("imm-eval",
                                    {"input-estimator", "--models", models.string(), "--model",
@@ -238,10 +232,7 @@ TEST_F(Tools, TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest) {
                root_);
   ASSERT_EQ(baseline.exit_code, 0) << baseline.err;
   EXPECT_NE(baseline.err.find("tuned on the training split"), std::string::npos) << baseline.err;
-  const auto trained = run_tool("imm-train",
-                                {"ga", "--config", (dir_ / "tuned.toml").string(), "--regime",
-                                 regime.string(), "--out", (models / "ga.h5").string()},
-                                root_);
+  const auto trained = train("ga", dir_ / "tuned.toml", regime, models / "ga.h5");
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
 
   // The GA model's own experiment, whose gates decide whether it may be the tracker at all.
@@ -351,10 +342,7 @@ TEST_F(Tools, TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest) {
   // baseline from its [classical] config; ranked beside the constant-q baseline, the better of the
   // two on the test tracks is the bar the GA model faces, and the other is never the tracker.
   const auto classical =
-      run_tool("imm-train",
-               {"baseline", "--config", config("configs/classical_imm.toml").string(), "--regime",
-                regime.string(), "--out", (models / "classical.h5").string()},
-               root_);
+      train("baseline", config("configs/classical_imm.toml"), regime, models / "classical.h5");
   ASSERT_EQ(classical.exit_code, 0) << classical.err;
   EXPECT_NE(classical.err.find("the classical IMM tuned on the training split"), std::string::npos)
       << classical.err;
