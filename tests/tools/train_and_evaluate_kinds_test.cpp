@@ -11,14 +11,9 @@
 #include "testing/shipped_tracker.hpp"
 #include "testing/tools_fixture.hpp"
 
-namespace imm {
+// The fixture and its helpers are imm::testing's (testing/tools_fixture.hpp).
+namespace imm::testing {
 namespace {
-
-using testing::consistency_headlines;
-using testing::evaluation_results;
-using testing::kTable3;
-using testing::run_tool;
-using testing::Tools;
 
 TEST_F(Tools, APolarRegimesTrackerIsChosenAmongItsWimmAndItsTunedNormalImm) {
   std::string text = testing::slurp(config("configs/regimes/air_surveillance.toml"));
@@ -381,4 +376,4 @@ TEST_F(Tools, TskTrainingFromStoredSamples) {
 }
 
 }  // namespace
-}  // namespace imm
+}  // namespace imm::testing

@@ -11,14 +11,9 @@
 #include "testing/shipped_tracker.hpp"
 #include "testing/tools_fixture.hpp"
 
-namespace imm {
+// The fixture and its helpers are imm::testing's (testing/tools_fixture.hpp).
+namespace imm::testing {
 namespace {
-
-using testing::consistency_headlines;
-using testing::evaluation_results;
-using testing::kTable3;
-using testing::run_tool;
-using testing::Tools;
 
 TEST_F(Tools, ImmTrainFreezeNamesTheBadKey) {
   testing::write_text(dir_ / "bad.toml",
@@ -370,4 +365,4 @@ TEST_F(Tools, TheRegimesTrackerIsChosenOnARegimeWrittenInTheTest) {
 // as positions around the sensor.
 
 }  // namespace
-}  // namespace imm
+}  // namespace imm::testing
