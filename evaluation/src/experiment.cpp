@@ -108,6 +108,25 @@ EvaluationRegimes evaluation_regimes(const datasets::RegimeFile& evaluated,
   return {evaluated, recorded_regime(model, path)};
 }
 
+std::string plots_mismatch(double sample_period, std::string_view length_unit,
+                           std::optional<datasets::SensorKind> sensor,
+                           const datasets::Regime& regime) {
+  if (!close(sample_period, regime.sample_period)) {
+    return "sample_period: the model is built for T = " + number(sample_period) +
+           " s, the regime's plots come every " + number(regime.sample_period) + " s";
+  }
+  const std::string_view units = datasets::to_string(regime.units);
+  if (!length_unit.empty() && length_unit != units) {
+    return "units: the model works in " + std::string(length_unit) + ", the regime in " +
+           std::string(units);
+  }
+  if (sensor && *sensor != regime.sensor.kind) {
+    return "sensor.kind: the model needs a " + sensor_name(*sensor) + " sensor, the regime has a " +
+           sensor_name(regime.sensor.kind) + " one";
+  }
+  return "";
+}
+
 void check_model(const ModelRequirements& model, const EvaluationRegimes& regimes,
                  const std::filesystem::path& path) {
   const datasets::Regime& r = regimes.evaluated.regime;
@@ -115,21 +134,9 @@ void check_model(const ModelRequirements& model, const EvaluationRegimes& regime
   // Both files named: the model's, and the regime's (a file, or the regime the model records).
   const std::string where = "model " + path.string() + " on regime " + r.name + " (" +
                             (r.file.empty() ? "recorded in the model" : r.file) + "): ";
-  if (!close(model.sample_period, r.sample_period)) {
-    throw std::runtime_error(
-        where + "sample_period: the model is built for T = " + number(model.sample_period) +
-        " s, the regime's plots come every " + number(r.sample_period) + " s");
-  }
-  if (own.units != r.units) {
-    throw std::runtime_error(where + "units: the model works in " +
-                             std::string(datasets::to_string(own.units)) + ", the regime in " +
-                             std::string(datasets::to_string(r.units)));
-  }
-  if (model.sensor && *model.sensor != r.sensor.kind) {
-    throw std::runtime_error(where + "sensor.kind: the model needs a " +
-                             sensor_name(*model.sensor) + " sensor, the regime has a " +
-                             sensor_name(r.sensor.kind) + " one");
-  }
+  const std::string mismatch =
+      plots_mismatch(model.sample_period, datasets::to_string(own.units), model.sensor, r);
+  if (!mismatch.empty()) throw std::runtime_error(where + mismatch);
   if (r.sensor.kind == datasets::SensorKind::kRangeSensor &&
       own.sensor.samples_digest != r.sensor.samples_digest) {
     throw std::runtime_error(where +

@@ -43,29 +43,21 @@ void MultiTargetSettings::validate() const {
 
 namespace {
 
-// InvalidParameter("models") for a model of another length unit, sample period or plot space
-// than the regime's: it would read the scenes' plots 1000 times off, step once a scan over the
-// wrong interval or take ranges for x — silently wrong figures.
+// InvalidParameter("models") for a model of another sample period, length unit or plot space
+// than the regime's (plots_mismatch): it would step once a scan over the wrong interval, read the
+// scenes' plots 1000 times off or take ranges for x — silently wrong figures. A range sensor's
+// models take the sensor's own plots, whatever their measurement kind says.
 void require_the_regimes_plots(const datasets::Regime& regime, const std::filesystem::path& path,
                                const FilterMaker& maker) {
-  std::string why;
-  const std::string units(datasets::to_string(regime.units));
-  const std::string& model_units = maker.provenance.length_unit;
-  const double period = maker.options.sample_period;
-  const bool polar = maker.options.measurement_kind == MeasurementKind::kPolar;
-  if (!model_units.empty() && model_units != units) {
-    why = " works in " + model_units + ", regime " + regime.name;
-    why += " in " + units;
-  } else if (!(std::abs(period - regime.sample_period) <= 1e-9 * regime.sample_period)) {
-    why = " is built for T = " + std::to_string(period) + " s, regime " + regime.name;
-    why += " plots every " + std::to_string(regime.sample_period) + " s";
-  } else if ((regime.sensor.kind == datasets::SensorKind::kCartesian && polar) ||
-             (regime.sensor.kind == datasets::SensorKind::kPolar && !polar)) {
-    why = " takes " + std::string(to_string(maker.options.measurement_kind)) + " plots, regime ";
-    why += regime.name + " has a " + std::string(datasets::to_string(regime.sensor.kind));
-    why += " sensor";
+  std::optional<datasets::SensorKind> sensor;
+  if (regime.sensor.kind != datasets::SensorKind::kRangeSensor) {
+    sensor = maker.options.measurement_kind == MeasurementKind::kPolar
+                 ? datasets::SensorKind::kPolar
+                 : datasets::SensorKind::kCartesian;
   }
-  if (!why.empty()) throw InvalidParameter("models", path.string() + why);
+  const std::string mismatch =
+      plots_mismatch(maker.options.sample_period, maker.provenance.length_unit, sensor, regime);
+  if (!mismatch.empty()) throw InvalidParameter("models", path.string() + ": " + mismatch);
 }
 
 }  // namespace

@@ -19,6 +19,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -93,6 +94,14 @@ struct ModelRequirements {
 };
 void check_model(const ModelRequirements& model, const EvaluationRegimes& regimes,
                  const std::filesystem::path& path);
+
+/// check_model's first questions, for a model that may record no regime: why a model built for
+/// `sample_period` s, with lengths in `length_unit` ("" where its file does not say) and, when
+/// given, for a `sensor` cannot read `regime`'s plots — "sample_period: …", "units: …" or
+/// "sensor.kind: …" — or "" where it can.
+[[nodiscard]] std::string plots_mismatch(double sample_period, std::string_view length_unit,
+                                         std::optional<datasets::SensorKind> sensor,
+                                         const datasets::Regime& regime);
 
 /// The test tracks (--runs of them, or the regime's test split) of --seed. A recorded regime's
 /// tracks may lack truth (has_truth false: every experiment then judges by the plots); where some
