@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-# check_sources.cmake counts lines as `wc -l` does: a 501-line file that is 40 % blank lines
+# check_sources.cmake counts lines as `wc -l` does: a 501-line file that is 20 % blank lines
 # fails it, and a 500-line file whose last line has no newline passes.
 #
 #   cmake -DWORK_DIR=<scratch folder> -P check_sources_selftest.cmake
