@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -22,6 +23,7 @@
 #include "imm/model_kinds.hpp"
 #include "imm/trainer/model_files/calibration.hpp"
 #include "imm/trainer/normalized_errors.hpp"
+#include "testing/refused_field.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm {
@@ -170,6 +172,32 @@ TEST(CovarianceCalibration, AnInvalidOneInAFileIsRefusedNamingTheField) {
       << refusal(dir.path() / "older.h5");
   write_with_calibration(dir.path() / "valid.h5", 1.0, kCalibrationSchemaVersion);
   EXPECT_EQ(refusal(dir.path() / "valid.h5"), "read");
+}
+
+// Settings are checked before anything is read or drawn: a count of tracks past what a split holds
+// (which ran for days), tables of no entries (an empty clamp range) and the calibration's own
+// limits are refused naming the field.
+TEST(CovarianceCalibration, InvalidSettingsAreRefusedNamingTheFieldBeforeAnyTrackIsRun) {
+  const auto field_of = [](auto change) {
+    trainer::CalibrationSettings settings;
+    change(settings);
+    // A file that does not exist: a check after reading would say so instead.
+    return testing::refused_field_of(
+        [&] { (void)trainer::fit_calibration("/nonexistent/model.h5", settings); });
+  };
+  using Settings = trainer::CalibrationSettings;
+  EXPECT_EQ(field_of([](Settings& s) { s.tracks = datasets::kMaxSplitTracks + 1; }), "tracks");
+  EXPECT_EQ(field_of([](Settings& s) { s.tracks = -1; }), "tracks");
+  EXPECT_EQ(field_of([](Settings& s) { s.start_entries = 0; }), "start_entries");
+  EXPECT_EQ(field_of([](Settings& s) { s.level_bins = 0; }), "level_bins");
+  EXPECT_EQ(field_of([](Settings& s) { s.level_bins = CovarianceCalibration::kMaxEntries + 1; }),
+            "level_bins");
+  EXPECT_EQ(field_of([](Settings& s) { s.memory = 1.0; }), "memory");
+  EXPECT_EQ(field_of([](Settings& s) { s.nis_cap = std::nan(""); }), "nis_cap");
+  EXPECT_EQ(field_of([](Settings& s) { s.min_samples = 0; }), "min_samples");
+  // Valid settings reach the file, which is then what is refused.
+  EXPECT_THROW((void)trainer::fit_calibration("/nonexistent/model.h5", Settings{}), io::FileError);
+  EXPECT_NO_THROW(Settings{}.validate());
 }
 
 }  // namespace

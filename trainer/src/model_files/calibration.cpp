@@ -5,8 +5,11 @@
 #include <cmath>
 #include <memory>
 #include <sstream>
+#include <string>
 #include <vector>
 
+#include "imm/core/invalid_parameter.hpp"
+#include "imm/datasets/regime.hpp"
 #include "imm/datasets/regime_file.hpp"
 #include "imm/datasets/track.hpp"
 #include "imm/io/container_file.hpp"
@@ -67,8 +70,27 @@ double calibrated_mean(const std::vector<Sample>& samples, Scale scale) {
 
 }  // namespace
 
+void CalibrationSettings::validate() const {
+  const auto require = [](bool ok, const char* field, const std::string& what) {
+    if (!ok) throw InvalidParameter(field, what);
+  };
+  // Each track is drawn and run in turn, its samples kept: a count is held to what a split may
+  // hold (datasets::kMaxSplitTracks), not left to run for days and out of memory.
+  require(tracks >= 0 && tracks <= datasets::kMaxSplitTracks, "tracks",
+          "must be in [0, 10⁶] (0: no calibration), got " + std::to_string(tracks));
+  const int max = CovarianceCalibration::kMaxEntries;
+  require(start_entries >= 1 && start_entries <= max, "start_entries",
+          "must be in [1, " + std::to_string(max) + "], got " + std::to_string(start_entries));
+  require(level_bins >= 1 && level_bins <= max, "level_bins",
+          "must be in [1, " + std::to_string(max) + "], got " + std::to_string(level_bins));
+  require(memory >= 0.0 && memory < 1.0, "memory", "must be in [0, 1)");
+  require(nis_cap > 0.0 && std::isfinite(nis_cap), "nis_cap", "must be a finite number > 0");
+  require(min_samples >= 1, "min_samples", "must be ≥ 1, got " + std::to_string(min_samples));
+}
+
 CalibrationFit fit_calibration(const std::filesystem::path& model_file,
                                const CalibrationSettings& settings) {
+  settings.validate();
   const io::ModelFileReader reader(model_file);
   CalibrationFit fit;
   fit.calibration.memory = settings.memory;

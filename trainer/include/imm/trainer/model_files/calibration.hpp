@@ -25,6 +25,11 @@ struct CalibrationSettings {
   double memory = 0.7;     ///< λ of the level
   double nis_cap = 50.0;   ///< the most one plot adds to the level
   int min_samples = 200;   ///< fewer plots (or truths) in a cell than this: its factor stays 1
+
+  /// Throws InvalidParameter naming the field (`tracks` 0 to 10⁶, 0 fitting nothing; the tables'
+  /// sizes 1 to CovarianceCalibration::kMaxEntries; `memory` and `nis_cap` as a calibration's;
+  /// `min_samples` ≥ 1).
+  void validate() const;
 };
 
 /// What fit_calibration found.
@@ -38,8 +43,9 @@ struct CalibrationFit {
   double nees_before = 0.0, nees_after = 0.0;  ///< likewise the position NEES
 };
 
-/// Fits the calibration of `model_file` on its regime's training split. Throws io::FileError
-/// naming the file when it does not read.
+/// Fits the calibration of `model_file` on its regime's training split. Throws InvalidParameter
+/// for invalid settings (before reading anything) and io::FileError naming the file when it does
+/// not read.
 [[nodiscard]] CalibrationFit fit_calibration(const std::filesystem::path& model_file,
                                              const CalibrationSettings& settings = {});
 
