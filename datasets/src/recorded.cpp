@@ -10,6 +10,7 @@
 #include <map>
 #include <sstream>
 
+#include "imm/core/physical_limits.hpp"
 #include "imm/support/csv.hpp"
 
 namespace imm::datasets {
@@ -179,8 +180,16 @@ TrackSet import_recordings(const std::vector<RecordedTrack>& recordings,
       break;
     }
   }
-  if (!(T > 0.0 && std::isfinite(T))) {
+  if (options.sample_period != 0.0) {
+    // NaN is not 0: a period given is held to a sample period's limits (1 µs to 10 h).
+    limits::require_in(options.sample_period, limits::kSamplePeriod, "sample_period");
+  } else if (!(T > 0.0 && std::isfinite(T))) {
     throw std::runtime_error("the sample period is unknown: no track has two plots");
+  } else if (!limits::contains(limits::kSamplePeriod, T)) {
+    std::ostringstream message;
+    message << "the first track's median step, " << T << " s, is not a sample period ("
+            << limits::describe(limits::kSamplePeriod) << "): give the sample period";
+    throw std::runtime_error(message.str());
   }
   // Every track on its grid: k = (t − t₀)/T within the tolerance.
   std::vector<std::vector<Eigen::Index>> grid(recordings.size());

@@ -17,6 +17,7 @@
 #include "imm/datasets/regime_file.hpp"
 #include "imm/datasets/sensor_estimate.hpp"
 #include "imm/support/csv.hpp"
+#include "testing/refused_field.hpp"
 #include "testing/temp_dir.hpp"
 
 namespace imm::datasets {
@@ -171,6 +172,31 @@ TEST(RecordedTracks, HostileRecordingsAreRefusedWithFileLineAndColumn) {
     });
     EXPECT_NE(error.find(c.expected), std::string::npos) << c.name << ": " << error;
   }
+}
+
+// A sample period given is held to a sample period's limits (NaN is not "infer it"), and one
+// inferred from the plots too: before, 1e300 s read the second plot as "two plots on one scan of
+// 1e300 s" (printed with 300 digits), NaN said "no track has two plots".
+TEST(RecordedTracks, ASamplePeriodOutsideASamplePeriodsLimitsIsRefused) {
+  TempDir dir;
+  write_text(dir.path() / "a.csv", "t,zx,zy\n0,1,2\n1,2,3\n2,3,4\n3,4,5\n");
+  const auto tracks = read_recording(dir.path() / "a.csv", {SensorKind::kCartesian});
+  for (const double period :
+       {std::nan(""), 1e300, -1.0, 1e-9, 36001.0, std::numeric_limits<double>::infinity()}) {
+    ImportOptions options;
+    options.sample_period = period;
+    EXPECT_EQ(testing::refused_field_of([&] { (void)import_recordings(tracks, options, nullptr); }),
+              "sample_period")
+        << period;
+  }
+  ImportOptions inferred;
+  EXPECT_EQ(import_recordings(tracks, inferred, nullptr).sample_period, 1.0);
+  write_text(dir.path() / "fast.csv", "t,zx,zy\n0,1,2\n1e-8,2,3\n2e-8,3,4\n3e-8,4,5\n");
+  const auto fast = read_recording(dir.path() / "fast.csv", {SensorKind::kCartesian});
+  EXPECT_NE(error_of([&] {
+              (void)import_recordings(fast, inferred, nullptr);
+            }).find("the first track's median step, 1e-08 s, is not a sample period"),
+            std::string::npos);
 }
 
 // An endless line: the reader refuses it after kMaxLineBytes, without reading it whole.

@@ -38,6 +38,7 @@
 #include <optional>
 
 #include "imm/build_info.hpp"
+#include "imm/core/physical_limits.hpp"
 #include "imm/datasets/dataset_file.hpp"
 #include "imm/datasets/random.hpp"
 #include "imm/datasets/range_sensor_file.hpp"
@@ -236,11 +237,12 @@ int main(int argc, char** argv) {
   import
       ->add_option("--sample-period", import_options.sample_period,
                    "s (default: the first track's median step)")
-      ->check(CLI::PositiveNumber);
+      ->check(imm::support::within(imm::limits::kSamplePeriod.min, imm::limits::kSamplePeriod.max,
+                                   "s"));
   import
       ->add_option("--tolerance", import_options.tolerance,
                    "of a sample period, for each time's place on the grid")
-      ->check(CLI::Range(1e-9, 0.49));
+      ->check(imm::support::within(1e-9, 0.49, ""));
   import->add_option("--scans", import_options.scans, "per window (default: the shortest track)")
       ->check(imm::support::at_least(3));
   auto* exporter = app.add_subcommand("export", "a track set as recording CSV files");

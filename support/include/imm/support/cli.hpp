@@ -82,6 +82,25 @@ inline void standard_options(CLI::App& app, std::string_view tool) {
   return best;
 }
 
+/// A numeric option's closed range, with a message a person reads: "must be in [1e-06, 36000] s
+/// (got 0)"; NaN and infinities are outside it.
+[[nodiscard]] inline CLI::Validator within(double minimum, double maximum, std::string_view unit) {
+  std::ostringstream bound;
+  bound << '[' << minimum << ", " << maximum << ']';
+  if (!unit.empty()) bound << ' ' << unit;
+  const std::string text = bound.str();
+  return CLI::Validator(
+      [minimum, maximum, text](std::string& value) -> std::string {
+        double number = 0.0;
+        if (!CLI::detail::lexical_cast(value, number))
+          return "must be a number (got " + value + ")";
+        if (!(number >= minimum && number <= maximum))
+          return "must be in " + text + " (got " + value + ")";
+        return {};
+      },
+      "in " + text);
+}
+
 /// A numeric option's lower bound, with a message a person reads: "must be ≥ 1 (got 0)".
 [[nodiscard]] inline CLI::Validator at_least(double minimum) {
   std::ostringstream bound;
