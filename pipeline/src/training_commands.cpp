@@ -67,8 +67,10 @@ std::vector<TrainingKind> make_training_kinds() {
             return training<GaCommand>(
                 command, ga, run_ga, false, [](CLI::App& c, GaCommand& options) {
                   c.get_option("--config")->description("GA config TOML");
+                  // Bounded: OpenMP starts every thread asked for (with a million the first
+                  // generation had not begun after a minute); the results do not depend on it.
                   c.add_option("--threads", options.threads, "OpenMP threads (default: all cores)")
-                      ->check(support::at_least(1));
+                      ->check(support::within(1, GaCommand::kMaxThreads, ""));
                   c.add_flag("--resume", options.resume,
                              "continue from the checkpoint beside --out");
                 });

@@ -19,8 +19,10 @@ struct TrainCommand {
   std::optional<std::uint64_t> seed;
 };
 
-/// `ga`'s options: a training's, and its threads and --resume.
+/// `ga`'s options: a training's, and its threads (0: OpenMP's default; at most kMaxThreads) and
+/// --resume.
 struct GaCommand : TrainCommand {
+  static constexpr int kMaxThreads = 1024;
   int threads = 0;
   bool resume = false;
 };

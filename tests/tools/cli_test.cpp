@@ -51,7 +51,16 @@ TEST(CommandLine, UsageErrorsExitOneWithAReadableMessage) {
       {"imm-eval", {"input-estimater"}, "did you mean 'input-estimator'?"},
       {"imm-data", {"trakcs"}, "imm-data: unknown command 'trakcs'; did you mean 'tracks'?"},
       {"imm-train", {"zebra"}, "imm-train: unknown command 'zebra'\n"},  // nothing close
-      {"imm-train", {"ga", "--threads", "0"}, "imm-train: --threads: must be ≥ 1 (got 0)"},
+      {"imm-train", {"ga", "--threads", "0"}, "imm-train: --threads: must be in [1, 1024] (got 0)"},
+      {"imm-train",
+       {"ga", "--threads", "1000000"},
+       "--threads: must be in [1, 1024] (got 1000000)"},
+      {"imm-data",
+       {"import", "--out", "o.h5", "--sample-period", "nan", "r.csv"},
+       "--sample-period: must be in [1e-06, 36000] s (got nan)"},
+      {"imm-data",
+       {"import", "--out", "o.h5", "--tolerance", "nan", "r.csv"},
+       "--tolerance: must be in [1e-09, 0.49] (got nan)"},
       {"imm-eval", {"plain-imm", "--runs", "-3"}, "--runs: must be ≥ 1 (got -3)"},
       {"imm-data",
        {"tracks", "--regime", "r", "--out", "o", "--count", "0"},
@@ -82,10 +91,10 @@ TEST(CommandLine, HelpShowsTheDefaults) {
 // same options; a name no kind or command has is still a usage error.
 TEST(CommandLine, KindCommandsAnswerToTheirModelKindsNames) {
   const std::pair<const char*, std::vector<std::string>> cases[] = {
-      {"imm-train", {"ga_fuzzy_imm", "--help"}},  {"imm-train", {"mlp_input_estimator", "--help"}},
-      {"imm-train", {"fcm_imm", "--help"}},       {"imm-train", {"tsk_sensor", "--help"}},
-      {"imm-eval", {"ga_fuzzy_imm", "--help"}},   {"imm-eval", {"tsk_sensor", "--help"}},
-      {"imm-eval", {"plain_imm", "--help"}},      {"imm-eval", {"mlp_input_estimator", "--help"}}};
+      {"imm-train", {"ga_fuzzy_imm", "--help"}}, {"imm-train", {"mlp_input_estimator", "--help"}},
+      {"imm-train", {"fcm_imm", "--help"}},      {"imm-train", {"tsk_sensor", "--help"}},
+      {"imm-eval", {"ga_fuzzy_imm", "--help"}},  {"imm-eval", {"tsk_sensor", "--help"}},
+      {"imm-eval", {"plain_imm", "--help"}},     {"imm-eval", {"mlp_input_estimator", "--help"}}};
   for (const auto& [tool, arguments] : cases) {
     const auto result = run_tool(tool, arguments, testing::source_root());
     EXPECT_EQ(result.exit_code, 0) << tool << " " << arguments[0] << ": " << result.err;
