@@ -184,6 +184,7 @@ TEST(ClassicalImm, BadConfigsAreRefusedNamingTheKey) {
   refused("mode_sets = [\"cv,cv\"]", "mode_sets");
   refused("grid_points = 1", "grid_points");
   refused("polish_evaluations = 100000", "polish_evaluations");
+  refused("polish_evaluations = -5", "polish_evaluations");  // read as 0 before
   testing::write_text(dir / "ok.toml",
                       "regime = \"configs/regimes/agile_air.toml\"\n[classical]\nmode_sets = "
                       "[\"cv, ct\"]\n");

@@ -293,8 +293,8 @@ ClassicalImmConfig load_classical_config(const std::filesystem::path& path,
         }
         config.polish_evaluations =
             table->count_or("polish_evaluations", config.polish_evaluations);
-        if (config.polish_evaluations > 10000) {
-          table->fail("polish_evaluations", "must be at most 10000");
+        if (config.polish_evaluations < 0 || config.polish_evaluations > 10000) {
+          table->fail("polish_evaluations", "must be 0 to 10000 (0: the grid alone)");
         }
         if (const auto schedule = root.table("schedule")) {
           const int evaluations = schedule->count_or("evaluations", 400);
