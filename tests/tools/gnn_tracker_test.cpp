@@ -175,6 +175,13 @@ TEST(MultiTarget, ScenesAreReproducibleAndCleanScenesScoreBetter) {
   EXPECT_THROW((void)run_multi_target(regime, {"models/wimm.h5"}, clean), InvalidParameter);
   const MultiTargetResult e = run_multi_target(regime, {models[0], "models/wimm.h5"}, clean);
   EXPECT_FALSE(e.models[1].refused.empty());
+  // More scenes than a split holds tracks are refused before any is drawn (10⁶ scenes ran out of
+  // memory: every scene was held at once).
+  MultiTargetSettings endless = cluttered;
+  endless.runs = datasets::kMaxSplitTracks + 1;
+  EXPECT_EQ(
+      testing::refused_field_of([&] { (void)run_multi_target(regime, {models[0]}, endless); }),
+      "runs");
   // One target per scene cannot be swapped with another.
   MultiTargetSettings single = cluttered;
   single.targets = 1;

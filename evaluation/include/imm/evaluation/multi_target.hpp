@@ -30,7 +30,7 @@ struct MultiTargetSettings {
   int targets = 3;                     ///< targets per scene
   double detection_probability = 0.9;  ///< Pd of every target at every scan
   double clutter_per_scan = 10.0;      ///< mean false plots per scan over the scene's region
-  int runs = 20;                       ///< scenes
+  int runs = 20;                       ///< scenes (2 to 10⁶)
   std::uint64_t seed = 1;              ///< the scenes' seed
   int warm_up = 5;                     ///< first scans not scored (tracks start in pairs)
   /// GOSPA's cut-off (length); 0: 10 × the regime's plot σ (Regime::position_sigma).
