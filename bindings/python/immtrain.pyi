@@ -287,8 +287,9 @@ def evaluate(experiment: str, *, model: Optional[_Path] = None, models: _Path = 
     failures (gates), findings and exit_code (imm-eval's). With `out`, also writes the report's
     files there as imm-eval does, the same numbers as its metrics.json. Own options by keyword:
     data (plain-imm), paper_model (ga-imm), config and gate_on (fimm). The GIL is released while
-    it runs. ValueError for an unknown experiment or an invalid option value, TypeError for an
-    option the experiment does not have, RuntimeError naming the file and field for a bad model."""
+    it runs. InvalidParameter (a ValueError) naming an unknown experiment or an invalid option
+    value, TypeError for an option the experiment does not have, FileError (a RuntimeError) naming
+    the file and field for a bad model."""
 
 def rank(baselines: List[_Path], candidates: List[_Path], *, evaluations: List[_Path] = ...,
          regime: Optional[_Path] = None, runs: Optional[int] = None, seed: int = 1,
@@ -320,8 +321,9 @@ def import_recordings(files: List[_Path], *, out: _Path, name: str = "recorded",
     recordings, windows, scans, sample_period (s), gap_scans, dropped_scans and the tracks as
     numpy arrays (Regime.draw's keys). sensor: cartesian, polar or range_sensor; units: m or km;
     sample_period: 0 takes the first track's median step; tolerance: of a sample period, for each
-    time's place on the grid; scans: per window, 0 the shortest track. ValueError naming a bad
-    option, RuntimeError naming the file, line and column of a bad recording."""
+    time's place on the grid; scans: per window, 0 the shortest track. InvalidParameter (a
+    ValueError) naming a bad option, RuntimeError naming the file, line and column of a bad
+    recording."""
 
 def multi_target(models: List[_Path], *, regime: Optional[_Path] = None,
                  targets: Optional[int] = None, pd: List[float] = ..., clutter: List[float] = ...,

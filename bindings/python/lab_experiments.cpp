@@ -17,6 +17,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "imm/core/invalid_parameter.hpp"
 #include "imm/evaluation/evaluation_report.hpp"
 #include "imm/evaluation/experiments.hpp"
 #include "imm/evaluation/model_experiments.hpp"
@@ -103,8 +104,8 @@ class KeywordOptions final : public ev::OptionDeclarer {
             const std::vector<std::string>& choices) override {
     take(key, value);
     if (!choices.empty() && std::find(choices.begin(), choices.end(), value) == choices.end()) {
-      throw py::value_error(
-          fmt::format("{}: '{}' is none of {}", key, value, fmt::join(choices, ", ")));
+      throw imm::InvalidParameter(
+          key, fmt::format("'{}' is none of {}", value, fmt::join(choices, ", ")));
     }
   }
   void path(const char* /*flag*/, const char* key, const char* /*help*/, fs::path& value) override {
@@ -174,8 +175,9 @@ py::dict evaluate(const std::string& experiment, const std::optional<fs::path>& 
                  out ? command_of(experiment, c, arguments.arguments) : std::vector<std::string>{});
   });
   if (!result) {
-    throw py::value_error(fmt::format("experiment: '{}' is none of {}", experiment,
-                                      fmt::join(ev::model_experiment_names(), ", ")));
+    throw imm::InvalidParameter("experiment",
+                                fmt::format("'{}' is none of {}", experiment,
+                                            fmt::join(ev::model_experiment_names(), ", ")));
   }
   return *result;
 }
@@ -225,7 +227,8 @@ void add_experiments(py::module_& m) {
          std::optional<int> targets, const std::vector<double>& pd,
          const std::vector<double>& clutter, int runs, std::uint64_t seed,
          const std::optional<fs::path>& out) {
-        if (models.empty()) throw py::value_error("models: at least one model file is needed");
+        if (models.empty())
+          throw imm::InvalidParameter("models", "at least one model file is needed");
         require_runs(runs);
         ev::MultiTargetOptions o;
         o.models = models;
@@ -261,9 +264,10 @@ void add_experiments(py::module_& m) {
          const std::vector<fs::path>& evaluations, const std::optional<fs::path>& regime,
          std::optional<int> runs, std::uint64_t seed, const std::optional<fs::path>& out,
          const std::optional<fs::path>& ship, bool raw_ship) {
-        if (baselines.empty()) throw py::value_error("baselines: at least one is needed");
+        if (baselines.empty()) throw imm::InvalidParameter("baselines", "at least one is needed");
         require_runs(runs);
-        if (ship && !out) throw py::value_error("ship: needs out (tracker.json records it)");
+        if (ship && !out)
+          throw imm::InvalidParameter("ship", "needs out (tracker.json records it)");
         ev::RankOptions o;
         o.baselines = baselines;
         o.candidates = candidates;

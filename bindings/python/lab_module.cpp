@@ -270,13 +270,15 @@ PYBIND11_MODULE(immtrain_lab, m) {
         options.kind = imm::datasets::sensor_kind_named(sensor, "sensor");
         options.units = imm::datasets::units_named(units, "units");
         if (!(sample_period >= 0.0) || !std::isfinite(sample_period)) {
-          throw py::value_error("sample_period: must be ≥ 0 s (0: the first track's median step)");
+          throw imm::InvalidParameter("sample_period",
+                                      "must be ≥ 0 s (0: the first track's median step)");
         }
         if (!(tolerance >= 1e-9 && tolerance <= 0.49)) {
-          throw py::value_error("tolerance: must lie in [1e-9, 0.49] of a sample period");
+          throw imm::InvalidParameter("tolerance", "must lie in [1e-9, 0.49] of a sample period");
         }
-        if (scans != 0 && scans < 3) throw py::value_error("scans: must be ≥ 3 (0: the shortest)");
-        if (files.empty()) throw py::value_error("files: at least one recording is needed");
+        if (scans != 0 && scans < 3)
+          throw imm::InvalidParameter("scans", "must be ≥ 3 (0: the shortest)");
+        if (files.empty()) throw imm::InvalidParameter("files", "at least one recording is needed");
         options.sample_period = sample_period;
         options.tolerance = tolerance;
         options.scans = scans;

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "imm/core/invalid_parameter.hpp"
 #include "imm/evaluation/experiments.hpp"
 
 namespace py = pybind11;
@@ -365,7 +366,7 @@ py::list to_list(const ev::MultiTargetConditions& r) {
 
 void require_runs(const std::optional<int>& runs) {
   if (runs && *runs < 1) {
-    throw py::value_error("runs: must be ≥ 1 (got " + std::to_string(*runs) + ")");
+    throw imm::InvalidParameter("runs", "must be ≥ 1 (got " + std::to_string(*runs) + ")");
   }
 }
 

@@ -139,12 +139,16 @@ def test_the_lab_raises_immtrains_errors_and_leaves_immtrains_own_as_documented(
 
 
 def test_experiment_options_are_checked():
-    with pytest.raises(ValueError, match="experiment"):
+    # An invalid argument is immtrain.InvalidParameter (a ValueError) naming it, as the
+    # runtime's are.
+    with pytest.raises(immtrain.InvalidParameter, match="^experiment: 'ga_imm' is none of"):
         immtrain.evaluate("ga_imm")
     with pytest.raises(TypeError, match="gate_on"):
         immtrain.evaluate("ga-imm", gate_on="best")
-    with pytest.raises(ValueError, match="runs"):
+    with pytest.raises(immtrain.InvalidParameter, match="^runs: must be"):
         immtrain.evaluate("plain-imm", runs=0)
+    with pytest.raises(immtrain.InvalidParameter, match="^baselines: at least one"):
+        immtrain.rank([], ["models/cv3_imm.h5"])
     with pytest.raises(RuntimeError, match="no_such_model"):
         immtrain.evaluate("plain-imm", model="models/no_such_model.h5")
 
@@ -272,8 +276,11 @@ def test_recordings_import_as_imm_data_imports_them(tmp_path):
                               str(tmp_path / "cli.h5"), "--name", "mine"],
                              check=True, env=TOOL_ENV, capture_output=True, text=True)
     assert f"sha256 {ours['digest'][:16]}" in listing.stdout
-    with pytest.raises(ValueError, match="sensor"):
+    with pytest.raises(immtrain.InvalidParameter, match="sensor"):
         immtrain.import_recordings([folder], out=tmp_path / "x.h5", sensor="sonar")
+    for bad in [{"sample_period": float("nan")}, {"tolerance": float("nan")}, {"scans": 2}]:
+        with pytest.raises(immtrain.InvalidParameter, match="^" + next(iter(bad))):
+            immtrain.import_recordings([folder], out=tmp_path / "x.h5", **bad)
     (folder / "bad.csv").write_text("t,zx,zy\n0,1,2\n1,nan,3\n")
     with pytest.raises(RuntimeError, match="bad.csv"):
         immtrain.import_recordings([folder], out=tmp_path / "y.h5")
