@@ -320,6 +320,9 @@ std::vector<RegistryEntry> parse_manifest(std::string_view text, const std::stri
                              std::to_string(kMaxManifestBytes) + ")");
   }
   if (const int depth = nesting_depth(text); depth > kMaxManifestDepth) {
+    // Bytes that are not JSON at all (a model file put in its place) are said to be so: their
+    // brackets counted as nesting would mislead. accept() builds nothing and recurses nowhere.
+    if (!nlohmann::json::accept(text)) throw std::runtime_error(where + ": not JSON");
     throw std::runtime_error(where + ": nested " + std::to_string(depth) +
                              " levels deep (at most " + std::to_string(kMaxManifestDepth) + ")");
   }

@@ -270,6 +270,9 @@ TEST(RegistryHostile, AManifestIsBoundedInSizeAndDepthAndIsARegularFile) {
   refused_with(manifest_with("\"history\": [" + chain + "]"), "nested");
   refused_with(manifest_with("\"promotion_reason\": \"" + std::string(17U << 20U, 'x') + "\""),
                "bytes");
+  // Brackets that are not JSON (a model file copied over the manifest) are not called nesting.
+  refused_with(std::string(100, '[') + "\x01\x02" + std::string(100, ']'), "not JSON");
+  refused_with(slurp_text("models/cv3_imm.h5"), "not JSON");
   fs::remove(models / "manifest.json");
   ASSERT_EQ(::mkfifo((models / "manifest.json").c_str(), 0644), 0);
   auto opened =
