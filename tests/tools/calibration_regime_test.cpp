@@ -175,8 +175,8 @@ TEST(CovarianceCalibration, AnInvalidOneInAFileIsRefusedNamingTheField) {
 }
 
 // Settings are checked before anything is read or drawn: a count of tracks past what a split holds
-// (which ran for days), tables of no entries (an empty clamp range) and the calibration's own
-// limits are refused naming the field.
+// (10⁸ would run for hours, its samples past memory), tables of no entries (an empty clamp range)
+// and the calibration's own limits are refused naming the field.
 TEST(CovarianceCalibration, InvalidSettingsAreRefusedNamingTheFieldBeforeAnyTrackIsRun) {
   const auto field_of = [](auto change) {
     trainer::CalibrationSettings settings;

@@ -71,11 +71,8 @@ double calibrated_mean(const std::vector<Sample>& samples, Scale scale) {
 }  // namespace
 
 void CalibrationSettings::validate() const {
-  const auto require = [](bool ok, const char* field, const std::string& what) {
-    if (!ok) throw InvalidParameter(field, what);
-  };
   // Each track is drawn and run in turn, its samples kept: a count is held to what a split may
-  // hold (datasets::kMaxSplitTracks), not left to run for days and out of memory.
+  // hold (datasets::kMaxSplitTracks), not left to run for hours and out of memory.
   require(tracks >= 0 && tracks <= datasets::kMaxSplitTracks, "tracks",
           "must be in [0, 10⁶] (0: no calibration), got " + std::to_string(tracks));
   const int max = CovarianceCalibration::kMaxEntries;
