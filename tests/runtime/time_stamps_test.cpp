@@ -304,11 +304,18 @@ TEST(TimeStamps, BanksTakeTheIntervalOfAScanForEveryTrack) {
 TEST(TimeStamps, ATrackerRefusesTimesThatDoNotIncreaseMixedClocksAndOddIntervals) {
   PlainImmTracker plain(one_cv_mode(NoiseForm::kPiecewiseConstant));
   EXPECT_EQ(plain.process_at(10.0, {0.0, 0.0}).event, TrackEvent::kWaiting);
-  EXPECT_EQ(plain.process_at(10.0, {1.0, 0.0}).event, TrackEvent::kRejected);
+  const TrackStepResult again = plain.process_at(10.0, {1.0, 0.0});
+  EXPECT_EQ(again.event, TrackEvent::kRejected);
+  EXPECT_EQ(again.status, StepStatus::kUnsupportedInterval);  // the interval, not the plot
   EXPECT_EQ(plain.process_at(std::nan(""), {1.0, 0.0}).event, TrackEvent::kRejected);
   EXPECT_EQ(plain.process(3, {1.0, 0.0}).event, TrackEvent::kRejected);
   EXPECT_EQ(plain.process_at(10.4, {1.0, 0.0}).event, TrackEvent::kInitialized);
   EXPECT_FALSE(plain.last_scan().has_value());
+
+  PlainImmTracker scans(one_cv_mode(NoiseForm::kPiecewiseConstant));
+  EXPECT_EQ(scans.process(5, {0.0, 0.0}).event, TrackEvent::kWaiting);
+  EXPECT_EQ(scans.process(5, {1.0, 0.0}).status, StepStatus::kUnsupportedInterval);
+  EXPECT_EQ(scans.process(4, {1.0, 0.0}).status, StepStatus::kUnsupportedInterval);
 
   // Two plots too close in time for a finite velocity (1e-300 s apart): the later one is the first
   // plot now, and the next plot starts the track from it.
@@ -321,7 +328,26 @@ TEST(TimeStamps, ATrackerRefusesTimesThatDoNotIncreaseMixedClocksAndOddIntervals
   close.state(mean, variance);
   EXPECT_EQ(mean(1), 1.0);   // (3 − 1) / (2 − 1e-300)
   EXPECT_EQ(mean(3), -0.5);  // (0 − 1) / 2
+  // Plots 1e-12 s apart: finite, but shorter than any interval a filter takes (1 µs). The start
+  // they once gave (10¹² m/s, a velocity variance 2·10²⁴ times the position's) made the second
+  // update non-finite; the later plot is now the first, and the track that starts from it runs.
+  PlainImmTracker near(one_cv_mode(NoiseForm::kPiecewiseConstant));
+  EXPECT_EQ(near.process_at(0.0, {0.0, 0.0}).event, TrackEvent::kWaiting);
+  EXPECT_EQ(near.process_at(1e-12, {1.0, 0.0}).event, TrackEvent::kWaiting);
+  EXPECT_EQ(near.process_at(1.0, {11.0, 0.0}).event, TrackEvent::kInitialized);
+  for (int k = 2; k < 6; ++k) {
+    const TrackStepResult result = near.process_at(k, {1.0 + 10.0 * k, 0.0});
+    EXPECT_EQ(result.event, TrackEvent::kUpdated) << k << ": " << result.reason;
+  }
+  near.state(mean, variance);
+  EXPECT_NEAR(mean(1), 10.0, 1e-9);  // a straight line at 10 m/s, fitted exactly
+  PlainImmTracker micro(one_cv_mode(NoiseForm::kPiecewiseConstant));
+  EXPECT_EQ(micro.process_at(0.0, {0.0, 0.0}).event, TrackEvent::kWaiting);
+  EXPECT_EQ(micro.process_at(2e-6, {1e-5, 0.0}).event, TrackEvent::kInitialized);  // 5 m/s
   const TrackOptions options = one_cv_mode(NoiseForm::kPiecewiseConstant).track_options(50);
+  // Faster than any target (limits::kSpeed, 10⁶ per second): no start.
+  EXPECT_FALSE(two_point_start(options, 4, 0, {0.0, 0.0}, 1, {2e6, 0.0}).has_value());
+  EXPECT_TRUE(two_point_start(options, 4, 0, {0.0, 0.0}, 1, {0.9e6, 0.0}).has_value());
   // A velocity beyond the doubles (plots ±1e308 apart): no start.
   EXPECT_FALSE(two_point_start(options, 4, 0, {-1e308, 0.0}, 1, {1e308, 0.0}).has_value());
   EXPECT_TRUE(two_point_start(options, 4, 0, {-1e3, 0.0}, 1, {1e3, 0.0}).has_value());

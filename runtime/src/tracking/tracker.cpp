@@ -219,8 +219,11 @@ namespace {
 
 // Two-point initialization: position from the second plot, velocity from the difference;
 // cov(p) = R₂, cov(v) = (R₁ + R₂)/Δt², cov(p, v) = R₂/Δt (Bar-Shalom, Li & Kirubarajan §5.5.3).
-// Nothing where that start is not finite: plots too close in time (Δt → 0 overflows the velocity
-// and its variance).
+// Nothing where that start is not finite, where the plots are closer in time than the shortest
+// interval a filter takes (limits::kSamplePeriod's 1 µs) or where the velocity is beyond
+// limits::kSpeed. Plots 1e-12 s apart once started a track at 10¹³ m/s whose velocity variance
+// (2 R / Δt², 10²⁴ times the position's) left the second update no longer finite, and every plot
+// was refused until the track was lost; at Δt ≥ 1 µs the ratio is at most 2·10¹² s⁻².
 std::optional<TrackStart> start_from(const TrackOptions& options, int n, double dt,
                                      const Eigen::Vector2d& p1, const Eigen::Matrix2d& r1,
                                      const Eigen::Vector2d& p2, const Eigen::Matrix2d& r2) {
@@ -242,7 +245,13 @@ std::optional<TrackStart> start_from(const TrackOptions& options, int n, double 
       start.covariance(p + 2, p + 2) = options.initialization.acceleration_variance;
   }
   if (n % 2 == 1) start.covariance(n - 1, n - 1) = options.initialization.turn_rate_variance;
-  if (!(dt > 0.0) || !start.mean.allFinite() || !start.covariance.allFinite()) return std::nullopt;
+  if (!(dt >= limits::kSamplePeriod.min) || !start.mean.allFinite() ||
+      !start.covariance.allFinite()) {
+    return std::nullopt;
+  }
+  for (int axis = 0; axis < 2; ++axis) {
+    if (std::abs(start.mean(axis * per_axis + 1)) > limits::kSpeed.max) return std::nullopt;
+  }
   return start;
 }
 
@@ -324,7 +333,7 @@ TrackStepResult Tracker::start_at(std::int64_t scan, double time, const Eigen::V
   if (!plot.position.allFinite()) {
     return reject(StepStatus::kInvalidMeasurement, "measurement is not convertible to a position");
   }
-  // No first plot yet, one too long ago, or one too close in time for a finite start: this plot
+  // No first plot yet, one too long ago, or one too close in time for a start: this plot
   // is the first.
   const bool first = !first_plot_ || (clock_ == Clock::kTimes
                                           ? time - first_plot_->time > longest_gap()
@@ -352,7 +361,7 @@ TrackStepResult Tracker::process(std::int64_t scan, const Eigen::Vector2d& z) {
 
 TrackStepResult Tracker::process_scan(std::int64_t scan, double time, const Eigen::Vector2d& z) {
   if (last_scan_ && scan <= *last_scan_) {
-    return reject(StepStatus::kInvalidMeasurement, "scan index does not increase");
+    return reject(StepStatus::kUnsupportedInterval, "scan index does not increase");
   }
   if (auto bad = unusable(z)) return *bad;
 
@@ -397,7 +406,7 @@ TrackStepResult Tracker::process_at(double time, const Eigen::Vector2d& z) {
     return reject(StepStatus::kInvalidMeasurement, "time is NaN, infinite or beyond ±1e12 s");
   }
   if (last_time_ && !(time > *last_time_)) {
-    return reject(StepStatus::kInvalidMeasurement, "time does not increase");
+    return reject(StepStatus::kUnsupportedInterval, "time does not increase");
   }
   clock_ = Clock::kTimes;
   if (filter_->takes_any_interval()) return process_interval(time, z);

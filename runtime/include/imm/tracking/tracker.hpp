@@ -151,7 +151,8 @@ struct IMM_RUNTIME_EXPORT TrackStart {
 /// difference over the scans' interval; cov(p) = R₂, cov(v) = (R₁ + R₂)/Δt², cov(p, v) = R₂/Δt;
 /// the options' acceleration and turn-rate variances for a 6- or odd-dimensional state. What
 /// Tracker does with its first two plots. Nothing when a plot has no finite position, the
-/// scans do not increase or the start is not finite.
+/// scans do not increase, or the start is not finite, spans less than 1 µs or is faster than
+/// limits::kSpeed.
 [[nodiscard]] IMM_RUNTIME_EXPORT std::optional<TrackStart> two_point_start(
     const TrackOptions& options, int state_dimension, std::int64_t first_scan,
     const Eigen::Vector2d& first, std::int64_t second_scan, const Eigen::Vector2d& second);
