@@ -27,6 +27,8 @@ std::vector<std::string_view> split_csv(std::string_view line) {
 
 namespace {
 
+constexpr std::string_view kUtf8ByteOrderMark = "\xEF\xBB\xBF";
+
 template <class T>
 std::optional<T> parse_whole(std::string_view text) {
   text = trim(text);
@@ -79,6 +81,11 @@ bool CsvReader::read_line() {
     if (in_.eof() && got == 0 && buffer_.empty()) return false;  // the end
     if (in_.bad()) fail("read error");
     in_.clear(in_.rdstate() & std::ios::eofbit);
+    // A UTF-8 byte order mark, which spreadsheets write at the start of a "CSV UTF-8" file, is
+    // not part of the first field.
+    if (number_ == 0 && buffer_.starts_with(kUtf8ByteOrderMark)) {
+      buffer_.erase(0, kUtf8ByteOrderMark.size());
+    }
     return true;
   }
 }

@@ -16,10 +16,11 @@ MeasurementCsv read_measurement_csv(std::istream& in, const std::string& name) {
   CsvLine line;
   bool have_header = false;
   std::string columns[2];
+  std::size_t width = 3;  // the header's columns: k or t, the plot's two, any carried along
   while (reader.next(line)) {
     const auto& fields = line.fields;
     if (!have_header) {
-      const bool first = fields.size() == 3 && (fields[0] == "k" || fields[0] == "t");
+      const bool first = fields.size() >= 3 && (fields[0] == "k" || fields[0] == "t");
       if (first && fields[1] == "zx" && fields[2] == "zy") {
         csv.kind = MeasurementKind::kCartesian;
       } else if (first && fields[1] == "range" && fields[2] == "azimuth") {
@@ -32,6 +33,10 @@ MeasurementCsv read_measurement_csv(std::istream& in, const std::string& name) {
             "times in s), found '" +
             std::string(line.text) + "'");
       }
+      for (std::size_t i = 3; i < fields.size(); ++i) {
+        if (fields[i].empty()) reader.fail("column " + std::to_string(i + 1) + " has no name");
+      }
+      width = fields.size();
       csv.timed = fields[0] == "t";
       columns[0] = std::string(fields[1]);
       columns[1] = std::string(fields[2]);
@@ -45,8 +50,9 @@ MeasurementCsv read_measurement_csv(std::istream& in, const std::string& name) {
     } else {
       row.scan = parse_integer(fields[0]);
     }
-    if (fields.size() != 3) {
-      row.problem = "expected 3 fields, found " + std::to_string(fields.size());
+    if (fields.size() != width) {
+      row.problem =
+          "expected " + std::to_string(width) + " fields, found " + std::to_string(fields.size());
     } else if (csv.timed && !row.time) {
       row.problem = "t '" + std::string(fields[0]) + "' is not a finite number of seconds";
     } else if (!csv.timed && !row.scan) {

@@ -53,6 +53,43 @@ TEST(Csv, ReaderSkipsBlanksAndCommentsAndReturnsDirectivesWhenAsked) {
   EXPECT_FALSE(reader.next(line));
 }
 
+// A spreadsheet's "CSV UTF-8" export: a byte order mark before the header and CRLF line ends.
+// The mark is dropped from the first line only (elsewhere it is text, refused as a field's).
+TEST(Csv, AByteOrderMarkBeforeTheFirstLineIsNotPartOfIt) {
+  const std::string mark = "\xEF\xBB\xBF";
+  std::istringstream text(mark + "k,zx,zy\r\n0,1.0,2.0\r\n1,3.0,4.0\r\n");
+  const MeasurementCsv csv = read_measurement_csv(text, "excel.csv");
+  ASSERT_EQ(csv.rows.size(), 2u);
+  for (const MeasurementRow& row : csv.rows) EXPECT_EQ(row.problem, "") << row.line;
+  EXPECT_EQ(csv.rows[1].z, Eigen::Vector2d(3.0, 4.0));
+  std::istringstream inner("a,b\n" + mark + "1,2\n");
+  CsvReader reader(inner, "t.csv");
+  CsvLine line;
+  ASSERT_TRUE(reader.next(line) && reader.next(line));
+  EXPECT_EQ(line.fields[0], mark + "1");
+  EXPECT_FALSE(parse_real(line.fields[0]));
+}
+
+// Named columns after the plot's are carried along unread (imm-data export's truth); each row then
+// holds as many fields as the header, and an unnamed column is refused.
+TEST(Csv, MeasurementsCarryNamedColumnsAfterThePlotsUnread) {
+  std::istringstream text(
+      "t,zx,zy,x,vx,y,vy\n0,1.0,2.0,1.1,5,2.1,6\n1,3.0,4.0\n2,5.0,6.0,a,b,c,d\n");
+  const MeasurementCsv csv = read_measurement_csv(text, "export.csv");
+  ASSERT_EQ(csv.rows.size(), 3u);
+  EXPECT_TRUE(csv.timed);
+  EXPECT_EQ(csv.rows[0].z, Eigen::Vector2d(1.0, 2.0));
+  EXPECT_EQ(csv.rows[1].problem, "expected 7 fields, found 3");
+  EXPECT_EQ(csv.rows[2].problem, "");  // unread, whatever they hold
+  std::istringstream unnamed("k,zx,zy,\n0,1.0,2.0,\n");
+  try {
+    (void)read_measurement_csv(unnamed, "unnamed.csv");
+    ADD_FAILURE() << "an unnamed column was taken";
+  } catch (const std::runtime_error& error) {
+    EXPECT_STREQ(error.what(), "unnamed.csv:1: column 4 has no name");
+  }
+}
+
 TEST(Csv, MeasurementsRefuseTrailingGarbage) {
   std::istringstream text("k,zx,zy\n0,1.0,2.0\n1,1.0oops,2.0\n2,3.0,4.0x\n");
   const MeasurementCsv csv = read_measurement_csv(text, "plots.csv");

@@ -147,6 +147,41 @@ TEST_F(Tools, ImmTrackTakesATimeColumnAsTheModelAllows) {
   EXPECT_TRUE(refused.out.empty());
 }
 
+// imm-data export's CSV goes straight into imm-track: its truth columns (x, vx, y, vy) are carried
+// along unread, so a track exported with them and without gives the same track to the byte.
+TEST_F(Tools, ImmTrackTakesWhatImmDataExportWrites) {
+  const auto export_to = [&](const std::string& folder, bool truth) {
+    std::vector<std::string> args{"export",
+                                  "--regime",
+                                  config("configs/regimes/agile_air.toml").string(),
+                                  "--count",
+                                  "1",
+                                  "--out-dir",
+                                  (dir_ / folder).string()};
+    if (!truth) args.emplace_back("--no-truth");
+    const auto result = run_tool("imm-data", args, root_);
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    return dir_ / folder / "track_000.csv";
+  };
+  const auto with_truth = export_to("with_truth", true);
+  const auto without = export_to("without", false);
+  ASSERT_EQ(fields_of(lines_of(testing::slurp(with_truth))[0]).size(), 7u);
+  const std::string model = (root_ / "models" / "classical_imm_agile_air.h5").string();
+  const auto a =
+      run_tool("imm-track", {"--filter", model, "--measurements", with_truth.string()}, root_);
+  const auto b =
+      run_tool("imm-track", {"--filter", model, "--measurements", without.string()}, root_);
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  EXPECT_EQ(a.out, b.out);
+  const auto rows = lines_of(a.out);
+  ASSERT_GT(rows.size(), 100u);
+  EXPECT_EQ(std::count_if(
+                rows.begin(), rows.end(),
+                [](const std::string& row) { return row.find(",updated,") != std::string::npos; }),
+            static_cast<std::ptrdiff_t>(rows.size() - 3));  // the header, waiting, initialized
+}
+
 // The classical CV/CA/CT IMM from its config and from its frozen file: the same track, a state
 // that ends with the turn rate ("omega"), and on a coordinated turn of 1.7 °/s seen every 5 s with
 // 100 m plots an estimate of ω near the truth once the turn is under way.

@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
   app.add_option(
          "--measurements", measurements_path,
          "CSV with k,zx,zy, k,range,azimuth or k,z1,z2 (the model's own plot space); t for k: "
-         "times in s")
+         "times in s; named columns after those are not read (imm-data export's truth)")
       ->required();
   app.add_option("--out", out_path, "output CSV (default: standard output)");
   app.add_option(

@@ -4,9 +4,11 @@
 /// (polar, azimuth in radians from the y axis) or `k,z1,z2` (plots in the model's own measurement
 /// space: a range sensor's outputs, as imm-data writes them), then one row per scan; or the same
 /// with a time column `t` (seconds) instead of the scan index `k`, which the reader turns into
-/// scans with the model's sample period (scans_from_times). Lines starting with '#' and blank lines
-/// are skipped. A row that cannot be used is not dropped silently: it comes back with its line
-/// number and a problem text, and with its scan index when that was readable.
+/// scans with the model's sample period (scans_from_times). Named columns after those three are
+/// carried along unread (the truth x, vx, y, vy of `imm-data export`), every row then holding as
+/// many fields as the header. Lines starting with '#' and blank lines are skipped. A row that
+/// cannot be used is not dropped silently: it comes back with its line number and a problem text,
+/// and with its scan index when that was readable.
 
 #include <Eigen/Core>
 #include <cstdint>
