@@ -22,6 +22,17 @@ namespace {
 constexpr std::uint64_t kTrainingStream = 0x7452'4149'4e00ULL;
 constexpr std::uint64_t kValidationStream = 0x7641'4c49'4400ULL;
 
+// Angles are held in radians and written in degrees (the keys ending in _deg): they are checked,
+// and a refusal states its bounds, in the key's unit.
+constexpr double kDegree = std::numbers::pi / 180.0;
+constexpr limits::Interval kAngleDegrees{-100.0 / kDegree, 100.0 / kDegree, "°"};
+constexpr limits::Interval kAzimuthSigmaDegrees{1e-9 / kDegree, 3.2 / kDegree, "°"};
+constexpr limits::Interval kTurnRateDegrees{0.0, limits::kTurnRate.max / kDegree, "°/s"};
+
+Interval in_degrees(const Interval& radians) {
+  return {radians.min / kDegree, radians.max / kDegree, radians.log};
+}
+
 void check_interval(const Interval& interval, const limits::Interval& range,
                     const std::string& field) {
   limits::require_in(interval.min, range, field);
@@ -33,7 +44,8 @@ void check_interval(const Interval& interval, const limits::Interval& range,
 void check_noise(SensorKind kind, const SensorNoise& noise, const std::string& prefix) {
   if (kind == SensorKind::kPolar) {
     limits::require_in(noise.sigma(0), limits::kSigma, prefix + "range_sigma");
-    limits::require_in(noise.sigma(1), {1e-9, 3.2, "rad"}, prefix + "azimuth_sigma_deg");
+    limits::require_in(noise.sigma(1) / kDegree, kAzimuthSigmaDegrees,
+                       prefix + "azimuth_sigma_deg");
     return;
   }
   limits::require_in(noise.sigma(0), limits::kSigma, prefix + "sigma");
@@ -51,9 +63,9 @@ void check_start(const Start& s, const std::string& prefix) {
     return;
   }
   check_interval(s.range, limits::kDistance, prefix + "range");
-  check_interval(s.bearing, {-100.0, 100.0, "rad"}, prefix + "bearing_deg");
+  check_interval(in_degrees(s.bearing), kAngleDegrees, prefix + "bearing_deg");
   check_interval(s.speed, limits::kSpeed, prefix + "speed");
-  check_interval(s.heading, {-100.0, 100.0, "rad"},
+  check_interval(in_degrees(s.heading), kAngleDegrees,
                  prefix + (s.inbound ? "heading_offset_deg" : "heading_deg"));
 }
 
@@ -297,7 +309,7 @@ void Regime::validate() const {
         check_interval(e.magnitude, limits::kAcceleration, field + "magnitude");
         break;
       case SegmentKind::kTurn:
-        check_interval(e.rate, limits::kTurnRate, field + "rate_deg");
+        check_interval(in_degrees(e.rate), kTurnRateDegrees, field + "rate_deg");
         break;
       case SegmentKind::kZigzag:
         check_interval(e.magnitude, limits::kAcceleration, field + "magnitude");
@@ -349,7 +361,7 @@ void Regime::validate() const {
           }
           break;
         case SegmentKind::kTurn:
-          limits::require_magnitude(s.rate, limits::kTurnRate, sf + "rate_deg");
+          limits::require_magnitude(s.rate / kDegree, kTurnRateDegrees, sf + "rate_deg");
           break;
         case SegmentKind::kLaneChange:
           limits::require_magnitude(s.offset, limits::kDistance, sf + "offset");

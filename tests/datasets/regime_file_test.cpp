@@ -130,6 +130,40 @@ acceleration = [0.01, 0.0]
       "cases[0].start");
 }
 
+// Keys written in degrees are checked in degrees: a refusal's bounds are in the key's unit (a turn
+// rate of −3°/s once said "must be in [0, 1000]", its bound in rad/s), and what degrees allow is
+// what radians allowed (1 000 rad/s is 57 296°/s).
+TEST(RegimeConfig, AnglesWrittenInDegreesAreCheckedInDegrees) {
+  const auto message_of = [](const std::string& text) -> std::string {
+    try {
+      (void)parse_regime(text, "r.toml");
+    } catch (const support::ConfigError& error) {
+      return error.key() + ": " + error.what();
+    }
+    return "";
+  };
+  const std::string negative =
+      message_of(with(kMinimal, "rate_deg = [2.0, 5.0]", "rate_deg = [-3.0, 5.0]"));
+  EXPECT_NE(negative.find("maneuvers[1].rate_deg"), std::string::npos) << negative;
+  EXPECT_NE(negative.find("57295.8] °/s"), std::string::npos) << negative;
+  EXPECT_EQ(message_of(with(kMinimal, "rate_deg = [2.0, 5.0]", "rate_deg = [2.0, 57000.0]")), "");
+  EXPECT_NE(message_of(with(kMinimal, "rate_deg = [2.0, 5.0]", "rate_deg = [2.0, 58000.0]"))
+                .find("maneuvers[1].rate_deg"),
+            std::string::npos);
+  const std::string bearing =
+      message_of(with(kMinimal, "[start]", "[start]\nbearing_deg = [0.0, 6000.0]"));
+  EXPECT_NE(bearing.find("start.bearing_deg"), std::string::npos) << bearing;
+  EXPECT_NE(bearing.find("5729.58] °"), std::string::npos) << bearing;
+  EXPECT_EQ(message_of(with(kMinimal, "[start]", "[start]\nbearing_deg = [-720.0, 720.0]")), "");
+  const std::string polar =
+      with(with(kMinimal, "kind = \"cartesian\"", "kind = \"polar\""), "sigma = [10.0, 10.0]",
+           "range_sigma = 10.0\nazimuth_sigma_deg = 200.0");
+  const std::string azimuth = message_of(polar);
+  EXPECT_NE(azimuth.find("sensor.azimuth_sigma_deg"), std::string::npos) << azimuth;
+  EXPECT_NE(azimuth.find("183.346] °"), std::string::npos) << azimuth;
+  EXPECT_EQ(message_of(with(polar, "azimuth_sigma_deg = 200.0", "azimuth_sigma_deg = 0.2")), "");
+}
+
 // A recorded regime's text with its set replaced by a stand-in: 60 agile_air tracks exported
 // without truth and imported (what the nightly does), in `dir`.
 std::string recorded_with_stand_in(std::string text, const testing::TempDir& dir) {
