@@ -192,22 +192,34 @@ int train_wimm(const TrainCommand& command) {
   if (result.base) {
     spdlog::info(
         "wimm: on top of the nIMM tuned on the training split: q1 {:.4g}, P(CV->CV) {:.4f} "
-        "({} evaluations); J on the validation split {:.4f} against it",
+        "({} evaluations); {} on the validation split {:.4f} against it",
         result.base->spec.cv_process_noise, result.base->spec.transition(0, 0),
-        result.base->evaluations, result.validation_objective);
+        result.base->evaluations, result.with_truth ? "J" : "the excess NLL per plot (no truth)",
+        result.validation_objective);
     if (!result.learned_part_on) {
       spdlog::warn(
           "wimm: learned part switched off: the fusion does not beat its tuned nIMM on the "
           "training and validation splits; the model is that nIMM (fusion none)");
     }
   }
-  spdlog::info(
-      "threshold {:.4f}, alpha {:.4f}: settled azimuth RMSE x{:.4f}, position RMSE "
-      "x{:.4f} of the normal IMM on the training scenarios ({} evaluations, {:.1f} s); "
-      "wrote {}",
-      result.tuned.spec.threshold, result.tuned.spec.alpha, result.tuned.azimuth_ratio,
-      result.tuned.position_ratio, result.tuned.evaluations, result.wall_seconds,
-      command.out.string());
+  const auto& tuned = result.tuned;
+  if (result.with_truth) {
+    spdlog::info(
+        "threshold {:.4f}, alpha {:.4f}: settled azimuth RMSE x{:.4f}, position RMSE "
+        "x{:.4f} of the normal IMM on the training scenarios ({} evaluations, {:.1f} s); "
+        "wrote {}",
+        tuned.spec.threshold, tuned.spec.alpha, tuned.azimuth_ratio, tuned.position_ratio,
+        tuned.evaluations, result.wall_seconds, command.out.string());
+  } else {
+    spdlog::info(
+        "threshold {:.4f}, alpha {:.4f}: excess NLL per plot {:.4f} (the normal IMM's {:.4f}), "
+        "innovation RMS {:.3f} σ (its {:.3f} σ) on the training recordings, no truth ({} "
+        "evaluations, {:.1f} s); wrote {}",
+        tuned.spec.threshold, tuned.spec.alpha, tuned.plots.excess_nll,
+        tuned.reference_plots.excess_nll, tuned.plots.innovation_rms,
+        tuned.reference_plots.innovation_rms, tuned.evaluations, result.wall_seconds,
+        command.out.string());
+  }
   return 0;
 }
 

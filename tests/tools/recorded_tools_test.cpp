@@ -167,6 +167,11 @@ TEST_F(Tools, PolarRecordingsTrainAndEvaluateTheWimmWithoutTruth) {
                                  polar.string(), "--out", (dir_ / "w.h5").string()},
                                 root_);
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
+  // Its log states what it was judged by: the plots' excess NLL, not ratios of errors it has no
+  // truth for (they once read "settled azimuth RMSE x0.0000").
+  EXPECT_NE(trained.err.find("on the training recordings, no truth"), std::string::npos)
+      << trained.err;
+  EXPECT_EQ(trained.err.find("RMSE x"), std::string::npos) << trained.err;
   const auto metrics = nlohmann::json::parse(testing::slurp(dir_ / "w.metrics.json"));
   EXPECT_TRUE(metrics.contains("excess_nll")) << metrics.dump();
   EXPECT_FALSE(metrics.contains("azimuth_ratio_settled")) << metrics.dump();

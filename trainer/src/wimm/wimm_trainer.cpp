@@ -201,6 +201,7 @@ WimmTrainingResult train_wimm(const WimmTrainingConfig& config, const std::files
       result.tuned.plots = result.tuned.reference_plots;
     }
   }
+  result.with_truth = data.has_truth;
   result.digest = data.digest();
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

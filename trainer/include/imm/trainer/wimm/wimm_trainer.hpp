@@ -84,6 +84,9 @@ struct WimmTrainingResult {
   /// J of the model against its nIMM on the validation split; from plots alone the difference of
   /// their excess NLL per plot.
   double validation_objective = 0.0;
+  /// Whether the training split had truth (J and the settled ratios); false: plots alone (the
+  /// excess NLL per plot and the innovation RMS, `tuned.plots` against `tuned.reference_plots`).
+  bool with_truth = true;
   double wall_seconds = 0.0;
   std::string digest;
 };
