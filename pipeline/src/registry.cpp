@@ -227,8 +227,13 @@ bool Registry::materialize(const RegistryEntry& entry) const {
   if (!holds(target, entry.sha256)) {
     const auto source = archive_path(entry.sha256);
     if (!std::filesystem::exists(source)) {
-      throw std::runtime_error(target.string() + ": differs from the manifest's sha256 " +
-                               entry.sha256.substr(0, 12) + " and the archive has no copy");
+      std::error_code error;
+      const std::string sha256 = entry.sha256.substr(0, 12);
+      const std::string what = std::filesystem::symlink_status(target, error).type() ==
+                                       std::filesystem::file_type::not_found
+                                   ? "is missing (the manifest's sha256 " + sha256 + ")"
+                                   : "differs from the manifest's sha256 " + sha256;
+      throw std::runtime_error(target.string() + ": " + what + " and the archive has no copy");
     }
     // What is shipped is checked first: a damaged archive copy (a write cut short) is never
     // "restored" into models/.

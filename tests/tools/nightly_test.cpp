@@ -17,6 +17,7 @@
 #include "testing/nightly_plans.hpp"
 #include "testing/run_tool.hpp"
 #include "testing/temp_dir.hpp"
+#include "testing/temp_dir.hpp"
 #include "testing/tools_fixture.hpp"
 
 // The plans, the tools and run_tool are imm::testing's (testing/nightly_plans.hpp).
@@ -172,6 +173,27 @@ TEST(NightlyProduct, PromotesThenHoldsBackAWorseCandidateAndRollsBack) {
       run_tool("imm-inspect", {"--manifest", (p.registry / "manifest.json").string()}, {});
   EXPECT_EQ(table.exit_code, 0) << table.err;
   EXPECT_NE(table.out.find("| cv3 | plain_imm |  | cv3.h5 |"), std::string::npos) << table.out;
+  // A shipped file edited or gone is named at the end, exit 2 (the listing once showed it as
+  // shipped all the same); put back, the listing is clean again.
+  const std::string bytes = slurp(shipped);
+  testing::write_text(shipped, bytes.substr(0, bytes.size() / 2));
+  const auto edited =
+      run_tool("imm-inspect", {"--manifest", (p.registry / "manifest.json").string()}, {});
+  EXPECT_EQ(edited.exit_code, 2) << edited.err;
+  EXPECT_NE(edited.out.find("- cv3: " + shipped.string() + " differs from the manifest's sha256 " +
+                            third.substr(0, 12)),
+            std::string::npos)
+      << edited.out;
+  fs::remove(shipped);
+  const auto gone =
+      run_tool("imm-inspect", {"--manifest", (p.registry / "manifest.json").string()}, {});
+  EXPECT_EQ(gone.exit_code, 2) << gone.err;
+  EXPECT_NE(gone.out.find("- cv3: " + shipped.string() + " is missing"), std::string::npos)
+      << gone.out;
+  testing::write_text(shipped, bytes);
+  EXPECT_EQ(run_tool("imm-inspect", {"--manifest", (p.registry / "manifest.json").string()}, {})
+                .exit_code,
+            0);
 }
 
 // The regression gate fails closed: when `imm-eval regression` itself fails (a malformed
