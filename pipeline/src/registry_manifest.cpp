@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdint>
 #include <cstring>
 #include <map>
 #include <stdexcept>
@@ -210,12 +211,45 @@ RegistryEntry from_json(const nlohmann::json& j, const std::string& where, bool 
 
 }  // namespace
 
+namespace {
+
+// The length of the well-formed UTF-8 sequence at text[i] of a printable character at or above
+// U+00A0 (no overlong form, surrogate, C1 control or bidirectional control, which could reorder
+// what a terminal shows around it), else 0.
+std::size_t printable_utf8_at(std::string_view text, std::size_t i) {
+  const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(text[i + k]); };
+  const unsigned char lead = byte(0);
+  const std::size_t n = lead >= 0xf0 ? 4 : lead >= 0xe0 ? 3 : lead >= 0xc0 ? 2 : 0;
+  if (n == 0 || lead >= 0xf5 || i + n > text.size()) return 0;
+  std::uint32_t cp = lead & (0x7fU >> n);
+  for (std::size_t k = 1; k < n; ++k) {
+    if ((byte(k) & 0xc0U) != 0x80U) return 0;
+    cp = (cp << 6U) | (byte(k) & 0x3fU);
+  }
+  constexpr std::uint32_t kLeast[] = {0, 0, 0x80, 0x800, 0x10000};
+  const bool bidi = cp == 0x061c || cp == 0x200e || cp == 0x200f ||
+                    (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2066 && cp <= 0x2069);
+  if (cp < kLeast[n] || cp > 0x10ffff || (cp >= 0xd800 && cp <= 0xdfff) || cp < 0xa0 || bidi) {
+    return 0;
+  }
+  return n;
+}
+
+}  // namespace
+
 std::string quoted_for_message(std::string_view text, std::size_t limit) {
   static constexpr char kHex[] = "0123456789abcdef";
   std::string out = "'";
   const std::size_t shown = std::min(text.size(), limit);
-  for (std::size_t i = 0; i < shown; ++i) {
+  std::size_t i = 0;
+  while (i < shown) {
     const auto c = static_cast<unsigned char>(text[i]);
+    if (const std::size_t n = c >= 0x80 ? printable_utf8_at(text, i) : 0; n > 0) {
+      if (i + n > shown) break;  // a character is shown whole or not at all
+      out.append(text.substr(i, n));
+      i += n;
+      continue;
+    }
     if (c == '\n') {
       out += "\\n";
     } else if (c == '\r') {
@@ -229,9 +263,10 @@ std::string quoted_for_message(std::string_view text, std::size_t limit) {
     } else {
       out.push_back(static_cast<char>(c));
     }
+    ++i;
   }
   out += "'";
-  if (shown < text.size()) out += " (" + std::to_string(text.size()) + " bytes in all)";
+  if (i < text.size()) out += " (" + std::to_string(text.size()) + " bytes in all)";
   return out;
 }
 

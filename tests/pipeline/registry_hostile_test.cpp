@@ -245,6 +245,25 @@ TEST(RegistryHostile, NothingIsWrittenThroughASymbolicLink) {
   EXPECT_NE(refusal([&] { (void)Registry(models); }).find("symbolic link"), std::string::npos);
 }
 
+// A manifest's text in a message or a table: printable UTF-8 as it is (a tracker's reason says ζ_p
+// and —, once printed as \xce\xb6 and \xe2\x80\x94), and escaped what could mislead a terminal or
+// is not UTF-8: escapes, a right-to-left override, a C1 control, an overlong '/', a surrogate, a
+// sequence cut short; a cut at the limit never splits a character.
+TEST(RegistryHostile, MessagesShowPrintableUtf8AndEscapeWhatCouldMisleadATerminal) {
+  EXPECT_EQ(quoted_for_message("ζ_p +0.0138 — 3 °/s"), "'ζ_p +0.0138 — 3 °/s'");
+  EXPECT_EQ(quoted_for_message("\x1b[31mred"), "'\\x1b[31mred'");
+  EXPECT_EQ(quoted_for_message(std::string("a\xe2\x80\xae") + "b"),
+            "'a\\xe2\\x80\\xaeb'");                                         // U+202E
+  EXPECT_EQ(quoted_for_message("\xc2\x85"), "'\\xc2\\x85'");                // U+0085
+  EXPECT_EQ(quoted_for_message("\xc0\xaf"), "'\\xc0\\xaf'");                // overlong '/'
+  EXPECT_EQ(quoted_for_message("\xed\xa0\x80"), "'\\xed\\xa0\\x80'");       // U+D800
+  EXPECT_EQ(quoted_for_message("x\xce"), "'x\\xce'");                       // cut short
+  EXPECT_EQ(quoted_for_message("\xf0\x9f\x9b\xb0"), "'\xf0\x9f\x9b\xb0'");  // U+1F6F0
+  EXPECT_EQ(quoted_for_message("aζb", 2), "'a' (4 bytes in all)");
+  EXPECT_EQ(quoted_for_message("aζb", 3), "'aζ' (4 bytes in all)");
+  EXPECT_EQ(quoted_for_message("a\\b\n"), "'a\\x5cb\\n'");
+}
+
 // Bounded size and depth: a manifest nested 300 000 deep, a history chain 30 000 deep, one of
 // more than 16 MiB, and a FIFO in its place are each refused at once (no stack overflow, no hang).
 TEST(RegistryHostile, AManifestIsBoundedInSizeAndDepthAndIsARegularFile) {

@@ -99,8 +99,10 @@ inline constexpr int kMaxManifestDepth = 24;
 [[nodiscard]] std::vector<RegistryEntry> parse_manifest(std::string_view text,
                                                         const std::string& where);
 
-/// `text` for a one-line message: control and non-ASCII bytes as \xNN (\n, \r, \t by name),
-/// and at most `limit` bytes of it, the rest counted.
+/// `text` for a one-line message: control bytes, bytes of malformed UTF-8 and the characters that
+/// could mislead a terminal (C1 and bidirectional controls) as \xNN (\n, \r, \t by name), other
+/// characters as they are (ζ, —), and at most `limit` bytes of it, whole characters, the rest
+/// counted.
 [[nodiscard]] std::string quoted_for_message(std::string_view text, std::size_t limit = 160);
 
 /// What a promotion requires of the manifest as it is under the lock.
