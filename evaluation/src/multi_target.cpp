@@ -172,10 +172,15 @@ namespace {
 // One condition's table on stdout and its entry of metrics.json.
 nlohmann::json report_condition(const datasets::Regime& regime, const MultiTargetSettings& s,
                                 const MultiTargetResult& result) {
-  std::cout << "Multi-target scenes of " << regime.name << ": " << s.runs << " scenes of "
-            << s.targets << " targets, Pd " << s.detection_probability << ", " << s.clutter_per_scan
-            << " false plots per scan; GOSPA (p = 2, c = " << result.cutoff
-            << ") per scan from scan " << s.warm_up << ", GNN tracker\n\n";
+  const std::string_view unit = datasets::to_string(regime.units);
+  std::cout
+      << "Multi-target scenes of " << regime.name << ": " << s.runs << " scenes of " << s.targets
+      << " targets, Pd " << s.detection_probability << ", " << s.clutter_per_scan
+      << " false plots per scan; GOSPA (p = 2, c = " << result.cutoff << ' ' << unit
+      << ") per scan from scan " << s.warm_up
+      << ", GNN tracker. At each scan GOSPA² is the sum of its localization, missed and false "
+         "parts ("
+      << unit << "²); the table gives each one's mean over the scans\n\n";
   std::vector<std::vector<std::string>> rows;
   nlohmann::json models = nlohmann::json::array();
   for (const MultiTargetFigures& f : result.models) {
