@@ -211,7 +211,9 @@ TrackSet import_recordings(const std::vector<RecordedTrack>& recordings,
         message << where(track, static_cast<std::size_t>(k)) << ": column 't': " << track.times(k)
                 << " s is " << periods << " sample periods of " << T
                 << " s after the track's first plot, not a whole number within "
-                << options.tolerance << ": the sample period changed";
+                << options.tolerance
+                << ": the sample period changed, or the time stamps jitter by more than the "
+                   "tolerance (a larger one, below 0.5, takes them: imm-data import --tolerance)";
         throw std::runtime_error(message.str());
       }
       const auto scan = static_cast<Eigen::Index>(whole);
