@@ -182,7 +182,7 @@ std::filesystem::path ReportRecorder::finish() {
   {
     std::ofstream md(temp, std::ios::trunc);
     md << report->header << tee_->text();
-    if (!md) throw std::runtime_error(temp.string() + ": cannot write");
+    if (!md.flush()) throw std::runtime_error(temp.string() + ": cannot write");
   }
   std::filesystem::rename(temp, path);
   return path;

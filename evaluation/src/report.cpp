@@ -74,6 +74,7 @@ void write_series_csv(const std::filesystem::path& path, const std::vector<std::
     }
     out << '\n';
   }
+  if (!out.flush()) throw std::runtime_error(path.string() + ": write failed");
 }
 
 namespace {

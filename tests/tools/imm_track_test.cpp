@@ -84,6 +84,19 @@ TEST_F(Tools, ImmTrackGivesTheSameTrackFromTheModelFileAsFromTheConfig) {
   EXPECT_EQ(from_config.out, from_model.out);
 }
 
+// A write that fails (a full disk: /dev/full) is an error, exit 2, not a track cut short that exits
+// 0 as it once did.
+TEST_F(Tools, ImmTrackFailsWhenItsOutputCannotBeWritten) {
+  if (!std::filesystem::exists("/dev/full")) GTEST_SKIP() << "no /dev/full";
+  const auto full =
+      run_tool("imm-track",
+               {"--filter", config("configs/track/cv3_imm.toml").string(), "--measurements",
+                (dir_ / "plots.csv").string(), "--out", "/dev/full"},
+               root_);
+  EXPECT_EQ(full.exit_code, 2) << full.err;
+  EXPECT_NE(full.err.find("writing /dev/full failed"), std::string::npos) << full.err;
+}
+
 TEST_F(Tools, ImmTrackRefusesMismatchedMeasurements) {
   testing::write_text(dir_ / "polar.csv", "k,range,azimuth\n0,100,0.1\n");
   const auto result = run_tool("imm-track",

@@ -72,7 +72,7 @@ void write_csv(const std::string& path, const imm::datasets::Regime& regime,
                   plots(k, 1));
     out << line;
   }
-  if (!out) throw std::runtime_error(path + ": write failed");
+  if (!out.flush()) throw std::runtime_error(path + ": write failed");
 }
 
 // "with truth", "without truth" or "with truth for N of M recordings".
@@ -182,7 +182,7 @@ int write_scenes(const imm::datasets::Regime& regime, const std::string& regime_
         truth << line;
       }
     }
-    if (!out || !truth) throw std::runtime_error(out_dir + ": write failed");
+    if (!out.flush() || !truth.flush()) throw std::runtime_error(out_dir + ": write failed");
   }
   std::cout << "imm-data: " << regime.name << ", " << count << " scenes of " << spec.targets
             << " targets, Pd " << spec.detection_probability << ", " << spec.clutter_per_scan

@@ -216,5 +216,12 @@ int main(int argc, char** argv) {
     out << ',' << (result.outside_envelope ? 1 : 0) << '\n';
   }
   if (rejected > 0) std::cerr << "imm-track: " << rejected << " row(s) not used\n";
+  // Buffered rows are written here: a full disk or a closed pipe is an error, not a track cut
+  // short without a word.
+  if (!out.flush()) {
+    std::cerr << "imm-track: writing " << (out_path.empty() ? "standard output" : out_path)
+              << " failed\n";
+    return imm::support::exit_code::kBadInput;
+  }
   return 0;
 }
