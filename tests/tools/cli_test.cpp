@@ -5,6 +5,7 @@
 // shipped model kind and writes every number so that it reads back to the same double.
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <charconv>
 #include <fstream>
@@ -127,6 +128,38 @@ TEST(CommandLine, ImmDataCreatesItsOutputFolder) {
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_TRUE(std::filesystem::is_regular_file(out));
   EXPECT_TRUE(std::filesystem::is_regular_file(csv));
+}
+
+// Standard output that cannot be written (a full disk: /dev/full) is an error, exit 2 with a line
+// on stderr: imm-inspect's JSON, imm-data's summary and imm-track's rows once went nowhere with
+// exit 0.
+TEST(CommandLine, OutputThatCannotBeWrittenIsAnError) {
+  if (!std::filesystem::exists("/dev/full")) GTEST_SKIP() << "no /dev/full";
+  testing::TempDir dir;
+  const auto err = dir.path() / "err.txt";
+  const auto exit_of = [&](const std::string& tool, const std::vector<std::string>& arguments) {
+    const pid_t pid =
+        testing::start_tool(tool, arguments, "/dev/full", err.string(), testing::source_root());
+    EXPECT_GT(pid, 0) << tool;
+    int status = 0;
+    waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  };
+  EXPECT_EQ(exit_of("imm-inspect", {"models/cv3_imm.h5", "--json"}), 2);
+  EXPECT_NE(testing::slurp(err).find("imm-inspect: writing standard output failed"),
+            std::string::npos)
+      << testing::slurp(err);
+  EXPECT_EQ(exit_of("imm-data", {"tracks", "--regime", "configs/regimes/paper/ga_imm_table3.toml",
+                                 "--count", "1", "--out", (dir.path() / "t.h5").string()}),
+            2);
+  EXPECT_NE(testing::slurp(err).find("imm-data: writing standard output failed"),
+            std::string::npos);
+  testing::write_text(dir.path() / "plots.csv", "k,zx,zy\n0,1.0,2.0\n1,1.5,2.5\n2,2.0,3.0\n");
+  EXPECT_EQ(exit_of("imm-track", {"--filter", "configs/track/cv3_imm.toml", "--measurements",
+                                  (dir.path() / "plots.csv").string()}),
+            2);
+  EXPECT_NE(testing::slurp(err).find("imm-track: writing standard output failed"),
+            std::string::npos);
 }
 
 // Every number of a row, parsed exactly (std::from_chars).

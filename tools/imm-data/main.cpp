@@ -191,9 +191,7 @@ int write_scenes(const imm::datasets::Regime& regime, const std::string& regime_
   return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   imm::io::skip_hdf5_shutdown_at_exit();  // before any HDF5 call (container_file.hpp)
   CLI::App app{"Draw a seeded, reproducible data set from a regime."};
   imm::support::standard_options(app, "imm-data");
@@ -322,4 +320,10 @@ int main(int argc, char** argv) {
     return imm::support::exit_code::kBadInput;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return imm::support::with_output_written("imm-data", run(argc, argv));
 }

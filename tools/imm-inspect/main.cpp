@@ -304,9 +304,7 @@ int print_manifest(const std::string& path) {
   return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   imm::io::skip_hdf5_shutdown_at_exit();  // before any HDF5 call (container_file.hpp)
   CLI::App app{"Print what an immtrain model or data-set file holds."};
   imm::support::standard_options(app, "imm-inspect");
@@ -442,4 +440,10 @@ int main(int argc, char** argv) {
     return imm::support::exit_code::kBadInput;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return imm::support::with_output_written("imm-inspect", run(argc, argv));
 }

@@ -130,6 +130,15 @@ inline void standard_options(CLI::App& app, std::string_view tool) {
       "> 0");
 }
 
+/// `code`, or kBadInput with a line on stderr where standard output could not be written (a full
+/// disk, a closed pipe): a tool's tables and JSON are its output, and a script must not take a cut
+/// one for the whole. A failing code is kept.
+[[nodiscard]] inline int with_output_written(std::string_view tool, int code) {
+  if (std::cout.flush()) return code;
+  std::cerr << tool << ": writing standard output failed\n";
+  return code == exit_code::kOk ? exit_code::kBadInput : code;
+}
+
 namespace detail {
 
 // The subcommand names of `app` (aliases included).
