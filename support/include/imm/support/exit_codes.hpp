@@ -9,7 +9,8 @@ namespace imm::support::exit_code {
 inline constexpr int kOk = 0;
 /// The command line itself is wrong (CLI11: an unknown option, a value out of range).
 inline constexpr int kUsage = 1;
-/// A bad input: a config, model, data or CSV file refused, one line naming the file and the field.
+/// A bad input: a config, model, data or CSV file refused, one line naming the file and the field;
+/// or an output that cannot be written (a full disk).
 inline constexpr int kBadInput = 2;
 /// imm-train all / sweep: a nightly stage or a sweep's job failed (the others still ran).
 inline constexpr int kJobFailed = 3;
