@@ -3,8 +3,9 @@
 // configs/track/cv3_imm.toml) on a regime's test tracks, against each of its modes run alone as a
 // single Kalman filter, on identical plots. Metrics: seed 000's normalized errors ζ_p, ζ_v
 // (normalized_errors.hpp) and RMSEs, with the IMM's gain over each mode and its paired-bootstrap
-// interval. A plain IMM written from a TOML is not trained: its regime is --regime, or
-// configs/regimes/paper/ga_imm_table3.toml (the seed-000 scenario) by default.
+// interval. The regime is --regime, else the one the model was trained for (a regime's tuned
+// CV/CA/CT IMM); a plain IMM written from a TOML records none and takes
+// configs/regimes/paper/ga_imm_table3.toml (the seed-000 scenario).
 //
 // A plain IMM with learned noise schedules (`imm-train schedule`) is evaluated on its own regime
 // (or --regime) and also against CT-IMM-tuned, the regime's CV/CA/CT IMM its schedules were
@@ -12,6 +13,7 @@
 // ζ_p or ζ_v beyond the 95 % interval; not beating it is a finding.
 
 #include <algorithm>
+#include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
@@ -108,8 +110,12 @@ PlainImmResult evaluate_plain_imm(const PlainImmOptions& options) {
     r.source =
         options.data + " (regime " + data.regime + ", sha256 " + stored.digest.substr(0, 16) + ")";
   } else {
-    const datasets::RegimeFile regime = load_regime_option(
-        options.common.regime.value_or("configs/regimes/paper/ga_imm_table3.toml"));
+    // --regime; else the regime the model was trained for (`imm-train baseline`); a plain IMM
+    // frozen from a TOML records none and takes the seed-000 scenario.
+    const datasets::RegimeFile regime = load_regime_option(options.common.regime.value_or(
+        reader.provenance().regime_toml.empty()
+            ? std::filesystem::path("configs/regimes/paper/ga_imm_table3.toml")
+            : r.model));
     data = test_tracks(regime.regime, options.common);
     r.length = units = std::string(datasets::to_string(regime.regime.units));
     r.source =

@@ -73,6 +73,16 @@ TEST_F(Tools, AFastTurnRegimeWrittenInTheTestGetsTheClassicalBarEndToEnd) {
                                 root_);
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
 
+  // The CV/CA/CT IMM's own experiment runs on the regime it was tuned for, not the seed-000
+  // scenario plain-imm takes for a plain IMM frozen from a TOML (which it once took for every one,
+  // refusing this file there for its length unit).
+  const auto own = run_tool("imm-eval",
+                            {"plain-imm", "--model", (models / "classical.h5").string(), "--runs",
+                             "5", "--out", (dir_ / "own").string()},
+                            root_);
+  ASSERT_EQ(own.exit_code, 0) << own.err;
+  EXPECT_NE(own.out.find("regime fast_turns test split"), std::string::npos) << own.out;
+
   // The GA model's own experiment lists the CV/CA/CT IMM beside its IMM-tuned, with its NEES.
   const auto evaluated = run_tool(
       "imm-eval",
