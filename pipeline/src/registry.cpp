@@ -221,19 +221,29 @@ void Registry::require_materializable(const std::vector<RegistryEntry>& entries)
   }
 }
 
+std::string shipped_file_problem(const std::filesystem::path& file, const std::string& sha256) {
+  std::error_code error;
+  const auto type = std::filesystem::symlink_status(file, error).type();
+  if (type == std::filesystem::file_type::not_found) {
+    return "is missing (the manifest's sha256 " + sha256.substr(0, 12) + ")";
+  }
+  if (type != std::filesystem::file_type::regular) return "is not a regular file";
+  try {
+    if (datasets::file_sha256_hex(file) == sha256) return "";
+  } catch (const std::exception& failure) {
+    return std::string("cannot be read: ") + failure.what();
+  }
+  return "differs from the manifest's sha256 " + sha256.substr(0, 12);
+}
+
 bool Registry::materialize(const RegistryEntry& entry) const {
   const auto target = inside(entry.file, true);
   bool rewritten = false;
   if (!holds(target, entry.sha256)) {
     const auto source = archive_path(entry.sha256);
     if (!std::filesystem::exists(source)) {
-      std::error_code error;
-      const std::string sha256 = entry.sha256.substr(0, 12);
-      const std::string what = std::filesystem::symlink_status(target, error).type() ==
-                                       std::filesystem::file_type::not_found
-                                   ? "is missing (the manifest's sha256 " + sha256 + ")"
-                                   : "differs from the manifest's sha256 " + sha256;
-      throw std::runtime_error(target.string() + ": " + what + " and the archive has no copy");
+      throw std::runtime_error(target.string() + ": " + shipped_file_problem(target, entry.sha256) +
+                               " and the archive has no copy");
     }
     // What is shipped is checked first: a damaged archive copy (a write cut short) is never
     // "restored" into models/.

@@ -209,22 +209,6 @@ std::string metric_cell(const json& value) {
   return imm::pipeline::quoted_for_message(text, 240);
 }
 
-// Whether a shipped file is the one its manifest entry names: "" when it is, else what it is.
-std::string shipped_file_state(const std::filesystem::path& file, const std::string& sha256) {
-  std::error_code error;
-  const auto type = std::filesystem::symlink_status(file, error).type();
-  if (type == std::filesystem::file_type::not_found) return "is missing";
-  if (type != std::filesystem::file_type::regular) return "is not a regular file";
-  try {
-    if (imm::datasets::file_sha256_hex(file) != sha256) {
-      return "differs from the manifest's sha256 " + sha256.substr(0, 12) + " (edited or damaged)";
-    }
-  } catch (const std::exception& failure) {
-    return std::string("cannot be read: ") + failure.what();
-  }
-  return "";
-}
-
 // models/manifest.json (imm/pipeline/registry.hpp) as tables: what is shipped, and its metrics.
 // The manifest is read as the registry reads it (bounded, every field checked); a refusal names
 // the field. Every shipped file is checked against its entry's SHA-256: one that is missing or
@@ -288,7 +272,7 @@ int print_manifest(const std::string& path) {
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
   int unlike = 0;
   for (const auto& e : entries) {
-    const std::string state = shipped_file_state(folder / e.file, e.sha256);
+    const std::string state = imm::pipeline::shipped_file_problem(folder / e.file, e.sha256);
     if (state.empty()) continue;
     if (unlike++ == 0) {
       std::cout << "\nShipped files that are not the manifest's (the nightly and `imm-train "

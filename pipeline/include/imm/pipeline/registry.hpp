@@ -105,6 +105,12 @@ inline constexpr int kMaxManifestDepth = 24;
 /// counted.
 [[nodiscard]] std::string quoted_for_message(std::string_view text, std::size_t limit = 160);
 
+/// Why `file` is not the shipped file of that SHA-256, for a message ("is missing (the manifest's
+/// sha256 …)", "is not a regular file", "differs from the manifest's sha256 …", "cannot be read:
+/// …"), or "" when it is.
+[[nodiscard]] std::string shipped_file_problem(const std::filesystem::path& file,
+                                               const std::string& sha256);
+
 /// What a promotion requires of the manifest as it is under the lock.
 struct PromotionTerms {
   /// The SHA-256 of the shipped model the candidate was compared with ("" when none was shipped
