@@ -27,6 +27,12 @@ if(IMM_SANITIZERS)
   add_compile_options(-fsanitize=${IMM_SANITIZERS} -fno-omit-frame-pointer
                       -fno-sanitize-recover=all)
   add_link_options(-fsanitize=${IMM_SANITIZERS})
+  # UBSan leaves Eigen's headers alone under Clang (cmake/ubsan-eigen.ignorelist says why); GCC
+  # has no special-case lists and checks them too.
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang" AND IMM_SANITIZERS MATCHES "undefined")
+    add_compile_options(
+      $<$<COMPILE_LANGUAGE:CXX>:-fsanitize-ignorelist=${PROJECT_SOURCE_DIR}/cmake/ubsan-eigen.ignorelist>)
+  endif()
   message(STATUS "immtrain: sanitizers ${IMM_SANITIZERS}")
 endif()
 

@@ -27,12 +27,14 @@ TrainingRun training(CLI::App& command, Command defaults, int (*run)(const Comma
                      bool out_required = false,
                      const std::function<void(CLI::App&, Command&)>& more = {}) {
   auto options = std::make_shared<Command>(std::move(defaults));
-  command.add_option("--config", options->config, "training config TOML");
+  command.add_option("--config", options->config, "training config TOML")
+      ->each([options](const std::string&) { options->config_given = true; });
   command.add_option("--regime", options->regime,
                      "regime TOML to train for (replaces the config's)");
   auto* out = command.add_option("--out", options->out, "model file to write");
   if (out_required) out->required();
-  command.add_option("--seed", options->seed, "override the config's seed");
+  command.add_option("--seed", options->seed, "override the config's seed")
+      ->check(imm::support::seed());
   if (more) more(command, *options);
   return runner(options, run);
 }
@@ -131,7 +133,8 @@ std::vector<TrainingKind> make_training_kinds() {
           "write the regime's tuned classical filter, tuned on the training split: with a GA "
           "config the constant-q IMM per axis (its levels and stay; the config's level count and "
           "budget), with a wIMM config (a polar regime) the normal IMM (q1 and P(CV->CV), fusion "
-          "off), with a [classical] config the CV/CA/CT IMM (modes, intensities, stay)",
+          "off), with a [classical] config the CV/CA/CT IMM (modes, intensities, stay); without "
+          "--config, configs/wimm_tuned.toml for a polar --regime and the GA config otherwise",
       .add =
           [](CLI::App& command) {
             return training(command, defaults("configs/ga_fuzzy_imm_tuned.toml"), run_baseline,

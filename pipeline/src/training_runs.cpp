@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "imm/datasets/random.hpp"
+#include "imm/datasets/regime_file.hpp"
 #include "imm/support/config.hpp"
 #include "imm/support/exit_codes.hpp"
 #include "imm/trainer/classical/classical_imm.hpp"
@@ -330,7 +331,14 @@ int run_schedule(const TrainCommand& command) {
   return 0;
 }
 
-int run_baseline(const TrainCommand& command) {
+int run_baseline(const TrainCommand& given) {
+  TrainCommand command = given;
+  // Without --config the default is the GA config, whose filter is Cartesian: a polar regime's
+  // classical bar is the normal IMM of the wIMM config.
+  if (!command.config_given && command.regime &&
+      datasets::load_regime(*command.regime).regime.sensor.kind == datasets::SensorKind::kPolar) {
+    command.config = "configs/wimm_tuned.toml";
+  }
   if (trainer::classical::is_classical_config(command.config)) {
     namespace classical = trainer::classical;
     classical::ClassicalImmConfig config =

@@ -17,6 +17,7 @@ struct TrainCommand {
   std::filesystem::path config, out;
   std::optional<std::filesystem::path> regime;
   std::optional<std::uint64_t> seed;
+  bool config_given = false;  // --config was on the command line (not its default)
 };
 
 /// `ga`'s options: a training's, and its threads (0: OpenMP's default; at most kMaxThreads) and

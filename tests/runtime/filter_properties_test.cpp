@@ -14,6 +14,8 @@
 #include <filesystem>
 #include <limits>
 #include <random>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "imm/core/physical_limits.hpp"
@@ -41,12 +43,24 @@ double hostile(double plausible, std::mt19937_64& random) {
 /// What every filter must refuse: NaN, ±Inf, or beyond the physical range.
 bool usable(const Eigen::Vector2d& z) { return limits::usable_measurement(z); }
 
-/// The shipped models of the kinds `wanted` accepts (read once, at test registration).
+/// Every shipped model with its kind, each file read once per process: the three suites' lists
+/// are made at test registration, in every process ctest starts for one of their tests.
+const std::vector<std::pair<std::filesystem::path, std::string>>& shipped_model_kinds() {
+  static const auto kinds = [] {
+    std::vector<std::pair<std::filesystem::path, std::string>> read;
+    for (const auto& model : shipped_models())
+      read.emplace_back(model, io::ModelFileReader(model).provenance().model_kind);
+    return read;
+  }();
+  return kinds;
+}
+
+/// The shipped models of the kinds `wanted` accepts.
 template <class Wanted>
 std::vector<std::filesystem::path> shipped_models_where(Wanted&& wanted) {
   std::vector<std::filesystem::path> models;
-  for (const auto& model : shipped_models()) {
-    if (wanted(io::ModelFileReader(model).provenance().model_kind)) models.push_back(model);
+  for (const auto& [model, kind] : shipped_model_kinds()) {
+    if (wanted(kind)) models.push_back(model);
   }
   return models;
 }

@@ -206,9 +206,11 @@ int run(int argc, char** argv) {
   tracks->add_option("--out", out_path, "data-set file to write (HDF5)")->required();
   tracks->add_option("--split", split_name, "test | training | validation")
       ->check(CLI::IsMember({"test", "training", "validation"}));
-  tracks->add_option("--seed", seed,
-                     "test seed (the training and validation splits use the "
-                     "regime's [splits] seed)");
+  tracks
+      ->add_option("--seed", seed,
+                   "test seed (the training and validation splits use the "
+                   "regime's [splits] seed)")
+      ->check(imm::support::seed());
   tracks->add_option("--count", count, "tracks (default: the regime's split size)")
       ->check(imm::support::at_least(1));
   tracks->add_option("--csv", csv_path, "also write one track's plots as CSV for imm-track");
@@ -218,7 +220,7 @@ int run(int argc, char** argv) {
   auto* sensor = app.add_subcommand("sensor", "the calibration samples of a range sensor");
   sensor->add_option("--regime", regime_path, "regime TOML with a range sensor")->required();
   sensor->add_option("--out", out_path, "data-set file to write (HDF5)")->required();
-  sensor->add_option("--seed", seed, "seed of the draw");
+  sensor->add_option("--seed", seed, "seed of the draw")->check(imm::support::seed());
   std::vector<std::string> inputs;
   std::string name = "recorded", sensor_name = "cartesian", units_name = "m", data_path, out_dir;
   imm::datasets::ImportOptions import_options;
@@ -249,7 +251,7 @@ int run(int argc, char** argv) {
   exporter->add_option("--data", data_path, "or export a track-set file")->excludes(from_regime);
   exporter->add_option("--split", split_name, "test | training | validation")
       ->check(CLI::IsMember({"test", "training", "validation"}));
-  exporter->add_option("--seed", seed, "test seed");
+  exporter->add_option("--seed", seed, "test seed")->check(imm::support::seed());
   exporter->add_option("--count", count, "tracks")->check(imm::support::at_least(1));
   exporter->add_option("--out-dir", out_dir, "folder for track_000.csv, …")->required();
   exporter->add_flag("--no-truth", no_truth, "plots only (drop the truth columns)");
@@ -260,7 +262,7 @@ int run(int argc, char** argv) {
   scenes->add_option("--out-dir", out_dir, "folder for scene_000.csv, …")->required();
   scenes->add_option("--count", count, "scenes (default 1)")->check(imm::support::at_least(1));
   scenes->add_option("--split", split_name, "test | training | validation");
-  scenes->add_option("--seed", seed, "test seed");
+  scenes->add_option("--seed", seed, "test seed")->check(imm::support::seed());
   scenes->add_option("--targets", scene_targets, "targets per scene");
   scenes->add_option("--pd", scene_pd, "detection probability");
   scenes->add_option("--clutter", scene_clutter, "mean false plots per scan");

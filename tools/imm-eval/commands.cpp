@@ -41,7 +41,7 @@ void add_common_options(CLI::App& command, CommonOptions& options) {
                      "(default: the one recorded in the model)");
   command.add_option("--runs", options.runs, "test tracks (default: the regime's test split)")
       ->check(support::at_least(1));
-  command.add_option("--seed", options.seed, "seed of the test tracks");
+  command.add_option("--seed", options.seed, "seed of the test tracks")->check(support::seed());
   command.add_option("--out", options.out, "report folder");
   command.add_flag("--truth-tracks", options.truth_tracks,
                    "only the test tracks with truth (a recorded set with truth for some "
@@ -128,7 +128,7 @@ void add_rank(CLI::App& app, int& exit_code) {
                       "regime TOML (default: the one recorded in the first baseline)");
   command->add_option("--runs", options->runs, "test tracks (default: the regime's test split)")
       ->check(support::at_least(1));
-  command->add_option("--seed", options->seed, "seed of the test tracks");
+  command->add_option("--seed", options->seed, "seed of the test tracks")->check(support::seed());
   command->add_option("--out", options->out, "report folder");
   command->add_option("--ship", options->ship,
                       "write the winning model file here (atomically), with a covariance "
@@ -164,7 +164,7 @@ void add_multi_target(CLI::App& app, int& exit_code) {
                    "regime's [scene], else 10)")
       ->delimiter(',');
   command->add_option("--runs", options->settings.runs, "scenes");
-  command->add_option("--seed", options->settings.seed, "the scenes' seed");
+  command->add_option("--seed", options->settings.seed, "the scenes' seed")->check(support::seed());
   command->add_option("--out", options->out, "report folder (metrics.json)");
 }
 

@@ -14,12 +14,15 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <charconv>
+#include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <system_error>
 #include <vector>
 
 #include "imm/build_info.hpp"
@@ -128,6 +131,24 @@ inline void standard_options(CLI::App& app, std::string_view tool) {
         return {};
       },
       "> 0");
+}
+
+/// A seed: a whole number in [0, 2⁶⁴ − 1], written in digits. CLI11 reads "-1" into an unsigned
+/// integer as 2⁶⁴ − 1 and a number past 2⁶⁴ − 1 as 2⁶⁴ − 1: "must be a whole number in [0,
+/// 18446744073709551615] (got -1)".
+[[nodiscard]] inline CLI::Validator seed() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        std::uint64_t number = 0;
+        const char* end = value.data() + value.size();
+        const auto [at, error] = std::from_chars(value.data(), end, number);
+        if (value.empty() || value.front() == '-' || value.front() == '+' || error != std::errc{} ||
+            at != end) {
+          return "must be a whole number in [0, 18446744073709551615] (got " + value + ")";
+        }
+        return {};
+      },
+      "in [0, 2^64 - 1]");
 }
 
 /// `code`, or kBadInput with a line on stderr where standard output could not be written (a full
