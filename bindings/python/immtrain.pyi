@@ -318,7 +318,8 @@ def import_recordings(files: List[_Path], *, out: _Path, name: str = "recorded",
                       tolerance: float = 0.05, scans: int = 0) -> Dict[str, Any]:
     """Imports recorded tracks — CSV files, or folders of them (t in s, the plots, optional truth;
     docs/regimes.md) — into the track set file `out`, as imm-data import does: file, digest,
-    recordings, windows, scans, sample_period (s), gap_scans, dropped_scans and the tracks as
+    recordings, windows, scans, sample_period (s), gap_scans, dropped_scans, repeated_lines (exact
+    repeats of a track's line before them, dropped) and the tracks as
     numpy arrays (Regime.draw's keys). sensor: cartesian, polar or range_sensor; units: m or km;
     sample_period: 0 takes the first track's median step; tolerance: of a sample period, for each
     time's place on the grid; scans: per window, 0 the shortest track. InvalidParameter (a

@@ -301,6 +301,7 @@ PYBIND11_MODULE(immtrain_lab, m) {
         result["sample_period"] = report.sample_period;
         result["gap_scans"] = report.gap_scans;
         result["dropped_scans"] = report.dropped_scans;
+        result["repeated_lines"] = report.repeated_lines;
         result["tracks"] = track_arrays(set);
         return result;
       },

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -95,6 +96,39 @@ std::string where(const RecordedTrack& track, std::size_t row) {
   return track.file + ":" + std::to_string(track.lines[row]);
 }
 
+// Drops every row of `rows` that repeats the row before it exactly (the same time and values, bit
+// for bit), recording its line in `repeated`; a row at the same time with other values is refused
+// naming both lines.
+void drop_repeated_rows(Rows& rows, std::size_t width, const std::filesystem::path& path,
+                        int time_column, std::vector<std::size_t>& repeated) {
+  std::size_t kept = 0;
+  for (std::size_t row = 0; row < rows.lines.size(); ++row) {
+    const double* values = rows.values.data() + row * width;
+    if (kept > 0) {
+      const double* before = rows.values.data() + (kept - 1) * width;
+      if (values[0] == before[0]) {
+        if (std::memcmp(values, before, width * sizeof(double)) == 0) {
+          repeated.push_back(rows.lines[row]);
+          continue;
+        }
+        throw std::runtime_error(path.string() + ":" + std::to_string(rows.lines[row]) +
+                                 ": column " + std::to_string(time_column + 1) + " ('t'): track '" +
+                                 rows.name +
+                                 "' has another plot at the time "
+                                 "of line " +
+                                 std::to_string(rows.lines[kept - 1]));
+      }
+    }
+    if (kept != row) {
+      std::memmove(rows.values.data() + kept * width, values, width * sizeof(double));
+      rows.lines[kept] = rows.lines[row];
+    }
+    ++kept;
+  }
+  rows.lines.resize(kept);
+  rows.values.resize(kept * width);
+}
+
 }  // namespace
 
 std::vector<RecordedTrack> read_recording(const std::filesystem::path& path,
@@ -136,6 +170,7 @@ std::vector<RecordedTrack> read_recording(const std::filesystem::path& path,
     RecordedTrack track;
     track.name = rows.name;
     track.file = path.string();
+    drop_repeated_rows(rows, width, path, columns.t, track.repeated_lines);
     track.lines = std::move(rows.lines);
     const auto n = static_cast<Eigen::Index>(track.lines.size());
     const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
@@ -257,6 +292,7 @@ TrackSet import_recordings(const std::vector<RecordedTrack>& recordings,
       if (truth) states.row(grid[r][k]) = track.truth.row(static_cast<Eigen::Index>(k));
     }
     local.gap_scans += static_cast<long>(length) - static_cast<long>(grid[r].size());
+    local.repeated_lines += static_cast<long>(track.repeated_lines.size());
     set.recording_names.push_back(track.name);
     const Eigen::Index windows = length / scans;
     local.dropped_scans += static_cast<long>(length - windows * scans);

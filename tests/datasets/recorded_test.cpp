@@ -160,6 +160,8 @@ TEST(RecordedTracks, HostileRecordingsAreRefusedWithFileLineAndColumn) {
       {"half_truth", "t,zx,zy,x,vx\n0,1,2,3,4\n", "half_truth.csv:1: header: truth needs"},
       {"twice", "t,zx,zy\n0,1,2\n0.001,1,2\n1,1,2\n", "twice.csv:3: column 't': two plots"},
       {"far", "t,zx,zy\n0,1,2\n1,1,2\n1000000,1,2\n", "far.csv:4: column 't': more than 10⁶"},
+      {"same_time", "t,zx,zy\n0,1,2\n1,1,2\n1,1,2.5\n",
+       "same_time.csv:4: column 1 ('t'): track 'same_time' has another plot at the time of line 3"},
   };
   for (const Case& c : cases) {
     const auto path = dir.path() / (c.name + ".csv");
@@ -172,6 +174,49 @@ TEST(RecordedTracks, HostileRecordingsAreRefusedWithFileLineAndColumn) {
     });
     EXPECT_NE(error.find(c.expected), std::string::npos) << c.name << ": " << error;
   }
+}
+
+// A logger that wrote a line twice: the exact repeat of a track's line before it is dropped and
+// counted (the whole recording was refused as "the times must increase"); the set is the one
+// without it, to the bit. A repeat that is not next to its line is still refused.
+TEST(RecordedTracks, AnExactlyRepeatedLineIsDroppedAndCounted) {
+  TempDir dir;
+  const std::string clean =
+      "t,track,zx,zy,x,vx,y,vy\n0,a,1,2,1,0,2,0\n0,b,5,6,5,0,6,0\n1,a,1.5,2,1,0,2,0\n"
+      "1,b,5,6.5,5,0,6,0\n2,a,2,2,1,0,2,0\n2,b,5,7,5,0,6,0\n3,a,2.5,2,1,0,2,0\n";
+  // Line 4 (a at t = 1) written again after line 5 (b's), and b's last line twice in a row.
+  const std::string repeated =
+      "t,track,zx,zy,x,vx,y,vy\n0,a,1,2,1,0,2,0\n0,b,5,6,5,0,6,0\n1,a,1.5,2,1,0,2,0\n"
+      "1,b,5,6.5,5,0,6,0\n1,a,1.5,2,1,0,2,0\n2,a,2,2,1,0,2,0\n2,b,5,7,5,0,6,0\n"
+      "2,b,5,7,5,0,6,0\n3,a,2.5,2,1,0,2,0\n";
+  write_text(dir.path() / "clean.csv", clean);
+  write_text(dir.path() / "repeated.csv", repeated);
+  ImportOptions options;
+  options.scans = 3;
+  ImportReport clean_report, repeated_report;
+  const auto clean_tracks = read_recording(dir.path() / "clean.csv", {SensorKind::kCartesian});
+  const auto tracks = read_recording(dir.path() / "repeated.csv", {SensorKind::kCartesian});
+  ASSERT_EQ(tracks.size(), 2U);
+  EXPECT_EQ(tracks[0].repeated_lines, (std::vector<std::size_t>{6}));
+  EXPECT_EQ(tracks[1].repeated_lines, (std::vector<std::size_t>{9}));
+  EXPECT_EQ(tracks[0].lines, (std::vector<std::size_t>{2, 4, 7, 10}));
+  EXPECT_EQ(tracks[1].lines, (std::vector<std::size_t>{3, 5, 8}));
+  const TrackSet expected = import_recordings(clean_tracks, options, &clean_report);
+  const TrackSet set = import_recordings(tracks, options, &repeated_report);
+  EXPECT_EQ(clean_report.repeated_lines, 0);
+  EXPECT_EQ(repeated_report.repeated_lines, 2);
+  EXPECT_EQ(set.digest(), expected.digest());
+  ASSERT_EQ(set.tracks.size(), expected.tracks.size());
+  for (std::size_t i = 0; i < set.tracks.size(); ++i) {
+    EXPECT_EQ(set.tracks[i].plots, expected.tracks[i].plots);
+    EXPECT_EQ(set.tracks[i].truth, expected.tracks[i].truth);
+  }
+  // Not next to its line: the times go back, as before.
+  write_text(dir.path() / "back.csv", "t,zx,zy\n0,1,2\n1,1,2\n2,1,2\n1,1,2\n");
+  EXPECT_NE(error_of([&] {
+              (void)read_recording(dir.path() / "back.csv", {SensorKind::kCartesian});
+            }).find("back.csv:5: column 1 ('t'): the times of track 'back' must increase"),
+            std::string::npos);
 }
 
 // A sample period given is held to a sample period's limits (NaN is not "infer it"), and one

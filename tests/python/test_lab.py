@@ -270,6 +270,7 @@ def test_recordings_import_as_imm_data_imports_them(tmp_path):
         (folder / f"track{n}.csv").write_text("t,zx,zy\n" + rows + "\n")
     ours = immtrain.import_recordings([folder], out=tmp_path / "py.h5", name="mine")
     assert (ours["recordings"], ours["sample_period"], ours["gap_scans"]) == (3, 2.0, 1)
+    assert ours["repeated_lines"] == 0
     assert ours["tracks"]["plots"].shape == (ours["windows"], ours["scans"], 2)
     assert np.isnan(ours["tracks"]["plots"][1, 7]).all()  # the gap: a scan without a plot
     listing = subprocess.run([os.path.join(BIN, "imm-data"), "import", str(folder), "--out",
@@ -281,6 +282,11 @@ def test_recordings_import_as_imm_data_imports_them(tmp_path):
     for bad in [{"sample_period": float("nan")}, {"tolerance": float("nan")}, {"scans": 2}]:
         with pytest.raises(immtrain.InvalidParameter, match="^" + next(iter(bad))):
             immtrain.import_recordings([folder], out=tmp_path / "x.h5", **bad)
+    # A line written twice by the recorder is dropped and counted: the same set.
+    doubled = (folder / "track0.csv").read_text().splitlines(keepends=True)
+    (folder / "track0.csv").write_text("".join(doubled[:5] + doubled[4:]))
+    again = immtrain.import_recordings([folder], out=tmp_path / "py2.h5", name="mine")
+    assert (again["repeated_lines"], again["digest"]) == (1, ours["digest"])
     (folder / "bad.csv").write_text("t,zx,zy\n0,1,2\n1,nan,3\n")
     with pytest.raises(RuntimeError, match="bad.csv"):
         immtrain.import_recordings([folder], out=tmp_path / "y.h5")

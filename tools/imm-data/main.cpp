@@ -99,8 +99,12 @@ int import_recordings(const std::vector<std::string>& inputs, const std::string&
   std::cout << "imm-data: " << report.recordings << " recordings, " << report.windows
             << " tracks x " << report.scans << " scans at T = " << report.sample_period << " s ("
             << report.gap_scans << " gap scans, " << report.dropped_scans
-            << " scans after the last whole window dropped), " << truth_text(set) << " -> "
-            << out_path << " (sha256 " << digest.substr(0, 16) << ")\n";
+            << " scans after the last whole window dropped"
+            << (report.repeated_lines > 0
+                    ? ", " + std::to_string(report.repeated_lines) + " repeated lines dropped"
+                    : std::string())
+            << "), " << truth_text(set) << " -> " << out_path << " (sha256 " << digest.substr(0, 16)
+            << ")\n";
   return 0;
 }
 

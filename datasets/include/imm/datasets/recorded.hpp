@@ -42,6 +42,9 @@ struct RecordedTrack {
   Eigen::VectorXd times;
   Eigen::MatrixXd plots;  ///< rows × 2
   Eigen::MatrixXd truth;  ///< rows × 4 (x, vx, y, vy), or rows × 0 without truth
+  /// The CSV lines dropped as exact repeats of the track's row before them (a logger that wrote
+  /// a line twice); a row at the same time with other values is refused.
+  std::vector<std::size_t> repeated_lines;
 };
 
 /// What the plots are (checked against the header's columns).
@@ -67,6 +70,7 @@ struct ImportOptions {
 struct ImportReport {
   int recordings = 0, windows = 0;
   long dropped_scans = 0, gap_scans = 0;
+  long repeated_lines = 0;  ///< exact repeats of a track's row before them, dropped
   double sample_period = 0.0;
   int scans = 0;
 };
