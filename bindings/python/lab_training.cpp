@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "imm/pipeline/training_commands.hpp"
+#include "imm/support/cli.hpp"
 #include "imm/support/kind_aliases.hpp"
 
 namespace py = pybind11;
@@ -138,7 +139,13 @@ py::dict train(const std::string& kind, const std::optional<fs::path>& config,
   try {
     imm::pipeline::parse_job(app, job);
   } catch (const CLI::ParseError& error) {
-    throw py::value_error("train('" + kind + "'): " + error.what());
+    // What imm-train says: "unknown command 'gaa'; did you mean 'ga'?" (CLI11's own words were
+    // "A subcommand is required").
+    std::vector<const char*> argv = {"imm-train"};
+    for (const std::string& argument : job.arguments) argv.push_back(argument.c_str());
+    throw py::value_error("train('" + kind + "'): " +
+                          imm::support::detail::usage_message(app, static_cast<int>(argv.size()),
+                                                              argv.data(), error));
   }
   const std::optional<fs::path> model = training.chosen_out();
   if (!model) throw py::value_error("train: '" + kind + "' is no training of imm-train");

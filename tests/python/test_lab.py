@@ -214,8 +214,10 @@ def test_progress_true_shows_a_bar_of_the_log_lines(tmp_path, capsys):
 
 
 def test_training_refuses_what_imm_train_refuses(tmp_path):
-    with pytest.raises(ValueError, match="no_such_kind"):
+    with pytest.raises(ValueError, match="unknown command 'no_such_kind'"):
         immtrain.train("no_such_kind")
+    with pytest.raises(ValueError, match="did you mean 'ga'"):
+        immtrain.train("gaa")
     bad = tmp_path / "bad.toml"
     bad.write_text(open("configs/ga_fuzzy_imm.toml").read().replace(
         "population = 500", "population = -3"))
