@@ -334,10 +334,19 @@ int run_schedule(const TrainCommand& command) {
 int run_baseline(const TrainCommand& given) {
   TrainCommand command = given;
   // Without --config the default is the GA config, whose filter is Cartesian: a polar regime's
-  // classical bar is the normal IMM of the wIMM config.
-  if (!command.config_given && command.regime &&
-      datasets::load_regime(*command.regime).regime.sensor.kind == datasets::SensorKind::kPolar) {
-    command.config = "configs/wimm_tuned.toml";
+  // classical bar is the normal IMM of the wIMM config; a range sensor's has no file of its own.
+  if (!command.config_given && command.regime) {
+    const datasets::Regime regime = datasets::load_regime(*command.regime).regime;
+    if (regime.sensor.kind == datasets::SensorKind::kPolar) {
+      command.config = "configs/wimm_tuned.toml";
+    } else if (regime.sensor.kind == datasets::SensorKind::kRangeSensor) {
+      throw support::ConfigError(
+          command.regime->string(), "sensor.kind",
+          "regime '" + regime.name +
+              "' has a range sensor: its classical bar is the IMM (h = identity) that `imm-eval "
+              "fimm` runs beside the FIMM on the same plots, not a file `imm-train baseline` "
+              "writes");
+    }
   }
   if (trainer::classical::is_classical_config(command.config)) {
     namespace classical = trainer::classical;

@@ -40,6 +40,16 @@ TEST_F(Tools, APolarRegimesTrackerIsChosenAmongItsWimmAndItsTunedNormalImm) {
   ASSERT_EQ(baseline.exit_code, 0) << baseline.err;
   EXPECT_NE(baseline.err.find("the normal IMM tuned on the training split"), std::string::npos)
       << baseline.err;
+  // A range sensor's bar is not a file: refused naming sensor.kind, not the GA config's filter.
+  const auto range = run_tool("imm-train",
+                              {"baseline", "--regime", "configs/regimes/paper/fimm_table1.toml",
+                               "--out", (models / "range.h5").string()},
+                              root_);
+  EXPECT_EQ(range.exit_code, 2) << range.err;
+  EXPECT_NE(range.err.find("fimm_table1.toml: key 'sensor.kind': regime 'fimm_table1' has a "
+                           "range sensor: its classical bar is the IMM (h = identity)"),
+            std::string::npos)
+      << range.err;
   const auto trained = train("wimm", wimm_config, regime, models / "wimm.h5");
   ASSERT_EQ(trained.exit_code, 0) << trained.err;
 
