@@ -111,12 +111,11 @@ void drop_repeated_rows(Rows& rows, std::size_t width, const std::filesystem::pa
           repeated.push_back(rows.lines[row]);
           continue;
         }
-        throw std::runtime_error(path.string() + ":" + std::to_string(rows.lines[row]) +
-                                 ": column " + std::to_string(time_column + 1) + " ('t'): track '" +
-                                 rows.name +
-                                 "' has another plot at the time "
-                                 "of line " +
-                                 std::to_string(rows.lines[kept - 1]));
+        const std::string line = std::to_string(rows.lines[row]);
+        const std::string earlier = std::to_string(rows.lines[kept - 1]);
+        throw std::runtime_error(path.string() + ":" + line + ": column " +
+                                 std::to_string(time_column + 1) + " ('t'): track '" + rows.name +
+                                 "' has another plot at the time of line " + earlier);
       }
     }
     if (kept != row) {

@@ -135,15 +135,15 @@ inline void standard_options(CLI::App& app, std::string_view tool) {
 
 /// A seed: a whole number in [0, 2⁶⁴ − 1], written in digits. CLI11 reads "-1" into an unsigned
 /// integer as 2⁶⁴ − 1 and a number past 2⁶⁴ − 1 as 2⁶⁴ − 1: "must be a whole number in [0,
-/// 18446744073709551615] (got -1)".
+/// 18446744073709551615] (got -1)". std::from_chars into an unsigned type takes digits alone (no
+/// sign, no exponent) and says when they overflow.
 [[nodiscard]] inline CLI::Validator seed() {
   return CLI::Validator(
       [](std::string& value) -> std::string {
         std::uint64_t number = 0;
         const char* end = value.data() + value.size();
         const auto [at, error] = std::from_chars(value.data(), end, number);
-        if (value.empty() || value.front() == '-' || value.front() == '+' || error != std::errc{} ||
-            at != end) {
+        if (error != std::errc{} || at != end) {
           return "must be a whole number in [0, 18446744073709551615] (got " + value + ")";
         }
         return {};
