@@ -29,3 +29,17 @@ option(IMM_MODE_COUNT_KERNELS "Specialize the banks' kernels for 1-4 modes" ON)
 if(NOT IMM_MODE_COUNT_KERNELS)
   add_compile_definitions(IMM_GENERIC_MODE_COUNT)
 endif()
+
+# IMM_UNITY_BUILD (default OFF): each target's sources compiled in batches of
+# IMM_UNITY_BATCH_SIZE, one translation unit per batch (CMake's unity build). A cold build of the
+# whole tree parses the headers and instantiates the same Eigen expressions once per batch rather
+# than once per file. Sources with their own compile options (the banks' kernels, the OpenMP-SIMD
+# files) stay on their own. The same code is compiled: IEEE arithmetic without contraction
+# (-ffp-contract=off) does not depend on where a function is inlined. Off by default, where one
+# changed file would rebuild its whole batch; .ci/run builds both trees with it.
+option(IMM_UNITY_BUILD "Compile each target's sources in batches (cold builds)" OFF)
+set(IMM_UNITY_BATCH_SIZE 8 CACHE STRING "Sources per batch of the unity build")
+if(IMM_UNITY_BUILD)
+  set(CMAKE_UNITY_BUILD ON)
+  set(CMAKE_UNITY_BUILD_BATCH_SIZE ${IMM_UNITY_BATCH_SIZE})
+endif()

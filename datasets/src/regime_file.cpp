@@ -20,7 +20,7 @@ using support::ConfigDocument;
 using support::ConfigError;
 using support::ConfigTable;
 
-constexpr double kDegree = std::numbers::pi / 180.0;
+constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
 
 /// A named choice of a fixed set, or a ConfigError listing them.
 template <class Enum, std::size_t N>
@@ -73,14 +73,16 @@ datasets::Start start_from(const ConfigTable& table) {
     return start;
   }
   start.range = interval(table, "range");
-  start.bearing = interval_or(table, "bearing_deg", {0.0, 2.0 * std::numbers::pi}, kDegree);
+  start.bearing =
+      interval_or(table, "bearing_deg", {0.0, 2.0 * std::numbers::pi}, kRadiansPerDegree);
   start.speed = interval(table, "speed");
   const std::string heading = table.text_or("heading", "absolute");
   if (heading == "inbound") {
     start.inbound = true;
-    start.heading = interval_or(table, "heading_offset_deg", {0.0, 0.0}, kDegree);
+    start.heading = interval_or(table, "heading_offset_deg", {0.0, 0.0}, kRadiansPerDegree);
   } else if (heading == "absolute") {
-    start.heading = interval_or(table, "heading_deg", {0.0, 2.0 * std::numbers::pi}, kDegree);
+    start.heading =
+        interval_or(table, "heading_deg", {0.0, 2.0 * std::numbers::pi}, kRadiansPerDegree);
   } else {
     table.fail("heading", "unknown heading '" + heading + "' (expected inbound or absolute)");
   }
@@ -100,7 +102,7 @@ std::optional<datasets::SensorNoise> noise_from(const ConfigTable& table, Sensor
   if (kind == SensorKind::kPolar) {
     if (table.has("range_sigma")) noise.sigma(0) = table.real("range_sigma"), any = true;
     if (table.has("azimuth_sigma_deg")) {
-      noise.sigma(1) = table.real("azimuth_sigma_deg") * kDegree;
+      noise.sigma(1) = table.real("azimuth_sigma_deg") * kRadiansPerDegree;
       any = true;
     }
   } else {
@@ -184,7 +186,7 @@ datasets::MenuEntry menu_entry_from(const ConfigTable& table) {
           std::array{Direction::kAlong, Direction::kLateral, Direction::kAny, Direction::kAxis});
       break;
     case SegmentKind::kTurn:
-      e.rate = interval(table, "rate_deg", kDegree);
+      e.rate = interval(table, "rate_deg", kRadiansPerDegree);
       break;
     case SegmentKind::kZigzag: {
       e.magnitude = interval(table, "magnitude");
@@ -226,7 +228,7 @@ datasets::ScriptedSegment segment_from(const ConfigTable& table) {
       s.acceleration = table.reals("acceleration", 2);
       break;
     case SegmentKind::kTurn:
-      s.rate = table.real("rate_deg") * kDegree;
+      s.rate = table.real("rate_deg") * kRadiansPerDegree;
       break;
     case SegmentKind::kLaneChange:
       s.offset = table.real("offset");

@@ -39,7 +39,7 @@ namespace imm::evaluation {
 namespace {
 
 // The columns of the tables, for metrics.json and report.md.
-std::vector<MetricDefinition> definitions(const std::string& length) {
+std::vector<MetricDefinition> fcm_imm_definitions(const std::string& length) {
   return {
       {"pos", length, "RMS position error over runs and scans"},
       {"vel", length + "/s", "RMS velocity error over runs and scans"},
@@ -348,7 +348,7 @@ int report_fcm_imm(const FcmImmResult& r, const FcmImmOptions& options) {
   details["gate_failures"] = r.failures;
   details["findings"] = r.findings;
   const HeadlineRuns evaluated{"fcm-imm", r.model, regime.name, regime.digest, r.seed, runs};
-  write_metrics(out, evaluated, definitions(std::string(datasets::to_string(regime.units))),
+  write_metrics(out, evaluated, fcm_imm_definitions(std::string(datasets::to_string(regime.units))),
                 metrics);
   trainer::write_json_atomically(out / "details.json", details);
   // The four figures, and how far the covariance is from the errors (a candidate whose

@@ -12,7 +12,7 @@
 namespace imm::evaluation {
 namespace {
 
-constexpr int kFirstScoredScan = 2;
+constexpr int kFcmFirstScoredScan = 2;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 }  // namespace
@@ -53,7 +53,7 @@ FcmImmOutcome run_fcm_imm_filter(const std::string& name, const trainer::fcm::Fi
         }
         filter->initialize(mean, covariance);
         Eigen::VectorXd estimate(4), variance(4);
-        for (int k = kFirstScoredScan; k < steps; ++k) {
+        for (int k = kFcmFirstScoredScan; k < steps; ++k) {
           double* scan = terms.data() + 1 + k * kPerScan;
           if (filter->step(z.row(k).transpose()) != StepStatus::kOk) {
             scan[9] = 1.0;
@@ -78,7 +78,7 @@ FcmImmOutcome run_fcm_imm_filter(const std::string& name, const trainer::fcm::Fi
   for (Eigen::Index run = 0; run < runs; ++run) {
     const double* terms = all.data() + run * width;
     is_fcm = terms[0] != 0.0;
-    for (int k = kFirstScoredScan; k < steps; ++k) {
+    for (int k = kFcmFirstScoredScan; k < steps; ++k) {
       const double* scan = terms + 1 + k * kPerScan;
       if (scan[9] != 0.0) ++out.failed_steps;
       if (scan[0] == 0.0) continue;
@@ -103,7 +103,7 @@ FcmImmOutcome run_fcm_imm_filter(const std::string& name, const trainer::fcm::Fi
   out.position_rmse = Eigen::VectorXd::Constant(steps, kNaN);
   out.velocity_rmse = out.position_rmse;
   out.fraction = out.position_rmse;
-  for (int k = kFirstScoredScan; k < steps; ++k) {
+  for (int k = kFcmFirstScoredScan; k < steps; ++k) {
     if (samples(k) == 0) continue;
     out.position_rmse(k) = std::sqrt(position(k) / samples(k));
     out.velocity_rmse(k) = std::sqrt(velocity(k) / samples(k));

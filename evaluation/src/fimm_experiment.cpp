@@ -43,7 +43,7 @@ namespace imm::evaluation {
 namespace {
 
 // The columns of the tables, for metrics.json and report.md.
-std::vector<MetricDefinition> definitions(const std::string& length) {
+std::vector<MetricDefinition> fimm_definitions(const std::string& length) {
   return {
       {"IMM, FIMM (EKF), FIMM (IEKF)", length + "^2",
        "position MSE: ξ and η errors squared and summed, from scan 3 on, over tracks"},
@@ -324,7 +324,7 @@ int report_fimm(const FimmResult& r, const FimmOptions& options) {
   details["fimm"] = r.settings;
   const HeadlineRuns evaluated{"fimm",        r.model, regime.name,
                                regime.digest, r.seed,  static_cast<int>(all_runs)};
-  write_metrics(out, evaluated, definitions(std::string(datasets::to_string(regime.units))),
+  write_metrics(out, evaluated, fimm_definitions(std::string(datasets::to_string(regime.units))),
                 tables.metrics);
   trainer::write_json_atomically(out / "details.json", details);
   write_headline(out, evaluated, headline);

@@ -13,7 +13,7 @@
 namespace imm::evaluation {
 namespace {
 
-constexpr int kFirstScoredScan = 2;
+constexpr int kFimmFirstScoredScan = 2;
 
 // dη_m/dη of the true sensor at a position (central differences).
 double range_slope(const datasets::Sensor& sensor, const Eigen::Vector2d& p) {
@@ -52,7 +52,7 @@ FimmOutcome run_fimm_filter(const std::function<std::unique_ptr<FimmFilter>()>& 
               acceleration_variance;
         }
         filter->initialize(mean, covariance);
-        for (Eigen::Index k = kFirstScoredScan; k < steps; ++k) {
+        for (Eigen::Index k = kFimmFirstScoredScan; k < steps; ++k) {
           double* scan = terms.data() + k * kPerScan;
           if (filter->step(z.row(k).transpose()) != StepStatus::kOk) {
             scan[7] = 1.0;
@@ -78,7 +78,7 @@ FimmOutcome run_fimm_filter(const std::function<std::unique_ptr<FimmFilter>()>& 
   const double nan = std::numeric_limits<double>::quiet_NaN();
   Eigen::MatrixXd run_nees = Eigen::MatrixXd::Constant(runs, steps, nan), run_nis = run_nees;
   for (Eigen::Index run = 0; run < runs; ++run) {
-    for (Eigen::Index k = kFirstScoredScan; k < steps; ++k) {
+    for (Eigen::Index k = kFimmFirstScoredScan; k < steps; ++k) {
       const double* scan = all.data() + run * width + k * kPerScan;
       if (scan[7] != 0.0) ++out.failed_steps;
       if (scan[0] == 0.0) continue;

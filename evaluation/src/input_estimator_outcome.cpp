@@ -14,7 +14,7 @@
 namespace imm::evaluation {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kNotANumber = std::numeric_limits<double>::quiet_NaN();
 
 // Axis runs × scans of one consistency series.
 Eigen::MatrixXd stacked(const std::vector<Eigen::RowVectorXd>& rows) {
@@ -79,13 +79,14 @@ std::vector<InputEstimatorCase> run_input_estimator_cases(const MlpInputEstimato
           const GaussianState<2>& x = scored.estimate();
           out[0] = x.covariance(0, 0) > 0.0
                        ? std::pow(t.position(k) - x.mean(0), 2) / x.covariance(0, 0)
-                       : kNaN;
+                       : kNotANumber;
           double nu = 0.0, variance = 0.0;
-          out[1] = scored.innovation(nu, variance) && variance > 0.0 ? nu * nu / variance : kNaN;
+          out[1] =
+              scored.innovation(nu, variance) && variance > 0.0 ? nu * nu / variance : kNotANumber;
         };
         for (int k = 2; k < steps; ++k) {
           double* scan = terms.data() + kRunTerms + k * kPerScan;
-          std::fill_n(scan + 4, 4, kNaN);
+          std::fill_n(scan + 4, 4, kNotANumber);
           if (imm.step(t.measurement(k)) == StepStatus::kOk) {
             const auto& m = imm.estimate();
             add(tuned, 0.0, t.position(k) - m.mean(0), t.velocity(k) - m.mean(1));
@@ -125,7 +126,7 @@ std::vector<InputEstimatorCase> run_input_estimator_cases(const MlpInputEstimato
     ++case_runs[c];
     const double* terms = all.data() + static_cast<std::ptrdiff_t>(run) * width;
     auto& rows = consistency_rows[c];
-    for (auto& series : rows) series.emplace_back(Eigen::RowVectorXd::Constant(steps, kNaN));
+    for (auto& series : rows) series.emplace_back(Eigen::RowVectorXd::Constant(steps, kNotANumber));
     for (int k = 2; k < steps; ++k) {
       const double* scan = terms + kRunTerms + k * kPerScan;
       for (std::size_t i = 0; i < 4; ++i) rows[i].back()(k) = scan[4 + i];

@@ -39,7 +39,7 @@ namespace imm::evaluation {
 namespace {
 
 // The columns of the tables, for metrics.json and report.md.
-std::vector<MetricDefinition> definitions(const std::string& length) {
+std::vector<MetricDefinition> input_estimator_definitions(const std::string& length) {
   return {
       {"innov CV, innov corrected", length + "^2",
        "MSE of the innovation of the CV KF and of the primary KF corrected by û"},
@@ -353,7 +353,8 @@ int report_input_estimator(const InputEstimatorResult& r, const InputEstimatorOp
   metrics["versus_classical_bar"] = against_bar;
   const HeadlineRuns evaluated{"input-estimator", r.model, regime.name,
                                regime.digest,     r.seed,  2 * r.runs()};
-  write_metrics(out, evaluated, definitions(std::string(datasets::to_string(regime.units))),
+  write_metrics(out, evaluated,
+                input_estimator_definitions(std::string(datasets::to_string(regime.units))),
                 metrics);
   write_headline(out, evaluated, corrected_headline(r.cases));
   write_series(r, out);

@@ -39,7 +39,7 @@ namespace imm::evaluation {
 namespace {
 
 // The columns of the tables, for metrics.json and report.md.
-std::vector<MetricDefinition> definitions(const std::string& length) {
+std::vector<MetricDefinition> wimm_definitions(const std::string& length) {
   return {
       {"az (rad)", "rad",
        "RMS azimuth error of the estimate, over runs per scan, averaged over scans"},
@@ -347,7 +347,7 @@ int report_wimm(const WimmResult& r, const WimmOptions& options) {
   for (const auto& failure : r.failures) std::cout << "  - " << failure << '\n';
   print_findings(r.findings);
   const HeadlineRuns evaluated{"wimm", r.model, regime.name, regime.digest, r.seed, r.runs()};
-  write_metrics(out, evaluated, definitions(std::string(datasets::to_string(regime.units))),
+  write_metrics(out, evaluated, wimm_definitions(std::string(datasets::to_string(regime.units))),
                 metrics);
   write_headline(out, evaluated, wimm_headline(headline_cases));
   details["parameters"] = r.parameters;

@@ -28,8 +28,8 @@ namespace {
 
 // The test sensor (testing/tsk_sensors.hpp; saturating, so that the iterated EKF relinearizes);
 // the cut-in's first scans lie outside its box (η < 1).
-std::shared_ptr<const TskSensorModel> sensor_like_model(TNorm t_norm,
-                                                        OutsideBox outside = OutsideBox::kLinear) {
+std::shared_ptr<const TskSensorModel> shared_sensor_like_model(
+    TNorm t_norm, OutsideBox outside = OutsideBox::kLinear) {
   return std::make_shared<const TskSensorModel>(testing::sensor_like_model(t_norm, outside));
 }
 
@@ -102,7 +102,7 @@ TEST(FimmTrackBank, EqualsTheOneTrackFilterToRounding) {
         spec.iterations = iterations;
         spec.transition << 0.95, 0.05, 0.1, 0.9;
         refused += expect_equals_one_track_filters(
-            spec, sensor_like_model(t_norm, outside), data,
+            spec, shared_sensor_like_model(t_norm, outside), data,
             "iterations " + std::to_string(iterations) + ", " + std::string(to_string(t_norm)) +
                 (outside == OutsideBox::kLinear ? ", linear outside" : ", held outside"));
         if (HasFailure()) return;
@@ -170,7 +170,7 @@ TEST(FimmTrackBank, ScoresCandidatePlotsAsTheOneTrackFilterWithoutChangingATrack
     spec.measurement_covariance << 0.25, 0.05, 0.05, 0.3;
     spec.iterations = iterations;
     spec.transition << 0.95, 0.05, 0.1, 0.9;
-    expect_gating_as_the_one_track_filters(spec, sensor_like_model(TNorm::kProduct), data,
+    expect_gating_as_the_one_track_filters(spec, shared_sensor_like_model(TNorm::kProduct), data,
                                            "iterations " + std::to_string(iterations), 120, 1e-11);
     if (HasFailure()) return;
   }
@@ -191,7 +191,7 @@ TEST(FimmTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit) {
   FimmSpec spec;
   spec.sample_period = 0.1;
   spec.iterations = 4;
-  const auto sensor = sensor_like_model(TNorm::kProduct);
+  const auto sensor = shared_sensor_like_model(TNorm::kProduct);
   testing::expect_tracks_independent_of_their_neighbours(
       11, 80, [&](std::size_t n) { return FimmTrackBank(spec, sensor, n); },
       [&](int t) { return data.starts[static_cast<std::size_t>(t)]; },
@@ -206,7 +206,7 @@ TEST(FimmTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWas) {
   FimmSpec spec;
   spec.sample_period = 0.1;
   spec.iterations = 3;
-  FimmTrackBank bank(spec, sensor_like_model(TNorm::kMin), 5);
+  FimmTrackBank bank(spec, shared_sensor_like_model(TNorm::kMin), 5);
   for (std::size_t t = 0; t < 5; ++t) bank.initialize(t, data.starts[t]);
   std::vector<Eigen::Vector2d> plots(3);
   std::vector<StepStatus> status(3);
@@ -231,7 +231,7 @@ TEST(FimmTrackBank, AnOverflowingPredictionIsASingularInnovationInBoth) {
   start.mean << 1.0, 0.0, 0.0, 2.0, 0.0, 0.0;
   start.covariance = 1.79e308 * SquareMatrix<6>::Identity();
   for (const bool sensor : {false, true}) {
-    const auto model = sensor ? sensor_like_model(TNorm::kProduct) : nullptr;
+    const auto model = sensor ? shared_sensor_like_model(TNorm::kProduct) : nullptr;
     FimmTrackBank bank(spec, model, 1);
     bank.initialize(0, start);
     FimmFilter single(spec, model);

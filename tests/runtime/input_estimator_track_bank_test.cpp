@@ -57,7 +57,7 @@ MlpInputEstimatorModel random_model(std::mt19937_64& rng, int trial) {
   return model;
 }
 
-GaussianState<4> start_of(int track) {
+GaussianState<4> bank_start_of(int track) {
   GaussianState<4> s;
   s.mean << 100.0 + track, 3.0, -40.0 + 5.0 * track, -2.0;
   s.covariance = Eigen::Vector4d(60.0, 20.0, 60.0, 20.0).asDiagonal();
@@ -91,7 +91,8 @@ int expect_equals_one_track_filters(const MlpInputEstimatorModel& model, int sca
   auto single =
       testing::one_track_filters(kTracks, [&] { return make_mlp_input_estimator_filter(model); });
   return testing::follow_one_track_filters(
-      bank, single, name, 0, scans - 1, start_of, [&](int t, int k) { return plot_of(t, k, rng); },
+      bank, single, name, 0, scans - 1, bank_start_of,
+      [&](int t, int k) { return plot_of(t, k, rng); },
       [&](std::size_t t, const std::string& at) {
         SCOPED_TRACE(at);
         const GaussianState<4> reference = testing::two_axis_estimate(*single[t]);
@@ -136,7 +137,7 @@ TEST(InputEstimatorTrackBank, ATracksResultDoesNotDependOnItsNeighboursToTheBit)
   std::mt19937_64 rng(7);
   const MlpInputEstimatorModel model = random_model(rng, 4);
   testing::expect_tracks_independent_of_their_neighbours(
-      11, 80, [&](std::size_t n) { return InputEstimatorTrackBank(model, n); }, start_of,
+      11, 80, [&](std::size_t n) { return InputEstimatorTrackBank(model, n); }, bank_start_of,
       [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_input);
 }
 
@@ -147,14 +148,14 @@ TEST(InputEstimatorTrackBank, TheWideAndNarrowBlocksGiveTheSameBits) {
   const MlpInputEstimatorModel model = random_model(rng, 2);
   testing::expect_wide_blocks_as_narrow_ones(
       13, 80, [&](std::size_t n, bool wide) { return InputEstimatorTrackBank(model, n, wide); },
-      start_of, [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_input);
+      bank_start_of, [&](int t, int k) { return plot_of(t, k, rng); }, expect_same_input);
 }
 
 TEST(InputEstimatorTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTracksUntouched) {
   std::mt19937_64 rng(11);
   const MlpInputEstimatorModel model = random_model(rng, 2);
   InputEstimatorTrackBank bank(model, 6);
-  for (std::size_t t = 0; t < 6; ++t) bank.initialize(t, start_of(static_cast<int>(t)));
+  for (std::size_t t = 0; t < 6; ++t) bank.initialize(t, bank_start_of(static_cast<int>(t)));
   std::vector<Eigen::Vector2d> plots{{102.0, -41.0}, {105.0, -33.0}, {104.0, -31.0}};
   std::vector<StepStatus> status(3);
   for (int k = 0; k < 12; ++k) {  // some input estimate and windows to keep
@@ -165,7 +166,7 @@ TEST(InputEstimatorTrackBank, ARefusedPlotLeavesTheTrackExactlyAsItWasAndLaterTr
   testing::expect_refused_plot_keeps_the_track(bank, plots, 4, expect_same_input);
   // The windows did not move either: the next scans equal a bank that never saw the bad plot.
   InputEstimatorTrackBank twin(model, 1);
-  twin.initialize(0, start_of(1));
+  twin.initialize(0, bank_start_of(1));
   std::vector<Eigen::Vector2d> replay{{105.0, -33.0}};
   std::vector<StepStatus> one(1);
   for (int k = 0; k < 12; ++k) {
@@ -191,7 +192,8 @@ void expect_gating_as_the_one_track_filters(const MlpInputEstimatorModel& model,
   auto single =
       testing::one_track_filters(kTracks, [&] { return make_mlp_input_estimator_filter(model); });
   testing::expect_gating_without_changing_a_track(
-      bank, single, name, 0, scans - 1, start_of, [&](int t, int k) { return plot_of(t, k, rng); },
+      bank, single, name, 0, scans - 1, bank_start_of,
+      [&](int t, int k) { return plot_of(t, k, rng); },
       [&](std::size_t t, const std::string& at) {
         SCOPED_TRACE(at);
         const GaussianState<4> reference = testing::two_axis_estimate(*single[t]);
@@ -209,8 +211,8 @@ TEST(InputEstimatorTrackBank, ACandidateScoresTheClosedFormOfItsPredictedPlot) {
     const MlpInputEstimatorModel model = random_model(rng, trial);
     InputEstimatorTrackBank bank(model, 2);
     auto single = make_mlp_input_estimator_filter(model);
-    for (std::size_t t = 0; t < 2; ++t) bank.initialize(t, start_of(static_cast<int>(t)));
-    single->initialize(start_of(1).mean, start_of(1).covariance);
+    for (std::size_t t = 0; t < 2; ++t) bank.initialize(t, bank_start_of(static_cast<int>(t)));
+    single->initialize(bank_start_of(1).mean, bank_start_of(1).covariance);
     ASSERT_EQ(single->predict(), StepStatus::kOk);
     Eigen::Vector2d z_hat;
     Eigen::Matrix2d S;
@@ -248,11 +250,11 @@ TEST(InputEstimatorTrackBank, ScoresEveryTrackOfALargeBankIntoAnyColumnStride) {
   std::vector<std::unique_ptr<TwoAxisFilter>> single;
   std::vector<Eigen::Vector2d> plots;
   for (int t = 0; t < kTracks; ++t) {
-    bank.initialize(static_cast<std::size_t>(t), start_of(t));
+    bank.initialize(static_cast<std::size_t>(t), bank_start_of(t));
     single.push_back(make_mlp_input_estimator_filter(model));
-    single.back()->initialize(start_of(t).mean, start_of(t).covariance);
+    single.back()->initialize(bank_start_of(t).mean, bank_start_of(t).covariance);
     ASSERT_EQ(single.back()->predict(), StepStatus::kOk);
-    if (t % 150 == 149) plots.push_back(start_of(t).mean(Eigen::seq(0, 2, 2)));
+    if (t % 150 == 149) plots.push_back(bank_start_of(t).mean(Eigen::seq(0, 2, 2)));
   }
   Eigen::MatrixXd larger(kTracks + 7, static_cast<Eigen::Index>(plots.size()) + 1);
   auto out = larger.block(0, 1, kTracks, static_cast<Eigen::Index>(plots.size()));
@@ -287,7 +289,7 @@ TEST(InputEstimatorTrackBank, RefusesWhatItCannotRun) {
   bad.input_variance = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(testing::refused_field<InputEstimatorTrackBank>(bad, 4), "input_variance");
   InputEstimatorTrackBank bank(model, 3);
-  testing::expect_refused_misuse(bank, start_of(0), Eigen::Vector2d(1.0, 2.0));
+  testing::expect_refused_misuse(bank, bank_start_of(0), Eigen::Vector2d(1.0, 2.0));
   testing::expect_refused_gating(bank);
 }
 

@@ -18,29 +18,39 @@
 namespace imm {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 TEST(Angle, WrapIntoHalfOpenInterval) {
   EXPECT_DOUBLE_EQ(wrap_angle(0.0), 0.0);
-  EXPECT_DOUBLE_EQ(wrap_angle(kPi), kPi);
-  EXPECT_DOUBLE_EQ(wrap_angle(-kPi), kPi);
-  EXPECT_NEAR(wrap_angle(3.0 * kPi / 2.0), -kPi / 2.0, 1e-15);
-  EXPECT_NEAR(wrap_angle(-7.0 * kPi / 2.0), kPi / 2.0, 1e-14);
-  EXPECT_NEAR(wrap_angle(100.0), 100.0 - 16.0 * 2.0 * kPi, 1e-12);
+  EXPECT_DOUBLE_EQ(wrap_angle(std::numbers::pi), std::numbers::pi);
+  EXPECT_DOUBLE_EQ(wrap_angle(-std::numbers::pi), std::numbers::pi);
+  EXPECT_NEAR(wrap_angle(3.0 * std::numbers::pi / 2.0), -std::numbers::pi / 2.0, 1e-15);
+  EXPECT_NEAR(wrap_angle(-7.0 * std::numbers::pi / 2.0), std::numbers::pi / 2.0, 1e-14);
+  EXPECT_NEAR(wrap_angle(100.0), 100.0 - 16.0 * 2.0 * std::numbers::pi, 1e-12);
   EXPECT_TRUE(std::isnan(wrap_angle(std::nan(""))));
 }
 
 // The rule the fast path must reproduce: libm's exact remainder, −π moved to π.
 double wrapped_by_remainder(double angle) {
-  double wrapped = std::remainder(angle, 2.0 * kPi);
-  if (wrapped <= -kPi) wrapped += 2.0 * kPi;
+  double wrapped = std::remainder(angle, 2.0 * std::numbers::pi);
+  if (wrapped <= -std::numbers::pi) wrapped += 2.0 * std::numbers::pi;
   return wrapped;
 }
 
 TEST(Angle, WrapGivesTheExactRemaindersBits) {
-  std::vector<double> angles = {0.0,        -0.0, kPi,  -kPi,   2.0 * kPi, -2.0 * kPi, 3.0 * kPi,
-                                -3.0 * kPi, 6.0,  -6.0, 1e-300, 1e6,       -12.5};
-  for (const double a : {kPi, 2.0 * kPi, 3.0 * kPi, 6.0}) {  // the neighbours of every edge
+  std::vector<double> angles = {0.0,
+                                -0.0,
+                                std::numbers::pi,
+                                -std::numbers::pi,
+                                2.0 * std::numbers::pi,
+                                -2.0 * std::numbers::pi,
+                                3.0 * std::numbers::pi,
+                                -3.0 * std::numbers::pi,
+                                6.0,
+                                -6.0,
+                                1e-300,
+                                1e6,
+                                -12.5};
+  for (const double a : {std::numbers::pi, 2.0 * std::numbers::pi, 3.0 * std::numbers::pi,
+                         6.0}) {  // the neighbours of every edge
     for (const double sign : {1.0, -1.0}) {
       double up = sign * a, down = sign * a;
       for (int i = 0; i < 4; ++i) {
@@ -61,10 +71,10 @@ TEST(Angle, WrapGivesTheExactRemaindersBits) {
 }
 
 TEST(Angle, AzimuthIsMeasuredClockwiseFromY) {
-  EXPECT_DOUBLE_EQ(azimuth_of(0.0, 1.0), 0.0);          // north
-  EXPECT_DOUBLE_EQ(azimuth_of(1.0, 0.0), kPi / 2.0);    // east
-  EXPECT_DOUBLE_EQ(azimuth_of(-1.0, 0.0), -kPi / 2.0);  // west
-  EXPECT_DOUBLE_EQ(azimuth_of(1.0, 1.0), kPi / 4.0);    // north-east: 45°
+  EXPECT_DOUBLE_EQ(azimuth_of(0.0, 1.0), 0.0);                       // north
+  EXPECT_DOUBLE_EQ(azimuth_of(1.0, 0.0), std::numbers::pi / 2.0);    // east
+  EXPECT_DOUBLE_EQ(azimuth_of(-1.0, 0.0), -std::numbers::pi / 2.0);  // west
+  EXPECT_DOUBLE_EQ(azimuth_of(1.0, 1.0), std::numbers::pi / 4.0);    // north-east: 45°
 }
 
 TEST(PolarMeasurement, PredictsRangeAndAzimuth) {
@@ -92,8 +102,8 @@ TEST(PolarMeasurement, JacobianMatchesFiniteDifferences) {
 TEST(PolarMeasurement, AzimuthResidualIsWrapped) {
   const PolarMeasurement<4> model(0, 2, SquareMatrix<2>::Identity());
   // Target just west of south (θ ≈ −π + ε) measured just east of south (θ ≈ π − ε).
-  const Vector<2> predicted(100.0, -kPi + 0.01);
-  const Vector<2> measured(101.0, kPi - 0.02);
+  const Vector<2> predicted(100.0, -std::numbers::pi + 0.01);
+  const Vector<2> measured(101.0, std::numbers::pi - 0.02);
   const Vector<2> residual = model.residual(measured, predicted);
   EXPECT_DOUBLE_EQ(residual(0), 1.0);
   EXPECT_NEAR(residual(1), -0.03, 1e-12);

@@ -23,12 +23,12 @@
 namespace imm {
 namespace {
 
-constexpr double kT = 1.0;
+constexpr double kBankPeriod = 1.0;
 
 using testing::mode_spec;
 
-PlainImmSpec spec_of(std::vector<ModeSpec> modes, MeasurementKind kind, Eigen::Matrix2d R) {
-  return testing::switching_spec(std::move(modes), kT, 0.05, kind, R);
+PlainImmSpec bank_spec_of(std::vector<ModeSpec> modes, MeasurementKind kind, Eigen::Matrix2d R) {
+  return testing::switching_spec(std::move(modes), kBankPeriod, 0.05, kind, R);
 }
 
 // [x, vx, y, vy, ω] → the bank's mixing space of NX states.
@@ -65,7 +65,7 @@ void expect_each_track_learns_its_turn(const PlainImmSpec& spec, double noise,
   std::vector<StepStatus> status(n);
   for (int k = 0; k < 120; ++k) {
     for (std::size_t t = 0; t < n; ++t) {
-      truth[t] = coordinated_turn_step(truth[t], kT);
+      truth[t] = coordinated_turn_step(truth[t], kBankPeriod);
       const Eigen::Vector2d p(truth[t](0) - sensor(0), truth[t](2) - sensor(1));
       plots[t] = spec.measurement.kind == MeasurementKind::kCartesian
                      ? Eigen::Vector2d(p(0) + noise * unit(rng), p(1) + noise * unit(rng))
@@ -86,10 +86,10 @@ void expect_each_track_learns_its_turn(const PlainImmSpec& spec, double noise,
 }
 
 TEST(PlainImmTrackBank, EveryTrackOfACvCaCtBankLearnsItsOwnTurnRate) {
-  const PlainImmSpec spec = spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
-                                     mode_spec("ca", MotionKind::kConstantAcceleration, 1.0),
-                                     mode_spec("ct", MotionKind::kCoordinatedTurn, 0.1, 1e-6)},
-                                    MeasurementKind::kCartesian, Eigen::Matrix2d::Identity());
+  const PlainImmSpec spec = bank_spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
+                                          mode_spec("ca", MotionKind::kConstantAcceleration, 1.0),
+                                          mode_spec("ct", MotionKind::kCoordinatedTurn, 0.1, 1e-6)},
+                                         MeasurementKind::kCartesian, Eigen::Matrix2d::Identity());
   ASSERT_EQ(spec.mixing_dimension(), 7);
   expect_each_track_learns_its_turn<7>(spec, 1.0, Eigen::Vector2d::Zero());
 }
@@ -99,9 +99,9 @@ TEST(PlainImmTrackBank, PolarPlotsOfTurnsAroundTheSensor) {
   Eigen::Matrix2d R = Eigen::Matrix2d::Zero();
   R(0, 0) = 1.0;
   R(1, 1) = 1e-8;
-  const PlainImmSpec spec = spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
-                                     mode_spec("ct", MotionKind::kCoordinatedTurn, 0.1, 1e-6)},
-                                    MeasurementKind::kPolar, R);
+  const PlainImmSpec spec = bank_spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
+                                          mode_spec("ct", MotionKind::kCoordinatedTurn, 0.1, 1e-6)},
+                                         MeasurementKind::kPolar, R);
   ASSERT_EQ(spec.mixing_dimension(), 5);
   expect_each_track_learns_its_turn<5>(spec, 1.0, Eigen::Vector2d::Zero());
 }
@@ -111,9 +111,9 @@ TEST(PlainImmTrackBank, PolarPlotsOfTurnsAroundTheSensor) {
 // with its status, and the other tracks step.
 TEST(PlainImmTrackBank, ATrackIsTheOneTrackImmAndAFailedStepChangesOnlyItsTrack) {
   const PlainImmSpec spec =
-      spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
-               mode_spec("ct", MotionKind::kCoordinatedTurn, 1.0, 1e-4)},
-              MeasurementKind::kCartesian, 25.0 * Eigen::Matrix2d::Identity());
+      bank_spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
+                    mode_spec("ct", MotionKind::kCoordinatedTurn, 1.0, 1e-4)},
+                   MeasurementKind::kCartesian, 25.0 * Eigen::Matrix2d::Identity());
   PlainImmTrackBank<5> bank(spec, 3);
   auto single = build_plain_imm<5>(spec);
   GaussianState<5> start;
@@ -144,9 +144,9 @@ TEST(PlainImmTrackBank, ATrackIsTheOneTrackImmAndAFailedStepChangesOnlyItsTrack)
 }
 
 TEST(PlainImmTrackBank, BadArgumentsAreRefusedNamingTheField) {
-  const PlainImmSpec spec = spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
-                                     mode_spec("ct", MotionKind::kCoordinatedTurn, 1.0, 1e-4)},
-                                    MeasurementKind::kCartesian, Eigen::Matrix2d::Identity());
+  const PlainImmSpec spec = bank_spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.1),
+                                          mode_spec("ct", MotionKind::kCoordinatedTurn, 1.0, 1e-4)},
+                                         MeasurementKind::kCartesian, Eigen::Matrix2d::Identity());
   const auto field_of = [](auto&& make) {
     try {
       make();

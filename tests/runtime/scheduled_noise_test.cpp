@@ -27,15 +27,15 @@ namespace {
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-constexpr double kT = 1.5;
+constexpr double kSchedulePeriod = 1.5;
 
 using testing::mode_spec;
 
-PlainImmSpec spec_of(std::vector<ModeSpec> modes, MeasurementKind kind) {
+PlainImmSpec schedule_spec_of(std::vector<ModeSpec> modes, MeasurementKind kind) {
   const Eigen::Matrix2d R = kind == MeasurementKind::kCartesian
                                 ? Eigen::Matrix2d(25.0 * Eigen::Matrix2d::Identity())
                                 : Eigen::Matrix2d(Eigen::Vector2d(25.0, 1e-6).asDiagonal());
-  return testing::switching_spec(std::move(modes), kT, 0.04, kind, R);
+  return testing::switching_spec(std::move(modes), kSchedulePeriod, 0.04, kind, R);
 }
 
 // A 3 × 3 table over (d, Δd) whose consequents are all `w`.
@@ -56,7 +56,7 @@ std::vector<std::optional<Eigen::Vector2d>> turning_plots(MeasurementKind kind, 
   std::vector<std::optional<Eigen::Vector2d>> plots;
   for (int k = 0; k < scans; ++k) {
     truth(4) = k > 15 && k < 35 ? 0.06 : 0.0;
-    truth = coordinated_turn_step(truth, kT);
+    truth = coordinated_turn_step(truth, kSchedulePeriod);
     if (k % 9 == 8) {
       plots.emplace_back();
       continue;
@@ -115,7 +115,7 @@ TEST(ScheduledNoise, AConstantScheduleScalesEveryIntensity) {
           mode_spec("ca", MotionKind::kConstantAcceleration, 0.2),
           mode_spec("ct", MotionKind::kCoordinatedTurn, 0.5, 1e-4)};
       for (const auto& modes : {five, seven}) {
-        PlainImmSpec scheduled = spec_of(modes, kind);
+        PlainImmSpec scheduled = schedule_spec_of(modes, kind);
         PlainImmSpec scaled = scheduled;
         for (std::size_t j = 0; j < modes.size(); ++j) {
           scheduled.modes[j].noise_schedule = constant_table(c);
@@ -138,8 +138,8 @@ TEST(ScheduledNoise, AConstantScheduleScalesEveryIntensity) {
 TEST(ScheduledNoise, OneStepIsTheHandWrittenStep) {
   const double q = 0.3;
   const std::vector<FuzzyRule> rules = {{0.0, 1.0, 0.0, 1.5, 0.2}, {3.0, 1.0, 1.0, 1.5, 9.0}};
-  PlainImmSpec spec =
-      spec_of({mode_spec("cv", MotionKind::kConstantVelocity, q)}, MeasurementKind::kCartesian);
+  PlainImmSpec spec = schedule_spec_of({mode_spec("cv", MotionKind::kConstantVelocity, q)},
+                                       MeasurementKind::kCartesian);
   spec.modes[0].noise_schedule = FuzzyRuleTable(rules);
   auto imm = build_plain_imm<4>(spec);
   GaussianState<4> start;
@@ -147,7 +147,7 @@ TEST(ScheduledNoise, OneStepIsTheHandWrittenStep) {
   start.covariance = Vector<4>(30.0, 4.0, 30.0, 4.0).asDiagonal();
   imm.initialize(start);
 
-  const LinearMotionModel<4> cv = constant_velocity<2>(kT, q);
+  const LinearMotionModel<4> cv = constant_velocity<2>(kSchedulePeriod, q);
   const MatrixXd F = cv.transition, Q = cv.process_noise;
   MatrixXd H = MatrixXd::Zero(2, 4);
   H(0, 0) = 1.0;
@@ -189,9 +189,9 @@ TEST(ScheduledNoise, OneStepIsTheHandWrittenStep) {
 // The file keeps each table (a version-3 field: an older reader would run the fixed Q); a mode
 // without one stays unscheduled; a Singer mode cannot take one.
 TEST(ScheduledNoise, TheFileCarriesTheScheduleAndRefusalsNameTheField) {
-  PlainImmSpec spec = spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.05),
-                               mode_spec("ct", MotionKind::kCoordinatedTurn, 0.5, 1e-4)},
-                              MeasurementKind::kPolar);
+  PlainImmSpec spec = schedule_spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.05),
+                                        mode_spec("ct", MotionKind::kCoordinatedTurn, 0.5, 1e-4)},
+                                       MeasurementKind::kPolar);
   spec.modes[1].noise_schedule =
       FuzzyRuleTable({{0.5, 0.8, -2.0, 1.0, 0.7}, {4.0, 0.8, 2.0, 1.0, 6.0}});
   EXPECT_TRUE(spec.has_noise_schedule());
@@ -209,7 +209,7 @@ TEST(ScheduledNoise, TheFileCarriesTheScheduleAndRefusalsNameTheField) {
   EXPECT_EQ(read.modes[1].noise_schedule->rules()[0].c2, -2.0);
 
   PlainImmSpec singer =
-      spec_of({mode_spec("s", MotionKind::kSinger, 0.0)}, MeasurementKind::kCartesian);
+      schedule_spec_of({mode_spec("s", MotionKind::kSinger, 0.0)}, MeasurementKind::kCartesian);
   singer.modes[0].singer_sigma = 1.0;
   singer.modes[0].noise_schedule = constant_table(1.0);
   try {
@@ -219,8 +219,8 @@ TEST(ScheduledNoise, TheFileCarriesTheScheduleAndRefusalsNameTheField) {
     EXPECT_EQ(error.field(), "modes[0].noise_schedule");
   }
   // The CV bank's kernel has a fixed Q: it refuses, naming the field.
-  PlainImmSpec cv =
-      spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.05)}, MeasurementKind::kCartesian);
+  PlainImmSpec cv = schedule_spec_of({mode_spec("cv", MotionKind::kConstantVelocity, 0.05)},
+                                     MeasurementKind::kCartesian);
   cv.modes[0].noise_schedule = constant_table(1.0);
   try {
     const TrackBank bank(cv, 4);

@@ -31,7 +31,7 @@ namespace {
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-constexpr double kT = 2.0;
+constexpr double kTurnPeriod = 2.0;
 
 ModeSpec cv(const std::string& name, double q) {
   return testing::mode_spec(name, MotionKind::kConstantVelocity, q);
@@ -43,8 +43,8 @@ ModeSpec ct(const std::string& name, double q, double q_omega) {
   return testing::mode_spec(name, MotionKind::kCoordinatedTurn, q, q_omega);
 }
 
-PlainImmSpec spec_of(std::vector<ModeSpec> modes, double sigma) {
-  return testing::switching_spec(std::move(modes), kT, 0.05, MeasurementKind::kCartesian,
+PlainImmSpec turn_spec_of(std::vector<ModeSpec> modes, double sigma) {
+  return testing::switching_spec(std::move(modes), kTurnPeriod, 0.05, MeasurementKind::kCartesian,
                                  sigma * sigma * Eigen::Matrix2d::Identity());
 }
 
@@ -53,7 +53,7 @@ PlainImmSpec spec_of(std::vector<ModeSpec> modes, double sigma) {
 TEST(TurnImm, ACoordinatedTurnEkfRecoversTheTurnRate) {
   for (const double omega : {0.03, -0.08}) {
     SCOPED_TRACE(omega);
-    auto imm = build_plain_imm<5>(spec_of({ct("turn", 0.01, 1e-8)}, 1.0));
+    auto imm = build_plain_imm<5>(turn_spec_of({ct("turn", 0.01, 1e-8)}, 1.0));
     Vector<5> truth;
     truth << 0.0, 150.0, 0.0, 20.0, omega;
     GaussianState<5> start;
@@ -64,7 +64,7 @@ TEST(TurnImm, ACoordinatedTurnEkfRecoversTheTurnRate) {
     std::mt19937_64 rng(7);
     std::normal_distribution<double> noise(0.0, 1.0);
     for (int k = 0; k < 80; ++k) {
-      truth = coordinated_turn_step(truth, kT);
+      truth = coordinated_turn_step(truth, kTurnPeriod);
       ASSERT_EQ(imm.step(Vector<2>(truth(0) + noise(rng), truth(2) + noise(rng))), StepStatus::kOk);
     }
     // Within its own 3σ, and that σ a few percent of the turn rate at most.
@@ -79,8 +79,8 @@ TEST(TurnImm, ACoordinatedTurnEkfRecoversTheTurnRate) {
 // for Cartesian plots.
 TEST(TurnImm, TheTurnModeIsConsistentOnItsOwnTruthModel) {
   const double q = 0.5, q_omega = 1e-6, sigma = 20.0;
-  const PlainImmSpec spec = spec_of({ct("turn", q, q_omega)}, sigma);
-  const SquareMatrix<5> Q = coordinated_turn_noise(kT, q, q_omega);
+  const PlainImmSpec spec = turn_spec_of({ct("turn", q, q_omega)}, sigma);
+  const SquareMatrix<5> Q = coordinated_turn_noise(kTurnPeriod, q, q_omega);
   const Eigen::LLT<SquareMatrix<5>> q_root(Q + 1e-18 * SquareMatrix<5>::Identity());
   SquareMatrix<5> P0 = Vector<5>(400.0, 25.0, 400.0, 25.0, 1e-4).asDiagonal();
   const Eigen::LLT<SquareMatrix<5>> p_root(P0);
@@ -100,7 +100,7 @@ TEST(TurnImm, TheTurnModeIsConsistentOnItsOwnTruthModel) {
     auto imm = build_plain_imm<5>(spec);
     imm.initialize(GaussianState<5>{mean, P0});
     for (int k = 0; k < kScans; ++k) {
-      truth = coordinated_turn_step(truth, kT) + q_root.matrixL() * Vector<5>(draw(5));
+      truth = coordinated_turn_step(truth, kTurnPeriod) + q_root.matrixL() * Vector<5>(draw(5));
       const Vector<2> z(truth(0) + sigma * normal(rng), truth(2) + sigma * normal(rng));
       ASSERT_EQ(imm.step(z), StepStatus::kOk);
       const Vector<5> error = truth - imm.estimate().mean;
@@ -202,9 +202,13 @@ ReferenceMode linear_mode(std::vector<int> indices, const MatrixXd& F, const Mat
 
 ReferenceMode turn_mode(std::vector<int> indices, double q, double q_omega) {
   return {std::move(indices),
-          [](const VectorXd& x) -> VectorXd { return coordinated_turn_step(Vector<5>(x), kT); },
-          [](const VectorXd& x) -> MatrixXd { return coordinated_turn_jacobian(Vector<5>(x), kT); },
-          coordinated_turn_noise(kT, q, q_omega)};
+          [](const VectorXd& x) -> VectorXd {
+            return coordinated_turn_step(Vector<5>(x), kTurnPeriod);
+          },
+          [](const VectorXd& x) -> MatrixXd {
+            return coordinated_turn_jacobian(Vector<5>(x), kTurnPeriod);
+          },
+          coordinated_turn_noise(kTurnPeriod, q, q_omega)};
 }
 
 // One step of the library's IMM from a state where the modes differ (two steps after a start, so
@@ -246,8 +250,8 @@ void expect_textbook_step(const PlainImmSpec& spec, const std::vector<ReferenceM
 }
 
 TEST(TurnImm, OneStepOverCvAndCtIsTheTextbookStep) {
-  const PlainImmSpec spec = spec_of({cv("cv", 0.1), ct("ct", 1.0, 1e-4)}, 10.0);
-  const auto cv_model = constant_velocity<2>(kT, 0.1);
+  const PlainImmSpec spec = turn_spec_of({cv("cv", 0.1), ct("ct", 1.0, 1e-4)}, 10.0);
+  const auto cv_model = constant_velocity<2>(kTurnPeriod, 0.1);
   expect_textbook_step<5>(spec,
                           {linear_mode({0, 1, 2, 3}, cv_model.transition, cv_model.process_noise),
                            turn_mode({0, 1, 2, 3, 4}, 1.0, 1e-4)},
@@ -255,9 +259,9 @@ TEST(TurnImm, OneStepOverCvAndCtIsTheTextbookStep) {
 }
 
 TEST(TurnImm, OneStepOverCvCaAndCtIsTheTextbookStep) {
-  const PlainImmSpec spec = spec_of({cv("cv", 0.1), ca("ca", 0.5), ct("ct", 1.0, 1e-4)}, 10.0);
-  const auto cv_model = constant_velocity<2>(kT, 0.1);
-  const auto ca_model = constant_acceleration<2>(kT, 0.5);
+  const PlainImmSpec spec = turn_spec_of({cv("cv", 0.1), ca("ca", 0.5), ct("ct", 1.0, 1e-4)}, 10.0);
+  const auto cv_model = constant_velocity<2>(kTurnPeriod, 0.1);
+  const auto ca_model = constant_acceleration<2>(kTurnPeriod, 0.5);
   expect_textbook_step<7>(
       spec,
       {linear_mode({0, 1, 3, 4}, cv_model.transition, cv_model.process_noise),
@@ -269,9 +273,9 @@ TEST(TurnImm, OneStepOverCvCaAndCtIsTheTextbookStep) {
 // The spec's layout, its refusals, the model file's round trip, and a Tracker's two-point start
 // of a state with a turn rate (ω = 0 with the spec's prior variance).
 TEST(TurnImm, TheSpecTheFileAndTheTrackerCarryTheTurnMode) {
-  PlainImmSpec spec = spec_of({cv("cv", 0.1), ct("ct", 1.0, 1e-4)}, 10.0);
+  PlainImmSpec spec = turn_spec_of({cv("cv", 0.1), ct("ct", 1.0, 1e-4)}, 10.0);
   EXPECT_EQ(spec.mixing_dimension(), 5);
-  EXPECT_EQ(spec_of({ca("ca", 1.0), ct("ct", 1.0, 1e-4)}, 1.0).mixing_dimension(), 7);
+  EXPECT_EQ(turn_spec_of({ca("ca", 1.0), ct("ct", 1.0, 1e-4)}, 1.0).mixing_dimension(), 7);
   EXPECT_EQ(build_plain_imm(spec).index(), 2U);
   PlainImmSpec no_prior = spec;
   no_prior.initialization.turn_rate_variance = 0.0;

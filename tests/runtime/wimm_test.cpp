@@ -16,16 +16,15 @@
 namespace imm {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 TEST(BlendAngles, StaysOnTheRightSideOfTheSouthSeam) {
   // Plot just east of south (π − 0.01), prediction just west of south (−π + 0.01): the blend is
   // due south, not north.
-  const double fused = blend_angles(kPi - 0.01, -kPi + 0.01, 0.5);
-  EXPECT_NEAR(std::abs(fused), kPi, 1e-12);
+  const double fused = blend_angles(std::numbers::pi - 0.01, -std::numbers::pi + 0.01, 0.5);
+  EXPECT_NEAR(std::abs(fused), std::numbers::pi, 1e-12);
   EXPECT_NEAR(blend_angles(0.3, 0.1, 0.5), 0.2, 1e-15);
   EXPECT_NEAR(blend_angles(0.3, 0.1, 1.0), 0.3, 1e-15);
-  EXPECT_NEAR(blend_angles(kPi - 0.01, -kPi + 0.03, 0.25), -kPi + 0.02, 1e-12);
+  EXPECT_NEAR(blend_angles(std::numbers::pi - 0.01, -std::numbers::pi + 0.03, 0.25),
+              -std::numbers::pi + 0.02, 1e-12);
 }
 
 // Runs a filter over one run of a scenario through the tracker; returns the 6-state estimates.
@@ -174,7 +173,7 @@ TEST(Wimm, SeedFusionActsOnConstantVelocity) {
 TEST(Wimm, FusionAcrossTheSouthSeamTracksTheTarget) {
   datasets::Regime s = testing::scripted_regime(2.0, 200, {20e3, -50e3}, {-200.0, 0.0});
   s.sensor.kind = datasets::SensorKind::kPolar;
-  s.sensor.noise.sigma = Eigen::Vector2d(50.0, 0.5 * kPi / 180.0);
+  s.sensor.noise.sigma = Eigen::Vector2d(50.0, 0.5 * std::numbers::pi / 180.0);
   const datasets::Track data = testing::test_track(s, 1);
   std::vector<bool> fused;
   const auto estimates = track(with_fusion(FusionVariant::kSeed), data, &fused);

@@ -11,9 +11,9 @@
 namespace imm::evaluation {
 namespace {
 
-constexpr Difference kBetter{-0.02, -0.03, -0.01};
-constexpr Difference kWorse{+0.02, +0.01, +0.03};
-constexpr Difference kTied{-0.001, -0.004, +0.002};
+constexpr Difference kVerdictBetter{-0.02, -0.03, -0.01};
+constexpr Difference kVerdictWorse{+0.02, +0.01, +0.03};
+constexpr Difference kVerdictTied{-0.001, -0.004, +0.002};
 
 std::string_view of(std::initializer_list<Difference> differences) {
   const std::vector<Difference> all(differences);
@@ -21,12 +21,13 @@ std::string_view of(std::initializer_list<Difference> differences) {
 }
 
 TEST(Verdict, FollowsTheStatedRule) {
-  EXPECT_EQ(of({kBetter, kBetter}), "beats");
-  EXPECT_EQ(of({kBetter, kTied}), "beats");  // better in ζ_v beyond the interval, ζ_p tied
-  EXPECT_EQ(of({kWorse, kTied}), "loses to");
-  EXPECT_EQ(of({kWorse, kWorse}), "loses to");
-  EXPECT_EQ(of({kBetter, kWorse}), "mixed");  // one better and one worse is neither
-  EXPECT_EQ(of({kTied, kTied}), "ties");
+  EXPECT_EQ(of({kVerdictBetter, kVerdictBetter}), "beats");
+  EXPECT_EQ(of({kVerdictBetter, kVerdictTied}),
+            "beats");  // better in ζ_v beyond the interval, ζ_p tied
+  EXPECT_EQ(of({kVerdictWorse, kVerdictTied}), "loses to");
+  EXPECT_EQ(of({kVerdictWorse, kVerdictWorse}), "loses to");
+  EXPECT_EQ(of({kVerdictBetter, kVerdictWorse}), "mixed");  // one better and one worse is neither
+  EXPECT_EQ(of({kVerdictTied, kVerdictTied}), "ties");
   EXPECT_EQ(of({}), "ties");
   // An interval that touches zero is not beyond it.
   EXPECT_EQ(of({Difference{-0.01, -0.02, 0.0}}), "ties");

@@ -20,15 +20,15 @@
 namespace imm::trainer::classical {
 namespace {
 
-constexpr double kT = 1.0;
-constexpr double kSigma = 10.0;
+constexpr double kSchedulePeriod = 1.0;
+constexpr double kScheduleSigma = 10.0;
 
 // CV truth whose acceleration variance per period switches between 0.01 and 100 (m/s²)² every 25
 // scans, seen with σ = 10 m.
 datasets::TrackSet bursting_tracks(int tracks, std::uint64_t seed) {
   datasets::TrackSet set;
   set.regime = "bursts";
-  set.sample_period = kT;
+  set.sample_period = kSchedulePeriod;
   set.scans = 150;
   set.has_truth = true;
   std::mt19937_64 rng(seed);
@@ -42,10 +42,10 @@ datasets::TrackSet bursting_tracks(int tracks, std::uint64_t seed) {
       const double sigma_a = (k / 25) % 2 == 1 ? 10.0 : 0.1;
       for (const int axis : {0, 2}) {
         const double a = sigma_a * normal(rng);
-        x(axis) += x(axis + 1) * kT + 0.5 * kT * kT * a;
-        x(axis + 1) += kT * a;
+        x(axis) += x(axis + 1) * kSchedulePeriod + 0.5 * kSchedulePeriod * kSchedulePeriod * a;
+        x(axis + 1) += kSchedulePeriod * a;
       }
-      testing::record_scan(track, k, x, kSigma, rng, normal);
+      testing::record_scan(track, k, x, kScheduleSigma, rng, normal);
     }
     set.tracks.push_back(std::move(track));
   }
@@ -55,14 +55,14 @@ datasets::TrackSet bursting_tracks(int tracks, std::uint64_t seed) {
 // One CV mode of q = 10 (m/s²)²: far too much in the quiet, too little in a burst.
 PlainImmSpec fixed_cv() {
   PlainImmSpec spec;
-  spec.sample_period = kT;
+  spec.sample_period = kSchedulePeriod;
   ModeSpec cv;
   cv.name = "cv";
   cv.process_noise = 10.0;
   spec.modes = {cv};
   spec.transition = Eigen::MatrixXd::Ones(1, 1);
   spec.initial_probabilities = Eigen::VectorXd::Ones(1);
-  spec.measurement.covariance = kSigma * kSigma * Eigen::Matrix2d::Identity();
+  spec.measurement.covariance = kScheduleSigma * kScheduleSigma * Eigen::Matrix2d::Identity();
   spec.initialization.acceleration_variance = 1.0;
   return spec;
 }

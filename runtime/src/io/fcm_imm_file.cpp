@@ -5,7 +5,7 @@
 
 namespace imm::io {
 namespace {
-constexpr const char* kGroup = "/fcm_imm";
+constexpr const char* kFcmImmGroup = "/fcm_imm";
 }
 
 void write_fcm_imm(ModelFileWriter& writer, const FcmImmSpec& spec) {
@@ -14,17 +14,17 @@ void write_fcm_imm(ModelFileWriter& writer, const FcmImmSpec& spec) {
     throw InvalidParameter("mean_memberships", "a model file needs the mean memberships");
   }
   const UnitNames& u = writer.units();
-  writer.set_quantity(kGroup, "sample_period", spec.sample_period, "s");
-  writer.set_quantity(kGroup, "measurement_sigma", spec.measurement_sigma, u.length);
-  writer.set_attribute(kGroup, "window", static_cast<std::int64_t>(spec.window));
-  writer.set_quantity(kGroup, "fuzzifier", spec.clustering.fuzzifier, kDimensionless);
-  writer.set_quantity(kGroup, "tolerance", spec.clustering.tolerance, kDimensionless);
-  writer.set_attribute(kGroup, "max_iterations",
+  writer.set_quantity(kFcmImmGroup, "sample_period", spec.sample_period, "s");
+  writer.set_quantity(kFcmImmGroup, "measurement_sigma", spec.measurement_sigma, u.length);
+  writer.set_attribute(kFcmImmGroup, "window", static_cast<std::int64_t>(spec.window));
+  writer.set_quantity(kFcmImmGroup, "fuzzifier", spec.clustering.fuzzifier, kDimensionless);
+  writer.set_quantity(kFcmImmGroup, "tolerance", spec.clustering.tolerance, kDimensionless);
+  writer.set_attribute(kFcmImmGroup, "max_iterations",
                        static_cast<std::int64_t>(spec.clustering.max_iterations));
-  writer.set_attribute(kGroup, "membership_scale", std::string(to_string(spec.scale)));
-  writer.set_quantity(kGroup, "separation", spec.separation, kDimensionless);
-  writer.set_quantity(kGroup, "compensation_gain", spec.compensation_gain, kDimensionless);
-  writer.set_attribute(kGroup, "compensate_lowest",
+  writer.set_attribute(kFcmImmGroup, "membership_scale", std::string(to_string(spec.scale)));
+  writer.set_quantity(kFcmImmGroup, "separation", spec.separation, kDimensionless);
+  writer.set_quantity(kFcmImmGroup, "compensation_gain", spec.compensation_gain, kDimensionless);
+  writer.set_attribute(kFcmImmGroup, "compensate_lowest",
                        static_cast<std::int64_t>(spec.compensate_lowest ? 1 : 0));
   const Eigen::Map<const Eigen::VectorXd> q(spec.process_noise.data(),
                                             static_cast<Eigen::Index>(spec.process_noise.size()));
@@ -39,21 +39,22 @@ void write_fcm_imm(ModelFileWriter& writer, const FcmImmSpec& spec) {
 
 FcmImmSpec read_fcm_imm(const ModelFileReader& reader) {
   FcmImmSpec spec;
-  spec.sample_period = reader.real(kGroup, "sample_period", ValueRule::kPositive);
-  spec.measurement_sigma = reader.real(kGroup, "measurement_sigma", ValueRule::kPositive);
+  spec.sample_period = reader.real(kFcmImmGroup, "sample_period", ValueRule::kPositive);
+  spec.measurement_sigma = reader.real(kFcmImmGroup, "measurement_sigma", ValueRule::kPositive);
   spec.window =
-      static_cast<int>(reader.integer(kGroup, "window", 3, SlidingFuzzyCMeans::kMaxWindow));
-  spec.clustering.fuzzifier = reader.real(kGroup, "fuzzifier", ValueRule::kPositive);
-  spec.clustering.tolerance = reader.real(kGroup, "tolerance", ValueRule::kPositive);
+      static_cast<int>(reader.integer(kFcmImmGroup, "window", 3, SlidingFuzzyCMeans::kMaxWindow));
+  spec.clustering.fuzzifier = reader.real(kFcmImmGroup, "fuzzifier", ValueRule::kPositive);
+  spec.clustering.tolerance = reader.real(kFcmImmGroup, "tolerance", ValueRule::kPositive);
   spec.clustering.max_iterations =
-      static_cast<int>(reader.integer(kGroup, "max_iterations", 1, 100000));
-  spec.separation = reader.real(kGroup, "separation", ValueRule::kNonNegative);
-  spec.compensation_gain = reader.real(kGroup, "compensation_gain", ValueRule::kProbability);
-  spec.compensate_lowest = reader.integer(kGroup, "compensate_lowest", 0, 1) == 1;
+      static_cast<int>(reader.integer(kFcmImmGroup, "max_iterations", 1, 100000));
+  spec.separation = reader.real(kFcmImmGroup, "separation", ValueRule::kNonNegative);
+  spec.compensation_gain = reader.real(kFcmImmGroup, "compensation_gain", ValueRule::kProbability);
+  spec.compensate_lowest = reader.integer(kFcmImmGroup, "compensate_lowest", 0, 1) == 1;
   try {
-    spec.scale = membership_scale_from(reader.text(kGroup, "membership_scale"), "membership_scale");
+    spec.scale =
+        membership_scale_from(reader.text(kFcmImmGroup, "membership_scale"), "membership_scale");
   } catch (const InvalidParameter& error) {
-    reader.fail(std::string(kGroup) + "@" + error.field(), error.what());
+    reader.fail(std::string(kFcmImmGroup) + "@" + error.field(), error.what());
   }
   const Eigen::VectorXd q = reader.vector("/fcm_imm/process_noise", -1, ValueRule::kNonNegative);
   if (q.size() < 1 || q.size() > 8) reader.fail("/fcm_imm/process_noise", "need 1 to 8 modes");
@@ -67,7 +68,7 @@ FcmImmSpec read_fcm_imm(const ModelFileReader& reader) {
   try {
     spec.validate();
   } catch (const InvalidParameter& error) {
-    reader.fail_spec(kGroup, error,
+    reader.fail_spec(kFcmImmGroup, error,
                      {"transition", "initial_probabilities", "mean_memberships", "process_noise"});
   }
   reader.require_units_of_reals();

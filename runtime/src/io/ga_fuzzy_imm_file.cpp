@@ -10,7 +10,7 @@ namespace imm::io {
 namespace {
 constexpr const char* kRoot = "/ga_fuzzy_imm";
 std::string level_group(std::size_t i) { return std::string(kRoot) + "/level" + std::to_string(i); }
-const std::vector<std::string>& rule_columns() {
+const std::vector<std::string>& ga_rule_columns() {
   static const std::vector<std::string> columns = {"c1", "sigma1", "c2", "sigma2", "w"};
   return columns;
 }
@@ -71,7 +71,7 @@ void write_ga_fuzzy_imm(ModelFileWriter& writer, const GaFuzzyImmSpec& spec,
         }
       }
     }
-    writer.write_matrix(group + "/rules", rules_matrix(level.table), rule_columns(), rule_units);
+    writer.write_matrix(group + "/rules", rules_matrix(level.table), ga_rule_columns(), rule_units);
   }
 }
 

@@ -6,9 +6,9 @@
 namespace imm::io {
 namespace {
 
-constexpr const char* kGroup = "/tsk";
+constexpr const char* kTskGroup = "/tsk";
 constexpr const char* kFimmGroup = "/fimm";
-const std::vector<std::string>& rule_columns() {
+const std::vector<std::string>& tsk_rule_columns() {
   static const std::vector<std::string> columns = {
       "center_xi", "width_xi", "center_eta", "width_eta", "a0", "a_xi", "a_eta"};
   return columns;
@@ -40,9 +40,9 @@ std::vector<TskRule> rules_from_matrix(const Eigen::MatrixXd& matrix) {
 }
 
 void write_tsk_sensor(ModelFileWriter& writer, const TskSensorModel& model) {
-  writer.set_attribute(kGroup, "t_norm", std::string(to_string(model.t_norm())));
-  writer.set_attribute(kGroup, "inputs", std::string("xi,eta"));
-  writer.set_attribute(kGroup, "outputs", std::string("z1,z2"));
+  writer.set_attribute(kTskGroup, "t_norm", std::string(to_string(model.t_norm())));
+  writer.set_attribute(kTskGroup, "inputs", std::string("xi,eta"));
+  writer.set_attribute(kTskGroup, "outputs", std::string("z1,z2"));
   Eigen::Matrix2d box;
   box.row(0) = model.input_lower().transpose();
   box.row(1) = model.input_upper().transpose();
@@ -53,7 +53,7 @@ void write_tsk_sensor(ModelFileWriter& writer, const TskSensorModel& model) {
       u.length + "," + u.length + "," + u.length + "," + u.length + "," + u.length + ",1,1";
   for (int i = 0; i < 2; ++i) {
     const TskOutput& out = model.outputs()[static_cast<std::size_t>(i)];
-    writer.write_matrix(output_group(i) + "/rules", rules_matrix(out.rules), rule_columns(),
+    writer.write_matrix(output_group(i) + "/rules", rules_matrix(out.rules), tsk_rule_columns(),
                         rule_units);
     writer.set_quantity(output_group(i), "sigma", out.sigma, u.length);
   }
@@ -62,9 +62,9 @@ void write_tsk_sensor(ModelFileWriter& writer, const TskSensorModel& model) {
 TskSensorModel read_tsk_sensor(const ModelFileReader& reader) {
   TNorm t_norm = TNorm::kMin;
   try {
-    t_norm = t_norm_from(reader.text(kGroup, "t_norm"), "t_norm");
+    t_norm = t_norm_from(reader.text(kTskGroup, "t_norm"), "t_norm");
   } catch (const InvalidParameter& error) {
-    reader.fail(std::string(kGroup) + "@t_norm", error.what());
+    reader.fail(std::string(kTskGroup) + "@t_norm", error.what());
   }
   const Eigen::MatrixXd box = reader.matrix("/tsk/input_box", 2, 2);
   std::array<TskOutput, 2> outputs;
