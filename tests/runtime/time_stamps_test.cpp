@@ -357,10 +357,10 @@ TEST(TimeStamps, ATrackerRefusesTimesThatDoNotIncreaseMixedClocksAndOddIntervals
     LoadedFilter loaded = load_filter(path);
     if (loaded.filter->takes_any_interval()) continue;
     SCOPED_TRACE(path.string());
-    const TrackOptions options = loaded.options;
-    Tracker tracker(std::move(loaded.filter), options);
-    const double T = options.sample_period;
-    const auto plots = testing::seeded_plots(options, 4, 6);
+    const TrackOptions learned = loaded.options;
+    Tracker tracker(std::move(loaded.filter), learned);
+    const double T = learned.sample_period;
+    const auto plots = testing::seeded_plots(learned, 4, 6);
     ASSERT_NE(tracker.process_at(0.0, plots[0].second).event, TrackEvent::kRejected);
     ASSERT_NE(tracker.process_at(T, plots[1].second).event, TrackEvent::kRejected);
     ASSERT_EQ(tracker.last_time(), T);
