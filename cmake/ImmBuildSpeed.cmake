@@ -39,7 +39,11 @@ endif()
 # changed file would rebuild its whole batch; .ci/run builds both trees with it.
 option(IMM_UNITY_BUILD "Compile each target's sources in batches (cold builds)" OFF)
 set(IMM_UNITY_BATCH_SIZE 8 CACHE STRING "Sources per batch of the unity build")
+# A batch includes its sources by absolute path, so __FILE__ (every GoogleTest assertion, every
+# assert of the Sanitize build) would name the clone's folder and ccache would miss in a clone
+# elsewhere: the folder is mapped away (ccache hashes the mapped text).
 if(IMM_UNITY_BUILD)
   set(CMAKE_UNITY_BUILD ON)
   set(CMAKE_UNITY_BUILD_BATCH_SIZE ${IMM_UNITY_BATCH_SIZE})
+  add_compile_options(-fmacro-prefix-map=${PROJECT_SOURCE_DIR}/=)
 endif()
