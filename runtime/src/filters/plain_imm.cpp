@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "estimation/cv_position_mode.hpp"
+#include "filters/mode_field.hpp"
 #include "imm/core/checks.hpp"
 #include "imm/core/enum_names.hpp"
 #include "imm/core/invalid_parameter.hpp"
@@ -38,10 +39,6 @@ constexpr std::array kMeasurementKindNames{
 constexpr std::array kInitializationMethodNames{
     EnumName<InitializationMethod>{InitializationMethod::kExplicit, "explicit"},
     EnumName<InitializationMethod>{InitializationMethod::kTwoPoint, "two_point"}};
-
-std::string mode_field(std::size_t index, const char* key) {
-  return "modes[" + std::to_string(index) + "]." + key;
-}
 
 // The mixing-space indices of a mode of dimension N — CV [x, vx, y, vy], CA [x, vx, ax, y, vy,
 // ay], CT [x, vx, y, vy, ω] — in the NX-state space: [x, vx, y, vy] (4), [x, vx, y, vy, ω] (5),
@@ -201,21 +198,25 @@ void PlainImmSpec::validate() const {
           "need 1 to " + std::to_string(kMaxModes) + " modes");
   for (std::size_t i = 0; i < modes.size(); ++i) {
     const ModeSpec& mode = modes[i];
-    require(!mode.name.empty(), mode_field(i, "name"), "must not be empty");
+    require(!mode.name.empty(), detail::mode_field(i, "name"), "must not be empty");
     for (std::size_t j = 0; j < i; ++j) {
-      require(modes[j].name != mode.name, mode_field(i, "name"), "'" + mode.name + "' is repeated");
+      require(modes[j].name != mode.name, detail::mode_field(i, "name"),
+              "'" + mode.name + "' is repeated");
     }
     require(!mode.noise_schedule || mode.motion != MotionKind::kSinger,
-            mode_field(i, "noise_schedule"),
+            detail::mode_field(i, "noise_schedule"),
             "a Singer mode's noise is set by τ and σ_a, not scheduled");
     if (mode.motion == MotionKind::kSinger) {
-      limits::require_in(mode.singer_tau, limits::kTimeConstant, mode_field(i, "tau"));
-      limits::require_in(mode.singer_sigma, limits::kAcceleration, mode_field(i, "sigma_a"));
+      limits::require_in(mode.singer_tau, limits::kTimeConstant, detail::mode_field(i, "tau"));
+      limits::require_in(mode.singer_sigma, limits::kAcceleration,
+                         detail::mode_field(i, "sigma_a"));
     } else {
-      limits::require_in(mode.process_noise, limits::kVariance, mode_field(i, "process_noise"));
+      limits::require_in(mode.process_noise, limits::kVariance,
+                         detail::mode_field(i, "process_noise"));
     }
     if (mode.motion == MotionKind::kCoordinatedTurn) {
-      limits::require_in(mode.turn_noise, limits::kTurnRateNoise, mode_field(i, "turn_noise"));
+      limits::require_in(mode.turn_noise, limits::kTurnRateNoise,
+                         detail::mode_field(i, "turn_noise"));
     }
   }
   const auto n = static_cast<Eigen::Index>(modes.size());

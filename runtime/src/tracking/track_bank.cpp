@@ -11,6 +11,7 @@
 
 #include "bank_checks.hpp"
 #include "estimation/imm_algebra.hpp"
+#include "filters/mode_field.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/mode_transitions.hpp"
@@ -24,23 +25,19 @@ namespace {
 
 using namespace bank;  // NOLINT(google-build-using-namespace): the bank's own kernel
 
-std::string bank_mode_field(std::size_t index, const char* key) {
-  return "modes[" + std::to_string(index) + "]." + key;
-}
-
 }  // namespace
 
 TrackBank::TrackBank(const PlainImmSpec& spec, std::size_t capacity) : TrackBankCalls("TrackBank") {
   spec.validate();
   for (std::size_t i = 0; i < spec.modes.size(); ++i) {
     if (spec.modes[i].motion != MotionKind::kConstantVelocity) {
-      throw InvalidParameter(bank_mode_field(i, "motion"),
+      throw InvalidParameter(detail::mode_field(i, "motion"),
                              "the track bank runs constant-velocity modes only, got '" +
                                  std::string(to_string(spec.modes[i].motion)) +
                                  "' (PlainImmTrackBank runs every plain IMM)");
     }
     if (spec.modes[i].noise_schedule) {
-      throw InvalidParameter(bank_mode_field(i, "noise_schedule"),
+      throw InvalidParameter(detail::mode_field(i, "noise_schedule"),
                              "the track bank runs fixed process noise only (PlainImmTrackBank "
                              "runs every plain IMM)");
     }
