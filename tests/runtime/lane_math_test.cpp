@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// lane_exp, lane_log and lane_atan2 against libm over their documented ranges, in ulp.
+// lane_exp, lane_exp_no_overflow, lane_log and lane_atan2 against libm over their documented
+// ranges, in ulp.
 #include "imm/math/lane_math.hpp"
 
 // 64-byte vectors by value in the test (lane_math.hpp says why that is harmless).
@@ -101,6 +102,60 @@ TEST(LaneMath, Atan2IsWithinTwoUlpOfLibmInEveryQuadrant) {
   }
   EXPECT_TRUE(std::isnan(lane_atan2(std::nan(""), 1.0)));
   EXPECT_TRUE(std::isnan(lane_atan2(1.0, std::nan(""))));
+}
+
+// lane_exp_no_overflow over its domain (x ≤ 709 and NaN): lane_exp's bits, for a double and for
+// every element of a pack, and so within 2 ulp of libm's exp from −708 on.
+TEST(LaneMath, ExpWithoutTheOverflowCheckIsLaneExpToTheBitUpTo709) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const auto same = [](double a, double b) {
+    return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+  };
+  std::vector<double> values = {0.0,
+                                -0.0,
+                                -5e-324,
+                                -1e-300,
+                                -0.5 * std::log(2.0),
+                                -708.0,
+                                std::nextafter(-708.0, -kInf),
+                                std::nextafter(-708.0, 0.0),
+                                -709.0,
+                                -745.2,
+                                -1e300,
+                                -kInf,
+                                1e-300,
+                                1.0,
+                                700.0,
+                                std::nextafter(709.0, 0.0),
+                                709.0,
+                                std::numeric_limits<double>::quiet_NaN()};
+  std::mt19937_64 engine(11);
+  std::uniform_real_distribution<double> wide(-760.0, 709.0), near(-1.0, 1.0);
+  std::uniform_real_distribution<double> magnitude(-300.0, 3.0);
+  for (int i = 0; i < 100000; ++i) {
+    values.push_back(i % 3 == 0   ? wide(engine)
+                     : i % 3 == 1 ? near(engine)
+                                  : -std::pow(10.0, magnitude(engine)));
+  }
+  for (const double x : values) {
+    const double got = lane_exp_no_overflow(x);
+    ASSERT_TRUE(same(got, lane_exp(x))) << "x = " << x;
+    if (x >= -708.0 && x <= 709.0) {
+      ASSERT_LE(ulps(got, std::exp(x)), 2) << "x = " << x;
+    }
+  }
+  EXPECT_EQ(lane_exp_no_overflow(0.0), 1.0);
+  EXPECT_EQ(lane_exp_no_overflow(-710.0), 0.0);
+  EXPECT_EQ(lane_exp_no_overflow(-kInf), 0.0);
+  EXPECT_TRUE(std::isnan(lane_exp_no_overflow(std::numeric_limits<double>::quiet_NaN())));
+  for (std::size_t first = 0; first + kLanePackWidth <= values.size(); first += kLanePackWidth) {
+    LanePack x;
+    for (int l = 0; l < kLanePackWidth; ++l) x[l] = values[first + static_cast<std::size_t>(l)];
+    const LanePack e = lane_exp_no_overflow(x);
+    for (int l = 0; l < kLanePackWidth; ++l) {
+      ASSERT_TRUE(same(e[l], lane_exp(x[l]))) << "exp(" << x[l] << ")";
+    }
+  }
 }
 
 TEST(LaneMath, PickSelectsEitherValueBitForBit) {

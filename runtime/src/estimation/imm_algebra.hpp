@@ -88,19 +88,21 @@ struct LibmFunctions {
 
 /// lane_exp and lane_log (within 2 ulp of libm's; branch-free): a bank's mode probabilities. For
 /// one track (S a double) the values of N ≤ 8 modes go through one pack together: one evaluation
-/// of the function instead of N, each value the same bits as alone.
+/// of the function instead of N, each value the same bits as alone. Every exponent the algebra
+/// takes is below 709 (a difference from a maximum, or log c_j ≤ log 8), so exp is
+/// lane_exp_no_overflow: lane_exp's bits without its overflow check.
 struct LaneFunctions {
-  /// lane_exp of every lane.
+  /// lane_exp of every lane (an exponent ≤ 709).
   template <class S>
   [[nodiscard, gnu::always_inline]] static S exp(S x) {
-    return lane_exp(x);
+    return lane_exp_no_overflow(x);
   }
   /// lane_log of every lane.
   template <class S>
   [[nodiscard, gnu::always_inline]] static S log(S x) {
     return lane_log(x);
   }
-  /// lane_exp of the first n values.
+  /// lane_exp of the first n values (each ≤ 709).
   template <class S, std::size_t N>
   [[gnu::always_inline]] static void exp_each(std::array<S, N>& v, int n) {
     each<false>(v, n);
@@ -127,11 +129,11 @@ struct LaneFunctions {
       double lanes[W];
       for (int j = 0; j < W; ++j) lanes[j] = j < static_cast<int>(N) ? v[j] : 1.0;
       Pack pack = lane_load<Pack>(lanes);
-      pack = kLog ? lane_log(pack) : lane_exp(pack);
+      pack = kLog ? lane_log(pack) : lane_exp_no_overflow(pack);
       lane_store(lanes, pack);
       for (std::size_t j = 0; j < N; ++j) v[j] = lanes[j];
     } else {
-      for (int j = 0; j < n; ++j) v[j] = kLog ? lane_log(v[j]) : lane_exp(v[j]);
+      for (int j = 0; j < n; ++j) v[j] = kLog ? lane_log(v[j]) : lane_exp_no_overflow(v[j]);
     }
   }
 };

@@ -116,7 +116,7 @@ template <int W>
     for (int r = 0; r < n; ++r) {
       const TskConstants::Rule& rule = rules[static_cast<std::size_t>(r)];
       IMM_LANES {
-        share[r][l] = lane_exp(log_w[r][l] - largest[l]);
+        share[r][l] = lane_exp_no_overflow(log_w[r][l] - largest[l]);
         z[r][l] = rule.a0 + rule.a1 * x0[l] + rule.a2 * x1[l];
         sum_w[l] += share[r][l];
         sum_wz[l] += share[r][l] * z[r][l];

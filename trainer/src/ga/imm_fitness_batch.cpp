@@ -123,7 +123,7 @@ template <int W, bool kLikelihood, class Pack>
     IMM_LANES sum[l] = 0.0;
     for (int j = 0; j < n; ++j) {
       IMM_LANES {
-        exponent[j][l] = scale[j][l] * lane_exp(exponent[j][l] - shift[l]);
+        exponent[j][l] = scale[j][l] * lane_exp_no_overflow(exponent[j][l] - shift[l]);
         sum[l] += exponent[j][l];
       }
     }

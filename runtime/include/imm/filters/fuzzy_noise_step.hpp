@@ -160,13 +160,14 @@ template <class S, class Rule>
   }
 }
 
-/// eˣ: libm's for a double, lane_exp for a pack (see the file comment).
+/// eˣ of a firing strength's exponent (x ≤ 0 or NaN): libm's for a double, lane_exp for a pack
+/// (see the file comment; lane_exp_no_overflow, its bits for such an x).
 template <class S>
 [[gnu::always_inline]] inline S fuzzy_exp(S x) {
   if constexpr (std::is_same_v<S, double>) {
     return std::exp(x);
   } else {
-    return lane_exp(x);
+    return lane_exp_no_overflow(x);
   }
 }
 

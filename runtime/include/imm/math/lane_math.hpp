@@ -166,25 +166,21 @@ template <class S>
   }
 }
 
-/// eˣ within 2 ulp for x in [−708, 709]; 0 below −708 (libm's subnormal results are flushed),
-/// +∞ above 709, NaN for NaN. Cody–Waite reduction x = n ln 2 + r, |r| ≤ ½ ln 2, a degree-13
-/// Taylor polynomial of eʳ (truncation below 10⁻¹⁷), and 2ⁿ assembled in the exponent bits.
-/// S: double, or LanePack (element by element, the same bits as the double).
+namespace detail {
+/// eˣ for x in [−708, 709], with no check: Cody–Waite reduction x = n ln 2 + r, |r| ≤ ½ ln 2, a
+/// degree-13 Taylor polynomial of eʳ (truncation below 10⁻¹⁷), and 2ⁿ assembled in the exponent
+/// bits. Outside that range (or for ±∞) the result is a meaningless number, which the callers
+/// replace; every operation stays defined there (floating-point, and unsigned integers that wrap).
 template <class S>
-[[nodiscard, gnu::always_inline]] inline S lane_exp(S x) {
-  using Signed = typename LaneBits<S>::Signed;
+[[nodiscard, gnu::always_inline]] inline S exp_unchecked(S x) {
   using Unsigned = typename LaneBits<S>::Unsigned;
   constexpr double kLog2e = 1.4426950408889634074;
   constexpr double kLn2High = 6.93147180369123816490e-01;  // ln 2 with 32 trailing zero bits
   constexpr double kLn2Low = 1.90821492927058770002e-10;   // ln 2 − kLn2High
   constexpr double kRound = 0x1.8p52;                      // adding it rounds to an integer
-  const auto underflow = x < -708.0;
-  const auto overflow = x > 709.0;
-  // Clamped (NaN stays NaN: both comparisons are false), so that n fits the exponent field.
-  const S clamped = pick(underflow, -708.0, pick(overflow, 709.0, x));
-  const S shifted = clamped * kLog2e + kRound;
+  const S shifted = x * kLog2e + kRound;
   const S n = shifted - kRound;
-  const S r = (clamped - n * kLn2High) - n * kLn2Low;
+  const S r = (x - n * kLn2High) - n * kLn2Low;
   // eʳ = Σ rᵏ/k!, k ≤ 13, by Estrin's scheme: pairs, then pairs of pairs, so that the longest
   // chain of dependent operations is 8 long instead of Horner's 26 (the loops that call this are
   // bound by that latency, not by the operation count).
@@ -196,11 +192,32 @@ template <class S>
   const S a6 = 1.0 / 479001600.0 + r * (1.0 / 6227020800.0);
   const S b0 = a0 + r2 * a1, b1 = a2 + r2 * a3, b2 = a4 + r2 * a5;
   const S p = (b0 + r4 * b1) + r8 * (b2 + r4 * a6);
-  // n is in [−1022, 1023]: it sits in the low bits of `shifted`'s mantissa.
-  const Signed k = std::bit_cast<Signed>(shifted) - std::bit_cast<std::int64_t>(kRound);
-  const S scale = std::bit_cast<S>(std::bit_cast<Unsigned>(k + 1023) << 52U);
-  const S result = p * scale;
+  // n in [−1022, 1023] sits in the low bits of `shifted`'s pattern, which is kRound's plus n; the
+  // shift by 52 drops kRound's bits (none of them lies below bit 12), leaving 2ⁿ's exponent field.
+  const S scale = std::bit_cast<S>((std::bit_cast<Unsigned>(shifted) + 1023U) << 52U);
+  return p * scale;
+}
+}  // namespace detail
+
+/// eˣ within 2 ulp for x in [−708, 709]; 0 below −708 (libm's subnormal results are flushed),
+/// +∞ above 709, NaN for NaN (detail::exp_unchecked says how).
+/// S: double, or LanePack (element by element, the same bits as the double).
+template <class S>
+[[nodiscard, gnu::always_inline]] inline S lane_exp(S x) {
+  // NaN: both comparisons are false, and NaN propagates through the arithmetic.
+  const auto underflow = x < -708.0;
+  const auto overflow = x > 709.0;
+  const S result = detail::exp_unchecked(x);
   return pick(underflow, 0.0, pick(overflow, std::numeric_limits<double>::infinity(), result));
+}
+
+/// lane_exp(x) to the bit for every x ≤ 709 and NaN, without lane_exp's overflow check: for an
+/// exponent that cannot pass 709, such as a difference from a maximum (x − max x) or a negated
+/// sum of squares. Above 709 it gives a wrong number, not +∞.
+template <class S>
+[[nodiscard, gnu::always_inline]] inline S lane_exp_no_overflow(S x) {
+  const auto underflow = x < -708.0;
+  return pick(underflow, 0.0, detail::exp_unchecked(x));
 }
 
 /// ln x within 2 ulp for every positive x, subnormal ones included; −∞ for 0, +∞ for +∞, NaN for
