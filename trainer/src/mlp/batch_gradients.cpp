@@ -181,6 +181,7 @@ namespace wide {
 #define IMM_AVX512_INLINE __attribute__((target("avx512f,fma"), always_inline)) inline
 using Vec = double __attribute__((vector_size(64)));
 using Bits = std::int64_t __attribute__((vector_size(64)));
+using Unsigned = std::uint64_t __attribute__((vector_size(64)));
 constexpr int kBlocks = 2;  // blocks per pass
 
 IMM_AVX512_INLINE Vec splat(double x) { return Vec{x, x, x, x, x, x, x, x}; }
@@ -206,10 +207,9 @@ IMM_AVX512_INLINE Vec exp_nonpositive(Vec x) {
   constexpr double kLn2Low = 1.90821492927058770002e-10;
   constexpr double kRound = 0x1.8p52;
   const Bits underflow = x < -708.0;
-  const Vec clamped = pick(underflow, splat(-708.0), x);
-  const Vec shifted = fused(clamped, splat(kLog2e), splat(kRound));
+  const Vec shifted = fused(x, splat(kLog2e), splat(kRound));
   const Vec n = shifted - kRound;
-  const Vec r = fused(-n, splat(kLn2Low), fused(-n, splat(kLn2High), clamped));
+  const Vec r = fused(-n, splat(kLn2Low), fused(-n, splat(kLn2High), x));
   const Vec r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
   const Vec a0 = 1.0 + r, a1 = fused(r, splat(1.0 / 6.0), splat(1.0 / 2.0));
   const Vec a2 = fused(r, splat(1.0 / 120.0), splat(1.0 / 24.0));
@@ -219,8 +219,7 @@ IMM_AVX512_INLINE Vec exp_nonpositive(Vec x) {
   const Vec a6 = fused(r, splat(1.0 / 6227020800.0), splat(1.0 / 479001600.0));
   const Vec b0 = fused(r2, a1, a0), b1 = fused(r2, a3, a2), b2 = fused(r2, a5, a4);
   const Vec p = fused(r8, fused(r4, a6, b2), fused(r4, b1, b0));
-  const Bits k = reinterpret_cast<Bits>(shifted) - reinterpret_cast<Bits>(splat(kRound));
-  const Vec scale = reinterpret_cast<Vec>((k + 1023) << 52);
+  const Vec scale = reinterpret_cast<Vec>((reinterpret_cast<Unsigned>(shifted) + 1023U) << 52U);
   return pick(underflow, splat(0.0), p * scale);
 }
 
