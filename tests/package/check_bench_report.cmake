@@ -53,11 +53,18 @@ string(JSON cpus GET "${doc}" machine logical_cpus)
 string(JSON mhz GET "${doc}" machine mhz_per_cpu)
 string(JSON threads GET "${doc}" machine threads imm-bench)
 string(JSON model GET "${doc}" machine cpu_model)
+string(JSON signature GET "${doc}" machine cpu_signature)
 string(JSON blas GET "${doc}" machine blas)
 if(NOT cpus EQUAL 3 OR NOT mhz MATCHES "^3470" OR NOT threads EQUAL 1 OR model STREQUAL ""
    OR blas STREQUAL "")
   message(FATAL_ERROR "machine: cpus '${cpus}', MHz '${mhz}', threads '${threads}', model "
                       "'${model}', BLAS '${blas}'")
+endif()
+# On x86 Linux the processor's family and model, which name its generation where a hypervisor
+# shortens its name.
+file(READ /proc/cpuinfo cpuinfo LIMIT 4096)
+if(cpuinfo MATCHES "cpu family" AND NOT signature MATCHES "family [0-9]+ model [0-9]+")
+  message(FATAL_ERROR "machine: cpu_signature '${signature}' names no family and model")
 endif()
 night(96)  # 20 % slower
 report()

@@ -5,12 +5,12 @@
 // night's wall time of every stage that ran at least a second (reports/nightly/nights.jsonl: the
 // trainings, the GA's among them, and the evaluations) is collected beside them as
 // "nightly: <stage>" in s, so a slower training is flagged like a slower filter step. Run by
-// `make bench`. The report records what it ran on ("machine"): the CPU model (/proc/cpuinfo), its
-// clock and logical CPU count as Google Benchmark measured them, its library's build type, the
-// threads of each program (--threads NAME=N, as scripts/bench.sh ran it), the vector instruction
-// set of the pack kernels (imm/math/lane_isa.hpp, as the benchmarks report it) and the BLAS that
-// libblas.so.3 resolves to (the trainer links it through LAPACK and Ceres; the MLP's products are
-// Eigen's own kernels, which do not call it):
+// `make bench`. The report records what it ran on ("machine"): the CPU model and its vendor,
+// family, model and stepping (/proc/cpuinfo), its clock and logical CPU count as Google Benchmark
+// measured them, its library's build type, the threads of each program (--threads NAME=N, as
+// scripts/bench.sh ran it), the vector instruction set of the pack kernels (imm/math/lane_isa.hpp,
+// as the benchmarks report it) and the BLAS that libblas.so.3 resolves to (the trainer links it
+// through LAPACK and Ceres; the MLP's products are Eigen's own kernels, which do not call it):
 //   imm-bench-report --out reports/bench/latest.json [--nightly NIGHTS.jsonl]
 //                    [--threads NAME=N]… RUNTIME.json …
 
@@ -90,6 +90,25 @@ std::string cpu_model() {
   return "unknown";
 }
 
+// The processor's identity beside its name, which a hypervisor may shorten (a VM's "AMD EPYC"
+// names no generation; family 25 model 17 is Zen 4, family 26 Zen 5): the vendor, family, model
+// and stepping of /proc/cpuinfo's first processor, or "unknown" where it has none (not x86).
+std::string cpu_signature() {
+  std::ifstream in("/proc/cpuinfo");
+  std::map<std::string, std::string> fields;
+  for (std::string line; std::getline(in, line) && !line.empty();) {
+    const std::size_t colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    const std::size_t key_end = line.find_last_not_of(" \t", colon == 0 ? 0 : colon - 1);
+    const std::size_t value_start = line.find_first_not_of(' ', colon + 1);
+    fields[line.substr(0, key_end == std::string::npos ? 0 : key_end + 1)] =
+        value_start == std::string::npos ? "" : line.substr(value_start);
+  }
+  if (!fields.contains("cpu family") || !fields.contains("model")) return "unknown";
+  return fields["vendor_id"] + " family " + fields["cpu family"] + " model " + fields["model"] +
+         " stepping " + fields["stepping"];
+}
+
 // Where libblas.so.3 leads (Debian's alternatives: ATLAS, OpenBLAS, the reference BLAS), or
 // "none found".
 std::string blas_library() {
@@ -108,6 +127,7 @@ json machine_of(const fs::path& first_output, const json& threads) {
   const json doc = json::parse(in);
   const json context = doc.value("context", json::object());
   json machine = {{"cpu_model", cpu_model()},
+                  {"cpu_signature", cpu_signature()},
                   {"logical_cpus", context.value("num_cpus", 0)},
                   {"mhz_per_cpu", context.value("mhz_per_cpu", 0.0)},
                   {"cpu_scaling_enabled", context.value("cpu_scaling_enabled", false)},
@@ -170,10 +190,12 @@ int main(int argc, char** argv) {
     doc["slowdown_threshold"] = kSlowdown;
     doc["machine"] = machine_of(inputs.front(), threads);
     const json& m = doc["machine"];
-    std::printf("machine: %s, %d logical CPUs at %.0f MHz, BLAS %s, pack kernels %s, threads %s\n",
-                m["cpu_model"].get<std::string>().c_str(), m["logical_cpus"].get<int>(),
-                m["mhz_per_cpu"].get<double>(), m["blas"].get<std::string>().c_str(),
-                m["lane_isa"].get<std::string>().c_str(), threads.dump().c_str());
+    std::printf(
+        "machine: %s (%s), %d logical CPUs at %.0f MHz, BLAS %s, pack kernels %s, threads %s\n",
+        m["cpu_model"].get<std::string>().c_str(), m["cpu_signature"].get<std::string>().c_str(),
+        m["logical_cpus"].get<int>(), m["mhz_per_cpu"].get<double>(),
+        m["blas"].get<std::string>().c_str(), m["lane_isa"].get<std::string>().c_str(),
+        threads.dump().c_str());
     doc["benchmarks"] = json::array();
     int flagged = 0;
     std::printf("%-48s %14s %14s %9s\n", "benchmark (median)", "now", "before", "change");
