@@ -13,12 +13,19 @@
 #include "imm/math/log_sum_exp.hpp"
 
 namespace imm {
+namespace detail {
+/// e^d of a difference from a maximum: 1 for the maximum's own d = ±0 (exp's value there, which
+/// IEEE 754 fixes), libm's exp otherwise. One call of libm fewer per normalization.
+[[nodiscard, gnu::always_inline]] inline double exp_of_difference(double d) {
+  return d == 0.0 ? 1.0 : std::exp(d);
+}
+}  // namespace detail
 
 template <int NX, int NZ>
 inline void ImmEstimator<NX, NZ>::predict_mode_probabilities() {
   const int n = mode_count();
   const double shift = log_probabilities_.maxCoeff();
-  for (int i = 0; i < n; ++i) scaled_(i) = std::exp(log_probabilities_(i) - shift);
+  for (int i = 0; i < n; ++i) scaled_(i) = detail::exp_of_difference(log_probabilities_(i) - shift);
   for (int j = 0; j < n; ++j) {
     double c = 0.0;
     for (int i = 0; i < n; ++i) c += transition_(i, j) * scaled_(i);
@@ -63,7 +70,7 @@ inline StepStatus ImmEstimator<NX, NZ>::finish_cycle() {
   if (!std::isfinite(shift)) return StepStatus::kProbabilityUnderflow;
   double sum = 0.0;
   for (int j = 0; j < n; ++j) {
-    scaled_(j) = std::exp(log_posterior_(j) - shift);
+    scaled_(j) = detail::exp_of_difference(log_posterior_(j) - shift);
     sum += scaled_(j);
   }
   // sum ≥ 1: the largest entry contributes exp(0). log μ_j = (ℓ_j − shift) − log sum, in that
