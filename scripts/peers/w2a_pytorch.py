@@ -1,12 +1,13 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: Apache-2.0
-"""W2a on PyTorch, for a side-by-side figure (docs/performance.md): the 2-10-10-1 network of
-tools/workloads/inputs/ (sigmoid hidden units, linear output, float64), 6000 full-batch epochs of
-plain gradient descent, learning rate 0.1 on the mean squared error, one thread. Prints the median
-wall time of --rounds runs, the final MSE (which must equal imm-train-bench's W2a figure), the
-torch version and the BLAS it was built with.
+"""W2a (or W2b) on PyTorch, for a side-by-side figure (docs/performance.md): the 2-10-10-1 network
+of tools/workloads/inputs/ (sigmoid hidden units, linear output, float64), 6000 full-batch epochs
+of plain gradient descent, learning rate 0.1 on the mean squared error, one thread; with
+--per-sample, W2b: one sample per step in the fixed order 0 … 999, 100 epochs by default. Prints
+the median wall time of --rounds runs, the final MSE (which must equal imm-train-bench's W2a or
+W2b figure), the torch version and the BLAS it was built with.
 
-    python3 scripts/peers/w2a_pytorch.py [--rounds 3] [--epochs 6000]
+    python3 scripts/peers/w2a_pytorch.py [--rounds 3] [--epochs 6000] [--per-sample]
 """
 import argparse
 import csv
@@ -58,19 +59,40 @@ def run(x, t, w, epochs):
     return seconds, mse
 
 
+def run_per_sample(x, t, w, epochs):
+    net = network(w)
+    optimizer = torch.optim.SGD(net.parameters(), lr=0.1)
+    loss_fn = torch.nn.MSELoss()
+    rows = [(x[i:i + 1], t[i:i + 1]) for i in range(x.shape[0])]
+    start = time.perf_counter()
+    for _ in range(epochs):
+        for xi, ti in rows:
+            optimizer.zero_grad()
+            loss = loss_fn(net(xi), ti)
+            loss.backward()
+            optimizer.step()
+    seconds = time.perf_counter() - start
+    with torch.no_grad():
+        mse = loss_fn(net(x), t).item()
+    return seconds, mse
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--epochs", type=int, default=6000)
+    parser.add_argument("--epochs", type=int, default=None,
+                        help="6000 (W2a) or 100 (W2b, --per-sample)")
+    parser.add_argument("--per-sample", action="store_true", help="W2b: one sample per step")
     args = parser.parse_args()
+    epochs = args.epochs if args.epochs is not None else (100 if args.per_sample else 6000)
     torch.set_num_threads(1)
     x, t, w = load()
     times, mse = [], None
     for _ in range(args.rounds):
-        seconds, mse = run(x, t, w, args.epochs)
+        seconds, mse = (run_per_sample if args.per_sample else run)(x, t, w, epochs)
         times.append(seconds)
     blas = [line.strip() for line in torch.__config__.show().splitlines() if "BLAS" in line]
-    print(json.dumps({"workload": "W2a", "torch": torch.__version__, "threads": 1,
+    print(json.dumps({"workload": "W2b" if args.per_sample else "W2a", "torch": torch.__version__, "threads": 1,
                       "median_seconds": statistics.median(times), "seconds": times,
                       "final_mse": mse, "blas": blas}, indent=1))
 
