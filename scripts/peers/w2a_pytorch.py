@@ -43,32 +43,17 @@ def network(w):
     return net
 
 
-def run(x, t, w, epochs):
+def run(x, t, w, epochs, batches):
+    """`epochs` passes over `batches` (pairs of inputs and targets), a gradient step per batch:
+    [(x, t)] for W2a's full batch, one pair per sample for W2b."""
     net = network(w)
     optimizer = torch.optim.SGD(net.parameters(), lr=0.1)
     loss_fn = torch.nn.MSELoss()
     start = time.perf_counter()
     for _ in range(epochs):
-        optimizer.zero_grad()
-        loss = loss_fn(net(x), t)
-        loss.backward()
-        optimizer.step()
-    seconds = time.perf_counter() - start
-    with torch.no_grad():
-        mse = loss_fn(net(x), t).item()
-    return seconds, mse
-
-
-def run_per_sample(x, t, w, epochs):
-    net = network(w)
-    optimizer = torch.optim.SGD(net.parameters(), lr=0.1)
-    loss_fn = torch.nn.MSELoss()
-    rows = [(x[i:i + 1], t[i:i + 1]) for i in range(x.shape[0])]
-    start = time.perf_counter()
-    for _ in range(epochs):
-        for xi, ti in rows:
+        for xb, tb in batches:
             optimizer.zero_grad()
-            loss = loss_fn(net(xi), ti)
+            loss = loss_fn(net(xb), tb)
             loss.backward()
             optimizer.step()
     seconds = time.perf_counter() - start
@@ -87,13 +72,14 @@ def main():
     epochs = args.epochs if args.epochs is not None else (100 if args.per_sample else 6000)
     torch.set_num_threads(1)
     x, t, w = load()
+    batches = [(x[i:i + 1], t[i:i + 1]) for i in range(x.shape[0])] if args.per_sample else [(x, t)]
     times, mse = [], None
     for _ in range(args.rounds):
-        seconds, mse = (run_per_sample if args.per_sample else run)(x, t, w, epochs)
+        seconds, mse = run(x, t, w, epochs, batches)
         times.append(seconds)
     blas = [line.strip() for line in torch.__config__.show().splitlines() if "BLAS" in line]
-    print(json.dumps({"workload": "W2b" if args.per_sample else "W2a", "torch": torch.__version__, "threads": 1,
-                      "median_seconds": statistics.median(times), "seconds": times,
+    print(json.dumps({"workload": "W2b" if args.per_sample else "W2a", "torch": torch.__version__,
+                      "threads": 1, "median_seconds": statistics.median(times), "seconds": times,
                       "final_mse": mse, "blas": blas}, indent=1))
 
 
