@@ -24,13 +24,14 @@ constexpr std::uint64_t kValidationStream = 0x7641'4c49'4400ULL;
 
 // Angles are held in radians and written in degrees (the keys ending in _deg): they are checked,
 // and a refusal states its bounds, in the key's unit.
-constexpr double kDegree = std::numbers::pi / 180.0;
-constexpr limits::Interval kAngleDegrees{-100.0 / kDegree, 100.0 / kDegree, "°"};
-constexpr limits::Interval kAzimuthSigmaDegrees{1e-9 / kDegree, 3.2 / kDegree, "°"};
-constexpr limits::Interval kTurnRateDegrees{0.0, limits::kTurnRate.max / kDegree, "°/s"};
+constexpr limits::Interval kAngleDegrees{-100.0 / kRadiansPerDegree, 100.0 / kRadiansPerDegree,
+                                         "°"};
+constexpr limits::Interval kAzimuthSigmaDegrees{1e-9 / kRadiansPerDegree, 3.2 / kRadiansPerDegree,
+                                                "°"};
+constexpr limits::Interval kTurnRateDegrees{0.0, limits::kTurnRate.max / kRadiansPerDegree, "°/s"};
 
 Interval in_degrees(const Interval& radians) {
-  return {radians.min / kDegree, radians.max / kDegree, radians.log};
+  return {radians.min / kRadiansPerDegree, radians.max / kRadiansPerDegree, radians.log};
 }
 
 void check_interval(const Interval& interval, const limits::Interval& range,
@@ -44,7 +45,7 @@ void check_interval(const Interval& interval, const limits::Interval& range,
 void check_noise(SensorKind kind, const SensorNoise& noise, const std::string& prefix) {
   if (kind == SensorKind::kPolar) {
     limits::require_in(noise.sigma(0), limits::kSigma, prefix + "range_sigma");
-    limits::require_in(noise.sigma(1) / kDegree, kAzimuthSigmaDegrees,
+    limits::require_in(noise.sigma(1) / kRadiansPerDegree, kAzimuthSigmaDegrees,
                        prefix + "azimuth_sigma_deg");
     return;
   }
@@ -361,7 +362,7 @@ void Regime::validate() const {
           }
           break;
         case SegmentKind::kTurn:
-          limits::require_magnitude(s.rate / kDegree, kTurnRateDegrees, sf + "rate_deg");
+          limits::require_magnitude(s.rate / kRadiansPerDegree, kTurnRateDegrees, sf + "rate_deg");
           break;
         case SegmentKind::kLaneChange:
           limits::require_magnitude(s.offset, limits::kDistance, sf + "offset");

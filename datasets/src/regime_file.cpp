@@ -20,8 +20,6 @@ using support::ConfigDocument;
 using support::ConfigError;
 using support::ConfigTable;
 
-constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
-
 /// A named choice of a fixed set, or a ConfigError listing them.
 template <class Enum, std::size_t N>
 Enum choice(const ConfigTable& table, std::string_view key, const std::array<Enum, N>& options) {

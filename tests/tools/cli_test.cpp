@@ -65,7 +65,7 @@ TEST(CommandLine, UsageErrorsExitOneWithAReadableMessage) {
       {"imm-eval", {"plain-imm", "--runs", "-3"}, "--runs: must be ≥ 1 (got -3)"},
       {"imm-data",
        {"tracks", "--regime", "r", "--out", "o", "--count", "0"},
-       "--count: must be ≥ 1 (got 0)"},
+       "--count: must be in [1, 1000000] (got 0)"},
       // A seed is a whole number in [0, 2⁶⁴ − 1]: "-1" and 2⁶⁴ were read as 2⁶⁴ − 1.
       {"imm-data",
        {"tracks", "--regime", "r", "--out", "o", "--seed", "-1"},

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -108,6 +109,15 @@ TEST_F(Tools, ImmDataWritesScenesOfSeveralTargetsAmongClutter) {
   const auto refused = scenes("refused", {"--pd", "0"});
   EXPECT_EQ(refused.exit_code, 2);
   EXPECT_NE(refused.err.find("scene.detection_probability"), std::string::npos) << refused.err;
+  // A count beyond what a split may hold is refused, naming the option, before any file is written.
+  const auto too_many = run_tool("imm-data",
+                                 {"scenes", "--regime", (dir_ / "scene_regime.toml").string(),
+                                  "--count", "1000001", "--out-dir", (dir_ / "too_many").string()},
+                                 root_);
+  EXPECT_EQ(too_many.exit_code, 1);
+  EXPECT_NE(too_many.err.find("--count: must be in [1, 1000000] (got 1000001)"), std::string::npos)
+      << too_many.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "too_many"));
 }
 
 }  // namespace

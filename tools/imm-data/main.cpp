@@ -215,8 +215,10 @@ int run(int argc, char** argv) {
                    "test seed (the training and validation splits use the "
                    "regime's [splits] seed)")
       ->check(imm::support::seed());
+  // A count is held to what a split may hold (datasets::kMaxSplitTracks), on every command.
+  const CLI::Validator count_range = imm::support::within(1, imm::datasets::kMaxSplitTracks, "");
   tracks->add_option("--count", count, "tracks (default: the regime's split size)")
-      ->check(imm::support::at_least(1));
+      ->check(count_range);
   tracks->add_option("--csv", csv_path, "also write one track's plots as CSV for imm-track");
   tracks->add_option("--csv-track", csv_track, "which track --csv writes")
       ->check(imm::support::at_least(0));
@@ -256,7 +258,7 @@ int run(int argc, char** argv) {
   exporter->add_option("--split", split_name, "test | training | validation")
       ->check(CLI::IsMember({"test", "training", "validation"}));
   exporter->add_option("--seed", seed, "test seed")->check(imm::support::seed());
-  exporter->add_option("--count", count, "tracks")->check(imm::support::at_least(1));
+  exporter->add_option("--count", count, "tracks")->check(count_range);
   exporter->add_option("--out-dir", out_dir, "folder for track_000.csv, …")->required();
   exporter->add_flag("--no-truth", no_truth, "plots only (drop the truth columns)");
   auto* scenes = app.add_subcommand("scenes", "several targets at once among clutter (CSV)");
@@ -264,7 +266,7 @@ int run(int argc, char** argv) {
   std::optional<double> scene_pd, scene_clutter;
   scenes->add_option("--regime", regime_path, "regime TOML (its [scene] by default)")->required();
   scenes->add_option("--out-dir", out_dir, "folder for scene_000.csv, …")->required();
-  scenes->add_option("--count", count, "scenes (default 1)")->check(imm::support::at_least(1));
+  scenes->add_option("--count", count, "scenes (default 1)")->check(count_range);
   scenes->add_option("--split", split_name, "test | training | validation");
   scenes->add_option("--seed", seed, "test seed")->check(imm::support::seed());
   scenes->add_option("--targets", scene_targets, "targets per scene");

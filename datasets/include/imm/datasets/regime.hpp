@@ -20,6 +20,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -28,6 +29,10 @@
 #include "imm/datasets/range_sensor.hpp"
 
 namespace imm::datasets {
+
+/// π / 180 as one double: a regime's angles are written in degrees (the `*_deg` keys) and held in
+/// radians, each value times this constant.
+inline constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
 
 class Rng;
 class SampledSensor;

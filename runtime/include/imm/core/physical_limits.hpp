@@ -49,12 +49,12 @@ inline constexpr Interval kNoiseSigma{0.0, 1e9, ""};
 inline constexpr Interval kVariance{0.0, 1e18, ""};
 /// Positions, ranges and distances (m or km).
 inline constexpr Interval kDistance{0.0, 1e9, ""};
-/// Speeds (m/s or km/s) and accelerations (m/s² or km/s²), as magnitudes.
+/// Speeds, as magnitudes (m/s or km/s).
 inline constexpr Interval kSpeed{0.0, 1e6, ""};
 /// Accelerations, as magnitudes (m/s² or km/s²).
 inline constexpr Interval kAcceleration{0.0, 1e6, ""};
-/// Turn rates, rad/s or deg/s.
-inline constexpr Interval kTurnRate{0.0, 1e3, ""};
+/// Turn rates as magnitudes, rad/s (a regime file's `rate_deg` is held to the same bound in °/s).
+inline constexpr Interval kTurnRate{0.0, 1e3, "rad/s"};
 /// A coordinated-turn mode's turn-rate noise: rad²/s⁴ per period (piecewise) or rad²/s³ (PSD).
 inline constexpr Interval kTurnRateNoise{0.0, 1e2, ""};
 /// The prior variance of a turn rate, rad²/s² (10 rad/s, 570 °/s, as one standard deviation).

@@ -89,6 +89,7 @@ inline void standard_options(CLI::App& app, std::string_view tool) {
 /// (got 0)"; NaN and infinities are outside it.
 [[nodiscard]] inline CLI::Validator within(double minimum, double maximum, std::string_view unit) {
   std::ostringstream bound;
+  bound.precision(15);  // a count's bound as 1000000, not 1e+06
   bound << '[' << minimum << ", " << maximum << ']';
   if (!unit.empty()) bound << ' ' << unit;
   const std::string text = bound.str();
