@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-// The IMM's own arithmetic written once over a number type (estimation/imm_algebra.hpp):
+// The IMM's own arithmetic written once over a number type (imm/estimation/imm_algebra.hpp):
 // against the textbook IMM written out in linear probabilities (Blom & Bar-Shalom, seed 000
 // eq. 4–11), a Gaussian mixture's moments by their other closed form, the exact fallback where a
 // predicted probability underflows, and its pack instance against its double instance, lane by
 // lane, to the bit.
-#include "estimation/imm_algebra.hpp"
+#include "imm/estimation/imm_algebra.hpp"
 
 // 64-byte vectors by value in the test (lane_math.hpp says why that is harmless).
 #pragma GCC diagnostic ignored "-Wpsabi"
@@ -148,6 +148,31 @@ TEST(ImmAlgebra, TheExactFallbackTakesAnUnderflowedPredictionAndAnUnreachableMod
     for (int i = 0; i < n; ++i) total += weights[j * n + i];
     EXPECT_NEAR(total, 1.0, 1e-15) << j;
   }
+}
+
+TEST(ImmAlgebra, TheLargestPassesOverNaNAndKeepsTheFirstOfEqualsForADoubleAsForAPack) {
+  // A double's running maximum is a `?:` (one maxsd), a pack's a select of masks: the same value,
+  // a NaN passed over and the first of two equal values (−0 before +0) kept, for one track as
+  // for every lane.
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  const std::array<std::array<double, 3>, 5> cases = {{{kNaN, 1.0, -2.0},
+                                                       {-2.0, kNaN, 1.0},
+                                                       {-0.0, 0.0, -kInf},
+                                                       {-kInf, -kInf, -kInf},
+                                                       {kNaN, kNaN, kNaN}}};
+  using P = LanePackOf<8>;
+  for (const auto& values : cases) {
+    const double top = largest<double>(3, values);
+    std::array<P, 3> packs{};
+    for (int j = 0; j < 3; ++j) packs[j] = splat<P>(values[j]);
+    const Lanes<P> lanes = lanes_of(largest<P>(3, packs));
+    for (double lane : lanes) {
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(lane), std::bit_cast<std::uint64_t>(top));
+    }
+  }
+  EXPECT_EQ(largest<double>(3, cases[0]), 1.0);
+  EXPECT_TRUE(std::signbit(largest<double>(3, cases[2])));
+  EXPECT_EQ(largest<double>(3, cases[4]), -kInf);
 }
 
 TEST(ImmAlgebra, TheCollapseIsTheMixturesMomentsByTheirOtherClosedForm) {

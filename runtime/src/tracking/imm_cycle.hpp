@@ -45,7 +45,7 @@
 #include <utility>
 
 #include "axis_lane_bank.hpp"
-#include "estimation/imm_algebra.hpp"
+#include "imm/estimation/imm_algebra.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/linear_algebra.hpp"
 #include "imm/tracking/lane_storage.hpp"

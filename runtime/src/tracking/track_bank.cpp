@@ -10,7 +10,7 @@
 #include <utility>
 
 #include "bank_checks.hpp"
-#include "estimation/imm_algebra.hpp"
+#include "imm/estimation/imm_algebra.hpp"
 #include "filters/mode_field.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"

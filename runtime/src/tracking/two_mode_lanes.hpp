@@ -21,7 +21,7 @@
 #include <span>
 
 #include "axis_lane_bank.hpp"
-#include "estimation/imm_algebra.hpp"
+#include "imm/estimation/imm_algebra.hpp"
 #include "filters/position_kalman_step.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"

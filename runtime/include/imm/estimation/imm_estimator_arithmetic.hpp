@@ -4,38 +4,31 @@
 /// ImmEstimator's arithmetic over the mode probabilities and the modes' Gaussians — the predicted
 /// mode probabilities (eq. 8's inner sum), the mixing (eq. 4–6), the posterior in log space
 /// (eq. 8–9) and the combination (eq. 10–11) — defined apart from the class (imm_estimator.hpp,
-/// which includes this file; the comments on each are at its declaration there).
+/// which includes this file; the comments on each are at its declaration there). The mode
+/// probabilities and the mixing weights are the banks' arithmetic (imm_algebra.hpp) over a double
+/// with libm's exp and log; the collapse is Eigen's, in the algebra's order of operations (its
+/// scalar form over a double costs W1's step 15 %: docs/performance.md).
 
 #include <cmath>
 #include <limits>
 
+#include "imm/estimation/imm_algebra.hpp"
 #include "imm/estimation/imm_estimator.hpp"
-#include "imm/math/log_sum_exp.hpp"
 
 namespace imm {
-namespace detail {
-/// e^d of a difference from a maximum: 1 for the maximum's own d = ±0 (exp's value there, which
-/// IEEE 754 fixes), libm's exp otherwise. One call of libm fewer per normalization.
-[[nodiscard, gnu::always_inline]] inline double exp_of_difference(double d) {
-  return d == 0.0 ? 1.0 : std::exp(d);
-}
-}  // namespace detail
 
 template <int NX, int NZ>
 inline void ImmEstimator<NX, NZ>::predict_mode_probabilities() {
   const int n = mode_count();
-  const double shift = log_probabilities_.maxCoeff();
-  for (int i = 0; i < n; ++i) scaled_(i) = detail::exp_of_difference(log_probabilities_(i) - shift);
+  const double shift =
+      algebra::scaled_probabilities<algebra::LibmFunctions>(n, log_probabilities_, scaled_);
   for (int j = 0; j < n; ++j) {
-    double c = 0.0;
-    for (int i = 0; i < n; ++i) c += transition_(i, j) * scaled_(i);
+    const double c = algebra::predicted_scaled(n, j, transition_, scaled_);
     predicted_scaled_(j) = c;
-    if (c > 0.0) {
-      log_predicted_(j) = std::log(c) + shift;
-    } else {
-      for (int i = 0; i < n; ++i) scratch_(i) = log_transition_(i, j) + log_probabilities_(i);
-      log_predicted_(j) = log_sum_exp(scratch_);
-    }
+    log_predicted_(j) =
+        c > 0.0 ? std::log(c) + shift
+                : algebra::exact_log_prediction(n, j, log_transition_,
+                                                [this](int i) { return log_probabilities_(i); });
   }
 }
 
@@ -51,12 +44,13 @@ inline void ImmEstimator<NX, NZ>::mix(int j, GaussianState<NX>& mixed) {
     return;
   }
   if (predicted_scaled_(j) > 0.0) {
-    for (int i = 0; i < n; ++i) {
-      scratch_(i) = transition_(i, j) * scaled_(i) / predicted_scaled_(j);
-    }
+    algebra::mixing_weights<algebra::Division::kDivide>(
+        n, j, transition_, scaled_, predicted_scaled_(j),
+        [this](int i) -> double& { return scratch_(i); });
   } else {
     for (int i = 0; i < n; ++i) {
-      scratch_(i) = std::exp(log_transition_(i, j) + log_probabilities_(i) - log_predicted_(j));
+      scratch_(i) = algebra::exact_mixing_weight(i, j, log_transition_(i, j), log_probabilities_(i),
+                                                 log_predicted_(j));
     }
   }
   moment_match(scratch_, mixed);
@@ -66,19 +60,14 @@ template <int NX, int NZ>
 inline StepStatus ImmEstimator<NX, NZ>::finish_cycle() {
   if (status_ != StepStatus::kOk) return status_;
   const int n = mode_count();
-  const double shift = log_posterior_.maxCoeff();
-  if (!std::isfinite(shift)) return StepStatus::kProbabilityUnderflow;
   double sum = 0.0;
-  for (int j = 0; j < n; ++j) {
-    scaled_(j) = detail::exp_of_difference(log_posterior_(j) - shift);
-    sum += scaled_(j);
-  }
-  // sum ≥ 1: the largest entry contributes exp(0). log μ_j = (ℓ_j − shift) − log sum, in that
-  // order: with log-likelihoods far from zero (a plot many σ away gives ℓ ≈ −1e30) the sum
-  // shift + log sum rounds to shift, and ℓ_j − (shift + log sum) would give two modes log μ = 0.
-  const double log_sum = std::log(sum);  // cppcheck-suppress invalidFunctionArg
+  double log_sum = 0.0;
+  const double top = algebra::posterior<algebra::LibmFunctions>(n, log_posterior_, scratch_,
+                                                                scaled_, sum, log_sum);
+  if (!std::isfinite(top)) return StepStatus::kProbabilityUnderflow;
   for (auto& mode : modes_) mode->commit();
-  log_probabilities_ = (log_posterior_.array() - shift) - log_sum;
+  // log μ_j = (ℓ_j − top) − log Σ (algebra::posterior).
+  for (int j = 0; j < n; ++j) log_probabilities_(j) = scratch_(j) - log_sum;
   scaled_ /= sum;
   combine(scaled_);
   return StepStatus::kOk;

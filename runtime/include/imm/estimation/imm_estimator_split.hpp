@@ -5,9 +5,11 @@
 /// miss() — defined apart from the class (imm_estimator.hpp, which includes this file).
 
 #include <Eigen/Cholesky>
+#include <array>
 #include <limits>
 #include <stdexcept>
 
+#include "imm/estimation/imm_algebra.hpp"
 #include "imm/estimation/imm_estimator.hpp"
 
 namespace imm {
@@ -119,20 +121,18 @@ bool ImmEstimator<NX, NZ>::collapse(Of&& of, Vector<NZ>& nu, SquareMatrix<NZ>& S
     if (!of(j, nus[index(j)], covariances[index(j)])) return false;
   }
   // c_j, normalized over the modes (predict_mode_probabilities keeps them in log space).
-  const double shift = log_predicted_.maxCoeff();
-  double total = 0.0;
-  for (int j = 0; j < n; ++j) total += std::exp(log_predicted_(j) - shift);
+  std::array<double, kMaxModes> c;
+  algebra::normalized<algebra::LibmFunctions, double>(
+      n, [this](int j) { return log_predicted_(j); }, c);
   nu.setZero();
   for (int j = 0; j < n; ++j) {
-    const double c = std::exp(log_predicted_(j) - shift) / total;
-    if (c != 0.0) nu += c * nus[index(j)];
+    if (c[index(j)] != 0.0) nu += c[index(j)] * nus[index(j)];
   }
   S.setZero();
   for (int j = 0; j < n; ++j) {
-    const double c = std::exp(log_predicted_(j) - shift) / total;
-    if (c == 0.0) continue;
+    if (c[index(j)] == 0.0) continue;
     const Vector<NZ> d = nus[index(j)] - nu;
-    S += c * (covariances[index(j)] + d * d.transpose());
+    S += c[index(j)] * (covariances[index(j)] + d * d.transpose());
   }
   return true;
 }

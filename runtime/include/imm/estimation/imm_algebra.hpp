@@ -1,26 +1,27 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
-// The IMM's own arithmetic (Blom & Bar-Shalom; seed 000 eq. 4–11), written once over a number type
-// S — a double for one track, a pack of lanes (lane_math.hpp) for one track per element — for the
-// banks: their IMM cycle (tracking/imm_cycle.hpp), the families' mixes and the NIS and gating
-// collapses. What a mode holds and how it steps is the family's; what is here is the same for
-// every family:
-//   - predict_probabilities: the predicted mode probabilities c_j = Σ_i p_ij μ_i and the mixing
-//     weights μ_ij = p_ij μ_i / c_j (eq. 6), through μ̃ = μ / max μ, with exact_prediction for a
-//     c̃_j that underflowed to zero;
-//   - posterior: the mode probabilities after the modes' updates (eq. 8–9) in log space;
-//   - normalized: weights exp(v_j) / Σ exp(v_k) from log-weights;
-//   - collapse: a Gaussian mixture collapsed to its two moments (eq. 4–5 and 10–11).
-// Each is ImmEstimator's arithmetic in the same order of operations (LibmFunctions, Division::
-// kDivide): a family whose bank must give its one-track filter's bits takes that policy.
-// ImmEstimator keeps its own Eigen form: on this template the W1 step measured 6–28 % slower
-// (docs/performance.md).
-//
-// Every statement is the same IEEE operation for a double and for each element of a pack (the
-// project compiles with -ffp-contract=off), so a lane gives the same bits in a pack and alone. A
-// policy says which exp and log the mode probabilities take (LibmFunctions: libm's;
-// LaneFunctions: lane_exp and lane_log, branch-free) and whether a weight divides by its sum or
-// multiplies by the sum's inverse (Division). Not installed.
+/// @file
+/// The IMM's own arithmetic (Blom & Bar-Shalom; seed 000 eq. 4–11), written once over a number
+/// type S — a double for one track (ImmEstimator), a pack of lanes (lane_math.hpp) for one track
+/// per element (the banks' IMM cycle, the families' mixes, the NIS and gating collapses). What a
+/// mode holds and how it steps is the family's; what is here is the same for every family:
+///   - scaled_probabilities, predicted_scaled, mixing_weights (predict_probabilities for all
+///     modes at once): the predicted mode probabilities c_j = Σ_i p_ij μ_i and the mixing weights
+///     μ_ij = p_ij μ_i / c_j (eq. 6), through μ̃ = μ / max μ, with exact_log_prediction and
+///     exact_mixing_weight (exact_prediction for packs) for a c̃_j that underflowed to zero;
+///   - posterior: the mode probabilities after the modes' updates (eq. 8–9) in log space;
+///   - normalized: weights exp(v_j) / Σ exp(v_k) from log-weights;
+///   - collapse: a Gaussian mixture collapsed to its two moments (eq. 4–5 and 10–11). ImmEstimator
+///     keeps Eigen's form of it: over a double this one is scalar code, where Eigen sums the same
+///     entries two at a time (W1's step 15 % slower on it; docs/performance.md).
+///
+/// Every statement is the same IEEE operation for a double and for each element of a pack (the
+/// project compiles with -ffp-contract=off), so a lane gives the same bits in a pack and alone. A
+/// policy says which exp and log the mode probabilities take (LibmFunctions: libm's, as
+/// ImmEstimator; LaneFunctions: lane_exp and lane_log, branch-free) and whether a weight divides
+/// by its sum or multiplies by the sum's inverse (Division): a bank that must give its one-track
+/// filter's bits takes LibmFunctions and Division::kDivide. A detail of the runtime, installed
+/// because ImmEstimator's header uses it; not an interface of its own.
 
 #include <algorithm>
 #include <array>
@@ -28,6 +29,7 @@
 #include <cstddef>
 #include <limits>
 #include <type_traits>
+#include <utility>
 
 #include "imm/math/lane_math.hpp"
 
@@ -49,13 +51,24 @@ template <class S>
   return lane_load<S>(lanes.data());
 }
 
+/// Whether LaneFunctions' exp_each and log_each take the values of `Values` through one pack:
+/// one track's (a double's) values of 2 … 8 modes.
+template <class Values>
+inline constexpr bool kPacksModes = false;
+template <std::size_t N>
+inline constexpr bool kPacksModes<std::array<double, N>> = N >= 2 && N <= 8;
+
 /// libm's exp and log, lane by lane: ImmEstimator's mode probabilities, and a bank's that must
 /// give its one-track filter's bits.
 struct LibmFunctions {
+  /// Whether exp_each of `Values` is exp of each value in turn (posterior() then takes them in
+  /// the loop that makes them): always.
+  template <class Values>
+  static constexpr bool kValueByValue = true;
   /// eˣ of every lane.
   template <class S>
   [[nodiscard, gnu::always_inline]] static S exp(S x) {
-    return each(x, [](double v) { return std::exp(v); });
+    return each(x, [](double v) { return v == 0.0 ? 1.0 : std::exp(v); });
   }
   /// log x of every lane.
   template <class S>
@@ -92,6 +105,10 @@ struct LibmFunctions {
 /// takes is below 709 (a difference from a maximum, or log c_j ≤ log 8), so exp is
 /// lane_exp_no_overflow: lane_exp's bits without its overflow check.
 struct LaneFunctions {
+  /// Whether exp_each of `Values` is exp of each value in turn: not for one track's N = 2 … 8
+  /// modes' values, which go through one pack together (ModePack).
+  template <class Values>
+  static constexpr bool kValueByValue = !kPacksModes<Values>;
   /// lane_exp of every lane (an exponent ≤ 709).
   template <class S>
   [[nodiscard, gnu::always_inline]] static S exp(S x) {
@@ -122,7 +139,7 @@ struct LaneFunctions {
  private:
   template <bool kLog, class S, std::size_t N>
   [[gnu::always_inline]] static void each(std::array<S, N>& v, int n) {
-    if constexpr (std::is_same_v<S, double> && N >= 2 && N <= 8) {
+    if constexpr (kPacksModes<std::array<S, N>>) {
       using Pack = ModePack<N>;
       constexpr int W = kLanesOf<Pack>;
       // The lanes past the modes hold 1: a finite value for both functions.
@@ -166,7 +183,16 @@ template <Division kDivision, class S>
 template <class S, class Value>
 [[nodiscard, gnu::always_inline]] inline S largest_of(int n, Value&& value) {
   S top = splat<S>(-std::numeric_limits<double>::infinity());
-  for (int j = 0; j < n; ++j) top = pick(top < value(j), value(j), top);
+  for (int j = 0; j < n; ++j) {
+    const S v = value(j);
+    // A double's max in a register (maxsd); pick's masks through integer registers are a chain
+    // of several operations per mode.
+    if constexpr (std::is_same_v<S, double>) {
+      top = top < v ? v : top;
+    } else {
+      top = pick(top < v, v, top);
+    }
+  }
   return top;
 }
 /// max_j v_j of the first n entries of v.
@@ -177,12 +203,31 @@ template <class S, class V>
 
 /// μ̃_i = exp(log μ_i − shift) of the n modes, with shift = max_i log μ_i (returned): μ scaled by
 /// its largest entry, exact, one exponential per mode.
-template <class Fn, class S, std::size_t N, class LogMu>
-[[gnu::always_inline]] inline S scaled_probabilities(int n, const LogMu& log_mu,
-                                                     std::array<S, N>& scaled) {
+template <class Fn, class LogMu, class Scaled,
+          class S = std::remove_cvref_t<decltype(std::declval<Scaled&>()[0])>>
+[[gnu::always_inline]] inline S scaled_probabilities(int n, const LogMu& log_mu, Scaled& scaled) {
   const S shift = largest<S>(n, log_mu);
   for (int i = 0; i < n; ++i) scaled[i] = Fn::exp(S(log_mu[i] - shift));
   return shift;
+}
+
+/// c̃_j = Σ_i p_ij μ̃_i (eq. 8's inner sum, scaled by max μ) of mode j among n, from μ̃ = μ / max μ
+/// (`scaled`, indexed scaled[i]) and Π (p(i, j) = p_ij).
+template <class P, class Scaled, class S = std::remove_cvref_t<decltype(std::declval<Scaled>()[0])>>
+[[nodiscard, gnu::always_inline]] inline S predicted_scaled(int n, int j, P&& p,
+                                                            const Scaled& scaled) {
+  S c = splat<S>(0.0);
+  for (int i = 0; i < n; ++i) c += p(i, j) * scaled[i];
+  return c;
+}
+
+/// Mode j's mixing weights μ_ij = p_ij μ̃_i / c̃_j (eq. 6) into w(i), from its c̃_j
+/// (predicted_scaled); right where c̃_j > 0.
+template <Division kDivision, class S, class P, class Scaled, class W>
+[[gnu::always_inline]] inline void mixing_weights(int n, int j, P&& p, const Scaled& scaled, S c,
+                                                  W&& w) {
+  const S inverse = inverse_of<kDivision>(c);
+  for (int i = 0; i < n; ++i) w(i) = divided<kDivision>(S(p(i, j) * scaled[i]), c, inverse);
 }
 
 /// The predicted mode probabilities and the mixing weights (eq. 6 and 8's inner sum) of n modes
@@ -196,12 +241,9 @@ template <class Fn, Division kDivision, class S, std::size_t N, class P>
                                                          std::array<S, N>& predicted,
                                                          std::array<S, N>& log_c, S* weights) {
   for (int j = 0; j < n; ++j) {
-    S c = splat<S>(0.0);
-    for (int i = 0; i < n; ++i) c += p(i, j) * scaled[i];
+    const S c = predicted_scaled(n, j, p, scaled);
     predicted[j] = c;
-    const S inverse = inverse_of<kDivision>(c);
-    for (int i = 0; i < n; ++i)
-      weights[j * n + i] = divided<kDivision>(p(i, j) * scaled[i], c, inverse);
+    mixing_weights<kDivision>(n, j, p, scaled, c, [&](int i) -> S& { return weights[j * n + i]; });
   }
   log_c = predicted;
   Fn::log_each(log_c, n);
@@ -219,10 +261,30 @@ template <class S, std::size_t N>
   return std::any_of(lanes.begin(), lanes.end(), [](double v) { return v != 0.0; });
 }
 
-/// Where predict_probabilities' c̃_j is not positive, lane by lane with libm: log c_j as the exact
-/// log-sum-exp of log p_ij + log μ_i (log_p(i, j) = log p_ij), and the weights from it; a mode
-/// that cannot be reached (log c_j = −∞) gets the weights δ_ij, so that it keeps its own
-/// estimate as its initial condition.
+/// log c_j = log Σ_i exp(log p_ij + log μ_i) of mode j among n, exact (a log-sum-exp), for a c̃_j
+/// that underflowed (log_p(i, j) = log p_ij, log_mu(i) = log μ_i): −∞ where mode j cannot be
+/// reached.
+template <class LogP, class LogMu>
+[[nodiscard]] double exact_log_prediction(int n, int j, LogP&& log_p, LogMu&& log_mu) {
+  double top = -std::numeric_limits<double>::infinity();
+  for (int i = 0; i < n; ++i) top = std::max(top, log_p(i, j) + log_mu(i));
+  if (!std::isfinite(top)) return top;
+  double sum = 0.0;
+  for (int i = 0; i < n; ++i) sum += std::exp(log_p(i, j) + log_mu(i) - top);
+  // sum ≥ 1: the largest term is exp(0).
+  return top + std::log(sum);  // cppcheck-suppress invalidFunctionArg
+}
+
+/// Mode j's mixing weight from mode i by its exact log c_j (exact_log_prediction):
+/// exp(log p_ij + log μ_i − log c_j), and δ_ij where mode j cannot be reached (log c_j = −∞), so
+/// that it keeps its own estimate as its initial condition.
+[[nodiscard]] inline double exact_mixing_weight(int i, int j, double log_p, double log_mu,
+                                                double log_c) {
+  return !std::isfinite(log_c) ? (i == j ? 1.0 : 0.0) : std::exp(log_p + log_mu - log_c);
+}
+
+/// Where predict_probabilities' c̃_j is not positive, lane by lane: log c_j by
+/// exact_log_prediction and the weights by exact_mixing_weight (log_p(i, j) = log p_ij).
 template <class S, std::size_t N, class LogP, class LogMu>
 [[gnu::noinline, gnu::cold]] void exact_prediction(int n, LogP&& log_p, const LogMu& log_mu,
                                                    const std::array<S, N>& predicted,
@@ -238,19 +300,9 @@ template <class S, std::size_t N, class LogP, class LogMu>
     }
     for (std::size_t l = 0; l < c.size(); ++l) {
       if (c[l] > 0.0) continue;
-      double top = -std::numeric_limits<double>::infinity();
-      for (int i = 0; i < n; ++i) top = std::max(top, log_p(i, j) + mu[i][l]);
-      double value = top;
-      if (std::isfinite(top)) {
-        double sum = 0.0;
-        for (int i = 0; i < n; ++i) sum += std::exp(log_p(i, j) + mu[i][l] - top);
-        // sum ≥ 1: the largest term is exp(0).
-        value = top + std::log(sum);  // cppcheck-suppress invalidFunctionArg
-      }
-      out[l] = value;
+      out[l] = exact_log_prediction(n, j, log_p, [&](int i) { return mu[i][l]; });
       for (int i = 0; i < n; ++i) {
-        w[i][l] =
-            !std::isfinite(value) ? (i == j ? 1.0 : 0.0) : std::exp(log_p(i, j) + mu[i][l] - value);
+        w[i][l] = exact_mixing_weight(i, j, log_p(i, j), mu[i][l], out[l]);
       }
     }
     log_c[j] = from_lanes<S>(out);
@@ -258,22 +310,40 @@ template <class S, std::size_t N, class LogP, class LogMu>
   }
 }
 
-/// The posterior mode probabilities (eq. 8–9) in log space from the n values ℓ_j + log c_j in
-/// `centered` (ℓ_j the modes' log-likelihoods): top = max_j (returned; not finite where every
-/// likelihood underflowed), centered_j − top in `centered`, μ̃_j = exp(centered_j) in `scaled`,
-/// their sum Σ ≥ 1 and log Σ. Then log μ_j = centered_j − log Σ, in that order (with ℓ far from
-/// zero, top + log Σ would round to top and give two modes log μ = 0), and μ_j = μ̃_j / Σ.
+/// The posterior mode probabilities (eq. 8–9) in log space from the n values v_j = ℓ_j + log c_j
+/// (ℓ_j the modes' log-likelihoods; values[j]): top = max_j v_j (returned; not finite where every
+/// likelihood underflowed), v_j − top in `centered`, μ̃_j = exp(v_j − top) in `scaled`, their sum
+/// Σ ≥ 1 and log Σ. Then log μ_j = centered_j − log Σ, in that order (with ℓ far from zero,
+/// top + log Σ would round to top and give two modes log μ = 0), and μ_j = μ̃_j / Σ. `values` may
+/// be `centered` itself.
+template <class Fn, class S, class Values, class Centered, class Scaled>
+[[gnu::always_inline]] inline S posterior(int n, const Values& values, Centered& centered,
+                                          Scaled& scaled, S& sum, S& log_sum) {
+  const S top = largest<S>(n, values);
+  sum = splat<S>(0.0);
+  if constexpr (Fn::template kValueByValue<Scaled>) {
+    for (int j = 0; j < n; ++j) {
+      centered[j] = values[j] - top;
+      scaled[j] = Fn::exp(S(centered[j]));
+      sum += scaled[j];
+    }
+  } else {
+    for (int j = 0; j < n; ++j) {
+      centered[j] = values[j] - top;
+      scaled[j] = centered[j];
+    }
+    Fn::exp_each(scaled, n);
+    for (int j = 0; j < n; ++j) sum += scaled[j];
+  }
+  log_sum = Fn::log(sum);
+  return top;
+}
+
+/// posterior() of the values in `centered`, which it replaces by v_j − top.
 template <class Fn, class S, std::size_t N>
 [[gnu::always_inline]] inline S posterior(int n, std::array<S, N>& centered,
                                           std::array<S, N>& scaled, S& sum, S& log_sum) {
-  const S top = largest<S>(n, centered);
-  for (int j = 0; j < n; ++j) centered[j] = centered[j] - top;
-  scaled = centered;
-  Fn::exp_each(scaled, n);
-  sum = splat<S>(0.0);
-  for (int j = 0; j < n; ++j) sum += scaled[j];
-  log_sum = Fn::log(sum);
-  return top;
+  return posterior<Fn>(n, centered, centered, scaled, sum, log_sum);
 }
 
 /// log Σ_j exp(v_j) of the first n entries of v (a Gaussian mixture's log-density from its
