@@ -121,7 +121,7 @@ bool ImmEstimator<NX, NZ>::collapse(Of&& of, Vector<NZ>& nu, SquareMatrix<NZ>& S
     if (!of(j, nus[index(j)], covariances[index(j)])) return false;
   }
   // c_j, normalized over the modes (predict_mode_probabilities keeps them in log space).
-  std::array<double, kMaxModes> c;
+  std::array<double, kMaxModes> c{};
   algebra::normalized<algebra::LibmFunctions, double>(
       n, [this](int j) { return log_predicted_(j); }, c);
   nu.setZero();
