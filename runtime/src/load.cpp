@@ -20,7 +20,7 @@ const ModelKind& kind_of(const io::ModelFileReader& reader) {
     std::string known;
     for (const ModelKind* k : model_kinds()) known += (known.empty() ? "" : ", ") + k->name;
     reader.fail("/@model_kind",
-                "unknown model kind '" + name + "' (this runtime reads " + known + ")");
+                "unknown model kind '" + printable(name) + "' (this runtime reads " + known + ")");
   }
   return *kind;
 }

@@ -248,7 +248,7 @@ const ModelKind& model_kind(std::string_view name_or_alias, const std::string& f
   if (const ModelKind* kind = find_model_kind(name_or_alias)) return *kind;
   std::string known;
   for (const ModelKind* kind : model_kinds()) known += (known.empty() ? "" : ", ") + kind->name;
-  throw InvalidParameter(field, "unknown model kind '" + std::string(name_or_alias) +
+  throw InvalidParameter(field, "unknown model kind '" + printable(name_or_alias) +
                                     "' (this runtime knows " + known + ")");
 }
 

@@ -183,6 +183,18 @@ TEST(PlainImmSpec, NamesRoundTrip) {
   EXPECT_EQ(noise_form_from("continuous", "f"), NoiseForm::kContinuous);
   EXPECT_EQ(measurement_kind_from("polar", "f"), MeasurementKind::kPolar);
   EXPECT_EQ(initialization_method_from("two_point", "f"), InitializationMethod::kTwoPoint);
+  // A name a file or config holds is quoted on one line, its bytes outside printable ASCII
+  // escaped, whatever it holds (a fuzzed model file's noise form had a line break).
+  try {
+    (void)noise_form_from("piecewise\nconstant\x01", "modes[2].noise_form");
+    FAIL() << "accepted";
+  } catch (const InvalidParameter& error) {
+    EXPECT_EQ(error.field(), "modes[2].noise_form");
+    EXPECT_NE(std::string(error.what()).find("unknown noise form 'piecewise\\x0aconstant\\x01'"),
+              std::string::npos)
+        << error.what();
+  }
+  EXPECT_EQ(printable(std::string(100, 'a')), std::string(64, 'a'));
 }
 
 // Two-point initialization by hand: plots (0, 0) at scan 3 and (2, −1) at scan 5, T = 0.5:

@@ -201,7 +201,7 @@ void PlainImmSpec::validate() const {
     require(!mode.name.empty(), detail::mode_field(i, "name"), "must not be empty");
     for (std::size_t j = 0; j < i; ++j) {
       require(modes[j].name != mode.name, detail::mode_field(i, "name"),
-              "'" + mode.name + "' is repeated");
+              std::string("'").append(printable(mode.name)).append("' is repeated"));
     }
     require(!mode.noise_schedule || mode.motion != MotionKind::kSinger,
             detail::mode_field(i, "noise_schedule"),

@@ -10,6 +10,7 @@
 
 #include "container_format.hpp"
 #include "global_heap_text.hpp"
+#include "imm/core/invalid_parameter.hpp"
 
 namespace imm::io {
 
@@ -196,7 +197,7 @@ ContainerReader::ContainerReader(const std::filesystem::path& path,
   impl_->format = header.format;
   if (!expected_format.empty() && header.format != expected_format) {
     throw FileError(file, "",
-                    "holds a '" + header.format + "' container, expected '" +
+                    "holds a '" + printable(header.format) + "' container, expected '" +
                         std::string(expected_format) + "'");
   }
   // A strong close degree: closing the file closes whatever a failed HDF5 call left open in it,

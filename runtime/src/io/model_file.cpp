@@ -52,22 +52,6 @@ bool valid_name(std::string_view part) {
   });
 }
 
-// `text` for a one-line message: bytes outside printable ASCII as \xNN.
-std::string printable(std::string_view text) {
-  std::string shown;
-  for (const char c : text.substr(0, 64)) {
-    const auto byte = static_cast<unsigned char>(c);
-    if (byte >= 0x20 && byte < 0x7F) {
-      shown.push_back(c);
-    } else {
-      constexpr std::string_view kHex = "0123456789abcdef";
-      shown.append("\\x").push_back(kHex[byte >> 4U]);
-      shown.push_back(kHex[byte & 0xFU]);
-    }
-  }
-  return shown;
-}
-
 // A unit as docs/model-schema.md states them: "1", or FACTOR, or (FACTOR | "1") "/" FACTOR, where
 // FACTOR is m, km, s or rad with an optional exponent ^2 … ^9 (m/s^2, m^2/s^4, km^2/s^3, 1/s).
 bool valid_unit(std::string_view unit) {

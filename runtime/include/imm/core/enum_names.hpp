@@ -45,14 +45,14 @@ template <class Enum, std::size_t N>
 }
 
 /// The value named `name`; otherwise InvalidParameter(field, "unknown <what> '<name>' (expected
-/// <the names>)").
+/// <the names>)"), the name as printable() shows it.
 template <class Enum, std::size_t N>
 [[nodiscard]] Enum value_named(const std::array<EnumName<Enum>, N>& names, std::string_view name,
                                const std::string& field, std::string_view what) {
   for (const auto& entry : names) {
     if (entry.name == name) return entry.value;
   }
-  throw InvalidParameter(field, "unknown " + std::string(what) + " '" + std::string(name) +
+  throw InvalidParameter(field, "unknown " + std::string(what) + " '" + printable(name) +
                                     "' (expected " + names_listed(names) + ")");
 }
 

@@ -7,6 +7,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 #include "imm/runtime_export.hpp"
 
@@ -34,6 +35,24 @@ class IMM_RUNTIME_EXPORT InvalidParameter : public std::invalid_argument {
   std::string field_;
   std::string message_;
 };
+
+/// `text` as a message may quote it, whatever a file or a config held: its first 64 bytes, each
+/// outside printable ASCII as `\xNN`, so that a hostile name can neither break a message's line
+/// nor make it long.
+[[nodiscard]] inline std::string printable(std::string_view text) {
+  constexpr std::string_view kHex = "0123456789abcdef";
+  std::string shown;
+  for (const char c : text.substr(0, 64)) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte >= 0x20 && byte < 0x7F) {
+      shown.push_back(c);
+    } else {
+      shown.append("\\x").push_back(kHex[byte >> 4U]);
+      shown.push_back(kHex[byte & 0xFU]);
+    }
+  }
+  return shown;
+}
 
 /// Throws InvalidParameter(field, message) unless `condition` holds.
 inline void require(bool condition, const std::string& field, const std::string& message) {
