@@ -15,9 +15,9 @@
 #include <type_traits>
 #include <utility>
 
-#include "imm/estimation/imm_algebra.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/imm_algebra.hpp"
 #include "imm/estimation/step_status.hpp"
 #include "imm/math/lane_math.hpp"
 

@@ -10,10 +10,10 @@
 #include <utility>
 
 #include "bank_checks.hpp"
-#include "imm/estimation/imm_algebra.hpp"
 #include "filters/mode_field.hpp"
 #include "imm/core/invalid_parameter.hpp"
 #include "imm/core/physical_limits.hpp"
+#include "imm/estimation/imm_algebra.hpp"
 #include "imm/estimation/mode_transitions.hpp"
 #include "imm/math/log_sum_exp.hpp"
 #include "imm/models/motion/constant_velocity.hpp"

@@ -21,10 +21,10 @@
 #include <span>
 
 #include "axis_lane_bank.hpp"
-#include "imm/estimation/imm_algebra.hpp"
 #include "filters/position_kalman_step.hpp"
 #include "imm/core/physical_limits.hpp"
 #include "imm/estimation/gaussian_state.hpp"
+#include "imm/estimation/imm_algebra.hpp"
 #include "imm/estimation/step_status.hpp"
 #include "imm/math/lane_math.hpp"
 #include "imm/math/log_sum_exp.hpp"
